@@ -1,0 +1,17 @@
+"""vibtrans: vibrational transport of a particle on a substrate carrying a
+Rayleigh wave (deformable Hertz-Mindlin particle and material point).
+
+Normalized units throughout (MODEL.md): lengths in a0, time in wave periods.
+"""
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("vibtrans")
+except PackageNotFoundError:  # pragma: no cover - source tree without install
+    __version__ = "0+unknown"
+
+from .params import PAPER_POINTS, Scene, paper_scene  # noqa: E402
+from .simulate import Cancelled, StepBudgetExceeded, estimate_steps, simulate  # noqa: E402
+
+__all__ = ["Scene", "paper_scene", "PAPER_POINTS", "simulate", "estimate_steps",
+           "Cancelled", "StepBudgetExceeded", "__version__"]

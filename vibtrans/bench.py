@@ -1,0 +1,108 @@
+"""Speed benchmark: `vibtrans bench [--quick] [--json]`.
+
+Everything is measured in one run, on one core, after JIT warm-up, as the
+best of several repetitions (shared machines are noisy: compare the ratios,
+which are measured side by side, more than the absolute times).
+
+* ns per step of the vertical-only Hertz kernel and of the full deformable
+  kernel on the same scene (paper point 1: permanent contact, all contact
+  states), and their ratio (goal <= 2);
+* ns per memory-diagram update alone, on a partial-slip/sliding history;
+* seconds for a 2000-period standard scene at paper points 1, 4, 6
+  (goal <= 0.1 s each).
+"""
+import json
+import os
+import platform
+import time
+
+import numpy as np
+
+from .contact import memory_history, new_memory, reset_memory
+from .params import paper_scene
+from .simulate import simulate
+
+
+def _best(fn, repeat):
+    best = float("inf")
+    out = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def _kernel_ns_per_step(scene, repeat):
+    ds = simulate(scene)                          # warm-up (and step count)
+    best = min(simulate(scene).attrs["seconds"] for _ in range(repeat))
+    return 1e9 * best / ds.attrs["steps"], ds.attrs["steps"]
+
+
+def _memory_ns(repeat, n=1_000_000):
+    t = np.arange(n) / 256.0
+    a = 1.0 + 0.8 * np.cos(2 * np.pi * t)          # strong load contrast
+    b = 0.5 * np.sin(2 * np.pi * t) + 1e-3 * t     # stick, partial slip, sliding
+    H, W, P, nvert, memf = new_memory(4096)
+    out = np.empty((n, 3))
+    memory_history(H, W, P, nvert, memf, a[:16], b[:16], out)   # warm-up
+
+    def run():
+        reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+        memory_history(H, W, P, nvert, memf, a, b, out)
+    best, _ = _best(run, repeat)
+    states = np.bincount(out[:, 2].astype(int), minlength=4)
+    return 1e9 * best / n, states
+
+
+def _pin_one_core():
+    try:
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+        return True
+    except (AttributeError, OSError):
+        return False
+
+
+def run(quick=False):
+    repeat = 3 if quick else 7
+    pinned = _pin_one_core()
+    scene = paper_scene(1)
+    ns_def, steps_def = _kernel_ns_per_step(scene, repeat)
+    ns_vert, steps_vert = _kernel_ns_per_step(scene.replace(model="vertical"), repeat)
+    ns_mem, states = _memory_ns(repeat)
+    scenes = {}
+    for point in (1, 4, 6):
+        sc = paper_scene(point)
+        simulate(sc)
+        best, ds = _best(lambda: simulate(sc), repeat)
+        scenes[point] = {"seconds": best, "steps": int(ds.attrs["steps"]),
+                         "kernel_seconds": float(ds.attrs["seconds"])}
+    return {
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                   f"python {platform.python_version()}",
+        "pinned_to_one_core": pinned,
+        "repeat": repeat,
+        "vertical_ns_per_step": ns_vert,
+        "deformable_ns_per_step": ns_def,
+        "deformable_over_vertical": ns_def / ns_vert,
+        "memory_update_ns": ns_mem,
+        "memory_states_stick_partial_sliding": [int(s) for s in states[1:]],
+        "scene_seconds_2000_periods": scenes,
+    }
+
+
+def main(quick=False, as_json=False):
+    r = run(quick)
+    if as_json:
+        print(json.dumps(r))
+        return 0
+    print(f"vibtrans bench ({'quick' if quick else 'full'}; best of {r['repeat']}; "
+          f"{r['machine']}; one core: {r['pinned_to_one_core']})")
+    print(f"  vertical-only kernel   {r['vertical_ns_per_step']:8.1f} ns/step")
+    print(f"  deformable kernel      {r['deformable_ns_per_step']:8.1f} ns/step")
+    print(f"  ratio                  {r['deformable_over_vertical']:8.2f}   (goal <= 2)")
+    print(f"  memory-diagram update  {r['memory_update_ns']:8.1f} ns")
+    for point, s in r["scene_seconds_2000_periods"].items():
+        print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
+              f"({s['steps']} steps)   (goal <= 0.1 s)")
+    return 0

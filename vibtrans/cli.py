@@ -1,0 +1,204 @@
+"""Command line: vibtrans simulate | threshold | bench | serve.
+
+Bad input exits with status 2 and one line naming the parameter and its
+valid range.
+"""
+import argparse
+import json
+import math
+import sys
+
+from . import __version__
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints usage too)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+class InputError(ValueError):
+    pass
+
+
+def _num(text):
+    """A float if the text is one; else the text (Scene names the range)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _scene_args(p):
+    g = p.add_argument_group("scene (normalized units, MODEL.md)")
+    amp = g.add_mutually_exclusive_group(required=True)
+    amp.add_argument("--amplitude", type=_num, help="A* (vertical wave amplitude / a0)")
+    amp.add_argument("--log-amplitude", type=_num, help="log10 A*")
+    mass = g.add_mutually_exclusive_group(required=True)
+    mass.add_argument("--mass", type=_num, help="m* = a0 m f^2 / (M g)")
+    mass.add_argument("--log-mass", type=_num, help="log10 m*")
+    g.add_argument("--model", default="deformable", help="deformable | point-mass | vertical")
+    g.add_argument("--mu", type=_num, default=0.3)
+    g.add_argument("--theta", type=_num, default=1.2)
+    g.add_argument("--nu", type=_num, default=0.3)
+    g.add_argument("--tau", type=_num, default=50.0)
+    g.add_argument("--periods", type=_num, default=2000.0)
+    g.add_argument("--alpha-t", type=_num, default=0.5, help="point mass: tangential restitution")
+    g.add_argument("--stick-rule", default="paper", help="point mass: paper | classical")
+    g.add_argument("--fidelity", default="standard", help="preview | standard | reference")
+    g.add_argument("--integrator", default="ab4", help="ab4 | verlet")
+
+
+def _log10_value(name, value):
+    if isinstance(value, str) or not math.isfinite(value) or abs(value) > 300:
+        raise InputError(f"{name} must be a finite real number in [-300, 300], got {value!r}")
+    return 10.0 ** value
+
+
+def scene_from_args(args):
+    from .params import Scene
+    amplitude = (args.amplitude if args.log_amplitude is None
+                 else _log10_value("log_amplitude", args.log_amplitude))
+    mass = args.mass if args.log_mass is None else _log10_value("log_mass", args.log_mass)
+    return Scene(amplitude=amplitude, mass=mass, model=args.model, mu=args.mu,
+                 theta=args.theta, nu=args.nu, tau=args.tau, periods=args.periods,
+                 alpha_t=args.alpha_t, stick_rule=args.stick_rule, fidelity=args.fidelity,
+                 integrator=args.integrator)
+
+
+def _progress_bar(label):
+    from tqdm import tqdm
+    bar = tqdm(total=1000, desc=label, file=sys.stderr, delay=1.0, leave=False,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
+
+    def update(fraction):
+        bar.update(int(round(fraction * 1000)) - bar.n)
+    return bar, update
+
+
+def _jsonable(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return value
+
+
+def cmd_simulate(args):
+    from .analysis import summarize
+    from .simulate import simulate
+    scene = scene_from_args(args)
+    if args.window is not None:
+        window = tuple(_num(v) for v in args.window)
+    else:
+        window = None
+    bar, update = _progress_bar("simulate")
+    try:
+        ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
+                      max_steps=args.max_steps, progress=update)
+        twin = None
+        jumped = bool((ds["event_kind"].values == 0).any())
+        if args.twin == "always" or (args.twin == "auto" and jumped):
+            twin = simulate(scene.replace(tau=scene.tau + 1e-3),
+                            samples_per_period=args.samples_per_period,
+                            max_steps=args.max_steps)
+    finally:
+        bar.close()
+    summary = summarize(ds, twin)
+    if args.out:
+        ds.to_netcdf(args.out)
+    out = {k: _jsonable(v) for k, v in summary._asdict().items()}
+    out["scene"] = scene.values()
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for k, v in out.items():
+            if k != "scene":
+                print(f"{k:>22}: {v}")
+    return 0
+
+
+def cmd_threshold(args):
+    from .threshold import point_mass_threshold, threshold_amplitude
+    aj = threshold_amplitude(args.mass, tau=args.tau, periods=args.periods,
+                             fidelity=args.fidelity, rel_tol=args.rel_tol)
+    out = {"mass": args.mass, "threshold_amplitude": aj,
+           "point_mass_threshold_amplitude": point_mass_threshold(args.mass),
+           "tau": args.tau, "periods": args.periods}
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"A_J* = {aj:.6g}  (point mass: {out['point_mass_threshold_amplitude']:.6g})")
+    return 0
+
+
+def cmd_bench(args):
+    from .bench import main as bench_main
+    return bench_main(quick=args.quick, as_json=args.json)
+
+
+def cmd_serve(args):
+    """The explorer is not built yet (issue #4): run the paper's ten scenes."""
+    from .analysis import summarize
+    from .params import PAPER_POINTS, paper_scene
+    from .simulate import simulate
+    print("vibtrans: the Panel explorer is not built yet; demo: the paper's ten scenes "
+          "(2000 periods, standard fidelity, with tau + 1e-3 twins)", file=sys.stderr)
+    print(f"{'point':>5} {'model':>10} {'log A*':>7} {'log m*':>7} {'<v*>':>10} "
+          f"{'contact':>9} {'drift':>12} {'pattern':>17} {'s':>6}")
+    for point, (la, lm, model) in PAPER_POINTS.items():
+        scene = paper_scene(point)
+        ds = simulate(scene)
+        twin = simulate(scene.replace(tau=scene.tau + 1e-3))
+        s = summarize(ds, twin)
+        print(f"{point:>5} {model:>10} {la:>7} {lm:>7} {s.drift_velocity:>10.4g} "
+              f"{s.contact:>9} {s.drift:>12} {str(s.pattern or '-'):>17} {s.seconds:>6.3f}")
+    return 0
+
+
+def build_parser():
+    p = _Parser(prog="vibtrans", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"vibtrans {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("simulate", help="run one scene and print its drift and regime")
+    _scene_args(s)
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--out", help="write the trajectory to FILE.nc (netCDF)")
+    s.add_argument("--window", nargs=2, metavar=("T0", "T1"),
+                   help="record every step in [T0, T1] (periods)")
+    s.add_argument("--samples-per-period", type=int, default=10)
+    s.add_argument("--max-steps", type=float, default=2e8,
+                   help="refuse scenes estimated to need more steps")
+    s.add_argument("--twin", default="auto", choices=("auto", "always", "never"),
+                   help="run the tau + 1e-3 twin for the chaos verdict (auto: if it jumps)")
+    s.set_defaults(func=cmd_simulate)
+
+    t = sub.add_parser("threshold", help="jumping threshold A_J*(m*) of the vertical motion")
+    t.add_argument("--mass", type=_num, required=True)
+    t.add_argument("--tau", type=_num, default=50.0)
+    t.add_argument("--periods", type=_num, default=2000.0)
+    t.add_argument("--fidelity", default="standard")
+    t.add_argument("--rel-tol", type=_num, default=1e-3)
+    t.add_argument("--json", action="store_true")
+    t.set_defaults(func=cmd_threshold)
+
+    v = sub.add_parser("serve", help="serve the explorer (for now: a demo of the paper's scenes)")
+    v.set_defaults(func=cmd_serve)
+
+    b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")
+    b.add_argument("--quick", action="store_true")
+    b.add_argument("--json", action="store_true")
+    b.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, TypeError) as exc:   # validation: one line, status 2
+        print(f"vibtrans {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,258 @@
+"""Contact laws: Hertz normal force and the Cattaneo-Mindlin memory diagram.
+
+Normalized units (MODEL.md sections 1-2): a* in units of a0, N* = N / N(a0),
+b* = b / (theta mu a0), T* = T / (mu N(a0)).
+
+The memory diagram is stored exactly as a polyline w(h) over the contact depth
+0 <= h <= a* (h = rho^2 for a sphere), where w = b* - u is the anchor of the
+spring that entered contact at depth h.  Stuck springs never change w, so a
+committed step touches only the vertices it pushes or pops: O(1) amortized.
+
+Storage (plain arrays, so a kernel can stop and resume anywhere):
+    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius)
+    W, P     float64[capacity]     anchor (minus w_ref), and the running
+                                   integral of w h^(-1/2) dh from h = 0
+    nvert    int64[2]              vertex count (0: no contact), and how many
+                                   leading vertices have an up-to-date P
+    memf     float64[3]            (a*, b*) of the last committed step, w_ref
+W is stored relative to w_ref (re-based whenever the contact slides or starts)
+so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+# Contact states (timeline codes; shared by every model).
+FLIGHT = 0        # contact loss, a* <= 0
+STICK = 1         # full stick, s = c
+PARTIAL_SLIP = 2  # 0 < s < c
+SLIDING = 3       # total sliding, s = 0, T* = sign(b*') N*
+STATE_NAMES = ("flight", "stick", "partial slip", "total sliding")
+
+
+@njit(cache=True, nogil=True, inline="always")
+def normal_force(a):
+    """Hertz: N*(a*) = a*^(3/2) for a* > 0, else 0."""
+    if a > 0.0:
+        return a * math.sqrt(a)
+    return 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _segment_integral(s0, w0, s1, w1):
+    """Exact integral of w h^(-1/2) dh over a segment, w linear in h = s^2.
+
+    In s the integrand 2 w(s^2) is quadratic, so Simpson's rule in s is
+    exact, and this form has no cancellation for short segments.
+    """
+    if s1 <= s0:
+        return 0.0
+    return (s1 - s0) / 3.0 * (5.0 * w0 + w1 + (w1 - w0) * (s1 + 3.0 * s0) / (s1 + s0))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _push(H, W, nvert, h, sqrt_h, w):
+    n = nvert[0]
+    H[n, 0] = h
+    H[n, 1] = sqrt_h
+    W[n] = w
+    nvert[0] = n + 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pop_to(nvert, n):
+    nvert[0] = n
+    if nvert[1] > n:
+        nvert[1] = n
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _integrals(H, W, P, nvert):
+    """Bring the running integrals P up to date (only pushed vertices are
+    stale, so a vertex pushed and popped within one step costs nothing)."""
+    n = nvert[0]
+    i = nvert[1]
+    if i == 0:
+        P[0] = 0.0
+        i = 1
+    while i < n:
+        P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
+        i += 1
+    nvert[1] = n
+    return P[n - 1]
+
+
+def new_memory(capacity=256):
+    """Memory of a particle set down without tangential load at a* = 1, b* = 0.
+
+    Every spring in 0 <= h <= 1 is stuck with u = 0 (MODEL.md section 2).
+    Returns (H, W, P, nvert, memf): H[:, 0] = h, H[:, 1] = sqrt(h) of the
+    vertices; nvert = (vertex count, count with up-to-date P).
+    """
+    H = np.zeros((capacity, 2))
+    W = np.zeros(capacity)
+    P = np.zeros(capacity)
+    nvert = np.zeros(2, dtype=np.int64)
+    memf = np.array([1.0, 0.0, 0.0])
+    reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+    return H, W, P, nvert, memf
+
+
+@njit(cache=True, nogil=True)
+def reset_memory(H, W, P, nvert, memf, a, b):
+    """Virgin contact at (a*, b*): all springs stuck with u = 0."""
+    nvert[0] = 0
+    nvert[1] = 0
+    memf[0] = a
+    memf[1] = b
+    memf[2] = b
+    if a > 0.0:
+        _push(H, W, nvert, 0.0, 0.0, 0.0)
+        _push(H, W, nvert, a, math.sqrt(a), 0.0)
+        _integrals(H, W, P, nvert)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def memory_commit(H, W, P, nvert, memf, a1, b1):
+    """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
+
+    (a*, b*) moves along a straight line during the step.  s_h is the depth of
+    the stick core edge (stick radius s = sqrt(s_h), contact radius
+    c = sqrt(a1)).  The caller guarantees capacity for 3 more vertices.
+    """
+    a0 = memf[0]
+    b0 = memf[1]
+    memf[0] = a1
+    memf[1] = b1
+    if a1 <= 0.0:
+        _pop_to(nvert, 0)            # every spring left contact and forgets
+        return 0.0, 0.0, FLIGHT
+    c1 = math.sqrt(a1)
+    n = nvert[0]
+    if n == 0:
+        # Contact (re)starts within the step: springs attach at the b* where
+        # the step's line crosses a* = 0.
+        bc = b0
+        if a0 < 0.0:
+            bc = b0 + (b1 - b0) * (-a0) / (a1 - a0)
+        memf[2] = bc
+        _push(H, W, nvert, 0.0, 0.0, 0.0)
+        _push(H, W, nvert, a1, c1, b1 - bc)
+    elif a1 > a0:
+        # New springs lie on the segment from the old apex to (a1, b1).
+        _push(H, W, nvert, a1, c1, b1 - memf[2])
+    elif a1 < a0:
+        # Springs deeper than a1 leave contact: pop them, cut the top segment.
+        hp = H[n - 1, 0]
+        wp = W[n - 1]
+        while n > 0 and H[n - 1, 0] > a1:
+            hp = H[n - 1, 0]
+            wp = W[n - 1]
+            n -= 1
+        _pop_to(nvert, n)
+        hq = H[n - 1, 0]
+        if hq < a1:
+            wq = W[n - 1]
+            _push(H, W, nvert, a1, c1, wq + (wp - wq) * (a1 - hq) / (hp - hq))
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clamp(H, W, P, nvert, memf, a1, c1, bp):
+    """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
+
+    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref.
+    Returns (T*, s_h, state).
+    """
+    n = nvert[0]
+    # Rounding (re-basing, cone-line vertices) must not invent slip: a spring
+    # counts as past its limit only beyond a few ulps of the cone's scale.
+    tol = 4e-16 * (a1 + abs(bp) + abs(W[0]))
+    d = W[n - 1] - bp
+    side = 0.0
+    if d > tol:
+        side = 1.0
+    elif d < -tol:
+        side = -1.0
+    elif n >= 2:
+        d2 = W[n - 2] - bp
+        if abs(d2) > a1 - H[n - 2, 0] + tol:
+            side = 1.0 if d2 > 0.0 else -1.0
+    if side == 0.0:
+        # No spring reached its limit: full stick.
+        if W[n - 1] != bp:
+            W[n - 1] = bp
+            if nvert[1] > n - 1:
+                nvert[1] = n - 1
+        return 1.5 * bp * c1 - 0.75 * _integrals(H, W, P, nvert), a1, STICK
+    # Walk down, dropping the vertices outside the cone (slip annulus).
+    hl = H[n - 1, 0]
+    wl = W[n - 1]
+    n -= 1
+    while n > 0:
+        fk = side * (W[n - 1] - bp) - (a1 - H[n - 1, 0])
+        if fk <= tol:
+            break
+        hl = H[n - 1, 0]
+        wl = W[n - 1]
+        n -= 1
+    _pop_to(nvert, n)
+    if n == 0:
+        # The slip annulus reached the centre: total sliding, T* = +-N*.
+        # Re-base the anchors on b1 (cheap here: the stack is two vertices).
+        memf[2] += bp
+        _push(H, W, nvert, 0.0, 0.0, side * a1)
+        _push(H, W, nvert, a1, c1, 0.0)
+        return -side * a1 * c1, 0.0, SLIDING
+    hk = H[n - 1, 0]
+    wk = W[n - 1]
+    fk = side * (wk - bp) - (a1 - hk)
+    fl = side * (wl - bp) - (a1 - hl)
+    lam = max(-fk, 0.0) / (fl - fk)
+    hs = hk + lam * (hl - hk)
+    if hs > hk:
+        _push(H, W, nvert, hs, math.sqrt(hs), bp + side * (a1 - hs))
+    else:
+        hs = hk
+    _push(H, W, nvert, a1, c1, bp)
+    return 1.5 * bp * c1 - 0.75 * _integrals(H, W, P, nvert), hs, PARTIAL_SLIP
+
+
+@njit(cache=True, nogil=True)
+def memory_step(H, W, P, nvert, memf, a1, b1):
+    """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
+    return memory_commit(H, W, P, nvert, memf, a1, b1)
+
+
+@njit(cache=True, nogil=True)
+def memory_history(H, W, P, nvert, memf, a, b, out):
+    """Commit a whole (a*, b*) history; out[i] = (T*, s_h, state).
+
+    The caller provides capacity >= len(a) + 4 vertices.
+    """
+    for i in range(a.shape[0]):
+        T, sh, st = memory_commit(H, W, P, nvert, memf, a[i], b[i])
+        out[i, 0] = T
+        out[i, 1] = sh
+        out[i, 2] = st
+
+
+def tangential_force_history(a, b, a_start=1.0, b_start=0.0):
+    """T*, s_h and state along an (a*, b*) history from a virgin contact.
+
+    Convenience wrapper for tests and teaching views: returns three arrays.
+    """
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    H, W, P, nvert, memf = new_memory(a.shape[0] + 8)
+    reset_memory(H, W, P, nvert, memf, a_start, b_start)
+    out = np.empty((a.shape[0], 3))
+    memory_history(H, W, P, nvert, memf, a, b, out)
+    return out[:, 0], out[:, 1], out[:, 2].astype(np.int8)
+
+
+def anchor_profile(H, W, nvert, memf):
+    """The memory diagram now: (h, w) vertices, w in absolute b* units."""
+    n = int(nvert[0])
+    return H[:n, 0].copy(), W[:n] + memf[2]

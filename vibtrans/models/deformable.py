@@ -1,0 +1,228 @@
+"""The deformable (Hertz + Cattaneo-Mindlin memory diagram) particle kernel.
+
+Normalized equations (MODEL.md section 1):
+
+    m* x'' = -mu T*(b*, a*, history),   m* y'' = 1 - N*(a*),
+    a* = y* - u_y*(t),   theta mu b* = x* - u_x*(t).
+
+One numba kernel serves both the full model and the vertical-only model
+(`tangential=False` is a compile-time constant there, so the vertical scene
+never touches the memory diagram).  The kernel runs until t_stop and returns,
+with every piece of its state in the arrays it was given, so a caller can
+show progress, cancel between chunks, and grow buffers (records.py).
+
+Arrays:
+    params  float64[NPARAM]: see P_* below.
+    state   float64[NSTATE]: current (t, x, vx, y, vy) and the flight origin.
+    hist    float64[4, 4]:   derivative history F = (vx, ax, vy, ay), hist[j] = F_{n-j}.
+"""
+import math
+
+from numba import njit
+
+from .. import records as R
+from ..contact import FLIGHT, memory_commit, normal_force
+from ..integrators import AB4, ab4_increment, find_landing, push_history
+from ..substrate import surface_motion
+
+# params
+P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1 = range(11)
+NPARAM = 11
+# state
+S_T, S_X, S_VX, S_Y, S_VY, S_T0, S_X0, S_VX0, S_Y0, S_VY0, S_GAP = range(11)
+NSTATE = 11  # S_GAP: a* at the last committed step (locates take-offs)
+MODE_CONTACT = 0
+MODE_FLIGHT = 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _flight_point(state, t, m):
+    """(x, vx, y, vy) at time t on the current flight parabola."""
+    s = t - state[S_T0]
+    return (state[S_X0] + state[S_VX0] * s, state[S_VX0],
+            state[S_Y0] + state[S_VY0] * s + 0.5 * s * s / m,
+            state[S_VY0] + s / m)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _record_flight(samples, ctr, state, t, p, tangential):
+    m = p[P_M]
+    x, vx, y, vy = _flight_point(state, t, m)
+    ux, uy, uxd, uyd = surface_motion(t, p[P_A], p[P_R], p[P_TAU])
+    if tangential:
+        scale = p[P_THETA] * p[P_MU]
+        R.record(samples, ctr, t, x, vx, y, vy, y - uy, (x - ux) / scale,
+                 (vx - uxd) / scale, 0.0, 0.0, FLIGHT, 0.0, 0.0)
+    else:
+        R.record(samples, ctr, t, 0.0, 0.0, y, vy, y - uy, 0.0, 0.0,
+                 0.0, 0.0, FLIGHT, 0.0, 0.0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
+                    nvert, memf, samples, events, ctr, t_stop, tangential):
+    A = p[P_A]
+    m = p[P_M]
+    mu = p[P_MU]
+    r = p[P_R]
+    tau = p[P_TAU]
+    h = p[P_H]
+    t_end = p[P_TEND]
+    sdt = p[P_SDT]
+    w0 = p[P_W0]
+    w1 = p[P_W1]
+    scale = p[P_THETA] * mu           # theta mu: b* = (x* - u_x*) / (theta mu)
+    final = t_stop >= t_end
+    cap_s = samples.shape[0]
+    cap_e = events.shape[0]
+    cap_m = H.shape[0]
+    while state[S_T] < t_end:
+        t = state[S_T]
+        if ctr[R.C_MODE] == MODE_FLIGHT:
+            # ---- closed-form flight: sample it, then find the landing ----
+            limit = t_stop if t_stop < t_end else t_end
+            t_land = find_landing(state[S_T0], state[S_Y0], state[S_VY0], m, A,
+                                  tau, t, limit, h)
+            t_fin = limit if t_land < 0.0 else t_land
+            # coarse samples and full-resolution window points inside the flight
+            while True:
+                tc = ctr[R.C_NEXT] * sdt
+                tw = math.inf
+                if w0 <= w1:
+                    kw = max(ctr[R.C_WNEXT], math.ceil(max(t, w0) / h))
+                    ctr[R.C_WNEXT] = kw
+                    if kw * h <= w1:
+                        tw = kw * h
+                ts = min(tc, tw)
+                if ts > t_fin:
+                    break
+                if ctr[R.C_NSAMP] >= cap_s:
+                    return R.SAMPLES_FULL
+                _record_flight(samples, ctr, state, ts, p, tangential)
+                if tc <= ts:
+                    ctr[R.C_NEXT] += 1
+                if tw <= ts:
+                    ctr[R.C_WNEXT] += 1
+            if ctr[R.C_NEVT] + 2 > cap_e:
+                return R.EVENTS_FULL
+            x, vx, y, vy = _flight_point(state, t_fin, m)
+            state[S_T] = t_fin
+            state[S_X] = x
+            state[S_VX] = vx
+            state[S_Y] = y
+            state[S_VY] = vy
+            if t_land < 0.0:
+                break
+            # ---- landing: restart contact, history from the parabola ----
+            ux, uy, uxd, uyd = surface_motion(t_fin, A, r, tau)
+            ctr[R.C_MODE] = MODE_CONTACT
+            R.add_event(events, ctr, t_fin, R.LANDING, t_fin - math.floor(t_fin))
+            state[S_GAP] = 0.0
+            if tangential:
+                nvert[0] = 0
+                nvert[1] = 0
+                memf[0] = 0.0
+                memf[1] = (x - ux) / scale
+            for j in range(4):
+                hist[j, 0] = vx
+                hist[j, 1] = 0.0
+                hist[j, 2] = vy - j * h / m
+                hist[j, 3] = 1.0 / m
+            continue
+        # ---- one committed contact step ----
+        if (not final) and t + h > t_stop:
+            break
+        if ctr[R.C_NSAMP] >= cap_s:
+            return R.SAMPLES_FULL
+        if ctr[R.C_NEVT] + 3 > cap_e:
+            return R.EVENTS_FULL
+        if tangential and nvert[0] + 3 > cap_m:
+            return R.MEMORY_FULL
+        t1 = t + h
+        xo = state[S_X]
+        vxo = state[S_VX]
+        yo = state[S_Y]
+        vyo = state[S_VY]
+        if integrator == AB4:
+            x1 = state[S_X] + ab4_increment(hist, 0, h)
+            vx1 = state[S_VX] + ab4_increment(hist, 1, h)
+            y1 = state[S_Y] + ab4_increment(hist, 2, h)
+            vy1 = state[S_VY] + ab4_increment(hist, 3, h)
+        else:
+            x1 = state[S_X] + h * state[S_VX] + 0.5 * h * h * hist[0, 1]
+            y1 = state[S_Y] + h * state[S_VY] + 0.5 * h * h * hist[0, 3]
+            vx1 = 0.0
+            vy1 = 0.0
+        ux, uy, uxd, uyd = surface_motion(t1, A, r, tau)
+        a1 = y1 - uy
+        nf = normal_force(a1)
+        if tangential:
+            b1 = (x1 - ux) / scale
+            tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, b1)
+        else:
+            b1 = 0.0
+            tf = 0.0
+            sh = 0.0
+            st = 1 if a1 > 0.0 else FLIGHT
+        ax1 = -mu * tf / m
+        ay1 = (1.0 - nf) / m
+        if integrator != AB4:
+            vx1 = state[S_VX] + 0.5 * h * (hist[0, 1] + ax1)
+            vy1 = state[S_VY] + 0.5 * h * (hist[0, 3] + ay1)
+        push_history(hist, vx1, ax1, vy1, ay1)
+        ctr[R.C_STEPS] += 1
+        ctr[R.C_FEVALS] += 1
+        a0 = state[S_GAP]
+        state[S_GAP] = a1
+        state[S_T] = t1
+        state[S_X] = x1
+        state[S_VX] = vx1
+        state[S_Y] = y1
+        state[S_VY] = vy1
+        if st == FLIGHT:
+            # Take-off between t and t1.  The step extrapolated contact forces
+            # past a* = 0; instead leave on the flight parabola from the gap's
+            # zero, reached from the state at t under the force at t (small:
+            # N* = a*^(3/2) near a* = 0).
+            d = h * a0 / (a0 - a1) if a0 > 0.0 else 0.0
+            axo = hist[1, 1]
+            ayo = hist[1, 3]
+            ctr[R.C_MODE] = MODE_FLIGHT
+            state[S_T0] = t + d
+            state[S_X0] = xo + vxo * d + 0.5 * axo * d * d
+            state[S_VX0] = vxo + axo * d
+            state[S_Y0] = yo + vyo * d + 0.5 * ayo * d * d
+            state[S_VY0] = vyo + ayo * d
+            x1, vx1, y1, vy1 = _flight_point(state, t1, m)
+            state[S_X] = x1
+            state[S_VX] = vx1
+            state[S_Y] = y1
+            state[S_VY] = vy1
+            a1 = y1 - uy
+            b1 = (x1 - ux) / scale if tangential else 0.0
+        if st != ctr[R.C_STATE]:
+            if st == FLIGHT:
+                tto = state[S_T0]
+                R.add_event(events, ctr, tto, R.TAKEOFF, tto - math.floor(tto))
+            R.add_event(events, ctr, t1, R.STATE_CHANGE, st)
+            ctr[R.C_STATE] = st
+        if R.want_sample(t1, ctr, sdt, w0, w1) or (final and t1 >= t_end):
+            c = math.sqrt(a1) if a1 > 0.0 else 0.0
+            s = math.sqrt(sh) if sh > 0.0 else 0.0
+            bd = (vx1 - uxd) / scale if tangential else 0.0
+            R.record(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, bd, nf, tf,
+                     st, s, c)
+        if st == FLIGHT and stop_at_takeoff:
+            break
+    return R.DONE
+
+
+@njit(cache=True, nogil=True)
+def deformable_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
+                      samples, events, ctr, t_stop):
+    """Deformable particle (Hertz + memory diagram) from state[S_T] to t_stop.
+
+    Returns a records.* status code; every array is updated in place.
+    """
+    return _hertz_particle(params, integrator, False, state, hist, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True)

@@ -1,0 +1,24 @@
+"""Vertical-only Hertz particle: m* y'' = 1 - N*(a*), a* = y* - u_y*(t).
+
+The same compiled stepping as the deformable particle with the tangential
+part removed at compile time (no memory diagram, no sin, no x).
+"""
+import numpy as np
+from numba import njit
+
+from .deformable import _hertz_particle
+
+
+@njit(cache=True, nogil=True)
+def vertical_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
+                    samples, events, ctr, t_stop):
+    """Vertical motion from state[S_T] to t_stop (or the first take-off).
+
+    `dummy` is any float64 array standing in for the memory diagram's slots,
+    which this compiled variant never reads or writes.
+    Returns a records.* status code.
+    """
+    no_memory = np.empty((0, 2))
+    return _hertz_particle(params, integrator, stop_at_takeoff, state, hist,
+                           no_memory, dummy, dummy, ctr, dummy, samples, events,
+                           ctr, t_stop, False)

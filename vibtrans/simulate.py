@@ -1,0 +1,199 @@
+"""Run a scene: validate, choose the step, drive a kernel in chunks.
+
+The public entry point is `simulate(scene)`.  The numba kernels run in chunks
+of about a million steps; between chunks we report progress, honour a cancel
+request, and grow any buffer a kernel reports full, so a long run stays
+responsive and memory follows the need.
+"""
+import math
+import time
+
+import numpy as np
+
+from . import __version__
+from . import records as R
+from .contact import STICK, new_memory
+from .fidelity import scan_step, time_step
+from .integrators import INTEGRATORS
+from .models import deformable as D
+from .models import point_mass as PM
+from .models.vertical import vertical_kernel
+from .params import Scene
+from .trajectory import build_trajectory
+
+DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
+CHUNK_STEPS = 2_000_000
+SAMPLES_PER_PERIOD = 10
+
+
+class StepBudgetExceeded(ValueError):
+    """The scene would take more steps than allowed (refused before running)."""
+
+
+class Cancelled(RuntimeError):
+    """The run was cancelled by its caller."""
+
+
+def _scene(scene, values):
+    if scene is None:
+        return Scene(**values)
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
+    return scene.replace(**values) if values else scene
+
+
+def estimate_steps(scene, refine=1.0):
+    """Upper estimate of the integration steps of a scene (before running)."""
+    if scene.model == "point-mass":
+        return int(math.ceil(scene.periods / scan_step(scene.fidelity, refine)))
+    return int(math.ceil(scene.periods / time_step(scene.amplitude, scene.mass,
+                                                   scene.fidelity, refine)))
+
+
+def _window(window, periods):
+    if window is None:
+        return math.inf, -math.inf
+    try:
+        w0, w1 = (float(v) for v in window)
+    except (TypeError, ValueError):
+        raise ValueError(f"window must be a pair (t0, t1) of times in [0, {periods:g}], "
+                         f"got {window!r}") from None
+    if not (math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= periods):
+        raise ValueError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
+    return w0, w1
+
+
+def _grow(a, factor=2):
+    out = np.empty((a.shape[0] * factor,) + a.shape[1:], dtype=a.dtype)
+    out[:a.shape[0]] = a
+    return out
+
+
+def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
+             max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
+             refine=1.0, **values):
+    """Simulate one scene and return its trajectory (xarray.Dataset).
+
+    scene: a `Scene`, or scene values as keywords (amplitude=..., mass=...).
+    window: (t0, t1) in periods, recorded at every step (full resolution);
+        elsewhere `samples_per_period` samples per period.
+    max_steps: refuse (StepBudgetExceeded) a scene estimated to need more.
+    progress: callable(fraction) called between chunks.
+    cancel: object with is_set() (threading.Event); raises Cancelled.
+    refine: divide the fidelity's step (convergence studies).
+    """
+    scene = _scene(scene, values)
+    if not (isinstance(samples_per_period, (int, np.integer))
+            and not isinstance(samples_per_period, bool) and 1 <= samples_per_period <= 10000):
+        raise ValueError(f"samples_per_period must be an integer in [1, 10000], "
+                         f"got {samples_per_period!r}")
+    if not (isinstance(refine, (int, float)) and math.isfinite(refine) and 1 <= refine <= 1024):
+        raise ValueError(f"refine must be in [1, 1024], got {refine!r}")
+    steps = estimate_steps(scene, refine)
+    if steps > max_steps:
+        raise StepBudgetExceeded(
+            f"scene needs about {steps:.3g} steps, over the budget of {max_steps:.3g} "
+            f"(reduce periods or fidelity, or raise max_steps)")
+    w0, w1 = _window(window, scene.periods)
+    runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
+    start = time.perf_counter()
+    samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
+                                        progress, cancel)
+    seconds = time.perf_counter() - start
+    attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
+                 force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
+                 samples_per_period=samples_per_period, window_start=w0 if window else None,
+                 window_end=w1 if window else None, refine=refine,
+                 code_version=__version__, **info)
+    return build_trajectory(samples, events, attrs)
+
+
+def _drive(call, t_end, chunk, buffers, progress, cancel):
+    """Call a kernel chunk by chunk, growing whichever buffer it reports full."""
+    t_stop = 0.0
+    while True:
+        t_stop = min(t_stop + chunk, t_end)
+        while True:
+            code = call(t_stop)
+            if code == R.DONE:
+                break
+            buffers[code]()
+        if progress is not None:
+            progress(t_stop / t_end)
+        if t_stop >= t_end:
+            return
+        if cancel is not None and cancel.is_set():
+            raise Cancelled("run cancelled")
+
+
+def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel):
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine)
+    tangential = scene.model == "deformable"
+    sdt = 1.0 / samples_per_period
+    p = np.zeros(D.NPARAM)
+    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
+       D.P_SDT, D.P_W0, D.P_W1]] = (scene.amplitude, scene.mass, scene.mu, scene.theta,
+                                    scene.r, scene.tau, h, scene.periods, sdt, w0, w1)
+    state = np.zeros(D.NSTATE)
+    state[D.S_Y] = 1.0          # at rest under the static load: a* = 1, N* = 1
+    state[D.S_GAP] = 1.0
+    hist = np.zeros((4, 4))     # at rest before t = 0 (the ramp starts from 0)
+    n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
+    buf = {
+        "samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
+        "events": np.empty((1024, 3)),
+    }
+    ctr = R.new_counters()
+    ctr[R.C_STATE] = STICK
+    mem = list(new_memory(1024)) if tangential else None
+    # the initial state at t = 0
+    R.record(buf["samples"], ctr, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0,
+             STICK, 1.0, 1.0)
+    ctr[R.C_NEXT] = 1
+    integ = INTEGRATORS[scene.integrator]
+
+    def call(t_stop):
+        if tangential:
+            return D.deformable_kernel(p, integ, state, hist, *mem, buf["samples"],
+                                       buf["events"], ctr, t_stop)
+        return vertical_kernel(p, integ, False, state, hist, np.empty(0), buf["samples"],
+                               buf["events"], ctr, t_stop)
+
+    def grow_memory():
+        mem[0], mem[1], mem[2] = _grow(mem[0]), _grow(mem[1]), _grow(mem[2])
+
+    growers = {
+        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", _grow(buf["samples"])),
+        R.EVENTS_FULL: lambda: buf.__setitem__("events", _grow(buf["events"])),
+        R.MEMORY_FULL: grow_memory,
+    }
+    _drive(call, scene.periods, max(1.0, CHUNK_STEPS * h), growers, progress, cancel)
+    n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
+    return buf["samples"][:n], buf["events"][:k], ctr, {"h": h}
+
+
+def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel):
+    dt = scan_step(scene.fidelity, refine)
+    p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
+                       scene.tau, float(scene.periods), scene.alpha_t,
+                       1.0 / samples_per_period, (w0, w1), dt)
+    rule = PM.rule_code(scene.stick_rule)
+    state = np.zeros(5)
+    ctr = R.new_counters()
+    n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
+    buf = {"samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
+           "events": np.empty((1024, 3))}
+
+    def call(t_stop):
+        return PM.point_mass_kernel(p, rule, state, buf["samples"], buf["events"], ctr,
+                                    t_stop)
+
+    growers = {
+        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", _grow(buf["samples"])),
+        R.EVENTS_FULL: lambda: buf.__setitem__("events", _grow(buf["events"])),
+    }
+    # chunks end on whole periods (on the scan grid: bit-identical to one call)
+    _drive(call, scene.periods, max(1.0, float(round(CHUNK_STEPS * dt))), growers,
+           progress, cancel)
+    n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
+    return buf["samples"][:n], buf["events"][:k], ctr, {"h": dt}

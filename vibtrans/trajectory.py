@@ -1,0 +1,58 @@
+"""The result of a run: an xarray.Dataset of decimated samples and exact events.
+
+    dims:  time (recorded instants), event (take-offs, landings, state changes)
+    vars:  x, vx, y, vy, a, b, bdot, N, T, state, stick_radius, contact_radius
+           event_time, event_kind, event_value
+    attrs: every scene parameter, r, the step h, steps, force_evaluations,
+           seconds, the code version, and the run's window.
+
+Normalized units (MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
+periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
+"""
+import numpy as np
+import xarray as xr
+
+from . import records as R
+from .contact import STATE_NAMES
+
+_UNITS = {
+    "x": ("x*", "horizontal position / a0"),
+    "vx": ("x*'", "horizontal velocity, a0 per period"),
+    "y": ("y*", "vertical position (down) / a0"),
+    "vy": ("y*'", "vertical velocity, a0 per period"),
+    "a": ("a*", "normal contact displacement / a0"),
+    "b": ("b*", "tangential contact displacement / (theta mu a0)"),
+    "bdot": ("b*'", "relative tangential velocity, theta mu a0 per period"),
+    "N": ("N*", "normal force / N(a0)"),
+    "T": ("T*", "tangential force / (mu N(a0))"),
+    "stick_radius": ("s", "stick radius, units of sqrt(R a0)"),
+    "contact_radius": ("c", "contact radius, units of sqrt(R a0)"),
+}
+
+
+def build_trajectory(samples, events, attrs):
+    """Dataset from the kernel's trimmed sample and event buffers."""
+    t = samples[:, R.T_]
+    data = {}
+    for i, name in enumerate(R.COLUMNS):
+        if name in ("t", "state"):
+            continue
+        symbol, desc = _UNITS[name]
+        data[name] = ("time", samples[:, i].copy(), {"symbol": symbol, "long_name": desc})
+    data["state"] = ("time", samples[:, R.STATE].astype(np.int8),
+                     {"flag_values": list(range(len(STATE_NAMES))),
+                      "flag_meanings": " ".join(s.replace(" ", "_") for s in STATE_NAMES)})
+    data["event_time"] = ("event", events[:, 0].copy())
+    data["event_kind"] = ("event", events[:, 1].astype(np.int8),
+                          {"flag_meanings": " ".join(R.EVENT_NAMES)})
+    data["event_value"] = ("event", events[:, 2].copy())
+    clean = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
+             if v is not None}
+    return xr.Dataset(data, coords={"time": ("time", t, {"units": "wave periods"})},
+                      attrs=clean)
+
+
+def events_of(ds, kind):
+    """Times and values of the events of one kind (records.TAKEOFF, ...)."""
+    sel = ds["event_kind"].values == kind
+    return ds["event_time"].values[sel], ds["event_value"].values[sel]
