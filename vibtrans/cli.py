@@ -117,6 +117,10 @@ def cmd_simulate(args):
 
 def cmd_threshold(args):
     from .threshold import point_mass_threshold, threshold_amplitude
+    if args.sweep:
+        return _threshold_sweep(args)
+    if args.mass is None:
+        raise InputError("threshold needs --mass M (or --sweep)")
     aj = threshold_amplitude(args.mass, tau=args.tau, periods=args.periods,
                              fidelity=args.fidelity, rel_tol=args.rel_tol)
     out = {"mass": args.mass, "threshold_amplitude": aj,
@@ -129,9 +133,41 @@ def cmd_threshold(args):
     return 0
 
 
+def _threshold_sweep(args):
+    import os
+
+    from .sweep import command_line, parse_range
+    from .threshold import threshold_curve
+    log_mass = parse_range(args.log_mass, "log_mass")
+    out = args.out or "vertical.nc"
+    ds = threshold_curve(log_mass, tau=args.tau, periods=args.periods,
+                         fidelity=args.fidelity, workers=args.workers)
+    ds.attrs["command"] = command_line()
+    tmp = out + ".partial"
+    ds.to_netcdf(tmp)
+    os.replace(tmp, out)          # atomic: a partial file is never read as data
+    print(out)
+    return 0
+
+
 def cmd_bench(args):
     from .bench import main as bench_main
     return bench_main(quick=args.quick, as_json=args.json)
+
+
+def cmd_sweep(args):
+    from .sweep import Sweep, command_line, parse_range, run_sweep
+    sweep = Sweep(parse_range(args.log_amplitude, "log_amplitude"),
+                  parse_range(args.log_mass, "log_mass"), chunk_rows=args.chunk_rows,
+                  command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
+                  nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
+                  integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule)
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"workers must be an integer >= 1, got {args.workers}")
+    out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
+    run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler)
+    print(out)
+    return 0
 
 
 def cmd_serve(args):
@@ -172,13 +208,36 @@ def build_parser():
     s.set_defaults(func=cmd_simulate)
 
     t = sub.add_parser("threshold", help="jumping threshold A_J*(m*) of the vertical motion")
-    t.add_argument("--mass", type=_num, required=True)
+    t.add_argument("--mass", type=_num)
+    t.add_argument("--sweep", action="store_true", help="the whole curve over --log-mass")
+    t.add_argument("--log-mass", default="-5:5:0.01", help="with --sweep: start:stop:step")
+    t.add_argument("--workers", type=int)
+    t.add_argument("--out", help="with --sweep: FILE.nc")
     t.add_argument("--tau", type=_num, default=50.0)
     t.add_argument("--periods", type=_num, default=2000.0)
     t.add_argument("--fidelity", default="standard")
     t.add_argument("--rel-tol", type=_num, default=1e-3)
     t.add_argument("--json", action="store_true")
     t.set_defaults(func=cmd_threshold)
+
+    w = sub.add_parser("sweep", help="drift map over (log10 A*, log10 m*), resumable Zarr store")
+    w.add_argument("--model", default="deformable")
+    w.add_argument("--mu", type=_num, default=0.3)
+    w.add_argument("--theta", type=_num, default=1.2)
+    w.add_argument("--nu", type=_num, default=0.3)
+    w.add_argument("--tau", type=_num, default=50.0)
+    w.add_argument("--periods", type=_num, default=2000.0)
+    w.add_argument("--alpha-t", type=_num, default=0.5)
+    w.add_argument("--stick-rule", default="paper")
+    w.add_argument("--fidelity", default="standard")
+    w.add_argument("--integrator", default="ab4")
+    w.add_argument("--log-amplitude", default="-3:3:0.05", help="start:stop:step (inclusive)")
+    w.add_argument("--log-mass", default="-5:5:0.05", help="start:stop:step (inclusive)")
+    w.add_argument("--chunk-rows", type=int, default=4, help="amplitudes per stored chunk")
+    w.add_argument("--out", help="PATH.zarr (resumed if it exists and matches)")
+    w.add_argument("--scheduler", help="dask.distributed scheduler address tcp://HOST:PORT")
+    w.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    w.set_defaults(func=cmd_sweep)
 
     v = sub.add_parser("serve", help="serve the explorer (for now: a demo of the paper's scenes)")
     v.set_defaults(func=cmd_serve)
@@ -190,9 +249,28 @@ def build_parser():
     return p
 
 
+_VALUE_OPTIONS = {"--log-amplitude", "--log-mass", "--amplitude", "--mass", "--mu",
+                  "--theta", "--nu", "--tau", "--periods", "--alpha-t"}
+
+
+def _glue_negative_values(argv):
+    """`--log-mass -5:5:0.05` -> `--log-mass=-5:5:0.05`: argparse would take a
+    value starting with '-' (other than a plain negative number) for an option."""
+    out = []
+    i = 0
+    while i < len(argv):
+        if argv[i] in _VALUE_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
 def main(argv=None):
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else list(argv)))
     try:
         return args.func(args)
     except (ValueError, TypeError) as exc:   # validation: one line, status 2

@@ -197,3 +197,14 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel)
            progress, cancel)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return buf["samples"][:n], buf["events"][:k], ctr, {"h": dt}
+
+
+def warmup():
+    """Compile (or load from the on-disk cache) every kernel variant, so no
+    user-facing run pays for compilation.  Cheap once the cache exists."""
+    for model in ("deformable", "vertical", "point-mass"):
+        for integrator in ("ab4", "verlet"):
+            simulate(Scene(model=model, integrator=integrator, amplitude=100.0,
+                           mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
+    from .threshold import first_takeoff
+    first_takeoff(1.0, 1.0, periods=1.0)

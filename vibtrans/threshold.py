@@ -99,3 +99,74 @@ def point_mass_sliding_threshold(mass, mu=0.3, r=None, nu=0.3):
     if r is None:
         r = Scene(nu=nu).r
     return mu / math.sqrt(mu * mu + r * r) / (4.0 * math.pi ** 2 * mass)
+
+
+def _threshold_task(args):
+    mass, tau, periods, fidelity = args
+    return threshold_amplitude(mass, tau=tau, periods=periods, fidelity=fidelity)
+
+
+def local_minima(log_mass, aj):
+    """Indices of the strict local minima of A_J*(m*) (resonance candidates)."""
+    aj = np.asarray(aj)
+    i = np.arange(1, aj.size - 1)
+    return i[(aj[i] < aj[i - 1]) & (aj[i] <= aj[i + 1])]
+
+
+def resonances(log_mass, aj):
+    """Name the resonances of the curve (paper, section III.A).
+
+    fundamental: the deepest minimum (m_c* ~ 3/(8 pi^2)); subharmonic: the
+    deepest minimum within a factor 2 of 4 m_c*; superharmonics: minima below
+    m_c* (at roughly m_c*/n^2, n = 2, 3, ...), deepest first.
+    """
+    log_mass = np.asarray(log_mass)
+    aj = np.asarray(aj)
+    mins = local_minima(log_mass, aj)
+    if mins.size == 0:
+        return {}
+    fund = int(mins[np.argmin(aj[mins])])
+    mc = 10 ** log_mass[fund]
+    out = {"fundamental": fund}
+    near4 = [i for i in mins if 2 * mc < 10 ** log_mass[i] < 8 * mc]
+    if near4:
+        out["subharmonic"] = int(min(near4, key=lambda i: aj[i]))
+    supers = sorted((i for i in mins if 10 ** log_mass[i] < mc / 2), key=lambda i: aj[i])
+    for n, i in enumerate(supers[:4], start=2):
+        out[f"superharmonic_{n}"] = int(i)
+    return out
+
+
+def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
+                    workers=None, progress=True):
+    """A_J*(m*) over a grid of log10 m*, with the rigid line and the resonances
+    (xarray.Dataset).  Runs on a local process pool."""
+    import multiprocessing as mp
+    import os
+    import sys
+    from concurrent.futures import ProcessPoolExecutor
+
+    import xarray as xr
+    from tqdm import tqdm
+
+    from . import __version__
+    Scene(tau=tau, periods=periods, fidelity=fidelity)      # validate
+    log_mass = np.asarray(log_mass, dtype=float)
+    masses = 10.0 ** log_mass
+    tasks = [(m, tau, periods, fidelity) for m in masses]
+    workers = workers or os.cpu_count() or 1
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+        aj = list(tqdm(pool.map(_threshold_task, tasks, chunksize=8), total=len(tasks),
+                       file=sys.stderr, disable=not progress, desc="threshold"))
+    aj = np.array(aj)
+    res = resonances(log_mass, aj)
+    ds = xr.Dataset(
+        {"threshold_amplitude": ("log_mass", aj, {"description": "A_J*: deformable (Hertz) particle"}),
+         "point_mass_threshold_amplitude": ("log_mass", 1.0 / (4 * np.pi ** 2 * masses),
+                                            {"description": "rigid contact: 1/(4 pi^2 m*)"})},
+        coords={"log_mass": log_mass},
+        attrs={"tau": tau, "periods": periods, "fidelity": fidelity,
+               "code_version": __version__,
+               **{f"resonance_{k}_log_mass": float(log_mass[i]) for k, i in res.items()},
+               **{f"resonance_{k}_amplitude": float(aj[i]) for k, i in res.items()}})
+    return ds

@@ -1,0 +1,146 @@
+"""Sweeps: equality with point-by-point runs, kill-and-resume, Dask, and
+refusal of mismatched or damaged stores.  Small grids and short runs."""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from vibtrans.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
+                            parse_range, run_sweep)
+
+SMALL = dict(periods=120.0, tau=10.0)
+LA = "0:2.5:0.5"      # 6 amplitudes
+LM = "-2:1:1"         # 4 masses
+
+
+def small_sweep(chunk_rows=2, **over):
+    return Sweep(parse_range(LA, "a"), parse_range(LM, "m"), chunk_rows=chunk_rows,
+                 **{**SMALL, **over})
+
+
+def same(a, b):
+    for name in VARIABLES:
+        x, y = a[name].values, b[name].values
+        if name == "seconds":
+            continue      # wall time differs run to run
+        assert np.array_equal(x, y, equal_nan=True), name
+
+
+def test_sweep_equals_point_by_point(tmp_path):
+    # A sweep point is exactly the library's run of that scene (same code path).
+    sw = small_sweep()
+    run_sweep(sw, str(tmp_path / "s.zarr"), workers=2, progress=False)
+    ds = open_map(str(tmp_path / "s.zarr"))
+    assert ds["done"].values.all()
+    for i in (0, 3, 5):
+        for j in (0, 2):
+            p = compute_point(sw.values, sw.log_amplitude[i], sw.log_mass[j])
+            for name in VARIABLES:
+                if name != "seconds":
+                    assert ds[name].values[i, j] == p[name] or (
+                        np.isnan(p[name]) and np.isnan(ds[name].values[i, j])), name
+
+
+def _cli(out, extra=()):
+    return [sys.executable, "-m", "vibtrans.cli", "sweep", "--log-amplitude", LA,
+            f"--log-mass={LM}", "--periods", "120", "--tau", "10", "--chunk-rows", "1",
+            "--workers", "1", "--out", out, *extra]
+
+
+def test_kill_and_resume_is_bit_identical(tmp_path):
+    # A real subprocess killed (SIGKILL) mid-sweep, then started again with the
+    # same command, ends equal to an uninterrupted run, bit for bit.
+    full = str(tmp_path / "full.zarr")
+    subprocess.run(_cli(full), check=True, capture_output=True)
+    part = str(tmp_path / "part.zarr")
+    proc = subprocess.Popen(_cli(part), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.time() + 240
+    while time.time() < deadline:
+        time.sleep(0.2)
+        try:
+            done = xr.open_zarr(part, consolidated=False)["done"].values
+        except Exception:
+            continue
+        if 1 <= done.sum() < done.size - 1:
+            break
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    done_before = xr.open_zarr(part, consolidated=False)["done"].values.copy()
+    assert 1 <= done_before.sum() < done_before.size       # really interrupted
+    kept = open_map(part)
+    subprocess.run(_cli(part), check=True, capture_output=True)
+    a, b = open_map(full), open_map(part)
+    same(a, b)
+    # finished chunks were not recomputed: their wall times are unchanged
+    rows = np.flatnonzero(done_before)
+    assert np.array_equal(kept["seconds"].values[rows], b["seconds"].values[rows])
+
+
+def test_dask_cluster_equals_local(tmp_path):
+    from dask.distributed import LocalCluster
+    sw = small_sweep()
+    run_sweep(sw, str(tmp_path / "local.zarr"), workers=1, progress=False)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        run_sweep(sw, str(tmp_path / "dask.zarr"), scheduler=cluster.scheduler_address,
+                  progress=False)
+    same(open_map(str(tmp_path / "local.zarr")), open_map(str(tmp_path / "dask.zarr")))
+
+
+def test_mismatched_store_is_refused(tmp_path):
+    path = str(tmp_path / "s.zarr")
+    run_sweep(small_sweep(), path, workers=1, progress=False)
+    with pytest.raises(StoreMismatch, match="mu"):
+        run_sweep(small_sweep(mu=0.1), path, workers=1, progress=False)
+    with pytest.raises(StoreMismatch, match="grid"):
+        run_sweep(Sweep(parse_range("0:2:0.5", "a"), parse_range(LM, "m"), chunk_rows=2,
+                        **SMALL), path, workers=1, progress=False)
+
+
+def _chunk_files(path, var):
+    root = os.path.join(path, var)
+    return sorted(os.path.join(d, f) for d, _, fs in os.walk(root) for f in fs
+                  if not f.startswith("zarr") and not f.startswith("."))
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "delete-meta"])
+def test_damaged_store_is_refused(tmp_path, damage):
+    path = str(tmp_path / "s.zarr")
+    run_sweep(small_sweep(), path, workers=1, progress=False)
+    if damage == "delete-meta":
+        os.remove(os.path.join(path, "zarr.json"))
+    else:
+        target = _chunk_files(path, "drift_velocity")[0]
+        data = open(target, "rb").read()
+        with open(target, "wb") as f:
+            if damage == "truncate":
+                f.write(data[: len(data) // 2])
+            else:
+                f.write(data[:-9] + bytes([data[-9] ^ 0xFF]) + data[-8:])
+    with pytest.raises((StoreMismatch, FileNotFoundError)):
+        open_map(path)
+    with pytest.raises((StoreMismatch, FileNotFoundError)):
+        run_sweep(small_sweep(), path, workers=1, progress=False)
+
+
+def test_foreign_and_missing_stores_are_refused(tmp_path):
+    foreign = str(tmp_path / "foreign.zarr")
+    xr.Dataset({"a": ("x", np.arange(3.0))}).to_zarr(foreign, consolidated=False)
+    with pytest.raises(StoreMismatch, match="not a vibtrans sweep"):
+        open_map(foreign)
+    with pytest.raises(FileNotFoundError):
+        open_map(str(tmp_path / "none.zarr"))
+    shutil.rmtree(foreign)
+
+
+@pytest.mark.parametrize("text", ["1:0:0.1", "0:1:0", "0:1", "a:b:c", "0:nan:0.1"])
+def test_bad_ranges(text):
+    with pytest.raises(ValueError, match="log_mass"):
+        parse_range(text, "log_mass")

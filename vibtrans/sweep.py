@@ -1,0 +1,268 @@
+"""Parameter sweeps over the (log10 A*, log10 m*) plane, stored resumably.
+
+A sweep is an xarray Dataset on the grid (log_amplitude, log_mass), written
+to Zarr chunk by chunk (a chunk = `chunk_rows` amplitudes x every mass) as
+its points finish:
+
+* the data of a chunk is written first, then its `done` flag and a digest of
+  its data; a sweep killed at any moment restarts with the same command,
+  skips the chunks marked done, and recomputes only unfinished chunks;
+* a store whose parameters or grid differ from the command, or whose done
+  chunks do not match their digests (damaged, truncated, edited), is refused
+  with a clear message, never mixed or read as data.
+
+Points run on all local cores (a process pool: measured faster than threads,
+see `vibtrans bench --sweep`), or on a dask.distributed cluster given its
+scheduler address; the kernels are the same either way.
+"""
+import hashlib
+import math
+import os
+import shlex
+import sys
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from .analysis import summarize
+from .params import Scene
+from .simulate import simulate, warmup
+
+PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
+DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
+SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
+              "integrator", "alpha_t", "stick_rule")
+VARIABLES = {
+    # name: (dtype, fill, description)
+    "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
+    "final_drift_velocity": ("f8", np.nan, "mean v_x* over the last 10% of the run"),
+    "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
+    "drift": ("i1", -2, "-1 against the wave, 0 none (|v*| <= 0.1), 1 with the wave"),
+    "pattern": ("i1", -1, "rebound pattern: " + ", ".join(f"{i} {p}" for i, p in enumerate(PATTERNS))),
+    "chaotic": ("i1", -1, "1 if the tau + 1e-3 twin disagrees (jumping points only), else 0"),
+    "contact_fraction": ("f8", np.nan, "fraction of the final 10% spent in contact"),
+    "takeoffs_per_period": ("f8", np.nan, "take-offs per period, final 10%"),
+    "steps": ("i8", -1, "integration steps (run + twin)"),
+    "seconds": ("f8", np.nan, "wall time of the point (run + twin), s"),
+}
+
+
+class StoreMismatch(ValueError):
+    """The store on disk was made by a different command or is damaged."""
+
+
+def parse_range(text, name):
+    """'start:stop:step' (inclusive stop) -> 1-D array, validated."""
+    try:
+        start, stop, step = (float(v) for v in str(text).split(":"))
+    except ValueError:
+        raise ValueError(f"{name} must be 'start:stop:step', got {text!r}") from None
+    if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
+        raise ValueError(f"{name} must be 'start:stop:step' with finite start <= stop "
+                         f"and step > 0, got {text!r}")
+    n = int(round((stop - start) / step)) + 1
+    if n > 100_000:
+        raise ValueError(f"{name} has {n} points, more than 100000")
+    return np.round(start + step * np.arange(n), 10)
+
+
+def compute_point(values, log_a, log_m):
+    """One grid point: the run and, if it jumps, its tau + 1e-3 twin.
+
+    Returns a dict of the stored quantities.
+    """
+    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    ds = simulate(scene)
+    jumping = bool((ds["event_kind"].values == 0).any())
+    twin = simulate(scene.replace(tau=scene.tau + 1e-3)) if jumping else None
+    s = summarize(ds, twin)
+    return {
+        "drift_velocity": s.drift_velocity,
+        "final_drift_velocity": s.final_drift_velocity,
+        "contact": int(jumping),
+        "drift": DRIFTS[s.drift],
+        "pattern": PATTERNS.index(s.pattern or "none"),
+        "chaotic": int(bool(s.chaotic)),
+        "contact_fraction": s.contact_fraction,
+        "takeoffs_per_period": s.takeoffs_per_period,
+        "steps": s.steps,
+        "seconds": s.seconds,
+    }
+
+
+def _compute_row_block(values, log_as, log_ms):
+    """All points of a chunk (a worker task)."""
+    return [[compute_point(values, la, lm) for lm in log_ms] for la in log_as]
+
+
+def _digest(block):
+    h = hashlib.sha256()
+    for name in VARIABLES:
+        h.update(np.ascontiguousarray(block[name].values).tobytes())
+    return np.uint64(int(h.hexdigest()[:16], 16))
+
+
+class Sweep:
+    """A sweep's definition: scene values (everything but A*, m*) and grid."""
+
+    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None, **values):
+        scene = Scene(**values)            # validates every value
+        self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
+        self.log_amplitude = np.asarray(log_amplitude, dtype=float)
+        self.log_mass = np.asarray(log_mass, dtype=float)
+        if not (isinstance(chunk_rows, int) and chunk_rows >= 1):
+            raise ValueError(f"chunk_rows must be an integer >= 1, got {chunk_rows!r}")
+        self.chunk_rows = chunk_rows
+        self.command = command or "python API"
+
+    @property
+    def n_chunks(self):
+        return -(-self.log_amplitude.size // self.chunk_rows)
+
+    def rows(self, k):
+        return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
+
+    def attrs(self):
+        return {**{f"scene_{k}": v for k, v in self.values.items()},
+                "chunk_rows": self.chunk_rows, "code_version": __version__,
+                "command": self.command}
+
+    def empty_dataset(self):
+        shape = (self.log_amplitude.size, self.log_mass.size)
+        data = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
+                       {"description": desc})
+                for name, (dt, fill, desc) in VARIABLES.items()}
+        data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
+        data["digest"] = (("chunk",), np.zeros(self.n_chunks, dtype=np.uint64))
+        return xr.Dataset(data, coords={"log_amplitude": self.log_amplitude,
+                                        "log_mass": self.log_mass,
+                                        "chunk": np.arange(self.n_chunks)},
+                          attrs=self.attrs())
+
+
+def _check_store(ds, sweep, path):
+    problems = []
+    for k, v in sweep.values.items():
+        got = ds.attrs.get(f"scene_{k}")
+        if got != v:
+            problems.append(f"{k}: store {got!r}, command {v!r}")
+    for name in ("log_amplitude", "log_mass"):
+        grid = getattr(sweep, name)
+        if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):
+            problems.append(f"{name} grid differs")
+    if ds.attrs.get("chunk_rows") != sweep.chunk_rows:
+        problems.append(f"chunk_rows: store {ds.attrs.get('chunk_rows')}, command {sweep.chunk_rows}")
+    if problems:
+        raise StoreMismatch(f"{path} was made with other parameters ({'; '.join(problems)}); "
+                            f"use another --out or delete it")
+
+
+def verify(ds, path="store"):
+    """Raise StoreMismatch unless every done chunk matches its digest."""
+    rows = int(ds.attrs.get("chunk_rows", 0))
+    if rows < 1 or "done" not in ds or "digest" not in ds:
+        raise StoreMismatch(f"{path} is not a vibtrans sweep store")
+    for k in np.flatnonzero(ds["done"].values):
+        sl = slice(int(k) * rows, (int(k) + 1) * rows)
+        try:
+            block = ds[list(VARIABLES)].isel(log_amplitude=sl).load()
+        except Exception as exc:   # undecodable chunk: damaged or truncated
+            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({exc})") from None
+        if _digest(block) != ds["digest"].values[k]:
+            raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
+                                f"(damaged or edited); delete the store and rerun")
+
+
+def open_map(path):
+    """Open a finished or partial sweep, verified; undone points are masked."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no sweep store at {path}")
+    try:
+        ds = xr.open_zarr(path, consolidated=False)
+    except Exception as exc:
+        raise StoreMismatch(f"{path} is not a readable Zarr store ({exc})") from None
+    verify(ds, path)
+    ds = ds.load()
+    rows = int(ds.attrs["chunk_rows"])
+    done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
+    return ds.assign(point_done=("log_amplitude", done_rows))
+
+
+def run_sweep(sweep, path, workers=None, scheduler=None, progress=True):
+    """Compute every unfinished chunk of `sweep` into the Zarr store `path`."""
+    if os.path.exists(path):
+        try:
+            existing = xr.open_zarr(path, consolidated=False)
+        except Exception as exc:
+            raise StoreMismatch(f"{path} exists but is not a readable sweep store ({exc})") from None
+        _check_store(existing, sweep, path)
+        verify(existing, path)
+        done = existing["done"].values.copy()
+    else:
+        sweep.empty_dataset().to_zarr(
+            path, mode="w", encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
+                                      for name in VARIABLES}, consolidated=False)
+        done = np.zeros(sweep.n_chunks, dtype=bool)
+    todo = [k for k in range(sweep.n_chunks) if not done[k]]
+    if not todo:
+        return path
+    warmup()   # fill the numba cache once, before any worker starts
+    bar = _bar(sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size,
+               progress)
+    if scheduler:
+        from dask.distributed import Client
+        with Client(scheduler) as client:
+            client.run(warmup)
+            futures = {client.submit(_compute_row_block, sweep.values,
+                                     sweep.log_amplitude[sweep.rows(k)], sweep.log_mass,
+                                     pure=False): k for k in todo}
+            from dask.distributed import as_completed
+            for fut in as_completed(futures):
+                _write_chunk(path, sweep, futures[fut], fut.result(), bar)
+    else:
+        workers = workers or os.cpu_count() or 1
+        import multiprocessing as mp
+        with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                 initializer=warmup) as pool:
+            pending = {}
+            queue = list(todo)
+            while queue or pending:
+                while queue and len(pending) < 2 * workers:
+                    k = queue.pop(0)
+                    pending[pool.submit(_compute_row_block, sweep.values,
+                                        sweep.log_amplitude[sweep.rows(k)],
+                                        sweep.log_mass)] = k
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    _write_chunk(path, sweep, pending.pop(fut), fut.result(), bar)
+    bar.close()
+    return path
+
+
+def _bar(total, enabled):
+    from tqdm import tqdm
+    return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
+                desc="sweep", smoothing=0.05)
+
+
+def _write_chunk(path, sweep, k, rows, bar):
+    sl = sweep.rows(k)
+    coords = {"log_amplitude": sweep.log_amplitude[sl], "log_mass": sweep.log_mass}
+    data = {}
+    for name, (dt, _, _) in VARIABLES.items():
+        arr = np.array([[p[name] for p in row] for row in rows], dtype=dt)
+        data[name] = (("log_amplitude", "log_mass"), arr)
+    block = xr.Dataset(data, coords=coords)
+    block.drop_vars(["log_amplitude", "log_mass"]).to_zarr(
+        path, region={"log_amplitude": sl, "log_mass": slice(None)}, consolidated=False)
+    # the done flag and digest go last: a kill before this line redoes the chunk
+    flags = xr.Dataset({"done": (("chunk",), np.array([True])),
+                        "digest": (("chunk",), np.array([_digest(block)], dtype=np.uint64))})
+    flags.to_zarr(path, region={"chunk": slice(k, k + 1)}, consolidated=False)
+    bar.update(block["drift_velocity"].size)
+
+
+def command_line():
+    return "vibtrans " + " ".join(shlex.quote(a) for a in sys.argv[1:])
