@@ -91,7 +91,15 @@ def run(quick=False):
     }
 
 
-def main(quick=False, as_json=False):
+def main(quick=False, as_json=False, sweep=False):
+    if sweep:
+        r = sweep_bench(quick)
+        if as_json:
+            print(json.dumps(r))
+        else:
+            for k, v in r.items():
+                print(f"  {k:>36}: {v:.4g}" if isinstance(v, float) else f"  {k:>36}: {v}")
+        return 0
     r = run(quick)
     if as_json:
         print(json.dumps(r))
@@ -106,3 +114,30 @@ def main(quick=False, as_json=False):
         print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
               f"({s['steps']} steps)   (goal <= 0.1 s)")
     return 0
+
+
+def sweep_bench(quick=False):
+    """Points per second of a small sweep on 1 and 2 workers, processes vs
+    threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)))."""
+    import shutil
+    import tempfile
+
+    from .sweep import Sweep, parse_range, run_sweep
+    grid = ("0:2:0.5", "-3:1:0.5") if quick else ("-1:2.5:0.25", "-3:2:0.25")
+    sweep = Sweep(parse_range(grid[0], "a"), parse_range(grid[1], "m"), chunk_rows=1,
+                  periods=500.0 if quick else 2000.0)
+    n = sweep.log_amplitude.size * sweep.log_mass.size
+    out = {"points": n, "periods": sweep.values["periods"]}
+    tmp = tempfile.mkdtemp()
+    try:
+        for executor in ("processes", "threads"):
+            for workers in (1, 2):
+                path = f"{tmp}/{executor}{workers}.zarr"
+                t0 = time.perf_counter()
+                run_sweep(sweep, path, workers=workers, progress=False, executor=executor)
+                out[f"{executor}_{workers}_points_per_second"] = n / (time.perf_counter() - t0)
+            out[f"{executor}_parallel_efficiency"] = (
+                out[f"{executor}_2_points_per_second"] / (2 * out[f"{executor}_1_points_per_second"]))
+    finally:
+        shutil.rmtree(tmp)
+    return out

@@ -152,7 +152,7 @@ def _threshold_sweep(args):
 
 def cmd_bench(args):
     from .bench import main as bench_main
-    return bench_main(quick=args.quick, as_json=args.json)
+    return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep)
 
 
 def cmd_sweep(args):
@@ -171,21 +171,24 @@ def cmd_sweep(args):
 
 
 def cmd_serve(args):
-    """The explorer is not built yet (issue #4): run the paper's ten scenes."""
-    from .analysis import summarize
-    from .params import PAPER_POINTS, paper_scene
-    from .simulate import simulate
-    print("vibtrans: the Panel explorer is not built yet; demo: the paper's ten scenes "
-          "(2000 periods, standard fidelity, with tau + 1e-3 twins)", file=sys.stderr)
-    print(f"{'point':>5} {'model':>10} {'log A*':>7} {'log m*':>7} {'<v*>':>10} "
-          f"{'contact':>9} {'drift':>12} {'pattern':>17} {'s':>6}")
-    for point, (la, lm, model) in PAPER_POINTS.items():
-        scene = paper_scene(point)
-        ds = simulate(scene)
-        twin = simulate(scene.replace(tau=scene.tau + 1e-3))
-        s = summarize(ds, twin)
-        print(f"{point:>5} {model:>10} {la:>7} {lm:>7} {s.drift_velocity:>10.4g} "
-              f"{s.contact:>9} {s.drift:>12} {str(s.pattern or '-'):>17} {s.seconds:>6.3f}")
+    """Serve the explorer: warm the JIT and load the maps first, so the first
+    click pays no compilation."""
+    import os
+
+    if not 1 <= args.port <= 65535:
+        raise InputError(f"port must be in [1, 65535], got {args.port}")
+    from . import warmup
+    warmup()
+    import panel as pn
+
+    from app import data
+    from app.explorer import create_app
+    data.preload()
+    origins = os.environ.get("VIBTRANS_ALLOWED_ORIGINS", f"localhost:{args.port},127.0.0.1:{args.port}")
+    print(f"vibtrans explorer on http://{args.address}:{args.port}/", file=sys.stderr)
+    pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
+             websocket_origin=[o.strip() for o in origins.split(",") if o.strip()],
+             title="vibtrans explorer", num_procs=1)
     return 0
 
 
@@ -239,12 +242,17 @@ def build_parser():
     w.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     w.set_defaults(func=cmd_sweep)
 
-    v = sub.add_parser("serve", help="serve the explorer (for now: a demo of the paper's scenes)")
+    v = sub.add_parser("serve", help="serve the explorer on localhost")
+    v.add_argument("--port", type=int, default=5006)
+    v.add_argument("--address", default="127.0.0.1",
+                   help="interface to listen on (0.0.0.0 in the container)")
     v.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")
     b.add_argument("--quick", action="store_true")
     b.add_argument("--json", action="store_true")
+    b.add_argument("--sweep", action="store_true",
+                   help="points/s of a sweep on 1 and 2 workers, processes vs threads")
     b.set_defaults(func=cmd_bench)
     return p
 

@@ -42,7 +42,10 @@ class Physical(param.Number):
         name = self.name or "value"
         if isinstance(val, bool) or not isinstance(val, numbers.Real):
             raise ValueError(f"{name} must be a real number in {rng}, got {val!r}")
-        v = float(val)
+        try:
+            v = float(val)
+        except OverflowError:
+            raise ValueError(f"{name} must be in {rng}, got an integer too large") from None
         ok = math.isfinite(v)
         if ok and lo is not None:
             ok = v >= lo if self.inclusive_bounds[0] else v > lo

@@ -19,6 +19,7 @@ from .models import deformable as D
 from .models import point_mass as PM
 from .models.vertical import vertical_kernel
 from .params import Scene
+from .substrate import surface_acceleration, surface_motion
 from .trajectory import build_trajectory
 
 DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
@@ -87,8 +88,12 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
             and not isinstance(samples_per_period, bool) and 1 <= samples_per_period <= 10000):
         raise ValueError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
-    if not (isinstance(refine, (int, float)) and math.isfinite(refine) and 1 <= refine <= 1024):
-        raise ValueError(f"refine must be in [1, 1024], got {refine!r}")
+    if isinstance(refine, bool) or not (isinstance(refine, (int, float))
+                                        and math.isfinite(refine) and 1 <= refine <= 1024):
+        raise ValueError(f"refine must be a number in [1, 1024], got {refine!r}")
+    if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, float))
+                                           and max_steps > 0 and not math.isnan(max_steps)):
+        raise ValueError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = estimate_steps(scene, refine)
     if steps > max_steps:
         raise StepBudgetExceeded(
@@ -102,8 +107,9 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     seconds = time.perf_counter() - start
     attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
                  force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
-                 samples_per_period=samples_per_period, window_start=w0 if window else None,
-                 window_end=w1 if window else None, refine=refine,
+                 samples_per_period=samples_per_period,
+                 window_start=w0 if window is not None else None,
+                 window_end=w1 if window is not None else None, refine=refine,
                  code_version=__version__, **info)
     return build_trajectory(samples, events, attrs)
 
@@ -195,6 +201,18 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel)
     # chunks end on whole periods (on the scan grid: bit-identical to one call)
     _drive(call, scene.periods, max(1.0, float(round(CHUNK_STEPS * dt))), growers,
            progress, cancel)
+    n = ctr[R.C_NSAMP]
+    if buf["samples"][n - 1, R.T_] < state[0]:
+        # T_obs off the scan grid: record the final state too (x*(T_obs) is
+        # what the drift velocity is made of).
+        if n >= buf["samples"].shape[0]:
+            buf["samples"] = _grow(buf["samples"])
+        t = state[0]
+        ux, uy, dux, duy = surface_motion(t, scene.amplitude, scene.r, scene.tau)
+        ax, ay = surface_acceleration(t, scene.amplitude, scene.r, scene.tau)
+        PM._record_row(buf["samples"], ctr, t, state[1], state[2], state[3], state[4],
+                       ctr[R.C_MODE], ux, uy, dux, duy, ax, ay, scene.mass, scene.mu,
+                       scene.theta * scene.mu)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return buf["samples"][:n], buf["events"][:k], ctr, {"h": dt}
 

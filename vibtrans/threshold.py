@@ -15,7 +15,8 @@ from .fidelity import time_step
 from .integrators import INTEGRATORS
 from .models import deformable as D
 from .models.vertical import vertical_kernel
-from .params import Physical, Scene
+from .params import Scene
+from .simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded
 
 _NO_MEMORY = np.empty(0)
 
@@ -31,8 +32,14 @@ def first_takeoff(amplitude, mass, tau=50.0, periods=2000.0, fidelity="standard"
     return _first_takeoff(scene)
 
 
-def _first_takeoff(scene):
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity)
+def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
+    # it stops at the first take-off: no impact to resolve, only the linear
+    # contact oscillation
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False)
+    if scene.periods / h > max_steps:
+        raise StepBudgetExceeded(
+            f"threshold run at A* = {scene.amplitude:.3g}, m* = {scene.mass:.3g} needs about "
+            f"{scene.periods / h:.3g} steps, over the budget of {max_steps:.3g}")
     p = np.zeros(D.NPARAM)
     p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
        D.P_SDT, D.P_W0, D.P_W1]] = (scene.amplitude, scene.mass, 1.0, 1.0, 0.0,
@@ -54,32 +61,44 @@ def _first_takeoff(scene):
     return float(events[hit[0], 0]) if hit.size else math.inf
 
 
-_TOL = Physical(1e-3, bounds=(1e-12, 0.5))
-
-
 def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
-                        integrator="ab4", rel_tol=1e-3):
+                        integrator="ab4", rel_tol=1e-3, guess=None):
     """A_J*(m*): smallest A* with a contact loss within `periods`.
 
-    Bisection in log10 A* to a relative width rel_tol.  The point-mass line
-    1 / (4 pi^2 m*) bounds the search from above (a rigid contact jumps
-    first at low m*; above the resonance, at A* ~ 1).
+    Bisection in log10 A* to a relative width rel_tol.  Without a guess the
+    bracket starts from the rigid line 1 / (4 pi^2 m*) (a rigid contact jumps
+    first at low m*; above the resonance, at A* ~ 1); with a guess (the
+    threshold of a neighbouring mass) it starts at guess / 1.25 .. guess * 1.25
+    and widens as needed, which saves most of the full-length runs.
     """
-    _TOL._validate(rel_tol)
+    if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) \
+            or not 1e-12 <= rel_tol <= 0.5:
+        raise ValueError(f"rel_tol must be in [1e-12, 0.5], got {rel_tol!r}")
     base = Scene(mass=mass, tau=tau, periods=periods, fidelity=fidelity,
                  integrator=integrator, model="vertical")
 
     def jumps(a):
         return _first_takeoff(base.replace(amplitude=a)) < math.inf
 
-    hi = max(4.0, 4.0 / (4.0 * math.pi ** 2 * mass))
-    while not jumps(hi):
-        hi *= 4.0
-        if hi > 1e8:
-            raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
-    lo = 1e-5
-    if jumps(lo):
-        return lo
+    if guess is not None and guess > 0 and math.isfinite(guess):
+        lo, hi = guess / 1.25, guess * 1.25
+        while jumps(lo):
+            hi, lo = lo, lo / 1.25
+            if lo < 1e-6:
+                return lo
+        while not jumps(hi):
+            lo, hi = hi, hi * 1.25
+            if hi > 1e8:
+                raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
+    else:
+        hi = max(4.0, 4.0 / (4.0 * math.pi ** 2 * mass))
+        while not jumps(hi):
+            hi *= 4.0
+            if hi > 1e8:
+                raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
+        lo = 1e-5
+        if jumps(lo):
+            return lo
     while math.log(hi / lo) > rel_tol:
         mid = math.sqrt(lo * hi)
         if jumps(mid):
@@ -102,8 +121,15 @@ def point_mass_sliding_threshold(mass, mu=0.3, r=None, nu=0.3):
 
 
 def _threshold_task(args):
-    mass, tau, periods, fidelity = args
-    return threshold_amplitude(mass, tau=tau, periods=periods, fidelity=fidelity)
+    """A run of consecutive masses, each bracketed from its neighbour."""
+    masses, tau, periods, fidelity = args
+    out = []
+    guess = None
+    for m in masses:
+        guess = threshold_amplitude(m, tau=tau, periods=periods, fidelity=fidelity,
+                                    guess=guess)
+        out.append(guess)
+    return out
 
 
 def local_minima(log_mass, aj):
@@ -153,12 +179,13 @@ def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
     Scene(tau=tau, periods=periods, fidelity=fidelity)      # validate
     log_mass = np.asarray(log_mass, dtype=float)
     masses = 10.0 ** log_mass
-    tasks = [(m, tau, periods, fidelity) for m in masses]
+    runs = [masses[i:i + 25] for i in range(0, masses.size, 25)]
+    tasks = [(run, tau, periods, fidelity) for run in runs]
     workers = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        aj = list(tqdm(pool.map(_threshold_task, tasks, chunksize=8), total=len(tasks),
-                       file=sys.stderr, disable=not progress, desc="threshold"))
-    aj = np.array(aj)
+        parts = list(tqdm(pool.map(_threshold_task, tasks), total=len(tasks),
+                          file=sys.stderr, disable=not progress, desc="threshold runs"))
+    aj = np.concatenate(parts)
     res = resonances(log_mass, aj)
     ds = xr.Dataset(
         {"threshold_amplitude": ("log_mass", aj, {"description": "A_J*: deformable (Hertz) particle"}),

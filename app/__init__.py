@@ -1,0 +1,1 @@
+"""The vibtrans explorer (Panel): layout, widgets and callbacks only."""

@@ -1,0 +1,160 @@
+"""The explorer in a real headless browser (Debian's chromium driven by
+Playwright): load, click the map, pick a paper point, cancel, units, URL.
+
+Screenshots go to test-artifacts/ (look at them)."""
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+playwright = pytest.importorskip("playwright.sync_api")  # installed by `make test`
+
+ROOT = Path(__file__).resolve().parent.parent
+ARTIFACTS = ROOT / "test-artifacts"
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server():
+    port = _free_port()
+    env = dict(os.environ, VIBTRANS_MAX_STEPS="1e8")
+    proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    url = f"http://127.0.0.1:{port}/"
+    t0 = time.time()
+    while time.time() - t0 < 180:
+        try:
+            urllib.request.urlopen(url, timeout=5)
+            break
+        except OSError:
+            if proc.poll() is not None:
+                raise RuntimeError(proc.stdout.read().decode())
+            time.sleep(0.5)
+    else:
+        proc.kill()
+        raise RuntimeError("server did not start in 180 s")
+    yield url
+    proc.terminate()
+    proc.wait(10)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
+    with playwright.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def page(browser, server, request):
+    pg = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    yield pg
+    ARTIFACTS.mkdir(exist_ok=True)
+    pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}.png"), full_page=True)
+    pg.close()
+    assert not errors, errors
+
+
+def _open(page, url):
+    page.goto(url)
+    page.wait_for_selector("canvas", timeout=60000)
+    page.wait_for_selector("text=Paper points", timeout=60000)
+    page.wait_for_timeout(1000)
+
+
+def _summary_text(page):
+    return page.get_by_text("drift <v*> (mean over the run)").first
+
+
+def _see(page, text, timeout=30000):
+    """Wait until `text` is shown (Playwright's text locators pierce the
+    shadow DOM that Bokeh renders into; body.innerText does not)."""
+    page.get_by_text(text).first.wait_for(timeout=timeout)
+
+
+def test_page_loads_with_the_map(page, server):
+    _open(page, server)
+    assert page.locator("canvas").count() >= 1
+    box = page.locator("canvas").first.bounding_box()
+    assert box["width"] > 600 and box["height"] > 300     # the map, full size
+
+
+def test_paper_point_runs_and_plots(page, server):
+    _open(page, server)
+    select = page.locator("select").filter(has_text="synchronous hopping")
+    select.select_option(label="4: synchronous hopping (hovering)")
+    _summary_text(page).wait_for(timeout=60000)
+    _see(page, "jumping, against-wave, synchronous")
+    _see(page, "Whole run")
+    _see(page, "Last 2 periods at full resolution")
+    # the trajectory figure is drawn: its canvases have a real size
+    page.wait_for_timeout(2000)
+    sizes = [c.bounding_box() for c in page.locator("canvas").all()]
+    assert sum(1 for b in sizes if b and b["width"] > 500 and b["height"] > 100) >= 3
+
+
+def test_click_on_the_map_runs_that_scene(page, server):
+    _open(page, server)
+    box = page.locator("canvas").first.bounding_box()
+    page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
+    _summary_text(page).wait_for(timeout=60000)
+    la = float(page.locator("input").nth(1).input_value() or "nan")
+    assert -3 <= la <= 3
+    _see(page, "drift, final 10%")
+
+
+def test_cancel_stops_a_long_run(page, server):
+    # reference fidelity at a light particle: seconds of work, cancelled at once
+    _open(page, server + "?la=2.8&lm=-4.5&fidelity=reference")
+    page.locator("button", has_text="Run selected scene").click()
+    _see(page, "Running")
+    page.locator("button", has_text="Cancel").click()
+    _see(page, "Run cancelled.")
+
+
+def test_url_reopens_a_scene(page, server):
+    _open(page, server + "?la=2.5&lm=0&model=deformable&fidelity=preview")
+    inputs = page.locator("input[type=text], input:not([type])")
+    values = [inputs.nth(i).input_value() for i in range(inputs.count())]
+    assert "2.5" in values and "0" in values
+    page.locator("button", has_text="Run selected scene").click()
+    _summary_text(page).wait_for(timeout=60000)
+    _see(page, "A* = 316.2")
+
+
+def test_bad_url_shows_a_message(page, server):
+    _open(page, server + "?la=abc&mu=7&model=rigid")
+    _see(page, "URL parameter 'la' (log_amplitude) must be a number in [-3.0, 3.0]")
+    _see(page, "URL parameter 'model' (model) must be one of deformable, point-mass")
+    # and the defaults are in place
+    values = [i.input_value() for i in page.locator("input").all()]
+    assert "-0.3" in values
+
+
+def test_units_view_moves_the_marker(page, server):
+    _open(page, server)
+    page.get_by_text("Units", exact=True).first.click()
+    _see(page, "Rayleigh speed c_R")
+    field = page.locator(".vt-frequency_khz input").first
+    field.fill("250")
+    field.press("Enter")
+    # m* grows as f^2: 1.08e5 Hz -> 2.5e5 Hz moves the marker up by log10(5.36) = 0.73
+    _see(page, "(log10 0.7")
