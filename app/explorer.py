@@ -136,7 +136,8 @@ class Explorer(pn.viewable.Viewer):
             el = plots.drift_map(ds, v0=v0, chaotic=chaotic,
                                  title=f"{model}, mu = {mu:g}")
             if vertical is not None:
-                el = el * plots.jumping_boundary(vertical, model)
+                el = el * plots.jumping_boundary(vertical, model).select(
+                    log_amplitude=(-3.0, 3.0))
                 if model == "deformable":
                     el = el * plots.resonance_lines(vertical)
             el = el * plots.paper_points(model)

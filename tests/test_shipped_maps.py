@@ -91,6 +91,10 @@ def test_vertical_curve_resonances():
     mc = 10 ** vert.attrs["resonance_fundamental_log_mass"]
     assert 0.034 < mc < 0.040
     assert 10 ** vert.attrs["resonance_subharmonic_log_mass"] == pytest.approx(4 * mc, rel=0.2)
-    light = vert["log_mass"].values < -4
-    np.testing.assert_allclose(vert["threshold_amplitude"].values[light],
-                               vert["point_mass_threshold_amplitude"].values[light], rtol=0.03)
+    # Nayak: for m* << m_c* the Hertz curve approaches the rigid line
+    # (measured: 0.3% off at m* = 1e-5, 3% at 1e-4).
+    lm = vert["log_mass"].values
+    dev = np.abs(vert["threshold_amplitude"].values
+                 / vert["point_mass_threshold_amplitude"].values - 1)
+    assert np.all(dev[lm <= -4.5] < 0.02)
+    assert dev[lm == -5.0][0] < dev[np.isclose(lm, -4.0)][0]

@@ -226,3 +226,63 @@ def warmup():
                            mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
     from .threshold import first_takeoff
     first_takeoff(1.0, 1.0, periods=1.0)
+
+
+def memory_snapshot(scene=None, t=None, **values):
+    """The memory diagram of a deformable scene at time t (periods).
+
+    Runs the scene from rest to t and returns a dict: t, a, b (a*, b* at t),
+    h and w (the anchor polyline w(h), absolute b* units; empty in flight),
+    u = b - w (spring displacements), stick_depth s_h, and state code.
+    """
+    from .contact import anchor_profile
+    scene = _scene(scene, values)
+    if scene.model != "deformable":
+        raise ValueError(f"model must be deformable for a memory diagram, got {scene.model!r}")
+    if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) \
+            or not (0 <= t <= scene.periods):
+        raise ValueError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
+    short = scene.replace(periods=max(float(t), 1e-9))
+    h = time_step(short.amplitude, short.mass, short.fidelity)
+    p = np.zeros(D.NPARAM)
+    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
+       D.P_SDT, D.P_W0, D.P_W1]] = (short.amplitude, short.mass, short.mu, short.theta,
+                                    short.r, short.tau, h, short.periods, 1.0,
+                                    math.inf, -math.inf)
+    state = np.zeros(D.NSTATE)
+    state[D.S_Y] = 1.0
+    state[D.S_GAP] = 1.0
+    hist = np.zeros((4, 4))
+    mem = list(new_memory(1024))
+    samples = np.empty((int(short.periods) + 16, R.NCOL))
+    events = np.empty((1024, 3))
+    ctr = R.new_counters()
+    ctr[R.C_STATE] = STICK
+    ctr[R.C_NEXT] = 1
+    while True:
+        code = D.deformable_kernel(p, INTEGRATORS[short.integrator], state, hist, *mem,
+                                   samples, events, ctr, short.periods)
+        if code == R.DONE:
+            break
+        if code == R.MEMORY_FULL:
+            mem[0], mem[1], mem[2] = _grow(mem[0]), _grow(mem[1]), _grow(mem[2])
+        elif code == R.EVENTS_FULL:
+            ctr[R.C_NEVT] = 0          # events are not needed here
+        else:
+            ctr[R.C_NSAMP] = 0
+    H, W, P, nvert, memf = mem
+    hs, ws = anchor_profile(H, W, nvert, memf)
+    a, b = float(memf[0]), float(memf[1])
+    return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,
+            "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
+
+
+def _stick_depth(h, w, a, b):
+    """Depth where the springs stop being at their Coulomb limit |u| = a - h."""
+    if h.size == 0:
+        return 0.0
+    at_limit = np.abs(np.abs(b - w) - (a - h)) <= 1e-12 * (1 + abs(b) + a)
+    i = h.size - 1
+    while i > 0 and at_limit[i - 1]:
+        i -= 1
+    return float(h[i]) if i < h.size - 1 else float(a)
