@@ -15,12 +15,12 @@ import holoviews as hv
 import numpy as np
 import panel as pn
 import param
+from holoviews.operation.downsample import downsample1d
 
-from vibtrans import Cancelled, Scene, estimate_steps, simulate
+from vibtrans import Cancelled, Scene, estimate_steps, plots, simulate, units
 from vibtrans.analysis import summarize
-from vibtrans.contact import STATE_NAMES
 from vibtrans.params import PAPER_POINTS
-from vibtrans import plots, units
+from vibtrans.simulate import memory_snapshot
 
 from . import data
 
@@ -32,6 +32,7 @@ RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
                             thread_name_prefix="vibtrans-run")
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
 OVERVIEW_SAMPLES = 5          # samples per period in the whole-run view
+OVERVIEW_BINS = 400           # time bins of the whole-run state timeline
 PLOT_WIDTH = 900
 FRAGMENT = 2.0                # periods at full resolution at the end of the run
 
@@ -89,6 +90,9 @@ class Explorer(pn.viewable.Viewer):
                                         width=PLOT_WIDTH, name="summary")
         self.trajectory = pn.Column(name="trajectory")
         self.units_panel = UnitsPanel(self)
+        self._last = None
+        self.teaching = self._teaching()
+        self.exports = self._exports()
         self._apply_url()
         self.map_pane = pn.pane.HoloViews(self._map_dmap(), name="map", linked_axes=False)
         self.tap.param.watch(self._on_tap, ["x", "y"])
@@ -214,25 +218,30 @@ class Explorer(pn.viewable.Viewer):
                               f"m* = {scene.mass:.4g} ..."
         T = scene.periods
 
-        def job():
-            ds = simulate(scene, window=(T - FRAGMENT, T), samples_per_period=OVERVIEW_SAMPLES,
-                          progress=lambda f: done.__setitem__(0, f), cancel=cancel,
-                          max_steps=MAX_STEPS)
-            other = None
-            if self.state.compare == "tau twin" and (ds["event_kind"].values == 0).any():
-                other = simulate(scene.replace(tau=scene.tau + 1e-3), cancel=cancel,
-                                 samples_per_period=OVERVIEW_SAMPLES, max_steps=MAX_STEPS)
-            elif self.state.compare == "point mass" and scene.model == "deformable":
-                other = simulate(scene.replace(model="point-mass"), cancel=cancel,
-                                 samples_per_period=OVERVIEW_SAMPLES, max_steps=MAX_STEPS)
-            return ds, other
-
-        future = RUNNER.submit(job)
+        # The comparison run goes in parallel with the main one (the kernels
+        # release the GIL); a tau twin that turns out unneeded (no jump) is
+        # simply not shown.
+        other_scene = None
+        if self.state.compare == "tau twin":
+            other_scene = scene.replace(tau=scene.tau + 1e-3)
+        elif self.state.compare == "point mass" and scene.model == "deformable":
+            other_scene = scene.replace(model="point-mass")
+        main = RUNNER.submit(simulate, scene, window=(T - FRAGMENT, T),
+                             samples_per_period=OVERVIEW_SAMPLES,
+                             progress=lambda f: done.__setitem__(0, f), cancel=cancel,
+                             max_steps=MAX_STEPS)
+        second = None if other_scene is None else RUNNER.submit(
+            simulate, other_scene, samples_per_period=OVERVIEW_SAMPLES, cancel=cancel,
+            max_steps=MAX_STEPS)
         try:
-            while not future.done():
+            while not (main.done() and (second is None or second.done())):
                 self.progress.value = int(100 * done[0])
-                await asyncio.sleep(0.1)
-            ds, other = future.result()
+                await asyncio.sleep(0.05)
+            ds = main.result()
+            other = None if second is None else second.result()
+            if other is not None and self.state.compare == "tau twin" \
+                    and not (ds["event_kind"].values == 0).any():
+                other = None
         except Cancelled:
             self.summary.object = "Run cancelled."
             return
@@ -266,14 +275,17 @@ class Explorer(pn.viewable.Viewer):
             f"| contact fraction (final 10%) | {s.contact_fraction:.3f} |",
             f"| cost | {s.steps:,} steps, {s.seconds:.3f} s ({scene.fidelity}, {scene.integrator}) |",
         ] + ([f"| in SI units | {si} |"] if si else []))
+        self._last = (scene, ds, twin)
         T = float(ds["time"].values[-1])
         frag = ds.sel(time=slice(T - FRAGMENT, T))
-        overview = plots.trajectory_panels(ds)
+        # The whole run: curves min-max/LTTB-downsampled to the plot's width
+        # (re-sampled on zoom), the state timeline as the dominant state per
+        # bin; the fragment below is exact.
+        overview = plots.trajectory_panels(ds, timeline_bins=OVERVIEW_BINS)
         if other is not None:
             label = "tau + 1e-3" if twin is not None else "point mass"
-            overview = plots.trajectory_panels(ds) + hv.Curve(
-                (other["time"].values, other["x"].values), plots.T_DIM, "x",
-                label=f"x*(t), {label}").opts(color="black")
+            overview = overview + plots.twin_comparison(ds, other, label=label)
+        overview = downsample1d(overview, width=PLOT_WIDTH)
         opts = [hv.opts.Curve(width=PLOT_WIDTH, height=190, tools=["hover"]),
                 hv.opts.Overlay(width=PLOT_WIDTH, height=190, legend_position="right"),
                 hv.opts.Rectangles(width=PLOT_WIDTH, height=90, tools=["hover"])]
@@ -283,7 +295,61 @@ class Explorer(pn.viewable.Viewer):
             pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution**"),
             pn.pane.HoloViews(plots.trajectory_panels(frag).opts(*opts).cols(1),
                               linked_axes=False),
+            self.teaching if scene.model == "deformable" else pn.pane.Markdown(""),
+            self.exports,
         ]
+        self.memory_time.param.update(start=0.0, end=T, value=round(T - 0.5, 3))
+        self.memory_pane.object = None
+
+    # ---------- teaching views ----------
+    def _teaching(self):
+        self.memory_time = pn.widgets.FloatInput(name="time t* (periods)", value=1999.5,
+                                                 start=0.0, end=2000.0, step=0.05, width=200)
+        go = pn.widgets.Button(name="Show the memory diagram at t*", button_type="primary")
+        go.on_click(lambda e: pn.state.execute(self._show_memory))
+        self.memory_pane = pn.pane.HoloViews(None, linked_axes=False)
+        return pn.Column(
+            pn.pane.Markdown("**Memory diagram and contact circle** (Cattaneo-Mindlin with "
+                             "history): the anchors w(h) of the springs over the contact "
+                             "depth, their displacements u(h) with the Coulomb cone, and the "
+                             "stick core inside the slip annulus."),
+            pn.Row(self.memory_time, go), self.memory_pane)
+
+    async def _show_memory(self):
+        if self._last is None:
+            return
+        scene = self._last[0]
+        t = float(self.memory_time.value)
+        try:
+            snap = await asyncio.wrap_future(RUNNER.submit(memory_snapshot, scene, t))
+        except ValueError as exc:
+            self._error(str(exc))
+            return
+        fig = plots.memory_diagram(snap) + plots.contact_circle(snap)
+        self.memory_pane.object = fig.opts(
+            hv.opts.Curve(width=380, height=300), hv.opts.Overlay(width=380, height=300))
+
+    # ---------- export ----------
+    def _exports(self):
+        def download(kind, fmt):
+            def callback():
+                import tempfile
+
+                from vibtrans import export
+                out = os.path.join(tempfile.mkdtemp(prefix="vibtrans-"), f"{kind}.{fmt}")
+                if kind == "map":
+                    export.export_heatmap(data.drift_map(self.state.model, self.state.mu), out,
+                                          v0=self.state.v0, vertical=data.vertical_curve())
+                elif self._last is not None:
+                    scene, ds, twin = self._last
+                    export.export_trajectory(ds, out, twin=twin)
+                return out
+            return pn.widgets.FileDownload(callback=callback, filename=f"vibtrans-{kind}.{fmt}",
+                                           label=f"{kind} .{fmt}", button_type="light",
+                                           css_classes=[f"vt-export-{kind}-{fmt}"], width=150)
+        return pn.Column(pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
+                         pn.Row(*(download(k, f) for k in ("map", "trajectory")
+                                  for f in ("png", "svg", "html"))))
 
     # ---------- layout ----------
     def vertical_view(self):

@@ -158,3 +158,24 @@ def test_units_view_moves_the_marker(page, server):
     field.press("Enter")
     # m* grows as f^2: 1.08e5 Hz -> 2.5e5 Hz moves the marker up by log10(5.36) = 0.73
     _see(page, "(log10 0.7")
+
+
+def test_teaching_view_and_export(page, server):
+    _open(page, server)
+    select = page.locator("select").filter(has_text="synchronous hopping")
+    select.select_option(label="1: permanent contact, drift against the wave")
+    _see(page, "Whole run", timeout=60000)
+    n_before = page.locator("canvas").count()
+    page.get_by_text("Show the memory diagram at t*").first.click()
+    deadline = time.time() + 60
+    while page.locator("canvas").count() <= n_before and time.time() < deadline:
+        page.wait_for_timeout(250)
+    assert page.locator("canvas").count() > n_before      # the diagrams are drawn
+    for kind in ("trajectory-png", "map-svg"):
+        with page.expect_download(timeout=120000) as dl:
+            page.locator(f".vt-export-{kind}").locator("button, a").first.click()
+        path = dl.value.path()
+        size = os.path.getsize(path)
+        assert size > 10_000, (kind, size)
+        head = open(path, "rb").read(8)
+        assert head.startswith(b"\x89PNG") if kind.endswith("png") else b"<" in head

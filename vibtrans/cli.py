@@ -1,4 +1,4 @@
-"""Command line: vibtrans simulate | threshold | bench | serve.
+"""Command line: vibtrans simulate | threshold | sweep | serve | bench | export.
 
 Bad input exits with status 2 and one line naming the parameter and its
 valid range.
@@ -188,8 +188,180 @@ def cmd_serve(args):
     print(f"vibtrans explorer on http://{args.address}:{args.port}/", file=sys.stderr)
     pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
              websocket_origin=[o.strip() for o in origins.split(",") if o.strip()],
-             title="vibtrans explorer", num_procs=1)
+             title="vibtrans explorer", num_procs=1, liveness=True)
     return 0
+
+
+def _finite(name, value, lo=None, hi=None, integer=False):
+    """A command-line number, validated: InputError names the parameter."""
+    what = "an integer" if integer else "a number"
+    rng = f" in [{lo:g}, {hi:g}]" if lo is not None and hi is not None else (
+        f" > {lo:g}" if lo is not None else "")
+    ok = isinstance(value, float) and math.isfinite(value)
+    ok = ok and (lo is None or (value >= lo if hi is not None else value > lo))
+    ok = ok and (hi is None or value <= hi)
+    ok = ok and (not integer or float(value).is_integer())
+    if not ok:
+        raise InputError(f"{name} must be {what}{rng}, got {value!r}")
+    return int(value) if integer else float(value)
+
+
+def _export_scene(args):
+    """The scene of `export trajectory|memory`: --point, or --log-amplitude
+    and --log-mass (with --model, --mu, --periods, --fidelity)."""
+    from .params import PAPER_POINTS, Scene
+    if args.point is not None:
+        if args.log_amplitude is not None or args.log_mass is not None:
+            raise InputError("point: give either --point or --log-amplitude/--log-mass, not both")
+        k = _finite("point", args.point, 1, 10, integer=True)
+        la, lm, model = PAPER_POINTS[k]
+        if args.model is not None and args.model != model:
+            raise InputError(f"model: paper point {k} is a {model} scene, got --model {args.model}")
+    else:
+        if args.log_amplitude is None or args.log_mass is None:
+            raise InputError(f"{args.kind} needs --point N or both --log-amplitude and --log-mass")
+        la = _finite("log_amplitude", args.log_amplitude, -300, 300)
+        lm = _finite("log_mass", args.log_mass, -300, 300)
+        model = args.model or "deformable"
+    return Scene(amplitude=10.0 ** la, mass=10.0 ** lm, model=model, mu=args.mu,
+                 periods=args.periods, fidelity=args.fidelity)
+
+
+def _export_sizes(args):
+    out = {"dpi": _finite("dpi", args.dpi, 20, 1200, integer=True)}
+    for name in ("width", "height"):
+        value = getattr(args, name)
+        if value is not None:
+            out[name] = _finite(name, value, 0.5, 50)
+    return out
+
+
+def cmd_export(args):
+    import os
+    from pathlib import Path
+
+    from . import export as E
+    kind = args.kind
+    if kind == "paper":
+        if Path(args.out).suffix.lower() in (".png", ".svg", ".pdf", ".html"):
+            raise InputError(f"out: export paper writes a folder of figures, got the file name "
+                             f"{args.out!r}")
+        if os.path.exists(args.out) and not os.path.isdir(args.out):
+            raise InputError(f"out: {args.out!r} exists and is not a folder")
+    else:
+        E._format(args.out, E.FORMATS + ("html",))
+    sizes = _export_sizes(args)
+    if kind not in ("trajectory", "paper") and args.window is not None:
+        raise InputError(f"window: only export trajectory takes --window, not export {kind}")
+    v0 = _finite("v0", args.v0, 0)
+    if not isinstance(args.mu, float):
+        raise InputError(f"mu must be a number, got {args.mu!r}")
+    maps = Path(args.maps) if args.maps else E.default_maps_dir()
+    if kind in ("heatmap", "vertical", "paper") and not maps.is_dir():
+        raise InputError(f"maps: no such folder {str(maps)!r} (give --maps PATH or set "
+                         f"VIBTRANS_ASSETS)")
+    if kind == "heatmap":
+        from .sweep import open_map
+        model = args.model or "deformable"
+        path = E.map_path(maps, model, args.mu)
+        if not path.exists():
+            have = sorted(p.name for p in maps.glob("*.zarr"))
+            raise InputError(f"mu: no drift map {path.name} for model {model}, mu {args.mu:g} in "
+                             f"{maps} (available: {', '.join(have) or 'none'})")
+        try:
+            ds = open_map(str(path))
+        except OSError as exc:
+            raise InputError(f"maps: {exc}") from None
+        E.export_heatmap(ds, args.out, v0=v0, vertical=E.load_vertical(maps),
+                         chaotic=args.chaotic, **sizes)
+    elif kind == "vertical":
+        vertical = E.load_vertical(maps)
+        if vertical is None:
+            raise InputError(f"maps: no vertical.nc (threshold curve) in {maps}")
+        E.export_vertical(vertical, args.out, **sizes)
+    elif kind == "trajectory":
+        scene = _export_scene(args)
+        T = scene.periods
+        window = None
+        if args.window is not None:
+            window = tuple(_finite("window", v) for v in (_num(w) for w in args.window))
+            if not 0 <= window[0] < window[1] <= T:
+                raise InputError(f"window must satisfy 0 <= T0 < T1 <= {T:g} (periods), "
+                                 f"got {args.window[0]} {args.window[1]}")
+        window = window or (max(0.0, T - E.FRAGMENT), T)
+        from .simulate import simulate
+        bar, update = _progress_bar("simulate")
+        try:
+            ds = simulate(scene, window=window, samples_per_period=E.OVERVIEW_SAMPLES,
+                          progress=update)
+            twin = None
+            if args.twin:
+                twin = simulate(scene.replace(tau=scene.tau + 1e-3), window=window,
+                                samples_per_period=E.OVERVIEW_SAMPLES)
+        finally:
+            bar.close()
+        title = None if args.point is None else E.point_title(int(args.point), scene)
+        E.export_trajectory(ds, args.out, window=window, twin=twin, title=title, **sizes)
+    elif kind == "memory":
+        from .simulate import memory_snapshot
+        if args.t is None:
+            raise InputError("t: export memory needs --t TIME (periods)")
+        t = _finite("t", args.t, 0, float(args.periods) if isinstance(args.periods, float)
+                    else 2000.0)
+        snapshot = memory_snapshot(_export_scene(args), t=t)
+        E.export_memory(snapshot, args.out, **sizes)
+    else:
+        periods = None
+        if args.periods_given:
+            periods = _finite("periods", args.periods, 0)
+        E.export_paper(args.out, progress=True, maps=maps, dpi=sizes["dpi"], periods=periods,
+                       fmt=args.format)
+    print(args.out)
+    return 0
+
+
+class _Given(argparse.Action):
+    """Store the value and remember that the option was given."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, self.dest + "_given", True)
+
+
+def _export_parser(sub):
+    e = sub.add_parser(
+        "export", help="figures as PNG/SVG/PDF (matplotlib, headless) or HTML; the paper's set",
+        description="Headless figure export. heatmap: a shipped drift map; trajectory: a scene's "
+                    "run (whole run + full-resolution window); vertical: A_J*(m*); memory: the "
+                    "memory diagram at time --t; paper: the paper's figures into the folder --out.")
+    e.add_argument("kind", choices=("heatmap", "trajectory", "vertical", "memory", "paper"))
+    e.add_argument("--out", required=True,
+                   help="FILE.png|svg|pdf (or .html: interactive bokeh); paper: a folder")
+    e.add_argument("--model", help="deformable | point-mass (heatmap: which map)")
+    e.add_argument("--mu", type=_num, default=0.3)
+    e.add_argument("--point", type=_num, help="paper point 1-10 (trajectory, memory)")
+    e.add_argument("--log-amplitude", type=_num, help="log10 A* (trajectory, memory)")
+    e.add_argument("--log-mass", type=_num, help="log10 m* (trajectory, memory)")
+    e.add_argument("--periods", type=_num, default=2000.0, action=_Given,
+                   help="observation time, periods (trajectory, memory; paper: all points)")
+    e.add_argument("--fidelity", default="standard", help="preview | standard | reference")
+    e.add_argument("--t", type=_num, help="memory: time of the memory diagram, periods")
+    e.add_argument("--window", nargs=2, metavar=("T0", "T1"),
+                   help="trajectory: full-resolution fragment (default: the last 2 periods)")
+    e.add_argument("--twin", action="store_true",
+                   help="trajectory: add the tau + 1e-3 twin run (chaos check)")
+    e.add_argument("--v0", type=_num, default=0.1, help="heatmap: white band |v*| <= v0*")
+    e.add_argument("--chaotic", default="grey", choices=("grey", "colour"),
+                   help="heatmap: chaotic points grey or coloured")
+    e.add_argument("--dpi", type=_num, default=150.0,
+                   help="dots per inch (PNG size = dpi x inches)")
+    e.add_argument("--width", type=_num, help="figure width, inches")
+    e.add_argument("--height", type=_num, help="figure height, inches")
+    e.add_argument("--maps", help="folder of the shipped maps (default: assets/maps or "
+                                  "$VIBTRANS_ASSETS/maps)")
+    e.add_argument("--format", default="png", choices=("png", "svg", "pdf"),
+                   help="paper: file format of the figures")
+    e.set_defaults(func=cmd_export, periods_given=False)
 
 
 def build_parser():
@@ -254,6 +426,8 @@ def build_parser():
     b.add_argument("--sweep", action="store_true",
                    help="points/s of a sweep on 1 and 2 workers, processes vs threads")
     b.set_defaults(func=cmd_bench)
+
+    _export_parser(sub)
     return p
 
 

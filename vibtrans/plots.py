@@ -2,7 +2,14 @@
 (bokeh) and the exporter (matplotlib, headless): one definition per figure.
 
 Nothing here integrates anything: inputs are Datasets from `simulate`,
-`open_map` and `threshold_curve`.
+`open_map` and `threshold_curve`, and the dict of `memory_snapshot`.
+
+Backends: every style option is applied separately for each loaded HoloViews
+plotting backend (bokeh and/or matplotlib; bokeh is loaded if none is), with
+that backend's own names (line_dash vs linestyle, size vs s, tools only in
+bokeh).  Figures must therefore be built after the backends they will be
+rendered with are loaded: `vibtrans.export` loads matplotlib before it builds
+anything, and loading it never changes `hv.Store.current_backend`.
 """
 import numpy as np
 import holoviews as hv
@@ -16,8 +23,54 @@ CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
 T_DIM = hv.Dimension("time", label="t*", unit="periods")
 LOG_A = hv.Dimension("log_amplitude", label="log10 A*")
 LOG_M = hv.Dimension("log_mass", label="log10 m*")
+M_DIM = hv.Dimension("mass", label="m*")
+AJ_DIM = hv.Dimension("threshold_amplitude", label="A_J*")
+H_DIM = hv.Dimension("h", label="h (contact depth)", unit="a0")
+W_DIM = hv.Dimension("w", label="w (spring anchor)", unit="theta mu a0")
+U_DIM = hv.Dimension("u", label="u = b* - w", unit="theta mu a0")
+CX_DIM = hv.Dimension("cx", label="x", unit="sqrt(R a0)")
+CZ_DIM = hv.Dimension("cz", label="z", unit="sqrt(R a0)")
+
+BACKENDS = ("bokeh", "matplotlib")
+FRAGMENT = 2.0           # periods shown at full resolution by trajectory_figure
 
 
+# ---------------------------------------------------------------- styling
+def loaded_backends():
+    """The HoloViews plotting backends whose options can be set now
+    (bokeh is loaded if none is)."""
+    if not hv.Store.renderers:
+        import holoviews.plotting.bokeh  # noqa: F401  (sets no style, registers options)
+    return [b for b in BACKENDS if b in hv.Store.renderers]
+
+
+def style(obj, common=None, bokeh=None, matplotlib=None):
+    """Apply options to `obj` for every loaded backend: `common` (names valid
+    in both backends) plus each backend's own (dicts of options)."""
+    per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
+    for backend in loaded_backends():
+        kw = {**(common or {}), **per[backend]}
+        if kw:
+            obj = obj.opts(backend=backend, **kw)
+    return obj
+
+
+def _line(color, width=None, dash=None):
+    """(bokeh, matplotlib) style dicts of a line."""
+    bk, mp = {"color": color}, {"color": color}
+    if width is not None:
+        bk["line_width"], mp["linewidth"] = width, width
+    if dash is not None:
+        bk["line_dash"], mp["linestyle"] = dash, dash
+    return bk, mp
+
+
+def _styled_line(el, color, width=None, dash=None):
+    bk, mp = _line(color, width, dash)
+    return style(el, bokeh=bk, matplotlib=mp)
+
+
+# ---------------------------------------------------------------- drift map
 def colour_scale(v, v0=0.1):
     """The paper's colour quantity C (eq. colormap): signed log10(|v|/v0),
     normalised separately on each side, 0 inside |v| <= v0."""
@@ -35,12 +88,46 @@ def colour_scale(v, v0=0.1):
     return c
 
 
+def colour_ticks(v, v0=0.1, n=3):
+    """Colour-bar ticks of the paper's scale: positions in C and the drift
+    velocities they stand for ({C: label}), each side with its own maximum."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    ticks = {0.0: f"\u00b1{v0:g}"}
+    for sign in (1, -1):
+        side = sign * v[sign * v > v0]
+        if side.size == 0:
+            continue
+        top = np.log10(side.max() / v0)
+        for c in np.linspace(0, 1, n + 1)[1:]:
+            ticks[sign * float(c)] = _short(sign * v0 * 10 ** (c * top))
+    return dict(sorted(ticks.items()))
+
+
+def _short(v):
+    """Two significant digits, without exponents below 1e6 (2813 -> 2800)."""
+    a = abs(v)
+    if a == 0 or not np.isfinite(a) or a >= 1e6 or a < 1e-3:
+        return f"{v:.2g}"
+    return f"{round(v, -int(np.floor(np.log10(a))) + 1):g}"
+
+
 def _bounds(ds):
     la = ds["log_amplitude"].values
     lm = ds["log_mass"].values
     da = (la[1] - la[0]) / 2 if la.size > 1 else 0.5
     dm = (lm[1] - lm[0]) / 2 if lm.size > 1 else 0.5
     return (la[0] - da, lm[0] - dm, la[-1] + da, lm[-1] + dm)
+
+
+def _mpl_colour_ticks(ticks):
+    def hook(plot, element):
+        cbar = plot.handles.get("cbar")
+        if cbar is not None:
+            cbar.set_ticks(list(ticks))
+            cbar.set_ticklabels(list(ticks.values()))
+            cbar.set_label("<v*>  (log scale, white: |v*| <= v0*)")
+    return hook
 
 
 def drift_map(ds, v0=0.1, chaotic="grey", title=""):
@@ -59,13 +146,14 @@ def drift_map(ds, v0=0.1, chaotic="grey", title=""):
                    kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
                                                 hv.Dimension("v", label="<v*>")],
                    label=title)
-    img = img.opts(cmap=CMAP, clim=(-1, 1), colorbar=True)
+    img = style(img, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True),
+                matplotlib=dict(hooks=[_mpl_colour_ticks(colour_ticks(v, v0))]))
     layers = [img]
     if chaotic == "grey" and chaos.any():
         grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values,
                          np.where(chaos, 1.0, np.nan)), kdims=[LOG_A, LOG_M],
-                        vdims=["chaotic"]).opts(cmap=["#9e9e9e"], alpha=0.9)
-        layers.append(grey)
+                        vdims=["chaotic"])
+        layers.append(style(grey, common=dict(cmap=["#9e9e9e"], alpha=0.9)))
     return hv.Overlay(layers)
 
 
@@ -74,7 +162,17 @@ def jumping_boundary(vertical, model="deformable"):
     lm = vertical["log_mass"].values
     var = "threshold_amplitude" if model == "deformable" else "point_mass_threshold_amplitude"
     la = np.log10(vertical[var].values)
-    return hv.Curve((la, lm), LOG_A, LOG_M, label="jumping boundary").opts(color="black")
+    return _styled_line(hv.Curve((la, lm), LOG_A, LOG_M, label="jumping boundary"),
+                        "black", width=1.5)
+
+
+def _resonances(vertical):
+    """[(name, log10 m*)] of the resonances stored with a threshold curve."""
+    out = []
+    for key, value in vertical.attrs.items():
+        if key.startswith("resonance_") and key.endswith("_log_mass"):
+            out.append((key[len("resonance_"):-len("_log_mass")], float(value)))
+    return out
 
 
 def resonance_lines(vertical):
@@ -83,9 +181,8 @@ def resonance_lines(vertical):
     for key in ("fundamental", "subharmonic"):
         name = f"resonance_{key}_log_mass"
         if name in vertical.attrs:
-            lines.append(hv.HLine(vertical.attrs[name]).opts(color="black", line_dash="dashed")
-                         if hv.Store.current_backend == "bokeh" else
-                         hv.HLine(vertical.attrs[name]).opts(color="black", linestyle="dashed"))
+            lines.append(_styled_line(hv.HLine(vertical.attrs[name]), "black", width=1,
+                                      dash="dashed"))
     return hv.Overlay(lines)
 
 
@@ -93,19 +190,87 @@ def paper_points(model="deformable"):
     """The paper's labelled points of one model."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)
-    points = hv.Points((xs, ys), [LOG_A, LOG_M]).opts(color="black", size=6)
-    labels = hv.Labels((np.array(xs) + 0.12, np.array(ys) + 0.12, ls), [LOG_A, LOG_M], "label")
+    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color="black"),
+                   bokeh=dict(size=6), matplotlib=dict(s=18))
+    ys = np.array(ys)
+    # labels up and right of their point; below it at the map's top edge (point 7)
+    dy = np.where(ys > 4.5, -0.45, 0.12)
+    labels = hv.Labels((np.array(xs) + 0.12, ys + dy, ls), [LOG_A, LOG_M], "label")
+    labels = style(labels, bokeh=dict(text_color="black"),
+                   matplotlib=dict(color="black", size=11, horizontalalignment="left",
+                                   verticalalignment="bottom", weight="bold"))
     return points * labels
 
 
+# ---------------------------------------------------------------- vertical
+def vertical_curves(vertical):
+    """A_J*(m*) of the deformable particle and of the material point on log
+    axes (paper Fig. 2), with the resonances marked (dotted lines; the
+    fundamental m_c* and the subharmonic labelled)."""
+    m = 10.0 ** vertical["log_mass"].values
+    aj = vertical["threshold_amplitude"].values
+    de = _styled_line(hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)"),
+                      "#1f77b4", width=2)
+    pm = _styled_line(hv.Curve((m, vertical["point_mass_threshold_amplitude"].values), M_DIM,
+                               AJ_DIM, label="material point 1/(4 pi^2 m*)"), "black",
+                      width=1.5, dash="dashed")
+    layers = [de, pm]
+    names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
+    for name, lm in _resonances(vertical):
+        color = "#d62728" if name in names else "grey"
+        layers.append(_styled_line(hv.VLine(10.0 ** lm), color, width=1, dash="dotted"))
+        if name in names:
+            depth = float(np.interp(lm, vertical["log_mass"].values, aj))
+            layers.append(style(hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center",
+                                        valign="top", fontsize=10),
+                                bokeh=dict(text_color=color), matplotlib=dict(color=color)))
+    finite = aj[np.isfinite(aj) & (aj > 0)]
+    lo = 10.0 ** (np.floor(np.log10(finite.min())) - 1) if finite.size else 1e-3
+    hi = 10.0 ** (np.ceil(np.log10(finite.max())) + 0.3) if finite.size else 1e4
+    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"),
+                 common=dict(logx=True, logy=True, legend_position="top_right",
+                             ylim=(lo, hi), xlabel="m*", ylabel="A_J*"))
+
+
+# ---------------------------------------------------------------- trajectories
+# value dimensions of the trajectory variables (their labels must differ from
+# the curves' legend labels: a style value equal to a dimension's name or label
+# is read as a mapping to that dimension by the matplotlib backend)
+VAR_LABELS = {"a": "a* (a0)", "y": "y* (a0)", "x": "x* (a0)", "b": "b* (theta mu a0)",
+              "bdot": "b*' (theta mu a0 per period)", "N": "N* (N(a0))",
+              "T": "T* (mu N(a0))"}
+
+
+def _vdim(var):
+    return hv.Dimension(var, label=VAR_LABELS.get(var, var))
+
+
 def _curve(ds, var, label, color):
-    return hv.Curve((ds["time"].values, ds[var].values), T_DIM,
-                    hv.Dimension(var, label=label), label=label).opts(color=color)
+    return _styled_line(hv.Curve((ds["time"].values, ds[var].values), T_DIM, _vdim(var),
+                                 label=label), color)
 
 
-def state_timeline(ds):
-    """Contact states as coloured bands over the samples' time span (exact
-    change times from the events)."""
+def _dominant_states(ds, bins):
+    """(t0, t1, state) runs of the state that fills most of each of `bins`
+    equal time bins (from the exact change times): an overview of a long run
+    that a screen can show, instead of thousands of sub-pixel bands."""
+    t0, t1, vals = _state_runs(ds)
+    edges = np.linspace(t0[0], t1[-1], bins + 1)
+    share = np.zeros((bins, len(STATE_NAMES)))
+    lo = np.searchsorted(edges, t0, side="right") - 1
+    hi = np.searchsorted(edges, t1, side="left") - 1
+    for a, b, v, i, j in zip(t0, t1, vals, lo, hi):
+        for k in range(max(i, 0), min(j, bins - 1) + 1):
+            share[k, v] += min(b, edges[k + 1]) - max(a, edges[k])
+    dom = share.argmax(axis=1)
+    cut = np.flatnonzero(np.diff(dom)) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [bins]])
+    return edges[starts], edges[ends], dom[starts]
+
+
+def _state_runs(ds):
+    """Exact (t0, t1, state) runs over the samples' time span."""
     time = ds["time"].values
     t_start, t_end = float(time[0]), float(time[-1])
     kinds = ds["event_kind"].values
@@ -115,22 +280,233 @@ def state_timeline(ds):
     t0 = np.concatenate([[t_start], t_ev[inside]])
     vals = np.concatenate([[int(ds["state"].values[0])], v_ev[inside]])
     t1 = np.concatenate([t_ev[inside], [t_end]])
+    return t0, t1, vals
+
+
+def state_timeline(ds, legend=False, bins=None):
+    """Contact states as coloured bands over the samples' time span (exact
+    change times from the events).  legend: one layer per state, named in a
+    legend above the bands (an Overlay; else one Rectangles element).
+    bins: show the dominant state of each of `bins` time bins instead."""
+    time = ds["time"].values
+    t_start, t_end = float(time[0]), float(time[-1])
+    if bins:
+        t0, t1, vals = _dominant_states(ds, int(bins))
+    else:
+        t0, t1, vals = _state_runs(ds)
     rects = [(a, 0, b, 1, STATE_NAMES[v], STATE_COLORS[v])
              for a, b, v in zip(t0, t1, vals) if b > a]
-    el = hv.Rectangles(rects, kdims=[T_DIM, hv.Dimension("y0", label="state"), "x1", "y1"],
-                       vdims=["state", "color"])
-    return el.opts(color="color", yaxis=None)
+    kdims = [T_DIM, hv.Dimension("y0", label="state"), "x1", "y1"]
+    if not legend:
+        el = hv.Rectangles(rects, kdims=kdims, vdims=["state", "color"])
+        return style(el, common=dict(yaxis=None, padding=0), bokeh=dict(color="color"),
+                     matplotlib=dict(facecolor="color", linewidth=0))
+    layers = []
+    for code, name in enumerate(STATE_NAMES):
+        mine = [r for r in rects if r[4] == name]
+        if mine:
+            el = hv.Rectangles(mine, kdims=kdims, vdims=["state", "color"], label=name)
+            layers.append(style(el, bokeh=dict(color=STATE_COLORS[code]),
+                                matplotlib=dict(color=None, facecolor=STATE_COLORS[code],
+                                                linewidth=0)))
+    return style(hv.Overlay(layers), common=dict(yaxis=None, padding=0, ylim=(0, 1.8),
+                                                 legend_position="top_left", legend_cols=4,
+                                                 show_legend=True, xlim=(t_start, t_end)))
 
 
-def trajectory_panels(ds):
+def trajectory_panels(ds, split_velocity=False, state_legend=False, timeline_bins=None):
     """The paper's trajectory figure: normal and tangential displacements,
     forces and relative velocity, and the contact-state timeline, on one
-    shared time axis."""
-    normal = (_curve(ds, "a", "a*", "#1f77b4") * _curve(ds, "y", "y*", "#ff7f0e")).relabel(
-        "normal: a*(t), y*(t)")
-    tangential = (_curve(ds, "b", "b*", "#2ca02c") * _curve(ds, "x", "x*", "#d62728")).relabel(
-        "tangential: b*(t), x*(t)")
-    forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")
-              * _curve(ds, "bdot", "b*'", "#7f7f7f")).relabel("forces: N*, T*, b*'")
-    timeline = state_timeline(ds).relabel("contact state")
-    return hv.Layout([normal, tangential, forces, timeline]).cols(1)
+    shared time axis.  The material point has no contact deformation: its
+    panels show y*, x*, N* and T* only.
+
+    split_velocity: draw b*' in a panel of its own (in flight it is far
+    larger than N* and T*, which it would flatten).
+    state_legend: name the contact states in a legend (else hover tells).
+    timeline_bins: draw the dominant state per time bin (long runs)."""
+    rigid = ds.attrs.get("model") == "point-mass"
+    if rigid:
+        normal = _curve(ds, "y", "y*", "#ff7f0e").relabel("normal: y*(t)")
+        tangential = _curve(ds, "x", "x*", "#d62728").relabel("tangential: x*(t)")
+        forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")).relabel(
+            "forces: N*, T*")
+        labels = ("y* (a0)", "x* (a0)", "N*, T*")
+    else:
+        normal = (_curve(ds, "a", "a*", "#1f77b4") * _curve(ds, "y", "y*", "#ff7f0e")).relabel(
+            "normal: a*(t), y*(t)")
+        tangential = (_curve(ds, "b", "b*", "#2ca02c") * _curve(ds, "x", "x*", "#d62728")).relabel(
+            "tangential: b*(t), x*(t)")
+        if split_velocity:
+            forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")
+                      ).relabel("forces: N*, T*")
+        else:
+            forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")
+                      * _curve(ds, "bdot", "b*'", "#7f7f7f")).relabel("forces: N*, T*, b*'")
+        labels = ("a*, y* (a0)", "b* (theta mu a0), x* (a0)",
+                  "N*, T*" if split_velocity else "N*, T*, b*'")
+    panels = [style(p, common=dict(ylabel=lab)) for p, lab in zip((normal, tangential, forces),
+                                                                  labels)]
+    if split_velocity and not rigid:
+        panels.append(style(_curve(ds, "bdot", "b*'", "#7f7f7f").relabel(
+            "relative tangential velocity b*'"), common=dict(ylabel="b*' (theta mu a0/period)")))
+    timeline = state_timeline(ds, legend=state_legend, bins=timeline_bins).relabel(
+        "contact state" + (" (dominant per bin)" if timeline_bins else ""))
+    return hv.Layout([*panels, timeline]).cols(1)
+
+
+def twin_comparison(ds, twin, label="tau + 1e-3"):
+    """x*(t) of a run and of its twin (a tau + 1e-3 run, or another model)."""
+    a = _curve(ds, "x", f"x*, tau = {ds.attrs.get('tau', 50):g}", "#d62728")
+    b = _styled_line(hv.Curve((twin["time"].values, twin["x"].values), T_DIM, _vdim("x"),
+                              label=f"x*, {label}"),
+                     "black", dash="dashed")
+    return style((a * b).relabel(f"x*(t) and its {label} twin"), common=dict(ylabel="x* (a0)"))
+
+
+def fragment_window(ds, window=None):
+    """(t0, t1) of the full-resolution fragment: `window`, else the run's
+    recorded window, else its last FRAGMENT periods."""
+    if window is not None:
+        return float(window[0]), float(window[1])
+    if ds.attrs.get("window_start") is not None and ds.attrs.get("window_end") is not None:
+        w0, w1 = float(ds.attrs["window_start"]), float(ds.attrs["window_end"])
+        if w1 > w0:
+            return w0, w1
+    t1 = float(ds["time"].values[-1])
+    return max(float(ds["time"].values[0]), t1 - FRAGMENT), t1
+
+
+def trajectory_figure(ds, window=None, twin=None):
+    """Whole run (left) and the full-resolution fragment `window` (right),
+    panels as in `trajectory_panels`; with a twin, a last row compares x*(t)."""
+    t0, t1 = fragment_window(ds, window)
+    frag = ds.sel(time=slice(t0, t1))
+    if frag.sizes["time"] < 2:
+        raise ValueError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
+    over = trajectory_panels(ds, split_velocity=True, state_legend=True)
+    part = trajectory_panels(frag, split_velocity=True, state_legend=True)
+    items = []
+    for i, (a, b) in enumerate(zip(over, part)):
+        if i == 0:
+            a = a.relabel(f"whole run: {a.label}")
+            b = b.relabel(f"t* in [{t0:g}, {t1:g}]: {b.label}")
+        items += [a, b]
+    if twin is not None:
+        items += [twin_comparison(ds, twin), twin_comparison(frag, twin.sel(time=slice(t0, t1)))]
+    # the two columns cover different time spans: no shared ranges or axes
+    independent = {k: dict(axiswise=True) for k in ("Curve", "Overlay", "Rectangles")}
+    lay = hv.Layout(items).cols(2)
+    for backend in loaded_backends():
+        lay = lay.opts(independent, backend=backend)
+        if backend == "matplotlib":
+            lay = lay.opts({k: dict(xticks=5) for k in ("Curve", "Overlay", "Rectangles")},
+                           backend=backend)
+    return style(lay, bokeh=dict(shared_axes=False))
+
+
+# ---------------------------------------------------------------- memory diagram
+def _spans(snapshot, y0, y1):
+    """Stick core [0, s_h] and slip annulus [s_h, a*] as shaded bands."""
+    a, s = snapshot["a"], snapshot["stick_depth"]
+    slip_colour = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
+    layers = []
+    if s > 0:
+        layers.append(style(hv.VSpan(0, s), common=dict(alpha=0.18),
+                            bokeh=dict(color=STATE_COLORS[1]),
+                            matplotlib=dict(color=None, facecolor=STATE_COLORS[1],
+                                            edgecolor="none")))
+        layers.append(style(hv.Text(s / 2, y1, "stick core", halign="center", valign="top",
+                                    fontsize=10), common=dict(color=STATE_COLORS[1])))
+    if a > s:
+        layers.append(style(hv.VSpan(s, a), common=dict(alpha=0.25),
+                            bokeh=dict(color=slip_colour),
+                            matplotlib=dict(color=None, facecolor=slip_colour,
+                                            edgecolor="none")))
+        layers.append(style(hv.Text((s + a) / 2, y0, "slip annulus", halign="center",
+                                    valign="bottom", fontsize=10),
+                            common=dict(color="#a05a00")))
+    return layers
+
+
+def memory_diagram(snapshot):
+    """The memory diagram at one instant (a dict from `memory_snapshot`):
+    left, the spring anchors w(h) with the Coulomb cone |b* - w| = a* - h
+    (apex (a*, b*)); right, the spring displacements u(h) = b* - w with
+    |u| = a* - h.  The stick core (h < s_h) and the slip annulus (s_h < h < a*)
+    are shaded."""
+    a, b = float(snapshot["a"]), float(snapshot["b"])
+    h = np.asarray(snapshot["h"], dtype=float)
+    w = np.asarray(snapshot["w"], dtype=float)
+    u = b - w
+    state = STATE_NAMES[int(snapshot["state"])]
+    head = f"t* = {snapshot['t']:.6g}, {state}"
+    if h.size == 0 or a <= 0:
+        msg = "in flight: no contact, no memory"
+        left = hv.Overlay([hv.Curve([], H_DIM, W_DIM), hv.Text(0.5, 0.0, msg)])
+        right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
+        return hv.Layout([left.relabel(f"memory diagram w(h), {head}"),
+                          right.relabel("spring displacements u(h)")]).cols(2)
+    hc = np.array([0.0, a])
+    pad = 0.08 * a
+    # w(h) panel
+    w_lo = min(w.min(), b - a) - pad
+    w_hi = max(w.max(), b + a) + pad
+    cone = [_styled_line(hv.Curve((hc, b + sgn * (a - hc)), H_DIM, W_DIM,
+                                  label="Coulomb cone" if sgn > 0 else ""), "black", width=1,
+                         dash="dashed") for sgn in (1, -1)]
+    poly = _styled_line(hv.Curve((h, w), H_DIM, W_DIM, label="w(h)"), "#1f77b4", width=2)
+    apex = style(hv.Points([(a, b)], [H_DIM, W_DIM]), common=dict(color="black"),
+                 bokeh=dict(size=7), matplotlib=dict(s=25))
+    left = hv.Overlay(_spans(snapshot, w_lo, w_hi) + cone + [poly, apex])
+    left = style(left.relabel(f"memory diagram w(h), {head}"),
+                 common=dict(ylim=(w_lo, w_hi), xlim=(0, a * 1.02), show_legend=False,
+                             xlabel="h (contact depth, a0)", ylabel="w (theta mu a0)"))
+    # u(h) panel
+    u_hi = a + pad
+    lim = [_styled_line(hv.Curve((hc, sgn * (a - hc)), H_DIM, U_DIM), "black", width=1,
+                        dash="dashed") for sgn in (1, -1)]
+    ucurve = _styled_line(hv.Curve((h, u), H_DIM, U_DIM, label="u(h)"), "#ff7f0e", width=2)
+    right = hv.Overlay(_spans(snapshot, -u_hi, u_hi) + lim + [ucurve])
+    right = style(right.relabel("spring displacements u(h), |u| <= a* - h"),
+                  common=dict(ylim=(-u_hi, u_hi), xlim=(0, a * 1.02), show_legend=False,
+                              xlabel="h (contact depth, a0)", ylabel="u = b* - w (theta mu a0)"))
+    return hv.Layout([left, right]).cols(2)
+
+
+def _disc(r, n=181):
+    phi = np.linspace(0, 2 * np.pi, n)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+
+
+def contact_circle(snapshot):
+    """The contact seen from above: contact circle c = sqrt(a*), stick core
+    s = sqrt(s_h), the slip annulus between them coloured."""
+    a = max(float(snapshot["a"]), 0.0)
+    s_h = min(max(float(snapshot["stick_depth"]), 0.0), a)
+    c, s = np.sqrt(a), np.sqrt(s_h)
+    title = (f"contact: c = {c:.3g}, s = {s:.3g} "
+             f"({STATE_NAMES[int(snapshot['state'])]})")
+    rmax = max(c, 1.0) * 1.1
+    layers = []
+    if c > 0:
+        slip = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
+        layers.append(style(hv.Polygons([_disc(c)], [CX_DIM, CZ_DIM],
+                                        label="slip annulus" if s < c else "stick"),
+                            common=dict(alpha=0.9),
+                            bokeh=dict(color=slip if s < c else STATE_COLORS[1],
+                                       line_color="black"),
+                            matplotlib=dict(color=None, facecolor=slip if s < c else
+                                            STATE_COLORS[1], edgecolor="black")))
+        if 0 < s < c:
+            layers.append(style(hv.Polygons([_disc(s)], [CX_DIM, CZ_DIM], label="stick core"),
+                                common=dict(alpha=0.9),
+                                bokeh=dict(color=STATE_COLORS[1], line_color="black",
+                                           line_dash="dashed"),
+                                matplotlib=dict(color=None, facecolor=STATE_COLORS[1],
+                                                edgecolor="black", linestyle="dashed")))
+    else:
+        layers.append(hv.Text(0, 0, "in flight: no contact"))
+    return style(hv.Overlay(layers).relabel(title),
+                 common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
+                             show_legend=False, xlabel="x (sqrt(R a0))",
+                             ylabel="z (sqrt(R a0))"))

@@ -1,0 +1,329 @@
+"""Headless figure export (vibtrans.export, `vibtrans export`): no display,
+no browser; exact pixel sizes; labels in SVG; PDF; the app's figures and the
+exported ones plot the same data; bad command lines exit 2 with one line.
+
+Everything runs on a tiny drift map (3 x 3 points, 50 periods) and a tiny
+threshold curve made here, and on short scenes."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import holoviews as hv
+import numpy as np
+import pytest
+
+from vibtrans import cli, export, plots
+from vibtrans.params import paper_scene
+from vibtrans.simulate import memory_snapshot, simulate
+from vibtrans.sweep import Sweep, open_map, run_sweep
+from vibtrans.threshold import threshold_curve
+
+ROOT = Path(__file__).resolve().parent.parent
+PERIODS = 50
+
+
+@pytest.fixture(scope="module")
+def maps_dir(tmp_path_factory):
+    """A tiny shipped-maps folder: deformable-mu0.3.zarr and vertical.nc."""
+    d = tmp_path_factory.mktemp("assets") / "maps"
+    d.mkdir()
+    sweep = Sweep(np.array([-0.3, 1.0, 2.5]), np.array([-2.0, 0.0, 1.0]),
+                  model="deformable", mu=0.3, periods=PERIODS)
+    run_sweep(sweep, str(d / "deformable-mu0.3.zarr"), workers=1, progress=False,
+              executor="threads")
+    vertical = threshold_curve(np.array([-2, -1.4, 0]), periods=PERIODS, workers=1,
+                               progress=False)
+    vertical.to_netcdf(d / "vertical.nc")
+    return d
+
+
+@pytest.fixture(scope="module")
+def map_ds(maps_dir):
+    return open_map(str(maps_dir / "deformable-mu0.3.zarr"))
+
+
+@pytest.fixture(scope="module")
+def vertical(maps_dir):
+    return export.load_vertical(maps_dir)
+
+
+@pytest.fixture(scope="module")
+def run4():
+    """Paper point 4 (hopping), short, with its full-resolution window."""
+    scene = paper_scene(4, periods=PERIODS)
+    return simulate(scene, window=(PERIODS - 2, PERIODS),
+                    samples_per_period=export.OVERVIEW_SAMPLES)
+
+
+@pytest.fixture
+def no_display(monkeypatch):
+    for k in ("DISPLAY", "WAYLAND_DISPLAY"):
+        monkeypatch.delenv(k, raising=False)
+
+
+def _png_size(path):
+    from PIL import Image
+    with Image.open(path) as im:
+        return im.size
+
+
+# ------------------------------------------------------------------ files
+def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertical):
+    cases = [
+        (export.export_heatmap, (map_ds,), dict(vertical=vertical), 6.0, 4.0, 50),
+        (export.export_vertical, (vertical,), {}, 5.0, 3.5, 40),
+        (export.export_memory, (memory_snapshot(paper_scene(1), t=3.3),), {}, 10.0, 3.0, 30),
+    ]
+    for i, (fn, args, kw, w, h, dpi) in enumerate(cases):
+        out = tmp_path / f"f{i}.png"
+        fn(*args, out, width=w, height=h, dpi=dpi, **kw)
+        assert out.stat().st_size > 2000, fn.__name__
+        assert _png_size(out) == (round(w * dpi), round(h * dpi)), fn.__name__
+
+
+def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_ds, vertical,
+                                                       run4):
+    svg = tmp_path / "map.svg"
+    export.export_heatmap(map_ds, svg, vertical=vertical, dpi=50)
+    text = svg.read_text()
+    assert "log10 A*" in text and "log10 m*" in text
+    svg2 = tmp_path / "traj.svg"
+    export.export_trajectory(run4, svg2, dpi=30)
+    text = svg2.read_text()
+    assert "t* (periods)" in text and "a*, y* (a0)" in text and "contact state" in text
+    pdf = tmp_path / "vertical.pdf"
+    export.export_vertical(vertical, pdf)
+    assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 2000
+
+
+def test_memory_diagram_figure_marks_stick_and_slip(tmp_path):
+    snap = memory_snapshot(paper_scene(1), t=100.6)
+    assert 0 < snap["stick_depth"] < snap["a"]          # partial slip at this instant
+    out = tmp_path / "mem.svg"
+    export.export_memory(snap, out, dpi=30)
+    text = out.read_text()
+    for label in ("stick core", "slip annulus", "u = b* - w", "h (contact depth, a0)"):
+        assert label in text
+    circle = plots.contact_circle(snap)
+    radii = sorted(np.hypot(*p.array([0, 1]).T).max() for p in circle if isinstance(
+        p, hv.Polygons))
+    assert np.allclose(radii, [np.sqrt(snap["stick_depth"]), np.sqrt(snap["a"])], rtol=1e-3)
+
+
+def test_standalone_html_has_inline_resources(tmp_path, run4):
+    out = tmp_path / "traj.html"
+    export.export_html(plots.trajectory_panels(run4), out)
+    text = out.read_text()
+    assert "<html" in text.lower() and "Bokeh" in text
+    assert 'src="https://cdn.bokeh.org' not in text and "cdn.bokeh.org/bokeh/release" not in text
+
+
+# ------------------------------------------------------------------ headless
+HEADLESS = r"""
+import json, os, shutil, subprocess, sys
+started = []
+_real = subprocess.Popen.__init__
+def _spy(self, args, *a, **k):
+    started.append(str(args))
+    return _real(self, args, *a, **k)
+subprocess.Popen.__init__ = _spy
+from vibtrans import cli
+codes = [cli.main(argv) for argv in json.loads(sys.argv[1])]
+bad = sorted(m for m in sys.modules if any(s in m.lower() for s in
+             ("selenium", "playwright", "webdriver", "pyppeteer", "chromedriver")))
+print(json.dumps({"codes": codes, "bad": bad, "started": started,
+                  "chromium": shutil.which("chromium") or shutil.which("chrome"),
+                  "display": os.environ.get("DISPLAY"),
+                  "backend": __import__("matplotlib").get_backend()}))
+"""
+
+
+def test_cli_export_in_a_subprocess_without_display_or_browser(tmp_path, maps_dir):
+    empty_bin = tmp_path / "bin"
+    empty_bin.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["PATH"] = str(empty_bin)                # no chromium (or anything) can be found
+    argvs = [
+        ["export", "heatmap", "--maps", str(maps_dir), "--out", str(tmp_path / "m.png"),
+         "--dpi", "40", "--width", "5", "--height", "4"],
+        ["export", "trajectory", "--log-amplitude", "2.5", "--log-mass", "0", "--periods",
+         str(PERIODS), "--out", str(tmp_path / "t.pdf"), "--dpi", "30"],
+    ]
+    proc = subprocess.run([sys.executable, "-c", HEADLESS, json.dumps(argvs)], env=env,
+                          cwd=tmp_path, capture_output=True, text=True, timeout=240)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert res["codes"] == [0, 0]
+    assert res["bad"] == [], res["bad"]
+    assert res["chromium"] is None and res["display"] is None
+    assert res["backend"].lower() == "agg"
+    assert not any(s in c.lower() for c in res["started"] for s in ("chrom", "firefox", "driver"))
+    assert _png_size(tmp_path / "m.png") == (200, 160)
+    assert (tmp_path / "t.pdf").read_bytes()[:5] == b"%PDF-"
+
+
+# ------------------------------------------------------------------ same data
+def _capture(monkeypatch):
+    """Record the HoloViews objects and matplotlib figures export renders."""
+    seen = {"objs": [], "figs": []}
+    real = export.render
+
+    def spy(obj, width=7.0, height=5.0):
+        fig = real(obj, width, height)
+        seen["objs"].append(obj)
+        seen["figs"].append(fig)
+        return fig
+    monkeypatch.setattr(export, "render", spy)
+    return seen
+
+
+def _app_map(monkeypatch, maps_dir):
+    """The explorer's map, built the way app/explorer.py builds it, from the
+    app's data loader pointed at maps_dir."""
+    from app import data
+    monkeypatch.setattr(data, "ASSETS", maps_dir.parent)
+    for f in (data.available_maps, data.drift_map, data.vertical_curve):
+        f.cache_clear()
+    try:
+        ds = data.drift_map("deformable", 0.3)
+        vertical = data.vertical_curve()
+    finally:
+        monkeypatch.undo()
+        for f in (data.available_maps, data.drift_map, data.vertical_curve):
+            f.cache_clear()
+    el = plots.drift_map(ds, v0=0.1, chaotic="grey", title="deformable, mu = 0.3")
+    el = el * plots.jumping_boundary(vertical, "deformable") * plots.resonance_lines(vertical)
+    return el * plots.paper_points("deformable")
+
+
+def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir):
+    export.ensure_backends()
+    hv.Store.set_current_backend("bokeh")        # as in the explorer's process
+    app_el = _app_map(monkeypatch, maps_dir)
+    seen = _capture(monkeypatch)
+    assert cli.main(["export", "heatmap", "--maps", str(maps_dir), "--out",
+                     str(tmp_path / "m.png"), "--dpi", "40"]) == 0
+    assert hv.Store.current_backend == "bokeh"   # exporting left the app's backend alone
+    cli_el = seen["objs"][0]
+    # the elements' data
+    first = lambda obj, kind: obj.traverse(lambda x: x, [kind])[0]  # noqa: E731
+    app_img, cli_img = first(app_el, hv.Image), first(cli_el, hv.Image)
+    for dim in ("C", "v"):
+        np.testing.assert_array_equal(app_img.dimension_values(dim, flat=False),
+                                      cli_img.dimension_values(dim, flat=False))
+    np.testing.assert_array_equal(first(app_el, hv.Curve).array(), first(cli_el, hv.Curve).array())
+    np.testing.assert_array_equal(first(app_el, hv.Points).array(),
+                                  first(cli_el, hv.Points).array())
+    # and what each backend drew: bokeh's image source vs matplotlib's AxesImage
+    from bokeh.models import GlyphRenderer, Image as BkImage, Line
+    bk = hv.render(app_el, backend="bokeh")
+    rends = [r for r in bk.renderers if isinstance(r, GlyphRenderer)]
+    bk_img = next(r for r in rends if isinstance(r.glyph, BkImage)).data_source.data["image"][0]
+    ax = next(a for a in seen["figs"][0].axes if a.images)
+    mpl_img = np.ma.filled(ax.images[0].get_array().astype(float), np.nan)
+    assert mpl_img.shape == bk_img.shape
+    assert (np.allclose(mpl_img, bk_img, equal_nan=True)
+            or np.allclose(np.flipud(mpl_img), bk_img, equal_nan=True))
+    bk_line = next(r for r in rends if isinstance(r.glyph, Line)).data_source.data
+    mpl_line = next(line for line in ax.lines if len(line.get_xdata()) == 3)
+    np.testing.assert_allclose(mpl_line.get_xdata(), bk_line["log_amplitude"])
+    np.testing.assert_allclose(mpl_line.get_ydata(), bk_line["log_mass"])
+
+
+def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
+    export.ensure_backends()
+    # the app's run and panels (app/explorer.py: window = last 2 periods,
+    # OVERVIEW_SAMPLES samples per period)
+    from app.explorer import FRAGMENT, OVERVIEW_SAMPLES
+    scene = paper_scene(4, periods=PERIODS)
+    ds = simulate(scene, window=(PERIODS - FRAGMENT, PERIODS), samples_per_period=OVERVIEW_SAMPLES)
+    app_panels = plots.trajectory_panels(ds)
+    seen = _capture(monkeypatch)
+    assert cli.main(["export", "trajectory", "--point", "4", "--periods", str(PERIODS),
+                     "--out", str(tmp_path / "t.png"), "--dpi", "30"]) == 0
+    cli_fig = seen["objs"][0]
+    cli_overview = [el for el in cli_fig][0::2]     # left column: the whole run
+    for var in ("a", "y"):
+        app_curve = next(c for c in app_panels.traverse(lambda c: c, [hv.Curve])
+                         if c.vdims[0].name == var)
+        cli_curve = next(c for c in cli_overview[0].traverse(lambda c: c, [hv.Curve])
+                         if c.vdims[0].name == var)
+        np.testing.assert_array_equal(app_curve.dimension_values("time"),
+                                      cli_curve.dimension_values("time"))
+        np.testing.assert_array_equal(app_curve.dimension_values(var),
+                                      cli_curve.dimension_values(var))
+    # and the drawn line (matplotlib) is that data
+    ax = seen["figs"][0].axes[0]
+    line = next(line for line in ax.lines if line.get_label() == "a*")
+    np.testing.assert_allclose(line.get_xdata(), ds["time"].values)
+    np.testing.assert_allclose(line.get_ydata(), ds["a"].values)
+
+
+# ------------------------------------------------------------------ paper
+def test_paper_export_writes_each_figure_and_an_index(monkeypatch, tmp_path, maps_dir, capsys):
+    # a subset of the figures keeps this fast: the vertical curve, the maps
+    # and the chaotic point with its twin
+    subset = {n: export.PAPER_FIGURES[n] for n in (2, 3, 11)}
+    monkeypatch.setattr(export, "PAPER_FIGURES", subset)
+    out = tmp_path / "paper"
+    assert cli.main(["export", "paper", "--out", str(out), "--maps", str(maps_dir),
+                     "--periods", "20", "--dpi", "30"]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["fig02-vertical.png", "fig03-drift-maps.png", "fig11-point8.png",
+                     "index.md"]
+    for name in names[:-1]:
+        assert (out / name).stat().st_size > 2000
+    index = (out / "index.md").read_text()
+    for n in (2, 3, 11):
+        assert f"## Fig. {n}:" in index
+    assert ("vibtrans export trajectory --point 8 --out fig11-point8.png --twin --periods 20"
+            in index)
+    assert "point-mass map missing" in index          # the tiny assets have no point-mass map
+    assert "log10 A* = 1.7" in index
+
+
+# ------------------------------------------------------------------ bad input
+BAD = [
+    (["export", "heatmap", "--out", "x.jpg"], "out"),
+    (["export", "heatmap", "--out", "x.png", "--dpi", "abc"], "dpi"),
+    (["export", "heatmap", "--out", "x.png", "--dpi", "10"], "dpi"),
+    (["export", "heatmap", "--out", "x.png", "--dpi", "150.5"], "dpi"),
+    (["export", "heatmap", "--out", "x.png", "--width", "0"], "width"),
+    (["export", "heatmap", "--out", "x.png", "--height", "nan"], "height"),
+    (["export", "heatmap", "--out", "x.png", "--v0", "-1"], "v0"),
+    (["export", "heatmap", "--out", "x.png", "--mu", "0.77"], "mu"),
+    (["export", "heatmap", "--out", "x.png", "--maps", "/no/such/dir"], "maps"),
+    (["export", "trajectory", "--out", "x.png"], "--point"),
+    (["export", "trajectory", "--out", "x.png", "--point", "11"], "point"),
+    (["export", "trajectory", "--out", "x.png", "--log-amplitude", "inf", "--log-mass", "0"],
+     "log_amplitude"),
+    (["export", "trajectory", "--out", "x.png", "--point", "4", "--periods", "-5"], "periods"),
+    (["export", "trajectory", "--out", "x.png", "--point", "4", "--periods", "20",
+      "--window", "10", "30"], "window"),
+    (["export", "memory", "--out", "x.png", "--point", "1"], "t"),
+    (["export", "memory", "--out", "x.png", "--point", "1", "--t", "-1"], "t"),
+    (["export", "memory", "--out", "x.png", "--point", "9", "--t", "1"], "model"),
+    (["export", "paper", "--out", "figs.png"], "out"),
+    (["export", "movie", "--out", "x.png"], "kind"),
+]
+
+
+@pytest.mark.parametrize("argv,name", BAD, ids=[" ".join(a[1:4]) + f"-{i}"
+                                                for i, (a, _) in enumerate(BAD)])
+def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, monkeypatch,
+                                             capsys):
+    monkeypatch.chdir(tmp_path)
+    if "--maps" not in argv:
+        argv = argv + ["--maps", str(maps_dir)]
+    try:
+        code = cli.main(argv)
+    except SystemExit as exc:          # argparse's own errors
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert name in lines[0], lines[0]
+    assert not list(tmp_path.glob("x.*")) and not (tmp_path / "figs.png").exists()

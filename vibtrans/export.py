@@ -1,0 +1,418 @@
+"""Headless figure export: publication PNG/SVG/PDF with the HoloViews
+matplotlib backend (Agg; no display, no browser, no webdriver), standalone
+interactive HTML with the bokeh backend (inline resources, no server), and
+the paper's figures in one call (`export_paper`).
+
+The figures are the ones the explorer shows (`vibtrans.plots`): the same
+definitions, rendered by another backend.  Exporting from a process that
+serves the explorer is safe: the matplotlib backend is loaded without
+changing `hv.Store.current_backend`, and every render names its backend.
+
+Every `export_*` function returns the HoloViews object it rendered.
+"""
+import math
+import os
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+if "matplotlib.pyplot" not in sys.modules:
+    matplotlib.use("Agg")          # before pyplot is imported (by HoloViews)
+
+import holoviews as hv  # noqa: E402
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import plots  # noqa: E402
+from .params import PAPER_POINTS, paper_scene  # noqa: E402
+
+FORMATS = ("png", "svg", "pdf")
+DEFAULT_DPI = 150
+FRAGMENT = plots.FRAGMENT
+OVERVIEW_SAMPLES = 5               # samples per period of the whole-run view (as in the app)
+MAX_PIXELS = 60e6
+
+# publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
+RC = {
+    "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11,
+    "xtick.labelsize": 9.5, "ytick.labelsize": 9.5, "legend.fontsize": 9,
+    "legend.framealpha": 0.85, "axes.linewidth": 0.8, "axes.formatter.useoffset": False,
+    "svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42,
+    "figure.facecolor": "white", "savefig.facecolor": "white",
+}
+_ELEMENTS = ("Curve", "Image", "Rectangles", "Polygons", "Points", "Labels", "Text",
+             "HLine", "VLine", "VSpan", "Overlay")
+
+
+# ---------------------------------------------------------------- backends
+def ensure_backends():
+    """Load the bokeh and matplotlib plotting backends of HoloViews (their
+    option trees) without changing the current backend (bokeh if none was
+    selected yet).  Call before building figures to be rendered headless."""
+    had = hv.Store.current_backend if hv.Store.renderers else None
+    import holoviews.plotting.bokeh  # noqa: F401
+    import holoviews.plotting.mpl  # noqa: F401
+    hv.Store.set_current_backend(had or "bokeh")     # also fills hv.opts builders
+
+
+def _format(out, allowed=FORMATS):
+    ext = Path(out).suffix.lower().lstrip(".")
+    if ext not in allowed:
+        raise ValueError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
+    return ext
+
+
+def _check_size(width, height, dpi):
+    for name, v in (("width", width), ("height", height)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+                math.isfinite(v) and 0.5 <= v <= 50):
+            raise ValueError(f"{name} must be a number of inches in [0.5, 50], got {v!r}")
+    if isinstance(dpi, bool) or not isinstance(dpi, (int, np.integer)) or not 20 <= dpi <= 1200:
+        raise ValueError(f"dpi must be an integer in [20, 1200], got {dpi!r}")
+    if width * height * dpi * dpi > MAX_PIXELS:
+        raise ValueError(f"dpi too large for a {width:g} x {height:g} in figure: "
+                         f"{width * dpi:.0f} x {height * dpi:.0f} px is over "
+                         f"{MAX_PIXELS:.0e} pixels")
+
+
+def _publication(obj, width, height):
+    """matplotlib options of a publication figure: axes fill their cells (the
+    final size is fixed later), no sub-figure letters, no shared ranges."""
+    spec = {k: dict(aspect="auto") for k in _ELEMENTS}
+    spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=0.35,
+                          vspace=0.6)
+    spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
+    spec["Image"] = dict(aspect="auto", fig_inches=(width, height))
+    return obj.opts(spec, backend="matplotlib")
+
+
+def _fit(fig, pad=0.06, rounds=6):
+    """Scale and shift every axes (colour bars included) so that everything
+    drawn, labels and legends too, fills the canvas with `pad` inches spare.
+    The canvas size is not changed (exact pixel size on output)."""
+    W, H = fig.get_size_inches()
+    for _ in range(rounds):
+        fig.canvas.draw()
+        bb = fig.get_tightbbox(fig.canvas.get_renderer())
+        x0, x1, y0, y1 = bb.x0 / W, bb.x1 / W, bb.y0 / H, bb.y1 / H
+        tx0, tx1, ty0, ty1 = pad / W, 1 - pad / W, pad / H, 1 - pad / H
+        if max(abs(x0 - tx0), abs(x1 - tx1), abs(y0 - ty0), abs(y1 - ty1)) < 2e-3:
+            break
+        sx, sy = (tx1 - tx0) / (x1 - x0), (ty1 - ty0) / (y1 - y0)
+        for ax in fig.axes:
+            p = ax.get_position(original=True)
+            ax.set_position([tx0 + (p.x0 - x0) * sx, ty0 + (p.y0 - y0) * sy,
+                             p.width * sx, p.height * sy])
+
+
+def render(obj, width=7.0, height=5.0):
+    """A matplotlib Figure of `obj` at width x height inches (not shown;
+    close it with matplotlib.pyplot.close when done)."""
+    ensure_backends()
+    obj = _publication(obj, width, height)
+    with matplotlib.rc_context(RC):
+        fig = hv.render(obj, backend="matplotlib")
+        FigureCanvasAgg(fig)         # HoloViews closed it: attach a headless canvas
+        fig.set_size_inches(width, height)
+        _fit(fig)
+    return fig
+
+
+def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI):
+    """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
+    exactly width*dpi x height*dpi pixels for PNG."""
+    fmt = _format(out)
+    _check_size(width, height, dpi)
+    import matplotlib.pyplot as plt
+    fig = render(obj, width, height)
+    try:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with matplotlib.rc_context(RC):
+            fig.savefig(out, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+    finally:
+        plt.close(fig)
+    return obj
+
+
+def _metadata(fmt):
+    from . import __version__
+    creator = f"vibtrans {__version__}"
+    if fmt == "png":
+        return {"Software": creator}
+    if fmt == "svg":
+        return {"Creator": creator, "Date": None}
+    return {"Creator": creator, "CreationDate": None}
+
+
+def export_html(obj, out, title="vibtrans"):
+    """Standalone interactive HTML (bokeh, resources inline: opens offline,
+    no server).  obj: a HoloViews object built with the bokeh backend loaded,
+    or anything Panel can show."""
+    _format(out, ("html",))
+    ensure_backends()
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    if isinstance(obj, hv.core.dimension.Dimensioned):
+        hv.save(obj, out, fmt="html", backend="bokeh", resources="inline", title=title)
+    else:
+        import panel as pn
+        from bokeh.resources import INLINE
+        pn.panel(obj).save(out, resources=INLINE, title=title, embed=True)
+    return obj
+
+
+def _html_size(obj, width_px, height_px):
+    spec = {k: dict(width=width_px, height=height_px) for k in
+            ("Curve", "Image", "Rectangles", "Polygons", "Overlay")}
+    spec["Curve"]["tools"] = ["hover"]
+    spec["Image"]["tools"] = ["hover"]
+    return obj.opts(spec, backend="bokeh")
+
+
+def _write(obj, out, width, height, dpi, html_cell=None):
+    """PNG/SVG/PDF through matplotlib; .html through bokeh (each panel
+    html_cell=(w, h) pixels, default from the figure's inches)."""
+    if Path(out).suffix.lower() == ".html":
+        w, h = html_cell or (int(width * 100), int(height * 100))
+        return export_html(_html_size(obj, w, h), out)
+    return save(obj, out, width, height, dpi)
+
+
+# ---------------------------------------------------------------- figures
+def heatmap_figure(map_ds, v0=0.1, vertical=None, chaotic="grey", title=None):
+    """The explorer's map (same layers): drift velocity in the paper's colour
+    scale, jumping boundary (and resonances, deformable), paper points."""
+    ensure_backends()
+    if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (
+            math.isfinite(v0) and v0 > 0):
+        raise ValueError(f"v0 must be a positive number, got {v0!r}")
+    if chaotic not in ("grey", "colour"):
+        raise ValueError(f"chaotic must be grey or colour, got {chaotic!r}")
+    model = map_ds.attrs.get("scene_model", "deformable")
+    mu = map_ds.attrs.get("scene_mu", float("nan"))
+    periods = map_ds.attrs.get("scene_periods", float("nan"))
+    el = plots.drift_map(map_ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
+    if vertical is not None:
+        el = el * plots.jumping_boundary(vertical, model)
+        if model == "deformable":
+            el = el * plots.resonance_lines(vertical)
+    el = el * plots.paper_points(model)
+    if title is None:
+        title = f"<v*> over {periods:g} periods: {model}, mu = {mu:g}"
+        if "point_done" in map_ds and not bool(map_ds["point_done"].values.all()):
+            title += " (partial map)"
+        if chaotic == "grey" and bool((map_ds["chaotic"].values == 1).any()):
+            title += "; grey: chaotic"
+    x0, y0, x1, y1 = plots._bounds(map_ds)
+    return plots.style(el, common=dict(title=title, xlim=(x0, x1), ylim=(y0, y1),
+                                       legend_position="bottom_left"))
+
+
+def export_heatmap(map_ds, out, v0=0.1, vertical=None, dpi=DEFAULT_DPI, width=7.0,
+                   height=5.2, chaotic="grey", title=None):
+    """Drift map (`open_map` Dataset) to out (.png/.svg/.pdf, or .html)."""
+    _format(out, FORMATS + ("html",))
+    return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height,
+                  dpi)
+
+
+def export_trajectory(ds, out, window=None, twin=None, dpi=DEFAULT_DPI, width=11.0,
+                      height=None, title=None):
+    """Trajectory figure: whole run and the full-resolution fragment `window`
+    (default: the run's recorded window, else its last 2 periods); with a
+    twin run (tau + 1e-3), a last row compares x*(t)."""
+    _format(out, FORMATS + ("html",))
+    ensure_backends()
+    if height is None:
+        height = 13.0 if twin is not None else 11.0
+    fig = plots.trajectory_figure(ds, window=window, twin=twin)
+    if title is None:
+        a = ds.attrs
+        title = (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
+                 f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
+    fig = fig.opts(title=title, backend="matplotlib")
+    return _write(fig, out, width, height, dpi, html_cell=(650, 180))
+
+
+def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
+    """A_J*(m*) of both models on log axes (paper Fig. 2)."""
+    _format(out, FORMATS + ("html",))
+    ensure_backends()
+    return _write(plots.vertical_curves(vertical), out, width, height, dpi)
+
+
+def memory_figure(snapshot):
+    """Memory diagram w(h), spring displacements u(h) and the contact circle."""
+    ensure_backends()
+    mem = plots.memory_diagram(snapshot)
+    return (mem + plots.contact_circle(snapshot)).cols(3)
+
+
+def export_memory(snapshot, out, dpi=DEFAULT_DPI, width=13.0, height=4.2):
+    """The memory diagram at one instant (`memory_snapshot` dict)."""
+    _format(out, FORMATS + ("html",))
+    return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
+
+
+# ---------------------------------------------------------------- paper
+def default_maps_dir():
+    """$VIBTRANS_ASSETS/maps, else the repository's assets/maps."""
+    root = os.environ.get("VIBTRANS_ASSETS")
+    base = Path(root) if root else Path(__file__).resolve().parent.parent / "assets"
+    return base / "maps"
+
+
+def map_path(maps_dir, model, mu):
+    return Path(maps_dir) / f"{model}-mu{mu:g}.zarr"
+
+
+def load_vertical(maps_dir):
+    import xarray as xr
+    path = Path(maps_dir) / "vertical.nc"
+    return xr.load_dataset(path) if path.exists() else None
+
+
+def paper_trajectory(point, periods=None, window=None, twin=False, progress=None):
+    """Run a paper point as the figures show it: decimated overview and the
+    full-resolution window (default: the last 2 periods)."""
+    from .simulate import simulate
+    scene = paper_scene(point) if periods is None else paper_scene(point, periods=periods)
+    T = scene.periods
+    window = window or (max(0.0, T - FRAGMENT), T)
+    ds = simulate(scene, window=window, samples_per_period=OVERVIEW_SAMPLES, progress=progress)
+    other = None
+    if twin:
+        other = simulate(scene.replace(tau=scene.tau + 1e-3), window=window,
+                         samples_per_period=OVERVIEW_SAMPLES)
+    return scene, ds, other
+
+
+# paper figure number -> what it shows
+PAPER_FIGURES = {
+    2: ("vertical", None),
+    3: ("maps", None),
+    **{4 + k - 1: ("trajectory", k) for k in range(1, 9)},   # Figs. 4-11: points 1-8
+    13: ("trajectory", 9),
+    14: ("trajectory", 10),
+}
+TWIN_POINTS = (8, 10)      # chaotic: shown with their tau + 1e-3 twin
+
+
+def point_title(point, scene):
+    """Title of a paper point's trajectory figure."""
+    la, lm, model = PAPER_POINTS[point]
+    return f"Point {point}: {model}, A* = 10^{la:g}, m* = 10^{lm:g}, mu = {scene.mu:g}"
+
+
+def _point_command(point, out):
+    la, lm, model = PAPER_POINTS[point]
+    cmd = (f"vibtrans export trajectory --point {point} --out {out}")
+    return cmd + (" --twin" if point in TWIN_POINTS else "")
+
+
+def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=None, fmt="png"):
+    """Regenerate the paper's figures into out_dir, one file per figure, and
+    an index.md naming each figure's scene and the command that makes it
+    alone.  maps: folder of the shipped maps (default_maps_dir()).  A figure
+    whose data is missing is listed in the index as not made.  Returns
+    {figure number: path or None}."""
+    from tqdm import tqdm
+
+    from .sweep import open_map
+    if fmt not in FORMATS:
+        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"out must be a folder for the paper's figures, got the file {out_dir}")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    maps = Path(maps) if maps is not None else default_maps_dir()
+    ensure_backends()
+    vertical = load_vertical(maps)
+    maps_arg = "" if maps == default_maps_dir() else f" --maps {shlex.quote(str(maps))}"
+    made, rows = {}, []
+    start = time.perf_counter()
+    bar = tqdm(PAPER_FIGURES.items(), total=len(PAPER_FIGURES), desc="paper figures",
+               file=sys.stderr, disable=not progress, unit="fig")
+    for number, (kind, point) in bar:
+        name = f"fig{number:02d}"
+        path = out_dir / f"{name}.{fmt}"
+        note = ""
+        if kind == "vertical":
+            name += "-vertical"
+            path = out_dir / f"{name}.{fmt}"
+            what = ("Jumping threshold A_J*(m*): deformable (Hertz) vs material point, "
+                    "resonances marked")
+            scene = f"vertical model, tau = 50, T_obs = 2000 (`{maps / 'vertical.nc'}`)"
+            cmd = f"vibtrans export vertical --out {path.name}{maps_arg}"
+            if vertical is None:
+                path, note = None, f"not made: no {maps / 'vertical.nc'}"
+            else:
+                export_vertical(vertical, path, dpi=dpi)
+        elif kind == "maps":
+            name += "-drift-maps"
+            path = out_dir / f"{name}.{fmt}"
+            what = ("Drift-velocity maps in the paper's colour scale: (a) deformable, "
+                    "(b) material point")
+            scene = "mu = 0.3, theta = 1.2, nu = 0.3, tau = 50, T_obs = 2000 (shipped maps)"
+            cmd = (f"vibtrans export heatmap --model deformable --out fig03a.{fmt}{maps_arg}; "
+                   f"vibtrans export heatmap --model point-mass --out fig03b.{fmt}{maps_arg}")
+            panels = []
+            for model in ("deformable", "point-mass"):
+                p = map_path(maps, model, 0.3)
+                try:
+                    ds = open_map(str(p))
+                except (OSError, ValueError) as exc:
+                    note += f"{model} map missing ({exc}); "
+                    continue
+                if not bool(ds["done"].values.all()):
+                    note += (f"{model} map partial ({int(ds['done'].sum())}/"
+                             f"{ds.sizes['chunk']} chunks); ")
+                letter = "(a)" if model == "deformable" else "(b)"
+                panels.append(heatmap_figure(ds, vertical=vertical,
+                                             title=f"{letter} {model}, mu = 0.3"))
+            if panels:
+                save(hv.Layout(panels).cols(2), path, width=13.0, height=5.2, dpi=dpi)
+            else:
+                path = None
+                note = "not made: " + note
+        else:
+            la, lm, model = PAPER_POINTS[point]
+            name += f"-point{point}"
+            path = out_dir / f"{name}.{fmt}"
+            sc, ds, twin = paper_trajectory(point, periods=periods, twin=point in TWIN_POINTS)
+            what = f"Paper point {point} ({model}): whole run and last {FRAGMENT:g} periods" + (
+                ", with its tau + 1e-3 twin" if twin is not None else "")
+            scene = (f"{model}, log10 A* = {la:g}, log10 m* = {lm:g}, mu = {sc.mu:g}, "
+                     f"theta = {sc.theta:g}, tau = {sc.tau:g}, T_obs = {sc.periods:g}, "
+                     f"{sc.fidelity}, {sc.integrator}")
+            cmd = _point_command(point, path.name)
+            if periods is not None:
+                cmd += f" --periods {periods:g}"
+            export_trajectory(ds, path, twin=twin, dpi=dpi, title=point_title(point, sc))
+        made[number] = path
+        rows.append((number, path, what, scene, cmd, note.rstrip("; ")))
+    bar.close()
+    seconds = time.perf_counter() - start
+    _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods)
+    return made
+
+
+def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
+    from . import __version__
+    lines = ["# The paper's figures, regenerated by vibtrans", "",
+             f"Made by `vibtrans export paper --out {out_dir}"
+             f"{'' if maps == default_maps_dir() else ' --maps ' + str(maps)}"
+             f"{'' if dpi == DEFAULT_DPI else f' --dpi {dpi}'}"
+             f"{'' if periods is None else f' --periods {periods:g}'}` "
+             f"(vibtrans {__version__}, {seconds:.0f} s). Maps from `{maps}`.", ""]
+    for number, path, what, scene, cmd, note in rows:
+        lines += [f"## Fig. {number}: {what}", ""]
+        if path is not None:
+            lines += [f"![Fig. {number}]({Path(path).name})", ""]
+        lines += [f"- scene: {scene}", f"- alone: `{cmd}`"]
+        if note:
+            lines.append(f"- note: {note}")
+        lines.append("")
+    (Path(out_dir) / "index.md").write_text("\n".join(lines))
