@@ -1,6 +1,5 @@
 """Direct kernel drivers for tests that need initial conditions the public
 API does not expose (the free Hertz oscillator)."""
-import math
 
 import numpy as np
 
@@ -19,14 +18,8 @@ def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",
     Returns (samples, events, counters, h).
     """
     h = time_step(0.0, mass, fidelity)
-    p = np.zeros(D.NPARAM)
-    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
-       D.P_SDT, D.P_W0, D.P_W1]] = (0.0, mass, 1.0, 1.0, 0.0, 0.0, h, periods,
-                                    1.0 / samples_per_period, math.inf, -math.inf)
-    state = np.zeros(D.NSTATE)
-    state[D.S_Y] = y0
-    state[D.S_GAP] = y0
-    hist = np.zeros((4, 4))
+    p = D.kernel_params(0.0, mass, 1.0, 1.0, 0.0, 0.0, h, periods, 1.0 / samples_per_period)
+    state, hist = D.rest_state(y0)
     ay = (1.0 - max(y0, 0.0) ** 1.5) / mass   # at rest before t = 0: constant force
     hist[:, 3] = ay
     hist[:, 2] = -np.arange(4) * h * ay       # v(t - j h) of the same motion (to O(h^2))

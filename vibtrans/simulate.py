@@ -136,14 +136,9 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel):
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine)
     tangential = scene.model == "deformable"
     sdt = 1.0 / samples_per_period
-    p = np.zeros(D.NPARAM)
-    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
-       D.P_SDT, D.P_W0, D.P_W1]] = (scene.amplitude, scene.mass, scene.mu, scene.theta,
-                                    scene.r, scene.tau, h, scene.periods, sdt, w0, w1)
-    state = np.zeros(D.NSTATE)
-    state[D.S_Y] = 1.0          # at rest under the static load: a* = 1, N* = 1
-    state[D.S_GAP] = 1.0
-    hist = np.zeros((4, 4))     # at rest before t = 0 (the ramp starts from 0)
+    p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
+                        scene.tau, h, scene.periods, sdt, (w0, w1))
+    state, hist = D.rest_state()
     n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
     buf = {
         "samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
@@ -244,15 +239,9 @@ def memory_snapshot(scene=None, t=None, **values):
         raise ValueError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), 1e-9))
     h = time_step(short.amplitude, short.mass, short.fidelity)
-    p = np.zeros(D.NPARAM)
-    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
-       D.P_SDT, D.P_W0, D.P_W1]] = (short.amplitude, short.mass, short.mu, short.theta,
-                                    short.r, short.tau, h, short.periods, 1.0,
-                                    math.inf, -math.inf)
-    state = np.zeros(D.NSTATE)
-    state[D.S_Y] = 1.0
-    state[D.S_GAP] = 1.0
-    hist = np.zeros((4, 4))
+    p = D.kernel_params(short.amplitude, short.mass, short.mu, short.theta, short.r,
+                        short.tau, h, short.periods, 1.0)
+    state, hist = D.rest_state()
     mem = list(new_memory(1024))
     samples = np.empty((int(short.periods) + 16, R.NCOL))
     events = np.empty((1024, 3))

@@ -40,15 +40,9 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
         raise StepBudgetExceeded(
             f"threshold run at A* = {scene.amplitude:.3g}, m* = {scene.mass:.3g} needs about "
             f"{scene.periods / h:.3g} steps, over the budget of {max_steps:.3g}")
-    p = np.zeros(D.NPARAM)
-    p[[D.P_A, D.P_M, D.P_MU, D.P_THETA, D.P_R, D.P_TAU, D.P_H, D.P_TEND,
-       D.P_SDT, D.P_W0, D.P_W1]] = (scene.amplitude, scene.mass, 1.0, 1.0, 0.0,
-                                    scene.tau, h, scene.periods, math.inf,
-                                    math.inf, -math.inf)
-    state = np.zeros(D.NSTATE)
-    state[D.S_Y] = 1.0
-    state[D.S_GAP] = 1.0
-    hist = np.zeros((4, 4))
+    p = D.kernel_params(scene.amplitude, scene.mass, 1.0, 1.0, 0.0, scene.tau, h,
+                        scene.periods, math.inf)
+    state, hist = D.rest_state()
     samples = np.empty((4, R.NCOL))
     events = np.empty((8, 3))
     ctr = R.new_counters()

@@ -18,6 +18,7 @@ Arrays:
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from .. import records as R
@@ -33,6 +34,24 @@ S_T, S_X, S_VX, S_Y, S_VY, S_T0, S_X0, S_VX0, S_Y0, S_VY0, S_GAP = range(11)
 NSTATE = 11  # S_GAP: a* at the last committed step (locates take-offs)
 MODE_CONTACT = 0
 MODE_FLIGHT = 1
+
+
+def kernel_params(amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt,
+                  window=(math.inf, -math.inf)):
+    """The kernel's parameter vector (values already validated)."""
+    p = np.zeros(NPARAM)
+    p[[P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1]] = (
+        amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt, window[0], window[1])
+    return p
+
+
+def rest_state(y0=1.0):
+    """(state, hist) of a particle at rest at y* = y0 before t = 0 (y0 = 1:
+    under the static load, a* = 1, N* = 1, no force, so a zero history)."""
+    state = np.zeros(NSTATE)
+    state[S_Y] = y0
+    state[S_GAP] = y0
+    return state, np.zeros((4, 4))
 
 
 @njit(cache=True, nogil=True, inline="always")
