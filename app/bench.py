@@ -51,6 +51,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=8)
     ap.add_argument("--sessions", type=int, default=3)
+    ap.add_argument("--settle", type=float, default=45.0,
+                    help="seconds to wait after the sessions close before the last RSS "
+                         "(Bokeh discards unused sessions after ~15-30 s)")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
     port = _port()
@@ -94,7 +97,7 @@ def main(argv=None):
                     rss_peak = max(rss_peak, _rss_mb(proc.pid))
                 page.close()
             browser.close()
-        time.sleep(3)
+        time.sleep(a.settle)
         rss_after = _rss_mb(proc.pid)
     finally:
         proc.terminate()

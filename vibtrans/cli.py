@@ -36,6 +36,11 @@ def _scene_args(p):
     mass = g.add_mutually_exclusive_group(required=True)
     mass.add_argument("--mass", type=_num, help="m* = a0 m f^2 / (M g)")
     mass.add_argument("--log-mass", type=_num, help="log10 m*")
+    _model_args(g)
+
+
+def _model_args(g):
+    """Everything of a scene but A* and m* (simulate and sweep share these)."""
     g.add_argument("--model", default="deformable", help="deformable | point-mass | vertical")
     g.add_argument("--mu", type=_num, default=0.3)
     g.add_argument("--theta", type=_num, default=1.2)
@@ -397,16 +402,7 @@ def build_parser():
     t.set_defaults(func=cmd_threshold)
 
     w = sub.add_parser("sweep", help="drift map over (log10 A*, log10 m*), resumable Zarr store")
-    w.add_argument("--model", default="deformable")
-    w.add_argument("--mu", type=_num, default=0.3)
-    w.add_argument("--theta", type=_num, default=1.2)
-    w.add_argument("--nu", type=_num, default=0.3)
-    w.add_argument("--tau", type=_num, default=50.0)
-    w.add_argument("--periods", type=_num, default=2000.0)
-    w.add_argument("--alpha-t", type=_num, default=0.5)
-    w.add_argument("--stick-rule", default="paper")
-    w.add_argument("--fidelity", default="standard")
-    w.add_argument("--integrator", default="ab4")
+    _model_args(w)
     w.add_argument("--log-amplitude", default="-3:3:0.05", help="start:stop:step (inclusive)")
     w.add_argument("--log-mass", default="-5:5:0.05", help="start:stop:step (inclusive)")
     w.add_argument("--chunk-rows", type=int, default=4, help="amplitudes per stored chunk")

@@ -132,7 +132,9 @@ def _drive(call, t_end, chunk, buffers, progress, cancel):
             raise Cancelled("run cancelled")
 
 
-def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel):
+def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel, final=None):
+    """Run the deformable or vertical kernel; `final` (a dict), if given,
+    receives the end state and memory diagram (memory snapshots)."""
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine)
     tangential = scene.model == "deformable"
     sdt = 1.0 / samples_per_period
@@ -169,6 +171,8 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel):
         R.MEMORY_FULL: grow_memory,
     }
     _drive(call, scene.periods, max(1.0, CHUNK_STEPS * h), growers, progress, cancel)
+    if final is not None:
+        final.update(state=state, memory=mem)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return buf["samples"][:n], buf["events"][:k], ctr, {"h": h}
 
@@ -238,27 +242,9 @@ def memory_snapshot(scene=None, t=None, **values):
             or not (0 <= t <= scene.periods):
         raise ValueError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), 1e-9))
-    h = time_step(short.amplitude, short.mass, short.fidelity)
-    p = D.kernel_params(short.amplitude, short.mass, short.mu, short.theta, short.r,
-                        short.tau, h, short.periods, 1.0)
-    state, hist = D.rest_state()
-    mem = list(new_memory(1024))
-    samples = np.empty((int(short.periods) + 16, R.NCOL))
-    events = np.empty((1024, 3))
-    ctr = R.new_counters()
-    ctr[R.C_STATE] = STICK
-    ctr[R.C_NEXT] = 1
-    while True:
-        code = D.deformable_kernel(p, INTEGRATORS[short.integrator], state, hist, *mem,
-                                   samples, events, ctr, short.periods)
-        if code == R.DONE:
-            break
-        if code == R.MEMORY_FULL:
-            mem[0], mem[1], mem[2] = _grow(mem[0]), _grow(mem[1]), _grow(mem[2])
-        elif code == R.EVENTS_FULL:
-            ctr[R.C_NEVT] = 0          # events are not needed here
-        else:
-            ctr[R.C_NSAMP] = 0
+    final = {}
+    _, _, ctr, _ = _run_hertz(short, math.inf, -math.inf, 1, 1.0, None, None, final)
+    state, mem = final["state"], final["memory"]
     H, W, P, nvert, memf = mem
     hs, ws = anchor_profile(H, W, nvert, memf)
     a, b = float(memf[0]), float(memf[1])
