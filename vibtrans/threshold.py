@@ -74,22 +74,23 @@ def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
     def jumps(a):
         return _first_takeoff(base.replace(amplitude=a)) < math.inf
 
+    def first_jump_above(lo, hi, factor):
+        # widen upwards until the particle jumps; lo tracks the last quiet amplitude
+        while not jumps(hi):
+            lo, hi = hi, hi * factor
+            if hi > 1e8:
+                raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
+        return lo, hi
+
     if guess is not None and guess > 0 and math.isfinite(guess):
         lo, hi = guess / 1.25, guess * 1.25
         while jumps(lo):
             hi, lo = lo, lo / 1.25
             if lo < 1e-6:
                 return lo
-        while not jumps(hi):
-            lo, hi = hi, hi * 1.25
-            if hi > 1e8:
-                raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
+        lo, hi = first_jump_above(lo, hi, 1.25)
     else:
-        hi = max(4.0, 4.0 / (4.0 * math.pi ** 2 * mass))
-        while not jumps(hi):
-            hi *= 4.0
-            if hi > 1e8:
-                raise RuntimeError(f"no contact loss up to A* = 1e8 at m* = {mass:g}")
+        _, hi = first_jump_above(None, max(4.0, 4.0 / (4.0 * math.pi ** 2 * mass)), 4.0)
         lo = 1e-5
         if jumps(lo):
             return lo
