@@ -12,12 +12,13 @@ from vibtrans.models.vertical import vertical_kernel
 
 
 def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",
-                    samples_per_period=4):
-    """Vertical Hertz particle with A* = 0 released at rest from y* = y0.
+                    samples_per_period=4, refine=1.0):
+    """Vertical Hertz particle with A* = 0 released at rest from y* = y0
+    (`refine` divides the fidelity's step).
 
     Returns (samples, events, counters, h).
     """
-    h = time_step(0.0, mass, fidelity)
+    h = time_step(0.0, mass, fidelity, refine)
     p = D.kernel_params(0.0, mass, 1.0, 1.0, 0.0, 0.0, h, periods, 1.0 / samples_per_period)
     state, hist = D.rest_state(y0)
     ay = (1.0 - max(y0, 0.0) ** 1.5) / mass   # at rest before t = 0: constant force

@@ -98,3 +98,29 @@ def test_vertical_curve_resonances():
                  / vert["point_mass_threshold_amplitude"].values - 1)
     assert np.all(dev[lm <= -4.5] < 0.02)
     assert dev[lm == -5.0][0] < dev[np.isclose(lm, -4.0)][0]
+
+
+SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
+              "alpha_t", "stick_rule")
+
+
+@pytest.mark.parametrize("model", ["deformable", "point-mass"])
+def test_shipped_map_is_what_this_code_computes(maps, model):
+    # Source: the code itself.  A store is only worth shipping if the kernels
+    # of this version reproduce it: recompute a few non-chaotic grid points
+    # (paper points 1, 4, 6 and two others) and compare.  Bit-identical here;
+    # 1e-9 relative leaves room for another CPU's code generation (numba
+    # compiles for the host: FMA contraction may round differently).
+    from vibtrans.sweep import compute_point
+    ds = maps[model]
+    values = {k: ds.attrs[f"scene_{k}"] for k in SCENE_KEYS if f"scene_{k}" in ds.attrs}
+    cells = [(PAPER_POINTS[p][0], PAPER_POINTS[p][1]) for p in (1, 4, 6)] + [(-1.0, 2.0),
+                                                                             (2.0, -3.0)]
+    for la, lm in cells:
+        i = int(np.argmin(np.abs(ds["log_amplitude"].values - la)))
+        j = int(np.argmin(np.abs(ds["log_mass"].values - lm)))
+        if bool(ds["chaotic"].values[i, j]):
+            continue
+        got = compute_point(values, float(ds["log_amplitude"][i]), float(ds["log_mass"][j]))
+        want = float(ds["drift_velocity"].values[i, j])
+        assert got["drift_velocity"] == pytest.approx(want, rel=1e-9, abs=1e-12), (la, lm)

@@ -9,7 +9,13 @@ which are measured side by side, more than the absolute times).
   states), and their ratio (goal <= 2);
 * ns per memory-diagram update alone, on a partial-slip/sliding history;
 * seconds for a 2000-period standard scene at paper points 1, 4, 6
-  (goal <= 0.1 s each).
+  (goal <= 0.1 s each);
+* each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
+  ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
+  switched off alone: its speed-up and the drift difference it makes.
+
+`vibtrans bench --work-precision [--quick] [--json] [--plot FILE]`: error
+against cost of both integrators over a ladder of steps (vibtrans.workprecision).
 """
 import json
 import os
@@ -18,7 +24,9 @@ import time
 
 import numpy as np
 
+from .analysis import V0, drift_velocity
 from .contact import memory_history, new_memory, reset_memory
+from .models import deformable as D
 from .params import paper_scene
 from .simulate import simulate
 
@@ -33,10 +41,35 @@ def _best(fn, repeat):
     return best, out
 
 
-def _kernel_ns_per_step(scene, repeat):
-    ds = simulate(scene)                          # warm-up (and step count)
-    best = min(simulate(scene).attrs["seconds"] for _ in range(repeat))
-    return 1e9 * best / ds.attrs["steps"], ds.attrs["steps"]
+def _interleaved_ns(runs, repeat):
+    """Best ns/step of each (scene, simulate keywords) in `runs`, measured
+    round-robin so that a noisy neighbour slows them alike."""
+    steps = [simulate(sc, **kw).attrs["steps"] for sc, kw in runs]     # warm-up
+    best = [float("inf")] * len(runs)
+    for _ in range(repeat):
+        for i, (sc, kw) in enumerate(runs):
+            best[i] = min(best[i], simulate(sc, **kw).attrs["seconds"])
+    return [1e9 * b / n for b, n in zip(best, steps)]
+
+
+SHORTCUTS = {"ramp": D.SHORT_RAMP, "rotation": D.SHORT_ROTATION}
+
+
+def _shortcut_effects(repeat, points=(1, 4, 6)):
+    """Speed-up and result difference of each kernel shortcut, switched off
+    alone, at paper points (non-chaotic, so a difference is the shortcut's)."""
+    out = {}
+    for name, bit in SHORTCUTS.items():
+        for point in points:
+            sc = paper_scene(point)
+            on, off = _interleaved_ns([(sc, {}), (sc, {"shortcuts": D.SHORTCUTS_ALL & ~bit})],
+                                      repeat)
+            v_on = drift_velocity(simulate(sc))
+            v_off = drift_velocity(simulate(sc, shortcuts=D.SHORTCUTS_ALL & ~bit))
+            out[f"{name}, point {point}"] = {
+                "speedup": off / on,
+                "drift_difference": abs(v_on - v_off) / max(abs(v_off), V0)}
+    return out
 
 
 def _memory_ns(repeat, n=1_000_000):
@@ -67,8 +100,10 @@ def run(quick=False):
     repeat = 3 if quick else 7
     pinned = _pin_one_core()
     scene = paper_scene(1)
-    ns_def, steps_def = _kernel_ns_per_step(scene, repeat)
-    ns_vert, steps_vert = _kernel_ns_per_step(scene.replace(model="vertical"), repeat)
+    vertical = scene.replace(model="vertical")
+    exact = {"shortcuts": D.SHORTCUTS_ALL & ~D.SHORT_ROTATION}
+    ns_def, ns_vert, ns_def_x, ns_vert_x = _interleaved_ns(
+        [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat)
     ns_mem, states = _memory_ns(repeat)
     scenes = {}
     for point in (1, 4, 6):
@@ -85,13 +120,23 @@ def run(quick=False):
         "vertical_ns_per_step": ns_vert,
         "deformable_ns_per_step": ns_def,
         "deformable_over_vertical": ns_def / ns_vert,
+        "exact_trig_vertical_ns_per_step": ns_vert_x,
+        "exact_trig_deformable_ns_per_step": ns_def_x,
+        "exact_trig_deformable_over_vertical": ns_def_x / ns_vert_x,
+        "shortcuts": _shortcut_effects(repeat),
         "memory_update_ns": ns_mem,
         "memory_states_stick_partial_sliding": [int(s) for s in states[1:]],
         "scene_seconds_2000_periods": scenes,
     }
 
 
-def main(quick=False, as_json=False, sweep=False):
+def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=None):
+    if work_precision:
+        from .workprecision import main as wp_main
+        pinned = _pin_one_core()
+        return wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned)
+    if plot is not None:
+        raise ValueError("plot: only bench --work-precision takes --plot")
     if sweep:
         r = sweep_bench(quick)
         if as_json:
@@ -109,10 +154,17 @@ def main(quick=False, as_json=False, sweep=False):
     print(f"  vertical-only kernel   {r['vertical_ns_per_step']:8.1f} ns/step")
     print(f"  deformable kernel      {r['deformable_ns_per_step']:8.1f} ns/step")
     print(f"  ratio                  {r['deformable_over_vertical']:8.2f}   (goal <= 2)")
+    print(f"  with exact sin/cos (rotation shortcut off): vertical "
+          f"{r['exact_trig_vertical_ns_per_step']:.1f}, deformable "
+          f"{r['exact_trig_deformable_ns_per_step']:.1f} ns/step, ratio "
+          f"{r['exact_trig_deformable_over_vertical']:.2f}")
     print(f"  memory-diagram update  {r['memory_update_ns']:8.1f} ns")
     for point, s in r["scene_seconds_2000_periods"].items():
         print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
               f"({s['steps']} steps)   (goal <= 0.1 s)")
+    print("  shortcuts (each switched off alone): speed-up, relative drift difference")
+    for k, e in r["shortcuts"].items():
+        print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")
     return 0
 
 

@@ -157,7 +157,8 @@ def _threshold_sweep(args):
 
 def cmd_bench(args):
     from .bench import main as bench_main
-    return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep)
+    return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
+                      work_precision=args.work_precision, plot=args.plot)
 
 
 def cmd_sweep(args):
@@ -176,25 +177,70 @@ def cmd_sweep(args):
     return 0
 
 
-def cmd_serve(args):
-    """Serve the explorer: warm the JIT and load the maps first, so the first
-    click pays no compilation."""
+def _origins(args):
+    """Hosts whose pages may open the explorer's websocket: --allow-websocket-origin,
+    else $VIBTRANS_ALLOWED_ORIGINS (comma-separated), else this port on localhost."""
     import os
 
+    given = args.allow_websocket_origin
+    if not given:
+        env = os.environ.get("VIBTRANS_ALLOWED_ORIGINS", "")
+        given = [o for o in env.split(",")]
+    origins = [o.strip() for o in given if o.strip()]
+    if not origins:
+        return [f"localhost:{args.port}", f"127.0.0.1:{args.port}"]
+    for o in origins:
+        if "://" in o or "/" in o or any(c.isspace() for c in o):
+            raise InputError(f"allow_websocket_origin must be HOST[:PORT] (no scheme, no path), "
+                             f"got {o!r}")
+    return origins
+
+
+def _component_routes():
+    """Panel's /components/ route imports the module named in the URL before
+    it checks anything (/components/<module>/...): any installed module, run
+    at a stranger's request.  Served here for panel's own modules only (the
+    explorer requests none)."""
+    from panel.io.server import COMPONENT_PATH, ComponentResourceHandler
+    from tornado.web import HTTPError
+
+    class PanelComponents(ComponentResourceHandler):
+        def parse_url_path(self, path):
+            module = path.split("/", 1)[0]
+            if module != "panel" and not module.startswith("panel."):
+                raise HTTPError(404)
+            return super().parse_url_path(path)
+
+    return [(f"/{COMPONENT_PATH}(.*)", PanelComponents, {})]
+
+
+def cmd_serve(args):
+    """Serve the explorer: check the shipped maps, warm the JIT and load the
+    maps first, so the first click pays no compilation."""
     if not 1 <= args.port <= 65535:
         raise InputError(f"port must be in [1, 65535], got {args.port}")
+    if not 0 <= args.num_procs <= 64:
+        raise InputError(f"num_procs must be in [0, 64] (0: one per core), got {args.num_procs}")
+    for name in ("unused_session_lifetime", "check_unused_sessions"):
+        if not 100 <= getattr(args, name) <= 86_400_000:
+            raise InputError(f"{name} must be in [100, 86400000] ms, got {getattr(args, name)}")
+    origins = _origins(args)
+    from app import data
+    problems = data.preload()        # damaged, foreign or missing maps: refuse to start
+    if problems:
+        raise InputError("; ".join(problems))
     from . import warmup
     warmup()
     import panel as pn
 
-    from app import data
     from app.explorer import create_app
-    data.preload()
-    origins = os.environ.get("VIBTRANS_ALLOWED_ORIGINS", f"localhost:{args.port},127.0.0.1:{args.port}")
-    print(f"vibtrans explorer on http://{args.address}:{args.port}/", file=sys.stderr)
+    print(f"vibtrans explorer on http://{args.address}:{args.port}/ (websocket origins: "
+          f"{', '.join(origins)})", file=sys.stderr)
     pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
-             websocket_origin=[o.strip() for o in origins.split(",") if o.strip()],
-             title="vibtrans explorer", num_procs=1, liveness=True)
+             websocket_origin=origins, title="vibtrans explorer", num_procs=args.num_procs,
+             liveness=True, admin=False, extra_patterns=_component_routes(),
+             unused_session_lifetime_milliseconds=args.unused_session_lifetime,
+             check_unused_sessions_milliseconds=args.check_unused_sessions)
     return 0
 
 
@@ -275,7 +321,7 @@ def cmd_export(args):
             raise InputError(f"mu: no drift map {path.name} for model {model}, mu {args.mu:g} in "
                              f"{maps} (available: {', '.join(have) or 'none'})")
         try:
-            ds = open_map(str(path))
+            ds = open_map(str(path), expect={"model": model, "mu": args.mu})
         except OSError as exc:
             raise InputError(f"maps: {exc}") from None
         E.export_heatmap(ds, args.out, v0=v0, vertical=E.load_vertical(maps),
@@ -417,6 +463,15 @@ def build_parser():
     v.add_argument("--port", type=int, default=5006)
     v.add_argument("--address", default="127.0.0.1",
                    help="interface to listen on (0.0.0.0 in the container)")
+    v.add_argument("--allow-websocket-origin", action="append", metavar="HOST[:PORT]",
+                   help="public host whose pages may connect (repeatable; default: "
+                        "$VIBTRANS_ALLOWED_ORIGINS, else localhost:PORT; docs/SECURITY.md)")
+    v.add_argument("--num-procs", type=int, default=1,
+                   help="server processes sharing the port (0: one per core)")
+    v.add_argument("--unused-session-lifetime", type=int, default=15000, metavar="MS",
+                   help="drop a closed session's state after this many ms")
+    v.add_argument("--check-unused-sessions", type=int, default=17000, metavar="MS",
+                   help="look for closed sessions every this many ms")
     v.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")
@@ -424,6 +479,10 @@ def build_parser():
     b.add_argument("--json", action="store_true")
     b.add_argument("--sweep", action="store_true",
                    help="points/s of a sweep on 1 and 2 workers, processes vs threads")
+    b.add_argument("--work-precision", action="store_true",
+                   help="error against cost of both integrators over a ladder of steps "
+                        "(vibtrans.workprecision; full: a few minutes, --quick: < 30 s)")
+    b.add_argument("--plot", help="with --work-precision: write the diagram to FILE.png|svg|pdf")
     b.set_defaults(func=cmd_bench)
 
     _export_parser(sub)

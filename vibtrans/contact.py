@@ -23,20 +23,14 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import kernel
+
 # Contact states (timeline codes; shared by every model).
 FLIGHT = 0        # contact loss, a* <= 0
 STICK = 1         # full stick, s = c
 PARTIAL_SLIP = 2  # 0 < s < c
 SLIDING = 3       # total sliding, s = 0, T* = sign(b*') N*
 STATE_NAMES = ("flight", "stick", "partial slip", "total sliding")
-
-
-@njit(cache=True, nogil=True, inline="always")
-def normal_force(a):
-    """Hertz: N*(a*) = a*^(3/2) for a* > 0, else 0."""
-    if a > 0.0:
-        return a * math.sqrt(a)
-    return 0.0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -99,7 +93,7 @@ def new_memory(capacity=256):
     return H, W, P, nvert, memf
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def reset_memory(H, W, P, nvert, memf, a, b):
     """Virgin contact at (a*, b*): all springs stuck with u = 0."""
     nvert[0] = 0
@@ -114,12 +108,13 @@ def reset_memory(H, W, P, nvert, memf, a, b):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def memory_commit(H, W, P, nvert, memf, a1, b1):
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
 
-    (a*, b*) moves along a straight line during the step.  s_h is the depth of
-    the stick core edge (stick radius s = sqrt(s_h), contact radius
-    c = sqrt(a1)).  The caller guarantees capacity for 3 more vertices.
+    (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
+    contact radius; the caller has it from N*).  s_h is the depth of the stick
+    core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
+    for 3 more vertices.
     """
     a0 = memf[0]
     b0 = memf[1]
@@ -128,7 +123,6 @@ def memory_commit(H, W, P, nvert, memf, a1, b1):
     if a1 <= 0.0:
         _pop_to(nvert, 0)            # every spring left contact and forgets
         return 0.0, 0.0, FLIGHT
-    c1 = math.sqrt(a1)
     n = nvert[0]
     if n == 0:
         # Contact (re)starts within the step: springs attach at the b* where
@@ -140,8 +134,9 @@ def memory_commit(H, W, P, nvert, memf, a1, b1):
         _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a1, c1, b1 - bc)
     elif a1 > a0:
-        # New springs lie on the segment from the old apex to (a1, b1).
-        _push(H, W, nvert, a1, c1, b1 - memf[2])
+        # New springs lie on the segment from the old apex to (a1, b1): the
+        # clamp pushes that vertex itself if it survives (it usually slips).
+        return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], True)
     elif a1 < a0:
         # Springs deeper than a1 leave contact: pop them, cut the top segment.
         hp = H[n - 1, 0]
@@ -155,41 +150,55 @@ def memory_commit(H, W, P, nvert, memf, a1, b1):
         if hq < a1:
             wq = W[n - 1]
             _push(H, W, nvert, a1, c1, wq + (wp - wq) * (a1 - hq) / (hp - hq))
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2])
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], False)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _clamp(H, W, P, nvert, memf, a1, c1, bp):
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, top_pending):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
-    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref.
+    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref.  With
+    `top_pending` (loading) that vertex, (a1, bp), is not stored yet: it is
+    pushed only if it survives the clamp (saves a push and a pop per slip step).
     Returns (T*, s_h, state).
     """
     n = nvert[0]
     # Rounding (re-basing, cone-line vertices) must not invent slip: a spring
     # counts as past its limit only beyond a few ulps of the cone's scale.
     tol = 4e-16 * (a1 + abs(bp) + abs(W[0]))
-    d = W[n - 1] - bp
     side = 0.0
-    if d > tol:
-        side = 1.0
-    elif d < -tol:
-        side = -1.0
-    elif n >= 2:
-        d2 = W[n - 2] - bp
-        if abs(d2) > a1 - H[n - 2, 0] + tol:
+    if top_pending:
+        # the top is at bp by construction; test the vertex below it
+        d2 = W[n - 1] - bp
+        if abs(d2) > a1 - H[n - 1, 0] + tol:
             side = 1.0 if d2 > 0.0 else -1.0
+    else:
+        d = W[n - 1] - bp
+        if d > tol:
+            side = 1.0
+        elif d < -tol:
+            side = -1.0
+        elif n >= 2:
+            d2 = W[n - 2] - bp
+            if abs(d2) > a1 - H[n - 2, 0] + tol:
+                side = 1.0 if d2 > 0.0 else -1.0
     if side == 0.0:
         # No spring reached its limit: full stick.
-        if W[n - 1] != bp:
+        if top_pending:
+            _push(H, W, nvert, a1, c1, bp)
+        elif W[n - 1] != bp:
             W[n - 1] = bp
             if nvert[1] > n - 1:
                 nvert[1] = n - 1
         return 1.5 * bp * c1 - 0.75 * _integrals(H, W, P, nvert), a1, STICK
     # Walk down, dropping the vertices outside the cone (slip annulus).
-    hl = H[n - 1, 0]
-    wl = W[n - 1]
-    n -= 1
+    if top_pending:
+        hl = a1
+        wl = bp
+    else:
+        hl = H[n - 1, 0]
+        wl = W[n - 1]
+        n -= 1
     while n > 0:
         fk = side * (W[n - 1] - bp) - (a1 - H[n - 1, 0])
         if fk <= tol:
@@ -205,34 +214,52 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp):
         _push(H, W, nvert, 0.0, 0.0, side * a1)
         _push(H, W, nvert, a1, c1, 0.0)
         return -side * a1 * c1, 0.0, SLIDING
+    # The stick edge hs: where the cone line w = bp + side (a1 - h) meets the
+    # stack segment k -> l.  The segment's slope and the denominator do not
+    # depend on this step's load, so both divisions stay off the step's
+    # critical path; the integrals over k -> hs (straight in h) and over the
+    # slip annulus hs -> a1 (on the cone line) are closed forms in sqrt(h).
     hk = H[n - 1, 0]
+    sk = H[n - 1, 1]
     wk = W[n - 1]
     fk = side * (wk - bp) - (a1 - hk)
-    fl = side * (wl - bp) - (a1 - hl)
-    lam = max(-fk, 0.0) / (fl - fk)
+    lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
+    ps = _integrals(H, W, P, nvert)             # P at vertex k
+    s = sk
     if hs > hk:
-        _push(H, W, nvert, hs, math.sqrt(hs), bp + side * (a1 - hs))
+        s = math.sqrt(hs)
+        ds = s - sk
+        slope = (wl - wk) / (hl - hk)
+        ps += ds * (2.0 * wk + (2.0 / 3.0) * slope * ds * (s + 2.0 * sk))
+        _push(H, W, nvert, hs, s, bp + side * (a1 - hs))
+        P[nvert[0] - 1] = ps
     else:
         hs = hk
+    # annulus: integral of (bp + side (a1 - h)) h^(-1/2) dh from hs to a1
+    pa = ps + (c1 - s) * (2.0 * (bp + side * a1)
+                          - (2.0 / 3.0) * side * (a1 + c1 * s + hs))
     _push(H, W, nvert, a1, c1, bp)
-    return 1.5 * bp * c1 - 0.75 * _integrals(H, W, P, nvert), hs, PARTIAL_SLIP
+    P[nvert[0] - 1] = pa
+    nvert[1] = nvert[0]
+    return 1.5 * bp * c1 - 0.75 * pa, hs, PARTIAL_SLIP
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return memory_commit(H, W, P, nvert, memf, a1, b1)
+    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def memory_history(H, W, P, nvert, memf, a, b, out):
     """Commit a whole (a*, b*) history; out[i] = (T*, s_h, state).
 
     The caller provides capacity >= len(a) + 4 vertices.
     """
     for i in range(a.shape[0]):
-        T, sh, st = memory_commit(H, W, P, nvert, memf, a[i], b[i])
+        a1 = a[i]
+        T, sh, st = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i])
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st

@@ -256,6 +256,82 @@ def export_memory(snapshot, out, dpi=DEFAULT_DPI, width=13.0, height=4.2):
     return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
 
 
+def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
+                          targets=(0.05, 0.005), reference="the reference preset refined twice"):
+    """Work-precision diagram of `workprecision.study` points (named tuples or
+    their dicts): error against kernel seconds, log-log; left the relative
+    drift error, right the trajectory error; one colour per scene, one marker
+    per integrator (AB4 circles, Verlet squares), the fidelity presets with a
+    black edge; dashed lines at the drift-error targets (preview, standard).
+    Each scene's points are joined from coarse to fine step."""
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    fmt = _format(out)
+    _check_size(width, height, dpi)
+    rows = [r if isinstance(r, dict) else r._asdict() for r in results]
+
+    def num(v):
+        return math.inf if v in ("inf", None) else float(v)
+    floor = 1e-12                      # exact agreement drawn at the floor
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    integrators = list(dict.fromkeys(r["integrator"] for r in rows))
+    colours = matplotlib.colormaps["tab10"]
+    markers = {"ab4": "o", "verlet": "s"}
+    presets = {"preview", "standard", "reference"}
+    with matplotlib.rc_context(RC):
+        fig = Figure(figsize=(width, height))
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(1, 2)
+        for ax, key, label in ((axes[0], "drift_error", "relative drift error"),
+                               (axes[1], "traj_error", "trajectory error, max |dx*|, |dy*| (a0)")):
+            for i, scene in enumerate(scenes):
+                for integ in integrators:
+                    pts, seen = [], set()       # coarse to fine; one point per step
+                    for r in sorted((r for r in rows if r["scene"] == scene
+                                     and r["integrator"] == integ and r["stable"]
+                                     and math.isfinite(num(r["seconds"]))),
+                                    key=lambda r: -num(r["h"])):
+                        if r["h"] not in seen or r["setting"] in presets:
+                            seen.add(r["h"])
+                            pts.append(r)
+                    if not pts:
+                        continue
+                    xs = [num(r["seconds"]) for r in pts]
+                    ys = [max(num(r[key]), floor) for r in pts]
+                    mk = markers.get(integ, "^")
+                    ax.plot(xs, ys, ls="-" if integ == "ab4" else ":", lw=1.0,
+                            color=colours(i % 10), marker=mk, ms=4.5, mfc=colours(i % 10),
+                            mec="none", alpha=0.9)
+                    pre = [(x, y) for x, y, r in zip(xs, ys, pts) if r["setting"] in presets]
+                    if pre:
+                        ax.plot(*zip(*pre), ls="none", marker=mk, ms=7, mfc="none",
+                                mec="black", mew=1.0)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel("kernel seconds (best of repeats)")
+            ax.set_ylabel(label)
+            ax.grid(True, which="major", lw=0.4, alpha=0.5)
+        for t in targets:
+            axes[0].axhline(t, color="grey", ls="--", lw=0.8)
+        chaotic = {r["scene"] for r in rows if r.get("chaotic")}
+        handles = [Line2D([], [], color=colours(i % 10), lw=2,
+                          label=s + (" (chaotic)" if s in chaotic else ""))
+                   for i, s in enumerate(scenes)]
+        handles += [Line2D([], [], color="black", ls="-" if g == "ab4" else ":",
+                           marker=markers.get(g, "^"), label=g.upper() if g == "ab4" else
+                           g.capitalize()) for g in integrators]
+        handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="none", mec="black",
+                              label="fidelity preset"))
+        fig.legend(handles=handles, loc="lower center", ncol=6, frameon=False)
+        fig.suptitle(f"Work-precision: error against cost, vs {reference} (AB4); "
+                     f"dashed: drift error {' and '.join(f'{t:g}' for t in targets)}")
+        fig.subplots_adjust(bottom=0.24, wspace=0.28)
+        _fit(fig)
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(out, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+    return fig
+
+
 # ---------------------------------------------------------------- paper
 def default_maps_dir():
     """$VIBTRANS_ASSETS/maps, else the repository's assets/maps."""
@@ -269,9 +345,11 @@ def map_path(maps_dir, model, mu):
 
 
 def load_vertical(maps_dir):
-    import xarray as xr
+    """The vertical curve of maps_dir, checked (sweep.open_vertical), or None
+    if there is none; StoreMismatch (a ValueError) if it is unusable."""
+    from .sweep import open_vertical
     path = Path(maps_dir) / "vertical.nc"
-    return xr.load_dataset(path) if path.exists() else None
+    return open_vertical(str(path)) if path.exists() else None
 
 
 def paper_trajectory(point, periods=None, window=None, twin=False, progress=None):

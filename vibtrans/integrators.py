@@ -18,6 +18,8 @@ import math
 
 from numba import njit
 
+from .jit import kernel
+
 from .substrate import TWO_PI, vertical_displacement
 
 AB4 = 0
@@ -54,7 +56,7 @@ def flight_gap(t, t0, y0, vy0, m, amplitude, tau):
     return y0 + vy0 * s + 0.5 * s * s / m - vertical_displacement(t, amplitude, tau)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
     """First time in (t_from, t_limit] where the flight gap turns positive.
 
@@ -103,7 +105,7 @@ def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
         g = g1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _illinois(ta, ga, tb, gb, t0, y0, vy0, m, amplitude, tau):
     """Root of the flight gap in [ta, tb] with ga <= 0 < gb (returns a t with
     gap >= 0, within a few ulps of the root)."""

@@ -245,6 +245,25 @@ def _vdim(var):
     return hv.Dimension(var, label=VAR_LABELS.get(var, var))
 
 
+def overview_samples(ds, window_samples=200):
+    """The run for a whole-run view: its samples, with the full-resolution
+    window (thousands of steps) thinned to about `window_samples` samples
+    (every k-th; the first and last kept); the events are kept whole."""
+    w0, w1 = ds.attrs.get("window_start"), ds.attrs.get("window_end")
+    if w0 is None or w1 is None:
+        return ds
+    t = ds["time"].values
+    inside = np.flatnonzero((t > w0) & (t < w1))
+    if inside.size <= window_samples:
+        return ds
+    k = int(np.ceil(inside.size / window_samples))
+    keep = np.ones(t.size, bool)
+    keep[inside] = False
+    keep[inside[::k]] = True
+    keep[inside[-1]] = True
+    return ds.isel(time=keep)
+
+
 def _curve(ds, var, label, color):
     return _styled_line(hv.Curve((ds["time"].values, ds[var].values), T_DIM, _vdim(var),
                                  label=label), color)
@@ -256,12 +275,16 @@ def _dominant_states(ds, bins):
     that a screen can show, instead of thousands of sub-pixel bands."""
     t0, t1, vals = _state_runs(ds)
     edges = np.linspace(t0[0], t1[-1], bins + 1)
-    share = np.zeros((bins, len(STATE_NAMES)))
-    lo = np.searchsorted(edges, t0, side="right") - 1
-    hi = np.searchsorted(edges, t1, side="left") - 1
-    for a, b, v, i, j in zip(t0, t1, vals, lo, hi):
-        for k in range(max(i, 0), min(j, bins - 1) + 1):
-            share[k, v] += min(b, edges[k + 1]) - max(a, edges[k])
+    # time spent in each state up to each edge: cumulative over the runs,
+    # plus the part of the run the edge falls in
+    n = len(STATE_NAMES)
+    own = np.zeros((t0.size, n))
+    own[np.arange(t0.size), vals] = t1 - t0
+    cum = np.vstack([np.zeros(n), np.cumsum(own, axis=0)])
+    r = np.clip(np.searchsorted(t0, edges, side="right") - 1, 0, t0.size - 1)
+    at = cum[r] + np.where(np.arange(n) == vals[r][:, None],
+                           (np.minimum(edges, t1[r]) - t0[r])[:, None], 0.0)
+    share = np.diff(at, axis=0)
     dom = share.argmax(axis=1)
     cut = np.flatnonzero(np.diff(dom)) + 1
     starts = np.concatenate([[0], cut])

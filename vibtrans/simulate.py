@@ -43,12 +43,28 @@ def _scene(scene, values):
     return scene.replace(**values) if values else scene
 
 
-def estimate_steps(scene, refine=1.0):
+def estimate_steps(scene, refine=1.0, steps=None):
     """Upper estimate of the integration steps of a scene (before running)."""
     if scene.model == "point-mass":
         return int(math.ceil(scene.periods / scan_step(scene.fidelity, refine)))
-    return int(math.ceil(scene.periods / time_step(scene.amplitude, scene.mass,
-                                                   scene.fidelity, refine)))
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    return int(math.ceil(scene.periods / h))
+
+
+def _check_steps(steps, model):
+    if steps is None:
+        return None
+    try:
+        per_period, per_contact = (float(v) for v in steps)
+    except (TypeError, ValueError):
+        raise ValueError(f"steps must be a pair (steps per period, steps per contact time "
+                         f"scale) of numbers in [1, 1e6], got {steps!r}") from None
+    if not (1 <= per_period <= 1e6 and 1 <= per_contact <= 1e6):
+        raise ValueError(f"steps must be a pair of numbers in [1, 1e6], got {steps!r}")
+    if model == "point-mass":
+        raise ValueError("steps applies to the deformable and vertical models only "
+                         "(the material point is event-driven)")
+    return per_period, per_contact
 
 
 def _window(window, periods):
@@ -72,7 +88,7 @@ def _grow(a, factor=2):
 
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
              max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-             refine=1.0, **values):
+             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, **values):
     """Simulate one scene and return its trajectory (xarray.Dataset).
 
     scene: a `Scene`, or scene values as keywords (amplitude=..., mass=...).
@@ -82,6 +98,10 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     progress: callable(fraction) called between chunks.
     cancel: object with is_set() (threading.Event); raises Cancelled.
     refine: divide the fidelity's step (convergence studies).
+    steps: (steps per period, steps per contact time scale) in place of the
+        fidelity preset's pair (work-precision studies; Hertz models only).
+    shortcuts: bit mask of the Hertz kernels' exact-to-rounding shortcuts
+        (models.deformable.SHORT_*; 0 switches them all off, for the bench).
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -91,19 +111,24 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     if isinstance(refine, bool) or not (isinstance(refine, (int, float))
                                         and math.isfinite(refine) and 1 <= refine <= 1024):
         raise ValueError(f"refine must be a number in [1, 1024], got {refine!r}")
+    if isinstance(shortcuts, bool) or not (isinstance(shortcuts, (int, np.integer))
+                                           and 0 <= shortcuts <= D.SHORTCUTS_ALL):
+        raise ValueError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], "
+                         f"got {shortcuts!r}")
     if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, float))
                                            and max_steps > 0 and not math.isnan(max_steps)):
         raise ValueError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
-    steps = estimate_steps(scene, refine)
-    if steps > max_steps:
+    steps = _check_steps(steps, scene.model)
+    n_steps = estimate_steps(scene, refine, steps)
+    if n_steps > max_steps:
         raise StepBudgetExceeded(
-            f"scene needs about {steps:.3g} steps, over the budget of {max_steps:.3g} "
+            f"scene needs about {n_steps:.3g} steps, over the budget of {max_steps:.3g} "
             f"(reduce periods or fidelity, or raise max_steps)")
     w0, w1 = _window(window, scene.periods)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
     samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
-                                        progress, cancel)
+                                        progress, cancel, shortcuts=int(shortcuts), steps=steps)
     seconds = time.perf_counter() - start
     attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
                  force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
@@ -132,14 +157,15 @@ def _drive(call, t_end, chunk, buffers, progress, cancel):
             raise Cancelled("run cancelled")
 
 
-def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel, final=None):
+def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel, final=None,
+               shortcuts=D.SHORTCUTS_ALL, steps=None):
     """Run the deformable or vertical kernel; `final` (a dict), if given,
     receives the end state and memory diagram (memory snapshots)."""
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine)
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
     tangential = scene.model == "deformable"
     sdt = 1.0 / samples_per_period
     p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
-                        scene.tau, h, scene.periods, sdt, (w0, w1))
+                        scene.tau, h, scene.periods, sdt, (w0, w1), shortcuts)
     state, hist = D.rest_state()
     n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
     buf = {
@@ -177,7 +203,9 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel, fina
     return buf["samples"][:n], buf["events"][:k], ctr, {"h": h}
 
 
-def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel):
+def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
+                    shortcuts=None, steps=None):
+    # event-driven: its flights and segments are closed forms already
     dt = scan_step(scene.fidelity, refine)
     p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
                        scene.tau, float(scene.periods), scene.alpha_t,

@@ -40,16 +40,32 @@ def vertical_displacement(t, amplitude, tau):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def surface_motion(t, amplitude, r, tau):
-    """(u_x*, u_y*, du_x*/dt, du_y*/dt) of the substrate surface."""
-    g, g1, _ = ramp(t, tau)
-    c = math.cos(TWO_PI * t)
-    s = math.sin(TWO_PI * t)
+def ramp_exact(t, tau):
+    """(G, G') evaluated in full, even where G = 1 to machine precision
+    (the reference for the ramp shortcut of `ramp`)."""
+    if tau <= 0.0:
+        return 1.0, 0.0
+    q = t / tau
+    e = math.exp(-q * q)
+    return 1.0 - e, 2.0 * t / (tau * tau) * e
+
+
+@njit(cache=True, nogil=True, inline="always")
+def wave_motion(c, s, g, g1, amplitude, r):
+    """(u_x*, u_y*, du_x*/dt, du_y*/dt) from c = cos(2 pi t), s = sin(2 pi t)
+    and the ramp (G, G') at t."""
     ux = g * amplitude * r * s
     uy = g * amplitude * c
     vx = amplitude * r * (g1 * s + TWO_PI * g * c)
     vy = amplitude * (g1 * c - TWO_PI * g * s)
     return ux, uy, vx, vy
+
+
+@njit(cache=True, nogil=True, inline="always")
+def surface_motion(t, amplitude, r, tau):
+    """(u_x*, u_y*, du_x*/dt, du_y*/dt) of the substrate surface."""
+    g, g1, _ = ramp(t, tau)
+    return wave_motion(math.cos(TWO_PI * t), math.sin(TWO_PI * t), g, g1, amplitude, r)
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -56,6 +56,12 @@ class StoreMismatch(ValueError):
     """The store on disk was made by a different command or is damaged."""
 
 
+def _why(exc, limit=240):
+    """An underlying error as one short line (for StoreMismatch messages)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def parse_range(text, name):
     """'start:stop:step' (inclusive stop) -> 1-D array, validated."""
     try:
@@ -164,33 +170,87 @@ def _check_store(ds, sweep, path):
 
 def verify(ds, path="store"):
     """Raise StoreMismatch unless every done chunk matches its digest."""
-    rows = int(ds.attrs.get("chunk_rows", 0))
-    if rows < 1 or "done" not in ds or "digest" not in ds:
+    rows = ds.attrs.get("chunk_rows", 0)
+    if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
+            or "digest" not in ds):
         raise StoreMismatch(f"{path} is not a vibtrans sweep store")
-    for k in np.flatnonzero(ds["done"].values):
+    missing = [name for name in VARIABLES if name not in ds]
+    if missing:
+        raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: "
+                            f"{', '.join(missing)})")
+    try:
+        done, digests = ds["done"].values, ds["digest"].values
+    except Exception as exc:   # undecodable flags: damaged or truncated
+        raise StoreMismatch(f"{path}: the done flags or digests cannot be read "
+                            f"({_why(exc)})") from None
+    n_chunks = -(-ds.sizes.get("log_amplitude", 0) // rows)
+    if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
+        raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
+    for k in np.flatnonzero(done):
         sl = slice(int(k) * rows, (int(k) + 1) * rows)
         try:
             block = ds[list(VARIABLES)].isel(log_amplitude=sl).load()
         except Exception as exc:   # undecodable chunk: damaged or truncated
-            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({exc})") from None
-        if _digest(block) != ds["digest"].values[k]:
+            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({_why(exc)})") from None
+        if _digest(block) != digests[k]:
             raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
                                 f"(damaged or edited); delete the store and rerun")
 
 
-def open_map(path):
-    """Open a finished or partial sweep, verified; undone points are masked."""
+def open_map(path, expect=None):
+    """Open a finished or partial sweep, verified; undone points are masked.
+
+    expect: scene values the store must have been made with (e.g.
+    {"model": "deformable", "mu": 0.3}, from a map's file name); a store made
+    with others is refused (StoreMismatch)."""
     if not os.path.exists(path):
         raise FileNotFoundError(f"no sweep store at {path}")
     try:
         ds = xr.open_zarr(path, consolidated=False)
     except Exception as exc:
-        raise StoreMismatch(f"{path} is not a readable Zarr store ({exc})") from None
+        raise StoreMismatch(f"{path} is not a readable Zarr store ({_why(exc)})") from None
+    made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
+    if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
+        have = ", ".join(f"{k}={v}" for k, v in made.items())
+        want = ", ".join(f"{k}={v}" for k, v in expect.items())
+        raise StoreMismatch(f"{path} was made for {have}, not {want} (a sweep store under "
+                            f"another map's name?)")
     verify(ds, path)
-    ds = ds.load()
+    try:
+        ds = ds.load()
+    except Exception as exc:   # e.g. an unfinished chunk that is damaged
+        raise StoreMismatch(f"{path} cannot be read ({_why(exc)})") from None
     rows = int(ds.attrs["chunk_rows"])
     done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
     return ds.assign(point_done=("log_amplitude", done_rows))
+
+
+VERTICAL_VARIABLES = ("threshold_amplitude", "point_mass_threshold_amplitude")
+
+
+def open_vertical(path):
+    """The jumping-threshold curve A_J*(m*) (netCDF, from `vibtrans threshold
+    --sweep`), checked: StoreMismatch naming the path and the problem if it
+    is unreadable (damaged, truncated) or not such a curve (foreign)."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no vertical curve at {path}")
+    try:
+        ds = xr.load_dataset(path)
+    except Exception as exc:
+        raise StoreMismatch(f"{path} is not a readable netCDF file ({_why(exc)})") from None
+    missing = [v for v in ("log_mass", *VERTICAL_VARIABLES) if v not in ds.variables]
+    if missing:
+        raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: "
+                            f"{', '.join(missing)})")
+    lm = ds["log_mass"].values
+    if (ds["log_mass"].dims != ("log_mass",) or lm.size < 2 or lm.dtype.kind != "f"
+            or not np.isfinite(lm).all() or not (np.diff(lm) > 0).all()):
+        raise StoreMismatch(f"{path}: log_mass is not an increasing grid of finite numbers")
+    for v in VERTICAL_VARIABLES:
+        a = ds[v].values
+        if ds[v].dims != ("log_mass",) or a.dtype.kind != "f" or (a <= 0).any():
+            raise StoreMismatch(f"{path}: {v} is not a positive curve over log_mass")
+    return ds
 
 
 def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
@@ -206,7 +266,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
         try:
             existing = xr.open_zarr(path, consolidated=False)
         except Exception as exc:
-            raise StoreMismatch(f"{path} exists but is not a readable sweep store ({exc})") from None
+            raise StoreMismatch(f"{path} exists but is not a readable sweep store "
+                                f"({_why(exc)})") from None
         _check_store(existing, sweep, path)
         verify(existing, path)
         done = existing["done"].values.copy()

@@ -22,13 +22,20 @@ import numpy as np
 from numba import njit
 
 from .. import records as R
-from ..contact import FLIGHT, memory_commit, normal_force
+from ..contact import FLIGHT, memory_commit
+from ..jit import kernel
 from ..integrators import AB4, ab4_increment, find_landing, push_history
-from ..substrate import surface_motion
+from ..substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
 
 # params
-P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1 = range(11)
-NPARAM = 11
+P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1, P_SHORT = range(12)
+NPARAM = 12
+# Shortcuts (bits of params[P_SHORT]); `vibtrans bench --shortcuts` measures
+# each one's speed-up and result difference by switching it off.
+SHORT_RAMP = 1       # G(t) = 1 once exp(-t^2/tau^2) < 2^-60 (t > 6.5 tau): skip exp
+SHORT_ROTATION = 2   # cos, sin of 2 pi t advanced by a rotation on fixed steps
+SHORTCUTS_ALL = SHORT_RAMP | SHORT_ROTATION
+ROTATION_STEPS = 64  # exact cos, sin every 64 steps: rounding stays ~1e-14
 # state
 S_T, S_X, S_VX, S_Y, S_VY, S_T0, S_X0, S_VX0, S_Y0, S_VY0, S_GAP = range(11)
 NSTATE = 11  # S_GAP: a* at the last committed step (locates take-offs)
@@ -37,11 +44,12 @@ MODE_FLIGHT = 1
 
 
 def kernel_params(amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt,
-                  window=(math.inf, -math.inf)):
+                  window=(math.inf, -math.inf), shortcuts=SHORTCUTS_ALL):
     """The kernel's parameter vector (values already validated)."""
     p = np.zeros(NPARAM)
-    p[[P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1]] = (
-        amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt, window[0], window[1])
+    p[[P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1, P_SHORT]] = (
+        amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt, window[0], window[1],
+        shortcuts)
     return p
 
 
@@ -78,6 +86,49 @@ def _record_flight(samples, ctr, state, t, p, tangential):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _hermite(p0, v0, p1, v1, h, s):
+    """Cubic Hermite interpolant of a step at t0 + s h (0 <= s <= 1): value
+    and slope from the values and slopes at both ends (error O(h^4))."""
+    s2 = s * s
+    s3 = s2 * s
+    p = ((2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * h * v0
+         + (3.0 * s2 - 2.0 * s3) * p1 + (s3 - s2) * h * v1)
+    v = ((6.0 * s2 - 6.0 * s) * (p0 - p1) / h + (3.0 * s2 - 4.0 * s + 1.0) * v0
+         + (3.0 * s2 - 2.0 * s) * v1)
+    return p, v
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
+                t1, x1, vx1, y1, vy1, tangential):
+    """Record the state at t_end, inside the last step (t0, t1]: positions
+    and velocities exact on a flight parabola, else Hermite-interpolated;
+    a*, b*, b*', N* from them and the exact substrate motion at t_end; the
+    contact state, the stick radius and T* are the step end's (held to
+    s <= c and Coulomb's |T*| <= N* at t_end)."""
+    t_end = p[P_TEND]
+    m = p[P_M]
+    if st == FLIGHT and state[S_T0] <= t_end:
+        x, vx, y, vy = _flight_point(state, t_end, m)
+    else:
+        s = (t_end - t0) / (t1 - t0)
+        x, vx = _hermite(x0, vx0, x1, vx1, t1 - t0, s)
+        y, vy = _hermite(y0, vy0, y1, vy1, t1 - t0, s)
+    ux, uy, uxd, uyd = surface_motion(t_end, p[P_A], p[P_R], p[P_TAU])
+    a = y - uy
+    c = math.sqrt(a) if a > 0.0 else 0.0
+    stick = min(math.sqrt(sh), c) if sh > 0.0 and st != FLIGHT else 0.0
+    if tangential:
+        scale = p[P_THETA] * p[P_MU]
+        nf = a * c
+        R.record(samples, ctr, t_end, x, vx, y, vy, a, (x - ux) / scale,
+                 (vx - uxd) / scale, nf, max(-nf, min(tf, nf)), st, stick, c)
+    else:
+        R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, a * c, 0.0,
+                 st, 0.0, c)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
                     nvert, memf, samples, events, ctr, t_stop, tangential):
     A = p[P_A]
@@ -91,10 +142,23 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
     w0 = p[P_W0]
     w1 = p[P_W1]
     scale = p[P_THETA] * mu           # theta mu: b* = (x* - u_x*) / (theta mu)
+    # multiplies, not divides, on the step's critical path (x -> b* -> T* -> x'')
+    inv_scale = 1.0 / scale
+    inv_m = 1.0 / m
+    mu_m = mu / m
     final = t_stop >= t_end
     cap_s = samples.shape[0]
     cap_e = events.shape[0]
     cap_m = H.shape[0]
+    shortcuts = int(p[P_SHORT])
+    # beyond t_flat the ramp G is 1 to machine precision
+    t_flat = RAMP_OFF * tau if shortcuts & SHORT_RAMP else math.inf
+    rotation = ROTATION_STEPS if shortcuts & SHORT_ROTATION else 0
+    cos_h = math.cos(TWO_PI * h)
+    sin_h = math.sin(TWO_PI * h)
+    cw = 1.0                          # cos(2 pi t), sin(2 pi t) at the last step
+    sw = 0.0
+    rot_left = 0                      # steps before cos, sin are evaluated afresh
     while state[S_T] < t_end:
         t = state[S_T]
         if ctr[R.C_MODE] == MODE_FLIGHT:
@@ -135,6 +199,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
             # ---- landing: restart contact, history from the parabola ----
             ux, uy, uxd, uyd = surface_motion(t_fin, A, r, tau)
             ctr[R.C_MODE] = MODE_CONTACT
+            rot_left = 0              # off the step grid: restart the rotation
             R.add_event(events, ctr, t_fin, R.LANDING, t_fin - math.floor(t_fin))
             state[S_GAP] = 0.0
             if tangential:
@@ -172,19 +237,38 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
             y1 = state[S_Y] + h * state[S_VY] + 0.5 * h * h * hist[0, 3]
             vx1 = 0.0
             vy1 = 0.0
-        ux, uy, uxd, uyd = surface_motion(t1, A, r, tau)
+        if rot_left > 0:
+            # t1 = t + h: rotate (cos, sin)(2 pi t) by 2 pi h
+            c_new = cw * cos_h - sw * sin_h
+            sw = sw * cos_h + cw * sin_h
+            cw = c_new
+            rot_left -= 1
+        else:
+            cw = math.cos(TWO_PI * t1)
+            sw = math.sin(TWO_PI * t1)
+            rot_left = rotation
+        if t1 >= t_flat:
+            g = 1.0
+            g1 = 0.0
+        else:
+            g, g1 = ramp_exact(t1, tau)
+        ux, uy, uxd, uyd = wave_motion(cw, sw, g, g1, A, r)
         a1 = y1 - uy
-        nf = normal_force(a1)
+        c1 = 0.0                      # contact radius sqrt(a*)
+        nf = 0.0                      # Hertz: N* = a*^(3/2)
+        if a1 > 0.0:
+            c1 = math.sqrt(a1)
+            nf = a1 * c1
         if tangential:
-            b1 = (x1 - ux) / scale
-            tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, b1)
+            b1 = (x1 - ux) * inv_scale
+            tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1)
         else:
             b1 = 0.0
             tf = 0.0
             sh = 0.0
             st = 1 if a1 > 0.0 else FLIGHT
-        ax1 = -mu * tf / m
-        ay1 = (1.0 - nf) / m
+        ax1 = -mu_m * tf
+        ay1 = (1.0 - nf) * inv_m
         if integrator != AB4:
             vx1 = state[S_VX] + 0.5 * h * (hist[0, 1] + ax1)
             vy1 = state[S_VY] + 0.5 * h * (hist[0, 3] + ay1)
@@ -225,7 +309,13 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
                 R.add_event(events, ctr, tto, R.TAKEOFF, tto - math.floor(tto))
             R.add_event(events, ctr, t1, R.STATE_CHANGE, st)
             ctr[R.C_STATE] = st
-        if R.want_sample(t1, ctr, sdt, w0, w1) or (final and t1 >= t_end):
+        if final and t1 > t_end:
+            # x*(T_obs) / T_obs is the drift: the record ends at T_obs exactly,
+            # inside this last step, not up to a step later (in contact x*
+            # follows u_x*, so a later end moves x* by up to 2 pi A* r h)
+            _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
+                        t1, x1, vx1, y1, vy1, tangential)
+        elif R.want_sample(t1, ctr, sdt, w0, w1) or (final and t1 >= t_end):
             c = math.sqrt(a1) if a1 > 0.0 else 0.0
             s = math.sqrt(sh) if sh > 0.0 else 0.0
             bd = (vx1 - uxd) / scale if tangential else 0.0
@@ -236,7 +326,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
     return R.DONE
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def deformable_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
                       samples, events, ctr, t_stop):
     """Deformable particle (Hertz + memory diagram) from state[S_T] to t_stop.

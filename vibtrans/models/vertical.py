@@ -3,13 +3,11 @@
 The same compiled stepping as the deformable particle with the tangential
 part removed at compile time (no memory diagram, no sin, no x).
 """
-import numpy as np
-from numba import njit
-
+from ..jit import kernel
 from .deformable import _hertz_particle
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def vertical_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
                     samples, events, ctr, t_stop):
     """Vertical motion from state[S_T] to t_stop (or the first take-off).
@@ -18,7 +16,7 @@ def vertical_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
     which this compiled variant never reads or writes.
     Returns a records.* status code.
     """
-    no_memory = np.empty((0, 2))
+    # `hist` stands in for the (2-D) vertex array: never touched either.
     return _hertz_particle(params, integrator, stop_at_takeoff, state, hist,
-                           no_memory, dummy, dummy, ctr, dummy, samples, events,
+                           hist, dummy, dummy, ctr, dummy, samples, events,
                            ctr, t_stop, False)

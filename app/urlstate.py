@@ -1,0 +1,119 @@
+"""The explorer's URL query, parsed and validated without Panel (a pure
+function, tested alone in tests/test_url_params.py).
+
+    values, errors = parse(args, state, URL_KEYS, available_maps)
+
+`args` is the request's query as Tornado gives it ({key: [bytes, ...]}) or
+as plain strings; `state` is the ExplorerState (or its class), read only
+for its parameters' kinds, bounds, options and defaults; `URL_KEYS` maps
+parameter name -> URL key.  Returns the values to apply (only valid ones)
+and one message per invalid parameter, naming its URL key and parameter,
+its valid values and what was given.  An invalid value leaves the
+parameter at its default.
+
+Rules:
+* surrounding spaces are dropped (a '+' in a query string is a space);
+* numbers: plain ASCII decimals only (``-0.3``, ``1e-2``, ``+2.``), at most
+  64 characters, finite, inside the parameter's bounds; not ``nan``,
+  ``inf``, ``1_0`` or other-script digits that Python's float() would take;
+* options: exactly one of the selector's objects (case-sensitive);
+* a key given several times with different values is invalid (ambiguous
+  link); given several times with the same value it is that value;
+* unknown keys are ignored (tracking parameters, future keys);
+* mu must name a shipped map for the model: if not, mu = 0.3 (the message
+  says so);
+* the given text is shown in the message escaped (no HTML, no Markdown)
+  and cut to 40 characters: the message is rendered as Markdown.
+"""
+import html
+import math
+import re
+
+import param
+
+MAX_LENGTH = 64            # longest accepted value, characters
+SHOWN = 40                 # longest given text quoted in a message
+DEFAULT_MU = 0.3
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
+_MARKDOWN = re.compile(r"([\\`*_{}\[\]()#+\-.!|~>])")
+
+
+def shown(raw):
+    """The given text, safe to put in a Markdown/HTML message."""
+    text = raw if len(raw) <= SHOWN else raw[:SHOWN] + "…"
+    text = "".join(c if c.isprintable() else "\N{REPLACEMENT CHARACTER}" for c in text)
+    return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=True))
+
+
+def _text(value):
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return str(value)
+
+
+def _valid_range(p):
+    if isinstance(p, param.Selector):
+        return f"one of {', '.join(map(str, p.objects))}"
+    return f"a number in [{p.bounds[0]}, {p.bounds[1]}]"
+
+
+def _convert(p, raw):
+    """The parameter's value for the text `raw`, or ValueError."""
+    if len(raw) > MAX_LENGTH:
+        raise ValueError("too long")
+    raw = raw.strip(" \t")          # a '+' in a query is a space
+    if isinstance(p, param.Selector):
+        if raw not in p.objects:
+            raise ValueError("not an option")
+        return raw
+    if not _NUMBER.fullmatch(raw):
+        raise ValueError("not a number")
+    value = float(raw)
+    lo, hi = p.bounds
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise ValueError("out of range")
+    return value
+
+
+def parse(args, state, url_keys, available_maps=None):
+    """(values, errors): see the module docstring."""
+    args = args or {}
+    values, errors = {}, []
+    for name, key in url_keys.items():
+        if key not in args:
+            continue
+        given = args[key]
+        if isinstance(given, (str, bytes)):
+            given = [given]
+        texts = [_text(v) for v in given]
+        p = state.param[name]
+        if not texts:
+            continue
+        if len(set(texts)) > 1:
+            errors.append(f"URL parameter '{key}' ({name}) is given {len(texts)} times with "
+                          f"different values; it must be {_valid_range(p)}")
+            continue
+        raw = texts[0]
+        try:
+            values[name] = _convert(p, raw)
+        except ValueError:
+            errors.append(f"URL parameter '{key}' ({name}) must be {_valid_range(p)}; "
+                          f"got '{shown(raw)}'")
+    if available_maps is not None:
+        model = values.get("model", state.param["model"].default)
+        mu = values.get("mu", state.param["mu"].default)
+        if (model, mu) not in available_maps:
+            errors.append(f"no shipped map for model={model}, mu={mu:g}; "
+                          f"showing mu = {DEFAULT_MU:g}")
+            values["mu"] = DEFAULT_MU
+    return values, errors
+
+
+def resolved(values, state, url_keys):
+    """Every URL parameter's value: the parsed one, else its default."""
+    return {name: values.get(name, state.param[name].default) for name in url_keys}
+
+
+def message(errors):
+    """The one line the explorer shows for the errors (empty if none)."""
+    return " · ".join(errors) + " — using the defaults for those." if errors else ""
