@@ -6,25 +6,36 @@ Serve with `vibtrans serve` (warms the JIT and loads the maps first) or
 `panel serve app/explorer.py`.
 """
 import asyncio
+import ctypes
+import functools
+import gc
+import logging
 import math
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
+import time
+from concurrent.futures import CancelledError, ThreadPoolExecutor
 
 import holoviews as hv
 import numpy as np
 import panel as pn
 import param
-from holoviews.operation.downsample import downsample1d
 
 from vibtrans import Cancelled, Scene, estimate_steps, plots, simulate, units
 from vibtrans.analysis import summarize
+from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.params import PAPER_POINTS
-from vibtrans.simulate import memory_snapshot
+from vibtrans.simulate import StepBudgetExceeded, memory_snapshot
 
 from . import data
 
 hv.extension("bokeh")
+# Canvas, not WebGL: the figures hold at most ~10^4 points per curve, which a
+# 2D canvas draws in milliseconds, while WebGL without a GPU (software GL:
+# headless browsers, VMs, remote desktops) spent ~1.7 s per update copying
+# its canvas into every figure (`blit_webgl`, measured in chromium).
+hv.renderer("bokeh").webgl = False
+log = logging.getLogger("vibtrans.explorer")
 
 # One pool for the process: numba kernels release the GIL, so runs proceed
 # while the server keeps serving other sessions.
@@ -50,6 +61,140 @@ POINT_LABELS = {
 }
 
 
+SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "regime",
+                "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
+                "in SI units"]
+# the summary before the first run: the same lines (so the page keeps its layout)
+PLACEHOLDER_SUMMARY = "\n".join(
+    ["**Click the map or pick a paper point.**", "", "| quantity | value |", "|---|---|"]
+    + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
+
+
+def _over_budget(steps):
+    return (f"This scene needs about {steps:.2g} steps, over this server's limit of "
+            f"{MAX_STEPS:.2g} (VIBTRANS_MAX_STEPS): lower the fidelity or choose another point.")
+
+
+class Job:
+    """One run of a session (a scene and its comparison run): its cancel
+    flag, its worker futures and its progress."""
+
+    def __init__(self, scene, label=None):
+        self.scene, self.label = scene, label
+        self.event = threading.Event()
+        self.futures = []
+        self.progress = 0.0
+
+    def set_progress(self, fraction):
+        self.progress = fraction
+
+    def submit(self, fn, *args, **kwargs):
+        self.futures.append(RUNNER.submit(fn, *args, **kwargs))
+
+    def cancel(self):
+        """Stop the kernels at their next chunk; drop the runs not started."""
+        self.event.set()
+        for f in self.futures:
+            f.cancel()
+
+
+TRAJECTORY_OPTS = [
+    hv.opts.Curve(width=PLOT_WIDTH, height=190, tools=["hover"], framewise=True),
+    hv.opts.Overlay(width=PLOT_WIDTH, height=190, legend_position="right"),
+    hv.opts.Rectangles(width=PLOT_WIDTH, height=90, tools=["hover"], framewise=True)]
+
+
+def trajectory_elements(ds, other=None, label=None):
+    """A run's figures (from vibtrans.plots) as two lists of elements: the
+    whole run (state timeline as the dominant state per bin; with a
+    comparison `label`, a last panel of x*(t) and the comparison run's) and
+    its last FRAGMENT periods at full resolution."""
+    whole = plots.overview_samples(ds)
+    over = list(plots.trajectory_panels(whole, timeline_bins=OVERVIEW_BINS))
+    if label is not None:
+        twin = other if other is not None else ds.isel(time=slice(0, 0))
+        over.append(plots.twin_comparison(whole, twin, label=label))
+    t = ds["time"].values
+    # (isel: a label-based sel builds a pandas hash index of the times first)
+    frag = ds.isel(time=slice(int(np.searchsorted(t, t[-1] - FRAGMENT)), None))
+    frag = list(plots.trajectory_panels(frag))
+    return ([el.opts(*TRAJECTORY_OPTS) for el in over],
+            [el.opts(*TRAJECTORY_OPTS) for el in frag])
+
+
+_RELEASE = {"handle": None}
+RELEASE_DELAY = 2.0      # s after the last session closed (a burst of closes: once)
+
+
+def _schedule_release():
+    """Once closed sessions are dropped, collect them and hand the memory
+    they used back to the OS: glibc keeps freed heap pages in its arenas, so
+    the RSS would otherwise stay at the high-water mark of the sessions that
+    were open together."""
+    try:
+        loop = asyncio.get_running_loop()
+    except RuntimeError:
+        return
+    if _RELEASE["handle"] is not None:
+        _RELEASE["handle"].cancel()
+    _RELEASE["handle"] = loop.call_later(RELEASE_DELAY, _release_memory)
+
+
+def _release_memory():
+    _RELEASE["handle"] = None
+    t0 = time.perf_counter()
+    gc.collect()
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (OSError, AttributeError):    # not glibc
+        pass
+    log.debug("released memory in %.3f s", time.perf_counter() - t0)
+
+
+def _retrieved(future):
+    if not future.cancelled():
+        future.exception()
+
+
+def _emptied(elements):
+    """The elements with their layers, titles and options, without data."""
+    return [el.map(lambda e: e.iloc[:0], [hv.Curve, hv.Rectangles]) for el in elements]
+
+
+def _pick(i, data):
+    return data[i]
+
+
+class TrajectoryView:
+    """The trajectory figures of one structure (model, comparison) in a
+    session, built once: each panel is a DynamicMap fed by a Pipe, so a new
+    run sends new data to the existing Bokeh figures (no new layout, no new
+    figure models).  The whole-run panels share one zoomable time axis and
+    hold every sample of the overview (zoom is client-side, no server round
+    trip); the fragment below is exact."""
+
+    def __init__(self, over, frag):
+        self.over_pipe = hv.streams.Pipe(data=over)
+        self.frag_pipe = hv.streams.Pipe(data=frag)
+        maps = [hv.DynamicMap(functools.partial(_pick, i), streams=[self.over_pipe])
+                for i in range(len(over))]
+        fmaps = [hv.DynamicMap(functools.partial(_pick, i), streams=[self.frag_pipe])
+                 for i in range(len(frag))]
+        self.panel = pn.Column(
+            pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
+            pn.pane.HoloViews(hv.Layout(maps).cols(1), linked_axes=False, name="whole-run"),
+            pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution**"),
+            pn.pane.HoloViews(hv.Layout(fmaps).cols(1), linked_axes=False, name="fragment"))
+
+    def send(self, over, frag):
+        """Show a new run: new data, axes to the new run's extent."""
+        self.over_pipe.send(over)
+        self.frag_pipe.send(frag)
+
+
+Position = hv.streams.Stream.define("Position", log_amplitude=0.0, log_mass=0.0)
+
+
 class ExplorerState(param.Parameterized):
     """What the user selected; mirrored in the URL."""
 
@@ -73,7 +218,7 @@ class Explorer(pn.viewable.Viewer):
     def __init__(self, **params):
         super().__init__(**params)
         self.state = ExplorerState()
-        self._cancel = None
+        self._job = None                    # the session's one running run (a Job)
         self.message = pn.pane.Alert("", alert_type="danger", visible=False,
                                      sizing_mode="stretch_width")
         self.progress = pn.indicators.Progress(value=0, max=100, visible=False,
@@ -86,14 +231,25 @@ class Explorer(pn.viewable.Viewer):
         self.point_select = pn.widgets.Select(
             name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}})
         self.point_select.param.watch(self._on_point, "value")
-        self.summary = pn.pane.Markdown("Click the map or pick a paper point.",
-                                        width=PLOT_WIDTH, name="summary")
-        self.trajectory = pn.Column(name="trajectory")
+        # the summary, teaching and export views are in place from the start
+        # (empty, disabled), so the first run changes no layout in the page
+        self.summary = pn.pane.Markdown(PLACEHOLDER_SUMMARY, width=PLOT_WIDTH, name="summary")
         self.units_panel = UnitsPanel(self)
         self._last = None
         self.teaching = self._teaching()
+        self.teaching.visible = self.state.model == "deformable"
         self.exports = self._exports()
+        # the trajectory figures of each structure (model, comparison) shown
+        # so far: built once, then fed new data; only one is visible
+        self.trajectory_views = {}
+        self.trajectory = pn.Column(self.teaching, self.exports, name="trajectory")
+        if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
+            pn.state.on_session_destroyed(self._on_session_destroyed)
+            pn.state.onload(self._prebuild)
         self._apply_url()
+        problems = data.problems()            # damaged or missing shipped files
+        if problems:
+            self._error("\n\n".join(filter(None, [self.message.object, *problems])))
         self.map_pane = pn.pane.HoloViews(self._map_dmap(), name="map", linked_axes=False)
         self.tap.param.watch(self._on_tap, ["x", "y"])
 
@@ -101,28 +257,16 @@ class Explorer(pn.viewable.Viewer):
     def _apply_url(self):
         if pn.state.location is None:
             return
-        args = pn.state.session_args or {}
-        errors = []
-        for name, key in URL_KEYS.items():
-            if key not in args:
-                continue
-            raw = args[key][0].decode(errors="replace")
-            try:
-                value = raw if isinstance(self.state.param[name], param.Selector) else float(raw)
-                if isinstance(value, float) and not math.isfinite(value):
-                    raise ValueError
-                setattr(self.state, name, value)
-            except Exception:
-                p = self.state.param[name]
-                rng = (f"one of {', '.join(map(str, p.objects))}" if isinstance(p, param.Selector)
-                       else f"a number in [{p.bounds[0]}, {p.bounds[1]}]")
-                errors.append(f"URL parameter '{key}' ({name}) must be {rng}; got '{raw}'")
-        if (self.state.model, self.state.mu) not in data.available_maps():
-            errors.append(f"no shipped map for model={self.state.model}, mu={self.state.mu:g}; "
-                          f"showing mu = 0.3")
-            self.state.mu = 0.3
-        if errors:
-            self._error(" · ".join(errors) + " — using the defaults for those.")
+        # Parsed and validated by a pure function (app/urlstate.py).  The
+        # URL is then rewritten from the validated state: Location.sync would
+        # otherwise apply the raw query itself (and Panel's parse_query raises
+        # on some texts, e.g. '?x=²').
+        from . import urlstate
+        values, errors = urlstate.parse(pn.state.session_args, self.state, URL_KEYS,
+                                        data.available_maps())
+        self.state.param.update(**urlstate.resolved(values, self.state, URL_KEYS))
+        self._error(urlstate.message(errors))
+        pn.state.location.search = ""
         pn.state.location.sync(self.state, URL_KEYS)
 
     def _error(self, text):
@@ -136,41 +280,63 @@ class Explorer(pn.viewable.Viewer):
         @pn.depends(self.state.param.model, self.state.param.mu, self.state.param.v0,
                     self.state.param.chaotic)
         def heatmap(model, mu, v0, chaotic):
-            ds = data.drift_map(model, mu)
+            try:
+                ds = data.drift_map(model, mu)
+            except data.MapUnavailable as exc:    # said at session start too
+                return hv.Text(0.0, 0.0, str(exc)).opts(width=PLOT_WIDTH, height=460)
             el = plots.drift_map(ds, v0=v0, chaotic=chaotic,
                                  title=f"{model}, mu = {mu:g}")
             if vertical is not None:
                 el = el * plots.jumping_boundary(vertical, model).select(
                     log_amplitude=(-3.0, 3.0))
-                if model == "deformable":
-                    el = el * plots.resonance_lines(vertical)
+                # the deformable model's resonances: a layer of both models'
+                # maps, hidden in the point mass's (a layer missing from a
+                # later frame would stay drawn)
+                el = el * plots.resonance_lines(vertical).opts(
+                    hv.opts.HLine(visible=model == "deformable"))
             el = el * plots.paper_points(model)
             return el.opts(hv.opts.Image(tools=["hover"], width=PLOT_WIDTH, height=460,
                                          title=f"<v*> over 2000 periods: {model}, mu = {mu:g}"))
 
-        @pn.depends(self.state.param.log_amplitude, self.state.param.log_mass,
-                    self.units_panel.param.marker)
-        def marker(log_amplitude, log_mass, marker, x=None, y=None):
-            units_marker = marker
+        def marker(x, y, log_amplitude, log_mass, marker):
             sel = hv.Points([(log_amplitude, log_mass)], [plots.LOG_A, plots.LOG_M]).opts(
                 color="yellow", size=14, marker="circle", line_color="black")
-            if units_marker is not None:
-                sel = sel * hv.Points([units_marker], [plots.LOG_A, plots.LOG_M]).opts(
-                    color="lime", size=14, marker="diamond", line_color="black")
-            return sel
+            units = hv.Points([] if marker is None else [marker], [plots.LOG_A, plots.LOG_M])
+            return sel * units.opts(color="lime", size=14, marker="diamond",
+                                    line_color="black")
 
-        # The Tap stream lives on the marker layer: a stream bound to a
-        # DynamicMap of overlays via `source` is not linked to the plot.
+        # The Tap stream is an input of the marker layer (a stream bound to
+        # the DynamicMap of overlays via `source` is not linked to the plot).
+        # The selected point reaches the marker through `self._position`, an
+        # explicit stream: a click updates it silently and the Tap's own
+        # trigger redraws the map once (a param dependency would redraw twice).
         self.tap = hv.streams.Tap(x=None, y=None)
-        return hv.DynamicMap(heatmap) * hv.DynamicMap(marker, streams=[self.tap])
+        self._position = Position(log_amplitude=self.state.log_amplitude,
+                                  log_mass=self.state.log_mass)
+        self._tapping = False
+        self.state.param.watch(self._on_position, ["log_amplitude", "log_mass"])
+        markers = hv.DynamicMap(marker, streams=[
+            self.tap, self._position, hv.streams.Params(self.units_panel, ["marker"])])
+        return hv.DynamicMap(heatmap) * markers
+
+    def _on_position(self, *events):
+        values = dict(log_amplitude=self.state.log_amplitude, log_mass=self.state.log_mass)
+        if self._tapping:
+            self._position.update(**values)
+        else:
+            self._position.event(**values)
 
     def _on_tap(self, *events):
         x, y = self.tap.x, self.tap.y
         if x is None or y is None:
             return
-        self.state.param.update(log_amplitude=float(np.clip(round(x, 3), -3, 3)),
-                                log_mass=float(np.clip(round(y, 3), -5, 5)))
-        pn.state.execute(self._run)
+        self._tapping = True
+        try:
+            self.state.param.update(log_amplitude=float(np.clip(round(x, 3), -3, 3)),
+                                    log_mass=float(np.clip(round(y, 3), -5, 5)))
+        finally:
+            self._tapping = False
+        self.start_run()
 
     def _on_point(self, event):
         k = event.new
@@ -180,14 +346,14 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.update(model=model, log_amplitude=la, log_mass=lm,
                                 mu=0.3 if (model, self.state.mu) not in data.available_maps()
                                 else self.state.mu)
-        pn.state.execute(self._run)
+        self.start_run()
 
     def _on_run_click(self, event):
-        pn.state.execute(self._run)
+        self.start_run()
 
     def _on_cancel(self, event):
-        if self._cancel is not None:
-            self._cancel.set()
+        if self._job is not None:
+            self._job.cancel()
 
     # ---------- runs ----------
     def scene(self):
@@ -196,160 +362,261 @@ class Explorer(pn.viewable.Viewer):
                      model=s.model, fidelity=s.fidelity, integrator=s.integrator)
 
     async def _run(self):
-        if self._cancel is not None:          # one run per session at a time
-            self._cancel.set()
+        """Run the selected scene and wait until it is shown (or refused,
+        failed, cancelled or replaced)."""
+        job = self.start_run(schedule=False)
+        if job is not None:
+            await self._finish(job)
+
+    def start_run(self, schedule=True):
+        """Run the selected scene.  One run per session: a new request
+        cancels the session's running one (its kernels stop at their next
+        chunk, runs not started are dropped) and replaces it.  The kernels
+        start here, at once; `_finish` (scheduled unless `schedule` is
+        False) waits for them.  Returns the Job, or None if refused."""
+        self._cancel_job()
         try:
             scene = self.scene()
             steps = estimate_steps(scene)
         except ValueError as exc:
             self._error(str(exc))
-            return
+            return None
         if steps > MAX_STEPS:
-            self._error(f"This scene needs about {steps:.2g} steps, over this server's limit "
-                        f"of {MAX_STEPS:.2g}: lower the fidelity or choose another point.")
-            return
+            self._error(_over_budget(steps))
+            return None
         self._error("")
-        cancel = threading.Event()
-        self._cancel = cancel
-        done = [0.0]
-        self.progress.value, self.progress.visible = 0, True
-        self.cancel_button.disabled = False
-        self.summary.object = f"Running {scene.model} at A* = {scene.amplitude:.4g}, " \
-                              f"m* = {scene.mass:.4g} ..."
-        T = scene.periods
-
+        other_scene, label = self._comparison(scene)
+        job = self._job = Job(scene, label)
         # The comparison run goes in parallel with the main one (the kernels
-        # release the GIL); a tau twin that turns out unneeded (no jump) is
-        # simply not shown.
-        other_scene = None
-        if self.state.compare == "tau twin":
-            other_scene = scene.replace(tau=scene.tau + 1e-3)
-        elif self.state.compare == "point mass" and scene.model == "deformable":
-            other_scene = scene.replace(model="point-mass")
-        main = RUNNER.submit(simulate, scene, window=(T - FRAGMENT, T),
-                             samples_per_period=OVERVIEW_SAMPLES,
-                             progress=lambda f: done.__setitem__(0, f), cancel=cancel,
-                             max_steps=MAX_STEPS)
-        second = None if other_scene is None else RUNNER.submit(
-            simulate, other_scene, samples_per_period=OVERVIEW_SAMPLES, cancel=cancel,
-            max_steps=MAX_STEPS)
+        # release the GIL).
+        T = scene.periods
+        job.submit(simulate, scene, window=(T - FRAGMENT, T),
+                   samples_per_period=OVERVIEW_SAMPLES, progress=job.set_progress,
+                   cancel=job.event, max_steps=MAX_STEPS)
+        if other_scene is not None:
+            job.submit(simulate, other_scene, samples_per_period=OVERVIEW_SAMPLES,
+                       cancel=job.event, max_steps=MAX_STEPS)
+        if schedule:
+            pn.state.execute(functools.partial(self._finish, job))
+        return job
+
+    def _cancel_job(self):
+        job, self._job = self._job, None
+        if job is not None:
+            job.cancel()
+        return job
+
+    def _on_session_destroyed(self, session_context):
+        self._cancel_job()
+        self.trajectory_views.clear()
+        _schedule_release()
+
+    def _prebuild(self):
+        """Draw the (empty) trajectory figures of the selected structure
+        once the page has loaded, so that the first click only sends data,
+        like every later one (building and first drawing them take seconds;
+        a hidden figure would still be drawn for the first time on click).
+        The structure comes from a 2-period run of the selected scene."""
         try:
-            while not (main.done() and (second is None or second.done())):
-                self.progress.value = int(100 * done[0])
-                await asyncio.sleep(0.05)
-            ds = main.result()
-            other = None if second is None else second.result()
-            if other is not None and self.state.compare == "tau twin" \
-                    and not (ds["event_kind"].values == 0).any():
-                other = None
-        except Cancelled:
-            self.summary.object = "Run cancelled."
+            scene = self.scene()
+            _, label = self._comparison(scene)
+            key = (scene.model, label)
+            short = scene.replace(periods=FRAGMENT)
+            if self.trajectory_views or estimate_steps(short) > 1e6:
+                return
+            ds = simulate(short, window=(0.0, FRAGMENT), samples_per_period=OVERVIEW_SAMPLES)
+            over, frag = trajectory_elements(ds, None, label)
+            with pn.io.hold(freeze=True):
+                self._view(key, _emptied(over), _emptied(frag))
+        except Exception:           # only an optimisation: the first run builds them
+            log.exception("drawing the empty trajectory figures failed")
+
+    def _view(self, key, over, frag):
+        """The session's figures of a structure: built once, then fed."""
+        view = self.trajectory_views.get(key)
+        if view is None:
+            view = self.trajectory_views[key] = TrajectoryView(over, frag)
+            self.trajectory.insert(len(self.trajectory) - 2, view.panel)
+        else:
+            view.send(over, frag)
+        return view
+
+    def _comparison(self, scene):
+        """(comparison scene or None, its label in the figures or None)."""
+        if self.state.compare == "tau twin":
+            return scene.replace(tau=scene.tau + 1e-3), "tau + 1e-3"
+        if self.state.compare == "point mass" and scene.model == "deformable":
+            return scene.replace(model="point-mass"), "point mass"
+        return None, None
+
+    async def _finish(self, job):
+        """Wait for a job's runs, then show them, if it is still the
+        session's job (a replaced job ends silently)."""
+        scene = job.scene
+        waiting = [asyncio.wrap_future(f) for f in job.futures]
+        for w in waiting:        # a replaced job's errors are not for anyone
+            w.add_done_callback(_retrieved)
+        shown = False
+        try:
+            t0 = time.perf_counter()
+            while True:
+                _, pending = await asyncio.wait(waiting, timeout=0.1)
+                if self._job is not job:         # replaced by a newer run
+                    return
+                if not pending:
+                    break
+                # progress only for runs that take a while (a fast run's UI
+                # goes straight from the click to its plots)
+                if not shown and time.perf_counter() - t0 > 0.25:
+                    shown = True
+                    with pn.io.hold():
+                        self.progress.visible = True
+                        self.cancel_button.disabled = False
+                        self.summary.object = (f"Running {scene.model} at "
+                                               f"A* = {scene.amplitude:.4g}, "
+                                               f"m* = {scene.mass:.4g} ...")
+                if shown:
+                    self.progress.value = int(100 * job.progress)
+            ds = job.futures[0].result()
+            other = None if len(job.futures) < 2 else job.futures[1].result()
+        except (Cancelled, CancelledError):
+            if self._job is job:
+                self.summary.object = "Run cancelled."
+            return
+        except StepBudgetExceeded as exc:
+            if self._job is job:
+                self._error(f"This scene is over this server's limit "
+                            f"(VIBTRANS_MAX_STEPS): {exc}")
+                self.summary.object = ""
             return
         except Exception as exc:          # a failed run harms only this session
-            self._error(f"The run failed: {exc}")
-            self.summary.object = ""
+            if self._job is job:
+                log.exception("run failed: %s", scene.values())
+                self._error(f"The run failed: {type(exc).__name__}: {exc}")
+                self.summary.object = ""
             return
         finally:
-            self.progress.visible = False
-            self.cancel_button.disabled = True
-            if self._cancel is cancel:
-                self._cancel = None
-        self._show(scene, ds, other)
+            if self._job is job:
+                self._job = None
+            if self._job is None and (shown or self.progress.visible):
+                with pn.io.hold():
+                    self.progress.visible = False
+                    self.cancel_button.disabled = True
+        try:
+            self._show(scene, ds, other, job.label)
+        except Exception as exc:
+            log.exception("drawing a run failed: %s", scene.values())
+            self._error(f"Drawing the run failed: {type(exc).__name__}: {exc}")
 
-    def _show(self, scene, ds, other):
+    def _show(self, scene, ds, other, label):
         twin = other if (other is not None and other.attrs["model"] == scene.model) else None
+        unneeded = twin is not None and not (ds["event_kind"].values == 0).any()
+        if unneeded:
+            twin = None       # no take-off: the tau twin has nothing to decide
         s = summarize(ds, twin)
         self.units_panel.last_drift = s.drift_velocity
         si = self.units_panel.si_text(s.drift_velocity)
         chaos = {None: "not checked", True: "chaotic (tau + 1e-3 twin disagrees)",
                  False: "robust (tau + 1e-3 twin agrees)"}[s.chaotic]
-        self.summary.object = "\n".join([
-            f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
-            f"mu = {scene.mu:g}**", "",
-            "| quantity | value |", "|---|---|",
-            f"| drift <v*> (mean over the run) | **{s.drift_velocity:.4g}** |",
-            f"| drift, final 10% | {s.final_drift_velocity:.4g} |",
-            f"| regime | {s.contact}, {s.drift}{', ' + s.pattern if s.pattern else ''} |",
-            f"| chaos verdict | {chaos} |",
-            f"| take-offs | {s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end) |",
-            f"| contact fraction (final 10%) | {s.contact_fraction:.3f} |",
-            f"| cost | {s.steps:,} steps, {s.seconds:.3f} s ({scene.fidelity}, {scene.integrator}) |",
-        ] + ([f"| in SI units | {si} |"] if si else []))
+        if unneeded:
+            chaos = "not checked: no take-off (the tau + 1e-3 twin is drawn below)"
         self._last = (scene, ds, twin)
         T = float(ds["time"].values[-1])
-        frag = ds.sel(time=slice(T - FRAGMENT, T))
-        # The whole run: curves min-max/LTTB-downsampled to the plot's width
-        # (re-sampled on zoom), the state timeline as the dominant state per
-        # bin; the fragment below is exact.
-        overview = plots.trajectory_panels(ds, timeline_bins=OVERVIEW_BINS)
-        if other is not None:
-            label = "tau + 1e-3" if twin is not None else "point mass"
-            overview = overview + plots.twin_comparison(ds, other, label=label)
-        overview = downsample1d(overview, width=PLOT_WIDTH)
-        opts = [hv.opts.Curve(width=PLOT_WIDTH, height=190, tools=["hover"]),
-                hv.opts.Overlay(width=PLOT_WIDTH, height=190, legend_position="right"),
-                hv.opts.Rectangles(width=PLOT_WIDTH, height=90, tools=["hover"])]
-        self.trajectory[:] = [
-            pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
-            pn.pane.HoloViews(overview.opts(*opts).cols(1), linked_axes=False),
-            pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution**"),
-            pn.pane.HoloViews(plots.trajectory_panels(frag).opts(*opts).cols(1),
-                              linked_axes=False),
-            self.teaching if scene.model == "deformable" else pn.pane.Markdown(""),
-            self.exports,
-        ]
-        self.memory_time.param.update(start=0.0, end=T, value=round(T - 0.5, 3))
-        self.memory_pane.object = None
+        over, frag = trajectory_elements(ds, other, label)
+        key = (scene.model, label)
+        # Everything below goes to the browser as one message: new data for
+        # the session's existing figures, no new figure models; the document's
+        # model graph is recomputed once, at the end (freeze).
+        with pn.io.hold(freeze=True):
+            self._view(key, over, frag)
+            for k, v in self.trajectory_views.items():
+                v.panel.visible = k == key
+            self.teaching.visible = scene.model == "deformable"
+            self.memory_button.disabled = False
+            for button in self._trajectory_downloads:
+                button.disabled = False
+            self.memory_time.param.update(start=0.0, end=T, value=round(T - 0.5, 3))
+            self.memory_pane.object = None
+            self.summary.object = "\n".join([
+                f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
+                f"mu = {scene.mu:g}**", "",
+                "| quantity | value |", "|---|---|",
+            ] + [f"| {row} | {value} |" for row, value in zip(SUMMARY_ROWS, [
+                f"**{s.drift_velocity:.4g}**",
+                f"{s.final_drift_velocity:.4g}",
+                f"{s.contact}, {s.drift}{', ' + s.pattern if s.pattern else ''}",
+                chaos,
+                f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
+                f"{s.contact_fraction:.3f}",
+                f"{s.steps:,} steps, {s.seconds:.3f} s ({scene.fidelity}, {scene.integrator})",
+                si or "-"])])
 
     # ---------- teaching views ----------
     def _teaching(self):
         self.memory_time = pn.widgets.FloatInput(name="time t* (periods)", value=1999.5,
                                                  start=0.0, end=2000.0, step=0.05, width=200)
-        go = pn.widgets.Button(name="Show the memory diagram at t*", button_type="primary")
-        go.on_click(lambda e: pn.state.execute(self._show_memory))
+        self.memory_button = pn.widgets.Button(name="Show the memory diagram at t*",
+                                               button_type="primary", disabled=True)
+        self.memory_button.on_click(self._on_memory_click)
         self.memory_pane = pn.pane.HoloViews(None, linked_axes=False)
         return pn.Column(
             pn.pane.Markdown("**Memory diagram and contact circle** (Cattaneo-Mindlin with "
                              "history): the anchors w(h) of the springs over the contact "
                              "depth, their displacements u(h) with the Coulomb cone, and the "
                              "stick core inside the slip annulus."),
-            pn.Row(self.memory_time, go), self.memory_pane)
+            pn.Row(self.memory_time, self.memory_button), self.memory_pane, visible=False)
+
+    def _on_memory_click(self, event):
+        pn.state.execute(self._show_memory)
 
     async def _show_memory(self):
-        if self._last is None:
+        if self._last is None or self.memory_button.disabled:
             return
         scene = self._last[0]
         t = float(self.memory_time.value)
+        self.memory_button.disabled = True      # one snapshot at a time per session
         try:
             snap = await asyncio.wrap_future(RUNNER.submit(memory_snapshot, scene, t))
+            fig = plots.memory_diagram(snap) + plots.contact_circle(snap)
+            self.memory_pane.object = fig.opts(
+                hv.opts.Curve(width=380, height=300), hv.opts.Overlay(width=380, height=300))
         except ValueError as exc:
             self._error(str(exc))
-            return
-        fig = plots.memory_diagram(snap) + plots.contact_circle(snap)
-        self.memory_pane.object = fig.opts(
-            hv.opts.Curve(width=380, height=300), hv.opts.Overlay(width=380, height=300))
+        except Exception as exc:
+            log.exception("memory snapshot failed: %s at t = %s", scene.values(), t)
+            self._error(f"The memory diagram failed: {type(exc).__name__}: {exc}")
+        finally:
+            self.memory_button.disabled = False
 
     # ---------- export ----------
     def _exports(self):
         def download(kind, fmt):
             def callback():
+                import io
                 import tempfile
 
                 from vibtrans import export
-                out = os.path.join(tempfile.mkdtemp(prefix="vibtrans-"), f"{kind}.{fmt}")
-                if kind == "map":
-                    export.export_heatmap(data.drift_map(self.state.model, self.state.mu), out,
-                                          v0=self.state.v0, vertical=data.vertical_curve())
-                elif self._last is not None:
-                    scene, ds, twin = self._last
-                    export.export_trajectory(ds, out, twin=twin)
-                return out
+                # the file is read back and its folder removed: nothing left
+                # on the server per click
+                with tempfile.TemporaryDirectory(prefix="vibtrans-") as tmp:
+                    out = os.path.join(tmp, f"{kind}.{fmt}")
+                    if kind == "map":
+                        export.export_heatmap(data.drift_map(self.state.model, self.state.mu),
+                                              out, v0=self.state.v0,
+                                              vertical=data.vertical_curve())
+                    elif self._last is not None:
+                        scene, ds, twin = self._last
+                        export.export_trajectory(ds, out, twin=twin)
+                    with open(out, "rb") as f:
+                        return io.BytesIO(f.read())
             return pn.widgets.FileDownload(callback=callback, filename=f"vibtrans-{kind}.{fmt}",
                                            label=f"{kind} .{fmt}", button_type="light",
-                                           css_classes=[f"vt-export-{kind}-{fmt}"], width=150)
+                                           css_classes=[f"vt-export-{kind}-{fmt}"], width=150,
+                                           disabled=kind == "trajectory")   # until a run
+        buttons = [download(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")]
+        self._trajectory_downloads = buttons[3:]
         return pn.Column(pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
-                         pn.Row(*(download(k, f) for k in ("map", "trajectory")
-                                  for f in ("png", "svg", "html"))))
+                         pn.Row(*buttons))
 
     # ---------- layout ----------
     def vertical_view(self):
@@ -380,6 +647,8 @@ class Explorer(pn.viewable.Viewer):
             pn.widgets.FloatInput.from_param(s.param.log_amplitude, name="log10 A*", step=0.05),
             pn.widgets.FloatInput.from_param(s.param.log_mass, name="log10 m*", step=0.05),
             pn.widgets.Select.from_param(s.param.fidelity, name="fidelity"),
+            pn.pane.Markdown(pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
+                             css_classes=["vt-preset-note"], width=280),
             pn.widgets.Select.from_param(s.param.integrator, name="integrator"),
             pn.widgets.Select.from_param(s.param.compare, name="compare with"),
             pn.Row(self.run_button, self.cancel_button),
@@ -456,7 +725,7 @@ class UnitsPanel(pn.viewable.Viewer):
         if self.marker is not None:
             la, lm = self.marker
             self.explorer.state.param.update(log_amplitude=round(la, 3), log_mass=round(lm, 3))
-            pn.state.execute(self.explorer._run)
+            self.explorer.start_run()
 
     def __panel__(self):
         go = pn.widgets.Button(name="Run this device's scene", button_type="primary")

@@ -1,10 +1,12 @@
 """The explorer in a real headless browser (Debian's chromium driven by
-Playwright): load, click the map, pick a paper point, cancel, units, URL.
+Playwright): load, click the map, pick a paper point, a second run feeding
+the same figures, a click replacing a running run, cancel, the step cap,
+units, URL.
 
-Screenshots go to test-artifacts/ (look at them)."""
+Screenshots (the whole main column, trajectories included) go to
+test-artifacts/ (look at them)."""
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -12,6 +14,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from netutil import free_port  # noqa: E402
 
 playwright = pytest.importorskip("playwright.sync_api")  # installed by `make test`
 
@@ -22,15 +25,9 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
         "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 
-def _free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server():
-    port = _free_port()
+    port = free_port()
     env = dict(os.environ, VIBTRANS_MAX_STEPS="1e8")
     proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
@@ -68,6 +65,9 @@ def page(browser, server, request):
     pg.on("pageerror", lambda e: errors.append(str(e)))
     yield pg
     ARTIFACTS.mkdir(exist_ok=True)
+    # the template scrolls its main column itself: a tall viewport shows it all
+    pg.set_viewport_size({"width": 1400, "height": 3300})
+    pg.wait_for_timeout(1000)
     pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}.png"), full_page=True)
     pg.close()
     assert not errors, errors
@@ -82,6 +82,47 @@ def _open(page, url):
 
 def _summary_text(page):
     return page.get_by_text("drift <v*> (mean over the run)").first
+
+
+# The figures' data sources (Bokeh models in the page): for each one with a
+# time column, its id and length.
+_SOURCES_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    const d = m.data;
+    if (d == null || typeof d !== "object") continue;
+    const t = d instanceof Map ? d.get("time") : d["time"];
+    if (t !== undefined) out.push([m.id, t.length]);
+  }
+  return out;
+}"""
+_MODELS_JS = "() => window.Bokeh.documents.reduce((n, d) => n + d.all_models.size, 0)"
+# each figure: title, the id and extent of its x range
+_FIGURES_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.x_range !== undefined && m.renderers !== undefined && m.title != null)
+      out.push([m.title.text, m.x_range.id, m.x_range.start, m.x_range.end]);
+  return out;
+}"""
+# a run summary (its bold first line) other than `before`, through the
+# nested shadow roots Bokeh renders into
+_NEW_SUMMARY_JS = """(before) => {
+  let found = false;
+  const visit = (root) => {
+    for (const el of root.querySelectorAll("*")) {
+      if (el.shadowRoot) visit(el.shadowRoot);
+      if (el.tagName === "STRONG" && el.textContent.includes("mu = ")
+          && el.textContent !== before) found = true;
+    }
+  };
+  visit(document);
+  return found;
+}"""
+
+
+def _sources(page):
+    return dict(page.evaluate(_SOURCES_JS))
 
 
 def _see(page, text, timeout=30000):
@@ -109,6 +150,62 @@ def test_paper_point_runs_and_plots(page, server):
     page.wait_for_timeout(2000)
     sizes = [c.bounding_box() for c in page.locator("canvas").all()]
     assert sum(1 for b in sizes if b and b["width"] > 500 and b["height"] > 100) >= 3
+    # ... and data: every sample of the whole run (2000 periods x 5), the
+    # fragment's steps, the state bands
+    lengths = sorted(_sources(page).values())
+    assert len(lengths) >= 9 and lengths[0] >= 1, lengths
+    assert lengths[-1] >= 10000, lengths
+    # one linked time axis for the whole run (its 5 panels), one for the fragment
+    figures = page.evaluate(_FIGURES_JS)
+    whole = {(x, s, e) for t, x, s, e in figures if s == 0 and e == 2000}
+    last = {(x, s, e) for t, x, s, e in figures if s == 1998 and e == 2000}
+    titles = [t for t, *_ in figures]
+    assert len(whole) == 1 and len(last) == 1, figures
+    assert sum(1 for t, x, *_ in figures if (x, 0, 2000) in whole) == 5, figures
+    for title in ("normal: a*(t), y*(t)", "tangential: b*(t), x*(t)",
+                  "contact state (dominant per bin)", "x*(t) and its tau + 1e-3 twin"):
+        assert title in titles, titles
+
+
+def test_a_second_run_feeds_the_same_figures(page, server):
+    """A new run sends new data to the figures of the first one: the same
+    data sources, no new Bokeh models."""
+    _open(page, server)
+    box = page.locator("canvas").first.bounding_box()
+    page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
+    _summary_text(page).wait_for(timeout=60000)
+    page.wait_for_timeout(1000)
+    first, models = _sources(page), page.evaluate(_MODELS_JS)
+    summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
+    page.mouse.click(box["x"] + box["width"] * 0.75, box["y"] + box["height"] * 0.25)
+    page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=60000, polling=100)
+    page.wait_for_timeout(1000)
+    second = _sources(page)
+    assert second.keys() == first.keys()
+    assert second != first                       # new data in them
+    assert page.evaluate(_MODELS_JS) == models
+
+
+def test_a_new_click_replaces_a_running_run(page, server):
+    """One run per session: a click while a run goes on cancels it (without a
+    'cancelled' message) and shows the new run."""
+    _open(page, server + "?la=2.8&lm=-4.5&fidelity=reference")
+    page.locator("button", has_text="Run selected scene").click()
+    _see(page, "Running")
+    page.locator("select").filter(has_text="synchronous hopping").select_option(
+        label="4: synchronous hopping (hovering)")
+    _see(page, "A* = 316.2", timeout=120000)
+    _summary_text(page).wait_for(timeout=120000)
+    assert page.get_by_text("Run cancelled.").count() == 0
+    assert page.get_by_text("The run failed").count() == 0
+
+
+def test_the_step_cap_is_a_message(page, server):
+    # 1.3e8 steps, over the test server's VIBTRANS_MAX_STEPS = 1e8
+    _open(page, server + "?la=3&lm=-5&fidelity=reference")
+    page.locator("button", has_text="Run selected scene").click()
+    _see(page, "over this server's limit of 1e+08 (VIBTRANS_MAX_STEPS)")
+    assert page.get_by_text("Running").count() == 0
 
 
 def test_click_on_the_map_runs_that_scene(page, server):
@@ -164,7 +261,7 @@ def test_teaching_view_and_export(page, server):
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="1: permanent contact, drift against the wave")
-    _see(page, "Whole run", timeout=60000)
+    _summary_text(page).wait_for(timeout=60000)
     n_before = page.locator("canvas").count()
     page.get_by_text("Show the memory diagram at t*").first.click()
     deadline = time.time() + 60

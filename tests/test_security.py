@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from vibtrans.cli import InputError, _origins, build_parser
+from netutil import free_port  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py")])
@@ -94,16 +95,10 @@ def test_serve_options_parse():
     assert a.allow_websocket_origin == ["x.org", "y.org:8443"] and a.num_procs == 2
 
 
-def _free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server():
     """`vibtrans serve` as shipped, plus the public host allowed."""
-    port = _free_port()
+    port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "VIBTRANS_ALLOWED_ORIGINS"}
     proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
                             cwd=ROOT, env=env, stdout=subprocess.DEVNULL,

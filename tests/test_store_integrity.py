@@ -319,3 +319,16 @@ def test_sweep_refuses_to_resume_a_damaged_store(tmp_path, capsys, damage):
     assert code == 2, err
     line = _one_line(err)
     assert line.startswith("vibtrans sweep: error:") and out in line, line
+
+
+def test_explorer_says_so_at_session_start(assets):
+    # The explorer itself: a damaged shipped map is named in the session's
+    # message at start, and the session still builds and takes its state.
+    pytest.importorskip("panel")
+    from app import explorer as E
+    path = assets / VICTIM_NAME
+    DAMAGE[sorted(DAMAGE)[0]](str(path))
+    ex = E.Explorer()
+    assert ex.message.visible and str(path) in ex.message.object
+    ex.state.param.update(model=VICTIM[0], mu=VICTIM[1])
+    assert ex.state.model == VICTIM[0]

@@ -1,0 +1,207 @@
+"""The explorer's runs, server side (no browser): one run per session (a new
+request cancels and replaces the running one, freeing its worker), the step
+cap, a failing run (only its session sees an error), Cancel, and figures
+that are built once and then fed new data."""
+import asyncio
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("panel")
+
+from app import explorer as E  # noqa: E402
+from vibtrans import Cancelled  # noqa: E402
+
+REAL_SIMULATE = E.simulate
+
+
+def _explorer(**state):
+    ex = E.Explorer()
+    ex.state.param.update(fidelity="preview", compare="none", **state)
+    return ex
+
+
+async def _until(cond, timeout=60.0):
+    t0 = time.perf_counter()
+    while not cond():
+        if time.perf_counter() - t0 > timeout:
+            raise AssertionError("timed out")
+        await asyncio.sleep(0.01)
+
+
+def _runs_until_cancelled(started):
+    """A stand-in for simulate that sets `started` and runs until cancelled."""
+    def slow(scene, *, cancel=None, **kwargs):
+        started.set()
+        while not cancel.is_set():
+            time.sleep(0.005)
+        raise Cancelled("run cancelled")
+    return slow
+
+
+def _idle(ex):
+    return ex._job is None
+
+
+def test_a_run_shows_its_summary_and_figures():
+    async def go():
+        ex = _explorer()
+        ex.start_run()
+        await _until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        assert not ex.message.visible
+        assert list(ex.trajectory_views) == [("deformable", None)]
+        view = ex.trajectory_views[("deformable", None)]
+        assert view.panel.visible and ex.exports.visible
+        first = view.over_pipe.data
+        # a second run of the same structure feeds the same figures
+        ex.state.log_mass = 0.5
+        ex.start_run()
+        await _until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
+        assert ex.trajectory_views[("deformable", None)] is view
+        assert view.over_pipe.data is not first
+        assert len(ex.trajectory) == 3          # the figures, teaching, export
+    asyncio.run(go())
+
+
+def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
+    started = threading.Event()
+    seen_cancel = []
+
+    def slow(scene, *, cancel=None, **kwargs):
+        started.set()
+        while not cancel.is_set():
+            time.sleep(0.005)
+        seen_cancel.append(scene)
+        raise Cancelled("run cancelled")
+
+    async def go():
+        ex = _explorer()
+        monkeypatch.setattr(E, "simulate", slow)
+        first = ex.start_run()
+        await _until(started.is_set)
+        monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
+        ex.state.log_amplitude = 0.5
+        second = ex.start_run()
+        assert first.event.is_set() and ex._job is second     # one run per session
+        # the replaced run's worker is free at once (its kernel saw the flag)
+        await _until(lambda: all(f.done() for f in first.futures), timeout=5)
+        assert len(seen_cancel) == 1
+        await _until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary.object)
+        assert "cancelled" not in ex.summary.object and not ex.message.visible
+    asyncio.run(go())
+
+
+def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
+    """A run still queued behind busy workers is cancelled, never run."""
+    gate = threading.Event()
+    blockers = [E.RUNNER.submit(gate.wait, 30) for _ in range(E.RUNNER._max_workers)]
+    calls = []
+    monkeypatch.setattr(E, "simulate", lambda scene, **kw: calls.append(scene))
+
+    async def go():
+        ex = _explorer()
+        first = ex.start_run()
+        second = ex.start_run()
+        assert all(f.cancelled() for f in first.futures)
+        gate.set()
+        await _until(lambda: all(f.done() for f in second.futures))
+        assert len(calls) == 1
+    try:
+        asyncio.run(go())
+    finally:
+        gate.set()
+        for b in blockers:
+            b.result(timeout=30)
+
+
+def test_cancel_frees_the_worker_and_says_so(monkeypatch):
+    started = threading.Event()
+    slow = _runs_until_cancelled(started)
+
+    async def go():
+        ex = _explorer()
+        monkeypatch.setattr(E, "simulate", slow)
+        job = ex.start_run()
+        await _until(started.is_set)
+        await _until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
+        ex._on_cancel(None)
+        await _until(lambda: ex.summary.object == "Run cancelled.")
+        assert all(f.done() for f in job.futures)
+        assert not ex.progress.visible and ex.cancel_button.disabled and _idle(ex)
+    asyncio.run(go())
+
+
+def test_a_failing_run_shows_an_error_in_its_session_only(monkeypatch):
+    def broken(scene, **kwargs):
+        raise RuntimeError("kernel exploded")
+
+    async def go():
+        ex, other = _explorer(), _explorer()
+        monkeypatch.setattr(E, "simulate", broken)
+        ex.start_run()
+        await _until(lambda: _idle(ex) and ex.message.visible)
+        assert "The run failed: RuntimeError: kernel exploded" in ex.message.object
+        assert ex.summary.object == "" and not ex.progress.visible
+        assert not other.message.visible
+        # the server and the other session carry on; so does this one
+        monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
+        other.start_run()
+        await _until(lambda: _idle(other) and "drift <v*>" in other.summary.object)
+        ex.start_run()
+        await _until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        assert not ex.message.visible
+    asyncio.run(go())
+
+
+def test_a_failure_drawing_a_run_is_reported(monkeypatch):
+    def broken(*args, **kwargs):
+        raise ValueError("no figure")
+
+    async def go():
+        ex = _explorer()
+        monkeypatch.setattr(E, "trajectory_elements", broken)
+        ex.start_run()
+        await _until(lambda: _idle(ex) and ex.message.visible)
+        assert "Drawing the run failed: ValueError: no figure" in ex.message.object
+    asyncio.run(go())
+
+
+def test_the_step_cap_refuses_with_a_message(monkeypatch):
+    monkeypatch.setattr(E, "MAX_STEPS", 1000)
+    calls = []
+    monkeypatch.setattr(E, "simulate", lambda *a, **k: calls.append(a))
+    ex = _explorer()
+    assert ex.start_run() is None
+    assert not calls and ex._job is None
+    assert "over this server's limit of 1e+03 (VIBTRANS_MAX_STEPS)" in ex.message.object
+
+
+def test_closing_the_session_cancels_its_run(monkeypatch):
+    started = threading.Event()
+    slow = _runs_until_cancelled(started)
+
+    async def go():
+        ex = _explorer()
+        monkeypatch.setattr(E, "simulate", slow)
+        job = ex.start_run()
+        await _until(started.is_set)
+        ex._on_session_destroyed(None)
+        await _until(lambda: all(f.done() for f in job.futures), timeout=5)
+        assert ex._job is None and not ex.trajectory_views
+    asyncio.run(go())
+
+
+def test_closed_sessions_give_their_memory_back_once(monkeypatch):
+    """A burst of closed sessions schedules one collection + malloc_trim."""
+    monkeypatch.setattr(E, "RELEASE_DELAY", 0.05)
+    calls = []
+    real = E._release_memory
+    monkeypatch.setattr(E, "_release_memory", lambda: (calls.append(1), real()))
+
+    async def go():
+        for _ in range(3):
+            E._schedule_release()
+        await asyncio.sleep(0.3)
+    asyncio.run(go())
+    assert calls == [1] and E._RELEASE["handle"] is None
