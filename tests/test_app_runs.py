@@ -40,6 +40,15 @@ def _runs_until_cancelled(started):
     return slow
 
 
+async def _start_run_that_waits_for_cancel(ex, monkeypatch):
+    """Start a run whose simulate blocks until cancelled; its job, once running."""
+    started = threading.Event()
+    monkeypatch.setattr(E, "simulate", _runs_until_cancelled(started))
+    job = ex.start_run()
+    await _until(started.is_set)
+    return job
+
+
 def _idle(ex):
     return ex._job is None
 
@@ -116,14 +125,9 @@ def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
 
 
 def test_cancel_frees_the_worker_and_says_so(monkeypatch):
-    started = threading.Event()
-    slow = _runs_until_cancelled(started)
-
     async def go():
         ex = _explorer()
-        monkeypatch.setattr(E, "simulate", slow)
-        job = ex.start_run()
-        await _until(started.is_set)
+        job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         await _until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
         ex._on_cancel(None)
         await _until(lambda: ex.summary.object == "Run cancelled.")
@@ -178,14 +182,9 @@ def test_the_step_cap_refuses_with_a_message(monkeypatch):
 
 
 def test_closing_the_session_cancels_its_run(monkeypatch):
-    started = threading.Event()
-    slow = _runs_until_cancelled(started)
-
     async def go():
         ex = _explorer()
-        monkeypatch.setattr(E, "simulate", slow)
-        job = ex.start_run()
-        await _until(started.is_set)
+        job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         ex._on_session_destroyed(None)
         await _until(lambda: all(f.done() for f in job.futures), timeout=5)
         assert ex._job is None and not ex.trajectory_views

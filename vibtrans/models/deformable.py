@@ -30,7 +30,7 @@ from ..substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motio
 # params
 P_A, P_M, P_MU, P_THETA, P_R, P_TAU, P_H, P_TEND, P_SDT, P_W0, P_W1, P_SHORT = range(12)
 NPARAM = 12
-# Shortcuts (bits of params[P_SHORT]); `vibtrans bench --shortcuts` measures
+# Shortcuts (bits of params[P_SHORT]); `vibtrans bench` measures
 # each one's speed-up and result difference by switching it off.
 SHORT_RAMP = 1       # G(t) = 1 once exp(-t^2/tau^2) < 2^-60 (t > 6.5 tau): skip exp
 SHORT_ROTATION = 2   # cos, sin of 2 pi t advanced by a rotation on fixed steps
