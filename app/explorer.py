@@ -20,6 +20,9 @@ import holoviews as hv
 import numpy as np
 import panel as pn
 import param
+from bokeh.document import Document
+from bokeh.events import Tap
+from bokeh.models import ColumnDataSource
 
 from vibtrans import Cancelled, Scene, estimate_steps, plots, simulate, units
 from vibtrans.analysis import summarize
@@ -28,6 +31,7 @@ from vibtrans.params import PAPER_POINTS
 from vibtrans.simulate import StepBudgetExceeded, memory_snapshot
 
 from . import data
+from .live import LiveTrajectory
 
 hv.extension("bokeh")
 # Canvas, not WebGL: the figures hold at most ~10^4 points per curve, which a
@@ -43,8 +47,8 @@ RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
                             thread_name_prefix="vibtrans-run")
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
 OVERVIEW_SAMPLES = 5          # samples per period in the whole-run view
-OVERVIEW_BINS = 400           # time bins of the whole-run state timeline
 PLOT_WIDTH = 900
+MAP_HEIGHT = 460              # (app/protoclient.py finds the map by it)
 FRAGMENT = 2.0                # periods at full resolution at the end of the run
 
 POINT_LABELS = {
@@ -98,28 +102,40 @@ class Job:
             f.cancel()
 
 
-TRAJECTORY_OPTS = [
-    hv.opts.Curve(width=PLOT_WIDTH, height=190, tools=["hover"], framewise=True),
-    hv.opts.Overlay(width=PLOT_WIDTH, height=190, legend_position="right"),
-    hv.opts.Rectangles(width=PLOT_WIDTH, height=90, tools=["hover"], framewise=True)]
+def map_element(model, mu, v0, chaotic):
+    """The drift map of a model and mu (HoloViews): the shipped map, the
+    jumping boundary, the resonances, the paper points."""
+    try:
+        ds = data.drift_map(model, mu)
+    except data.MapUnavailable as exc:    # said at session start too
+        return hv.Text(0.0, 0.0, str(exc)).opts(width=PLOT_WIDTH, height=MAP_HEIGHT)
+    el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
+    vertical = data.vertical_curve()
+    if vertical is not None:
+        el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=(-3.0, 3.0))
+        if model == "deformable":
+            el = el * plots.resonance_lines(vertical)
+    el = el * plots.paper_points(model)
+    return el.opts(hv.opts.Image(tools=["hover"], width=PLOT_WIDTH, height=MAP_HEIGHT,
+                                 title=f"<v*> over 2000 periods: {model}, mu = {mu:g}"))
 
 
-def trajectory_elements(ds, other=None, label=None):
-    """A run's figures (from vibtrans.plots) as two lists of elements: the
-    whole run (state timeline as the dominant state per bin; with a
-    comparison `label`, a last panel of x*(t) and the comparison run's) and
-    its last FRAGMENT periods at full resolution."""
-    whole = plots.overview_samples(ds)
-    over = list(plots.trajectory_panels(whole, timeline_bins=OVERVIEW_BINS))
-    if label is not None:
-        twin = other if other is not None else ds.isel(time=slice(0, 0))
-        over.append(plots.twin_comparison(whole, twin, label=label))
-    t = ds["time"].values
-    # (isel: a label-based sel builds a pandas hash index of the times first)
-    frag = ds.isel(time=slice(int(np.searchsorted(t, t[-1] - FRAGMENT)), None))
-    frag = list(plots.trajectory_panels(frag))
-    return ([el.opts(*TRAJECTORY_OPTS) for el in over],
-            [el.opts(*TRAJECTORY_OPTS) for el in frag])
+@functools.lru_cache(maxsize=8)
+def _map_json(model, mu, v0, chaotic):
+    """`map_element` rendered by HoloViews into Bokeh models, serialized."""
+    doc = Document()
+    doc.add_root(hv.render(map_element(model, mu, v0, chaotic), backend="bokeh"))
+    return doc.to_json()
+
+
+def map_figure(model, mu, v0, chaotic):
+    """A new Bokeh figure of the map for one session: rendered once per
+    setting by HoloViews, then rebuilt from its serialized models (half the
+    server time of rendering it for every page: 0.06 vs 0.13 s)."""
+    doc = Document.from_json(_map_json(model, mu, v0, chaotic))
+    fig = doc.roots[0]
+    doc.remove_root(fig)
+    return fig
 
 
 _RELEASE = {"handle": None}
@@ -154,45 +170,6 @@ def _release_memory():
 def _retrieved(future):
     if not future.cancelled():
         future.exception()
-
-
-def _emptied(elements):
-    """The elements with their layers, titles and options, without data."""
-    return [el.map(lambda e: e.iloc[:0], [hv.Curve, hv.Rectangles]) for el in elements]
-
-
-def _pick(i, data):
-    return data[i]
-
-
-class TrajectoryView:
-    """The trajectory figures of one structure (model, comparison) in a
-    session, built once: each panel is a DynamicMap fed by a Pipe, so a new
-    run sends new data to the existing Bokeh figures (no new layout, no new
-    figure models).  The whole-run panels share one zoomable time axis and
-    hold every sample of the overview (zoom is client-side, no server round
-    trip); the fragment below is exact."""
-
-    def __init__(self, over, frag):
-        self.over_pipe = hv.streams.Pipe(data=over)
-        self.frag_pipe = hv.streams.Pipe(data=frag)
-        maps = [hv.DynamicMap(functools.partial(_pick, i), streams=[self.over_pipe])
-                for i in range(len(over))]
-        fmaps = [hv.DynamicMap(functools.partial(_pick, i), streams=[self.frag_pipe])
-                 for i in range(len(frag))]
-        self.panel = pn.Column(
-            pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
-            pn.pane.HoloViews(hv.Layout(maps).cols(1), linked_axes=False, name="whole-run"),
-            pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution**"),
-            pn.pane.HoloViews(hv.Layout(fmaps).cols(1), linked_axes=False, name="fragment"))
-
-    def send(self, over, frag):
-        """Show a new run: new data, axes to the new run's extent."""
-        self.over_pipe.send(over)
-        self.frag_pipe.send(frag)
-
-
-Position = hv.streams.Stream.define("Position", log_amplitude=0.0, log_mass=0.0)
 
 
 class ExplorerState(param.Parameterized):
@@ -250,8 +227,15 @@ class Explorer(pn.viewable.Viewer):
         problems = data.problems()            # damaged or missing shipped files
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
-        self.map_pane = pn.pane.HoloViews(self._map_dmap(), name="map", linked_axes=False)
-        self.tap.param.watch(self._on_tap, ["x", "y"])
+        # the markers outlive the map's figure (redrawn when its settings change)
+        self._selected = ColumnDataSource({"x": [self.state.log_amplitude],
+                                           "y": [self.state.log_mass]})
+        self._device = ColumnDataSource({"x": [], "y": []})
+        self.state.param.watch(self._on_position, ["log_amplitude", "log_mass"])
+        self.units_panel.param.watch(self._on_device, "marker")
+        self._on_device()
+        self.map_pane = pn.pane.Bokeh(self._map_figure(), name="map")
+        self.state.param.watch(self._redraw_map, ["model", "mu", "v0", "chaotic"])
 
     # ---------- URL ----------
     def _apply_url(self):
@@ -274,68 +258,39 @@ class Explorer(pn.viewable.Viewer):
         self.message.visible = bool(text)
 
     # ---------- map ----------
-    def _map_dmap(self):
-        vertical = data.vertical_curve()
+    def _map_figure(self):
+        """The map as a Bokeh figure (`map_figure`), with the selected point
+        (yellow) and the Units tab's device (green diamond) drawn from this
+        session's sources, and a click on it running that scene.  A click
+        moves the marker by one small data change (through a HoloViews
+        stream it re-rendered the map's overlay: ~0.2 s of server time per
+        click)."""
+        s = self.state
+        fig = map_figure(s.model, s.mu, s.v0, s.chaotic)
+        fig.scatter("x", "y", source=self._selected, size=14, marker="circle",
+                    color="yellow", line_color="black")
+        fig.scatter("x", "y", source=self._device, size=14, marker="diamond",
+                    color="lime", line_color="black")
+        fig.on_event(Tap, self._on_tap)
+        return fig
 
-        @pn.depends(self.state.param.model, self.state.param.mu, self.state.param.v0,
-                    self.state.param.chaotic)
-        def heatmap(model, mu, v0, chaotic):
-            try:
-                ds = data.drift_map(model, mu)
-            except data.MapUnavailable as exc:    # said at session start too
-                return hv.Text(0.0, 0.0, str(exc)).opts(width=PLOT_WIDTH, height=460)
-            el = plots.drift_map(ds, v0=v0, chaotic=chaotic,
-                                 title=f"{model}, mu = {mu:g}")
-            if vertical is not None:
-                el = el * plots.jumping_boundary(vertical, model).select(
-                    log_amplitude=(-3.0, 3.0))
-                # the deformable model's resonances: a layer of both models'
-                # maps, hidden in the point mass's (a layer missing from a
-                # later frame would stay drawn)
-                el = el * plots.resonance_lines(vertical).opts(
-                    hv.opts.HLine(visible=model == "deformable"))
-            el = el * plots.paper_points(model)
-            return el.opts(hv.opts.Image(tools=["hover"], width=PLOT_WIDTH, height=460,
-                                         title=f"<v*> over 2000 periods: {model}, mu = {mu:g}"))
-
-        def marker(x, y, log_amplitude, log_mass, marker):
-            sel = hv.Points([(log_amplitude, log_mass)], [plots.LOG_A, plots.LOG_M]).opts(
-                color="yellow", size=14, marker="circle", line_color="black")
-            units = hv.Points([] if marker is None else [marker], [plots.LOG_A, plots.LOG_M])
-            return sel * units.opts(color="lime", size=14, marker="diamond",
-                                    line_color="black")
-
-        # The Tap stream is an input of the marker layer (a stream bound to
-        # the DynamicMap of overlays via `source` is not linked to the plot).
-        # The selected point reaches the marker through `self._position`, an
-        # explicit stream: a click updates it silently and the Tap's own
-        # trigger redraws the map once (a param dependency would redraw twice).
-        self.tap = hv.streams.Tap(x=None, y=None)
-        self._position = Position(log_amplitude=self.state.log_amplitude,
-                                  log_mass=self.state.log_mass)
-        self._tapping = False
-        self.state.param.watch(self._on_position, ["log_amplitude", "log_mass"])
-        markers = hv.DynamicMap(marker, streams=[
-            self.tap, self._position, hv.streams.Params(self.units_panel, ["marker"])])
-        return hv.DynamicMap(heatmap) * markers
+    def _redraw_map(self, *events):
+        self.map_pane.object = self._map_figure()
 
     def _on_position(self, *events):
-        values = dict(log_amplitude=self.state.log_amplitude, log_mass=self.state.log_mass)
-        if self._tapping:
-            self._position.update(**values)
-        else:
-            self._position.event(**values)
+        self._selected.data = {"x": [self.state.log_amplitude], "y": [self.state.log_mass]}
 
-    def _on_tap(self, *events):
-        x, y = self.tap.x, self.tap.y
-        if x is None or y is None:
+    def _on_device(self, *events):
+        m = self.units_panel.marker
+        self._device.data = {"x": [] if m is None else [m[0]], "y": [] if m is None else [m[1]]}
+
+    def _on_tap(self, event):
+        x, y = event.x, event.y
+        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
             return
-        self._tapping = True
-        try:
-            self.state.param.update(log_amplitude=float(np.clip(round(x, 3), -3, 3)),
-                                    log_mass=float(np.clip(round(y, 3), -5, 5)))
-        finally:
-            self._tapping = False
+        if not (-3.0 <= x <= 3.0 and -5.0 <= y <= 5.0):
+            return          # outside the map's domain (its padding): not a scene
+        self.state.param.update(log_amplitude=round(x, 3), log_mass=round(y, 3))
         self.start_run()
 
     def _on_point(self, event):
@@ -412,33 +367,32 @@ class Explorer(pn.viewable.Viewer):
         _schedule_release()
 
     def _prebuild(self):
-        """Draw the (empty) trajectory figures of the selected structure
+        """Build the (empty) trajectory figures of the selected structure
         once the page has loaded, so that the first click only sends data,
-        like every later one (building and first drawing them take seconds;
-        a hidden figure would still be drawn for the first time on click).
-        The structure comes from a 2-period run of the selected scene."""
+        like every later one (the browser draws them for the first time now,
+        not on the click)."""
         try:
             scene = self.scene()
             _, label = self._comparison(scene)
-            key = (scene.model, label)
-            short = scene.replace(periods=FRAGMENT)
-            if self.trajectory_views or estimate_steps(short) > 1e6:
-                return
-            ds = simulate(short, window=(0.0, FRAGMENT), samples_per_period=OVERVIEW_SAMPLES)
-            over, frag = trajectory_elements(ds, None, label)
-            with pn.io.hold(freeze=True):
-                self._view(key, _emptied(over), _emptied(frag))
+            if not self.trajectory_views:
+                with pn.io.hold(freeze=True):
+                    self._view((scene.model, label), scene.tau)
         except Exception:           # only an optimisation: the first run builds them
-            log.exception("drawing the empty trajectory figures failed")
+            log.exception("building the empty trajectory figures failed")
 
-    def _view(self, key, over, frag):
-        """The session's figures of a structure: built once, then fed."""
+    def _view(self, key, tau):
+        """The session's figures of a structure (model, comparison label):
+        built once (live.LiveTrajectory), then fed by `show`."""
         view = self.trajectory_views.get(key)
         if view is None:
-            view = self.trajectory_views[key] = TrajectoryView(over, frag)
+            view = LiveTrajectory(key[0] == "point-mass", key[1], FRAGMENT, tau)
+            view.panel = pn.Column(
+                pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
+                pn.pane.Bokeh(view.whole, name="whole-run"),
+                pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution**"),
+                pn.pane.Bokeh(view.part, name="fragment"))
+            self.trajectory_views[key] = view
             self.trajectory.insert(len(self.trajectory) - 2, view.panel)
-        else:
-            view.send(over, frag)
         return view
 
     def _comparison(self, scene):
@@ -522,13 +476,14 @@ class Explorer(pn.viewable.Viewer):
             chaos = "not checked: no take-off (the tau + 1e-3 twin is drawn below)"
         self._last = (scene, ds, twin)
         T = float(ds["time"].values[-1])
-        over, frag = trajectory_elements(ds, other, label)
         key = (scene.model, label)
         # Everything below goes to the browser as one message: new data for
-        # the session's existing figures, no new figure models; the document's
-        # model graph is recomputed once, at the end (freeze).
-        with pn.io.hold(freeze=True):
-            self._view(key, over, frag)
+        # the session's existing figures, no new figure models.  Bokeh
+        # recomputes a document's model graph only when models come or go;
+        # a frozen hold would recompute it at its end regardless (~30 ms per
+        # click under load), so only a first run of a structure freezes.
+        with pn.io.hold(freeze=key not in self.trajectory_views):
+            self._view(key, scene.tau).show(ds, other)
             for k, v in self.trajectory_views.items():
                 v.panel.visible = k == key
             self.teaching.visible = scene.model == "deformable"

@@ -1,30 +1,41 @@
-"""Load test of the explorer server: many concurrent browser sessions.
+"""Load test of the explorer server: many concurrent sessions.
 
-    python -m app.loadtest --sessions 30 --clicks 5 [--think 10] [--json]
+    python -m app.loadtest --sessions 30 --clicks 5 [--browsers 2] [--think 10] [--json]
 
-Starts `vibtrans serve` on a free loopback port, then opens `--sessions`
-pages in one headless chromium (Debian's /usr/bin/chromium driven by
-Playwright; its processes niced, --browser-nice, so that the server it
-measures comes first on a shared machine), started over `--ramp` seconds.  Each session loads the
-map, then clicks `--clicks` different points on it, each time waiting until
-that click's run is shown (the summary with the drift readout, and the
-trajectory plots), with a think time of `--think` seconds (+-50%, random)
-between clicks, as a person reading the result would.
+Starts `vibtrans serve` on a free loopback port (`--num-procs` processes),
+then starts `--sessions` sessions over `--ramp` seconds.  Each session
+loads the page, then clicks `--clicks` different points on the map, each
+time waiting until that click's run is shown, with a think time of
+`--think` seconds (+-50%, random) between clicks, as a person reading the
+result would.
 
-Measured: click-to-plot latency p50/p95/max over all clicks; errors (pages
-that fail to load, clicks with no result within --click-timeout, runs that
-fail, JavaScript errors in a page, tracebacks in the server's log); the
-server's RSS (its process tree, from /proc) at ready, after a warm-up
-session is closed and dropped (the baseline), the peak while the sessions
-run (sampled every 0.2 s), and after every session is closed and Bokeh has
-dropped them (counted from its debug log: "Discarding session"; the server
-runs with --unused-session-lifetime 3000 --check-unused-sessions 1000 so
-that this takes seconds, not the default ~30 s).  Goals: 0 errors, and the
-RSS after within 10% of the baseline.  Runs the server refuses as over its
-step cap (VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.
+Two kinds of session, mixed in one run:
+* `--browsers` of them are real pages in one headless chromium (Debian's
+  /usr/bin/chromium driven by Playwright; its processes niced,
+  --browser-nice, so that the server they measure comes first): click to
+  plot drawn, as a person sees it (including drawing on this machine);
+* the others are protocol sessions (app/protoclient.py): the same messages
+  over the same websocket as the page (recorded from chromium), without
+  drawing: click to the server's reply carrying the run's data and
+  summary.  Thirty people bring thirty computers to draw on; thirty
+  chromium renderers on the server's own 2 cores would measure the
+  browsers, not the server.
 
-Bounded: at most --sessions pages, --timeout seconds in all (clicks not done
-by then count as errors), and the server is always stopped.
+Measured: click latency p50/p95/max over all clicks and per kind; errors
+(pages that fail to load, clicks with no result within --click-timeout,
+runs that fail, JavaScript errors in a page, tracebacks in the server's
+log); the server's RSS (its process tree, from /proc) at ready, after a
+warm-up session is closed and dropped (the baseline), the peak while the
+sessions run (sampled every 0.2 s), and after every session is closed and
+Bokeh has dropped them (counted from its debug log: "Discarding session";
+the server runs with --unused-session-lifetime 3000
+--check-unused-sessions 1000 so that this takes seconds, not the default
+~30 s).  Goals: p95 <= 3 s, 0 errors, and the RSS after within 10% of the
+baseline.  Runs the server refuses as over its step cap
+(VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.
+
+Bounded: at most --sessions sessions, --timeout seconds in all (clicks not
+done by then count as errors), and the server is always stopped.
 """
 import argparse
 import asyncio
@@ -32,6 +43,7 @@ import json
 import os
 import random
 import re
+import signal
 import socket
 import statistics
 import subprocess
@@ -234,14 +246,29 @@ class Server:
         return time.perf_counter() - t0
 
     def stop(self):
+        """Stop the server and every process it forked (--num-procs > 1:
+        Tornado's children outlive their parent)."""
         self._sampling = False
+        children = _tree(self.proc.pid)[1:]
         self.proc.terminate()
         try:
             self.proc.wait(15)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait(5)
+        for pid in children:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
         self.log.close()
+
+
+def _sequence(session, clicks):
+    """Distinct well-spread numbers (u, v) in [0, 1)^2 for each click."""
+    for c in range(clicks):
+        i = session * clicks + c + 1
+        yield (i * 0.6180339887) % 1.0, (i * 0.7548776662) % 1.0
 
 
 def _points(session, clicks):
@@ -249,17 +276,66 @@ def _points(session, clicks):
     log10 A* from about -1 to 2.3, log10 m* from about -3.3 to 3.3 (the
     shipped map's body, runs of a fraction of a second to a few seconds),
     clear of the legend in the top right corner (a click there is no tap)."""
-    out = []
-    for c in range(clicks):
-        i = session * clicks + c + 1
-        out.append((0.33 + 0.42 * ((i * 0.6180339887) % 1.0),
-                    0.22 + 0.55 * ((i * 0.7548776662) % 1.0)))
-    return out
+    return [(0.33 + 0.42 * u, 0.22 + 0.55 * v) for u, v in _sequence(session, clicks)]
+
+
+def _range_points(session, clicks):
+    """The same for protocol sessions, as fractions of the map's data
+    ranges (log10 A* in [-3, 3], log10 m* in [-5, 5]): log10 A* from about
+    -1 to 2.3, log10 m* from about -3 to 3."""
+    return [(0.33 + 0.55 * u, 0.2 + 0.6 * v) for u, v in _sequence(session, clicks)]
+
+
+async def _arrive(a, k):
+    """Session k's start: the sessions arrive evenly over --ramp seconds."""
+    await asyncio.sleep(a.ramp * k / max(1, a.sessions - 1) if a.sessions > 1 else 0)
+
+
+async def _clicked(result, a, rng, k, kind, start, error=None, note=""):
+    """A click's outcome: a refusal or an error (its message), else its
+    latency; then the think time before the next click."""
+    if error is not None:
+        result["refused" if "server's limit" in error else "errors"].append(
+            f"session {k}: {error[:200]}")
+        return
+    latency = time.perf_counter() - start
+    result["latencies"].append(latency)
+    result[f"{kind}_latencies"].append(latency)
+    result["timeline"].append((start, latency, kind))
+    if a.verbose:
+        print(f"session {k} ({kind}): {latency:.2f} s  {note}", file=sys.stderr, flush=True)
+    await asyncio.sleep(a.think * rng.uniform(0.5, 1.5))
+
+
+async def _protocol_session(url, k, a, result, rng):
+    """One person, at the protocol level (app/protoclient.py)."""
+    from .protoclient import ProtocolSession
+    await _arrive(a, k)
+    client = ProtocolSession(url, timeout=a.click_timeout)
+    try:
+        t0 = time.perf_counter()
+        await client.open()
+        result["load_s"].append(time.perf_counter() - t0)
+        for c, (fx, fy) in enumerate(_range_points(k + getattr(a, "first_point", 0), a.clicks)):
+            start = time.perf_counter()
+            try:
+                kind, text = await client.click(fx, fy)
+            except asyncio.TimeoutError:
+                result["errors"].append(f"session {k}, click {c + 1}: no result within "
+                                        f"{a.click_timeout:g} s (at map range fraction "
+                                        f"{fx:.3f}, {fy:.3f})")
+                continue
+            await _clicked(result, a, rng, k, "protocol", start,
+                           error=text if kind == "error" else None)
+    except Exception as exc:                  # noqa: BLE001 - counted, reported
+        result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
+    finally:
+        client.close()
 
 
 async def _session(browser, url, k, a, result, rng):
     """One person: open the page, click the map a.clicks times."""
-    await asyncio.sleep(a.ramp * k / max(1, a.sessions - 1) if a.sessions > 1 else 0)
+    await _arrive(a, k)
     context = await browser.new_context(viewport={"width": 1400, "height": 1000})
     await context.add_init_script(_STATE_JS)
     page = await context.new_page()
@@ -290,15 +366,8 @@ async def _session(browser, url, k, a, result, rng):
                                         f"{a.click_timeout:g} s (at map canvas fraction "
                                         f"{fx:.3f}, {fy:.3f}; {type(exc).__name__})")
                 continue
-            if "error" in done:
-                kind = "refused" if "server's limit" in done["error"] else "errors"
-                result[kind].append(f"session {k}: {done['error'][:200]}")
-                continue
-            result["latencies"].append(time.perf_counter() - start)
-            if a.verbose:
-                print(f"session {k}: {result['latencies'][-1]:.2f} s  {done['summary']}",
-                      file=sys.stderr, flush=True)
-            await asyncio.sleep(a.think * rng.uniform(0.5, 1.5))
+            await _clicked(result, a, rng, k, "browser", start, error=done.get("error"),
+                           note=done.get("summary", ""))
     except Exception as exc:                  # noqa: BLE001 - counted, reported
         result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
     finally:
@@ -323,24 +392,50 @@ def _renice_browser(nice):
             pass
 
 
-async def _browse(url, a, sessions, result, seed):
-    from playwright.async_api import async_playwright
+def browser_sessions(sessions, browsers):
+    """Which sessions are real browser pages: `browsers` of them, spread
+    over the arrival order (the others are protocol sessions)."""
+    browsers = min(browsers, sessions)
+    return {int((i + 0.5) * sessions / browsers) for i in range(browsers)} if browsers else set()
+
+
+async def _drive(url, a, sessions, result, seed):
     rng = random.Random(seed)
+    in_browser = browser_sessions(sessions, a.browsers)
+    if not in_browser:
+        await _gather([_protocol_session(url, k, a, result, rng) for k in range(sessions)],
+                      a, result)
+        return
+    from playwright.async_api import async_playwright
     async with async_playwright() as p:
         browser = await p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         _renice_browser(a.browser_nice)
         try:
-            tasks = [asyncio.create_task(_session(browser, url, k, a, result, rng))
-                     for k in range(sessions)]
-            done, pending = await asyncio.wait(tasks, timeout=a.timeout)
-            for t in pending:
-                t.cancel()
-            if pending:
-                result["errors"].append(f"{len(pending)} sessions not finished within "
-                                        f"--timeout {a.timeout:g} s")
-                await asyncio.gather(*pending, return_exceptions=True)
+            await _gather([_session(browser, url, k, a, result, rng) if k in in_browser
+                           else _protocol_session(url, k, a, result, rng)
+                           for k in range(sessions)], a, result)
         finally:
             await browser.close()
+
+
+async def _gather(coroutines, a, result):
+    tasks = [asyncio.create_task(c) for c in coroutines]
+    done, pending = await asyncio.wait(tasks, timeout=a.timeout)
+    for t in pending:
+        t.cancel()
+    if pending:
+        result["errors"].append(f"{len(pending)} sessions not finished within "
+                                f"--timeout {a.timeout:g} s")
+        await asyncio.gather(*pending, return_exceptions=True)
+
+
+def _median(values):
+    return statistics.median(values) if values else float("nan")
+
+
+def _new_result():
+    return {"latencies": [], "browser_latencies": [], "protocol_latencies": [], "timeline": [],
+            "errors": [], "refused": [], "load_s": []}
 
 
 def _quantile(values, q):
@@ -358,17 +453,17 @@ def run(a):
         ready = server.wait_ready()
         rss_ready = server.rss()
         # warm-up: one session, one click, closed and dropped -> the baseline
-        warm = {"latencies": [], "errors": [], "refused": [], "load_s": []}
+        warm = _new_result()
         warm_args = argparse.Namespace(**{**vars(a), "sessions": 1, "clicks": 1, "think": 0.0,
                                           "ramp": 0.0, "first_point": 997})
-        asyncio.run(_browse(server.url, warm_args, 1, warm, a.seed))
+        asyncio.run(_drive(server.url, warm_args, 1, warm, a.seed))
         server.wait_dropped(1, a.settle)
         rss_base = server.rss()
         # the load
-        result = {"latencies": [], "errors": [], "refused": [], "load_s": []}
+        result = _new_result()
         server.sample()
         t0 = time.perf_counter()
-        asyncio.run(_browse(server.url, a, a.sessions, result, a.seed + 1))
+        asyncio.run(_drive(server.url, a, a.sessions, result, a.seed + 1))
         load_wall = time.perf_counter() - t0
         rss_closed = server.rss()
         settle = server.wait_dropped(1 + a.sessions, a.settle)
@@ -401,6 +496,13 @@ def run(a):
         "click_to_plot_p95_s": _quantile(lat, 0.95),
         "click_to_plot_max_s": max(lat) if lat else float("nan"),
         "click_to_plot_mean_s": statistics.fmean(lat) if lat else float("nan"),
+        "browser_sessions": len(browser_sessions(a.sessions, a.browsers)),
+        "browser_clicks": len(result["browser_latencies"]),
+        "browser_click_to_plot_p50_s": _median(result["browser_latencies"]),
+        "browser_click_to_plot_p95_s": _quantile(result["browser_latencies"], 0.95),
+        "protocol_clicks": len(result["protocol_latencies"]),
+        "protocol_click_to_data_p50_s": _median(result["protocol_latencies"]),
+        "protocol_click_to_data_p95_s": _quantile(result["protocol_latencies"], 0.95),
         "page_load_p50_s": statistics.median(result["load_s"]) if result["load_s"] else None,
         "page_load_max_s": max(result["load_s"]) if result["load_s"] else None,
         "warmup_click_s": warm["latencies"][0] if warm["latencies"] else None,
@@ -413,6 +515,7 @@ def run(a):
         "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
         "machine": f"{os.cpu_count()} cores",
     }
+    out["goal_p95_3s"] = out["click_to_plot_p95_s"] <= 3.0
     out["goal_errors_0"] = out["errors"] == 0
     out["goal_rss_within_10pct"] = abs(out["rss_after_over_baseline"]) <= 0.10
     return out
@@ -423,6 +526,9 @@ def parser():
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--sessions", type=int, default=30, help="concurrent sessions (1-100)")
     ap.add_argument("--clicks", type=int, default=5, help="map clicks per session (1-50)")
+    ap.add_argument("--browsers", type=int, default=2,
+                    help="how many of the sessions are real chromium pages (the others "
+                         "are protocol sessions); 0 to --sessions")
     ap.add_argument("--think", type=float, default=10.0,
                     help="seconds between a result and the next click (+-50%%)")
     ap.add_argument("--ramp", type=float, default=30.0,
@@ -449,6 +555,8 @@ def main(argv=None):
     a.argv = argv
     if not 1 <= a.sessions <= 100:
         ap.error(f"--sessions must be in [1, 100], got {a.sessions}")
+    if not 0 <= a.browsers <= a.sessions:
+        ap.error(f"--browsers must be in [0, --sessions = {a.sessions}], got {a.browsers}")
     if not 1 <= a.clicks <= 50:
         ap.error(f"--clicks must be in [1, 50], got {a.clicks}")
     for name in ("think", "ramp", "click_timeout", "timeout", "settle"):

@@ -6,6 +6,7 @@ import asyncio
 import threading
 import time
 
+import numpy as np
 import pytest
 
 pytest.importorskip("panel")
@@ -61,14 +62,16 @@ def test_a_run_shows_its_summary_and_figures():
         assert not ex.message.visible
         assert list(ex.trajectory_views) == [("deformable", None)]
         view = ex.trajectory_views[("deformable", None)]
-        assert view.panel.visible and ex.exports.visible
-        first = view.over_pipe.data
+        assert view.panel.visible and ex.exports.visible and view.runs == 1
+        source = view.over.source
+        first = source.data["x"]
+        assert len(first) > 1000 and len(view.last.source.data["time"]) > 2 * 16   # preview: 16 steps/period
         # a second run of the same structure feeds the same figures
         ex.state.log_mass = 0.5
         ex.start_run()
         await _until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
-        assert ex.trajectory_views[("deformable", None)] is view
-        assert view.over_pipe.data is not first
+        assert ex.trajectory_views[("deformable", None)] is view and view.runs == 2
+        assert view.over.source is source and source.data["x"] is not first
         assert len(ex.trajectory) == 3          # the figures, teaching, export
     asyncio.run(go())
 
@@ -164,7 +167,7 @@ def test_a_failure_drawing_a_run_is_reported(monkeypatch):
 
     async def go():
         ex = _explorer()
-        monkeypatch.setattr(E, "trajectory_elements", broken)
+        monkeypatch.setattr(E.LiveTrajectory, "show", broken)
         ex.start_run()
         await _until(lambda: _idle(ex) and ex.message.visible)
         assert "Drawing the run failed: ValueError: no figure" in ex.message.object
@@ -204,3 +207,40 @@ def test_closed_sessions_give_their_memory_back_once(monkeypatch):
         await asyncio.sleep(0.3)
     asyncio.run(go())
     assert calls == [1] and E._RELEASE["handle"] is None
+
+
+def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
+    """A tap on the map (a Bokeh Tap event: data coordinates) moves the
+    selected point's marker and runs that scene; a tap in the map's padding,
+    outside the domain, is no scene: nothing is clamped into it."""
+    from types import SimpleNamespace
+    ex = _explorer()
+    runs = []
+    monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.scene()))
+    ex._on_tap(SimpleNamespace(x=0.51234, y=-1.25))
+    assert (ex.state.log_amplitude, ex.state.log_mass) == (0.512, -1.25)
+    assert ex._selected.data == {"x": [0.512], "y": [-1.25]}
+    assert len(runs) == 1 and abs(runs[0].amplitude - 10 ** 0.512) < 1e-12
+    for x, y in ((3.2, 0.0), (0.0, -5.3), (float("nan"), 0.0), (None, 1.0)):
+        ex._on_tap(SimpleNamespace(x=x, y=y))
+    assert len(runs) == 1 and ex.state.log_amplitude == 0.512
+
+
+def test_each_session_gets_its_own_map_figure():
+    """The map's Bokeh models are rebuilt for every session from one
+    rendering (explorer.map_figure): equal content, separate models, each
+    with its session's marker sources."""
+    a, b = _explorer(), _explorer()
+    fa, fb = a.map_pane.object, b.map_pane.object
+    assert fa is not fb and fa.title.text == fb.title.text
+    glyphs = [[r for r in f.renderers if hasattr(r, "data_source")] for f in (fa, fb)]
+    images = [[r.data_source.data["image"][0] for r in g if "image" in r.data_source.data]
+              for g in glyphs]
+    assert len(images[0]) >= 1 and all(np.array_equal(x, y, equal_nan=True)
+                                       for x, y in zip(*images))
+    sources = [{r.data_source for r in g} for g in glyphs]
+    assert a._selected in sources[0] and a._selected not in sources[1]
+    assert b._selected in sources[1]
+    a.state.mu = 0.1            # another shipped map: a new figure for that session only
+    assert a.map_pane.object is not fa and "mu = 0.1" in a.map_pane.object.title.text
+    assert b.map_pane.object is fb

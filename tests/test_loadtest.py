@@ -1,7 +1,9 @@
 """The load test (app/loadtest.py) at a small scale, as CI runs it: a real
-server and real browser sessions, 3 sessions x 2 clicks.  No errors, every
-closed session dropped, and the server's memory growth bounded.  The
-full-scale figures (30 x 5) are in docs/SECURITY.md."""
+server, one real browser session and two protocol sessions
+(app/protoclient.py), 3 sessions x 2 clicks.  No errors, every click
+answered in both kinds of session, every closed session dropped, and the
+server's memory growth bounded.  The full-scale figures (30 x 5) are in
+docs/SECURITY.md."""
 from pathlib import Path
 
 import pytest
@@ -14,16 +16,18 @@ from app import loadtest  # noqa: E402
 def test_small_load_has_no_errors_and_bounded_memory():
     assert Path(loadtest.CHROMIUM).exists(), \
         "Debian's chromium is required (make test installs it)"
-    out = loadtest.main(["--sessions", "3", "--clicks", "2", "--think", "0.5", "--ramp", "1",
-                         "--click-timeout", "60", "--timeout", "70", "--settle", "30",
-                         "--json"])
+    out = loadtest.main(["--sessions", "3", "--clicks", "2", "--browsers", "1", "--think", "0.5",
+                         "--ramp", "1", "--click-timeout", "60", "--timeout", "70",
+                         "--settle", "30", "--json"])
     assert out["errors"] == 0, out["error_samples"]
-    assert out["clicks_measured"] + out["refused"] == 6
+    assert out["refused"] == 0
+    assert out["browser_clicks"] == 2 and out["protocol_clicks"] == 4, out
     assert out["sessions_dropped"] == 3           # Bokeh dropped every closed session
-    # bounded growth.  The goal is the RSS back within 10% of the post-warm-up
-    # baseline once the sessions are dropped; it is not met yet (measured:
-    # 10-20 MB per closed session stays, docs/SECURITY.md), so this guards
-    # against worse: at most 10% + 25 MB per session.
+    # bounded growth.  The goal (RSS back within 10% of the post-warm-up
+    # baseline once the sessions are dropped) is measured at full scale
+    # (docs/SECURITY.md); three sessions are too few to average out the
+    # allocator's noise, so this guards against a leak: at most 10% + 25 MB
+    # per session.
     growth = out["rss_after_mb"] - out["rss_baseline_mb"]
     assert growth <= 0.10 * out["rss_baseline_mb"] + 25.0 * 3, out
     assert out["rss_peak_mb"] < 4 * out["rss_baseline_mb"], out

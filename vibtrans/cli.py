@@ -6,6 +6,7 @@ valid range.
 import argparse
 import json
 import math
+import os
 import sys
 
 from . import __version__
@@ -225,6 +226,15 @@ def cmd_serve(args):
         if not 100 <= getattr(args, name) <= 86_400_000:
             raise InputError(f"{name} must be in [100, 86400000] ms, got {getattr(args, name)}")
     origins = _origins(args)
+    if os.environ.get("PYTHONMALLOC") is None and getattr(args, "argv", None) is not None:
+        # Python's small-object allocator keeps a 256 KiB arena while any
+        # object in it lives, so the memory of closed sessions, interleaved
+        # with the survivors of thirty concurrent ones, stayed with the
+        # process (+31-35% of the baseline after all closed); with the C
+        # allocator, the release after sessions close (malloc_trim) hands it
+        # back (+8%; `python -m app.loadtest`).  Set PYTHONMALLOC to opt out.
+        os.execve(sys.executable, [sys.executable, "-m", "vibtrans.cli", *args.argv],
+                  dict(os.environ, PYTHONMALLOC="malloc"))
     from app import data
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:
@@ -467,7 +477,11 @@ def build_parser():
                    help="public host whose pages may connect (repeatable; default: "
                         "$VIBTRANS_ALLOWED_ORIGINS, else localhost:PORT; docs/SECURITY.md)")
     v.add_argument("--num-procs", type=int, default=1,
-                   help="server processes sharing the port (0: one per core)")
+                   help="server processes sharing the port (0: one per core).  A page's "
+                        "HTTP request and its websocket may land in different processes, "
+                        "which then both build its session (bokeh#10183): measured slower "
+                        "than 1 on 2 cores; for more, run instances on separate ports "
+                        "behind a proxy with sticky sessions (docs/SECURITY.md)")
     v.add_argument("--unused-session-lifetime", type=int, default=15000, metavar="MS",
                    help="drop a closed session's state after this many ms")
     v.add_argument("--check-unused-sessions", type=int, default=17000, metavar="MS",
@@ -510,7 +524,9 @@ def _glue_negative_values(argv):
 
 def main(argv=None):
     parser = build_parser()
-    args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parser.parse_args(_glue_negative_values(argv))
+    args.argv = argv
     try:
         return args.func(args)
     except (ValueError, TypeError) as exc:   # validation: one line, status 2

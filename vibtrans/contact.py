@@ -55,6 +55,13 @@ def _push(H, W, nvert, h, sqrt_h, w):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _put(H, W, i, h, sqrt_h, w):
+    H[i, 0] = h
+    H[i, 1] = sqrt_h
+    W[i] = w
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _pop_to(nvert, n):
     nvert[0] = n
     if nvert[1] > n:
@@ -62,19 +69,26 @@ def _pop_to(nvert, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _integrals(H, W, P, nvert):
-    """Bring the running integrals P up to date (only pushed vertices are
-    stale, so a vertex pushed and popped within one step costs nothing)."""
-    n = nvert[0]
-    i = nvert[1]
-    if i == 0:
+def _integrals_to(H, W, P, i, n):
+    """Bring the running integrals P of vertices i..n-1 up to date (the
+    leading i are); return P[n - 1].  Only pushed vertices are stale, so a
+    vertex pushed and popped within one step costs nothing."""
+    if i <= 0:
         P[0] = 0.0
         i = 1
     while i < n:
         P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
         i += 1
-    nvert[1] = n
     return P[n - 1]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _integrals(H, W, P, nvert):
+    """`_integrals_to` on the whole stack, recorded in nvert[1]."""
+    n = nvert[0]
+    p = _integrals_to(H, W, P, nvert[1], n)
+    nvert[1] = n
+    return p
 
 
 def new_memory(capacity=256):
@@ -107,6 +121,12 @@ def reset_memory(H, W, P, nvert, memf, a, b):
         _integrals(H, W, P, nvert)
 
 
+# Where the clamp finds the top vertex (h = a1): a compile-time constant.
+_TOP_STORED = 0   # on the stack
+_TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
+_TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
+
+
 @njit(cache=True, nogil=True, inline="always")
 def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
@@ -124,7 +144,9 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
         _pop_to(nvert, 0)            # every spring left contact and forgets
         return 0.0, 0.0, FLIGHT
     n = nvert[0]
-    if n == 0:
+    # (`<= 0` for counts, here and below, tells the compiler that n - 1 is a
+    # valid index afterwards: it drops the negative-index wraparound checks.)
+    if n <= 0:
         # Contact (re)starts within the step: springs attach at the b* where
         # the step's line crosses a* = 0.
         bc = b0
@@ -133,72 +155,90 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
         memf[2] = bc
         _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a1, c1, b1 - bc)
+        n = 2
     elif a1 > a0:
         # New springs lie on the segment from the old apex to (a1, b1): the
         # clamp pushes that vertex itself if it survives (it usually slips).
-        return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], True)
+        return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, _TOP_LOAD, 0.0)
     elif a1 < a0:
-        # Springs deeper than a1 leave contact: pop them, cut the top segment.
+        # Springs deeper than a1 leave contact: pop them, cut the top segment
+        # at a1 (the clamp pushes that vertex only if it survives).
         hp = H[n - 1, 0]
         wp = W[n - 1]
-        while n > 0 and H[n - 1, 0] > a1:
+        while n > 1 and H[n - 1, 0] > a1:     # the vertex h = 0 stays
             hp = H[n - 1, 0]
             wp = W[n - 1]
             n -= 1
-        _pop_to(nvert, n)
         hq = H[n - 1, 0]
         if hq < a1:
             wq = W[n - 1]
-            _push(H, W, nvert, a1, c1, wq + (wp - wq) * (a1 - hq) / (hp - hq))
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], False)
+            return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, _TOP_CUT,
+                          wq + (wp - wq) * (a1 - hq) / (hp - hq))
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, _TOP_STORED, 0.0)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _clamp(H, W, P, nvert, memf, a1, c1, bp, top_pending):
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
-    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref.  With
-    `top_pending` (loading) that vertex, (a1, bp), is not stored yet: it is
-    pushed only if it survives the clamp (saves a push and a pop per slip step).
+    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
+    the vertex count (nvert[0] may still count vertices popped above n).  With
+    `top` = _TOP_LOAD (loading) that vertex, (a1, bp), is not stored yet, with
+    _TOP_CUT (unloading) it is (a1, wt), the cut top segment's end: it is
+    pushed only if it survives the clamp (it usually slips: saves a push and a
+    pop per slip step).
     Returns (T*, s_h, state).
     """
-    n = nvert[0]
     # Rounding (re-basing, cone-line vertices) must not invent slip: a spring
     # counts as past its limit only beyond a few ulps of the cone's scale.
     tol = 4e-16 * (a1 + abs(bp) + abs(W[0]))
     side = 0.0
-    if top_pending:
+    if top == _TOP_LOAD:
         # the top is at bp by construction; test the vertex below it
         d2 = W[n - 1] - bp
         if abs(d2) > a1 - H[n - 1, 0] + tol:
             side = 1.0 if d2 > 0.0 else -1.0
     else:
-        d = W[n - 1] - bp
+        nb = n                        # vertices below the top
+        if top == _TOP_CUT:
+            d = wt - bp
+        else:
+            d = W[n - 1] - bp
+            nb = n - 1
         if d > tol:
             side = 1.0
         elif d < -tol:
             side = -1.0
-        elif n >= 2:
-            d2 = W[n - 2] - bp
-            if abs(d2) > a1 - H[n - 2, 0] + tol:
+        elif nb >= 1:
+            d2 = W[nb - 1] - bp
+            if abs(d2) > a1 - H[nb - 1, 0] + tol:
                 side = 1.0 if d2 > 0.0 else -1.0
+    # The stack's count and P's up-to-date count stay in registers until the
+    # step ends (stores to nvert would be re-read at once).
+    ip = min(nvert[1], n)
     if side == 0.0:
         # No spring reached its limit: full stick.
-        if top_pending:
-            _push(H, W, nvert, a1, c1, bp)
+        if top != _TOP_STORED:
+            _put(H, W, n, a1, c1, bp)
+            n += 1
         elif W[n - 1] != bp:
             W[n - 1] = bp
-            if nvert[1] > n - 1:
-                nvert[1] = n - 1
-        return 1.5 * bp * c1 - 0.75 * _integrals(H, W, P, nvert), a1, STICK
+            ip = min(ip, n - 1)
+        nvert[0] = n
+        nvert[1] = n
+        return 1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n), a1, STICK
     # Walk down, dropping the vertices outside the cone (slip annulus).
-    if top_pending:
+    if top == _TOP_LOAD:
         hl = a1
         wl = bp
+    elif top == _TOP_CUT:
+        hl = a1
+        wl = wt
     else:
         hl = H[n - 1, 0]
         wl = W[n - 1]
         n -= 1
+    fk = 0.0
     while n > 0:
         fk = side * (W[n - 1] - bp) - (a1 - H[n - 1, 0])
         if fk <= tol:
@@ -206,42 +246,45 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, top_pending):
         hl = H[n - 1, 0]
         wl = W[n - 1]
         n -= 1
-    _pop_to(nvert, n)
-    if n == 0:
+    if n <= 0:
         # The slip annulus reached the centre: total sliding, T* = +-N*.
         # Re-base the anchors on b1 (cheap here: the stack is two vertices).
         memf[2] += bp
-        _push(H, W, nvert, 0.0, 0.0, side * a1)
-        _push(H, W, nvert, a1, c1, 0.0)
+        _put(H, W, 0, 0.0, 0.0, side * a1)
+        _put(H, W, 1, a1, c1, 0.0)
+        nvert[0] = 2
+        nvert[1] = 0
         return -side * a1 * c1, 0.0, SLIDING
     # The stick edge hs: where the cone line w = bp + side (a1 - h) meets the
-    # stack segment k -> l.  The segment's slope and the denominator do not
-    # depend on this step's load, so both divisions stay off the step's
+    # stack segment k -> l (fk: vertex k's cone test, from the walk).  The
+    # segment's slope and the denominator do not depend on this step's load
+    # (unless l is the cut top), so both divisions stay off the step's
     # critical path; the integrals over k -> hs (straight in h) and over the
     # slip annulus hs -> a1 (on the cone line) are closed forms in sqrt(h).
     hk = H[n - 1, 0]
     sk = H[n - 1, 1]
     wk = W[n - 1]
-    fk = side * (wk - bp) - (a1 - hk)
     lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
-    ps = _integrals(H, W, P, nvert)             # P at vertex k
+    ps = _integrals_to(H, W, P, min(ip, n), n)      # P at vertex k
     s = sk
     if hs > hk:
         s = math.sqrt(hs)
         ds = s - sk
         slope = (wl - wk) / (hl - hk)
         ps += ds * (2.0 * wk + (2.0 / 3.0) * slope * ds * (s + 2.0 * sk))
-        _push(H, W, nvert, hs, s, bp + side * (a1 - hs))
-        P[nvert[0] - 1] = ps
+        _put(H, W, n, hs, s, bp + side * (a1 - hs))
+        P[n] = ps
+        n += 1
     else:
         hs = hk
     # annulus: integral of (bp + side (a1 - h)) h^(-1/2) dh from hs to a1
     pa = ps + (c1 - s) * (2.0 * (bp + side * a1)
                           - (2.0 / 3.0) * side * (a1 + c1 * s + hs))
-    _push(H, W, nvert, a1, c1, bp)
-    P[nvert[0] - 1] = pa
-    nvert[1] = nvert[0]
+    _put(H, W, n, a1, c1, bp)
+    P[n] = pa
+    nvert[0] = n + 1
+    nvert[1] = n + 1
     return 1.5 * bp * c1 - 0.75 * pa, hs, PARTIAL_SLIP
 
 

@@ -306,6 +306,15 @@ def _state_runs(ds):
     return t0, t1, vals
 
 
+def state_bands(ds, bins=None):
+    """(t0, t1, state code) arrays of the contact-state bands over the
+    samples' time span: the exact runs, or the dominant state of each of
+    `bins` equal time bins; empty bands dropped."""
+    t0, t1, vals = _dominant_states(ds, int(bins)) if bins else _state_runs(ds)
+    keep = t1 > t0
+    return t0[keep], t1[keep], vals[keep]
+
+
 def state_timeline(ds, legend=False, bins=None):
     """Contact states as coloured bands over the samples' time span (exact
     change times from the events).  legend: one layer per state, named in a
@@ -313,12 +322,7 @@ def state_timeline(ds, legend=False, bins=None):
     bins: show the dominant state of each of `bins` time bins instead."""
     time = ds["time"].values
     t_start, t_end = float(time[0]), float(time[-1])
-    if bins:
-        t0, t1, vals = _dominant_states(ds, int(bins))
-    else:
-        t0, t1, vals = _state_runs(ds)
-    rects = [(a, 0, b, 1, STATE_NAMES[v], STATE_COLORS[v])
-             for a, b, v in zip(t0, t1, vals) if b > a]
+    rects = [(a, 0, b, 1, STATE_NAMES[v], STATE_COLORS[v]) for a, b, v in zip(*state_bands(ds, bins))]
     kdims = [T_DIM, hv.Dimension("y0", label="state"), "x1", "y1"]
     if not legend:
         el = hv.Rectangles(rects, kdims=kdims, vdims=["state", "color"])
@@ -337,53 +341,67 @@ def state_timeline(ds, legend=False, bins=None):
                                                  show_legend=True, xlim=(t_start, t_end)))
 
 
+def panel_spec(rigid, split_velocity=False):
+    """The line panels of the trajectory figure, as data (shared with the
+    explorer's live figures): [(title, y label, [(variable, legend label,
+    colour), ...]), ...].  The material point has no contact deformation:
+    its panels show y*, x*, N* and T* only."""
+    if rigid:
+        return [("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
+                ("tangential: x*(t)", "x* (a0)", [("x", "x*", "#d62728")]),
+                ("forces: N*, T*", "N*, T*", [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")])]
+    forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
+    panels = [("normal: a*(t), y*(t)", "a*, y* (a0)",
+               [("a", "a*", "#1f77b4"), ("y", "y*", "#ff7f0e")]),
+              ("tangential: b*(t), x*(t)", "b* (theta mu a0), x* (a0)",
+               [("b", "b*", "#2ca02c"), ("x", "x*", "#d62728")])]
+    if split_velocity:
+        return panels + [("forces: N*, T*", "N*, T*", forces),
+                         ("relative tangential velocity b*'", "b*' (theta mu a0/period)",
+                          [("bdot", "b*'", "#7f7f7f")])]
+    return panels + [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
+
+
+def timeline_title(bins=None):
+    return "contact state" + (" (dominant per bin)" if bins else "")
+
+
+def twin_spec(tau, label):
+    """The twin comparison panel of a run with ramp time `tau`: (title,
+    y label, [(legend label, colour, dash) of the run, of its twin])."""
+    return (f"x*(t) and its {label} twin", "x* (a0)",
+            [(f"x*, tau = {tau:g}", "#d62728", None),
+             (f"x*, {label}", "black", "dashed")])
+
+
 def trajectory_panels(ds, split_velocity=False, state_legend=False, timeline_bins=None):
     """The paper's trajectory figure: normal and tangential displacements,
     forces and relative velocity, and the contact-state timeline, on one
-    shared time axis.  The material point has no contact deformation: its
-    panels show y*, x*, N* and T* only.
+    shared time axis (panels: `panel_spec`).
 
     split_velocity: draw b*' in a panel of its own (in flight it is far
     larger than N* and T*, which it would flatten).
     state_legend: name the contact states in a legend (else hover tells).
     timeline_bins: draw the dominant state per time bin (long runs)."""
-    rigid = ds.attrs.get("model") == "point-mass"
-    if rigid:
-        normal = _curve(ds, "y", "y*", "#ff7f0e").relabel("normal: y*(t)")
-        tangential = _curve(ds, "x", "x*", "#d62728").relabel("tangential: x*(t)")
-        forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")).relabel(
-            "forces: N*, T*")
-        labels = ("y* (a0)", "x* (a0)", "N*, T*")
-    else:
-        normal = (_curve(ds, "a", "a*", "#1f77b4") * _curve(ds, "y", "y*", "#ff7f0e")).relabel(
-            "normal: a*(t), y*(t)")
-        tangential = (_curve(ds, "b", "b*", "#2ca02c") * _curve(ds, "x", "x*", "#d62728")).relabel(
-            "tangential: b*(t), x*(t)")
-        if split_velocity:
-            forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")
-                      ).relabel("forces: N*, T*")
-        else:
-            forces = (_curve(ds, "N", "N*", "#9467bd") * _curve(ds, "T", "T*", "#8c564b")
-                      * _curve(ds, "bdot", "b*'", "#7f7f7f")).relabel("forces: N*, T*, b*'")
-        labels = ("a*, y* (a0)", "b* (theta mu a0), x* (a0)",
-                  "N*, T*" if split_velocity else "N*, T*, b*'")
-    panels = [style(p, common=dict(ylabel=lab)) for p, lab in zip((normal, tangential, forces),
-                                                                  labels)]
-    if split_velocity and not rigid:
-        panels.append(style(_curve(ds, "bdot", "b*'", "#7f7f7f").relabel(
-            "relative tangential velocity b*'"), common=dict(ylabel="b*' (theta mu a0/period)")))
+    panels = []
+    for title, ylabel, lines in panel_spec(ds.attrs.get("model") == "point-mass",
+                                           split_velocity):
+        layers = [_curve(ds, var, lab, color) for var, lab, color in lines]
+        p = layers[0] if len(layers) == 1 else hv.Overlay(layers)
+        panels.append(style(p.relabel(title), common=dict(ylabel=ylabel)))
     timeline = state_timeline(ds, legend=state_legend, bins=timeline_bins).relabel(
-        "contact state" + (" (dominant per bin)" if timeline_bins else ""))
+        timeline_title(timeline_bins))
     return hv.Layout([*panels, timeline]).cols(1)
 
 
 def twin_comparison(ds, twin, label="tau + 1e-3"):
     """x*(t) of a run and of its twin (a tau + 1e-3 run, or another model)."""
-    a = _curve(ds, "x", f"x*, tau = {ds.attrs.get('tau', 50):g}", "#d62728")
+    title, ylabel, ((la, ca, _), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), label)
+    a = _styled_line(hv.Curve((ds["time"].values, ds["x"].values), T_DIM, _vdim("x"), label=la),
+                     ca)
     b = _styled_line(hv.Curve((twin["time"].values, twin["x"].values), T_DIM, _vdim("x"),
-                              label=f"x*, {label}"),
-                     "black", dash="dashed")
-    return style((a * b).relabel(f"x*(t) and its {label} twin"), common=dict(ylabel="x* (a0)"))
+                              label=lb), cb, dash=db)
+    return style((a * b).relabel(title), common=dict(ylabel=ylabel))
 
 
 def fragment_window(ds, window=None):

@@ -1,0 +1,166 @@
+"""The explorer's live trajectory figures: plain Bokeh figures, built once
+per session and structure (model, comparison), fed each run's columns.
+
+The panels are the paper's trajectory figure as `vibtrans.plots` defines
+it (`panel_spec`, `state_bands`, `twin_spec`; the exports draw the same
+with HoloViews).  Here they are drawn with Bokeh directly because a
+session's server time is what limits how many people one server holds:
+building these figures through HoloViews took ~0.8 s per session and
+feeding them ~0.15 s per run (measured with py-spy under the load test);
+plain figures take a fraction of that, and a run is one data change per
+source and a few range changes, sent to the browser as one message.
+"""
+import numpy as np
+from bokeh.layouts import column
+from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend, LegendItem,
+                          Line, Quad, Range1d)
+
+from vibtrans import plots
+from vibtrans.contact import STATE_NAMES
+
+WIDTH = 900
+LINE_HEIGHT = 190
+TIMELINE_HEIGHT = 90
+TIMELINE_BINS = 400           # time bins of the whole-run state timeline
+_COLOURS = np.array([plots.STATE_COLORS[k] for k in range(len(STATE_NAMES))])
+_NAMES = np.array(STATE_NAMES)
+
+
+# Every Bokeh model of a session is serialized to its browser, which costs
+# server time per model (~0.3-1 ms under load): the figures keep to the
+# models they need (no box zoom, save or per-line hover tools, glyph
+# renderers without selection/muted copies, one time axis per block).
+TOOLS = "xpan,xwheel_zoom,reset"
+
+
+def _figure(title, ylabel, x_range, height, time_ticker=None):
+    """A panel; with `time_ticker`, no time axis of its own (the block's
+    bottom panel has it), only its grid lines."""
+    from bokeh.plotting import figure
+    fig = figure(title=title, width=WIDTH, height=height, x_range=x_range,
+                 y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
+                 output_backend="canvas",
+                 x_axis_type=None if time_ticker is not None else "linear")
+    fig.yaxis.axis_label = ylabel
+    if time_ticker is None:
+        fig.xaxis.axis_label = "t* (periods)"
+    else:
+        fig.add_layout(Grid(dimension=0, ticker=time_ticker))
+    fig.toolbar.logo = None
+    return fig
+
+
+def _lines(fig, sources, lines):
+    """Lines [(column, legend label, colour, dash), ...] of `sources` (one
+    per line), a legend outside on the right, one hover for them all."""
+    items, renderers = [], []
+    for source, (col, label, colour, dash) in zip(sources, lines):
+        r = fig.add_glyph(source, Line(x="time", y=col, line_color=colour, line_width=1.5,
+                                       line_dash=dash or "solid"))
+        renderers.append(r)
+        items.append(LegendItem(label=label, renderers=[r]))
+    fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"),
+                                                           ("value", "$y{0.0000}")]))
+    fig.add_layout(Legend(items=items, location="top_left"), "right")
+
+
+def _timeline(title, x_range):
+    fig = _figure(title, "state", x_range, TIMELINE_HEIGHT)
+    fig.yaxis.visible = False
+    fig.ygrid.visible = False
+    source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
+    r = fig.add_glyph(source, Quad(left="left", right="right", bottom=0.0, top=1.0,
+                                   fill_color="color", line_width=0))
+    fig.add_tools(HoverTool(renderers=[r], tooltips=[("state", "@state"),
+                                                     ("t*", "@left{0.000} to @right{0.000}")]))
+    return fig, source
+
+
+def _extent(arrays):
+    """(low, high) of finite values with 5% padding; (-1, 1) if none."""
+    lo, hi = np.inf, -np.inf
+    for a in arrays:
+        a = a[np.isfinite(a)]
+        if a.size:
+            lo, hi = min(lo, float(a.min())), max(hi, float(a.max()))
+    if not np.isfinite(lo):
+        return -1.0, 1.0
+    pad = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
+    return lo - pad, hi + pad
+
+
+class _Block:
+    """One column of panels on one shared time axis: the line panels of
+    `panel_spec`, the state timeline, and (whole run, with a comparison) the
+    twin panel."""
+
+    def __init__(self, specs, timeline_title, bins, twin=None):
+        self.x_range = Range1d(0.0, 1.0)
+        self.variables = sorted({col for _, _, lines in specs for col, _, _ in lines}
+                                | ({"x"} if twin is not None else set()))
+        self.source = ColumnDataSource({c: [] for c in ["time", *self.variables]})
+        self.bins = bins
+        ticker = BasicTicker()
+        self.figures, self.columns = [], []
+        for title, ylabel, lines in specs:
+            fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, ticker)
+            _lines(fig, [self.source] * len(lines), [(*line, None) for line in lines])
+            self.figures.append(fig)
+            self.columns.append([col for col, _, _ in lines])
+        self.twin_source = None
+        if twin is not None:
+            title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
+            fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, ticker)
+            self.twin_source = ColumnDataSource({"time": [], "x": []})
+            _lines(fig, [self.source, self.twin_source], [("x", la, ca, da), ("x", lb, cb, db)])
+            self.twin_figure = fig
+        # the state timeline at the bottom carries the block's time axis
+        self.timeline, self.bands = _timeline(timeline_title, self.x_range)
+        self.layout = column([*self.figures, *([self.twin_figure] if twin else []),
+                              self.timeline])
+
+    def show(self, ds, twin=None):
+        """New data for every source and the axes to its extent."""
+        t = ds["time"].values
+        data = {"time": t, **{v: ds[v].values for v in self.variables}}
+        self.source.data = data
+        self.x_range.update(start=float(t[0]), end=float(t[-1]))
+        for fig, cols in zip(self.figures, self.columns):
+            lo, hi = _extent([data[c] for c in cols])
+            fig.y_range.update(start=lo, end=hi)
+        if self.twin_source is not None:
+            tt = twin["time"].values if twin is not None else np.zeros(0)
+            tx = twin["x"].values if twin is not None else np.zeros(0)
+            self.twin_source.data = {"time": tt, "x": tx}
+            lo, hi = _extent([data["x"], tx])
+            self.twin_figure.y_range.update(start=lo, end=hi)
+        t0, t1, codes = plots.state_bands(ds, self.bins)
+        self.bands.data = {"left": t0, "right": t1, "color": _COLOURS[codes],
+                           "state": _NAMES[codes]}
+
+
+class LiveTrajectory:
+    """The trajectory figures of one structure: the whole run (its samples;
+    the state timeline as the dominant state per bin; with a comparison
+    `label`, x*(t) of the run and of the comparison run) over one linked,
+    zoomable time axis, and the last `fragment` periods at full resolution
+    on another.  `whole` and `last` are Bokeh layouts; `show` feeds them."""
+
+    def __init__(self, rigid, label, fragment, tau):
+        self.rigid, self.label, self.fragment = rigid, label, fragment
+        specs = plots.panel_spec(rigid)
+        twin = plots.twin_spec(tau, label) if label else None
+        self.over = _Block(specs, plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
+        self.last = _Block(specs, plots.timeline_title(None), None)
+        self.whole, self.part = self.over.layout, self.last.layout
+        self.runs = 0
+
+    def show(self, ds, other=None):
+        """Show a run (and its comparison run `other`): the whole run from
+        its overview samples, the fragment from its last periods."""
+        self.over.show(plots.overview_samples(ds), other)
+        t = ds["time"].values
+        # (isel: a label-based sel builds a pandas hash index of the times first)
+        start = int(np.searchsorted(t, t[-1] - self.fragment))
+        self.last.show(ds.isel(time=slice(start, None)))
+        self.runs += 1

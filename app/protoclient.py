@@ -1,0 +1,178 @@
+"""A session of the explorer at the Bokeh protocol level: what chromium
+sends to the server, without drawing anything (app/loadtest.py).
+
+A person's browser renders on their own machine; a load test that renders
+30 pages on the server's own 2 cores measures the browsers, not the server.
+This client does what the page does over its websocket (recorded from
+chromium: the HTTP GET that creates the session, PULL-DOC, the browser's
+first property patches, `document_ready`, a `tap` event per click, and the
+figures' size changes after each new run) and times a click from the tap
+to the server's reply that carries the run's summary and data.  Only the
+JSON headers are parsed (and the document, to find the figures): the
+client costs milliseconds per click, so the server gets the cores.
+"""
+import asyncio
+import json
+import re
+import uuid
+
+from tornado.httpclient import AsyncHTTPClient, HTTPRequest
+from tornado.websocket import websocket_connect
+
+MAP_HEIGHT = 460            # app/explorer.py: the drift map's figure height
+# the summary of a finished run: "<model>: A* = .., m* = .., mu = .." (the
+# progress line is "Running <model> at A* = ...")
+_DONE = re.compile(r": A\* = [^,]*, m\* = [^,]*, mu = ")
+_FAILED = re.compile(r"run failed|server's limit|Drawing the run failed")
+
+
+def _walk(obj, out):
+    """Every serialized Bokeh model in a JSON tree, by id."""
+    if isinstance(obj, dict):
+        if obj.get("type") == "object" and "id" in obj and "name" in obj:
+            out.setdefault(obj["id"], obj)
+        for v in obj.values():
+            _walk(v, out)
+    elif isinstance(obj, list):
+        for v in obj:
+            _walk(v, out)
+    return out
+
+
+class ProtocolSession:
+    """One explorer session over Bokeh's websocket protocol.
+
+    `await open()` loads the page and waits until the page's figures are
+    built (after `document_ready`, as a browser's page does); `await
+    click(fx, fy)` taps the map at fractions of its axes' ranges and returns
+    ("done" | "error", summary text); `close()` closes the connection.
+    """
+
+    def __init__(self, url, timeout=180.0):
+        self.url = url.rstrip("/") + "/"
+        self.timeout = timeout
+        self.models = {}
+        self._waiters = []
+        self._reader = None
+        self.conn = None
+
+    async def open(self):
+        # a client of its own: Tornado's shared one queues beyond 10 requests
+        http = AsyncHTTPClient(force_instance=True)
+        try:
+            page = await http.fetch(self.url, request_timeout=self.timeout)
+        finally:
+            http.close()
+        token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
+        ws = HTTPRequest("ws" + self.url[4:] + "ws", headers={"Origin": self.url.rstrip("/")},
+                         request_timeout=self.timeout)
+        self.conn = await websocket_connect(ws, subprotocols=["bokeh", token],
+                                            max_message_size=1 << 30)
+        header, _ = await self._read()
+        if header["msgtype"] != "ACK":
+            raise RuntimeError(f"expected ACK, got {header['msgtype']}")
+        self._send("PULL-DOC-REQ", {})
+        while True:         # patches sent before the reply are in the document it carries
+            header, content = await self._read()
+            if header["msgtype"] == "PULL-DOC-REPLY":
+                break
+            if header["msgtype"] != "PATCH-DOC":
+                raise RuntimeError(f"expected PULL-DOC-REPLY, got {header['msgtype']}")
+        _walk(json.loads(content), self.models)
+        self._reader = asyncio.ensure_future(self._loop())
+        self.map = next(f for f in self._figures() if f["attributes"].get("height") == MAP_HEIGHT)
+        # as the page: its size, then document_ready, which builds the
+        # (empty) trajectory figures server-side (a patch with new figures)
+        self._sizes([self.map], 0)
+        built = self._wait(lambda s: '"Figure"' in s)
+        self._event("document_ready", [])
+        await asyncio.wait_for(built, self.timeout)
+        self._sizes([f for f in self._figures() if f is not self.map], 0)
+
+    async def click(self, fx, fy):
+        """Tap the map at fractions (fx, fy) of its x and y ranges."""
+        (x0, x1), (y0, y1) = self._range("x_range"), self._range("y_range")
+        done = self._wait(lambda s: bool(_DONE.search(s) or _FAILED.search(s)))
+        self._event("tap", [["model", {"id": self.map["id"]}],
+                            ["sx", 100 + 700 * fx], ["sy", 400 - 380 * fy],
+                            ["x", x0 + fx * (x1 - x0)], ["y", y0 + fy * (y1 - y0)],
+                            ["modifiers", {"type": "map", "entries": [
+                                ["shift", False], ["ctrl", False], ["alt", False]]}]])
+        text = await asyncio.wait_for(done, self.timeout)
+        if _FAILED.search(text):
+            return "error", text
+        # as the page after drawing new data: its axes' widths change
+        self._sizes([f for f in self._figures() if f is not self.map], 1)
+        return "done", text
+
+    def close(self):
+        if self.conn is not None:
+            self.conn.close()
+        if self._reader is not None:
+            self._reader.cancel()
+
+    # ---------- protocol ----------
+    def _send(self, msgtype, content):
+        self.conn.write_message(json.dumps({"msgid": uuid.uuid4().hex, "msgtype": msgtype}))
+        self.conn.write_message("{}")
+        self.conn.write_message(json.dumps(content))
+
+    async def _read(self):
+        """One message: (header, content text); buffers are skipped."""
+        h = await self.conn.read_message()
+        if h is None:
+            raise ConnectionError("the server closed the websocket")
+        header = json.loads(h)
+        await self.conn.read_message()                  # metadata
+        content = await self.conn.read_message()
+        for _ in range(2 * header.get("num_buffers", 0)):
+            await self.conn.read_message()
+        return header, content
+
+    async def _loop(self):
+        try:
+            while True:
+                header, content = await self._read()
+                if header["msgtype"] != "PATCH-DOC":
+                    continue
+                if '"Figure"' in content:
+                    _walk(json.loads(content), self.models)
+                for w in list(self._waiters):
+                    if w[0](content) and not w[1].done():
+                        w[1].set_result(content)
+                        self._waiters.remove(w)
+        except Exception as exc:              # noqa: BLE001 - passed to the waiters
+            for _, f in self._waiters:
+                if not f.done():
+                    f.set_exception(exc if isinstance(exc, ConnectionError)
+                                    else ConnectionError(repr(exc)))
+
+    def _wait(self, predicate):
+        f = asyncio.get_running_loop().create_future()
+        self._waiters.append((predicate, f))
+        return f
+
+    def _patch(self, events):
+        self._send("PATCH-DOC", {"events": events})
+
+    def _event(self, name, entries):
+        self._patch([{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": {
+            "type": "event", "name": name, "values": {"type": "map", "entries": entries}}}])
+
+    def _figures(self):
+        return [m for m in self.models.values() if m["name"] == "Figure"]
+
+    def _sizes(self, figures, shrink):
+        """A page's size reports: one patch per figure, as BokehJS sends."""
+        for f in figures:
+            a = f["attributes"]
+            w, h = a.get("width") or 900, a.get("height") or 300
+            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr,
+                          "new": v} for attr, v in (("inner_width", w - 175 - shrink),
+                                                    ("inner_height", h - 70),
+                                                    ("outer_width", w), ("outer_height", h))])
+
+    def _range(self, which):
+        ref = self.map["attributes"][which]["id"]
+        a = self.models[ref]["attributes"]
+        return a["start"], a["end"]
