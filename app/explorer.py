@@ -1,6 +1,7 @@
 """The vibtrans explorer: a drift map over (log10 A*, log10 m*) with
 on-demand trajectories.  Layout, widgets and callbacks only: physics comes
-from `vibtrans`, figures from `vibtrans.plots`.
+from `vibtrans`, figures from `vibtrans.plots` (the map, the teaching
+views) and `app/live.py` (the trajectory panels, plain Bokeh).
 
 Serve with `vibtrans serve` (warms the JIT and loads the maps first) or
 `panel serve app/explorer.py`.

@@ -14,6 +14,7 @@ import numpy as np
 from bokeh.layouts import column
 from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend, LegendItem,
                           Line, Quad, Range1d)
+from bokeh.plotting import figure
 
 from vibtrans import plots
 from vibtrans.contact import STATE_NAMES
@@ -36,7 +37,6 @@ TOOLS = "xpan,xwheel_zoom,reset"
 def _figure(title, ylabel, x_range, height, time_ticker=None):
     """A panel; with `time_ticker`, no time axis of its own (the block's
     bottom panel has it), only its grid lines."""
-    from bokeh.plotting import figure
     fig = figure(title=title, width=WIDTH, height=height, x_range=x_range,
                  y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
                  output_backend="canvas",

@@ -32,3 +32,17 @@ def test_small_load_has_no_errors_and_bounded_memory():
     assert growth <= 0.10 * out["rss_baseline_mb"] + 25.0 * 3, out
     assert out["rss_peak_mb"] < 4 * out["rss_baseline_mb"], out
     assert out["total_wall_s"] < 90, out
+
+
+def test_the_server_runs_on_the_c_allocator(monkeypatch):
+    """`vibtrans serve` re-executes itself with PYTHONMALLOC=malloc (memory
+    of closed sessions goes back to the OS: docs/SECURITY.md), in the same
+    process (a supervisor's pid stays valid)."""
+    monkeypatch.delenv("PYTHONMALLOC", raising=False)
+    server = loadtest.Server()
+    try:
+        server.wait_ready()
+        with open(f"/proc/{server.proc.pid}/environ", "rb") as f:
+            assert b"PYTHONMALLOC=malloc" in f.read().split(b"\0")
+    finally:
+        server.stop()

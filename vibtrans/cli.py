@@ -524,9 +524,12 @@ def _glue_negative_values(argv):
 
 def main(argv=None):
     parser = build_parser()
-    argv = sys.argv[1:] if argv is None else list(argv)
+    command_line = argv is None
+    argv = sys.argv[1:] if command_line else list(argv)
     args = parser.parse_args(_glue_negative_values(argv))
-    args.argv = argv
+    # only a real command line may be re-executed (cmd_serve); a caller of
+    # main(argv) (tests, scripts) keeps its process
+    args.argv = argv if command_line else None
     try:
         return args.func(args)
     except (ValueError, TypeError) as exc:   # validation: one line, status 2
