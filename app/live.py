@@ -144,10 +144,11 @@ class LiveTrajectory:
     the state timeline as the dominant state per bin; with a comparison
     `label`, x*(t) of the run and of the comparison run) over one linked,
     zoomable time axis, and the last `fragment` periods at full resolution
-    on another.  `whole` and `last` are Bokeh layouts; `show` feeds them."""
+    on another.  `whole` and `part` are their Bokeh layouts; `show` feeds
+    them."""
 
     def __init__(self, rigid, label, fragment, tau):
-        self.rigid, self.label, self.fragment = rigid, label, fragment
+        self.fragment = fragment
         specs = plots.panel_spec(rigid)
         twin = plots.twin_spec(tau, label) if label else None
         self.over = _Block(specs, plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
