@@ -49,7 +49,7 @@ RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
 OVERVIEW_SAMPLES = 5          # samples per period in the whole-run view
 PLOT_WIDTH = 900
-MAP_HEIGHT = 460              # (app/protoclient.py finds the map by it)
+MAP_HEIGHT = 460
 FRAGMENT = 2.0                # periods at full resolution at the end of the run
 
 POINT_LABELS = {
@@ -289,7 +289,9 @@ class Explorer(pn.viewable.Viewer):
         x, y = event.x, event.y
         if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
             return
-        if not (-3.0 <= x <= 3.0 and -5.0 <= y <= 5.0):
+        (a0, a1), (m0, m1) = (self.state.param.log_amplitude.bounds,
+                              self.state.param.log_mass.bounds)
+        if not (a0 <= x <= a1 and m0 <= y <= m1):
             return          # outside the map's domain (its padding): not a scene
         self.state.param.update(log_amplitude=round(x, 3), log_mass=round(y, 3))
         self.start_run()

@@ -19,7 +19,6 @@ import uuid
 from tornado.httpclient import AsyncHTTPClient, HTTPRequest
 from tornado.websocket import websocket_connect
 
-MAP_HEIGHT = 460            # app/explorer.py: the drift map's figure height
 # the summary of a finished run: "<model>: A* = .., m* = .., mu = .." (the
 # progress line is "Running <model> at A* = ...")
 _DONE = re.compile(r": A\* = [^,]*, m\* = [^,]*, mu = ")
@@ -80,7 +79,9 @@ class ProtocolSession:
                 raise RuntimeError(f"expected PULL-DOC-REPLY, got {header['msgtype']}")
         _walk(json.loads(content), self.models)
         self._reader = asyncio.ensure_future(self._loop())
-        self.map = next(f for f in self._figures() if f["attributes"].get("height") == MAP_HEIGHT)
+        # the map: the figure whose clicks the server listens to
+        self.map = next(f for f in self._figures() if "tap" in (
+            f["attributes"].get("subscribed_events") or {}).get("entries", []))
         # as the page: its size, then document_ready, which builds the
         # (empty) trajectory figures server-side (a patch with new figures)
         self._sizes([self.map], 0)
