@@ -157,15 +157,29 @@ def _schedule_release():
     _RELEASE["handle"] = loop.call_later(RELEASE_DELAY, _release_memory)
 
 
+def _resident_mb():
+    """This process's resident memory (MB) from /proc; None off Linux."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def _release_memory():
     _RELEASE["handle"] = None
-    t0 = time.perf_counter()
-    gc.collect()
+    t0, before = time.perf_counter(), _resident_mb()
+    collected = gc.collect()
     try:
         ctypes.CDLL(None).malloc_trim(0)
     except (OSError, AttributeError):    # not glibc
         pass
-    log.debug("released memory in %.3f s", time.perf_counter() - t0)
+    after = _resident_mb()
+    # INFO: operators (and `python -m app.loadtest`, which waits for this
+    # line after the last session is discarded) see when memory went back.
+    log.info("released the memory of closed sessions: %d objects collected, RSS %s -> %s MB "
+             "in %.2f s", collected, f"{before:.0f}" if before else "?",
+             f"{after:.0f}" if after else "?", time.perf_counter() - t0)
 
 
 def _retrieved(future):

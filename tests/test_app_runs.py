@@ -3,6 +3,7 @@ request cancels and replaces the running one, freeing its worker), the step
 cap, a failing run (only its session sees an error), Cancel, and figures
 that are built once and then fed new data."""
 import asyncio
+import logging
 import threading
 import time
 
@@ -194,8 +195,11 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
     asyncio.run(go())
 
 
-def test_closed_sessions_give_their_memory_back_once(monkeypatch):
-    """A burst of closed sessions schedules one collection + malloc_trim."""
+def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog):
+    """A burst of closed sessions schedules one collection + malloc_trim,
+    logged at INFO in the words the load test waits for."""
+    from app.loadtest import RELEASED
+    caplog.set_level(logging.INFO, logger="vibtrans.explorer")
     monkeypatch.setattr(E, "RELEASE_DELAY", 0.05)
     calls = []
     real = E._release_memory
@@ -207,6 +211,8 @@ def test_closed_sessions_give_their_memory_back_once(monkeypatch):
         await asyncio.sleep(0.3)
     asyncio.run(go())
     assert calls == [1] and E._RELEASE["handle"] is None
+    released = [r.getMessage() for r in caplog.records if RELEASED in r.getMessage()]
+    assert len(released) == 1 and " MB in " in released[0], caplog.text
 
 
 def test_a_map_click_selects_and_runs_that_scene(monkeypatch):

@@ -4,7 +4,9 @@ Bad input exits with status 2 and one line naming the parameter and its
 valid range.
 """
 import argparse
+import gc
 import json
+import logging
 import math
 import os
 import sys
@@ -215,6 +217,17 @@ def _component_routes():
     return [(f"/{COMPONENT_PATH}(.*)", PanelComponents, {})]
 
 
+def _log_to_stderr(logger):
+    """The server's own INFO lines (e.g. memory released after sessions
+    close) beside Bokeh's, in Bokeh's format."""
+    if not logger.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
+        logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+
+
 def cmd_serve(args):
     """Serve the explorer: check the shipped maps, warm the JIT and load the
     maps first, so the first click pays no compilation."""
@@ -244,6 +257,13 @@ def cmd_serve(args):
     import panel as pn
 
     from app.explorer import create_app
+    _log_to_stderr(logging.getLogger("vibtrans"))
+    # What the imports and the warm-up built (~10^6 objects: modules, JIT
+    # dispatchers, maps) lives as long as the server: leave it out of the
+    # cyclic collector, whose full passes (one each time closed sessions are
+    # released) would otherwise walk it all while every session waits.
+    gc.collect()
+    gc.freeze()
     print(f"vibtrans explorer on http://{args.address}:{args.port}/ (websocket origins: "
           f"{', '.join(origins)})", file=sys.stderr)
     pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
