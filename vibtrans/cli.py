@@ -245,7 +245,7 @@ def cmd_serve(args):
         # with the survivors of thirty concurrent ones, stayed with the
         # process (+31-35% of the baseline after all closed); with the C
         # allocator, the release after sessions close (malloc_trim) hands it
-        # back (+8%; `python -m app.loadtest`).  Set PYTHONMALLOC to opt out.
+        # back (+2.5-5.8%; `python -m app.loadtest`).  Set PYTHONMALLOC to opt out.
         os.execve(sys.executable, [sys.executable, "-m", "vibtrans.cli", *args.argv],
                   dict(os.environ, PYTHONMALLOC="malloc"))
     from app import data
