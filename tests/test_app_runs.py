@@ -250,3 +250,38 @@ def test_each_session_gets_its_own_map_figure():
     a.state.mu = 0.1            # another shipped map: a new figure for that session only
     assert a.map_pane.object is not fa and "mu = 0.1" in a.map_pane.object.title.text
     assert b.map_pane.object is fb
+
+
+def test_one_pass_attach_builds_the_same_page():
+    """The page attached under one freeze of the document's model graph
+    (explorer._attached_in_one_pass) has the same models as the template's
+    own attach, all registered with the document."""
+    import collections
+
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    kinds = []
+    for one_pass in (False, True):
+        doc = Document()
+        with set_curdoc(doc):
+            template = E.explorer_template(E.Explorer())
+            if one_pass:
+                template = E._attached_in_one_pass(template)
+            assert template.server_doc(doc) is doc
+        reachable = {m.id for root in doc.roots for m in root.references()}
+        assert reachable and reachable <= {m.id for m in doc.models}
+        assert all(doc.get_model_by_id(i) is not None for i in reachable)
+        kinds.append(collections.Counter(type(m).__name__ for m in doc.models))
+    assert kinds[0] == kinds[1]
+
+
+def test_page_cost_bench_runs_and_validates():
+    """`python -m app.pagecost` (the figures in the explorer's docstrings)
+    measures both attaches; a bad --pages is refused naming the option."""
+    from app import pagecost
+    out = pagecost.main(["--pages", "1", "--json"])
+    assert out["page_s_plain_attach"] > 0 and out["page_s_one_pass_attach"] > 0
+    assert out["models_after_load"] > 100
+    with pytest.raises(SystemExit):
+        pagecost.main(["--pages", "0"])

@@ -1,0 +1,75 @@
+"""What one page costs the server's event loop, which every session shares:
+building a session's page (the explorer, its template attached to the
+document) and, once the page reports it has loaded, its empty trajectory
+figures.  Pages are built in-process, alternately with and without the
+explorer's one-pass attach (`_attached_in_one_pass`), so that the ratio
+comes from one run on a shared machine.
+
+    python -m app.pagecost [--pages N] [--json]
+"""
+import argparse
+import json
+import statistics
+import sys
+import time
+
+from bokeh.document import Document
+from panel.io.state import set_curdoc
+
+from . import data
+from . import explorer as E
+
+
+def _page(one_pass):
+    """(seconds to build and attach a page, seconds for its trajectory
+    figures, models in the document)."""
+    doc = Document()
+    with set_curdoc(doc):
+        t0 = time.perf_counter()
+        explorer = E.Explorer()
+        template = E.explorer_template(explorer)
+        if one_pass:
+            template = E._attached_in_one_pass(template)
+        template.server_doc(doc)
+        t1 = time.perf_counter()
+        explorer._prebuild()
+        t2 = time.perf_counter()
+    return t1 - t0, t2 - t1, len(doc.models)
+
+
+def run(pages):
+    problems = data.preload()
+    if problems:
+        raise RuntimeError("; ".join(problems))
+    for one_pass in (False, True, False, True):            # warm-up: imports, caches
+        _page(one_pass)
+    plain, once, figures = [], [], []
+    for _ in range(pages):
+        for one_pass, out in ((False, plain), (True, once)):
+            page, prebuild, models = _page(one_pass)
+            out.append(page)
+            figures.append(prebuild)
+    p, o = statistics.median(plain), statistics.median(once)
+    return {"pages": pages, "page_s_plain_attach": p, "page_s_one_pass_attach": o,
+            "one_pass_over_plain": o / p, "trajectory_figures_s": statistics.median(figures),
+            "models_after_load": models}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m app.pagecost", description=__doc__.splitlines()[0])
+    ap.add_argument("--pages", type=int, default=10, help="pages of each kind (1-200)")
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON")
+    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if not 1 <= a.pages <= 200:
+        ap.error(f"--pages must be in [1, 200], got {a.pages}")
+    out = run(a.pages)
+    if a.json:
+        print(json.dumps(out))
+    else:
+        for k, v in out.items():
+            print(f"{k:>24}: {v:.4f}" if isinstance(v, float) else f"{k:>24}: {v}")
+    return out
+
+
+if __name__ == "__main__":
+    main()
