@@ -117,7 +117,7 @@ def map_element(model, mu, v0, chaotic):
         if model == "deformable":
             el = el * plots.resonance_lines(vertical)
     el = el * plots.paper_points(model)
-    return el.opts(hv.opts.Image(tools=["hover"], width=PLOT_WIDTH, height=MAP_HEIGHT,
+    return el.opts(hv.opts.Image(width=PLOT_WIDTH, height=MAP_HEIGHT,
                                  title=f"<v*> over 2000 periods: {model}, mu = {mu:g}"))
 
 

@@ -285,3 +285,20 @@ def test_page_cost_bench_runs_and_validates():
     assert out["models_after_load"] > 100
     with pytest.raises(SystemExit):
         pagecost.main(["--pages", "0"])
+
+
+@pytest.mark.parametrize("chaotic", ["grey", "colour"])
+def test_the_map_hover_shows_drift_and_verdict_never_nan(chaotic):
+    """One hover on the map, on its drift image: the point, <v*> and the
+    tau-twin verdict (finite everywhere), not the colour value, which is NaN
+    under the grey of chaotic points (the grey layer's own hover used to
+    cover it and show 'chaotic: NaN' off the grey)."""
+    from bokeh.models import HoverTool
+    fig = E.map_figure("deformable", 0.3, 0.1, chaotic)
+    hovers = [t for t in fig.tools if isinstance(t, HoverTool)]
+    assert len(hovers) == 1 and len(hovers[0].renderers) == 1
+    fields = [field for _, field in hovers[0].tooltips]
+    assert fields == ["$x", "$y", "@{v}", "@{chaotic}"]
+    data = hovers[0].renderers[0].data_source.data
+    assert np.isfinite(data["v"][0]).all()
+    assert set(np.unique(data["chaotic"][0])) <= {0.0, 1.0}

@@ -138,22 +138,31 @@ def drift_map(ds, v0=0.1, chaotic="grey", title=""):
     """
     v = ds["drift_velocity"].values                      # (amplitude, mass)
     c = colour_scale(v, v0)
-    hover_v = v.T
     chaos = (ds["chaotic"].values == 1).T
     if chaotic == "grey":
         c = np.where((ds["chaotic"].values == 1), np.nan, c)
-    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, hover_v),
+    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, v.T,
+                    chaos.astype(float)),
                    kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
-                                                hv.Dimension("v", label="<v*>")],
+                                                hv.Dimension("v", label="<v*>"),
+                                                hv.Dimension("chaotic")],
                    label=title)
+    # The hover names the point, its drift and the tau-twin verdict; not the
+    # colour value C (NaN under the grey of a chaotic point).
     img = style(img, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True),
+                bokeh=dict(tools=["hover"], hover_tooltips=[
+                    (LOG_A.label, "$x"), (LOG_M.label, "$y"),
+                    ("<v*>", "@{v}"), ("chaotic (1: the tau + 1e-3 twin disagrees)",
+                                       "@{chaotic}")]),
                 matplotlib=dict(hooks=[_mpl_colour_ticks(colour_ticks(v, v0))]))
     layers = [img]
     if chaotic == "grey" and chaos.any():
         grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values,
                          np.where(chaos, 1.0, np.nan)), kdims=[LOG_A, LOG_M],
                         vdims=["chaotic"])
-        layers.append(style(grey, common=dict(cmap=["#9e9e9e"], alpha=0.9)))
+        # no hover of its own: it would cover the map's, showing NaN off the grey
+        layers.append(style(grey, common=dict(cmap=["#9e9e9e"], alpha=0.9),
+                            bokeh=dict(tools=[])))
     return hv.Overlay(layers)
 
 
