@@ -1,6 +1,6 @@
 """Explorer latency benchmark, in a real headless browser:
 
-    python -m app.bench [--points 8] [--sessions 3] [--settle 10] [--json]
+    python -m app.bench [--points 8] [--sessions 3] [--settle 120] [--json]
 
 Starts `vibtrans serve` (closed sessions dropped after 3 s, checked every
 second), measures server start to ready, then runs one warm-up session (as
@@ -12,24 +12,17 @@ summary is shown and the browser has painted the frame after it (two
 animation frames; the explorer sends the figures' new data in the same held
 batch of changes as the summary), p50 and p95 over all clicks.  Memory: the server's RSS (from
 /proc) at ready, the baseline, the peak during the sessions and after they
-are closed and dropped (`--settle` seconds), with after/baseline.  Needs
-Debian's chromium (make test installs it).
+are closed, dropped and their memory released (the explorer's log line;
+waited for at most `--settle` seconds), with after/baseline.  The server
+is app/loadtest.py's.  Needs Debian's chromium (make test installs it).
 """
 import argparse
 import json
 import os
-import socket
 import statistics
-import subprocess
-import sys
 import time
-import urllib.request
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
-LIFETIME_MS, CHECK_MS = 3000, 1000
+from .loadtest import ARGS, CHROMIUM, Server
 
 # In the page: the summary's first line (bold, "... mu = ..."), the alert,
 # found through Bokeh's shadow roots; polled inside the page.
@@ -52,14 +45,6 @@ _DONE_JS = "(before) => { const s = (" + _SUMMARY_JS + """)();
   if (s.alert) return {error: s.alert};
   return s.summary && s.summary !== before ? s : null; }"""
 _PAINTED_JS = "() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))"
-
-
-def _rss_mb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
 
 
 def _points(n):
@@ -94,65 +79,41 @@ def _session(browser, url, points, on_click=None):
         page.close()
 
 
-def _port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def main(argv=None):
     from playwright.sync_api import sync_playwright
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=8)
     ap.add_argument("--sessions", type=int, default=3)
-    ap.add_argument("--settle", type=float, default=10.0,
-                    help="seconds to wait after sessions close before reading the RSS "
-                         f"(the server drops them {LIFETIME_MS / 1000:g}-"
-                         f"{(LIFETIME_MS + CHECK_MS) / 1000:g} s after)")
+    ap.add_argument("--settle", type=float, default=120.0,
+                    help="at most this many seconds to wait for closed sessions to be "
+                         "dropped and their memory released")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
-    port = _port()
-    url = f"http://127.0.0.1:{port}/"
-    t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port),
-                             "--unused-session-lifetime", str(LIFETIME_MS),
-                             "--check-unused-sessions", str(CHECK_MS)],
-                            cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = Server()
     try:
-        while True:
-            try:
-                urllib.request.urlopen(url, timeout=5)
-                break
-            except OSError:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the server exited ({proc.returncode})")
-                if time.perf_counter() - t0 > 300:
-                    raise RuntimeError("server not ready in 300 s")
-                time.sleep(0.2)
-        ready = time.perf_counter() - t0
-        rss_ready = _rss_mb(proc.pid)
+        ready = server.wait_ready()
+        rss_ready = server.rss()
         latencies = []
         peak = [rss_ready]
 
         def sample():
-            peak[0] = max(peak[0], _rss_mb(proc.pid))
+            peak[0] = max(peak[0], server.rss())
 
         with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path="/usr/bin/chromium", headless=True,
-                                        args=ARGS)
-            _session(browser, url, _points(a.points))   # warm-up, not counted
-            time.sleep(a.settle)
-            rss_base = _rss_mb(proc.pid)
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            _session(browser, server.url, _points(a.points))   # warm-up, not counted
+            _, warm_released = server.wait_dropped(1, a.settle)
+            rss_base = server.rss()
             peak[0] = rss_base
-            for s in range(a.sessions):
-                latencies += _session(browser, url, _points(a.points), on_click=sample)
+            for _ in range(a.sessions):
+                latencies += _session(browser, server.url, _points(a.points), on_click=sample)
                 sample()
             browser.close()
-        time.sleep(a.settle)
-        rss_after = _rss_mb(proc.pid)
+        _, released = server.wait_dropped(1 + a.sessions, a.settle)
+        rss_after = server.rss()
     finally:
-        proc.terminate()
-        proc.wait(10)
+        server.stop()
+        os.remove(server.log.name)
     lat = sorted(latencies)
     out = {"server_start_to_ready_s": ready, "clicks": len(lat),
            "click_to_plot_p50_s": statistics.median(lat),
@@ -161,6 +122,7 @@ def main(argv=None):
            "click_to_plot_s": [round(x, 3) for x in latencies],
            "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak[0],
            "rss_after_mb": rss_after, "rss_after_vs_baseline": rss_after / rss_base - 1,
+           "memory_released": warm_released and released,
            "machine": f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}"}
     if a.json:
         print(json.dumps(out))

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py")])
 # modules that start processes on purpose (benchmarks and the load test
 # start `vibtrans serve`; the sweep's process pool): argument lists, no shell
-SUBPROCESS_OK = {"app/bench.py", "app/loadtest.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
+SUBPROCESS_OK = {"app/loadtest.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
 
 
 # ------------------------------------------------------------------ no code from input
