@@ -20,9 +20,10 @@ import argparse
 import json
 import os
 import statistics
+import sys
 import time
 
-from .loadtest import ARGS, CHROMIUM, Server
+from .loadtest import ARGS, CHROMIUM, Server, _quantile
 
 # In the page: the summary's first line (bold, "... mu = ..."), the alert,
 # found through Bokeh's shadow roots; polled inside the page.
@@ -111,13 +112,16 @@ def main(argv=None):
             browser.close()
         _, released = server.wait_dropped(1 + a.sessions, a.settle)
         rss_after = server.rss()
+    except BaseException:
+        print(f"the server's log is kept in {server.log.name}", file=sys.stderr)
+        raise
     finally:
         server.stop()
-        os.remove(server.log.name)
+    os.remove(server.log.name)
     lat = sorted(latencies)
     out = {"server_start_to_ready_s": ready, "clicks": len(lat),
            "click_to_plot_p50_s": statistics.median(lat),
-           "click_to_plot_p95_s": lat[min(len(lat) - 1, int(round(0.95 * (len(lat) - 1))))],
+           "click_to_plot_p95_s": _quantile(lat, 0.95),
            "click_to_plot_max_s": lat[-1],
            "click_to_plot_s": [round(x, 3) for x in latencies],
            "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak[0],

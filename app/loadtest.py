@@ -31,8 +31,8 @@ Bokeh has dropped them (counted from its debug log: "Discarding session";
 the server runs with --unused-session-lifetime 3000
 --check-unused-sessions 1000 so that this takes seconds, not the default
 ~30 s) and the explorer has released their memory (its log line, which
-comes ~2 s after the last discard).  Goals: p95 <= 3 s, 0 errors, and the RSS after within 10% of the
-baseline.  Runs the server refuses as over its step cap
+comes ~2 s after the last discard).  Goals: p95 <= 3 s, 0 errors, and the
+RSS after within 10% of the baseline.  Runs the server refuses as over its step cap
 (VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.
 
 Bounded: at most --sessions sessions, --timeout seconds in all (clicks not
@@ -527,7 +527,8 @@ def run(a):
         "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak,
         "rss_all_closed_mb": rss_closed, "rss_after_mb": rss_after,
         "rss_after_over_baseline": rss_after / rss_base - 1.0,
-        "sessions_dropped": dropped, "memory_released": warm_released and released, "settle_s": settle,
+        "sessions_dropped": dropped, "memory_released": warm_released and released,
+        "settle_s": settle,
         "client_disconnect_races": disconnects,
         "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
         "machine": f"{os.cpu_count()} cores",

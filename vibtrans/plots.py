@@ -140,7 +140,7 @@ def drift_map(ds, v0=0.1, chaotic="grey", title=""):
     c = colour_scale(v, v0)
     chaos = (ds["chaotic"].values == 1).T
     if chaotic == "grey":
-        c = np.where((ds["chaotic"].values == 1), np.nan, c)
+        c = np.where(chaos.T, np.nan, c)
     img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, v.T,
                     chaos.astype(float)),
                    kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
