@@ -29,6 +29,7 @@ from .contact import memory_history, new_memory, reset_memory
 from .models import deformable as D
 from .params import paper_scene
 from .simulate import simulate
+from .errors import InputError
 
 
 def _best(fn, repeat):
@@ -136,7 +137,7 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
         pinned = _pin_one_core()
         return wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned)
     if plot is not None:
-        raise ValueError("plot: only bench --work-precision takes --plot")
+        raise InputError("plot: only bench --work-precision takes --plot")
     if sweep:
         r = sweep_bench(quick)
         if as_json:

@@ -12,15 +12,12 @@ import os
 import sys
 
 from . import __version__
+from .errors import InputError
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2 (argparse prints usage too)
         self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-class InputError(ValueError):
-    pass
 
 
 def _num(text):
@@ -553,7 +550,7 @@ def main(argv=None):
     args.argv = argv if command_line else None
     try:
         return args.func(args)
-    except (ValueError, TypeError) as exc:   # validation: one line, status 2
+    except InputError as exc:   # refused input: one line, status 2 (a bug keeps its traceback)
         print(f"vibtrans {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -28,6 +28,7 @@ import numpy as np  # noqa: E402
 
 from . import plots  # noqa: E402
 from .params import PAPER_POINTS, paper_scene  # noqa: E402
+from .errors import InputError
 
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
@@ -61,7 +62,7 @@ def ensure_backends():
 def _format(out, allowed=FORMATS):
     ext = Path(out).suffix.lower().lstrip(".")
     if ext not in allowed:
-        raise ValueError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
+        raise InputError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
     return ext
 
 
@@ -69,11 +70,11 @@ def _check_size(width, height, dpi):
     for name, v in (("width", width), ("height", height)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
                 math.isfinite(v) and 0.5 <= v <= 50):
-            raise ValueError(f"{name} must be a number of inches in [0.5, 50], got {v!r}")
+            raise InputError(f"{name} must be a number of inches in [0.5, 50], got {v!r}")
     if isinstance(dpi, bool) or not isinstance(dpi, (int, np.integer)) or not 20 <= dpi <= 1200:
-        raise ValueError(f"dpi must be an integer in [20, 1200], got {dpi!r}")
+        raise InputError(f"dpi must be an integer in [20, 1200], got {dpi!r}")
     if width * height * dpi * dpi > MAX_PIXELS:
-        raise ValueError(f"dpi too large for a {width:g} x {height:g} in figure: "
+        raise InputError(f"dpi too large for a {width:g} x {height:g} in figure: "
                          f"{width * dpi:.0f} x {height * dpi:.0f} px is over "
                          f"{MAX_PIXELS:.0e} pixels")
 
@@ -187,9 +188,9 @@ def heatmap_figure(map_ds, v0=0.1, vertical=None, chaotic="grey", title=None):
     ensure_backends()
     if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (
             math.isfinite(v0) and v0 > 0):
-        raise ValueError(f"v0 must be a positive number, got {v0!r}")
+        raise InputError(f"v0 must be a positive number, got {v0!r}")
     if chaotic not in ("grey", "colour"):
-        raise ValueError(f"chaotic must be grey or colour, got {chaotic!r}")
+        raise InputError(f"chaotic must be grey or colour, got {chaotic!r}")
     model = map_ds.attrs.get("scene_model", "deformable")
     mu = map_ds.attrs.get("scene_mu", float("nan"))
     periods = map_ds.attrs.get("scene_periods", float("nan"))
@@ -400,10 +401,10 @@ def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=Non
 
     from .sweep import open_map
     if fmt not in FORMATS:
-        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+        raise InputError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
-        raise ValueError(f"out must be a folder for the paper's figures, got the file {out_dir}")
+        raise InputError(f"out must be a folder for the paper's figures, got the file {out_dir}")
     out_dir.mkdir(parents=True, exist_ok=True)
     maps = Path(maps) if maps is not None else default_maps_dir()
     ensure_backends()

@@ -13,6 +13,7 @@ import numbers
 import param
 
 from .units import amplitude_ratio
+from .errors import InputError
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
@@ -41,23 +42,23 @@ class Physical(param.Number):
         rng = _interval(lo, hi, self.inclusive_bounds)
         name = self.name or "value"
         if isinstance(val, bool) or not isinstance(val, numbers.Real):
-            raise ValueError(f"{name} must be a real number in {rng}, got {val!r}")
+            raise InputError(f"{name} must be a real number in {rng}, got {val!r}")
         try:
             v = float(val)
         except OverflowError:
-            raise ValueError(f"{name} must be in {rng}, got an integer too large") from None
+            raise InputError(f"{name} must be in {rng}, got an integer too large") from None
         ok = math.isfinite(v)
         if ok and lo is not None:
             ok = v >= lo if self.inclusive_bounds[0] else v > lo
         if ok and hi is not None:
             ok = v <= hi if self.inclusive_bounds[1] else v < hi
         if not ok:
-            raise ValueError(f"{name} must be in {rng}, got {val!r}")
+            raise InputError(f"{name} must be in {rng}, got {val!r}")
 
 
 def _choice(name, value, options):
     if value not in options:
-        raise ValueError(f"{name} must be one of {', '.join(options)}; got {value!r}")
+        raise InputError(f"{name} must be one of {', '.join(options)}; got {value!r}")
     return value
 
 
@@ -92,7 +93,7 @@ class Scene(param.Parameterized):
                 _choice(key, params[key], options)
         unknown = set(params) - set(self.param) - {"name"}
         if unknown:
-            raise ValueError(f"unknown scene parameter(s): {', '.join(sorted(unknown))}")
+            raise InputError(f"unknown scene parameter(s): {', '.join(sorted(unknown))}")
         super().__init__(**params)
 
     @property
@@ -127,6 +128,6 @@ PAPER_POINTS = {
 def paper_scene(point, **overrides):
     """Scene of the paper's point 1-10 (mu = 0.3, theta = 1.2, tau = 50)."""
     if point not in PAPER_POINTS:
-        raise ValueError(f"point must be one of 1-10, got {point!r}")
+        raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]
     return Scene(amplitude=10 ** la, mass=10 ** lm, model=model, **overrides)

@@ -17,6 +17,7 @@ import holoviews as hv
 from . import records as R
 from .contact import STATE_NAMES
 from .params import PAPER_POINTS
+from .errors import InputError
 
 STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}   # flight, stick, partial, sliding
 CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
@@ -432,7 +433,7 @@ def trajectory_figure(ds, window=None, twin=None):
     t0, t1 = fragment_window(ds, window)
     frag = ds.sel(time=slice(t0, t1))
     if frag.sizes["time"] < 2:
-        raise ValueError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
+        raise InputError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
     over = trajectory_panels(ds, split_velocity=True, state_legend=True)
     part = trajectory_panels(frag, split_velocity=True, state_legend=True)
     items = []

@@ -21,25 +21,18 @@ from .models.vertical import vertical_kernel
 from .params import Scene
 from .substrate import surface_acceleration, surface_motion
 from .trajectory import build_trajectory
+from .errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded
 
 DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
 CHUNK_STEPS = 2_000_000
 SAMPLES_PER_PERIOD = 10
 
 
-class StepBudgetExceeded(ValueError):
-    """The scene would take more steps than allowed (refused before running)."""
-
-
-class Cancelled(RuntimeError):
-    """The run was cancelled by its caller."""
-
-
 def _scene(scene, values):
     if scene is None:
         return Scene(**values)
     if not isinstance(scene, Scene):
-        raise TypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
+        raise InputTypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
     return scene.replace(**values) if values else scene
 
 
@@ -57,12 +50,12 @@ def _check_steps(steps, model):
     try:
         per_period, per_contact = (float(v) for v in steps)
     except (TypeError, ValueError):
-        raise ValueError(f"steps must be a pair (steps per period, steps per contact time "
+        raise InputError(f"steps must be a pair (steps per period, steps per contact time "
                          f"scale) of numbers in [1, 1e6], got {steps!r}") from None
     if not (1 <= per_period <= 1e6 and 1 <= per_contact <= 1e6):
-        raise ValueError(f"steps must be a pair of numbers in [1, 1e6], got {steps!r}")
+        raise InputError(f"steps must be a pair of numbers in [1, 1e6], got {steps!r}")
     if model == "point-mass":
-        raise ValueError("steps applies to the deformable and vertical models only "
+        raise InputError("steps applies to the deformable and vertical models only "
                          "(the material point is event-driven)")
     return per_period, per_contact
 
@@ -73,10 +66,10 @@ def _window(window, periods):
     try:
         w0, w1 = (float(v) for v in window)
     except (TypeError, ValueError):
-        raise ValueError(f"window must be a pair (t0, t1) of times in [0, {periods:g}], "
+        raise InputError(f"window must be a pair (t0, t1) of times in [0, {periods:g}], "
                          f"got {window!r}") from None
     if not (math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= periods):
-        raise ValueError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
+        raise InputError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
     return w0, w1
 
 
@@ -106,18 +99,18 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
             and not isinstance(samples_per_period, bool) and 1 <= samples_per_period <= 10000):
-        raise ValueError(f"samples_per_period must be an integer in [1, 10000], "
+        raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
     if isinstance(refine, bool) or not (isinstance(refine, (int, float))
                                         and math.isfinite(refine) and 1 <= refine <= 1024):
-        raise ValueError(f"refine must be a number in [1, 1024], got {refine!r}")
+        raise InputError(f"refine must be a number in [1, 1024], got {refine!r}")
     if isinstance(shortcuts, bool) or not (isinstance(shortcuts, (int, np.integer))
                                            and 0 <= shortcuts <= D.SHORTCUTS_ALL):
-        raise ValueError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], "
+        raise InputError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], "
                          f"got {shortcuts!r}")
     if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, float))
                                            and max_steps > 0 and not math.isnan(max_steps)):
-        raise ValueError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
+        raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = _check_steps(steps, scene.model)
     n_steps = estimate_steps(scene, refine, steps)
     if n_steps > max_steps:
@@ -265,10 +258,10 @@ def memory_snapshot(scene=None, t=None, **values):
     from .contact import anchor_profile
     scene = _scene(scene, values)
     if scene.model != "deformable":
-        raise ValueError(f"model must be deformable for a memory diagram, got {scene.model!r}")
+        raise InputError(f"model must be deformable for a memory diagram, got {scene.model!r}")
     if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) \
             or not (0 <= t <= scene.periods):
-        raise ValueError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
+        raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), 1e-9))
     final = {}
     _, _, ctr, _ = _run_hertz(short, math.inf, -math.inf, 1, 1.0, None, None, final)

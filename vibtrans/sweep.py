@@ -32,6 +32,7 @@ from . import __version__
 from .analysis import summarize
 from .params import Scene
 from .simulate import simulate, warmup
+from .errors import InputError, StoreMismatch
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -52,10 +53,6 @@ VARIABLES = {
 }
 
 
-class StoreMismatch(ValueError):
-    """The store on disk was made by a different command or is damaged."""
-
-
 def _why(exc, limit=240):
     """An underlying error as one short line (for StoreMismatch messages)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
@@ -67,13 +64,13 @@ def parse_range(text, name):
     try:
         start, stop, step = (float(v) for v in str(text).split(":"))
     except ValueError:
-        raise ValueError(f"{name} must be 'start:stop:step', got {text!r}") from None
+        raise InputError(f"{name} must be 'start:stop:step', got {text!r}") from None
     if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
-        raise ValueError(f"{name} must be 'start:stop:step' with finite start <= stop "
+        raise InputError(f"{name} must be 'start:stop:step' with finite start <= stop "
                          f"and step > 0, got {text!r}")
     n = int(round((stop - start) / step)) + 1
     if n > 100_000:
-        raise ValueError(f"{name} has {n} points, more than 100000")
+        raise InputError(f"{name} has {n} points, more than 100000")
     return np.round(start + step * np.arange(n), 10)
 
 
@@ -122,7 +119,7 @@ class Sweep:
         self.log_amplitude = np.asarray(log_amplitude, dtype=float)
         self.log_mass = np.asarray(log_mass, dtype=float)
         if not (isinstance(chunk_rows, int) and chunk_rows >= 1):
-            raise ValueError(f"chunk_rows must be an integer >= 1, got {chunk_rows!r}")
+            raise InputError(f"chunk_rows must be an integer >= 1, got {chunk_rows!r}")
         self.chunk_rows = chunk_rows
         self.command = command or "python API"
 
@@ -261,7 +258,7 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
     the GIL) or "processes".
     """
     if executor not in ("processes", "threads"):
-        raise ValueError(f"executor must be processes or threads, got {executor!r}")
+        raise InputError(f"executor must be processes or threads, got {executor!r}")
     if os.path.exists(path):
         try:
             existing = xr.open_zarr(path, consolidated=False)

@@ -17,6 +17,7 @@ from .models import deformable as D
 from .models.vertical import vertical_kernel
 from .params import Scene
 from .simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded
+from .errors import InputError
 
 _NO_MEMORY = np.empty(0)
 
@@ -67,7 +68,7 @@ def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
     """
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) \
             or not 1e-12 <= rel_tol <= 0.5:
-        raise ValueError(f"rel_tol must be in [1e-12, 0.5], got {rel_tol!r}")
+        raise InputError(f"rel_tol must be in [1e-12, 0.5], got {rel_tol!r}")
     base = Scene(mass=mass, tau=tau, periods=periods, fidelity=fidelity,
                  integrator=integrator, model="vertical")
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
+from .errors import InputError, InputTypeError
 
 __all__ = [
     "Material", "MATERIALS", "material",
@@ -36,17 +37,17 @@ def _check(name, value, lo=-_INF, hi=_INF, lo_open=True, hi_open=True):
     interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
     # bool and str convert silently to float in numpy; complex would drop its imaginary part
     if value is None or isinstance(value, (bool, np.bool_, str, bytes)) or np.iscomplexobj(value):
-        raise TypeError(f"{name} must be a real number in {interval}, got {value!r}")
+        raise InputTypeError(f"{name} must be a real number in {interval}, got {value!r}")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number in {interval}, got {value!r}") from None
+        raise InputTypeError(f"{name} must be a real number in {interval}, got {value!r}") from None
     bad = ~np.isfinite(arr)
     bad |= (arr <= lo) if lo_open else (arr < lo)
     bad |= (arr >= hi) if hi_open else (arr > hi)
     if np.any(bad):
         shown = arr if arr.ndim == 0 else arr[bad].flat[0]
-        raise ValueError(f"{name} must be in {interval}, got {float(shown):g}")
+        raise InputError(f"{name} must be in {interval}, got {float(shown):g}")
     return _out(arr)
 
 
@@ -79,7 +80,7 @@ class Material:
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
-            raise TypeError(f"name must be a non-empty string, got {self.name!r}")
+            raise InputTypeError(f"name must be a non-empty string, got {self.name!r}")
         _positive("youngs_modulus", self.youngs_modulus)
         _poisson("poisson_ratio", self.poisson_ratio)
         _positive("density", self.density)
@@ -109,11 +110,11 @@ _ALIASES = {"aluminum": "aluminium", "fused_silica": "quartz", "teflon": "ptfe",
 def material(name: str) -> Material:
     """Look up a material by (case-insensitive) name; ValueError lists valid names."""
     if not isinstance(name, str):
-        raise TypeError(f"material name must be a string, got {name!r}")
+        raise InputTypeError(f"material name must be a string, got {name!r}")
     key = name.strip().lower().replace(" ", "_").replace("-", "_")
     key = _ALIASES.get(key, key)
     if key not in MATERIALS:
-        raise ValueError(f"unknown material {name!r}; valid names: {', '.join(sorted(MATERIALS))}")
+        raise InputError(f"unknown material {name!r}; valid names: {', '.join(sorted(MATERIALS))}")
     return MATERIALS[key]
 
 
@@ -122,7 +123,7 @@ def _as_material(name, value) -> Material:
         return value
     if isinstance(value, str):
         return material(value)
-    raise TypeError(f"{name} must be a Material or a material name, got {value!r}")
+    raise InputTypeError(f"{name} must be a Material or a material name, got {value!r}")
 
 
 # --------------------------------------------------------------------------- Rayleigh wave
@@ -240,7 +241,7 @@ def _static_contact(substrate, particle, radius, preload, g):
     mass = sphere_mass(radius, par.density)
     load = mass * g + preload
     if load <= 0:  # only reachable with g = 0 and no preload
-        raise ValueError(f"load m*g + preload must be in (0, inf), got {load:g} "
+        raise InputError(f"load m*g + preload must be in (0, inf), got {load:g} "
                          f"(g={g:g}, preload={preload:g})")
     E_eff = effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
                               par.youngs_modulus, par.poisson_ratio)

