@@ -26,9 +26,10 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource
 
 from vibtrans import Cancelled, Scene, estimate_steps, plots, simulate, units
-from vibtrans.analysis import summarize
+from vibtrans.analysis import TWIN_TAU_OFFSET, V0, jumped, summarize, twin_scene
 from vibtrans.fidelity import PRESET_NOTES
-from vibtrans.params import PAPER_POINTS
+from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
+from vibtrans.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans.simulate import StepBudgetExceeded, memory_snapshot
 
 from . import data
@@ -47,10 +48,8 @@ log = logging.getLogger("vibtrans.explorer")
 RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
                             thread_name_prefix="vibtrans-run")
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
-OVERVIEW_SAMPLES = 5          # samples per period in the whole-run view
 PLOT_WIDTH = 900
 MAP_HEIGHT = 460
-FRAGMENT = 2.0                # periods at full resolution at the end of the run
 
 POINT_LABELS = {
     1: "permanent contact, drift against the wave",
@@ -113,7 +112,7 @@ def map_element(model, mu, v0, chaotic):
     el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
     vertical = data.vertical_curve()
     if vertical is not None:
-        el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=(-3.0, 3.0))
+        el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=MAP_LOG_AMPLITUDE)
         if model == "deformable":
             el = el * plots.resonance_lines(vertical)
     el = el * plots.paper_points(model)
@@ -192,9 +191,9 @@ class ExplorerState(param.Parameterized):
 
     model = param.Selector(default="deformable", objects=["deformable", "point-mass"])
     mu = param.Number(default=0.3, bounds=(0.01, 1.0))
-    v0 = param.Number(default=0.1, bounds=(1e-3, 10.0), doc="white band |v*| <= v0*")
-    log_amplitude = param.Number(default=-0.3, bounds=(-3.0, 3.0))
-    log_mass = param.Number(default=1.0, bounds=(-5.0, 5.0))
+    v0 = param.Number(default=V0, bounds=(1e-3, 10.0), doc="white band |v*| <= v0*")
+    log_amplitude = param.Number(default=-0.3, bounds=MAP_LOG_AMPLITUDE)
+    log_mass = param.Number(default=1.0, bounds=MAP_LOG_MASS)
     fidelity = param.Selector(default="standard", objects=["preview", "standard", "reference"])
     integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
@@ -415,7 +414,7 @@ class Explorer(pn.viewable.Viewer):
     def _comparison(self, scene):
         """(comparison scene or None, its label in the figures or None)."""
         if self.state.compare == "tau twin":
-            return scene.replace(tau=scene.tau + 1e-3), "tau + 1e-3"
+            return twin_scene(scene), f"tau + {TWIN_TAU_OFFSET:g}"
         if self.state.compare == "point mass" and scene.model == "deformable":
             return scene.replace(model="point-mass"), "point mass"
         return None, None
@@ -481,16 +480,17 @@ class Explorer(pn.viewable.Viewer):
 
     def _show(self, scene, ds, other, label):
         twin = other if (other is not None and other.attrs["model"] == scene.model) else None
-        unneeded = twin is not None and not (ds["event_kind"].values == 0).any()
+        unneeded = twin is not None and not jumped(ds)
         if unneeded:
             twin = None       # no take-off: the tau twin has nothing to decide
         s = summarize(ds, twin)
         self.units_panel.last_drift = s.drift_velocity
         si = self.units_panel.si_text(s.drift_velocity)
-        chaos = {None: "not checked", True: "chaotic (tau + 1e-3 twin disagrees)",
-                 False: "robust (tau + 1e-3 twin agrees)"}[s.chaotic]
+        twin_name = f"tau + {TWIN_TAU_OFFSET:g} twin"
+        chaos = {None: "not checked", True: f"chaotic ({twin_name} disagrees)",
+                 False: f"robust ({twin_name} agrees)"}[s.chaotic]
         if unneeded:
-            chaos = "not checked: no take-off (the tau + 1e-3 twin is drawn below)"
+            chaos = f"not checked: no take-off (the {twin_name} is drawn below)"
         self._last = (scene, ds, twin)
         T = float(ds["time"].values[-1])
         key = (scene.model, label)

@@ -13,10 +13,23 @@ from . import records as R
 from .contact import FLIGHT
 
 V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band)
+TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
 SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
 SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
 LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
+
+
+def twin_scene(scene):
+    """The chaos check's twin: the scene with its ramp time moved by
+    TWIN_TAU_OFFSET (a regular regime does not notice; a chaotic one ends
+    elsewhere)."""
+    return scene.replace(tau=scene.tau + TWIN_TAU_OFFSET)
+
+
+def jumped(ds):
+    """True if the particle lost contact at least once during the run."""
+    return bool((ds["event_kind"].values == R.TAKEOFF).any())
 
 
 def drift_velocity(ds):

@@ -27,13 +27,14 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 import numpy as np  # noqa: E402
 
 from . import plots  # noqa: E402
+from .analysis import V0, twin_scene  # noqa: E402
 from .params import PAPER_POINTS, paper_scene  # noqa: E402
 from .errors import InputError
 
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
 FRAGMENT = plots.FRAGMENT
-OVERVIEW_SAMPLES = 5               # samples per period of the whole-run view (as in the app)
+OVERVIEW_SAMPLES = plots.OVERVIEW_SAMPLES
 MAX_PIXELS = 60e6
 
 # publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
@@ -182,7 +183,7 @@ def _write(obj, out, width, height, dpi, html_cell=None):
 
 
 # ---------------------------------------------------------------- figures
-def heatmap_figure(map_ds, v0=0.1, vertical=None, chaotic="grey", title=None):
+def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
     """The explorer's map (same layers): drift velocity in the paper's colour
     scale, jumping boundary (and resonances, deformable), paper points."""
     ensure_backends()
@@ -211,7 +212,7 @@ def heatmap_figure(map_ds, v0=0.1, vertical=None, chaotic="grey", title=None):
                                        legend_position="bottom_left"))
 
 
-def export_heatmap(map_ds, out, v0=0.1, vertical=None, dpi=DEFAULT_DPI, width=7.0,
+def export_heatmap(map_ds, out, v0=V0, vertical=None, dpi=DEFAULT_DPI, width=7.0,
                    height=5.2, chaotic="grey", title=None):
     """Drift map (`open_map` Dataset) to out (.png/.svg/.pdf, or .html)."""
     _format(out, FORMATS + ("html",))
@@ -363,7 +364,7 @@ def paper_trajectory(point, periods=None, window=None, twin=False, progress=None
     ds = simulate(scene, window=window, samples_per_period=OVERVIEW_SAMPLES, progress=progress)
     other = None
     if twin:
-        other = simulate(scene.replace(tau=scene.tau + 1e-3), window=window,
+        other = simulate(twin_scene(scene), window=window,
                          samples_per_period=OVERVIEW_SAMPLES)
     return scene, ds, other
 
@@ -376,7 +377,7 @@ PAPER_FIGURES = {
     13: ("trajectory", 9),
     14: ("trajectory", 10),
 }
-TWIN_POINTS = (8, 10)      # chaotic: shown with their tau + 1e-3 twin
+TWIN_POINTS = (8, 10)      # chaotic: shown with their chaos twin (analysis.twin_scene)
 
 
 def point_title(point, scene):

@@ -110,6 +110,10 @@ class Scene(param.Parameterized):
         return Scene(**{**self.values(), **changes})
 
 
+# The domain of the paper's maps (its Fig. 3) and of the shipped ones.
+MAP_LOG_AMPLITUDE = (-3.0, 3.0)     # log10 A*
+MAP_LOG_MASS = (-5.0, 5.0)          # log10 m*
+
 # The paper's labelled points (MODEL.md section 6): (log10 A*, log10 m*, model).
 PAPER_POINTS = {
     1: (-0.3, 1.0, "deformable"),

@@ -16,6 +16,7 @@ import holoviews as hv
 
 from . import records as R
 from .contact import STATE_NAMES
+from .analysis import V0
 from .params import PAPER_POINTS
 from .errors import InputError
 
@@ -34,6 +35,7 @@ CZ_DIM = hv.Dimension("cz", label="z", unit="sqrt(R a0)")
 
 BACKENDS = ("bokeh", "matplotlib")
 FRAGMENT = 2.0           # periods shown at full resolution by trajectory_figure
+OVERVIEW_SAMPLES = 5     # samples per period of the whole-run view (app and exports)
 
 
 # ---------------------------------------------------------------- styling
@@ -72,7 +74,7 @@ def _styled_line(el, color, width=None, dash=None):
 
 
 # ---------------------------------------------------------------- drift map
-def colour_scale(v, v0=0.1):
+def colour_scale(v, v0=V0):
     """The paper's colour quantity C (eq. colormap): signed log10(|v|/v0),
     normalised separately on each side, 0 inside |v| <= v0."""
     v = np.asarray(v, dtype=float)
@@ -89,7 +91,7 @@ def colour_scale(v, v0=0.1):
     return c
 
 
-def colour_ticks(v, v0=0.1, n=3):
+def colour_ticks(v, v0=V0, n=3):
     """Colour-bar ticks of the paper's scale: positions in C and the drift
     velocities they stand for ({C: label}), each side with its own maximum."""
     v = np.asarray(v, dtype=float)
@@ -131,7 +133,7 @@ def _mpl_colour_ticks(ticks):
     return hook
 
 
-def drift_map(ds, v0=0.1, chaotic="grey", title=""):
+def drift_map(ds, v0=V0, chaotic="grey", title=""):
     """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
 
     chaotic: "grey" (chaotic points drawn grey: their colour is not a

@@ -29,7 +29,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
-from .analysis import summarize
+from .analysis import TWIN_TAU_OFFSET, jumped, summarize, twin_scene
 from .params import Scene
 from .simulate import simulate, warmup
 from .errors import InputError, StoreMismatch
@@ -45,7 +45,7 @@ VARIABLES = {
     "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
     "drift": ("i1", -2, "-1 against the wave, 0 none (|v*| <= 0.1), 1 with the wave"),
     "pattern": ("i1", -1, "rebound pattern: " + ", ".join(f"{i} {p}" for i, p in enumerate(PATTERNS))),
-    "chaotic": ("i1", -1, "1 if the tau + 1e-3 twin disagrees (jumping points only), else 0"),
+    "chaotic": ("i1", -1, f"1 if the tau + {TWIN_TAU_OFFSET:g} twin disagrees (jumping points only), else 0"),
     "contact_fraction": ("f8", np.nan, "fraction of the final 10% spent in contact"),
     "takeoffs_per_period": ("f8", np.nan, "take-offs per period, final 10%"),
     "steps": ("i8", -1, "integration steps (run + twin)"),
@@ -75,14 +75,14 @@ def parse_range(text, name):
 
 
 def compute_point(values, log_a, log_m):
-    """One grid point: the run and, if it jumps, its tau + 1e-3 twin.
+    """One grid point: the run and, if it jumps, its chaos twin (analysis.twin_scene).
 
     Returns a dict of the stored quantities.
     """
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
     ds = simulate(scene)
-    jumping = bool((ds["event_kind"].values == 0).any())
-    twin = simulate(scene.replace(tau=scene.tau + 1e-3)) if jumping else None
+    jumping = jumped(ds)
+    twin = simulate(twin_scene(scene)) if jumping else None
     s = summarize(ds, twin)
     return {
         "drift_velocity": s.drift_velocity,
