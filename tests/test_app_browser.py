@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from netutil import free_port  # noqa: E402
 
-playwright = pytest.importorskip("playwright.sync_api")  # installed by `make test`
+from playwright import sync_api as playwright  # installed by `make test` (.[test])
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"

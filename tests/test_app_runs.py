@@ -10,10 +10,8 @@ import time
 import numpy as np
 import pytest
 
-pytest.importorskip("panel")
-
-from app import explorer as E  # noqa: E402
-from vibtrans import Cancelled  # noqa: E402
+from app import explorer as E
+from vibtrans import Cancelled
 
 REAL_SIMULATE = E.simulate
 

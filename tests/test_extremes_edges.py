@@ -344,7 +344,8 @@ def test_over_budget_scene_is_refused_before_it_runs(model, fidelity, periods, m
     # Source: closed form of the step count at the stiffest corner (A* = 1e3,
     # m* = 1e-5: the impact time scale sets h = 1.2e-4 at standard), and the
     # method property that simulate() estimates before it runs: the runners
-    # are replaced by a trap, and the refusal must take < 0.1 s.
+    # are replaced by a trap (so the refusal cannot have run the scene; its
+    # time is printed, not asserted: wall-clock limits belong to the benches).
     def trap(*args, **kwargs):
         raise AssertionError("the scene ran")
 
@@ -359,8 +360,7 @@ def test_over_budget_scene_is_refused_before_it_runs(model, fidelity, periods, m
     t0 = time.perf_counter()
     with pytest.raises(StepBudgetExceeded) as info:
         simulate(sc, max_steps=max_steps, progress=progress.append)
-    elapsed = time.perf_counter() - t0
-    assert elapsed < 0.1, elapsed
+    print(f"refused in {time.perf_counter() - t0:.4f} s")
     assert progress == []
     message = str(info.value)
     assert f"{n:.3g} steps" in message and f"{max_steps:.3g}" in message, message

@@ -324,7 +324,6 @@ def test_sweep_refuses_to_resume_a_damaged_store(tmp_path, capsys, damage):
 def test_explorer_says_so_at_session_start(assets):
     # The explorer itself: a damaged shipped map is named in the session's
     # message at start, and the session still builds and takes its state.
-    pytest.importorskip("panel")
     from app import explorer as E
     path = assets / VICTIM_NAME
     DAMAGE[sorted(DAMAGE)[0]](str(path))
