@@ -1,0 +1,314 @@
+"""vibtrans.analysis on small synthetic trajectories with known answers.
+
+Source: closed form.  Each dataset here is written by hand (times, x*,
+events), so every expected number follows from the definitions in
+MODEL.md section 4 and the module's docstrings by arithmetic; every
+threshold (V0, SYNC_TOL, SYNC_SPREAD, LONG_FLIGHT, the chaos tolerance, the
+divergence threshold, the final window) is approached from both sides.
+"""
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from vibtrans import analysis as an
+from vibtrans import records as R
+from vibtrans.contact import FLIGHT, SLIDING, STICK
+from vibtrans.params import Scene
+
+EPS = 1e-6
+
+
+def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, states=(),
+         tau=50.0, n=1001):
+    """A trajectory Dataset as `simulate` returns it (the variables analysis
+    reads): time, x (linear from 0 to x_end unless given), events."""
+    t = np.linspace(0.0, t_end, n)
+    xs = np.linspace(0.0, x_end, n) if x is None else np.asarray(x, dtype=float)
+    takeoffs = list(takeoffs)
+    if phases is None:
+        phases = [tt - math.floor(tt) for tt in takeoffs]
+    ev = [(tt, R.TAKEOFF, ph) for tt, ph in zip(takeoffs, phases)]
+    ev += [(tt, R.LANDING, tt - math.floor(tt)) for tt in landings]
+    ev += [(tt, R.STATE_CHANGE, code) for tt, code in states]
+    ev.sort(key=lambda e: (e[0], e[1]))
+    ev = np.array(ev, dtype=float).reshape(-1, 3)
+    return xr.Dataset(
+        {"x": ("time", xs),
+         "event_time": ("event", ev[:, 0]),
+         "event_kind": ("event", ev[:, 1].astype(np.int8)),
+         "event_value": ("event", ev[:, 2])},
+        coords={"time": t}, attrs={"tau": tau, "steps": 10, "seconds": 0.5})
+
+
+def spread_pair(sigma):
+    """Half-distance d of two phases +-d whose circular spread is sigma:
+    |mean exp(2 pi i phase)| = cos(2 pi d) = exp(-(2 pi sigma)^2 / 2)."""
+    return math.acos(math.exp(-2.0 * (math.pi * sigma) ** 2)) / (2.0 * math.pi)
+
+
+# ------------------------------------------------------------------ drift
+def test_drift_velocity_is_distance_over_time():
+    assert an.drift_velocity(traj(t_end=200.0, x_end=-52.0)) == pytest.approx(-0.26, rel=1e-15)
+    assert an.drift_velocity(traj(t_end=50.0, x_end=0.0)) == 0.0
+
+
+def test_final_drift_velocity_is_the_last_tenth():
+    # x = 0 until t = 90, then slope 3: the run mean is 30/100, the final 3.
+    t = np.linspace(0.0, 100.0, 1001)
+    ds = traj(x=np.where(t > 90.0, 3.0 * (t - 90.0), 0.0))
+    assert an.drift_velocity(ds) == pytest.approx(0.3)
+    assert an.final_drift_velocity(ds) == pytest.approx(3.0)
+    # the slope starting just before the window (t = 89) counts only inside it
+    ds = traj(x=np.where(t > 89.0, 3.0 * (t - 89.0), 0.0))
+    assert an.final_drift_velocity(ds) == pytest.approx(3.0)
+    assert an.drift_velocity(ds) == pytest.approx(0.33)
+    assert an.final_drift_velocity(ds, fraction=0.5) == pytest.approx(33.0 / 50.0)
+
+
+@pytest.mark.parametrize("v, expected", [
+    (an.V0 + EPS, "with-wave"), (an.V0, "none"), (an.V0 - EPS, "none"), (0.0, "none"),
+    (-an.V0 + EPS, "none"), (-an.V0, "none"), (-an.V0 - EPS, "against-wave"),
+    (1e3, "with-wave"), (-1e3, "against-wave")])
+def test_drift_class_threshold_from_both_sides(v, expected):
+    assert an.drift_class(v) == expected
+
+
+def test_drift_class_takes_its_own_v0():
+    assert an.drift_class(0.4, v0=0.5) == "none" and an.drift_class(0.6, v0=0.5) == "with-wave"
+
+
+# ------------------------------------------------------------------ flights, contact
+def test_jumped_means_a_takeoff():
+    assert an.jumped(traj(takeoffs=[5.2], landings=[5.7])) is True
+    assert an.jumped(traj(landings=[5.7], states=[(3.0, SLIDING)])) is False
+    assert an.jumped(traj()) is False
+
+
+def test_flights_pair_takeoffs_with_the_next_landing():
+    # a rebound at t = 3 lands and leaves at once: flights (1, 2), (3, 5), (6, inf)
+    ds = traj(takeoffs=[1.0, 3.0, 6.0], landings=[2.0, 3.0, 5.0])
+    starts, ends = an.flights(ds)
+    assert starts.tolist() == [1.0, 3.0, 6.0]
+    assert ends.tolist() == [2.0, 5.0, math.inf]
+
+
+def test_contact_fraction_over_the_final_window():
+    # window [90, 100]: flights (91, 93.5) and (99, still flying): 3.5 in flight
+    ds = traj(takeoffs=[50.0, 91.0, 99.0], landings=[51.0, 93.5])
+    assert an.contact_fraction(ds) == pytest.approx(0.65)
+    # a flight straddling the window start counts only inside it
+    ds = traj(takeoffs=[89.0], landings=[90.5])
+    assert an.contact_fraction(ds) == pytest.approx(0.95)
+    # explicit window, and no flight at all
+    assert an.contact_fraction(traj(takeoffs=[10.0], landings=[12.0]), 0.0, 20.0) == \
+        pytest.approx(0.9)
+    assert an.contact_fraction(traj()) == 1.0
+
+
+def test_contact_fraction_of_a_run_that_starts_in_flight():
+    # state FLIGHT at t = 0: the first flight lasts until the first landing
+    ds = traj(t_end=10.0, landings=[2.0], states=[(0.0, FLIGHT), (2.0, STICK)])
+    assert an.contact_fraction(ds, 0.0, 10.0) == pytest.approx(0.8)
+    ds = traj(t_end=10.0, landings=[2.0], states=[(0.0, STICK)])
+    assert an.contact_fraction(ds, 0.0, 10.0) == 1.0
+
+
+# ------------------------------------------------------------------ phases
+def test_takeoff_phases_after_t0():
+    ds = traj(takeoffs=[1.25, 2.5, 3.75], phases=[0.25, 0.5, 0.75])
+    assert an.takeoff_phases(ds).tolist() == [0.25, 0.5, 0.75]
+    assert an.takeoff_phases(ds, 2.5).tolist() == [0.5, 0.75]
+
+
+def test_phase_spread_is_circular():
+    assert math.isnan(an.phase_spread([]))
+    assert an.phase_spread([0.3, 0.3, 0.3]) == pytest.approx(0.0, abs=1e-7)
+    # +-d about any centre, across the wrap-around too: the closed form
+    for d in (0.01, 0.05):
+        expected = math.sqrt(-2.0 * math.log(math.cos(2.0 * math.pi * d))) / (2.0 * math.pi)
+        for centre in (0.3, 0.0):
+            assert an.phase_spread([(centre - d) % 1.0, centre + d]) == pytest.approx(expected)
+    assert an.phase_spread([0.99, 0.01]) < 0.011       # 0.02 apart across 0, not 0.98
+    assert an.phase_spread([0.0, 0.5]) > 1.0           # opposite phases: no mean direction
+    sigma = 0.015
+    d = spread_pair(sigma)
+    assert an.phase_spread([-d, d]) == pytest.approx(sigma)
+
+
+# ------------------------------------------------------------------ rebound pattern
+def sync_run(gap=1.0, sigma=0.0, n=8):
+    """Take-offs in the final window [90, 100] every `gap` periods, phases
+    alternating +-d (circular spread sigma)."""
+    times = [92.0 + k * gap for k in range(n) if 92.0 + k * gap <= 100.0]
+    d = spread_pair(sigma) if sigma > 0 else 0.0
+    phases = [0.4 + (d if k % 2 else -d) for k in range(len(times))]
+    return traj(takeoffs=times, phases=phases, tau=50.0)
+
+
+def test_no_takeoff_no_pattern():
+    assert an.rebound_pattern(traj()) is None
+
+
+@pytest.mark.parametrize("gap, expected", [
+    (1.0, "synchronous"), (1.0 + an.SYNC_TOL - 0.01, "synchronous"),
+    (1.0 - an.SYNC_TOL + 0.01, "synchronous"),
+    (1.0 + an.SYNC_TOL + 0.01, "irregular"), (1.0 - an.SYNC_TOL - 0.01, "irregular")])
+def test_synchronous_interval_threshold_from_both_sides(gap, expected):
+    assert an.rebound_pattern(sync_run(gap=gap)) == expected
+
+
+@pytest.mark.parametrize("sigma, expected", [
+    (an.SYNC_SPREAD - 0.002, "synchronous"), (an.SYNC_SPREAD + 0.002, "irregular")])
+def test_synchronous_phase_spread_threshold_from_both_sides(sigma, expected):
+    assert an.rebound_pattern(sync_run(sigma=sigma)) == expected
+
+
+def test_synchronous_needs_three_takeoffs_in_the_final_window():
+    assert an.rebound_pattern(sync_run(n=3)) == "synchronous"
+    assert an.rebound_pattern(sync_run(n=2)) == "irregular"
+
+
+def bursts(long_gap=10.0, burst=5, n_bursts=4, sync_gap=1.0, start=200.0, sigma=0.0,
+           extra=None):
+    """Take-offs after the ramp (t >= 3 tau = 150 of 1000 periods), in
+    bursts of `burst` take-offs `sync_gap` apart, `long_gap` between bursts;
+    none in the final window [900, 1000]."""
+    times, t = [], start
+    for _ in range(n_bursts):
+        for k in range(burst):
+            times.append(t + k * sync_gap)
+        t = times[-1] + long_gap
+    if extra is not None:
+        times.append(times[-1] + extra)
+    d = spread_pair(sigma) if sigma > 0 else 0.0
+    phases = [0.7 + (d if k % 2 else -d) for k in range(len(times))]
+    # before the ramp is over nothing counts: a stray take-off at t = 100
+    return traj(t_end=1000.0, takeoffs=[100.0] + times, phases=[0.1] + phases, tau=50.0)
+
+
+def test_multisynchronous_bursts():
+    assert an.rebound_pattern(bursts()) == "multi-synchronous"
+
+
+@pytest.mark.parametrize("long_gap, expected", [
+    (an.LONG_FLIGHT + 0.1, "multi-synchronous"), (an.LONG_FLIGHT - 0.1, "irregular")])
+def test_long_flight_threshold_from_both_sides(long_gap, expected):
+    assert an.rebound_pattern(bursts(long_gap=long_gap)) == expected
+
+
+@pytest.mark.parametrize("sync_gap, expected", [
+    (1.0 + an.SYNC_TOL - 0.01, "multi-synchronous"), (1.0 + an.SYNC_TOL + 0.01, "irregular")])
+def test_burst_interval_threshold_from_both_sides(sync_gap, expected):
+    assert an.rebound_pattern(bursts(sync_gap=sync_gap)) == expected
+
+
+@pytest.mark.parametrize("sigma, expected", [
+    (an.SYNC_SPREAD - 0.002, "multi-synchronous"), (an.SYNC_SPREAD + 0.002, "irregular")])
+def test_burst_phase_spread_threshold_from_both_sides(sigma, expected):
+    assert an.rebound_pattern(bursts(sigma=sigma)) == expected
+
+
+def after_ramp(gaps):
+    """Take-offs from t = 200 (after 3 tau = 150) separated by `gaps`."""
+    times = list(200.0 + np.concatenate([[0.0], np.cumsum(gaps)]))
+    return traj(t_end=1000.0, takeoffs=times, phases=[0.7] * len(times), tau=50.0)
+
+
+def test_bursts_need_half_of_the_intervals_synchronous_and_four_intervals():
+    assert an.rebound_pattern(after_ramp([1, 1, 10, 10])) == "multi-synchronous"   # 2 of 4
+    assert an.rebound_pattern(after_ramp([1, 10, 10, 10])) == "irregular"          # 1 of 4
+    assert an.rebound_pattern(after_ramp([1, 1, 1, 10])) == "multi-synchronous"
+    assert an.rebound_pattern(after_ramp([1, 1, 10])) == "irregular"               # 3 intervals
+    assert an.rebound_pattern(after_ramp([1, 1, 1, 1])) == "irregular"             # no long flight
+    # one interval neither synchronous nor long (2 periods) spoils the pattern
+    assert an.rebound_pattern(bursts(extra=2.0)) == "irregular"
+    assert an.rebound_pattern(bursts(extra=1.0)) == "multi-synchronous"
+    # take-offs during the ramp (t < 3 tau) are not looked at
+    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[100, 101, 102, 140, 141],
+                                   phases=[0.7] * 5, tau=50.0)) == "irregular"
+    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171],
+                                   phases=[0.7] * 5, tau=50.0)) == "multi-synchronous"
+    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171],
+                                   phases=[0.7] * 5, tau=60.0)) == "irregular"
+
+
+# ------------------------------------------------------------------ chaos
+def pair(v1, v2, t_end=100.0):
+    return traj(t_end=t_end, x_end=v1 * t_end), traj(t_end=t_end, x_end=v2 * t_end)
+
+
+@pytest.mark.parametrize("v1, v2, expected", [
+    # same class: chaotic iff |v1 - v2| > 0.1 max(|v1|, |v2|) + v0 = 1.1 here
+    (-10.0, -10.0 + 1.1 - 0.01, False), (-10.0, -10.0 + 1.1 + 0.01, True),
+    # away from 0 by d: chaotic iff d > 0.1 (10 + d) + 0.1, d > 1.1 / 0.9
+    (-10.0, -10.0 - 1.1 / 0.9 + 0.01, False), (-10.0, -10.0 - 1.1 / 0.9 - 0.01, True),
+    (5.0, 5.0, False),
+    # different drift class: chaotic even when close
+    (an.V0 + 0.001, an.V0 - 0.001, True), (-an.V0 - 0.001, -an.V0 + 0.001, True),
+    (0.05, -0.05, False)])                           # both 'none'
+def test_chaos_verdict_threshold_from_both_sides(v1, v2, expected):
+    ds, twin = pair(v1, v2)
+    assert an.chaos_verdict(ds, twin) is expected
+    assert an.chaos_verdict(twin, ds) is expected
+
+
+def test_chaos_verdict_takes_its_tolerances():
+    ds, twin = pair(10.0, 8.0)
+    assert an.chaos_verdict(ds, twin) is True                     # 2 > 1.1
+    assert an.chaos_verdict(ds, twin, rel_tol=0.2) is False       # 2 <= 2.1
+    assert an.chaos_verdict(ds, twin, v0=1.5) is False            # 2 <= 2.5
+
+
+def test_divergence_time_is_the_first_separation_over_threshold():
+    t = np.linspace(0.0, 100.0, 1001)
+    x = np.zeros_like(t)
+    ds = traj(x=x)
+    twin = traj(x=np.where(t >= 40.0, 0.02 * (t - 40.0) ** 2, 0.0))   # 1.0 at t = 47.07
+    t_div = an.divergence_time(ds, twin)
+    assert t_div == pytest.approx(40.0 + math.sqrt(1.0 / 0.02), abs=0.15)
+    assert an.divergence_time(ds, twin) > 40.0 + math.sqrt(1.0 / 0.02) - 1e-9
+    assert an.divergence_time(ds, twin, threshold=2.0) == pytest.approx(
+        40.0 + math.sqrt(2.0 / 0.02), abs=0.15)
+    # a separation of exactly the threshold is not divergence
+    assert an.divergence_time(ds, traj(x=np.full_like(t, 1.0))) == math.inf
+    assert an.divergence_time(ds, traj(x=np.full_like(t, 1.0 + 1e-9))) == 0.0
+    assert an.divergence_time(ds, ds) == math.inf
+
+
+def test_twin_scene_moves_tau_only():
+    scene = Scene(amplitude=2.0, mass=0.5, tau=50.0)
+    twin = an.twin_scene(scene)
+    assert twin.tau == 50.0 + an.TWIN_TAU_OFFSET == 50.001
+    assert {k: v for k, v in twin.values().items() if k != "tau"} == \
+        {k: v for k, v in scene.values().items() if k != "tau"}
+
+
+# ------------------------------------------------------------------ summary
+def test_summarize_gathers_the_same_numbers():
+    # synchronous hopping in the final window, drifting at -2 then -4
+    t = np.linspace(0.0, 100.0, 1001)
+    x = np.where(t <= 90.0, -2.0 * t, -180.0 - 4.0 * (t - 90.0))
+    times = [90.5 + k for k in range(10)]
+    ds = traj(x=x, takeoffs=times, landings=[tt + 0.25 for tt in times])
+    s = an.summarize(ds)
+    assert s.drift_velocity == pytest.approx(-2.2)
+    assert s.final_drift_velocity == pytest.approx(-4.0)
+    assert (s.contact, s.drift, s.pattern, s.chaotic, s.divergence_time) == \
+        ("jumping", "against-wave", "synchronous", None, None)
+    assert s.takeoffs == 10 and s.takeoffs_per_period == pytest.approx(1.0)
+    assert s.takeoff_phase_spread == pytest.approx(0.0, abs=1e-7)
+    assert s.contact_fraction == pytest.approx(0.75)
+    assert (s.steps, s.seconds) == (10, 0.5)
+    # with a twin that disagrees: chaotic, and the pattern says so
+    twin = traj(x=-1.0 * t, takeoffs=times, landings=[tt + 0.25 for tt in times])
+    s2 = an.summarize(ds, twin)
+    assert s2.chaotic is True and s2.pattern == "chaotic"
+    assert s2.divergence_time == pytest.approx(1.0, abs=0.15)     # |x - x_twin| = t
+    assert (s2.steps, s2.seconds) == (20, 1.0)
+    # permanent contact is never 'chaotic' as a pattern (no rebounds)
+    calm = traj(x=-0.05 * t)
+    s3 = an.summarize(calm, traj(x=+0.5 * t))
+    assert s3.chaotic is True and s3.pattern is None and s3.contact == "permanent"
+    assert s3.drift == "none" and s3.contact_fraction == 1.0 and s3.takeoffs == 0
