@@ -7,15 +7,14 @@ the file and the problem, `vertical_curve` returns None, and `problems()`
 lists one message per unusable file (what the explorer shows; `vibtrans
 serve` refuses to start on them)."""
 import functools
-import os
 import re
-from pathlib import Path
 
-
+from vibtrans import maps_dir
 from vibtrans.sweep import StoreMismatch, open_map, open_vertical
 
-ASSETS = Path(os.environ.get("VIBTRANS_ASSETS",
-                             Path(__file__).resolve().parent.parent / "assets"))
+# the folder holding maps/: $VIBTRANS_ASSETS, else the maps installed with
+# vibtrans (vibtrans.maps_dir())
+ASSETS = maps_dir().parent
 _NAME = re.compile(r"(deformable|point-mass)-mu([0-9.]+)\.zarr$")
 DEFAULT_MAP = ("deformable", 0.3)       # the explorer opens on this one
 

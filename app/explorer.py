@@ -32,7 +32,7 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 from vibtrans.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans.simulate import StepBudgetExceeded, memory_snapshot
 
-from . import data
+from . import data, kernels
 from .live import LiveTrajectory
 
 hv.extension("bokeh")
@@ -93,7 +93,15 @@ class Job:
         self.progress = fraction
 
     def submit(self, fn, *args, **kwargs):
-        self.futures.append(RUNNER.submit(fn, *args, **kwargs))
+        if kernels.ready():
+            self.futures.append(RUNNER.submit(fn, *args, **kwargs))
+        else:       # the server has just started: its kernels are compiling
+            self.futures.append(RUNNER.submit(self._when_compiled, fn, *args, **kwargs))
+
+    def _when_compiled(self, fn, *args, **kwargs):
+        if not kernels.wait(self.event):
+            raise Cancelled("cancelled while the kernels compiled")
+        return fn(*args, **kwargs)
 
     def cancel(self):
         """Stop the kernels at their next chunk; drop the runs not started."""
@@ -174,7 +182,7 @@ def _release_memory():
     except (OSError, AttributeError):    # not glibc
         pass
     after = _resident_mb()
-    # INFO: operators (and `python -m app.loadtest`, which waits for this
+    # INFO: operators (and `python -m devtools.loadtest`, which waits for this
     # line after the last session is discarded) see when memory went back.
     log.info("released the memory of closed sessions: %d objects collected, RSS %s -> %s MB "
              "in %.2f s", collected, f"{before:.0f}" if before else "?",
@@ -437,14 +445,17 @@ class Explorer(pn.viewable.Viewer):
                     break
                 # progress only for runs that take a while (a fast run's UI
                 # goes straight from the click to its plots)
+                compiling = kernels.status()     # a server just started: kernels compile
+                running = (f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
+                           f"m* = {scene.mass:.4g} ...")
                 if not shown and time.perf_counter() - t0 > 0.25:
                     shown = True
                     with pn.io.hold():
                         self.progress.visible = True
                         self.cancel_button.disabled = False
-                        self.summary.object = (f"Running {scene.model} at "
-                                               f"A* = {scene.amplitude:.4g}, "
-                                               f"m* = {scene.mass:.4g} ...")
+                        self.summary.object = compiling or running
+                elif shown and self.summary.object != (compiling or running):
+                    self.summary.object = compiling or running
                 if shown:
                     self.progress.value = int(100 * job.progress)
             ds = job.futures[0].result()
@@ -719,7 +730,7 @@ def _attached_in_one_pass(template):
     the document's model graph: the template adds its parts one root at a
     time, and Bokeh recomputed the whole graph after each (~10 times per
     page); once is enough (a page 0.27 -> 0.23 s of the event loop that all
-    sessions share; `python -m app.pagecost`)."""
+    sessions share; `python -m devtools.pagecost`)."""
     server_doc = template.server_doc
 
     def frozen(doc=None, title=None, location=True):

@@ -7,14 +7,10 @@ Screenshots (the whole main column, trajectories included) go to
 test-artifacts/ (look at them)."""
 import os
 import shutil
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
-from netutil import free_port  # noqa: E402
 
 from playwright import sync_api as playwright  # installed by `make test` (.[test])
 
@@ -26,27 +22,9 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
 
 
 @pytest.fixture(scope="module")
-def server():
-    port = free_port()
-    env = dict(os.environ, VIBTRANS_MAX_STEPS="1e8")
-    proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}/"
-    t0 = time.time()
-    while time.time() - t0 < 180:
-        try:
-            urllib.request.urlopen(url, timeout=5)
-            break
-        except OSError:
-            if proc.poll() is not None:
-                raise RuntimeError(proc.stdout.read().decode())
-            time.sleep(0.5)
-    else:
-        proc.kill()
-        raise RuntimeError("server did not start in 180 s")
-    yield url
-    proc.terminate()
-    proc.wait(10)
+def server(served_explorer):
+    """The session's `vibtrans serve` (conftest.py), VIBTRANS_MAX_STEPS = 1e8."""
+    return served_explorer.url
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from app import explorer as E
+from vibtrans_explorer import explorer as E
 from vibtrans import Cancelled
 
 REAL_SIMULATE = E.simulate
@@ -196,7 +196,7 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
 def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog):
     """A burst of closed sessions schedules one collection + malloc_trim,
     logged at INFO in the words the load test waits for."""
-    from app.loadtest import RELEASED
+    from devtools.loadtest import RELEASED
     caplog.set_level(logging.INFO, logger="vibtrans.explorer")
     monkeypatch.setattr(E, "RELEASE_DELAY", 0.05)
     calls = []
@@ -275,9 +275,9 @@ def test_one_pass_attach_builds_the_same_page():
 
 
 def test_page_cost_bench_runs_and_validates():
-    """`python -m app.pagecost` (the figures in the explorer's docstrings)
+    """`python -m devtools.pagecost` (the figures in the explorer's docstrings)
     measures both attaches; a bad --pages is refused naming the option."""
-    from app import pagecost
+    from devtools import pagecost
     out = pagecost.main(["--pages", "1", "--json"])
     assert out["page_s_plain_attach"] > 0 and out["page_s_one_pass_attach"] > 0
     assert out["models_after_load"] > 100

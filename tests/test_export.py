@@ -182,7 +182,7 @@ def _capture(monkeypatch):
 def _app_map(monkeypatch, maps_dir):
     """The explorer's map, built the way app/explorer.py builds it, from the
     app's data loader pointed at maps_dir."""
-    from app import data
+    from vibtrans_explorer import data
     monkeypatch.setattr(data, "ASSETS", maps_dir.parent)
     for f in (data.available_maps, data.drift_map, data.vertical_curve):
         f.cache_clear()
@@ -236,7 +236,7 @@ def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
     export.ensure_backends()
     # the app's run and panels (app/explorer.py: window = last 2 periods,
     # OVERVIEW_SAMPLES samples per period)
-    from app.explorer import FRAGMENT, OVERVIEW_SAMPLES
+    from vibtrans_explorer.explorer import FRAGMENT, OVERVIEW_SAMPLES
     scene = paper_scene(4, periods=PERIODS)
     ds = simulate(scene, window=(PERIODS - FRAGMENT, PERIODS), samples_per_period=OVERVIEW_SAMPLES)
     app_panels = plots.trajectory_panels(ds)

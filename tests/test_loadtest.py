@@ -1,16 +1,12 @@
-"""The load test (app/loadtest.py) at a small scale, as CI runs it: a real
-server, one real browser session and two protocol sessions
-(app/protoclient.py), 3 sessions x 2 clicks.  No errors, every click
+"""The load test (devtools/loadtest.py) at a small scale, as CI runs it: a
+real server, one real browser session and two protocol sessions
+(devtools/protoclient.py), 3 sessions x 2 clicks.  No errors, every click
 answered in both kinds of session, every closed session dropped, and the
 server's memory growth bounded.  The full-scale figures (30 x 5) are in
 docs/SECURITY.md."""
 from pathlib import Path
 
-import pytest
-
-pytest.importorskip("playwright.async_api")        # installed by `make test`
-
-from app import loadtest  # noqa: E402
+from devtools import loadtest
 
 
 def test_small_load_has_no_errors_and_bounded_memory():
@@ -32,15 +28,10 @@ def test_small_load_has_no_errors_and_bounded_memory():
     assert out["total_wall_s"] < 90, out
 
 
-def test_the_server_runs_on_the_c_allocator(monkeypatch):
+def test_the_server_runs_on_the_c_allocator(served_explorer):
     """`vibtrans serve` re-executes itself with PYTHONMALLOC=malloc (memory
     of closed sessions goes back to the OS: docs/SECURITY.md), in the same
-    process (a supervisor's pid stays valid)."""
-    monkeypatch.delenv("PYTHONMALLOC", raising=False)
-    server = loadtest.Server()
-    try:
-        server.wait_ready()
-        with open(f"/proc/{server.proc.pid}/environ", "rb") as f:
-            assert b"PYTHONMALLOC=malloc" in f.read().split(b"\0")
-    finally:
-        server.stop()
+    process (a supervisor's pid stays valid).  The session's server was
+    started without PYTHONMALLOC (conftest.py)."""
+    with open(f"/proc/{served_explorer.proc.pid}/environ", "rb") as f:
+        assert b"PYTHONMALLOC=malloc" in f.read().split(b"\0")

@@ -3,12 +3,8 @@ websocket origin restricted to localhost unless configured, no admin or
 debug endpoints, the container runs as non-root.  The server tests start a
 real `vibtrans serve` and talk HTTP/websocket to it."""
 import ast
-import os
 import re
 import socket
-import subprocess
-import sys
-import time
 import urllib.error
 import urllib.request
 from argparse import Namespace
@@ -16,14 +12,16 @@ from pathlib import Path
 
 import pytest
 
-from vibtrans.cli import InputError, _origins, build_parser
-from netutil import free_port  # noqa: E402
+from vibtrans.cli import build_parser
+from vibtrans.errors import InputError
+from vibtrans_explorer.server import origins as _origins
 
 ROOT = Path(__file__).resolve().parent.parent
-SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py")])
+SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
+                  *ROOT.glob("devtools/**/*.py")])
 # modules that start processes on purpose (benchmarks and the load test
 # start `vibtrans serve`; the sweep's process pool): argument lists, no shell
-SUBPROCESS_OK = {"app/loadtest.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
+SUBPROCESS_OK = {"devtools/loadtest.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
 
 
 # ------------------------------------------------------------------ no code from input
@@ -96,27 +94,9 @@ def test_serve_options_parse():
 
 
 @pytest.fixture(scope="module")
-def server():
-    """`vibtrans serve` as shipped, plus the public host allowed."""
-    port = free_port()
-    env = {k: v for k, v in os.environ.items() if k != "VIBTRANS_ALLOWED_ORIGINS"}
-    proc = subprocess.Popen([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
-                            cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    base = f"http://127.0.0.1:{port}"
-    t0 = time.time()
-    while True:
-        try:
-            urllib.request.urlopen(base + "/liveness", timeout=5)
-            break
-        except OSError:
-            if proc.poll() is not None or time.time() - t0 > 180:
-                proc.kill()
-                raise RuntimeError("server did not start")
-            time.sleep(0.3)
-    yield port
-    proc.terminate()
-    proc.wait(10)
+def server(served_explorer):
+    """The session's `vibtrans serve` as shipped (conftest.py): its port."""
+    return served_explorer.port
 
 
 def _status(url):

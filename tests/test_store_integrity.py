@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from app import data
+from vibtrans_explorer import data
 from vibtrans.cli import main
 from vibtrans.sweep import StoreMismatch, open_map, open_vertical
 
@@ -324,7 +324,7 @@ def test_sweep_refuses_to_resume_a_damaged_store(tmp_path, capsys, damage):
 def test_explorer_says_so_at_session_start(assets):
     # The explorer itself: a damaged shipped map is named in the session's
     # message at start, and the session still builds and takes its state.
-    from app import explorer as E
+    from vibtrans_explorer import explorer as E
     path = assets / VICTIM_NAME
     DAMAGE[sorted(DAMAGE)[0]](str(path))
     ex = E.Explorer()

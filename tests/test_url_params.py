@@ -31,8 +31,8 @@ from hypothesis import strategies as st
 from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
-from app import data, urlstate
-from app.explorer import URL_KEYS, Explorer, ExplorerState
+from vibtrans_explorer import data, urlstate
+from vibtrans_explorer.explorer import URL_KEYS, Explorer, ExplorerState
 from vibtrans.cli import main
 
 # the module (the package's `simulate` attribute is the function)

@@ -4,11 +4,8 @@ Bad input exits with status 2 and one line naming the parameter and its
 valid range.
 """
 import argparse
-import gc
 import json
-import logging
 import math
-import os
 import sys
 
 from . import __version__
@@ -177,99 +174,12 @@ def cmd_sweep(args):
     return 0
 
 
-def _origins(args):
-    """Hosts whose pages may open the explorer's websocket: --allow-websocket-origin,
-    else $VIBTRANS_ALLOWED_ORIGINS (comma-separated), else this port on localhost."""
-    import os
-
-    given = args.allow_websocket_origin
-    if not given:
-        env = os.environ.get("VIBTRANS_ALLOWED_ORIGINS", "")
-        given = [o for o in env.split(",")]
-    origins = [o.strip() for o in given if o.strip()]
-    if not origins:
-        return [f"localhost:{args.port}", f"127.0.0.1:{args.port}"]
-    for o in origins:
-        if "://" in o or "/" in o or any(c.isspace() for c in o):
-            raise InputError(f"allow_websocket_origin must be HOST[:PORT] (no scheme, no path), "
-                             f"got {o!r}")
-    return origins
-
-
-def _component_routes():
-    """Panel's /components/ route imports the module named in the URL before
-    it checks anything (/components/<module>/...): any installed module, run
-    at a stranger's request.  Served here for panel's own modules only (the
-    explorer requests none)."""
-    from panel.io.server import COMPONENT_PATH, ComponentResourceHandler
-    from tornado.web import HTTPError
-
-    class PanelComponents(ComponentResourceHandler):
-        def parse_url_path(self, path):
-            module = path.split("/", 1)[0]
-            if module != "panel" and not module.startswith("panel."):
-                raise HTTPError(404)
-            return super().parse_url_path(path)
-
-    return [(f"/{COMPONENT_PATH}(.*)", PanelComponents, {})]
-
-
-def _log_to_stderr(logger):
-    """The server's own INFO lines (e.g. memory released after sessions
-    close) beside Bokeh's, in Bokeh's format."""
-    if not logger.handlers:
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(
-            logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
-        logger.addHandler(handler)
-    logger.setLevel(logging.INFO)
-    logger.propagate = False
-
-
 def cmd_serve(args):
-    """Serve the explorer: check the shipped maps, warm the JIT and load the
-    maps first, so the first click pays no compilation."""
-    if not 1 <= args.port <= 65535:
-        raise InputError(f"port must be in [1, 65535], got {args.port}")
-    if not 0 <= args.num_procs <= 64:
-        raise InputError(f"num_procs must be in [0, 64] (0: one per core), got {args.num_procs}")
-    for name in ("unused_session_lifetime", "check_unused_sessions"):
-        if not 100 <= getattr(args, name) <= 86_400_000:
-            raise InputError(f"{name} must be in [100, 86400000] ms, got {getattr(args, name)}")
-    origins = _origins(args)
-    if os.environ.get("PYTHONMALLOC") is None and getattr(args, "argv", None) is not None:
-        # Python's small-object allocator keeps a 256 KiB arena while any
-        # object in it lives, so the memory of closed sessions, interleaved
-        # with the survivors of thirty concurrent ones, stayed with the
-        # process (+31-35% of the baseline after all closed); with the C
-        # allocator, the release after sessions close (malloc_trim) hands it
-        # back (+2.5-5.8%; `python -m app.loadtest`).  Set PYTHONMALLOC to opt out.
-        os.execve(sys.executable, [sys.executable, "-m", "vibtrans.cli", *args.argv],
-                  dict(os.environ, PYTHONMALLOC="malloc"))
-    from app import data
-    problems = data.preload()        # damaged, foreign or missing maps: refuse to start
-    if problems:
-        raise InputError("; ".join(problems))
-    from . import warmup
-    warmup()
-    import panel as pn
-
-    from app.explorer import create_app
-    _log_to_stderr(logging.getLogger("vibtrans"))
-    # What the imports and the warm-up built (~10^6 objects: modules, JIT
-    # dispatchers, maps) lives as long as the server: leave it out of the
-    # cyclic collector, whose full passes (one each time closed sessions are
-    # released) would otherwise walk it all while every session waits.
-    gc.collect()
-    gc.freeze()
-    print(f"vibtrans explorer on http://{args.address}:{args.port}/ (websocket origins: "
-          f"{', '.join(origins)})", file=sys.stderr)
-    pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
-             websocket_origin=origins, title="vibtrans explorer", num_procs=args.num_procs,
-             liveness=True, admin=False, extra_patterns=_component_routes(),
-             unused_session_lifetime_milliseconds=args.unused_session_lifetime,
-             check_unused_sessions_milliseconds=args.check_unused_sessions)
-    return 0
+    """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
+    server), not the library's: this is the library's one import of it, done
+    only here, so `import vibtrans` and the other commands never load Panel."""
+    from vibtrans_explorer.server import serve
+    return serve(args)
 
 
 def _finite(name, value, lo=None, hi=None, integer=False):

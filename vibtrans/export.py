@@ -29,6 +29,7 @@ import numpy as np  # noqa: E402
 from . import plots  # noqa: E402
 from .analysis import V0, twin_scene  # noqa: E402
 from .params import PAPER_POINTS, paper_scene  # noqa: E402
+from .shipped import maps_dir  # noqa: E402
 from .errors import InputError
 
 FORMATS = ("png", "svg", "pdf")
@@ -336,10 +337,9 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
 
 # ---------------------------------------------------------------- paper
 def default_maps_dir():
-    """$VIBTRANS_ASSETS/maps, else the repository's assets/maps."""
-    root = os.environ.get("VIBTRANS_ASSETS")
-    base = Path(root) if root else Path(__file__).resolve().parent.parent / "assets"
-    return base / "maps"
+    """The shipped maps (vibtrans.maps_dir(): $VIBTRANS_ASSETS/maps, else
+    the maps installed with the package)."""
+    return maps_dir()
 
 
 def map_path(maps_dir, model, mu):

@@ -1,5 +1,5 @@
 """A session of the explorer at the Bokeh protocol level: what chromium
-sends to the server, without drawing anything (app/loadtest.py).
+sends to the server, without drawing anything (devtools/loadtest.py).
 
 A person's browser renders on their own machine; a load test that renders
 30 pages on the server's own 2 cores measures the browsers, not the server.

@@ -5,7 +5,7 @@ figures.  Pages are built in-process, alternately with and without the
 explorer's one-pass attach (`_attached_in_one_pass`), so that the ratio
 comes from one run on a shared machine.
 
-    python -m app.pagecost [--pages N] [--json]
+    python -m devtools.pagecost [--pages N] [--json]
 """
 import argparse
 import json
@@ -16,8 +16,8 @@ import time
 from bokeh.document import Document
 from panel.io.state import set_curdoc
 
-from . import data
-from . import explorer as E
+from vibtrans_explorer import data
+from vibtrans_explorer import explorer as E
 
 
 def _page(one_pass):
@@ -56,7 +56,7 @@ def run(pages):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m app.pagecost", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.pagecost", description=__doc__.splitlines()[0])
     ap.add_argument("--pages", type=int, default=10, help="pages of each kind (1-200)")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)

@@ -1,6 +1,6 @@
 """Explorer latency benchmark, in a real headless browser:
 
-    python -m app.bench [--points 8] [--sessions 3] [--settle 120] [--json]
+    python -m devtools.bench [--points 8] [--sessions 3] [--settle 120] [--json]
 
 Starts `vibtrans serve` (closed sessions dropped after 3 s, checked every
 second), measures server start to ready, then runs one warm-up session (as
@@ -14,7 +14,7 @@ batch of changes as the summary), p50 and p95 over all clicks.  Memory: the serv
 /proc) at ready, the baseline, the peak during the sessions and after they
 are closed, dropped and their memory released (the explorer's log line;
 waited for at most `--settle` seconds), with after/baseline.  The server
-is app/loadtest.py's.  Needs Debian's chromium (make test installs it).
+is devtools/loadtest.py's.  Needs Debian's chromium (make test installs it).
 """
 import argparse
 import json

@@ -1,6 +1,6 @@
 """Load test of the explorer server: many concurrent sessions.
 
-    python -m app.loadtest --sessions 30 --clicks 5 [--browsers 2] [--think 10] [--json]
+    python -m devtools.loadtest --sessions 30 --clicks 5 [--browsers 2] [--think 10] [--json]
 
 Starts `vibtrans serve` on a free loopback port (`--num-procs` processes),
 then starts `--sessions` sessions over `--ramp` seconds.  Each session
@@ -14,7 +14,7 @@ Two kinds of session, mixed in one run:
   /usr/bin/chromium driven by Playwright; its processes niced,
   --browser-nice, so that the server they measure comes first): click to
   plot drawn, as a person sees it (including drawing on this machine);
-* the others are protocol sessions (app/protoclient.py): the same messages
+* the others are protocol sessions (devtools/protoclient.py): the same messages
   over the same websocket as the page (recorded from chromium), without
   drawing: click to the server's reply carrying the run's data and
   summary.  Thirty people bring thirty computers to draw on; thirty
@@ -64,6 +64,7 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
 LIFETIME_MS, CHECK_MS = 3000, 1000
 BENIGN = ("WebSocketClosedError", "StreamClosedError")
 RELEASED = "released the memory of closed sessions"    # app/explorer.py logs it
+KERNELS_READY = "kernels ready"                         # app/kernels.py logs it
 # a message from a page that is closing, handled after its connection was
 # detached from the session (Bokeh's assertion): a disconnect race too
 DETACHED = "assert self._session is not None"
@@ -154,21 +155,27 @@ class Server:
              "--num-procs", str(num_procs), "--unused-session-lifetime", str(LIFETIME_MS),
              "--check-unused-sessions", str(CHECK_MS)],
             cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.processes = num_procs or os.cpu_count() or 1
         self.peak = 0.0
         self._sampling = False
 
     def wait_ready(self, timeout=300):
+        """Wait until the server answers and every process of it has its
+        kernels compiled (the server serves pages while they compile: the
+        load would otherwise measure the compilation)."""
         t0 = time.perf_counter()
         while True:
             try:
                 urllib.request.urlopen(self.url + "liveness", timeout=5)
-                return time.perf_counter() - t0
+                if self.text().count(KERNELS_READY) >= self.processes:
+                    return time.perf_counter() - t0
             except OSError:
-                if self.proc.poll() is not None:
-                    raise RuntimeError(f"server exited:\n{self.text()[-3000:]}")
-                if time.perf_counter() - t0 > timeout:
-                    raise RuntimeError(f"server not ready in {timeout} s")
-                time.sleep(0.2)
+                pass
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited:\n{self.text()[-3000:]}")
+            if time.perf_counter() - t0 > timeout:
+                raise RuntimeError(f"server not ready in {timeout} s")
+            time.sleep(0.2)
 
     def rss(self):
         return rss_mb(self.proc.pid)
@@ -320,7 +327,7 @@ async def _clicked(result, a, rng, k, kind, start, error=None, note=""):
 
 
 async def _protocol_session(url, k, a, result, rng):
-    """One person, at the protocol level (app/protoclient.py)."""
+    """One person, at the protocol level (devtools/protoclient.py)."""
     from .protoclient import ProtocolSession
     await _arrive(a, k)
     client = ProtocolSession(url, timeout=a.click_timeout)
@@ -501,7 +508,7 @@ def run(a):
     else:
         os.remove(server.log.name)
     out = {
-        "command": "python -m app.loadtest " + " ".join(a.argv),
+        "command": "python -m devtools.loadtest " + " ".join(a.argv),
         "sessions": a.sessions, "clicks_per_session": a.clicks, "think_s": a.think,
         "ramp_s": a.ramp, "clicks_planned": a.sessions * a.clicks,
         "clicks_measured": len(lat), "refused": len(result["refused"]),
@@ -540,7 +547,7 @@ def run(a):
 
 
 def parser():
-    ap = argparse.ArgumentParser(prog="python -m app.loadtest",
+    ap = argparse.ArgumentParser(prog="python -m devtools.loadtest",
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--sessions", type=int, default=30, help="concurrent sessions (1-100)")
     ap.add_argument("--clicks", type=int, default=5, help="map clicks per session (1-50)")

@@ -1,0 +1,151 @@
+"""`vibtrans serve`: the explorer's web server (Panel on Tornado).
+
+The library's command line reaches it through one lazy import
+(vibtrans.cli.cmd_serve), so `import vibtrans` and the other commands never
+load Panel.  Start-up, each step said on stderr:
+
+1. the options and websocket origins are checked (InputError: one line,
+   exit status 2);
+2. the process re-executes itself on the C allocator (PYTHONMALLOC=malloc);
+3. the shipped maps are loaded and verified: a damaged, foreign or missing
+   map refuses the start;
+4. the server listens and serves pages while the simulation kernels compile
+   in a background thread (kernels.py; "compiling kernels 2/4 (...)"); a run
+   asked for before they are ready waits, with a message in the page.
+"""
+import gc
+import logging
+import os
+import sys
+
+from vibtrans.errors import InputError
+
+
+def say(line):
+    """One line of start-up progress on stderr."""
+    print(f"vibtrans serve: {line}", file=sys.stderr, flush=True)
+
+
+def origins(args):
+    """Hosts whose pages may open the explorer's websocket: --allow-websocket-origin,
+    else $VIBTRANS_ALLOWED_ORIGINS (comma-separated), else this port on localhost."""
+    given = args.allow_websocket_origin
+    if not given:
+        env = os.environ.get("VIBTRANS_ALLOWED_ORIGINS", "")
+        given = [o for o in env.split(",")]
+    found = [o.strip() for o in given if o.strip()]
+    if not found:
+        return [f"localhost:{args.port}", f"127.0.0.1:{args.port}"]
+    for o in found:
+        if "://" in o or "/" in o or any(c.isspace() for c in o):
+            raise InputError(f"allow_websocket_origin must be HOST[:PORT] (no scheme, no path), "
+                             f"got {o!r}")
+    return found
+
+
+def component_routes():
+    """Panel's /components/ route imports the module named in the URL before
+    it checks anything (/components/<module>/...): any installed module, run
+    at a stranger's request.  Served here for panel's own modules only (the
+    explorer requests none)."""
+    from panel.io.server import COMPONENT_PATH, ComponentResourceHandler
+    from tornado.web import HTTPError
+
+    class PanelComponents(ComponentResourceHandler):
+        def parse_url_path(self, path):
+            module = path.split("/", 1)[0]
+            if module != "panel" and not module.startswith("panel."):
+                raise HTTPError(404)
+            return super().parse_url_path(path)
+
+    return [(f"/{COMPONENT_PATH}(.*)", PanelComponents, {})]
+
+
+def _log_to_stderr(logger):
+    """The server's own INFO lines (e.g. memory released after sessions
+    close) beside Bokeh's, in Bokeh's format."""
+    if not logger.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(
+            logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
+        logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+
+
+def _check(args):
+    if not 1 <= args.port <= 65535:
+        raise InputError(f"port must be in [1, 65535], got {args.port}")
+    if not 0 <= args.num_procs <= 64:
+        raise InputError(f"num_procs must be in [0, 64] (0: one per core), got {args.num_procs}")
+    for name in ("unused_session_lifetime", "check_unused_sessions"):
+        if not 100 <= getattr(args, name) <= 86_400_000:
+            raise InputError(f"{name} must be in [100, 86400000] ms, got {getattr(args, name)}")
+    return origins(args)
+
+
+def _reexec_on_c_allocator(args):
+    """Python's small-object allocator keeps a 256 KiB arena while any
+    object in it lives, so the memory of closed sessions, interleaved with
+    the survivors of thirty concurrent ones, stayed with the process
+    (+31-35% of the baseline after all closed); with the C allocator, the
+    release after sessions close (malloc_trim) hands it back (+2.5-5.8%;
+    `python -m devtools.loadtest`).  Set PYTHONMALLOC to opt out.  Only a
+    real command line is re-executed (args.argv set by vibtrans.cli.main):
+    callers of main(argv) (tests, scripts) keep their process."""
+    if os.environ.get("PYTHONMALLOC") is None and getattr(args, "argv", None) is not None:
+        os.execve(sys.executable, [sys.executable, "-m", "vibtrans.cli", *args.argv],
+                  dict(os.environ, PYTHONMALLOC="malloc"))
+
+
+def _freeze():
+    """What the imports (and the warm-up) built (~10^6 objects: modules, JIT
+    dispatchers, maps) lives as long as the server: leave it out of the
+    cyclic collector, whose full passes (one each time closed sessions are
+    released) would otherwise walk it all while every session waits."""
+    gc.collect()
+    gc.freeze()
+
+
+def _freeze_kernels(server):
+    """After the background warm-up: freeze what it built too, unless a
+    session is open (its objects would never be collected)."""
+    if not server.get_sessions():
+        _freeze()
+
+
+def serve(args):
+    """Serve the explorer (args: the `vibtrans serve` options); returns the
+    exit status once the server stops."""
+    allowed = _check(args)
+    _reexec_on_c_allocator(args)     # before the heavy imports: they would be paid twice
+    from . import data, kernels
+    problems = data.preload()        # damaged, foreign or missing maps: refuse to start
+    if problems:                     # (in one line: nothing printed before it)
+        raise InputError("; ".join(problems))
+    say(f"{len(data.available_maps())} drift maps and the vertical curve checked in "
+        f"{data.ASSETS / 'maps'}; loading the explorer ...")
+    import panel as pn
+
+    from .explorer import create_app
+    _log_to_stderr(logging.getLogger("vibtrans"))
+    _freeze()
+    server = pn.serve({"/": create_app}, port=args.port, address=args.address, show=False,
+                      start=False, verbose=False, websocket_origin=allowed,
+                      title="vibtrans explorer", num_procs=args.num_procs, liveness=True,
+                      admin=False, extra_patterns=component_routes(),
+                      unused_session_lifetime_milliseconds=args.unused_session_lifetime,
+                      check_unused_sessions_milliseconds=args.check_unused_sessions)
+    # after the server is made: with --num-procs > 1 it has forked, and each
+    # process compiles (or loads) its own kernels
+    loop = server.io_loop
+    kernels.start(report=say,
+                  on_ready=lambda: loop.add_callback(_freeze_kernels, server))
+    say(f"explorer on http://{args.address}:{args.port}/ (websocket origins: "
+        f"{', '.join(allowed)})")
+    server.start()
+    try:
+        loop.start()
+    except KeyboardInterrupt:
+        pass
+    return 0

@@ -1,0 +1,32 @@
+"""Shared fixtures.
+
+served_explorer: one `vibtrans serve` for the whole test session (a real
+command line on a free port, so it starts as from a shell: maps checked,
+re-executed on the C allocator, kernels compiled in the background), used
+by the browser, security and server tests; yields the netutil.Served
+(.url, .port, .proc, .text() for its log)."""
+import os
+from pathlib import Path
+
+import pytest
+from netutil import Served
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# the served explorer's settings: the step cap the browser tests check
+# (test_app_browser.test_the_step_cap_is_a_message), websocket origins as
+# shipped (localhost only: test_security), the allocator chosen by the server
+SERVER_ENV = {"VIBTRANS_MAX_STEPS": "1e8"}
+SERVER_ENV_UNSET = ("VIBTRANS_ALLOWED_ORIGINS", "PYTHONMALLOC")
+
+
+@pytest.fixture(scope="session")
+def served_explorer():
+    env = {k: v for k, v in os.environ.items() if k not in SERVER_ENV_UNSET}
+    server = Served(env={**env, **SERVER_ENV}, cwd=ROOT)
+    try:
+        server.wait_page()
+        server.wait_kernels()       # runs clicked in the tests start at once
+        yield server
+    finally:
+        server.stop()

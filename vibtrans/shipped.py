@@ -1,0 +1,26 @@
+"""Where the shipped maps are: the drift maps (*.zarr) and the vertical
+curve (vertical.nc) installed with the package as the data package
+`vibtrans_assets` (the repository's assets/ folder), unless VIBTRANS_ASSETS
+names another folder holding maps/."""
+import os
+from importlib import resources
+from pathlib import Path
+
+ENV = "VIBTRANS_ASSETS"
+PACKAGE = "vibtrans_assets"
+
+
+def maps_dir():
+    """The folder of the shipped maps: $VIBTRANS_ASSETS/maps if that variable
+    is set, else the maps installed with vibtrans (a wheel's
+    vibtrans_assets/maps, the repository's assets/maps in an editable
+    install or a source tree)."""
+    root = os.environ.get(ENV)
+    if root:
+        return Path(root) / "maps"
+    try:
+        base = resources.files(PACKAGE)
+    except ModuleNotFoundError:          # a source tree that was never installed
+        return Path(__file__).resolve().parent.parent / "assets" / "maps"
+    # installed wheels and editable installs are plain folders (not zips)
+    return Path(str(base)) / "maps"
