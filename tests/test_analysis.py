@@ -18,6 +18,14 @@ from vibtrans.contact import FLIGHT, SLIDING, STICK
 from vibtrans.params import Scene
 
 EPS = 1e-6
+# The thresholds, as stated (literal here, so that changing one in
+# analysis.py fails a test): V0, the no-drift band (MODEL.md section 4,
+# default v0* = 0.1); synchronous take-offs 1 +- 0.05 periods apart with a
+# circular phase spread < 0.02 periods; a flight > 3 periods separates bursts.
+V0 = 0.1
+SYNC_TOL = 0.05
+SYNC_SPREAD = 0.02
+LONG_FLIGHT = 3.0
 
 
 def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, states=(),
@@ -68,8 +76,8 @@ def test_final_drift_velocity_is_the_last_tenth():
 
 
 @pytest.mark.parametrize("v, expected", [
-    (an.V0 + EPS, "with-wave"), (an.V0, "none"), (an.V0 - EPS, "none"), (0.0, "none"),
-    (-an.V0 + EPS, "none"), (-an.V0, "none"), (-an.V0 - EPS, "against-wave"),
+    (V0 + EPS, "with-wave"), (V0, "none"), (V0 - EPS, "none"), (0.0, "none"),
+    (-V0 + EPS, "none"), (-V0, "none"), (-V0 - EPS, "against-wave"),
     (1e3, "with-wave"), (-1e3, "against-wave")])
 def test_drift_class_threshold_from_both_sides(v, expected):
     assert an.drift_class(v) == expected
@@ -152,15 +160,15 @@ def test_no_takeoff_no_pattern():
 
 
 @pytest.mark.parametrize("gap, expected", [
-    (1.0, "synchronous"), (1.0 + an.SYNC_TOL - 0.01, "synchronous"),
-    (1.0 - an.SYNC_TOL + 0.01, "synchronous"),
-    (1.0 + an.SYNC_TOL + 0.01, "irregular"), (1.0 - an.SYNC_TOL - 0.01, "irregular")])
+    (1.0, "synchronous"), (1.0 + SYNC_TOL - 0.01, "synchronous"),
+    (1.0 - SYNC_TOL + 0.01, "synchronous"),
+    (1.0 + SYNC_TOL + 0.01, "irregular"), (1.0 - SYNC_TOL - 0.01, "irregular")])
 def test_synchronous_interval_threshold_from_both_sides(gap, expected):
     assert an.rebound_pattern(sync_run(gap=gap)) == expected
 
 
 @pytest.mark.parametrize("sigma, expected", [
-    (an.SYNC_SPREAD - 0.002, "synchronous"), (an.SYNC_SPREAD + 0.002, "irregular")])
+    (SYNC_SPREAD - 0.002, "synchronous"), (SYNC_SPREAD + 0.002, "irregular")])
 def test_synchronous_phase_spread_threshold_from_both_sides(sigma, expected):
     assert an.rebound_pattern(sync_run(sigma=sigma)) == expected
 
@@ -193,19 +201,19 @@ def test_multisynchronous_bursts():
 
 
 @pytest.mark.parametrize("long_gap, expected", [
-    (an.LONG_FLIGHT + 0.1, "multi-synchronous"), (an.LONG_FLIGHT - 0.1, "irregular")])
+    (LONG_FLIGHT + 0.1, "multi-synchronous"), (LONG_FLIGHT - 0.1, "irregular")])
 def test_long_flight_threshold_from_both_sides(long_gap, expected):
     assert an.rebound_pattern(bursts(long_gap=long_gap)) == expected
 
 
 @pytest.mark.parametrize("sync_gap, expected", [
-    (1.0 + an.SYNC_TOL - 0.01, "multi-synchronous"), (1.0 + an.SYNC_TOL + 0.01, "irregular")])
+    (1.0 + SYNC_TOL - 0.01, "multi-synchronous"), (1.0 + SYNC_TOL + 0.01, "irregular")])
 def test_burst_interval_threshold_from_both_sides(sync_gap, expected):
     assert an.rebound_pattern(bursts(sync_gap=sync_gap)) == expected
 
 
 @pytest.mark.parametrize("sigma, expected", [
-    (an.SYNC_SPREAD - 0.002, "multi-synchronous"), (an.SYNC_SPREAD + 0.002, "irregular")])
+    (SYNC_SPREAD - 0.002, "multi-synchronous"), (SYNC_SPREAD + 0.002, "irregular")])
 def test_burst_phase_spread_threshold_from_both_sides(sigma, expected):
     assert an.rebound_pattern(bursts(sigma=sigma)) == expected
 
@@ -246,7 +254,7 @@ def pair(v1, v2, t_end=100.0):
     (-10.0, -10.0 - 1.1 / 0.9 + 0.01, False), (-10.0, -10.0 - 1.1 / 0.9 - 0.01, True),
     (5.0, 5.0, False),
     # different drift class: chaotic even when close
-    (an.V0 + 0.001, an.V0 - 0.001, True), (-an.V0 - 0.001, -an.V0 + 0.001, True),
+    (V0 + 0.001, V0 - 0.001, True), (-V0 - 0.001, -V0 + 0.001, True),
     (0.05, -0.05, False)])                           # both 'none'
 def test_chaos_verdict_threshold_from_both_sides(v1, v2, expected):
     ds, twin = pair(v1, v2)
@@ -280,7 +288,7 @@ def test_divergence_time_is_the_first_separation_over_threshold():
 def test_twin_scene_moves_tau_only():
     scene = Scene(amplitude=2.0, mass=0.5, tau=50.0)
     twin = an.twin_scene(scene)
-    assert twin.tau == 50.0 + an.TWIN_TAU_OFFSET == 50.001
+    assert twin.tau == 50.001                 # MODEL.md section 4: tau + 1e-3
     assert {k: v for k, v in twin.values().items() if k != "tau"} == \
         {k: v for k, v in scene.values().items() if k != "tau"}
 
