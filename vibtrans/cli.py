@@ -6,10 +6,13 @@ valid range.
 import argparse
 import json
 import math
+import os
+import shutil
 import sys
 
 from . import __version__
 from .errors import InputError
+from .outfiles import atomic, check_file, check_folder
 
 
 class _Parser(argparse.ArgumentParser):
@@ -87,6 +90,8 @@ def cmd_simulate(args):
     from .analysis import summarize
     from .simulate import simulate
     scene = scene_from_args(args)
+    if args.out:
+        check_file(args.out)      # before the run: a bad path costs no simulation
     if args.window is not None:
         window = tuple(_num(v) for v in args.window)
     else:
@@ -105,7 +110,9 @@ def cmd_simulate(args):
         bar.close()
     summary = summarize(ds, twin)
     if args.out:
-        ds.to_netcdf(args.out)
+        # netCDF4 says RuntimeError("NetCDF: HDF error") when the disk is full
+        with atomic(args.out, errors=(RuntimeError,)) as tmp:
+            ds.to_netcdf(tmp)
     out = {k: _jsonable(v) for k, v in summary._asdict().items()}
     out["scene"] = scene.values()
     if args.json:
@@ -136,23 +143,23 @@ def cmd_threshold(args):
 
 
 def _threshold_sweep(args):
-    import os
-
     from .sweep import command_line, parse_range
     from .threshold import threshold_curve
     log_mass = parse_range(args.log_mass, "log_mass")
+    check_file(out)
     out = args.out or "vertical.nc"
     ds = threshold_curve(log_mass, tau=args.tau, periods=args.periods,
                          fidelity=args.fidelity, workers=args.workers)
     ds.attrs["command"] = command_line()
-    tmp = out + ".partial"
-    ds.to_netcdf(tmp)
-    os.replace(tmp, out)          # atomic: a partial file is never read as data
+    with atomic(out, errors=(RuntimeError,)) as tmp:    # a partial file is never read as data
+        ds.to_netcdf(tmp)
     print(out)
     return 0
 
 
 def cmd_bench(args):
+    if args.plot is not None:
+        check_file(args.plot, "plot")
     from .bench import main as bench_main
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
                       work_precision=args.work_precision, plot=args.plot)
@@ -168,8 +175,16 @@ def cmd_sweep(args):
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
-    run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
-              executor=args.executor)
+    new = not os.path.exists(out)
+    check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
+    try:
+        run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
+                  executor=args.executor)
+    except OSError as exc:
+        if new:            # a store this run began and could not write: not left behind
+            shutil.rmtree(out, ignore_errors=True)
+        raise InputError(f"out: cannot write {out!r} ({exc.strerror or exc}); a store that "
+                         f"existed before is kept and resumes") from None
     print(out)
     return 0
 
@@ -227,7 +242,6 @@ def _export_sizes(args):
 
 
 def cmd_export(args):
-    import os
     from pathlib import Path
 
     from . import export as E
@@ -236,9 +250,9 @@ def cmd_export(args):
         if Path(args.out).suffix.lower() in (".png", ".svg", ".pdf", ".html"):
             raise InputError(f"out: export paper writes a folder of figures, got the file name "
                              f"{args.out!r}")
-        if os.path.exists(args.out) and not os.path.isdir(args.out):
-            raise InputError(f"out: {args.out!r} exists and is not a folder")
+        check_folder(args.out, create=False)
     else:
+        check_file(args.out)
         E._format(args.out, E.FORMATS + ("html",))
     sizes = _export_sizes(args)
     if kind not in ("trajectory", "paper") and args.window is not None:

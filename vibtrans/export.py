@@ -11,7 +11,6 @@ changing `hv.Store.current_backend`, and every render names its backend.
 Every `export_*` function returns the HoloViews object it rendered.
 """
 import math
-import os
 import shlex
 import sys
 import time
@@ -30,7 +29,8 @@ from . import plots  # noqa: E402
 from .analysis import V0, twin_scene  # noqa: E402
 from .params import PAPER_POINTS, paper_scene  # noqa: E402
 from .shipped import maps_dir  # noqa: E402
-from .errors import InputError
+from .errors import InputError  # noqa: E402
+from .outfiles import atomic  # noqa: E402
 
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
@@ -133,8 +133,8 @@ def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI):
     fig = render(obj, width, height)
     try:
         Path(out).parent.mkdir(parents=True, exist_ok=True)
-        with matplotlib.rc_context(RC):
-            fig.savefig(out, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+        with matplotlib.rc_context(RC), atomic(out) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
     finally:
         plt.close(fig)
     return obj
@@ -157,12 +157,13 @@ def export_html(obj, out, title="vibtrans"):
     _format(out, ("html",))
     ensure_backends()
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    if isinstance(obj, hv.core.dimension.Dimensioned):
-        hv.save(obj, out, fmt="html", backend="bokeh", resources="inline", title=title)
-    else:
-        import panel as pn
-        from bokeh.resources import INLINE
-        pn.panel(obj).save(out, resources=INLINE, title=title, embed=True)
+    with atomic(out) as tmp:
+        if isinstance(obj, hv.core.dimension.Dimensioned):
+            hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
+        else:
+            import panel as pn
+            from bokeh.resources import INLINE
+            pn.panel(obj).save(tmp, resources=INLINE, title=title, embed=True)
     return obj
 
 
@@ -331,7 +332,8 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
         fig.subplots_adjust(bottom=0.24, wspace=0.28)
         _fit(fig)
         Path(out).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+        with atomic(out) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
     return fig
 
 
@@ -495,4 +497,5 @@ def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
         if note:
             lines.append(f"- note: {note}")
         lines.append("")
-    (Path(out_dir) / "index.md").write_text("\n".join(lines))
+    with atomic(Path(out_dir) / "index.md") as tmp:
+        Path(tmp).write_text("\n".join(lines))
