@@ -34,6 +34,7 @@ from tornado.httputil import parse_qs_bytes
 from vibtrans_explorer import data, urlstate
 from vibtrans_explorer.explorer import URL_KEYS, Explorer, ExplorerState
 from vibtrans.cli import main
+from vibtrans.params import Scene
 
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.simulate")
@@ -251,6 +252,14 @@ def _run_now(explorer):
 @example(pairs=[("compare", "²"), ("x", "²")])     # Panel's parse_query: int('²') raised
 @example(pairs=[("model", "rigid"), ("la", "2")])
 @example(pairs=[("la", "3"), ("lm", "-5"), ("fidelity", "reference"), ("compare", "point mass")])
+# every scene key away from its default, with each comparison (the run must
+# carry each one: a key the explorer dropped would arrive as its default)
+@example(pairs=[("la", "0.5"), ("lm", "0.25"), ("mu", "0.1"), ("integrator", "verlet"),
+                ("fidelity", "preview")])
+@example(pairs=[("la", "1"), ("lm", "-1"), ("mu", "1"), ("compare", "point mass"),
+                ("fidelity", "reference"), ("integrator", "verlet")])
+@example(pairs=[("model", "point-mass"), ("la", "1.5"), ("lm", "-2"), ("compare", "none"),
+                ("fidelity", "preview")])
 def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     explorer = url_session(pairs)
     values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, MAPS)
@@ -268,9 +277,19 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     # a run either reached the kernel with checked values, or was refused by
     # the server's step cap with a message
     assert kernel_calls or "over this server's limit" in explorer.message.object
-    for v in kernel_calls:
-        assert v["amplitude"] == pytest.approx(10 ** got["log_amplitude"])
-        assert v["mass"] == pytest.approx(10 ** got["log_mass"])
+    if kernel_calls:
+        # every scene key arrives as the URL set it, the rest at the Scene
+        # defaults; the comparison run is the same scene with tau + 1e-3
+        # (MODEL.md section 4) or the material point, or absent
+        main = {**Scene().values(), "amplitude": 10 ** got["log_amplitude"],
+                "mass": 10 ** got["log_mass"], "mu": got["mu"], "model": got["model"],
+                "fidelity": got["fidelity"], "integrator": got["integrator"]}
+        expected = [main]
+        if got["compare"] == "tau twin":
+            expected.append({**main, "tau": main["tau"] + 1e-3})
+        elif got["compare"] == "point mass" and got["model"] == "deformable":
+            expected.append({**main, "model": "point-mass"})
+        assert sorted(kernel_calls, key=repr) == sorted(expected, key=repr)
 
 
 def test_bad_url_message_and_defaults(url_session):
