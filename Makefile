@@ -30,6 +30,11 @@ test: setup browser
 bench: setup
 	$(BIN)/vibtrans bench
 
+# The product as one file: library, command line, explorer and maps
+# (tests/test_wheel.py installs it in a fresh venv and runs it).
+wheel: setup
+	$(BIN)/python -m pip wheel --no-deps . -w dist
+
 # numba's on-disk cache does not see edits to other modules that a cached
 # kernel inlines: clear it after editing kernels.
 clean-cache:

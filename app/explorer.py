@@ -3,8 +3,9 @@ on-demand trajectories.  Layout, widgets and callbacks only: physics comes
 from `vibtrans`, figures from `vibtrans.plots` (the map, the teaching
 views) and `app/live.py` (the trajectory panels, plain Bokeh).
 
-Serve with `vibtrans serve` (warms the JIT and loads the maps first) or
-`panel serve app/explorer.py`.
+Serve with `vibtrans serve` (app/server.py: checks the maps first, then
+serves while the kernels compile in the background, app/kernels.py) or
+`panel serve app/explorer.py` (runs then compile what they need).
 """
 import asyncio
 import ctypes
