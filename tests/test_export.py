@@ -2,8 +2,10 @@
 no browser; exact pixel sizes; labels in SVG; PDF; the app's figures and the
 exported ones plot the same data; bad command lines exit 2 with one line.
 
-Everything runs on a tiny drift map (3 x 3 points, 50 periods) and a tiny
-threshold curve made here, and on short scenes."""
+Everything runs on a tiny drift map (4 amplitudes x 3 masses, 50 periods:
+not square, so a swapped axis cannot fit) and a tiny threshold curve made
+here, a hand-made 4 x 3 map with a distinct colour in every cell (the
+drawn pixels against the data, cell by cell), and short scenes."""
 import json
 import os
 import subprocess
@@ -13,6 +15,7 @@ from pathlib import Path
 import holoviews as hv
 import numpy as np
 import pytest
+import xarray as xr
 
 from vibtrans import cli, export, plots
 from vibtrans.params import paper_scene
@@ -29,7 +32,7 @@ def maps_dir(tmp_path_factory):
     """A tiny shipped-maps folder: deformable-mu0.3.zarr and vertical.nc."""
     d = tmp_path_factory.mktemp("assets") / "maps"
     d.mkdir()
-    sweep = Sweep(np.array([-0.3, 1.0, 2.5]), np.array([-2.0, 0.0, 1.0]),
+    sweep = Sweep(np.array([-0.5, 0.5, 1.5, 2.5]), np.array([-2.0, -0.5, 1.0]),
                   model="deformable", mu=0.3, periods=PERIODS)
     run_sweep(sweep, str(d / "deformable-mu0.3.zarr"), workers=1, progress=False,
               executor="threads")
@@ -223,13 +226,99 @@ def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir
     bk_img = next(r for r in rends if isinstance(r.glyph, BkImage)).data_source.data["image"][0]
     ax = next(a for a in seen["figs"][0].axes if a.images)
     mpl_img = np.ma.filled(ax.images[0].get_array().astype(float), np.nan)
-    assert mpl_img.shape == bk_img.shape
-    assert (np.allclose(mpl_img, bk_img, equal_nan=True)
-            or np.allclose(np.flipud(mpl_img), bk_img, equal_nan=True))
+    assert mpl_img.shape == bk_img.shape == (3, 4)        # (mass rows, amplitude columns)
+    # bokeh's row 0 is at the bottom (smallest m*); matplotlib's is at the
+    # bottom with origin 'lower', at the top with 'upper': one orientation only
+    if ax.images[0].origin == "upper":
+        mpl_img = np.flipud(mpl_img)
+    np.testing.assert_allclose(mpl_img, bk_img, equal_nan=True)
     bk_line = next(r for r in rends if isinstance(r.glyph, Line)).data_source.data
     mpl_line = next(line for line in ax.lines if len(line.get_xdata()) == 3)
     np.testing.assert_allclose(mpl_line.get_xdata(), bk_line["log_amplitude"])
     np.testing.assert_allclose(mpl_line.get_ydata(), bk_line["log_mass"])
+
+
+# ------------------------------------------------------------------ pixels
+LA = np.array([-2.5, -1.0, 0.5, 2.0])       # 4 amplitudes (columns), spacing 1.5
+LM = np.array([-4.0, -1.0, 2.0])            # 3 masses (rows), spacing 3
+CHAOTIC_CELL = (1, 2)                       # (amplitude index, mass index): grey
+
+
+def _hand_map():
+    """A drift map (open_map's layout) with a distinct colour C in each
+    cell: |v*| from 0.2 to 2000 on both sides of the wave, one chaotic cell,
+    none inside the white band."""
+    v = np.array([[-2000.0, 3.0, -0.5],
+                  [40.0, -8.0, 700.0],
+                  [-0.2, 150.0, -60.0],
+                  [12.0, -300.0, 0.7]])          # (amplitude, mass)
+    chaotic = np.zeros(v.shape, dtype=np.int8)
+    chaotic[CHAOTIC_CELL] = 1
+    return xr.Dataset({"drift_velocity": (("log_amplitude", "log_mass"), v),
+                       "chaotic": (("log_amplitude", "log_mass"), chaotic)},
+                      coords={"log_amplitude": LA, "log_mass": LM},
+                      attrs={"scene_model": "deformable", "scene_mu": 0.3,
+                             "scene_periods": 2000.0})
+
+
+def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
+    # Source: closed form (the colour quantity C of plots.colour_scale, MODEL.md
+    # section 4) at each cell, read back from what was drawn: the image
+    # arrays of both backends located by their extents, and the PNG's pixel
+    # at each cell centre (x = log10 A* to the right, y = log10 m* upwards).
+    from PIL import Image
+    ds = _hand_map()
+    c = plots.colour_scale(ds["drift_velocity"].values)           # (amplitude, mass)
+    assert np.unique(c).size == c.size                             # every cell distinct
+    seen = _capture(monkeypatch)
+    dpi = 60
+    out = tmp_path / "m.png"
+    export.export_heatmap(ds, out, dpi=dpi, width=7.0, height=5.2)
+    fig = seen["figs"][0]
+    ax = next(a for a in fig.axes if a.images)
+    img = ax.images[0]
+    arr = np.ma.filled(img.get_array().astype(float), np.nan)
+    assert arr.shape == (LM.size, LA.size)
+    left, right, bottom, top = img.get_extent()
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    assert x0 < x1 and y0 < y1                          # neither axis reversed
+    png = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    height = png.shape[0]
+    scale = dpi / fig.dpi
+    for i, la in enumerate(LA):
+        for j, lm in enumerate(LM):
+            # the image array's cell at (la, lm), from its extent and origin
+            col = int((la - left) / (right - left) * LA.size)
+            row = int((lm - bottom) / (top - bottom) * LM.size)
+            if img.origin == "upper":
+                row = LM.size - 1 - row
+            expected = np.nan if (i, j) == CHAOTIC_CELL else c[i, j]
+            np.testing.assert_allclose(arr[row, col], expected, equal_nan=True,
+                                       err_msg=f"cell {la}, {lm}")
+            # the PNG pixel at the cell centre
+            px, py = ax.transData.transform((la, lm)) * scale
+            rgb = png[height - 1 - int(py), int(px)]
+            if (i, j) == CHAOTIC_CELL:
+                assert np.ptp(rgb) <= 3 and 140 <= rgb[0] <= 170, rgb     # grey
+            else:
+                want = np.round(np.array(img.to_rgba(c[i, j])[:3]) * 255)
+                assert np.abs(rgb - want).max() <= 2, (la, lm, rgb, want)
+    # bokeh (the explorer): row 0 at the bottom, x, y, dw, dh the extent
+    from bokeh.models import GlyphRenderer, Image as BkImage
+    bk = hv.render(export.heatmap_figure(ds), backend="bokeh")
+    r = next(r for r in bk.renderers if isinstance(r, GlyphRenderer)
+             and isinstance(r.glyph, BkImage))
+    bimg = np.asarray(r.data_source.data["image"][0], dtype=float)
+    src = r.data_source.data
+    gx, gy, gdw, gdh = (float(src[k][0]) for k in ("x", "y", "dw", "dh"))
+    assert bimg.shape == (LM.size, LA.size)
+    for i, la in enumerate(LA):
+        for j, lm in enumerate(LM):
+            col = int((la - gx) / gdw * LA.size)
+            row = int((lm - gy) / gdh * LM.size)
+            expected = np.nan if (i, j) == CHAOTIC_CELL else c[i, j]
+            np.testing.assert_allclose(bimg[row, col], expected, equal_nan=True)
 
 
 def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
