@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test bench clean-cache
+.PHONY: setup browser serve test bench wheel clean-cache container-test
 
 setup: $(VENV)/.installed
 
@@ -39,3 +39,10 @@ wheel: setup
 # kernel inlines: clear it after editing kernels.
 clean-cache:
 	find vibtrans -name '*.nbi' -delete -o -name '*.nbc' -delete
+
+# Build the Dockerfile with podman on a base image made here (no registry is
+# reachable), run it and check it: page on a published port, a simulation,
+# a non-root user, the health check.  Needs root; installs podman, runc and
+# debootstrap when missing (devtools/container/test.sh).
+container-test:
+	devtools/container/test.sh
