@@ -21,9 +21,25 @@ import sys
 from vibtrans.errors import InputError
 
 
+def _age():
+    """Seconds since this process started (the command, before the
+    re-execution: same pid), from /proc; None elsewhere."""
+    try:
+        with open("/proc/self/stat") as f:
+            start = int(f.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/uptime") as f:
+            up = float(f.read().split()[0])
+        return up - start / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def say(line):
-    """One line of start-up progress on stderr."""
-    print(f"vibtrans serve: {line}", file=sys.stderr, flush=True)
+    """One line of start-up progress on stderr, with the seconds since the
+    command started."""
+    age = _age()
+    when = "" if age is None else f"[{age:.1f} s] "
+    print(f"vibtrans serve: {when}{line}", file=sys.stderr, flush=True)
 
 
 def origins(args):

@@ -21,7 +21,8 @@ SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
                   *ROOT.glob("devtools/**/*.py")])
 # modules that start processes on purpose (benchmarks and the load test
 # start `vibtrans serve`; the sweep's process pool): argument lists, no shell
-SUBPROCESS_OK = {"devtools/loadtest.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
+SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/firstpage.py", "vibtrans/bench.py",
+                 "vibtrans/sweep.py"}
 
 
 # ------------------------------------------------------------------ no code from input
