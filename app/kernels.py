@@ -27,19 +27,23 @@ _thread = None
 
 
 def _warmup(progress):
-    """vibtrans.warmup with the arguments this version of it accepts
-    (models and progress are newer than warmup itself)."""
+    """vibtrans.warmup(models=MODELS, progress=...) where the library's
+    warm-up takes them; with an older warmup() (no arguments), the same
+    done here: one short run per model and integrator, which compiles (or
+    loads) each kernel variant the explorer runs, and nothing else."""
     params = inspect.signature(vibtrans.warmup).parameters
-    kwargs = {}
-    if "models" in params:
-        kwargs["models"] = MODELS
     if "progress" in params:
-        kwargs["progress"] = progress
-    else:                               # no steps to report: one step, all of it
-        progress(0, 1, "all kernels")
-    vibtrans.warmup(**kwargs)
-    if "progress" not in params:
-        progress(1, 1, "all kernels")
+        kwargs = {"progress": progress}
+        if "models" in params:
+            kwargs["models"] = MODELS
+        vibtrans.warmup(**kwargs)
+        return
+    steps = [(m, i) for m in MODELS for i in ("ab4", "verlet")]
+    for k, (model, integrator) in enumerate(steps):
+        progress(k, len(steps), f"{model}, {integrator}")
+        vibtrans.simulate(vibtrans.Scene(model=model, integrator=integrator, amplitude=100.0,
+                                         mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
+    progress(len(steps), len(steps), "done")
 
 
 def compile_all(report=None):
