@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test bench wheel clean-cache container-test
+.PHONY: setup browser serve test test-fast bench wheel clean-cache container-test
 
 setup: $(VENV)/.installed
 
@@ -26,6 +26,11 @@ serve: setup
 
 test: setup browser
 	$(BIN)/python -m pytest -q
+
+# The development tier: no browser, no server, nothing slow (CI runs `make
+# test`, everything).
+test-fast: setup
+	$(BIN)/python -m pytest -q -m "not slow and not browser and not server"
 
 bench: setup
 	$(BIN)/vibtrans bench

@@ -14,6 +14,8 @@ import pytest
 
 from playwright import sync_api as playwright  # installed by `make test` (.[test])
 
+pytestmark = pytest.mark.browser
+
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"

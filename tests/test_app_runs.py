@@ -13,6 +13,9 @@ import pytest
 from vibtrans_explorer import explorer as E
 from vibtrans import Cancelled
 
+# explorer sessions with real runs, ~40 s (make test-fast leaves them out)
+pytestmark = pytest.mark.slow
+
 REAL_SIMULATE = E.simulate
 
 

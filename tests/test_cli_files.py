@@ -135,6 +135,7 @@ def _one_line(r, argv, path):
     return _error_line(r.stderr, argv, path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["simulate", "export heatmap", "export html",
                                   "threshold sweep"])
 def test_a_full_disk_leaves_no_partial_file_and_keeps_the_old_one(name, tmp_path):
@@ -164,6 +165,7 @@ def small_tmpfs(tmp_path):
         subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["simulate", "export heatmap", "sweep"])
 def test_a_really_full_disk(name, small_tmpfs, capsys):
     argv = [*_argv(name, small_tmpfs)]

@@ -73,6 +73,7 @@ def _png_size(path):
 
 
 # ------------------------------------------------------------------ files
+@pytest.mark.slow
 def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertical):
     cases = [
         (export.export_heatmap, (map_ds,), dict(vertical=vertical), 6.0, 4.0, 50),
@@ -86,6 +87,7 @@ def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertic
         assert _png_size(out) == (round(w * dpi), round(h * dpi)), fn.__name__
 
 
+@pytest.mark.slow
 def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_ds, vertical,
                                                        run4):
     svg = tmp_path / "map.svg"
@@ -101,6 +103,7 @@ def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_
     assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 2000
 
 
+@pytest.mark.slow
 def test_memory_diagram_figure_marks_stick_and_slip(tmp_path):
     snap = memory_snapshot(paper_scene(1), t=100.6)
     assert 0 < snap["stick_depth"] < snap["a"]          # partial slip at this instant
@@ -143,6 +146,7 @@ print(json.dumps({"codes": codes, "bad": bad, "started": started,
 """
 
 
+@pytest.mark.slow
 def test_cli_export_in_a_subprocess_without_display_or_browser(tmp_path, maps_dir):
     empty_bin = tmp_path / "bin"
     empty_bin.mkdir()
@@ -201,6 +205,7 @@ def _app_map(monkeypatch, maps_dir):
     return el * plots.paper_points("deformable")
 
 
+@pytest.mark.slow
 def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir):
     export.ensure_backends()
     hv.Store.set_current_backend("bokeh")        # as in the explorer's process
@@ -321,6 +326,7 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
             np.testing.assert_allclose(bimg[row, col], expected, equal_nan=True)
 
 
+@pytest.mark.slow
 def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
     export.ensure_backends()
     # the app's run and panels (app/explorer.py: window = last 2 periods,
@@ -351,6 +357,7 @@ def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
 
 
 # ------------------------------------------------------------------ paper
+@pytest.mark.slow
 def test_paper_export_writes_each_figure_and_an_index(monkeypatch, tmp_path, maps_dir, capsys):
     # a subset of the figures keeps this fast: the vertical curve, the maps
     # and the chaotic point with its twin
@@ -399,6 +406,7 @@ BAD = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv,name", BAD, ids=[" ".join(a[1:4]) + f"-{i}"
                                                 for i, (a, _) in enumerate(BAD)])
 def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, monkeypatch,

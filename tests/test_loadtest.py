@@ -6,7 +6,11 @@ server's memory growth bounded.  The full-scale figures (30 x 5) are in
 docs/SECURITY.md."""
 from pathlib import Path
 
+import pytest
+
 from devtools import loadtest
+
+pytestmark = pytest.mark.browser       # a real chromium session
 
 
 def test_small_load_has_no_errors_and_bounded_memory():

@@ -369,6 +369,7 @@ def test_random_histories_cover_every_state():
         assert np.any((prev_a < 0) & (a > 0) & (b != prev_b)), seed
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("idx", range(len(HISTORIES)))
 def test_random_history_force_converges_to_stack(idx):
     # Source: MODEL.md section 2, the spring bed (tests/naive.py) versus the exact
@@ -414,6 +415,7 @@ def test_random_history_states_and_stick_depth_match_springs(idx):
             assert r["state"] == SLIDING, (idx, i)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("idx", [0, 2, 4])
 def test_anchor_profile_matches_springs_pointwise(idx):
     # Source: MODEL.md section 2, "Exact, fast representation": the polyline w(h)

@@ -29,7 +29,7 @@ def _dominant_loop(ds, bins):
     return edges[starts], edges[ends], dom[starts]
 
 
-@pytest.mark.parametrize("bins", [1, 7, 400, 5000])
+@pytest.mark.parametrize("bins", [1, 7, 400, pytest.param(5000, marks=pytest.mark.slow)])
 def test_dominant_states_match_the_loop(hopping, bins):
     got = plots._dominant_states(hopping, bins)
     want = _dominant_loop(hopping, bins)

@@ -26,6 +26,9 @@ from vibtrans_explorer import data
 from vibtrans.cli import main
 from vibtrans.sweep import StoreMismatch, open_map, open_vertical
 
+# ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "assets" / "maps"
 VICTIM = ("deformable", 0.1)               # the map the tests damage (the smallest)

@@ -53,6 +53,7 @@ def _cli(out, extra=()):
             "--workers", "1", "--out", out, *extra]
 
 
+@pytest.mark.slow
 def test_kill_and_resume_is_bit_identical(tmp_path):
     # A real subprocess killed (SIGKILL) mid-sweep, then started again with the
     # same command, ends equal to an uninterrupted run, bit for bit.
@@ -83,6 +84,7 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     assert np.array_equal(kept["seconds"].values[rows], b["seconds"].values[rows])
 
 
+@pytest.mark.slow
 def test_dask_cluster_equals_local(tmp_path):
     from dask.distributed import LocalCluster
     sw = small_sweep()

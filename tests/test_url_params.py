@@ -243,6 +243,7 @@ def _run_now(explorer):
     asyncio.run(explorer._run())
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(pairs=queries())
@@ -347,6 +348,7 @@ def _spellings(option):
     return (option, option.lstrip("-"), option.lstrip("-").replace("-", "_"))
 
 
+@pytest.mark.slow
 @settings(max_examples=500, deadline=None)
 @given(option=st.sampled_from(sorted([*DOMAIN, *CHOICES, *OTHER])), data_=st.data())
 def test_cli_simulate_value_is_refused_in_one_line_or_reaches_the_kernel_checked(option, data_):

@@ -14,6 +14,7 @@ from vibtrans.threshold import (first_takeoff, point_mass_sliding_threshold,
                                 point_mass_threshold, threshold_amplitude)
 
 
+@pytest.mark.slow
 def test_fundamental_contact_resonance():
     # Paper: the minimum of A_J*(m*) lies at m_c* ~ 3.69e-2 with A_J* ~ 5.4e-3
     # (tau = 50, 2000 periods).  The tolerances: m_c* in
@@ -38,6 +39,7 @@ def test_threshold_brackets_contact_loss():
     assert first_takeoff(aj * (1 + 1e-3), m) < 2000
 
 
+@pytest.mark.slow
 def test_light_particles_follow_the_rigid_line():
     # Paper (Nayak): for m* << m_c* deformability is negligible, the Hertz
     # curve approaches the rigid line A* = 1/(4 pi^2 m*).
