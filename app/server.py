@@ -139,8 +139,9 @@ def serve(args):
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:                     # (in one line: nothing printed before it)
         raise InputError("; ".join(problems))
-    say(f"{len(data.available_maps())} drift maps and the vertical curve checked in "
-        f"{data.ASSETS / 'maps'}; loading the explorer ...")
+    curve = " and the vertical curve" if data.vertical_curve() is not None else ""
+    say(f"{len(data.available_maps())} drift maps{curve} checked in {data.ASSETS / 'maps'}; "
+        f"loading the explorer ...")
     import panel as pn
 
     from .explorer import create_app
