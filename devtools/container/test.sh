@@ -40,14 +40,15 @@ command -v iptables >/dev/null || need+=(iptables)      # CNI port publishing
 if [ "$BASE_IMAGE" = "$LOCAL_BASE" ]; then
     command -v debootstrap >/dev/null || need+=(debootstrap)
 fi
+WORK=$(mktemp -d /var/tmp/vibtrans-container-test.XXXXXX)
 if [ ${#need[@]} -gt 0 ]; then
     say "installing ${need[*]} (Debian packages)"
-    apt-get -o DPkg::Lock::Timeout=600 update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq \
-        --no-install-recommends "${need[@]}" >/dev/null
+    { apt-get -o DPkg::Lock::Timeout=600 update -qq \
+      && DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq \
+             --no-install-recommends "${need[@]}"; } >"$WORK/apt.log" 2>&1 \
+        || { tail -n 30 "$WORK/apt.log" >&2; rm -rf "$WORK"; die "apt-get install ${need[*]}"; }
 fi
 
-WORK=$(mktemp -d /var/tmp/vibtrans-container-test.XXXXXX)
 CTR=vibtrans-test-$$
 ROOTFS=
 cleanup() {
@@ -107,7 +108,7 @@ make_base() {
     rm -rf "$ROOTFS"/var/lib/apt/lists/* "$ROOTFS"/usr/share/doc/* \
         "$ROOTFS"/usr/share/man/* "$ROOTFS"/usr/share/info/* "$ROOTFS"/var/log/*.log
     say "importing the root ($(du -sh "$ROOTFS" | cut -f1))"
-    tar -C "$ROOTFS" --numeric-owner -c . | podman import \
+    tar -C "$ROOTFS" --numeric-owner -c . | podman import --quiet \
         --change 'ENV PATH=/opt/venv/bin:/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin' \
         --change 'ENV LANG=C.UTF-8' \
         --change 'CMD ["python"]' \
