@@ -28,9 +28,10 @@ _thread = None
 
 def _warmup(progress):
     """vibtrans.warmup(models=MODELS, progress=...) where the library's
-    warm-up takes them; with an older warmup() (no arguments), the same
-    done here: one short run per model and integrator, which compiles (or
-    loads) each kernel variant the explorer runs, and nothing else."""
+    warm-up takes them (progress(done, total, label) after each kernel is
+    ready); with an older warmup() (no arguments), the same done here: one
+    short run per model and integrator, which compiles (or loads) each
+    kernel variant the explorer runs, and nothing else."""
     params = inspect.signature(vibtrans.warmup).parameters
     if "progress" in params:
         kwargs = {"progress": progress}
@@ -39,11 +40,10 @@ def _warmup(progress):
         vibtrans.warmup(**kwargs)
         return
     steps = [(m, i) for m in MODELS for i in ("ab4", "verlet")]
-    for k, (model, integrator) in enumerate(steps):
-        progress(k, len(steps), f"{model}, {integrator}")
+    for k, (model, integrator) in enumerate(steps, 1):
         vibtrans.simulate(vibtrans.Scene(model=model, integrator=integrator, amplitude=100.0,
                                          mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
-    progress(len(steps), len(steps), "done")
+        progress(k, len(steps), f"{model}, {integrator}")
 
 
 def compile_all(report=None):
@@ -55,9 +55,12 @@ def compile_all(report=None):
     def progress(done, total, label):
         with _lock:
             _state.update(done=done, total=total, label=str(label))
-        if report is not None and done < total:
-            report(f"compiling kernels {done + 1}/{total} ({label})...")
+        if report is not None:
+            report(f"kernels {done}/{total} ready ({label}), {time.perf_counter() - t0:.1f} s")
 
+    if report is not None:
+        report("compiling the kernels in the background (numba; only the first start "
+               "after an install compiles, later ones load them from the cache) ...")
     try:
         _warmup(progress)
     except Exception as exc:          # a bug in the warm-up must not stop the server
@@ -100,9 +103,9 @@ def status():
     if ready():
         return None
     with _lock:
-        done, total, label = _state["done"], _state["total"], _state["label"]
-    step = f" {done + 1} of {total} ({label})" if total else ""
-    return (f"Compiling the simulation kernels{step}: this server has just started with an "
+        done, total = _state["done"], _state["total"]
+    count = f" ({done} of {total} ready)" if total else ""
+    return (f"Compiling the simulation kernels{count}: this server has just started with an "
             f"empty compilation cache; the run starts as soon as they are ready ...")
 
 

@@ -4,8 +4,9 @@
 
 cold: NUMBA_CACHE_DIR set to a new empty folder (nothing compiled yet);
 warm: the same folder again, now filled.  For the server: seconds from the
-command to the first answered page (GET /, 200), and to "kernels ready"
-(the background compilation done); for simulate: the whole command
+command to the first answered page (GET /, 200), with the CPU seconds the
+server used by then (less dependent on the machine's load), and to
+"kernels ready" (the background compilation done); for simulate: the whole command
 (`vibtrans simulate --log-amplitude 2.5 --log-mass 0 --json`, paper point 4).
 Each round makes a new cold folder; the machine's load is printed beside
 the figures (a shared machine's times are only as quiet as it is)."""
@@ -35,15 +36,27 @@ def _vibtrans():
     return [exe] if exe else [sys.executable, "-m", "vibtrans.cli"]
 
 
+def _cpu_s(pid):
+    """CPU seconds (user + system) the process has used: less dependent on
+    the machine's load than wall time."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def serve_times(cache, timeout=900):
-    """(seconds to the first page, seconds to kernels ready, the server's stderr)."""
+    """(seconds to the first page, CPU seconds the server used by then,
+    seconds to kernels ready, the server's stderr)."""
     port = _port()
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     with tempfile.TemporaryFile(mode="w+") as log:
         t0 = time.perf_counter()
         proc = subprocess.Popen([*_vibtrans(), "serve", "--port", str(port)], env=env,
                                 stdout=log, stderr=subprocess.STDOUT, cwd=tempfile.gettempdir())
-        page = ready = None
+        page = ready = cpu = None
         try:
             while time.perf_counter() - t0 < timeout and (page is None or ready is None):
                 if proc.poll() is not None:
@@ -53,6 +66,7 @@ def serve_times(cache, timeout=900):
                         with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=120) as r:
                             if r.status == 200:
                                 page = time.perf_counter() - t0
+                                cpu = _cpu_s(proc.pid)
                     except OSError:
                         pass
                 if ready is None:
@@ -68,7 +82,7 @@ def serve_times(cache, timeout=900):
                 proc.kill()
             log.seek(0)
             text = log.read()
-    return page, ready, text
+    return page, cpu, ready, text
 
 
 def simulate_time(cache):
@@ -91,11 +105,13 @@ def main(argv=None):
         cache = Path(tempfile.mkdtemp(prefix="vibtrans-numba-cold-"))
         try:
             load = os.getloadavg()[0]
-            cold_page, cold_ready, cold_log = serve_times(cache)
-            warm_page, warm_ready, _ = serve_times(cache)
+            cold_page, cold_cpu, cold_ready, cold_log = serve_times(cache)
+            warm_page, warm_cpu, warm_ready, _ = serve_times(cache)
             row = {"load_1min": round(load, 2), "serve_cold_first_page_s": cold_page,
+                   "serve_cold_first_page_cpu_s": cold_cpu,
                    "serve_cold_kernels_ready_s": cold_ready,
                    "serve_warm_first_page_s": warm_page,
+                   "serve_warm_first_page_cpu_s": warm_cpu,
                    "serve_warm_kernels_ready_s": warm_ready}
             if not a.skip_simulate:
                 shutil.rmtree(cache)

@@ -17,11 +17,11 @@ from vibtrans_explorer import kernels
 
 @pytest.fixture
 def compiling(monkeypatch):
-    """The kernels as at a cold start: a warm-up under way at step 2 of 4."""
+    """The kernels as at a cold start: a warm-up under way, 1 of 4 kernels ready."""
     monkeypatch.setattr(kernels, "READY", threading.Event())
     monkeypatch.setattr(kernels, "_thread", object())
     monkeypatch.setattr(kernels, "_state", dict(kernels._state, done=1, total=4,
-                                                label="deformable, verlet"))
+                                                label="deformable, ab4"))
     return kernels.READY
 
 
@@ -52,7 +52,7 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         ex = _explorer()
         ex.start_run()
         await _until(lambda: "Compiling the simulation kernels" in ex.summary.object)
-        assert "2 of 4 (deformable, verlet)" in ex.summary.object, ex.summary.object
+        assert "(1 of 4 ready)" in ex.summary.object, ex.summary.object
         assert ex.progress.visible and not ex.cancel_button.disabled
         await asyncio.sleep(0.5)
         assert not calls                       # the run waits for the kernels
@@ -94,23 +94,24 @@ def test_compile_all_reports_each_step(monkeypatch, signature):
     else:
         def warmup(models=None, progress=None):
             seen["models"] = models
-            for k, label in enumerate(("deformable, ab4", "deformable, verlet")):
+            for k, label in enumerate(("deformable kernel", "point-mass kernel"), 1):
                 progress(k, 2, label)
-            progress(2, 2, "done")
     monkeypatch.setattr(vibtrans, "warmup", warmup)
     monkeypatch.setattr(kernels, "READY", threading.Event())
     lines = []
     kernels.compile_all(lines.append)
     assert kernels.READY.is_set()
+    assert lines[0].startswith("compiling the kernels in the background")
+    steps = [re.sub(r", [0-9.]+ s$", "", ln) for ln in lines[1:-1]]
     if signature == "old":
         assert seen["runs"] == [("deformable", "ab4"), ("deformable", "verlet"),
                                 ("point-mass", "ab4"), ("point-mass", "verlet")]
-        assert lines[:4] == [f"compiling kernels {k}/4 ({m}, {i})..." for k, (m, i) in
-                             enumerate(seen["runs"], 1)]
+        assert steps == [f"kernels {k}/4 ready ({m}, {i})" for k, (m, i) in
+                         enumerate(seen["runs"], 1)]
     else:
         assert seen["models"] == kernels.MODELS
-        assert lines[:2] == ["compiling kernels 1/2 (deformable, ab4)...",
-                             "compiling kernels 2/2 (deformable, verlet)..."]
+        assert steps == ["kernels 1/2 ready (deformable kernel)",
+                         "kernels 2/2 ready (point-mass kernel)"]
     assert lines[-1].startswith("kernels ready in ")
 
 
@@ -131,5 +132,6 @@ def test_the_server_says_what_it_does(served_explorer):
              for ln in served_explorer.text().splitlines() if ln.startswith("vibtrans serve:")]
     assert "drift maps and the vertical curve checked in" in lines[0], lines
     assert any(ln.startswith("explorer on http://127.0.0.1:") for ln in lines), lines
-    assert any(ln.startswith("compiling kernels 1/") for ln in lines), lines
+    assert any(ln.startswith("compiling the kernels") for ln in lines), lines
+    assert any(ln.startswith("kernels 1/") for ln in lines), lines
     assert lines[-1].startswith("kernels ready in "), lines
