@@ -30,3 +30,12 @@ def served_explorer():
         yield server
     finally:
         server.stop()
+
+
+def pytest_collection_modifyitems(items):
+    """Every test that uses the served explorer (directly or through a
+    fixture) is marked `server`, so `make test-fast` (-m "not server")
+    leaves it out without each file having to say so."""
+    for item in items:
+        if "served_explorer" in getattr(item, "fixturenames", ()):
+            item.add_marker("server")
