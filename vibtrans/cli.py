@@ -146,8 +146,8 @@ def _threshold_sweep(args):
     from .sweep import command_line, parse_range
     from .threshold import threshold_curve
     log_mass = parse_range(args.log_mass, "log_mass")
-    check_file(out)
     out = args.out or "vertical.nc"
+    check_file(out)
     ds = threshold_curve(log_mass, tau=args.tau, periods=args.periods,
                          fidelity=args.fidelity, workers=args.workers)
     ds.attrs["command"] = command_line()
@@ -158,9 +158,9 @@ def _threshold_sweep(args):
 
 
 def cmd_bench(args):
+    from .bench import main as bench_main
     if args.plot is not None:
         check_file(args.plot, "plot")
-    from .bench import main as bench_main
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
                       work_precision=args.work_precision, plot=args.plot)
 
@@ -252,8 +252,8 @@ def cmd_export(args):
                              f"{args.out!r}")
         check_folder(args.out, create=False)
     else:
-        check_file(args.out)
         E._format(args.out, E.FORMATS + ("html",))
+        check_file(args.out)
     sizes = _export_sizes(args)
     if kind not in ("trajectory", "paper") and args.window is not None:
         raise InputError(f"window: only export trajectory takes --window, not export {kind}")
@@ -361,8 +361,8 @@ def _export_parser(sub):
                    help="dots per inch (PNG size = dpi x inches)")
     e.add_argument("--width", type=_num, help="figure width, inches")
     e.add_argument("--height", type=_num, help="figure height, inches")
-    e.add_argument("--maps", help="folder of the shipped maps (default: assets/maps or "
-                                  "$VIBTRANS_ASSETS/maps)")
+    e.add_argument("--maps", help="folder of the maps (default: the maps installed with "
+                                  "vibtrans, or $VIBTRANS_ASSETS/maps if set)")
     e.add_argument("--format", default="png", choices=("png", "svg", "pdf"),
                    help="paper: file format of the figures")
     e.set_defaults(func=cmd_export, periods_given=False)
