@@ -14,6 +14,8 @@ import pytest
 
 from playwright import sync_api as playwright  # installed by `make test` (.[test])
 
+from vibtrans.analysis import TWIN_TAU_OFFSET
+
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -143,7 +145,8 @@ def test_paper_point_runs_and_plots(page, server):
     assert len(whole) == 1 and len(last) == 1, figures
     assert sum(1 for t, x, *_ in figures if (x, 0, 2000) in whole) == 5, figures
     for title in ("normal: a*(t), y*(t)", "tangential: b*(t), x*(t)",
-                  "contact state (dominant per bin)", "x*(t) and its tau + 1e-3 twin"):
+                  "contact state (dominant per bin)",
+                  f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin"):
         assert title in titles, titles
 
 

@@ -87,7 +87,7 @@ def _jsonable(value):
 
 
 def cmd_simulate(args):
-    from .analysis import summarize
+    from .analysis import jumped, summarize, twin_scene
     from .simulate import simulate
     scene = scene_from_args(args)
     if args.out:
@@ -101,9 +101,8 @@ def cmd_simulate(args):
         ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
                       max_steps=args.max_steps, progress=update)
         twin = None
-        jumped = bool((ds["event_kind"].values == 0).any())
-        if args.twin == "always" or (args.twin == "auto" and jumped):
-            twin = simulate(scene.replace(tau=scene.tau + 1e-3),
+        if args.twin == "always" or (args.twin == "auto" and jumped(ds)):
+            twin = simulate(twin_scene(scene),
                             samples_per_period=args.samples_per_period,
                             max_steps=args.max_steps)
     finally:
@@ -245,6 +244,7 @@ def cmd_export(args):
     from pathlib import Path
 
     from . import export as E
+    from .analysis import twin_scene
     kind = args.kind
     if kind == "paper":
         if Path(args.out).suffix.lower() in (".png", ".svg", ".pdf", ".html"):
@@ -257,7 +257,7 @@ def cmd_export(args):
     sizes = _export_sizes(args)
     if kind not in ("trajectory", "paper") and args.window is not None:
         raise InputError(f"window: only export trajectory takes --window, not export {kind}")
-    v0 = _finite("v0", args.v0, 0)
+    v0 = E.V0 if args.v0 is None else _finite("v0", args.v0, 0)
     if not isinstance(args.mu, float):
         raise InputError(f"mu must be a number, got {args.mu!r}")
     maps = Path(args.maps) if args.maps else E.default_maps_dir()
@@ -300,7 +300,7 @@ def cmd_export(args):
                           progress=update)
             twin = None
             if args.twin:
-                twin = simulate(scene.replace(tau=scene.tau + 1e-3), window=window,
+                twin = simulate(twin_scene(scene), window=window,
                                 samples_per_period=E.OVERVIEW_SAMPLES)
         finally:
             bar.close()
@@ -354,7 +354,8 @@ def _export_parser(sub):
                    help="trajectory: full-resolution fragment (default: the last 2 periods)")
     e.add_argument("--twin", action="store_true",
                    help="trajectory: add the tau + 1e-3 twin run (chaos check)")
-    e.add_argument("--v0", type=_num, default=0.1, help="heatmap: white band |v*| <= v0*")
+    e.add_argument("--v0", type=_num, default=None,
+                   help="heatmap: white band |v*| <= v0* (default 0.1, analysis.V0)")
     e.add_argument("--chaotic", default="grey", choices=("grey", "colour"),
                    help="heatmap: chaotic points grey or coloured")
     e.add_argument("--dpi", type=_num, default=150.0,
