@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test bench clean-cache
+.PHONY: setup browser serve test bench
 
 setup: $(VENV)/.installed
 
@@ -29,8 +29,3 @@ test: setup browser
 
 bench: setup
 	$(BIN)/vibtrans bench
-
-# numba's on-disk cache does not see edits to other modules that a cached
-# kernel inlines: clear it after editing kernels.
-clean-cache:
-	find vibtrans -name '*.nbi' -delete -o -name '*.nbc' -delete

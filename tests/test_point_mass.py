@@ -334,13 +334,14 @@ def test_no_landing_hidden_between_scan_points():
 def _chunked(A, m, stops, rule, window, grow=3, periods=None):
     params = pm.make_params(A, m, t_end=periods, sample_dt=0.125, window=window)
     state = np.zeros(5)
+    work = pm.new_work()
     ctr = R.new_counters()
     samples = np.empty((1, R.NCOL))
     events = np.empty((1, 3))
     returns = {R.SAMPLES_FULL: 0, R.EVENTS_FULL: 0}
     for t_stop in stops:
         while True:
-            code = pm.point_mass_kernel(params, rule, state, samples, events, ctr, t_stop)
+            code = pm.point_mass_kernel(params, rule, state, work, samples, events, ctr, t_stop)
             if code == R.DONE:
                 break
             returns[code] += 1

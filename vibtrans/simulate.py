@@ -205,14 +205,15 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
                        1.0 / samples_per_period, (w0, w1), dt)
     rule = PM.rule_code(scene.stick_rule)
     state = np.zeros(5)
+    work = PM.new_work()
     ctr = R.new_counters()
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
     buf = {"samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
            "events": np.empty((1024, 3))}
 
     def call(t_stop):
-        return PM.point_mass_kernel(p, rule, state, buf["samples"], buf["events"], ctr,
-                                    t_stop)
+        return PM.point_mass_kernel(p, rule, state, work, buf["samples"], buf["events"],
+                                    ctr, t_stop)
 
     growers = {
         R.SAMPLES_FULL: lambda: buf.__setitem__("samples", _grow(buf["samples"])),

@@ -81,9 +81,10 @@ there, which differs by rounding only.
 import math
 
 import numpy as np
-from numba import njit
+
 
 from ..contact import FLIGHT, SLIDING, STICK
+from ..jit import inline, kernel
 from ..records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
                        C_STEPS, DONE, EVENTS_FULL, LANDING, NCOL,
                        SAMPLES_FULL, STATE_CHANGE, TAKEOFF, add_event,
@@ -141,15 +142,15 @@ def mode_state(mode):
     return SLIDING
 
 
-_mode_state = njit(cache=True, nogil=True, inline="always")(mode_state)
+_mode_state = inline(mode_state)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _sign_of(mode):
     return 1.0 if mode == MODE_SLIDE_POS else -1.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _eval(t, mode, seg, A, m, mu, r, tau):
     """State and substrate at t from the segment base `seg`.
 
@@ -179,7 +180,7 @@ def _eval(t, mode, seg, A, m, mu, r, tau):
     return x, vx, y, vy, ux, uy, dux, duy, ax, ay
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu):
     """(phi, dphi/dt, N*) of event function `kind` from the values at t.
 
@@ -207,20 +208,20 @@ def _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu):
     return gap, vy - duy, nf
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _phi_at(kind, t, mode, seg, A, m, mu, r, tau):
     x, vx, y, vy, ux, uy, dux, duy, ax, ay = _eval(t, mode, seg, A, m, mu, r, tau)
     return _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _triggered(kind, phi):
     if kind == EV_DETACH or kind == EV_SLIP:
         return phi > 0.0
     return phi >= 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _bisect(kind, lo, hi, mode, seg, A, m, mu, r, tau):
     """First time in (lo, hi] where `kind` triggers; lo untriggered, hi triggered."""
     n = 0
@@ -237,7 +238,7 @@ def _bisect(kind, lo, hi, mode, seg, A, m, mu, r, tau):
     return hi, n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _no_crossing(fa, da, fb, db, h, M):
     """True if f < 0 on (a, b] is proven, given f(a) <= 0, f(b) < 0, f'' <= M.
 
@@ -257,7 +258,7 @@ def _no_crossing(fa, da, fb, db, h, M):
     return fa + da * xx + 0.5 * M * xx * xx < 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
                    m_vz, uy3, A, m, mu, r, tau):
     """Prove that `kind` (EV_VZERO or EV_LAND) does not trigger in (a, b], or
@@ -311,7 +312,7 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
     return False, a, b, n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _resolve(nf, f, vrel, ax, rule):
     """Mode of a point in contact with normal force nf, stick margin
     f = mu N* - |m u_x''| and relative velocity vrel (contact start)."""
@@ -326,7 +327,7 @@ def _resolve(nf, f, vrel, ax, rule):
     return MODE_SLIDE_NEG if ax > 0.0 else MODE_SLIDE_POS
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
                 m, mu, tmu):
     if mode == MODE_FLIGHT:
@@ -345,8 +346,8 @@ def _record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
            (vx - dux) / tmu, nf, tf, code, 0.0, 0.0)
 
 
-@njit(cache=True, nogil=True)
-def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
+@kernel
+def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_stop):
     """Advance the material point to min(t_stop, t_end); see the module doc.
 
     params  float64[12]  A, m, mu, theta, r, tau, alpha_t, t_end, sample_dt,
@@ -354,6 +355,7 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
                          13th entry overrides CAPTURE_T
     stick_rule           RULE_PAPER (0) or RULE_CLASSICAL (1)
     state   float64[5]   t, x, vx, y, vy (updated in place)
+    work    float64[STACK, 4]  scratch of the no-hidden-crossing proof (new_work())
     samples float64[:, records.NCOL], events float64[:, 3], ctr int64[NCTR]
     Returns records.DONE, SAMPLES_FULL or EVENTS_FULL.
     """
@@ -387,9 +389,6 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
     j3 = g3 + 3.0 * _W * g2 + 3.0 * _W * _W * g1 + _W * _W * _W
     uy3 = A * j3
     m_vz = A * j3 * (mu + r)
-
-    seg = np.empty(9)
-    work = np.empty((STACK, 4))
 
     # ---- fresh start: the initial condition and its state
     if (state[0] == 0.0 and ctr[C_NEVT] == 0 and ctr[C_NSAMP] == 0
@@ -428,15 +427,7 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
         mode = ctr[C_MODE]
         ux0, uy0, dux0, duy0 = surface_motion(t, A, r, tau)
         ax0, ay0 = surface_acceleration(t, A, r, tau)
-        seg[0] = t
-        seg[1] = state[1]
-        seg[2] = state[2]
-        seg[3] = state[3]
-        seg[4] = state[4]
-        seg[5] = ux0
-        seg[6] = uy0
-        seg[7] = dux0
-        seg[8] = duy0
+        seg = (t, state[1], state[2], state[3], state[4], ux0, uy0, dux0, duy0)
 
         # next scan-grid point (absolute grid k * scan_dt)
         kk = math.floor(t / scan_dt) + 1.0
@@ -624,6 +615,11 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
 
 
 # --------------------------------------------------------------------------- Python side
+def new_work():
+    """The kernel's scratch array (the subdivision stack of `_first_bracket`)."""
+    return np.empty((STACK, 4))
+
+
 def rule_code(stick_rule):
     """RULE_PAPER / RULE_CLASSICAL from an int or a name ("paper", "classical")."""
     if isinstance(stick_rule, str):
@@ -694,8 +690,8 @@ def run_point_mass(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, periods=2000.0,
     samples = np.empty((n_samp, NCOL))
     events = np.empty((256, 3))
     while True:
-        status = point_mass_kernel(params, rule, state, samples, events, ctr,
-                                   float(periods))
+        status = point_mass_kernel(params, rule, state, new_work(), samples, events,
+                                   ctr, float(periods))
         if status == DONE:
             break
         if status == SAMPLES_FULL:
