@@ -86,9 +86,8 @@ import numpy as np
 from ..contact import FLIGHT, SLIDING, STICK
 from ..jit import inline, kernel
 from ..records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
-                       C_STEPS, DONE, EVENTS_FULL, LANDING, NCOL,
-                       SAMPLES_FULL, STATE_CHANGE, TAKEOFF, add_event,
-                       new_counters, record, want_sample)
+                       C_STEPS, DONE, EVENTS_FULL, LANDING, SAMPLES_FULL,
+                       STATE_CHANGE, TAKEOFF, add_event, record, want_sample)
 from ..substrate import surface_acceleration, surface_motion
 from ..errors import InputError
 
@@ -654,51 +653,3 @@ def make_params(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, t_end=2000.0,
     p[P_WIN_T1] = window[1]
     p[P_SCAN_DT] = scan_dt
     return p
-
-
-def _grow(buf, used):
-    new = np.empty((max(2 * buf.shape[0], 16), buf.shape[1]))
-    new[:used] = buf[:used]
-    return new
-
-
-def run_point_mass(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, periods=2000.0,
-                   alpha_t=0.5, stick_rule=0, samples_per_period=8,
-                   scan_dt=1.0 / 64.0, window=(math.inf, math.inf),
-                   capture_t=None):
-    """Run the material point from rest for `periods` wave periods.
-
-    Returns (samples[:n], events[:k], ctr, state): samples float64[n, NCOL]
-    (records.COLUMNS), events float64[k, 3] (t, kind, value), the counters and
-    the final state (t, x, vx, y, vy).  samples_per_period = 0 records no
-    coarse samples; `window` = (t0, t1) records every scan step and both sides
-    of every event inside it.  capture_t overrides CAPTURE_T.
-    """
-    rule = rule_code(stick_rule)
-    sample_dt = 1.0 / samples_per_period if samples_per_period > 0 else math.inf
-    params = make_params(A, m, mu, theta, r, tau, float(periods), alpha_t,
-                         sample_dt, window, scan_dt, capture_t)
-    state = np.zeros(5)
-    ctr = new_counters()
-    n_samp = 16
-    if samples_per_period > 0:
-        n_samp += int(periods * samples_per_period)
-    w0 = max(window[0], 0.0)
-    w1 = min(window[1], float(periods))
-    if w1 >= w0:
-        n_samp += int((w1 - w0) / scan_dt) + 64
-    samples = np.empty((n_samp, NCOL))
-    events = np.empty((256, 3))
-    while True:
-        status = point_mass_kernel(params, rule, state, new_work(), samples, events,
-                                   ctr, float(periods))
-        if status == DONE:
-            break
-        if status == SAMPLES_FULL:
-            samples = _grow(samples, ctr[C_NSAMP])
-        elif status == EVENTS_FULL:
-            events = _grow(events, ctr[C_NEVT])
-        else:  # pragma: no cover - the kernel returns nothing else
-            raise RuntimeError(f"point_mass_kernel returned {status}")
-    return (samples[:ctr[C_NSAMP]].copy(), events[:ctr[C_NEVT]].copy(), ctr,
-            state)
