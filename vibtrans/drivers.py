@@ -31,7 +31,7 @@ import numpy as np
 
 from . import records as R
 from .contact import STICK, new_memory
-from .errors import Cancelled, InputError
+from .errors import Cancelled, InputError, StepBudgetExceeded
 from .integrators import INTEGRATORS
 from .models import deformable as D
 from .models import point_mass as PM
@@ -52,6 +52,21 @@ class Run(NamedTuple):
     state: np.ndarray          # the kernel's state at the end
     hist: object = None        # Hertz: derivative history float64[4, 4]
     memory: object = None      # deformable: (H, W, P, nvert, memf)
+
+
+def checked_steps(n, max_steps, what, h=None):
+    """n (a step estimate) if it is within max_steps, else StepBudgetExceeded
+    with the estimate in the message (n = math.inf: a count no float holds)."""
+    if n == math.inf:
+        step = "" if h is None else f" at a step of {h:.3g} periods"
+        raise StepBudgetExceeded(
+            f"{what} needs about inf steps{step} (more than a float holds), over any "
+            f"budget: reduce periods, amplitude or fidelity")
+    if n > max_steps:
+        raise StepBudgetExceeded(
+            f"{what} needs about {n:.3g} steps, over the budget of {max_steps:.3g} "
+            f"(reduce periods or fidelity, or raise max_steps)")
+    return n
 
 
 def grow(a, factor=2):
@@ -192,9 +207,16 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
         return PM.point_mass_kernel(params, rule, state, work, buf["samples"], buf["events"],
                                     ctr, t_stop)
 
+    def runaway():
+        raise StepBudgetExceeded(
+            f"the material point met more than {PM.MAX_EVENTS_PER_STEP} events within one "
+            f"scan step at t* = {state[0]:.6g} (a sequence of events at rounding level: "
+            f"the scene's values are outside the model's numerical range)")
+
     growers = {
         R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
         R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
+        R.EVENTS_RUNAWAY: runaway,
     }
     # chunks end on whole periods (on the scan grid: bit-identical to one call)
     chunk = t_end if chunk_steps is None else max(1.0, float(round(chunk_steps * dt)))
@@ -205,13 +227,12 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
         # what the drift velocity is made of).
         if n >= buf["samples"].shape[0]:
             buf["samples"] = grow(buf["samples"])
-        A, r, tau = params[PM.P_A], params[PM.P_R], params[PM.P_TAU]
-        mu = params[PM.P_MU]
+        A, r, tau, m, mu, theta = (float(params[i]) for i in (
+            PM.P_A, PM.P_R, PM.P_TAU, PM.P_M, PM.P_MU, PM.P_THETA))
         t = state[0]
         ux, uy, dux, duy = surface_motion(t, A, r, tau)
         ax, ay = surface_acceleration(t, A, r, tau)
         PM._record_row(buf["samples"], ctr, t, state[1], state[2], state[3], state[4],
-                       ctr[R.C_MODE], ux, uy, dux, duy, ax, ay, params[PM.P_M], mu,
-                       params[PM.P_THETA] * mu)
+                       ctr[R.C_MODE], ux, uy, dux, duy, ax, ay, m, mu, theta * mu)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state)

@@ -90,7 +90,7 @@ def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
         vy = abs(vy0 + (t - t0) / m)
         rate = vy + vsub
         dt = 2.0 * (-g) / (rate + math.sqrt(rate * rate + 2.0 * asub * (-g)))
-        if dt < dt_min:
+        if not dt >= dt_min:  # also a NaN (overflowed scene): bounded steps
             dt = dt_min
         t1 = t + dt
         if t1 > t_limit:

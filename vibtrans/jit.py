@@ -3,8 +3,9 @@
 Two decorators:
 
 * `kernel` - a function compiled on its own (an entry point called from
-  Python, or a helper deliberately not inlined): numba.njit(nogil=True)
-  without numba's reference-counted runtime (NRT), cached on disk.
+  Python, or a helper deliberately not inlined): numba.njit(nogil=True,
+  error_model="numpy") without numba's reference-counted runtime (NRT),
+  cached on disk.
 * `inline` - a small helper inlined into its callers at numba IR level
   (inline="always"); compiled on its own only when Python calls it directly.
 
@@ -16,6 +17,13 @@ arrays' reference counts, atomically, at every step: that was ~40% of a
 memory-diagram update (35 -> 21 ns; `vibtrans bench`).  Without NRT an
 allocation inside a kernel fails to compile, which keeps them
 allocation-free.
+
+Why error_model="numpy": a float division by zero gives inf or NaN (IEEE)
+instead of raising ZeroDivisionError from inside a kernel.  Results are the
+same wherever the divisor is not zero; where it is (scenes at the edge of
+the float range, e.g. tau* = 5e-324, where tau*^2 underflows to 0), the run
+goes on with inf/NaN values, which the step estimate and the bounded event
+searches keep finite in time, instead of ending in a traceback.
 
 Why inlining (measured): the step of the Hertz kernels is a few dozen
 floating-point operations; calls to separately compiled helpers (argument
@@ -83,7 +91,7 @@ def _compile(fn, **options):
     if fn.__module__ not in _MODULES:
         raise RuntimeError(f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
                            f"a module listed in vibtrans.jit.SOURCES (the cache key)")
-    disp = njit(cache=False, nogil=True, _nrt=False, **options)(fn)
+    disp = njit(cache=False, nogil=True, _nrt=False, error_model="numpy", **options)(fn)
     if CACHE_DIR is not None:
         saved = _numba_config.CACHE_DIR
         _numba_config.CACHE_DIR = CACHE_DIR

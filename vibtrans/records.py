@@ -46,6 +46,7 @@ DONE = 0           # reached t_stop
 EVENTS_FULL = 1    # grow `events` and call again
 SAMPLES_FULL = 2   # grow `samples` and call again
 MEMORY_FULL = 3    # grow the memory-diagram arrays and call again
+EVENTS_RUNAWAY = 4 # more than a kernel's limit of events between two steps: refuse
 
 
 def new_counters():

@@ -16,7 +16,7 @@ from . import records as R
 from .drivers import DEFAULT_MAX_STEPS
 from .drivers import grow as _grow  # noqa: F401  (tests/test_extremes_edges.py)
 from .errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded  # noqa: F401
-from .fidelity import scan_step, time_step
+from .fidelity import scan_step, step_count, time_step
 from .models import deformable as D
 from .models import point_mass as PM
 from .params import Scene
@@ -34,11 +34,14 @@ def _scene(scene, values):
 
 
 def estimate_steps(scene, refine=1.0, steps=None):
-    """Upper estimate of the integration steps of a scene (before running)."""
+    """Upper estimate of the integration steps of a scene (before running),
+    an int; a count that no float holds (a huge T_obs, or a step that
+    underflows at an extreme A*) raises StepBudgetExceeded."""
     if scene.model == "point-mass":
-        return int(math.ceil(scene.periods / scan_step(scene.fidelity, refine)))
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
-    return int(math.ceil(scene.periods / h))
+        h = scan_step(scene.fidelity, refine)
+    else:
+        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    return drivers.checked_steps(step_count(scene.periods, h), math.inf, "scene", h)
 
 
 def _check_steps(steps, model):
@@ -103,11 +106,7 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                                            and max_steps > 0 and not math.isnan(max_steps)):
         raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = _check_steps(steps, scene.model)
-    n_steps = estimate_steps(scene, refine, steps)
-    if n_steps > max_steps:
-        raise StepBudgetExceeded(
-            f"scene needs about {n_steps:.3g} steps, over the budget of {max_steps:.3g} "
-            f"(reduce periods or fidelity, or raise max_steps)")
+    drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()

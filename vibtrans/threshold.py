@@ -12,8 +12,8 @@ import numpy as np
 from . import drivers
 from . import records as R
 from .drivers import DEFAULT_MAX_STEPS
-from .errors import InputError, StepBudgetExceeded
-from .fidelity import time_step
+from .errors import InputError
+from .fidelity import step_count, time_step
 from .models import deformable as D
 from .params import Scene
 
@@ -33,10 +33,9 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     # it stops at the first take-off: no impact to resolve, only the linear
     # contact oscillation
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False)
-    if scene.periods / h > max_steps:
-        raise StepBudgetExceeded(
-            f"threshold run at A* = {scene.amplitude:.3g}, m* = {scene.mass:.3g} needs about "
-            f"{scene.periods / h:.3g} steps, over the budget of {max_steps:.3g}")
+    drivers.checked_steps(step_count(scene.periods, h), max_steps,
+                          f"threshold run at A* = {scene.amplitude:.3g}, "
+                          f"m* = {scene.mass:.3g}", h)
     p = D.kernel_params(scene.amplitude, scene.mass, 1.0, 1.0, 0.0, scene.tau, h,
                         scene.periods, math.inf)
     # one kernel call (chunk_steps=None): a take-off time is bit-reproducible

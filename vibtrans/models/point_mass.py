@@ -86,7 +86,7 @@ import numpy as np
 from ..contact import FLIGHT, SLIDING, STICK
 from ..jit import inline, kernel
 from ..records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
-                       C_STEPS, DONE, EVENTS_FULL, LANDING, SAMPLES_FULL,
+                       C_STEPS, DONE, EVENTS_FULL, EVENTS_RUNAWAY, LANDING, SAMPLES_FULL,
                        STATE_CHANGE, TAKEOFF, add_event, record, want_sample)
 from ..substrate import surface_acceleration, surface_motion
 from ..errors import InputError
@@ -124,6 +124,9 @@ H_MIN = 1e-7       # smallest subdivision of the no-hidden-crossing proof
 CAPTURE_T = 1e-3   # chatter capture: a rebound flight shorter than this
                    # (periods) is taken as contact
 STACK = 64
+MAX_EVENTS_PER_STEP = 10000  # events between two scan-grid points (chatter is
+                   # captured at ~10): more is a Zeno-like sequence at rounding
+                   # level (an extreme scene): EVENTS_RUNAWAY, not an endless run
 
 # sup |d^n/dq^n exp(-q^2)| for n = 1, 2, 3: bounds of the ramp derivatives
 _G1 = 0.8578
@@ -266,7 +269,9 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
     f(b) < 0 on entry.  Left-to-right subdivision with the bound on f'':
     EV_VZERO: |f''| <= A J3 (mu + r) (m_vz); EV_LAND: f'' = N*/m <= max(N*)/m
     + uy3 h / 2 (N* is Lipschitz with constant m uy3).  Intervals shorter
-    than H_MIN are accepted (a crossing there would rise less than M H_MIN^2/8).
+    than H_MIN are accepted (a crossing there would rise less than M H_MIN^2/8),
+    and so are intervals where a value or the bound is not finite (scenes
+    whose forces overflow: the proof would subdivide to H_MIN everywhere).
     Returns (found, lo, hi, evaluations).
     """
     n = 0
@@ -293,7 +298,10 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
                 M = 0.0
         else:
             M = m_vz
-        if h < H_MIN or top >= STACK or _no_crossing(lf, ld, rf, rd, h, M):
+        # a bound or value that overflowed (an extreme scene) proves nothing
+        # at any subdivision: accept the interval rather than subdivide to H_MIN
+        if (h < H_MIN or top >= STACK or not math.isfinite(lf + ld + rf + rd + M)
+                or _no_crossing(lf, ld, rf, rd, h, M)):
             lt = rt
             lf = rf
             ld = rd
@@ -356,7 +364,9 @@ def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_s
     state   float64[5]   t, x, vx, y, vy (updated in place)
     work    float64[STACK, 4]  scratch of the no-hidden-crossing proof (new_work())
     samples float64[:, records.NCOL], events float64[:, 3], ctr int64[NCTR]
-    Returns records.DONE, SAMPLES_FULL or EVENTS_FULL.
+    Returns records.DONE, SAMPLES_FULL, EVENTS_FULL, or EVENTS_RUNAWAY (more
+    than MAX_EVENTS_PER_STEP events between two scan-grid points: state at
+    the last commit, the run cannot go on).
     """
     A = params[P_A]
     m = params[P_M]
@@ -419,6 +429,7 @@ def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_s
             _record_row(samples, ctr, 0.0, state[1], state[2], state[3],
                         state[4], mode, ux, uy, dux, duy, ax, ay, m, mu, tmu)
 
+    run_events = 0     # events since the last scan-grid point
     while True:
         t = state[0]
         if t >= t_final:
@@ -516,6 +527,9 @@ def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_s
 
         if ev_kind >= 0:
             # ---- an event at t_ev: build the transition, check room, commit
+            run_events += 1
+            if run_events > MAX_EVENTS_PER_STEP:
+                return EVENTS_RUNAWAY
             te = t_ev
             x, vx, y, vy, ux, uy, dux, duy, ax, ay = _eval(
                 te, mode, seg, A, m, mu, r, tau)
@@ -593,6 +607,7 @@ def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_s
             continue
 
         # ---- no event: commit the step end b
+        run_events = 0
         take = False
         if sample_here:
             save = ctr[C_NEXT]
