@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test test-fast bench wheel clean-cache container-test
+.PHONY: setup browser serve test test-fast bench wheel container-test
 
 setup: $(VENV)/.installed
 
@@ -39,11 +39,6 @@ bench: setup
 # (tests/test_wheel.py installs it in a fresh venv and runs it).
 wheel: setup
 	$(BIN)/python -m pip wheel --no-deps . -w dist
-
-# numba's on-disk cache does not see edits to other modules that a cached
-# kernel inlines: clear it after editing kernels.
-clean-cache:
-	find vibtrans -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 # Build the Dockerfile with podman on a base image made here (no registry is
 # reachable), run it and check it: page on a published port, a simulation,

@@ -6,7 +6,6 @@ compiles; a run asked for before the kernels are ready waits for them
 
 A cold start (empty numba cache) compiles for a minute or more on two
 cores; a warm one loads the cached kernels in about a second."""
-import inspect
 import logging
 import threading
 import time
@@ -26,26 +25,6 @@ _lock = threading.Lock()
 _thread = None
 
 
-def _warmup(progress):
-    """vibtrans.warmup(models=MODELS, progress=...) where the library's
-    warm-up takes them (progress(done, total, label) after each kernel is
-    ready); with an older warmup() (no arguments), the same done here: one
-    short run per model and integrator, which compiles (or loads) each
-    kernel variant the explorer runs, and nothing else."""
-    params = inspect.signature(vibtrans.warmup).parameters
-    if "progress" in params:
-        kwargs = {"progress": progress}
-        if "models" in params:
-            kwargs["models"] = MODELS
-        vibtrans.warmup(**kwargs)
-        return
-    steps = [(m, i) for m in MODELS for i in ("ab4", "verlet")]
-    for k, (model, integrator) in enumerate(steps, 1):
-        vibtrans.simulate(vibtrans.Scene(model=model, integrator=integrator, amplitude=100.0,
-                                         mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
-        progress(k, len(steps), f"{model}, {integrator}")
-
-
 def compile_all(report=None):
     """Compile (or load) the explorer's kernels now, in this thread; report
     (a callable taking one line) hears each step.  Sets READY, also when the
@@ -62,7 +41,7 @@ def compile_all(report=None):
         report("compiling the kernels in the background (numba; only the first start "
                "after an install compiles, later ones load them from the cache) ...")
     try:
-        _warmup(progress)
+        vibtrans.warmup(models=MODELS, progress=progress)
     except Exception as exc:          # a bug in the warm-up must not stop the server
         log.exception("compiling the kernels failed")
         with _lock:

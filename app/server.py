@@ -17,6 +17,7 @@ import gc
 import logging
 import os
 import sys
+import threading
 
 from vibtrans.errors import InputError
 
@@ -34,12 +35,18 @@ def _age():
         return None
 
 
+_SAY = threading.Lock()
+
+
 def say(line):
     """One line of start-up progress on stderr, with the seconds since the
-    command started."""
+    command started.  Whole lines under a lock: the kernels' thread speaks
+    too, and print() writes the text and its newline separately."""
     age = _age()
     when = "" if age is None else f"[{age:.1f} s] "
-    print(f"vibtrans serve: {when}{line}", file=sys.stderr, flush=True)
+    with _SAY:
+        sys.stderr.write(f"vibtrans serve: {when}{line}\n")
+        sys.stderr.flush()
 
 
 def origins(args):

@@ -1,20 +1,19 @@
-"""Direct kernel drivers for tests that need initial conditions the public
-API does not expose (the free Hertz oscillator)."""
+"""Kernel runs from initial conditions the public API does not expose (the
+free Hertz oscillator), through the production driver (vibtrans.drivers)."""
 
 import numpy as np
 
+from vibtrans import drivers
 from vibtrans import records as R
-from vibtrans.contact import STICK
 from vibtrans.fidelity import time_step
-from vibtrans.integrators import INTEGRATORS
 from vibtrans.models import deformable as D
-from vibtrans.models.vertical import vertical_kernel
 
 
 def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",
                     samples_per_period=4, refine=1.0):
     """Vertical Hertz particle with A* = 0 released at rest from y* = y0
-    (`refine` divides the fidelity's step).
+    (`refine` divides the fidelity's step), in one kernel call; buffers grow
+    as needed.
 
     Returns (samples, events, counters, h).
     """
@@ -24,14 +23,11 @@ def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",
     ay = (1.0 - max(y0, 0.0) ** 1.5) / mass   # at rest before t = 0: constant force
     hist[:, 3] = ay
     hist[:, 2] = -np.arange(4) * h * ay       # v(t - j h) of the same motion (to O(h^2))
-    samples = np.empty((int(periods * samples_per_period) + 16, R.NCOL))
-    events = np.empty((int(periods) * 8 + 64, 3))
-    ctr = R.new_counters()
-    ctr[R.C_STATE] = STICK
-    code = vertical_kernel(p, INTEGRATORS[integrator], False, state, hist, np.empty(0),
-                           samples, events, ctr, periods)
-    assert code == R.DONE, code
-    return samples[:ctr[R.C_NSAMP]], events[:ctr[R.C_NEVT]], ctr, h
+    run = drivers.run_hertz(p, integrator, tangential=False, state=state, hist=hist,
+                            record_rest=False, chunk_steps=None,
+                            samples_capacity=int(periods * samples_per_period) + 16,
+                            events_capacity=int(periods) * 8 + 64)
+    return run.samples, run.events, run.ctr, h
 
 
 def hertz_energy(samples, mass):

@@ -13,15 +13,30 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from vibtrans import drivers
 from vibtrans import records as R
 from vibtrans.contact import FLIGHT, SLIDING, STICK
 from vibtrans.models import point_mass as pm
-from vibtrans.models.point_mass import run_point_mass
 from vibtrans.substrate import surface_motion
 
 MU, R_NU, THETA = 0.3, 0.656, 1.2
 P9 = (10**2.7, 10**-4.4)    # MODEL.md section 6, point 9
 P10 = (10**1.2, 10**-1.0)   # MODEL.md section 6, point 10
+
+
+def run_point_mass(A, m, mu=MU, theta=THETA, r=R_NU, tau=50.0, periods=2000.0,
+                   alpha_t=0.5, stick_rule=0, samples_per_period=8, scan_dt=1.0 / 64.0,
+                   window=(math.inf, math.inf), capture_t=None):
+    """The material point from rest through the production driver
+    (vibtrans.drivers.run_point_mass): (samples, events, counters, final
+    state t, x, vx, y, vy).  samples_per_period = 0: no coarse samples;
+    `window` = (t0, t1): every scan step and both sides of every event
+    inside it; capture_t overrides point_mass.CAPTURE_T."""
+    sample_dt = 1.0 / samples_per_period if samples_per_period > 0 else math.inf
+    params = pm.make_params(A, m, mu, theta, r, tau, float(periods), alpha_t, sample_dt,
+                            window, scan_dt, capture_t)
+    run = drivers.run_point_mass(params, stick_rule)
+    return run.samples, run.events, run.ctr, run.state
 
 
 def sliding_line(A, mu=MU, r=R_NU):
@@ -334,13 +349,14 @@ def test_no_landing_hidden_between_scan_points():
 def _chunked(A, m, stops, rule, window, grow=3, periods=None):
     params = pm.make_params(A, m, t_end=periods, sample_dt=0.125, window=window)
     state = np.zeros(5)
+    work = pm.new_work()
     ctr = R.new_counters()
     samples = np.empty((1, R.NCOL))
     events = np.empty((1, 3))
     returns = {R.SAMPLES_FULL: 0, R.EVENTS_FULL: 0}
     for t_stop in stops:
         while True:
-            code = pm.point_mass_kernel(params, rule, state, samples, events, ctr, t_stop)
+            code = pm.point_mass_kernel(params, rule, state, work, samples, events, ctr, t_stop)
             if code == R.DONE:
                 break
             returns[code] += 1

@@ -80,22 +80,13 @@ def test_outside_vibtrans_serve_runs_do_not_wait():
     assert kernels._thread is None and kernels.ready() and kernels.status() is None
 
 
-@pytest.mark.parametrize("signature", ["models and progress", "old"])
-def test_compile_all_reports_each_step(monkeypatch, signature):
-    seen = {"runs": []}
-    if signature == "old":
-        # an older library: warmup() takes nothing; the explorer warms its
-        # own kernels, one short run per model and integrator
-        def warmup():
-            raise AssertionError("not called: it would compile more than the explorer needs")
-        monkeypatch.setattr(vibtrans, "simulate",
-                            lambda scene, **kw: seen["runs"].append((scene.model,
-                                                                     scene.integrator)))
-    else:
-        def warmup(models=None, progress=None):
-            seen["models"] = models
-            for k, label in enumerate(("deformable kernel", "point-mass kernel"), 1):
-                progress(k, 2, label)
+def test_compile_all_reports_each_step(monkeypatch):
+    seen = {}
+
+    def warmup(models=None, progress=None):
+        seen["models"] = models
+        for k, label in enumerate(("deformable kernel", "point-mass kernel"), 1):
+            progress(k, 2, label)
     monkeypatch.setattr(vibtrans, "warmup", warmup)
     monkeypatch.setattr(kernels, "READY", threading.Event())
     lines = []
@@ -103,20 +94,14 @@ def test_compile_all_reports_each_step(monkeypatch, signature):
     assert kernels.READY.is_set()
     assert lines[0].startswith("compiling the kernels in the background")
     steps = [re.sub(r", [0-9.]+ s$", "", ln) for ln in lines[1:-1]]
-    if signature == "old":
-        assert seen["runs"] == [("deformable", "ab4"), ("deformable", "verlet"),
-                                ("point-mass", "ab4"), ("point-mass", "verlet")]
-        assert steps == [f"kernels {k}/4 ready ({m}, {i})" for k, (m, i) in
-                         enumerate(seen["runs"], 1)]
-    else:
-        assert seen["models"] == kernels.MODELS
-        assert steps == ["kernels 1/2 ready (deformable kernel)",
-                         "kernels 2/2 ready (point-mass kernel)"]
+    assert seen["models"] == kernels.MODELS
+    assert steps == ["kernels 1/2 ready (deformable kernel)",
+                     "kernels 2/2 ready (point-mass kernel)"]
     assert lines[-1].startswith("kernels ready in ")
 
 
 def test_a_failed_warm_up_still_lets_runs_start(monkeypatch):
-    def warmup(progress=None):
+    def warmup(models=None, progress=None):
         raise RuntimeError("boom")
     monkeypatch.setattr(vibtrans, "warmup", warmup)
     monkeypatch.setattr(kernels, "READY", threading.Event())

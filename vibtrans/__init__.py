@@ -11,8 +11,10 @@ except PackageNotFoundError:  # pragma: no cover - source tree without install
     __version__ = "0+unknown"
 
 from .params import PAPER_POINTS, Scene, paper_scene  # noqa: E402
+from .errors import Cancelled, StepBudgetExceeded  # noqa: E402
+from .precompile import warmup  # noqa: E402
 from .shipped import maps_dir  # noqa: E402
-from .simulate import Cancelled, StepBudgetExceeded, estimate_steps, simulate, warmup  # noqa: E402
+from .simulate import estimate_steps, simulate  # noqa: E402
 
 __all__ = ["Scene", "paper_scene", "PAPER_POINTS", "simulate", "estimate_steps",
            "Cancelled", "StepBudgetExceeded", "warmup", "maps_dir", "__version__"]

@@ -21,9 +21,8 @@ so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
 import math
 
 import numpy as np
-from numba import njit
 
-from .jit import kernel
+from .jit import inline, kernel
 
 # Contact states (timeline codes; shared by every model).
 FLIGHT = 0        # contact loss, a* <= 0
@@ -33,7 +32,7 @@ SLIDING = 3       # total sliding, s = 0, T* = sign(b*') N*
 STATE_NAMES = ("flight", "stick", "partial slip", "total sliding")
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _segment_integral(s0, w0, s1, w1):
     """Exact integral of w h^(-1/2) dh over a segment, w linear in h = s^2.
 
@@ -45,7 +44,7 @@ def _segment_integral(s0, w0, s1, w1):
     return (s1 - s0) / 3.0 * (5.0 * w0 + w1 + (w1 - w0) * (s1 + 3.0 * s0) / (s1 + s0))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _push(H, W, nvert, h, sqrt_h, w):
     n = nvert[0]
     H[n, 0] = h
@@ -54,21 +53,21 @@ def _push(H, W, nvert, h, sqrt_h, w):
     nvert[0] = n + 1
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _put(H, W, i, h, sqrt_h, w):
     H[i, 0] = h
     H[i, 1] = sqrt_h
     W[i] = w
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _pop_to(nvert, n):
     nvert[0] = n
     if nvert[1] > n:
         nvert[1] = n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _integrals_to(H, W, P, i, n):
     """Bring the running integrals P of vertices i..n-1 up to date (the
     leading i are); return P[n - 1].  Only pushed vertices are stale, so a
@@ -82,7 +81,7 @@ def _integrals_to(H, W, P, i, n):
     return P[n - 1]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _integrals(H, W, P, nvert):
     """`_integrals_to` on the whole stack, recorded in nvert[1]."""
     n = nvert[0]
@@ -127,7 +126,7 @@ _TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
 _TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
 
@@ -177,7 +176,7 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
     return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, _TOP_STORED, 0.0)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 

@@ -37,11 +37,15 @@ PRESET_NOTES = {
 
 
 def contact_time_scale(amplitude, mass, impacts=True):
-    """Shortest contact time scale of a scene, in wave periods.
+    """Shortest contact time scale of a scene, in wave periods (> 0, not NaN,
+    for any amplitude >= 0 and mass > 0 a float can hold: where the direct
+    formulas overflow or underflow, the same quantities in logarithms).
 
     impacts=False: only the linear oscillation (runs that stop at the first
     take-off, such as the jumping threshold, never land)."""
     t_lin = 2.0 * math.pi * math.sqrt(2.0 * mass / 3.0)
+    if t_lin == math.inf:                          # 2 m* overflows (m* > 9e307)
+        t_lin = 2.0 * math.pi * math.sqrt(mass) * math.sqrt(2.0 / 3.0)
     v = 4.0 * math.pi * amplitude
     if v <= 0.0 or not impacts:
         return t_lin
@@ -49,12 +53,21 @@ def contact_time_scale(amplitude, mass, impacts=True):
         # 2.94 a_max / v = 2.94 (5 m*/4)^(2/5) v^(-1/5) > 1e17 here, far above
         # t_lin; and v^2 below would underflow to 0 (a zero step) for tiny A*
         return t_lin
-    a_max = (1.25 * mass * v * v) ** 0.4
-    return min(t_lin, 2.94 * a_max / v)
+    load = 1.25 * mass * v * v
+    if 0.0 < load < math.inf:
+        t_imp = 2.94 * load ** 0.4 / v
+    else:
+        # 5 m* v^2 / 4 overflows (huge A* or m*) or underflows (tiny m*):
+        # 2.94 (5 m*/4)^(2/5) v^(-1/5), in logarithms (v may be inf: t_imp 0)
+        log_t = (math.log(2.94) + 0.4 * (math.log(1.25) + math.log(mass))
+                 - 0.2 * math.log(v))
+        t_imp = math.exp(log_t) if log_t < 709.0 else math.inf
+    return min(t_lin, t_imp)
 
 
 def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, steps=None):
-    """Integration step (periods) for the deformable and vertical models.
+    """Integration step (periods) for the deformable and vertical models
+    (>= 0; 0 only where the impact time scale underflows: an unbounded cost).
 
     `refine` divides the step (convergence studies); `steps` = (steps per
     period, steps per contact time scale) replaces the preset's pair
@@ -63,6 +76,13 @@ def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, st
     per_period, per_contact = FIDELITY[fidelity] if steps is None else steps
     h = min(1.0 / per_period, contact_time_scale(amplitude, mass, impacts) / per_contact)
     return h / refine
+
+
+def step_count(duration, h):
+    """ceil(duration / h) as an int, or math.inf where it does not fit a float
+    (h = 0, or duration / h overflows): an upper estimate of the steps."""
+    n = duration / h if h > 0.0 else math.inf
+    return int(math.ceil(n)) if n < math.inf else math.inf
 
 
 # Material point: the event functions are scanned on this grid (periods) and

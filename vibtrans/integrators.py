@@ -16,9 +16,8 @@ order without a Runge-Kutta starter.
 """
 import math
 
-from numba import njit
 
-from .jit import kernel
+from .jit import inline, kernel
 
 from .substrate import TWO_PI, vertical_displacement
 
@@ -27,7 +26,7 @@ VERLET = 1
 INTEGRATORS = {"ab4": AB4, "verlet": VERLET}
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def ab4_increment(hist, k, h):
     """h/24 (55 F_n - 59 F_{n-1} + 37 F_{n-2} - 9 F_{n-3}) for component k.
 
@@ -37,7 +36,7 @@ def ab4_increment(hist, k, h):
                        + 37.0 * hist[2, k] - 9.0 * hist[3, k])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def push_history(hist, f0, f1, f2, f3):
     """Shift the derivative history and store F_{n+1} = (f0, f1, f2, f3)."""
     for j in range(3, 0, -1):
@@ -49,7 +48,7 @@ def push_history(hist, f0, f1, f2, f3):
     hist[0, 3] = f3
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def flight_gap(t, t0, y0, vy0, m, amplitude, tau):
     """a*(t) = y*(t) - u_y*(t) on the free-flight parabola from (t0, y0, vy0)."""
     s = t - t0
@@ -91,7 +90,7 @@ def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
         vy = abs(vy0 + (t - t0) / m)
         rate = vy + vsub
         dt = 2.0 * (-g) / (rate + math.sqrt(rate * rate + 2.0 * asub * (-g)))
-        if dt < dt_min:
+        if not dt >= dt_min:  # also a NaN (overflowed scene): bounded steps
             dt = dt_min
         t1 = t + dt
         if t1 > t_limit:

@@ -1,17 +1,112 @@
-"""The decorator of every compiled kernel entry point.
+"""The JIT policy: every compiled function of the library goes through here.
 
-`kernel` = numba.njit(cache=True, nogil=True) without numba's reference-counted
-runtime (NRT).  Our kernels never allocate: they work in arrays their caller
-owns (and keeps alive) and return plain numbers.  With NRT on, every call of an
-inlined helper that takes arrays (the memory diagram's push/pop/clamp, the
-history, the records) increments and decrements the arrays' reference counts,
-atomically, at every step: measured, that was ~40% of a memory-diagram update
-(35 -> 21 ns; `vibtrans bench`).  Without NRT an allocation inside a kernel
-fails to compile, which keeps them allocation-free.
+Two decorators:
+
+* `kernel` - a function compiled on its own (an entry point called from
+  Python, or a helper deliberately not inlined): numba.njit(nogil=True,
+  error_model="numpy") without numba's reference-counted runtime (NRT),
+  cached on disk.
+* `inline` - a small helper inlined into its callers at numba IR level
+  (inline="always"); compiled on its own only when Python calls it directly.
+
+Why no NRT (measured): our kernels never allocate: they work in arrays their
+caller owns (and keeps alive) and return plain numbers.  With NRT on, every
+call of an inlined helper that takes arrays (the memory diagram's
+push/pop/clamp, the history, the records) increments and decrements the
+arrays' reference counts, atomically, at every step: that was ~40% of a
+memory-diagram update (35 -> 21 ns; `vibtrans bench`).  Without NRT an
+allocation inside a kernel fails to compile, which keeps them
+allocation-free.
+
+Why error_model="numpy": a float division by zero gives inf or NaN (IEEE)
+instead of raising ZeroDivisionError from inside a kernel.  Results are the
+same wherever the divisor is not zero; where it is (scenes at the edge of
+the float range, e.g. tau* = 5e-324, where tau*^2 underflows to 0), the run
+goes on with inf/NaN values, which the step estimate and the bounded event
+searches keep finite in time, instead of ending in a traceback.
+
+Why inlining (measured): the step of the Hertz kernels is a few dozen
+floating-point operations; calls to separately compiled helpers (argument
+marshalling, no cross-call optimisation) cost more than the work itself.
+
+The on-disk cache.  numba's own cache checks only the source file of the
+function it compiled: an edit to a helper inlined from another module left a
+stale kernel in the cache (hence the old `make clean-cache`).  Here the cache
+folder is keyed by a hash of the source text of every module holding compiled
+code (`SOURCES`, checked at decoration time) and of the numba version, so an
+edit anywhere in the compiled code selects a fresh folder: a stale kernel
+cannot be loaded.  Environment:
+
+* VIBTRANS_JIT_CACHE=0 disables the on-disk cache (every process compiles);
+* NUMBA_CACHE_DIR, if set, is the base folder, else $XDG_CACHE_HOME/vibtrans/numba
+  (~/.cache/vibtrans/numba); the cache lives in <base>/<key>/.
+
+Only the library's functions use that folder: numba's global setting is
+switched to it just while one of our functions is decorated, so other
+libraries' numba caches stay where they were.
 """
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+from numba import config as _numba_config
 from numba import njit
+
+# Every module that defines a compiled function (relative to the package).
+SOURCES = ("jit.py", "records.py", "contact.py", "substrate.py", "integrators.py",
+           "models/deformable.py", "models/vertical.py", "models/point_mass.py")
+_PACKAGE = Path(__file__).resolve().parent
+_MODULES = frozenset("vibtrans." + s[:-3].replace("/", ".") for s in SOURCES)
+
+
+def _source_key():
+    """Hash of the compiled modules' source text and the numba version
+    (None if a source cannot be read, e.g. a zipped install: no cache then)."""
+    digest = hashlib.sha256(numba.__version__.encode())
+    for name in SOURCES:
+        try:
+            text = (_PACKAGE / name).read_bytes()
+        except OSError:
+            return None
+        digest.update(name.encode() + b"\0" + text + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _cache_base():
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if base:
+        return Path(base)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "vibtrans" / "numba"
+
+
+CACHE_ENABLED = os.environ.get("VIBTRANS_JIT_CACHE", "1").strip().lower() not in (
+    "0", "false", "no", "off")
+_KEY = _source_key() if CACHE_ENABLED else None
+CACHE_DIR = str(_cache_base() / _KEY) if _KEY else None
+
+
+def _compile(fn, **options):
+    if fn.__module__ not in _MODULES:
+        raise RuntimeError(f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
+                           f"a module listed in vibtrans.jit.SOURCES (the cache key)")
+    disp = njit(cache=False, nogil=True, _nrt=False, error_model="numpy", **options)(fn)
+    if CACHE_DIR is not None:
+        saved = _numba_config.CACHE_DIR
+        _numba_config.CACHE_DIR = CACHE_DIR
+        try:
+            disp.enable_caching()      # the locator reads the folder now
+        finally:
+            _numba_config.CACHE_DIR = saved
+    return disp
 
 
 def kernel(fn):
-    """Compile `fn` as an allocation-free, GIL-free, disk-cached kernel."""
-    return njit(cache=True, nogil=True, _nrt=False)(fn)
+    """Compile `fn` on its own: allocation-free, GIL-free, disk-cached."""
+    return _compile(fn)
+
+
+def inline(fn):
+    """A helper inlined into the kernels that call it (allocation-free too)."""
+    return _compile(fn, inline="always")

@@ -14,7 +14,8 @@ during a closed-form flight) and at every step inside the full-resolution
 window [win_t0, win_t1].  Events are exact (root-found or interpolated).
 """
 import numpy as np
-from numba import njit
+
+from .jit import inline
 
 # sample columns
 T_, X, VX, Y, VY, A, B, BDOT, N, TF, STATE, STICK_R, CONTACT_R = range(13)
@@ -45,13 +46,14 @@ DONE = 0           # reached t_stop
 EVENTS_FULL = 1    # grow `events` and call again
 SAMPLES_FULL = 2   # grow `samples` and call again
 MEMORY_FULL = 3    # grow the memory-diagram arrays and call again
+EVENTS_RUNAWAY = 4 # more than a kernel's limit of events between two steps: refuse
 
 
 def new_counters():
     return np.zeros(NCTR, dtype=np.int64)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def add_event(events, ctr, t, kind, value):
     k = ctr[C_NEVT]
     events[k, 0] = t
@@ -60,7 +62,7 @@ def add_event(events, ctr, t, kind, value):
     ctr[C_NEVT] = k + 1
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def want_sample(t, ctr, sample_dt, win_t0, win_t1):
     """True if the state at time t should be recorded; advances the cursor."""
     take = False
@@ -72,7 +74,7 @@ def want_sample(t, ctr, sample_dt, win_t0, win_t1):
     return take
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def record(samples, ctr, t, x, vx, y, vy, a, b, bdot, nf, tf, state, s, c):
     k = ctr[C_NSAMP]
     row = samples[k]

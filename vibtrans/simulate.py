@@ -1,30 +1,27 @@
-"""Run a scene: validate, choose the step, drive a kernel in chunks.
+"""Run a scene: validate, estimate its cost, choose the step, run its driver.
 
-The public entry point is `simulate(scene)`.  The numba kernels run in chunks
-of about a million steps; between chunks we report progress, honour a cancel
-request, and grow any buffer a kernel reports full, so a long run stays
-responsive and memory follows the need.
+The public entry point is `simulate(scene)`.  The kernels run through
+`vibtrans.drivers` in chunks of about two million steps; between chunks the
+driver reports progress, honours a cancel request, and grows any buffer a
+kernel reports full, so a long run stays responsive and memory follows the
+need.
 """
 import math
 import time
 
 import numpy as np
 
-from . import __version__
+from . import __version__, drivers
 from . import records as R
-from .contact import STICK, new_memory
-from .fidelity import scan_step, time_step
-from .integrators import INTEGRATORS
+from .drivers import DEFAULT_MAX_STEPS
+from .drivers import grow as _grow  # noqa: F401  (tests/test_extremes_edges.py)
+from .errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded  # noqa: F401
+from .fidelity import scan_step, step_count, time_step
 from .models import deformable as D
 from .models import point_mass as PM
-from .models.vertical import vertical_kernel
 from .params import Scene
-from .substrate import surface_acceleration, surface_motion
 from .trajectory import build_trajectory
-from .errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded
 
-DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
-CHUNK_STEPS = 2_000_000
 SAMPLES_PER_PERIOD = 10
 
 
@@ -37,11 +34,14 @@ def _scene(scene, values):
 
 
 def estimate_steps(scene, refine=1.0, steps=None):
-    """Upper estimate of the integration steps of a scene (before running)."""
+    """Upper estimate of the integration steps of a scene (before running),
+    an int; a count that no float holds (a huge T_obs, or a step that
+    underflows at an extreme A*) raises StepBudgetExceeded."""
     if scene.model == "point-mass":
-        return int(math.ceil(scene.periods / scan_step(scene.fidelity, refine)))
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
-    return int(math.ceil(scene.periods / h))
+        h = scan_step(scene.fidelity, refine)
+    else:
+        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    return drivers.checked_steps(step_count(scene.periods, h), math.inf, "scene", h)
 
 
 def _check_steps(steps, model):
@@ -71,12 +71,6 @@ def _window(window, periods):
     if not (math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= periods):
         raise InputError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
     return w0, w1
-
-
-def _grow(a, factor=2):
-    out = np.empty((a.shape[0] * factor,) + a.shape[1:], dtype=a.dtype)
-    out[:a.shape[0]] = a
-    return out
 
 
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
@@ -112,11 +106,7 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                                            and max_steps > 0 and not math.isnan(max_steps)):
         raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = _check_steps(steps, scene.model)
-    n_steps = estimate_steps(scene, refine, steps)
-    if n_steps > max_steps:
-        raise StepBudgetExceeded(
-            f"scene needs about {n_steps:.3g} steps, over the budget of {max_steps:.3g} "
-            f"(reduce periods or fidelity, or raise max_steps)")
+    drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
@@ -132,68 +122,24 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     return build_trajectory(samples, events, attrs)
 
 
-def _drive(call, t_end, chunk, buffers, progress, cancel):
-    """Call a kernel chunk by chunk, growing whichever buffer it reports full."""
-    t_stop = 0.0
-    while True:
-        t_stop = min(t_stop + chunk, t_end)
-        while True:
-            code = call(t_stop)
-            if code == R.DONE:
-                break
-            buffers[code]()
-        if progress is not None:
-            progress(t_stop / t_end)
-        if t_stop >= t_end:
-            return
-        if cancel is not None and cancel.is_set():
-            raise Cancelled("run cancelled")
-
-
-def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel, final=None,
-               shortcuts=D.SHORTCUTS_ALL, steps=None):
-    """Run the deformable or vertical kernel; `final` (a dict), if given,
-    receives the end state and memory diagram (memory snapshots)."""
+def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
-    tangential = scene.model == "deformable"
-    sdt = 1.0 / samples_per_period
     p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
-                        scene.tau, h, scene.periods, sdt, (w0, w1), shortcuts)
-    state, hist = D.rest_state()
+                        scene.tau, h, scene.periods, 1.0 / samples_per_period, (w0, w1),
+                        shortcuts)
     n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
-    buf = {
-        "samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
-        "events": np.empty((1024, 3)),
-    }
-    ctr = R.new_counters()
-    ctr[R.C_STATE] = STICK
-    mem = list(new_memory(1024)) if tangential else None
-    # the initial state at t = 0
-    R.record(buf["samples"], ctr, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0,
-             STICK, 1.0, 1.0)
-    ctr[R.C_NEXT] = 1
-    integ = INTEGRATORS[scene.integrator]
+    capacity = int(scene.periods * samples_per_period) + n_win + 16
+    return p, h, capacity
 
-    def call(t_stop):
-        if tangential:
-            return D.deformable_kernel(p, integ, state, hist, *mem, buf["samples"],
-                                       buf["events"], ctr, t_stop)
-        return vertical_kernel(p, integ, False, state, hist, np.empty(0), buf["samples"],
-                               buf["events"], ctr, t_stop)
 
-    def grow_memory():
-        mem[0], mem[1], mem[2] = _grow(mem[0]), _grow(mem[1]), _grow(mem[2])
-
-    growers = {
-        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", _grow(buf["samples"])),
-        R.EVENTS_FULL: lambda: buf.__setitem__("events", _grow(buf["events"])),
-        R.MEMORY_FULL: grow_memory,
-    }
-    _drive(call, scene.periods, max(1.0, CHUNK_STEPS * h), growers, progress, cancel)
-    if final is not None:
-        final.update(state=state, memory=mem)
-    n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
-    return buf["samples"][:n], buf["events"][:k], ctr, {"h": h}
+def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
+               shortcuts=D.SHORTCUTS_ALL, steps=None):
+    """Run the deformable or vertical kernel from rest."""
+    p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
+                                   steps)
+    run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
+                            samples_capacity=capacity, progress=progress, cancel=cancel)
+    return run.samples, run.events, run.ctr, {"h": h}
 
 
 def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
@@ -203,49 +149,11 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
     p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
                        scene.tau, float(scene.periods), scene.alpha_t,
                        1.0 / samples_per_period, (w0, w1), dt)
-    rule = PM.rule_code(scene.stick_rule)
-    state = np.zeros(5)
-    ctr = R.new_counters()
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
-    buf = {"samples": np.empty((int(scene.periods * samples_per_period) + n_win + 16, R.NCOL)),
-           "events": np.empty((1024, 3))}
-
-    def call(t_stop):
-        return PM.point_mass_kernel(p, rule, state, buf["samples"], buf["events"], ctr,
-                                    t_stop)
-
-    growers = {
-        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", _grow(buf["samples"])),
-        R.EVENTS_FULL: lambda: buf.__setitem__("events", _grow(buf["events"])),
-    }
-    # chunks end on whole periods (on the scan grid: bit-identical to one call)
-    _drive(call, scene.periods, max(1.0, float(round(CHUNK_STEPS * dt))), growers,
-           progress, cancel)
-    n = ctr[R.C_NSAMP]
-    if buf["samples"][n - 1, R.T_] < state[0]:
-        # T_obs off the scan grid: record the final state too (x*(T_obs) is
-        # what the drift velocity is made of).
-        if n >= buf["samples"].shape[0]:
-            buf["samples"] = _grow(buf["samples"])
-        t = state[0]
-        ux, uy, dux, duy = surface_motion(t, scene.amplitude, scene.r, scene.tau)
-        ax, ay = surface_acceleration(t, scene.amplitude, scene.r, scene.tau)
-        PM._record_row(buf["samples"], ctr, t, state[1], state[2], state[3], state[4],
-                       ctr[R.C_MODE], ux, uy, dux, duy, ax, ay, scene.mass, scene.mu,
-                       scene.theta * scene.mu)
-    n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
-    return buf["samples"][:n], buf["events"][:k], ctr, {"h": dt}
-
-
-def warmup():
-    """Compile (or load from the on-disk cache) every kernel variant, so no
-    user-facing run pays for compilation.  Cheap once the cache exists."""
-    for model in ("deformable", "vertical", "point-mass"):
-        for integrator in ("ab4", "verlet"):
-            simulate(Scene(model=model, integrator=integrator, amplitude=100.0,
-                           mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5))
-    from .threshold import first_takeoff
-    first_takeoff(1.0, 1.0, periods=1.0)
+    run = drivers.run_point_mass(
+        p, scene.stick_rule, progress=progress, cancel=cancel,
+        samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
+    return run.samples, run.events, run.ctr, {"h": dt}
 
 
 def memory_snapshot(scene=None, t=None, **values):
@@ -263,10 +171,10 @@ def memory_snapshot(scene=None, t=None, **values):
             or not (0 <= t <= scene.periods):
         raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), 1e-9))
-    final = {}
-    _, _, ctr, _ = _run_hertz(short, math.inf, -math.inf, 1, 1.0, None, None, final)
-    state, mem = final["state"], final["memory"]
-    H, W, P, nvert, memf = mem
+    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity)
+    state, ctr = run.state, run.ctr
+    H, W, P, nvert, memf = run.memory
     hs, ws = anchor_profile(H, W, nvert, memf)
     a, b = float(memf[0]), float(memf[1])
     return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,

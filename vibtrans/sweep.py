@@ -31,7 +31,8 @@ import xarray as xr
 from . import __version__
 from .analysis import TWIN_TAU_OFFSET, jumped, summarize, twin_scene
 from .params import Scene
-from .simulate import simulate, warmup
+from .precompile import warmup
+from .simulate import simulate
 from .errors import InputError, StoreMismatch
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")

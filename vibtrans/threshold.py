@@ -9,17 +9,13 @@ import math
 
 import numpy as np
 
+from . import drivers
 from . import records as R
-from .contact import STICK
-from .fidelity import time_step
-from .integrators import INTEGRATORS
-from .models import deformable as D
-from .models.vertical import vertical_kernel
-from .params import Scene
-from .simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded
+from .drivers import DEFAULT_MAX_STEPS
 from .errors import InputError
-
-_NO_MEMORY = np.empty(0)
+from .fidelity import step_count, time_step
+from .models import deformable as D
+from .params import Scene
 
 
 def first_takeoff(amplitude, mass, tau=50.0, periods=2000.0, fidelity="standard",
@@ -37,23 +33,16 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     # it stops at the first take-off: no impact to resolve, only the linear
     # contact oscillation
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False)
-    if scene.periods / h > max_steps:
-        raise StepBudgetExceeded(
-            f"threshold run at A* = {scene.amplitude:.3g}, m* = {scene.mass:.3g} needs about "
-            f"{scene.periods / h:.3g} steps, over the budget of {max_steps:.3g}")
+    drivers.checked_steps(step_count(scene.periods, h), max_steps,
+                          f"threshold run at A* = {scene.amplitude:.3g}, "
+                          f"m* = {scene.mass:.3g}", h)
     p = D.kernel_params(scene.amplitude, scene.mass, 1.0, 1.0, 0.0, scene.tau, h,
                         scene.periods, math.inf)
-    state, hist = D.rest_state()
-    samples = np.empty((4, R.NCOL))
-    events = np.empty((8, 3))
-    ctr = R.new_counters()
-    ctr[R.C_STATE] = STICK
-    ctr[R.C_NEXT] = 1
-    vertical_kernel(p, INTEGRATORS[scene.integrator], True, state, hist, _NO_MEMORY,
-                    samples, events, ctr, scene.periods)
-    kinds = events[:ctr[R.C_NEVT], 1]
-    hit = np.flatnonzero(kinds == R.TAKEOFF)
-    return float(events[hit[0], 0]) if hit.size else math.inf
+    # one kernel call (chunk_steps=None): a take-off time is bit-reproducible
+    run = drivers.run_hertz(p, scene.integrator, tangential=False, samples_capacity=4,
+                            events_capacity=8, stop_at_takeoff=True, chunk_steps=None)
+    hit = np.flatnonzero(run.events[:, 1] == R.TAKEOFF)
+    return float(run.events[hit[0], 0]) if hit.size else math.inf
 
 
 def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",

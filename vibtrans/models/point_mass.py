@@ -81,13 +81,13 @@ there, which differs by rounding only.
 import math
 
 import numpy as np
-from numba import njit
+
 
 from ..contact import FLIGHT, SLIDING, STICK
+from ..jit import inline, kernel
 from ..records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
-                       C_STEPS, DONE, EVENTS_FULL, LANDING, NCOL,
-                       SAMPLES_FULL, STATE_CHANGE, TAKEOFF, add_event,
-                       new_counters, record, want_sample)
+                       C_STEPS, DONE, EVENTS_FULL, EVENTS_RUNAWAY, LANDING, SAMPLES_FULL,
+                       STATE_CHANGE, TAKEOFF, add_event, record, want_sample)
 from ..substrate import surface_acceleration, surface_motion
 from ..errors import InputError
 
@@ -124,6 +124,9 @@ H_MIN = 1e-7       # smallest subdivision of the no-hidden-crossing proof
 CAPTURE_T = 1e-3   # chatter capture: a rebound flight shorter than this
                    # (periods) is taken as contact
 STACK = 64
+MAX_EVENTS_PER_STEP = 10000  # events between two scan-grid points (chatter is
+                   # captured at ~10): more is a Zeno-like sequence at rounding
+                   # level (an extreme scene): EVENTS_RUNAWAY, not an endless run
 
 # sup |d^n/dq^n exp(-q^2)| for n = 1, 2, 3: bounds of the ramp derivatives
 _G1 = 0.8578
@@ -141,15 +144,15 @@ def mode_state(mode):
     return SLIDING
 
 
-_mode_state = njit(cache=True, nogil=True, inline="always")(mode_state)
+_mode_state = inline(mode_state)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _sign_of(mode):
     return 1.0 if mode == MODE_SLIDE_POS else -1.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _eval(t, mode, seg, A, m, mu, r, tau):
     """State and substrate at t from the segment base `seg`.
 
@@ -179,7 +182,7 @@ def _eval(t, mode, seg, A, m, mu, r, tau):
     return x, vx, y, vy, ux, uy, dux, duy, ax, ay
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu):
     """(phi, dphi/dt, N*) of event function `kind` from the values at t.
 
@@ -207,20 +210,20 @@ def _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu):
     return gap, vy - duy, nf
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _phi_at(kind, t, mode, seg, A, m, mu, r, tau):
     x, vx, y, vy, ux, uy, dux, duy, ax, ay = _eval(t, mode, seg, A, m, mu, r, tau)
     return _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _triggered(kind, phi):
     if kind == EV_DETACH or kind == EV_SLIP:
         return phi > 0.0
     return phi >= 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _bisect(kind, lo, hi, mode, seg, A, m, mu, r, tau):
     """First time in (lo, hi] where `kind` triggers; lo untriggered, hi triggered."""
     n = 0
@@ -237,7 +240,7 @@ def _bisect(kind, lo, hi, mode, seg, A, m, mu, r, tau):
     return hi, n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _no_crossing(fa, da, fb, db, h, M):
     """True if f < 0 on (a, b] is proven, given f(a) <= 0, f(b) < 0, f'' <= M.
 
@@ -257,7 +260,7 @@ def _no_crossing(fa, da, fb, db, h, M):
     return fa + da * xx + 0.5 * M * xx * xx < 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
                    m_vz, uy3, A, m, mu, r, tau):
     """Prove that `kind` (EV_VZERO or EV_LAND) does not trigger in (a, b], or
@@ -266,7 +269,9 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
     f(b) < 0 on entry.  Left-to-right subdivision with the bound on f'':
     EV_VZERO: |f''| <= A J3 (mu + r) (m_vz); EV_LAND: f'' = N*/m <= max(N*)/m
     + uy3 h / 2 (N* is Lipschitz with constant m uy3).  Intervals shorter
-    than H_MIN are accepted (a crossing there would rise less than M H_MIN^2/8).
+    than H_MIN are accepted (a crossing there would rise less than M H_MIN^2/8),
+    and so are intervals where a value or the bound is not finite (scenes
+    whose forces overflow: the proof would subdivide to H_MIN everywhere).
     Returns (found, lo, hi, evaluations).
     """
     n = 0
@@ -293,7 +298,10 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
                 M = 0.0
         else:
             M = m_vz
-        if h < H_MIN or top >= STACK or _no_crossing(lf, ld, rf, rd, h, M):
+        # a bound or value that overflowed (an extreme scene) proves nothing
+        # at any subdivision: accept the interval rather than subdivide to H_MIN
+        if (h < H_MIN or top >= STACK or not math.isfinite(lf + ld + rf + rd + M)
+                or _no_crossing(lf, ld, rf, rd, h, M)):
             lt = rt
             lf = rf
             ld = rd
@@ -311,7 +319,7 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
     return False, a, b, n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _resolve(nf, f, vrel, ax, rule):
     """Mode of a point in contact with normal force nf, stick margin
     f = mu N* - |m u_x''| and relative velocity vrel (contact start)."""
@@ -326,7 +334,7 @@ def _resolve(nf, f, vrel, ax, rule):
     return MODE_SLIDE_NEG if ax > 0.0 else MODE_SLIDE_POS
 
 
-@njit(cache=True, nogil=True, inline="always")
+@inline
 def _record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
                 m, mu, tmu):
     if mode == MODE_FLIGHT:
@@ -345,8 +353,8 @@ def _record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
            (vx - dux) / tmu, nf, tf, code, 0.0, 0.0)
 
 
-@njit(cache=True, nogil=True)
-def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
+@kernel
+def point_mass_kernel(params, stick_rule, state, work, samples, events, ctr, t_stop):
     """Advance the material point to min(t_stop, t_end); see the module doc.
 
     params  float64[12]  A, m, mu, theta, r, tau, alpha_t, t_end, sample_dt,
@@ -354,8 +362,11 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
                          13th entry overrides CAPTURE_T
     stick_rule           RULE_PAPER (0) or RULE_CLASSICAL (1)
     state   float64[5]   t, x, vx, y, vy (updated in place)
+    work    float64[STACK, 4]  scratch of the no-hidden-crossing proof (new_work())
     samples float64[:, records.NCOL], events float64[:, 3], ctr int64[NCTR]
-    Returns records.DONE, SAMPLES_FULL or EVENTS_FULL.
+    Returns records.DONE, SAMPLES_FULL, EVENTS_FULL, or EVENTS_RUNAWAY (more
+    than MAX_EVENTS_PER_STEP events between two scan-grid points: state at
+    the last commit, the run cannot go on).
     """
     A = params[P_A]
     m = params[P_M]
@@ -388,9 +399,6 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
     uy3 = A * j3
     m_vz = A * j3 * (mu + r)
 
-    seg = np.empty(9)
-    work = np.empty((STACK, 4))
-
     # ---- fresh start: the initial condition and its state
     if (state[0] == 0.0 and ctr[C_NEVT] == 0 and ctr[C_NSAMP] == 0
             and ctr[C_STEPS] == 0):
@@ -421,6 +429,7 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
             _record_row(samples, ctr, 0.0, state[1], state[2], state[3],
                         state[4], mode, ux, uy, dux, duy, ax, ay, m, mu, tmu)
 
+    run_events = 0     # events since the last scan-grid point
     while True:
         t = state[0]
         if t >= t_final:
@@ -428,15 +437,7 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
         mode = ctr[C_MODE]
         ux0, uy0, dux0, duy0 = surface_motion(t, A, r, tau)
         ax0, ay0 = surface_acceleration(t, A, r, tau)
-        seg[0] = t
-        seg[1] = state[1]
-        seg[2] = state[2]
-        seg[3] = state[3]
-        seg[4] = state[4]
-        seg[5] = ux0
-        seg[6] = uy0
-        seg[7] = dux0
-        seg[8] = duy0
+        seg = (t, state[1], state[2], state[3], state[4], ux0, uy0, dux0, duy0)
 
         # next scan-grid point (absolute grid k * scan_dt)
         kk = math.floor(t / scan_dt) + 1.0
@@ -526,6 +527,9 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
 
         if ev_kind >= 0:
             # ---- an event at t_ev: build the transition, check room, commit
+            run_events += 1
+            if run_events > MAX_EVENTS_PER_STEP:
+                return EVENTS_RUNAWAY
             te = t_ev
             x, vx, y, vy, ux, uy, dux, duy, ax, ay = _eval(
                 te, mode, seg, A, m, mu, r, tau)
@@ -603,6 +607,7 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
             continue
 
         # ---- no event: commit the step end b
+        run_events = 0
         take = False
         if sample_here:
             save = ctr[C_NEXT]
@@ -624,6 +629,11 @@ def point_mass_kernel(params, stick_rule, state, samples, events, ctr, t_stop):
 
 
 # --------------------------------------------------------------------------- Python side
+def new_work():
+    """The kernel's scratch array (the subdivision stack of `_first_bracket`)."""
+    return np.empty((STACK, 4))
+
+
 def rule_code(stick_rule):
     """RULE_PAPER / RULE_CLASSICAL from an int or a name ("paper", "classical")."""
     if isinstance(stick_rule, str):
@@ -658,51 +668,3 @@ def make_params(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, t_end=2000.0,
     p[P_WIN_T1] = window[1]
     p[P_SCAN_DT] = scan_dt
     return p
-
-
-def _grow(buf, used):
-    new = np.empty((max(2 * buf.shape[0], 16), buf.shape[1]))
-    new[:used] = buf[:used]
-    return new
-
-
-def run_point_mass(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, periods=2000.0,
-                   alpha_t=0.5, stick_rule=0, samples_per_period=8,
-                   scan_dt=1.0 / 64.0, window=(math.inf, math.inf),
-                   capture_t=None):
-    """Run the material point from rest for `periods` wave periods.
-
-    Returns (samples[:n], events[:k], ctr, state): samples float64[n, NCOL]
-    (records.COLUMNS), events float64[k, 3] (t, kind, value), the counters and
-    the final state (t, x, vx, y, vy).  samples_per_period = 0 records no
-    coarse samples; `window` = (t0, t1) records every scan step and both sides
-    of every event inside it.  capture_t overrides CAPTURE_T.
-    """
-    rule = rule_code(stick_rule)
-    sample_dt = 1.0 / samples_per_period if samples_per_period > 0 else math.inf
-    params = make_params(A, m, mu, theta, r, tau, float(periods), alpha_t,
-                         sample_dt, window, scan_dt, capture_t)
-    state = np.zeros(5)
-    ctr = new_counters()
-    n_samp = 16
-    if samples_per_period > 0:
-        n_samp += int(periods * samples_per_period)
-    w0 = max(window[0], 0.0)
-    w1 = min(window[1], float(periods))
-    if w1 >= w0:
-        n_samp += int((w1 - w0) / scan_dt) + 64
-    samples = np.empty((n_samp, NCOL))
-    events = np.empty((256, 3))
-    while True:
-        status = point_mass_kernel(params, rule, state, samples, events, ctr,
-                                   float(periods))
-        if status == DONE:
-            break
-        if status == SAMPLES_FULL:
-            samples = _grow(samples, ctr[C_NSAMP])
-        elif status == EVENTS_FULL:
-            events = _grow(events, ctr[C_NEVT])
-        else:  # pragma: no cover - the kernel returns nothing else
-            raise RuntimeError(f"point_mass_kernel returned {status}")
-    return (samples[:ctr[C_NSAMP]].copy(), events[:ctr[C_NEVT]].copy(), ctr,
-            state)
