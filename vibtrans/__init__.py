@@ -3,13 +3,7 @@ Rayleigh wave (deformable Hertz-Mindlin particle and material point).
 
 Normalized units throughout (MODEL.md): lengths in a0, time in wave periods.
 """
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("vibtrans")
-except PackageNotFoundError:  # pragma: no cover - source tree without install
-    __version__ = "0+unknown"
-
+from .version import __version__
 from .params import PAPER_POINTS, Scene, paper_scene  # noqa: E402
 from .errors import Cancelled, StepBudgetExceeded  # noqa: E402
 from .precompile import warmup  # noqa: E402

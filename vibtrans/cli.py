@@ -10,7 +10,7 @@ import os
 import shutil
 import sys
 
-from . import __version__
+from .version import __version__
 from .errors import InputError
 from .outfiles import atomic, check_file, check_folder
 

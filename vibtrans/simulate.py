@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from . import __version__, drivers
+from . import drivers
 from . import records as R
 from .drivers import DEFAULT_MAX_STEPS
 from .drivers import grow as _grow  # noqa: F401  (tests/test_extremes_edges.py)
@@ -21,6 +21,7 @@ from .models import deformable as D
 from .models import point_mass as PM
 from .params import Scene
 from .trajectory import build_trajectory
+from .version import __version__
 
 SAMPLES_PER_PERIOD = 10
 

@@ -28,7 +28,7 @@ from concurrent.futures import (FIRST_COMPLETED, ProcessPoolExecutor, ThreadPool
 import numpy as np
 import xarray as xr
 
-from . import __version__
+from .version import __version__
 from .analysis import TWIN_TAU_OFFSET, jumped, summarize, twin_scene
 from .params import Scene
 from .precompile import warmup

@@ -160,7 +160,7 @@ def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
     import xarray as xr
     from tqdm import tqdm
 
-    from . import __version__
+    from .version import __version__
     Scene(tau=tau, periods=periods, fidelity=fidelity)      # validate
     log_mass = np.asarray(log_mass, dtype=float)
     masses = 10.0 ** log_mass
