@@ -1,6 +1,6 @@
 """Slow, obviously-right twin of the memory diagram: a literal spring bed.
 
-MODEL.md section 2, rule by rule, with no cleverness: a bed of M independent
+docs/MODEL.md section 2, rule by rule, with no cleverness: a bed of M independent
 springs at the midpoints h_j of a uniform grid on [0, hmax]; spring j is in
 contact while h_j < a*, and carries a tangential displacement u_j (units of b*).
 Only plain numpy (arrays over the springs, one Python call per committed step).
@@ -148,7 +148,7 @@ def spring_bed_history(a, b, M, hmax=None, a_start=1.0, b_start=0.0):
 
 
 # =========================================================================
-# Slow twins of the dynamics (MODEL.md sections 1 and 3), written from the
+# Slow twins of the dynamics (docs/MODEL.md sections 1 and 3), written from the
 # equations with no shared code: plain Python floats, fixed small steps.
 # =========================================================================
 import math  # noqa: E402
@@ -209,11 +209,11 @@ def vertical_step(t, y, vy, history, h, m, A, tau, integrator):
 
 # ------------------------------------------------------ the deformable particle
 def deformable_run(A, m, mu, theta, r, tau, periods, h, springs=2000, hmax=4.0):
-    """The deformable particle from rest (MODEL.md section 1), slowly:
+    """The deformable particle from rest (docs/MODEL.md section 1), slowly:
 
         m* x'' = -mu T*,  m* y'' = 1 - N*(a*),  a* = y* - u_y,
         theta mu b* = x* - u_x,  T* from a SpringBed of `springs` springs
-        on [0, hmax] (MODEL.md section 2, rule by rule),
+        on [0, hmax] (docs/MODEL.md section 2, rule by rule),
 
     velocity Verlet with the fixed step h (one force evaluation per step,
     so the bed is committed once per step, never on a trial state).  In
@@ -256,7 +256,7 @@ STICK_MODE, SLIDE_POS, SLIDE_NEG, FLIGHT_MODE = "stick", "slide+", "slide-", "fl
 
 
 class MaterialPoint:
-    """The rigid-contact point of MODEL.md section 3, time-stepped.
+    """The rigid-contact point of docs/MODEL.md section 3, time-stepped.
 
     Modes stick / slide (s = +-1, the sign of the relative velocity) /
     flight.  Within a mode the motion from a base state (t0, x0, v0, y0, vy0):

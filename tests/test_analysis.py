@@ -2,7 +2,7 @@
 
 Source: closed form.  Each dataset here is written by hand (times, x*,
 events), so every expected number follows from the definitions in
-MODEL.md section 4 and the module's docstrings by arithmetic; every
+docs/MODEL.md section 4 and the module's docstrings by arithmetic; every
 threshold (V0, SYNC_TOL, SYNC_SPREAD, LONG_FLIGHT, the chaos tolerance, the
 divergence threshold, the final window) is approached from both sides.
 """
@@ -19,7 +19,7 @@ from vibtrans.params import Scene
 
 EPS = 1e-6
 # The thresholds, as stated (literal here, so that changing one in
-# analysis.py fails a test): V0, the no-drift band (MODEL.md section 4,
+# analysis.py fails a test): V0, the no-drift band (docs/MODEL.md section 4,
 # default v0* = 0.1); synchronous take-offs 1 +- 0.05 periods apart with a
 # circular phase spread < 0.02 periods; a flight > 3 periods separates bursts.
 V0 = 0.1
@@ -288,7 +288,7 @@ def test_divergence_time_is_the_first_separation_over_threshold():
 def test_twin_scene_moves_tau_only():
     scene = Scene(amplitude=2.0, mass=0.5, tau=50.0)
     twin = an.twin_scene(scene)
-    assert twin.tau == 50.001                 # MODEL.md section 4: tau + 1e-3
+    assert twin.tau == 50.001                 # docs/MODEL.md section 4: tau + 1e-3
     assert {k: v for k, v in twin.values().items() if k != "tau"} == \
         {k: v for k, v in scene.values().items() if k != "tau"}
 

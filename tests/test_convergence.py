@@ -105,7 +105,7 @@ def test_order_drops_for_the_tangential_memory_diagram():
     sliding): the order falls to about 1.5-2, the same for AB4 and Verlet.
 
     Why: the tangential force T* comes from the memory diagram, committed once
-    per step along the straight line between step ends (MODEL.md section 2).
+    per step along the straight line between step ends (docs/MODEL.md section 2).
     T* depends on the history through its turning points (Masing): a reversal
     of b* (b*' = 0, where sliding stops and the contact sticks again) or of a*
     is stored where the step grid happens to be, off the true extremum by

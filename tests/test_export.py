@@ -267,7 +267,7 @@ def _hand_map():
 
 
 def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
-    # Source: closed form (the colour quantity C of plots.colour_scale, MODEL.md
+    # Source: closed form (the colour quantity C of plots.colour_scale, docs/MODEL.md
     # section 4) at each cell, read back from what was drawn: the image
     # arrays of both backends located by their extents, and the PNG's pixel
     # at each cell centre (x = log10 A* to the right, y = log10 m* upwards).

@@ -1,6 +1,6 @@
 """Every corner of the paper's map finishes, finite, without a warning.
 
-Map (MODEL.md section 1): log10 A* in [-3, 3], log10 m* in [-5, 5], mu in
+Map (docs/MODEL.md section 1): log10 A* in [-3, 3], log10 m* in [-5, 5], mu in
 [0.01, 1], theta in [1.0555, 1.3333]; observation time 2000 periods.  The
 corners are the stiffest (m* = 1e-5: ~1.6e7 steps at A* = 1e3) and the most
 violent (A* = 1e3, m* = 1e5: the substrate moves 1000 a0) scenes of the map.
@@ -152,7 +152,7 @@ def test_point_mass_corner(log_a, log_m, stick_rule):
     ds, summary = run("point-mass", log_a, log_m, stick_rule=stick_rule)
     check_finite(ds, summary)
     check_physics(ds)
-    # rigid contact (MODEL.md section 3): jumping iff m* > 1 / (4 pi^2 A*)
+    # rigid contact (docs/MODEL.md section 3): jumping iff m* > 1 / (4 pi^2 A*)
     jumps = 10.0 ** log_m > 1.0 / (4 * math.pi ** 2 * 10.0 ** log_a)
     assert summary.contact == ("jumping" if jumps else "permanent"), summary
 

@@ -1,7 +1,7 @@
 """Edge midpoints of the map, fidelity agreement there, energy at the mass
 extremes, and the step budget's refusal (test_extremes.py has the corners).
 
-Map (MODEL.md section 1): log10 A* in [-3, 3], log10 m* in [-5, 5], mu in
+Map (docs/MODEL.md section 1): log10 A* in [-3, 3], log10 m* in [-5, 5], mu in
 [0.01, 1], theta in [1.0555, 1.3333], nu in [0.1, 0.4], tau in [0, 500].
 An edge midpoint puts one parameter at its min or max and every other one at
 the middle of its range (A* = 1, m* = 1, mu = 0.505, theta = 1.1944,
@@ -140,7 +140,7 @@ def test_edge_midpoint_is_finite_and_physical(model, sid):
             # closed form: the substrate moves 1e-3 a0, a* = 1 +- 1e-3, no take-off
             assert s.contact == "permanent" and np.abs(N - 1.0).max() < 0.01
     else:
-        # closed form (MODEL.md section 3): a rigid contact loses N* > 0 iff
+        # closed form (docs/MODEL.md section 3): a rigid contact loses N* > 0 iff
         # m* |u_y''| > 1, |u_y''| ~ 4 pi^2 A* G(t); G's largest value is at T_obs.
         g_end = 1.0 if sc.tau == 0 else 1.0 - math.exp(-(sc.periods / sc.tau) ** 2)
         jumps = 4 * math.pi ** 2 * sc.mass * sc.amplitude * g_end > 1.0
@@ -208,7 +208,7 @@ def test_standard_agrees_with_reference_at_edge_midpoint(model, sid):
 
 
 # ------------------------------------------------------------------ 3. energy
-# The free Hertz oscillator (A* = 0, MODEL.md section 7): E = m* y'^2/2 - y*
+# The free Hertz oscillator (A* = 0, docs/MODEL.md section 7): E = m* y'^2/2 - y*
 # + (2/5) a*^(5/2) is exact (tests/kernel_harness.py, tests/test_integrators.py).
 # kernel_harness.free_oscillator sizes its event buffer for <= 8 events per
 # period and has no `refine`; at m* = 1e-5 the particle bounces ~40 times per

@@ -2,7 +2,7 @@
 
 Sources: independent integrators (AB4, 4th order multistep; Verlet, 2nd
 order symplectic) agreeing on the same scene; the exact energy of the free
-Hertz oscillator (MODEL.md section 7).
+Hertz oscillator (docs/MODEL.md section 7).
 """
 import numpy as np
 import pytest

@@ -1,7 +1,7 @@
 """Tests for vibtrans.contact: the memory diagram (MMD) of Cattaneo-Mindlin contact.
 
-Sources: closed forms of MODEL.md section 7 (Cattaneo-Mindlin, Mindlin-Deresiewicz,
-Masing), the spring-bed rules of MODEL.md section 2, and the slow spring-bed twin
+Sources: closed forms of docs/MODEL.md section 7 (Cattaneo-Mindlin, Mindlin-Deresiewicz,
+Masing), the spring-bed rules of docs/MODEL.md section 2, and the slow spring-bed twin
 in tests/naive.py.
 """
 import functools
@@ -31,13 +31,13 @@ TOL = 1e-12
 
 # --------------------------------------------------------------------- closed forms
 def cm(a, b):
-    """Cattaneo-Mindlin, constant a*, |b*| from 0 (MODEL.md section 7), signed."""
+    """Cattaneo-Mindlin, constant a*, |b*| from 0 (docs/MODEL.md section 7), signed."""
     x = np.minimum(np.abs(b), a)
     return np.sign(b) * (a**1.5 - (a - x) ** 1.5)
 
 
 def md_unload(a, bm, Tm, b):
-    """Mindlin-Deresiewicz unloading from (bm, Tm) (MODEL.md section 7)."""
+    """Mindlin-Deresiewicz unloading from (bm, Tm) (docs/MODEL.md section 7)."""
     return Tm - 2.0 * (a**1.5 - (a - (bm - b) / 2.0) ** 1.5)
 
 
@@ -66,7 +66,7 @@ def hist(a, b, **kw):
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
 @pytest.mark.parametrize("sign", [1.0, -1.0])
 def test_cattaneo_mindlin_monotonic(a, sign):
-    # Source: MODEL.md section 7, Cattaneo-Mindlin: T* = a^1.5 - (a - b)^1.5 for
+    # Source: docs/MODEL.md section 7, Cattaneo-Mindlin: T* = a^1.5 - (a - b)^1.5 for
     # 0 <= b <= a, then T* = N* = a^1.5; b falling from 0 is the mirror image.
     b = sign * np.linspace(0.0, 1.6 * a, 641)
     T, sh, st = hist(np.full_like(b, a), b, a_start=a, b_start=0.0)
@@ -84,7 +84,7 @@ def test_cattaneo_mindlin_monotonic(a, sign):
 
 @pytest.mark.parametrize("a", [0.5, 2.3])
 def test_cattaneo_mindlin_single_jump_is_path_independent(a):
-    # Source: MODEL.md section 7 (Cattaneo-Mindlin); monotonic loading at constant a*
+    # Source: docs/MODEL.md section 7 (Cattaneo-Mindlin); monotonic loading at constant a*
     # depends only on the end point, so one big step must equal many small ones.
     for b in np.linspace(-1.4 * a, 1.4 * a, 57):
         T, sh, st = hist([a], [b], a_start=a, b_start=0.0)
@@ -106,7 +106,7 @@ def _loop(a, bm, A, n, pre=()):
 
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
 def test_mindlin_deresiewicz_loop_from_partial_slip(a):
-    # Source: MODEL.md section 7, Mindlin-Deresiewicz unloading from (b_m, T_m)
+    # Source: docs/MODEL.md section 7, Mindlin-Deresiewicz unloading from (b_m, T_m)
     # T* = T_m - 2 [a^1.5 - (a - (b_m - b)/2)^1.5], reloading mirrors it from
     # (b_min, T_min); Masing: the loop closes at (b_m, T_m); its area is loop_energy.
     bm = 0.6 * a
@@ -139,7 +139,7 @@ def test_mindlin_deresiewicz_loop_from_partial_slip(a):
 
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
 def test_unloading_past_the_mirror_point_follows_the_virgin_curve(a):
-    # Source: MODEL.md section 7 (Mindlin-Deresiewicz + Masing) and section 2 rules.
+    # Source: docs/MODEL.md section 7 (Mindlin-Deresiewicz + Masing) and section 2 rules.
     # After loading to b_m < a from virgin, unloading follows md_unload only while
     # b_m - b <= 2 b_m (the reversed slip annulus then covers the old one); past
     # b = -b_m the whole memory is overwritten and T* follows the mirror of the virgin
@@ -160,7 +160,7 @@ def test_unloading_past_the_mirror_point_follows_the_virgin_curve(a):
 
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
 def test_mindlin_deresiewicz_loop_after_total_sliding(a):
-    # Source: MODEL.md section 7: unloading from (b_m, T_m = N*) after total
+    # Source: docs/MODEL.md section 7: unloading from (b_m, T_m = N*) after total
     # sliding, T* = N* - 2 [a^1.5 - (a - (b_m - b)/2)^1.5], valid for b_m - b <= 2a
     # (it reaches -N* exactly at b_m - b = 2a, then slides); a loop of
     # half-amplitude A = 0.8 a closes (Masing) with area loop_energy(a, A).
@@ -194,8 +194,9 @@ def test_mindlin_deresiewicz_loop_after_total_sliding(a):
 
 # ------------------------------------------------- sliding, contact loss, re-contact
 def test_total_sliding_is_exactly_coulomb():
-    # Source: MODEL.md section 2 ("total sliding, u = a* - h everywhere, gives
-    # T* = a*^(3/2) = N*") and the states list (T* = sign(b*') N*, s = 0).
+    # Source: docs/MODEL.md section 2: in total sliding every spring sits at its
+    # limit u = a* - h, which integrates to T* = a*^(3/2) = N*; and the states
+    # table (T* = sign(b*') N*, s = 0).
     a = np.linspace(1.0, 2.0, 401)
     b = 3.0 * (a - 1.0) + 1.2               # starts slid through, |db| = 3 da > da
     T, sh, st = hist(a, b)
@@ -210,7 +211,7 @@ def test_total_sliding_is_exactly_coulomb():
 
 
 def test_contact_loss_and_virgin_recontact():
-    # Source: MODEL.md section 2 rules 1 and 4 (springs that leave forget; new
+    # Source: docs/MODEL.md section 2 rules 1 and 4 (springs that leave forget; new
     # springs enter with u = 0) and the states list (a* <= 0: flight, T* = 0).
     # Load into sliding, lift off (a* down through 0, b* moving in the air), set
     # down at constant b* = bc, then load tangentially at constant a*: pure
@@ -237,8 +238,8 @@ def test_contact_loss_and_virgin_recontact():
 
 
 def test_recontact_within_a_step_attaches_on_the_line():
-    # Source: MODEL.md section 2: "a spring entering at depth h attaches at the b*
-    # of the point where that line crosses a* = h".  Contact restarting within a
+    # Source: docs/MODEL.md section 2: within a straight-line step, a spring that
+    # enters at depth h attaches at the b* where the step's line crosses a* = h.  Contact restarting within a
     # step from (a0 < 0, b0) to (a1, b1): w(h) = bc + (b1 - bc) h / a1 with bc the
     # b* at a* = 0, so u = (b1 - bc)(1 - h/a1) and, if |b1 - bc| <= a1 (no spring
     # past its limit),  T* = (3/4) (b1 - bc)/a1 * (4/3) a1^1.5 = (b1 - bc) sqrt(a1).
@@ -257,7 +258,7 @@ def test_recontact_within_a_step_attaches_on_the_line():
 
 # ------------------------------------------------------------------- varying a*
 def test_normal_loading_at_constant_b_keeps_stick_and_force():
-    # Source: MODEL.md section 2 rules 1-3, derived: at constant b*, a growing a*
+    # Source: docs/MODEL.md section 2 rules 1-3, derived: at constant b*, a growing a*
     # adds springs with u = 0 (zero contribution to T*) and widens every limit
     # a* - h, so no spring slides: full stick, T* unchanged, s_h = a*.  Normal
     # unloading back to the starting a* only removes those u = 0 springs (T* still
@@ -290,7 +291,7 @@ def test_normal_loading_at_constant_b_keeps_stick_and_force():
 
 
 def test_normal_loading_after_total_sliding_freezes_force():
-    # Source: MODEL.md section 2, derived as above: from total sliding at (a0, b),
+    # Source: docs/MODEL.md section 2, derived as above: from total sliding at (a0, b),
     # growing a* at constant b* keeps T* = N*(a0) < N*(a) in full stick.
     a = np.r_[np.full(40, 1.0), np.linspace(1.0, 2.0, 41)[1:]]
     b = np.r_[np.linspace(0.0, 1.5, 41)[1:], np.full(40, 1.5)]
@@ -372,7 +373,7 @@ def test_random_histories_cover_every_state():
 @pytest.mark.slow
 @pytest.mark.parametrize("idx", range(len(HISTORIES)))
 def test_random_history_force_converges_to_stack(idx):
-    # Source: MODEL.md section 2, the spring bed (tests/naive.py) versus the exact
+    # Source: docs/MODEL.md section 2, the spring bed (tests/naive.py) versus the exact
     # polyline.  The springs are exact; only the bed's quadrature of T* errs, and
     # the error must fall faster than 1/M (measured: about M^-1.5).
     T, sh, st = stack_run(idx)
@@ -391,7 +392,7 @@ def test_random_history_force_converges_to_stack(idx):
 
 @pytest.mark.parametrize("idx", range(len(HISTORIES)))
 def test_random_history_states_and_stick_depth_match_springs(idx):
-    # Source: MODEL.md section 2 (slip annulus at the edge, stick core below) versus
+    # Source: docs/MODEL.md section 2 (slip annulus at the edge, stick core below) versus
     # the springs clipped during each step in tests/naive.py: the stack's s_h lies
     # between the deepest surely-stuck spring and the shallowest surely-sliding
     # one, the sliding springs form one band at the edge, and wherever the bed is
@@ -418,7 +419,7 @@ def test_random_history_states_and_stick_depth_match_springs(idx):
 @pytest.mark.slow
 @pytest.mark.parametrize("idx", [0, 2, 4])
 def test_anchor_profile_matches_springs_pointwise(idx):
-    # Source: MODEL.md section 2, "Exact, fast representation": the polyline w(h)
+    # Source: docs/MODEL.md section 2, "Exact, fast representation": the polyline w(h)
     # is the anchor b* - u(h) of every spring, so at each spring of the bed it
     # must agree to rounding, step by step (independent of M).
     seed, n, a0, b0 = HISTORIES[idx]
@@ -445,7 +446,7 @@ def test_anchor_profile_matches_springs_pointwise(idx):
 
 
 def test_invariants_on_random_histories():
-    # Source: MODEL.md section 2: Coulomb bound |T*| <= N*, equality exactly in
+    # Source: docs/MODEL.md section 2: Coulomb bound |T*| <= N*, equality exactly in
     # total sliding (s = 0) with a* > 0 (and conversely, except on a step that
     # does not move at all, which holds T* where it was); flight iff a* <= 0 with T* = 0; s_h = a*
     # in full stick, 0 in sliding, strictly inside (0, a*) in partial slip.
@@ -473,8 +474,8 @@ def test_invariants_on_random_histories():
 
 
 def test_repeated_point_is_full_stick():
-    # Source: MODEL.md section 2, clamp: "If no vertex left the cone and the top did
-    # not move, the contact is in full stick"; rules 2-3: with db* = 0 and da* = 0 no
+    # Source: docs/MODEL.md section 2, the clamp: when no vertex leaves the cone and
+    # the top does not move, the contact is in full stick; rules 2-3: with db* = 0 and da* = 0 no
     # spring is pushed, none slides (the spring bed reports no clipped spring).
     bad = []
     for seed in range(200, 206):

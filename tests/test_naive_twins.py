@@ -1,7 +1,7 @@
 """The kernels against their slow, independent twins in tests/naive.py.
 
 Source: independent implementation.  tests/naive.py writes the model from
-MODEL.md with no code in common with vibtrans (plain Python floats, fixed
+docs/MODEL.md with no code in common with vibtrans (plain Python floats, fixed
 small steps, the spring bed for the memory):
 
 * one vertical Hertz step (AB4 and Verlet) replayed at every step of a
@@ -12,7 +12,7 @@ small steps, the spring bed for the memory):
   hopping once per period): agreement within the kernel's own step error
   (its difference from the kernel at a 4x finer step, measured, fixed here)
   plus the twin's own error (measured by refinement, below);
-* the material point (MODEL.md section 3, time-stepped with event
+* the material point (docs/MODEL.md section 3, time-stepped with event
   bisection instead of the kernel's closed forms and scan): the same event
   sequence, event times and states to 1e-7.
 """

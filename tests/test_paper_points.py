@@ -1,4 +1,4 @@
-"""The paper's ten labelled scenes (MODEL.md section 6; paper section III.B).
+"""The paper's ten labelled scenes (docs/MODEL.md section 6; paper section III.B).
 
 Each scene runs at the paper's settings (mu = 0.3, theta = 1.2, nu = 0.3,
 tau = 50, 2000 periods, standard fidelity) with its tau + 1e-3 twin, and is
@@ -109,7 +109,7 @@ def test_point4_synchronous_hovering_against_the_wave():
     y = ds["y"].values
     last = t > 0.9 * t[-1]
     assert np.mean(y[last]) == pytest.approx(-A, rel=0.2)   # hovering, |y*| ~ A*
-    # MODEL.md section 4: friction changes x*' by at most (mu/m*) * integral
+    # docs/MODEL.md section 4: friction changes x*' by at most (mu/m*) * integral
     # of N* dt, and that integral over [t_i, t_j] is exactly (t_j - t_i) -
     # m* (y*'(t_j) - y*'(t_i)) by the vertical equation.  Check it on every
     # one-period pair of samples (this is a bound, not a fit).
@@ -121,7 +121,7 @@ def test_point4_synchronous_hovering_against_the_wave():
     impulse = (t[j] - t[i]) - m * (vy[j] - vy[i])
     assert np.all(np.abs(vx[j] - vx[i]) <= mu / m * impulse * (1 + 1e-9) + 1e-9)
     # drift accelerates towards the take-off speed of the surface, 2 pi A* r
-    # (MODEL.md section 4): the 2000-period mean is far below it.
+    # (docs/MODEL.md section 4): the 2000-period mean is far below it.
     v_surface = 2 * math.pi * A * scene.r
     assert s.drift_velocity < -100
     assert s.final_drift_velocity < s.drift_velocity
@@ -175,7 +175,7 @@ def test_point8_chaotic_hopping_diverges_with_tau():
 
 def test_point9_point_mass_symmetric_sliding_no_drift():
     # Paper, point 9 (Fig. 13): continuous sliding, no jump, no drift, with
-    # the paper's slide->stick rule (MODEL.md section 3).
+    # the paper's slide->stick rule (docs/MODEL.md section 3).
     _, ds, s = run(9)
     assert s.contact == "permanent"
     assert s.drift == "none"
@@ -184,7 +184,7 @@ def test_point9_point_mass_symmetric_sliding_no_drift():
 
 
 def test_point9_classical_stick_rule_drifts_with_the_wave():
-    # MODEL.md section 3: with the classical rule (stick only when the
+    # docs/MODEL.md section 3: with the classical rule (stick only when the
     # relative velocity vanishes) point 9 drifts strongly with the wave.
     _, _, s = run(9, stick_rule="classical")
     assert s.contact == "permanent"

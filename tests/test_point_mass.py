@@ -1,6 +1,6 @@
 """Tests for vibtrans.models.point_mass: the material point on a rigid substrate.
 
-Sources: MODEL.md sections 1, 3, 6 (the contract), and the paper's section
+Sources: docs/MODEL.md sections 1, 3, 6 (the contract), and the paper's section
 "Dynamics of a material point" (Terzi et al., eqs. sticking_sliding_condition,
 sliding_jumping_condition; points 9 and 10).
 """
@@ -20,8 +20,8 @@ from vibtrans.models import point_mass as pm
 from vibtrans.substrate import surface_motion
 
 MU, R_NU, THETA = 0.3, 0.656, 1.2
-P9 = (10**2.7, 10**-4.4)    # MODEL.md section 6, point 9
-P10 = (10**1.2, 10**-1.0)   # MODEL.md section 6, point 10
+P9 = (10**2.7, 10**-4.4)    # docs/MODEL.md section 6, point 9
+P10 = (10**1.2, 10**-1.0)   # docs/MODEL.md section 6, point 10
 
 
 def run_point_mass(A, m, mu=MU, theta=THETA, r=R_NU, tau=50.0, periods=2000.0,
@@ -40,12 +40,12 @@ def run_point_mass(A, m, mu=MU, theta=THETA, r=R_NU, tau=50.0, periods=2000.0,
 
 
 def sliding_line(A, mu=MU, r=R_NU):
-    # Paper eq. (sticking_sliding_condition), MODEL.md section 3.
+    # Paper eq. (sticking_sliding_condition), docs/MODEL.md section 3.
     return mu / math.sqrt(mu * mu + r * r) / (4 * math.pi**2 * A)
 
 
 def jumping_line(A):
-    # Paper eq. (sliding_jumping_condition), MODEL.md section 3.
+    # Paper eq. (sliding_jumping_condition), docs/MODEL.md section 3.
     return 1.0 / (4 * math.pi**2 * A)
 
 
@@ -84,7 +84,7 @@ def point10():
 
 # --------------------------------------------------------------------------- regimes
 def test_sticks_forever_below_sliding_line():
-    # MODEL.md section 3: below m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*) the point
+    # docs/MODEL.md section 3: below m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*) the point
     # never slides; then x - u_x stays at its initial value 0.
     for A in (10.0, 10**2.7):
         m = 0.9 * sliding_line(A)
@@ -98,7 +98,7 @@ def test_sticks_forever_below_sliding_line():
 
 
 def test_slides_between_lines_without_jumping():
-    # MODEL.md section 3: between the two analytic lines the point slides in
+    # docs/MODEL.md section 3: between the two analytic lines the point slides in
     # every period (stationary excitation) but never leaves the surface.
     A = 10.0
     m = math.sqrt(sliding_line(A) * jumping_line(A))
@@ -142,8 +142,8 @@ def test_numerical_boundaries_match_analytic_lines():
 
 # --------------------------------------------------------------------------- paper points
 def test_point9_paper_rule_symmetric_sliding_no_drift(point9):
-    # Paper point 9 / MODEL.md section 6: continuous symmetric sliding, no
-    # drift, with the paper's slide -> stick rule (MODEL.md section 3).
+    # Paper point 9 / docs/MODEL.md section 6: continuous symmetric sliding, no
+    # drift, with the paper's slide -> stick rule (docs/MODEL.md section 3).
     s, e, ctr, st = point9["paper"]
     assert_finite(s, e, st)
     assert st[0] == 2000.0
@@ -157,8 +157,8 @@ def test_point9_paper_rule_symmetric_sliding_no_drift(point9):
 
 
 def test_point9_classical_rule_drifts_with_the_wave(point9):
-    # MODEL.md section 3: with the classical rule (stick only at v_rel = 0)
-    # point 9 drifts strongly "with the wave" (+x, MODEL.md section 1 sign).
+    # docs/MODEL.md section 3: with the classical rule (stick only at v_rel = 0)
+    # point 9 drifts strongly "with the wave" (+x, docs/MODEL.md section 1 sign).
     s, e, ctr, st = point9["classical"]
     assert_finite(s, e, st)
     assert len(takeoffs(e)) == 0
@@ -190,7 +190,7 @@ def _rows_at(samples, t):
 
 
 def test_flight_is_an_exact_parabola(point10):
-    # Free flight: x'' = 0, m y'' = 1 (MODEL.md section 1 with N* = T* = 0).
+    # Free flight: x'' = 0, m y'' = 1 (docs/MODEL.md section 1 with N* = T* = 0).
     (s, e, _, _), _, (w0, w1), _ = point10
     m = P10[1]
     offs = takeoffs(e)[:, 0]
@@ -215,7 +215,7 @@ def test_flight_is_an_exact_parabola(point10):
 
 
 def test_rebound_is_elastic_with_tangential_restitution(point10):
-    # MODEL.md section 3, event 1: alpha_n = 1 (relative normal velocity
+    # docs/MODEL.md section 3, event 1: alpha_n = 1 (relative normal velocity
     # reversed), tangential relative velocity multiplied by alpha_t = 0.5.
     (s, e, _, _), _, (w0, w1), _ = point10
     A = P10[0]
@@ -233,7 +233,7 @@ def test_rebound_is_elastic_with_tangential_restitution(point10):
 
 
 def _surface(t, A, r, tau):
-    # Independent re-derivation of the ramped Rayleigh motion (MODEL.md section 1).
+    # Independent re-derivation of the ramped Rayleigh motion (docs/MODEL.md section 1).
     q = t / tau
     ex = math.exp(-q * q)
     G, G1, G2 = 1 - ex, 2 * t / tau**2 * ex, (2 / tau**2 - 4 * t * t / tau**4) * ex
@@ -314,7 +314,7 @@ def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
 ])
 def test_closed_forms_match_numerical_integration(A, m, rule, tau, T):
     # The closed forms and event logic against an independent DOP853
-    # integration of MODEL.md section 3's equations with the same rules.
+    # integration of docs/MODEL.md section 3's equations with the same rules.
     ref, kinds = _reference(A, m, rule, tau, T)
     s, e, _, st = run_point_mass(A, m, tau=tau, periods=T, stick_rule=rule)
     assert ref[0] == T and e[0, 1] == R.STATE_CHANGE and e[0, 2] == STICK
@@ -387,7 +387,7 @@ def test_chunked_runs_are_bit_identical(point, rule):
 
 # --------------------------------------------------------------------------- robustness
 def test_corners_finish_finite():
-    # Domain corners (MODEL.md section 1: log10 A* in [-3, 3], log10 m* in
+    # Domain corners (docs/MODEL.md section 1: log10 A* in [-3, 3], log10 m* in
     # [-5, 5], mu in [0.01, 1]): full 2000-period runs, finite everything.
     for A, m, mu in itertools.product((1e-3, 1e3), (1e-5, 1e5), (0.01, 1.0)):
         t0 = time.perf_counter()

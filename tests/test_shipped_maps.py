@@ -1,6 +1,6 @@
 """The shipped maps (assets/maps) reproduce the paper's picture (Fig. 2, 3).
 
-Sources: the regimes the paper gives its labelled points (MODEL.md section 6)
+Sources: the regimes the paper gives its labelled points (docs/MODEL.md section 6)
 and the vertical jumping curve, computed independently (vertical model,
 bisection) and shipped beside the maps.
 """

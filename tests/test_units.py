@@ -7,7 +7,7 @@ import pytest
 
 from vibtrans import units as u
 
-# Paper's worked example (MODEL.md section 5): steel sphere of DIAMETER 1 mm on glass.
+# Paper's worked example (docs/MODEL.md section 5): steel sphere of DIAMETER 1 mm on glass.
 R_EXAMPLE = 0.5e-3
 
 
@@ -45,7 +45,7 @@ def test_material_validates(field, kwargs):
 
 # --------------------------------------------------------------------------- Rayleigh wave
 def test_rayleigh_speed_glass():
-    # MODEL.md section 5: glass (70 GPa, 0.3, 2500) gives c_R = 3.04 km/s.
+    # docs/MODEL.md section 5: glass (70 GPa, 0.3, 2500) gives c_R = 3.04 km/s.
     assert u.rayleigh_speed(70e9, 0.3, 2500.0) == pytest.approx(3040.0, rel=2e-3)
 
 
@@ -59,13 +59,13 @@ def test_rayleigh_ratio_classic_values():
 
 @pytest.mark.parametrize("nu, r", [(0.1, 0.748), (0.25, 0.681), (0.3, 0.656), (0.4, 0.602)])
 def test_amplitude_ratio_reference(nu, r):
-    # MODEL.md section 1 reference values of r(nu).
+    # docs/MODEL.md section 1 reference values of r(nu).
     assert u.amplitude_ratio(nu) == pytest.approx(r, abs=1e-3)
     assert isinstance(u.amplitude_ratio(nu), float)
 
 
 def test_amplitude_ratio_vectorized_and_monotonic():
-    # r decreases with nu (MODEL.md section 1 reference values are decreasing).
+    # r decreases with nu (docs/MODEL.md section 1 reference values are decreasing).
     nu = np.linspace(0.1, 0.4, 31)
     r = u.amplitude_ratio(nu)
     assert r.shape == nu.shape
@@ -76,13 +76,13 @@ def test_amplitude_ratio_vectorized_and_monotonic():
 # --------------------------------------------------------------------------- contact
 @pytest.mark.parametrize("nu, theta", [(0.1, 1.0556), (0.3, 1.2143), (0.4, 1.3333)])
 def test_stiffness_ratio_equal_materials(nu, theta):
-    # MODEL.md section 1: equal materials give (2 - nu)/(2 (1 - nu)).
+    # docs/MODEL.md section 1: equal materials give (2 - nu)/(2 (1 - nu)).
     assert u.stiffness_ratio(70e9, nu, 70e9, nu) == pytest.approx(theta, abs=1e-4)
     assert u.stiffness_ratio(1e9, nu, 5e11, nu) == pytest.approx((2 - nu) / (2 * (1 - nu)))
 
 
 def test_stiffness_ratio_in_model_range():
-    # MODEL.md section 1: theta in [1, 1.5] for any pair of materials.
+    # docs/MODEL.md section 1: theta in [1, 1.5] for any pair of materials.
     for a in u.MATERIALS.values():
         for b in u.MATERIALS.values():
             th = u.stiffness_ratio(a.youngs_modulus, a.poisson_ratio,
@@ -100,7 +100,7 @@ def test_hertz_inverts_load_law():
 
 # --------------------------------------------------------------------------- SI <-> normalized
 def test_paper_worked_example():
-    # MODEL.md section 5 (Terzi et al. worked example, diameter 1 mm): a0 = 8.4e-10 m,
+    # docs/MODEL.md section 5 (Terzi et al. worked example, diameter 1 mm): a0 = 8.4e-10 m,
     # f(m* = 1) = 1.08e5 Hz, v = 9.1 cm/s at v* = 1e3.
     f1 = u.frequency_for_mass_ratio(1.0, "glass", "steel", R_EXAMPLE)
     assert f1 == pytest.approx(1.08e5, rel=0.02)

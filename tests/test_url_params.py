@@ -281,7 +281,7 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     if kernel_calls:
         # every scene key arrives as the URL set it, the rest at the Scene
         # defaults; the comparison run is the same scene with tau + 1e-3
-        # (MODEL.md section 4) or the material point, or absent
+        # (docs/MODEL.md section 4) or the material point, or absent
         main = {**Scene().values(), "amplitude": 10 ** got["log_amplitude"],
                 "mass": 10 ** got["log_mass"], "mu": got["mu"], "model": got["model"],
                 "fidelity": got["fidelity"], "integrator": got["integrator"]}

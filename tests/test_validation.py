@@ -1,6 +1,6 @@
 """Bad input at the API (Scene, simulate) and at the command line.
 
-Contract (MODEL.md section 1; vibtrans/params.py, vibtrans/cli.py): a value
+Contract (docs/MODEL.md section 1; vibtrans/params.py, vibtrans/cli.py): a value
 outside its physical domain, non-finite, or of the wrong type is a clear error
 naming the parameter and its valid range; never a silent NaN, never a clamp.
 The CLI answers bad input with exit status 2 and ONE line on stderr.

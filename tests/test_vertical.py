@@ -1,7 +1,7 @@
 """Vertical motion: the jumping threshold A_J*(m*) and the rigid-contact lines.
 
 Sources: the paper's numbers (section III.A: m_c* ~ 3.69e-2, min A_J* ~ 5.4e-3)
-and the analytic boundaries of the material point (MODEL.md section 3).
+and the analytic boundaries of the material point (docs/MODEL.md section 3).
 """
 import math
 
@@ -31,7 +31,7 @@ def test_fundamental_contact_resonance():
 
 
 def test_threshold_brackets_contact_loss():
-    # Definition (MODEL.md section 4): just below A_J* no contact loss within
+    # Definition (docs/MODEL.md section 4): just below A_J* no contact loss within
     # the observation time, just above it one.
     m = 0.5
     aj = threshold_amplitude(m, rel_tol=1e-4)
@@ -56,7 +56,7 @@ def test_heavy_particles_jump_near_unit_amplitude():
 
 @pytest.mark.parametrize("log_a", [0.0, 1.0, 2.0])
 def test_point_mass_boundaries_match_the_analytic_lines(log_a):
-    # MODEL.md section 3: sliding starts at m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*),
+    # docs/MODEL.md section 3: sliding starts at m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*),
     # jumping at m* = 1/(4 pi^2 A*) (stationary excitation).  Within 2%: short
     # runs (tau = 5, so the ramp is over by t = 33) probed 2% either side.
     A = 10 ** log_a

@@ -1,7 +1,7 @@
 """vibtrans: vibrational transport of a particle on a substrate carrying a
 Rayleigh wave (deformable Hertz-Mindlin particle and material point).
 
-Normalized units throughout (MODEL.md): lengths in a0, time in wave periods.
+Normalized units throughout (docs/MODEL.md): lengths in a0, time in wave periods.
 """
 from .version import __version__
 from .params import PAPER_POINTS, Scene, paper_scene  # noqa: E402

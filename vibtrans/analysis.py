@@ -1,6 +1,6 @@
 """Derived quantities of a trajectory: drift, contact, rebounds, regime.
 
-All in normalized units (MODEL.md section 4).  Functions take the Dataset of
+All in normalized units (docs/MODEL.md section 4).  Functions take the Dataset of
 `simulate` and return plain numbers; `summarize` gathers them in one
 named tuple for the CLI, the sweeps and the app.
 """

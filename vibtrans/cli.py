@@ -29,7 +29,7 @@ def _num(text):
 
 
 def _scene_args(p):
-    g = p.add_argument_group("scene (normalized units, MODEL.md)")
+    g = p.add_argument_group("scene (normalized units, docs/MODEL.md)")
     amp = g.add_mutually_exclusive_group(required=True)
     amp.add_argument("--amplitude", type=_num, help="A* (vertical wave amplitude / a0)")
     amp.add_argument("--log-amplitude", type=_num, help="log10 A*")

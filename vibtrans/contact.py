@@ -1,6 +1,6 @@
 """Contact laws: Hertz normal force and the Cattaneo-Mindlin memory diagram.
 
-Normalized units (MODEL.md sections 1-2): a* in units of a0, N* = N / N(a0),
+Normalized units (docs/MODEL.md sections 1-2): a* in units of a0, N* = N / N(a0),
 b* = b / (theta mu a0), T* = T / (mu N(a0)).
 
 The memory diagram is stored exactly as a polyline w(h) over the contact depth
@@ -93,7 +93,7 @@ def _integrals(H, W, P, nvert):
 def new_memory(capacity=256):
     """Memory of a particle set down without tangential load at a* = 1, b* = 0.
 
-    Every spring in 0 <= h <= 1 is stuck with u = 0 (MODEL.md section 2).
+    Every spring in 0 <= h <= 1 is stuck with u = 0 (docs/MODEL.md section 2).
     Returns (H, W, P, nvert, memf): H[:, 0] = h, H[:, 1] = sqrt(h) of the
     vertices; nvert = (vertex count, count with up-to-date P).
     """

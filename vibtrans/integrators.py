@@ -1,7 +1,7 @@
 """Time stepping shared by the contact models.
 
 Two one-force-evaluation-per-step methods (the memory diagram must be updated
-once per committed step, never inside trial stages; MODEL.md section 2):
+once per committed step, never inside trial stages; docs/MODEL.md section 2):
 
 * AB4 - explicit 4th-order Adams-Bashforth, the paper's method:
   z_{n+1} = z_n + h/24 (55 F_n - 59 F_{n-1} + 37 F_{n-2} - 9 F_{n-3}).

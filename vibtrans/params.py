@@ -4,7 +4,7 @@ A `Scene` is everything a run needs; every value is checked on assignment,
 and a bad one raises ValueError naming the parameter and its valid range
 (NaN, inf, wrong type, out of domain): nothing is clamped.
 
-Units (MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
+Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
 wave periods.
 """
 import math
@@ -84,7 +84,7 @@ class Scene(param.Parameterized):
     integrator = param.Selector(default="ab4", objects=list(INTEGRATORS))
     fidelity = param.Selector(default="standard", objects=list(FIDELITIES))
     stick_rule = param.Selector(default="paper", objects=list(STICK_RULES),
-                                doc="point mass slide->stick rule (MODEL.md section 3)")
+                                doc="point mass slide->stick rule (docs/MODEL.md section 3)")
 
     def __init__(self, **params):
         for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
@@ -114,7 +114,7 @@ class Scene(param.Parameterized):
 MAP_LOG_AMPLITUDE = (-3.0, 3.0)     # log10 A*
 MAP_LOG_MASS = (-5.0, 5.0)          # log10 m*
 
-# The paper's labelled points (MODEL.md section 6): (log10 A*, log10 m*, model).
+# The paper's labelled points (docs/MODEL.md section 6): (log10 A*, log10 m*, model).
 PAPER_POINTS = {
     1: (-0.3, 1.0, "deformable"),
     2: (1.0, -2.7, "deformable"),

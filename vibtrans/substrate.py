@@ -1,7 +1,7 @@
 """The substrate surface: a ramped Rayleigh wave, in normalized units.
 
 Time t* in wave periods, displacements in units of a0 (static Hertz
-compression).  y points DOWN into the substrate.  MODEL.md section 1:
+compression).  y points DOWN into the substrate.  docs/MODEL.md section 1:
 
     u_y* = G(t) A* cos(2 pi t),   u_x* = G(t) A* r sin(2 pi t),
     G(t) = 1 - exp(-t^2 / tau^2)  (tau = 0: the wave is on from t = 0).

@@ -1,6 +1,6 @@
 """The jumping threshold A_J*(m*): the smallest amplitude at which the
 particle ever loses contact during the observation time (vertical motion
-alone, MODEL.md section 4), found by bisection in log10 A*.
+alone, docs/MODEL.md section 4), found by bisection in log10 A*.
 
 Jumping is monotonic in A* (the paper's argument: if it jumps at A*, it jumps
 at any larger amplitude), which is what makes bisection valid.
@@ -94,7 +94,7 @@ def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
 
 
 def point_mass_threshold(mass):
-    """Rigid contact: jumping at m* = 1/(4 pi^2 A*) (MODEL.md section 3)."""
+    """Rigid contact: jumping at m* = 1/(4 pi^2 A*) (docs/MODEL.md section 3)."""
     return 1.0 / (4.0 * math.pi ** 2 * mass)
 
 

@@ -6,7 +6,7 @@
     attrs: every scene parameter, r, the step h, steps, force_evaluations,
            seconds, the code version, and the run's window.
 
-Normalized units (MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
+Normalized units (docs/MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
 periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
 """
 import numpy as np

@@ -1,6 +1,6 @@
 """Materials, Rayleigh-wave and Hertz-contact helpers, SI <-> normalized units.
 
-Normalized units (MODEL.md sections 1 and 5): lengths in units of the static
+Normalized units (docs/MODEL.md sections 1 and 5): lengths in units of the static
 Hertz compression ``a0`` under the load ``Mg = m g + P``, time in wave periods
 ``1/f``. Hence
 
@@ -155,7 +155,7 @@ def rayleigh_speed(E, nu, rho):
 
 
 def amplitude_ratio(nu):
-    """r(nu) = |u_x| / |u_y| at the free surface for a Rayleigh wave [-] (MODEL.md 1).
+    """r(nu) = |u_x| / |u_y| at the free surface for a Rayleigh wave [-] (docs/MODEL.md 1).
 
     Wavenumbers scaled by k_t = 1 (only ratios matter): k = c_t/c_R,
     q^2 = k^2 - k_l^2, s^2 = k^2 - 1, k_l^2 = (c_t/c_l)^2. The printed formula

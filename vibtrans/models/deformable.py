@@ -1,6 +1,6 @@
 """The deformable (Hertz + Cattaneo-Mindlin memory diagram) particle kernel.
 
-Normalized equations (MODEL.md section 1):
+Normalized equations (docs/MODEL.md section 1):
 
     m* x'' = -mu T*(b*, a*, history),   m* y'' = 1 - N*(a*),
     a* = y* - u_y*(t),   theta mu b* = x* - u_x*(t).

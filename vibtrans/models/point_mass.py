@@ -1,6 +1,6 @@
-"""Material point on a rigid substrate carrying a Rayleigh wave (MODEL.md section 3).
+"""Material point on a rigid substrate carrying a Rayleigh wave (docs/MODEL.md section 3).
 
-Normalized units (MODEL.md section 1): time in wave periods, lengths in a0, y
+Normalized units (docs/MODEL.md section 1): time in wave periods, lengths in a0, y
 points DOWN (gravity +y).  The substrate surface moves as
 
     u_x = G(t) A r sin(2 pi t),   u_y = G(t) A cos(2 pi t)
@@ -22,7 +22,7 @@ the transition and goes on from the event time.  The closed form is re-based
 at every grid point and every event (so a call can stop there and resume with
 bit-identical results).
 
-Events (MODEL.md section 3):
+Events (docs/MODEL.md section 3):
 1. landing: gap a* = y - u_y reaches 0 from below.  Elastic normal impact
    (alpha_n = 1: the relative normal velocity reverses, the point flies again
    at once, LANDING + TAKEOFF at the same time) and tangential restitution

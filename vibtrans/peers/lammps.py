@@ -1,6 +1,6 @@
 """LAMMPS as a peer: the same scene in a general-purpose DEM code, side by side.
 
-A vibtrans scene (deformable or vertical model, MODEL.md section 1) is
+A vibtrans scene (deformable or vertical model, docs/MODEL.md section 1) is
 rebuilt in LAMMPS as one granular sphere resting on a flat wall, in SI units:
 
 * the device (`Device`: steel sphere of radius 0.5 mm on glass, gravity
@@ -376,7 +376,7 @@ def run_lammps(scene, h=None, *, device=DEVICE, samples_per_period=10,
 
 
 def _surface(t, scene):
-    """(u_x*, u_y*) of the substrate at times t (numpy; MODEL.md section 1)."""
+    """(u_x*, u_y*) of the substrate at times t (numpy; docs/MODEL.md section 1)."""
     t = np.asarray(t, dtype=float)
     g = 1.0 - np.exp(-(t / scene.tau) ** 2) if scene.tau > 0 else np.ones_like(t)
     return (g * scene.amplitude * scene.r * np.sin(2 * np.pi * t),
