@@ -10,7 +10,7 @@ load Panel.  Start-up, each step said on stderr:
 3. the shipped maps are loaded and verified: a damaged, foreign or missing
    map refuses the start;
 4. the server listens and serves pages while the simulation kernels compile
-   in a background thread (kernels.py; "kernels 2/4 ready (...)"); a run
+   in a background thread (kernels.py; "kernels 1/2 ready (...)"); a run
    asked for before they are ready waits, with a message in the page.
 """
 import gc
