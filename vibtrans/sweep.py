@@ -4,8 +4,8 @@ A sweep is an xarray Dataset on the grid (log_amplitude, log_mass), written
 to Zarr chunk by chunk (a chunk = `chunk_rows` amplitudes x every mass) as
 its points finish:
 
-* the data of a chunk is written first, then its `done` flag and a digest of
-  its data; a sweep killed at any moment restarts with the same command,
+* the data of a chunk is written first, then a digest of its data, then its
+  `done` flag (the flag commits the chunk); a sweep killed at any moment restarts with the same command,
   skips the chunks marked done, and recomputes only unfinished chunks;
 * a store whose parameters or grid differ from the command, or whose done
   chunks do not match their digests (damaged, truncated, edited), is refused
@@ -337,10 +337,15 @@ def _write_chunk(path, sweep, k, rows, bar):
     block = xr.Dataset(data, coords=coords)
     block.drop_vars(["log_amplitude", "log_mass"]).to_zarr(
         path, region={"log_amplitude": sl, "log_mass": slice(None)}, consolidated=False)
-    # the done flag and digest go last: a kill before this line redoes the chunk
-    flags = xr.Dataset({"done": (("chunk",), np.array([True])),
-                        "digest": (("chunk",), np.array([_digest(block)], dtype=np.uint64))})
-    flags.to_zarr(path, region={"chunk": slice(k, k + 1)}, consolidated=False)
+    # then the digest, then the done flag, each a write of its own: the flag
+    # commits the chunk, so a kill at any point before it redoes the chunk (one
+    # write of both left done = True beside a zero digest when the kill fell
+    # between its two files)
+    region = {"chunk": slice(k, k + 1)}
+    xr.Dataset({"digest": (("chunk",), np.array([_digest(block)], dtype=np.uint64))}).to_zarr(
+        path, region=region, consolidated=False)
+    xr.Dataset({"done": (("chunk",), np.array([True]))}).to_zarr(
+        path, region=region, consolidated=False)
     bar.update(block["drift_velocity"].size)
 
 
