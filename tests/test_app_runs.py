@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 
+from asyncutil import until
 from vibtrans_explorer import explorer as E
 from vibtrans import Cancelled
 
@@ -23,14 +24,6 @@ def _explorer(**state):
     ex = E.Explorer()
     ex.state.param.update(fidelity="preview", compare="none", **state)
     return ex
-
-
-async def _until(cond, timeout=60.0):
-    t0 = time.perf_counter()
-    while not cond():
-        if time.perf_counter() - t0 > timeout:
-            raise AssertionError("timed out")
-        await asyncio.sleep(0.01)
 
 
 def _runs_until_cancelled(started):
@@ -48,7 +41,7 @@ async def _start_run_that_waits_for_cancel(ex, monkeypatch):
     started = threading.Event()
     monkeypatch.setattr(E, "simulate", _runs_until_cancelled(started))
     job = ex.start_run()
-    await _until(started.is_set)
+    await until(started.is_set)
     return job
 
 
@@ -60,7 +53,7 @@ def test_a_run_shows_its_summary_and_figures():
     async def go():
         ex = _explorer()
         ex.start_run()
-        await _until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
         assert not ex.message.visible
         assert list(ex.trajectory_views) == [("deformable", None)]
         view = ex.trajectory_views[("deformable", None)]
@@ -71,7 +64,7 @@ def test_a_run_shows_its_summary_and_figures():
         # a second run of the same structure feeds the same figures
         ex.state.log_mass = 0.5
         ex.start_run()
-        await _until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
+        await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
         assert ex.trajectory_views[("deformable", None)] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
         assert len(ex.trajectory) == 3          # the figures, teaching, export
@@ -93,15 +86,15 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
         ex = _explorer()
         monkeypatch.setattr(E, "simulate", slow)
         first = ex.start_run()
-        await _until(started.is_set)
+        await until(started.is_set)
         monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
         ex.state.log_amplitude = 0.5
         second = ex.start_run()
         assert first.event.is_set() and ex._job is second     # one run per session
         # the replaced run's worker is free at once (its kernel saw the flag)
-        await _until(lambda: all(f.done() for f in first.futures), timeout=5)
+        await until(lambda: all(f.done() for f in first.futures), timeout=5)
         assert len(seen_cancel) == 1
-        await _until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary.object)
+        await until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary.object)
         assert "cancelled" not in ex.summary.object and not ex.message.visible
     asyncio.run(go())
 
@@ -119,7 +112,7 @@ def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
         second = ex.start_run()
         assert all(f.cancelled() for f in first.futures)
         gate.set()
-        await _until(lambda: all(f.done() for f in second.futures))
+        await until(lambda: all(f.done() for f in second.futures))
         assert len(calls) == 1
     try:
         asyncio.run(go())
@@ -133,9 +126,9 @@ def test_cancel_frees_the_worker_and_says_so(monkeypatch):
     async def go():
         ex = _explorer()
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
-        await _until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
+        await until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
         ex._on_cancel(None)
-        await _until(lambda: ex.summary.object == "Run cancelled.")
+        await until(lambda: ex.summary.object == "Run cancelled.")
         assert all(f.done() for f in job.futures)
         assert not ex.progress.visible and ex.cancel_button.disabled and _idle(ex)
     asyncio.run(go())
@@ -149,16 +142,16 @@ def test_a_failing_run_shows_an_error_in_its_session_only(monkeypatch):
         ex, other = _explorer(), _explorer()
         monkeypatch.setattr(E, "simulate", broken)
         ex.start_run()
-        await _until(lambda: _idle(ex) and ex.message.visible)
+        await until(lambda: _idle(ex) and ex.message.visible)
         assert "The run failed: RuntimeError: kernel exploded" in ex.message.object
         assert ex.summary.object == "" and not ex.progress.visible
         assert not other.message.visible
         # the server and the other session carry on; so does this one
         monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
         other.start_run()
-        await _until(lambda: _idle(other) and "drift <v*>" in other.summary.object)
+        await until(lambda: _idle(other) and "drift <v*>" in other.summary.object)
         ex.start_run()
-        await _until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
         assert not ex.message.visible
     asyncio.run(go())
 
@@ -171,7 +164,7 @@ def test_a_failure_drawing_a_run_is_reported(monkeypatch):
         ex = _explorer()
         monkeypatch.setattr(E.LiveTrajectory, "show", broken)
         ex.start_run()
-        await _until(lambda: _idle(ex) and ex.message.visible)
+        await until(lambda: _idle(ex) and ex.message.visible)
         assert "Drawing the run failed: ValueError: no figure" in ex.message.object
     asyncio.run(go())
 
@@ -191,7 +184,7 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
         ex = _explorer()
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         ex._on_session_destroyed(None)
-        await _until(lambda: all(f.done() for f in job.futures), timeout=5)
+        await until(lambda: all(f.done() for f in job.futures), timeout=5)
         assert ex._job is None and not ex.trajectory_views
     asyncio.run(go())
 

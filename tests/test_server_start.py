@@ -5,12 +5,12 @@ the page (then runs, or is cancelled)."""
 import asyncio
 import re
 import threading
-import time
 
 import pytest
 
 import vibtrans
 from vibtrans import Cancelled
+from asyncutil import until
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import kernels
 
@@ -23,14 +23,6 @@ def compiling(monkeypatch):
     monkeypatch.setattr(kernels, "_state", dict(kernels._state, done=1, total=4,
                                                 label="deformable, ab4"))
     return kernels.READY
-
-
-async def _until(cond, timeout=60.0):
-    t0 = time.perf_counter()
-    while not cond():
-        if time.perf_counter() - t0 > timeout:
-            raise AssertionError("timed out")
-        await asyncio.sleep(0.01)
 
 
 def _explorer():
@@ -51,13 +43,13 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
     async def go():
         ex = _explorer()
         ex.start_run()
-        await _until(lambda: "Compiling the simulation kernels" in ex.summary.object)
+        await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
         assert "(1 of 4 ready)" in ex.summary.object, ex.summary.object
         assert ex.progress.visible and not ex.cancel_button.disabled
         await asyncio.sleep(0.5)
         assert not calls                       # the run waits for the kernels
         compiling.set()
-        await _until(lambda: ex._job is None and "drift <v*>" in ex.summary.object)
+        await until(lambda: ex._job is None and "drift <v*>" in ex.summary.object)
         assert len(calls) == 1
     asyncio.run(go())
 
@@ -66,9 +58,9 @@ def test_a_waiting_run_can_be_cancelled(compiling):
     async def go():
         ex = _explorer()
         job = ex.start_run()
-        await _until(lambda: "Compiling the simulation kernels" in ex.summary.object)
+        await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
         ex._on_cancel(None)
-        await _until(lambda: ex._job is None)
+        await until(lambda: ex._job is None)
         assert ex.summary.object == "Run cancelled."
         with pytest.raises(Cancelled):
             job.futures[0].result(timeout=5)
