@@ -19,8 +19,9 @@ from bokeh.plotting import figure
 
 from vibtrans import plots
 from vibtrans.contact import STATE_NAMES
+from vibtrans.units import duration_text
 
-WIDTH = 900
+MIN_WIDTH = 360               # the figures take their column's width, at least this
 LINE_HEIGHT = 190
 TIMELINE_HEIGHT = 116         # the strip and, above it, its legend of the states
 TIMELINE_BINS = 400           # time bins of the whole-run state timeline
@@ -43,7 +44,8 @@ TOOLS = "xpan,xwheel_zoom,reset"
 def _figure(title, ylabel, x_range, height, time_ticker=None):
     """A panel; with `time_ticker`, no time axis of its own (the block's
     bottom panel has it), only its grid lines."""
-    fig = figure(title=title, width=WIDTH, height=height, x_range=x_range,
+    fig = figure(title=title, sizing_mode="stretch_width", min_width=MIN_WIDTH, height=height,
+                 x_range=x_range,
                  y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
                  output_backend="canvas",
                  x_axis_type=None if time_ticker is not None else "linear")
@@ -135,6 +137,15 @@ def binned(t, columns, bins):
     return out
 
 
+def time_label(t0=None, period_seconds=None):
+    """The time axis's label: periods (from t0 if given), and the period in
+    seconds when the run is a device's."""
+    text = "t* (periods)" if t0 is None else f"t* - t0 (periods; t0 = {t0:g})"
+    if period_seconds is not None:
+        text += f"; 1 period = {duration_text(period_seconds)}"
+    return text
+
+
 class _Block:
     """One column of panels on one shared time axis: the line panels of
     `panel_spec`, the state timeline, and (whole run, with a comparison) the
@@ -142,8 +153,16 @@ class _Block:
     mean over its min-max band (every sample of a 2000-period run on 900
     pixels drew solid bands)."""
 
-    def __init__(self, specs, timeline_title, bins, twin=None):
+    def __init__(self, specs, timeline_title, bins, twin=None, relative=False):
         self.x_range = Range1d(0.0, 1.0)
+        # relative: time and x* counted from the block's first sample (over
+        # two periods at t* ~ 2000, x* ~ 10^3 moves by ~1: in absolute
+        # numbers the ticks read 2000.5, 4123.2 and the motion hides)
+        self.relative = relative
+        if relative:
+            specs = [(title.replace("x*(t)", "x*(t) - x*(t0)"), ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
+                      [(c, f"{label} - x*(t0)" if c == "x" else label, colour)
+                       for c, label, colour in lines]) for title, ylabel, lines in specs]
         self.variables = sorted({col for _, _, lines in specs for col, _, _ in lines}
                                 | ({"x"} if twin is not None else set()))
         self.bins = bins
@@ -178,12 +197,20 @@ class _Block:
         # the state timeline at the bottom carries the block's time axis
         self.timeline, self.bands = _timeline(timeline_title, self.x_range)
         self.layout = column([*self.figures, *([self.twin_figure] if twin else []),
-                              self.timeline])
+                              self.timeline], sizing_mode="stretch_width")
 
-    def show(self, ds, twin=None):
-        """New data for every source and the axes to its extent."""
+    def show(self, ds, twin=None, period_seconds=None):
+        """New data for every source and the axes to its extent.
+        period_seconds: the wave period of the device run (its time axis
+        also reads in seconds), or None."""
         t = ds["time"].values
         raw = {v: ds[v].values for v in self.variables}
+        t0 = float(t[0])
+        if self.relative:
+            t = t - t0
+            raw["x"] = raw["x"] - raw["x"][0]
+        self.timeline.xaxis.axis_label = time_label(t0 if self.relative else None,
+                                                    period_seconds)
         data = binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         self.source.data = data
         self.x_range.update(start=float(t[0]), end=float(t[-1]))
@@ -200,6 +227,8 @@ class _Block:
             lo, hi = _extent([raw["x"], tx])
             self.twin_figure.y_range.update(start=lo, end=hi)
         t0, t1, codes = plots.state_bands(ds, self.bins)
+        if self.relative:
+            t0, t1 = t0 - float(ds["time"].values[0]), t1 - float(ds["time"].values[0])
         self.bands.data = {"left": t0, "right": t1, "color": _COLOURS[codes],
                            "state": _NAMES[codes]}
 
@@ -217,16 +246,17 @@ class LiveTrajectory:
         specs = plots.panel_spec(rigid)
         twin = plots.twin_spec(tau, label) if label else None
         self.over = _Block(specs, plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
-        self.last = _Block(specs, plots.timeline_title(None), None)
+        self.last = _Block(specs, plots.timeline_title(None), None, relative=True)
         self.whole, self.part = self.over.layout, self.last.layout
         self.runs = 0
 
-    def show(self, ds, other=None):
+    def show(self, ds, other=None, period_seconds=None):
         """Show a run (and its comparison run `other`): the whole run from
-        its overview samples, the fragment from its last periods."""
-        self.over.show(plots.overview_samples(ds), other)
+        its overview samples, the fragment from its last periods (time and
+        x* from the fragment's start).  period_seconds: see _Block.show."""
+        self.over.show(plots.overview_samples(ds), other, period_seconds)
         t = ds["time"].values
         # (isel: a label-based sel builds a pandas hash index of the times first)
         start = int(np.searchsorted(t, t[-1] - self.fragment))
-        self.last.show(ds.isel(time=slice(start, None)))
+        self.last.show(ds.isel(time=slice(start, None)), period_seconds=period_seconds)
         self.runs += 1

@@ -184,8 +184,15 @@ def serve(args):
     def start_kernels():            # once per process (kernels.start is too)
         if not started:
             started.append(True)
-            kernels.start(report=say,
-                          on_ready=lambda: loop.add_callback(_freeze_kernels, server))
+            kernels.start(report=say, on_ready=ready)
+
+    def ready():                    # in the kernels' thread, after the warm-up
+        from .views import map as map_view
+        try:
+            map_view.prerender()    # a change of model, mu or grey: a copy, not a render
+        except Exception:           # only an optimisation
+            logging.getLogger("vibtrans.explorer").exception("prerendering the maps failed")
+        loop.add_callback(_freeze_kernels, server)
 
     server = pn.serve({"/": _first_page(create_app, start_kernels)}, port=args.port,
                       address=args.address, show=False, start=False, verbose=False,

@@ -12,13 +12,16 @@ import pytest
 
 from asyncutil import until
 from vibtrans_explorer.live import TIMELINE_BINS
+from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.live import LiveTrajectory
+from vibtrans_explorer.views import map as M
 from vibtrans import Cancelled
 
 # explorer sessions with real runs, ~40 s (make test-fast leaves them out)
 pytestmark = pytest.mark.slow
 
-REAL_SIMULATE = E.simulate
+REAL_SIMULATE = C.simulate
 
 
 def _explorer(**state):
@@ -40,14 +43,14 @@ def _runs_until_cancelled(started):
 async def _start_run_that_waits_for_cancel(ex, monkeypatch):
     """Start a run whose simulate blocks until cancelled; its job, once running."""
     started = threading.Event()
-    monkeypatch.setattr(E, "simulate", _runs_until_cancelled(started))
+    monkeypatch.setattr(ex.controller, "simulate", _runs_until_cancelled(started))
     job = ex.start_run()
     await until(started.is_set)
     return job
 
 
 def _idle(ex):
-    return ex._job is None
+    return ex.controller.job is None
 
 
 def test_a_run_shows_its_summary_and_figures():
@@ -56,9 +59,9 @@ def test_a_run_shows_its_summary_and_figures():
         ex.start_run()
         await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
         assert not ex.message.visible
-        assert list(ex.trajectory_views) == [("deformable", None)]
-        view = ex.trajectory_views[("deformable", None)]
-        assert view.panel.visible and ex.exports.visible and view.runs == 1
+        assert list(ex.trajectories.views) == [("deformable", None)]
+        view = ex.trajectories.views[("deformable", None)]
+        assert view.panel.visible and ex.exports.panel.visible and view.runs == 1
         source = view.over.source
         first = source.data["x"]
         # the whole run in per-bin envelopes (live.TIMELINE_BINS), the
@@ -68,9 +71,10 @@ def test_a_run_shows_its_summary_and_figures():
         ex.state.log_mass = 0.5
         ex.start_run()
         await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
-        assert ex.trajectory_views[("deformable", None)] is view and view.runs == 2
+        assert ex.trajectories.views[("deformable", None)] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
         assert len(ex.trajectory) == 3          # the figures, teaching, export
+        assert len(ex.trajectories.panel) == 1  # one structure's figures
     asyncio.run(go())
 
 
@@ -87,13 +91,13 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
 
     async def go():
         ex = _explorer()
-        monkeypatch.setattr(E, "simulate", slow)
+        monkeypatch.setattr(ex.controller, "simulate", slow)
         first = ex.start_run()
         await until(started.is_set)
-        monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
+        monkeypatch.setattr(ex.controller, "simulate", REAL_SIMULATE)
         ex.state.log_amplitude = 0.5
         second = ex.start_run()
-        assert first.event.is_set() and ex._job is second     # one run per session
+        assert first.event.is_set() and ex.controller.job is second     # one run per session
         # the replaced run's worker is free at once (its kernel saw the flag)
         await until(lambda: all(f.done() for f in first.futures), timeout=5)
         assert len(seen_cancel) == 1
@@ -105,12 +109,12 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
 def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
     """A run still queued behind busy workers is cancelled, never run."""
     gate = threading.Event()
-    blockers = [E.RUNNER.submit(gate.wait, 30) for _ in range(E.RUNNER._max_workers)]
+    blockers = [C.RUNNER.submit(gate.wait, 30) for _ in range(C.RUNNER._max_workers)]
     calls = []
-    monkeypatch.setattr(E, "simulate", lambda scene, **kw: calls.append(scene))
 
     async def go():
         ex = _explorer()
+        monkeypatch.setattr(ex.controller, "simulate", lambda scene, **kw: calls.append(scene))
         first = ex.start_run()
         second = ex.start_run()
         assert all(f.cancelled() for f in first.futures)
@@ -143,14 +147,14 @@ def test_a_failing_run_shows_an_error_in_its_session_only(monkeypatch):
 
     async def go():
         ex, other = _explorer(), _explorer()
-        monkeypatch.setattr(E, "simulate", broken)
+        monkeypatch.setattr(ex.controller, "simulate", broken)
         ex.start_run()
         await until(lambda: _idle(ex) and ex.message.visible)
         assert "The run failed: RuntimeError: kernel exploded" in ex.message.object
         assert ex.summary.object == "" and not ex.progress.visible
         assert not other.message.visible
         # the server and the other session carry on; so does this one
-        monkeypatch.setattr(E, "simulate", REAL_SIMULATE)
+        monkeypatch.setattr(ex.controller, "simulate", REAL_SIMULATE)
         other.start_run()
         await until(lambda: _idle(other) and "drift <v*>" in other.summary.object)
         ex.start_run()
@@ -165,7 +169,7 @@ def test_a_failure_drawing_a_run_is_reported(monkeypatch):
 
     async def go():
         ex = _explorer()
-        monkeypatch.setattr(E.LiveTrajectory, "show", broken)
+        monkeypatch.setattr(LiveTrajectory, "show", broken)
         ex.start_run()
         await until(lambda: _idle(ex) and ex.message.visible)
         assert "Drawing the run failed: ValueError: no figure" in ex.message.object
@@ -173,12 +177,12 @@ def test_a_failure_drawing_a_run_is_reported(monkeypatch):
 
 
 def test_the_step_cap_refuses_with_a_message(monkeypatch):
-    monkeypatch.setattr(E, "MAX_STEPS", 1000)
     calls = []
-    monkeypatch.setattr(E, "simulate", lambda *a, **k: calls.append(a))
     ex = _explorer()
+    monkeypatch.setattr(ex.controller, "max_steps", 1000)
+    monkeypatch.setattr(ex.controller, "simulate", lambda *a, **k: calls.append(a))
     assert ex.start_run() is None
-    assert not calls and ex._job is None
+    assert not calls and ex.controller.job is None
     assert "over this server's limit of 1e+03 (VIBTRANS_MAX_STEPS)" in ex.message.object
 
 
@@ -188,7 +192,7 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         ex._on_session_destroyed(None)
         await until(lambda: all(f.done() for f in job.futures), timeout=5)
-        assert ex._job is None and not ex.trajectory_views
+        assert ex.controller.job is None and not ex.trajectories.views
     asyncio.run(go())
 
 
@@ -220,12 +224,12 @@ def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
     ex = _explorer()
     runs = []
     monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.scene()))
-    ex._on_tap(SimpleNamespace(x=0.51234, y=-1.25))
+    ex.map_view._on_tap(True, SimpleNamespace(x=0.51234, y=-1.25))
     assert (ex.state.log_amplitude, ex.state.log_mass) == (0.512, -1.25)
-    assert ex._selected.data == {"x": [0.512], "y": [-1.25]}
+    assert ex.map_view.selected.data == {"x": [0.512], "y": [-1.25]}
     assert len(runs) == 1 and abs(runs[0].amplitude - 10 ** 0.512) < 1e-12
     for x, y in ((3.2, 0.0), (0.0, -5.3), (float("nan"), 0.0), (None, 1.0)):
-        ex._on_tap(SimpleNamespace(x=x, y=y))
+        ex.map_view._on_tap(True, SimpleNamespace(x=x, y=y))
     assert len(runs) == 1 and ex.state.log_amplitude == 0.512
 
 
@@ -234,7 +238,7 @@ def test_each_session_gets_its_own_map_figure():
     rendering (explorer.map_figure): equal content, separate models, each
     with its session's marker sources."""
     a, b = _explorer(), _explorer()
-    fa, fb = a.map_pane.object, b.map_pane.object
+    fa, fb = a.map_view.figures[0], b.map_view.figures[0]
     assert fa is not fb and fa.title.text == fb.title.text
     glyphs = [[r for r in f.renderers if hasattr(r, "data_source")] for f in (fa, fb)]
     images = [[r.data_source.data["image"][0] for r in g if "image" in r.data_source.data]
@@ -242,11 +246,11 @@ def test_each_session_gets_its_own_map_figure():
     assert len(images[0]) >= 1 and all(np.array_equal(x, y, equal_nan=True)
                                        for x, y in zip(*images))
     sources = [{r.data_source for r in g} for g in glyphs]
-    assert a._selected in sources[0] and a._selected not in sources[1]
-    assert b._selected in sources[1]
+    assert a.map_view.selected in sources[0] and a.map_view.selected not in sources[1]
+    assert b.map_view.selected in sources[1]
     a.state.mu = 0.1            # another shipped map: a new figure for that session only
-    assert a.map_pane.object is not fa and "mu = 0.1" in a.map_pane.object.title.text
-    assert b.map_pane.object is fb
+    assert a.map_view.figures[0] is not fa and "mu = 0.1" in a.map_view.figures[0].title.text
+    assert b.map_view.figures[0] is fb
 
 
 def test_one_pass_attach_builds_the_same_page():
@@ -291,7 +295,7 @@ def test_the_map_hover_shows_drift_and_verdict_never_nan(chaotic):
     under the grey of chaotic points (the grey layer's own hover used to
     cover it and show 'chaotic: NaN' off the grey)."""
     from bokeh.models import HoverTool
-    fig = E.map_figure("deformable", 0.3, 0.1, chaotic)
+    fig = M.map_figure("deformable", 0.3, 0.1, chaotic)
     hovers = [t for t in fig.tools if isinstance(t, HoverTool)]
     assert len(hovers) == 1 and len(hovers[0].renderers) == 1
     fields = [field for _, field in hovers[0].tooltips]

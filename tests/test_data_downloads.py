@@ -24,15 +24,15 @@ def shown():
         ex.state.param.update(fidelity="preview", compare="none", log_amplitude=2.5,
                               log_mass=0.0)
         ex.start_run()
-        await until(lambda: ex._job is None and "drift <v*>" in ex.summary.object)
+        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary.object)
         return ex
     return asyncio.run(go())
 
 
 def test_run_netcdf_is_the_run_shown(shown, tmp_path):
-    ds = shown._last[1]
+    ds = shown.controller.result.ds
     path = tmp_path / "run.nc"
-    path.write_bytes(shown.data_file("run", "nc").getvalue())
+    path.write_bytes(shown.exports.data_file("run", "nc").getvalue())
     with xr.open_dataset(path) as got:
         for name in ("x", "y", "a", "b", "N", "T", "state", "event_time", "event_kind"):
             assert np.array_equal(got[name].values, ds[name].values), name
@@ -40,8 +40,8 @@ def test_run_netcdf_is_the_run_shown(shown, tmp_path):
 
 
 def test_run_csv_is_the_run_shown(shown):
-    ds = shown._last[1]
-    text = shown.data_file("run", "csv").getvalue().decode()
+    ds = shown.controller.result.ds
+    text = shown.exports.data_file("run", "csv").getvalue().decode()
     assert text.startswith("# vibtrans run: model=deformable")
     table = pd.read_csv(io.StringIO(text), comment="#")
     assert list(table["time"]) == list(ds["time"].values)          # %.17g: exact
@@ -50,11 +50,11 @@ def test_run_csv_is_the_run_shown(shown):
 
 
 def test_map_window_is_the_zoomed_view(shown, tmp_path):
-    fig = shown.map_pane.object
+    fig = shown.map_view.figures[0]
     fig.x_range.start, fig.x_range.end = 0.02, 1.3      # a zoom, off the grid
     fig.y_range.start, fig.y_range.end = -2.1, -0.4
     path = tmp_path / "map.nc"
-    path.write_bytes(shown.data_file("map-window", "nc").getvalue())
+    path.write_bytes(shown.exports.data_file("map-window", "nc").getvalue())
     full = data.drift_map("deformable", 0.3)
     la, lm = full["log_amplitude"].values, full["log_mass"].values
     inside_a = la[(la >= 0.02) & (la <= 1.3)]

@@ -38,10 +38,10 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         calls.append(args)
         return real(*args, **kwargs)
     real = E.simulate
-    monkeypatch.setattr(E, "simulate", recorded)
 
     async def go():
         ex = _explorer()
+        monkeypatch.setattr(ex.controller, "simulate", recorded)
         ex.start_run()
         await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
         assert "(1 of 4 ready)" in ex.summary.object, ex.summary.object
@@ -49,7 +49,7 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         await asyncio.sleep(0.5)
         assert not calls                       # the run waits for the kernels
         compiling.set()
-        await until(lambda: ex._job is None and "drift <v*>" in ex.summary.object)
+        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary.object)
         assert len(calls) == 1
     asyncio.run(go())
 
@@ -60,7 +60,7 @@ def test_a_waiting_run_can_be_cancelled(compiling):
         job = ex.start_run()
         await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
         ex._on_cancel(None)
-        await until(lambda: ex._job is None)
+        await until(lambda: ex.controller.job is None)
         assert ex.summary.object == "Run cancelled."
         with pytest.raises(Cancelled):
             job.futures[0].result(timeout=5)

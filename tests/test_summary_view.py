@@ -4,7 +4,7 @@ summary showed only the deformable numbers, and the cost row silently added
 the twin's steps)."""
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis import summarize, twin_scene
-from vibtrans_explorer.explorer import _summary_table
+from vibtrans_explorer.views.summary import summary_table as _summary_table
 
 
 def _cells(table, row):

@@ -476,7 +476,10 @@ def timeline_title(bins=None):
 def twin_spec(tau, label):
     """The twin comparison panel of a run with ramp time `tau`: (title,
     y label, [(legend label, colour, dash) of the run, of its twin])."""
-    return (f"x*(t) and its {label} twin", "x* (a0)",
+    # a tau twin is the same scene; another model is a comparison, not a twin
+    title = (f"x*(t) and its {label} twin" if label.startswith("tau") else
+             f"x*(t) and the {label} run of the same scene")
+    return (title, "x* (a0)",
             [(f"x*, tau = {tau:g}", "#d62728", None),
              (f"x*, {label}", "black", "dashed")])
 

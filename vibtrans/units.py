@@ -22,7 +22,7 @@ __all__ = [
     "rayleigh_speed_ratio", "rayleigh_speed", "amplitude_ratio",
     "stiffness_ratio", "effective_modulus", "hertz_compression",
     "sphere_mass", "DeviceSpec", "NormalizedScene", "to_normalized",
-    "frequency_for_mass_ratio", "amplitude_from_normalized",
+    "frequency_for_mass_ratio", "amplitude_from_normalized", "duration_text",
 ]
 
 _INF = math.inf
@@ -342,3 +342,11 @@ def frequency_for_mass_ratio(m_star, substrate, particle, radius, preload=0.0, g
 def amplitude_from_normalized(A_star, a0):
     """Vertical wave amplitude A_y = A* a0 [m] from A* [-] and a0 [m]."""
     return _out(_nonnegative("A_star", A_star) * _positive("a0", a0))
+
+
+def duration_text(seconds):
+    """A time in seconds as text, in the unit that reads best (ns to s)."""
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+        if abs(seconds) >= scale:
+            return f"{seconds / scale:.4g} {unit}"
+    return f"{seconds:.3g} s"

@@ -1,0 +1,58 @@
+"""What a session of the explorer has selected, with no widgets: the
+scene's parameters and the page's settings (`ExplorerState`, mirrored in
+the URL through `URL_KEYS`), and the ranges the explorer runs."""
+import param
+
+from vibtrans import Scene
+from vibtrans.analysis import V0
+
+# the material of the shipped maps and the paper (Scene's defaults)
+MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
+# Wider than the shipped maps (vibtrans.params.MAP_LOG_*): a scene runs
+# wherever the kernels do (a SAW device reaches A* ~ 2e3); the step budget
+# refuses the costly ones.
+SCENE_LOG_AMPLITUDE = (-6.0, 6.0)    # log10 A*
+SCENE_LOG_MASS = (-8.0, 8.0)         # log10 m*
+
+
+def within(la, lm, log_amplitude, log_mass):
+    """Is (log10 A*, log10 m*) inside the closed ranges given?"""
+    return (log_amplitude[0] <= la <= log_amplitude[1]
+            and log_mass[0] <= lm <= log_mass[1])
+
+
+class ExplorerState(param.Parameterized):
+    """What the user selected; mirrored in the URL."""
+
+    model = param.Selector(default="deformable", objects=["deformable", "point-mass"])
+    mu = param.Number(default=0.3, bounds=(0.01, 1.0))
+    v0 = param.Number(default=V0, bounds=(1e-3, 10.0), doc="white band |v*| <= v0*")
+    log_amplitude = param.Number(default=-0.3, bounds=SCENE_LOG_AMPLITUDE)
+    log_mass = param.Number(default=1.0, bounds=SCENE_LOG_MASS)
+    fidelity = param.Selector(default="standard", objects=["preview", "standard", "reference"])
+    integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
+    compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
+    chaotic = param.Selector(default="grey", objects=["grey", "colour"])
+    # one map (the selected model's) or the two models side by side, linked
+    maps = param.Selector(default="selected model", objects=["selected model", "both models"])
+    # the material point's own rules (docs/MODEL.md section 3)
+    stick_rule = param.Selector(default=Scene.param.stick_rule.default,
+                                objects=Scene.param.stick_rule.objects)
+    alpha_t = param.Number(default=Scene.param.alpha_t.default, bounds=Scene.param.alpha_t.bounds)
+    # the material's theta and Poisson ratio: the maps' values (Scene's
+    # defaults) unless the Units tab's device set its own
+    theta = param.Number(default=Scene.param.theta.default, bounds=Scene.param.theta.bounds)
+    nu = param.Number(default=Scene.param.nu.default, bounds=Scene.param.nu.bounds,
+                      inclusive_bounds=(False, False))
+
+    def scene(self):
+        """The selected scene (a vibtrans.Scene; ValueError if invalid)."""
+        return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass, mu=self.mu,
+                     model=self.model, fidelity=self.fidelity, integrator=self.integrator,
+                     theta=self.theta, nu=self.nu, stick_rule=self.stick_rule,
+                     alpha_t=self.alpha_t)
+
+
+URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
+            "log_mass": "lm", "fidelity": "fidelity", "integrator": "integrator",
+            "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at"}

@@ -1,0 +1,90 @@
+"""Downloads: the map and the run's figures (the same as `vibtrans
+export`), the run's data (netCDF, CSV) and the map's points in the zoomed
+view (netCDF).  Files are written to a temporary folder, read back and the
+folder removed: nothing is left on the server per click."""
+import functools
+import io
+import os
+import tempfile
+
+import panel as pn
+
+from .. import data
+
+FIGURES = [(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")]
+DATA = [("run", "nc"), ("run", "csv"), ("map-window", "nc")]
+
+
+def _read_back(write, name):
+    with tempfile.TemporaryDirectory(prefix="vibtrans-") as tmp:
+        out = os.path.join(tmp, name)
+        write(out)
+        with open(out, "rb") as f:
+            return io.BytesIO(f.read())
+
+
+class ExportsView:
+    """The export and data buttons; the run's are disabled until a run is
+    shown (`show`).  map_view: the MapView (its zoomed view's ranges)."""
+
+    def __init__(self, state, map_view):
+        self.state, self.map_view = state, map_view
+        self.result = None
+        figures = [self._figure_download(k, f) for k, f in FIGURES]
+        datas = [self._data_download(k, f) for k, f in DATA]
+        self.run_buttons = [b for b, (k, _) in zip(figures + datas, FIGURES + DATA)
+                            if k in ("trajectory", "run")]
+        self.panel = pn.Column(
+            pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
+            pn.FlexBox(*figures),
+            pn.pane.Markdown("**Data** (the run: samples and events in netCDF, samples in CSV; "
+                             "the map's points in the zoomed view)"),
+            pn.FlexBox(*datas), sizing_mode="stretch_width")
+
+    def show(self, result):
+        self.result = result
+        for b in self.run_buttons:
+            b.disabled = False
+
+    def figure_file(self, kind, fmt):
+        """The bytes of a figure download (`map` or `trajectory`)."""
+        from vibtrans import export
+        s = self.state
+        if kind == "map":
+            def write(out):
+                export.export_heatmap(data.drift_map(s.model, s.mu), out, v0=s.v0,
+                                      vertical=data.vertical_curve())
+        else:
+            if self.result is None:
+                raise ValueError("no run yet")
+
+            def write(out):
+                export.export_trajectory(self.result.ds, out, twin=self.result.twin)
+        return _read_back(write, f"{kind}.{fmt}")
+
+    def data_file(self, kind, fmt):
+        """The bytes of a data download: the last run (`run`, netCDF or CSV)
+        or the map's points inside the map's current view (`map-window`)."""
+        from vibtrans import export
+        if kind == "run":
+            if self.result is None:
+                raise ValueError("no run yet")
+            ds = self.result.ds
+            if fmt == "csv":
+                return io.BytesIO(export.samples_csv(ds).encode())
+        else:
+            s = self.state
+            ds = export.map_window(data.drift_map(s.model, s.mu), *self.map_view.view_ranges())
+        return _read_back(ds.to_netcdf, "data.nc")
+
+    def _figure_download(self, kind, fmt):
+        return pn.widgets.FileDownload(
+            callback=functools.partial(self.figure_file, kind, fmt),
+            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
+            css_classes=[f"vt-export-{kind}-{fmt}"], width=150, disabled=kind == "trajectory")
+
+    def _data_download(self, kind, fmt):
+        return pn.widgets.FileDownload(
+            callback=functools.partial(self.data_file, kind, fmt),
+            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
+            css_classes=[f"vt-data-{kind}-{fmt}"], width=150, disabled=kind == "run")

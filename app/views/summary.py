@@ -1,0 +1,87 @@
+"""The run's summary: one Markdown table, one column per model, each number
+under the model that produced it (the run with its tau twin's verdict and
+cost; the other model's run when that is the comparison)."""
+import panel as pn
+
+from vibtrans.analysis import summarize
+
+from ..controller import TWIN_LABEL
+from ..state import MAP_MATERIAL
+
+SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "regime",
+                "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
+                "in SI units"]
+# the summary before the first run: the same lines (so the page keeps its layout)
+PLACEHOLDER_SUMMARY = "\n".join(
+    ["**Click the map or pick a paper point.**", "", "| quantity | value |", "|---|---|"]
+    + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
+
+
+def chaos_verdict(result):
+    """The chaos row of a RunResult, in words."""
+    twin_name = f"{TWIN_LABEL} twin"
+    if result.twin_unneeded:
+        return f"not checked: no take-off (the {twin_name} is drawn below)"
+    return {None: "not checked", True: f"chaotic ({twin_name} disagrees)",
+            False: f"robust ({twin_name} agrees)"}[result.summary.chaotic]
+
+
+def run_cost(scene, s):
+    """The cost of run `s` (of `scene`'s fidelity and integrator, its own
+    model), and its twin's apart."""
+    how = ("closed form, scanned" if s.model == "point-mass"
+           else f"{scene.fidelity}, {scene.integrator}")
+    text = f"{s.steps:,} steps, {s.seconds:.3f} s ({how})"
+    if s.twin_steps:
+        text += f"; its tau twin: {s.twin_steps:,} steps, {s.twin_seconds:.3f} s"
+    return text
+
+
+def _summary_column(scene, s, chaos, si):
+    """One model's values, in the order of SUMMARY_ROWS."""
+    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.regime, chaos,
+            f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
+            f"{s.contact_fraction:.3f}", run_cost(scene, s), si or "-"]
+
+
+def summary_table(scene, s, chaos, si, other, twin):
+    """The run's summary as a Markdown table, one column per model: the run
+    (with its tau twin's verdict and cost), and the other model's run when
+    that is the comparison, each number under the model that produced it."""
+    cols = [_summary_column(scene, s, chaos, si)]
+    heads = [s.model]
+    if other is not None and twin is None and other.attrs["model"] != scene.model:
+        so = summarize(other)
+        cols.append(_summary_column(scene, so, "not checked (comparison run)", None))
+        heads.append(so.model)
+    # a '|' inside a cell (e.g. "|v*| <= 0.1") would end it
+    rows = [f"| {row} | " + " | ".join(c[i].replace("|", "\\|") for c in cols) + " |"
+            for i, row in enumerate(SUMMARY_ROWS)]
+    material = ("" if (scene.theta, scene.nu) == tuple(MAP_MATERIAL.values()) else
+                f", theta = {scene.theta:.4g}, nu = {scene.nu:.4g} (the maps: "
+                f"{MAP_MATERIAL['theta']:g}, {MAP_MATERIAL['nu']:g})")
+    return "\n".join([
+        f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
+        f"mu = {scene.mu:g}{material}**", "",
+        "| quantity | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|",
+    ] + rows)
+
+
+class SummaryView:
+    """The summary pane: the placeholder, a running run's status, then the
+    table of the run shown (`si_text(v_star, scene)`: its drift in SI units,
+    from the Units tab)."""
+
+    def __init__(self, si_text, width=None):
+        self.si_text = si_text
+        kw = {"sizing_mode": "stretch_width"} if width is None else {"width": width}
+        self.pane = pn.pane.Markdown(PLACEHOLDER_SUMMARY, name="summary", **kw)
+
+    def say(self, text):
+        self.pane.object = text
+
+    def show(self, result):
+        s = result.summary
+        si = self.si_text(s.drift_velocity, result.scene)
+        self.pane.object = summary_table(result.scene, s, chaos_verdict(result), si,
+                                         result.other, result.twin)

@@ -1,0 +1,50 @@
+"""The run's trajectory figures (app/live.py): one set per structure
+(model, comparison) shown so far, built once per session and then fed new
+data; only the run's structure is visible."""
+import logging
+
+import panel as pn
+
+from vibtrans.plots import FRAGMENT
+
+from ..live import LiveTrajectory
+
+log = logging.getLogger("vibtrans.explorer")
+
+
+class TrajectoryView:
+    def __init__(self):
+        self.views = {}          # (model, comparison label) -> LiveTrajectory
+        self.panel = pn.Column(sizing_mode="stretch_width", name="trajectory-figures")
+
+    def view(self, key, tau):
+        """The session's figures of a structure: built once, then fed by `show`."""
+        view = self.views.get(key)
+        if view is None:
+            view = LiveTrajectory(key[0] == "point-mass", key[1], FRAGMENT, tau)
+            view.panel = pn.Column(
+                pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
+                pn.pane.Bokeh(view.whole, name="whole-run", sizing_mode="stretch_width"),
+                pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution** (time "
+                                 f"and x\\* counted from the window's start, so the motion "
+                                 f"within a period shows)"),
+                pn.pane.Bokeh(view.part, name="fragment", sizing_mode="stretch_width"),
+                sizing_mode="stretch_width")
+            self.views[key] = view
+            self.panel.append(view.panel)
+        return view
+
+    def prebuild(self, scene, label):
+        """The (empty) figures of a structure, built before its first run so
+        that the first click only sends data, like every later one."""
+        if not self.views:
+            self.view((scene.model, label), scene.tau)
+
+    def show(self, result, period_seconds=None):
+        key = (result.scene.model, result.label)
+        self.view(key, result.scene.tau).show(result.ds, result.other, period_seconds)
+        for k, v in self.views.items():
+            v.panel.visible = k == key
+
+    def clear(self):
+        self.views.clear()

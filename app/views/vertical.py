@@ -1,0 +1,76 @@
+"""The Vertical tab: the jumping threshold A_J*(m*) of both models (the
+shipped vertical curve), the resonances, and the selected scene marked."""
+import functools
+
+import holoviews as hv
+import numpy as np
+import panel as pn
+from bokeh.document import Document
+from bokeh.models import ColumnDataSource
+
+from vibtrans import plots
+
+from .. import data
+
+HEIGHT = 450
+
+
+def vertical_element(vertical):
+    lm = vertical["log_mass"].values
+    de = hv.Curve((lm, np.log10(vertical["threshold_amplitude"].values)),
+                  plots.LOG_M, plots.LOG_A, label="deformable (Hertz)")
+    pm = hv.Curve((lm, np.log10(vertical["point_mass_threshold_amplitude"].values)),
+                  plots.LOG_M, plots.LOG_A, label="material point").opts(line_dash="dashed")
+    lines = [hv.VLine(vertical.attrs[k]).opts(color="grey", line_dash="dotted")
+             for k in vertical.attrs if k.startswith("resonance_") and k.endswith("log_mass")]
+    return hv.Overlay([de, pm, *lines]).opts(
+        height=HEIGHT, title="Jumping threshold A_J*(m*): above a curve, the particle jumps",
+        legend_position="top_right")
+
+
+@functools.lru_cache(maxsize=1)
+def _vertical_json():
+    vertical = data.vertical_curve()
+    if vertical is None:
+        return None
+    doc = Document()
+    doc.add_root(hv.render(vertical_element(vertical), backend="bokeh"))
+    return doc.to_json()
+
+
+class VerticalView:
+    """The threshold curves with the selected scene (yellow) on them: a
+    scene above its model's curve leaves the substrate."""
+
+    def __init__(self, state):
+        self.state = state
+        self.scene = ColumnDataSource({"x": [state.log_mass], "y": [state.log_amplitude]})
+        self.pane = pn.Column(sizing_mode="stretch_width", name="vertical")
+        self._built = False
+        state.param.watch(self._moved, ["log_amplitude", "log_mass"])
+
+    def build(self):
+        """The figure, built when the tab is first opened (not with the page)."""
+        if self._built:
+            return
+        self._built = True
+        js = _vertical_json()
+        if js is None:
+            self.pane.objects = [pn.pane.Markdown("The vertical curve is not shipped.")]
+            return
+        doc = Document.from_json(js)
+        fig = doc.roots[0]
+        doc.remove_root(fig)
+        fig.update(sizing_mode="stretch_width", width=None)
+        r = fig.scatter("x", "y", source=self.scene, size=14, marker="circle", color="yellow",
+                        line_color="black")
+        fig.legend[0].items.append(_legend_item("the selected scene", r))
+        self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+
+    def _moved(self, *events):
+        self.scene.data = {"x": [self.state.log_mass], "y": [self.state.log_amplitude]}
+
+
+def _legend_item(label, renderer):
+    from bokeh.models import LegendItem
+    return LegendItem(label=label, renderers=[renderer])
