@@ -14,8 +14,9 @@ arrays and what a kernel cannot do:
   memory diagram) returned with the records.
 
 `run_hertz` drives the deformable and vertical (Hertz) kernels, `run_point_mass`
-the material point.  simulate(), the jumping threshold, memory snapshots and
-the tests all run through these two.
+the material point, `run_memory_stops` the deformable kernel for memory
+diagrams at several times of one run.  simulate(), the jumping threshold,
+memory snapshots and the tests all run through these.
 
 Chunks are whole kernel calls, so they are part of the numerics: the Hertz
 kernels restart their sin/cos rotation at every call (exact to rounding, not
@@ -166,6 +167,110 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
                tuple(mem) if tangential else None)
+
+
+def _until_done(call, t_stop, growers):
+    """One kernel call to t_stop, repeated after growing whatever it reports full."""
+    while True:
+        code = call(t_stop)
+        if code == R.DONE:
+            return
+        growers[code]()
+
+
+def _final_step(params, integ, state, hist, mem, ctr):
+    """The deformable kernel's final call of a run ending at params.t_end, on
+    copies of a run's state (left as it was), which a non-final call has
+    brought to the last step at or before t_end: it commits the step that
+    reaches t_end (or stops a flight at t_end), as a run from rest to t_end
+    ends.  Returns (state, ctr, memory) of the copy."""
+    state, hist, ctr = state.copy(), hist.copy(), ctr.copy()
+    mem = [a.copy() for a in mem]
+    ctr[R.C_NSAMP] = 0                 # its records go to small buffers of its own
+    ctr[R.C_NEVT] = 0
+    buf = {"samples": np.empty((16, R.NCOL)), "events": np.empty((16, 3))}
+
+    def call(t_stop):
+        return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
+                                   buf["events"], ctr, t_stop)
+
+    def grow_memory():
+        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
+
+    _until_done(call, params.t_end, {
+        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
+        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
+        R.MEMORY_FULL: grow_memory})
+    return state, ctr, tuple(mem)
+
+
+def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capacity=1024,
+                     memory_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
+                     cancel=None):
+    """One run of the deformable kernel from rest, with the memory diagram
+    taken at each of `stops` (non-decreasing times, periods, the last one
+    params.t_end): a list of (state, ctr, memory), one per stop, each what
+    `run_hertz` returns at the end of a run to that stop.
+
+    The kernel calls end at run_hertz's chunk ends and at each stop; a call
+    to a stop before t_end is non-final (the last step at or before it), and
+    a copy of the state takes the final step (`_final_step`).  The step
+    sequence is therefore that of a run to each stop, but each extra call
+    restarts the kernel's sin/cos rotation and a flight's landing search, so
+    the diagram at a stop before t_end agrees with a separate run's to
+    rounding, not bit for bit (as chunks do, module docstring); at t_end
+    alone (one stop) it is run_hertz's, bit for bit.  progress(fraction) and
+    cancel as in run_hertz.
+    """
+    integ = _integrator(integrator)
+    t_end = params.t_end
+    state, hist = D.rest_state()
+    buf = {"samples": np.empty((samples_capacity, R.NCOL)),
+           "events": np.empty((events_capacity, 3))}
+    ctr = R.new_counters()
+    ctr[R.C_STATE] = STICK
+    mem = list(new_memory(memory_capacity))
+    # the rest state at t = 0, as run_hertz records it (the sample cursor too)
+    buf["samples"][0] = (0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, STICK, 1.0, 1.0)
+    ctr[R.C_NSAMP] = 1
+    ctr[R.C_NEXT] = 1
+
+    def call(t_stop):
+        return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
+                                   buf["events"], ctr, t_stop)
+
+    def grow_memory():
+        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
+
+    growers = {
+        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
+        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
+        R.MEMORY_FULL: grow_memory,
+    }
+    chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * params.step)
+    out = []
+    t_chunk = 0.0                      # chunk ends accumulated as _drive does
+    for stop in stops:
+        while True:
+            t_next = min(t_chunk + chunk, stop)
+            _until_done(call, t_next, growers)      # final at t_end only
+            if t_next < stop:
+                t_chunk = t_next
+            if progress is not None:
+                progress(t_next / t_end)
+            if t_next >= t_end:
+                break
+            if cancel is not None and cancel.is_set():
+                raise Cancelled("run cancelled")
+            if t_next >= stop:
+                break
+        if stop < t_end:
+            # a stop inside the run: a copy takes the step that reaches it
+            out.append(_final_step(params._replace(t_end=stop), integ, state, hist, mem,
+                                   ctr))
+        else:
+            out.append((state, ctr, tuple(mem)))
+    return out
 
 
 def point_mass_capacity(params):

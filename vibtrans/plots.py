@@ -556,26 +556,76 @@ def trajectory_figure(ds, window=None, twin=None):
 
 
 # ---------------------------------------------------------------- memory diagram
-def _spans(snapshot, y0, y1):
-    """Stick core [0, s_h] and slip annulus [s_h, a*] as shaded bands."""
+# Shared by the HoloViews figures below (exports) and the explorer's live
+# Bokeh view (app/views/memory.py): the labels, colours and geometry.
+W_COLOR = "#1f77b4"                # the anchors w(h)
+U_COLOR = "#ff7f0e"                # the displacements u(h)
+SLIP_TEXT_COLOR = "#a05a00"
+FLIGHT_TEXT = "in flight: no contact, no memory"
+MEMORY_XLABEL = "h (contact depth, a0)"
+MEMORY_WLABEL = "w (theta mu a0)"
+MEMORY_ULABEL = "u = b* - w (theta mu a0)"
+MEMORY_UTITLE = "spring displacements u(h), |u| <= a* - h"
+CIRCLE_XLABEL = "x (sqrt(R a0))"
+CIRCLE_ZLABEL = "z (sqrt(R a0))"
+
+
+def memory_title(snapshot):
+    """The memory diagram's title: t* and the contact state."""
+    return (f"memory diagram w(h), t* = {snapshot['t']:.6g}, "
+            f"{STATE_NAMES[int(snapshot['state'])]}")
+
+
+def memory_spans(snapshot):
+    """The stick core [0, s_h] and the slip annulus [s_h, a*] as bands of
+    contact depth h (a0): dicts of left, right, color, alpha, label,
+    label_color and label_at ("top" or "bottom" of the panel)."""
     a, s = snapshot["a"], snapshot["stick_depth"]
     slip_colour = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
-    layers = []
+    spans = []
     if s > 0:
-        layers.append(style(hv.VSpan(0, s), common=dict(alpha=0.18),
-                            bokeh=dict(color=STATE_COLORS[1]),
-                            matplotlib=dict(color=None, facecolor=STATE_COLORS[1],
-                                            edgecolor="none")))
-        layers.append(style(hv.Text(s / 2, y1, "stick core", halign="center", valign="top",
-                                    fontsize=10), common=dict(color=STATE_COLORS[1])))
+        spans.append(dict(left=0, right=s, color=STATE_COLORS[1], alpha=0.18,
+                          label="stick core", label_color=STATE_COLORS[1], label_at="top"))
     if a > s:
-        layers.append(style(hv.VSpan(s, a), common=dict(alpha=0.25),
-                            bokeh=dict(color=slip_colour),
-                            matplotlib=dict(color=None, facecolor=slip_colour,
+        spans.append(dict(left=s, right=a, color=slip_colour, alpha=0.25,
+                          label="slip annulus", label_color=SLIP_TEXT_COLOR,
+                          label_at="bottom"))
+    return spans
+
+
+def memory_geometry(snapshot):
+    """What the memory diagram draws (None in flight, where there is no
+    memory): h, w, u = b* - w of the vertices; hc = (0, a*) and the Coulomb
+    cone's two lines over it, cone_w = b* +- (a* - hc) and cone_u =
+    +-(a* - hc); the panels' limits w_lim, u_lim and h_lim (a0 and
+    theta mu a0)."""
+    a, b = float(snapshot["a"]), float(snapshot["b"])
+    h = np.asarray(snapshot["h"], dtype=float)
+    w = np.asarray(snapshot["w"], dtype=float)
+    if h.size == 0 or a <= 0:
+        return None
+    hc = np.array([0.0, a])
+    pad = 0.08 * a
+    return dict(a=a, b=b, h=h, w=w, u=b - w, hc=hc,
+                cone_w=[b + sgn * (a - hc) for sgn in (1, -1)],
+                cone_u=[sgn * (a - hc) for sgn in (1, -1)],
+                w_lim=(min(w.min(), b - a) - pad, max(w.max(), b + a) + pad),
+                u_lim=(-(a + pad), a + pad), h_lim=(0, a * 1.02))
+
+
+def _spans(snapshot, y0, y1):
+    """Stick core [0, s_h] and slip annulus [s_h, a*] as shaded bands."""
+    layers = []
+    for sp in memory_spans(snapshot):
+        layers.append(style(hv.VSpan(sp["left"], sp["right"]),
+                            common=dict(alpha=sp["alpha"]), bokeh=dict(color=sp["color"]),
+                            matplotlib=dict(color=None, facecolor=sp["color"],
                                             edgecolor="none")))
-        layers.append(style(hv.Text((s + a) / 2, y0, "slip annulus", halign="center",
-                                    valign="bottom", fontsize=10),
-                            common=dict(color="#a05a00")))
+        top = sp["label_at"] == "top"
+        layers.append(style(hv.Text((sp["left"] + sp["right"]) / 2, y1 if top else y0,
+                                    sp["label"], halign="center",
+                                    valign="top" if top else "bottom", fontsize=10),
+                            common=dict(color=sp["label_color"])))
     return layers
 
 
@@ -585,79 +635,83 @@ def memory_diagram(snapshot):
     (apex (a*, b*)); right, the spring displacements u(h) = b* - w with
     |u| = a* - h.  The stick core (h < s_h) and the slip annulus (s_h < h < a*)
     are shaded."""
-    a, b = float(snapshot["a"]), float(snapshot["b"])
-    h = np.asarray(snapshot["h"], dtype=float)
-    w = np.asarray(snapshot["w"], dtype=float)
-    u = b - w
-    state = STATE_NAMES[int(snapshot["state"])]
-    head = f"t* = {snapshot['t']:.6g}, {state}"
-    if h.size == 0 or a <= 0:
-        msg = "in flight: no contact, no memory"
+    title = memory_title(snapshot)
+    g = memory_geometry(snapshot)
+    if g is None:
+        msg = FLIGHT_TEXT
         left = hv.Overlay([hv.Curve([], H_DIM, W_DIM), hv.Text(0.5, 0.0, msg)])
         right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
-        return hv.Layout([left.relabel(f"memory diagram w(h), {head}"),
+        return hv.Layout([left.relabel(title),
                           right.relabel("spring displacements u(h)")]).cols(2)
-    hc = np.array([0.0, a])
-    pad = 0.08 * a
+    a, b, hc = g["a"], g["b"], g["hc"]
     # w(h) panel
-    w_lo = min(w.min(), b - a) - pad
-    w_hi = max(w.max(), b + a) + pad
-    cone = [_styled_line(hv.Curve((hc, b + sgn * (a - hc)), H_DIM, W_DIM,
-                                  label="Coulomb cone" if sgn > 0 else ""), "black", width=1,
-                         dash="dashed") for sgn in (1, -1)]
-    poly = _styled_line(hv.Curve((h, w), H_DIM, W_DIM, label="w(h)"), "#1f77b4", width=2)
+    w_lo, w_hi = g["w_lim"]
+    cone = [_styled_line(hv.Curve((hc, cw), H_DIM, W_DIM,
+                                  label="Coulomb cone" if i == 0 else ""), "black", width=1,
+                         dash="dashed") for i, cw in enumerate(g["cone_w"])]
+    poly = _styled_line(hv.Curve((g["h"], g["w"]), H_DIM, W_DIM, label="w(h)"), W_COLOR,
+                        width=2)
     apex = style(hv.Points([(a, b)], [H_DIM, W_DIM]), common=dict(color="black"),
                  bokeh=dict(size=7), matplotlib=dict(s=25))
     left = hv.Overlay(_spans(snapshot, w_lo, w_hi) + cone + [poly, apex])
-    left = style(left.relabel(f"memory diagram w(h), {head}"),
-                 common=dict(ylim=(w_lo, w_hi), xlim=(0, a * 1.02), show_legend=False,
-                             xlabel="h (contact depth, a0)", ylabel="w (theta mu a0)"))
+    left = style(left.relabel(title),
+                 common=dict(ylim=(w_lo, w_hi), xlim=g["h_lim"], show_legend=False,
+                             xlabel=MEMORY_XLABEL, ylabel=MEMORY_WLABEL))
     # u(h) panel
-    u_hi = a + pad
-    lim = [_styled_line(hv.Curve((hc, sgn * (a - hc)), H_DIM, U_DIM), "black", width=1,
-                        dash="dashed") for sgn in (1, -1)]
-    ucurve = _styled_line(hv.Curve((h, u), H_DIM, U_DIM, label="u(h)"), "#ff7f0e", width=2)
-    right = hv.Overlay(_spans(snapshot, -u_hi, u_hi) + lim + [ucurve])
-    right = style(right.relabel("spring displacements u(h), |u| <= a* - h"),
-                  common=dict(ylim=(-u_hi, u_hi), xlim=(0, a * 1.02), show_legend=False,
-                              xlabel="h (contact depth, a0)", ylabel="u = b* - w (theta mu a0)"))
+    u_lo, u_hi = g["u_lim"]
+    lim = [_styled_line(hv.Curve((hc, cu), H_DIM, U_DIM), "black", width=1,
+                        dash="dashed") for cu in g["cone_u"]]
+    ucurve = _styled_line(hv.Curve((g["h"], g["u"]), H_DIM, U_DIM, label="u(h)"), U_COLOR,
+                          width=2)
+    right = hv.Overlay(_spans(snapshot, u_lo, u_hi) + lim + [ucurve])
+    right = style(right.relabel(MEMORY_UTITLE),
+                  common=dict(ylim=(u_lo, u_hi), xlim=g["h_lim"], show_legend=False,
+                              xlabel=MEMORY_XLABEL, ylabel=MEMORY_ULABEL))
     return hv.Layout([left, right]).cols(2)
 
 
-def _disc(r, n=181):
+def disc_outline(r, n=181):
+    """A circle of radius r about the origin: (n, 2) points, closed."""
     phi = np.linspace(0, 2 * np.pi, n)
     return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
 
 
-def contact_circle(snapshot):
-    """The contact seen from above: contact circle c = sqrt(a*), stick core
-    s = sqrt(s_h), the slip annulus between them coloured."""
+def contact_geometry(snapshot):
+    """What the contact circle draws: c = sqrt(a*) and s = sqrt(s_h)
+    (sqrt(R a0)), the half-width rmax of the view, the title, and the discs
+    (largest first: dicts of r, color, dashed, label; none in flight)."""
     a = max(float(snapshot["a"]), 0.0)
     s_h = min(max(float(snapshot["stick_depth"]), 0.0), a)
     c, s = np.sqrt(a), np.sqrt(s_h)
     title = (f"contact: c = {c:.3g}, s = {s:.3g} "
              f"({STATE_NAMES[int(snapshot['state'])]})")
-    rmax = max(c, 1.0) * 1.1
-    layers = []
+    discs = []
     if c > 0:
         slip = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
-        layers.append(style(hv.Polygons([_disc(c)], [CX_DIM, CZ_DIM],
-                                        label="slip annulus" if s < c else "stick"),
-                            common=dict(alpha=0.9),
-                            bokeh=dict(color=slip if s < c else STATE_COLORS[1],
-                                       line_color="black"),
-                            matplotlib=dict(color=None, facecolor=slip if s < c else
-                                            STATE_COLORS[1], edgecolor="black")))
+        discs.append(dict(r=c, color=slip if s < c else STATE_COLORS[1], dashed=False,
+                          label="slip annulus" if s < c else "stick"))
         if 0 < s < c:
-            layers.append(style(hv.Polygons([_disc(s)], [CX_DIM, CZ_DIM], label="stick core"),
-                                common=dict(alpha=0.9),
-                                bokeh=dict(color=STATE_COLORS[1], line_color="black",
-                                           line_dash="dashed"),
-                                matplotlib=dict(color=None, facecolor=STATE_COLORS[1],
-                                                edgecolor="black", linestyle="dashed")))
-    else:
+            discs.append(dict(r=s, color=STATE_COLORS[1], dashed=True, label="stick core"))
+    return dict(c=c, s=s, rmax=max(c, 1.0) * 1.1, title=title, discs=discs)
+
+
+def contact_circle(snapshot):
+    """The contact seen from above: contact circle c = sqrt(a*), stick core
+    s = sqrt(s_h), the slip annulus between them coloured."""
+    g = contact_geometry(snapshot)
+    layers = []
+    for d in g["discs"]:
+        bk = dict(color=d["color"], line_color="black")
+        mp = dict(color=None, facecolor=d["color"], edgecolor="black")
+        if d["dashed"]:
+            bk["line_dash"], mp["linestyle"] = "dashed", "dashed"
+        layers.append(style(hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM],
+                                        label=d["label"]),
+                            common=dict(alpha=0.9), bokeh=bk, matplotlib=mp))
+    if not g["discs"]:
         layers.append(hv.Text(0, 0, "in flight: no contact"))
-    return style(hv.Overlay(layers).relabel(title),
+    rmax = g["rmax"]
+    return style(hv.Overlay(layers).relabel(g["title"]),
                  common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
-                             show_legend=False, xlabel="x (sqrt(R a0))",
-                             ylabel="z (sqrt(R a0))"))
+                             show_legend=False, xlabel=CIRCLE_XLABEL,
+                             ylabel=CIRCLE_ZLABEL))

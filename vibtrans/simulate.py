@@ -7,6 +7,7 @@ kernel reports full, so a long run stays responsive and memory follows the
 need.
 """
 import math
+import numbers
 import time
 
 import numpy as np
@@ -157,29 +158,90 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
     return run.samples, run.events, run.ctr, {"h": dt}
 
 
+def _deformable(scene):
+    if scene.model != "deformable":
+        raise InputError(f"model must be deformable for a memory diagram, got {scene.model!r}")
+
+
+def _is_time(t, periods):
+    return (isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_))
+            and 0 <= t <= periods)
+
+
+def _snapshot(state, ctr, memory):
+    """The dict of a memory diagram from a run's final state and memory."""
+    from .contact import anchor_profile
+    H, W, P, nvert, memf = memory
+    hs, ws = anchor_profile(H, W, nvert, memf)
+    a, b = float(memf[0]), float(memf[1])
+    return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,
+            "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
+
+
 def memory_snapshot(scene=None, t=None, **values):
     """The memory diagram of a deformable scene at time t (periods).
 
     Runs the scene from rest to t and returns a dict: t, a, b (a*, b* at t),
     h and w (the anchor polyline w(h), absolute b* units; empty in flight),
     u = b - w (spring displacements), stick_depth s_h, and state code.
+    In contact, t is the first step at or after the time asked for.
     """
-    from .contact import anchor_profile
     scene = _scene(scene, values)
-    if scene.model != "deformable":
-        raise InputError(f"model must be deformable for a memory diagram, got {scene.model!r}")
+    _deformable(scene)
     if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) \
             or not (0 <= t <= scene.periods):
         raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
-    short = scene.replace(periods=max(float(t), 1e-9))
+    short = scene.replace(periods=max(float(t), MIN_SNAPSHOT_TIME))
     p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
     run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity)
-    state, ctr = run.state, run.ctr
-    H, W, P, nvert, memf = run.memory
-    hs, ws = anchor_profile(H, W, nvert, memf)
-    a, b = float(memf[0]), float(memf[1])
-    return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,
-            "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
+    return _snapshot(run.state, run.ctr, run.memory)
+
+
+MIN_SNAPSHOT_TIME = 1e-9     # t = 0 shows the first step (a run needs a length)
+MAX_SNAPSHOTS = 10_000
+
+
+def memory_snapshots(scene=None, times=None, *, progress=None, cancel=None, **values):
+    """The memory diagram of a deformable scene at each of several times
+    (periods, increasing), from ONE run from rest: a list of the dicts
+    `memory_snapshot` returns, one per time.
+
+    Each takes the same steps as memory_snapshot(scene, t) and agrees with
+    it to rounding, not bit for bit: the run's kernel calls end at each time,
+    which restarts the kernel's sin/cos rotation (drivers.run_memory_stops);
+    memory_snapshots(scene, [t]) is memory_snapshot(scene, t) bit for bit.
+    progress(fraction) and cancel (an object with is_set(); raises
+    Cancelled) as in simulate().  Costs one run to times[-1].
+    """
+    scene = _scene(scene, values)
+    _deformable(scene)
+    stops = _snapshot_times(times, scene.periods)
+    short = scene.replace(periods=stops[-1])
+    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    runs = drivers.run_memory_stops(p, short.integrator, stops, samples_capacity=capacity,
+                                    progress=progress, cancel=cancel)
+    return [_snapshot(*run) for run in runs]
+
+
+def _snapshot_times(times, periods):
+    """Validated snapshot times as run stops (floats >= MIN_SNAPSHOT_TIME)."""
+    what = (f"times must be a sequence of 1 to {MAX_SNAPSHOTS} increasing times in "
+            f"[0, {periods:g}] periods")
+    if isinstance(times, (str, bytes)) or times is None:
+        raise InputError(f"{what}, got {times!r}")
+    try:
+        values = list(times)
+    except TypeError:
+        raise InputError(f"{what}, got {times!r}") from None
+    if not 1 <= len(values) <= MAX_SNAPSHOTS:
+        raise InputError(f"{what}, got {len(values)} times")
+    for i, t in enumerate(values):
+        if not _is_time(t, periods):
+            raise InputError(f"{what}; times[{i}] = {t!r} is not")
+        if i and not t > values[i - 1]:
+            raise InputError(f"{what}; times[{i}] = {t!r} does not follow "
+                             f"times[{i - 1}] = {values[i - 1]!r}")
+    return [max(float(t), MIN_SNAPSHOT_TIME) for t in values]
 
 
 def _stick_depth(h, w, a, b):

@@ -1,0 +1,183 @@
+"""The explorer's memory view (app/views/memory.py), server side (no
+browser): built once, empty and disabled before a deformable run, fed a real
+preview run's snapshots through its sources, scrubbed by its slider, a typed
+time shown or refused with a message, a new run replacing the snapshots of
+the last (issue 14: memory view <= 0.5 s, scrubbed through time)."""
+import asyncio
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from asyncutil import until
+from vibtrans import paper_scene, plots
+from vibtrans.simulate import memory_snapshot, memory_snapshots
+from vibtrans_explorer import urlstate
+from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times
+
+POOL = ThreadPoolExecutor(max_workers=2)
+
+
+def _scene(point, **kw):
+    return paper_scene(point).replace(**{"model": "deformable", "fidelity": "preview", **kw})
+
+
+@pytest.fixture(scope="module")
+def partial_slip():
+    """Scene 9 (partial slip: a stick core in a slip annulus) and the
+    snapshots the view should hold, computed here on their own."""
+    scene = _scene(9)
+    return scene, memory_snapshots(scene, snapshot_times(scene.periods))
+
+
+async def _ready(view):
+    view.set_run(*view._next)
+    await until(lambda: view._job is None, timeout=120)
+
+
+def _view(scene):
+    view = MemoryView(POOL)
+    view._next = (scene, scene.periods)
+    return view
+
+
+def _holds(view, snap):
+    """The view's sources hold this snapshot's arrays (and its title)."""
+    assert np.array_equal(view.profile.data["h"], snap["h"])
+    assert np.array_equal(view.profile.data["w"], snap["w"])
+    assert np.array_equal(view.profile.data["u"], snap["u"])
+    assert view.apex.data == {"h": [snap["a"]], "w": [snap["b"]]}
+    spans = plots.memory_spans(snap)
+    assert view.spans.data["left"] == [s["left"] for s in spans]
+    assert view.spans.data["right"] == [s["right"] for s in spans]
+    assert view.spans.data["label"] == [s["label"] for s in spans]
+    discs = plots.contact_geometry(snap)["discs"]
+    radii = [float(np.hypot(x[0], y[0])) for x, y in zip(view.discs.data["xs"],
+                                                          view.discs.data["ys"])]
+    assert radii == pytest.approx([d["r"] for d in discs], rel=1e-12)
+    assert view.w_fig.title.text == plots.memory_title(snap)
+    assert view.c_fig.title.text == plots.contact_geometry(snap)["title"]
+
+
+def test_empty_and_disabled_before_a_run():
+    view = MemoryView(POOL)
+    assert view.slider.disabled and view.show_button.disabled
+    assert all(len(v) == 0 for src in (view.profile, view.spans, view.discs)
+               for v in src.data.values())
+
+
+def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
+    scene, snaps = partial_slip
+
+    async def go():
+        view = _view(scene)
+        view.set_run(scene, scene.periods)
+        assert view.busy.visible and view.slider.disabled       # computing, said so
+        await until(lambda: view._job is None, timeout=120)
+        assert not view.busy.visible and not view.slider.disabled
+        assert len(view.snapshots) == SNAPSHOTS
+        _holds(view, snaps[-1])                                 # the run's end first
+        assert len(view.spans.data["left"]) == 2                # stick core, slip annulus
+        # every position of the slider shows its snapshot
+        for i in (0, 7, SNAPSHOTS // 2, SNAPSHOTS - 2):
+            view.slider.value = float(view.times[i])
+            _holds(view, snaps[i])
+        # the depth axis and the circle keep one scale while scrubbing
+        a_max = max(s["a"] for s in snaps)
+        assert view.w_fig.x_range.end == pytest.approx(1.02 * a_max)
+        assert view.c_fig.x_range.end == pytest.approx(1.1 * max(np.sqrt(a_max), 1.0))
+    asyncio.run(go())
+
+
+def test_a_typed_time_is_shown_and_bad_ones_are_messages(partial_slip):
+    scene, _ = partial_slip
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        view.time_field.input.value = "1500.25"
+        await view.show_at()
+        _holds(view, memory_snapshot(scene, 1500.25))
+        assert not view.note.visible
+        before = view.shown
+        for text in ("2500", "-5", "abc", ""):
+            says = f"got '{urlstate.shown(text)}'" if text else "the field is empty"
+            view.time_field.input.value = text
+            await view.show_at()
+            assert view.note.visible and view.shown is before
+            msg = view.note.object
+            assert msg.startswith("Not shown: time t* (periods) must be") and says in msg
+            assert "[0.0, 2000.0]" in msg
+        # with the explorer's alert: the message goes there
+        said = []
+        view.error = said.append
+        view.time_field.input.value = "2001"
+        await view.show_at()
+        assert len(said) == 1 and "'2001'" in said[0]
+    asyncio.run(go())
+
+
+def test_in_flight_there_is_no_memory():
+    """Scene 4 hops: a time in flight draws the message, no diagram."""
+    scene = _scene(4, periods=60.0)
+    snaps = memory_snapshots(scene, snapshot_times(60.0))
+    k = next(i for i, s in enumerate(snaps) if s["h"].size == 0)
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        view.slider.value = float(view.times[k])
+        assert view.notes.data["text"] == [plots.FLIGHT_TEXT]
+        assert len(view.profile.data["h"]) == 0 and len(view.discs.data["xs"]) == 0
+        assert view.circle_notes.data["text"] == ["in flight: no contact"]
+        j = next(i for i, s in enumerate(snaps) if s["h"].size > 0)
+        view.slider.value = float(view.times[j])
+        _holds(view, snaps[j])
+        assert view.notes.data["text"] == []
+    asyncio.run(go())
+
+
+def test_a_new_run_cancels_and_replaces_the_snapshots():
+    first = _scene(9, fidelity="standard")           # ~0.5 s of snapshots
+    second = _scene(7, periods=100.0)
+
+    async def go():
+        view = MemoryView(POOL)
+        view.set_run(first, first.periods)
+        cancel = view._job[0]
+        view.set_run(second, second.periods)
+        assert cancel.is_set()                          # the first run stops
+        await until(lambda: view._job is None, timeout=120)
+        assert view.scene is second and view.times[-1] == 100.0
+        expected = memory_snapshots(second, snapshot_times(100.0))[-1]
+        _holds(view, expected)
+        await asyncio.sleep(0.3)                        # the first's end changes nothing
+        assert view.scene is second
+        _holds(view, expected)
+        view.set_run(second.replace(model="point-mass"), 100.0)   # no memory diagram
+        assert view.scene is None and view.slider.disabled and view.show_button.disabled
+        assert len(view.profile.data["h"]) == 0
+    asyncio.run(go())
+
+
+def test_clear_empties_and_disables(partial_slip):
+    scene, _ = partial_slip
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        view.clear()
+        assert view.slider.disabled and view.show_button.disabled and view.shown is None
+        assert all(len(v) == 0 for v in view.profile.data.values())
+        await view.show_at()                     # nothing to show: nothing happens
+        assert view.shown is None and not view.note.visible
+    asyncio.run(go())
+
+
+def test_snapshot_times_cover_the_last_period():
+    t = snapshot_times(2000.0)
+    assert t.size == SNAPSHOTS and t[0] == 1999.0 and t[-1] == 2000.0
+    assert np.all(np.diff(t) > 0)
+    short = snapshot_times(0.5)
+    assert short[0] == 0.0 and short[-1] == 0.5

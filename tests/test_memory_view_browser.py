@@ -1,0 +1,100 @@
+"""The memory view (app/views/memory.py) in a real headless browser: a page
+of only the view (pn.serve in a thread), fed a preview run; a slider step
+and a typed time change the figures in the browser, and the time from the
+key press (or the click) to the new title in the page's Bokeh document is
+printed (issue 14: click/scrub to drawn <= 0.5 s; tests assert behaviour,
+not wall-clock times).  A screenshot goes to test-artifacts/."""
+import shutil
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import panel as pn
+import pytest
+
+from netutil import free_port
+from playwright import sync_api as playwright
+from vibtrans import paper_scene
+from vibtrans.simulate import memory_snapshot
+from vibtrans_explorer.views.memory import MemoryView
+
+pytestmark = pytest.mark.browser
+
+ROOT = Path(__file__).resolve().parent.parent
+ARTIFACTS = ROOT / "test-artifacts"
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run"]
+SCENE = paper_scene(9).replace(model="deformable", fidelity="preview", periods=200.0)
+
+# the memory diagram's title in the page's Bokeh document, and the first
+# value of the w(h) line's source
+_TITLE_JS = """() => {
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.text !== undefined && typeof m.text === "string"
+        && m.text.startsWith("memory diagram w(h), t* =")) return m.text;
+  return null;
+}"""
+_CHANGED_JS = f"(before) => {{ const t = ({_TITLE_JS})(); return t !== null && t !== before; }}"
+
+
+@pytest.fixture(scope="module")
+def served():
+    pool = ThreadPoolExecutor(2)
+    memory_snapshot(SCENE, 1.0)             # kernels loaded before the page asks
+
+    def app():
+        view = MemoryView(pool)
+        pn.state.onload(lambda: view.set_run(SCENE, SCENE.periods))
+        return view
+    port = free_port()
+    server = pn.serve({"memory": app}, port=port, address="127.0.0.1", show=False,
+                      threaded=True, websocket_origin=[f"127.0.0.1:{port}"])
+    deadline = time.time() + 30
+    while not getattr(server, "server", None) and time.time() < deadline:
+        time.sleep(0.05)
+    try:
+        yield f"http://127.0.0.1:{port}/memory"
+    finally:
+        server.stop()
+        pool.shutdown(cancel_futures=True)
+
+
+def _elapsed_until_changed(page, act):
+    before = page.evaluate(_TITLE_JS)
+    t0 = time.perf_counter()
+    act()
+    page.wait_for_function(_CHANGED_JS, arg=before, polling="raf", timeout=30000)
+    return time.perf_counter() - t0, page.evaluate(_TITLE_JS)
+
+
+def test_the_slider_and_a_typed_time_update_the_figures(served):
+    assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        page = browser.new_page(viewport={"width": 1200, "height": 900})
+        errors = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(served)
+        page.wait_for_function(f"() => ({_TITLE_JS})() !== null", timeout=60000)
+        assert "t* = 200," in page.evaluate(_TITLE_JS)      # the run's end first
+        handle = page.locator(".noUi-handle").first
+        handle.focus()
+        scrubs = []
+        for _ in range(5):
+            dt, title = _elapsed_until_changed(page, lambda: page.keyboard.press("ArrowLeft"))
+            scrubs.append(dt)
+        assert "t* = 199.8" in title                       # five steps of 1/47 period back
+        field = page.locator("input[type=text]").first
+        field.fill("123.45")
+        field.press("Enter")
+        page.wait_for_timeout(300)
+        dt_click, title = _elapsed_until_changed(
+            page, lambda: page.get_by_role("button", name="Show the memory diagram at t*").click())
+        assert "t* = 123.45" in title
+        ARTIFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / "memory_view.png"), full_page=True)
+        browser.close()
+    print(f"\nkey press to new title: {', '.join(f'{s * 1e3:.0f}' for s in scrubs)} ms; "
+          f"click to new title: {dt_click * 1e3:.0f} ms")
+    assert not errors, errors
