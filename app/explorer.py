@@ -23,16 +23,16 @@ import panel as pn
 import param
 from bokeh.models import CustomJSTickFormatter
 
-from vibtrans import plots, simulate
+from vibtrans import simulate
 from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
-from vibtrans.simulate import memory_snapshot
 
 from . import data, inputs, urlstate
 from .controller import RUNNER, RunController, comparison
 from .state import MAP_MATERIAL, URL_KEYS, ExplorerState, within
 from .views.exports import ExportsView
 from .views.map import MapView
+from .views.memory import MemoryView
 from .views.summary import SummaryView
 from .views.trajectory import TrajectoryView
 from .views.units import UnitsPanel
@@ -87,6 +87,12 @@ the wave (+x) or against it (-x).
 Click the map or pick a paper point to run a scene; its trajectory appears
 below the summary.
 """
+
+MEMORY_TAB = 1          # the run's tabs: trajectory, memory diagram, exports
+MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with history, "
+               "deformable runs): the anchors w(h) of the springs over the contact depth, "
+               "their displacements u(h) with the Coulomb cone, and the stick core inside the "
+               "slip annulus. The slider scrubs through the run's last period.")
 
 # presentation mode: the page's text and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
@@ -150,12 +156,6 @@ def _page_location():
     path = getattr(ctx.request, "path", None) or "/"
     return Location(pathname=path if path.startswith("/") else "/")
 
-
-
-class MemoryTime(param.Parameterized):
-    """The time of the memory-diagram snapshot; its range is the last run's."""
-
-    t = param.Number(default=1999.5, bounds=(0.0, 2000.0), doc="t*, periods")
 
 
 def scale_fonts(fig, factor):
@@ -230,12 +230,15 @@ class Explorer(pn.viewable.Viewer):
         self._on_point_mass_shown()
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
+        self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
         self.units_panel = UnitsPanel(on_run=self._run_device, on_error=self._error)
         self.summary_view = SummaryView(self.units_panel.si_text)
         self.summary = self.summary_view.pane
         self.trajectories = TrajectoryView()
-        self.teaching = self._teaching()
-        self.teaching.visible = self.state.model == "deformable"
+        # the memory diagram computes its snapshots (a run's worth of work)
+        # only while its tab is open: a click elsewhere costs one run
+        self.memory_view = MemoryView(RUNNER)
+        self.memory_view.error = self._error
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._apply_url()
@@ -246,8 +249,15 @@ class Explorer(pn.viewable.Viewer):
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
         self.exports = ExportsView(self.state, self.map_view)
-        self.trajectory = pn.Column(self.trajectories.panel, self.teaching, self.exports.panel,
-                                    sizing_mode="stretch_width", name="trajectory")
+        # the run's views, built when their tab is first opened
+        self.run_tabs = pn.Tabs(
+            ("Trajectory", self.trajectories.panel),
+            ("Memory diagram", pn.Column(pn.pane.Markdown(MEMORY_TEXT), self.memory_view,
+                                         sizing_mode="stretch_width")),
+            ("Export & data", self.exports.panel),
+            dynamic=True, sizing_mode="stretch_width", name="trajectory")
+        self.run_tabs.param.watch(self._on_run_tab, "active")
+        self.trajectory = self.run_tabs
         self.where = pn.pane.Alert("", alert_type="info", visible=False,
                                    sizing_mode="stretch_width", name="where")
         self._on_position()
@@ -413,7 +423,18 @@ class Explorer(pn.viewable.Viewer):
     def _on_message(self, event):
         self._error(event.new)
 
+    def _on_run_tab(self, event):
+        if event.new == MEMORY_TAB:
+            self._update_memory()
+
+    def _update_memory(self):
+        """The memory view of the last run, computed when first looked at."""
+        pending, self._memory_pending = self._memory_pending, None
+        if pending is not None:
+            self.memory_view.set_run(*pending)      # clears it for a point mass
+
     def _on_session_destroyed(self, session_context):
+        self.memory_view.clear()       # cancels its background snapshots
         self.controller.discard()
         self.trajectories.clear()
         _schedule_release()
@@ -454,56 +475,11 @@ class Explorer(pn.viewable.Viewer):
                 view = self.trajectories.views[key]
                 scale_fonts(view.whole, PRESENTATION_SCALE)
                 scale_fonts(view.part, PRESENTATION_SCALE)
-            self.teaching.visible = scene.model == "deformable"
-            self.memory_button.disabled = False
             self.exports.show(result)
-            self.memory_at.param.t.bounds = (0.0, T)
-            self.memory_at.t = round(T - 0.5, 3)
-            self.memory_pane.object = None
             self.summary_view.show(result)
-
-    # ---------- teaching views ----------
-    def _teaching(self):
-        self.memory_at = MemoryTime()
-        self.memory_time = inputs.NumberField(self.memory_at, "t", "time t* (periods)", width=200)
-        self.memory_button = pn.widgets.Button(name="Show the memory diagram at t*",
-                                               button_type="primary", disabled=True)
-        self.memory_button.on_click(self._on_memory_click)
-        self.memory_pane = pn.pane.HoloViews(None, linked_axes=False)
-        return pn.Column(
-            pn.pane.Markdown("**Memory diagram and contact circle** (Cattaneo-Mindlin with "
-                             "history): the anchors w(h) of the springs over the contact "
-                             "depth, their displacements u(h) with the Coulomb cone, and the "
-                             "stick core inside the slip annulus."),
-            pn.Row(self.memory_time, self.memory_button), self.memory_pane, visible=False)
-
-    def _on_memory_click(self, event):
-        pn.state.execute(self._show_memory)
-
-    async def _show_memory(self):
-        result = self.controller.result
-        if result is None or self.memory_button.disabled:
-            return
-        scene = result.scene
-        if self.memory_time.error:
-            self._error("Not shown: " + self.memory_time.error)
-            return
-        t = self.memory_at.t
-        self.memory_button.disabled = True      # one snapshot at a time per session
-        self.memory_pane.loading = True         # rendering takes seconds: say so
-        try:
-            snap = await asyncio.wrap_future(RUNNER.submit(memory_snapshot, scene, t))
-            fig = plots.memory_diagram(snap) + plots.contact_circle(snap)
-            self.memory_pane.object = fig.opts(
-                hv.opts.Curve(width=380, height=300), hv.opts.Overlay(width=380, height=300))
-        except ValueError as exc:
-            self._error(str(exc))
-        except Exception as exc:
-            log.exception("memory snapshot failed: %s at t = %s", scene.values(), t)
-            self._error(f"The memory diagram failed: {type(exc).__name__}: {exc}")
-        finally:
-            self.memory_button.disabled = False
-            self.memory_pane.loading = False
+            self._memory_pending = (scene, T)
+            if self.run_tabs.active == MEMORY_TAB:
+                self._update_memory()
 
     # ---------- layout ----------
     def controls(self):

@@ -137,16 +137,18 @@ def test_paper_point_runs_and_plots(page, server):
     lengths = sorted(_sources(page).values())
     assert len(lengths) == 3 and lengths[0] >= 2 * 40, lengths
     assert 400 in lengths and lengths[-1] >= 10000, lengths
-    # one linked time axis for the whole run (its 5 panels), one for the fragment
+    # one linked time axis for the whole run (its 5 panels), one for the
+    # fragment, whose time counts from its start (t0 = 1998: issue 14, the
+    # motion within a period hid behind absolute numbers)
     figures = page.evaluate(_FIGURES_JS)
     whole = {(x, s, e) for t, x, s, e in figures if s == 0 and e == 2000}
-    last = {(x, s, e) for t, x, s, e in figures if s == 1998 and e == 2000}
+    last = {(x, s, e) for t, x, s, e in figures if s == 0 and e == 2}
     titles = [t for t, *_ in figures]
     assert len(whole) == 1 and len(last) == 1, figures
     assert sum(1 for t, x, *_ in figures if (x, 0, 2000) in whole) == 5, figures
-    for title in ("normal: a*(t), y*(t)", "tangential: b*(t), x*(t)",
-                  "contact state (dominant per bin)",
-                  f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin"):
+    for title in ("normal: a*(t), y*(t)", "contact state (dominant per bin)",
+                  f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin",
+                  "tangential: b*(t), x*(t) - x*(t0)"):
         assert title in titles, titles
 
 
@@ -300,7 +302,9 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
     page.locator("button", has_text="Run this device's scene").click()
     _summary_text(page).wait_for(timeout=120000)
     _see(page, "(the maps: 1.2, 0.3)")
-    _see(page, "m/s (the Units tab's device)")
+    # the drift and the run's length in SI units (issue 14: time in seconds)
+    _see(page, "periods, lasts")
+    _see(page, "(the Units tab's device)")
 
 
 def test_teaching_view_and_export(page, server):
@@ -309,11 +313,17 @@ def test_teaching_view_and_export(page, server):
     select.select_option(label="1: permanent contact, drift against the wave")
     _summary_text(page).wait_for(timeout=60000)
     n_before = page.locator("canvas").count()
-    page.get_by_text("Show the memory diagram at t*").first.click()
+    # the memory tab computes the run's last period when opened (app/views/memory.py)
+    page.get_by_role("tab", name="Memory diagram").click()
     deadline = time.time() + 60
     while page.locator("canvas").count() <= n_before and time.time() < deadline:
         page.wait_for_timeout(250)
     assert page.locator("canvas").count() > n_before      # the diagrams are drawn
+    # a snapshot drawn: the diagram's title names its time
+    page.wait_for_function("""() => (page_figures => page_figures.some(
+        f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
+                           timeout=60000, polling=250)
+    page.get_by_role("tab", name="Export & data").click()
     for kind in ("trajectory-png", "map-svg"):
         with page.expect_download(timeout=120000) as dl:
             page.locator(f".vt-export-{kind}").locator("button, a").first.click()
@@ -327,6 +337,7 @@ def test_teaching_view_and_export(page, server):
 def test_data_downloads(page, server):
     _open(page, server + "?la=2.5&lm=0&fidelity=preview")
     _summary_text(page).wait_for(timeout=60000)
+    page.get_by_role("tab", name="Export & data").click()
     for cls, check in ((".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
                        (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
                        (".vt-data-map-window-nc",

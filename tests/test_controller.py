@@ -15,7 +15,7 @@ from vibtrans_explorer.state import ExplorerState
 
 def _state(**values):
     s = ExplorerState()
-    s.param.update(fidelity="preview", compare="none", **values)
+    s.param.update(**{"fidelity": "preview", "compare": "none", **values})
     return s
 
 
@@ -32,7 +32,7 @@ def test_a_run_publishes_its_result_once():
     asyncio.run(c.run())
     r = c.result
     assert r is not None and c.job is None and c.message == ""
-    assert r.scene == c.state.scene() and r.other is None and r.label is None
+    assert r.scene.values() == c.state.scene().values() and r.other is None and r.label is None
     assert r.summary.model == "deformable" and r.ds.attrs["model"] == "deformable"
     assert [n for n, _ in seen].count("result") == 1 and not c.busy
 
