@@ -235,10 +235,10 @@ class Explorer(pn.viewable.Viewer):
         self.summary_view = SummaryView(self.units_panel.si_text)
         self.summary = self.summary_view.pane
         self.trajectories = TrajectoryView()
-        # the memory diagram computes its snapshots (a run's worth of work)
-        # only while its tab is open: a click elsewhere costs one run
-        self.memory_view = MemoryView(RUNNER)
-        self.memory_view.error = self._error
+        # the memory diagram is built, and computes its snapshots (a run's
+        # worth of work), only once its tab is open
+        self.memory_view = None
+        self.memory_box = pn.Column(pn.pane.Markdown(MEMORY_TEXT), sizing_mode="stretch_width")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._apply_url()
@@ -252,9 +252,8 @@ class Explorer(pn.viewable.Viewer):
         # the run's views, built when their tab is first opened
         self.run_tabs = pn.Tabs(
             ("Trajectory", self.trajectories.panel),
-            ("Memory diagram", pn.Column(pn.pane.Markdown(MEMORY_TEXT), self.memory_view,
-                                         sizing_mode="stretch_width")),
-            ("Export & data", self.exports.panel),
+            ("Memory diagram", self.memory_box),
+            ("Downloads", self.exports.panel),
             dynamic=True, sizing_mode="stretch_width", name="trajectory")
         self.run_tabs.param.watch(self._on_run_tab, "active")
         self.trajectory = self.run_tabs
@@ -274,7 +273,6 @@ class Explorer(pn.viewable.Viewer):
         self.param.watch(self._on_presentation, "presentation")
         if served:
             pn.state.on_session_destroyed(self._on_session_destroyed)
-            pn.state.onload(self._prebuild)
 
     # ---------- URL ----------
     def _apply_url(self):
@@ -389,6 +387,7 @@ class Explorer(pn.viewable.Viewer):
         with pn.io.hold():
             if getattr(self, "page", None) is not None:
                 self.page.styles = {"font-size": f"{factor:g}em"} if event.new else {}
+            self.map_view.scale_fonts = (lambda fig: scale_fonts(fig, factor)) if event.new else None
             for fig in self.map_view.figures:
                 scale_fonts(fig, factor)
             for view in self.trajectories.views.values():
@@ -403,8 +402,18 @@ class Explorer(pn.viewable.Viewer):
 
     def start_run(self, schedule=True):
         """Run the selected scene (RunController.start): returns the Job, or
-        None if refused."""
-        return self.controller.start(schedule=schedule)
+        None if refused.  The figures of a structure (model, comparison)
+        not shown before are built now, while its kernels run (they release
+        the GIL), not when the page loads: a page costs the server less
+        (`python -m devtools.pagecost`) and the first run no more."""
+        job = self.controller.start(schedule=schedule)
+        if job is not None and (job.scene.model, job.label) not in self.trajectories.views:
+            try:
+                with pn.io.hold(freeze=True):
+                    self.trajectories.view((job.scene.model, job.label), job.scene.tau)
+            except Exception:      # the run's _show builds them (and reports a failure)
+                log.exception("building the trajectory figures failed")
+        return job
 
     async def _run(self):
         await self.controller.run()
@@ -429,27 +438,20 @@ class Explorer(pn.viewable.Viewer):
 
     def _update_memory(self):
         """The memory view of the last run, computed when first looked at."""
+        if self.memory_view is None:
+            self.memory_view = MemoryView(RUNNER)
+            self.memory_view.error = self._error
+            self.memory_box.append(self.memory_view)
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
             self.memory_view.set_run(*pending)      # clears it for a point mass
 
     def _on_session_destroyed(self, session_context):
-        self.memory_view.clear()       # cancels its background snapshots
+        if self.memory_view is not None:
+            self.memory_view.clear()       # cancels its background snapshots
         self.controller.discard()
         self.trajectories.clear()
         _schedule_release()
-
-    def _prebuild(self):
-        """Build the (empty) trajectory figures of the selected structure
-        once the page has loaded, so that the first click only sends data,
-        like every later one (the browser draws them for the first time now,
-        not on the click)."""
-        try:
-            scene = self.scene()
-            with pn.io.hold(freeze=True):
-                self.trajectories.prebuild(scene, comparison(scene, self.state.compare)[1])
-        except Exception:           # only an optimisation: the first run builds them
-            log.exception("building the empty trajectory figures failed")
 
     def _on_result(self, event):
         result = event.new

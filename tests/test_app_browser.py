@@ -323,7 +323,7 @@ def test_teaching_view_and_export(page, server):
     page.wait_for_function("""() => (page_figures => page_figures.some(
         f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
                            timeout=60000, polling=250)
-    page.get_by_role("tab", name="Export & data").click()
+    page.get_by_role("tab", name="Downloads").click()
     for kind in ("trajectory-png", "map-svg"):
         with page.expect_download(timeout=120000) as dl:
             page.locator(f".vt-export-{kind}").locator("button, a").first.click()
@@ -337,7 +337,7 @@ def test_teaching_view_and_export(page, server):
 def test_data_downloads(page, server):
     _open(page, server + "?la=2.5&lm=0&fidelity=preview")
     _summary_text(page).wait_for(timeout=60000)
-    page.get_by_role("tab", name="Export & data").click()
+    page.get_by_role("tab", name="Downloads").click()
     for cls, check in ((".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
                        (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
                        (".vt-data-map-window-nc",

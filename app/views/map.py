@@ -86,6 +86,7 @@ class MapView:
         self.device = ColumnDataSource({"x": [], "y": []})
         self.pane = pn.Row(sizing_mode="stretch_width", name="map")
         self.figures = []
+        self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
         self.redraw()
         state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps"], precedence=1)
 
@@ -105,6 +106,8 @@ class MapView:
                     color="lime", line_color="black")
         drawn = (model, mu) in data.available_maps()
         fig.on_event(Tap, functools.partial(self._on_tap, drawn))
+        if self.scale_fonts is not None:
+            self.scale_fonts(fig)
         return fig
 
     def redraw(self, *events):

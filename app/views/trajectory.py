@@ -29,16 +29,10 @@ class TrajectoryView:
                                  f"and x\\* counted from the window's start, so the motion "
                                  f"within a period shows)"),
                 pn.pane.Bokeh(view.part, name="fragment", sizing_mode="stretch_width"),
-                sizing_mode="stretch_width")
+                sizing_mode="stretch_width", visible=False)    # until its run is shown
             self.views[key] = view
             self.panel.append(view.panel)
         return view
-
-    def prebuild(self, scene, label):
-        """The (empty) figures of a structure, built before its first run so
-        that the first click only sends data, like every later one."""
-        if not self.views:
-            self.view((scene.model, label), scene.tau)
 
     def show(self, result, period_seconds=None):
         key = (result.scene.model, result.label)

@@ -1,0 +1,70 @@
+"""The explorer's views without a server (issue 14, for a lab and a class):
+both models' maps side by side with one zoom, a click on them running both
+models; the selected scene marked on the vertical curve; the trajectory's
+time axis in seconds for a device's run; presentation mode's large fonts."""
+from types import SimpleNamespace
+
+import pytest
+
+from vibtrans_explorer import data
+from vibtrans_explorer import explorer as E
+from vibtrans_explorer.live import time_label
+
+pytestmark = pytest.mark.slow       # explorer sessions (maps rendered)
+
+
+def _explorer(**state):
+    ex = E.Explorer()
+    ex.state.param.update(**{"fidelity": "preview", "compare": "none", **state})
+    return ex
+
+
+@pytest.mark.skipif(("point-mass", 0.3) not in data.available_maps(),
+                    reason="needs the shipped point-mass map at mu = 0.3")
+def test_both_maps_share_one_zoom_and_a_click_runs_both_models(monkeypatch):
+    ex = _explorer(model="point-mass")
+    assert len(ex.map_view.figures) == 1
+    ex.state.maps = "both models"
+    dm, pm = ex.map_view.figures
+    assert "deformable" in dm.title.text and "point-mass" in pm.title.text
+    assert pm.x_range is dm.x_range and pm.y_range is dm.y_range     # linked zoom
+    runs = []
+    monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
+    ex.map_view._on_tap(True, SimpleNamespace(x=0.4, y=1.2))
+    # the deformable scene with the point mass beside it: one run, two models
+    assert len(runs) == 1 and runs[0].model == "deformable"
+    assert ex.state.compare == "point mass"
+    ex.state.maps = "selected model"
+    assert len(ex.map_view.figures) == 1
+
+
+def test_the_vertical_curve_marks_the_selected_scene():
+    ex = _explorer()
+    ex.vertical.build()
+    ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
+    assert ex.vertical.scene.data == {"x": [-0.5], "y": [1.25]}
+    fig = ex.vertical.pane.objects[0].object
+    labels = [item.label["value"] if isinstance(item.label, dict) else
+              getattr(item.label, "value", item.label) for item in fig.legend[0].items]
+    assert "the selected scene" in labels
+
+
+def test_time_reads_in_seconds_for_a_device():
+    assert time_label() == "t* (periods)"
+    assert time_label(1998.0) == "t* - t0 (periods; t0 = 1998)"
+    # 108 kHz: a period lasts 9.259 us
+    assert time_label(None, 1 / 108e3) == "t* (periods); 1 period = 9.259 us"
+
+
+def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
+    ex = _explorer()
+    ex.main()
+    fig = ex.map_view.figures[0]
+    ex.presentation = True
+    assert fig.xaxis[0].axis_label_text_font_size == "15pt"
+    assert ex.page.styles == {"font-size": "1.5em"} and ex.intro.collapsed
+    ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
+    fig = ex.map_view.figures[0]
+    assert fig.xaxis[0].axis_label_text_font_size == "15pt"
+    ex.presentation = False
+    assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
