@@ -2,10 +2,12 @@
 are the run's full-resolution window, each frame draws the run's state
 (the particle's height, the surface under it, the contact zone and circle
 by state), the point mass shows the particle only; and in chromium, play
-advances the frame in the browser alone, pause stops it, and the browser's
-frames are the ones `frame(i)` draws.
+advances the frame in the browser alone, pause stops it, a drag of the
+slider shows that frame, a new run starts at its first frame, and the
+browser's frames are the ones `frame(i)` draws.
 
 The screenshots go to test-artifacts/ (look at them)."""
+import json
 import math
 import re
 import shutil
@@ -176,6 +178,25 @@ def test_numbers_are_written_as_the_browser_writes_them(v, d, text):
     assert _fixed(v, d) == text
 
 
+def test_the_vertical_model_has_no_stick_core():
+    # no tangential force: its stick radius is recorded as 0, which is not
+    # total sliding; the contact is drawn in its state's colour, no core
+    scene, ds = _run(1, model="vertical")
+    anim = ParticleAnimation()
+    anim.show(scene, ds)
+    touching = 0
+    for i in range(anim.frames.data["t"].size):
+        f = anim.frame(i)
+        state = int(anim.frames.data["state"][i])
+        assert np.isnan(f["zone"]["x0"][1]) and np.isnan(f["contact"]["s"][0])
+        if state > 0:
+            touching += 1
+            assert f["zone"]["colour"][0] == plots.STATE_COLORS[state]
+            assert ", s = " not in f["contact_title"]
+    assert touching > 0
+    assert "no stick core" in anim.circle_note.text
+
+
 def test_a_second_run_changes_data_only(slipping, hopping):
     anim = ParticleAnimation()
     anim.show(*slipping)
@@ -224,6 +245,22 @@ _PAGE_JS = """() => {
 }"""
 
 
+def _messages(frames, kind):
+    """How many Bokeh protocol messages of a kind (PATCH-DOC, ...) among
+    websocket frames (a message: a header frame, then its parts)."""
+    return sum(1 for m in frames if isinstance(m, str) and m.startswith("{")
+               and json.loads(m).get("msgtype") == kind)
+
+
+def _changes(frames):
+    """The properties changed by the PATCH-DOC messages among websocket frames."""
+    out = []
+    for m in frames:
+        if isinstance(m, str) and m.startswith('{"events"'):
+            out += [e.get("attr") for e in json.loads(m)["events"]]
+    return out
+
+
 def _same_frame(page_state, f):
     for name in ("surface", "particle", "zone", "contact"):
         for col, want in f[name].items():
@@ -243,6 +280,7 @@ def _same_frame(page_state, f):
 @pytest.mark.server
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
+    vertical = _run(1, model="vertical")
     import panel as pn
     from playwright import sync_api as playwright
     from netutil import free_port
@@ -265,6 +303,11 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page = browser.new_page(viewport={"width": 1200, "height": 700})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
+            received = []      # the server's websocket messages to the page
+            sent = []          # the page's to the server
+            page.on("websocket", lambda ws: (
+                ws.on("framereceived", lambda m: received.append(m)),
+                ws.on("framesent", lambda m: sent.append(m))))
             page.goto(f"http://127.0.0.1:{port}/")
             page.wait_for_selector("canvas", timeout=60000)
             page.wait_for_timeout(1000)
@@ -276,6 +319,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
 
             page.select_option("select", label="1 period/s")
             play = page.get_by_role("button", name="Play")
+            sent_at_play = len(sent)
             play.click()
             page.wait_for_timeout(1200)
             playing = page.evaluate(_PAGE_JS)["value"]
@@ -285,19 +329,40 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             paused = page.evaluate(_PAGE_JS)
             page.wait_for_timeout(800)
             later = page.evaluate(_PAGE_JS)
+            # the page told the server of the two clicks, of no frame
+            assert _changes(sent[sent_at_play:]) == ["active", "active"]
             assert later["value"] == paused["value"]        # pause stops it
             # the browser drew the frame its slider shows, as frame() draws it
             _same_frame(later, anim.frame(later["value"]))
             # ... without telling the server: no message per frame
             assert anim.slider.value == 0
             assert anim.runs == 1
+            # a hand drags the slider to a quarter of the window: that frame
+            handle = page.locator(".noUi-handle").first.bounding_box()
+            track = page.locator(".noUi-base").first.bounding_box()
+            page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+            page.mouse.down()
+            page.mouse.move(track["x"] + 0.25 * track["width"], handle["y"] + handle["height"] / 2,
+                            steps=8)
+            page.mouse.up()
+            page.wait_for_timeout(300)
+            scrubbed = page.evaluate(_PAGE_JS)
+            n = anim.frames.data["t"].size
+            assert abs(scrubbed["value"] - 0.25 * (n - 1)) <= 2, (scrubbed["value"], n)
+            _same_frame(scrubbed, anim.frame(scrubbed["value"]))
 
             # a new run from the server: back to its first frame, drawn
+            before = len(received)
+            sent_before = len(sent)
             doc.add_next_tick_callback(lambda: anim.show(*hopping))
             deadline = time.time() + 30
             while anim.runs < 2 and time.time() < deadline:
                 time.sleep(0.1)
             page.wait_for_timeout(1000)
+            # the run came in one message, and the page sent nothing about it
+            # (layout sizes aside)
+            assert _messages(received[before:], "PATCH-DOC") == 1
+            assert not set(_changes(sent[sent_before:])) - {"outer_width", "outer_height"}
             state = page.evaluate(_PAGE_JS)
             assert state["value"] == 0
             _same_frame(state, anim.frame(0))
@@ -322,6 +387,18 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             _same_frame(state, anim.frame(state["value"]))
             assert "material point: rigid, no contact area" in state["titles"]
             page.screenshot(path=str(ARTIFACTS / "animation_point_mass.png"))
+
+            # the vertical model: the contact without a stick core
+            doc.add_next_tick_callback(lambda: anim.show(*vertical))
+            deadline = time.time() + 30
+            while anim.runs < 4 and time.time() < deadline:
+                time.sleep(0.1)
+            page.wait_for_timeout(1000)
+            page.get_by_role("button", name="Play").click()
+            page.wait_for_timeout(700)
+            page.get_by_role("button", name="Pause").click()
+            state = page.evaluate(_PAGE_JS)
+            _same_frame(state, anim.frame(state["value"]))
             browser.close()
             assert not errors, errors
     finally:

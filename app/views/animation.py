@@ -159,7 +159,8 @@ function draw(i) {
   let ct;
   if (!deformable) ct = "material point: rigid, no contact area";
   else if (!touching) ct = "in flight: no contact";
-  else ct = "from above: c = " + c.toFixed(3) + ", s = " + s.toFixed(3) + "  (sqrt(R a0))";
+  else ct = "from above: c = " + c.toFixed(3) + (isNaN(s) ? "" : ", s = " + s.toFixed(3))
+            + "  (sqrt(R a0))";
   contact_title.setv({text: ct}, {sync: false});
 }
 """
@@ -383,9 +384,17 @@ class ParticleAnimation(pn.viewable.Viewer):
         u = np.array([substrate.surface_motion(ti, A, r, tau)[:2] for ti in t]).reshape(-1, 2)
         c = win["contact_radius"].values
         s = win["stick_radius"].values
+        state = win["state"].values.astype(np.int8)
+        outer = _annulus_colours(s, c)
+        if scene.model == "vertical":
+            # no tangential force: no stick core or slip annulus, the contact
+            # in its state's colour (its stick radius is recorded as 0, which
+            # the rule above would colour as total sliding)
+            s = np.full_like(c, np.nan)
+            outer = np.array([plots.STATE_COLORS[k] for k in state])
         frames = {"t": t, "x": win["x"].values, "y": win["y"].values, "a": win["a"].values,
-                  "state": win["state"].values.astype(np.int8), "c": c, "s": s, "g": g,
-                  "ux": u[:, 0], "uy": u[:, 1], "outer": _annulus_colours(s, c)}
+                  "state": state, "c": c, "s": s, "g": g,
+                  "ux": u[:, 0], "uy": u[:, 1], "outer": outer}
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
         if pick.size == n:
             note = f"Frames: all {n} samples of {span}, the run's full resolution."
@@ -437,8 +446,11 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.play.disabled = n < 2
         self._draw(0)
         self.static_contact.visible = deformable
-        self.circle_note.text = ("dotted: the static contact, c = 1" if deformable else
-                                 "a rigid point has no contact area")
+        self.circle_note.text = (
+            "a rigid point has no contact area" if not deformable else
+            "dotted: the static contact, c = 1" + ("; vertical model: no tangential force, "
+                                                   "no stick core" if scene.model == "vertical"
+                                                   else ""))
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
             f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} "
@@ -485,7 +497,8 @@ class ParticleAnimation(pn.viewable.Viewer):
         elif not touching:
             ct = "in flight: no contact"
         else:
-            ct = f"from above: c = {_fixed(c, 3)}, s = {_fixed(s, 3)}  (sqrt(R a0))"
+            ct = (f"from above: c = {_fixed(c, 3)}"
+                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "  (sqrt(R a0))")
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},
