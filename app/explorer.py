@@ -31,6 +31,7 @@ from . import data, inputs, urlstate
 from .controller import RUNNER, RunController, comparison
 from .state import MAP_MATERIAL, URL_KEYS, ExplorerState, within
 from .views.exports import ExportsView
+from .views.animation import ParticleAnimation
 from .views.map import MapView
 from .views.memory import MemoryView
 from .views.summary import SummaryView
@@ -88,7 +89,12 @@ Click the map or pick a paper point to run a scene; its trajectory appears
 below the summary.
 """
 
-MEMORY_TAB = 1          # the run's tabs: trajectory, memory diagram, exports
+# the run's tabs: trajectory, animation, memory diagram, downloads
+ANIMATION_TAB, MEMORY_TAB = 1, 2
+ANIMATION_TEXT = ("**The particle on the wave**, the run's last periods at full resolution: "
+                  "a side view (the surface, the particle, its contact zone coloured by "
+                  "state) and the contact circle beside it, in step. Press play, or drag the "
+                  "slider.")
 MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with history, "
                "deformable runs): the anchors w(h) of the springs over the contact depth, "
                "their displacements u(h) with the Coulomb cone, and the stick core inside the "
@@ -231,6 +237,7 @@ class Explorer(pn.viewable.Viewer):
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
         self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
+        self._animated = None               # the RunResult the animation shows
         self.units_panel = UnitsPanel(on_run=self._run_device, on_error=self._error)
         self.summary_view = SummaryView(self.units_panel.si_text)
         self.summary = self.summary_view.pane
@@ -238,6 +245,9 @@ class Explorer(pn.viewable.Viewer):
         # the memory diagram is built, and computes its snapshots (a run's
         # worth of work), only once its tab is open
         self.memory_view = None
+        self.animation = None               # the same, for the animation
+        self.animation_box = pn.Column(pn.pane.Markdown(ANIMATION_TEXT),
+                                       sizing_mode="stretch_width")
         self.memory_box = pn.Column(pn.pane.Markdown(MEMORY_TEXT), sizing_mode="stretch_width")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
@@ -252,6 +262,7 @@ class Explorer(pn.viewable.Viewer):
         # the run's views, built when their tab is first opened
         self.run_tabs = pn.Tabs(
             ("Trajectory", self.trajectories.panel),
+            ("Animation", self.animation_box),
             ("Memory diagram", self.memory_box),
             ("Downloads", self.exports.panel),
             dynamic=True, sizing_mode="stretch_width", name="trajectory")
@@ -435,6 +446,18 @@ class Explorer(pn.viewable.Viewer):
     def _on_run_tab(self, event):
         if event.new == MEMORY_TAB:
             self._update_memory()
+        elif event.new == ANIMATION_TAB:
+            self._update_animation()
+
+    def _update_animation(self):
+        """The animation of the last run, built when first looked at."""
+        if self.animation is None:
+            self.animation = ParticleAnimation()
+            self.animation_box.append(self.animation)
+        result = self.controller.result
+        if result is not None and self._animated is not result:
+            self._animated = result
+            self.animation.show(result.scene, result.ds)
 
     def _update_memory(self):
         """The memory view of the last run, computed when first looked at."""
@@ -482,6 +505,8 @@ class Explorer(pn.viewable.Viewer):
             self._memory_pending = (scene, T)
             if self.run_tabs.active == MEMORY_TAB:
                 self._update_memory()
+            elif self.run_tabs.active == ANIMATION_TAB:
+                self._update_animation()
 
     # ---------- layout ----------
     def controls(self):

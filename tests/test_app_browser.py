@@ -353,3 +353,19 @@ def test_the_introduction_opens_and_explains(page, server):
     page.get_by_text("What is this? (a short introduction)").first.click()
     _see(page, "The wave travels towards")
     _see(page, "the motion is")
+
+
+_FRAME_JS = """() => { for (const doc of window.Bokeh.documents) {
+  const s = doc.get_model_by_name("anim-frame"); if (s) return s.value; } return null; }"""
+
+
+def test_the_animation_tab_plays_the_run(page, server):
+    """Issue 14: the particle on the wave, in the explorer: the Animation
+    tab shows the last run's final periods and plays them in the browser."""
+    _open(page, server + "?la=0.3&lm=-2&fidelity=preview&compare=none")
+    _summary_text(page).wait_for(timeout=60000)
+    page.get_by_role("tab", name="Animation").click()
+    page.wait_for_function(f"({_FRAME_JS})() !== null", timeout=60000)
+    page.get_by_role("button", name="Play").click()
+    page.wait_for_function(f"({_FRAME_JS})() > 0", timeout=10000, polling=100)
+    page.get_by_role("button", name="Pause").click()

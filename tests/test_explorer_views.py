@@ -68,3 +68,24 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
+
+
+def test_the_run_tabs_build_their_views_when_opened():
+    """The animation and the memory diagram are built (and the memory
+    snapshots computed) only once their tab opens, then follow the runs."""
+    import asyncio
+
+    from asyncutil import until
+
+    async def go():
+        ex = _explorer(log_amplitude=0.3, log_mass=-2.0)
+        assert ex.animation is None and ex.memory_view is None
+        ex.start_run()
+        await until(lambda: ex.controller.job is None and ex.controller.result is not None)
+        assert ex.animation is None and ex.memory_view is None       # nothing opened yet
+        ex.run_tabs.active = E.ANIMATION_TAB
+        assert ex.animation is not None and ex._animated is ex.controller.result
+        ex.run_tabs.active = E.MEMORY_TAB
+        assert ex.memory_view is not None and ex.memory_view.scene is not None
+        ex.memory_view.clear()
+    asyncio.run(go())
