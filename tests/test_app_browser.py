@@ -314,7 +314,7 @@ def test_teaching_view_and_export(page, server):
     _summary_text(page).wait_for(timeout=60000)
     n_before = page.locator("canvas").count()
     # the memory tab computes the run's last period when opened (app/views/memory.py)
-    page.get_by_role("tab", name="Memory diagram").click()
+    page.get_by_text("Memory diagram", exact=True).click()
     deadline = time.time() + 60
     while page.locator("canvas").count() <= n_before and time.time() < deadline:
         page.wait_for_timeout(250)
@@ -323,7 +323,7 @@ def test_teaching_view_and_export(page, server):
     page.wait_for_function("""() => (page_figures => page_figures.some(
         f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
                            timeout=60000, polling=250)
-    page.get_by_role("tab", name="Downloads").click()
+    page.get_by_text("Downloads", exact=True).click()
     for kind in ("trajectory-png", "map-svg"):
         with page.expect_download(timeout=120000) as dl:
             page.locator(f".vt-export-{kind}").locator("button, a").first.click()
@@ -337,7 +337,7 @@ def test_teaching_view_and_export(page, server):
 def test_data_downloads(page, server):
     _open(page, server + "?la=2.5&lm=0&fidelity=preview")
     _summary_text(page).wait_for(timeout=60000)
-    page.get_by_role("tab", name="Downloads").click()
+    page.get_by_text("Downloads", exact=True).click()
     for cls, check in ((".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
                        (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
                        (".vt-data-map-window-nc",
@@ -364,7 +364,7 @@ def test_the_animation_tab_plays_the_run(page, server):
     tab shows the last run's final periods and plays them in the browser."""
     _open(page, server + "?la=0.3&lm=-2&fidelity=preview&compare=none")
     _summary_text(page).wait_for(timeout=60000)
-    page.get_by_role("tab", name="Animation").click()
+    page.get_by_text("Animation", exact=True).click()
     page.wait_for_function(f"({_FRAME_JS})() !== null", timeout=60000)
     page.get_by_role("button", name="Play").click()
     page.wait_for_function(f"({_FRAME_JS})() > 0", timeout=10000, polling=100)
