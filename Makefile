@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test test-fast bench wheel container-test
+.PHONY: setup browser serve test test-fast bench bench-browser wheel container-test
 
 setup: $(VENV)/.installed
 
@@ -34,6 +34,12 @@ test-fast: setup
 
 bench: setup
 	$(BIN)/vibtrans bench
+
+# The explorer's responsiveness in chromium (a server of its own, kernels
+# compiled first): click to drawn per action, busy indicators, issue 14's
+# goals (devtools/browserbench.py; --check to fail on a missed goal).
+bench-browser: setup browser
+	$(BIN)/python -m devtools.browserbench
 
 # The product as one file: library, command line, explorer and maps
 # (tests/test_wheel.py installs it in a fresh venv and runs it).

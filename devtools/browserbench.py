@@ -1,0 +1,541 @@
+"""The explorer's responsiveness as a person sees it, in a real browser:
+
+    python -m devtools.browserbench [--repeats 5] [--url URL] [--json] [--check]
+
+Starts `vibtrans serve` (tests/netutil.py's Served, the test suite's
+server) and waits until its kernels are compiled, or uses the running
+server at --url; drives Debian's chromium with Playwright (1400 x 1000).
+Every repeat opens a new page (so that "first" means first in a session)
+and does, in this order:
+
+  map click           click the map (deformable, the default "tau twin"
+                      comparison) at two points in turn: until the run's
+                      summary and plots are drawn
+  memory view         "Show the memory diagram at t*" (twice): until its
+                      figure is drawn and the pane's loading spinner is gone
+  trajectory PNG      the "trajectory .png" export (vt-export-trajectory-png):
+                      until the browser receives the download (a PNG)
+  map redraw: colour  grey -> colour (chaotic points), and back at the end
+  map redraw: mu      0.3 -> 0.1 -> 0.3
+  map redraw: model   deformable -> point-mass -> deformable
+  first point-mass run  with the point-mass map shown, click it: the first
+                      point-mass run of the session (its figures are new)
+  first run after compare  "compare with" -> "point mass", click the map:
+                      the first run with that comparison (new figures)
+
+Each time runs from the action (the pointerdown or input event the page
+receives, in the page's clock) to the first animation frame at which the
+result is drawn: the summary's first line (bold, "... mu = ...") is the new
+run's, or the map figure is a new one, or a new figure is shown and no
+pane is loading; and every Bokeh plot shown has finished painting
+(BokehJS's view.has_finished()); the time is taken at the next frame, once
+that frame has been painted.
+The download: from the click (this process's clock) to Playwright's
+download event.  A probe in the page checks the state every animation
+frame (~3 ms of the page's main thread per frame on the development
+machine).  "server's reply": from the action to the arrival of the last
+websocket message before the result was drawn (a listener on the page's
+socket); the server's share (with the network's), the rest is the
+browser's: building and painting what came.
+
+Busy indicator (--check requires one within 0.3 s of every action that
+takes longer than 0.3 s): something the page did not show before the
+action and that says "working" where the person looks: a pane with
+Panel's loading spinner (class pn-loading), a visible progress bar
+(<progress>), the summary saying "Running ..." or "Compiling ...", or the
+clicked button disabled.  Panel's global busy indicator (the spinning
+circle in the template's header, class `loader spin` in pn-busy-container)
+is reported in its own column but does not count: it is 20 px in a corner
+and spins for any server callback, so it does not tell which action is
+working.
+
+Goals (issue 14), checked against the median of the repeats; --check exits
+1 when one is missed: memory view <= 0.5 s, map redraw <= 0.5 s,
+trajectory PNG export <= 3 s, first point-mass run <= 1.5 s, first run
+after changing the comparison <= 1.5 s.  The warm-up repeat (the first on
+a new server: its map renderings and the export's imports happen there)
+is reported in its own column and not counted.
+
+Selectors (names, classes and texts of app/explorer.py):
+  the map figure      the plot in a Bokeh model named "map" (its tab), else
+                      the plot titled "<v*> over ..."; the one shown
+  summary             <strong> containing "mu = " (the summary's first line)
+  running             a <p> starting "Running " or "Compiling "
+  model, chaotic      buttons "deformable", "point-mass", "grey", "colour"
+  mu, compare         the selects labelled "mu (shipped maps)", "compare with"
+  memory button       the button "Show the memory diagram at t*"
+  PNG export          .vt-export-trajectory-png button
+  errors              a visible .alert ("run failed", "limit", "Not run")
+  page loaded         the map shown, Bokeh's documents idle, the text
+                      "Whole run" (the prebuilt trajectory figures)
+  busy                .pn-loading, <progress>, disabled <button>; the header's
+                      .loader.spin
+"""
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run",
+        "--disable-renderer-backgrounding", "--disable-background-timer-throttling",
+        "--disable-backgrounding-occluded-windows", "--disable-dev-shm-usage"]
+VIEWPORT = {"width": 1400, "height": 1000}
+BUSY_WITHIN_S = 0.3
+ACTION_TIMEOUT_S = 120.0
+
+# goals of issue 14 (seconds, median of the repeats)
+GOALS = {"memory view": 0.5, "map redraw: colour": 0.5, "map redraw: mu": 0.5,
+         "map redraw: model": 0.5, "trajectory PNG export": 3.0,
+         "first point-mass run": 1.5, "first run after compare": 1.5}
+ACTIONS = ["map click", "memory view", "trajectory PNG export", "map redraw: colour",
+           "map redraw: mu", "map redraw: model", "first point-mass run",
+           "first run after compare"]
+
+# map points (log10 A*, log10 m*) clicked, inside the shipped maps: a
+# chaotic hopping scene, then a permanent contact (the memory diagram's
+# case); consecutive runs differ (the summary's first line tells a new run
+# from the last one)
+CLICKS = [(1.5, -2.0), (1.0, 2.0)]
+POINT_MASS_CLICK = (2.5, 4.0)     # the point mass drifting against the wave
+COMPARE_CLICK = (0.5, 1.5)
+
+# Before the page's scripts: the arrival time of every websocket message
+# (page clock), recorded before Bokeh handles it (a listener added when the
+# socket is made runs before the handler Bokeh sets later).
+WEBSOCKET_JS = r"""
+(() => {
+  const Native = window.WebSocket;
+  const arrivals = window.__vtArrivals = [];
+  window.WebSocket = function (...args) {
+    const ws = new Native(...args);
+    ws.addEventListener("message", () => {
+      arrivals.push(performance.now());
+      if (arrivals.length > 5000) arrivals.splice(0, 1000);
+    });
+    return ws;
+  };
+  window.WebSocket.prototype = Native.prototype;
+  Object.assign(window.WebSocket, Native);
+})();
+"""
+
+# The probe: window.__vtBench.start(kind, arg) before an action, then
+# window.__vtBench.result is {t_action, t_done, t_busy, t_header, t_reply,
+# action_by, error} (ms, page clock) once the result is drawn.
+PROBE_JS = r"""
+(() => {
+if (window.__vtBench) return;
+const visible = (el) => el.getClientRects().length > 0;
+const plots = () => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.x_range !== undefined && m.renderers !== undefined) out.push(m);
+  return out;
+};
+const plotIn = (m) => {     // the first plot in a model (a plot itself, a tab, a layout)
+  if (m == null) return null;
+  if (m.x_range !== undefined && m.renderers !== undefined) return m;
+  for (const c of [m.child, ...(m.children || []), ...(m.tabs || [])]) {
+    const p = plotIn(Array.isArray(c) ? c[0] : c);   // a grid's child: [model, row, col]
+    if (p) return p;
+  }
+  return null;
+};
+// the map's plot on the page: in a model named "map" (its tab), else titled
+// "<v*> over ..."; the one whose view is shown (a replaced figure stays among
+// the document's models for a while)
+const shownView = (m) => {
+  const v = window.Bokeh.index.find_one(m);
+  return v && visible(v.el) ? v : null;
+};
+const mapPlot = () => {
+  const named = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.name === "map") { const p = plotIn(m); if (p) named.push(p); }
+  const titled = plots().filter((m) => m.title && String(m.title.text).startsWith("<v*> over"));
+  return [...named, ...titled].find(shownView) || null;
+};
+// every plot shown has painted (BokehJS marks a view finished after its paint)
+const allPainted = () => {
+  for (const m of plots()) {
+    const v = window.Bokeh.index.find_one(m);
+    if (v && visible(v.el) && !v.has_finished()) return false;
+  }
+  return true;
+};
+const scan = () => {
+  const s = {summary: "", alert: "", loading: 0, progress: false, running: false,
+             header: false, canvases: []};
+  const walk = (root) => {
+    for (const el of root.querySelectorAll("*")) {
+      if (el.shadowRoot) walk(el.shadowRoot);
+      const tag = el.tagName, cl = el.classList;
+      if (tag === "STRONG") { if (el.textContent.includes("mu = ")) s.summary = el.textContent; }
+      else if (tag === "CANVAS") { if (visible(el)) s.canvases.push(el); }
+      else if (tag === "PROGRESS") { if (visible(el)) s.progress = true; }
+      else if (tag === "P") {
+        const t = el.textContent;
+        if (t.startsWith("Running ") || t.startsWith("Compiling ")) s.running = true;
+      }
+      if (cl.contains("pn-loading") && visible(el)) s.loading += 1;
+      if (cl.contains("loader") && cl.contains("spin")) s.header = true;
+      if (cl.contains("alert") && visible(el)) s.alert = el.textContent;
+    }
+  };
+  walk(document);
+  return s;
+};
+const B = window.__vtBench = {result: null, target: null};
+for (const type of ["pointerdown", "input"])
+  window.addEventListener(type, (e) => {
+    if (B.active && B.active.t_action === null) {
+      B.active.t_action = e.timeStamp;
+      B.active.action_by = type;
+      const el = e.composedPath()[0];
+      B.target = el && el.closest ? el.closest("button") : null;
+      B.targetDisabled = B.target ? B.target.disabled : false;
+    }
+  }, true);
+B.mapPlot = mapPlot;
+// client coordinates of a map point (log10 A*, log10 m*), the map scrolled into view
+B.mapPoint = (x, y) => {
+  const m = mapPlot();
+  const v = m && window.Bokeh.index.find_one(m);
+  if (!v) return null;
+  v.el.scrollIntoView({block: "nearest"});
+  const r = v.canvas_view.el.getBoundingClientRect();
+  return [r.left + v.frame.x_scale.compute(x), r.top + v.frame.y_scale.compute(y)];
+};
+B.start = (kind, arg) => {
+  const base = scan(), seen = new WeakSet(base.canvases), map = mapPlot();
+  const a = B.active = {kind, arg, t_start: performance.now(), t_action: null, action_by: null,
+                        t_done: null, t_busy: null, t_header: null, t_reply: null, error: null,
+                        base_map: map ? map.id : null};
+  B.result = null;
+  B.target = null;
+  const done = (s) => {
+    if (kind === "run") {
+      if (/run failed|server's limit|Not run/.test(s.alert)) { a.error = s.alert; return true; }
+      return s.summary !== "" && s.summary !== base.summary && !s.running
+          && (!arg || s.summary.includes(arg)) && allPainted();
+    }
+    if (kind === "redraw") {
+      const m = mapPlot();
+      return m !== null && m.id !== a.base_map && shownView(m).has_finished() && allPainted();
+    }
+    if (kind === "figure")       // a new figure shown, no pane loading
+      return s.canvases.some((c) => !seen.has(c)) && s.loading === 0 && allPainted();
+    return false;                // "watch": busy only, stopped from outside
+  };
+  const frame = () => {
+    if (B.active !== a) return;
+    try { step(); } catch (e) { a.error = `the probe failed: ${e}`; B.result = a; B.active = null; }
+  };
+  const step = () => {
+    const s = scan();
+    const t = performance.now();
+    if (a.t_action !== null) {
+      const busy = s.loading > base.loading || (s.progress && !base.progress) || s.running
+        || (B.target !== null && B.target.disabled && !B.targetDisabled);
+      if (busy && a.t_busy === null) a.t_busy = t;
+      if (s.header && !base.header && a.t_header === null) a.t_header = t;
+      if (a.t_done === null && done(s)) {
+        a.t_done = t;
+        // the server's last message before the result was drawn
+        const before = (window.__vtArrivals || []).filter((x) => x >= a.t_action && x <= t);
+        a.t_reply = before.length ? before[before.length - 1] : null;
+        // the next frame: this one, holding the result, has been painted
+        requestAnimationFrame(() => {
+          a.t_done = performance.now();
+          B.result = a;
+          B.active = null;
+        });
+        return;
+      }
+    }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+  return a.t_start;
+};
+B.stop = () => { const a = B.active; B.active = null; return a; };
+})();
+"""
+
+
+class BenchError(RuntimeError):
+    """The page did not do what the bench asked (a failed run, a missing control)."""
+
+
+def _seconds(a, t_end=None):
+    """(duration s, busy s, header busy s, last reply s) of a probe record,
+    from the action."""
+    t0 = a["t_action"] if a["t_action"] is not None else a["t_start"]
+    end = a["t_done"] if t_end is None else t_end
+
+    def rel(t):
+        return None if t is None else (t - t0) / 1000.0
+    return rel(end), rel(a["t_busy"]), rel(a["t_header"]), rel(a.get("t_reply"))
+
+
+class Session:
+    """One explorer page and the actions on it; every action returns a
+    sample {"s", "busy_s", "header_busy_s"} (seconds from the action)."""
+
+    def __init__(self, browser, url):
+        self.context = browser.new_context(viewport=VIEWPORT)
+        self.context.add_init_script(WEBSOCKET_JS)
+        self.page = self.context.new_page()
+        self.errors = []
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+        t0 = time.perf_counter()
+        self.page.goto(url)
+        self.page.wait_for_selector("canvas", timeout=120000)
+        self.page.evaluate(PROBE_JS)
+        # loaded: the map drawn and the (prebuilt, empty) trajectory figures
+        # painted; then quiet a moment, so no action meets the page's start
+        self.page.wait_for_function(
+            "() => window.__vtBench.mapPlot() !== null && "
+            "window.Bokeh.documents.every((d) => d.is_idle)", timeout=120000)
+        self.page.get_by_text("Whole run").first.wait_for(timeout=120000)
+        self.load_s = time.perf_counter() - t0
+        self.page.wait_for_timeout(1500)
+
+    def close(self):
+        self.context.close()
+        if self.errors:
+            raise BenchError(f"JavaScript errors in the page: {self.errors}")
+
+    def _measure(self, kind, arg, act):
+        self.page.evaluate("([k, a]) => window.__vtBench.start(k, a)", [kind, arg])
+        act()
+        self.page.wait_for_function("() => window.__vtBench.result",
+                                    timeout=ACTION_TIMEOUT_S * 1000, polling=50)
+        a = self.page.evaluate("() => window.__vtBench.result")
+        if a["error"]:
+            raise BenchError(f"{kind}: {a['error']}")
+        if a["t_action"] is None:
+            raise BenchError(f"{kind}: the page saw no pointerdown or input event")
+        s, busy, header, reply = _seconds(a)
+        return {"s": s, "busy_s": busy, "header_busy_s": header, "reply_s": reply}
+
+    def _click_map(self, point):
+        xy = self.page.evaluate("([x, y]) => window.__vtBench.mapPoint(x, y)", list(point))
+        if xy is None:
+            raise BenchError("the map figure is not shown (Bokeh model named 'map')")
+        self.page.mouse.click(*xy)
+
+    def _center(self, locator):
+        locator.scroll_into_view_if_needed()
+        box = locator.bounding_box()
+        if box is None:
+            raise BenchError(f"not shown: {locator}")
+        return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+    def _button(self, name):
+        return self._center(self.page.get_by_role("button", name=name, exact=True).first)
+
+    def run(self, point, expect=None):
+        """Click the map at `point` until the run is drawn; `expect`: a text
+        the new summary's first line holds (the model)."""
+        return self._measure("run", expect, lambda: self._click_map(point))
+
+    def memory_view(self):
+        xy = self._center(self.page.get_by_role("button", name="Show the memory diagram at t*"))
+        return self._measure("figure", None, lambda: self.page.mouse.click(*xy))
+
+    def redraw_button(self, name):
+        xy = self._button(name)
+        return self._measure("redraw", None, lambda: self.page.mouse.click(*xy))
+
+    def redraw_select(self, label, value):
+        select = self.page.get_by_label(label, exact=True)
+        select.scroll_into_view_if_needed()
+        return self._measure("redraw", None, lambda: select.select_option(value))
+
+    def select(self, label, value):
+        """Change a select whose change draws nothing to wait for."""
+        self.page.get_by_label(label, exact=True).select_option(value)
+        self.page.wait_for_timeout(500)
+
+    def trajectory_png(self):
+        xy = self._center(self.page.locator(".vt-export-trajectory-png").locator("button, a").first)
+        self.page.evaluate("() => window.__vtBench.start('watch', null)")
+        t0 = time.perf_counter()
+        with self.page.expect_download(timeout=ACTION_TIMEOUT_S * 1000) as dl:
+            self.page.mouse.click(*xy)
+        s = time.perf_counter() - t0
+        a = self.page.evaluate("() => window.__vtBench.stop()")
+        with open(dl.value.path(), "rb") as f:
+            head = f.read(8)
+        if not head.startswith(b"\x89PNG"):
+            raise BenchError(f"the trajectory export is not a PNG: {head!r}")
+        _, busy, header, _ = _seconds(a, t_end=a["t_start"])
+        # the file comes in the server's reply: all of it is the server's
+        return {"s": s, "busy_s": busy, "header_busy_s": header, "reply_s": s}
+
+
+def repeat(browser, url):
+    """One repeat on a new page: {action: [samples]}."""
+    out = {k: [] for k in ACTIONS}
+    session = Session(browser, url)
+    try:
+        for point in CLICKS:
+            out["map click"].append(session.run(point, "deformable:"))
+        for _ in range(2):
+            out["memory view"].append(session.memory_view())
+        out["trajectory PNG export"].append(session.trajectory_png())
+        out["map redraw: colour"].append(session.redraw_button("colour"))
+        out["map redraw: mu"].append(session.redraw_select("mu (shipped maps)", "0.1"))
+        out["map redraw: mu"].append(session.redraw_select("mu (shipped maps)", "0.3"))
+        out["map redraw: model"].append(session.redraw_button("point-mass"))
+        out["first point-mass run"].append(session.run(POINT_MASS_CLICK, "point-mass:"))
+        out["map redraw: model"].append(session.redraw_button("deformable"))
+        session.select("compare with", "point mass")
+        out["first run after compare"].append(session.run(COMPARE_CLICK, "deformable:"))
+        out["map redraw: colour"].append(session.redraw_button("grey"))
+    finally:
+        session.close()
+    return out
+
+
+def _stats(samples):
+    xs = sorted(x["s"] for x in samples)
+    slow = [x for x in samples if x["s"] > BUSY_WITHIN_S]
+    busy_ok = [x for x in slow if x["busy_s"] is not None and x["busy_s"] <= BUSY_WITHIN_S]
+    header_ok = [x for x in slow
+                 if x["header_busy_s"] is not None and x["header_busy_s"] <= BUSY_WITHIN_S]
+    replies = [x["reply_s"] for x in samples if x["reply_s"] is not None]
+    return {"n": len(xs), "min_s": xs[0], "median_s": statistics.median(xs), "max_s": xs[-1],
+            "reply_median_s": statistics.median(replies) if replies else None,
+            "slow": len(slow), "busy_within": len(busy_ok), "header_busy_within": len(header_ok)}
+
+
+def summarize(warmup, repeats):
+    """Per action: statistics over the repeats, the warm-up's times, the goal
+    and whether it is met (median), busy indicators on the slow samples."""
+    rows = {}
+    for action in ACTIONS:
+        samples = [x for r in repeats for x in r[action]]
+        row = _stats(samples)
+        row["warmup_s"] = [round(x["s"], 3) for x in warmup[action]]
+        row["samples_s"] = [round(x["s"], 3) for x in samples]
+        for key in ("busy_s", "header_busy_s", "reply_s"):
+            row[key + "_samples"] = [None if x[key] is None else round(x[key], 3)
+                                     for x in samples]
+        goal = GOALS.get(action)
+        row["goal_s"] = goal
+        row["goal_met"] = None if goal is None else row["median_s"] <= goal
+        row["busy_met"] = row["busy_within"] == row["slow"]
+        rows[action] = row
+    return rows
+
+
+def table(rows):
+    """The results as a Markdown table."""
+    lines = ["| action | warm-up | min | median | max | n | goal | met | server's reply "
+             "(median) | busy <= 0.3 s (of > 0.3 s) | header spinner <= 0.3 s |",
+             "|---" * 11 + "|"]
+    for action, r in rows.items():
+        goal = "-" if r["goal_s"] is None else f"<= {r['goal_s']:g} s"
+        met = "-" if r["goal_met"] is None else ("yes" if r["goal_met"] else "**no**")
+        busy = f"{r['busy_within']}/{r['slow']}" + ("" if r["busy_met"] else " **no**")
+        warm = ", ".join(f"{x:.2f}" for x in r["warmup_s"])
+        reply = "-" if r["reply_median_s"] is None else f"{r['reply_median_s']:.2f}"
+        lines.append(f"| {action} | {warm} | {r['min_s']:.2f} | {r['median_s']:.2f} | "
+                     f"{r['max_s']:.2f} | {r['n']} | {goal} | {met} | {reply} | {busy} | "
+                     f"{r['header_busy_within']}/{r['slow']} |")
+    return "\n".join(lines)
+
+
+def _served():
+    sys.path.insert(0, str(ROOT / "tests"))
+    from netutil import Served
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
+    return Served(env=env, cwd=ROOT)
+
+
+def run(repeats, url=None, log=print):
+    """Warm-up plus `repeats` repeats against `url` (or a server of its own):
+    {"rows": {...}, "page_load_s": [...], "machine": "..."}."""
+    from playwright.sync_api import sync_playwright
+    server = None
+    if url is None:
+        server = _served()
+        log("starting vibtrans serve ...")
+        server.wait_page()
+        server.wait_kernels()
+        url = server.url
+    try:
+        if not Path(CHROMIUM).exists():
+            raise BenchError(f"Debian's chromium is required at {CHROMIUM} (make browser)")
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            try:
+                log("warm-up repeat ...")
+                warmup = repeat(browser, url)
+                results = []
+                for i in range(repeats):
+                    log(f"repeat {i + 1}/{repeats} ...")
+                    results.append(repeat(browser, url))
+            finally:
+                browser.close()
+    except BaseException:
+        if server is not None:
+            print(f"the server's log:\n{server.text()[-3000:]}", file=sys.stderr)
+        raise
+    finally:
+        if server is not None:
+            server.stop()
+    load = os.getloadavg()
+    return {"rows": summarize(warmup, results), "repeats": repeats,
+            "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
+                       f"{load[2]:.2f} at the end"}
+
+
+def missed(rows):
+    """The goals missed: [text]."""
+    out = []
+    for action, r in rows.items():
+        if r["goal_met"] is False:
+            out.append(f"{action}: median {r['median_s']:.2f} s > {r['goal_s']:g} s")
+        if not r["busy_met"]:
+            out.append(f"{action}: a busy indicator within {BUSY_WITHIN_S} s in "
+                       f"{r['busy_within']} of {r['slow']} actions over {BUSY_WITHIN_S} s")
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m devtools.browserbench",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5, help="measured repeats (1-50), each "
+                    "on a new page, after one warm-up repeat")
+    ap.add_argument("--url", help="a running explorer (its kernels compiled) instead of a "
+                    "server of the bench's own")
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    ap.add_argument("--check", action="store_true",
+                    help="exit 1 if a goal is missed (medians, busy indicators)")
+    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if not 1 <= a.repeats <= 50:
+        ap.error(f"--repeats must be in [1, 50], got {a.repeats}")
+    out = run(a.repeats, a.url, log=lambda m: print(m, file=sys.stderr))
+    misses = missed(out["rows"])
+    if a.json:
+        print(json.dumps({**out, "missed": misses}))
+    else:
+        print(table(out["rows"]))
+        print(f"\n{out['repeats']} repeats; {out['machine']}")
+        print("goals missed:\n  " + "\n  ".join(misses) if misses else "all goals met")
+    if a.check and misses:
+        sys.exit(1)
+    return out
+
+
+if __name__ == "__main__":
+    main()
