@@ -23,7 +23,7 @@ import panel as pn
 import param
 from bokeh.models import CustomJSTickFormatter
 
-from vibtrans import simulate
+from vibtrans import plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
@@ -182,6 +182,8 @@ def scale_fonts(fig, factor):
     for item in [*fig.left, *fig.right, *fig.above, *fig.below, *fig.center]:
         if isinstance(item, Legend):
             item.label_text_font_size = size(9)
+            if item.name == plots.KEY_NAME:     # the map's key: one column when large
+                item.ncols = 1 if factor > 1 else 2
 
 
 class Explorer(pn.viewable.Viewer):
@@ -396,8 +398,10 @@ class Explorer(pn.viewable.Viewer):
         folded away so that map and trajectory share the screen."""
         factor = PRESENTATION_SCALE if event.new else 1.0
         with pn.io.hold():
+            text = {"font-size": f"{factor:g}em"} if event.new else {}
+            self.summary.styles = text
             if getattr(self, "page", None) is not None:
-                self.page.styles = {"font-size": f"{factor:g}em"} if event.new else {}
+                self.page.styles = text
             self.map_view.scale_fonts = (lambda fig: scale_fonts(fig, factor)) if event.new else None
             for fig in self.map_view.figures:
                 scale_fonts(fig, factor)

@@ -312,13 +312,8 @@ def test_teaching_view_and_export(page, server):
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="1: permanent contact, drift against the wave")
     _summary_text(page).wait_for(timeout=60000)
-    n_before = page.locator("canvas").count()
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()
-    deadline = time.time() + 60
-    while page.locator("canvas").count() <= n_before and time.time() < deadline:
-        page.wait_for_timeout(250)
-    assert page.locator("canvas").count() > n_before      # the diagrams are drawn
     # a snapshot drawn: the diagram's title names its time
     page.wait_for_function("""() => (page_figures => page_figures.some(
         f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,

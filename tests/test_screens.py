@@ -83,7 +83,10 @@ _GEOMETRY_JS = """(scroll) => {
                   width: cb.bbox.width, height: cb.bbox.height};
     }
   }
-  const panels = named("trajectory").map(shown).filter((v) => v)
+  // the trajectory's panels: the model named so, or its figures (titled "normal: ...")
+  const trajectory = [...named("trajectory"), ...plots.filter(
+    (m) => m.title && String(m.title.text).startsWith("normal:"))];
+  const panels = trajectory.map(shown).filter((v) => v)
     .map((v) => v.el.getBoundingClientRect()).filter((r) => r.width > 0 && r.height > 0)
     .sort((a, b) => a.top - b.top);
   const scrollers = [];
