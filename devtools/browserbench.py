@@ -11,8 +11,9 @@ and does, in this order:
   map click           click the map (deformable, the default "tau twin"
                       comparison) at two points in turn: until the run's
                       summary and plots are drawn
-  memory view         "Show the memory diagram at t*" (twice): until its
-                      figure is drawn and the pane's loading spinner is gone
+  memory view         in the "Memory diagram" tab (opened once), a time typed
+                      and "Show the memory diagram at t*" clicked (twice):
+                      until the diagram of that time is drawn (its title)
   trajectory PNG      the "trajectory .png" export (vt-export-trajectory-png):
                       until the browser receives the download (a PNG)
   map redraw: colour  grey -> colour (chaotic points), and back at the end
@@ -66,8 +67,9 @@ Selectors (names, classes and texts of app/explorer.py):
   memory button       the button "Show the memory diagram at t*"
   PNG export          .vt-export-trajectory-png button
   errors              a visible .alert ("run failed", "limit", "Not run")
-  page loaded         the map shown, Bokeh's documents idle, the text
-                      "Whole run" (the prebuilt trajectory figures)
+  page loaded         the map shown, Bokeh's documents idle
+  run tabs            texts "Trajectory", "Memory diagram", "Downloads"
+  memory time         .vt-field-t input
   busy                .pn-loading, <progress>, disabled <button>; the header's
                       .loader.spin
 """
@@ -212,8 +214,18 @@ B.mapPoint = (x, y) => {
   const r = v.canvas_view.el.getBoundingClientRect();
   return [r.left + v.frame.x_scale.compute(x), r.top + v.frame.y_scale.compute(y)];
 };
+// the titles of the plots in the page
+const titles = () => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.x_range !== undefined && m.renderers !== undefined && m.title != null)
+      out.push(String(m.title.text));
+  return out;
+};
+B.titles = titles;
 B.start = (kind, arg) => {
   const base = scan(), seen = new WeakSet(base.canvases), map = mapPlot();
+  const baseTitles = new Set(titles());
   const a = B.active = {kind, arg, t_start: performance.now(), t_action: null, action_by: null,
                         t_done: null, t_busy: null, t_header: null, t_reply: null, error: null,
                         base_map: map ? map.id : null};
@@ -231,6 +243,9 @@ B.start = (kind, arg) => {
     }
     if (kind === "figure")       // a new figure shown, no pane loading
       return s.canvases.some((c) => !seen.has(c)) && s.loading === 0 && allPainted();
+    if (kind === "title")        // a plot titled `arg...` with a new title, no pane loading
+      return titles().some((t) => t.startsWith(arg) && !baseTitles.has(t))
+          && s.loading === 0 && allPainted();
     return false;                // "watch": busy only, stopped from outside
   };
   const frame = () => {
@@ -298,13 +313,13 @@ class Session:
         self.page.goto(url)
         self.page.wait_for_selector("canvas", timeout=120000)
         self.page.evaluate(PROBE_JS)
-        # loaded: the map drawn and the (prebuilt, empty) trajectory figures
-        # painted; then quiet a moment, so no action meets the page's start
+        # loaded: the map drawn and painted; then quiet a moment, so no
+        # action meets the page's start
         self.page.wait_for_function(
             "() => window.__vtBench.mapPlot() !== null && "
             "window.Bokeh.documents.every((d) => d.is_idle)", timeout=120000)
-        self.page.get_by_text("Whole run").first.wait_for(timeout=120000)
         self.load_s = time.perf_counter() - t0
+        self.memory_open = False
         self.page.wait_for_timeout(1500)
 
     def close(self):
@@ -346,9 +361,28 @@ class Session:
         the new summary's first line holds (the model)."""
         return self._measure("run", expect, lambda: self._click_map(point))
 
-    def memory_view(self):
+    def tab(self, name):
+        """Open one of the run's tabs (Trajectory, Animation, Memory
+        diagram, Downloads)."""
+        self.page.get_by_text(name, exact=True).first.click()
+        self.page.wait_for_timeout(500)
+
+    def memory_view(self, t):
+        """Type t* in the memory diagram's field and click its button:
+        until the diagram of that time is drawn.  The tab is opened first
+        (once: its snapshots of the last period computed and drawn)."""
+        if not self.memory_open:
+            self.tab("Memory diagram")
+            self.page.wait_for_function(
+                "() => window.__vtBench.titles().some((t) => t.startsWith('memory diagram w(h), t* = '))",
+                timeout=ACTION_TIMEOUT_S * 1000)
+            self.memory_open = True
+        field = self.page.locator(".vt-field-t input").first
+        field.fill(f"{t:g}")
+        field.press("Tab")
         xy = self._center(self.page.get_by_role("button", name="Show the memory diagram at t*"))
-        return self._measure("figure", None, lambda: self.page.mouse.click(*xy))
+        return self._measure("title", "memory diagram w(h), t* = ",
+                             lambda: self.page.mouse.click(*xy))
 
     def redraw_button(self, name):
         xy = self._button(name)
@@ -388,9 +422,11 @@ def repeat(browser, url):
     try:
         for point in CLICKS:
             out["map click"].append(session.run(point, "deformable:"))
-        for _ in range(2):
-            out["memory view"].append(session.memory_view())
+        for t in (1999.3, 1999.7):
+            out["memory view"].append(session.memory_view(t))
+        session.tab("Downloads")
         out["trajectory PNG export"].append(session.trajectory_png())
+        session.tab("Trajectory")
         out["map redraw: colour"].append(session.redraw_button("colour"))
         out["map redraw: mu"].append(session.redraw_select("mu (shipped maps)", "0.1"))
         out["map redraw: mu"].append(session.redraw_select("mu (shipped maps)", "0.3"))
