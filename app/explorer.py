@@ -28,7 +28,7 @@ from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, urlstate
-from .controller import RUNNER, RunController, comparison
+from .controller import RUNNER, RunController
 from .state import MAP_MATERIAL, URL_KEYS, ExplorerState, within
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation

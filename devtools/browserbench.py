@@ -81,12 +81,9 @@ import sys
 import time
 from pathlib import Path
 
+from .chromium import ARGS, CHROMIUM
+
 ROOT = Path(__file__).resolve().parent.parent
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run",
-        "--disable-renderer-backgrounding", "--disable-background-timer-throttling",
-        "--disable-backgrounding-occluded-windows", "--disable-dev-shm-usage"]
 VIEWPORT = {"width": 1400, "height": 1000}
 BUSY_WITHIN_S = 0.3
 ACTION_TIMEOUT_S = 120.0

@@ -55,12 +55,9 @@ import time
 import urllib.request
 from pathlib import Path
 
+from .chromium import ARGS, CHROMIUM
+
 ROOT = Path(__file__).resolve().parent.parent
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run",
-        "--disable-renderer-backgrounding", "--disable-background-timer-throttling",
-        "--disable-backgrounding-occluded-windows", "--disable-dev-shm-usage"]
 LIFETIME_MS, CHECK_MS = 3000, 1000
 BENIGN = ("WebSocketClosedError", "StreamClosedError")
 RELEASED = "released the memory of closed sessions"    # app/explorer.py logs it

@@ -10,7 +10,6 @@ The screenshots go to test-artifacts/ (look at them)."""
 import json
 import math
 import re
-import shutil
 import time
 from pathlib import Path
 
@@ -21,6 +20,8 @@ from vibtrans import paper_scene, plots, simulate, substrate
 from vibtrans.contact import STATE_NAMES
 from vibtrans.errors import InputError, InputTypeError
 from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
+
+from devtools.chromium import launched
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
@@ -226,9 +227,6 @@ def test_bad_input_is_refused_with_its_name(slipping):
 
 
 # ---------------------------------------------------------------- in chromium
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 # the page's Bokeh models by name: the frame shown, the drawn glyph data, the titles
 _PAGE_JS = """() => {
@@ -282,7 +280,6 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
     import panel as pn
-    from playwright import sync_api as playwright
     from netutil import free_port
 
     sessions = []
@@ -297,9 +294,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     server = pn.serve({"/": app}, port=port, address="127.0.0.1", threaded=True, show=False,
                       websocket_origin=[f"127.0.0.1:{port}"])
     try:
-        assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
-        with playwright.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        with launched() as browser:
             page = browser.new_page(viewport={"width": 1200, "height": 700})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
@@ -399,7 +394,6 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.get_by_role("button", name="Pause").click()
             state = page.evaluate(_PAGE_JS)
             _same_frame(state, anim.frame(state["value"]))
-            browser.close()
             assert not errors, errors
     finally:
         server.stop()

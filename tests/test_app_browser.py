@@ -6,23 +6,19 @@ units, URL.
 Screenshots (the whole main column, trajectories included) go to
 test-artifacts/ (look at them)."""
 import os
-import shutil
-import time
 from pathlib import Path
 
 import pytest
 
-from playwright import sync_api as playwright  # installed by `make test` (.[test])
 
 from vibtrans.analysis import TWIN_TAU_OFFSET
+
+from devtools.chromium import launched
 
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 
 @pytest.fixture(scope="module")
@@ -33,11 +29,8 @@ def server(served_explorer):
 
 @pytest.fixture(scope="module")
 def browser():
-    assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
-    with playwright.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+    with launched() as b:
         yield b
-        b.close()
 
 
 @pytest.fixture

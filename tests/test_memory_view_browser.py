@@ -4,7 +4,6 @@ and a typed time change the figures in the browser, and the time from the
 key press (or the click) to the new title in the page's Bokeh document is
 printed (issue 14: click/scrub to drawn <= 0.5 s; tests assert behaviour,
 not wall-clock times).  A screenshot goes to test-artifacts/."""
-import shutil
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -13,18 +12,16 @@ import panel as pn
 import pytest
 
 from netutil import free_port
-from playwright import sync_api as playwright
 from vibtrans import paper_scene
 from vibtrans.simulate import memory_snapshot
 from vibtrans_explorer.views.memory import MemoryView
+
+from devtools.chromium import launched
 
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 SCENE = paper_scene(9).replace(model="deformable", fidelity="preview", periods=200.0)
 
 # the memory diagram's title in the page's Bokeh document, and the first
@@ -69,9 +66,7 @@ def _elapsed_until_changed(page, act):
 
 
 def test_the_slider_and_a_typed_time_update_the_figures(served):
-    assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
-    with playwright.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+    with launched() as browser:
         page = browser.new_page(viewport={"width": 1200, "height": 900})
         errors = []
         page.on("pageerror", lambda e: errors.append(str(e)))
@@ -94,7 +89,6 @@ def test_the_slider_and_a_typed_time_update_the_figures(served):
         assert "t* = 123.45" in title
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "memory_view.png"), full_page=True)
-        browser.close()
     print(f"\nkey press to new title: {', '.join(f'{s * 1e3:.0f}' for s in scrubs)} ms; "
           f"click to new title: {dt_click * 1e3:.0f} ms")
     assert not errors, errors

@@ -24,20 +24,17 @@ coordinates):
 
 Screenshots (the viewport, what the screen shows) go to
 test-artifacts/screens-WxH.png (look at them)."""
-import shutil
 from pathlib import Path
 
 import pytest
 
-from playwright import sync_api as playwright  # installed by `make test` (.[test])
+
+from devtools.chromium import launched
 
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 SCREENS = [(1024, 768), (1280, 800), (1920, 1080)]
 PROJECTOR = (1920, 1080)
 SLACK_PX = 1          # sub-pixel layout rounding
@@ -110,11 +107,8 @@ _GEOMETRY_JS = """(scroll) => {
 
 @pytest.fixture(scope="module")
 def browser():
-    assert Path(CHROMIUM).exists(), "Debian's chromium is required (make test installs it)"
-    with playwright.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+    with launched() as b:
         yield b
-        b.close()
 
 
 @pytest.fixture
