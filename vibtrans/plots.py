@@ -345,7 +345,7 @@ def vertical_curves(vertical):
 # panels of lines, per-bin envelopes and contact-state bands.  vibtrans.export
 # draws it directly with matplotlib (PNG/SVG/PDF) and with Bokeh (standalone
 # HTML); the explorer's live view draws the same panels (`panel_spec`,
-# `state_bands`, `binned`) with Bokeh.  Not through HoloViews: its matplotlib
+# `state_bands`, `twin_spec`) with Bokeh.  Not through HoloViews: its matplotlib
 # backend took 10-17 s for this figure's twelve panels, nearly all of it
 # per-element option handling and layout, whatever the number of points
 # (issue 14; profiled with cProfile, see vibtrans.bench.export_bench).
