@@ -408,7 +408,8 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
         ["relative tangential velocity b*'" + note, "relative tangential velocity b*'"],
         ["contact state (time share per bin)", "contact state"],
         ["x*(t) and its tau + 0.001 twin" + note, "x*(t) and its tau + 0.001 twin"]]
-    legends = [[t.get_text() for t in ax.get_legend().get_texts()] for ax in axes[[0, 1, 2, 3, 5], 0]]
+    legends = [[t.get_text() for t in ax.get_legend().get_texts()]
+               for ax in axes[[0, 1, 2, 3, 5], 0]]
     assert legends == [["a*", "y*"], ["b*", "x*"], ["N*", "T*"], ["b*'"],
                        ["x*, tau = 50", "x*, tau + 0.001"]]
     assert fig.get_suptitle() == (
