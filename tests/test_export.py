@@ -18,6 +18,8 @@ import pytest
 import xarray as xr
 
 from vibtrans import cli, export, plots
+from vibtrans.analysis import twin_scene
+from vibtrans.contact import STATE_NAMES
 from vibtrans.params import paper_scene
 from vibtrans.simulate import memory_snapshot, simulate
 from vibtrans.sweep import Sweep, open_map, run_sweep
@@ -79,6 +81,8 @@ def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertic
         (export.export_heatmap, (map_ds,), dict(vertical=vertical), 6.0, 4.0, 50),
         (export.export_vertical, (vertical,), {}, 5.0, 3.5, 40),
         (export.export_memory, (memory_snapshot(paper_scene(1), t=3.3),), {}, 10.0, 3.0, 30),
+        (export.export_trajectory, (simulate(paper_scene(4, periods=10), window=(8, 10)),), {},
+         7.0, 9.0, 40),
     ]
     for i, (fn, args, kw, w, h, dpi) in enumerate(cases):
         out = tmp_path / f"f{i}.png"
@@ -120,10 +124,13 @@ def test_memory_diagram_figure_marks_stick_and_slip(tmp_path):
 
 def test_standalone_html_has_inline_resources(tmp_path, run4):
     out = tmp_path / "traj.html"
-    export.export_html(plots.trajectory_panels(run4), out)
+    export.export_trajectory(run4, out)
     text = out.read_text()
     assert "<html" in text.lower() and "Bokeh" in text
     assert 'src="https://cdn.bokeh.org' not in text and "cdn.bokeh.org/bokeh/release" not in text
+    for title in ("whole run: normal: a*(t), y*(t)", plots.SHARES_TITLE,
+                  "t* in [48, 50]: normal", "t* (periods)"):
+        assert title in text
 
 
 # ------------------------------------------------------------------ headless
@@ -326,34 +333,126 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
             np.testing.assert_allclose(bimg[row, col], expected, equal_nan=True)
 
 
+def _capture_trajectory(monkeypatch):
+    """Record the trajectory figures (definitions and matplotlib figures)
+    export draws."""
+    seen = {"defs": [], "figs": []}
+    real = export.render_trajectory
+
+    def spy(figure, *args, **kwargs):
+        fig = real(figure, *args, **kwargs)
+        seen["defs"].append(figure)
+        seen["figs"].append(fig)
+        return fig
+    monkeypatch.setattr(export, "render_trajectory", spy)
+    return seen
+
+
+def _band(ax, colour):
+    """(x, lo, hi) of the min-max band of `colour` drawn in `ax`."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import to_rgb
+    (band,) = [c for c in ax.collections if isinstance(c, PolyCollection)
+               and np.allclose(c.get_facecolor()[0][:3], to_rgb(colour))]
+    v = band.get_paths()[0].vertices
+    x, inverse = np.unique(v[:, 0], return_inverse=True)
+    lo = np.full(x.size, np.inf)
+    hi = np.full(x.size, -np.inf)
+    np.minimum.at(lo, inverse, v[:, 1])
+    np.maximum.at(hi, inverse, v[:, 1])
+    return x, lo, hi
+
+
+def _strip_areas(ax):
+    """{state name: area of its polygons} of a drawn state strip, and the
+    names and colours of its legend."""
+    from matplotlib.colors import to_hex
+    area = {}
+    colours = {to_hex(c): n for n, c in zip(STATE_NAMES, plots.STATE_COLORS.values())}
+    for c in ax.collections:
+        for path in c.get_paths():
+            x, y = path.vertices.T
+            name = colours[to_hex(c.get_facecolor()[0])]
+            area[name] = area.get(name, 0.0) + 0.5 * abs(np.dot(x, np.roll(y, -1))
+                                                         - np.dot(y, np.roll(x, -1)))
+    legend = {t.get_text(): to_hex(h.get_facecolor())
+              for t, h in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles)}
+    return area, legend
+
+
 @pytest.mark.slow
-def test_app_and_cli_trajectories_plot_the_same_data(monkeypatch, tmp_path):
-    export.ensure_backends()
-    # the app's run and panels (app/explorer.py: window = last 2 periods,
-    # OVERVIEW_SAMPLES samples per period)
-    from vibtrans_explorer.explorer import FRAGMENT, OVERVIEW_SAMPLES
-    scene = paper_scene(4, periods=PERIODS)
-    ds = simulate(scene, window=(PERIODS - FRAGMENT, PERIODS), samples_per_period=OVERVIEW_SAMPLES)
-    app_panels = plots.trajectory_panels(ds)
-    seen = _capture(monkeypatch)
-    assert cli.main(["export", "trajectory", "--point", "4", "--periods", str(PERIODS),
-                     "--out", str(tmp_path / "t.png"), "--dpi", "30"]) == 0
-    cli_fig = seen["objs"][0]
-    cli_overview = [el for el in cli_fig][0::2]     # left column: the whole run
-    for var in ("a", "y"):
-        app_curve = next(c for c in app_panels.traverse(lambda c: c, [hv.Curve])
-                         if c.vdims[0].name == var)
-        cli_curve = next(c for c in cli_overview[0].traverse(lambda c: c, [hv.Curve])
-                         if c.vdims[0].name == var)
-        np.testing.assert_array_equal(app_curve.dimension_values("time"),
-                                      cli_curve.dimension_values("time"))
-        np.testing.assert_array_equal(app_curve.dimension_values(var),
-                                      cli_curve.dimension_values(var))
-    # and the drawn line (matplotlib) is that data
-    ax = seen["figs"][0].axes[0]
-    line = next(line for line in ax.lines if line.get_label() == "a*")
-    np.testing.assert_allclose(line.get_xdata(), ds["time"].values)
-    np.testing.assert_allclose(line.get_ydata(), ds["a"].values)
+def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp_path):
+    # What the trajectory figure shows, as the explorer's export button
+    # makes it (the run with its last FRAGMENT periods at full resolution,
+    # OVERVIEW_SAMPLES per period, its tau twin): the panels and their
+    # legends; the whole run as per-bin means inside min-max bands that hold
+    # every sample (a sample outside its band, a lost spike, fails); the
+    # window sample by sample; the state strips covering each state for the
+    # time the run spends in it, in the states' colours, named in a legend.
+    scene = paper_scene(8, periods=PERIODS)          # hops; chaotic: has a twin
+    ds = simulate(scene, window=(PERIODS - plots.FRAGMENT, PERIODS),
+                  samples_per_period=plots.OVERVIEW_SAMPLES)
+    twin = simulate(twin_scene(scene), samples_per_period=plots.OVERVIEW_SAMPLES)
+    seen = _capture_trajectory(monkeypatch)
+    out = tmp_path / "t.png"
+    export.export_trajectory(ds, out, twin=twin, dpi=30)
+    assert _png_size(out) == (330, 390)               # 11 x 13 in at 30 dpi
+    fig = seen["figs"][0]
+    axes = np.array(fig.axes).reshape(6, 2)         # rows x (whole run, window)
+    titles = [[ax.get_title() for ax in row] for row in axes]
+    note = plots.BINNED_NOTE
+    assert titles == [
+        ["whole run: normal: a*(t), y*(t)" + note, "t* in [48, 50]: normal: a*(t), y*(t)"],
+        ["tangential: b*(t), x*(t)" + note, "tangential: b*(t), x*(t)"],
+        ["forces: N*, T*" + note, "forces: N*, T*"],
+        ["relative tangential velocity b*'" + note, "relative tangential velocity b*'"],
+        ["contact state (time share per bin)", "contact state"],
+        ["x*(t) and its tau + 0.001 twin" + note, "x*(t) and its tau + 0.001 twin"]]
+    legends = [[t.get_text() for t in ax.get_legend().get_texts()]
+               for ax in axes[[0, 1, 2, 3, 5], 0]]
+    assert legends == [["a*", "y*"], ["b*", "x*"], ["N*", "T*"], ["b*'"],
+                       ["x*, tau = 50", "x*, tau + 0.001"]]
+    assert fig.get_suptitle() == (
+        "deformable: A* = 50.12, m* = 0.01, mu = 0.3")
+    t = ds["time"].values
+    edges = np.linspace(t[0], t[-1], plots.OVERVIEW_BINS + 1)
+    k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, plots.OVERVIEW_BINS - 1)
+    used, j = np.unique(k, return_inverse=True)
+    frag = (t >= PERIODS - plots.FRAGMENT)
+    for row, lines in enumerate(plots.panel_spec(False, split_velocity=True)):
+        for var, label, colour in lines[2]:
+            v = ds[var].values
+            ok = np.isfinite(v)
+            # whole run: the band holds every sample, its ends are samples
+            x, lo, hi = _band(axes[row, 0], colour)
+            assert x.size == used.size
+            assert np.all(lo[j][ok] <= v[ok]) and np.all(v[ok] <= hi[j][ok]), var
+            np.testing.assert_array_equal(np.isin(lo, v), True)
+            np.testing.assert_array_equal(np.isin(hi, v), True)
+            line = next(ln for ln in axes[row, 0].lines if ln.get_label() == label)
+            np.testing.assert_allclose(line.get_ydata(), plots.binned(t, {var: v},
+                                                                        plots.OVERVIEW_BINS)[var])
+            # the window: every sample, nothing else
+            line = next(ln for ln in axes[row, 1].lines if ln.get_label() == label)
+            np.testing.assert_array_equal(line.get_xdata(), t[frag])
+            np.testing.assert_array_equal(line.get_ydata(), v[frag])
+    # the strips: each state's area is its time (the strip is 1 high)
+    t0, t1, vals = plots._state_runs(ds)
+    for col, (a, b) in enumerate([(t[0], t[-1]), (PERIODS - plots.FRAGMENT, t[-1])]):
+        area, legend = _strip_areas(axes[4, col])
+        spent = {n: float((np.clip(t1, a, b) - np.clip(t0, a, b))[vals == c].sum())
+                 for c, n in enumerate(STATE_NAMES)}
+        spent = {n: s for n, s in spent.items() if s > 0}
+        assert area.keys() == spent.keys()
+        for n in spent:
+            assert area[n] == pytest.approx(spent[n], rel=1e-9), n
+        assert legend == {n: plots.STATE_COLORS[STATE_NAMES.index(n)] for n in spent}
+    assert len(spent) >= 1 and len(_strip_areas(axes[4, 0])[0]) >= 2   # hops: >= 2 states
+    # the twin: dashed black, its own samples
+    twin_line = next(ln for ln in axes[5, 1].lines if ln.get_label() == "x*, tau + 0.001")
+    assert twin_line.get_linestyle() == "--" and twin_line.get_color() == "black"
+    tt = twin["time"].values
+    np.testing.assert_array_equal(twin_line.get_xdata(), tt[tt >= PERIODS - plots.FRAGMENT])
 
 
 # ------------------------------------------------------------------ paper
@@ -424,3 +523,18 @@ def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, mon
     assert len(lines) == 1, err
     assert name in lines[0], lines[0]
     assert not list(tmp_path.glob("x.*")) and not (tmp_path / "figs.png").exists()
+
+
+@pytest.mark.slow
+def test_export_bench_measures_each_format(monkeypatch):
+    # `vibtrans bench --export` runs and reports what it says (times are
+    # printed, never asserted); a short run keeps this quick
+    from vibtrans import bench
+    real = bench.paper_scene
+    monkeypatch.setattr(bench, "paper_scene", lambda point: real(point, periods=20.0))
+    r = bench.export_bench(quick=True)
+    assert r["point"] == 8 and r["samples"] > r["twin_samples"] > 0
+    for fmt in ("png", "svg", "html"):
+        assert 0 < r[f"{fmt}_cpu_seconds"] and 0 < r[f"{fmt}_seconds"] < float("inf")
+        assert r[f"{fmt}_over_reference"] == pytest.approx(
+            r[f"{fmt}_cpu_seconds"] / r["reference_cpu_seconds"])

@@ -16,6 +16,11 @@ which are measured side by side, more than the absolute times).
 
 `vibtrans bench --work-precision [--quick] [--json] [--plot FILE]`: error
 against cost of both integrators over a ladder of steps (vibtrans.workprecision).
+
+`vibtrans bench --export [--quick] [--json]`: seconds (wall and CPU) to
+export the explorer's trajectory figure of paper point 8 at standard
+fidelity with its tau twin (`export_bench`), to PNG, SVG and HTML, and each
+over a plain one-panel matplotlib PNG's, measured round-robin in one run.
 """
 import json
 import os
@@ -131,13 +136,105 @@ def run(quick=False):
     }
 
 
-def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=None):
+def export_bench(quick=False, point=8):
+    """The explorer's trajectory export (its Export buttons call
+    `export.export_trajectory(ds, out, twin=twin)`) of paper `point`'s
+    scene as the explorer runs it: 2000 periods at standard fidelity,
+    OVERVIEW_SAMPLES per period, the last FRAGMENT periods at full
+    resolution, and its tau twin (point 8 hops and is chaotic: the twin is
+    drawn).  Best of several round-robin repetitions of: the simulation of
+    the reference (`_reference_png`, one plain matplotlib panel), the PNG,
+    SVG and HTML exports; wall and CPU (process) seconds, and each export's
+    CPU time over the reference's (the ratio is what to compare between
+    machines and loads)."""
+    import shutil
+    import tempfile
+
+    from . import export, plots
+    from .analysis import twin_scene
+    repeat = 2 if quick else 5
+    scene = paper_scene(point)
+    T = scene.periods
+
+    ds = simulate(scene, window=(T - plots.FRAGMENT, T),
+                  samples_per_period=plots.OVERVIEW_SAMPLES)
+    twin = simulate(twin_scene(scene), samples_per_period=plots.OVERVIEW_SAMPLES)
+    formats = ("png", "svg", "html")
+    tmp = tempfile.mkdtemp(prefix="vibtrans-bench-")
+    wall = {k: float("inf") for k in ("reference", *formats)}
+    cpu = dict(wall)
+    try:
+        jobs = {"reference": lambda: _reference_png(f"{tmp}/reference.png")}
+        jobs["reference"]()
+        for fmt in formats:
+            jobs[fmt] = (lambda f: lambda: export.export_trajectory(
+                ds, f"{tmp}/trajectory.{f}", twin=twin))(fmt)
+            jobs[fmt]()                                   # warm-up: imports, fonts
+        for _ in range(repeat):
+            for name, job in jobs.items():
+                w, c = time.perf_counter(), time.process_time()
+                job()
+                wall[name] = min(wall[name], time.perf_counter() - w)
+                cpu[name] = min(cpu[name], time.process_time() - c)
+    finally:
+        shutil.rmtree(tmp)
+    out = {"point": point, "samples": int(ds.sizes["time"]),
+           "twin_samples": int(twin.sizes["time"]), "repeat": repeat,
+           "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                      f"python {platform.python_version()}",
+           "load_average_1min": os.getloadavg()[0]}   # at the end of the measurements
+    for name in wall:
+        out[f"{name}_seconds"] = wall[name]
+        out[f"{name}_cpu_seconds"] = cpu[name]
+    for fmt in formats:
+        out[f"{fmt}_over_reference"] = cpu[fmt] / cpu["reference"]
+    return out
+
+
+def _reference_png(out):
+    """The stable reference of `export_bench`: one plain matplotlib panel
+    (a 1000-point line, title, labels, legend) written to PNG at the
+    exports' 150 dpi: what a machine and its load make of matplotlib."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    t = np.linspace(0.0, 10.0, 1000)
+    fig = Figure(figsize=(5.0, 3.0), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.plot(t, np.sin(2 * np.pi * t), label="sin")
+    ax.set_title("reference")
+    ax.set_xlabel("t")
+    ax.set_ylabel("y")
+    ax.legend()
+    fig.savefig(out, dpi=150)
+
+
+def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=None,
+         export=False):
     if work_precision:
         from .workprecision import main as wp_main
         pinned = _pin_one_core()
         return wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned)
     if plot is not None:
         raise InputError("plot: only bench --work-precision takes --plot")
+    if export:
+        pinned = _pin_one_core()
+        r = export_bench(quick)
+        r["pinned_to_one_core"] = pinned
+        if as_json:
+            print(json.dumps(r))
+            return 0
+        print(f"vibtrans bench --export ({'quick' if quick else 'full'}; best of "
+              f"{r['repeat']}; {r['machine']}; one core: {pinned}; load "
+              f"{r['load_average_1min']:.1f})")
+        print(f"  paper point {r['point']}, standard, {r['samples']} samples + twin "
+              f"{r['twin_samples']}; reference (one plain matplotlib panel to PNG): "
+              f"{r['reference_seconds']:.3f} s wall, {r['reference_cpu_seconds']:.3f} s CPU")
+        for fmt in ("png", "svg", "html"):
+            print(f"  trajectory export .{fmt:<4} {r[fmt + '_seconds']:6.2f} s wall, "
+                  f"{r[fmt + '_cpu_seconds']:6.2f} s CPU, {r[fmt + '_over_reference']:6.1f} x "
+                  "reference CPU" + ("   (goal <= 3 s)" if fmt == "png" else ""))
+        return 0
     if sweep:
         r = sweep_bench(quick)
         if as_json:

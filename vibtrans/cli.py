@@ -161,7 +161,8 @@ def cmd_bench(args):
     if args.plot is not None:
         check_file(args.plot, "plot")
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
-                      work_precision=args.work_precision, plot=args.plot)
+                      work_precision=args.work_precision, plot=args.plot,
+                      export=args.export)
 
 
 def cmd_sweep(args):
@@ -440,6 +441,9 @@ def build_parser():
                    help="error against cost of both integrators over a ladder of steps "
                         "(vibtrans.workprecision; full: a few minutes, --quick: < 30 s)")
     b.add_argument("--plot", help="with --work-precision: write the diagram to FILE.png|svg|pdf")
+    b.add_argument("--export", action="store_true",
+                   help="seconds to export the explorer's trajectory figure (PNG, SVG, HTML) "
+                        "of paper point 8 with its twin, and over its simulation's")
     b.set_defaults(func=cmd_bench)
 
     _export_parser(sub)

@@ -8,7 +8,8 @@ definitions, rendered by another backend.  Exporting from a process that
 serves the explorer is safe: the matplotlib backend is loaded without
 changing `hv.Store.current_backend`, and every render names its backend.
 
-Every `export_*` function returns the HoloViews object it rendered.
+Every `export_*` function returns the HoloViews object it rendered
+(`export_trajectory`: the `plots.TrajectoryFigure`, drawn without HoloViews).
 """
 import math
 import shlex
@@ -136,12 +137,16 @@ def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI, hspace=HSPACE):
     import matplotlib.pyplot as plt
     fig = render(obj, width, height, hspace)
     try:
-        Path(out).parent.mkdir(parents=True, exist_ok=True)
-        with matplotlib.rc_context(RC), atomic(out) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+        _savefig(fig, out, fmt, dpi)
     finally:
         plt.close(fig)
     return obj
+
+
+def _savefig(fig, out, fmt, dpi):
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    with matplotlib.rc_context(RC), atomic(out) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
 
 
 def _metadata(fmt):
@@ -157,13 +162,18 @@ def _metadata(fmt):
 def export_html(obj, out, title="vibtrans"):
     """Standalone interactive HTML (bokeh, resources inline: opens offline,
     no server).  obj: a HoloViews object built with the bokeh backend loaded,
-    or anything Panel can show."""
+    a Bokeh model, or anything Panel can show."""
+    from bokeh.model import Model
     _format(out, ("html",))
-    ensure_backends()
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     with atomic(out) as tmp:
         if isinstance(obj, hv.core.dimension.Dimensioned):
+            ensure_backends()
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
+        elif isinstance(obj, Model):
+            from bokeh.embed import file_html
+            from bokeh.resources import INLINE
+            Path(tmp).write_text(file_html(obj, INLINE, title=title), encoding="utf-8")
         else:
             import panel as pn
             from bokeh.resources import INLINE
@@ -227,20 +237,181 @@ def export_heatmap(map_ds, out, v0=V0, vertical=None, dpi=DEFAULT_DPI, width=7.0
 
 def export_trajectory(ds, out, window=None, twin=None, dpi=DEFAULT_DPI, width=11.0,
                       height=None, title=None):
-    """Trajectory figure: whole run and the full-resolution fragment `window`
-    (default: the run's recorded window, else its last 2 periods); with a
-    twin run (tau + 1e-3), a last row compares x*(t)."""
-    _format(out, FORMATS + ("html",))
-    ensure_backends()
+    """Trajectory figure (`plots.trajectory_figure`): the whole run as
+    per-bin mean and min-max envelope, and the full-resolution fragment
+    `window` (default: the run's recorded window, else its last 2 periods);
+    with a twin run (tau + 1e-3), a last row compares x*(t).  To out (.png,
+    .svg, .pdf: matplotlib, `render_trajectory`; .html: Bokeh,
+    `trajectory_bokeh`).  Returns the `plots.TrajectoryFigure` drawn."""
+    fmt = _format(out, FORMATS + ("html",))
     if height is None:
         height = 13.0 if twin is not None else 11.0
-    fig = plots.trajectory_figure(ds, window=window, twin=twin)
-    if title is None:
-        a = ds.attrs
-        title = (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
-                 f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
-    fig = fig.opts(title=title, backend="matplotlib")
-    return _write(fig, out, width, height, dpi, html_cell=(650, 180))
+    figure = plots.trajectory_figure(ds, window=window, twin=twin, title=title)
+    if fmt == "html":
+        export_html(trajectory_bokeh(figure), out, title=figure.title)
+        return figure
+    _check_size(width, height, dpi)
+    import matplotlib.pyplot as plt
+    fig = render_trajectory(figure, width, height)
+    try:
+        _savefig(fig, out, fmt, dpi)
+    finally:
+        plt.close(fig)
+    return figure
+
+
+# The trajectory figure is drawn with matplotlib and Bokeh directly, not
+# through HoloViews (plots.py, "trajectories", says why): its twelve panels
+# are a few lines, bands and polygons each.
+LINE_WIDTH = 1.5
+ENVELOPE_ALPHA = 0.3         # a per-bin min-max band: fill, outline opacity and width
+ENVELOPE_EDGE_ALPHA = 0.6
+ENVELOPE_EDGE_WIDTH = 0.6
+TIME_LABEL = "t* (periods)"
+
+
+def _mpl_panel(ax, panel):
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
+    ax.set_title(panel.title)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_xlim(*panel.xlim)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    if panel.strip is not None:
+        from matplotlib.collections import PolyCollection
+        edges, shares = panel.strip
+        handles = []
+        for code, name in enumerate(STATE_NAMES):
+            if shares[:, code].any():
+                # one polygon per state, not snapped to pixels: a band
+                # narrower than a pixel keeps its share of the pixel (a
+                # collection: add_patch walked its thousands of vertices
+                # in Python for the data limits, which are set here)
+                x, y = plots.strip_outline(edges, shares, code)
+                ax.add_collection(PolyCollection([np.column_stack([x, y])], snap=False,
+                                                 facecolors=plots.STATE_COLORS[code],
+                                                 linewidths=0), autolim=False)
+                handles.append(Patch(facecolor=plots.STATE_COLORS[code], label=name))
+        # the bands fill the strip's lower part, their legend the upper
+        ax.set_ylim(0.0, 1.8)
+        ax.set_yticks([])
+        ax.spines["left"].set_visible(False)
+        ax.legend(handles=handles, loc="upper left", ncols=4)
+        return
+    handles = []
+    for tr in panel.traces:
+        band = None
+        if tr.lo is not None:
+            # outlined: a bin far taller than its neighbours (an impact's
+            # force) stays a visible spike, as the line of every sample drew it
+            band = ax.fill_between(tr.time, tr.lo, tr.hi,
+                                   facecolor=to_rgba(tr.colour, ENVELOPE_ALPHA),
+                                   edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA),
+                                   linewidth=ENVELOPE_EDGE_WIDTH,
+                                   linestyle="--" if tr.dash == "dashed" else "-")
+        line, = ax.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH,
+                        linestyle="--" if tr.dash == "dashed" else "-", label=tr.label)
+        handles.append(line if band is None else (band, line))
+    ax.set_ylabel(panel.ylabel)
+    ax.legend(handles, [tr.label for tr in panel.traces], loc="best")
+
+
+def render_trajectory(figure, width=11.0, height=13.0):
+    """A matplotlib Figure of a `plots.TrajectoryFigure`, width x height
+    inches, its columns side by side (close it with
+    matplotlib.pyplot.close when done)."""
+    from matplotlib.figure import Figure
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+    with matplotlib.rc_context(RC):
+        fig = Figure(figsize=(width, height))
+        FigureCanvasAgg(fig)
+        rows = max(len(col) for col in figure.columns)
+        axes = fig.subplots(rows, len(figure.columns), squeeze=False)
+        for j, col in enumerate(figure.columns):
+            for i in range(rows):
+                if i < len(col):
+                    _mpl_panel(axes[i, j], col[i])
+                else:
+                    axes[i, j].set_visible(False)
+        fig.suptitle(figure.title, fontsize=14)
+        # constrained layout places titles, labels and legends without a
+        # draw (the HoloViews figures' _fit drew up to 7 times); run once,
+        # here: as the figure's engine it would run in savefig's dry draw
+        # and again in its real one, a dry draw that no engine makes needless
+        ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.04, hspace=0.03,
+                                wspace=0.06).execute(fig)
+    return fig
+
+
+def trajectory_bokeh(figure, cell=(650, 180)):
+    """A Bokeh layout of a `plots.TrajectoryFigure` (standalone HTML): the
+    title, then the columns side by side, each panel `cell` = (width,
+    height) pixels, a column's panels on one linked, zoomable time axis."""
+    import html
+    from itertools import zip_longest
+
+    from bokeh.layouts import column, gridplot
+    from bokeh.models import (ColumnDataSource, Div, HoverTool, Legend, LegendItem,
+                              Range1d)
+    from bokeh.plotting import figure as bokeh_figure
+    width, height = cell
+    grid = []
+    for col in figure.columns:
+        x_range = Range1d(*col[0].xlim)
+        figs = []
+        for panel in col:
+            f = bokeh_figure(title=panel.title, width=width, height=height, x_range=x_range,
+                             tools="xpan,xwheel_zoom,box_zoom,reset,save",
+                             active_scroll="xwheel_zoom")
+            f.xaxis.axis_label = TIME_LABEL
+            f.toolbar.logo = None
+            items = []
+            if panel.strip is not None:
+                edges, shares = panel.strip
+                for code, name in enumerate(STATE_NAMES):
+                    if shares[:, code].any():
+                        x, y = plots.strip_outline(edges, shares, code)
+                        # no outline: over a long run's narrow bands it was
+                        # all one saw (bokeh outlines in black by default)
+                        r = f.patch(x=x, y=y, fill_color=plots.STATE_COLORS[code],
+                                    line_width=0, line_alpha=0)
+                        items.append(LegendItem(label=name, renderers=[r]))
+                f.y_range = Range1d(0.0, 1.8)
+                f.yaxis.visible = False
+                f.ygrid.visible = False
+                f.add_layout(Legend(items=items, location="top_left",
+                                    orientation="horizontal"))
+            else:
+                lines = []
+                for tr in panel.traces:
+                    data = {"time": tr.time, "value": tr.value}
+                    if tr.lo is not None:
+                        data.update(lo=tr.lo, hi=tr.hi)
+                    src = ColumnDataSource(data)
+                    drawn = []
+                    if tr.lo is not None:
+                        drawn.append(f.varea(x="time", y1="lo", y2="hi", fill_color=tr.colour,
+                                             fill_alpha=ENVELOPE_ALPHA, source=src))
+                        drawn += [f.line(x="time", y=edge, line_color=tr.colour,
+                                         line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
+                                         line_dash=tr.dash or "solid", source=src)
+                                  for edge in ("lo", "hi")]
+                    r = f.line(x="time", y="value", line_color=tr.colour,
+                               line_width=LINE_WIDTH, line_dash=tr.dash or "solid", source=src)
+                    lines.append(r)
+                    items.append(LegendItem(label=tr.label, renderers=[r, *drawn]))
+                f.yaxis.axis_label = panel.ylabel
+                f.add_tools(HoverTool(renderers=lines, tooltips=[("t*", "@time{0.0000}"),
+                                                                 ("value", "$y{0.0000}")]))
+                f.add_layout(Legend(items=items, location="top_left"), "right")
+            figs.append(f)
+        grid.append(figs)
+    rows = [list(row) for row in zip_longest(*grid)]
+    return column(Div(text=f"<h3>{html.escape(figure.title)}</h3>"),
+                  gridplot(rows, toolbar_location="right"))
 
 
 # ---------------------------------------------------------------- data files

@@ -1,5 +1,8 @@
-"""HoloViews figures built from vibtrans results, shared by the explorer
-(bokeh) and the exporter (matplotlib, headless): one definition per figure.
+"""Figures built from vibtrans results, shared by the explorer (bokeh) and
+the exporter (matplotlib, headless): one definition per figure.  The maps,
+the vertical curve and the memory diagram are HoloViews elements; the
+trajectory figure is plain data (`trajectory_figure`), drawn by each backend
+directly (see "trajectories" below for why).
 
 Nothing here integrates anything: inputs are Datasets from `simulate`,
 `open_map` and `threshold_curve`, and the dict of `memory_snapshot`.
@@ -11,6 +14,8 @@ bokeh).  Figures must therefore be built after the backends they will be
 rendered with are loaded: `vibtrans.export` loads matplotlib before it builds
 anything, and loading it never changes `hv.Store.current_backend`.
 """
+from dataclasses import dataclass, replace
+
 import numpy as np
 import holoviews as hv
 
@@ -22,7 +27,6 @@ from .errors import InputError
 
 STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}   # flight, stick, partial, sliding
 CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
-T_DIM = hv.Dimension("time", label="t*", unit="periods")
 LOG_A = hv.Dimension("log_amplitude", label="log10 A*")
 LOG_M = hv.Dimension("log_mass", label="log10 m*")
 M_DIM = hv.Dimension("mass", label="m*")
@@ -337,16 +341,17 @@ def vertical_curves(vertical):
 
 
 # ---------------------------------------------------------------- trajectories
-# value dimensions of the trajectory variables (their labels must differ from
-# the curves' legend labels: a style value equal to a dimension's name or label
-# is read as a mapping to that dimension by the matplotlib backend)
-VAR_LABELS = {"a": "a* (a0)", "y": "y* (a0)", "x": "x* (a0)", "b": "b* (theta mu a0)",
-              "bdot": "b*' (theta mu a0 per period)", "N": "N* (N(a0))",
-              "T": "T* (mu N(a0))"}
-
-
-def _vdim(var):
-    return hv.Dimension(var, label=VAR_LABELS.get(var, var))
+# The trajectory figure is defined here once, as data (`trajectory_figure`):
+# panels of lines, per-bin envelopes and contact-state bands.  vibtrans.export
+# draws it directly with matplotlib (PNG/SVG/PDF) and with Bokeh (standalone
+# HTML); the explorer's live view draws the same panels (`panel_spec`,
+# `state_bands`, `twin_spec`) with Bokeh.  Not through HoloViews: its matplotlib
+# backend took 10-17 s for this figure's twelve panels, nearly all of it
+# per-element option handling and layout, whatever the number of points
+# (issue 14; profiled with cProfile, see vibtrans.bench.export_bench).
+OVERVIEW_BINS = 1000     # time bins of the whole run in the trajectory figure:
+# about 1.5 per pixel column of a panel at the default 11 in, 150 dpi (every
+# sample of 2000 periods drew lines that filled their min-max band anyway)
 
 
 def overview_samples(ds, window_samples=200):
@@ -368,15 +373,32 @@ def overview_samples(ds, window_samples=200):
     return ds.isel(time=keep)
 
 
-def _curve(ds, var, label, color):
-    return _styled_line(hv.Curve((ds["time"].values, ds[var].values), T_DIM, _vdim(var),
-                                 label=label), color)
+def binned(t, columns, bins):
+    """Per-bin mean, min and max of each column over `bins` equal time bins
+    of [t[0], t[-1]] (empty bins dropped): {"time": bin centres (the mid-point
+    of the bin's first and last sample), c: mean, c_lo: min, c_hi: max}.
+    NaN values are left out of a bin (a bin of NaN only gives NaN)."""
+    t = np.asarray(t, dtype=float)
+    edges = np.linspace(t[0], t[-1], int(bins) + 1)
+    start = np.unique(np.searchsorted(t, edges[:-1], side="left"))
+    start = start[start < t.size]
+    stop = np.r_[start[1:], t.size]
+    out = {"time": 0.5 * (t[start] + t[stop - 1])}
+    for c, v in columns.items():
+        v = np.asarray(v, dtype=float)
+        ok = np.isfinite(v)
+        count = np.add.reduceat(ok.astype(float), start)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[c] = np.add.reduceat(np.where(ok, v, 0.0), start) / count
+        out[f"{c}_lo"] = np.fmin.reduceat(np.where(ok, v, np.nan), start)
+        out[f"{c}_hi"] = np.fmax.reduceat(np.where(ok, v, np.nan), start)
+    return out
 
 
-def _dominant_states(ds, bins):
-    """(t0, t1, state) runs of the state that fills most of each of `bins`
-    equal time bins (from the exact change times): an overview of a long run
-    that a screen can show, instead of thousands of sub-pixel bands."""
+def _state_time(ds, bins):
+    """(edges, time): the bins' `bins` + 1 edges over the samples' span and
+    the time (periods) spent in each contact state in each bin, a (bins,
+    len(STATE_NAMES)) array, from the exact change times."""
     t0, t1, vals = _state_runs(ds)
     edges = np.linspace(t0[0], t1[-1], bins + 1)
     # time spent in each state up to each edge: cumulative over the runs,
@@ -388,12 +410,42 @@ def _dominant_states(ds, bins):
     r = np.clip(np.searchsorted(t0, edges, side="right") - 1, 0, t0.size - 1)
     at = cum[r] + np.where(np.arange(n) == vals[r][:, None],
                            (np.minimum(edges, t1[r]) - t0[r])[:, None], 0.0)
-    share = np.diff(at, axis=0)
+    return edges, np.diff(at, axis=0)
+
+
+def _dominant_states(ds, bins):
+    """(t0, t1, state) runs of the state that fills most of each of `bins`
+    equal time bins (from the exact change times): an overview of a long run
+    that a screen can show, instead of thousands of sub-pixel bands."""
+    edges, share = _state_time(ds, bins)
     dom = share.argmax(axis=1)
     cut = np.flatnonzero(np.diff(dom)) + 1
     starts = np.concatenate([[0], cut])
     ends = np.concatenate([cut, [bins]])
     return edges[starts], edges[ends], dom[starts]
+
+
+def state_shares(ds, bins):
+    """(edges, shares): `bins` + 1 equal bin edges over the samples' time
+    span and the fraction of each bin's time spent in each contact state, a
+    (bins, len(STATE_NAMES)) array whose rows sum to 1."""
+    edges, time = _state_time(ds, int(bins))
+    total = time.sum(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return edges, np.where(total > 0, time / total, 0.0)
+
+
+def strip_outline(edges, shares, code):
+    """The outline (x, y arrays, one closed polygon) of state `code`'s layer
+    in a strip that stacks each bin's shares from the bottom (flight) up
+    (total sliding) within [0, 1]: one polygon per state, so adjacent bins
+    leave no anti-aliasing seams between them.  edges: n + 1 bin edges;
+    shares: (n, states)."""
+    top = np.cumsum(shares, axis=1)[:, code]
+    bottom = top - shares[:, code]
+    x = np.repeat(edges, 2)[1:-1]                    # e0 e1 e1 e2 e2 ... en
+    return (np.concatenate([x, x[::-1]]),
+            np.concatenate([np.repeat(top, 2), np.repeat(bottom, 2)[::-1]]))
 
 
 def _state_runs(ds):
@@ -417,35 +469,6 @@ def state_bands(ds, bins=None):
     t0, t1, vals = _dominant_states(ds, int(bins)) if bins else _state_runs(ds)
     keep = t1 > t0
     return t0[keep], t1[keep], vals[keep]
-
-
-def state_timeline(ds, legend=False, bins=None):
-    """Contact states as coloured bands over the samples' time span (exact
-    change times from the events).  legend: one layer per state, named in a
-    legend above the bands (an Overlay; else one Rectangles element).
-    bins: show the dominant state of each of `bins` time bins instead."""
-    time = ds["time"].values
-    t_start, t_end = float(time[0]), float(time[-1])
-    rects = [(a, 0, b, 1, STATE_NAMES[v], STATE_COLORS[v]) for a, b, v in zip(*state_bands(ds, bins))]
-    kdims = [T_DIM, hv.Dimension("y0", label="state"), "x1", "y1"]
-    # no outlines: bokeh's default black outline of each band, over a
-    # long run's thousands of narrow bands, turned the strip black
-    if not legend:
-        el = hv.Rectangles(rects, kdims=kdims, vdims=["state", "color"])
-        return style(el, common=dict(yaxis=None, padding=0),
-                     bokeh=dict(color="color", line_alpha=0),
-                     matplotlib=dict(facecolor="color", linewidth=0))
-    layers = []
-    for code, name in enumerate(STATE_NAMES):
-        mine = [r for r in rects if r[4] == name]
-        if mine:
-            el = hv.Rectangles(mine, kdims=kdims, vdims=["state", "color"], label=name)
-            layers.append(style(el, bokeh=dict(color=STATE_COLORS[code], line_alpha=0),
-                                matplotlib=dict(color=None, facecolor=STATE_COLORS[code],
-                                                linewidth=0)))
-    return style(hv.Overlay(layers), common=dict(yaxis=None, padding=0, ylim=(0, 1.8),
-                                                 legend_position="top_left", legend_cols=4,
-                                                 show_legend=True, xlim=(t_start, t_end)))
 
 
 def panel_spec(rigid, split_velocity=False):
@@ -473,6 +496,9 @@ def timeline_title(bins=None):
     return "contact state" + (" (dominant per bin)" if bins else "")
 
 
+BINNED_NOTE = " (mean, min-max per bin)"     # a binned panel's title ends so
+
+
 def twin_spec(tau, label):
     """The twin comparison panel of a run with ramp time `tau`: (title,
     y label, [(legend label, colour, dash) of the run, of its twin])."""
@@ -484,34 +510,7 @@ def twin_spec(tau, label):
              (f"x*, {label}", "black", "dashed")])
 
 
-def trajectory_panels(ds, split_velocity=False, state_legend=False, timeline_bins=None):
-    """The paper's trajectory figure: normal and tangential displacements,
-    forces and relative velocity, and the contact-state timeline, on one
-    shared time axis (panels: `panel_spec`).
-
-    split_velocity: draw b*' in a panel of its own (in flight it is far
-    larger than N* and T*, which it would flatten).
-    state_legend: name the contact states in a legend (else hover tells).
-    timeline_bins: draw the dominant state per time bin (long runs)."""
-    panels = []
-    for title, ylabel, lines in panel_spec(ds.attrs.get("model") == "point-mass",
-                                           split_velocity):
-        layers = [_curve(ds, var, lab, color) for var, lab, color in lines]
-        p = layers[0] if len(layers) == 1 else hv.Overlay(layers)
-        panels.append(style(p.relabel(title), common=dict(ylabel=ylabel)))
-    timeline = state_timeline(ds, legend=state_legend, bins=timeline_bins).relabel(
-        timeline_title(timeline_bins))
-    return hv.Layout([*panels, timeline]).cols(1)
-
-
-def twin_comparison(ds, twin, label="tau + 1e-3"):
-    """x*(t) of a run and of its twin (a tau + 1e-3 run, or another model)."""
-    title, ylabel, ((la, ca, _), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), label)
-    a = _styled_line(hv.Curve((ds["time"].values, ds["x"].values), T_DIM, _vdim("x"), label=la),
-                     ca)
-    b = _styled_line(hv.Curve((twin["time"].values, twin["x"].values), T_DIM, _vdim("x"),
-                              label=lb), cb, dash=db)
-    return style((a * b).relabel(title), common=dict(ylabel=ylabel))
+TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
 
 def fragment_window(ds, window=None):
@@ -527,32 +526,139 @@ def fragment_window(ds, window=None):
     return max(float(ds["time"].values[0]), t1 - FRAGMENT), t1
 
 
-def trajectory_figure(ds, window=None, twin=None):
-    """Whole run (left) and the full-resolution fragment `window` (right),
-    panels as in `trajectory_panels`; with a twin, a last row compares x*(t)."""
+@dataclass(frozen=True)
+class Trace:
+    """One line of a panel: `value` of variable `var` at `time` (periods).
+    When `lo` and `hi` are given, `value` holds per-bin means and `lo`, `hi`
+    the bin's minimum and maximum (its envelope, drawn as a band)."""
+    var: str
+    label: str
+    colour: str
+    time: np.ndarray
+    value: np.ndarray
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+    dash: str | None = None          # None: solid; "dashed"
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One panel on the time axis (t*, periods) over `xlim`: lines
+    (`traces`), or a contact-state strip (`strip`: (edges, shares), the
+    share of each of n intervals [edges[i], edges[i + 1]] spent in each
+    state, an (n, len(STATE_NAMES)) array, stacked from the bottom in
+    [0, 1] (`strip_outline`); colours STATE_COLORS, names STATE_NAMES, the
+    states drawn named in a legend)."""
+    title: str
+    ylabel: str
+    xlim: tuple
+    traces: tuple = ()
+    strip: tuple | None = None
+
+
+@dataclass(frozen=True)
+class TrajectoryFigure:
+    """The trajectory figure as data: a title and columns of panels (the
+    whole run, then the full-resolution fragment `window`), one row per
+    quantity; `bins`: the whole run's time bins (None: every sample)."""
+    title: str
+    columns: tuple
+    window: tuple
+    bins: int | None
+
+
+def _line_panels(ds, specs, bins):
+    """The line panels of `specs` (`panel_spec`) for the samples of `ds`,
+    each quantity's per-bin mean and min-max envelope with `bins`."""
+    t = ds["time"].values
+    variables = {var for _, _, lines in specs for var, _, _ in lines}
+    if bins:
+        data = binned(t, {v: ds[v].values for v in variables}, bins)
+    else:
+        data = {"time": t, **{v: ds[v].values for v in variables}}
+    xlim = (float(t[0]), float(t[-1]))
+    panels = []
+    for title, ylabel, lines in specs:
+        traces = tuple(Trace(var, label, colour, data["time"], data[var],
+                             data.get(f"{var}_lo"), data.get(f"{var}_hi"))
+                       for var, label, colour in lines)
+        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces))
+    return panels, data
+
+
+def _twin_panel(ds, data, twin, bins, xlim):
+    """x*(t) of the run (its drawn `data`) and of its twin run."""
+    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0),
+                                                            TWIN_LABEL)
+    tt, tx = twin["time"].values, twin["x"].values
+    other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
+    traces = (Trace("x", la, ca, data["time"], data["x"], data.get("x_lo"), data.get("x_hi"),
+                    da),
+              Trace("x", lb, cb, other["time"], other["x"], other.get("x_lo"),
+                    other.get("x_hi"), db))
+    return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
+
+
+def default_title(ds):
+    """The trajectory figure's title: model, A*, m* and mu of the run."""
+    a = ds.attrs
+    return (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
+            f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
+
+
+def state_strip(ds, bins=None):
+    """The contact-state strip (`Panel.strip`) and its title: the exact
+    runs, each its state's alone; with `bins`, each bin's time shares
+    stacked (a long run's bands are far narrower than a pixel: drawn
+    exactly they showed as a moire of stripes, or as one tint)."""
+    if bins:
+        return state_shares(ds, bins), SHARES_TITLE
+    t0, t1, codes = state_bands(ds)
+    return (np.r_[t0, t1[-1:]], np.eye(len(STATE_NAMES))[codes]), timeline_title(None)
+
+
+SHARES_TITLE = "contact state (time share per bin)"
+
+
+def trajectory_figure(ds, window=None, twin=None, title=None, bins=OVERVIEW_BINS):
+    """The trajectory figure (a `TrajectoryFigure`): left the whole run, each
+    quantity drawn as its mean over `bins` equal time bins with the bin's
+    min-max envelope (every sample is inside its bin's band) and the
+    contact states as each bin's time shares (None: every sample and the
+    exact state bands drawn), right the full-resolution fragment `window`
+    (default: `fragment_window`) sample by sample with the exact state
+    bands.  Rows: `panel_spec` (b*' in a panel of its own), the
+    contact-state strip, and with a `twin` run (tau + TWIN_TAU_OFFSET)
+    x*(t) of both."""
     t0, t1 = fragment_window(ds, window)
-    frag = ds.sel(time=slice(t0, t1))
-    if frag.sizes["time"] < 2:
+    t = ds["time"].values
+    # (index slicing: a label-based sel builds a pandas hash index first)
+    i0, i1 = np.searchsorted(t, t0, side="left"), np.searchsorted(t, t1, side="right")
+    if i1 - i0 < 2:
         raise InputError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
-    over = trajectory_panels(ds, split_velocity=True, state_legend=True)
-    part = trajectory_panels(frag, split_velocity=True, state_legend=True)
-    items = []
-    for i, (a, b) in enumerate(zip(over, part)):
-        if i == 0:
-            a = a.relabel(f"whole run: {a.label}")
-            b = b.relabel(f"t* in [{t0:g}, {t1:g}]: {b.label}")
-        items += [a, b]
-    if twin is not None:
-        items += [twin_comparison(ds, twin), twin_comparison(frag, twin.sel(time=slice(t0, t1)))]
-    # the two columns cover different time spans: no shared ranges or axes
-    independent = {k: dict(axiswise=True) for k in ("Curve", "Overlay", "Rectangles")}
-    lay = hv.Layout(items).cols(2)
-    for backend in loaded_backends():
-        lay = lay.opts(independent, backend=backend)
-        if backend == "matplotlib":
-            lay = lay.opts({k: dict(xticks=5) for k in ("Curve", "Overlay", "Rectangles")},
-                           backend=backend)
-    return style(lay, bokeh=dict(shared_axes=False))
+    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer))
+                             or bins < 1):
+        raise InputError(f"bins must be a positive integer or None, got {bins!r}")
+    frag = ds.isel(time=slice(i0, i1))
+    specs = panel_spec(ds.attrs.get("model") == "point-mass", split_velocity=True)
+    columns = []
+    for part, part_bins, head in ((ds, bins, "whole run"), (frag, None, f"t* in [{t0:g}, {t1:g}]")):
+        panels, data = _line_panels(part, specs, part_bins)
+        panels[0] = replace(panels[0], title=f"{head}: {panels[0].title}")
+        xlim = panels[0].xlim
+        strip, strip_title = state_strip(part, part_bins)
+        panels.append(Panel(strip_title, "state", xlim, strip=strip))
+        if twin is not None:
+            tt = twin["time"].values
+            if part is frag:
+                j0, j1 = np.searchsorted(tt, t0, side="left"), np.searchsorted(tt, t1, side="right")
+                other = twin.isel(time=slice(j0, j1))
+            else:
+                other = twin
+            panels.append(_twin_panel(part, data, other, part_bins, xlim))
+        columns.append(tuple(panels))
+    return TrajectoryFigure(default_title(ds) if title is None else str(title), tuple(columns),
+                            (t0, t1), bins)
 
 
 # ---------------------------------------------------------------- memory diagram
