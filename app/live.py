@@ -118,25 +118,6 @@ def _extent(arrays):
     return lo - pad, hi + pad
 
 
-def binned(t, columns, bins):
-    """Per-bin mean, min and max of each column over `bins` equal time bins
-    (empty bins dropped): {"time": bin centres, c: mean, c_lo: min, c_hi:
-    max}.  NaN values are left out of a bin."""
-    edges = np.linspace(t[0], t[-1], bins + 1)
-    start = np.unique(np.searchsorted(t, edges[:-1], side="left"))
-    start = start[start < t.size]
-    stop = np.r_[start[1:], t.size]
-    out = {"time": 0.5 * (t[start] + t[stop - 1])}
-    for c, v in columns.items():
-        ok = np.isfinite(v)
-        count = np.add.reduceat(ok.astype(float), start)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[c] = np.add.reduceat(np.where(ok, v, 0.0), start) / count
-        out[f"{c}_lo"] = np.fmin.reduceat(np.where(ok, v, np.nan), start)
-        out[f"{c}_hi"] = np.fmax.reduceat(np.where(ok, v, np.nan), start)
-    return out
-
-
 def time_label(t0=None, period_seconds=None):
     """The time axis's label: periods (from t0 if given), and the period in
     seconds when the run is a device's."""
@@ -211,7 +192,7 @@ class _Block:
             raw["x"] = raw["x"] - raw["x"][0]
         self.timeline.xaxis.axis_label = time_label(t0 if self.relative else None,
                                                     period_seconds)
-        data = binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
+        data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         self.source.data = data
         self.x_range.update(start=float(t[0]), end=float(t[-1]))
         for fig, cols, right in zip(self.figures, self.columns, self.right):

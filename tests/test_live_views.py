@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from vibtrans import paper_scene, simulate
-from vibtrans_explorer.live import LiveTrajectory, binned, right_columns
+from vibtrans.plots import binned
+from vibtrans_explorer.live import LiveTrajectory, right_columns
 
 
 def test_binned_is_the_naive_per_bin_min_mean_max():
