@@ -748,6 +748,7 @@ def run(a):
         "click_to_plot_p95_while_arriving_s": _quantile(arriving, 0.95),
         "click_to_plot_p95_after_arrivals_s": _quantile(settled, 0.95),
         "page_load_p50_s": statistics.median(result["load_s"]) if result["load_s"] else None,
+        "page_load_p95_s": _quantile(result["load_s"], 0.95) if result["load_s"] else None,
         "page_load_max_s": max(result["load_s"]) if result["load_s"] else None,
         "warmup_click_s": warm["latencies"][0] if warm["latencies"] else None,
         "server_start_to_ready_s": ready,

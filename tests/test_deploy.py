@@ -217,3 +217,29 @@ def test_the_launcher_serves_and_stops_everything(tmp_path):
             proc.kill()
             proc.wait(10)
         log.close()
+
+
+class _Served(Exception):
+    pass
+
+
+def test_serve_hands_use_xheaders_to_bokeh(monkeypatch):
+    """`vibtrans serve --use-xheaders` (the deployment's workers) reaches
+    Bokeh's server as use_xheaders; without it, off (a server facing
+    clients directly must not believe their X-Forwarded-For)."""
+    import panel
+
+    from vibtrans.cli import build_parser
+    from vibtrans_explorer import server
+
+    given = []
+
+    def fake_serve(*args, **kwargs):
+        given.append(kwargs.get("use_xheaders"))
+        raise _Served
+    monkeypatch.setattr(panel, "serve", fake_serve)
+    monkeypatch.setattr(server, "_freeze", lambda: None)     # not in the test process
+    for argv, expected in ((["serve", "--use-xheaders"], True), (["serve"], False)):
+        with pytest.raises(_Served):
+            server.serve(build_parser().parse_args(argv))
+        assert given[-1] is expected
