@@ -5,7 +5,8 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser serve test test-fast bench bench-browser wheel container-test
+.PHONY: setup browser proxy serve test test-fast bench bench-browser wheel container-test \
+        loadtest-proxy
 
 setup: $(VENV)/.installed
 
@@ -14,6 +15,14 @@ setup: $(VENV)/.installed
 browser:
 	@command -v chromium >/dev/null 2>&1 || (apt-get update -qq && \
 		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null)
+
+# The deployment behind a proxy (devtools/deploy, tests/test_deploy.py) runs
+# Debian's nginx; installed once, needs root.  (On a machine with systemd its
+# package also starts the system's nginx on port 80: devtools/deploy runs
+# its own, on its own port and prefix.)
+proxy:
+	@command -v nginx >/dev/null 2>&1 || [ -x /usr/sbin/nginx ] || (apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nginx >/dev/null)
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,7 +33,7 @@ $(VENV)/.installed: pyproject.toml
 serve: setup
 	$(BIN)/vibtrans serve
 
-test: setup browser
+test: setup browser proxy
 	$(BIN)/python -m pytest -q
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
@@ -40,6 +49,14 @@ bench: setup
 # goals (devtools/browserbench.py; --check to fail on a missed goal).
 bench-browser: setup browser
 	$(BIN)/python -m devtools.browserbench
+
+# The load test (30 sessions x 5 clicks) through nginx in front of
+# WORKERS `vibtrans serve` processes (devtools/deploy); more options in
+# LOADTEST_ARGS, e.g. LOADTEST_ARGS="--pin-server 0-2 --pin-clients 3".
+WORKERS ?= 2
+loadtest-proxy: setup browser proxy
+	$(BIN)/python -m devtools.loadtest --proxy-workers $(WORKERS) --sessions 30 --clicks 5 \
+		$(LOADTEST_ARGS)
 
 # The product as one file: library, command line, explorer and maps
 # (tests/test_wheel.py installs it in a fresh venv and runs it).

@@ -199,6 +199,8 @@ def serve(args):
                       websocket_origin=allowed,
                       title="vibtrans explorer", num_procs=args.num_procs, liveness=True,
                       admin=False, extra_patterns=component_routes(),
+                      # behind a proxy: the visitor's address and scheme, not the proxy's
+                      use_xheaders=bool(getattr(args, "use_xheaders", False)),
                       unused_session_lifetime_milliseconds=args.unused_session_lifetime,
                       check_unused_sessions_milliseconds=args.check_unused_sessions)
     # after the server is made: with --num-procs > 1 it has forked, and each

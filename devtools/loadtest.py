@@ -35,6 +35,18 @@ comes ~2 s after the last discard).  Goals: p95 <= 3 s, 0 errors, and the
 RSS after within 10% of the baseline.  Runs the server refuses as over its step cap
 (VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.
 
+Pinning (`--pin`, or `--pin-server CPUS --pin-clients CPUS`, CPUS as
+taskset's lists: 0 / 0,2 / 0-3): the server's processes run on some cores
+(started through `taskset -c`), the clients (this process, its threads and
+the chromium it starts) on others (os.sched_setaffinity), so that the
+clients' work does not count as the server's; `--pin` is server on the
+first core this process may use, clients on the second.  The report gives
+the affinity read back from the processes.
+
+`--proxy-workers N`: the same load through nginx in front of N `vibtrans
+serve` processes (devtools/deploy; `make loadtest-proxy`); memory is then
+the workers' together, and the report says how the sessions spread.
+
 Bounded: at most --sessions sessions, --timeout seconds in all (clicks not
 done by then count as errors), and the server is always stopped.
 """
@@ -44,6 +56,7 @@ import json
 import os
 import random
 import re
+import shutil
 import signal
 import socket
 import statistics
@@ -138,44 +151,86 @@ def rss_mb(pid):
     return total
 
 
-class Server:
-    """`vibtrans serve` on a free port, its log in a file, RSS sampled."""
+# the server's session settings under load: closed sessions dropped in seconds
+SERVE_ARGS = ["--unused-session-lifetime", str(LIFETIME_MS),
+              "--check-unused-sessions", str(CHECK_MS)]
 
-    def __init__(self, num_procs=1, env=None):
-        self.port = _port()
-        self.url = f"http://127.0.0.1:{self.port}/"
-        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-loadtest-", suffix=".log",
-                                               delete=False)
-        env = dict(os.environ, BOKEH_PY_LOG_LEVEL="debug", **(env or {}))
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(self.port),
-             "--num-procs", str(num_procs), "--unused-session-lifetime", str(LIFETIME_MS),
-             "--check-unused-sessions", str(CHECK_MS)],
-            cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
-        self.processes = num_procs or os.cpu_count() or 1
-        self.peak = 0.0
-        self._sampling = False
 
-    def wait_ready(self, timeout=300):
-        """Wait until the server answers and every process of it has its
-        kernels compiled (the server serves pages while they compile: the
-        load would otherwise measure the compilation)."""
-        t0 = time.perf_counter()
-        while True:
-            try:
-                urllib.request.urlopen(self.url + "liveness", timeout=5)
-                if self.text().count(KERNELS_READY) >= self.processes:
-                    return time.perf_counter() - t0
-            except OSError:
-                pass
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"server exited:\n{self.text()[-3000:]}")
-            if time.perf_counter() - t0 > timeout:
-                raise RuntimeError(f"server not ready in {timeout} s")
-            time.sleep(0.2)
+def parse_cpus(text, option):
+    """A taskset-style core list ("0", "0,2", "1-3") as a sorted list of
+    core numbers, each one this process may run on; ValueError naming
+    `option` and the cores there are otherwise."""
+    allowed = sorted(os.sched_getaffinity(0))
+    cpus = set()
+    for part in str(text).split(","):
+        lo, sep, hi = part.strip().partition("-")
+        try:
+            first, last = int(lo), int(hi) if sep else int(lo)
+        except ValueError:
+            raise ValueError(f"{option} must be a list of cores such as 0, 0,2 or 0-1 "
+                             f"(cores here: {_cpu_list(allowed)}), got {text!r}") from None
+        if first < 0 or last < first:
+            raise ValueError(f"{option}: {part.strip()!r} is not a core range "
+                             f"(cores here: {_cpu_list(allowed)})")
+        cpus.update(range(first, last + 1))
+    missing = sorted(cpus - set(allowed))
+    if missing:
+        raise ValueError(f"{option}: core{'s' if len(missing) > 1 else ''} "
+                         f"{_cpu_list(missing)} do{'es' if len(missing) == 1 else ''} not "
+                         f"exist here (cores here: {_cpu_list(allowed)}), got {text!r}")
+    return sorted(cpus)
+
+
+def _cpu_list(cpus):
+    """Cores as taskset writes them: 0,2,4-7."""
+    runs = []
+    for c in sorted(cpus):
+        if runs and c == runs[-1][1] + 1:
+            runs[-1][1] = c
+        else:
+            runs.append([c, c])
+    return ",".join(f"{a}" if a == b else f"{a}-{b}" for a, b in runs) or "none"
+
+
+def _taskset(cpus):
+    """The command prefix that starts a process on `cpus` (None: as this
+    process; util-linux's taskset execs the command, so its pid is the
+    process's, and re-executions and forks keep the affinity)."""
+    if not cpus:
+        return []
+    taskset = shutil.which("taskset")
+    if taskset is None:
+        raise RuntimeError("--pin-server needs taskset (util-linux)")
+    return [taskset, "-c", _cpu_list(cpus)]
+
+
+def affinity(pids):
+    """The cores these processes may run on (union; from the kernel)."""
+    cores = set()
+    for pid in pids:
+        try:
+            cores |= os.sched_getaffinity(pid)
+        except OSError:
+            pass
+    return sorted(cores)
+
+
+class _Measured:
+    """What the load test reads from the server side: RSS (sampled), the
+    sessions dropped and released, errors in the logs."""
+    peak = 0.0
+    _sampling = False
+
+    def alive(self):
+        return all(pid_alive(p) for p in self.pids())
+
+    def server_pids(self):
+        """Every process of the server side (for the affinity report)."""
+        return [q for p in self.pids() for q in _tree(p)]
 
     def rss(self):
-        return rss_mb(self.proc.pid)
+        """The server's processes' RSS together, MB."""
+        return sum(rss_mb(p) for p in self.pids())
 
     def sample(self):
         """Start sampling the peak RSS (every 0.2 s) from now."""
@@ -183,7 +238,7 @@ class Server:
         self._sampling = True
 
         def loop():
-            while self._sampling and self.proc.poll() is None:
+            while self._sampling and self.alive():
                 self.peak = max(self.peak, self.rss())
                 time.sleep(0.2)
         threading.Thread(target=loop, daemon=True).start()
@@ -191,56 +246,6 @@ class Server:
     def stop_sampling(self):
         self._sampling = False
         return self.peak
-
-    def text(self):
-        with open(self.log.name, errors="replace") as f:
-            return f.read()
-
-    def discarded(self):
-        """Sessions Bokeh has dropped (one log line or more per session)."""
-        return len(set(re.findall(r"Discarding session '([^']+)'", self.text())))
-
-    def errors(self):
-        """(server-side errors in the log, client-disconnect races): each
-        traceback by its final exception line, and ERROR log lines.  A page
-        that closes while the server still writes to it gives Tornado's
-        WebSocketClosedError/StreamClosedError: counted apart, not errors."""
-        errors, benign = [], 0
-        lines = self.text().splitlines()
-        i, pending = 0, None            # pending: an ERROR line waiting for its traceback
-        while i < len(lines):
-            line = lines[i]
-            if line.startswith("Traceback"):
-                j = i + 1
-                while j < len(lines) and (not lines[j] or lines[j][0].isspace()
-                                          or lines[j].startswith(("Traceback", "During handling"))
-                                          or "exception occurred" in lines[j]):
-                    j += 1
-                final = lines[j] if j < len(lines) else "(truncated traceback)"
-                block = "\n".join(lines[i:j + 1])
-                if any(k in final for k in BENIGN) or (
-                        final.startswith("AssertionError") and DETACHED in block):
-                    benign += 1
-                else:
-                    errors.append(f"{pending + ': ' if pending else ''}{final}"[:300])
-                pending = None
-                i = j + 1
-                continue
-            if pending is not None and " - " in line[:30]:     # the next log line: no traceback
-                errors.append(pending)
-                pending = None
-            if " - ERROR - " in line or line.startswith("ERROR:"):
-                pending = line[:300]
-            i += 1
-        if pending is not None:
-            errors.append(pending)
-        return errors, benign
-
-    def released_after_discards(self):
-        """Whether the explorer has released memory (its INFO line) since
-        the last session Bokeh discarded."""
-        text = self.text()
-        return text.rfind(RELEASED) > text.rfind("Discarding session")
 
     def wait_dropped(self, sessions, timeout):
         """Wait until Bokeh has discarded `sessions` sessions in all and the
@@ -261,6 +266,91 @@ class Server:
             last = now
         return time.perf_counter() - t0, self.released_after_discards()
 
+
+def pid_alive(pid):
+    """Whether process `pid` exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+def discarded(text):
+    """Sessions Bokeh has dropped, from its debug log (one line or more per
+    session)."""
+    return len(set(re.findall(r"Discarding session '([^']+)'", text)))
+
+
+def released_after_discards(text):
+    """Whether the explorer has released memory (its INFO line) since the
+    last session Bokeh discarded, in one process's log."""
+    return text.rfind(RELEASED) > text.rfind("Discarding session")
+
+
+class Server(_Measured):
+    """`vibtrans serve` on a free port, its log in a file, RSS sampled.
+    wrap: a command prefix (the pinning's taskset)."""
+
+    def __init__(self, num_procs=1, env=None, wrap=()):
+        self.port = _port()
+        self.url = f"http://127.0.0.1:{self.port}/"
+        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-loadtest-", suffix=".log",
+                                               delete=False)
+        env = dict(os.environ, BOKEH_PY_LOG_LEVEL="debug", **(env or {}))
+        self.proc = subprocess.Popen(
+            [*wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(self.port),
+             "--num-procs", str(num_procs), *SERVE_ARGS],
+            cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.processes = num_procs or os.cpu_count() or 1
+
+    def wait_ready(self, timeout=300):
+        """Wait until the server answers and every process of it has its
+        kernels compiled (the server serves pages while they compile: the
+        load would otherwise measure the compilation)."""
+        t0 = time.perf_counter()
+        while True:
+            try:
+                urllib.request.urlopen(self.url + "liveness", timeout=5)
+                if self.text().count(KERNELS_READY) >= self.processes:
+                    return time.perf_counter() - t0
+            except OSError:
+                pass
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited:\n{self.text()[-3000:]}")
+            if time.perf_counter() - t0 > timeout:
+                raise RuntimeError(f"server not ready in {timeout} s")
+            time.sleep(0.2)
+
+    def pids(self):
+        return [self.proc.pid]
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def rss(self):
+        return rss_mb(self.proc.pid)       # the tree: --num-procs > 1 forks
+
+    def text(self):
+        with open(self.log.name, errors="replace") as f:
+            return f.read()
+
+    def discarded(self):
+        return discarded(self.text())
+
+    def released_after_discards(self):
+        return released_after_discards(self.text())
+
+    def errors(self):
+        return log_errors(self.text())
+
+    def logs(self):
+        """Where the server's log is (kept when the run had errors)."""
+        return self.log.name
+
+    def remove_logs(self):
+        os.remove(self.log.name)
+
     def stop(self):
         """Stop the server and every process it forked (--num-procs > 1:
         Tornado's children outlive their parent)."""
@@ -278,6 +368,117 @@ class Server:
             except OSError:
                 pass
         self.log.close()
+
+
+class ProxiedServers(_Measured):
+    """--proxy-workers: `workers` `vibtrans serve` behind nginx
+    (devtools.deploy), measured as one server: RSS the workers' together
+    (nginx's few MB left out), sessions dropped and errors over all their
+    logs, and nginx's own errors."""
+
+    def __init__(self, workers, env=None, wrap=()):
+        from .deploy import Deployment
+        self.log_dir = tempfile.mkdtemp(prefix="vibtrans-loadtest-")
+        env = dict(os.environ, BOKEH_PY_LOG_LEVEL="debug", **(env or {}))
+        self.deployment = Deployment(workers=workers, port=_port(), serve_args=SERVE_ARGS,
+                                     env=env, log_dir=self.log_dir, wrap=wrap, keep=True)
+        self.deployment.start()
+        self.url = self.deployment.url
+
+    def wait_ready(self, timeout=300):
+        """Every worker and the proxy answer, and every worker has its
+        kernels."""
+        t0 = time.perf_counter()
+        self.deployment.wait_ready(timeout)
+        while not all(KERNELS_READY in t for t in self.texts()):
+            dead = self.deployment.exited()
+            if dead:
+                raise RuntimeError(f"{dead} exited:\n{self.text()[-3000:]}")
+            if time.perf_counter() - t0 > timeout:
+                raise RuntimeError(f"workers not ready in {timeout} s")
+            time.sleep(0.2)
+        return time.perf_counter() - t0
+
+    def pids(self):
+        return self.deployment.pids()
+
+    def server_pids(self):
+        return [*super().server_pids(), *_tree(self.deployment.nginx.pid)]
+
+    def alive(self):
+        return self.deployment.exited() is None
+
+    def texts(self):
+        out = []
+        for path in self.deployment.logs:
+            with open(path, errors="replace") as f:
+                out.append(f.read())
+        return out
+
+    def text(self):
+        return "\n".join(self.texts())
+
+    def discarded(self):
+        return sum(discarded(t) for t in self.texts())
+
+    def released_after_discards(self):
+        return all(released_after_discards(t) for t in self.texts() if "Discarding session" in t)
+
+    def errors(self):
+        errors, benign = [], 0
+        for t in self.texts():
+            e, b = log_errors(t)
+            errors += e
+            benign += b
+        return errors + [f"nginx: {line[:300]}" for line in self.deployment.proxy_errors()], benign
+
+    def logs(self):
+        return self.log_dir
+
+    def remove_logs(self):
+        shutil.rmtree(self.log_dir, ignore_errors=True)
+        shutil.rmtree(self.deployment.prefix, ignore_errors=True)
+
+    def stop(self):
+        self._sampling = False
+        self.deployment.stop()
+
+
+def log_errors(text):
+    """(server-side errors in a log, client-disconnect races): each
+    traceback by its final exception line, and ERROR log lines.  A page
+    that closes while the server still writes to it gives Tornado's
+    WebSocketClosedError/StreamClosedError: counted apart, not errors."""
+    errors, benign = [], 0
+    lines = text.splitlines()
+    i, pending = 0, None            # pending: an ERROR line waiting for its traceback
+    while i < len(lines):
+        line = lines[i]
+        if line.startswith("Traceback"):
+            j = i + 1
+            while j < len(lines) and (not lines[j] or lines[j][0].isspace()
+                                      or lines[j].startswith(("Traceback", "During handling"))
+                                      or "exception occurred" in lines[j]):
+                j += 1
+            final = lines[j] if j < len(lines) else "(truncated traceback)"
+            block = "\n".join(lines[i:j + 1])
+            if any(k in final for k in BENIGN) or (
+                    final.startswith("AssertionError") and DETACHED in block):
+                benign += 1
+            else:
+                errors.append(f"{pending + ': ' if pending else ''}{final}"[:300])
+            pending = None
+            i = j + 1
+            continue
+        if pending is not None and " - " in line[:30]:     # the next log line: no traceback
+            errors.append(pending)
+            pending = None
+        if " - ERROR - " in line or line.startswith("ERROR:"):
+            pending = line[:300]
+        i += 1
+    if pending is not None:
+        errors.append(pending)
+    return errors, benign
 
 
 def _sequence(session, clicks):
@@ -426,6 +627,10 @@ async def _drive(url, a, sessions, result, seed):
     async with async_playwright() as p:
         browser = await p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         _renice_browser(a.browser_nice)
+        # the clients' cores, read back: this process and what it started
+        # (Playwright's driver, chromium), the server's processes aside
+        result["client_cores"] = affinity(p for p in _tree(os.getpid())
+                                          if p not in result.get("server_pids", ()))
         try:
             await _gather([_session(browser, url, k, a, result, rng) if k in in_browser
                            else _protocol_session(url, k, a, result, rng)
@@ -464,9 +669,20 @@ def run(a):
     if not Path(CHROMIUM).exists():
         raise RuntimeError(f"{CHROMIUM} is required (Debian's chromium; make test installs it)")
     t_all = time.perf_counter()
-    server = Server(num_procs=a.num_procs)
+    load_before = os.getloadavg()
+    own_affinity = os.sched_getaffinity(0)
+    wrap = _taskset(a.pin_server)
+    if a.proxy_workers:
+        server = ProxiedServers(a.proxy_workers, wrap=wrap)
+    else:
+        server = Server(num_procs=a.num_procs, wrap=wrap)
     try:
+        if a.pin_clients:
+            # this thread, and every thread and process started from it from
+            # now on (asyncio's, Playwright's driver, chromium)
+            os.sched_setaffinity(0, a.pin_clients)
         ready = server.wait_ready()
+        server_affinity = affinity(server.server_pids())
         rss_ready = server.rss()
         # warm-up: one session, one click, closed and dropped -> the baseline
         warm = _new_result()
@@ -477,10 +693,12 @@ def run(a):
         rss_base = server.rss()
         # the load
         result = _new_result()
+        result["server_pids"] = set(server.server_pids())
         server.sample()
         t0 = time.perf_counter()
         asyncio.run(_drive(server.url, a, a.sessions, result, a.seed + 1))
         load_wall = time.perf_counter() - t0
+        client_cores = sorted(set(result.get("client_cores", [])) | set(affinity([0])))
         rss_closed = server.rss()
         settle, released = server.wait_dropped(1 + a.sessions, a.settle)
         peak = server.stop_sampling()
@@ -488,28 +706,31 @@ def run(a):
         dropped = server.discarded() - 1
         try:
             urllib.request.urlopen(server.url + "liveness", timeout=10)
-            alive = server.proc.poll() is None
+            alive = server.alive()
         except OSError:
             alive = False
         server_errors, disconnects = server.errors()
+        spread = server.deployment.sessions_per_worker() if a.proxy_workers else None
     finally:
         server.stop()
+        os.sched_setaffinity(0, own_affinity)
     lat = result["latencies"]
     arriving = [x for start, x, _ in result["timeline"] if start - t0 <= a.ramp]
     settled = [x for start, x, _ in result["timeline"] if start - t0 > a.ramp]
     errors = warm["errors"] + result["errors"] + [f"server log: {e}" for e in server_errors]
     if not alive:
         errors.append("server not alive after the load")
+    count = len(errors)              # the note below is not an error
     if errors:
-        errors.append(f"the server's log is kept in {server.log.name}")
+        errors.append(f"the server's log is kept in {server.logs()}")
     else:
-        os.remove(server.log.name)
+        server.remove_logs()
     out = {
         "command": "python -m devtools.loadtest " + " ".join(a.argv),
         "sessions": a.sessions, "clicks_per_session": a.clicks, "think_s": a.think,
         "ramp_s": a.ramp, "clicks_planned": a.sessions * a.clicks,
         "clicks_measured": len(lat), "refused": len(result["refused"]),
-        "errors": len(errors), "error_samples": errors[:10],
+        "errors": count, "error_samples": errors[:10],
         "click_to_plot_p50_s": statistics.median(lat) if lat else float("nan"),
         "click_to_plot_p95_s": _quantile(lat, 0.95),
         "click_to_plot_max_s": max(lat) if lat else float("nan"),
@@ -525,6 +746,7 @@ def run(a):
         "click_to_plot_p95_while_arriving_s": _quantile(arriving, 0.95),
         "click_to_plot_p95_after_arrivals_s": _quantile(settled, 0.95),
         "page_load_p50_s": statistics.median(result["load_s"]) if result["load_s"] else None,
+        "page_load_p95_s": _quantile(result["load_s"], 0.95) if result["load_s"] else None,
         "page_load_max_s": max(result["load_s"]) if result["load_s"] else None,
         "warmup_click_s": warm["latencies"][0] if warm["latencies"] else None,
         "server_start_to_ready_s": ready,
@@ -536,6 +758,15 @@ def run(a):
         "client_disconnect_races": disconnects,
         "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
         "machine": f"{os.cpu_count()} cores",
+        "load_average_before": [round(x, 2) for x in load_before],
+        "load_average_after": [round(x, 2) for x in os.getloadavg()],
+        "proxy_workers": a.proxy_workers,
+        "sessions_per_worker": spread,
+        # the cores asked for, and those the processes had (from the kernel)
+        "pin_server": _cpu_list(a.pin_server) if a.pin_server else None,
+        "pin_clients": _cpu_list(a.pin_clients) if a.pin_clients else None,
+        "server_cores": _cpu_list(server_affinity),
+        "client_cores": _cpu_list(client_cores),
     }
     out["goal_p95_3s"] = out["click_to_plot_p95_s"] <= 3.0
     out["goal_errors_0"] = out["errors"] == 0
@@ -562,6 +793,16 @@ def parser():
     ap.add_argument("--settle", type=float, default=120.0,
                     help="at most this many seconds for Bokeh to drop closed sessions")
     ap.add_argument("--num-procs", type=int, default=1, help="server processes")
+    ap.add_argument("--proxy-workers", type=int, default=0, metavar="N",
+                    help="serve through nginx in front of N `vibtrans serve` processes "
+                         "(devtools/deploy), 0: no proxy; 0-16")
+    ap.add_argument("--pin", action="store_true",
+                    help="the server on the first core this process may use, the clients "
+                         "on the second (needs 2 cores)")
+    ap.add_argument("--pin-server", metavar="CPUS",
+                    help="cores for the server's processes (taskset list: 0, 0,2, 0-1)")
+    ap.add_argument("--pin-clients", metavar="CPUS",
+                    help="cores for the clients (this process, chromium)")
     ap.add_argument("--browser-nice", type=int, default=10,
                     help="niceness of the browser's processes (0: as the server)")
     ap.add_argument("--seed", type=int, default=1)
@@ -570,8 +811,32 @@ def parser():
     return ap
 
 
-def main(argv=None):
-    argv = sys.argv[1:] if argv is None else list(argv)
+def _pinning(ap, a):
+    """--pin / --pin-server / --pin-clients -> a.pin_server, a.pin_clients
+    (lists of cores, or None); refused with a message naming the option and
+    the cores there are."""
+    if a.pin and (a.pin_server or a.pin_clients):
+        ap.error("--pin is --pin-server FIRST --pin-clients SECOND: give either")
+    if a.pin:
+        cores = sorted(os.sched_getaffinity(0))
+        if len(cores) < 2:
+            ap.error(f"--pin needs 2 cores, this process may use {len(cores)} "
+                     f"({_cpu_list(cores)})")
+        a.pin_server, a.pin_clients = cores[:1], cores[1:2]
+        return
+    try:
+        a.pin_server = parse_cpus(a.pin_server, "--pin-server") if a.pin_server else None
+        a.pin_clients = parse_cpus(a.pin_clients, "--pin-clients") if a.pin_clients else None
+    except ValueError as exc:
+        ap.error(str(exc))
+    if a.pin_server and a.pin_clients and set(a.pin_server) & set(a.pin_clients):
+        ap.error(f"--pin-server {_cpu_list(a.pin_server)} and --pin-clients "
+                 f"{_cpu_list(a.pin_clients)} share cores: give disjoint ones")
+
+
+def parse(argv):
+    """The command line as checked options (argparse's error, exit status 2
+    and a message naming the option and its range, otherwise)."""
     ap = parser()
     a = ap.parse_args(argv)
     a.argv = argv
@@ -585,6 +850,18 @@ def main(argv=None):
         v = getattr(a, name)
         if not (v == v and 0 <= v <= 86400):
             ap.error(f"--{name.replace('_', '-')} must be in [0, 86400] s, got {v}")
+    if not 0 <= a.proxy_workers <= 16:
+        ap.error(f"--proxy-workers must be in [0, 16], got {a.proxy_workers}")
+    if a.proxy_workers and a.num_procs != 1:
+        ap.error("--num-procs and --proxy-workers exclude each other (the proxy's workers "
+                 "are one process each)")
+    _pinning(ap, a)
+    return a
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    a = parse(argv)
     out = run(a)
     if a.json:
         print(json.dumps(out))

@@ -47,9 +47,13 @@ class ProtocolSession:
     ("done" | "error", summary text); `close()` closes the connection.
     """
 
-    def __init__(self, url, timeout=180.0):
+    def __init__(self, url, timeout=180.0, cookies=None):
         self.url = url.rstrip("/") + "/"
         self.timeout = timeout
+        # as a browser's cookie jar for this one site: what the server (or
+        # a proxy in front of it: devtools/deploy) sets on the page comes
+        # back with the websocket, which a sticky proxy routes by
+        self.cookies = dict(cookies or {})
         self.models = {}
         self._waiters = []
         self._reader = None
@@ -59,11 +63,16 @@ class ProtocolSession:
         # a client of its own: Tornado's shared one queues beyond 10 requests
         http = AsyncHTTPClient(force_instance=True)
         try:
-            page = await http.fetch(self.url, request_timeout=self.timeout)
+            page = await http.fetch(self.url, request_timeout=self.timeout,
+                                    headers=self._cookie_header())
         finally:
             http.close()
+        for line in page.headers.get_list("Set-Cookie"):
+            name, _, value = line.split(";", 1)[0].partition("=")
+            self.cookies[name.strip()] = value.strip()
         token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
-        ws = HTTPRequest("ws" + self.url[4:] + "ws", headers={"Origin": self.url.rstrip("/")},
+        ws = HTTPRequest("ws" + self.url[4:] + "ws",
+                         headers={"Origin": self.url.rstrip("/"), **self._cookie_header()},
                          request_timeout=self.timeout)
         self.conn = await websocket_connect(ws, subprotocols=["bokeh", token],
                                             max_message_size=1 << 30)
@@ -111,6 +120,10 @@ class ProtocolSession:
             self.conn.close()
         if self._reader is not None:
             self._reader.cancel()
+
+    def _cookie_header(self):
+        return {"Cookie": "; ".join(f"{k}={v}" for k, v in self.cookies.items())} \
+            if self.cookies else {}
 
     # ---------- protocol ----------
     def _send(self, msgtype, content):

@@ -4,15 +4,17 @@ real server, one real browser session and two protocol sessions
 answered in both kinds of session, every closed session dropped, and the
 server's memory growth bounded.  The full-scale figures (30 x 5) are in
 docs/SECURITY.md."""
+import os
 from pathlib import Path
 
 import pytest
 
 from devtools import loadtest
 
-pytestmark = pytest.mark.browser       # a real chromium session
+CORES = sorted(os.sched_getaffinity(0))    # the cores this process may use
 
 
+@pytest.mark.browser                    # a real chromium session
 def test_small_load_has_no_errors_and_bounded_memory():
     assert Path(loadtest.CHROMIUM).exists(), \
         "Debian's chromium is required (make test installs it)"
@@ -41,3 +43,54 @@ def test_the_server_runs_on_the_c_allocator(served_explorer):
     started without PYTHONMALLOC (conftest.py)."""
     with open(f"/proc/{served_explorer.proc.pid}/environ", "rb") as f:
         assert b"PYTHONMALLOC=malloc" in f.read().split(b"\0")
+
+
+def test_pinning_options_parse():
+    a = loadtest.parse(["--pin-server", str(CORES[0]), "--pin-clients", str(CORES[-1])])
+    assert a.pin_server == [CORES[0]] and a.pin_clients == [CORES[-1]]
+    assert loadtest.parse([]).pin_server is None                  # no pinning by default
+    assert loadtest.parse_cpus(f"{CORES[0]}-{CORES[-1]}", "--pin-server") == \
+        [c for c in range(CORES[0], CORES[-1] + 1)]
+    if len(CORES) >= 2:
+        a = loadtest.parse(["--pin"])
+        assert (a.pin_server, a.pin_clients) == (CORES[:1], CORES[1:2])
+
+
+HERE = f"cores here: {loadtest._cpu_list(CORES)}"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--pin-server", str(CORES[-1] + 1)],
+     f"--pin-server: core {CORES[-1] + 1} does not exist here ({HERE})"),
+    (["--pin-clients", f"{CORES[-1] + 1}-999"],
+     f"--pin-clients: cores {CORES[-1] + 1}-999 do not exist here ({HERE})"),
+    (["--pin-server", "first"], f"--pin-server must be a list of cores such as 0, 0,2 or 0-1 "
+                                f"({HERE})"),
+    (["--pin-server", "3-1"], f"--pin-server: '3-1' is not a core range ({HERE})"),
+    (["--pin-server", str(CORES[0]), "--pin-clients", str(CORES[0])],
+     f"--pin-server {CORES[0]} and --pin-clients {CORES[0]} share cores"),
+    (["--pin", "--pin-clients", str(CORES[0])], "--pin is --pin-server FIRST --pin-clients "
+                                                "SECOND: give either"),
+])
+def test_pinning_refuses_cores_that_are_not_there(argv, message, capsys):
+    with pytest.raises(SystemExit) as exited:
+        loadtest.parse(argv)
+    assert exited.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.browser
+@pytest.mark.skipif(len(CORES) < 2, reason="pinning the server and the clients apart "
+                                           "needs 2 cores")
+def test_pinned_load_runs_the_server_and_the_clients_on_their_cores():
+    """--pin: the server's processes on the first core, the clients (this
+    process and the chromium it drives) on the second, as read back from
+    the kernel; this process's own affinity is given back afterwards."""
+    out = loadtest.main(["--sessions", "2", "--clicks", "1", "--browsers", "1", "--think", "0",
+                         "--ramp", "0", "--click-timeout", "90", "--timeout", "120",
+                         "--settle", "30", "--pin", "--json"])
+    assert out["errors"] == 0, out["error_samples"]
+    assert out["pin_server"] == str(CORES[0]) and out["pin_clients"] == str(CORES[1])
+    assert out["server_cores"] == str(CORES[0]), out
+    assert out["client_cores"] == str(CORES[1]), out
+    assert sorted(os.sched_getaffinity(0)) == CORES

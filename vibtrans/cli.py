@@ -426,6 +426,10 @@ def build_parser():
                         "which then both build its session (bokeh#10183): measured slower "
                         "than 1 on 2 cores; for more, run instances on separate ports "
                         "behind a proxy with sticky sessions (docs/SECURITY.md)")
+    v.add_argument("--use-xheaders", action="store_true",
+                   help="take the client's address and scheme from the proxy's X-Real-Ip, "
+                        "X-Forwarded-For and X-Forwarded-Proto headers (only behind a "
+                        "proxy that sets them; docs/SECURITY.md)")
     v.add_argument("--unused-session-lifetime", type=int, default=15000, metavar="MS",
                    help="drop a closed session's state after this many ms")
     v.add_argument("--check-unused-sessions", type=int, default=17000, metavar="MS",

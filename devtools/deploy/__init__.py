@@ -1,0 +1,312 @@
+"""Several `vibtrans serve` processes behind one nginx, each visitor kept on
+one process (docs/SECURITY.md, "Several processes").
+
+    python -m devtools.deploy --workers 2 --port 8080 [--address 127.0.0.1]
+                              [--origin vib.example.org] [--keep]
+
+Starts `--workers` `vibtrans serve` processes on free loopback ports (each
+with --use-xheaders and the proxy's address as its only websocket origin),
+writes nginx's configuration from nginx.conf.template into a temporary
+prefix (its logs there too), runs Debian's nginx in the foreground on
+`--address:--port`, and on Ctrl-C, SIGTERM or the exit of any of them stops
+everything and removes the prefix (--keep: leave it, e.g. to read the
+access log).  One process holds one Bokeh event loop, i.e. about one core:
+the workers are how a server with more cores serves more visitors.
+
+Stickiness: Bokeh builds a session when its page is served and expects the
+page's websocket in the same process.  nginx keys each request on a cookie
+(`vtroute`) that it sets on a browser's first response to a fresh random
+value, hashed consistently onto the workers: a page and its websocket land
+together, and browsers, even behind one address, spread over the workers.
+The reasons, and why not ip_hash, are in the template's comments.
+
+`python -m devtools.loadtest --proxy-workers N` measures the same deployment
+(`make loadtest-proxy`).  Needs nginx (`make proxy` installs Debian's).
+"""
+import argparse
+import os
+import re
+import shutil
+import signal
+import socket
+import string
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+TEMPLATE = Path(__file__).with_name("nginx.conf.template")
+ROUTE_COOKIE = "vtroute"
+# one access-log line per request (the template's log_format)
+_ACCESS = re.compile(r'"(?P<method>\S+) (?P<path>\S+) [^"]*" (?P<status>\d+) \d+ '
+                     r'route=(?P<route>\S*) upstream=(?P<upstream>\S*)')
+
+
+def nginx_binary():
+    """nginx's path; a clear error if it is not installed."""
+    found = shutil.which("nginx") or next(
+        (p for p in ("/usr/sbin/nginx", "/usr/local/sbin/nginx") if os.access(p, os.X_OK)), None)
+    if found is None:
+        raise RuntimeError("nginx is required: install Debian's (`make proxy`, as root: "
+                           "apt-get install nginx-light)")
+    return found
+
+
+def free_port(address="127.0.0.1"):
+    """A TCP port free on `address` now."""
+    with socket.socket() as s:
+        s.bind((address, 0))
+        return s.getsockname()[1]
+
+
+class _Template(string.Template):
+    delimiter = "@"          # nginx uses $ for its own variables
+
+
+def render_config(prefix, listen, worker_ports):
+    """nginx.conf's text: listen on `listen` ("ADDRESS:PORT"), proxy to the
+    workers on 127.0.0.1:`worker_ports`, keep pid, logs and temporary
+    files under `prefix` (a folder)."""
+    servers = "\n".join(f"        server 127.0.0.1:{p} max_fails=0;" for p in worker_ports)
+    return _Template(TEMPLATE.read_text()).substitute(prefix=prefix, listen=listen,
+                                                      servers=servers)
+
+
+def access_log(path):
+    """The proxy's access log as dicts (method, path, status, route,
+    upstream), one a request."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except OSError:
+        return []
+    return [m.groupdict() for m in map(_ACCESS.search, text.splitlines()) if m]
+
+
+def _stop(proc, sig=signal.SIGTERM, wait=15):
+    """Stop one process started here (and wait for it); SIGKILL if it
+    lingers."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(wait)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+class Deployment:
+    """`workers` `vibtrans serve` processes and nginx in front of them.
+
+    port, address: where nginx listens (the public side; the workers listen
+    on 127.0.0.1 only).  origins: extra public HOST[:PORT] values the
+    workers accept as websocket origin (the proxy's own address:port is
+    always accepted, and localhost:port when address is loopback).
+    serve_args: more `vibtrans serve` options; env: the workers'
+    environment; log_dir: a folder for each worker's log (worker-K.log),
+    else they write to this process's stderr; wrap: a command prefix for
+    every process (e.g. ["taskset", "-c", "0"]: the load test's pinning).
+    Use as a context manager or call start() and stop()."""
+
+    def __init__(self, workers=2, port=8080, address="127.0.0.1", origins=(), serve_args=(),
+                 env=None, log_dir=None, wrap=(), keep=False):
+        if not 1 <= workers <= 64:
+            raise ValueError(f"workers must be in [1, 64], got {workers}")
+        if not 1 <= port <= 65535:
+            raise ValueError(f"port must be in [1, 65535], got {port}")
+        self.nginx_bin = nginx_binary()
+        self.workers, self.port, self.address = workers, port, address
+        host = "127.0.0.1" if address in ("0.0.0.0", "") else address
+        self.url = f"http://{host}:{port}/"
+        self.origins = [f"{address}:{port}"] if address not in ("0.0.0.0", "") else []
+        if address in ("127.0.0.1", "localhost", "0.0.0.0", ""):
+            self.origins += [f"127.0.0.1:{port}", f"localhost:{port}"]
+        self.origins = list(dict.fromkeys([*self.origins, *origins]))
+        self.serve_args, self.env, self.wrap, self.keep = list(serve_args), env, list(wrap), keep
+        self.log_dir = log_dir
+        self.prefix = None
+        self.procs = []             # the workers' Popen objects
+        self.ports = []
+        self.logs = []              # the workers' log paths (with log_dir)
+        self.nginx = None
+
+    # ---------- life cycle ----------
+    def start(self):
+        self.prefix = tempfile.mkdtemp(prefix="vibtrans-nginx-")
+        # nginx's workers drop root for `nobody`: they must reach the prefix
+        os.chmod(self.prefix, 0o755)
+        try:
+            for k in range(self.workers):
+                self._start_worker(k)
+            conf = Path(self.prefix, "nginx.conf")
+            conf.write_text(render_config(self.prefix, f"{self.address}:{self.port}", self.ports))
+            Path(self.prefix, "tmp").mkdir()
+            self.nginx = subprocess.Popen(
+                [*self.wrap, self.nginx_bin, "-p", self.prefix, "-c", str(conf),
+                 "-e", str(Path(self.prefix, "error.log"))],
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _start_worker(self, k):
+        port = free_port()
+        args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port),
+                "--address", "127.0.0.1", "--use-xheaders", *self.serve_args]
+        for o in self.origins:
+            args += ["--allow-websocket-origin", o]
+        out = None
+        if self.log_dir is not None:
+            path = Path(self.log_dir, f"worker-{k + 1}.log")
+            self.logs.append(str(path))
+            out = open(path, "wb")
+        try:
+            self.procs.append(subprocess.Popen(args, cwd=ROOT, env=self.env, stdout=out,
+                                               stderr=subprocess.STDOUT if out else None))
+        finally:
+            if out is not None:
+                out.close()
+        self.ports.append(port)
+
+    def wait_ready(self, timeout=300):
+        """Wait until every worker and the proxy answer /liveness; returns
+        the seconds waited."""
+        t0 = time.perf_counter()
+        pending = [f"http://127.0.0.1:{p}/liveness" for p in self.ports]
+        pending.append(self.url + "liveness")
+        while pending:
+            try:
+                with urllib.request.urlopen(pending[0], timeout=10):
+                    pending.pop(0)
+                    continue
+            except OSError:
+                pass
+            dead = self.exited()
+            if dead:
+                raise RuntimeError(f"{dead} exited before the deployment was ready"
+                                   f"{self._nginx_error()}")
+            if time.perf_counter() - t0 > timeout:
+                raise RuntimeError(f"not ready in {timeout} s: {pending[0]}")
+            time.sleep(0.2)
+        return time.perf_counter() - t0
+
+    def exited(self):
+        """A description of the first process that has exited, else None."""
+        for k, p in enumerate(self.procs):
+            if p.poll() is not None:
+                return f"worker {k + 1} (port {self.ports[k]}, status {p.returncode})"
+        if self.nginx is not None and self.nginx.poll() is not None:
+            return f"nginx (status {self.nginx.returncode})"
+        return None
+
+    def _nginx_error(self):
+        text = ""
+        if self.nginx is not None and self.nginx.poll() is not None:
+            text = self.nginx.stderr.read().decode(errors="replace")
+        try:
+            text += Path(self.prefix, "error.log").read_text(errors="replace")
+        except OSError:
+            pass
+        return f":\n{text[-2000:]}" if text.strip() else ""
+
+    def pids(self):
+        """The workers' process ids."""
+        return [p.pid for p in self.procs]
+
+    def stop(self):
+        """Stop nginx (fast shutdown) and the workers; remove the prefix
+        unless keep."""
+        if self.nginx is not None:
+            _stop(self.nginx)
+            self.nginx.stderr.close()
+        for p in self.procs:
+            if p.poll() is None:
+                p.terminate()
+        for p in self.procs:
+            _stop(p)
+        if self.prefix and not self.keep:
+            shutil.rmtree(self.prefix, ignore_errors=True)
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()
+
+    # ---------- what happened ----------
+    @property
+    def access_log_path(self):
+        return str(Path(self.prefix, "access.log"))
+
+    @property
+    def error_log_path(self):
+        return str(Path(self.prefix, "error.log"))
+
+    def requests(self):
+        """The proxy's access log so far (access_log)."""
+        return access_log(self.access_log_path)
+
+    def sessions_per_worker(self):
+        """Websockets opened through the proxy (status 101), per worker
+        address: how the visitors spread."""
+        counts = {f"127.0.0.1:{p}": 0 for p in self.ports}
+        for r in self.requests():
+            if r["path"].split("?")[0] == "/ws" and r["status"] == "101":
+                counts[r["upstream"]] = counts.get(r["upstream"], 0) + 1
+        return counts
+
+    def proxy_errors(self):
+        """nginx's error-log lines at level error or worse."""
+        try:
+            lines = Path(self.error_log_path).read_text(errors="replace").splitlines()
+        except OSError:
+            return []
+        return [line for line in lines
+                if re.search(r"\[(error|crit|alert|emerg)\]", line)]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m devtools.deploy",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=2, help="`vibtrans serve` processes (1-64)")
+    ap.add_argument("--port", type=int, default=8080, help="nginx's port (1-65535)")
+    ap.add_argument("--address", default="127.0.0.1",
+                    help="nginx's interface (the workers stay on 127.0.0.1)")
+    ap.add_argument("--origin", action="append", default=[], metavar="HOST[:PORT]",
+                    help="public host the browsers' address bar shows (repeatable; "
+                         "docs/SECURITY.md)")
+    ap.add_argument("--keep", action="store_true",
+                    help="keep nginx's prefix (configuration, logs) after exit")
+    a = ap.parse_args(argv)
+    if not 1 <= a.workers <= 64:
+        ap.error(f"--workers must be in [1, 64], got {a.workers}")
+    if not 1 <= a.port <= 65535:
+        ap.error(f"--port must be in [1, 65535], got {a.port}")
+    try:
+        deployment = Deployment(workers=a.workers, port=a.port, address=a.address,
+                                origins=a.origin, keep=a.keep)
+    except RuntimeError as exc:
+        ap.error(str(exc))
+
+    def terminate(signum, frame):
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGTERM, terminate)
+    deployment.start()
+    try:
+        deployment.wait_ready()
+        print(f"devtools.deploy: {a.workers} workers (ports "
+              f"{', '.join(map(str, deployment.ports))}) behind nginx on {deployment.url} "
+              f"(websocket origins: {', '.join(deployment.origins)}); prefix "
+              f"{deployment.prefix}; Ctrl-C stops", file=sys.stderr, flush=True)
+        while (dead := deployment.exited()) is None:
+            time.sleep(0.5)
+        print(f"devtools.deploy: {dead} exited; stopping", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        deployment.stop()
+
