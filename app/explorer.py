@@ -21,7 +21,7 @@ import time
 import holoviews as hv
 import panel as pn
 import param
-from bokeh.models import CustomJSTickFormatter
+from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 
 from vibtrans import plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
@@ -99,6 +99,17 @@ MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with his
                "deformable runs): the anchors w(h) of the springs over the contact depth, "
                "their displacements u(h) with the Coulomb cone, and the stick core inside the "
                "slip annulus. The slider scrubs through the run's last period.")
+
+# An action's acknowledgement, shown by the browser at the click (not after a
+# round trip to a busy server) and cleared by the server when it answers:
+# a busy indicator within 0.3 s for every action that takes longer.
+ACK_RUN, ACK_DRAW, ACK_FILE = "Running ...", "Drawing the map ...", "Preparing the file ..."
+
+
+def ack_js(ack, text):
+    """A CustomJS that shows `text` in the Div `ack` (class vt-busy)."""
+    return CustomJS(args={"ack": ack}, code=f"ack.text = '<p class=\"vt-busy\">{text}</p>'")
+
 
 # presentation mode: the page's text and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
@@ -200,6 +211,8 @@ class Explorer(pn.viewable.Viewer):
                                         schedule=pn.state.execute, refusals=self._field_errors)
         self.message = pn.pane.Alert("", alert_type="danger", visible=False,
                                      sizing_mode="stretch_width")
+        self.ack = Div(text="", height=22, sizing_mode="stretch_width", name="ack",
+                       styles={"color": "#555", "font-style": "italic"})
         self.progress = pn.indicators.Progress(value=0, max=100, visible=False,
                                                sizing_mode="stretch_width", name="progress")
         self.cancel_button = pn.widgets.Button(name="Cancel", button_type="warning",
@@ -208,9 +221,11 @@ class Explorer(pn.viewable.Viewer):
         self.run_button = pn.widgets.Button(name="Run selected scene", button_type="primary",
                                             css_classes=["vt-run"])
         self.run_button.on_click(self._on_run_click)
+        self.run_button.js_on_click(args={"ack": self.ack}, code=ack_js(self.ack, ACK_RUN).code)
         self.point_select = pn.widgets.Select(
             name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}})
         self.point_select.param.watch(self._on_point, "value")
+        self.point_select.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_RUN).code)
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
         # the small values); it shows v0* itself
         lo, hi = ExplorerState.param.v0.bounds
@@ -257,10 +272,14 @@ class Explorer(pn.viewable.Viewer):
         problems = data.problems()            # damaged or missing shipped files
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
-        self.map_view = MapView(self.state, self._on_map_click)
+        self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(self.ack, ACK_RUN))
+        self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps"],
+                               precedence=2)        # after the map's redraw
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
-        self.exports = ExportsView(self.state, self.map_view)
+        self.exports = ExportsView(self.state, self.map_view, answered=self._answered)
+        for button in self.exports.buttons:
+            button.jscallback(args={"ack": self.ack}, clicks=ack_js(self.ack, ACK_FILE).code)
         # the run's views, built when their tab is first opened
         self.run_tabs = pn.Tabs(
             ("Trajectory", self.trajectories.panel),
@@ -433,19 +452,31 @@ class Explorer(pn.viewable.Viewer):
     async def _run(self):
         await self.controller.run()
 
+    def _answered(self, *events):
+        """Clear the browser's acknowledgement of an action (ack_js).  The
+        new text always differs from the server's copy (whether or not the
+        browser's has reached it), so the change is always sent."""
+        self.ack.text = "" if self.ack.text != "" else "<span></span>"
+
     def _on_status(self, event):
         self.summary_view.say(event.new)
+        if event.new == "Run cancelled.":
+            self._answered()
 
     def _on_busy(self, event):
         with pn.io.hold():
             self.progress.visible = event.new
             self.cancel_button.disabled = not event.new
+            self._answered()            # the progress bar says it now
 
     def _on_progress(self, event):
         self.progress.value = int(100 * event.new)
 
     def _on_message(self, event):
-        self._error(event.new)
+        with pn.io.hold():
+            self._error(event.new)
+            if event.new:
+                self._answered()
 
     def _on_run_tab(self, event):
         if event.new == MEMORY_TAB:
@@ -483,7 +514,9 @@ class Explorer(pn.viewable.Viewer):
     def _on_result(self, event):
         result = event.new
         try:
-            self._show(result)
+            with pn.io.hold():
+                self._show(result)
+                self._answered()
         except Exception as exc:
             log.exception("drawing a run failed: %s", result.scene.values())
             self._error(f"Drawing the run failed: {type(exc).__name__}: {exc}")
@@ -518,11 +551,12 @@ class Explorer(pn.viewable.Viewer):
         return pn.Column(
             pn.Row(self.run_button, self.cancel_button),
             self.progress,
-            pn.widgets.RadioButtonGroup.from_param(s.param.model, name="model"),
-            self.mu_select,
-            pn.widgets.RadioButtonGroup.from_param(s.param.maps, name="maps"),
-            self.v0_slider,
-            pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, name="chaotic points"),
+            *self._drawing([
+                pn.widgets.RadioButtonGroup.from_param(s.param.model, name="model"),
+                self.mu_select,
+                pn.widgets.RadioButtonGroup.from_param(s.param.maps, name="maps"),
+                self.v0_slider,
+                pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, name="chaotic points")]),
             self.point_select,
             *self.fields[:2],
             pn.widgets.Select.from_param(s.param.fidelity, name="fidelity"),
@@ -535,6 +569,13 @@ class Explorer(pn.viewable.Viewer):
                                          css_classes=["vt-presentation"]),
             sizing_mode="stretch_width",
         )
+
+    def _drawing(self, widgets):
+        """`widgets` (each redraws the map) acknowledged in the browser."""
+        for w in widgets:
+            prop = "value_throttled" if isinstance(w, pn.widgets.FloatSlider) else "value"
+            w.jscallback(args={"ack": self.ack}, **{prop: ack_js(self.ack, ACK_DRAW).code})
+        return widgets
 
     def main(self):
         tabs = pn.Tabs(
@@ -551,7 +592,7 @@ class Explorer(pn.viewable.Viewer):
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
         self.page = pn.Column(
-            self.intro, self.message, self.where,
+            self.intro, self.message, self.where, pn.pane.Bokeh(self.ack, margin=(0, 10)),
             pn.FlexBox(pn.Column(tabs, self.summary, styles=half, sizing_mode="stretch_width"),
                        pn.Column(self.trajectory, styles=half, sizing_mode="stretch_width"),
                        flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"),

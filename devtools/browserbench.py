@@ -41,10 +41,11 @@ browser's: building and painting what came.
 
 Busy indicator (--check requires one within 0.3 s of every action that
 takes longer than 0.3 s): something the page did not show before the
-action and that says "working" where the person looks: a pane with
-Panel's loading spinner (class pn-loading), a visible progress bar
-(<progress>), the summary saying "Running ..." or "Compiling ...", or the
-clicked button disabled.  Panel's global busy indicator (the spinning
+action and that says "working" where the person looks: the explorer's
+acknowledgement of the action (class vt-busy, shown by the browser at the
+click, cleared by the server's answer), a pane with Panel's loading spinner
+(class pn-loading), a visible progress bar (<progress>), the summary saying
+"Running ..." or "Compiling ...", or the clicked button disabled.  Panel's global busy indicator (the spinning
 circle in the template's header, class `loader spin` in pn-busy-container)
 is reported in its own column but does not count: it is 20 px in a corner
 and spins for any server callback, so it does not tell which action is
@@ -70,7 +71,7 @@ Selectors (names, classes and texts of app/explorer.py):
   page loaded         the map shown, Bokeh's documents idle
   run tabs            texts "Trajectory", "Memory diagram", "Downloads"
   memory time         .vt-field-t input
-  busy                .pn-loading, <progress>, disabled <button>; the header's
+  busy                .vt-busy, .pn-loading, <progress>, disabled <button>; the header's
                       .loader.spin
 """
 import argparse
@@ -170,7 +171,7 @@ const allPainted = () => {
 };
 const scan = () => {
   const s = {summary: "", alert: "", loading: 0, progress: false, running: false,
-             header: false, canvases: []};
+             ack: false, header: false, canvases: []};
   const walk = (root) => {
     for (const el of root.querySelectorAll("*")) {
       if (el.shadowRoot) walk(el.shadowRoot);
@@ -183,6 +184,7 @@ const scan = () => {
         if (t.startsWith("Running ") || t.startsWith("Compiling ")) s.running = true;
       }
       if (cl.contains("pn-loading") && visible(el)) s.loading += 1;
+      if (cl.contains("vt-busy") && visible(el)) s.ack = true;
       if (cl.contains("loader") && cl.contains("spin")) s.header = true;
       if (cl.contains("alert") && visible(el)) s.alert = el.textContent;
     }
@@ -231,12 +233,13 @@ B.start = (kind, arg) => {
   const done = (s) => {
     if (kind === "run") {
       if (/run failed|server's limit|Not run/.test(s.alert)) { a.error = s.alert; return true; }
-      return s.summary !== "" && s.summary !== base.summary && !s.running
+      return s.summary !== "" && s.summary !== base.summary && !s.running && !s.ack
           && (!arg || s.summary.includes(arg)) && allPainted();
     }
     if (kind === "redraw") {
       const m = mapPlot();
-      return m !== null && m.id !== a.base_map && shownView(m).has_finished() && allPainted();
+      return m !== null && m.id !== a.base_map && shownView(m).has_finished() && !s.ack
+          && allPainted();
     }
     if (kind === "figure")       // a new figure shown, no pane loading
       return s.canvases.some((c) => !seen.has(c)) && s.loading === 0 && allPainted();
@@ -254,6 +257,7 @@ B.start = (kind, arg) => {
     const t = performance.now();
     if (a.t_action !== null) {
       const busy = s.loading > base.loading || (s.progress && !base.progress) || s.running
+        || (s.ack && !base.ack)
         || (B.target !== null && B.target.disabled && !B.targetDisabled);
       if (busy && a.t_busy === null) a.t_busy = t;
       if (s.header && !base.header && a.t_header === null) a.t_header = t;

@@ -357,3 +357,25 @@ def test_the_animation_tab_plays_the_run(page, server):
     page.get_by_role("button", name="Play").click()
     page.wait_for_function(f"({_FRAME_JS})() > 0", timeout=10000, polling=100)
     page.get_by_role("button", name="Pause").click()
+
+
+_ACK_JS = """() => { let shown = false;
+  const visit = (root) => { for (const el of root.querySelectorAll("*")) {
+    if (el.shadowRoot) visit(el.shadowRoot);
+    if (el.classList.contains("vt-busy")) shown = true; } };
+  visit(document); return shown; }"""
+
+
+def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server):
+    """Issue 14: a busy indicator on every action over 0.3 s.  The browser
+    shows "Running ..." at the click itself (no round trip to the server),
+    and the server's answer clears it; the same for a map redraw."""
+    _open(page, server + "?fidelity=preview&compare=none")
+    box = page.locator("canvas").first.bounding_box()
+    page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
+    assert page.evaluate(_ACK_JS)                 # at once: the same task as the click
+    _summary_text(page).wait_for(timeout=60000)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=30000)
+    page.get_by_role("button", name="colour", exact=True).click()
+    assert page.evaluate(_ACK_JS)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=30000)

@@ -27,12 +27,14 @@ class ExportsView:
     """The export and data buttons; the run's are disabled until a run is
     shown (`show`).  map_view: the MapView (its zoomed view's ranges)."""
 
-    def __init__(self, state, map_view):
+    def __init__(self, state, map_view, answered=None):
         self.state, self.map_view = state, map_view
+        self.answered = answered        # called once a file is ready (or failed)
         self.result = None
         figures = [self._figure_download(k, f) for k, f in FIGURES]
         datas = [self._data_download(k, f) for k, f in DATA]
-        self.run_buttons = [b for b, (k, _) in zip(figures + datas, FIGURES + DATA)
+        self.buttons = figures + datas
+        self.run_buttons = [b for b, (k, _) in zip(self.buttons, FIGURES + DATA)
                             if k in ("trajectory", "run")]
         self.panel = pn.Column(
             pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
@@ -77,14 +79,22 @@ class ExportsView:
             ds = export.map_window(data.drift_map(s.model, s.mu), *self.map_view.view_ranges())
         return _read_back(ds.to_netcdf, "data.nc")
 
+    def _answering(self, make, kind, fmt):
+        """make(kind, fmt), then `answered` (also when it fails)."""
+        try:
+            return make(kind, fmt)
+        finally:
+            if self.answered is not None:
+                self.answered()
+
     def _figure_download(self, kind, fmt):
         return pn.widgets.FileDownload(
-            callback=functools.partial(self.figure_file, kind, fmt),
+            callback=functools.partial(self._answering, self.figure_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
             css_classes=[f"vt-export-{kind}-{fmt}"], width=150, disabled=kind == "trajectory")
 
     def _data_download(self, kind, fmt):
         return pn.widgets.FileDownload(
-            callback=functools.partial(self.data_file, kind, fmt),
+            callback=functools.partial(self._answering, self.data_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
             css_classes=[f"vt-data-{kind}-{fmt}"], width=150, disabled=kind == "run")

@@ -91,12 +91,14 @@ def prerender():
 class MapView:
     """The session's map pane.  `on_click(la, lm, both)` is called for a
     click inside a drawn map (`both`: the two models were shown side by
-    side).  The markers' sources outlive the figures (redrawn when the
+    side); `on_tap_js`, a CustomJS, runs in the browser at every click on a
+    drawn map.  The markers' sources outlive the figures (redrawn when the
     settings change)."""
 
-    def __init__(self, state, on_click):
+    def __init__(self, state, on_click, on_tap_js=None):
         self.state = state
         self.on_click = on_click
+        self.on_tap_js = on_tap_js       # a CustomJS run in the browser at a click
         self.selected = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.device = ColumnDataSource({"x": [], "y": []})
         self.pane = pn.Row(sizing_mode="stretch_width", name="map")
@@ -121,6 +123,8 @@ class MapView:
                     color="lime", line_color="black")
         drawn = (model, mu) in data.available_maps()
         fig.on_event(Tap, functools.partial(self._on_tap, drawn))
+        if drawn and self.on_tap_js is not None:
+            fig.js_on_event(Tap, self.on_tap_js)
         if self.scale_fonts is not None:
             self.scale_fonts(fig)
         return fig
