@@ -339,6 +339,7 @@ class Explorer(pn.viewable.Viewer):
         v0 = float(f"{10.0 ** event.new:.2g}")
         lo, hi = ExplorerState.param.v0.bounds
         self.state.v0 = min(max(v0, lo), hi)     # 10**(log10 bound) may round past it
+        self._answered()            # also when v0* rounds to its old value: no redraw
 
     def _on_v0(self, event):
         x = math.log10(event.new)
@@ -572,9 +573,10 @@ class Explorer(pn.viewable.Viewer):
 
     def _drawing(self, widgets):
         """`widgets` (each redraws the map) acknowledged in the browser."""
+        # (a slider's drag acknowledged from its first step: the redraw
+        # follows its release; a callback on value_throttled broke the page)
         for w in widgets:
-            prop = "value_throttled" if isinstance(w, pn.widgets.FloatSlider) else "value"
-            w.jscallback(args={"ack": self.ack}, **{prop: ack_js(self.ack, ACK_DRAW).code})
+            w.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_DRAW).code)
         return widgets
 
     def main(self):
