@@ -41,8 +41,8 @@ def _walk(obj, out):
 class ProtocolSession:
     """One explorer session over Bokeh's websocket protocol.
 
-    `await open()` loads the page and waits until the page's figures are
-    built (after `document_ready`, as a browser's page does); `await
+    `await open()` loads the page and reports it ready (`document_ready`,
+    as a browser's page does); `await
     click(fx, fy)` taps the map at fractions of its axes' ranges and returns
     ("done" | "error", summary text); `close()` closes the connection.
     """
@@ -91,13 +91,10 @@ class ProtocolSession:
         # the map: the figure whose clicks the server listens to
         self.map = next(f for f in self._figures() if "tap" in (
             f["attributes"].get("subscribed_events") or {}).get("entries", []))
-        # as the page: its size, then document_ready, which builds the
-        # (empty) trajectory figures server-side (a patch with new figures)
+        # as the page: its size, then document_ready (the run's figures come
+        # with the first run, in the patch that starts it)
         self._sizes([self.map], 0)
-        built = self._wait(lambda s: '"Figure"' in s)
         self._event("document_ready", [])
-        await asyncio.wait_for(built, self.timeout)
-        self._sizes([f for f in self._figures() if f is not self.map], 0)
 
     async def click(self, fx, fy):
         """Tap the map at fractions (fx, fy) of its x and y ranges."""
