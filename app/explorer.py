@@ -634,7 +634,7 @@ def explorer_template(explorer):
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
     return pn.template.BootstrapTemplate(
         title="vibtrans: vibrational transport explorer",
-        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=300)
+        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=330)
 
 
 def create_app():
