@@ -107,6 +107,25 @@ def _drive(call, t_end, chunk, growers, progress, cancel, stopped=None):
             raise Cancelled("run cancelled")
 
 
+def _growers(buf, mem):
+    """What a Hertz kernel's status codes ask to grow: the sample and event
+    buffers (in `buf`) and the memory diagram's arrays (`mem`, a list;
+    None for the vertical kernel, which never asks)."""
+    def grow_memory():
+        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
+    return {R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
+            R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
+            R.MEMORY_FULL: grow_memory}
+
+
+def _record_rest(buf, ctr):
+    """The rest state at t = 0 (a* = 1, N* = 1, stuck) as the first sample,
+    and the coarse samples' cursor after it."""
+    buf["samples"][0] = (0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, STICK, 1.0, 1.0)
+    ctr[R.C_NSAMP] = 1
+    ctr[R.C_NEXT] = 1
+
+
 def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
               memory_capacity=1024, state=None, hist=None, record_rest=True,
               stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None):
@@ -138,11 +157,7 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     ctr[R.C_STATE] = STICK
     mem = list(new_memory(memory_capacity)) if tangential else None
     if record_rest:
-        # the rest state at t = 0 (a* = 1, N* = 1, stuck)
-        buf["samples"][0] = (0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, STICK,
-                             1.0, 1.0)
-        ctr[R.C_NSAMP] = 1
-        ctr[R.C_NEXT] = 1
+        _record_rest(buf, ctr)
 
     if tangential:
         def call(t_stop):
@@ -153,14 +168,7 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
             return vertical_kernel(params, integ, stop_at_takeoff, state, hist, _NO_MEMORY,
                                    buf["samples"], buf["events"], ctr, t_stop)
 
-    def grow_memory():
-        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
-
-    growers = {
-        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
-        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
-        R.MEMORY_FULL: grow_memory,
-    }
+    growers = _growers(buf, mem)
     chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * h)
     stopped = (lambda: ctr[R.C_MODE] == D.MODE_FLIGHT) if stop_at_takeoff else None
     _drive(call, t_end, chunk, growers, progress, cancel, stopped)
@@ -194,13 +202,7 @@ def _final_step(params, integ, state, hist, mem, ctr):
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
-    def grow_memory():
-        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
-
-    _until_done(call, params.t_end, {
-        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
-        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
-        R.MEMORY_FULL: grow_memory})
+    _until_done(call, params.t_end, _growers(buf, mem))
     return state, ctr, tuple(mem)
 
 
@@ -230,23 +232,13 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
     mem = list(new_memory(memory_capacity))
-    # the rest state at t = 0, as run_hertz records it (the sample cursor too)
-    buf["samples"][0] = (0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, STICK, 1.0, 1.0)
-    ctr[R.C_NSAMP] = 1
-    ctr[R.C_NEXT] = 1
+    _record_rest(buf, ctr)
 
     def call(t_stop):
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
-    def grow_memory():
-        mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
-
-    growers = {
-        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
-        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
-        R.MEMORY_FULL: grow_memory,
-    }
+    growers = _growers(buf, mem)
     chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * params.step)
     out = []
     t_chunk = 0.0                      # chunk ends accumulated as _drive does
