@@ -35,7 +35,7 @@ from .views.animation import ParticleAnimation
 from .views.map import MapView
 from .views.memory import MemoryView
 from .views.summary import SummaryView
-from .views.trajectory import TrajectoryView
+from .views.trajectory import TrajectoryView, structure
 from .views.units import UnitsPanel
 from .views.vertical import VerticalView
 
@@ -442,10 +442,10 @@ class Explorer(pn.viewable.Viewer):
         the GIL), not when the page loads: a page costs the server less
         (`python -m devtools.pagecost`) and the first run no more."""
         job = self.controller.start(schedule=schedule)
-        if job is not None and (job.scene.model, job.label) not in self.trajectories.views:
+        if job is not None and structure(job.scene.model, job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
-                    self.trajectories.view((job.scene.model, job.label), job.scene.tau)
+                    self.trajectories.view(job.scene.model, job.label, job.scene.tau)
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
@@ -525,7 +525,7 @@ class Explorer(pn.viewable.Viewer):
     def _show(self, result):
         scene = result.scene
         T = float(result.ds["time"].values[-1])
-        key = (scene.model, result.label)
+        key = structure(scene.model, result.label)
         # Everything below goes to the browser as one message: new data for
         # the session's existing figures, no new figure models.  Bokeh
         # recomputes a document's model graph only when models come or go;

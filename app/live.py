@@ -86,6 +86,7 @@ def _lines(fig, sources, lines, right=(), envelope=False):
     fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"),
                                                            ("value", "$y{0.0000}")]))
     fig.add_layout(Legend(items=items, location="top_left"), "right")
+    return items
 
 
 def _timeline(title, x_range):
@@ -173,7 +174,8 @@ class _Block:
             title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
             fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, ticker)
             self.twin_source = ColumnDataSource({"time": [], "x": []})
-            _lines(fig, [self.source, self.twin_source], [("x", la, ca, da), ("x", lb, cb, db)])
+            self.twin_items = _lines(fig, [self.source, self.twin_source],
+                                     [("x", la, ca, da), ("x", lb, cb, db)])
             self.twin_figure = fig
         # the state timeline at the bottom carries the block's time axis
         self.timeline, self.bands = _timeline(timeline_title, self.x_range)
@@ -229,7 +231,18 @@ class LiveTrajectory:
         self.over = _Block(specs, plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
         self.last = _Block(specs, plots.timeline_title(None), None, relative=True)
         self.whole, self.part = self.over.layout, self.last.layout
+        self.label = label
         self.runs = 0
+
+    def relabel(self, tau, label):
+        """Name the comparison run `label` (a tau twin, or the other model:
+        one set of figures serves every comparison)."""
+        title, ylabel, lines = plots.twin_spec(tau, label)
+        block = self.over
+        block.twin_figure.title.text = title
+        for item, (text, _, _) in zip(block.twin_items, lines):
+            item.label = text
+        self.label = label
 
     def show(self, ds, other=None, period_seconds=None):
         """Show a run (and its comparison run `other`): the whole run from

@@ -89,3 +89,27 @@ def test_the_run_tabs_build_their_views_when_opened():
         assert ex.memory_view is not None and ex.memory_view.scene is not None
         ex.memory_view.clear()
     asyncio.run(go())
+
+
+def test_changing_the_comparison_relabels_the_same_figures():
+    """Issue 14: the first run after changing "compare with" built a new
+    set of figures (2.8-6 s).  Every comparison shares one set, relabelled:
+    the tau twin's panel becomes the point mass's, no new figure."""
+    import asyncio
+
+    from asyncutil import until
+
+    async def go():
+        ex = _explorer(compare="tau twin", log_amplitude=0.5, log_mass=1.5)
+        ex.start_run()
+        await until(lambda: ex.controller.job is None and ex.controller.result is not None)
+        (key, view), = ex.trajectories.views.items()
+        assert key == ("deformable", True) and view.over.twin_figure.title.text.endswith("twin")
+        first = ex.controller.result
+        ex.state.compare = "point mass"
+        ex.start_run()
+        await until(lambda: ex.controller.job is None and ex.controller.result is not first)
+        assert list(ex.trajectories.views) == [key] and view.runs == 2
+        assert view.over.twin_figure.title.text == "x*(t) and the point mass run of the same scene"
+        assert [i.label for i in view.over.twin_items][1] == "x*, point mass"
+    asyncio.run(go())

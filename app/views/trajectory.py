@@ -12,16 +12,25 @@ from ..live import LiveTrajectory
 log = logging.getLogger("vibtrans.explorer")
 
 
+def structure(model, label):
+    """The figures' structure of a run: its model, and whether a comparison
+    run is drawn beside it (every comparison shares one set of figures,
+    relabelled: changing the comparison builds no new figures)."""
+    return (model, label is not None)
+
+
 class TrajectoryView:
     def __init__(self):
-        self.views = {}          # (model, comparison label) -> LiveTrajectory
+        self.views = {}          # structure(model, label) -> LiveTrajectory
         self.panel = pn.Column(sizing_mode="stretch_width", name="trajectory-figures")
 
-    def view(self, key, tau):
-        """The session's figures of a structure: built once, then fed by `show`."""
+    def view(self, model, label, tau):
+        """The session's figures of a run's structure: built once, then fed
+        by `show`."""
+        key = structure(model, label)
         view = self.views.get(key)
         if view is None:
-            view = LiveTrajectory(key[0] == "point-mass", key[1], FRAGMENT, tau)
+            view = LiveTrajectory(model == "point-mass", label, FRAGMENT, tau)
             view.panel = pn.Column(
                 pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
                 pn.pane.Bokeh(view.whole, name="whole-run", sizing_mode="stretch_width"),
@@ -35,8 +44,12 @@ class TrajectoryView:
         return view
 
     def show(self, result, period_seconds=None):
-        key = (result.scene.model, result.label)
-        self.view(key, result.scene.tau).show(result.ds, result.other, period_seconds)
+        scene = result.scene
+        key = structure(scene.model, result.label)
+        view = self.view(scene.model, result.label, scene.tau)
+        if result.label is not None and view.label != result.label:
+            view.relabel(scene.tau, result.label)
+        view.show(result.ds, result.other, period_seconds)
         for k, v in self.views.items():
             v.panel.visible = k == key
 
