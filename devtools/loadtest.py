@@ -624,13 +624,17 @@ async def _drive(url, a, sessions, result, seed):
                       a, result)
         return
     from playwright.async_api import async_playwright
+    # processes this one had started before (the server; a test session's
+    # own servers): not clients
+    before = set(_tree(os.getpid())) - {os.getpid()}
     async with async_playwright() as p:
         browser = await p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         _renice_browser(a.browser_nice)
         # the clients' cores, read back: this process and what it started
-        # (Playwright's driver, chromium), the server's processes aside
+        # for them (Playwright's driver, chromium)
         result["client_cores"] = affinity(p for p in _tree(os.getpid())
-                                          if p not in result.get("server_pids", ()))
+                                          if p not in before
+                                          and p not in result.get("server_pids", ()))
         try:
             await _gather([_session(browser, url, k, a, result, rng) if k in in_browser
                            else _protocol_session(url, k, a, result, rng)

@@ -183,6 +183,10 @@ def test_the_step_cap_is_a_message(page, server):
     _open(page, server + "?la=3&lm=-5&fidelity=reference")
     page.locator("button", has_text="Run selected scene").click()
     _see(page, "over this server's limit of 1e+08 (VIBTRANS_MAX_STEPS)")
+    # the click's acknowledgement ("Running ...") goes with the refusal, and
+    # nothing runs
+    page.get_by_text("Running").first.wait_for(state="hidden", timeout=30000)
+    page.wait_for_timeout(1000)
     assert page.get_by_text("Running").count() == 0
 
 

@@ -63,14 +63,3 @@ def test_showing_a_value_does_not_round_it():
     NumberField(owner, "x", "log10 A*")
     owner.x = 1.171875
     assert owner.x == 1.171875
-
-
-@pytest.mark.parametrize("typed", ["2500", "-5", "abc"])
-def test_a_memory_time_outside_the_run_is_a_message(typed):
-    # issue 14: 2500, -5 or "abc" were clamped or reverted without a word
-    explorer = Explorer()
-    explorer.memory_at.param.t.bounds = (0.0, 2000.0)
-    explorer.memory_time.input.value = typed
-    assert explorer.memory_at.t == 1999.5
-    assert explorer.memory_time.error.startswith(
-        "time t* (periods) must be a number in [0.0, 2000.0]")
