@@ -76,6 +76,7 @@ Selectors (names, classes and texts of app/explorer.py):
 """
 import argparse
 import json
+import math
 import os
 import statistics
 import sys
@@ -424,7 +425,13 @@ def repeat(browser, url):
         for point in CLICKS:
             out["map click"].append(session.run(point, "deformable:"))
         for t in (1999.3, 1999.7):
-            out["memory view"].append(session.memory_view(t))
+            try:
+                out["memory view"].append(session.memory_view(t))
+            except Exception as exc:            # noqa: BLE001 - reported, not hidden
+                # seen: in a later session the second typed time's diagram
+                # sometimes never came (not reproduced outside the bench)
+                out.setdefault("failures", []).append(f"memory view at t* = {t:g}: "
+                                                      f"{type(exc).__name__}")
         session.tab("Downloads")
         out["trajectory PNG export"].append(session.trajectory_png())
         session.tab("Trajectory")
@@ -449,6 +456,9 @@ def _stats(samples):
     header_ok = [x for x in slow
                  if x["header_busy_s"] is not None and x["header_busy_s"] <= BUSY_WITHIN_S]
     replies = [x["reply_s"] for x in samples if x["reply_s"] is not None]
+    if not xs:                     # every sample failed (run()'s "failures" say why)
+        return {"n": 0, "min_s": math.nan, "median_s": math.nan, "max_s": math.nan,
+                "reply_median_s": None, "slow": 0, "busy_within": 0, "header_busy_within": 0}
     return {"n": len(xs), "min_s": xs[0], "median_s": statistics.median(xs), "max_s": xs[-1],
             "reply_median_s": statistics.median(replies) if replies else None,
             "slow": len(slow), "busy_within": len(busy_ok), "header_busy_within": len(header_ok)}
@@ -468,7 +478,7 @@ def summarize(warmup, repeats):
                                      for x in samples]
         goal = GOALS.get(action)
         row["goal_s"] = goal
-        row["goal_met"] = None if goal is None else row["median_s"] <= goal
+        row["goal_met"] = None if goal is None else bool(row["median_s"] <= goal)
         row["busy_met"] = row["busy_within"] == row["slow"]
         rows[action] = row
     return rows
@@ -483,7 +493,7 @@ def table(rows):
         goal = "-" if r["goal_s"] is None else f"<= {r['goal_s']:g} s"
         met = "-" if r["goal_met"] is None else ("yes" if r["goal_met"] else "**no**")
         busy = f"{r['busy_within']}/{r['slow']}" + ("" if r["busy_met"] else " **no**")
-        warm = ", ".join(f"{x:.2f}" for x in r["warmup_s"])
+        warm = ", ".join(f"{x:.2f}" for x in r["warmup_s"]) or "-"
         reply = "-" if r["reply_median_s"] is None else f"{r['reply_median_s']:.2f}"
         lines.append(f"| {action} | {warm} | {r['min_s']:.2f} | {r['median_s']:.2f} | "
                      f"{r['max_s']:.2f} | {r['n']} | {goal} | {met} | {reply} | {busy} | "
@@ -531,7 +541,10 @@ def run(repeats, url=None, log=print):
         if server is not None:
             server.stop()
     load = os.getloadavg()
-    return {"rows": summarize(warmup, results), "repeats": repeats,
+    failures = [f for r in [warmup, *results] for f in r.get("failures", [])]
+    for f in failures:
+        log(f"failed: {f}")
+    return {"rows": summarize(warmup, results), "repeats": repeats, "failures": failures,
             "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
                        f"{load[2]:.2f} at the end"}
 
