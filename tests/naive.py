@@ -418,3 +418,40 @@ class MaterialPoint:
         if code != self.state_code:
             self.events.append((te, "state", code))
             self.state_code = code
+
+
+# ------------------------------------- the vertical motion's Lyapunov exponent
+def vertical_lyapunov(A, m, tau, periods, t_from, rtol=1e-11):
+    """Largest Lyapunov exponent of m* y'' = 1 - N*(y - u_y(t)) from rest,
+    per period, measured from t_from to `periods`: an independent twin of
+    simulate(..., lyapunov=True) with nothing shared but the equations.
+
+    scipy's DOP853 (adaptive, 8th order) integrates the state and the
+    variational equation m* dy'' = -1.5 sqrt(a*) dy together (N* is C1 at
+    a* = 0, so no events), one period at a time, the tangent renormalized
+    after each (Benettin).  As in the kernel, the tangent starts as (1, 0)
+    at t = 0, and the exponent is the growth of log|d| from t_from on."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, z):
+        y, vy, dy, dvy = z
+        a = y - surface(t, A, 0.0, tau)[1]
+        n = a ** 1.5 if a > 0.0 else 0.0
+        dn = 1.5 * math.sqrt(a) if a > 0.0 else 0.0
+        return [vy, (1.0 - n) / m, dvy, -dn * dy / m]
+
+    z = np.array([1.0, 0.0, 1.0, 0.0])
+    log_norm = 0.0                   # log|d| with the renormalizations
+    log_from = None
+    stops = sorted({*np.arange(0.0, periods, 1.0)[1:], t_from, periods})
+    t = 0.0
+    for t1 in stops:
+        if t1 > t:
+            z = solve_ivp(rhs, (t, t1), z, method="DOP853", rtol=rtol, atol=1e-13).y[:, -1]
+            norm = math.hypot(z[2], z[3])
+            log_norm += math.log(norm)
+            z[2:] /= norm
+            t = t1
+        if log_from is None and t >= t_from:
+            log_from = log_norm
+    return (log_norm - log_from) / (periods - t_from)

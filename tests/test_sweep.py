@@ -40,8 +40,8 @@ def test_sweep_equals_point_by_point(tmp_path):
     assert ds["done"].values.all()
     for i in (0, 3, 5):
         for j in (0, 2):
-            p = compute_point(sw.values, sw.log_amplitude[i], sw.log_mass[j])
-            for name in VARIABLES:
+            p = compute_point(sw.values, sw.log_amplitude[i], sw.log_mass[j], sw.chaos)
+            for name in sw.variables:
                 if name != "seconds":
                     assert ds[name].values[i, j] == p[name] or (
                         np.isnan(p[name]) and np.isnan(ds[name].values[i, j])), name

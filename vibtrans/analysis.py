@@ -15,6 +15,11 @@ from .contact import FLIGHT
 
 V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band)
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
+# Chaotic: the vertical motion's largest Lyapunov exponent above this, per
+# period (simulate(..., lyapunov=True)).  Chosen from the exponent's
+# histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
+# |lambda| < ~3e-3 after 1675 periods (log T / T), chaotic ones 0.02-0.2.
+CHAOS_LYAPUNOV = 0.01
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
 SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
 SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
@@ -199,6 +204,15 @@ def chaos_verdict(ds, twin, rel_tol=0.1, v0=V0):
     return abs(v1 - v2) > rel_tol * max(abs(v1), abs(v2)) + v0
 
 
+def lyapunov_verdict(ds, threshold=CHAOS_LYAPUNOV):
+    """(lambda, chaotic) from a run's measured Lyapunov exponent: (None,
+    None) when the run did not measure one."""
+    value = ds.attrs.get("lyapunov")
+    if value is None:
+        return None, None
+    return float(value), bool(value > threshold)
+
+
 def divergence_time(ds, twin, threshold=1.0):
     """First time the twins' x* differ by more than `threshold` (a0 units);
     inf if never.  Compared on the coarse sample grid."""
@@ -222,24 +236,33 @@ def _drift_words(v, v_final, v0):
     return f"{words(run)} over the run, {words(final)} over its final {FINAL_FRACTION:.0%}"
 
 
+def chaos_words(lyapunov):
+    """Why a run is called chaotic: its Lyapunov exponent, or (None) its twin."""
+    if lyapunov is None:
+        return f"the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere"
+    return (f"the vertical motion's Lyapunov exponent is {lyapunov:.3g} per period "
+            f"(> {CHAOS_LYAPUNOV:g})")
+
+
 def regime(contact, pattern, chaotic, v, v_final, launch=None, landing=None, t_end=None,
-           v0=V0):
+           v0=V0, lyapunov=None):
     """One plain-language verdict, consistent with the other fields of
     `Summary`.  A launched run gets no transport regime and a chaotic one no
-    drift direction (its drift is not a property of the scene)."""
+    drift direction (its drift is not a property of the scene).  lyapunov:
+    the exponent that decided `chaotic` (None: the twin decided)."""
     if launch is not None:
         text = (f"launched: leaves the substrate at t* = {launch:.4g} and is still in flight "
                 f"at the end (t* = {t_end:.4g}); continued ballistically it cannot land "
                 f"again before t* = {landing:.3g}; no transport regime, <v*> is mostly "
                 "its flight's horizontal velocity")
         if chaotic:
-            text += f"; the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere"
+            text += f"; {chaos_words(lyapunov)}"
         return text
     where = "permanent contact" if contact == "permanent" else "jumping"
     if pattern not in (None, "chaotic"):
         where += f", {pattern}"
     if chaotic:
-        return (f"{where}, chaotic: the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere, "
+        return (f"{where}, chaotic: {chaos_words(lyapunov)}, "
                 "the drift is not a property of the scene")
     text = f"{where}, {_drift_words(v, v_final, v0)}"
     if chaotic is None and contact == "jumping":
@@ -249,15 +272,17 @@ def regime(contact, pattern, chaotic, v, v_final, launch=None, landing=None, t_e
 
 class Summary(NamedTuple):
     """Derived quantities of one run, all produced by `model`; velocities in
-    a0 per period, times in periods.  The twin (tau + TWIN_TAU_OFFSET) only
-    decides `chaotic` and `divergence_time`; its cost is listed apart."""
+    a0 per period, times in periods.  `chaotic` comes from the measured
+    Lyapunov exponent where the run has one, else from the twin (tau +
+    TWIN_TAU_OFFSET), which also gives `twin_chaotic` and `divergence_time`;
+    the twin's cost is listed apart."""
     drift_velocity: float        # <v*> = x*(T)/T of this run
     final_drift_velocity: float
     contact: str                 # "permanent" | "jumping" (a take-off, or launched)
     drift: str                   # class of drift_velocity: "with-wave" | "against-wave" | "none"
     pattern: str | None          # first that applies: launched | chaotic | synchronous |
     #                              multi-synchronous | irregular; None: never left the surface
-    chaotic: bool | None         # None if no twin was run
+    chaotic: bool | None         # lyapunov > CHAOS_LYAPUNOV, else the twin's; None: neither
     divergence_time: float | None
     takeoffs: int
     takeoffs_per_period: float   # final window
@@ -272,6 +297,8 @@ class Summary(NamedTuple):
     earliest_landing: float | None  # launched: earliest ballistic return within reach, periods
     twin_steps: int              # the twin's steps (0: no twin ran)
     twin_seconds: float          # the twin's wall time, s (0.0: no twin ran)
+    lyapunov: float | None = None    # the vertical motion's exponent, per period (None: not measured)
+    twin_chaotic: bool | None = None  # the twin's verdict (None: no twin ran)
 
 
 def summarize(ds, twin=None, v0=V0):
@@ -290,7 +317,10 @@ def summarize(ds, twin=None, v0=V0):
     v_final = final_drift_velocity(ds)
     jumping = t_to.size > 0
     pattern = rebound_pattern(ds)
-    chaotic = None if twin is None else chaos_verdict(ds, twin, v0=v0)
+    twin_chaotic = None if twin is None else chaos_verdict(ds, twin, v0=v0)
+    lyapunov, chaotic = lyapunov_verdict(ds)
+    if chaotic is None:
+        chaotic = twin_chaotic
     if jumping and chaotic:
         pattern = "chaotic"
     launch = launch_time(ds)   # a launched run's take-offs are no rebound pattern
@@ -315,10 +345,13 @@ def summarize(ds, twin=None, v0=V0):
         steps=int(ds.attrs.get("steps", 0)),
         seconds=float(ds.attrs.get("seconds", 0.0)),
         model=model,
-        regime=regime(contact, pattern, chaotic, v, v_final, launch, landing, t_end, v0),
+        regime=regime(contact, pattern, chaotic, v, v_final, launch, landing, t_end, v0,
+                      lyapunov),
         launched=launch is not None,
         launch_time=launch,
         earliest_landing=landing,
         twin_steps=int(twin.attrs.get("steps", 0)) if twin is not None else 0,
         twin_seconds=float(twin.attrs.get("seconds", 0.0)) if twin is not None else 0.0,
+        lyapunov=lyapunov,
+        twin_chaotic=twin_chaotic,
     )

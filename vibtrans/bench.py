@@ -10,6 +10,10 @@ which are measured side by side, more than the absolute times).
 * ns per memory-diagram update alone, on a partial-slip/sliding history;
 * seconds for a 2000-period standard scene at paper points 1, 4, 6
   (goal <= 0.1 s each);
+* the chaos indicator's cost: a deformable scene measuring its Lyapunov
+  exponent over the same scene alone (paper point 1, in contact, and the
+  jumping scene log10 A* = 0.5, log10 m* = -2; goal <= 1.3), beside the
+  twin's (scene plus tau twin over the scene alone, about 2);
 * each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
   ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
   switched off alone: its speed-up and the drift difference it makes.
@@ -111,6 +115,7 @@ def run(quick=False):
     ns_def, ns_vert, ns_def_x, ns_vert_x = _interleaved_ns(
         [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat)
     ns_mem, states = _memory_ns(repeat)
+    lyapunov = _lyapunov_cost(repeat)
     scenes = {}
     for point in (1, 4, 6):
         sc = paper_scene(point)
@@ -133,7 +138,23 @@ def run(quick=False):
         "memory_update_ns": ns_mem,
         "memory_states_stick_partial_sliding": [int(s) for s in states[1:]],
         "scene_seconds_2000_periods": scenes,
+        "lyapunov_cost": lyapunov,
     }
+
+
+def _lyapunov_cost(repeat):
+    """ns per step of each scene alone, with its Lyapunov exponent and with
+    its tau twin (twice the steps), measured round-robin: the ratios."""
+    from .analysis import twin_scene
+    out = {}
+    for name, sc in (("contact (paper point 1)", paper_scene(1)),
+                     ("jumping (log A* 0.5, log m* -2)",
+                      paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0))):
+        alone, measured, twin = _interleaved_ns(
+            [(sc, {}), (sc, {"lyapunov": True}), (twin_scene(sc), {})], repeat)
+        out[name] = {"scene_ns_per_step": alone, "lyapunov_over_scene": measured / alone,
+                     "scene_plus_twin_over_scene": (alone + twin) / alone}
+    return out
 
 
 def export_bench(quick=False, point=8):
@@ -260,6 +281,10 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
     for point, s in r["scene_seconds_2000_periods"].items():
         print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
               f"({s['steps']} steps)   (goal <= 0.1 s)")
+    for name, c in r["lyapunov_cost"].items():
+        print(f"  chaos indicator, {name}: scene + Lyapunov exponent "
+              f"{c['lyapunov_over_scene']:.2f} x scene (goal <= 1.3); scene + twin "
+              f"{c['scene_plus_twin_over_scene']:.2f} x")
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")

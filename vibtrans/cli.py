@@ -99,9 +99,11 @@ def cmd_simulate(args):
     bar, update = _progress_bar("simulate")
     try:
         ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
-                      max_steps=args.max_steps, progress=update)
+                      max_steps=args.max_steps, progress=update, lyapunov=True)
         twin = None
-        if args.twin == "always" or (args.twin == "auto" and jumped(ds)):
+        # auto: the twin only where no Lyapunov exponent decides (the material point)
+        if args.twin == "always" or (args.twin == "auto" and jumped(ds)
+                                     and ds.attrs.get("lyapunov") is None):
             twin = simulate(twin_scene(scene),
                             samples_per_period=args.samples_per_period,
                             max_steps=args.max_steps)
@@ -120,6 +122,57 @@ def cmd_simulate(args):
         for k, v in out.items():
             if k != "scene":
                 print(f"{k:>22}: {v}")
+    return 0
+
+
+def _orbit_json(orbit):
+    out = orbit._asdict()
+    out["multipliers"] = [[v.real, v.imag] for v in orbit.multipliers]
+    return out
+
+
+def cmd_orbit(args):
+    """A period-k orbit of the vertical motion's stroboscopic map (Newton
+    shooting), or its continuation along log10 A* or log10 m*."""
+    from . import dynamics as Y
+    scene = scene_from_args(args)
+    period = _finite("period", args.period, 1, 64, integer=True)
+    if args.guess == "run":
+        guess = Y.run_guess(scene)
+    elif args.guess == "rest":
+        guess = Y.rest_guess(scene.amplitude, scene.mass)
+    else:
+        try:
+            guess = tuple(_finite("guess", float(v)) for v in args.guess.split(","))
+        except ValueError:
+            guess = ()
+        if len(guess) != 2:
+            raise InputError(f"guess must be run, rest or 'Y,VY' (two numbers), "
+                             f"got {args.guess!r}")
+    la, lm = math.log10(scene.amplitude), math.log10(scene.mass)
+    if args.continue_ is None:
+        orbit = Y.periodic_orbit(scene.amplitude, scene.mass, guess, period, scene.fidelity)
+        out = _orbit_json(orbit)
+    else:
+        if args.to is None:
+            raise InputError("to: --continue needs --to (the log10 value to continue to)")
+        to = _finite("to", args.to, -300, 300)
+        step = _finite("step", args.step, 1e-4, 0.5)
+        branch = Y.continue_orbit(la, lm, args.continue_, to, step, period, guess,
+                                  scene.fidelity)
+        out = {"parameter": branch.parameter, "folds": branch.folds,
+               "period_doublings": branch.period_doublings, "ended": branch.ended,
+               "points": [{"log_amplitude": p.log_amplitude, "log_mass": p.log_mass,
+                           **_orbit_json(p.orbit)} for p in branch.points]}
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for k, v in out.items():
+            if k != "points":
+                print(f"{k:>18}: {v}")
+        for p in out.get("points", []):
+            print(f"  log A* {p['log_amplitude']:8.4f}  log m* {p['log_mass']:8.4f}  "
+                  f"trace {p['trace']:9.5f}  {'stable' if p['stable'] else 'unstable'}")
     return 0
 
 
@@ -171,7 +224,8 @@ def cmd_sweep(args):
                   parse_range(args.log_mass, "log_mass"), chunk_rows=args.chunk_rows,
                   command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
                   nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
-                  integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule)
+                  integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule,
+                  kind=args.kind, chaos=args.chaos)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
@@ -385,8 +439,23 @@ def build_parser():
     s.add_argument("--max-steps", type=float, default=2e8,
                    help="refuse scenes estimated to need more steps")
     s.add_argument("--twin", default="auto", choices=("auto", "always", "never"),
-                   help="run the tau + 1e-3 twin for the chaos verdict (auto: if it jumps)")
+                   help="run the tau + 1e-3 twin (twin_chaotic; the chaos verdict where no "
+                        "Lyapunov exponent is measured); auto: if it jumps and has none")
     s.set_defaults(func=cmd_simulate)
+
+    o = sub.add_parser("orbit", help="periodic orbit of the vertical motion's stroboscopic "
+                                     "map, its Floquet multipliers and continuation")
+    _scene_args(o)
+    o.add_argument("--period", type=_num, default=1.0, help="k: a period-k orbit (1-64)")
+    o.add_argument("--guess", default="run",
+                   help="run (where the scene's run ends), rest (the small-amplitude "
+                        "contact orbit) or Y,VY")
+    o.add_argument("--continue", dest="continue_", choices=("amplitude", "mass"),
+                   help="continue the orbit along log10 A* or log10 m*")
+    o.add_argument("--to", type=_num, help="with --continue: the log10 value to reach")
+    o.add_argument("--step", type=_num, default=0.02, help="with --continue: decades per step")
+    o.add_argument("--json", action="store_true")
+    o.set_defaults(func=cmd_orbit)
 
     t = sub.add_parser("threshold", help="jumping threshold A_J*(m*) of the vertical motion")
     t.add_argument("--mass", type=_num)
@@ -406,6 +475,12 @@ def build_parser():
     w.add_argument("--log-amplitude", default="-3:3:0.05", help="start:stop:step (inclusive)")
     w.add_argument("--log-mass", default="-5:5:0.05", help="start:stop:step (inclusive)")
     w.add_argument("--chunk-rows", type=int, default=4, help="amplitudes per stored chunk")
+    w.add_argument("--kind", default="transport", choices=("transport", "lyapunov"),
+                   help="transport: drift maps; lyapunov: the vertical motion's Lyapunov "
+                        "exponent alone (--model vertical)")
+    w.add_argument("--chaos", default="lyapunov", choices=("lyapunov", "twin"),
+                   help="transport: chaos from each run's Lyapunov exponent (the material "
+                        "point: its tau twin), or from the tau twin (as the shipped maps)")
     w.add_argument("--out", help="PATH.zarr (resumed if it exists and matches)")
     w.add_argument("--scheduler", help="dask.distributed scheduler address tcp://HOST:PORT")
     w.add_argument("--workers", type=int, help="local workers (default: all cores)")

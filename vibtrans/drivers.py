@@ -31,12 +31,12 @@ from typing import NamedTuple
 import numpy as np
 
 from . import records as R
-from .contact import STICK, new_memory
+from .contact import FLIGHT, STICK, new_memory
 from .errors import Cancelled, InputError, StepBudgetExceeded
 from .integrators import INTEGRATORS
 from .models import deformable as D
 from .models import point_mass as PM
-from .models.vertical import vertical_kernel
+from .models.vertical import vertical_kernel, vertical_lyapunov_kernel
 from .substrate import surface_acceleration, surface_motion
 
 DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
@@ -53,6 +53,7 @@ class Run(NamedTuple):
     state: np.ndarray          # the kernel's state at the end
     hist: object = None        # Hertz: derivative history float64[4, 4]
     memory: object = None      # deformable: (H, W, P, nvert, memf)
+    tangent: object = None     # Hertz with lyapunov_from: float64[NTANGENT]
 
 
 def checked_steps(n, max_steps, what, h=None):
@@ -128,7 +129,8 @@ def _record_rest(buf, ctr):
 
 def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
               memory_capacity=1024, state=None, hist=None, record_rest=True,
-              stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None):
+              stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None,
+              lyapunov_from=None, tangent=None, in_flight=False):
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -140,29 +142,53 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
         at sample_dt (as simulate() does); else the first coarse sample is the
         first step (a caller's own initial state).
     stop_at_takeoff: end the run at the first contact loss (vertical only).
+    lyapunov_from: a time (periods) to measure the vertical motion's largest
+        Lyapunov exponent from (the tangent advanced alongside, Run.tangent;
+        models.deformable.lyapunov_exponent); runs from rest only.  The
+        records are the same bit for bit.
+    tangent: instead, a caller's own tangent (float64[NTANGENT], with its own
+        `state`), advanced in place (tangent-map tests, dynamics).
+    in_flight: `state` is a flight from its origin state[S_T0:S_VY0+1] (a
+        complete initial condition: the history is the flight's at landing).
     chunk_steps: kernel steps per call (progress and cancel between calls);
         None: one call.
     Returns a Run (memory: the memory diagram's arrays, deformable only).
     """
-    if stop_at_takeoff and tangential:
-        raise ValueError("stop_at_takeoff applies to the vertical kernel only")
+    if stop_at_takeoff and (tangential or lyapunov_from is not None):
+        raise ValueError("stop_at_takeoff applies to the vertical kernel only, "
+                         "without lyapunov_from")
     integ = _integrator(integrator)
     t_end = params.t_end
     h = params.step
+    if lyapunov_from is not None:
+        if state is not None or tangent is not None:
+            raise ValueError("lyapunov_from applies to runs from rest only")
+        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from))
     if state is None:
         state, hist = D.rest_state()
     buf = {"samples": np.empty((samples_capacity, R.NCOL)),
            "events": np.empty((events_capacity, 3))}
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
+    if in_flight:
+        ctr[R.C_MODE] = D.MODE_FLIGHT
+        ctr[R.C_STATE] = FLIGHT
     mem = list(new_memory(memory_capacity)) if tangential else None
     if record_rest:
         _record_rest(buf, ctr)
 
-    if tangential:
+    if tangential and tangent is not None:
+        def call(t_stop):
+            return D.deformable_lyapunov_kernel(params, integ, state, hist, tangent, *mem,
+                                                buf["samples"], buf["events"], ctr, t_stop)
+    elif tangential:
         def call(t_stop):
             return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                        buf["events"], ctr, t_stop)
+    elif tangent is not None:
+        def call(t_stop):
+            return vertical_lyapunov_kernel(params, integ, state, hist, tangent, _NO_MEMORY,
+                                            buf["samples"], buf["events"], ctr, t_stop)
     else:
         def call(t_stop):
             return vertical_kernel(params, integ, stop_at_takeoff, state, hist, _NO_MEMORY,
@@ -174,7 +200,7 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     _drive(call, t_end, chunk, growers, progress, cancel, stopped)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
-               tuple(mem) if tangential else None)
+               tuple(mem) if tangential else None, tangent)
 
 
 def _until_done(call, t_stop, growers):

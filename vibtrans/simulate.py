@@ -21,6 +21,7 @@ from .fidelity import scan_step, step_count, time_step
 from .models import deformable as D
 from .models import point_mass as PM
 from .params import Scene
+from .substrate import RAMP_OFF
 from .trajectory import build_trajectory
 from .version import __version__
 
@@ -77,7 +78,7 @@ def _window(window, periods):
 
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
              max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, **values):
+             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
     """Simulate one scene and return its trajectory (xarray.Dataset).
 
     scene: a `Scene`, or scene values as keywords (amplitude=..., mass=...).
@@ -91,6 +92,11 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
         fidelity preset's pair (work-precision studies; Hertz models only).
     shortcuts: bit mask of the Hertz kernels' exact-to-rounding shortcuts
         (models.deformable.SHORT_*; 0 switches them all off, for the bench).
+    lyapunov: also measure the largest Lyapunov exponent of the vertical
+        motion (per period; attrs `lyapunov`, measured from `lyapunov_from`,
+        `lyapunov_start`): the chaos indicator (analysis.CHAOS_LYAPUNOV).
+        The records are the same bit for bit.  Hertz models (deformable,
+        vertical); the material point's needs its impact map (not yet: None).
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -108,12 +114,15 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                                            and max_steps > 0 and not math.isnan(max_steps)):
         raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = _check_steps(steps, scene.model)
+    if not isinstance(lyapunov, (bool, np.bool_)):
+        raise InputError(f"lyapunov must be True or False, got {lyapunov!r}")
     drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
     samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
-                                        progress, cancel, shortcuts=int(shortcuts), steps=steps)
+                                        progress, cancel, shortcuts=int(shortcuts), steps=steps,
+                                        lyapunov=bool(lyapunov))
     seconds = time.perf_counter() - start
     attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
                  force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
@@ -134,18 +143,36 @@ def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
     return p, h, capacity
 
 
+def lyapunov_start(scene):
+    """Where a scene's Lyapunov exponent is measured from (periods): the end
+    of the ramp, where the wave is periodic (G = 1 to machine precision, t =
+    RAMP_OFF tau), or half the run if that comes later."""
+    return min(RAMP_OFF * scene.tau, 0.5 * scene.periods)
+
+
 def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
-               shortcuts=D.SHORTCUTS_ALL, steps=None):
+               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False):
     """Run the deformable or vertical kernel from rest."""
     p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
                                    steps)
+    t_from = lyapunov_start(scene) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
-                            samples_capacity=capacity, progress=progress, cancel=cancel)
-    return run.samples, run.events, run.ctr, {"h": h}
+                            samples_capacity=capacity, progress=progress, cancel=cancel,
+                            lyapunov_from=t_from)
+    info = {"h": h}
+    if lyapunov:
+        info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
+    return run.samples, run.events, run.ctr, info
+
+
+def _lyapunov_attrs(tangent, state, t_from):
+    value = D.lyapunov_exponent(tangent, state)
+    return {"lyapunov": None if math.isnan(value) else value, "lyapunov_from": t_from,
+            "lyapunov_start": float(tangent[D.L_START]) if tangent[D.L_START] >= 0 else None}
 
 
 def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
-                    shortcuts=None, steps=None):
+                    shortcuts=None, steps=None, lyapunov=False):
     # event-driven: its flights and segments are closed forms already
     dt = scan_step(scene.fidelity, refine)
     p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
@@ -155,7 +182,10 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
     run = drivers.run_point_mass(
         p, scene.stick_rule, progress=progress, cancel=cancel,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
-    return run.samples, run.events, run.ctr, {"h": dt}
+    info = {"h": dt}
+    if lyapunov:     # the impact map's tangent is not implemented yet
+        info.update(lyapunov=None, lyapunov_from=None, lyapunov_start=None)
+    return run.samples, run.events, run.ctr, info
 
 
 def _deformable(scene):

@@ -54,6 +54,41 @@ VARIABLES = {
 }
 
 
+# The chaos indicator's map: the vertical motion's largest Lyapunov exponent.
+# The vertical motion does not feel the tangential one, so one such map
+# (model "vertical") serves every deformable map of the same tau, fidelity,
+# integrator and periods, whatever mu and theta (the same steps; equal to
+# rounding, as kernel calls differ: tests/test_lyapunov.py).
+LYAPUNOV_VARIABLES = {
+    "lyapunov": ("f8", np.nan, "largest Lyapunov exponent of the vertical motion, per "
+                               "period, from the end of the ramp"),
+    "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
+    "steps": ("i8", -1, "integration steps"),
+    "seconds": ("f8", np.nan, "wall time of the point, s"),
+}
+
+
+# How a transport sweep judges chaos: "lyapunov" (the run's own exponent,
+# analysis.CHAOS_LYAPUNOV; no twin run; the material point, which has no
+# exponent yet, falls back to the twin) or "twin" (the tau + 1e-3 twin: the
+# shipped maps, made before the exponent existed, whose stores carry no
+# `chaos` attribute).
+CHAOS_SOURCES = ("lyapunov", "twin")
+LYAPUNOV_CHAOS_VARIABLES = {
+    **VARIABLES,
+    "chaotic": ("i1", -1, "1 if the Lyapunov exponent exceeds analysis.CHAOS_LYAPUNOV (the "
+                          "material point: if the tau twin disagrees), else 0"),
+    "lyapunov": LYAPUNOV_VARIABLES["lyapunov"],
+}
+
+
+def variables_of(kind, chaos):
+    """The stored variables of a sweep of this kind and chaos source."""
+    if kind == "lyapunov":
+        return LYAPUNOV_VARIABLES
+    return LYAPUNOV_CHAOS_VARIABLES if chaos == "lyapunov" else VARIABLES
+
+
 def _why(exc, limit=240):
     """An underlying error as one short line (for StoreMismatch messages)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
@@ -75,15 +110,18 @@ def parse_range(text, name):
     return np.round(start + step * np.arange(n), 10)
 
 
-def compute_point(values, log_a, log_m):
-    """One grid point: the run and, if it jumps, its chaos twin (analysis.twin_scene).
+def compute_point(values, log_a, log_m, chaos="twin"):
+    """One grid point: the run with its Lyapunov exponent (chaos
+    "lyapunov"), or the run and, if it jumps, its chaos twin
+    (analysis.twin_scene; chaos "twin", and the material point always).
 
     Returns a dict of the stored quantities.
     """
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
-    ds = simulate(scene)
+    measure = chaos == "lyapunov" and scene.model != "point-mass"
+    ds = simulate(scene, lyapunov=measure)
     jumping = jumped(ds)
-    twin = simulate(twin_scene(scene)) if jumping else None
+    twin = simulate(twin_scene(scene)) if jumping and not measure else None
     s = summarize(ds, twin)
     pattern = s.pattern
     if pattern == "launched":
@@ -100,17 +138,32 @@ def compute_point(values, log_a, log_m):
         "takeoffs_per_period": s.takeoffs_per_period,
         "steps": s.steps + s.twin_steps,          # VARIABLES: run + twin
         "seconds": s.seconds + s.twin_seconds,
+        "lyapunov": np.nan if s.lyapunov is None else s.lyapunov,
     }
 
 
-def _compute_row_block(values, log_as, log_ms):
+def lyapunov_point(values, log_a, log_m):
+    """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
+    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    ds = simulate(scene, lyapunov=True)
+    value = ds.attrs.get("lyapunov")
+    return {"lyapunov": np.nan if value is None else value, "contact": int(jumped(ds)),
+            "steps": int(ds.attrs["steps"]), "seconds": float(ds.attrs["seconds"])}
+
+
+KINDS = ("transport", "lyapunov")      # drift maps; the vertical motion's exponent
+
+
+def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin"):
     """All points of a chunk (a worker task)."""
-    return [[compute_point(values, la, lm) for lm in log_ms] for la in log_as]
+    if kind == "lyapunov":
+        return [[lyapunov_point(values, la, lm) for lm in log_ms] for la in log_as]
+    return [[compute_point(values, la, lm, chaos) for lm in log_ms] for la in log_as]
 
 
-def _digest(block):
+def _digest(block, variables=VARIABLES):
     h = hashlib.sha256()
-    for name in VARIABLES:
+    for name in variables:
         h.update(np.ascontiguousarray(block[name].values).tobytes())
     return np.uint64(int(h.hexdigest()[:16], 16))
 
@@ -118,7 +171,18 @@ def _digest(block):
 class Sweep:
     """A sweep's definition: scene values (everything but A*, m*) and grid."""
 
-    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None, **values):
+    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None,
+                 kind="transport", chaos="lyapunov", **values):
+        if kind not in KINDS:
+            raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        if chaos not in CHAOS_SOURCES:
+            raise InputError(f"chaos must be one of {', '.join(CHAOS_SOURCES)}, got {chaos!r}")
+        if kind == "lyapunov" and values.get("model") != "vertical":
+            raise InputError("a lyapunov sweep runs the vertical model (model='vertical'): "
+                             "the indicator is the vertical motion's")
+        self.kind = kind
+        self.chaos = chaos
+        self.variables = variables_of(kind, chaos)
         scene = Scene(**values)            # validates every value
         self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
         self.log_amplitude = np.asarray(log_amplitude, dtype=float)
@@ -138,13 +202,15 @@ class Sweep:
     def attrs(self):
         return {**{f"scene_{k}": v for k, v in self.values.items()},
                 "chunk_rows": self.chunk_rows, "code_version": __version__,
-                "command": self.command}
+                "command": self.command,
+                **({"kind": self.kind} if self.kind != "transport" else {}),
+                **({"chaos": self.chaos} if self.kind == "transport" else {})}
 
     def empty_dataset(self):
         shape = (self.log_amplitude.size, self.log_mass.size)
         data = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
                        {"description": desc})
-                for name, (dt, fill, desc) in VARIABLES.items()}
+                for name, (dt, fill, desc) in self.variables.items()}
         data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
         data["digest"] = (("chunk",), np.zeros(self.n_chunks, dtype=np.uint64))
         return xr.Dataset(data, coords={"log_amplitude": self.log_amplitude,
@@ -163,6 +229,10 @@ def _check_store(ds, sweep, path):
         grid = getattr(sweep, name)
         if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):
             problems.append(f"{name} grid differs")
+    if ds.attrs.get("kind", "transport") != sweep.kind:
+        problems.append(f"kind: store {ds.attrs.get('kind', 'transport')}, command {sweep.kind}")
+    elif sweep.kind == "transport" and ds.attrs.get("chaos", "twin") != sweep.chaos:
+        problems.append(f"chaos: store {ds.attrs.get('chaos', 'twin')}, command {sweep.chaos}")
     if ds.attrs.get("chunk_rows") != sweep.chunk_rows:
         problems.append(f"chunk_rows: store {ds.attrs.get('chunk_rows')}, command {sweep.chunk_rows}")
     if problems:
@@ -176,7 +246,13 @@ def verify(ds, path="store"):
     if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
             or "digest" not in ds):
         raise StoreMismatch(f"{path} is not a vibtrans sweep store")
-    missing = [name for name in VARIABLES if name not in ds]
+    kind = ds.attrs.get("kind", "transport")     # (stores before kinds: transport,
+    chaos = ds.attrs.get("chaos", "twin")        #  judged by the twin)
+    if kind not in KINDS or chaos not in CHAOS_SOURCES:
+        raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos "
+                            f"source {chaos!r}")
+    variables = variables_of(kind, chaos)
+    missing = [name for name in variables if name not in ds]
     if missing:
         raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: "
                             f"{', '.join(missing)})")
@@ -189,17 +265,17 @@ def verify(ds, path="store"):
     if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
         raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
     try:    # one read of each variable (a read per chunk cost ~1.5 ms each)
-        whole = ds[list(VARIABLES)].load()
+        whole = ds[list(variables)].load()
     except Exception:          # a damaged chunk: read chunk by chunk, to name it
         whole = None
     for k in np.flatnonzero(done):
         sl = slice(int(k) * rows, (int(k) + 1) * rows)
         try:
-            block = (ds[list(VARIABLES)].isel(log_amplitude=sl).load() if whole is None
+            block = (ds[list(variables)].isel(log_amplitude=sl).load() if whole is None
                      else whole.isel(log_amplitude=sl))
         except Exception as exc:   # undecodable chunk: damaged or truncated
             raise StoreMismatch(f"{path}: chunk {k} cannot be read ({_why(exc)})") from None
-        if _digest(block) != digests[k]:
+        if _digest(block, variables) != digests[k]:
             raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
                                 f"(damaged or edited); delete the store and rerun")
 
@@ -283,7 +359,7 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
     else:
         sweep.empty_dataset().to_zarr(
             path, mode="w", encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
-                                      for name in VARIABLES}, consolidated=False)
+                                      for name in sweep.variables}, consolidated=False)
         done = np.zeros(sweep.n_chunks, dtype=bool)
     todo = [k for k in range(sweep.n_chunks) if not done[k]]
     if not todo:
@@ -297,7 +373,7 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
             client.run(warmup)
             futures = {client.submit(_compute_row_block, sweep.values,
                                      sweep.log_amplitude[sweep.rows(k)], sweep.log_mass,
-                                     pure=False): k for k in todo}
+                                     sweep.kind, sweep.chaos, pure=False): k for k in todo}
             from dask.distributed import as_completed
             for fut in as_completed(futures):
                 _write_chunk(path, sweep, futures[fut], fut.result(), bar)
@@ -317,7 +393,7 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
                     k = queue.pop(0)
                     pending[pool.submit(_compute_row_block, sweep.values,
                                         sweep.log_amplitude[sweep.rows(k)],
-                                        sweep.log_mass)] = k
+                                        sweep.log_mass, sweep.kind, sweep.chaos)] = k
                 finished, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in finished:
                     _write_chunk(path, sweep, pending.pop(fut), fut.result(), bar)
@@ -335,7 +411,7 @@ def _write_chunk(path, sweep, k, rows, bar):
     sl = sweep.rows(k)
     coords = {"log_amplitude": sweep.log_amplitude[sl], "log_mass": sweep.log_mass}
     data = {}
-    for name, (dt, _, _) in VARIABLES.items():
+    for name, (dt, _, _) in sweep.variables.items():
         arr = np.array([[p[name] for p in row] for row in rows], dtype=dt)
         data[name] = (("log_amplitude", "log_mass"), arr)
     block = xr.Dataset(data, coords=coords)
@@ -346,11 +422,12 @@ def _write_chunk(path, sweep, k, rows, bar):
     # write of both left done = True beside a zero digest when the kill fell
     # between its two files)
     region = {"chunk": slice(k, k + 1)}
-    xr.Dataset({"digest": (("chunk",), np.array([_digest(block)], dtype=np.uint64))}).to_zarr(
+    xr.Dataset({"digest": (("chunk",), np.array([_digest(block, sweep.variables)],
+                                                 dtype=np.uint64))}).to_zarr(
         path, region=region, consolidated=False)
     xr.Dataset({"done": (("chunk",), np.array([True]))}).to_zarr(
         path, region=region, consolidated=False)
-    bar.update(block["drift_velocity"].size)
+    bar.update(block["steps"].size)
 
 
 def command_line():

@@ -61,6 +61,23 @@ NSTATE = 11  # S_GAP: a* at the last committed step (locates take-offs)
 MODE_CONTACT = 0
 MODE_FLIGHT = 1
 
+# tangent: the vertical motion's tangent vector (dy*, dy*') for the largest
+# Lyapunov exponent (Benettin: integrated with the run's own step and
+# renormalized when its norm leaves [1e-50, 1e50]; docs/MODEL.md section 4,
+# "Chaos verdict").
+# The normal force N*(a*) = a*^(3/2) is C1 at a* = 0, so the tangent needs no
+# jump at landings or take-offs: in flight it is the free flight's
+# (dy' constant), in contact m* dy'' = -N*'(a*) dy, N*' = 1.5 sqrt(a*).
+(L_DY, L_DVY, L_DY0, L_DVY0,     # now; at the flight's origin
+ L_FROM,                         # the time the exponent is measured from (input)
+ L_START,                        # the first step at or after it (-1: not yet)
+ L_LOG,                          # sum of the renormalizations' logs
+ L_LOG_START,                    # L_LOG + log|d| at L_START
+ L_END_T, L_END_DY, L_END_DVY) = range(11)   # the tangent at t_end (L_END_T < 0: not yet)
+L_HIST = 11                      # tangent derivative history, (dy', dy'') of F_{n-j}
+NTANGENT = L_HIST + 8            #   at tangent[L_HIST + 2 j + k]
+TANGENT_BIG = 1e100              # renormalize when |d|^2 leaves [1/BIG, BIG]
+
 
 def kernel_params(amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt,
                   window=(math.inf, -math.inf), shortcuts=SHORTCUTS_ALL):
@@ -79,6 +96,48 @@ def rest_state(y0=1.0):
     state[S_Y] = y0
     state[S_GAP] = y0
     return state, np.zeros((4, 4))
+
+
+def rest_tangent(mass, step, t_from):
+    """The tangent of a particle at rest (`rest_state`) for a run that
+    measures the Lyapunov exponent from t_from (periods): d = (dy*, dy*') =
+    (1, 0), with the derivative history of the small oscillation about rest
+    that it starts, dy = cos(w t), w = sqrt(N*'(1) / m*) = sqrt(1.5 / m*)."""
+    tangent = np.zeros(NTANGENT)
+    tangent[L_DY] = 1.0
+    tangent[L_FROM] = t_from
+    tangent[L_START] = -1.0
+    tangent[L_END_T] = -1.0
+    w = math.sqrt(1.5 / mass)
+    for j in range(4):
+        tangent[L_HIST + 2 * j] = w * math.sin(w * j * step)
+        tangent[L_HIST + 2 * j + 1] = -w * w * math.cos(w * j * step)
+    return tangent
+
+
+def tangent_at_end(tangent, state):
+    """(t, dy*, dy*') of a run's tangent at its end: at t_end, interpolated
+    inside the last step as the state is (`_record_end`), or where the
+    kernel stopped (a flight, or a run that has not reached t_end)."""
+    if tangent[L_END_T] >= 0.0:
+        return tangent[L_END_T], tangent[L_END_DY], tangent[L_END_DVY]
+    return state[S_T], tangent[L_DY], tangent[L_DVY]
+
+
+def lyapunov_exponent(tangent, state):
+    """The largest Lyapunov exponent of the vertical motion, per period,
+    measured from tangent[L_START] to the run's end (`tangent_at_end`): the
+    growth of log|d| over that time, renormalizations included.  NaN when
+    the measurement never started, lasted under one period, or overflowed."""
+    t0 = tangent[L_START]
+    t_end, dy, dvy = tangent_at_end(tangent, state)
+    if t0 < 0.0 or not t_end - t0 >= 1.0:
+        return math.nan
+    n = math.hypot(dy, dvy)
+    if not (math.isfinite(n) and n > 0.0):
+        return math.nan
+    value = (tangent[L_LOG] + math.log(n) - tangent[L_LOG_START]) / (t_end - t0)
+    return value if math.isfinite(value) else math.nan
 
 
 @helper
@@ -355,12 +414,125 @@ def _room_for_step(samples, events, H, nvert, ctr, tangential):
     return R.DONE
 
 
+# -------------------------------------------------------------- tangent phases
+@helper
+def _tangent_norm(tangent):
+    """Renormalize the tangent (vector, flight origin, history) to |d| = 1
+    when |d|^2 leaves [1/TANGENT_BIG, TANGENT_BIG], adding log|d| to L_LOG."""
+    n2 = tangent[L_DY] * tangent[L_DY] + tangent[L_DVY] * tangent[L_DVY]
+    if TANGENT_BIG >= n2 >= 1.0 / TANGENT_BIG:
+        return
+    if not n2 > 0.0:                  # zero or NaN (an overflowed scene): leave it
+        return
+    tangent[L_LOG] += 0.5 * math.log(n2)
+    inv = 1.0 / math.sqrt(n2)
+    for i in range(L_DVY0 + 1):
+        tangent[i] *= inv
+    if tangent[L_END_T] >= 0.0:
+        tangent[L_END_DY] *= inv
+        tangent[L_END_DVY] *= inv
+    for i in range(L_HIST, NTANGENT):
+        tangent[i] *= inv
+
+
+@helper
+def _tangent_mark(tangent, t):
+    """Note where the exponent is measured from: the first tangent update at
+    or after tangent[L_FROM]."""
+    if tangent[L_START] < 0.0 and t >= tangent[L_FROM]:
+        tangent[L_START] = t
+        n2 = tangent[L_DY] * tangent[L_DY] + tangent[L_DVY] * tangent[L_DVY]
+        tangent[L_LOG_START] = tangent[L_LOG] + 0.5 * math.log(n2)
+
+
+@helper
+def _tangent_mark_in_flight(tangent, t_origin, t_fin):
+    """`_tangent_mark` for a flight from t_origin to t_fin: the measurement
+    starts at tangent[L_FROM] itself if the flight spans it (on the flight,
+    the tangent at any time is known in closed form)."""
+    if tangent[L_START] < 0.0 and t_fin >= tangent[L_FROM]:
+        t = max(tangent[L_FROM], t_origin)
+        dy = tangent[L_DY0] + tangent[L_DVY0] * (t - t_origin)
+        dvy = tangent[L_DVY0]
+        tangent[L_START] = t
+        tangent[L_LOG_START] = tangent[L_LOG] + 0.5 * math.log(dy * dy + dvy * dvy)
+
+
+@helper
+def _tangent_step(integrator, tangent, h, c1, inv_m):
+    """One committed contact step of the tangent, with the run's integrator:
+    m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact)."""
+    dy = tangent[L_DY]
+    dvy = tangent[L_DVY]
+    k = L_HIST
+    if integrator == AB4:
+        dy1 = dy + h / 24.0 * (55.0 * tangent[k] - 59.0 * tangent[k + 2]
+                               + 37.0 * tangent[k + 4] - 9.0 * tangent[k + 6])
+        dvy1 = dvy + h / 24.0 * (55.0 * tangent[k + 1] - 59.0 * tangent[k + 3]
+                                 + 37.0 * tangent[k + 5] - 9.0 * tangent[k + 7])
+        dacc1 = -1.5 * c1 * dy1 * inv_m
+    else:
+        dy1 = dy + h * dvy + 0.5 * h * h * tangent[k + 1]
+        dacc1 = -1.5 * c1 * dy1 * inv_m
+        dvy1 = dvy + 0.5 * h * (tangent[k + 1] + dacc1)
+    for i in range(NTANGENT - 1, k + 1, -1):
+        tangent[i] = tangent[i - 2]
+    tangent[k] = dvy1
+    tangent[k + 1] = dacc1
+    tangent[L_DY] = dy1
+    tangent[L_DVY] = dvy1
+
+
+@helper
+def _tangent_take_off(tangent, d, dyo, dvyo, t0, t1):
+    """The tangent at the take-off d after the step's start (as the state:
+    from the values at the step's start under the derivative there, which
+    the history's second row now holds) and on the flight at t1."""
+    dacco = tangent[L_HIST + 3]
+    tangent[L_DY0] = dyo + dvyo * d + 0.5 * dacco * d * d
+    tangent[L_DVY0] = dvyo + dacco * d
+    tangent[L_DY] = tangent[L_DY0] + tangent[L_DVY0] * (t1 - t0)
+    tangent[L_DVY] = tangent[L_DVY0]
+
+
+@helper
+def _tangent_end(tangent, state, st, t_end, t0, dyo, dvyo, t1):
+    """The tangent at t_end inside the last step (t0, t1], as `_record_end`
+    takes the state: on the flight parabola, else cubic Hermite from the
+    values and slopes at both ends."""
+    if st == FLIGHT and state[S_T0] <= t_end:
+        dy = tangent[L_DY0] + tangent[L_DVY0] * (t_end - state[S_T0])
+        dvy = tangent[L_DVY0]
+    else:
+        dacc1 = 0.0 if st == FLIGHT else tangent[L_HIST + 1]
+        s = (t_end - t0) / (t1 - t0)
+        dy, _ = _hermite(dyo, dvyo, tangent[L_DY], tangent[L_DVY], t1 - t0, s)
+        dvy, _ = _hermite(dvyo, tangent[L_HIST + 3], tangent[L_DVY], dacc1, t1 - t0, s)
+    tangent[L_END_T] = t_end
+    tangent[L_END_DY] = dy
+    tangent[L_END_DVY] = dvy
+
+
+@helper
+def _tangent_flight(tangent, s, landed):
+    """The tangent s after the flight's origin (dy' constant in flight);
+    at a landing its history is the flight's (dy'' = 0), as the state's."""
+    tangent[L_DY] = tangent[L_DY0] + tangent[L_DVY0] * s
+    tangent[L_DVY] = tangent[L_DVY0]
+    if landed:
+        for j in range(4):
+            tangent[L_HIST + 2 * j] = tangent[L_DVY0]
+            tangent[L_HIST + 2 * j + 1] = 0.0
+
+
 # ------------------------------------------------------------------ the kernel
 @helper
-def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
-                    nvert, memf, samples, events, ctr, t_stop, tangential):
+def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, Pm,
+                    nvert, memf, samples, events, ctr, t_stop, tangential, lyapunov):
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
-    contact one committed step at a time.  Returns a records.* status."""
+    contact one committed step at a time.  With `lyapunov` (a compile-time
+    constant, like `tangential`) the vertical motion's tangent advances
+    alongside, in `tangent`.  Returns a records.* status."""
     m = p.mass
     h = p.step
     t_end = p.t_end
@@ -393,6 +565,10 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
             x, vx, y, vy = _flight_point(state, t_fin, m)
             state[S_T] = t_fin
             _set_motion(state, x, vx, y, vy)
+            if lyapunov:
+                _tangent_mark_in_flight(tangent, state[S_T0], t_fin)
+                _tangent_flight(tangent, t_fin - state[S_T0], t_land >= 0.0)
+                _tangent_norm(tangent)
             if t_land < 0.0:
                 break
             _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential)
@@ -416,15 +592,28 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, H, W, Pm,
                                                     inv_scale, tangential)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
+        dyo = 0.0
+        dvyo = 0.0
+        if lyapunov:
+            dyo = tangent[L_DY]
+            dvyo = tangent[L_DVY]
+            _tangent_step(integrator, tangent, h, c1, inv_m)
         if st == FLIGHT:
             x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
                                          vyo, m)
             a1 = y1 - uy
             b1 = (x1 - ux) / scale if tangential else 0.0
+            if lyapunov:
+                _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, state[S_T0], t1)
+        if lyapunov:
+            _tangent_mark(tangent, t1)
+            _tangent_norm(tangent)
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
             _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
                         t1, x1, vx1, y1, vy1, tangential)
+            if lyapunov:
+                _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
@@ -441,5 +630,14 @@ def deformable_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
 
     Returns a records.* status code; every array is updated in place.
     """
-    return _hertz_particle(params, integrator, False, state, hist, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True)
+    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, False)
+
+
+@kernel
+def deformable_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P, nvert,
+                               memf, samples, events, ctr, t_stop):
+    """deformable_kernel with the vertical motion's tangent advanced alongside
+    (`tangent`, float64[NTANGENT]; the same records, bit for bit)."""
+    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, True)

@@ -19,6 +19,16 @@ def vertical_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
     Returns a records.* status code.
     """
     # `hist` stands in for the (2-D) vertex array: never touched either.
-    return _hertz_particle(params, integrator, stop_at_takeoff, state, hist,
+    return _hertz_particle(params, integrator, stop_at_takeoff, state, hist, dummy,
                            hist, dummy, dummy, ctr, dummy, samples, events,
-                           ctr, t_stop, False)
+                           ctr, t_stop, False, False)
+
+
+@kernel
+def vertical_lyapunov_kernel(params, integrator, state, hist, tangent, dummy, samples,
+                             events, ctr, t_stop):
+    """vertical_kernel (no stop at take-off) with the tangent advanced
+    alongside (`tangent`, float64[deformable.NTANGENT])."""
+    return _hertz_particle(params, integrator, False, state, hist, tangent,
+                           hist, dummy, dummy, ctr, dummy, samples, events,
+                           ctr, t_stop, False, True)

@@ -1,0 +1,98 @@
+"""The figures of docs/DYNAMICS.md: the period-1 orbit's stability over the
+shipped map's synchronous and chaotic zones.
+
+    python -m devtools.dynamics_figures [--chart assets/maps/period-one.nc] [--out docs/figures]
+
+The period-1 chart (vibtrans.dynamics.period_one_chart on the shipped
+0.05-decade grid; a few minutes on 2 cores) is read from --chart if that file
+exists, else computed and written there.
+"""
+import argparse
+import math
+import os
+import sys
+from importlib import resources
+
+import numpy as np
+import xarray as xr
+
+from vibtrans import dynamics as Y
+from vibtrans.analysis import CHAOS_LYAPUNOV
+from vibtrans.sweep import open_map, open_vertical
+
+M_C = 1.5 / (4.0 * math.pi ** 2)     # w0 = 2 pi: the fundamental contact resonance
+
+
+def chart(path):
+    if os.path.exists(path):
+        return xr.load_dataset(path)
+    ds = Y.period_one_chart(np.round(np.arange(-3.0, 3.0001, 0.05), 10),
+                            np.round(np.arange(-5.0, 5.0001, 0.05), 10))
+    tmp = path + ".partial"
+    ds.to_netcdf(tmp)
+    os.replace(tmp, path)
+    return ds
+
+
+def stability_figure(p1, out):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.colors import ListedColormap
+    from matplotlib.figure import Figure
+    maps = resources.files("vibtrans_assets") / "maps"
+    drift = open_map(str(maps / "deformable-mu0.3.zarr"), {"model": "deformable"})
+    lyap = open_map(str(maps / "vertical-lyapunov.zarr"))
+    vertical = open_vertical(str(maps / "vertical.nc"))
+    la, lm = drift["log_amplitude"].values, drift["log_mass"].values
+    zones = np.zeros(drift["pattern"].shape)            # 0 contact / other jumping
+    zones[drift["contact"].values == 1] = 1
+    zones[drift["pattern"].values == 1] = 2             # synchronous (shipped map)
+    zones[lyap["lyapunov"].values > CHAOS_LYAPUNOV] = 3  # chaotic by the exponent
+    fig = Figure(figsize=(8.0, 5.2), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    cmap = ListedColormap(["#ffffff", "#dcdcdc", "#9ecae1", "#fdae6b"])
+    ax.pcolormesh(lm, la, zones, cmap=cmap, vmin=-0.5, vmax=3.5, shading="nearest")
+    pl, pm = p1["log_amplitude"].values, p1["log_mass"].values
+    tr = p1["trace"].values
+    ax.contour(pm, pl, np.where(np.isfinite(tr), tr, 3.0), levels=[-2.0], colors="crimson",
+               linewidths=1.2)
+    ax.contour(pm, pl, p1["exists"].values.astype(float), levels=[0.5], colors="k",
+               linewidths=1.0, linestyles="--")
+    ax.contour(pm, pl, (p1["stable"].values & p1["in_flight"].values).astype(float),
+               levels=[0.5], colors="navy", linewidths=1.0)
+    ax.plot(vertical["log_mass"], np.log10(vertical["threshold_amplitude"]), color="k", lw=0.8)
+    for factor, name in ((1, "m_c*"), (4, "4 m_c*")):
+        ax.axvline(math.log10(factor * M_C), color="0.3", lw=0.6, ls=":")
+        ax.text(math.log10(factor * M_C) + 0.05, 2.75, name, fontsize=8)
+    handles = [ax.plot([], [], color=c, ls=s)[0] for c, s in
+               (("crimson", "-"), ("k", "--"), ("navy", "-"), ("k", "-"))]
+    from matplotlib.patches import Patch
+    handles += [Patch(color=c) for c in ("#9ecae1", "#fdae6b", "#dcdcdc")]
+    ax.legend(handles, ["period-1 orbit: trace = -2 (period doubling)",
+                        "end of the continued period-1 orbit (fold or lost)",
+                        "stable period-1 hopping orbit (boundary)",
+                        "jumping threshold A_J*(m*)",
+                        "synchronous (shipped map, mu 0.3)",
+                        f"chaotic (Lyapunov exponent > {CHAOS_LYAPUNOV:g})",
+                        "other jumping"], fontsize=7, loc="lower left")
+    ax.set_xlabel("log10 m*")
+    ax.set_ylabel("log10 A*")
+    ax.set_xlim(-5, 5)
+    ax.set_ylim(-3, 3)
+    ax.set_title("The period-1 orbit's stability over the regimes (deformable, tau 50, 2000 periods)")
+    fig.savefig(out, dpi=120)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m devtools.dynamics_figures",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--chart", default="assets/maps/period-one.nc")
+    ap.add_argument("--out", default="docs/figures")
+    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    p1 = chart(a.chart)
+    stability_figure(p1, os.path.join(a.out, "period-one-stability.png"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,120 @@
+"""The stroboscopic map, periodic orbits and their Floquet multipliers
+(vibtrans/dynamics.py).
+
+Sources: the closed form of the linearized contact oscillator (small A*:
+the period-1 orbit's multipliers exp(+-i w0), w0 = sqrt(3 / (2 m*)), trace
+2 cos w0, reaching 2 at the fundamental resonance m_c* = 3 / (8 pi^2) and
+-2 at 4 m_c*); central finite differences of the map (its Jacobian);
+det = 1 (the map is area preserving); the shipped map's synchronous points
+(a synchronous hopping regime is a stable period-1 orbit).
+"""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from vibtrans import Scene
+from vibtrans import dynamics as Y
+from vibtrans.errors import InputError
+
+M_C = 1.5 / (4.0 * math.pi ** 2)        # w0 = 2 pi: the fundamental contact resonance
+
+
+@pytest.mark.parametrize("mass", [0.3 * M_C, 0.9 * M_C, 1.1 * M_C, 2 * M_C, 4 * M_C,
+                                  0.5, 2.0, 20.0])
+def test_small_amplitude_contact_orbit_has_the_linear_multipliers(mass):
+    amplitude = 1e-4
+    orbit = Y.periodic_orbit(amplitude, mass, Y.rest_guess(amplitude, mass))
+    w0 = math.sqrt(1.5 / mass)
+    assert orbit.found and orbit.residual < 1e-9
+    assert orbit.trace == pytest.approx(2.0 * math.cos(w0), abs=2e-4)
+    expected = np.exp(1j * w0)
+    got = min(orbit.multipliers, key=lambda v: abs(v - expected))
+    assert abs(got - expected) < 2e-2       # multipliers near a double root meet as sqrt
+    assert orbit.determinant == pytest.approx(1.0, abs=1e-5)
+    assert orbit.stable == (abs(2.0 * math.cos(w0)) < 2.0)
+
+
+def test_period_doubling_tongue_opens_at_four_times_the_resonance_mass():
+    """trace = -2 where the contact frequency is half the drive's (m* = 4
+    m_c*): at small A* the trace touches -2 there; as A* grows a band of
+    hyperbolic (trace < -2) orbits opens around it."""
+    log_4mc = math.log10(4 * M_C)
+    masses = np.linspace(log_4mc - 0.1, log_4mc + 0.1, 41)
+
+    def traces(amplitude):
+        return np.array([Y.periodic_orbit(amplitude, 10 ** lm,
+                                          Y.rest_guess(amplitude, 10 ** lm)).trace
+                         for lm in masses])
+
+    small = traces(1e-3)
+    assert small.min() == pytest.approx(-2.0, abs=2e-3)
+    assert abs(masses[np.argmin(small)] - log_4mc) <= 0.01
+    wider = traces(0.1)
+    band = masses[wider < -2.0]
+    assert band.size >= 3 and band.min() < log_4mc < band.max()
+    assert (traces(0.3) < -2.0).sum() > band.size
+
+
+@pytest.mark.parametrize("amplitude,mass,y,vy", [
+    (1e-2, 0.5, 1.004, 0.01),        # contact start: the bootstrapped history
+    (10 ** 0.4, 10 ** 1.3, -3.0, 1.0),  # flight start, landing, hopping
+    (10 ** 1.1, 10 ** 0.4, 0.0, 0.0),
+])
+def test_jacobian_is_the_maps_derivative(amplitude, mass, y, vy):
+    s = Y.strobe(amplitude, mass, y, vy, 2)
+    eps = 1e-6
+    fd = np.zeros((2, 2))
+    for j, e in enumerate(np.eye(2)):
+        plus = Y.strobe(amplitude, mass, y + eps * e[0], vy + eps * e[1], 2)
+        minus = Y.strobe(amplitude, mass, y - eps * e[0], vy - eps * e[1], 2)
+        fd[:, j] = (np.array([plus.y, plus.vy]) - np.array([minus.y, minus.vy])) / (2 * eps)
+    assert np.linalg.norm(s.jacobian - fd) <= 5e-3 * np.linalg.norm(fd)
+    assert np.linalg.det(s.jacobian) == pytest.approx(1.0, abs=1e-3)
+
+
+def test_synchronous_points_of_the_shipped_map_are_stable_period_one_orbits():
+    for la, lm in ((0.15, 0.9), (1.1, 0.4), (1.95, 0.9)):
+        A, m = 10 ** la, 10 ** lm
+        orbit = Y.periodic_orbit(A, m, Y.run_guess(Scene(amplitude=A, mass=m)))
+        assert orbit.found and orbit.stable, (la, lm, orbit)
+        assert orbit.y - A * 1.0 < 0.0          # at t = 0 mod 1 it is in flight (a* < 0)
+        assert orbit.determinant == pytest.approx(1.0, abs=1e-5)
+
+
+def test_continuation_finds_the_tongues_period_doublings():
+    log_4mc = math.log10(4 * M_C)
+    A = 0.3
+    branch = Y.continue_orbit(math.log10(A), log_4mc + 0.15, "mass", log_4mc - 0.15,
+                              step=0.01, guess=Y.rest_guess(A, 10 ** (log_4mc + 0.15)))
+    assert branch.ended == "reached the end"
+    assert len(branch.period_doublings) == 2
+    lo, hi = sorted(branch.period_doublings)
+    assert lo < log_4mc < hi
+    for p in branch.points:
+        assert p.orbit.stable == (abs(p.orbit.trace) < 2.0)
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(InputError, match="period must be an integer in"):
+        Y.periodic_orbit(1.0, 1.0, (1.0, 0.0), period=0)
+    with pytest.raises(InputError, match="amplitude"):
+        Y.periodic_orbit(-1.0, 1.0, (1.0, 0.0))
+    with pytest.raises(InputError, match="parameter must be amplitude or mass"):
+        Y.continue_orbit(0.0, 0.0, "tau", 1.0)
+
+
+def test_cli_orbit_prints_the_orbit():
+    out = subprocess.run([sys.executable, "-m", "vibtrans.cli", "orbit", "--log-amplitude",
+                          "0.15", "--log-mass", "0.9", "--json"], capture_output=True,
+                         text=True, check=True)
+    got = json.loads(out.stdout)
+    assert got["found"] is True and got["stable"] is True and abs(got["trace"]) < 2
+    assert len(got["multipliers"]) == 2 and {"y", "vy"} <= set(got)
+    bad = subprocess.run([sys.executable, "-m", "vibtrans.cli", "orbit", "--log-amplitude",
+                          "0.15", "--log-mass", "0.9", "--period", "0"], capture_output=True,
+                         text=True)
+    assert bad.returncode != 0 and "period" in bad.stderr and "Traceback" not in bad.stderr
