@@ -8,6 +8,7 @@ The period-1 chart (vibtrans.dynamics.period_one_chart on the shipped
 exists, else computed and written there.
 """
 import argparse
+import json
 import math
 import os
 import sys
@@ -34,14 +35,54 @@ def chart(path):
     return ds
 
 
+def _shipped():
+    maps = resources.files("vibtrans_assets") / "maps"
+    return (open_map(str(maps / "deformable-mu0.3.zarr"), {"model": "deformable"}),
+            open_map(str(maps / "vertical-lyapunov.zarr")),
+            open_vertical(str(maps / "vertical.nc")))
+
+
+def stability_numbers(p1):
+    """How the period-1 orbit's stability lines up with the shipped regimes
+    (the chart and the maps share the 0.05-decade grid)."""
+    drift, lyap, _ = _shipped()
+    sync = drift["pattern"].values == 1
+    jumping = drift["contact"].values == 1
+    chaos = lyap["lyapunov"].values > CHAOS_LYAPUNOV
+    exists = p1["exists"].values
+    stable_hopping = p1["stable"].values & p1["in_flight"].values
+    hyperbolic = exists & ~p1["stable"].values
+    la, lm = drift["log_amplitude"].values, drift["log_mass"].values
+    edges = {}
+    for a in (-0.5, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
+        i = int(np.argmin(np.abs(la - a)))
+        doubled = lm[p1["trace"].values[i] < -2.0]
+        synchronous = lm[sync[i] & (lm > -1.2)]
+        edges[f"{a:g}"] = {"period_doubling_log_mass": float(doubled.max()) if doubled.size else None,
+                           "synchronous_left_edge_log_mass":
+                               float(synchronous.min()) if synchronous.size else None}
+    patterns = drift["pattern"].values[stable_hopping & ~sync & jumping]
+    return {
+        "log10_4_m_c": math.log10(4 * M_C),
+        "synchronous": int(sync.sum()),
+        "synchronous_with_stable_period_one_hopping_orbit": int((sync & stable_hopping).sum()),
+        "stable_period_one_hopping": int(stable_hopping.sum()),
+        "stable_period_one_hopping_not_synchronous": {
+            name: int((patterns == code).sum()) for code, name in
+            ((2, "multi-synchronous"), (3, "chaotic (twin)"), (4, "irregular"))},
+        "chaotic": int(chaos.sum()),
+        "chaotic_period_one_not_followed": int((chaos & ~exists).sum()),
+        "chaotic_period_one_hyperbolic": int((chaos & hyperbolic).sum()),
+        "chaotic_period_one_stable": int((chaos & p1["stable"].values).sum()),
+        "edges_by_log_amplitude": edges,
+    }
+
+
 def stability_figure(p1, out):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import ListedColormap
     from matplotlib.figure import Figure
-    maps = resources.files("vibtrans_assets") / "maps"
-    drift = open_map(str(maps / "deformable-mu0.3.zarr"), {"model": "deformable"})
-    lyap = open_map(str(maps / "vertical-lyapunov.zarr"))
-    vertical = open_vertical(str(maps / "vertical.nc"))
+    drift, lyap, vertical = _shipped()
     la, lm = drift["log_amplitude"].values, drift["log_mass"].values
     zones = np.zeros(drift["pattern"].shape)            # 0 contact / other jumping
     zones[drift["contact"].values == 1] = 1
@@ -91,6 +132,7 @@ def main(argv=None):
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)
     p1 = chart(a.chart)
     stability_figure(p1, os.path.join(a.out, "period-one-stability.png"))
+    print(json.dumps(stability_numbers(p1), indent=1))
     return 0
 
 
