@@ -118,3 +118,52 @@ def test_cli_orbit_prints_the_orbit():
                           "0.15", "--log-mass", "0.9", "--period", "0"], capture_output=True,
                          text=True)
     assert bad.returncode != 0 and "period" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_orbit_diagram_shows_one_phase_on_a_synchronous_line_and_many_in_chaos():
+    """Paper point 6 (synchronous) along A*: one take-off per period at one
+    phase (spread < 0.02, the synchronous criterion); paper point 8's
+    neighbourhood (chaotic by the exponent): phases spread over the period."""
+    from vibtrans import paper_scene
+    d = Y.orbit_diagram(paper_scene(6), "amplitude", [0.2, 0.25, 0.3], final_periods=50)
+    for v in d.values:
+        p = d.phase[d.phase_value == v]
+        assert p.size == 50 and np.ptp(p) < 0.02
+        assert (d.section_value == v).sum() == 51
+    c = Y.orbit_diagram(paper_scene(8), "mass", [-2.05, -2.0], final_periods=1000)
+    for v in c.values:        # long flights: 10-22 take-offs in 1000 periods
+        p = c.phase[c.phase_value == v]
+        assert p.size >= 5 and np.ptp(p) > 0.3
+    with pytest.raises(InputError, match="values must be 1 to"):
+        Y.orbit_diagram(paper_scene(6), "amplitude", [])
+
+
+@pytest.mark.parametrize("args", [
+    ["lyapunov-map"],
+    ["section", "--point", "6", "--section-periods", "50"],
+    ["orbit-diagram", "--point", "6", "--along", "amplitude", "--to", "0.5", "--runs", "4",
+     "--final", "20"],
+    ["continuation", "--log-amplitude", "-1", "--log-mass", "-0.7", "--along", "mass",
+     "--to", "-0.9", "--step", "0.05"],
+])
+def test_dynamics_figures_export(tmp_path, args):
+    from vibtrans.cli import main
+    out = tmp_path / "fig.png"
+    assert main(["export", *args, "--out", str(out), "--dpi", "40"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args,message", [
+    (["orbit-diagram", "--point", "6", "--to", "1"], "needs --along amplitude|mass and --to"),
+    (["orbit-diagram", "--point", "6", "--along", "mass", "--to", "1", "--runs", "1"],
+     "runs must be an integer in [2, 2000]"),
+    (["section", "--point", "6", "--section-periods", "0"],
+     "section_periods must be an integer in [1, 20000]"),
+    (["continuation", "--point", "6", "--along", "mass", "--to", "1", "--step", "2"],
+     "step must be a number in [0.0001, 0.5]"),
+])
+def test_dynamics_exports_refuse_bad_input(tmp_path, capsys, args, message):
+    from vibtrans.cli import main
+    assert main(["export", *args, "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

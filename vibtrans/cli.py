@@ -369,6 +369,8 @@ def cmd_export(args):
                     else 2000.0)
         snapshot = memory_snapshot(_export_scene(args), t=t)
         E.export_memory(snapshot, args.out, **sizes)
+    elif kind in ("lyapunov-map", "section", "orbit-diagram", "continuation"):
+        _export_dynamics(args, kind, maps, sizes)
     else:
         periods = None
         if args.periods_given:
@@ -377,6 +379,58 @@ def cmd_export(args):
                        fmt=args.format)
     print(args.out)
     return 0
+
+
+def _export_dynamics(args, kind, maps, sizes):
+    """export lyapunov-map | section | orbit-diagram | continuation."""
+    import numpy as np
+
+    from . import dynamics as Y
+    from . import export as E
+    from . import plots
+    from .analysis import CHAOS_LYAPUNOV
+    E.ensure_backends()
+    if kind == "lyapunov-map":
+        from .sweep import open_map
+        path = maps / "vertical-lyapunov.zarr"
+        if not path.exists():
+            raise InputError(f"maps: no vertical-lyapunov.zarr in {maps}")
+        try:
+            ds = open_map(str(path))
+        except OSError as exc:
+            raise InputError(f"maps: {exc}") from None
+        el = plots.lyapunov_map(ds, CHAOS_LYAPUNOV)
+        vertical = E.load_vertical(maps)
+        if vertical is not None:
+            el = el * plots.jumping_boundary(vertical, "deformable")
+        el = plots.style(el * plots.paper_points("deformable"), common=dict(
+            title="The vertical motion's Lyapunov exponent (tau 50, 2000 periods)"))
+        return E.export_dynamics(el, args.out, **sizes)
+    scene = _export_scene(args)
+    la, lm = math.log10(scene.amplitude), math.log10(scene.mass)
+    if kind == "section":
+        n = _finite("section_periods", args.section_periods, 1, 20000, integer=True)
+        y, vy = Y.run_guess(scene)
+        el = plots.section_figure([Y.section(scene.amplitude, scene.mass, y, vy, n,
+                                             scene.fidelity)],
+                                  title=f"Stroboscopic section, log10 A* = {la:.3g}, "
+                                        f"log10 m* = {lm:.3g} ({n} periods)")
+        return E.export_dynamics(el, args.out, **sizes)
+    if args.along is None or args.to is None:
+        raise InputError(f"{kind} needs --along amplitude|mass and --to VALUE (log10)")
+    to = _finite("to", args.to, -300, 300)
+    start = la if args.along == "amplitude" else lm
+    if kind == "orbit-diagram":
+        runs = _finite("runs", args.runs, 2, 2000, integer=True)
+        final = _finite("final", args.final, 1, scene.periods)
+        diagram = Y.orbit_diagram(scene, args.along, np.linspace(start, to, runs), final)
+        height = sizes.pop("height", 6.5)
+        return E.export_dynamics(plots.orbit_diagram_figure(diagram), args.out,
+                                 height=height, **sizes)
+    step = _finite("step", args.step, 1e-4, 0.5)
+    branch = Y.continue_orbit(la, lm, args.along, to, step, 1, Y.run_guess(scene),
+                              scene.fidelity)
+    return E.export_dynamics(plots.continuation_figure(branch), args.out, **sizes)
 
 
 class _Given(argparse.Action):
@@ -393,7 +447,8 @@ def _export_parser(sub):
         description="Headless figure export. heatmap: a shipped drift map; trajectory: a scene's "
                     "run (whole run + full-resolution window); vertical: A_J*(m*); memory: the "
                     "memory diagram at time --t; paper: the paper's figures into the folder --out.")
-    e.add_argument("kind", choices=("heatmap", "trajectory", "vertical", "memory", "paper"))
+    e.add_argument("kind", choices=("heatmap", "trajectory", "vertical", "memory", "paper",
+                                    "lyapunov-map", "section", "orbit-diagram", "continuation"))
     e.add_argument("--out", required=True,
                    help="FILE.png|svg|pdf (or .html: interactive bokeh); paper: a folder")
     e.add_argument("--model", help="deformable | point-mass (heatmap: which map)")
@@ -421,6 +476,18 @@ def _export_parser(sub):
                                   "vibtrans, or $VIBTRANS_ASSETS/maps if set)")
     e.add_argument("--format", default="png", choices=("png", "svg", "pdf"),
                    help="paper: file format of the figures")
+    e.add_argument("--along", choices=("amplitude", "mass"),
+                   help="orbit-diagram, continuation: the parameter varied (log10)")
+    e.add_argument("--to", type=_num,
+                   help="orbit-diagram, continuation: the log10 value to reach")
+    e.add_argument("--runs", type=_num, default=100.0,
+                   help="orbit-diagram: runs along the line (2-2000)")
+    e.add_argument("--final", type=_num, default=100.0,
+                   help="orbit-diagram: final periods whose take-offs are drawn")
+    e.add_argument("--step", type=_num, default=0.02,
+                   help="continuation: decades per step")
+    e.add_argument("--section-periods", type=_num, default=500.0,
+                   help="section: periods iterated from where the run ends (1-20000)")
     e.set_defaults(func=cmd_export, periods_given=False)
 
 

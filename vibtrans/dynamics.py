@@ -316,3 +316,57 @@ def period_one_chart(log_amplitudes, log_masses, fidelity="standard"):
         coords={"log_amplitude": la, "log_mass": lm},
         attrs={"fidelity": fidelity, "description": "period-1 orbit continued upwards in A* "
                "from the small-amplitude contact orbit (vibtrans.dynamics.period_one_chart)"})
+
+
+class OrbitDiagram(NamedTuple):
+    """Take-off phases (t mod 1) and section points y* over the final periods
+    of a run, against one parameter (log10 A* or log10 m*) along a line."""
+    parameter: str           # "amplitude" | "mass"
+    values: np.ndarray       # the log10 parameter of each run
+    phase_value: np.ndarray  # (flattened) the run's log10 parameter of each take-off
+    phase: np.ndarray        #   and its phase, periods mod 1
+    section_value: np.ndarray
+    section_y: np.ndarray    # y* at the integer times of the final periods (in contact:
+    #                          the first step at or after each)
+    final_periods: float
+
+
+MAX_DIAGRAM_RUNS = 2000
+
+
+def orbit_diagram(scene, parameter, values, final_periods=100.0, progress=None, cancel=None):
+    """Runs of the vertical motion of `scene` (from rest, through its ramp)
+    at each log10 value of A* or m* in `values`, the other held: the
+    take-off phases and section points y*(k) of their final periods."""
+    from .simulate import simulate
+    from . import records as R
+    if parameter not in ("amplitude", "mass"):
+        raise InputError(f"parameter must be amplitude or mass, got {parameter!r}")
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 1 or not 1 <= values.size <= MAX_DIAGRAM_RUNS \
+            or not np.isfinite(values).all():
+        raise InputError(f"values must be 1 to {MAX_DIAGRAM_RUNS} finite log10 values, "
+                         f"got {values.size}")
+    if not (isinstance(final_periods, (int, float)) and 1 <= final_periods <= scene.periods):
+        raise InputError(f"final_periods must be in [1, {scene.periods:g}], "
+                         f"got {final_periods!r}")
+    base = scene.replace(model="vertical", periods=float(math.ceil(scene.periods)))
+    t0 = base.periods - final_periods
+    pv, ph, sv, sy = [], [], [], []
+    for n, v in enumerate(values):
+        sc = base.replace(**{parameter: 10.0 ** v})
+        ds = simulate(sc, samples_per_period=1, cancel=cancel)
+        kind, t = ds["event_kind"].values, ds["event_time"].values
+        sel = (kind == R.TAKEOFF) & (t >= t0)
+        ph.append(ds["event_value"].values[sel])
+        pv.append(np.full(sel.sum(), v))
+        # the coarse samples: at each integer time in flight, at the first
+        # step at or after it in contact (within one step: a diagram's accuracy)
+        time = ds["time"].values
+        at = time >= t0
+        sy.append(ds["y"].values[at])
+        sv.append(np.full(at.sum(), v))
+        if progress is not None:
+            progress((n + 1) / values.size)
+    return OrbitDiagram(parameter, values, np.concatenate(pv), np.concatenate(ph),
+                        np.concatenate(sv), np.concatenate(sy), float(final_periods))

@@ -448,6 +448,13 @@ def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
     return _write(plots.vertical_curves(vertical), out, width, height, dpi)
 
 
+def export_dynamics(el, out, dpi=DEFAULT_DPI, width=7.0, height=5.2):
+    """A dynamics figure (plots.lyapunov_map, section_figure,
+    orbit_diagram_figure, continuation_figure: the explorer's) to out."""
+    _format(out, FORMATS + ("html",))
+    return _write(el, out, width, height, dpi)
+
+
 def memory_figure(snapshot):
     """Memory diagram w(h), spring displacements u(h) and the contact circle."""
     ensure_backends()

@@ -821,3 +821,89 @@ def contact_circle(snapshot):
                  common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
                              show_legend=False, xlabel=CIRCLE_XLABEL,
                              ylabel=CIRCLE_ZLABEL))
+
+
+# ---------------------------------------------------------------- dynamics
+LYAPUNOV_FLOOR = 1e-4      # the indicator map's colour range, log10 lambda in [-4, 0]
+LAMBDA_DIM = hv.Dimension("log_lambda", label="log10 lambda (per period)", range=(-4.0, 0.0))
+Y_DIM = hv.Dimension("y", label="y* (a0, down)")
+VY_DIM = hv.Dimension("vy", label="y*' (a0 per period)")
+PHASE_DIM = hv.Dimension("phase", label="take-off phase (t mod 1)", range=(0.0, 1.0))
+TRACE_DIM = hv.Dimension("trace", label="trace of the period-1 Jacobian")
+ORBIT_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+                "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+
+
+def lyapunov_map(ds, threshold, title=""):
+    """The chaos indicator over (log10 A*, log10 m*): log10 of the vertical
+    motion's Lyapunov exponent (a `vibtrans sweep --kind lyapunov` store),
+    values at or below LYAPUNOV_FLOOR (regular, or slightly negative: the
+    step's damping) at the floor; the threshold marked on the colour bar."""
+    lam = ds["lyapunov"].values
+    c = np.log10(np.clip(lam, LYAPUNOV_FLOOR, None))
+    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, lam.T),
+                   kdims=[LOG_A, LOG_M], vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")],
+                   label=title)
+    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), (float(np.log10(threshold)),
+                                                 f"{threshold:g} (chaotic above)"),
+             (-1.0, "0.1"), (0.0, "1")]
+    return style(img, common=dict(cmap="viridis", clim=(-4.0, 0.0), colorbar=True,
+                                  clabel="Lyapunov exponent of the vertical motion, per period"),
+                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
+                     (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("lambda", "@{lam}")]),
+                 matplotlib=dict(cbar_ticks=ticks))
+
+
+def section_figure(orbits, title="Stroboscopic section (t = 0 mod 1)"):
+    """Sections of several orbits, one colour each: `orbits` a list of
+    float64[n, 2] arrays of (y*, y*') (dynamics.section)."""
+    layers = []
+    for k, pts in enumerate(orbits):
+        el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM],
+                        label=f"orbit {k + 1}")
+        color = ORBIT_COLORS[k % len(ORBIT_COLORS)]
+        layers.append(style(el, bokeh=dict(color=color, size=3, tools=["hover"]),
+                            matplotlib=dict(color=color, s=4)))
+    if not layers:
+        layers = [hv.Scatter(([], []), kdims=[Y_DIM], vdims=[VY_DIM])]
+    return style(hv.Overlay(layers), common=dict(title=title))
+
+
+def orbit_diagram_figure(diagram):
+    """Take-off phases and section points y* of the final periods against the
+    parameter (dynamics.orbit_diagram): two panels, one x axis."""
+    name = LOG_A if diagram.parameter == "amplitude" else LOG_M
+    phases = hv.Scatter((diagram.phase_value, diagram.phase), kdims=[name],
+                        vdims=[PHASE_DIM])
+    ys = hv.Scatter((diagram.section_value, diagram.section_y), kdims=[name], vdims=[Y_DIM])
+    tail = f"final {diagram.final_periods:g} periods"
+    phases = style(phases, common=dict(title=f"take-off phases, {tail}"),
+                   bokeh=dict(size=2, color="#1f77b4", responsive=True, height=260),
+                   matplotlib=dict(s=1, color="#1f77b4", aspect=2.5))
+    ys = style(ys, common=dict(title=f"section y*(k), {tail}"),
+               bokeh=dict(size=2, color="#444444", responsive=True, height=260),
+               matplotlib=dict(s=1, color="#444444", aspect=2.5))
+    return (phases + ys).cols(1)
+
+
+def continuation_figure(branch):
+    """The trace of a continued period-k orbit against its parameter, with
+    the stability limits trace = +-2 and the folds and period doublings."""
+    key = 0 if branch.parameter == "amplitude" else 1
+    name = LOG_A if branch.parameter == "amplitude" else LOG_M
+    x = np.array([p[key] for p in branch.points])
+    tr = np.array([p.orbit.trace for p in branch.points])
+    layers = [_styled_line(hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM],
+                                    label="period-1 orbit"), "#1f77b4", 1.5)]
+    for level in (2.0, -2.0):
+        layers.append(_styled_line(hv.HLine(level), "#888888", 1.0, "dashed"))
+    for points, color, label in ((branch.folds, "#d62728", "fold (trace = 2)"),
+                                 (branch.period_doublings, "#2ca02c",
+                                  "period doubling (trace = -2)")):
+        if points:
+            levels = [2.0 if color == "#d62728" else -2.0] * len(points)
+            el = hv.Scatter((points, levels), kdims=[name], vdims=[TRACE_DIM], label=label)
+            layers.append(style(el, bokeh=dict(color=color, size=9),
+                                matplotlib=dict(color=color, s=40)))
+    return style(hv.Overlay(layers), common=dict(
+        title=f"continuation along {name.label}: {branch.ended}"))
