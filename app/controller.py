@@ -173,9 +173,10 @@ class RunController(param.Parameterized):
         # The comparison run goes in parallel with the main one (the kernels
         # release the GIL).
         T = scene.periods
+        # the chaos verdict: the run's own Lyapunov exponent (Hertz models)
         job.submit(self.simulate, scene, window=(T - FRAGMENT, T),
                    samples_per_period=OVERVIEW_SAMPLES, progress=job.set_progress,
-                   cancel=job.event, max_steps=self.max_steps)
+                   cancel=job.event, max_steps=self.max_steps, lyapunov=True)
         if other_scene is not None:
             job.submit(self.simulate, other_scene, samples_per_period=OVERVIEW_SAMPLES,
                        cancel=job.event, max_steps=self.max_steps)

@@ -27,7 +27,10 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+
 from vibtrans import maps_dir
+from vibtrans.analysis import CHAOS_LYAPUNOV
 from vibtrans.sweep import StoreMismatch, open_map, open_vertical
 from vibtrans.version import __version__
 
@@ -81,7 +84,63 @@ def _load_map(model, mu):
         _LOADED.add((model, mu))
     if tree is not None and tree == _tree(path):
         _stamp(path, (model, mu), tree)
+    lyapunov = lyapunov_map()
+    if model == "deformable" and lyapunov is not None:
+        found = with_lyapunov(found, lyapunov)
     return found
+
+
+LYAPUNOV_MAP = "vertical-lyapunov.zarr"
+# the vertical motion is the same in every deformable map of these settings
+_VERTICAL_KEYS = ("tau", "periods", "fidelity", "integrator")
+
+
+def with_lyapunov(ds, lyapunov):
+    """A deformable map judged by the chaos indicator: `lyapunov` (the
+    vertical motion's exponent, from the Lyapunov map) beside its variables,
+    `chaotic` from it (analysis.CHAOS_LYAPUNOV; the twin's verdict kept as
+    `twin_chaotic`, and used where the exponent is undefined).  A map the
+    Lyapunov map was not made for (other tau, periods, fidelity,
+    integrator, or a point off its grid), or one that stores its own
+    exponent, is returned as it is."""
+    if "lyapunov" in ds or any(ds.attrs.get(f"scene_{k}") != lyapunov.attrs.get(f"scene_{k}")
+                               for k in _VERTICAL_KEYS):
+        return ds
+    try:
+        lam = lyapunov["lyapunov"].sel(log_amplitude=ds["log_amplitude"],
+                                       log_mass=ds["log_mass"], method="nearest",
+                                       tolerance=1e-6).values
+    except KeyError:
+        return ds
+    twin = ds["chaotic"].values
+    chaotic = np.where(np.isnan(lam) | (twin < 0), twin, (lam > CHAOS_LYAPUNOV).astype(np.int8))
+    out = ds.assign(twin_chaotic=ds["chaotic"],
+                    chaotic=(ds["chaotic"].dims, chaotic.astype(np.int8)),
+                    lyapunov=(ds["chaotic"].dims, lam))
+    out.attrs["chaos"] = "lyapunov"
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _load_lyapunov():
+    path = ASSETS / "maps" / LYAPUNOV_MAP
+    if not path.exists():
+        return None
+    try:
+        return open_map(str(path), expect={"model": "vertical"})
+    except (StoreMismatch, OSError) as exc:
+        return f"the Lyapunov map {LYAPUNOV_MAP} cannot be used: {exc}"
+
+
+def lyapunov_map():
+    """The chaos indicator's map (the vertical motion's Lyapunov exponent),
+    or None if it is not shipped or cannot be used (then `problems()` says
+    why, and the deformable maps keep their twin verdicts)."""
+    found = _load_lyapunov()
+    return None if isinstance(found, str) else found
+
+
+lyapunov_map.cache_clear = _load_lyapunov.cache_clear
 
 
 _LOADED = set()         # the maps _load_map has read (or failed to read)
@@ -216,9 +275,9 @@ def problems():
         found = _load_map(*key)
         if isinstance(found, str):
             out.append(found)
-    vertical = _load_vertical()
-    if isinstance(vertical, str):
-        out.append(vertical)
+    for found in (_load_vertical(), _load_lyapunov()):
+        if isinstance(found, str):
+            out.append(found)
     return out
 
 

@@ -44,3 +44,19 @@ def test_a_bar_in_a_cell_does_not_break_the_table():
     table = _summary_table(scene, s, "not checked", None, None, None)
     assert all(line.count("|") - line.count("\\|") == 3 for line in table.splitlines()
                if line.startswith("| ") and "quantity" not in line)
+
+
+def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
+    """The issue's example (log10 A* = 0.5, log10 m* = -2): the exponent says
+    chaotic, the tau twin happened to agree; the row says both, the
+    exponent's verdict first (it decides)."""
+    from vibtrans_explorer.controller import interpret
+    from vibtrans_explorer.views.summary import chaos_verdict
+    scene = paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0)
+    ds = simulate(scene, lyapunov=True)
+    row = chaos_verdict(interpret(scene, ds, simulate(twin_scene(scene)), "tau + 0.001"))
+    assert row.startswith("chaotic: Lyapunov exponent 0.1") and "(> 0.01)" in row
+    assert row.endswith("the tau + 0.001 twin agrees")
+    regular = paper_scene(6).replace(periods=400.0)
+    row = chaos_verdict(interpret(regular, simulate(regular, lyapunov=True), None, None))
+    assert row.startswith("regular: Lyapunov exponent") and "(<= 0.01)" in row

@@ -143,7 +143,7 @@ KEY_NAME = "vibtrans-map-key"
 CHAOTIC_GREY = "#9e9e9e"
 BOUNDARY_LINE = ("black", 1.5, None)
 RESONANCE_LINE = ("black", 1.0, "dashed")
-CHAOTIC_LABEL = f"grey: chaotic (the tau + {TWIN_TAU_OFFSET:g} twin disagrees)"
+CHAOTIC_LABEL = f"grey: chaotic (the tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
 BOUNDARY_LABEL = "jumping boundary"
 RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
 
@@ -243,8 +243,7 @@ def drift_map(ds, v0=V0, chaotic="grey", title=""):
                                  clabel=colour_bar_title(v0)),
                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
                     (LOG_A.label, "$x"), (LOG_M.label, "$y"),
-                    ("<v*>", "@{v}"), (f"chaotic (1: the tau + {TWIN_TAU_OFFSET:g} twin disagrees)",
-                                       "@{chaotic}")]),
+                    ("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]),
                 matplotlib=dict(cbar_ticks=ticks))
     key = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
@@ -255,8 +254,17 @@ def drift_map(ds, v0=V0, chaotic="grey", title=""):
         # no hover of its own: it would cover the map's, showing NaN off the grey
         layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
                             bokeh=dict(tools=[])))
-        key.append((CHAOTIC_LABEL, "patch", (CHAOTIC_GREY, CHAOTIC_GREY)))
+        key.append((f"grey: chaotic ({chaos_reason(ds)})", "patch",
+                    (CHAOTIC_GREY, CHAOTIC_GREY)))
     return hv.Overlay([_keyed(img, key), *layers])
+
+
+def chaos_reason(ds):
+    """What a map's chaotic points mean, from its chaos source."""
+    if ds.attrs.get("chaos") == "lyapunov":
+        from .analysis import CHAOS_LYAPUNOV
+        return f"Lyapunov exponent > {CHAOS_LYAPUNOV:g} per period"
+    return f"the tau + {TWIN_TAU_OFFSET:g} twin disagrees"
 
 
 def jumping_boundary(vertical, model="deformable"):

@@ -3,7 +3,7 @@ under the model that produced it (the run with its tau twin's verdict and
 cost; the other model's run when that is the comparison)."""
 import panel as pn
 
-from vibtrans.analysis import summarize
+from vibtrans.analysis import CHAOS_LYAPUNOV, summarize
 
 from ..controller import TWIN_LABEL
 from ..state import MAP_MATERIAL
@@ -18,12 +18,20 @@ PLACEHOLDER_SUMMARY = "\n".join(
 
 
 def chaos_verdict(result):
-    """The chaos row of a RunResult, in words."""
+    """The chaos row of a RunResult, in words: the Lyapunov exponent's
+    verdict where the run measured one (and the tau twin's beside it when
+    one ran), else the twin's."""
     twin_name = f"{TWIN_LABEL} twin"
+    s = result.summary
+    twin = {None: "", True: f"; the {twin_name} disagrees", False: f"; the {twin_name} agrees"}
+    if s.lyapunov is not None:
+        word = "chaotic" if s.chaotic else "regular"
+        return (f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
+                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin[s.twin_chaotic]}")
     if result.twin_unneeded:
         return f"not checked: no take-off (the {twin_name} is drawn below)"
     return {None: "not checked", True: f"chaotic ({twin_name} disagrees)",
-            False: f"robust ({twin_name} agrees)"}[result.summary.chaotic]
+            False: f"robust ({twin_name} agrees)"}[s.chaotic]
 
 
 def run_cost(scene, s):
