@@ -138,12 +138,13 @@ class Orbit(NamedTuple):
 
 
 def periodic_orbit(amplitude, mass, guess, period=1, fidelity="standard",
-                   tol=SHOOTING_TOL, max_iterations=SHOOTING_ITERATIONS):
+                   tol=SHOOTING_TOL, max_iterations=SHOOTING_ITERATIONS, phase=0.0):
     """Newton shooting on P^period from `guess` = (y, y') with the tangent
-    map's Jacobian (damped: a step never more than doubles the residual)."""
+    map's Jacobian (damped: a step never more than doubles the residual).
+    phase: the section's time mod 1 (0: t = 0 mod 1)."""
     _check_orbit_args(amplitude, mass, period)
     z = np.array(guess, dtype=float)
-    s = strobe(amplitude, mass, z[0], z[1], period, fidelity)
+    s = strobe(amplitude, mass, z[0], z[1], period, fidelity, phase)
     r = np.array([s.y, s.vy]) - z
     it = 0
     while np.linalg.norm(r) > tol and it < max_iterations:
@@ -155,7 +156,7 @@ def periodic_orbit(amplitude, mass, guess, period=1, fidelity="standard",
         lam = 1.0
         while True:
             zn = z + lam * dz
-            sn = strobe(amplitude, mass, zn[0], zn[1], period, fidelity)
+            sn = strobe(amplitude, mass, zn[0], zn[1], period, fidelity, phase)
             rn = np.array([sn.y, sn.vy]) - zn
             if np.linalg.norm(rn) <= 2.0 * np.linalg.norm(r) or lam < 1e-3:
                 break
@@ -188,14 +189,18 @@ def rest_guess(amplitude, mass):
     return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / 1.5), 0.0
 
 
-def section(amplitude, mass, y, vy, periods, fidelity="standard"):
-    """The orbit of (y, y') under the stroboscopic map: float64[periods + 1, 2]
-    (the first row the start).  One kernel call per period (each restarts
-    from a state, as `strobe`; the same map)."""
+def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, cancel=None):
+    """The orbit of (y, y') under the stroboscopic map at time `phase` mod 1:
+    float64[periods + 1, 2] (the first row the start).  One kernel call per
+    period (each restarts from a state, as `strobe`; the same map).
+    cancel: an object with is_set() (raises Cancelled between periods)."""
+    from .errors import Cancelled
     out = np.empty((periods + 1, 2))
     out[0] = y, vy
     for k in range(periods):
-        s = strobe(amplitude, mass, out[k, 0], out[k, 1], 1, fidelity)
+        if cancel is not None and cancel.is_set():
+            raise Cancelled("section cancelled")
+        s = strobe(amplitude, mass, out[k, 0], out[k, 1], 1, fidelity, phase)
         out[k + 1] = s.y, s.vy
     return out
 
@@ -355,6 +360,9 @@ def orbit_diagram(scene, parameter, values, final_periods=100.0, progress=None, 
     pv, ph, sv, sy = [], [], [], []
     for n, v in enumerate(values):
         sc = base.replace(**{parameter: 10.0 ** v})
+        if cancel is not None and cancel.is_set():
+            from .errors import Cancelled
+            raise Cancelled("orbit diagram cancelled")
         ds = simulate(sc, samples_per_period=1, cancel=cancel)
         kind, t = ds["event_kind"].values, ds["event_time"].values
         sel = (kind == R.TAKEOFF) & (t >= t0)
