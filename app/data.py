@@ -84,13 +84,17 @@ def _load_map(model, mu):
         _LOADED.add((model, mu))
     if tree is not None and tree == _tree(path):
         _stamp(path, (model, mu), tree)
-    lyapunov = lyapunov_map()
-    if model == "deformable" and lyapunov is not None:
+    lyapunov = lyapunov_map(model)
+    if lyapunov is not None:
         found = with_lyapunov(found, lyapunov)
     return found
 
 
-LYAPUNOV_MAP = "vertical-lyapunov.zarr"
+# the chaos indicator's maps: the vertical motion's exponent, one per model
+# (the vertical motion of every deformable map is the same, of every
+# material-point map too)
+LYAPUNOV_MAPS = {"deformable": "vertical-lyapunov.zarr",
+                 "point-mass": "point-mass-lyapunov.zarr"}
 # the vertical motion is the same in every deformable map of these settings
 _VERTICAL_KEYS = ("tau", "periods", "fidelity", "integrator")
 
@@ -113,6 +117,7 @@ def with_lyapunov(ds, lyapunov):
     except KeyError:
         return ds
     twin = ds["chaotic"].values
+    # NaN: no exponent (no impacts, a flight that never ends): the twin's verdict
     chaotic = np.where(np.isnan(lam) | (twin < 0), twin, (lam > CHAOS_LYAPUNOV).astype(np.int8))
     out = ds.assign(twin_chaotic=ds["chaotic"],
                     chaotic=(ds["chaotic"].dims, chaotic.astype(np.int8)),
@@ -121,22 +126,24 @@ def with_lyapunov(ds, lyapunov):
     return out
 
 
-@functools.lru_cache(maxsize=1)
-def _load_lyapunov():
-    path = ASSETS / "maps" / LYAPUNOV_MAP
+@functools.lru_cache(maxsize=None)
+def _load_lyapunov(model):
+    name = LYAPUNOV_MAPS[model]
+    path = ASSETS / "maps" / name
     if not path.exists():
         return None
     try:
-        return open_map(str(path), expect={"model": "vertical"})
+        return open_map(str(path), expect={"model": "vertical" if model == "deformable"
+                                           else model})
     except (StoreMismatch, OSError) as exc:
-        return f"the Lyapunov map {LYAPUNOV_MAP} cannot be used: {exc}"
+        return f"the Lyapunov map {name} cannot be used: {exc}"
 
 
-def lyapunov_map():
-    """The chaos indicator's map (the vertical motion's Lyapunov exponent),
-    or None if it is not shipped or cannot be used (then `problems()` says
-    why, and the deformable maps keep their twin verdicts)."""
-    found = _load_lyapunov()
+def lyapunov_map(model="deformable"):
+    """The chaos indicator's map of a model's maps (the vertical motion's
+    Lyapunov exponent), or None if it is not shipped or cannot be used
+    (then `problems()` says why, and the maps keep their twin verdicts)."""
+    found = _load_lyapunov(model)
     return None if isinstance(found, str) else found
 
 
@@ -275,7 +282,7 @@ def problems():
         found = _load_map(*key)
         if isinstance(found, str):
             out.append(found)
-    for found in (_load_vertical(), _load_lyapunov()):
+    for found in (_load_vertical(), *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
         if isinstance(found, str):
             out.append(found)
     return out

@@ -26,6 +26,24 @@ def _maps():
     return lyap, deformable
 
 
+def _point_mass():
+    root = resources.files("vibtrans_assets") / "maps"
+    lam = open_map(str(root / "point-mass-lyapunov.zarr"))["lyapunov"].values
+    twin = open_map(str(root / "point-mass-mu0.3.zarr"), {"model": "point-mass"})
+    twin = twin["chaotic"].values == 1
+    measured = np.isfinite(lam)
+    chaotic = lam > CHAOS_LYAPUNOV
+    return {"points": int(lam.size), "measured": int(measured.sum()),
+            "no_impacts_after_the_ramp": int(np.isnan(lam).sum()),
+            "rides_the_surface": int(np.isneginf(lam).sum()),
+            "measured_below_threshold": int((measured & ~chaotic).sum()),
+            "smallest_measured": float(np.min(lam[measured])) if measured.any() else None,
+            "twin_chaotic": int(twin.sum()), "both_chaotic": int((twin & chaotic).sum()),
+            "twin_only_unmeasured": int((twin & ~measured).sum()),
+            "twin_only_measured": int((twin & measured & ~chaotic).sum()),
+            "lyapunov_only": int((chaotic & ~twin).sum())}
+
+
 def study():
     lyap, deformable = _maps()
     lam = lyap["lyapunov"].values
@@ -57,6 +75,7 @@ def study():
             "agreement": float(np.mean(twin == chaotic)),
             "points": int(twin.size),
         }
+    out["point_mass"] = _point_mass()
     return out, lyap
 
 

@@ -455,3 +455,28 @@ def vertical_lyapunov(A, m, tau, periods, t_from, rtol=1e-11):
         if log_from is None and t >= t_from:
             log_from = log_norm
     return (log_norm - log_from) / (periods - t_from)
+
+
+# --------------------------------------- the material point's vertical impacts
+def bouncing_ball_flight(t0, v0, A, m, tau, dt=1e-3, t_max=1e4):
+    """From a launch off the surface at t0 with vertical velocity v0 (y down,
+    gravity 1/m*), the next landing on u_y = G A cos(2 pi t), found by a
+    plain scan of the gap on a grid of dt and scipy's brentq, and the
+    velocity after the elastic impact: (t1, v1).  Nothing shared with the
+    kernel but the equations."""
+    from scipy.optimize import brentq
+
+    def gap(t):
+        s = t - t0
+        return (surface(t0, A, 0.0, tau)[1] + v0 * s + 0.5 * s * s / m
+                - surface(t, A, 0.0, tau)[1])
+
+    t = t0 + 1e-9
+    while t < t0 + t_max:
+        t_next = t + dt
+        if gap(t) < 0.0 <= gap(t_next):
+            t1 = brentq(gap, t, t_next, xtol=1e-15, rtol=1e-15)
+            v_in = v0 + (t1 - t0) / m
+            return t1, 2.0 * surface(t1, A, 0.0, tau)[3] - v_in
+        t = t_next
+    raise RuntimeError("no landing")

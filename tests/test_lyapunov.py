@@ -213,11 +213,86 @@ def test_without_a_measurement_the_twin_decides():
     assert s.lyapunov is None and s.chaotic == s.twin_chaotic
 
 
-def test_point_mass_has_no_exponent_yet():
-    """The material point needs its impact map's Jacobian (not built yet):
-    no number rather than a wrong one."""
-    ds = simulate(paper_scene(10).replace(periods=100.0), lyapunov=True)
+# --------------------------------------------------------- the material point
+def _impacts(scene):
+    ds = simulate(scene, lyapunov=True)
+    t = ds["event_time"].values[ds["event_kind"].values == R.LANDING]
+    return ds, t[t >= ds.attrs["lyapunov_from"]]
+
+
+@pytest.mark.slow
+def test_impact_map_jacobian_against_an_independent_bouncing_ball():
+    """Paper point 10 (chaotic hopping): from each of its first impacts after
+    the ramp, the independent scan-and-brentq flight of tests/naive.py lands
+    where the kernel's event says (to 1e-12), and central differences of
+    that flight equal dynamics.impact_jacobian (to 1e-5)."""
+    from vibtrans.dynamics import impact_jacobian
+    scene = paper_scene(10)
+    _, t = _impacts(scene)
+    A, m, tau = scene.amplitude, scene.mass, scene.tau
+    for n in range(6):
+        J, v0, approach = impact_jacobian(t[n], t[n + 1], A, m, tau)
+        assert approach > 0.0
+        t1, _ = naive.bouncing_ball_flight(t[n], v0, A, m, tau)
+        assert abs(t1 - t[n + 1]) < 1e-12
+        eps, fd = 1e-7, np.zeros((2, 2))
+        for j, e in enumerate(np.eye(2)):
+            p = naive.bouncing_ball_flight(t[n] + eps * e[0], v0 + eps * e[1], A, m, tau)
+            q = naive.bouncing_ball_flight(t[n] - eps * e[0], v0 - eps * e[1], A, m, tau)
+            fd[:, j] = (np.array(p) - np.array(q)) / (2 * eps)
+        assert np.abs(J - fd).max() <= 1e-5 * np.abs(fd).max(), n
+
+
+@pytest.mark.slow
+def test_point_mass_exponent_is_the_impact_maps():
+    """The exponent is the growth of the impact map's tangent over the
+    run's impacts after the ramp: over its first 12 impacts, recomputed
+    here with the naive flights' finite-difference Jacobians along the
+    kernel's impacts; and paper point 10 is chaotic by it."""
+    from vibtrans.dynamics import impact_lyapunov
+    scene = paper_scene(10)
+    ds, t = _impacts(scene)
+    assert ds.attrs["lyapunov"] > 2 * CHAOS_LYAPUNOV
+    assert summarize(ds).chaotic is True
+    t = t[:12]
+    events = np.stack([ds["event_time"].values, ds["event_kind"].values,
+                       ds["event_value"].values], axis=1)
+    value, start = impact_lyapunov(events[events[:, 0] <= t[-1]], scene.amplitude,
+                                   scene.mass, scene.tau, ds.attrs["lyapunov_from"])
+    assert start == t[0]
+    A, m, tau = scene.amplitude, scene.mass, scene.tau
+    d, total = np.array([1.0, 0.0]), 0.0
+    for t0, t1 in zip(t[:-1], t[1:]):
+        v0 = (naive.surface(t1, A, 0.0, tau)[1] - naive.surface(t0, A, 0.0, tau)[1]
+              - 0.5 * (t1 - t0) ** 2 / m) / (t1 - t0)
+        eps, fd = 1e-7, np.zeros((2, 2))
+        for j, e in enumerate(np.eye(2)):
+            p = naive.bouncing_ball_flight(t0 + eps * e[0], v0 + eps * e[1], A, m, tau)
+            q = naive.bouncing_ball_flight(t0 - eps * e[0], v0 - eps * e[1], A, m, tau)
+            fd[:, j] = (np.array(p) - np.array(q)) / (2 * eps)
+        d = fd @ d
+        total += math.log(np.linalg.norm(d))
+        d /= np.linalg.norm(d)
+    assert value == pytest.approx(total / (t[-1] - t[0]), rel=1e-4)
+
+
+def test_point_mass_without_impacts_has_no_exponent():
+    """Paper point 9: the point rides the surface throughout (no impacts):
+    nothing to measure, and the twin decides as before."""
+    ds = simulate(paper_scene(9).replace(periods=400.0), lyapunov=True)
     assert "lyapunov" not in ds.attrs
+
+
+def test_a_capture_forgets_every_perturbation():
+    """A landing without a take-off (the point rides the surface) after the
+    ramp: the detachment's phase is the surface's alone, so the exponent
+    is -inf (superstable), and the run is not chaotic."""
+    from vibtrans.dynamics import impact_lyapunov
+    ev = np.array([[400.0, R.LANDING, 0.0], [400.0, R.TAKEOFF, 0.0],
+                   [401.3, R.LANDING, 0.3], [401.9, R.TAKEOFF, 0.9],
+                   [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
+    value, start = impact_lyapunov(ev, 1.0, 0.1, 50.0, 325.0)
+    assert value == -math.inf and start == 400.0
 
 
 def test_bad_flag_is_refused():
@@ -276,5 +351,6 @@ def test_a_lyapunov_sweep_needs_the_vertical_model():
     from vibtrans.sweep import Sweep
     with pytest.raises(InputError, match="vertical model"):
         Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="deformable")
+    Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="point-mass")
     with pytest.raises(InputError, match="chaos must be one of lyapunov, twin"):
         Sweep(np.array([0.0]), np.array([0.0]), chaos="eyeball")

@@ -95,8 +95,9 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
     lyapunov: also measure the largest Lyapunov exponent of the vertical
         motion (per period; attrs `lyapunov`, measured from `lyapunov_from`,
         `lyapunov_start`): the chaos indicator (analysis.CHAOS_LYAPUNOV).
-        The records are the same bit for bit.  Hertz models (deformable,
-        vertical); the material point's needs its impact map (not yet: None).
+        The records are the same bit for bit.  The material point's comes
+        from its impact map (dynamics.impact_lyapunov: -inf where it rides
+        the surface after the ramp, None with fewer than three impacts).
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -183,8 +184,13 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
         p, scene.stick_rule, progress=progress, cancel=cancel,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
-    if lyapunov:     # the impact map's tangent is not implemented yet
-        info.update(lyapunov=None, lyapunov_from=None, lyapunov_start=None)
+    if lyapunov:
+        from .dynamics import impact_lyapunov
+        t_from = lyapunov_start(scene)
+        value, start = impact_lyapunov(run.events, scene.amplitude, scene.mass, scene.tau,
+                                       t_from)
+        info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
+                    lyapunov_start=None if math.isnan(start) else start)
     return run.samples, run.events, run.ctr, info
 
 

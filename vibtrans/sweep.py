@@ -56,7 +56,7 @@ VARIABLES = {
 
 # The chaos indicator's map: the vertical motion's largest Lyapunov exponent.
 # The vertical motion does not feel the tangential one, so one such map
-# (model "vertical") serves every deformable map of the same tau, fidelity,
+# (model "vertical"; "point-mass" for the material point's maps) serves every deformable map of the same tau, fidelity,
 # integrator and periods, whatever mu and theta (the same steps; equal to
 # rounding, as kernel calls differ: tests/test_lyapunov.py).
 LYAPUNOV_VARIABLES = {
@@ -177,9 +177,10 @@ class Sweep:
             raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if chaos not in CHAOS_SOURCES:
             raise InputError(f"chaos must be one of {', '.join(CHAOS_SOURCES)}, got {chaos!r}")
-        if kind == "lyapunov" and values.get("model") != "vertical":
-            raise InputError("a lyapunov sweep runs the vertical model (model='vertical'): "
-                             "the indicator is the vertical motion's")
+        if kind == "lyapunov" and values.get("model") not in ("vertical", "point-mass"):
+            raise InputError("a lyapunov sweep runs the vertical model (model='vertical') or "
+                             "the material point (model='point-mass'): the indicator is the "
+                             "vertical motion's")
         self.kind = kind
         self.chaos = chaos
         self.variables = variables_of(kind, chaos)

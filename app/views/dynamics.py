@@ -24,6 +24,8 @@ from bokeh.plotting import figure
 
 from vibtrans import Cancelled, dynamics, plots
 
+from .note import note_pane, say
+
 log = logging.getLogger("vibtrans.explorer.dynamics")
 
 SECTION_PERIODS = 300      # iterates of the stroboscopic map per orbit
@@ -32,7 +34,6 @@ DIAGRAM_HALF_WIDTH = 0.5   # decades each side of the run's point at first
 DIAGRAM_FINAL = 100.0      # final periods whose take-offs are drawn
 MIN_DIAGRAM_WIDTH = 1e-4   # decades: a narrower zoom is not recomputed
 TOOLS = "pan,box_zoom,wheel_zoom,reset"
-MESSAGE_STYLE = {"color": "#b00020", "font-size": "0.85em"}
 POINT_MASS_TEXT = ("The material point's stroboscopic map needs its impact map's Jacobian, "
                    "which is not built yet: run a deformable scene for its section and orbits.")
 
@@ -124,7 +125,7 @@ class DynamicsView(pn.viewable.Viewer):
         self.orbit_status = pn.pane.Markdown("", margin=(0, 5))
         self.section_status = pn.pane.Markdown("", margin=(0, 5))
         self.diagram_status = pn.pane.Markdown("", margin=(0, 5))
-        self.note = pn.pane.Markdown("", visible=False, styles=MESSAGE_STYLE)
+        self.note = note_pane()
         self.section_pane = pn.pane.Bokeh(self.section_fig, name="section")
         self.diagram_pane = pn.pane.Bokeh(self.diagram_fig, name="orbit-diagram")
         self.layout = pn.Column(
@@ -329,8 +330,4 @@ class DynamicsView(pn.viewable.Viewer):
         self.diagram_reset.disabled = self.scene is None
 
     def _say(self, text):
-        if text and self.error is not None:
-            self.error(text)
-            return
-        self.note.object = text
-        self.note.visible = bool(text)
+        say(self, text)

@@ -24,6 +24,9 @@ def chaos_verdict(result):
     twin_name = f"{TWIN_LABEL} twin"
     s = result.summary
     twin = {None: "", True: f"; the {twin_name} disagrees", False: f"; the {twin_name} agrees"}
+    if s.lyapunov == float("-inf"):
+        return ("regular: the point rides the surface after the ramp, and each detachment "
+                f"forgets its past (Lyapunov exponent -inf){twin[s.twin_chaotic]}")
     if s.lyapunov is not None:
         word = "chaotic" if s.chaotic else "regular"
         return (f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
