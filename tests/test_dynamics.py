@@ -167,3 +167,18 @@ def test_dynamics_exports_refuse_bad_input(tmp_path, capsys, args, message):
     assert main(["export", *args, "--out", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("amplitude,mass,guess", [
+    (1e-3, 0.01, None), (1e-3, 0.1, None), (1e-3, 1.0, None),
+    (10 ** 0.15, 10 ** 0.9, (0.619, 0.0)),           # a synchronous hopping orbit
+])
+def test_multipliers_product_is_one_at_reference_fidelity(amplitude, mass, guess):
+    """det = 1 (area preserving) to 1e-8 at the reference step; the standard
+    step's AB4 damping of stiff contact leaves up to 3e-6 (m* = 0.01)."""
+    guess = guess or Y.rest_guess(amplitude, mass)
+    orbit = Y.periodic_orbit(amplitude, mass, guess, fidelity="reference")
+    assert orbit.found
+    assert abs(orbit.determinant - 1.0) < 1e-8
+    m1, m2 = orbit.multipliers
+    assert abs(m1 * m2 - 1.0) < 1e-8
