@@ -253,6 +253,30 @@ def _load_vertical():
         return f"the jumping-threshold curve cannot be used: {exc}"
 
 
+@functools.lru_cache(maxsize=1)
+def _load_period_one():
+    path = ASSETS / "maps" / "period-one.nc"
+    if not path.exists():
+        return None
+    try:
+        import xarray as xr
+        ds = xr.load_dataset(path)
+    except (OSError, ValueError) as exc:
+        return f"the period-1 orbit chart period-one.nc cannot be used: {exc}"
+    missing = [v for v in ("trace", "exists", "stable", "in_flight") if v not in ds]
+    if missing or ds["trace"].dims != ("log_amplitude", "log_mass"):
+        return (f"the period-1 orbit chart period-one.nc cannot be used: not a chart of "
+                f"vibtrans.dynamics.period_one_chart (missing: {', '.join(missing) or 'dims'})")
+    return ds
+
+
+def period_one_chart():
+    """The period-1 orbit's chart (deformable maps' vertical motion), or None
+    if it is not shipped or cannot be used (then `problems()` says why)."""
+    found = _load_period_one()
+    return None if isinstance(found, str) else found
+
+
 def vertical_curve():
     """The jumping-threshold curve, or None if it is not shipped or cannot
     be used (then `problems()` says why)."""
@@ -282,7 +306,8 @@ def problems():
         found = _load_map(*key)
         if isinstance(found, str):
             out.append(found)
-    for found in (_load_vertical(), *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
+    for found in (_load_vertical(), _load_period_one(),
+                  *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
         if isinstance(found, str):
             out.append(found)
     return out

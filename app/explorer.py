@@ -33,6 +33,7 @@ from .state import MAP_MATERIAL, URL_KEYS, ExplorerState, within
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView
+from .views.dynamics import DynamicsView
 from .views.memory import MemoryView
 from .views.summary import SummaryView
 from .views.trajectory import TrajectoryView, structure
@@ -90,7 +91,11 @@ below the summary.
 """
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
-ANIMATION_TAB, MEMORY_TAB = 1, 2
+ANIMATION_TAB, MEMORY_TAB, DYNAMICS_TAB = 1, 2, 4
+DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
+                 "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
+                 "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
+                 "computed when this tab is open.")
 ANIMATION_TEXT = ("**The particle on the wave**, the run's last periods at full resolution: "
                   "a side view (the surface, the particle, its contact zone coloured by "
                   "state) and the contact circle beside it, in step. Press play, or drag the "
@@ -266,6 +271,10 @@ class Explorer(pn.viewable.Viewer):
         self.animation_box = pn.Column(pn.pane.Markdown(ANIMATION_TEXT),
                                        sizing_mode="stretch_width")
         self.memory_box = pn.Column(pn.pane.Markdown(MEMORY_TEXT), sizing_mode="stretch_width")
+        self.dynamics_view = None           # the same, for the section and orbit diagram
+        self._dynamics_pending = None       # the RunResult the dynamics tab has not seen
+        self.dynamics_box = pn.Column(pn.pane.Markdown(DYNAMICS_TEXT),
+                                      sizing_mode="stretch_width")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._apply_url()
@@ -273,7 +282,8 @@ class Explorer(pn.viewable.Viewer):
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
         self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(self.ack, ACK_RUN))
-        self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps"],
+        self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
+                                                "layer", "orbits"],
                                precedence=2)        # after the map's redraw
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
@@ -286,6 +296,7 @@ class Explorer(pn.viewable.Viewer):
             ("Animation", self.animation_box),
             ("Memory diagram", self.memory_box),
             ("Downloads", self.exports.panel),
+            ("Dynamics", self.dynamics_box),
             dynamic=True, sizing_mode="stretch_width", name="trajectory")
         self.run_tabs.param.watch(self._on_run_tab, "active")
         self.trajectory = self.run_tabs
@@ -484,6 +495,19 @@ class Explorer(pn.viewable.Viewer):
             self._update_memory()
         elif event.new == ANIMATION_TAB:
             self._update_animation()
+        elif event.new == DYNAMICS_TAB:
+            self._update_dynamics()
+
+    def _update_dynamics(self):
+        """The section and orbit diagram of the last run, computed when first
+        looked at."""
+        if self.dynamics_view is None:
+            self.dynamics_view = DynamicsView(RUNNER)
+            self.dynamics_view.error = self._error
+            self.dynamics_box.append(self.dynamics_view)
+        pending, self._dynamics_pending = self._dynamics_pending, None
+        if pending is not None:
+            self.dynamics_view.set_run(pending.scene, pending.ds)
 
     def _update_animation(self):
         """The animation of the last run, built when first looked at."""
@@ -508,6 +532,8 @@ class Explorer(pn.viewable.Viewer):
     def _on_session_destroyed(self, session_context):
         if self.memory_view is not None:
             self.memory_view.clear()       # cancels its background snapshots
+        if self.dynamics_view is not None:
+            self.dynamics_view.clear()     # and its sections and diagrams
         self.controller.discard()
         self.trajectories.clear()
         _schedule_release()
@@ -541,10 +567,13 @@ class Explorer(pn.viewable.Viewer):
             self.exports.show(result)
             self.summary_view.show(result)
             self._memory_pending = (scene, T)
+            self._dynamics_pending = result
             if self.run_tabs.active == MEMORY_TAB:
                 self._update_memory()
             elif self.run_tabs.active == ANIMATION_TAB:
                 self._update_animation()
+            elif self.run_tabs.active == DYNAMICS_TAB:
+                self._update_dynamics()
 
     # ---------- layout ----------
     def controls(self):
@@ -557,7 +586,10 @@ class Explorer(pn.viewable.Viewer):
                 self.mu_select,
                 pn.widgets.RadioButtonGroup.from_param(s.param.maps, name="maps"),
                 self.v0_slider,
-                pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, name="chaotic points")]),
+                pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, name="chaotic points"),
+                pn.widgets.RadioButtonGroup.from_param(s.param.layer, name="map shows"),
+                pn.widgets.RadioButtonGroup.from_param(
+                    s.param.orbits, name="period-1 orbit curves (deformable)")]),
             self.point_select,
             *self.fields[:2],
             pn.widgets.Select.from_param(s.param.fidelity, name="fidelity"),

@@ -33,6 +33,12 @@ class ExplorerState(param.Parameterized):
     integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
     chaotic = param.Selector(default="grey", objects=["grey", "colour"])
+    # what the map shows: the drift, or the chaos indicator (issue 15)
+    layer = param.Selector(default="drift velocity",
+                           objects=["drift velocity", "Lyapunov exponent"])
+    # the period-1 orbit's period doubling and stability region over the map
+    orbits = param.Selector(default="no orbit curves",
+                            objects=["no orbit curves", "period-1 orbit curves"])
     # one map (the selected model's) or the two models side by side, linked
     maps = param.Selector(default="selected model", objects=["selected model", "both models"])
     # the material point's own rules (docs/MODEL.md section 3)
@@ -55,4 +61,5 @@ class ExplorerState(param.Parameterized):
 
 URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
             "log_mass": "lm", "fidelity": "fidelity", "integrator": "integrator",
-            "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at"}
+            "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at",
+            "layer": "layer", "orbits": "orbits"}

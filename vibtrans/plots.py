@@ -915,3 +915,27 @@ def continuation_figure(branch):
                                 matplotlib=dict(color=color, s=40)))
     return style(hv.Overlay(layers), common=dict(
         title=f"continuation along {name.label}: {branch.ended}"))
+
+
+PERIOD_DOUBLING_LINE = ("#d62728", 1.5, None)
+STABLE_ORBIT_LINE = ("#1f3a93", 1.5, "dashed")
+PERIOD_DOUBLING_LABEL = "period-1 orbit: period doubling (trace = -2)"
+STABLE_ORBIT_LABEL = "period-1 hopping orbit: stable inside"
+
+
+def period_one_curves(chart):
+    """Where the period-1 orbit (dynamics.period_one_chart, shipped as
+    period-one.nc) doubles its period (trace = -2) and the boundary of the
+    region where it is a stable hopping orbit, as contour lines over
+    (log10 A*, log10 m*), named in the map's key."""
+    la, lm = chart["log_amplitude"].values, chart["log_mass"].values
+    trace = np.where(np.isfinite(chart["trace"].values), chart["trace"].values, 3.0)
+    stable = (chart["stable"].values & chart["in_flight"].values).astype(float)
+    lines = []
+    for z, level, line, label in ((trace, -2.0, PERIOD_DOUBLING_LINE, PERIOD_DOUBLING_LABEL),
+                                  (stable, 0.5, STABLE_ORBIT_LINE, STABLE_ORBIT_LABEL)):
+        img = hv.Image((la, lm, z.T), kdims=[LOG_A, LOG_M])
+        c = hv.operation.contours(img, levels=[level], overlaid=False)
+        colour, width, dash = line
+        lines.append(_keyed(_styled_line(c, colour, width, dash), [(label, "line", line)]))
+    return hv.Overlay(lines)

@@ -137,11 +137,14 @@ class DynamicsView(pn.viewable.Viewer):
                 f"{DIAGRAM_FINAL:g} periods of runs along a line through this scene; "
                 "**zoom it** to recompute it in the window.", margin=(0, 5)),
             self.note, self.orbit_status,
-            pn.Row(pn.Column(self.section_pane, pn.Row(self.back_button, self.clear_button),
-                             self.section_status),
-                   pn.Column(self.diagram_pane,
-                             pn.Row(self.along, self.diagram_back, self.diagram_reset),
-                             self.diagram_status)))
+            # side by side where the page is wide enough, else one below the other
+            pn.FlexBox(pn.Column(self.section_pane,
+                                 pn.Row(self.back_button, self.clear_button),
+                                 self.section_status),
+                       pn.Column(self.diagram_pane,
+                                 pn.FlexBox(self.along, self.diagram_back, self.diagram_reset),
+                                 self.diagram_status),
+                       flex_wrap="wrap", sizing_mode="stretch_width"))
 
     # ---------------------------------------------------------------- the run
     def set_run(self, scene, ds):

@@ -12,7 +12,7 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource
 
 from vibtrans import plots
-from vibtrans.analysis import V0
+from vibtrans.analysis import CHAOS_LYAPUNOV, V0
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import data
@@ -23,35 +23,55 @@ MIN_WIDTH = 420
 MODELS = ("deformable", "point-mass")
 
 
-def map_element(model, mu, v0, chaotic):
-    """The drift map of a model and mu (HoloViews): the shipped map, the
-    jumping boundary, the resonances, the paper points."""
+LAYERS = ("drift velocity", "Lyapunov exponent")
+
+
+def _unavailable(text):
+    return hv.Text(0.0, 0.0, text).opts(height=MAP_HEIGHT, xaxis=None, yaxis=None)
+
+
+def map_element(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
+    """The map of a model and mu (HoloViews): the shipped drift map, or the
+    chaos indicator's (layer "Lyapunov exponent": the vertical motion's,
+    the same for every mu), the jumping boundary, the resonances, the
+    paper points, and (orbits "period-1 orbit curves", deformable) the period-1 orbit's
+    period doubling and stability region."""
     try:
         ds = data.drift_map(model, mu)
     except data.MapUnavailable:    # the reason (with the file) is said at session start
-        return hv.Text(0.0, 0.0, f"No usable drift map for {model}, mu = {mu:g}:\n"
-                       f"pick another model or mu; a click here runs nothing").opts(
-            height=MAP_HEIGHT, xaxis=None, yaxis=None)
-    el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
+        return _unavailable(f"No usable drift map for {model}, mu = {mu:g}:\n"
+                            f"pick another model or mu; a click here runs nothing")
+    if layer == "Lyapunov exponent":
+        lyapunov = data.lyapunov_map(model)
+        if lyapunov is None:
+            return _unavailable(f"No usable Lyapunov map for {model}: show the drift "
+                                f"velocity instead")
+        el = plots.lyapunov_map(lyapunov, CHAOS_LYAPUNOV)
+        title = f"Lyapunov exponent of the vertical motion: {model} (any mu)"
+    else:
+        el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
+        title = f"<v*> over 2000 periods: {model}, mu = {mu:g}"
     vertical = data.vertical_curve()
     if vertical is not None:
         el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=MAP_LOG_AMPLITUDE)
         if model == "deformable":
             el = el * plots.resonance_lines(vertical)
+    chart = data.period_one_chart()
+    if orbits == "period-1 orbit curves" and model == "deformable" and chart is not None:
+        el = el * plots.period_one_curves(chart)
     el = el * plots.paper_points(model)
-    return el.opts(hv.opts.Image(height=MAP_HEIGHT,
-                                 title=f"<v*> over 2000 periods: {model}, mu = {mu:g}"))
+    return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title))
 
 
 @functools.lru_cache(maxsize=16)
-def _map_json(model, mu, v0, chaotic):
+def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
     """`map_element` rendered by HoloViews into Bokeh models, serialized
     without the data of its sources, and that data ({source id: columns}).
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included)."""
     doc = Document()
-    fig = hv.render(map_element(model, mu, v0, chaotic), backend="bokeh")
+    fig = hv.render(map_element(model, mu, v0, chaotic, layer, orbits), backend="bokeh")
     doc.add_root(fig)
     columns = {}
     for m in doc.models:
@@ -61,13 +81,15 @@ def _map_json(model, mu, v0, chaotic):
     return doc.to_json(), columns
 
 
-def map_figure(model, mu, v0, chaotic):
+def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
     """A new Bokeh figure of the map for one session, as wide as its place
     on the page: rendered once per setting by HoloViews, then rebuilt from
     its serialized models and the shared columns of its sources (a
     fraction of the server time of rendering it for every page).  The
     columns' arrays are shared by the sessions: no one writes into them."""
-    js, columns = _map_json(model, mu, v0, chaotic)
+    if layer == "Lyapunov exponent":     # the drift's settings change nothing there
+        v0, chaotic = V0, "grey"
+    js, columns = _map_json(model, mu, v0, chaotic, layer, orbits)
     doc = Document.from_json(js)
     fig = doc.roots[0]
     doc.remove_root(fig)
@@ -86,6 +108,8 @@ def prerender():
     for model, mu in sorted(data.available_maps()):
         for chaotic in ("grey", "colour"):
             _map_json(model, mu, V0, chaotic)
+    for model, mu in sorted(data.available_maps()):      # the chaos indicator's layer
+        _map_json(model, mu, V0, "grey", "Lyapunov exponent")
 
 
 class MapView:
@@ -105,7 +129,8 @@ class MapView:
         self.figures = []
         self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
         self.redraw()
-        state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps"], precedence=1)
+        state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer",
+                                        "orbits"], precedence=1)
 
     def shown(self):
         """The (model, mu) of each map drawn."""
@@ -116,7 +141,7 @@ class MapView:
 
     def _figure(self, model, mu):
         s = self.state
-        fig = map_figure(model, mu, s.v0, s.chaotic)
+        fig = map_figure(model, mu, s.v0, s.chaotic, s.layer, s.orbits)
         fig.scatter("x", "y", source=self.selected, size=14, marker="circle",
                     color="yellow", line_color="black")
         fig.scatter("x", "y", source=self.device, size=14, marker="diamond",
