@@ -90,7 +90,9 @@ below the summary.
 """
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
-ANIMATION_TAB, MEMORY_TAB = 1, 2
+ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB = 1, 2, 3
+# the map's tabs: map, vertical curves, units
+VERTICAL_TAB, UNITS_TAB = 1, 2
 ANIMATION_TEXT = ("**The particle on the wave**, the run's last periods at full resolution: "
                   "a side view (the surface, the particle, its contact zone coloured by "
                   "state) and the contact circle beside it, in step. Press play, or drag the "
@@ -244,11 +246,9 @@ class Explorer(pn.viewable.Viewer):
                        inputs.NumberField(self.state, "log_mass", "log10 m*"),
                        inputs.NumberField(self.state, "alpha_t",
                                           "alpha_t (point mass: tangential restitution)")]
-        # the material point's controls, shown when it runs
-        self.point_mass_controls = pn.Column(
-            pn.widgets.Select.from_param(self.state.param.stick_rule,
-                                         name="stick rule (point mass: slide -> stick)"),
-            self.fields[2], margin=0)
+        # the material point's controls, shown when it runs (built then: most
+        # sessions never show them)
+        self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         self.state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()
         # the views; the run's are in place from the start (empty, disabled),
@@ -256,6 +256,7 @@ class Explorer(pn.viewable.Viewer):
         self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
         self._animated = None               # the RunResult the animation shows
         self.units_panel = UnitsPanel(on_run=self._run_device, on_error=self._error)
+        self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
         self.summary = self.summary_view.pane
         self.trajectories = TrajectoryView()
@@ -263,9 +264,8 @@ class Explorer(pn.viewable.Viewer):
         # worth of work), only once its tab is open
         self.memory_view = None
         self.animation = None               # the same, for the animation
-        self.animation_box = pn.Column(pn.pane.Markdown(ANIMATION_TEXT),
-                                       sizing_mode="stretch_width")
-        self.memory_box = pn.Column(pn.pane.Markdown(MEMORY_TEXT), sizing_mode="stretch_width")
+        self.animation_box = pn.Column(sizing_mode="stretch_width")
+        self.memory_box = pn.Column(sizing_mode="stretch_width")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._apply_url()
@@ -278,9 +278,9 @@ class Explorer(pn.viewable.Viewer):
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered)
-        for button in self.exports.buttons:
-            button.jscallback(args={"ack": self.ack}, clicks=ack_js(self.ack, ACK_FILE).code)
-        # the run's views, built when their tab is first opened
+        # the run's views, built when their tab is first opened (a session's
+        # page costs the event loop that every session shares: what the
+        # first screen does not show is not built for it)
         self.run_tabs = pn.Tabs(
             ("Trajectory", self.trajectories.panel),
             ("Animation", self.animation_box),
@@ -348,8 +348,13 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_point_mass_shown(self, *events):
         s = self.state
-        self.point_mass_controls.visible = (s.model == "point-mass"
-                                            or s.compare == "point mass")
+        shown = s.model == "point-mass" or s.compare == "point mass"
+        if shown and not self.point_mass_controls.objects:
+            self.point_mass_controls.objects = [
+                pn.widgets.Select.from_param(s.param.stick_rule,
+                                             name="stick rule (point mass: slide -> stick)"),
+                self.fields[2]]
+        self.point_mass_controls.visible = shown
 
     @staticmethod
     def _mus(model):
@@ -484,12 +489,20 @@ class Explorer(pn.viewable.Viewer):
             self._update_memory()
         elif event.new == ANIMATION_TAB:
             self._update_animation()
+        elif event.new == DOWNLOADS_TAB:
+            self._build_downloads()
+
+    def _build_downloads(self):
+        """The Downloads tab's buttons, built when it is first opened."""
+        if self.exports.build():
+            for button in self.exports.buttons:
+                button.jscallback(args={"ack": self.ack}, clicks=ack_js(self.ack, ACK_FILE).code)
 
     def _update_animation(self):
         """The animation of the last run, built when first looked at."""
         if self.animation is None:
             self.animation = ParticleAnimation()
-            self.animation_box.append(self.animation)
+            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
         result = self.controller.result
         if result is not None and self._animated is not result:
             self._animated = result
@@ -500,7 +513,7 @@ class Explorer(pn.viewable.Viewer):
         if self.memory_view is None:
             self.memory_view = MemoryView(RUNNER)
             self.memory_view.error = self._error
-            self.memory_box.append(self.memory_view)
+            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
             self.memory_view.set_run(*pending)      # clears it for a point mass
@@ -583,13 +596,15 @@ class Explorer(pn.viewable.Viewer):
         tabs = pn.Tabs(
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
-            ("Units", self.units_panel),
+            ("Units", self.units_box),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
-        self.intro = pn.Card(pn.pane.Markdown(INTRODUCTION, sizing_mode="stretch_width"),
-                             title="What is this? (a short introduction)", collapsed=True,
+        self.map_tabs = tabs
+        # folded: its text is added when it is first opened
+        self.intro = pn.Card(title="What is this? (a short introduction)", collapsed=True,
                              sizing_mode="stretch_width", css_classes=["vt-introduction"])
+        self.intro.param.watch(self._on_intro, "collapsed")
         # Side by side on a wide screen (the map with its summary, the
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
@@ -602,8 +617,14 @@ class Explorer(pn.viewable.Viewer):
         return self.page
 
     def _on_tab(self, event):
-        if event.new == 1:
+        if event.new == VERTICAL_TAB:
             self.vertical.build()
+        elif event.new == UNITS_TAB and not self.units_box.objects:
+            self.units_box.objects = [self.units_panel]
+
+    def _on_intro(self, event):
+        if not event.new and not self.intro.objects:
+            self.intro.append(pn.pane.Markdown(INTRODUCTION, sizing_mode="stretch_width"))
 
     def __panel__(self):
         return pn.Row(self.controls(), self.main())
