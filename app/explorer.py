@@ -13,6 +13,7 @@ serves while the kernels compile in the background, app/kernels.py) or
 import asyncio
 import ctypes
 import gc
+import json
 import logging
 import math
 import os
@@ -106,11 +107,45 @@ MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with his
 # round trip to a busy server) and cleared by the server when it answers:
 # a busy indicator within 0.3 s for every action that takes longer.
 ACK_RUN, ACK_DRAW, ACK_FILE = "Running ...", "Drawing the map ...", "Preparing the file ..."
+# a widget's CSS class -> what the browser says when the user acts on it
+ACK_CLASSES = {"vt-ack-run": ACK_RUN, "vt-ack-draw": ACK_DRAW, "vt-ack-file": ACK_FILE}
 
 
 def ack_js(ack, text):
     """A CustomJS that shows `text` in the Div `ack` (class vt-busy)."""
     return CustomJS(args={"ack": ack}, code=f"ack.text = '<p class=\"vt-busy\">{text}</p>'")
+
+
+# One listener for the whole page, not a callback per widget: Panel's
+# (jscallback, js_on_click) made it walk every model of every page for its
+# links (~15 ms of the event loop per page, `python -m devtools.pagecost`).
+# It sees the browser's own changes only (`sync`: not the server's).
+_ACK_LISTENER = """
+const texts = %s;
+const actions = new Set(["value", "value_throttled", "active", "clicks"]);
+const said = (model) => {
+  for (const c of (model && model.css_classes) || []) if (c in texts) return texts[c];
+  return null;
+};
+ack.document.on_change((e) => {
+  let model = null;
+  if (e.kind === "ModelChanged" && e.sync && actions.has(e.attr))
+    model = e.model;
+  else if (e.kind === "MessageSent" && e.msg_type === "bokeh_event"
+           && e.msg_data.event_name === "button_click")
+    model = e.msg_data.origin;
+  const text = said(model);
+  if (text !== null)
+    ack.text = `<p class="vt-busy">${text}</p>`;
+});
+"""
+
+
+def ack_listener(ack):
+    """A CustomJS, run once the page is ready, that shows in the Div `ack`
+    what the browser is doing (ACK_CLASSES) at every action of the user on
+    a widget of one of those classes: a click, a choice, a slider's step."""
+    return CustomJS(args={"ack": ack}, code=_ACK_LISTENER % json.dumps(ACK_CLASSES))
 
 
 # presentation mode: the page's text and the figures' fonts this much larger
@@ -220,14 +255,15 @@ class Explorer(pn.viewable.Viewer):
         self.cancel_button = pn.widgets.Button(name="Cancel", button_type="warning",
                                                disabled=True)
         self.cancel_button.on_click(self._on_cancel)
+        if pn.state.curdoc is not None:      # (the page's acknowledgements)
+            pn.state.curdoc.js_on_event("document_ready", ack_listener(self.ack))
         self.run_button = pn.widgets.Button(name="Run selected scene", button_type="primary",
-                                            css_classes=["vt-run"])
+                                            css_classes=["vt-run", "vt-ack-run"])
         self.run_button.on_click(self._on_run_click)
-        self.run_button.js_on_click(args={"ack": self.ack}, code=ack_js(self.ack, ACK_RUN).code)
         self.point_select = pn.widgets.Select(
-            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}})
+            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
+            css_classes=["vt-ack-run"])
         self.point_select.param.watch(self._on_point, "value")
-        self.point_select.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_RUN).code)
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
         # the small values); it shows v0* itself
         lo, hi = ExplorerState.param.v0.bounds
@@ -277,7 +313,8 @@ class Explorer(pn.viewable.Viewer):
                                precedence=2)        # after the map's redraw
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
-        self.exports = ExportsView(self.state, self.map_view, answered=self._answered)
+        self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
+                                   button_classes=["vt-ack-file"])
         # the run's views, built when their tab is first opened (a session's
         # page costs the event loop that every session shares: what the
         # first screen does not show is not built for it)
@@ -459,7 +496,7 @@ class Explorer(pn.viewable.Viewer):
         await self.controller.run()
 
     def _answered(self, *events):
-        """Clear the browser's acknowledgement of an action (ack_js).  The
+        """Clear the browser's acknowledgement of an action (ack_listener).  The
         new text always differs from the server's copy (whether or not the
         browser's has reached it), so the change is always sent."""
         self.ack.text = "" if self.ack.text != "" else "<span></span>"
@@ -490,13 +527,7 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == ANIMATION_TAB:
             self._update_animation()
         elif event.new == DOWNLOADS_TAB:
-            self._build_downloads()
-
-    def _build_downloads(self):
-        """The Downloads tab's buttons, built when it is first opened."""
-        if self.exports.build():
-            for button in self.exports.buttons:
-                button.jscallback(args={"ack": self.ack}, clicks=ack_js(self.ack, ACK_FILE).code)
+            self.exports.build()
 
     def _update_animation(self):
         """The animation of the last run, built when first looked at."""
@@ -585,11 +616,11 @@ class Explorer(pn.viewable.Viewer):
         )
 
     def _drawing(self, widgets):
-        """`widgets` (each redraws the map) acknowledged in the browser."""
-        # (a slider's drag acknowledged from its first step: the redraw
-        # follows its release; a callback on value_throttled broke the page)
+        """`widgets` (each redraws the map) acknowledged in the browser
+        (ack_listener; a slider's drag from its first step: the redraw
+        follows its release)."""
         for w in widgets:
-            w.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_DRAW).code)
+            w.css_classes = [*w.css_classes, "vt-ack-draw"]
         return widgets
 
     def main(self):

@@ -26,10 +26,12 @@ def _read_back(write, name):
 class ExportsView:
     """The export and data buttons, made when the tab is first shown
     (`build`); the run's are disabled until a run is shown (`show`).
-    map_view: the MapView (its zoomed view's ranges)."""
+    map_view: the MapView (its zoomed view's ranges); button_classes: CSS
+    classes every button gets as well."""
 
-    def __init__(self, state, map_view, answered=None):
+    def __init__(self, state, map_view, answered=None, button_classes=()):
         self.state, self.map_view = state, map_view
+        self.button_classes = list(button_classes)
         self.answered = answered        # called once a file is ready (or failed)
         self.result = None
         self.buttons, self.run_buttons = [], []
@@ -101,12 +103,12 @@ class ExportsView:
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.figure_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
-            css_classes=[f"vt-export-{kind}-{fmt}"], width=150,
+            css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "trajectory" and self.result is None)
 
     def _data_download(self, kind, fmt):
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.data_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
-            css_classes=[f"vt-data-{kind}-{fmt}"], width=150,
+            css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "run" and self.result is None)
