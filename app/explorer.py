@@ -13,6 +13,7 @@ serves while the kernels compile in the background, app/kernels.py) or
 import asyncio
 import ctypes
 import gc
+import json
 import logging
 import math
 import os
@@ -91,7 +92,9 @@ below the summary.
 """
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
-ANIMATION_TAB, MEMORY_TAB, DYNAMICS_TAB = 1, 2, 4
+ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
+# the map's tabs: map, vertical curves, units
+VERTICAL_TAB, UNITS_TAB = 1, 2
 DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
                  "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
                  "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
@@ -109,11 +112,45 @@ MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with his
 # round trip to a busy server) and cleared by the server when it answers:
 # a busy indicator within 0.3 s for every action that takes longer.
 ACK_RUN, ACK_DRAW, ACK_FILE = "Running ...", "Drawing the map ...", "Preparing the file ..."
+# a widget's CSS class -> what the browser says when the user acts on it
+ACK_CLASSES = {"vt-ack-run": ACK_RUN, "vt-ack-draw": ACK_DRAW, "vt-ack-file": ACK_FILE}
 
 
 def ack_js(ack, text):
     """A CustomJS that shows `text` in the Div `ack` (class vt-busy)."""
     return CustomJS(args={"ack": ack}, code=f"ack.text = '<p class=\"vt-busy\">{text}</p>'")
+
+
+# One listener for the whole page, not a callback per widget: Panel's
+# (jscallback, js_on_click) made it walk every model of every page for its
+# links (~15 ms of the event loop per page, `python -m devtools.pagecost`).
+# It sees the browser's own changes only (`sync`: not the server's).
+_ACK_LISTENER = """
+const texts = %s;
+const actions = new Set(["value", "value_throttled", "active", "clicks"]);
+const said = (model) => {
+  for (const c of (model && model.css_classes) || []) if (c in texts) return texts[c];
+  return null;
+};
+ack.document.on_change((e) => {
+  let model = null;
+  if (e.kind === "ModelChanged" && e.sync && actions.has(e.attr))
+    model = e.model;
+  else if (e.kind === "MessageSent" && e.msg_type === "bokeh_event"
+           && e.msg_data.event_name === "button_click")
+    model = e.msg_data.origin;
+  const text = said(model);
+  if (text !== null)
+    ack.text = `<p class="vt-busy">${text}</p>`;
+});
+"""
+
+
+def ack_listener(ack):
+    """A CustomJS, run once the page is ready, that shows in the Div `ack`
+    what the browser is doing (ACK_CLASSES) at every action of the user on
+    a widget of one of those classes: a click, a choice, a slider's step."""
+    return CustomJS(args={"ack": ack}, code=_ACK_LISTENER % json.dumps(ACK_CLASSES))
 
 
 # presentation mode: the page's text and the figures' fonts this much larger
@@ -223,14 +260,15 @@ class Explorer(pn.viewable.Viewer):
         self.cancel_button = pn.widgets.Button(name="Cancel", button_type="warning",
                                                disabled=True)
         self.cancel_button.on_click(self._on_cancel)
+        if pn.state.curdoc is not None:      # (the page's acknowledgements)
+            pn.state.curdoc.js_on_event("document_ready", ack_listener(self.ack))
         self.run_button = pn.widgets.Button(name="Run selected scene", button_type="primary",
-                                            css_classes=["vt-run"])
+                                            css_classes=["vt-run", "vt-ack-run"])
         self.run_button.on_click(self._on_run_click)
-        self.run_button.js_on_click(args={"ack": self.ack}, code=ack_js(self.ack, ACK_RUN).code)
         self.point_select = pn.widgets.Select(
-            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}})
+            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
+            css_classes=["vt-ack-run"])
         self.point_select.param.watch(self._on_point, "value")
-        self.point_select.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_RUN).code)
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
         # the small values); it shows v0* itself
         lo, hi = ExplorerState.param.v0.bounds
@@ -249,11 +287,9 @@ class Explorer(pn.viewable.Viewer):
                        inputs.NumberField(self.state, "log_mass", "log10 m*"),
                        inputs.NumberField(self.state, "alpha_t",
                                           "alpha_t (point mass: tangential restitution)")]
-        # the material point's controls, shown when it runs
-        self.point_mass_controls = pn.Column(
-            pn.widgets.Select.from_param(self.state.param.stick_rule,
-                                         name="stick rule (point mass: slide -> stick)"),
-            self.fields[2], margin=0)
+        # the material point's controls, shown when it runs (built then: most
+        # sessions never show them)
+        self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         self.state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()
         # the views; the run's are in place from the start (empty, disabled),
@@ -261,6 +297,7 @@ class Explorer(pn.viewable.Viewer):
         self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
         self._animated = None               # the RunResult the animation shows
         self.units_panel = UnitsPanel(on_run=self._run_device, on_error=self._error)
+        self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
         self.summary = self.summary_view.pane
         self.trajectories = TrajectoryView()
@@ -268,13 +305,11 @@ class Explorer(pn.viewable.Viewer):
         # worth of work), only once its tab is open
         self.memory_view = None
         self.animation = None               # the same, for the animation
-        self.animation_box = pn.Column(pn.pane.Markdown(ANIMATION_TEXT),
-                                       sizing_mode="stretch_width")
-        self.memory_box = pn.Column(pn.pane.Markdown(MEMORY_TEXT), sizing_mode="stretch_width")
+        self.animation_box = pn.Column(sizing_mode="stretch_width")
+        self.memory_box = pn.Column(sizing_mode="stretch_width")
         self.dynamics_view = None           # the same, for the section and orbit diagram
         self._dynamics_pending = None       # the RunResult the dynamics tab has not seen
-        self.dynamics_box = pn.Column(pn.pane.Markdown(DYNAMICS_TEXT),
-                                      sizing_mode="stretch_width")
+        self.dynamics_box = pn.Column(sizing_mode="stretch_width")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._apply_url()
@@ -287,10 +322,11 @@ class Explorer(pn.viewable.Viewer):
                                precedence=2)        # after the map's redraw
         self.map_pane = self.map_view.pane
         self.vertical = VerticalView(self.state)
-        self.exports = ExportsView(self.state, self.map_view, answered=self._answered)
-        for button in self.exports.buttons:
-            button.jscallback(args={"ack": self.ack}, clicks=ack_js(self.ack, ACK_FILE).code)
-        # the run's views, built when their tab is first opened
+        self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
+                                   button_classes=["vt-ack-file"])
+        # the run's views, built when their tab is first opened (a session's
+        # page costs the event loop that every session shares: what the
+        # first screen does not show is not built for it)
         self.run_tabs = pn.Tabs(
             ("Trajectory", self.trajectories.panel),
             ("Animation", self.animation_box),
@@ -359,8 +395,13 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_point_mass_shown(self, *events):
         s = self.state
-        self.point_mass_controls.visible = (s.model == "point-mass"
-                                            or s.compare == "point mass")
+        shown = s.model == "point-mass" or s.compare == "point mass"
+        if shown and not self.point_mass_controls.objects:
+            self.point_mass_controls.objects = [
+                pn.widgets.Select.from_param(s.param.stick_rule,
+                                             name="stick rule (point mass: slide -> stick)"),
+                self.fields[2]]
+        self.point_mass_controls.visible = shown
 
     @staticmethod
     def _mus(model):
@@ -465,7 +506,7 @@ class Explorer(pn.viewable.Viewer):
         await self.controller.run()
 
     def _answered(self, *events):
-        """Clear the browser's acknowledgement of an action (ack_js).  The
+        """Clear the browser's acknowledgement of an action (ack_listener).  The
         new text always differs from the server's copy (whether or not the
         browser's has reached it), so the change is always sent."""
         self.ack.text = "" if self.ack.text != "" else "<span></span>"
@@ -495,6 +536,8 @@ class Explorer(pn.viewable.Viewer):
             self._update_memory()
         elif event.new == ANIMATION_TAB:
             self._update_animation()
+        elif event.new == DOWNLOADS_TAB:
+            self.exports.build()
         elif event.new == DYNAMICS_TAB:
             self._update_dynamics()
 
@@ -504,7 +547,7 @@ class Explorer(pn.viewable.Viewer):
         if self.dynamics_view is None:
             self.dynamics_view = DynamicsView(RUNNER)
             self.dynamics_view.error = self._error
-            self.dynamics_box.append(self.dynamics_view)
+            self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
         pending, self._dynamics_pending = self._dynamics_pending, None
         if pending is not None:
             self.dynamics_view.set_run(pending.scene, pending.ds)
@@ -513,7 +556,7 @@ class Explorer(pn.viewable.Viewer):
         """The animation of the last run, built when first looked at."""
         if self.animation is None:
             self.animation = ParticleAnimation()
-            self.animation_box.append(self.animation)
+            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
         result = self.controller.result
         if result is not None and self._animated is not result:
             self._animated = result
@@ -524,7 +567,7 @@ class Explorer(pn.viewable.Viewer):
         if self.memory_view is None:
             self.memory_view = MemoryView(RUNNER)
             self.memory_view.error = self._error
-            self.memory_box.append(self.memory_view)
+            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
             self.memory_view.set_run(*pending)      # clears it for a point mass
@@ -604,24 +647,26 @@ class Explorer(pn.viewable.Viewer):
         )
 
     def _drawing(self, widgets):
-        """`widgets` (each redraws the map) acknowledged in the browser."""
-        # (a slider's drag acknowledged from its first step: the redraw
-        # follows its release; a callback on value_throttled broke the page)
+        """`widgets` (each redraws the map) acknowledged in the browser
+        (ack_listener; a slider's drag from its first step: the redraw
+        follows its release)."""
         for w in widgets:
-            w.jscallback(args={"ack": self.ack}, value=ack_js(self.ack, ACK_DRAW).code)
+            w.css_classes = [*w.css_classes, "vt-ack-draw"]
         return widgets
 
     def main(self):
         tabs = pn.Tabs(
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
-            ("Units", self.units_panel),
+            ("Units", self.units_box),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
-        self.intro = pn.Card(pn.pane.Markdown(INTRODUCTION, sizing_mode="stretch_width"),
-                             title="What is this? (a short introduction)", collapsed=True,
+        self.map_tabs = tabs
+        # folded: its text is added when it is first opened
+        self.intro = pn.Card(title="What is this? (a short introduction)", collapsed=True,
                              sizing_mode="stretch_width", css_classes=["vt-introduction"])
+        self.intro.param.watch(self._on_intro, "collapsed")
         # Side by side on a wide screen (the map with its summary, the
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
@@ -634,8 +679,14 @@ class Explorer(pn.viewable.Viewer):
         return self.page
 
     def _on_tab(self, event):
-        if event.new == 1:
+        if event.new == VERTICAL_TAB:
             self.vertical.build()
+        elif event.new == UNITS_TAB and not self.units_box.objects:
+            self.units_box.objects = [self.units_panel]
+
+    def _on_intro(self, event):
+        if not event.new and not self.intro.objects:
+            self.intro.append(pn.pane.Markdown(INTRODUCTION, sizing_mode="stretch_width"))
 
     def __panel__(self):
         return pn.Row(self.controls(), self.main())

@@ -28,11 +28,13 @@ class NumberField(pn.viewable.Viewer):
         self.name_ = name
         self.label = label
         self.error = ""
-        kw = {} if width is None else {"width": width}
+        self._width = {} if width is None else {"width": width}
         self.input = pn.widgets.TextInput(name=label, value=_text(getattr(owner, name)),
-                                          css_classes=[f"vt-field-{name}"], **kw)
-        self.note = pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
-                                     css_classes=[f"vt-error-{name}"], **kw)
+                                          css_classes=[f"vt-field-{name}"], **self._width)
+        # the message under the field: made at the first error (a page's
+        # fields are mostly never wrong, and every pane costs its server time)
+        self.note = None
+        self._box = None
         self._applying = False
         self._echoing = False
         self.input.param.watch(self._typed, "value")
@@ -71,8 +73,17 @@ class NumberField(pn.viewable.Viewer):
 
     def _say(self, text):
         self.error = text
+        if self.note is None:
+            if not text:
+                return
+            self.note = pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
+                                         css_classes=[f"vt-error-{self.name_}"], **self._width)
+            if self._box is not None:
+                self._box.append(self.note)
         self.note.object = text
         self.note.visible = bool(text)
 
     def __panel__(self):
-        return pn.Column(self.input, self.note, margin=0)
+        if self._box is None:
+            self._box = pn.Column(self.input, *filter(None, [self.note]), margin=0)
+        return self._box

@@ -113,3 +113,61 @@ def test_changing_the_comparison_relabels_the_same_figures():
         assert view.over.twin_figure.title.text == "x*(t) and the point mass run of the same scene"
         assert [i.label for i in view.over.twin_items][1] == "x*, point mass"
     asyncio.run(go())
+
+
+def _page_document():
+    """A session's page attached to its own document, as the server builds
+    it (devtools/pagecost.py)."""
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+    doc = Document()
+    with set_curdoc(doc):
+        ex = E.Explorer()
+        E._attached_in_one_pass(E.explorer_template(ex)).server_doc(doc)
+    return ex, doc
+
+
+def _shown(doc):
+    """What the browser has of the page: each model's type, CSS classes and
+    text, one string per model."""
+    return [" ".join([type(m).__name__, *getattr(m, "css_classes", []),
+                      str(getattr(m, "text", "") or ""), str(getattr(m, "title", "") or "")])
+            for m in doc.models]
+
+
+def _has(doc, needle):
+    return any(needle in s for s in _shown(doc))
+
+
+def test_the_first_screen_builds_only_what_it_shows():
+    """Issue 14 (capacity): a page costs the event loop every session shares,
+    so what the first screen hides (the Units and Downloads tabs, the
+    introduction's text, the point mass's controls, the animation's and
+    memory diagram's texts) is built when first shown, and then works."""
+    from panel.io.state import set_curdoc
+    ex, doc = _page_document()
+    hidden = {"units": "vt-substrate", "downloads": "vt-data-run-csv",
+              "introduction": "surface acoustic", "point mass": "stick rule",
+              "animation": "The particle on the wave", "memory": "Memory diagram and contact"}
+    early = [k for k, needle in hidden.items() if _has(doc, needle)]
+    assert not early, f"built with the page: {early}"
+    # nor made in Python (hidden tabs have no models anyway: their widgets)
+    assert not ex.exports.buttons and not ex.units_box.objects and not ex.intro.objects
+    assert _has(doc, "vt-field-log_amplitude") and _has(doc, "vt-run")    # the first screen is
+    with set_curdoc(doc):
+        ex.map_tabs.active = E.UNITS_TAB
+        assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency_khz")
+        ex.units_panel.frequency_khz = 250.0      # the device moves the map's marker
+        assert ex.map_view.device.data["y"] and ex.units_panel.marker is not None
+        ex.run_tabs.active = E.DOWNLOADS_TAB
+        assert _has(doc, "vt-data-run-csv") and _has(doc, "vt-export-map-png")
+        run_csv = next(b for b in ex.exports.buttons if b.filename == "vibtrans-run.csv")
+        assert run_csv.disabled                   # no run yet
+        ex.intro.collapsed = False
+        assert _has(doc, "surface acoustic")
+        ex.state.model = "point-mass"
+        assert _has(doc, "stick rule") and ex.point_mass_controls.visible
+        ex.state.model = "deformable"
+        assert not ex.point_mass_controls.visible
+        ex.run_tabs.active = E.ANIMATION_TAB
+        assert _has(doc, "The particle on the wave")

@@ -24,24 +24,36 @@ def _read_back(write, name):
 
 
 class ExportsView:
-    """The export and data buttons; the run's are disabled until a run is
-    shown (`show`).  map_view: the MapView (its zoomed view's ranges)."""
+    """The export and data buttons, made when the tab is first shown
+    (`build`); the run's are disabled until a run is shown (`show`).
+    map_view: the MapView (its zoomed view's ranges); button_classes: CSS
+    classes every button gets as well."""
 
-    def __init__(self, state, map_view, answered=None):
+    def __init__(self, state, map_view, answered=None, button_classes=()):
         self.state, self.map_view = state, map_view
+        self.button_classes = list(button_classes)
         self.answered = answered        # called once a file is ready (or failed)
         self.result = None
+        self.buttons, self.run_buttons = [], []
+        self.panel = pn.Column(sizing_mode="stretch_width", name="downloads")
+
+    def build(self):
+        """The buttons, made when the tab is first shown (most sessions never
+        open it); True when made now, False if they were already there."""
+        if self.buttons:
+            return False
         figures = [self._figure_download(k, f) for k, f in FIGURES]
         datas = [self._data_download(k, f) for k, f in DATA]
         self.buttons = figures + datas
         self.run_buttons = [b for b, (k, _) in zip(self.buttons, FIGURES + DATA)
                             if k in ("trajectory", "run")]
-        self.panel = pn.Column(
+        self.panel.objects = [
             pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
             pn.FlexBox(*figures),
             pn.pane.Markdown("**Data** (the run: samples and events in netCDF, samples in CSV; "
                              "the map's points in the zoomed view)"),
-            pn.FlexBox(*datas), sizing_mode="stretch_width")
+            pn.FlexBox(*datas)]
+        return True
 
     def show(self, result):
         self.result = result
@@ -91,10 +103,12 @@ class ExportsView:
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.figure_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
-            css_classes=[f"vt-export-{kind}-{fmt}"], width=150, disabled=kind == "trajectory")
+            css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes], width=150,
+            disabled=kind == "trajectory" and self.result is None)
 
     def _data_download(self, kind, fmt):
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.data_file, kind, fmt),
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
-            css_classes=[f"vt-data-{kind}-{fmt}"], width=150, disabled=kind == "run")
+            css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes], width=150,
+            disabled=kind == "run" and self.result is None)

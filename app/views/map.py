@@ -7,6 +7,7 @@ import math
 
 import holoviews as hv
 import panel as pn
+from bokeh.core.serialization import Deserializer
 from bokeh.document import Document
 from bokeh.events import Tap
 from bokeh.models import ColumnDataSource
@@ -90,12 +91,16 @@ def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit 
     if layer == "Lyapunov exponent":     # the drift's settings change nothing there
         v0, chaotic = V0, "grey"
     js, columns = _map_json(model, mu, v0, chaotic, layer, orbits)
-    doc = Document.from_json(js)
-    fig = doc.roots[0]
-    doc.remove_root(fig)
-    for m in fig.references():
-        if m.id in columns:
-            m.data = dict(columns[m.id])
+    # decoded without a Document of its own (adding the figure to one and
+    # removing it walked its model graph twice), its sources found through
+    # its renderers (a walk of the graph costs ~10 ms: ~120 models)
+    fig, = Deserializer().decode(js.content["roots"], js.buffers)
+    sources = {s.id: s for s in (getattr(r, "data_source", None) for r in fig.renderers)
+               if s is not None}
+    if not columns.keys() <= sources.keys():        # a source elsewhere: walk the graph
+        sources = {m.id: m for m in fig.references()}
+    for id_, data_ in columns.items():
+        sources[id_].data = dict(data_)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
     return fig
 
