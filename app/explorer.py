@@ -63,7 +63,7 @@ POINT_LABELS = {
 }
 
 # A plain-language introduction for a class (docs/MODEL.md in short)
-INTRODUCTION = """
+INTRODUCTION = r"""
 A small particle rests on a surface that carries a **surface acoustic
 (Rayleigh) wave**. The wave travels towards **+x**; every point of the surface
 runs a small ellipse once per wave period. The particle is pushed and lifted

@@ -73,7 +73,7 @@ def test_a_run_shows_its_summary_and_figures():
         await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
         assert ex.trajectories.views[("deformable", False)] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
-        assert len(ex.trajectory) == 4          # tabs: figures, animation, memory, downloads
+        assert len(ex.trajectory) == 5          # tabs: figures, animation, memory, downloads, dynamics
         assert len(ex.trajectories.panel) == 1  # one structure's figures
     asyncio.run(go())
 

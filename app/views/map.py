@@ -8,7 +8,6 @@ import math
 import holoviews as hv
 import panel as pn
 from bokeh.core.serialization import Deserializer
-from bokeh.document import Document
 from bokeh.events import Tap
 from bokeh.models import ColumnDataSource
 
@@ -18,6 +17,7 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import data
 from ..state import within
+from .render import render_into_document
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
@@ -71,9 +71,7 @@ def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit c
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included)."""
-    doc = Document()
-    fig = hv.render(map_element(model, mu, v0, chaotic, layer, orbits), backend="bokeh")
-    doc.add_root(fig)
+    doc, _ = render_into_document(map_element(model, mu, v0, chaotic, layer, orbits))
     columns = {}
     for m in doc.models:
         if isinstance(m, ColumnDataSource):

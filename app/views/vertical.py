@@ -11,6 +11,7 @@ from bokeh.models import ColumnDataSource
 from vibtrans import plots
 
 from .. import data
+from .render import render_into_document
 
 HEIGHT = 450
 
@@ -33,8 +34,7 @@ def _vertical_json():
     vertical = data.vertical_curve()
     if vertical is None:
         return None
-    doc = Document()
-    doc.add_root(hv.render(vertical_element(vertical), backend="bokeh"))
+    doc, _ = render_into_document(vertical_element(vertical))
     return doc.to_json()
 
 

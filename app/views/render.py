@@ -1,0 +1,22 @@
+"""HoloViews elements rendered into Bokeh models of a Document of our own.
+
+`hv.render` attaches the plot it makes to `curdoc()`, which in a server
+callback can be a session's document that has already been destroyed (a
+closed page's: its attributes are deleted, and setting the theme then
+raises AttributeError, breaking the redraw that asked).  The figures the
+explorer renders once and shares between sessions belong to no session, so
+they are rendered into a fresh Document instead."""
+import holoviews as hv
+from bokeh.document import Document
+
+
+def render_into_document(element):
+    """(document, figure): `element` rendered by HoloViews' Bokeh renderer
+    into a new Document (the figure its only root)."""
+    renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
+    # (the renderer sets its theme on the scratch document; the figure goes
+    # to a plain one, as hv.render's did: the page's theme applies)
+    plot = renderer.get_plot(element, doc=Document())
+    doc = Document()
+    doc.add_root(plot.state)
+    return doc, plot.state
