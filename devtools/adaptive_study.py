@@ -1,7 +1,7 @@
 """Adaptive against uniform drift map on one window: points computed, their
 fraction, drift-class agreement at computed and filled points, wall seconds.
 
-    python -m devtools.adaptive_study                      # 33 x 33, K = 3
+    python -m devtools.adaptive_study                      # 41 x 41, K = 3
     python -m devtools.adaptive_study --log-amplitude=-0.8:0.8:0.05 \\
         --log-mass=-1:0.6:0.05 --max-level 3 --periods 500
 
@@ -43,8 +43,8 @@ def compare(adaptive, uniform):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--log-amplitude", default="-0.6:1.0:0.05")
-    p.add_argument("--log-mass", default="-0.8:0.8:0.05")
+    p.add_argument("--log-amplitude", default="-1.5:0.5:0.05")
+    p.add_argument("--log-mass", default="-1.8:0.2:0.05")
     p.add_argument("--max-level", type=int, default=3)
     p.add_argument("--drift-tolerance", type=float, default=DEFAULT_DRIFT_TOLERANCE)
     p.add_argument("--periods", type=float, default=500.0)
