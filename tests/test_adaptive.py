@@ -3,8 +3,10 @@ finest step on windows across the jumping boundary and the fundamental
 resonance; refusal of bad levels, mismatched parameters and damaged batches
 or stores; resumption after a kill.  Preview fidelity, short runs."""
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -48,6 +50,7 @@ def maps(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(WINDOWS))
 def test_adaptive_map_equals_uniform_sweep(maps, name):
     ad, un, fraction = maps[name]
@@ -76,6 +79,7 @@ def test_adaptive_map_equals_uniform_sweep(maps, name):
     assert np.unique(un["drift"].values).size > 1 and np.unique(un["contact"].values).size > 1
 
 
+@pytest.mark.slow
 def test_filled_values_come_from_their_cell(maps):
     # A filled point's continuous values lie between its cell's corners
     # (bilinear), so within the range of the computed points.
@@ -276,3 +280,39 @@ def test_cli_refusals(tmp_path, extra, match):
     r = subprocess.run(_cli(out, *extra), capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and match in r.stderr, r.stderr
     assert not os.path.exists(out) and not os.path.exists(out + ".partial")
+
+
+@pytest.mark.slow
+def test_sigkilled_cli_resumes_bit_identical(tmp_path):
+    # A real process killed (SIGKILL) after its first batch, then run again
+    # with the same command, ends equal to an uninterrupted run (but for the
+    # wall times) and keeps the points the killed run saved.
+    window = ["--log-amplitude=-0.6:0.2:0.05", "--log-mass=0:0.8:0.05", "--periods", "3000",
+              "--fidelity", "preview", "--workers", "1", "--adaptive", "--max-level", "2"]
+    cmd = [sys.executable, "-m", "vibtrans.cli", "sweep", *window, "--out"]
+    full, part = str(tmp_path / "full.zarr"), str(tmp_path / "part.zarr")
+    subprocess.run([*cmd, full], check=True, capture_output=True, timeout=600)
+    proc = subprocess.Popen([*cmd, part], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.time() + 300
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        if os.path.isdir(part + ".partial") and any(
+                f.endswith(".npz") for f in os.listdir(part + ".partial")):
+            break
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not os.path.exists(part), "finished before the kill: nothing tested"
+    saved = {}
+    for f in os.listdir(part + ".partial"):
+        if f.endswith(".npz"):
+            with np.load(os.path.join(part + ".partial", f)) as z:
+                saved.update({(int(i), int(j)): s for i, j, s in zip(z["i"], z["j"], z["seconds"])})
+    assert saved
+    subprocess.run([*cmd, part], check=True, capture_output=True, timeout=600)
+    a, b = open_map(full), open_map(part)
+    for v in [*STORED, "computed"]:
+        assert np.array_equal(a[v].values, b[v].values, equal_nan=True), v
+    # the saved points were not recomputed: their wall times are the killed run's
+    assert all(b["seconds"].values[p] == s for p, s in saved.items())
+    assert not os.path.exists(part + ".partial")
