@@ -228,10 +228,34 @@ def cmd_sweep(args):
                   kind=args.kind, chaos=args.chaos)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
+    if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
+        raise InputError("--max-level and --drift-tolerance refine an adaptive map: add "
+                         "--adaptive")
+    if args.adaptive:
+        from .adaptive import DEFAULT_DRIFT_TOLERANCE, check_levels, check_tolerance
+        if args.kind != "transport":
+            raise InputError(f"--adaptive makes drift maps (--kind transport), not "
+                             f"--kind {args.kind}")
+        if args.max_level is None:
+            raise InputError("--adaptive needs --max-level K (1..8): the finest grid's "
+                             "refinements of the coarse grid")
+        if args.executor != "threads":
+            raise InputError("--adaptive runs on threads or --scheduler, not "
+                             "--executor processes")
+        check_levels(sweep, args.max_level)        # before any file is made
+        tol = check_tolerance(DEFAULT_DRIFT_TOLERANCE if args.drift_tolerance is None
+                              else args.drift_tolerance)
     out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
     new = not os.path.exists(out)
     check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
     try:
+        if args.adaptive:
+            from .adaptive import run_adaptive
+            fraction = run_adaptive(sweep, out, args.max_level, tol, workers=args.workers,
+                                    scheduler=args.scheduler)
+            print(out)
+            print(f"computed fraction {fraction:.4f}")
+            return 0
         run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
                   executor=args.executor)
     except OSError as exc:
@@ -553,6 +577,16 @@ def build_parser():
     w.add_argument("--workers", type=int, help="local workers (default: all cores)")
     w.add_argument("--executor", default="threads", choices=("threads", "processes"),
                    help="local pool kind (threads measured faster)")
+    w.add_argument("--adaptive", action="store_true",
+                   help="refine only where a cell's corners disagree (drift class, contact, "
+                        "chaos, drift velocity): the grid above is the finest level; "
+                        "resumes from OUT.partial/")
+    w.add_argument("--max-level", type=int,
+                   help="with --adaptive: finest level K (1..8); the coarse grid is every "
+                        "2^K-th point, so (points - 1) must be a multiple of 2^K on both axes")
+    w.add_argument("--drift-tolerance", type=_num,
+                   help="with --adaptive: refine where the corners' drift velocities spread "
+                        "more than this times max(0.1, max|v*|) (default 0.5)")
     w.set_defaults(func=cmd_sweep)
 
     v = sub.add_parser("serve", help="serve the explorer on localhost")

@@ -253,6 +253,10 @@ def verify(ds, path="store"):
         raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos "
                             f"source {chaos!r}")
     variables = variables_of(kind, chaos)
+    if "computed" in ds or "adaptive_max_level" in ds.attrs:
+        # an adaptive map (vibtrans.adaptive): which points were simulated is
+        # data too, digested with the rest
+        variables = {**variables, "computed": ("bool", False, "simulated, not filled")}
     missing = [name for name in variables if name not in ds]
     if missing:
         raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: "
