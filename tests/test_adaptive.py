@@ -316,3 +316,40 @@ def test_sigkilled_cli_resumes_bit_identical(tmp_path):
     # the saved points were not recomputed: their wall times are the killed run's
     assert all(b["seconds"].values[p] == s for p, s in saved.items())
     assert not os.path.exists(part + ".partial")
+
+
+def test_each_level_gives_a_complete_picture_ending_in_the_map(tmp_path):
+    """on_level: after the coarse grid and after each refinement, the map so
+    far on the finest grid (filled from its cells); the last one is the
+    store's map, and the computed points only grow."""
+    path = str(tmp_path / "a.zarr")
+    seen = []
+    run_adaptive(small_sweep(), path, 2, progress=False,
+                 on_level=lambda level, ds: seen.append((level, ds)))
+    assert [level for level, _ in seen] == [0, 1, 2]
+    coarse = seen[0][1]["computed"].values
+    assert coarse.sum() == 9 and coarse[::4, ::4].all()       # 3 x 3 coarse points
+    for (_, before), (_, after) in zip(seen, seen[1:]):
+        assert (after["computed"].values >= before["computed"].values).all()
+    final = open_map(path)
+    for v in [*STORED, "computed"]:
+        assert np.array_equal(seen[-1][1][v].values, final[v].values, equal_nan=True), v
+    for _, ds in seen:                     # no hole a plot would show as NaN
+        assert np.isfinite(ds["drift_velocity"].values).all()
+
+
+def test_a_cancelled_map_stops_and_resumes(tmp_path, monkeypatch):
+    """cancel: no new point starts once set; Cancelled is raised, the store
+    is not written, and the same call later computes only what is missing."""
+    import threading
+    from vibtrans.errors import Cancelled
+    path = str(tmp_path / "a.zarr")
+    cancel = threading.Event()
+    calls = counting(monkeypatch)
+    with pytest.raises(Cancelled):
+        run_adaptive(small_sweep(), path, 2, workers=1, progress=False, cancel=cancel,
+                     on_level=lambda level, ds: cancel.set())
+    assert not os.path.exists(path) and len(calls) == 9     # the coarse grid only
+    calls = counting(monkeypatch)
+    run_adaptive(small_sweep(), path, 2, workers=1, progress=False)
+    assert 0 < len(calls) == open_map(path)["computed"].values.sum() - 9

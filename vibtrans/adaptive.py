@@ -51,7 +51,7 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 import numpy as np
 
 from .analysis import V0
-from .errors import InputError, StoreMismatch
+from .errors import Cancelled, InputError, StoreMismatch
 from .precompile import warmup
 from .sweep import (_bar, _check_store, _digest, _why, compute_point, verify)
 
@@ -105,6 +105,13 @@ class _Grid:
         for name, (dt, _, _) in self.variables.items():
             self.data[name][i, j] = np.asarray(point[name], dtype=dt)
         self.computed[i, j] = True
+
+    def copy(self):
+        other = _Grid.__new__(_Grid)
+        other.shape, other.variables = self.shape, self.variables
+        other.data = {name: a.copy() for name, a in self.data.items()}
+        other.computed = self.computed.copy()
+        return other
 
 
 def _cell_points(i0, j0, s):
@@ -255,8 +262,10 @@ def _compute_points(values, coords, chaos):
     return [compute_point(values, la, lm, chaos) for la, lm in coords]
 
 
-def _run_points(sweep, todo, grid, partial, workers, scheduler, bar):
-    """Compute the points `todo` [(i, j), ...] into grid, writing batches."""
+def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None):
+    """Compute the points `todo` [(i, j), ...] into grid, writing batches;
+    Cancelled once `cancel` (a threading.Event) is set (between tasks: the
+    finished points are kept in the partial folder)."""
     la, lm = sweep.log_amplitude, sweep.log_mass
     tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
     finished = []
@@ -282,25 +291,38 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar):
         with ThreadPoolExecutor(max_workers=workers) as pool:
             pending, queue = {}, list(tasks)
             while queue or pending:
-                while queue and len(pending) < 2 * workers:
+                while queue and len(pending) < 2 * workers and not _set(cancel):
                     t = queue.pop(0)
                     pending[pool.submit(_compute_points, *args(t))] = t
+                if not pending:          # cancelled: nothing more was started
+                    break
                 ready, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in ready:
                     done(pending.pop(fut), fut.result())
     if finished:
         partial.write(finished, grid)
+    if _set(cancel):
+        raise Cancelled("map cancelled")
 
 
-def _refine(sweep, max_level, tol, grid, compute):
+def _set(event):
+    return event is not None and event.is_set()
+
+
+def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     """The level-by-level refinement; compute(points) computes the missing
-    ones.  Returns the unrefined cells (leaves) as (i0, j0, size)."""
+    ones; on_level(level, cells) is called after each level with every cell
+    that holds its points (leaves so far and the level's cells: a complete
+    tiling, for a snapshot).  Returns the unrefined cells (leaves) as
+    (i0, j0, size)."""
     top = 2 ** max_level
     n_a, n_m = grid.shape
     cells = [(i, j) for i in range(0, n_a - 1, top) for j in range(0, n_m - 1, top)]
     compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}))
     leaves = []
     size = top
+    if on_level is not None:
+        on_level(0, [(i, j, size) for i, j in cells])
     for _level in range(max_level):
         refined, pending = set(), set(cells)
         while pending:          # until no cell of this level changes its verdict
@@ -313,6 +335,8 @@ def _refine(sweep, max_level, tol, grid, compute):
         leaves += [(i, j, size) for i, j in cells if (i, j) not in refined]
         cells = sorted({ch for c in refined for ch in _children(c[0], c[1], size)})
         size //= 2
+        if on_level is not None:
+            on_level(_level + 1, leaves + [(i, j, size) for i, j in cells])
     return leaves         # (cells of size 1 hold no missing points)
 
 
@@ -349,13 +373,20 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
 
 
 def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
-                 workers=None, scheduler=None, progress=True):
+                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None):
     """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
     finest) into the Zarr store `path`, resuming from `<path>.partial/`.
 
     max_level: the finest level K (1..8); drift_tolerance: the relative drift
-    velocity spread that refines a cell (module docstring).  Returns the
-    fraction of finest-grid points computed.
+    velocity spread that refines a cell (module docstring).
+    on_level: callable(level, snapshot), called after level 0 (the coarse
+        grid) and after each refinement, with the map so far on the finest
+        grid (an xarray Dataset like the final store's: points not yet
+        computed filled from their cell): a progressive picture.
+    cancel: a threading.Event; once set, no new point starts and the call
+        raises vibtrans.errors.Cancelled (the finished points stay in the
+        partial folder: the same call resumes).
+    Returns the fraction of finest-grid points computed.
     """
     import xarray as xr
     if sweep.kind != "transport":
@@ -394,10 +425,16 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
         bar.total = (bar.total or 0) + len(todo)
         bar.refresh()
         if todo:
-            _run_points(sweep, todo, grid, partial, workers, client, bar)
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel)
+        elif _set(cancel):
+            raise Cancelled("map cancelled")
+
+    def level_done(level, cells):
+        on_level(level, snapshot(sweep, grid, cells))
 
     try:
-        leaves = _refine(sweep, max_level, tol, grid, compute)
+        leaves = _refine(sweep, max_level, tol, grid, compute,
+                         None if on_level is None else level_done)
     finally:
         bar.close()
         if client is not None:
@@ -407,6 +444,19 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     _write_store(sweep, grid, path, max_level, tol, fraction)
     shutil.rmtree(partial.folder, ignore_errors=True)
     return fraction
+
+
+def snapshot(sweep, grid, cells):
+    """The map so far as a Dataset on the finest grid: a copy of the grid
+    filled from `cells` (a tiling), with `computed`."""
+    import xarray as xr
+    copy = grid.copy()
+    fill(copy, cells)
+    coords = {"log_amplitude": sweep.log_amplitude, "log_mass": sweep.log_mass}
+    dims = ("log_amplitude", "log_mass")
+    return xr.Dataset({**{name: (dims, a) for name, a in copy.data.items()},
+                       "computed": (dims, copy.computed)}, coords=coords,
+                      attrs={**sweep.attrs(), "computed_fraction": float(copy.computed.mean())})
 
 
 def _write_store(sweep, grid, path, max_level, tol, fraction):
