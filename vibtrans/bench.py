@@ -291,9 +291,89 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
     return 0
 
 
+# Issue 16's sweep window: log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5
+SWEEP_WINDOW = ((-3.0, 3.0), (-5.0, 5.0))
+SWEEP_MU = 0.5
+
+
+def _window_sweep(points, **values):
+    from .sweep import Sweep
+    (a0, a1), (m0, m1) = SWEEP_WINDOW
+    return Sweep(np.linspace(a0, a1, points), np.linspace(m0, m1, points), chunk_rows=1,
+                 mu=SWEEP_MU, **values)
+
+
+def sweep_step_ratio(quick=False):
+    """Issue 16's figure of a sweep's overhead, measured in one run: a
+    standard, 2000-period sweep of the 41 x 41 window (SWEEP_WINDOW; quick:
+    11 x 11, 500 periods) on all local cores, as
+
+        (wall seconds x cores) / (the points' integration steps x the
+        vertical-only kernel's seconds per step on one core),
+
+    the kernel timed round-robin in the same run.  1 would be a sweep that
+    does nothing but vertical steps on every core; the deformable step
+    itself costs ~1.9 of them (`vibtrans bench`).  The points judge chaos by
+    their Lyapunov exponent (no twin runs)."""
+    import shutil
+    import tempfile
+
+    from .sweep import run_sweep
+    from .precompile import warmup
+    warmup()
+    points, periods = (11, 500.0) if quick else (41, 2000.0)
+    sweep = _window_sweep(points, periods=periods)
+    cores = os.cpu_count() or 1
+    vertical = paper_scene(1).replace(model="vertical")
+    ns_before, = _interleaved_ns([(vertical, {})], 3)
+    tmp = tempfile.mkdtemp()
+    try:
+        t0 = time.perf_counter()
+        run_sweep(sweep, f"{tmp}/s.zarr", workers=cores, progress=False)
+        wall = time.perf_counter() - t0
+        import xarray as xr
+        steps = int(xr.open_zarr(f"{tmp}/s.zarr", consolidated=False)["steps"].values.sum())
+    finally:
+        shutil.rmtree(tmp)
+    ns_after, = _interleaved_ns([(vertical, {})], 3)
+    ns = min(ns_before, ns_after)
+    return {"sweep_points": points * points, "sweep_periods": periods, "cores": cores,
+            "sweep_seconds": wall, "sweep_steps": steps, "vertical_ns_per_step": ns,
+            "sweep_step_ratio": wall * cores / (steps * ns * 1e-9)}
+
+
+def preview_window_times(quick=False):
+    """Issue 16's progressive preview: an adaptive preview, 500-period map of
+    the same window (41 x 41 finest points, 3 levels: a 6 x 6 coarse grid;
+    quick: 17 x 17, 2 levels, 200 periods) on all local cores; seconds to
+    the first (coarse) image and to the complete map."""
+    import shutil
+    import tempfile
+
+    from .adaptive import run_adaptive
+    from .precompile import warmup
+    warmup()
+    points, levels, periods = (17, 2, 200.0) if quick else (41, 3, 500.0)
+    sweep = _window_sweep(points, periods=periods, fidelity="preview")
+    first = []
+    tmp = tempfile.mkdtemp()
+    try:
+        t0 = time.perf_counter()
+        fraction = run_adaptive(sweep, f"{tmp}/a.zarr", levels, progress=False,
+                                on_level=lambda level, ds: first.append(
+                                    time.perf_counter() - t0))
+        total = time.perf_counter() - t0
+    finally:
+        shutil.rmtree(tmp)
+    return {"preview_points": points * points, "preview_levels": levels,
+            "preview_periods": periods, "preview_computed_fraction": fraction,
+            "preview_first_image_seconds": first[0], "preview_window_seconds": total}
+
+
 def sweep_bench(quick=False):
     """Points per second of a small sweep on 1 and 2 workers, processes vs
-    threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)))."""
+    threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)));
+    then issue 16's sweep_step_ratio and the progressive preview's times."""
     import shutil
     import tempfile
 
@@ -315,4 +395,6 @@ def sweep_bench(quick=False):
                 out[f"{executor}_2_points_per_second"] / (2 * out[f"{executor}_1_points_per_second"]))
     finally:
         shutil.rmtree(tmp)
+    out.update(sweep_step_ratio(quick))
+    out.update(preview_window_times(quick))
     return out
