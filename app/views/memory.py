@@ -31,6 +31,7 @@ from vibtrans import Cancelled, plots
 from vibtrans.simulate import memory_snapshot, memory_snapshots
 
 from .. import inputs
+from .note import note_pane, say
 
 log = logging.getLogger("vibtrans.explorer.memory")
 
@@ -41,7 +42,6 @@ PANEL_HEIGHT = 300
 SQUARE = 210           # the contact circle's frame (pixels)
 TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/live.py)
 EMPTY_TITLE = "memory diagram: run a deformable scene"
-MESSAGE_STYLE = {"color": "#b00020", "font-size": "0.85em"}
 _NAN = float("nan")
 
 
@@ -109,7 +109,7 @@ class MemoryView(pn.viewable.Viewer):
         self.slider.param.watch(self._on_slide, "value")
         self.busy = pn.indicators.LoadingSpinner(value=True, size=20, visible=False)
         self.status = pn.pane.Markdown("", margin=(0, 5))
-        self.note = pn.pane.Markdown("", visible=False, styles=MESSAGE_STYLE)
+        self.note = note_pane()
         self.figures_pane = pn.pane.Bokeh(self.figures, name="memory-figures")
         self.layout = pn.Column(
             pn.Row(self.slider, self.busy, self.status),
@@ -355,8 +355,4 @@ class MemoryView(pn.viewable.Viewer):
 
     def _say(self, text):
         """A message: the explorer's (error callback) or the view's own."""
-        if text and self.error is not None:
-            self.error(text)
-            return
-        self.note.object = text
-        self.note.visible = bool(text)
+        say(self, text)
