@@ -375,13 +375,14 @@ def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=
     values = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
                   fidelity=fidelity)
     points, per, steps = compute_cost(la, lm, values)
-    report(f"computing a {fidelity} map: {la.size} x {lm.size} = {points} points x "
-           f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
-           f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
-           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g})")
     key = json.dumps({**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]},
                      sort_keys=True)
     path = Path(store_dir) / f"design-{hashlib.sha256(key.encode()).hexdigest()[:16]}.zarr"
+    verb = "reading (resuming if unfinished)" if path.exists() else "computing"
+    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x "
+           f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
+           f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
+           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g})")
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
