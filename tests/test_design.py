@@ -304,3 +304,15 @@ def test_cli_computed_presets_export(name, tmp_path, capsys):
     assert "integration steps" in captured.err
     assert "map computed:" in captured.out
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_parser_loads_no_numerics():
+    # `vibtrans serve` re-executes itself after building the parser: the
+    # design subcommand's options must not import numpy (tests/test_lazy_import.py)
+    import subprocess
+    import sys
+    code = ("import sys, vibtrans.cli; vibtrans.cli.build_parser(); "
+            "print([m for m in ('numpy', 'vibtrans.design') if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]", out

@@ -760,7 +760,7 @@ def build_parser():
 
 
 def _design_parser(sub):
-    from .design import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES
+    from .designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES
     d = sub.add_parser(
         "design", help="design chart in device units: drift velocity over two of frequency, "
                        "radius and amplitude, regimes, validity warnings")

@@ -33,6 +33,8 @@ import numpy as np
 from . import units
 from .errors import InputError, InputTypeError
 from .units import DeviceSpec
+# (in a module of their own: the command line's parser needs them without numpy)
+from .designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES  # noqa: F401
 
 G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
 
@@ -48,11 +50,6 @@ ADHESION_RATIO = 0.1
 # The model drops k_R x (docs/MODEL.md 1): warn where the particle moves a
 # hundredth of a wavelength or more per period (a phase slip of 0.063 rad).
 TRAVEL_FRACTION = 0.01
-# Work of adhesion w of two solids in air held by van der Waals forces:
-# w = A_H / (12 pi D0^2) with a Hamaker constant A_H = 1e-19 J (typical of
-# inorganic solids) and the contact cut-off D0 = 0.165 nm (Israelachvili,
-# Intermolecular and Surface Forces, 3rd ed. 2011, sec. 13.6) gives 0.097 J/m^2.
-DEFAULT_SURFACE_ENERGY = 0.1      # J/m^2 (work of adhesion)
 # Pull-off force of a sphere of radius R on a flat: JKR 1.5 pi w R, DMT 2 pi w R.
 # The warning uses DMT, the larger: it warns first (conservative).
 JKR_FACTOR = 1.5 * math.pi
@@ -63,7 +60,6 @@ AXES = ("frequency", "radius", "amplitude")
 AXIS_LABELS = {"frequency": "frequency f (Hz)", "radius": "particle radius R (m)",
                "amplitude": "wave amplitude A_y (m)"}
 MAX_AXIS_POINTS = 400             # per axis: 160000 chart points at most
-MAP_STEP = 0.05                   # decades, the shipped maps' grid
 # The shipped maps are at theta = 1.2, nu = 0.3 (the paper's). A device is read
 # on them when its theta and nu are this close: steel on glass (the paper's own
 # device, theta = 1.214) is; 0.005 in nu moves r by 0.25% (units.amplitude_ratio).
@@ -126,7 +122,6 @@ def _presets():
     }
 
 
-PRESET_NAMES = ("paper", "saw-motor", "saw-powder", "feeder")
 
 
 def preset(name):
