@@ -1,6 +1,7 @@
 """Design charts in device units (vibtrans.design, `vibtrans design`)."""
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -145,7 +146,6 @@ def test_chart_equals_direct_simulation_within_grid_error(shipped):
     # direct value must lie within the spread of v* over that point and its 8
     # neighbours, widened by the map's stated standard-fidelity error (0.5%).
     base = design.preset("paper").device
-    from dataclasses import replace
     dev = replace(base, frequency=base.frequency * 1.3, amplitude=base.amplitude * 0.8)
     reading = design.read_device(dev)
     s = dev.normalized()
@@ -175,7 +175,6 @@ def test_a0_warning_both_sides():
     base = design.preset("paper").device
     a0 = base.normalized().a0
     r_c = base.radius * (design.ATOMIC_SPACING / a0) ** 0.6
-    from dataclasses import replace
     assert "a0-subatomic" in _codes(replace(base, radius=r_c * 0.99))
     assert "a0-subatomic" not in _codes(replace(base, radius=r_c * 1.01))
 
@@ -185,7 +184,6 @@ def test_contact_radius_warning_both_sides():
     base = design.preset("paper").device
     a_c = math.sqrt(base.radius * base.normalized().a0)
     r_c = base.radius * (design.MIN_CONTACT_RADIUS / a_c) ** 0.75
-    from dataclasses import replace
     assert "contact-subatomic" in _codes(replace(base, radius=r_c * 0.99))
     assert "contact-subatomic" not in _codes(replace(base, radius=r_c * 1.01))
 
