@@ -1,4 +1,4 @@
-"""Command line: vibtrans simulate | threshold | sweep | serve | bench | export.
+"""Command line: vibtrans simulate | threshold | sweep | serve | bench | export | design.
 
 Bad input exits with status 2 and one line naming the parameter and its
 valid range.
@@ -265,6 +265,168 @@ def cmd_sweep(args):
                          f"existed before is kept and resumes") from None
     print(out)
     return 0
+
+
+def _design_axis(text, name):
+    """'QUANTITY:LO:HI:N' -> (quantity, lo, hi, n); design.design_chart checks the values."""
+    parts = str(text).split(":")
+    if len(parts) != 4:
+        raise InputError(f"{name} must be QUANTITY:LO:HI:N (quantity one of frequency, "
+                         f"radius, amplitude), got {text!r}")
+    q, lo, hi, n = parts
+    n = _num(n)
+    if isinstance(n, float) and n.is_integer():
+        n = int(n)
+    return (q, _num(lo), _num(hi), n)
+
+
+def _fmt(value, unit=""):
+    return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
+
+
+def _design_text(dev, q, warnings, reading):
+    lines = [f"device: {units_name(dev.particle)} sphere, R = {dev.radius:.4g} m, on "
+             f"{units_name(dev.substrate)}; f = {dev.frequency:.4g} Hz, A_y = "
+             f"{dev.amplitude:.4g} m, pre-load {dev.preload:g} N",
+             f"  A* = {q.A_star:.4g}, m* = {q.m_star:.4g} (theta {q.theta:.4g}, nu {q.nu:g}, "
+             f"r {q.r:.4g})",
+             f"  a0 = {q.a0:.4g} m, contact radius {q.contact_radius:.4g} m, mean contact "
+             f"pressure {q.mean_contact_pressure:.4g} Pa, load {q.load:.4g} N",
+             f"  peak surface acceleration {q.peak_acceleration_g:.4g} g, peak velocity "
+             f"{q.peak_velocity:.4g} m/s (vertical; horizontal x r)",
+             f"  Rayleigh speed {q.rayleigh_speed:.4g} m/s, wavelength "
+             f"{q.rayleigh_wavelength:.4g} m",
+             f"  pull-off (w = surface energy): JKR {q.pull_off_jkr:.4g} N, DMT "
+             f"{q.pull_off_dmt:.4g} N"]
+    if reading is None:
+        lines.append("  drift: not read (the device is off the map used, or no shipped map "
+                     "serves it)")
+    else:
+        lines += [f"  drift ({reading['map']}, nearest grid point): v* = {q.v_star:.4g}, "
+                  f"v = {q.drift_velocity:.4g} m/s, {reading['regime']}",
+                  f"  contact time per period {_fmt(q.contact_time, 's')}, travel per period "
+                  f"{_fmt(q.travel_per_period, 'm')} = {_fmt(q.travel_over_wavelength)} "
+                  f"wavelengths"]
+    lines += [f"warning: {w.message}" for w in warnings] or ["no validity warnings"]
+    return "\n".join(lines)
+
+
+def units_name(m):
+    return m if isinstance(m, str) else m.name
+
+
+def cmd_design(args):
+    from pathlib import Path
+    from . import design, units
+    pre = design.preset(args.preset) if args.preset else None
+    device_values = {}
+    for q in design.AXES:
+        v = getattr(args, q)
+        if v is not None:
+            device_values[q] = _finite(q, v, 0.0)
+        elif pre is not None:
+            device_values[q] = getattr(pre.device, q)
+    substrate = args.substrate or (pre.device.substrate if pre else None)
+    particle = args.particle or (pre.device.particle if pre else None)
+    if substrate is None or particle is None:
+        raise InputError("substrate and particle: give --preset or both --substrate and "
+                         "--particle")
+    substrate, particle = units.material(substrate), units.material(particle)
+    preload = (args.preload if args.preload is not None
+               else (pre.device.preload if pre else 0.0))
+    preload = _finite("preload", preload, 0.0, math.inf) if preload else 0.0
+    x = _design_axis(args.x, "x") if args.x else (pre.x if pre else None)
+    y = _design_axis(args.y, "y") if args.y else (pre.y if pre else None)
+    if x is None or y is None:
+        raise InputError("x and y: give --preset or both --x and --y "
+                         "(QUANTITY:LO:HI:N, e.g. frequency:1e4:1e6:41)")
+    third = [q for q in design.AXES if q not in (x[0], y[0])]
+    if len(third) != 1:
+        raise InputError(f"x and y must be two different quantities among "
+                         f"{', '.join(design.AXES)}, got {x[0]!r} and {y[0]!r}")
+    fixed_q = third[0]
+    if fixed_q not in device_values:
+        raise InputError(f"{fixed_q}: the quantity not on an axis needs a value "
+                         f"(--{fixed_q})")
+    outs = args.out or []
+    for out in outs:
+        ext = Path(out).suffix.lower()
+        if ext not in (".png", ".svg", ".pdf", ".nc", ".csv"):
+            raise InputError(f"out must end in .png, .svg, .pdf, .nc or .csv, got {out!r}")
+        check_file(out)
+    surface_energy = _finite("surface_energy", args.surface_energy, 0.0, math.inf)
+    mu = _finite("mu", args.mu, 0.0)
+    device = None
+    if len(device_values) == 3:
+        device = units.DeviceSpec(substrate, particle, device_values["radius"],
+                                  device_values["frequency"], device_values["amplitude"],
+                                  preload=preload)
+    report = (lambda text: print(text, file=sys.stderr))
+    chart = design.design_chart(substrate, particle, preload, x, y,
+                                (fixed_q, device_values[fixed_q]), mu=mu,
+                                surface_energy=surface_energy, maps=args.maps,
+                                compute=args.compute, store_dir=args.store,
+                                step=_finite("step", args.step, 0.0, 1.0),
+                                periods=_finite("periods", args.periods, 0.0), report=report,
+                                workers=args.workers)
+    reading = q = None
+    warnings = []
+    if device is not None:
+        reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart)
+        q = design.device_quantities(device, reading, surface_energy)
+        warnings = design.validity_warnings(device, surface_energy, q.drift_velocity)
+    chart_warnings = _chart_warnings(chart)
+    for out in outs:
+        ext = Path(out).suffix.lower()
+        if ext in (".nc", ".csv"):
+            design.write_chart_data(chart, out)
+        else:
+            from .export import export_design
+            mark = None if device is None else (getattr(device, x[0]), getattr(device, y[0]))
+            export_design(chart, out, device=mark)
+    if args.json:
+        print(json.dumps({
+            "device": None if q is None else {k: _jsonable(v) for k, v in q.as_dict().items()},
+            "regime": None if reading is None else reading["regime"],
+            "warnings": [w.__dict__ for w in warnings],
+            "chart_warnings": chart_warnings,
+            "chart": {"attrs": {k: _jsonable(v) for k, v in chart.attrs.items()},
+                      x[0]: chart[x[0]].values.tolist(), y[0]: chart[y[0]].values.tolist(),
+                      **{name: [[_jsonable(float(v)) for v in row]
+                                for row in chart[name].values]
+                         for name in ("drift_velocity", "v_star", "regime", "A_star",
+                                      "m_star")}},
+            "outputs": outs}))
+    else:
+        if device is not None:
+            print(_design_text(device, q, warnings, reading))
+        print(f"chart: {chart.sizes[y[0]]} x {chart.sizes[x[0]]} points, map "
+              f"{chart.attrs['map']} ({chart.attrs['reading']})")
+        for text in chart_warnings:
+            print(f"chart warning: {text}")
+        for out in outs:
+            print(out)
+    return 0
+
+
+def _chart_warnings(chart):
+    """One line per validity threshold that some chart points cross."""
+    from . import design
+    out = []
+    n = chart["a0"].size
+    for var, below, threshold, what in (
+            ("a0", True, design.ATOMIC_SPACING, "a0 below the interatomic spacing"),
+            ("contact_radius", True, design.MIN_CONTACT_RADIUS,
+             "contact radius below ten interatomic spacings"),
+            ("adhesion_ratio", False, design.ADHESION_RATIO,
+             "DMT pull-off at least a tenth of the load"),
+            ("travel_over_wavelength", False, design.TRAVEL_FRACTION,
+             "travel per period at least a hundredth of the wavelength")):
+        vals = chart[var].values
+        bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
+        if bad:
+            out.append(f"{what} at {bad} of {n} points")
+    return out
 
 
 def cmd_serve(args):
@@ -627,7 +789,44 @@ def build_parser():
     b.set_defaults(func=cmd_bench)
 
     _export_parser(sub)
+    _design_parser(sub)
     return p
+
+
+def _design_parser(sub):
+    from .designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES
+    d = sub.add_parser(
+        "design", help="design chart in device units: drift velocity over two of frequency, "
+                       "radius and amplitude, regimes, validity warnings")
+    d.add_argument("--preset", help=" | ".join(PRESET_NAMES))
+    d.add_argument("--substrate", help="material name (e.g. glass, 'lithium niobate') or "
+                                       "E=<Pa>,nu=<->,rho=<kg/m^3>")
+    d.add_argument("--particle", help="material name or E=<Pa>,nu=<->,rho=<kg/m^3>")
+    d.add_argument("--radius", type=_num, help="particle radius, m")
+    d.add_argument("--frequency", type=_num, help="wave frequency, Hz")
+    d.add_argument("--amplitude", type=_num, help="vertical wave amplitude A_y, m")
+    d.add_argument("--x", help="QUANTITY:LO:HI:N (frequency | radius | amplitude), log-spaced")
+    d.add_argument("--y", help="QUANTITY:LO:HI:N")
+    d.add_argument("--preload", type=_num, help="pre-load P, N (default 0 or the preset's)")
+    d.add_argument("--mu", type=_num, default=0.3, help="friction coefficient")
+    d.add_argument("--surface-energy", type=_num, default=DEFAULT_SURFACE_ENERGY,
+                   help=f"work of adhesion w, J/m^2 (default {DEFAULT_SURFACE_ENERGY:g}: "
+                        f"van der Waals, Hamaker 1e-19 J)")
+    d.add_argument("--out", action="append", help="FILE.png|svg|pdf (chart) or FILE.nc|csv "
+                                                  "(its data); may repeat")
+    d.add_argument("--json", action="store_true", help="print the chart's numbers as JSON")
+    d.add_argument("--compute", action="store_true",
+                   help="compute the normalized window when no shipped map serves "
+                        "(preview fidelity; the cost is printed first)")
+    d.add_argument("--store", default="vibtrans-design-maps",
+                   help="folder of computed windows (reused by later runs)")
+    d.add_argument("--step", type=_num, default=MAP_STEP,
+                   help="computed window's grid step, decades")
+    d.add_argument("--periods", type=_num, default=2000.0,
+                   help="computed window's observation time, periods")
+    d.add_argument("--workers", type=int, default=None)
+    d.add_argument("--maps", help="folder of the shipped maps (default: installed)")
+    d.set_defaults(func=cmd_design)
 
 
 _VALUE_OPTIONS = {"--log-amplitude", "--log-mass", "--amplitude", "--mass", "--mu",

@@ -708,3 +708,15 @@ def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
         lines.append("")
     with atomic(Path(out_dir) / "index.md") as tmp:
         Path(tmp).write_text("\n".join(lines))
+
+
+def export_design(chart, out, device=None, dpi=DEFAULT_DPI, width=7.5, height=6.0,
+                  title=None):
+    """Design chart (`design.design_chart` Dataset) to out (.png/.svg/.pdf, or
+    .html); device: (x, y) to mark, in the chart's coordinates."""
+    _format(out, FORMATS + ("html",))
+    ensure_backends()
+    el = plots.design_figure(chart, device, title).opts(
+        {k: dict(aspect="auto") for k in ("QuadMesh", "Path", "Labels", "Points")},
+        backend="matplotlib")
+    return _write(el, out, width, height, dpi)

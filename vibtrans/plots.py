@@ -14,6 +14,7 @@ bokeh).  Figures must therefore be built after the backends they will be
 rendered with are loaded: `vibtrans.export` loads matplotlib before it builds
 anything, and loading it never changes `hv.Store.current_backend`.
 """
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -939,3 +940,111 @@ def period_one_curves(chart):
         colour, width, dash = line
         lines.append(_keyed(_styled_line(c, colour, width, dash), [(label, "line", line)]))
     return hv.Overlay(lines)
+
+
+# ---------------------------------------------------------------- design chart
+# The design chart (vibtrans.design.design_chart): drift velocity in device
+# units over two device quantities on log axes, each regime's zone outlined,
+# contours of equal speed at whole decades, the device marked.
+REGIME_COLORS = {"no drift": "#4d4d4d", "sliding with the wave": "#b2182b",
+                 "sliding against the wave": "#2166ac", "synchronous hopping": "#1b7837",
+                 "other hopping": "#e08214", "chaotic": "#762a83"}
+SPEED_CONTOUR = ("#303030", 0.8, "dotted")
+DEVICE_MARKER = "#000000"
+
+
+def level_lines(x, y, z, level):
+    """Contour lines of z (shape (y, x)) at `level`, as a list of (n, 2)
+    arrays in (x, y) coordinates (contourpy; NaN cells are left out)."""
+    import contourpy
+    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float),
+                                      np.ma.masked_invalid(np.asarray(z, float)),
+                                      line_type=contourpy.LineType.Separate)
+    return [seg for seg in gen.lines(level) if len(seg) > 1]
+
+
+def _padded(u):
+    """Coordinates u with one more point at each end, a hundredth of a step out."""
+    d0, d1 = (u[1] - u[0]) / 100, (u[-1] - u[-2]) / 100
+    return np.concatenate([[u[0] - d0], u, [u[-1] + d1]])
+
+
+def design_figure(chart, device=None, title=None):
+    """The design chart as a HoloViews overlay (log axes in device units).
+
+    chart: a `design.design_chart` Dataset; device: (x, y) of a device to
+    mark, in the chart's coordinates, or None. Colour: the signed drift
+    velocity in the paper's signed log scale (red with the wave, blue
+    against), white where the map says no drift.
+    """
+    from .design import AXIS_LABELS, REGIMES, velocity_unit
+    xq, yq = chart.attrs["x"], chart.attrs["y"]
+    x, y = chart[xq].values, chart[yq].values
+    v = chart["drift_velocity"].values
+    unit, scale = velocity_unit(v)
+    vu = v / scale
+    moving = (chart["drift"].values != 0) & np.isfinite(vu)
+    # the colour scale's floor: the slowest drifting point, one significant digit down
+    v0 = float(np.nanmin(np.abs(vu[moving]))) if moving.any() else 1.0
+    v0 = math.floor(v0 / 10 ** math.floor(math.log10(v0))) * 10 ** math.floor(math.log10(v0))
+    c = np.where(moving, colour_scale(np.where(moving, vu, 0.0), v0), 0.0)
+    c = np.where(np.isfinite(vu), c, np.nan)
+    xd = hv.Dimension(xq, label=AXIS_LABELS[xq])
+    yd = hv.Dimension(yq, label=AXIS_LABELS[yq])
+    mesh = hv.QuadMesh((x, y, c, vu), kdims=[xd, yd],
+                       vdims=[hv.Dimension("C", range=(-1, 1)),
+                              hv.Dimension("v", label=f"v ({unit})")])
+    ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
+    mesh = style(mesh, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True, logx=True,
+                                   logy=True, clabel=f"drift velocity ({unit}), signed log "
+                                                     f"scale; white: no drift"),
+                 bokeh=dict(cticks=ticks, tools=["hover"]),
+                 matplotlib=dict(cbar_ticks=ticks))
+    layers, key = [], []
+    lx, ly = np.log10(x), np.log10(y)
+    regime = chart["regime"].values
+    for k, name in enumerate(REGIMES):
+        inside = (regime == k).astype(float)
+        if not inside.any():
+            continue
+        # padded with "outside" half a cell beyond the chart, so that a zone
+        # reaching the chart's edge is closed along it
+        px, py = _padded(lx), _padded(ly)
+        lines = [10.0 ** np.clip(seg, [lx[0], ly[0]], [lx[-1], ly[-1]])
+                 for seg in level_lines(px, py, np.pad(inside, 1), 0.5)]
+        colour = REGIME_COLORS[name]
+        key.append((name, "line", (colour, 2.0, None)))
+        if lines:
+            layers.append(_styled_line(hv.Path(lines, kdims=[xd, yd]), colour, 2.0))
+    # equal speed at whole decades of the chosen unit
+    speed = np.where(moving, np.abs(vu), np.nan)
+    if np.isfinite(speed).any():
+        lo, hi = np.nanmin(speed), np.nanmax(speed)
+        labels = []
+        for e in range(int(math.ceil(np.log10(lo))), int(math.floor(np.log10(hi))) + 1):
+            segs = level_lines(lx, ly, np.log10(speed), e)
+            if not segs:
+                continue
+            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]),
+                                       *SPEED_CONTOUR))
+            longest = max(segs, key=len)
+            mx, my = 10.0 ** longest[len(longest) // 2]
+            labels.append((mx, my, f"{10.0 ** e:g}"))
+        if labels:
+            key.append((f"equal speed ({unit})", "line", SPEED_CONTOUR))
+            layers.append(style(hv.Labels(labels, kdims=[xd, yd], vdims=["text"]),
+                                bokeh=dict(text_font_size="8pt"),
+                                matplotlib=dict(fontsize=8)))
+    if device is not None:
+        pt = hv.Points([tuple(device)], kdims=[xd, yd])
+        layers.append(style(pt, common=dict(color=DEVICE_MARKER, marker="X"),
+                            bokeh=dict(size=14, line_width=3), matplotlib=dict(s=120)))
+        key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
+    if title is None:
+        title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}, "
+                 f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
+                 f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
+                 f"({chart.attrs['map']})")
+    el = hv.Overlay([_keyed(mesh, key), *layers])
+    return style(el, common=dict(title=title, logx=True, logy=True,
+                                 xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))

@@ -12,13 +12,13 @@ Everything here is plain numpy/scipy; SI units throughout unless stated.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from .errors import InputError, InputTypeError
 
 __all__ = [
-    "Material", "MATERIALS", "material",
+    "Material", "MATERIALS", "material", "material_names", "custom_material",
     "rayleigh_speed_ratio", "rayleigh_speed", "amplitude_ratio",
     "stiffness_ratio", "effective_modulus", "hertz_compression",
     "sphere_mass", "DeviceSpec", "NormalizedScene", "to_normalized",
@@ -70,12 +70,16 @@ def _poisson(name, value):
 # --------------------------------------------------------------------------- materials
 @dataclass(frozen=True)
 class Material:
-    """Isotropic linear-elastic material: E [Pa], Poisson ratio nu [-], density [kg/m^3]."""
+    """Isotropic linear-elastic material: E [Pa], Poisson ratio nu [-], density [kg/m^3].
+
+    ``source`` says where the values come from (not compared: two materials with
+    equal properties are equal whatever their citation)."""
 
     name: str
     youngs_modulus: float
     poisson_ratio: float
     density: float
+    source: str = field(default="user-supplied values", compare=False)
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -83,37 +87,114 @@ class Material:
         _positive("youngs_modulus", self.youngs_modulus)
         _poisson("poisson_ratio", self.poisson_ratio)
         _positive("density", self.density)
+        if not isinstance(self.source, str):
+            raise InputTypeError(f"source must be a string, got {self.source!r}")
 
 
+_PAPER = "Terzi, Aleshin, Ghesquiere, Tournat, Vibrational Transportation of Deformable " \
+         "Axisymmetric Particles (worked example)"
 MATERIALS: dict[str, Material] = {
-    # Values used in Terzi et al. (worked example): E = 200 GPa, nu = 0.3, rho = 8000.
-    "steel": Material("steel", 200e9, 0.3, 8000.0),
-    # Values used in Terzi et al. (substrate): E = 70 GPa, nu = 0.3, rho = 2500.
-    "glass": Material("glass", 70e9, 0.3, 2500.0),
-    # Typical handbook values for aluminium alloys (e.g. 6061: 69 GPa, 0.33, 2700).
-    "aluminium": Material("aluminium", 69e9, 0.33, 2700.0),
-    # Isotropic (polycrystalline) average; Hopcroft et al., J. MEMS 19 (2010): ~160 GPa, 0.22.
-    "silicon": Material("silicon", 160e9, 0.22, 2329.0),
-    # "quartz" here is FUSED silica (amorphous, isotropic): ~72 GPa, 0.17, 2200 (handbook).
-    "quartz": Material("fused silica", 72e9, 0.17, 2200.0),
-    # PTFE: E ~ 0.4-0.6 GPa, nu ~ 0.46, rho ~ 2200 (polymer handbooks; rate dependent).
-    "ptfe": Material("PTFE", 0.5e9, 0.46, 2200.0),
-    # LiNbO3 is strongly anisotropic (trigonal); isotropic APPROXIMATION from averaged
-    # stiffnesses (Weis & Gaylord 1985 data): E ~ 170 GPa, nu ~ 0.25, rho = 4647.
-    "lithium_niobate": Material("lithium niobate", 170e9, 0.25, 4647.0),
+    "steel": Material("steel", 200e9, 0.3, 8000.0, f"{_PAPER}: 200 GPa, 0.3, 8000 kg/m^3"),
+    "glass": Material("glass", 70e9, 0.3, 2500.0, f"{_PAPER}: 70 GPa, 0.3, 2500 kg/m^3"),
+    "stainless_steel": Material(
+        "stainless steel", 193e9, 0.29, 8000.0,
+        "ASM Handbook vol. 1 (1990), AISI 304 annealed: 193 GPa, 0.29, 8000 kg/m^3"),
+    "aluminium": Material(
+        "aluminium", 69e9, 0.33, 2700.0,
+        "ASM Handbook vol. 2 (1990), alloy 6061-T6: 68.9 GPa, 0.33, 2700 kg/m^3"),
+    "brass": Material(
+        "brass", 110e9, 0.375, 8530.0,
+        "ASM Handbook vol. 2 (1990), cartridge brass C26000: 110 GPa, 0.375, 8530 kg/m^3"),
+    "silicon": Material(
+        "silicon", 160e9, 0.22, 2329.0,
+        "Hopcroft, Nix, Kenny, J. MEMS 19, 229 (2010): isotropic (polycrystalline) "
+        "average ~160 GPa, 0.22; density 2329 kg/m^3"),
+    # the key stays "quartz" (older name); "fused silica" is how people write it
+    "quartz": Material(
+        "fused silica", 72e9, 0.17, 2200.0,
+        "Corning HPFS 7980 fused silica datasheet: 72.7 GPa, 0.16, 2201 kg/m^3 "
+        "(rounded handbook values 72 GPa, 0.17, 2200)"),
+    "alumina": Material(
+        "alumina", 370e9, 0.22, 3900.0,
+        "CoorsTek AD-995 (99.5% Al2O3) datasheet: 370 GPa, 0.22, 3900 kg/m^3"),
+    "ptfe": Material(
+        "PTFE", 0.5e9, 0.46, 2200.0,
+        "polymer handbooks (e.g. Mark, Physical Properties of Polymers Handbook, 2007): "
+        "E 0.4-0.6 GPa (rate dependent), 0.46, 2200 kg/m^3"),
+    "polystyrene": Material(
+        "polystyrene", 3.2e9, 0.34, 1050.0,
+        "polymer handbooks (e.g. Mark, Physical Properties of Polymers Handbook, 2007): "
+        "E 3.0-3.5 GPa, 0.34, 1050 kg/m^3 (microsphere powders)"),
+    # LiNbO3 and LiTaO3 are anisotropic (trigonal): isotropic APPROXIMATIONS
+    "lithium_niobate": Material(
+        "lithium niobate", 170e9, 0.25, 4647.0,
+        "isotropic approximation from averaged stiffnesses (Weis & Gaylord, Appl. Phys. A "
+        "37, 191 (1985) data): ~170 GPa, ~0.25, 4647 kg/m^3"),
+    "lithium_tantalate": Material(
+        "lithium tantalate", 222e9, 0.21, 7454.0,
+        "isotropic (Voigt) average of Smith & Welsh, J. Appl. Phys. 42, 2219 (1971) "
+        "stiffnesses c11 233, c12 47, c13 80, c33 275, c44 94 GPa: 222 GPa, 0.21; "
+        "7454 kg/m^3"),
 }
-_ALIASES = {"aluminum": "aluminium", "fused_silica": "quartz", "teflon": "ptfe",
-            "linbo3": "lithium_niobate"}
+_ALIASES = {"aluminum": "aluminium", "fused_silica": "quartz", "silica": "quartz",
+            "teflon": "ptfe", "linbo3": "lithium_niobate", "litao3": "lithium_tantalate",
+            "ss304": "stainless_steel", "304_stainless_steel": "stainless_steel",
+            "al2o3": "alumina", "ps": "polystyrene", "si": "silicon"}
+# the keyword form of a custom material, e.g. "E=70e9,nu=0.3,rho=2500"
+CUSTOM_KEYS = {"e": "youngs_modulus", "nu": "poisson_ratio", "rho": "density"}
+
+
+def material_names():
+    """Every name and alias `material` accepts, as people write them."""
+    return sorted({m.name for m in MATERIALS.values()} | set(MATERIALS) | set(_ALIASES))
+
+
+def custom_material(youngs_modulus, poisson_ratio, density, name="custom"):
+    """A material by its three properties: E [Pa], nu in (0, 0.5), density [kg/m^3]."""
+    return Material(name, youngs_modulus, poisson_ratio, density,
+                    source="user-supplied values")
+
+
+def _parse_custom(text):
+    """'E=70e9,nu=0.3,rho=2500' -> Material, or None if the text is no such form."""
+    if "=" not in text:
+        return None
+    values = {}
+    for part in text.split(","):
+        key, _, value = part.partition("=")
+        key = key.strip().lower()
+        if key not in CUSTOM_KEYS:
+            raise InputError(f"custom material {text!r}: unknown property {key!r}; "
+                             f"write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
+        try:
+            values[CUSTOM_KEYS[key]] = float(value)
+        except ValueError:
+            raise InputError(f"custom material {text!r}: {key} must be a number, "
+                             f"got {value!r}") from None
+    missing = [k for k, v in CUSTOM_KEYS.items() if v not in values]
+    if missing:
+        raise InputError(f"custom material {text!r} lacks {', '.join(missing)}; "
+                         f"write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
+    return custom_material(name=f"custom ({text.strip()})", **values)
 
 
 def material(name: str) -> Material:
-    """Look up a material by (case-insensitive) name; ValueError lists valid names."""
+    """Look up a material by (case-insensitive) name or alias ("lithium niobate",
+    "LiNbO3", "fused silica", "teflon", ...), or build one from the form
+    "E=<Pa>,nu=<->,rho=<kg/m^3>"; InputError lists the valid names."""
     if not isinstance(name, str):
         raise InputTypeError(f"material name must be a string, got {name!r}")
+    custom = _parse_custom(name)
+    if custom is not None:
+        return custom
     key = name.strip().lower().replace(" ", "_").replace("-", "_")
     key = _ALIASES.get(key, key)
     if key not in MATERIALS:
-        raise InputError(f"unknown material {name!r}; valid names: {', '.join(sorted(MATERIALS))}")
+        by_name = {m.name.lower().replace(" ", "_"): k for k, m in MATERIALS.items()}
+        key = by_name.get(key, key)
+    if key not in MATERIALS:
+        raise InputError(f"unknown material {name!r}; valid names: "
+                         f"{', '.join(material_names())}, or E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
     return MATERIALS[key]
 
 
