@@ -37,7 +37,8 @@ from . import units
 from .errors import InputError, InputTypeError
 from .units import DeviceSpec
 # (in a module of their own: the command line's parser needs them without numpy)
-from .designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES  # noqa: F401
+from .designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, MAP_STEP,  # noqa: F401
+                          PRESET_NAMES, REGIMES, velocity_unit)
 
 G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
 
@@ -60,8 +61,6 @@ DMT_FACTOR = 2.0 * math.pi
 
 # ---------------------------------------------------------------- chart axes
 AXES = ("frequency", "radius", "amplitude")
-AXIS_LABELS = {"frequency": "frequency f (Hz)", "radius": "particle radius R (m)",
-               "amplitude": "wave amplitude A_y (m)"}
 MAX_AXIS_POINTS = 400             # per axis: 160000 chart points at most
 # The shipped maps are at theta = 1.2, nu = 0.3 (the paper's). A device is read
 # on them when its theta and nu are this close: steel on glass (the paper's own
@@ -73,9 +72,6 @@ NU_TOLERANCE = 0.005
 MAX_COMPUTE_POINTS = 20000        # a computed window larger than this is refused
 COMPUTE_FIDELITY = "preview"
 
-# Regimes of a chart point (outlined on the figure), from the map's flags.
-REGIMES = ("no drift", "sliding with the wave", "sliding against the wave",
-           "synchronous hopping", "other hopping", "chaotic")
 SYNCHRONOUS_PATTERNS = (1, 2)     # sweep.PATTERNS: synchronous, multi-synchronous
 
 
@@ -577,13 +573,6 @@ def read_device(device, mu=0.3, maps=None, chart=None):
             "regime": REGIMES[int(regime_of(got["drift"], got["contact"], got["pattern"],
                                             got["chaotic"])[0])],
             "map": path.name}
-
-
-def velocity_unit(v):
-    """(name, scale) of the unit that reads best for speeds v [m/s]: mm/s when
-    the largest |v| is at least 1 mm/s, else um/s."""
-    vmax = np.nanmax(np.abs(v)) if np.isfinite(v).any() else 0.0
-    return ("mm/s", 1e-3) if vmax >= 1e-3 else ("um/s", 1e-6)
 
 
 def write_chart_data(chart, out):

@@ -977,7 +977,7 @@ def design_figure(chart, device=None, title=None):
     velocity in the paper's signed log scale (red with the wave, blue
     against), white where the map says no drift.
     """
-    from .design import AXIS_LABELS, REGIMES, velocity_unit
+    from .designconst import AXIS_LABELS, REGIMES, velocity_unit
     xq, yq = chart.attrs["x"], chart.attrs["y"]
     x, y = chart[xq].values, chart[yq].values
     v = chart["drift_velocity"].values
