@@ -557,6 +557,8 @@ def cmd_export(args):
         E.export_memory(snapshot, args.out, **sizes)
     elif kind in ("lyapunov-map", "section", "orbit-diagram", "continuation"):
         _export_dynamics(args, kind, maps, sizes)
+    elif kind == "map-difference":
+        _export_map_difference(args, maps, v0, sizes)
     else:
         periods = None
         if args.periods_given:
@@ -619,6 +621,44 @@ def _export_dynamics(args, kind, maps, sizes):
     return E.export_dynamics(plots.continuation_figure(branch), args.out, **sizes)
 
 
+def _open_named_map(text, maps, option):
+    """A drift map named on the command line: a store's path, or a shipped
+    map's name (deformable-mu0.3, point-mass-mu0.3, ...)."""
+    from pathlib import Path
+
+    from .sweep import open_map
+    path = Path(text)
+    if not path.exists():
+        shipped = Path(maps) / (text if text.endswith(".zarr") else text + ".zarr")
+        if not shipped.exists():
+            have = sorted(p.stem for p in Path(maps).glob("*-mu*.zarr"))
+            raise InputError(f"{option}: no store {text!r} and no shipped map of that name in "
+                             f"{maps} (shipped: {', '.join(have) or 'none'})")
+        path = shipped
+    try:
+        return open_map(str(path))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{option}: {exc}") from None
+
+
+def _export_map_difference(args, maps, v0, sizes):
+    from . import export as E
+    from . import plots
+    from .mapdiff import map_difference
+    if not args.map or not args.other:
+        raise InputError("map-difference needs --map A and --other B (a store's path or a "
+                         "shipped map's name such as deformable-mu0.3)")
+    diff = map_difference(_open_named_map(args.map, maps, "map"),
+                          _open_named_map(args.other, maps, "other"), v0=v0)
+    E.ensure_backends()
+    E.export_dynamics(plots.map_difference_figure(diff), args.out, **sizes)
+    a = diff.attrs
+    print(f"{a['second']} against {a['first']}: {a['compared_points']} points compared, "
+          f"{a['regular_points']} regular in both; drift class agrees at "
+          f"{100 * a['class_agreement']:.1f}%, median relative drift difference "
+          f"{a['median_relative_difference']:.3g}")
+
+
 class _Given(argparse.Action):
     """Store the value and remember that the option was given."""
 
@@ -634,7 +674,8 @@ def _export_parser(sub):
                     "run (whole run + full-resolution window); vertical: A_J*(m*); memory: the "
                     "memory diagram at time --t; paper: the paper's figures into the folder --out.")
     e.add_argument("kind", choices=("heatmap", "trajectory", "vertical", "memory", "paper",
-                                    "lyapunov-map", "section", "orbit-diagram", "continuation"))
+                                    "lyapunov-map", "section", "orbit-diagram", "continuation",
+                                    "map-difference"))
     e.add_argument("--out", required=True,
                    help="FILE.png|svg|pdf (or .html: interactive bokeh); paper: a folder")
     e.add_argument("--model", help="deformable | point-mass (heatmap: which map)")
@@ -674,6 +715,9 @@ def _export_parser(sub):
                    help="continuation: decades per step")
     e.add_argument("--section-periods", type=_num, default=500.0,
                    help="section: periods iterated from where the run ends (1-20000)")
+    e.add_argument("--map", help="map-difference: the first map (a store's path or a shipped "
+                                 "map's name, e.g. deformable-mu0.1)")
+    e.add_argument("--other", help="map-difference: the map compared with it")
     e.set_defaults(func=cmd_export, periods_given=False)
 
 

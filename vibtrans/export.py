@@ -449,8 +449,9 @@ def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
 
 
 def export_dynamics(el, out, dpi=DEFAULT_DPI, width=7.0, height=5.2):
-    """A dynamics figure (plots.lyapunov_map, section_figure,
-    orbit_diagram_figure, continuation_figure: the explorer's) to out."""
+    """A map-like figure (plots.lyapunov_map, section_figure,
+    orbit_diagram_figure, continuation_figure, map_difference_figure: the
+    explorer's) to out."""
     _format(out, FORMATS + ("html",))
     return _write(el, out, width, height, dpi)
 

@@ -843,6 +843,56 @@ ORBIT_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"
                 "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
 
 
+DIFFERENCE_DIM = hv.Dimension("log_difference", label="s(v2) - s(v1)")
+CLASS_CHANGE_COLOUR = "black"
+
+
+def map_difference_figure(diff):
+    """Two maps compared (a `mapdiff.map_difference` Dataset): the second's
+    drift against the first's in decades of the signed log scale (red: the
+    second drifts more towards +x), black where the drift class differs,
+    grey where either map calls the point chaotic, blank where the maps do
+    not both have the point (colours beyond the 99th percentile saturate)."""
+    la, lm = diff["log_amplitude"].values, diff["log_mass"].values
+    d = diff["log_difference"].values
+    chaotic = diff["chaotic_either"].values
+    shown = np.where(chaotic, np.nan, d)
+    finite = np.abs(shown[np.isfinite(shown)])
+    # the colour limit: the 99th percentile, up to the next half decade (a
+    # few outliers would wash out the rest)
+    top = max(0.5, float(np.ceil(2.0 * np.percentile(finite, 99)) / 2.0)) if finite.size else 0.5
+    img = hv.Image((la, lm, shown.T, diff["drift_velocity_first"].values.T,
+                    diff["drift_velocity_second"].values.T),
+                   kdims=[LOG_A, LOG_M],
+                   vdims=[DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"),
+                          hv.Dimension("v2", label="<v*> second")])
+    img = style(img, common=dict(cmap="RdBu_r", clim=(-top, top), colorbar=True,
+                                 clabel=f"s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/"
+                                        f"{diff.attrs['v0']:g})"),
+                bokeh=dict(tools=["hover"], hover_tooltips=[
+                    (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("<v*> first", "@{v1}"),
+                    ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]))
+    key = [("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
+           ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY))]
+    layers = [_keyed(img, key)]
+    # (a class change at a chaotic point is noise: grey, not black)
+    changed = diff["class_changed"].values & ~chaotic
+    for mask, colour in ((chaotic, CHAOTIC_GREY), (changed, CLASS_CHANGE_COLOUR)):
+        if mask.any():
+            layer = hv.Image((la, lm, np.where(mask, 1.0, np.nan).T), kdims=[LOG_A, LOG_M],
+                             vdims=["mask"])
+            layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9),
+                                bokeh=dict(tools=[])))
+    a = diff.attrs
+    agreement = ("no point regular in both" if not np.isfinite(a["class_agreement"]) else
+                 f"drift class agrees at {100 * a['class_agreement']:.1f}% of "
+                 f"{a['regular_points']} regular points, median relative difference "
+                 f"{a['median_relative_difference']:.2g}")
+    return style(hv.Overlay(layers), common=dict(
+        title=f"{a['second']}  against  {a['first']}\n{agreement}"),
+        matplotlib=dict(aspect=1.2, fontsize={"title": 9}))
+
+
 def lyapunov_map(ds, threshold, title=""):
     """The chaos indicator over (log10 A*, log10 m*): log10 of the vertical
     motion's Lyapunov exponent (a `vibtrans sweep --kind lyapunov` store),
