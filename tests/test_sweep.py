@@ -57,14 +57,18 @@ def _cli(out, extra=()):
 def test_kill_and_resume_is_bit_identical(tmp_path):
     # A real subprocess killed (SIGKILL) mid-sweep, then started again with the
     # same command, ends equal to an uninterrupted run, bit for bit.
+    # (2000 periods: a chunk takes ~0.2 s, long enough for the polling below
+    # to see the sweep part-way on a loaded machine; at 120 periods it could
+    # finish between two polls)
+    longer = ("--periods", "2000")
     full = str(tmp_path / "full.zarr")
-    subprocess.run(_cli(full), check=True, capture_output=True)
+    subprocess.run(_cli(full, longer), check=True, capture_output=True)
     part = str(tmp_path / "part.zarr")
-    proc = subprocess.Popen(_cli(part), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    proc = subprocess.Popen(_cli(part, longer), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 240
     while time.time() < deadline:
-        time.sleep(0.2)
+        time.sleep(0.05)
         try:
             done = xr.open_zarr(part, consolidated=False)["done"].values
         except Exception:
@@ -76,7 +80,7 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     done_before = xr.open_zarr(part, consolidated=False)["done"].values.copy()
     assert 1 <= done_before.sum() < done_before.size       # really interrupted
     kept = open_map(part)
-    subprocess.run(_cli(part), check=True, capture_output=True)
+    subprocess.run(_cli(part, longer), check=True, capture_output=True)
     a, b = open_map(full), open_map(part)
     same(a, b)
     # finished chunks were not recomputed: their wall times are unchanged
