@@ -35,6 +35,7 @@ MAX_LENGTH = 64            # longest accepted value, characters
 SHOWN = 40                 # longest given text quoted in a message
 DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
+_INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
 _MARKDOWN = re.compile(r"([\\`*_{}\[\]()#+\-.!|~>])")
 
 
@@ -55,6 +56,8 @@ def valid_range(p):
     """What a parameter accepts, in words ("a number in [-6.0, 6.0]")."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
+    if isinstance(p, param.Integer):
+        return f"an integer in [{p.bounds[0]}, {p.bounds[1]}]"
     return f"a number in [{p.bounds[0]}, {p.bounds[1]}]"
 
 
@@ -69,6 +72,13 @@ def convert(p, raw):
         if raw not in p.objects:
             raise ValueError("not an option")
         return raw
+    if isinstance(p, param.Integer):
+        if not _INTEGER.fullmatch(raw):
+            raise ValueError("not an integer")
+        value = int(raw)
+        if not p.bounds[0] <= value <= p.bounds[1]:
+            raise ValueError("out of range")
+        return value
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
