@@ -150,8 +150,9 @@ class MapJobs:
         kernels.wait()
         request = maprequest.MapRequest(model=model, fidelity=fidelity,
                                         periods=CALIBRATION["periods"])
-        point = compute_point(request.scene_values(), CALIBRATION["la"], CALIBRATION["lm"],
-                              maprequest.CHAOS)
+        for _ in range(2):      # the first call may load kernels from numba's cache
+            point = compute_point(request.scene_values(), CALIBRATION["la"],
+                                  CALIBRATION["lm"], maprequest.CHAOS)
         if point["steps"] > 0 and point["seconds"] > 0:
             self._speed.setdefault(model, 1e9 * point["seconds"] / point["steps"])
         return self._speed.get(model)
