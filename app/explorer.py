@@ -933,9 +933,9 @@ class Explorer(pn.viewable.Viewer):
         n = request.points_per_axis()
         self._map_say(f"Computing a {n} x {n} map ({request.title()}) ...")
         while True:
+            # every level is drawn (at most levels + 1 of them): each shows
+            # where the refinement went
             update = await updates.get()
-            while not update.final and not updates.empty():    # only the latest level
-                update = updates.get_nowait()
             if self._map_ticket is not ticket:
                 return          # cancelled or replaced: its updates are no one's
             if update.kind == "queued":

@@ -27,7 +27,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
-from vibtrans.errors import Cancelled, StoreMismatch
+from vibtrans.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
 
 from . import kernels, maprequest
@@ -337,12 +337,19 @@ def jobs():
     VIBTRANS_MAP_MAX_SECONDS)."""
     if _JOBS["jobs"] is None:
         settings = dict(_JOBS["settings"])
-        env = os.environ
-        if "cores" not in settings and env.get("VIBTRANS_MAP_CORES"):
-            settings["cores"] = int(env["VIBTRANS_MAP_CORES"])
-        if env.get("VIBTRANS_MAP_MAX_POINTS"):
-            settings["max_points"] = int(float(env["VIBTRANS_MAP_MAX_POINTS"]))
-        if env.get("VIBTRANS_MAP_MAX_SECONDS"):
-            settings["max_seconds"] = float(env["VIBTRANS_MAP_MAX_SECONDS"])
+        for name, key, kind, lo, hi in (("cores", "VIBTRANS_MAP_CORES", int, 1, 256),
+                                        ("max_points", "VIBTRANS_MAP_MAX_POINTS", int, 1, 1e7),
+                                        ("max_seconds", "VIBTRANS_MAP_MAX_SECONDS", float, 1,
+                                         1e6)):
+            text = os.environ.get(key)
+            if name in settings or not text:
+                continue
+            try:
+                value = kind(float(text))
+            except ValueError:
+                value = None
+            if value is None or not lo <= value <= hi:
+                raise InputError(f"{key} must be a number in [{lo:g}, {hi:g}], got {text!r}")
+            settings[name] = value
         _JOBS["jobs"] = MapJobs(**settings)
     return _JOBS["jobs"]

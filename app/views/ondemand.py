@@ -34,7 +34,8 @@ class MapRequestPanel(pn.viewable.Viewer):
             ("lm_from", "log10 m* from"), ("lm_to", "log10 m* to"),
             ("cells", "coarse cells per axis"), ("levels", "levels K"))}
         self.fields = list(number.values())
-        select = {name: pn.widgets.Select.from_param(r.param[name], name=label, width=140)
+        select = {name: pn.widgets.Select.from_param(r.param[name], name=label, width=140,
+                                                     css_classes=[f"vt-map-{name}"])
                   for name, label in (("model", "model"), ("fidelity", "fidelity"),
                                       ("integrator", "integrator"),
                                       ("stick_rule", "stick rule"))}
