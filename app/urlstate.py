@@ -16,6 +16,8 @@ Rules:
 * numbers: plain ASCII decimals only (``-0.3``, ``1e-2``, ``+2.``), at most
   64 characters, finite, inside the parameter's bounds; not ``nan``,
   ``inf``, ``1_0`` or other-script digits that Python's float() would take;
+* integers (param.Integer, a map request's grid): plain ASCII digits with
+  an optional sign, inside the parameter's bounds;
 * options: exactly one of the selector's objects (case-sensitive);
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
