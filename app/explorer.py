@@ -327,20 +327,13 @@ class Explorer(pn.viewable.Viewer):
         self._map_ticket = None
         self._map_shown = None              # (request, ds) of the map on demand drawn
         self._estimates = 0                 # the latest estimate's number (older ones dropped)
-        self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
-                                           css_classes=["vt-map-banner"])
-        self.back_button = pn.widgets.Button(name="Back to the shipped map",
-                                             css_classes=["vt-map-back", "vt-ack-draw"])
-        self.back_button.on_click(lambda event: self._back_to_shipped())
-        self.map_cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
-                                                   css_classes=["vt-map-cancel-banner"])
-        self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
-        self.map_banner = pn.Row(self.map_status, self.map_cancel_button, self.back_button,
-                                 visible=False, sizing_mode="stretch_width")
-        self.refine_button = pn.widgets.Button(
-            name="Refine this window (compute it finer)", button_type="success",
-            visible=False, css_classes=["vt-map-refine"])
-        self.refine_button.on_click(lambda event: self._refine_window())
+        # the map on demand's line over the map and the refinement's offer:
+        # their widgets made at their first use (a page's models cost the
+        # server's event loop; most pages never show them)
+        self.map_status = self.back_button = self.map_cancel_button = None
+        self.map_banner = pn.Row(visible=False, sizing_mode="stretch_width")
+        self.refine_button = None
+        self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._url_map = None                # a map request named by the link
@@ -353,7 +346,7 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
                                                 "layer", "orbits"],
                                precedence=2)        # after the map's redraw
-        self.map_pane = pn.Column(self.map_banner, self.refine_button, self.map_view.pane,
+        self.map_pane = pn.Column(self.map_banner, self.refine_box, self.map_view.pane,
                                   sizing_mode="stretch_width")
         self.state.param.watch(self._on_map_look, ["v0", "chaotic"])
         self.vertical = VerticalView(self.state)
@@ -858,7 +851,13 @@ class Explorer(pn.viewable.Viewer):
                 step_m = float(ds["log_mass"].values[1] - ds["log_mass"].values[0])
                 small = (abs(a1 - a0) < REFINE_BELOW_CELLS * step_a
                          and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m)
-        self.refine_button.visible = bool(small)
+        if small and self.refine_button is None:
+            self.refine_button = pn.widgets.Button(
+                name="Refine this window (compute it finer)", button_type="success",
+                css_classes=["vt-map-refine"])
+            self.refine_button.on_click(lambda event: self._refine_window())
+            self.refine_box.objects = [self.refine_button]
+        self.refine_box.visible = bool(small)
 
     def _refine_window(self):
         """Fill the request with the shipped map's values and the zoom box,
@@ -887,14 +886,30 @@ class Explorer(pn.viewable.Viewer):
                       "computing it again resumes from them.")
         self._buttons_for_map()
 
+    def _show_banner(self):
+        if self.map_status is None:
+            self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                               css_classes=["vt-map-banner"])
+            self.back_button = pn.widgets.Button(name="Back to the shipped map",
+                                                 css_classes=["vt-map-back", "vt-ack-draw"])
+            self.back_button.on_click(lambda event: self._back_to_shipped())
+            self.map_cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+                                                       css_classes=["vt-map-cancel-banner"])
+            self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
+            self.map_banner.objects = [self.map_status, self.map_cancel_button,
+                                       self.back_button]
+        self.map_banner.visible = True
+
     def _map_say(self, text):
+        self._show_banner()
         self.map_status.object = text
         if self.map_request_panel is not None:
             self.map_request_panel.status.object = text
 
     def _buttons_for_map(self):
         running = self._map_ticket is not None
-        self.map_cancel_button.visible = running
+        if self.map_cancel_button is not None:
+            self.map_cancel_button.visible = running
         if self.map_request_panel is not None:
             self.map_request_panel.cancel_button.disabled = not running
             self.map_request_panel.compute_button.disabled = running
@@ -904,7 +919,6 @@ class Explorer(pn.viewable.Viewer):
         by level, until it ends (or another request replaces it)."""
         jobs = mapjobs.jobs()
         loop = asyncio.get_running_loop()
-        self.map_banner.visible = True
         self._map_say("Estimating the map's cost ...")
         try:
             est, problems = await loop.run_in_executor(None, jobs.estimate, request)
@@ -982,8 +996,8 @@ class Explorer(pn.viewable.Viewer):
         with pn.io.hold():
             self.map_view.show_computed(fig, window,
                                         functools.partial(self._on_computed_click, request))
-            self.refine_button.visible = False
-            self.map_banner.visible = True
+            self.refine_box.visible = False
+            self._show_banner()
             self._answered()
 
     def _on_map_look(self, *events):

@@ -219,10 +219,10 @@ def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monke
     fig = e.map_view.figures[0]
     fig.x_range.start, fig.x_range.end = -1.0, 1.0        # 40 cells of 0.05: no offer
     fig.y_range.start, fig.y_range.end = 0.0, 2.0
-    assert not e.refine_button.visible
+    assert e.refine_button is None and not e.refine_box.visible
     fig.x_range.start, fig.x_range.end = 0.1, 0.3         # 4 x 4 cells
     fig.y_range.start, fig.y_range.end = 0.5, 0.7
-    assert e.refine_button.visible
+    assert e.refine_box.visible and e.refine_button.visible
     e._refine_window()
     r = e.map_request_panel.request
     shipped = e._shipped_request()        # the shipped map's stored scene
