@@ -103,6 +103,12 @@ def _check(args):
         raise InputError(f"port must be in [1, 65535], got {args.port}")
     if not 0 <= args.num_procs <= 64:
         raise InputError(f"num_procs must be in [0, 64] (0: one per core), got {args.num_procs}")
+    cores = getattr(args, "map_cores", None)
+    if cores is not None and not 1 <= cores <= 256:
+        raise InputError(f"map-cores must be in [1, 256], got {cores}")
+    mb = getattr(args, "map_cache_mb", None)
+    if mb is not None and not 1 <= mb <= 10**7:
+        raise InputError(f"map-cache-mb must be in [1, 10000000] (MB), got {mb}")
     for name in ("unused_session_lifetime", "check_unused_sessions"):
         if not 100 <= getattr(args, name) <= 86_400_000:
             raise InputError(f"{name} must be in [100, 86400000] ms, got {getattr(args, name)}")
@@ -167,7 +173,11 @@ def serve(args):
     # before the heavy imports, which would be paid twice: `import vibtrans`
     # loads no numerics (lazy names), so the command line got here in ~0.1 s
     _reexec_on_c_allocator(args)
-    from . import data, kernels
+    from . import data, kernels, mapjobs
+    mapjobs.configure(folder=getattr(args, "map_cache", None),
+                      max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
+                      cores=getattr(args, "map_cores", None))
+    mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:                     # (in one line: nothing printed before it)
         raise InputError("; ".join(problems))

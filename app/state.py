@@ -8,6 +8,11 @@ from vibtrans.analysis import V0
 
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
+# the shipped maps' ramp and observation time (Scene's defaults); a map on
+# demand may have its own (app/maprequest.py)
+MAP_RUN = {"tau": Scene.param.tau.default, "periods": Scene.param.periods.default}
+RUN_TAU = (0.0, 1000.0)              # tau, periods
+RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap refuses costly runs)
 # Wider than the shipped maps (vibtrans.params.MAP_LOG_*): a scene runs
 # wherever the kernels do (a SAW device reaches A* ~ 2e3); the step budget
 # refuses the costly ones.
@@ -51,15 +56,22 @@ class ExplorerState(param.Parameterized):
     nu = param.Number(default=Scene.param.nu.default, bounds=Scene.param.nu.bounds,
                       inclusive_bounds=(False, False))
 
+    # a map on demand's ramp and observation time (a click on it runs its
+    # scene); the shipped maps' otherwise
+    tau = param.Number(default=Scene.param.tau.default, bounds=RUN_TAU)
+    periods = param.Number(default=Scene.param.periods.default, bounds=RUN_PERIODS)
+    # the map on demand shown (app/maprequest.py's URL form), None: the shipped map
+    map_request = param.String(default=None, allow_None=True)
+
     def scene(self):
         """The selected scene (a vibtrans.Scene; ValueError if invalid)."""
         return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass, mu=self.mu,
                      model=self.model, fidelity=self.fidelity, integrator=self.integrator,
                      theta=self.theta, nu=self.nu, stick_rule=self.stick_rule,
-                     alpha_t=self.alpha_t)
+                     alpha_t=self.alpha_t, tau=self.tau, periods=self.periods)
 
 
 URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
             "log_mass": "lm", "fidelity": "fidelity", "integrator": "integrator",
             "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at",
-            "layer": "layer", "orbits": "orbits"}
+            "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods"}

@@ -16,6 +16,8 @@ Rules:
 * numbers: plain ASCII decimals only (``-0.3``, ``1e-2``, ``+2.``), at most
   64 characters, finite, inside the parameter's bounds; not ``nan``,
   ``inf``, ``1_0`` or other-script digits that Python's float() would take;
+* integers (param.Integer, a map request's grid): plain ASCII digits with
+  an optional sign, inside the parameter's bounds;
 * options: exactly one of the selector's objects (case-sensitive);
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
@@ -35,6 +37,7 @@ MAX_LENGTH = 64            # longest accepted value, characters
 SHOWN = 40                 # longest given text quoted in a message
 DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
+_INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
 _MARKDOWN = re.compile(r"([\\`*_{}\[\]()#+\-.!|~>])")
 
 
@@ -55,6 +58,8 @@ def valid_range(p):
     """What a parameter accepts, in words ("a number in [-6.0, 6.0]")."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
+    if isinstance(p, param.Integer):
+        return f"an integer in [{p.bounds[0]}, {p.bounds[1]}]"
     return f"a number in [{p.bounds[0]}, {p.bounds[1]}]"
 
 
@@ -69,6 +74,13 @@ def convert(p, raw):
         if raw not in p.objects:
             raise ValueError("not an option")
         return raw
+    if isinstance(p, param.Integer):
+        if not _INTEGER.fullmatch(raw):
+            raise ValueError("not an integer")
+        value = int(raw)
+        if not p.bounds[0] <= value <= p.bounds[1]:
+            raise ValueError("out of range")
+        return value
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)

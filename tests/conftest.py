@@ -6,6 +6,8 @@ re-executed on the C allocator, kernels compiled in the background), used
 by the browser, security and server tests; yields the netutil.Served
 (.url, .port, .proc, .text() for its log)."""
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -23,13 +25,16 @@ SERVER_ENV_UNSET = ("VIBTRANS_ALLOWED_ORIGINS", "PYTHONMALLOC")
 @pytest.fixture(scope="session")
 def served_explorer():
     env = {k: v for k, v in os.environ.items() if k not in SERVER_ENV_UNSET}
-    server = Served(env={**env, **SERVER_ENV}, cwd=ROOT)
+    # its maps on demand in a folder of its own (none of a previous run's)
+    maps = tempfile.mkdtemp(prefix="vibtrans-test-maps-")
+    server = Served(env={**env, **SERVER_ENV, "VIBTRANS_MAP_CACHE": maps}, cwd=ROOT)
     try:
         server.wait_page()
         server.wait_kernels()       # runs clicked in the tests start at once
         yield server
     finally:
         server.stop()
+        shutil.rmtree(maps, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(items):

@@ -289,7 +289,8 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
         main = {**Scene().values(), "amplitude": 10 ** got["log_amplitude"],
                 "mass": 10 ** got["log_mass"], "mu": got["mu"], "model": got["model"],
                 "fidelity": got["fidelity"], "integrator": got["integrator"],
-                "stick_rule": got["stick_rule"], "alpha_t": got["alpha_t"]}
+                "stick_rule": got["stick_rule"], "alpha_t": got["alpha_t"],
+                "tau": got["tau"], "periods": got["periods"]}
         expected = [main]
         if got["compare"] == "tau twin":
             expected.append({**main, "tau": main["tau"] + 1e-3})

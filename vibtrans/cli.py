@@ -816,6 +816,15 @@ def build_parser():
                    help="drop a closed session's state after this many ms")
     v.add_argument("--check-unused-sessions", type=int, default=17000, metavar="MS",
                    help="look for closed sessions every this many ms")
+    v.add_argument("--map-cache", metavar="DIR",
+                   help="folder of the maps on demand computed, shared by every session "
+                        "(default: $VIBTRANS_MAP_CACHE, else ~/.cache/vibtrans/maps)")
+    v.add_argument("--map-cache-mb", type=int, default=2048, metavar="MB",
+                   help="size cap of that folder; the least recently used maps go first")
+    v.add_argument("--map-cores", type=int, metavar="N",
+                   help="cores a map on demand computes on (one map at a time; default: "
+                        "$VIBTRANS_MAP_CORES, else all cores but one, which stays for "
+                        "the sessions' clicks)")
     v.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")

@@ -103,6 +103,34 @@ def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit 
     return fig
 
 
+def computed_element(ds, title, model, window, v0, chaotic):
+    """A map on demand (HoloViews): its drift map over its window, with the
+    jumping boundary and the resonances (the vertical motion's: they hold
+    for any mu, theta, nu) where they cross it.  window: ((log10 A* from,
+    to), (log10 m* from, to))."""
+    (a0, a1), (m0, m1) = window
+    el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=title)
+    vertical = data.vertical_curve()
+    if vertical is not None:
+        el = el * plots.jumping_boundary(vertical, model)
+        if model == "deformable":
+            el = el * plots.resonance_lines(vertical)
+    # half a cell beyond the outer points: the image's own extent
+    da = (a1 - a0) / max(1, ds.sizes["log_amplitude"] - 1) / 2
+    dm = (m1 - m0) / max(1, ds.sizes["log_mass"] - 1) / 2
+    return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title),
+                   hv.opts.Overlay(xlim=(a0 - da, a1 + da), ylim=(m0 - dm, m1 + dm)))
+
+
+def computed_figure(ds, title, model, window, v0, chaotic):
+    """`computed_element` as a Bokeh figure of a Document of its own (made
+    off the event loop: it belongs to no session until shown)."""
+    _, fig = render_into_document(computed_element(ds, title, model, window, v0, chaotic))
+    fig.document.remove_root(fig)
+    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
+    return fig
+
+
 def prerender():
     """Render every shipped map at the default v0*, both ways of drawing
     chaotic points, so that a change of model, mu or that setting only
@@ -122,14 +150,18 @@ class MapView:
     drawn map.  The markers' sources outlive the figures (redrawn when the
     settings change)."""
 
-    def __init__(self, state, on_click, on_tap_js=None):
+    def __init__(self, state, on_click, on_tap_js=None, on_zoom=None):
         self.state = state
+        self.on_zoom = on_zoom           # f(view_ranges()): the shipped map zoomed or panned
         self.on_click = on_click
         self.on_tap_js = on_tap_js       # a CustomJS run in the browser at a click
         self.selected = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.device = ColumnDataSource({"x": [], "y": []})
         self.pane = pn.Row(sizing_mode="stretch_width", name="map")
         self.figures = []
+        # a map on demand shown instead of the shipped ones: (figure, window,
+        # on_click(la, lm)); None: the shipped maps
+        self.computed = None
         self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
         self.redraw()
         state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer",
@@ -153,11 +185,50 @@ class MapView:
         fig.on_event(Tap, functools.partial(self._on_tap, drawn))
         if drawn and self.on_tap_js is not None:
             fig.js_on_event(Tap, self.on_tap_js)
+        if drawn and self.on_zoom is not None:
+            for r in (fig.x_range, fig.y_range):
+                r.on_change("end", self._zoomed)
         if self.scale_fonts is not None:
             self.scale_fonts(fig)
         return fig
 
+    def _zoomed(self, attr, old, new):
+        if self.computed is None and self.figures:
+            self.on_zoom(self.view_ranges())
+
+    def show_computed(self, fig, window, on_click):
+        """Show `fig` (computed_figure) with the markers; a click inside
+        `window` calls on_click(la, lm)."""
+        self._decorate(fig)
+        fig.on_event(Tap, functools.partial(self._on_computed_tap, window, on_click))
+        if self.on_tap_js is not None:
+            fig.js_on_event(Tap, self.on_tap_js)
+        self.computed = fig
+        self.figures = [fig]
+        self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+
+    def show_shipped(self):
+        self.computed = None
+        self.redraw()
+
+    def _on_computed_tap(self, window, on_click, event):
+        x, y = event.x, event.y
+        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
+            return
+        if within(x, y, *window):
+            on_click(round(x, 4), round(y, 4))
+
+    def _decorate(self, fig):
+        fig.scatter("x", "y", source=self.selected, size=14, marker="circle",
+                    color="yellow", line_color="black")
+        fig.scatter("x", "y", source=self.device, size=14, marker="diamond",
+                    color="lime", line_color="black")
+        if self.scale_fonts is not None:
+            self.scale_fonts(fig)
+
     def redraw(self, *events):
+        if self.computed is not None:
+            return          # a map on demand is shown: the shipped settings wait
         figures = [self._figure(m, mu) for m, mu in self.shown()]
         if len(figures) > 1:        # linked zoom and pan
             for fig in figures[1:]:

@@ -1,0 +1,355 @@
+"""Maps on demand for every session of a server, with no widgets: one
+queue, one cache, one core budget for the process.
+
+* `MapJobs.submit(session, request, on_update)` asks for a map
+  (maprequest.MapRequest); `on_update(Update)` hears, from a worker thread,
+  that it waits in the queue, each level's map so far (the finest grid
+  filled from the cells computed: a progressive picture), and its end
+  (the verified map, a failure, or its cancellation).  The caller moves the
+  updates to its own event loop: nothing here touches a Bokeh model.
+* The cache (vibtrans.mapcache.MapCache, a folder shared by every session
+  and every server process using it) holds finished maps keyed by their
+  request and the code version; a finished map is read from it, a damaged
+  entry is recomputed, never shown.
+* One session, one map: a new request from a session replaces its
+  previous one.  Sessions asking for the same map share one computation
+  (each hears its levels); it is cancelled when the last of them cancels
+  (or closes), its finished points kept for a request that comes back.
+* One map computes at a time (first come, first served) on `cores`
+  workers: by default all cores but one, which stays for the sessions'
+  clicks (their runs use app/controller.py's pool, never this queue).
+  At most `max_queued` maps wait; beyond, a request is refused.
+"""
+import logging
+import os
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import NamedTuple
+
+from vibtrans.errors import Cancelled, InputError, StoreMismatch
+from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
+
+from . import kernels, maprequest
+
+log = logging.getLogger("vibtrans.explorer")
+
+MAX_QUEUED = 16
+CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
+
+
+def default_folder():
+    """$VIBTRANS_MAP_CACHE, else the user's cache folder."""
+    env = os.environ.get("VIBTRANS_MAP_CACHE")
+    if env:
+        return env
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "vibtrans", "maps")
+
+
+def default_cores():
+    """All cores but one (which stays for the sessions' clicks), at least one."""
+    return max(1, (os.cpu_count() or 1) - 1)
+
+
+class MapRefused(Exception):
+    """A request this server will not queue (the message says why)."""
+
+
+class Update(NamedTuple):
+    """What a map's subscriber hears.  kind: "queued" (text says how many
+    wait before it), "level" (ds: the map so far after `level` of
+    `levels`), "done" (ds: the finished, verified map; cached: read from
+    the cache), "failed" (text), "cancelled"."""
+    kind: str
+    level: int = 0
+    levels: int = 0
+    ds: object = None
+    text: str = ""
+    cached: bool = False
+
+    @property
+    def final(self):
+        return self.kind in ("done", "failed", "cancelled")
+
+
+class Ticket:
+    """One session's interest in one map."""
+
+    def __init__(self, session, key, on_update):
+        self.session = session
+        self.key = key
+        self.on_update = on_update
+        self.cancelled = False
+
+    def tell(self, update):
+        if self.cancelled and update.kind != "cancelled":
+            return
+        try:
+            self.on_update(update)
+        except Exception:       # a closed session's loop: nobody listens any more
+            log.exception("a map update could not be delivered")
+
+
+class _Computation:
+    def __init__(self, key, request):
+        self.key = key
+        self.request = request
+        self.cancel = threading.Event()
+        self.tickets = []
+        self.last = None          # the latest level's Update (for a late subscriber)
+        self.started = None
+
+
+class MapJobs:
+    """The process's maps on demand (module docstring)."""
+
+    def __init__(self, folder=None, max_bytes=DEFAULT_MAX_BYTES, cores=None,
+                 max_queued=MAX_QUEUED, max_points=maprequest.MAX_POINTS,
+                 max_seconds=maprequest.MAX_SECONDS, build=None):
+        self.folder = folder or default_folder()
+        self.max_bytes = max_bytes
+        self.cores = cores or default_cores()
+        self.max_queued = max_queued
+        self.max_points = max_points
+        self.max_seconds = max_seconds
+        # build(computation, path, on_level): computes the map's store at
+        # path (run_adaptive; a test passes a stand-in)
+        self._build = build or self._run_adaptive
+        self._cache = None
+        self._lock = threading.Lock()
+        self._computations = {}      # key -> _Computation (queued or running)
+        self._queue = []             # computations waiting, in order
+        self._running = None         # the computation running
+        self._sessions = {}          # session -> Ticket
+        self._speed = {}             # model -> ns per step (runs and twins), measured here
+        # one map at a time; a second, light pool opens the cache and
+        # measures the speed, so that a cached map never waits for a big one
+        self._runner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vibtrans-map")
+        self._front = ThreadPoolExecutor(max_workers=2, thread_name_prefix="vibtrans-map-front")
+        self.computed = 0            # maps computed (not read from the cache): for tests
+
+    @property
+    def cache(self):
+        if self._cache is None:
+            self._cache = MapCache(self.folder, self.max_bytes)
+        return self._cache
+
+    # ---------- speed and estimates ----------
+    def ns_per_step(self, model):
+        """This server's measured ns per integration step of a map point
+        of `model` (its run with its chaos verdict's work), or None."""
+        return self._speed.get(model)
+
+    def measure_speed(self, model, fidelity="standard"):
+        """Measure ns per step on one point (blocking: call it off the
+        event loop); later maps refine it from their own points."""
+        if model in self._speed:
+            return self._speed[model]
+        from vibtrans.sweep import compute_point
+        kernels.wait()
+        request = maprequest.MapRequest(model=model, fidelity=fidelity,
+                                        periods=CALIBRATION["periods"])
+        for _ in range(2):      # the first call may load kernels from numba's cache
+            point = compute_point(request.scene_values(), CALIBRATION["la"],
+                                  CALIBRATION["lm"], maprequest.CHAOS)
+        if point["steps"] > 0 and point["seconds"] > 0:
+            self._speed.setdefault(model, 1e9 * point["seconds"] / point["steps"])
+        return self._speed.get(model)
+
+    def _learn_speed(self, model, ds):
+        steps = ds["steps"].values[ds["computed"].values]
+        seconds = ds["seconds"].values[ds["computed"].values]
+        if steps.sum() > 0 and seconds.sum() > 0:
+            self._speed[model] = 1e9 * float(seconds.sum()) / float(steps.sum())
+
+    def estimate(self, request):
+        """(Estimate or None, problems): the request's cost, or why it is
+        refused (the server's limits included); blocking (off the loop)."""
+        problems = request.problems(self.max_points)
+        if problems:
+            return None, problems
+        try:
+            request.sweep()            # every scene value, the library's checks
+        except ValueError as exc:
+            return None, [str(exc)]
+        ns = self.measure_speed(request.model)
+        est = maprequest.estimate(request, ns, self.cores)
+        if est.seconds is not None and est.seconds > self.max_seconds:
+            return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
+                         f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "
+                         f"points, periods or a lower fidelity"]
+        return est, []
+
+    # ---------- requests ----------
+    def submit(self, session, request, on_update):
+        """Ask for `request`'s map for `session` (replacing the session's
+        previous request); returns its Ticket.  MapRefused if the queue is
+        full.  The request must have passed `estimate`."""
+        key = request_key(request.cache_request())
+        request = request.copy()
+        ticket = Ticket(session, key, on_update)
+        with self._lock:
+            self._cancel_locked(session)
+            comp = self._computations.get(key)
+            if comp is None or comp.cancel.is_set():
+                if len(self._queue) >= self.max_queued:
+                    raise MapRefused(f"this server's map queue is full ({self.max_queued} maps "
+                                     f"waiting): try again in a while")
+                comp = _Computation(key, request)
+                self._computations[key] = comp
+                start = True
+            else:
+                start = False
+            comp.tickets.append(ticket)
+            self._sessions[session] = ticket
+            last = comp.last
+        if start:
+            self._front.submit(self._open_or_queue, comp)
+        elif last is not None:
+            ticket.tell(last)
+        return ticket
+
+    def cancel(self, session):
+        """Cancel the session's request (its computation stops if no other
+        session waits for it).  Also when the session closes."""
+        with self._lock:
+            self._cancel_locked(session)
+
+    def _cancel_locked(self, session):
+        ticket = self._sessions.pop(session, None)
+        if ticket is None:
+            return
+        ticket.cancelled = True
+        comp = self._computations.get(ticket.key)
+        if comp is not None and ticket in comp.tickets:
+            comp.tickets.remove(ticket)
+            if not comp.tickets:
+                comp.cancel.set()
+                self._forget_locked(comp)
+        ticket.tell(Update("cancelled"))
+
+    def _forget_locked(self, comp):
+        if self._computations.get(comp.key) is comp:
+            del self._computations[comp.key]
+        if comp in self._queue:
+            self._queue.remove(comp)
+
+    def busy(self):
+        """(maps computing or waiting, sessions with a request)."""
+        with self._lock:
+            return len(self._computations), len(self._sessions)
+
+    def _tell(self, comp, update, final=False):
+        with self._lock:
+            tickets = list(comp.tickets)
+            if update.kind == "level":
+                comp.last = update
+            if final:
+                for t in tickets:
+                    if self._sessions.get(t.session) is t:
+                        del self._sessions[t.session]
+                self._forget_locked(comp)
+        for t in tickets:
+            t.tell(update)
+
+    def _open_or_queue(self, comp):
+        try:
+            ds = self.cache.get(comp.key)       # verified; a damaged entry is removed
+        except Exception as exc:
+            log.exception("the map cache could not be read")
+            self._tell(comp, Update("failed", text=f"the map cache could not be read: {exc}"),
+                       final=True)
+            return
+        if ds is not None:
+            self._tell(comp, Update("done", comp.request.levels, comp.request.levels, ds,
+                                    cached=True), final=True)
+            return
+        with self._lock:
+            ahead = len(self._queue) + (self._running is not None)
+            self._queue.append(comp)
+        if ahead:
+            self._tell(comp, Update("queued", text=f"waiting: {ahead} map(s) before it in "
+                                                   f"this server's queue"))
+        self._runner.submit(self._compute, comp)
+
+    def _compute(self, comp):
+        with self._lock:
+            if comp in self._queue:
+                self._queue.remove(comp)
+            if comp.cancel.is_set():
+                return
+            self._running = comp
+        try:
+            self._compute_now(comp)
+        finally:
+            with self._lock:
+                self._running = None
+
+    def _compute_now(self, comp):
+        levels = comp.request.levels
+        # one working folder per key and process: a cancelled map's finished
+        # points stay there (`.partial`) for a request that comes back; the
+        # cache removes it after a day (mapcache.STALE_SECONDS)
+        work = os.path.join(self.cache.folder, f"{comp.key}{TEMPORARY}{os.getpid()}")
+        comp.started = time.monotonic()
+
+        def on_level(level, ds):
+            self._tell(comp, Update("level", level, levels, ds))
+        try:
+            if not kernels.wait(comp.cancel):
+                raise Cancelled("map cancelled")
+            self._build(comp, work, on_level)
+            self.computed += 1
+            self.cache.publish(comp.key, work)
+            ds = self.cache.get(comp.key)
+            if ds is None:
+                raise StoreMismatch("the computed map could not be read back")
+            self._learn_speed(comp.request.model, ds)
+            self._tell(comp, Update("done", levels, levels, ds), final=True)
+        except Cancelled:
+            self._tell(comp, Update("cancelled"), final=True)
+        except Exception as exc:
+            log.exception("a map on demand failed: %s", comp.request.title())
+            self._tell(comp, Update("failed", text=f"{type(exc).__name__}: {exc}"), final=True)
+
+    def _run_adaptive(self, comp, path, on_level):
+        from vibtrans.adaptive import run_adaptive
+        run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
+                     progress=False, on_level=on_level, cancel=comp.cancel)
+
+
+_JOBS = {"jobs": None, "settings": {}}
+
+
+def configure(folder=None, max_bytes=None, cores=None):
+    """The server's settings (`vibtrans serve --map-cache --map-cache-mb
+    --map-cores`), before the first session."""
+    _JOBS["settings"] = {k: v for k, v in
+                         (("folder", folder), ("max_bytes", max_bytes), ("cores", cores))
+                         if v is not None}
+    _JOBS["jobs"] = None
+
+
+def jobs():
+    """The process's MapJobs (made at first use, from `configure` and the
+    environment: VIBTRANS_MAP_CACHE, VIBTRANS_MAP_CORES, VIBTRANS_MAP_MAX_POINTS,
+    VIBTRANS_MAP_MAX_SECONDS)."""
+    if _JOBS["jobs"] is None:
+        settings = dict(_JOBS["settings"])
+        for name, key, kind, lo, hi in (("cores", "VIBTRANS_MAP_CORES", int, 1, 256),
+                                        ("max_points", "VIBTRANS_MAP_MAX_POINTS", int, 1, 1e7),
+                                        ("max_seconds", "VIBTRANS_MAP_MAX_SECONDS", float, 1,
+                                         1e6)):
+            text = os.environ.get(key)
+            if name in settings or not text:
+                continue
+            try:
+                value = kind(float(text))
+            except ValueError:
+                value = None
+            if value is None or not lo <= value <= hi:
+                raise InputError(f"{key} must be a number in [{lo:g}, {hi:g}], got {text!r}")
+            settings[name] = value
+        _JOBS["jobs"] = MapJobs(**settings)
+    return _JOBS["jobs"]

@@ -1,0 +1,85 @@
+"""The "Map on demand" tab: a map request's fields (app/maprequest.py),
+its estimated cost shown before anything runs, Compute and Cancel, and
+what the computation is doing.  The explorer runs it (app/mapjobs.py) and
+draws the map in the map tab."""
+import panel as pn
+
+from .. import inputs
+from ..maprequest import FIELDS, MapRequest
+
+INTRO = ("**A drift map of your own**: any model, friction, material, ramp, run length "
+         "and fidelity, over any window of the (log10 A\\*, log10 m\\*) plane, even beyond "
+         "the shipped maps'. It is computed on this server coarse first, then refined level "
+         "by level where the map changes, each level drawn in the map tab as it finishes; a "
+         "map computed once (by anyone) comes back at once from the server's cache. Click "
+         "it to run a scene there; the page's link reopens it.")
+RESOLUTION = ("*The finest grid has cells x 2^K + 1 points per axis; the first pass computes "
+              "cells + 1 per axis.*")
+
+
+class MapRequestPanel(pn.viewable.Viewer):
+    """The request's widgets.  on_compute(), on_cancel(), on_zoom() (fill
+    the window from the map's zoom), on_change() (a value changed: a new
+    estimate) are the explorer's."""
+
+    def __init__(self, request=None, on_compute=None, on_cancel=None, on_zoom=None,
+                 on_change=None, **params):
+        super().__init__(**params)
+        self.request = request or MapRequest()
+        r = self.request
+        number = {name: inputs.NumberField(r, name, label, width=140) for name, label in (
+            ("mu", "mu"), ("theta", "theta"), ("nu", "nu (Poisson)"), ("tau", "tau (periods)"),
+            ("periods", "periods"), ("alpha_t", "alpha_t"),
+            ("la_from", "log10 A* from"), ("la_to", "log10 A* to"),
+            ("lm_from", "log10 m* from"), ("lm_to", "log10 m* to"),
+            ("cells", "coarse cells per axis"), ("levels", "levels K"))}
+        self.fields = list(number.values())
+        select = {name: pn.widgets.Select.from_param(r.param[name], name=label, width=140,
+                                                     css_classes=[f"vt-map-{name}"])
+                  for name, label in (("model", "model"), ("fidelity", "fidelity"),
+                                      ("integrator", "integrator"),
+                                      ("stick_rule", "stick rule"))}
+        self.point_mass = pn.Row(select["stick_rule"], number["alpha_t"],
+                                 visible=r.model == "point-mass")
+        r.param.watch(lambda e: setattr(self.point_mass, "visible", e.new == "point-mass"),
+                      "model")
+        self.zoom_button = pn.widgets.Button(name="Use the map's current zoom",
+                                             css_classes=["vt-map-zoom"])
+        self.compute_button = pn.widgets.Button(name="Compute map", button_type="primary",
+                                                css_classes=["vt-map-compute"])
+        self.cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+                                               disabled=True, css_classes=["vt-map-cancel"])
+        for button, fn in ((self.zoom_button, on_zoom), (self.compute_button, on_compute),
+                           (self.cancel_button, on_cancel)):
+            if fn is not None:
+                button.on_click(lambda event, fn=fn: fn())
+        self.estimate = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                         css_classes=["vt-map-estimate"])
+        self.status = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                       css_classes=["vt-map-status"])
+        if on_change is not None:
+            r.param.watch(lambda *e: on_change(), list(FIELDS))
+        self._layout = pn.Column(
+            pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
+            pn.Row(select["model"], number["mu"], number["theta"], number["nu"]),
+            pn.Row(number["tau"], number["periods"], select["fidelity"], select["integrator"]),
+            self.point_mass,
+            pn.Row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
+            self.zoom_button,
+            pn.Row(number["cells"], number["levels"]),
+            pn.pane.Markdown(RESOLUTION, sizing_mode="stretch_width"),
+            self.estimate,
+            pn.Row(self.compute_button, self.cancel_button),
+            self.status,
+            sizing_mode="stretch_width", name="map-request")
+
+    def errors(self):
+        """The fields' messages (a field whose text is not a valid value)."""
+        return [f.error for f in self.fields if f.error]
+
+    def set_values(self, **values):
+        self.request.param.update(**values)
+
+    def __panel__(self):
+        return self._layout
+

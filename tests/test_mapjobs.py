@@ -1,0 +1,232 @@
+"""Maps on demand (app/maprequest.py, app/mapjobs.py): the request's checks
+and URL form, the server-wide queue (one map per session, sessions sharing
+a computation, cancel, the cache's reuse and a damaged entry recomputed)."""
+import os
+import threading
+
+import numpy as np
+import pytest
+
+from vibtrans_explorer import maprequest, mapjobs
+from vibtrans_explorer.maprequest import MapRequest
+
+# a tiny map: 5 x 5 points (2 coarse cells, K = 1), 30 periods at preview
+TINY = dict(model="deformable", fidelity="preview", periods=30.0, tau=5.0,
+            la_from=-0.5, la_to=0.5, lm_from=0.0, lm_to=1.0, cells=2, levels=1)
+
+
+class Listener:
+    """A session's updates, and an event set at the final one."""
+
+    def __init__(self):
+        self.updates = []
+        self.ended = threading.Event()
+
+    def __call__(self, update):
+        self.updates.append(update)
+        if update.final:
+            self.ended.set()
+
+    def wait(self, timeout=300):
+        assert self.ended.wait(timeout), [u.kind for u in self.updates]
+        return self.updates[-1]
+
+    def kinds(self):
+        return [u.kind for u in self.updates]
+
+
+@pytest.fixture
+def gate():
+    return threading.Event()
+
+
+@pytest.fixture
+def jobs(tmp_path, gate):
+    """MapJobs on a fresh cache folder whose maps start once `gate` is set."""
+    def build(comp, path, on_level):
+        assert gate.wait(60)
+        made._run_adaptive(comp, path, on_level)
+    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build)
+    return made
+
+
+def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
+    gate.set()
+    first = Listener()
+    jobs.submit("a", MapRequest(**TINY), first)
+    done = first.wait()
+    assert done.kind == "done" and not done.cached, first.kinds()
+    levels = [u.level for u in first.updates if u.kind == "level"]
+    assert levels == [0, 1]                 # the coarse grid, then the finest
+    coarse = next(u.ds for u in first.updates if u.kind == "level")
+    assert coarse["computed"].values.sum() == 9          # 3 x 3 coarse points
+    assert np.isfinite(coarse["drift_velocity"].values).all()    # filled from its cells
+    assert done.ds["drift_velocity"].shape == (5, 5)
+    # another session asking for the same map reads it: nothing computed
+    second = Listener()
+    jobs.submit("b", MapRequest(**TINY), second)
+    again = second.wait()
+    assert again.kind == "done" and again.cached and jobs.computed == 1
+    np.testing.assert_array_equal(again.ds["drift_velocity"].values,
+                                  done.ds["drift_velocity"].values)
+
+
+def test_sessions_asking_for_one_map_share_its_computation(jobs, gate):
+    a, b = Listener(), Listener()
+    jobs.submit("a", MapRequest(**TINY), a)
+    jobs.submit("b", MapRequest(**TINY), b)
+    gate.set()
+    assert a.wait().kind == "done" and b.wait().kind == "done"
+    assert jobs.computed == 1
+    assert not a.wait().cached and not b.wait().cached
+
+
+def test_a_new_request_of_a_session_cancels_its_previous_one(jobs, gate):
+    old, new = Listener(), Listener()
+    jobs.submit("a", MapRequest(**TINY), old)
+    jobs.submit("a", MapRequest(**{**TINY, "mu": 0.5}), new)
+    assert old.wait(5).kind == "cancelled"
+    gate.set()
+    assert new.wait().kind == "done"
+    assert jobs.computed == 1             # the first one never ran
+    assert jobs.busy() == (0, 0)
+
+
+def test_cancel_stops_the_map_and_caches_nothing_but_spares_other_sessions(jobs, gate):
+    from vibtrans.mapcache import request_key
+    alone, shared_a, shared_b = Listener(), Listener(), Listener()
+    request = MapRequest(**TINY)
+    jobs.submit("a", request, alone)
+    jobs.cancel("a")
+    assert alone.wait(5).kind == "cancelled"
+    other = MapRequest(**{**TINY, "mu": 0.5})
+    jobs.submit("b", other, shared_a)
+    jobs.submit("c", other, shared_b)
+    jobs.cancel("b")                       # c still waits for it
+    gate.set()
+    assert shared_b.wait().kind == "done"
+    assert shared_a.kinds()[-1] == "cancelled" and "done" not in shared_a.kinds()
+    assert jobs.cache.get(request_key(request.cache_request())) is None
+    assert jobs.computed == 1
+
+
+def test_a_damaged_cache_entry_is_recomputed_not_shown(jobs, gate):
+    gate.set()
+    first = Listener()
+    jobs.submit("a", MapRequest(**TINY), first)
+    first.wait()
+    entry = jobs.cache.path(jobs.cache.entries()[0])
+    chunk = next(os.path.join(root, f) for root, _, files in os.walk(entry)
+                 for f in files if "drift_velocity" in root and not f.startswith("."))
+    with open(chunk, "r+b") as f:          # flip a byte of the data
+        f.seek(max(0, os.path.getsize(chunk) // 2))
+        byte = f.read(1)
+        f.seek(-1, 1)
+        f.write(bytes([byte[0] ^ 0xFF]))
+    again = Listener()
+    jobs.submit("b", MapRequest(**TINY), again)
+    done = again.wait()
+    assert done.kind == "done" and not done.cached and jobs.computed == 2
+
+
+def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
+                           max_seconds=10.0)
+    jobs._speed["deformable"] = 100.0          # ns per step, as if measured
+    request = MapRequest(**TINY)
+    est, problems = jobs.estimate(request)
+    assert problems == []
+    assert est.points == 25
+    # every point's steps at its own step (the contact time scale's)
+    la, lm = request.axes()
+    from vibtrans import Scene, estimate_steps
+    steps = sum(estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m, **request.scene_values()))
+                for a in la for m in lm)
+    assert est.steps == steps
+    assert est.seconds == pytest.approx(steps * 100e-9 / 2)
+    big = MapRequest(**{**TINY, "cells": 8, "levels": 3})       # 65 x 65
+    est, problems = jobs.estimate(big)
+    assert est is None and "4,225 points is over this server's limit of 1,000" in problems[0]
+    slow = MapRequest(**{**TINY, "periods": 10000.0, "fidelity": "reference"})
+    est, problems = jobs.estimate(slow)
+    assert est is not None and "over this server's limit of 10 s per map" in problems[0]
+    empty = MapRequest(**{**TINY, "la_from": 0.5, "la_to": -0.5})
+    assert "log10 A* 'from' (0.5) must be below its 'to' (-0.5)" in jobs.estimate(empty)[1][0]
+
+
+def test_the_url_form_round_trips_and_names_a_bad_value():
+    request = MapRequest(model="point-mass", mu=0.45, theta=1.1, nu=0.25, tau=20.0,
+                         periods=150.0, fidelity="preview", stick_rule="classical",
+                         alpha_t=0.2, la_from=-3.5, la_to=4.25, lm_from=-6.0, lm_to=7.0,
+                         cells=3, levels=2)
+    text = maprequest.encode(request)
+    back, errors = maprequest.decode(text)
+    assert errors == [] and back.values() == request.values()
+    assert maprequest.encode(back) == text
+    parts = text.split(",")
+    bad = ",".join([*parts[:1], "2", *parts[2:]])           # mu = 2
+    none, errors = maprequest.decode(bad)
+    assert none is None and errors == [
+        "URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
+    bad = ",".join([*parts[:-1], "2.5"])                    # levels not an integer
+    assert "levels must be an integer in [1, 6]; got '2\\.5'" in maprequest.decode(bad)[1][0]
+    assert "must hold 16 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
+    swapped = ",".join([*parts[:10], parts[11], parts[10], *parts[12:]])
+    assert "'from' (4.25) must be below its 'to' (-3.5)" in maprequest.decode(swapped)[1][0]
+
+
+def test_the_cache_key_ignores_what_changes_no_number():
+    base = MapRequest(**TINY)
+    # the material point's rules do not enter a deformable map
+    same = MapRequest(**{**TINY, "stick_rule": "classical", "alpha_t": 0.1})
+    assert base.cache_request() == same.cache_request()
+    for change in ({"mu": 0.31}, {"periods": 31.0}, {"la_to": 0.6}, {"levels": 2},
+                   {"fidelity": "standard"}):
+        assert MapRequest(**{**TINY, **change}).cache_request() != base.cache_request()
+
+
+# ------------------------------------------------------------------ the explorer's side
+def _explorer(monkeypatch, query):
+    import panel as pn
+    from panel.io.location import Location
+    from urllib.parse import parse_qs
+    from vibtrans_explorer import explorer as E
+    monkeypatch.setattr(E, "_page_location", lambda: Location(search="?" + query))
+    args = {k: [v.encode() for v in vs] for k, vs in parse_qs(query).items()}
+    monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
+    return E.Explorer()
+
+
+def test_a_link_with_a_map_request_shows_it_and_a_bad_one_says_why(monkeypatch):
+    request = MapRequest(**{**TINY, "mu": 0.45})
+    text = maprequest.encode(request)
+    e = _explorer(monkeypatch, f"map={text}&mu=0.45&la=0.1&lm=0.5")
+    assert e.state.map_request == text and e._url_map.values() == request.values()
+    assert e.state.mu == 0.45 and not e.message.visible      # the map's own mu: no reset
+    assert f"map={text.replace(',', '%2C')}" in e.location.search
+    e._back_to_shipped()                                      # the request leaves the link
+    assert e.state.map_request is None and "map=" not in e.location.search
+    assert e.state.mu == 0.3                                  # a shipped map's, and said so
+    bad = _explorer(monkeypatch, "map=" + text.replace("deformable", "rigid"))
+    assert bad.state.map_request is None
+    assert "URL parameter 'map': model must be one of deformable, point-mass; got 'rigid'" \
+        in bad.message.object
+
+
+def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monkeypatch):
+    e = _explorer(monkeypatch, "")
+    e.main()
+    fig = e.map_view.figures[0]
+    fig.x_range.start, fig.x_range.end = -1.0, 1.0        # 40 cells of 0.05: no offer
+    fig.y_range.start, fig.y_range.end = 0.0, 2.0
+    assert e.refine_button is None and not e.refine_box.visible
+    fig.x_range.start, fig.x_range.end = 0.1, 0.3         # 4 x 4 cells
+    fig.y_range.start, fig.y_range.end = 0.5, 0.7
+    assert e.refine_box.visible and e.refine_button.visible
+    e._refine_window()
+    r = e.map_request_panel.request
+    shipped = e._shipped_request()        # the shipped map's stored scene
+    assert (r.la_from, r.la_to, r.lm_from, r.lm_to) == (0.1, 0.3, 0.5, 0.7)
+    assert (r.tau, r.periods, r.fidelity, r.model, r.mu) == (
+        shipped.tau, shipped.periods, shipped.fidelity, "deformable", 0.3)
+    assert e.map_tabs.active == 3
