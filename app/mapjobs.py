@@ -106,8 +106,11 @@ class MapJobs:
 
     def __init__(self, folder=None, max_bytes=DEFAULT_MAX_BYTES, cores=None,
                  max_queued=MAX_QUEUED, max_points=maprequest.MAX_POINTS,
-                 max_seconds=maprequest.MAX_SECONDS, build=None):
+                 max_seconds=maprequest.MAX_SECONDS, build=None, scheduler=None):
         self.folder = folder or default_folder()
+        # a dask.distributed scheduler's address: the points run on its
+        # cluster instead of this process's threads (`vibtrans serve --scheduler`)
+        self.scheduler = scheduler
         self.max_bytes = max_bytes
         self.cores = cores or default_cores()
         self.max_queued = max_queued
@@ -316,17 +319,19 @@ class MapJobs:
     def _run_adaptive(self, comp, path, on_level):
         from vibtrans.adaptive import run_adaptive
         run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
-                     progress=False, on_level=on_level, cancel=comp.cancel)
+                     scheduler=self.scheduler, progress=False, on_level=on_level,
+                     cancel=comp.cancel)
 
 
 _JOBS = {"jobs": None, "settings": {}}
 
 
-def configure(folder=None, max_bytes=None, cores=None):
+def configure(folder=None, max_bytes=None, cores=None, scheduler=None):
     """The server's settings (`vibtrans serve --map-cache --map-cache-mb
-    --map-cores`), before the first session."""
+    --map-cores --scheduler`), before the first session."""
     _JOBS["settings"] = {k: v for k, v in
-                         (("folder", folder), ("max_bytes", max_bytes), ("cores", cores))
+                         (("folder", folder), ("max_bytes", max_bytes), ("cores", cores),
+                          ("scheduler", scheduler))
                          if v is not None}
     _JOBS["jobs"] = None
 

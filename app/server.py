@@ -18,6 +18,7 @@ load Panel.  Start-up, each step said on stderr:
 import gc
 import logging
 import os
+import re
 import sys
 import threading
 
@@ -106,6 +107,11 @@ def _check(args):
     cores = getattr(args, "map_cores", None)
     if cores is not None and not 1 <= cores <= 256:
         raise InputError(f"map-cores must be in [1, 256], got {cores}")
+    scheduler = getattr(args, "scheduler", None)
+    if scheduler is not None and not re.fullmatch(r"(tcp|tls|inproc)://[^\s/]+(:\d+)?",
+                                                    scheduler):
+        raise InputError(f"scheduler must be an address such as tcp://HOST:PORT, got "
+                         f"{scheduler!r}")
     mb = getattr(args, "map_cache_mb", None)
     if mb is not None and not 1 <= mb <= 10**7:
         raise InputError(f"map-cache-mb must be in [1, 10000000] (MB), got {mb}")
@@ -176,7 +182,8 @@ def serve(args):
     from . import data, kernels, mapjobs
     mapjobs.configure(folder=getattr(args, "map_cache", None),
                       max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
-                      cores=getattr(args, "map_cores", None))
+                      cores=getattr(args, "map_cores", None),
+                      scheduler=getattr(args, "scheduler", None))
     mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:                     # (in one line: nothing printed before it)

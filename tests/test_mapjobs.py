@@ -230,3 +230,57 @@ def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monke
     assert (r.tau, r.periods, r.fidelity, r.model, r.mu) == (
         shipped.tau, shipped.periods, shipped.fidelity, "deformable", 0.3)
     assert e.map_tabs.active == 3
+
+
+@pytest.mark.slow
+def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
+    """`vibtrans serve --scheduler`: the points run on a dask.distributed
+    cluster (here a LocalCluster) and the map equals the local one; a cancel
+    drops the cluster's queued points."""
+    from dask.distributed import LocalCluster
+    local = mapjobs.MapJobs(folder=str(tmp_path / "local"), cores=1)
+    mine = Listener()
+    local.submit("a", MapRequest(**TINY), mine)
+    expected = mine.wait()
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:
+        remote = mapjobs.MapJobs(folder=str(tmp_path / "remote"), cores=1,
+                                 scheduler=cluster.scheduler_address)
+        theirs = Listener()
+        remote.submit("a", MapRequest(**TINY), theirs)
+        got = theirs.wait()
+        assert got.kind == "done" and not got.cached, theirs.kinds()
+        for v in ("drift_velocity", "drift", "chaotic", "computed"):
+            np.testing.assert_array_equal(got.ds[v].values, expected.ds[v].values)
+        bigger = MapRequest(**{**TINY, "cells": 4, "levels": 2})      # 17 x 17
+        cancelled = Listener()
+
+        def cancel_at_first_level(update):
+            cancelled(update)
+            if update.kind == "level":
+                remote.cancel("b")
+        remote.submit("b", bigger, cancel_at_first_level)
+        assert cancelled.wait().kind == "cancelled", cancelled.kinds()
+        # the computation ends (its queued points dropped), leaving no map
+        import time
+        deadline = time.monotonic() + 120
+        while remote._running is not None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        from vibtrans.mapcache import request_key
+        assert remote._running is None
+        assert remote.cache.get(request_key(bigger.cache_request())) is None
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--scheduler", "localhost:8786"], "scheduler must be an address such as tcp://HOST:PORT"),
+    (["--map-cores", "0"], "map-cores must be in [1, 256]"),
+    (["--map-cache-mb", "0"], "map-cache-mb must be in [1, 10000000]"),
+])
+def test_serve_refuses_bad_map_settings_before_starting(capsys, argv, message):
+    from vibtrans.cli import main
+    try:
+        code = main(["serve", "--port", "5999", *argv])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err, err

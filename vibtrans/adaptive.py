@@ -287,6 +287,10 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
         futures = {scheduler.submit(_compute_points, *args(t), pure=False): t for t in tasks}
         for fut in as_completed(futures):
             done(futures[fut], fut.result())
+            if _set(cancel):            # the cluster's queued tasks are dropped
+                for other in futures:
+                    other.cancel()
+                break
     else:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             pending, queue = {}, list(tasks)

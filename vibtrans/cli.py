@@ -825,6 +825,9 @@ def build_parser():
                    help="cores a map on demand computes on (one map at a time; default: "
                         "$VIBTRANS_MAP_CORES, else all cores but one, which stays for "
                         "the sessions' clicks)")
+    v.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the points of maps on demand on this dask.distributed "
+                        "cluster instead of this machine's cores")
     v.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")
