@@ -26,7 +26,7 @@ import panel as pn
 import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 
-from vibtrans import plots, simulate
+from vibtrans import mapaccuracy, plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
@@ -826,6 +826,7 @@ class Explorer(pn.viewable.Viewer):
         if number != self._estimates:
             return
         lines = [] if est is None else [est.text(jobs.cores)]
+        lines.append(mapaccuracy.note(request.fidelity, request.periods))
         lines += [f"**Refused:** {p}." for p in problems]
         panel.estimate.object = "\n\n".join(lines)
 
