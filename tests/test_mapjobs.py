@@ -284,3 +284,18 @@ def test_serve_refuses_bad_map_settings_before_starting(capsys, argv, message):
         code = exc.code
     err = capsys.readouterr().err
     assert code == 2 and message in err and "Traceback" not in err, err
+
+
+def test_a_closing_page_cancels_its_map(monkeypatch, tmp_path, gate):
+    """A session that closes while its map waits cancels it (unless another
+    session waits for it too): the explorer's session-destroyed callback."""
+    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1,
+                           build=lambda comp, path, on_level: gate.wait(60))
+    monkeypatch.setattr(mapjobs, "jobs", lambda: made)
+    e = _explorer(monkeypatch, "")
+    mine = Listener()
+    made.submit(e._map_session, MapRequest(**TINY), mine)
+    assert made.busy() == (1, 1)
+    e._on_session_destroyed(None)
+    assert mine.wait(5).kind == "cancelled" and made.busy() == (0, 0)
+    gate.set()
