@@ -83,9 +83,11 @@ the wave (+x) or against it (-x).
 * **<v\*>** is the mean drift velocity over the run, in a0 per period. The
   map colours it: red with the wave, blue against it; **white** is "no
   drift", |v\*| <= **v0\*** (the slider sets that band).
-* Every hopping run is repeated with tau changed by 0.001, a **twin**: if the
-  twin ends somewhere else, the motion is **chaotic** (grey on the map) and
-  its drift is not a property of the scene.
+* A hopping run measures how fast two nearby vertical motions separate (its
+  **Lyapunov exponent**): when they separate, the motion is **chaotic** (grey
+  on the map) and its drift is not a property of the scene. The run can also
+  be repeated with tau changed by 0.001, a **tau twin** ("compare with"), as
+  a second opinion: a twin that ends elsewhere also signals chaos.
 * **deformable** is the particle with elastic (Hertz) contact and friction
   that remembers its loading history; the **point mass** is the classical
   rigid comparison.

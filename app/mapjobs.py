@@ -15,10 +15,13 @@ queue, one cache, one core budget for the process.
   previous one.  Sessions asking for the same map share one computation
   (each hears its levels); it is cancelled when the last of them cancels
   (or closes), its finished points kept for a request that comes back.
-* One map computes at a time (first come, first served) on `cores`
-  workers: by default all cores but one, which stays for the sessions'
-  clicks (their runs use app/controller.py's pool, never this queue).
-  At most `max_queued` maps wait; beyond, a request is refused.
+* Up to `max_running` maps compute at once and share `cores` workers
+  fairly (app/fairshare.py: their points take turns, so a big map asked
+  for first never starves a small one asked for later; a map alone gets
+  every worker).  `cores` is by default all cores but one, which stays for
+  the sessions' clicks (their runs use app/controller.py's pool, never
+  these workers).  Further maps wait first come, first served; at most
+  `max_queued` wait, beyond that a request is refused.
 """
 import logging
 import os
@@ -31,10 +34,14 @@ from vibtrans.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
 
 from . import kernels, maprequest
+from .fairshare import FairPool
 
 log = logging.getLogger("vibtrans.explorer")
 
 MAX_QUEUED = 16
+# maps computing at once (sharing the cores): more would only slice the
+# cores thinner, fewer would let one big map hold the others back
+MAX_RUNNING = 4
 CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
 
 
@@ -106,7 +113,8 @@ class MapJobs:
 
     def __init__(self, folder=None, max_bytes=DEFAULT_MAX_BYTES, cores=None,
                  max_queued=MAX_QUEUED, max_points=maprequest.MAX_POINTS,
-                 max_seconds=maprequest.MAX_SECONDS, build=None, scheduler=None):
+                 max_seconds=maprequest.MAX_SECONDS, build=None, scheduler=None,
+                 max_running=MAX_RUNNING):
         self.folder = folder or default_folder()
         # a dask.distributed scheduler's address: the points run on its
         # cluster instead of this process's threads (`vibtrans serve --scheduler`)
@@ -114,6 +122,7 @@ class MapJobs:
         self.max_bytes = max_bytes
         self.cores = cores or default_cores()
         self.max_queued = max_queued
+        self.max_running = max_running
         self.max_points = max_points
         self.max_seconds = max_seconds
         # build(computation, path, on_level): computes the map's store at
@@ -123,12 +132,15 @@ class MapJobs:
         self._lock = threading.Lock()
         self._computations = {}      # key -> _Computation (queued or running)
         self._queue = []             # computations waiting, in order
-        self._running = None         # the computation running
+        self._running = set()        # the computations running
+        self._workers = None         # the FairPool of `cores` threads (made at first use)
         self._sessions = {}          # session -> Ticket
         self._speed = {}             # model -> ns per step (runs and twins), measured here
-        # one map at a time; a second, light pool opens the cache and
+        # a thread per running map (its refinement; its points go to the
+        # shared workers); a second, light pool opens the cache and
         # measures the speed, so that a cached map never waits for a big one
-        self._runner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vibtrans-map")
+        self._runner = ThreadPoolExecutor(max_workers=max_running,
+                                          thread_name_prefix="vibtrans-map")
         self._front = ThreadPoolExecutor(max_workers=2, thread_name_prefix="vibtrans-map-front")
         self.computed = 0            # maps computed (not read from the cache): for tests
 
@@ -269,11 +281,14 @@ class MapJobs:
                                     cached=True), final=True)
             return
         with self._lock:
-            ahead = len(self._queue) + (self._running is not None)
             self._queue.append(comp)
-        if ahead:
-            self._tell(comp, Update("queued", text=f"waiting: {ahead} map(s) before it in "
-                                                   f"this server's queue"))
+            # the runner takes the queue in order as maps finish
+            ahead = len(self._running) + len(self._queue) - 1 - self.max_running
+            computing = len(self._running)
+        if ahead >= 0:
+            self._tell(comp, Update("queued", text=f"waiting: {computing} map(s) computing "
+                                                   f"and {ahead} waiting before it in this "
+                                                   f"server's queue"))
         self._runner.submit(self._compute, comp)
 
     def _compute(self, comp):
@@ -282,12 +297,12 @@ class MapJobs:
                 self._queue.remove(comp)
             if comp.cancel.is_set():
                 return
-            self._running = comp
+            self._running.add(comp)
         try:
             self._compute_now(comp)
         finally:
             with self._lock:
-                self._running = None
+                self._running.discard(comp)
 
     def _compute_now(self, comp):
         levels = comp.request.levels
@@ -316,11 +331,23 @@ class MapJobs:
             log.exception("a map on demand failed: %s", comp.request.title())
             self._tell(comp, Update("failed", text=f"{type(exc).__name__}: {exc}"), final=True)
 
+    def share(self):
+        """A new lane of the server's workers (app/fairshare.py) for one map."""
+        with self._lock:
+            if self._workers is None:
+                self._workers = FairPool(self.cores, name="vibtrans-map-point")
+            return self._workers.lane()
+
     def _run_adaptive(self, comp, path, on_level):
         from vibtrans.adaptive import run_adaptive
-        run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
-                     scheduler=self.scheduler, progress=False, on_level=on_level,
-                     cancel=comp.cancel)
+        lane = None if self.scheduler else self.share()
+        try:
+            run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
+                         scheduler=self.scheduler, progress=False, on_level=on_level,
+                         cancel=comp.cancel, executor=lane)
+        finally:
+            if lane is not None:
+                lane.shutdown()
 
 
 _JOBS = {"jobs": None, "settings": {}}

@@ -264,10 +264,10 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         # the computation ends (its queued points dropped), leaving no map
         import time
         deadline = time.monotonic() + 120
-        while remote._running is not None and time.monotonic() < deadline:
+        while remote._running and time.monotonic() < deadline:
             time.sleep(0.1)
         from vibtrans.mapcache import request_key
-        assert remote._running is None
+        assert not remote._running
         assert remote.cache.get(request_key(bigger.cache_request())) is None
 
 
@@ -299,3 +299,59 @@ def test_a_closing_page_cancels_its_map(monkeypatch, tmp_path, gate):
     e._on_session_destroyed(None)
     assert mine.wait(5).kind == "cancelled" and made.busy() == (0, 0)
     gate.set()
+
+
+def test_a_small_map_asked_for_later_is_not_starved_by_a_big_one(tmp_path):
+    """Maps share the server's workers in turn (app/fairshare.py): on one
+    core, a 5 x 5 map asked for while a 33 x 33 map computes finishes
+    first, and both maps equal the ones computed alone."""
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
+    big_request = MapRequest(**{**TINY, "cells": 8, "levels": 2})       # 33 x 33
+    small_request = MapRequest(**{**TINY, "mu": 0.5})
+    ended = []
+    big, small = Listener(), Listener()
+
+    def on_big(update):
+        big(update)
+        if update.final:
+            ended.append("big")
+        elif update.kind == "level" and update.level == 0:
+            # the big map's coarse level is drawn: now a small map is asked for
+            jobs.submit("small", small_request, on_small)
+
+    def on_small(update):
+        small(update)
+        if update.final:
+            ended.append("small")
+    jobs.submit("big", big_request, on_big)
+    assert small.wait().kind == "done" and big.wait().kind == "done", (big.kinds(),
+                                                                       small.kinds())
+    assert ended == ["small", "big"]
+    assert "queued" not in small.kinds()
+    alone = mapjobs.MapJobs(folder=str(tmp_path / "alone"), cores=1)
+    for request, shared in ((small_request, small), (big_request, big)):
+        solo = Listener()
+        alone.submit("a", request, solo)
+        got = solo.wait()
+        for v in ("drift_velocity", "drift", "chaotic", "computed"):
+            np.testing.assert_array_equal(got.ds[v].values, shared.updates[-1].ds[v].values)
+
+
+def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate):
+    """With max_running maps computing, the next one says it waits."""
+    def build(comp, path, on_level):
+        assert gate.wait(60)
+        made._run_adaptive(comp, path, on_level)
+    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build,
+                           max_running=1)
+    first, second = Listener(), Listener()
+    made.submit("a", MapRequest(**TINY), first)
+    made.submit("b", MapRequest(**{**TINY, "mu": 0.5}), second)
+    import time
+    deadline = time.monotonic() + 60
+    while "queued" not in second.kinds() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    gate.set()
+    assert first.wait().kind == "done" and second.wait().kind == "done"
+    queued = [u for u in second.updates if u.kind == "queued"]
+    assert queued and "1 map(s) computing and 0 waiting" in queued[0].text

@@ -262,10 +262,13 @@ def _compute_points(values, coords, chaos):
     return [compute_point(values, la, lm, chaos) for la, lm in coords]
 
 
-def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None):
+def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
+                executor=None):
     """Compute the points `todo` [(i, j), ...] into grid, writing batches;
     Cancelled once `cancel` (a threading.Event) is set (between tasks: the
-    finished points are kept in the partial folder)."""
+    finished points are kept in the partial folder).  executor: a
+    concurrent.futures.Executor to run the tasks on (a server's share of
+    its workers) instead of a pool of `workers` threads of our own."""
     la, lm = sweep.log_amplitude, sweep.log_mass
     tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
     finished = []
@@ -292,7 +295,9 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
                     other.cancel()
                 break
     else:
-        with ThreadPoolExecutor(max_workers=workers) as pool:
+        own = executor is None
+        pool = ThreadPoolExecutor(max_workers=workers) if own else executor
+        try:
             pending, queue = {}, list(tasks)
             while queue or pending:
                 while queue and len(pending) < 2 * workers and not _set(cancel):
@@ -303,6 +308,9 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
                 ready, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in ready:
                     done(pending.pop(fut), fut.result())
+        finally:
+            if own:
+                pool.shutdown()
     if finished:
         partial.write(finished, grid)
     if _set(cancel):
@@ -377,7 +385,8 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
 
 
 def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
-                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None):
+                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None,
+                 executor=None):
     """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
     finest) into the Zarr store `path`, resuming from `<path>.partial/`.
 
@@ -390,6 +399,9 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     cancel: a threading.Event; once set, no new point starts and the call
         raises vibtrans.errors.Cancelled (the finished points stay in the
         partial folder: the same call resumes).
+    executor: a concurrent.futures.Executor for the points (a server shares
+        its workers between maps this way), keeping at most 2 x `workers`
+        tasks in it; else a pool of `workers` threads.
     Returns the fraction of finest-grid points computed.
     """
     import xarray as xr
@@ -429,7 +441,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
         bar.total = (bar.total or 0) + len(todo)
         bar.refresh()
         if todo:
-            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel)
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor)
         elif _set(cancel):
             raise Cancelled("map cancelled")
 

@@ -1,0 +1,66 @@
+"""app/fairshare.py: the server's workers shared between maps in turn."""
+import threading
+
+import pytest
+
+from vibtrans_explorer.fairshare import FairPool
+
+
+def _blocked_pool():
+    """A one-worker pool whose worker is held by a task of lane `first`
+    until `gate` is set."""
+    pool = FairPool(1)
+    first, second = pool.lane(), pool.lane()
+    gate, holding = threading.Event(), threading.Event()
+
+    def hold():
+        holding.set()
+        assert gate.wait(30)
+    held = first.submit(hold)
+    assert holding.wait(30)
+    return pool, first, second, gate, held
+
+
+def test_lanes_take_turns_so_a_later_lane_is_not_starved():
+    pool, big, small, gate, held = _blocked_pool()
+    order = []
+    big_tasks = [big.submit(order.append, f"big{k}") for k in range(9)]
+    small_tasks = [small.submit(order.append, f"small{k}") for k in range(3)]
+    gate.set()
+    for f in [held, *big_tasks, *small_tasks]:
+        f.result(timeout=30)
+    # first come, first served would run the 9 big tasks first
+    assert order.index("small2") < order.index("big3"), order
+    assert [t for t in order if t.startswith("big")] == [f"big{k}" for k in range(9)]
+
+
+def test_a_failing_task_reaches_its_future_and_the_worker_goes_on():
+    pool = FairPool(1)
+    lane = pool.lane()
+
+    def fail():
+        raise ValueError("a point failed")
+    bad = lane.submit(fail)
+    good = lane.submit(lambda: 42)
+    with pytest.raises(ValueError, match="a point failed"):
+        bad.result(timeout=30)
+    assert good.result(timeout=30) == 42
+
+
+def test_shutting_a_lane_down_cancels_its_waiting_tasks_only():
+    pool, first, second, gate, held = _blocked_pool()
+    dropped = [first.submit(lambda: "dropped") for _ in range(3)]
+    kept = second.submit(lambda: "kept")
+    first.shutdown()
+    gate.set()
+    assert kept.result(timeout=30) == "kept"
+    assert held.result(timeout=30) is None
+    assert all(f.cancelled() for f in dropped)
+    with pytest.raises(RuntimeError, match="shut down"):
+        first.submit(lambda: None)
+    assert first not in pool.queued()
+
+
+def test_a_pool_needs_a_worker():
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        FairPool(0)
