@@ -43,6 +43,14 @@ clients' work does not count as the server's; `--pin` is server on the
 first core this process may use, clients on the second.  The report gives
 the affinity read back from the processes.
 
+`--maps N`: N of the protocol sessions are researchers asking for a map
+on demand instead of clicking: each opens a link with its own map request
+(`map=`: a 33 x 33 preview, 500-period window at its own mu, computed
+adaptively on the server's map workers) and waits for the finished map;
+the others click meanwhile.  Every map must finish (errors otherwise); the
+report gives their durations.  The server's map cache is a fresh folder,
+so that the maps are computed, not read from an earlier run's cache.
+
 `--proxy-workers N`: the same load through nginx in front of N `vibtrans
 serve` processes (devtools/deploy; `make loadtest-proxy`); memory is then
 the workers' together, and the report says how the sessions spread.
@@ -481,6 +489,26 @@ def log_errors(text):
     return errors, benign
 
 
+def map_request(k):
+    """Map session k's request (the URL's `map=` value): a window across
+    the jumping boundary, 33 x 33 points at the finest level, preview
+    fidelity and 500 periods, at a mu of its own (so that no two sessions
+    share a computation)."""
+    from vibtrans_explorer.maprequest import MapRequest, encode
+    return encode(MapRequest(model="deformable", mu=round(0.31 + 0.02 * k, 2),
+                             fidelity="preview", periods=500.0, la_from=0.0, la_to=1.5,
+                             lm_from=-1.5, lm_to=1.5, cells=8, levels=2))
+
+
+def map_sessions(sessions, browsers, maps):
+    """Which sessions ask for a map: `maps` of the protocol sessions,
+    spread over the arrival order."""
+    protocol = [k for k in range(sessions) if k not in browser_sessions(sessions, browsers)]
+    maps = min(maps, len(protocol))
+    return {protocol[int((i + 0.5) * len(protocol) / maps)] for i in range(maps)} if maps \
+        else set()
+
+
 def _sequence(session, clicks):
     """Distinct well-spread numbers (u, v) in [0, 1)^2 for each click."""
     for c in range(clicks):
@@ -544,6 +572,35 @@ async def _protocol_session(url, k, a, result, rng):
                 continue
             await _clicked(result, a, rng, k, "protocol", start,
                            error=text if kind == "error" else None)
+    except Exception as exc:                  # noqa: BLE001 - counted, reported
+        result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
+    finally:
+        client.close()
+
+
+async def _map_session(url, k, a, result, index):
+    """A researcher: open a link asking for a map, wait until it is
+    finished (no clicks)."""
+    from urllib.parse import quote
+
+    from .protoclient import ProtocolSession
+    await _arrive(a, k)
+    client = ProtocolSession(url, timeout=a.click_timeout,
+                             query=f"?map={quote(map_request(index))}")
+    try:
+        t0 = time.perf_counter()
+        await client.open()
+        ended = client.map_ended()         # before any await: its end cannot be missed
+        result["load_s"].append(time.perf_counter() - t0)
+        try:
+            kind, text = await asyncio.wait_for(ended, a.timeout)
+        except asyncio.TimeoutError:
+            result["errors"].append(f"session {k}: its map did not finish")
+            return
+        if kind == "error":
+            result["errors"].append(f"session {k}: its map: {text[:300]}")
+        else:
+            result["map_s"].append(time.perf_counter() - t0)
     except Exception as exc:                  # noqa: BLE001 - counted, reported
         result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
     finally:
@@ -619,9 +676,14 @@ def browser_sessions(sessions, browsers):
 async def _drive(url, a, sessions, result, seed):
     rng = random.Random(seed)
     in_browser = browser_sessions(sessions, a.browsers)
+    asking = sorted(map_sessions(sessions, a.browsers, getattr(a, "maps", 0)))
+
+    def protocol(k):
+        if k in asking:
+            return _map_session(url, k, a, result, asking.index(k))
+        return _protocol_session(url, k, a, result, rng)
     if not in_browser:
-        await _gather([_protocol_session(url, k, a, result, rng) for k in range(sessions)],
-                      a, result)
+        await _gather([protocol(k) for k in range(sessions)], a, result)
         return
     from playwright.async_api import async_playwright
     # processes this one had started before (the server; a test session's
@@ -637,8 +699,7 @@ async def _drive(url, a, sessions, result, seed):
                                           and p not in result.get("server_pids", ()))
         try:
             await _gather([_session(browser, url, k, a, result, rng) if k in in_browser
-                           else _protocol_session(url, k, a, result, rng)
-                           for k in range(sessions)], a, result)
+                           else protocol(k) for k in range(sessions)], a, result)
         finally:
             await browser.close()
 
@@ -660,7 +721,7 @@ def _median(values):
 
 def _new_result():
     return {"latencies": [], "browser_latencies": [], "protocol_latencies": [], "timeline": [],
-            "errors": [], "refused": [], "load_s": []}
+            "errors": [], "refused": [], "load_s": [], "map_s": []}
 
 
 def _quantile(values, q):
@@ -676,10 +737,13 @@ def run(a):
     load_before = os.getloadavg()
     own_affinity = os.sched_getaffinity(0)
     wrap = _taskset(a.pin_server)
+    # maps on demand computed, not read from an earlier run's cache
+    map_cache = tempfile.mkdtemp(prefix="vibtrans-loadtest-maps-")
+    env = {"VIBTRANS_MAP_CACHE": map_cache}
     if a.proxy_workers:
-        server = ProxiedServers(a.proxy_workers, wrap=wrap)
+        server = ProxiedServers(a.proxy_workers, env=env, wrap=wrap)
     else:
-        server = Server(num_procs=a.num_procs, wrap=wrap)
+        server = Server(num_procs=a.num_procs, env=env, wrap=wrap)
     try:
         if a.pin_clients:
             # this thread, and every thread and process started from it from
@@ -691,7 +755,7 @@ def run(a):
         # warm-up: one session, one click, closed and dropped -> the baseline
         warm = _new_result()
         warm_args = argparse.Namespace(**{**vars(a), "sessions": 1, "clicks": 1, "think": 0.0,
-                                          "ramp": 0.0, "first_point": 997})
+                                          "ramp": 0.0, "first_point": 997, "maps": 0})
         asyncio.run(_drive(server.url, warm_args, 1, warm, a.seed))
         _, warm_released = server.wait_dropped(1, a.settle)
         rss_base = server.rss()
@@ -717,6 +781,7 @@ def run(a):
         spread = server.deployment.sessions_per_worker() if a.proxy_workers else None
     finally:
         server.stop()
+        shutil.rmtree(map_cache, ignore_errors=True)
         os.sched_setaffinity(0, own_affinity)
     lat = result["latencies"]
     arriving = [x for start, x, _ in result["timeline"] if start - t0 <= a.ramp]
@@ -734,6 +799,9 @@ def run(a):
         "sessions": a.sessions, "clicks_per_session": a.clicks, "think_s": a.think,
         "ramp_s": a.ramp, "clicks_planned": a.sessions * a.clicks,
         "clicks_measured": len(lat), "refused": len(result["refused"]),
+        "map_sessions": len(map_sessions(a.sessions, a.browsers, a.maps)),
+        "maps_finished": len(result["map_s"]),
+        "map_seconds": [round(x, 1) for x in sorted(result["map_s"])],
         "errors": count, "error_samples": errors[:10],
         "click_to_plot_p50_s": statistics.median(lat) if lat else float("nan"),
         "click_to_plot_p95_s": _quantile(lat, 0.95),
@@ -775,6 +843,7 @@ def run(a):
     out["goal_p95_3s"] = out["click_to_plot_p95_s"] <= 3.0
     out["goal_errors_0"] = out["errors"] == 0
     out["goal_rss_within_10pct"] = abs(out["rss_after_over_baseline"]) <= 0.10
+    out["goal_maps_finished"] = out["maps_finished"] == out["map_sessions"]
     return out
 
 
@@ -786,6 +855,9 @@ def parser():
     ap.add_argument("--browsers", type=int, default=2,
                     help="how many of the sessions are real chromium pages (the others "
                          "are protocol sessions); 0 to --sessions")
+    ap.add_argument("--maps", type=int, default=0,
+                    help="how many of the protocol sessions ask for a map on demand "
+                         "instead of clicking; 0 to --sessions - --browsers")
     ap.add_argument("--think", type=float, default=10.0,
                     help="seconds between a result and the next click (+-50%%)")
     ap.add_argument("--ramp", type=float, default=30.0,
@@ -848,6 +920,9 @@ def parse(argv):
         ap.error(f"--sessions must be in [1, 100], got {a.sessions}")
     if not 0 <= a.browsers <= a.sessions:
         ap.error(f"--browsers must be in [0, --sessions = {a.sessions}], got {a.browsers}")
+    if not 0 <= a.maps <= a.sessions - a.browsers:
+        ap.error(f"--maps must be in [0, --sessions - --browsers = {a.sessions - a.browsers}], "
+                 f"got {a.maps}")
     if not 1 <= a.clicks <= 50:
         ap.error(f"--clicks must be in [1, 50], got {a.clicks}")
     for name in ("think", "ramp", "click_timeout", "timeout", "settle"):

@@ -23,6 +23,9 @@ from tornado.websocket import websocket_connect
 # progress line is "Running <model> at A* = ...")
 _DONE = re.compile(r": A\* = [^,]*, m\* = [^,]*, mu = ")
 _FAILED = re.compile(r"run failed|server's limit|Drawing the run failed")
+# a map on demand's end (app/explorer.py's map status)
+_MAP_DONE = re.compile(r"Map finished: |Map from this server's cache ")
+_MAP_FAILED = re.compile(r"The map failed|Not computed|Drawing the map failed|Map cancelled")
 
 
 def _walk(obj, out):
@@ -41,14 +44,17 @@ def _walk(obj, out):
 class ProtocolSession:
     """One explorer session over Bokeh's websocket protocol.
 
-    `await open()` loads the page and reports it ready (`document_ready`,
-    as a browser's page does); `await
+    `await open()` loads the page (with `query`, a link's "?..." part) and
+    reports it ready (`document_ready`, as a browser's page does); `await
     click(fx, fy)` taps the map at fractions of its axes' ranges and returns
-    ("done" | "error", summary text); `close()` closes the connection.
+    ("done" | "error", summary text); `map_ended()` (called right after
+    open) a future of the map on demand's end, ("done" | "error", status);
+    `close()` closes the connection.
     """
 
-    def __init__(self, url, timeout=180.0, cookies=None):
+    def __init__(self, url, timeout=180.0, cookies=None, query=""):
         self.url = url.rstrip("/") + "/"
+        self.query = query
         self.timeout = timeout
         # as a browser's cookie jar for this one site: what the server (or
         # a proxy in front of it: devtools/deploy) sets on the page comes
@@ -63,7 +69,7 @@ class ProtocolSession:
         # a client of its own: Tornado's shared one queues beyond 10 requests
         http = AsyncHTTPClient(force_instance=True)
         try:
-            page = await http.fetch(self.url, request_timeout=self.timeout,
+            page = await http.fetch(self.url + self.query, request_timeout=self.timeout,
                                     headers=self._cookie_header())
         finally:
             http.close()
@@ -111,6 +117,15 @@ class ProtocolSession:
         # as the page after drawing new data: its axes' widths change
         self._sizes([f for f in self._figures() if f is not self.map], 1)
         return "done", text
+
+    def map_ended(self):
+        """A future: ("done" | "error", text) once the map the link asked
+        for is finished (computed or from the cache) or has failed."""
+        async def ended(found):
+            text = await found
+            return ("error" if _MAP_FAILED.search(text) else "done"), text
+        found = self._wait(lambda s: bool(_MAP_DONE.search(s) or _MAP_FAILED.search(s)))
+        return asyncio.ensure_future(ended(found))
 
     def close(self):
         if self.conn is not None:

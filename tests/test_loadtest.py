@@ -36,6 +36,37 @@ def test_small_load_has_no_errors_and_bounded_memory():
           f"{out['server_start_to_ready_s']:.1f} s, click p95 {out['click_to_plot_p95_s']:.1f} s")
 
 
+@pytest.mark.server
+@pytest.mark.slow
+def test_a_session_asking_for_a_map_gets_it_while_the_others_click():
+    """--maps: one protocol session opens a link with a map request and
+    waits for the finished map (computed: the server's map cache is a fresh
+    folder) while two sessions click; every click answered, the map
+    finished, no errors."""
+    out = loadtest.main(["--sessions", "3", "--clicks", "2", "--browsers", "0", "--maps", "1",
+                         "--think", "0.5", "--ramp", "1", "--click-timeout", "90",
+                         "--timeout", "240", "--settle", "30", "--json"])
+    assert out["errors"] == 0, out["error_samples"]
+    assert out["map_sessions"] == 1 and out["maps_finished"] == 1, out
+    assert out["goal_maps_finished"]
+    assert out["protocol_clicks"] == 4, out
+    assert out["sessions_dropped"] == 3
+    print(f"load test 3 x 2 with a map: map {out['map_seconds']} s, click p95 "
+          f"{out['click_to_plot_p95_s']:.1f} s")
+
+
+def test_map_sessions_are_protocol_sessions_and_bounded(capsys):
+    assert loadtest.map_sessions(30, 2, 5).isdisjoint(loadtest.browser_sessions(30, 2))
+    assert len(loadtest.map_sessions(30, 2, 5)) == 5
+    assert loadtest.map_sessions(30, 2, 0) == set()
+    # five distinct requests: no two sessions share one computation
+    assert len({loadtest.map_request(k) for k in range(5)}) == 5
+    with pytest.raises(SystemExit):
+        loadtest.parse(["--sessions", "3", "--browsers", "1", "--maps", "3"])
+    assert "--maps must be in [0, --sessions - --browsers = 2], got 3" in \
+        capsys.readouterr().err
+
+
 def test_the_server_runs_on_the_c_allocator(served_explorer):
     """`vibtrans serve` re-executes itself with PYTHONMALLOC=malloc (memory
     of closed sessions goes back to the OS: docs/SECURITY.md), in the same
