@@ -6,6 +6,7 @@ one asked for later; each map runs as fast as the cores allow while alone.
 The tasks are map points (vibtrans.adaptive), whose kernels release the
 GIL, so threads use the cores.  Nothing here knows about maps.
 """
+import os
 import threading
 from collections import OrderedDict, deque
 from concurrent.futures import Executor, Future
@@ -13,12 +14,15 @@ from concurrent.futures import Executor, Future
 
 class FairPool:
     """`workers` daemon threads serving lanes round-robin (one task from a
-    lane, then the next lane with work)."""
+    lane, then the next lane with work), at niceness `nice` (Linux: per
+    thread), so that the process's other threads (a server's event loop and
+    its sessions' runs) come first on a busy core."""
 
-    def __init__(self, workers, name="vibtrans-fair"):
+    def __init__(self, workers, name="vibtrans-fair", nice=0):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = int(workers)
+        self.nice = int(nice)
         self._ready = threading.Condition()
         self._lanes = OrderedDict()       # Lane -> deque of (future, fn, args, kwargs)
         self._threads = [threading.Thread(target=self._serve, name=f"{name}-{k}", daemon=True)
@@ -61,6 +65,13 @@ class FairPool:
                 self._ready.wait()
 
     def _serve(self):
+        if self.nice:
+            try:            # a thread's id is a process id for setpriority (Linux)
+                tid = threading.get_native_id()
+                os.setpriority(os.PRIO_PROCESS, tid,
+                               min(19, os.getpriority(os.PRIO_PROCESS, tid) + self.nice))
+            except (OSError, AttributeError):
+                pass        # elsewhere: the workers run at the process's priority
         while True:
             future, fn, args, kwargs = self._next()
             if not future.set_running_or_notify_cancel():

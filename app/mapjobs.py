@@ -18,7 +18,8 @@ queue, one cache, one core budget for the process.
 * Up to `max_running` maps compute at once and share `cores` workers
   fairly (app/fairshare.py: their points take turns, so a big map asked
   for first never starves a small one asked for later; a map alone gets
-  every worker).  `cores` is by default all cores but one, which stays for
+  every worker), niced (MAP_NICE) below the sessions' runs and the event
+  loop.  `cores` is by default all cores but one, which stays for
   the sessions' clicks (their runs use app/controller.py's pool, never
   these workers).  Further maps wait first come, first served; at most
   `max_queued` wait, beyond that a request is refused.
@@ -42,6 +43,9 @@ MAX_QUEUED = 16
 # maps computing at once (sharing the cores): more would only slice the
 # cores thinner, fewer would let one big map hold the others back
 MAX_RUNNING = 4
+# the map workers' niceness: on a core they share with the sessions' runs
+# and the event loop, those come first (a weight of about 1/10 of theirs)
+MAP_NICE = 10
 CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
 
 
@@ -282,10 +286,13 @@ class MapJobs:
             return
         with self._lock:
             self._queue.append(comp)
-            # the runner takes the queue in order as maps finish
-            ahead = len(self._running) + len(self._queue) - 1 - self.max_running
-            computing = len(self._running)
-        if ahead >= 0:
+            # the runner takes the queue in order as maps finish; the maps
+            # queued before this one and not yet started take the free
+            # places first (their threads may not have begun: count them)
+            before = len(self._running) + len(self._queue) - 1
+            computing = min(before, self.max_running)
+            ahead = before - computing
+        if before >= self.max_running:
             self._tell(comp, Update("queued", text=f"waiting: {computing} map(s) computing "
                                                    f"and {ahead} waiting before it in this "
                                                    f"server's queue"))
@@ -335,7 +342,8 @@ class MapJobs:
         """A new lane of the server's workers (app/fairshare.py) for one map."""
         with self._lock:
             if self._workers is None:
-                self._workers = FairPool(self.cores, name="vibtrans-map-point")
+                self._workers = FairPool(self.cores, name="vibtrans-map-point",
+                                         nice=MAP_NICE)
             return self._workers.lane()
 
     def _run_adaptive(self, comp, path, on_level):

@@ -27,7 +27,7 @@ and does, in this order:
 Each time runs from the action (the pointerdown or input event the page
 receives, in the page's clock) to the first animation frame at which the
 result is drawn: the summary's first line (bold, "... mu = ...") is the new
-run's, or the map figure is a new one, or a new figure is shown and no
+run's, or the map figure is a new one or shows new data, or a new figure is shown and no
 pane is loading; and every Bokeh plot shown has finished painting
 (BokehJS's view.has_finished()); the time is taken at the next frame, once
 that frame has been painted.
@@ -162,6 +162,8 @@ const mapPlot = () => {
   const titled = plots().filter((m) => m.title && String(m.title.text).startsWith("<v*> over"));
   return [...named, ...titled].find(shownView) || null;
 };
+// the data objects of a map plot's renderers (replaced when the server sends new data)
+const mapData = (m) => m ? m.renderers.map((r) => r.data_source ? r.data_source.data : null) : [];
 // every plot shown has painted (BokehJS marks a view finished after its paint)
 const allPainted = () => {
   for (const m of plots()) {
@@ -228,7 +230,7 @@ B.start = (kind, arg) => {
   const baseTitles = new Set(titles());
   const a = B.active = {kind, arg, t_start: performance.now(), t_action: null, action_by: null,
                         t_done: null, t_busy: null, t_header: null, t_reply: null, error: null,
-                        base_map: map ? map.id : null};
+                        base_map: map ? map.id : null, base_data: mapData(map)};
   B.result = null;
   B.target = null;
   const done = (s) => {
@@ -239,8 +241,10 @@ B.start = (kind, arg) => {
     }
     if (kind === "redraw") {
       const m = mapPlot();
-      return m !== null && m.id !== a.base_map && shownView(m).has_finished() && !s.ack
-          && allPainted();
+      // a new figure, or the shown one with new data (updated in place)
+      const fresh = m !== null && (m.id !== a.base_map
+        || mapData(m).some((d, i) => d !== a.base_data[i]));
+      return fresh && shownView(m).has_finished() && !s.ack && allPainted();
     }
     if (kind === "figure")       // a new figure shown, no pane loading
       return s.canvases.some((c) => !seen.has(c)) && s.loading === 0 && allPainted();

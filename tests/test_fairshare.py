@@ -64,3 +64,14 @@ def test_shutting_a_lane_down_cancels_its_waiting_tasks_only():
 def test_a_pool_needs_a_worker():
     with pytest.raises(ValueError, match="workers must be >= 1"):
         FairPool(0)
+
+
+def test_the_workers_run_at_the_niceness_asked_for():
+    """Map workers yield a shared core to the server's other threads."""
+    import os
+    pool = FairPool(1, nice=7)
+    lane = pool.lane()
+    here = os.getpriority(os.PRIO_PROCESS, 0)
+    got = lane.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+    assert got.result(timeout=30) == min(19, here + 7)
+    assert os.getpriority(os.PRIO_PROCESS, 0) == here        # this thread unchanged

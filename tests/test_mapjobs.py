@@ -3,6 +3,7 @@ and URL form, the server-wide queue (one map per session, sessions sharing
 a computation, cancel, the cache's reuse and a damaged entry recomputed)."""
 import os
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -262,7 +263,6 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         remote.submit("b", bigger, cancel_at_first_level)
         assert cancelled.wait().kind == "cancelled", cancelled.kinds()
         # the computation ends (its queued points dropped), leaving no map
-        import time
         deadline = time.monotonic() + 120
         while remote._running and time.monotonic() < deadline:
             time.sleep(0.1)
@@ -337,21 +337,36 @@ def test_a_small_map_asked_for_later_is_not_starved_by_a_big_one(tmp_path):
             np.testing.assert_array_equal(got.ds[v].values, shared.updates[-1].ds[v].values)
 
 
-def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate):
-    """With max_running maps computing, the next one says it waits."""
+@pytest.mark.parametrize("slow_cache_read", ["first", "second"])
+def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_cache_read):
+    """With max_running maps computing, the next one says it waits, whichever
+    of two requests reaches the queue first (a slow cache read lets the
+    second overtake the first, as a busy machine can)."""
     def build(comp, path, on_level):
         assert gate.wait(60)
         made._run_adaptive(comp, path, on_level)
     made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build,
                            max_running=1)
+    read = made.cache.get
+    slow_key = mapjobs.request_key(MapRequest(**(TINY if slow_cache_read == "first" else
+                                                 {**TINY, "mu": 0.5})).cache_request())
+
+    def get(key):
+        if key == slow_key:
+            time.sleep(0.5)
+        return read(key)
+    made.cache.get = get
     first, second = Listener(), Listener()
     made.submit("a", MapRequest(**TINY), first)
     made.submit("b", MapRequest(**{**TINY, "mu": 0.5}), second)
-    import time
+    # the two requests open the cache on two threads: either may reach the
+    # queue first, and the other is the one that waits
     deadline = time.monotonic() + 60
-    while "queued" not in second.kinds() and time.monotonic() < deadline:
+    while ("queued" not in first.kinds() + second.kinds()
+           and time.monotonic() < deadline):
         time.sleep(0.05)
     gate.set()
     assert first.wait().kind == "done" and second.wait().kind == "done"
-    queued = [u for u in second.updates if u.kind == "queued"]
-    assert queued and "1 map(s) computing and 0 waiting" in queued[0].text
+    queued = [u for listener in (first, second) for u in listener.updates
+              if u.kind == "queued"]
+    assert len(queued) == 1 and "1 map(s) computing and 0 waiting" in queued[0].text

@@ -9,7 +9,7 @@ import holoviews as hv
 import panel as pn
 from bokeh.core.serialization import Deserializer
 from bokeh.events import Tap
-from bokeh.models import ColumnDataSource
+from bokeh.models import ColorBar, ColumnDataSource, HoverTool, Legend
 
 from vibtrans import plots
 from vibtrans.analysis import CHAOS_LYAPUNOV, V0
@@ -17,7 +17,7 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import data
 from ..state import within
-from .render import render_into_document
+from .render import RENDER_LOCK, render_into_document
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
@@ -103,6 +103,46 @@ def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit 
     return fig
 
 
+def _shape(fig):
+    """What a map figure is made of: its renderers' glyph types in order,
+    its legends' item counts and its colour bars' count.  Two figures of the
+    same shape differ only in their data, labels and ticks."""
+    return ([(type(r).__name__, type(getattr(r, "glyph", None)).__name__)
+             for r in fig.renderers],
+            [len(legend.items) for legend in fig.select(type=Legend)],
+            len(fig.select(type=ColorBar)))
+
+
+def update_in_place(old, new):
+    """Make the shown figure `old` draw what `new` (of the same shape)
+    draws: the sources' data, the image glyphs' placement, the colour bars'
+    ticks, labels and title, the legends' labels, the hover's tooltips and
+    the title.  The browser then repaints one plot instead of building a new
+    one (a new figure costs it about a second); the zoom is kept.  False
+    (nothing changed) when the shapes differ."""
+    if _shape(old) != _shape(new):
+        return False
+    for ro, rn in zip(old.renderers, new.renderers):
+        so, sn = getattr(ro, "data_source", None), getattr(rn, "data_source", None)
+        if so is not None and sn is not None and so is not sn:
+            so.data = dict(sn.data)
+        go, gn = getattr(ro, "glyph", None), getattr(rn, "glyph", None)
+        for attr in ("x", "y", "dw", "dh"):
+            if hasattr(gn, attr) and hasattr(go, attr):
+                setattr(go, attr, getattr(gn, attr))
+    for bo, bn in zip(old.select(type=ColorBar), new.select(type=ColorBar)):
+        bo.ticker.ticks = list(bn.ticker.ticks)
+        bo.major_label_overrides = dict(bn.major_label_overrides)
+        bo.title = bn.title
+    for lo, ln in zip(old.select(type=Legend), new.select(type=Legend)):
+        for io, in_ in zip(lo.items, ln.items):
+            io.label = in_.label
+    for ho, hn in zip(old.select(type=HoverTool), new.select(type=HoverTool)):
+        ho.tooltips = hn.tooltips
+    old.title.text = new.title.text
+    return True
+
+
 def computed_element(ds, title, model, window, v0, chaotic):
     """A map on demand (HoloViews): its drift map over its window, with the
     jumping boundary and the resonances (the vertical motion's: they hold
@@ -125,7 +165,8 @@ def computed_element(ds, title, model, window, v0, chaotic):
 def computed_figure(ds, title, model, window, v0, chaotic):
     """`computed_element` as a Bokeh figure of a Document of its own (made
     off the event loop: it belongs to no session until shown)."""
-    _, fig = render_into_document(computed_element(ds, title, model, window, v0, chaotic))
+    with RENDER_LOCK:       # building HoloViews elements touches its shared options too
+        _, fig = render_into_document(computed_element(ds, title, model, window, v0, chaotic))
     fig.document.remove_root(fig)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
     return fig
@@ -163,6 +204,7 @@ class MapView:
         # on_click(la, lm)); None: the shipped maps
         self.computed = None
         self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
+        self._drawn = None           # what the shipped figures shown draw (redraw)
         self.redraw()
         state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer",
                                         "orbits"], precedence=1)
@@ -204,6 +246,7 @@ class MapView:
         if self.on_tap_js is not None:
             fig.js_on_event(Tap, self.on_tap_js)
         self.computed = fig
+        self._drawn = None
         self.figures = [fig]
         self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 
@@ -230,6 +273,19 @@ class MapView:
         if self.computed is not None:
             return          # a map on demand is shown: the shipped settings wait
         figures = [self._figure(m, mu) for m, mu in self.shown()]
+        # the same models, layer and curves drawn the same way (a new mu or
+        # v0*): the shown figures are updated, not replaced
+        s = self.state
+        # (whether a map is shipped decides what a click on it does)
+        shown = ([(m, (m, mu) in data.available_maps()) for m, mu in self.shown()],
+                 s.layer, s.orbits, s.chaotic)
+        if (self.figures and self._drawn == shown
+                and len(figures) == len(self.figures)
+                and all(_shape(o) == _shape(n) for o, n in zip(self.figures, figures))):
+            for old, new in zip(self.figures, figures):
+                update_in_place(old, new)
+            return
+        self._drawn = shown
         if len(figures) > 1:        # linked zoom and pan
             for fig in figures[1:]:
                 fig.x_range, fig.y_range = figures[0].x_range, figures[0].y_range

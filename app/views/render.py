@@ -5,14 +5,29 @@ callback can be a session's document that has already been destroyed (a
 closed page's: its attributes are deleted, and setting the theme then
 raises AttributeError, breaking the redraw that asked).  The figures the
 explorer renders once and shares between sessions belong to no session, so
-they are rendered into a fresh Document instead."""
+they are rendered into a fresh Document instead.
+
+HoloViews' rendering is not thread-safe (its plots share class-level state:
+two renders at once leave a figure's title a plain string, and the second
+raises AttributeError in `_update_title`).  Maps on demand are rendered off
+the event loop, several at once since four maps compute together, so every
+render here holds one lock."""
+import threading
+
 import holoviews as hv
 from bokeh.document import Document
+
+RENDER_LOCK = threading.RLock()     # (re-entrant: a caller may hold it while it builds the element)
 
 
 def render_into_document(element):
     """(document, figure): `element` rendered by HoloViews' Bokeh renderer
     into a new Document (the figure its only root)."""
+    with RENDER_LOCK:
+        return _render(element)
+
+
+def _render(element):
     renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes
     # to a plain one, as hv.render's did: the page's theme applies)

@@ -1,0 +1,80 @@
+"""A new mu or v0* updates the shown map figure in place (app/views/map.py
+update_in_place): the browser repaints one plot instead of building a new
+figure.  What it then draws must equal a freshly built figure of the new
+settings: every source's data, the colour bar's ticks, labels and title, the
+key's labels, the hover and the title.  Anything else (another model, layer
+or way of drawing chaotic points) builds a new figure."""
+import holoviews as hv
+import numpy as np
+import pytest
+from bokeh.models import ColorBar, HoverTool, Legend
+
+from vibtrans_explorer import data
+from vibtrans_explorer.state import ExplorerState
+from vibtrans_explorer.views.map import MapView, map_figure
+
+hv.extension("bokeh")       # as the explorer does
+
+
+def _drawn(fig):
+    """What a map figure draws, comparable between two figures."""
+    sources = []
+    for r in fig.renderers:
+        src = getattr(r, "data_source", None)
+        if src is None or not src.data or set(src.data) == {"x", "y"}:
+            continue        # the key's swatches; the session's markers (shared)
+        sources.append({k: np.asarray(v) for k, v in src.data.items()})
+    bar, = fig.select(type=ColorBar)
+    return {"sources": sources, "ticks": list(bar.ticker.ticks),
+            "labels": dict(bar.major_label_overrides), "bar": bar.title,
+            "key": [str(getattr(i.label, "value", i.label))
+                    for legend in fig.select(type=Legend) for i in legend.items],
+            "hover": [h.tooltips for h in fig.select(type=HoverTool)],
+            "title": fig.title.text}
+
+
+def _assert_same(a, b):
+    assert len(a["sources"]) == len(b["sources"]) > 0
+    for x, y in zip(a["sources"], b["sources"]):
+        assert x.keys() == y.keys()
+        for k in x:
+            assert np.array_equal(x[k], y[k], equal_nan=x[k].dtype.kind == "f"), k
+    for k in ("ticks", "labels", "bar", "key", "hover", "title"):
+        assert a[k] == b[k], k
+
+
+@pytest.mark.parametrize("change", [{"mu": 0.1}, {"v0": 0.05}, {"mu": 1.0, "v0": 0.3}])
+def test_a_new_mu_or_v0_updates_the_figure_to_what_a_new_one_draws(change):
+    if not {("deformable", 0.1), ("deformable", 1.0)} <= set(data.available_maps()):
+        pytest.fail("the shipped maps are missing (assets/maps)")
+    state = ExplorerState()
+    view = MapView(state, on_click=lambda *a: None)
+    shown = view.figures[0]
+    before = _drawn(shown)
+    state.param.update(**change)
+    assert view.figures[0] is shown                  # updated, not replaced
+    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer,
+                       state.orbits)
+    after = _drawn(shown)
+    _assert_same(after, _drawn(fresh))
+    # and it changed (not two pictures of the old settings)
+    assert any(after[k] != before[k] for k in ("title", "ticks", "labels", "bar", "key"))
+
+
+@pytest.mark.parametrize("change", [{"model": "point-mass"}, {"chaotic": "colour"},
+                                    {"layer": "Lyapunov exponent"}])
+def test_another_model_layer_or_colouring_builds_a_new_figure(change):
+    state = ExplorerState()
+    view = MapView(state, on_click=lambda *a: None)
+    shown = view.figures[0]
+    state.param.update(**change)
+    assert view.figures[0] is not shown
+
+
+def test_the_shipped_map_after_a_computed_one_is_a_new_figure():
+    state = ExplorerState()
+    view = MapView(state, on_click=lambda *a: None)
+    computed = map_figure("deformable", 0.3, state.v0, state.chaotic)   # a stand-in
+    view.show_computed(computed, ((-1.0, 1.0), (-1.0, 1.0)), lambda la, lm: None)
+    view.show_shipped()
+    assert view.figures[0] is not computed
