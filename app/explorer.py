@@ -28,11 +28,13 @@ from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 
 from vibtrans import mapaccuracy, plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
+from vibtrans.mapdiff import describe
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, mapjobs, maprequest, urlstate
 from .controller import RUNNER, RunController
 from .state import MAP_MATERIAL, MAP_RUN, URL_KEYS, ExplorerState, within
+from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView, computed_figure
@@ -99,7 +101,7 @@ below the summary.
 # the run's tabs: trajectory, animation, memory diagram, downloads
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
 # the map's tabs: map, vertical curves, units, map on demand
-VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB = 1, 2, 3
+VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB = 1, 2, 3, 4
 # "refine this window" is offered once the shipped map's zoom box spans
 # fewer of its grid cells than this on both axes (beyond its resolution)
 REFINE_BELOW_CELLS = 5
@@ -353,7 +355,8 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.watch(self._on_map_look, ["v0", "chaotic"])
         self.vertical = VerticalView(self.state)
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
-                                   button_classes=["vt-ack-file"])
+                                   button_classes=["vt-ack-file"], shown_map=self._computed_map)
+        self.difference = DifferenceView(self.state, computed=self._computed_map)
         # the run's views, built when their tab is first opened (a session's
         # page costs the event loop that every session shares: what the
         # first screen does not show is not built for it)
@@ -732,6 +735,7 @@ class Explorer(pn.viewable.Viewer):
             ("Vertical", self.vertical.pane),
             ("Units", self.units_box),
             ("Map on demand", self.ondemand_box),
+            ("Difference", self.difference.panel),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
@@ -758,6 +762,8 @@ class Explorer(pn.viewable.Viewer):
             self.units_box.objects = [self.units_panel]
         elif event.new == ONDEMAND_TAB:
             self._request_panel()
+        elif event.new == DIFFERENCE_TAB:
+            self.difference.build()
 
     # ---------- map on demand ----------
     def _request_panel(self):
@@ -1002,6 +1008,12 @@ class Explorer(pn.viewable.Viewer):
             self.refine_box.visible = False
             self._show_banner()
             self._answered()
+
+    def _computed_map(self):
+        """(name, Dataset) of the map on demand shown, or None (the shipped map)."""
+        if self.map_view.computed is None or self._map_shown is None:
+            return None
+        return describe(self._map_shown[1]), self._map_shown[1]
 
     def _on_map_look(self, *events):
         """v0* or the chaotic points' colour changed: the map on demand too."""

@@ -121,6 +121,21 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         assert any("map on demand: deformable, mu = 0.3" in t for t in titles), titles
         again.wait_for_timeout(500)
         _shot(again, "reopened")
+        # the Difference tab compares the map on demand (on its grid) with the
+        # shipped map of its model and mu
+        again.get_by_text("Difference", exact=True).first.click()
+        first = again.locator(".vt-diff-first select").first
+        first.wait_for(timeout=30000)
+        assert first.input_value().startswith("map on demand:")
+        assert (again.locator(".vt-diff-second select").first.input_value()
+                == "deformable, mu = 0.3 (shipped)")
+        again.get_by_role("button", name="Show the difference").first.click()
+        again.get_by_text("points compared").first.wait_for(timeout=60000)
+        summary = again.get_by_text("points compared").first.inner_text()
+        assert "deformable mu 0.3 tau 20 preview 100 periods" in summary, summary
+        again.wait_for_timeout(500)
+        _shot(again, "difference")
+        again.get_by_text("Map", exact=True).first.click()
         # back to the shipped map: the request leaves the link
         again.get_by_role("button", name="Back to the shipped map").first.click()
         again.wait_for_function("() => !window.location.href.includes('map=')", timeout=30000)
@@ -131,3 +146,27 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
 def _query(url):
     from urllib.parse import parse_qs, urlsplit
     return {k: v[0] for k, v in parse_qs(urlsplit(url).query).items()}
+
+
+@pytest.mark.parametrize("width, height", [(1024, 768), (1920, 1080)])
+def test_the_difference_tab_compares_the_two_models(browser, served_explorer, width, height):
+    """The Difference tab's default pair (the deformable particle against the
+    material point at mu 0.3) drawn with its summary and colour bar."""
+    page = browser.new_page(viewport={"width": width, "height": height})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(served_explorer.url)
+        page.wait_for_selector("canvas", timeout=60000)
+        page.get_by_text("Difference", exact=True).first.click()
+        page.get_by_role("button", name="Show the difference").first.click()
+        page.get_by_text("points compared").first.wait_for(timeout=60000)
+        summary = page.get_by_text("points compared").first.inner_text()
+        assert "point-mass mu 0.3" in summary and "deformable mu 0.3" in summary, summary
+        assert "drift class agrees at" in summary, summary
+        page.wait_for_timeout(800)
+        ARTIFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / f"difference-{width}x{height}.png"), full_page=True)
+    finally:
+        page.close()
+    assert not errors, errors

@@ -867,8 +867,9 @@ def map_difference_figure(diff):
                    vdims=[DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"),
                           hv.Dimension("v2", label="<v*> second")])
     img = style(img, common=dict(cmap="RdBu_r", clim=(-top, top), colorbar=True,
-                                 clabel=f"s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/"
-                                        f"{diff.attrs['v0']:g})"),
+                                 # (s(v) = sign(v) log10(1 + |v|/v0*): in the title
+                                 # would be clipped; the tab and `compare` say it)
+                                 clabel=f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"),
                 bokeh=dict(tools=["hover"], hover_tooltips=[
                     (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("<v*> first", "@{v1}"),
                     ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]))

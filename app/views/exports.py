@@ -1,4 +1,4 @@
-"""Downloads: the map and the run's figures (the same as `vibtrans
+"""Downloads: the map shown (shipped or on demand) and the run's figures (the same as `vibtrans
 export`), the run's data (netCDF, CSV) and the map's points in the zoomed
 view (netCDF).  Files are written to a temporary folder, read back and the
 folder removed: nothing is left on the server per click."""
@@ -27,10 +27,13 @@ class ExportsView:
     """The export and data buttons, made when the tab is first shown
     (`build`); the run's are disabled until a run is shown (`show`).
     map_view: the MapView (its zoomed view's ranges); button_classes: CSS
-    classes every button gets as well."""
+    classes every button gets as well; shown_map(): (name, Dataset) of the
+    map on demand shown, or None (the shipped map of the state's model and
+    mu): the map's downloads are of the map shown."""
 
-    def __init__(self, state, map_view, answered=None, button_classes=()):
+    def __init__(self, state, map_view, answered=None, button_classes=(), shown_map=None):
         self.state, self.map_view = state, map_view
+        self.shown_map = shown_map or (lambda: None)
         self.button_classes = list(button_classes)
         self.answered = answered        # called once a file is ready (or failed)
         self.result = None
@@ -65,9 +68,13 @@ class ExportsView:
         from vibtrans import export
         s = self.state
         if kind == "map":
+            shown = self.shown_map()
+            map_ds = data.drift_map(s.model, s.mu) if shown is None else shown[1]
+            title = None if shown is None else f"<v*>, map on demand: {shown[0]}"
+
             def write(out):
-                export.export_heatmap(data.drift_map(s.model, s.mu), out, v0=s.v0,
-                                      vertical=data.vertical_curve())
+                export.export_heatmap(map_ds, out, v0=s.v0, vertical=data.vertical_curve(),
+                                      title=title)
         else:
             if self.result is None:
                 raise ValueError("no run yet")
@@ -88,7 +95,9 @@ class ExportsView:
                 return io.BytesIO(export.samples_csv(ds).encode())
         else:
             s = self.state
-            ds = export.map_window(data.drift_map(s.model, s.mu), *self.map_view.view_ranges())
+            shown = self.shown_map()
+            map_ds = data.drift_map(s.model, s.mu) if shown is None else shown[1]
+            ds = export.map_window(map_ds, *self.map_view.view_ranges())
         return _read_back(ds.to_netcdf, "data.nc")
 
     def _answering(self, make, kind, fmt):
