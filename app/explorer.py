@@ -37,6 +37,7 @@ from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView, computed_figure
 from .views.ondemand import MapRequestPanel
+from .views.design import DesignPanel
 from .views.dynamics import DynamicsView
 from .views.memory import MemoryView
 from .views.summary import SummaryView
@@ -98,8 +99,9 @@ below the summary.
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
-# the map's tabs: map, vertical curves, units, map on demand
+# the map's tabs: map, vertical curves, units, map on demand, design chart
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB = 1, 2, 3
+DESIGN_TAB = 4
 # "refine this window" is offered once the shipped map's zoom box spans
 # fewer of its grid cells than this on both axes (beyond its resolution)
 REFINE_BELOW_CELLS = 5
@@ -727,11 +729,14 @@ class Explorer(pn.viewable.Viewer):
         return widgets
 
     def main(self):
+        self.design_panel = None            # the Design tab's, built when it is first opened
+        self.design_box = pn.Column(sizing_mode="stretch_width", name="design")
         tabs = pn.Tabs(
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
             ("Units", self.units_box),
             ("Map on demand", self.ondemand_box),
+            ("Design", self.design_box),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
@@ -758,6 +763,9 @@ class Explorer(pn.viewable.Viewer):
             self.units_box.objects = [self.units_panel]
         elif event.new == ONDEMAND_TAB:
             self._request_panel()
+        elif event.new == DESIGN_TAB and self.design_panel is None:
+            self.design_panel = DesignPanel()
+            self.design_box.objects = [self.design_panel]
 
     # ---------- map on demand ----------
     def _request_panel(self):
