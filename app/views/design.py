@@ -20,7 +20,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.events import Tap
-from bokeh.models import GlyphRenderer, Scatter
+from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
 from vibtrans import design, plots, units
 from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
@@ -29,7 +29,7 @@ from vibtrans.errors import InputError
 from .render import RENDER_LOCK, render_into_document
 
 MIN_WIDTH = 420
-CHART_HEIGHT = 460
+CHART_HEIGHT = 540
 SHIPPED_MUS = (0.1, 0.3, 1.0)       # the shipped deformable maps' mu
 MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
 UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
@@ -111,6 +111,32 @@ def _device_marker(fig):
     return None
 
 
+def log_ticks(lo, hi, most=8):
+    """Ticks of a log axis from lo to hi: 1..9, 1-2-5 or 1-3 times the
+    decades, the densest with at most `most`, else every k-th decade.
+    (Bokeh's LogTicker falls back to linear ticks over a few decades,
+    whose labels overlap on a chart as narrow as half the page.)"""
+    e0, e1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    for mantissas in ((1, 2, 3, 4, 5, 6, 7, 8, 9), (1, 2, 5), (1, 3), (1,)):
+        ticks = [m * 10.0 ** e for e in range(e0, e1 + 1) for m in mantissas]
+        ticks = [t for t in ticks if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+        if 2 <= len(ticks) <= most:
+            return ticks
+    k = max(1, math.ceil((e1 - e0 + 1) / most))
+    ticks = [10.0 ** e for e in range(e0, e1 + 1, k) if lo <= 10.0 ** e <= hi]
+    return ticks if len(ticks) >= 2 else [lo, hi]
+
+
+def _tick_axes(fig, chart):
+    """The chart's log axes with readable ticks (labels such as 2e5)."""
+    for axis, q in ((fig.xaxis, chart.attrs["x"]), (fig.yaxis, chart.attrs["y"])):
+        values = chart[q].values
+        axis.ticker = FixedTicker(ticks=log_ticks(float(values[0]), float(values[-1])))
+        axis.formatter = CustomJSTickFormatter(
+            code="return tick.toPrecision(1).includes('e') ? "
+                 "tick.toExponential(0).replace('e+', 'e') : String(tick)")
+
+
 def _all_finite(chart):
     """True when every chart point has a value (no NaN would reach the plot)."""
     return all(bool(np.isfinite(chart[v].values).all())
@@ -139,6 +165,7 @@ def build_chart(values):
         _, fig = render_into_document(plots.design_figure(
             chart, device=(getattr(device, xq), getattr(device, yq))))
     fig.document.remove_root(fig)
+    _tick_axes(fig, chart)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None,
                height=CHART_HEIGHT)
     return chart, fig, device, reading, q, warnings
