@@ -123,8 +123,36 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     assert "no shipped map covers this chart" in drawn.alert.object
     assert drawn.figure is fig
     drawn.preset = "paper"
-    asyncio.run(drawn.draw())
+
+    async def busy_while_drawing():
+        task = asyncio.create_task(drawn.draw())
+        await asyncio.sleep(0)          # the draw has started: off the event loop now
+        assert drawn.busy and drawn.spinner.visible and drawn.draw_button.disabled
+        assert "Drawing the chart" in drawn.status.object
+        await task
+        assert not drawn.busy and not drawn.spinner.visible and not drawn.draw_button.disabled
+    asyncio.run(busy_while_drawing())
     assert not drawn.alert.visible and drawn.figure is not fig
+
+
+def test_a_new_axis_quantity_takes_a_range_around_the_device():
+    panel = DesignPanel()
+    dev = design.preset("paper").device
+    assert (panel.x, panel.y) == ("frequency", "amplitude")    # the preset's, kept as given
+    assert (panel.x_lo, panel.x_hi) == (1e4, 1e6)
+    panel.x = "radius"
+    assert panel.fixed_quantity() == "frequency"
+    assert panel.x_lo < dev.radius < panel.x_hi and panel.x_hi / panel.x_lo == pytest.approx(
+        10, rel=0.01)
+    asyncio.run(panel.draw())           # small radii: A* beyond the shipped map's 10^3
+    assert "log10 A* spans" in panel.alert.object and panel.chart is None
+    panel.y_hi = 1e-7
+    asyncio.run(panel.draw())
+    assert not panel.alert.visible and panel.chart.attrs["fixed"] == "frequency"
+    assert panel.chart.attrs["fixed_value"] == dev.frequency
+    panel.y = "radius"                  # the same quantity twice: the library's message
+    asyncio.run(panel.draw())
+    assert "once each" in panel.alert.object
 
 
 def test_the_design_tab_is_built_when_first_opened():

@@ -149,8 +149,8 @@ def build_chart(values):
     (a ValueError) when a value is refused.  Runs off the event loop."""
     v = values
     xq, yq = v["x"], v["y"]
-    third = [q for q in design.AXES if q not in (xq, yq)]
-    fixed = (third[0], v[third[0]]) if third else (xq, v[xq])   # x == y: the library says so
+    fq = next(q for q in design.AXES if q not in (xq, yq))     # (x == y: the library says so)
+    fixed = (fq, v[fq])
     chart = design.design_chart(v["substrate"], v["particle"], v["preload"],
                                 (xq, v["x_lo"], v["x_hi"], v["x_points"]),
                                 (yq, v["y_lo"], v["y_hi"], v["y_points"]),
@@ -279,7 +279,9 @@ class DesignPanel(pn.viewable.Viewer):
                   "y_points": "y points"}
         self.fields = {k: _Field(self, k, v, integer=k.endswith("_points"))
                        for k, v in labels.items()}
+        self._presetting = False
         self.param.watch(self._on_preset, "preset")
+        self.param.watch(self._on_axis, ["x", "y"])
         self._on_preset()
         self._layout = None
 
@@ -287,13 +289,32 @@ class DesignPanel(pn.viewable.Viewer):
     def _on_preset(self, *events):
         p = design.preset(self.preset)
         d = p.device
+        self._presetting = True
+        try:
+            self._apply_preset(p, d)
+        finally:
+            self._presetting = False
+        self.note.object = f"*{p.note}*"
+
+    def _apply_preset(self, p, d):
         self.param.update(
             substrate=units.material(d.substrate).name, particle=units.material(d.particle).name,
             preload=float(d.preload), frequency=float(d.frequency), radius=float(d.radius),
             amplitude=float(d.amplitude), x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
             x_points=int(p.x[3]), y=p.y[0], y_lo=float(p.y[1]), y_hi=float(p.y[2]),
             y_points=int(p.y[3]))
-        self.note.object = f"*{p.note}*"
+
+    def _on_axis(self, *events):
+        """A new quantity on an axis: its range becomes a decade around the
+        device's value of it (the old range was in another unit).  A
+        device value the library would refuse leaves the range as it is."""
+        if self._presetting:
+            return
+        for e in events:
+            value = getattr(self, e.new)
+            if isinstance(value, (int, float)) and math.isfinite(value) and value > 0:
+                lo, hi = float(f"{value / 10 ** 0.5:.3g}"), float(f"{value * 10 ** 0.5:.3g}")
+                self.param.update(**{f"{e.name}_lo": lo, f"{e.name}_hi": hi})
 
     def fixed_quantity(self):
         third = [q for q in design.AXES if q not in (self.x, self.y)]
