@@ -39,6 +39,7 @@ from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView, computed_figure
 from .views.ondemand import MapRequestPanel
+from .views.design import DesignPanel
 from .views.dynamics import DynamicsView
 from .views.memory import MemoryView
 from .views.summary import SummaryView
@@ -100,8 +101,9 @@ below the summary.
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
-# the map's tabs: map, vertical curves, units, map on demand
-VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB = 1, 2, 3, 4
+# the map's tabs: map, vertical curves, units, map on demand, difference of
+# two maps, design chart
+VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
 # "refine this window" is offered once the shipped map's zoom box spans
 # fewer of its grid cells than this on both axes (beyond its resolution)
 REFINE_BELOW_CELLS = 5
@@ -730,12 +732,15 @@ class Explorer(pn.viewable.Viewer):
         return widgets
 
     def main(self):
+        self.design_panel = None            # the Design tab's, built when it is first opened
+        self.design_box = pn.Column(sizing_mode="stretch_width", name="design")
         tabs = pn.Tabs(
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
             ("Units", self.units_box),
             ("Map on demand", self.ondemand_box),
             ("Difference", self.difference.panel),
+            ("Design", self.design_box),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
@@ -764,6 +769,9 @@ class Explorer(pn.viewable.Viewer):
             self._request_panel()
         elif event.new == DIFFERENCE_TAB:
             self.difference.build()
+        elif event.new == DESIGN_TAB and self.design_panel is None:
+            self.design_panel = DesignPanel()
+            self.design_box.objects = [self.design_panel]
 
     # ---------- map on demand ----------
     def _request_panel(self):

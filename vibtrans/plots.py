@@ -1088,8 +1088,10 @@ def design_figure(chart, device=None, title=None):
                                 matplotlib=dict(fontsize=8)))
     if device is not None:
         pt = hv.Points([tuple(device)], kdims=[xd, yd])
-        layers.append(style(pt, common=dict(color=DEVICE_MARKER, marker="X"),
-                            bokeh=dict(size=14, line_width=3), matplotlib=dict(s=120)))
+        # (Bokeh's marker names are lower case: "X" passes its check and is not drawn)
+        layers.append(style(pt, common=dict(color=DEVICE_MARKER),
+                            bokeh=dict(marker="x", size=14, line_width=3),
+                            matplotlib=dict(marker="X", s=120)))
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
         title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}, "

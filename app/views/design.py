@@ -1,0 +1,469 @@
+"""The Design tab: the library's design chart (`vibtrans design`) in the
+explorer.  A device's materials, pre-load and the two chart axes among
+frequency, radius and amplitude (the third fixed at the device's value)
+are typed here; "Draw chart" reads a shipped drift map for them
+(`vibtrans.design.design_chart`, off the event loop: shipped maps only,
+never a computation) and draws `vibtrans.plots.design_figure`.  A click on
+the chart moves the device there and shows its quantities
+(`design.device_quantities` of `design.read_device`) and validity warnings
+beside it.
+
+No physics here: every value is checked by the library, whose refusal
+(an InputError naming the parameter and its valid range) is shown as it
+is; nothing is clamped.  A chart with a point the map has no value for
+(NaN) is refused, not drawn."""
+import asyncio
+import functools
+import math
+
+import numpy as np
+import panel as pn
+import param
+from bokeh.events import Tap
+from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
+
+from vibtrans import design, plots, units
+from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
+from vibtrans.errors import InputError
+
+from .render import RENDER_LOCK, render_into_document
+
+MIN_WIDTH = 420
+CHART_HEIGHT = 540
+SHIPPED_MUS = (0.1, 0.3, 1.0)       # the shipped deformable maps' mu
+MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
+UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
+INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset), "
+         "the two quantities on the chart's axes and their ranges (the third is fixed at the "
+         "device's value), then *Draw chart*. The chart reads the shipped drift map "
+         "(deformable model) at each point: colour, the drift velocity (red with the wave, blue "
+         "against it); lines, the regimes and equal speeds. Click the chart to move the device "
+         "there: its quantities and the model's validity warnings appear beside it. A device "
+         "whose materials or window no shipped map covers is refused with the reason "
+         "(`vibtrans design --compute` computes such a window).")
+HINT = "*Press Draw chart to read the shipped map for these values.*"
+
+
+def _text(value):
+    return f"{value:.6g}"
+
+
+class _Field(pn.viewable.Viewer):
+    """A number typed as text.  A number (any: the library checks its
+    range at the draw) is applied to the owner's parameter; text that is
+    no number stays in the field with a message, and `error` says why."""
+
+    def __init__(self, owner, name, label, integer=False):
+        super().__init__()
+        self.owner, self.name_, self.label, self.integer = owner, name, label, integer
+        self.error = ""
+        self.input = pn.widgets.TextInput(name=label, value=_text(getattr(owner, name)),
+                                          width=150, css_classes=[f"vt-design-{name}"])
+        self.note = pn.pane.Markdown("", visible=False, width=150,
+                                     styles={"color": "#b00020", "font-size": "0.85em"})
+        self._echo = False
+        self.input.param.watch(self._typed, "value")
+        owner.param.watch(self._moved, name)
+
+    def _typed(self, event):
+        if self._echo:
+            return
+        raw = (event.new or "").strip()
+        try:
+            value = float(raw)
+            if self.integer:
+                if not value.is_integer():
+                    raise ValueError
+                value = int(value)
+        except (ValueError, OverflowError):
+            what = "an integer" if self.integer else "a number"
+            self._say(f"{self.label} must be {what}, got '{raw[:40]}'" if raw else
+                      f"{self.label} must be {what}: the field is empty")
+            return
+        self._say("")
+        setattr(self.owner, self.name_, value)
+
+    def _moved(self, event):
+        self._say("")
+        text = _text(event.new)
+        if self.input.value != text:
+            self._echo = True
+            try:
+                self.input.value = text
+            finally:
+                self._echo = False
+
+    def _say(self, text):
+        self.error = text
+        self.note.object = text
+        self.note.visible = bool(text)
+
+    def __panel__(self):
+        return pn.Column(self.input, self.note, margin=0)
+
+
+def _device_marker(fig):
+    """The data source of the device's marker in a design figure (its only
+    Scatter glyph), or None."""
+    for r in fig.renderers:
+        if isinstance(r, GlyphRenderer) and isinstance(r.glyph, Scatter):
+            return r.data_source
+    return None
+
+
+def log_ticks(lo, hi, most=8):
+    """Ticks of a log axis from lo to hi: 1..9, 1-2-5 or 1-3 times the
+    decades, the densest with at most `most`, else every k-th decade.
+    (Bokeh's LogTicker falls back to linear ticks over a few decades,
+    whose labels overlap on a chart as narrow as half the page.)"""
+    e0, e1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    for mantissas in ((1, 2, 3, 4, 5, 6, 7, 8, 9), (1, 2, 5), (1, 3), (1,)):
+        ticks = [m * 10.0 ** e for e in range(e0, e1 + 1) for m in mantissas]
+        ticks = [t for t in ticks if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+        if 2 <= len(ticks) <= most:
+            return ticks
+    k = max(1, math.ceil((e1 - e0 + 1) / most))
+    ticks = [10.0 ** e for e in range(e0, e1 + 1, k) if lo <= 10.0 ** e <= hi]
+    return ticks if len(ticks) >= 2 else [lo, hi]
+
+
+def _tick_axes(fig, chart):
+    """The chart's log axes with readable ticks (labels such as 2e5)."""
+    for axis, q in ((fig.xaxis, chart.attrs["x"]), (fig.yaxis, chart.attrs["y"])):
+        values = chart[q].values
+        axis.ticker = FixedTicker(ticks=log_ticks(float(values[0]), float(values[-1])))
+        axis.formatter = CustomJSTickFormatter(
+            code="return tick.toPrecision(1).includes('e') ? "
+                 "tick.toExponential(0).replace('e+', 'e') : String(tick)")
+
+
+def _all_finite(chart):
+    """True when every chart point has a value (no NaN would reach the plot)."""
+    return all(bool(np.isfinite(chart[v].values).all())
+               for v in ("drift_velocity", "A_star", "m_star"))
+
+
+def build_chart(values):
+    """(chart, figure, device, reading, quantities, warnings) for the
+    panel's `values` (DesignPanel.values()); the library's InputError
+    (a ValueError) when a value is refused.  Runs off the event loop."""
+    v = values
+    xq, yq = v["x"], v["y"]
+    fq = next(q for q in design.AXES if q not in (xq, yq))     # (x == y: the library says so)
+    fixed = (fq, v[fq])
+    chart = design.design_chart(v["substrate"], v["particle"], v["preload"],
+                                (xq, v["x_lo"], v["x_hi"], v["x_points"]),
+                                (yq, v["y_lo"], v["y_hi"], v["y_points"]),
+                                fixed, mu=v["mu"], surface_energy=v["surface_energy"])
+    if not _all_finite(chart):
+        bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
+        raise InputError(
+            f"the map has no value at {bad} of {chart['drift_velocity'].size} chart points "
+            f"(not computed there): narrow the axes")
+    device, reading, q, warnings = device_reading(v, chart)
+    with RENDER_LOCK:           # building HoloViews elements touches its shared options
+        _, fig = render_into_document(plots.design_figure(
+            chart, device=(getattr(device, xq), getattr(device, yq))))
+    fig.document.remove_root(fig)
+    _tick_axes(fig, chart)
+    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None,
+               height=CHART_HEIGHT)
+    return chart, fig, device, reading, q, warnings
+
+
+def device_reading(values, chart):
+    """(device, reading, quantities, warnings) of the panel's device, read
+    on `chart`'s map; InputError for a value the library refuses."""
+    v = values
+    device = units.DeviceSpec(v["substrate"], v["particle"], v["radius"], v["frequency"],
+                              v["amplitude"], preload=v["preload"])
+    device.normalized()             # checks every value (InputError names it)
+    reading = design.read_device(device, mu=v["mu"], chart=chart)
+    q = design.device_quantities(device, reading, v["surface_energy"])
+    warnings = design.validity_warnings(device, v["surface_energy"], q.drift_velocity)
+    return device, reading, q, warnings
+
+
+def _g(value, unit=""):
+    return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
+
+
+def device_text(device, reading, q, warnings):
+    """The device's quantities and warnings as Markdown."""
+    rows = [("A*, m*", f"{q.A_star:.4g}, {q.m_star:.4g}"),
+            ("theta, nu, r", f"{q.theta:.4g}, {q.nu:g}, {q.r:.4g}"),
+            ("mass, load m g + P", f"{q.mass:.4g} kg, {q.load:.4g} N"),
+            ("a0 (static compression)", _g(q.a0, "m")),
+            ("contact radius", _g(q.contact_radius, "m")),
+            ("mean contact pressure", _g(q.mean_contact_pressure, "Pa")),
+            ("peak surface acceleration", _g(q.peak_acceleration_g, "g")),
+            ("peak surface velocity", _g(q.peak_velocity, "m/s")),
+            ("Rayleigh speed, wavelength", f"{q.rayleigh_speed:.4g} m/s, "
+                                           f"{q.rayleigh_wavelength:.4g} m"),
+            ("pull-off JKR, DMT", f"{q.pull_off_jkr:.4g} N, {q.pull_off_dmt:.4g} N")]
+    if reading is None:
+        rows.append(("drift", "not read: the device is off the map (or no shipped map "
+                              "serves it)"))
+    else:
+        rows += [("drift velocity", f"**{q.drift_velocity:.4g} m/s** "
+                                    f"({q.drift_velocity * 100:.3g} cm/s)"),
+                 ("v*", f"{q.v_star:.4g} ({reading['map']}, nearest grid point)"),
+                 ("regime", reading["regime"]),
+                 ("contact time per period", _g(q.contact_time, "s")),
+                 ("travel per period", f"{_g(q.travel_per_period, 'm')} = "
+                                       f"{_g(q.travel_over_wavelength)} wavelengths")]
+    head = (f"**Device**: {units.material(device.particle).name} sphere, R = "
+            f"{device.radius:.4g} m, on {units.material(device.substrate).name}; f = "
+            f"{device.frequency:.4g} Hz, A_y = {device.amplitude:.4g} m, pre-load "
+            f"{device.preload:g} N")
+    table = ["| quantity | value |", "|---|---|", *(f"| {k} | {v} |" for k, v in rows)]
+    notes = ([f"* **warning:** {w.message}" for w in warnings]
+             or ["*No validity warnings.*"])
+    return "\n".join([head, "", *table, "", *notes])
+
+
+class DesignPanel(pn.viewable.Viewer):
+    """The Design tab: its values (SI units), its widgets, the chart.
+
+    Every number is stored as typed; the library checks them when the
+    chart is drawn (`draw`) and its refusal is shown in `alert`."""
+
+    preset = param.Selector(default="paper", objects=list(PRESET_NAMES))
+    substrate = param.Selector(default="glass", objects=list(MATERIAL_NAMES))
+    particle = param.Selector(default="steel", objects=list(MATERIAL_NAMES))
+    preload = param.Number(default=0.0, doc="pre-load P, N")
+    mu = param.Selector(default=0.3, objects=list(SHIPPED_MUS))
+    surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
+    frequency = param.Number(default=1e5, doc="the device's wave frequency, Hz")
+    radius = param.Number(default=0.5e-3, doc="the device's particle radius, m")
+    amplitude = param.Number(default=1e-8, doc="the device's vertical wave amplitude, m")
+    x = param.Selector(default="frequency", objects=list(design.AXES))
+    x_lo = param.Number(default=1e4)
+    x_hi = param.Number(default=1e6)
+    x_points = param.Integer(default=41)
+    y = param.Selector(default="amplitude", objects=list(design.AXES))
+    y_lo = param.Number(default=1e-9)
+    y_hi = param.Number(default=5e-7)
+    y_points = param.Integer(default=41)
+    busy = param.Boolean(default=False)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.chart = None           # the chart drawn (design_chart's Dataset)
+        self.figure = None          # its Bokeh figure
+        self.device = None          # the device marked (units.DeviceSpec)
+        self.quantities = self.reading = None
+        self.warnings = []
+        self._marker = None         # the figure's device marker's source
+        self._drawn_values = None   # the values the chart drawn was made with
+        self._draws = 0             # the latest draw's number (older ones dropped)
+        self._marks = 0
+        self.alert = pn.pane.Alert("", alert_type="danger", visible=False,
+                                   sizing_mode="stretch_width", css_classes=["vt-design-alert"])
+        self.status = pn.pane.Markdown(HINT, sizing_mode="stretch_width",
+                                       css_classes=["vt-design-status"])
+        self.spinner = pn.indicators.LoadingSpinner(value=False, visible=False, width=24,
+                                                    height=24)
+        self.chart_pane = pn.Column(sizing_mode="stretch_width", min_width=MIN_WIDTH,
+                                    css_classes=["vt-design-chart"])
+        self.info = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                     css_classes=["vt-design-device"])
+        self.note = pn.pane.Markdown("", sizing_mode="stretch_width")
+        self.draw_button = pn.widgets.Button(name="Draw chart", button_type="primary",
+                                             css_classes=["vt-design-draw"])
+        self.draw_button.on_click(lambda event: pn.state.execute(self.draw))
+        labels = {"preload": "preload (N)", "surface_energy": "surface energy (J/m^2)",
+                  "frequency": "frequency (Hz)", "radius": "radius (m)",
+                  "amplitude": "amplitude (m)", "x_lo": "x lo", "x_hi": "x hi",
+                  "x_points": "x points", "y_lo": "y lo", "y_hi": "y hi",
+                  "y_points": "y points"}
+        self.fields = {k: _Field(self, k, v, integer=k.endswith("_points"))
+                       for k, v in labels.items()}
+        self._presetting = False
+        self.param.watch(self._on_preset, "preset")
+        self.param.watch(self._on_axis, ["x", "y"])
+        self._on_preset()
+        self._layout = None
+
+    # ---------- values ----------
+    def _on_preset(self, *events):
+        p = design.preset(self.preset)
+        d = p.device
+        self._presetting = True
+        try:
+            self._apply_preset(p, d)
+        finally:
+            self._presetting = False
+        self.note.object = f"*{p.note}*"
+
+    def _apply_preset(self, p, d):
+        self.param.update(
+            substrate=units.material(d.substrate).name, particle=units.material(d.particle).name,
+            preload=float(d.preload), frequency=float(d.frequency), radius=float(d.radius),
+            amplitude=float(d.amplitude), x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
+            x_points=int(p.x[3]), y=p.y[0], y_lo=float(p.y[1]), y_hi=float(p.y[2]),
+            y_points=int(p.y[3]))
+
+    def _on_axis(self, *events):
+        """A new quantity on an axis: its range becomes a decade around the
+        device's value of it (the old range was in another unit).  A
+        device value the library would refuse leaves the range as it is."""
+        if self._presetting:
+            return
+        for e in events:
+            value = getattr(self, e.new)
+            if isinstance(value, (int, float)) and math.isfinite(value) and value > 0:
+                lo, hi = float(f"{value / 10 ** 0.5:.3g}"), float(f"{value * 10 ** 0.5:.3g}")
+                self.param.update(**{f"{e.name}_lo": lo, f"{e.name}_hi": hi})
+
+    def fixed_quantity(self):
+        third = [q for q in design.AXES if q not in (self.x, self.y)]
+        return third[0] if len(third) == 1 else None
+
+    def _fixed_text(self):
+        q = self.fixed_quantity()
+        return ("x and y must be two different quantities" if q is None else
+                f"fixed: {q} = the device's {q} ({UNITS[q]})")
+
+    def values(self):
+        """The values as typed (SI), for the library to check."""
+        names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
+                 "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
+                 "y_points")
+        return {k: getattr(self, k) for k in names}
+
+    def field_errors(self):
+        return [f.error for f in self.fields.values() if f.error]
+
+    # ---------- drawing ----------
+    def _say(self, text):
+        self.alert.object = text
+        self.alert.visible = bool(text)
+
+    async def draw(self):
+        """Draw the chart for the values (off the event loop).  A refused
+        value: the message in `alert`, the chart drawn before stays."""
+        errors = self.field_errors()
+        if errors:
+            self._say("**Cannot draw the chart:** " + "; ".join(errors))
+            return
+        self._draws += 1
+        token = self._draws
+        values = self.values()
+        self._busy(True, "Drawing the chart ...")
+        try:
+            result = await asyncio.get_running_loop().run_in_executor(
+                None, build_chart, values)
+        except ValueError as exc:        # the library's InputError (TypeError kind too)
+            if token == self._draws:
+                self._say(f"**Cannot draw the chart:** {exc}")
+                self._busy(False, self._shown_status())
+            return
+        if token != self._draws:
+            return              # a newer draw was asked for meanwhile
+        chart, fig, device, reading, q, warnings = result
+        self._say("")
+        with pn.io.hold():
+            self.chart, self.figure, self._drawn_values = chart, fig, values
+            self._marker = _device_marker(fig)
+            fig.on_event(Tap, self._on_tap)
+            self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
+                                                     min_width=MIN_WIDTH)]
+            self._show_device(device, reading, q, warnings)
+            self._busy(False, self._shown_status())
+
+    def _shown_status(self):
+        c = self.chart
+        if c is None:
+            return HINT
+        return (f"*{c.attrs['particle']} on {c.attrs['substrate']}, {c.sizes[c.attrs['y']]} x "
+                f"{c.sizes[c.attrs['x']]} points, {c.attrs['fixed']} = "
+                f"{c.attrs['fixed_value']:.4g} {c.attrs['fixed_units']}; map "
+                f"{c.attrs['map']} ({c.attrs['reading']}). Click the chart to move the "
+                f"device.*")
+
+    def _busy(self, on, text):
+        self.busy = on
+        self.spinner.value = self.spinner.visible = on
+        self.draw_button.disabled = on
+        self.status.object = text
+
+    def _show_device(self, device, reading, q, warnings):
+        self.device, self.reading, self.quantities, self.warnings = device, reading, q, warnings
+        self.info.object = device_text(device, reading, q, warnings)
+        if self._marker is not None and self.chart is not None:
+            xq, yq = self.chart.attrs["x"], self.chart.attrs["y"]
+            keys = list(self._marker.data)
+            if xq in keys and yq in keys:
+                self._marker.data = {**{k: [] for k in keys}, xq: [getattr(device, xq)],
+                                     yq: [getattr(device, yq)]}
+
+    # ---------- a click on the chart ----------
+    def _on_tap(self, event):
+        x, y = event.x, event.y
+        if self.chart is None or x is None or y is None:
+            return
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return
+        pn.state.execute(functools.partial(self.mark, x, y))
+
+    async def mark(self, x, y):
+        """Move the device to (x, y) of the chart drawn (its axes' units;
+        4 significant digits) and show its quantities.  A click outside
+        the chart's window moves nothing."""
+        c = self.chart
+        if c is None:
+            return
+        xq, yq = c.attrs["x"], c.attrs["y"]
+        xs, ys = c[xq].values, c[yq].values
+        if not (xs[0] <= x <= xs[-1] and ys[0] <= y <= ys[-1]):
+            return
+        x, y = float(f"{x:.4g}"), float(f"{y:.4g}")
+        values = {**self._drawn_values, xq: x, yq: y}
+        self._marks += 1
+        token = self._marks
+        try:
+            got = await asyncio.get_running_loop().run_in_executor(
+                None, device_reading, values, c)
+        except ValueError as exc:
+            self._say(f"**Cannot read the device:** {exc}")
+            return
+        if token != self._marks or c is not self.chart:
+            return
+        self._say("")
+        with pn.io.hold():
+            self.param.update(**{xq: x, yq: y})
+            self._show_device(*got)
+
+    def __panel__(self):
+        if self._layout is None:
+            f = self.fields
+            select = functools.partial(pn.widgets.Select.from_param, width=150)
+            fixed = pn.pane.Markdown(pn.bind(lambda x, y: f"*{self._fixed_text()}*",
+                                             self.param.x, self.param.y),
+                                     sizing_mode="stretch_width")
+            controls = pn.Column(
+                pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
+                pn.Row(select(self.param.preset, name="preset", css_classes=["vt-design-preset"]),
+                       self.note, sizing_mode="stretch_width"),
+                pn.Row(select(self.param.substrate, name="substrate"),
+                       select(self.param.particle, name="particle"), f["preload"],
+                       select(self.param.mu, name="mu (shipped maps)"), f["surface_energy"]),
+                pn.pane.Markdown("**The device** (marked on the chart; a click moves it)",
+                                 margin=(0, 10)),
+                pn.Row(f["frequency"], f["radius"], f["amplitude"]),
+                pn.Row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
+                pn.Row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
+                fixed,
+                pn.Row(self.draw_button, self.spinner),
+                sizing_mode="stretch_width")
+            self._layout = pn.Column(
+                controls, self.alert, self.status,
+                pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 420px",
+                                                              "min-width": "0"}),
+                           pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),
+                           flex_wrap="wrap", align_items="flex-start",
+                           sizing_mode="stretch_width"),
+                sizing_mode="stretch_width", name="design")
+        return self._layout
+
