@@ -54,13 +54,20 @@ def _text(value):
     return str(value)
 
 
+def _bounds(p):
+    """(lo, hi) of a Number parameter; no bounds (a value the library checks
+    where it is used, e.g. the Design tab's): (-inf, inf)."""
+    lo, hi = p.bounds if p.bounds is not None else (None, None)
+    return (-math.inf if lo is None else lo), (math.inf if hi is None else hi)
+
+
 def valid_range(p):
     """What a parameter accepts, in words ("a number in [-6.0, 6.0]")."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
-    if isinstance(p, param.Integer):
-        return f"an integer in [{p.bounds[0]}, {p.bounds[1]}]"
-    return f"a number in [{p.bounds[0]}, {p.bounds[1]}]"
+    what = "an integer" if isinstance(p, param.Integer) else "a number"
+    lo, hi = _bounds(p)
+    return what if (lo, hi) == (-math.inf, math.inf) else f"{what} in [{lo}, {hi}]"
 
 
 def convert(p, raw):
@@ -78,13 +85,14 @@ def convert(p, raw):
         if not _INTEGER.fullmatch(raw):
             raise ValueError("not an integer")
         value = int(raw)
-        if not p.bounds[0] <= value <= p.bounds[1]:
+        lo, hi = _bounds(p)
+        if not lo <= value <= hi:
             raise ValueError("out of range")
         return value
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
-    lo, hi = p.bounds
+    lo, hi = _bounds(p)
     if not (math.isfinite(value) and lo <= value <= hi):
         raise ValueError("out of range")
     return value

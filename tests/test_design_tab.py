@@ -108,7 +108,7 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     drawn.fields["x_hi"].input.value = "abc"
     assert "x hi must be a number" in drawn.fields["x_hi"].error
     asyncio.run(drawn.draw())
-    assert "x hi must be a number, got 'abc'" in drawn.alert.object
+    assert "x hi must be a number; got 'abc'" in drawn.alert.object
     drawn.fields["x_hi"].input.value = "1e6"
     drawn.x_lo = 1e4
     # a device value the library refuses

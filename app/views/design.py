@@ -26,6 +26,7 @@ from vibtrans import design, plots, units
 from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.errors import InputError
 
+from .. import inputs
 from .render import RENDER_LOCK, render_into_document
 
 MIN_WIDTH = 420
@@ -42,64 +43,6 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "whose materials or window no shipped map covers is refused with the reason "
          "(`vibtrans design --compute` computes such a window).")
 HINT = "*Press Draw chart to read the shipped map for these values.*"
-
-
-def _text(value):
-    return f"{value:.6g}"
-
-
-class _Field(pn.viewable.Viewer):
-    """A number typed as text.  A number (any: the library checks its
-    range at the draw) is applied to the owner's parameter; text that is
-    no number stays in the field with a message, and `error` says why."""
-
-    def __init__(self, owner, name, label, integer=False):
-        super().__init__()
-        self.owner, self.name_, self.label, self.integer = owner, name, label, integer
-        self.error = ""
-        self.input = pn.widgets.TextInput(name=label, value=_text(getattr(owner, name)),
-                                          width=150, css_classes=[f"vt-design-{name}"])
-        self.note = pn.pane.Markdown("", visible=False, width=150,
-                                     styles={"color": "#b00020", "font-size": "0.85em"})
-        self._echo = False
-        self.input.param.watch(self._typed, "value")
-        owner.param.watch(self._moved, name)
-
-    def _typed(self, event):
-        if self._echo:
-            return
-        raw = (event.new or "").strip()
-        try:
-            value = float(raw)
-            if self.integer:
-                if not value.is_integer():
-                    raise ValueError
-                value = int(value)
-        except (ValueError, OverflowError):
-            what = "an integer" if self.integer else "a number"
-            self._say(f"{self.label} must be {what}, got '{raw[:40]}'" if raw else
-                      f"{self.label} must be {what}: the field is empty")
-            return
-        self._say("")
-        setattr(self.owner, self.name_, value)
-
-    def _moved(self, event):
-        self._say("")
-        text = _text(event.new)
-        if self.input.value != text:
-            self._echo = True
-            try:
-                self.input.value = text
-            finally:
-                self._echo = False
-
-    def _say(self, text):
-        self.error = text
-        self.note.object = text
-        self.note.visible = bool(text)
-
-    def __panel__(self):
-        return pn.Column(self.input, self.note, margin=0)
 
 
 def _device_marker(fig):
@@ -277,8 +220,9 @@ class DesignPanel(pn.viewable.Viewer):
                   "amplitude": "amplitude (m)", "x_lo": "x lo", "x_hi": "x hi",
                   "x_points": "x points", "y_lo": "y lo", "y_hi": "y hi",
                   "y_points": "y points"}
-        self.fields = {k: _Field(self, k, v, integer=k.endswith("_points"))
-                       for k, v in labels.items()}
+        # (the parameters have no bounds: a typed number is applied, the
+        # library checks its range when the chart is drawn)
+        self.fields = {k: inputs.NumberField(self, k, v, width=150) for k, v in labels.items()}
         self._presetting = False
         self.param.watch(self._on_preset, "preset")
         self.param.watch(self._on_axis, ["x", "y"])
