@@ -40,23 +40,24 @@ def test_renders_on_several_threads_at_once_all_succeed():
     """Maps on demand are rendered off the event loop, several at once: two
     HoloViews renders at the same time left a figure's title a string and
     raised AttributeError (seen in the load test with five maps).  The
-    renders hold one lock; without it this test failed in about half its runs
-    (a race: when it strikes, most renders fail)."""
+    renders hold one lock (views/render.py `rendered`); without it this test
+    failed in about half its runs (a race: when it strikes, most renders
+    fail)."""
     import threading
-    from vibtrans_explorer.views.render import render_into_document
+    from vibtrans_explorer.views.render import rendered
     failures, figures = [], []
 
     def render(i):
         for k in range(6):
             try:
-                _, fig = render_into_document(
-                    map_view.map_element("deformable", 0.3, 0.1 * (i + 1) + 0.01 * k, "colour"))
+                _, fig = rendered(map_view.map_element, "deformable", 0.3,
+                                  0.1 * (i + 1) + 0.01 * k, "colour")
                 figures.append(fig)
             except Exception as exc:       # noqa: BLE001 (counted, reported below)
                 failures.append(repr(exc))
-    # the shipped data loaded first, as the server does at its start
-    # (prerender): netCDF files must not be opened by several threads at once
-    render_into_document(map_view.map_element("deformable", 0.3, 0.05, "colour"))
+    # (the elements are built holding the lock too: that also keeps the
+    # shipped data's lazily opened netCDF files from being opened by two
+    # threads at once, which crashed the process)
     threads = [threading.Thread(target=render, args=(i,)) for i in range(4)]
     for t in threads:
         t.start()

@@ -27,7 +27,7 @@ from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.errors import InputError
 
 from .. import inputs
-from .render import RENDER_LOCK, render_into_document
+from .render import rendered
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -104,9 +104,8 @@ def build_chart(values):
             f"the map has no value at {bad} of {chart['drift_velocity'].size} chart points "
             f"(not computed there): narrow the axes")
     device, reading, q, warnings = device_reading(v, chart)
-    with RENDER_LOCK:           # building HoloViews elements touches its shared options
-        _, fig = render_into_document(plots.design_figure(
-            chart, device=(getattr(device, xq), getattr(device, yq))))
+    _, fig = rendered(plots.design_figure, chart,
+                      device=(getattr(device, xq), getattr(device, yq)))
     fig.document.remove_root(fig)
     _tick_axes(fig, chart)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None,

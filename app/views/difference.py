@@ -15,7 +15,7 @@ from vibtrans.mapdiff import map_difference
 
 from .. import data
 from .map import MIN_WIDTH
-from .render import RENDER_LOCK, render_into_document
+from .render import rendered
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -34,11 +34,9 @@ def shipped_label(model, mu):
 
 
 def difference_figure(first, second, v0):
-    """(figure, Dataset) of second against first (off the event loop:
-    HoloViews' renders hold RENDER_LOCK)."""
+    """(figure, Dataset) of second against first (off the event loop)."""
     diff = map_difference(first, second, v0)
-    with RENDER_LOCK:
-        _, fig = render_into_document(plots.map_difference_figure(diff))
+    _, fig = rendered(plots.map_difference_figure, diff)
     fig.document.remove_root(fig)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
     return fig, diff

@@ -17,7 +17,7 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import data
 from ..state import within
-from .render import RENDER_LOCK, render_into_document
+from .render import rendered
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
@@ -71,7 +71,7 @@ def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit c
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included)."""
-    doc, _ = render_into_document(map_element(model, mu, v0, chaotic, layer, orbits))
+    doc, _ = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
     columns = {}
     for m in doc.models:
         if isinstance(m, ColumnDataSource):
@@ -165,8 +165,7 @@ def computed_element(ds, title, model, window, v0, chaotic):
 def computed_figure(ds, title, model, window, v0, chaotic):
     """`computed_element` as a Bokeh figure of a Document of its own (made
     off the event loop: it belongs to no session until shown)."""
-    with RENDER_LOCK:       # building HoloViews elements touches its shared options too
-        _, fig = render_into_document(computed_element(ds, title, model, window, v0, chaotic))
+    _, fig = rendered(computed_element, ds, title, model, window, v0, chaotic)
     fig.document.remove_root(fig)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
     return fig

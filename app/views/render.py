@@ -27,6 +27,15 @@ def render_into_document(element):
         return _render(element)
 
 
+def rendered(make, *args, **kwargs):
+    """(document, figure) of the element `make(*args, **kwargs)`, built and
+    rendered holding the lock: building an element sets HoloViews' shared
+    options too, and reads the shipped data's lazily opened netCDF files,
+    which two threads must not open at once (that crashed the process)."""
+    with RENDER_LOCK:
+        return _render(make(*args, **kwargs))
+
+
 def _render(element):
     renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes

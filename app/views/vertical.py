@@ -11,7 +11,7 @@ from bokeh.models import ColumnDataSource
 from vibtrans import plots
 
 from .. import data
-from .render import render_into_document
+from .render import rendered
 
 HEIGHT = 450
 
@@ -34,7 +34,7 @@ def _vertical_json():
     vertical = data.vertical_curve()
     if vertical is None:
         return None
-    doc, _ = render_into_document(vertical_element(vertical))
+    doc, _ = rendered(vertical_element, vertical)
     return doc.to_json()
 
 
