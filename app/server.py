@@ -158,6 +158,9 @@ def _freeze_kernels(server):
 # only at the first run; a cold start's compilation (a minute) starts a
 # second or two later and ends about as late (the same CPU).
 KERNELS_AFTER = 2.0
+# Seconds between two of the maps' pre-renders on the event loop (a page's
+# messages go between them)
+PRERENDER_PAUSE = 0.05
 
 
 def _first_page(create_app, start_kernels):
@@ -205,11 +208,23 @@ def serve(args):
 
     def ready():                    # in the kernels' thread, after the warm-up
         from .views import map as map_view
+        # the maps pre-rendered (a change of model, mu or grey: a copy, not a
+        # render) on the event loop, one render per turn: rendered in this
+        # thread while a page was being built, about one first page in ten
+        # came to the browser blank (devtools/blankpage.py)
+        loop.add_callback(prerender, map_view.prerender_steps())
+
+    def prerender(steps):
+        step = next(steps, None)
+        if step is None:
+            _freeze_kernels(server)
+            return
         try:
-            map_view.prerender()    # a change of model, mu or grey: a copy, not a render
+            step()
         except Exception:           # only an optimisation
             logging.getLogger("vibtrans.explorer").exception("prerendering the maps failed")
-        loop.add_callback(_freeze_kernels, server)
+            return
+        loop.call_later(PRERENDER_PAUSE, prerender, steps)
 
     server = pn.serve({"/": _first_page(create_app, start_kernels)}, port=args.port,
                       address=args.address, show=False, start=False, verbose=False,

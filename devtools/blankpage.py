@@ -1,22 +1,22 @@
-"""An open bug's reproduction: the first pages after `vibtrans serve` starts
-are sometimes blank.
+"""A bug's reproduction, kept as its check: the first pages after `vibtrans
+serve` started were sometimes blank.
 
     python -m devtools.blankpage [--trials 40] [--lifetime MS]
 
 Each trial starts a server, asks for its page once without a browser (as
 the tests' fixture and the load test do to wait for it: a session is made
-and never connected), waits for "kernels ready" (the maps' background
-pre-rendering starts then), opens the page in chromium and waits for a
-canvas.  Seen on 2026-11-25: about one trial in ten shows a blank page
-whose BokehJS logs "Error rendering Bokeh items: TypeError: n is not
-iterable" (in a glyph's set_visuals); the server stays idle and
-responsive.  Also with the code of 2026-11-24 (66cf63c); also with
---lifetime 120000 (the first session not dropped meanwhile); not seen in
-34 trials without the browserless request; not seen in 24 trials with the
-maps' pre-rendering switched off (app/server.py `ready`), still seen with
-every HoloViews build and render and the map figures' decoding holding one
-lock: the pre-rendering thread's timing, not a shared model, seems to be
-what matters.  The cause is not found yet.
+and never connected), waits for "kernels ready" (the maps' pre-rendering
+starts then), opens the page in chromium and waits for a canvas.  Seen on
+2026-11-25 with the maps pre-rendered in the kernels' thread: about one
+trial in ten showed a blank page whose BokehJS logged "Error rendering
+Bokeh items: TypeError: n is not iterable" (in a glyph's set_visuals),
+the server idle and responsive; also with the code of 2026-11-24
+(66cf63c) and with --lifetime 120000 (the first session kept); not in 34
+trials without the browserless request, nor in 24 with no pre-rendering;
+still with every HoloViews build and render and the map figures' decoding
+holding one lock.  The pre-rendering now runs on the event loop, one map
+per turn (app/server.py): no blank page since (the note of that change
+gives the trials).  Why a thread's timing broke the page is not known.
 Prints each trial's seconds to the canvas, and for a blank page the
 browser's console errors; exits 1 if any page was blank."""
 import argparse

@@ -171,16 +171,23 @@ def computed_figure(ds, title, model, window, v0, chaotic):
     return fig
 
 
-def prerender():
-    """Render every shipped map at the default v0*, both ways of drawing
-    chaotic points, so that a change of model, mu or that setting only
-    copies a rendered figure (~0.1 s) instead of rendering it (0.3-1.8 s).
-    The server calls this in its background warm-up."""
+def prerender_steps():
+    """The renders of every shipped map at the default v0*, both ways of
+    drawing chaotic points, so that a change of model, mu or that setting
+    only copies a rendered figure (~0.1 s) instead of rendering it
+    (0.3-1.8 s): an iterator of calls, one render each.  The server runs
+    them on its event loop one at a time after its warm-up."""
     for model, mu in sorted(data.available_maps()):
         for chaotic in ("grey", "colour"):
-            _map_json(model, mu, V0, chaotic)
+            yield functools.partial(_map_json, model, mu, V0, chaotic)
     for model, mu in sorted(data.available_maps()):      # the chaos indicator's layer
-        _map_json(model, mu, V0, "grey", "Lyapunov exponent")
+        yield functools.partial(_map_json, model, mu, V0, "grey", "Lyapunov exponent")
+
+
+def prerender():
+    """All of `prerender_steps` at once."""
+    for step in prerender_steps():
+        step()
 
 
 class MapView:
