@@ -248,9 +248,14 @@ def test_each_session_gets_its_own_map_figure():
     sources = [{r.data_source for r in g} for g in glyphs]
     assert a.map_view.selected in sources[0] and a.map_view.selected not in sources[1]
     assert b.map_view.selected in sources[1]
-    a.state.mu = 0.1            # another shipped map: a new figure for that session only
-    assert a.map_view.figures[0] is not fa and "mu = 0.1" in a.map_view.figures[0].title.text
-    assert b.map_view.figures[0] is fb
+    # another shipped map: that session's figure shows it (updated in place,
+    # views/map.py update_in_place), the other session's is untouched
+    a.state.mu = 0.1
+    assert "mu = 0.1" in a.map_view.figures[0].title.text
+    assert b.map_view.figures[0] is fb and "mu = 0.3" in fb.title.text
+    image_a = [r.data_source.data["image"][0] for r in a.map_view.figures[0].renderers
+               if hasattr(r, "data_source") and "image" in r.data_source.data]
+    assert not np.array_equal(image_a[0], images[1][0], equal_nan=True)   # the mu 0.1 map
 
 
 def test_one_pass_attach_builds_the_same_page():
