@@ -221,8 +221,9 @@ def serve(args):
             return
         try:
             step()
-        except Exception:           # only an optimisation
+        except Exception:           # only an optimisation: the rest is left
             logging.getLogger("vibtrans.explorer").exception("prerendering the maps failed")
+            _freeze_kernels(server)
             return
         loop.call_later(PRERENDER_PAUSE, prerender, steps)
 

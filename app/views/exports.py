@@ -68,9 +68,8 @@ class ExportsView:
         from vibtrans import export
         s = self.state
         if kind == "map":
-            shown = self.shown_map()
-            map_ds = data.drift_map(s.model, s.mu) if shown is None else shown[1]
-            title = None if shown is None else f"<v*>, map on demand: {shown[0]}"
+            map_ds, name = self._map()
+            title = None if name is None else f"<v*>, map on demand: {name}"
 
             def write(out):
                 export.export_heatmap(map_ds, out, v0=s.v0, vertical=data.vertical_curve(),
@@ -94,11 +93,16 @@ class ExportsView:
             if fmt == "csv":
                 return io.BytesIO(export.samples_csv(ds).encode())
         else:
-            s = self.state
-            shown = self.shown_map()
-            map_ds = data.drift_map(s.model, s.mu) if shown is None else shown[1]
-            ds = export.map_window(map_ds, *self.map_view.view_ranges())
+            ds = export.map_window(self._map()[0], *self.map_view.view_ranges())
         return _read_back(ds.to_netcdf, "data.nc")
+
+    def _map(self):
+        """(Dataset, name) of the map shown: the map on demand's, else the
+        shipped map of the state's model and mu (name None)."""
+        shown = self.shown_map()
+        if shown is None:
+            return data.drift_map(self.state.model, self.state.mu), None
+        return shown[1], shown[0]
 
     def _answering(self, make, kind, fmt):
         """make(kind, fmt), then `answered` (also when it fails)."""

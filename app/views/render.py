@@ -17,22 +17,17 @@ import threading
 import holoviews as hv
 from bokeh.document import Document
 
-RENDER_LOCK = threading.RLock()     # (re-entrant: a caller may hold it while it builds the element)
-
-
-def render_into_document(element):
-    """(document, figure): `element` rendered by HoloViews' Bokeh renderer
-    into a new Document (the figure its only root)."""
-    with RENDER_LOCK:
-        return _render(element)
+_LOCK = threading.Lock()
 
 
 def rendered(make, *args, **kwargs):
-    """(document, figure) of the element `make(*args, **kwargs)`, built and
-    rendered holding the lock: building an element sets HoloViews' shared
-    options too, and reads the shipped data's lazily opened netCDF files,
-    which two threads must not open at once (that crashed the process)."""
-    with RENDER_LOCK:
+    """(document, figure): the element `make(*args, **kwargs)` rendered by
+    HoloViews' Bokeh renderer into a new Document (the figure its only
+    root), built and rendered holding the lock: building an element sets
+    HoloViews' shared options too, and reads the shipped data's lazily
+    opened netCDF files, which two threads must not open at once (that
+    crashed the process)."""
+    with _LOCK:
         return _render(make(*args, **kwargs))
 
 
