@@ -33,7 +33,8 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, mapjobs, maprequest, urlstate
 from .controller import RUNNER, RunController
-from .state import MAP_MATERIAL, MAP_RUN, URL_KEYS, ExplorerState, within
+from .state import (MAP_MATERIAL, MAP_RUN, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS,
+                    ExplorerState, within)
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
@@ -535,6 +536,26 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu)
         self.start_run()
 
+    def _run_design_device(self, device, mu, periods):
+        """Run the Design tab's device: the deformable particle at its (A*,
+        m*, theta, nu), the chart's mu and its map's periods; its drift and
+        time are then also given in SI units (Units panel's use_device)."""
+        n = device.normalized()
+        la, lm = round(math.log10(n.A_star), 3), round(math.log10(n.m_star), 3)
+        if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
+            self._error(f"The Design tab's device (log10 A* = {la:g}, log10 m* = {lm:g}) is "
+                        f"outside the explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, "
+                        f"log10 m* in {list(SCENE_LOG_MASS)}.")
+            return
+        try:
+            self.state.param.update(model="deformable", mu=mu, log_amplitude=la, log_mass=lm,
+                                    theta=n.theta, nu=n.nu, periods=periods)
+        except ValueError as exc:
+            self._error(f"The Design tab's device cannot be run: {exc}")
+            return
+        self.units_panel.use_device(n, "the Design tab's device")
+        self.start_run()
+
     def _on_run_click(self, event):
         self.start_run()
 
@@ -650,6 +671,8 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_session_destroyed(self, session_context):
         mapjobs.jobs().cancel(self._map_session)     # its map, unless another session waits
+        if self.design_panel is not None:
+            self.design_panel.close()                # and the Design tab's
         if self.memory_view is not None:
             self.memory_view.clear()       # cancels its background snapshots
         if self.dynamics_view is not None:
@@ -770,7 +793,7 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == DIFFERENCE_TAB:
             self.difference.build()
         elif event.new == DESIGN_TAB and self.design_panel is None:
-            self.design_panel = DesignPanel()
+            self.design_panel = DesignPanel(on_run=self._run_design_device)
             self.design_box.objects = [self.design_panel]
 
     # ---------- map on demand ----------

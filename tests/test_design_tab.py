@@ -11,6 +11,7 @@ from bokeh.models import ColumnDataSource
 
 from vibtrans import design
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer import mapjobs
 from vibtrans_explorer.views.design import DesignPanel
 
 pytestmark = pytest.mark.slow       # charts rendered
@@ -36,9 +37,10 @@ def _sources(fig):
 
 
 @pytest.fixture(scope="module")
-def drawn():
+def drawn(tmp_path_factory):
     """A Design panel with the paper preset's chart drawn."""
-    panel = DesignPanel()
+    jobs = mapjobs.MapJobs(folder=str(tmp_path_factory.mktemp("maps")), cores=1)
+    panel = DesignPanel(jobs=jobs)
     panel.__panel__()
     asyncio.run(panel.draw())
     return panel
@@ -117,10 +119,15 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     assert "radius" in drawn.alert.object and "(0, inf)" in drawn.alert.object
     assert drawn.figure is fig
     drawn.radius = 0.5e-3
-    # materials no shipped map serves: the library's reason, no computation
+    # materials no shipped map serves: the library's reason, and the map
+    # the chart needs offered with its cost; nothing computed yet
     drawn.preset = "feeder"
     asyncio.run(drawn.draw())
-    assert "no shipped map covers this chart" in drawn.alert.object
+    offer = drawn.offer.object
+    assert drawn.offer_box.visible and not drawn.alert.visible
+    assert "No shipped map serves this chart" in offer and "theta 1.424" in offer
+    assert "The map it needs" in offer and "At most" in offer and "integration steps" in offer
+    assert not drawn.compute_button.disabled and drawn.jobs.computed == 0
     assert drawn.figure is fig
     drawn.preset = "paper"
 
@@ -135,8 +142,8 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     assert not drawn.alert.visible and drawn.figure is not fig
 
 
-def test_a_new_axis_quantity_takes_a_range_around_the_device():
-    panel = DesignPanel()
+def test_a_new_axis_quantity_takes_a_range_around_the_device(tmp_path):
+    panel = DesignPanel(jobs=mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1))
     dev = design.preset("paper").device
     assert (panel.x, panel.y) == ("frequency", "amplitude")    # the preset's, kept as given
     assert (panel.x_lo, panel.x_hi) == (1e4, 1e6)
@@ -145,10 +152,11 @@ def test_a_new_axis_quantity_takes_a_range_around_the_device():
     assert panel.x_lo < dev.radius < panel.x_hi and panel.x_hi / panel.x_lo == pytest.approx(
         10, rel=0.01)
     asyncio.run(panel.draw())           # small radii: A* beyond the shipped map's 10^3
-    assert "log10 A* spans" in panel.alert.object and panel.chart is None
+    assert "log10 A* spans" in panel.offer.object and panel.chart is None       # (offered)
     panel.y_hi = 1e-7
     asyncio.run(panel.draw())
     assert not panel.alert.visible and panel.chart.attrs["fixed"] == "frequency"
+    assert not panel.offer_box.visible          # a shipped map serves: the offer is gone
     assert panel.chart.attrs["fixed_value"] == dev.frequency
     panel.y = "radius"                  # the same quantity twice: the library's message
     asyncio.run(panel.draw())

@@ -453,23 +453,30 @@ def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, per
     return ds, f"computed: {where}"
 
 
-def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
-                 y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
-                 surface_energy=DEFAULT_SURFACE_ENERGY, maps=None, compute=False,
-                 store_dir=None, step=MAP_STEP, periods=2000.0, report=print, workers=None,
-                 g=G_STANDARD):
-    """The design chart: an xarray Dataset over the two device axes (dims
-    (y, x), coordinates in SI) with drift_velocity [m/s] = a0 f v*, v_star,
-    drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES index),
-    contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
-    adhesion_ratio (DMT pull-off / load) and travel_over_wavelength (|v| / c_R);
-    attrs name the map read and how (nearest grid point).
+@dataclass(frozen=True)
+class ChartGrid:
+    """A chart's devices mapped to the normalized plane: the axes'
+    quantities and values (SI), the fixed quantity, the devices' arrays
+    (dims (y, x)), their a0 [m], A*, m*, and theta, nu of the materials."""
+    substrate: object
+    particle: object
+    x: str
+    x_values: np.ndarray
+    y: str
+    y_values: np.ndarray
+    fixed: str
+    fixed_value: float
+    devices: dict
+    a0: np.ndarray
+    A_star: np.ndarray
+    m_star: np.ndarray
+    theta: float
+    nu: float
 
-    x, y: (quantity, lo, hi, n) with quantity among AXES, n log-spaced points;
-    fixed: (the third quantity, value). preload [N], mu, surface_energy
-    [J/m^2]. compute: compute the window (into store_dir, `step` decades,
-    `periods`, preview fidelity) when no shipped map serves, else refuse.
-    """
+
+def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+               y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), g=G_STANDARD):
+    """The chart's ChartGrid (every value checked: InputError names it)."""
     sub = units._as_material("substrate", substrate)
     par = units._as_material("particle", particle)
     xq, xv = _axis(x, "x")
@@ -481,18 +488,92 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
         raise InputError(f"x, y and fixed must be the three quantities {', '.join(AXES)} "
                          f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}")
     fv = units._positive(f"fixed {fq}", fv)
-    mu = units._positive("mu", mu)
-    w = _surface_energy(surface_energy)
-    if compute and store_dir is None:
-        raise InputError("store_dir (--store) is needed to compute a map")
     X, Y = np.meshgrid(xv, yv)
     dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
     a0, A, M = normalize_grid(sub, par, dev["radius"], dev["frequency"], dev["amplitude"],
                               preload, g)
     theta, nu = materials_theta_nu(sub, par)
+    return ChartGrid(sub, par, xq, xv, yq, yv, fq, fv, dev, a0, A, M, theta, nu)
+
+
+@dataclass(frozen=True)
+class MapNeed:
+    """The normalized map a chart reads: mu, theta and nu of its materials,
+    the log10 A* and log10 m* it spans, and why the shipped map of that mu
+    cannot serve it (empty when it can)."""
+    mu: float
+    theta: float
+    nu: float
+    log_amplitude: tuple
+    log_mass: tuple
+    shipped_problems: tuple
+
+
+def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+                y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
+                maps=None, g=G_STANDARD):
+    """The MapNeed of a chart (design_chart's arguments): which map it
+    reads, and whether a shipped one serves it.  Nothing is computed."""
+    from .errors import StoreMismatch
+    from .sweep import open_map
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    mu = units._positive("mu", mu)
+    log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
+    path = shipped_map_path(mu, maps)
+    if path.exists():
+        try:
+            ds = open_map(str(path), expect={"model": "deformable", "mu": float(mu)})
+        except StoreMismatch as exc:
+            problems = [str(exc)]
+        else:
+            problems = _shipped_problems(ds, grid.theta, grid.nu, mu, log_a, log_m)
+    else:
+        problems = [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
+    return MapNeed(float(mu), float(grid.theta), float(grid.nu),
+                   (float(log_a.min()), float(log_a.max())),
+                   (float(log_m.min()), float(log_m.max())), tuple(problems))
+
+
+def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+                 y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
+                 surface_energy=DEFAULT_SURFACE_ENERGY, maps=None, compute=False,
+                 store_dir=None, step=MAP_STEP, periods=2000.0, report=print, workers=None,
+                 g=G_STANDARD, map_ds=None, map_name="given map"):
+    """The design chart: an xarray Dataset over the two device axes (dims
+    (y, x), coordinates in SI) with drift_velocity [m/s] = a0 f v*, v_star,
+    drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES index),
+    contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
+    adhesion_ratio (DMT pull-off / load) and travel_over_wavelength (|v| / c_R);
+    attrs name the map read and how (nearest grid point).
+
+    x, y: (quantity, lo, hi, n) with quantity among AXES, n log-spaced points;
+    fixed: (the third quantity, value). preload [N], mu, surface_energy
+    [J/m^2]. compute: compute the window (into store_dir, `step` decades,
+    `periods`, preview fidelity) when no shipped map serves, else refuse.
+    map_ds: read this normalized map instead (a map on demand: an opened
+    sweep store; refused unless its mu, theta, nu and window serve the
+    chart), named `map_name` in the chart's attrs.
+    """
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    sub, par = grid.substrate, grid.particle
+    xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
+        grid.fixed_value
+    mu = units._positive("mu", mu)
+    w = _surface_energy(surface_energy)
+    if compute and store_dir is None:
+        raise InputError("store_dir (--store) is needed to compute a map")
+    dev, a0, A, M = grid.devices, grid.a0, grid.A_star, grid.m_star
+    theta, nu = grid.theta, grid.nu
     log_a, log_m = np.log10(A), np.log10(M)
-    map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step,
-                                 periods, report, workers)
+    if map_ds is not None:
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m)
+        if problems:
+            raise InputError(f"the {map_name} does not serve this chart: "
+                             + "; ".join(problems))
+        source = map_name
+    else:
+        map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
+                                     step, periods, report, workers)
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
     c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
@@ -548,14 +629,19 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
 _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
-def read_device(device, mu=0.3, maps=None, chart=None):
+def read_device(device, mu=0.3, maps=None, chart=None, map_ds=None, map_name="given map"):
     """The map reading at one device (dict: v_star, contact_fraction, regime,
-    map), from `chart`'s map when given (nearest chart point is NOT used: the
-    device is mapped itself), else from the shipped map; None when no shipped
-    map serves the device (outside, other theta/nu/mu)."""
+    map), from `map_ds` (named map_name) or `chart`'s map when given (nearest
+    chart point is NOT used: the device is mapped itself), else from the
+    shipped map; None when no map serves the device (outside, other
+    theta/nu/mu)."""
     from .sweep import open_map
     s = _device(device).normalized()
     la, lm = np.log10([s.A_star]), np.log10([s.m_star])
+    if map_ds is not None:
+        if _shipped_problems(map_ds, s.theta, s.nu, float(mu), la, lm):
+            return None
+        return _reading(map_ds, la, lm, map_name)
     path = shipped_map_path(mu, maps)
     if chart is not None and chart.attrs["map"].startswith("computed: "):
         path = Path(chart.attrs["map"].split(": ", 1)[1])
@@ -567,12 +653,16 @@ def read_device(device, mu=0.3, maps=None, chart=None):
     ga, gm = ds["log_amplitude"].values, ds["log_mass"].values
     if not (ga[0] <= la[0] <= ga[-1] and gm[0] <= lm[0] <= gm[-1]):
         return None
+    return _reading(ds, la, lm, path.name)
+
+
+def _reading(ds, la, lm, name):
     got = read_map(ds, la, lm)
     return {"v_star": float(got["v_star"][0]),
             "contact_fraction": float(got["contact_fraction"][0]),
             "regime": REGIMES[int(regime_of(got["drift"], got["contact"], got["pattern"],
                                             got["chaotic"])[0])],
-            "map": path.name}
+            "map": name}
 
 
 def write_chart_data(chart, out):

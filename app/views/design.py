@@ -2,11 +2,15 @@
 explorer.  A device's materials, pre-load and the two chart axes among
 frequency, radius and amplitude (the third fixed at the device's value)
 are typed here; "Draw chart" reads a shipped drift map for them
-(`vibtrans.design.design_chart`, off the event loop: shipped maps only,
-never a computation) and draws `vibtrans.plots.design_figure`.  A click on
-the chart moves the device there and shows its quantities
-(`design.device_quantities` of `design.read_device`) and validity warnings
-beside it.
+(`vibtrans.design.design_chart`, off the event loop) and draws
+`vibtrans.plots.design_figure`.  When no shipped map serves the chart
+(another mu, theta or nu of the materials, a window outside the shipped
+maps), the tab offers the map it needs as a map on demand (app/mapjobs.py:
+the server's queue, cache and fair share of cores), with its estimated cost
+shown before anything runs; the chart is drawn level by level as the map is
+refined.  A click on the chart moves the device there and shows its
+quantities (`design.device_quantities` of `design.read_device`) and validity
+warnings beside it; "Run this device's scene" runs it in the explorer.
 
 No physics here: every value is checked by the library, whose refusal
 (an InputError naming the parameter and its valid range) is shown as it
@@ -15,6 +19,7 @@ is; nothing is clamped.  A chart with a point the map has no value for
 import asyncio
 import functools
 import math
+import time
 
 import numpy as np
 import panel as pn
@@ -26,12 +31,14 @@ from vibtrans import design, plots, units
 from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.errors import InputError
 
-from .. import inputs
+from .. import inputs, mapjobs
+from ..maprequest import MapRequest
 from .render import rendered
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
-SHIPPED_MUS = (0.1, 0.3, 1.0)       # the shipped deformable maps' mu
+# a computed map's refinement levels (its coarse grid is 1/8 of its finest)
+DESIGN_LEVELS = 3
 MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
 UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset), "
@@ -39,10 +46,12 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "device's value), then *Draw chart*. The chart reads the shipped drift map "
          "(deformable model) at each point: colour, the drift velocity (red with the wave, blue "
          "against it); lines, the regimes and equal speeds. Click the chart to move the device "
-         "there: its quantities and the model's validity warnings appear beside it. A device "
-         "whose materials or window no shipped map covers is refused with the reason "
-         "(`vibtrans design --compute` computes such a window).")
-HINT = "*Press Draw chart to read the shipped map for these values.*"
+         "there: its quantities and the model's validity warnings appear beside it, and *Run "
+         "this device's scene* runs it in the explorer (its time also in seconds). When no "
+         "shipped map serves the chart (another mu, the materials' theta or nu, a window "
+         "outside the shipped maps), the map it needs is offered, its cost shown first, and "
+         "computed on this server like a map on demand.")
+HINT = "*Press Draw chart to read the drift map for these values.*"
 
 
 def _device_marker(fig):
@@ -86,24 +95,78 @@ def _all_finite(chart):
                for v in ("drift_velocity", "A_star", "m_star"))
 
 
-def build_chart(values):
+def _chart_args(values):
+    """design_chart's positional arguments and mu of the panel's values."""
+    v = values
+    xq, yq = v["x"], v["y"]
+    fq = next((q for q in design.AXES if q not in (xq, yq)), xq)   # (x == y: the library says so)
+    return (v["substrate"], v["particle"], v["preload"],
+            (xq, v["x_lo"], v["x_hi"], v["x_points"]),
+            (yq, v["y_lo"], v["y_hi"], v["y_points"]), (fq, v[fq]))
+
+
+def chart_needs(values):
+    """The map the chart needs (design.MapNeed); InputError for a refused
+    value.  Runs off the event loop (it opens the shipped map)."""
+    return design.chart_needs(*_chart_args(values), mu=values["mu"])
+
+
+def map_request(need, step=design.MAP_STEP, levels=None):
+    """(MapRequest, None) computing the map `need` asks for: the library's
+    computed-map values (deformable, preview fidelity, the shipped maps'
+    tau and periods), mu, theta and nu of the chart, its window snapped
+    outward to `step` decades, the finest step at most `step`; or (None,
+    why) when the window is outside what a map on demand accepts.
+    levels: DESIGN_LEVELS if None."""
+    levels = DESIGN_LEVELS if levels is None else levels
+    for name, value in (("mu", need.mu), ("theta", need.theta), ("nu", need.nu)):
+        lo, hi = MapRequest.param[name].bounds
+        if not lo <= value <= hi:
+            what = {"theta": "theta of the materials", "nu": "nu of the substrate"}.get(name,
+                                                                                       name)
+            return None, (f"{what} is {value:.4g}; a map on demand accepts {name} in "
+                          f"[{lo:g}, {hi:g}]")
+    spans = {"la": need.log_amplitude, "lm": need.log_mass}
+    bounds = {k: MapRequest.param[f"{k}_from"].bounds for k in spans}
+    for k, label in (("la", "log10 A*"), ("lm", "log10 m*")):
+        (lo, hi), (blo, bhi) = spans[k], bounds[k]
+        if lo < blo or hi > bhi:
+            return None, (f"the chart spans {label} [{lo:.3g}, {hi:.3g}], beyond what a map "
+                          f"on demand accepts ({label} in [{blo:g}, {bhi:g}]): narrow the axes")
+    start = {k: math.floor(spans[k][0] / step) * step for k in spans}
+    fine = max(max(math.ceil((spans[k][1] - start[k]) / step - 1e-9) for k in spans), 1)
+    cells = math.ceil(fine / 2 ** levels)
+    width = cells * 2 ** levels * step
+    if cells > MapRequest.param.cells.bounds[1] or any(width > b[1] - b[0] for b in bounds.values()):
+        return None, (f"the chart spans {fine * step:.3g} decades, more than a map on demand "
+                      f"of this tab covers: narrow the axes")
+    # snapped to the step's grid (a chart asked again is the same map), moved
+    # inside the accepted range where the snapping crossed its edge
+    start = {k: min(start[k], bounds[k][1] - width) for k in spans}
+    start = {k: max(v, bounds[k][0]) for k, v in start.items()}
+    request = MapRequest(model="deformable", mu=need.mu, theta=need.theta, nu=need.nu,
+                         fidelity=design.COMPUTE_FIDELITY, levels=levels, cells=cells,
+                         la_from=round(start["la"], 10), la_to=round(start["la"] + width, 10),
+                         lm_from=round(start["lm"], 10), lm_to=round(start["lm"] + width, 10))
+    return request, None
+
+
+def build_chart(values, map_ds=None, map_name="given map"):
     """(chart, figure, device, reading, quantities, warnings) for the
-    panel's `values` (DesignPanel.values()); the library's InputError
+    panel's `values` (DesignPanel.values()), read on `map_ds` (a map on
+    demand named `map_name`) or the shipped map; the library's InputError
     (a ValueError) when a value is refused.  Runs off the event loop."""
     v = values
     xq, yq = v["x"], v["y"]
-    fq = next(q for q in design.AXES if q not in (xq, yq))     # (x == y: the library says so)
-    fixed = (fq, v[fq])
-    chart = design.design_chart(v["substrate"], v["particle"], v["preload"],
-                                (xq, v["x_lo"], v["x_hi"], v["x_points"]),
-                                (yq, v["y_lo"], v["y_hi"], v["y_points"]),
-                                fixed, mu=v["mu"], surface_energy=v["surface_energy"])
+    chart = design.design_chart(*_chart_args(v), mu=v["mu"],
+                                surface_energy=v["surface_energy"], map_ds=map_ds,
+                                map_name=map_name)
     if not _all_finite(chart):
         bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
         raise InputError(
             f"the map has no value at {bad} of {chart['drift_velocity'].size} chart points "
             f"(not computed there): narrow the axes")
-    device, reading, q, warnings = device_reading(v, chart)
+    device, reading, q, warnings = device_reading(v, chart, map_ds, map_name)
     _, fig = rendered(plots.design_figure, chart,
                       device=(getattr(device, xq), getattr(device, yq)))
     fig.document.remove_root(fig)
@@ -113,14 +176,16 @@ def build_chart(values):
     return chart, fig, device, reading, q, warnings
 
 
-def device_reading(values, chart):
+def device_reading(values, chart, map_ds=None, map_name="given map"):
     """(device, reading, quantities, warnings) of the panel's device, read
-    on `chart`'s map; InputError for a value the library refuses."""
+    on `chart`'s map (`map_ds` when it is a map on demand); InputError for
+    a value the library refuses."""
     v = values
     device = units.DeviceSpec(v["substrate"], v["particle"], v["radius"], v["frequency"],
                               v["amplitude"], preload=v["preload"])
     device.normalized()             # checks every value (InputError names it)
-    reading = design.read_device(device, mu=v["mu"], chart=chart)
+    reading = design.read_device(device, mu=v["mu"], chart=chart, map_ds=map_ds,
+                                 map_name=map_name)
     q = design.device_quantities(device, reading, v["surface_energy"])
     warnings = design.validity_warnings(device, v["surface_energy"], q.drift_velocity)
     return device, reading, q, warnings
@@ -144,8 +209,8 @@ def device_text(device, reading, q, warnings):
                                            f"{q.rayleigh_wavelength:.4g} m"),
             ("pull-off JKR, DMT", f"{q.pull_off_jkr:.4g} N, {q.pull_off_dmt:.4g} N")]
     if reading is None:
-        rows.append(("drift", "not read: the device is off the map (or no shipped map "
-                              "serves it)"))
+        rows.append(("drift", "not read: the device is off the chart's map (or its map "
+                              "does not serve it)"))
     else:
         rows += [("drift velocity", f"**{q.drift_velocity:.4g} m/s** "
                                     f"({q.drift_velocity * 100:.3g} cm/s)"),
@@ -168,13 +233,15 @@ class DesignPanel(pn.viewable.Viewer):
     """The Design tab: its values (SI units), its widgets, the chart.
 
     Every number is stored as typed; the library checks them when the
-    chart is drawn (`draw`) and its refusal is shown in `alert`."""
+    chart is drawn (`draw`) and its refusal is shown in `alert`.
+    on_run(device, mu, periods): run a device's scene (the explorer's);
+    jobs: the server's maps on demand (mapjobs.jobs() if None)."""
 
     preset = param.Selector(default="paper", objects=list(PRESET_NAMES))
     substrate = param.Selector(default="glass", objects=list(MATERIAL_NAMES))
     particle = param.Selector(default="steel", objects=list(MATERIAL_NAMES))
     preload = param.Number(default=0.0, doc="pre-load P, N")
-    mu = param.Selector(default=0.3, objects=list(SHIPPED_MUS))
+    mu = param.Number(default=0.3, doc="friction coefficient (shipped maps: 0.1, 0.3, 1)")
     surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
     frequency = param.Number(default=1e5, doc="the device's wave frequency, Hz")
     radius = param.Number(default=0.5e-3, doc="the device's particle radius, m")
@@ -189,13 +256,20 @@ class DesignPanel(pn.viewable.Viewer):
     y_points = param.Integer(default=41)
     busy = param.Boolean(default=False)
 
-    def __init__(self, **params):
+    def __init__(self, on_run=None, jobs=None, **params):
         super().__init__(**params)
+        self.on_run = on_run
+        self._jobs = jobs
+        self._session = f"design-{id(self)}"    # its key in the server's map queue
+        self._offer = None          # (MapRequest, values) of the map offered, not computing
+        self._ticket = None         # the map computing's Ticket (mapjobs)
+        self._map = None            # (ds, name) of the map on demand the chart reads
         self.chart = None           # the chart drawn (design_chart's Dataset)
         self.figure = None          # its Bokeh figure
         self.device = None          # the device marked (units.DeviceSpec)
         self.quantities = self.reading = None
         self.warnings = []
+        self._chart_map = None      # (ds, name) of the map on demand the chart read, or None
         self._marker = None         # the figure's device marker's source
         self._drawn_values = None   # the values the chart drawn was made with
         self._draws = 0             # the latest draw's number (older ones dropped)
@@ -214,7 +288,21 @@ class DesignPanel(pn.viewable.Viewer):
         self.draw_button = pn.widgets.Button(name="Draw chart", button_type="primary",
                                              css_classes=["vt-design-draw"])
         self.draw_button.on_click(lambda event: pn.state.execute(self.draw))
-        labels = {"preload": "preload (N)", "surface_energy": "surface energy (J/m^2)",
+        self.offer = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                      css_classes=["vt-design-offer"])
+        self.compute_button = pn.widgets.Button(name="Compute this map", button_type="success",
+                                                css_classes=["vt-design-compute"])
+        self.compute_button.on_click(lambda event: pn.state.execute(self.compute))
+        self.cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+                                               css_classes=["vt-design-cancel"])
+        self.cancel_button.on_click(lambda event: self.cancel())
+        self.offer_box = pn.Column(self.offer, pn.Row(self.compute_button, self.cancel_button),
+                                   visible=False, sizing_mode="stretch_width")
+        self.run_button = pn.widgets.Button(name="Run this device's scene", button_type="primary",
+                                            disabled=True, css_classes=["vt-design-run"])
+        self.run_button.on_click(lambda event: self.run_device())
+        self._buttons()
+        labels = {"preload": "preload (N)", "mu": "mu (friction)", "surface_energy": "surface energy (J/m^2)",
                   "frequency": "frequency (Hz)", "radius": "radius (m)",
                   "amplitude": "amplitude (m)", "x_lo": "x lo", "x_hi": "x hi",
                   "x_points": "x points", "y_lo": "y lo", "y_hi": "y hi",
@@ -283,9 +371,16 @@ class DesignPanel(pn.viewable.Viewer):
         self.alert.object = text
         self.alert.visible = bool(text)
 
+    @property
+    def jobs(self):
+        return self._jobs or mapjobs.jobs()
+
     async def draw(self):
         """Draw the chart for the values (off the event loop).  A refused
-        value: the message in `alert`, the chart drawn before stays."""
+        value: the message in `alert`, the chart drawn before stays.  No
+        shipped map serving them: the map they need is offered (`offer`),
+        its estimate first; the map on demand read last is used if it
+        serves them."""
         errors = self.field_errors()
         if errors:
             self._say("**Cannot draw the chart:** " + "; ".join(errors))
@@ -294,9 +389,22 @@ class DesignPanel(pn.viewable.Viewer):
         token = self._draws
         values = self.values()
         self._busy(True, "Drawing the chart ...")
+        loop = asyncio.get_running_loop()
         try:
-            result = await asyncio.get_running_loop().run_in_executor(
-                None, build_chart, values)
+            need = await loop.run_in_executor(None, chart_needs, values)
+            chart_map = self._map if need.shipped_problems else None
+            result = None
+            if chart_map is not None:
+                try:
+                    result = await loop.run_in_executor(None, build_chart, values, *chart_map)
+                except ValueError:      # (the values passed: the map does not serve them)
+                    chart_map = None
+            if need.shipped_problems and result is None:
+                if token == self._draws:
+                    await self._offer_map(need, values, token)
+                return
+            if result is None:
+                result = await loop.run_in_executor(None, build_chart, values)
         except ValueError as exc:        # the library's InputError (TypeError kind too)
             if token == self._draws:
                 self._say(f"**Cannot draw the chart:** {exc}")
@@ -304,16 +412,149 @@ class DesignPanel(pn.viewable.Viewer):
             return
         if token != self._draws:
             return              # a newer draw was asked for meanwhile
+        if self._ticket is None:
+            self._offer = None
+            self.offer_box.visible = False
+        self._show_chart(values, result, chart_map)
+
+    def _show_chart(self, values, result, chart_map):
         chart, fig, device, reading, q, warnings = result
         self._say("")
         with pn.io.hold():
             self.chart, self.figure, self._drawn_values = chart, fig, values
+            self._chart_map = chart_map
             self._marker = _device_marker(fig)
             fig.on_event(Tap, self._on_tap)
             self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
                                                      min_width=MIN_WIDTH)]
             self._show_device(device, reading, q, warnings)
             self._busy(False, self._shown_status())
+
+    # ---------- a map on demand for the chart ----------
+    async def _offer_map(self, need, values, token):
+        """Say why no shipped map serves the chart and offer the one it
+        needs, with its estimated cost (or why it cannot be computed)."""
+        reasons = "; ".join(need.shipped_problems)
+        head = f"**No shipped map serves this chart:** {reasons}."
+        request, why = map_request(need)
+        self._say("")
+        self.offer_box.visible = True
+        self._offer = None
+        if request is None:
+            self.offer.object = f"{head}\n\n**It cannot be computed here:** {why}."
+            self._buttons()
+            self._busy(False, self._shown_status())
+            return
+        n = request.points_per_axis()
+        step = min(request.la_to - request.la_from, request.lm_to - request.lm_from) / (n - 1)
+        what = (f"**The map it needs:** {request.title()}; log10 A* [{request.la_from:g}, "
+                f"{request.la_to:g}], log10 m* [{request.lm_from:g}, {request.lm_to:g}], "
+                f"{n} x {n} points at the finest level (a step of {step:.3g} decades or less).")
+        self.offer.object = f"{head}\n\n{what}\n\n*Estimating its cost ...*"
+        self._buttons()
+        jobs = self.jobs
+        try:
+            est, problems = await asyncio.get_running_loop().run_in_executor(
+                None, jobs.estimate, request)
+        except Exception as exc:        # a bug: said, and logged by the caller's loop
+            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+        if token != self._draws:
+            return
+        cost = "" if est is None else est.text(jobs.cores)
+        refused = "".join(f"\n\n**Refused:** {p}." for p in problems)
+        self.offer.object = f"{head}\n\n{what} {cost}{refused}"
+        self._offer = None if problems else (request, values)
+        self._buttons()
+        self._busy(False, self._shown_status())
+
+    def _buttons(self):
+        computing = self._ticket is not None
+        self.compute_button.disabled = computing or self._offer is None
+        self.cancel_button.visible = computing
+
+    async def compute(self):
+        """Compute the map offered (the server's queue; shared with every
+        session asking for it) and draw the chart on it level by level."""
+        if self._offer is None or self._ticket is not None:
+            return
+        request, values = self._offer
+        loop = asyncio.get_running_loop()
+        updates = asyncio.Queue()
+
+        def deliver(update):            # a worker thread: hand it to this loop
+            loop.call_soon_threadsafe(updates.put_nowait, update)
+        jobs = self.jobs
+        try:
+            ticket = jobs.submit(self._session, request, deliver)
+        except mapjobs.MapRefused as exc:
+            self.offer.object = f"**Not computed:** {exc}."
+            return
+        self._ticket, self._offer = ticket, None
+        self._buttons()
+        token = self._draws
+        started = time.monotonic()
+        n = request.points_per_axis()
+        name = (f"map on demand ({request.title()}; log10 A* [{request.la_from:g}, "
+                f"{request.la_to:g}], log10 m* [{request.lm_from:g}, {request.lm_to:g}])")
+        self.offer.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
+        while True:
+            update = await updates.get()
+            if self._ticket is not ticket:
+                return          # cancelled: its updates are no one's
+            if update.kind == "queued":
+                self.offer.object = f"{update.text.capitalize()} ..."
+            elif update.kind in ("level", "done"):
+                self._map = (update.ds, name)
+                if token == self._draws:        # the chart asked for is still the one shown
+                    try:
+                        result = await loop.run_in_executor(None, build_chart, values,
+                                                            update.ds, name)
+                    except ValueError as exc:
+                        result = None
+                        self.offer.object = f"**The chart could not be read:** {exc}"
+                    if result is not None and token == self._draws:
+                        self._show_chart(values, result, self._map)
+                done = int(update.ds["computed"].values.sum())
+                seconds = time.monotonic() - started
+                self.offer.object = (
+                    f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
+                    f"points computed, {seconds:.0f} s ..." if update.kind == "level" else
+                    f"The chart's map, from this server's cache ({done:,} of {n * n:,} points "
+                    f"computed)." if update.cached else
+                    f"The chart's map is finished: {done:,} of {n * n:,} points computed in "
+                    f"{seconds:.0f} s.")
+            elif update.kind == "failed":
+                self.offer.object = f"**The map failed:** {update.text}"
+            elif update.kind == "cancelled":
+                self.offer.object = "Map cancelled."
+            if update.final:
+                self._ticket = None
+                self._buttons()
+                return
+
+    def cancel(self):
+        """Cancel the map computing (unless another session waits for it)."""
+        if self._ticket is None:
+            return
+        self._ticket = None
+        self.jobs.cancel(self._session)
+        self.offer.object = ("Map cancelled: its finished points are kept on this server; "
+                             "computing it again resumes from them.")
+        self._buttons()
+
+    def close(self):
+        """The session closed: its map stops unless another session waits."""
+        if self._ticket is not None:
+            self._ticket = None
+            self.jobs.cancel(self._session)
+
+    # ---------- the device's scene ----------
+    def run_device(self):
+        """Run the device marked in the explorer (at the chart's mu and its
+        map's periods: its drift and time then also in SI units)."""
+        if self.device is None or self.on_run is None or self.chart is None:
+            return
+        self.on_run(self.device, self.chart.attrs["mu"], self.chart.attrs["map_periods"])
 
     def _shown_status(self):
         c = self.chart
@@ -333,6 +574,7 @@ class DesignPanel(pn.viewable.Viewer):
 
     def _show_device(self, device, reading, q, warnings):
         self.device, self.reading, self.quantities, self.warnings = device, reading, q, warnings
+        self.run_button.disabled = self.on_run is None
         self.info.object = device_text(device, reading, q, warnings)
         if self._marker is not None and self.chart is not None:
             xq, yq = self.chart.attrs["x"], self.chart.attrs["y"]
@@ -367,7 +609,7 @@ class DesignPanel(pn.viewable.Viewer):
         token = self._marks
         try:
             got = await asyncio.get_running_loop().run_in_executor(
-                None, device_reading, values, c)
+                None, device_reading, values, c, *(self._chart_map or ()))
         except ValueError as exc:
             self._say(f"**Cannot read the device:** {exc}")
             return
@@ -391,17 +633,17 @@ class DesignPanel(pn.viewable.Viewer):
                        self.note, sizing_mode="stretch_width"),
                 pn.Row(select(self.param.substrate, name="substrate"),
                        select(self.param.particle, name="particle"), f["preload"],
-                       select(self.param.mu, name="mu (shipped maps)"), f["surface_energy"]),
+                       f["mu"], f["surface_energy"]),
                 pn.pane.Markdown("**The device** (marked on the chart; a click moves it)",
                                  margin=(0, 10)),
                 pn.Row(f["frequency"], f["radius"], f["amplitude"]),
                 pn.Row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
                 pn.Row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
                 fixed,
-                pn.Row(self.draw_button, self.spinner),
+                pn.Row(self.draw_button, self.spinner, self.run_button),
                 sizing_mode="stretch_width")
             self._layout = pn.Column(
-                controls, self.alert, self.status,
+                controls, self.alert, self.status, self.offer_box,
                 pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 420px",
                                                               "min-width": "0"}),
                            pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),

@@ -37,6 +37,7 @@ class UnitsPanel(pn.viewable.Viewer):
     def __init__(self, on_run, on_error, **params):
         super().__init__(**params)
         self.on_run, self.on_error = on_run, on_error
+        self._other = None      # (NormalizedScene, its name): a device run from another tab
         self.info = pn.pane.Markdown(sizing_mode="stretch_width", name="units-info")
         self.param.watch(self._update, ["substrate", "particle", "radius_mm", "frequency_khz",
                                         "amplitude_nm", "preload_mN"])
@@ -74,29 +75,44 @@ class UnitsPanel(pn.viewable.Viewer):
             f"| on the map | {where} |",
         ])
 
-    def device_of(self, scene):
-        """The device (units.NormalizedScene) if `scene` is the Units tab's
-        device (its A*, m*, theta and nu), else None."""
+    def use_device(self, normalized, name):
+        """A device run from another tab (the Design tab's): its runs are
+        given in SI units too, named `name`."""
+        self._other = (normalized, name)
+
+    def _device_named(self, scene):
+        """(units.NormalizedScene, its name) of the device `scene` is (its
+        A*, m*, theta and nu): the Units tab's, else the one another tab
+        ran; (None, None) if neither."""
         try:
             n = self.normalized()
         except (ValueError, TypeError):
-            return None
-        if self.marker is None or not same_scene(n, self.marker, scene):
-            return None
-        return n
+            n = None
+        if n is not None and self.marker is not None and same_scene(n, self.marker, scene):
+            return n, "the Units tab's device"
+        if self._other is not None:
+            n, name = self._other
+            if same_scene(n, (math.log10(n.A_star), math.log10(n.m_star)), scene):
+                return n, name
+        return None, None
+
+    def device_of(self, scene):
+        """The device (units.NormalizedScene) if `scene` is the Units tab's
+        device or the one another tab ran, else None."""
+        return self._device_named(scene)[0]
 
     def si_text(self, v_star, scene):
-        """The drift in m/s if `scene` is the Units tab's device, else a
-        hint: another scene has no device."""
-        n = self.device_of(scene)
+        """The drift in m/s if `scene` is a device's, else a hint: another
+        scene has no device."""
+        n, name = self._device_named(scene)
         if n is None:
-            return "- (run a device from the Units tab to see it in SI units)"
+            return "- (run a device from the Units or Design tab to see it in SI units)"
         run = units.duration_text(scene.periods / n.frequency)
         return (f"{n.drift_velocity_si(v_star):.3e} m/s; the run, {scene.periods:g} periods, "
-                f"lasts {run} (the Units tab's device)")
+                f"lasts {run} ({name})")
 
     def period_seconds(self, scene):
-        """The wave period in seconds if `scene` is the device, else None."""
+        """The wave period in seconds if `scene` is a device's, else None."""
         n = self.device_of(scene)
         return None if n is None else 1.0 / n.frequency
 
