@@ -110,7 +110,7 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert "finished" in panel.offer.object and not panel.alert.visible
     assert jobs.computed == 1 and not panel.cancel_button.visible
     chart = panel.chart
-    assert chart.attrs["map"].startswith("map on demand (deformable, mu = 0.5")
+    assert chart.attrs["map"].startswith("computed on this server (deformable, mu = 0.5")
     # the chart is the library's reading of the map computed
     ds = panel._map[0]
     direct = design.design_chart(panel.substrate, panel.particle, 0.0,
@@ -125,9 +125,11 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     asyncio.run(panel.mark(x, y))
     assert panel.reading is not None and panel.reading["map"] == chart.attrs["map"]
     assert (panel.frequency, panel.amplitude) == (x, y)
-    # its scene runs in the explorer at the chart's mu and periods
-    assert not panel.run_button.disabled
+    # its scene runs in the explorer at the chart's mu and periods (the
+    # click ran it; the button runs it again)
+    assert not panel.run_button.disabled and len(runs) == 1
     panel.run_device()
+    assert len(runs) == 2 and runs[0] == runs[1]
     device, mu, periods = runs[-1]
     assert (device.frequency, device.amplitude, mu, periods) == (x, y, 0.5, 2000.0)
     # another session asking the same chart gets it from the cache

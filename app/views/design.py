@@ -43,11 +43,11 @@ MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
 UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset), "
          "the two quantities on the chart's axes and their ranges (the third is fixed at the "
-         "device's value), then *Draw chart*. The chart reads the shipped drift map "
+         "device's value), then *Draw chart*. The chart reads a drift map "
          "(deformable model) at each point: colour, the drift velocity (red with the wave, blue "
          "against it); lines, the regimes and equal speeds. Click the chart to move the device "
-         "there: its quantities and the model's validity warnings appear beside it, and *Run "
-         "this device's scene* runs it in the explorer (its time also in seconds). When no "
+         "there: its quantities and the model's validity warnings appear beside it, and its "
+         "scene runs in the explorer (the trajectory's time also in seconds). When no "
          "shipped map serves the chart (another mu, the materials' theta or nu, a window "
          "outside the shipped maps), the map it needs is offered, its cost shown first, and "
          "computed on this server like a map on demand.")
@@ -494,7 +494,7 @@ class DesignPanel(pn.viewable.Viewer):
         token = self._draws
         started = time.monotonic()
         n = request.points_per_axis()
-        name = (f"map on demand ({request.title()}; log10 A* [{request.la_from:g}, "
+        name = (f"computed on this server ({request.title()}; log10 A* [{request.la_from:g}, "
                 f"{request.la_to:g}], log10 m* [{request.lm_from:g}, {request.lm_to:g}])")
         self.offer.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
         while True:
@@ -564,7 +564,7 @@ class DesignPanel(pn.viewable.Viewer):
                 f"{c.sizes[c.attrs['x']]} points, {c.attrs['fixed']} = "
                 f"{c.attrs['fixed_value']:.4g} {c.attrs['fixed_units']}; map "
                 f"{c.attrs['map']} ({c.attrs['reading']}). Click the chart to move the "
-                f"device.*")
+                f"device there and run its scene.*")
 
     def _busy(self, on, text):
         self.busy = on
@@ -594,8 +594,8 @@ class DesignPanel(pn.viewable.Viewer):
 
     async def mark(self, x, y):
         """Move the device to (x, y) of the chart drawn (its axes' units;
-        4 significant digits) and show its quantities.  A click outside
-        the chart's window moves nothing."""
+        4 significant digits), show its quantities and run its scene.  A
+        click outside the chart's window moves nothing."""
         c = self.chart
         if c is None:
             return
@@ -619,6 +619,7 @@ class DesignPanel(pn.viewable.Viewer):
         with pn.io.hold():
             self.param.update(**{xq: x, yq: y})
             self._show_device(*got)
+        self.run_device()           # a click runs the device's scene, as on the map
 
     def __panel__(self):
         if self._layout is None:
@@ -634,7 +635,7 @@ class DesignPanel(pn.viewable.Viewer):
                 pn.Row(select(self.param.substrate, name="substrate"),
                        select(self.param.particle, name="particle"), f["preload"],
                        f["mu"], f["surface_energy"]),
-                pn.pane.Markdown("**The device** (marked on the chart; a click moves it)",
+                pn.pane.Markdown("**The device** (marked on the chart; a click moves it and runs its scene)",
                                  margin=(0, 10)),
                 pn.Row(f["frequency"], f["radius"], f["amplitude"]),
                 pn.Row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
