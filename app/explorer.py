@@ -671,7 +671,7 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_session_destroyed(self, session_context):
         mapjobs.jobs().cancel(self._map_session)     # its map, unless another session waits
-        if self.design_panel is not None:
+        if getattr(self, "design_panel", None) is not None:     # (made by main())
             self.design_panel.close()                # and the Design tab's
         if self.memory_view is not None:
             self.memory_view.clear()       # cancels its background snapshots
@@ -992,9 +992,11 @@ class Explorer(pn.viewable.Viewer):
             update = await updates.get()
             if self._map_ticket is not ticket:
                 return          # cancelled or replaced: its updates are no one's
+            if update.kind == "chunk" and not updates.empty():
+                continue        # a newer picture (or the level's) is waiting: draw that
             if update.kind == "queued":
                 self._map_say(f"{update.text.capitalize()} ...")
-            elif update.kind in ("level", "done"):
+            elif update.kind in ("level", "chunk", "done"):
                 await self._draw_map(request, update.ds)
                 if self._map_ticket is not ticket:
                     return
@@ -1003,6 +1005,9 @@ class Explorer(pn.viewable.Viewer):
                 if update.kind == "level":
                     self._map_say(f"Level {update.level} of {update.levels} drawn: {done:,} of "
                                   f"{n * n:,} points computed, {seconds:.0f} s ...")
+                elif update.kind == "chunk":
+                    self._map_say(f"Level {update.level} of {update.levels} computing: {done:,} "
+                                  f"of {n * n:,} points computed so far, {seconds:.0f} s ...")
                 elif update.cached:
                     self._map_say(f"Map from this server's cache ({done:,} of {n * n:,} "
                                   f"points computed): click it to run a scene there.")

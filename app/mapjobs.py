@@ -46,6 +46,10 @@ MAX_RUNNING = 4
 # the map workers' niceness: on a core they share with the sessions' runs
 # and the event loop, those come first (a weight of about 1/10 of theirs)
 MAP_NICE = 10
+# a picture of a map within a refinement level at most this often: a level
+# of a large map takes minutes; each picture costs a render (under the
+# render lock) and a redraw in the browser, so not much more often
+CHUNK_SECONDS = 3.0
 CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
 
 
@@ -70,8 +74,10 @@ class MapRefused(Exception):
 class Update(NamedTuple):
     """What a map's subscriber hears.  kind: "queued" (text says how many
     wait before it), "level" (ds: the map so far after `level` of
-    `levels`), "done" (ds: the finished, verified map; cached: read from
-    the cache), "failed" (text), "cancelled"."""
+    `levels`), "chunk" (ds: the map so far while `level` is computed:
+    every CHUNK_SECONDS within a level), "done" (ds: the finished,
+    verified map; cached: read from the cache), "failed" (text),
+    "cancelled"."""
     kind: str
     level: int = 0
     levels: int = 0
@@ -262,7 +268,7 @@ class MapJobs:
     def _tell(self, comp, update, final=False):
         with self._lock:
             tickets = list(comp.tickets)
-            if update.kind == "level":
+            if update.kind in ("level", "chunk"):
                 comp.last = update
             if final:
                 for t in tickets:
@@ -349,10 +355,15 @@ class MapJobs:
     def _run_adaptive(self, comp, path, on_level):
         from vibtrans.adaptive import run_adaptive
         lane = None if self.scheduler else self.share()
+        levels = comp.request.levels
+
+        def on_chunk(level, ds):
+            self._tell(comp, Update("chunk", level, levels, ds))
         try:
-            run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
+            run_adaptive(comp.request.sweep(), path, levels, workers=self.cores,
                          scheduler=self.scheduler, progress=False, on_level=on_level,
-                         cancel=comp.cancel, executor=lane)
+                         cancel=comp.cancel, executor=lane, on_chunk=on_chunk,
+                         chunk_seconds=CHUNK_SECONDS)
         finally:
             if lane is not None:
                 lane.shutdown()

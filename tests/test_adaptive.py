@@ -338,6 +338,35 @@ def test_each_level_gives_a_complete_picture_ending_in_the_map(tmp_path):
         assert np.isfinite(ds["drift_velocity"].values).all()
 
 
+def test_pictures_within_a_level_grow_and_leave_the_map_bit_identical(tmp_path,
+                                                                       monkeypatch):
+    """on_chunk: a picture each time a task's points of a refinement level
+    come in (chunk_seconds 0), finer than a level: the computed points only grow, each picture is
+    complete (no NaN) and keeps every point computed as computed; the map
+    is bit-identical to one computed without the pictures."""
+    monkeypatch.setattr(adaptive, "POINTS_PER_TASK", 2)
+    plain, pictured = str(tmp_path / "plain.zarr"), str(tmp_path / "pictured.zarr")
+    levels, chunks = [], []
+    run_adaptive(small_sweep(), plain, 2, progress=False, workers=1,
+                 on_level=lambda level, ds: levels.append(int(ds["computed"].values.sum())))
+    run_adaptive(small_sweep(), pictured, 2, progress=False, workers=1,
+                 on_chunk=lambda level, ds: chunks.append((level, ds)), chunk_seconds=0.0)
+    a, b = open_map(plain), open_map(pictured)
+    for v in [*STORED, "computed"]:
+        if v != "seconds":
+            assert np.array_equal(a[v].values, b[v].values, equal_nan=True), v
+    counts = [int(ds["computed"].values.sum()) for _, ds in chunks]
+    assert counts == sorted(counts) and len(set(counts)) == len(counts)
+    # more pictures than levels: within each level, several
+    assert len(chunks) > len(levels) and {level for level, _ in chunks} == {1, 2}
+    final = b["computed"].values
+    for _, ds in chunks:
+        done = ds["computed"].values
+        assert np.isfinite(ds["drift_velocity"].values).all()
+        assert not (done & ~final).any()
+        assert np.array_equal(ds["drift_velocity"].values[done], b["drift_velocity"].values[done])
+
+
 def test_a_cancelled_map_stops_and_resumes(tmp_path, monkeypatch):
     """cancel: no new point starts once set; Cancelled is raised, the store
     is not written, and the same call later computes only what is missing."""

@@ -46,6 +46,7 @@ import hashlib
 import json
 import os
 import shutil
+import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
 import numpy as np
@@ -263,12 +264,14 @@ def _compute_points(values, coords, chaos):
 
 
 def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
-                executor=None):
+                executor=None, on_done=None):
     """Compute the points `todo` [(i, j), ...] into grid, writing batches;
     Cancelled once `cancel` (a threading.Event) is set (between tasks: the
     finished points are kept in the partial folder).  executor: a
     concurrent.futures.Executor to run the tasks on (a server's share of
-    its workers) instead of a pool of `workers` threads of our own."""
+    its workers) instead of a pool of `workers` threads of our own.
+    on_done(): called (in this thread) after each finished task's points
+    are in the grid."""
     la, lm = sweep.log_amplitude, sweep.log_mass
     tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
     finished = []
@@ -281,6 +284,8 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
         if len(finished) >= BATCH_POINTS:
             partial.write(finished, grid)
             finished.clear()
+        if on_done is not None:
+            on_done()
 
     def args(task):
         return (sweep.values, [(la[i], lm[j]) for i, j in task], sweep.chaos)
@@ -322,25 +327,32 @@ def _set(event):
 
 
 def _refine(sweep, max_level, tol, grid, compute, on_level=None):
-    """The level-by-level refinement; compute(points) computes the missing
-    ones; on_level(level, cells) is called after each level with every cell
-    that holds its points (leaves so far and the level's cells: a complete
+    """The level-by-level refinement; compute(points, level, tiling)
+    computes the missing ones of `level` (tiling: every cell that holds a
+    point computed so far, for a snapshot in the middle of a level);
+    on_level(level, cells) is called after each level with every cell that
+    holds its points (leaves so far and the level's cells: a complete
     tiling, for a snapshot).  Returns the unrefined cells (leaves) as
     (i0, j0, size)."""
     top = 2 ** max_level
     n_a, n_m = grid.shape
     cells = [(i, j) for i in range(0, n_a - 1, top) for j in range(0, n_m - 1, top)]
-    compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}))
+    coarse = [(i, j, top) for i, j in cells]
+    compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0,
+            coarse)
     leaves = []
     size = top
     if on_level is not None:
-        on_level(0, [(i, j, size) for i, j in cells])
+        on_level(0, coarse)
     for _level in range(max_level):
         refined, pending = set(), set(cells)
+        # while the level's points come in, each lies in a cell of this size
+        tiling = leaves + [(i, j, size) for i, j in cells]
         while pending:          # until no cell of this level changes its verdict
             new = sorted(c for c in pending if disagree(grid, c[0], c[1], size, tol))
             refined.update(new)
-            compute(sorted({p for c in new for p in _new_points(c[0], c[1], size)}))
+            compute(sorted({p for c in new for p in _new_points(c[0], c[1], size)}),
+                    _level + 1, tiling)
             pending = set(cells) - refined
             if not new:
                 break
@@ -386,7 +398,7 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
 
 def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
                  workers=None, scheduler=None, progress=True, on_level=None, cancel=None,
-                 executor=None):
+                 executor=None, on_chunk=None, chunk_seconds=2.0):
     """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
     finest) into the Zarr store `path`, resuming from `<path>.partial/`.
 
@@ -396,6 +408,12 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
         grid) and after each refinement, with the map so far on the finest
         grid (an xarray Dataset like the final store's: points not yet
         computed filled from their cell): a progressive picture.
+    on_chunk: callable(level, snapshot), called within a refinement level
+        (level: the one being computed, 1..max_level) when points have
+        come in and `chunk_seconds` have passed since the last picture: the
+        same picture, finer than a level (a level of a large map can take
+        minutes).  Not within the coarse grid: until its corners are in, a
+        cell has nothing to fill its points from.
     cancel: a threading.Event; once set, no new point starts and the call
         raises vibtrans.errors.Cancelled (the finished points stay in the
         partial folder: the same call resumes).
@@ -436,17 +454,26 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
         client = Client(scheduler)
         client.run(warmup)
 
-    def compute(points):
+    last = [time.monotonic()]          # when the last picture was taken
+
+    def compute(points, level, tiling):
         todo = [p for p in points if not grid.computed[p]]
         bar.total = (bar.total or 0) + len(todo)
         bar.refresh()
+
+        def chunk_done():
+            if level > 0 and time.monotonic() - last[0] >= chunk_seconds:
+                on_chunk(level, snapshot(sweep, grid, tiling))
+                last[0] = time.monotonic()
         if todo:
-            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor)
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor,
+                        None if on_chunk is None else chunk_done)
         elif _set(cancel):
             raise Cancelled("map cancelled")
 
     def level_done(level, cells):
         on_level(level, snapshot(sweep, grid, cells))
+        last[0] = time.monotonic()
 
     try:
         leaves = _refine(sweep, max_level, tol, grid, compute,

@@ -501,9 +501,11 @@ class DesignPanel(pn.viewable.Viewer):
             update = await updates.get()
             if self._ticket is not ticket:
                 return          # cancelled: its updates are no one's
+            if update.kind == "chunk" and not updates.empty():
+                continue        # a newer picture (or the level's) is waiting: draw that
             if update.kind == "queued":
                 self.offer.object = f"{update.text.capitalize()} ..."
-            elif update.kind in ("level", "done"):
+            elif update.kind in ("level", "chunk", "done"):
                 self._map = (update.ds, name)
                 if token == self._draws:        # the chart asked for is still the one shown
                     try:
@@ -519,6 +521,9 @@ class DesignPanel(pn.viewable.Viewer):
                 self.offer.object = (
                     f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
                     f"points computed, {seconds:.0f} s ..." if update.kind == "level" else
+                    f"Level {update.level} of {update.levels} computing: {done:,} of "
+                    f"{n * n:,} points computed so far, {seconds:.0f} s ..."
+                    if update.kind == "chunk" else
                     f"The chart's map, from this server's cache ({done:,} of {n * n:,} points "
                     f"computed)." if update.cached else
                     f"The chart's map is finished: {done:,} of {n * n:,} points computed in "
