@@ -6,7 +6,13 @@ are typed here; "Draw chart" reads a shipped drift map for them
 never a computation) and draws `vibtrans.plots.design_figure`.  A click on
 the chart moves the device there and shows its quantities
 (`design.device_quantities` of `design.read_device`) and validity warnings
-beside it.
+beside it.  Below the status line: the chart-wide validity warnings
+(`design.chart_warnings`) and the ranges of a0, contact radius, A* and m*
+over the chart; below the chart, its downloads (figure PNG/SVG/PDF with
+the device marked, `vibtrans.export.export_design`; data netCDF/CSV,
+`design.write_chart_data`).  A material may be given by its three
+properties ("custom (E, nu, rho)": the library's "E=70e9,nu=0.3,rho=2500").
+The preset selector says "custom" once a value differs from the preset's.
 
 No physics here: every value is checked by the library, whose refusal
 (an InputError naming the parameter and its valid range) is shown as it
@@ -27,6 +33,7 @@ from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.errors import InputError
 
 from .. import inputs
+from .exports import _read_back
 from .render import rendered
 
 MIN_WIDTH = 420
@@ -43,6 +50,15 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "whose materials or window no shipped map covers is refused with the reason "
          "(`vibtrans design --compute` computes such a window).")
 HINT = "*Press Draw chart to read the shipped map for these values.*"
+CUSTOM_MATERIAL = "custom (E, nu, rho)"     # the material selectors' entry for a typed one
+CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
+CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
+# the values a preset sets: editing one makes the preset "custom"
+PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amplitude", "x",
+                 "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points")
+FIGURE_FORMATS = ("png", "svg", "pdf")
+DATA_FORMATS = ("nc", "csv")
+DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
 
 
 def _device_marker(fig):
@@ -126,6 +142,23 @@ def device_reading(values, chart):
     return device, reading, q, warnings
 
 
+def _range(values, unit=""):
+    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+    return f"{lo:.3g} – {hi:.3g}{(' ' + unit) if unit else ''}"
+
+
+def chart_text(chart):
+    """The chart-wide validity warnings (`design.chart_warnings`) and the
+    ranges of a0, contact radius, A* and m* over the chart, as Markdown."""
+    lines = design.chart_warnings(chart)
+    warned = ([f"* **chart warning:** {line}" for line in lines]
+              or ["*No validity warnings over the chart.*"])
+    ranges = (f"**Over the chart:** a0 {_range(chart['a0'].values, 'm')}; contact radius "
+              f"{_range(chart['contact_radius'].values, 'm')}; A* "
+              f"{_range(chart['A_star'].values)}; m* {_range(chart['m_star'].values)}")
+    return "\n".join([ranges, "", *warned])
+
+
 def _g(value, unit=""):
     return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
 
@@ -170,9 +203,11 @@ class DesignPanel(pn.viewable.Viewer):
     Every number is stored as typed; the library checks them when the
     chart is drawn (`draw`) and its refusal is shown in `alert`."""
 
-    preset = param.Selector(default="paper", objects=list(PRESET_NAMES))
-    substrate = param.Selector(default="glass", objects=list(MATERIAL_NAMES))
-    particle = param.Selector(default="steel", objects=list(MATERIAL_NAMES))
+    preset = param.Selector(default="paper", objects=[*PRESET_NAMES, CUSTOM_PRESET])
+    substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
+    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
     preload = param.Number(default=0.0, doc="pre-load P, N")
     mu = param.Selector(default=0.3, objects=list(SHIPPED_MUS))
     surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
@@ -226,10 +261,14 @@ class DesignPanel(pn.viewable.Viewer):
         self.param.watch(self._on_preset, "preset")
         self.param.watch(self._on_axis, ["x", "y"])
         self._on_preset()
+        self._init_extras()
         self._layout = None
 
     # ---------- values ----------
     def _on_preset(self, *events):
+        if self.preset == CUSTOM_PRESET:        # nothing applied: the values stay as typed
+            self.note.object = "*Custom values (no preset applied).*"
+            return
         p = design.preset(self.preset)
         d = p.device
         self._presetting = True
@@ -273,7 +312,7 @@ class DesignPanel(pn.viewable.Viewer):
         names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
                  "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
                  "y_points")
-        return {k: getattr(self, k) for k in names}
+        return self._with_custom_materials({k: getattr(self, k) for k in names})
 
     def field_errors(self):
         return [f.error for f in self.fields.values() if f.error]
@@ -313,6 +352,7 @@ class DesignPanel(pn.viewable.Viewer):
             self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
                                                      min_width=MIN_WIDTH)]
             self._show_device(device, reading, q, warnings)
+            self._show_chart_extras()
             self._busy(False, self._shown_status())
 
     def _shown_status(self):
@@ -340,6 +380,90 @@ class DesignPanel(pn.viewable.Viewer):
             if xq in keys and yq in keys:
                 self._marker.data = {**{k: [] for k in keys}, xq: [getattr(device, xq)],
                                      yq: [getattr(device, yq)]}
+
+    # ---------- custom materials, the preset's label, the chart's notes and files ----------
+    def _init_extras(self):
+        """The widgets of the custom materials, the chart-wide notes and the
+        downloads (made with the panel; shown by __panel__)."""
+        self.custom_inputs = {
+            k: pn.widgets.TextInput.from_param(
+                self.param[f"{k}_custom"], name=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
+                placeholder=CUSTOM_EXAMPLE, visible=getattr(self, k) == CUSTOM_MATERIAL,
+                css_classes=[f"vt-design-{k}-custom"])
+            for k in ("substrate", "particle")}
+        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=self._any_custom())
+        self.param.watch(self._on_material, ["substrate", "particle"])
+        self.param.watch(self._on_edit, [*PRESET_VALUES, "substrate_custom", "particle_custom"])
+        self.chart_notes = pn.pane.Markdown("", visible=False, sizing_mode="stretch_width",
+                                            css_classes=["vt-design-chart-notes"])
+        self.download_buttons = {
+            fmt: pn.widgets.FileDownload(
+                callback=functools.partial(self.chart_file, fmt),
+                filename=f"vibtrans-design.{fmt}",
+                label=f"{'figure' if fmt in FIGURE_FORMATS else 'data'} .{fmt}",
+                button_type="light", width=120, disabled=True,
+                css_classes=[f"vt-design-download-{fmt}"])
+            for fmt in (*FIGURE_FORMATS, *DATA_FORMATS)}
+        self.download_note = pn.pane.Markdown(DOWNLOAD_HINT, margin=(5, 10))
+        self.downloads = pn.Row(self.download_note, *self.download_buttons.values(),
+                                sizing_mode="stretch_width", css_classes=["vt-design-downloads"])
+
+    def _any_custom(self):
+        return CUSTOM_MATERIAL in (self.substrate, self.particle)
+
+    def _on_material(self, *events):
+        for k, w in self.custom_inputs.items():
+            w.visible = getattr(self, k) == CUSTOM_MATERIAL
+        self.custom_row.visible = self._any_custom()
+
+    def _with_custom_materials(self, values):
+        """values with a custom material's text in place of its selector's
+        entry (the library parses it and names what is wrong)."""
+        for k in ("substrate", "particle"):
+            if values[k] == CUSTOM_MATERIAL:
+                values[k] = getattr(self, f"{k}_custom")
+        return values
+
+    def _on_edit(self, *events):
+        """A value of the preset's edited: the preset shown becomes "custom"
+        (nothing re-applied).  A custom material's text counts only when
+        that material is custom."""
+        if self._presetting or self.preset == CUSTOM_PRESET:
+            return
+        if all(e.name.endswith("_custom") and getattr(self, e.name[:-7]) != CUSTOM_MATERIAL
+               for e in events):
+            return
+        self.preset = CUSTOM_PRESET
+
+    def _show_chart_extras(self):
+        """The chart drawn's notes, and its downloads enabled."""
+        self.chart_notes.object = chart_text(self.chart)
+        self.chart_notes.visible = True
+        self.download_note.object = "*Downloads of the chart shown (device marked):*"
+        for b in self.download_buttons.values():
+            b.disabled = False
+
+    def device_mark(self):
+        """(x, y) of the device marked on the chart shown, or None."""
+        c, d = self.chart, self.device
+        if c is None or d is None:
+            return None
+        return (getattr(d, c.attrs["x"]), getattr(d, c.attrs["y"]))
+
+    def chart_file(self, fmt):
+        """The bytes (BytesIO) of a download of the chart shown: its figure
+        (png, svg, pdf; the device marked) or its data (nc, csv)."""
+        chart = self.chart
+        if chart is None:
+            raise ValueError("draw a chart first")
+        if fmt in DATA_FORMATS:
+            return _read_back(functools.partial(design.write_chart_data, chart),
+                              f"design.{fmt}")
+        if fmt not in FIGURE_FORMATS:
+            raise ValueError(f"no such download: {fmt!r}")
+        from vibtrans.export import export_design
+        return _read_back(functools.partial(export_design, chart, device=self.device_mark()),
+                          f"design.{fmt}")
 
     # ---------- a click on the chart ----------
     def _on_tap(self, event):
@@ -392,6 +516,7 @@ class DesignPanel(pn.viewable.Viewer):
                 pn.Row(select(self.param.substrate, name="substrate"),
                        select(self.param.particle, name="particle"), f["preload"],
                        select(self.param.mu, name="mu (shipped maps)"), f["surface_energy"]),
+                self.custom_row,
                 pn.pane.Markdown("**The device** (marked on the chart; a click moves it)",
                                  margin=(0, 10)),
                 pn.Row(f["frequency"], f["radius"], f["amplitude"]),
@@ -401,12 +526,13 @@ class DesignPanel(pn.viewable.Viewer):
                 pn.Row(self.draw_button, self.spinner),
                 sizing_mode="stretch_width")
             self._layout = pn.Column(
-                controls, self.alert, self.status,
+                controls, self.alert, self.status, self.chart_notes,
                 pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 420px",
                                                               "min-width": "0"}),
                            pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),
                            flex_wrap="wrap", align_items="flex-start",
                            sizing_mode="stretch_width"),
+                self.downloads,
                 sizing_mode="stretch_width", name="design")
         return self._layout
 
