@@ -1,6 +1,7 @@
 """The Design tab in a real browser (Debian's chromium, Playwright) at
-1280 x 800: opened, the paper preset's chart drawn and shown, a click on
-it moving the device.  Screenshots go to test-artifacts/."""
+1280 x 800: opened, the paper preset's chart drawn and shown with its
+chart-wide notes and downloads, a click on it moving the device, a custom
+substrate's field shown.  Screenshots go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
@@ -62,7 +63,24 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
         assert any("steel on glass" in t for t in titles), titles
         before = _device_text(page)
         assert "drift velocity" in before and "synchronous hopping" in before
+        # the chart-wide notes between the status and the chart; the downloads below it
+        notes = page.locator(".vt-design-chart-notes").first
+        notes.get_by_text("Over the chart").first.wait_for(timeout=30000)
+        png = page.locator(".vt-design-download-png button").first
+        assert png.is_enabled()
+        n, d = notes.bounding_box(), page.locator(".vt-design-downloads").first.bounding_box()
+        assert n["y"] + n["height"] <= box["y"] + 1 and d["y"] >= box["y"] + box["height"] - 1
         _shot(page, "paper")
+        page.locator(".vt-design-status").first.scroll_into_view_if_needed()
+        _shot(page, "notes")
+        page.locator(".vt-design-downloads").first.scroll_into_view_if_needed()
+        _shot(page, "downloads")
+        with page.expect_download(timeout=60000) as got:         # the figure, as a browser gets it
+            png.click()
+        assert Path(got.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert got.value.suggested_filename == "vibtrans-design.png"
+        chart.scroll_into_view_if_needed()
+        box = chart.bounding_box()
         # a click inside the plot moves the device
         page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.35)
         for _ in range(100):
@@ -71,6 +89,14 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
             page.wait_for_timeout(200)
         assert _device_text(page) != before
         _shot(page, "clicked")
+        # a custom substrate: its text field appears beside the materials
+        page.locator(".vt-design-preset select").first.scroll_into_view_if_needed()
+        page.get_by_label("substrate", exact=True).first.select_option("custom (E, nu, rho)")
+        field = page.locator(".vt-design-substrate-custom input").first
+        field.wait_for(timeout=30000)
+        assert field.input_value() == "E=70e9,nu=0.3,rho=2500"
+        assert page.locator(".vt-design-preset select").first.input_value() == "custom"
+        _shot(page, "custom")
     except Exception:
         _shot(page, "failed")
         print("page errors:", errors)

@@ -262,8 +262,11 @@ def test_the_chart_wide_warnings_and_ranges_are_shown_below_the_status(drawn):
     assert "No validity warnings" not in notes.object
     for var, label in (("a0", "a0"), ("contact_radius", "contact radius"),
                        ("A_star", "A*"), ("m_star", "m*")):
-        v = chart[var].values
-        assert f"{label} {v.min():.3g} – {v.max():.3g}" in notes.object, var
+        lo, hi = f"{chart[var].values.min():.3g}", f"{chart[var].values.max():.3g}"
+        assert f"{label} {lo if lo == hi else f'{lo} – {hi}'}" in notes.object, var
+    # (a0 and the contact radius depend on the radius only: fixed on this chart)
+    assert f"a0 {chart['a0'].values[0, 0]:.3g} m;" in notes.object
+    assert f"A* {chart['A_star'].values.min():.3g} – " in notes.object
     assert "A* " in notes.object and "m* " in notes.object
     # a chart crossing no threshold says so
     quiet = chart.copy(deep=True)

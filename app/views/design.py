@@ -58,6 +58,8 @@ PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amp
                  "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points")
 FIGURE_FORMATS = ("png", "svg", "pdf")
 DATA_FORMATS = ("nc", "csv")
+DOWNLOAD_LABELS = {"png": "figure PNG", "svg": "figure SVG", "pdf": "figure PDF",
+                   "nc": "data netCDF", "csv": "data CSV"}
 DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
 
 
@@ -143,8 +145,9 @@ def device_reading(values, chart):
 
 
 def _range(values, unit=""):
-    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
-    return f"{lo:.3g} – {hi:.3g}{(' ' + unit) if unit else ''}"
+    """min – max of values (3 digits), or the one value where they agree."""
+    lo, hi = f"{float(np.nanmin(values)):.3g}", f"{float(np.nanmax(values)):.3g}"
+    return f"{lo if lo == hi else f'{lo} – {hi}'}{(' ' + unit) if unit else ''}"
 
 
 def chart_text(chart):
@@ -391,7 +394,8 @@ class DesignPanel(pn.viewable.Viewer):
                 placeholder=CUSTOM_EXAMPLE, visible=getattr(self, k) == CUSTOM_MATERIAL,
                 css_classes=[f"vt-design-{k}-custom"])
             for k in ("substrate", "particle")}
-        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=self._any_custom())
+        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=self._any_custom(),
+                                 margin=(0, 0, 10, 0))
         self.param.watch(self._on_material, ["substrate", "particle"])
         self.param.watch(self._on_edit, [*PRESET_VALUES, "substrate_custom", "particle_custom"])
         self.chart_notes = pn.pane.Markdown("", visible=False, sizing_mode="stretch_width",
@@ -400,13 +404,14 @@ class DesignPanel(pn.viewable.Viewer):
             fmt: pn.widgets.FileDownload(
                 callback=functools.partial(self.chart_file, fmt),
                 filename=f"vibtrans-design.{fmt}",
-                label=f"{'figure' if fmt in FIGURE_FORMATS else 'data'} .{fmt}",
-                button_type="light", width=120, disabled=True,
+                label=DOWNLOAD_LABELS[fmt], button_type="light", width=95, disabled=True,
                 css_classes=[f"vt-design-download-{fmt}"])
             for fmt in (*FIGURE_FORMATS, *DATA_FORMATS)}
         self.download_note = pn.pane.Markdown(DOWNLOAD_HINT, margin=(5, 10))
-        self.downloads = pn.Row(self.download_note, *self.download_buttons.values(),
-                                sizing_mode="stretch_width", css_classes=["vt-design-downloads"])
+        self.downloads = pn.FlexBox(self.download_note, *self.download_buttons.values(),
+                                    flex_wrap="wrap", align_items="center",
+                                    sizing_mode="stretch_width",
+                                    css_classes=["vt-design-downloads"])
 
     def _any_custom(self):
         return CUSTOM_MATERIAL in (self.substrate, self.particle)
@@ -439,7 +444,7 @@ class DesignPanel(pn.viewable.Viewer):
         """The chart drawn's notes, and its downloads enabled."""
         self.chart_notes.object = chart_text(self.chart)
         self.chart_notes.visible = True
-        self.download_note.object = "*Downloads of the chart shown (device marked):*"
+        self.download_note.object = "*Download the chart shown (device marked):*"
         for b in self.download_buttons.values():
             b.disabled = False
 
