@@ -548,6 +548,8 @@ class Explorer(pn.viewable.Viewer):
                         f"log10 m* in {list(SCENE_LOG_MASS)}.")
             return
         try:
+            if mu not in self.mu_select.options:  # offered while in use, as a map on demand's
+                self.mu_select.options = sorted([*self._mus("deformable"), mu])
             self.state.param.update(model="deformable", mu=mu, log_amplitude=la, log_mass=lm,
                                     theta=n.theta, nu=n.nu, periods=periods)
         except ValueError as exc:

@@ -206,6 +206,50 @@ def test_travel_warning_both_sides():
     assert "travel" not in _codes(dev)           # no drift given, nothing claimed
 
 
+
+@pytest.mark.parametrize("var, threshold, below, words", [
+    ("a0", design.ATOMIC_SPACING, True, "a0 below the interatomic spacing"),
+    ("contact_radius", design.MIN_CONTACT_RADIUS, True,
+     "contact radius below ten interatomic spacings"),
+    ("adhesion_ratio", design.ADHESION_RATIO, False, "DMT pull-off at least a tenth"),
+    ("travel_over_wavelength", design.TRAVEL_FRACTION, False,
+     "travel per period at least a hundredth"),
+])
+def test_chart_warnings_both_sides_of_each_threshold(paper_chart, var, threshold, below,
+                                                     words):
+    """design.chart_warnings counts the chart points across each of
+    validity_warnings' thresholds (below: strictly; at or above: >=)."""
+    chart = paper_chart.copy(deep=True)
+    n = chart["a0"].size
+    safe = {"a0": design.ATOMIC_SPACING * 10, "contact_radius": design.MIN_CONTACT_RADIUS * 10,
+            "adhesion_ratio": design.ADHESION_RATIO / 10,
+            "travel_over_wavelength": design.TRAVEL_FRACTION / 10}
+    for k, v in safe.items():
+        chart[k].values[...] = v
+    assert design.chart_warnings(chart) == []
+    vals = chart[var].values
+    # the safe side, next to the threshold: at it (for "below") or just under it
+    vals[...] = threshold if below else threshold * (1 - 1e-9)
+    vals[0, 0] = np.nan                     # a point without a value crosses nothing
+    assert design.chart_warnings(chart) == []
+    # three points across (just below; at the threshold for ">=")
+    vals[0, 1:4] = threshold * (1 - 1e-9) if below else threshold
+    got = design.chart_warnings(chart)
+    assert got == [f"{words}{got[0][len(words):]}"] and got[0].endswith(f" at 3 of {n} points")
+    vals[...] = threshold * 0.5 if below else threshold * 2          # every point
+    assert design.chart_warnings(chart)[0].endswith(f" at {n} of {n} points")
+    # every threshold crossed: one line each, in validity_warnings' order
+    chart["a0"].values[...] = 0.0
+    chart["contact_radius"].values[...] = 0.0
+    chart["adhesion_ratio"].values[...] = 1.0
+    chart["travel_over_wavelength"].values[...] = 1.0
+    lines = design.chart_warnings(chart)
+    assert [line.rsplit(" at ", 1)[0] for line in lines] == [
+        "a0 below the interatomic spacing", "contact radius below ten interatomic spacings",
+        "DMT pull-off at least a tenth of the load",
+        "travel per period at least a hundredth of the wavelength"]
+    assert not hasattr(cli, "_chart_warnings")          # the command line uses the library's
+
 def test_device_quantities_closed_forms():
     dev = design.preset("paper").device
     q = design.device_quantities(dev)
@@ -286,6 +330,12 @@ def test_cli_paper_preset_exports(tmp_path, capsys):
         assert back["drift_velocity"].shape == (5, 6)
         assert back.attrs["map"] == "shipped: deformable-mu0.3.zarr"
     assert outs[2].read_text().splitlines()[0].startswith("amplitude,frequency,")
+    # the chart-wide warnings are the library's (design.chart_warnings)
+    dev = design.preset("paper").device
+    chart = design.design_chart(dev.substrate, dev.particle, 0.0, PAPER_X, PAPER_Y,
+                                ("radius", dev.radius))
+    assert report["chart_warnings"] == design.chart_warnings(chart)
+    assert report["chart_warnings"] and "DMT pull-off" in report["chart_warnings"][0]
 
 
 @pytest.mark.parametrize("name", ["saw-motor", "saw-powder", "feeder"])

@@ -1,6 +1,7 @@
 """The Design tab in a real browser (Debian's chromium, Playwright) at
-1280 x 800: opened, the paper preset's chart drawn and shown, a click on
-it moving the device.  Screenshots go to test-artifacts/."""
+1280 x 800: opened, the paper preset's chart drawn and shown with its
+chart-wide notes and downloads, a click on it moving the device, a custom
+substrate's field shown.  Screenshots go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
@@ -62,7 +63,24 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
         assert any("steel on glass" in t for t in titles), titles
         before = _device_text(page)
         assert "drift velocity" in before and "synchronous hopping" in before
+        # the chart-wide notes between the status and the chart; the downloads below it
+        notes = page.locator(".vt-design-chart-notes").first
+        notes.get_by_text("Over the chart").first.wait_for(timeout=30000)
+        png = page.locator(".vt-design-download-png button").first
+        assert png.is_enabled()
+        n, d = notes.bounding_box(), page.locator(".vt-design-downloads").first.bounding_box()
+        assert n["y"] + n["height"] <= box["y"] + 1 and d["y"] >= box["y"] + box["height"] - 1
         _shot(page, "paper")
+        page.locator(".vt-design-status").first.scroll_into_view_if_needed()
+        _shot(page, "notes")
+        page.locator(".vt-design-downloads").first.scroll_into_view_if_needed()
+        _shot(page, "downloads")
+        with page.expect_download(timeout=60000) as got:         # the figure, as a browser gets it
+            png.click()
+        assert Path(got.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert got.value.suggested_filename == "vibtrans-design.png"
+        chart.scroll_into_view_if_needed()
+        box = chart.bounding_box()
         # a click inside the plot moves the device
         page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.35)
         for _ in range(100):
@@ -71,9 +89,70 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
             page.wait_for_timeout(200)
         assert _device_text(page) != before
         _shot(page, "clicked")
+        # a custom substrate: its text field appears beside the materials
+        page.locator(".vt-design-preset select").first.scroll_into_view_if_needed()
+        page.get_by_label("substrate", exact=True).first.select_option("custom (E, nu, rho)")
+        field = page.locator(".vt-design-substrate-custom input").first
+        field.wait_for(timeout=30000)
+        assert field.input_value() == "E=70e9,nu=0.3,rho=2500"
+        assert page.locator(".vt-design-preset select").first.input_value() == "custom"
+        _shot(page, "custom")
     except Exception:
         _shot(page, "failed")
         print("page errors:", errors)
+        raise
+    finally:
+        page.close()
+    assert not errors, errors
+
+
+def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
+                                                                        served_explorer):
+    """At 1024 x 768: mu 0.5 has no shipped map; the map the chart needs
+    is offered with its cost, computed on a click, the chart drawn on it;
+    a click on the chart runs the device's scene, given in SI units."""
+    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(served_explorer.url)
+        page.wait_for_selector("canvas", timeout=60000)
+        page.get_by_text("Paper points").first.wait_for(timeout=60000)
+        page.get_by_text("Design", exact=True).first.click()
+        draw = page.get_by_role("button", name="Draw chart").first
+        draw.wait_for(timeout=30000)
+        for name, value in (("mu", "0.5"), ("x_lo", "1e5"), ("x_hi", "1.2e5"),
+                            ("x_points", "3"), ("y_lo", "1e-8"), ("y_hi", "1.2e-8"),
+                            ("y_points", "3")):
+            field = page.locator(f".vt-design-fields .vt-field-{name} input").first
+            field.fill(value)
+            field.press("Enter")
+        page.wait_for_timeout(500)
+        draw.click()
+        offer = page.locator(".vt-design-offer").first
+        offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=60000)
+        offer.get_by_text("integration steps").first.wait_for(timeout=60000)
+        offer.scroll_into_view_if_needed()
+        _shot(page, "offer-1024")
+        page.get_by_role("button", name="Compute this map").first.click()
+        offer.get_by_text("The chart's map is finished").first.wait_for(timeout=180000)
+        chart = page.locator(".vt-design-chart canvas").first
+        chart.wait_for(timeout=30000)
+        chart.scroll_into_view_if_needed()
+        titles = page.evaluate(_TITLES_JS)
+        assert any("steel on glass" in t for t in titles), titles
+        assert "computed on this server" in " ".join(
+            page.locator(".vt-design-status p").all_inner_texts())
+        _shot(page, "computed-1024")
+        box = chart.bounding_box()
+        page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
+        page.get_by_text("(the Design tab's device)").first.wait_for(timeout=120000)
+        _shot(page, "device-run-1024")
+    except Exception:
+        ARTIFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / "design-computed-failed.png"))
+        print("page errors:", errors)
+        print("server log:", served_explorer.text()[-3000:])
         raise
     finally:
         page.close()

@@ -110,7 +110,7 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert "finished" in panel.offer.object and not panel.alert.visible
     assert jobs.computed == 1 and not panel.cancel_button.visible
     chart = panel.chart
-    assert chart.attrs["map"].startswith("computed on this server (deformable, mu = 0.5")
+    assert chart.attrs["map"] == "computed on this server: preview, 2000 periods"
     # the chart is the library's reading of the map computed
     ds = panel._map[0]
     direct = design.design_chart(panel.substrate, panel.particle, 0.0,

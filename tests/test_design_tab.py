@@ -188,3 +188,190 @@ def test_the_design_tab_is_built_when_first_opened():
         ex.map_tabs.active = 0
         ex.map_tabs.active = E.DESIGN_TAB
         assert ex.design_panel is panel and ex.design_box.objects == [shown]     # built once
+
+
+# ---------------------------------------------------------------- custom materials
+from vibtrans import units                                                      # noqa: E402
+from vibtrans_explorer.views import design as D                                 # noqa: E402
+
+# the chart's numbers (every variable but the names in attrs)
+CHART_VARS = ("drift_velocity", "v_star", "drift", "contact", "pattern", "chaotic", "regime",
+              "contact_fraction", "A_star", "m_star", "a0", "contact_radius",
+              "adhesion_ratio", "travel_over_wavelength")
+
+
+def _small(panel):
+    """A small window of the paper preset's chart (cheap to draw and export)."""
+    panel.param.update(x_lo=3e4, x_hi=3e5, x_points=6, y_lo=1e-8, y_hi=3e-7, y_points=5)
+    return panel
+
+
+def _custom(m):
+    return f"E={m.youngs_modulus!r},nu={m.poisson_ratio!r},rho={m.density!r}"
+
+
+def test_a_custom_material_equal_to_glass_draws_the_same_chart():
+    named = _small(DesignPanel())
+    asyncio.run(named.draw())
+    assert not named.alert.visible
+    panel = _small(DesignPanel())
+    panel.__panel__()
+    assert not panel.custom_row.visible
+    panel.substrate = D.CUSTOM_MATERIAL
+    assert panel.custom_row.visible and panel.custom_inputs["substrate"].visible
+    assert not panel.custom_inputs["particle"].visible
+    glass, example = units.material("glass"), units.material(D.CUSTOM_EXAMPLE)
+    assert panel.substrate_custom == D.CUSTOM_EXAMPLE       # glass's E, nu, rho
+    assert ((example.youngs_modulus, example.poisson_ratio, example.density)
+            == (glass.youngs_modulus, glass.poisson_ratio, glass.density))
+    panel.particle = D.CUSTOM_MATERIAL
+    panel.particle_custom = _custom(units.material("steel"))
+    assert panel.values()["substrate"] == D.CUSTOM_EXAMPLE
+    assert panel.values()["particle"] == _custom(units.material("steel"))
+    asyncio.run(panel.draw())
+    assert not panel.alert.visible, panel.alert.object
+    assert panel.chart.attrs["substrate"] == f"custom ({D.CUSTOM_EXAMPLE})"
+    for name in CHART_VARS:
+        np.testing.assert_array_equal(panel.chart[name].values, named.chart[name].values,
+                                      err_msg=name)
+    assert panel.quantities == named.quantities
+    assert "custom (E=70e9" in panel.info.object
+    # back to a named material: its field hidden
+    panel.particle = "steel"
+    assert not panel.custom_inputs["particle"].visible and panel.custom_row.visible
+
+
+@pytest.mark.parametrize("text", ["E=70e9,nu=0.3", "E=70e9,nu=0.7,rho=2500",
+                                  "E=abc,nu=0.3,rho=2500", "E=70e9,nu=0.3,rho=2500,k=1",
+                                  "unobtainium", ""])
+def test_a_bad_custom_material_gets_the_librarys_message(text):
+    panel = _small(DesignPanel())
+    asyncio.run(panel.draw())
+    chart = panel.chart
+    panel.substrate = D.CUSTOM_MATERIAL
+    panel.substrate_custom = text
+    asyncio.run(panel.draw())
+    with pytest.raises(ValueError) as refused:
+        units.material(text)
+    assert panel.alert.visible
+    assert panel.alert.object == f"**Cannot draw the chart:** {refused.value}"
+    assert panel.substrate_custom == text and panel.chart is chart      # nothing clamped
+
+
+# ---------------------------------------------------------------- the chart's notes
+def test_the_chart_wide_warnings_and_ranges_are_shown_below_the_status(drawn):
+    chart = drawn.chart
+    notes = drawn.chart_notes
+    assert notes.visible
+    layout = drawn.__panel__()
+    assert layout.objects.index(notes) == layout.objects.index(drawn.status) + 1
+    lines = design.chart_warnings(chart)
+    assert lines and all(f"**chart warning:** {line}" in notes.object for line in lines)
+    assert "No validity warnings" not in notes.object
+    for var, label in (("a0", "a0"), ("contact_radius", "contact radius"),
+                       ("A_star", "A*"), ("m_star", "m*")):
+        lo, hi = f"{chart[var].values.min():.3g}", f"{chart[var].values.max():.3g}"
+        assert f"{label} {lo if lo == hi else f'{lo} – {hi}'}" in notes.object, var
+    # (a0 and the contact radius depend on the radius only: fixed on this chart)
+    assert f"a0 {chart['a0'].values[0, 0]:.3g} m;" in notes.object
+    assert f"A* {chart['A_star'].values.min():.3g} – " in notes.object
+    assert "A* " in notes.object and "m* " in notes.object
+    # a chart crossing no threshold says so
+    quiet = chart.copy(deep=True)
+    quiet["adhesion_ratio"].values[...] = 0.0
+    quiet["a0"].values[...] = 1e-6
+    quiet["contact_radius"].values[...] = 1e-4
+    quiet["travel_over_wavelength"].values[...] = 0.0
+    assert design.chart_warnings(quiet) == []
+    assert "*No validity warnings over the chart.*" in D.chart_text(quiet)
+    # nothing before a chart is drawn
+    assert not DesignPanel().chart_notes.visible
+
+
+# ---------------------------------------------------------------- downloads
+def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
+    import io
+    import xml.etree.ElementTree as ET
+    import pandas as pd
+    import xarray as xr
+    panel = _small(DesignPanel())
+    buttons = panel.download_buttons
+    assert set(buttons) == {"png", "svg", "pdf", "nc", "csv"}
+    assert all(b.disabled for b in buttons.values())
+    assert "draw a chart first" in panel.download_note.object
+    with pytest.raises(ValueError, match="draw a chart first"):
+        panel.chart_file("png")
+    asyncio.run(panel.draw())
+    chart = panel.chart
+    assert not any(b.disabled for b in buttons.values())
+    assert panel.downloads in panel.__panel__().objects
+    got = {fmt: b.callback().getvalue() for fmt, b in buttons.items()}
+    assert got["png"][:8] == b"\x89PNG\r\n\x1a\n"
+    assert ET.fromstring(got["svg"]).tag.endswith("svg")
+    assert got["pdf"][:5] == b"%PDF-"
+    (tmp_path / "chart.nc").write_bytes(got["nc"])
+    with xr.open_dataset(tmp_path / "chart.nc") as back:
+        assert back.attrs["map"] == chart.attrs["map"]
+        assert back.load().equals(chart)            # every variable and coordinate
+        for name in CHART_VARS:
+            np.testing.assert_array_equal(back[name].values, chart[name].values, err_msg=name)
+        for q in (chart.attrs["x"], chart.attrs["y"]):
+            np.testing.assert_array_equal(back[q].values, chart[q].values)
+    table = pd.read_csv(io.BytesIO(got["csv"]))
+    assert len(table) == chart["a0"].size == 6 * 5
+    np.testing.assert_allclose(np.sort(table["drift_velocity"].values),
+                               np.sort(chart["drift_velocity"].values.ravel()))
+    # the figure marks the device shown (moved by a click)
+    asyncio.run(panel.mark(1e5, 5e-8))
+    seen = {}
+
+    def fake_export(chart_, out, device=None):
+        seen.update(chart=chart_, device=device)
+        open(out, "wb").write(b"x")
+    monkeypatch.setattr("vibtrans.export.export_design", fake_export)
+    assert buttons["svg"].callback().getvalue() == b"x"
+    assert seen == {"chart": chart, "device": (1e5, 5e-8)}
+
+
+# ---------------------------------------------------------------- the preset's label
+def test_editing_a_value_labels_the_preset_custom():
+    panel = DesignPanel()
+    paper = design.preset("paper")
+    assert panel.param.preset.objects[-1] == D.CUSTOM_PRESET
+    panel.radius = 1e-3
+    assert panel.preset == D.CUSTOM_PRESET and panel.radius == 1e-3       # nothing re-applied
+    assert "Custom values" in panel.note.object
+    assert (panel.x_lo, panel.frequency) == (paper.x[1], paper.device.frequency)
+    panel.preset = "paper"                                  # a real preset: applied as before
+    assert panel.radius == paper.device.radius and panel.preset == "paper"
+    assert panel.note.object == f"*{paper.note}*"
+    # a value typed in its field, an axis, a material: each makes it custom
+    for edit in (lambda: setattr(panel.fields["x_lo"].input, "value", "2e4"),
+                 lambda: setattr(panel, "y", "radius"),
+                 lambda: setattr(panel, "x_points", 11),
+                 lambda: setattr(panel, "particle", "glass"),
+                 lambda: setattr(panel, "substrate", D.CUSTOM_MATERIAL)):
+        panel.preset = "paper"
+        assert panel.preset == "paper"
+        edit()
+        assert panel.preset == D.CUSTOM_PRESET
+    # back to a preset: its named materials, the custom field hidden
+    panel.preset = "saw-motor"
+    assert panel.substrate == "lithium niobate" and not panel.custom_row.visible
+    # a custom material's text counts only while that material is custom
+    panel.substrate_custom = "E=1e9,nu=0.3,rho=1000"
+    assert panel.preset == "saw-motor"
+    panel.substrate = D.CUSTOM_MATERIAL
+    panel.preset = "paper"
+    panel.substrate = D.CUSTOM_MATERIAL
+    assert panel.preset == D.CUSTOM_PRESET
+    # choosing "custom" by hand applies nothing
+    values = panel.values()
+    panel.preset = "paper"
+    before = panel.values()
+    panel.preset = D.CUSTOM_PRESET
+    assert panel.values() == before and values != before
+    # mu and the surface energy are not a preset's: they leave its label
+    panel.preset = "paper"
+    panel.surface_energy = 0.01
+    assert panel.preset == "paper"

@@ -375,7 +375,7 @@ def cmd_design(args):
         reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart)
         q = design.device_quantities(device, reading, surface_energy)
         warnings = design.validity_warnings(device, surface_energy, q.drift_velocity)
-    chart_warnings = _chart_warnings(chart)
+    chart_warnings = design.chart_warnings(chart)
     for out in outs:
         ext = Path(out).suffix.lower()
         if ext in (".nc", ".csv"):
@@ -407,26 +407,6 @@ def cmd_design(args):
         for out in outs:
             print(out)
     return 0
-
-
-def _chart_warnings(chart):
-    """One line per validity threshold that some chart points cross."""
-    from . import design
-    out = []
-    n = chart["a0"].size
-    for var, below, threshold, what in (
-            ("a0", True, design.ATOMIC_SPACING, "a0 below the interatomic spacing"),
-            ("contact_radius", True, design.MIN_CONTACT_RADIUS,
-             "contact radius below ten interatomic spacings"),
-            ("adhesion_ratio", False, design.ADHESION_RATIO,
-             "DMT pull-off at least a tenth of the load"),
-            ("travel_over_wavelength", False, design.TRAVEL_FRACTION,
-             "travel per period at least a hundredth of the wavelength")):
-        vals = chart[var].values
-        bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
-        if bad:
-            out.append(f"{what} at {bad} of {n} points")
-    return out
 
 
 def cmd_serve(args):

@@ -258,6 +258,33 @@ def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_veloc
     return out
 
 
+def chart_warnings(chart):
+    """Where a design chart (`design_chart`'s Dataset) leaves the model's
+    validity: one line of text per threshold that some chart points cross,
+    with how many ("... at 12 of 1681 points"); an empty list when none.
+
+    The thresholds are `validity_warnings`' own, applied point by point:
+    a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS (both
+    strictly below); adhesion_ratio (DMT pull-off / load) at least
+    ADHESION_RATIO and travel_over_wavelength at least TRAVEL_FRACTION
+    (both at or above).  A NaN value crosses none."""
+    out = []
+    n = chart["a0"].size
+    for var, below, threshold, what in (
+            ("a0", True, ATOMIC_SPACING, "a0 below the interatomic spacing"),
+            ("contact_radius", True, MIN_CONTACT_RADIUS,
+             "contact radius below ten interatomic spacings"),
+            ("adhesion_ratio", False, ADHESION_RATIO,
+             "DMT pull-off at least a tenth of the load"),
+            ("travel_over_wavelength", False, TRAVEL_FRACTION,
+             "travel per period at least a hundredth of the wavelength")):
+        vals = chart[var].values
+        bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
+        if bad:
+            out.append(f"{what} at {bad} of {n} points")
+    return out
+
+
 # ---------------------------------------------------------------- device -> (A*, m*)
 def _axis(spec, name):
     """(quantity, values) of an axis spec (quantity, lo, hi, n): n log-spaced values."""

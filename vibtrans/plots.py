@@ -1049,7 +1049,10 @@ def design_figure(chart, device=None, title=None):
     mesh = style(mesh, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True, logx=True,
                                    logy=True, clabel=f"drift velocity ({unit}), signed log "
                                                      f"scale; white: no drift"),
-                 bokeh=dict(cticks=ticks, tools=["hover"]),
+                 # (the hover: the device's axes and its drift, not the colour value C)
+                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
+                     (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
+                     (f"drift velocity ({unit})", "@{v}")]),
                  matplotlib=dict(cbar_ticks=ticks))
     layers, key = [], []
     lx, ly = np.log10(x), np.log10(y)

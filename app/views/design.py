@@ -11,6 +11,13 @@ shown before anything runs; the chart is drawn level by level as the map is
 refined.  A click on the chart moves the device there and shows its
 quantities (`design.device_quantities` of `design.read_device`) and validity
 warnings beside it; "Run this device's scene" runs it in the explorer.
+Below the status line: the chart-wide validity warnings
+(`design.chart_warnings`) and the ranges of a0, contact radius, A* and m*
+over the chart; below the chart, its downloads (figure PNG/SVG/PDF with
+the device marked, `vibtrans.export.export_design`; data netCDF/CSV,
+`design.write_chart_data`).  A material may be given by its three
+properties ("custom (E, nu, rho)": the library's "E=70e9,nu=0.3,rho=2500").
+The preset selector says "custom" once a value differs from the preset's.
 
 No physics here: every value is checked by the library, whose refusal
 (an InputError naming the parameter and its valid range) is shown as it
@@ -33,7 +40,8 @@ from vibtrans.errors import InputError
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
-from .render import rendered
+from .exports import _read_back
+from .render import exclusively, rendered
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -52,6 +60,17 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "outside the shipped maps), the map it needs is offered, its cost shown first, and "
          "computed on this server like a map on demand.")
 HINT = "*Press Draw chart to read the drift map for these values.*"
+CUSTOM_MATERIAL = "custom (E, nu, rho)"     # the material selectors' entry for a typed one
+CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
+CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
+# the values a preset sets: editing one makes the preset "custom"
+PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amplitude", "x",
+                 "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points")
+FIGURE_FORMATS = ("png", "svg", "pdf")
+DATA_FORMATS = ("nc", "csv")
+DOWNLOAD_LABELS = {"png": "figure PNG", "svg": "figure SVG", "pdf": "figure PDF",
+                   "nc": "data netCDF", "csv": "data CSV"}
+DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
 
 
 def _device_marker(fig):
@@ -84,9 +103,14 @@ def _tick_axes(fig, chart):
     for axis, q in ((fig.xaxis, chart.attrs["x"]), (fig.yaxis, chart.attrs["y"])):
         values = chart[q].values
         axis.ticker = FixedTicker(ticks=log_ticks(float(values[0]), float(values[-1])))
+        # three significant digits at most, trailing zeros dropped: 1e5,
+        # 1.2e5, 2e-8, 0.5 (a narrow axis's ends differ in the 2nd digit)
         axis.formatter = CustomJSTickFormatter(
-            code="return tick.toPrecision(1).includes('e') ? "
-                 "tick.toExponential(0).replace('e+', 'e') : String(tick)")
+            code="const a = Math.abs(tick); "
+                 "if (a !== 0 && (a >= 1e4 || a < 1e-3)) { "
+                 "  const [m, e] = tick.toExponential(2).split('e'); "
+                 "  return String(Number(m)) + 'e' + String(Number(e)); } "
+                 "return String(Number(tick.toPrecision(3)));")
 
 
 def _all_finite(chart):
@@ -191,6 +215,24 @@ def device_reading(values, chart, map_ds=None, map_name="given map"):
     return device, reading, q, warnings
 
 
+def _range(values, unit=""):
+    """min – max of values (3 digits), or the one value where they agree."""
+    lo, hi = f"{float(np.nanmin(values)):.3g}", f"{float(np.nanmax(values)):.3g}"
+    return f"{lo if lo == hi else f'{lo} – {hi}'}{(' ' + unit) if unit else ''}"
+
+
+def chart_text(chart):
+    """The chart-wide validity warnings (`design.chart_warnings`) and the
+    ranges of a0, contact radius, A* and m* over the chart, as Markdown."""
+    lines = design.chart_warnings(chart)
+    warned = ([f"* **chart warning:** {line}" for line in lines]
+              or ["*No validity warnings over the chart.*"])
+    ranges = (f"**Over the chart:** a0 {_range(chart['a0'].values, 'm')}; contact radius "
+              f"{_range(chart['contact_radius'].values, 'm')}; A* "
+              f"{_range(chart['A_star'].values)}; m* {_range(chart['m_star'].values)}")
+    return "\n".join([ranges, "", *warned])
+
+
 def _g(value, unit=""):
     return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
 
@@ -237,9 +279,11 @@ class DesignPanel(pn.viewable.Viewer):
     on_run(device, mu, periods): run a device's scene (the explorer's);
     jobs: the server's maps on demand (mapjobs.jobs() if None)."""
 
-    preset = param.Selector(default="paper", objects=list(PRESET_NAMES))
-    substrate = param.Selector(default="glass", objects=list(MATERIAL_NAMES))
-    particle = param.Selector(default="steel", objects=list(MATERIAL_NAMES))
+    preset = param.Selector(default="paper", objects=[*PRESET_NAMES, CUSTOM_PRESET])
+    substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
+    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
     preload = param.Number(default=0.0, doc="pre-load P, N")
     mu = param.Number(default=0.3, doc="friction coefficient (shipped maps: 0.1, 0.3, 1)")
     surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
@@ -302,7 +346,8 @@ class DesignPanel(pn.viewable.Viewer):
                                             disabled=True, css_classes=["vt-design-run"])
         self.run_button.on_click(lambda event: self.run_device())
         self._buttons()
-        labels = {"preload": "preload (N)", "mu": "mu (friction)", "surface_energy": "surface energy (J/m^2)",
+        labels = {"preload": "preload (N)", "mu": "mu (friction)",
+                  "surface_energy": "surface energy (J/m^2)",
                   "frequency": "frequency (Hz)", "radius": "radius (m)",
                   "amplitude": "amplitude (m)", "x_lo": "x lo", "x_hi": "x hi",
                   "x_points": "x points", "y_lo": "y lo", "y_hi": "y hi",
@@ -314,10 +359,14 @@ class DesignPanel(pn.viewable.Viewer):
         self.param.watch(self._on_preset, "preset")
         self.param.watch(self._on_axis, ["x", "y"])
         self._on_preset()
+        self._init_extras()
         self._layout = None
 
     # ---------- values ----------
     def _on_preset(self, *events):
+        if self.preset == CUSTOM_PRESET:        # nothing applied: the values stay as typed
+            self.note.object = "*Custom values (no preset applied).*"
+            return
         p = design.preset(self.preset)
         d = p.device
         self._presetting = True
@@ -361,7 +410,7 @@ class DesignPanel(pn.viewable.Viewer):
         names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
                  "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
                  "y_points")
-        return {k: getattr(self, k) for k in names}
+        return self._with_custom_materials({k: getattr(self, k) for k in names})
 
     def field_errors(self):
         return [f.error for f in self.fields.values() if f.error]
@@ -428,6 +477,7 @@ class DesignPanel(pn.viewable.Viewer):
             self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
                                                      min_width=MIN_WIDTH)]
             self._show_device(device, reading, q, warnings)
+            self._show_chart_extras()
             self._busy(False, self._shown_status())
 
     # ---------- a map on demand for the chart ----------
@@ -469,6 +519,7 @@ class DesignPanel(pn.viewable.Viewer):
 
     def _buttons(self):
         computing = self._ticket is not None
+        self.compute_button.visible = self._offer is not None or computing
         self.compute_button.disabled = computing or self._offer is None
         self.cancel_button.visible = computing
 
@@ -494,8 +545,8 @@ class DesignPanel(pn.viewable.Viewer):
         token = self._draws
         started = time.monotonic()
         n = request.points_per_axis()
-        name = (f"computed on this server ({request.title()}; log10 A* [{request.la_from:g}, "
-                f"{request.la_to:g}], log10 m* [{request.lm_from:g}, {request.lm_to:g}])")
+        # (short: the chart's title names it; the offer says the rest)
+        name = f"computed on this server: {request.fidelity}, {request.periods:g} periods"
         self.offer.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
         while True:
             update = await updates.get()
@@ -588,6 +639,93 @@ class DesignPanel(pn.viewable.Viewer):
                 self._marker.data = {**{k: [] for k in keys}, xq: [getattr(device, xq)],
                                      yq: [getattr(device, yq)]}
 
+    # ---------- custom materials, the preset's label, the chart's notes and files ----------
+    def _init_extras(self):
+        """The widgets of the custom materials, the chart-wide notes and the
+        downloads (made with the panel; shown by __panel__)."""
+        self.custom_inputs = {
+            k: pn.widgets.TextInput.from_param(
+                self.param[f"{k}_custom"], name=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
+                placeholder=CUSTOM_EXAMPLE, visible=getattr(self, k) == CUSTOM_MATERIAL,
+                css_classes=[f"vt-design-{k}-custom"])
+            for k in ("substrate", "particle")}
+        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=self._any_custom(),
+                                 margin=(0, 0, 10, 0))
+        self.param.watch(self._on_material, ["substrate", "particle"])
+        self.param.watch(self._on_edit, [*PRESET_VALUES, "substrate_custom", "particle_custom"])
+        self.chart_notes = pn.pane.Markdown("", visible=False, sizing_mode="stretch_width",
+                                            css_classes=["vt-design-chart-notes"])
+        self.download_buttons = {
+            fmt: pn.widgets.FileDownload(
+                callback=functools.partial(self.chart_file, fmt),
+                filename=f"vibtrans-design.{fmt}",
+                label=DOWNLOAD_LABELS[fmt], button_type="light", width=95, disabled=True,
+                css_classes=[f"vt-design-download-{fmt}"])
+            for fmt in (*FIGURE_FORMATS, *DATA_FORMATS)}
+        self.download_note = pn.pane.Markdown(DOWNLOAD_HINT, margin=(5, 10))
+        self.downloads = pn.FlexBox(self.download_note, *self.download_buttons.values(),
+                                    flex_wrap="wrap", align_items="center",
+                                    sizing_mode="stretch_width",
+                                    css_classes=["vt-design-downloads"])
+
+    def _any_custom(self):
+        return CUSTOM_MATERIAL in (self.substrate, self.particle)
+
+    def _on_material(self, *events):
+        for k, w in self.custom_inputs.items():
+            w.visible = getattr(self, k) == CUSTOM_MATERIAL
+        self.custom_row.visible = self._any_custom()
+
+    def _with_custom_materials(self, values):
+        """values with a custom material's text in place of its selector's
+        entry (the library parses it and names what is wrong)."""
+        for k in ("substrate", "particle"):
+            if values[k] == CUSTOM_MATERIAL:
+                values[k] = getattr(self, f"{k}_custom")
+        return values
+
+    def _on_edit(self, *events):
+        """A value of the preset's edited: the preset shown becomes "custom"
+        (nothing re-applied).  A custom material's text counts only when
+        that material is custom."""
+        if self._presetting or self.preset == CUSTOM_PRESET:
+            return
+        if all(e.name.endswith("_custom") and getattr(self, e.name[:-7]) != CUSTOM_MATERIAL
+               for e in events):
+            return
+        self.preset = CUSTOM_PRESET
+
+    def _show_chart_extras(self):
+        """The chart drawn's notes, and its downloads enabled."""
+        self.chart_notes.object = chart_text(self.chart)
+        self.chart_notes.visible = True
+        self.download_note.object = "*Download the chart shown (device marked):*"
+        for b in self.download_buttons.values():
+            b.disabled = False
+
+    def device_mark(self):
+        """(x, y) of the device marked on the chart shown, or None."""
+        c, d = self.chart, self.device
+        if c is None or d is None:
+            return None
+        return (getattr(d, c.attrs["x"]), getattr(d, c.attrs["y"]))
+
+    def chart_file(self, fmt):
+        """The bytes (BytesIO) of a download of the chart shown: its figure
+        (png, svg, pdf; the device marked) or its data (nc, csv)."""
+        chart = self.chart
+        if chart is None:
+            raise ValueError("draw a chart first")
+        if fmt in DATA_FORMATS:
+            return _read_back(functools.partial(design.write_chart_data, chart),
+                              f"design.{fmt}")
+        if fmt not in FIGURE_FORMATS:
+            raise ValueError(f"no such download: {fmt!r}")
+        from vibtrans.export import export_design
+        return exclusively(_read_back, functools.partial(export_design, chart,
+                                                         device=self.device_mark()),
+                           f"design.{fmt}")
+
     # ---------- a click on the chart ----------
     def _on_tap(self, event):
         x, y = event.x, event.y
@@ -624,7 +762,9 @@ class DesignPanel(pn.viewable.Viewer):
         with pn.io.hold():
             self.param.update(**{xq: x, yq: y})
             self._show_device(*got)
-        self.run_device()           # a click runs the device's scene, as on the map
+        # a click runs the device's scene, as on the map: on the next tick,
+        # holding the document's lock (the explorer sets Bokeh models)
+        pn.state.execute(self.run_device, schedule=True)
 
     def __panel__(self):
         if self._layout is None:
@@ -640,21 +780,24 @@ class DesignPanel(pn.viewable.Viewer):
                 pn.Row(select(self.param.substrate, name="substrate"),
                        select(self.param.particle, name="particle"), f["preload"],
                        f["mu"], f["surface_energy"]),
-                pn.pane.Markdown("**The device** (marked on the chart; a click moves it and runs its scene)",
+                self.custom_row,
+                pn.pane.Markdown("**The device** (marked on the chart; a click moves it and "
+                                 "runs its scene)",
                                  margin=(0, 10)),
                 pn.Row(f["frequency"], f["radius"], f["amplitude"]),
                 pn.Row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
                 pn.Row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
                 fixed,
                 pn.Row(self.draw_button, self.spinner, self.run_button),
-                sizing_mode="stretch_width")
+                sizing_mode="stretch_width", css_classes=["vt-design-fields"])
             self._layout = pn.Column(
-                controls, self.alert, self.status, self.offer_box,
+                controls, self.alert, self.status, self.chart_notes, self.offer_box,
                 pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 420px",
                                                               "min-width": "0"}),
                            pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),
                            flex_wrap="wrap", align_items="flex-start",
                            sizing_mode="stretch_width"),
+                self.downloads,
                 sizing_mode="stretch_width", name="design")
         return self._layout
 

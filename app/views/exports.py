@@ -10,6 +10,7 @@ import tempfile
 import panel as pn
 
 from .. import data
+from .render import exclusively
 
 FIGURES = [(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")]
 DATA = [("run", "nc"), ("run", "csv"), ("map-window", "nc")]
@@ -80,7 +81,7 @@ class ExportsView:
 
             def write(out):
                 export.export_trajectory(self.result.ds, out, twin=self.result.twin)
-        return _read_back(write, f"{kind}.{fmt}")
+        return exclusively(_read_back, write, f"{kind}.{fmt}")
 
     def data_file(self, kind, fmt):
         """The bytes of a data download: the last run (`run`, netCDF or CSV)

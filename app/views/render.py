@@ -31,6 +31,13 @@ def rendered(make, *args, **kwargs):
         return _render(make(*args, **kwargs))
 
 
+def exclusively(work, *args, **kwargs):
+    """work(*args, **kwargs) holding the same lock: a figure exported to a
+    file (HoloViews' matplotlib plots share that class-level state too)."""
+    with _LOCK:
+        return work(*args, **kwargs)
+
+
 def _render(element):
     renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes
