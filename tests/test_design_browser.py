@@ -8,6 +8,8 @@ import pytest
 
 from devtools.chromium import launched
 
+from browserpages import new_page, open_explorer
+
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -41,13 +43,9 @@ def _device_text(page):
 
 
 def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
-    page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
+    page, errors = new_page(browser, WIDTH, HEIGHT)
     try:
-        page.goto(served_explorer.url)
-        page.wait_for_selector("canvas", timeout=60000)
-        page.get_by_text("Paper points").first.wait_for(timeout=60000)
+        open_explorer(page, served_explorer.url)
         page.get_by_text("Design", exact=True).first.click()
         draw = page.get_by_role("button", name="Draw chart").first
         draw.wait_for(timeout=30000)
@@ -111,13 +109,9 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
     """At 1024 x 768: mu 0.5 has no shipped map; the map the chart needs
     is offered with its cost, computed on a click, the chart drawn on it;
     a click on the chart runs the device's scene, given in SI units."""
-    page = browser.new_page(viewport={"width": 1024, "height": 768})
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
+    page, errors = new_page(browser, 1024, 768)
     try:
-        page.goto(served_explorer.url)
-        page.wait_for_selector("canvas", timeout=60000)
-        page.get_by_text("Paper points").first.wait_for(timeout=60000)
+        open_explorer(page, served_explorer.url)
         page.get_by_text("Design", exact=True).first.click()
         draw = page.get_by_role("button", name="Draw chart").first
         draw.wait_for(timeout=30000)

@@ -12,6 +12,8 @@ import pytest
 
 from devtools.chromium import launched
 
+from browserpages import new_page, open_explorer
+
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -60,14 +62,10 @@ def browser():
 
 @pytest.mark.parametrize("width, height", SCREENS, ids=[f"{w}x{h}" for w, h in SCREENS])
 def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height):
-    page = browser.new_page(viewport={"width": width, "height": height})
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
+    page, errors = new_page(browser, width, height)
     try:
-        page.goto(f"{served_explorer.url}?la=0.25&lm=0.8&layer={quote('Lyapunov exponent')}"
+        open_explorer(page, f"{served_explorer.url}?la=0.25&lm=0.8&layer={quote('Lyapunov exponent')}"
                   f"&orbits={quote('period-1 orbit curves')}")
-        page.wait_for_selector("canvas", timeout=60000)
-        page.get_by_text("Paper points").first.wait_for(timeout=60000)
         page.wait_for_function(f"() => ({_STATE_JS})().bars.some((t) => t && "
                                "t.startsWith('Lyapunov exponent'))", timeout=60000)
         page.get_by_text("Dynamics", exact=True).first.click()

@@ -7,8 +7,9 @@ from pathlib import Path
 import pytest
 
 from devtools.chromium import launched
-
 from vibtrans_explorer import maprequest
+
+from browserpages import new_page, open_explorer
 
 pytestmark = pytest.mark.browser
 
@@ -49,13 +50,9 @@ def _shot(page, name):
 
 
 def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_explorer):
-    page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
+    page, errors = new_page(browser, WIDTH, HEIGHT)
     try:
-        page.goto(served_explorer.url)
-        page.wait_for_selector("canvas", timeout=60000)
-        page.get_by_text("Paper points").first.wait_for(timeout=60000)
+        open_explorer(page, served_explorer.url)
         page.get_by_text("Map on demand", exact=True).first.click()
         page.locator(".vt-field-periods input").first.wait_for(timeout=30000)
         page.locator(".vt-map-fidelity select").first.select_option("preview")

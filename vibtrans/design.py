@@ -454,23 +454,27 @@ def read_map(map_ds, log_a, log_m):
     return out
 
 
-def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
-                workers):
+def _shipped_map(log_a, log_m, mu, theta, nu, maps):
+    """(the shipped map of `mu` if it serves these points, else None; why
+    it cannot: a list of text, empty when it can)."""
     from .errors import StoreMismatch
     from .sweep import open_map
     path = shipped_map_path(mu, maps)
-    problems = None
-    if path.exists():
-        try:
-            ds = open_map(str(path), expect={"model": "deformable", "mu": float(mu)})
-        except StoreMismatch as exc:
-            problems = [str(exc)]
-        else:
-            problems = _shipped_problems(ds, theta, nu, mu, log_a, log_m)
-            if not problems:
-                return ds, f"shipped: {path.name}"
-    else:
-        problems = [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
+    if not path.exists():
+        return None, [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
+    try:
+        ds = open_map(str(path), expect={"model": "deformable", "mu": float(mu)})
+    except StoreMismatch as exc:
+        return None, [str(exc)]
+    problems = _shipped_problems(ds, theta, nu, mu, log_a, log_m)
+    return (None if problems else ds), problems
+
+
+def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
+                workers):
+    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps)
+    if ds is not None:
+        return ds, f"shipped: {shipped_map_path(mu, maps).name}"
     if not compute:
         raise InputError("no shipped map covers this chart: " + "; ".join(problems)
                          + ". Compute the window with --compute (API: compute=True; a "
@@ -541,21 +545,10 @@ def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
                 maps=None, g=G_STANDARD):
     """The MapNeed of a chart (design_chart's arguments): which map it
     reads, and whether a shipped one serves it.  Nothing is computed."""
-    from .errors import StoreMismatch
-    from .sweep import open_map
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
     mu = units._positive("mu", mu)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
-    path = shipped_map_path(mu, maps)
-    if path.exists():
-        try:
-            ds = open_map(str(path), expect={"model": "deformable", "mu": float(mu)})
-        except StoreMismatch as exc:
-            problems = [str(exc)]
-        else:
-            problems = _shipped_problems(ds, grid.theta, grid.nu, mu, log_a, log_m)
-    else:
-        problems = [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
+    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps)
     return MapNeed(float(mu), float(grid.theta), float(grid.nu),
                    (float(log_a.min()), float(log_a.max())),
                    (float(log_m.min()), float(log_m.max())), tuple(problems))
