@@ -129,7 +129,8 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         offer.scroll_into_view_if_needed()
         _shot(page, "offer-1024")
         page.get_by_role("button", name="Compute this map").first.click()
-        offer.get_by_text("The chart's map is finished").first.wait_for(timeout=180000)
+        page.locator(".vt-design-progress").first.get_by_text(
+            "The chart's map is finished").first.wait_for(timeout=180000)
         chart = page.locator(".vt-design-chart canvas").first
         chart.wait_for(timeout=30000)
         chart.scroll_into_view_if_needed()

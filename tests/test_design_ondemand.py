@@ -107,7 +107,7 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert "5 x 5 points" in panel.offer.object and jobs.computed == 0
     assert panel.run_button.disabled            # no device read yet
     asyncio.run(panel.compute())
-    assert "finished" in panel.offer.object and not panel.alert.visible
+    assert "finished" in panel.progress.object and not panel.alert.visible
     assert jobs.computed == 1 and not panel.cancel_button.visible
     chart = panel.chart
     assert chart.attrs["map"] == "computed on this server: preview, 2000 periods"
@@ -138,12 +138,12 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     other.param.update(**SMALL)
     asyncio.run(other.draw())
     asyncio.run(other.compute())
-    assert "from this server's cache" in other.offer.object and jobs.computed == 1
+    assert "from this server's cache" in other.progress.object and jobs.computed == 1
     np.testing.assert_array_equal(other.chart["v_star"].values, chart["v_star"].values)
     # a chart the map computed serves is drawn on it at once, without an offer
     panel.param.update(x_hi=1.15e5)
     asyncio.run(panel.draw())
-    assert not panel.offer_box.visible or "finished" in panel.offer.object
+    assert not panel.offer_box.visible and panel.offer.object == ""
     assert panel.chart.attrs["map"] == chart.attrs["map"] and panel.chart is not chart
 
 
@@ -167,12 +167,18 @@ def test_a_map_can_be_cancelled_and_a_closed_session_cancels_it(tmp_path):
             while not started or started[-1].cancel.is_set():
                 await asyncio.sleep(0.05)
             assert panel.cancel_button.visible and panel.compute_button.disabled
+            # another chart drawn meanwhile offers its own map; the first goes on
+            panel.mu = 0.6
+            await panel.draw()
+            assert "mu = 0.6" in panel.offer.object and "Computing" in panel.progress.object
+            assert panel.compute_button.disabled and panel.cancel_button.visible
+            panel.mu = 0.5
             panel.close() if close else panel.cancel()
             await asyncio.wait_for(task, 10)
         asyncio.run(run())
         assert started[-1].cancel.is_set() and jobs.busy() == (0, 0)
         if not close:
-            assert "Map cancelled" in panel.offer.object and not panel.cancel_button.visible
+            assert "Map cancelled" in panel.progress.object and not panel.cancel_button.visible
 
 
 @pytest.mark.slow                 # an explorer session (maps rendered)

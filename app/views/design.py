@@ -340,8 +340,12 @@ class DesignPanel(pn.viewable.Viewer):
         self.cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
                                                css_classes=["vt-design-cancel"])
         self.cancel_button.on_click(lambda event: self.cancel())
+        # what the map computing is doing (apart from the offer: a chart
+        # drawn meanwhile may offer another map)
+        self.progress = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                         css_classes=["vt-design-progress"])
         self.offer_box = pn.Column(self.offer, pn.Row(self.compute_button, self.cancel_button),
-                                   visible=False, sizing_mode="stretch_width")
+                                   self.progress, visible=False, sizing_mode="stretch_width")
         self.run_button = pn.widgets.Button(name="Run this device's scene", button_type="primary",
                                             disabled=True, css_classes=["vt-design-run"])
         self.run_button.on_click(lambda event: self.run_device())
@@ -461,9 +465,10 @@ class DesignPanel(pn.viewable.Viewer):
             return
         if token != self._draws:
             return              # a newer draw was asked for meanwhile
-        if self._ticket is None:
-            self._offer = None
-            self.offer_box.visible = False
+        self._offer = None                  # served: nothing to offer
+        self.offer.object = ""
+        self.offer_box.visible = self._ticket is not None     # (a map computing goes on)
+        self._buttons()
         self._show_chart(values, result, chart_map)
 
     def _show_chart(self, values, result, chart_map):
@@ -490,6 +495,8 @@ class DesignPanel(pn.viewable.Viewer):
         self._say("")
         self.offer_box.visible = True
         self._offer = None
+        if self._ticket is None:
+            self.progress.object = ""       # (a finished map's words)
         if request is None:
             self.offer.object = f"{head}\n\n**It cannot be computed here:** {why}."
             self._buttons()
@@ -538,7 +545,7 @@ class DesignPanel(pn.viewable.Viewer):
         try:
             ticket = jobs.submit(self._session, request, deliver)
         except mapjobs.MapRefused as exc:
-            self.offer.object = f"**Not computed:** {exc}."
+            self.progress.object = f"**Not computed:** {exc}."
             return
         self._ticket, self._offer = ticket, None
         self._buttons()
@@ -547,7 +554,7 @@ class DesignPanel(pn.viewable.Viewer):
         n = request.points_per_axis()
         # (short: the chart's title names it; the offer says the rest)
         name = f"computed on this server: {request.fidelity}, {request.periods:g} periods"
-        self.offer.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
+        self.progress.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
         while True:
             update = await updates.get()
             if self._ticket is not ticket:
@@ -555,7 +562,7 @@ class DesignPanel(pn.viewable.Viewer):
             if update.kind == "chunk" and not updates.empty():
                 continue        # a newer picture (or the level's) is waiting: draw that
             if update.kind == "queued":
-                self.offer.object = f"{update.text.capitalize()} ..."
+                self.progress.object = f"{update.text.capitalize()} ..."
             elif update.kind in ("level", "chunk", "done"):
                 self._map = (update.ds, name)
                 if token == self._draws:        # the chart asked for is still the one shown
@@ -564,12 +571,12 @@ class DesignPanel(pn.viewable.Viewer):
                                                             update.ds, name)
                     except ValueError as exc:
                         result = None
-                        self.offer.object = f"**The chart could not be read:** {exc}"
+                        self._say(f"**The chart could not be read on the map:** {exc}")
                     if result is not None and token == self._draws:
                         self._show_chart(values, result, self._map)
                 done = int(update.ds["computed"].values.sum())
                 seconds = time.monotonic() - started
-                self.offer.object = (
+                self.progress.object = (
                     f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
                     f"points computed, {seconds:.0f} s ..." if update.kind == "level" else
                     f"Level {update.level} of {update.levels} computing: {done:,} of "
@@ -580,9 +587,9 @@ class DesignPanel(pn.viewable.Viewer):
                     f"The chart's map is finished: {done:,} of {n * n:,} points computed in "
                     f"{seconds:.0f} s.")
             elif update.kind == "failed":
-                self.offer.object = f"**The map failed:** {update.text}"
+                self.progress.object = f"**The map failed:** {update.text}"
             elif update.kind == "cancelled":
-                self.offer.object = "Map cancelled."
+                self.progress.object = "Map cancelled."
             if update.final:
                 self._ticket = None
                 self._buttons()
@@ -594,8 +601,8 @@ class DesignPanel(pn.viewable.Viewer):
             return
         self._ticket = None
         self.jobs.cancel(self._session)
-        self.offer.object = ("Map cancelled: its finished points are kept on this server; "
-                             "computing it again resumes from them.")
+        self.progress.object = ("Map cancelled: its finished points are kept on this "
+                                "server; computing it again resumes from them.")
         self._buttons()
 
     def close(self):
