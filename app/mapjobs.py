@@ -47,9 +47,12 @@ MAX_RUNNING = 4
 # and the event loop, those come first (a weight of about 1/10 of theirs)
 MAP_NICE = 10
 # a picture of a map within a refinement level at most this often: a level
-# of a large map takes minutes; each picture costs a render (under the
-# render lock) and a redraw in the browser, so not much more often
-CHUNK_SECONDS = 3.0
+# of a large map takes minutes.  Each picture costs a render (under the
+# render lock) and a redraw in the browser: the five-map load test on one
+# server core (2026-11-25, a noisy day) gave click p95 12.6 s with a picture
+# every 3 s, 10.0 and 3.5 s with one every 10 s, 7.6 s with none (and 4.5,
+# 9.5 s for the code before pictures): within the noise at 10 s
+CHUNK_SECONDS = 10.0
 CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
 
 

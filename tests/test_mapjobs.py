@@ -370,3 +370,25 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     queued = [u for listener in (first, second) for u in listener.updates
               if u.kind == "queued"]
     assert len(queued) == 1 and "1 map(s) computing and 0 waiting" in queued[0].text
+
+
+def test_a_map_is_pictured_within_its_levels(tmp_path, monkeypatch):
+    """Every CHUNK_SECONDS within a refinement level, the map so far: chunk
+    updates between the levels, each a complete picture (no NaN), their
+    computed points growing, the last update the map."""
+    from vibtrans import adaptive
+    monkeypatch.setattr(mapjobs, "CHUNK_SECONDS", 0.0)
+    monkeypatch.setattr(adaptive, "POINTS_PER_TASK", 1)
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
+    got = Listener()
+    jobs.submit("a", MapRequest(**{**TINY, "levels": 2}), got)       # 9 x 9
+    assert got.wait().kind == "done", got.kinds()
+    kinds = got.kinds()
+    assert kinds[0] == "level" and kinds.count("level") == 3 and "chunk" in kinds
+    assert kinds.index("chunk") > 0                     # not within the coarse grid
+    pictures = [u for u in got.updates if u.kind in ("level", "chunk", "done")]
+    counts = [int(u.ds["computed"].values.sum()) for u in pictures]
+    assert counts == sorted(counts)
+    for u in pictures:
+        assert np.isfinite(u.ds["drift_velocity"].values).all(), u.kind
+        assert u.kind != "chunk" or 1 <= u.level <= 2
