@@ -33,7 +33,8 @@ def browser():
 
 def _shot(page, name):
     ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / f"design-{name}.png"))
+    size = page.viewport_size
+    page.screenshot(path=str(ARTIFACTS / f"design-{name}-{size['width']}.png"))
 
 
 def _device_text(page):
@@ -42,8 +43,10 @@ def _device_text(page):
                                  ".vt-design-device li").all_inner_texts())
 
 
-def test_the_design_tab_draws_the_paper_chart(browser, served_explorer):
-    page, errors = new_page(browser, WIDTH, HEIGHT)
+@pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)],
+                         ids=["1280x800", "1920x1080"])
+def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, height):
+    page, errors = new_page(browser, width, height)
     try:
         open_explorer(page, served_explorer.url)
         page.get_by_text("Design", exact=True).first.click()
@@ -127,7 +130,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=60000)
         offer.get_by_text("integration steps").first.wait_for(timeout=60000)
         offer.scroll_into_view_if_needed()
-        _shot(page, "offer-1024")
+        _shot(page, "offer")
         page.get_by_role("button", name="Compute this map").first.click()
         page.locator(".vt-design-progress").first.get_by_text(
             "The chart's map is finished").first.wait_for(timeout=180000)
@@ -138,11 +141,11 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         assert any("steel on glass" in t for t in titles), titles
         assert "computed on this server" in " ".join(
             page.locator(".vt-design-status p").all_inner_texts())
-        _shot(page, "computed-1024")
+        _shot(page, "computed")
         box = chart.bounding_box()
         page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
         page.get_by_text("(the Design tab's device)").first.wait_for(timeout=120000)
-        _shot(page, "device-run-1024")
+        _shot(page, "device-run")
     except Exception:
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "design-computed-failed.png"))

@@ -780,26 +780,30 @@ class DesignPanel(pn.viewable.Viewer):
             fixed = pn.pane.Markdown(pn.bind(lambda x, y: f"*{self._fixed_text()}*",
                                              self.param.x, self.param.y),
                                      sizing_mode="stretch_width")
+            # (rows that wrap: in half of a wide screen the tab is ~600 px wide)
+            row = functools.partial(pn.FlexBox, flex_wrap="wrap", align_items="flex-start",
+                                    sizing_mode="stretch_width")
             controls = pn.Column(
                 pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
                 pn.Row(select(self.param.preset, name="preset", css_classes=["vt-design-preset"]),
                        self.note, sizing_mode="stretch_width"),
-                pn.Row(select(self.param.substrate, name="substrate"),
-                       select(self.param.particle, name="particle"), f["preload"],
-                       f["mu"], f["surface_energy"]),
+                row(select(self.param.substrate, name="substrate"),
+                    select(self.param.particle, name="particle"), f["preload"], f["mu"],
+                    f["surface_energy"]),
                 self.custom_row,
                 pn.pane.Markdown("**The device** (marked on the chart; a click moves it and "
                                  "runs its scene)",
                                  margin=(0, 10)),
-                pn.Row(f["frequency"], f["radius"], f["amplitude"]),
-                pn.Row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
-                pn.Row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
+                row(f["frequency"], f["radius"], f["amplitude"]),
+                row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
+                row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
                 fixed,
                 pn.Row(self.draw_button, self.spinner, self.run_button),
                 sizing_mode="stretch_width", css_classes=["vt-design-fields"])
             self._layout = pn.Column(
                 controls, self.alert, self.status, self.chart_notes, self.offer_box,
-                pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 420px",
+                # the device's table beside the chart where both fit, else below it
+                pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 560px",
                                                               "min-width": "0"}),
                            pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),
                            flex_wrap="wrap", align_items="flex-start",
