@@ -83,6 +83,17 @@ def test_the_map_requested_covers_the_chart_at_the_shipped_step_or_finer(preset)
     assert request.theta == pytest.approx(need.theta) and request.nu == need.nu
 
 
+def test_the_map_s_fidelity_and_periods_are_the_user_s_and_checked():
+    need = design.MapNeed(0.3, 1.2, 0.3, (0.0, 1.0), (0.0, 1.0), ("outside",))
+    request, why = D.map_request(need, fidelity="standard", periods=500.0)
+    assert why is None and (request.fidelity, request.periods) == ("standard", 500.0)
+    request, why = D.map_request(need, periods=5.0)
+    assert request is None and why == ("the map's periods is 5; a map on demand accepts "
+                                       "periods in [10, 10000]")
+    request, why = D.map_request(need, fidelity="fast")
+    assert request is None and "fidelity must be one of preview, standard" in why
+
+
 def test_a_window_beyond_what_a_map_on_demand_accepts_is_said():
     need = design.MapNeed(0.3, 1.2, 0.3, (5.0, 7.5), (0.0, 1.0), ("outside",))
     request, why = D.map_request(need)
@@ -105,6 +116,7 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     asyncio.run(panel.draw())
     assert panel.chart is None and "no shipped map for mu = 0.5" in panel.offer.object
     assert "5 x 5 points" in panel.offer.object and jobs.computed == 0
+    assert "2000 periods, preview" in panel.offer.object and "Accuracy" in panel.offer.object
     assert panel.run_button.disabled            # no device read yet
     asyncio.run(panel.compute())
     assert "finished" in panel.progress.object and not panel.alert.visible

@@ -34,7 +34,7 @@ import param
 from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
-from vibtrans import design, plots, units
+from vibtrans import design, mapaccuracy, plots, units
 from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.errors import InputError
 
@@ -135,19 +135,24 @@ def chart_needs(values):
     return design.chart_needs(*_chart_args(values), mu=values["mu"])
 
 
-def map_request(need, step=design.MAP_STEP, levels=None):
-    """(MapRequest, None) computing the map `need` asks for: the library's
-    computed-map values (deformable, preview fidelity, the shipped maps'
-    tau and periods), mu, theta and nu of the chart, its window snapped
-    outward to `step` decades, the finest step at most `step`; or (None,
-    why) when the window is outside what a map on demand accepts.
-    levels: DESIGN_LEVELS if None."""
+def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE_FIDELITY,
+                periods=2000.0):
+    """(MapRequest, None) computing the map `need` asks for: the deformable
+    particle at `fidelity` and `periods` (by default the library's computed
+    map's: preview, 2000 periods) with the shipped maps' tau, mu, theta and
+    nu of the chart, its window snapped outward to `step` decades, the
+    finest step at most `step`; or (None, why) when a value or the window
+    is outside what a map on demand accepts.  levels: DESIGN_LEVELS if None."""
     levels = DESIGN_LEVELS if levels is None else levels
-    for name, value in (("mu", need.mu), ("theta", need.theta), ("nu", need.nu)):
+    if fidelity not in MapRequest.param.fidelity.objects:
+        return None, (f"the map's fidelity must be one of "
+                      f"{', '.join(MapRequest.param.fidelity.objects)}; got {fidelity!r}")
+    for name, value in (("mu", need.mu), ("theta", need.theta), ("nu", need.nu),
+                        ("periods", periods)):
         lo, hi = MapRequest.param[name].bounds
         if not lo <= value <= hi:
-            what = {"theta": "theta of the materials", "nu": "nu of the substrate"}.get(name,
-                                                                                       name)
+            what = {"theta": "theta of the materials", "nu": "nu of the substrate",
+                    "periods": "the map's periods"}.get(name, name)
             return None, (f"{what} is {value:.4g}; a map on demand accepts {name} in "
                           f"[{lo:g}, {hi:g}]")
     spans = {"la": need.log_amplitude, "lm": need.log_mass}
@@ -169,7 +174,7 @@ def map_request(need, step=design.MAP_STEP, levels=None):
     start = {k: min(start[k], bounds[k][1] - width) for k in spans}
     start = {k: max(v, bounds[k][0]) for k, v in start.items()}
     request = MapRequest(model="deformable", mu=need.mu, theta=need.theta, nu=need.nu,
-                         fidelity=design.COMPUTE_FIDELITY, levels=levels, cells=cells,
+                         fidelity=fidelity, periods=float(periods), levels=levels, cells=cells,
                          la_from=round(start["la"], 10), la_to=round(start["la"] + width, 10),
                          lm_from=round(start["lm"], 10), lm_to=round(start["lm"] + width, 10))
     return request, None
@@ -298,6 +303,10 @@ class DesignPanel(pn.viewable.Viewer):
     y_lo = param.Number(default=1e-9)
     y_hi = param.Number(default=5e-7)
     y_points = param.Integer(default=41)
+    # the map computed for a chart no shipped map serves
+    map_fidelity = param.Selector(default=design.COMPUTE_FIDELITY,
+                                  objects=["preview", "standard"])
+    map_periods = param.Number(default=2000.0, doc="the computed map's run length, periods")
     busy = param.Boolean(default=False)
 
     def __init__(self, on_run=None, jobs=None, **params):
@@ -344,7 +353,14 @@ class DesignPanel(pn.viewable.Viewer):
         # drawn meanwhile may offer another map)
         self.progress = pn.pane.Markdown("", sizing_mode="stretch_width",
                                          css_classes=["vt-design-progress"])
-        self.offer_box = pn.Column(self.offer, pn.Row(self.compute_button, self.cancel_button),
+        self.map_fields = pn.Row(
+            pn.widgets.Select.from_param(self.param.map_fidelity, name="map fidelity",
+                                         width=150, css_classes=["vt-design-map-fidelity"]),
+            inputs.NumberField(self, "map_periods", "map periods", width=150))
+        # a new fidelity or run length: the offer (and its estimate) anew
+        self.param.watch(self._on_map_settings, ["map_fidelity", "map_periods"])
+        self.offer_box = pn.Column(self.offer, self.map_fields,
+                                   pn.Row(self.compute_button, self.cancel_button),
                                    self.progress, visible=False, sizing_mode="stretch_width")
         self.run_button = pn.widgets.Button(name="Run this device's scene", button_type="primary",
                                             disabled=True, css_classes=["vt-design-run"])
@@ -413,7 +429,7 @@ class DesignPanel(pn.viewable.Viewer):
         """The values as typed (SI), for the library to check."""
         names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
                  "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
-                 "y_points")
+                 "y_points", "map_fidelity", "map_periods")
         return self._with_custom_materials({k: getattr(self, k) for k in names})
 
     def field_errors(self):
@@ -491,7 +507,8 @@ class DesignPanel(pn.viewable.Viewer):
         needs, with its estimated cost (or why it cannot be computed)."""
         reasons = "; ".join(need.shipped_problems)
         head = f"**No shipped map serves this chart:** {reasons}."
-        request, why = map_request(need)
+        request, why = map_request(need, fidelity=values["map_fidelity"],
+                                   periods=values["map_periods"])
         self._say("")
         self.offer_box.visible = True
         self._offer = None
@@ -519,10 +536,15 @@ class DesignPanel(pn.viewable.Viewer):
             return
         cost = "" if est is None else est.text(jobs.cores)
         refused = "".join(f"\n\n**Refused:** {p}." for p in problems)
-        self.offer.object = f"{head}\n\n{what} {cost}{refused}"
+        accuracy = mapaccuracy.note(request.fidelity, request.periods)
+        self.offer.object = f"{head}\n\n{what} {cost}\n\n{accuracy}{refused}"
         self._offer = None if problems else (request, values)
         self._buttons()
         self._busy(False, self._shown_status())
+
+    def _on_map_settings(self, *events):
+        if self.offer_box.visible and self._ticket is None and not self.busy:
+            pn.state.execute(self.draw)
 
     def _buttons(self):
         computing = self._ticket is not None
