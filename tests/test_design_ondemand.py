@@ -39,8 +39,9 @@ def test_the_need_says_why_the_shipped_map_cannot_serve(change, reason):
     values = {**PAPER, "mu": 0.3, **change}
     need = design.chart_needs(**values)
     assert any(reason in p for p in need.shipped_problems), need.shipped_problems
-    with pytest.raises(InputError, match="no shipped map covers this chart"):
+    with pytest.raises(InputError, match="no shipped map covers this chart") as refused:
         design.design_chart(**values)
+    assert isinstance(refused.value, design.NoMapCovers) and refused.value.need == need
 
 
 def test_a_given_map_is_read_as_the_shipped_one_bit_for_bit():

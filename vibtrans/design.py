@@ -470,15 +470,31 @@ def _shipped_map(log_a, log_m, mu, theta, nu, maps):
     return (None if problems else ds), problems
 
 
+class NoMapCovers(InputError):
+    """design_chart's refusal when no shipped map serves the chart (and
+    nothing is to be computed); `need`: the MapNeed, the map it would read."""
+
+    def __init__(self, message, need):
+        super().__init__(message)
+        self.need = need
+
+
+def _map_need(mu, theta, nu, log_a, log_m, problems):
+    return MapNeed(float(mu), float(theta), float(nu),
+                   (float(np.min(log_a)), float(np.max(log_a))),
+                   (float(np.min(log_m)), float(np.max(log_m))), tuple(problems))
+
+
 def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
                 workers):
     ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps)
     if ds is not None:
         return ds, f"shipped: {shipped_map_path(mu, maps).name}"
     if not compute:
-        raise InputError("no shipped map covers this chart: " + "; ".join(problems)
-                         + ". Compute the window with --compute (API: compute=True; a "
-                           "preview-fidelity sweep, cost printed first) or narrow the axes")
+        raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
+                          + ". Compute the window with --compute (API: compute=True; a "
+                            "preview-fidelity sweep, cost printed first) or narrow the axes",
+                          _map_need(mu, theta, nu, log_a, log_m, problems))
     ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
                              periods=periods, report=report, workers=workers)
     return ds, f"computed: {where}"
@@ -549,9 +565,7 @@ def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
     mu = units._positive("mu", mu)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
     _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps)
-    return MapNeed(float(mu), float(grid.theta), float(grid.nu),
-                   (float(log_a.min()), float(log_a.max())),
-                   (float(log_m.min()), float(log_m.max())), tuple(problems))
+    return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems)
 
 
 def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
@@ -569,7 +583,8 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
     x, y: (quantity, lo, hi, n) with quantity among AXES, n log-spaced points;
     fixed: (the third quantity, value). preload [N], mu, surface_energy
     [J/m^2]. compute: compute the window (into store_dir, `step` decades,
-    `periods`, preview fidelity) when no shipped map serves, else refuse.
+    `periods`, preview fidelity) when no shipped map serves, else refuse
+    (NoMapCovers, with the MapNeed).
     map_ds: read this normalized map instead (a map on demand: an opened
     sweep store; refused unless its mu, theta, nu and window serve the
     chart), named `map_name` in the chart's attrs.

@@ -129,12 +129,6 @@ def _chart_args(values):
             (yq, v["y_lo"], v["y_hi"], v["y_points"]), (fq, v[fq]))
 
 
-def chart_needs(values):
-    """The map the chart needs (design.MapNeed); InputError for a refused
-    value.  Runs off the event loop (it opens the shipped map)."""
-    return design.chart_needs(*_chart_args(values), mu=values["mu"])
-
-
 def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE_FIDELITY,
                 periods=2000.0):
     """(MapRequest, None) computing the map `need` asks for: the deformable
@@ -460,20 +454,22 @@ class DesignPanel(pn.viewable.Viewer):
         self._busy(True, "Drawing the chart ...")
         loop = asyncio.get_running_loop()
         try:
-            need = await loop.run_in_executor(None, chart_needs, values)
-            chart_map = self._map if need.shipped_problems else None
-            result = None
-            if chart_map is not None:
-                try:
-                    result = await loop.run_in_executor(None, build_chart, values, *chart_map)
-                except ValueError:      # (the values passed: the map does not serve them)
-                    chart_map = None
-            if need.shipped_problems and result is None:
-                if token == self._draws:
-                    await self._offer_map(need, values, token)
-                return
-            if result is None:
+            chart_map = None
+            try:
                 result = await loop.run_in_executor(None, build_chart, values)
+            except design.NoMapCovers as exc:
+                result = None
+                if self._map is not None:
+                    try:
+                        result = await loop.run_in_executor(None, build_chart, values,
+                                                            *self._map)
+                        chart_map = self._map
+                    except ValueError:  # (the values passed: the map does not serve them)
+                        pass
+                if result is None:
+                    if token == self._draws:
+                        await self._offer_map(exc.need, values, token)
+                    return
         except ValueError as exc:        # the library's InputError (TypeError kind too)
             if token == self._draws:
                 self._say(f"**Cannot draw the chart:** {exc}")
