@@ -19,6 +19,7 @@ import logging
 import math
 import os
 import time
+from pathlib import Path
 from urllib.parse import parse_qsl, urlencode
 
 import holoviews as hv
@@ -108,6 +109,11 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 # "refine this window" is offered once the shipped map's zoom box spans
 # fewer of its grid cells than this on both axes (beyond its resolution)
 REFINE_BELOW_CELLS = 5
+# the page's own scripts (app/static/, served at STATIC_ROUTE by app/server.py)
+STATIC = Path(__file__).parent / "static"
+STATIC_ROUTE = "vibtrans-static"
+PAGE_SCRIPTS = {"vt-bokeh-visuals": f"{STATIC_ROUTE}/bokeh_visuals.js"}
+pn.config.js_files.update(PAGE_SCRIPTS)     # loaded after BokehJS, before the page's plots
 # a refinement of the shipped map: the coarse cells and levels of its request
 REFINE_CELLS, REFINE_LEVELS = 2, 3
 URL_MAP_KEYS = {**URL_KEYS, "map_request": maprequest.URL_KEY}
@@ -588,15 +594,15 @@ class Explorer(pn.viewable.Viewer):
 
     def start_run(self, schedule=True):
         """Run the selected scene (RunController.start): returns the Job, or
-        None if refused.  The figures of a structure (model, comparison)
+        None if refused.  The figures of a structure (a comparison or none)
         not shown before are built now, while its kernels run (they release
         the GIL), not when the page loads: a page costs the server less
         (`python -m devtools.pagecost`) and the first run no more."""
         job = self.controller.start(schedule=schedule)
-        if job is not None and structure(job.scene.model, job.label) not in self.trajectories.views:
+        if job is not None and structure(job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
-                    self.trajectories.view(job.scene.model, job.label, job.scene.tau)
+                    self.trajectories.view(job.label, job.scene.tau)
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
@@ -696,7 +702,7 @@ class Explorer(pn.viewable.Viewer):
     def _show(self, result):
         scene = result.scene
         T = float(result.ds["time"].values[-1])
-        key = structure(scene.model, result.label)
+        key = structure(result.label)
         # Everything below goes to the browser as one message: new data for
         # the session's existing figures, no new figure models.  Bokeh
         # recomputes a document's model graph only when models come or go;

@@ -89,6 +89,41 @@ def _lines(fig, sources, lines, right=(), envelope=False):
     return items
 
 
+class _Panel:
+    """One line panel of a block, drawn for either model: the deformable
+    particle's quantities (`panel_spec(False)`), of which the material
+    point's (`panel_spec(True)`, the same panels with fewer quantities) are
+    a subset.  `configure` shows one model's: its quantities, on a left
+    axis and (two or more) a right one, its title and labels.  A point-mass
+    run after a deformable one then draws into the same figures (the
+    browser built a new set in 1-2 s)."""
+
+    def __init__(self, fig, items, right_axis, specs):
+        self.fig, self.right_axis = fig, right_axis
+        self.items = dict(zip((c for c, _, _ in specs[False][2]), items))   # column -> its item
+        self.specs = specs          # {rigid: (title, y label, [(column, label, colour)])}
+        self.columns, self.right = [], []
+
+    def configure(self, rigid):
+        title, ylabel, lines = self.specs[rigid]
+        cols = [c for c, _, _ in lines]
+        right = right_columns(cols)
+        labels = {c: label for c, label, _ in lines}
+        self.fig.title.text = title
+        self.fig.left[0].axis_label = (", ".join(labels[c] for c in cols if c not in right)
+                                       if right else ylabel)
+        if self.right_axis is not None:
+            self.right_axis.visible = bool(right)
+            if right:
+                self.right_axis.axis_label = ", ".join(labels[c] for c in right)
+        for col, item in self.items.items():
+            item.visible = col in cols
+            for r in item.renderers:
+                r.visible = col in cols
+                r.y_range_name = "right" if col in right else "default"
+        self.columns, self.right = cols, right
+
+
 def _timeline(title, x_range):
     fig = _figure(title, "state", x_range, TIMELINE_HEIGHT)
     fig.yaxis.visible = False
@@ -135,40 +170,39 @@ class _Block:
     mean over its min-max band (every sample of a 2000-period run on 900
     pixels drew solid bands)."""
 
-    def __init__(self, specs, timeline_title, bins, twin=None, relative=False):
+    def __init__(self, timeline_title, bins, twin=None, relative=False):
         self.x_range = Range1d(0.0, 1.0)
         # relative: time and x* counted from the block's first sample (over
         # two periods at t* ~ 2000, x* ~ 10^3 moves by ~1: in absolute
         # numbers the ticks read 2000.5, 4123.2 and the motion hides)
         self.relative = relative
-        if relative:
-            specs = [(title.replace("x*(t)", "x*(t) - x*(t0)"), ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
-                      [(c, f"{label} - x*(t0)" if c == "x" else label, colour)
-                       for c, label, colour in lines]) for title, ylabel, lines in specs]
-        self.variables = sorted({col for _, _, lines in specs for col, _, _ in lines}
+        models = {rigid: self._specs(plots.panel_spec(rigid), relative)
+                  for rigid in (False, True)}
+        for full, fewer in zip(*models.values(), strict=True):   # (the _Panel premise)
+            assert {c for c, _, _ in fewer[2]} <= {c for c, _, _ in full[2]}
+        self.variables = sorted({col for _, _, lines in models[False] for col, _, _ in lines}
                                 | ({"x"} if twin is not None else set()))
         self.bins = bins
         bands = [f"{c}_{e}" for c in self.variables for e in ("lo", "hi")] if bins else []
         self.source = ColumnDataSource({c: [] for c in ["time", *self.variables, *bands]})
         ticker = BasicTicker()
-        self.figures, self.columns, self.right = [], [], []
-        for title, ylabel, lines in specs:
+        self.figures, self.panels = [], []
+        for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
-            labels = {col: label for col, label, _ in lines}
-            if right:                 # one axis label per side, each its quantities
-                ylabel = ", ".join(labels[c] for c in cols if c not in right)
-            fig = _figure(title + (" (mean, min-max per bin)" if bins else ""), ylabel,
-                          self.x_range, LINE_HEIGHT, ticker)
+            fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range, LINE_HEIGHT,
+                          ticker)
+            right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
-                fig.add_layout(LinearAxis(y_range_name="right", axis_label=", ".join(
-                    labels[c] for c in right)), "right")
-            _lines(fig, [self.source] * len(lines), [(*line, None) for line in lines], right,
-                   envelope=bool(bins))
+                right_axis = LinearAxis(y_range_name="right")
+                fig.add_layout(right_axis, "right")
+            items = _lines(fig, [self.source] * len(lines), [(*line, None) for line in lines],
+                           right, envelope=bool(bins))
+            specs = {rigid: (m[i][0] + (plots.BINNED_NOTE if bins else ""), *m[i][1:])
+                     for rigid, m in models.items()}
+            self.panels.append(_Panel(fig, items, right_axis, specs))
             self.figures.append(fig)
-            self.columns.append(cols)
-            self.right.append(right)
         self.twin_source = None
         if twin is not None:
             title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
@@ -181,13 +215,33 @@ class _Block:
         self.timeline, self.bands = _timeline(timeline_title, self.x_range)
         self.layout = column([*self.figures, *([self.twin_figure] if twin else []),
                               self.timeline], sizing_mode="stretch_width")
+        self.rigid = None
+        self.configure(False)
+
+    @staticmethod
+    def _specs(specs, relative):
+        if not relative:
+            return specs
+        return [(title.replace("x*(t)", "x*(t) - x*(t0)"),
+                 ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
+                 [(c, f"{label} - x*(t0)" if c == "x" else label, colour)
+                  for c, label, colour in lines]) for title, ylabel, lines in specs]
+
+    def configure(self, rigid):
+        """Draw the deformable particle's panels or the material point's."""
+        if rigid != self.rigid:
+            for panel in self.panels:
+                panel.configure(rigid)
+            self.rigid = rigid
 
     def show(self, ds, twin=None, period_seconds=None):
         """New data for every source and the axes to its extent.
         period_seconds: the wave period of the device run (its time axis
         also reads in seconds), or None."""
         t = ds["time"].values
-        raw = {v: ds[v].values for v in self.variables}
+        # (a material point has no a*, b*, b*': their lines are hidden)
+        raw = {v: ds[v].values if v in ds else np.full(t.shape, np.nan)
+               for v in self.variables}
         t0 = float(t[0])
         if self.relative:
             t = t - t0
@@ -197,12 +251,12 @@ class _Block:
         data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         self.source.data = data
         self.x_range.update(start=float(t[0]), end=float(t[-1]))
-        for fig, cols, right in zip(self.figures, self.columns, self.right):
-            lo, hi = _extent([raw[c] for c in cols if c not in right])
-            fig.y_range.update(start=lo, end=hi)
-            if right:
-                lo, hi = _extent([raw[c] for c in right])
-                fig.extra_y_ranges["right"].update(start=lo, end=hi)
+        for panel in self.panels:
+            lo, hi = _extent([raw[c] for c in panel.columns if c not in panel.right])
+            panel.fig.y_range.update(start=lo, end=hi)
+            if panel.right:
+                lo, hi = _extent([raw[c] for c in panel.right])
+                panel.fig.extra_y_ranges["right"].update(start=lo, end=hi)
         if self.twin_source is not None:
             tt = twin["time"].values if twin is not None else np.zeros(0)
             tx = twin["x"].values if twin is not None else np.zeros(0)
@@ -217,19 +271,19 @@ class _Block:
 
 
 class LiveTrajectory:
-    """The trajectory figures of one structure: the whole run (its samples;
-    the state timeline as the dominant state per bin; with a comparison
+    """The trajectory figures of one structure (a run alone, or beside a
+    comparison run), for either model: the whole run (its samples; the
+    state timeline as the dominant state per bin; with a comparison
     `label`, x*(t) of the run and of the comparison run) over one linked,
     zoomable time axis, and the last `fragment` periods at full resolution
     on another.  `whole` and `part` are their Bokeh layouts; `show` feeds
-    them."""
+    them and draws the run's model's panels."""
 
-    def __init__(self, rigid, label, fragment, tau):
+    def __init__(self, label, fragment, tau):
         self.fragment = fragment
-        specs = plots.panel_spec(rigid)
         twin = plots.twin_spec(tau, label) if label else None
-        self.over = _Block(specs, plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
-        self.last = _Block(specs, plots.timeline_title(None), None, relative=True)
+        self.over = _Block(plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
+        self.last = _Block(plots.timeline_title(None), None, relative=True)
         self.whole, self.part = self.over.layout, self.last.layout
         self.label = label
         self.runs = 0
@@ -244,10 +298,13 @@ class LiveTrajectory:
             item.label = text
         self.label = label
 
-    def show(self, ds, other=None, period_seconds=None):
+    def show(self, ds, other=None, period_seconds=None, rigid=False):
         """Show a run (and its comparison run `other`): the whole run from
         its overview samples, the fragment from its last periods (time and
-        x* from the fragment's start).  period_seconds: see _Block.show."""
+        x* from the fragment's start).  rigid: the run is the material
+        point's.  period_seconds: see _Block.show."""
+        for block in (self.over, self.last):
+            block.configure(rigid)
         self.over.show(plots.overview_samples(ds), other, period_seconds)
         t = ds["time"].values
         # (isel: a label-based sel builds a pandas hash index of the times first)

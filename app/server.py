@@ -196,7 +196,7 @@ def serve(args):
         f"loading the explorer ...")
     import panel as pn
 
-    from .explorer import create_app
+    from .explorer import STATIC, STATIC_ROUTE, create_app
     _log_to_stderr(logging.getLogger("vibtrans"))
     _freeze()
     started = []
@@ -232,6 +232,7 @@ def serve(args):
                       websocket_origin=allowed,
                       title="vibtrans explorer", num_procs=args.num_procs, liveness=True,
                       admin=False, extra_patterns=component_routes(),
+                      static_dirs={STATIC_ROUTE: str(STATIC)},
                       # behind a proxy: the visitor's address and scheme, not the proxy's
                       use_xheaders=bool(getattr(args, "use_xheaders", False)),
                       unused_session_lifetime_milliseconds=args.unused_session_lifetime,

@@ -20,9 +20,10 @@ and does, in this order:
   map redraw: mu      0.3 -> 0.1 -> 0.3
   map redraw: model   deformable -> point-mass -> deformable
   first point-mass run  with the point-mass map shown, click it: the first
-                      point-mass run of the session (its figures are new)
+                      point-mass run of the session (drawn into the
+                      deformable run's figures, reconfigured)
   first run after compare  "compare with" -> "point mass", click the map:
-                      the first run with that comparison (new figures)
+                      the first run with that comparison (relabelled figures)
 
 Each time runs from the action (the pointerdown or input event the page
 receives, in the page's clock) to the first animation frame at which the

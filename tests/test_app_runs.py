@@ -59,8 +59,8 @@ def test_a_run_shows_its_summary_and_figures():
         ex.start_run()
         await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
         assert not ex.message.visible
-        assert list(ex.trajectories.views) == [("deformable", False)]
-        view = ex.trajectories.views[("deformable", False)]
+        assert list(ex.trajectories.views) == ["alone"]
+        view = ex.trajectories.views["alone"]
         assert view.panel.visible and ex.exports.panel.visible and view.runs == 1
         source = view.over.source
         first = source.data["x"]
@@ -71,7 +71,7 @@ def test_a_run_shows_its_summary_and_figures():
         ex.state.log_mass = 0.5
         ex.start_run()
         await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
-        assert ex.trajectories.views[("deformable", False)] is view and view.runs == 2
+        assert ex.trajectories.views["alone"] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
         assert len(ex.trajectory) == 5          # tabs: figures, animation, memory, downloads, dynamics
         assert len(ex.trajectories.panel) == 1  # one structure's figures

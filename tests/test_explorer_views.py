@@ -104,7 +104,7 @@ def test_changing_the_comparison_relabels_the_same_figures():
         ex.start_run()
         await until(lambda: ex.controller.job is None and ex.controller.result is not None)
         (key, view), = ex.trajectories.views.items()
-        assert key == ("deformable", True) and view.over.twin_figure.title.text.endswith("twin")
+        assert key == "beside a comparison" and view.over.twin_figure.title.text.endswith("twin")
         first = ex.controller.result
         ex.state.compare = "point mass"
         ex.start_run()

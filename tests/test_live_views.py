@@ -39,7 +39,7 @@ def test_second_quantities_go_right(columns, right):
 
 def test_forces_and_velocity_each_fill_their_axis():
     ds = simulate(paper_scene(4).replace(periods=40.0), window=(38.0, 40.0))
-    view = LiveTrajectory(False, None, 2.0, 50.0)
+    view = LiveTrajectory(None, 2.0, 50.0)
     view.show(ds)
     for block, data in ((view.over, ds), (view.last, ds.isel(time=slice(-200, None)))):
         forces = next(f for f in block.figures if f.title.text.startswith("forces"))
@@ -52,3 +52,49 @@ def test_forces_and_velocity_each_fill_their_axis():
     # the whole run: per-bin bands, not every sample
     assert len(view.over.source.data["time"]) <= 400
     assert {"N_lo", "N_hi", "bdot_lo", "bdot_hi"} <= set(view.over.source.data)
+
+
+def _drawn_panels(block):
+    """[(title, left label, right label or None, {column: axis} of the lines
+    drawn)] of a block's line panels."""
+    out = []
+    for panel in block.panels:
+        fig = panel.fig
+        right = panel.right_axis.axis_label if panel.right_axis is not None and \
+            panel.right_axis.visible else None
+        lines = {}
+        for r in fig.renderers:
+            if r.visible and type(r.glyph).__name__ == "Line":
+                lines[r.glyph.y] = r.y_range_name
+        out.append((fig.title.text, fig.left[0].axis_label, right, lines))
+    return out
+
+
+def test_both_models_draw_into_one_set_of_figures():
+    """Issue 14: the first point-mass run built a second set of figures
+    (1.9 s in chromium).  The point mass's panels are the deformable
+    particle's with fewer quantities: the same figures show the model of
+    the run, each quantity on its own axis, as plots.panel_spec says."""
+    from vibtrans.plots import panel_spec
+    deformable = simulate(paper_scene(4).replace(periods=40.0), window=(38.0, 40.0))
+    point = simulate(paper_scene(10).replace(periods=40.0), window=(38.0, 40.0))
+    view = LiveTrajectory(None, 2.0, 50.0)
+    view.show(deformable)
+    before = _drawn_panels(view.over)
+    figures = list(view.over.figures)
+    view.show(point, rigid=True)
+    assert view.over.figures == figures                  # no new figure
+    for (title, ylabel, lines), drawn in zip(panel_spec(True), _drawn_panels(view.over)):
+        assert drawn[0].startswith(title) and drawn[1] == ylabel and drawn[2] is None
+        assert drawn[3] == {c: "default" for c, _, _ in lines}     # one axis, the left
+    y_panel = view.over.panels[0]
+    y = point["y"].values
+    assert y_panel.fig.y_range.start <= y.min() and y_panel.fig.y_range.end >= y.max()
+    assert y_panel.fig.y_range.end - y_panel.fig.y_range.start < 1.2 * (y.max() - y.min()) + 1e-9
+    # the fragment's panels too, x* counted from the window's start
+    assert "x*(t) - x*(t0)" in view.last.panels[1].fig.title.text
+    assert set(_drawn_panels(view.last)[2][3]) == {"N", "T"}
+    view.show(deformable)
+    assert _drawn_panels(view.over) == before            # and back
+    for (title, _, lines), drawn in zip(panel_spec(False), before):
+        assert drawn[0].startswith(title) and set(drawn[3]) == {c for c, _, _ in lines}

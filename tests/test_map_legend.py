@@ -204,7 +204,7 @@ def test_live_strips_name_the_state_colours(run4):
     # state names, fed with each run; the colours are the plots' ones
     from bokeh.core.property.vectorization import Field
     from vibtrans_explorer import live
-    view = live.LiveTrajectory(rigid=False, label=None, fragment=2.0, tau=50.0)
+    view = live.LiveTrajectory(label=None, fragment=2.0, tau=50.0)
     view.show(run4)
     for block in (view.over, view.last):
         legends = [m for m in block.timeline.above if isinstance(m, Legend)]

@@ -9,7 +9,7 @@ import holoviews as hv
 import panel as pn
 from bokeh.core.serialization import Deserializer
 from bokeh.events import Tap
-from bokeh.models import ColorBar, ColumnDataSource, HoverTool, Legend
+from bokeh.models import ColorBar, ColumnDataSource, GlyphRenderer, HoverTool, Legend
 
 from vibtrans import plots
 from vibtrans.analysis import CHAOS_LYAPUNOV, V0
@@ -71,13 +71,24 @@ def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit c
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included)."""
-    doc, _ = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
+    doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
+    _lean(fig)
     columns = {}
     for m in doc.models:
         if isinstance(m, ColumnDataSource):
             columns[m.id] = dict(m.data)
             m.data = {k: [] for k in m.data}
     return doc.to_json(), columns
+
+
+def _lean(fig):
+    """Drop the glyph copies HoloViews gives every renderer for selected,
+    unselected and muted data: the map has no selection or muting tool, so
+    they are never drawn, but every session's browser built a view for
+    each (a third of the map's glyph models)."""
+    for r in fig.renderers:
+        if isinstance(r, GlyphRenderer):
+            r.update(selection_glyph=None, nonselection_glyph=None, muted_glyph=None)
 
 
 def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
@@ -103,14 +114,23 @@ def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit 
     return fig
 
 
+_SIDES = ("center", "below", "right", "left", "above")
+
+
+def _annotations(fig, kind):
+    """A figure's annotations of a type, from its layout lists (a
+    `fig.select` walks the whole model graph: ~10 ms a call)."""
+    return [m for side in _SIDES for m in getattr(fig, side) if isinstance(m, kind)]
+
+
 def _shape(fig):
     """What a map figure is made of: its renderers' glyph types in order,
     its legends' item counts and its colour bars' count.  Two figures of the
     same shape differ only in their data, labels and ticks."""
     return ([(type(r).__name__, type(getattr(r, "glyph", None)).__name__)
              for r in fig.renderers],
-            [len(legend.items) for legend in fig.select(type=Legend)],
-            len(fig.select(type=ColorBar)))
+            [len(legend.items) for legend in _annotations(fig, Legend)],
+            len(_annotations(fig, ColorBar)))
 
 
 def update_in_place(old, new):
@@ -118,7 +138,7 @@ def update_in_place(old, new):
     draws: the sources' data, the image glyphs' placement, the colour bars'
     ticks, labels and title, the legends' labels, the hover's tooltips and
     the title.  The browser then repaints one plot instead of building a new
-    one (a new figure costs it about a second); the zoom is kept.  False
+    one (a new figure costs it about half a second); the zoom is kept.  False
     (nothing changed) when the shapes differ."""
     if _shape(old) != _shape(new):
         return False
@@ -130,14 +150,15 @@ def update_in_place(old, new):
         for attr in ("x", "y", "dw", "dh"):
             if hasattr(gn, attr) and hasattr(go, attr):
                 setattr(go, attr, getattr(gn, attr))
-    for bo, bn in zip(old.select(type=ColorBar), new.select(type=ColorBar)):
+    for bo, bn in zip(_annotations(old, ColorBar), _annotations(new, ColorBar)):
         bo.ticker.ticks = list(bn.ticker.ticks)
         bo.major_label_overrides = dict(bn.major_label_overrides)
         bo.title = bn.title
-    for lo, ln in zip(old.select(type=Legend), new.select(type=Legend)):
+    for lo, ln in zip(_annotations(old, Legend), _annotations(new, Legend)):
         for io, in_ in zip(lo.items, ln.items):
             io.label = in_.label
-    for ho, hn in zip(old.select(type=HoverTool), new.select(type=HoverTool)):
+    hovers = [[t for t in f.toolbar.tools if isinstance(t, HoverTool)] for f in (old, new)]
+    for ho, hn in zip(*hovers):
         ho.tooltips = hn.tooltips
     old.title.text = new.title.text
     return True
@@ -167,6 +188,7 @@ def computed_figure(ds, title, model, window, v0, chaotic):
     off the event loop: it belongs to no session until shown)."""
     _, fig = rendered(computed_element, ds, title, model, window, v0, chaotic)
     fig.document.remove_root(fig)
+    _lean(fig)
     fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
     return fig
 

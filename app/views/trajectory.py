@@ -12,25 +12,26 @@ from ..live import LiveTrajectory
 log = logging.getLogger("vibtrans.explorer")
 
 
-def structure(model, label):
-    """The figures' structure of a run: its model, and whether a comparison
-    run is drawn beside it (every comparison shares one set of figures,
-    relabelled: changing the comparison builds no new figures)."""
-    return (model, label is not None)
+def structure(label):
+    """The figures' structure of a run: whether a comparison run is drawn
+    beside it.  Every comparison shares one set of figures, relabelled, and
+    both models draw into the same figures (app/live.py): changing the
+    comparison or the model builds no new figures."""
+    return "beside a comparison" if label is not None else "alone"
 
 
 class TrajectoryView:
     def __init__(self):
-        self.views = {}          # structure(model, label) -> LiveTrajectory
+        self.views = {}          # structure(label) -> LiveTrajectory
         self.panel = pn.Column(sizing_mode="stretch_width", name="trajectory-figures")
 
-    def view(self, model, label, tau):
+    def view(self, label, tau):
         """The session's figures of a run's structure: built once, then fed
         by `show`."""
-        key = structure(model, label)
+        key = structure(label)
         view = self.views.get(key)
         if view is None:
-            view = LiveTrajectory(model == "point-mass", label, FRAGMENT, tau)
+            view = LiveTrajectory(label, FRAGMENT, tau)
             view.panel = pn.Column(
                 pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
                 pn.pane.Bokeh(view.whole, name="whole-run", sizing_mode="stretch_width"),
@@ -45,11 +46,11 @@ class TrajectoryView:
 
     def show(self, result, period_seconds=None):
         scene = result.scene
-        key = structure(scene.model, result.label)
-        view = self.view(scene.model, result.label, scene.tau)
+        key = structure(result.label)
+        view = self.view(result.label, scene.tau)
         if result.label is not None and view.label != result.label:
             view.relabel(scene.tau, result.label)
-        view.show(result.ds, result.other, period_seconds)
+        view.show(result.ds, result.other, period_seconds, rigid=scene.model == "point-mass")
         for k, v in self.views.items():
             v.panel.visible = k == key
 
