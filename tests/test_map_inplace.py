@@ -1,14 +1,16 @@
-"""A new mu or v0* updates the shown map figure in place (app/views/map.py
-update_in_place): the browser repaints one plot instead of building a new
-figure.  What it then draws must equal a freshly built figure of the new
-settings: every source's data, the colour bar's ticks, labels and title, the
-key's labels, the hover and the title.  Anything else (another model, layer
-or way of drawing chaotic points) builds a new figure."""
+"""A new mu, v0*, model or way of drawing chaotic points updates the shown
+map figure in place (app/views/map.py update_in_place): the browser
+repaints one plot instead of building a new figure.  What it then draws
+must equal a freshly built figure of the new settings: every source's data,
+which renderers are shown and where the resonance lines lie, the colour
+bar's ticks, labels and title, the key's entries shown, the hover and the
+title.  Another layer builds a new figure."""
 import holoviews as hv
 import numpy as np
 import pytest
 from bokeh.models import ColorBar, HoverTool, Legend
 
+from vibtrans.plots import RESONANCE_LABEL
 from vibtrans_explorer import data
 from vibtrans_explorer.state import ExplorerState
 from vibtrans_explorer.views.map import MapView, map_figure
@@ -18,17 +20,21 @@ hv.extension("bokeh")       # as the explorer does
 
 def _drawn(fig):
     """What a map figure draws, comparable between two figures."""
-    sources = []
+    sources, shown = [], []
     for r in fig.renderers:
         src = getattr(r, "data_source", None)
-        if src is None or not src.data or set(src.data) == {"x", "y"}:
-            continue        # the key's swatches; the session's markers (shared)
+        if src is not None and set(src.data) == {"x", "y"}:
+            continue        # the session's markers (shared)
+        shown.append((type(r).__name__, r.visible, getattr(r, "location", None)))
+        if src is None or not src.data:
+            continue        # the key's swatches
         sources.append({k: np.asarray(v) for k, v in src.data.items()})
     bar, = fig.select(type=ColorBar)
     return {"sources": sources, "ticks": list(bar.ticker.ticks),
             "labels": dict(bar.major_label_overrides), "bar": bar.title,
-            "key": [str(getattr(i.label, "value", i.label))
+            "key": [(str(getattr(i.label, "value", i.label)), i.visible)
                     for legend in fig.select(type=Legend) for i in legend.items],
+            "shown": shown,
             "hover": [h.tooltips for h in fig.select(type=HoverTool)],
             "title": fig.title.text}
 
@@ -39,7 +45,7 @@ def _assert_same(a, b):
         assert x.keys() == y.keys()
         for k in x:
             assert np.array_equal(x[k], y[k], equal_nan=x[k].dtype.kind == "f"), k
-    for k in ("ticks", "labels", "bar", "key", "hover", "title"):
+    for k in ("shown", "ticks", "labels", "bar", "key", "hover", "title"):
         assert a[k] == b[k], k
 
 
@@ -62,12 +68,35 @@ def test_a_new_mu_or_v0_updates_the_figure_to_what_a_new_one_draws(change):
 
 
 @pytest.mark.parametrize("change", [{"model": "point-mass"}, {"chaotic": "colour"},
-                                    {"layer": "Lyapunov exponent"}])
-def test_another_model_layer_or_colouring_builds_a_new_figure(change):
+                                    {"model": "point-mass", "chaotic": "colour"}])
+def test_another_model_or_colouring_updates_the_figure_too(change):
     state = ExplorerState()
     view = MapView(state, on_click=lambda *a: None)
     shown = view.figures[0]
+    before = _drawn(shown)
     state.param.update(**change)
+    assert view.figures[0] is shown
+    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer,
+                       state.orbits)
+    after = _drawn(shown)
+    _assert_same(after, _drawn(fresh))
+    # what differs is drawn: the grey layer's key entry hidden in colour,
+    # the resonances (lines and key entry) hidden for the point mass
+    key = dict(after["key"])
+    grey = next(k for k in key if k.startswith("grey: chaotic"))
+    assert key[grey] == (state.chaotic == "grey") and dict(before["key"])[grey]
+    assert key[RESONANCE_LABEL] == (state.model == "deformable")
+    spans = [v for t, v, _ in after["shown"] if t == "Span"]
+    assert spans and all(v == (state.model == "deformable") for v in spans)
+    state.param.update(model="deformable", chaotic="grey")      # and back
+    _assert_same(_drawn(shown), before)
+
+
+def test_another_layer_builds_a_new_figure():
+    state = ExplorerState()
+    view = MapView(state, on_click=lambda *a: None)
+    shown = view.figures[0]
+    state.layer = "Lyapunov exponent"
     assert view.figures[0] is not shown
 
 

@@ -165,7 +165,7 @@ def _bokeh_key(entries):
                          border_line_alpha=0, background_fill_alpha=0)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
-        for label, kind, spec in entries:
+        for label, kind, spec, *shown in entries:
             if label in have:               # hooks run again on a re-render
                 continue
             if kind == "patch":
@@ -177,7 +177,8 @@ def _bokeh_key(entries):
                              line_dash=dash or "solid")
             # an empty renderer: drawn only as the key's swatch
             r = fig.add_glyph(ColumnDataSource({}), glyph)
-            key.items.append(LegendItem(label=label, renderers=[r]))
+            key.items.append(LegendItem(label=label, renderers=[r],
+                                        visible=shown[0] if shown else True))
     return hook
 
 
@@ -191,7 +192,8 @@ def _mpl_key(entries):
         ax = plot.handles["axis"]
         old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
         mine = list(old.entries) if old is not None else []
-        mine += [e for e in entries if e[0] not in {m[0] for m in mine}]
+        mine += [e[:3] for e in entries if e[0] not in {m[0] for m in mine}
+                 and (len(e) < 4 or e[3])]          # (an entry not shown: none)
         handles = []
         for label, kind, spec in mine:
             if kind == "patch":
@@ -214,16 +216,22 @@ def _mpl_key(entries):
 
 
 def _keyed(el, entries):
-    """`el` with its entries in the map's key (both backends)."""
+    """`el` with its entries in the map's key (both backends): (label,
+    "patch" or "line", its style[, shown]); an entry not shown is in the
+    Bokeh key, hidden (a figure of the same make-up as one that shows it),
+    and not in the matplotlib one."""
     return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]),
                  matplotlib=dict(hooks=[_mpl_key(entries)]))
 
 
-def drift_map(ds, v0=V0, chaotic="grey", title=""):
+def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
     """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
 
     chaotic: "grey" (chaotic points drawn grey: their colour is not a
     property of the scene) or "colour" (drawn like the others).
+    always_grey: the grey layer and its key entry are there even when they
+    show nothing (empty, hidden), so that every map is made of the same
+    parts (the explorer then updates its figure in place).
     """
     v = ds["drift_velocity"].values                      # (amplitude, mass)
     c = colour_scale(v, v0)
@@ -248,15 +256,17 @@ def drift_map(ds, v0=V0, chaotic="grey", title=""):
                 matplotlib=dict(cbar_ticks=ticks))
     key = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
-    if chaotic == "grey" and chaos.any():
+    shown = chaotic == "grey" and bool(chaos.any())
+    if shown or always_grey:
         grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values,
-                         np.where(chaos, 1.0, np.nan)), kdims=[LOG_A, LOG_M],
+                         np.where(chaos & shown, 1.0, np.nan)), kdims=[LOG_A, LOG_M],
                         vdims=["chaotic"])
         # no hover of its own: it would cover the map's, showing NaN off the grey
-        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
+        fixed = {"clim": (0.0, 1.0)} if always_grey else {}    # (all NaN: no range of its own)
+        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9, **fixed),
                             bokeh=dict(tools=[])))
         key.append((f"grey: chaotic ({chaos_reason(ds)})", "patch",
-                    (CHAOTIC_GREY, CHAOTIC_GREY)))
+                    (CHAOTIC_GREY, CHAOTIC_GREY), shown))
     return hv.Overlay([_keyed(img, key), *layers])
 
 
@@ -289,17 +299,19 @@ def _resonances(vertical):
     return out
 
 
-def resonance_lines(vertical):
-    """Horizontal lines at the fundamental and subharmonic resonances."""
+def resonance_lines(vertical, shown=True):
+    """Horizontal lines at the fundamental and subharmonic resonances (not
+    `shown`: there, hidden, with their key entry: the explorer's point-mass
+    map, made of the same parts as a deformable one)."""
     colour, width, dash = RESONANCE_LINE
     lines = []
     for key in ("fundamental", "subharmonic"):
         name = f"resonance_{key}_log_mass"
         if name in vertical.attrs:
-            lines.append(_styled_line(hv.HLine(vertical.attrs[name]), colour, width=width,
-                                      dash=dash))
+            line = _styled_line(hv.HLine(vertical.attrs[name]), colour, width=width, dash=dash)
+            lines.append(line if shown else line.opts(visible=False, backend="bokeh"))
     if lines:
-        lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE)])
+        lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE, shown)])
     return hv.Overlay(lines)
 
 

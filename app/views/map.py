@@ -9,7 +9,7 @@ import holoviews as hv
 import panel as pn
 from bokeh.core.serialization import Deserializer
 from bokeh.events import Tap
-from bokeh.models import ColorBar, ColumnDataSource, GlyphRenderer, HoverTool, Legend
+from bokeh.models import ColorBar, ColumnDataSource, GlyphRenderer, HoverTool, Legend, Span
 
 from vibtrans import plots
 from vibtrans.analysis import CHAOS_LYAPUNOV, V0
@@ -50,13 +50,16 @@ def map_element(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit
         el = plots.lyapunov_map(lyapunov, CHAOS_LYAPUNOV)
         title = f"Lyapunov exponent of the vertical motion: {model} (any mu)"
     else:
-        el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}")
+        # every map of the same parts (the grey layer and the resonances
+        # there, hidden where they show nothing): a change of model or of
+        # the chaotic points' colour updates the shown figure in place
+        el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}",
+                             always_grey=True)
         title = f"<v*> over 2000 periods: {model}, mu = {mu:g}"
     vertical = data.vertical_curve()
     if vertical is not None:
         el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=MAP_LOG_AMPLITUDE)
-        if model == "deformable":
-            el = el * plots.resonance_lines(vertical)
+        el = el * plots.resonance_lines(vertical, shown=model == "deformable")
     chart = data.period_one_chart()
     if orbits == "period-1 orbit curves" and model == "deformable" and chart is not None:
         el = el * plots.period_one_curves(chart)
@@ -135,9 +138,10 @@ def _shape(fig):
 
 def update_in_place(old, new):
     """Make the shown figure `old` draw what `new` (of the same shape)
-    draws: the sources' data, the image glyphs' placement, the colour bars'
-    ticks, labels and title, the legends' labels, the hover's tooltips and
-    the title.  The browser then repaints one plot instead of building a new
+    draws: the sources' data, the image glyphs' placement, which renderers
+    are shown and where lines lie, the colour bars' ticks, labels and title,
+    the legends' labels and entries shown, the hover's tooltips and the
+    title.  The browser then repaints one plot instead of building a new
     one (a new figure costs it about half a second); the zoom is kept.  False
     (nothing changed) when the shapes differ."""
     if _shape(old) != _shape(new):
@@ -150,13 +154,16 @@ def update_in_place(old, new):
         for attr in ("x", "y", "dw", "dh"):
             if hasattr(gn, attr) and hasattr(go, attr):
                 setattr(go, attr, getattr(gn, attr))
+        ro.visible = rn.visible
+        if isinstance(rn, Span):
+            ro.location = rn.location
     for bo, bn in zip(_annotations(old, ColorBar), _annotations(new, ColorBar)):
         bo.ticker.ticks = list(bn.ticker.ticks)
         bo.major_label_overrides = dict(bn.major_label_overrides)
         bo.title = bn.title
     for lo, ln in zip(_annotations(old, Legend), _annotations(new, Legend)):
         for io, in_ in zip(lo.items, ln.items):
-            io.label = in_.label
+            io.update(label=in_.label, visible=in_.visible)
     hovers = [[t for t in f.toolbar.tools if isinstance(t, HoverTool)] for f in (old, new)]
     for ho, hn in zip(*hovers):
         ho.tooltips = hn.tooltips
@@ -301,12 +308,13 @@ class MapView:
         if self.computed is not None:
             return          # a map on demand is shown: the shipped settings wait
         figures = [self._figure(m, mu) for m, mu in self.shown()]
-        # the same models, layer and curves drawn the same way (a new mu or
-        # v0*): the shown figures are updated, not replaced
+        # as many maps, each drawn or not as before (that decides what a
+        # click on it does), the same layer and curves (a new model, mu, v0*
+        # or colour of the chaotic points): the shown figures are updated,
+        # not replaced
         s = self.state
-        # (whether a map is shipped decides what a click on it does)
-        shown = ([(m, (m, mu) in data.available_maps()) for m, mu in self.shown()],
-                 s.layer, s.orbits, s.chaotic)
+        shown = ([(m, mu) in data.available_maps() for m, mu in self.shown()],
+                 s.layer, s.orbits)
         if (self.figures and self._drawn == shown
                 and len(figures) == len(self.figures)
                 and all(_shape(o) == _shape(n) for o, n in zip(self.figures, figures))):
