@@ -40,7 +40,7 @@ from vibtrans.errors import InputError
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
-from .exports import _read_back
+from .exports import read_back
 from .render import exclusively, rendered
 
 MIN_WIDTH = 420
@@ -742,12 +742,12 @@ class DesignPanel(pn.viewable.Viewer):
         if chart is None:
             raise ValueError("draw a chart first")
         if fmt in DATA_FORMATS:
-            return _read_back(functools.partial(design.write_chart_data, chart),
+            return read_back(functools.partial(design.write_chart_data, chart),
                               f"design.{fmt}")
         if fmt not in FIGURE_FORMATS:
             raise ValueError(f"no such download: {fmt!r}")
         from vibtrans.export import export_design
-        return exclusively(_read_back, functools.partial(export_design, chart,
+        return exclusively(read_back, functools.partial(export_design, chart,
                                                          device=self.device_mark()),
                            f"design.{fmt}")
 

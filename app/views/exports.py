@@ -16,7 +16,9 @@ FIGURES = [(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")
 DATA = [("run", "nc"), ("run", "csv"), ("map-window", "nc")]
 
 
-def _read_back(write, name):
+def read_back(write, name):
+    """The bytes `write(path)` writes to a file named `name` (in a folder
+    of its own, removed after), for a download button."""
     with tempfile.TemporaryDirectory(prefix="vibtrans-") as tmp:
         out = os.path.join(tmp, name)
         write(out)
@@ -81,7 +83,7 @@ class ExportsView:
 
             def write(out):
                 export.export_trajectory(self.result.ds, out, twin=self.result.twin)
-        return exclusively(_read_back, write, f"{kind}.{fmt}")
+        return exclusively(read_back, write, f"{kind}.{fmt}")
 
     def data_file(self, kind, fmt):
         """The bytes of a data download: the last run (`run`, netCDF or CSV)
@@ -95,7 +97,7 @@ class ExportsView:
                 return io.BytesIO(export.samples_csv(ds).encode())
         else:
             ds = export.map_window(self._map()[0], *self.map_view.view_ranges())
-        return _read_back(ds.to_netcdf, "data.nc")
+        return read_back(ds.to_netcdf, "data.nc")
 
     def _map(self):
         """(Dataset, name) of the map shown: the map on demand's, else the
