@@ -190,8 +190,8 @@ class _Block:
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
-            fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range, LINE_HEIGHT,
-                          ticker)
+            fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range,
+                          LINE_HEIGHT, ticker)
             right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}

@@ -107,3 +107,18 @@ def test_the_shipped_map_after_a_computed_one_is_a_new_figure():
     view.show_computed(computed, ((-1.0, 1.0), (-1.0, 1.0)), lambda la, lm: None)
     view.show_shipped()
     assert view.figures[0] is not computed
+
+
+def test_a_model_without_a_map_at_that_mu_is_a_new_figure():
+    """No shipped point-mass map at mu = 0.1: its message is a figure of
+    its own (a click on it runs nothing), and the map after it a new one."""
+    if ("point-mass", 0.1) in data.available_maps():
+        pytest.fail("a point-mass map at mu = 0.1 ships: pick a mu without one")
+    state = ExplorerState(mu=0.1)
+    view = MapView(state, on_click=lambda *a: None)
+    shown = view.figures[0]
+    state.model = "point-mass"
+    message = view.figures[0]
+    assert message is not shown and not message.select(type=ColorBar)
+    state.model = "deformable"
+    assert view.figures[0] is not message and _drawn(view.figures[0])["sources"]
