@@ -258,13 +258,14 @@ def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
     layers = []
     shown = chaotic == "grey" and bool(chaos.any())
     if shown or always_grey:
-        grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values,
-                         np.where(chaos & shown, 1.0, np.nan)), kdims=[LOG_A, LOG_M],
-                        vdims=["chaotic"])
+        # where it shows nothing the layer is hidden (its values then only
+        # need to be numbers: an all-NaN image has no range)
+        mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
+        grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, mask),
+                        kdims=[LOG_A, LOG_M], vdims=["chaotic"])
         # no hover of its own: it would cover the map's, showing NaN off the grey
-        fixed = {"clim": (0.0, 1.0)} if always_grey else {}    # (all NaN: no range of its own)
-        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9, **fixed),
-                            bokeh=dict(tools=[])))
+        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
+                            bokeh=dict(tools=[], visible=shown)))
         key.append((f"grey: chaotic ({chaos_reason(ds)})", "patch",
                     (CHAOTIC_GREY, CHAOTIC_GREY), shown))
     return hv.Overlay([_keyed(img, key), *layers])

@@ -4,7 +4,6 @@ resonances, the paper points, the selected scene (yellow) and the Units
 tab's device (green diamond); a click runs the scene there."""
 import functools
 import math
-import warnings
 
 import holoviews as hv
 import panel as pn
@@ -75,9 +74,7 @@ def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit c
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included)."""
-    with warnings.catch_warnings():     # the empty grey layer's range: all NaN
-        warnings.filterwarnings("ignore", "All-NaN slice", RuntimeWarning)
-        doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
+    doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
     _lean(fig)
     columns = {}
     for m in doc.models:
