@@ -165,7 +165,7 @@ def _bokeh_key(entries):
                          border_line_alpha=0, background_fill_alpha=0)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
-        for label, kind, spec, *shown in entries:
+        for label, kind, spec, shown in entries:
             if label in have:               # hooks run again on a re-render
                 continue
             if kind == "patch":
@@ -177,8 +177,7 @@ def _bokeh_key(entries):
                              line_dash=dash or "solid")
             # an empty renderer: drawn only as the key's swatch
             r = fig.add_glyph(ColumnDataSource({}), glyph)
-            key.items.append(LegendItem(label=label, renderers=[r],
-                                        visible=shown[0] if shown else True))
+            key.items.append(LegendItem(label=label, renderers=[r], visible=shown))
     return hook
 
 
@@ -192,8 +191,7 @@ def _mpl_key(entries):
         ax = plot.handles["axis"]
         old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
         mine = list(old.entries) if old is not None else []
-        mine += [e[:3] for e in entries if e[0] not in {m[0] for m in mine}
-                 and (len(e) < 4 or e[3])]          # (an entry not shown: none)
+        mine += [e[:3] for e in entries if e[3] and e[0] not in {m[0] for m in mine}]
         handles = []
         for label, kind, spec in mine:
             if kind == "patch":
@@ -220,6 +218,7 @@ def _keyed(el, entries):
     "patch" or "line", its style[, shown]); an entry not shown is in the
     Bokeh key, hidden (a figure of the same make-up as one that shows it),
     and not in the matplotlib one."""
+    entries = [(*e[:3], e[3] if len(e) > 3 else True) for e in entries]
     return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]),
                  matplotlib=dict(hooks=[_mpl_key(entries)]))
 
@@ -310,7 +309,7 @@ def resonance_lines(vertical, shown=True):
         name = f"resonance_{key}_log_mass"
         if name in vertical.attrs:
             line = _styled_line(hv.HLine(vertical.attrs[name]), colour, width=width, dash=dash)
-            lines.append(line if shown else line.opts(visible=False, backend="bokeh"))
+            lines.append(line if shown else style(line, bokeh=dict(visible=False)))
     if lines:
         lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE, shown)])
     return hv.Overlay(lines)

@@ -743,12 +743,12 @@ class DesignPanel(pn.viewable.Viewer):
             raise ValueError("draw a chart first")
         if fmt in DATA_FORMATS:
             return read_back(functools.partial(design.write_chart_data, chart),
-                              f"design.{fmt}")
+                             f"design.{fmt}")
         if fmt not in FIGURE_FORMATS:
             raise ValueError(f"no such download: {fmt!r}")
         from vibtrans.export import export_design
         return exclusively(read_back, functools.partial(export_design, chart,
-                                                         device=self.device_mark()),
+                                                        device=self.device_mark()),
                            f"design.{fmt}")
 
     # ---------- a click on the chart ----------
