@@ -4,7 +4,9 @@ change `python -m devtools.fingerprint compare FILE`).
 
 Covered: the ten paper points in all three models (whole run plus a
 full-resolution window), memory snapshots, random (a*, b*) histories through
-the memory diagram (four kinds), first take-offs and threshold amplitudes.
+the memory diagram (four kinds), first take-offs and threshold amplitudes,
+and the Lyapunov exponent's attributes (`simulate(..., lyapunov=True)`) at
+the paper points and across the jumping region.
 Compared with np.array_equal (NaN equal to NaN); the wall time attribute
 `seconds` is left out.
 """
@@ -59,6 +61,20 @@ def _runs():
             b = rng.uniform(-3.0, 3.0, n)
         T, sh, st = tangential_force_history(a, b)
         out[f"hist{i}/T"], out[f"hist{i}/sh"], out[f"hist{i}/st"] = T, sh, st
+    lyapunov_scenes = [(f"p{k}", paper_scene(k)) for k in range(1, 11)]
+    lyapunov_scenes += [(f"a{la}m{lm}", paper_scene(1).replace(amplitude=10.0 ** la,
+                                                               mass=10.0 ** lm))
+                        for la in (-1.5, 0.0, 0.5, 1.5, 2.5) for lm in (-4.0, -2.0, 0.0, 3.0)]
+    for name, sc in lyapunov_scenes:
+        for model in ("deformable", "vertical"):
+            for integ in ("ab4", "verlet"):
+                ds = simulate(sc.replace(model=model, integrator=integ, periods=300.0),
+                              lyapunov=True)
+                for attr in ("lyapunov", "lyapunov_from", "lyapunov_start", "steps"):
+                    val = ds.attrs[attr]
+                    out[f"lyapunov/{name}/{model}/{integ}/{attr}"] = np.asarray(
+                        "None" if val is None else val)
+                out[f"lyapunov/{name}/{model}/{integ}/y"] = np.asarray(ds["y"].values)
     for lm in (-3.0, -1.0, 0.5, 2.0):
         for la in (-1.0, 0.0, 1.0):
             out[f"takeoff/{la}/{lm}"] = np.asarray(first_takeoff(10 ** la, 10 ** lm,

@@ -230,10 +230,15 @@ def _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential):
 
 
 # -------------------------------------------------------------- contact phases
-@helper
+@inline
 def _predict(integrator, state, hist, h):
     """Positions (and AB4 velocities) at t + h from the state at t and the
-    derivative history; Verlet's velocities wait for the new force."""
+    derivative history; Verlet's velocities wait for the new force.
+
+    `inline`: as a helper LLVM left it a call in every step, and every value
+    live across a call is spilled to the stack and reloaded around it (all
+    xmm registers are caller-saved): inlined, a step costs ~4 ns less in
+    every Hertz kernel, and the tangent's (Lyapunov) share shrinks too."""
     if integrator == AB4:
         x1 = state[S_X] + ab4_increment(hist, 0, h)
         vx1 = state[S_VX] + ab4_increment(hist, 1, h)
@@ -436,13 +441,20 @@ def _tangent_norm(tangent):
 
 
 @helper
-def _tangent_mark(tangent, t):
+def _tangent_mark(tangent, t, dy, dvy):
     """Note where the exponent is measured from: the first tangent update at
-    or after tangent[L_FROM]."""
-    if tangent[L_START] < 0.0 and t >= tangent[L_FROM]:
-        tangent[L_START] = t
-        n2 = tangent[L_DY] * tangent[L_DY] + tangent[L_DVY] * tangent[L_DVY]
-        tangent[L_LOG_START] = tangent[L_LOG] + 0.5 * math.log(n2)
+    or after tangent[L_FROM] (the caller checks that, `_tangent_marking`);
+    (dy, dvy): the tangent at t."""
+    tangent[L_START] = t
+    n2 = dy * dy + dvy * dvy
+    tangent[L_LOG_START] = tangent[L_LOG] + 0.5 * math.log(n2)
+
+
+@helper
+def _tangent_marking(tangent):
+    """(still to mark, the time to mark from): `_tangent_mark` is due at the
+    first contact step ending at or after that time, if still to mark."""
+    return tangent[L_START] < 0.0, tangent[L_FROM]
 
 
 @helper
@@ -459,55 +471,83 @@ def _tangent_mark_in_flight(tangent, t_origin, t_fin):
 
 
 @helper
-def _tangent_step(integrator, tangent, h, c1, inv_m):
-    """One committed contact step of the tangent, with the run's integrator:
-    m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact)."""
-    dy = tangent[L_DY]
-    dvy = tangent[L_DVY]
+def _tangent_load(tangent):
+    """The tangent's hot values, which the contact steps keep in locals:
+    (dy, dy', the derivative history dh, dh[2 j + k] = tangent[L_HIST + 2 j + k]).
+    Why: as array elements they were loaded and stored at every step (the
+    history shifted in memory), which LLVM cannot drop since `tangent` might
+    alias the other arrays; in locals the shift is a renaming (~1 ns a step
+    of the deformable kernel, `vibtrans bench`)."""
     k = L_HIST
+    return (tangent[L_DY], tangent[L_DVY],
+            (tangent[k], tangent[k + 1], tangent[k + 2], tangent[k + 3],
+             tangent[k + 4], tangent[k + 5], tangent[k + 6], tangent[k + 7]))
+
+
+@helper
+def _tangent_store(tangent, dy, dvy, dh):
+    """Write the hot values (`_tangent_load`) back, for the phases that work
+    in the array: flights, renormalizations, the caller."""
+    tangent[L_DY] = dy
+    tangent[L_DVY] = dvy
+    for i in range(8):
+        tangent[L_HIST + i] = dh[i]
+
+
+@helper
+def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m):
+    """One committed contact step of the tangent, with the run's integrator:
+    m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact).
+    Returns the new (dy, dy', dh)."""
     if integrator == AB4:
-        dy1 = dy + h / 24.0 * (55.0 * tangent[k] - 59.0 * tangent[k + 2]
-                               + 37.0 * tangent[k + 4] - 9.0 * tangent[k + 6])
-        dvy1 = dvy + h / 24.0 * (55.0 * tangent[k + 1] - 59.0 * tangent[k + 3]
-                                 + 37.0 * tangent[k + 5] - 9.0 * tangent[k + 7])
+        dy1 = dy + h / 24.0 * (55.0 * dh[0] - 59.0 * dh[2] + 37.0 * dh[4] - 9.0 * dh[6])
+        dvy1 = dvy + h / 24.0 * (55.0 * dh[1] - 59.0 * dh[3] + 37.0 * dh[5] - 9.0 * dh[7])
         dacc1 = -1.5 * c1 * dy1 * inv_m
     else:
-        dy1 = dy + h * dvy + 0.5 * h * h * tangent[k + 1]
+        dy1 = dy + h * dvy + 0.5 * h * h * dh[1]
         dacc1 = -1.5 * c1 * dy1 * inv_m
-        dvy1 = dvy + 0.5 * h * (tangent[k + 1] + dacc1)
-    for i in range(NTANGENT - 1, k + 1, -1):
-        tangent[i] = tangent[i - 2]
-    tangent[k] = dvy1
-    tangent[k + 1] = dacc1
-    tangent[L_DY] = dy1
-    tangent[L_DVY] = dvy1
+        dvy1 = dvy + 0.5 * h * (dh[1] + dacc1)
+    return dy1, dvy1, (dvy1, dacc1, dh[0], dh[1], dh[2], dh[3], dh[4], dh[5])
 
 
 @helper
-def _tangent_take_off(tangent, d, dyo, dvyo, t0, t1):
+def _tangent_norm_hot(tangent, dy, dvy, dh):
+    """`_tangent_norm` for the hot values in locals: the test in registers;
+    a renormalization (rare) goes through the array.  Returns (dy, dy', dh)."""
+    n2 = dy * dy + dvy * dvy
+    if TANGENT_BIG >= n2 >= 1.0 / TANGENT_BIG:
+        return dy, dvy, dh
+    _tangent_store(tangent, dy, dvy, dh)
+    _tangent_norm(tangent)
+    return _tangent_load(tangent)
+
+
+@helper
+def _tangent_take_off(tangent, d, dyo, dvyo, dacco, t0, t1):
     """The tangent at the take-off d after the step's start (as the state:
-    from the values at the step's start under the derivative there, which
-    the history's second row now holds) and on the flight at t1."""
-    dacco = tangent[L_HIST + 3]
-    tangent[L_DY0] = dyo + dvyo * d + 0.5 * dacco * d * d
-    tangent[L_DVY0] = dvyo + dacco * d
-    tangent[L_DY] = tangent[L_DY0] + tangent[L_DVY0] * (t1 - t0)
-    tangent[L_DVY] = tangent[L_DVY0]
+    from the values at the step's start under the derivative there, dacco,
+    which the history's second row now holds): the flight's origin, in the
+    array; returns the tangent (dy, dy') on the flight at t1."""
+    dy0 = dyo + dvyo * d + 0.5 * dacco * d * d
+    dvy0 = dvyo + dacco * d
+    tangent[L_DY0] = dy0
+    tangent[L_DVY0] = dvy0
+    return dy0 + dvy0 * (t1 - t0), dvy0
 
 
 @helper
-def _tangent_end(tangent, state, st, t_end, t0, dyo, dvyo, t1):
+def _tangent_end(tangent, state, st, t_end, t0, dyo, dvyo, t1, dy1, dvy1, dh):
     """The tangent at t_end inside the last step (t0, t1], as `_record_end`
     takes the state: on the flight parabola, else cubic Hermite from the
-    values and slopes at both ends."""
+    values and slopes at both ends ((dy1, dvy1) at t1, slopes in dh)."""
     if st == FLIGHT and state[S_T0] <= t_end:
         dy = tangent[L_DY0] + tangent[L_DVY0] * (t_end - state[S_T0])
         dvy = tangent[L_DVY0]
     else:
-        dacc1 = 0.0 if st == FLIGHT else tangent[L_HIST + 1]
+        dacc1 = 0.0 if st == FLIGHT else dh[1]
         s = (t_end - t0) / (t1 - t0)
-        dy, _ = _hermite(dyo, dvyo, tangent[L_DY], tangent[L_DVY], t1 - t0, s)
-        dvy, _ = _hermite(dvyo, tangent[L_HIST + 3], tangent[L_DVY], dacc1, t1 - t0, s)
+        dy, _ = _hermite(dyo, dvyo, dy1, dvy1, t1 - t0, s)
+        dvy, _ = _hermite(dvyo, dh[3], dvy1, dacc1, t1 - t0, s)
     tangent[L_END_T] = t_end
     tangent[L_END_DY] = dy
     tangent[L_END_DVY] = dvy
@@ -532,7 +572,12 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
     contact one committed step at a time.  With `lyapunov` (a compile-time
     constant, like `tangential`) the vertical motion's tangent advances
-    alongside, in `tangent`.  Returns a records.* status."""
+    alongside, in `tangent`.  Returns a records.* status.
+
+    The tangent's hot values (dy, dvy, dh: `_tangent_load`) live in locals;
+    the array is current whenever the particle is in flight at the loop's
+    top and when the kernel returns: the contact steps write them back at a
+    take-off and at every exit, and read them back after a flight."""
     m = p.mass
     h = p.step
     t_end = p.t_end
@@ -550,6 +595,14 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     cw = 1.0                          # cos(2 pi t), sin(2 pi t) at the last step
     sw = 0.0
     rot_left = 0                      # steps before cos, sin are evaluated afresh
+    dy = 0.0                          # the tangent's hot values (lyapunov)
+    dvy = 0.0
+    dh = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    marking = False                   # _tangent_mark still due, at t >= t_from
+    t_from = 0.0
+    if lyapunov:
+        dy, dvy, dh = _tangent_load(tangent)
+        marking, t_from = _tangent_marking(tangent)
     while state[S_T] < t_end:
         t = state[S_T]
         if ctr[R.C_MODE] == MODE_FLIGHT:
@@ -569,6 +622,8 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
                 _tangent_mark_in_flight(tangent, state[S_T0], t_fin)
                 _tangent_flight(tangent, t_fin - state[S_T0], t_land >= 0.0)
                 _tangent_norm(tangent)
+                dy, dvy, dh = _tangent_load(tangent)
+                marking, t_from = _tangent_marking(tangent)
             if t_land < 0.0:
                 break
             _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential)
@@ -579,6 +634,8 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             break
         room = _room_for_step(samples, events, H, nvert, ctr, tangential)
         if room != R.DONE:
+            if lyapunov:
+                _tangent_store(tangent, dy, dvy, dh)
             return room
         t1 = t + h
         xo = state[S_X]
@@ -595,31 +652,37 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         dyo = 0.0
         dvyo = 0.0
         if lyapunov:
-            dyo = tangent[L_DY]
-            dvyo = tangent[L_DVY]
-            _tangent_step(integrator, tangent, h, c1, inv_m)
+            dyo = dy
+            dvyo = dvy
+            dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m)
         if st == FLIGHT:
             x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
                                          vyo, m)
             a1 = y1 - uy
             b1 = (x1 - ux) / scale if tangential else 0.0
             if lyapunov:
-                _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, state[S_T0], t1)
+                dy, dvy = _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, dh[3],
+                                            state[S_T0], t1)
+                _tangent_store(tangent, dy, dvy, dh)   # the flight's phases use the array
         if lyapunov:
-            _tangent_mark(tangent, t1)
-            _tangent_norm(tangent)
+            if marking and t1 >= t_from:
+                _tangent_mark(tangent, t1, dy, dvy)
+                marking = False
+            dy, dvy, dh = _tangent_norm_hot(tangent, dy, dvy, dh)
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
             _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
                         t1, x1, vx1, y1, vy1, tangential)
             if lyapunov:
-                _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1)
+                _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
                          scale, tangential)
         if st == FLIGHT and stop_at_takeoff:
             break
+    if lyapunov:
+        _tangent_store(tangent, dy, dvy, dh)
     return R.DONE
 
 
