@@ -1,12 +1,14 @@
 """What one page costs the server's event loop, which every session shares:
 building a session's page (the explorer, its template attached to the
 document; the run's figures are built when a run starts, the memory
-diagram when its tab opens).  Pages are built in-process, alternately with
-and without the explorer's one-pass attach (`_attached_in_one_pass`), so
-that the ratio comes from one run on a shared machine; `page_cpu_s` is the
-process's CPU time per page (less sensitive to other processes than the
-wall-clock figures).  The shipped maps are prerendered first, as the
-server's warm-up does: pages opened before it ends also stat the maps not
+diagram when its tab opens).  Pages are built in-process, alternately as
+the server builds them (`explorer.create_app`: Bokeh's property validation
+off, the page attached in one pass) and plainly (validation on, the
+template's roots attached one at a time), so that the ratio comes from one
+run on a shared machine; `page_cpu_s` is the process's CPU time per page as
+served (less sensitive to other processes than the wall-clock figures).
+The shipped maps are prerendered first, as the server's warm-up does:
+pages opened before it ends also stat the maps not
 yet read (~0.02 s each).  Issue 14's goal: a page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
@@ -25,16 +27,16 @@ from vibtrans_explorer import explorer as E
 from vibtrans_explorer.views import map as map_view
 
 
-def _page(one_pass):
+def _page(served):
     """(seconds to build and attach a page, its CPU seconds, models in the
     document)."""
     doc = Document()
     with set_curdoc(doc):
         t0, c0 = time.perf_counter(), time.process_time()
-        explorer = E.Explorer()
-        template = E.explorer_template(explorer)
-        if one_pass:
-            template = E._attached_in_one_pass(template)
+        if served:
+            template = E.create_app()
+        else:
+            template = E.explorer_template(E.Explorer())
         template.server_doc(doc)
         t1, c1 = time.perf_counter(), time.process_time()
     return t1 - t0, c1 - c0, len(doc.models)
@@ -47,18 +49,18 @@ def run(pages):
     # as a served explorer after its warm-up (app/server.py): every map
     # rendered and read, so a page's check of the shipped files stats none
     map_view.prerender()
-    for one_pass in (False, True, False, True):            # warm-up: imports, caches
-        _page(one_pass)
-    plain, once, cpu = [], [], []
+    for served in (False, True, False, True):            # warm-up: imports, caches
+        _page(served)
+    plain, as_served, cpu = [], [], []
     for _ in range(pages):
-        for one_pass, out in ((False, plain), (True, once)):
-            page, page_cpu, models = _page(one_pass)
+        for served, out in ((False, plain), (True, as_served)):
+            page, page_cpu, models = _page(served)
             out.append(page)
-            if one_pass:
+            if served:
                 cpu.append(page_cpu)
-    p, o = statistics.median(plain), statistics.median(once)
-    return {"pages": pages, "page_s_plain_attach": p, "page_s_one_pass_attach": o,
-            "one_pass_over_plain": o / p, "page_cpu_s": statistics.median(cpu),
+    p, o = statistics.median(plain), statistics.median(as_served)
+    return {"pages": pages, "page_s_plain": p, "page_s_served": o,
+            "served_over_plain": o / p, "page_cpu_s": statistics.median(cpu),
             "models": models}
 
 

@@ -25,13 +25,15 @@ MODELS = ("deformable", "point-mass")
 
 
 LAYERS = ("drift velocity", "Lyapunov exponent")
+DRIFT_LAYER, LYAPUNOV_LAYER = LAYERS
+NO_ORBITS = "no orbit curves"
 
 
 def _unavailable(text):
     return hv.Text(0.0, 0.0, text).opts(height=MAP_HEIGHT, xaxis=None, yaxis=None)
 
 
-def map_element(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
+def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     """The map of a model and mu (HoloViews): the shipped drift map, or the
     chaos indicator's (layer "Lyapunov exponent": the vertical motion's,
     the same for every mu), the jumping boundary, the resonances, the
@@ -42,7 +44,7 @@ def map_element(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit
     except data.MapUnavailable:    # the reason (with the file) is said at session start
         return _unavailable(f"No usable drift map for {model}, mu = {mu:g}:\n"
                             f"pick another model or mu; a click here runs nothing")
-    if layer == "Lyapunov exponent":
+    if layer == LYAPUNOV_LAYER:
         lyapunov = data.lyapunov_map(model)
         if lyapunov is None:
             return _unavailable(f"No usable Lyapunov map for {model}: show the drift "
@@ -68,7 +70,7 @@ def map_element(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit
 
 
 @functools.lru_cache(maxsize=16)
-def _map_json(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
+def _map_json(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     """`map_element` rendered by HoloViews into Bokeh models, serialized
     without the data of its sources, and that data ({source id: columns}).
     The columns are set on each session's copy as they are: deserializing
@@ -94,13 +96,13 @@ def _lean(fig):
             r.update(selection_glyph=None, nonselection_glyph=None, muted_glyph=None)
 
 
-def map_figure(model, mu, v0, chaotic, layer="drift velocity", orbits="no orbit curves"):
+def map_figure(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     """A new Bokeh figure of the map for one session, as wide as its place
     on the page: rendered once per setting by HoloViews, then rebuilt from
     its serialized models and the shared columns of its sources (a
     fraction of the server time of rendering it for every page).  The
     columns' arrays are shared by the sessions: no one writes into them."""
-    if layer == "Lyapunov exponent":     # the drift's settings change nothing there
+    if layer == LYAPUNOV_LAYER:     # the drift's settings change nothing there
         v0, chaotic = V0, "grey"
     js, columns = _map_json(model, mu, v0, chaotic, layer, orbits)
     # decoded without a Document of its own (adding the figure to one and
@@ -206,11 +208,14 @@ def prerender_steps():
     only copies a rendered figure (~0.1 s) instead of rendering it
     (0.3-1.8 s): an iterator of calls, one render each.  The server runs
     them on its event loop one at a time after its warm-up."""
+    # every argument given as map_figure gives them (all positional): the
+    # cache tells calls apart by how their arguments were passed too
     for model, mu in sorted(data.available_maps()):
         for chaotic in ("grey", "colour"):
-            yield functools.partial(_map_json, model, mu, V0, chaotic)
+            yield functools.partial(_map_json, model, mu, V0, chaotic, DRIFT_LAYER,
+                                    NO_ORBITS)
     for model, mu in sorted(data.available_maps()):      # the chaos indicator's layer
-        yield functools.partial(_map_json, model, mu, V0, "grey", "Lyapunov exponent")
+        yield functools.partial(_map_json, model, mu, V0, "grey", LYAPUNOV_LAYER, NO_ORBITS)
 
 
 def prerender():
