@@ -33,7 +33,11 @@ the server runs with --unused-session-lifetime 3000
 ~30 s) and the explorer has released their memory (its log line, which
 comes ~2 s after the last discard).  Goals: p95 <= 3 s, 0 errors, and the
 RSS after within 10% of the baseline.  Runs the server refuses as over its step cap
-(VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.
+(VIBTRANS_MAX_STEPS) are counted apart ("refused"), not as errors.  Also
+the CPU seconds the server used during the load (`server_cpu_s`, from
+/proc): two runs of the same code doing the same work should use about the
+same; a run that used several times as much ran on a slower machine (a
+virtual machine's host taking time from its core).
 
 Pinning (`--pin`, or `--pin-server CPUS --pin-clients CPUS`, CPUS as
 taskset's lists: 0 / 0,2 / 0-3): the server's processes run on some cores
@@ -157,6 +161,24 @@ def rss_mb(pid):
         except OSError:
             pass
     return total
+
+
+def cpu_seconds(pids):
+    """CPU seconds (user + system) the processes `pids` have used so far.
+    On a virtual machine, time the host takes from a guest's core and does
+    not report as steal is counted here too: the same work costing a run
+    several times the CPU seconds of another says the machine was slower,
+    not the code."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0
+    for q in pids:
+        try:
+            with open(f"/proc/{q}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            total += int(fields[11]) + int(fields[12])     # utime, stime
+        except (OSError, IndexError, ValueError):
+            pass
+    return total / tick
 
 
 # the server's session settings under load: closed sessions dropped in seconds
@@ -763,9 +785,11 @@ def run(a):
         result = _new_result()
         result["server_pids"] = set(server.server_pids())
         server.sample()
+        cpu0 = cpu_seconds(server.server_pids())
         t0 = time.perf_counter()
         asyncio.run(_drive(server.url, a, a.sessions, result, a.seed + 1))
         load_wall = time.perf_counter() - t0
+        server_cpu = cpu_seconds(server.server_pids()) - cpu0
         client_cores = sorted(set(result.get("client_cores", [])) | set(affinity([0])))
         rss_closed = server.rss()
         settle, released = server.wait_dropped(1 + a.sessions, a.settle)
@@ -829,6 +853,7 @@ def run(a):
         "settle_s": settle,
         "client_disconnect_races": disconnects,
         "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
+        "server_cpu_s": server_cpu,
         "machine": f"{os.cpu_count()} cores",
         "load_average_before": [round(x, 2) for x in load_before],
         "load_average_after": [round(x, 2) for x in os.getloadavg()],

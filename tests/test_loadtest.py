@@ -31,6 +31,9 @@ def test_small_load_has_no_errors_and_bounded_memory():
     # (30 x 5: docs/SECURITY.md).
     assert out["rss_after_over_baseline"] <= 0.10, out
     assert out["rss_peak_mb"] < 4 * out["rss_baseline_mb"], out
+    # the server worked (pages, runs) and was counted: CPU seconds, at most
+    # its cores' share of the load's wall time
+    assert 0 < out["server_cpu_s"] <= (os.cpu_count() or 1) * out["load_wall_s"] + 1, out
     # times depend on the machine's load: reported, not asserted
     print(f"load test 3 x 2: {out['total_wall_s']:.0f} s in all, server ready after "
           f"{out['server_start_to_ready_s']:.1f} s, click p95 {out['click_to_plot_p95_s']:.1f} s")
