@@ -25,7 +25,6 @@ from urllib.parse import parse_qsl, urlencode
 import holoviews as hv
 import panel as pn
 import param
-from bokeh.core.property.validation import validate
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 
 from vibtrans import mapaccuracy, plots, simulate
@@ -1110,7 +1109,7 @@ def _attached_in_one_pass(template, page_location=None):
         doc = doc or pn.state.curdoc
         if page_location is not None and location:
             location = page_location
-        with doc.models.freeze(), validate(False):      # as create_app's
+        with doc.models.freeze():
             return server_doc(doc, title, location)
     template.server_doc = frozen
     return template
@@ -1125,16 +1124,13 @@ def explorer_template(explorer):
 
 
 def create_app():
-    """One session's explorer page, its Bokeh models made without Bokeh's
-    property validation: every value they are given is the same on every
-    page and checked where the tests build pages in-process (validation on),
-    and checking ~200 models' properties again for every page was a tenth
-    of the page's time on the event loop that all sessions share
-    (`python -m devtools.pagecost`)."""
-    with validate(False):
-        explorer = Explorer()
-        template = explorer_template(explorer)
-    return _attached_in_one_pass(template, explorer.location)
+    """One session's explorer page.  Bokeh's property validation stays on
+    while it is built, though it is a tenth of the page's time: the switch
+    is one flag for the whole process, and a map rendered in another thread
+    meanwhile (maps on demand; HoloViews relies on validation's conversions)
+    turned it off for good in a load test, breaking every later figure."""
+    explorer = Explorer()
+    return _attached_in_one_pass(explorer_template(explorer), explorer.location)
 
 
 if pn.state.served:

@@ -2,14 +2,13 @@
 building a session's page (the explorer, its template attached to the
 document; the run's figures are built when a run starts, the memory
 diagram when its tab opens).  Pages are built in-process, alternately as
-the server builds them (`explorer.create_app`: Bokeh's property validation
-off, the page attached in one pass) and plainly (validation on, the
-template's roots attached one at a time), so that the ratio comes from one
-run on a shared machine; `page_cpu_s` is the process's CPU time per page as
-served (less sensitive to other processes than the wall-clock figures).
-The shipped maps are prerendered first, as the server's warm-up does:
-pages opened before it ends also stat the maps not
-yet read (~0.02 s each).  Issue 14's goal: a page <= 0.1 s.
+the server builds them (`explorer.create_app`: the page attached in one
+pass) and plainly (the template's roots attached one at a time), so that
+the ratio comes from one run on a shared machine; `page_cpu_s` is the
+process's CPU time per page as served (less sensitive to other processes
+than the wall-clock figures).  The shipped maps are prerendered first, as
+the server's warm-up does: pages opened before it ends also stat the maps
+not yet read (~0.02 s each).  Issue 14's goal: a page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
 """

@@ -259,11 +259,10 @@ def test_each_session_gets_its_own_map_figure():
 
 
 def test_served_page_is_the_plainly_built_page():
-    """The page as the server builds it (explorer.create_app: Bokeh's
-    property validation off, attached under one freeze of the document's
-    model graph) serializes to the same document as the template's own
-    attach of a page built with validation on (ids aside), every model
-    registered with the document: no value needed validation's conversions."""
+    """The page as the server builds it (explorer.create_app: attached
+    under one freeze of the document's model graph) serializes to the same
+    document as the template's own attach (ids aside), every model
+    registered with the document."""
     import re
 
     from bokeh.core.json_encoder import serialize_json
@@ -274,7 +273,7 @@ def test_served_page_is_the_plainly_built_page():
 
     texts = []
     for served in (False, True):
-        map_view._map_json.cache_clear()        # the map rendered inside each build
+        map_view._map_json.cache_clear()        # the map rendered inside each build too
         doc = Document()
         with set_curdoc(doc):
             template = E.create_app() if served else E.explorer_template(E.Explorer())

@@ -314,7 +314,10 @@ def sweep_step_ratio(quick=False):
     the kernel timed round-robin in the same run.  1 would be a sweep that
     does nothing but vertical steps on every core; the deformable step
     itself costs ~1.9 of them (`vibtrans bench`).  The points judge chaos by
-    their Lyapunov exponent (no twin runs)."""
+    their Lyapunov exponent (no twin runs).  Split in two factors:
+    `sweep_kernel_step_ratio`, the points' kernel calls alone (by their own
+    clocks, the cores all busy), and `sweep_overhead_factor`, the rest (the
+    Python around each point, the store's writes, cores left waiting)."""
     import shutil
     import tempfile
 
@@ -332,14 +335,22 @@ def sweep_step_ratio(quick=False):
         run_sweep(sweep, f"{tmp}/s.zarr", workers=cores, progress=False)
         wall = time.perf_counter() - t0
         import xarray as xr
-        steps = int(xr.open_zarr(f"{tmp}/s.zarr", consolidated=False)["steps"].values.sum())
+        store = xr.open_zarr(f"{tmp}/s.zarr", consolidated=False)
+        steps = int(store["steps"].values.sum())
+        kernel_seconds = float(store["seconds"].values.sum())
     finally:
         shutil.rmtree(tmp)
     ns_after, = _interleaved_ns([(vertical, {})], 3)
     ns = min(ns_before, ns_after)
+    ratio = wall * cores / (steps * ns * 1e-9)
+    kernels = kernel_seconds / (steps * ns * 1e-9)
+    # the ratio split in two: the points' kernel calls alone (their own
+    # clocks, all cores busy) and the rest (Python around each point,
+    # waiting, writing the store) as a factor
     return {"sweep_points": points * points, "sweep_periods": periods, "cores": cores,
             "sweep_seconds": wall, "sweep_steps": steps, "vertical_ns_per_step": ns,
-            "sweep_step_ratio": wall * cores / (steps * ns * 1e-9)}
+            "sweep_step_ratio": ratio, "sweep_kernel_step_ratio": kernels,
+            "sweep_overhead_factor": ratio / kernels}
 
 
 def preview_window_times(quick=False):

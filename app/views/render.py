@@ -15,7 +15,6 @@ render here holds one lock."""
 import threading
 
 import holoviews as hv
-from bokeh.core.property.validation import validate
 from bokeh.document import Document
 
 _LOCK = threading.Lock()
@@ -42,12 +41,8 @@ def exclusively(work, *args, **kwargs):
 def _render(element):
     renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes
-    # to a plain one, as hv.render's did: the page's theme applies).
-    # Validation on, even inside a page's build (explorer.create_app turns it
-    # off): HoloViews gives Bokeh values that only validation converts (a
-    # figure's title as a string, made a Title when validation rejects it)
-    with validate(True):
-        plot = renderer.get_plot(element, doc=Document())
+    # to a plain one, as hv.render's did: the page's theme applies)
+    plot = renderer.get_plot(element, doc=Document())
     doc = Document()
     doc.add_root(plot.state)
     return doc, plot.state
