@@ -11,13 +11,52 @@ HoloViews' rendering is not thread-safe (its plots share class-level state:
 two renders at once leave a figure's title a plain string, and the second
 raises AttributeError in `_update_title`).  Maps on demand are rendered off
 the event loop, several at once since four maps compute together, so every
-render here holds one lock."""
+render here holds one lock.
+
+Bokeh's property validation is switched per thread here (`_validation_per_thread`).
+HoloViews turns it off around some updates of a render's sources
+(`with validate(False)`), and Bokeh keeps that switch in one flag for the
+whole process: a figure built on the event loop while a map rendered in a
+worker thread got its title left a plain string, which validation would
+have made a Title (a five-map load test: 46 failed drawings)."""
 import threading
 
 import holoviews as hv
+from bokeh.core.property import bases, validation
 from bokeh.document import Document
 
 _LOCK = threading.Lock()
+_VALIDATION = threading.local()      # .on: this thread's switch (None: Bokeh's default)
+
+
+def _validation_on():
+    on = getattr(_VALIDATION, "on", None)
+    return bases.Property._should_validate if on is None else on
+
+
+def _switch(self, value):
+    self.old = getattr(_VALIDATION, "on", None)
+    _VALIDATION.on = value
+
+
+def _restore(self, typ, value, traceback):
+    _VALIDATION.on = self.old
+
+
+def _validation_per_thread():
+    """Make `bokeh.core.property.validation.validate` (a context manager,
+    used by HoloViews) switch validation for its own thread only: Bokeh's
+    `validation_on`, which property values are checked by, reads the
+    thread's switch."""
+    if getattr(validation.validate, "per_thread", False):
+        return
+    bases.validation_on = _validation_on
+    validation.validate.__init__ = _switch
+    validation.validate.__exit__ = _restore
+    validation.validate.per_thread = True
+
+
+_validation_per_thread()
 
 
 def rendered(make, *args, **kwargs):
