@@ -1125,12 +1125,11 @@ def explorer_template(explorer):
 
 def create_app():
     """One session's explorer page.  Bokeh's property validation stays on
-    while it is built, though it is a tenth of the page's time: switched off
-    with Bokeh's process-wide flag, a map rendered in a worker thread
-    meanwhile left it off for good in a load test, breaking every later
-    figure (HoloViews relies on validation's conversions).  The switch is
-    now per thread (views/render.py); building pages without it was not
-    tried again."""
+    while it is built, though it is a tenth of the page's time: building
+    pages without it was tried while the switch was still one flag for the
+    whole process, and trajectory figures failed in a load test with maps
+    on demand (the cause: HoloViews' own switch in the map-rendering
+    threads, now per thread, views/render.py).  It was not tried again."""
     explorer = Explorer()
     return _attached_in_one_pass(explorer_template(explorer), explorer.location)
 
