@@ -131,14 +131,21 @@ def _port():
         return s.getsockname()[1]
 
 
+def _stat(pid):
+    """The fields of /proc/PID/stat after the command's name (which may
+    hold spaces and parentheses): [0] the state, [1] the parent's pid,
+    [11] and [12] user and system time in clock ticks."""
+    with open(f"/proc/{pid}/stat") as f:
+        return f.read().rsplit(")", 1)[1].split()
+
+
 def _tree(pid):
     """pid and its descendants (server processes with --num-procs > 1)."""
     children = {}
     for p in os.listdir("/proc"):
         if p.isdigit():
             try:
-                with open(f"/proc/{p}/stat") as f:
-                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+                ppid = int(_stat(p)[1])
                 children.setdefault(ppid, []).append(int(p))
             except (OSError, IndexError, ValueError):
                 pass
@@ -173,8 +180,7 @@ def cpu_seconds(pids):
     total = 0
     for q in pids:
         try:
-            with open(f"/proc/{q}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
+            fields = _stat(q)
             total += int(fields[11]) + int(fields[12])     # utime, stime
         except (OSError, IndexError, ValueError):
             pass
@@ -300,8 +306,7 @@ class _Measured:
 def pid_alive(pid):
     """Whether process `pid` exists and is not a zombie."""
     try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+        return _stat(pid)[0] != "Z"
     except (OSError, IndexError):
         return False
 

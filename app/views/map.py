@@ -70,12 +70,15 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
 
 
 @functools.lru_cache(maxsize=16)
-def _map_json(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
+def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     """`map_element` rendered by HoloViews into Bokeh models, serialized
     without the data of its sources, and that data ({source id: columns}).
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
-    every value it sets from JSON, arrays included)."""
+    every value it sets from JSON, arrays included).  Every argument
+    positional and given: the cache tells calls apart by how their
+    arguments were passed too (the warm-up's calls, defaults left out, once
+    missed what the pages read)."""
     doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
     _lean(fig)
     columns = {}
@@ -208,8 +211,6 @@ def prerender_steps():
     only copies a rendered figure (~0.1 s) instead of rendering it
     (0.3-1.8 s): an iterator of calls, one render each.  The server runs
     them on its event loop one at a time after its warm-up."""
-    # every argument given as map_figure gives them (all positional): the
-    # cache tells calls apart by how their arguments were passed too
     for model, mu in sorted(data.available_maps()):
         for chaotic in ("grey", "colour"):
             yield functools.partial(_map_json, model, mu, V0, chaotic, DRIFT_LAYER,
