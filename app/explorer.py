@@ -11,6 +11,7 @@ serves while the kernels compile in the background, app/kernels.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
 import asyncio
+import contextlib
 import ctypes
 import functools
 import gc
@@ -26,6 +27,7 @@ import holoviews as hv
 import panel as pn
 import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
+from panel.template import base as template_base
 
 from vibtrans import mapaccuracy, plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
@@ -40,6 +42,7 @@ from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView, computed_figure
+from .views.render import unvalidated
 from .views.ondemand import MapRequestPanel
 from .views.design import DesignPanel
 from .views.dynamics import DynamicsView
@@ -1097,22 +1100,47 @@ class Explorer(pn.viewable.Viewer):
 
 def _attached_in_one_pass(template, page_location=None):
     """`template` whose page is attached to its document under one freeze of
-    the document's model graph: the template adds its parts one root at a
-    time, and Bokeh recomputed the whole graph after each (~10 times per
-    page); once is enough (a page 0.27 -> 0.23 s of the event loop that all
-    sessions share; `python -m devtools.pagecost`).  `page_location`: the page's
-    own Location (`_page_location`), given to Panel instead of the one it
-    would parse from the request."""
+    the document's model graph, unvalidated, its roots added as the fresh
+    models they are (`_fresh_roots`): the template adds its parts one root
+    at a time, and Bokeh recomputed the whole graph after each (~10 times
+    per page); once is enough.  `page_location`: the page's own Location
+    (`_page_location`), given to Panel instead of the one it would parse
+    from the request.  What each saves of a page's time on the event loop
+    that all sessions share (`python -m devtools.pagecost`): the one freeze
+    0.27 -> 0.23 s; validation and the fresh roots 9% and 6% more."""
     server_doc = template.server_doc
 
     def frozen(doc=None, title=None, location=True):
         doc = doc or pn.state.curdoc
         if page_location is not None and location:
             location = page_location
-        with doc.models.freeze():
+        with doc.models.freeze(), unvalidated(), _fresh_roots():
             return server_doc(doc, title, location)
     template.server_doc = frozen
     return template
+
+
+def _add_fresh_root(model, doc, hold=False, skip=None):
+    """Panel's `add_to_doc` for a page's own new models: the root added,
+    without first walking its model graph to take every model out of the
+    document it belonged to (none did: a model of two documents would
+    raise when Bokeh attaches it, not go unseen)."""
+    doc.add_root(model)
+    if doc.callbacks.hold_value is None and hold:
+        doc.hold()
+    return set()
+
+
+@contextlib.contextmanager
+def _fresh_roots():
+    """The template adds its roots by `_add_fresh_root` (the event loop's
+    page builds only: no other thread attaches templates)."""
+    panel_add = template_base.add_to_doc
+    template_base.add_to_doc = _add_fresh_root
+    try:
+        yield
+    finally:
+        template_base.add_to_doc = panel_add
 
 
 def explorer_template(explorer):
@@ -1124,14 +1152,15 @@ def explorer_template(explorer):
 
 
 def create_app():
-    """One session's explorer page.  Bokeh's property validation stays on
-    while it is built, though it is a tenth of the page's time: building
-    pages without it was tried while the switch was still one flag for the
-    whole process, and trajectory figures failed in a load test with maps
-    on demand (the cause: HoloViews' own switch in the map-rendering
-    threads, now per thread, views/render.py).  It was not tried again."""
-    explorer = Explorer()
-    return _attached_in_one_pass(explorer_template(explorer), explorer.location)
+    """One session's explorer page, built (and attached, `_attached_in_one_pass`)
+    without Bokeh's property validation: a tenth of a page's cost.  Its
+    values are valid as given (tests/test_app_runs.py: the page serializes
+    as a validated build does); the maps rendered meanwhile switch it on
+    (views/render.py: HoloViews needs its conversions), and it is off for
+    this thread only."""
+    with unvalidated():
+        explorer = Explorer()
+        return _attached_in_one_pass(explorer_template(explorer), explorer.location)
 
 
 if pn.state.served:

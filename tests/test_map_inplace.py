@@ -146,3 +146,42 @@ def test_prerendered_maps_serve_every_shipped_setting_without_a_render(monkeypat
             state.chaotic = chaotic
     state.layer = LYAPUNOV_LAYER
     assert view.figures and renders == []
+
+
+def test_renderers_share_parts_and_draw_what_they_drew_alone():
+    """views/map.py `_shared_parts`: the map's sources share one selection,
+    policy and filter, renderers drawing the same rows share one source and
+    view; every renderer still finds, under each field its glyph reads,
+    the column it read before sharing (a figure rendered unshared, the
+    same setting)."""
+    from bokeh.models import GlyphRenderer
+
+    from vibtrans_explorer.views import map as map_view
+    from vibtrans_explorer.views.render import rendered
+
+    _, alone = rendered(map_view.map_element, "deformable", 0.3, 1.0, "grey")
+    _, shared = rendered(map_view.map_element, "deformable", 0.3, 1.0, "grey")
+    map_view._shared_parts(shared)
+    pairs = [(a, s) for a, s in zip(alone.renderers, shared.renderers)
+             if isinstance(a, GlyphRenderer)]
+    assert len(pairs) >= 8
+    fields = 0
+    for a, s in pairs:
+        assert type(a.glyph) is type(s.glyph)
+        for name, spec in a.glyph.properties_with_values(include_defaults=False).items():
+            field = spec.get("field") if isinstance(spec, dict) else getattr(spec, "field", None)
+            if isinstance(field, str):
+                fields += 1
+                before = np.asarray(a.data_source.data[field])
+                after = np.asarray(s.data_source.data[field])
+                assert np.array_equal(before, after, equal_nan=before.dtype.kind == "f"), \
+                    (a.glyph, name)
+    assert fields >= 8
+    renderers = [s for _, s in pairs]
+    sources = {id(r.data_source): r.data_source for r in renderers}
+    assert len(sources) < len(renderers)            # the key's swatches share one
+    assert len({id(s.selected) for s in sources.values()}) == 1
+    assert len({id(s.selection_policy) for s in sources.values()}) == 1
+    assert len({id(r.view.filter) for r in renderers}) == 1
+    for r in renderers:                 # one view per source, never across sources
+        assert all(o.view is not r.view or o.data_source is r.data_source for o in renderers)

@@ -66,8 +66,18 @@ def rendered(make, *args, **kwargs):
     HoloViews' shared options too, and reads the shipped data's lazily
     opened netCDF files, which two threads must not open at once (that
     crashed the process)."""
-    with _LOCK:
+    with _LOCK, validation.validate(True):    # HoloViews relies on validation's conversions
         return _render(make(*args, **kwargs))
+
+
+def unvalidated():
+    """A context in which this thread sets Bokeh properties without
+    validating them (views/.. builds its pages so: a tenth of a page's
+    cost).  Only for code whose values are known to be valid as given:
+    validation also converts (a str given for a figure's title becomes a
+    Title), and without it they stay as given.  Renders here switch it
+    back on."""
+    return validation.validate(False)
 
 
 def exclusively(work, *args, **kwargs):
