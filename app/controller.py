@@ -28,13 +28,20 @@ from vibtrans.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans.simulate import StepBudgetExceeded
 
 from . import kernels
+from .fairshare import lower_priority
 
 log = logging.getLogger("vibtrans.explorer")
 
+# the run threads' niceness: on a core they share with the event loop
+# (every session's pages, figures and messages: one thread), the event loop
+# comes first (weight 335 against 1024); the maps' workers are nicer still
+# (mapjobs.MAP_NICE), so runs come before them
+RUN_NICE = 5
 # One pool for the process: numba kernels release the GIL, so runs proceed
 # while the server keeps serving other sessions.
 RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
-                            thread_name_prefix="vibtrans-run")
+                            thread_name_prefix="vibtrans-run",
+                            initializer=lower_priority, initargs=(RUN_NICE,))
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
 BUSY_AFTER = 0.25     # s: a run still going then shows progress and Cancel
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"

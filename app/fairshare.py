@@ -12,6 +12,21 @@ from collections import OrderedDict, deque
 from concurrent.futures import Executor, Future
 
 
+def lower_priority(nice):
+    """Make the calling thread `nice` steps nicer than it is (Linux, where a
+    thread's id is a process id for setpriority; elsewhere it keeps the
+    process's priority): a thread pool's initializer, so that the
+    process's other threads come first on a busy core."""
+    if not nice:
+        return
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid,
+                       min(19, os.getpriority(os.PRIO_PROCESS, tid) + nice))
+    except (OSError, AttributeError):
+        pass
+
+
 class FairPool:
     """`workers` daemon threads serving lanes round-robin (one task from a
     lane, then the next lane with work), at niceness `nice` (Linux: per
@@ -65,13 +80,7 @@ class FairPool:
                 self._ready.wait()
 
     def _serve(self):
-        if self.nice:
-            try:            # a thread's id is a process id for setpriority (Linux)
-                tid = threading.get_native_id()
-                os.setpriority(os.PRIO_PROCESS, tid,
-                               min(19, os.getpriority(os.PRIO_PROCESS, tid) + self.nice))
-            except (OSError, AttributeError):
-                pass        # elsewhere: the workers run at the process's priority
+        lower_priority(self.nice)
         while True:
             future, fn, args, kwargs = self._next()
             if not future.set_running_or_notify_cancel():

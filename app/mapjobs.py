@@ -44,7 +44,8 @@ MAX_QUEUED = 16
 # cores thinner, fewer would let one big map hold the others back
 MAX_RUNNING = 4
 # the map workers' niceness: on a core they share with the sessions' runs
-# and the event loop, those come first (a weight of about 1/10 of theirs)
+# and the event loop, those come first (a weight of about 1/10 of the event
+# loop's, 1/3 of the runs', controller.RUN_NICE)
 MAP_NICE = 10
 # a picture of a map within a refinement level at most this often: a level
 # of a large map takes minutes.  Each picture costs a render (under the

@@ -135,6 +135,19 @@ def _reexec_on_c_allocator(args):
                   dict(os.environ, PYTHONMALLOC="malloc"))
 
 
+def _no_document_checks():
+    """Bokeh checks every new session's document for mistakes of its making
+    (models without renderers, bad column names; ~0.03 s of the event loop
+    per page, which takes 0.16 s to build), finding for this page, every
+    time, only the empty containers that are filled when first opened.
+    The page is always the same: tests/test_app_runs.py checks it once
+    (no errors, only those warnings).  BOKEH_VALIDATE_DOC set in the
+    environment still decides."""
+    if "BOKEH_VALIDATE_DOC" not in os.environ:
+        from bokeh.settings import settings
+        settings.perform_document_validation.set_value(False)
+
+
 def _freeze():
     """What the imports (and the warm-up) built (~10^6 objects: modules, JIT
     dispatchers, maps) lives as long as the server: leave it out of the
@@ -198,6 +211,7 @@ def serve(args):
 
     from .explorer import STATIC, STATIC_ROUTE, create_app
     _log_to_stderr(logging.getLogger("vibtrans"))
+    _no_document_checks()
     _freeze()
     started = []
 

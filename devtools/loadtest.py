@@ -588,6 +588,7 @@ async def _protocol_session(url, k, a, result, rng):
         t0 = time.perf_counter()
         await client.open()
         result["load_s"].append(time.perf_counter() - t0)
+        result["load_kinds"].append("protocol")
         for c, (fx, fy) in enumerate(_range_points(k + getattr(a, "first_point", 0), a.clicks)):
             start = time.perf_counter()
             try:
@@ -619,6 +620,7 @@ async def _map_session(url, k, a, result, index):
         await client.open()
         ended = client.map_ended()         # before any await: its end cannot be missed
         result["load_s"].append(time.perf_counter() - t0)
+        result["load_kinds"].append("map")
         try:
             kind, text = await asyncio.wait_for(ended, a.timeout)
         except asyncio.TimeoutError:
@@ -651,6 +653,7 @@ async def _session(browser, url, k, a, result, rng):
         # map can be lost (its tap callback is not attached yet)
         await page.wait_for_function(_IDLE_JS, polling=100, timeout=a.click_timeout * 1000)
         result["load_s"].append(time.perf_counter() - t0)
+        result["load_kinds"].append("browser")
         await page.wait_for_timeout(500)
         box = await page.locator("canvas").first.bounding_box()
         for c, (fx, fy) in enumerate(_points(k + getattr(a, "first_point", 0), a.clicks)):
@@ -748,7 +751,7 @@ def _median(values):
 
 def _new_result():
     return {"latencies": [], "browser_latencies": [], "protocol_latencies": [], "timeline": [],
-            "errors": [], "refused": [], "load_s": [], "map_s": []}
+            "errors": [], "refused": [], "load_s": [], "load_kinds": [], "map_s": []}
 
 
 def _quantile(values, q):
@@ -849,6 +852,9 @@ def run(a):
         "page_load_p50_s": statistics.median(result["load_s"]) if result["load_s"] else None,
         "page_load_p95_s": _quantile(result["load_s"], 0.95) if result["load_s"] else None,
         "page_load_max_s": max(result["load_s"]) if result["load_s"] else None,
+        # which pages are slow: [[kind (protocol, map or browser), seconds], ...], slowest first
+        "page_loads": sorted(([k, round(t, 3)] for k, t in zip(result["load_kinds"], result["load_s"])),
+                             key=lambda kt: -kt[1]),
         "warmup_click_s": warm["latencies"][0] if warm["latencies"] else None,
         "server_start_to_ready_s": ready,
         "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak,

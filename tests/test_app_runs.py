@@ -317,3 +317,38 @@ def test_the_map_hover_shows_drift_and_verdict_never_nan(chaotic):
     data = hovers[0].renderers[0].data_source.data
     assert np.isfinite(data["v"][0]).all()
     assert set(np.unique(data["chaotic"][0])) <= {0.0, 1.0}
+
+
+def test_the_page_passes_bokehs_document_checks():
+    """The server skips Bokeh's per-session document checks (app/server.py
+    `_no_document_checks`): the page, always the same, is checked here.
+    No errors; the only warnings are the empty containers filled when first
+    opened (the lazy tabs and boxes)."""
+    from bokeh.core.validation.check import check_integrity
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    doc = Document()
+    with set_curdoc(doc):
+        E.create_app().server_doc(doc)
+    issues = [check_integrity(root.references()) for root in doc.roots]
+    assert not [e for i in issues for e in i.error]
+    warnings = {w.name for i in issues for w in i.warning}
+    assert warnings <= {"EMPTY_LAYOUT"}, warnings
+
+
+def test_the_server_leaves_document_checks_to_the_test(monkeypatch):
+    """`_no_document_checks` turns Bokeh's per-session checks off unless
+    BOKEH_VALIDATE_DOC says otherwise."""
+    from bokeh.settings import settings
+
+    from vibtrans_explorer import server
+    try:
+        monkeypatch.setenv("BOKEH_VALIDATE_DOC", "true")
+        server._no_document_checks()
+        assert settings.perform_document_validation() is True
+        monkeypatch.delenv("BOKEH_VALIDATE_DOC")
+        server._no_document_checks()
+        assert settings.perform_document_validation() is False
+    finally:
+        settings.perform_document_validation.unset_value()

@@ -75,3 +75,17 @@ def test_the_workers_run_at_the_niceness_asked_for():
     got = lane.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
     assert got.result(timeout=30) == min(19, here + 7)
     assert os.getpriority(os.PRIO_PROCESS, 0) == here        # this thread unchanged
+
+
+def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
+    """controller.RUNNER's threads run at RUN_NICE (the event loop, one
+    thread for every session's pages and figures, comes first on a shared
+    core), the maps' workers nicer still."""
+    import os
+
+    from vibtrans_explorer.controller import RUN_NICE, RUNNER
+    from vibtrans_explorer.mapjobs import MAP_NICE
+    here = os.getpriority(os.PRIO_PROCESS, 0)
+    got = RUNNER.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+    assert got.result(timeout=30) == min(19, here + RUN_NICE)
+    assert 0 < RUN_NICE < MAP_NICE
