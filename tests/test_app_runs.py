@@ -258,14 +258,62 @@ def test_each_session_gets_its_own_map_figure():
     assert not np.array_equal(image_a[0], images[1][0], equal_nan=True)   # the mu 0.1 map
 
 
+def _serialized(doc):
+    """A document's JSON with its model ids (p1234) and Panel's names
+    (Column01234, main-1407...) numbered in order of appearance."""
+    import re
+
+    from bokeh.core.json_encoder import serialize_json
+    ids = {}
+    return re.sub(r"p\d{3,}|[A-Za-z]*-?\d{4,}",
+                  lambda m: ids.setdefault(m.group(0), f"ID{len(ids)}"),
+                  serialize_json(doc.to_json()))
+
+
+@pytest.mark.parametrize("settings", [
+    {"maps": "both models"}, {"model": "point-mass"}, {"model": "point-mass", "mu": 0.1},
+    {"layer": "Lyapunov exponent"}, {"orbits": "period-1 orbit curves"},
+    {"mu": 0.1, "v0": 0.5, "chaotic": "colour"}, {"presentation": True}])
+def test_a_page_built_unvalidated_from_a_link_is_the_validated_page(settings):
+    """A link's values are applied while the page is built (Explorer's
+    `_apply_url`), which create_app does without Bokeh's property
+    validation: for each kind of setting that changes what the first
+    screen draws, the page built so serializes as one built validated."""
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    from vibtrans_explorer.views import map as map_view
+    from vibtrans_explorer.views.render import unvalidated
+
+    def build(served):
+        ex = E.Explorer()
+        state = {k: v for k, v in settings.items() if k != "presentation"}
+        ex.state.param.update(**state)
+        ex.param.update(**{k: v for k, v in settings.items() if k == "presentation"})
+        template = E.explorer_template(ex)
+        return E._attached_in_one_pass(template, ex.location) if served else template
+
+    texts = []
+    for served in (False, True):
+        map_view._map_json.cache_clear()        # the maps rendered inside each build too
+        doc = Document()
+        with set_curdoc(doc):
+            if served:
+                with unvalidated():
+                    build(served).server_doc(doc)
+            else:                               # validated throughout, attached by Panel
+                build(served).server_doc(doc)
+        texts.append(_serialized(doc))
+    assert len(texts[0]) > 10000
+    assert texts[0] == texts[1]
+
+
 def test_served_page_is_the_plainly_built_page():
     """The page as the server builds it (explorer.create_app: attached
     under one freeze of the document's model graph) serializes to the same
     document as the template's own attach (ids aside), every model
-    registered with the document."""
-    import re
-
-    from bokeh.core.json_encoder import serialize_json
+    registered with the document, built without Bokeh's property
+    validation as the validated one is."""
     from bokeh.document import Document
     from panel.io.state import set_curdoc
 
@@ -281,11 +329,7 @@ def test_served_page_is_the_plainly_built_page():
         reachable = {m.id for root in doc.roots for m in root.references()}
         assert reachable and reachable <= {m.id for m in doc.models}
         assert all(doc.get_model_by_id(i) is not None for i in reachable)
-        ids = {}
-        # model ids (p1234) and Panel's names (Column01234, main-1407...)
-        texts.append(re.sub(r"p\d{3,}|[A-Za-z]*-?\d{4,}",
-                            lambda m: ids.setdefault(m.group(0), f"ID{len(ids)}"),
-                            serialize_json(doc.to_json())))
+        texts.append(_serialized(doc))
     assert len(texts[0]) > 10000
     assert texts[0] == texts[1]
 
