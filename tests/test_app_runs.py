@@ -287,9 +287,8 @@ def test_a_page_built_unvalidated_from_a_link_is_the_validated_page(settings):
 
     def build(served):
         ex = E.Explorer()
-        state = {k: v for k, v in settings.items() if k != "presentation"}
-        ex.state.param.update(**state)
-        ex.param.update(**{k: v for k, v in settings.items() if k == "presentation"})
+        ex.state.param.update(**{k: v for k, v in settings.items() if k != "presentation"})
+        ex.presentation = settings.get("presentation", False)
         template = E.explorer_template(ex)
         return E._attached_in_one_pass(template, ex.location) if served else template
 

@@ -72,8 +72,8 @@ def rendered(make, *args, **kwargs):
 
 def unvalidated():
     """A context in which this thread sets Bokeh properties without
-    validating them (views/.. builds its pages so: a tenth of a page's
-    cost).  Only for code whose values are known to be valid as given:
+    validating them (explorer.create_app builds its pages so: a tenth of
+    a page's cost).  Only for code whose values are known to be valid as given:
     validation also converts (a str given for a figure's title becomes a
     Title), and without it they stay as given.  Renders here switch it
     back on."""
