@@ -3,13 +3,22 @@ lane (an Executor of its own) and the workers take the next task from the
 lanes in turn, so a big map that was asked for first cannot starve a small
 one asked for later; each map runs as fast as the cores allow while alone.
 
-The tasks are map points (vibtrans.adaptive), whose kernels release the
-GIL, so threads use the cores.  Nothing here knows about maps.
+The tasks are map points (vibtrans.adaptive).  Their kernels release the
+GIL, but a point's Python around its kernel (the scene's checks, its
+trajectory's Dataset, the summary) does not, and at preview fidelity it
+is most of the point: 1.3 of a 33 x 33 preview map's 1.45 s of CPU.  In
+threads of the server that Python held the GIL against the event loop,
+however nice the threads.  So a pool made with `processes=True` runs the
+tasks in worker processes (its threads only hand them over and wait),
+started when a task comes and stopped once no lane is left.  Nothing here
+knows about maps.
 """
+import multiprocessing
 import os
 import threading
 from collections import OrderedDict, deque
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 
 def lower_priority(nice):
@@ -27,17 +36,46 @@ def lower_priority(nice):
         pass
 
 
+def _start_worker_process(niceness, initializer):
+    """A worker process's start: at `niceness` (the whole process; it
+    inherits that of the pool's thread that started it), then
+    `initializer()` (say, loading compiled kernels)."""
+    if niceness is not None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, niceness)
+        except (OSError, AttributeError):
+            pass
+    if initializer is not None:
+        initializer()
+
+
 class FairPool:
     """`workers` daemon threads serving lanes round-robin (one task from a
     lane, then the next lane with work), at niceness `nice` (Linux: per
     thread), so that the process's other threads (a server's event loop and
-    its sessions' runs) come first on a busy core."""
+    its sessions' runs) come first on a busy core.
 
-    def __init__(self, workers, name="vibtrans-fair", nice=0):
+    processes: run each task in one of `workers` worker processes (spawned,
+    at niceness `nice`, each calling `initializer()` first) instead of in
+    the thread: the task, its arguments and its result must pickle.  The
+    processes start with the first task after an idle spell and stop once
+    every lane is shut down and no task runs (they hold memory: ~220 MB
+    each for the map points)."""
+
+    def __init__(self, workers, name="vibtrans-fair", nice=0, processes=False,
+                 initializer=None):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = int(workers)
         self.nice = int(nice)
+        try:        # the worker processes' niceness: `nice` below this process's
+            self._process_niceness = min(19, os.getpriority(os.PRIO_PROCESS, 0) + self.nice)
+        except (OSError, AttributeError):
+            self._process_niceness = None
+        self.processes = bool(processes)
+        self.initializer = initializer
+        self._processes = None            # the ProcessPoolExecutor while one is up
+        self._busy = 0                    # tasks running
         self._ready = threading.Condition()
         self._lanes = OrderedDict()       # Lane -> deque of (future, fn, args, kwargs)
         self._threads = [threading.Thread(target=self._serve, name=f"{name}-{k}", daemon=True)
@@ -66,6 +104,7 @@ class FairPool:
         """Drop the lane and cancel its tasks that have not started."""
         with self._ready:
             tasks = self._lanes.pop(lane, ())
+            self._stop_idle_processes()
         for future, *_ in tasks:
             future.cancel()
 
@@ -76,6 +115,7 @@ class FairPool:
                     if tasks:
                         # this lane goes to the back of the turn
                         self._lanes.move_to_end(lane)
+                        self._busy += 1
                         return tasks.popleft()
                 self._ready.wait()
 
@@ -83,14 +123,49 @@ class FairPool:
         lower_priority(self.nice)
         while True:
             future, fn, args, kwargs = self._next()
-            if not future.set_running_or_notify_cancel():
-                continue
             try:
-                result = fn(*args, **kwargs)
-            except BaseException as exc:      # handed to the map that asked
-                future.set_exception(exc)
-            else:
-                future.set_result(result)
+                if future.set_running_or_notify_cancel():
+                    try:
+                        result = self._run(fn, args, kwargs)
+                    except BaseException as exc:      # handed to the map that asked
+                        future.set_exception(exc)
+                    else:
+                        future.set_result(result)
+            finally:
+                with self._ready:
+                    self._busy -= 1
+                    self._stop_idle_processes()
+
+    def _run(self, fn, args, kwargs):
+        if not self.processes:
+            return fn(*args, **kwargs)
+        with self._ready:
+            if self._processes is None:
+                self._processes = ProcessPoolExecutor(
+                    self.workers, mp_context=multiprocessing.get_context("spawn"),
+                    initializer=_start_worker_process, initargs=(self._process_niceness, self.initializer))
+            processes = self._processes
+        try:
+            return processes.submit(fn, *args, **kwargs).result()
+        except BrokenProcessPool:
+            # a worker died (killed, out of memory): the next task starts a new pool
+            with self._ready:
+                if self._processes is processes:
+                    self._processes = None
+            processes.shutdown(wait=False)
+            raise
+
+    def _stop_idle_processes(self):
+        """(Holding the lock) stop the worker processes once no lane is
+        left and no task runs: memory back to the system between maps."""
+        if self._processes is not None and not self._lanes and not self._busy:
+            self._processes.shutdown(wait=False)
+            self._processes = None
+
+    def processes_up(self):
+        """Whether worker processes are running (for tests and diagnostics)."""
+        with self._ready:
+            return self._processes is not None
 
     def queued(self):
         """{lane: tasks waiting} (for tests and diagnostics)."""

@@ -19,7 +19,9 @@ queue, one cache, one core budget for the process.
   fairly (app/fairshare.py: their points take turns, so a big map asked
   for first never starves a small one asked for later; a map alone gets
   every worker), niced (MAP_NICE) below the sessions' runs and the event
-  loop.  `cores` is by default all cores but one, which stays for
+  loop.  The workers are processes (started for the maps, stopped when
+  none computes), so that the points' Python never holds this process's
+  GIL against its event loop.  `cores` is by default all cores but one, which stays for
   the sessions' clicks (their runs use app/controller.py's pool, never
   these workers).  Further maps wait first come, first served; at most
   `max_queued` wait, beyond that a request is refused.
@@ -33,6 +35,7 @@ from typing import NamedTuple
 
 from vibtrans.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
+from vibtrans.precompile import warmup
 
 from . import kernels, maprequest
 from .fairshare import FairPool
@@ -128,7 +131,7 @@ class MapJobs:
     def __init__(self, folder=None, max_bytes=DEFAULT_MAX_BYTES, cores=None,
                  max_queued=MAX_QUEUED, max_points=maprequest.MAX_POINTS,
                  max_seconds=maprequest.MAX_SECONDS, build=None, scheduler=None,
-                 max_running=MAX_RUNNING):
+                 max_running=MAX_RUNNING, processes=True):
         self.folder = folder or default_folder()
         # a dask.distributed scheduler's address: the points run on its
         # cluster instead of this process's threads (`vibtrans serve --scheduler`)
@@ -137,6 +140,8 @@ class MapJobs:
         self.cores = cores or default_cores()
         self.max_queued = max_queued
         self.max_running = max_running
+        # the points in worker processes (fairshare.FairPool), else in threads
+        self.processes = bool(processes)
         self.max_points = max_points
         self.max_seconds = max_seconds
         # build(computation, path, on_level): computes the map's store at
@@ -147,7 +152,7 @@ class MapJobs:
         self._computations = {}      # key -> _Computation (queued or running)
         self._queue = []             # computations waiting, in order
         self._running = set()        # the computations running
-        self._workers = None         # the FairPool of `cores` threads (made at first use)
+        self._workers = None         # the FairPool of `cores` workers (made at first use)
         self._sessions = {}          # session -> Ticket
         self._speed = {}             # model -> ns per step (runs and twins), measured here
         # a thread per running map (its refinement; its points go to the
@@ -348,12 +353,22 @@ class MapJobs:
             log.exception("a map on demand failed: %s", comp.request.title())
             self._tell(comp, Update("failed", text=f"{type(exc).__name__}: {exc}"), final=True)
 
+    def start_helpers(self):
+        """Start, at the server's warm-up, the helper process that worker
+        processes need for the server's whole life (multiprocessing's
+        resource tracker, ~13 MB), so that it is not first started, and
+        counted as memory kept, by a map."""
+        if self.processes and not self.scheduler:
+            from multiprocessing import resource_tracker
+            resource_tracker.ensure_running()
+
     def share(self):
         """A new lane of the server's workers (app/fairshare.py) for one map."""
         with self._lock:
             if self._workers is None:
                 self._workers = FairPool(self.cores, name="vibtrans-map-point",
-                                         nice=MAP_NICE)
+                                         nice=MAP_NICE, processes=self.processes,
+                                         initializer=warmup)
             return self._workers.lane()
 
     def _run_adaptive(self, comp, path, on_level):
@@ -389,13 +404,15 @@ def configure(folder=None, max_bytes=None, cores=None, scheduler=None):
 def jobs():
     """The process's MapJobs (made at first use, from `configure` and the
     environment: VIBTRANS_MAP_CACHE, VIBTRANS_MAP_CORES, VIBTRANS_MAP_MAX_POINTS,
-    VIBTRANS_MAP_MAX_SECONDS)."""
+    VIBTRANS_MAP_MAX_SECONDS, VIBTRANS_MAP_PROCESSES: 0 runs the points in
+    threads of the server, not in worker processes)."""
     if _JOBS["jobs"] is None:
         settings = dict(_JOBS["settings"])
         for name, key, kind, lo, hi in (("cores", "VIBTRANS_MAP_CORES", int, 1, 256),
                                         ("max_points", "VIBTRANS_MAP_MAX_POINTS", int, 1, 1e7),
                                         ("max_seconds", "VIBTRANS_MAP_MAX_SECONDS", float, 1,
-                                         1e6)):
+                                         1e6),
+                                        ("processes", "VIBTRANS_MAP_PROCESSES", int, 0, 1)):
             text = os.environ.get(key)
             if name in settings or not text:
                 continue

@@ -222,6 +222,7 @@ def serve(args):
 
     def ready():                    # in the kernels' thread, after the warm-up
         from .views import map as map_view
+        mapjobs.jobs().start_helpers()
         # the maps pre-rendered (a change of model, mu or grey: a copy, not a
         # render) on the event loop, one render per turn: rendered in this
         # thread while a page was being built, about one first page in ten

@@ -89,3 +89,65 @@ def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
     got = RUNNER.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
     assert got.result(timeout=30) == min(19, here + RUN_NICE)
     assert 0 < RUN_NICE < MAP_NICE
+
+
+def _process_facts(value):
+    """A task for a worker process: its pid, niceness and an echo."""
+    import os
+    return os.getpid(), os.getpriority(os.PRIO_PROCESS, 0), value
+
+
+def _fail_in_process():
+    raise ValueError("a point failed in its process")
+
+
+def test_process_workers_run_the_tasks_elsewhere_and_stop_when_idle():
+    """With processes=True the tasks run in worker processes (niced, the
+    calling process's Python free for its event loop), which stop once no
+    lane is left and start again for the next task."""
+    import os
+    here = os.getpriority(os.PRIO_PROCESS, 0)
+    pool = FairPool(1, nice=3, processes=True)
+    lane = pool.lane()
+    pid, nice, echo = lane.submit(_process_facts, "point").result(timeout=120)
+    assert pid != os.getpid() and echo == "point"
+    assert nice == min(19, here + 3)
+    with pytest.raises(ValueError, match="failed in its process"):
+        lane.submit(_fail_in_process).result(timeout=120)
+    assert lane.submit(_process_facts, 2).result(timeout=120)[2] == 2   # the worker goes on
+    assert pool.processes_up()
+    lane.shutdown()
+    assert not pool.processes_up()          # no lane, no task: the memory goes back
+    again = pool.lane()
+    pid2, _, _ = again.submit(_process_facts, None).result(timeout=120)
+    assert pid2 not in (pid, os.getpid())
+    again.shutdown()
+    assert not pool.processes_up()
+
+
+def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
+    """A lane shut down while its task runs in a process: the task ends
+    with its result, then the processes stop."""
+    pool = FairPool(1, processes=True)
+    lane, other = pool.lane(), pool.lane()
+    assert lane.submit(_process_facts, 0).result(timeout=120)     # processes up
+    running = lane.submit(time_sleep_then, 1.0, "done")
+    for _ in range(600):
+        if running.running():
+            break
+        threading.Event().wait(0.01)
+    assert running.running()
+    lane.shutdown()
+    other.shutdown()
+    assert running.result(timeout=120) == "done"
+    for _ in range(100):
+        if not pool.processes_up():
+            break
+        threading.Event().wait(0.05)
+    assert not pool.processes_up()
+
+
+def time_sleep_then(seconds, value):
+    import time
+    time.sleep(seconds)
+    return value

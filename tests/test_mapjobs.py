@@ -271,6 +271,41 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         assert remote.cache.get(request_key(bigger.cache_request())) is None
 
 
+def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path):
+    """The points run in worker processes by default (their Python off the
+    server's GIL), with the same results as in threads of the server; the
+    processes are gone once no map computes (their memory with them)."""
+    threads = mapjobs.MapJobs(folder=str(tmp_path / "threads"), cores=1, processes=False)
+    mine = Listener()
+    threads.submit("a", MapRequest(**TINY), mine)
+    expected = mine.wait()
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "processes"), cores=1)
+    assert jobs.processes
+    theirs = Listener()
+    jobs.submit("a", MapRequest(**TINY), theirs)
+    got = theirs.wait()
+    assert got.kind == "done" and not got.cached, theirs.kinds()
+    for v in ("drift_velocity", "drift", "chaotic", "computed", "lyapunov", "steps"):
+        np.testing.assert_array_equal(got.ds[v].values, expected.ds[v].values)
+    assert jobs._workers.processes and threads._workers is not None
+    assert not threads._workers.processes
+    deadline = time.monotonic() + 60
+    while jobs._workers.processes_up() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not jobs._workers.processes_up()
+
+
+def test_the_environment_switches_the_map_workers_to_threads(monkeypatch):
+    monkeypatch.setattr(mapjobs, "_JOBS", {"jobs": None, "settings": {}})
+    monkeypatch.setenv("VIBTRANS_MAP_PROCESSES", "0")
+    assert mapjobs.jobs().processes is False
+    monkeypatch.setattr(mapjobs, "_JOBS", {"jobs": None, "settings": {}})
+    monkeypatch.setenv("VIBTRANS_MAP_PROCESSES", "2")
+    with pytest.raises(mapjobs.InputError, match=r"VIBTRANS_MAP_PROCESSES must be a number "
+                                                 r"in \[0, 1\], got '2'"):
+        mapjobs.jobs()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--scheduler", "localhost:8786"], "scheduler must be an address such as tcp://HOST:PORT"),
     (["--map-cores", "0"], "map-cores must be in [1, 256]"),
