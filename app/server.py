@@ -148,6 +148,23 @@ def _no_document_checks():
         settings.perform_document_validation.set_value(False)
 
 
+def _no_mathjax():
+    """Panel sends every page that has a Markdown or HTML pane BokehJS's
+    MathJax bundle (1.8 MB of script that each browser parses before it
+    draws; ~5 MB in all), in case a text holds TeX, and walks the page's
+    models at every page request to look for some.  No text of the explorer
+    is TeX (tests/test_app_runs.py checks the served page for delimiters),
+    so the pages go without it.  VIBTRANS_MATHJAX=1 puts it back."""
+    if os.environ.get("VIBTRANS_MATHJAX") == "1":
+        return
+    import functools
+
+    import panel.io.resources
+    import panel.io.server
+    panel.io.server.bundle_resources = functools.partial(
+        panel.io.resources.bundle_resources, enable_mathjax=False)
+
+
 def _freeze():
     """What the imports (and the warm-up) built (~10^6 objects: modules, JIT
     dispatchers, maps) lives as long as the server: leave it out of the
@@ -212,6 +229,7 @@ def serve(args):
     from .explorer import STATIC, STATIC_ROUTE, create_app
     _log_to_stderr(logging.getLogger("vibtrans"))
     _no_document_checks()
+    _no_mathjax()
     _freeze()
     started = []
 

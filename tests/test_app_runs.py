@@ -395,3 +395,48 @@ def test_the_server_leaves_document_checks_to_the_test(monkeypatch):
         assert settings.perform_document_validation() is False
     finally:
         settings.perform_document_validation.unset_value()
+
+
+def _texts(page_doc):
+    """Every text the explorer shows in Markdown or HTML: the page's, the
+    introduction's and the tabs' built when first opened."""
+    from bokeh.models.widgets.markups import Markup
+    texts = [E.INTRODUCTION, E.DYNAMICS_TEXT, E.ANIMATION_TEXT, E.MEMORY_TEXT,
+             *E.PRESET_NOTES.values()]
+    for root in page_doc.roots:
+        for m in root.references():
+            text = getattr(m, "text", None)
+            if isinstance(m, Markup) and isinstance(text, str):
+                texts.append(text)
+    return texts
+
+
+def test_no_text_of_the_explorer_needs_mathjax(monkeypatch):
+    """`_no_mathjax` sends pages without BokehJS's MathJax bundle (1.8 MB):
+    no text the explorer shows holds TeX (Bokeh's test, or a $ that Panel's
+    Markdown could read as math); VIBTRANS_MATHJAX=1 leaves Panel's
+    choice."""
+    from bokeh.document import Document
+    from bokeh.embed.util import contains_tex_string
+    from panel.io import resources
+    from panel.io import server as panel_server
+    from panel.io.state import set_curdoc
+
+    from vibtrans_explorer import server
+    doc = Document()
+    with set_curdoc(doc):
+        E.create_app().server_doc(doc)
+    texts = _texts(doc)
+    assert len(texts) > 10 and any("wave" in t for t in texts)
+    assert not [t for t in texts if contains_tex_string(t) or "$" in t]
+    monkeypatch.setattr(panel_server, "bundle_resources", resources.bundle_resources)
+    monkeypatch.setenv("VIBTRANS_MATHJAX", "1")
+    server._no_mathjax()
+    assert panel_server.bundle_resources is resources.bundle_resources
+    monkeypatch.delenv("VIBTRANS_MATHJAX")
+    server._no_mathjax()
+    with set_curdoc(doc):
+        bundle = panel_server.bundle_resources(doc.roots, resources.Resources(mode="server"))
+        default = resources.bundle_resources(doc.roots, resources.Resources(mode="server"))
+    assert not any("mathjax" in str(f) for f in bundle.js_files)
+    assert any("mathjax" in str(f) for f in default.js_files)      # what Panel would send
