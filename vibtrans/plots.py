@@ -144,13 +144,14 @@ KEY_NAME = "vibtrans-map-key"
 CHAOTIC_GREY = "#9e9e9e"
 BOUNDARY_LINE = ("black", 1.5, None)
 RESONANCE_LINE = ("black", 1.0, "dashed")
-CHAOTIC_LABEL = f"grey: chaotic (the tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
+CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
 BOUNDARY_LABEL = "jumping boundary"
 RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
 
 
 def white_label(v0=V0):
-    return f"white: |v*| <= v0* = {v0:g} (no drift)"
+    # short: the key's two columns fit the map's width on a 1024 px screen
+    return f"white: no drift (|v*| <= {v0:g})"
 
 
 def _bokeh_key(entries):
@@ -265,17 +266,20 @@ def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
         # no hover of its own: it would cover the map's, showing NaN off the grey
         layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
                             bokeh=dict(tools=[], visible=shown)))
-        key.append((f"grey: chaotic ({chaos_reason(ds)})", "patch",
+        key.append((f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch",
                     (CHAOTIC_GREY, CHAOTIC_GREY), shown))
     return hv.Overlay([_keyed(img, key), *layers])
 
 
-def chaos_reason(ds):
-    """What a map's chaotic points mean, from its chaos source."""
+def chaos_reason(ds, short=False):
+    """What a map's chaotic points mean, from its chaos source (short: for
+    the map's key)."""
     if ds.attrs.get("chaos") == "lyapunov":
         from .analysis import CHAOS_LYAPUNOV
+        if short:
+            return f"Lyapunov > {CHAOS_LYAPUNOV:g}/period"
         return f"Lyapunov exponent > {CHAOS_LYAPUNOV:g} per period"
-    return f"the tau + {TWIN_TAU_OFFSET:g} twin disagrees"
+    return f"{'' if short else 'the '}tau + {TWIN_TAU_OFFSET:g} twin disagrees"
 
 
 def jumping_boundary(vertical, model="deformable"):
