@@ -47,6 +47,39 @@ def test_sweep_equals_point_by_point(tmp_path):
                         np.isnan(p[name]) and np.isnan(ds[name].values[i, j])), name
 
 
+@pytest.mark.parametrize("model, la, lm, lyapunov", [
+    ("deformable", 1.5, -2.0, True),        # jumping, chaotic (paper point 8's region)
+    ("deformable", 0.5, 0.5, False),        # jumping, regular
+    ("deformable", -1.0, -3.0, False),      # permanent contact
+    ("point-mass", 1.5, -2.0, True),        # the impact map's exponent
+    ("point-mass", 0.5, 0.5, False),
+])
+def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lyapunov):
+    """A map point summarizes its run's arrays (trajectory.RunArrays) instead
+    of the run's Dataset (`simulate`): the same arrays, attributes and
+    summary, bit for bit, whatever the time a run took."""
+    from vibtrans.analysis import summarize
+    from vibtrans.params import Scene
+    from vibtrans.simulate import run_records, simulate
+    from vibtrans.trajectory import RunArrays
+    scene = Scene(amplitude=10.0 ** la, mass=10.0 ** lm, model=model, periods=150.0,
+                  tau=10.0, fidelity="preview")
+    ds = simulate(scene, lyapunov=lyapunov)
+    arrays = RunArrays(*run_records(scene, lyapunov=lyapunov))
+    for name in [*ds.data_vars, "time"]:
+        assert np.array_equal(arrays[name].values, ds[name].values), name
+        assert arrays[name].values.dtype == ds[name].values.dtype, name
+    assert arrays.attrs.keys() == ds.attrs.keys()
+    assert {k: v for k, v in arrays.attrs.items() if k != "seconds"} == {
+        k: v for k, v in ds.attrs.items() if k != "seconds"}
+    got, want = summarize(arrays)._asdict(), summarize(ds)._asdict()
+    for k in ("seconds", "twin_seconds"):
+        got.pop(k), want.pop(k)
+    assert got.keys() == want.keys()
+    for k in got:
+        assert got[k] == want[k] or (got[k] != got[k] and want[k] != want[k]), k
+
+
 def _cli(out, extra=()):
     return [sys.executable, "-m", "vibtrans.cli", "sweep", "--log-amplitude", LA,
             f"--log-mass={LM}", "--periods", "120", "--tau", "10", "--chunk-rows", "1",

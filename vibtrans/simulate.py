@@ -79,7 +79,22 @@ def _window(window, periods):
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
              max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
              refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
-    """Simulate one scene and return its trajectory (xarray.Dataset).
+    """Simulate one scene and return its trajectory (xarray.Dataset):
+    `run_records`' samples, events and attributes as a Dataset
+    (trajectory.build_trajectory).  The arguments are `run_records`'."""
+    return build_trajectory(*run_records(
+        scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
+        progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
+        lyapunov=lyapunov, **values))
+
+
+def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
+                max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
+                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+    """Simulate one scene: its (samples, events, attrs), the kernel's
+    trimmed buffers (records.COLUMNS, records event rows) and the run's
+    attributes, before they become a Dataset (`simulate`; a map point
+    summarizes them as trajectory.RunArrays, without one).
 
     scene: a `Scene`, or scene values as keywords (amplitude=..., mass=...).
     window: (t0, t1) in periods, recorded at every step (full resolution);
@@ -131,7 +146,7 @@ def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                  window_start=w0 if window is not None else None,
                  window_end=w1 if window is not None else None, refine=refine,
                  code_version=__version__, **info)
-    return build_trajectory(samples, events, attrs)
+    return samples, events, attrs
 
 
 def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):

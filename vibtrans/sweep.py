@@ -32,7 +32,8 @@ from .version import __version__
 from .analysis import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
 from .params import Scene
 from .precompile import warmup
-from .simulate import simulate
+from .simulate import run_records
+from .trajectory import RunArrays
 from .errors import InputError, StoreMismatch
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
@@ -119,9 +120,10 @@ def compute_point(values, log_a, log_m, chaos="twin"):
     """
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
     measure = chaos == "lyapunov" and scene.model != "point-mass"
-    ds = simulate(scene, lyapunov=measure)
+    # the runs' arrays, summarized as a Dataset of them would be (no Dataset)
+    ds = RunArrays(*run_records(scene, lyapunov=measure))
     jumping = jumped(ds)
-    twin = simulate(twin_scene(scene)) if jumping and not measure else None
+    twin = RunArrays(*run_records(twin_scene(scene))) if jumping and not measure else None
     s = summarize(ds, twin)
     pattern = s.pattern
     if pattern == "launched":
@@ -145,7 +147,7 @@ def compute_point(values, log_a, log_m, chaos="twin"):
 def lyapunov_point(values, log_a, log_m):
     """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
-    ds = simulate(scene, lyapunov=True)
+    ds = RunArrays(*run_records(scene, lyapunov=True))
     value = ds.attrs.get("lyapunov")
     return {"lyapunov": np.nan if value is None else value, "contact": int(jumped(ds)),
             "steps": int(ds.attrs["steps"]), "seconds": float(ds.attrs["seconds"])}

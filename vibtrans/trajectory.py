@@ -30,6 +30,43 @@ _UNITS = {
 }
 
 
+def _clean(attrs):
+    """The attributes a Dataset can store: no None, booleans as 0/1."""
+    return {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
+            if v is not None}
+
+
+class _Column:
+    __slots__ = ("values",)
+
+    def __init__(self, values):
+        self.values = values
+
+
+class RunArrays:
+    """A run's variables as `build_trajectory`'s Dataset holds them (the
+    same arrays: `ds[name].values`, and `ds.attrs`), without building the
+    Dataset: all that vibtrans.analysis reads.  A map point (sweep.py) is
+    summarized and dropped; at preview fidelity building its Dataset cost
+    more than its kernel."""
+    __slots__ = ("_columns", "attrs")
+
+    def __init__(self, samples, events, attrs):
+        columns = {"time": samples[:, R.T_]}
+        for i, name in enumerate(R.COLUMNS):
+            if name not in ("t", "state"):
+                columns[name] = samples[:, i].copy()
+        columns["state"] = samples[:, R.STATE].astype(np.int8)
+        columns["event_time"] = events[:, 0].copy()
+        columns["event_kind"] = events[:, 1].astype(np.int8)
+        columns["event_value"] = events[:, 2].copy()
+        self._columns = columns
+        self.attrs = _clean(attrs)
+
+    def __getitem__(self, name):
+        return _Column(self._columns[name])
+
+
 def build_trajectory(samples, events, attrs):
     """Dataset from the kernel's trimmed sample and event buffers."""
     t = samples[:, R.T_]
@@ -46,10 +83,8 @@ def build_trajectory(samples, events, attrs):
     data["event_kind"] = ("event", events[:, 1].astype(np.int8),
                           {"flag_meanings": " ".join(R.EVENT_NAMES)})
     data["event_value"] = ("event", events[:, 2].copy())
-    clean = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
-             if v is not None}
     return xr.Dataset(data, coords={"time": ("time", t, {"units": "wave periods"})},
-                      attrs=clean)
+                      attrs=_clean(attrs))
 
 
 def events_of(ds, kind):
