@@ -4,9 +4,10 @@ lanes in turn, so a big map that was asked for first cannot starve a small
 one asked for later; each map runs as fast as the cores allow while alone.
 
 The tasks are map points (vibtrans.adaptive).  Their kernels release the
-GIL, but a point's Python around its kernel (the scene's checks, its
-trajectory's Dataset, the summary) does not, and at preview fidelity it
-is most of the point: 1.3 of a 33 x 33 preview map's 1.45 s of CPU.  In
+GIL, but a point's Python around its kernel (the scene's checks, the
+summary of its run) does not, and at preview fidelity it is most of the
+point (1.3 of a 33 x 33 preview map's 1.45 s of CPU when each point
+built its run's Dataset; still most since trajectory.RunArrays).  In
 threads of the server that Python held the GIL against the event loop,
 however nice the threads.  So a pool made with `processes=True` runs the
 tasks in worker processes (its threads only hand them over and wait),
@@ -143,7 +144,8 @@ class FairPool:
             if self._processes is None:
                 self._processes = ProcessPoolExecutor(
                     self.workers, mp_context=multiprocessing.get_context("spawn"),
-                    initializer=_start_worker_process, initargs=(self._process_niceness, self.initializer))
+                    initializer=_start_worker_process,
+                    initargs=(self._process_niceness, self.initializer))
             processes = self._processes
         try:
             return processes.submit(fn, *args, **kwargs).result()

@@ -21,10 +21,11 @@ queue, one cache, one core budget for the process.
   every worker), niced (MAP_NICE) below the sessions' runs and the event
   loop.  The workers are processes (started for the maps, stopped when
   none computes), so that the points' Python never holds this process's
-  GIL against its event loop.  `cores` is by default all cores but one, which stays for
-  the sessions' clicks (their runs use app/controller.py's pool, never
-  these workers).  Further maps wait first come, first served; at most
-  `max_queued` wait, beyond that a request is refused.
+  GIL against its event loop.  `cores` is by default all cores but one,
+  which stays for the sessions' clicks (their runs use
+  app/controller.py's pool, never these workers).  Further maps wait
+  first come, first served; at most `max_queued` wait, beyond that a
+  request is refused.
 """
 import logging
 import os

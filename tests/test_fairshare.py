@@ -117,12 +117,12 @@ def test_process_workers_run_the_tasks_elsewhere_and_stop_when_idle():
     assert lane.submit(_process_facts, 2).result(timeout=120)[2] == 2   # the worker goes on
     assert pool.processes_up()
     lane.shutdown()
-    assert not pool.processes_up()          # no lane, no task: the memory goes back
+    assert _soon(lambda: not pool.processes_up())   # no lane, no task: the memory goes back
     again = pool.lane()
     pid2, _, _ = again.submit(_process_facts, None).result(timeout=120)
     assert pid2 not in (pid, os.getpid())
     again.shutdown()
-    assert not pool.processes_up()
+    assert _soon(lambda: not pool.processes_up())
 
 
 def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
@@ -131,23 +131,28 @@ def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
     pool = FairPool(1, processes=True)
     lane, other = pool.lane(), pool.lane()
     assert lane.submit(_process_facts, 0).result(timeout=120)     # processes up
-    running = lane.submit(time_sleep_then, 1.0, "done")
-    for _ in range(600):
-        if running.running():
-            break
-        threading.Event().wait(0.01)
-    assert running.running()
+    running = lane.submit(_sleep_then, 3.0, "done")
+    assert _soon(running.running)
     lane.shutdown()
     other.shutdown()
+    assert pool.processes_up()                  # its task still runs there
     assert running.result(timeout=120) == "done"
-    for _ in range(100):
-        if not pool.processes_up():
-            break
-        threading.Event().wait(0.05)
-    assert not pool.processes_up()
+    assert _soon(lambda: not pool.processes_up())
 
 
-def time_sleep_then(seconds, value):
+def _sleep_then(seconds, value):
     import time
     time.sleep(seconds)
     return value
+
+
+def _soon(condition, seconds=30.0):
+    """Whether `condition()` holds within `seconds` (a worker thread's
+    bookkeeping follows the result it hands over)."""
+    import time
+    deadline = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True

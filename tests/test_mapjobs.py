@@ -427,3 +427,24 @@ def test_a_map_is_pictured_within_its_levels(tmp_path, monkeypatch):
     for u in pictures:
         assert np.isfinite(u.ds["drift_velocity"].values).all(), u.kind
         assert u.kind != "chunk" or 1 <= u.level <= 2
+
+
+def test_the_finished_map_is_not_drawn_again_when_its_last_level_showed_it():
+    """`_same_picture`: the verified map equals the finest level's picture
+    value for value (then the explorer keeps the figure: no second render,
+    no redraw in every browser); any difference, or nothing drawn yet,
+    draws it."""
+    import xarray as xr
+
+    from vibtrans_explorer.explorer import _same_picture
+    grid = np.arange(6.0).reshape(2, 3)
+    drawn = xr.Dataset({"drift_velocity": (("a", "m"), grid),
+                        "chaotic": (("a", "m"), grid > 2),
+                        "lyapunov": (("a", "m"), np.where(grid > 4, np.nan, grid))})
+    stored = drawn.assign(digest=("a", np.zeros(2)))      # the store holds more
+    assert _same_picture(drawn, stored)
+    assert not _same_picture(None, stored)
+    changed = stored.copy(deep=True)
+    changed["drift_velocity"].values[1, 2] += 1e-12
+    assert not _same_picture(drawn, changed)
+    assert not _same_picture(drawn, stored.drop_vars("chaotic"))
