@@ -30,12 +30,6 @@ _UNITS = {
 }
 
 
-def _clean(attrs):
-    """The attributes a Dataset can store: no None, booleans as 0/1."""
-    return {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
-            if v is not None}
-
-
 class _Column:
     __slots__ = ("values",)
 
@@ -49,7 +43,7 @@ class RunArrays:
     Dataset: all that vibtrans.analysis reads.  A map point (sweep.py) is
     summarized and dropped; at preview fidelity building its Dataset cost
     more than its kernel."""
-    __slots__ = ("_columns", "attrs")
+    __slots__ = ("columns", "attrs")
 
     def __init__(self, samples, events, attrs):
         columns = {"time": samples[:, R.T_]}
@@ -60,31 +54,34 @@ class RunArrays:
         columns["event_time"] = events[:, 0].copy()
         columns["event_kind"] = events[:, 1].astype(np.int8)
         columns["event_value"] = events[:, 2].copy()
-        self._columns = columns
-        self.attrs = _clean(attrs)
+        self.columns = columns          # name -> array
+        # what a Dataset can store: no None, booleans as 0/1
+        self.attrs = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
+                      if v is not None}
 
     def __getitem__(self, name):
-        return _Column(self._columns[name])
+        return _Column(self.columns[name])
 
 
 def build_trajectory(samples, events, attrs):
-    """Dataset from the kernel's trimmed sample and event buffers."""
-    t = samples[:, R.T_]
+    """Dataset from the kernel's trimmed sample and event buffers: the
+    arrays of their RunArrays, with units and flag meanings."""
+    run = RunArrays(samples, events, attrs)
     data = {}
-    for i, name in enumerate(R.COLUMNS):
-        if name in ("t", "state"):
-            continue
-        symbol, desc = _UNITS[name]
-        data[name] = ("time", samples[:, i].copy(), {"symbol": symbol, "long_name": desc})
-    data["state"] = ("time", samples[:, R.STATE].astype(np.int8),
+    for name, array in run.columns.items():
+        if name in _UNITS:
+            symbol, desc = _UNITS[name]
+            data[name] = ("time", array, {"symbol": symbol, "long_name": desc})
+    data["state"] = ("time", run.columns["state"],
                      {"flag_values": list(range(len(STATE_NAMES))),
                       "flag_meanings": " ".join(s.replace(" ", "_") for s in STATE_NAMES)})
-    data["event_time"] = ("event", events[:, 0].copy())
-    data["event_kind"] = ("event", events[:, 1].astype(np.int8),
+    data["event_time"] = ("event", run.columns["event_time"])
+    data["event_kind"] = ("event", run.columns["event_kind"],
                           {"flag_meanings": " ".join(R.EVENT_NAMES)})
-    data["event_value"] = ("event", events[:, 2].copy())
-    return xr.Dataset(data, coords={"time": ("time", t, {"units": "wave periods"})},
-                      attrs=_clean(attrs))
+    data["event_value"] = ("event", run.columns["event_value"])
+    return xr.Dataset(data, coords={"time": ("time", run.columns["time"],
+                                             {"units": "wave periods"})},
+                      attrs=run.attrs)
 
 
 def events_of(ds, kind):
