@@ -24,7 +24,6 @@ from pathlib import Path
 from urllib.parse import parse_qsl, urlencode
 
 import holoviews as hv
-import numpy as np
 import panel as pn
 import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
@@ -996,7 +995,6 @@ class Explorer(pn.viewable.Viewer):
         if getattr(self, "map_tabs", None) is not None:
             self.map_tabs.active = 0
         started = time.monotonic()
-        drawn = None            # the last map drawn
         n = request.points_per_axis()
         self._map_say(f"Computing a {n} x {n} map ({request.title()}) ...")
         while True:
@@ -1010,13 +1008,12 @@ class Explorer(pn.viewable.Viewer):
             if update.kind == "queued":
                 self._map_say(f"{update.text.capitalize()} ...")
             elif update.kind in ("level", "chunk", "done"):
-                if update.kind == "done" and _same_picture(drawn, update.ds):
+                if update.shown:
                     # the finest level, drawn already, is the verified map:
                     # no second render (nor redraw in the browser) of it
                     self._map_shown = (request, update.ds)
                 else:
                     await self._draw_map(request, update.ds)
-                    drawn = update.ds
                 if self._map_ticket is not ticket:
                     return
                 done = int(update.ds["computed"].values.sum())
@@ -1104,14 +1101,6 @@ class Explorer(pn.viewable.Viewer):
 
     def __panel__(self):
         return pn.Row(self.controls(), self.main())
-
-
-def _same_picture(drawn, ds):
-    """Whether the map `ds` holds what `drawn` (a snapshot drawn, or None)
-    does, value for value, in every variable of the snapshot."""
-    return drawn is not None and all(
-        name in ds and np.array_equal(drawn[name].values, ds[name].values, equal_nan=True)
-        for name in drawn.data_vars)
 
 
 def _attached_in_one_pass(template, page_location=None):

@@ -34,6 +34,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
+import numpy as np
+
 from vibtrans.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
 from vibtrans.precompile import warmup
@@ -75,6 +77,14 @@ def default_cores():
     return max(1, (os.cpu_count() or 1) - 1)
 
 
+def same_values(snapshot, ds):
+    """Whether the map `ds` holds what `snapshot` (a map so far) does, value
+    for value, in every variable of the snapshot."""
+    return all(name in ds and np.array_equal(snapshot[name].values, ds[name].values,
+                                             equal_nan=True)
+               for name in snapshot.data_vars)
+
+
 class MapRefused(Exception):
     """A request this server will not queue (the message says why)."""
 
@@ -84,14 +94,16 @@ class Update(NamedTuple):
     wait before it), "level" (ds: the map so far after `level` of
     `levels`), "chunk" (ds: the map so far while `level` is computed:
     every CHUNK_SECONDS within a level), "done" (ds: the finished,
-    verified map; cached: read from the cache), "failed" (text),
-    "cancelled"."""
+    verified map; cached: read from the cache; shown: its values are those
+    of the finest level's map, sent before it to every subscriber, so a
+    picture of that one stands), "failed" (text), "cancelled"."""
     kind: str
     level: int = 0
     levels: int = 0
     ds: object = None
     text: str = ""
     cached: bool = False
+    shown: bool = False
 
     @property
     def final(self):
@@ -347,7 +359,11 @@ class MapJobs:
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
             self._learn_speed(comp.request.model, ds)
-            self._tell(comp, Update("done", levels, levels, ds), final=True)
+            with self._lock:
+                last = comp.last
+            shown = (last is not None and last.kind == "level" and last.level == levels
+                     and same_values(last.ds, ds))
+            self._tell(comp, Update("done", levels, levels, ds, shown=shown), final=True)
         except Cancelled:
             self._tell(comp, Update("cancelled"), final=True)
         except Exception as exc:

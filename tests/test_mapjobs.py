@@ -63,11 +63,14 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     assert coarse["computed"].values.sum() == 9          # 3 x 3 coarse points
     assert np.isfinite(coarse["drift_velocity"].values).all()    # filled from its cells
     assert done.ds["drift_velocity"].shape == (5, 5)
+    # the finest level's picture is the verified map's: a subscriber keeps it
+    assert done.shown
     # another session asking for the same map reads it: nothing computed
     second = Listener()
     jobs.submit("b", MapRequest(**TINY), second)
     again = second.wait()
     assert again.kind == "done" and again.cached and jobs.computed == 1
+    assert not again.shown                  # nothing drawn before: draw it
     np.testing.assert_array_equal(again.ds["drift_velocity"].values,
                                   done.ds["drift_velocity"].values)
 
@@ -430,21 +433,18 @@ def test_a_map_is_pictured_within_its_levels(tmp_path, monkeypatch):
 
 
 def test_the_finished_map_is_not_drawn_again_when_its_last_level_showed_it():
-    """`_same_picture`: the verified map equals the finest level's picture
-    value for value (then the explorer keeps the figure: no second render,
-    no redraw in every browser); any difference, or nothing drawn yet,
-    draws it."""
+    """`same_values`: the verified map equals the finest level's map value
+    for value (then the "done" update says `shown`, and the explorer and the
+    Design tab keep their picture: no second render, no redraw in every
+    browser); any difference draws it."""
     import xarray as xr
-
-    from vibtrans_explorer.explorer import _same_picture
     grid = np.arange(6.0).reshape(2, 3)
     drawn = xr.Dataset({"drift_velocity": (("a", "m"), grid),
                         "chaotic": (("a", "m"), grid > 2),
                         "lyapunov": (("a", "m"), np.where(grid > 4, np.nan, grid))})
     stored = drawn.assign(digest=("a", np.zeros(2)))      # the store holds more
-    assert _same_picture(drawn, stored)
-    assert not _same_picture(None, stored)
+    assert mapjobs.same_values(drawn, stored)
     changed = stored.copy(deep=True)
     changed["drift_velocity"].values[1, 2] += 1e-12
-    assert not _same_picture(drawn, changed)
-    assert not _same_picture(drawn, stored.drop_vars("chaotic"))
+    assert not mapjobs.same_values(drawn, changed)
+    assert not mapjobs.same_values(drawn, stored.drop_vars("chaotic"))

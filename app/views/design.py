@@ -582,8 +582,13 @@ class DesignPanel(pn.viewable.Viewer):
             if update.kind == "queued":
                 self.progress.object = f"{update.text.capitalize()} ..."
             elif update.kind in ("level", "chunk", "done"):
+                drawn_from = self._map
                 self._map = (update.ds, name)
-                if token == self._draws:        # the chart asked for is still the one shown
+                if update.shown:
+                    # the finest level's chart stands: the verified map has its values
+                    if self._chart_map is drawn_from:
+                        self._chart_map = self._map
+                elif token == self._draws:      # the chart asked for is still the one shown
                     try:
                         result = await loop.run_in_executor(None, build_chart, values,
                                                             update.ds, name)
