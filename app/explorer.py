@@ -12,9 +12,7 @@ serves while the kernels compile in the background, app/kernels.py) or
 """
 import asyncio
 import contextlib
-import ctypes
 import functools
-import gc
 import json
 import logging
 import math
@@ -34,7 +32,7 @@ from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.mapdiff import describe
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
-from . import data, inputs, mapjobs, maprequest, urlstate
+from . import data, inputs, mapjobs, maprequest, memory, urlstate
 from .controller import RUNNER, RunController
 from .state import (MAP_MATERIAL, MAP_RUN, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS,
                     ExplorerState, within)
@@ -180,50 +178,6 @@ def ack_listener(ack):
 
 # presentation mode: the page's text and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
-
-
-_RELEASE = {"handle": None}
-RELEASE_DELAY = 2.0      # s after the last session closed (a burst of closes: once)
-
-
-def _schedule_release():
-    """Once closed sessions are dropped, collect them and hand the memory
-    they used back to the OS: glibc keeps freed heap pages in its arenas, so
-    the RSS would otherwise stay at the high-water mark of the sessions that
-    were open together."""
-    try:
-        loop = asyncio.get_running_loop()
-    except RuntimeError:
-        return
-    if _RELEASE["handle"] is not None:
-        _RELEASE["handle"].cancel()
-    _RELEASE["handle"] = loop.call_later(RELEASE_DELAY, _release_memory)
-
-
-def _resident_mb():
-    """This process's resident memory (MB) from /proc; None off Linux."""
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
-    except (OSError, ValueError, IndexError):
-        return None
-
-
-def _release_memory():
-    _RELEASE["handle"] = None
-    t0, before = time.perf_counter(), _resident_mb()
-    collected = gc.collect()
-    try:
-        ctypes.CDLL(None).malloc_trim(0)
-    except (OSError, AttributeError):    # not glibc
-        pass
-    after = _resident_mb()
-    # INFO: operators (and `python -m devtools.loadtest`, which waits for this
-    # line after the last session is discarded) see when memory went back.
-    log.info("released the memory of closed sessions: %d objects collected, RSS %s -> %s MB "
-             "in %.2f s", collected, f"{before:.0f}" if before else "?",
-             f"{after:.0f}" if after else "?", time.perf_counter() - t0)
-
 
 
 def _page_location():
@@ -690,7 +644,7 @@ class Explorer(pn.viewable.Viewer):
             self.dynamics_view.clear()     # and its sections and diagrams
         self.controller.discard()
         self.trajectories.clear()
-        _schedule_release()
+        memory.session_closed(session_context)
 
     def _on_result(self, event):
         result = event.new

@@ -24,6 +24,8 @@ import threading
 
 from vibtrans.errors import InputError
 
+from . import memory
+
 
 def _age():
     """Seconds since this process started (the command, before the
@@ -168,8 +170,8 @@ def _no_mathjax():
 def _freeze():
     """What the imports (and the warm-up) built (~10^6 objects: modules, JIT
     dispatchers, maps) lives as long as the server: leave it out of the
-    cyclic collector, whose full passes (one each time closed sessions are
-    released) would otherwise walk it all while every session waits."""
+    cyclic collector, whose full passes would otherwise walk it all while
+    every session waits (memory.py: pages are frozen too, until released)."""
     gc.collect()
     gc.freeze()
 
@@ -199,6 +201,7 @@ def _first_page(create_app, start_kernels):
     writes the page without yielding once the session exists)."""
     def page():
         app = create_app()
+        memory.page_built()
         from tornado.ioloop import IOLoop
         IOLoop.current().add_callback(start_kernels)
         return app
@@ -230,6 +233,7 @@ def serve(args):
     _log_to_stderr(logging.getLogger("vibtrans"))
     _no_document_checks()
     _no_mathjax()
+    memory.no_collection_per_close()
     _freeze()
     started = []
 

@@ -80,12 +80,13 @@ import time
 import urllib.request
 from pathlib import Path
 
+from vibtrans_explorer.memory import RELEASED
+
 from .chromium import ARGS, CHROMIUM
 
 ROOT = Path(__file__).resolve().parent.parent
 LIFETIME_MS, CHECK_MS = 3000, 1000
 BENIGN = ("WebSocketClosedError", "StreamClosedError")
-RELEASED = "released the memory of closed sessions"    # app/explorer.py logs it
 KERNELS_READY = "kernels ready"                         # app/kernels.py logs it
 # a message from a page that is closing, handled after its connection was
 # detached from the session (Bokeh's assertion): a disconnect race too

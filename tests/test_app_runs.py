@@ -3,9 +3,11 @@ request cancels and replaces the running one, freeing its worker), the step
 cap, a failing run (only its session sees an error), Cancel, and figures
 that are built once and then fed new data."""
 import asyncio
+import gc
 import logging
 import threading
 import time
+import weakref
 
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from asyncutil import until
 from vibtrans_explorer.live import TIMELINE_BINS
 from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer import memory
 from vibtrans_explorer.live import LiveTrajectory
 from vibtrans_explorer.views import map as M
 from vibtrans import Cancelled
@@ -196,24 +199,81 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
     asyncio.run(go())
 
 
-def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog):
+@pytest.fixture
+def thawed():
+    """`memory.release` and `page_built` freeze the objects alive (the
+    server's own); the tests after these need their collector back."""
+    yield
+    gc.unfreeze()
+
+
+def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog, thawed):
     """A burst of closed sessions schedules one collection + malloc_trim,
     logged at INFO in the words the load test waits for."""
-    from devtools.loadtest import RELEASED
     caplog.set_level(logging.INFO, logger="vibtrans.explorer")
-    monkeypatch.setattr(E, "RELEASE_DELAY", 0.05)
+    monkeypatch.setattr(memory, "RELEASE_DELAY", 0.05)
     calls = []
-    real = E._release_memory
-    monkeypatch.setattr(E, "_release_memory", lambda: (calls.append(1), real()))
+    real = memory.release
+    monkeypatch.setattr(memory, "release", lambda: (calls.append(1), real()))
 
     async def go():
         for _ in range(3):
-            E._schedule_release()
+            memory.session_closed()
         await asyncio.sleep(0.3)
     asyncio.run(go())
-    assert calls == [1] and E._RELEASE["handle"] is None
-    released = [r.getMessage() for r in caplog.records if RELEASED in r.getMessage()]
+    assert calls == [1] and memory._RELEASE["handle"] is None
+    released = [r.getMessage() for r in caplog.records if memory.RELEASED in r.getMessage()]
     assert len(released) == 1 and " MB in " in released[0], caplog.text
+
+
+def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(monkeypatch, thawed):
+    """While sessions stay open a close collects nothing (a full collection
+    would hold every open session's clicks); the last close does, and so
+    does the CLOSES_PER_RELEASE-th on a server that is never idle.  The
+    closed session's page, frozen when it was built (`page_built`), is
+    collected then, and what lives on is frozen again."""
+    from types import SimpleNamespace
+    monkeypatch.setattr(memory, "RELEASE_DELAY", 0.01)
+    monkeypatch.setattr(memory, "CLOSES_PER_RELEASE", 4)
+    monkeypatch.setitem(memory._RELEASE, "closes", 0)
+    open_sessions = [object(), object()]
+    ctx = SimpleNamespace(server_context=SimpleNamespace(sessions=open_sessions))
+    calls = []
+    real = memory.release
+    monkeypatch.setattr(memory, "release", lambda: (calls.append(len(open_sessions)), real()))
+
+    class Page:           # a closed session's document: a reference cycle
+        def __init__(self):
+            self.me = self
+    page = Page()
+    frozen = gc.get_freeze_count()
+    memory.page_built()
+    assert gc.get_freeze_count() > frozen
+    gone = weakref.ref(page)
+    del page
+
+    async def go():
+        for _ in range(3):            # two sessions stay open: nothing due
+            memory.session_closed(ctx)
+            await asyncio.sleep(0.05)
+        gc.collect()
+        assert calls == [] and gone() is not None     # frozen: not even a full pass
+        memory.session_closed(ctx)    # the 4th close: due, sessions open or not
+        await asyncio.sleep(0.1)
+        assert calls == [2] and gone() is None
+        open_sessions.clear()
+        memory.session_closed(ctx)    # the last session: due at once
+        await asyncio.sleep(0.1)
+        assert calls == [2, 0]
+    asyncio.run(go())
+    assert gc.get_freeze_count() > 0      # the server's own objects, frozen again
+
+
+def test_the_server_leaves_panels_collection_per_close_to_the_release(monkeypatch):
+    import panel.io.document as panel_document
+    monkeypatch.setattr(panel_document, "_garbage_collect", panel_document._garbage_collect)
+    memory.no_collection_per_close()
+    assert panel_document._garbage_collect is memory._left_to_release
 
 
 def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
