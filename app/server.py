@@ -176,13 +176,6 @@ def _freeze():
     gc.freeze()
 
 
-def _freeze_kernels(server):
-    """After the background warm-up: freeze what it built too, unless a
-    session is open (its objects would never be collected)."""
-    if not server.get_sessions():
-        _freeze()
-
-
 # Seconds after listening to start the kernels' warm-up if no page was asked
 # for.  Otherwise it starts once the first page is answered: loading the
 # cached kernels (~1.5 s, holding the GIL) beside the first page's build
@@ -196,9 +189,10 @@ PRERENDER_PAUSE = 0.05
 
 
 def _first_page(create_app, start_kernels):
-    """create_app for the server: the first page also starts the kernels,
-    once it is answered (add_callback: after the handler, which builds and
-    writes the page without yielding once the session exists)."""
+    """create_app for the server: every page is frozen once built
+    (memory.page_built); the first page also starts the kernels, once it is
+    answered (add_callback: after the handler, which builds and writes the
+    page without yielding once the session exists)."""
     def page():
         app = create_app()
         memory.page_built()
@@ -254,13 +248,15 @@ def serve(args):
     def prerender(steps):
         step = next(steps, None)
         if step is None:
-            _freeze_kernels(server)
+            # what the warm-up built lives on too (a session open meanwhile is
+            # frozen with it, as every page is: collected at the next release)
+            _freeze()
             return
         try:
             step()
         except Exception:           # only an optimisation: the rest is left
             logging.getLogger("vibtrans.explorer").exception("prerendering the maps failed")
-            _freeze_kernels(server)
+            _freeze()
             return
         loop.call_later(PRERENDER_PAUSE, prerender, steps)
 

@@ -269,6 +269,21 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
     assert gc.get_freeze_count() > 0      # the server's own objects, frozen again
 
 
+def test_the_server_freezes_every_page_once_built(monkeypatch):
+    """`vibtrans serve`'s page function freezes each page it builds (not
+    only the first, which also starts the kernels)."""
+    from vibtrans_explorer import server
+    built, kernels = [], []
+    monkeypatch.setattr(memory, "page_built", lambda: built.append(1))
+    page = server._first_page(lambda: "a page", lambda: kernels.append(1))
+
+    async def go():
+        pages = page(), page(), page()
+        await asyncio.sleep(0.05)
+        return pages
+    assert asyncio.run(go()) == ("a page",) * 3 and built == [1, 1, 1]
+
+
 def test_the_server_leaves_panels_collection_per_close_to_the_release(monkeypatch):
     import panel.io.document as panel_document
     monkeypatch.setattr(panel_document, "_garbage_collect", panel_document._garbage_collect)
