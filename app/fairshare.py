@@ -11,8 +11,10 @@ built its run's Dataset; still most since trajectory.RunArrays).  In
 threads of the server that Python held the GIL against the event loop,
 however nice the threads.  So a pool made with `processes=True` runs the
 tasks in worker processes (its threads only hand them over and wait),
-started when a task comes and stopped once no lane is left.  Nothing here
-knows about maps.
+started when a task comes and stopped `linger` seconds after the last lane
+closed (a map asked for meanwhile starts at once: a worker's start, its
+imports and compiled kernels loaded, is ~1.3 s of CPU) or when the owner
+calls `stop_processes`.  Nothing here knows about maps.
 """
 import multiprocessing
 import os
@@ -59,12 +61,12 @@ class FairPool:
     processes: run each task in one of `workers` worker processes (spawned,
     at niceness `nice`, each calling `initializer()` first) instead of in
     the thread: the task, its arguments and its result must pickle.  The
-    processes start with the first task after an idle spell and stop once
-    every lane is shut down and no task runs (they hold memory: ~220 MB
-    each for the map points)."""
+    processes start with the first task after an idle spell and stop
+    `linger` seconds after every lane is shut down and no task runs (they
+    hold memory: ~220 MB each for the map points), or at `stop_processes`."""
 
     def __init__(self, workers, name="vibtrans-fair", nice=0, processes=False,
-                 initializer=None):
+                 initializer=None, linger=0.0):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = int(workers)
@@ -75,7 +77,9 @@ class FairPool:
             self._process_niceness = None
         self.processes = bool(processes)
         self.initializer = initializer
+        self.linger = float(linger)
         self._processes = None            # the ProcessPoolExecutor while one is up
+        self._idle_timer = None           # stops the processes after `linger` s idle
         self._busy = 0                    # tasks running
         self._ready = threading.Condition()
         self._lanes = OrderedDict()       # Lane -> deque of (future, fn, args, kwargs)
@@ -98,6 +102,9 @@ class FairPool:
             if lane not in self._lanes:
                 raise RuntimeError("cannot submit to a lane that was shut down")
             self._lanes[lane].append((future, fn, args, kwargs))
+            if self._idle_timer is not None:    # work again: the idle spell ended
+                self._idle_timer.cancel()
+                self._idle_timer = None
             self._ready.notify()
         return future
 
@@ -157,12 +164,45 @@ class FairPool:
             processes.shutdown(wait=False)
             raise
 
+    def _idle(self):
+        return self._processes is not None and not self._lanes and not self._busy
+
     def _stop_idle_processes(self):
-        """(Holding the lock) stop the worker processes once no lane is
-        left and no task runs: memory back to the system between maps."""
-        if self._processes is not None and not self._lanes and not self._busy:
+        """(Holding the lock) once no lane is left and no task runs, stop
+        the worker processes `linger` seconds later if still idle then (at
+        once without linger): memory back to the system between maps."""
+        if not self._idle():
+            return
+        if self.linger <= 0.0:
+            self._stop()
+        elif self._idle_timer is None:
+            self._idle_timer = threading.Timer(self.linger, self._stop_if_idle)
+            self._idle_timer.daemon = True
+            self._idle_timer.start()
+
+    def _stop_if_idle(self):
+        with self._ready:
+            self._idle_timer = None
+            if self._idle():
+                self._stop()
+
+    def _stop(self):
+        """(Holding the lock) shut the worker processes down now."""
+        if self._idle_timer is not None:
+            self._idle_timer.cancel()
+            self._idle_timer = None
+        if self._processes is not None:
             self._processes.shutdown(wait=False)
             self._processes = None
+
+    def stop_processes(self):
+        """Stop the worker processes now if no lane is open and no task runs
+        (say, once no session that could ask for a map is left); True if
+        none are up afterwards."""
+        with self._ready:
+            if self._idle():
+                self._stop()
+            return self._processes is None
 
     def processes_up(self):
         """Whether worker processes are running (for tests and diagnostics)."""

@@ -61,6 +61,11 @@ MAP_NICE = 10
 # 9.5 s for the code before pictures): within the noise at 10 s
 CHUNK_SECONDS = 10.0
 CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
+# seconds the map workers' processes outlive the last map: a map asked for
+# meanwhile starts at once (a worker's start is ~1.3 s of CPU: imports,
+# compiled kernels loaded); `stop_workers` ends them sooner (the server's
+# memory release, once no session is open)
+WORKERS_LINGER = 60.0
 
 
 def default_folder():
@@ -385,8 +390,16 @@ class MapJobs:
             if self._workers is None:
                 self._workers = FairPool(self.cores, name="vibtrans-map-point",
                                          nice=MAP_NICE, processes=self.processes,
-                                         initializer=warmup)
+                                         initializer=warmup, linger=WORKERS_LINGER)
             return self._workers.lane()
+
+    def stop_workers(self):
+        """Stop the map workers' processes now unless a map is computing
+        (their memory back to the system)."""
+        with self._lock:
+            workers = self._workers
+        if workers is not None:
+            workers.stop_processes()
 
     def _run_adaptive(self, comp, path, on_level):
         from vibtrans.adaptive import run_adaptive

@@ -36,6 +36,13 @@ CLOSES_PER_RELEASE = 30    # closes kept uncollected at most (a server never idl
 RELEASED = "released the memory of closed sessions"
 
 _RELEASE = {"handle": None, "server": None, "closes": 0}
+_AT_RELEASE = []           # callables, run at each release (the server's)
+
+
+def at_release(fn):
+    """Call fn() at each release too (before the collection): say, stop
+    helper processes kept for the open sessions."""
+    _AT_RELEASE.append(fn)
 
 
 def page_built():
@@ -88,6 +95,11 @@ def release():
         return          # a session opened meanwhile: at its close
     _RELEASE["closes"] = 0
     t0, before = time.perf_counter(), resident_mb()
+    for fn in _AT_RELEASE:
+        try:
+            fn()
+        except Exception:            # the release goes on
+            log.exception("a release hook failed")
     gc.unfreeze()
     collected = gc.collect()
     gc.freeze()

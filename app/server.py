@@ -215,6 +215,7 @@ def serve(args):
                       cores=getattr(args, "map_cores", None),
                       scheduler=getattr(args, "scheduler", None))
     mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start
+    memory.at_release(mapjobs.jobs().stop_workers)      # no session left: no map to come
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:                     # (in one line: nothing printed before it)
         raise InputError("; ".join(problems))

@@ -284,6 +284,18 @@ def test_the_server_freezes_every_page_once_built(monkeypatch):
     assert asyncio.run(go()) == ("a page",) * 3 and built == [1, 1, 1]
 
 
+def test_a_release_runs_the_servers_hooks_first(monkeypatch, thawed):
+    """`at_release` hooks (the server's: stop the map workers kept for the
+    open sessions) run at each release, a failing one not stopping it."""
+    calls = []
+    monkeypatch.setattr(memory, "_AT_RELEASE", [])
+    memory.at_release(lambda: 1 / 0)
+    memory.at_release(lambda: calls.append("stopped"))
+    monkeypatch.setitem(memory._RELEASE, "server", None)
+    memory.release()
+    assert calls == ["stopped"]
+
+
 def test_the_server_leaves_panels_collection_per_close_to_the_release(monkeypatch):
     import panel.io.document as panel_document
     monkeypatch.setattr(panel_document, "_garbage_collect", panel_document._garbage_collect)

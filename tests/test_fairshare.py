@@ -140,6 +140,31 @@ def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
     assert _soon(lambda: not pool.processes_up())
 
 
+def test_process_workers_linger_for_the_next_map_then_stop():
+    """With `linger`, the processes outlive the last lane that long: a map
+    asked for meanwhile runs in the same processes (no new start), and the
+    spell is counted from the last lane's end; `stop_processes` ends it
+    at once, not while a lane is open."""
+    import time
+    pool = FairPool(1, processes=True, linger=3.0)
+    lane = pool.lane()
+    pid = lane.submit(_process_facts, 0).result(timeout=120)[0]
+    lane.shutdown()
+    time.sleep(1.0)
+    lane = pool.lane()
+    assert lane.submit(_process_facts, 1).result(timeout=120)[0] == pid    # the same worker
+    time.sleep(2.5)
+    lane.shutdown()
+    time.sleep(1.0)             # over 3 s after the first lane's end, 1 s after the last's
+    assert pool.processes_up()
+    assert _soon(lambda: not pool.processes_up())       # 3 s after the last lane
+    lane = pool.lane()
+    assert lane.submit(_process_facts, 2).result(timeout=120)[0] != pid
+    assert not pool.stop_processes() and pool.processes_up()   # a lane is open
+    lane.shutdown()
+    assert pool.stop_processes() and not pool.processes_up()
+
+
 def _sleep_then(seconds, value):
     import time
     time.sleep(seconds)

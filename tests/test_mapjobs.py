@@ -274,10 +274,12 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         assert remote.cache.get(request_key(bigger.cache_request())) is None
 
 
-def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path):
+def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path, monkeypatch):
     """The points run in worker processes by default (their Python off the
     server's GIL), with the same results as in threads of the server; the
-    processes are gone once no map computes (their memory with them)."""
+    processes are gone WORKERS_LINGER after no map computes (their memory
+    with them), or at `stop_workers`."""
+    monkeypatch.setattr(mapjobs, "WORKERS_LINGER", 0.5)
     threads = mapjobs.MapJobs(folder=str(tmp_path / "threads"), cores=1, processes=False)
     mine = Listener()
     threads.submit("a", MapRequest(**TINY), mine)
@@ -296,6 +298,15 @@ def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path):
     while jobs._workers.processes_up() and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not jobs._workers.processes_up()
+    monkeypatch.setattr(mapjobs, "WORKERS_LINGER", 600.0)
+    again = mapjobs.MapJobs(folder=str(tmp_path / "again"), cores=1)
+    mine = Listener()
+    again.submit("a", MapRequest(**TINY), mine)
+    assert mine.wait().kind == "done"
+    time.sleep(0.5)
+    assert again._workers.processes_up()            # lingering for the next map
+    again.stop_workers()
+    assert not again._workers.processes_up()
 
 
 def test_the_environment_switches_the_map_workers_to_threads(monkeypatch):
