@@ -89,7 +89,8 @@ def resident_mb():
 
 def release():
     """Collect what the closed sessions left and give the freed heap back
-    to the OS; what lives on is frozen again (as at start-up)."""
+    to the OS; what lives on is frozen again (as at start-up) if anything
+    was frozen (a process that never froze, say a test's, stays so)."""
     _RELEASE["handle"] = None
     if not _due(_RELEASE["server"]):
         return          # a session opened meanwhile: at its close
@@ -100,9 +101,11 @@ def release():
             fn()
         except Exception:            # the release goes on
             log.exception("a release hook failed")
+    frozen = gc.get_freeze_count() > 0     # the server froze start-up and pages
     gc.unfreeze()
     collected = gc.collect()
-    gc.freeze()
+    if frozen:
+        gc.freeze()
     try:
         ctypes.CDLL(None).malloc_trim(0)
     except (OSError, AttributeError):    # not glibc

@@ -284,6 +284,13 @@ def test_the_server_freezes_every_page_once_built(monkeypatch):
     assert asyncio.run(go()) == ("a page",) * 3 and built == [1, 1, 1]
 
 
+def test_a_release_leaves_a_process_that_never_froze_unfrozen(monkeypatch, thawed):
+    gc.unfreeze()
+    monkeypatch.setitem(memory._RELEASE, "server", None)
+    memory.release()
+    assert gc.get_freeze_count() == 0
+
+
 def test_a_release_runs_the_servers_hooks_first(monkeypatch, thawed):
     """`at_release` hooks (the server's: stop the map workers kept for the
     open sessions) run at each release, a failing one not stopping it."""
