@@ -16,7 +16,6 @@ import functools
 import json
 import logging
 import math
-import os
 import time
 from pathlib import Path
 from urllib.parse import parse_qsl, urlencode
