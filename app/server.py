@@ -24,7 +24,7 @@ import threading
 
 from vibtrans.errors import InputError
 
-from . import memory
+from . import memory, propertycache
 
 
 def _age():
@@ -228,6 +228,7 @@ def serve(args):
     _log_to_stderr(logging.getLogger("vibtrans"))
     _no_document_checks()
     _no_mathjax()
+    propertycache.install()
     memory.no_collection_per_close()
     _freeze()
     started = []

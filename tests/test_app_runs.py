@@ -433,7 +433,7 @@ def test_page_cost_bench_runs_and_validates():
     naming the option."""
     from devtools import pagecost
     out = pagecost.main(["--pages", "1", "--json"])
-    assert out["page_s_plain"] > 0 and out["page_s_served"] > 0
+    assert out["page_s_plain"] > 0 and out["page_s_served"] > 0 and out["page_s_uncached"] > 0
     assert out["models"] > 100 and out["page_cpu_s"] > 0
     with pytest.raises(SystemExit):
         pagecost.main(["--pages", "0"])

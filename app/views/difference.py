@@ -48,27 +48,29 @@ class DifferenceView:
 
     def __init__(self, state, computed=lambda: None):
         self.state, self.computed = state, computed
-        self.first = pn.widgets.Select(label="first map", width=330,
-                                       css_classes=["vt-diff-first"])
-        self.second = pn.widgets.Select(label="second map (compared with the first)",
-                                        width=330, css_classes=["vt-diff-second"])
-        self.button = pn.widgets.Button(label="Show the difference", button_type="primary",
-                                        css_classes=["vt-diff-show"])
-        self.button.on_click(self._on_show)
-        self.message = pn.pane.Alert("", alert_type="warning", visible=False,
-                                     sizing_mode="stretch_width", css_classes=["vt-diff-message"])
-        self.summary = pn.pane.Markdown("", sizing_mode="stretch_width",
-                                        css_classes=["vt-diff-summary"])
-        self.figure = pn.Column(sizing_mode="stretch_width")
         self.diff = None               # the Dataset shown
         self.panel = pn.Column(sizing_mode="stretch_width", name="difference")
         self._built = False
 
     def build(self):
-        """Made when the tab is first opened; the list of maps is refreshed
+        """Made when the tab is first opened (a page's widgets cost the
+        event loop that every session shares); the list of maps is refreshed
         every time (a map on demand may have been shown since)."""
         if not self._built:
             self._built = True
+            self.first = pn.widgets.Select(label="first map", width=330,
+                                           css_classes=["vt-diff-first"])
+            self.second = pn.widgets.Select(label="second map (compared with the first)",
+                                            width=330, css_classes=["vt-diff-second"])
+            self.button = pn.widgets.Button(label="Show the difference", button_type="primary",
+                                            css_classes=["vt-diff-show"])
+            self.button.on_click(self._on_show)
+            self.message = pn.pane.Alert("", alert_type="warning", visible=False,
+                                         sizing_mode="stretch_width",
+                                         css_classes=["vt-diff-message"])
+            self.summary = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                            css_classes=["vt-diff-summary"])
+            self.figure = pn.Column(sizing_mode="stretch_width")
             self.panel.objects = [pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
                                   pn.Row(self.first, self.second), self.button, self.message,
                                   self.summary, self.figure]
