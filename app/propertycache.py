@@ -1,18 +1,27 @@
-"""Two answers Bokeh recomputes at every model's construction, remembered
-per class: the server's pages and figures are built from Bokeh models on
-the event loop that every session shares.
+"""Three answers Bokeh recomputes at every model's construction and at
+every read of a property left at its default: cheaper here.  The server's
+pages and figures are built from Bokeh models on the event loop that
+every session shares.
 
-A Bokeh model's `__init__` asks each of its properties (~40 for a widget
-or a layout) whether its default is "unstable" (a fresh list or dict per
-model), and every read of a property left at its default merges the
-class's overridden defaults along its whole MRO.  Both answers depend only
-on the class: its properties and overrides are fixed when the class is
-made.  Bokeh recomputes them every time (~7,500 times per explorer page).
-Remembered, a page costs ~17% less (`python -m devtools.pagecost`,
-interleaved with and without: 0.169 -> 0.141 s, 2026-11-26).  The values
-are Bokeh's own, computed once per class (tests/test_propertycache.py
-compares them for every model class of Bokeh and Panel, and a page built
-with and without the cache serializes alike).
+- A model's `__init__` asks each of its properties (~40 for a widget or a
+  layout) whether its default is "unstable" (a fresh list or dict per
+  model); remembered per (property, class).
+- Every read of a property left at its default merges the class's
+  overridden defaults along its whole MRO; remembered per class.
+  Both answers depend only on the class: its properties and overrides are
+  fixed when the class is made.  Bokeh recomputes them every time (~7,500
+  times per explorer page).
+- The same read asks for the model's theme values with `getattr(self,
+  "__themed_values__", None)`: for the many models without a theme the
+  lookup misses, goes through HasProps.__getattr__ and raises and catches
+  an AttributeError (~8,000 times a page).  Read here from the model's own
+  dict, where Bokeh's `apply_theme` puts them.
+
+With all three a page costs ~20% less (`python -m devtools.pagecost`, which
+builds pages with and without them in one run: `uncached_over_served`).
+The values are Bokeh's own (tests/test_propertycache.py compares them for
+every model class of Bokeh and Panel, and for themed and unthemed models,
+and a page built with and without them serializes alike).
 
 Process-wide; `server.py` installs it (and the page-cost bench, to measure
 the page as served).  Nothing here imports the rest of the app.
@@ -21,7 +30,8 @@ from bokeh.core.has_props import HasProps
 from bokeh.core.property.descriptors import PropertyDescriptor
 
 _BOKEH = {"overridden_defaults": HasProps.__dict__["_overridden_defaults"],
-          "has_unstable_default": PropertyDescriptor.has_unstable_default}
+          "has_unstable_default": PropertyDescriptor.has_unstable_default,
+          "themed_values": HasProps.themed_values}
 _overridden_by_class = {}
 
 
@@ -49,16 +59,24 @@ def _has_unstable_default(descriptor, obj):
         return unstable
 
 
+def _themed_values(model):
+    """Bokeh's HasProps.themed_values: the dict `apply_theme` set on the
+    model, or None."""
+    return model.__dict__.get("__themed_values__")
+
+
 def install():
-    """Bokeh's two lookups remembered per class, from now on (idempotent)."""
+    """The three lookups, from now on (idempotent)."""
     HasProps._overridden_defaults = classmethod(_overridden_defaults)
     PropertyDescriptor.has_unstable_default = _has_unstable_default
+    HasProps.themed_values = _themed_values
 
 
 def uninstall():
     """Bokeh's own lookups back (for tests that compare)."""
     HasProps._overridden_defaults = _BOKEH["overridden_defaults"]
     PropertyDescriptor.has_unstable_default = _BOKEH["has_unstable_default"]
+    HasProps.themed_values = _BOKEH["themed_values"]
 
 
 def installed():

@@ -1,5 +1,5 @@
-"""app/propertycache.py: Bokeh's per-class answers, remembered, are Bokeh's
-own answers (source: Bokeh itself, computed uncached beside them), and a
+"""app/propertycache.py: Bokeh's answers, remembered or read directly, are
+Bokeh's own answers (source: Bokeh itself, computed uncached beside them), and a
 page built with the cache is the page built without it."""
 import pytest
 from bokeh.core.has_props import HasProps
@@ -77,6 +77,29 @@ def test_a_class_with_its_own_overrides_is_answered_for_itself(cache):
     assert "width" not in Div._overridden_defaults()
 
 
+def test_theme_values_are_bokehs_with_and_without_a_theme(cache):
+    """A model's theme values, read from its dict, are what Bokeh's own
+    lookup reads: none without a theme, the theme's once one applies, none
+    again once it is taken off; and the themed default is what a read of
+    the property gives."""
+    from bokeh.document import Document
+    from bokeh.models import Div
+    from bokeh.themes import Theme
+
+    bokeh_themed = propertycache._BOKEH["themed_values"]
+    div = Div()
+    assert div.themed_values() is None and bokeh_themed(div) is None
+    doc = Document()
+    doc.add_root(div)
+    doc.theme = Theme(json={"attrs": {"Div": {"width": 222}}})
+    assert div.themed_values() == {"width": 222} == bokeh_themed(div)
+    assert div.themed_values() is bokeh_themed(div)
+    assert div.width == 222
+    doc.theme = Theme(json={})
+    assert div.themed_values() is None and bokeh_themed(div) is None
+    assert div.width is None
+
+
 def test_install_and_uninstall_swap_bokehs_lookups():
     was = propertycache.installed()
     try:
@@ -89,6 +112,7 @@ def test_install_and_uninstall_swap_bokehs_lookups():
         assert (PropertyDescriptor.has_unstable_default
                 is propertycache._BOKEH["has_unstable_default"])
         assert HasProps.__dict__["_overridden_defaults"] is propertycache._BOKEH["overridden_defaults"]
+        assert HasProps.themed_values is propertycache._BOKEH["themed_values"]
     finally:
         (propertycache.install if was else propertycache.uninstall)()
 
