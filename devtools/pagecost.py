@@ -8,9 +8,9 @@ the ratio comes from one run on a shared machine; `page_cpu_s` is the
 process's CPU time per page as served (less sensitive to other processes
 than the wall-clock figures).  The shipped maps are prerendered first, as
 the server's warm-up does: pages opened before it ends also stat the maps
-not yet read (~0.02 s each).  A third kind, as served but without the
-server's cache of Bokeh's per-class answers (app/propertycache.py), gives
-that cache's effect as `uncached_over_served`.  Issue 14's goal: a page
+not yet read (~0.02 s each).  A third kind, as served but with Bokeh's
+own lookups instead of the server's cheaper ones (app/propertycache.py),
+gives their effect as `uncached_over_served`.  Issue 14's goal: a page
 <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
