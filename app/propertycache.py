@@ -33,6 +33,7 @@ _BOKEH = {"overridden_defaults": HasProps.__dict__["_overridden_defaults"],
           "has_unstable_default": PropertyDescriptor.has_unstable_default,
           "themed_values": HasProps.themed_values}
 _overridden_by_class = {}
+_unstable_by_property_and_class = {}
 
 
 def _overridden_defaults(cls):
@@ -48,14 +49,12 @@ def _overridden_defaults(cls):
 def _has_unstable_default(descriptor, obj):
     """Bokeh's PropertyDescriptor.has_unstable_default, once per (property,
     class): the property's default and the class's overrides decide it."""
-    by_class = descriptor.__dict__.get("_unstable_by_class")
-    if by_class is None:
-        by_class = descriptor.__dict__["_unstable_by_class"] = {}
-    cls = type(obj)
+    key = (descriptor, type(obj))
     try:
-        return by_class[cls]
+        return _unstable_by_property_and_class[key]
     except KeyError:
-        unstable = by_class[cls] = _BOKEH["has_unstable_default"](descriptor, obj)
+        unstable = _unstable_by_property_and_class[key] = _BOKEH["has_unstable_default"](
+            descriptor, obj)
         return unstable
 
 
