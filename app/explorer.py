@@ -31,7 +31,7 @@ from vibtrans.fidelity import PRESET_NOTES
 from vibtrans.mapdiff import describe
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
-from . import data, inputs, mapjobs, maprequest, memory, urlstate
+from . import data, inputs, mapjobs, maprequest, memory, panelshortcuts, urlstate
 from .controller import RUNNER, RunController
 from .state import (MAP_MATERIAL, MAP_RUN, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS,
                     ExplorerState, within)
@@ -262,11 +262,9 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.watch(self._on_model, "model")     # before the redraw (precedence)
         # typed numbers: checked like a link's, applied only when valid
         self.fields = [inputs.NumberField(self.state, "log_amplitude", "log10 A*"),
-                       inputs.NumberField(self.state, "log_mass", "log10 m*"),
-                       inputs.NumberField(self.state, "alpha_t",
-                                          "alpha_t (point mass: tangential restitution)")]
-        # the material point's controls, shown when it runs (built then: most
-        # sessions never show them)
+                       inputs.NumberField(self.state, "log_mass", "log10 m*")]
+        # the material point's controls (its alpha_t field joins self.fields),
+        # shown when it runs (built then: most sessions never show them)
         self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         self.state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()
@@ -430,10 +428,12 @@ class Explorer(pn.viewable.Viewer):
         s = self.state
         shown = s.model == "point-mass" or s.compare == "point mass"
         if shown and not self.point_mass_controls.objects:
+            alpha_t = inputs.NumberField(s, "alpha_t", "alpha_t (point mass: tangential restitution)")
+            self.fields.append(alpha_t)
             self.point_mass_controls.objects = [
                 pn.widgets.Select.from_param(s.param.stick_rule,
                                              name="stick rule (point mass: slide -> stick)"),
-                self.fields[2]]
+                alpha_t]
         self.point_mass_controls.visible = shown
 
     @staticmethod
@@ -1065,14 +1065,16 @@ def _attached_in_one_pass(template, page_location=None):
     (`_page_location`), given to Panel instead of the one it would parse
     from the request.  What each saves of a page's time on the event loop
     that all sessions share (`python -m devtools.pagecost`): the one freeze
-    0.27 -> 0.23 s; validation and the fresh roots 9% and 6% more."""
+    0.27 -> 0.23 s; validation and the fresh roots 9% and 6% more.  Panel's
+    template attaches its parts with its design alone saved and restored
+    (`panelshortcuts.attaching`, where the server installed that)."""
     server_doc = template.server_doc
 
     def frozen(doc=None, title=None, location=True):
         doc = doc or pn.state.curdoc
         if page_location is not None and location:
             location = page_location
-        with doc.models.freeze(), unvalidated(), _fresh_roots():
+        with doc.models.freeze(), unvalidated(), _fresh_roots(), panelshortcuts.attaching():
             return server_doc(doc, title, location)
     template.server_doc = frozen
     return template

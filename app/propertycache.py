@@ -1,4 +1,4 @@
-"""Three answers Bokeh recomputes at every model's construction and at
+"""Four answers Bokeh recomputes at every model's construction and at
 every read of a property left at its default: cheaper here.  The server's
 pages and figures are built from Bokeh models on the event loop that
 every session shares.
@@ -16,8 +16,15 @@ every session shares.
   lookup misses, goes through HasProps.__getattr__ and raises and catches
   an AttributeError (~8,000 times a page).  Read here from the model's own
   dict, where Bokeh's `apply_theme` puts them.
+- That read then computes the default afresh (~3,000 times a page): copies
+  the class's default and prepares it (`Property.prepare_value`).  For a
+  model without theme values, a stable default (Bokeh's own word: not made
+  by a function, not a container or a model) that comes out as an
+  immutable scalar (None, a bool, a number, a string) is remembered per
+  (property, class, whether this thread validates: validation may convert
+  a value).  Anything else is computed as before.
 
-With all three a page costs ~20% less (`python -m devtools.pagecost`, which
+With the first three a page costs ~20% less (`python -m devtools.pagecost`, which
 builds pages with and without them in one run: `uncached_over_served`).
 The values are Bokeh's own (tests/test_propertycache.py compares them for
 every model class of Bokeh and Panel, and for themed and unthemed models,
@@ -27,13 +34,18 @@ Process-wide; `server.py` installs it (and the page-cost bench, to measure
 the page as served).  Nothing here imports the rest of the app.
 """
 from bokeh.core.has_props import HasProps
+from bokeh.core.property import bases
 from bokeh.core.property.descriptors import PropertyDescriptor
 
 _BOKEH = {"overridden_defaults": HasProps.__dict__["_overridden_defaults"],
           "has_unstable_default": PropertyDescriptor.has_unstable_default,
-          "themed_values": HasProps.themed_values}
+          "themed_values": HasProps.themed_values,
+          "instance_default": PropertyDescriptor.instance_default}
 _overridden_by_class = {}
 _unstable_by_property_and_class = {}
+_default_by_property_and_class = {}
+_IMMUTABLE = frozenset((type(None), bool, int, float, str))
+_COMPUTED = object()     # a default computed at every read (not an immutable scalar)
 
 
 def _overridden_defaults(cls):
@@ -64,11 +76,28 @@ def _themed_values(model):
     return model.__dict__.get("__themed_values__")
 
 
+def _instance_default(descriptor, obj):
+    """Bokeh's PropertyDescriptor.instance_default: an unthemed model's
+    stable default that is an immutable scalar, once per (property, class,
+    validation on)."""
+    if obj.themed_values() is not None or descriptor.has_unstable_default(obj):
+        return _BOKEH["instance_default"](descriptor, obj)
+    key = (descriptor, type(obj), bases.validation_on())
+    value = _default_by_property_and_class.get(key, _COMPUTED)
+    if value is _COMPUTED:
+        value = _BOKEH["instance_default"](descriptor, obj)
+        if key not in _default_by_property_and_class:
+            _default_by_property_and_class[key] = (
+                value if type(value) in _IMMUTABLE else _COMPUTED)
+    return value
+
+
 def install():
-    """The three lookups, from now on (idempotent)."""
+    """The four lookups, from now on (idempotent)."""
     HasProps._overridden_defaults = classmethod(_overridden_defaults)
     PropertyDescriptor.has_unstable_default = _has_unstable_default
     HasProps.themed_values = _themed_values
+    PropertyDescriptor.instance_default = _instance_default
 
 
 def uninstall():
@@ -76,6 +105,7 @@ def uninstall():
     HasProps._overridden_defaults = _BOKEH["overridden_defaults"]
     PropertyDescriptor.has_unstable_default = _BOKEH["has_unstable_default"]
     HasProps.themed_values = _BOKEH["themed_values"]
+    PropertyDescriptor.instance_default = _BOKEH["instance_default"]
 
 
 def installed():

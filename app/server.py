@@ -24,7 +24,7 @@ import threading
 
 from vibtrans.errors import InputError
 
-from . import memory, propertycache
+from . import memory, panelshortcuts, propertycache
 
 
 def _age():
@@ -229,6 +229,7 @@ def serve(args):
     _no_document_checks()
     _no_mathjax()
     propertycache.install()
+    panelshortcuts.install()
     memory.no_collection_per_close()
     _freeze()
     started = []

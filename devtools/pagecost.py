@@ -8,10 +8,10 @@ the ratio comes from one run on a shared machine; `page_cpu_s` is the
 process's CPU time per page as served (less sensitive to other processes
 than the wall-clock figures).  The shipped maps are prerendered first, as
 the server's warm-up does: pages opened before it ends also stat the maps
-not yet read (~0.02 s each).  A third kind, as served but with Bokeh's
-own lookups instead of the server's cheaper ones (app/propertycache.py),
-gives their effect as `uncached_over_served`.  Issue 14's goal: a page
-<= 0.1 s.
+not yet read (~0.02 s each).  A third kind, "own", as served but with
+Bokeh's and Panel's own code instead of the server's cheaper lookups and
+shortcuts (app/propertycache.py, app/panelshortcuts.py), gives their
+effect as `own_over_served`.  Issue 14's goal: a page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
 """
@@ -24,18 +24,19 @@ import time
 from bokeh.document import Document
 from panel.io.state import set_curdoc
 
-from vibtrans_explorer import data, propertycache
+from vibtrans_explorer import data, panelshortcuts, propertycache
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.views import map as map_view
 
 
 def _page(kind):
     """(seconds to build and attach a page, its CPU seconds, models in the
-    document); kind: "plain", "served" or "uncached" (served without
-    app/propertycache.py)."""
+    document); kind: "plain", "served" or "own" (served without
+    app/propertycache.py and app/panelshortcuts.py)."""
     doc = Document()
-    if kind == "uncached":
+    if kind == "own":
         propertycache.uninstall()
+        panelshortcuts.uninstall()
     try:
         with set_curdoc(doc):
             t0, c0 = time.perf_counter(), time.process_time()
@@ -47,10 +48,11 @@ def _page(kind):
             t1, c1 = time.perf_counter(), time.process_time()
     finally:
         propertycache.install()           # as the server does (app/server.py)
+        panelshortcuts.install()
     return t1 - t0, c1 - c0, len(doc.models)
 
 
-KINDS = ("plain", "served", "uncached")
+KINDS = ("plain", "served", "own")
 
 
 def run(pages):
@@ -60,7 +62,7 @@ def run(pages):
     # as a served explorer after its warm-up (app/server.py): every map
     # rendered and read, so a page's check of the shipped files stats none
     map_view.prerender()
-    was_installed = propertycache.installed()
+    was_installed = propertycache.installed(), panelshortcuts.installed()
     try:
         for kind in KINDS + KINDS:                        # warm-up: imports, caches
             _page(kind)
@@ -73,11 +75,12 @@ def run(pages):
                 if kind == "served":
                     cpu.append(page_cpu)
     finally:
-        if not was_installed:
-            propertycache.uninstall()
+        for module, was in zip((propertycache, panelshortcuts), was_installed):
+            if not was:
+                module.uninstall()
     p, o, u = (statistics.median(wall[kind]) for kind in KINDS)
     return {"pages": pages, "page_s_plain": p, "page_s_served": o,
-            "served_over_plain": o / p, "page_s_uncached": u, "uncached_over_served": u / o,
+            "served_over_plain": o / p, "page_s_own": u, "own_over_served": u / o,
             "page_cpu_s": statistics.median(cpu), "models": models}
 
 

@@ -53,6 +53,63 @@ def test_every_model_class_gets_bokehs_own_answers(cache):
     assert pairs > 10000
 
 
+@pytest.mark.parametrize("validate", [True, False])
+def test_every_unthemed_default_is_bokehs_own(cache, validate):
+    """Every property's default of every model class, read twice (computed,
+    then remembered where it is an immutable scalar), equals Bokeh's
+    uncached answer, with property validation on and off (validation may
+    convert a default: remembered apart); an unstable default (a container,
+    a model) is never remembered, nor a stable one that is not a scalar."""
+    from bokeh.core.property.validation import validate as validating
+
+    classes = _model_classes()
+    bokeh_default = propertycache._BOKEH["instance_default"]
+    remembered = 0
+    with validating(validate):
+        for cls in classes:
+            try:
+                model = cls()
+            except Exception:
+                continue                            # abstract, or needs arguments
+            for name in cls.properties(_with_props=True):
+                descriptor = cls.lookup(name)
+                if not isinstance(descriptor, PropertyDescriptor):
+                    continue                        # an alias
+                first = descriptor.instance_default(model)
+                again = descriptor.instance_default(model)
+                key = (descriptor, cls, validate)
+                if descriptor.has_unstable_default(model):
+                    assert key not in propertycache._default_by_property_and_class
+                    continue                        # made afresh per model, as by Bokeh
+                own = bokeh_default(descriptor, model)
+                assert (first == own and again == own) or own != own, (cls, name)   # NaN
+                kept = propertycache._default_by_property_and_class[key]
+                if type(own) in (type(None), bool, int, float, str):
+                    remembered += 1
+                else:
+                    assert kept is propertycache._COMPUTED, (cls, name)
+    assert remembered > 5000
+
+
+def test_a_remembered_default_is_per_class_and_not_for_themed_models(cache):
+    """A subclass overriding a scalar default is answered for itself; a
+    model with theme values gets the theme's value."""
+    from bokeh.core.properties import Override
+    from bokeh.document import Document
+    from bokeh.models import Div
+    from bokeh.themes import Theme
+
+    class Narrow(Div):
+        width = Override(default=99)
+
+    assert Div().width is None and Narrow().width == 99 and Div().width is None
+    div = Div()
+    doc = Document()
+    doc.add_root(div)
+    doc.theme = Theme(json={"attrs": {"Div": {"width": 222}}})
+    assert div.width == 222 and Div().width is None
+
+
 def test_a_class_with_its_own_overrides_is_answered_for_itself(cache):
     """Remembered per class, not per property: a subclass that overrides a
     list's default with a plain value is answered apart from its parent."""
@@ -113,6 +170,7 @@ def test_install_and_uninstall_swap_bokehs_lookups():
                 is propertycache._BOKEH["has_unstable_default"])
         assert HasProps.__dict__["_overridden_defaults"] is propertycache._BOKEH["overridden_defaults"]
         assert HasProps.themed_values is propertycache._BOKEH["themed_values"]
+        assert PropertyDescriptor.instance_default is propertycache._BOKEH["instance_default"]
     finally:
         (propertycache.install if was else propertycache.uninstall)()
 
