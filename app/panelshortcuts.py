@@ -133,24 +133,25 @@ def attaching():
         _ATTACHING.on = was
 
 
+# (owner, attribute, the shortcut, the code it stands in for)
+_SWAPS = [(callback_manager, "_check_callback", _check_callback, _OWN["check_callback"]),
+          (Syncable, "_init_params", _init_params, _OWN["init_params"]),
+          (_config, "set", _config_set, _OWN["config_set"]),
+          (Design, "apply", _design_apply, _OWN["design_apply"]),
+          *((cls, "_resolve", _RESOLVE[cls], _OWN[cls]) for cls in _PATHS)]
+
+
 def install():
     """The shortcuts, from now on (idempotent)."""
-    callback_manager._check_callback = _check_callback
-    Syncable._init_params = _init_params
-    _config.set = _config_set
-    Design.apply = _design_apply
-    for cls, resolve in _RESOLVE.items():
-        cls._resolve = resolve
+    for owner, name, shortcut, _ in _SWAPS:
+        setattr(owner, name, shortcut)
 
 
 def uninstall():
-    """Panel's and Bokeh's own code back (for tests and the bench that compare)."""
-    callback_manager._check_callback = _OWN["check_callback"]
-    Syncable._init_params = _OWN["init_params"]
-    _config.set = _OWN["config_set"]
-    Design.apply = _OWN["design_apply"]
-    for cls in _PATHS:
-        cls._resolve = _OWN[cls]
+    """Panel's, Param's and Bokeh's own code back (for tests and the bench
+    that compare)."""
+    for owner, name, _, own in _SWAPS:
+        setattr(owner, name, own)
 
 
 def installed():
