@@ -24,11 +24,12 @@ every session shares.
   (property, class, whether this thread validates: validation may convert
   a value).  Anything else is computed as before.
 
-With the first three a page costs ~20% less (`python -m devtools.pagecost`, which
-builds pages with and without them in one run: `uncached_over_served`).
-The values are Bokeh's own (tests/test_propertycache.py compares them for
-every model class of Bokeh and Panel, and for themed and unthemed models,
-and a page built with and without them serializes alike).
+With the first three a page cost ~20% less, the fourth ~4% more
+(`python -m devtools.pagecost` builds pages with and without them and
+app/panelshortcuts.py in one run: `own_over_served`).  The values are
+Bokeh's own (tests/test_propertycache.py compares them for every model
+class of Bokeh and Panel, and for themed and unthemed models, and a page
+built with and without them serializes alike).
 
 Process-wide; `server.py` installs it (and the page-cost bench, to measure
 the page as served).  Nothing here imports the rest of the app.
@@ -46,6 +47,7 @@ _unstable_by_property_and_class = {}
 _default_by_property_and_class = {}
 _IMMUTABLE = frozenset((type(None), bool, int, float, str))
 _COMPUTED = object()     # a default computed at every read (not an immutable scalar)
+_UNSEEN = object()       # a (property, class, validation) not read yet
 
 
 def _overridden_defaults(cls):
@@ -83,12 +85,12 @@ def _instance_default(descriptor, obj):
     if obj.themed_values() is not None or descriptor.has_unstable_default(obj):
         return _BOKEH["instance_default"](descriptor, obj)
     key = (descriptor, type(obj), bases.validation_on())
-    value = _default_by_property_and_class.get(key, _COMPUTED)
-    if value is _COMPUTED:
+    value = _default_by_property_and_class.get(key, _UNSEEN)
+    if value is _UNSEEN:
         value = _BOKEH["instance_default"](descriptor, obj)
-        if key not in _default_by_property_and_class:
-            _default_by_property_and_class[key] = (
-                value if type(value) in _IMMUTABLE else _COMPUTED)
+        _default_by_property_and_class[key] = value if type(value) in _IMMUTABLE else _COMPUTED
+    elif value is _COMPUTED:
+        value = _BOKEH["instance_default"](descriptor, obj)
     return value
 
 

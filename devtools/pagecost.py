@@ -78,9 +78,10 @@ def run(pages):
         for module, was in zip((propertycache, panelshortcuts), was_installed):
             if not was:
                 module.uninstall()
-    p, o, u = (statistics.median(wall[kind]) for kind in KINDS)
-    return {"pages": pages, "page_s_plain": p, "page_s_served": o,
-            "served_over_plain": o / p, "page_s_own": u, "own_over_served": u / o,
+    plain, served, own = (statistics.median(wall[kind]) for kind in KINDS)
+    return {"pages": pages, "page_s_plain": plain, "page_s_served": served,
+            "served_over_plain": served / plain, "page_s_own": own,
+            "own_over_served": own / served,
             "page_cpu_s": statistics.median(cpu), "models": models}
 
 
