@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser proxy serve test test-fast bench bench-browser wheel container-test \
+.PHONY: setup browser proxy serve test test-fast docs bench bench-browser wheel container-test \
         loadtest-proxy
 
 setup: $(VENV)/.installed
@@ -40,6 +40,13 @@ test: setup browser proxy
 # test`, everything).
 test-fast: setup
 	$(BIN)/python -m pytest -q -m "not slow and not browser and not server"
+
+# The documentation site (Sphinx + MyST-NB + the PyData theme) into
+# docs/_build/html: warnings are errors, every notebook is executed.
+docs: setup
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	rm -rf docs/_build docs/reference/generated
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
 bench: setup
 	$(BIN)/vibtrans bench

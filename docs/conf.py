@@ -1,0 +1,92 @@
+"""Sphinx configuration of the vibtrans documentation (`make docs`).
+
+Sphinx with MyST (myst-nb) and the PyData theme: the convention of the
+field's libraries (numpy, xarray, HoloViz), Markdown pages that also read
+well on GitHub, notebooks executed at every build (an error fails it), the
+API reference from the docstrings (autodoc) and the command-line reference
+from the parser itself (sphinx-argparse).  Built with -W: a warning fails.
+"""
+import argparse
+import os
+
+from docutils import nodes
+from sphinx.util.docutils import SphinxDirective
+
+import vibtrans
+
+project = "vibtrans"
+author = "the vibtrans developers"
+release = version = vibtrans.__version__
+
+extensions = [
+    "myst_nb",                      # Markdown pages and executed notebooks (MyST-NB)
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",
+]
+# .rst first: autosummary writes its generated pages with the first suffix
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
+exclude_patterns = ["_build", "**/.ipynb_checkpoints", "figures/README.md"]
+myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
+myst_heading_anchors = 3
+
+# every notebook runs at every build; a failing cell fails the build
+nb_execution_mode = "force"
+nb_execution_raise_on_error = True
+nb_execution_timeout = 600
+nb_merge_streams = True
+
+autosummary_generate = True
+autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": True}
+autodoc_member_order = "bysource"
+autodoc_typehints = "none"
+
+
+def _docstring_as_written(app, what, name, obj, options, lines):
+    """The docstrings are plain text written for `help()` (A*, m*, x*(t) and
+    ASCII tables): shown as written, in a literal block, rather than parsed
+    as reStructuredText (which would read every * as emphasis)."""
+    if lines:
+        lines[:] = ["::", ""] + ["    " + line for line in lines] + [""]
+
+
+class CommandLineHelp(SphinxDirective):
+    """`vibtrans --help` and every command's `--help`, from the parser
+    (`vibtrans.cli.build_parser`), one section a command."""
+
+    def run(self):
+        from vibtrans.cli import build_parser
+
+        os.environ["COLUMNS"] = "90"          # argparse's wrap width, fixed for the page
+        parser = build_parser()
+        out = [nodes.literal_block(text=parser.format_help())]
+        for action in parser._actions:       # read only: the sub-commands' parsers
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    section = nodes.section(ids=[f"vibtrans-{name}"])
+                    section += nodes.title(text=f"vibtrans {name}")
+                    section += nodes.literal_block(text=sub.format_help())
+                    out.append(section)
+        return out
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _docstring_as_written)
+    app.add_directive("vibtrans-help", CommandLineHelp)
+
+
+html_theme = "pydata_sphinx_theme"
+html_title = "vibtrans"
+html_logo = None
+html_theme_options = {
+    "navigation_with_keys": False,
+    "header_links_before_dropdown": 4,
+    "show_toc_level": 2,
+    "footer_start": ["copyright"],
+    "secondary_sidebar_items": ["page-toc"],
+}
+html_static_path = []
+html_show_sourcelink = False
+# Panel's and HoloViews' live-kernel mime types (the page shows their HTML)
+suppress_warnings = ["myst.header", "mystnb.unknown_mime_type"]     # MODEL.md's numbered sections start at level 2
