@@ -8,6 +8,7 @@ from the parser itself (sphinx-argparse).  Built with -W: a warning fails.
 """
 import argparse
 import os
+import re
 
 from docutils import nodes
 from sphinx.util.docutils import SphinxDirective
@@ -43,12 +44,35 @@ autodoc_member_order = "bysource"
 autodoc_typehints = "none"
 
 
+def _as_text(line):
+    """A docstring line as reStructuredText showing it as written: `name`
+    as inline code, every other markup character escaped."""
+    parts = re.split(r"`([^`]+)`", line)
+    for i, part in enumerate(parts):
+        if i % 2:
+            parts[i] = f"``{part}``"
+        else:
+            for c in "\\*`|_":
+                part = part.replace(c, "\\" + c)
+            parts[i] = part
+    return "".join(parts)
+
+
 def _docstring_as_written(app, what, name, obj, options, lines):
     """The docstrings are plain text written for `help()` (A*, m*, x*(t) and
-    ASCII tables): shown as written, in a literal block, rather than parsed
-    as reStructuredText (which would read every * as emphasis)."""
-    if lines:
-        lines[:] = ["::", ""] + ["    " + line for line in lines] + [""]
+    ASCII tables): the first paragraph stays text, its markup characters
+    escaped (autosummary's one-line summaries come from it: a literal block
+    there left every summary empty), the rest is shown as written, in a
+    literal block, rather than parsed as reStructuredText (which would read
+    every * as emphasis)."""
+    if not lines:
+        return
+    cut = lines.index("") if "" in lines else len(lines)
+    first = [_as_text(line) for line in lines[:cut]]
+    rest = lines[cut:]
+    while rest and not rest[0].strip():
+        rest = rest[1:]
+    lines[:] = first + (["", "::", ""] + ["    " + line for line in rest] + [""] if rest else [])
 
 
 class CommandLineHelp(SphinxDirective):
@@ -60,13 +84,13 @@ class CommandLineHelp(SphinxDirective):
 
         os.environ["COLUMNS"] = "90"          # argparse's wrap width, fixed for the page
         parser = build_parser()
-        out = [nodes.literal_block(text=parser.format_help())]
+        out = [nodes.literal_block(text=parser.format_help(), language="text")]
         for action in parser._actions:       # read only: the sub-commands' parsers
             if isinstance(action, argparse._SubParsersAction):
                 for name, sub in action.choices.items():
                     section = nodes.section(ids=[f"vibtrans-{name}"])
                     section += nodes.title(text=f"vibtrans {name}")
-                    section += nodes.literal_block(text=sub.format_help())
+                    section += nodes.literal_block(text=sub.format_help(), language="text")
                     out.append(section)
         return out
 
@@ -77,6 +101,12 @@ def setup(app):
 
 
 html_theme = "pydata_sphinx_theme"
+# the light/dark mode a first visit gets (without it the theme's script
+# logs "Got invalid theme mode" on every page: devtools/docshots.py)
+html_context = {"default_mode": "auto"}
+# pages with no sub-pages: no empty "Section Navigation" column beside them
+html_sidebars = {"getting-started": [], "reference/*": [], "MODEL": [], "DYNAMICS": [],
+                 "SECURITY": []}
 html_title = "vibtrans"
 html_logo = None
 html_theme_options = {
