@@ -21,6 +21,7 @@ import os
 import re
 import sys
 import threading
+import time
 
 from vibtrans.errors import InputError
 
@@ -41,16 +42,31 @@ def _age():
 
 
 _SAY = threading.Lock()
+# the command's start on the monotonic clock (kept by the processes that
+# --num-procs forks, whose own start /proc would give)
+_AGE = _age()
+_STARTED = None if _AGE is None else time.monotonic() - _AGE
+
+
+def _process():
+    """"process K/N: " in a process forked by --num-procs (Tornado's task
+    id), else ""."""
+    from tornado.process import task_id
+    k = task_id()
+    return "" if k is None else f"process {k + 1}/{_PROCESSES[0]}: "
+
+
+_PROCESSES = [1]
 
 
 def say(line):
     """One line of start-up progress on stderr, with the seconds since the
-    command started.  Whole lines under a lock: the kernels' thread speaks
-    too, and print() writes the text and its newline separately."""
-    age = _age()
-    when = "" if age is None else f"[{age:.1f} s] "
+    command started (and which process, with --num-procs > 1).  Whole lines
+    under a lock: the kernels' thread speaks too, and print() writes the
+    text and its newline separately."""
+    when = "" if _STARTED is None else f"[{time.monotonic() - _STARTED:.1f} s] "
     with _SAY:
-        sys.stderr.write(f"vibtrans serve: {when}{line}\n")
+        sys.stderr.write(f"vibtrans serve: {when}{_process()}{line}\n")
         sys.stderr.flush()
 
 
@@ -177,6 +193,7 @@ def serve(args):
     """Serve the explorer (args: the `vibtrans serve` options); returns the
     exit status once the server stops."""
     allowed = _check(args)
+    _PROCESSES[0] = args.num_procs or os.cpu_count() or 1
     # before the heavy imports, which would be paid twice: `import vibtrans`
     # loads no numerics (lazy names), so the command line got here in ~0.1 s
     _reexec_on_c_allocator(args)
