@@ -1067,11 +1067,16 @@ def serve_page():
     """The server's page function: this session's page built into its
     document (`pn.state.curdoc`) by Panel's public `server_doc`, with the
     explorer's own Location (`_page_location`): Panel's would parse the
-    query itself and fail on some texts (docs/UPSTREAM.md).  Returns None:
+    query itself and fail on some texts (docs/UPSTREAM.md).  Attached under
+    one `Document.models.freeze()` (Bokeh's public context: the document's
+    model graph recomputed once, not after each of the template's ~10
+    roots; ~20% of a page, `python -m devtools.pagecost`).  Returns None:
     Panel then serves the document as built."""
     explorer = Explorer()
     location = explorer.location if explorer.location is not None else True
-    explorer_template(explorer).server_doc(pn.state.curdoc, title=PAGE_TITLE, location=location)
+    doc = pn.state.curdoc
+    with doc.models.freeze():
+        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=location)
 
 
 if pn.state.served:
