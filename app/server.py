@@ -23,7 +23,7 @@ import sys
 import threading
 import time
 
-from vibtrans.errors import InputError
+from vibtrans.core.errors import InputError
 
 from . import compat, memory
 
