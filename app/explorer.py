@@ -11,20 +11,17 @@ serves while the kernels compile in the background, app/kernels.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
 import asyncio
-import contextlib
 import functools
 import json
 import logging
 import math
 import time
-from pathlib import Path
 from urllib.parse import parse_qsl, urlencode
 
 import holoviews as hv
 import panel as pn
 import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
-from panel.template import base as template_base
 
 from vibtrans import simulate
 from vibtrans.maps import accuracy as mapaccuracy
@@ -33,7 +30,7 @@ from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans.maps.difference import describe
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
-from . import data, inputs, mapjobs, maprequest, memory, panelshortcuts, urlstate
+from . import data, inputs, mapjobs, maprequest, memory, urlstate
 from .controller import RUNNER, RunController
 from .state import (MAP_MATERIAL, MAP_RUN, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS,
                     ExplorerState, within)
@@ -41,7 +38,6 @@ from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
 from .views.map import MapView, computed_figure
-from .views.render import unvalidated
 from .views.ondemand import MapRequestPanel
 from .views.design import DesignPanel
 from .views.dynamics import DynamicsView
@@ -111,11 +107,6 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 # "refine this window" is offered once the shipped map's zoom box spans
 # fewer of its grid cells than this on both axes (beyond its resolution)
 REFINE_BELOW_CELLS = 5
-# the page's own scripts (app/static/, served at STATIC_ROUTE by app/server.py)
-STATIC = Path(__file__).parent / "static"
-STATIC_ROUTE = "vibtrans-static"
-PAGE_SCRIPTS = {"vt-bokeh-visuals": f"{STATIC_ROUTE}/bokeh_visuals.js"}
-pn.config.js_files.update(PAGE_SCRIPTS)     # loaded after BokehJS, before the page's plots
 # a refinement of the shipped map: the coarse cells and levels of its request
 REFINE_CELLS, REFINE_LEVELS = 2, 3
 URL_MAP_KEYS = {**URL_KEYS, "map_request": maprequest.URL_KEY}
@@ -1058,53 +1049,6 @@ class Explorer(pn.viewable.Viewer):
         return pn.Row(self.controls(), self.main())
 
 
-def _attached_in_one_pass(template, page_location=None):
-    """`template` whose page is attached to its document under one freeze of
-    the document's model graph, unvalidated, its roots added as the fresh
-    models they are (`_fresh_roots`): the template adds its parts one root
-    at a time, and Bokeh recomputed the whole graph after each (~10 times
-    per page); once is enough.  `page_location`: the page's own Location
-    (`_page_location`), given to Panel instead of the one it would parse
-    from the request.  What each saves of a page's time on the event loop
-    that all sessions share (`python -m devtools.pagecost`): the one freeze
-    0.27 -> 0.23 s; validation and the fresh roots 9% and 6% more.  Panel's
-    template attaches its parts with its design alone saved and restored
-    (`panelshortcuts.attaching`, where the server installed that)."""
-    server_doc = template.server_doc
-
-    def frozen(doc=None, title=None, location=True):
-        doc = doc or pn.state.curdoc
-        if page_location is not None and location:
-            location = page_location
-        with doc.models.freeze(), unvalidated(), _fresh_roots(), panelshortcuts.attaching():
-            return server_doc(doc, title, location)
-    template.server_doc = frozen
-    return template
-
-
-def _add_fresh_root(model, doc, hold=False, skip=None):
-    """Panel's `add_to_doc` for a page's own new models: the root added,
-    without first walking its model graph to take every model out of the
-    document it belonged to (none did: a model of two documents would
-    raise when Bokeh attaches it, not go unseen)."""
-    doc.add_root(model)
-    if doc.callbacks.hold_value is None and hold:
-        doc.hold()
-    return set()
-
-
-@contextlib.contextmanager
-def _fresh_roots():
-    """The template adds its roots by `_add_fresh_root` (the event loop's
-    page builds only: no other thread attaches templates)."""
-    panel_add = template_base.add_to_doc
-    template_base.add_to_doc = _add_fresh_root
-    try:
-        yield
-    finally:
-        template_base.add_to_doc = panel_add
-
-
 def explorer_template(explorer):
     """The page of `explorer`.  A template keeps the controls in their own
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
@@ -1113,17 +1057,29 @@ def explorer_template(explorer):
         sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=330)
 
 
+PAGE_TITLE = "vibtrans explorer"
+
+
 def create_app():
-    """One session's explorer page, built (and attached, `_attached_in_one_pass`)
-    without Bokeh's property validation: a tenth of a page's cost.  Its
-    values are valid as given (tests/test_app_runs.py: the page serializes
-    as a validated build does); the maps rendered meanwhile switch it on
-    (views/render.py: HoloViews needs its conversions), and it is off for
-    this thread only."""
-    with unvalidated():
-        explorer = Explorer()
-        return _attached_in_one_pass(explorer_template(explorer), explorer.location)
+    """One session's explorer page (a Panel template)."""
+    return explorer_template(Explorer())
+
+
+def serve_page():
+    """The server's page function: this session's page built into its
+    document (`pn.state.curdoc`) by Panel's public `server_doc`, with the
+    explorer's own Location (`_page_location`): Panel's would parse the
+    query itself and fail on some texts (docs/UPSTREAM.md).  Attached under
+    one `Document.models.freeze()` (Bokeh's public context: the document's
+    model graph recomputed once, not after each of the template's ~10
+    roots; ~20% of a page, `python -m devtools.pagecost`).  Returns None:
+    Panel then serves the document as built."""
+    explorer = Explorer()
+    location = explorer.location if explorer.location is not None else True
+    doc = pn.state.curdoc
+    with doc.models.freeze():
+        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=location)
 
 
 if pn.state.served:
-    create_app().servable(title="vibtrans explorer")
+    serve_page()

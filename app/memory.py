@@ -10,7 +10,9 @@ each, collecting almost nothing).  Now:
 
 - What a page builds is taken out of the collector's passes once built
   (`page_built`: `gc.freeze`, O(1)), like what start-up built.  A session's
-  objects are mostly its page; they live as long as it does.
+  objects are mostly its page; they live as long as it does.  Panel's own
+  collection after a session closes (debounced, on the event loop) is left
+  as Panel has it: with the pages frozen it walks only what is not.
 - A closed session's objects (its document's reference cycles) wait in the
   frozen generation.  They are collected, and the freed heap handed back
   to the OS (glibc's `malloc_trim`: it keeps freed pages in its arenas),
@@ -114,14 +116,3 @@ def release():
     log.info("%s: %d objects collected, RSS %s -> %s MB in %.2f s", RELEASED, collected,
              f"{before:.0f}" if before else "?", f"{after:.0f}" if after else "?",
              time.perf_counter() - t0)
-
-
-def no_collection_per_close():
-    """Panel schedules a full `gc.collect` on the event loop 5 s after each
-    session's document is destroyed; `release` does it instead, when due."""
-    import panel.io.document
-    panel.io.document._garbage_collect = _left_to_release
-
-
-def _left_to_release():
-    """Panel's scheduled collection (`no_collection_per_close`)."""

@@ -21,10 +21,11 @@ import os
 import re
 import sys
 import threading
+import time
 
 from vibtrans.core.errors import InputError
 
-from . import memory, panelshortcuts, propertycache
+from . import compat, memory
 
 
 def _age():
@@ -41,16 +42,31 @@ def _age():
 
 
 _SAY = threading.Lock()
+# the command's start on the monotonic clock (kept by the processes that
+# --num-procs forks, whose own start /proc would give)
+_AGE = _age()
+_STARTED = None if _AGE is None else time.monotonic() - _AGE
+
+
+def _process():
+    """"process K/N: " in a process forked by --num-procs (Tornado's task
+    id), else ""."""
+    from tornado.process import task_id
+    k = task_id()
+    return "" if k is None else f"process {k + 1}/{_PROCESSES[0]}: "
+
+
+_PROCESSES = [1]
 
 
 def say(line):
     """One line of start-up progress on stderr, with the seconds since the
-    command started.  Whole lines under a lock: the kernels' thread speaks
-    too, and print() writes the text and its newline separately."""
-    age = _age()
-    when = "" if age is None else f"[{age:.1f} s] "
+    command started (and which process, with --num-procs > 1).  Whole lines
+    under a lock: the kernels' thread speaks too, and print() writes the
+    text and its newline separately."""
+    when = "" if _STARTED is None else f"[{time.monotonic() - _STARTED:.1f} s] "
     with _SAY:
-        sys.stderr.write(f"vibtrans serve: {when}{line}\n")
+        sys.stderr.write(f"vibtrans serve: {when}{_process()}{line}\n")
         sys.stderr.flush()
 
 
@@ -137,36 +153,6 @@ def _reexec_on_c_allocator(args):
                   dict(os.environ, PYTHONMALLOC="malloc"))
 
 
-def _no_document_checks():
-    """Bokeh checks every new session's document for mistakes of its making
-    (models without renderers, bad column names; ~0.03 s of the event loop
-    per page, which takes 0.16 s to build), finding for this page, every
-    time, only the empty containers that are filled when first opened.
-    The page is always the same: tests/test_app_runs.py checks it once
-    (no errors, only those warnings).  BOKEH_VALIDATE_DOC set in the
-    environment still decides."""
-    if "BOKEH_VALIDATE_DOC" not in os.environ:
-        from bokeh.settings import settings
-        settings.perform_document_validation.set_value(False)
-
-
-def _no_mathjax():
-    """Panel sends every page that has a Markdown or HTML pane BokehJS's
-    MathJax bundle (1.8 MB of script that each browser parses before it
-    draws; ~5 MB in all), in case a text holds TeX, and walks the page's
-    models at every page request to look for some.  No text of the explorer
-    is TeX (tests/test_app_runs.py checks the served page for delimiters),
-    so the pages go without it.  VIBTRANS_MATHJAX=1 puts it back."""
-    if os.environ.get("VIBTRANS_MATHJAX") == "1":
-        return
-    import functools
-
-    import panel.io.resources
-    import panel.io.server
-    panel.io.server.bundle_resources = functools.partial(
-        panel.io.resources.bundle_resources, enable_mathjax=False)
-
-
 def _freeze():
     """What the imports (and the warm-up) built (~10^6 objects: modules, JIT
     dispatchers, maps) lives as long as the server: leave it out of the
@@ -188,13 +174,14 @@ KERNELS_AFTER = 2.0
 PRERENDER_PAUSE = 0.05
 
 
-def _first_page(create_app, start_kernels):
-    """create_app for the server: every page is frozen once built
+def _first_page(serve_page, start_kernels):
+    """The page function for the server (`serve_page`: builds the session's
+    page into its document): every page is frozen once built
     (memory.page_built); the first page also starts the kernels, once it is
     answered (add_callback: after the handler, which builds and writes the
     page without yielding once the session exists)."""
     def page():
-        app = create_app()
+        app = serve_page()
         memory.page_built()
         from tornado.ioloop import IOLoop
         IOLoop.current().add_callback(start_kernels)
@@ -206,6 +193,7 @@ def serve(args):
     """Serve the explorer (args: the `vibtrans serve` options); returns the
     exit status once the server stops."""
     allowed = _check(args)
+    _PROCESSES[0] = args.num_procs or os.cpu_count() or 1
     # before the heavy imports, which would be paid twice: `import vibtrans`
     # loads no numerics (lazy names), so the command line got here in ~0.1 s
     _reexec_on_c_allocator(args)
@@ -224,13 +212,10 @@ def serve(args):
         f"loading the explorer ...")
     import panel as pn
 
-    from .explorer import STATIC, STATIC_ROUTE, create_app
+    from .explorer import PAGE_TITLE, serve_page
     _log_to_stderr(logging.getLogger("vibtrans"))
-    _no_document_checks()
-    _no_mathjax()
-    propertycache.install()
-    panelshortcuts.install()
-    memory.no_collection_per_close()
+    for line in compat.apply():
+        say(line)
     _freeze()
     started = []
 
@@ -263,12 +248,11 @@ def serve(args):
             return
         loop.call_later(PRERENDER_PAUSE, prerender, steps)
 
-    server = pn.serve({"/": _first_page(create_app, start_kernels)}, port=args.port,
+    server = pn.serve({"/": _first_page(serve_page, start_kernels)}, port=args.port,
                       address=args.address, show=False, start=False, verbose=False,
                       websocket_origin=allowed,
-                      title="vibtrans explorer", num_procs=args.num_procs, liveness=True,
+                      title=PAGE_TITLE, num_procs=args.num_procs, liveness=True,
                       admin=False, extra_patterns=component_routes(),
-                      static_dirs={STATIC_ROUTE: str(STATIC)},
                       # behind a proxy: the visitor's address and scheme, not the proxy's
                       use_xheaders=bool(getattr(args, "use_xheaders", False)),
                       unused_session_lifetime_milliseconds=args.unused_session_lifetime,

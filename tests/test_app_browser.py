@@ -189,60 +189,6 @@ def test_both_models_draw_into_the_same_figures(page, server):
     assert not any(t.startswith("normal: a*(t)") for t in titles), titles
 
 
-# Every stylesheet rule and inline style of the page (through the shadow
-# roots Bokeh renders into): the custom properties named --bk-*
-_BK_PROPERTIES_JS = """() => {
-  const found = new Set();
-  const declared = (style) => {
-    for (let i = 0; i < style.length; i++)
-      if (style[i].startsWith("--bk-")) found.add(style[i]);
-  };
-  const rules = (list) => {
-    for (const rule of list) {
-      if (rule.style) declared(rule.style);
-      if (rule.cssRules) rules(rule.cssRules);
-    }
-  };
-  const sheets = (root) => {
-    for (const sheet of [...root.styleSheets, ...(root.adoptedStyleSheets || [])]) {
-      try { rules(sheet.cssRules); } catch (e) { found.add(`unreadable: ${sheet.href}`); }
-    }
-  };
-  const visit = (root) => {
-    sheets(root);
-    for (const el of root.querySelectorAll("*")) {
-      if (el.style) declared(el.style);
-      if (el.shadowRoot) visit(el.shadowRoot);
-    }
-  };
-  visit(document);
-  return [...found];
-}"""
-
-
-def test_plots_read_their_visuals_from_their_models(page, server):
-    """app/static/bokeh_visuals.js answers BokehJS's CSS reads of visual
-    properties (--bk-line-color, ...) with "" at once: the same answer as
-    the browser's only while no stylesheet of the page defines one.  Checked
-    after a run, with the page's plots, legends and widgets all built."""
-    _open(page, server)
-    assert page.evaluate("() => window.__vtBokehReads") == \
-        "visuals from the models, font size once per task"
-    select = page.locator("select").filter(has_text="synchronous hopping")
-    select.select_option(label="4: synchronous hopping (hovering)")
-    _summary_text(page).wait_for(timeout=60000)
-    page.wait_for_timeout(1000)
-    assert page.evaluate(_BK_PROPERTIES_JS) == []
-    # the check sees one where it would be: a stylesheet in a plot's shadow root
-    page.evaluate("""() => {
-      const host = [...document.querySelectorAll("*")].find((e) => e.shadowRoot);
-      const sheet = new CSSStyleSheet();
-      sheet.replaceSync(":host { --bk-line-color: red; }");
-      host.shadowRoot.adoptedStyleSheets = [...host.shadowRoot.adoptedStyleSheets, sheet];
-    }""")
-    assert page.evaluate(_BK_PROPERTIES_JS) == ["--bk-line-color"]
-
-
 def test_a_new_click_replaces_a_running_run(page, server):
     """One run per session: a click while a run goes on cancels it (without a
     'cancelled' message) and shows the new run."""

@@ -303,13 +303,6 @@ def test_a_release_runs_the_servers_hooks_first(monkeypatch, thawed):
     assert calls == ["stopped"]
 
 
-def test_the_server_leaves_panels_collection_per_close_to_the_release(monkeypatch):
-    import panel.io.document as panel_document
-    monkeypatch.setattr(panel_document, "_garbage_collect", panel_document._garbage_collect)
-    memory.no_collection_per_close()
-    assert panel_document._garbage_collect is memory._left_to_release
-
-
 def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
     """A tap on the map (a Bokeh Tap event: data coordinates) moves the
     selected point's marker and runs that scene; a tap in the map's padding,
@@ -364,49 +357,11 @@ def _serialized(doc):
                   serialize_json(doc.to_json()))
 
 
-@pytest.mark.parametrize("settings", [
-    {"maps": "both models"}, {"model": "point-mass"}, {"model": "point-mass", "mu": 0.1},
-    {"layer": "Lyapunov exponent"}, {"orbits": "period-1 orbit curves"},
-    {"mu": 0.1, "v0": 0.5, "chaotic": "colour"}, {"presentation": True}])
-def test_a_page_built_unvalidated_from_a_link_is_the_validated_page(settings):
-    """A link's values are applied while the page is built (Explorer's
-    `_apply_url`), which create_app does without Bokeh's property
-    validation: for each kind of setting that changes what the first
-    screen draws, the page built so serializes as one built validated."""
-    from bokeh.document import Document
-    from panel.io.state import set_curdoc
-
-    from vibtrans_explorer.views import map as map_view
-    from vibtrans_explorer.views.render import unvalidated
-
-    def build(served):
-        ex = E.Explorer()
-        ex.state.param.update(**{k: v for k, v in settings.items() if k != "presentation"})
-        ex.presentation = settings.get("presentation", False)
-        template = E.explorer_template(ex)
-        return E._attached_in_one_pass(template, ex.location) if served else template
-
-    texts = []
-    for served in (False, True):
-        map_view._map_json.cache_clear()        # the maps rendered inside each build too
-        doc = Document()
-        with set_curdoc(doc):
-            if served:
-                with unvalidated():
-                    build(served).server_doc(doc)
-            else:                               # validated throughout, attached by Panel
-                build(served).server_doc(doc)
-        texts.append(_serialized(doc))
-    assert len(texts[0]) > 10000
-    assert texts[0] == texts[1]
-
-
-def test_served_page_is_the_plainly_built_page():
-    """The page as the server builds it (explorer.create_app: attached
-    under one freeze of the document's model graph) serializes to the same
-    document as the template's own attach (ids aside), every model
-    registered with the document, built without Bokeh's property
-    validation as the validated one is."""
+def test_served_page_is_the_template_attached_by_panel():
+    """The page as the server builds it (explorer.serve_page: the template
+    attached by Panel's `server_doc` into the session's document, with the
+    explorer's Location) serializes to the same document as the template's
+    plain attach (ids aside), every model registered with the document."""
     from bokeh.document import Document
     from panel.io.state import set_curdoc
 
@@ -417,8 +372,10 @@ def test_served_page_is_the_plainly_built_page():
         map_view._map_json.cache_clear()        # the map rendered inside each build too
         doc = Document()
         with set_curdoc(doc):
-            template = E.create_app() if served else E.explorer_template(E.Explorer())
-            assert template.server_doc(doc) is doc
+            if served:
+                assert E.serve_page() is None
+            else:
+                assert E.create_app().server_doc(doc) is doc
         reachable = {m.id for root in doc.roots for m in root.references()}
         assert reachable and reachable <= {m.id for m in doc.models}
         assert all(doc.get_model_by_id(i) is not None for i in reachable)
@@ -427,44 +384,12 @@ def test_served_page_is_the_plainly_built_page():
     assert texts[0] == texts[1]
 
 
-@pytest.mark.parametrize("settings", [{}, {"maps": "both models"}])
-def test_the_map_in_its_figure_pane_is_the_map_in_panels_pane(settings, monkeypatch):
-    """views.map.FigurePane skips Panel's rewrite of the figure's id in
-    CustomJS code: the page serializes as with pn.pane.Bokeh, and no
-    CustomJS of the map figures names a figure (so the rewrite had nothing
-    to do)."""
-    from bokeh.document import Document
-    import panel as pn
-    from bokeh.models import CustomJS
-    from panel.io.state import set_curdoc
-
-    from vibtrans_explorer.views import map as map_view
-
-    texts = []
-    for pane in (pn.pane.Bokeh, map_view.FigurePane):
-        monkeypatch.setattr(map_view, "FigurePane", pane)
-        map_view._map_json.cache_clear()
-        doc = Document()
-        with set_curdoc(doc):
-            ex = E.Explorer()
-            ex.state.param.update(**settings)
-            E._attached_in_one_pass(E.explorer_template(ex), ex.location).server_doc(doc)
-        texts.append(_serialized(doc))
-        figures = ex.map_view.figures
-        assert figures and all(isinstance(p, pane) for p in ex.map_view.pane.objects)
-        codes = [js.code for fig in figures for js in fig.select({"type": CustomJS})]
-        assert codes and not any(fig.id in code for fig in figures for code in codes)
-    assert texts[0] == texts[1]
-
-
 def test_page_cost_bench_runs_and_validates():
-    """`python -m devtools.pagecost` (the figures in the explorer's docstrings)
-    measures pages as served, plainly built, and served with Bokeh's and
-    Panel's own code (no shortcuts); a bad --pages is refused
-    naming the option."""
+    """`python -m devtools.pagecost` measures pages as served; a bad
+    --pages is refused naming the option."""
     from devtools import pagecost
     out = pagecost.main(["--pages", "1", "--json"])
-    assert out["page_s_plain"] > 0 and out["page_s_served"] > 0 and out["page_s_own"] > 0
+    assert out["page_s_served"] > 0 and out["checks_s"] > 0
     assert out["models"] > 100 and out["page_cpu_s"] > 0
     with pytest.raises(SystemExit):
         pagecost.main(["--pages", "0"])
@@ -488,9 +413,8 @@ def test_the_map_hover_shows_drift_and_verdict_never_nan(chaotic):
 
 
 def test_the_page_passes_bokehs_document_checks():
-    """The server skips Bokeh's per-session document checks (app/server.py
-    `_no_document_checks`): the page, always the same, is checked here.
-    No errors; the only warnings are the empty containers filled when first
+    """Bokeh checks every session's document (stock server); the page passes:
+    no errors; the only warnings are the empty containers filled when first
     opened (the lazy tabs and boxes)."""
     from bokeh.core.validation.check import check_integrity
     from bokeh.document import Document
@@ -505,63 +429,3 @@ def test_the_page_passes_bokehs_document_checks():
     assert warnings <= {"EMPTY_LAYOUT"}, warnings
 
 
-def test_the_server_leaves_document_checks_to_the_test(monkeypatch):
-    """`_no_document_checks` turns Bokeh's per-session checks off unless
-    BOKEH_VALIDATE_DOC says otherwise."""
-    from bokeh.settings import settings
-
-    from vibtrans_explorer import server
-    try:
-        monkeypatch.setenv("BOKEH_VALIDATE_DOC", "true")
-        server._no_document_checks()
-        assert settings.perform_document_validation() is True
-        monkeypatch.delenv("BOKEH_VALIDATE_DOC")
-        server._no_document_checks()
-        assert settings.perform_document_validation() is False
-    finally:
-        settings.perform_document_validation.unset_value()
-
-
-def _texts(page_doc):
-    """Every text the explorer shows in Markdown or HTML: the page's, the
-    introduction's and the tabs' built when first opened."""
-    from bokeh.models.widgets.markups import Markup
-    texts = [E.INTRODUCTION, E.DYNAMICS_TEXT, E.ANIMATION_TEXT, E.MEMORY_TEXT,
-             *E.PRESET_NOTES.values()]
-    for root in page_doc.roots:
-        for m in root.references():
-            text = getattr(m, "text", None)
-            if isinstance(m, Markup) and isinstance(text, str):
-                texts.append(text)
-    return texts
-
-
-def test_no_text_of_the_explorer_needs_mathjax(monkeypatch):
-    """`_no_mathjax` sends pages without BokehJS's MathJax bundle (1.8 MB):
-    no text the explorer shows holds TeX (Bokeh's test, or a $ that Panel's
-    Markdown could read as math); VIBTRANS_MATHJAX=1 leaves Panel's
-    choice."""
-    from bokeh.document import Document
-    from bokeh.embed.util import contains_tex_string
-    from panel.io import resources
-    from panel.io import server as panel_server
-    from panel.io.state import set_curdoc
-
-    from vibtrans_explorer import server
-    doc = Document()
-    with set_curdoc(doc):
-        E.create_app().server_doc(doc)
-    texts = _texts(doc)
-    assert len(texts) > 10 and any("wave" in t for t in texts)
-    assert not [t for t in texts if contains_tex_string(t) or "$" in t]
-    monkeypatch.setattr(panel_server, "bundle_resources", resources.bundle_resources)
-    monkeypatch.setenv("VIBTRANS_MATHJAX", "1")
-    server._no_mathjax()
-    assert panel_server.bundle_resources is resources.bundle_resources
-    monkeypatch.delenv("VIBTRANS_MATHJAX")
-    server._no_mathjax()
-    with set_curdoc(doc):
-        bundle = panel_server.bundle_resources(doc.roots, resources.Resources(mode="server"))
-        default = resources.bundle_resources(doc.roots, resources.Resources(mode="server"))
-    assert not any("mathjax" in str(f) for f in bundle.js_files)
-    assert any("mathjax" in str(f) for f in default.js_files)      # what Panel would send

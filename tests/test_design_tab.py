@@ -171,7 +171,7 @@ def test_the_design_tab_is_built_when_first_opened():
     doc = Document()
     with set_curdoc(doc):
         ex = E.Explorer()
-        E._attached_in_one_pass(E.explorer_template(ex)).server_doc(doc)
+        E.explorer_template(ex).server_doc(doc)
     assert not [m for m in doc.models if "vt-design-draw" in getattr(m, "css_classes", [])]
     assert ex.design_panel is None and not ex.design_box.objects
     assert E.DESIGN_TAB == len(ex.map_tabs) - 1

@@ -123,7 +123,7 @@ def _page_document():
     doc = Document()
     with set_curdoc(doc):
         ex = E.Explorer()
-        E._attached_in_one_pass(E.explorer_template(ex)).server_doc(doc)
+        E.explorer_template(ex).server_doc(doc)
     return ex, doc
 
 

@@ -1,19 +1,31 @@
-"""Bokeh's property validation is switched per thread in the explorer
-(app/views/render.py): HoloViews turns it off around updates of a render's
+"""Bokeh's property validation switched per thread where the installed
+Bokeh keeps it in one flag for the whole process (app/compat.py, as the
+server applies it): HoloViews turns it off around updates of a render's
 sources, in the worker threads that render maps on demand, while the event
 loop builds other figures whose values only validation converts (a title
-given as a string becomes a Title).  With Bokeh's one flag for the whole
-process, a five-map load test lost 46 drawings to that."""
+given as a string becomes a Title).  With Bokeh's one flag, a five-map load
+test lost 46 drawings to that."""
 import threading
 
+import pytest
 from bokeh.core.property.validation import validate
 from bokeh.models import Title
 from bokeh.plotting import figure
 
-from vibtrans_explorer.views import render  # noqa: F401  (switches validation per thread)
+from vibtrans_explorer import compat
 
 
-def test_validation_off_in_another_thread_leaves_this_one_validating():
+@pytest.fixture
+def as_served():
+    """compat applied as app/server.py applies it, undone after."""
+    was = compat.applied()
+    compat.apply()
+    yield
+    if not was:
+        compat.undo()
+
+
+def test_validation_off_in_another_thread_leaves_this_one_validating(as_served):
     inside, leave = threading.Event(), threading.Event()
 
     def holoviews_like():
@@ -32,7 +44,7 @@ def test_validation_off_in_another_thread_leaves_this_one_validating():
     assert isinstance(fig.title, Title) and fig.title.text == "built meanwhile"
 
 
-def test_validation_off_still_applies_to_its_own_thread_and_is_restored():
+def test_validation_off_still_applies_to_its_own_thread_and_is_restored(as_served):
     with validate(False):
         with validate(False):
             pass

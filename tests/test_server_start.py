@@ -112,3 +112,62 @@ def test_the_server_says_what_it_does(served_explorer):
     assert any(ln.startswith("compiling the kernels") for ln in lines), lines
     assert any(ln.startswith("kernels 1/") for ln in lines), lines
     assert lines[-1].startswith("kernels ready in "), lines
+
+
+@pytest.mark.server
+@pytest.mark.slow
+def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
+    """`vibtrans serve --num-procs 2`: Bokeh's own multi-process serving
+    (Tornado forks after the maps are checked): each process says it is
+    listening and warms its kernels up, and visitors' pages load and their
+    websocket sessions answer a click (devtools/protoclient.py, as the load
+    test's sessions); stopping the server's process tree ends them all."""
+    import os
+    import signal
+    import sys
+    import time
+    from pathlib import Path
+
+    from conftest import SERVER_ENV, SERVER_ENV_UNSET
+    from devtools.loadtest import _tree, pid_alive
+    from devtools.protoclient import ProtocolSession
+    from netutil import Served
+
+    root = Path(__file__).resolve().parent.parent
+    env = {k: v for k, v in os.environ.items() if k not in SERVER_ENV_UNSET}
+    served = Served(env={**env, **SERVER_ENV}, cwd=root, args=("--num-procs", "2"))
+    try:
+        served.wait_page()
+        t0 = time.perf_counter()
+        while served.text().count("kernels ready in") < 2:
+            assert served.proc.poll() is None, served.text()[-4000:]
+            assert time.perf_counter() - t0 < 600, served.text()[-4000:]
+            time.sleep(0.2)
+        text = served.text()
+        for k in (1, 2):
+            assert f"process {k}/2: explorer on http://" in text, text[-4000:]
+            assert f"process {k}/2: kernels ready in" in text, text[-4000:]
+        servers = [p for p in _tree(served.proc.pid)
+                   if b"vibtrans.cli\x00serve" in Path(f"/proc/{p}/cmdline").read_bytes()]
+        assert len(servers) == 3            # the parent and the two it forked
+
+        async def visit():
+            s = ProtocolSession(served.url, timeout=180.0)
+            try:
+                await s.open()
+                return (await s.click(0.55, 0.5))[0]
+            finally:
+                s.close()
+        assert [asyncio.run(visit()) for _ in range(4)] == ["done"] * 4
+    finally:
+        pids = _tree(served.proc.pid)
+        served.stop()           # the parent first: Tornado's would restart a stopped child
+        for pid in pids[1:]:
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+        t0 = time.perf_counter()
+        while any(pid_alive(p) for p in pids) and time.perf_counter() - t0 < 30:
+            time.sleep(0.2)
+        assert not any(pid_alive(p) for p in pids)

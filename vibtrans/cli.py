@@ -784,11 +784,12 @@ def build_parser():
                    help="public host whose pages may connect (repeatable; default: "
                         "$VIBTRANS_ALLOWED_ORIGINS, else localhost:PORT; docs/SECURITY.md)")
     v.add_argument("--num-procs", type=int, default=1,
-                   help="server processes sharing the port (0: one per core).  A page's "
-                        "HTTP request and its websocket may land in different processes, "
-                        "which then both build its session (bokeh#10183): measured slower "
-                        "than 1 on 2 cores; for more, run instances on separate ports "
-                        "behind a proxy with sticky sessions (docs/SECURITY.md)")
+                   help="server processes sharing the port (0: one per core; Bokeh's own "
+                        "multi-process serving: each process warms up its own kernels and "
+                        "map workers).  A page's HTTP request and its websocket may land in "
+                        "different processes, which then both build its session "
+                        "(bokeh#10183); instances on separate ports behind a proxy with "
+                        "sticky sessions avoid that (docs/CAPACITY.md, docs/SECURITY.md)")
     v.add_argument("--use-xheaders", action="store_true",
                    help="take the client's address and scheme from the proxy's X-Real-Ip, "
                         "X-Forwarded-For and X-Forwarded-Proto headers (only behind a "

@@ -198,9 +198,10 @@ def update_in_place(old, new):
         if so is not None and sn is not None and so is not sn:
             so.data = dict(sn.data)
         go, gn = getattr(ro, "glyph", None), getattr(rn, "glyph", None)
-        for attr in ("x", "y", "dw", "dh"):
-            if hasattr(gn, attr) and hasattr(go, attr):
-                setattr(go, attr, getattr(gn, attr))
+        placement = {attr: getattr(gn, attr) for attr in ("x", "y", "dw", "dh")
+                     if hasattr(gn, attr) and hasattr(go, attr)}
+        if placement:
+            go.update(**placement)
         ro.visible = rn.visible
         if isinstance(rn, Span):
             ro.location = rn.location
@@ -268,24 +269,6 @@ def prerender():
         step()
 
 
-class FigurePane(pn.pane.Bokeh):
-    """Panel's Bokeh pane for a figure made for one page (`map_figure`:
-    fresh models, in no document yet, whose CustomJS code never names the
-    figure's id: their code is fixed text).  Panel's own pane walks the
-    figure's whole model graph at every attach to rewrite the figure's id
-    in any CustomJS code to the page root's (`model.select`, ~4% of a
-    page's cost); here that walk is skipped, the rest is Panel's
-    (tests/test_app_runs.py: the same page as with pn.pane.Bokeh)."""
-
-    def _get_model(self, doc, root=None, parent=None, comm=None):
-        model = self.object
-        if root is None or comm is not None or model is None or model.document is not None:
-            return super()._get_model(doc, root, parent, comm)
-        self._models[root.ref["id"]] = (model, parent)
-        self._design.apply_bokeh_theme_to_model(model, self.theme)
-        return model
-
-
 class MapView:
     """The session's map pane.  `on_click(la, lm, both)` is called for a
     click inside a drawn map (`both`: the two models were shown side by
@@ -345,7 +328,7 @@ class MapView:
         self.computed = fig
         self._drawn = None
         self.figures = [fig]
-        self.pane.objects = [FigurePane(fig, sizing_mode="stretch_width")]
+        self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 
     def show_shipped(self):
         self.computed = None
@@ -393,7 +376,7 @@ class MapView:
             for fig in figures[1:]:
                 fig.x_range, fig.y_range = figures[0].x_range, figures[0].y_range
         self.figures = figures
-        self.pane.objects = [FigurePane(f, sizing_mode="stretch_width") for f in figures]
+        self.pane.objects = [pn.pane.Bokeh(f, sizing_mode="stretch_width") for f in figures]
 
     def view_ranges(self):
         """((log10 A* from, to), (log10 m* from, to)) of the zoomed view."""

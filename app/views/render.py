@@ -13,50 +13,16 @@ raises AttributeError in `_update_title`).  Maps on demand are rendered off
 the event loop, several at once since four maps compute together, so every
 render here holds one lock.
 
-Bokeh's property validation is switched per thread here (`_validation_per_thread`).
-HoloViews turns it off around some updates of a render's sources
-(`with validate(False)`), and Bokeh keeps that switch in one flag for the
-whole process: a figure built on the event loop while a map rendered in a
-worker thread got its title left a plain string, which validation would
-have made a Title (a five-map load test: 46 failed drawings)."""
+HoloViews turns Bokeh's property validation off around some updates of a
+render's sources (`with validate(False)`), and Bokeh keeps that switch in
+one flag for the whole process: renders in worker threads need the
+workaround in app/compat.py (applied where that bug is shown)."""
 import threading
 
 import holoviews as hv
-from bokeh.core.property import bases, validation
 from bokeh.document import Document
 
 _LOCK = threading.Lock()
-_VALIDATION = threading.local()      # .on: this thread's switch (None: Bokeh's default)
-
-
-def _validation_on():
-    on = getattr(_VALIDATION, "on", None)
-    return bases.Property._should_validate if on is None else on
-
-
-def _switch(self, value):
-    self.old = getattr(_VALIDATION, "on", None)
-    _VALIDATION.on = value
-
-
-def _restore(self, typ, value, traceback):
-    _VALIDATION.on = self.old
-
-
-def _validation_per_thread():
-    """Make `bokeh.core.property.validation.validate` (a context manager,
-    used by HoloViews) switch validation for its own thread only: Bokeh's
-    `validation_on`, which property values are checked by, reads the
-    thread's switch."""
-    if getattr(validation.validate, "per_thread", False):
-        return
-    bases.validation_on = _validation_on
-    validation.validate.__init__ = _switch
-    validation.validate.__exit__ = _restore
-    validation.validate.per_thread = True
-
-
-_validation_per_thread()
 
 
 def rendered(make, *args, **kwargs):
@@ -66,18 +32,8 @@ def rendered(make, *args, **kwargs):
     HoloViews' shared options too, and reads the shipped data's lazily
     opened netCDF files, which two threads must not open at once (that
     crashed the process)."""
-    with _LOCK, validation.validate(True):    # HoloViews relies on validation's conversions
+    with _LOCK:
         return _render(make(*args, **kwargs))
-
-
-def unvalidated():
-    """A context in which this thread sets Bokeh properties without
-    validating them (explorer.create_app builds its pages so: a tenth of
-    a page's cost).  Only for code whose values are known to be valid as given:
-    validation also converts (a str given for a figure's title becomes a
-    Title), and without it they stay as given.  Renders here switch it
-    back on."""
-    return validation.validate(False)
 
 
 def exclusively(work, *args, **kwargs):

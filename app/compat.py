@@ -1,0 +1,116 @@
+"""Workarounds for bugs of the explorer's frameworks: the only place where
+the app changes Panel's, Param's, Bokeh's or HoloViews' code.  Each is
+applied only where its probe shows the bug in the installed version, so a
+version that fixes it runs stock; tests/test_compat.py fails on the day a
+version fixes one (then delete it here).  Each is written up, with its
+measurement and its upstream report, in docs/UPSTREAM.md.
+
+1. Bokeh's property validation is one flag for the whole process
+   (`bokeh.core.property.validation.validate` sets
+   `Property._should_validate`).  HoloViews turns it off around updates of
+   a render's sources (`with validate(False)`, holoviews/plotting/bokeh/
+   plot.py), and the explorer renders maps on demand in worker threads
+   (views/render.py), so a figure the event loop builds meanwhile is left
+   unvalidated and unconverted: a title given as a string stays a string
+   instead of becoming a Title, and the figure fails to draw (a five-map
+   load test, `python -m devtools.loadtest --maps 5`: 46 failed drawings).
+   Workaround: the switch kept per thread.
+
+`apply()` is called once by the server (app/server.py); nothing else here
+runs at import.  Nothing here imports the rest of the app.
+"""
+import threading
+
+from bokeh.core.property import bases, validation
+
+_VALIDATION = threading.local()      # .on: this thread's switch (None: Bokeh's default)
+_STOCK = {"validation_on": bases.validation_on,
+          "validate_init": validation.validate.__init__,
+          "validate_exit": validation.validate.__exit__}
+
+
+def validation_switch_is_process_wide(timeout=10.0):
+    """The probe of bug 1: True when `validate(False)` held in another
+    thread turns validation off in this one."""
+    inside, leave = threading.Event(), threading.Event()
+
+    def other():
+        with validation.validate(False):
+            inside.set()
+            leave.wait(timeout)
+
+    thread = threading.Thread(target=other, name="vibtrans-compat-probe", daemon=True)
+    thread.start()
+    try:
+        if not inside.wait(timeout):
+            raise RuntimeError("the validation probe's thread did not start")
+        return not bases.validation_on()
+    finally:
+        leave.set()
+        thread.join(timeout)
+
+
+def _validation_on():
+    on = getattr(_VALIDATION, "on", None)
+    return bases.Property._should_validate if on is None else on
+
+
+def _switch(self, value):
+    self.old = getattr(_VALIDATION, "on", None)
+    _VALIDATION.on = value
+
+
+def _restore(self, typ, value, traceback):
+    _VALIDATION.on = self.old
+
+
+def _validation_per_thread():
+    bases.validation_on = _validation_on
+    validation.validate.__init__ = _switch
+    validation.validate.__exit__ = _restore
+
+
+def _stock_validation():
+    """Bokeh's own switch back (for tests)."""
+    bases.validation_on = _STOCK["validation_on"]
+    validation.validate.__init__ = _STOCK["validate_init"]
+    validation.validate.__exit__ = _STOCK["validate_exit"]
+
+
+# (name, probe: True where the bug shows, workaround, undo)
+WORKAROUNDS = [
+    ("Bokeh's validation switch per thread (docs/UPSTREAM.md #1)",
+     validation_switch_is_process_wide, _validation_per_thread, _stock_validation),
+]
+
+
+def applied():
+    """The names of the workarounds applied in this process."""
+    return [name for name, *_ in WORKAROUNDS if name in _APPLIED]
+
+
+_APPLIED = set()
+
+
+def apply():
+    """Apply each workaround whose bug the installed versions show
+    (idempotent); returns one line per workaround saying which."""
+    lines = []
+    for name, shows, workaround, _ in WORKAROUNDS:
+        if name in _APPLIED:
+            lines.append(f"{name}: applied")
+        elif shows():
+            workaround()
+            _APPLIED.add(name)
+            lines.append(f"{name}: applied (the bug shows in the installed version)")
+        else:
+            lines.append(f"{name}: not needed (the installed version does not show the bug)")
+    return lines
+
+
+def undo():
+    """Every workaround undone (for tests)."""
+    for name, _, _, stock in WORKAROUNDS:
+        if name in _APPLIED:
+            stock()
+            _APPLIED.discard(name)
