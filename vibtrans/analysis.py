@@ -40,13 +40,22 @@ def jumped(ds):
 
 
 def drift_velocity(ds):
-    """<v_x*> = x*(T_obs) / T_obs, the paper's definition."""
+    """<v_x*> = x*(T_obs) / T_obs, the paper's definition (a run stopped as
+    regular by the `decided` rule: its extrapolation to T_obs, attribute
+    decided_drift_velocity, stopping.DecidedRule)."""
+    decided = ds.attrs.get("decided_drift_velocity")
+    if decided is not None:
+        return float(decided)
     t = float(ds["time"].values[-1])
     return float(ds["x"].values[-1]) / t
 
 
 def final_drift_velocity(ds, fraction=FINAL_FRACTION):
-    """Mean velocity over the last `fraction` of the run."""
+    """Mean velocity over the last `fraction` of the run (a run stopped as
+    regular by the `decided` rule: its asymptotic drift rate)."""
+    rate = ds.attrs.get("asymptotic_drift_velocity")
+    if rate is not None:
+        return float(rate)
     t = ds["time"].values
     x = ds["x"].values
     t1 = float(t[-1])

@@ -87,12 +87,17 @@ def _integrator(integrator):
     return int(integrator)
 
 
-def _drive(call, t_end, chunk, growers, progress, cancel, stopped=None):
+def _drive(call, t_end, chunk, growers, progress, cancel, stopped=None, next_stop=None):
     """Call a kernel chunk by chunk, growing whichever buffer it reports full.
-    `stopped()`, if given, ends the run early when true after a chunk."""
+    `stopped()`, if given, ends the run early when true after a chunk;
+    `next_stop(t)`, if given, ends a chunk earlier, where it says (the
+    stopping rule's checks, stopping.DecidedRule.next_check)."""
     t_stop = 0.0
     while True:
-        t_stop = min(t_stop + chunk, t_end)
+        t_next = t_stop + chunk
+        if next_stop is not None:
+            t_next = min(t_next, next_stop(t_stop))
+        t_stop = min(t_next, t_end)
         while True:
             code = call(t_stop)
             if code == R.DONE:
@@ -130,7 +135,7 @@ def _record_rest(buf, ctr):
 def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
               memory_capacity=1024, state=None, hist=None, record_rest=True,
               stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None,
-              lyapunov_from=None, tangent=None, in_flight=False):
+              lyapunov_from=None, tangent=None, in_flight=False, decide=None):
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -152,6 +157,8 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
         complete initial condition: the history is the flight's at landing).
     chunk_steps: kernel steps per call (progress and cancel between calls);
         None: one call.
+    decide: a stopping rule (stopping.DecidedRule) checked between calls at
+        the times it names; the run ends where it says (runs from rest).
     Returns a Run (memory: the memory diagram's arrays, deformable only).
     """
     if stop_at_takeoff and (tangential or lyapunov_from is not None):
@@ -197,10 +204,31 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     growers = _growers(buf, mem)
     chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * h)
     stopped = (lambda: ctr[R.C_MODE] == D.MODE_FLIGHT) if stop_at_takeoff else None
-    _drive(call, t_end, chunk, growers, progress, cancel, stopped)
+    next_stop = None
+    if decide is not None:
+        stopped, next_stop = _hertz_decider(decide, buf, ctr, state, tangent), decide.next_check
+    _drive(call, t_end, chunk, growers, progress, cancel, stopped, next_stop)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
                tuple(mem) if tangential else None, tangent)
+
+
+def _hertz_decider(decide, buf, ctr, state, tangent):
+    """The `stopped()` of a Hertz run under a stopping rule: its records so
+    far, the flight in progress and the tangent's growth, to the rule."""
+    def stopped():
+        n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
+        flying = ctr[R.C_MODE] == D.MODE_FLIGHT
+        lyapunov = None
+        if tangent is not None and tangent[D.L_START] >= 0.0:
+            norm = math.hypot(tangent[D.L_DY], tangent[D.L_DVY])
+            growth = (tangent[D.L_LOG] + math.log(norm) - tangent[D.L_LOG_START]
+                      if norm > 0.0 else math.nan)
+            lyapunov = (float(tangent[D.L_START]), float(growth))
+        t_now = float(buf["samples"][n - 1, R.T_]) if n else 0.0
+        return decide(max(t_now, float(state[D.S_T])), buf["samples"][:n],
+                      buf["events"][:k], float(state[D.S_T0]) if flying else None, lyapunov)
+    return stopped
 
 
 def _until_done(call, t_stop, growers):
@@ -305,17 +333,25 @@ def point_mass_capacity(params):
     return n
 
 
+def _pm_flight_start(events):
+    """The last take-off's time (the flight in progress), or 0 (none yet)."""
+    to = events[events[:, 1] == R.TAKEOFF, 0]
+    return float(to[-1]) if to.size else 0.0
+
+
 def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
                    events_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                   cancel=None):
+                   cancel=None, decide=None):
     """Run the material point from rest to t_end (params: a
     point_mass.PointMassParams, from point_mass.make_params).
 
     stick_rule: point_mass.RULE_* or its name.  The run ends with the state
     at t_end recorded (x*(T_obs) makes the drift velocity), also where t_end
     is off the scan grid.  chunk_steps: scan steps per call (whole periods:
-    bit-identical to one call); None: one call.  Returns a Run (state: t, x,
-    vx, y, vy).
+    bit-identical to one call); None: one call.  decide: a stopping rule
+    (stopping.DecidedRule) checked at the whole periods it names (chunk ends
+    on the scan grid: bit-identical up to its stop).  Returns a Run (state:
+    t, x, vx, y, vy).
     """
     rule = PM.rule_code(stick_rule)
     t_end = params.t_end
@@ -345,7 +381,15 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
     }
     # chunks end on whole periods (on the scan grid: bit-identical to one call)
     chunk = t_end if chunk_steps is None else max(1.0, float(round(chunk_steps * dt)))
-    _drive(call, t_end, chunk, growers, progress, cancel)
+    stopped = next_stop = None
+    if decide is not None:
+        def stopped():
+            n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
+            flying = ctr[R.C_MODE] == PM.MODE_FLIGHT
+            return decide(float(state[0]), buf["samples"][:n], buf["events"][:k],
+                          _pm_flight_start(buf["events"][:k]) if flying else None)
+        next_stop = decide.next_check
+    _drive(call, t_end, chunk, growers, progress, cancel, stopped, next_stop)
     n = ctr[R.C_NSAMP]
     if n == 0 or buf["samples"][n - 1, R.T_] < state[0]:
         # T_obs off the scan grid: record the final state too (x*(T_obs) is

@@ -21,6 +21,7 @@ from .fidelity import scan_step, step_count, time_step
 from .models import deformable as D
 from .models import point_mass as PM
 from .params import Scene
+from .stopping import DecidedRule, check_stop
 from .substrate import RAMP_OFF
 from .trajectory import build_trajectory
 from .version import __version__
@@ -78,19 +79,21 @@ def _window(window, periods):
 
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
              max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, stop="full",
+             **values):
     """Simulate one scene and return its trajectory (xarray.Dataset):
     `run_records`' samples, events and attributes as a Dataset
     (trajectory.build_trajectory).  The arguments are `run_records`'."""
     return build_trajectory(*run_records(
         scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
         progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
-        lyapunov=lyapunov, **values))
+        lyapunov=lyapunov, stop=stop, **values))
 
 
 def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                 max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False,
+                stop="full", **values):
     """Simulate one scene: its (samples, events, attrs), the kernel's
     trimmed buffers (records.COLUMNS, records event rows) and the run's
     attributes, before they become a Dataset (`simulate`; a map point
@@ -113,6 +116,11 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
         The records are the same bit for bit.  The material point's comes
         from its impact map (dynamics.impact_lyapunov: -inf where it rides
         the surface after the ramp, None with fewer than three impacts).
+    stop: "full" (run to T_obs) or "decided" (stop once the outcome is
+        known to the fidelity's stated drift error: stopping.DecidedRule;
+        attrs `stop`, `stop_reason`, `periods_run`,
+        `asymptotic_drift_velocity`, `decided_drift_velocity`, the x*(T)/T
+        that analysis.drift_velocity reports).  "full" adds no attribute.
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -132,13 +140,18 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
     steps = _check_steps(steps, scene.model)
     if not isinstance(lyapunov, (bool, np.bool_)):
         raise InputError(f"lyapunov must be True or False, got {lyapunov!r}")
+    check_stop(stop)
     drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
+    decide = (DecidedRule(scene.periods, scene.tau, scene.fidelity) if stop == "decided"
+              else None)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
     samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
                                         progress, cancel, shortcuts=int(shortcuts), steps=steps,
-                                        lyapunov=bool(lyapunov))
+                                        lyapunov=bool(lyapunov), decide=decide)
+    if decide is not None:
+        info.update(decide.attrs())
     seconds = time.perf_counter() - start
     attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
                  force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
@@ -167,14 +180,14 @@ def lyapunov_start(scene):
 
 
 def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
-               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False):
+               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, decide=None):
     """Run the deformable or vertical kernel from rest."""
     p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
                                    steps)
     t_from = lyapunov_start(scene) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
                             samples_capacity=capacity, progress=progress, cancel=cancel,
-                            lyapunov_from=t_from)
+                            lyapunov_from=t_from, decide=decide)
     info = {"h": h}
     if lyapunov:
         info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
@@ -188,7 +201,7 @@ def _lyapunov_attrs(tangent, state, t_from):
 
 
 def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
-                    shortcuts=None, steps=None, lyapunov=False):
+                    shortcuts=None, steps=None, lyapunov=False, decide=None):
     # event-driven: its flights and segments are closed forms already
     dt = scan_step(scene.fidelity, refine)
     p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
@@ -196,7 +209,7 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
                        1.0 / samples_per_period, (w0, w1), dt)
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
     run = drivers.run_point_mass(
-        p, scene.stick_rule, progress=progress, cancel=cancel,
+        p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
     if lyapunov:
