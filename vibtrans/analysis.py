@@ -127,6 +127,9 @@ def launch_time(ds, fraction=LAUNCH_FRACTION):
     """
     t0 = open_flight_start(ds)
     t_end = float(ds["time"].values[-1])
+    if ds.attrs.get("stop_reason") == "flight":
+        # stopped by the `decided` rule in a flight that lasts past T_obs
+        t_end = float(ds.attrs["periods"])
     return t0 if t0 is not None and t0 < fraction * t_end else None
 
 
@@ -137,15 +140,20 @@ def earliest_landing(ds):
     -A*, the highest the surface ever comes (G <= 1; y* points down).
     The end of the run if the particle is already within reach."""
     t_end = float(ds["time"].values[-1])
-    m = float(ds.attrs["mass"])
-    gap = -float(ds.attrs["amplitude"]) - float(ds["y"].values[-1])  # > 0: out of reach
-    vy = float(ds["vy"].values[-1])
+    return t_end + ballistic_reach_time(float(ds["y"].values[-1]), float(ds["vy"].values[-1]),
+                                        float(ds.attrs["mass"]), float(ds.attrs["amplitude"]))
+
+
+def ballistic_reach_time(y, vy, mass, amplitude):
+    """Time (periods) until a particle at (y*, y*') in free flight (m* y*''
+    = 1, y* down) first reaches y* = -A*, the highest the surface ever comes
+    (0 if it is already within reach)."""
+    gap = -amplitude - y                 # > 0: out of reach
     if gap <= 0.0:
-        return t_end
+        return 0.0
     # root of t^2 / (2 m*) + vy t - gap = 0, in the form without cancellation
-    root = math.sqrt(vy * vy + 2.0 * gap / m)
-    dt = m * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
-    return t_end + dt
+    root = math.sqrt(vy * vy + 2.0 * gap / mass)
+    return mass * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
 
 
 def takeoff_phases(ds, t0=0.0):

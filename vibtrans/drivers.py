@@ -225,9 +225,15 @@ def _hertz_decider(decide, buf, ctr, state, tangent):
             growth = (tangent[D.L_LOG] + math.log(norm) - tangent[D.L_LOG_START]
                       if norm > 0.0 else math.nan)
             lyapunov = (float(tangent[D.L_START]), float(growth))
-        t_now = float(buf["samples"][n - 1, R.T_]) if n else 0.0
-        return decide(max(t_now, float(state[D.S_T])), buf["samples"][:n],
-                      buf["events"][:k], float(state[D.S_T0]) if flying else None, lyapunov)
+        t_now = max(float(buf["samples"][n - 1, R.T_]) if n else 0.0, float(state[D.S_T]))
+        flight = None
+        if flying:      # the flight from its origin, at t_now
+            s = t_now - state[D.S_T0]
+            flight = (t_now, state[D.S_X0] + state[D.S_VX0] * s, state[D.S_VX0],
+                      state[D.S_Y0] + state[D.S_VY0] * s + s * s / (2.0 * decide.mass),
+                      state[D.S_VY0] + s / decide.mass)
+        return decide(t_now, buf["samples"][:n], buf["events"][:k],
+                      float(state[D.S_T0]) if flying else None, lyapunov, flight)
     return stopped
 
 
@@ -387,7 +393,8 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
             n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
             flying = ctr[R.C_MODE] == PM.MODE_FLIGHT
             return decide(float(state[0]), buf["samples"][:n], buf["events"][:k],
-                          _pm_flight_start(buf["events"][:k]) if flying else None)
+                          _pm_flight_start(buf["events"][:k]) if flying else None, None,
+                          tuple(float(v) for v in state) if flying else None)
         next_stop = decide.next_check
     _drive(call, t_end, chunk, growers, progress, cancel, stopped, next_stop)
     n = ctr[R.C_NSAMP]

@@ -143,8 +143,8 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
     check_stop(stop)
     drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
-    decide = (DecidedRule(scene.periods, scene.tau, scene.fidelity) if stop == "decided"
-              else None)
+    decide = (DecidedRule(scene.periods, scene.tau, scene.amplitude, scene.mass,
+                          scene.fidelity) if stop == "decided" else None)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
     samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,

@@ -31,6 +31,11 @@ precision):
   MIN_CHAOS_PERIODS: a regular orbit's finite-time exponent decays as
   log(t)/t and over a second half alone is log(2)/(t/2)-small; a chaotic
   one's stays.  The run keeps its drift so far, flagged.
+* flight: a flight in progress that, continued ballistically, cannot reach
+  the substrate again before T_obs (analysis.ballistic_reach_time: y* above
+  -A*, the highest the surface comes) ends the run exactly:
+  x*(T) = x* + v_x* (T - t), v_inf = v_x* (the launched scenes of the upper
+  right).
 * otherwise (not steady, e.g. paper point 4's accelerating drift) the run
   goes on to T_obs (reason `ran-to-end`).
 """
@@ -39,21 +44,22 @@ import math
 import numpy as np
 
 from . import records as R
-from .analysis import CHAOS_LYAPUNOV, V0
+from .analysis import CHAOS_LYAPUNOV, V0, ballistic_reach_time
 from .errors import InputError
 from .fidelity import STATED_DRIFT_ERROR
 from .substrate import RAMP_OFF
 
 STOPS = ("full", "decided")
 # why a run stopped (stored per map point as `stop_reason`)
-REASONS = ("full", "regular", "chaotic", "ran-to-end")
-FULL, REGULAR, CHAOTIC, RAN_TO_END = range(4)
+REASONS = ("full", "regular", "chaotic", "ran-to-end", "flight")
+FULL, REGULAR, CHAOTIC, RAN_TO_END, FLIGHT = range(5)
 
 MIN_WINDOW = 60          # periods after the ramp before the first check (three windows of 20)
-CHECK_EVERY = 8          # periods between checks
+CHECK_EVERY = 8          # periods between checks, at least
+CHECK_FRACTION = 1 / 16  # of the time since the ramp, between checks, at least
 DECIDED_FRACTION = 0.5   # of the stated drift error, spent on the extrapolation
 GEOMETRIC_MAX = 0.8      # a change between windows shrinking slower than this: not decided
-MIN_CHAOS_PERIODS = 200  # periods of Lyapunov measurement before a chaotic stop
+MIN_CHAOS_PERIODS = 100  # periods of Lyapunov measurement before a chaotic stop
 CHAOS_MARGIN = 2.0       # chaotic: exponent above CHAOS_MARGIN x CHAOS_LYAPUNOV
 FLIGHT_FRACTION = 0.25   # longest flight allowed in the window, of one of its thirds
 
@@ -122,8 +128,10 @@ class DecidedRule:
     `t_strobe`, `x_strobe` (the whole period the extrapolation starts from).
     """
 
-    def __init__(self, periods, tau, fidelity="standard", v0=V0):
+    def __init__(self, periods, tau, amplitude, mass, fidelity="standard", v0=V0):
         self.periods = float(periods)
+        self.amplitude = float(amplitude)
+        self.mass = float(mass)
         self.t_ramp = math.ceil(RAMP_OFF * tau)
         self.tolerance = DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]
         self.v0 = v0
@@ -139,15 +147,21 @@ class DecidedRule:
         first = self.t_ramp + MIN_WINDOW
         if t < first:
             return float(first)
-        return float(first + CHECK_EVERY * (math.floor((t - first) / CHECK_EVERY) + 1))
+        # every CHECK_EVERY periods, or every CHECK_FRACTION of the time since
+        # the ramp where that is longer (a bounded cost per run)
+        return float(math.floor(t + max(CHECK_EVERY, CHECK_FRACTION * (t - self.t_ramp))))
 
-    def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None):
+    def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None,
+                 flight=None):
         """Decide at a chunk end t_now: True to stop (reason set).
         samples, events: the run's records so far; in_flight_since: the
         start of a flight in progress (None in contact); lyapunov: (t0, log
-        growth since t0) of the tangent so far, or None if not measured."""
+        growth since t0) of the tangent so far, or None if not measured;
+        flight: a point (t, x, vx, y, vy) of the flight in progress."""
         if t_now >= self.periods:
             return False
+        if flight is not None and self._flies_to_end(*flight):
+            return True
         if lyapunov is not None and self._chaotic(t_now, *lyapunov):
             self.reason = CHAOTIC
             self.t_stop = float(samples[-1, R.T_])
@@ -165,7 +179,8 @@ class DecidedRule:
             t0, growth = lyapunov
             if not (t_now - t0 >= 1.0 and growth / (t_now - t0) < CHAOS_LYAPUNOV):
                 return False
-        x = stroboscope(samples, np.arange(k0, k_end + 1, dtype=float))
+        i0 = max(int(np.searchsorted(samples[:, R.T_], k0 - 1.0)), 0)
+        x = stroboscope(samples[i0:], np.arange(k0, k_end + 1, dtype=float))
         rate = remaining_rate(np.diff(x), third)
         if rate is None:
             return False
@@ -178,6 +193,20 @@ class DecidedRule:
         self.t_stop = float(samples[-1, R.T_])
         self.t_strobe = float(k_end)
         self.x_strobe = float(x[-1])
+        return True
+
+    def _flies_to_end(self, t, x, vx, y, vy):
+        """True (reason FLIGHT, the rest known) if a flight through (t, x,
+        vx, y, vy) cannot land again before T_obs."""
+        if t >= self.periods or not all(math.isfinite(v) for v in (x, vx, y, vy)):
+            return False
+        if t + ballistic_reach_time(y, vy, self.mass, self.amplitude) <= self.periods:
+            return False
+        self.reason = FLIGHT
+        self.rate = vx
+        self.t_stop = t
+        self.t_strobe = t
+        self.x_strobe = x
         return True
 
     def _chaotic(self, t_now, t0, growth):
@@ -206,6 +235,13 @@ class DecidedRule:
         limit = FLIGHT_FRACTION * window
         if in_flight_since is not None and t_now - in_flight_since > limit:
             return True
+        # the flights ending in the window: their take-offs lie after k0 - limit
+        # or belong to a flight longer than limit, which ends after the last
+        # take-off before k0 - limit
+        j = int(np.searchsorted(events[:, 0], k0 - limit))
+        kinds = events[:, 1]
+        before = np.flatnonzero(kinds[:j] == R.TAKEOFF)
+        events = events[before[-1] if before.size else j:]
         kinds = events[:, 1]
         t_to = events[kinds == R.TAKEOFF, 0]
         t_la = events[kinds == R.LANDING, 0]
@@ -219,8 +255,9 @@ class DecidedRule:
 
     def drift_velocity(self):
         """x*(T)/T: for a regular stop, the run to the last whole period plus
-        v_inf for the rest; else None (the run's own x*(t)/t)."""
-        if self.reason != REGULAR:
+        v_inf for the rest (a flight: to its point, plus its v_x*); else None
+        (the run's own x*(t)/t)."""
+        if self.reason not in (REGULAR, FLIGHT):
             return None
         return (self.x_strobe + self.rate * (self.periods - self.t_strobe)) / self.periods
 
