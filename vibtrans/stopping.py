@@ -56,9 +56,12 @@ FULL, REGULAR, CHAOTIC, RAN_TO_END, FLIGHT = range(5)
 
 MIN_WINDOW = 60          # periods after the ramp before the first check (three windows of 20)
 CHECK_EVERY = 8          # periods between checks, at least
-CHECK_FRACTION = 1 / 16  # of the time since the ramp, between checks, at least
+CHECK_FRACTION = 1 / 8   # of the time since the ramp, between checks, at least
 DECIDED_FRACTION = 0.5   # of the stated drift error, spent on the extrapolation
 GEOMETRIC_MAX = 0.8      # a change between windows shrinking slower than this: not decided
+MAX_PERIOD = 16          # longest recurrence (periods) looked for in the drift per period
+NOISE_SIGMAS = 3.0       # standard errors of an average of irregular drifts, in the bound
+NOISE_BLOCKS = 12        # batch means of the drifts for that standard error
 MIN_CHAOS_PERIODS = 100  # periods of Lyapunov measurement before a chaotic stop
 CHAOS_MARGIN = 2.0       # chaotic: exponent above CHAOS_MARGIN x CHAOS_LYAPUNOV
 FLIGHT_FRACTION = 0.25   # longest flight allowed in the window, of one of its thirds
@@ -85,28 +88,52 @@ def weighted_birkhoff(values):
     return float(birkhoff_weights(values.size) @ values)
 
 
-def remaining_rate(drift_per_period, n):
+def recurrence_period(values, tol, longest=MAX_PERIOD):
+    """The smallest p <= longest with |values[k + p] - values[k]| <= tol for
+    every k (the stroboscopic state's recurrence, seen in its drift per
+    period), or None."""
+    values = np.asarray(values)
+    for p in range(1, min(longest, values.size // 3) + 1):
+        if np.max(np.abs(values[p:] - values[:-p])) <= tol:
+            return p
+    return None
+
+
+def remaining_rate(drift_per_period, n, recur_tol=0.0):
     """The asymptotic drift rate from the last 3 n drifts per period: the
     weighted Birkhoff averages v1, v2, v3 of three windows of n periods, and
     (v3, v_inf, bound): v_inf the rate they tend to, with the change from
     window to window taken as geometric, d2 = v3 - v2 = q (v2 - v1), and
     bound >= |v_inf - v3| + |d2|, the rate's uncertainty.  None if the
     windows do not converge (growing or slowly shrinking changes: q >=
-    GEOMETRIC_MAX), or are not finite."""
+    GEOMETRIC_MAX), or are not finite.
+
+    Unless the last window's drifts recur with a period <= MAX_PERIOD
+    (within recur_tol: `recurrence_period`), the motion may be irregular,
+    where averages agree by chance: the bound then also holds NOISE_SIGMAS
+    standard errors of a window's mean, by batch means (the 3 n drifts in
+    NOISE_BLOCKS blocks; a window holds NOISE_BLOCKS / 3 of them), which
+    holds for drifts correlated over up to a block (long flights).  On a
+    quasi-periodic orbit the averages converge far faster than that, so this
+    only makes it run longer."""
     w = birkhoff_weights(n)
     d = np.asarray(drift_per_period)[-3 * n:]
     v1, v2, v3 = (float(w @ d[i * n:(i + 1) * n]) for i in range(3))
     if not all(math.isfinite(v) for v in (v1, v2, v3)):
         return None
+    noise = 0.0
+    if recurrence_period(d[-n:], recur_tol) is None:
+        blocks = d[:d.size - d.size % NOISE_BLOCKS].reshape(NOISE_BLOCKS, -1).mean(axis=1)
+        noise = NOISE_SIGMAS * float(np.std(blocks, ddof=1)) / math.sqrt(NOISE_BLOCKS / 3)
     d1, d2 = v2 - v1, v3 - v2
     if d1 == 0.0 or d2 == 0.0 or d2 / d1 < 0.0:
         # no common direction: the averages' own scatter, not a trend
-        return v3, v3, 2.0 * max(abs(d1), abs(d2))
+        return v3, v3, 2.0 * max(abs(d1), abs(d2)) + noise
     q = d2 / d1
     if q >= GEOMETRIC_MAX:
         return None
     tail = d2 * q / (1.0 - q)
-    return v3, v3 + tail, abs(tail) + abs(d2)
+    return v3, v3 + tail, abs(tail) + abs(d2) + noise
 
 
 def stroboscope(samples, times):
@@ -181,7 +208,9 @@ class DecidedRule:
                 return False
         i0 = max(int(np.searchsorted(samples[:, R.T_], k0 - 1.0)), 0)
         x = stroboscope(samples[i0:], np.arange(k0, k_end + 1, dtype=float))
-        rate = remaining_rate(np.diff(x), third)
+        d = np.diff(x)
+        scale = max(abs(float(np.mean(d[-third:]))), self.v0)
+        rate = remaining_rate(d, third, self.tolerance * scale)
         if rate is None:
             return False
         v3, v_inf, bound = rate
