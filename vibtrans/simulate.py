@@ -21,7 +21,7 @@ from .fidelity import scan_step, step_count, time_step
 from .models import deformable as D
 from .models import point_mass as PM
 from .params import Scene
-from .stopping import DecidedRule, check_stop
+from .stopping import FLIGHT, DecidedRule, check_stop
 from .substrate import RAMP_OFF
 from .trajectory import build_trajectory
 from .version import __version__
@@ -190,8 +190,27 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
                             lyapunov_from=t_from, decide=decide)
     info = {"h": h}
     if lyapunov:
+        if decide is not None and decide.reason == FLIGHT:
+            _flight_tangent_to_end(run.tangent, run.state, scene.periods)
         info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
     return run.samples, run.events, run.ctr, info
+
+
+def _flight_tangent_to_end(tangent, state, t_end):
+    """A run stopped in a flight that lasts past t_end (stopping.FLIGHT):
+    its tangent at t_end, on the flight's closed form (dy' constant), as the
+    run to t_end would have it (its measurement started on the flight if
+    the flight spans its start: models.deformable._tangent_mark_in_flight)."""
+    t0 = state[D.S_T0]
+    if tangent[D.L_START] < 0.0 and t_end >= tangent[D.L_FROM]:
+        t = max(tangent[D.L_FROM], t0)
+        dy = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t - t0)
+        tangent[D.L_START] = t
+        tangent[D.L_LOG_START] = tangent[D.L_LOG] + 0.5 * math.log(
+            dy * dy + tangent[D.L_DVY0] * tangent[D.L_DVY0])
+    tangent[D.L_END_T] = t_end
+    tangent[D.L_END_DY] = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t_end - t0)
+    tangent[D.L_END_DVY] = tangent[D.L_DVY0]
 
 
 def _lyapunov_attrs(tangent, state, t_from):

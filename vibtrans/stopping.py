@@ -28,7 +28,7 @@ precision):
 * chaotic: the Lyapunov exponent is measured (vertical motion's tangent) and
   both its value since the ramp and its value over the second half of that
   time exceed CHAOS_MARGIN x CHAOS_LYAPUNOV, after at least
-  MIN_CHAOS_PERIODS: a regular orbit's finite-time exponent decays as
+  MIN_CHAOS_PERIODS, in a run that has taken off: a regular orbit's finite-time exponent decays as
   log(t)/t and over a second half alone is log(2)/(t/2)-small; a chaotic
   one's stays.  The run keeps its drift so far, flagged.
 * flight: a flight in progress that, continued ballistically, cannot reach
@@ -189,7 +189,11 @@ class DecidedRule:
             return False
         if flight is not None and self._flies_to_end(*flight):
             return True
-        if lyapunov is not None and self._chaotic(t_now, *lyapunov):
+        # chaotic hopping: a run that never left the surface is not called
+        # chaotic early (its tangent can grow for a while near a resonance
+        # of the contact oscillation and decay later)
+        if (lyapunov is not None and self._chaotic(t_now, *lyapunov)
+                and (events[:, 1] == R.TAKEOFF).any()):
             self.reason = CHAOTIC
             self.t_stop = float(samples[-1, R.T_])
             return True
