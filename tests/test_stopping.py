@@ -182,7 +182,7 @@ def test_cli_simulate_stop(capsys):
 # ---------------------------------------------------------------- property
 
 @pytest.mark.slow
-@settings(max_examples=30, deadline=None, derandomize=True,
+@settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(log_a=st.floats(-3.0, 3.0), log_m=st.floats(-5.0, 5.0),
        model=st.sampled_from(["deformable", "point-mass"]))
@@ -192,3 +192,14 @@ def test_decided_never_reports_a_regular_drift_outside_the_stated_error(log_a, l
     if attrs["stop_reason"] in ("regular", "flight") and not full.chaotic:
         assert within_error(dec.drift_velocity, full.drift_velocity), (
             attrs, full.drift_velocity, dec.drift_velocity)
+
+
+@pytest.mark.xfail(strict=True, reason="known limit of the rule (docs/DYNAMICS.md section 4): "
+                   "a drift that plateaus after the ramp and accelerates hundreds of periods "
+                   "later is stopped on the plateau")
+def test_plateau_then_acceleration_is_not_stopped_early():
+    # A* = 10^0.6, m* = 10^3: synchronous hopping, drift -0.111 per period
+    # from 400 to 460 (the three windows agree to 3e-4), -0.49 by 1500-2000
+    scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.0, mu=0.3)
+    full, dec, attrs = both(scene)
+    assert within_error(dec.drift_velocity, full.drift_velocity)
