@@ -3,7 +3,7 @@ claim (the numbers themselves are the benchmark's, not asserted here: a
 shared machine's timings are noisy)."""
 import pytest
 
-from vibtrans import bench
+from vibtrans.tools import bench
 
 
 @pytest.mark.slow
@@ -27,9 +27,9 @@ def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
     # issue 35's keys, computed from the four stores the bench leaves in `keep`
     import numpy as np
 
-    from vibtrans.analysis import V0
-    from vibtrans.fidelity import STATED_DRIFT_ERROR
-    from vibtrans.sweep import open_map
+    from vibtrans.analysis.summary import V0
+    from vibtrans.core.fidelity import STATED_DRIFT_ERROR
+    from vibtrans.maps.sweep import open_map
     r = bench.decided_trade(quick=True, keep=str(tmp_path))
     assert r["decided_speedup"] == pytest.approx(
         (r["decided_deformable_full_cpu_seconds"] + r["decided_point-mass_full_cpu_seconds"])

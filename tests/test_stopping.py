@@ -1,4 +1,4 @@
-"""The `decided` stopping rule (vibtrans.stopping, issue 35) against full runs.
+"""The `decided` stopping rule (vibtrans.core.stopping, issue 35) against full runs.
 
 The reference of every check is the same scene run to T_obs (stop="full"):
 a regular stop must report x*(T)/T within the standard preset's stated drift
@@ -14,14 +14,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vibtrans import paper_scene
-from vibtrans.analysis import CHAOS_LYAPUNOV, V0, summarize
-from vibtrans.errors import InputError, StoreMismatch
-from vibtrans.fidelity import STATED_DRIFT_ERROR
-from vibtrans.params import Scene
-from vibtrans.simulate import run_records
-from vibtrans.stopping import (MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff)
-from vibtrans.substrate import RAMP_OFF
-from vibtrans.trajectory import RunArrays
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0, summarize
+from vibtrans.core.errors import InputError, StoreMismatch
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR
+from vibtrans.core.kernels.substrate import RAMP_OFF
+from vibtrans.core.params import Scene
+from vibtrans.core.simulate import run_records
+from vibtrans.core.stopping import MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff
+from vibtrans.core.trajectory import RunArrays
 
 ERR = STATED_DRIFT_ERROR["standard"]
 
@@ -149,7 +149,7 @@ def test_bad_stop_is_refused_by_name():
 
 
 def test_sweep_store_records_the_rule(tmp_path):
-    from vibtrans.sweep import Sweep, open_map, run_sweep
+    from vibtrans.maps.sweep import Sweep, open_map, run_sweep
     grid = (np.array([-1.0, 0.0]), np.array([0.0]))
     values = dict(model="deformable", mu=0.3, periods=500.0)
     path = str(tmp_path / "d.zarr")
