@@ -1,4 +1,4 @@
-"""The `decided` stopping rule (vibtrans.core.stopping, issue 35) against full runs.
+"""The `decided` stopping rule (vibtrans.core.drivers, issue 35) against full runs.
 
 The reference of every check is the same scene run to T_obs (stop="full"):
 a regular stop must report x*(T)/T within the standard preset's stated drift
@@ -20,7 +20,7 @@ from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.params import Scene
 from vibtrans.core.simulate import run_records
-from vibtrans.core.stopping import MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff
+from vibtrans.core.drivers import MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff
 from vibtrans.core.trajectory import RunArrays
 
 ERR = STATED_DRIFT_ERROR["standard"]

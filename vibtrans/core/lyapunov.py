@@ -15,13 +15,6 @@ from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.substrate import TWO_PI, ramp
 
 
-# Chaotic: the vertical motion's largest Lyapunov exponent above this, per
-# period (simulate(..., lyapunov=True)).  Chosen from the exponent's
-# histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
-# |lambda| < ~3e-3 after 1675 periods (log T / T), chaotic ones 0.02-0.2.
-CHAOS_LYAPUNOV = 0.01
-
-
 def _surface(t, amplitude, tau):
     """(u_y*, u_y*', u_y*'') at t (the substrate's vertical motion, ramp included)."""
     g, g1, g2 = ramp(t, tau)

@@ -24,7 +24,7 @@ from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
-from vibtrans.core.stopping import FLIGHT, DecidedRule, check_stop
+from vibtrans.core.drivers import STOP_FLIGHT, DecidedRule, check_stop
 
 SAMPLES_PER_PERIOD = 10
 
@@ -117,7 +117,7 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
         from its impact map (lyapunov.impact_lyapunov: -inf where it rides
         the surface after the ramp, None with fewer than three impacts).
     stop: "full" (run to T_obs) or "decided" (stop once the outcome is
-        known to the fidelity's stated drift error: stopping.DecidedRule;
+        known to the fidelity's stated drift error: drivers.DecidedRule;
         attrs `stop`, `stop_reason`, `periods_run`,
         `asymptotic_drift_velocity`, `decided_drift_velocity`, the x*(T)/T
         that analysis.drift_velocity reports).  "full" adds no attribute.
@@ -190,14 +190,14 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
                             lyapunov_from=t_from, decide=decide)
     info = {"h": h}
     if lyapunov:
-        if decide is not None and decide.reason == FLIGHT:
+        if decide is not None and decide.reason == STOP_FLIGHT:
             _flight_tangent_to_end(run.tangent, run.state, scene.periods)
         info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
     return run.samples, run.events, run.ctr, info
 
 
 def _flight_tangent_to_end(tangent, state, t_end):
-    """A run stopped in a flight that lasts past t_end (stopping.FLIGHT):
+    """A run stopped in a flight that lasts past t_end (drivers.STOP_FLIGHT):
     its tangent at t_end, on the flight's closed form (dy' constant), as the
     run to t_end would have it (its measurement started on the flight if
     the flight spans its start: models.deformable._tangent_mark_in_flight)."""

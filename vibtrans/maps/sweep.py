@@ -35,7 +35,7 @@ from vibtrans.core.precompile import warmup
 from vibtrans.core.simulate import run_records
 from vibtrans.core.trajectory import RunArrays
 from vibtrans.core.errors import InputError, StoreMismatch
-from vibtrans.core.stopping import REASONS, STOPS, check_stop
+from vibtrans.core.drivers import REASONS, STOPS, check_stop
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -84,7 +84,7 @@ LYAPUNOV_CHAOS_VARIABLES = {
 }
 
 
-# A transport sweep under the `decided` stopping rule (stopping.py) stores
+# A transport sweep under the `decided` stopping rule (core.drivers.DecidedRule) stores
 # per point how long its run was and why it stopped; its drift_velocity is
 # x*(T)/T extrapolated from a regular stop (analysis.drift_velocity).
 DECIDED_VARIABLES = {
@@ -129,7 +129,7 @@ def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"), or the run and, if it jumps, its chaos twin
     (analysis.twin_scene; chaos "twin", and the material point always).
-    stop: the runs' stopping rule (stopping.STOPS; the twin's too).
+    stop: the runs' stopping rule (core.drivers.STOPS; the twin's too).
 
     Returns a dict of the stored quantities.
     """

@@ -447,7 +447,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     import tempfile
 
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
-    from vibtrans.core.stopping import REASONS
+    from vibtrans.core.drivers import REASONS
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
