@@ -120,7 +120,7 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
         known to the fidelity's stated drift error: drivers.DecidedRule;
         attrs `stop`, `stop_reason`, `periods_run`,
         `asymptotic_drift_velocity`, `decided_drift_velocity`, the x*(T)/T
-        that analysis.drift_velocity reports).  "full" adds no attribute.
+        that analysis.summary.drift_velocity reports).  "full" adds no attribute.
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -200,7 +200,7 @@ def _flight_tangent_to_end(tangent, state, t_end):
     """A run stopped in a flight that lasts past t_end (drivers.STOP_FLIGHT):
     its tangent at t_end, on the flight's closed form (dy' constant), as the
     run to t_end would have it (its measurement started on the flight if
-    the flight spans its start: models.deformable._tangent_mark_in_flight)."""
+    the flight spans its start: kernels.deformable._tangent_mark_in_flight)."""
     t0 = state[D.S_T0]
     if tangent[D.L_START] < 0.0 and t_end >= tangent[D.L_FROM]:
         t = max(tangent[D.L_FROM], t0)
