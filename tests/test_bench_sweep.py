@@ -20,3 +20,33 @@ def test_sweep_figures_are_made_of_their_parts():
     p = bench.preview_window_times(quick=True)
     assert 0.0 < p["preview_first_image_seconds"] <= p["preview_window_seconds"]
     assert 0.0 < p["preview_computed_fraction"] <= 1.0 and p["preview_points"] == 17 * 17
+
+
+@pytest.mark.slow
+def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
+    # issue 35's keys, computed from the four stores the bench leaves in `keep`
+    import numpy as np
+
+    from vibtrans.analysis.summary import V0
+    from vibtrans.core.fidelity import STATED_DRIFT_ERROR
+    from vibtrans.maps.sweep import open_map
+    r = bench.decided_trade(quick=True, keep=str(tmp_path))
+    assert r["decided_speedup"] == pytest.approx(
+        (r["decided_deformable_full_cpu_seconds"] + r["decided_point-mass_full_cpu_seconds"])
+        / (r["decided_deformable_decided_cpu_seconds"]
+           + r["decided_point-mass_decided_cpu_seconds"]))
+    n = k = 0
+    for model in bench.DECIDED_MODELS:
+        full = open_map(str(tmp_path / f"{model}-full.zarr"))
+        dec = open_map(str(tmp_path / f"{model}-decided.zarr"))
+        assert dec.attrs["stop"] == "decided" and "stop" not in full.attrs
+        regular = (full["chaotic"].values != 1) & (dec["chaotic"].values != 1)
+        vf, vd = full["drift_velocity"].values, dec["drift_velocity"].values
+        drifting = regular & (np.abs(vf) > V0)
+        ok = np.abs(vd - vf) <= STATED_DRIFT_ERROR["standard"] * np.abs(vf)
+        n += int(drifting.sum())
+        k += int(ok[drifting].sum())
+        assert r[f"decided_{model}_mean_periods_run"] == pytest.approx(
+            float(dec["periods_run"].mean()))
+    assert n > 0 and r["decided_drift_within_error"] == pytest.approx(k / n)
+    assert 0.0 <= r["decided_class_agreement"] <= 1.0

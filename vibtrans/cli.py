@@ -99,14 +99,15 @@ def cmd_simulate(args):
     bar, update = _progress_bar("simulate")
     try:
         ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
-                      max_steps=args.max_steps, progress=update, lyapunov=True)
+                      max_steps=args.max_steps, progress=update, lyapunov=True,
+                      stop=args.stop)
         twin = None
         # auto: the twin only where no Lyapunov exponent decides (the material point)
         if args.twin == "always" or (args.twin == "auto" and jumped(ds)
                                      and ds.attrs.get("lyapunov") is None):
             twin = simulate(twin_scene(scene),
                             samples_per_period=args.samples_per_period,
-                            max_steps=args.max_steps)
+                            max_steps=args.max_steps, stop=args.stop)
     finally:
         bar.close()
     summary = summarize(ds, twin)
@@ -116,6 +117,9 @@ def cmd_simulate(args):
             ds.to_netcdf(tmp)
     out = {k: _jsonable(v) for k, v in summary._asdict().items()}
     out["scene"] = scene.values()
+    if args.stop == "decided":
+        out.update({k: _jsonable(ds.attrs[k]) for k in
+                    ("stop_reason", "periods_run", "asymptotic_drift_velocity")})
     if args.json:
         print(json.dumps(out))
     else:
@@ -225,7 +229,7 @@ def cmd_sweep(args):
                   command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
                   nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
                   integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule,
-                  kind=args.kind, chaos=args.chaos)
+                  kind=args.kind, chaos=args.chaos, stop=args.stop)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
@@ -702,6 +706,12 @@ def _export_parser(sub):
     e.set_defaults(func=cmd_export, periods_given=False)
 
 
+STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its drift is "
+             "known to the fidelity's stated error (regular motion, extrapolated to "
+             "--periods) or its Lyapunov exponent calls it chaotic with margin "
+             "(vibtrans.core.drivers.DecidedRule)")
+
+
 def build_parser():
     p = _Parser(prog="vibtrans", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"vibtrans {__version__}")
@@ -719,6 +729,7 @@ def build_parser():
     s.add_argument("--twin", default="auto", choices=("auto", "always", "never"),
                    help="run the tau + 1e-3 twin (twin_chaotic; the chaos verdict where no "
                         "Lyapunov exponent is measured); auto: if it jumps and has none")
+    s.add_argument("--stop", default="full", choices=("full", "decided"), help=STOP_HELP)
     s.set_defaults(func=cmd_simulate)
 
     o = sub.add_parser("orbit", help="periodic orbit of the vertical motion's stroboscopic "
@@ -759,6 +770,7 @@ def build_parser():
     w.add_argument("--chaos", default="lyapunov", choices=("lyapunov", "twin"),
                    help="transport: chaos from each run's Lyapunov exponent (the material "
                         "point: its tau twin), or from the tau twin (as the shipped maps)")
+    w.add_argument("--stop", default="full", choices=("full", "decided"), help=STOP_HELP)
     w.add_argument("--out", help="PATH.zarr (resumed if it exists and matches)")
     w.add_argument("--scheduler", help="dask.distributed scheduler address tcp://HOST:PORT")
     w.add_argument("--workers", type=int, help="local workers (default: all cores)")

@@ -12,14 +12,12 @@ import numpy as np
 
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import FLIGHT
+# V0 (|v*| <= V0: no drift) and CHAOS_LYAPUNOV (the chaos threshold) are the
+# core's (its stopping rule uses them); named here for every caller
+from vibtrans.core.fidelity import CHAOS_LYAPUNOV, V0  # noqa: F401
+from vibtrans.core.drivers import ballistic_reach_time
 
-V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band)
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
-# Chaotic: the vertical motion's largest Lyapunov exponent above this, per
-# period (simulate(..., lyapunov=True)).  Chosen from the exponent's
-# histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
-# |lambda| < ~3e-3 after 1675 periods (log T / T), chaotic ones 0.02-0.2.
-CHAOS_LYAPUNOV = 0.01
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
 SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
 SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
@@ -40,13 +38,22 @@ def jumped(ds):
 
 
 def drift_velocity(ds):
-    """<v_x*> = x*(T_obs) / T_obs, the paper's definition."""
+    """<v_x*> = x*(T_obs) / T_obs, the paper's definition (a run stopped as
+    regular by the `decided` rule: its extrapolation to T_obs, attribute
+    decided_drift_velocity, drivers.DecidedRule)."""
+    decided = ds.attrs.get("decided_drift_velocity")
+    if decided is not None:
+        return float(decided)
     t = float(ds["time"].values[-1])
     return float(ds["x"].values[-1]) / t
 
 
 def final_drift_velocity(ds, fraction=FINAL_FRACTION):
-    """Mean velocity over the last `fraction` of the run."""
+    """Mean velocity over the last `fraction` of the run (a run stopped as
+    regular by the `decided` rule: its asymptotic drift rate)."""
+    rate = ds.attrs.get("asymptotic_drift_velocity")
+    if rate is not None:
+        return float(rate)
     t = ds["time"].values
     x = ds["x"].values
     t1 = float(t[-1])
@@ -118,6 +125,9 @@ def launch_time(ds, fraction=LAUNCH_FRACTION):
     """
     t0 = open_flight_start(ds)
     t_end = float(ds["time"].values[-1])
+    if ds.attrs.get("stop_reason") == "flight":
+        # stopped by the `decided` rule in a flight that lasts past T_obs
+        t_end = float(ds.attrs["periods"])
     return t0 if t0 is not None and t0 < fraction * t_end else None
 
 
@@ -128,15 +138,9 @@ def earliest_landing(ds):
     -A*, the highest the surface ever comes (G <= 1; y* points down).
     The end of the run if the particle is already within reach."""
     t_end = float(ds["time"].values[-1])
-    m = float(ds.attrs["mass"])
-    gap = -float(ds.attrs["amplitude"]) - float(ds["y"].values[-1])  # > 0: out of reach
-    vy = float(ds["vy"].values[-1])
-    if gap <= 0.0:
-        return t_end
-    # root of t^2 / (2 m*) + vy t - gap = 0, in the form without cancellation
-    root = math.sqrt(vy * vy + 2.0 * gap / m)
-    dt = m * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
-    return t_end + dt
+    return t_end + ballistic_reach_time(float(ds["y"].values[-1]), float(ds["vy"].values[-1]),
+                                        float(ds.attrs["mass"]), float(ds.attrs["amplitude"]))
+
 
 
 def takeoff_phases(ds, t0=0.0):

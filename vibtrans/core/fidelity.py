@@ -27,6 +27,12 @@ FIDELITY = {
 # `vibtrans bench --work-precision` (preview 1.6e-2, standard 1.0e-4,
 # reference 3.5e-6, both integrators); tests/test_presets.py holds each preset
 # to its bound on the quick study.
+V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band; the floor above)
+# Chaotic: the vertical motion's largest Lyapunov exponent above this, per
+# period (simulate(..., lyapunov=True)).  Chosen from the exponent's
+# histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
+# |lambda| < ~3e-3 after 1675 periods (log T / T), chaotic ones 0.02-0.2.
+CHAOS_LYAPUNOV = 0.01
 STATED_DRIFT_ERROR = {"preview": 0.05, "standard": 0.005, "reference": 1e-4}
 PRESET_NOTES = {
     "preview": "drift within 5% (measured <= 1.6% where it drifts), 2.3x faster than "

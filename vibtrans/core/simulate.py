@@ -24,6 +24,7 @@ from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
+from vibtrans.core.drivers import STOP_FLIGHT, DecidedRule, check_stop
 
 SAMPLES_PER_PERIOD = 10
 
@@ -78,19 +79,21 @@ def _window(window, periods):
 
 def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
              max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, stop="full",
+             **values):
     """Simulate one scene and return its trajectory (xarray.Dataset):
     `run_records`' samples, events and attributes as a Dataset
     (trajectory.build_trajectory).  The arguments are `run_records`'."""
     return build_trajectory(*run_records(
         scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
         progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
-        lyapunov=lyapunov, **values))
+        lyapunov=lyapunov, stop=stop, **values))
 
 
 def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
                 max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False,
+                stop="full", **values):
     """Simulate one scene: its (samples, events, attrs), the kernel's
     trimmed buffers (records.COLUMNS, records event rows) and the run's
     attributes, before they become a Dataset (`simulate`; a map point
@@ -113,6 +116,11 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
         The records are the same bit for bit.  The material point's comes
         from its impact map (lyapunov.impact_lyapunov: -inf where it rides
         the surface after the ramp, None with fewer than three impacts).
+    stop: "full" (run to T_obs) or "decided" (stop once the outcome is
+        known to the fidelity's stated drift error: drivers.DecidedRule;
+        attrs `stop`, `stop_reason`, `periods_run`,
+        `asymptotic_drift_velocity`, `decided_drift_velocity`, the x*(T)/T
+        that analysis.summary.drift_velocity reports).  "full" adds no attribute.
     """
     scene = _scene(scene, values)
     if not (isinstance(samples_per_period, (int, np.integer))
@@ -132,13 +140,18 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
     steps = _check_steps(steps, scene.model)
     if not isinstance(lyapunov, (bool, np.bool_)):
         raise InputError(f"lyapunov must be True or False, got {lyapunov!r}")
+    check_stop(stop)
     drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
+    decide = (DecidedRule(scene.periods, scene.tau, scene.amplitude, scene.mass,
+                          scene.fidelity) if stop == "decided" else None)
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
     samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
                                         progress, cancel, shortcuts=int(shortcuts), steps=steps,
-                                        lyapunov=bool(lyapunov))
+                                        lyapunov=bool(lyapunov), decide=decide)
+    if decide is not None:
+        info.update(decide.attrs())
     seconds = time.perf_counter() - start
     attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
                  force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
@@ -167,18 +180,37 @@ def lyapunov_start(scene):
 
 
 def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
-               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False):
+               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, decide=None):
     """Run the deformable or vertical kernel from rest."""
     p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
                                    steps)
     t_from = lyapunov_start(scene) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
                             samples_capacity=capacity, progress=progress, cancel=cancel,
-                            lyapunov_from=t_from)
+                            lyapunov_from=t_from, decide=decide)
     info = {"h": h}
     if lyapunov:
+        if decide is not None and decide.reason == STOP_FLIGHT:
+            _flight_tangent_to_end(run.tangent, run.state, scene.periods)
         info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
     return run.samples, run.events, run.ctr, info
+
+
+def _flight_tangent_to_end(tangent, state, t_end):
+    """A run stopped in a flight that lasts past t_end (drivers.STOP_FLIGHT):
+    its tangent at t_end, on the flight's closed form (dy' constant), as the
+    run to t_end would have it (its measurement started on the flight if
+    the flight spans its start: kernels.deformable._tangent_mark_in_flight)."""
+    t0 = state[D.S_T0]
+    if tangent[D.L_START] < 0.0 and t_end >= tangent[D.L_FROM]:
+        t = max(tangent[D.L_FROM], t0)
+        dy = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t - t0)
+        tangent[D.L_START] = t
+        tangent[D.L_LOG_START] = tangent[D.L_LOG] + 0.5 * math.log(
+            dy * dy + tangent[D.L_DVY0] * tangent[D.L_DVY0])
+    tangent[D.L_END_T] = t_end
+    tangent[D.L_END_DY] = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t_end - t0)
+    tangent[D.L_END_DVY] = tangent[D.L_DVY0]
 
 
 def _lyapunov_attrs(tangent, state, t_from):
@@ -188,7 +220,7 @@ def _lyapunov_attrs(tangent, state, t_from):
 
 
 def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
-                    shortcuts=None, steps=None, lyapunov=False):
+                    shortcuts=None, steps=None, lyapunov=False, decide=None):
     # event-driven: its flights and segments are closed forms already
     dt = scan_step(scene.fidelity, refine)
     p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
@@ -196,7 +228,7 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
                        1.0 / samples_per_period, (w0, w1), dt)
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
     run = drivers.run_point_mass(
-        p, scene.stick_rule, progress=progress, cancel=cancel,
+        p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
     if lyapunov:

@@ -159,6 +159,7 @@ def _children(i0, j0, s):
 
 def _params(sweep, max_level, tol):
     return {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos,
+            **({"stop": sweep.stop} if sweep.stop != "full" else {}),
             "log_amplitude": [float(v) for v in sweep.log_amplitude],
             "log_mass": [float(v) for v in sweep.log_mass],
             "max_level": int(max_level), "drift_tolerance": float(tol)}
@@ -258,9 +259,9 @@ class _Partial:
 
 # ---------------------------------------------------------------- computing
 
-def _compute_points(values, coords, chaos):
+def _compute_points(values, coords, chaos, stop="full"):
     """A worker task: a few points [(log_a, log_m), ...]."""
-    return [compute_point(values, la, lm, chaos) for la, lm in coords]
+    return [compute_point(values, la, lm, chaos, stop) for la, lm in coords]
 
 
 def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
@@ -288,7 +289,7 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
             on_done()
 
     def args(task):
-        return (sweep.values, [(la[i], lm[j]) for i, j in task], sweep.chaos)
+        return (sweep.values, [(la[i], lm[j]) for i, j in task], sweep.chaos, sweep.stop)
 
     if scheduler is not None:
         from dask.distributed import as_completed

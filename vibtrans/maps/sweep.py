@@ -35,6 +35,7 @@ from vibtrans.core.precompile import warmup
 from vibtrans.core.simulate import run_records
 from vibtrans.core.trajectory import RunArrays
 from vibtrans.core.errors import InputError, StoreMismatch
+from vibtrans.core.drivers import REASONS, STOPS, check_stop
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -83,11 +84,24 @@ LYAPUNOV_CHAOS_VARIABLES = {
 }
 
 
-def variables_of(kind, chaos):
-    """The stored variables of a sweep of this kind and chaos source."""
+# A transport sweep under the `decided` stopping rule (core.drivers.DecidedRule) stores
+# per point how long its run was and why it stopped; its drift_velocity is
+# x*(T)/T extrapolated from a regular stop (analysis.drift_velocity).
+DECIDED_VARIABLES = {
+    "periods_run": ("f8", np.nan, "periods the run actually ran (its twin's not counted)"),
+    "stop_reason": ("i1", -1, "why the run stopped: " + ", ".join(
+        f"{i} {r}" for i, r in enumerate(REASONS))),
+    "asymptotic_drift_velocity": ("f8", np.nan, "the asymptotic drift rate v_inf of a "
+                                                "regular stop (NaN otherwise)"),
+}
+
+
+def variables_of(kind, chaos, stop="full"):
+    """The stored variables of a sweep of this kind, chaos source and stop rule."""
     if kind == "lyapunov":
         return LYAPUNOV_VARIABLES
-    return LYAPUNOV_CHAOS_VARIABLES if chaos == "lyapunov" else VARIABLES
+    variables = LYAPUNOV_CHAOS_VARIABLES if chaos == "lyapunov" else VARIABLES
+    return {**variables, **DECIDED_VARIABLES} if stop == "decided" else variables
 
 
 def _why(exc, limit=240):
@@ -111,25 +125,32 @@ def parse_range(text, name):
     return np.round(start + step * np.arange(n), 10)
 
 
-def compute_point(values, log_a, log_m, chaos="twin"):
+def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"), or the run and, if it jumps, its chaos twin
     (analysis.twin_scene; chaos "twin", and the material point always).
+    stop: the runs' stopping rule (core.drivers.STOPS; the twin's too).
 
     Returns a dict of the stored quantities.
     """
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
     measure = chaos == "lyapunov" and scene.model != "point-mass"
     # the runs' arrays, summarized as a Dataset of them would be (no Dataset)
-    ds = RunArrays(*run_records(scene, lyapunov=measure))
+    ds = RunArrays(*run_records(scene, lyapunov=measure, stop=stop))
     jumping = jumped(ds)
-    twin = RunArrays(*run_records(twin_scene(scene))) if jumping and not measure else None
+    twin = (RunArrays(*run_records(twin_scene(scene), stop=stop))
+            if jumping and not measure else None)
     s = summarize(ds, twin)
     pattern = s.pattern
     if pattern == "launched":
         # the maps store the pattern of the take-offs (PATTERNS), as shipped
         pattern = "chaotic" if s.chaotic else rebound_pattern(ds)
+    decided = {} if stop == "full" else {
+        "periods_run": float(ds.attrs["periods_run"]),
+        "stop_reason": REASONS.index(ds.attrs["stop_reason"]),
+        "asymptotic_drift_velocity": ds.attrs.get("asymptotic_drift_velocity", np.nan)}
     return {
+        **decided,
         "drift_velocity": s.drift_velocity,
         "final_drift_velocity": s.final_drift_velocity,
         "contact": int(jumping),
@@ -156,11 +177,11 @@ def lyapunov_point(values, log_a, log_m):
 KINDS = ("transport", "lyapunov")      # drift maps; the vertical motion's exponent
 
 
-def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin"):
+def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin", stop="full"):
     """All points of a chunk (a worker task)."""
     if kind == "lyapunov":
         return [[lyapunov_point(values, la, lm) for lm in log_ms] for la in log_as]
-    return [[compute_point(values, la, lm, chaos) for lm in log_ms] for la in log_as]
+    return [[compute_point(values, la, lm, chaos, stop) for lm in log_ms] for la in log_as]
 
 
 def _digest(block, variables=VARIABLES):
@@ -174,7 +195,7 @@ class Sweep:
     """A sweep's definition: scene values (everything but A*, m*) and grid."""
 
     def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None,
-                 kind="transport", chaos="lyapunov", **values):
+                 kind="transport", chaos="lyapunov", stop="full", **values):
         if kind not in KINDS:
             raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if chaos not in CHAOS_SOURCES:
@@ -183,9 +204,14 @@ class Sweep:
             raise InputError("a lyapunov sweep runs the vertical model (model='vertical') or "
                              "the material point (model='point-mass'): the indicator is the "
                              "vertical motion's")
+        check_stop(stop)
+        if kind == "lyapunov" and stop != "full":
+            raise InputError(f"stop must be full for a lyapunov sweep (its exponent is "
+                             f"measured over the whole run), got {stop!r}")
         self.kind = kind
         self.chaos = chaos
-        self.variables = variables_of(kind, chaos)
+        self.stop = stop
+        self.variables = variables_of(kind, chaos, stop)
         scene = Scene(**values)            # validates every value
         self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
         self.log_amplitude = np.asarray(log_amplitude, dtype=float)
@@ -207,7 +233,8 @@ class Sweep:
                 "chunk_rows": self.chunk_rows, "code_version": __version__,
                 "command": self.command,
                 **({"kind": self.kind} if self.kind != "transport" else {}),
-                **({"chaos": self.chaos} if self.kind == "transport" else {})}
+                **({"chaos": self.chaos} if self.kind == "transport" else {}),
+                **({"stop": self.stop} if self.stop != "full" else {})}
 
     def empty_dataset(self):
         shape = (self.log_amplitude.size, self.log_mass.size)
@@ -236,6 +263,8 @@ def _check_store(ds, sweep, path):
         problems.append(f"kind: store {ds.attrs.get('kind', 'transport')}, command {sweep.kind}")
     elif sweep.kind == "transport" and ds.attrs.get("chaos", "twin") != sweep.chaos:
         problems.append(f"chaos: store {ds.attrs.get('chaos', 'twin')}, command {sweep.chaos}")
+    if ds.attrs.get("stop", "full") != sweep.stop:
+        problems.append(f"stop: store {ds.attrs.get('stop', 'full')}, command {sweep.stop}")
     if ds.attrs.get("chunk_rows") != sweep.chunk_rows:
         problems.append(f"chunk_rows: store {ds.attrs.get('chunk_rows')}, command {sweep.chunk_rows}")
     if problems:
@@ -254,7 +283,10 @@ def verify(ds, path="store"):
     if kind not in KINDS or chaos not in CHAOS_SOURCES:
         raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos "
                             f"source {chaos!r}")
-    variables = variables_of(kind, chaos)
+    stop = ds.attrs.get("stop", "full")
+    if stop not in STOPS:
+        raise StoreMismatch(f"{path} is a sweep store of unknown stop rule {stop!r}")
+    variables = variables_of(kind, chaos, stop)
     if "computed" in ds or "adaptive_max_level" in ds.attrs:
         # an adaptive map (vibtrans.maps.adaptive): which points were simulated is
         # data too, digested with the rest
@@ -380,7 +412,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
             client.run(warmup)
             futures = {client.submit(_compute_row_block, sweep.values,
                                      sweep.log_amplitude[sweep.rows(k)], sweep.log_mass,
-                                     sweep.kind, sweep.chaos, pure=False): k for k in todo}
+                                     sweep.kind, sweep.chaos, sweep.stop, pure=False): k
+                       for k in todo}
             from dask.distributed import as_completed
             for fut in as_completed(futures):
                 _write_chunk(path, sweep, futures[fut], fut.result(), bar)
@@ -400,7 +433,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
                     k = queue.pop(0)
                     pending[pool.submit(_compute_row_block, sweep.values,
                                         sweep.log_amplitude[sweep.rows(k)],
-                                        sweep.log_mass, sweep.kind, sweep.chaos)] = k
+                                        sweep.log_mass, sweep.kind, sweep.chaos,
+                                        sweep.stop)] = k
                 finished, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in finished:
                     _write_chunk(path, sweep, pending.pop(fut), fut.result(), bar)

@@ -409,4 +409,106 @@ def sweep_bench(quick=False):
         shutil.rmtree(tmp)
     out.update(sweep_step_ratio(quick))
     out.update(preview_window_times(quick))
+    out.update(decided_trade(quick))
+    return out
+
+
+# Issue 35's trade: the shipped maps' grid (assets/maps: log10 A* -3:3:0.05,
+# log10 m* -5:5:0.05, 121 x 201; tau 50, 2000 periods, standard, mu 0.3),
+# every DECIDED_STRIDE-th point on both axes (the whole grid is ~4 minutes
+# per map and rule on an idle 2-core machine), run with --stop full and
+# --stop decided in one run.
+SHIPPED_GRID = ("-3:3:0.05", "-5:5:0.05")
+DECIDED_STRIDE = 4
+DECIDED_MODELS = ("deformable", "point-mass")
+
+
+def _strided(text, stride):
+    start, stop, step = (float(v) for v in text.split(":"))
+    return f"{start}:{stop}:{step * stride}"
+
+
+def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
+    """The speed/accuracy trade of the `decided` stopping rule (issue 35),
+    measured in one run: each model's sample of the shipped grid (every
+    `stride`-th point; quick: a 6 x 6 sample over 500 periods) swept with
+    stop="full" and with stop="decided", on all cores.  Keys:
+    decided_speedup (full / decided CPU time of this process, the models
+    together; decided_wall_speedup: the same in wall time);
+    decided_class_agreement (drift class and contact agree, where neither
+    map calls the point chaotic); decided_drift_within_error (regular
+    drifting points of the full map, |v*| > V0 and not chaotic in either:
+    |v_decided - v_full| <= STATED_DRIFT_ERROR x |v_full|); per model the
+    same, the chaos verdicts' agreement, the fraction of each stop reason
+    and the mean periods run.  keep: a folder to leave the four stores
+    in (<model>-<stop>.zarr), for a difference map."""
+    import os
+    import shutil
+    import tempfile
+
+    from vibtrans.core.fidelity import STATED_DRIFT_ERROR
+    from vibtrans.core.drivers import REASONS
+    from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
+    stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
+    periods = 500.0 if quick else 2000.0
+    la = parse_range(_strided(SHIPPED_GRID[0], stride), "log_amplitude")
+    lm = parse_range(_strided(SHIPPED_GRID[1], stride), "log_mass")
+    folder = keep or tempfile.mkdtemp()
+    os.makedirs(folder, exist_ok=True)
+    out = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
+                           f"121 x 201 grid)", "decided_periods": periods}
+    seconds = {"full": 0.0, "decided": 0.0}
+    cpu = {"full": 0.0, "decided": 0.0}
+    agree_n = agree_k = within_n = within_k = 0
+    try:
+        for model in models:
+            maps = {}
+            for stop in ("full", "decided"):
+                path = f"{folder}/{model}-{stop}.zarr"
+                shutil.rmtree(path, ignore_errors=True)
+                sweep = Sweep(la, lm, chunk_rows=1, model=model, mu=0.3, periods=periods,
+                              stop=stop)
+                c0, t0 = time.process_time(), time.perf_counter()
+                run_sweep(sweep, path, progress=False)
+                wall, used = time.perf_counter() - t0, time.process_time() - c0
+                seconds[stop] += wall
+                cpu[stop] += used
+                out[f"decided_{model}_{stop}_seconds"] = wall
+                out[f"decided_{model}_{stop}_cpu_seconds"] = used
+                maps[stop] = open_map(path)
+            full, dec = maps["full"], maps["decided"]
+            regular = (full["chaotic"].values != 1) & (dec["chaotic"].values != 1)
+            same = ((full["drift"].values == dec["drift"].values)
+                    & (full["contact"].values == dec["contact"].values))
+            vf, vd = full["drift_velocity"].values, dec["drift_velocity"].values
+            drifting = regular & (np.abs(vf) > V0)
+            ok = np.abs(vd - vf) <= STATED_DRIFT_ERROR["standard"] * np.abs(vf)
+            out[f"decided_{model}_speedup"] = (out[f"decided_{model}_full_cpu_seconds"]
+                                               / out[f"decided_{model}_decided_cpu_seconds"])
+            out[f"decided_{model}_wall_speedup"] = (out[f"decided_{model}_full_seconds"]
+                                                    / out[f"decided_{model}_decided_seconds"])
+            out[f"decided_{model}_class_agreement"] = float(same[regular].mean())
+            out[f"decided_{model}_drift_within_error"] = (float(ok[drifting].mean())
+                                                          if drifting.any() else None)
+            out[f"decided_{model}_regular_drifting_points"] = int(drifting.sum())
+            out[f"decided_{model}_mean_periods_run"] = float(dec["periods_run"].mean())
+            out[f"decided_{model}_chaos_agreement"] = float(
+                (full["chaotic"].values == dec["chaotic"].values).mean())
+            reasons = dec["stop_reason"].values
+            for code, name in enumerate(REASONS):
+                if code:
+                    out[f"decided_{model}_{name}_fraction"] = float((reasons == code).mean())
+            agree_n += int(regular.sum())
+            agree_k += int(same[regular].sum())
+            within_n += int(drifting.sum())
+            within_k += int(ok[drifting].sum())
+    finally:
+        if keep is None:
+            shutil.rmtree(folder, ignore_errors=True)
+    # CPU time of this process (all its threads): on a machine shared with
+    # other work, wall time measures the neighbours as much as the rule
+    out["decided_speedup"] = cpu["full"] / cpu["decided"]
+    out["decided_wall_speedup"] = seconds["full"] / seconds["decided"]
+    out["decided_class_agreement"] = agree_k / agree_n if agree_n else None
+    out["decided_drift_within_error"] = within_k / within_n if within_n else None
     return out
