@@ -1,0 +1,124 @@
+"""Axisymmetric profiles (issue 34): normal laws and spring weights.
+
+Sources: Popov & Hess, Method of Dimensionality Reduction (power law
+g = kappa_n C |x|^n, kappa_n = sqrt(pi) Gamma(n/2+1)/Gamma(n/2+1/2), N ~ d^((n+1)/n));
+Hertz (sphere N = (4/3) E* sqrt(R) d^(3/2)); Sneddon's cone N = (2/pi) E* tan(beta) d^2 ... in
+normalized form N* = a*^2; docs/MODEL.md "Axisymmetric profiles".
+"""
+import math
+
+import numpy as np
+import pytest
+
+from vibtrans.errors import InputError
+from vibtrans.profiles import (FlatSphereProfile, PowerLawProfile, TabulatedProfile,
+                               mdr_g, parse_profile, tangential_force)
+
+
+def test_sphere_is_hertz_and_cone_is_sneddon():
+    a = np.linspace(0, 3, 31)
+    np.testing.assert_allclose(parse_profile("sphere").normal_force(a), a ** 1.5, rtol=1e-15)
+    np.testing.assert_allclose(parse_profile("cone").normal_force(a), a ** 2, rtol=1e-15)
+    np.testing.assert_allclose(parse_profile("power:3").normal_force(a), a ** (4 / 3), rtol=1e-15)
+
+
+@pytest.mark.parametrize("n", [1.0, 1.5, 2.0, 3.0])
+def test_mdr_g_of_power_law_matches_kappa(n):
+    # Popov & Hess: g(x) = kappa_n C x^n for z = C r^n; piecewise-linear table converges as O(dr^2)
+    r = np.linspace(0, 1, 20001)
+    x = np.array([0.2, 0.5, 0.9])
+    kappa = math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
+    np.testing.assert_allclose(mdr_g(r, r ** n, x), kappa * x ** n, rtol=2e-4)
+
+
+@pytest.mark.parametrize("n", [1.0, 2.0, 3.0])
+def test_tabulated_power_law_against_closed_form(n):
+    r = np.linspace(0, 1e-6, 4001)
+    C = 1.0 / (1e-6) ** (n - 1)          # z = C r^n in metres
+    prof = TabulatedProfile(r, C * r ** n, load_over_modulus=1e-16, a_max_star=4.0)
+    a = np.linspace(0.05, 3.0, 40)
+    np.testing.assert_allclose(prof.normal_force(a), a ** ((n + 1) / n), rtol=3e-3)
+    np.testing.assert_allclose(prof.stiffness(a), PowerLawProfile(n).stiffness(a), rtol=3e-3)
+
+
+def test_stiffness_is_derivative_of_normal_force():
+    a = np.linspace(0.2, 3, 50)
+    for prof in (PowerLawProfile(1.0), PowerLawProfile(2.7), FlatSphereProfile(0.0), FlatSphereProfile(1.3)):
+        eps = 1e-6
+        fd = (prof.normal_force(a + eps) - prof.normal_force(a - eps)) / (2 * eps)
+        np.testing.assert_allclose(prof.stiffness(a), fd, rtol=1e-7)
+        assert float(prof.normal_force(1.0)) == pytest.approx(1.0, rel=1e-15)
+
+
+def test_flat_sphere_limits():
+    a = np.linspace(0, 3, 31)
+    np.testing.assert_allclose(FlatSphereProfile(0.0).normal_force(a), a ** 1.5, rtol=1e-14)
+    # large flat: the flat punch, N linear in the approach
+    np.testing.assert_allclose(FlatSphereProfile(1e4).normal_force(a), a, rtol=1e-6)
+
+
+def test_flat_sphere_against_mdr_table():
+    R, d0, gamma = 1e-3, 1e-9, 0.8
+    L = math.sqrt(R * d0)
+    c = gamma * L
+    r = np.linspace(0, 6 * L, 6001)
+    z = np.where(r > c, (r * r - c * c) / (2 * R), 0.0)
+    flat = FlatSphereProfile(gamma)
+    # the load N0/E* that gives static approach d0: N = (2E*/R) L^3 raw(sigma(1))
+    load = 2.0 / R * L ** 3 * flat._raw(flat._sigma(1.0))
+    prof = TabulatedProfile(r, z, load_over_modulus=load, a_max_star=4.0)
+    assert prof.a0 == pytest.approx(d0, rel=2e-3)
+    a = np.linspace(0.05, 3, 30)
+    np.testing.assert_allclose(prof.normal_force(a), flat.normal_force(a), rtol=3e-3)
+
+
+@pytest.mark.parametrize("prof", [PowerLawProfile(1.0), PowerLawProfile(2.0), PowerLawProfile(3.0),
+                                  FlatSphereProfile(1.0)])
+def test_total_sliding_gives_coulomb(prof):
+    # all springs sliding: anchor w(h) = b - (a - h) (spring displacement = a - h in units theta mu a0)
+    a, b = 1.7, 0.4
+    h = np.linspace(0, a, 200001)
+    T = tangential_force(prof, a, b, lambda hh: b - (a - hh), h)
+    assert T == pytest.approx(float(prof.normal_force(a)), rel=1e-6)
+
+
+def test_sphere_weight_matches_contact_module():
+    # contact.py: T* = 1.5 b sqrt(a) - 0.75 int w h^-1/2 dh; a linear w(h) = w0 + s h integrates exactly
+    a, b, w0, s = 1.3, 0.2, -0.1, 0.3
+    h = np.linspace(0, a, 400001)
+    T = tangential_force(PowerLawProfile(2.0), a, b, lambda hh: w0 + s * hh, h)
+    exact = 1.5 * b * math.sqrt(a) - 0.75 * (2 * w0 * math.sqrt(a) + s * (2 / 3) * a ** 1.5)
+    assert T == pytest.approx(exact, rel=1e-6)
+
+
+@pytest.mark.parametrize("text, words", [
+    ("power:0.5", "exponent n"), ("power:x", "power parameter"), ("flat-sphere:-1", "flat radius"),
+    ("ellipsoid", "profile must be one of"), ("power:nan", "exponent n"),
+])
+def test_bad_profile_names_parameter(text, words):
+    with pytest.raises(InputError, match=words):
+        parse_profile(text)
+
+
+def test_table_validation():
+    r = np.linspace(0, 1e-6, 101)
+    with pytest.raises(InputError, match="convex"):
+        TabulatedProfile(r, np.sqrt(r) * 1e-3, 1e-16)
+    with pytest.raises(InputError, match="nondecreasing"):
+        TabulatedProfile(r, -r * r, 1e-16)
+    with pytest.raises(InputError, match="start at 0"):
+        TabulatedProfile(r + 1e-9, r * r, 1e-16)
+    with pytest.raises(InputError, match="too coarse"):
+        TabulatedProfile(np.linspace(0, 1e-6, 30), np.linspace(0, 1e-6, 30) ** 2 * 1e6, 1e-16, a_max_star=1.0)
+
+
+def test_tabulated_flat_atom_weight():
+    # the flat part's springs all enter at a* = 0: N*'(0) = flat contact radius weight = a_c(0)/raw(1)
+    R, d0, gamma = 1e-3, 1e-9, 0.8
+    L = math.sqrt(R * d0)
+    r = np.linspace(0, 6 * L, 6001)
+    z = np.where(r > gamma * L, (r * r - (gamma * L) ** 2) / (2 * R), 0.0)
+    flat = FlatSphereProfile(gamma)
+    prof = TabulatedProfile(r, z, 2.0 / R * L ** 3 * flat._raw(flat._sigma(1.0)), a_max_star=4.0)
+    assert float(prof.stiffness(0.0)) == pytest.approx(float(flat.stiffness(0.0)), rel=3e-3)
+    assert float(flat.stiffness(0.0)) > 0
