@@ -122,3 +122,35 @@ def test_tabulated_flat_atom_weight():
     prof = TabulatedProfile(r, z, 2.0 / R * L ** 3 * flat._raw(flat._sigma(1.0)), a_max_star=4.0)
     assert float(prof.stiffness(0.0)) == pytest.approx(float(flat.stiffness(0.0)), rel=3e-3)
     assert float(flat.stiffness(0.0)) > 0
+
+
+PROFILES = [PowerLawProfile(1.0), PowerLawProfile(2.0), PowerLawProfile(3.0), FlatSphereProfile(1.0)]
+
+
+@pytest.mark.parametrize("prof", PROFILES, ids=lambda p: p.name)
+def test_spring_bed_cattaneo_mindlin_closed_forms(prof):
+    # Cattaneo-Mindlin through MDR (independent springs, limit a - h): monotonic loading at
+    # fixed a gives T* = N*(a) - N*(a - b); unloading from b_max (Mindlin-Deresiewicz,
+    # doubled limit) T* = T_max - 2 (N*(a) - N*(a - (b_max - b)/2)); total sliding T* = N*(a).
+    from tests.naive import SpringBed
+    a, bmax = 1.0, 0.6
+    bed = SpringBed(40000, 2.0, a_start=a, profile=prof)
+    N = prof.normal_force
+    for b in np.linspace(0.05, bmax, 12):
+        T = bed.force_step(a, b)
+        assert T == pytest.approx(float(N(a) - N(a - b)), rel=2e-3, abs=2e-4)
+    Tmax = float(N(a) - N(a - bmax))
+    for b in np.linspace(bmax - 0.1, -0.4, 12):
+        T = bed.force_step(a, b)
+        assert T == pytest.approx(Tmax - 2 * float(N(a) - N(a - (bmax - b) / 2)), rel=2e-3, abs=2e-4)
+    T = bed.force_step(a, -3.0)
+    assert T == pytest.approx(-float(N(a)), rel=2e-3)
+
+
+def test_spring_bed_sphere_profile_matches_default_weights():
+    from tests.naive import SpringBed
+    rng = np.random.default_rng(34)
+    bed0 = SpringBed(20000, 3.0)
+    bed1 = SpringBed(20000, 3.0, profile=PowerLawProfile(2.0))
+    for a, b in zip(0.5 + 1.5 * rng.random(30), rng.normal(0, 0.5, 30)):
+        assert bed1.force_step(a, b) == pytest.approx(bed0.force_step(a, b), rel=1e-9, abs=1e-12)
