@@ -154,3 +154,18 @@ def test_spring_bed_sphere_profile_matches_default_weights():
     bed1 = SpringBed(20000, 3.0, profile=PowerLawProfile(2.0))
     for a, b in zip(0.5 + 1.5 * rng.random(30), rng.normal(0, 0.5, 30)):
         assert bed1.force_step(a, b) == pytest.approx(bed0.force_step(a, b), rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("prof", PROFILES, ids=lambda p: p.name)
+def test_linearized_contact_frequency(prof):
+    # small free oscillation on a rigid substrate, m* a'' = 1 - N*(a): angular frequency
+    # sqrt(N*'(1) / m*) (linearization), checked against a numerical solution
+    from scipy.integrate import solve_ivp
+    m, eps = 2.0, 1e-4
+    sol = solve_ivp(lambda t, y: [y[1], (1.0 - float(prof.normal_force(y[0]))) / m], (0, 40),
+                    [1.0 + eps, 0.0], rtol=1e-11, atol=1e-14, dense_output=True,
+                    events=lambda t, y: y[1], )
+    crossings = sol.t_events[0]
+    crossings = crossings[crossings > 1e-9]
+    period = 2 * (crossings[-1] - crossings[0]) / (len(crossings) - 1)
+    assert 2 * math.pi / period == pytest.approx(math.sqrt(float(prof.stiffness(1.0)) / m), rel=1e-4)
