@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from vibtrans.errors import InputError
-from vibtrans.profiles import (FlatSphereProfile, PowerLawProfile, TabulatedProfile,
+from vibtrans.core.errors import InputError
+from vibtrans.core.profiles import (FlatSphereProfile, PowerLawProfile, TabulatedProfile,
                                mdr_g, parse_profile, tangential_force)
 
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from vibtrans.core.errors import InputError
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
 N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
