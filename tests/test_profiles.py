@@ -169,3 +169,16 @@ def test_linearized_contact_frequency(prof):
     crossings = crossings[crossings > 1e-9]
     period = 2 * (crossings[-1] - crossings[0]) / (len(crossings) - 1)
     assert 2 * math.pi / period == pytest.approx(math.sqrt(float(prof.stiffness(1.0)) / m), rel=1e-4)
+
+
+def test_file_profile(tmp_path):
+    r = np.linspace(0, 1e-6, 4001)
+    path = tmp_path / "cone.txt"
+    np.savetxt(path, np.column_stack([r, r]))
+    prof = parse_profile(f"file:{path}", load_over_modulus=1e-16)
+    a = np.linspace(0.1, 3, 20)
+    np.testing.assert_allclose(prof.normal_force(a), a ** 2, rtol=3e-3)   # the cone (Sneddon)
+    with pytest.raises(InputError, match="needs the load"):
+        parse_profile(f"file:{path}")
+    with pytest.raises(InputError, match="readable"):
+        parse_profile(f"file:{tmp_path / 'missing.txt'}", load_over_modulus=1e-16)

@@ -209,8 +209,22 @@ class TabulatedProfile:
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._k)
 
 
-def parse_profile(text):
-    """'sphere' | 'cone' | 'power:N' | 'flat-sphere:C' -> profile object (file: needs load, see TabulatedProfile)."""
+def parse_profile(text, load_over_modulus=None):
+    """'sphere' | 'cone' | 'power:N' | 'flat-sphere:C' | 'file:PATH' -> profile object.
+
+    file:PATH is a two-column text table r, z in metres and needs the load N0/E* (m^2).
+    """
+    if isinstance(text, str) and text.startswith("file:"):
+        path = text[5:]
+        if load_over_modulus is None:
+            raise InputError("profile file:PATH needs the load N0/E* (load_over_modulus, m^2, in (0, inf))")
+        try:
+            table = np.loadtxt(path, ndmin=2)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"profile file {path!r} must be a readable two-column text table r z (m): {exc}") from None
+        if table.shape[1] != 2:
+            raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
+        return TabulatedProfile(table[:, 0], table[:, 1], load_over_modulus, name=text)
     if not isinstance(text, str):
         raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {text!r}")
     if text == "sphere":
