@@ -34,7 +34,10 @@ FLIGHT, STICK, PARTIAL_SLIP, SLIDING = 0, 1, 2, 3
 class SpringBed:
     """M springs at midpoints of a uniform grid on [0, hmax]."""
 
-    def __init__(self, M, hmax, a_start=1.0, b_start=0.0, tol=1e-12):
+    def __init__(self, M, hmax, a_start=1.0, b_start=0.0, tol=1e-12, profile=None):
+        # profile: None = the sphere (weights 0.75 h^-1/2 dh, as below); else a
+        # vibtrans.profiles object whose springs weigh dN*'(h) (docs/MODEL.md section 10)
+        self.profile = profile
         edges = np.linspace(0.0, hmax, M + 1)
         self.h_lo = edges[:-1]
         self.h_hi = edges[1:]
@@ -94,6 +97,11 @@ class SpringBed:
         if self.a <= 0.0:
             return 0.0
         hi = np.minimum(self.h_hi, self.a)
+        if self.profile is not None:
+            k = self.profile.stiffness
+            weight = k(np.maximum(hi, self.h_lo)) - k(self.h_lo)
+            weight[0] += float(k(0.0))        # a flat part: springs all entering at h = 0
+            return float(np.sum(np.where(self.on, self.u, 0.0) * weight))
         weight = 2.0 * (np.sqrt(np.maximum(hi, self.h_lo)) - np.sqrt(self.h_lo))
         return 0.75 * float(np.sum(np.where(self.on, self.u, 0.0) * weight))
 
