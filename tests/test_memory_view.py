@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from asyncutil import until
+from budget import budget
 from vibtrans import paper_scene, plots
 from vibtrans.simulate import memory_snapshot, memory_snapshots
 from vibtrans_explorer import urlstate
@@ -33,7 +34,7 @@ def partial_slip():
 
 async def _ready(view):
     view.set_run(*view._next)
-    await until(lambda: view._job is None, timeout=120)
+    await until(lambda: view._job is None, timeout=budget(120))
 
 
 def _view(scene):
@@ -74,7 +75,7 @@ def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
         view = _view(scene)
         view.set_run(scene, scene.periods)
         assert view.busy.visible and view.slider.disabled       # computing, said so
-        await until(lambda: view._job is None, timeout=120)
+        await until(lambda: view._job is None, timeout=budget(120))
         assert not view.busy.visible and not view.slider.disabled
         assert len(view.snapshots) == SNAPSHOTS
         _holds(view, snaps[-1])                                 # the run's end first
@@ -148,7 +149,7 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
         cancel = view._job[0]
         view.set_run(second, second.periods)
         assert cancel.is_set()                          # the first run stops
-        await until(lambda: view._job is None, timeout=120)
+        await until(lambda: view._job is None, timeout=budget(120))
         assert view.scene is second and view.times[-1] == 100.0
         expected = memory_snapshots(second, snapshot_times(100.0))[-1]
         _holds(view, expected)
