@@ -3,7 +3,7 @@ under the model that produced it (the run with its tau twin's verdict and
 cost; the other model's run when that is the comparison)."""
 import panel as pn
 
-from vibtrans.analysis import CHAOS_LYAPUNOV, summarize
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 
 from ..controller import TWIN_LABEL
 from ..state import MAP_MATERIAL

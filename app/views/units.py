@@ -6,8 +6,8 @@ import math
 import panel as pn
 import param
 
-from vibtrans import units
-from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.core import units
+from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import inputs
 from ..state import SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within

@@ -8,7 +8,7 @@ import panel as pn
 from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
-from vibtrans import plots
+from vibtrans.products import plots
 
 from .. import data
 from .render import rendered
