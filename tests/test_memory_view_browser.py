@@ -4,6 +4,7 @@ and a typed time change the figures in the browser, and the time from the
 key press (or the click) to the new title in the page's Bokeh document is
 printed (issue 14: click/scrub to drawn <= 0.5 s; tests assert behaviour,
 not wall-clock times).  A screenshot goes to test-artifacts/."""
+import socket
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -48,11 +49,18 @@ def served():
     port = free_port()
     server = pn.serve({"memory": app}, port=port, address="127.0.0.1", show=False,
                       threaded=True, websocket_origin=[f"127.0.0.1:{port}"])
+    # ready once its port accepts a connection (the thread Panel returns
+    # has no public "started" signal)
     deadline = time.perf_counter() + budget(30)
-    while not getattr(server, "server", None):
-        if time.perf_counter() > deadline:
-            raise RuntimeError(f"panel serve: no server on port {port} in {budget(30):.0f} s")
-        time.sleep(0.05)
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            break
+        except OSError:
+            if time.perf_counter() > deadline:
+                raise RuntimeError(f"panel serve: no server on port {port} "
+                                   f"in {budget(30):.0f} s") from None
+            time.sleep(0.05)
     try:
         yield f"http://127.0.0.1:{port}/memory"
     finally:
