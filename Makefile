@@ -33,8 +33,12 @@ $(VENV)/.installed: pyproject.toml
 serve: setup
 	$(BIN)/vibtrans serve
 
+# The suite on pytest-xdist's workers, one per core (TEST_WORKERS=0: in
+# this process): the server and browser tests on one of them, in turn, each
+# other module whole on one (tests/conftest.py); the kernels compiled first.
+TEST_WORKERS ?= auto
 test: setup browser proxy
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadgroup
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
 # test`, everything).
