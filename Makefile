@@ -33,17 +33,21 @@ $(VENV)/.installed: pyproject.toml
 serve: setup
 	$(BIN)/vibtrans serve
 
-# The suite on pytest-xdist's workers, one per core (TEST_WORKERS=0: in
-# this process): the server and browser tests on one of them, in turn, each
-# other module whole on one (tests/conftest.py); the kernels compiled first.
+# The suite on pytest-xdist's workers, one per core (TEST_WORKERS=0: all in
+# this process), each test file whole on one worker (its module fixtures made
+# once), the kernels compiled first (tests/conftest.py).  Each worker that
+# runs server tests starts its own `vibtrans serve` (free port, own map
+# cache).  Not --dist loadgroup (the server and browser tests on one worker):
+# with pytest 9.2 it ignores the groups
+# (pytest-dev/pytest-xdist#1386).
 TEST_WORKERS ?= auto
 test: setup browser proxy
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadgroup
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
 # test`, everything).
 test-fast: setup
-	$(BIN)/python -m pytest -q -m "not slow and not browser and not server"
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not slow and not browser and not server"
 
 # The documentation site (Sphinx + MyST-NB + the PyData theme) into
 # docs/_build/html: warnings are errors, every notebook is executed.

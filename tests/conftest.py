@@ -44,14 +44,8 @@ def pytest_report_header(config):
             f"({usable_cores()} usable cores, load {os.getloadavg()[0]:.1f})")
 
 
-# pytest-xdist's group (--dist loadgroup, as `make test` runs) of the tests
-# that drive the served explorer or a chromium: one worker runs them in turn,
-# so the session has one `vibtrans serve` and one browser at a time.
-EXPLORER_GROUP = "explorer"
-
-
 def pytest_configure(config):
-    """On pytest-xdist's controller (`-n`, as `make test` runs), the kernels
+    """On pytest-xdist's controller (`-n`, as `make test` runs it), the kernels
     are compiled into numba's on-disk cache once, before the workers start:
     each then loads them, instead of every worker compiling the same kernels
     at once on a cold cache (vibtrans.core.kernels.jit)."""
@@ -60,19 +54,10 @@ def pytest_configure(config):
         warmup()
 
 
-@pytest.hookimpl(tryfirst=True)     # before xdist reads the groups
 def pytest_collection_modifyitems(items):
     """Every test that uses the served explorer (directly or through a
     fixture) is marked `server`, so `make test-fast` (-m "not server")
-    leaves it out without each file having to say so.
-
-    Each test gets an xdist group: the server and browser tests share
-    EXPLORER_GROUP, every other test its module's, so that a module's
-    fixtures (module or session scope: a wheel built, maps computed) are made
-    on one worker only.  Without xdist's loadgroup the groups do nothing."""
+    leaves it out without each file having to say so."""
     for item in items:
         if "served_explorer" in getattr(item, "fixturenames", ()):
             item.add_marker("server")
-        explorer = item.get_closest_marker("server") or item.get_closest_marker("browser")
-        group = EXPLORER_GROUP if explorer else item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(group))
