@@ -34,12 +34,14 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT, STICK, new_memory
+from vibtrans.core.kernels.contact import FLIGHT, LAW_K1, STICK, new_memory, reset_memory_law
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
-from vibtrans.core.kernels.vertical import vertical_kernel, vertical_lyapunov_kernel
+from vibtrans.core.kernels.vertical import (vertical_kernel, vertical_lyapunov_kernel,
+                                            vertical_profile_kernel,
+                                            vertical_profile_lyapunov_kernel)
 from vibtrans.core.kernels.substrate import RAMP_OFF, surface_acceleration, surface_motion
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, STATED_DRIFT_ERROR, V0
 
@@ -139,7 +141,7 @@ def _record_rest(buf, ctr):
 def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
               memory_capacity=1024, state=None, hist=None, record_rest=True,
               stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None,
-              lyapunov_from=None, tangent=None, in_flight=False, decide=None):
+              lyapunov_from=None, tangent=None, in_flight=False, decide=None, law=None):
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -163,6 +165,8 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
         None: one call.
     decide: a stopping rule (DecidedRule) checked between calls at
         the times it names; the run ends where it says (runs from rest).
+    law: an axisymmetric profile's kernel law (vibtrans.core.profiles.
+        kernel_law; docs/MODEL.md section 10); None: the sphere (Hertz).
     Returns a Run (memory: the memory diagram's arrays, deformable only).
     """
     if stop_at_takeoff and (tangential or lyapunov_from is not None):
@@ -174,7 +178,8 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     if lyapunov_from is not None:
         if state is not None or tangent is not None:
             raise ValueError("lyapunov_from applies to runs from rest only")
-        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from))
+        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from),
+                                 1.5 if law is None else float(law[LAW_K1]))
     if state is None:
         state, hist = D.rest_state()
     buf = {"samples": np.empty((samples_capacity, R.NCOL)),
@@ -184,11 +189,14 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     if in_flight:
         ctr[R.C_MODE] = D.MODE_FLIGHT
         ctr[R.C_STATE] = FLIGHT
-    mem = list(new_memory(memory_capacity)) if tangential else None
+    mem = _new_memory(memory_capacity, law) if tangential else None
     if record_rest:
         _record_rest(buf, ctr)
 
-    if tangential and tangent is not None:
+    if law is not None:
+        call = _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,
+                             stop_at_takeoff, law)
+    elif tangential and tangent is not None:
         def call(t_stop):
             return D.deformable_lyapunov_kernel(params, integ, state, hist, tangent, *mem,
                                                 buf["samples"], buf["events"], ctr, t_stop)
@@ -215,6 +223,33 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
                tuple(mem) if tangential else None, tangent)
+
+
+def _new_memory(capacity, law):
+    """A memory diagram at rest (a* = 1, b* = 0), in the law's format."""
+    mem = list(new_memory(capacity))
+    if law is not None:
+        reset_memory_law(*mem, 1.0, 0.0, law)
+    return mem
+
+
+def _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,
+                  stop_at_takeoff, law):
+    """run_hertz's kernel call for a profile law (the *_profile_* kernels)."""
+    if tangential and tangent is not None:
+        return lambda t_stop: D.deformable_profile_lyapunov_kernel(
+            params, integ, state, hist, tangent, *mem, buf["samples"], buf["events"], ctr,
+            t_stop, law)
+    if tangential:
+        return lambda t_stop: D.deformable_profile_kernel(
+            params, integ, state, hist, *mem, buf["samples"], buf["events"], ctr, t_stop, law)
+    if tangent is not None:
+        return lambda t_stop: vertical_profile_lyapunov_kernel(
+            params, integ, state, hist, tangent, _NO_MEMORY, buf["samples"], buf["events"],
+            ctr, t_stop, law)
+    return lambda t_stop: vertical_profile_kernel(
+        params, integ, stop_at_takeoff, state, hist, _NO_MEMORY, buf["samples"],
+        buf["events"], ctr, t_stop, law)
 
 
 def _hertz_decider(decide, buf, ctr, state, tangent):
@@ -250,7 +285,7 @@ def _until_done(call, t_stop, growers):
         growers[code]()
 
 
-def _final_step(params, integ, state, hist, mem, ctr):
+def _final_step(params, integ, state, hist, mem, ctr, law=None):
     """The deformable kernel's final call of a run ending at params.t_end, on
     copies of a run's state (left as it was), which a non-final call has
     brought to the last step at or before t_end: it commits the step that
@@ -263,6 +298,9 @@ def _final_step(params, integ, state, hist, mem, ctr):
     buf = {"samples": np.empty((16, R.NCOL)), "events": np.empty((16, 3))}
 
     def call(t_stop):
+        if law is not None:
+            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
+                                               buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
@@ -272,7 +310,7 @@ def _final_step(params, integ, state, hist, mem, ctr):
 
 def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capacity=1024,
                      memory_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                     cancel=None):
+                     cancel=None, law=None):
     """One run of the deformable kernel from rest, with the memory diagram
     taken at each of `stops` (non-decreasing times, periods, the last one
     params.t_end): a list of (state, ctr, memory), one per stop, each what
@@ -295,10 +333,13 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
            "events": np.empty((events_capacity, 3))}
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
-    mem = list(new_memory(memory_capacity))
+    mem = _new_memory(memory_capacity, law)
     _record_rest(buf, ctr)
 
     def call(t_stop):
+        if law is not None:
+            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
+                                               buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
@@ -323,7 +364,7 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
         if stop < t_end:
             # a stop inside the run: a copy takes the step that reaches it
             out.append(_final_step(params._replace(t_end=stop), integ, state, hist, mem,
-                                   ctr))
+                                   ctr, law))
         else:
             out.append((state, ctr, tuple(mem)))
     return out

@@ -23,7 +23,9 @@ Profiles (all scale-free except the tabulated one, which needs the load):
     flat-sphere:c   sphere cut flat at radius c; c in units of sqrt(R a0)
     file:PATH       a measured z(r) table (metres), through MDR numerically
 
-This module is library-side only (no kernel yet: see the issue-34 report).
+The kernels take a profile as `kernel_law(profile)`: None for the sphere (its
+own, unchanged path), else a float64 array (contact.law_eval): the power law's
+exponent, or N*'(a*) on a uniform grid with N* its exact integral.
 """
 import math
 from dataclasses import dataclass
@@ -31,10 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from vibtrans.core.errors import InputError
+from vibtrans.core.kernels.contact import LAW_POWER, LAW_TABLE
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
 N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
 MIN_TABLE_POINTS_IN_CONTACT = 20   # table rows inside the static contact radius
+LAW_GRID_MAX = 64.0     # kernel tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly)
+LAW_GRID_POINTS = 8193  # da* = 1/128
 
 
 def _power_stiffness(p, h):
@@ -248,3 +253,26 @@ def tangential_force(profile, a, b, w_of_h, h_grid):
     w = w_of_h(h)
     atom = k[0] * w[0]   # springs entering at h = 0 (flat part): weight N*'(0)
     return b * float(profile.stiffness(a)) - atom - float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(k)))
+
+
+def kernel_law(profile):
+    """The kernels' form of a profile (contact.law_eval): None for the sphere
+    (Hertz's own path, bit for bit as before profiles), a power law's
+    [LAW_POWER, p, p, 0], else a table [LAW_TABLE, da, N*'(1), n, N*'_i.., N*_i..]
+    of N*' on the uniform grid a*_i = i da (0 <= a* <= LAW_GRID_MAX) with N*
+    its exact (trapezoid) integral, both scaled so that N*(1) = 1 exactly
+    (the rest state's force balance); its relative error in N* is O(da^2).
+    """
+    if isinstance(profile, PowerLawProfile):
+        if profile.n == 2.0:
+            return None
+        p = profile.exponent
+        return np.array([LAW_POWER, p, p, 0.0])
+    a = np.linspace(0.0, LAW_GRID_MAX, LAW_GRID_POINTS)
+    da = float(a[1])
+    k = np.asarray(profile.stiffness(a), float)
+    N = np.concatenate(([0.0], np.cumsum(0.5 * (k[1:] + k[:-1]) * da)))
+    i1 = int(round(1.0 / da))
+    scale = 1.0 / N[i1]      # a* = 1 is a grid point
+    k, N = k * scale, N * scale
+    return np.concatenate(([LAW_TABLE, da, k[i1], float(a.size)], k, N))
