@@ -48,8 +48,10 @@ def _segment_integral(s0, w0, s1, w1):
 # A profile's normal law (docs/MODEL.md section 10) reaches the kernels as a
 # float64 array `law` (vibtrans/core/profiles.py, `kernel_law`):
 #   law[LAW_KIND]   LAW_POWER: N* = a*^p, N*' = p a*^(p-1) (p = law[LAW_ARG])
-#                   LAW_TABLE: N*' linear on the grid a*_i = i da (da = law[LAW_ARG]),
-#                              N* its exact integral; extrapolated linearly in N*'
+#                   LAW_TABLE: N*' linear in s = sqrt(a*) on the grid s_i = i ds
+#                              (ds = law[LAW_ARG]; exact for the sphere's sqrt, and
+#                              fine near a flat's a* = 0), N* its exact integral
+#                              (a cubic in s per cell); extrapolated linearly in s
 #   law[LAW_K1]     N*'(1): the static contact radius in these units
 #   law[LAW_SIZE]   grid points n (LAW_TABLE), then n values N*'_i and n values N*_i
 # With a profile the memory's vertex array holds (h, N*'(h)) instead of
@@ -72,16 +74,20 @@ def law_eval(law, a):
         k = p * a ** (p - 1.0)
         return a * k / p, k
     n = int(law[LAW_SIZE])
-    da = law[LAW_ARG]
+    ds = law[LAW_ARG]
     if a <= 0.0:
         return 0.0, law[LAW_HEAD]
-    i = int(a / da)
+    s = math.sqrt(a)
+    i = int(s / ds)
     if i > n - 2:
         i = n - 2
-    t = a - i * da
+    si = i * ds
+    t = s - si
     k0 = law[LAW_HEAD + i]
-    slope = (law[LAW_HEAD + i + 1] - k0) / da
-    return law[LAW_HEAD + n + i] + t * (k0 + 0.5 * slope * t), k0 + slope * t
+    m = (law[LAW_HEAD + i + 1] - k0) / ds
+    # N* = N*_i + int_si^s (k0 + m (x - si)) 2 x dx
+    dn = 2.0 * t * (k0 * si + t * (0.5 * (k0 + m * si) + m * t / 3.0))
+    return law[LAW_HEAD + n + i] + dn, k0 + m * t
 
 
 @inline
