@@ -247,7 +247,8 @@ def cmd_sweep(args):
                   command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
                   nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
                   integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule,
-                  kind=args.kind, chaos=args.chaos, stop=args.stop)
+                  kind=args.kind, chaos=args.chaos, stop=args.stop, profile=args.profile,
+                  load_over_modulus=args.load_over_modulus)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
@@ -267,7 +268,8 @@ def cmd_sweep(args):
         check_levels(sweep, args.max_level)        # before any file is made
         tol = check_tolerance(DEFAULT_DRIFT_TOLERANCE if args.drift_tolerance is None
                               else args.drift_tolerance)
-    out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
+    out = args.out or (f"sweep-{args.model}-mu{args.mu:g}.zarr" if args.profile == "sphere"
+                       else f"sweep-{args.model}-mu{args.mu:g}-{_profile_slug(args.profile)}.zarr")
     new = not os.path.exists(out)
     check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
     try:
@@ -287,6 +289,13 @@ def cmd_sweep(args):
                          f"existed before is kept and resumes") from None
     print(out)
     return 0
+
+
+def _profile_slug(profile):
+    """A file-name-safe form of a profile spec (power:3 -> power3)."""
+    if profile.startswith("file:"):
+        return "file-" + os.path.splitext(os.path.basename(profile[5:]))[0]
+    return "".join(c for c in profile if c.isalnum() or c in ".-")
 
 
 def _design_axis(text, name):
