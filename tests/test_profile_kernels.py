@@ -158,3 +158,36 @@ def test_material_point_ignores_the_profile():
     b = simulate(Scene(profile="cone", **kw))
     assert np.array_equal(a["x"].values, b["x"].values)
     assert b.attrs["profile"] == "cone"
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
+    ["threshold", "--profile", "power:0.5", "--mass", "0.05"],
+    ["orbit", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
+    ["sweep", "--profile", "power:0.5", "--log-amplitude", "0:0:1", "--log-mass", "0:0:1"],
+])
+def test_cli_refuses_a_bad_profile(capsys, argv):
+    from vibtrans.cli import main
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "exponent n must be a real number in [1, inf)" in err, err
+
+
+def test_sweep_names_the_profile_and_keeps_the_sphere_keys():
+    from vibtrans.maps.sweep import Sweep
+    grid = (np.array([0.0]), np.array([0.0]))
+    sphere = Sweep(*grid, model="deformable").attrs()
+    assert not any(k.startswith("scene_profile") or k.startswith("scene_load") for k in sphere)
+    cone = Sweep(*grid, model="deformable", profile="cone").attrs()
+    assert cone["scene_profile"] == "cone"
+
+
+def test_sweep_store_of_another_profile_is_refused(tmp_path):
+    from vibtrans.core.errors import StoreMismatch
+    from vibtrans.maps.sweep import Sweep, _check_store
+    grid = (np.array([0.0]), np.array([0.0]))
+    cone_store = Sweep(*grid, model="deformable", profile="cone").empty_dataset()
+    with pytest.raises(StoreMismatch, match="profile: store 'cone', command 'sphere'"):
+        _check_store(cone_store, Sweep(*grid, model="deformable"), "store")
+    with pytest.raises(StoreMismatch, match="profile"):
+        _check_store(cone_store, Sweep(*grid, model="deformable", profile="power:3"), "store")
