@@ -18,6 +18,7 @@ import logging
 import math
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from urllib.parse import parse_qsl, urlencode
 
 import holoviews as hv
@@ -33,8 +34,9 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, mapjobs, maprequest, memory, panelshortcuts, urlstate
 from .controller import RUNNER, RunController
-from .state import (MAP_MATERIAL, MAP_RUN, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS,
-                    ExplorerState, within)
+from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
+                    SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_ALIASES, URL_KEYS, ExplorerState,
+                    within)
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
@@ -175,6 +177,12 @@ def ack_listener(ack):
     return CustomJS(args={"ack": ack}, code=_ACK_LISTENER % json.dumps(ACK_CLASSES))
 
 
+# the state's values a run is made of (a change marks the run shown stale)
+SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
+               "stick_rule", "alpha_t", "theta", "nu", "tau", "periods")
+STALE_TEXT = ("**Changed since this run: press Run.** The summary, figures and downloads "
+              "below are of the run made before the change.")
+
 # presentation mode: the page's text and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
 
@@ -257,9 +265,10 @@ class Explorer(pn.viewable.Viewer):
         self.v0_slider.param.watch(self._on_v0_slider, "value_throttled")
         self.state.param.watch(self._on_v0, "v0")
         # mu offers the shipped maps of the model shown (no blank map)
+        # (and the mu in use when no shipped map has it: shown as it is)
         self.mu_select = pn.widgets.Select.from_param(
-            self.state.param.mu, options=self._mus(self.state.model), name="mu (shipped maps)")
-        self.state.param.watch(self._on_model, "model")     # before the redraw (precedence)
+            self.state.param.mu, options=self._mu_options(), name="mu (shipped maps)")
+        self.state.param.watch(self._on_model, ["model", "mu"])  # before the redraw (precedence)
         # typed numbers: checked like a link's, applied only when valid
         self.fields = [inputs.NumberField(self.state, "log_amplitude", "log10 A*"),
                        inputs.NumberField(self.state, "log_mass", "log10 m*")]
@@ -272,9 +281,12 @@ class Explorer(pn.viewable.Viewer):
         # so the first run changes no layout in the page
         self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
         self._animated = None               # the RunResult the animation shows
-        self.units_panel = UnitsPanel(on_run=self._run_device, on_error=self._error)
+        self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
         self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
+        # a run whose inputs changed since it was made: said over its views
+        self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning", visible=False,
+                                        sizing_mode="stretch_width", css_classes=["vt-stale"])
         self.summary = self.summary_view.pane
         self.trajectories = TrajectoryView()
         # the memory diagram is built, and computes its snapshots (a run's
@@ -335,9 +347,10 @@ class Explorer(pn.viewable.Viewer):
         self.where = pn.pane.Alert("", alert_type="info", visible=False,
                                    sizing_mode="stretch_width", name="where")
         self._on_position()
-        self.state.param.watch(self._on_position, ["log_amplitude", "log_mass"])
+        self.state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
         self.units_panel.param.watch(self._on_device, "marker")
         self._on_device()
+        self.state.param.watch(self._on_stale, [*SCENE_STATE, *DEVICE_FIELDS, "invalid"])
         # what the controller publishes, shown
         c = self.controller
         c.param.watch(self._on_status, "status", onlychanged=False)
@@ -353,34 +366,52 @@ class Explorer(pn.viewable.Viewer):
     def _apply_url(self):
         """Apply the link's values, and run its scene once the page has
         loaded if the link names one (log10 A* or m*) and every value in it
-        is valid (a link with an error shows the error instead)."""
+        is valid (a link with an error runs nothing and says so)."""
         if self.location is None:
             return
-        # Parsed and validated by a pure function (app/urlstate.py).  The
-        # URL is then rewritten from the validated state: Location.sync would
-        # otherwise apply the raw query itself.
+        # Parsed and validated by a pure function (app/urlstate.py); the URL
+        # is then the state's (`_write_url`), never applied raw.
         args = pn.state.session_args or {}
         request, map_errors = self._url_map_request(args)
-        # a map on demand's scene may have a mu of no shipped map
-        values, errors = urlstate.parse(args, self.state, URL_KEYS,
-                                        None if request is not None else data.available_maps())
+        values, errors = urlstate.parse(args, self.state, URL_KEYS, URL_ALIASES)
         self.state.param.update(**urlstate.resolved(values, self.state, URL_KEYS))
         errors = [*map_errors, *errors]
         self._error(urlstate.message(errors))
         if request is not None:
             self.state.map_request = maprequest.encode(request)
             self._url_map = request
-        self.location.search = ""       # sync would apply a raw query of its own
-        self.location.sync(self.state, URL_MAP_KEYS)
-        self.state.param.watch(self._on_map_request, "map_request")
+        self._write_url()
+        self.state.param.watch(self._write_url, [*URL_KEYS, "map_request"])
+        self.location.param.watch(self._on_location, "search")
         self.runs_on_load = not errors and ("log_amplitude" in values or "log_mass" in values)
         doc = pn.state.curdoc
         served = doc is not None and doc.session_context is not None
-        if request is not None and served:       # from the cache, or computed again
+        if request is not None and served and not errors:    # from the cache, or computed again
             pn.state.onload(lambda: pn.state.execute(
                 functools.partial(self._compute_map, request)))
         if self.runs_on_load and served:
             pn.state.onload(self.start_run)
+
+    def url_query(self):
+        """The page's link query: the state's values, one spelling each."""
+        extra = ([] if self.state.map_request is None
+                 else [(maprequest.URL_KEY, self.state.map_request)])
+        return urlstate.query(self.state, URL_KEYS, extra)
+
+    def _write_url(self, *events):
+        """The URL shows the state (one way: a link is read once, checked,
+        by `_apply_url`; Panel's Location.sync would apply the browser's raw
+        query of its own)."""
+        if self.location is not None:
+            self._url = self.url_query()
+            if self.location.search != self._url:
+                self.location.search = self._url
+
+    def _on_location(self, event):
+        """The browser reports its own query (the raw link) when the page
+        connects: the page's one replaces it."""
+        if event.new != getattr(self, "_url", None):
+            self._write_url()
 
     @staticmethod
     def _url_map_request(args):
@@ -396,21 +427,13 @@ class Explorer(pn.viewable.Viewer):
                           f"with different values"]
         return maprequest.decode(texts.pop())
 
-    def _on_map_request(self, event):
-        """The map's request left the URL when the shipped map is back
-        (Location.sync writes values, never removes a key)."""
-        if event.new is None and self.location is not None:
-            pairs = [(k, v) for k, v in parse_qsl(self.location.search.lstrip("?"),
-                                                  keep_blank_values=True)
-                     if k != maprequest.URL_KEY]
-            self.location.search = "?" + urlencode(pairs)
-
     def _error(self, text):
         self.message.object = text
         self.message.visible = bool(text)
 
     def _field_errors(self):
-        return [f.error for f in self.fields if f.error]
+        """The messages of the scene's invalid typed fields (a run refuses)."""
+        return self.state.errors(SCENE_FIELDS)
 
     # ---------- controls ----------
     def _on_v0_slider(self, event):
@@ -440,26 +463,33 @@ class Explorer(pn.viewable.Viewer):
     def _mus(model):
         return sorted(mu for (m, mu) in data.available_maps() if m == model)
 
-    def _on_model(self, event):
-        """Offer the mus of the new model's maps; if the one in use has no
-        map for it, move to the default and say so (runs before the redraw).
-        A map on demand's mu is offered beside them while it is shown."""
-        mus = self._mus(event.new)
-        if self.state.map_request is not None and self.state.mu not in mus:
-            self.mu_select.options = sorted([*mus, self.state.mu])
-            return
-        self.mu_select.options = mus
-        if mus and self.state.mu not in mus:
-            old = self.state.mu
-            self.state.mu = urlstate.DEFAULT_MU if urlstate.DEFAULT_MU in mus else mus[0]
-            self._error(f"No shipped {event.new} map for mu = {old:g}: showing mu = "
-                        f"{self.state.mu:g}.")
+    def _mu_options(self):
+        """The mus of the model's shipped maps, and the one in use if no
+        shipped map has it (a link's, a map on demand's, a device's): the
+        selector shows the value run, the map says it has no map for it."""
+        return sorted({*self._mus(self.state.model), self.state.mu})
+
+    def _on_model(self, *events):
+        options = self._mu_options()
+        if list(self.mu_select.options) != options:
+            self.mu_select.options = options
+
+    def paper_point(self):
+        """The paper point the state's scene is (its log10 A*, m* and model),
+        or 0."""
+        s = self.state
+        return next((k for k, (la, lm, model) in PAPER_POINTS.items()
+                     if (la, lm, model) == (s.log_amplitude, s.log_mass, s.model)), 0)
 
     def _on_position(self, *events):
         la, lm = self.state.log_amplitude, self.state.log_mass
-        k = self.point_select.value
-        if k and PAPER_POINTS[k][:2] != (la, lm):
-            self.point_select.value = 0       # no longer that paper point
+        k = self.paper_point()
+        if self.point_select.value != k:      # a click or a link on a paper point shows it
+            self._pointing = True
+            try:
+                self.point_select.value = k
+            finally:
+                self._pointing = False
         self.map_view.select(la, lm)
         inside = within(la, lm, MAP_LOG_AMPLITUDE, MAP_LOG_MASS)
         self.where.object = "" if inside else (
@@ -470,6 +500,26 @@ class Explorer(pn.viewable.Viewer):
         self.where.visible = not inside
         if self.message.object.startswith("Not run:") and not self._field_errors():
             self._error("")         # the fields it named are valid now
+
+    def stale(self):
+        """Why the run shown is not the state's (a list of its changed
+        values; empty: it is, or there is no run)."""
+        result = self.controller.result
+        if result is None or result.ran is None:
+            return []
+        ran, s = result.ran, self.state
+        changed = [k for k in SCENE_STATE if getattr(s, k) != ran[k]]
+        if self.summary_view.device_run:        # its SI values: the device's
+            changed += [k for k in DEVICE_FIELDS if getattr(s, k) != ran[k]]
+        changed += [k for k in s.errors(SCENE_FIELDS)]
+        return changed
+
+    def _on_stale(self, *events):
+        stale = bool(self.stale())
+        if self.stale_note.visible != stale:
+            with pn.io.hold():
+                self.stale_note.visible = stale
+                self.summary_view.mark_stale(stale)
 
     def _on_device(self, *events):
         self.map_view.mark_device(self.units_panel.marker)
@@ -484,41 +534,44 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_point(self, event):
         k = event.new
-        if not k:
+        if not k or getattr(self, "_pointing", False):
             return
         la, lm, model = PAPER_POINTS[k]
         self.state.param.update(model=model, log_amplitude=la, log_mass=lm, **MAP_MATERIAL,
-                                **MAP_RUN,
-                                mu=urlstate.DEFAULT_MU
-                                if (model, self.state.mu) not in data.available_maps()
-                                else self.state.mu)
+                                **MAP_RUN)
         self.start_run()
 
-    def _run_device(self, la, lm, theta, nu):
-        self.state.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu)
-        self.start_run()
-
-    def _run_design_device(self, device, mu, periods):
-        """Run the Design tab's device: the deformable particle at its (A*,
-        m*, theta, nu), the chart's mu and its map's periods; its drift and
-        time are then also given in SI units (Units panel's use_device)."""
-        n = device.normalized()
-        la, lm = round(math.log10(n.A_star), 3), round(math.log10(n.m_star), 3)
+    def _run_device(self, **scene):
+        """Run the device of the Units and Design tabs (the state's, as its
+        form shows it): its (log10 A*, m*, theta, nu) unrounded, with
+        `scene`'s other values (the Design tab's mu, periods); refused with
+        the form's message while one of its fields is invalid."""
+        errors = self.state.errors(DEVICE_FIELDS)
+        if errors:
+            self._error("Not run: " + " · ".join(errors))
+            return None
+        try:
+            la, lm, theta, nu = self.state.device_scene_values()
+        except ValueError as exc:
+            self._error(f"Not run: the device is not a scene: {exc}")
+            return None
         if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
-            self._error(f"The Design tab's device (log10 A* = {la:g}, log10 m* = {lm:g}) is "
+            self._error(f"Not run: the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is "
                         f"outside the explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, "
                         f"log10 m* in {list(SCENE_LOG_MASS)}.")
-            return
+            return None
         try:
-            if mu not in self.mu_select.options:  # offered while in use, as a map on demand's
-                self.mu_select.options = sorted([*self._mus("deformable"), mu])
-            self.state.param.update(model="deformable", mu=mu, log_amplitude=la, log_mass=lm,
-                                    theta=n.theta, nu=n.nu, periods=periods)
+            self.state.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, **scene)
         except ValueError as exc:
-            self._error(f"The Design tab's device cannot be run: {exc}")
-            return
-        self.units_panel.use_device(n, "the Design tab's device")
-        self.start_run()
+            self._error(f"Not run: {exc}")
+            return None
+        return self.start_run()
+
+    def _run_design_device(self, mu, periods):
+        """Run the Design tab's device (the state's, as the form shows it):
+        the deformable particle at its (A*, m*, theta, nu), the tab's mu and
+        its map's periods; its drift and time also in SI units."""
+        return self._run_device(model="deformable", mu=mu, periods=periods)
 
     def _on_run_click(self, event):
         self.start_run()
@@ -673,6 +726,8 @@ class Explorer(pn.viewable.Viewer):
                 scale_fonts(view.part, PRESENTATION_SCALE)
             self.exports.show(result)
             self.summary_view.show(result)
+            self.stale_note.visible = False
+            self._on_stale()
             self._memory_pending = (scene, T)
             self._dynamics_pending = result
             if self.run_tabs.active == MEMORY_TAB:
@@ -732,6 +787,11 @@ class Explorer(pn.viewable.Viewer):
         )
         tabs.param.watch(self._on_tab, "active")
         self.map_tabs = tabs
+        # the tab shown is the state's (a link opens it)
+        tabs.active = MAP_TABS.index(self.state.tab)
+        self._on_tab(SimpleNamespace(new=tabs.active))
+        tabs.param.watch(lambda e: setattr(self.state, "tab", MAP_TABS[e.new]), "active")
+        self.state.param.watch(lambda e: setattr(tabs, "active", MAP_TABS.index(e.new)), "tab")
         # folded: its text is added when it is first opened
         self.intro = pn.Card(title="What is this? (a short introduction)", collapsed=True,
                              sizing_mode="stretch_width", css_classes=["vt-introduction"])
@@ -742,7 +802,8 @@ class Explorer(pn.viewable.Viewer):
         self.page = pn.Column(
             self.intro, self.message, self.where, pn.pane.Bokeh(self.ack, margin=(0, 10)),
             pn.FlexBox(pn.Column(tabs, self.summary, styles=half, sizing_mode="stretch_width"),
-                       pn.Column(self.trajectory, styles=half, sizing_mode="stretch_width"),
+                       pn.Column(self.stale_note, self.trajectory, styles=half,
+                                 sizing_mode="stretch_width"),
                        flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
         return self.page
@@ -757,7 +818,7 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == DIFFERENCE_TAB:
             self.difference.build()
         elif event.new == DESIGN_TAB and self.design_panel is None:
-            self.design_panel = DesignPanel(on_run=self._run_design_device)
+            self.design_panel = DesignPanel(on_run=self._run_design_device, state=self.state)
             self.design_box.objects = [self.design_panel]
 
     # ---------- map on demand ----------
@@ -1029,8 +1090,6 @@ class Explorer(pn.viewable.Viewer):
         """A click on the map on demand: the scene there, with the map's values."""
         values = request.scene_values()
         with pn.io.hold():
-            if values["mu"] not in self.mu_select.options:
-                self.mu_select.options = sorted([*self._mus(values["model"]), values["mu"]])
             self.state.param.update(log_amplitude=la, log_mass=lm, **values)
         self.start_run()
 
@@ -1041,10 +1100,6 @@ class Explorer(pn.viewable.Viewer):
         self.map_banner.visible = False
         with pn.io.hold():
             self.state.map_request = None
-            mus = self._mus(self.state.model)
-            if mus and self.state.mu not in mus:
-                self.state.mu = urlstate.DEFAULT_MU if urlstate.DEFAULT_MU in mus else mus[0]
-            self.mu_select.options = mus
             self.map_view.show_shipped()
             self._answered()
 

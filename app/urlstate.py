@@ -22,8 +22,10 @@ Rules:
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
 * unknown keys are ignored (tracking parameters, future keys);
-* mu must name a shipped map for the model: if not, mu = 0.3 (the message
-  says so);
+* a value's older spellings (`URL_ALIASES`: `point_mass` for `point-mass`)
+  are accepted; links are written with one spelling (`query`);
+* a mu with no shipped map for the model is kept as given (the map says
+  which map it shows, the mu selector offers the value);
 * the given text is shown in the message escaped (no HTML, no Markdown)
   and cut to 40 characters: the message is rendered as Markdown.
 """
@@ -98,8 +100,9 @@ def convert(p, raw):
     return value
 
 
-def parse(args, state, url_keys, available_maps=None):
+def parse(args, state, url_keys, aliases=None):
     """(values, errors): see the module docstring."""
+    aliases = aliases or {}
     args = args or {}
     values, errors = {}, []
     for name, key in url_keys.items():
@@ -117,19 +120,30 @@ def parse(args, state, url_keys, available_maps=None):
                           f"different values; it must be {valid_range(p)}")
             continue
         raw = texts[0]
+        raw = aliases.get(name, {}).get(raw.strip(" \t"), raw)
         try:
             values[name] = convert(p, raw)
         except ValueError:
             errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; "
                           f"got '{shown(raw)}'")
-    if available_maps is not None:
-        model = values.get("model", state.param["model"].default)
-        mu = values.get("mu", state.param["mu"].default)
-        if (model, mu) not in available_maps:
-            errors.append(f"no shipped map for model={model}, mu={mu:g}; "
-                          f"showing mu = {DEFAULT_MU:g}")
-            values["mu"] = DEFAULT_MU
     return values, errors
+
+
+def written(value):
+    """A value as a link writes it: numbers exactly (repr: the run a link
+    reproduces is the run shown), options as they are."""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def query(state, url_keys, extra=()):
+    """The link's query ("?la=...&lm=...") of the state: every key of
+    `url_keys`, then `extra` ((key, text) pairs); None values left out."""
+    from urllib.parse import urlencode
+    pairs = [(key, written(getattr(state, name))) for name, key in url_keys.items()
+             if getattr(state, name) is not None]
+    return "?" + urlencode([*pairs, *extra])
 
 
 def resolved(values, state, url_keys):
@@ -138,5 +152,7 @@ def resolved(values, state, url_keys):
 
 
 def message(errors):
-    """The one line the explorer shows for the errors (empty if none)."""
-    return " · ".join(errors) + " — using the defaults for those." if errors else ""
+    """The one line the explorer shows for a link's errors (empty if none):
+    nothing of such a link is run."""
+    return ("This link has errors, so nothing was run: " + " · ".join(errors)
+            + ". Correct the link, or choose a scene and press Run." if errors else "")

@@ -17,6 +17,9 @@ PLACEHOLDER_SUMMARY = "\n".join(
     + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
 
 
+STALE_LINE = "**⚠ Changed since this run: press Run.**"
+
+
 def chaos_verdict(result):
     """The chaos row of a RunResult, in words: the Lyapunov exponent's
     verdict where the run measured one (and the tau twin's beside it when
@@ -85,6 +88,9 @@ class SummaryView:
 
     def __init__(self, si_text, width=None):
         self.si_text = si_text
+        self.device_run = False     # the run shown is the device's (its SI values shown)
+        self._table = None          # the run shown's table
+        self._stale = False
         kw = {"sizing_mode": "stretch_width"} if width is None else {"width": width}
         self.pane = pn.pane.Markdown(PLACEHOLDER_SUMMARY, name="summary", **kw)
 
@@ -94,5 +100,14 @@ class SummaryView:
     def show(self, result):
         s = result.summary
         si = self.si_text(s.drift_velocity, result.scene)
-        self.pane.object = summary_table(result.scene, s, chaos_verdict(result), si,
-                                         result.other, result.twin)
+        self.device_run = not si.startswith("-")
+        self._table = summary_table(result.scene, s, chaos_verdict(result), si,
+                                    result.other, result.twin)
+        self._stale = False
+        self.pane.object = self._table
+
+    def mark_stale(self, stale):
+        """Mark the run shown as changed since (or not)."""
+        self._stale = stale
+        if self._table is not None:
+            self.pane.object = (f"{STALE_LINE}\n\n{self._table}" if stale else self._table)
