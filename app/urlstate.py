@@ -63,13 +63,27 @@ def _bounds(p):
     return (-math.inf if lo is None else lo), (math.inf if hi is None else hi)
 
 
+def _inclusive(p):
+    return getattr(p, "inclusive_bounds", (True, True)) or (True, True)
+
+
+def _inside(p, value):
+    lo, hi = _bounds(p)
+    lo_in, hi_in = _inclusive(p)
+    return ((lo <= value if lo_in else lo < value)
+            and (value <= hi if hi_in else value < hi))
+
+
 def valid_range(p):
-    """What a parameter accepts, in words ("a number in [-6.0, 6.0]")."""
+    """What a parameter accepts, in words ("a number in [-6.0, 6.0]",
+    "(0.0, 0.01]" where a bound is excluded)."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
     what = "an integer" if isinstance(p, param.Integer) else "a number"
     lo, hi = _bounds(p)
-    return what if (lo, hi) == (-math.inf, math.inf) else f"{what} in [{lo}, {hi}]"
+    lo_in, hi_in = _inclusive(p)
+    return what if (lo, hi) == (-math.inf, math.inf) else (
+        f"{what} in {'[' if lo_in else '('}{lo}, {hi}{']' if hi_in else ')'}")
 
 
 def convert(p, raw):
@@ -87,15 +101,13 @@ def convert(p, raw):
         if not _INTEGER.fullmatch(raw):
             raise ValueError("not an integer")
         value = int(raw)
-        lo, hi = _bounds(p)
-        if not lo <= value <= hi:
+        if not _inside(p, value):
             raise ValueError("out of range")
         return value
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
-    lo, hi = _bounds(p)
-    if not (math.isfinite(value) and lo <= value <= hi):
+    if not (math.isfinite(value) and _inside(p, value)):
         raise ValueError("out of range")
     return value
 
