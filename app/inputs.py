@@ -17,8 +17,10 @@ ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 
 
 def _text(value):
-    """The field's text for a value (short: 0.3, not 0.30000000000000004)."""
-    return f"{value:.6g}"
+    """The field's text for a value: exactly the value (the shortest text
+    that reads back as it: 0.3, 0.07759266752805563), so that the field
+    shows what a run uses (a device's unrounded log10 A*), not a rounding."""
+    return repr(value) if isinstance(value, float) else str(value)
 
 
 class NumberField(pn.viewable.Viewer):

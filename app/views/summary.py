@@ -8,7 +8,7 @@ from vibtrans.analysis import CHAOS_LYAPUNOV, summarize
 from ..controller import TWIN_LABEL
 from ..state import MAP_MATERIAL
 
-SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "regime",
+SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
                 "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
                 "in SI units"]
 # the summary before the first run: the same lines (so the page keeps its layout)
@@ -53,7 +53,8 @@ def run_cost(scene, s):
 
 def _summary_column(scene, s, chaos, si):
     """One model's values, in the order of SUMMARY_ROWS."""
-    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.regime, chaos,
+    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.steadiness,
+            s.regime, chaos,
             f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
             f"{s.contact_fraction:.3f}", run_cost(scene, s), si or "-"]
 

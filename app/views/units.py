@@ -116,8 +116,9 @@ class UnitsPanel(pn.viewable.Viewer):
         go = pn.widgets.Button(name="Run this device's scene", button_type="primary",
                                css_classes=["vt-units-run", "vt-ack-run"])
         go.on_click(lambda event: self.on_run())
+        self.form = device_form(self.state, width=260)
         return pn.Column(pn.pane.Markdown("### Device in SI units (the Design tab's too)"),
-                         *device_form(self.state, width=260), go, self.warnings, self.info)
+                         *self.form, go, self.warnings, self.info)
 
 
 DEVICE_LABELS = {"radius": "particle radius (m)", "frequency": "frequency (Hz)",
