@@ -1,6 +1,8 @@
 """The run's summary: one Markdown table, one column per model, each number
 under the model that produced it (the run with its tau twin's verdict and
 cost; the other model's run when that is the comparison)."""
+import math
+
 import panel as pn
 
 from vibtrans.analysis import CHAOS_LYAPUNOV, summarize
@@ -20,24 +22,39 @@ PLACEHOLDER_SUMMARY = "\n".join(
 STALE_LINE = "**⚠ Changed since this run: press Run.**"
 
 
+def twin_words(s, twin_name):
+    """What the tau twin did, plainly: where its trajectory parted from the
+    run's (x* more than 1 a0 apart, analysis.divergence_time) or that it
+    never did, and whether its drift differs (analysis.chaos_verdict)."""
+    if s.twin_chaotic is None:
+        return ""
+    t = s.divergence_time
+    path = (f"the {twin_name}'s trajectory parted from this run after {t:.4g} periods"
+            if t is not None and math.isfinite(t) else
+            f"the {twin_name}'s trajectory stayed within 1 a0 of this run's")
+    drift = "its drift differs" if s.twin_chaotic else "its drift is the same"
+    return f"; {path}, and {drift}"
+
+
 def chaos_verdict(result):
     """The chaos row of a RunResult, in words: the Lyapunov exponent's
-    verdict where the run measured one (and the tau twin's beside it when
-    one ran), else the twin's."""
+    verdict where the run measured one (and what the tau twin did beside
+    it when one ran), else the twin's."""
     twin_name = f"{TWIN_LABEL} twin"
     s = result.summary
-    twin = {None: "", True: f"; the {twin_name} disagrees", False: f"; the {twin_name} agrees"}
+    twin = twin_words(s, twin_name)
     if s.lyapunov == float("-inf"):
         return ("regular: the point rides the surface after the ramp, and each detachment "
-                f"forgets its past (Lyapunov exponent -inf){twin[s.twin_chaotic]}")
+                f"forgets its past (Lyapunov exponent -inf){twin}")
     if s.lyapunov is not None:
         word = "chaotic" if s.chaotic else "regular"
         return (f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
-                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin[s.twin_chaotic]}")
+                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin}")
     if result.twin_unneeded:
         return f"not checked: no take-off (the {twin_name} is drawn below)"
-    return {None: "not checked", True: f"chaotic ({twin_name} disagrees)",
-            False: f"robust ({twin_name} agrees)"}[s.chaotic]
+    if s.chaotic is None:
+        return "not checked"
+    return f"{'chaotic' if s.chaotic else 'robust'}{twin}"
 
 
 def run_cost(scene, s):
