@@ -101,7 +101,25 @@ the wave (+x) or against it (-x).
 
 Click the map or pick a paper point to run a scene; its trajectory appears
 below the summary.
+
+**The symbols of the figures** (docs/MODEL.md): lengths are in a0, times in
+wave periods.
+
+* **x\***, **y\***: the particle's horizontal and vertical position;
+  **u_x\***, **u_y\***: the surface's under it.
+* **a\*** = y\* - u_y\*: how much the contact is compressed (> 0 in contact,
+  the particle is in the air when it would be negative).
+* **b\***: the contact's tangential displacement (the particle against the
+  surface under it, in theta mu a0); **b\*'** its rate.
+* **N\***: the normal contact force, in units of the weight (N\* = a\*^(3/2),
+  Hertz); **T\***: the tangential (friction) force, in units of mu times the
+  weight; |T\*| = N\* when the contact slides.
 """
+# the map's key for its markers (drawn on every map: shipped, on demand)
+MAP_KEY = ("*On the map:* <span style='color:#c9a400'>●</span> yellow circle: the selected "
+           "scene (the one Run runs) · <span style='color:#1a9c1a'>◆</span> green diamond: "
+           "the device of the Units and Design tabs · black dots with numbers: the paper's "
+           "points (the *Paper points* list)")
 
 # the run's tabs: trajectory, animation, memory diagram, downloads
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
@@ -325,8 +343,10 @@ class Explorer(pn.viewable.Viewer):
         self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
                                                 "layer", "orbits"],
                                precedence=2)        # after the map's redraw
+        self.map_key = pn.pane.Markdown(MAP_KEY, sizing_mode="stretch_width",
+                                        css_classes=["vt-map-key"], margin=(0, 10))
         self.map_pane = pn.Column(self.map_banner, self.refine_box, self.map_view.pane,
-                                  sizing_mode="stretch_width")
+                                  self.map_key, sizing_mode="stretch_width")
         self.state.param.watch(self._on_map_look, ["v0", "chaotic"])
         self.vertical = VerticalView(self.state)
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered,

@@ -145,7 +145,7 @@ def written(value):
     """A value as a link writes it: numbers exactly (repr: the run a link
     reproduces is the run shown), options as they are."""
     if isinstance(value, float):
-        return repr(value)
+        return repr(value + 0.0)        # (-0.0 is 0.0: equal, no change seen)
     return str(value)
 
 

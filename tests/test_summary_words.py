@@ -43,3 +43,17 @@ def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
     labels = [item.label for item in view.over.twin_items]
     assert all(isinstance(label, Value) for label in labels), labels
     assert [label.value for label in labels] == ["x*, tau = 50", "x*, point mass"]
+
+
+def test_the_map_has_a_key_for_its_markers_and_the_introduction_a_glossary():
+    # issue 32: nothing said what the yellow circle, the green diamond and
+    # the numbered dots on the map are, nor what a*, b*, N*, T* mean
+    from vibtrans_explorer import explorer as E
+    ex = E.Explorer()
+    assert ex.map_key in ex.map_pane.objects
+    for words in ("yellow circle: the selected scene", "green diamond",
+                  "the device of the Units and Design tabs", "paper's points"):
+        assert words in ex.map_key.object
+    for symbol in ("**a\\***", "**b\\***", "**b\\*'**", "**N\\***", "**T\\***", "**x\\***",
+                   "**y\\***"):
+        assert symbol in E.INTRODUCTION, symbol
