@@ -271,7 +271,7 @@ class Explorer(pn.viewable.Viewer):
         self.run_button.on_click(self._on_run_click)
         self.point_select = pn.widgets.Select(
             name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
-            css_classes=["vt-ack-run"])
+            css_classes=["vt-ack-run", "vt-paper-points"])
         self.point_select.param.watch(self._on_point, "value")
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
         # the small values); it shows v0* itself
@@ -285,7 +285,8 @@ class Explorer(pn.viewable.Viewer):
         # mu offers the shipped maps of the model shown (no blank map)
         # (and the mu in use when no shipped map has it: shown as it is)
         self.mu_select = pn.widgets.Select.from_param(
-            self.state.param.mu, options=self._mu_options(), name="mu (shipped maps)")
+            self.state.param.mu, options=self._mu_options(), name="mu (shipped maps)",
+            css_classes=["vt-mu"])
         self.state.param.watch(self._on_model, ["model", "mu"])  # before the redraw (precedence)
         # typed numbers: checked like a link's, applied only when valid
         self.fields = [inputs.NumberField(self.state, "log_amplitude", "log10 A*"),
@@ -431,7 +432,18 @@ class Explorer(pn.viewable.Viewer):
         """The browser reports its own query (the raw link) when the page
         connects: the page's one replaces it."""
         if event.new != getattr(self, "_url", None):
-            self._write_url()
+            # (on the next tick: Panel sends no change back to the browser
+            # while it applies the browser's own change of that property)
+            doc = pn.state.curdoc
+            if doc is not None and doc.session_context is not None:
+                doc.add_next_tick_callback(self._rewrite_url)
+            else:
+                self._rewrite_url()
+
+    def _rewrite_url(self):
+        if self.location is not None:
+            self._url = self.url_query()
+            self.location.search = self._url
 
     @staticmethod
     def _url_map_request(args):
