@@ -299,3 +299,101 @@ def test_the_page_is_one_state_whatever_the_order(monkeypatch, no_logged_errors)
         # one rebuilds a page per try, minutes)
         phases=[Phase.explicit, Phase.reuse, Phase.generate],
         suppress_health_check=list(HealthCheck)))
+
+
+# ------------------------------------------------------------ the walkthrough's cases
+def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logged_errors):
+    # issue 32: lithium niobate / glass, 2e7 Hz, R = 5e-6 m, 1e-9 m, then
+    # "Run this device's scene" ran the paper preset (A* = 316.2, m* = 1)
+    ex = _open(monkeypatch)
+    ex.map_tabs.active = E.DESIGN_TAB
+    panel = ex.design_panel
+    assert panel.run_button.disabled is False
+    panel.preset = "paper"
+    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=2e7,
+                          radius=5e-6, amplitude=1e-9)
+    assert (panel.substrate, panel.frequency, panel.radius) == ("lithium niobate", 2e7, 5e-6)
+    assert panel.preset == "custom"
+    panel.run_device()
+    job = ex.controller.job
+    la, lm, theta, nu = ex.state.device_scene_values()
+    assert job is not None and job.scene.model == "deformable"
+    assert math.log10(job.scene.amplitude) == pytest.approx(la, abs=1e-12)
+    assert math.log10(job.scene.mass) == pytest.approx(lm, abs=1e-12)
+    assert (job.scene.theta, job.scene.nu) == (theta, nu) != (1.2, 0.3)
+    # the Units tab shows the same device (one form)
+    assert f"{10 ** la:.4g}" in ex.units_panel.info.object
+
+
+def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, no_logged_errors):
+    # issue 32: with radius "-1" flagged invalid, Run ran the last valid device
+    ex = _open(monkeypatch)
+    field = next(f for f in ex.units_panel.form
+                 if isinstance(f, inputs.NumberField) and f.name_ == "radius")
+    field.input.value = "-1"
+    assert "radius" in ex.state.invalid
+    before = len(ex.stand_in.scenes)
+    assert ex._run_device() is None
+    assert ex.message.object.startswith("Not run: particle radius (m) must be a number in")
+    assert ex.controller.job is None and len(ex.stand_in.scenes) == before
+    # the Design tab's Run refuses it too
+    ex.map_tabs.active = E.DESIGN_TAB
+    ex.message.object = ""
+    ex.design_panel.run_device()
+    assert ex.message.object.startswith("Not run: particle radius (m)")
+
+
+def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
+        monkeypatch, no_logged_errors):
+    # issue 32: amplitude 1 -> 10 nm without a run, the summary still gave the
+    # old device's m/s; a device run's link reopened with nu = 0.3, no device
+    ex = _open(monkeypatch)
+    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=1e7,
+                          radius=1e-5, amplitude=1e-9, fidelity="preview", compare="none")
+    ex._run_device()
+    asyncio.run(ex.pending.pop()())
+    assert ex.summary_view.device_run and not ex.stale_note.visible
+    heading = ex.summary.object.splitlines()[0]
+    n = ex.state.device()
+    # the heading's A*, m* are the Units table's (unrounded logs)
+    assert f"A\\* = {n.A_star:.4g}, m\\* = {n.m_star:.4g}" in heading
+    assert f"| A* | {n.A_star:.4g}" in ex.units_panel.info.object
+    ex.state.amplitude = 1e-8
+    assert ex.stale_note.visible and "Changed since this run" in ex.summary.object
+    ex.state.amplitude = 1e-9
+    assert not ex.stale_note.visible
+    again = _open(monkeypatch, ex.url_query())
+    for k in (*DEVICE_FIELDS, "theta", "nu", "log_amplitude", "log_mass"):
+        assert getattr(again.state, k) == getattr(ex.state, k), k
+    assert again.runs_on_load
+
+
+def test_a_mu_without_a_shipped_map_is_shown_as_it_is(monkeypatch, no_logged_errors):
+    # issue 32: ?la=2.5&lm=0&mu=0.5: the banner said 0.3, the selector 0.1,
+    # the run used 0.5
+    ex = _open(monkeypatch, "?la=2.5&lm=0&mu=0.5")
+    assert ex.state.mu == 0.5 and ex.mu_select.value == 0.5 and 0.5 in ex.mu_select.options
+    assert not ex.message.visible
+    assert "No usable drift map for deformable, mu = 0.5" in str(
+        ex.map_view.figures[0].title.text) or ex.map_view.figures[0] is not None
+    job = ex.start_run()
+    assert job.scene.mu == 0.5
+    ex.mu_select.value = 0.1
+    assert ex.state.mu == 0.1
+
+
+def test_an_invalid_link_runs_nothing_and_claims_no_defaults(monkeypatch, no_logged_errors):
+    ex = _open(monkeypatch, "?la=abc&lm=1")
+    assert not ex.runs_on_load
+    assert ex.message.object.startswith("This link has errors, so nothing was run:")
+    assert "default" not in ex.message.object
+
+
+def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_errors):
+    la, lm, model = PAPER_POINTS[4]
+    ex = _open(monkeypatch, f"?la={la}&lm={lm}&model={model}")
+    assert ex.point_select.value == 4
+    ex._on_map_click(*PAPER_POINTS[6][:2], False)
+    assert ex.point_select.value == 6
+    ex._on_map_click(0.123, 0.456, False)
+    assert ex.point_select.value == 0

@@ -19,6 +19,7 @@ PLACEHOLDER_SUMMARY = "\n".join(
     + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
 
 
+NO_DEVICE = "- (run a device"    # the SI row of a run that is no device's (UnitsPanel.si_text)
 STALE_LINE = "**⚠ Changed since this run: press Run.**"
 
 
@@ -118,7 +119,7 @@ class SummaryView:
     def show(self, result):
         s = result.summary
         si = self.si_text(s.drift_velocity, result.scene)
-        self.device_run = not si.startswith("-")
+        self.device_run = not si.startswith(NO_DEVICE)
         self._table = summary_table(result.scene, s, chaos_verdict(result), si,
                                     result.other, result.twin)
         self._stale = False
