@@ -20,7 +20,10 @@ def _text(value):
     """The field's text for a value: exactly the value (the shortest text
     that reads back as it: 0.3, 0.07759266752805563), so that the field
     shows what a run uses (a device's unrounded log10 A*), not a rounding."""
-    return repr(value) if isinstance(value, float) else str(value)
+    if not isinstance(value, float):
+        return str(value)
+    short = f"{value:.15g}"                 # 108000, not 108000.0
+    return short if float(short) == value else repr(value)
 
 
 class NumberField(pn.viewable.Viewer):
