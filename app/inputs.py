@@ -22,6 +22,7 @@ def _text(value):
     shows what a run uses (a device's unrounded log10 A*), not a rounding."""
     if not isinstance(value, float):
         return str(value)
+    value = value + 0.0                     # (-0.0: 0)
     short = f"{value:.15g}"                 # 108000, not 108000.0
     return short if float(short) == value else repr(value)
 
