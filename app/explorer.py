@@ -19,7 +19,6 @@ import math
 import time
 from pathlib import Path
 from types import SimpleNamespace
-from urllib.parse import parse_qsl, urlencode
 
 import holoviews as hv
 import panel as pn
@@ -34,8 +33,9 @@ from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, mapjobs, maprequest, memory, panelshortcuts, urlstate
 from .controller import RUNNER, RunController
+from .pagelink import PageLink
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
-                    SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_ALIASES, URL_KEYS, ExplorerState,
+                    SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS, ExplorerState,
                     within)
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
@@ -136,7 +136,6 @@ PAGE_SCRIPTS = {"vt-bokeh-visuals": f"{STATIC_ROUTE}/bokeh_visuals.js"}
 pn.config.js_files.update(PAGE_SCRIPTS)     # loaded after BokehJS, before the page's plots
 # a refinement of the shipped map: the coarse cells and levels of its request
 REFINE_CELLS, REFINE_LEVELS = 2, 3
-URL_MAP_KEYS = {**URL_KEYS, "map_request": maprequest.URL_KEY}
 DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
                  "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
                  "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
@@ -385,25 +384,16 @@ class Explorer(pn.viewable.Viewer):
 
     # ---------- URL ----------
     def _apply_url(self):
-        """Apply the link's values, and run its scene once the page has
-        loaded if the link names one (log10 A* or m*) and every value in it
-        is valid (a link with an error runs nothing and says so)."""
+        """Apply the link's values (app/pagelink.py: checked, then the URL
+        follows the state), and run its scene once the page has loaded if
+        the link names one (log10 A* or m*) and every value in it is valid
+        (a link with an error runs nothing and says so)."""
         if self.location is None:
             return
-        # Parsed and validated by a pure function (app/urlstate.py); the URL
-        # is then the state's (`_write_url`), never applied raw.
-        args = pn.state.session_args or {}
-        request, map_errors = self._url_map_request(args)
-        values, errors = urlstate.parse(args, self.state, URL_KEYS, URL_ALIASES)
-        self.state.param.update(**urlstate.resolved(values, self.state, URL_KEYS))
-        errors = [*map_errors, *errors]
+        self.link = PageLink(self.state, self.location)
+        values, errors, request = self.link.read(pn.state.session_args or {})
         self._error(urlstate.message(errors))
-        if request is not None:
-            self.state.map_request = maprequest.encode(request)
-            self._url_map = request
-        self._write_url()
-        self.state.param.watch(self._write_url, [*URL_KEYS, "map_request"])
-        self.location.param.watch(self._on_location, "search")
+        self._url_map = request
         self.runs_on_load = not errors and ("log_amplitude" in values or "log_mass" in values)
         doc = pn.state.curdoc
         served = doc is not None and doc.session_context is not None
@@ -414,50 +404,8 @@ class Explorer(pn.viewable.Viewer):
             pn.state.onload(self.start_run)
 
     def url_query(self):
-        """The page's link query: the state's values, one spelling each."""
-        extra = ([] if self.state.map_request is None
-                 else [(maprequest.URL_KEY, self.state.map_request)])
-        return urlstate.query(self.state, URL_KEYS, extra)
-
-    def _write_url(self, *events):
-        """The URL shows the state (one way: a link is read once, checked,
-        by `_apply_url`; Panel's Location.sync would apply the browser's raw
-        query of its own)."""
-        if self.location is not None:
-            self._url = self.url_query()
-            if self.location.search != self._url:
-                self.location.search = self._url
-
-    def _on_location(self, event):
-        """The browser reports its own query (the raw link) when the page
-        connects: the page's one replaces it."""
-        if event.new != getattr(self, "_url", None):
-            # (on the next tick: Panel sends no change back to the browser
-            # while it applies the browser's own change of that property)
-            doc = pn.state.curdoc
-            if doc is not None and doc.session_context is not None:
-                doc.add_next_tick_callback(self._rewrite_url)
-            else:
-                self._rewrite_url()
-
-    def _rewrite_url(self):
-        if self.location is not None:
-            self._url = self.url_query()
-            self.location.search = self._url
-
-    @staticmethod
-    def _url_map_request(args):
-        """(MapRequest or None, errors) of the link's `map=`."""
-        given = args.get(maprequest.URL_KEY)
-        if not given:
-            return None, []
-        if isinstance(given, (str, bytes)):
-            given = [given]
-        texts = {urlstate._text(v) for v in given}
-        if len(texts) > 1:
-            return None, [f"URL parameter '{maprequest.URL_KEY}' is given {len(given)} times "
-                          f"with different values"]
-        return maprequest.decode(texts.pop())
+        """The page's link query (PageLink.query)."""
+        return PageLink(self.state, None).query()
 
     def _error(self, text):
         self.message.object = text

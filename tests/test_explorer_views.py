@@ -111,7 +111,7 @@ def test_changing_the_comparison_relabels_the_same_figures():
         await until(lambda: ex.controller.job is None and ex.controller.result is not first)
         assert list(ex.trajectories.views) == [key] and view.runs == 2
         assert view.over.twin_figure.title.text == "x*(t) and the point mass run of the same scene"
-        assert [i.label for i in view.over.twin_items][1] == "x*, point mass"
+        assert [i.label.value for i in view.over.twin_items][1] == "x*, point mass"   # a value, not a field
     asyncio.run(go())
 
 
