@@ -10,13 +10,11 @@ Serve with `vibtrans serve` (app/server.py: checks the maps first, then
 serves while the kernels compile in the background, app/kernels.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
-import asyncio
 import contextlib
 import functools
 import json
 import logging
 import math
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -26,13 +24,13 @@ import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 from panel.template import base as template_base
 
-from vibtrans import mapaccuracy, plots, simulate
+from vibtrans import plots, simulate
 from vibtrans.fidelity import PRESET_NOTES
-from vibtrans.mapdiff import describe
 from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
-from . import data, inputs, mapjobs, maprequest, memory, panelshortcuts, urlstate
+from . import data, inputs, memory, panelshortcuts, urlstate
 from .controller import RUNNER, RunController
+from .mapondemand import MapOnDemand
 from .pagelink import PageLink
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
                     SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, URL_KEYS, ExplorerState,
@@ -40,9 +38,8 @@ from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.animation import ParticleAnimation
-from .views.map import MapView, computed_figure
+from .views.map import MapView
 from .views.render import unvalidated
-from .views.ondemand import MapRequestPanel
 from .views.design import DesignPanel
 from .views.dynamics import DynamicsView
 from .views.memory import MemoryView
@@ -126,16 +123,11 @@ ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
 # the map's tabs: map, vertical curves, units, map on demand, difference of
 # two maps, design chart
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
-# "refine this window" is offered once the shipped map's zoom box spans
-# fewer of its grid cells than this on both axes (beyond its resolution)
-REFINE_BELOW_CELLS = 5
 # the page's own scripts (app/static/, served at STATIC_ROUTE by app/server.py)
 STATIC = Path(__file__).parent / "static"
 STATIC_ROUTE = "vibtrans-static"
 PAGE_SCRIPTS = {"vt-bokeh-visuals": f"{STATIC_ROUTE}/bokeh_visuals.js"}
 pn.config.js_files.update(PAGE_SCRIPTS)     # loaded after BokehJS, before the page's plots
-# a refinement of the shipped map: the coarse cells and levels of its request
-REFINE_CELLS, REFINE_LEVELS = 2, 3
 DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
                  "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
                  "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
@@ -316,21 +308,9 @@ class Explorer(pn.viewable.Viewer):
         self.dynamics_view = None           # the same, for the section and orbit diagram
         self._dynamics_pending = None       # the RunResult the dynamics tab has not seen
         self.dynamics_box = pn.Column(sizing_mode="stretch_width")
-        # the map on demand: its request panel (built when its tab opens),
-        # the request shown, its Ticket while it computes (app/mapjobs.py)
-        self.map_request_panel = None
-        self.ondemand_box = pn.Column(sizing_mode="stretch_width", name="ondemand")
-        self._map_session = f"explorer-{id(self)}"
-        self._map_ticket = None
-        self._map_shown = None              # (request, ds) of the map on demand drawn
-        self._estimates = 0                 # the latest estimate's number (older ones dropped)
-        # the map on demand's line over the map and the refinement's offer:
-        # their widgets made at their first use (a page's models cost the
-        # server's event loop; most pages never show them)
-        self.map_status = self.back_button = self.map_cancel_button = None
-        self.map_banner = pn.Row(visible=False, sizing_mode="stretch_width")
-        self.refine_button = None
-        self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
+        # the map on demand (app/mapondemand.py)
+        self.ondemand = MapOnDemand(self.state, answered=self._answered, run=self.start_run,
+                                    session=f"explorer-{id(self)}")
         self.location = _page_location()
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._url_map = None                # a map request named by the link
@@ -339,19 +319,21 @@ class Explorer(pn.viewable.Viewer):
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
         self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(self.ack, ACK_RUN),
-                                on_zoom=self._on_zoom)
+                                on_zoom=self.ondemand.on_zoom)
+        self.ondemand.map_view = self.map_view
         self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
                                                 "layer", "orbits"],
                                precedence=2)        # after the map's redraw
         self.map_key = pn.pane.Markdown(MAP_KEY, sizing_mode="stretch_width",
                                         css_classes=["vt-map-key"], margin=(0, 10))
-        self.map_pane = pn.Column(self.map_banner, self.refine_box, self.map_view.pane,
+        self.map_pane = pn.Column(self.ondemand.map_banner, self.ondemand.refine_box,
+                                  self.map_view.pane,
                                   self.map_key, sizing_mode="stretch_width")
-        self.state.param.watch(self._on_map_look, ["v0", "chaotic"])
+        self.state.param.watch(self.ondemand.on_map_look, ["v0", "chaotic"])
         self.vertical = VerticalView(self.state)
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
-                                   button_classes=["vt-ack-file"], shown_map=self._computed_map)
-        self.difference = DifferenceView(self.state, computed=self._computed_map)
+                                   button_classes=["vt-ack-file"], shown_map=self.ondemand.computed_map)
+        self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
         # the run's views, built when their tab is first opened (a session's
         # page costs the event loop that every session shares: what the
         # first screen does not show is not built for it)
@@ -399,7 +381,7 @@ class Explorer(pn.viewable.Viewer):
         served = doc is not None and doc.session_context is not None
         if request is not None and served and not errors:    # from the cache, or computed again
             pn.state.onload(lambda: pn.state.execute(
-                functools.partial(self._compute_map, request)))
+                functools.partial(self.ondemand.compute_map, request)))
         if self.runs_on_load and served:
             pn.state.onload(self.start_run)
 
@@ -667,7 +649,7 @@ class Explorer(pn.viewable.Viewer):
             self.memory_view.set_run(*pending)      # clears it for a point mass
 
     def _on_session_destroyed(self, session_context):
-        mapjobs.jobs().cancel(self._map_session)     # its map, unless another session waits
+        self.ondemand.close()                        # its map, unless another session waits
         if getattr(self, "design_panel", None) is not None:     # (made by main())
             self.design_panel.close()                # and the Design tab's
         if self.memory_view is not None:
@@ -760,13 +742,13 @@ class Explorer(pn.viewable.Viewer):
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
             ("Units", self.units_box),
-            ("Map on demand", self.ondemand_box),
+            ("Map on demand", self.ondemand.ondemand_box),
             ("Difference", self.difference.panel),
             ("Design", self.design_box),
             dynamic=True, sizing_mode="stretch_width",
         )
         tabs.param.watch(self._on_tab, "active")
-        self.map_tabs = tabs
+        self.map_tabs = self.ondemand.map_tabs = tabs
         # the tab shown is the state's (a link opens it)
         tabs.active = MAP_TABS.index(self.state.tab)
         self._on_tab(SimpleNamespace(new=tabs.active))
@@ -794,294 +776,21 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == UNITS_TAB and not self.units_box.objects:
             self.units_box.objects = [self.units_panel]
         elif event.new == ONDEMAND_TAB:
-            self._request_panel()
+            self.ondemand.request_panel()
         elif event.new == DIFFERENCE_TAB:
             self.difference.build()
         elif event.new == DESIGN_TAB and self.design_panel is None:
             self.design_panel = DesignPanel(on_run=self._run_design_device, state=self.state)
             self.design_box.objects = [self.design_panel]
 
-    # ---------- map on demand ----------
-    def _request_panel(self):
-        """The request's panel, built at its first use (most sessions never
-        open it), its values those of the map shown."""
-        if self.map_request_panel is None:
-            panel = MapRequestPanel(self._map_shown[0].copy() if self._map_shown else
-                                    self._shipped_request(),
-                                    on_compute=self._on_map_compute,
-                                    on_cancel=self._on_map_cancel, on_zoom=self._on_use_zoom,
-                                    on_change=self._estimate_later)
-            self.map_request_panel = panel
-            self.ondemand_box.objects = [panel]
-            self._buttons_for_map()
-            self._estimate_later()
-        return self.map_request_panel
-
-    def _shipped_request(self, window=None):
-        """A request with the shipped map's values (its stored scene), over
-        `window` (the selected scene's neighbourhood if None)."""
-        s = self.state
-        try:
-            attrs = data.drift_map(s.model, s.mu).attrs
-        except data.MapUnavailable:
-            attrs = {}
-        scene = {k: attrs[f"scene_{k}"] for k in ("tau", "periods", "fidelity", "integrator",
-                                                  "theta", "nu", "stick_rule", "alpha_t")
-                 if f"scene_{k}" in attrs}
-        if window is None:
-            la, lm = s.log_amplitude, s.log_mass
-            window = ((round(la - 0.5, 3), round(la + 0.5, 3)), (round(lm - 0.5, 3),
-                                                                 round(lm + 0.5, 3)))
-        (a0, a1), (m0, m1) = window
-        request = maprequest.MapRequest(model=s.model, mu=s.mu, cells=REFINE_CELLS,
-                                        levels=REFINE_LEVELS)
-        values = {**scene, "la_from": a0, "la_to": a1, "lm_from": m0, "lm_to": m1}
-        for name, value in values.items():     # out of the request's ranges: its default
-            try:
-                setattr(request, name, float(value) if name in ("tau", "periods", "theta",
-                                                                 "nu", "alpha_t") else value)
-            except ValueError:
-                pass
-        return request
-
-    def _estimate_later(self):
-        pn.state.execute(self._estimate_map)
-
-    async def _estimate_map(self):
-        """The request's estimated cost (or why it is refused), computed off
-        the event loop; an older estimate finishing later is dropped."""
-        panel = self.map_request_panel
-        if panel is None:
-            return
-        self._estimates += 1
-        number = self._estimates
-        if panel.errors():
-            panel.estimate.object = "*Correct the fields above for an estimate.*"
-            return
-        request = panel.request.copy()
-        panel.estimate.object = "*Estimating ...*"
-        jobs = mapjobs.jobs()
-        try:
-            est, problems = await asyncio.get_running_loop().run_in_executor(
-                None, jobs.estimate, request)
-        except Exception as exc:
-            log.exception("estimating a map failed")
-            est, problems = None, [f"{type(exc).__name__}: {exc}"]
-        if number != self._estimates:
-            return
-        lines = [] if est is None else [est.text(jobs.cores)]
-        lines.append(mapaccuracy.note(request.fidelity, request.periods))
-        lines += [f"**Refused:** {p}." for p in problems]
-        panel.estimate.object = "\n\n".join(lines)
-
-    def _on_use_zoom(self):
-        (a0, a1), (m0, m1) = self.map_view.view_ranges()
-        if None in (a0, a1, m0, m1):
-            return
-        self._request_panel().set_values(la_from=round(a0, 3), la_to=round(a1, 3),
-                                         lm_from=round(m0, 3), lm_to=round(m1, 3))
-
-    def _on_zoom(self, ranges):
-        """Offer "refine this window" once the shipped map is zoomed beyond
-        its resolution (fewer than REFINE_BELOW_CELLS cells each way)."""
-        (a0, a1), (m0, m1) = ranges
-        small = False
-        if self.map_view.computed is None and None not in (a0, a1, m0, m1):
-            try:
-                ds = data.drift_map(self.state.model, self.state.mu)
-            except data.MapUnavailable:
-                ds = None
-            if ds is not None:
-                step_a = float(ds["log_amplitude"].values[1] - ds["log_amplitude"].values[0])
-                step_m = float(ds["log_mass"].values[1] - ds["log_mass"].values[0])
-                small = (abs(a1 - a0) < REFINE_BELOW_CELLS * step_a
-                         and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m)
-        if small and self.refine_button is None:
-            self.refine_button = pn.widgets.Button(
-                name="Refine this window (compute it finer)", button_type="success",
-                css_classes=["vt-map-refine"])
-            self.refine_button.on_click(lambda event: self._refine_window())
-            self.refine_box.objects = [self.refine_button]
-        self.refine_box.visible = bool(small)
-
-    def _refine_window(self):
-        """Fill the request with the shipped map's values and the zoom box,
-        and show it (its estimate beside it) for the user to compute."""
-        (a0, a1), (m0, m1) = self.map_view.view_ranges()
-        window = ((round(a0, 3), round(a1, 3)), (round(m0, 3), round(m1, 3)))
-        request = self._shipped_request(window)
-        panel = self._request_panel()
-        panel.set_values(**request.values())
-        if getattr(self, "map_tabs", None) is not None:
-            self.map_tabs.active = ONDEMAND_TAB
-
-    def _on_map_compute(self):
-        panel = self.map_request_panel
-        if panel.errors():
-            panel.status.object = "**Not computed:** " + " · ".join(panel.errors())
-            return
-        pn.state.execute(functools.partial(self._compute_map, panel.request.copy()))
-
-    def _on_map_cancel(self):
-        if self._map_ticket is None:
-            return
-        self._map_ticket = None
-        mapjobs.jobs().cancel(self._map_session)
-        self._map_say("Map cancelled: its finished points are kept on this server; "
-                      "computing it again resumes from them.")
-        self._buttons_for_map()
-
-    def _show_banner(self):
-        if self.map_status is None:
-            self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
-                                               css_classes=["vt-map-banner"])
-            self.back_button = pn.widgets.Button(name="Back to the shipped map",
-                                                 css_classes=["vt-map-back", "vt-ack-draw"])
-            self.back_button.on_click(lambda event: self._back_to_shipped())
-            self.map_cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
-                                                       css_classes=["vt-map-cancel-banner"])
-            self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
-            self.map_banner.objects = [self.map_status, self.map_cancel_button,
-                                       self.back_button]
-        self.map_banner.visible = True
-
-    def _map_say(self, text):
-        self._show_banner()
-        self.map_status.object = text
-        if self.map_request_panel is not None:
-            self.map_request_panel.status.object = text
-
-    def _buttons_for_map(self):
-        running = self._map_ticket is not None
-        if self.map_cancel_button is not None:
-            self.map_cancel_button.visible = running
-        if self.map_request_panel is not None:
-            self.map_request_panel.cancel_button.disabled = not running
-            self.map_request_panel.compute_button.disabled = running
-
-    async def _compute_map(self, request):
-        """Ask the server's queue for the map and draw what it says, level
-        by level, until it ends (or another request replaces it)."""
-        jobs = mapjobs.jobs()
-        loop = asyncio.get_running_loop()
-        self._map_say("Estimating the map's cost ...")
-        try:
-            est, problems = await loop.run_in_executor(None, jobs.estimate, request)
-        except Exception as exc:
-            log.exception("estimating a map failed")
-            est, problems = None, [f"{type(exc).__name__}: {exc}"]
-        if problems:
-            text = "" if est is None else est.text(jobs.cores) + " "
-            self._map_say(f"**Not computed:** {'; '.join(problems)}. {text}")
-            return
-        updates = asyncio.Queue()
-
-        def deliver(update):            # a worker thread: hand it to this loop
-            loop.call_soon_threadsafe(updates.put_nowait, update)
-        try:
-            ticket = jobs.submit(self._map_session, request, deliver)
-        except mapjobs.MapRefused as exc:
-            self._map_say(f"**Not computed:** {exc}.")
-            return
-        self._map_ticket = ticket
-        self.state.map_request = maprequest.encode(request)
-        self._buttons_for_map()
-        if getattr(self, "map_tabs", None) is not None:
-            self.map_tabs.active = 0
-        started = time.monotonic()
-        n = request.points_per_axis()
-        self._map_say(f"Computing a {n} x {n} map ({request.title()}) ...")
-        while True:
-            # every level is drawn (at most levels + 1 of them): each shows
-            # where the refinement went
-            update = await updates.get()
-            if self._map_ticket is not ticket:
-                return          # cancelled or replaced: its updates are no one's
-            if update.kind == "chunk" and not updates.empty():
-                continue        # a newer picture (or the level's) is waiting: draw that
-            if update.kind == "queued":
-                self._map_say(f"{update.text.capitalize()} ...")
-            elif update.kind in ("level", "chunk", "done"):
-                if update.shown:
-                    # the finest level, drawn already, is the verified map:
-                    # no second render (nor redraw in the browser) of it
-                    self._map_shown = (request, update.ds)
-                else:
-                    await self._draw_map(request, update.ds)
-                if self._map_ticket is not ticket:
-                    return
-                done = int(update.ds["computed"].values.sum())
-                seconds = time.monotonic() - started
-                if update.kind == "level":
-                    self._map_say(f"Level {update.level} of {update.levels} drawn: {done:,} of "
-                                  f"{n * n:,} points computed, {seconds:.0f} s ...")
-                elif update.kind == "chunk":
-                    self._map_say(f"Level {update.level} of {update.levels} computing: {done:,} "
-                                  f"of {n * n:,} points computed so far, {seconds:.0f} s ...")
-                elif update.cached:
-                    self._map_say(f"Map from this server's cache ({done:,} of {n * n:,} "
-                                  f"points computed): click it to run a scene there.")
-                else:
-                    self._map_say(f"Map finished: {done:,} of {n * n:,} points computed in "
-                                  f"{seconds:.0f} s. Click it to run a scene there.")
-            elif update.kind == "failed":
-                self._map_say(f"**The map failed:** {update.text}")
-            elif update.kind == "cancelled":
-                self._map_say("Map cancelled.")
-            if update.final:
-                self._map_ticket = None
-                self._buttons_for_map()
-                return
-
-    async def _draw_map(self, request, ds):
-        """Render the map off the event loop, then show it."""
-        s = self.state
-        title = f"map on demand: {request.model}, mu = {request.mu:g}"
-        window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
-        try:
-            fig = await asyncio.get_running_loop().run_in_executor(
-                None, computed_figure, ds, title, request.model, window, s.v0, s.chaotic)
-        except Exception as exc:
-            log.exception("drawing a map on demand failed")
-            self._map_say(f"**Drawing the map failed:** {type(exc).__name__}: {exc}")
-            return
-        if self.state.map_request != maprequest.encode(request):
-            return          # the shipped map came back meanwhile
-        self._map_shown = (request, ds)
-        with pn.io.hold():
-            self.map_view.show_computed(fig, window,
-                                        functools.partial(self._on_computed_click, request))
-            self.refine_box.visible = False
-            self._show_banner()
-            self._answered()
-
-    def _computed_map(self):
-        """(name, Dataset) of the map on demand shown, or None (the shipped map)."""
-        if self.map_view.computed is None or self._map_shown is None:
-            return None
-        return describe(self._map_shown[1]), self._map_shown[1]
-
-    def _on_map_look(self, *events):
-        """v0* or the chaotic points' colour changed: the map on demand too."""
-        if self.map_view.computed is not None and self._map_shown is not None:
-            pn.state.execute(functools.partial(self._draw_map, *self._map_shown))
-
-    def _on_computed_click(self, request, la, lm):
-        """A click on the map on demand: the scene there, with the map's values."""
-        values = request.scene_values()
-        with pn.io.hold():
-            self.state.param.update(log_amplitude=la, log_mass=lm, **values)
-        self.start_run()
-
-    def _back_to_shipped(self):
-        if self._map_ticket is not None:
-            self._on_map_cancel()
-        self._map_shown = None
-        self.map_banner.visible = False
-        with pn.io.hold():
-            self.state.map_request = None
-            self.map_view.show_shipped()
-            self._answered()
+    # the map on demand's parts, as the page and its tests name them
+    refine_box = property(lambda self: self.ondemand.refine_box)
+    map_request_panel = property(lambda self: self.ondemand.map_request_panel)
+    _back_to_shipped = property(lambda self: self.ondemand.back_to_shipped)
+    _refine_window = property(lambda self: self.ondemand.refine_window)
+    _shipped_request = property(lambda self: self.ondemand.shipped_request)
+    _compute_map = property(lambda self: self.ondemand.compute_map)
+    _computed_map = property(lambda self: self.ondemand.computed_map)
 
     def _on_intro(self, event):
         if not event.new and not self.intro.objects:
