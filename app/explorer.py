@@ -785,6 +785,8 @@ class Explorer(pn.viewable.Viewer):
 
     # the map on demand's parts, as the page and its tests name them
     refine_box = property(lambda self: self.ondemand.refine_box)
+    refine_button = property(lambda self: self.ondemand.refine_button)
+    _map_session = property(lambda self: self.ondemand._map_session)
     map_request_panel = property(lambda self: self.ondemand.map_request_panel)
     _back_to_shipped = property(lambda self: self.ondemand.back_to_shipped)
     _refine_window = property(lambda self: self.ondemand.refine_window)

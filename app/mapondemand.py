@@ -14,7 +14,7 @@ import panel as pn
 from vibtrans import mapaccuracy
 from vibtrans.mapdiff import describe
 
-from . import data, mapjobs, maprequest
+from . import data, mapjobs, maprequest, urlstate
 from .views.map import computed_figure
 from .views.ondemand import MapRequestPanel
 
@@ -330,12 +330,19 @@ class MapOnDemand:
         self.run()
 
     def back_to_shipped(self):
+        """The shipped map again: at the map on demand's mu if a shipped map
+        has it, else at the default mu (the state's: every view follows)."""
         if self._map_ticket is not None:
             self._on_map_cancel()
         self._map_shown = None
         self.map_banner.visible = False
         with pn.io.hold():
-            self.state.map_request = None
+            s = self.state
+            mus = sorted(mu for (m, mu) in data.available_maps() if m == s.model)
+            updates = {"map_request": None}
+            if mus and s.mu not in mus:
+                updates["mu"] = urlstate.DEFAULT_MU if urlstate.DEFAULT_MU in mus else mus[0]
+            s.param.update(**updates)
             self.map_view.show_shipped()
             self.answered()
 
