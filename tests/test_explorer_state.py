@@ -397,3 +397,22 @@ def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_err
     assert ex.point_select.value == 6
     ex._on_map_click(0.123, 0.456, False)
     assert ex.point_select.value == 0
+
+
+def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_errors):
+    # issue 32: one device form; the Units tab gives the model's validity
+    # warnings (design.validity_warnings) as the Design tab does
+    from vibtrans import design, units
+    ex = _open(monkeypatch)
+    bead = design.validity_warnings(units.DeviceSpec(
+        substrate="glass", particle="steel", radius=5e-4, frequency=108e3, amplitude=1e-9))
+    assert [w.code for w in bead] == ["adhesion"]      # the default bead: adhesion only
+    assert bead[0].message in ex.units_panel.warnings.object
+    ex.state.param.update(radius=1e-8, particle="PTFE", amplitude=1e-12)
+    expected = design.validity_warnings(units.DeviceSpec(
+        substrate="glass", particle="PTFE", radius=1e-8, frequency=108e3, amplitude=1e-12))
+    assert len(expected) > 1
+    assert all(w.message in ex.units_panel.warnings.object for w in expected)
+    # the same list of materials in both tabs
+    ex.map_tabs.active = E.DESIGN_TAB
+    assert ex.design_panel.param.substrate.objects == ex.state.param.substrate.objects
