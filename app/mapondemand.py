@@ -215,7 +215,7 @@ class MapOnDemand:
             self.map_request_panel.cancel_button.disabled = not running
             self.map_request_panel.compute_button.disabled = running
 
-    async def _compute_map(self, request):
+    async def compute_map(self, request):
         """Ask the server's queue for the map and draw what it says, level
         by level, until it ends (or another request replaces it)."""
         jobs = mapjobs.jobs()
