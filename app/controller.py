@@ -23,9 +23,9 @@ from typing import NamedTuple
 import param
 
 from vibtrans import Cancelled, estimate_steps, simulate
-from vibtrans.analysis import TWIN_TAU_OFFSET, Summary, jumped, summarize, twin_scene
-from vibtrans.plots import FRAGMENT, OVERVIEW_SAMPLES
-from vibtrans.simulate import StepBudgetExceeded
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET, Summary, jumped, summarize, twin_scene
+from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
+from vibtrans.core.simulate import StepBudgetExceeded
 
 from . import kernels
 from .fairshare import lower_priority

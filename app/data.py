@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from vibtrans import maps_dir
-from vibtrans.analysis import CHAOS_LYAPUNOV
-from vibtrans.sweep import StoreMismatch, open_map, open_vertical
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
 from vibtrans.version import __version__
 
 # the folder holding maps/: $VIBTRANS_ASSETS, else the maps installed with
@@ -266,7 +266,7 @@ def _load_period_one():
     missing = [v for v in ("trace", "exists", "stable", "in_flight") if v not in ds]
     if missing or ds["trace"].dims != ("log_amplitude", "log_mass"):
         return (f"the period-1 orbit chart period-one.nc cannot be used: not a chart of "
-                f"vibtrans.dynamics.period_one_chart (missing: {', '.join(missing) or 'dims'})")
+                f"vibtrans.analysis.dynamics.period_one_chart (missing: {', '.join(missing) or 'dims'})")
     return ds
 
 

@@ -4,7 +4,7 @@ What the session selected is `state.ExplorerState` (mirrored in the URL,
 app/urlstate.py); its runs are `controller.RunController` (no widgets);
 each part of the page is a view in app/views/ (map, summary, trajectory,
 units, vertical, exports) fed by the controller's result.  Physics comes
-from `vibtrans`, figures from `vibtrans.plots` and app/live.py.
+from `vibtrans`, figures from `vibtrans.products.plots` and app/live.py.
 
 Serve with `vibtrans serve` (app/server.py: checks the maps first, then
 serves while the kernels compile in the background, app/kernels.py) or
@@ -24,9 +24,10 @@ import param
 from bokeh.models import CustomJS, CustomJSTickFormatter, Div
 from panel.template import base as template_base
 
-from vibtrans import plots, simulate
-from vibtrans.fidelity import PRESET_NOTES
-from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
+from vibtrans import simulate
+from vibtrans.products import plots
+from vibtrans.core.fidelity import PRESET_NOTES
+from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, memory, panelshortcuts, urlstate
 from .controller import RUNNER, RunController

@@ -3,7 +3,7 @@ lane (an Executor of its own) and the workers take the next task from the
 lanes in turn, so a big map that was asked for first cannot starve a small
 one asked for later; each map runs as fast as the cores allow while alone.
 
-The tasks are map points (vibtrans.adaptive).  Their kernels release the
+The tasks are map points (vibtrans.maps.adaptive).  Their kernels release the
 GIL, but a point's Python around its kernel (the scene's checks, the
 summary of its run) does not, and at preview fidelity it is most of the
 point (1.3 of a 33 x 33 preview map's 1.45 s of CPU when each point

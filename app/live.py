@@ -1,7 +1,7 @@
 """The explorer's live trajectory figures: plain Bokeh figures, built once
 per session and structure (model, comparison), fed each run's columns.
 
-The panels are the paper's trajectory figure as `vibtrans.plots` defines
+The panels are the paper's trajectory figure as `vibtrans.products.plots` defines
 it (`panel_spec`, `state_bands`, `twin_spec`; the exports draw the same
 with HoloViews).  Here they are drawn with Bokeh directly because a
 session's server time is what limits how many people one server holds:
@@ -17,9 +17,9 @@ from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend
                           Line, LinearAxis, Quad, Range1d, VArea)
 from bokeh.plotting import figure
 
-from vibtrans import plots
-from vibtrans.contact import STATE_NAMES
-from vibtrans.units import duration_text
+from vibtrans.products import plots
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.core.units import duration_text
 
 MIN_WIDTH = 360               # the figures take their column's width, at least this
 LINE_HEIGHT = 190

@@ -7,7 +7,7 @@ queue, one cache, one core budget for the process.
   filled from the cells computed: a progressive picture), and its end
   (the verified map, a failure, or its cancellation).  The caller moves the
   updates to its own event loop: nothing here touches a Bokeh model.
-* The cache (vibtrans.mapcache.MapCache, a folder shared by every session
+* The cache (vibtrans.maps.cache.MapCache, a folder shared by every session
   and every server process using it) holds finished maps keyed by their
   request and the code version; a finished map is read from it, a damaged
   entry is recomputed, never shown.
@@ -36,9 +36,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibtrans.errors import Cancelled, InputError, StoreMismatch
-from vibtrans.mapcache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
-from vibtrans.precompile import warmup
+from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
+from vibtrans.maps.cache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
+from vibtrans.core.precompile import warmup
 
 from . import kernels, maprequest
 from .fairshare import FairPool
@@ -198,7 +198,7 @@ class MapJobs:
         event loop); later maps refine it from their own points."""
         if model in self._speed:
             return self._speed[model]
-        from vibtrans.sweep import compute_point
+        from vibtrans.maps.sweep import compute_point
         kernels.wait()
         request = maprequest.MapRequest(model=model, fidelity=fidelity,
                                         periods=CALIBRATION["periods"])
@@ -402,7 +402,7 @@ class MapJobs:
             workers.stop_processes()
 
     def _run_adaptive(self, comp, path, on_level):
-        from vibtrans.adaptive import run_adaptive
+        from vibtrans.maps.adaptive import run_adaptive
         lane = None if self.scheduler else self.share()
         levels = comp.request.levels
 

@@ -11,8 +11,8 @@ import time
 
 import panel as pn
 
-from vibtrans import mapaccuracy
-from vibtrans.mapdiff import describe
+from vibtrans.maps import accuracy as mapaccuracy
+from vibtrans.maps.difference import describe
 
 from . import data, mapjobs, maprequest, urlstate
 from .views.map import computed_figure

@@ -9,7 +9,7 @@ form, its sweep and cache key, and its estimated cost.
 
 The finest grid has `cells * 2**levels + 1` points per axis, from the
 window's lower to its upper bound: the adaptive refinement
-(vibtrans.adaptive) starts on every 2**levels-th point (the coarse grid,
+(vibtrans.maps.adaptive) starts on every 2**levels-th point (the coarse grid,
 `cells + 1` points per axis) and refines level by level where the map
 changes.
 """
@@ -20,13 +20,13 @@ import numpy as np
 import param
 
 from vibtrans import Scene
-from vibtrans.adaptive import DEFAULT_DRIFT_TOLERANCE
-from vibtrans.fidelity import scan_step, step_count, time_step
+from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
+from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate
 from .state import RUN_PERIODS, RUN_TAU, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS
 
-# the sweep's chaos verdict (vibtrans.sweep.CHAOS_SOURCES): the run's own
+# the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
 # Lyapunov exponent (no twin run; the material point falls back to its twin)
 CHAOS = "lyapunov"
 # A server's per-request limits: beyond them a request is refused with its
@@ -96,13 +96,13 @@ class MapRequest(param.Parameterized):
 
     def sweep(self):
         """The vibtrans.Sweep of the finest grid (InputError if invalid)."""
-        from vibtrans.sweep import Sweep
+        from vibtrans.maps.sweep import Sweep
         la, lm = self.axes()
         return Sweep(la, lm, chaos=CHAOS, command="explorer map on demand",
                      **self.scene_values())
 
     def cache_request(self):
-        """The dict that keys the map in the cache (vibtrans.mapcache):
+        """The dict that keys the map in the cache (vibtrans.maps.cache):
         everything that changes a number, nothing that does not."""
         scene = Scene(**self.scene_values())
         return {"scene": {k: getattr(scene, k) for k in sorted(scene.param) if k not in

@@ -22,7 +22,7 @@ import re
 import sys
 import threading
 
-from vibtrans.errors import InputError
+from vibtrans.core.errors import InputError
 
 from . import memory, panelshortcuts, propertycache
 

@@ -5,8 +5,9 @@ import math
 
 import param
 
-from vibtrans import Scene, units
-from vibtrans.analysis import V0
+from vibtrans import Scene
+from vibtrans.core import units
+from vibtrans.analysis.summary import V0
 
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
@@ -15,7 +16,7 @@ MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default
 MAP_RUN = {"tau": Scene.param.tau.default, "periods": Scene.param.periods.default}
 RUN_TAU = (0.0, 1000.0)              # tau, periods
 RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap refuses costly runs)
-# Wider than the shipped maps (vibtrans.params.MAP_LOG_*): a scene runs
+# Wider than the shipped maps (vibtrans.core.params.MAP_LOG_*): a scene runs
 # wherever the kernels do (a SAW device reaches A* ~ 2e3); the step budget
 # refuses the costly ones.
 SCENE_LOG_AMPLITUDE = (-6.0, 6.0)    # log10 A*

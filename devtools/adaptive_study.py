@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from vibtrans.adaptive import DEFAULT_DRIFT_TOLERANCE, run_adaptive
-from vibtrans.sweep import Sweep, open_map, parse_range, run_sweep
+from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE, run_adaptive
+from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
 
 
 def compare(adaptive, uniform):

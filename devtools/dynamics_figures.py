@@ -3,7 +3,7 @@ shipped map's synchronous and chaotic zones.
 
     python -m devtools.dynamics_figures [--chart assets/maps/period-one.nc] [--out docs/figures]
 
-The period-1 chart (vibtrans.dynamics.period_one_chart on the shipped
+The period-1 chart (vibtrans.analysis.dynamics.period_one_chart on the shipped
 0.05-decade grid; a few minutes on 2 cores) is read from --chart if that file
 exists, else computed and written there.
 """
@@ -17,9 +17,9 @@ from importlib import resources
 import numpy as np
 import xarray as xr
 
-from vibtrans import dynamics as Y
-from vibtrans.analysis import CHAOS_LYAPUNOV
-from vibtrans.sweep import open_map, open_vertical
+from vibtrans.analysis import dynamics as Y
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+from vibtrans.maps.sweep import open_map, open_vertical
 
 M_C = 1.5 / (4.0 * math.pi ** 2)     # w0 = 2 pi: the fundamental contact resonance
 

@@ -18,9 +18,9 @@ import numpy as np
 
 def _runs():
     from vibtrans import paper_scene, simulate
-    from vibtrans.contact import tangential_force_history
-    from vibtrans.simulate import memory_snapshot
-    from vibtrans.threshold import first_takeoff, threshold_amplitude
+    from vibtrans.core.kernels.contact import tangential_force_history
+    from vibtrans.core.simulate import memory_snapshot
+    from vibtrans.core.threshold import first_takeoff, threshold_amplitude
 
     out = {}
     for k in range(1, 11):

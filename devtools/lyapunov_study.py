@@ -12,8 +12,8 @@ from importlib import resources
 
 import numpy as np
 
-from vibtrans.analysis import CHAOS_LYAPUNOV
-from vibtrans.sweep import open_map
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+from vibtrans.maps.sweep import open_map
 
 FLOOR = 1e-5        # |lambda| below this is drawn in the first bin
 

@@ -9,7 +9,7 @@ log10 m* in [-5, 5], mu 0.5, 41 x 41 points).
     python -m devtools.map_accuracy --out /tmp/mapacc [--points 41] [--json]
 
 Stores are kept in --out (resumable: a rerun reuses finished ones).  The
-table it prints is copied into vibtrans/mapaccuracy.py (MEASURED), which the
+table it prints is copied into vibtrans/maps/accuracy.py (MEASURED), which the
 explorer's map request shows beside the choice of fidelity and periods.
 """
 import argparse
@@ -19,8 +19,8 @@ import sys
 
 import numpy as np
 
-from vibtrans.mapdiff import map_difference
-from vibtrans.sweep import Sweep, open_map, run_sweep
+from vibtrans.maps.difference import map_difference
+from vibtrans.maps.sweep import Sweep, open_map, run_sweep
 
 FIDELITIES = ("preview", "standard")
 PERIODS = (500.0, 1000.0, 2000.0)

@@ -23,8 +23,9 @@ import panel as pn
 from bokeh.document import Document
 from bokeh.protocol import Protocol
 
-from vibtrans import paper_scene, plots
-from vibtrans.simulate import memory_snapshot, memory_snapshots
+from vibtrans import paper_scene
+from vibtrans.products import plots
+from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans_explorer.views.memory import MemoryView, snapshot_times
 
 

@@ -1,12 +1,12 @@
 """Kernel runs from initial conditions the public API does not expose (the
-free Hertz oscillator), through the production driver (vibtrans.drivers)."""
+free Hertz oscillator), through the production driver (vibtrans.core.drivers)."""
 
 import numpy as np
 
-from vibtrans import drivers
-from vibtrans import records as R
-from vibtrans.fidelity import time_step
-from vibtrans.models import deformable as D
+from vibtrans.core import drivers
+from vibtrans.core.kernels import records as R
+from vibtrans.core.fidelity import time_step
+from vibtrans.core.kernels import deformable as D
 
 
 def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",

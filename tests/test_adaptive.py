@@ -1,4 +1,4 @@
-"""Adaptive drift maps (vibtrans.adaptive): against a uniform sweep at the
+"""Adaptive drift maps (vibtrans.maps.adaptive): against a uniform sweep at the
 finest step on windows across the jumping boundary and the fundamental
 resonance; refusal of bad levels, mismatched parameters and damaged batches
 or stores; resumption after a kill.  Preview fidelity, short runs."""
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import vibtrans.adaptive as adaptive
-from vibtrans.adaptive import run_adaptive
-from vibtrans.errors import InputError, StoreMismatch
-from vibtrans.sweep import Sweep, open_map, parse_range, run_sweep
+import vibtrans.maps.adaptive as adaptive
+from vibtrans.maps.adaptive import run_adaptive
+from vibtrans.core.errors import InputError, StoreMismatch
+from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
 
 FAST = dict(periods=250.0, fidelity="preview")
 
@@ -371,7 +371,7 @@ def test_a_cancelled_map_stops_and_resumes(tmp_path, monkeypatch):
     """cancel: no new point starts once set; Cancelled is raised, the store
     is not written, and the same call later computes only what is missing."""
     import threading
-    from vibtrans.errors import Cancelled
+    from vibtrans.core.errors import Cancelled
     path = str(tmp_path / "a.zarr")
     cancel = threading.Event()
     calls = counting(monkeypatch)

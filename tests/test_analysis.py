@@ -1,4 +1,4 @@
-"""vibtrans.analysis on small synthetic trajectories with known answers.
+"""vibtrans.analysis.summary on small synthetic trajectories with known answers.
 
 Source: closed form.  Each dataset here is written by hand (times, x*,
 events), so every expected number follows from the definitions in
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans import analysis as an
-from vibtrans import records as R
-from vibtrans.contact import FLIGHT, SLIDING, STICK
-from vibtrans.params import Scene
+from vibtrans.analysis import summary as an
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import FLIGHT, SLIDING, STICK
+from vibtrans.core.params import Scene
 
 EPS = 1e-6
 # The thresholds, as stated (literal here, so that changing one in

@@ -16,9 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibtrans import paper_scene, plots, simulate, substrate
-from vibtrans.contact import STATE_NAMES
-from vibtrans.errors import InputError, InputTypeError
+from vibtrans import paper_scene, simulate
+from vibtrans.products import plots
+from vibtrans.core.kernels import substrate
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
 
 from devtools.chromium import launched

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 
-from vibtrans.analysis import TWIN_TAU_OFFSET
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET
 
 from devtools.chromium import launched
 

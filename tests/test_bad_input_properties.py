@@ -20,9 +20,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vibtrans import Scene, estimate_steps, simulate
-from vibtrans.errors import InputError, StepBudgetExceeded
-from vibtrans.fidelity import FIDELITY, contact_time_scale, step_count, time_step
-from vibtrans.threshold import _first_takeoff, first_takeoff
+from vibtrans.core.errors import InputError, StepBudgetExceeded
+from vibtrans.core.fidelity import FIDELITY, contact_time_scale, step_count, time_step
+from vibtrans.core.threshold import _first_takeoff, first_takeoff
 
 MAX = 1.7976931348623157e308
 EXTREMES = [0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 1e-100, 1.0,

@@ -3,7 +3,7 @@ claim (the numbers themselves are the benchmark's, not asserted here: a
 shared machine's timings are noisy)."""
 import pytest
 
-from vibtrans import bench
+from vibtrans.tools import bench
 
 
 @pytest.mark.slow

@@ -2,7 +2,7 @@
 --plot) into a missing folder, an unwritable place, a path that is a
 folder, or a full disk is one line on stderr naming the path, exit status
 2, and no partial file left (outputs are written to a temporary file
-beside the target and renamed over it at the end: vibtrans/outfiles.py)."""
+beside the target and renamed over it at the end: vibtrans/maps/outfiles.py)."""
 import os
 import subprocess
 import sys

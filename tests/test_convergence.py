@@ -21,10 +21,10 @@ Measured (this code): smooth scene y*: AB4 3.98-4.00, Verlet 2.00; x*
 import numpy as np
 import pytest
 
-from vibtrans import records as R
-from vibtrans.params import Scene, paper_scene
-from vibtrans.simulate import simulate
-from vibtrans.workprecision import hermite
+from vibtrans.core.kernels import records as R
+from vibtrans.core.params import Scene, paper_scene
+from vibtrans.core.simulate import simulate
+from vibtrans.tools.workprecision import hermite
 
 T = 10.0              # run length, periods
 T_FIX = 9.5           # the fixed time t*
@@ -190,7 +190,7 @@ def test_hermite_reads_a_quintic_exactly():
 
 def test_pareto_front_and_preset_summary():
     # Bookkeeping of the work-precision study on made-up points (no physics).
-    from vibtrans.workprecision import Point, pareto_front, preset_summary
+    from vibtrans.tools.workprecision import Point, pareto_front, preset_summary
 
     def pt(scene, integ, setting, seconds, err, steps, v_ref=-1.0, chaotic=False):
         return Point(scene, integ, setting, 1.0, 1.0, steps, seconds, seconds, 0.0, 0.0,

@@ -1,4 +1,4 @@
-"""Design charts in device units (vibtrans.design, `vibtrans design`)."""
+"""Design charts in device units (vibtrans.products.design, `vibtrans design`)."""
 import json
 import math
 from dataclasses import replace
@@ -6,13 +6,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vibtrans import cli, design, units
-from vibtrans.errors import InputError
-from vibtrans.params import PAPER_POINTS, Scene
-from vibtrans.shipped import maps_dir
-from vibtrans.simulate import simulate
-from vibtrans.analysis import summarize
-from vibtrans.sweep import open_map
+from vibtrans import cli
+from vibtrans.products import design
+from vibtrans.core import units
+from vibtrans.core.errors import InputError
+from vibtrans.core.params import PAPER_POINTS, Scene
+from vibtrans.maps.shipped import maps_dir
+from vibtrans.core.simulate import simulate
+from vibtrans.analysis.summary import summarize
+from vibtrans.maps.sweep import open_map
 
 SHIPPED = maps_dir() / "deformable-mu0.3.zarr"
 # a small chart window on the shipped map around the paper's device (cheap to read)
@@ -360,7 +362,7 @@ def test_the_parser_loads_no_numerics():
     import subprocess
     import sys
     code = ("import sys, vibtrans.cli; vibtrans.cli.build_parser(); "
-            "print([m for m in ('numpy', 'vibtrans.design') if m in sys.modules])")
+            "print([m for m in ('numpy', 'vibtrans.products.design') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]", out

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from bokeh.models import ColumnDataSource
 
-from vibtrans import design
+from vibtrans.products import design
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import mapjobs
 from vibtrans_explorer.views.design import DesignPanel
@@ -191,7 +191,7 @@ def test_the_design_tab_is_built_when_first_opened():
 
 
 # ---------------------------------------------------------------- custom materials
-from vibtrans import units                                                      # noqa: E402
+from vibtrans.core import units  # noqa: E402
 from vibtrans_explorer.views import design as D                                 # noqa: E402
 
 # the chart's numbers (every variable but the names in attrs)
@@ -328,7 +328,7 @@ def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
     def fake_export(chart_, out, device=None):
         seen.update(chart=chart_, device=device)
         open(out, "wb").write(b"x")
-    monkeypatch.setattr("vibtrans.export.export_design", fake_export)
+    monkeypatch.setattr("vibtrans.products.export.export_design", fake_export)
     assert buttons["svg"].callback().getvalue() == b"x"
     assert seen == {"chart": chart, "device": (1e5, 5e-8)}
 

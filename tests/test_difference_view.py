@@ -1,5 +1,5 @@
 """The explorer's Difference tab (issue 16, item 6) and the downloads of a
-map on demand: the tab shows `vibtrans.mapdiff.map_difference` of the two
+map on demand: the tab shows `vibtrans.maps.difference.map_difference` of the two
 maps chosen (the library's numbers, checked against a direct call), says
 why when it cannot, and a map on demand shown in the map tab can be
 compared and downloaded (not the shipped map behind it)."""
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.mapdiff import describe, map_difference
+from vibtrans.maps.difference import describe, map_difference
 from vibtrans_explorer import data
 from vibtrans_explorer.state import ExplorerState
 from vibtrans_explorer.views.difference import COMPUTED, DifferenceView, shipped_label

@@ -1,5 +1,5 @@
 """The stroboscopic map, periodic orbits and their Floquet multipliers
-(vibtrans/dynamics.py).
+(vibtrans/analysis/dynamics.py).
 
 Sources: the closed form of the linearized contact oscillator (small A*:
 the period-1 orbit's multipliers exp(+-i w0), w0 = sqrt(3 / (2 m*)), trace
@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from vibtrans import Scene
-from vibtrans import dynamics as Y
-from vibtrans.errors import InputError
+from vibtrans.analysis import dynamics as Y
+from vibtrans.core.errors import InputError
 
 M_C = 1.5 / (4.0 * math.pi ** 2)        # w0 = 2 pi: the fundamental contact resonance
 

@@ -2,7 +2,7 @@
 section and period-1 orbit, a click on the section seeding a new orbit in a
 new colour (back and clear), the orbit diagram recomputed in a zoomed window
 (back and reset), the material point explained (issue 15, items 2, 3, 5).
-The numbers are vibtrans.dynamics' own, computed here beside the view."""
+The numbers are vibtrans.analysis.dynamics' own, computed here beside the view."""
 import asyncio
 import math
 from concurrent.futures import ThreadPoolExecutor
@@ -12,7 +12,9 @@ import pytest
 from bokeh.events import RangesUpdate, Tap
 
 from asyncutil import until
-from vibtrans import dynamics, paper_scene, plots, simulate
+from vibtrans import paper_scene, simulate
+from vibtrans.analysis import dynamics
+from vibtrans.products import plots
 from vibtrans_explorer.views.dynamics import (DIAGRAM_RUNS, POINT_MASS_TEXT, SECTION_PERIODS,
                                               DynamicsView)
 

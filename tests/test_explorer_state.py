@@ -38,7 +38,7 @@ from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
 from vibtrans import Scene, simulate
-from vibtrans.params import PAPER_POINTS
+from vibtrans.core.params import PAPER_POINTS
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import inputs, urlstate
 from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS
@@ -402,7 +402,8 @@ def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_err
 def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_errors):
     # issue 32: one device form; the Units tab gives the model's validity
     # warnings (design.validity_warnings) as the Design tab does
-    from vibtrans import design, units
+    from vibtrans.core import units
+    from vibtrans.products import design
     ex = _open(monkeypatch)
     bead = design.validity_warnings(units.DeviceSpec(
         substrate="glass", particle="steel", radius=5e-4, frequency=108e3, amplitude=1e-9))

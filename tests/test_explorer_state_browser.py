@@ -15,7 +15,7 @@ from urllib.parse import parse_qs
 import pytest
 
 from devtools.chromium import launched
-from vibtrans.params import PAPER_POINTS
+from vibtrans.core.params import PAPER_POINTS
 
 pytestmark = pytest.mark.browser
 

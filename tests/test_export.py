@@ -1,4 +1,4 @@
-"""Headless figure export (vibtrans.export, `vibtrans export`): no display,
+"""Headless figure export (vibtrans.products.export, `vibtrans export`): no display,
 no browser; exact pixel sizes; labels in SVG; PDF; the app's figures and the
 exported ones plot the same data; bad command lines exit 2 with one line.
 
@@ -17,13 +17,15 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans import cli, export, plots
-from vibtrans.analysis import twin_scene
-from vibtrans.contact import STATE_NAMES
-from vibtrans.params import paper_scene
-from vibtrans.simulate import memory_snapshot, simulate
-from vibtrans.sweep import Sweep, open_map, run_sweep
-from vibtrans.threshold import threshold_curve
+from vibtrans import cli
+from vibtrans.products import export
+from vibtrans.products import plots
+from vibtrans.analysis.summary import twin_scene
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.core.params import paper_scene
+from vibtrans.core.simulate import memory_snapshot, simulate
+from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+from vibtrans.core.threshold import threshold_curve
 
 ROOT = Path(__file__).resolve().parent.parent
 PERIODS = 50
@@ -529,7 +531,7 @@ def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, mon
 def test_export_bench_measures_each_format(monkeypatch):
     # `vibtrans bench --export` runs and reports what it says (times are
     # printed, never asserted); a short run keeps this quick
-    from vibtrans import bench
+    from vibtrans.tools import bench
     real = bench.paper_scene
     monkeypatch.setattr(bench, "paper_scene", lambda point: real(point, periods=20.0))
     r = bench.export_bench(quick=True)

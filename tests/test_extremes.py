@@ -31,9 +31,9 @@ import warnings
 import numpy as np
 import pytest
 
-from vibtrans import records as R
-from vibtrans.analysis import summarize
-from vibtrans.simulate import simulate
+from vibtrans.core.kernels import records as R
+from vibtrans.analysis.summary import summarize
+from vibtrans.core.simulate import simulate
 
 PERIODS = 2000.0
 LOG_A = (-3, 3)

@@ -41,18 +41,18 @@ import numpy as np
 import pytest
 
 from kernel_harness import hertz_energy
-from vibtrans import records as R
-from vibtrans.analysis import V0, chaos_verdict, drift_velocity, summarize
-from vibtrans.contact import STICK
-from vibtrans.fidelity import STATED_DRIFT_ERROR, time_step
-from vibtrans.integrators import INTEGRATORS
-from vibtrans.models import deformable as D
-from vibtrans.models.vertical import vertical_kernel
-from vibtrans.params import Scene
-from vibtrans.simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded, estimate_steps, simulate
+from vibtrans.core.kernels import records as R
+from vibtrans.analysis.summary import V0, chaos_verdict, drift_velocity, summarize
+from vibtrans.core.kernels.contact import STICK
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR, time_step
+from vibtrans.core.kernels.integrators import INTEGRATORS
+from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels.vertical import vertical_kernel
+from vibtrans.core.params import Scene
+from vibtrans.core.simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded, estimate_steps, simulate
 
-# the module itself: `vibtrans.simulate` as an attribute is the function
-S = importlib.import_module("vibtrans.simulate")
+# the module itself: `vibtrans.core.simulate` as an attribute is the function
+S = importlib.import_module("vibtrans.core.simulate")
 
 STATES = {0, 1, 2, 3}
 MID = dict(amplitude=1.0, mass=1.0, mu=0.505, theta=1.1944, nu=0.25, tau=50.0)

@@ -9,7 +9,7 @@ import pytest
 
 from kernel_harness import free_oscillator, hertz_energy
 from vibtrans import paper_scene, simulate
-from vibtrans.analysis import V0, drift_velocity
+from vibtrans.analysis.summary import V0, drift_velocity
 
 REL = 1e-3   # the bar: integrators and step halving agree to 1e-3
 

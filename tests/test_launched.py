@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibtrans import analysis as an
+from vibtrans.analysis import summary as an
 from vibtrans import paper_scene, simulate
 from vibtrans.cli import main
-from vibtrans.params import Scene
-from vibtrans.sweep import DRIFTS, PATTERNS, SCENE_KEYS, compute_point, open_map
+from vibtrans.core.params import Scene
+from vibtrans.maps.sweep import DRIFTS, PATTERNS, SCENE_KEYS, compute_point, open_map
 
 MAPS = Path(__file__).resolve().parent.parent / "assets" / "maps"
 # the upper right of both maps: log10 A* = 2.5, log10 m* = 3 (issue 14)

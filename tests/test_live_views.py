@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vibtrans import paper_scene, simulate
-from vibtrans.plots import binned
+from vibtrans.products.plots import binned
 from vibtrans_explorer.live import LiveTrajectory, right_columns
 
 
@@ -75,7 +75,7 @@ def test_both_models_draw_into_one_set_of_figures():
     (1.9 s in chromium).  The point mass's panels are the deformable
     particle's with fewer quantities: the same figures show the model of
     the run, each quantity on its own axis, as plots.panel_spec says."""
-    from vibtrans.plots import panel_spec
+    from vibtrans.products.plots import panel_spec
     deformable = simulate(paper_scene(4).replace(periods=40.0), window=(38.0, 40.0))
     point = simulate(paper_scene(10).replace(periods=40.0), window=(38.0, 40.0))
     view = LiveTrajectory(None, 2.0, 50.0)

@@ -15,13 +15,14 @@ import numpy as np
 import pytest
 
 import naive
-from vibtrans import Scene, drivers, paper_scene, simulate
-from vibtrans import records as R
-from vibtrans.analysis import CHAOS_LYAPUNOV, summarize, twin_scene
-from vibtrans.fidelity import time_step
-from vibtrans.models import deformable as D
-from vibtrans.substrate import vertical_displacement
-from vibtrans.threshold import threshold_amplitude
+from vibtrans import Scene, paper_scene, simulate
+from vibtrans.core import drivers
+from vibtrans.core.kernels import records as R
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize, twin_scene
+from vibtrans.core.fidelity import time_step
+from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels.substrate import vertical_displacement
+from vibtrans.core.threshold import threshold_amplitude
 
 
 # ------------------------------------------------------------ the tangent map
@@ -225,8 +226,8 @@ def test_impact_map_jacobian_against_an_independent_bouncing_ball():
     """Paper point 10 (chaotic hopping): from each of its first impacts after
     the ramp, the independent scan-and-brentq flight of tests/naive.py lands
     where the kernel's event says (to 1e-12), and central differences of
-    that flight equal dynamics.impact_jacobian (to 1e-5)."""
-    from vibtrans.dynamics import impact_jacobian
+    that flight equal lyapunov.impact_jacobian (to 1e-5)."""
+    from vibtrans.core.lyapunov import impact_jacobian
     scene = paper_scene(10)
     _, t = _impacts(scene)
     A, m, tau = scene.amplitude, scene.mass, scene.tau
@@ -249,7 +250,7 @@ def test_point_mass_exponent_is_the_impact_maps():
     run's impacts after the ramp: over its first 12 impacts, recomputed
     here with the naive flights' finite-difference Jacobians along the
     kernel's impacts; and paper point 10 is chaotic by it."""
-    from vibtrans.dynamics import impact_lyapunov
+    from vibtrans.core.lyapunov import impact_lyapunov
     scene = paper_scene(10)
     ds, t = _impacts(scene)
     assert ds.attrs["lyapunov"] > 2 * CHAOS_LYAPUNOV
@@ -287,7 +288,7 @@ def test_a_capture_forgets_every_perturbation():
     """A landing without a take-off (the point rides the surface) after the
     ramp: the detachment's phase is the surface's alone, so the exponent
     is -inf (superstable), and the run is not chaotic."""
-    from vibtrans.dynamics import impact_lyapunov
+    from vibtrans.core.lyapunov import impact_lyapunov
     ev = np.array([[400.0, R.LANDING, 0.0], [400.0, R.TAKEOFF, 0.0],
                    [401.3, R.LANDING, 0.3], [401.9, R.TAKEOFF, 0.9],
                    [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
@@ -316,8 +317,8 @@ def test_sweeps_store_the_exponent_and_judge_chaos_by_it(tmp_path):
     exponent and its verdict, runs no twin (steps are the run's alone); a
     lyapunov sweep of the vertical model stores the same exponents; both
     verify, resume, and refuse a command of the other kind or source."""
-    from vibtrans.errors import StoreMismatch
-    from vibtrans.sweep import Sweep, open_map, run_sweep
+    from vibtrans.core.errors import StoreMismatch
+    from vibtrans.maps.sweep import Sweep, open_map, run_sweep
     la, lm = np.array([0.5, 1.7]), np.array([-2.0, 0.0])
     common = dict(periods=400.0, chunk_rows=1)
     transport = Sweep(la, lm, model="deformable", **common)
@@ -347,8 +348,8 @@ def test_sweeps_store_the_exponent_and_judge_chaos_by_it(tmp_path):
 
 
 def test_a_lyapunov_sweep_needs_the_vertical_model():
-    from vibtrans.errors import InputError
-    from vibtrans.sweep import Sweep
+    from vibtrans.core.errors import InputError
+    from vibtrans.maps.sweep import Sweep
     with pytest.raises(InputError, match="vertical model"):
         Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="deformable")
     Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="point-mass")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from bokeh.models import ColorBar, HoverTool, Legend
 
-from vibtrans.plots import RESONANCE_LABEL
+from vibtrans.products.plots import RESONANCE_LABEL
 from vibtrans_explorer import data
 from vibtrans_explorer.state import ExplorerState
 from vibtrans_explorer.views.map import LYAPUNOV_LAYER, MapView, map_figure

@@ -13,10 +13,11 @@ import pytest
 import xarray as xr
 from bokeh.models import ColorBar, FixedTicker, GlyphRenderer, Legend, Patch
 
-from vibtrans import export, plots
-from vibtrans.contact import STATE_NAMES
-from vibtrans.params import paper_scene
-from vibtrans.simulate import simulate
+from vibtrans.products import export
+from vibtrans.products import plots
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.core.params import paper_scene
+from vibtrans.core.simulate import simulate
 
 LA = np.array([-1.0, 0.0, 1.0, 2.0])
 LM = np.array([-2.0, 0.0, 2.0])

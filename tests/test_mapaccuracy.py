@@ -1,9 +1,9 @@
-"""The map request's accuracy line (vibtrans/mapaccuracy.py): the nearest
+"""The map request's accuracy line (vibtrans/maps/accuracy.py): the nearest
 measured setting, and the measured table against a fresh measurement of
 one setting on a small window (devtools.map_accuracy's own computation)."""
 import pytest
 
-from vibtrans import mapaccuracy as A
+from vibtrans.maps import accuracy as A
 
 
 def test_the_nearest_measured_setting_is_named():

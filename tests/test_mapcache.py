@@ -1,4 +1,4 @@
-"""The shared map cache (vibtrans/mapcache.py, issue 16 item 4): keyed by
+"""The shared map cache (vibtrans/maps/cache.py, issue 16 item 4): keyed by
 the request and the code version, computed once however many ask, verified
 on every open (a damaged entry is recomputed, never shown), least recently
 used entries evicted beyond the size cap.  Tiny sweeps (6 points, short
@@ -11,10 +11,10 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from vibtrans import mapcache
-from vibtrans.errors import InputError
-from vibtrans.mapcache import TEMPORARY, MapCache, request_key
-from vibtrans.sweep import Sweep, open_map, parse_range, run_sweep
+from vibtrans.maps import cache as mapcache
+from vibtrans.core.errors import InputError
+from vibtrans.maps.cache import TEMPORARY, MapCache, request_key
+from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
 
 REQUEST = {"model": "deformable", "mu": 0.3, "periods": 60.0, "tau": 10.0,
            "log_amplitude": "0:1:0.5", "log_mass": "-1:0:1"}

@@ -1,4 +1,4 @@
-"""Two maps compared (vibtrans/mapdiff.py, issue 16 item 6): hand-made maps
+"""Two maps compared (vibtrans/maps/difference.py, issue 16 item 6): hand-made maps
 whose differences are known, the signed log scale's closed form, and the
 command line on the shipped maps."""
 import subprocess
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.errors import InputError
-from vibtrans.mapdiff import describe, map_difference, signed_log
+from vibtrans.core.errors import InputError
+from vibtrans.maps.difference import describe, map_difference, signed_log
 
 GRID = ("log_amplitude", "log_mass")
 

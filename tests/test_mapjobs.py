@@ -97,7 +97,7 @@ def test_a_new_request_of_a_session_cancels_its_previous_one(jobs, gate):
 
 
 def test_cancel_stops_the_map_and_caches_nothing_but_spares_other_sessions(jobs, gate):
-    from vibtrans.mapcache import request_key
+    from vibtrans.maps.cache import request_key
     alone, shared_a, shared_b = Listener(), Listener(), Listener()
     request = MapRequest(**TINY)
     jobs.submit("a", request, alone)
@@ -269,7 +269,7 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         deadline = time.monotonic() + 120
         while remote._running and time.monotonic() < deadline:
             time.sleep(0.1)
-        from vibtrans.mapcache import request_key
+        from vibtrans.maps.cache import request_key
         assert not remote._running
         assert remote.cache.get(request_key(bigger.cache_request())) is None
 
@@ -425,7 +425,7 @@ def test_a_map_is_pictured_within_its_levels(tmp_path, monkeypatch):
     """Every CHUNK_SECONDS within a refinement level, the map so far: chunk
     updates between the levels, each a complete picture (no NaN), their
     computed points growing, the last update the map."""
-    from vibtrans import adaptive
+    from vibtrans.maps import adaptive
     monkeypatch.setattr(mapjobs, "CHUNK_SECONDS", 0.0)
     monkeypatch.setattr(adaptive, "POINTS_PER_TASK", 1)
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)

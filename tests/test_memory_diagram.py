@@ -1,4 +1,4 @@
-"""Tests for vibtrans.contact: the memory diagram (MMD) of Cattaneo-Mindlin contact.
+"""Tests for vibtrans.core.kernels.contact: the memory diagram (MMD) of Cattaneo-Mindlin contact.
 
 Sources: closed forms of docs/MODEL.md section 7 (Cattaneo-Mindlin, Mindlin-Deresiewicz,
 Masing), the spring-bed rules of docs/MODEL.md section 2, and the slow spring-bed twin
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from vibtrans.contact import (
+from vibtrans.core.kernels.contact import (
     FLIGHT,
     PARTIAL_SLIP,
     SLIDING,

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from vibtrans import Cancelled, paper_scene
-from vibtrans.errors import InputError
-from vibtrans.simulate import MAX_SNAPSHOTS, memory_snapshot, memory_snapshots
+from vibtrans.core.errors import InputError
+from vibtrans.core.simulate import MAX_SNAPSHOTS, memory_snapshot, memory_snapshots
 
 KEYS = ("t", "a", "b", "h", "w", "u", "stick_depth", "state")
 # Rounding only (drivers.run_memory_stops): each stop restarts the kernel's

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from asyncutil import until
-from vibtrans import paper_scene, plots
-from vibtrans.simulate import memory_snapshot, memory_snapshots
+from vibtrans import paper_scene
+from vibtrans.products import plots
+from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans_explorer import urlstate
 from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times
 

@@ -13,7 +13,7 @@ import pytest
 
 from netutil import free_port
 from vibtrans import paper_scene
-from vibtrans.simulate import memory_snapshot
+from vibtrans.core.simulate import memory_snapshot
 from vibtrans_explorer.views.memory import MemoryView
 
 from devtools.chromium import launched

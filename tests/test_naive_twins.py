@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 import naive
-from vibtrans import records as R
+from vibtrans.core.kernels import records as R
 from vibtrans import simulate
-from vibtrans.params import Scene
+from vibtrans.core.params import Scene
 
 # ------------------------------------------------------------------ one Hertz step
 STEP_SCENES = [  # (A*, m*): permanent contact, period-limited and contact-limited step

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from vibtrans import paper_scene, simulate
-from vibtrans.analysis import V0, summarize
-from vibtrans.fidelity import STATED_DRIFT_ERROR
+from vibtrans.analysis.summary import V0, summarize
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 
 _CACHE = {}
 

@@ -3,8 +3,9 @@ dominant state per time bin (vectorised; checked against the plain loop)."""
 import numpy as np
 import pytest
 
-from vibtrans import Scene, plots, simulate
-from vibtrans.contact import STATE_NAMES
+from vibtrans import Scene, simulate
+from vibtrans.products import plots
+from vibtrans.core.kernels.contact import STATE_NAMES
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Tests for vibtrans.models.point_mass: the material point on a rigid substrate.
+"""Tests for vibtrans.core.kernels.point_mass: the material point on a rigid substrate.
 
 Sources: docs/MODEL.md sections 1, 3, 6 (the contract), and the paper's section
 "Dynamics of a material point" (Terzi et al., eqs. sticking_sliding_condition,
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from vibtrans import drivers
-from vibtrans import records as R
-from vibtrans.contact import FLIGHT, SLIDING, STICK
-from vibtrans.models import point_mass as pm
-from vibtrans.substrate import surface_motion
+from vibtrans.core import drivers
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import FLIGHT, SLIDING, STICK
+from vibtrans.core.kernels import point_mass as pm
+from vibtrans.core.kernels.substrate import surface_motion
 
 MU, R_NU, THETA = 0.3, 0.656, 1.2
 P9 = (10**2.7, 10**-4.4)    # docs/MODEL.md section 6, point 9
@@ -28,7 +28,7 @@ def run_point_mass(A, m, mu=MU, theta=THETA, r=R_NU, tau=50.0, periods=2000.0,
                    alpha_t=0.5, stick_rule=0, samples_per_period=8, scan_dt=1.0 / 64.0,
                    window=(math.inf, math.inf), capture_t=None):
     """The material point from rest through the production driver
-    (vibtrans.drivers.run_point_mass): (samples, events, counters, final
+    (vibtrans.core.drivers.run_point_mass): (samples, events, counters, final
     state t, x, vx, y, vy).  samples_per_period = 0: no coarse samples;
     `window` = (t0, t1): every scan step and both sides of every event
     inside it; capture_t overrides point_mass.CAPTURE_T."""

@@ -8,8 +8,8 @@ study measured 1.6% and 0.01% (`vibtrans bench --work-precision`).
 """
 import pytest
 
-from vibtrans import fidelity as F
-from vibtrans import workprecision as WP
+from vibtrans.core import fidelity as F
+from vibtrans.tools import workprecision as WP
 
 
 @pytest.fixture(scope="module")

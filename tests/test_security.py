@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from vibtrans.cli import build_parser
-from vibtrans.errors import InputError
+from vibtrans.core.errors import InputError
 from vibtrans_explorer.server import origins as _origins
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -23,7 +23,7 @@ SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
 # blank-page check and the deployment start `vibtrans serve`, the deployment
 # nginx; the sweep's process pool): argument lists, no shell
 SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/firstpage.py", "devtools/blankpage.py",
-                 "devtools/deploy/__init__.py", "vibtrans/bench.py", "vibtrans/sweep.py"}
+                 "devtools/deploy/__init__.py", "vibtrans/tools/bench.py", "vibtrans/maps/sweep.py"}
 
 
 # ------------------------------------------------------------------ no code from input

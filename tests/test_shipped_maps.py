@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.params import PAPER_POINTS
-from vibtrans.sweep import DRIFTS, PATTERNS, open_map
+from vibtrans.core.params import PAPER_POINTS
+from vibtrans.maps.sweep import DRIFTS, PATTERNS, open_map
 
 MAPS = Path(__file__).resolve().parent.parent / "assets" / "maps"
 
@@ -111,7 +111,7 @@ def test_shipped_map_is_what_this_code_computes(maps, model):
     # (paper points 1, 4, 6 and two others) and compare.  Bit-identical here;
     # 1e-9 relative leaves room for another CPU's code generation (numba
     # compiles for the host: FMA contraction may round differently).
-    from vibtrans.sweep import compute_point
+    from vibtrans.maps.sweep import compute_point
     ds = maps[model]
     values = {k: ds.attrs[f"scene_{k}"] for k in SCENE_KEYS if f"scene_{k}" in ds.attrs}
     cells = [(PAPER_POINTS[p][0], PAPER_POINTS[p][1]) for p in (1, 4, 6)] + [(-1.0, 2.0),

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from vibtrans import paper_scene, simulate
-from vibtrans.analysis import V0, drift_velocity
-from vibtrans.models import deformable as D
+from vibtrans.analysis.summary import V0, drift_velocity
+from vibtrans.core.kernels import deformable as D
 
 NON_CHAOTIC = (1, 2, 3, 4, 6, 7)
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans import analysis
+from vibtrans.analysis import summary as analysis
 from vibtrans.cli import main
-from vibtrans.params import PAPER_POINTS
+from vibtrans.core.params import PAPER_POINTS
 
 
 def _run(x_of_t, periods=2000.0, n=4001):

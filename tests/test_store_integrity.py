@@ -24,7 +24,7 @@ import xarray as xr
 
 from vibtrans_explorer import data
 from vibtrans.cli import main
-from vibtrans.sweep import StoreMismatch, open_map, open_vertical
+from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
 
 # ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
 pytestmark = pytest.mark.slow

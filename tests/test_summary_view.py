@@ -3,7 +3,7 @@ the tau twin's cost apart (issue 14: with the point-mass comparison the
 summary showed only the deformable numbers, and the cost row silently added
 the twin's steps)."""
 from vibtrans import paper_scene, simulate
-from vibtrans.analysis import summarize, twin_scene
+from vibtrans.analysis.summary import summarize, twin_scene
 from vibtrans_explorer.views.summary import summary_table as _summary_table
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
+from vibtrans.maps.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
                             parse_range, run_sweep)
 
 SMALL = dict(periods=120.0, tau=10.0)
@@ -58,10 +58,10 @@ def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lya
     """A map point summarizes its run's arrays (trajectory.RunArrays) instead
     of the run's Dataset (`simulate`): the same arrays, attributes and
     summary, bit for bit, whatever the time a run took."""
-    from vibtrans.analysis import summarize
-    from vibtrans.params import Scene
-    from vibtrans.simulate import run_records, simulate
-    from vibtrans.trajectory import RunArrays
+    from vibtrans.analysis.summary import summarize
+    from vibtrans.core.params import Scene
+    from vibtrans.core.simulate import run_records, simulate
+    from vibtrans.core.trajectory import RunArrays
     scene = Scene(amplitude=10.0 ** la, mass=10.0 ** lm, model=model, periods=150.0,
                   tau=10.0, fidelity="preview")
     ds = simulate(scene, lyapunov=lyapunov)

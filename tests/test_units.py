@@ -1,11 +1,11 @@
-"""Tests for vibtrans.units: materials, Rayleigh wave, Hertz contact, SI <-> normalized."""
+"""Tests for vibtrans.core.units: materials, Rayleigh wave, Hertz contact, SI <-> normalized."""
 
 import math
 
 import numpy as np
 import pytest
 
-from vibtrans import units as u
+from vibtrans.core import units as u
 
 # Paper's worked example (docs/MODEL.md section 5): steel sphere of DIAMETER 1 mm on glass.
 R_EXAMPLE = 0.5e-3

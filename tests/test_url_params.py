@@ -36,10 +36,10 @@ from vibtrans_explorer import explorer as E
 from vibtrans_explorer.explorer import URL_KEYS, Explorer, ExplorerState
 from vibtrans_explorer.state import URL_ALIASES
 from vibtrans.cli import main
-from vibtrans.params import Scene
+from vibtrans.core.params import Scene
 
 # the module (the package's `simulate` attribute is the function)
-S = importlib.import_module("vibtrans.simulate")
+S = importlib.import_module("vibtrans.core.simulate")
 
 NUMERIC = {name: ExplorerState.param[name].bounds for name in URL_KEYS
            if not hasattr(ExplorerState.param[name], "objects")}
@@ -341,7 +341,7 @@ def test_valid_url_is_applied_without_message(url_session):
 
 
 # ------------------------------------------------------------------ vibtrans simulate
-DOMAIN = {  # CLI option -> membership test of its valid values (vibtrans/params.py)
+DOMAIN = {  # CLI option -> membership test of its valid values (vibtrans/core/params.py)
     "--amplitude": lambda v: 0 <= v < math.inf, "--mass": lambda v: 0 < v < math.inf,
     "--mu": lambda v: 0 < v < math.inf, "--theta": lambda v: 1 <= v <= 1.5,
     "--nu": lambda v: 0 < v < 0.5, "--tau": lambda v: 0 <= v < math.inf,

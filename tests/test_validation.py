@@ -1,6 +1,6 @@
 """Bad input at the API (Scene, simulate) and at the command line.
 
-Contract (docs/MODEL.md section 1; vibtrans/params.py, vibtrans/cli.py): a value
+Contract (docs/MODEL.md section 1; vibtrans/core/params.py, vibtrans/cli.py): a value
 outside its physical domain, non-finite, or of the wrong type is a clear error
 naming the parameter and its valid range; never a silent NaN, never a clamp.
 The CLI answers bad input with exit status 2 and ONE line on stderr.
@@ -17,11 +17,11 @@ import xarray as xr
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from vibtrans.analysis import summarize
+from vibtrans.analysis.summary import summarize
 from vibtrans.cli import main
-from vibtrans.params import Scene, paper_scene
-from vibtrans.simulate import Cancelled, StepBudgetExceeded, estimate_steps, simulate
-from vibtrans.threshold import first_takeoff, threshold_amplitude
+from vibtrans.core.params import Scene, paper_scene
+from vibtrans.core.simulate import Cancelled, StepBudgetExceeded, estimate_steps, simulate
+from vibtrans.core.threshold import first_takeoff, threshold_amplitude
 
 NAN, INF = float("nan"), float("inf")
 

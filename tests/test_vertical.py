@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from vibtrans import simulate
-from vibtrans.analysis import summarize
-from vibtrans.threshold import (first_takeoff, point_mass_sliding_threshold,
+from vibtrans.analysis.summary import summarize
+from vibtrans.core.threshold import (first_takeoff, point_mass_sliding_threshold,
                                 point_mass_threshold, threshold_amplitude)
 
 

@@ -12,12 +12,13 @@ import importlib
 import sys
 import types
 
-from .version import __version__
+from vibtrans.version import __version__
 
 # public name -> the submodule defining it
-_LAZY = {"Scene": "params", "paper_scene": "params", "PAPER_POINTS": "params",
-         "Cancelled": "errors", "StepBudgetExceeded": "errors", "warmup": "precompile",
-         "maps_dir": "shipped", "simulate": "simulate", "estimate_steps": "simulate"}
+_LAZY = {"Scene": "core.params", "paper_scene": "core.params", "PAPER_POINTS": "core.params",
+         "Cancelled": "core.errors", "StepBudgetExceeded": "core.errors",
+         "warmup": "core.precompile", "maps_dir": "maps.shipped",
+         "simulate": "core.simulate", "estimate_steps": "core.simulate"}
 
 __all__ = ["Scene", "paper_scene", "PAPER_POINTS", "simulate", "estimate_steps",
            "Cancelled", "StepBudgetExceeded", "warmup", "maps_dir", "__version__"]
@@ -31,14 +32,6 @@ class _Package(types.ModuleType):
         value = getattr(importlib.import_module(f".{where}", __name__), name)
         setattr(self, name, value)
         return value
-
-    def __setattr__(self, name, value):
-        # importing the submodule vibtrans.simulate binds it as this
-        # package's attribute `simulate`; the attribute stays the function
-        # (as when it was imported eagerly here)
-        if name == "simulate" and isinstance(value, types.ModuleType):
-            value = value.simulate
-        super().__setattr__(name, value)
 
     def __dir__(self):
         return sorted({*super().__dir__(), *_LAZY})

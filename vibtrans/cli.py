@@ -10,9 +10,9 @@ import os
 import shutil
 import sys
 
-from .version import __version__
-from .errors import InputError
-from .outfiles import atomic, check_file, check_folder
+from vibtrans.version import __version__
+from vibtrans.core.errors import InputError
+from vibtrans.maps.outfiles import atomic, check_file, check_folder
 
 
 class _Parser(argparse.ArgumentParser):
@@ -60,7 +60,7 @@ def _log10_value(name, value):
 
 
 def scene_from_args(args):
-    from .params import Scene
+    from vibtrans.core.params import Scene
     amplitude = (args.amplitude if args.log_amplitude is None
                  else _log10_value("log_amplitude", args.log_amplitude))
     mass = args.mass if args.log_mass is None else _log10_value("log_mass", args.log_mass)
@@ -87,8 +87,8 @@ def _jsonable(value):
 
 
 def cmd_simulate(args):
-    from .analysis import jumped, summarize, twin_scene
-    from .simulate import simulate
+    from vibtrans.analysis.summary import jumped, summarize, twin_scene
+    from vibtrans.core.simulate import simulate
     scene = scene_from_args(args)
     if args.out:
         check_file(args.out)      # before the run: a bad path costs no simulation
@@ -134,7 +134,7 @@ def _orbit_json(orbit):
 def cmd_orbit(args):
     """A period-k orbit of the vertical motion's stroboscopic map (Newton
     shooting), or its continuation along log10 A* or log10 m*."""
-    from . import dynamics as Y
+    from vibtrans.analysis import dynamics as Y
     scene = scene_from_args(args)
     period = _finite("period", args.period, 1, 64, integer=True)
     if args.guess == "run":
@@ -177,7 +177,7 @@ def cmd_orbit(args):
 
 
 def cmd_threshold(args):
-    from .threshold import point_mass_threshold, threshold_amplitude
+    from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude
     if args.sweep:
         return _threshold_sweep(args)
     if args.mass is None:
@@ -195,8 +195,8 @@ def cmd_threshold(args):
 
 
 def _threshold_sweep(args):
-    from .sweep import command_line, parse_range
-    from .threshold import threshold_curve
+    from vibtrans.maps.sweep import command_line, parse_range
+    from vibtrans.core.threshold import threshold_curve
     log_mass = parse_range(args.log_mass, "log_mass")
     out = args.out or "vertical.nc"
     check_file(out)
@@ -210,7 +210,7 @@ def _threshold_sweep(args):
 
 
 def cmd_bench(args):
-    from .bench import main as bench_main
+    from vibtrans.tools.bench import main as bench_main
     if args.plot is not None:
         check_file(args.plot, "plot")
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
@@ -219,7 +219,7 @@ def cmd_bench(args):
 
 
 def cmd_sweep(args):
-    from .sweep import Sweep, command_line, parse_range, run_sweep
+    from vibtrans.maps.sweep import Sweep, command_line, parse_range, run_sweep
     sweep = Sweep(parse_range(args.log_amplitude, "log_amplitude"),
                   parse_range(args.log_mass, "log_mass"), chunk_rows=args.chunk_rows,
                   command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
@@ -232,7 +232,7 @@ def cmd_sweep(args):
         raise InputError("--max-level and --drift-tolerance refine an adaptive map: add "
                          "--adaptive")
     if args.adaptive:
-        from .adaptive import DEFAULT_DRIFT_TOLERANCE, check_levels, check_tolerance
+        from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE, check_levels, check_tolerance
         if args.kind != "transport":
             raise InputError(f"--adaptive makes drift maps (--kind transport), not "
                              f"--kind {args.kind}")
@@ -250,7 +250,7 @@ def cmd_sweep(args):
     check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
     try:
         if args.adaptive:
-            from .adaptive import run_adaptive
+            from vibtrans.maps.adaptive import run_adaptive
             fraction = run_adaptive(sweep, out, args.max_level, tol, workers=args.workers,
                                     scheduler=args.scheduler)
             print(out)
@@ -317,7 +317,8 @@ def units_name(m):
 
 def cmd_design(args):
     from pathlib import Path
-    from . import design, units
+    from vibtrans.products import design
+    from vibtrans.core import units
     pre = design.preset(args.preset) if args.preset else None
     device_values = {}
     for q in design.AXES:
@@ -381,7 +382,7 @@ def cmd_design(args):
         if ext in (".nc", ".csv"):
             design.write_chart_data(chart, out)
         else:
-            from .export import export_design
+            from vibtrans.products.export import export_design
             mark = None if device is None else (getattr(device, x[0]), getattr(device, y[0]))
             export_design(chart, out, device=mark)
     if args.json:
@@ -434,7 +435,7 @@ def _finite(name, value, lo=None, hi=None, integer=False):
 def _export_scene(args):
     """The scene of `export trajectory|memory`: --point, or --log-amplitude
     and --log-mass (with --model, --mu, --periods, --fidelity)."""
-    from .params import PAPER_POINTS, Scene
+    from vibtrans.core.params import PAPER_POINTS, Scene
     if args.point is not None:
         if args.log_amplitude is not None or args.log_mass is not None:
             raise InputError("point: give either --point or --log-amplitude/--log-mass, not both")
@@ -464,8 +465,8 @@ def _export_sizes(args):
 def cmd_export(args):
     from pathlib import Path
 
-    from . import export as E
-    from .analysis import twin_scene
+    from vibtrans.products import export as E
+    from vibtrans.analysis.summary import twin_scene
     kind = args.kind
     if kind == "paper":
         if Path(args.out).suffix.lower() in (".png", ".svg", ".pdf", ".html"):
@@ -486,7 +487,7 @@ def cmd_export(args):
         raise InputError(f"maps: no such folder {str(maps)!r} (give --maps PATH or set "
                          f"VIBTRANS_ASSETS)")
     if kind == "heatmap":
-        from .sweep import open_map
+        from vibtrans.maps.sweep import open_map
         model = args.model or "deformable"
         path = E.map_path(maps, model, args.mu)
         if not path.exists():
@@ -514,7 +515,7 @@ def cmd_export(args):
                 raise InputError(f"window must satisfy 0 <= T0 < T1 <= {T:g} (periods), "
                                  f"got {args.window[0]} {args.window[1]}")
         window = window or (max(0.0, T - E.FRAGMENT), T)
-        from .simulate import simulate
+        from vibtrans.core.simulate import simulate
         bar, update = _progress_bar("simulate")
         try:
             ds = simulate(scene, window=window, samples_per_period=E.OVERVIEW_SAMPLES,
@@ -528,7 +529,7 @@ def cmd_export(args):
         title = None if args.point is None else E.point_title(int(args.point), scene)
         E.export_trajectory(ds, args.out, window=window, twin=twin, title=title, **sizes)
     elif kind == "memory":
-        from .simulate import memory_snapshot
+        from vibtrans.core.simulate import memory_snapshot
         if args.t is None:
             raise InputError("t: export memory needs --t TIME (periods)")
         t = _finite("t", args.t, 0, float(args.periods) if isinstance(args.periods, float)
@@ -553,13 +554,13 @@ def _export_dynamics(args, kind, maps, sizes):
     """export lyapunov-map | section | orbit-diagram | continuation."""
     import numpy as np
 
-    from . import dynamics as Y
-    from . import export as E
-    from . import plots
-    from .analysis import CHAOS_LYAPUNOV
+    from vibtrans.analysis import dynamics as Y
+    from vibtrans.products import export as E
+    from vibtrans.products import plots
+    from vibtrans.analysis.summary import CHAOS_LYAPUNOV
     E.ensure_backends()
     if kind == "lyapunov-map":
-        from .sweep import open_map
+        from vibtrans.maps.sweep import open_map
         path = maps / "vertical-lyapunov.zarr"
         if not path.exists():
             raise InputError(f"maps: no vertical-lyapunov.zarr in {maps}")
@@ -606,7 +607,7 @@ def _open_named_map(text, maps, option):
     map's name (deformable-mu0.3, point-mass-mu0.3, ...)."""
     from pathlib import Path
 
-    from .sweep import open_map
+    from vibtrans.maps.sweep import open_map
     path = Path(text)
     if not path.exists():
         shipped = Path(maps) / (text if text.endswith(".zarr") else text + ".zarr")
@@ -622,9 +623,9 @@ def _open_named_map(text, maps, option):
 
 
 def _export_map_difference(args, maps, v0, sizes):
-    from . import export as E
-    from . import plots
-    from .mapdiff import map_difference
+    from vibtrans.products import export as E
+    from vibtrans.products import plots
+    from vibtrans.maps.difference import map_difference
     if not args.map or not args.other:
         raise InputError("map-difference needs --map A and --other B (a store's path or a "
                          "shipped map's name such as deformable-mu0.3)")
@@ -817,7 +818,7 @@ def build_parser():
                    help="points/s of a sweep on 1 and 2 workers, processes vs threads")
     b.add_argument("--work-precision", action="store_true",
                    help="error against cost of both integrators over a ladder of steps "
-                        "(vibtrans.workprecision; full: a few minutes, --quick: < 30 s)")
+                        "(vibtrans.tools.workprecision; full: a few minutes, --quick: < 30 s)")
     b.add_argument("--plot", help="with --work-precision: write the diagram to FILE.png|svg|pdf")
     b.add_argument("--export", action="store_true",
                    help="seconds to export the explorer's trajectory figure (PNG, SVG, HTML) "
@@ -830,7 +831,7 @@ def build_parser():
 
 
 def _design_parser(sub):
-    from .designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES
+    from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, MAP_STEP, PRESET_NAMES
     d = sub.add_parser(
         "design", help="design chart in device units: drift velocity over two of frequency, "
                        "radius and amplitude, regimes, validity warnings")

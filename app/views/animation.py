@@ -47,9 +47,11 @@ from bokeh.models import (Circle, ColumnDataSource, CustomJS, Div, Label, Line, 
                           Scatter, Segment, Select, Slider, Title, Toggle, VArea)
 from bokeh.plotting import figure
 
-from vibtrans import Scene, plots, substrate
-from vibtrans.contact import STATE_NAMES
-from vibtrans.errors import InputError, InputTypeError
+from vibtrans import Scene
+from vibtrans.products import plots
+from vibtrans.core.kernels import substrate
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.core.errors import InputError, InputTypeError
 
 MAX_FRAMES = 3000          # frames sent to the browser per run (~0.25 MB)
 SIDE_W, SIDE_H = 620, 300  # the side view's plotting area, pixels (equal scales)
@@ -80,7 +82,7 @@ def _annulus_colours(stick, contact):
 def _example_device():
     """(R / a0, wavelength / a0) of the Units tab's default device, a 0.5 mm
     steel bead on glass at 108 kHz: how far from scale the side view is."""
-    from vibtrans import units
+    from vibtrans.core import units
     radius, frequency = 0.5e-3, 108e3
     n = units.to_normalized("glass", "steel", radius, frequency, 1e-9)
     return radius / n.a0, n.c_R / frequency / n.a0

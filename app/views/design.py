@@ -2,8 +2,8 @@
 explorer.  A device's materials, pre-load and the two chart axes among
 frequency, radius and amplitude (the third fixed at the device's value)
 are typed here; "Draw chart" reads a shipped drift map for them
-(`vibtrans.design.design_chart`, off the event loop) and draws
-`vibtrans.plots.design_figure`.  When no shipped map serves the chart
+(`vibtrans.products.design.design_chart`, off the event loop) and draws
+`vibtrans.products.plots.design_figure`.  When no shipped map serves the chart
 (another mu, theta or nu of the materials, a window outside the shipped
 maps), the tab offers the map it needs as a map on demand (app/mapjobs.py:
 the server's queue, cache and fair share of cores), with its estimated cost
@@ -14,7 +14,7 @@ warnings beside it; "Run this device's scene" runs it in the explorer.
 Below the status line: the chart-wide validity warnings
 (`design.chart_warnings`) and the ranges of a0, contact radius, A* and m*
 over the chart; below the chart, its downloads (figure PNG/SVG/PDF with
-the device marked, `vibtrans.export.export_design`; data netCDF/CSV,
+the device marked, `vibtrans.products.export.export_design`; data netCDF/CSV,
 `design.write_chart_data`).  A material may be given by its three
 properties ("custom (E, nu, rho)": the library's "E=70e9,nu=0.3,rho=2500").
 The preset selector says "custom" once a value differs from the preset's.
@@ -34,9 +34,12 @@ import param
 from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
-from vibtrans import design, mapaccuracy, plots, units
-from vibtrans.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
-from vibtrans.errors import InputError
+from vibtrans.products import design
+from vibtrans.maps import accuracy as mapaccuracy
+from vibtrans.products import plots
+from vibtrans.core import units
+from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
+from vibtrans.core.errors import InputError
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
@@ -795,7 +798,7 @@ class DesignPanel(pn.viewable.Viewer):
                              f"design.{fmt}")
         if fmt not in FIGURE_FORMATS:
             raise ValueError(f"no such download: {fmt!r}")
-        from vibtrans.export import export_design
+        from vibtrans.products.export import export_design
         return exclusively(read_back, functools.partial(export_design, chart,
                                                         device=self.device_mark()),
                            f"design.{fmt}")

@@ -1,7 +1,7 @@
 """The "Difference" tab: two drift maps compared (issue 16, item 6): mu 0.1
 against 0.3, the deformable particle against the material point, a map on
 demand against a shipped map.  The comparison is the library's
-(`vibtrans.mapdiff.map_difference`, drawn by `plots.map_difference_figure`,
+(`vibtrans.maps.difference.map_difference`, drawn by `plots.map_difference_figure`,
 the same as `vibtrans compare`); this view only picks the two maps and
 shows the result."""
 import asyncio
@@ -9,9 +9,9 @@ import logging
 
 import panel as pn
 
-from vibtrans import plots
-from vibtrans.errors import InputError
-from vibtrans.mapdiff import map_difference
+from vibtrans.products import plots
+from vibtrans.core.errors import InputError
+from vibtrans.maps.difference import map_difference
 
 from .. import data
 from .map import MIN_WIDTH

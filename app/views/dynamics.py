@@ -3,8 +3,8 @@
 multipliers, and an orbit diagram along A* or m* that a zoom recomputes.
 
 Plain Bokeh figures fed through ColumnDataSources (as app/views/memory.py),
-drawing what `vibtrans.plots` names (its dimensions' labels, ORBIT_COLORS);
-the computing is `vibtrans.dynamics`' (section, periodic_orbit,
+drawing what `vibtrans.products.plots` names (its dimensions' labels, ORBIT_COLORS);
+the computing is `vibtrans.analysis.dynamics`' (section, periodic_orbit,
 orbit_diagram), in the executor given, cancelled when a newer request or
 run replaces it.  The exports draw the same with HoloViews (`vibtrans
 export section | orbit-diagram`).
@@ -22,7 +22,9 @@ from bokeh.events import RangesUpdate, Tap
 from bokeh.models import ColumnDataSource, Range1d
 from bokeh.plotting import figure
 
-from vibtrans import Cancelled, dynamics, plots
+from vibtrans import Cancelled
+from vibtrans.analysis import dynamics
+from vibtrans.products import plots
 
 from .note import note_pane, say
 

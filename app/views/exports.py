@@ -68,7 +68,7 @@ class ExportsView:
 
     def figure_file(self, kind, fmt):
         """The bytes of a figure download (`map` or `trajectory`)."""
-        from vibtrans import export
+        from vibtrans.products import export
         s = self.state
         if kind == "map":
             map_ds, name = self._map()
@@ -88,7 +88,7 @@ class ExportsView:
     def data_file(self, kind, fmt):
         """The bytes of a data download: the last run (`run`, netCDF or CSV)
         or the map's points inside the map's current view (`map-window`)."""
-        from vibtrans import export
+        from vibtrans.products import export
         if kind == "run":
             if self.result is None:
                 raise ValueError("no run yet")

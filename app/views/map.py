@@ -14,9 +14,9 @@ from bokeh.models import (AllIndices, CDSView, ColorBar, ColumnDataSource, Glyph
                           HoverTool, Legend, Scatter, Selection, Span,
                           UnionRenderers)
 
-from vibtrans import plots
-from vibtrans.analysis import CHAOS_LYAPUNOV, V0
-from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.products import plots
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0
+from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 
 from .. import data
 from ..state import within

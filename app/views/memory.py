@@ -4,12 +4,12 @@ Plain Bokeh figures built once per session and fed new data through their
 ColumnDataSources, as app/live.py does for the trajectories: rendering
 `plots.memory_diagram + plots.contact_circle` through HoloViews took 2.2-3.8 s
 from click to drawn (issue 14), almost all of it building new figures.  The
-figures draw what `vibtrans.plots` defines (memory_geometry, memory_spans,
+figures draw what `vibtrans.products.plots` defines (memory_geometry, memory_spans,
 contact_geometry, its colours and labels; the exports draw the same with
 HoloViews).
 
 After each deformable run (`set_run`) one background run
-(`vibtrans.simulate.memory_snapshots`, in the executor given) computes the
+(`vibtrans.core.simulate.memory_snapshots`, in the executor given) computes the
 diagram at SNAPSHOTS times over the run's last WINDOW periods; the slider
 scrubs through them with no computing.  The time field and its button show
 the diagram at any time of the run (`memory_snapshot`, a run from rest).
@@ -27,8 +27,9 @@ from bokeh.layouts import row
 from bokeh.models import (ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text)
 from bokeh.plotting import figure
 
-from vibtrans import Cancelled, plots
-from vibtrans.simulate import memory_snapshot, memory_snapshots
+from vibtrans import Cancelled
+from vibtrans.products import plots
+from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 
 from .. import inputs
 from .note import note_pane, say

@@ -5,7 +5,7 @@ import math
 
 import panel as pn
 
-from vibtrans.analysis import CHAOS_LYAPUNOV, summarize
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 
 from ..controller import TWIN_LABEL
 from ..state import MAP_MATERIAL

@@ -5,7 +5,7 @@ import logging
 
 import panel as pn
 
-from vibtrans.plots import FRAGMENT
+from vibtrans.products.plots import FRAGMENT
 
 from ..live import LiveTrajectory
 

@@ -7,8 +7,9 @@ import math
 import panel as pn
 import param
 
-from vibtrans import design, units
-from vibtrans.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.core import units
+from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.products import design
 
 from .. import inputs
 from ..state import CUSTOM_MATERIAL, DEVICE_FIELDS, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within

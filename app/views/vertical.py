@@ -10,7 +10,7 @@ from .map import in_document
 from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
-from vibtrans import plots
+from vibtrans.products import plots
 
 from .. import data
 from .render import rendered

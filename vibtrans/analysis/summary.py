@@ -1,0 +1,386 @@
+"""Derived quantities of a trajectory: drift, contact, rebounds, regime.
+
+All in normalized units (docs/MODEL.md section 4).  Functions take the Dataset of
+`simulate` and return plain numbers; `summarize` gathers them in one
+named tuple for the CLI, the sweeps and the app, with one plain-language
+verdict (`Summary.regime`) that never contradicts its numbers.
+"""
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import FLIGHT
+
+V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band)
+TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
+# Chaotic: the vertical motion's largest Lyapunov exponent above this, per
+# period (simulate(..., lyapunov=True)).  Chosen from the exponent's
+# histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
+# |lambda| < ~3e-3 after 1675 periods (log T / T), chaotic ones 0.02-0.2.
+CHAOS_LYAPUNOV = 0.01
+FINAL_FRACTION = 0.1     # the final window: last 10% of the run
+# A drift is steady when its mean velocity over the run's last tenth differs
+# from that over the tenth before by at most this fraction of the larger
+# (or by at most v0*, the "no drift" band): else the run is still
+# accelerating or decelerating, and its mean <v*> depends on its length.
+STEADY_TOLERANCE = 0.1
+SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
+SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
+LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
+LAUNCH_FRACTION = 0.5    # launched: still in flight at the end, since before this fraction of the run
+
+
+def twin_scene(scene):
+    """The chaos check's twin: the scene with its ramp time moved by
+    TWIN_TAU_OFFSET (a regular regime does not notice; a chaotic one ends
+    elsewhere)."""
+    return scene.replace(tau=scene.tau + TWIN_TAU_OFFSET)
+
+
+def jumped(ds):
+    """True if the particle lost contact at least once during the run."""
+    return bool((ds["event_kind"].values == R.TAKEOFF).any())
+
+
+def drift_velocity(ds):
+    """<v_x*> = x*(T_obs) / T_obs, the paper's definition."""
+    t = float(ds["time"].values[-1])
+    return float(ds["x"].values[-1]) / t
+
+
+def final_drift_velocity(ds, fraction=FINAL_FRACTION):
+    """Mean velocity over the last `fraction` of the run."""
+    t = ds["time"].values
+    x = ds["x"].values
+    t1 = float(t[-1])
+    t0 = t1 * (1.0 - fraction)
+    return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
+
+
+def steadiness(ds, v0=V0, fraction=FINAL_FRACTION, tolerance=STEADY_TOLERANCE):
+    """(steady, words) of a run's drift: its mean velocity over the last
+    `fraction` of the run against that over the `fraction` before, in a0
+    per period; steady when they differ by at most `tolerance` of the
+    larger or by at most v0 (STEADY_TOLERANCE)."""
+    t, x = ds["time"].values, ds["x"].values
+    t2 = float(t[-1])
+    t1, t0 = t2 * (1.0 - fraction), t2 * (1.0 - 2.0 * fraction)
+    x0, x1 = np.interp([t0, t1], t, x)
+    v_before = float((x1 - x0) / (t1 - t0))
+    v_last = float((x[-1] - x1) / (t2 - t1))
+    if abs(v_last - v_before) <= max(v0, tolerance * max(abs(v_last), abs(v_before))):
+        return True, (f"steady: the drift over the last two tenths of the run, {v_before:.4g} "
+                      f"then {v_last:.4g}")
+    word = "accelerating" if abs(v_last) > abs(v_before) else "decelerating"
+    return False, (f"not steady: still {word} (drift {v_before:.4g}, then {v_last:.4g} over the "
+                   f"last two tenths of the run); the mean depends on the run's length")
+
+
+def flights(ds):
+    """(take-off, landing) times of every flight; landing = inf if still flying."""
+    to, _ = _events(ds, R.TAKEOFF)
+    la, _ = _events(ds, R.LANDING)
+    starts = np.sort(to)
+    ends = np.full(starts.shape, np.inf)
+    j = np.searchsorted(la, starts, side="right")  # a rebound lands and leaves at once
+    ok = j < la.size
+    ends[ok] = la[j[ok]]
+    return starts, ends
+
+
+def _events(ds, kind):
+    sel = ds["event_kind"].values == kind
+    return ds["event_time"].values[sel], ds["event_value"].values[sel]
+
+
+def contact_fraction(ds, t0=None, t1=None):
+    """Fraction of [t0, t1] spent in contact (default: the final window)."""
+    t_end = float(ds["time"].values[-1])
+    t1 = t_end if t1 is None else t1
+    t0 = t_end * (1.0 - FINAL_FRACTION) if t0 is None else t0
+    starts, ends = flights(ds)
+    if _starts_in_flight(ds):
+        la, _ = _events(ds, R.LANDING)
+        starts = np.concatenate([[0.0], starts])
+        ends = np.concatenate([[la[0] if la.size else np.inf], ends])
+    lo = np.clip(starts, t0, t1)
+    hi = np.clip(ends, t0, t1)
+    return float(1.0 - np.sum(hi - lo) / (t1 - t0))
+
+
+def _starts_in_flight(ds):
+    """A run can start in flight (point mass under a fast ramp): its first
+    state, at t = 0, is FLIGHT."""
+    st_t, st_v = _events(ds, R.STATE_CHANGE)
+    return bool(st_t.size and st_t[0] == 0.0 and st_v[0] == FLIGHT)
+
+
+def open_flight_start(ds):
+    """Start time of the flight still in progress at the end of the run
+    (periods), or None if the run ends in contact.  A run that starts in
+    flight and never lands has been in flight since t* = 0."""
+    starts, ends = flights(ds)
+    if starts.size:
+        return float(starts[-1]) if math.isinf(ends[-1]) else None
+    no_landing = not (ds["event_kind"].values == R.LANDING).any()
+    return 0.0 if _starts_in_flight(ds) and no_landing else None
+
+
+def launch_time(ds, fraction=LAUNCH_FRACTION):
+    """Take-off time (periods) of a launched run, else None.
+
+    Launched: the flight still in progress at the end began before
+    `fraction` of the run, so more than half of the run (by default) is one
+    unfinished flight and <v*> is mostly that flight's horizontal velocity,
+    not a transport regime.  Such a run has no contact in the whole final
+    window (fraction <= 1 - FINAL_FRACTION).  A hopping run that merely ends
+    mid-flight is not launched, even when that flight spans the final
+    window: its flights are shorter (synchronous about 1 period, the long
+    flights between the bursts near paper point 5 about 400).
+    """
+    t0 = open_flight_start(ds)
+    t_end = float(ds["time"].values[-1])
+    return t0 if t0 is not None and t0 < fraction * t_end else None
+
+
+def earliest_landing(ds):
+    """Earliest time (periods) at which the flight in progress at the end
+    can reach the substrate again, continued ballistically (in flight
+    m* y*'' = 1, docs/MODEL.md sections 1 and 3): when y* first reaches
+    -A*, the highest the surface ever comes (G <= 1; y* points down).
+    The end of the run if the particle is already within reach."""
+    t_end = float(ds["time"].values[-1])
+    m = float(ds.attrs["mass"])
+    gap = -float(ds.attrs["amplitude"]) - float(ds["y"].values[-1])  # > 0: out of reach
+    vy = float(ds["vy"].values[-1])
+    if gap <= 0.0:
+        return t_end
+    # root of t^2 / (2 m*) + vy t - gap = 0, in the form without cancellation
+    root = math.sqrt(vy * vy + 2.0 * gap / m)
+    dt = m * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
+    return t_end + dt
+
+
+def takeoff_phases(ds, t0=0.0):
+    """Phases (t mod 1) of the take-offs after t0."""
+    t, phase = _events(ds, R.TAKEOFF)
+    return phase[t >= t0]
+
+
+def phase_spread(phases):
+    """Circular standard deviation of phases, in periods (0 = all equal)."""
+    if len(phases) == 0:
+        return math.nan
+    z = np.mean(np.exp(2j * np.pi * np.asarray(phases)))
+    rho = min(abs(z), 1.0)
+    return math.sqrt(-2.0 * math.log(rho)) / (2.0 * math.pi) if rho > 0 else math.inf
+
+
+def rebound_pattern(ds):
+    """'synchronous', 'multi-synchronous', 'irregular', or None (no jumping).
+
+    Synchronous: in the final window, one take-off per period at one phase.
+    Multi-synchronous: after the ramp, take-offs come in runs one period
+    apart at one phase, separated by flights of more than LONG_FLIGHT
+    periods.  Chaos is judged separately, by a twin run (`chaos_verdict`).
+    """
+    t_to, phase = _events(ds, R.TAKEOFF)
+    if t_to.size == 0:
+        return None
+    t_end = float(ds["time"].values[-1])
+    tw = t_end * (1.0 - FINAL_FRACTION)
+    last = t_to >= tw
+    gaps = np.diff(t_to[last])
+    if gaps.size >= 2 and np.all(np.abs(gaps - 1.0) < SYNC_TOL) \
+            and phase_spread(phase[last]) < SYNC_SPREAD:
+        return "synchronous"
+    tau = float(ds.attrs.get("tau", 0.0))
+    after = t_to >= min(3.0 * tau, 0.5 * t_end)
+    gaps = np.diff(t_to[after])
+    if gaps.size >= 4:
+        sync = np.abs(gaps - 1.0) < SYNC_TOL
+        long_ = gaps > LONG_FLIGHT
+        if sync.sum() >= 0.5 * gaps.size and long_.any() and np.all(sync | long_) \
+                and phase_spread(phase[after][1:][sync]) < SYNC_SPREAD:
+            return "multi-synchronous"
+    return "irregular"
+
+
+def drift_class(v, v0=V0):
+    """'with-wave' (v > v0), 'against-wave' (v < -v0) or 'none'."""
+    if v > v0:
+        return "with-wave"
+    if v < -v0:
+        return "against-wave"
+    return "none"
+
+
+def chaos_verdict(ds, twin, rel_tol=0.1, v0=V0):
+    """Does the tau + 1e-3 twin disagree? (True: chaotic, the drift is not a
+    property of the scene.)  Disagreement: different drift class, or drift
+    velocities differing by more than rel_tol of the larger plus v0."""
+    v1 = drift_velocity(ds)
+    v2 = drift_velocity(twin)
+    if drift_class(v1, v0) != drift_class(v2, v0):
+        return True
+    return abs(v1 - v2) > rel_tol * max(abs(v1), abs(v2)) + v0
+
+
+def lyapunov_verdict(ds, threshold=CHAOS_LYAPUNOV):
+    """(lambda, chaotic) from a run's measured Lyapunov exponent: (None,
+    None) when the run did not measure one."""
+    value = ds.attrs.get("lyapunov")
+    if value is None:
+        return None, None
+    return float(value), bool(value > threshold)
+
+
+def divergence_time(ds, twin, threshold=1.0):
+    """First time the twins' x* differ by more than `threshold` (a0 units);
+    inf if never.  Compared on the coarse sample grid."""
+    t = ds["time"].values
+    dx = np.abs(ds["x"].values - np.interp(t, twin["time"].values, twin["x"].values))
+    i = np.flatnonzero(dx > threshold)
+    return float(t[i[0]]) if i.size else math.inf
+
+
+DIRECTIONS = {"with-wave": "with the wave (+x)", "against-wave": "against the wave (-x)"}
+
+
+def _drift_words(v, v_final, v0):
+    """The drift in words; the final window's too where its class differs
+    (a regime still settling)."""
+    def words(cls):
+        return f"drift {DIRECTIONS[cls]}" if cls in DIRECTIONS else f"no drift (|v*| <= {v0:g})"
+    run, final = drift_class(v, v0), drift_class(v_final, v0)
+    if final == run:
+        return words(run)
+    return f"{words(run)} over the run, {words(final)} over its final {FINAL_FRACTION:.0%}"
+
+
+def chaos_words(lyapunov):
+    """Why a run is called chaotic: its Lyapunov exponent, or (None) its twin."""
+    if lyapunov is None:
+        return f"the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere"
+    return (f"the vertical motion's Lyapunov exponent is {lyapunov:.3g} per period "
+            f"(> {CHAOS_LYAPUNOV:g})")
+
+
+def regime(contact, pattern, chaotic, v, v_final, launch=None, landing=None, t_end=None,
+           v0=V0, lyapunov=None):
+    """One plain-language verdict, consistent with the other fields of
+    `Summary`.  A launched run gets no transport regime and a chaotic one no
+    drift direction (its drift is not a property of the scene).  lyapunov:
+    the exponent that decided `chaotic` (None: the twin decided)."""
+    if launch is not None:
+        text = (f"launched: leaves the substrate at t* = {launch:.4g} and is still in flight "
+                f"at the end (t* = {t_end:.4g}); continued ballistically it cannot land "
+                f"again before t* = {landing:.3g}; no transport regime, <v*> is mostly "
+                "its flight's horizontal velocity")
+        if chaotic:
+            text += f"; {chaos_words(lyapunov)}"
+        return text
+    where = "permanent contact" if contact == "permanent" else "jumping"
+    if pattern not in (None, "chaotic"):
+        where += f", {pattern}"
+    if chaotic:
+        return (f"{where}, chaotic: {chaos_words(lyapunov)}, "
+                "the drift is not a property of the scene")
+    text = f"{where}, {_drift_words(v, v_final, v0)}"
+    if chaotic is None and contact == "jumping":
+        text += "; chaos not checked (no twin run)"
+    return text
+
+
+class Summary(NamedTuple):
+    """Derived quantities of one run, all produced by `model`; velocities in
+    a0 per period, times in periods.  `chaotic` comes from the measured
+    Lyapunov exponent where the run has one, else from the twin (tau +
+    TWIN_TAU_OFFSET), which also gives `twin_chaotic` and `divergence_time`;
+    the twin's cost is listed apart."""
+    drift_velocity: float        # <v*> = x*(T)/T of this run
+    final_drift_velocity: float
+    contact: str                 # "permanent" | "jumping" (a take-off, or launched)
+    drift: str                   # class of drift_velocity: "with-wave" | "against-wave" | "none"
+    pattern: str | None          # first that applies: launched | chaotic | synchronous |
+    #                              multi-synchronous | irregular; None: never left the surface
+    chaotic: bool | None         # lyapunov > CHAOS_LYAPUNOV, else the twin's; None: neither
+    divergence_time: float | None
+    takeoffs: int
+    takeoffs_per_period: float   # final window
+    takeoff_phase_spread: float  # final window, periods
+    contact_fraction: float      # final window
+    steps: int                   # this run's integration steps
+    seconds: float               # this run's wall time, s
+    model: str | None            # the model that produced every number ("deformable" | "point-mass")
+    regime: str                  # the verdict in words (`regime`)
+    launched: bool               # in flight from before LAUNCH_FRACTION of the run to its end
+    launch_time: float | None    # launched: the take-off, periods
+    earliest_landing: float | None  # launched: earliest ballistic return within reach, periods
+    twin_steps: int              # the twin's steps (0: no twin ran)
+    twin_seconds: float          # the twin's wall time, s (0.0: no twin ran)
+    lyapunov: float | None = None    # the vertical motion's exponent, per period (None: not measured)
+    twin_chaotic: bool | None = None  # the twin's verdict (None: no twin ran)
+    steady: bool | None = None   # the drift steady at the run's end (`steadiness`)
+    steadiness: str = ""         # that, in words
+
+
+def summarize(ds, twin=None, v0=V0):
+    """All derived quantities of a run (and of its tau + 1e-3 twin, if given).
+
+    The twin must come from the same model (a comparison run of the other
+    model is not a twin): ValueError otherwise.
+    """
+    model = ds.attrs.get("model")
+    if twin is not None and twin.attrs.get("model") != model:
+        raise ValueError(f"the chaos twin must be a {model} run, got {twin.attrs.get('model')}")
+    t_to, _ = _events(ds, R.TAKEOFF)
+    t_end = float(ds["time"].values[-1])
+    tw = t_end * (1.0 - FINAL_FRACTION)
+    v = drift_velocity(ds)
+    v_final = final_drift_velocity(ds)
+    steady, steady_words = steadiness(ds, v0=v0)
+    jumping = t_to.size > 0
+    pattern = rebound_pattern(ds)
+    twin_chaotic = None if twin is None else chaos_verdict(ds, twin, v0=v0)
+    lyapunov, chaotic = lyapunov_verdict(ds)
+    if chaotic is None:
+        chaotic = twin_chaotic
+    if jumping and chaotic:
+        pattern = "chaotic"
+    launch = launch_time(ds)   # a launched run's take-offs are no rebound pattern
+    landing = None
+    if launch is not None:
+        pattern = "launched"
+        landing = earliest_landing(ds)
+    # a run that starts in flight and never lands has no take-off event
+    contact = "jumping" if jumping or launch is not None else "permanent"
+    return Summary(
+        drift_velocity=v,
+        final_drift_velocity=v_final,
+        contact=contact,
+        drift=drift_class(v, v0),
+        pattern=pattern,
+        chaotic=chaotic,
+        divergence_time=None if twin is None else divergence_time(ds, twin),
+        takeoffs=int(t_to.size),
+        takeoffs_per_period=float(np.sum(t_to >= tw) / (t_end - tw)),
+        takeoff_phase_spread=phase_spread(takeoff_phases(ds, tw)),
+        contact_fraction=contact_fraction(ds),
+        steps=int(ds.attrs.get("steps", 0)),
+        seconds=float(ds.attrs.get("seconds", 0.0)),
+        model=model,
+        regime=regime(contact, pattern, chaotic, v, v_final, launch, landing, t_end, v0,
+                      lyapunov),
+        launched=launch is not None,
+        launch_time=launch,
+        earliest_landing=landing,
+        twin_steps=int(twin.attrs.get("steps", 0)) if twin is not None else 0,
+        twin_seconds=float(twin.attrs.get("seconds", 0.0)) if twin is not None else 0.0,
+        lyapunov=lyapunov,
+        twin_chaotic=twin_chaotic,
+        steady=steady,
+        steadiness=steady_words,
+    )

@@ -1,0 +1,330 @@
+"""Contact laws: Hertz normal force and the Cattaneo-Mindlin memory diagram.
+
+Normalized units (docs/MODEL.md sections 1-2): a* in units of a0, N* = N / N(a0),
+b* = b / (theta mu a0), T* = T / (mu N(a0)).
+
+The memory diagram is stored exactly as a polyline w(h) over the contact depth
+0 <= h <= a* (h = rho^2 for a sphere), where w = b* - u is the anchor of the
+spring that entered contact at depth h.  Stuck springs never change w, so a
+committed step touches only the vertices it pushes or pops: O(1) amortized.
+
+Storage (plain arrays, so a kernel can stop and resume anywhere):
+    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius)
+    W, P     float64[capacity]     anchor (minus w_ref), and the running
+                                   integral of w h^(-1/2) dh from h = 0
+    nvert    int64[2]              vertex count (0: no contact), and how many
+                                   leading vertices have an up-to-date P
+    memf     float64[3]            (a*, b*) of the last committed step, w_ref
+W is stored relative to w_ref (re-based whenever the contact slides or starts)
+so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
+"""
+import math
+
+import numpy as np
+
+from vibtrans.core.kernels.jit import inline, kernel
+
+# Contact states (timeline codes; shared by every model).
+FLIGHT = 0        # contact loss, a* <= 0
+STICK = 1         # full stick, s = c
+PARTIAL_SLIP = 2  # 0 < s < c
+SLIDING = 3       # total sliding, s = 0, T* = sign(b*') N*
+STATE_NAMES = ("flight", "stick", "partial slip", "total sliding")
+
+
+@inline
+def _segment_integral(s0, w0, s1, w1):
+    """Exact integral of w h^(-1/2) dh over a segment, w linear in h = s^2.
+
+    In s the integrand 2 w(s^2) is quadratic, so Simpson's rule in s is
+    exact, and this form has no cancellation for short segments.
+    """
+    if s1 <= s0:
+        return 0.0
+    return (s1 - s0) / 3.0 * (5.0 * w0 + w1 + (w1 - w0) * (s1 + 3.0 * s0) / (s1 + s0))
+
+
+@inline
+def _push(H, W, nvert, h, sqrt_h, w):
+    n = nvert[0]
+    H[n, 0] = h
+    H[n, 1] = sqrt_h
+    W[n] = w
+    nvert[0] = n + 1
+
+
+@inline
+def _put(H, W, i, h, sqrt_h, w):
+    H[i, 0] = h
+    H[i, 1] = sqrt_h
+    W[i] = w
+
+
+@inline
+def _pop_to(nvert, n):
+    nvert[0] = n
+    if nvert[1] > n:
+        nvert[1] = n
+
+
+@inline
+def _integrals_to(H, W, P, i, n):
+    """Bring the running integrals P of vertices i..n-1 up to date (the
+    leading i are); return P[n - 1].  Only pushed vertices are stale, so a
+    vertex pushed and popped within one step costs nothing."""
+    if i <= 0:
+        P[0] = 0.0
+        i = 1
+    while i < n:
+        P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
+        i += 1
+    return P[n - 1]
+
+
+@inline
+def _integrals(H, W, P, nvert):
+    """`_integrals_to` on the whole stack, recorded in nvert[1]."""
+    n = nvert[0]
+    p = _integrals_to(H, W, P, nvert[1], n)
+    nvert[1] = n
+    return p
+
+
+def new_memory(capacity=256):
+    """Memory of a particle set down without tangential load at a* = 1, b* = 0.
+
+    Every spring in 0 <= h <= 1 is stuck with u = 0 (docs/MODEL.md section 2).
+    Returns (H, W, P, nvert, memf): H[:, 0] = h, H[:, 1] = sqrt(h) of the
+    vertices; nvert = (vertex count, count with up-to-date P).
+    """
+    H = np.zeros((capacity, 2))
+    W = np.zeros(capacity)
+    P = np.zeros(capacity)
+    nvert = np.zeros(2, dtype=np.int64)
+    memf = np.array([1.0, 0.0, 0.0])
+    reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+    return H, W, P, nvert, memf
+
+
+@kernel
+def reset_memory(H, W, P, nvert, memf, a, b):
+    """Virgin contact at (a*, b*): all springs stuck with u = 0."""
+    nvert[0] = 0
+    nvert[1] = 0
+    memf[0] = a
+    memf[1] = b
+    memf[2] = b
+    if a > 0.0:
+        _push(H, W, nvert, 0.0, 0.0, 0.0)
+        _push(H, W, nvert, a, math.sqrt(a), 0.0)
+        _integrals(H, W, P, nvert)
+
+
+# Where the clamp finds the top vertex (h = a1): a compile-time constant.
+_TOP_STORED = 0   # on the stack
+_TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
+_TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
+
+
+@inline
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
+    """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
+
+    (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
+    contact radius; the caller has it from N*).  s_h is the depth of the stick
+    core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
+    for 3 more vertices.
+    """
+    a0 = memf[0]
+    b0 = memf[1]
+    memf[0] = a1
+    memf[1] = b1
+    if a1 <= 0.0:
+        _pop_to(nvert, 0)            # every spring left contact and forgets
+        return 0.0, 0.0, FLIGHT
+    n = nvert[0]
+    # (`<= 0` for counts, here and below, tells the compiler that n - 1 is a
+    # valid index afterwards: it drops the negative-index wraparound checks.)
+    # One call site of the clamp: each inlined copy of it costs compile time.
+    top = _TOP_STORED
+    wt = 0.0
+    if n <= 0:
+        # Contact (re)starts within the step: springs attach at the b* where
+        # the step's line crosses a* = 0.
+        bc = b0
+        if a0 < 0.0:
+            bc = b0 + (b1 - b0) * (-a0) / (a1 - a0)
+        memf[2] = bc
+        _push(H, W, nvert, 0.0, 0.0, 0.0)
+        _push(H, W, nvert, a1, c1, b1 - bc)
+        n = 2
+    elif a1 > a0:
+        # New springs lie on the segment from the old apex to (a1, b1): the
+        # clamp pushes that vertex itself if it survives (it usually slips).
+        top = _TOP_LOAD
+    elif a1 < a0:
+        # Springs deeper than a1 leave contact: pop them, cut the top segment
+        # at a1 (the clamp pushes that vertex only if it survives).
+        hp = H[n - 1, 0]
+        wp = W[n - 1]
+        while n > 1 and H[n - 1, 0] > a1:     # the vertex h = 0 stays
+            hp = H[n - 1, 0]
+            wp = W[n - 1]
+            n -= 1
+        hq = H[n - 1, 0]
+        if hq < a1:
+            wq = W[n - 1]
+            top = _TOP_CUT
+            wt = wq + (wp - wq) * (a1 - hq) / (hp - hq)
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt)
+
+
+@inline
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
+    """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
+
+    The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
+    the vertex count (nvert[0] may still count vertices popped above n).  With
+    `top` = _TOP_LOAD (loading) that vertex, (a1, bp), is not stored yet, with
+    _TOP_CUT (unloading) it is (a1, wt), the cut top segment's end: it is
+    pushed only if it survives the clamp (it usually slips: saves a push and a
+    pop per slip step).
+    Returns (T*, s_h, state).
+    """
+    # Rounding (re-basing, cone-line vertices) must not invent slip: a spring
+    # counts as past its limit only beyond a few ulps of the cone's scale.
+    tol = 4e-16 * (a1 + abs(bp) + abs(W[0]))
+    side = 0.0
+    if top == _TOP_LOAD:
+        # the top is at bp by construction; test the vertex below it
+        d2 = W[n - 1] - bp
+        if abs(d2) > a1 - H[n - 1, 0] + tol:
+            side = 1.0 if d2 > 0.0 else -1.0
+    else:
+        nb = n                        # vertices below the top
+        if top == _TOP_CUT:
+            d = wt - bp
+        else:
+            d = W[n - 1] - bp
+            nb = n - 1
+        if d > tol:
+            side = 1.0
+        elif d < -tol:
+            side = -1.0
+        elif nb >= 1:
+            d2 = W[nb - 1] - bp
+            if abs(d2) > a1 - H[nb - 1, 0] + tol:
+                side = 1.0 if d2 > 0.0 else -1.0
+    # The stack's count and P's up-to-date count stay in registers until the
+    # step ends (stores to nvert would be re-read at once).
+    ip = min(nvert[1], n)
+    if side == 0.0:
+        # No spring reached its limit: full stick.
+        if top != _TOP_STORED:
+            _put(H, W, n, a1, c1, bp)
+            n += 1
+        elif W[n - 1] != bp:
+            W[n - 1] = bp
+            ip = min(ip, n - 1)
+        nvert[0] = n
+        nvert[1] = n
+        return 1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n), a1, STICK
+    # Walk down, dropping the vertices outside the cone (slip annulus).
+    if top == _TOP_LOAD:
+        hl = a1
+        wl = bp
+    elif top == _TOP_CUT:
+        hl = a1
+        wl = wt
+    else:
+        hl = H[n - 1, 0]
+        wl = W[n - 1]
+        n -= 1
+    fk = 0.0
+    while n > 0:
+        fk = side * (W[n - 1] - bp) - (a1 - H[n - 1, 0])
+        if fk <= tol:
+            break
+        hl = H[n - 1, 0]
+        wl = W[n - 1]
+        n -= 1
+    if n <= 0:
+        # The slip annulus reached the centre: total sliding, T* = +-N*.
+        # Re-base the anchors on b1 (cheap here: the stack is two vertices).
+        memf[2] += bp
+        _put(H, W, 0, 0.0, 0.0, side * a1)
+        _put(H, W, 1, a1, c1, 0.0)
+        nvert[0] = 2
+        nvert[1] = 0
+        return -side * a1 * c1, 0.0, SLIDING
+    # The stick edge hs: where the cone line w = bp + side (a1 - h) meets the
+    # stack segment k -> l (fk: vertex k's cone test, from the walk).  The
+    # segment's slope and the denominator do not depend on this step's load
+    # (unless l is the cut top), so both divisions stay off the step's
+    # critical path; the integrals over k -> hs (straight in h) and over the
+    # slip annulus hs -> a1 (on the cone line) are closed forms in sqrt(h).
+    hk = H[n - 1, 0]
+    sk = H[n - 1, 1]
+    wk = W[n - 1]
+    lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
+    hs = hk + lam * (hl - hk)
+    ps = _integrals_to(H, W, P, min(ip, n), n)      # P at vertex k
+    s = sk
+    if hs > hk:
+        s = math.sqrt(hs)
+        ds = s - sk
+        slope = (wl - wk) / (hl - hk)
+        ps += ds * (2.0 * wk + (2.0 / 3.0) * slope * ds * (s + 2.0 * sk))
+        _put(H, W, n, hs, s, bp + side * (a1 - hs))
+        P[n] = ps
+        n += 1
+    else:
+        hs = hk
+    # annulus: integral of (bp + side (a1 - h)) h^(-1/2) dh from hs to a1
+    pa = ps + (c1 - s) * (2.0 * (bp + side * a1)
+                          - (2.0 / 3.0) * side * (a1 + c1 * s + hs))
+    _put(H, W, n, a1, c1, bp)
+    P[n] = pa
+    nvert[0] = n + 1
+    nvert[1] = n + 1
+    return 1.5 * bp * c1 - 0.75 * pa, hs, PARTIAL_SLIP
+
+
+@kernel
+def memory_step(H, W, P, nvert, memf, a1, b1):
+    """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
+    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1)
+
+
+@kernel
+def memory_history(H, W, P, nvert, memf, a, b, out):
+    """Commit a whole (a*, b*) history; out[i] = (T*, s_h, state).
+
+    The caller provides capacity >= len(a) + 4 vertices.
+    """
+    for i in range(a.shape[0]):
+        a1 = a[i]
+        T, sh, st = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i])
+        out[i, 0] = T
+        out[i, 1] = sh
+        out[i, 2] = st
+
+
+def tangential_force_history(a, b, a_start=1.0, b_start=0.0):
+    """T*, s_h and state along an (a*, b*) history from a virgin contact.
+
+    Convenience wrapper for tests and teaching views: returns three arrays.
+    """
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    H, W, P, nvert, memf = new_memory(a.shape[0] + 8)
+    reset_memory(H, W, P, nvert, memf, a_start, b_start)
+    out = np.empty((a.shape[0], 3))
+    memory_history(H, W, P, nvert, memf, a, b, out)
+    return out[:, 0], out[:, 1], out[:, 2].astype(np.int8)
+
+
+def anchor_profile(H, W, nvert, memf):
+    """The memory diagram now: (h, w) vertices, w in absolute b* units."""
+    n = int(nvert[0])
+    return H[:n, 0].copy(), W[:n] + memf[2]

@@ -1,0 +1,143 @@
+"""The JIT policy: every compiled function of the library goes through here.
+
+Three decorators:
+
+* `kernel` - a function compiled on its own (an entry point called from
+  Python): numba.njit(nogil=True, error_model="numpy") without numba's
+  reference-counted runtime (NRT), cached on disk.
+* `helper` - a small function called from kernels, compiled on its own and
+  linked into them; LLVM's inliner inlines it where that pays (the substrate
+  motion, the records, the integrator steps: all inlined in practice).
+* `inline` - inlined at numba IR level into every caller (inline="always"):
+  for hot code that LLVM would leave as a call, because the call passes many
+  arrays (each one several arguments) or the body is large: the memory
+  diagram's commit and clamp, the material point's event functions and
+  its two event searches (one call site each; as helpers: runs ~20% slower);
+  the Hertz kernels' prediction of a contact step (`_predict`: as a helper
+  it stayed a call in every step, and every float live across a call is
+  spilled to the stack and reloaded around it, all xmm registers being
+  caller-saved: inlined, each step of every Hertz kernel ~4 ns cheaper).
+
+Why no NRT (measured): our kernels never allocate: they work in arrays their
+caller owns (and keeps alive) and return plain numbers.  With NRT on, every
+call of an inlined helper that takes arrays (the memory diagram's
+push/pop/clamp, the history, the records) increments and decrements the
+arrays' reference counts, atomically, at every step: that was ~40% of a
+memory-diagram update (35 -> 21 ns; `vibtrans bench`).  Without NRT an
+allocation inside a kernel fails to compile, which keeps them
+allocation-free.
+
+Why error_model="numpy": a float division by zero gives inf or NaN (IEEE)
+instead of raising ZeroDivisionError from inside a kernel.  Results are the
+same wherever the divisor is not zero; where it is (scenes at the edge of
+the float range, e.g. tau* = 5e-324, where tau*^2 underflows to 0), the run
+goes on with inf/NaN values, which the step estimate and the bounded event
+searches keep finite in time, instead of ending in a traceback.
+
+Why two kinds of inlining (measured on this 2-core machine, empty cache,
+2026-11-24; compile seconds deformable / point mass / vertical):
+
+* everything through `inline`: 39 / 19 / 26 s.  Numba copies the callee's IR
+  at every inlined call, deep-copying each block with the function's whole
+  variable scope: the cost grows with call sites times size.
+* everything through `helper`: 14 / 7.5 / 3.5 s, the same results bit for bit
+  (no fast-math: LLVM keeps the order of every floating-point operation), the
+  vertical kernel as fast, but a memory-diagram update 3x slower (63 vs 21
+  ns: LLVM leaves the clamp as a call with ~40 arguments).
+* as now (the memory diagram `inline`, with one call site of the clamp;
+  the point mass's event functions `inline`): 11.6 / 7.1 / 3.5 s, the
+  memory diagram and the deformable kernel as fast as all-`inline`
+  (`vibtrans bench`), the point mass within ~10%.
+* then the kernels split into named phases, most of them `helper`s (each
+  compiled on its own, once per signature): 16.9 / 10.4 / 9.0 s (numba's
+  import, ~1.5 s, counted in the first); run times unchanged.  Each small
+  helper costs ~0.1-0.2 s of compilation; a cold `vibtrans simulate` stays
+  within its 20 s (15.5 s, `python -m devtools.firstpage`).
+
+The on-disk cache.  numba's own cache checks only the source file of the
+function it compiled: an edit to a helper inlined from another module left a
+stale kernel in the cache (hence the old `make clean-cache`).  Here the cache
+folder is keyed by a hash of the source text of every module holding compiled
+code (`SOURCES`, checked at decoration time) and of the numba version, so an
+edit anywhere in the compiled code selects a fresh folder: a stale kernel
+cannot be loaded.  Environment:
+
+* VIBTRANS_JIT_CACHE=0 disables the on-disk cache (every process compiles);
+* NUMBA_CACHE_DIR, if set, is the base folder, else $XDG_CACHE_HOME/vibtrans/numba
+  (~/.cache/vibtrans/numba); the cache lives in <base>/<key>/.
+
+Only the library's functions use that folder: numba's global setting is
+switched to it just while one of our functions is decorated, so other
+libraries' numba caches stay where they were.
+"""
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+from numba import config as _numba_config
+from numba import njit
+
+# Every module that defines a compiled function (all in this package).
+SOURCES = ("jit.py", "records.py", "contact.py", "substrate.py", "integrators.py",
+           "deformable.py", "vertical.py", "point_mass.py")
+_PACKAGE = Path(__file__).resolve().parent
+_MODULES = frozenset(f"{__package__}.{s[:-3]}" for s in SOURCES)
+
+
+def _source_key():
+    """Hash of the compiled modules' source text and the numba version
+    (None if a source cannot be read, e.g. a zipped install: no cache then)."""
+    digest = hashlib.sha256(numba.__version__.encode())
+    for name in SOURCES:
+        try:
+            text = (_PACKAGE / name).read_bytes()
+        except OSError:
+            return None
+        digest.update(name.encode() + b"\0" + text + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _cache_base():
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if base:
+        return Path(base)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "vibtrans" / "numba"
+
+
+CACHE_ENABLED = os.environ.get("VIBTRANS_JIT_CACHE", "1").strip().lower() not in (
+    "0", "false", "no", "off")
+_KEY = _source_key() if CACHE_ENABLED else None
+CACHE_DIR = str(_cache_base() / _KEY) if _KEY else None
+
+
+def _compile(fn, **options):
+    if fn.__module__ not in _MODULES:
+        raise RuntimeError(f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
+                           f"a module listed in vibtrans.core.kernels.jit.SOURCES (the cache key)")
+    disp = njit(cache=False, nogil=True, _nrt=False, error_model="numpy", **options)(fn)
+    if CACHE_DIR is not None:
+        saved = _numba_config.CACHE_DIR
+        _numba_config.CACHE_DIR = CACHE_DIR
+        try:
+            disp.enable_caching()      # the locator reads the folder now
+        finally:
+            _numba_config.CACHE_DIR = saved
+    return disp
+
+
+def kernel(fn):
+    """Compile `fn` on its own: allocation-free, GIL-free, disk-cached."""
+    return _compile(fn)
+
+
+def helper(fn):
+    """A small function for kernels to call; LLVM inlines it where that pays."""
+    return _compile(fn)
+
+
+def inline(fn):
+    """Inline `fn` at numba IR level into each caller (compile time per call
+    site: keep the call sites few)."""
+    return _compile(fn, inline="always")

@@ -1,0 +1,80 @@
+"""The material point's vertical Lyapunov exponent from its impact map.
+
+Its flights are parabolas and its impacts elastic (alpha_n = 1), so the
+impact map (t_n, v_n) -> (t_{n+1}, v_{n+1}) is known in closed form and so is
+its Jacobian; `simulate(..., lyapunov=True)` multiplies them along a run's
+events.  (The deformable particle's exponent comes from its tangent
+equations inside the kernel instead.)  Normalized units: time in periods,
+lengths in a0.
+"""
+import math
+
+import numpy as np
+
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.substrate import TWO_PI, ramp
+
+
+def _surface(t, amplitude, tau):
+    """(u_y*, u_y*', u_y*'') at t (the substrate's vertical motion, ramp included)."""
+    g, g1, g2 = ramp(t, tau)
+    c, s = math.cos(TWO_PI * t), math.sin(TWO_PI * t)
+    u = g * amplitude * c
+    du = amplitude * (g1 * c - TWO_PI * g * s)
+    ddu = amplitude * (g2 * c - 2.0 * TWO_PI * g1 * s - TWO_PI ** 2 * g * c)
+    return u, du, ddu
+
+
+def impact_jacobian(t0, t1, amplitude, mass, tau):
+    """The Jacobian of the material point's impact map (t_n, v_n) ->
+    (t_{n+1}, v_{n+1}): a flight launched from the surface at t_n with
+    vertical velocity v_n lands at t_{n+1}, where the elastic impact
+    (alpha_n = 1) reflects its velocity relative to the surface.  From the
+    landing condition F = u(t0) + v0 s + s^2 / (2 m*) - u(t1) = 0 (s = t1 -
+    t0; implicit function theorem) and v1 = 2 u'(t1) - (v0 + s / m*).
+    v0 follows from the two times (the flight joins two surface points).
+    Returns (J, v0, approach speed at t1)."""
+    m = mass
+    s = t1 - t0
+    u0, du0, _ = _surface(t0, amplitude, tau)
+    u1, du1, ddu1 = _surface(t1, amplitude, tau)
+    v0 = (u1 - u0 - 0.5 * s * s / m) / s
+    w1 = v0 + s / m - du1                        # > 0: moving into the surface
+    dt1_dt0 = (v0 + s / m - du0) / w1
+    dt1_dv0 = -s / w1
+    dv1_dt0 = 2.0 * ddu1 * dt1_dt0 - (dt1_dt0 - 1.0) / m
+    dv1_dv0 = 2.0 * ddu1 * dt1_dv0 - (1.0 + dt1_dv0 / m)
+    return np.array([[dt1_dt0, dt1_dv0], [dv1_dt0, dv1_dv0]]), v0, w1
+
+
+def impact_lyapunov(events, amplitude, mass, tau, t_from):
+    """The material point's vertical Lyapunov exponent, per period, from its
+    run's events (records: LANDING and TAKEOFF at one instant = an elastic
+    impact): the product of the impact map's Jacobians over the impacts
+    from t_from on (renormalized at each), over the time between the first
+    and the last of them.  Returns (lambda, t_start):
+
+    * -inf if the point rode the surface after t_from (a landing without a
+      take-off, a capture): its detachment comes at a phase set by the
+      surface alone, which forgets every perturbation (superstable);
+    * NaN if fewer than three impacts fall after t_from (permanent contact,
+      or a flight that never ends: nothing to measure)."""
+    t, kind = events[:, 0], events[:, 1]
+    after = t >= t_from
+    landings = t[after & (kind == R.LANDING)]
+    takeoffs = set(t[after & (kind == R.TAKEOFF)].tolist())
+    if any(tl not in takeoffs for tl in landings.tolist()):
+        return -math.inf, float(landings[0])
+    if landings.size < 3:
+        return math.nan, math.nan
+    d = np.array([1.0, 0.0])
+    total = 0.0
+    for t0, t1 in zip(landings[:-1], landings[1:]):
+        J, _, _ = impact_jacobian(t0, t1, amplitude, mass, tau)
+        d = J @ d
+        norm = math.hypot(d[0], d[1])
+        if not (norm > 0.0 and math.isfinite(norm)):
+            return math.nan, math.nan
+        total += math.log(norm)
+        d /= norm
+    return total / (landings[-1] - landings[0]), float(landings[0])

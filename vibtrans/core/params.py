@@ -1,0 +1,137 @@
+"""Validated scene parameters (dimensionless) and the paper's ten scenes.
+
+A `Scene` is everything a run needs; every value is checked on assignment,
+and a bad one raises ValueError naming the parameter and its valid range
+(NaN, inf, wrong type, out of domain): nothing is clamped.
+
+Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
+wave periods.
+"""
+import math
+import numbers
+
+import param
+
+from vibtrans.core.units import amplitude_ratio
+from vibtrans.core.errors import InputError
+
+MODELS = ("deformable", "point-mass", "vertical")
+INTEGRATORS = ("ab4", "verlet")
+FIDELITIES = ("preview", "standard", "reference")
+STICK_RULES = ("paper", "classical")
+
+
+def _interval(lo, hi, inclusive):
+    left = "[" if inclusive[0] and lo is not None else "("
+    right = "]" if inclusive[1] and hi is not None else ")"
+    lo_s = "-inf" if lo is None else f"{lo:g}"
+    hi_s = "inf" if hi is None else f"{hi:g}"
+    return f"{left}{lo_s}, {hi_s}{right}"
+
+
+class Physical(param.Number):
+    """A finite real number in a (half-)open or closed interval.
+
+    Its error message always says the parameter's name and valid range.
+    """
+
+    def _validate(self, val):
+        if val is None and self.allow_None:
+            return
+        lo, hi = self.bounds if self.bounds is not None else (None, None)
+        rng = _interval(lo, hi, self.inclusive_bounds)
+        name = self.name or "value"
+        if isinstance(val, bool) or not isinstance(val, numbers.Real):
+            raise InputError(f"{name} must be a real number in {rng}, got {val!r}")
+        try:
+            v = float(val)
+        except OverflowError:
+            raise InputError(f"{name} must be in {rng}, got an integer too large") from None
+        ok = math.isfinite(v)
+        if ok and lo is not None:
+            ok = v >= lo if self.inclusive_bounds[0] else v > lo
+        if ok and hi is not None:
+            ok = v <= hi if self.inclusive_bounds[1] else v < hi
+        if not ok:
+            raise InputError(f"{name} must be in {rng}, got {val!r}")
+
+
+def _choice(name, value, options):
+    if value not in options:
+        raise InputError(f"{name} must be one of {', '.join(options)}; got {value!r}")
+    return value
+
+
+class Scene(param.Parameterized):
+    """One simulated scene, in the paper's normalized units."""
+
+    amplitude = Physical(10 ** -0.3, bounds=(0, None), inclusive_bounds=(True, False),
+                         doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)")
+    mass = Physical(10.0, bounds=(0, None), inclusive_bounds=(False, False),
+                    doc="m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)")
+    mu = Physical(0.3, bounds=(0, None), inclusive_bounds=(False, False),
+                  doc="friction coefficient (typically 0.01 to 1)")
+    theta = Physical(1.2, bounds=(1.0, 1.5), doc="tangential/normal compliance ratio theta")
+    nu = Physical(0.3, bounds=(0.0, 0.5), inclusive_bounds=(False, False),
+                  doc="substrate Poisson ratio (sets the Rayleigh ratio r)")
+    tau = Physical(50.0, bounds=(0, None), inclusive_bounds=(True, False),
+                   doc="ramp time of the wave, periods (0: no ramp)")
+    periods = Physical(2000.0, bounds=(0, None), inclusive_bounds=(False, False),
+                       doc="observation time T_obs, wave periods")
+    alpha_t = Physical(0.5, bounds=(0.0, 1.0),
+                       doc="point mass: tangential restitution at rebounds")
+    model = param.Selector(default="deformable", objects=list(MODELS))
+    integrator = param.Selector(default="ab4", objects=list(INTEGRATORS))
+    fidelity = param.Selector(default="standard", objects=list(FIDELITIES))
+    stick_rule = param.Selector(default="paper", objects=list(STICK_RULES),
+                                doc="point mass slide->stick rule (docs/MODEL.md section 3)")
+
+    def __init__(self, **params):
+        for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
+                             ("fidelity", FIDELITIES), ("stick_rule", STICK_RULES)):
+            if key in params:
+                _choice(key, params[key], options)
+        unknown = set(params) - set(self.param) - {"name"}
+        if unknown:
+            raise InputError(f"unknown scene parameter(s): {', '.join(sorted(unknown))}")
+        super().__init__(**params)
+
+    @property
+    def r(self):
+        """Rayleigh horizontal/vertical amplitude ratio r(nu)."""
+        return float(amplitude_ratio(self.nu))
+
+    def values(self):
+        """The scene as a plain dict (attributes of results, JSON)."""
+        return {k: getattr(self, k) for k in self.param if k != "name"}
+
+    def replace(self, **changes):
+        """A copy with some values changed (validated)."""
+        return Scene(**{**self.values(), **changes})
+
+
+# The domain of the paper's maps (its Fig. 3) and of the shipped ones.
+MAP_LOG_AMPLITUDE = (-3.0, 3.0)     # log10 A*
+MAP_LOG_MASS = (-5.0, 5.0)          # log10 m*
+
+# The paper's labelled points (docs/MODEL.md section 6): (log10 A*, log10 m*, model).
+PAPER_POINTS = {
+    1: (-0.3, 1.0, "deformable"),
+    2: (1.0, -2.7, "deformable"),
+    3: (-0.3, -3.0, "deformable"),
+    4: (2.5, 0.0, "deformable"),
+    5: (2.5, 1.5, "deformable"),
+    6: (0.25, 0.8, "deformable"),
+    7: (0.0, 5.0, "deformable"),
+    8: (1.7, -2.0, "deformable"),
+    9: (2.7, -4.4, "point-mass"),
+    10: (1.2, -1.0, "point-mass"),
+}
+
+
+def paper_scene(point, **overrides):
+    """Scene of the paper's point 1-10 (mu = 0.3, theta = 1.2, tau = 50)."""
+    if point not in PAPER_POINTS:
+        raise InputError(f"point must be one of 1-10, got {point!r}")
+    la, lm, model = PAPER_POINTS[point]
+    return Scene(amplitude=10 ** la, mass=10 ** lm, model=model, **overrides)

@@ -1,0 +1,306 @@
+"""Run a scene: validate, estimate its cost, choose the step, run its driver.
+
+The public entry point is `simulate(scene)`.  The kernels run through
+`vibtrans.core.drivers` in chunks of about two million steps; between chunks the
+driver reports progress, honours a cancel request, and grows any buffer a
+kernel reports full, so a long run stays responsive and memory follows the
+need.
+"""
+import math
+import numbers
+import time
+
+import numpy as np
+
+from vibtrans.core import drivers
+from vibtrans.core.kernels import records as R
+from vibtrans.core.drivers import DEFAULT_MAX_STEPS
+from vibtrans.core.drivers import grow as _grow  # noqa: F401  (tests/test_extremes_edges.py)
+from vibtrans.core.errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded  # noqa: F401
+from vibtrans.core.fidelity import scan_step, step_count, time_step
+from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import point_mass as PM
+from vibtrans.core.params import Scene
+from vibtrans.core.kernels.substrate import RAMP_OFF
+from vibtrans.core.trajectory import build_trajectory
+from vibtrans.version import __version__
+
+SAMPLES_PER_PERIOD = 10
+
+
+def _scene(scene, values):
+    if scene is None:
+        return Scene(**values)
+    if not isinstance(scene, Scene):
+        raise InputTypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
+    return scene.replace(**values) if values else scene
+
+
+def estimate_steps(scene, refine=1.0, steps=None):
+    """Upper estimate of the integration steps of a scene (before running),
+    an int; a count that no float holds (a huge T_obs, or a step that
+    underflows at an extreme A*) raises StepBudgetExceeded."""
+    if scene.model == "point-mass":
+        h = scan_step(scene.fidelity, refine)
+    else:
+        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    return drivers.checked_steps(step_count(scene.periods, h), math.inf, "scene", h)
+
+
+def _check_steps(steps, model):
+    if steps is None:
+        return None
+    try:
+        per_period, per_contact = (float(v) for v in steps)
+    except (TypeError, ValueError):
+        raise InputError(f"steps must be a pair (steps per period, steps per contact time "
+                         f"scale) of numbers in [1, 1e6], got {steps!r}") from None
+    if not (1 <= per_period <= 1e6 and 1 <= per_contact <= 1e6):
+        raise InputError(f"steps must be a pair of numbers in [1, 1e6], got {steps!r}")
+    if model == "point-mass":
+        raise InputError("steps applies to the deformable and vertical models only "
+                         "(the material point is event-driven)")
+    return per_period, per_contact
+
+
+def _window(window, periods):
+    if window is None:
+        return math.inf, -math.inf
+    try:
+        w0, w1 = (float(v) for v in window)
+    except (TypeError, ValueError):
+        raise InputError(f"window must be a pair (t0, t1) of times in [0, {periods:g}], "
+                         f"got {window!r}") from None
+    if not (math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= periods):
+        raise InputError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
+    return w0, w1
+
+
+def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
+             max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
+             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+    """Simulate one scene and return its trajectory (xarray.Dataset):
+    `run_records`' samples, events and attributes as a Dataset
+    (trajectory.build_trajectory).  The arguments are `run_records`'."""
+    return build_trajectory(*run_records(
+        scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
+        progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
+        lyapunov=lyapunov, **values))
+
+
+def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
+                max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
+                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, **values):
+    """Simulate one scene: its (samples, events, attrs), the kernel's
+    trimmed buffers (records.COLUMNS, records event rows) and the run's
+    attributes, before they become a Dataset (`simulate`; a map point
+    summarizes them as trajectory.RunArrays, without one).
+
+    scene: a `Scene`, or scene values as keywords (amplitude=..., mass=...).
+    window: (t0, t1) in periods, recorded at every step (full resolution);
+        elsewhere `samples_per_period` samples per period.
+    max_steps: refuse (StepBudgetExceeded) a scene estimated to need more.
+    progress: callable(fraction) called between chunks.
+    cancel: object with is_set() (threading.Event); raises Cancelled.
+    refine: divide the fidelity's step (convergence studies).
+    steps: (steps per period, steps per contact time scale) in place of the
+        fidelity preset's pair (work-precision studies; Hertz models only).
+    shortcuts: bit mask of the Hertz kernels' exact-to-rounding shortcuts
+        (models.deformable.SHORT_*; 0 switches them all off, for the bench).
+    lyapunov: also measure the largest Lyapunov exponent of the vertical
+        motion (per period; attrs `lyapunov`, measured from `lyapunov_from`,
+        `lyapunov_start`): the chaos indicator (analysis.CHAOS_LYAPUNOV).
+        The records are the same bit for bit.  The material point's comes
+        from its impact map (lyapunov.impact_lyapunov: -inf where it rides
+        the surface after the ramp, None with fewer than three impacts).
+    """
+    scene = _scene(scene, values)
+    if not (isinstance(samples_per_period, (int, np.integer))
+            and not isinstance(samples_per_period, bool) and 1 <= samples_per_period <= 10000):
+        raise InputError(f"samples_per_period must be an integer in [1, 10000], "
+                         f"got {samples_per_period!r}")
+    if isinstance(refine, bool) or not (isinstance(refine, (int, float))
+                                        and math.isfinite(refine) and 1 <= refine <= 1024):
+        raise InputError(f"refine must be a number in [1, 1024], got {refine!r}")
+    if isinstance(shortcuts, bool) or not (isinstance(shortcuts, (int, np.integer))
+                                           and 0 <= shortcuts <= D.SHORTCUTS_ALL):
+        raise InputError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], "
+                         f"got {shortcuts!r}")
+    if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, float))
+                                           and max_steps > 0 and not math.isnan(max_steps)):
+        raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
+    steps = _check_steps(steps, scene.model)
+    if not isinstance(lyapunov, (bool, np.bool_)):
+        raise InputError(f"lyapunov must be True or False, got {lyapunov!r}")
+    drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
+    w0, w1 = _window(window, scene.periods)
+    runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
+    start = time.perf_counter()
+    samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
+                                        progress, cancel, shortcuts=int(shortcuts), steps=steps,
+                                        lyapunov=bool(lyapunov))
+    seconds = time.perf_counter() - start
+    attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
+                 force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
+                 samples_per_period=samples_per_period,
+                 window_start=w0 if window is not None else None,
+                 window_end=w1 if window is not None else None, refine=refine,
+                 code_version=__version__, **info)
+    return samples, events, attrs
+
+
+def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
+                        scene.tau, h, scene.periods, 1.0 / samples_per_period, (w0, w1),
+                        shortcuts)
+    n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
+    capacity = int(scene.periods * samples_per_period) + n_win + 16
+    return p, h, capacity
+
+
+def lyapunov_start(scene):
+    """Where a scene's Lyapunov exponent is measured from (periods): the end
+    of the ramp, where the wave is periodic (G = 1 to machine precision, t =
+    RAMP_OFF tau), or half the run if that comes later."""
+    return min(RAMP_OFF * scene.tau, 0.5 * scene.periods)
+
+
+def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
+               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False):
+    """Run the deformable or vertical kernel from rest."""
+    p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
+                                   steps)
+    t_from = lyapunov_start(scene) if lyapunov else None
+    run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
+                            samples_capacity=capacity, progress=progress, cancel=cancel,
+                            lyapunov_from=t_from)
+    info = {"h": h}
+    if lyapunov:
+        info.update(_lyapunov_attrs(run.tangent, run.state, t_from))
+    return run.samples, run.events, run.ctr, info
+
+
+def _lyapunov_attrs(tangent, state, t_from):
+    value = D.lyapunov_exponent(tangent, state)
+    return {"lyapunov": None if math.isnan(value) else value, "lyapunov_from": t_from,
+            "lyapunov_start": float(tangent[D.L_START]) if tangent[D.L_START] >= 0 else None}
+
+
+def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
+                    shortcuts=None, steps=None, lyapunov=False):
+    # event-driven: its flights and segments are closed forms already
+    dt = scan_step(scene.fidelity, refine)
+    p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
+                       scene.tau, float(scene.periods), scene.alpha_t,
+                       1.0 / samples_per_period, (w0, w1), dt)
+    n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
+    run = drivers.run_point_mass(
+        p, scene.stick_rule, progress=progress, cancel=cancel,
+        samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
+    info = {"h": dt}
+    if lyapunov:
+        from vibtrans.core.lyapunov import impact_lyapunov
+        t_from = lyapunov_start(scene)
+        value, start = impact_lyapunov(run.events, scene.amplitude, scene.mass, scene.tau,
+                                       t_from)
+        info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
+                    lyapunov_start=None if math.isnan(start) else start)
+    return run.samples, run.events, run.ctr, info
+
+
+def _deformable(scene):
+    if scene.model != "deformable":
+        raise InputError(f"model must be deformable for a memory diagram, got {scene.model!r}")
+
+
+def _is_time(t, periods):
+    return (isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_))
+            and 0 <= t <= periods)
+
+
+def _snapshot(state, ctr, memory):
+    """The dict of a memory diagram from a run's final state and memory."""
+    from vibtrans.core.kernels.contact import anchor_profile
+    H, W, P, nvert, memf = memory
+    hs, ws = anchor_profile(H, W, nvert, memf)
+    a, b = float(memf[0]), float(memf[1])
+    return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,
+            "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
+
+
+def memory_snapshot(scene=None, t=None, **values):
+    """The memory diagram of a deformable scene at time t (periods).
+
+    Runs the scene from rest to t and returns a dict: t, a, b (a*, b* at t),
+    h and w (the anchor polyline w(h), absolute b* units; empty in flight),
+    u = b - w (spring displacements), stick_depth s_h, and state code.
+    In contact, t is the first step at or after the time asked for.
+    """
+    scene = _scene(scene, values)
+    _deformable(scene)
+    if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) \
+            or not (0 <= t <= scene.periods):
+        raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
+    short = scene.replace(periods=max(float(t), MIN_SNAPSHOT_TIME))
+    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity)
+    return _snapshot(run.state, run.ctr, run.memory)
+
+
+MIN_SNAPSHOT_TIME = 1e-9     # t = 0 shows the first step (a run needs a length)
+MAX_SNAPSHOTS = 10_000
+
+
+def memory_snapshots(scene=None, times=None, *, progress=None, cancel=None, **values):
+    """The memory diagram of a deformable scene at each of several times
+    (periods, increasing), from ONE run from rest: a list of the dicts
+    `memory_snapshot` returns, one per time.
+
+    Each takes the same steps as memory_snapshot(scene, t) and agrees with
+    it to rounding, not bit for bit: the run's kernel calls end at each time,
+    which restarts the kernel's sin/cos rotation (drivers.run_memory_stops);
+    memory_snapshots(scene, [t]) is memory_snapshot(scene, t) bit for bit.
+    progress(fraction) and cancel (an object with is_set(); raises
+    Cancelled) as in simulate().  Costs one run to times[-1].
+    """
+    scene = _scene(scene, values)
+    _deformable(scene)
+    stops = _snapshot_times(times, scene.periods)
+    short = scene.replace(periods=stops[-1])
+    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    runs = drivers.run_memory_stops(p, short.integrator, stops, samples_capacity=capacity,
+                                    progress=progress, cancel=cancel)
+    return [_snapshot(*run) for run in runs]
+
+
+def _snapshot_times(times, periods):
+    """Validated snapshot times as run stops (floats >= MIN_SNAPSHOT_TIME)."""
+    what = (f"times must be a sequence of 1 to {MAX_SNAPSHOTS} increasing times in "
+            f"[0, {periods:g}] periods")
+    if isinstance(times, (str, bytes)) or times is None:
+        raise InputError(f"{what}, got {times!r}")
+    try:
+        values = list(times)
+    except TypeError:
+        raise InputError(f"{what}, got {times!r}") from None
+    if not 1 <= len(values) <= MAX_SNAPSHOTS:
+        raise InputError(f"{what}, got {len(values)} times")
+    for i, t in enumerate(values):
+        if not _is_time(t, periods):
+            raise InputError(f"{what}; times[{i}] = {t!r} is not")
+        if i and not t > values[i - 1]:
+            raise InputError(f"{what}; times[{i}] = {t!r} does not follow "
+                             f"times[{i - 1}] = {values[i - 1]!r}")
+    return [max(float(t), MIN_SNAPSHOT_TIME) for t in values]
+
+
+def _stick_depth(h, w, a, b):
+    """Depth where the springs stop being at their Coulomb limit |u| = a - h."""
+    if h.size == 0:
+        return 0.0
+    at_limit = np.abs(np.abs(b - w) - (a - h)) <= 1e-12 * (1 + abs(b) + a)
+    i = h.size - 1
+    while i > 0 and at_limit[i - 1]:
+        i -= 1
+    return float(h[i]) if i < h.size - 1 else float(a)

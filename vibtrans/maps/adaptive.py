@@ -1,0 +1,524 @@
+"""Adaptive drift maps: points are computed only where the map changes.
+
+The finest grid is a sweep's (log_amplitude, log_mass) grid.  With the
+finest level K, level 0 is every 2^K-th point on each axis; level l's cells
+are squares of 2^(K-l) finest steps.  Level by level, a cell is refined (the
+missing points of the next level inside it, its edge midpoints and centre,
+are computed) when its corners and the edge midpoints that refined
+neighbours computed disagree in
+
+* drift class (`drift`), contact mode (`contact`) or chaos verdict
+  (`chaotic`), or
+* drift velocity: max(v) - min(v) > tol * max(V0, max|v|), with V0 = 0.1 the
+  no-drift band (analysis.V0) and tol the drift tolerance (default 0.5: a
+  cell is refined where its drift changes by more than half its size, or by
+  more than 0.05 around no drift),
+
+except that a cell whose known points are all chaotic is not refined on
+drift: a chaotic point's drift is not reproducible (its twin or exponent
+says so), so subdividing a chaotic sea would compute all of it for noise.
+Within a level, cells are re-examined until none changes (a neighbour's edge
+midpoints may reveal a disagreement its corners missed).  The refinement is
+a deterministic function of the computed values, and every point is computed
+by sweep.compute_point, as in a uniform sweep, so computed points are
+bit-identical to the uniform sweep's.
+
+Every finest-grid point not computed is filled from the smallest unrefined
+cell holding it: categorical variables (drift, contact, chaotic, pattern)
+from the nearest corner, continuous ones (drift_velocity,
+final_drift_velocity, contact_fraction, takeoffs_per_period, lyapunov)
+bilinearly from the four corners; steps and seconds keep their fill values
+(-1, NaN: not simulated).  The boolean `computed` says which points were
+simulated.
+
+Resumable: finished points are written in batches to `<out>.partial/`, each
+batch a .npz file written through a temporary file and os.replace, with a
+sha256 digest of its arrays; a restart with the same command verifies and
+loads the batches, re-derives the refinement and computes only the missing
+points.  A damaged batch is refused (StoreMismatch naming it; deleting that
+file makes the next run recompute its points), never read as data.  At the
+end the finest grid is written as a regular sweep store (done flags and
+digests per chunk, `computed` among the digested variables; sweep.verify and
+sweep.open_map accept it) to a temporary folder renamed to <out>, and the
+partial folder is removed.
+"""
+import hashlib
+import json
+import os
+import shutil
+import time
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+import numpy as np
+
+from vibtrans.analysis.summary import V0
+from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
+from vibtrans.core.precompile import warmup
+from vibtrans.maps.sweep import (_bar, _check_store, _digest, _why, compute_point, verify)
+
+MAX_LEVELS = (1, 8)
+DEFAULT_DRIFT_TOLERANCE = 0.5
+CATEGORICAL = ("drift", "contact", "chaotic", "pattern")
+CONTINUOUS = ("drift_velocity", "final_drift_velocity", "contact_fraction",
+              "takeoffs_per_period", "lyapunov")
+COMPUTED = {"computed": ("bool", False, "True where the point was simulated, False where it "
+                                        "was filled from its cell (adaptive maps)")}
+BATCH_POINTS = 64          # points per batch file (a kill loses at most these)
+POINTS_PER_TASK = 4        # points per worker task (amortizes the pool's overhead)
+
+
+def check_levels(sweep, max_level):
+    """Refuse (InputError) a finest level outside 1..8 or a grid whose sizes
+    do not fit it ((n - 1) divisible by 2^K on both axes)."""
+    lo, hi = MAX_LEVELS
+    if isinstance(max_level, bool) or not isinstance(max_level, (int, np.integer)) \
+            or not lo <= max_level <= hi:
+        raise InputError(f"max_level must be an integer in {lo}..{hi}, got {max_level!r}")
+    stride = 2 ** int(max_level)
+    for name in ("log_amplitude", "log_mass"):
+        n = getattr(sweep, name).size
+        if (n - 1) % stride or n < stride + 1:
+            sizes = ", ".join(str(stride * k + 1) for k in (1, 2, 4, 8, 16))
+            raise InputError(f"{name} has {n} points, which max_level {max_level} cannot "
+                             f"refine: (points - 1) must be a multiple of 2^{max_level} = "
+                             f"{stride} (e.g. {sizes} points)")
+
+
+def check_tolerance(tol):
+    """Refuse (InputError) a drift tolerance outside (0, 100]."""
+    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) \
+            or not 0 < tol <= 100:
+        raise InputError(f"drift_tolerance must be a number in (0, 100], got {tol!r}")
+    return float(tol)
+
+
+class _Grid:
+    """The finest grid's arrays, filled as points are computed."""
+
+    def __init__(self, sweep):
+        self.shape = (sweep.log_amplitude.size, sweep.log_mass.size)
+        self.variables = sweep.variables
+        self.data = {name: np.full(self.shape, fill, dtype=dt)
+                     for name, (dt, fill, _) in sweep.variables.items()}
+        self.computed = np.zeros(self.shape, dtype=bool)
+
+    def put(self, i, j, point):
+        for name, (dt, _, _) in self.variables.items():
+            self.data[name][i, j] = np.asarray(point[name], dtype=dt)
+        self.computed[i, j] = True
+
+    def copy(self):
+        other = _Grid.__new__(_Grid)
+        other.shape, other.variables = self.shape, self.variables
+        other.data = {name: a.copy() for name, a in self.data.items()}
+        other.computed = self.computed.copy()
+        return other
+
+
+def _cell_points(i0, j0, s):
+    """A cell's corners and edge midpoints (finest-grid indices): the points
+    the refinement of its level can know (the midpoints are computed by the
+    refinement of this cell or of a neighbour of the same level)."""
+    h = s // 2
+    return [(i0, j0), (i0, j0 + s), (i0 + s, j0), (i0 + s, j0 + s),
+            (i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h)]
+
+
+def disagree(grid, i0, j0, s, tol):
+    """True if the cell's computed corners and edge midpoints disagree (the
+    module docstring's rule).  Adding points never turns True into False, so
+    the refinement is the same whatever order the points arrive in (a
+    resumed run knows some midpoints earlier)."""
+    pts = [p for p in _cell_points(i0, j0, s) if grid.computed[p]]
+    ii, jj = np.array(pts).T
+    d = grid.data
+    chaotic = d["chaotic"][ii, jj]
+    if np.unique(chaotic).size > 1 or np.unique(d["contact"][ii, jj]).size > 1:
+        return True
+    if chaotic.all():
+        return False          # a chaotic sea: drift is noise there
+    if np.unique(d["drift"][ii, jj]).size > 1:
+        return True
+    v = d["drift_velocity"][ii, jj]
+    if not np.isfinite(v).all():
+        return True
+    return bool(v.max() - v.min() > tol * max(V0, np.abs(v).max()))
+
+
+def _new_points(i0, j0, s):
+    h = s // 2
+    return [(i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h), (i0 + h, j0 + h)]
+
+
+def _children(i0, j0, s):
+    h = s // 2
+    return [(i0, j0), (i0, j0 + h), (i0 + h, j0), (i0 + h, j0 + h)]
+
+
+# ---------------------------------------------------------------- partial folder
+
+def _params(sweep, max_level, tol):
+    return {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos,
+            "log_amplitude": [float(v) for v in sweep.log_amplitude],
+            "log_mass": [float(v) for v in sweep.log_mass],
+            "max_level": int(max_level), "drift_tolerance": float(tol)}
+
+
+def _atomic_write(path, write):
+    tmp = f"{path}.tmp-{os.getpid()}"
+    with open(tmp, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _batch_digest(arrays):
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(name.encode() + str(a.dtype).encode() + str(a.shape).encode() + a.tobytes())
+    return h.hexdigest()
+
+
+class _Partial:
+    """`<out>.partial/`: params.json and batch-NNNNNN.npz files."""
+
+    def __init__(self, out, sweep, max_level, tol):
+        self.folder = f"{out}.partial"
+        self.sweep = sweep
+        self.params = _params(sweep, max_level, tol)
+        self.next = 0
+
+    def open(self, grid):
+        """Check the folder against the command and load its batches into
+        grid (a new folder is created).  Returns the points loaded."""
+        path = os.path.join(self.folder, "params.json")
+        if not os.path.isdir(self.folder):
+            os.makedirs(self.folder)
+        if not os.path.exists(path):
+            if any(f.startswith("batch-") for f in os.listdir(self.folder)):
+                raise StoreMismatch(f"{self.folder} holds batches but no params.json "
+                                    f"(damaged); delete it and rerun")
+            _atomic_write(path, lambda f: f.write(json.dumps(self.params).encode()))
+            return 0
+        try:
+            with open(path, "rb") as f:
+                stored = json.loads(f.read().decode())
+        except Exception as exc:
+            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete "
+                                f"{self.folder} and rerun") from None
+        if not isinstance(stored, dict):
+            raise StoreMismatch(f"{path} is not an adaptive sweep's parameters")
+        problems = [k for k in self.params if stored.get(k) != self.params[k]]
+        if problems:
+            raise StoreMismatch(f"{self.folder} was made with other parameters (differ: "
+                                f"{', '.join(problems)}); use another --out or delete it")
+        loaded = 0
+        names = sorted(f for f in os.listdir(self.folder)
+                       if f.startswith("batch-") and f.endswith(".npz"))
+        for name in names:
+            loaded += self._load(os.path.join(self.folder, name), grid)
+            self.next = max(self.next, int(name[6:-4]) + 1)
+        return loaded
+
+    def _load(self, path, grid):
+        want = ["i", "j", *grid.variables]
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+        except Exception as exc:
+            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete that file "
+                                f"and rerun to recompute its points") from None
+        digest = arrays.pop("sha256", None)
+        if (digest is None or sorted(arrays) != sorted(want)
+                or str(digest) != _batch_digest(arrays)):
+            raise StoreMismatch(f"{path} does not match its digest (damaged or edited); "
+                                f"delete that file and rerun to recompute its points")
+        i, j = arrays["i"], arrays["j"]
+        n = i.size
+        if (i.ndim != 1 or j.shape != i.shape or any(arrays[v].shape != (n,) for v in want)
+                or (n and (i.min() < 0 or j.min() < 0 or i.max() >= grid.shape[0]
+                           or j.max() >= grid.shape[1]))):
+            raise StoreMismatch(f"{path} does not fit the grid (damaged or edited)")
+        for k in range(n):
+            grid.put(int(i[k]), int(j[k]), {v: arrays[v][k] for v in grid.variables})
+        return n
+
+    def write(self, points, grid):
+        """One batch: the computed values of `points` [(i, j), ...]."""
+        ii = np.array([p[0] for p in points], dtype=np.int64)
+        jj = np.array([p[1] for p in points], dtype=np.int64)
+        arrays = {"i": ii, "j": jj, **{v: grid.data[v][ii, jj] for v in grid.variables}}
+        digest = np.array(_batch_digest(arrays))
+        path = os.path.join(self.folder, f"batch-{self.next:06d}.npz")
+        self.next += 1
+        _atomic_write(path, lambda f: np.savez(f, sha256=digest, **arrays))
+
+
+# ---------------------------------------------------------------- computing
+
+def _compute_points(values, coords, chaos):
+    """A worker task: a few points [(log_a, log_m), ...]."""
+    return [compute_point(values, la, lm, chaos) for la, lm in coords]
+
+
+def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
+                executor=None, on_done=None):
+    """Compute the points `todo` [(i, j), ...] into grid, writing batches;
+    Cancelled once `cancel` (a threading.Event) is set (between tasks: the
+    finished points are kept in the partial folder).  executor: a
+    concurrent.futures.Executor to run the tasks on (a server's share of
+    its workers) instead of a pool of `workers` threads of our own.
+    on_done(): called (in this thread) after each finished task's points
+    are in the grid."""
+    la, lm = sweep.log_amplitude, sweep.log_mass
+    tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
+    finished = []
+
+    def done(task, results):
+        for p, r in zip(task, results):
+            grid.put(p[0], p[1], r)
+        finished.extend(task)
+        bar.update(len(task))
+        if len(finished) >= BATCH_POINTS:
+            partial.write(finished, grid)
+            finished.clear()
+        if on_done is not None:
+            on_done()
+
+    def args(task):
+        return (sweep.values, [(la[i], lm[j]) for i, j in task], sweep.chaos)
+
+    if scheduler is not None:
+        from dask.distributed import as_completed
+        futures = {scheduler.submit(_compute_points, *args(t), pure=False): t for t in tasks}
+        for fut in as_completed(futures):
+            done(futures[fut], fut.result())
+            if _set(cancel):            # the cluster's queued tasks are dropped
+                for other in futures:
+                    other.cancel()
+                break
+    else:
+        own = executor is None
+        pool = ThreadPoolExecutor(max_workers=workers) if own else executor
+        try:
+            pending, queue = {}, list(tasks)
+            while queue or pending:
+                while queue and len(pending) < 2 * workers and not _set(cancel):
+                    t = queue.pop(0)
+                    pending[pool.submit(_compute_points, *args(t))] = t
+                if not pending:          # cancelled: nothing more was started
+                    break
+                ready, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in ready:
+                    done(pending.pop(fut), fut.result())
+        finally:
+            if own:
+                pool.shutdown()
+    if finished:
+        partial.write(finished, grid)
+    if _set(cancel):
+        raise Cancelled("map cancelled")
+
+
+def _set(event):
+    return event is not None and event.is_set()
+
+
+def _refine(sweep, max_level, tol, grid, compute, on_level=None):
+    """The level-by-level refinement; compute(points, level, tiling)
+    computes the missing ones of `level` (tiling: every cell that holds a
+    point computed so far, for a snapshot in the middle of a level);
+    on_level(level, cells) is called after each level with every cell that
+    holds its points (leaves so far and the level's cells: a complete
+    tiling, for a snapshot).  Returns the unrefined cells (leaves) as
+    (i0, j0, size)."""
+    top = 2 ** max_level
+    n_a, n_m = grid.shape
+    cells = [(i, j) for i in range(0, n_a - 1, top) for j in range(0, n_m - 1, top)]
+    coarse = [(i, j, top) for i, j in cells]
+    compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0,
+            coarse)
+    leaves = []
+    size = top
+    if on_level is not None:
+        on_level(0, coarse)
+    for _level in range(max_level):
+        refined, pending = set(), set(cells)
+        # while the level's points come in, each lies in a cell of this size
+        tiling = leaves + [(i, j, size) for i, j in cells]
+        while pending:          # until no cell of this level changes its verdict
+            new = sorted(c for c in pending if disagree(grid, c[0], c[1], size, tol))
+            refined.update(new)
+            compute(sorted({p for c in new for p in _new_points(c[0], c[1], size)}),
+                    _level + 1, tiling)
+            pending = set(cells) - refined
+            if not new:
+                break
+        leaves += [(i, j, size) for i, j in cells if (i, j) not in refined]
+        cells = sorted({ch for c in refined for ch in _children(c[0], c[1], size)})
+        size //= 2
+        if on_level is not None:
+            on_level(_level + 1, leaves + [(i, j, size) for i, j in cells])
+    return leaves         # (cells of size 1 hold no missing points)
+
+
+def fill(grid, leaves):
+    """Fill every point not computed from the smallest leaf holding it."""
+    cont = [v for v in CONTINUOUS if v in grid.data]
+    cat = [v for v in CATEGORICAL if v in grid.data]
+    for i0, j0, s in sorted(leaves, key=lambda c: -c[2]):      # smallest last: it wins
+        u = np.arange(s + 1) / s
+        U, W = np.meshgrid(u, u, indexing="ij")
+        sl = (slice(i0, i0 + s + 1), slice(j0, j0 + s + 1))
+        free = ~grid.computed[sl]
+        # nearest corner (ties to the lower index: deterministic)
+        ci = np.where(U > 0.5, i0 + s, i0)
+        cj = np.where(W > 0.5, j0 + s, j0)
+        for v in cat:
+            grid.data[v][sl][free] = grid.data[v][ci, cj][free]
+        for v in cont:
+            a = grid.data[v]
+            c00, c01 = a[i0, j0], a[i0, j0 + s]
+            c10, c11 = a[i0 + s, j0], a[i0 + s, j0 + s]
+            val = (c00 * (1 - U) * (1 - W) + c01 * (1 - U) * W
+                   + c10 * U * (1 - W) + c11 * U * W)
+            a[sl][free] = val[free]
+
+
+def _check_adaptive_store(ds, sweep, max_level, tol, path):
+    _check_store(ds, sweep, path)
+    got = (ds.attrs.get("adaptive_max_level"), ds.attrs.get("adaptive_tolerance"))
+    if got != (max_level, tol):
+        raise StoreMismatch(f"{path} was made with other parameters (adaptive max_level, "
+                            f"tolerance: store {got}, command {(max_level, tol)}); use "
+                            f"another --out or delete it")
+
+
+def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
+                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None,
+                 executor=None, on_chunk=None, chunk_seconds=2.0):
+    """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
+    finest) into the Zarr store `path`, resuming from `<path>.partial/`.
+
+    max_level: the finest level K (1..8); drift_tolerance: the relative drift
+    velocity spread that refines a cell (module docstring).
+    on_level: callable(level, snapshot), called after level 0 (the coarse
+        grid) and after each refinement, with the map so far on the finest
+        grid (an xarray Dataset like the final store's: points not yet
+        computed filled from their cell): a progressive picture.
+    on_chunk: callable(level, snapshot), called within a refinement level
+        (level: the one being computed, 1..max_level) when points have
+        come in and `chunk_seconds` have passed since the last picture: the
+        same picture, finer than a level (a level of a large map can take
+        minutes).  Not within the coarse grid: until its corners are in, a
+        cell has nothing to fill its points from.
+    cancel: a threading.Event; once set, no new point starts and the call
+        raises vibtrans.core.errors.Cancelled (the finished points stay in the
+        partial folder: the same call resumes).
+    executor: a concurrent.futures.Executor for the points (a server shares
+        its workers between maps this way), keeping at most 2 x `workers`
+        tasks in it; else a pool of `workers` threads.
+    Returns the fraction of finest-grid points computed.
+    """
+    import xarray as xr
+    if sweep.kind != "transport":
+        raise InputError(f"adaptive refinement makes drift maps (kind transport), not "
+                         f"kind {sweep.kind}")
+    check_levels(sweep, max_level)
+    max_level = int(max_level)
+    tol = check_tolerance(drift_tolerance)
+    if os.path.exists(path):
+        try:
+            existing = xr.open_zarr(path, consolidated=False, chunks=None)
+        except Exception as exc:
+            raise StoreMismatch(f"{path} exists but is not a readable sweep store "
+                                f"({_why(exc)})") from None
+        _check_adaptive_store(existing, sweep, max_level, tol, path)
+        verify(existing, path)
+        if not existing["done"].values.all():
+            raise StoreMismatch(f"{path} is an unfinished adaptive store (edited?); delete it")
+        # killed between the store's rename and the partial folder's removal
+        shutil.rmtree(f"{path}.partial", ignore_errors=True)
+        return float(existing["computed"].values.mean())
+    workers = workers or os.cpu_count() or 1
+    grid = _Grid(sweep)
+    partial = _Partial(path, sweep, max_level, tol)
+    partial.open(grid)
+    warmup()
+    bar = _bar(None, progress)
+    client = None
+    if scheduler:
+        from dask.distributed import Client
+        client = Client(scheduler)
+        client.run(warmup)
+
+    last = [time.monotonic()]          # when the last picture was taken
+
+    def compute(points, level, tiling):
+        todo = [p for p in points if not grid.computed[p]]
+        bar.total = (bar.total or 0) + len(todo)
+        bar.refresh()
+
+        def chunk_done():
+            if level > 0 and time.monotonic() - last[0] >= chunk_seconds:
+                on_chunk(level, snapshot(sweep, grid, tiling))
+                last[0] = time.monotonic()
+        if todo:
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor,
+                        None if on_chunk is None else chunk_done)
+        elif _set(cancel):
+            raise Cancelled("map cancelled")
+
+    def level_done(level, cells):
+        on_level(level, snapshot(sweep, grid, cells))
+        last[0] = time.monotonic()
+
+    try:
+        leaves = _refine(sweep, max_level, tol, grid, compute,
+                         None if on_level is None else level_done)
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    fill(grid, leaves)
+    fraction = float(grid.computed.mean())
+    _write_store(sweep, grid, path, max_level, tol, fraction)
+    shutil.rmtree(partial.folder, ignore_errors=True)
+    return fraction
+
+
+def snapshot(sweep, grid, cells):
+    """The map so far as a Dataset on the finest grid: a copy of the grid
+    filled from `cells` (a tiling), with `computed`."""
+    import xarray as xr
+    copy = grid.copy()
+    fill(copy, cells)
+    coords = {"log_amplitude": sweep.log_amplitude, "log_mass": sweep.log_mass}
+    dims = ("log_amplitude", "log_mass")
+    return xr.Dataset({**{name: (dims, a) for name, a in copy.data.items()},
+                       "computed": (dims, copy.computed)}, coords=coords,
+                      attrs={**sweep.attrs(), "computed_fraction": float(copy.computed.mean())})
+
+
+def _write_store(sweep, grid, path, max_level, tol, fraction):
+    """The finest grid as a finished sweep store, through a temporary folder
+    renamed to path (a kill before the rename leaves the partial folder)."""
+    ds = sweep.empty_dataset()
+    for name in sweep.variables:
+        ds[name].values[...] = grid.data[name]
+    ds["computed"] = (("log_amplitude", "log_mass"), grid.computed.copy(),
+                      {"description": COMPUTED["computed"][2]})
+    variables = {**sweep.variables, **COMPUTED}
+    for k in range(sweep.n_chunks):
+        ds["digest"].values[k] = _digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
+    ds["done"].values[:] = True
+    ds.attrs.update(adaptive_max_level=max_level, adaptive_tolerance=tol,
+                    computed_fraction=fraction)
+    tmp = f"{path}.writing"
+    shutil.rmtree(tmp, ignore_errors=True)      # a killed run's unfinished copy
+    ds.to_zarr(tmp, mode="w", consolidated=False,
+               encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
+                         for name in variables})
+    os.rename(tmp, path)

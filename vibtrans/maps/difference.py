@@ -1,0 +1,124 @@
+"""The difference of two drift maps (issue 16, item 6): mu 0.1 against 0.3,
+the deformable particle against the material point, preview against
+standard, a computed map against a shipped one.
+
+The second map is read at the first map's grid points (its nearest point
+within half of the first map's step; outside that, or where either map has
+no finished point, the point is not compared).  At each compared point:
+
+* the drift velocities of both and their difference in the maps' signed
+  log scale, s(v) = sign(v) log10(1 + |v| / v0) (decades of drift, equal
+  to the log of the ratio of two large drifts of one sign, continuous
+  through zero);
+* whether the drift class (against / none / with the wave) differs.
+
+The attributes summarize the points that are regular in both maps (a
+chaotic point's drift is not a property of the scene): the fraction whose
+drift class agrees and the median relative drift difference
+|v2 - v1| / max(|v1|, v0).
+"""
+import numpy as np
+import xarray as xr
+
+from vibtrans.analysis.summary import V0
+from vibtrans.core.errors import InputError
+
+GRID = ("log_amplitude", "log_mass")
+
+
+def signed_log(v, v0=V0):
+    """s(v) = sign(v) log10(1 + |v| / v0): decades of drift, 0 at v = 0."""
+    v = np.asarray(v, dtype=float)
+    return np.sign(v) * np.log10(1.0 + np.abs(v) / v0)
+
+
+# What a map is, from its attributes, and the shipped maps' values (a name
+# mentions only what differs from them: "point-mass mu 0.3", "deformable mu
+# 0.5 preview 500 periods")
+DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
+             ("scene_tau", "tau {}", 50.0), ("scene_fidelity", "{}", "standard"),
+             ("scene_periods", "{} periods", 2000.0))
+
+
+def describe(ds):
+    """A map's short name from its attributes: model and mu, then what
+    differs from the shipped maps (theta, nu, tau, fidelity, periods)."""
+    a = ds.attrs
+    parts = [str(a.get("scene_model", "?")), f"mu {a.get('scene_mu', '?')}"]
+    for key, fmt, usual in DESCRIBED:
+        value = a.get(key, usual)
+        if value != usual:
+            parts.append(fmt.format(f"{value:g}" if isinstance(value, float) else value))
+    return " ".join(parts)
+
+
+def _finished(ds):
+    """Points with data: the finished chunks' (sweep.open_map's point_done)."""
+    done = np.ones((ds.sizes["log_amplitude"], ds.sizes["log_mass"]), dtype=bool)
+    if "point_done" in ds:
+        done &= ds["point_done"].values[:, None]
+    return done & np.isfinite(ds["drift_velocity"].values)
+
+
+def _step(coord):
+    values = np.asarray(coord, dtype=float)
+    return float(np.min(np.diff(values))) if values.size > 1 else np.inf
+
+
+def map_difference(first, second, v0=V0):
+    """second against first, on first's grid (module docstring).
+
+    first, second: drift maps (sweep.open_map Datasets: drift_velocity,
+    drift, chaotic over log_amplitude x log_mass).  Returns a Dataset on
+    first's grid: drift_velocity_first/_second, drift_first/_second,
+    compared (bool), class_changed (bool), chaotic_either (bool),
+    log_difference (s(v2) - s(v1), NaN where not compared); attrs first,
+    second (the maps' names), compared_points, regular_points,
+    class_agreement, median_relative_difference (NaN if no regular point).
+    """
+    if not (isinstance(v0, (int, float)) and not isinstance(v0, bool) and np.isfinite(v0)
+            and v0 > 0):
+        raise InputError(f"v0 must be a positive number, got {v0!r}")
+    for name, ds in (("first", first), ("second", second)):
+        missing = [v for v in ("drift_velocity", "drift", "chaotic", *GRID) if v not in ds]
+        if missing:
+            raise InputError(f"{name} map: not a drift map (missing {', '.join(missing)})")
+    la, lm = first["log_amplitude"].values, first["log_mass"].values
+    tolerance = 0.5 * min(_step(la), _step(lm))
+    if not np.isfinite(tolerance):
+        tolerance = 1e-9
+    b = second.assign(finished=(GRID, _finished(second)))[
+        ["drift_velocity", "drift", "chaotic", "finished"]]
+    b = b.sortby(list(GRID)).reindex(log_amplitude=la, log_mass=lm, method="nearest",
+                                     tolerance=tolerance + 1e-9)
+    compared = _finished(first) & (b["finished"].values == True)    # noqa: E712 (NaN: False)
+    if not compared.any():
+        raise InputError(f"the maps share no point: first covers log10 A* "
+                         f"[{la.min():g}, {la.max():g}], log10 m* [{lm.min():g}, {lm.max():g}]; "
+                         f"second log10 A* [{second['log_amplitude'].values.min():g}, "
+                         f"{second['log_amplitude'].values.max():g}], log10 m* "
+                         f"[{second['log_mass'].values.min():g}, "
+                         f"{second['log_mass'].values.max():g}]")
+    v1 = np.where(compared, first["drift_velocity"].values, np.nan)
+    v2 = np.where(compared, b["drift_velocity"].values, np.nan)
+    d1 = first["drift"].values.astype(float)
+    d2 = b["drift"].values.astype(float)
+    chaotic = compared & ((first["chaotic"].values == 1) | (b["chaotic"].values == 1))
+    changed = compared & (d1 != d2)
+    regular = compared & ~chaotic
+    agreement = float((~changed[regular]).mean()) if regular.any() else float("nan")
+    relative = np.abs(v2 - v1) / np.maximum(np.abs(v1), v0)
+    median = float(np.median(relative[regular])) if regular.any() else float("nan")
+    return xr.Dataset(
+        {"drift_velocity_first": (GRID, v1), "drift_velocity_second": (GRID, v2),
+         "drift_first": (GRID, np.where(compared, d1, np.nan)),
+         "drift_second": (GRID, np.where(compared, d2, np.nan)),
+         "compared": (GRID, compared), "class_changed": (GRID, changed),
+         "chaotic_either": (GRID, chaotic),
+         "log_difference": (GRID, np.where(compared, signed_log(v2, v0) - signed_log(v1, v0),
+                                           np.nan),
+                            {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})},
+        coords={"log_amplitude": la, "log_mass": lm},
+        attrs={"first": describe(first), "second": describe(second), "v0": float(v0),
+               "compared_points": int(compared.sum()), "regular_points": int(regular.sum()),
+               "class_agreement": agreement, "median_relative_difference": median})

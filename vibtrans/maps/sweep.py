@@ -1,0 +1,441 @@
+"""Parameter sweeps over the (log10 A*, log10 m*) plane, stored resumably.
+
+A sweep is an xarray Dataset on the grid (log_amplitude, log_mass), written
+to Zarr chunk by chunk (a chunk = `chunk_rows` amplitudes x every mass) as
+its points finish:
+
+* the data of a chunk is written first, then a digest of its data, then its
+  `done` flag (the flag commits the chunk); a sweep killed at any moment restarts with the same command,
+  skips the chunks marked done, and recomputes only unfinished chunks;
+* a store whose parameters or grid differ from the command, or whose done
+  chunks do not match their digests (damaged, truncated, edited), is refused
+  with a clear message, never mixed or read as data.
+
+Points run on all local cores, in a thread pool by default (the numba kernels
+release the GIL; `vibtrans bench --sweep` measured threads 40% faster than a
+process pool on this 2-core machine: 59 vs 42 points/s, 89% vs 91% parallel
+efficiency), or on a dask.distributed cluster given its scheduler address;
+the kernels are the same either way.
+"""
+import hashlib
+import math
+import os
+import shlex
+import sys
+from concurrent.futures import (FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor,
+                                wait)
+
+import numpy as np
+import xarray as xr
+
+from vibtrans.version import __version__
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
+from vibtrans.core.params import Scene
+from vibtrans.core.precompile import warmup
+from vibtrans.core.simulate import run_records
+from vibtrans.core.trajectory import RunArrays
+from vibtrans.core.errors import InputError, StoreMismatch
+
+PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
+DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
+SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
+              "integrator", "alpha_t", "stick_rule")
+VARIABLES = {
+    # name: (dtype, fill, description)
+    "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
+    "final_drift_velocity": ("f8", np.nan, "mean v_x* over the last 10% of the run"),
+    "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
+    "drift": ("i1", -2, "-1 against the wave, 0 none (|v*| <= 0.1), 1 with the wave"),
+    "pattern": ("i1", -1, "rebound pattern: " + ", ".join(f"{i} {p}" for i, p in enumerate(PATTERNS))),
+    "chaotic": ("i1", -1, f"1 if the tau + {TWIN_TAU_OFFSET:g} twin disagrees (jumping points only), else 0"),
+    "contact_fraction": ("f8", np.nan, "fraction of the final 10% spent in contact"),
+    "takeoffs_per_period": ("f8", np.nan, "take-offs per period, final 10%"),
+    "steps": ("i8", -1, "integration steps (run + twin)"),
+    "seconds": ("f8", np.nan, "wall time of the point (run + twin), s"),
+}
+
+
+# The chaos indicator's map: the vertical motion's largest Lyapunov exponent.
+# The vertical motion does not feel the tangential one, so one such map
+# (model "vertical"; "point-mass" for the material point's maps) serves every deformable map of the same tau, fidelity,
+# integrator and periods, whatever mu and theta (the same steps; equal to
+# rounding, as kernel calls differ: tests/test_lyapunov.py).
+LYAPUNOV_VARIABLES = {
+    "lyapunov": ("f8", np.nan, "largest Lyapunov exponent of the vertical motion, per "
+                               "period, from the end of the ramp"),
+    "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
+    "steps": ("i8", -1, "integration steps"),
+    "seconds": ("f8", np.nan, "wall time of the point, s"),
+}
+
+
+# How a transport sweep judges chaos: "lyapunov" (the run's own exponent,
+# analysis.CHAOS_LYAPUNOV; no twin run; the material point, which has no
+# exponent yet, falls back to the twin) or "twin" (the tau + 1e-3 twin: the
+# shipped maps, made before the exponent existed, whose stores carry no
+# `chaos` attribute).
+CHAOS_SOURCES = ("lyapunov", "twin")
+LYAPUNOV_CHAOS_VARIABLES = {
+    **VARIABLES,
+    "chaotic": ("i1", -1, "1 if the Lyapunov exponent exceeds analysis.CHAOS_LYAPUNOV (the "
+                          "material point: if the tau twin disagrees), else 0"),
+    "lyapunov": LYAPUNOV_VARIABLES["lyapunov"],
+}
+
+
+def variables_of(kind, chaos):
+    """The stored variables of a sweep of this kind and chaos source."""
+    if kind == "lyapunov":
+        return LYAPUNOV_VARIABLES
+    return LYAPUNOV_CHAOS_VARIABLES if chaos == "lyapunov" else VARIABLES
+
+
+def _why(exc, limit=240):
+    """An underlying error as one short line (for StoreMismatch messages)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def parse_range(text, name):
+    """'start:stop:step' (inclusive stop) -> 1-D array, validated."""
+    try:
+        start, stop, step = (float(v) for v in str(text).split(":"))
+    except ValueError:
+        raise InputError(f"{name} must be 'start:stop:step', got {text!r}") from None
+    if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
+        raise InputError(f"{name} must be 'start:stop:step' with finite start <= stop "
+                         f"and step > 0, got {text!r}")
+    n = int(round((stop - start) / step)) + 1
+    if n > 100_000:
+        raise InputError(f"{name} has {n} points, more than 100000")
+    return np.round(start + step * np.arange(n), 10)
+
+
+def compute_point(values, log_a, log_m, chaos="twin"):
+    """One grid point: the run with its Lyapunov exponent (chaos
+    "lyapunov"), or the run and, if it jumps, its chaos twin
+    (analysis.twin_scene; chaos "twin", and the material point always).
+
+    Returns a dict of the stored quantities.
+    """
+    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    measure = chaos == "lyapunov" and scene.model != "point-mass"
+    # the runs' arrays, summarized as a Dataset of them would be (no Dataset)
+    ds = RunArrays(*run_records(scene, lyapunov=measure))
+    jumping = jumped(ds)
+    twin = RunArrays(*run_records(twin_scene(scene))) if jumping and not measure else None
+    s = summarize(ds, twin)
+    pattern = s.pattern
+    if pattern == "launched":
+        # the maps store the pattern of the take-offs (PATTERNS), as shipped
+        pattern = "chaotic" if s.chaotic else rebound_pattern(ds)
+    return {
+        "drift_velocity": s.drift_velocity,
+        "final_drift_velocity": s.final_drift_velocity,
+        "contact": int(jumping),
+        "drift": DRIFTS[s.drift],
+        "pattern": PATTERNS.index(pattern or "none"),
+        "chaotic": int(bool(s.chaotic)),
+        "contact_fraction": s.contact_fraction,
+        "takeoffs_per_period": s.takeoffs_per_period,
+        "steps": s.steps + s.twin_steps,          # VARIABLES: run + twin
+        "seconds": s.seconds + s.twin_seconds,
+        "lyapunov": np.nan if s.lyapunov is None else s.lyapunov,
+    }
+
+
+def lyapunov_point(values, log_a, log_m):
+    """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
+    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    ds = RunArrays(*run_records(scene, lyapunov=True))
+    value = ds.attrs.get("lyapunov")
+    return {"lyapunov": np.nan if value is None else value, "contact": int(jumped(ds)),
+            "steps": int(ds.attrs["steps"]), "seconds": float(ds.attrs["seconds"])}
+
+
+KINDS = ("transport", "lyapunov")      # drift maps; the vertical motion's exponent
+
+
+def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin"):
+    """All points of a chunk (a worker task)."""
+    if kind == "lyapunov":
+        return [[lyapunov_point(values, la, lm) for lm in log_ms] for la in log_as]
+    return [[compute_point(values, la, lm, chaos) for lm in log_ms] for la in log_as]
+
+
+def _digest(block, variables=VARIABLES):
+    h = hashlib.sha256()
+    for name in variables:
+        h.update(np.ascontiguousarray(block[name].values).tobytes())
+    return np.uint64(int(h.hexdigest()[:16], 16))
+
+
+class Sweep:
+    """A sweep's definition: scene values (everything but A*, m*) and grid."""
+
+    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None,
+                 kind="transport", chaos="lyapunov", **values):
+        if kind not in KINDS:
+            raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        if chaos not in CHAOS_SOURCES:
+            raise InputError(f"chaos must be one of {', '.join(CHAOS_SOURCES)}, got {chaos!r}")
+        if kind == "lyapunov" and values.get("model") not in ("vertical", "point-mass"):
+            raise InputError("a lyapunov sweep runs the vertical model (model='vertical') or "
+                             "the material point (model='point-mass'): the indicator is the "
+                             "vertical motion's")
+        self.kind = kind
+        self.chaos = chaos
+        self.variables = variables_of(kind, chaos)
+        scene = Scene(**values)            # validates every value
+        self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
+        self.log_amplitude = np.asarray(log_amplitude, dtype=float)
+        self.log_mass = np.asarray(log_mass, dtype=float)
+        if not (isinstance(chunk_rows, int) and chunk_rows >= 1):
+            raise InputError(f"chunk_rows must be an integer >= 1, got {chunk_rows!r}")
+        self.chunk_rows = chunk_rows
+        self.command = command or "python API"
+
+    @property
+    def n_chunks(self):
+        return -(-self.log_amplitude.size // self.chunk_rows)
+
+    def rows(self, k):
+        return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
+
+    def attrs(self):
+        return {**{f"scene_{k}": v for k, v in self.values.items()},
+                "chunk_rows": self.chunk_rows, "code_version": __version__,
+                "command": self.command,
+                **({"kind": self.kind} if self.kind != "transport" else {}),
+                **({"chaos": self.chaos} if self.kind == "transport" else {})}
+
+    def empty_dataset(self):
+        shape = (self.log_amplitude.size, self.log_mass.size)
+        data = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
+                       {"description": desc})
+                for name, (dt, fill, desc) in self.variables.items()}
+        data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
+        data["digest"] = (("chunk",), np.zeros(self.n_chunks, dtype=np.uint64))
+        return xr.Dataset(data, coords={"log_amplitude": self.log_amplitude,
+                                        "log_mass": self.log_mass,
+                                        "chunk": np.arange(self.n_chunks)},
+                          attrs=self.attrs())
+
+
+def _check_store(ds, sweep, path):
+    problems = []
+    for k, v in sweep.values.items():
+        got = ds.attrs.get(f"scene_{k}")
+        if got != v:
+            problems.append(f"{k}: store {got!r}, command {v!r}")
+    for name in ("log_amplitude", "log_mass"):
+        grid = getattr(sweep, name)
+        if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):
+            problems.append(f"{name} grid differs")
+    if ds.attrs.get("kind", "transport") != sweep.kind:
+        problems.append(f"kind: store {ds.attrs.get('kind', 'transport')}, command {sweep.kind}")
+    elif sweep.kind == "transport" and ds.attrs.get("chaos", "twin") != sweep.chaos:
+        problems.append(f"chaos: store {ds.attrs.get('chaos', 'twin')}, command {sweep.chaos}")
+    if ds.attrs.get("chunk_rows") != sweep.chunk_rows:
+        problems.append(f"chunk_rows: store {ds.attrs.get('chunk_rows')}, command {sweep.chunk_rows}")
+    if problems:
+        raise StoreMismatch(f"{path} was made with other parameters ({'; '.join(problems)}); "
+                            f"use another --out or delete it")
+
+
+def verify(ds, path="store"):
+    """Raise StoreMismatch unless every done chunk matches its digest."""
+    rows = ds.attrs.get("chunk_rows", 0)
+    if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
+            or "digest" not in ds):
+        raise StoreMismatch(f"{path} is not a vibtrans sweep store")
+    kind = ds.attrs.get("kind", "transport")     # (stores before kinds: transport,
+    chaos = ds.attrs.get("chaos", "twin")        #  judged by the twin)
+    if kind not in KINDS or chaos not in CHAOS_SOURCES:
+        raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos "
+                            f"source {chaos!r}")
+    variables = variables_of(kind, chaos)
+    if "computed" in ds or "adaptive_max_level" in ds.attrs:
+        # an adaptive map (vibtrans.maps.adaptive): which points were simulated is
+        # data too, digested with the rest
+        variables = {**variables, "computed": ("bool", False, "simulated, not filled")}
+    missing = [name for name in variables if name not in ds]
+    if missing:
+        raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: "
+                            f"{', '.join(missing)})")
+    try:
+        done, digests = ds["done"].values, ds["digest"].values
+    except Exception as exc:   # undecodable flags: damaged or truncated
+        raise StoreMismatch(f"{path}: the done flags or digests cannot be read "
+                            f"({_why(exc)})") from None
+    n_chunks = -(-ds.sizes.get("log_amplitude", 0) // rows)
+    if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
+        raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
+    try:    # one read of each variable (a read per chunk cost ~1.5 ms each)
+        whole = ds[list(variables)].load()
+    except Exception:          # a damaged chunk: read chunk by chunk, to name it
+        whole = None
+    for k in np.flatnonzero(done):
+        sl = slice(int(k) * rows, (int(k) + 1) * rows)
+        try:
+            block = (ds[list(variables)].isel(log_amplitude=sl).load() if whole is None
+                     else whole.isel(log_amplitude=sl))
+        except Exception as exc:   # undecodable chunk: damaged or truncated
+            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({_why(exc)})") from None
+        if _digest(block, variables) != digests[k]:
+            raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
+                                f"(damaged or edited); delete the store and rerun")
+
+
+def open_map(path, expect=None):
+    """Open a finished or partial sweep, verified; undone points are masked.
+
+    expect: scene values the store must have been made with (e.g.
+    {"model": "deformable", "mu": 0.3}, from a map's file name); a store made
+    with others is refused (StoreMismatch)."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no sweep store at {path}")
+    try:
+        # chunks=None: numpy, not dask (the maps are small; dask's per-read
+        # overhead made opening the shipped maps take seconds)
+        ds = xr.open_zarr(path, consolidated=False, chunks=None)
+    except Exception as exc:
+        raise StoreMismatch(f"{path} is not a readable Zarr store ({_why(exc)})") from None
+    made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
+    if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
+        have = ", ".join(f"{k}={v}" for k, v in made.items())
+        want = ", ".join(f"{k}={v}" for k, v in expect.items())
+        raise StoreMismatch(f"{path} was made for {have}, not {want} (a sweep store under "
+                            f"another map's name?)")
+    verify(ds, path)
+    try:
+        ds = ds.load()
+    except Exception as exc:   # e.g. an unfinished chunk that is damaged
+        raise StoreMismatch(f"{path} cannot be read ({_why(exc)})") from None
+    rows = int(ds.attrs["chunk_rows"])
+    done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
+    return ds.assign(point_done=("log_amplitude", done_rows))
+
+
+VERTICAL_VARIABLES = ("threshold_amplitude", "point_mass_threshold_amplitude")
+
+
+def open_vertical(path):
+    """The jumping-threshold curve A_J*(m*) (netCDF, from `vibtrans threshold
+    --sweep`), checked: StoreMismatch naming the path and the problem if it
+    is unreadable (damaged, truncated) or not such a curve (foreign)."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no vertical curve at {path}")
+    try:
+        ds = xr.load_dataset(path)
+    except Exception as exc:
+        raise StoreMismatch(f"{path} is not a readable netCDF file ({_why(exc)})") from None
+    missing = [v for v in ("log_mass", *VERTICAL_VARIABLES) if v not in ds.variables]
+    if missing:
+        raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: "
+                            f"{', '.join(missing)})")
+    lm = ds["log_mass"].values
+    if (ds["log_mass"].dims != ("log_mass",) or lm.size < 2 or lm.dtype.kind != "f"
+            or not np.isfinite(lm).all() or not (np.diff(lm) > 0).all()):
+        raise StoreMismatch(f"{path}: log_mass is not an increasing grid of finite numbers")
+    for v in VERTICAL_VARIABLES:
+        a = ds[v].values
+        if ds[v].dims != ("log_mass",) or a.dtype.kind != "f" or (a <= 0).any():
+            raise StoreMismatch(f"{path}: {v} is not a positive curve over log_mass")
+    return ds
+
+
+def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
+              executor="threads"):
+    """Compute every unfinished chunk of `sweep` into the Zarr store `path`.
+
+    executor: "threads" (default, measured faster: the numba kernels release
+    the GIL) or "processes".
+    """
+    if executor not in ("processes", "threads"):
+        raise InputError(f"executor must be processes or threads, got {executor!r}")
+    if os.path.exists(path):
+        try:
+            existing = xr.open_zarr(path, consolidated=False)
+        except Exception as exc:
+            raise StoreMismatch(f"{path} exists but is not a readable sweep store "
+                                f"({_why(exc)})") from None
+        _check_store(existing, sweep, path)
+        verify(existing, path)
+        done = existing["done"].values.copy()
+    else:
+        sweep.empty_dataset().to_zarr(
+            path, mode="w", encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
+                                      for name in sweep.variables}, consolidated=False)
+        done = np.zeros(sweep.n_chunks, dtype=bool)
+    todo = [k for k in range(sweep.n_chunks) if not done[k]]
+    if not todo:
+        return path
+    warmup()   # fill the numba cache once, before any worker starts
+    bar = _bar(sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size,
+               progress)
+    if scheduler:
+        from dask.distributed import Client
+        with Client(scheduler) as client:
+            client.run(warmup)
+            futures = {client.submit(_compute_row_block, sweep.values,
+                                     sweep.log_amplitude[sweep.rows(k)], sweep.log_mass,
+                                     sweep.kind, sweep.chaos, pure=False): k for k in todo}
+            from dask.distributed import as_completed
+            for fut in as_completed(futures):
+                _write_chunk(path, sweep, futures[fut], fut.result(), bar)
+    else:
+        workers = workers or os.cpu_count() or 1
+        import multiprocessing as mp
+        if executor == "threads":
+            pool_cm = ThreadPoolExecutor(max_workers=workers)
+        else:
+            pool_cm = ProcessPoolExecutor(max_workers=workers, initializer=warmup,
+                                          mp_context=mp.get_context("spawn"))
+        with pool_cm as pool:
+            pending = {}
+            queue = list(todo)
+            while queue or pending:
+                while queue and len(pending) < 2 * workers:
+                    k = queue.pop(0)
+                    pending[pool.submit(_compute_row_block, sweep.values,
+                                        sweep.log_amplitude[sweep.rows(k)],
+                                        sweep.log_mass, sweep.kind, sweep.chaos)] = k
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    _write_chunk(path, sweep, pending.pop(fut), fut.result(), bar)
+    bar.close()
+    return path
+
+
+def _bar(total, enabled):
+    from tqdm import tqdm
+    return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
+                desc="sweep", smoothing=0.05)
+
+
+def _write_chunk(path, sweep, k, rows, bar):
+    sl = sweep.rows(k)
+    coords = {"log_amplitude": sweep.log_amplitude[sl], "log_mass": sweep.log_mass}
+    data = {}
+    for name, (dt, _, _) in sweep.variables.items():
+        arr = np.array([[p[name] for p in row] for row in rows], dtype=dt)
+        data[name] = (("log_amplitude", "log_mass"), arr)
+    block = xr.Dataset(data, coords=coords)
+    block.drop_vars(["log_amplitude", "log_mass"]).to_zarr(
+        path, region={"log_amplitude": sl, "log_mass": slice(None)}, consolidated=False)
+    # then the digest, then the done flag, each a write of its own: the flag
+    # commits the chunk, so a kill at any point before it redoes the chunk (one
+    # write of both left done = True beside a zero digest when the kill fell
+    # between its two files)
+    region = {"chunk": slice(k, k + 1)}
+    xr.Dataset({"digest": (("chunk",), np.array([_digest(block, sweep.variables)],
+                                                 dtype=np.uint64))}).to_zarr(
+        path, region=region, consolidated=False)
+    xr.Dataset({"done": (("chunk",), np.array([True]))}).to_zarr(
+        path, region=region, consolidated=False)
+    bar.update(block["steps"].size)
+
+
+def command_line():
+    return "vibtrans " + " ".join(shlex.quote(a) for a in sys.argv[1:])

@@ -1,0 +1,717 @@
+"""Design charts in device units: where a real device sits on the drift maps,
+how fast its particle moves and which way, and where the model stops holding.
+
+A device (substrate, particle, radius, frequency, wave amplitude, pre-load;
+`units.DeviceSpec`) maps to the normalized plane (A*, m*) with theta and
+r(nu) of its two materials (docs/MODEL.md sections 1 and 5). A chart varies
+two of (frequency, radius, amplitude) with the third fixed, maps every point
+to (log10 A*, log10 m*) and reads a normalized drift map made with the same
+mu, theta and nu: a shipped map when it matches and covers every point,
+else one computed on request (`compute=True`), else a refusal naming what
+is outside and how to compute it.
+
+Reading: the nearest grid point of the map (no interpolation: the drift
+class, pattern and chaos flags are categories, and a drift velocity blended
+across a regime boundary would belong to no scene). On a map of step h
+decades, the point read is at most h/2 decades from the device in log10 A*
+and in log10 m* (0.025 decades, a factor 1.06, on the shipped 0.05 grid);
+the chart's v* is the simulated v* of a scene that close, not of the device.
+Measured (tests/test_design.py): a steel-on-glass device between grid points
+in the hopping zone (log10 A* 2.40, log10 m* 0.23) reads v* = -168 where a
+direct run of the device gives -176.8, a 5% difference, inside the spread
+of v* over the 3 x 3 grid points around it.
+
+SI units throughout unless a name says otherwise.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vibtrans.core import units
+from vibtrans.core.errors import InputError, InputTypeError
+from vibtrans.core.units import DeviceSpec
+# (in a module of their own: the command line's parser needs them without numpy)
+from vibtrans.products.designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, MAP_STEP,  # noqa: F401
+                          PRESET_NAMES, REGIMES, velocity_unit)
+
+G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
+
+# ---------------------------------------------------------------- validity thresholds
+# Interatomic spacing in solids is 0.2-0.3 nm (Kittel, Introduction to Solid
+# State Physics, ch. 1); a continuum (Hertz) compression smaller than one
+# spacing is a number, not a deformation.
+ATOMIC_SPACING = 2e-10            # m
+# A continuum contact needs many atoms across it; ten spacings taken as the least.
+MIN_CONTACT_RADIUS = 10 * ATOMIC_SPACING   # m
+# Adhesion "comparable to" the load: pull-off at least a tenth of m g + P.
+ADHESION_RATIO = 0.1
+# The model drops k_R x (docs/MODEL.md 1): warn where the particle moves a
+# hundredth of a wavelength or more per period (a phase slip of 0.063 rad).
+TRAVEL_FRACTION = 0.01
+# Pull-off force of a sphere of radius R on a flat: JKR 1.5 pi w R, DMT 2 pi w R.
+# The warning uses DMT, the larger: it warns first (conservative).
+JKR_FACTOR = 1.5 * math.pi
+DMT_FACTOR = 2.0 * math.pi
+
+# ---------------------------------------------------------------- chart axes
+AXES = ("frequency", "radius", "amplitude")
+MAX_AXIS_POINTS = 400             # per axis: 160000 chart points at most
+# The shipped maps are at theta = 1.2, nu = 0.3 (the paper's). A device is read
+# on them when its theta and nu are this close: steel on glass (the paper's own
+# device, theta = 1.214) is: its direct run at that device (above) changed by
+# 1.5e-5 relative from theta = 1.2 to 1.214. 0.005 in nu moves r by 0.25%
+# (units.amplitude_ratio).
+THETA_TOLERANCE = 0.02
+NU_TOLERANCE = 0.005
+MAX_COMPUTE_POINTS = 20000        # a computed window larger than this is refused
+COMPUTE_FIDELITY = "preview"
+
+SYNCHRONOUS_PATTERNS = (1, 2)     # sweep.PATTERNS: synchronous, multi-synchronous
+
+
+# ---------------------------------------------------------------- presets
+@dataclass(frozen=True)
+class Preset:
+    """A named device and the chart around it: axes (name, lo, hi, n), the
+    third quantity fixed at the device's value."""
+
+    name: str
+    device: DeviceSpec
+    x: tuple
+    y: tuple
+    note: str
+
+
+def _paper_device():
+    """The paper's worked example (steel on glass, no pre-load) at its point 4
+    (A* = 10^2.5, m* = 1); R_p = 0.5 mm: the paper's "R_p = 1e-3 m" read as
+    the diameter, the reading that reproduces its numbers (docs/MODEL.md 5)."""
+    from vibtrans.core.params import PAPER_POINTS
+    log_a, log_m, _ = PAPER_POINTS[4]
+    radius = 0.5e-3
+    f = units.frequency_for_mass_ratio(10.0 ** log_m, "glass", "steel", radius)
+    a0 = units.to_normalized("glass", "steel", radius, f, 0.0).a0
+    return DeviceSpec("glass", "steel", radius, f, 10.0 ** log_a * a0)
+
+
+def _presets():
+    return {
+        "paper": Preset("paper", _paper_device(),
+                        ("frequency", 1e4, 1e6, 41), ("amplitude", 1e-9, 5e-7, 41),
+                        "Terzi et al.'s worked example: 1 mm steel ball on glass at its "
+                        "point 4 (v* ~ -1e3 in the paper, v ~ 9 cm/s)"),
+        "saw-motor": Preset("saw-motor", DeviceSpec("lithium niobate", "steel", 0.5e-3,
+                                                    10e6, 10e-9, preload=1.0),
+                            ("amplitude", 1e-9, 3e-8, 21), ("radius", 0.25e-3, 1e-3, 21),
+                            "SAW motor: steel balls (1 mm diameter) pressed on lithium "
+                            "niobate by a 1 N pre-load, 10 MHz, 10 nm"),
+        "saw-powder": Preset("saw-powder", DeviceSpec("lithium niobate", "fused silica",
+                                                      10e-6, 10e6, 1e-9),
+                             ("amplitude", 1e-10, 2e-9, 21), ("radius", 2e-6, 20e-6, 21),
+                             "SAW powder: 10 um silica particle on lithium niobate, "
+                             "10 MHz, 1 nm (the issue's case: A* = 1820, a0 = 5.5e-13 m)"),
+        "feeder": Preset("feeder", DeviceSpec("aluminium", "PTFE", 2e-3, 400.0, 2e-6),
+                         ("frequency", 300.0, 3000.0, 21), ("amplitude", 2e-7, 2e-5, 21),
+                         "vibratory-feeder-like: 4 mm PTFE part on an aluminium track, "
+                         "400 Hz, 2 um"),
+    }
+
+
+
+
+def preset(name):
+    """The named Preset (PRESET_NAMES); InputError lists the names."""
+    if not isinstance(name, str) or name not in PRESET_NAMES:
+        raise InputError(f"preset must be one of {', '.join(PRESET_NAMES)}, got {name!r}")
+    return _presets()[name]
+
+
+# ---------------------------------------------------------------- device quantities
+@dataclass(frozen=True)
+class DeviceQuantities:
+    """What practitioners check about a device (SI; docs/MODEL.md 5).
+
+    Static: mass [kg], load m g + P [N], a0 [m], contact radius sqrt(R a0) [m],
+    mean contact pressure load / (pi a_c^2) [Pa], A*, m*, theta, r, nu;
+    wave: Rayleigh speed [m/s] and wavelength [m], peak vertical surface
+    acceleration [g] and velocity [m/s] (horizontal: r times these);
+    adhesion: JKR and DMT pull-off [N].
+    From a map reading (None without one): v* and drift velocity [m/s],
+    contact time per period [s], travel per period [m] and over the wavelength.
+    """
+
+    mass: float
+    load: float
+    a0: float
+    contact_radius: float
+    mean_contact_pressure: float
+    A_star: float
+    m_star: float
+    theta: float
+    r: float
+    nu: float
+    rayleigh_speed: float
+    rayleigh_wavelength: float
+    peak_acceleration_g: float
+    peak_velocity: float
+    pull_off_jkr: float
+    pull_off_dmt: float
+    v_star: float | None = None
+    drift_velocity: float | None = None
+    contact_time: float | None = None
+    travel_per_period: float | None = None
+    travel_over_wavelength: float | None = None
+
+    def as_dict(self):
+        return asdict(self)
+
+
+def _device(device):
+    if not isinstance(device, DeviceSpec):
+        raise InputTypeError(f"device must be a units.DeviceSpec, got {device!r}")
+    return device
+
+
+def _surface_energy(value):
+    return units._nonnegative("surface_energy", value)
+
+
+def device_quantities(device, reading=None, surface_energy=DEFAULT_SURFACE_ENERGY):
+    """DeviceQuantities of a DeviceSpec; `reading` (from `read_device`) adds
+    the drift, contact time and travel per period."""
+    device = _device(device)
+    w = _surface_energy(surface_energy)
+    s = device.normalized()
+    a_c = math.sqrt(device.radius * s.a0)
+    omega = 2 * math.pi * device.frequency
+    q = dict(mass=s.mass_kg, load=s.load_N, a0=s.a0, contact_radius=a_c,
+             mean_contact_pressure=s.load_N / (math.pi * a_c**2), A_star=s.A_star,
+             m_star=s.m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R,
+             rayleigh_wavelength=s.wavelength,
+             peak_acceleration_g=omega**2 * device.amplitude / G_STANDARD,
+             peak_velocity=omega * device.amplitude,
+             pull_off_jkr=JKR_FACTOR * w * device.radius,
+             pull_off_dmt=DMT_FACTOR * w * device.radius)
+    if reading is not None and np.isfinite(reading["v_star"]):
+        v = s.drift_velocity_si(reading["v_star"])
+        q.update(v_star=float(reading["v_star"]), drift_velocity=v,
+                 contact_time=float(reading["contact_fraction"]) / device.frequency,
+                 travel_per_period=v / device.frequency,
+                 travel_over_wavelength=abs(v) / s.c_R)
+    return DeviceQuantities(**q)
+
+
+@dataclass(frozen=True)
+class ValidityWarning:
+    """One failed assumption: a short code, the message, the value and its threshold."""
+
+    code: str
+    message: str
+    value: float
+    threshold: float
+
+
+def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_velocity=None):
+    """Where the model's assumptions fail for a device: a list of ValidityWarning.
+
+    * a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS;
+    * DMT pull-off 2 pi w R (w = surface_energy [J/m^2], default
+      DEFAULT_SURFACE_ENERGY) at least ADHESION_RATIO times m g + P;
+    * |drift_velocity| [m/s] / f at least TRAVEL_FRACTION of the Rayleigh
+      wavelength (only when a drift velocity is given).
+    """
+    q = device_quantities(device, surface_energy=surface_energy)
+    out = []
+    if q.a0 < ATOMIC_SPACING:
+        out.append(ValidityWarning(
+            "a0-subatomic", f"static compression a0 = {q.a0:.3g} m is below the interatomic "
+            f"spacing ({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical "
+            f"here", q.a0, ATOMIC_SPACING))
+    if q.contact_radius < MIN_CONTACT_RADIUS:
+        out.append(ValidityWarning(
+            "contact-subatomic", f"contact radius {q.contact_radius:.3g} m is below "
+            f"{MIN_CONTACT_RADIUS:g} m (ten interatomic spacings): Hertz theory does not "
+            f"hold", q.contact_radius, MIN_CONTACT_RADIUS))
+    ratio = q.pull_off_dmt / q.load
+    if ratio >= ADHESION_RATIO:
+        out.append(ValidityWarning(
+            "adhesion", f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
+            f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
+            f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
+            f"the model neglects adhesion: count it in the pre-load "
+            f"(--preload, the paper's parameter for such forces) or treat the results as "
+            f"qualitative", ratio, ADHESION_RATIO))
+    if drift_velocity is not None:
+        v = units._check("drift_velocity", drift_velocity)
+        travel = abs(v) / q.rayleigh_speed
+        if travel >= TRAVEL_FRACTION:
+            out.append(ValidityWarning(
+                "travel", f"the particle travels {travel:.3g} wavelengths per period "
+                f"(|v| / c_R); the model neglects k_R x, valid only well below "
+                f"{TRAVEL_FRACTION:g}", travel, TRAVEL_FRACTION))
+    return out
+
+
+def chart_warnings(chart):
+    """Where a design chart (`design_chart`'s Dataset) leaves the model's
+    validity: one line of text per threshold that some chart points cross,
+    with how many ("... at 12 of 1681 points"); an empty list when none.
+
+    The thresholds are `validity_warnings`' own, applied point by point:
+    a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS (both
+    strictly below); adhesion_ratio (DMT pull-off / load) at least
+    ADHESION_RATIO and travel_over_wavelength at least TRAVEL_FRACTION
+    (both at or above).  A NaN value crosses none."""
+    out = []
+    n = chart["a0"].size
+    for var, below, threshold, what in (
+            ("a0", True, ATOMIC_SPACING, "a0 below the interatomic spacing"),
+            ("contact_radius", True, MIN_CONTACT_RADIUS,
+             "contact radius below ten interatomic spacings"),
+            ("adhesion_ratio", False, ADHESION_RATIO,
+             "DMT pull-off at least a tenth of the load"),
+            ("travel_over_wavelength", False, TRAVEL_FRACTION,
+             "travel per period at least a hundredth of the wavelength")):
+        vals = chart[var].values
+        bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
+        if bad:
+            out.append(f"{what} at {bad} of {n} points")
+    return out
+
+
+# ---------------------------------------------------------------- device -> (A*, m*)
+def _axis(spec, name):
+    """(quantity, values) of an axis spec (quantity, lo, hi, n): n log-spaced values."""
+    if not isinstance(spec, (tuple, list)) or len(spec) != 4:
+        raise InputError(f"{name} must be (quantity, lo, hi, n), got {spec!r}")
+    q, lo, hi, n = spec
+    if q not in AXES:
+        raise InputError(f"{name} quantity must be one of {', '.join(AXES)}, got {q!r}")
+    lo = units._positive(f"{name} lo ({q})", lo)
+    hi = units._positive(f"{name} hi ({q})", hi)
+    if not hi > lo:
+        raise InputError(f"{name} ({q}) must have lo < hi, got {lo:g} and {hi:g}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 2 <= n <= MAX_AXIS_POINTS:
+        raise InputError(f"{name} ({q}) points must be an integer in [2, {MAX_AXIS_POINTS}], "
+                         f"got {n!r}")
+    return q, np.geomspace(lo, hi, int(n))
+
+
+def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.0,
+                   g=G_STANDARD):
+    """(a0 [m], A*, m*) of devices given as broadcastable arrays (radius [m],
+    frequency [Hz], amplitude [m]); the vectorized `units.to_normalized`."""
+    sub = units._as_material("substrate", substrate)
+    par = units._as_material("particle", particle)
+    radius = np.asarray(units._positive("radius", radius), dtype=float)
+    frequency = np.asarray(units._positive("frequency", frequency), dtype=float)
+    amplitude = np.asarray(units._positive("amplitude", amplitude), dtype=float)
+    preload = units._nonnegative("preload", preload)
+    g = units._positive("g", g)
+    mass = units.sphere_mass(radius, par.density)
+    load = mass * g + preload
+    E_eff = units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
+                                    par.youngs_modulus, par.poisson_ratio)
+    a0 = (3 * load / (4 * E_eff * np.sqrt(radius))) ** (2.0 / 3.0)
+    return a0, amplitude / a0, a0 * mass * frequency**2 / load
+
+
+def materials_theta_nu(substrate, particle):
+    """(theta, nu) of a substrate / particle pair (docs/MODEL.md 1)."""
+    sub = units._as_material("substrate", substrate)
+    par = units._as_material("particle", particle)
+    theta = units.stiffness_ratio(sub.youngs_modulus, sub.poisson_ratio,
+                                  par.youngs_modulus, par.poisson_ratio)
+    return theta, sub.poisson_ratio
+
+
+# ---------------------------------------------------------------- which map
+def shipped_map_path(mu, maps=None):
+    from vibtrans.maps.shipped import maps_dir
+    return Path(maps or maps_dir()) / f"deformable-mu{float(mu):g}.zarr"
+
+
+def _grid_range(values, step):
+    lo = math.floor(np.nanmin(values) / step) * step
+    hi = math.ceil(np.nanmax(values) / step) * step
+    return np.round(np.arange(lo, hi + step / 2, step), 10)
+
+
+def _shipped_problems(ds, theta, nu, mu, log_a, log_m):
+    """Why a shipped map cannot serve (list of text; empty if it can)."""
+    problems = []
+    if not math.isclose(ds.attrs.get("scene_mu", math.nan), mu, rel_tol=1e-12):
+        problems.append(f"mu {mu:g} (map: {ds.attrs.get('scene_mu')})")
+    mt, mn = ds.attrs["scene_theta"], ds.attrs["scene_nu"]
+    if abs(theta - mt) > THETA_TOLERANCE:
+        problems.append(f"theta {theta:.4g} of the materials differs from the map's {mt:g} "
+                        f"by more than {THETA_TOLERANCE:g}")
+    if abs(nu - mn) > NU_TOLERANCE:
+        problems.append(f"nu {nu:.4g} of the substrate differs from the map's {mn:g} by "
+                        f"more than {NU_TOLERANCE:g}")
+    for label, vals, grid in (("log10 A*", log_a, ds["log_amplitude"].values),
+                              ("log10 m*", log_m, ds["log_mass"].values)):
+        lo, hi = float(np.min(vals)), float(np.max(vals))
+        if lo < grid[0] or hi > grid[-1]:
+            problems.append(f"{label} spans [{lo:.3g}, {hi:.3g}], outside the map's "
+                            f"[{grid[0]:g}, {grid[-1]:g}]")
+    return problems
+
+
+def compute_cost(log_amplitude, log_mass, values):
+    """(points, periods, integration steps: an upper estimate) of a sweep."""
+    from vibtrans.core.params import Scene
+    from vibtrans.core.simulate import estimate_steps
+    steps = 0
+    for la in log_amplitude:
+        for lm in log_mass:
+            steps += estimate_steps(Scene(amplitude=10.0 ** la, mass=10.0 ** lm, **values))
+    return len(log_amplitude) * len(log_mass), values["periods"], steps
+
+
+def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=2000.0,
+                 tau=50.0, fidelity=COMPUTE_FIDELITY, report=print, workers=None):
+    """The normalized window covering (log_a, log_m) on a `step`-decade grid,
+    computed with vibtrans.maps.sweep into a store under `store_dir` (kept: a rerun
+    reuses or resumes it). The cost is reported before anything runs."""
+    from vibtrans.maps.outfiles import check_folder
+    from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+    step = units._check("step", step, 0.0, 1.0, hi_open=False)
+    store_dir = check_folder(store_dir, "store_dir")
+    la, lm = _grid_range(log_a, step), _grid_range(log_m, step)
+    if la.size < 2:
+        la = np.round(np.array([la[0], la[0] + step]), 10)
+    if lm.size < 2:
+        lm = np.round(np.array([lm[0], lm[0] + step]), 10)
+    n = la.size * lm.size
+    if n > MAX_COMPUTE_POINTS:
+        raise InputError(f"the window to compute has {n} points ({la.size} in log10 A* "
+                         f"[{la[0]:g}, {la[-1]:g}] x {lm.size} in log10 m* [{lm[0]:g}, "
+                         f"{lm[-1]:g}] at step {step:g}), more than {MAX_COMPUTE_POINTS}; "
+                         f"use a coarser step or narrower axes")
+    values = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
+                  fidelity=fidelity)
+    points, per, steps = compute_cost(la, lm, values)
+    key = json.dumps({**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]},
+                     sort_keys=True)
+    path = Path(store_dir) / f"design-{hashlib.sha256(key.encode()).hexdigest()[:16]}.zarr"
+    verb = "reading (resuming if unfinished)" if path.exists() else "computing"
+    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x "
+           f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
+           f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
+           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g})")
+    sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
+    run_sweep(sweep, str(path), workers=workers, progress=False)
+    return open_map(str(path)), str(path)
+
+
+# ---------------------------------------------------------------- reading
+def _nearest(grid, values):
+    """Index of the nearest grid value to each value (grid increasing)."""
+    i = np.clip(np.searchsorted(grid, values), 1, grid.size - 1)
+    left = values - grid[i - 1] <= grid[i] - values
+    return np.where(left, i - 1, i)
+
+
+def regime_of(drift, contact, pattern, chaotic):
+    """Regime index (REGIMES) from a map's flags (arrays of equal shape)."""
+    drift, contact = np.asarray(drift), np.asarray(contact)
+    pattern, chaotic = np.asarray(pattern), np.asarray(chaotic)
+    r = np.full(drift.shape, REGIMES.index("other hopping"), dtype=np.int8)
+    r = np.where(np.isin(pattern, SYNCHRONOUS_PATTERNS), REGIMES.index("synchronous hopping"), r)
+    r = np.where(contact == 0, np.where(drift > 0, REGIMES.index("sliding with the wave"),
+                                        REGIMES.index("sliding against the wave")), r)
+    r = np.where(drift == 0, REGIMES.index("no drift"), r)
+    r = np.where(chaotic == 1, REGIMES.index("chaotic"), r)
+    return np.where(drift < -1, -1, r).astype(np.int8)     # -1: not computed
+
+
+def read_map(map_ds, log_a, log_m):
+    """Nearest-grid-point values of a map at (log_a, log_m) arrays: a dict of
+    arrays (v_star, drift, contact, pattern, chaotic, contact_fraction,
+    log_amplitude_read, log_mass_read). Undone points read as NaN / -2."""
+    ga, gm = map_ds["log_amplitude"].values, map_ds["log_mass"].values
+    ia, im = _nearest(ga, np.asarray(log_a)), _nearest(gm, np.asarray(log_m))
+    done = (map_ds["point_done"].values[ia] if "point_done" in map_ds
+            else np.ones(ia.shape, dtype=bool))
+    out = {}
+    for name, key in (("v_star", "drift_velocity"), ("drift", "drift"), ("contact", "contact"),
+                      ("pattern", "pattern"), ("chaotic", "chaotic"),
+                      ("contact_fraction", "contact_fraction")):
+        vals = map_ds[key].values[ia, im]
+        if vals.dtype.kind == "f":
+            vals = np.where(done, vals, np.nan)
+        else:
+            vals = np.where(done, vals, -2)
+        out[name] = vals
+    out["log_amplitude_read"], out["log_mass_read"] = ga[ia], gm[im]
+    return out
+
+
+def _shipped_map(log_a, log_m, mu, theta, nu, maps):
+    """(the shipped map of `mu` if it serves these points, else None; why
+    it cannot: a list of text, empty when it can)."""
+    from vibtrans.core.errors import StoreMismatch
+    from vibtrans.maps.sweep import open_map
+    path = shipped_map_path(mu, maps)
+    if not path.exists():
+        return None, [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
+    try:
+        ds = open_map(str(path), expect={"model": "deformable", "mu": float(mu)})
+    except StoreMismatch as exc:
+        return None, [str(exc)]
+    problems = _shipped_problems(ds, theta, nu, mu, log_a, log_m)
+    return (None if problems else ds), problems
+
+
+class NoMapCovers(InputError):
+    """design_chart's refusal when no shipped map serves the chart (and
+    nothing is to be computed); `need`: the MapNeed, the map it would read."""
+
+    def __init__(self, message, need):
+        super().__init__(message)
+        self.need = need
+
+
+def _map_need(mu, theta, nu, log_a, log_m, problems):
+    return MapNeed(float(mu), float(theta), float(nu),
+                   (float(np.min(log_a)), float(np.max(log_a))),
+                   (float(np.min(log_m)), float(np.max(log_m))), tuple(problems))
+
+
+def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
+                workers):
+    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps)
+    if ds is not None:
+        return ds, f"shipped: {shipped_map_path(mu, maps).name}"
+    if not compute:
+        raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
+                          + ". Compute the window with --compute (API: compute=True; a "
+                            "preview-fidelity sweep, cost printed first) or narrow the axes",
+                          _map_need(mu, theta, nu, log_a, log_m, problems))
+    ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
+                             periods=periods, report=report, workers=workers)
+    return ds, f"computed: {where}"
+
+
+@dataclass(frozen=True)
+class ChartGrid:
+    """A chart's devices mapped to the normalized plane: the axes'
+    quantities and values (SI), the fixed quantity, the devices' arrays
+    (dims (y, x)), their a0 [m], A*, m*, and theta, nu of the materials."""
+    substrate: object
+    particle: object
+    x: str
+    x_values: np.ndarray
+    y: str
+    y_values: np.ndarray
+    fixed: str
+    fixed_value: float
+    devices: dict
+    a0: np.ndarray
+    A_star: np.ndarray
+    m_star: np.ndarray
+    theta: float
+    nu: float
+
+
+def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+               y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), g=G_STANDARD):
+    """The chart's ChartGrid (every value checked: InputError names it)."""
+    sub = units._as_material("substrate", substrate)
+    par = units._as_material("particle", particle)
+    xq, xv = _axis(x, "x")
+    yq, yv = _axis(y, "y")
+    if not isinstance(fixed, (tuple, list)) or len(fixed) != 2:
+        raise InputError(f"fixed must be (quantity, value), got {fixed!r}")
+    fq, fv = fixed
+    if xq == yq or fq in (xq, yq) or fq not in AXES:
+        raise InputError(f"x, y and fixed must be the three quantities {', '.join(AXES)} "
+                         f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}")
+    fv = units._positive(f"fixed {fq}", fv)
+    X, Y = np.meshgrid(xv, yv)
+    dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
+    a0, A, M = normalize_grid(sub, par, dev["radius"], dev["frequency"], dev["amplitude"],
+                              preload, g)
+    theta, nu = materials_theta_nu(sub, par)
+    return ChartGrid(sub, par, xq, xv, yq, yv, fq, fv, dev, a0, A, M, theta, nu)
+
+
+@dataclass(frozen=True)
+class MapNeed:
+    """The normalized map a chart reads: mu, theta and nu of its materials,
+    the log10 A* and log10 m* it spans, and why the shipped map of that mu
+    cannot serve it (empty when it can)."""
+    mu: float
+    theta: float
+    nu: float
+    log_amplitude: tuple
+    log_mass: tuple
+    shipped_problems: tuple
+
+
+def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+                y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
+                maps=None, g=G_STANDARD):
+    """The MapNeed of a chart (design_chart's arguments): which map it
+    reads, and whether a shipped one serves it.  Nothing is computed."""
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    mu = units._positive("mu", mu)
+    log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
+    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps)
+    return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems)
+
+
+def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
+                 y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
+                 surface_energy=DEFAULT_SURFACE_ENERGY, maps=None, compute=False,
+                 store_dir=None, step=MAP_STEP, periods=2000.0, report=print, workers=None,
+                 g=G_STANDARD, map_ds=None, map_name="given map"):
+    """The design chart: an xarray Dataset over the two device axes (dims
+    (y, x), coordinates in SI) with drift_velocity [m/s] = a0 f v*, v_star,
+    drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES index),
+    contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
+    adhesion_ratio (DMT pull-off / load) and travel_over_wavelength (|v| / c_R);
+    attrs name the map read and how (nearest grid point).
+
+    x, y: (quantity, lo, hi, n) with quantity among AXES, n log-spaced points;
+    fixed: (the third quantity, value). preload [N], mu, surface_energy
+    [J/m^2]. compute: compute the window (into store_dir, `step` decades,
+    `periods`, preview fidelity) when no shipped map serves, else refuse
+    (NoMapCovers, with the MapNeed).
+    map_ds: read this normalized map instead (a map on demand: an opened
+    sweep store; refused unless its mu, theta, nu and window serve the
+    chart), named `map_name` in the chart's attrs.
+    """
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    sub, par = grid.substrate, grid.particle
+    xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
+        grid.fixed_value
+    mu = units._positive("mu", mu)
+    w = _surface_energy(surface_energy)
+    if compute and store_dir is None:
+        raise InputError("store_dir (--store) is needed to compute a map")
+    dev, a0, A, M = grid.devices, grid.a0, grid.A_star, grid.m_star
+    theta, nu = grid.theta, grid.nu
+    log_a, log_m = np.log10(A), np.log10(M)
+    if map_ds is not None:
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m)
+        if problems:
+            raise InputError(f"the {map_name} does not serve this chart: "
+                             + "; ".join(problems))
+        source = map_name
+    else:
+        map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
+                                     step, periods, report, workers)
+    got = read_map(map_ds, log_a, log_m)
+    v = a0 * dev["frequency"] * got["v_star"]
+    c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
+    load = units.sphere_mass(dev["radius"], par.density) * g + preload
+    dims = (yq, xq)
+    grid_step = round(float(np.diff(map_ds["log_amplitude"].values[:2])[0]), 10)
+    data = {
+        "drift_velocity": (dims, v, {"units": "m/s", "description": "a0 f v*"}),
+        "v_star": (dims, got["v_star"], {"description": "<v*> read on the map"}),
+        "drift": (dims, got["drift"], {"description": "-1 against the wave, 0 none, 1 with"}),
+        "contact": (dims, got["contact"], {"description": "0 permanent contact, 1 jumping"}),
+        "pattern": (dims, got["pattern"], {"description": "sweep.PATTERNS index"}),
+        "chaotic": (dims, got["chaotic"], {"description": "1 chaotic"}),
+        "regime": (dims, regime_of(got["drift"], got["contact"], got["pattern"],
+                                   got["chaotic"]),
+                   {"description": ", ".join(f"{i} {r}" for i, r in enumerate(REGIMES))}),
+        "contact_fraction": (dims, got["contact_fraction"],
+                             {"description": "time share in contact, last 10% of the run"}),
+        "A_star": (dims, A, {"description": "A_y / a0"}),
+        "m_star": (dims, M, {"description": "a0 m f^2 / (m g + P)"}),
+        "log_amplitude_read": (dims, got["log_amplitude_read"],
+                               {"description": "log10 A* of the map point read"}),
+        "log_mass_read": (dims, got["log_mass_read"],
+                          {"description": "log10 m* of the map point read"}),
+        "a0": (dims, a0, {"units": "m"}),
+        "contact_radius": (dims, np.sqrt(dev["radius"] * a0), {"units": "m"}),
+        "adhesion_ratio": (dims, DMT_FACTOR * w * dev["radius"] / load,
+                           {"description": "DMT pull-off 2 pi w R over m g + P"}),
+        "travel_over_wavelength": (dims, np.abs(v) / c_R,
+                                   {"description": "|v| / c_R: travel per period over "
+                                                   "the Rayleigh wavelength"}),
+    }
+    import xarray as xr
+    coords = {xq: (xq, xv, {"units": _UNITS[xq], "long_name": AXIS_LABELS[xq]}),
+              yq: (yq, yv, {"units": _UNITS[yq], "long_name": AXIS_LABELS[yq]})}
+    attrs = {
+        "substrate": sub.name, "particle": par.name, "preload_N": float(preload),
+        "gravity": float(g), "mu": float(mu), "theta": float(theta), "nu": float(nu),
+        "surface_energy": float(w), "x": xq, "y": yq, "fixed": fq,
+        "fixed_value": float(fv), "fixed_units": _UNITS[fq], "map": source,
+        "map_theta": float(map_ds.attrs["scene_theta"]),
+        "map_nu": float(map_ds.attrs["scene_nu"]),
+        "map_periods": float(map_ds.attrs["scene_periods"]),
+        "map_fidelity": str(map_ds.attrs["scene_fidelity"]),
+        "map_step": grid_step,
+        "reading": (f"nearest grid point: the map point read is at most {grid_step / 2:g} "
+                    f"decades from the device in log10 A* and in log10 m*"),
+        "rayleigh_speed": float(c_R),
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+_UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
+
+
+def read_device(device, mu=0.3, maps=None, chart=None, map_ds=None, map_name="given map"):
+    """The map reading at one device (dict: v_star, contact_fraction, regime,
+    map), from `map_ds` (named map_name) or `chart`'s map when given (nearest
+    chart point is NOT used: the device is mapped itself), else from the
+    shipped map; None when no map serves the device (outside, other
+    theta/nu/mu)."""
+    from vibtrans.maps.sweep import open_map
+    s = _device(device).normalized()
+    la, lm = np.log10([s.A_star]), np.log10([s.m_star])
+    if map_ds is not None:
+        if _shipped_problems(map_ds, s.theta, s.nu, float(mu), la, lm):
+            return None
+        return _reading(map_ds, la, lm, map_name)
+    path = shipped_map_path(mu, maps)
+    if chart is not None and chart.attrs["map"].startswith("computed: "):
+        path = Path(chart.attrs["map"].split(": ", 1)[1])
+    if not path.exists():
+        return None
+    ds = open_map(str(path))
+    if chart is None and _shipped_problems(ds, s.theta, s.nu, float(mu), la, lm):
+        return None
+    ga, gm = ds["log_amplitude"].values, ds["log_mass"].values
+    if not (ga[0] <= la[0] <= ga[-1] and gm[0] <= lm[0] <= gm[-1]):
+        return None
+    return _reading(ds, la, lm, path.name)
+
+
+def _reading(ds, la, lm, name):
+    got = read_map(ds, la, lm)
+    return {"v_star": float(got["v_star"][0]),
+            "contact_fraction": float(got["contact_fraction"][0]),
+            "regime": REGIMES[int(regime_of(got["drift"], got["contact"], got["pattern"],
+                                            got["chaotic"])[0])],
+            "map": name}
+
+
+def write_chart_data(chart, out):
+    """The chart's numbers to out: .nc (netCDF, every variable) or .csv (one
+    row per device point)."""
+    from vibtrans.maps.outfiles import atomic, check_file
+    check_file(out)
+    ext = Path(out).suffix.lower()
+    if ext == ".nc":
+        with atomic(out, errors=(RuntimeError,)) as tmp:
+            chart.to_netcdf(tmp)
+    elif ext == ".csv":
+        with atomic(out) as tmp:
+            chart.to_dataframe().reset_index().to_csv(tmp, index=False)
+    else:
+        raise InputError(f"out must end in .nc or .csv for the chart's data, got {str(out)!r}")
+    return out

@@ -1,0 +1,1122 @@
+"""Figures built from vibtrans results, shared by the explorer (bokeh) and
+the exporter (matplotlib, headless): one definition per figure.  The maps,
+the vertical curve and the memory diagram are HoloViews elements; the
+trajectory figure is plain data (`trajectory_figure`), drawn by each backend
+directly (see "trajectories" below for why).
+
+Nothing here integrates anything: inputs are Datasets from `simulate`,
+`open_map` and `threshold_curve`, and the dict of `memory_snapshot`.
+
+Backends: every style option is applied separately for each loaded HoloViews
+plotting backend (bokeh and/or matplotlib; bokeh is loaded if none is), with
+that backend's own names (line_dash vs linestyle, size vs s, tools only in
+bokeh).  Figures must therefore be built after the backends they will be
+rendered with are loaded: `vibtrans.products.export` loads matplotlib before it builds
+anything, and loading it never changes `hv.Store.current_backend`.
+"""
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import holoviews as hv
+
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET, V0
+from vibtrans.core.params import PAPER_POINTS
+from vibtrans.core.errors import InputError
+
+STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}   # flight, stick, partial, sliding
+CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
+LOG_A = hv.Dimension("log_amplitude", label="log10 A*")
+LOG_M = hv.Dimension("log_mass", label="log10 m*")
+M_DIM = hv.Dimension("mass", label="m*")
+AJ_DIM = hv.Dimension("threshold_amplitude", label="A_J*")
+H_DIM = hv.Dimension("h", label="h (contact depth)", unit="a0")
+W_DIM = hv.Dimension("w", label="w (spring anchor)", unit="theta mu a0")
+U_DIM = hv.Dimension("u", label="u = b* - w", unit="theta mu a0")
+CX_DIM = hv.Dimension("cx", label="x", unit="sqrt(R a0)")
+CZ_DIM = hv.Dimension("cz", label="z", unit="sqrt(R a0)")
+
+BACKENDS = ("bokeh", "matplotlib")
+FRAGMENT = 2.0           # periods shown at full resolution by trajectory_figure
+OVERVIEW_SAMPLES = 5     # samples per period of the whole-run view (app and exports)
+
+
+# ---------------------------------------------------------------- styling
+def loaded_backends():
+    """The HoloViews plotting backends whose options can be set now
+    (bokeh is loaded if none is)."""
+    if not hv.Store.renderers:
+        import holoviews.plotting.bokeh  # noqa: F401  (sets no style, registers options)
+    return [b for b in BACKENDS if b in hv.Store.renderers]
+
+
+def style(obj, common=None, bokeh=None, matplotlib=None):
+    """Apply options to `obj` for every loaded backend: `common` (names valid
+    in both backends) plus each backend's own (dicts of options)."""
+    per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
+    for backend in loaded_backends():
+        kw = {**(common or {}), **per[backend]}
+        if kw:
+            obj = obj.opts(backend=backend, **kw)
+    return obj
+
+
+def _line(color, width=None, dash=None):
+    """(bokeh, matplotlib) style dicts of a line."""
+    bk, mp = {"color": color}, {"color": color}
+    if width is not None:
+        bk["line_width"], mp["linewidth"] = width, width
+    if dash is not None:
+        bk["line_dash"], mp["linestyle"] = dash, dash
+    return bk, mp
+
+
+def _styled_line(el, color, width=None, dash=None):
+    bk, mp = _line(color, width, dash)
+    return style(el, bokeh=bk, matplotlib=mp)
+
+
+# ---------------------------------------------------------------- drift map
+def colour_scale(v, v0=V0):
+    """The paper's colour quantity C (eq. colormap): signed log10(|v|/v0),
+    normalised separately on each side, 0 inside |v| <= v0."""
+    v = np.asarray(v, dtype=float)
+    c = np.zeros_like(v)
+    pos = v > v0
+    neg = v < -v0
+    lp = np.log10(np.where(pos, v, v0) / v0)
+    ln = np.log10(np.where(neg, -v, v0) / v0)
+    if pos.any():
+        c[pos] = lp[pos] / max(lp[pos].max(), 1e-300)
+    if neg.any():
+        c[neg] = -ln[neg] / max(ln[neg].max(), 1e-300)
+    c[~np.isfinite(v)] = np.nan
+    return c
+
+
+def colour_ticks(v, v0=V0, n=3):
+    """Colour-bar ticks of the paper's scale: positions in C and the drift
+    velocities they stand for ({C: label}), each side with its own maximum."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    ticks = {0.0: f"\u00b1{v0:g}"}
+    for sign in (1, -1):
+        side = sign * v[sign * v > v0]
+        if side.size == 0:
+            continue
+        top = np.log10(side.max() / v0)
+        for c in np.linspace(0, 1, n + 1)[1:]:
+            ticks[sign * float(c)] = _short(sign * v0 * 10 ** (c * top))
+    return dict(sorted(ticks.items()))
+
+
+def _short(v):
+    """Two significant digits, without exponents below 1e6 (2813 -> 2800)."""
+    a = abs(v)
+    if a == 0 or not np.isfinite(a) or a >= 1e6 or a < 1e-3:
+        return f"{v:.2g}"
+    return f"{round(v, -int(np.floor(np.log10(a))) + 1):g}"
+
+
+def _bounds(ds):
+    la = ds["log_amplitude"].values
+    lm = ds["log_mass"].values
+    da = (la[1] - la[0]) / 2 if la.size > 1 else 0.5
+    dm = (lm[1] - lm[0]) / 2 if lm.size > 1 else 0.5
+    return (la[0] - da, lm[0] - dm, la[-1] + da, lm[-1] + dm)
+
+
+def colour_bar_title(v0=V0):
+    """The colour bar's title: what the colours stand for (the drift
+    velocity, not the colour value C) and what white means."""
+    return f"<v*> (signed log scale)\nwhite: |v*| <= v0* = {v0:g}"
+
+
+# ---------------------------------------------------------------- map key
+# The map's key: one entry per layer that draws something, named by the
+# function that draws it (the layers are composed elsewhere: the explorer,
+# the exporter), and collected into one legend outside the plot area (a
+# legend inside covered the map's corner and took its clicks).
+# An entry: (label, "patch", (fill, edge)) or (label, "line", (colour, width, dash)).
+KEY_NAME = "vibtrans-map-key"
+CHAOTIC_GREY = "#9e9e9e"
+BOUNDARY_LINE = ("black", 1.5, None)
+RESONANCE_LINE = ("black", 1.0, "dashed")
+CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
+BOUNDARY_LABEL = "jumping boundary"
+RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
+
+
+def white_label(v0=V0):
+    # short: the key's two columns fit the map's width on a 1024 px screen
+    return f"white: no drift (|v*| <= {v0:g})"
+
+
+def _bokeh_key(entries):
+    """Hook adding `entries` to the map's key, a legend below the plot."""
+    def hook(plot, element):
+        from bokeh.models import ColumnDataSource, Legend, LegendItem, Line, Quad
+        fig = plot.state
+        key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
+        if key is None:
+            key = Legend(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4,
+                         padding=4, spacing=2, label_text_font_size="9pt",
+                         border_line_alpha=0, background_fill_alpha=0)
+            fig.add_layout(key, "below")
+        have = {getattr(item.label, "value", item.label) for item in key.items}
+        for label, kind, spec, shown in entries:
+            if label in have:               # hooks run again on a re-render
+                continue
+            if kind == "patch":
+                glyph = Quad(left=0, right=0, top=0, bottom=0, fill_color=spec[0],
+                             line_color=spec[1])
+            else:
+                colour, width, dash = spec
+                glyph = Line(x=0, y=0, line_color=colour, line_width=width,
+                             line_dash=dash or "solid")
+            # an empty renderer: drawn only as the key's swatch
+            r = fig.add_glyph(ColumnDataSource({}), glyph)
+            key.items.append(LegendItem(label=label, renderers=[r], visible=shown))
+    return hook
+
+
+def _mpl_key(entries):
+    """Hook adding `entries` to the map's key, a legend below the axes
+    (its own artist: HoloViews' legend handling leaves it alone)."""
+    def hook(plot, element):
+        from matplotlib.legend import Legend
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+        ax = plot.handles["axis"]
+        old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
+        mine = list(old.entries) if old is not None else []
+        mine += [e[:3] for e in entries if e[3] and e[0] not in {m[0] for m in mine}]
+        handles = []
+        for label, kind, spec in mine:
+            if kind == "patch":
+                handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
+            else:
+                colour, width, dash = spec
+                handles.append(Line2D([], [], color=colour, linewidth=width,
+                                      linestyle=dash or "solid"))
+        if old is not None:
+            old.remove()
+        # below the tick labels and the axis label (offset in font sizes)
+        key = Legend(ax, handles, [m[0] for m in mine], loc="upper center",
+                     bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2, frameon=False,
+                     handlelength=1.8, columnspacing=1.2, fontsize="small")
+        key.set_gid(KEY_NAME)
+        key.entries = mine
+        ax.add_artist(key)
+        key.set_clip_on(False)      # (add_artist clips to the axes: out of tight layouts)
+    return hook
+
+
+def _keyed(el, entries):
+    """`el` with its entries in the map's key (both backends): (label,
+    "patch" or "line", its style[, shown]); an entry not shown is in the
+    Bokeh key, hidden (a figure of the same make-up as one that shows it),
+    and not in the matplotlib one."""
+    entries = [(*e[:3], e[3] if len(e) > 3 else True) for e in entries]
+    return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]),
+                 matplotlib=dict(hooks=[_mpl_key(entries)]))
+
+
+def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
+    """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
+
+    chaotic: "grey" (chaotic points drawn grey: their colour is not a
+    property of the scene) or "colour" (drawn like the others).
+    always_grey: the grey layer and its key entry are there even when they
+    show nothing (empty, hidden), so that every map is made of the same
+    parts (the explorer then updates its figure in place).
+    """
+    v = ds["drift_velocity"].values                      # (amplitude, mass)
+    c = colour_scale(v, v0)
+    chaos = (ds["chaotic"].values == 1).T
+    if chaotic == "grey":
+        c = np.where(chaos.T, np.nan, c)
+    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, v.T,
+                    chaos.astype(float)),
+                   kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
+                                                hv.Dimension("v", label="<v*>"),
+                                                hv.Dimension("chaotic")],
+                   label=title)
+    # The bar shows the drift velocities at the colours that stand for them
+    # (ticks at their C; they move with v0); the hover names the point, its
+    # drift and the tau-twin verdict, not C (NaN under a chaotic point's grey).
+    ticks = list(colour_ticks(v, v0).items())
+    img = style(img, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True,
+                                 clabel=colour_bar_title(v0)),
+                bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
+                    (LOG_A.label, "$x"), (LOG_M.label, "$y"),
+                    ("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]),
+                matplotlib=dict(cbar_ticks=ticks))
+    key = [(white_label(v0), "patch", ("white", "#606060"))]
+    layers = []
+    shown = chaotic == "grey" and bool(chaos.any())
+    if shown or always_grey:
+        # where it shows nothing the layer is hidden (its values then only
+        # need to be numbers: an all-NaN image has no range)
+        mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
+        grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, mask),
+                        kdims=[LOG_A, LOG_M], vdims=["chaotic"])
+        # no hover of its own: it would cover the map's, showing NaN off the grey
+        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
+                            bokeh=dict(tools=[], visible=shown)))
+        key.append((f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch",
+                    (CHAOTIC_GREY, CHAOTIC_GREY), shown))
+    return hv.Overlay([_keyed(img, key), *layers])
+
+
+def chaos_reason(ds, short=False):
+    """What a map's chaotic points mean, from its chaos source (short: for
+    the map's key)."""
+    if ds.attrs.get("chaos") == "lyapunov":
+        from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+        if short:
+            return f"Lyapunov > {CHAOS_LYAPUNOV:g}/period"
+        return f"Lyapunov exponent > {CHAOS_LYAPUNOV:g} per period"
+    return f"{'' if short else 'the '}tau + {TWIN_TAU_OFFSET:g} twin disagrees"
+
+
+def jumping_boundary(vertical, model="deformable"):
+    """The jumping boundary as a curve in the (log10 A*, log10 m*) plane."""
+    lm = vertical["log_mass"].values
+    var = "threshold_amplitude" if model == "deformable" else "point_mass_threshold_amplitude"
+    la = np.log10(vertical[var].values)
+    # named in the map's key, not by a label (a label makes HoloViews draw
+    # a legend of its own, inside the map)
+    colour, width, dash = BOUNDARY_LINE
+    curve = _styled_line(hv.Curve((la, lm), LOG_A, LOG_M), colour, width=width, dash=dash)
+    return _keyed(curve, [(BOUNDARY_LABEL, "line", BOUNDARY_LINE)])
+
+
+def _resonances(vertical):
+    """[(name, log10 m*)] of the resonances stored with a threshold curve."""
+    out = []
+    for key, value in vertical.attrs.items():
+        if key.startswith("resonance_") and key.endswith("_log_mass"):
+            out.append((key[len("resonance_"):-len("_log_mass")], float(value)))
+    return out
+
+
+def resonance_lines(vertical, shown=True):
+    """Horizontal lines at the fundamental and subharmonic resonances (not
+    `shown`: there, hidden, with their key entry: the explorer's point-mass
+    map, made of the same parts as a deformable one)."""
+    colour, width, dash = RESONANCE_LINE
+    lines = []
+    for key in ("fundamental", "subharmonic"):
+        name = f"resonance_{key}_log_mass"
+        if name in vertical.attrs:
+            line = _styled_line(hv.HLine(vertical.attrs[name]), colour, width=width, dash=dash)
+            lines.append(line if shown else style(line, bokeh=dict(visible=False)))
+    if lines:
+        lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE, shown)])
+    return hv.Overlay(lines)
+
+
+def paper_points(model="deformable"):
+    """The paper's labelled points of one model."""
+    pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
+    xs, ys, ls = zip(*pts)
+    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color="black"),
+                   bokeh=dict(size=6), matplotlib=dict(s=18))
+    ys = np.array(ys)
+    # labels up and right of their point; below it at the map's top edge (point 7)
+    dy = np.where(ys > 4.5, -0.45, 0.12)
+    labels = hv.Labels((np.array(xs) + 0.12, ys + dy, ls), [LOG_A, LOG_M], "label")
+    labels = style(labels, bokeh=dict(text_color="black"),
+                   matplotlib=dict(color="black", size=11, horizontalalignment="left",
+                                   verticalalignment="bottom", weight="bold"))
+    return points * labels
+
+
+# ---------------------------------------------------------------- vertical
+def vertical_curves(vertical):
+    """A_J*(m*) of the deformable particle and of the material point on log
+    axes (paper Fig. 2), with the resonances marked (dotted lines; the
+    fundamental m_c* and the subharmonic labelled)."""
+    m = 10.0 ** vertical["log_mass"].values
+    aj = vertical["threshold_amplitude"].values
+    de = _styled_line(hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)"),
+                      "#1f77b4", width=2)
+    pm = _styled_line(hv.Curve((m, vertical["point_mass_threshold_amplitude"].values), M_DIM,
+                               AJ_DIM, label="material point 1/(4 pi^2 m*)"), "black",
+                      width=1.5, dash="dashed")
+    layers = [de, pm]
+    names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
+    for name, lm in _resonances(vertical):
+        color = "#d62728" if name in names else "grey"
+        layers.append(_styled_line(hv.VLine(10.0 ** lm), color, width=1, dash="dotted"))
+        if name in names:
+            depth = float(np.interp(lm, vertical["log_mass"].values, aj))
+            layers.append(style(hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center",
+                                        valign="top", fontsize=10),
+                                bokeh=dict(text_color=color), matplotlib=dict(color=color)))
+    finite = aj[np.isfinite(aj) & (aj > 0)]
+    lo = 10.0 ** (np.floor(np.log10(finite.min())) - 1) if finite.size else 1e-3
+    hi = 10.0 ** (np.ceil(np.log10(finite.max())) + 0.3) if finite.size else 1e4
+    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"),
+                 common=dict(logx=True, logy=True, legend_position="top_right",
+                             ylim=(lo, hi), xlabel="m*", ylabel="A_J*"))
+
+
+# ---------------------------------------------------------------- trajectories
+# The trajectory figure is defined here once, as data (`trajectory_figure`):
+# panels of lines, per-bin envelopes and contact-state bands.  vibtrans.products.export
+# draws it directly with matplotlib (PNG/SVG/PDF) and with Bokeh (standalone
+# HTML); the explorer's live view draws the same panels (`panel_spec`,
+# `state_bands`, `twin_spec`) with Bokeh.  Not through HoloViews: its matplotlib
+# backend took 10-17 s for this figure's twelve panels, nearly all of it
+# per-element option handling and layout, whatever the number of points
+# (issue 14; profiled with cProfile, see vibtrans.tools.bench.export_bench).
+OVERVIEW_BINS = 1000     # time bins of the whole run in the trajectory figure:
+# about 1.5 per pixel column of a panel at the default 11 in, 150 dpi (every
+# sample of 2000 periods drew lines that filled their min-max band anyway)
+
+
+def overview_samples(ds, window_samples=200):
+    """The run for a whole-run view: its samples, with the full-resolution
+    window (thousands of steps) thinned to about `window_samples` samples
+    (every k-th; the first and last kept); the events are kept whole."""
+    w0, w1 = ds.attrs.get("window_start"), ds.attrs.get("window_end")
+    if w0 is None or w1 is None:
+        return ds
+    t = ds["time"].values
+    inside = np.flatnonzero((t > w0) & (t < w1))
+    if inside.size <= window_samples:
+        return ds
+    k = int(np.ceil(inside.size / window_samples))
+    keep = np.ones(t.size, bool)
+    keep[inside] = False
+    keep[inside[::k]] = True
+    keep[inside[-1]] = True
+    return ds.isel(time=keep)
+
+
+def binned(t, columns, bins):
+    """Per-bin mean, min and max of each column over `bins` equal time bins
+    of [t[0], t[-1]] (empty bins dropped): {"time": bin centres (the mid-point
+    of the bin's first and last sample), c: mean, c_lo: min, c_hi: max}.
+    NaN values are left out of a bin (a bin of NaN only gives NaN)."""
+    t = np.asarray(t, dtype=float)
+    edges = np.linspace(t[0], t[-1], int(bins) + 1)
+    start = np.unique(np.searchsorted(t, edges[:-1], side="left"))
+    start = start[start < t.size]
+    stop = np.r_[start[1:], t.size]
+    out = {"time": 0.5 * (t[start] + t[stop - 1])}
+    for c, v in columns.items():
+        v = np.asarray(v, dtype=float)
+        ok = np.isfinite(v)
+        count = np.add.reduceat(ok.astype(float), start)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[c] = np.add.reduceat(np.where(ok, v, 0.0), start) / count
+        out[f"{c}_lo"] = np.fmin.reduceat(np.where(ok, v, np.nan), start)
+        out[f"{c}_hi"] = np.fmax.reduceat(np.where(ok, v, np.nan), start)
+    return out
+
+
+def _state_time(ds, bins):
+    """(edges, time): the bins' `bins` + 1 edges over the samples' span and
+    the time (periods) spent in each contact state in each bin, a (bins,
+    len(STATE_NAMES)) array, from the exact change times."""
+    t0, t1, vals = _state_runs(ds)
+    edges = np.linspace(t0[0], t1[-1], bins + 1)
+    # time spent in each state up to each edge: cumulative over the runs,
+    # plus the part of the run the edge falls in
+    n = len(STATE_NAMES)
+    own = np.zeros((t0.size, n))
+    own[np.arange(t0.size), vals] = t1 - t0
+    cum = np.vstack([np.zeros(n), np.cumsum(own, axis=0)])
+    r = np.clip(np.searchsorted(t0, edges, side="right") - 1, 0, t0.size - 1)
+    at = cum[r] + np.where(np.arange(n) == vals[r][:, None],
+                           (np.minimum(edges, t1[r]) - t0[r])[:, None], 0.0)
+    return edges, np.diff(at, axis=0)
+
+
+def _dominant_states(ds, bins):
+    """(t0, t1, state) runs of the state that fills most of each of `bins`
+    equal time bins (from the exact change times): an overview of a long run
+    that a screen can show, instead of thousands of sub-pixel bands."""
+    edges, share = _state_time(ds, bins)
+    dom = share.argmax(axis=1)
+    cut = np.flatnonzero(np.diff(dom)) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [bins]])
+    return edges[starts], edges[ends], dom[starts]
+
+
+def state_shares(ds, bins):
+    """(edges, shares): `bins` + 1 equal bin edges over the samples' time
+    span and the fraction of each bin's time spent in each contact state, a
+    (bins, len(STATE_NAMES)) array whose rows sum to 1."""
+    edges, time = _state_time(ds, int(bins))
+    total = time.sum(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return edges, np.where(total > 0, time / total, 0.0)
+
+
+def strip_outline(edges, shares, code):
+    """The outline (x, y arrays, one closed polygon) of state `code`'s layer
+    in a strip that stacks each bin's shares from the bottom (flight) up
+    (total sliding) within [0, 1]: one polygon per state, so adjacent bins
+    leave no anti-aliasing seams between them.  edges: n + 1 bin edges;
+    shares: (n, states)."""
+    top = np.cumsum(shares, axis=1)[:, code]
+    bottom = top - shares[:, code]
+    x = np.repeat(edges, 2)[1:-1]                    # e0 e1 e1 e2 e2 ... en
+    return (np.concatenate([x, x[::-1]]),
+            np.concatenate([np.repeat(top, 2), np.repeat(bottom, 2)[::-1]]))
+
+
+def _state_runs(ds):
+    """Exact (t0, t1, state) runs over the samples' time span."""
+    time = ds["time"].values
+    t_start, t_end = float(time[0]), float(time[-1])
+    kinds = ds["event_kind"].values
+    t_ev = ds["event_time"].values[kinds == R.STATE_CHANGE]
+    v_ev = ds["event_value"].values[kinds == R.STATE_CHANGE].astype(int)
+    inside = (t_ev > t_start) & (t_ev < t_end)
+    t0 = np.concatenate([[t_start], t_ev[inside]])
+    vals = np.concatenate([[int(ds["state"].values[0])], v_ev[inside]])
+    t1 = np.concatenate([t_ev[inside], [t_end]])
+    return t0, t1, vals
+
+
+def state_bands(ds, bins=None):
+    """(t0, t1, state code) arrays of the contact-state bands over the
+    samples' time span: the exact runs, or the dominant state of each of
+    `bins` equal time bins; empty bands dropped."""
+    t0, t1, vals = _dominant_states(ds, int(bins)) if bins else _state_runs(ds)
+    keep = t1 > t0
+    return t0[keep], t1[keep], vals[keep]
+
+
+def panel_spec(rigid, split_velocity=False):
+    """The line panels of the trajectory figure, as data (shared with the
+    explorer's live figures): [(title, y label, [(variable, legend label,
+    colour), ...]), ...].  The material point has no contact deformation:
+    its panels show y*, x*, N* and T* only."""
+    if rigid:
+        return [("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
+                ("tangential: x*(t)", "x* (a0)", [("x", "x*", "#d62728")]),
+                ("forces: N*, T*", "N*, T*", [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")])]
+    forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
+    panels = [("normal: a*(t), y*(t)", "a*, y* (a0)",
+               [("a", "a*", "#1f77b4"), ("y", "y*", "#ff7f0e")]),
+              ("tangential: b*(t), x*(t)", "b* (theta mu a0), x* (a0)",
+               [("b", "b*", "#2ca02c"), ("x", "x*", "#d62728")])]
+    if split_velocity:
+        return panels + [("forces: N*, T*", "N*, T*", forces),
+                         ("relative tangential velocity b*'", "b*' (theta mu a0/period)",
+                          [("bdot", "b*'", "#7f7f7f")])]
+    return panels + [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
+
+
+def timeline_title(bins=None):
+    return "contact state" + (" (dominant per bin)" if bins else "")
+
+
+BINNED_NOTE = " (mean, min-max per bin)"     # a binned panel's title ends so
+
+
+def twin_spec(tau, label):
+    """The twin comparison panel of a run with ramp time `tau`: (title,
+    y label, [(legend label, colour, dash) of the run, of its twin])."""
+    # a tau twin is the same scene; another model is a comparison, not a twin
+    title = (f"x*(t) and its {label} twin" if label.startswith("tau") else
+             f"x*(t) and the {label} run of the same scene")
+    return (title, "x* (a0)",
+            [(f"x*, tau = {tau:g}", "#d62728", None),
+             (f"x*, {label}", "black", "dashed")])
+
+
+TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
+
+
+def fragment_window(ds, window=None):
+    """(t0, t1) of the full-resolution fragment: `window`, else the run's
+    recorded window, else its last FRAGMENT periods."""
+    if window is not None:
+        return float(window[0]), float(window[1])
+    if ds.attrs.get("window_start") is not None and ds.attrs.get("window_end") is not None:
+        w0, w1 = float(ds.attrs["window_start"]), float(ds.attrs["window_end"])
+        if w1 > w0:
+            return w0, w1
+    t1 = float(ds["time"].values[-1])
+    return max(float(ds["time"].values[0]), t1 - FRAGMENT), t1
+
+
+@dataclass(frozen=True)
+class Trace:
+    """One line of a panel: `value` of variable `var` at `time` (periods).
+    When `lo` and `hi` are given, `value` holds per-bin means and `lo`, `hi`
+    the bin's minimum and maximum (its envelope, drawn as a band)."""
+    var: str
+    label: str
+    colour: str
+    time: np.ndarray
+    value: np.ndarray
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+    dash: str | None = None          # None: solid; "dashed"
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One panel on the time axis (t*, periods) over `xlim`: lines
+    (`traces`), or a contact-state strip (`strip`: (edges, shares), the
+    share of each of n intervals [edges[i], edges[i + 1]] spent in each
+    state, an (n, len(STATE_NAMES)) array, stacked from the bottom in
+    [0, 1] (`strip_outline`); colours STATE_COLORS, names STATE_NAMES, the
+    states drawn named in a legend)."""
+    title: str
+    ylabel: str
+    xlim: tuple
+    traces: tuple = ()
+    strip: tuple | None = None
+
+
+@dataclass(frozen=True)
+class TrajectoryFigure:
+    """The trajectory figure as data: a title and columns of panels (the
+    whole run, then the full-resolution fragment `window`), one row per
+    quantity; `bins`: the whole run's time bins (None: every sample)."""
+    title: str
+    columns: tuple
+    window: tuple
+    bins: int | None
+
+
+def _line_panels(ds, specs, bins):
+    """The line panels of `specs` (`panel_spec`) for the samples of `ds`,
+    each quantity's per-bin mean and min-max envelope with `bins`."""
+    t = ds["time"].values
+    variables = {var for _, _, lines in specs for var, _, _ in lines}
+    if bins:
+        data = binned(t, {v: ds[v].values for v in variables}, bins)
+    else:
+        data = {"time": t, **{v: ds[v].values for v in variables}}
+    xlim = (float(t[0]), float(t[-1]))
+    panels = []
+    for title, ylabel, lines in specs:
+        traces = tuple(Trace(var, label, colour, data["time"], data[var],
+                             data.get(f"{var}_lo"), data.get(f"{var}_hi"))
+                       for var, label, colour in lines)
+        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces))
+    return panels, data
+
+
+def _twin_panel(ds, data, twin, bins, xlim):
+    """x*(t) of the run (its drawn `data`) and of its twin run."""
+    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0),
+                                                            TWIN_LABEL)
+    tt, tx = twin["time"].values, twin["x"].values
+    other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
+    traces = (Trace("x", la, ca, data["time"], data["x"], data.get("x_lo"), data.get("x_hi"),
+                    da),
+              Trace("x", lb, cb, other["time"], other["x"], other.get("x_lo"),
+                    other.get("x_hi"), db))
+    return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
+
+
+def default_title(ds):
+    """The trajectory figure's title: model, A*, m* and mu of the run."""
+    a = ds.attrs
+    return (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
+            f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
+
+
+def state_strip(ds, bins=None):
+    """The contact-state strip (`Panel.strip`) and its title: the exact
+    runs, each its state's alone; with `bins`, each bin's time shares
+    stacked (a long run's bands are far narrower than a pixel: drawn
+    exactly they showed as a moire of stripes, or as one tint)."""
+    if bins:
+        return state_shares(ds, bins), SHARES_TITLE
+    t0, t1, codes = state_bands(ds)
+    return (np.r_[t0, t1[-1:]], np.eye(len(STATE_NAMES))[codes]), timeline_title(None)
+
+
+SHARES_TITLE = "contact state (time share per bin)"
+
+
+def trajectory_figure(ds, window=None, twin=None, title=None, bins=OVERVIEW_BINS):
+    """The trajectory figure (a `TrajectoryFigure`): left the whole run, each
+    quantity drawn as its mean over `bins` equal time bins with the bin's
+    min-max envelope (every sample is inside its bin's band) and the
+    contact states as each bin's time shares (None: every sample and the
+    exact state bands drawn), right the full-resolution fragment `window`
+    (default: `fragment_window`) sample by sample with the exact state
+    bands.  Rows: `panel_spec` (b*' in a panel of its own), the
+    contact-state strip, and with a `twin` run (tau + TWIN_TAU_OFFSET)
+    x*(t) of both."""
+    t0, t1 = fragment_window(ds, window)
+    t = ds["time"].values
+    # (index slicing: a label-based sel builds a pandas hash index first)
+    i0, i1 = np.searchsorted(t, t0, side="left"), np.searchsorted(t, t1, side="right")
+    if i1 - i0 < 2:
+        raise InputError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
+    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer))
+                             or bins < 1):
+        raise InputError(f"bins must be a positive integer or None, got {bins!r}")
+    frag = ds.isel(time=slice(i0, i1))
+    specs = panel_spec(ds.attrs.get("model") == "point-mass", split_velocity=True)
+    columns = []
+    for part, part_bins, head in ((ds, bins, "whole run"), (frag, None, f"t* in [{t0:g}, {t1:g}]")):
+        panels, data = _line_panels(part, specs, part_bins)
+        panels[0] = replace(panels[0], title=f"{head}: {panels[0].title}")
+        xlim = panels[0].xlim
+        strip, strip_title = state_strip(part, part_bins)
+        panels.append(Panel(strip_title, "state", xlim, strip=strip))
+        if twin is not None:
+            tt = twin["time"].values
+            if part is frag:
+                j0, j1 = np.searchsorted(tt, t0, side="left"), np.searchsorted(tt, t1, side="right")
+                other = twin.isel(time=slice(j0, j1))
+            else:
+                other = twin
+            panels.append(_twin_panel(part, data, other, part_bins, xlim))
+        columns.append(tuple(panels))
+    return TrajectoryFigure(default_title(ds) if title is None else str(title), tuple(columns),
+                            (t0, t1), bins)
+
+
+# ---------------------------------------------------------------- memory diagram
+# Shared by the HoloViews figures below (exports) and the explorer's live
+# Bokeh view (app/views/memory.py): the labels, colours and geometry.
+W_COLOR = "#1f77b4"                # the anchors w(h)
+U_COLOR = "#ff7f0e"                # the displacements u(h)
+SLIP_TEXT_COLOR = "#a05a00"
+FLIGHT_TEXT = "in flight: no contact, no memory"
+MEMORY_XLABEL = "h (contact depth, a0)"
+MEMORY_WLABEL = "w (theta mu a0)"
+MEMORY_ULABEL = "u = b* - w (theta mu a0)"
+MEMORY_UTITLE = "spring displacements u(h), |u| <= a* - h"
+CIRCLE_XLABEL = "x (sqrt(R a0))"
+CIRCLE_ZLABEL = "z (sqrt(R a0))"
+
+
+def memory_title(snapshot):
+    """The memory diagram's title: t* and the contact state."""
+    return (f"memory diagram w(h), t* = {snapshot['t']:.6g}, "
+            f"{STATE_NAMES[int(snapshot['state'])]}")
+
+
+def memory_spans(snapshot):
+    """The stick core [0, s_h] and the slip annulus [s_h, a*] as bands of
+    contact depth h (a0): dicts of left, right, color, alpha, label,
+    label_color and label_at ("top" or "bottom" of the panel)."""
+    a, s = snapshot["a"], snapshot["stick_depth"]
+    slip_colour = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
+    spans = []
+    if s > 0:
+        spans.append(dict(left=0, right=s, color=STATE_COLORS[1], alpha=0.18,
+                          label="stick core", label_color=STATE_COLORS[1], label_at="top"))
+    if a > s:
+        spans.append(dict(left=s, right=a, color=slip_colour, alpha=0.25,
+                          label="slip annulus", label_color=SLIP_TEXT_COLOR,
+                          label_at="bottom"))
+    return spans
+
+
+def memory_geometry(snapshot):
+    """What the memory diagram draws (None in flight, where there is no
+    memory): h, w, u = b* - w of the vertices; hc = (0, a*) and the Coulomb
+    cone's two lines over it, cone_w = b* +- (a* - hc) and cone_u =
+    +-(a* - hc); the panels' limits w_lim, u_lim and h_lim (a0 and
+    theta mu a0)."""
+    a, b = float(snapshot["a"]), float(snapshot["b"])
+    h = np.asarray(snapshot["h"], dtype=float)
+    w = np.asarray(snapshot["w"], dtype=float)
+    if h.size == 0 or a <= 0:
+        return None
+    hc = np.array([0.0, a])
+    pad = 0.08 * a
+    return dict(a=a, b=b, h=h, w=w, u=b - w, hc=hc,
+                cone_w=[b + sgn * (a - hc) for sgn in (1, -1)],
+                cone_u=[sgn * (a - hc) for sgn in (1, -1)],
+                w_lim=(min(w.min(), b - a) - pad, max(w.max(), b + a) + pad),
+                u_lim=(-(a + pad), a + pad), h_lim=(0, a * 1.02))
+
+
+def _spans(snapshot, y0, y1):
+    """Stick core [0, s_h] and slip annulus [s_h, a*] as shaded bands."""
+    layers = []
+    for sp in memory_spans(snapshot):
+        layers.append(style(hv.VSpan(sp["left"], sp["right"]),
+                            common=dict(alpha=sp["alpha"]), bokeh=dict(color=sp["color"]),
+                            matplotlib=dict(color=None, facecolor=sp["color"],
+                                            edgecolor="none")))
+        top = sp["label_at"] == "top"
+        layers.append(style(hv.Text((sp["left"] + sp["right"]) / 2, y1 if top else y0,
+                                    sp["label"], halign="center",
+                                    valign="top" if top else "bottom", fontsize=10),
+                            common=dict(color=sp["label_color"])))
+    return layers
+
+
+def memory_diagram(snapshot):
+    """The memory diagram at one instant (a dict from `memory_snapshot`):
+    left, the spring anchors w(h) with the Coulomb cone |b* - w| = a* - h
+    (apex (a*, b*)); right, the spring displacements u(h) = b* - w with
+    |u| = a* - h.  The stick core (h < s_h) and the slip annulus (s_h < h < a*)
+    are shaded."""
+    title = memory_title(snapshot)
+    g = memory_geometry(snapshot)
+    if g is None:
+        msg = FLIGHT_TEXT
+        left = hv.Overlay([hv.Curve([], H_DIM, W_DIM), hv.Text(0.5, 0.0, msg)])
+        right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
+        return hv.Layout([left.relabel(title),
+                          right.relabel("spring displacements u(h)")]).cols(2)
+    a, b, hc = g["a"], g["b"], g["hc"]
+    # w(h) panel
+    w_lo, w_hi = g["w_lim"]
+    cone = [_styled_line(hv.Curve((hc, cw), H_DIM, W_DIM,
+                                  label="Coulomb cone" if i == 0 else ""), "black", width=1,
+                         dash="dashed") for i, cw in enumerate(g["cone_w"])]
+    poly = _styled_line(hv.Curve((g["h"], g["w"]), H_DIM, W_DIM, label="w(h)"), W_COLOR,
+                        width=2)
+    apex = style(hv.Points([(a, b)], [H_DIM, W_DIM]), common=dict(color="black"),
+                 bokeh=dict(size=7), matplotlib=dict(s=25))
+    left = hv.Overlay(_spans(snapshot, w_lo, w_hi) + cone + [poly, apex])
+    left = style(left.relabel(title),
+                 common=dict(ylim=(w_lo, w_hi), xlim=g["h_lim"], show_legend=False,
+                             xlabel=MEMORY_XLABEL, ylabel=MEMORY_WLABEL))
+    # u(h) panel
+    u_lo, u_hi = g["u_lim"]
+    lim = [_styled_line(hv.Curve((hc, cu), H_DIM, U_DIM), "black", width=1,
+                        dash="dashed") for cu in g["cone_u"]]
+    ucurve = _styled_line(hv.Curve((g["h"], g["u"]), H_DIM, U_DIM, label="u(h)"), U_COLOR,
+                          width=2)
+    right = hv.Overlay(_spans(snapshot, u_lo, u_hi) + lim + [ucurve])
+    right = style(right.relabel(MEMORY_UTITLE),
+                  common=dict(ylim=(u_lo, u_hi), xlim=g["h_lim"], show_legend=False,
+                              xlabel=MEMORY_XLABEL, ylabel=MEMORY_ULABEL))
+    return hv.Layout([left, right]).cols(2)
+
+
+def disc_outline(r, n=181):
+    """A circle of radius r about the origin: (n, 2) points, closed."""
+    phi = np.linspace(0, 2 * np.pi, n)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+
+
+def contact_geometry(snapshot):
+    """What the contact circle draws: c = sqrt(a*) and s = sqrt(s_h)
+    (sqrt(R a0)), the half-width rmax of the view, the title, and the discs
+    (largest first: dicts of r, color, dashed, label; none in flight)."""
+    a = max(float(snapshot["a"]), 0.0)
+    s_h = min(max(float(snapshot["stick_depth"]), 0.0), a)
+    c, s = np.sqrt(a), np.sqrt(s_h)
+    title = (f"contact: c = {c:.3g}, s = {s:.3g} "
+             f"({STATE_NAMES[int(snapshot['state'])]})")
+    discs = []
+    if c > 0:
+        slip = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
+        discs.append(dict(r=c, color=slip if s < c else STATE_COLORS[1], dashed=False,
+                          label="slip annulus" if s < c else "stick"))
+        if 0 < s < c:
+            discs.append(dict(r=s, color=STATE_COLORS[1], dashed=True, label="stick core"))
+    return dict(c=c, s=s, rmax=max(c, 1.0) * 1.1, title=title, discs=discs)
+
+
+def contact_circle(snapshot):
+    """The contact seen from above: contact circle c = sqrt(a*), stick core
+    s = sqrt(s_h), the slip annulus between them coloured."""
+    g = contact_geometry(snapshot)
+    layers = []
+    for d in g["discs"]:
+        bk = dict(color=d["color"], line_color="black")
+        mp = dict(color=None, facecolor=d["color"], edgecolor="black")
+        if d["dashed"]:
+            bk["line_dash"], mp["linestyle"] = "dashed", "dashed"
+        layers.append(style(hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM],
+                                        label=d["label"]),
+                            common=dict(alpha=0.9), bokeh=bk, matplotlib=mp))
+    if not g["discs"]:
+        layers.append(hv.Text(0, 0, "in flight: no contact"))
+    rmax = g["rmax"]
+    return style(hv.Overlay(layers).relabel(g["title"]),
+                 common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
+                             show_legend=False, xlabel=CIRCLE_XLABEL,
+                             ylabel=CIRCLE_ZLABEL))
+
+
+# ---------------------------------------------------------------- dynamics
+LYAPUNOV_FLOOR = 1e-4      # the indicator map's colour range, log10 lambda in [-4, 0]
+LAMBDA_DIM = hv.Dimension("log_lambda", label="log10 lambda (per period)", range=(-4.0, 0.0))
+Y_DIM = hv.Dimension("y", label="y* (a0, down)")
+VY_DIM = hv.Dimension("vy", label="y*' (a0 per period)")
+PHASE_DIM = hv.Dimension("phase", label="take-off phase (t mod 1)", range=(0.0, 1.0))
+TRACE_DIM = hv.Dimension("trace", label="trace of the period-1 Jacobian")
+ORBIT_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+                "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+
+
+DIFFERENCE_DIM = hv.Dimension("log_difference", label="s(v2) - s(v1)")
+CLASS_CHANGE_COLOUR = "black"
+
+
+def map_difference_figure(diff):
+    """Two maps compared (a `mapdiff.map_difference` Dataset): the second's
+    drift against the first's in decades of the signed log scale (red: the
+    second drifts more towards +x), black where the drift class differs,
+    grey where either map calls the point chaotic, blank where the maps do
+    not both have the point (colours beyond the 99th percentile saturate)."""
+    la, lm = diff["log_amplitude"].values, diff["log_mass"].values
+    d = diff["log_difference"].values
+    chaotic = diff["chaotic_either"].values
+    shown = np.where(chaotic, np.nan, d)
+    finite = np.abs(shown[np.isfinite(shown)])
+    # the colour limit: the 99th percentile, up to the next half decade (a
+    # few outliers would wash out the rest)
+    top = max(0.5, float(np.ceil(2.0 * np.percentile(finite, 99)) / 2.0)) if finite.size else 0.5
+    img = hv.Image((la, lm, shown.T, diff["drift_velocity_first"].values.T,
+                    diff["drift_velocity_second"].values.T),
+                   kdims=[LOG_A, LOG_M],
+                   vdims=[DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"),
+                          hv.Dimension("v2", label="<v*> second")])
+    img = style(img, common=dict(cmap="RdBu_r", clim=(-top, top), colorbar=True,
+                                 # (s(v) = sign(v) log10(1 + |v|/v0*): in the title
+                                 # would be clipped; the tab and `compare` say it)
+                                 clabel=f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"),
+                bokeh=dict(tools=["hover"], hover_tooltips=[
+                    (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("<v*> first", "@{v1}"),
+                    ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]))
+    key = [("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
+           ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY))]
+    layers = [_keyed(img, key)]
+    # (a class change at a chaotic point is noise: grey, not black)
+    changed = diff["class_changed"].values & ~chaotic
+    for mask, colour in ((chaotic, CHAOTIC_GREY), (changed, CLASS_CHANGE_COLOUR)):
+        if mask.any():
+            layer = hv.Image((la, lm, np.where(mask, 1.0, np.nan).T), kdims=[LOG_A, LOG_M],
+                             vdims=["mask"])
+            layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9),
+                                bokeh=dict(tools=[])))
+    a = diff.attrs
+    agreement = ("no point regular in both" if not np.isfinite(a["class_agreement"]) else
+                 f"drift class agrees at {100 * a['class_agreement']:.1f}% of "
+                 f"{a['regular_points']} regular points, median relative difference "
+                 f"{a['median_relative_difference']:.2g}")
+    return style(hv.Overlay(layers), common=dict(
+        title=f"{a['second']}  against  {a['first']}\n{agreement}"),
+        matplotlib=dict(aspect=1.2, fontsize={"title": 9}))
+
+
+def lyapunov_map(ds, threshold, title=""):
+    """The chaos indicator over (log10 A*, log10 m*): log10 of the vertical
+    motion's Lyapunov exponent (a `vibtrans sweep --kind lyapunov` store),
+    values at or below LYAPUNOV_FLOOR (regular, or slightly negative: the
+    step's damping) at the floor; the threshold marked on the colour bar."""
+    lam = ds["lyapunov"].values
+    c = np.log10(np.clip(lam, LYAPUNOV_FLOOR, None))
+    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, lam.T),
+                   kdims=[LOG_A, LOG_M], vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")],
+                   label=title)
+    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), (float(np.log10(threshold)),
+                                                 f"{threshold:g} (chaotic above)"),
+             (-1.0, "0.1"), (0.0, "1")]
+    return style(img, common=dict(cmap="viridis", clim=(-4.0, 0.0), colorbar=True,
+                                  clabel="Lyapunov exponent of the vertical motion, per period"),
+                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
+                     (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("lambda", "@{lam}")]),
+                 matplotlib=dict(cbar_ticks=ticks))
+
+
+def section_figure(orbits, title="Stroboscopic section (t = 0 mod 1)"):
+    """Sections of several orbits, one colour each: `orbits` a list of
+    float64[n, 2] arrays of (y*, y*') (dynamics.section)."""
+    layers = []
+    for k, pts in enumerate(orbits):
+        el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM],
+                        label=f"orbit {k + 1}")
+        color = ORBIT_COLORS[k % len(ORBIT_COLORS)]
+        layers.append(style(el, bokeh=dict(color=color, size=3, tools=["hover"]),
+                            matplotlib=dict(color=color, s=4)))
+    if not layers:
+        layers = [hv.Scatter(([], []), kdims=[Y_DIM], vdims=[VY_DIM])]
+    return style(hv.Overlay(layers), common=dict(title=title))
+
+
+def orbit_diagram_figure(diagram):
+    """Take-off phases and section points y* of the final periods against the
+    parameter (dynamics.orbit_diagram): two panels, one x axis."""
+    name = LOG_A if diagram.parameter == "amplitude" else LOG_M
+    phases = hv.Scatter((diagram.phase_value, diagram.phase), kdims=[name],
+                        vdims=[PHASE_DIM])
+    ys = hv.Scatter((diagram.section_value, diagram.section_y), kdims=[name], vdims=[Y_DIM])
+    tail = f"final {diagram.final_periods:g} periods"
+    phases = style(phases, common=dict(title=f"take-off phases, {tail}"),
+                   bokeh=dict(size=2, color="#1f77b4", responsive=True, height=260),
+                   matplotlib=dict(s=1, color="#1f77b4", aspect=2.5))
+    ys = style(ys, common=dict(title=f"section y*(k), {tail}"),
+               bokeh=dict(size=2, color="#444444", responsive=True, height=260),
+               matplotlib=dict(s=1, color="#444444", aspect=2.5))
+    return (phases + ys).cols(1)
+
+
+def continuation_figure(branch):
+    """The trace of a continued period-k orbit against its parameter, with
+    the stability limits trace = +-2 and the folds and period doublings."""
+    key = 0 if branch.parameter == "amplitude" else 1
+    name = LOG_A if branch.parameter == "amplitude" else LOG_M
+    x = np.array([p[key] for p in branch.points])
+    tr = np.array([p.orbit.trace for p in branch.points])
+    layers = [_styled_line(hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM],
+                                    label="period-1 orbit"), "#1f77b4", 1.5)]
+    for level in (2.0, -2.0):
+        layers.append(_styled_line(hv.HLine(level), "#888888", 1.0, "dashed"))
+    for points, color, label in ((branch.folds, "#d62728", "fold (trace = 2)"),
+                                 (branch.period_doublings, "#2ca02c",
+                                  "period doubling (trace = -2)")):
+        if points:
+            levels = [2.0 if color == "#d62728" else -2.0] * len(points)
+            el = hv.Scatter((points, levels), kdims=[name], vdims=[TRACE_DIM], label=label)
+            layers.append(style(el, bokeh=dict(color=color, size=9),
+                                matplotlib=dict(color=color, s=40)))
+    return style(hv.Overlay(layers), common=dict(
+        title=f"continuation along {name.label}: {branch.ended}"))
+
+
+PERIOD_DOUBLING_LINE = ("#d62728", 1.5, None)
+STABLE_ORBIT_LINE = ("#1f3a93", 1.5, "dashed")
+PERIOD_DOUBLING_LABEL = "period-1 orbit: period doubling (trace = -2)"
+STABLE_ORBIT_LABEL = "period-1 hopping orbit: stable inside"
+
+
+def period_one_curves(chart):
+    """Where the period-1 orbit (dynamics.period_one_chart, shipped as
+    period-one.nc) doubles its period (trace = -2) and the boundary of the
+    region where it is a stable hopping orbit, as contour lines over
+    (log10 A*, log10 m*), named in the map's key."""
+    la, lm = chart["log_amplitude"].values, chart["log_mass"].values
+    trace = np.where(np.isfinite(chart["trace"].values), chart["trace"].values, 3.0)
+    stable = (chart["stable"].values & chart["in_flight"].values).astype(float)
+    lines = []
+    for z, level, line, label in ((trace, -2.0, PERIOD_DOUBLING_LINE, PERIOD_DOUBLING_LABEL),
+                                  (stable, 0.5, STABLE_ORBIT_LINE, STABLE_ORBIT_LABEL)):
+        img = hv.Image((la, lm, z.T), kdims=[LOG_A, LOG_M])
+        c = hv.operation.contours(img, levels=[level], overlaid=False)
+        colour, width, dash = line
+        lines.append(_keyed(_styled_line(c, colour, width, dash), [(label, "line", line)]))
+    return hv.Overlay(lines)
+
+
+# ---------------------------------------------------------------- design chart
+# The design chart (vibtrans.products.design.design_chart): drift velocity in device
+# units over two device quantities on log axes, each regime's zone outlined,
+# contours of equal speed at whole decades, the device marked.
+REGIME_COLORS = {"no drift": "#4d4d4d", "sliding with the wave": "#b2182b",
+                 "sliding against the wave": "#2166ac", "synchronous hopping": "#1b7837",
+                 "other hopping": "#e08214", "chaotic": "#762a83"}
+SPEED_CONTOUR = ("#303030", 0.8, "dotted")
+DEVICE_MARKER = "#000000"
+
+
+def level_lines(x, y, z, level):
+    """Contour lines of z (shape (y, x)) at `level`, as a list of (n, 2)
+    arrays in (x, y) coordinates (contourpy; NaN cells are left out)."""
+    import contourpy
+    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float),
+                                      np.ma.masked_invalid(np.asarray(z, float)),
+                                      line_type=contourpy.LineType.Separate)
+    return [seg for seg in gen.lines(level) if len(seg) > 1]
+
+
+def _padded(u):
+    """Coordinates u with one more point at each end, a hundredth of a step out."""
+    d0, d1 = (u[1] - u[0]) / 100, (u[-1] - u[-2]) / 100
+    return np.concatenate([[u[0] - d0], u, [u[-1] + d1]])
+
+
+def design_figure(chart, device=None, title=None):
+    """The design chart as a HoloViews overlay (log axes in device units).
+
+    chart: a `design.design_chart` Dataset; device: (x, y) of a device to
+    mark, in the chart's coordinates, or None. Colour: the signed drift
+    velocity in the paper's signed log scale (red with the wave, blue
+    against), white where the map says no drift.
+    """
+    from vibtrans.products.designconst import AXIS_LABELS, REGIMES, velocity_unit
+    xq, yq = chart.attrs["x"], chart.attrs["y"]
+    x, y = chart[xq].values, chart[yq].values
+    v = chart["drift_velocity"].values
+    unit, scale = velocity_unit(v)
+    vu = v / scale
+    moving = (chart["drift"].values != 0) & np.isfinite(vu)
+    # the colour scale's floor: the slowest drifting point, one significant digit down
+    v0 = float(np.nanmin(np.abs(vu[moving]))) if moving.any() else 1.0
+    v0 = math.floor(v0 / 10 ** math.floor(math.log10(v0))) * 10 ** math.floor(math.log10(v0))
+    c = np.where(moving, colour_scale(np.where(moving, vu, 0.0), v0), 0.0)
+    c = np.where(np.isfinite(vu), c, np.nan)
+    xd = hv.Dimension(xq, label=AXIS_LABELS[xq])
+    yd = hv.Dimension(yq, label=AXIS_LABELS[yq])
+    mesh = hv.QuadMesh((x, y, c, vu), kdims=[xd, yd],
+                       vdims=[hv.Dimension("C", range=(-1, 1)),
+                              hv.Dimension("v", label=f"v ({unit})")])
+    ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
+    mesh = style(mesh, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True, logx=True,
+                                   logy=True, clabel=f"drift velocity ({unit}), signed log "
+                                                     f"scale; white: no drift"),
+                 # (the hover: the device's axes and its drift, not the colour value C)
+                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
+                     (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
+                     (f"drift velocity ({unit})", "@{v}")]),
+                 matplotlib=dict(cbar_ticks=ticks))
+    layers, key = [], []
+    lx, ly = np.log10(x), np.log10(y)
+    regime = chart["regime"].values
+    for k, name in enumerate(REGIMES):
+        inside = (regime == k).astype(float)
+        if not inside.any():
+            continue
+        # padded with "outside" half a cell beyond the chart, so that a zone
+        # reaching the chart's edge is closed along it
+        px, py = _padded(lx), _padded(ly)
+        lines = [10.0 ** np.clip(seg, [lx[0], ly[0]], [lx[-1], ly[-1]])
+                 for seg in level_lines(px, py, np.pad(inside, 1), 0.5)]
+        colour = REGIME_COLORS[name]
+        key.append((name, "line", (colour, 2.0, None)))
+        if lines:
+            layers.append(_styled_line(hv.Path(lines, kdims=[xd, yd]), colour, 2.0))
+    # equal speed at whole decades of the chosen unit
+    speed = np.where(moving, np.abs(vu), np.nan)
+    if np.isfinite(speed).any():
+        lo, hi = np.nanmin(speed), np.nanmax(speed)
+        labels = []
+        for e in range(int(math.ceil(np.log10(lo))), int(math.floor(np.log10(hi))) + 1):
+            segs = level_lines(lx, ly, np.log10(speed), e)
+            if not segs:
+                continue
+            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]),
+                                       *SPEED_CONTOUR))
+            longest = max(segs, key=len)
+            mx, my = 10.0 ** longest[len(longest) // 2]
+            labels.append((mx, my, f"{10.0 ** e:g}"))
+        if labels:
+            key.append((f"equal speed ({unit})", "line", SPEED_CONTOUR))
+            layers.append(style(hv.Labels(labels, kdims=[xd, yd], vdims=["text"]),
+                                bokeh=dict(text_font_size="8pt"),
+                                matplotlib=dict(fontsize=8)))
+    if device is not None:
+        pt = hv.Points([tuple(device)], kdims=[xd, yd])
+        # (Bokeh's marker names are lower case: "X" passes its check and is not drawn)
+        layers.append(style(pt, common=dict(color=DEVICE_MARKER),
+                            bokeh=dict(marker="x", size=14, line_width=3),
+                            matplotlib=dict(marker="X", s=120)))
+        key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
+    if title is None:
+        title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}, "
+                 f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
+                 f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
+                 f"({chart.attrs['map']})")
+    el = hv.Overlay([_keyed(mesh, key), *layers])
+    return style(el, common=dict(title=title, logx=True, logy=True,
+                                 xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))

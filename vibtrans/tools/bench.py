@@ -1,0 +1,412 @@
+"""Speed benchmark: `vibtrans bench [--quick] [--json]`.
+
+Everything is measured in one run, on one core, after JIT warm-up, as the
+best of several repetitions (shared machines are noisy: compare the ratios,
+which are measured side by side, more than the absolute times).
+
+* ns per step of the vertical-only Hertz kernel and of the full deformable
+  kernel on the same scene (paper point 1: permanent contact, all contact
+  states), and their ratio (goal <= 2);
+* ns per memory-diagram update alone, on a partial-slip/sliding history;
+* seconds for a 2000-period standard scene at paper points 1, 4, 6
+  (goal <= 0.1 s each);
+* the chaos indicator's cost: a deformable scene measuring its Lyapunov
+  exponent over the same scene alone (paper point 1, in contact, and the
+  jumping scene log10 A* = 0.5, log10 m* = -2; goal <= 1.3), beside the
+  twin's (scene plus tau twin over the scene alone, about 2);
+* each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
+  ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
+  switched off alone: its speed-up and the drift difference it makes.
+
+`vibtrans bench --work-precision [--quick] [--json] [--plot FILE]`: error
+against cost of both integrators over a ladder of steps (vibtrans.tools.workprecision).
+
+`vibtrans bench --export [--quick] [--json]`: seconds (wall and CPU) to
+export the explorer's trajectory figure of paper point 8 at standard
+fidelity with its tau twin (`export_bench`), to PNG, SVG and HTML, and each
+over a plain one-panel matplotlib PNG's, measured round-robin in one run.
+"""
+import json
+import os
+import platform
+import time
+
+import numpy as np
+
+from vibtrans.analysis.summary import V0, drift_velocity
+from vibtrans.core.kernels.contact import memory_history, new_memory, reset_memory
+from vibtrans.core.kernels import deformable as D
+from vibtrans.core.params import paper_scene
+from vibtrans.core.simulate import simulate
+from vibtrans.core.errors import InputError
+
+
+def _best(fn, repeat):
+    best = float("inf")
+    out = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def _interleaved_ns(runs, repeat):
+    """Best ns/step of each (scene, simulate keywords) in `runs`, measured
+    round-robin so that a noisy neighbour slows them alike."""
+    steps = [simulate(sc, **kw).attrs["steps"] for sc, kw in runs]     # warm-up
+    best = [float("inf")] * len(runs)
+    for _ in range(repeat):
+        for i, (sc, kw) in enumerate(runs):
+            best[i] = min(best[i], simulate(sc, **kw).attrs["seconds"])
+    return [1e9 * b / n for b, n in zip(best, steps)]
+
+
+SHORTCUTS = {"ramp": D.SHORT_RAMP, "rotation": D.SHORT_ROTATION}
+
+
+def _shortcut_effects(repeat, points=(1, 4, 6)):
+    """Speed-up and result difference of each kernel shortcut, switched off
+    alone, at paper points (non-chaotic, so a difference is the shortcut's)."""
+    out = {}
+    for name, bit in SHORTCUTS.items():
+        for point in points:
+            sc = paper_scene(point)
+            on, off = _interleaved_ns([(sc, {}), (sc, {"shortcuts": D.SHORTCUTS_ALL & ~bit})],
+                                      repeat)
+            v_on = drift_velocity(simulate(sc))
+            v_off = drift_velocity(simulate(sc, shortcuts=D.SHORTCUTS_ALL & ~bit))
+            out[f"{name}, point {point}"] = {
+                "speedup": off / on,
+                "drift_difference": abs(v_on - v_off) / max(abs(v_off), V0)}
+    return out
+
+
+def _memory_ns(repeat, n=1_000_000):
+    t = np.arange(n) / 256.0
+    a = 1.0 + 0.8 * np.cos(2 * np.pi * t)          # strong load contrast
+    b = 0.5 * np.sin(2 * np.pi * t) + 1e-3 * t     # stick, partial slip, sliding
+    H, W, P, nvert, memf = new_memory(4096)
+    out = np.empty((n, 3))
+    memory_history(H, W, P, nvert, memf, a[:16], b[:16], out)   # warm-up
+
+    def run():
+        reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+        memory_history(H, W, P, nvert, memf, a, b, out)
+    best, _ = _best(run, repeat)
+    states = np.bincount(out[:, 2].astype(int), minlength=4)
+    return 1e9 * best / n, states
+
+
+def _pin_one_core():
+    try:
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+        return True
+    except (AttributeError, OSError):
+        return False
+
+
+def run(quick=False):
+    repeat = 3 if quick else 7
+    pinned = _pin_one_core()
+    scene = paper_scene(1)
+    vertical = scene.replace(model="vertical")
+    exact = {"shortcuts": D.SHORTCUTS_ALL & ~D.SHORT_ROTATION}
+    ns_def, ns_vert, ns_def_x, ns_vert_x = _interleaved_ns(
+        [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat)
+    ns_mem, states = _memory_ns(repeat)
+    lyapunov = _lyapunov_cost(repeat)
+    scenes = {}
+    for point in (1, 4, 6):
+        sc = paper_scene(point)
+        simulate(sc)
+        best, ds = _best(lambda: simulate(sc), repeat)
+        scenes[point] = {"seconds": best, "steps": int(ds.attrs["steps"]),
+                         "kernel_seconds": float(ds.attrs["seconds"])}
+    return {
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                   f"python {platform.python_version()}",
+        "pinned_to_one_core": pinned,
+        "repeat": repeat,
+        "vertical_ns_per_step": ns_vert,
+        "deformable_ns_per_step": ns_def,
+        "deformable_over_vertical": ns_def / ns_vert,
+        "exact_trig_vertical_ns_per_step": ns_vert_x,
+        "exact_trig_deformable_ns_per_step": ns_def_x,
+        "exact_trig_deformable_over_vertical": ns_def_x / ns_vert_x,
+        "shortcuts": _shortcut_effects(repeat),
+        "memory_update_ns": ns_mem,
+        "memory_states_stick_partial_sliding": [int(s) for s in states[1:]],
+        "scene_seconds_2000_periods": scenes,
+        "lyapunov_cost": lyapunov,
+    }
+
+
+def _lyapunov_cost(repeat):
+    """ns per step of each scene alone, with its Lyapunov exponent and with
+    its tau twin (twice the steps), measured round-robin: the ratios."""
+    from vibtrans.analysis.summary import twin_scene
+    out = {}
+    for name, sc in (("contact (paper point 1)", paper_scene(1)),
+                     ("jumping (log A* 0.5, log m* -2)",
+                      paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0))):
+        alone, measured, twin = _interleaved_ns(
+            [(sc, {}), (sc, {"lyapunov": True}), (twin_scene(sc), {})], repeat)
+        out[name] = {"scene_ns_per_step": alone, "lyapunov_over_scene": measured / alone,
+                     "scene_plus_twin_over_scene": (alone + twin) / alone}
+    return out
+
+
+def export_bench(quick=False, point=8):
+    """The explorer's trajectory export (its Export buttons call
+    `export.export_trajectory(ds, out, twin=twin)`) of paper `point`'s
+    scene as the explorer runs it: 2000 periods at standard fidelity,
+    OVERVIEW_SAMPLES per period, the last FRAGMENT periods at full
+    resolution, and its tau twin (point 8 hops and is chaotic: the twin is
+    drawn).  Best of several round-robin repetitions of: the simulation of
+    the reference (`_reference_png`, one plain matplotlib panel), the PNG,
+    SVG and HTML exports; wall and CPU (process) seconds, and each export's
+    CPU time over the reference's (the ratio is what to compare between
+    machines and loads)."""
+    import shutil
+    import tempfile
+
+    from vibtrans.products import export
+    from vibtrans.products import plots
+    from vibtrans.analysis.summary import twin_scene
+    repeat = 2 if quick else 5
+    scene = paper_scene(point)
+    T = scene.periods
+
+    ds = simulate(scene, window=(T - plots.FRAGMENT, T),
+                  samples_per_period=plots.OVERVIEW_SAMPLES)
+    twin = simulate(twin_scene(scene), samples_per_period=plots.OVERVIEW_SAMPLES)
+    formats = ("png", "svg", "html")
+    tmp = tempfile.mkdtemp(prefix="vibtrans-bench-")
+    wall = {k: float("inf") for k in ("reference", *formats)}
+    cpu = dict(wall)
+    try:
+        jobs = {"reference": lambda: _reference_png(f"{tmp}/reference.png")}
+        jobs["reference"]()
+        for fmt in formats:
+            jobs[fmt] = (lambda f: lambda: export.export_trajectory(
+                ds, f"{tmp}/trajectory.{f}", twin=twin))(fmt)
+            jobs[fmt]()                                   # warm-up: imports, fonts
+        for _ in range(repeat):
+            for name, job in jobs.items():
+                w, c = time.perf_counter(), time.process_time()
+                job()
+                wall[name] = min(wall[name], time.perf_counter() - w)
+                cpu[name] = min(cpu[name], time.process_time() - c)
+    finally:
+        shutil.rmtree(tmp)
+    out = {"point": point, "samples": int(ds.sizes["time"]),
+           "twin_samples": int(twin.sizes["time"]), "repeat": repeat,
+           "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                      f"python {platform.python_version()}",
+           "load_average_1min": os.getloadavg()[0]}   # at the end of the measurements
+    for name in wall:
+        out[f"{name}_seconds"] = wall[name]
+        out[f"{name}_cpu_seconds"] = cpu[name]
+    for fmt in formats:
+        out[f"{fmt}_over_reference"] = cpu[fmt] / cpu["reference"]
+    return out
+
+
+def _reference_png(out):
+    """The stable reference of `export_bench`: one plain matplotlib panel
+    (a 1000-point line, title, labels, legend) written to PNG at the
+    exports' 150 dpi: what a machine and its load make of matplotlib."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    t = np.linspace(0.0, 10.0, 1000)
+    fig = Figure(figsize=(5.0, 3.0), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.plot(t, np.sin(2 * np.pi * t), label="sin")
+    ax.set_title("reference")
+    ax.set_xlabel("t")
+    ax.set_ylabel("y")
+    ax.legend()
+    fig.savefig(out, dpi=150)
+
+
+def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=None,
+         export=False):
+    if work_precision:
+        from vibtrans.tools.workprecision import main as wp_main
+        pinned = _pin_one_core()
+        return wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned)
+    if plot is not None:
+        raise InputError("plot: only bench --work-precision takes --plot")
+    if export:
+        pinned = _pin_one_core()
+        r = export_bench(quick)
+        r["pinned_to_one_core"] = pinned
+        if as_json:
+            print(json.dumps(r))
+            return 0
+        print(f"vibtrans bench --export ({'quick' if quick else 'full'}; best of "
+              f"{r['repeat']}; {r['machine']}; one core: {pinned}; load "
+              f"{r['load_average_1min']:.1f})")
+        print(f"  paper point {r['point']}, standard, {r['samples']} samples + twin "
+              f"{r['twin_samples']}; reference (one plain matplotlib panel to PNG): "
+              f"{r['reference_seconds']:.3f} s wall, {r['reference_cpu_seconds']:.3f} s CPU")
+        for fmt in ("png", "svg", "html"):
+            print(f"  trajectory export .{fmt:<4} {r[fmt + '_seconds']:6.2f} s wall, "
+                  f"{r[fmt + '_cpu_seconds']:6.2f} s CPU, {r[fmt + '_over_reference']:6.1f} x "
+                  "reference CPU" + ("   (goal <= 3 s)" if fmt == "png" else ""))
+        return 0
+    if sweep:
+        r = sweep_bench(quick)
+        if as_json:
+            print(json.dumps(r))
+        else:
+            for k, v in r.items():
+                print(f"  {k:>36}: {v:.4g}" if isinstance(v, float) else f"  {k:>36}: {v}")
+        return 0
+    r = run(quick)
+    if as_json:
+        print(json.dumps(r))
+        return 0
+    print(f"vibtrans bench ({'quick' if quick else 'full'}; best of {r['repeat']}; "
+          f"{r['machine']}; one core: {r['pinned_to_one_core']})")
+    print(f"  vertical-only kernel   {r['vertical_ns_per_step']:8.1f} ns/step")
+    print(f"  deformable kernel      {r['deformable_ns_per_step']:8.1f} ns/step")
+    print(f"  ratio                  {r['deformable_over_vertical']:8.2f}   (goal <= 2)")
+    print(f"  with exact sin/cos (rotation shortcut off): vertical "
+          f"{r['exact_trig_vertical_ns_per_step']:.1f}, deformable "
+          f"{r['exact_trig_deformable_ns_per_step']:.1f} ns/step, ratio "
+          f"{r['exact_trig_deformable_over_vertical']:.2f}")
+    print(f"  memory-diagram update  {r['memory_update_ns']:8.1f} ns")
+    for point, s in r["scene_seconds_2000_periods"].items():
+        print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
+              f"({s['steps']} steps)   (goal <= 0.1 s)")
+    for name, c in r["lyapunov_cost"].items():
+        print(f"  chaos indicator, {name}: scene + Lyapunov exponent "
+              f"{c['lyapunov_over_scene']:.2f} x scene (goal <= 1.3); scene + twin "
+              f"{c['scene_plus_twin_over_scene']:.2f} x")
+    print("  shortcuts (each switched off alone): speed-up, relative drift difference")
+    for k, e in r["shortcuts"].items():
+        print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")
+    return 0
+
+
+# Issue 16's sweep window: log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5
+SWEEP_WINDOW = ((-3.0, 3.0), (-5.0, 5.0))
+SWEEP_MU = 0.5
+
+
+def _window_sweep(points, **values):
+    from vibtrans.maps.sweep import Sweep
+    (a0, a1), (m0, m1) = SWEEP_WINDOW
+    return Sweep(np.linspace(a0, a1, points), np.linspace(m0, m1, points), chunk_rows=1,
+                 mu=SWEEP_MU, **values)
+
+
+def sweep_step_ratio(quick=False):
+    """Issue 16's figure of a sweep's overhead, measured in one run: a
+    standard, 2000-period sweep of the 41 x 41 window (SWEEP_WINDOW; quick:
+    11 x 11, 500 periods) on all local cores, as
+
+        (wall seconds x cores) / (the points' integration steps x the
+        vertical-only kernel's seconds per step on one core),
+
+    the kernel timed round-robin in the same run.  1 would be a sweep that
+    does nothing but vertical steps on every core; the deformable step
+    itself costs ~1.9 of them (`vibtrans bench`).  The points judge chaos by
+    their Lyapunov exponent (no twin runs).  Split in two factors:
+    `sweep_kernel_step_ratio`, the points' kernel calls alone (by their own
+    clocks, the cores all busy), and `sweep_overhead_factor`, the rest (the
+    Python around each point, the store's writes, cores left waiting)."""
+    import shutil
+    import tempfile
+
+    from vibtrans.maps.sweep import run_sweep
+    from vibtrans.core.precompile import warmup
+    warmup()
+    points, periods = (11, 500.0) if quick else (41, 2000.0)
+    sweep = _window_sweep(points, periods=periods)
+    cores = os.cpu_count() or 1
+    vertical = paper_scene(1).replace(model="vertical")
+    ns_before, = _interleaved_ns([(vertical, {})], 3)
+    tmp = tempfile.mkdtemp()
+    try:
+        t0 = time.perf_counter()
+        run_sweep(sweep, f"{tmp}/s.zarr", workers=cores, progress=False)
+        wall = time.perf_counter() - t0
+        import xarray as xr
+        store = xr.open_zarr(f"{tmp}/s.zarr", consolidated=False)
+        steps = int(store["steps"].values.sum())
+        kernel_seconds = float(store["seconds"].values.sum())
+    finally:
+        shutil.rmtree(tmp)
+    ns_after, = _interleaved_ns([(vertical, {})], 3)
+    ns = min(ns_before, ns_after)
+    ratio = wall * cores / (steps * ns * 1e-9)
+    kernels = kernel_seconds / (steps * ns * 1e-9)
+    # the ratio split in two: the points' kernel calls alone (their own
+    # clocks, all cores busy) and the rest (Python around each point,
+    # waiting, writing the store) as a factor
+    return {"sweep_points": points * points, "sweep_periods": periods, "cores": cores,
+            "sweep_seconds": wall, "sweep_steps": steps, "vertical_ns_per_step": ns,
+            "sweep_step_ratio": ratio, "sweep_kernel_step_ratio": kernels,
+            "sweep_overhead_factor": ratio / kernels}
+
+
+def preview_window_times(quick=False):
+    """Issue 16's progressive preview: an adaptive preview, 500-period map of
+    the same window (41 x 41 finest points, 3 levels: a 6 x 6 coarse grid;
+    quick: 17 x 17, 2 levels, 200 periods) on all local cores; seconds to
+    the first (coarse) image and to the complete map."""
+    import shutil
+    import tempfile
+
+    from vibtrans.maps.adaptive import run_adaptive
+    from vibtrans.core.precompile import warmup
+    warmup()
+    points, levels, periods = (17, 2, 200.0) if quick else (41, 3, 500.0)
+    sweep = _window_sweep(points, periods=periods, fidelity="preview")
+    first = []
+    tmp = tempfile.mkdtemp()
+    try:
+        t0 = time.perf_counter()
+        fraction = run_adaptive(sweep, f"{tmp}/a.zarr", levels, progress=False,
+                                on_level=lambda level, ds: first.append(
+                                    time.perf_counter() - t0))
+        total = time.perf_counter() - t0
+    finally:
+        shutil.rmtree(tmp)
+    return {"preview_points": points * points, "preview_levels": levels,
+            "preview_periods": periods, "preview_computed_fraction": fraction,
+            "preview_first_image_seconds": first[0], "preview_window_seconds": total}
+
+
+def sweep_bench(quick=False):
+    """Points per second of a small sweep on 1 and 2 workers, processes vs
+    threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)));
+    then issue 16's sweep_step_ratio and the progressive preview's times."""
+    import shutil
+    import tempfile
+
+    from vibtrans.maps.sweep import Sweep, parse_range, run_sweep
+    grid = ("0:2:0.5", "-3:1:0.5") if quick else ("-1:2.5:0.25", "-3:2:0.25")
+    sweep = Sweep(parse_range(grid[0], "a"), parse_range(grid[1], "m"), chunk_rows=1,
+                  periods=500.0 if quick else 2000.0)
+    n = sweep.log_amplitude.size * sweep.log_mass.size
+    out = {"points": n, "periods": sweep.values["periods"]}
+    tmp = tempfile.mkdtemp()
+    try:
+        for executor in ("processes", "threads"):
+            for workers in (1, 2):
+                path = f"{tmp}/{executor}{workers}.zarr"
+                t0 = time.perf_counter()
+                run_sweep(sweep, path, workers=workers, progress=False, executor=executor)
+                out[f"{executor}_{workers}_points_per_second"] = n / (time.perf_counter() - t0)
+            out[f"{executor}_parallel_efficiency"] = (
+                out[f"{executor}_2_points_per_second"] / (2 * out[f"{executor}_1_points_per_second"]))
+    finally:
+        shutil.rmtree(tmp)
+    out.update(sweep_step_ratio(quick))
+    out.update(preview_window_times(quick))
+    return out

@@ -1,0 +1,456 @@
+"""Work-precision study: what each integrator and step costs, and what it buys.
+
+`vibtrans bench --work-precision [--quick] [--json] [--plot FILE.png]`.
+
+For every scene of `CASES` (paper points 1, 2, 4, 6, 7 and three corners of
+the map), both integrators ("ab4", "verlet") run on a ladder of step
+settings, from coarse (16 steps per period) to the reference preset
+(2048 steps per period), and are compared with a tight reference: AB4 at the
+"reference" preset refined twice (`simulate(..., refine=2)`: 4096 steps per
+period, 640 per contact time scale).  Every point reports
+
+* cost: committed steps, kernel seconds (`ds.attrs["seconds"]`, best of a few
+  repeats for the cheap runs) and wall seconds of `simulate`;
+* drift error: |v - v_ref| / max(|v_ref|, V0) for the mean drift
+  <v_x*> = x*(T_obs)/T_obs and for the final-window drift (last 10%), the
+  larger of the two.  V0 = 0.1 (the paper's no-drift band) is the floor, as
+  in tests/test_integrators.py: a scene that does not drift (|v*| ~ 1e-5)
+  has no meaningful relative error;
+* trajectory error: max |x* - x*_ref| and max |y* - y*_ref| (units of a0)
+  over the first `traj_periods` periods on a common grid (256 points per
+  period), from a separate short run of the same scene with a fast ramp
+  (tau = TRAJ_TAU = 2) so that the wave reaches full amplitude within those
+  periods (with the default tau = 50 the first 20 periods see less than 15%
+  of the amplitude).  Every step is recorded (simulate's window) and both
+  runs are read on the grid by quintic Hermite interpolation of position,
+  velocity and acceleration (from N*, T*): its error, O(h^6), stays far
+  below the integrators' (O(h^4), O(h^2)).
+
+Each scene is also run with the tau + 1e-3 twin (standard AB4); a scene the
+twin contradicts (`analysis.chaos_verdict`) is flagged chaotic and left out
+of the preset summary.
+
+Every ladder point runs with `simulate(..., steps=(steps per period, steps
+per contact time scale))`, the presets' own pairs included.
+"""
+import math
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from vibtrans.core import fidelity as F
+from vibtrans.analysis.summary import V0, chaos_verdict, drift_velocity, final_drift_velocity
+from vibtrans.core.params import Scene, paper_scene
+from vibtrans.core.simulate import simulate
+from vibtrans.core.errors import InputError
+
+INTEGRATORS = ("ab4", "verlet")
+TRAJ_TAU = 2.0            # ramp of the trajectory runs, periods
+GRID = 256                # trajectory comparison grid, points per period
+TIMING_BUDGET = 0.3       # repeat a run until its kernel seconds add up to this...
+TIMING_REPEATS = 7        # ...or this many runs (best one kept)
+BLOWUP = 10.0             # |x*| or |y*| over BLOWUP (1 + max of the reference's): unstable
+
+
+class Case(NamedTuple):
+    name: str
+    scene: Scene
+    traj_periods: float   # trajectory error over [0, traj_periods]
+
+
+class Setting(NamedTuple):
+    label: str
+    per_period: float     # steps per wave period
+    per_contact: float    # steps per shortest contact time scale
+
+
+def _corner(amplitude, mass, **values):
+    return Scene(amplitude=amplitude, mass=mass, **values)
+
+
+# Corners (non-chaotic: the tau + 1e-3 twin agrees on the drift to < 1e-5):
+# light m* = 1e-5 at A* = 1e3 is the stiffest scene of the map (8200 steps
+# per period at "standard", permanent contact with a total-sliding phase in
+# every period); it runs 100 periods (the ramp is over by then) and its
+# trajectory 5 periods (over 1000 contact oscillations), which keeps its
+# reference run affordable.  Light m* = 1e-5 at A* = 1e-3 is the one corner
+# whose step is set by the linear contact oscillation 2 pi sqrt(2 m*/3)
+# (not by the impact bound): it is where a step per contact time scale too
+# coarse for AB4 (omega h > ~0.43) shows as an instability.
+# A* = 1e3, m* = 1: synchronous hopping, hovering ~1000 a0 high.
+# m* = 1e5, A* = 1e3: the heaviest, most violent corner (long flights).
+CASES = (
+    Case("point 1", paper_scene(1), 20.0),
+    Case("point 2", paper_scene(2), 20.0),
+    Case("point 4", paper_scene(4), 20.0),
+    Case("point 6", paper_scene(6), 20.0),
+    Case("point 7", paper_scene(7), 20.0),
+    Case("light m*=1e-5 A*=1e3", _corner(1e3, 1e-5, periods=100.0), 5.0),
+    Case("light m*=1e-5 A*=1e-3", _corner(1e-3, 1e-5, periods=100.0), 5.0),
+    Case("large A*=1e3 m*=1", _corner(1e3, 1.0), 20.0),
+    Case("heavy m*=1e5 A*=1e3", _corner(1e3, 1e5), 20.0),
+)
+# CI size (seconds): cheap scenes, shorter runs, fewer steps; point 2's step
+# is set by the contact time scale, the others' by the period.
+QUICK_CASES = (
+    Case("point 1", paper_scene(1, periods=200.0), 10.0),
+    Case("point 2", paper_scene(2, periods=200.0), 10.0),
+    Case("point 4", paper_scene(4, periods=500.0), 10.0),
+    Case("point 6", paper_scene(6, periods=200.0), 10.0),
+)
+
+# "P/C": P steps per period, C per contact time scale.  24/4 and 24/8 are
+# below AB4's stability limit on a linear contact oscillation (C >= ~15) but
+# not Verlet's (C > pi): candidates for a Verlet-only preview.
+LADDER = (
+    Setting("24/4", 24, 4),
+    Setting("24/8", 24, 8),
+    Setting("16/16", 16, 16),
+    Setting("24/16", 24, 16),
+    Setting("32/16", 32, 16),
+    Setting("preview", *F.FIDELITY["preview"]),
+    Setting("preview x2", 2 * F.FIDELITY["preview"][0], 2 * F.FIDELITY["preview"][1]),
+    Setting("standard", *F.FIDELITY["standard"]),
+    Setting("standard x2", 2 * F.FIDELITY["standard"][0], 2 * F.FIDELITY["standard"][1]),
+    Setting("standard x4", 4 * F.FIDELITY["standard"][0], 4 * F.FIDELITY["standard"][1]),
+    Setting("reference", *F.FIDELITY["reference"]),
+)
+QUICK_LADDER = (Setting("32/16", 32, 16), LADDER[5], LADDER[7], LADDER[8])
+REFERENCE = Setting("reference x2", 2 * F.FIDELITY["reference"][0],
+                    2 * F.FIDELITY["reference"][1])
+QUICK_REFERENCE = LADDER[-1]
+
+
+class Point(NamedTuple):
+    """One (scene, integrator, step) of the study."""
+    scene: str
+    integrator: str
+    setting: str                # ladder label ("preview", "standard", ... are the presets)
+    steps_per_period: float     # 1 / h
+    h: float                    # step, periods
+    steps: int                  # committed steps of the drift run
+    seconds: float              # kernel seconds of the drift run (best of repeats)
+    wall_seconds: float         # wall seconds of simulate (drift run)
+    drift_velocity: float
+    final_drift_velocity: float
+    drift_error: float          # max of the mean and final-window relative errors
+    mean_drift_error: float
+    final_drift_error: float
+    traj_error_x: float         # max |dx*| over the first traj_periods periods
+    traj_error_y: float
+    traj_error: float           # max of the two
+    traj_periods: float
+    stable: bool                # False: the run failed, gave non-finite values or blew up
+    chaotic: bool               # the scene's tau + 1e-3 twin disagrees
+    reference_drift: float
+
+
+# ------------------------------------------------------------------ running
+def run_setting(scene, setting, integrator, **kw):
+    """simulate(scene) with the step of `setting` and `integrator`."""
+    return simulate(scene.replace(integrator=integrator),
+                    steps=(setting.per_period, setting.per_contact),
+                    max_steps=math.inf, **kw)
+
+
+def _timed_drift_run(scene, setting, integrator, repeat=True):
+    t0 = time.perf_counter()
+    ds = run_setting(scene, setting, integrator)
+    wall = time.perf_counter() - t0
+    best = float(ds.attrs["seconds"])
+    spent, n = best, 1
+    while repeat and spent < TIMING_BUDGET and n < TIMING_REPEATS:
+        s = float(run_setting(scene, setting, integrator).attrs["seconds"])
+        best, spent, n = min(best, s), spent + s, n + 1
+    return ds, best, wall
+
+
+def _trajectory_run(case, setting, integrator):
+    T = case.traj_periods
+    sc = case.scene.replace(tau=TRAJ_TAU, periods=T)
+    return run_setting(sc, setting, integrator, window=(0.0, T), samples_per_period=1)
+
+
+def hermite(ds, tq):
+    """(x*, y*) of a run recorded at every step, at times tq: quintic Hermite
+    interpolation from position, velocity and acceleration
+    (x'' = -mu T*/m*, y'' = (1 - N*)/m*)."""
+    t = ds["time"].values
+    keep = np.concatenate([[True], np.diff(t) > 0])        # drop repeated instants
+    t = t[keep]
+    m, mu = float(ds.attrs["mass"]), float(ds.attrs["mu"])
+    i = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, t.size - 2)
+    d = t[i + 1] - t[i]
+    s = (tq - t[i]) / d
+    s2, s3 = s * s, s * s * s
+    s4, s5 = s3 * s, s3 * s2
+    h00 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+    h10 = s - 6 * s3 + 8 * s4 - 3 * s5
+    h20 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+    h01 = 10 * s3 - 15 * s4 + 6 * s5
+    h11 = -4 * s3 + 7 * s4 - 3 * s5
+    h21 = 0.5 * s3 - s4 + 0.5 * s5
+    out = []
+    for pos, vel, acc in (("x", "vx", -mu * ds["T"].values / m),
+                          ("y", "vy", (1.0 - ds["N"].values) / m)):
+        p = ds[pos].values[keep]
+        v = ds[vel].values[keep]
+        a = acc[keep]
+        out.append(h00 * p[i] + h10 * d * v[i] + h20 * d * d * a[i]
+                   + h01 * p[i + 1] + h11 * d * v[i + 1] + h21 * d * d * a[i + 1])
+    return out[0], out[1]
+
+
+def trajectory_error(ds, ref, periods, grid=GRID):
+    """(max |dx*|, max |dy*|) over [0, periods] on a grid of `grid` per period."""
+    tq = np.linspace(0.0, periods, int(round(periods * grid)) + 1)
+    x1, y1 = hermite(ds, tq)
+    x0, y0 = hermite(ref, tq)
+    return float(np.max(np.abs(x1 - x0))), float(np.max(np.abs(y1 - y0)))
+
+
+def _rel(v, v_ref, floor=V0):
+    return abs(v - v_ref) / max(abs(v_ref), floor)
+
+
+def _finite(ds):
+    return all(np.isfinite(ds[k].values).all() for k in ("x", "vx", "y", "vy"))
+
+
+def _bounded(ds, ref):
+    """No blow-up: |x*|, |y*| within BLOWUP (1 + the reference's extent).  An
+    unstable AB4 step launches the particle (y* ~ 1e8) rather than overflow."""
+    return all(np.max(np.abs(ds[k].values)) <= BLOWUP * (1.0 + np.max(np.abs(ref[k].values)))
+               for k in ("x", "y"))
+
+
+def study(quick=False, cases=None, ladder=None, reference=None,
+          integrators=INTEGRATORS, progress=None):
+    """Run the work-precision study; a list of `Point`, one per scene,
+    integrator and ladder setting.  progress: callable(str) or None."""
+    cases = cases or (QUICK_CASES if quick else CASES)
+    ladder = ladder or (QUICK_LADDER if quick else LADDER)
+    reference = reference or (QUICK_REFERENCE if quick else REFERENCE)
+    simulate(cases[0].scene.replace(periods=1.0))               # JIT warm-up
+    points = []
+    for case in cases:
+        t0 = time.perf_counter()
+        ref = run_setting(case.scene, reference, "ab4")
+        ref_traj = _trajectory_run(case, reference, "ab4")
+        base = simulate(case.scene, max_steps=math.inf)
+        twin = simulate(case.scene.replace(tau=case.scene.tau + 1e-3), max_steps=math.inf)
+        chaotic = bool(chaos_verdict(base, twin))
+        v_ref, vf_ref = drift_velocity(ref), final_drift_velocity(ref)
+        del base, twin
+        for integrator in integrators:
+            done = {}           # h -> Point (settings that give the same step)
+            for setting in ladder:
+                h = _step(case.scene, setting)
+                if h in done:
+                    points.append(done[h]._replace(setting=setting.label))
+                    continue
+                p = _point(case, setting, integrator, ref, ref_traj, v_ref, vf_ref, chaotic)
+                done[h] = p
+                points.append(p)
+        if progress is not None:
+            progress(f"{case.name}: {time.perf_counter() - t0:.1f} s")
+    return points
+
+
+def _step(scene, setting):
+    per_period, per_contact = setting.per_period, setting.per_contact
+    return min(1.0 / per_period,
+               F.contact_time_scale(scene.amplitude, scene.mass) / per_contact)
+
+
+def _point(case, setting, integrator, ref, ref_traj, v_ref, vf_ref, chaotic):
+    nan, inf = math.nan, math.inf
+    h = _step(case.scene, setting)
+    try:
+        ds, seconds, wall = _timed_drift_run(case.scene, setting, integrator)
+        traj = _trajectory_run(case, setting, integrator)
+        stable = (_finite(ds) and _finite(traj) and _bounded(ds, ref)
+                  and _bounded(traj, ref_traj))
+    except (ValueError, FloatingPointError, ZeroDivisionError, OverflowError):
+        ds, stable = None, False
+    if not stable:
+        steps, seconds, wall = (0, nan, nan) if ds is None else (
+            int(ds.attrs["steps"]), seconds, wall)
+        return Point(case.name, integrator, setting.label, 1.0 / h, h, steps, seconds, wall,
+                     nan, nan, inf, inf, inf, inf, inf, inf, case.traj_periods, False,
+                     chaotic, v_ref)
+    v, vf = drift_velocity(ds), final_drift_velocity(ds)
+    ex, ey = trajectory_error(traj, ref_traj, case.traj_periods)
+    em, ef = _rel(v, v_ref), _rel(vf, vf_ref)
+    h = float(ds.attrs["h"])          # the same as _step's
+    return Point(case.name, integrator, setting.label, 1.0 / h, h, int(ds.attrs["steps"]),
+                 seconds, wall, v, vf, max(em, ef), em, ef, ex, ey, max(ex, ey),
+                 case.traj_periods, True, chaotic, v_ref)
+
+
+# ----------------------------------------------------------------- analysis
+def pareto_front(points, scene, error="drift_error", cost="seconds"):
+    """The points of one scene (both integrators) that no other point beats
+    on both cost and error, sorted by cost."""
+    pts = sorted((p for p in points if p.scene == scene and p.stable),
+                 key=lambda p: (getattr(p, cost), getattr(p, error)))
+    front, best = [], math.inf
+    for p in pts:
+        e = getattr(p, error)
+        if e < best:
+            front.append(p)
+            best = e
+    return front
+
+
+def pareto_fronts(points, error="drift_error", cost="seconds"):
+    """{scene: pareto_front} for every scene of the study."""
+    scenes = list(dict.fromkeys(p.scene for p in points))
+    return {s: pareto_front(points, s, error, cost) for s in scenes}
+
+
+class PresetSummary(NamedTuple):
+    setting: str
+    integrator: str
+    max_drift_error: float       # over the non-chaotic scenes
+    worst_scene: str
+    max_drift_error_drifting: float  # over the non-chaotic scenes with |v_ref| > V0
+    worst_drifting_scene: str
+    max_traj_error: float
+    seconds: float               # total kernel seconds, non-chaotic scenes
+    steps: int
+    speed_vs_standard: float     # total seconds of standard AB4 / total seconds here
+    min_speed_vs_standard: float  # the smallest per-scene ratio
+    steps_vs_standard: float     # total steps of standard AB4 / total steps here
+
+
+def preset_summary(points, settings=None, baseline=("standard", "ab4")):
+    """Each setting's (default: the presets of fidelity.FIDELITY) measured max
+    drift error over the non-chaotic scenes and its speed relative to the
+    baseline (standard preset, AB4), per integrator."""
+    settings = settings or [s for s in F.FIDELITY if any(p.setting == s for p in points)]
+    ok = [p for p in points if not p.chaotic]
+    base = {p.scene: p for p in ok if (p.setting, p.integrator) == baseline}
+    out = []
+    for s in settings:
+        for integ in dict.fromkeys(p.integrator for p in ok):
+            pts = [p for p in ok if p.setting == s and p.integrator == integ
+                   and p.scene in base]
+            if not pts:
+                continue
+            worst = max(pts, key=lambda p: p.drift_error)
+            drifting = [p for p in pts if abs(p.reference_drift) > V0]
+            worst_d = max(drifting, key=lambda p: p.drift_error) if drifting else None
+            sec = sum(p.seconds for p in pts)
+            steps = sum(p.steps for p in pts)
+            out.append(PresetSummary(
+                s, integ, worst.drift_error, worst.scene,
+                worst_d.drift_error if worst_d else math.nan,
+                worst_d.scene if worst_d else "",
+                max(p.traj_error for p in pts), sec, steps,
+                sum(base[p.scene].seconds for p in pts) / sec,
+                min(base[p.scene].seconds / p.seconds for p in pts),
+                sum(base[p.scene].steps for p in pts) / max(steps, 1)))
+    return out
+
+
+# ------------------------------------------------------------------ report
+def table(points):
+    """The study as text, one line per point."""
+    lines = [f"{'scene':<22} {'integ':<6} {'setting':<12} {'steps/T':>8} {'steps':>9} "
+             f"{'seconds':>8} {'wall':>7} {'drift err':>9} {'traj err':>9} {'dx':>9} {'dy':>9}"]
+    for p in points:
+        flag = "" if p.stable else "  UNSTABLE"
+        flag += "  (chaotic)" if p.chaotic else ""
+        lines.append(f"{p.scene:<22} {p.integrator:<6} {p.setting:<12} "
+                     f"{p.steps_per_period:8.0f} {p.steps:9d} {p.seconds:8.4f} "
+                     f"{p.wall_seconds:7.3f} {p.drift_error:9.2e} {p.traj_error:9.2e} "
+                     f"{p.traj_error_x:9.2e} {p.traj_error_y:9.2e}{flag}")
+    return "\n".join(lines)
+
+
+def summary_table(summaries):
+    """Max drift error (all non-chaotic scenes, and those with |v*| > V0),
+    max trajectory error, and speed against standard AB4 (total seconds,
+    the worst scene's ratio, total steps)."""
+    lines = [f"{'setting':<12} {'integ':<6} {'drift err':>9} {'(scene)':<22} "
+             f"{'drifting':>9} {'(scene)':<9} {'traj err':>9} {'seconds':>8} "
+             f"{'speed':>6} {'worst':>6} {'steps':>6}"]
+    for s in summaries:
+        dscene = s.worst_drifting_scene.replace("point ", "p")
+        lines.append(f"{s.setting:<12} {s.integrator:<6} {s.max_drift_error:9.2e} "
+                     f"{s.worst_scene:<22} {s.max_drift_error_drifting:9.2e} {dscene:<9} "
+                     f"{s.max_traj_error:9.2e} {s.seconds:8.3f} "
+                     f"{s.speed_vs_standard:6.2f} {s.min_speed_vs_standard:6.2f} "
+                     f"{s.steps_vs_standard:6.2f}")
+    return "\n".join(lines)
+
+
+def from_jsonable(rows):
+    """Points back from `jsonable` rows (the "points" of the --json output)."""
+    def num(v):
+        return math.nan if v is None else (float(v) if v in ("inf", "-inf") else v)
+    return [Point(**{k: num(v) for k, v in r.items()}) for r in rows]
+
+
+def jsonable(points):
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+        return v
+    return [{k: clean(v) for k, v in p._asdict().items()} for p in points]
+
+
+def main(quick=False, as_json=False, plot=None, pinned=None):
+    """`vibtrans bench --work-precision`: run the study, print the table and
+    the preset summary (or one JSON object), write the diagram to `plot`."""
+    import json
+    import os
+    import platform
+    import sys
+    if plot is not None:
+        from vibtrans.products.export import FORMATS, _format
+        try:                                       # a bad name fails before the run
+            _format(plot, FORMATS)
+        except ValueError:
+            raise InputError(f"plot must end in {', '.join('.' + f for f in FORMATS)}; "
+                             f"got {plot!r}") from None
+    t0 = time.perf_counter()
+    points = study(quick, progress=None if as_json else
+                   (lambda s: print(f"  {s}", file=sys.stderr, flush=True)))
+    seconds = time.perf_counter() - t0
+    presets = preset_summary(points)
+    ladder = preset_summary(points, settings=list(dict.fromkeys(p.setting for p in points)))
+    if plot is not None:
+        from vibtrans.products.export import export_work_precision
+        ref = QUICK_REFERENCE if quick else REFERENCE
+        export_work_precision(points, plot, reference=f"'{ref.label}' ({ref.per_period:g} "
+                                                      f"steps/period)")
+    if as_json:
+        out = {"machine": f"{platform.processor() or platform.machine()}, "
+                          f"{os.cpu_count()} cores, python {platform.python_version()}",
+               "pinned_to_one_core": pinned, "quick": quick, "seconds": seconds,
+               "points": jsonable(points),
+               "presets": jsonable(presets), "settings": jsonable(ladder),
+               "pareto_drift": {s: [p.setting + "/" + p.integrator for p in f]
+                                for s, f in pareto_fronts(points).items()}}
+        print(json.dumps(out))
+        return 0
+    print(f"vibtrans bench --work-precision ({'quick' if quick else 'full'}; "
+          f"{seconds:.0f} s; one core: {pinned}); errors against the "
+          f"{(QUICK_REFERENCE if quick else REFERENCE).label} (AB4) run")
+    print(table(points))
+    print("\nPresets: max drift error over the non-chaotic scenes (and over those that drift,"
+          " |v*| > V0), max\ntrajectory error, kernel seconds, speed against standard AB4 "
+          "(total, worst scene, steps):")
+    print(summary_table(presets))
+    print("\nEvery ladder setting (candidate presets):")
+    print(summary_table(ladder))
+    print("\nPareto front of drift error against seconds:")
+    for s, front in pareto_fronts(points).items():
+        print(f"  {s:<22} " + ", ".join(f"{p.setting}/{p.integrator} ({p.drift_error:.1e})"
+                                        for p in front))
+    if plot is not None:
+        print(f"\nwrote {plot}")
+    return 0
