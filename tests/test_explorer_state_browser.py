@@ -127,12 +127,14 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         got = _settled(page, time.monotonic() + 60)
         assert float(_query(got["search"])["mu"]) == 0.5 and got["mu"] == "0.5"
         page.locator(".vt-mu select").select_option("0.3")
+        _settled(page, time.monotonic() + 60)
+        page.locator(".vt-map canvas >> visible=true").first.wait_for(timeout=60000)
         done = []
         for step in range(STEPS):
             kind = rng.choice(["click", "click", "type", "type", "bad", "mu", "model",
                                "point", "run"])
             if kind == "click":
-                box = page.locator(".vt-map canvas").first.bounding_box()
+                box = page.locator(".vt-map canvas >> visible=true").first.bounding_box()
                 page.mouse.click(box["x"] + box["width"] * rng.uniform(0.25, 0.75),
                                  box["y"] + box["height"] * rng.uniform(0.25, 0.75))
             elif kind in ("type", "bad"):
