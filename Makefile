@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: setup browser proxy serve test test-fast docs bench bench-browser wheel container-test \
+.PHONY: setup browser proxy serve test test-fast test-oldest docs bench bench-browser wheel container-test \
         loadtest-proxy
 
 setup: $(VENV)/.installed
@@ -47,6 +47,27 @@ docs: setup
 	$(BIN)/python -m pip install --quiet -e '.[docs]'
 	rm -rf docs/_build docs/reference/generated
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+# The oldest tier (issue 33): a fresh venv on this Python with every runtime
+# dependency at exactly its declared lower bound (uv's lowest-direct
+# resolution of pyproject.toml; the rest resolves to what those allow), then
+# the development tier, one served page and one browser smoke test.  The
+# Python must be the oldest that pyproject.toml declares (checked).
+OLDEST ?= .venv-oldest
+test-oldest: setup browser
+	$(BIN)/python -m pip install --quiet "uv>=0.5"
+	rm -rf $(OLDEST)
+	$(BIN)/uv venv --quiet --python $(PYTHON) $(OLDEST)
+	$(OLDEST)/bin/python devtools/oldest.py --check-python
+	$(BIN)/uv pip compile --quiet pyproject.toml --extra test --resolution lowest-direct \
+		--python $(OLDEST)/bin/python -o $(OLDEST)/constraints.txt
+	$(BIN)/uv pip install --quiet --python $(OLDEST)/bin/python -r $(OLDEST)/constraints.txt
+	$(BIN)/uv pip install --quiet --python $(OLDEST)/bin/python --no-deps -e .
+	$(OLDEST)/bin/python devtools/oldest.py --check-installed $(OLDEST)/constraints.txt
+	$(OLDEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow and not browser and not server"
+	$(OLDEST)/bin/python -m pytest -q -p no:cacheprovider \
+		"tests/test_server_start.py::test_the_server_says_what_it_does" \
+		tests/test_app_browser.py -k "test_page_loads_with_the_map or test_click_on_the_map_runs_that_scene"
 
 bench: setup
 	$(BIN)/vibtrans bench

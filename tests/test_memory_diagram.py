@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid   # numpy < 2 has no np.trapezoid
 
 from vibtrans.core.kernels.contact import (
     FLIGHT,
@@ -121,8 +122,8 @@ def test_mindlin_deresiewicz_loop_from_partial_slip(a):
     assert np.all(sd[:-1] == PARTIAL_SLIP) and np.all(sr[:-1] == PARTIAL_SLIP)
     # Dissipated energy: closed-loop integral of T db (trapezoid on the stack's
     # forces) against the analytic integral of the two branches.
-    W_stack = np.trapezoid(np.r_[T_m, Td], np.r_[b_m, bd]) + np.trapezoid(np.r_[T_min, Tr], np.r_[b_min, br])
-    W_trap_cf = np.trapezoid(md_unload(a, b_m, T_m, np.r_[b_m, bd]), np.r_[b_m, bd]) + np.trapezoid(
+    W_stack = trapezoid(np.r_[T_m, Td], np.r_[b_m, bd]) + trapezoid(np.r_[T_min, Tr], np.r_[b_min, br])
+    W_trap_cf = trapezoid(md_unload(a, b_m, T_m, np.r_[b_m, bd]), np.r_[b_m, bd]) + trapezoid(
         md_reload(a, b_min, T_min, np.r_[b_min, br]), np.r_[b_min, br])
     W = loop_energy(a, bm)
     assert W > 0
@@ -186,7 +187,7 @@ def test_mindlin_deresiewicz_loop_after_total_sliding(a):
     b_min, T_min = bd[-1], Td[-1]
     assert np.max(np.abs(Tr - md_reload(a, b_min, T_min, br))) <= TOL
     assert abs(Tr[-1] - N) <= TOL
-    W_stack = np.trapezoid(np.r_[T_m, Td], np.r_[b_m, bd]) + np.trapezoid(np.r_[T_min, Tr], np.r_[b_min, br])
+    W_stack = trapezoid(np.r_[T_m, Td], np.r_[b_m, bd]) + trapezoid(np.r_[T_min, Tr], np.r_[b_min, br])
     h = 2 * A / (2 * n - 2)
     bound = 2 * (2 * A) * h**2 / 12 * (3 / 8) / np.sqrt(a - A)
     assert abs(W_stack - loop_energy(a, A)) <= 1.5 * bound + 1e-11

@@ -109,7 +109,9 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
         if isinstance(m, ColumnDataSource):
             columns[m.id] = dict(m.data)
             m.data = {k: [] for k in m.data}
-    return doc.to_json(), columns
+    # a plain dict (buffers inline) on every Bokeh: 3.4 returns one by
+    # default, later versions a Serialized wrapper unless deferred=False
+    return doc.to_json(deferred=False), columns
 
 
 def _lean(fig):
@@ -171,7 +173,7 @@ def map_figure(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     # decoded without a Document of its own (adding the figure to one and
     # removing it walked its model graph twice), its sources found through
     # its renderers (a walk of the graph costs ~10 ms: ~120 models)
-    fig, = Deserializer().decode(js.content["roots"], js.buffers)
+    fig, = Deserializer().decode(js["roots"])
     sources = {s.id: s for s in (getattr(r, "data_source", None) for r in fig.renderers)
                if s is not None}
     if not columns.keys() <= sources.keys():        # a source elsewhere: walk the graph

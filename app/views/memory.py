@@ -101,10 +101,10 @@ class MemoryView(pn.viewable.Viewer):
         self._build_figures()
         self.at = SnapshotTime()
         self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200)
-        self.show_button = pn.widgets.Button(label="Show the memory diagram at t*",
+        self.show_button = pn.widgets.Button(name="Show the memory diagram at t*",
                                              button_type="primary", disabled=True)
         self.show_button.on_click(self._on_show_click)
-        self.slider = pn.widgets.FloatSlider(label="t* (periods), the run's last period",
+        self.slider = pn.widgets.FloatSlider(name="t* (periods), the run's last period",
                                              start=0.0, end=1.0, step=0.1, value=1.0,
                                              format="0[.]0000", disabled=True, width=600)
         self.slider.param.watch(self._on_slide, "value")
