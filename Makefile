@@ -59,9 +59,9 @@ test-oldest: setup browser
 	rm -rf $(OLDEST)
 	$(BIN)/uv venv --quiet --python $(PYTHON) $(OLDEST)
 	$(OLDEST)/bin/python devtools/oldest.py --check-python
-	$(BIN)/uv pip compile --quiet pyproject.toml --extra test --resolution lowest-direct \
+	$(BIN)/uv pip compile --quiet pyproject.toml --extra test --resolution lowest-direct --only-binary :all: \
 		--python $(OLDEST)/bin/python -o $(OLDEST)/constraints.txt
-	$(BIN)/uv pip install --quiet --python $(OLDEST)/bin/python -r $(OLDEST)/constraints.txt
+	$(BIN)/uv pip install --quiet --only-binary :all: --python $(OLDEST)/bin/python -r $(OLDEST)/constraints.txt
 	$(BIN)/uv pip install --quiet --python $(OLDEST)/bin/python --no-deps -e .
 	$(OLDEST)/bin/python devtools/oldest.py --check-installed $(OLDEST)/constraints.txt
 	$(OLDEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow and not browser and not server"
