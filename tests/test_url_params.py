@@ -33,7 +33,8 @@ from tornado.httputil import parse_qs_bytes
 
 from vibtrans_explorer import data, urlstate
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer.explorer import URL_KEYS, Explorer, ExplorerState
+from vibtrans_explorer.explorer import Explorer, ExplorerState
+from vibtrans_explorer.state import URL_KEYS
 from vibtrans_explorer.state import URL_ALIASES
 from vibtrans.cli import main
 from vibtrans.core.params import Scene
