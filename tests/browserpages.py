@@ -1,10 +1,15 @@
 """What the browser tests share: a page of a screen's size whose JavaScript
-errors are collected, and the explorer opened in it."""
+errors are collected, and the explorer opened in it.  Waits are on page events
+(a selector, a text); their time limits are budgets scaled to the machine
+(tests/budget.py), so a busy machine gets longer before a hang fails."""
+
+from budget import budget_ms
 
 
 def new_page(browser, width, height):
     """(page of width x height, the list its page errors are appended to)."""
     page = browser.new_page(viewport={"width": width, "height": height})
+    page.set_default_timeout(budget_ms(30))   # Playwright's own default, scaled
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     return page, errors
@@ -13,5 +18,5 @@ def new_page(browser, width, height):
 def open_explorer(page, url):
     """Load the explorer at `url` and wait for its map and its controls."""
     page.goto(url)
-    page.wait_for_selector("canvas", timeout=60000)
-    page.get_by_text("Paper points").first.wait_for(timeout=60000)
+    page.wait_for_selector("canvas", timeout=budget_ms(60))
+    page.get_by_text("Paper points").first.wait_for(timeout=budget_ms(60))

@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from budget import factor, usable_cores
 from netutil import Served
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -35,6 +36,12 @@ def served_explorer():
     finally:
         server.stop()
         shutil.rmtree(maps, ignore_errors=True)
+
+
+def pytest_report_header(config):
+    """The scale of every wait's budget this session (tests/budget.py)."""
+    return (f"test budgets: x{factor():.2f} of an idle machine's "
+            f"({usable_cores()} usable cores, load {os.getloadavg()[0]:.1f})")
 
 
 def pytest_collection_modifyitems(items):

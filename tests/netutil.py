@@ -10,6 +10,8 @@ import time
 import urllib.request
 from pathlib import Path
 
+from budget import budget
+
 READY_LINE = "kernels ready"        # app/kernels.py, once the warm-up is done
 
 
@@ -42,12 +44,14 @@ class Served:
     def text(self):
         return Path(self.log.name).read_text(errors="replace")
 
-    def wait_page(self, timeout=300):
+    def wait_page(self, timeout=None):
         """Wait until the explorer's page answers (200); returns the seconds
-        from the start of the process."""
+        from the start of the process.  A hang ends after `timeout` s
+        (default: budget(300), scaled to the machine)."""
+        timeout = budget(300) if timeout is None else timeout
         while True:
             try:
-                with urllib.request.urlopen(self.url, timeout=60) as r:
+                with urllib.request.urlopen(self.url, timeout=budget(60)) as r:
                     if r.status == 200:
                         self.first_page_s = time.perf_counter() - self.started
                         return self.first_page_s
@@ -58,17 +62,19 @@ class Served:
                                    f"{self.text()[-4000:]}")
             if time.perf_counter() - self.started > timeout:
                 self.stop()
-                raise RuntimeError(f"vibtrans serve: no page in {timeout} s:\n"
+                raise RuntimeError(f"vibtrans serve: no page in {timeout:.0f} s:\n"
                                    f"{self.text()[-4000:]}")
             time.sleep(0.2)
 
-    def wait_kernels(self, timeout=600):
-        """Wait until the server has compiled (or loaded) its kernels."""
+    def wait_kernels(self, timeout=None):
+        """Wait until the server has compiled (or loaded) its kernels (its log
+        says READY_LINE); a hang ends after `timeout` s (default: budget(600))."""
+        timeout = budget(600) if timeout is None else timeout
         while READY_LINE not in self.text():
             if self.proc.poll() is not None:
                 raise RuntimeError(f"vibtrans serve exited:\n{self.text()[-4000:]}")
             if time.perf_counter() - self.started > timeout:
-                raise RuntimeError(f"vibtrans serve: kernels not ready in {timeout} s:\n"
+                raise RuntimeError(f"vibtrans serve: kernels not ready in {timeout:.0f} s:\n"
                                    f"{self.text()[-4000:]}")
             time.sleep(0.2)
 
@@ -76,7 +82,7 @@ class Served:
         if self.proc.poll() is None:
             self.proc.terminate()
             try:
-                self.proc.wait(15)
+                self.proc.wait(budget(15))
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait(5)

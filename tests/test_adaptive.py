@@ -16,6 +16,7 @@ import vibtrans.maps.adaptive as adaptive
 from vibtrans.maps.adaptive import run_adaptive
 from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
+from budget import budget
 
 FAST = dict(periods=250.0, fidelity="preview")
 
@@ -259,7 +260,7 @@ def _cli(out, *extra):
 def test_cli_adaptive(tmp_path):
     out = str(tmp_path / "a.zarr")
     r = subprocess.run(_cli(out, "--adaptive", "--max-level", "2"), capture_output=True,
-                       text=True, timeout=300)
+                       text=True, timeout=budget(300))
     assert r.returncode == 0, r.stderr
     lines = r.stdout.split("\n")
     assert lines[0] == out
@@ -277,7 +278,7 @@ def test_cli_adaptive(tmp_path):
 ])
 def test_cli_refusals(tmp_path, extra, match):
     out = str(tmp_path / "a.zarr")
-    r = subprocess.run(_cli(out, *extra), capture_output=True, text=True, timeout=120)
+    r = subprocess.run(_cli(out, *extra), capture_output=True, text=True, timeout=budget(120))
     assert r.returncode == 2 and match in r.stderr, r.stderr
     assert not os.path.exists(out) and not os.path.exists(out + ".partial")
 
@@ -291,10 +292,10 @@ def test_sigkilled_cli_resumes_bit_identical(tmp_path):
               "--fidelity", "preview", "--workers", "1", "--adaptive", "--max-level", "2"]
     cmd = [sys.executable, "-m", "vibtrans.cli", "sweep", *window, "--out"]
     full, part = str(tmp_path / "full.zarr"), str(tmp_path / "part.zarr")
-    subprocess.run([*cmd, full], check=True, capture_output=True, timeout=600)
+    subprocess.run([*cmd, full], check=True, capture_output=True, timeout=budget(600))
     proc = subprocess.Popen([*cmd, part], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    deadline = time.time() + 300
+    deadline = time.time() + budget(300)
     while time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
         if os.path.isdir(part + ".partial") and any(
@@ -309,7 +310,7 @@ def test_sigkilled_cli_resumes_bit_identical(tmp_path):
             with np.load(os.path.join(part + ".partial", f)) as z:
                 saved.update({(int(i), int(j)): s for i, j, s in zip(z["i"], z["j"], z["seconds"])})
     assert saved
-    subprocess.run([*cmd, part], check=True, capture_output=True, timeout=600)
+    subprocess.run([*cmd, part], check=True, capture_output=True, timeout=budget(600))
     a, b = open_map(full), open_map(part)
     for v in [*STORED, "computed"]:
         assert np.array_equal(a[v].values, b[v].values, equal_nan=True), v

@@ -24,6 +24,7 @@ from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
 
 from devtools.chromium import launched
+from budget import budget, budget_ms
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
@@ -306,7 +307,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
                 ws.on("framereceived", lambda m: received.append(m)),
                 ws.on("framesent", lambda m: sent.append(m))))
             page.goto(f"http://127.0.0.1:{port}/")
-            page.wait_for_selector("canvas", timeout=60000)
+            page.wait_for_selector("canvas", timeout=budget_ms(60))
             page.wait_for_timeout(1000)
             anim, doc = sessions[-1]
             state = page.evaluate(_PAGE_JS)
@@ -352,7 +353,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             before = len(received)
             sent_before = len(sent)
             doc.add_next_tick_callback(lambda: anim.show(*hopping))
-            deadline = time.time() + 30
+            deadline = time.time() + budget(30)
             while anim.runs < 2 and time.time() < deadline:
                 time.sleep(0.1)
             page.wait_for_timeout(1000)
@@ -373,7 +374,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
 
             # a material point: the particle only, and the page says so
             doc.add_next_tick_callback(lambda: anim.show(*point_mass))
-            deadline = time.time() + 30
+            deadline = time.time() + budget(30)
             while anim.runs < 3 and time.time() < deadline:
                 time.sleep(0.1)
             page.wait_for_timeout(1000)
@@ -387,7 +388,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
 
             # the vertical model: the contact without a stick core
             doc.add_next_tick_callback(lambda: anim.show(*vertical))
-            deadline = time.time() + 30
+            deadline = time.time() + budget(30)
             while anim.runs < 4 and time.time() < deadline:
                 time.sleep(0.1)
             page.wait_for_timeout(1000)

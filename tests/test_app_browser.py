@@ -14,6 +14,7 @@ import pytest
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET
 
 from devtools.chromium import launched
+from budget import budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -50,8 +51,8 @@ def page(browser, server, request):
 
 def _open(page, url):
     page.goto(url)
-    page.wait_for_selector("canvas", timeout=60000)
-    page.wait_for_selector("text=Paper points", timeout=60000)
+    page.wait_for_selector("canvas", timeout=budget_ms(60))
+    page.wait_for_selector("text=Paper points", timeout=budget_ms(60))
     page.wait_for_timeout(1000)
 
 
@@ -100,10 +101,11 @@ def _sources(page):
     return dict(page.evaluate(_SOURCES_JS))
 
 
-def _see(page, text, timeout=30000):
+def _see(page, text, timeout=None):
     """Wait until `text` is shown (Playwright's text locators pierce the
     shadow DOM that Bokeh renders into; body.innerText does not)."""
-    page.get_by_text(text).first.wait_for(timeout=timeout)
+    page.get_by_text(text).first.wait_for(
+        timeout=budget_ms(30) if timeout is None else timeout)
 
 
 def test_page_loads_with_the_map(page, server):
@@ -117,7 +119,7 @@ def test_paper_point_runs_and_plots(page, server):
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="4: synchronous hopping (hovering)")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "jumping, synchronous, drift against the wave")
     _see(page, "Whole run")
     _see(page, "Last 2 periods at full resolution")
@@ -151,12 +153,12 @@ def test_a_second_run_feeds_the_same_figures(page, server):
     _open(page, server)
     box = page.locator("canvas").first.bounding_box()
     page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     page.wait_for_timeout(1000)
     first, models = _sources(page), page.evaluate(_MODELS_JS)
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
     page.mouse.click(box["x"] + box["width"] * 0.75, box["y"] + box["height"] * 0.25)
-    page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=60000, polling=100)
+    page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=budget_ms(60), polling=100)
     page.wait_for_timeout(1000)
     second = _sources(page)
     assert second.keys() == first.keys()
@@ -171,14 +173,14 @@ def test_both_models_draw_into_the_same_figures(page, server):
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="4: synchronous hopping (hovering)")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     page.wait_for_timeout(1000)
     trajectory = lambda: sorted((x, t) for t, x, *_ in page.evaluate(_FIGURES_JS)  # noqa: E731
                                 if not t.startswith("<v*>"))
     before = trajectory()
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
     select.select_option(label="10: point mass: chaotic hopping")
-    page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=60000, polling=100)
+    page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=budget_ms(60), polling=100)
     _see(page, "point-mass:")
     page.wait_for_timeout(1000)
     after = trajectory()
@@ -197,8 +199,8 @@ def test_a_new_click_replaces_a_running_run(page, server):
     _see(page, "Running")
     page.locator("select").filter(has_text="synchronous hopping").select_option(
         label="4: synchronous hopping (hovering)")
-    _see(page, "A* = 316.2", timeout=120000)
-    _summary_text(page).wait_for(timeout=120000)
+    _see(page, "A* = 316.2", timeout=budget_ms(120))
+    _summary_text(page).wait_for(timeout=budget_ms(120))
     assert page.get_by_text("Run cancelled.").count() == 0
     assert page.get_by_text("The run failed").count() == 0
 
@@ -210,7 +212,7 @@ def test_the_step_cap_is_a_message(page, server):
     _see(page, "over this server's limit of 1e+08 (VIBTRANS_MAX_STEPS)")
     # the click's acknowledgement ("Running ...") goes with the refusal, and
     # nothing runs
-    page.get_by_text("Running").first.wait_for(state="hidden", timeout=30000)
+    page.get_by_text("Running").first.wait_for(state="hidden", timeout=budget_ms(30))
     page.wait_for_timeout(1000)
     assert page.get_by_text("Running").count() == 0
 
@@ -219,7 +221,7 @@ def test_click_on_the_map_runs_that_scene(page, server):
     _open(page, server)
     box = page.locator("canvas").first.bounding_box()
     page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     la = float(page.locator("input").nth(1).input_value() or "nan")
     assert -3 <= la <= 3
     _see(page, "drift, final 10%")
@@ -240,7 +242,7 @@ def test_a_link_runs_its_scene(page, server):
     inputs = page.locator("input[type=text], input:not([type])")
     values = [inputs.nth(i).input_value() for i in range(inputs.count())]
     assert "2.5" in values and "0" in values
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "A* = 316.2")
 
 
@@ -258,7 +260,7 @@ def test_other_script_digits_in_a_link_are_a_message_not_a_500(page, server, que
     # Panel's own query parser raised on them ('²'.isdigit() is true): a 500 page
     response = page.goto(server + "?" + query)
     assert response.status == 200
-    page.wait_for_selector("canvas", timeout=60000)
+    page.wait_for_selector("canvas", timeout=budget_ms(60))
     if query.startswith("la="):
         _see(page, "URL parameter 'la' (log_amplitude) must be a number in [-6.0, 6.0]")
 
@@ -267,7 +269,7 @@ def test_a_scene_outside_the_map_runs_and_says_where_it_is(page, server):
     # lithium niobate at 10 MHz, 1 nm, a 10 um silica particle: A* = 1820
     # (issue 14), log10 A* = 3.26 beyond the map's 3
     _open(page, server + "?la=3.26&lm=-1&fidelity=preview")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "A* = 1820")
     _see(page, "lies outside the map")
 
@@ -287,7 +289,7 @@ def test_a_bad_number_is_a_message_and_nothing_runs(page, server, typed, shown):
     field.fill("0.5")
     field.press("Enter")
     page.locator("button", has_text="Run selected scene").click()
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "A* = 3.162")
 
 
@@ -321,7 +323,7 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
         f.press("Enter")
     _see(page, "outside the map (the scene runs all the same)")
     page.locator("button", has_text="Run this device's scene").click()
-    _summary_text(page).wait_for(timeout=120000)
+    _summary_text(page).wait_for(timeout=budget_ms(120))
     _see(page, "(the maps: 1.2, 0.3)")
     # the drift and the run's length in SI units (issue 14: time in seconds)
     _see(page, "periods, lasts")
@@ -332,16 +334,16 @@ def test_teaching_view_and_export(page, server):
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="1: permanent contact, drift against the wave")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()
     # a snapshot drawn: the diagram's title names its time
     page.wait_for_function("""() => (page_figures => page_figures.some(
         f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
-                           timeout=60000, polling=250)
+                           timeout=budget_ms(60), polling=250)
     page.get_by_text("Downloads", exact=True).click()
     for kind in ("trajectory-png", "map-svg"):
-        with page.expect_download(timeout=120000) as dl:
+        with page.expect_download(timeout=budget_ms(120)) as dl:
             page.locator(f".vt-export-{kind}").locator("button, a").first.click()
         path = dl.value.path()
         size = os.path.getsize(path)
@@ -352,13 +354,13 @@ def test_teaching_view_and_export(page, server):
 
 def test_data_downloads(page, server):
     _open(page, server + "?la=2.5&lm=0&fidelity=preview")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     page.get_by_text("Downloads", exact=True).click()
     for cls, check in ((".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
                        (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
                        (".vt-data-map-window-nc",
                         lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF")):
-        with page.expect_download(timeout=60000) as dl:
+        with page.expect_download(timeout=budget_ms(60)) as dl:
             page.locator(cls).locator("button, a").first.click()
         body = open(dl.value.path(), "rb").read()
         assert check(body), (cls, body[:40])
@@ -379,11 +381,11 @@ def test_the_animation_tab_plays_the_run(page, server):
     """Issue 14: the particle on the wave, in the explorer: the Animation
     tab shows the last run's final periods and plays them in the browser."""
     _open(page, server + "?la=0.3&lm=-2&fidelity=preview&compare=none")
-    _summary_text(page).wait_for(timeout=60000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
     page.get_by_text("Animation", exact=True).click()
-    page.wait_for_function(f"({_FRAME_JS})() !== null", timeout=60000)
+    page.wait_for_function(f"({_FRAME_JS})() !== null", timeout=budget_ms(60))
     page.get_by_role("button", name="Play").click()
-    page.wait_for_function(f"({_FRAME_JS})() > 0", timeout=10000, polling=100)
+    page.wait_for_function(f"({_FRAME_JS})() > 0", timeout=budget_ms(10), polling=100)
     page.get_by_role("button", name="Pause").click()
 
 
@@ -420,20 +422,20 @@ def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server)
     box = page.locator("canvas").first.bounding_box()
     assert _acknowledged(page, lambda: page.mouse.click(box["x"] + box["width"] * 0.55,
                                                         box["y"] + box["height"] * 0.35))
-    _summary_text(page).wait_for(timeout=60000)
-    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=30000)
+    _summary_text(page).wait_for(timeout=budget_ms(60))
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))
     assert _acknowledged(page, page.get_by_role("button", name="colour", exact=True).click)
-    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=30000)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))
     # the run button, a paper point, a download: each acknowledged at once
     # (one listener for the page: issue 14's page cost)
     assert _acknowledged(page, page.locator("button", has_text="Run selected scene").click)
-    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=60000)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     select = page.locator("select").filter(has_text="synchronous hopping")
     assert _acknowledged(page, lambda: select.select_option(
         label="3: permanent contact, no drift"))
-    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=60000)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     page.get_by_text("Downloads", exact=True).click()
-    with page.expect_download(timeout=60000):
+    with page.expect_download(timeout=budget_ms(60)):
         assert _acknowledged(page, page.locator(".vt-data-run-csv").locator("button, a")
                              .first.click)
-    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=30000)
+    page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from asyncutil import until
+from budget import budget
 from vibtrans_explorer.live import TIMELINE_BINS
 from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
@@ -102,7 +103,7 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
         second = ex.start_run()
         assert first.event.is_set() and ex.controller.job is second     # one run per session
         # the replaced run's worker is free at once (its kernel saw the flag)
-        await until(lambda: all(f.done() for f in first.futures), timeout=5)
+        await until(lambda: all(f.done() for f in first.futures), timeout=budget(5))
         assert len(seen_cancel) == 1
         await until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary.object)
         assert "cancelled" not in ex.summary.object and not ex.message.visible
@@ -129,7 +130,7 @@ def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
     finally:
         gate.set()
         for b in blockers:
-            b.result(timeout=30)
+            b.result(timeout=budget(30))
 
 
 def test_cancel_frees_the_worker_and_says_so(monkeypatch):
@@ -194,7 +195,7 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
         ex = _explorer()
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         ex._on_session_destroyed(None)
-        await until(lambda: all(f.done() for f in job.futures), timeout=5)
+        await until(lambda: all(f.done() for f in job.futures), timeout=budget(5))
         assert ex.controller.job is None and not ex.trajectories.views
     asyncio.run(go())
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from vibtrans.cli import main
+from budget import budget
 
 SIM = ["simulate", "--amplitude", "0.5", "--mass", "1", "--periods", "2", "--tau", "0.5",
        "--twin", "never"]
@@ -127,7 +128,7 @@ LIMITED = textwrap.dedent("""\
 
 def _limited(argv, limit=LIMIT):
     return subprocess.run([sys.executable, "-c", LIMITED.format(limit=limit), *argv],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=budget(600))
 
 
 def _one_line(r, argv, path):

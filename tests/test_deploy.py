@@ -26,12 +26,13 @@ from tornado.websocket import websocket_connect
 from devtools import deploy
 from devtools.loadtest import _tree, pid_alive
 from devtools.protoclient import ProtocolSession
+from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 # the server settings as shipped, not the caller's (conftest.SERVER_ENV_UNSET)
 ENV = {k: v for k, v in os.environ.items()
        if k not in ("VIBTRANS_ALLOWED_ORIGINS", "PYTHONMALLOC", "BOKEH_ALLOW_WS_ORIGIN")}
-TIMEOUT = 180.0         # page loads and clicks on a loaded 2-core machine
+TIMEOUT = budget(180)        # page loads and clicks on a loaded 2-core machine
 
 pytestmark = pytest.mark.server      # starts `vibtrans serve`; needs nginx (make test)
 
@@ -51,7 +52,7 @@ def proxied():
     d = deploy.Deployment(workers=2, port=deploy.free_port(), env=ENV, log_dir=logs)
     d.start()
     try:
-        d.wait_ready(timeout=300)
+        d.wait_ready(timeout=budget(300))
         t0 = time.perf_counter()
         while not all("kernels ready" in Path(p).read_text(errors="replace") for p in d.logs):
             assert d.exited() is None, d.exited()
@@ -109,7 +110,7 @@ def test_the_configuration_is_valid_nginx(tmp_path):
                           *(f"server 127.0.0.1:{p} max_fails=0;" for p in (7001, 7002, 7003))]
     checked = subprocess.run([nginx, "-t", "-p", str(tmp_path), "-c", str(conf),
                               "-e", str(tmp_path / "error.log")],
-                             capture_output=True, text=True, timeout=30)
+                             capture_output=True, text=True, timeout=budget(30))
     assert checked.returncode == 0, checked.stderr
 
 

@@ -2,6 +2,7 @@
 1280 x 800: opened, the paper preset's chart drawn and shown with its
 chart-wide notes and downloads, a click on it moving the device, a custom
 substrate's field shown.  Screenshots go to test-artifacts/."""
+import time
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,7 @@ import pytest
 from devtools.chromium import launched
 
 from browserpages import new_page, open_explorer
+from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -51,12 +53,12 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         open_explorer(page, served_explorer.url)
         page.get_by_text("Design", exact=True).first.click()
         draw = page.get_by_role("button", name="Draw chart").first
-        draw.wait_for(timeout=30000)
+        draw.wait_for(timeout=budget_ms(30))
         assert page.locator(".vt-design-preset select").first.input_value() == "paper"
         draw.click()
-        page.get_by_text("Click the chart to move the device").first.wait_for(timeout=60000)
+        page.get_by_text("Click the chart to move the device").first.wait_for(timeout=budget_ms(60))
         chart = page.locator(".vt-design-chart canvas").first
-        chart.wait_for(timeout=30000)
+        chart.wait_for(timeout=budget_ms(30))
         chart.scroll_into_view_if_needed()
         box = chart.bounding_box()
         assert box["width"] > 300 and box["height"] > 300, box
@@ -66,7 +68,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         assert "drift velocity" in before and "synchronous hopping" in before
         # the chart-wide notes between the status and the chart; the downloads below it
         notes = page.locator(".vt-design-chart-notes").first
-        notes.get_by_text("Over the chart").first.wait_for(timeout=30000)
+        notes.get_by_text("Over the chart").first.wait_for(timeout=budget_ms(30))
         png = page.locator(".vt-design-download-png button").first
         assert png.is_enabled()
         n, d = notes.bounding_box(), page.locator(".vt-design-downloads").first.bounding_box()
@@ -76,7 +78,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         _shot(page, "notes")
         page.locator(".vt-design-downloads").first.scroll_into_view_if_needed()
         _shot(page, "downloads")
-        with page.expect_download(timeout=60000) as got:         # the figure, as a browser gets it
+        with page.expect_download(timeout=budget_ms(60)) as got:         # the figure, as a browser gets it
             png.click()
         assert Path(got.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert got.value.suggested_filename == "vibtrans-design.png"
@@ -84,9 +86,8 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         box = chart.bounding_box()
         # a click inside the plot moves the device
         page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.35)
-        for _ in range(100):
-            if _device_text(page) != before:
-                break
+        deadline = time.perf_counter() + budget(20)
+        while _device_text(page) == before and time.perf_counter() < deadline:
             page.wait_for_timeout(200)
         assert _device_text(page) != before
         _shot(page, "clicked")
@@ -94,7 +95,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         page.locator(".vt-design-preset select").first.scroll_into_view_if_needed()
         page.get_by_label("substrate", exact=True).first.select_option("custom (E, nu, rho)")
         field = page.locator(".vt-design-substrate-custom input").first
-        field.wait_for(timeout=30000)
+        field.wait_for(timeout=budget_ms(30))
         assert field.input_value() == "E=70e9,nu=0.3,rho=2500"
         assert page.locator(".vt-design-preset select").first.input_value() == "custom"
         _shot(page, "custom")
@@ -117,7 +118,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         open_explorer(page, served_explorer.url)
         page.get_by_text("Design", exact=True).first.click()
         draw = page.get_by_role("button", name="Draw chart").first
-        draw.wait_for(timeout=30000)
+        draw.wait_for(timeout=budget_ms(30))
         for name, value in (("mu", "0.5"), ("x_lo", "1e5"), ("x_hi", "1.2e5"),
                             ("x_points", "3"), ("y_lo", "1e-8"), ("y_hi", "1.2e-8"),
                             ("y_points", "3")):
@@ -127,15 +128,15 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         page.wait_for_timeout(500)
         draw.click()
         offer = page.locator(".vt-design-offer").first
-        offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=60000)
-        offer.get_by_text("integration steps").first.wait_for(timeout=60000)
+        offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=budget_ms(60))
+        offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
         offer.scroll_into_view_if_needed()
         _shot(page, "offer")
         page.get_by_role("button", name="Compute this map").first.click()
         page.locator(".vt-design-progress").first.get_by_text(
-            "The chart's map is finished").first.wait_for(timeout=180000)
+            "The chart's map is finished").first.wait_for(timeout=budget_ms(180))
         chart = page.locator(".vt-design-chart canvas").first
-        chart.wait_for(timeout=30000)
+        chart.wait_for(timeout=budget_ms(30))
         chart.scroll_into_view_if_needed()
         titles = page.evaluate(_TITLES_JS)
         assert any("steel on glass" in t for t in titles), titles
@@ -144,7 +145,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         _shot(page, "computed")
         box = chart.bounding_box()
         page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
-        page.get_by_text("(the Design tab's device)").first.wait_for(timeout=120000)
+        page.get_by_text("(the Design tab's device)").first.wait_for(timeout=budget_ms(120))
         _shot(page, "device-run")
     except Exception:
         ARTIFACTS.mkdir(exist_ok=True)

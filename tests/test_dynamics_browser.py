@@ -13,6 +13,7 @@ import pytest
 from devtools.chromium import launched
 
 from browserpages import new_page, open_explorer
+from budget import budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -67,11 +68,11 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
         open_explorer(page, f"{served_explorer.url}?la=0.25&lm=0.8&layer={quote('Lyapunov exponent')}"
                   f"&orbits={quote('period-1 orbit curves')}")
         page.wait_for_function(f"() => ({_STATE_JS})().bars.some((t) => t && "
-                               "t.startsWith('Lyapunov exponent'))", timeout=60000)
+                               "t.startsWith('Lyapunov exponent'))", timeout=budget_ms(60))
         page.get_by_text("Dynamics", exact=True).first.click()
-        page.wait_for_function(f"() => ({_STATE_JS})().points > 100", timeout=120000)
+        page.wait_for_function(f"() => ({_STATE_JS})().points > 100", timeout=budget_ms(120))
         page.wait_for_function(f"() => ({_STATE_JS})().section !== null && "
-                               f"({_STATE_JS})().diagram !== null", timeout=60000)
+                               f"({_STATE_JS})().diagram !== null", timeout=budget_ms(60))
         s = page.evaluate(_STATE_JS)
         assert s["scroll_width"] <= s["width"], s
         for fig in ("section", "diagram"):       # neither cut off at the right
@@ -83,7 +84,7 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
         assert 0 <= box["top"] and box["bottom"] <= height, box
         page.mouse.click((box["left"] + box["right"]) / 2 + 40,
                          (box["top"] + box["bottom"]) / 2 + 20)
-        page.wait_for_function(f"() => ({_STATE_JS})().colours.length === 2", timeout=120000)
+        page.wait_for_function(f"() => ({_STATE_JS})().colours.length === 2", timeout=budget_ms(120))
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / f"dynamics-{width}x{height}.png"))
     except Exception:

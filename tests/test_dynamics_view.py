@@ -15,6 +15,7 @@ from asyncutil import until
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis import dynamics
 from vibtrans.products import plots
+from budget import budget
 from vibtrans_explorer.views.dynamics import (DIAGRAM_RUNS, POINT_MASS_TEXT, SECTION_PERIODS,
                                               DynamicsView)
 
@@ -36,7 +37,7 @@ def test_a_run_draws_its_section_and_period_one_orbit():
 
     async def go():
         view.set_run(scene, ds)
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
     asyncio.run(go())
     y, vy = float(ds["y"].values[-1]), float(ds["vy"].values[-1])
     want = dynamics.section(scene.amplitude, scene.mass, y, vy, SECTION_PERIODS)
@@ -57,11 +58,11 @@ def test_a_click_seeds_an_orbit_and_back_and_clear_remove_it():
 
     async def go():
         view.set_run(scene, ds)
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         y0, vy0 = view.orbits[0][0]
         view._on_tap(Tap(model=view.section_fig, x=y0 + 0.002, y=vy0))
         assert view.back_button.disabled            # busy while it iterates
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         assert len(view.orbits) == 2
         colours = set(view.points.data["color"])
         assert colours == set(plots.ORBIT_COLORS[:2])
@@ -81,20 +82,20 @@ def test_a_zoom_recomputes_the_diagram_in_its_window():
 
     async def go():
         view.set_run(scene, ds)
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         first = view.diagram_window
         view._on_ranges(RangesUpdate(model=view.diagram_fig, x0=0.2, x1=0.3, y0=0, y1=1))
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         assert view.diagram_window == ("amplitude", 0.2, 0.3)
         x = np.asarray(view.phases.data["x"])
         assert x.min() >= 0.2 - 1e-12 and x.max() <= 0.3 + 1e-12
         assert len(np.unique(x)) == DIAGRAM_RUNS        # finer: all runs in the window
         assert not view.diagram_back.disabled
         view.diagram_back.clicks += 1
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         assert view.diagram_window == first
         view.along.value = "mass"                         # another line: a reset
-        await until(lambda: _idle(view), timeout=120)
+        await until(lambda: _idle(view), timeout=budget(120))
         lm = math.log10(scene.mass)
         assert view.diagram_window == ("mass", lm - 0.5, lm + 0.5)
     asyncio.run(go())

@@ -26,6 +26,7 @@ from vibtrans.core.params import paper_scene
 from vibtrans.core.simulate import memory_snapshot, simulate
 from vibtrans.maps.sweep import Sweep, open_map, run_sweep
 from vibtrans.core.threshold import threshold_curve
+from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 PERIODS = 50
@@ -168,7 +169,7 @@ def test_cli_export_in_a_subprocess_without_display_or_browser(tmp_path, maps_di
          str(PERIODS), "--out", str(tmp_path / "t.pdf"), "--dpi", "30"],
     ]
     proc = subprocess.run([sys.executable, "-c", HEADLESS, json.dumps(argvs)], env=env,
-                          cwd=tmp_path, capture_output=True, text=True, timeout=240)
+                          cwd=tmp_path, capture_output=True, text=True, timeout=budget(240))
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     assert res["codes"] == [0, 0]

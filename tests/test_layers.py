@@ -7,6 +7,7 @@ import sys
 import textwrap
 import tomllib
 from pathlib import Path
+from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 LINT = Path(sys.executable).parent / "lint-imports"
@@ -14,7 +15,7 @@ LINT = Path(sys.executable).parent / "lint-imports"
 
 def _lint(cwd, *args):
     return subprocess.run([str(LINT), "--no-cache", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=300)
+                          text=True, timeout=budget(300))
 
 
 def test_import_contracts_are_kept():
@@ -60,7 +61,7 @@ def test_the_library_loads_neither_the_explorer_nor_panel():
         assert not bad, bad
         """)
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                       timeout=600)
+                       timeout=budget(600))
     assert r.returncode == 0, r.stderr[-3000:]
 
 

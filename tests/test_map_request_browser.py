@@ -10,6 +10,7 @@ from devtools.chromium import launched
 from vibtrans_explorer import maprequest
 
 from browserpages import new_page, open_explorer
+from budget import budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -54,17 +55,17 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
     try:
         open_explorer(page, served_explorer.url)
         page.get_by_text("Map on demand", exact=True).first.click()
-        page.locator(".vt-field-periods input").first.wait_for(timeout=30000)
+        page.locator(".vt-field-periods input").first.wait_for(timeout=budget_ms(30))
         page.locator(".vt-map-fidelity select").first.select_option("preview")
         for name, text in FIELDS.items():
             _field(page, name, text)
         # the cost before anything runs: the finest grid's points, steps, seconds
-        page.get_by_text("At most 81 points (9 per axis)").first.wait_for(timeout=60000)
-        page.get_by_text("on this server (").first.wait_for(timeout=60000)
+        page.get_by_text("At most 81 points (9 per axis)").first.wait_for(timeout=budget_ms(60))
+        page.get_by_text("on this server (").first.wait_for(timeout=budget_ms(60))
         _shot(page, "request")
         page.evaluate(_RECORD_JS)
         page.get_by_role("button", name="Compute map").first.click()
-        page.get_by_text("Map finished:").first.wait_for(timeout=120000)
+        page.get_by_text("Map finished:").first.wait_for(timeout=budget_ms(120))
         page.wait_for_timeout(500)
         _shot(page, "finished")
         texts = page.evaluate("() => window.__mapTexts")
@@ -88,8 +89,8 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         box = canvas.bounding_box()
         canvas.scroll_into_view_if_needed()
         page.mouse.click(box["x"] + box["width"] * 0.45, box["y"] + box["height"] * 0.5)
-        page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=120000)
-        page.wait_for_function("() => window.location.href.includes('la=')", timeout=30000)
+        page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(120))
+        page.wait_for_function("() => window.location.href.includes('la=')", timeout=budget_ms(30))
         query = _query(page.evaluate("() => window.location.href"))
         assert query["fidelity"] == "preview" and float(query["periods"]) == 100.0
         assert float(query["tau"]) == 20.0 and -0.5 <= float(query["la"]) <= 0.5
@@ -108,7 +109,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
     again = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
     try:
         again.goto(link)
-        again.get_by_text("Map from this server's cache").first.wait_for(timeout=120000)
+        again.get_by_text("Map from this server's cache").first.wait_for(timeout=budget_ms(120))
         titles = again.evaluate("""() => {
           const out = [];
           for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
@@ -122,12 +123,12 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         # shipped map of its model and mu
         again.get_by_text("Difference", exact=True).first.click()
         first = again.locator(".vt-diff-first select").first
-        first.wait_for(timeout=30000)
+        first.wait_for(timeout=budget_ms(30))
         assert first.input_value().startswith("map on demand:")
         assert (again.locator(".vt-diff-second select").first.input_value()
                 == "deformable, mu = 0.3 (shipped)")
         again.get_by_role("button", name="Show the difference").first.click()
-        again.get_by_text("points compared").first.wait_for(timeout=60000)
+        again.get_by_text("points compared").first.wait_for(timeout=budget_ms(60))
         summary = again.get_by_text("points compared").first.inner_text()
         assert "deformable mu 0.3 tau 20 preview 100 periods" in summary, summary
         again.wait_for_timeout(500)
@@ -135,7 +136,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         again.get_by_text("Map", exact=True).first.click()
         # back to the shipped map: the request leaves the link
         again.get_by_role("button", name="Back to the shipped map").first.click()
-        again.wait_for_function("() => !window.location.href.includes('map=')", timeout=30000)
+        again.wait_for_function("() => !window.location.href.includes('map=')", timeout=budget_ms(30))
     finally:
         again.close()
 
@@ -154,10 +155,10 @@ def test_the_difference_tab_compares_the_two_models(browser, served_explorer, wi
     page.on("pageerror", lambda e: errors.append(str(e)))
     try:
         page.goto(served_explorer.url)
-        page.wait_for_selector("canvas", timeout=60000)
+        page.wait_for_selector("canvas", timeout=budget_ms(60))
         page.get_by_text("Difference", exact=True).first.click()
         page.get_by_role("button", name="Show the difference").first.click()
-        page.get_by_text("points compared").first.wait_for(timeout=60000)
+        page.get_by_text("points compared").first.wait_for(timeout=budget_ms(60))
         summary = page.get_by_text("points compared").first.inner_text()
         assert "point-mass mu 0.3" in summary and "deformable mu 0.3" in summary, summary
         assert "drift class agrees at" in summary, summary

@@ -10,6 +10,7 @@ import xarray as xr
 
 from vibtrans.core.errors import InputError
 from vibtrans.maps.difference import describe, map_difference, signed_log
+from budget import budget
 
 GRID = ("log_amplitude", "log_mass")
 
@@ -94,7 +95,7 @@ def test_a_name_says_what_differs_from_the_shipped_maps():
 
 def _export(tmp_path, *args):
     return subprocess.run([sys.executable, "-m", "vibtrans.cli", "export", "map-difference",
-                           *args], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+                           *args], capture_output=True, text=True, cwd=tmp_path, timeout=budget(600))
 
 
 def test_cli_compares_two_shipped_maps(tmp_path):

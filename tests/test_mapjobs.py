@@ -10,6 +10,7 @@ import pytest
 
 from vibtrans_explorer import maprequest, mapjobs
 from vibtrans_explorer.maprequest import MapRequest
+from budget import budget
 
 # a tiny map: 5 x 5 points (2 coarse cells, K = 1), 30 periods at preview
 TINY = dict(model="deformable", fidelity="preview", periods=30.0, tau=5.0,
@@ -266,7 +267,7 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         remote.submit("b", bigger, cancel_at_first_level)
         assert cancelled.wait().kind == "cancelled", cancelled.kinds()
         # the computation ends (its queued points dropped), leaving no map
-        deadline = time.monotonic() + 120
+        deadline = time.monotonic() + budget(120)
         while remote._running and time.monotonic() < deadline:
             time.sleep(0.1)
         from vibtrans.maps.cache import request_key
@@ -294,7 +295,7 @@ def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path, mo
         np.testing.assert_array_equal(got.ds[v].values, expected.ds[v].values)
     assert jobs._workers.processes and threads._workers is not None
     assert not threads._workers.processes
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + budget(60)
     while jobs._workers.processes_up() and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not jobs._workers.processes_up()
@@ -410,7 +411,7 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     made.submit("b", MapRequest(**{**TINY, "mu": 0.5}), second)
     # the two requests open the cache on two threads: either may reach the
     # queue first, and the other is the one that waits
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + budget(60)
     while ("queued" not in first.kinds() + second.kinds()
            and time.monotonic() < deadline):
         time.sleep(0.05)

@@ -14,6 +14,7 @@ from asyncutil import until
 from vibtrans import paper_scene
 from vibtrans.products import plots
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
+from budget import budget
 from vibtrans_explorer import urlstate
 from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times
 
@@ -34,7 +35,7 @@ def partial_slip():
 
 async def _ready(view):
     view.set_run(*view._next)
-    await until(lambda: view._job is None, timeout=120)
+    await until(lambda: view._job is None, timeout=budget(120))
 
 
 def _view(scene):
@@ -75,7 +76,7 @@ def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
         view = _view(scene)
         view.set_run(scene, scene.periods)
         assert view.busy.visible and view.slider.disabled       # computing, said so
-        await until(lambda: view._job is None, timeout=120)
+        await until(lambda: view._job is None, timeout=budget(120))
         assert not view.busy.visible and not view.slider.disabled
         assert len(view.snapshots) == SNAPSHOTS
         _holds(view, snaps[-1])                                 # the run's end first
@@ -149,7 +150,7 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
         cancel = view._job[0]
         view.set_run(second, second.periods)
         assert cancel.is_set()                          # the first run stops
-        await until(lambda: view._job is None, timeout=120)
+        await until(lambda: view._job is None, timeout=budget(120))
         assert view.scene is second and view.times[-1] == 100.0
         expected = memory_snapshots(second, snapshot_times(100.0))[-1]
         _holds(view, expected)

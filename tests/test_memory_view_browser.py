@@ -17,6 +17,7 @@ from vibtrans.core.simulate import memory_snapshot
 from vibtrans_explorer.views.memory import MemoryView
 
 from devtools.chromium import launched
+from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -47,8 +48,10 @@ def served():
     port = free_port()
     server = pn.serve({"memory": app}, port=port, address="127.0.0.1", show=False,
                       threaded=True, websocket_origin=[f"127.0.0.1:{port}"])
-    deadline = time.time() + 30
-    while not getattr(server, "server", None) and time.time() < deadline:
+    deadline = time.perf_counter() + budget(30)
+    while not getattr(server, "server", None):
+        if time.perf_counter() > deadline:
+            raise RuntimeError(f"panel serve: no server on port {port} in {budget(30):.0f} s")
         time.sleep(0.05)
     try:
         yield f"http://127.0.0.1:{port}/memory"
@@ -61,7 +64,7 @@ def _elapsed_until_changed(page, act):
     before = page.evaluate(_TITLE_JS)
     t0 = time.perf_counter()
     act()
-    page.wait_for_function(_CHANGED_JS, arg=before, polling="raf", timeout=30000)
+    page.wait_for_function(_CHANGED_JS, arg=before, polling="raf", timeout=budget_ms(30))
     return time.perf_counter() - t0, page.evaluate(_TITLE_JS)
 
 
@@ -71,7 +74,7 @@ def test_the_slider_and_a_typed_time_update_the_figures(served):
         errors = []
         page.on("pageerror", lambda e: errors.append(str(e)))
         page.goto(served)
-        page.wait_for_function(f"() => ({_TITLE_JS})() !== null", timeout=60000)
+        page.wait_for_function(f"() => ({_TITLE_JS})() !== null", timeout=budget_ms(60))
         assert "t* = 200," in page.evaluate(_TITLE_JS)      # the run's end first
         handle = page.locator(".noUi-handle").first
         handle.focus()

@@ -30,6 +30,7 @@ import pytest
 
 
 from devtools.chromium import launched
+from budget import budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -122,10 +123,10 @@ def screen(browser, served_explorer):
         page.on("pageerror", lambda e: errors.append(str(e)))
         pages.append(page)
         page.goto(served_explorer.url)
-        page.wait_for_selector("canvas", timeout=60000)
-        page.get_by_text("Paper points").first.wait_for(timeout=60000)
+        page.wait_for_selector("canvas", timeout=budget_ms(60))
+        page.get_by_text("Paper points").first.wait_for(timeout=budget_ms(60))
         page.wait_for_function("() => window.Bokeh.documents.every((d) => d.is_idle)",
-                               timeout=60000)
+                               timeout=budget_ms(60))
         page.wait_for_timeout(1000)        # the prebuilt trajectory figures, fonts
         return page
     yield open_
@@ -181,7 +182,7 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
         (inner.first if inner.count() else toggle.first).click()
         page.wait_for_timeout(1000)
     page.get_by_role("button", name="Run selected scene").first.click()
-    page.locator("strong", has_text="mu = ").first.wait_for(timeout=60000)
+    page.locator("strong", has_text="mu = ").first.wait_for(timeout=budget_ms(60))
     page.wait_for_timeout(1500)           # the run's data drawn
     page.evaluate(_GEOMETRY_JS, True)     # the map at the top of the screen
     page.wait_for_timeout(300)

@@ -15,6 +15,7 @@ import pytest
 from vibtrans.cli import build_parser
 from vibtrans.core.errors import InputError
 from vibtrans_explorer.server import origins as _origins
+from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
@@ -103,7 +104,7 @@ def server(served_explorer):
 
 def _status(url):
     try:
-        with urllib.request.urlopen(url, timeout=30) as r:
+        with urllib.request.urlopen(url, timeout=budget(30)) as r:
             return r.status, r.read().decode(errors="replace")
     except urllib.error.HTTPError as e:
         return e.code, e.read().decode(errors="replace")
@@ -111,7 +112,7 @@ def _status(url):
 
 def _ws_status(port, origin):
     """HTTP status of a websocket upgrade to /ws sent with `origin`."""
-    with socket.create_connection(("127.0.0.1", port), timeout=30) as s:
+    with socket.create_connection(("127.0.0.1", port), timeout=budget(30)) as s:
         s.sendall((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
                    f"Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
                    f"Sec-WebSocket-Version: 13\r\nOrigin: {origin}\r\n\r\n").encode())

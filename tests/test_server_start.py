@@ -13,6 +13,7 @@ from vibtrans import Cancelled
 from asyncutil import until
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import kernels
+from budget import budget
 
 
 @pytest.fixture
@@ -63,7 +64,7 @@ def test_a_waiting_run_can_be_cancelled(compiling):
         await until(lambda: ex.controller.job is None)
         assert ex.summary.object == "Run cancelled."
         with pytest.raises(Cancelled):
-            job.futures[0].result(timeout=5)
+            job.futures[0].result(timeout=budget(5))
     asyncio.run(go())
 
 

@@ -25,6 +25,7 @@ import xarray as xr
 from vibtrans_explorer import data
 from vibtrans.cli import main
 from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
+from budget import budget
 
 # ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
 pytestmark = pytest.mark.slow
@@ -299,7 +300,7 @@ def test_serve_refuses_a_bad_assets_folder_from_the_environment(tmp_path):
     # a real process, the folder given by $VIBTRANS_ASSETS as in the container
     env = dict(os.environ, VIBTRANS_ASSETS=str(tmp_path / "missing"))
     r = subprocess.run([sys.executable, "-m", "vibtrans.cli", "serve", "--port", "5999"],
-                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=budget(120))
     assert r.returncode == 2, r.stderr
     line = _one_line(r.stderr)
     assert f"no drift maps in {tmp_path / 'missing' / 'maps'}" in line, line

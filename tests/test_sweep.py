@@ -13,6 +13,7 @@ import xarray as xr
 
 from vibtrans.maps.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
                             parse_range, run_sweep)
+from budget import budget
 
 SMALL = dict(periods=120.0, tau=10.0)
 LA = "0:2.5:0.5"      # 6 amplitudes
@@ -99,7 +100,7 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     part = str(tmp_path / "part.zarr")
     proc = subprocess.Popen(_cli(part, longer), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 240
+    deadline = time.time() + budget(240)
     while time.time() < deadline:
         time.sleep(0.05)
         try:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 from netutil import Served
+from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = pytest.mark.slow
@@ -61,7 +62,7 @@ def installed(wheel, tmp_path_factory):
     elsewhere = home / "elsewhere"
     elsewhere.mkdir()
     _run([bin_ / "python", "-m", "pip", "install", "--quiet", wheel], cwd=elsewhere, env=env,
-         timeout=1800)
+         timeout=budget(1800))
     return bin_, env, elsewhere
 
 
@@ -99,7 +100,7 @@ def test_installed_wheel_simulates_exports_and_serves_from_any_folder(installed)
 
     server = Served(command=[bin_ / "vibtrans"], env=env, cwd=elsewhere)
     try:
-        seconds = server.wait_page(timeout=600)
+        seconds = server.wait_page(timeout=budget(600))
         log = server.text()
         # the maps it checked are the installed ones
         assert "drift maps and the vertical curve checked in" in log, log
