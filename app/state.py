@@ -7,6 +7,7 @@ import param
 
 from vibtrans import Scene
 from vibtrans.core import units
+from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
 
 # the material of the shipped maps and the paper (Scene's defaults)
@@ -27,6 +28,8 @@ MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
 CUSTOM_MATERIAL = "custom (E, nu, rho)"
 CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
 # the map tabs, as the URL names them
+# the device the page opens on: the paper's worked example at point 4
+PAPER_DEVICE = preset("paper").device
 MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
 # the fields whose value makes the scene (a run refuses while one is
 # invalid), and those of the device (its run refuses while one is)
@@ -78,17 +81,19 @@ class ExplorerState(param.Parameterized):
     # the map on demand shown (app/maprequest.py's URL form), None: the shipped map
     map_request = param.String(default=None, allow_None=True)
 
-    # the device of the Units and Design tabs (SI units; one form, two tabs)
+    # the device of the Units and Design tabs (SI units; one form, two tabs),
+    # the paper's worked example at point 4 (the Design tab's "paper" preset)
     substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
     particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
     substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
     particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
-    radius = param.Number(default=0.5e-3, bounds=(1e-9, 1.0), inclusive_bounds=(False, True),
-                          doc="the particle's radius, m")
-    frequency = param.Number(default=108e3, bounds=(1.0, 1e10), doc="the wave's frequency, Hz")
-    amplitude = param.Number(default=1e-9, bounds=(0.0, 1e-2), inclusive_bounds=(False, True),
-                             doc="the wave's vertical amplitude, m")
-    preload = param.Number(default=0.0, bounds=(0.0, 1e3), doc="pre-load, N")
+    radius = param.Number(default=PAPER_DEVICE.radius, bounds=(1e-9, 1.0),
+                          inclusive_bounds=(False, True), doc="the particle's radius, m")
+    frequency = param.Number(default=PAPER_DEVICE.frequency, bounds=(1.0, 1e10),
+                             doc="the wave's frequency, Hz")
+    amplitude = param.Number(default=PAPER_DEVICE.amplitude, bounds=(0.0, 1e-2),
+                             inclusive_bounds=(False, True), doc="the wave's vertical amplitude, m")
+    preload = param.Number(default=PAPER_DEVICE.preload, bounds=(0.0, 1e3), doc="pre-load, N")
     # the map tab shown
     tab = param.Selector(default="map", objects=list(MAP_TABS))
     # the typed fields whose text is not a valid value: {parameter: message}
