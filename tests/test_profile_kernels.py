@@ -16,10 +16,10 @@ import pytest
 
 from tests.naive import SpringBed
 from vibtrans.core.errors import InputError
-from vibtrans.core.kernels.contact import law_eval, tangential_force_history
+from vibtrans.core.drivers import scene_law
+from vibtrans.core.kernels.contact import kernel_law, law_eval, tangential_force_history
 from vibtrans.core.params import Scene
-from vibtrans.core.profiles import (FlatSphereProfile, PowerLawProfile, TabulatedProfile,
-                                    kernel_law)
+from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
 
 
 def _cone_table():
@@ -103,8 +103,8 @@ def test_flat_sphere_law_table_matches_closed_form():
 
 
 def test_scene_profile_validation():
-    assert Scene().profile == "sphere" and Scene().kernel_law() is None
-    assert Scene(profile="power:2").kernel_law() is None          # the sphere's own path
+    assert Scene().profile == "sphere" and scene_law(Scene()) is None
+    assert scene_law(Scene(profile="power:2")) is None          # the sphere's own path
     assert Scene(profile="cone").values()["profile"] == "cone"
     with pytest.raises(InputError, match=r"exponent n must be a real number in \[1, inf\)"):
         Scene(profile="power:0.5")
@@ -124,7 +124,7 @@ def test_scene_file_profile_validation(tmp_path):
     with pytest.raises(InputError, match="needs the load"):
         Scene(profile=f"file:{good}")
     scene = Scene(profile=f"file:{good}", load_over_modulus=1e-16)
-    assert law_eval(scene.kernel_law(), 2.0)[0] == pytest.approx(4.0, rel=3e-3)
+    assert law_eval(scene_law(scene), 2.0)[0] == pytest.approx(4.0, rel=3e-3)
     bumpy = tmp_path / "bumpy.txt"
     np.savetxt(bumpy, np.column_stack([r, r * (1 + 0.3 * np.sin(40 * r / 1e-6))]))
     with pytest.raises(InputError, match="nondecreasing|convex"):
@@ -144,7 +144,7 @@ def test_small_amplitude_floquet_trace(profile, k1):
     # monodromy a rotation by sqrt(N*'(1)/m*) radians per period, trace 2 cos of it
     from vibtrans.analysis.dynamics import periodic_orbit, rest_guess
     scene = Scene(profile=profile)
-    law = scene.kernel_law()
+    law = scene_law(scene)
     mass = 10 ** 0.5
     orbit = periodic_orbit(1e-6, mass, rest_guess(1e-6, mass, law), law=law)
     assert orbit.found

@@ -153,12 +153,13 @@ def cmd_orbit(args):
     """A period-k orbit of the vertical motion's stroboscopic map (Newton
     shooting), or its continuation along log10 A* or log10 m*."""
     from vibtrans.analysis import dynamics as Y
+    from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
     period = _finite("period", args.period, 1, 64, integer=True)
     if args.guess == "run":
         guess = Y.run_guess(scene)
     elif args.guess == "rest":
-        guess = Y.rest_guess(scene.amplitude, scene.mass, scene.kernel_law())
+        guess = Y.rest_guess(scene.amplitude, scene.mass, scene_law(scene))
     else:
         try:
             guess = tuple(_finite("guess", float(v)) for v in args.guess.split(","))
@@ -170,7 +171,7 @@ def cmd_orbit(args):
     la, lm = math.log10(scene.amplitude), math.log10(scene.mass)
     if args.continue_ is None:
         orbit = Y.periodic_orbit(scene.amplitude, scene.mass, guess, period, scene.fidelity,
-                                 law=scene.kernel_law())
+                                 law=scene_law(scene))
         out = _orbit_json(orbit)
         out["profile"] = scene.profile
     else:

@@ -24,7 +24,7 @@ from vibtrans.core import drivers
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
-from vibtrans.core.kernels.contact import LAW_K1, law_eval
+from vibtrans.core.kernels.contact import LAW_K1, law_eval, law_scales
 from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import TWO_PI
 
@@ -83,14 +83,14 @@ class Strobe(NamedTuple):
 
 
 def _params(amplitude, mass, fidelity, t_end, law=None):
-    h = time_step(amplitude, mass, fidelity, law=law)
+    h = time_step(amplitude, mass, fidelity, scales=None if law is None else law_scales(law))
     return D.kernel_params(amplitude, mass, 0.3, 1.2, 0.0, 0.0, h, t_end, 1e9), h
 
 
 def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0, law=None):
     """P^periods(y, vy) from the integer time t0 (the wave on, tau = 0) with
     its Jacobian, from the vertical kernel and its tangent (two runs, one
-    per column).  law: a profile's kernel law (Scene.kernel_law(); None:
+    per column).  law: a profile's kernel law (drivers.scene_law(scene); None:
     the sphere)."""
     p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
     gap = y - amplitude * math.cos(TWO_PI * t0)
@@ -258,7 +258,7 @@ def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, 
     direction = 1.0 if to >= start else -1.0
     base = Scene(amplitude=10.0 ** log_amplitude, mass=10.0 ** log_mass, profile=profile,
                  load_over_modulus=load_over_modulus)
-    law = base.kernel_law()
+    law = drivers.scene_law(base)
     if guess is None:
         guess = run_guess(base)
     points, folds, doublings = [], [], []

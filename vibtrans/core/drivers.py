@@ -28,13 +28,15 @@ commit (bit-identical on its scan grid).  Each caller keeps its own chunking
 (`chunk_steps`; None = one call) and buffer sizes, which is what makes its
 results reproducible bit for bit.
 """
+import functools
 import math
 from typing import NamedTuple
 
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT, LAW_K1, STICK, new_memory, reset_memory_law
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, STICK, kernel_law, law_scales,
+                                           new_memory, reset_memory_law)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
@@ -223,6 +225,25 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
                tuple(mem) if tangential else None, tangent)
+
+
+@functools.lru_cache(maxsize=32)
+def _law_of(profile, load_over_modulus):
+    from vibtrans.core.params import Scene
+    return kernel_law(Scene(profile=profile, load_over_modulus=load_over_modulus)
+                      .profile_shape())
+
+
+def scene_law(scene):
+    """The kernels' law of a scene's profile (kernels.contact.kernel_law;
+    None: the sphere's own path), built once per profile."""
+    return _law_of(scene.profile, scene.load_over_modulus)
+
+
+def scene_scales(scene):
+    """(N*'(1), p) of a scene's profile for the time step (None: the sphere)."""
+    law = scene_law(scene)
+    return None if law is None else law_scales(law)
 
 
 def _new_memory(capacity, law):

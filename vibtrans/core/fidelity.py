@@ -10,8 +10,6 @@ This bound keeps stiff light-particle scenes (m* = 1e-5) stable.
 """
 import math
 
-from vibtrans.core.kernels.contact import LAW_ARG, LAW_K1, LAW_KIND, LAW_POWER
-
 FIDELITY = {
     # name: (steps per period, steps per shortest contact time scale)
     # AB4 is stable on an oscillation only while omega h < ~0.43: 24 steps
@@ -44,16 +42,16 @@ PRESET_NOTES = {
 }
 
 
-def _profile_time_scale(amplitude, mass, impacts, law):
-    """contact_time_scale for a profile's kernel law (docs/MODEL.md section 10):
+def _profile_time_scale(amplitude, mass, impacts, scales):
+    """contact_time_scale for a profile's law (docs/MODEL.md section 10), scales =
+    (N*'(1), p) (kernels.contact.law_scales):
     the linear oscillation 2 pi sqrt(m* / N*'(1)); the impact of the law
     N* ~ (N*'(1)/p) a*^p at v = 4 pi A*: a_max^(p+1) = (p+1) p m* v^2 / (2 N*'(1)),
     t_c = c_p a_max / v, c_p = 2 int_0^1 (1 - x^(p+1))^(-1/2) dx
     = 2 sqrt(pi) Gamma(1 + 1/(p+1)) / Gamma(1/2 + 1/(p+1)) (2.94 for p = 3/2).
     Tables take p = 2: a convex profile's contact radius grows at most
     linearly with the approach (the cone), so N* at most as a*^2."""
-    k1 = float(law[LAW_K1])
-    p = float(law[LAW_ARG]) if law[LAW_KIND] == LAW_POWER else 2.0
+    k1, p = scales
     log_m = math.log(mass)
     t_lin = 2.0 * math.pi * math.exp(0.5 * (log_m - math.log(k1)))
     v = 4.0 * math.pi * amplitude
@@ -67,16 +65,16 @@ def _profile_time_scale(amplitude, mass, impacts, law):
     return min(t_lin, t_imp)
 
 
-def contact_time_scale(amplitude, mass, impacts=True, law=None):
+def contact_time_scale(amplitude, mass, impacts=True, scales=None):
     """Shortest contact time scale of a scene, in wave periods (> 0, not NaN,
     for any amplitude >= 0 and mass > 0 a float can hold: where the direct
     formulas overflow or underflow, the same quantities in logarithms).
 
     impacts=False: only the linear oscillation (runs that stop at the first
-    take-off, such as the jumping threshold, never land).  law: a profile's
-    kernel law (profiles.kernel_law; None: the sphere)."""
-    if law is not None:
-        return _profile_time_scale(amplitude, mass, impacts, law)
+    take-off, such as the jumping threshold, never land).  scales: a profile's
+    (N*'(1), p) (kernels.contact.law_scales; None: the sphere)."""
+    if scales is not None:
+        return _profile_time_scale(amplitude, mass, impacts, scales)
     t_lin = 2.0 * math.pi * math.sqrt(2.0 * mass / 3.0)
     if t_lin == math.inf:                          # 2 m* overflows (m* > 9e307)
         t_lin = 2.0 * math.pi * math.sqrt(mass) * math.sqrt(2.0 / 3.0)
@@ -100,7 +98,7 @@ def contact_time_scale(amplitude, mass, impacts=True, law=None):
 
 
 def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, steps=None,
-              law=None):
+              scales=None):
     """Integration step (periods) for the deformable and vertical models
     (>= 0; 0 only where the impact time scale underflows: an unbounded cost).
 
@@ -109,7 +107,7 @@ def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, st
     (work-precision studies).
     """
     per_period, per_contact = FIDELITY[fidelity] if steps is None else steps
-    h = min(1.0 / per_period, contact_time_scale(amplitude, mass, impacts, law) / per_contact)
+    h = min(1.0 / per_period, contact_time_scale(amplitude, mass, impacts, scales) / per_contact)
     return h / refine
 
 

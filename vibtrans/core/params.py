@@ -15,7 +15,7 @@ import param
 
 from vibtrans.core.units import amplitude_ratio
 from vibtrans.core.errors import InputError
-from vibtrans.core.profiles import PROFILE_KINDS, kernel_law, parse_profile
+from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
@@ -71,11 +71,10 @@ class ProfileSpec(param.String):
 
 
 @functools.lru_cache(maxsize=32)
-def _profile_and_law(profile, load_over_modulus):
-    """(profile object, kernel law) of a profile spec, parsed once (a file
-    profile's MDR and a table law cost milliseconds; scenes are copied often)."""
-    shape = parse_profile(profile, load_over_modulus)
-    return shape, kernel_law(shape)
+def _profile_shape(profile, load_over_modulus):
+    """The profile object of a spec, parsed once (a file profile's MDR costs
+    milliseconds; scenes are copied often)."""
+    return parse_profile(profile, load_over_modulus)
 
 
 def _choice(name, value, options):
@@ -126,12 +125,9 @@ class Scene(param.Parameterized):
         self.profile_shape()           # a file profile is read and checked now
 
     def profile_shape(self):
-        """The profile object (vibtrans.core.profiles) of this scene."""
-        return _profile_and_law(self.profile, self.load_over_modulus)[0]
-
-    def kernel_law(self):
-        """The kernels' law of the profile (None: the sphere's own path)."""
-        return _profile_and_law(self.profile, self.load_over_modulus)[1]
+        """The profile object (vibtrans.core.profiles) of this scene; its
+        kernels' law: vibtrans.core.drivers.scene_law(scene)."""
+        return _profile_shape(self.profile, self.load_over_modulus)
 
     @property
     def r(self):

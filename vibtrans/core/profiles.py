@@ -23,7 +23,7 @@ Profiles (all scale-free except the tabulated one, which needs the load):
     flat-sphere:c   sphere cut flat at radius c; c in units of sqrt(R a0)
     file:PATH       a measured z(r) table (metres), through MDR numerically
 
-The kernels take a profile as `kernel_law(profile)`: None for the sphere (its
+The kernels take a profile as `kernels.contact.kernel_law(profile)`: None for the sphere (its
 own, unchanged path), else a float64 array (contact.law_eval): the power law's
 exponent, or N*'(a*) on a uniform grid with N* its exact integral.
 """
@@ -33,13 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from vibtrans.core.errors import InputError
-from vibtrans.core.kernels.contact import LAW_POWER, LAW_TABLE
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
 N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
 MIN_TABLE_POINTS_IN_CONTACT = 20   # table rows inside the static contact radius
-LAW_GRID_MAX = 64.0     # kernel tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
-LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024
 
 
 def _power_stiffness(p, h):
@@ -254,29 +251,3 @@ def tangential_force(profile, a, b, w_of_h, h_grid):
     atom = k[0] * w[0]   # springs entering at h = 0 (flat part): weight N*'(0)
     return b * float(profile.stiffness(a)) - atom - float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(k)))
 
-
-def kernel_law(profile):
-    """The kernels' form of a profile (contact.law_eval): None for the sphere
-    (Hertz's own path, bit for bit as before profiles), a power law's
-    [LAW_POWER, p, p, 0], else a table [LAW_TABLE, ds, N*'(1), n, N*'_i.., N*_i..]
-    of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
-    LAW_GRID_MAX), N*' linear in s on each cell and N* its exact integral,
-    both scaled so that N*(1) = 1 exactly (the rest state's force balance).
-    """
-    if isinstance(profile, PowerLawProfile):
-        if profile.n == 2.0:
-            return None
-        p = profile.exponent
-        return np.array([LAW_POWER, p, p, 0.0])
-    s = np.linspace(0.0, math.sqrt(LAW_GRID_MAX), LAW_GRID_POINTS)
-    ds = float(s[1])
-    k = np.asarray(profile.stiffness(s * s), float)
-    m = np.diff(k) / ds
-    si = s[:-1]
-    # int over a cell of (k_i + m (x - s_i)) 2 x dx
-    cell = 2.0 * ds * (k[:-1] * si + ds * (0.5 * (k[:-1] + m * si) + m * ds / 3.0))
-    N = np.concatenate(([0.0], np.cumsum(cell)))
-    i1 = int(round(1.0 / ds))
-    scale = 1.0 / N[i1]      # a* = 1 is a grid point
-    k, N = k * scale, N * scale
-    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size)], k, N))

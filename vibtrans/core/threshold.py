@@ -33,8 +33,9 @@ def first_takeoff(amplitude, mass, tau=50.0, periods=2000.0, fidelity="standard"
 def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     # it stops at the first take-off: no impact to resolve, only the linear
     # contact oscillation
-    law = scene.kernel_law()
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False, law=law)
+    law = drivers.scene_law(scene)
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False,
+                  scales=drivers.scene_scales(scene))
     drivers.checked_steps(step_count(scene.periods, h), max_steps,
                           f"threshold run at A* = {scene.amplitude:.3g}, "
                           f"m* = {scene.mass:.3g}", h)

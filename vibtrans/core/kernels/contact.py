@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from vibtrans.core.kernels.jit import inline, kernel
+from vibtrans.core.profiles import PowerLawProfile
 
 # Contact states (timeline codes; shared by every model).
 FLIGHT = 0        # contact loss, a* <= 0
@@ -46,7 +47,7 @@ def _segment_integral(s0, w0, s1, w1):
 
 # ---------------------------------------------------------------- profile laws
 # A profile's normal law (docs/MODEL.md section 10) reaches the kernels as a
-# float64 array `law` (vibtrans/core/profiles.py, `kernel_law`):
+# float64 array `law` (`kernel_law` below):
 #   law[LAW_KIND]   LAW_POWER: N* = a*^p, N*' = p a*^(p-1) (p = law[LAW_ARG])
 #                   LAW_TABLE: N*' linear in s = sqrt(a*) on the grid s_i = i ds
 #                              (ds = law[LAW_ARG]; exact for the sphere's sqrt, and
@@ -62,6 +63,42 @@ LAW_POWER = 0
 LAW_TABLE = 1
 LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE = range(4)
 LAW_HEAD = 4
+LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
+LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024
+
+
+def kernel_law(profile):
+    """The kernels' form of a profile (contact.law_eval): None for the sphere
+    (Hertz's own path, bit for bit as before profiles), a power law's
+    [LAW_POWER, p, p, 0], else a table [LAW_TABLE, ds, N*'(1), n, N*'_i.., N*_i..]
+    of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
+    LAW_GRID_MAX), N*' linear in s on each cell and N* its exact integral,
+    both scaled so that N*(1) = 1 exactly (the rest state's force balance).
+    """
+    if isinstance(profile, PowerLawProfile):
+        if profile.n == 2.0:
+            return None
+        p = profile.exponent
+        return np.array([LAW_POWER, p, p, 0.0])
+    s = np.linspace(0.0, math.sqrt(LAW_GRID_MAX), LAW_GRID_POINTS)
+    ds = float(s[1])
+    k = np.asarray(profile.stiffness(s * s), float)
+    m = np.diff(k) / ds
+    si = s[:-1]
+    # int over a cell of (k_i + m (x - s_i)) 2 x dx
+    cell = 2.0 * ds * (k[:-1] * si + ds * (0.5 * (k[:-1] + m * si) + m * ds / 3.0))
+    N = np.concatenate(([0.0], np.cumsum(cell)))
+    i1 = int(round(1.0 / ds))
+    scale = 1.0 / N[i1]      # a* = 1 is a grid point
+    k, N = k * scale, N * scale
+    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size)], k, N))
+
+
+def law_scales(law):
+    """(N*'(1), p) of a kernel law for the time step's contact scales
+    (fidelity.contact_time_scale): p the power law's exponent, 2 for a table
+    (a convex profile's N* grows at most as a*^2, the cone's)."""
+    return float(law[LAW_K1]), float(law[LAW_ARG]) if law[LAW_KIND] == LAW_POWER else 2.0
 
 
 @inline
@@ -450,7 +487,7 @@ def tangential_force_history(a, b, a_start=1.0, b_start=0.0, law=None):
     """T*, s_h and state along an (a*, b*) history from a virgin contact.
 
     Convenience wrapper for tests and teaching views: returns three arrays.
-    `law`: a profile's kernel law (vibtrans.core.profiles.kernel_law; None:
+    `law`: a profile's kernel law (kernel_law; None:
     the sphere's own path).
     """
     a = np.ascontiguousarray(a, dtype=np.float64)

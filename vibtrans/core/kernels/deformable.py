@@ -733,7 +733,7 @@ def deformable_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P
 def deformable_profile_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
                               samples, events, ctr, t_stop, law):
     """deformable_kernel for an axisymmetric profile's `law` (float64 array,
-    vibtrans.core.profiles.kernel_law; docs/MODEL.md section 10)."""
+    vibtrans.core.kernels.contact.kernel_law; docs/MODEL.md section 10)."""
     return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
                            nvert, memf, samples, events, ctr, t_stop, True, False,
                            law, True)
