@@ -65,6 +65,7 @@ class RunResult(NamedTuple):
     twin: object
     summary: Summary
     twin_unneeded: bool
+    ran: dict = None        # the state's values when the run was made (all of them)
 
 
 def comparison(scene, compare):
@@ -177,6 +178,7 @@ class RunController(param.Parameterized):
         self.message = ""
         other_scene, label = comparison(scene, self.state.compare)
         job = self.job = Job(scene, label, self.executor)
+        job.ran = dict(self.state.param.values())
         # The comparison run goes in parallel with the main one (the kernels
         # release the GIL).
         T = scene.periods
@@ -258,7 +260,8 @@ class RunController(param.Parameterized):
             if self.job is None and self.busy:
                 self.param.update(busy=False, progress=0.0)
         try:
-            result = interpret(scene, ds, other, job.label)
+            result = interpret(scene, ds, other, job.label)._replace(
+                ran=getattr(job, "ran", None))
             self.param.update(status="", result=result)
         except Exception as exc:
             log.exception("showing a run failed: %s", scene.values())

@@ -11,7 +11,7 @@ plain figures take a fraction of that, and a run is one data change per
 source and a few range changes, sent to the browser as one message.
 """
 import numpy as np
-from bokeh.core.properties import field
+from bokeh.core.properties import field, value
 from bokeh.layouts import column
 from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend, LegendItem,
                           Line, LinearAxis, Quad, Range1d, VArea)
@@ -295,7 +295,7 @@ class LiveTrajectory:
         block = self.over
         block.twin_figure.title.text = title
         for item, (text, _, _) in zip(block.twin_items, lines):
-            item.label = text
+            item.label = value(text)        # (a bare string set later is a column name)
         self.label = label
 
     def show(self, ds, other=None, period_seconds=None, rigid=False):

@@ -5,6 +5,8 @@ import functools
 import holoviews as hv
 import numpy as np
 import panel as pn
+
+from .map import in_document
 from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
@@ -68,7 +70,7 @@ class VerticalView:
         self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 
     def _moved(self, *events):
-        self.scene.data = {"x": [self.state.log_mass], "y": [self.state.log_amplitude]}
+        in_document(self.scene, {"x": [self.state.log_mass], "y": [self.state.log_amplitude]})
 
 
 def _legend_item(label, renderer):

@@ -426,6 +426,10 @@ def samples_csv(ds):
         "model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods") if k in ds.attrs),
         "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
         + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES))]
+    if "x" in ds and ds.sizes.get("time", 0) > 2:
+        from vibtrans.analysis.summary import drift_velocity, steadiness
+        head.append(f"# drift <v*> = {drift_velocity(ds):.6g} a0 per period; "
+                    f"{steadiness(ds)[1]}")
     buf = io.StringIO()
     buf.write("\n".join(head) + "\n")
     ds[names].to_dataframe().to_csv(buf, float_format="%.17g")
