@@ -406,9 +406,14 @@ def point_mass_capacity(params):
 
 
 def _pm_flight_start(events):
-    """The last take-off's time (the flight in progress), or 0 (none yet)."""
-    to = events[events[:, 1] == R.TAKEOFF, 0]
-    return float(to[-1]) if to.size else 0.0
+    """The last take-off's time (the flight in progress), or 0 (none yet);
+    searched from the end (in a flight the take-off is the last event or
+    near it: a check costs O(1), not O(events))."""
+    kinds = events[:, 1]
+    for i in range(kinds.size - 1, -1, -1):
+        if kinds[i] == R.TAKEOFF:
+            return float(events[i, 0])
+    return 0.0
 
 
 def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,

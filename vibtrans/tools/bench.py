@@ -466,8 +466,13 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     map calls the point chaotic); decided_drift_within_error (regular
     drifting points of the full map, |v*| > V0 and not chaotic in either:
     |v_decided - v_full| <= STATED_DRIFT_ERROR x |v_full|); per model the
-    same, the chaos verdicts' agreement, the fraction of each stop reason
-    and the mean periods run.  keep: a folder to leave the four stores
+    same, the chaos verdicts' agreement, the fraction of each stop reason,
+    the mean periods run, the rule's speedup ceiling on that map
+    (speedup_ceiling: T_obs over the periods if its ran-to-end points ran
+    T_obs and all others stopped at the earliest, maps.cost.minimum_periods)
+    and estimate_ratio (maps.cost's estimate of the decided map's time from
+    the full map's, over the measured time: the map-on-demand estimate's
+    accuracy, goal within 1.5x).  keep: a folder to leave the four stores
     in (<model>-<stop>.zarr), for a difference map."""
     import os
     import shutil
@@ -475,6 +480,8 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
 
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
     from vibtrans.core.drivers import REASONS
+    from vibtrans.core.drivers import STOP_RAN_TO_END
+    from vibtrans.maps.cost import expected_periods, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
@@ -519,6 +526,18 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
                                                           if drifting.any() else None)
             out[f"decided_{model}_regular_drifting_points"] = int(drifting.sum())
             out[f"decided_{model}_mean_periods_run"] = float(dec["periods_run"].mean())
+            # the rule's ceiling on this map: the points run to T_obs cost a full
+            # run, the others at least the ramp and the first window (t_min)
+            tau = float(dec.attrs["scene_tau"])
+            f_end = float((dec["stop_reason"].values == STOP_RAN_TO_END).mean())
+            out[f"decided_{model}_speedup_ceiling"] = periods / (
+                f_end * periods + (1.0 - f_end) * min(periods, minimum_periods(tau)))
+            # the map-on-demand estimate (maps.cost, the shipped-grid profile)
+            # from the full map's time, against the decided map's measured time
+            out[f"decided_{model}_estimate_ratio"] = (
+                out[f"decided_{model}_full_cpu_seconds"]
+                * expected_periods(model, "decided", periods, tau) / periods
+                / out[f"decided_{model}_decided_cpu_seconds"])
             out[f"decided_{model}_chaos_agreement"] = float(
                 (full["chaotic"].values == dec["chaotic"].values).mean())
             reasons = dec["stop_reason"].values
