@@ -541,3 +541,22 @@ def test_export_bench_measures_each_format(monkeypatch):
         assert 0 < r[f"{fmt}_cpu_seconds"] and 0 < r[f"{fmt}_seconds"] < float("inf")
         assert r[f"{fmt}_over_reference"] == pytest.approx(
             r[f"{fmt}_cpu_seconds"] / r["reference_cpu_seconds"])
+
+
+def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4):
+    """A download callback in the server runs where Bokeh's curdoc() is a
+    session's document that may already be destroyed (a closed page's); the
+    trajectory's .html then never arrived (issue 32: AttributeError
+    '_js_event_callbacks' in bokeh.embed's new document).  The export makes
+    its own Document and does not read curdoc()."""
+    from bokeh.document import Document
+    from bokeh.io.doc import patch_curdoc
+    session = object()                  # what a server session registers
+    gone = Document()
+    gone.on_change_dispatch_to(session)
+    gone.destroy(session)
+    out = tmp_path / "traj.html"
+    with patch_curdoc(gone):
+        export.export_trajectory(run4, out)
+    text = out.read_text()
+    assert "<html" in text.lower() and "t* (periods)" in text

@@ -171,8 +171,15 @@ def export_html(obj, out, title="vibtrans"):
             ensure_backends()
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
         elif isinstance(obj, Model):
+            from bokeh.document import Document
             from bokeh.embed import file_html
             from bokeh.resources import INLINE
+            # a document of its own, whose only root is obj: file_html then
+            # uses it as is; without one it copies curdoc()'s callbacks, and
+            # in a server callback curdoc() can be a closed page's destroyed
+            # document (AttributeError: the .html download never arrived)
+            if obj.document is None:
+                Document().add_root(obj)
             Path(tmp).write_text(file_html(obj, INLINE, title=title), encoding="utf-8")
         else:
             import panel as pn
