@@ -119,7 +119,7 @@ def test_each_frame_draws_the_runs_state(which, request):
             assert z["colour"][0] == plots.STATE_COLORS[state]     # the state's colour
             assert z["colour"][1] == plots.STATE_COLORS[1]          # the stick core
             assert (f["contact"]["c"][0], f["contact"]["s"][0]) == (c, s)
-        shown = re.match(r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)   (.+?)   y\* = (\S+) a0",
+        shown = re.match(r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)\n(.+?)   y\* = (\S+) a0",
                          f["side_title"]).groups()
         assert float(shown[0]) == pytest.approx(t, abs=5.1e-5)
         assert float(shown[1]) == pytest.approx(t % 1.0, abs=5.1e-4)

@@ -67,13 +67,13 @@ SPEEDS = (("0.05", "0.05 periods/s"), ("0.1", "0.1 periods/s"), ("0.25", "0.25 p
           ("0.5", "0.5 periods/s"), ("1", "1 period/s"), ("5", "5 periods/s"),
           ("20", "20 periods/s"), ("100", "100 periods/s"))
 # the stretch of the run the animation shows: the full-resolution window
-# (None: the run's last periods recorded sample by sample), or the last
-# `periods` of the run (0: all of it), decimated: before the window the run
+# ("window": the run's last periods recorded sample by sample), or the last
+# so many periods of the run ("0": all of it), decimated: before the window the run
 # is recorded at plots.OVERVIEW_SAMPLES per period (the drift shows, a hop
 # within a period does not)
-WINDOWS = {"the last periods at full resolution": None, "the last 10 periods": 10.0,
-           "the last 100 periods": 100.0, "the last 1000 periods": 1000.0,
-           "the whole run (decimated)": 0.0}
+WINDOWS = {"the last periods at full resolution": "window", "the last 10 periods": "10",
+           "the last 100 periods": "100", "the last 1000 periods": "1000",
+           "the whole run (decimated)": "0"}
 DEFAULT_SPEED = "0.25"
 PARTICLE_FILL = "#c6dbef"
 SUBSTRATE_FILL = "#bcaaa4"
@@ -177,7 +177,7 @@ function draw(i) {
   const gap = a < 0 ? "gap " + (-a).toFixed(d) + " a0"
             : deformable ? "overlap a* = " + a.toFixed(d) + " a0" : "on the surface";
   side_title.setv({text: "t* = " + t.toFixed(4) + "   wave phase t* mod 1 = " + phase.toFixed(3)
-                   + "   " + names[st] + "   y* = " + y.toFixed(d) + " a0   " + gap},
+                   + "\\n" + names[st] + "   y* = " + y.toFixed(d) + " a0   " + gap},
                   {sync: false});
   let ct;
   if (!deformable) ct = "material point: rigid, no contact area";
@@ -264,7 +264,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.runs = 0
         self._run = None            # (scene, ds) shown, for a new window
         self._pane = pn.pane.Bokeh(self.layout, name="particle-animation")
-        self.window = pn.widgets.Select(name="show", options=WINDOWS, value=None, width=300,
+        self.window = pn.widgets.Select(name="show", options=WINDOWS, value="window", width=300,
                                         css_classes=["vt-anim-window"])
         self.window.param.watch(self._on_window, "value")
         self._panel = pn.Column(self.window, self._pane, margin=0)
@@ -298,8 +298,9 @@ class ParticleAnimation(pn.viewable.Viewer):
                               text="wave travels to +x \u2192\nphase 0.5: crest under the "
                               "particle", text_font_size="9pt",
                               background_fill_color="white", background_fill_alpha=0.7))
+        # short lines: a long one was cut at the figure's edge at 1024 pixels
         self.scale_notes = [Title(text="", text_font_size="8.5pt", text_font_style="italic")
-                            for _ in range(2)]
+                            for _ in range(3)]
         for note in self.scale_notes:
             side.add_layout(note, "below")
         side.toolbar.logo = None
@@ -326,7 +327,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         circ.toolbar.logo = None
         self.circle = circ
 
-        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=560,
+        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=360,
                              disabled=True, name="anim-frame")
         self.play = Toggle(label="\u25b6 Play", active=False, width=100, disabled=True,
                            button_type="success", name="anim-play")
@@ -354,7 +355,9 @@ class ParticleAnimation(pn.viewable.Viewer):
             "core (radius s) inside the slip annulus (out to the contact radius c). "
             "Triangles: points of the substrate's surface (they show it sliding under "
             "the particle).<br>")
-        self.layout = column(row(side, circ), row(self.play, self.slider, self.speed), self.key)
+        # the player above the figures: at 1024 pixels, below them its speed
+        # selector was off the page's right edge
+        self.layout = column(row(self.play, self.slider, self.speed), row(side, circ), self.key)
 
     # ------------------------------------------------------------ data
     def show(self, scene, ds):
@@ -362,7 +365,8 @@ class ParticleAnimation(pn.viewable.Viewer):
         `simulate(scene, window=(t0, t1), ...)`; the frames are the samples
         of the window [t0, t1] (all of them, or `max_frames` evenly in
         time).  One message to the browser (data and ranges only)."""
-        frames, note = self._frames(scene, ds, self.window.value)
+        chosen = self.window.value
+        frames, note = self._frames(scene, ds, None if chosen == "window" else float(chosen))
         self._run = (scene, ds)
         with pn.io.hold():
             self.play.active = False
@@ -507,11 +511,11 @@ class ParticleAnimation(pn.viewable.Viewer):
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
             f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} "
-            f"a0*), wavelength drawn {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
+            f"a0*), wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
         self.scale_notes[1].text = (
             "To scale, in a0: heights, the particle's motion along x"
-            + (", the overlap a*." if deformable else ". Material point: the particle only.")
-            + "   *a 0.5 mm steel bead on glass at 108 kHz")
+            + (", the overlap a*." if deformable else ". Material point: the particle only."))
+        self.scale_notes[2].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = ("the contact zone drawn as Hertz's for the drawn radius: half-width "
                 f"c sqrt({rho:.3g}) a0. " if deformable else
                 "Material point: no contact zone and no contact circle (rigid contact). ")
@@ -563,7 +567,7 @@ class ParticleAnimation(pn.viewable.Viewer):
                         "s": np.array([s if touching else np.nan]),
                         "colour": [F["outer"][i]]},
             "side_title": (f"t* = {_fixed(t, 4)}   wave phase t* mod 1 = "
-                           f"{_fixed(t - math.floor(t), 3)}   {STATE_NAMES[st]}   "
+                           f"{_fixed(t - math.floor(t), 3)}\n{STATE_NAMES[st]}   "
                            f"y* = {_fixed(y, d)} a0   {gap}"),
             "contact_title": ct,
         }
