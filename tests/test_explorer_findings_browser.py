@@ -53,3 +53,24 @@ def test_both_models_click_names_both_lines_of_the_x_legend(browser, served_expl
     texts = [t for _, t in labels]
     assert any(t.startswith("x*, tau = ") for t in texts), texts
     assert not errors, errors
+
+
+def test_the_animation_player_fits_at_1024(browser, served_explorer):
+    """At 1024x768 the animation's speed selector was off the page's right
+    edge (the player below the figures, a 560-pixel slider): the player and
+    its window selector are inside the viewport, and the window selector
+    shows its choice."""
+    page, errors = new_page(browser, 1024, 768)
+    open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
+    page.get_by_text("Animation", exact=True).first.click()
+    speed = page.locator("select").filter(has_text="1 period/s").first
+    speed.wait_for(timeout=budget_ms(30))
+    window = page.locator("select").filter(has_text="the whole run (decimated)").first
+    for el in (speed, window, page.get_by_role("button", name="Play")):
+        el.scroll_into_view_if_needed()
+        box = el.bounding_box()
+        assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 1024, box
+    assert window.input_value() == "the last periods at full resolution"   # (not blank)
+    page.close()
+    assert not errors, errors
