@@ -30,7 +30,7 @@ def vertical_element(vertical):
              for k in vertical.attrs if k.startswith("resonance_") and k.endswith("log_mass")]
     return hv.Overlay([de, pm, *lines]).opts(
         height=HEIGHT, title="Jumping threshold A_J*(m*), axes as the map's: right of a "
-        "curve, the particle jumps", legend_position="bottom_right")
+        "curve, the particle jumps", legend_position="top_right")
 
 
 @functools.lru_cache(maxsize=1)
