@@ -16,7 +16,7 @@ from vibtrans.products import plots
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from budget import budget
 from vibtrans_explorer import urlstate
-from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times
+from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times, title_lines
 
 POOL = ThreadPoolExecutor(max_workers=2)
 
@@ -58,7 +58,7 @@ def _holds(view, snap):
     radii = [float(np.hypot(x[0], y[0])) for x, y in zip(view.discs.data["xs"],
                                                           view.discs.data["ys"])]
     assert radii == pytest.approx([d["r"] for d in discs], rel=1e-12)
-    assert view.w_fig.title.text == plots.memory_title(snap)
+    assert view.w_fig.title.text == title_lines(plots.memory_title(snap))
     assert view.c_fig.title.text == plots.contact_geometry(snap)["title"]
 
 

@@ -75,6 +75,13 @@ def _figure(title, xlabel, ylabel, square=False):
     return fig
 
 
+def title_lines(title):
+    """A panel's title on two lines (its name, then the rest after its first
+    comma): on one, "memory diagram w(h), t* = ..., partial slip" was cut at
+    the 300-pixel panel's edge."""
+    return "\n".join(title.split(", ", 1))
+
+
 def _set_range(rng, lo, hi):
     """New extent, which is also where the reset tool goes back to."""
     rng.update(start=lo, end=hi, reset_start=lo, reset_end=hi)
@@ -172,7 +179,7 @@ class MemoryView(pn.viewable.Viewer):
         g = plots.memory_geometry(snapshot)
         c = plots.contact_geometry(snapshot)
         a_max = max(float(snapshot["a"]), 0.0) if limits is None else limits
-        self.w_fig.title.text = plots.memory_title(snapshot)
+        self.w_fig.title.text = title_lines(plots.memory_title(snapshot))
         self.c_fig.title.text = c["title"]
         if g is None:                        # in flight: no memory
             self.profile.data = {"h": [], "w": [], "u": []}
