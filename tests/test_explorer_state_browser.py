@@ -15,13 +15,14 @@ from urllib.parse import parse_qs
 import pytest
 
 from devtools.chromium import launched
+from budget import budget, budget_ms
 from vibtrans.core.params import PAPER_POINTS
 
 pytestmark = pytest.mark.browser
 
 STEPS = int(os.environ.get("VIBTRANS_TWIN_STEPS", 200))
 SEED = int(os.environ.get("VIBTRANS_TWIN_SEED", 32))
-SETTLE_S = 15.0          # the longest a step's answer may take (a loaded CI machine)
+SETTLE_S = 15.0          # the longest a step's answer may take, idle (scaled by budget())
 SERVER_ERRORS = ("Traceback", "ERROR", "_pending_writes")
 
 # the page's view of the scene: URL, fields, selectors, marker sources, heading
@@ -113,6 +114,20 @@ def _settled(page, deadline):
     raise AssertionError(f"the page disagrees with itself: {problem}")
 
 
+def _map_box(page):
+    """The map's canvas on screen now: a model or mu change redraws the map,
+    so the canvas found may be replaced before its box is read: look again."""
+    canvas = page.locator(".vt-map canvas >> visible=true").first
+    deadline = time.monotonic() + budget(60)
+    while time.monotonic() < deadline:
+        canvas.wait_for(timeout=budget_ms(60))
+        box = canvas.bounding_box()
+        if box is not None and box["width"] > 0:
+            return box
+        page.wait_for_timeout(100)
+    raise AssertionError("the map's canvas was never on screen for a click")
+
+
 def test_a_random_walk_keeps_one_scene(served_explorer):
     rng = random.Random(SEED)
     log_start = len(served_explorer.text())
@@ -122,19 +137,18 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         page.on("pageerror", lambda e: errors.append(str(e)))
         # a link with a mu no shipped map has: shown as it is (issue 32)
         page.goto(served_explorer.url + "?la=0.5&lm=1&mu=0.5&fidelity=preview&compare=none")
-        page.wait_for_selector("canvas", timeout=60000)
-        page.wait_for_selector(".vt-paper-points select", timeout=60000)
-        got = _settled(page, time.monotonic() + 60)
+        page.wait_for_selector("canvas", timeout=budget_ms(60))
+        page.wait_for_selector(".vt-paper-points select", timeout=budget_ms(60))
+        got = _settled(page, time.monotonic() + budget(60))
         assert float(_query(got["search"])["mu"]) == 0.5 and got["mu"] == "0.5"
         page.locator(".vt-mu select").select_option("0.3")
-        _settled(page, time.monotonic() + 60)
-        page.locator(".vt-map canvas >> visible=true").first.wait_for(timeout=60000)
+        _settled(page, time.monotonic() + budget(60))
         done = []
         for step in range(STEPS):
             kind = rng.choice(["click", "click", "type", "type", "bad", "mu", "model",
                                "point", "run"])
             if kind == "click":
-                box = page.locator(".vt-map canvas >> visible=true").first.bounding_box()
+                box = _map_box(page)
                 page.mouse.click(box["x"] + box["width"] * rng.uniform(0.25, 0.75),
                                  box["y"] + box["height"] * rng.uniform(0.25, 0.75))
             elif kind in ("type", "bad"):
@@ -158,7 +172,7 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
                 page.locator("button", has_text="Run selected scene").click()
             done.append(kind)
             page.wait_for_timeout(100)
-            _settled(page, time.monotonic() + SETTLE_S)
+            _settled(page, time.monotonic() + budget(SETTLE_S))
         page.close()
     assert not errors, errors
     log = served_explorer.text()[log_start:]
