@@ -30,6 +30,8 @@ from vibtrans.core.simulate import StepBudgetExceeded
 from . import kernels
 from .fairshare import lower_priority
 
+CANCELLED = "Run cancelled."        # the status after the user's Cancel
+
 log = logging.getLogger("vibtrans.explorer")
 
 # the run threads' niceness: on a core they share with the event loop
@@ -241,7 +243,7 @@ class RunController(param.Parameterized):
             other = None if len(job.futures) < 2 else job.futures[1].result()
         except (Cancelled, CancelledError):
             if self.job is job:
-                self.status = "Run cancelled."
+                self.status = CANCELLED
             return
         except StepBudgetExceeded as exc:
             if self.job is job:

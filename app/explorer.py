@@ -27,7 +27,7 @@ from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, memory, urlstate
-from .controller import RUNNER, RunController
+from .controller import CANCELLED, RUNNER, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
@@ -580,9 +580,14 @@ class Explorer(pn.viewable.Viewer):
         self.ack.text = "" if self.ack.text != "" else "<span></span>"
 
     def _on_status(self, event):
-        self.summary_view.say(event.new)
-        if event.new == "Run cancelled.":
+        if event.new == CANCELLED:
+            with pn.io.hold():
+                self.summary_view.cancelled()
+                if self.memory_view is not None:
+                    self.memory_view.mark_previous()
             self._answered()
+        else:
+            self.summary_view.say(event.new)
 
     def _on_busy(self, event):
         with pn.io.hold():

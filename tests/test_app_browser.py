@@ -343,7 +343,7 @@ def test_teaching_view_and_export(page, server):
     page.get_by_text("Memory diagram", exact=True).click()
     # a snapshot drawn: the diagram's title names its time
     page.wait_for_function("""() => (page_figures => page_figures.some(
-        f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
+        f => f[0].startsWith("memory diagram w(h)\\nt* = ")))((%s)())""" % _FIGURES_JS,
                            timeout=budget_ms(60), polling=250)
     page.get_by_text("Downloads", exact=True).click()
     for kind in ("trajectory-png", "map-svg"):

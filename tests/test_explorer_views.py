@@ -42,8 +42,10 @@ def test_the_vertical_curve_marks_the_selected_scene():
     ex = _explorer()
     ex.vertical.build()
     ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
-    assert ex.vertical.scene.data == {"x": [-0.5], "y": [1.25]}
+    # the map's axes (issue 32: the vertical tab had them swapped)
+    assert ex.vertical.scene.data == {"x": [1.25], "y": [-0.5]}
     fig = ex.vertical.pane.objects[0].object
+    assert fig.xaxis[0].axis_label == "log10 A*" and fig.yaxis[0].axis_label == "log10 m*"
     labels = [item.label["value"] if isinstance(item.label, dict) else
               getattr(item.label, "value", item.label) for item in fig.legend[0].items]
     assert "the selected scene" in labels

@@ -7,7 +7,7 @@ import panel as pn
 
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 
-from ..controller import TWIN_LABEL
+from ..controller import CANCELLED, TWIN_LABEL
 from ..state import MAP_MATERIAL
 
 SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
@@ -21,6 +21,10 @@ PLACEHOLDER_SUMMARY = "\n".join(
 
 NO_DEVICE = "- (run a device"    # the SI row of a run that is no device's (UnitsPanel.si_text)
 STALE_LINE = "**⚠ Changed since this run: press Run.**"
+# over the previous run's table after a cancel: what the page shows is that run
+CANCELLED_LINE = (f"**{CANCELLED}** The summary, figures and downloads shown are still the "
+                  "previous run's:")
+PREVIOUS_RUN = "the previous run's (the run after it was cancelled)"
 
 
 def twin_words(s, twin_name):
@@ -124,6 +128,16 @@ class SummaryView:
                                     result.other, result.twin)
         self._stale = False
         self.pane.object = self._table
+
+    def cancelled(self):
+        """A run was cancelled: said, over the table of the run still shown
+        (the previous one), if any; its figures and downloads are that
+        run's too."""
+        if self._table is None:
+            self.pane.object = CANCELLED
+            return
+        self.pane.object = "\n\n".join([CANCELLED_LINE, *([STALE_LINE] if self._stale else []),
+                                         self._table])
 
     def mark_stale(self, stale):
         """Mark the run shown as changed since (or not)."""
