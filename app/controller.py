@@ -30,6 +30,8 @@ from vibtrans.core.simulate import StepBudgetExceeded
 from . import kernels
 from .fairshare import lower_priority
 
+CANCELLED = "Run cancelled."        # the status after the user's Cancel
+
 log = logging.getLogger("vibtrans.explorer")
 
 # the run threads' niceness: on a core they share with the event loop
@@ -65,6 +67,7 @@ class RunResult(NamedTuple):
     twin: object
     summary: Summary
     twin_unneeded: bool
+    ran: dict = None        # the state's values when the run was made (all of them)
 
 
 def comparison(scene, compare):
@@ -177,6 +180,7 @@ class RunController(param.Parameterized):
         self.message = ""
         other_scene, label = comparison(scene, self.state.compare)
         job = self.job = Job(scene, label, self.executor)
+        job.ran = dict(self.state.param.values())
         # The comparison run goes in parallel with the main one (the kernels
         # release the GIL).
         T = scene.periods
@@ -239,7 +243,7 @@ class RunController(param.Parameterized):
             other = None if len(job.futures) < 2 else job.futures[1].result()
         except (Cancelled, CancelledError):
             if self.job is job:
-                self.status = "Run cancelled."
+                self.status = CANCELLED
             return
         except StepBudgetExceeded as exc:
             if self.job is job:
@@ -258,7 +262,8 @@ class RunController(param.Parameterized):
             if self.job is None and self.busy:
                 self.param.update(busy=False, progress=0.0)
         try:
-            result = interpret(scene, ds, other, job.label)
+            result = interpret(scene, ds, other, job.label)._replace(
+                ran=getattr(job, "ran", None))
             self.param.update(status="", result=result)
         except Exception as exc:
             log.exception("showing a run failed: %s", scene.values())

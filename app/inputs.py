@@ -5,8 +5,8 @@ text.  What is typed is checked by the same function as a link's value
 (`urlstate.convert`: plain decimals, finite, inside the parameter's
 bounds); a valid value is applied, an invalid one stays in the field with a
 message under it naming the range, and the parameter keeps its value until
-the text is corrected (`error` says why; the explorer refuses to run while
-any field has one).  A change of the parameter from elsewhere (a map click,
+the text is corrected (`error` says why, and an owner with `set_invalid`,
+the explorer's state, records it: a run refuses while it has one).  A change of the parameter from elsewhere (a map click,
 a paper point, a link) rewrites the text and clears the message.
 """
 import panel as pn
@@ -17,8 +17,14 @@ ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 
 
 def _text(value):
-    """The field's text for a value (short: 0.3, not 0.30000000000000004)."""
-    return f"{value:.6g}"
+    """The field's text for a value: exactly the value (the shortest text
+    that reads back as it: 0.3, 0.07759266752805563), so that the field
+    shows what a run uses (a device's unrounded log10 A*), not a rounding."""
+    if not isinstance(value, float):
+        return str(value)
+    value = value + 0.0                     # (-0.0: 0)
+    short = f"{value:.15g}"                 # 108000, not 108000.0
+    return short if float(short) == value else repr(value)
 
 
 class NumberField(pn.viewable.Viewer):
@@ -51,18 +57,26 @@ class NumberField(pn.viewable.Viewer):
             given = (f"got '{urlstate.shown(raw.strip())}'" if raw.strip()
                      else "the field is empty")
             self._say(f"{self.label} must be {urlstate.valid_range(p)}; {given}")
+            self._record(self.error)
             return
         self._say("")
+        self._record("")
         self._applying = True
         try:
             setattr(self.owner, self.name_, value)
         finally:
             self._applying = False
 
+    def _record(self, text):
+        record = getattr(self.owner, "set_invalid", None)
+        if record is not None:
+            record(self.name_, text)
+
     def _moved(self, event):
         if self._applying:
             return
         self._say("")
+        self._record("")
         text = _text(event.new)
         if self.input.value != text:
             self._echoing = True

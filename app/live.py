@@ -11,7 +11,7 @@ plain figures take a fraction of that, and a run is one data change per
 source and a few range changes, sent to the browser as one message.
 """
 import numpy as np
-from bokeh.core.properties import field
+from bokeh.core.properties import field, value
 from bokeh.layouts import column
 from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend, LegendItem,
                           Line, LinearAxis, Quad, Range1d, VArea)
@@ -27,11 +27,8 @@ TIMELINE_HEIGHT = 116         # the strip and, above it, its legend of the state
 TIMELINE_BINS = 400           # time bins of the whole-run state timeline
 _COLOURS = np.array([plots.STATE_COLORS[k] for k in range(len(STATE_NAMES))])
 _NAMES = np.array(STATE_NAMES)
-# A panel's second quantity goes on an axis of its own at the right: y*
-# beside a*, x* beside b*, b*' beside N* and T*.  On one axis the larger
-# flattened the other (issue 14: N*, T* ~ 1-20 lay flat beside b*' in the
-# thousands; b* and x* over the last two periods were two flat lines).
-RIGHT_AXIS = ("y", "x", "bdot")
+# a panel's second quantity on an axis of its own at the right (plots.py)
+RIGHT_AXIS, right_columns = plots.RIGHT_AXIS, plots.right_columns
 
 
 # Every Bokeh model of a session is serialized to its browser, which costs
@@ -56,14 +53,6 @@ def _figure(title, ylabel, x_range, height, time_ticker=None):
         fig.add_layout(Grid(dimension=0, ticker=time_ticker))
     fig.toolbar.logo = None
     return fig
-
-
-def right_columns(columns):
-    """The columns of a panel drawn on its right axis (none if it has one
-    quantity only)."""
-    if len(columns) < 2:
-        return []
-    return [c for c in columns if c in RIGHT_AXIS][:len(columns) - 1]
 
 
 def _lines(fig, sources, lines, right=(), envelope=False):
@@ -108,14 +97,13 @@ class _Panel:
         title, ylabel, lines = self.specs[rigid]
         cols = [c for c, _, _ in lines]
         right = right_columns(cols)
-        labels = {c: label for c, label, _ in lines}
+        left_label, right_label = plots.axis_labels({c: label for c, label, _ in lines}, right)
         self.fig.title.text = title
-        self.fig.left[0].axis_label = (", ".join(labels[c] for c in cols if c not in right)
-                                       if right else ylabel)
+        self.fig.left[0].axis_label = left_label if right else ylabel
         if self.right_axis is not None:
             self.right_axis.visible = bool(right)
             if right:
-                self.right_axis.axis_label = ", ".join(labels[c] for c in right)
+                self.right_axis.axis_label = right_label
         for col, item in self.items.items():
             item.visible = col in cols
             for r in item.renderers:
@@ -295,7 +283,7 @@ class LiveTrajectory:
         block = self.over
         block.twin_figure.title.text = title
         for item, (text, _, _) in zip(block.twin_items, lines):
-            item.label = text
+            item.label = value(text)        # (a bare string set later is a column name)
         self.label = label
 
     def show(self, ds, other=None, period_seconds=None, rigid=False):

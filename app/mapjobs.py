@@ -60,12 +60,37 @@ MAP_NICE = 10
 # every 3 s, 10.0 and 3.5 s with one every 10 s, 7.6 s with none (and 4.5,
 # 9.5 s for the code before pictures): within the noise at 10 s
 CHUNK_SECONDS = 10.0
-CALIBRATION = {"la": 0.0, "lm": 0.0, "periods": 200.0}   # the speed probe's point
+# the share of the finest grid the refinement computes, by levels, before
+# this server has computed a map of that model and depth (then its own):
+# measured with `python -m devtools.mapestimate` (2026-11-27)
+FRACTION_PRIOR = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
+# a map's own work besides its points' runs: its start (store, levels) and
+# each computed point's passage (to a worker and back, into the store):
+# maps of 10-period points, whose runs cost next to nothing, took 0.5 s for
+# 59-125 points, 0.9 s for 304 and 3.0 s for 1188 (2026-11-27, this
+# 2-core machine, `python -m devtools.mapestimate`'s maps at 10 periods)
+MAP_START_SECONDS = 0.4
+PROBE_PERIODS = 2000.0
+POINT_PASSAGE_SECONDS = 2.2e-3
 # seconds the map workers' processes outlive the last map: a map asked for
 # meanwhile starts at once (a worker's start is ~1.3 s of CPU: imports,
 # compiled kernels loaded); `stop_workers` ends them sooner (the server's
 # memory release, once no session is open)
 WORKERS_LINGER = 60.0
+
+
+class _Done:
+    """A finished future's stand-in (the probe without workers)."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+
+def _now(fn, *args):
+    return _Done(fn(*args))
 
 
 def default_folder():
@@ -172,7 +197,8 @@ class MapJobs:
         self._running = set()        # the computations running
         self._workers = None         # the FairPool of `cores` workers (made at first use)
         self._sessions = {}          # session -> Ticket
-        self._speed = {}             # model -> ns per step (runs and twins), measured here
+        self._rates = {}             # (model, fidelity) -> s per bounded step, measured here
+        self._fractions = {}         # (model, levels) -> share of the finest grid computed
         # a thread per running map (its refinement; its points go to the
         # shared workers); a second, light pool opens the cache and
         # measures the speed, so that a cached map never waits for a big one
@@ -188,36 +214,98 @@ class MapJobs:
         return self._cache
 
     # ---------- speed and estimates ----------
-    def ns_per_step(self, model):
-        """This server's measured ns per integration step of a map point
-        of `model` (its run with its chaos verdict's work), or None."""
-        return self._speed.get(model)
+    # A map's expected time: its own work (MAP_START_SECONDS, and
+    # POINT_PASSAGE_SECONDS a point) and its points' runs.  Which points the
+    # refinement computes and what each costs are read from the shipped map
+    # of the model (nearest mu) where it covers the window: the refinement
+    # replayed on its values (adaptive.predict_refinement), each point's
+    # measured seconds scaled to the request's run length and fidelity; this
+    # server's speed against them is probed on nine points at the first
+    # estimate of a model and fidelity, then learned from each map computed.
+    # Beyond the shipped maps: the points' bounded steps, and the share of
+    # the grid this server's last map of the model and depth computed.
+    def seconds_per_work(self, model, fidelity, unit):
+        """This server's measured wall seconds of a map point's runs on one
+        worker per unit of its expected work ("reference": seconds of the
+        shipped map's point, "steps": bounded steps), or None."""
+        return self._rates.get((model, fidelity, unit))
 
-    def measure_speed(self, model, fidelity="standard"):
-        """Measure ns per step on one point (blocking: call it off the
-        event loop); later maps refine it from their own points."""
-        if model in self._speed:
-            return self._speed[model]
+    def fraction(self, model, levels):
+        """The share of the finest grid the refinement computes: this
+        server's last maps' of `model` and `levels`, else FRACTION_PRIOR's."""
+        return self._fractions.get((model, levels), FRACTION_PRIOR.get(levels, 1.0))
+
+    def _reference(self, request):
+        """The shipped drift map of the request's model nearest its mu, or None."""
+        from . import data
+        mus = [mu for model, mu in data.available_maps() if model == request.model]
+        if not mus:
+            return None
+        try:
+            return data.drift_map(request.model, min(mus, key=lambda mu: abs(mu - request.mu)))
+        except data.MapUnavailable:
+            return None
+
+    def expected_work(self, request):
+        """(each finest-grid point's work, its unit, the points expected to
+        be computed: a boolean array, or the share of the grid)."""
+        from vibtrans.maps.adaptive import predict_refinement
+        reference = self._reference(request)
+        work = None if reference is None else maprequest.reference_work(request, reference)
+        if work is None:
+            return (maprequest.bound_steps(request), "steps",
+                    self.fraction(request.model, request.levels))
+        return work, "reference", predict_refinement(request.sweep(), request.levels, reference)
+
+    def measure_speed(self, request, work, unit):
+        """Probe this server's speed for the request's model and fidelity
+        (seconds per unit of `work`) on nine points of its window, in the map
+        workers: blocking (call it off the event loop); it also starts the
+        workers, so that a map asked for soon after its estimate starts at
+        once.  Each map computed then replaces it by its own rate."""
+        key = (request.model, request.fidelity, unit)
+        if key in self._rates:
+            return self._rates[key]
         from vibtrans.maps.sweep import compute_point
         kernels.wait()
-        request = maprequest.MapRequest(model=model, fidelity=fidelity,
-                                        periods=CALIBRATION["periods"])
-        for _ in range(2):      # the first call may load kernels from numba's cache
-            point = compute_point(request.scene_values(), CALIBRATION["la"],
-                                  CALIBRATION["lm"], maprequest.CHAOS)
-        if point["steps"] > 0 and point["seconds"] > 0:
-            self._speed.setdefault(model, 1e9 * point["seconds"] / point["steps"])
-        return self._speed.get(model)
+        # a point's cost depends on its regime: nine over the window, at the
+        # request's length (a much shorter run has the ramp's and a run's
+        # fixed costs out of proportion) up to PROBE_PERIODS
+        probe = request.copy()
+        probe.periods = min(request.periods, PROBE_PERIODS)
+        scale = probe.periods / request.periods
+        la, lm = probe.axes()
+        n = len(la)
+        idx = [(n * a // 6, n * b // 6) for a in (1, 3, 5) for b in (1, 3, 5)]
+        lane = None if self.scheduler else self.share()
+        try:
+            run = lane.submit if lane is not None else _now
+            futures = [run(compute_point, probe.scene_values(), la[i], lm[j],
+                           maprequest.CHAOS) for i, j in idx]
+            seconds = sum(f.result()["seconds"] for f in futures)
+        finally:
+            if lane is not None:
+                lane.shutdown()
+        probed = scale * sum(work[i, j] for i, j in idx)
+        if seconds > 0 and probed > 0:
+            self._rates.setdefault(key, seconds / probed)
+        return self._rates.get(key)
 
-    def _learn_speed(self, model, ds):
-        steps = ds["steps"].values[ds["computed"].values]
-        seconds = ds["seconds"].values[ds["computed"].values]
-        if steps.sum() > 0 and seconds.sum() > 0:
-            self._speed[model] = 1e9 * float(seconds.sum()) / float(steps.sum())
+    def _learn_speed(self, request, ds, wall):
+        """The map's own rate (its runs' share of its wall time, on `cores`
+        workers, per unit of its computed points' expected work) and the
+        share of the grid computed, for the next estimates."""
+        computed = ds["computed"].values
+        work, unit, _ = self.expected_work(request)
+        total = float(work[computed].sum())
+        runs = wall - MAP_START_SECONDS - POINT_PASSAGE_SECONDS * int(computed.sum())
+        if total > 0 and runs > 0:
+            self._rates[(request.model, request.fidelity, unit)] = runs * self.cores / total
+        self._fractions[(request.model, request.levels)] = float(computed.mean())
 
     def estimate(self, request):
-        """(Estimate or None, problems): the request's cost, or why it is
-        refused (the server's limits included); blocking (off the loop)."""
+        """(Estimate or None, problems): the request's expected cost, or why
+        it is refused (the server's limits included); blocking (off the loop)."""
         problems = request.problems(self.max_points)
         if problems:
             return None, problems
@@ -225,8 +313,10 @@ class MapJobs:
             request.sweep()            # every scene value, the library's checks
         except ValueError as exc:
             return None, [str(exc)]
-        ns = self.measure_speed(request.model)
-        est = maprequest.estimate(request, ns, self.cores)
+        work, unit, computed = self.expected_work(request)
+        rate = self.measure_speed(request, work, unit)
+        est = maprequest.estimate(request, rate, work, computed, self.cores,
+                                  MAP_START_SECONDS, POINT_PASSAGE_SECONDS)
         if est.seconds is not None and est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
                          f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "
@@ -363,7 +453,7 @@ class MapJobs:
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            self._learn_speed(comp.request.model, ds)
+            self._learn_speed(comp.request, ds, time.monotonic() - comp.started)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels

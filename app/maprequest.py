@@ -5,7 +5,7 @@ form, its sweep and cache key, and its estimated cost.
     request = MapRequest(model="point-mass", mu=0.5, la_from=-1, la_to=1, ...)
     request.problems()        # [] or one message per invalid value
     text = encode(request)    # the `map=` URL value; decode(text) -> (request, errors)
-    estimate(request, ns_per_step, workers)   # an upper bound of the work
+    estimate(request, seconds_per_step, fraction, workers)   # its expected cost
 
 The finest grid has `cells * 2**levels + 1` points per axis, from the
 window's lower to its upper bound: the adaptive refinement
@@ -171,20 +171,25 @@ def decode(raw):
 
 
 class Estimate(NamedTuple):
-    """An upper bound of a map's work: finest-grid points, integration
-    steps (runs and twins), and seconds at `ns_per_step` on `workers`
-    cores (None while this server's speed is not known)."""
+    """A map's expected cost: `points` of the finest grid (an upper bound
+    of those computed), `steps` (an upper bound of their integration steps,
+    runs and twins), `computed` (the points the refinement is expected to
+    compute) and `seconds` (the expected wall time on this server), both
+    from its own measured rates (app/mapjobs.py); None while unknown."""
     points: int
     steps: float
     seconds: object
+    computed: object = None
 
     def text(self, workers):
         when = ("seconds unknown until this server's speed is measured" if self.seconds is None
                 else f"about {_duration(self.seconds)} on this server ({workers} "
-                     f"core{'s' if workers != 1 else ''})")
+                     f"core{'s' if workers != 1 else ''}, from its measured speed)")
+        some = ("" if self.computed is None else
+                f" The refinement computes only where the map changes: about "
+                f"{self.computed:,.0f} of them expected.")
         return (f"At most {self.points:,} points ({math.isqrt(self.points)} per axis), "
-                f"{self.steps:.3g} integration steps: {when}. The refinement computes only "
-                f"where the map changes: usually fewer.")
+                f"{self.steps:.3g} integration steps: {when}.{some}")
 
 
 def _duration(seconds):
@@ -204,10 +209,53 @@ def point_steps(request, la, lm):
     return step_count(request.periods, time_step(10.0 ** la, 10.0 ** lm, request.fidelity))
 
 
-def estimate(request, ns_per_step=None, workers=1):
-    """The request's Estimate (refuse it by `problems` first: this walks
-    every point of the finest grid)."""
+def bound_steps(request):
+    """The upper bound of the steps of each point of the finest grid (an
+    array indexed [log_amplitude, log_mass])."""
     la, lm = request.axes()
-    steps = float(sum(point_steps(request, a, m) for a in la for m in lm))
-    seconds = None if ns_per_step is None else steps * ns_per_step * 1e-9 / max(1, workers)
-    return Estimate(request.points(), steps, seconds)
+    return np.array([[point_steps(request, a, m) for m in lm] for a in la], dtype=float)
+
+
+def reference_work(request, reference):
+    """Each finest-grid point's expected cost in `reference`'s seconds: a
+    shipped map of the model (its points' measured `seconds`, read at the
+    nearest of its points), scaled by the steps of the request's run over
+    those of the reference's (length and fidelity).  None if the window is
+    not inside the reference's."""
+    ref_la = reference["log_amplitude"].values
+    ref_lm = reference["log_mass"].values
+    la, lm = request.axes()
+    if la.min() < ref_la.min() or la.max() > ref_la.max() or \
+            lm.min() < ref_lm.min() or lm.max() > ref_lm.max():
+        return None
+    ia = np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1)
+    im = np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1)
+    seconds = reference["seconds"].values[np.ix_(ia, im)]
+    ref = request.copy()
+    ref.param.update(periods=float(reference.attrs["scene_periods"]),
+                     fidelity=reference.attrs["scene_fidelity"])
+    steps = bound_steps(request)
+    ref_steps = np.array([[point_steps(ref, ref_la[i], ref_lm[j]) for j in im] for i in ia],
+                         dtype=float)
+    work = seconds * steps / ref_steps
+    return np.where(np.isfinite(work), work, np.nanmedian(work))
+
+
+def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
+             start_seconds=0.0, point_seconds=0.0):
+    """The request's Estimate (refuse it by `problems` first: this walks
+    every point of the finest grid).  work: each finest-grid point's cost in
+    some unit (default: its bounded steps), seconds_per_work: this server's
+    wall seconds per unit of it on one worker; computed: the points the
+    refinement is expected to compute (a boolean array of the finest grid,
+    or the share of it); start_seconds, point_seconds: the map's own work,
+    once and per point computed."""
+    steps = bound_steps(request)
+    work = steps if work is None else work
+    if isinstance(computed, np.ndarray):
+        n, total = float(computed.sum()), float(work[computed].sum())
+    else:
+        n, total = computed * request.points(), computed * float(work.sum())
+    seconds = (None if seconds_per_work is None else
+               start_seconds + n * point_seconds + total * seconds_per_work / max(1, workers))
+    return Estimate(request.points(), float(steps.sum()), seconds, n)

@@ -1,9 +1,13 @@
 """What a session of the explorer has selected, with no widgets: the
 scene's parameters and the page's settings (`ExplorerState`, mirrored in
 the URL through `URL_KEYS`), and the ranges the explorer runs."""
+import math
+
 import param
 
 from vibtrans import Scene
+from vibtrans.core import units
+from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
 
 # the material of the shipped maps and the paper (Scene's defaults)
@@ -18,6 +22,20 @@ RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap r
 # refuses the costly ones.
 SCENE_LOG_AMPLITUDE = (-6.0, 6.0)    # log10 A*
 SCENE_LOG_MASS = (-8.0, 8.0)         # log10 m*
+# the device's materials (the Units and Design tabs' one list: the library's
+# names) and the entry for a material typed as its three properties
+MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
+CUSTOM_MATERIAL = "custom (E, nu, rho)"
+CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
+# the map tabs, as the URL names them
+# the device the page opens on: the paper's worked example at point 4
+PAPER_DEVICE = preset("paper").device
+MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
+# the fields whose value makes the scene (a run refuses while one is
+# invalid), and those of the device (its run refuses while one is)
+SCENE_FIELDS = ("log_amplitude", "log_mass", "alpha_t", "mu")
+DEVICE_FIELDS = ("substrate", "particle", "substrate_custom", "particle_custom", "radius",
+                 "frequency", "amplitude", "preload")
 
 
 def within(la, lm, log_amplitude, log_mass):
@@ -63,6 +81,60 @@ class ExplorerState(param.Parameterized):
     # the map on demand shown (app/maprequest.py's URL form), None: the shipped map
     map_request = param.String(default=None, allow_None=True)
 
+    # the device of the Units and Design tabs (SI units; one form, two tabs),
+    # the paper's worked example at point 4 (the Design tab's "paper" preset)
+    substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
+    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
+    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
+    radius = param.Number(default=PAPER_DEVICE.radius, bounds=(1e-9, 1.0),
+                          inclusive_bounds=(False, True), doc="the particle's radius, m")
+    frequency = param.Number(default=PAPER_DEVICE.frequency, bounds=(1.0, 1e10),
+                             doc="the wave's frequency, Hz")
+    amplitude = param.Number(default=PAPER_DEVICE.amplitude, bounds=(0.0, 1e-2),
+                             inclusive_bounds=(False, True), doc="the wave's vertical amplitude, m")
+    preload = param.Number(default=PAPER_DEVICE.preload, bounds=(0.0, 1e3), doc="pre-load, N")
+    # the map tab shown
+    tab = param.Selector(default="map", objects=list(MAP_TABS))
+    # the typed fields whose text is not a valid value: {parameter: message}
+    # (the parameter keeps its last valid value; a run refuses meanwhile)
+    invalid = param.Dict(default={}, precedence=-1)
+
+    def material(self, which):
+        """The text the library reads for the substrate or particle: its
+        name, or the custom material's properties."""
+        name = getattr(self, which)
+        return getattr(self, f"{which}_custom") if name == CUSTOM_MATERIAL else name
+
+    def device(self):
+        """The device in normalized units (units.NormalizedScene), or the
+        library's ValueError naming what is wrong."""
+        return units.to_normalized(self.material("substrate"), self.material("particle"),
+                                   self.radius, self.frequency, self.amplitude,
+                                   preload=self.preload)
+
+    def device_scene_values(self):
+        """The scene values of the device: (log10 A*, log10 m*, theta, nu)
+        unrounded, or ValueError."""
+        n = self.device()
+        if not n.A_star > 0:
+            raise ValueError("the device's A* is not positive")
+        return math.log10(n.A_star), math.log10(n.m_star), n.theta, n.nu
+
+    def errors(self, fields):
+        """The messages of the invalid typed fields among `fields`."""
+        return [msg for name, msg in self.invalid.items() if name in fields]
+
+    def set_invalid(self, name, message):
+        """Record (message) or clear ("") a typed field's error."""
+        invalid = dict(self.invalid)
+        if message:
+            invalid[name] = message
+        else:
+            invalid.pop(name, None)
+        if invalid != self.invalid:
+            self.invalid = invalid
+
     def scene(self):
         """The selected scene (a vibtrans.Scene; ValueError if invalid)."""
         return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass, mu=self.mu,
@@ -74,4 +146,12 @@ class ExplorerState(param.Parameterized):
 URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
             "log_mass": "lm", "fidelity": "fidelity", "integrator": "integrator",
             "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at",
-            "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods"}
+            "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods",
+            "theta": "theta", "nu": "nu", "substrate": "substrate", "particle": "particle",
+            "radius": "radius", "frequency": "freq", "amplitude": "amp",
+            "preload": "preload", "tab": "tab"}
+# a value's older spellings in links, still accepted: {parameter: {old: new}}
+URL_ALIASES = {"model": {"point_mass": "point-mass", "pointmass": "point-mass",
+                         "point mass": "point-mass"},
+               "compare": {"point-mass": "point mass", "point_mass": "point mass",
+                           "tau-twin": "tau twin"}}

@@ -22,8 +22,10 @@ Rules:
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
 * unknown keys are ignored (tracking parameters, future keys);
-* mu must name a shipped map for the model: if not, mu = 0.3 (the message
-  says so);
+* a value's older spellings (`URL_ALIASES`: `point_mass` for `point-mass`)
+  are accepted; links are written with one spelling (`query`);
+* a mu with no shipped map for the model is kept as given (the map says
+  which map it shows, the mu selector offers the value);
 * the given text is shown in the message escaped (no HTML, no Markdown)
   and cut to 40 characters: the message is rendered as Markdown.
 """
@@ -61,13 +63,27 @@ def _bounds(p):
     return (-math.inf if lo is None else lo), (math.inf if hi is None else hi)
 
 
+def _inclusive(p):
+    return getattr(p, "inclusive_bounds", (True, True)) or (True, True)
+
+
+def _inside(p, value):
+    lo, hi = _bounds(p)
+    lo_in, hi_in = _inclusive(p)
+    return ((lo <= value if lo_in else lo < value)
+            and (value <= hi if hi_in else value < hi))
+
+
 def valid_range(p):
-    """What a parameter accepts, in words ("a number in [-6.0, 6.0]")."""
+    """What a parameter accepts, in words ("a number in [-6.0, 6.0]",
+    "(0.0, 0.01]" where a bound is excluded)."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
     what = "an integer" if isinstance(p, param.Integer) else "a number"
     lo, hi = _bounds(p)
-    return what if (lo, hi) == (-math.inf, math.inf) else f"{what} in [{lo}, {hi}]"
+    lo_in, hi_in = _inclusive(p)
+    return what if (lo, hi) == (-math.inf, math.inf) else (
+        f"{what} in {'[' if lo_in else '('}{lo}, {hi}{']' if hi_in else ')'}")
 
 
 def convert(p, raw):
@@ -85,21 +101,20 @@ def convert(p, raw):
         if not _INTEGER.fullmatch(raw):
             raise ValueError("not an integer")
         value = int(raw)
-        lo, hi = _bounds(p)
-        if not lo <= value <= hi:
+        if not _inside(p, value):
             raise ValueError("out of range")
         return value
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
-    lo, hi = _bounds(p)
-    if not (math.isfinite(value) and lo <= value <= hi):
+    if not (math.isfinite(value) and _inside(p, value)):
         raise ValueError("out of range")
     return value
 
 
-def parse(args, state, url_keys, available_maps=None):
+def parse(args, state, url_keys, aliases=None):
     """(values, errors): see the module docstring."""
+    aliases = aliases or {}
     args = args or {}
     values, errors = {}, []
     for name, key in url_keys.items():
@@ -117,19 +132,30 @@ def parse(args, state, url_keys, available_maps=None):
                           f"different values; it must be {valid_range(p)}")
             continue
         raw = texts[0]
+        raw = aliases.get(name, {}).get(raw.strip(" \t"), raw)
         try:
             values[name] = convert(p, raw)
         except ValueError:
             errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; "
                           f"got '{shown(raw)}'")
-    if available_maps is not None:
-        model = values.get("model", state.param["model"].default)
-        mu = values.get("mu", state.param["mu"].default)
-        if (model, mu) not in available_maps:
-            errors.append(f"no shipped map for model={model}, mu={mu:g}; "
-                          f"showing mu = {DEFAULT_MU:g}")
-            values["mu"] = DEFAULT_MU
     return values, errors
+
+
+def written(value):
+    """A value as a link writes it: numbers exactly (repr: the run a link
+    reproduces is the run shown), options as they are."""
+    if isinstance(value, float):
+        return repr(value + 0.0)        # (-0.0 is 0.0: equal, no change seen)
+    return str(value)
+
+
+def query(state, url_keys, extra=()):
+    """The link's query ("?la=...&lm=...") of the state: every key of
+    `url_keys`, then `extra` ((key, text) pairs); None values left out."""
+    from urllib.parse import urlencode
+    pairs = [(key, written(getattr(state, name))) for name, key in url_keys.items()
+             if getattr(state, name) is not None]
+    return "?" + urlencode([*pairs, *extra])
 
 
 def resolved(values, state, url_keys):
@@ -138,5 +164,7 @@ def resolved(values, state, url_keys):
 
 
 def message(errors):
-    """The one line the explorer shows for the errors (empty if none)."""
-    return " · ".join(errors) + " — using the defaults for those." if errors else ""
+    """The one line the explorer shows for a link's errors (empty if none):
+    nothing of such a link is run."""
+    return ("This link has errors, so nothing was run: " + " · ".join(errors)
+            + ". Correct the link, or choose a scene and press Run." if errors else "")

@@ -119,7 +119,7 @@ def test_each_frame_draws_the_runs_state(which, request):
             assert z["colour"][0] == plots.STATE_COLORS[state]     # the state's colour
             assert z["colour"][1] == plots.STATE_COLORS[1]          # the stick core
             assert (f["contact"]["c"][0], f["contact"]["s"][0]) == (c, s)
-        shown = re.match(r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)   (.+?)   y\* = (\S+) a0",
+        shown = re.match(r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)\n(.+?)   y\* = (\S+) a0",
                          f["side_title"]).groups()
         assert float(shown[0]) == pytest.approx(t, abs=5.1e-5)
         assert float(shown[1]) == pytest.approx(t % 1.0, abs=5.1e-4)
@@ -315,7 +315,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             _same_frame(state, anim.frame(0))             # drawn by the server
             ARTIFACTS.mkdir(exist_ok=True)
 
-            page.select_option("select", label="1 period/s")
+            page.locator("select").filter(has_text="1 period/s").select_option(label="1 period/s")
             play = page.get_by_role("button", name="Play")
             sent_at_play = len(sent)
             play.click()
@@ -400,3 +400,32 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             assert not errors, errors
     finally:
         server.stop()
+
+
+def test_a_chosen_window_shows_the_particle_travel(slipping):
+    """Issue 32: the animation showed the last two periods only, so a class
+    could not see the particle travel at point 1.  The user chooses a
+    longer stretch, up to the whole run: its frames are the run's samples,
+    evenly in time (the overview's rate before the full-resolution window),
+    at most max_frames of them, and the note says what is decimated."""
+    from vibtrans_explorer.views.animation import WINDOWS
+    scene, ds = slipping
+    anim = ParticleAnimation(max_frames=100)
+    anim.show(scene, ds)
+    short = dict(anim.frames.data)
+    assert short["t"][0] == pytest.approx(WINDOW[0])
+    anim.window.value = WINDOWS["the whole run (decimated)"]      # re-shows the run
+    t = np.asarray(anim.frames.data["t"])
+    all_t = ds["time"].values
+    assert t[0] == all_t[0] and t[-1] == all_t[-1] and 2 <= t.size <= 100
+    assert np.all(np.isin(t, all_t))                              # the run's own samples
+    steps = np.diff(t)
+    assert steps.max() < 3 * (all_t[-1] - all_t[0]) / 100         # evenly in time
+    x = np.asarray(anim.frames.data["x"])
+    assert np.ptp(x) > 5 * np.ptp(short["x"])         # the travel over the run shows
+    assert "samples per period" in anim.key.text and "does not" in anim.key.text
+    anim.window.value = WINDOWS["the last 10 periods"]
+    t = np.asarray(anim.frames.data["t"])
+    assert t[0] == pytest.approx(T_OBS - 10.0, abs=0.5) and t[-1] == all_t[-1]
+    anim.window.value = WINDOWS["the last periods at full resolution"]
+    assert np.array_equal(anim.frames.data["t"], short["t"])

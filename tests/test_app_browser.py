@@ -297,15 +297,15 @@ def test_units_view_moves_the_marker(page, server):
     _open(page, server)
     page.get_by_text("Units", exact=True).first.click()
     _see(page, "Rayleigh speed c_R")
-    field = page.locator(".vt-field-frequency_khz input").first
-    field.fill("250")
+    field = page.locator(".vt-field-frequency input").first
+    field.fill("250e3")
     field.press("Enter")
     # m* grows as f^2: 1.08e5 Hz -> 2.5e5 Hz moves the marker up by log10(5.36) = 0.73
     _see(page, "(log10 0.7")
     # a bad value is a message beside the field, not a silent revert
     field.fill("-5")
     field.press("Enter")
-    _see(page, "frequency (kHz) must be a number in")
+    _see(page, "frequency (Hz) must be a number in")
 
 
 def test_a_device_runs_with_its_own_material_and_si_units(page, server):
@@ -315,10 +315,9 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
     _open(page, server + "?fidelity=preview")
     page.get_by_text("Units", exact=True).first.click()
     _see(page, "Rayleigh speed c_R")
-    page.locator(".vt-substrate select").first.select_option("lithium_niobate")
+    page.locator(".vt-substrate select").first.select_option("lithium niobate")
     page.locator(".vt-particle select").first.select_option("glass")      # silica
-    for key, value in (("radius_mm", "0.01"), ("frequency_khz", "10000"),
-                       ("amplitude_nm", "1")):
+    for key, value in (("radius", "1e-5"), ("frequency", "1e7"), ("amplitude", "1e-9")):
         f = page.locator(f".vt-field-{key} input").first
         f.fill(value)
         f.press("Enter")
@@ -328,19 +327,23 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
     _see(page, "(the maps: 1.2, 0.3)")
     # the drift and the run's length in SI units (issue 14: time in seconds)
     _see(page, "periods, lasts")
-    _see(page, "(the Units tab's device)")
+    _see(page, "(the device of the Units and Design tabs)")
 
 
 def test_teaching_view_and_export(page, server):
     _open(page, server)
+    # the page opens on paper point 1, which the paper-points selector shows
+    # (it follows the scene): Run runs it
     select = page.locator("select").filter(has_text="synchronous hopping")
-    select.select_option(label="1: permanent contact, drift against the wave")
+    assert select.input_value() == select.locator(
+        "option", has_text="1: permanent contact").get_attribute("value")
+    page.locator("button", has_text="Run selected scene").click()
     _summary_text(page).wait_for(timeout=budget_ms(60))
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()
     # a snapshot drawn: the diagram's title names its time
     page.wait_for_function("""() => (page_figures => page_figures.some(
-        f => f[0].startsWith("memory diagram w(h), t* = ")))((%s)())""" % _FIGURES_JS,
+        f => f[0].startsWith("memory diagram w(h)\\nt* = ")))((%s)())""" % _FIGURES_JS,
                            timeout=budget_ms(60), polling=250)
     page.get_by_text("Downloads", exact=True).click()
     for kind in ("trajectory-png", "map-svg"):

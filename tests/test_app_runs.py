@@ -430,3 +430,28 @@ def test_the_page_passes_bokehs_document_checks():
     assert warnings <= {"EMPTY_LAYOUT"}, warnings
 
 
+
+
+def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypatch):
+    """Issue 32: after Cancel the summary said only 'Run cancelled.' while
+    the figures, the memory diagram and the downloads still showed the
+    previous run as if current.  Now the summary says whose they are, over
+    the previous run's table, and the memory diagram says so too."""
+    from vibtrans_explorer.views.summary import CANCELLED_LINE, PREVIOUS_RUN
+
+    async def go():
+        ex = _explorer(log_amplitude=2.5, log_mass=0.0)
+        ex.start_run()
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        table = ex.summary.object
+        ex.run_tabs.active = E.MEMORY_TAB           # the memory diagram of that run
+        await until(lambda: ex.memory_view is not None and ex.memory_view.snapshots,
+                    timeout=budget(120))
+        ex.state.log_mass = -0.5                    # a new scene, run and cancelled
+        await _start_run_that_waits_for_cancel(ex, monkeypatch)
+        ex._on_cancel(None)
+        await until(lambda: ex.summary.object.startswith(CANCELLED_LINE))
+        assert table.split("\n")[0] in ex.summary.object     # the previous run's heading
+        assert PREVIOUS_RUN in ex.memory_view.status.object
+        assert ex.stale_note.visible                         # and it is not the state's
+    asyncio.run(go())

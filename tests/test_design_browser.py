@@ -94,7 +94,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         # a custom substrate: its text field appears beside the materials
         page.locator(".vt-design-preset select").first.scroll_into_view_if_needed()
         page.get_by_label("substrate", exact=True).first.select_option("custom (E, nu, rho)")
-        field = page.locator(".vt-design-substrate-custom input").first
+        field = page.locator(".vt-design-fields .vt-substrate-custom input").first
         field.wait_for(timeout=budget_ms(30))
         assert field.input_value() == "E=70e9,nu=0.3,rho=2500"
         assert page.locator(".vt-design-preset select").first.input_value() == "custom"
@@ -145,7 +145,8 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         _shot(page, "computed")
         box = chart.bounding_box()
         page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
-        page.get_by_text("(the Design tab's device)").first.wait_for(timeout=budget_ms(120))
+        page.get_by_text("(the device of the Units and Design tabs)").first.wait_for(
+            timeout=budget_ms(120))
         _shot(page, "device-run")
     except Exception:
         ARTIFACTS.mkdir(exist_ok=True)

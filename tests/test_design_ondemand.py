@@ -118,7 +118,6 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert panel.chart is None and "no shipped map for mu = 0.5" in panel.offer.object
     assert "5 x 5 points" in panel.offer.object and jobs.computed == 0
     assert "2000 periods, preview" in panel.offer.object and "Accuracy" in panel.offer.object
-    assert panel.run_button.disabled            # no device read yet
     asyncio.run(panel.compute())
     assert "finished" in panel.progress.object and not panel.alert.visible
     assert jobs.computed == 1 and not panel.cancel_button.visible
@@ -142,9 +141,8 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     # click ran it; the button runs it again)
     assert not panel.run_button.disabled and len(runs) == 1
     panel.run_device()
-    assert len(runs) == 2 and runs[0] == runs[1]
-    device, mu, periods = runs[-1]
-    assert (device.frequency, device.amplitude, mu, periods) == (x, y, 0.5, 2000.0)
+    # the explorer runs the form's device (the state's when shared) at these
+    assert len(runs) == 2 and runs[0] == runs[1] == (0.5, 2000.0)
     # another session asking the same chart gets it from the cache
     other = D.DesignPanel(jobs=jobs)
     other.__panel__()
@@ -202,21 +200,24 @@ def test_the_explorer_runs_the_design_tabs_device_and_gives_it_in_si_units(monke
     runs = []
     monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
     device = design.preset("paper").device          # steel on glass: theta 1.214
-    ex._run_design_device(device, 0.3, 2000.0)
+    ex.state.param.update(substrate=device.substrate, particle=device.particle,
+                          radius=device.radius, frequency=device.frequency,
+                          amplitude=device.amplitude, preload=device.preload)
+    ex._run_design_device(0.3, 2000.0)
     scene = runs[-1]
     n = device.normalized()
     assert scene.model == "deformable" and scene.mu == 0.3 and scene.periods == 2000.0
     assert scene.theta == n.theta and scene.nu == n.nu
     assert round(np.log10(scene.amplitude), 3) == round(np.log10(n.A_star), 3)
     text = ex.units_panel.si_text(-299.0, scene)
-    assert "(the Design tab's device)" in text
+    assert "(the device of the Units and Design tabs)" in text
     assert f"{n.drift_velocity_si(-299.0):.3e} m/s" in text
     assert ex.units_panel.period_seconds(scene) == pytest.approx(1 / device.frequency)
     # another scene is no device: the hint, as before
     assert "run a device from the Units or Design tab" in ex.units_panel.si_text(
         1.0, Scene(amplitude=10.0, mass=1.0))
     # a device beyond the explorer's range is refused with a message, nothing runs
-    far = design.preset("saw-powder").device.__class__(
-        "lithium niobate", "fused silica", 1e-6, 1e7, 1e-3)
-    ex._run_design_device(far, 0.3, 2000.0)
+    ex.state.param.update(substrate="lithium niobate", particle="fused silica", radius=1e-6,
+                          frequency=1e7, amplitude=1e-3)
+    ex._run_design_device(0.3, 2000.0)
     assert len(runs) == 1 and "outside the explorer's range" in ex.message.object

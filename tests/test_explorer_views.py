@@ -42,8 +42,10 @@ def test_the_vertical_curve_marks_the_selected_scene():
     ex = _explorer()
     ex.vertical.build()
     ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
-    assert ex.vertical.scene.data == {"x": [-0.5], "y": [1.25]}
+    # the map's axes (issue 32: the vertical tab had them swapped)
+    assert ex.vertical.scene.data == {"x": [1.25], "y": [-0.5]}
     fig = ex.vertical.pane.objects[0].object
+    assert fig.xaxis[0].axis_label == "log10 A*" and fig.yaxis[0].axis_label == "log10 m*"
     labels = [item.label["value"] if isinstance(item.label, dict) else
               getattr(item.label, "value", item.label) for item in fig.legend[0].items]
     assert "the selected scene" in labels
@@ -111,7 +113,7 @@ def test_changing_the_comparison_relabels_the_same_figures():
         await until(lambda: ex.controller.job is None and ex.controller.result is not first)
         assert list(ex.trajectories.views) == [key] and view.runs == 2
         assert view.over.twin_figure.title.text == "x*(t) and the point mass run of the same scene"
-        assert [i.label for i in view.over.twin_items][1] == "x*, point mass"
+        assert [i.label.value for i in view.over.twin_items][1] == "x*, point mass"   # a value, not a field
     asyncio.run(go())
 
 
@@ -156,8 +158,8 @@ def test_the_first_screen_builds_only_what_it_shows():
     assert _has(doc, "vt-field-log_amplitude") and _has(doc, "vt-run")    # the first screen is
     with set_curdoc(doc):
         ex.map_tabs.active = E.UNITS_TAB
-        assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency_khz")
-        ex.units_panel.frequency_khz = 250.0      # the device moves the map's marker
+        assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency")
+        ex.state.frequency = 250e3                # the device moves the map's marker
         assert ex.map_view.device.data["y"] and ex.units_panel.marker is not None
         ex.run_tabs.active = E.DOWNLOADS_TAB
         assert _has(doc, "vt-data-run-csv") and _has(doc, "vt-export-map-png")

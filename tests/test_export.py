@@ -104,7 +104,8 @@ def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_
     svg2 = tmp_path / "traj.svg"
     export.export_trajectory(run4, svg2, dpi=30)
     text = svg2.read_text()
-    assert "t* (periods)" in text and "a*, y* (a0)" in text and "contact state" in text
+    assert "t* (periods)" in text and "contact state" in text
+    assert "a* (a0)" in text and "y* (a0)" in text         # each on its own axis
     pdf = tmp_path / "vertical.pdf"
     export.export_vertical(vertical, pdf)
     assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 2000
@@ -351,6 +352,15 @@ def _capture_trajectory(monkeypatch):
     return seen
 
 
+def _drawn_on(fig, ax, right):
+    """The axes a panel `ax`'s line is drawn on: its twin (the right axis,
+    same place) when `right`, else ax itself."""
+    if not right:
+        return ax
+    (twin,) = [o for o in fig.axes if o is not ax and o.bbox.bounds == ax.bbox.bounds]
+    return twin
+
+
 def _band(ax, colour):
     """(x, lo, hi) of the min-max band of `colour` drawn in `ax`."""
     from matplotlib.collections import PolyCollection
@@ -401,7 +411,8 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
     export.export_trajectory(ds, out, twin=twin, dpi=30)
     assert _png_size(out) == (330, 390)               # 11 x 13 in at 30 dpi
     fig = seen["figs"][0]
-    axes = np.array(fig.axes).reshape(6, 2)         # rows x (whole run, window)
+    # rows x (whole run, window); the right axes (twins) come after them
+    axes = np.array(fig.axes[:12]).reshape(6, 2)
     titles = [[ax.get_title() for ax in row] for row in axes]
     note = plots.BINNED_NOTE
     assert titles == [
@@ -423,20 +434,23 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
     used, j = np.unique(k, return_inverse=True)
     frag = (t >= PERIODS - plots.FRAGMENT)
     for row, lines in enumerate(plots.panel_spec(False, split_velocity=True)):
+        right = plots.right_columns([var for var, _, _ in lines[2]])
         for var, label, colour in lines[2]:
             v = ds[var].values
             ok = np.isfinite(v)
+            # (a right-axis quantity is drawn on its panel's twin axes)
+            on = [_drawn_on(fig, axes[row, col], var in right) for col in (0, 1)]
             # whole run: the band holds every sample, its ends are samples
-            x, lo, hi = _band(axes[row, 0], colour)
+            x, lo, hi = _band(on[0], colour)
             assert x.size == used.size
             assert np.all(lo[j][ok] <= v[ok]) and np.all(v[ok] <= hi[j][ok]), var
             np.testing.assert_array_equal(np.isin(lo, v), True)
             np.testing.assert_array_equal(np.isin(hi, v), True)
-            line = next(ln for ln in axes[row, 0].lines if ln.get_label() == label)
+            line = next(ln for ln in on[0].lines if ln.get_label() == label)
             np.testing.assert_allclose(line.get_ydata(), plots.binned(t, {var: v},
                                                                         plots.OVERVIEW_BINS)[var])
             # the window: every sample, nothing else
-            line = next(ln for ln in axes[row, 1].lines if ln.get_label() == label)
+            line = next(ln for ln in on[1].lines if ln.get_label() == label)
             np.testing.assert_array_equal(line.get_xdata(), t[frag])
             np.testing.assert_array_equal(line.get_ydata(), v[frag])
     # the strips: each state's area is its time (the strip is 1 high)
@@ -541,3 +555,53 @@ def test_export_bench_measures_each_format(monkeypatch):
         assert 0 < r[f"{fmt}_cpu_seconds"] and 0 < r[f"{fmt}_seconds"] < float("inf")
         assert r[f"{fmt}_over_reference"] == pytest.approx(
             r[f"{fmt}_cpu_seconds"] / r["reference_cpu_seconds"])
+
+
+def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4):
+    """A download callback in the server runs where Bokeh's curdoc() is a
+    session's document that may already be destroyed (a closed page's); the
+    trajectory's .html then never arrived (issue 32: AttributeError
+    '_js_event_callbacks' in bokeh.embed's new document).  The export makes
+    its own Document and does not read curdoc()."""
+    from bokeh.document import Document
+    from bokeh.io.doc import patch_curdoc
+    session = object()                  # what a server session registers
+    gone = Document()
+    gone.on_change_dispatch_to(session)
+    gone.destroy(session)
+    out = tmp_path / "traj.html"
+    with patch_curdoc(gone):
+        export.export_trajectory(run4, out)
+    text = out.read_text()
+    assert "<html" in text.lower() and "t* (periods)" in text
+
+
+def test_exported_trajectory_gives_y_its_own_axis(run4):
+    """Issue 32: the exported trajectory drew y* on a*'s axis (the app gives
+    it an axis of its own at the right, plots.RIGHT_AXIS); the PNG/SVG/PDF
+    (matplotlib) and the HTML (Bokeh) are drawn from one figure definition
+    (plots.trajectory_figure), whose panels say which lines go right."""
+    import matplotlib.pyplot as plt
+    from bokeh.models import LinearAxis
+    figure = plots.trajectory_figure(run4)
+    normal = next(p for p in figure.columns[0] if "normal: a*(t), y*(t)" in p.title)
+    assert normal.right == ("y",) and normal.axis_labels == ("a* (a0)", "y* (a0)")
+    fig = export.render_trajectory(figure)
+    try:
+        main = next(ax for ax in fig.axes if ax.get_title() == normal.title)
+        twins = [ax for ax in fig.axes if ax is not main and ax.bbox.bounds == main.bbox.bounds]
+        assert len(twins) == 1
+        by_label = {main.get_ylabel(): main, twins[0].get_ylabel(): twins[0]}
+        y = [tr for tr in normal.traces if tr.var == "y"][0]
+        a = [tr for tr in normal.traces if tr.var == "a"][0]
+        # y*'s line on an axis labelled y*, a*'s on one labelled a*
+        assert any(np.array_equal(line.get_ydata(), y.value) for line in by_label["y* (a0)"].lines)
+        assert any(np.array_equal(line.get_ydata(), a.value) for line in by_label["a* (a0)"].lines)
+        assert not any(np.array_equal(line.get_ydata(), y.value)
+                       for line in by_label["a* (a0)"].lines)
+    finally:
+        plt.close(fig)
+    layout = export.trajectory_bokeh(figure)
+    right = [ax for ax in layout.select({"type": LinearAxis})
+             if ax.y_range_name == "right" and ax.axis_label == "y* (a0)"]
+    assert len(right) == 2          # the whole run's panel and the fragment's

@@ -98,3 +98,15 @@ def test_both_models_draw_into_one_set_of_figures():
     assert _drawn_panels(view.over) == before            # and back
     for (title, _, lines), drawn in zip(panel_spec(False), before):
         assert drawn[0].startswith(title) and set(drawn[3]) == {c for c, _, _ in lines}
+
+
+def test_relabelled_comparison_legend_is_text_not_a_column():
+    """Issue 32: after 'both models' (the figures first built for another
+    comparison, then relabelled) both x*(t) legend lines read 'Invalid
+    field': a label set as a bare string is a column name to Bokeh."""
+    from bokeh.core.property.vectorization import Value
+    view = LiveTrajectory("tau + 0.001", 2.0, 10.0)
+    view.relabel(10.0, "point mass")
+    labels = [item.label for item in view.over.twin_items]
+    assert all(isinstance(label, Value) for label in labels), labels
+    assert [label.value for label in labels] == ["x*, tau = 10", "x*, point mass"]

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from vibtrans_explorer import maprequest, mapjobs
+from vibtrans_explorer import data, maprequest, mapjobs
 from vibtrans_explorer.maprequest import MapRequest
 from budget import budget
 
@@ -72,6 +72,11 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     again = second.wait()
     assert again.kind == "done" and again.cached and jobs.computed == 1
     assert not again.shown                  # nothing drawn before: draw it
+    # the next estimates learn from the map computed: its share of the grid
+    # and its runs' rate (its wall time less its own work, per bounded step)
+    assert jobs.fraction("deformable", 1) == done.ds["computed"].values.mean()
+    assert jobs.seconds_per_work("deformable", "preview", "reference") > 0
+    assert jobs.seconds_per_work("deformable", "standard", "reference") is None
     np.testing.assert_array_equal(again.ds["drift_velocity"].values,
                                   done.ds["drift_velocity"].values)
 
@@ -137,18 +142,40 @@ def test_a_damaged_cache_entry_is_recomputed_not_shown(jobs, gate):
 def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
                            max_seconds=10.0)
-    jobs._speed["deformable"] = 100.0          # ns per step, as if measured
+    for fidelity in ("preview", "reference"):       # s per unit of work, as if measured
+        jobs._rates[("deformable", fidelity, "reference")] = 0.5
     request = MapRequest(**TINY)
     est, problems = jobs.estimate(request)
     assert problems == []
     assert est.points == 25
-    # every point's steps at its own step (the contact time scale's)
+    # every point's steps at its own step (the contact time scale's): the bound
     la, lm = request.axes()
     from vibtrans import Scene, estimate_steps
     steps = sum(estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m, **request.scene_values()))
                 for a in la for m in lm)
     assert est.steps == steps
-    assert est.seconds == pytest.approx(steps * 100e-9 / 2)
+    # inside the shipped map: the refinement replayed on it, its points'
+    # seconds scaled from its 2000 standard periods to these 30 preview ones
+    work, unit, computed = jobs.expected_work(request)
+    assert unit == "reference" and computed.shape == (5, 5)
+    assert computed[::2, ::2].all() and est.computed == computed.sum()     # the coarse grid
+    shipped = data.drift_map("deformable", 0.3)
+    point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
+    ref = MapRequest(**{**TINY, "periods": 2000.0, "fidelity": "standard"})
+    assert work[2, 2] == pytest.approx(point * maprequest.point_steps(request, 0.0, 0.5)
+                                       / maprequest.point_steps(ref, 0.0, 0.5))
+    assert est.seconds == pytest.approx(mapjobs.MAP_START_SECONDS
+                                        + computed.sum() * mapjobs.POINT_PASSAGE_SECONDS
+                                        + work[computed].sum() * 0.5 / 2)
+    # beyond the shipped maps: the bounded steps and the share computed
+    far = MapRequest(**{**TINY, "la_from": 4.0, "la_to": 5.0})
+    jobs._rates[("deformable", "preview", "steps")] = 1e-7
+    est, problems = jobs.estimate(far)
+    work, unit, share = jobs.expected_work(far)
+    assert unit == "steps" and share == mapjobs.FRACTION_PRIOR[1] and problems == []
+    assert est.seconds == pytest.approx(mapjobs.MAP_START_SECONDS
+                                        + share * 25 * mapjobs.POINT_PASSAGE_SECONDS
+                                        + share * work.sum() * 1e-7 / 2)
     big = MapRequest(**{**TINY, "cells": 8, "levels": 3})       # 65 x 65
     est, problems = jobs.estimate(big)
     assert est is None and "4,225 points is over this server's limit of 1,000" in problems[0]
@@ -157,6 +184,21 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     assert est is not None and "over this server's limit of 10 s per map" in problems[0]
     empty = MapRequest(**{**TINY, "la_from": 0.5, "la_to": -0.5})
     assert "log10 A* 'from' (0.5) must be below its 'to' (-0.5)" in jobs.estimate(empty)[1][0]
+
+
+def test_the_first_estimate_of_a_model_and_fidelity_probes_its_speed(tmp_path):
+    """Before any map of its kind, the estimate runs nine of the window's
+    points (in the map workers, which it so starts for the map to come) and
+    takes their runs' seconds per bounded step."""
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
+    assert jobs.seconds_per_work("deformable", "preview", "reference") is None
+    est, problems = jobs.estimate(MapRequest(**TINY))
+    rate = jobs.seconds_per_work("deformable", "preview", "reference")
+    assert problems == [] and rate > 0 and est.seconds > 0
+    assert "on this server (1 core, from its measured speed)" in est.text(1)
+    # measured once: the next estimate of its kind uses it
+    jobs.estimate(MapRequest(**{**TINY, "la_from": -0.4}))
+    assert jobs.seconds_per_work("deformable", "preview", "reference") == rate
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():

@@ -16,7 +16,7 @@ from vibtrans.products import plots
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from budget import budget
 from vibtrans_explorer import urlstate
-from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times
+from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times, title_lines
 
 POOL = ThreadPoolExecutor(max_workers=2)
 
@@ -58,7 +58,7 @@ def _holds(view, snap):
     radii = [float(np.hypot(x[0], y[0])) for x, y in zip(view.discs.data["xs"],
                                                           view.discs.data["ys"])]
     assert radii == pytest.approx([d["r"] for d in discs], rel=1e-12)
-    assert view.w_fig.title.text == plots.memory_title(snap)
+    assert view.w_fig.title.text == title_lines(plots.memory_title(snap))
     assert view.c_fig.title.text == plots.contact_geometry(snap)["title"]
 
 
@@ -183,3 +183,46 @@ def test_snapshot_times_cover_the_last_period():
     assert np.all(np.diff(t) > 0)
     short = snapshot_times(0.5)
     assert short[0] == 0.0 and short[-1] == 0.5
+
+
+def test_the_slider_and_the_time_field_show_the_time_drawn(partial_slip):
+    """Issue 32: the slider stood at the run's end while the time field
+    said the last period's start, and neither followed the other.  Both
+    show the time of the diagram drawn: after the snapshots, a slide and a
+    typed time inside the slider's range; the titles name that time."""
+    scene, snaps = partial_slip
+
+    async def go():
+        view = _view(scene)
+        assert view.w_fig.toolbar_location != "above"      # the title has the whole row
+        await _ready(view)
+        # (the field holds times within the run: its end's snapshot may lie a
+        # step past the run's end)
+        end = view.at.param.t.bounds[1]
+        assert view.at.t == min(round(snaps[-1]["t"], 4), end)
+        assert view.slider.value == pytest.approx(snaps[-1]["t"])
+        view.slider.value = float(view.times[5])
+        _holds(view, snaps[5])
+        # (a snapshot's time is the step nearest to the one asked for)
+        assert view.at.t == round(snaps[5]["t"], 4)
+        assert view.slider.value == pytest.approx(snaps[5]["t"])
+        assert float(view.time_field.input.value) == view.at.t          # the field's text
+        t = round(float((view.times[10] + view.times[11]) / 2), 4)    # between two snapshots
+        view.time_field.input.value = str(t)
+        await view.show_at()
+        assert view.shown["t"] == pytest.approx(t) and view.slider.value == pytest.approx(t)
+        _holds(view, view.shown)          # (not replaced by the nearest snapshot)
+        assert f"t* = {view.shown['t']:.6g}" in view.w_fig.title.text
+    asyncio.run(go())
+
+
+def test_after_a_cancel_the_diagram_is_marked_as_the_previous_runs(partial_slip):
+    """Issue 32: after Cancel the old plots were shown as if current."""
+    scene, _ = partial_slip
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        view.mark_previous()
+        assert "previous run" in view.status.object
+    asyncio.run(go())

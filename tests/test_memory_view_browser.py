@@ -31,7 +31,7 @@ SCENE = paper_scene(9).replace(model="deformable", fidelity="preview", periods=2
 _TITLE_JS = """() => {
   for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
     if (m.text !== undefined && typeof m.text === "string"
-        && m.text.startsWith("memory diagram w(h), t* =")) return m.text;
+        && m.text.startsWith("memory diagram w(h)\\nt* =")) return m.text;
   return null;
 }"""
 _CHANGED_JS = f"(before) => {{ const t = ({_TITLE_JS})(); return t !== null && t !== before; }}"

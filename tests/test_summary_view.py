@@ -56,7 +56,10 @@ def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
     ds = simulate(scene, lyapunov=True)
     row = chaos_verdict(interpret(scene, ds, simulate(twin_scene(scene)), "tau + 0.001"))
     assert row.startswith("chaotic: Lyapunov exponent 0.1") and "(> 0.01)" in row
-    assert row.endswith("the tau + 0.001 twin agrees")
+    # what the twin did, plainly (issue 32: not "agrees" for a twin whose
+    # trajectory parted): its path parted, its mean drift the same
+    assert "the tau + 0.001 twin's trajectory parted from this run after" in row
+    assert row.endswith("and its drift is the same")
     regular = paper_scene(6).replace(periods=400.0)
     row = chaos_verdict(interpret(regular, simulate(regular, lyapunov=True), None, None))
     assert row.startswith("regular: Lyapunov exponent") and "(<= 0.01)" in row

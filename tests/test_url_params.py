@@ -33,7 +33,9 @@ from tornado.httputil import parse_qs_bytes
 
 from vibtrans_explorer import data, urlstate
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer.explorer import URL_KEYS, Explorer, ExplorerState
+from vibtrans_explorer.explorer import Explorer, ExplorerState
+from vibtrans_explorer.state import URL_KEYS
+from vibtrans_explorer.state import URL_ALIASES
 from vibtrans.cli import main
 from vibtrans.core.params import Scene
 
@@ -109,8 +111,14 @@ def _query(pairs):
 def _valid(name, value):
     if name in OPTIONS:
         return value in OPTIONS[name]
-    lo, hi = NUMERIC[name]
-    return isinstance(value, float) and math.isfinite(value) and lo <= value <= hi
+    return isinstance(value, float) and math.isfinite(value) and _inside(name, value)
+
+
+def _inside(name, value):
+    """Inside the parameter's bounds, each bound included or not as the
+    parameter says (nu's are open, the device's radius excludes 0)."""
+    (lo, hi), (lo_in, hi_in) = NUMERIC[name], ExplorerState.param[name].inclusive_bounds
+    return (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
 
 
 # ------------------------------------------------------------------ the pure parser
@@ -123,13 +131,13 @@ def _valid(name, value):
 @example(pairs=[("model", "point-mass"), ("mu", "1")])
 def test_parse_applies_valid_values_and_names_invalid_ones(pairs):
     args = _args(pairs)
-    values, errors = urlstate.parse(args, ExplorerState, URL_KEYS, MAPS)
-    # only known parameters, only valid values, and a shipped map
+    values, errors = urlstate.parse(args, ExplorerState, URL_KEYS, URL_ALIASES)
+    # only known parameters, only valid values (a mu without a shipped map
+    # is kept: the page shows it as it is)
     assert set(values) <= set(URL_KEYS)
     for name, value in values.items():
         assert _valid(name, value), (name, value)
-    state = ExplorerState(**urlstate.resolved(values, ExplorerState, URL_KEYS))
-    assert (state.model, state.mu) in MAPS
+    ExplorerState(**urlstate.resolved(values, ExplorerState, URL_KEYS))
     text = " ".join(errors)
     for key, raw in args.items():
         if key not in KEY_NAME:
@@ -137,15 +145,16 @@ def test_parse_applies_valid_values_and_names_invalid_ones(pairs):
             continue
         name = KEY_NAME[key]
         named = f"URL parameter '{key}' ({name})" in text
-        if name in values and not (name == "mu" and "no shipped map" in text):
+        if name in values:
             assert not named, (key, raw, errors)
             texts = {r.decode("utf-8", "replace").strip(" \t") for r in raw}
             assert len(texts) == 1
             given_ = texts.pop()
+            given_ = URL_ALIASES.get(name, {}).get(given_, given_)
             expected = given_ if name in OPTIONS else float(given_)
             assert values[name] == expected        # a valid value is applied as given
         else:
-            assert named or name == "mu", (key, raw, errors)
+            assert named, (key, raw, errors)
     for e in errors:
         assert len(e) < 500, e
         # nothing of the given text can become markup: no tag, no entity, no emphasis
@@ -161,12 +170,14 @@ def test_parse_numbers_exactly_the_documented_ones(name, data_):
     plain = re.fullmatch(r"[ \t]*[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d{1,4})?[ \t]*", raw, re.ASCII)
     lo, hi = NUMERIC[name]
     ok = (plain is not None and len(raw) <= urlstate.MAX_LENGTH
-          and math.isfinite(float(raw)) and lo <= float(raw) <= hi)
+          and math.isfinite(float(raw)) and _inside(name, float(raw)))
     if ok:
         assert values == {name: float(raw)} and errors == []
     else:
         assert values == {} and len(errors) == 1
-        assert f"'{URL_KEYS[name]}' ({name}) must be a number in [{lo}, {hi}]" in errors[0]
+        lo_in, hi_in = ExplorerState.param[name].inclusive_bounds
+        assert (f"'{URL_KEYS[name]}' ({name}) must be a number in {'[' if lo_in else '('}{lo}, "
+                f"{hi}{']' if hi_in else ')'}") in errors[0]
 
 
 def test_message_is_shown_as_text_not_markup():
@@ -182,11 +193,20 @@ def test_message_is_shown_as_text_not_markup():
     assert "&lt;img src=x onerror=alert(1)&gt;" in inner
 
 
-def test_mu_without_a_shipped_map_falls_back():
+def test_mu_without_a_shipped_map_is_kept_as_given():
+    # issue 32: `?mu=0.5` said "showing mu = 0.3", its selector showed 0.1,
+    # and the run used 0.5; the value is now the link's, everywhere
     values, errors = urlstate.parse({"model": [b"point-mass"], "mu": [b"0.1"]},
-                                    ExplorerState, URL_KEYS, MAPS)
-    assert values == {"model": "point-mass", "mu": 0.3}
-    assert errors == ["no shipped map for model=point-mass, mu=0.1; showing mu = 0.3"]
+                                    ExplorerState, URL_KEYS, URL_ALIASES)
+    assert values == {"model": "point-mass", "mu": 0.1} and errors == []
+
+
+def test_old_spellings_are_accepted_and_links_use_one():
+    values, errors = urlstate.parse({"model": [b"point_mass"], "compare": [b"point-mass"]},
+                                    ExplorerState, URL_KEYS, URL_ALIASES)
+    assert values == {"model": "point-mass", "compare": "point mass"} and errors == []
+    state = ExplorerState(model="point-mass")
+    assert "model=point-mass" in urlstate.query(state, URL_KEYS)
 
 
 # ------------------------------------------------------------------ the Explorer object
@@ -264,7 +284,7 @@ def _run_now(explorer):
                 ("fidelity", "preview")])
 def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     explorer = url_session(pairs)
-    values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, MAPS)
+    values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, URL_ALIASES)
     expected = urlstate.resolved(values, ExplorerState, URL_KEYS)
     got = {name: getattr(explorer.state, name) for name in URL_KEYS}
     assert got == expected                      # Location.sync applied nothing of its own

@@ -51,6 +51,19 @@ def _model_args(g):
     g.add_argument("--stick-rule", default="paper", help="point mass: paper | classical")
     g.add_argument("--fidelity", default="standard", help="preview | standard | reference")
     g.add_argument("--integrator", default="ab4", help="ab4 | verlet")
+    _profile_args(g)
+
+
+PROFILE_HELP = ("particle profile: sphere | cone | power:N (z = C r^N, N >= 1) | "
+                "flat-sphere:C (flat radius C in units of sqrt(R a0)) | file:PATH (two "
+                "columns r z in metres; needs --load-over-modulus); docs/MODEL.md section 10")
+
+
+def _profile_args(g):
+    g.add_argument("--profile", default="sphere", help=PROFILE_HELP)
+    g.add_argument("--load-over-modulus", type=_num, default=None,
+                   help="N0/E* in m^2 (the static load over the contact modulus): "
+                        "file: profiles only")
 
 
 def _log10_value(name, value):
@@ -67,7 +80,8 @@ def scene_from_args(args):
     return Scene(amplitude=amplitude, mass=mass, model=args.model, mu=args.mu,
                  theta=args.theta, nu=args.nu, tau=args.tau, periods=args.periods,
                  alpha_t=args.alpha_t, stick_rule=args.stick_rule, fidelity=args.fidelity,
-                 integrator=args.integrator)
+                 integrator=args.integrator, profile=args.profile,
+                 load_over_modulus=args.load_over_modulus)
 
 
 def _progress_bar(label):
@@ -139,12 +153,13 @@ def cmd_orbit(args):
     """A period-k orbit of the vertical motion's stroboscopic map (Newton
     shooting), or its continuation along log10 A* or log10 m*."""
     from vibtrans.analysis import dynamics as Y
+    from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
     period = _finite("period", args.period, 1, 64, integer=True)
     if args.guess == "run":
         guess = Y.run_guess(scene)
     elif args.guess == "rest":
-        guess = Y.rest_guess(scene.amplitude, scene.mass)
+        guess = Y.rest_guess(scene.amplitude, scene.mass, scene_law(scene))
     else:
         try:
             guess = tuple(_finite("guess", float(v)) for v in args.guess.split(","))
@@ -155,16 +170,18 @@ def cmd_orbit(args):
                              f"got {args.guess!r}")
     la, lm = math.log10(scene.amplitude), math.log10(scene.mass)
     if args.continue_ is None:
-        orbit = Y.periodic_orbit(scene.amplitude, scene.mass, guess, period, scene.fidelity)
+        orbit = Y.periodic_orbit(scene.amplitude, scene.mass, guess, period, scene.fidelity,
+                                 law=scene_law(scene))
         out = _orbit_json(orbit)
+        out["profile"] = scene.profile
     else:
         if args.to is None:
             raise InputError("to: --continue needs --to (the log10 value to continue to)")
         to = _finite("to", args.to, -300, 300)
         step = _finite("step", args.step, 1e-4, 0.5)
         branch = Y.continue_orbit(la, lm, args.continue_, to, step, period, guess,
-                                  scene.fidelity)
-        out = {"parameter": branch.parameter, "folds": branch.folds,
+                                  scene.fidelity, scene.profile, scene.load_over_modulus)
+        out = {"profile": scene.profile, "parameter": branch.parameter, "folds": branch.folds,
                "period_doublings": branch.period_doublings, "ended": branch.ended,
                "points": [{"log_amplitude": p.log_amplitude, "log_mass": p.log_mass,
                            **_orbit_json(p.orbit)} for p in branch.points]}
@@ -187,10 +204,11 @@ def cmd_threshold(args):
     if args.mass is None:
         raise InputError("threshold needs --mass M (or --sweep)")
     aj = threshold_amplitude(args.mass, tau=args.tau, periods=args.periods,
-                             fidelity=args.fidelity, rel_tol=args.rel_tol)
+                             fidelity=args.fidelity, rel_tol=args.rel_tol, profile=args.profile,
+                             load_over_modulus=args.load_over_modulus)
     out = {"mass": args.mass, "threshold_amplitude": aj,
            "point_mass_threshold_amplitude": point_mass_threshold(args.mass),
-           "tau": args.tau, "periods": args.periods}
+           "tau": args.tau, "periods": args.periods, "profile": args.profile}
     if args.json:
         print(json.dumps(out))
     else:
@@ -205,7 +223,8 @@ def _threshold_sweep(args):
     out = args.out or "vertical.nc"
     check_file(out)
     ds = threshold_curve(log_mass, tau=args.tau, periods=args.periods,
-                         fidelity=args.fidelity, workers=args.workers)
+                         fidelity=args.fidelity, workers=args.workers, profile=args.profile,
+                         load_over_modulus=args.load_over_modulus)
     ds.attrs["command"] = command_line()
     with atomic(out, errors=(RuntimeError,)) as tmp:    # a partial file is never read as data
         ds.to_netcdf(tmp)
@@ -229,7 +248,8 @@ def cmd_sweep(args):
                   command=command_line(), model=args.model, mu=args.mu, theta=args.theta,
                   nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
                   integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule,
-                  kind=args.kind, chaos=args.chaos, stop=args.stop)
+                  kind=args.kind, chaos=args.chaos, stop=args.stop, profile=args.profile,
+                  load_over_modulus=args.load_over_modulus)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
@@ -249,7 +269,8 @@ def cmd_sweep(args):
         check_levels(sweep, args.max_level)        # before any file is made
         tol = check_tolerance(DEFAULT_DRIFT_TOLERANCE if args.drift_tolerance is None
                               else args.drift_tolerance)
-    out = args.out or f"sweep-{args.model}-mu{args.mu:g}.zarr"
+    out = args.out or (f"sweep-{args.model}-mu{args.mu:g}.zarr" if args.profile == "sphere"
+                       else f"sweep-{args.model}-mu{args.mu:g}-{_profile_slug(args.profile)}.zarr")
     new = not os.path.exists(out)
     check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
     try:
@@ -269,6 +290,13 @@ def cmd_sweep(args):
                          f"existed before is kept and resumes") from None
     print(out)
     return 0
+
+
+def _profile_slug(profile):
+    """A file-name-safe form of a profile spec (power:3 -> power3)."""
+    if profile.startswith("file:"):
+        return "file-" + os.path.splitext(os.path.basename(profile[5:]))[0]
+    return "".join(c for c in profile if c.isalnum() or c in ".-")
 
 
 def _design_axis(text, name):
@@ -756,6 +784,7 @@ def build_parser():
     t.add_argument("--periods", type=_num, default=2000.0)
     t.add_argument("--fidelity", default="standard")
     t.add_argument("--rel-tol", type=_num, default=1e-3)
+    _profile_args(t)
     t.add_argument("--json", action="store_true")
     t.set_defaults(func=cmd_threshold)
 

@@ -64,7 +64,16 @@ CURVE_POINTS = 161         # points of the drawn surface
 MARKS_PER_WAVELENGTH = 8   # surface marks (points of the substrate)
 TICK_MS = 40               # the player's clock tick
 SPEEDS = (("0.05", "0.05 periods/s"), ("0.1", "0.1 periods/s"), ("0.25", "0.25 periods/s"),
-          ("0.5", "0.5 periods/s"), ("1", "1 period/s"))
+          ("0.5", "0.5 periods/s"), ("1", "1 period/s"), ("5", "5 periods/s"),
+          ("20", "20 periods/s"), ("100", "100 periods/s"))
+# the stretch of the run the animation shows: the full-resolution window
+# ("window": the run's last periods recorded sample by sample), or the last
+# so many periods of the run ("0": all of it), decimated: before the window the run
+# is recorded at plots.OVERVIEW_SAMPLES per period (the drift shows, a hop
+# within a period does not)
+WINDOWS = {"the last periods at full resolution": "window", "the last 10 periods": "10",
+           "the last 100 periods": "100", "the last 1000 periods": "1000",
+           "the whole run (decimated)": "0"}
 DEFAULT_SPEED = "0.25"
 PARTICLE_FILL = "#c6dbef"
 SUBSTRATE_FILL = "#bcaaa4"
@@ -108,6 +117,18 @@ def frame_indices(n, max_frames):
     if n <= max_frames:
         return np.arange(n)
     return np.unique(np.linspace(0, n - 1, max_frames).round().astype(int))
+
+
+def frame_indices_in_time(t, max_frames):
+    """Indices of at most `max_frames` of the samples at times `t`
+    (ascending): all of them, or those nearest to times evenly spaced over
+    [t[0], t[-1]] (first and last kept): a run recorded at two rates (its
+    overview and its full-resolution window) is drawn at one pace."""
+    n = t.size
+    if n <= max_frames:
+        return np.arange(n)
+    i = np.searchsorted(t, np.linspace(t[0], t[-1], max_frames)).clip(0, n - 1)
+    return np.unique(i)
 
 
 def _decimals(extent):
@@ -156,7 +177,7 @@ function draw(i) {
   const gap = a < 0 ? "gap " + (-a).toFixed(d) + " a0"
             : deformable ? "overlap a* = " + a.toFixed(d) + " a0" : "on the surface";
   side_title.setv({text: "t* = " + t.toFixed(4) + "   wave phase t* mod 1 = " + phase.toFixed(3)
-                   + "   " + names[st] + "   y* = " + y.toFixed(d) + " a0   " + gap},
+                   + "\\n" + names[st] + "   y* = " + y.toFixed(d) + " a0   " + gap},
                   {sync: false});
   let ct;
   if (!deformable) ct = "material point: rigid, no contact area";
@@ -241,7 +262,12 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.contact = ColumnDataSource({"c": [], "s": [], "colour": []}, name="anim-contact")
         self._build()
         self.runs = 0
+        self._run = None            # (scene, ds) shown, for a new window
         self._pane = pn.pane.Bokeh(self.layout, name="particle-animation")
+        self.window = pn.widgets.Select(name="show", options=WINDOWS, value="window", width=300,
+                                        css_classes=["vt-anim-window"])
+        self.window.param.watch(self._on_window, "value")
+        self._panel = pn.Column(self.window, self._pane, margin=0)
 
     @staticmethod
     def _no_frames():
@@ -272,8 +298,9 @@ class ParticleAnimation(pn.viewable.Viewer):
                               text="wave travels to +x \u2192\nphase 0.5: crest under the "
                               "particle", text_font_size="9pt",
                               background_fill_color="white", background_fill_alpha=0.7))
+        # short lines: a long one was cut at the figure's edge at 1024 pixels
         self.scale_notes = [Title(text="", text_font_size="8.5pt", text_font_style="italic")
-                            for _ in range(2)]
+                            for _ in range(3)]
         for note in self.scale_notes:
             side.add_layout(note, "below")
         side.toolbar.logo = None
@@ -300,7 +327,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         circ.toolbar.logo = None
         self.circle = circ
 
-        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=560,
+        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=360,
                              disabled=True, name="anim-frame")
         self.play = Toggle(label="\u25b6 Play", active=False, width=100, disabled=True,
                            button_type="success", name="anim-play")
@@ -328,7 +355,9 @@ class ParticleAnimation(pn.viewable.Viewer):
             "core (radius s) inside the slip annulus (out to the contact radius c). "
             "Triangles: points of the substrate's surface (they show it sliding under "
             "the particle).<br>")
-        self.layout = column(row(side, circ), row(self.play, self.slider, self.speed), self.key)
+        # the player above the figures: at 1024 pixels, below them its speed
+        # selector was off the page's right edge
+        self.layout = column(row(self.play, self.slider, self.speed), row(side, circ), self.key)
 
     # ------------------------------------------------------------ data
     def show(self, scene, ds):
@@ -336,10 +365,17 @@ class ParticleAnimation(pn.viewable.Viewer):
         `simulate(scene, window=(t0, t1), ...)`; the frames are the samples
         of the window [t0, t1] (all of them, or `max_frames` evenly in
         time).  One message to the browser (data and ranges only)."""
-        frames, note = self._frames(scene, ds)
+        chosen = self.window.value
+        frames, note = self._frames(scene, ds, None if chosen == "window" else float(chosen))
+        self._run = (scene, ds)
         with pn.io.hold():
+            self.play.active = False
             self._set_run(scene, frames, note)
         self.runs += 1
+
+    def _on_window(self, event):
+        if self._run is not None:
+            self.show(*self._run)
 
     def clear(self):
         """No run: empty figures, the player stopped."""
@@ -356,8 +392,11 @@ class ParticleAnimation(pn.viewable.Viewer):
                 note.text = ""
             self.key.text = ""
 
-    def _frames(self, scene, ds):
-        """The frames (dict of arrays) of a run's window and a note on them."""
+    def _frames(self, scene, ds, periods=None):
+        """The frames (dict of arrays) of a run's window and a note on them.
+        periods: None, the run's full-resolution window; else the run's
+        last `periods` (0: the whole run), at most `max_frames` frames evenly
+        in time."""
         if not isinstance(scene, Scene):
             raise InputTypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
         if not isinstance(ds, xr.Dataset) or "time" not in ds.dims:
@@ -372,13 +411,23 @@ class ParticleAnimation(pn.viewable.Viewer):
                 raise InputError(f"ds is not a run of this scene: its {key} is "
                                  f"{ds.attrs.get(key)!r}, the scene's {getattr(scene, key)!r}")
         t_all = ds["time"].values
+        full = (w0, w1)                     # the run's full-resolution window
+        if periods is not None:
+            if not (isinstance(periods, (int, float)) and periods >= 0):
+                raise InputError(f"periods must be a number >= 0 (0: the whole run), "
+                                 f"got {periods!r}")
+            w1 = float(t_all[-1])
+            w0 = float(t_all[0]) if periods == 0 else max(float(t_all[0]), w1 - periods)
         start = int(np.searchsorted(t_all, w0, side="left"))
         stop = int(np.searchsorted(t_all, w1, side="right"))
         n = stop - start
         if n < 1:
             raise InputError(f"ds has no samples in its window [{w0:g}, {w1:g}]")
         # isel: a label-based sel builds a pandas index of the times first
-        pick = start + frame_indices(n, self.max_frames)
+        if periods is None:
+            pick = start + frame_indices(n, self.max_frames)
+        else:                               # sampled at two rates: evenly in time
+            pick = start + frame_indices_in_time(t_all[start:stop], self.max_frames)
         win = ds.isel(time=pick)
         t = win["time"].values
         A, r, tau = float(scene.amplitude), float(scene.r), float(scene.tau)
@@ -398,6 +447,12 @@ class ParticleAnimation(pn.viewable.Viewer):
                   "state": state, "c": c, "s": s, "g": g,
                   "ux": u[:, 0], "uy": u[:, 1], "outer": outer}
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
+        if periods is not None and w0 < full[0]:
+            return frames, (
+                f"Frames: {pick.size} of the {n} samples of {span}, evenly spaced in time. "
+                f"Before t* = {full[0]:g} the run is recorded at {plots.OVERVIEW_SAMPLES} "
+                f"samples per period: the particle's travel shows, its motion within a "
+                f"period does not (choose the last periods at full resolution for that).")
         if pick.size == n:
             note = f"Frames: all {n} samples of {span}, the run's full resolution."
         else:
@@ -456,11 +511,11 @@ class ParticleAnimation(pn.viewable.Viewer):
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
             f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} "
-            f"a0*), wavelength drawn {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
+            f"a0*), wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
         self.scale_notes[1].text = (
             "To scale, in a0: heights, the particle's motion along x"
-            + (", the overlap a*." if deformable else ". Material point: the particle only.")
-            + "   *a 0.5 mm steel bead on glass at 108 kHz")
+            + (", the overlap a*." if deformable else ". Material point: the particle only."))
+        self.scale_notes[2].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = ("the contact zone drawn as Hertz's for the drawn radius: half-width "
                 f"c sqrt({rho:.3g}) a0. " if deformable else
                 "Material point: no contact zone and no contact circle (rigid contact). ")
@@ -512,7 +567,7 @@ class ParticleAnimation(pn.viewable.Viewer):
                         "s": np.array([s if touching else np.nan]),
                         "colour": [F["outer"][i]]},
             "side_title": (f"t* = {_fixed(t, 4)}   wave phase t* mod 1 = "
-                           f"{_fixed(t - math.floor(t), 3)}   {STATE_NAMES[st]}   "
+                           f"{_fixed(t - math.floor(t), 3)}\n{STATE_NAMES[st]}   "
                            f"y* = {_fixed(y, d)} a0   {gap}"),
             "contact_title": ct,
         }
@@ -525,4 +580,4 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.circle.title.text = f["contact_title"]
 
     def __panel__(self):
-        return self._pane
+        return self._panel

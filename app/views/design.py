@@ -43,6 +43,7 @@ from vibtrans.core.errors import InputError
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
+from ..state import CUSTOM_EXAMPLE, CUSTOM_MATERIAL, MATERIAL_NAMES
 from .exports import read_back
 from .render import exclusively, rendered
 
@@ -50,7 +51,6 @@ MIN_WIDTH = 420
 CHART_HEIGHT = 540
 # a computed map's refinement levels (its coarse grid is 1/8 of its finest)
 DESIGN_LEVELS = 3
-MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
 UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset), "
          "the two quantities on the chart's axes and their ranges (the third is fixed at the "
@@ -63,10 +63,10 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "outside the shipped maps), the map it needs is offered, its cost shown first, and "
          "computed on this server like a map on demand.")
 HINT = "*Press Draw chart to read the drift map for these values.*"
-CUSTOM_MATERIAL = "custom (E, nu, rho)"     # the material selectors' entry for a typed one
-CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
 CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
 # the values a preset sets: editing one makes the preset "custom"
+SHARED_DEVICE = ("substrate", "particle", "substrate_custom", "particle_custom", "preload",
+                 "frequency", "radius", "amplitude")
 PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amplitude", "x",
                  "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points")
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -306,9 +306,10 @@ class DesignPanel(pn.viewable.Viewer):
     map_periods = param.Number(default=2000.0, doc="the computed map's run length, periods")
     busy = param.Boolean(default=False)
 
-    def __init__(self, on_run=None, jobs=None, **params):
+    def __init__(self, on_run=None, jobs=None, state=None, **params):
         super().__init__(**params)
         self.on_run = on_run
+        self.state = state
         self._jobs = jobs
         self._session = f"design-{id(self)}"    # its key in the server's map queue
         self._offer = None          # (MapRequest, values) of the map offered, not computing
@@ -360,7 +361,8 @@ class DesignPanel(pn.viewable.Viewer):
                                    pn.Row(self.compute_button, self.cancel_button),
                                    self.progress, visible=False, sizing_mode="stretch_width")
         self.run_button = pn.widgets.Button(name="Run this device's scene", button_type="primary",
-                                            disabled=True, css_classes=["vt-design-run"])
+                                            disabled=on_run is None,
+                                            css_classes=["vt-design-run", "vt-ack-run"])
         self.run_button.on_click(lambda event: self.run_device())
         self._buttons()
         labels = {"preload": "preload (N)", "mu": "mu (friction)",
@@ -378,6 +380,44 @@ class DesignPanel(pn.viewable.Viewer):
         self._on_preset()
         self._init_extras()
         self._layout = None
+        self._syncing = False
+        if state is not None:
+            self._share_device(state)
+        self.param.watch(self._on_changed, [*PRESET_VALUES, "mu", "surface_energy",
+                                            "substrate_custom", "particle_custom",
+                                            "map_fidelity", "map_periods"])
+
+    # ---------- the device, shared with the Units tab (the explorer's state) ----------
+    def _share_device(self, state):
+        """The device's values are the state's (one form for the Units and
+        Design tabs): the state's now (the preset then says "custom" if they
+        differ from it), and each change of either copied to the other."""
+        self._copy(state, self, [(k, getattr(state, k)) for k in SHARED_DEVICE])
+        self.param.watch(lambda *events: self._copy(self, state, events), list(SHARED_DEVICE))
+        state.param.watch(lambda *events: self._copy(state, self, events), list(SHARED_DEVICE))
+
+    def _copy(self, source, target, events):
+        if self._syncing:
+            return
+        values = dict((e.name, e.new) for e in events) if events and hasattr(
+            events[0], "name") else dict(events)
+        values = {k: v for k, v in values.items() if getattr(target, k) != v}
+        if not values:
+            return
+        self._syncing = True
+        try:
+            target.param.update(**values)
+        except ValueError as exc:      # a preset's or a click's value the state refuses
+            self._say(f"**The device cannot take these values:** {exc}")
+        finally:
+            self._syncing = False
+
+    def _on_changed(self, *events):
+        """A value changed since the chart was drawn: the chart is marked stale."""
+        if self.chart is not None and self._drawn_values is not None \
+                and self.values() != self._drawn_values:
+            self.status.object = ("**Changed since this chart was drawn: press Draw chart.** "
+                                  + self._shown_status())
 
     # ---------- values ----------
     def _on_preset(self, *events):
@@ -639,11 +679,16 @@ class DesignPanel(pn.viewable.Viewer):
 
     # ---------- the device's scene ----------
     def run_device(self):
-        """Run the device marked in the explorer (at the chart's mu and its
-        map's periods: its drift and time then also in SI units)."""
-        if self.device is None or self.on_run is None or self.chart is None:
+        """Run the device as the form shows it (the state's; not the chart
+        drawn, which may be older) in the explorer, at the form's mu and map
+        periods: its drift and time then also in SI units."""
+        if self.on_run is None:
             return
-        self.on_run(self.device, self.chart.attrs["mu"], self.chart.attrs["map_periods"])
+        errors = self.field_errors()
+        if errors:
+            self._say("**Not run:** " + "; ".join(errors))
+            return
+        self.on_run(self.mu, self.map_periods)
 
     def _shown_status(self):
         c = self.chart
@@ -663,7 +708,6 @@ class DesignPanel(pn.viewable.Viewer):
 
     def _show_device(self, device, reading, q, warnings):
         self.device, self.reading, self.quantities, self.warnings = device, reading, q, warnings
-        self.run_button.disabled = self.on_run is None
         self.info.object = device_text(device, reading, q, warnings)
         if self._marker is not None and self.chart is not None:
             xq, yq = self.chart.attrs["x"], self.chart.attrs["y"]
@@ -799,6 +843,19 @@ class DesignPanel(pn.viewable.Viewer):
         # holding the document's lock (the explorer sets Bokeh models)
         pn.state.execute(self.run_device, schedule=True)
 
+    def _device_rows(self, row, f, select):
+        """The device's form: the state's (the Units tab's too) when shared."""
+        head = pn.pane.Markdown("**The device** (the Units tab's too; marked on the chart; a "
+                                "click moves it and runs its scene)", margin=(0, 10))
+        if self.state is not None:
+            from .units import device_form
+            return [head, row(*device_form(self.state, width=150)),
+                    row(f["mu"], f["surface_energy"])]
+        return [row(select(self.param.substrate, name="substrate"),
+                    select(self.param.particle, name="particle"), f["preload"], f["mu"],
+                    f["surface_energy"]),
+                self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"])]
+
     def __panel__(self):
         if self._layout is None:
             f = self.fields
@@ -813,14 +870,7 @@ class DesignPanel(pn.viewable.Viewer):
                 pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
                 pn.Row(select(self.param.preset, name="preset", css_classes=["vt-design-preset"]),
                        self.note, sizing_mode="stretch_width"),
-                row(select(self.param.substrate, name="substrate"),
-                    select(self.param.particle, name="particle"), f["preload"], f["mu"],
-                    f["surface_energy"]),
-                self.custom_row,
-                pn.pane.Markdown("**The device** (marked on the chart; a click moves it and "
-                                 "runs its scene)",
-                                 margin=(0, 10)),
-                row(f["frequency"], f["radius"], f["amplitude"]),
+                *self._device_rows(row, f, select),
                 row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
                 row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
                 fixed,

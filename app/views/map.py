@@ -36,6 +36,24 @@ def _unavailable(text):
     return hv.Text(0.0, 0.0, text).opts(height=MAP_HEIGHT, xaxis=None, yaxis=None)
 
 
+def in_document(source, data):
+    """Set a ColumnDataSource's data from a watcher of the page's state.
+    In a served session such a watcher may run where Panel applies a
+    widget's change from the browser without the document's lock (its
+    `unlocked`): a plain Bokeh model changed there is lost, with
+    "_pending_writes should be non-None" in the server's log (issue 32:
+    typed values did not move the map's marker).  So the change goes to
+    the document's next tick, which holds the lock; outside a server, now."""
+    doc = source.document
+    if doc is None or doc.session_context is None:
+        source.data = data
+        return
+
+    def apply():
+        source.data = data
+    doc.add_next_tick_callback(apply)
+
+
 def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     """The map of a model and mu (HoloViews): the shipped drift map, or the
     chaos indicator's (layer "Lyapunov exponent": the vertical motion's,
@@ -285,7 +303,7 @@ class MapView:
         self.on_tap_js = on_tap_js       # a CustomJS run in the browser at a click
         self.selected = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.device = ColumnDataSource({"x": [], "y": []})
-        self.pane = pn.Row(sizing_mode="stretch_width", name="map")
+        self.pane = pn.Row(sizing_mode="stretch_width", name="map", css_classes=["vt-map"])
         self.figures = []
         # a map on demand shown instead of the shipped ones: (figure, window,
         # on_click(la, lm)); None: the shipped maps
@@ -386,11 +404,11 @@ class MapView:
         return (fig.x_range.start, fig.x_range.end), (fig.y_range.start, fig.y_range.end)
 
     def select(self, la, lm):
-        self.selected.data = {"x": [la], "y": [lm]}
+        in_document(self.selected, {"x": [la], "y": [lm]})
 
     def mark_device(self, marker):
-        self.device.data = {"x": [] if marker is None else [marker[0]],
-                            "y": [] if marker is None else [marker[1]]}
+        in_document(self.device, {"x": [] if marker is None else [marker[0]],
+                                  "y": [] if marker is None else [marker[1]]})
 
     def _on_tap(self, drawn, event):
         x, y = event.x, event.y

@@ -33,6 +33,7 @@ from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 
 from .. import inputs
 from .note import note_pane, say
+from .summary import PREVIOUS_RUN
 
 log = logging.getLogger("vibtrans.explorer.memory")
 
@@ -62,7 +63,9 @@ def _figure(title, xlabel, ylabel, square=False):
     # square: a frame of equal sides, so that the contact circle is round
     size = (dict(frame_width=SQUARE, frame_height=SQUARE) if square else
             dict(width=PANEL_WIDTH, height=PANEL_HEIGHT))
-    fig = figure(title=title, tools=TOOLS, toolbar_location="above",
+    # the toolbar at the right: above, it shared the title's row and cut the
+    # title ("memory diagram w(h), t* = ..., partial slip") short
+    fig = figure(title=title, tools=TOOLS, toolbar_location="right",
                  x_range=Range1d(0.0, 1.0), y_range=Range1d(-1.0, 1.0),
                  output_backend="canvas", **size)
     fig.title.text_font_size = "9pt"      # "memory diagram w(h), t* = ..., partial slip"
@@ -70,6 +73,13 @@ def _figure(title, xlabel, ylabel, square=False):
     fig.yaxis.axis_label = ylabel
     fig.toolbar.logo = None
     return fig
+
+
+def title_lines(title):
+    """A panel's title on two lines (its name, then the rest after its first
+    comma): on one, "memory diagram w(h), t* = ..., partial slip" was cut at
+    the 300-pixel panel's edge."""
+    return "\n".join(title.split(", ", 1))
 
 
 def _set_range(rng, lo, hi):
@@ -98,6 +108,7 @@ class MemoryView(pn.viewable.Viewer):
         self._job = None            # (cancel event, future) of the running snapshots
         self.a_max = 0.0            # the largest a* over the snapshots (their scale)
         self.shown = None           # the snapshot drawn
+        self._following = False     # the slider is moved to the time drawn (no redraw)
         self._build_figures()
         self.at = SnapshotTime()
         self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200)
@@ -168,7 +179,7 @@ class MemoryView(pn.viewable.Viewer):
         g = plots.memory_geometry(snapshot)
         c = plots.contact_geometry(snapshot)
         a_max = max(float(snapshot["a"]), 0.0) if limits is None else limits
-        self.w_fig.title.text = plots.memory_title(snapshot)
+        self.w_fig.title.text = title_lines(plots.memory_title(snapshot))
         self.c_fig.title.text = c["title"]
         if g is None:                        # in flight: no memory
             self.profile.data = {"h": [], "w": [], "u": []}
@@ -247,7 +258,9 @@ class MemoryView(pn.viewable.Viewer):
             self._blank()
             self._say("")
             self.at.param.t.bounds = (0.0, float(t_end))
-            self.at.t = min(round(float(self.times[0]), 4), float(t_end))
+            # the field and the slider on the same time: the run's end,
+            # which the snapshots' last is and is drawn first
+            self.at.t = min(round(float(self.times[-1]), 4), float(t_end))
             self.show_button.disabled = False
             t0, t1 = float(self.times[0]), float(self.times[-1])
             step = (t1 - t0) / (len(self.times) - 1) if t1 > t0 else 1.0
@@ -308,12 +321,31 @@ class MemoryView(pn.viewable.Viewer):
         return int(np.clip(np.argmin(np.abs(self.times - value)), 0, len(self.snapshots) - 1))
 
     def _on_slide(self, event):
-        if self.snapshots:
+        if self.snapshots and not self._following:
             with pn.io.hold():
                 self._show_index(self._index(event.new))
 
     def _show_index(self, i):
         self.show(self.snapshots[i], limits=self.a_max)
+        self._agree(self.snapshots[i]["t"])
+
+    def _agree(self, t):
+        """The slider and the time field show the time drawn, t (periods):
+        the field exactly (4 decimals, within the run), the slider where it
+        has that time in its range (its own value moved without redrawing)."""
+        self.at.t = min(max(round(float(t), 4), self.at.param.t.bounds[0]),
+                        self.at.param.t.bounds[1])
+        if len(self.times) and self.slider.start <= t <= self.slider.end:
+            self._following = True
+            try:
+                self.slider.value = float(t)
+            finally:
+                self._following = False
+
+    def mark_previous(self):
+        """A newer run was cancelled: the diagram shown is the previous run's."""
+        if self.scene is not None:
+            self.status.object = f"*{PREVIOUS_RUN}*"
 
     def _on_show_click(self, event):
         pn.state.execute(self.show_at)
@@ -346,6 +378,7 @@ class MemoryView(pn.viewable.Viewer):
             self.figures_pane.loading = False
             if snap is not None and scene is self.scene:    # not replaced meanwhile
                 self.show(snap)
+                self._agree(snap["t"])
 
     def _job_text(self):
         return f"computing the memory diagram at {len(self.times)} times ..."

@@ -1,14 +1,16 @@
 """The run's summary: one Markdown table, one column per model, each number
 under the model that produced it (the run with its tau twin's verdict and
 cost; the other model's run when that is the comparison)."""
+import math
+
 import panel as pn
 
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 
-from ..controller import TWIN_LABEL
+from ..controller import CANCELLED, TWIN_LABEL
 from ..state import MAP_MATERIAL
 
-SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "regime",
+SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
                 "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
                 "in SI units"]
 # the summary before the first run: the same lines (so the page keeps its layout)
@@ -17,24 +19,47 @@ PLACEHOLDER_SUMMARY = "\n".join(
     + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
 
 
+NO_DEVICE = "- (run a device"    # the SI row of a run that is no device's (UnitsPanel.si_text)
+STALE_LINE = "**⚠ Changed since this run: press Run.**"
+# over the previous run's table after a cancel: what the page shows is that run
+CANCELLED_LINE = (f"**{CANCELLED}** The summary, figures and downloads shown are still the "
+                  "previous run's:")
+PREVIOUS_RUN = "the previous run's (the run after it was cancelled)"
+
+
+def twin_words(s, twin_name):
+    """What the tau twin did, plainly: where its trajectory parted from the
+    run's (x* more than 1 a0 apart, analysis.divergence_time) or that it
+    never did, and whether its drift differs (analysis.chaos_verdict)."""
+    if s.twin_chaotic is None:
+        return ""
+    t = s.divergence_time
+    path = (f"the {twin_name}'s trajectory parted from this run after {t:.4g} periods"
+            if t is not None and math.isfinite(t) else
+            f"the {twin_name}'s trajectory stayed within 1 a0 of this run's")
+    drift = "its drift differs" if s.twin_chaotic else "its drift is the same"
+    return f"; {path}, and {drift}"
+
+
 def chaos_verdict(result):
     """The chaos row of a RunResult, in words: the Lyapunov exponent's
-    verdict where the run measured one (and the tau twin's beside it when
-    one ran), else the twin's."""
+    verdict where the run measured one (and what the tau twin did beside
+    it when one ran), else the twin's."""
     twin_name = f"{TWIN_LABEL} twin"
     s = result.summary
-    twin = {None: "", True: f"; the {twin_name} disagrees", False: f"; the {twin_name} agrees"}
+    twin = twin_words(s, twin_name)
     if s.lyapunov == float("-inf"):
         return ("regular: the point rides the surface after the ramp, and each detachment "
-                f"forgets its past (Lyapunov exponent -inf){twin[s.twin_chaotic]}")
+                f"forgets its past (Lyapunov exponent -inf){twin}")
     if s.lyapunov is not None:
         word = "chaotic" if s.chaotic else "regular"
         return (f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
-                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin[s.twin_chaotic]}")
+                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin}")
     if result.twin_unneeded:
         return f"not checked: no take-off (the {twin_name} is drawn below)"
-    return {None: "not checked", True: f"chaotic ({twin_name} disagrees)",
-            False: f"robust ({twin_name} agrees)"}[s.chaotic]
+    if s.chaotic is None:
+        return "not checked"
+    return f"{'chaotic' if s.chaotic else 'robust'}{twin}"
 
 
 def run_cost(scene, s):
@@ -50,7 +75,8 @@ def run_cost(scene, s):
 
 def _summary_column(scene, s, chaos, si):
     """One model's values, in the order of SUMMARY_ROWS."""
-    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.regime, chaos,
+    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.steadiness,
+            s.regime, chaos,
             f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
             f"{s.contact_fraction:.3f}", run_cost(scene, s), si or "-"]
 
@@ -85,6 +111,9 @@ class SummaryView:
 
     def __init__(self, si_text, width=None):
         self.si_text = si_text
+        self.device_run = False     # the run shown is the device's (its SI values shown)
+        self._table = None          # the run shown's table
+        self._stale = False
         kw = {"sizing_mode": "stretch_width"} if width is None else {"width": width}
         self.pane = pn.pane.Markdown(PLACEHOLDER_SUMMARY, name="summary", **kw)
 
@@ -94,5 +123,24 @@ class SummaryView:
     def show(self, result):
         s = result.summary
         si = self.si_text(s.drift_velocity, result.scene)
-        self.pane.object = summary_table(result.scene, s, chaos_verdict(result), si,
-                                         result.other, result.twin)
+        self.device_run = not si.startswith(NO_DEVICE)
+        self._table = summary_table(result.scene, s, chaos_verdict(result), si,
+                                    result.other, result.twin)
+        self._stale = False
+        self.pane.object = self._table
+
+    def cancelled(self):
+        """A run was cancelled: said, over the table of the run still shown
+        (the previous one), if any; its figures and downloads are that
+        run's too."""
+        if self._table is None:
+            self.pane.object = CANCELLED
+            return
+        self.pane.object = "\n\n".join([CANCELLED_LINE, *([STALE_LINE] if self._stale else []),
+                                         self._table])
+
+    def mark_stale(self, stale):
+        """Mark the run shown as changed since (or not)."""
+        self._stale = stale
+        if self._table is not None:
+            self.pane.object = (f"{STALE_LINE}\n\n{self._table}" if stale else self._table)

@@ -1,6 +1,7 @@
 """The Units tab: a device in SI units -> its (A*, m*) (a marker on the
 map), a0, c_R, and the run's drift and time in SI units when the scene run
 is that device."""
+import functools
 import math
 
 import panel as pn
@@ -8,51 +9,50 @@ import param
 
 from vibtrans.core import units
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.products import design
 
 from .. import inputs
-from ..state import SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within
+from ..state import CUSTOM_MATERIAL, DEVICE_FIELDS, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within
 
 
-def same_scene(n, marker, scene):
-    """Is `scene` the device `n` (at the explorer's 3-decimal log10 A*, m*)?"""
-    return (round(marker[0], 3) == round(math.log10(scene.amplitude), 3)
-            and round(marker[1], 3) == round(math.log10(scene.mass), 3)
-            and scene.theta == n.theta and scene.nu == n.nu)
+def same_scene(device, scene):
+    """Is `scene` the device's (log10 A*, log10 m*, theta, nu), as run
+    (state.device_scene_values: unrounded)?"""
+    la, lm, theta, nu = device
+    return (math.isclose(la, math.log10(scene.amplitude), rel_tol=0, abs_tol=1e-12)
+            and math.isclose(lm, math.log10(scene.mass), rel_tol=0, abs_tol=1e-12)
+            and scene.theta == theta and scene.nu == nu)
 
 
 class UnitsPanel(pn.viewable.Viewer):
-    """SI inputs -> (A*, m*) marker on the map, a0, c_R, drift in m/s.
+    """The state's device (SI units, the same form as the Design tab's) ->
+    (A*, m*) marker on the map, a0, c_R, drift in m/s.
 
-    on_run(la, lm, theta, nu): run the device's scene (the explorer's);
-    on_error(text): say why it cannot."""
+    on_run(): run the device's scene (the explorer's; it refuses while a
+    field is invalid); on_error(text): say why it cannot."""
 
-    substrate = param.Selector(default="glass", objects=sorted(units.MATERIALS))
-    particle = param.Selector(default="steel", objects=sorted(units.MATERIALS))
-    radius_mm = param.Number(default=0.5, bounds=(1e-4, 100.0), doc="particle radius, mm")
-    frequency_khz = param.Number(default=108.0, bounds=(1e-3, 1e6), doc="wave frequency, kHz")
-    amplitude_nm = param.Number(default=1.0, bounds=(0.0, 1e6), doc="vertical wave amplitude, nm")
-    preload_mN = param.Number(default=0.0, bounds=(0.0, 1e6), doc="pre-load, mN")
     marker = param.Tuple(default=None, allow_None=True, length=2)
 
-    def __init__(self, on_run, on_error, **params):
+    def __init__(self, state, on_run, on_error, **params):
         super().__init__(**params)
+        self.state = state
         self.on_run, self.on_error = on_run, on_error
-        self._other = None      # (NormalizedScene, its name): a device run from another tab
+        self._other = None      # ((la, lm, theta, nu), its name): a device run from another tab
         self.info = pn.pane.Markdown(sizing_mode="stretch_width", name="units-info")
-        self.param.watch(self._update, ["substrate", "particle", "radius_mm", "frequency_khz",
-                                        "amplitude_nm", "preload_mN"])
+        self.warnings = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                         css_classes=["vt-units-warnings"])
+        state.param.watch(self._update, list(DEVICE_FIELDS))
         self._update()
 
     def normalized(self):
-        return units.to_normalized(self.substrate, self.particle, self.radius_mm * 1e-3,
-                                   self.frequency_khz * 1e3, self.amplitude_nm * 1e-9,
-                                   preload=self.preload_mN * 1e-3)
+        return self.state.device()
 
     def _update(self, *events):
         try:
             n = self.normalized()
         except (ValueError, TypeError) as exc:
             self.info.object = f"**Invalid input:** {exc}"
+            self.warnings.object = ""
             self.marker = None
             return
         la = math.log10(n.A_star) if n.A_star > 0 else -math.inf
@@ -66,34 +66,31 @@ class UnitsPanel(pn.viewable.Viewer):
                  f"log10 m* in {list(SCENE_LOG_MASS)})")
         self.info.object = "\n".join([
             "| quantity | value |", "|---|---|",
-            f"| A* | {n.A_star:.4g} (log10 {la:.3f}) |",
-            f"| m* | {n.m_star:.4g} (log10 {lm:.3f}) |",
+            f"| A* | {n.A_star:.4g} (log10 {la:.4g}) |",
+            f"| m* | {n.m_star:.4g} (log10 {lm:.4g}) |",
             f"| a0 | {n.a0:.3e} m |",
             f"| wave period | {units.duration_text(1.0 / n.frequency)} |",
             f"| Rayleigh speed c_R | {n.c_R:.0f} m/s |",
             f"| r(nu), theta | {n.r:.3f}, {n.theta:.3f} |",
             f"| on the map | {where} |",
         ])
+        self.warnings.object = "\n\n".join(f"**Warning:** {w.message}" for w in device_warnings(self.state))
 
-    def use_device(self, normalized, name):
-        """A device run from another tab (the Design tab's): its runs are
-        given in SI units too, named `name`."""
-        self._other = (normalized, name)
+    def use_device(self, device, name):
+        """A device run from another tab: its (log10 A*, log10 m*, theta,
+        nu); its runs are given in SI units too, named `name`."""
+        self._other = (device, name)
 
     def _device_named(self, scene):
         """(units.NormalizedScene, its name) of the device `scene` is (its
-        A*, m*, theta and nu): the Units tab's, else the one another tab
+        A*, m*, theta and nu): the state's device, else one another tab
         ran; (None, None) if neither."""
         try:
-            n = self.normalized()
+            n, values = self.normalized(), self.state.device_scene_values()
         except (ValueError, TypeError):
-            n = None
-        if n is not None and self.marker is not None and same_scene(n, self.marker, scene):
-            return n, "the Units tab's device"
-        if self._other is not None:
-            n, name = self._other
-            if same_scene(n, (math.log10(n.A_star), math.log10(n.m_star)), scene):
-                return n, name
+            n = values = None
+        if n is not None and same_scene(values, scene):
+            return n, "the device of the Units and Design tabs"
         return None, None
 
     def device_of(self, scene):
@@ -116,25 +113,43 @@ class UnitsPanel(pn.viewable.Viewer):
         n = self.device_of(scene)
         return None if n is None else 1.0 / n.frequency
 
-    def _go(self, event):
-        if self.marker is None:
-            self.on_error("The Units tab's device is not a scene the explorer can run: "
-                          "see its table (invalid input, or outside the range).")
-            return
-        la, lm = self.marker
-        n = self.normalized()
-        self.on_run(round(la, 3), round(lm, 3), n.theta, n.nu)
-
     def __panel__(self):
-        go = pn.widgets.Button(name="Run this device's scene", button_type="primary")
-        go.on_click(self._go)
-        labels = {"radius_mm": "particle radius (mm)", "frequency_khz": "frequency (kHz)",
-                  "amplitude_nm": "vertical wave amplitude (nm)", "preload_mN": "pre-load (mN)"}
-        fields = [inputs.NumberField(self, k, v, width=260) for k, v in labels.items()]
-        return pn.Column(
-            pn.pane.Markdown("### Device in SI units"),
-            pn.widgets.Select.from_param(self.param.substrate, name="substrate", width=260,
-                                         css_classes=["vt-substrate"]),
-            pn.widgets.Select.from_param(self.param.particle, name="particle", width=260,
-                                         css_classes=["vt-particle"]),
-            *fields, go, self.info)
+        go = pn.widgets.Button(name="Run this device's scene", button_type="primary",
+                               css_classes=["vt-units-run", "vt-ack-run"])
+        go.on_click(lambda event: self.on_run())
+        self.form = device_form(self.state, width=260)
+        return pn.Column(pn.pane.Markdown("### Device in SI units (the Design tab's too)"),
+                         *self.form, go, self.warnings, self.info)
+
+
+DEVICE_LABELS = {"radius": "particle radius (m)", "frequency": "frequency (Hz)",
+                 "amplitude": "vertical wave amplitude (m)", "preload": "pre-load (N)"}
+
+
+def device_form(state, width=150):
+    """The device's widgets (the Units and Design tabs show one form: these,
+    bound to the state): materials, custom materials' properties, radius,
+    frequency, amplitude, pre-load."""
+    select = functools.partial(pn.widgets.Select.from_param, width=width)
+    customs = {k: pn.widgets.TextInput.from_param(
+        state.param[f"{k}_custom"], name=f"{k}: E (Pa), nu, rho (kg/m^3)", width=width,
+        visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, state.param[k]),
+        css_classes=[f"vt-{k}-custom"]) for k in ("substrate", "particle")}
+    return [select(state.param.substrate, name="substrate", css_classes=["vt-substrate"]),
+            customs["substrate"],
+            select(state.param.particle, name="particle", css_classes=["vt-particle"]),
+            customs["particle"],
+            *[inputs.NumberField(state, k, v, width=width) for k, v in DEVICE_LABELS.items()]]
+
+
+def device_warnings(state):
+    """The model's validity warnings for the state's device (the Design
+    tab's: a0 below the interatomic spacing, the contact radius, adhesion)."""
+    try:
+        device = units.DeviceSpec(substrate=state.material("substrate"),
+                                  particle=state.material("particle"), radius=state.radius,
+                                  frequency=state.frequency, amplitude=state.amplitude,
+                                  preload=state.preload)
+        return list(design.validity_warnings(device))
+    except (ValueError, TypeError):
+        return []

@@ -5,6 +5,8 @@ import functools
 import holoviews as hv
 import numpy as np
 import panel as pn
+
+from .map import in_document
 from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
@@ -18,15 +20,17 @@ HEIGHT = 450
 
 def vertical_element(vertical):
     lm = vertical["log_mass"].values
-    de = hv.Curve((lm, np.log10(vertical["threshold_amplitude"].values)),
-                  plots.LOG_M, plots.LOG_A, label="deformable (Hertz)")
-    pm = hv.Curve((lm, np.log10(vertical["point_mass_threshold_amplitude"].values)),
-                  plots.LOG_M, plots.LOG_A, label="material point").opts(line_dash="dashed")
-    lines = [hv.VLine(vertical.attrs[k]).opts(color="grey", line_dash="dotted")
+    # the map's axes: log10 A* across, log10 m* up (the curve A_J*(m*) drawn
+    # as m* against A_J*), so a scene sits where it sits on the map
+    de = hv.Curve((np.log10(vertical["threshold_amplitude"].values), lm),
+                  plots.LOG_A, plots.LOG_M, label="deformable (Hertz)")
+    pm = hv.Curve((np.log10(vertical["point_mass_threshold_amplitude"].values), lm),
+                  plots.LOG_A, plots.LOG_M, label="material point").opts(line_dash="dashed")
+    lines = [hv.HLine(vertical.attrs[k]).opts(color="grey", line_dash="dotted")
              for k in vertical.attrs if k.startswith("resonance_") and k.endswith("log_mass")]
     return hv.Overlay([de, pm, *lines]).opts(
-        height=HEIGHT, title="Jumping threshold A_J*(m*): above a curve, the particle jumps",
-        legend_position="top_right")
+        height=HEIGHT, title="Jumping threshold A_J*(m*), axes as the map's: right of a "
+        "curve, the particle jumps", legend_position="top_right")
 
 
 @functools.lru_cache(maxsize=1)
@@ -44,7 +48,7 @@ class VerticalView:
 
     def __init__(self, state):
         self.state = state
-        self.scene = ColumnDataSource({"x": [state.log_mass], "y": [state.log_amplitude]})
+        self.scene = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.pane = pn.Column(sizing_mode="stretch_width", name="vertical")
         self._built = False
         state.param.watch(self._moved, ["log_amplitude", "log_mass"])
@@ -68,7 +72,7 @@ class VerticalView:
         self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 
     def _moved(self, *events):
-        self.scene.data = {"x": [self.state.log_mass], "y": [self.state.log_amplitude]}
+        in_document(self.scene, {"x": [self.state.log_amplitude], "y": [self.state.log_mass]})
 
 
 def _legend_item(label, renderer):

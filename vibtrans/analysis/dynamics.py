@@ -24,6 +24,7 @@ from vibtrans.core import drivers
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels.contact import LAW_K1, law_eval, law_scales
 from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import TWO_PI
 
@@ -32,24 +33,28 @@ SHOOTING_TOL = 1e-10       # Newton's stop: |P^k(z) - z| below this (a0, a0/peri
 SHOOTING_ITERATIONS = 40
 
 
-def _field(t, z, A, m):
+def _field(t, z, A, m, law=None):
     """d/dt of (y, y', dy, dy') with the wave on (G = 1): the vertical
-    equation and its variational equation."""
+    equation and its variational equation (law: a profile's kernel law,
+    None: Hertz)."""
     y, vy, dy, dvy = z
     a = y - A * math.cos(TWO_PI * t)
-    n, dn = (a * math.sqrt(a), 1.5 * math.sqrt(a)) if a > 0.0 else (0.0, 0.0)
+    if law is not None:
+        n, dn = law_eval(law, a) if a > 0.0 else (0.0, 0.0)
+    else:
+        n, dn = (a * math.sqrt(a), 1.5 * math.sqrt(a)) if a > 0.0 else (0.0, 0.0)
     return np.array([vy, (1.0 - n) / m, dvy, -dn * dy / m])
 
 
-def _rk4(t, z, dt, A, m):
-    k1 = _field(t, z, A, m)
-    k2 = _field(t + 0.5 * dt, z + 0.5 * dt * k1, A, m)
-    k3 = _field(t + 0.5 * dt, z + 0.5 * dt * k2, A, m)
-    k4 = _field(t + dt, z + dt * k3, A, m)
+def _rk4(t, z, dt, A, m, law=None):
+    k1 = _field(t, z, A, m, law)
+    k2 = _field(t + 0.5 * dt, z + 0.5 * dt * k1, A, m, law)
+    k3 = _field(t + 0.5 * dt, z + 0.5 * dt * k2, A, m, law)
+    k4 = _field(t + dt, z + dt * k3, A, m, law)
     return z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def _contact_history(t, y, vy, d, h, A, m):
+def _contact_history(t, y, vy, d, h, A, m, law=None):
     """The AB4 derivative histories (state's float64[4, 4], the tangent's
     float64[4, 2]) of the solution through (y, vy) and tangent d at t: F at
     t, t - h, t - 2h, t - 3h, integrated backwards with RK4."""
@@ -59,11 +64,11 @@ def _contact_history(t, y, vy, d, h, A, m):
     dt = -h / RK4_SUBSTEPS
     tj = t
     for j in range(4):
-        f = _field(tj, z, A, m)
+        f = _field(tj, z, A, m, law)
         hist[j, 2], hist[j, 3] = f[0], f[1]
         thist[j] = f[2], f[3]
         for _ in range(RK4_SUBSTEPS):
-            z = _rk4(tj, z, dt, A, m)
+            z = _rk4(tj, z, dt, A, m, law)
             tj += dt
         tj = t - (j + 1) * h       # no drift of the time from the substeps
     return hist, thist
@@ -77,16 +82,17 @@ class Strobe(NamedTuple):
     jacobian: np.ndarray
 
 
-def _params(amplitude, mass, fidelity, t_end):
-    h = time_step(amplitude, mass, fidelity)
+def _params(amplitude, mass, fidelity, t_end, law=None):
+    h = time_step(amplitude, mass, fidelity, scales=None if law is None else law_scales(law))
     return D.kernel_params(amplitude, mass, 0.3, 1.2, 0.0, 0.0, h, t_end, 1e9), h
 
 
-def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0):
+def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0, law=None):
     """P^periods(y, vy) from the integer time t0 (the wave on, tau = 0) with
     its Jacobian, from the vertical kernel and its tangent (two runs, one
-    per column)."""
-    p, h = _params(amplitude, mass, fidelity, t0 + periods)
+    per column).  law: a profile's kernel law (drivers.scene_law(scene); None:
+    the sphere)."""
+    p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
     gap = y - amplitude * math.cos(TWO_PI * t0)
     columns = []
     end = None
@@ -101,12 +107,12 @@ def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0):
             state[[D.S_T0, D.S_Y0, D.S_VY0]] = (t0, y, vy)
             tangent[[D.L_DY0, D.L_DVY0]] = e
         else:
-            hist, thist = _contact_history(t0, y, vy, e, h, amplitude, mass)
+            hist, thist = _contact_history(t0, y, vy, e, h, amplitude, mass, law)
             tangent[D.L_HIST:D.L_HIST + 8] = thist.ravel()
             state[D.S_GAP] = gap
         run = drivers.run_hertz(p, "ab4", tangential=False, samples_capacity=16, state=state,
                                 hist=hist, record_rest=False, tangent=tangent,
-                                in_flight=in_flight, chunk_steps=None)
+                                in_flight=in_flight, chunk_steps=None, law=law)
         t_end, dy, dvy = D.tangent_at_end(run.tangent, run.state)
         columns.append((dy, dvy))
         end = _end_state(run, t_end)
@@ -138,13 +144,13 @@ class Orbit(NamedTuple):
 
 
 def periodic_orbit(amplitude, mass, guess, period=1, fidelity="standard",
-                   tol=SHOOTING_TOL, max_iterations=SHOOTING_ITERATIONS, phase=0.0):
+                   tol=SHOOTING_TOL, max_iterations=SHOOTING_ITERATIONS, phase=0.0, law=None):
     """Newton shooting on P^period from `guess` = (y, y') with the tangent
     map's Jacobian (damped: a step never more than doubles the residual).
     phase: the section's time mod 1 (0: t = 0 mod 1)."""
     _check_orbit_args(amplitude, mass, period)
     z = np.array(guess, dtype=float)
-    s = strobe(amplitude, mass, z[0], z[1], period, fidelity, phase)
+    s = strobe(amplitude, mass, z[0], z[1], period, fidelity, phase, law)
     r = np.array([s.y, s.vy]) - z
     it = 0
     while np.linalg.norm(r) > tol and it < max_iterations:
@@ -156,7 +162,7 @@ def periodic_orbit(amplitude, mass, guess, period=1, fidelity="standard",
         lam = 1.0
         while True:
             zn = z + lam * dz
-            sn = strobe(amplitude, mass, zn[0], zn[1], period, fidelity, phase)
+            sn = strobe(amplitude, mass, zn[0], zn[1], period, fidelity, phase, law)
             rn = np.array([sn.y, sn.vy]) - zn
             if np.linalg.norm(rn) <= 2.0 * np.linalg.norm(r) or lam < 1e-3:
                 break
@@ -182,14 +188,17 @@ def _check_orbit_args(amplitude, mass, period):
         raise InputError(f"period must be an integer in [1, 64], got {period!r}")
 
 
-def rest_guess(amplitude, mass):
+def rest_guess(amplitude, mass, law=None):
     """The section point of the small-amplitude contact orbit, to first order
-    in A*: y* = 1 + A* / (1 - (2 pi)^2 m* / 1.5), y*' = 0 (the linearized
-    contact oscillator driven at the wave's frequency; off near resonance)."""
-    return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / 1.5), 0.0
+    in A*: y* = 1 + A* / (1 - (2 pi)^2 m* / N*'(1)), y*' = 0 (the linearized
+    contact oscillator driven at the wave's frequency; off near resonance;
+    N*'(1) = 1.5 for the sphere)."""
+    k1 = 1.5 if law is None else float(law[LAW_K1])
+    return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / k1), 0.0
 
 
-def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, cancel=None):
+def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, cancel=None,
+            law=None):
     """The orbit of (y, y') under the stroboscopic map at time `phase` mod 1:
     float64[periods + 1, 2] (the first row the start).  One kernel call per
     period (each restarts from a state, as `strobe`; the same map).
@@ -200,7 +209,7 @@ def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, can
     for k in range(periods):
         if cancel is not None and cancel.is_set():
             raise Cancelled("section cancelled")
-        s = strobe(amplitude, mass, out[k, 0], out[k, 1], 1, fidelity, phase)
+        s = strobe(amplitude, mass, out[k, 0], out[k, 1], 1, fidelity, phase, law)
         out[k + 1] = s.y, s.vy
     return out
 
@@ -235,7 +244,7 @@ class Branch(NamedTuple):
 
 
 def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, guess=None,
-                   fidelity="standard"):
+                   fidelity="standard", profile="sphere", load_over_modulus=None):
     """Natural-parameter continuation of a period-k orbit from (log10 A*,
     log10 m*) along log10 A* or log10 m* towards `to`, in steps of `step`
     decades, each Newton solve started from the previous orbits' secant
@@ -247,8 +256,11 @@ def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, 
     start = log_amplitude if parameter == "amplitude" else log_mass
     n = int(math.floor(abs(to - start) / step + 1e-9))
     direction = 1.0 if to >= start else -1.0
+    base = Scene(amplitude=10.0 ** log_amplitude, mass=10.0 ** log_mass, profile=profile,
+                 load_over_modulus=load_over_modulus)
+    law = drivers.scene_law(base)
     if guess is None:
-        guess = run_guess(Scene(amplitude=10.0 ** log_amplitude, mass=10.0 ** log_mass))
+        guess = run_guess(base)
     points, folds, doublings = [], [], []
     ended = "reached the end"
     z_prev = None
@@ -256,7 +268,7 @@ def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, 
     for i in range(n + 1):
         value = start + direction * i * step
         la, lm = (value, log_mass) if parameter == "amplitude" else (log_amplitude, value)
-        orbit = periodic_orbit(10.0 ** la, 10.0 ** lm, z, period, fidelity)
+        orbit = periodic_orbit(10.0 ** la, 10.0 ** lm, z, period, fidelity, law=law)
         if not orbit.found:
             if points and abs(points[-1].orbit.trace - 2.0) < 0.5:
                 folds.append(_crossing(points[-2:], parameter, 2.0) if len(points) > 1

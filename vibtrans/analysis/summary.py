@@ -19,6 +19,11 @@ from vibtrans.core.drivers import ballistic_reach_time
 
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
+# A drift is steady when its mean velocity over the run's last tenth differs
+# from that over the tenth before by at most this fraction of the larger
+# (or by at most v0*, the "no drift" band): else the run is still
+# accelerating or decelerating, and its mean <v*> depends on its length.
+STEADY_TOLERANCE = 0.1
 SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
 SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
 LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
@@ -59,6 +64,25 @@ def final_drift_velocity(ds, fraction=FINAL_FRACTION):
     t1 = float(t[-1])
     t0 = t1 * (1.0 - fraction)
     return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
+
+
+def steadiness(ds, v0=V0, fraction=FINAL_FRACTION, tolerance=STEADY_TOLERANCE):
+    """(steady, words) of a run's drift: its mean velocity over the last
+    `fraction` of the run against that over the `fraction` before, in a0
+    per period; steady when they differ by at most `tolerance` of the
+    larger or by at most v0 (STEADY_TOLERANCE)."""
+    t, x = ds["time"].values, ds["x"].values
+    t2 = float(t[-1])
+    t1, t0 = t2 * (1.0 - fraction), t2 * (1.0 - 2.0 * fraction)
+    x0, x1 = np.interp([t0, t1], t, x)
+    v_before = float((x1 - x0) / (t1 - t0))
+    v_last = float((x[-1] - x1) / (t2 - t1))
+    if abs(v_last - v_before) <= max(v0, tolerance * max(abs(v_last), abs(v_before))):
+        return True, (f"steady: the drift over the last two tenths of the run, {v_before:.4g} "
+                      f"then {v_last:.4g}")
+    word = "accelerating" if abs(v_last) > abs(v_before) else "decelerating"
+    return False, (f"not steady: still {word} (drift {v_before:.4g}, then {v_last:.4g} over the "
+                   f"last two tenths of the run); the mean depends on the run's length")
 
 
 def flights(ds):
@@ -303,6 +327,8 @@ class Summary(NamedTuple):
     twin_seconds: float          # the twin's wall time, s (0.0: no twin ran)
     lyapunov: float | None = None    # the vertical motion's exponent, per period (None: not measured)
     twin_chaotic: bool | None = None  # the twin's verdict (None: no twin ran)
+    steady: bool | None = None   # the drift steady at the run's end (`steadiness`)
+    steadiness: str = ""         # that, in words
 
 
 def summarize(ds, twin=None, v0=V0):
@@ -319,6 +345,7 @@ def summarize(ds, twin=None, v0=V0):
     tw = t_end * (1.0 - FINAL_FRACTION)
     v = drift_velocity(ds)
     v_final = final_drift_velocity(ds)
+    steady, steady_words = steadiness(ds, v0=v0)
     jumping = t_to.size > 0
     pattern = rebound_pattern(ds)
     twin_chaotic = None if twin is None else chaos_verdict(ds, twin, v0=v0)
@@ -358,4 +385,6 @@ def summarize(ds, twin=None, v0=V0):
         twin_seconds=float(twin.attrs.get("seconds", 0.0)) if twin is not None else 0.0,
         lyapunov=lyapunov,
         twin_chaotic=twin_chaotic,
+        steady=steady,
+        steadiness=steady_words,
     )

@@ -28,18 +28,22 @@ commit (bit-identical on its scan grid).  Each caller keeps its own chunking
 (`chunk_steps`; None = one call) and buffer sizes, which is what makes its
 results reproducible bit for bit.
 """
+import functools
 import math
 from typing import NamedTuple
 
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT, STICK, new_memory
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, STICK, kernel_law, law_scales,
+                                           new_memory, reset_memory_law)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
-from vibtrans.core.kernels.vertical import vertical_kernel, vertical_lyapunov_kernel
+from vibtrans.core.kernels.vertical import (vertical_kernel, vertical_lyapunov_kernel,
+                                            vertical_profile_kernel,
+                                            vertical_profile_lyapunov_kernel)
 from vibtrans.core.kernels.substrate import RAMP_OFF, surface_acceleration, surface_motion
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, STATED_DRIFT_ERROR, V0
 
@@ -139,7 +143,7 @@ def _record_rest(buf, ctr):
 def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
               memory_capacity=1024, state=None, hist=None, record_rest=True,
               stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None,
-              lyapunov_from=None, tangent=None, in_flight=False, decide=None):
+              lyapunov_from=None, tangent=None, in_flight=False, decide=None, law=None):
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -163,6 +167,8 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
         None: one call.
     decide: a stopping rule (DecidedRule) checked between calls at
         the times it names; the run ends where it says (runs from rest).
+    law: an axisymmetric profile's kernel law (vibtrans.core.profiles.
+        kernel_law; docs/MODEL.md section 10); None: the sphere (Hertz).
     Returns a Run (memory: the memory diagram's arrays, deformable only).
     """
     if stop_at_takeoff and (tangential or lyapunov_from is not None):
@@ -174,7 +180,8 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     if lyapunov_from is not None:
         if state is not None or tangent is not None:
             raise ValueError("lyapunov_from applies to runs from rest only")
-        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from))
+        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from),
+                                 1.5 if law is None else float(law[LAW_K1]))
     if state is None:
         state, hist = D.rest_state()
     buf = {"samples": np.empty((samples_capacity, R.NCOL)),
@@ -184,11 +191,14 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     if in_flight:
         ctr[R.C_MODE] = D.MODE_FLIGHT
         ctr[R.C_STATE] = FLIGHT
-    mem = list(new_memory(memory_capacity)) if tangential else None
+    mem = _new_memory(memory_capacity, law) if tangential else None
     if record_rest:
         _record_rest(buf, ctr)
 
-    if tangential and tangent is not None:
+    if law is not None:
+        call = _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,
+                             stop_at_takeoff, law)
+    elif tangential and tangent is not None:
         def call(t_stop):
             return D.deformable_lyapunov_kernel(params, integ, state, hist, tangent, *mem,
                                                 buf["samples"], buf["events"], ctr, t_stop)
@@ -215,6 +225,52 @@ def run_hertz(params, integrator, *, tangential, samples_capacity, events_capaci
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
                tuple(mem) if tangential else None, tangent)
+
+
+@functools.lru_cache(maxsize=32)
+def _law_of(profile, load_over_modulus):
+    from vibtrans.core.params import Scene
+    return kernel_law(Scene(profile=profile, load_over_modulus=load_over_modulus)
+                      .profile_shape())
+
+
+def scene_law(scene):
+    """The kernels' law of a scene's profile (kernels.contact.kernel_law;
+    None: the sphere's own path), built once per profile."""
+    return _law_of(scene.profile, scene.load_over_modulus)
+
+
+def scene_scales(scene):
+    """(N*'(1), p) of a scene's profile for the time step (None: the sphere)."""
+    law = scene_law(scene)
+    return None if law is None else law_scales(law)
+
+
+def _new_memory(capacity, law):
+    """A memory diagram at rest (a* = 1, b* = 0), in the law's format."""
+    mem = list(new_memory(capacity))
+    if law is not None:
+        reset_memory_law(*mem, 1.0, 0.0, law)
+    return mem
+
+
+def _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,
+                  stop_at_takeoff, law):
+    """run_hertz's kernel call for a profile law (the *_profile_* kernels)."""
+    if tangential and tangent is not None:
+        return lambda t_stop: D.deformable_profile_lyapunov_kernel(
+            params, integ, state, hist, tangent, *mem, buf["samples"], buf["events"], ctr,
+            t_stop, law)
+    if tangential:
+        return lambda t_stop: D.deformable_profile_kernel(
+            params, integ, state, hist, *mem, buf["samples"], buf["events"], ctr, t_stop, law)
+    if tangent is not None:
+        return lambda t_stop: vertical_profile_lyapunov_kernel(
+            params, integ, state, hist, tangent, _NO_MEMORY, buf["samples"], buf["events"],
+            ctr, t_stop, law)
+    return lambda t_stop: vertical_profile_kernel(
+        params, integ, stop_at_takeoff, state, hist, _NO_MEMORY, buf["samples"],
+        buf["events"], ctr, t_stop, law)
 
 
 def _hertz_decider(decide, buf, ctr, state, tangent):
@@ -250,7 +306,7 @@ def _until_done(call, t_stop, growers):
         growers[code]()
 
 
-def _final_step(params, integ, state, hist, mem, ctr):
+def _final_step(params, integ, state, hist, mem, ctr, law=None):
     """The deformable kernel's final call of a run ending at params.t_end, on
     copies of a run's state (left as it was), which a non-final call has
     brought to the last step at or before t_end: it commits the step that
@@ -263,6 +319,9 @@ def _final_step(params, integ, state, hist, mem, ctr):
     buf = {"samples": np.empty((16, R.NCOL)), "events": np.empty((16, 3))}
 
     def call(t_stop):
+        if law is not None:
+            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
+                                               buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
@@ -272,7 +331,7 @@ def _final_step(params, integ, state, hist, mem, ctr):
 
 def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capacity=1024,
                      memory_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                     cancel=None):
+                     cancel=None, law=None):
     """One run of the deformable kernel from rest, with the memory diagram
     taken at each of `stops` (non-decreasing times, periods, the last one
     params.t_end): a list of (state, ctr, memory), one per stop, each what
@@ -295,10 +354,13 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
            "events": np.empty((events_capacity, 3))}
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
-    mem = list(new_memory(memory_capacity))
+    mem = _new_memory(memory_capacity, law)
     _record_rest(buf, ctr)
 
     def call(t_stop):
+        if law is not None:
+            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
+                                               buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
@@ -323,7 +385,7 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
         if stop < t_end:
             # a stop inside the run: a copy takes the step that reaches it
             out.append(_final_step(params._replace(t_end=stop), integ, state, hist, mem,
-                                   ctr))
+                                   ctr, law))
         else:
             out.append((state, ctr, tuple(mem)))
     return out
@@ -344,9 +406,14 @@ def point_mass_capacity(params):
 
 
 def _pm_flight_start(events):
-    """The last take-off's time (the flight in progress), or 0 (none yet)."""
-    to = events[events[:, 1] == R.TAKEOFF, 0]
-    return float(to[-1]) if to.size else 0.0
+    """The last take-off's time (the flight in progress), or 0 (none yet);
+    searched from the end (in a flight the take-off is the last event or
+    near it: a check costs O(1), not O(events))."""
+    kinds = events[:, 1]
+    for i in range(kinds.size - 1, -1, -1):
+        if kinds[i] == R.TAKEOFF:
+            return float(events[i, 0])
+    return 0.0
 
 
 def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,

@@ -42,13 +42,39 @@ PRESET_NOTES = {
 }
 
 
-def contact_time_scale(amplitude, mass, impacts=True):
+def _profile_time_scale(amplitude, mass, impacts, scales):
+    """contact_time_scale for a profile's law (docs/MODEL.md section 10), scales =
+    (N*'(1), p) (kernels.contact.law_scales):
+    the linear oscillation 2 pi sqrt(m* / N*'(1)); the impact of the law
+    N* ~ (N*'(1)/p) a*^p at v = 4 pi A*: a_max^(p+1) = (p+1) p m* v^2 / (2 N*'(1)),
+    t_c = c_p a_max / v, c_p = 2 int_0^1 (1 - x^(p+1))^(-1/2) dx
+    = 2 sqrt(pi) Gamma(1 + 1/(p+1)) / Gamma(1/2 + 1/(p+1)) (2.94 for p = 3/2).
+    Tables take p = 2: a convex profile's contact radius grows at most
+    linearly with the approach (the cone), so N* at most as a*^2."""
+    k1, p = scales
+    log_m = math.log(mass)
+    t_lin = 2.0 * math.pi * math.exp(0.5 * (log_m - math.log(k1)))
+    v = 4.0 * math.pi * amplitude
+    if v <= 0.0 or not impacts or v < 1e-100:
+        return t_lin
+    q = 1.0 / (p + 1.0)
+    c_p = 2.0 * math.sqrt(math.pi) * math.gamma(1.0 + q) / math.gamma(0.5 + q)
+    log_t = (math.log(c_p) + q * (math.log((p + 1.0) * p / (2.0 * k1)) + log_m
+                                  + 2.0 * math.log(v)) - math.log(v))
+    t_imp = math.exp(log_t) if log_t < 709.0 else math.inf
+    return min(t_lin, t_imp)
+
+
+def contact_time_scale(amplitude, mass, impacts=True, scales=None):
     """Shortest contact time scale of a scene, in wave periods (> 0, not NaN,
     for any amplitude >= 0 and mass > 0 a float can hold: where the direct
     formulas overflow or underflow, the same quantities in logarithms).
 
     impacts=False: only the linear oscillation (runs that stop at the first
-    take-off, such as the jumping threshold, never land)."""
+    take-off, such as the jumping threshold, never land).  scales: a profile's
+    (N*'(1), p) (kernels.contact.law_scales; None: the sphere)."""
+    if scales is not None:
+        return _profile_time_scale(amplitude, mass, impacts, scales)
     t_lin = 2.0 * math.pi * math.sqrt(2.0 * mass / 3.0)
     if t_lin == math.inf:                          # 2 m* overflows (m* > 9e307)
         t_lin = 2.0 * math.pi * math.sqrt(mass) * math.sqrt(2.0 / 3.0)
@@ -71,7 +97,8 @@ def contact_time_scale(amplitude, mass, impacts=True):
     return min(t_lin, t_imp)
 
 
-def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, steps=None):
+def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, steps=None,
+              scales=None):
     """Integration step (periods) for the deformable and vertical models
     (>= 0; 0 only where the impact time scale underflows: an unbounded cost).
 
@@ -80,7 +107,7 @@ def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, st
     (work-precision studies).
     """
     per_period, per_contact = FIDELITY[fidelity] if steps is None else steps
-    h = min(1.0 / per_period, contact_time_scale(amplitude, mass, impacts) / per_contact)
+    h = min(1.0 / per_period, contact_time_scale(amplitude, mass, impacts, scales) / per_contact)
     return h / refine
 
 

@@ -7,6 +7,7 @@ and a bad one raises ValueError naming the parameter and its valid range
 Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
 wave periods.
 """
+import functools
 import math
 import numbers
 
@@ -14,6 +15,7 @@ import param
 
 from vibtrans.core.units import amplitude_ratio
 from vibtrans.core.errors import InputError
+from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
@@ -56,6 +58,25 @@ class Physical(param.Number):
             raise InputError(f"{name} must be in {rng}, got {val!r}")
 
 
+class ProfileSpec(param.String):
+    """An axisymmetric particle profile: sphere | cone | power:N (N >= 1) |
+    flat-sphere:C (C >= 0, units sqrt(R a0)) | file:PATH (a table r z in
+    metres; needs the scene's load_over_modulus).  docs/MODEL.md section 10."""
+
+    def _validate(self, val):
+        if not isinstance(val, str):
+            raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {val!r}")
+        if not val.startswith("file:"):
+            parse_profile(val)        # raises naming the parameter and its range
+
+
+@functools.lru_cache(maxsize=32)
+def _profile_shape(profile, load_over_modulus):
+    """The profile object of a spec, parsed once (a file profile's MDR costs
+    milliseconds; scenes are copied often)."""
+    return parse_profile(profile, load_over_modulus)
+
+
 def _choice(name, value, options):
     if value not in options:
         raise InputError(f"{name} must be one of {', '.join(options)}; got {value!r}")
@@ -85,6 +106,12 @@ class Scene(param.Parameterized):
     fidelity = param.Selector(default="standard", objects=list(FIDELITIES))
     stick_rule = param.Selector(default="paper", objects=list(STICK_RULES),
                                 doc="point mass slide->stick rule (docs/MODEL.md section 3)")
+    profile = ProfileSpec("sphere", doc="particle profile (deformable and vertical models): "
+                          + ", ".join(PROFILE_KINDS))
+    load_over_modulus = Physical(None, allow_None=True, bounds=(0, None),
+                                 inclusive_bounds=(False, False),
+                                 doc="N0/E*, m^2: the static load over the contact modulus "
+                                     "(file: profiles only, whose table is in metres)")
 
     def __init__(self, **params):
         for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
@@ -95,6 +122,12 @@ class Scene(param.Parameterized):
         if unknown:
             raise InputError(f"unknown scene parameter(s): {', '.join(sorted(unknown))}")
         super().__init__(**params)
+        self.profile_shape()           # a file profile is read and checked now
+
+    def profile_shape(self):
+        """The profile object (vibtrans.core.profiles) of this scene; its
+        kernels' law: vibtrans.core.drivers.scene_law(scene)."""
+        return _profile_shape(self.profile, self.load_over_modulus)
 
     @property
     def r(self):
@@ -102,8 +135,10 @@ class Scene(param.Parameterized):
         return float(amplitude_ratio(self.nu))
 
     def values(self):
-        """The scene as a plain dict (attributes of results, JSON)."""
-        return {k: getattr(self, k) for k in self.param if k != "name"}
+        """The scene as a plain dict (attributes of results, JSON).  The
+        profile's load appears only where it is set (a file: profile)."""
+        return {k: getattr(self, k) for k in self.param
+                if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)}
 
     def replace(self, **changes):
         """A copy with some values changed (validated)."""

@@ -23,7 +23,9 @@ Profiles (all scale-free except the tabulated one, which needs the load):
     flat-sphere:c   sphere cut flat at radius c; c in units of sqrt(R a0)
     file:PATH       a measured z(r) table (metres), through MDR numerically
 
-This module is library-side only (no kernel yet: see the issue-34 report).
+The kernels take a profile as `kernels.contact.kernel_law(profile)`: None for the sphere (its
+own, unchanged path), else a float64 array (contact.law_eval): the power law's
+exponent, or N*'(a*) on a uniform grid with N* its exact integral.
 """
 import math
 from dataclasses import dataclass
@@ -248,3 +250,4 @@ def tangential_force(profile, a, b, w_of_h, h_grid):
     w = w_of_h(h)
     atom = k[0] * w[0]   # springs entering at h = 0 (flat part): weight N*'(0)
     return b * float(profile.stiffness(a)) - atom - float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(k)))
+

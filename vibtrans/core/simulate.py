@@ -44,7 +44,8 @@ def estimate_steps(scene, refine=1.0, steps=None):
     if scene.model == "point-mass":
         h = scan_step(scene.fidelity, refine)
     else:
-        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
+                      scales=drivers.scene_scales(scene))
     return drivers.checked_steps(step_count(scene.periods, h), math.inf, "scene", h)
 
 
@@ -163,7 +164,8 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
 
 
 def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps)
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
+                  scales=drivers.scene_scales(scene))
     p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
                         scene.tau, h, scene.periods, 1.0 / samples_per_period, (w0, w1),
                         shortcuts)
@@ -187,7 +189,7 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
     t_from = lyapunov_start(scene) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
                             samples_capacity=capacity, progress=progress, cancel=cancel,
-                            lyapunov_from=t_from, decide=decide)
+                            lyapunov_from=t_from, decide=decide, law=drivers.scene_law(scene))
     info = {"h": h}
     if lyapunov:
         if decide is not None and decide.reason == STOP_FLIGHT:
@@ -276,7 +278,8 @@ def memory_snapshot(scene=None, t=None, **values):
         raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), MIN_SNAPSHOT_TIME))
     p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
-    run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity)
+    run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity,
+                            law=drivers.scene_law(short))
     return _snapshot(run.state, run.ctr, run.memory)
 
 
@@ -302,7 +305,7 @@ def memory_snapshots(scene=None, times=None, *, progress=None, cancel=None, **va
     short = scene.replace(periods=stops[-1])
     p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
     runs = drivers.run_memory_stops(p, short.integrator, stops, samples_capacity=capacity,
-                                    progress=progress, cancel=cancel)
+                                    progress=progress, cancel=cancel, law=drivers.scene_law(short))
     return [_snapshot(*run) for run in runs]
 
 

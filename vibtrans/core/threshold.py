@@ -19,20 +19,23 @@ from vibtrans.core.params import Scene
 
 
 def first_takeoff(amplitude, mass, tau=50.0, periods=2000.0, fidelity="standard",
-                  integrator="ab4"):
+                  integrator="ab4", profile="sphere", load_over_modulus=None):
     """Time of the first contact loss of the vertical Hertz particle, or inf.
 
     Inputs are validated as a Scene would validate them.
     """
     scene = Scene(amplitude=amplitude, mass=mass, tau=tau, periods=periods,
-                  fidelity=fidelity, integrator=integrator, model="vertical")
+                  fidelity=fidelity, integrator=integrator, model="vertical",
+                  profile=profile, load_over_modulus=load_over_modulus)
     return _first_takeoff(scene)
 
 
 def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     # it stops at the first take-off: no impact to resolve, only the linear
     # contact oscillation
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False)
+    law = drivers.scene_law(scene)
+    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False,
+                  scales=drivers.scene_scales(scene))
     drivers.checked_steps(step_count(scene.periods, h), max_steps,
                           f"threshold run at A* = {scene.amplitude:.3g}, "
                           f"m* = {scene.mass:.3g}", h)
@@ -40,13 +43,15 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
                         scene.periods, math.inf)
     # one kernel call (chunk_steps=None): a take-off time is bit-reproducible
     run = drivers.run_hertz(p, scene.integrator, tangential=False, samples_capacity=4,
-                            events_capacity=8, stop_at_takeoff=True, chunk_steps=None)
+                            events_capacity=8, stop_at_takeoff=True, chunk_steps=None,
+                            law=law)
     hit = np.flatnonzero(run.events[:, 1] == R.TAKEOFF)
     return float(run.events[hit[0], 0]) if hit.size else math.inf
 
 
 def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
-                        integrator="ab4", rel_tol=1e-3, guess=None):
+                        integrator="ab4", rel_tol=1e-3, guess=None, profile="sphere",
+                        load_over_modulus=None):
     """A_J*(m*): smallest A* with a contact loss within `periods`.
 
     Bisection in log10 A* to a relative width rel_tol.  Without a guess the
@@ -59,7 +64,8 @@ def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
             or not 1e-12 <= rel_tol <= 0.5:
         raise InputError(f"rel_tol must be in [1e-12, 0.5], got {rel_tol!r}")
     base = Scene(mass=mass, tau=tau, periods=periods, fidelity=fidelity,
-                 integrator=integrator, model="vertical")
+                 integrator=integrator, model="vertical", profile=profile,
+                 load_over_modulus=load_over_modulus)
 
     def jumps(a):
         return _first_takeoff(base.replace(amplitude=a)) < math.inf
@@ -107,12 +113,13 @@ def point_mass_sliding_threshold(mass, mu=0.3, r=None, nu=0.3):
 
 def _threshold_task(args):
     """A run of consecutive masses, each bracketed from its neighbour."""
-    masses, tau, periods, fidelity = args
+    masses, tau, periods, fidelity, profile, load_over_modulus = args
     out = []
     guess = None
     for m in masses:
         guess = threshold_amplitude(m, tau=tau, periods=periods, fidelity=fidelity,
-                                    guess=guess)
+                                    guess=guess, profile=profile,
+                                    load_over_modulus=load_over_modulus)
         out.append(guess)
     return out
 
@@ -149,7 +156,7 @@ def resonances(log_mass, aj):
 
 
 def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
-                    workers=None, progress=True):
+                    workers=None, progress=True, profile="sphere", load_over_modulus=None):
     """A_J*(m*) over a grid of log10 m*, with the rigid line and the resonances
     (xarray.Dataset).  Runs on a local process pool."""
     import multiprocessing as mp
@@ -161,11 +168,12 @@ def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
     from tqdm import tqdm
 
     from vibtrans.version import __version__
-    Scene(tau=tau, periods=periods, fidelity=fidelity)      # validate
+    Scene(tau=tau, periods=periods, fidelity=fidelity, profile=profile,
+          load_over_modulus=load_over_modulus)      # validate
     log_mass = np.asarray(log_mass, dtype=float)
     masses = 10.0 ** log_mass
     runs = [masses[i:i + 25] for i in range(0, masses.size, 25)]
-    tasks = [(run, tau, periods, fidelity) for run in runs]
+    tasks = [(run, tau, periods, fidelity, profile, load_over_modulus) for run in runs]
     workers = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
         parts = list(tqdm(pool.map(_threshold_task, tasks), total=len(tasks),
@@ -179,6 +187,7 @@ def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
         coords={"log_mass": log_mass},
         attrs={"tau": tau, "periods": periods, "fidelity": fidelity,
                "code_version": __version__,
+               **({} if profile == "sphere" else {"profile": profile}),
                **{f"resonance_{k}_log_mass": float(log_mass[i]) for k, i in res.items()},
                **{f"resonance_{k}_amplitude": float(aj[i]) for k, i in res.items()}})
     return ds

@@ -41,6 +41,10 @@ PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
 SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
               "integrator", "alpha_t", "stick_rule")
+# The particle's profile (issue 34): in a sweep's values and attrs only when it
+# is not the sphere (stores made before profiles are the sphere's, and keep
+# their keys); load_over_modulus only with a file: profile.
+PROFILE_KEYS = ("profile", "load_over_modulus")
 VARIABLES = {
     # name: (dtype, fill, description)
     "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
@@ -214,6 +218,10 @@ class Sweep:
         self.variables = variables_of(kind, chaos, stop)
         scene = Scene(**values)            # validates every value
         self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
+        if scene.profile != "sphere":
+            self.values["profile"] = scene.profile
+            if scene.load_over_modulus is not None:
+                self.values["load_over_modulus"] = scene.load_over_modulus
         self.log_amplitude = np.asarray(log_amplitude, dtype=float)
         self.log_mass = np.asarray(log_mass, dtype=float)
         if not (isinstance(chunk_rows, int) and chunk_rows >= 1):
@@ -255,6 +263,10 @@ def _check_store(ds, sweep, path):
         got = ds.attrs.get(f"scene_{k}")
         if got != v:
             problems.append(f"{k}: store {got!r}, command {v!r}")
+    for k in PROFILE_KEYS:
+        if k not in sweep.values and f"scene_{k}" in ds.attrs:
+            problems.append(f"{k}: store {ds.attrs[f'scene_{k}']!r}, command "
+                            f"{'sphere' if k == 'profile' else None!r}")
     for name in ("log_amplitude", "log_mass"):
         grid = getattr(sweep, name)
         if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):

@@ -171,8 +171,15 @@ def export_html(obj, out, title="vibtrans"):
             ensure_backends()
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
         elif isinstance(obj, Model):
+            from bokeh.document import Document
             from bokeh.embed import file_html
             from bokeh.resources import INLINE
+            # a document of its own, whose only root is obj: file_html then
+            # uses it as is; without one it copies curdoc()'s callbacks, and
+            # in a server callback curdoc() can be a closed page's destroyed
+            # document (AttributeError: the .html download never arrived)
+            if obj.document is None:
+                Document().add_root(obj)
             Path(tmp).write_text(file_html(obj, INLINE, title=title), encoding="utf-8")
         else:
             import panel as pn
@@ -302,20 +309,34 @@ def _mpl_panel(ax, panel):
         ax.legend(handles=handles, loc="upper left", ncols=4)
         return
     handles = []
+    # the panel's right-axis quantities (y* beside a*, ...) on an axis of
+    # their own, as the explorer draws them (plots.RIGHT_AXIS)
+    left_label, right_label = panel.axis_labels
+    twin = None
+    if panel.right:
+        twin = ax.twinx()
+        twin.spines["top"].set_visible(False)
+        twin.set_ylabel(right_label)
     for tr in panel.traces:
+        on = twin if tr.var in panel.right else ax
         band = None
         if tr.lo is not None:
             # outlined: a bin far taller than its neighbours (an impact's
             # force) stays a visible spike, as the line of every sample drew it
-            band = ax.fill_between(tr.time, tr.lo, tr.hi,
+            band = on.fill_between(tr.time, tr.lo, tr.hi,
                                    facecolor=to_rgba(tr.colour, ENVELOPE_ALPHA),
                                    edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA),
                                    linewidth=ENVELOPE_EDGE_WIDTH,
                                    linestyle="--" if tr.dash == "dashed" else "-")
-        line, = ax.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH,
+        line, = on.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH,
                         linestyle="--" if tr.dash == "dashed" else "-", label=tr.label)
         handles.append(line if band is None else (band, line))
-    ax.set_ylabel(panel.ylabel)
+    ax.set_ylabel(left_label)
+    if twin is not None:
+        # the panel's axes above its twin's, see-through: its legend (one
+        # for both axes) is drawn over the twin's lines
+        ax.set_zorder(twin.get_zorder() + 1)
+        ax.patch.set_visible(False)
     ax.legend(handles, [tr.label for tr in panel.traces], loc="best")
 
 
@@ -385,8 +406,15 @@ def trajectory_bokeh(figure, cell=(650, 180)):
                 f.add_layout(Legend(items=items, location="top_left",
                                     orientation="horizontal"))
             else:
-                lines = []
+                lines, on_left, on_right = [], [], []
+                left_label, right_label = panel.axis_labels
+                if panel.right:
+                    from bokeh.models import DataRange1d, LinearAxis
+                    f.extra_y_ranges = {"right": DataRange1d()}
+                    f.add_layout(LinearAxis(y_range_name="right", axis_label=right_label),
+                                 "right")
                 for tr in panel.traces:
+                    axis = {"y_range_name": "right"} if tr.var in panel.right else {}
                     data = {"time": tr.time, "value": tr.value}
                     if tr.lo is not None:
                         data.update(lo=tr.lo, hi=tr.hi)
@@ -394,16 +422,22 @@ def trajectory_bokeh(figure, cell=(650, 180)):
                     drawn = []
                     if tr.lo is not None:
                         drawn.append(f.varea(x="time", y1="lo", y2="hi", fill_color=tr.colour,
-                                             fill_alpha=ENVELOPE_ALPHA, source=src))
+                                             fill_alpha=ENVELOPE_ALPHA, source=src, **axis))
                         drawn += [f.line(x="time", y=edge, line_color=tr.colour,
                                          line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
-                                         line_dash=tr.dash or "solid", source=src)
+                                         line_dash=tr.dash or "solid", source=src, **axis)
                                   for edge in ("lo", "hi")]
                     r = f.line(x="time", y="value", line_color=tr.colour,
-                               line_width=LINE_WIDTH, line_dash=tr.dash or "solid", source=src)
+                               line_width=LINE_WIDTH, line_dash=tr.dash or "solid", source=src,
+                               **axis)
                     lines.append(r)
                     items.append(LegendItem(label=tr.label, renderers=[r, *drawn]))
-                f.yaxis.axis_label = panel.ylabel
+                    (on_right if axis else on_left).extend([r, *drawn])
+                if panel.right:
+                    # each axis fits its own quantities only
+                    f.y_range.renderers = on_left
+                    f.extra_y_ranges["right"].renderers = on_right
+                f.yaxis[0].axis_label = left_label
                 f.add_tools(HoverTool(renderers=lines, tooltips=[("t*", "@time{0.0000}"),
                                                                  ("value", "$y{0.0000}")]))
                 f.add_layout(Legend(items=items, location="top_left"), "right")
@@ -426,6 +460,10 @@ def samples_csv(ds):
         "model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods") if k in ds.attrs),
         "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
         + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES))]
+    if "x" in ds and ds.sizes.get("time", 0) > 2:
+        from vibtrans.analysis.summary import drift_velocity, steadiness
+        head.append(f"# drift <v*> = {drift_velocity(ds):.6g} a0 per period; "
+                    f"{steadiness(ds)[1]}")
     buf = io.StringIO()
     buf.write("\n".join(head) + "\n")
     ds[names].to_dataframe().to_csv(buf, float_format="%.17g")

@@ -566,6 +566,40 @@ class Trace:
     dash: str | None = None          # None: solid; "dashed"
 
 
+# A panel's second quantity goes on an axis of its own at the right: y*
+# beside a*, x* beside b*, b*' beside N* and T*.  On one axis the larger
+# flattened the other (issue 14: N*, T* ~ 1-20 lay flat beside b*' in the
+# thousands; b* and x* over the last two periods were two flat lines).  The
+# explorer's live figures and the exports (PNG, SVG, PDF, HTML) follow it.
+RIGHT_AXIS = ("y", "x", "bdot")
+
+
+def right_columns(columns):
+    """The columns of a panel drawn on its right axis (none if it has one
+    quantity only)."""
+    if len(columns) < 2:
+        return []
+    return [c for c in columns if c in RIGHT_AXIS][:len(columns) - 1]
+
+
+# the unit of a trajectory quantity on its axis (docs/MODEL.md's
+# normalization; N* and T* are in units of the particle's weight: none shown)
+AXIS_UNITS = {"a": "a0", "y": "a0", "x": "a0", "b": "theta mu a0",
+              "bdot": "theta mu a0/period"}
+
+
+def axis_labels(labels, right):
+    """(left, right) axis labels of a panel whose lines are {column: legend
+    label} with `right` (`right_columns`) on its right axis: each axis names
+    its quantities and their unit (`AXIS_UNITS`)."""
+    def named(columns):
+        units = {AXIS_UNITS.get(c) for c in columns}
+        text = ", ".join(labels[c] for c in columns)
+        return text + (f" ({units.pop()})" if len(units) == 1 and None not in units else "")
+    return (named([c for c in labels if c not in right]),
+            named([c for c in labels if c in right]))
+
+
 @dataclass(frozen=True)
 class Panel:
     """One panel on the time axis (t*, periods) over `xlim`: lines
@@ -579,6 +613,15 @@ class Panel:
     xlim: tuple
     traces: tuple = ()
     strip: tuple | None = None
+    right: tuple = ()                # variables drawn on the panel's right axis
+
+    @property
+    def axis_labels(self):
+        """(left, right) y-axis labels (right "" when it has no right
+        axis): `ylabel` on a single axis, else each axis's quantities."""
+        if not self.right:
+            return self.ylabel, ""
+        return axis_labels({t.var: t.label for t in self.traces}, self.right)
 
 
 @dataclass(frozen=True)
@@ -607,7 +650,8 @@ def _line_panels(ds, specs, bins):
         traces = tuple(Trace(var, label, colour, data["time"], data[var],
                              data.get(f"{var}_lo"), data.get(f"{var}_hi"))
                        for var, label, colour in lines)
-        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces))
+        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces,
+                            right=tuple(right_columns([var for var, _, _ in lines]))))
     return panels, data
 
 

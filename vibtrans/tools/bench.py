@@ -14,6 +14,10 @@ which are measured side by side, more than the absolute times).
   exponent over the same scene alone (paper point 1, in contact, and the
   jumping scene log10 A* = 0.5, log10 m* = -2; goal <= 1.3), beside the
   twin's (scene plus tau twin over the scene alone, about 2);
+* the particle profile's cost (issue 34): ns per step of the deformable
+  kernel at paper point 1 with a power-law tip (power:3; goal <= 1.2) and a
+  tabulated law (flat-sphere:1, interpolated; goal <= 1.5) over the
+  sphere's, measured round-robin;
 * each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
   ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
   switched off alone: its speed-up and the drift difference it makes.
@@ -116,6 +120,7 @@ def run(quick=False):
         [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat)
     ns_mem, states = _memory_ns(repeat)
     lyapunov = _lyapunov_cost(repeat)
+    profiles = _profile_cost(repeat)
     scenes = {}
     for point in (1, 4, 6):
         sc = paper_scene(point)
@@ -139,7 +144,25 @@ def run(quick=False):
         "memory_states_stick_partial_sliding": [int(s) for s in states[1:]],
         "scene_seconds_2000_periods": scenes,
         "lyapunov_cost": lyapunov,
+        "profile_cost": profiles,
     }
+
+
+PROFILE_BENCH = {"power": "power:3", "tabulated": "flat-sphere:1"}
+
+
+def _profile_cost(repeat, point=1):
+    """ns per step of the deformable kernel with each kind of profile law
+    over the sphere's (its own Hertz path), at a paper point, round-robin."""
+    sphere = paper_scene(point)
+    runs = [(sphere, {})] + [(sphere.replace(profile=p), {}) for p in PROFILE_BENCH.values()]
+    ns = _interleaved_ns(runs, repeat)
+    out = {"point": point, "sphere_ns_per_step": ns[0]}
+    for (kind, spec), v in zip(PROFILE_BENCH.items(), ns[1:]):
+        out[f"{kind}_profile"] = spec
+        out[f"{kind}_ns_per_step"] = v
+        out[f"{kind}_over_sphere"] = v / ns[0]
+    return out
 
 
 def _lyapunov_cost(repeat):
@@ -286,6 +309,10 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
         print(f"  chaos indicator, {name}: scene + Lyapunov exponent "
               f"{c['lyapunov_over_scene']:.2f} x scene (goal <= 1.3); scene + twin "
               f"{c['scene_plus_twin_over_scene']:.2f} x")
+    c = r["profile_cost"]
+    print(f"  profiles, paper point {c['point']}: sphere {c['sphere_ns_per_step']:.1f} ns/step; "
+          f"{c['power_profile']} {c['power_over_sphere']:.2f} x (goal <= 1.2); "
+          f"{c['tabulated_profile']} {c['tabulated_over_sphere']:.2f} x (goal <= 1.5)")
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")
@@ -439,8 +466,13 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     map calls the point chaotic); decided_drift_within_error (regular
     drifting points of the full map, |v*| > V0 and not chaotic in either:
     |v_decided - v_full| <= STATED_DRIFT_ERROR x |v_full|); per model the
-    same, the chaos verdicts' agreement, the fraction of each stop reason
-    and the mean periods run.  keep: a folder to leave the four stores
+    same, the chaos verdicts' agreement, the fraction of each stop reason,
+    the mean periods run, the rule's speedup ceiling on that map
+    (speedup_ceiling: T_obs over the periods if its ran-to-end points ran
+    T_obs and all others stopped at the earliest, maps.cost.minimum_periods)
+    and estimate_ratio (maps.cost's estimate of the decided map's time from
+    the full map's, over the measured time: the map-on-demand estimate's
+    accuracy, goal within 1.5x).  keep: a folder to leave the four stores
     in (<model>-<stop>.zarr), for a difference map."""
     import os
     import shutil
@@ -448,6 +480,8 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
 
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
     from vibtrans.core.drivers import REASONS
+    from vibtrans.core.drivers import STOP_RAN_TO_END
+    from vibtrans.maps.cost import expected_periods, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
@@ -492,6 +526,18 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
                                                           if drifting.any() else None)
             out[f"decided_{model}_regular_drifting_points"] = int(drifting.sum())
             out[f"decided_{model}_mean_periods_run"] = float(dec["periods_run"].mean())
+            # the rule's ceiling on this map: the points run to T_obs cost a full
+            # run, the others at least the ramp and the first window (t_min)
+            tau = float(dec.attrs["scene_tau"])
+            f_end = float((dec["stop_reason"].values == STOP_RAN_TO_END).mean())
+            out[f"decided_{model}_speedup_ceiling"] = periods / (
+                f_end * periods + (1.0 - f_end) * min(periods, minimum_periods(tau)))
+            # the map-on-demand estimate (maps.cost, the shipped-grid profile)
+            # from the full map's time, against the decided map's measured time
+            out[f"decided_{model}_estimate_ratio"] = (
+                out[f"decided_{model}_full_cpu_seconds"]
+                * expected_periods(model, "decided", periods, tau) / periods
+                / out[f"decided_{model}_decided_cpu_seconds"])
             out[f"decided_{model}_chaos_agreement"] = float(
                 (full["chaotic"].values == dec["chaotic"].values).mean())
             reasons = dec["stop_reason"].values

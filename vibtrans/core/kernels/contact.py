@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from vibtrans.core.kernels.jit import inline, kernel
+from vibtrans.core.profiles import PowerLawProfile
 
 # Contact states (timeline codes; shared by every model).
 FLIGHT = 0        # contact loss, a* <= 0
@@ -42,6 +43,106 @@ def _segment_integral(s0, w0, s1, w1):
     if s1 <= s0:
         return 0.0
     return (s1 - s0) / 3.0 * (5.0 * w0 + w1 + (w1 - w0) * (s1 + 3.0 * s0) / (s1 + s0))
+
+
+# ---------------------------------------------------------------- profile laws
+# A profile's normal law (docs/MODEL.md section 10) reaches the kernels as a
+# float64 array `law` (`kernel_law` below):
+#   law[LAW_KIND]   LAW_POWER: N* = a*^p, N*' = p a*^(p-1) (p = law[LAW_ARG])
+#                   LAW_TABLE: N*' linear in s = sqrt(a*) on the grid s_i = i ds
+#                              (ds = law[LAW_ARG]; exact for the sphere's sqrt, and
+#                              fine near a flat's a* = 0), N* its exact integral
+#                              (a cubic in s per cell); extrapolated linearly in s
+#   law[LAW_K1]     N*'(1): the static contact radius in these units
+#   law[LAW_SIZE]   grid points n (LAW_TABLE), then n values N*'_i and n values N*_i
+# With a profile the memory's vertex array holds (h, N*'(h)) instead of
+# (h, sqrt h), P the running integral of w dN*' (the h = 0 atom N*'(0) w(0)
+# included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
+# (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
+LAW_POWER = 0
+LAW_TABLE = 1
+LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE = range(4)
+LAW_HEAD = 4
+LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
+LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024
+
+
+def kernel_law(profile):
+    """The kernels' form of a profile (contact.law_eval): None for the sphere
+    (Hertz's own path, bit for bit as before profiles), a power law's
+    [LAW_POWER, p, p, 0], else a table [LAW_TABLE, ds, N*'(1), n, N*'_i.., N*_i..]
+    of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
+    LAW_GRID_MAX), N*' linear in s on each cell and N* its exact integral,
+    both scaled so that N*(1) = 1 exactly (the rest state's force balance).
+    """
+    if isinstance(profile, PowerLawProfile):
+        if profile.n == 2.0:
+            return None
+        p = profile.exponent
+        return np.array([LAW_POWER, p, p, 0.0])
+    s = np.linspace(0.0, math.sqrt(LAW_GRID_MAX), LAW_GRID_POINTS)
+    ds = float(s[1])
+    k = np.asarray(profile.stiffness(s * s), float)
+    m = np.diff(k) / ds
+    si = s[:-1]
+    # int over a cell of (k_i + m (x - s_i)) 2 x dx
+    cell = 2.0 * ds * (k[:-1] * si + ds * (0.5 * (k[:-1] + m * si) + m * ds / 3.0))
+    N = np.concatenate(([0.0], np.cumsum(cell)))
+    i1 = int(round(1.0 / ds))
+    scale = 1.0 / N[i1]      # a* = 1 is a grid point
+    k, N = k * scale, N * scale
+    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size)], k, N))
+
+
+def law_scales(law):
+    """(N*'(1), p) of a kernel law for the time step's contact scales
+    (fidelity.contact_time_scale): p the power law's exponent, 2 for a table
+    (a convex profile's N* grows at most as a*^2, the cone's)."""
+    return float(law[LAW_K1]), float(law[LAW_ARG]) if law[LAW_KIND] == LAW_POWER else 2.0
+
+
+@inline
+def law_eval(law, a):
+    """(N*, N*') of the profile law at a* (a* <= 0: (0, N*'(0)))."""
+    if law[LAW_KIND] == LAW_POWER:
+        p = law[LAW_ARG]
+        if a <= 0.0:
+            return 0.0, 0.0
+        k = p * a ** (p - 1.0)
+        return a * k / p, k
+    n = int(law[LAW_SIZE])
+    ds = law[LAW_ARG]
+    if a <= 0.0:
+        return 0.0, law[LAW_HEAD]
+    s = math.sqrt(a)
+    i = int(s / ds)
+    if i > n - 2:
+        i = n - 2
+    si = i * ds
+    t = s - si
+    k0 = law[LAW_HEAD + i]
+    m = (law[LAW_HEAD + i + 1] - k0) / ds
+    # N* = N*_i + int_si^s (k0 + m (x - si)) 2 x dx
+    dn = 2.0 * t * (k0 * si + t * (0.5 * (k0 + m * si) + m * t / 3.0))
+    return law[LAW_HEAD + n + i] + dn, k0 + m * t
+
+
+@inline
+def _law_normal(law, h, k):
+    """N*(h) given N*'(h) = k (power laws: N* = h N*' / p, no power to take)."""
+    if law[LAW_KIND] == LAW_POWER:
+        return h * k / law[LAW_ARG]
+    return law_eval(law, h)[0]
+
+
+@inline
+def _segment_integral_law(law, h0, k0, w0, h1, k1, w1):
+    """Exact integral of w dN*'(h) over a segment, w linear in h:
+    w0 (k1 - k0) + (w1 - w0) (k1 - (N1 - N0) / (h1 - h0))."""
+    if h1 <= h0:
+        return 0.0
+    dn = _law_normal(law, h1, k1) - _law_normal(law, h0, k0)
+    return w0 * (k1 - k0) + (w1 - w0) * (k1 - dn / (h1 - h0))
 
 
 @inline
@@ -68,24 +169,31 @@ def _pop_to(nvert, n):
 
 
 @inline
-def _integrals_to(H, W, P, i, n):
+def _integrals_to(H, W, P, i, n, law, profiled):
     """Bring the running integrals P of vertices i..n-1 up to date (the
     leading i are); return P[n - 1].  Only pushed vertices are stale, so a
     vertex pushed and popped within one step costs nothing."""
     if i <= 0:
-        P[0] = 0.0
+        if profiled:
+            P[0] = W[0] * H[0, 1]     # the springs entering at h = 0 (a flat)
+        else:
+            P[0] = 0.0
         i = 1
     while i < n:
-        P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
+        if profiled:
+            P[i] = P[i - 1] + _segment_integral_law(law, H[i - 1, 0], H[i - 1, 1], W[i - 1],
+                                                    H[i, 0], H[i, 1], W[i])
+        else:
+            P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
         i += 1
     return P[n - 1]
 
 
 @inline
-def _integrals(H, W, P, nvert):
+def _integrals(H, W, P, nvert, law, profiled):
     """`_integrals_to` on the whole stack, recorded in nvert[1]."""
     n = nvert[0]
-    p = _integrals_to(H, W, P, nvert[1], n)
+    p = _integrals_to(H, W, P, nvert[1], n, law, profiled)
     nvert[1] = n
     return p
 
@@ -117,7 +225,21 @@ def reset_memory(H, W, P, nvert, memf, a, b):
     if a > 0.0:
         _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a, math.sqrt(a), 0.0)
-        _integrals(H, W, P, nvert)
+        _integrals(H, W, P, nvert, memf, False)
+
+
+@kernel
+def reset_memory_law(H, W, P, nvert, memf, a, b, law):
+    """`reset_memory` for a profile law (vertices hold (h, N*'(h)))."""
+    nvert[0] = 0
+    nvert[1] = 0
+    memf[0] = a
+    memf[1] = b
+    memf[2] = b
+    if a > 0.0:
+        _push(H, W, nvert, 0.0, law_eval(law, 0.0)[1], 0.0)
+        _push(H, W, nvert, a, law_eval(law, a)[1], 0.0)
+        _integrals(H, W, P, nvert, law, True)
 
 
 # Where the clamp finds the top vertex (h = a1): a compile-time constant.
@@ -127,13 +249,15 @@ _TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
 
 
 @inline
-def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
 
     (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
     contact radius; the caller has it from N*).  s_h is the depth of the stick
     core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
     for 3 more vertices.
+    With `profiled` (a compile-time constant) the profile `law` replaces the
+    sphere's: c1 = N*'(a1), n1 = N*(a1) (the caller has both from the law).
     """
     a0 = memf[0]
     b0 = memf[1]
@@ -155,7 +279,10 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
         if a0 < 0.0:
             bc = b0 + (b1 - b0) * (-a0) / (a1 - a0)
         memf[2] = bc
-        _push(H, W, nvert, 0.0, 0.0, 0.0)
+        if profiled:
+            _push(H, W, nvert, 0.0, law_eval(law, 0.0)[1], 0.0)
+        else:
+            _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a1, c1, b1 - bc)
         n = 2
     elif a1 > a0:
@@ -176,11 +303,11 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1):
             wq = W[n - 1]
             top = _TOP_CUT
             wt = wq + (wp - wq) * (a1 - hq) / (hp - hq)
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt)
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, profiled, n1)
 
 
 @inline
-def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
     The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
@@ -228,7 +355,9 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
             ip = min(ip, n - 1)
         nvert[0] = n
         nvert[1] = n
-        return 1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n), a1, STICK
+        if profiled:
+            return bp * c1 - _integrals_to(H, W, P, ip, n, law, True), a1, STICK
+        return 1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law, False), a1, STICK
     # Walk down, dropping the vertices outside the cone (slip annulus).
     if top == _TOP_LOAD:
         hl = a1
@@ -252,6 +381,12 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
         # The slip annulus reached the centre: total sliding, T* = +-N*.
         # Re-base the anchors on b1 (cheap here: the stack is two vertices).
         memf[2] += bp
+        if profiled:
+            _put(H, W, 0, 0.0, H[0, 1], side * a1)
+            _put(H, W, 1, a1, c1, 0.0)
+            nvert[0] = 2
+            nvert[1] = 0
+            return -side * n1, 0.0, SLIDING
         _put(H, W, 0, 0.0, 0.0, side * a1)
         _put(H, W, 1, a1, c1, 0.0)
         nvert[0] = 2
@@ -268,7 +403,26 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
     wk = W[n - 1]
     lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
-    ps = _integrals_to(H, W, P, min(ip, n), n)      # P at vertex k
+    ps = _integrals_to(H, W, P, min(ip, n), n, law, profiled)      # P at vertex k
+    if profiled:
+        # the stick edge's N*, N*'; the annulus on the cone line, by parts:
+        # int w dN*' = bp (k1 - ks) - side (a1 - hs) ks + side (N1 - Ns)
+        ks = sk
+        if hs > hk:
+            ns, ks = law_eval(law, hs)
+            ps += _segment_integral_law(law, hk, sk, wk, hs, ks, bp + side * (a1 - hs))
+            _put(H, W, n, hs, ks, bp + side * (a1 - hs))
+            P[n] = ps
+            n += 1
+        else:
+            hs = hk
+            ns = _law_normal(law, hk, sk)
+        pa = ps + bp * (c1 - ks) - side * (a1 - hs) * ks + side * (n1 - ns)
+        _put(H, W, n, a1, c1, bp)
+        P[n] = pa
+        nvert[0] = n + 1
+        nvert[1] = n + 1
+        return bp * c1 - pa, hs, PARTIAL_SLIP
     s = sk
     if hs > hk:
         s = math.sqrt(hs)
@@ -293,7 +447,14 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt):
 @kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1)
+    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, False, 0.0)
+
+
+@kernel
+def memory_step_law(H, W, P, nvert, memf, a1, b1, law):
+    """`memory_step` for a profile law (memory from `reset_memory_law`)."""
+    n1, k1 = law_eval(law, a1)
+    return memory_commit(H, W, P, nvert, memf, a1, k1, b1, law, True, n1)
 
 
 @kernel
@@ -304,23 +465,41 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
     """
     for i in range(a.shape[0]):
         a1 = a[i]
-        T, sh, st = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i])
+        T, sh, st = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
+                                  memf, False, 0.0)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
 
 
-def tangential_force_history(a, b, a_start=1.0, b_start=0.0):
+@kernel
+def memory_history_law(H, W, P, nvert, memf, a, b, law, out):
+    """`memory_history` for a profile law (memory from `reset_memory_law`)."""
+    for i in range(a.shape[0]):
+        n1, k1 = law_eval(law, a[i])
+        T, sh, st = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, True, n1)
+        out[i, 0] = T
+        out[i, 1] = sh
+        out[i, 2] = st
+
+
+def tangential_force_history(a, b, a_start=1.0, b_start=0.0, law=None):
     """T*, s_h and state along an (a*, b*) history from a virgin contact.
 
     Convenience wrapper for tests and teaching views: returns three arrays.
+    `law`: a profile's kernel law (kernel_law; None:
+    the sphere's own path).
     """
     a = np.ascontiguousarray(a, dtype=np.float64)
     b = np.ascontiguousarray(b, dtype=np.float64)
     H, W, P, nvert, memf = new_memory(a.shape[0] + 8)
-    reset_memory(H, W, P, nvert, memf, a_start, b_start)
     out = np.empty((a.shape[0], 3))
-    memory_history(H, W, P, nvert, memf, a, b, out)
+    if law is None:
+        reset_memory(H, W, P, nvert, memf, a_start, b_start)
+        memory_history(H, W, P, nvert, memf, a, b, out)
+    else:
+        reset_memory_law(H, W, P, nvert, memf, a_start, b_start, law)
+        memory_history_law(H, W, P, nvert, memf, a, b, law, out)
     return out[:, 0], out[:, 1], out[:, 2].astype(np.int8)
 
 

@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT, memory_commit
+from vibtrans.core.kernels.contact import FLIGHT, LAW_K1, law_eval, memory_commit
 from vibtrans.core.kernels.jit import helper, inline, kernel
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
 from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
@@ -98,17 +98,18 @@ def rest_state(y0=1.0):
     return state, np.zeros((4, 4))
 
 
-def rest_tangent(mass, step, t_from):
+def rest_tangent(mass, step, t_from, stiffness=1.5):
     """The tangent of a particle at rest (`rest_state`) for a run that
     measures the Lyapunov exponent from t_from (periods): d = (dy*, dy*') =
     (1, 0), with the derivative history of the small oscillation about rest
-    that it starts, dy = cos(w t), w = sqrt(N*'(1) / m*) = sqrt(1.5 / m*)."""
+    that it starts, dy = cos(w t), w = sqrt(N*'(1) / m*) (stiffness N*'(1):
+    1.5 for the sphere)."""
     tangent = np.zeros(NTANGENT)
     tangent[L_DY] = 1.0
     tangent[L_FROM] = t_from
     tangent[L_START] = -1.0
     tangent[L_END_T] = -1.0
-    w = math.sqrt(1.5 / mass)
+    w = math.sqrt(stiffness / mass)
     for j in range(4):
         tangent[L_HIST + 2 * j] = w * math.sin(w * j * step)
         tangent[L_HIST + 2 * j + 1] = -w * w * math.cos(w * j * step)
@@ -277,19 +278,24 @@ def _substrate_at(t1, cw, sw, t_flat, p):
 
 
 @inline
-def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential):
-    """Hertz's N* = a*^(3/2) and the memory diagram's committed T* at the
-    step end (docs/MODEL.md section 2).  Returns (a*, sqrt(a*), N*, b*, T*,
-    s_h, contact state)."""
+def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential, law,
+                   profiled):
+    """Hertz's N* = a*^(3/2) (or the profile's law, `profiled`) and the
+    memory diagram's committed T* at the step end (docs/MODEL.md sections 2,
+    10).  Returns (a*, c1, N*, b*, T*, s_h, contact state): c1 = sqrt(a*) for
+    the sphere, N*'(a*) with a profile (0 off contact)."""
     a1 = y1 - uy
-    c1 = 0.0                      # contact radius sqrt(a*)
+    c1 = 0.0                      # contact radius sqrt(a*) (profile: N*'(a*))
     nf = 0.0                      # Hertz: N* = a*^(3/2)
     if a1 > 0.0:
-        c1 = math.sqrt(a1)
-        nf = a1 * c1
+        if profiled:
+            nf, c1 = law_eval(law, a1)
+        else:
+            c1 = math.sqrt(a1)
+            nf = a1 * c1
     if tangential:
         b1 = (x1 - ux) * inv_scale
-        tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1)
+        tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, profiled, nf)
     else:
         b1 = 0.0
         tf = 0.0
@@ -365,7 +371,7 @@ def _hermite(p0, v0, p1, v1, h, s):
 
 @helper
 def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
-                t1, x1, vx1, y1, vy1, tangential):
+                t1, x1, vx1, y1, vy1, tangential, law, profiled):
     """Record the state at t_end, inside the last step (t0, t1]: positions
     and velocities exact on a flight parabola, else Hermite-interpolated;
     a*, b*, b*', N* from them and the exact substrate motion at t_end; the
@@ -384,24 +390,35 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
         y, vy = _hermite(y0, vy0, y1, vy1, t1 - t0, s)
     ux, uy, uxd, uyd = surface_motion(t_end, p.amplitude, p.r, p.tau)
     a = y - uy
-    c = math.sqrt(a) if a > 0.0 else 0.0
-    stick = min(math.sqrt(sh), c) if sh > 0.0 and st != FLIGHT else 0.0
+    if profiled:
+        nf, c = law_eval(law, a) if a > 0.0 else (0.0, 0.0)
+        c = c / law[LAW_K1]       # contact radius / the static one
+        stick = (min(law_eval(law, sh)[1] / law[LAW_K1], c)
+                 if sh > 0.0 and st != FLIGHT else 0.0)
+    else:
+        c = math.sqrt(a) if a > 0.0 else 0.0
+        stick = min(math.sqrt(sh), c) if sh > 0.0 and st != FLIGHT else 0.0
+        nf = a * c
     if tangential:
         scale = p.theta * p.mu
-        nf = a * c
         R.record(samples, ctr, t_end, x, vx, y, vy, a, (x - ux) / scale,
                  (vx - uxd) / scale, nf, max(-nf, min(tf, nf)), st, stick, c)
     else:
-        R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, a * c, 0.0,
+        R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, nf, 0.0,
                  st, 0.0, c)
 
 
 @helper
 def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
-                 scale, tangential):
-    """One sample row at the step end t1."""
-    c = math.sqrt(a1) if a1 > 0.0 else 0.0
-    s = math.sqrt(sh) if sh > 0.0 else 0.0
+                 scale, tangential, law, profiled):
+    """One sample row at the step end t1 (contact and stick radii in units
+    of the static contact radius)."""
+    if profiled:
+        c = law_eval(law, a1)[1] / law[LAW_K1] if a1 > 0.0 else 0.0
+        s = law_eval(law, sh)[1] / law[LAW_K1] if sh > 0.0 else 0.0
+    else:
+        c = math.sqrt(a1) if a1 > 0.0 else 0.0
+        s = math.sqrt(sh) if sh > 0.0 else 0.0
     bd = (vx1 - uxd) / scale if tangential else 0.0
     R.record(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, bd, nf, tf, st, s, c)
 
@@ -495,17 +512,18 @@ def _tangent_store(tangent, dy, dvy, dh):
 
 
 @helper
-def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m):
+def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, profiled):
     """One committed contact step of the tangent, with the run's integrator:
-    m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact).
+    m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact;
+    with a profile m* dy'' = -N*'(a*) dy, c1 = N*'(a*)).
     Returns the new (dy, dy', dh)."""
     if integrator == AB4:
         dy1 = dy + h / 24.0 * (55.0 * dh[0] - 59.0 * dh[2] + 37.0 * dh[4] - 9.0 * dh[6])
         dvy1 = dvy + h / 24.0 * (55.0 * dh[1] - 59.0 * dh[3] + 37.0 * dh[5] - 9.0 * dh[7])
-        dacc1 = -1.5 * c1 * dy1 * inv_m
+        dacc1 = -c1 * dy1 * inv_m if profiled else -1.5 * c1 * dy1 * inv_m
     else:
         dy1 = dy + h * dvy + 0.5 * h * h * dh[1]
-        dacc1 = -1.5 * c1 * dy1 * inv_m
+        dacc1 = -c1 * dy1 * inv_m if profiled else -1.5 * c1 * dy1 * inv_m
         dvy1 = dvy + 0.5 * h * (dh[1] + dacc1)
     return dy1, dvy1, (dvy1, dacc1, dh[0], dh[1], dh[2], dh[3], dh[4], dh[5])
 
@@ -568,11 +586,14 @@ def _tangent_flight(tangent, s, landed):
 # ------------------------------------------------------------------ the kernel
 @helper
 def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, Pm,
-                    nvert, memf, samples, events, ctr, t_stop, tangential, lyapunov):
+                    nvert, memf, samples, events, ctr, t_stop, tangential, lyapunov,
+                    law, profiled):
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
     contact one committed step at a time.  With `lyapunov` (a compile-time
     constant, like `tangential`) the vertical motion's tangent advances
-    alongside, in `tangent`.  Returns a records.* status.
+    alongside, in `tangent`.  With `profiled` (a compile-time constant) the
+    profile's `law` (contact.law_eval) replaces Hertz's.  Returns a records.*
+    status.
 
     The tangent's hot values (dy, dvy, dh: `_tangent_load`) live in locals;
     the array is current whenever the particle is in flight at the loop's
@@ -646,7 +667,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
         a1, c1, nf, b1, tf, sh, st = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                    inv_scale, tangential)
+                                                    inv_scale, tangential, law, profiled)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
         dyo = 0.0
@@ -654,7 +675,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         if lyapunov:
             dyo = dy
             dvyo = dvy
-            dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m)
+            dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, profiled)
         if st == FLIGHT:
             x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
                                          vyo, m)
@@ -672,13 +693,13 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
             _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
-                        t1, x1, vx1, y1, vy1, tangential)
+                        t1, x1, vx1, y1, vy1, tangential, law, profiled)
             if lyapunov:
                 _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
-                         scale, tangential)
+                         scale, tangential, law, profiled)
         if st == FLIGHT and stop_at_takeoff:
             break
     if lyapunov:
@@ -694,7 +715,8 @@ def deformable_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
     Returns a records.* status code; every array is updated in place.
     """
     return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, False)
+                           nvert, memf, samples, events, ctr, t_stop, True, False,
+                           memf, False)
 
 
 @kernel
@@ -703,4 +725,24 @@ def deformable_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P
     """deformable_kernel with the vertical motion's tangent advanced alongside
     (`tangent`, float64[NTANGENT]; the same records, bit for bit)."""
     return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, True)
+                           nvert, memf, samples, events, ctr, t_stop, True, True,
+                           memf, False)
+
+
+@kernel
+def deformable_profile_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
+                              samples, events, ctr, t_stop, law):
+    """deformable_kernel for an axisymmetric profile's `law` (float64 array,
+    vibtrans.core.kernels.contact.kernel_law; docs/MODEL.md section 10)."""
+    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, False,
+                           law, True)
+
+
+@kernel
+def deformable_profile_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P,
+                                       nvert, memf, samples, events, ctr, t_stop, law):
+    """deformable_lyapunov_kernel for a profile's `law`."""
+    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, True,
+                           law, True)

@@ -21,7 +21,16 @@ def vertical_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
     # `hist` stands in for the (2-D) vertex array: never touched either.
     return _hertz_particle(params, integrator, stop_at_takeoff, state, hist, dummy,
                            hist, dummy, dummy, ctr, dummy, samples, events,
-                           ctr, t_stop, False, False)
+                           ctr, t_stop, False, False, dummy, False)
+
+
+@kernel
+def vertical_profile_kernel(params, integrator, stop_at_takeoff, state, hist, dummy,
+                            samples, events, ctr, t_stop, law):
+    """vertical_kernel for a profile's `law` (N* = law, docs/MODEL.md section 10)."""
+    return _hertz_particle(params, integrator, stop_at_takeoff, state, hist, dummy,
+                           hist, dummy, dummy, ctr, dummy, samples, events,
+                           ctr, t_stop, False, False, law, True)
 
 
 @kernel
@@ -31,4 +40,13 @@ def vertical_lyapunov_kernel(params, integrator, state, hist, tangent, dummy, sa
     alongside (`tangent`, float64[deformable.NTANGENT])."""
     return _hertz_particle(params, integrator, False, state, hist, tangent,
                            hist, dummy, dummy, ctr, dummy, samples, events,
-                           ctr, t_stop, False, True)
+                           ctr, t_stop, False, True, dummy, False)
+
+
+@kernel
+def vertical_profile_lyapunov_kernel(params, integrator, state, hist, tangent, dummy,
+                                     samples, events, ctr, t_stop, law):
+    """vertical_lyapunov_kernel for a profile's `law`."""
+    return _hertz_particle(params, integrator, False, state, hist, tangent,
+                           hist, dummy, dummy, ctr, dummy, samples, events,
+                           ctr, t_stop, False, True, law, True)

@@ -1,0 +1,348 @@
+"""The map on demand's work in a session (issue 33: out of the page
+assembler, app/explorer.py): its request panel (views/ondemand.py, built
+when its tab opens), the estimate, the request handed to the server's queue
+(app/mapjobs.py) and its levels drawn on the map as they come, the banner
+over the map, "refine this window" on a zoomed shipped map, a click on the
+map on demand running its scene, and the way back to the shipped map."""
+import asyncio
+import functools
+import logging
+import time
+
+import panel as pn
+
+from vibtrans.maps import accuracy as mapaccuracy
+from vibtrans.maps.difference import describe
+
+from . import data, mapjobs, maprequest, urlstate
+from .views.map import computed_figure
+from .views.ondemand import MapRequestPanel
+
+log = logging.getLogger("vibtrans.explorer")
+
+# "refine this window" is offered once the shipped map's zoom box spans
+# fewer of its grid cells than this on both axes (beyond its resolution)
+REFINE_BELOW_CELLS = 5
+# a refinement of the shipped map: the coarse cells and levels of its request
+REFINE_CELLS, REFINE_LEVELS = 2, 3
+ONDEMAND_TAB = 3        # the map tabs' index of "Map on demand"
+
+
+class MapOnDemand:
+    """A session's map on demand.  state: its ExplorerState; map_view: its
+    MapView (set before use); answered(): clear the browser's
+    acknowledgement; run(): run the state's scene.  `map_tabs` (the map's
+    tabs, set by the page) is shown the map tab when a map starts."""
+
+    def __init__(self, state, answered, run, session):
+        self.state = state
+        self.answered, self.run = answered, run
+        self.map_view = None
+        self.map_tabs = None
+        # its request panel (built when its tab opens), the request shown,
+        # its Ticket while it computes (app/mapjobs.py)
+        self.map_request_panel = None
+        self.ondemand_box = pn.Column(sizing_mode="stretch_width", name="ondemand")
+        self._map_session = session
+        self._map_ticket = None
+        self._map_shown = None              # (request, ds) of the map on demand drawn
+        self._estimates = 0                 # the latest estimate's number (older ones dropped)
+        # the line over the map and the refinement's offer: their widgets
+        # made at their first use (most pages never show them)
+        self.map_status = self.back_button = self.map_cancel_button = None
+        self.map_banner = pn.Row(visible=False, sizing_mode="stretch_width")
+        self.refine_button = None
+        self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
+
+    def close(self):
+        """The session closed: its map stops unless another session waits."""
+        mapjobs.jobs().cancel(self._map_session)
+
+    def request_panel(self):
+        """The request's panel, built at its first use (most sessions never
+        open it), its values those of the map shown."""
+        if self.map_request_panel is None:
+            panel = MapRequestPanel(self._map_shown[0].copy() if self._map_shown else
+                                    self.shipped_request(),
+                                    on_compute=self._on_map_compute,
+                                    on_cancel=self._on_map_cancel, on_zoom=self._on_use_zoom,
+                                    on_change=self._estimate_later)
+            self.map_request_panel = panel
+            self.ondemand_box.objects = [panel]
+            self._buttons_for_map()
+            self._estimate_later()
+        return self.map_request_panel
+
+    def shipped_request(self, window=None):
+        """A request with the shipped map's values (its stored scene), over
+        `window` (the selected scene's neighbourhood if None)."""
+        s = self.state
+        try:
+            attrs = data.drift_map(s.model, s.mu).attrs
+        except data.MapUnavailable:
+            attrs = {}
+        scene = {k: attrs[f"scene_{k}"] for k in ("tau", "periods", "fidelity", "integrator",
+                                                  "theta", "nu", "stick_rule", "alpha_t")
+                 if f"scene_{k}" in attrs}
+        if window is None:
+            la, lm = s.log_amplitude, s.log_mass
+            window = ((round(la - 0.5, 3), round(la + 0.5, 3)), (round(lm - 0.5, 3),
+                                                                 round(lm + 0.5, 3)))
+        (a0, a1), (m0, m1) = window
+        request = maprequest.MapRequest(model=s.model, mu=s.mu, cells=REFINE_CELLS,
+                                        levels=REFINE_LEVELS)
+        values = {**scene, "la_from": a0, "la_to": a1, "lm_from": m0, "lm_to": m1}
+        for name, value in values.items():     # out of the request's ranges: its default
+            try:
+                setattr(request, name, float(value) if name in ("tau", "periods", "theta",
+                                                                 "nu", "alpha_t") else value)
+            except ValueError:
+                pass
+        return request
+
+    def _estimate_later(self):
+        pn.state.execute(self._estimate_map)
+
+    async def _estimate_map(self):
+        """The request's estimated cost (or why it is refused), computed off
+        the event loop; an older estimate finishing later is dropped."""
+        panel = self.map_request_panel
+        if panel is None:
+            return
+        self._estimates += 1
+        number = self._estimates
+        if panel.errors():
+            panel.estimate.object = "*Correct the fields above for an estimate.*"
+            return
+        request = panel.request.copy()
+        panel.estimate.object = "*Estimating ...*"
+        jobs = mapjobs.jobs()
+        try:
+            est, problems = await asyncio.get_running_loop().run_in_executor(
+                None, jobs.estimate, request)
+        except Exception as exc:
+            log.exception("estimating a map failed")
+            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+        if number != self._estimates:
+            return
+        lines = [] if est is None else [est.text(jobs.cores)]
+        lines.append(mapaccuracy.note(request.fidelity, request.periods))
+        lines += [f"**Refused:** {p}." for p in problems]
+        panel.estimate.object = "\n\n".join(lines)
+
+    def _on_use_zoom(self):
+        (a0, a1), (m0, m1) = self.map_view.view_ranges()
+        if None in (a0, a1, m0, m1):
+            return
+        self.request_panel().set_values(la_from=round(a0, 3), la_to=round(a1, 3),
+                                         lm_from=round(m0, 3), lm_to=round(m1, 3))
+
+    def on_zoom(self, ranges):
+        """Offer "refine this window" once the shipped map is zoomed beyond
+        its resolution (fewer than REFINE_BELOW_CELLS cells each way)."""
+        (a0, a1), (m0, m1) = ranges
+        small = False
+        if self.map_view.computed is None and None not in (a0, a1, m0, m1):
+            try:
+                ds = data.drift_map(self.state.model, self.state.mu)
+            except data.MapUnavailable:
+                ds = None
+            if ds is not None:
+                step_a = float(ds["log_amplitude"].values[1] - ds["log_amplitude"].values[0])
+                step_m = float(ds["log_mass"].values[1] - ds["log_mass"].values[0])
+                small = (abs(a1 - a0) < REFINE_BELOW_CELLS * step_a
+                         and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m)
+        if small and self.refine_button is None:
+            self.refine_button = pn.widgets.Button(
+                name="Refine this window (compute it finer)", button_type="success",
+                css_classes=["vt-map-refine"])
+            self.refine_button.on_click(lambda event: self.refine_window())
+            self.refine_box.objects = [self.refine_button]
+        self.refine_box.visible = bool(small)
+
+    def refine_window(self):
+        """Fill the request with the shipped map's values and the zoom box,
+        and show it (its estimate beside it) for the user to compute."""
+        (a0, a1), (m0, m1) = self.map_view.view_ranges()
+        window = ((round(a0, 3), round(a1, 3)), (round(m0, 3), round(m1, 3)))
+        request = self.shipped_request(window)
+        panel = self.request_panel()
+        panel.set_values(**request.values())
+        if getattr(self, "map_tabs", None) is not None:
+            self.map_tabs.active = ONDEMAND_TAB
+
+    def _on_map_compute(self):
+        panel = self.map_request_panel
+        if panel.errors():
+            panel.status.object = "**Not computed:** " + " · ".join(panel.errors())
+            return
+        pn.state.execute(functools.partial(self.compute_map, panel.request.copy()))
+
+    def _on_map_cancel(self):
+        if self._map_ticket is None:
+            return
+        self._map_ticket = None
+        mapjobs.jobs().cancel(self._map_session)
+        self._map_say("Map cancelled: its finished points are kept on this server; "
+                      "computing it again resumes from them.")
+        self._buttons_for_map()
+
+    def _show_banner(self):
+        if self.map_status is None:
+            self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                               css_classes=["vt-map-banner"])
+            self.back_button = pn.widgets.Button(name="Back to the shipped map",
+                                                 css_classes=["vt-map-back", "vt-ack-draw"])
+            self.back_button.on_click(lambda event: self.back_to_shipped())
+            self.map_cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+                                                       css_classes=["vt-map-cancel-banner"])
+            self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
+            self.map_banner.objects = [self.map_status, self.map_cancel_button,
+                                       self.back_button]
+        self.map_banner.visible = True
+
+    def _map_say(self, text):
+        self._show_banner()
+        self.map_status.object = text
+        if self.map_request_panel is not None:
+            self.map_request_panel.status.object = text
+
+    def _buttons_for_map(self):
+        running = self._map_ticket is not None
+        if self.map_cancel_button is not None:
+            self.map_cancel_button.visible = running
+        if self.map_request_panel is not None:
+            self.map_request_panel.cancel_button.disabled = not running
+            self.map_request_panel.compute_button.disabled = running
+
+    async def compute_map(self, request):
+        """Ask the server's queue for the map and draw what it says, level
+        by level, until it ends (or another request replaces it)."""
+        jobs = mapjobs.jobs()
+        loop = asyncio.get_running_loop()
+        self._map_say("Estimating the map's cost ...")
+        try:
+            est, problems = await loop.run_in_executor(None, jobs.estimate, request)
+        except Exception as exc:
+            log.exception("estimating a map failed")
+            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+        if problems:
+            text = "" if est is None else est.text(jobs.cores) + " "
+            self._map_say(f"**Not computed:** {'; '.join(problems)}. {text}")
+            return
+        updates = asyncio.Queue()
+
+        def deliver(update):            # a worker thread: hand it to this loop
+            loop.call_soon_threadsafe(updates.put_nowait, update)
+        try:
+            ticket = jobs.submit(self._map_session, request, deliver)
+        except mapjobs.MapRefused as exc:
+            self._map_say(f"**Not computed:** {exc}.")
+            return
+        self._map_ticket = ticket
+        self.state.map_request = maprequest.encode(request)
+        self._buttons_for_map()
+        if getattr(self, "map_tabs", None) is not None:
+            self.map_tabs.active = 0
+        started = time.monotonic()
+        n = request.points_per_axis()
+        self._map_say(f"Computing a {n} x {n} map ({request.title()}) ...")
+        while True:
+            # every level is drawn (at most levels + 1 of them): each shows
+            # where the refinement went
+            update = await updates.get()
+            if self._map_ticket is not ticket:
+                return          # cancelled or replaced: its updates are no one's
+            if update.kind == "chunk" and not updates.empty():
+                continue        # a newer picture (or the level's) is waiting: draw that
+            if update.kind == "queued":
+                self._map_say(f"{update.text.capitalize()} ...")
+            elif update.kind in ("level", "chunk", "done"):
+                if update.shown:
+                    # the finest level, drawn already, is the verified map:
+                    # no second render (nor redraw in the browser) of it
+                    self._map_shown = (request, update.ds)
+                else:
+                    await self._draw_map(request, update.ds)
+                if self._map_ticket is not ticket:
+                    return
+                done = int(update.ds["computed"].values.sum())
+                seconds = time.monotonic() - started
+                if update.kind == "level":
+                    self._map_say(f"Level {update.level} of {update.levels} drawn: {done:,} of "
+                                  f"{n * n:,} points computed, {seconds:.0f} s ...")
+                elif update.kind == "chunk":
+                    self._map_say(f"Level {update.level} of {update.levels} computing: {done:,} "
+                                  f"of {n * n:,} points computed so far, {seconds:.0f} s ...")
+                elif update.cached:
+                    self._map_say(f"Map from this server's cache ({done:,} of {n * n:,} "
+                                  f"points computed): click it to run a scene there.")
+                else:
+                    self._map_say(f"Map finished: {done:,} of {n * n:,} points computed in "
+                                  f"{seconds:.0f} s. Click it to run a scene there.")
+            elif update.kind == "failed":
+                self._map_say(f"**The map failed:** {update.text}")
+            elif update.kind == "cancelled":
+                self._map_say("Map cancelled.")
+            if update.final:
+                self._map_ticket = None
+                self._buttons_for_map()
+                return
+
+    async def _draw_map(self, request, ds):
+        """Render the map off the event loop, then show it."""
+        s = self.state
+        title = f"map on demand: {request.model}, mu = {request.mu:g}"
+        window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
+        try:
+            fig = await asyncio.get_running_loop().run_in_executor(
+                None, computed_figure, ds, title, request.model, window, s.v0, s.chaotic)
+        except Exception as exc:
+            log.exception("drawing a map on demand failed")
+            self._map_say(f"**Drawing the map failed:** {type(exc).__name__}: {exc}")
+            return
+        if self.state.map_request != maprequest.encode(request):
+            return          # the shipped map came back meanwhile
+        self._map_shown = (request, ds)
+        with pn.io.hold():
+            self.map_view.show_computed(fig, window,
+                                        functools.partial(self._on_computed_click, request))
+            self.refine_box.visible = False
+            self._show_banner()
+            self.answered()
+
+    def computed_map(self):
+        """(name, Dataset) of the map on demand shown, or None (the shipped map)."""
+        if self.map_view.computed is None or self._map_shown is None:
+            return None
+        return describe(self._map_shown[1]), self._map_shown[1]
+
+    def on_map_look(self, *events):
+        """v0* or the chaotic points' colour changed: the map on demand too."""
+        if self.map_view.computed is not None and self._map_shown is not None:
+            pn.state.execute(functools.partial(self._draw_map, *self._map_shown))
+
+    def _on_computed_click(self, request, la, lm):
+        """A click on the map on demand: the scene there, with the map's values."""
+        values = request.scene_values()
+        with pn.io.hold():
+            self.state.param.update(log_amplitude=la, log_mass=lm, **values)
+        self.run()
+
+    def back_to_shipped(self):
+        """The shipped map again: at the map on demand's mu if a shipped map
+        has it, else at the default mu (the state's: every view follows)."""
+        if self._map_ticket is not None:
+            self._on_map_cancel()
+        self._map_shown = None
+        self.map_banner.visible = False
+        with pn.io.hold():
+            s = self.state
+            mus = sorted(mu for (m, mu) in data.available_maps() if m == s.model)
+            updates = {"map_request": None}
+            if mus and s.mu not in mus:
+                updates["mu"] = urlstate.DEFAULT_MU if urlstate.DEFAULT_MU in mus else mus[0]
+            s.param.update(**updates)
+            self.map_view.show_shipped()
+            self.answered()
+

@@ -1,0 +1,112 @@
+"""How honest a map on demand's estimate is (issue 32, item 5): maps of
+about 100 to 10^4 points, both models, computed by a fresh server's map
+jobs (app/mapjobs.py, an empty cache) one after the other; for each, the
+estimate the page shows before it starts against the time it took, and the
+time to its first picture (the coarse level).
+
+    python -m devtools.mapestimate             # the table
+    python -m devtools.mapestimate --json      # the same, machine-readable
+    python -m devtools.mapestimate --check     # exit 1 beyond the goals
+    python -m devtools.mapestimate --quick     # the three smallest maps
+
+Goals: measured / estimated within [1/1.5, 1.5] for every map; the first
+map's coarse level within 3 s of its request.  The first map after the start
+is the one a teacher waits for: it is measured as it comes (its workers
+started by it), the others after it.  Each map is a new window, so none is
+read from the cache.
+"""
+import argparse
+import json
+import sys
+import tempfile
+import threading
+import time
+
+RATIO_GOAL = 1.5
+FIRST_LEVEL_GOAL_S = 3.0
+
+# (model, fidelity, cells, levels, window): finest grid cells * 2**levels + 1
+# per axis: 9 x 9 = 81, 17 x 17 = 289, 33 x 33 = 1089, 65 x 65 = 4225,
+# 97 x 97 = 9409 points; windows over the whole regime plane's middle
+MAPS = [
+    ("deformable", "standard", 4, 2, (-1.0, 1.0, -1.0, 1.0)),
+    ("point-mass", "standard", 4, 1, (-0.5, 1.5, -1.0, 1.0)),
+    ("deformable", "preview", 4, 1, (0.0, 2.0, -0.5, 1.5)),
+    ("deformable", "preview", 4, 3, (-1.5, 1.5, -1.5, 1.5)),
+    ("point-mass", "standard", 4, 3, (-1.0, 2.0, -1.0, 1.0)),
+    ("deformable", "standard", 8, 3, (-1.0, 2.0, -1.0, 1.0)),
+    ("deformable", "preview", 12, 3, (-2.0, 2.0, -2.0, 2.0)),
+]
+
+
+def run_map(jobs, request, session):
+    """(estimate, seconds to the first picture, seconds to done, points
+    computed) of one map."""
+    est, problems = jobs.estimate(request)
+    if problems:
+        raise SystemExit(f"refused: {problems}")
+    done = threading.Event()
+    times = {}
+    t0 = time.perf_counter()
+
+    def on_update(u):
+        now = time.perf_counter() - t0
+        if u.kind in ("level", "chunk"):
+            times.setdefault("first", now)
+        if u.final:
+            times["done"] = now
+            times["kind"] = u.kind
+            times["ds"] = u.ds
+            done.set()
+    jobs.submit(session, request, on_update)
+    done.wait()
+    if times["kind"] != "done":
+        raise SystemExit(f"the map ended {times['kind']}")
+    computed = int(times["ds"]["computed"].values.sum())
+    return est, times.get("first", times["done"]), times["done"], computed
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--check", action="store_true")
+    parser.add_argument("--quick", action="store_true", help="the three smallest maps")
+    args = parser.parse_args(argv)
+    from vibtrans_explorer import kernels, mapjobs, maprequest
+    kernels.start()
+    kernels.wait()
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        jobs = mapjobs.MapJobs(folder=folder)
+        jobs.start_helpers()
+        for i, (model, fidelity, cells, levels, (a0, a1, m0, m1)) in enumerate(
+                MAPS[:3] if args.quick else MAPS):
+            request = maprequest.MapRequest(model=model, fidelity=fidelity, cells=cells,
+                                            levels=levels, la_from=a0, la_to=a1,
+                                            lm_from=m0, lm_to=m1)
+            est, first, took, computed = run_map(jobs, request, f"bench-{i}")
+            rows.append({"model": model, "fidelity": fidelity, "points": request.points(),
+                         "computed": computed, "estimated_s": est.seconds,
+                         "measured_s": took, "first_picture_s": first,
+                         "ratio": took / est.seconds if est.seconds else None})
+        jobs.stop_workers()
+    ok = all(r["ratio"] is not None and 1 / RATIO_GOAL <= r["ratio"] <= RATIO_GOAL
+             for r in rows) and rows[0]["first_picture_s"] <= FIRST_LEVEL_GOAL_S
+    if args.json:
+        print(json.dumps({"maps": rows, "ratio_goal": RATIO_GOAL,
+                          "first_level_goal_s": FIRST_LEVEL_GOAL_S, "ok": ok}, indent=1))
+    else:
+        print(f"{'model':>11} {'fidelity':>8} {'points':>6} {'computed':>8} "
+              f"{'estimated':>9} {'measured':>8} {'ratio':>6} {'first':>6}")
+        for r in rows:
+            est = f"{r['estimated_s']:9.1f}" if r["estimated_s"] else f"{'-':>9}"
+            ratio = f"{r['ratio']:6.2f}" if r["ratio"] else f"{'-':>6}"
+            print(f"{r['model']:>11} {r['fidelity']:>8} {r['points']:>6} {r['computed']:>8} "
+                  f"{est} {r['measured_s']:8.1f} {ratio} {r['first_picture_s']:6.1f}")
+        print(f"goals: ratio within 1/{RATIO_GOAL:g}..{RATIO_GOAL:g}, the first map's coarse "
+              f"level within {FIRST_LEVEL_GOAL_S:g} s: {'met' if ok else 'NOT met'}")
+    return 0 if ok or not args.check else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,76 @@
+"""Findings of issue 32's walkthrough, each replayed in chromium: the page
+as a newcomer sees it (legends, titles, sizes at 1024x768)."""
+import pytest
+
+from browserpages import new_page, open_explorer
+from budget import budget_ms
+from devtools.chromium import launched
+
+pytestmark = pytest.mark.browser
+
+# every legend item's label in the page's Bokeh documents: [kind, text]
+# (kind "value" for a text, "column" for a column of the renderers' source,
+# "field" for a column name the source lacks: Bokeh shows "Invalid field")
+_LEGEND_LABELS_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.type !== "LegendItem" && !(m.constructor && m.constructor.__name__ === "LegendItem"))
+      continue;
+    const l = m.label;
+    if (l == null) continue;
+    if (l.field !== undefined) {
+      // a column name: valid where every renderer's source has that column
+      const ok = m.renderers.every(r => {
+        const d = r.data_source.data;
+        return d instanceof Map ? d.has(l.field) : l.field in d;
+      });
+      out.push([ok ? "column" : "field", String(l.field)]);
+    }
+    else if (l.value !== undefined) out.push(["value", String(l.value)]);
+  }
+  return out;
+}"""
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with launched() as b:
+        yield b
+
+
+def test_both_models_click_names_both_lines_of_the_x_legend(browser, served_explorer):
+    """'both models', a scene at (0.5, 1.5): the x*(t) legend named its two
+    lines 'Invalid field' (a label set as a column name)."""
+    page, errors = new_page(browser, 1280, 800)
+    open_explorer(page, served_explorer.url
+                  + "?la=0.5&lm=1.5&maps=both%20models&compare=point%20mass&fidelity=preview")
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
+    page.wait_for_function("""() => (%s)().some(l => l[1].startsWith("x*, point mass"))"""
+                           % _LEGEND_LABELS_JS, timeout=budget_ms(30), polling=250)
+    labels = page.evaluate(_LEGEND_LABELS_JS)
+    page.close()
+    assert not [l for l in labels if l[0] == "field"], labels
+    texts = [t for _, t in labels]
+    assert any(t.startswith("x*, tau = ") for t in texts), texts
+    assert not errors, errors
+
+
+def test_the_animation_player_fits_at_1024(browser, served_explorer):
+    """At 1024x768 the animation's speed selector was off the page's right
+    edge (the player below the figures, a 560-pixel slider): the player and
+    its window selector are inside the viewport, and the window selector
+    shows its choice."""
+    page, errors = new_page(browser, 1024, 768)
+    open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
+    page.get_by_text("Animation", exact=True).first.click()
+    speed = page.locator("select").filter(has_text="1 period/s").first
+    speed.wait_for(timeout=budget_ms(30))
+    window = page.locator("select").filter(has_text="the whole run (decimated)").first
+    for el in (speed, window, page.get_by_role("button", name="Play")):
+        el.scroll_into_view_if_needed()
+        box = el.bounding_box()
+        assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 1024, box
+    assert window.input_value() == "the last periods at full resolution"   # (not blank)
+    page.close()
+    assert not errors, errors

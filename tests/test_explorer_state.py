@@ -1,0 +1,419 @@
+"""One scene, one truth (issue 32): a model-based test of the explorer's page
+state, without a server or a browser.
+
+A hypothesis state machine drives one session's Explorer (its controller,
+state, widgets and views) through random sequences of what a user does:
+clicks on the map, paper points, typed values (valid and invalid) in the
+scene's and the device's fields, selector changes, Design presets, Run,
+the device's Run (Units and Design tabs), Cancel, and reloading the page's
+own link.  After each step the invariants hold:
+
+* the map's marker, the typed fields, the mu and paper-point selectors and
+  the URL show the state's values (a field with an invalid text says so,
+  and the state records it);
+* Run runs exactly the state's scene (the kernel receives it), or refuses
+  with the field's message; the device's Run runs the device as the form
+  shows it (never the chart drawn or a last valid value);
+* the run shown records the state it ran; its heading gives the scene run;
+  once an input changed it is marked "changed since this run" at once;
+* the page's link reproduces the state (a reload gives the same values).
+
+No error may be logged meanwhile (`no_logged_errors`: a failed callback,
+Bokeh's `_pending_writes`, a failed run).  The runs are stand-ins: each
+returns a short real run of the same model (the views draw real data), and
+records the scene it was asked for.
+"""
+import asyncio
+import concurrent.futures
+import functools
+import logging
+import math
+
+import panel as pn
+import pytest
+from hypothesis import HealthCheck, Phase, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
+from panel.io.location import Location
+from tornado.httputil import parse_qs_bytes
+
+from vibtrans import Scene, simulate
+from vibtrans.core.params import PAPER_POINTS
+from vibtrans_explorer import explorer as E
+from vibtrans_explorer import inputs, urlstate
+from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS
+from vibtrans_explorer.views import design as D
+
+pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
+
+EXAMPLES = 12         # sequences per run (CI: two cores)
+STEPS = 25            # steps per sequence
+
+
+@functools.lru_cache(maxsize=None)
+def _real_run(model, lyapunov):
+    """A short real run of `model` (the stand-in's answer)."""
+    scene = Scene(model=model, amplitude=10 ** -0.3, mass=10.0, periods=20.0, tau=5.0,
+                  fidelity="preview")
+    kw = {"lyapunov": True, "window": (18.0, 20.0)} if lyapunov else {}
+    return simulate(scene, samples_per_period=5, **kw)
+
+
+class StandIn:
+    """simulate's stand-in: records each scene asked for, answers a short
+    real run of its model."""
+
+    def __init__(self):
+        self.scenes = []
+
+    def __call__(self, scene, **kwargs):
+        self.scenes.append(scene)
+        return _real_run(scene.model, bool(kwargs.get("lyapunov")))
+
+
+def _open(monkeypatch, query=""):
+    """An Explorer as a served session opening `query` would build it."""
+    monkeypatch.setattr(E, "_page_location", lambda: Location(pathname="/"))
+    args = parse_qs_bytes(query.lstrip("?"), keep_blank_values=True)
+    monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
+    stand_in = StandIn()
+    ex = E.Explorer(simulate=stand_in)
+    ex.stand_in = stand_in
+    ex.pending = []
+    ex.controller.schedule = ex.pending.append       # finished by the `finish` rule
+    ex.main()
+    ex.units_panel.__panel__()                       # the device's form
+    return ex
+
+
+@pytest.fixture
+def no_logged_errors(caplog):
+    """Fail the test on any error logged meanwhile (a callback's exception,
+    Bokeh's `_pending_writes`, a failed run or drawing)."""
+    caplog.set_level(logging.WARNING)
+    yield
+    bad = [r for r in caplog.records if r.levelno >= logging.ERROR
+           or "_pending_writes" in r.getMessage()]
+    assert not bad, [f"{r.name}: {r.getMessage()}" for r in bad]
+
+
+NUMBER_TEXT = st.one_of(st.floats(-7, 7, allow_nan=False).map(lambda v: f"{v:.3f}"),
+                        st.sampled_from(["", "abc", "nan", "1e999", "2,5", " 0.5 ", "-9",
+                                         "0.25", "1.5", "-0.3"]))
+DEVICE_TEXT = {
+    "radius": st.sampled_from(["5e-6", "0.0005", "1e-3", "-1", "0", "abc", "2e-4"]),
+    "frequency": st.sampled_from(["2e7", "108000", "1e5", "-5", "x", "5e4"]),
+    "amplitude": st.sampled_from(["1e-9", "1e-8", "2.6e-7", "0", "-1e-9", "1e-10"]),
+    "preload": st.sampled_from(["0", "1e-3", "-1", "0.01"]),
+}
+
+
+class ExplorerMachine(RuleBasedStateMachine):
+    monkeypatch = None          # set by the test
+
+    def __init__(self):
+        super().__init__()
+        self.ex = _open(self.monkeypatch)
+        self.last_run = None        # (the scene the state had at Run, job or None)
+
+    # ------------------------------------------------------------ helpers
+    def field(self, name):
+        for f in [*self.ex.fields, *self.ex.units_panel.form]:
+            if isinstance(f, inputs.NumberField) and f.name_ == name:
+                return f
+        raise KeyError(name)
+
+    def _run(self, start):
+        """Run (by `start`) and check what it did: the state's scene, or a
+        refusal naming the invalid field."""
+        ex = self.ex
+        before = len(ex.stand_in.scenes)
+        job = start()
+        if job is None:
+            assert ex.message.visible and ex.message.object, "a refused run says why"
+            assert len(ex.stand_in.scenes) == before      # nothing ran
+            errors = ex.state.errors(ex.state.invalid)
+            if errors:
+                assert any(e in ex.message.object for e in errors)
+        else:
+            # exactly what the forms show: the state's scene
+            assert job.scene.values() == ex.state.scene().values()
+            concurrent.futures.wait(job.futures, timeout=120)
+            assert any(sc is job.scene for sc in ex.stand_in.scenes[before:])
+            assert not ex.state.errors(("log_amplitude", "log_mass", "alpha_t"))
+        return job
+
+    # ------------------------------------------------------------ rules
+    @rule(la=st.floats(-1.0, 3.0), lm=st.floats(-3.0, 3.0))
+    def click_map(self, la, lm):
+        self.ex._on_map_click(round(la, 3), round(lm, 3), False)
+
+    @rule(k=st.sampled_from(sorted(PAPER_POINTS)))
+    def paper_point(self, k):
+        self.ex.point_select.value = k
+
+    @rule(name=st.sampled_from(["log_amplitude", "log_mass"]), text=NUMBER_TEXT)
+    def type_scene(self, name, text):
+        self.field(name).input.value = text
+
+    @rule(name=st.sampled_from(sorted(DEVICE_TEXT)), data=st.data())
+    def type_device(self, name, data):
+        self.field(name).input.value = data.draw(DEVICE_TEXT[name])
+
+    @rule(which=st.sampled_from(["substrate", "particle"]), data=st.data())
+    def material(self, which, data):
+        setattr(self.ex.state, which, data.draw(st.sampled_from(
+            self.ex.state.param[which].objects[:-1])))
+
+    @rule(data=st.data())
+    def mu(self, data):
+        self.ex.mu_select.value = data.draw(st.sampled_from(list(self.ex.mu_select.options)))
+
+    @rule(name=st.sampled_from(["model", "fidelity", "compare", "integrator"]), data=st.data())
+    def selector(self, name, data):
+        setattr(self.ex.state, name, data.draw(st.sampled_from(
+            self.ex.state.param[name].objects)))
+
+    @rule(preset=st.sampled_from(D.PRESET_NAMES))
+    def design_preset(self, preset):
+        self.ex.map_tabs.active = E.DESIGN_TAB
+        self.ex.design_panel.preset = preset
+
+    @rule()
+    def run(self):
+        self._run(self.ex.start_run)
+
+    @rule()
+    def run_device(self):
+        ex = self.ex
+        before = len(ex.stand_in.scenes)
+        job = ex._run_device()
+        if job is not None:
+            la, lm, theta, nu = ex.state.device_scene_values()
+            assert (job.scene.theta, job.scene.nu) == (theta, nu)
+            assert math.isclose(math.log10(job.scene.amplitude), la, abs_tol=1e-12)
+            assert math.isclose(math.log10(job.scene.mass), lm, abs_tol=1e-12)
+            assert not ex.state.errors(DEVICE_FIELDS)
+        elif ex.state.errors(DEVICE_FIELDS):
+            assert len(ex.stand_in.scenes) == before
+            assert any(e in ex.message.object for e in ex.state.errors(DEVICE_FIELDS))
+
+    @rule()
+    def run_design_device(self):
+        ex = self.ex
+        ex.map_tabs.active = E.DESIGN_TAB
+        panel = ex.design_panel
+        job = None
+
+        def on_run(mu, periods):
+            nonlocal job
+            job = ex._run_design_device(mu, periods)
+        panel.on_run = on_run
+        panel.run_device()
+        if job is not None:       # the form's device, not the chart drawn or a preset's
+            la, lm, theta, nu = ex.state.device_scene_values()
+            assert math.isclose(math.log10(job.scene.amplitude), la, abs_tol=1e-12)
+            assert job.scene.model == "deformable" and job.scene.mu == panel.mu
+
+    @rule()
+    def finish(self):
+        """The runs scheduled finish (as the server's loop would)."""
+        pending, self.ex.pending[:] = list(self.ex.pending), []
+        for start in pending:
+            asyncio.run(start())
+
+    @rule()
+    def cancel(self):
+        self.ex._on_cancel(None)
+
+    @rule()
+    def reload(self):
+        """Open the page's own link: the same state."""
+        old = self.ex
+        query = old.url_query()
+        new = _open(self.monkeypatch, query)
+        for name in URL_KEYS:
+            assert getattr(new.state, name) == getattr(old.state, name), name
+        assert not new.message.visible, new.message.object
+        old.controller.discard()
+        self.ex = new
+
+    # ------------------------------------------------------------ invariants
+    @invariant()
+    def views_show_the_state(self):
+        ex, s = self.ex, self.ex.state
+        assert ex.map_view.selected.data == {"x": [s.log_amplitude], "y": [s.log_mass]}
+        assert ex.mu_select.value == s.mu and s.mu in ex.mu_select.options
+        assert ex.point_select.value == ex.paper_point()
+        for f in [*ex.fields, *(f for f in ex.units_panel.form
+                                if isinstance(f, inputs.NumberField))]:
+            if f.name_ in s.invalid:
+                assert f.error == s.invalid[f.name_] and f.error
+            else:
+                assert not f.error
+                # the text is the value (as typed, or as written by a move)
+                assert urlstate.convert(s.param[f.name_], f.input.value) == \
+                    getattr(s, f.name_), f.name_
+        if ex.design_panel is not None:
+            for k in D.SHARED_DEVICE:
+                assert getattr(ex.design_panel, k) == getattr(s, k), k
+
+    @invariant()
+    def the_link_is_the_state(self):
+        ex = self.ex
+        assert ex.location.search == ex.url_query()
+        values, errors = urlstate.parse(parse_qs_bytes(ex.location.search.lstrip("?")),
+                                        ex.state, URL_KEYS, URL_ALIASES)
+        assert not errors
+        assert values == {n: getattr(ex.state, n) for n in URL_KEYS}
+
+    @invariant()
+    def the_run_shown_is_what_ran_and_stale_at_once(self):
+        ex = self.ex
+        result = ex.controller.result
+        if result is None:
+            return
+        ran = result.ran
+        scene = result.scene
+        # the heading: the scene run
+        assert f"A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}" in \
+            ex.summary_view._table
+        assert scene.amplitude == 10 ** ran["log_amplitude"]
+        assert (scene.model, scene.mu) == (ran["model"], ran["mu"])
+        changed = [k for k in E.SCENE_STATE if getattr(ex.state, k) != ran[k]]
+        if changed:
+            assert ex.stale_note.visible
+            assert ex.summary.object.startswith(
+                "**⚠ Changed since this run: press Run.**")
+        elif not ex.state.invalid and not (ex.summary_view.device_run and any(
+                getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)):
+            assert not ex.stale_note.visible
+
+
+def test_the_page_is_one_state_whatever_the_order(monkeypatch, no_logged_errors):
+    ExplorerMachine.monkeypatch = monkeypatch
+    from hypothesis.stateful import run_state_machine_as_test
+    run_state_machine_as_test(ExplorerMachine, settings=settings(
+        max_examples=EXAMPLES, stateful_step_count=STEPS, deadline=None,
+        # (no shrinking: a failing sequence is printed as found; shrinking
+        # one rebuilds a page per try, minutes)
+        phases=[Phase.explicit, Phase.reuse, Phase.generate],
+        suppress_health_check=list(HealthCheck)))
+
+
+# ------------------------------------------------------------ the walkthrough's cases
+def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logged_errors):
+    # issue 32: lithium niobate / glass, 2e7 Hz, R = 5e-6 m, 1e-9 m, then
+    # "Run this device's scene" ran the paper preset (A* = 316.2, m* = 1)
+    ex = _open(monkeypatch)
+    ex.map_tabs.active = E.DESIGN_TAB
+    panel = ex.design_panel
+    assert panel.run_button.disabled is False
+    panel.preset = "paper"
+    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=2e7,
+                          radius=5e-6, amplitude=1e-9)
+    assert (panel.substrate, panel.frequency, panel.radius) == ("lithium niobate", 2e7, 5e-6)
+    assert panel.preset == "custom"
+    panel.run_device()
+    job = ex.controller.job
+    la, lm, theta, nu = ex.state.device_scene_values()
+    assert job is not None and job.scene.model == "deformable"
+    assert math.log10(job.scene.amplitude) == pytest.approx(la, abs=1e-12)
+    assert math.log10(job.scene.mass) == pytest.approx(lm, abs=1e-12)
+    assert (job.scene.theta, job.scene.nu) == (theta, nu) != (1.2, 0.3)
+    # the Units tab shows the same device (one form)
+    assert f"{10 ** la:.4g}" in ex.units_panel.info.object
+
+
+def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, no_logged_errors):
+    # issue 32: with radius "-1" flagged invalid, Run ran the last valid device
+    ex = _open(monkeypatch)
+    field = next(f for f in ex.units_panel.form
+                 if isinstance(f, inputs.NumberField) and f.name_ == "radius")
+    field.input.value = "-1"
+    assert "radius" in ex.state.invalid
+    before = len(ex.stand_in.scenes)
+    assert ex._run_device() is None
+    assert ex.message.object.startswith("Not run: particle radius (m) must be a number in")
+    assert ex.controller.job is None and len(ex.stand_in.scenes) == before
+    # the Design tab's Run refuses it too
+    ex.map_tabs.active = E.DESIGN_TAB
+    ex.message.object = ""
+    ex.design_panel.run_device()
+    assert ex.message.object.startswith("Not run: particle radius (m)")
+
+
+def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
+        monkeypatch, no_logged_errors):
+    # issue 32: amplitude 1 -> 10 nm without a run, the summary still gave the
+    # old device's m/s; a device run's link reopened with nu = 0.3, no device
+    ex = _open(monkeypatch)
+    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=1e7,
+                          radius=1e-5, amplitude=1e-9, fidelity="preview", compare="none")
+    ex._run_device()
+    asyncio.run(ex.pending.pop()())
+    assert ex.summary_view.device_run and not ex.stale_note.visible
+    heading = ex.summary.object.splitlines()[0]
+    n = ex.state.device()
+    # the heading's A*, m* are the Units table's (unrounded logs)
+    assert f"A\\* = {n.A_star:.4g}, m\\* = {n.m_star:.4g}" in heading
+    assert f"| A* | {n.A_star:.4g}" in ex.units_panel.info.object
+    ex.state.amplitude = 1e-8
+    assert ex.stale_note.visible and "Changed since this run" in ex.summary.object
+    ex.state.amplitude = 1e-9
+    assert not ex.stale_note.visible
+    again = _open(monkeypatch, ex.url_query())
+    for k in (*DEVICE_FIELDS, "theta", "nu", "log_amplitude", "log_mass"):
+        assert getattr(again.state, k) == getattr(ex.state, k), k
+    assert again.runs_on_load
+
+
+def test_a_mu_without_a_shipped_map_is_shown_as_it_is(monkeypatch, no_logged_errors):
+    # issue 32: ?la=2.5&lm=0&mu=0.5: the banner said 0.3, the selector 0.1,
+    # the run used 0.5
+    ex = _open(monkeypatch, "?la=2.5&lm=0&mu=0.5")
+    assert ex.state.mu == 0.5 and ex.mu_select.value == 0.5 and 0.5 in ex.mu_select.options
+    assert not ex.message.visible
+    assert "No usable drift map for deformable, mu = 0.5" in str(
+        ex.map_view.figures[0].title.text) or ex.map_view.figures[0] is not None
+    job = ex.start_run()
+    assert job.scene.mu == 0.5
+    ex.mu_select.value = 0.1
+    assert ex.state.mu == 0.1
+
+
+def test_an_invalid_link_runs_nothing_and_claims_no_defaults(monkeypatch, no_logged_errors):
+    ex = _open(monkeypatch, "?la=abc&lm=1")
+    assert not ex.runs_on_load
+    assert ex.message.object.startswith("This link has errors, so nothing was run:")
+    assert "default" not in ex.message.object
+
+
+def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_errors):
+    la, lm, model = PAPER_POINTS[4]
+    ex = _open(monkeypatch, f"?la={la}&lm={lm}&model={model}")
+    assert ex.point_select.value == 4
+    ex._on_map_click(*PAPER_POINTS[6][:2], False)
+    assert ex.point_select.value == 6
+    ex._on_map_click(0.123, 0.456, False)
+    assert ex.point_select.value == 0
+
+
+def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_errors):
+    # issue 32: one device form; the Units tab gives the model's validity
+    # warnings (design.validity_warnings) as the Design tab does
+    from vibtrans.core import units
+    from vibtrans.products import design
+    ex = _open(monkeypatch)
+    bead = design.validity_warnings(units.DeviceSpec(
+        substrate="glass", particle="steel", radius=5e-4, frequency=108e3, amplitude=1e-9))
+    assert [w.code for w in bead] == ["adhesion"]      # the default bead: adhesion only
+    assert bead[0].message in ex.units_panel.warnings.object
+    ex.state.param.update(radius=1e-8, particle="PTFE", amplitude=1e-12)
+    expected = design.validity_warnings(units.DeviceSpec(
+        substrate="glass", particle="PTFE", radius=1e-8, frequency=108e3, amplitude=1e-12))
+    assert len(expected) > 1
+    assert all(w.message in ex.units_panel.warnings.object for w in expected)
+    # the same list of materials in both tabs
+    ex.map_tabs.active = E.DESIGN_TAB
+    assert ex.design_panel.param.substrate.objects == ex.state.param.substrate.objects

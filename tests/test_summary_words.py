@@ -1,0 +1,59 @@
+"""Issue 32 (walkthrough): the chaos line says plainly what the tau twin did
+("the twin's trajectory parted from this run after N periods") rather than
+"agrees" / "disagrees"."""
+import math
+from types import SimpleNamespace
+
+from vibtrans_explorer.views.summary import chaos_verdict
+
+
+def _result(**summary):
+    s = {"lyapunov": None, "chaotic": None, "twin_chaotic": None, "divergence_time": None,
+         **summary}
+    return SimpleNamespace(summary=SimpleNamespace(**s), twin_unneeded=False)
+
+
+def test_the_chaos_line_says_where_the_twin_parted():
+    text = chaos_verdict(_result(lyapunov=0.2, chaotic=True, twin_chaotic=True,
+                                 divergence_time=312.0))
+    assert text.startswith("chaotic: Lyapunov exponent 0.2 per period")
+    assert "the tau + 0.001 twin's trajectory parted from this run after 312 periods" in text
+    assert "its drift differs" in text
+    assert "agrees" not in text and "disagrees" not in text
+
+
+def test_a_twin_that_stayed_says_so():
+    text = chaos_verdict(_result(lyapunov=-0.5, chaotic=False, twin_chaotic=False,
+                                 divergence_time=math.inf))
+    assert "stayed within 1 a0 of this run's" in text and "its drift is the same" in text
+    # a twin that parted, but whose drift is the same: both said
+    text = chaos_verdict(_result(chaotic=False, twin_chaotic=False, divergence_time=1500.0))
+    assert text == ("robust; the tau + 0.001 twin's trajectory parted from this run after "
+                    "1500 periods, and its drift is the same")
+
+
+def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
+    # issue 32: "both models", a click: both lines of the x*(t) legend read
+    # "Invalid field" (a string set on a LegendItem after its creation is
+    # taken by Bokeh as a column name)
+    from bokeh.core.property.vectorization import Value
+    from vibtrans_explorer.live import LiveTrajectory
+    view = LiveTrajectory("tau + 0.001", 2.0, 50.0)
+    view.relabel(50.0, "point mass")
+    labels = [item.label for item in view.over.twin_items]
+    assert all(isinstance(label, Value) for label in labels), labels
+    assert [label.value for label in labels] == ["x*, tau = 50", "x*, point mass"]
+
+
+def test_the_map_has_a_key_for_its_markers_and_the_introduction_a_glossary():
+    # issue 32: nothing said what the yellow circle, the green diamond and
+    # the numbered dots on the map are, nor what a*, b*, N*, T* mean
+    from vibtrans_explorer import explorer as E
+    ex = E.Explorer()
+    assert ex.map_key in ex.map_pane.objects
+    for words in ("yellow circle: the selected scene", "green diamond",
+                  "the device of the Units and Design tabs", "paper's points"):
+        assert words in ex.map_key.object
+    for symbol in ("**a\\***", "**b\\***", "**b\\*'**", "**N\\***", "**T\\***", "**x\\***",
+                   "**y\\***"):
+        assert symbol in E.INTRODUCTION, symbol

@@ -1,0 +1,103 @@
+"""The expected cost of a map before it runs (maps on demand, issue 35).
+
+A map point's cost is its integration steps times the machine's time per
+step.  Under `stop="full"` every point runs T_obs periods, so its steps are
+known in advance (core.simulate.estimate_steps, the upper bound the explorer
+adds up).  Under `stop="decided"` (core.drivers.DecidedRule) a point runs
+at least to the ramp's end plus the rule's first window,
+
+    t_min = ceil(RAMP_OFF tau) + MIN_WINDOW      (385 periods at tau = 50),
+
+and then either stops (regular, chaotic, a flight that lasts past T_obs) or
+runs to T_obs (a drift that is not steady, and the material point's chaotic
+points, whose verdict needs its twin run to the end).  The expected periods
+of a point are modelled as
+
+    E[periods] = f_end T_obs + (1 - f_end) min(T_obs, t_min + extra)
+
+with f_end the share of points that run to T_obs and extra the mean periods
+the others run past t_min.  DECIDED_PROFILE holds them as measured on every
+4th point of the shipped grid (121 x 201 over log10 A* in [-3, 3], log10 m*
+in [-5, 5]; standard fidelity, T_obs = 2000, tau = 50, mu = 0.3) by
+`vibtrans bench --sweep` (tools.bench.decided_trade; its keys
+decided_<model>_ran-to-end_fraction and decided_<model>_mean_periods_run);
+`decided_profile` measures them again from any map made with the rule (a
+server learns them from its own maps).  The profile depends on the region:
+the lower left settles at t_min, the middle (log10 A* in [0, 1]) runs to
+T_obs at a third of its points, so an estimate for a small region can be
+off by more than the whole domain's.
+"""
+import math
+
+import numpy as np
+
+from vibtrans.core.drivers import MIN_WINDOW, STOP_RAN_TO_END, check_stop
+from vibtrans.core.errors import InputError
+from vibtrans.core.kernels.substrate import RAMP_OFF
+
+# (f_end, extra periods) per model: `vibtrans bench --sweep`, 2026-11-27, every
+# 4th point of the shipped grid (1581 points per model): deformable f_end
+# 0.143, mean periods run 714.3; material point f_end 0.209, mean 952.7;
+# extra = (mean - f_end T_obs) / (1 - f_end) - t_min
+DECIDED_PROFILE = {"deformable": (0.143, 115.0), "point-mass": (0.209, 291.0)}
+
+
+def minimum_periods(tau):
+    """The periods every point runs under the `decided` rule: the ramp's end
+    (G = 1 to double precision, RAMP_OFF tau) and the rule's first window."""
+    return math.ceil(RAMP_OFF * tau) + MIN_WINDOW
+
+
+def expected_periods(model, stop, periods, tau, profile=None):
+    """The expected periods one point of a map runs (see the module
+    docstring): T_obs under stop="full"; under "decided" the model above,
+    with `profile` (f_end, extra) or the model's DECIDED_PROFILE."""
+    check_stop(stop)
+    if model not in DECIDED_PROFILE:
+        raise InputError(f"model must be one of {', '.join(DECIDED_PROFILE)}, got {model!r}")
+    periods = float(periods)
+    if not (math.isfinite(periods) and periods > 0.0):
+        raise InputError(f"periods must be a positive number, got {periods!r}")
+    if stop == "full":
+        return periods
+    f_end, extra = DECIDED_PROFILE[model] if profile is None else profile
+    if not (0.0 <= f_end <= 1.0 and extra >= 0.0):
+        raise InputError(f"profile must be (f_end in [0, 1], extra >= 0), got {profile!r}")
+    early = min(periods, minimum_periods(tau) + extra)
+    return f_end * periods + (1.0 - f_end) * early
+
+
+def expected_seconds(full_steps, ns_per_step, model, stop, periods, tau, workers=1,
+                     profile=None):
+    """Expected seconds of a map whose points would take `full_steps` steps in
+    all when run to T_obs (stop="full"; the twin's included), at ns_per_step
+    per step on `workers` cores: full_steps x E[periods] / T_obs x ns_per_step
+    / workers.  The time per step of a decided run is that of a full run of
+    the same length (measured: the rule's checks cost < 5% of a run), though
+    the ramp's steps cost some 20% more than the steady motion's."""
+    if workers < 1:
+        raise InputError(f"workers must be >= 1, got {workers!r}")
+    share = expected_periods(model, stop, periods, tau, profile) / float(periods)
+    return float(full_steps) * share * float(ns_per_step) * 1e-9 / workers
+
+
+def decided_profile(ds):
+    """(f_end, extra) measured from a finished map made with stop="decided"
+    (its per-point periods_run and stop_reason; attribute scene_tau): the profile `expected_periods` reproduces its mean periods
+    run with."""
+    if ds.attrs.get("stop", "full") != "decided" or "periods_run" not in ds:
+        raise InputError("decided_profile needs a map made with stop='decided'")
+    run = np.asarray(ds["periods_run"].values, dtype=float).ravel()
+    reason = np.asarray(ds["stop_reason"].values).ravel()
+    done = np.isfinite(run) & (reason >= 0)
+    if not done.any():
+        raise InputError("the map has no finished point")
+    run, reason = run[done], reason[done]
+    t_min = minimum_periods(float(ds.attrs["scene_tau"]))
+    end = reason == STOP_RAN_TO_END
+    f_end = float(end.mean())
+    if end.all():
+        return f_end, 0.0
+    # E = f_end T + (1 - f_end) min(T, t_min + extra): the others' mean periods
+    # past t_min (points stopped before t_min: none, the rule's first check)
+    return f_end, max(float(run[~end].mean()) - t_min, 0.0)
