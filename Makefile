@@ -33,16 +33,19 @@ $(VENV)/.installed: pyproject.toml
 serve: setup
 	$(BIN)/vibtrans serve
 
-# The suite on pytest-xdist's workers, one per core (TEST_WORKERS=0: all in
-# this process), each test file whole on one worker (its module fixtures made
-# once), the kernels compiled first (tests/conftest.py).  Each worker that
-# runs server tests starts its own `vibtrans serve` (free port, own map
-# cache).  Not --dist loadgroup (the server and browser tests on one worker):
-# with pytest 9.2 it ignores the groups
+# The suite in two passes: first everything but the server and browser
+# tests on pytest-xdist's workers, one per core (TEST_WORKERS=0: all in this
+# process), each test file whole on one worker (its module fixtures made
+# once), the kernels compiled first (tests/conftest.py); then the server and
+# browser tests one at a time, as a user's machine serves one page at a time
+# (they time pages: two chromiums and two servers on two cores would only
+# measure each other).  Not one pass with --dist loadgroup (those tests on
+# one worker): with pytest 9.2 it ignores the groups
 # (pytest-dev/pytest-xdist#1386).
 TEST_WORKERS ?= auto
 test: setup browser proxy
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not browser and not server"
+	$(BIN)/python -m pytest -q -m "browser or server"
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
 # test`, everything).
