@@ -23,6 +23,7 @@ import pytest
 import xarray as xr
 
 from vibtrans_explorer import data
+from vibtrans_explorer.views import map as map_views
 from vibtrans.cli import main
 from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
 from budget import budget
@@ -131,7 +132,11 @@ def assets(tmp_path):
 
 
 def _clear():
-    for f in (data.available_maps, data.drift_map, data.vertical_curve):
+    # every cache of what was read from the copies (or found missing there,
+    # as the Lyapunov maps are), the map figures rendered from them too: none
+    # may outlive the test in this process (a later test's map read them)
+    for f in (data.available_maps, data.drift_map, data.vertical_curve, data.lyapunov_map,
+              map_views._map_json):
         f.cache_clear()
 
 
