@@ -282,6 +282,7 @@ def _run_now(explorer):
                 ("fidelity", "reference"), ("integrator", "verlet")])
 @example(pairs=[("model", "point-mass"), ("la", "1.5"), ("lm", "-2"), ("compare", "none"),
                 ("fidelity", "preview")])
+@example(pairs=[("nu", "0.25"), ("theta", "1.1")])      # the material's values run too
 def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     explorer = url_session(pairs)
     values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, URL_ALIASES)
@@ -310,7 +311,8 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
                 "mass": 10 ** got["log_mass"], "mu": got["mu"], "model": got["model"],
                 "fidelity": got["fidelity"], "integrator": got["integrator"],
                 "stick_rule": got["stick_rule"], "alpha_t": got["alpha_t"],
-                "tau": got["tau"], "periods": got["periods"]}
+                "tau": got["tau"], "periods": got["periods"], "theta": got["theta"],
+                "nu": got["nu"]}
         expected = [main]
         if got["compare"] == "tau twin":
             expected.append({**main, "tau": main["tau"] + 1e-3})
