@@ -197,8 +197,9 @@ class MapJobs:
         self._running = set()        # the computations running
         self._workers = None         # the FairPool of `cores` workers (made at first use)
         self._sessions = {}          # session -> Ticket
-        self._rates = {}             # (model, fidelity) -> s per bounded step, measured here
+        self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
+        self._profiles = {}          # model -> (f_end, extra) of its last decided map
         # a thread per running map (its refinement; its points go to the
         # shared workers); a second, light pool opens the cache and
         # measures the speed, so that a cached map never waits for a big one
@@ -224,11 +225,23 @@ class MapJobs:
     # estimate of a model and fidelity, then learned from each map computed.
     # Beyond the shipped maps: the points' bounded steps, and the share of
     # the grid this server's last map of the model and depth computed.
-    def seconds_per_work(self, model, fidelity, unit):
+    # The work is that of runs to T_obs; under the `decided` stopping rule a
+    # point is expected to run a share of it (vibtrans.maps.cost, with the
+    # profile of this server's last decided map of the model, else the
+    # measured one of the whole domain), and its rate is measured per unit
+    # of the work its points actually ran (their periods_run).
+    def seconds_per_work(self, model, fidelity, unit, stop="full"):
         """This server's measured wall seconds of a map point's runs on one
-        worker per unit of its expected work ("reference": seconds of the
-        shipped map's point, "steps": bounded steps), or None."""
-        return self._rates.get((model, fidelity, unit))
+        worker per unit of the work they ran ("reference": seconds of the
+        shipped map's point, "steps": bounded steps; both for a run to
+        T_obs, scaled by the periods run under `stop`), or None."""
+        return self._rates.get((model, fidelity, unit, stop))
+
+    def profile(self, model):
+        """The (f_end, extra periods) of this server's last map of `model`
+        made with the `decided` rule (vibtrans.maps.cost.decided_profile),
+        or None (the model's measured profile then)."""
+        return self._profiles.get(model)
 
     def fraction(self, model, levels):
         """The share of the finest grid the refinement computes: this
@@ -263,7 +276,7 @@ class MapJobs:
         workers: blocking (call it off the event loop); it also starts the
         workers, so that a map asked for soon after its estimate starts at
         once.  Each map computed then replaces it by its own rate."""
-        key = (request.model, request.fidelity, unit)
+        key = (request.model, request.fidelity, unit, request.stop)
         if key in self._rates:
             return self._rates[key]
         from vibtrans.maps.sweep import compute_point
@@ -281,26 +294,39 @@ class MapJobs:
         try:
             run = lane.submit if lane is not None else _now
             futures = [run(compute_point, probe.scene_values(), la[i], lm[j],
-                           maprequest.CHAOS) for i, j in idx]
-            seconds = sum(f.result()["seconds"] for f in futures)
+                           maprequest.CHAOS, probe.stop) for i, j in idx]
+            points = [f.result() for f in futures]
         finally:
             if lane is not None:
                 lane.shutdown()
-        probed = scale * sum(work[i, j] for i, j in idx)
+        seconds = sum(p["seconds"] for p in points)
+        # the work each point ran: a decided run's share of its periods
+        probed = scale * sum(work[i, j] * p.get("periods_run", probe.periods) / probe.periods
+                             for (i, j), p in zip(idx, points))
         if seconds > 0 and probed > 0:
             self._rates.setdefault(key, seconds / probed)
         return self._rates.get(key)
 
     def _learn_speed(self, request, ds, wall):
         """The map's own rate (its runs' share of its wall time, on `cores`
-        workers, per unit of its computed points' expected work) and the
-        share of the grid computed, for the next estimates."""
+        workers, per unit of the work its computed points ran), the share of
+        the grid computed and, for a decided map, its profile (the periods
+        its points ran), for the next estimates."""
+        from vibtrans.maps.cost import decided_profile
         computed = ds["computed"].values
         work, unit, _ = self.expected_work(request)
-        total = float(work[computed].sum())
+        if request.stop == "full":
+            ran = work[computed]
+        else:
+            ran = work[computed] * ds["periods_run"].values[computed] / request.periods
+            own = ds[["periods_run", "stop_reason"]].where(ds["computed"])
+            own.attrs = dict(ds.attrs)
+            self._profiles[request.model] = decided_profile(own)
+        total = float(np.nansum(ran))
         runs = wall - MAP_START_SECONDS - POINT_PASSAGE_SECONDS * int(computed.sum())
         if total > 0 and runs > 0:
-            self._rates[(request.model, request.fidelity, unit)] = runs * self.cores / total
+            self._rates[(request.model, request.fidelity, unit, request.stop)] = \
+                runs * self.cores / total
         self._fractions[(request.model, request.levels)] = float(computed.mean())
 
     def estimate(self, request):
@@ -316,7 +342,8 @@ class MapJobs:
         work, unit, computed = self.expected_work(request)
         rate = self.measure_speed(request, work, unit)
         est = maprequest.estimate(request, rate, work, computed, self.cores,
-                                  MAP_START_SECONDS, POINT_PASSAGE_SECONDS)
+                                  MAP_START_SECONDS, POINT_PASSAGE_SECONDS,
+                                  self.profile(request.model))
         if est.seconds is not None and est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
                          f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "

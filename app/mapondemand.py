@@ -292,7 +292,7 @@ class MapOnDemand:
     async def _draw_map(self, request, ds):
         """Render the map off the event loop, then show it."""
         s = self.state
-        title = f"map on demand: {request.model}, mu = {request.mu:g}"
+        title = f"map on demand: {request.model}, mu = {request.mu:g}, stop: {request.stop}"
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
             fig = await asyncio.get_running_loop().run_in_executor(

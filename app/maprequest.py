@@ -7,6 +7,12 @@ form, its sweep and cache key, and its estimated cost.
     text = encode(request)    # the `map=` URL value; decode(text) -> (request, errors)
     estimate(request, seconds_per_step, fraction, workers)   # its expected cost
 
+Its stopping rule (`stop`, issue 35): "decided" (the default of a new
+request: each point's run ends once its drift is known to the fidelity's
+stated error, vibtrans.core.drivers.DecidedRule) or "full" (every point
+runs all its periods).  A link written before the rule was part of the
+request (one value fewer) meant full runs, and still does.
+
 The finest grid has `cells * 2**levels + 1` points per axis, from the
 window's lower to its upper bound: the adaptive refinement
 (vibtrans.maps.adaptive) starts on every 2**levels-th point (the coarse grid,
@@ -21,6 +27,8 @@ import param
 
 from vibtrans import Scene
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
+from vibtrans.maps.cost import expected_periods
+from vibtrans.core.drivers import STOPS
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate
@@ -57,6 +65,10 @@ class MapRequest(param.Parameterized):
     lm_to = param.Number(default=1.0, bounds=SCENE_LOG_MASS, doc="log10 m* to")
     cells = param.Integer(default=4, bounds=(1, 64), doc="coarse grid cells per axis")
     levels = param.Integer(default=3, bounds=(1, 6), doc="refinement levels K")
+    stop = param.Selector(default="decided", objects=sorted(STOPS), doc=(
+        "the points' stopping rule: decided (each run ends once its drift is known to the "
+        "fidelity's stated error, or its chaos verdict is decided) or full (every run to "
+        "T_obs)"))
 
     def points_per_axis(self):
         return self.cells * 2 ** self.levels + 1
@@ -98,26 +110,40 @@ class MapRequest(param.Parameterized):
         """The vibtrans.Sweep of the finest grid (InputError if invalid)."""
         from vibtrans.maps.sweep import Sweep
         la, lm = self.axes()
-        return Sweep(la, lm, chaos=CHAOS, command="explorer map on demand",
+        return Sweep(la, lm, chaos=CHAOS, command="explorer map on demand", stop=self.stop,
                      **self.scene_values())
 
     def cache_request(self):
         """The dict that keys the map in the cache (vibtrans.maps.cache):
-        everything that changes a number, nothing that does not."""
+        everything that changes a number, nothing that does not.  The
+        stopping rule is named where it is not "full" (a full map keeps the
+        key it had before the rule existed, as its store's attributes do)."""
         scene = Scene(**self.scene_values())
         return {"scene": {k: getattr(scene, k) for k in sorted(scene.param) if k not in
                           ("name", "amplitude", "mass")},
                 "log_amplitude": [self.la_from, self.la_to],
                 "log_mass": [self.lm_from, self.lm_to],
                 "points_per_axis": self.points_per_axis(), "max_level": self.levels,
-                "drift_tolerance": DEFAULT_DRIFT_TOLERANCE, "chaos": CHAOS}
+                "drift_tolerance": DEFAULT_DRIFT_TOLERANCE, "chaos": CHAOS,
+                **({"stop": self.stop} if self.stop != "full" else {})}
 
     def title(self):
         scene = (f"{self.model}, mu = {self.mu:g}, theta = {self.theta:g}, nu = {self.nu:g}, "
                  f"tau = {self.tau:g}, {self.periods:g} periods, {self.fidelity}")
         if self.model == "point-mass":
             scene += f", {self.stick_rule} rule, alpha_t = {self.alpha_t:g}"
-        return scene
+        return f"{scene}; {self.rule_text()}"
+
+    def rule_text(self):
+        """The stopping rule in words (the map's caption says it)."""
+        return STOP_WORDS[self.stop]
+
+    def expected_share(self, profile=None):
+        """The expected periods a point runs over T_obs under the request's
+        rule (vibtrans.maps.cost.expected_periods; `profile`: (f_end,
+        extra periods), else the model's measured one): 1 for full runs."""
+        return expected_periods(self.model, self.stop, self.periods, self.tau,
+                                profile) / float(self.periods)
 
     def copy(self):
         return MapRequest(**self.values())
@@ -126,10 +152,18 @@ class MapRequest(param.Parameterized):
         return {k: getattr(self, k) for k in FIELDS}
 
 
+STOP_WORDS = {"decided": "each point run until its drift is decided (stop: decided)",
+              "full": "every point run all its periods (stop: full)"}
+
 # the URL form: the values in this order, comma-separated (a link keeps
-# working while fields are only appended)
+# working while fields are only appended: a link without the appended ones
+# takes LEGACY's values for them, what it meant when it was written)
 FIELDS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
-          "stick_rule", "alpha_t", "la_from", "la_to", "lm_from", "lm_to", "cells", "levels")
+          "stick_rule", "alpha_t", "la_from", "la_to", "lm_from", "lm_to", "cells", "levels",
+          "stop")
+# the appended fields' values for an older link: before `stop` every map ran in full
+LEGACY = {"stop": "full"}
+assert tuple(LEGACY) == FIELDS[len(FIELDS) - len(LEGACY):]
 URL_KEY = "map"
 
 
@@ -150,10 +184,12 @@ def decode(raw):
     if len(raw) > urlstate.MAX_LENGTH * len(FIELDS):
         return None, [f"URL parameter '{URL_KEY}' (a map request) is too long"]
     parts = raw.split(",")
-    if len(parts) != len(FIELDS):
+    older = len(FIELDS) - len(parts)
+    if not 0 <= older <= len(LEGACY):
         return None, [f"URL parameter '{URL_KEY}' (a map request) must hold {len(FIELDS)} "
-                      f"comma-separated values ({', '.join(FIELDS)}); got {len(parts)}"]
-    values, errors = {}, []
+                      f"comma-separated values ({', '.join(FIELDS)}; an older link may omit "
+                      f"the last {len(LEGACY)}: {', '.join(LEGACY)}); got {len(parts)}"]
+    values, errors = {k: LEGACY[k] for k in FIELDS[len(parts):]}, []
     for name, text in zip(FIELDS, parts):
         p = MapRequest.param[name]
         try:
@@ -173,13 +209,18 @@ def decode(raw):
 class Estimate(NamedTuple):
     """A map's expected cost: `points` of the finest grid (an upper bound
     of those computed), `steps` (an upper bound of their integration steps,
-    runs and twins), `computed` (the points the refinement is expected to
-    compute) and `seconds` (the expected wall time on this server), both
-    from its own measured rates (app/mapjobs.py); None while unknown."""
+    runs and twins: every run to T_obs), `computed` (the points the
+    refinement is expected to compute) and `seconds` (the expected wall time
+    on this server), both from its own measured rates (app/mapjobs.py); None
+    while unknown.  `share`: the expected periods a point runs over T_obs
+    under the request's stopping rule (1 for full runs), which scales each
+    point's work in `seconds`; `stop`: that rule."""
     points: int
     steps: float
     seconds: object
     computed: object = None
+    share: float = 1.0
+    stop: str = "full"
 
     def text(self, workers):
         when = ("seconds unknown until this server's speed is measured" if self.seconds is None
@@ -188,8 +229,11 @@ class Estimate(NamedTuple):
         some = ("" if self.computed is None else
                 f" The refinement computes only where the map changes: about "
                 f"{self.computed:,.0f} of them expected.")
+        rule = ("" if self.stop == "full" else
+                f" (each run stops once its drift is decided: about {self.share:.0%} of "
+                f"its periods expected, {self.steps * self.share:.3g} steps)")
         return (f"At most {self.points:,} points ({math.isqrt(self.points)} per axis), "
-                f"{self.steps:.3g} integration steps: {when}.{some}")
+                f"{self.steps:.3g} integration steps{rule}: {when}.{some}")
 
 
 def _duration(seconds):
@@ -202,7 +246,9 @@ def _duration(seconds):
 
 def point_steps(request, la, lm):
     """Upper bound of the steps of one point (its run and, where the
-    verdict needs one, its chaos twin)."""
+    verdict needs one, its chaos twin), each run to T_obs: under the
+    `decided` rule a point is expected to run `request.expected_share()` of
+    it (`expected_steps`)."""
     if request.model == "point-mass":
         # event-driven: scanned on its grid; a jumping point runs a twin
         return 2 * step_count(request.periods, scan_step(request.fidelity))
@@ -216,12 +262,19 @@ def bound_steps(request):
     return np.array([[point_steps(request, a, m) for m in lm] for a in la], dtype=float)
 
 
+def expected_steps(request, profile=None):
+    """Each finest-grid point's expected steps under the request's
+    stopping rule: `bound_steps` times `request.expected_share(profile)`."""
+    return bound_steps(request) * request.expected_share(profile)
+
+
 def reference_work(request, reference):
     """Each finest-grid point's expected cost in `reference`'s seconds: a
     shipped map of the model (its points' measured `seconds`, read at the
     nearest of its points), scaled by the steps of the request's run over
-    those of the reference's (length and fidelity).  None if the window is
-    not inside the reference's."""
+    those of the reference's (length and fidelity), each run to T_obs (a
+    reference made with the `decided` rule: its seconds over the share of
+    its periods it ran).  None if the window is not inside the reference's."""
     ref_la = reference["log_amplitude"].values
     ref_lm = reference["log_mass"].values
     la, lm = request.axes()
@@ -231,6 +284,9 @@ def reference_work(request, reference):
     ia = np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1)
     im = np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1)
     seconds = reference["seconds"].values[np.ix_(ia, im)]
+    if reference.attrs.get("stop", "full") != "full":
+        run = reference["periods_run"].values[np.ix_(ia, im)]
+        seconds = seconds * float(reference.attrs["scene_periods"]) / run
     ref = request.copy()
     ref.param.update(periods=float(reference.attrs["scene_periods"]),
                      fidelity=reference.attrs["scene_fidelity"])
@@ -242,20 +298,24 @@ def reference_work(request, reference):
 
 
 def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
-             start_seconds=0.0, point_seconds=0.0):
+             start_seconds=0.0, point_seconds=0.0, profile=None):
     """The request's Estimate (refuse it by `problems` first: this walks
     every point of the finest grid).  work: each finest-grid point's cost in
-    some unit (default: its bounded steps), seconds_per_work: this server's
-    wall seconds per unit of it on one worker; computed: the points the
-    refinement is expected to compute (a boolean array of the finest grid,
-    or the share of it); start_seconds, point_seconds: the map's own work,
-    once and per point computed."""
+    some unit when run to T_obs (default: its bounded steps), scaled here by
+    the periods it is expected to run under the request's stopping rule
+    (`request.expected_share(profile)`); seconds_per_work: this server's
+    wall seconds per unit of the work actually run, on one worker;
+    computed: the points the refinement is expected to compute (a boolean
+    array of the finest grid, or the share of it); start_seconds,
+    point_seconds: the map's own work, once and per point computed."""
     steps = bound_steps(request)
     work = steps if work is None else work
+    share = request.expected_share(profile)
     if isinstance(computed, np.ndarray):
         n, total = float(computed.sum()), float(work[computed].sum())
     else:
         n, total = computed * request.points(), computed * float(work.sum())
     seconds = (None if seconds_per_work is None else
-               start_seconds + n * point_seconds + total * seconds_per_work / max(1, workers))
-    return Estimate(request.points(), float(steps.sum()), seconds, n)
+               start_seconds + n * point_seconds
+               + share * total * seconds_per_work / max(1, workers))
+    return Estimate(request.points(), float(steps.sum()), seconds, n, share, request.stop)

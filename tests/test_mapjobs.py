@@ -75,8 +75,13 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     # the next estimates learn from the map computed: its share of the grid
     # and its runs' rate (its wall time less its own work, per bounded step)
     assert jobs.fraction("deformable", 1) == done.ds["computed"].values.mean()
-    assert jobs.seconds_per_work("deformable", "preview", "reference") > 0
-    assert jobs.seconds_per_work("deformable", "standard", "reference") is None
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") > 0
+    assert jobs.seconds_per_work("deformable", "standard", "reference", "decided") is None
+    # made with the request's stopping rule (a new request's: decided), its
+    # points' periods run kept; 30 periods end before the rule's first check
+    assert done.ds.attrs["stop"] == "decided"
+    assert (done.ds["periods_run"].values[done.ds["computed"].values] == 30.0).all()
+    assert jobs.profile("deformable") == (1.0, 0.0)        # every point ran to the end
     np.testing.assert_array_equal(again.ds["drift_velocity"].values,
                                   done.ds["drift_velocity"].values)
 
@@ -143,7 +148,7 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
                            max_seconds=10.0)
     for fidelity in ("preview", "reference"):       # s per unit of work, as if measured
-        jobs._rates[("deformable", fidelity, "reference")] = 0.5
+        jobs._rates[("deformable", fidelity, "reference", "decided")] = 0.5
     request = MapRequest(**TINY)
     est, problems = jobs.estimate(request)
     assert problems == []
@@ -169,7 +174,7 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
                                         + work[computed].sum() * 0.5 / 2)
     # beyond the shipped maps: the bounded steps and the share computed
     far = MapRequest(**{**TINY, "la_from": 4.0, "la_to": 5.0})
-    jobs._rates[("deformable", "preview", "steps")] = 1e-7
+    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
     est, problems = jobs.estimate(far)
     work, unit, share = jobs.expected_work(far)
     assert unit == "steps" and share == mapjobs.FRACTION_PRIOR[1] and problems == []
@@ -179,7 +184,8 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     big = MapRequest(**{**TINY, "cells": 8, "levels": 3})       # 65 x 65
     est, problems = jobs.estimate(big)
     assert est is None and "4,225 points is over this server's limit of 1,000" in problems[0]
-    slow = MapRequest(**{**TINY, "periods": 10000.0, "fidelity": "reference"})
+    slow = MapRequest(**{**TINY, "periods": 10000.0, "fidelity": "reference", "stop": "full"})
+    jobs._rates[("deformable", "reference", "reference", "full")] = 0.5
     est, problems = jobs.estimate(slow)
     assert est is not None and "over this server's limit of 10 s per map" in problems[0]
     empty = MapRequest(**{**TINY, "la_from": 0.5, "la_to": -0.5})
@@ -191,14 +197,15 @@ def test_the_first_estimate_of_a_model_and_fidelity_probes_its_speed(tmp_path):
     points (in the map workers, which it so starts for the map to come) and
     takes their runs' seconds per bounded step."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
-    assert jobs.seconds_per_work("deformable", "preview", "reference") is None
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") is None
     est, problems = jobs.estimate(MapRequest(**TINY))
-    rate = jobs.seconds_per_work("deformable", "preview", "reference")
+    rate = jobs.seconds_per_work("deformable", "preview", "reference", "decided")
     assert problems == [] and rate > 0 and est.seconds > 0
     assert "on this server (1 core, from its measured speed)" in est.text(1)
     # measured once: the next estimate of its kind uses it
     jobs.estimate(MapRequest(**{**TINY, "la_from": -0.4}))
-    assert jobs.seconds_per_work("deformable", "preview", "reference") == rate
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") == rate
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():
@@ -215,11 +222,113 @@ def test_the_url_form_round_trips_and_names_a_bad_value():
     none, errors = maprequest.decode(bad)
     assert none is None and errors == [
         "URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
-    bad = ",".join([*parts[:-1], "2.5"])                    # levels not an integer
+    bad = ",".join([*parts[:-2], "2.5", parts[-1]])         # levels not an integer
     assert "levels must be an integer in [1, 6]; got '2\\.5'" in maprequest.decode(bad)[1][0]
-    assert "must hold 16 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
+    assert "must hold 17 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
+    assert "must hold 17" in maprequest.decode(text + ",full")[1][0]
+    bad = ",".join([*parts[:-1], "fast"])
+    assert "URL parameter 'map': stop must be one of decided, full; got 'fast'" in \
+        maprequest.decode(bad)[1][0]
     swapped = ",".join([*parts[:10], parts[11], parts[10], *parts[12:]])
     assert "'from' (4.25) must be below its 'to' (-3.5)" in maprequest.decode(swapped)[1][0]
+
+
+def test_a_new_request_stops_each_point_once_decided_and_an_old_link_meant_full_runs():
+    """A link written before the stopping rule was part of the request (its
+    16 values) meant full runs and still does; a new request is decided."""
+    assert MapRequest().stop == "decided"
+    for stop in ("decided", "full"):
+        request = MapRequest(**{**TINY, "stop": stop})
+        text = maprequest.encode(request)
+        assert text.endswith("," + stop)
+        back, errors = maprequest.decode(text)
+        assert errors == [] and back.values() == request.values()
+    old = maprequest.encode(MapRequest(**TINY)).rsplit(",", 1)[0]      # the 16 older values
+    back, errors = maprequest.decode(old)
+    assert errors == [] and back.stop == "full"
+    assert back.values() == MapRequest(**{**TINY, "stop": "full"}).values()
+    assert maprequest.encode(back) == old + ",full"          # written again with its rule
+    # the sweep it runs, and the title over its map, carry the rule
+    assert MapRequest(**TINY).sweep().stop == "decided" and back.sweep().stop == "full"
+    assert "stop: decided" in MapRequest(**TINY).title() and "stop: full" in back.title()
+
+
+def test_the_cache_key_holds_the_stopping_rule_and_a_full_map_keeps_its_old_key():
+    from vibtrans.maps.cache import request_key
+    full = MapRequest(**{**TINY, "stop": "full"})
+    decided = MapRequest(**{**TINY, "stop": "decided"})
+    assert request_key(full.cache_request()) != request_key(decided.cache_request())
+    assert decided.cache_request()["stop"] == "decided"
+    # a full map's key is the one it had before the rule existed (its store's
+    # attributes name no rule either: vibtrans.maps.sweep.Sweep.attrs)
+    assert "stop" not in full.cache_request()
+    assert "stop" not in full.sweep().attrs() and decided.sweep().attrs()["stop"] == "decided"
+
+
+def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_run(tmp_path):
+    """Under the decided rule a point runs vibtrans.maps.cost.expected_periods
+    of its T_obs: the runs' part of the estimate scales by that share; the
+    bound on the steps stays that of full runs; a profile measured on a
+    map replaces the model's."""
+    from vibtrans.maps.cost import DECIDED_PROFILE, expected_periods
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2)
+    long = {**TINY, "periods": 2000.0, "tau": 50.0}
+    seconds = {}
+    for stop in ("full", "decided"):
+        jobs._rates[("deformable", "preview", "reference", stop)] = 0.5
+        request = MapRequest(**{**long, "stop": stop})
+        est, problems = jobs.estimate(request)
+        assert problems == [] and est.stop == stop
+        seconds[stop] = est.seconds - mapjobs.MAP_START_SECONDS \
+            - est.computed * mapjobs.POINT_PASSAGE_SECONDS
+        steps = est.steps
+    share = expected_periods("deformable", "decided", 2000.0, 50.0) / 2000.0
+    assert 0.2 < share < 0.6                     # t_min = 385 of 2000, f_end 0.14
+    assert seconds["decided"] == pytest.approx(share * seconds["full"])
+    assert steps == maprequest.bound_steps(MapRequest(**long)).sum()
+    np.testing.assert_allclose(maprequest.expected_steps(MapRequest(**long)),
+                               share * maprequest.bound_steps(MapRequest(**long)))
+    assert f"about {share:.0%} of its periods expected" in est.text(2)
+    # the material point's profile is its own
+    point = MapRequest(**{**long, "model": "point-mass"})
+    assert point.expected_share() == pytest.approx(
+        expected_periods("point-mass", "decided", 2000.0, 50.0) / 2000.0)
+    assert DECIDED_PROFILE["point-mass"] != DECIDED_PROFILE["deformable"]
+    # a profile this server measured on its own decided map replaces the model's
+    jobs._profiles["deformable"] = (0.5, 100.0)
+    est, _ = jobs.estimate(MapRequest(**long))
+    own = expected_periods("deformable", "decided", 2000.0, 50.0, (0.5, 100.0)) / 2000.0
+    assert est.share == pytest.approx(own)
+    assert est.seconds - mapjobs.MAP_START_SECONDS - est.computed * \
+        mapjobs.POINT_PASSAGE_SECONDS == pytest.approx(own * seconds["full"])
+
+
+def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_run(tmp_path):
+    """A map long enough for the rule to stop points: its computed points
+    carry periods_run below T_obs; the server keeps its profile (what
+    vibtrans.maps.cost.decided_profile measures on those points) for the next
+    estimate, and its rate under the decided rule only."""
+    from vibtrans.maps.cost import decided_profile, expected_periods, minimum_periods
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
+    request = MapRequest(**{**TINY, "periods": 300.0})        # t_min 93 at tau 5
+    got = Listener()
+    jobs.submit("a", request, got)
+    done = got.wait()
+    assert done.kind == "done", got.kinds()
+    computed = done.ds["computed"].values
+    run = done.ds["periods_run"].values[computed]
+    assert run.min() >= minimum_periods(5.0) and (run < 300.0).any()
+    f_end, extra = jobs.profile("deformable")
+    mine = done.ds[["periods_run", "stop_reason"]].where(done.ds["computed"])
+    mine.attrs = dict(done.ds.attrs)
+    assert (f_end, extra) == decided_profile(mine)
+    # its own mean periods run, reproduced by the profile (f_end, extra)
+    assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra)) == \
+        pytest.approx(run.mean())
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") > 0
+    assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None
+    est, _ = jobs.estimate(MapRequest(**{**TINY, "periods": 300.0, "mu": 0.5}))
+    assert est.share == pytest.approx(run.mean() / 300.0)
 
 
 def test_the_cache_key_ignores_what_changes_no_number():
@@ -228,7 +337,7 @@ def test_the_cache_key_ignores_what_changes_no_number():
     same = MapRequest(**{**TINY, "stick_rule": "classical", "alpha_t": 0.1})
     assert base.cache_request() == same.cache_request()
     for change in ({"mu": 0.31}, {"periods": 31.0}, {"la_to": 0.6}, {"levels": 2},
-                   {"fidelity": "standard"}):
+                   {"fidelity": "standard"}, {"stop": "full"}):
         assert MapRequest(**{**TINY, **change}).cache_request() != base.cache_request()
 
 

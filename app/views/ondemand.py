@@ -15,6 +15,11 @@ INTRO = ("**A drift map of your own**: any model, friction, material, ramp, run 
          "it to run a scene there; the page's link reopens it.")
 RESOLUTION = ("*The finest grid has cells x 2^K + 1 points per axis; the first pass computes "
               "cells + 1 per axis.*")
+STOP_NOTE = ("*Stopping rule: **decided** ends each point's run once its drift is known to the "
+             "fidelity's stated error (a regular motion's rate extrapolated to T_obs, a chaos "
+             "verdict with margin, a flight that lasts past T_obs); a drift that is not steady "
+             "runs to the end. **full** runs every point all its periods. The map's title "
+             "says which rule made it.*")
 
 
 class MapRequestPanel(pn.viewable.Viewer):
@@ -38,7 +43,7 @@ class MapRequestPanel(pn.viewable.Viewer):
                                                      css_classes=[f"vt-map-{name}"])
                   for name, label in (("model", "model"), ("fidelity", "fidelity"),
                                       ("integrator", "integrator"),
-                                      ("stick_rule", "stick rule"))}
+                                      ("stick_rule", "stick rule"), ("stop", "stopping rule"))}
         self.point_mass = pn.Row(select["stick_rule"], number["alpha_t"],
                                  visible=r.model == "point-mass")
         r.param.watch(lambda e: setattr(self.point_mass, "visible", e.new == "point-mass"),
@@ -66,8 +71,9 @@ class MapRequestPanel(pn.viewable.Viewer):
             self.point_mass,
             pn.Row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
             self.zoom_button,
-            pn.Row(number["cells"], number["levels"]),
+            pn.Row(number["cells"], number["levels"], select["stop"]),
             pn.pane.Markdown(RESOLUTION, sizing_mode="stretch_width"),
+            pn.pane.Markdown(STOP_NOTE, sizing_mode="stretch_width"),
             self.estimate,
             pn.Row(self.compute_button, self.cancel_button),
             self.status,
