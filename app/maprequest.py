@@ -143,7 +143,7 @@ class MapRequest(param.Parameterized):
         rule (vibtrans.maps.cost.expected_periods; `profile`: (f_end,
         extra periods), else the model's measured one): 1 for full runs."""
         return expected_periods(self.model, self.stop, self.periods, self.tau,
-                                profile) / float(self.periods)
+                                profile, self.fidelity) / float(self.periods)
 
     def copy(self):
         return MapRequest(**self.values())

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.core.drivers import MIN_WINDOW, REASONS, STOP_RAN_TO_END
+from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE, REASONS,
+                                   STOP_RAN_TO_END)
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.errors import InputError
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.maps.cost import (DECIDED_PROFILE, decided_profile, expected_periods,
@@ -16,9 +18,20 @@ def test_full_runs_every_period():
         assert expected_periods(model, "full", 2000.0, 50.0) == 2000.0
 
 
-def test_minimum_periods_is_the_ramp_and_the_first_window():
-    # G(t) = 1 past RAMP_OFF tau; the rule's first check MIN_WINDOW later
-    assert minimum_periods(50.0) == np.ceil(RAMP_OFF * 50.0) + MIN_WINDOW
+@pytest.mark.parametrize("fidelity", sorted(STATED_DRIFT_ERROR))
+def test_minimum_periods_is_the_ramp_s_settling_and_the_first_window(fidelity):
+    # the windows start at the first whole period where the ramp's residual
+    # 1 - G = exp(-t^2/tau^2) (substrate.py) is below RAMP_SHARE of the rule's
+    # tolerance (DECIDED_FRACTION of the stated error), at the latest where
+    # G = 1 to double precision (RAMP_OFF tau); the first check MIN_WINDOW later
+    tau = 50.0
+    bar = RAMP_SHARE * DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]
+    t_s = minimum_periods(tau, fidelity) - MIN_WINDOW
+    assert np.exp(-(t_s / tau) ** 2) <= bar < np.exp(-((t_s - 1) / tau) ** 2)
+    assert t_s <= np.ceil(RAMP_OFF * tau)
+    assert minimum_periods(tau) == minimum_periods(tau, "standard")
+    with pytest.raises(InputError, match="fidelity must be one of"):
+        minimum_periods(tau, "best")
 
 
 @pytest.mark.parametrize("model", sorted(DECIDED_PROFILE))

@@ -282,8 +282,8 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
         seconds[stop] = est.seconds - mapjobs.MAP_START_SECONDS \
             - est.computed * mapjobs.POINT_PASSAGE_SECONDS
         steps = est.steps
-    share = expected_periods("deformable", "decided", 2000.0, 50.0) / 2000.0
-    assert 0.2 < share < 0.6                     # t_min = 385 of 2000, f_end 0.14
+    share = expected_periods("deformable", "decided", 2000.0, 50.0, None, "preview") / 2000.0
+    assert 0.1 < share < 0.6                     # t_min ~ 230 of 2000, f_end ~ 0.1
     assert seconds["decided"] == pytest.approx(share * seconds["full"])
     assert steps == maprequest.bound_steps(MapRequest(**long)).sum()
     np.testing.assert_allclose(maprequest.expected_steps(MapRequest(**long)),
@@ -292,12 +292,12 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
     # the material point's profile is its own
     point = MapRequest(**{**long, "model": "point-mass"})
     assert point.expected_share() == pytest.approx(
-        expected_periods("point-mass", "decided", 2000.0, 50.0) / 2000.0)
+        expected_periods("point-mass", "decided", 2000.0, 50.0, None, "preview") / 2000.0)
     assert DECIDED_PROFILE["point-mass"] != DECIDED_PROFILE["deformable"]
     # a profile this server measured on its own decided map replaces the model's
     jobs._profiles["deformable"] = (0.5, 100.0)
     est, _ = jobs.estimate(MapRequest(**long))
-    own = expected_periods("deformable", "decided", 2000.0, 50.0, (0.5, 100.0)) / 2000.0
+    own = expected_periods("deformable", "decided", 2000.0, 50.0, (0.5, 100.0), "preview") / 2000.0
     assert est.share == pytest.approx(own)
     assert est.seconds - mapjobs.MAP_START_SECONDS - est.computed * \
         mapjobs.POINT_PASSAGE_SECONDS == pytest.approx(own * seconds["full"])
@@ -317,13 +317,13 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
     assert done.kind == "done", got.kinds()
     computed = done.ds["computed"].values
     run = done.ds["periods_run"].values[computed]
-    assert run.min() >= minimum_periods(5.0) and (run < 300.0).any()
+    assert run.min() >= minimum_periods(5.0, "preview") and (run < 300.0).any()
     f_end, extra = jobs.profile("deformable")
     mine = done.ds[["periods_run", "stop_reason"]].where(done.ds["computed"])
     mine.attrs = dict(done.ds.attrs)
     assert (f_end, extra) == decided_profile(mine)
     # its own mean periods run, reproduced by the profile (f_end, extra)
-    assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra)) == \
+    assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra), "preview") == \
         pytest.approx(run.mean())
     assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") > 0
     assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None

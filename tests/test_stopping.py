@@ -67,6 +67,54 @@ def test_remaining_rate_extrapolates_a_geometric_transient():
     assert remaining_rate(v + 1e-3 * np.arange(3 * n), n) is None
 
 
+# ---------------------------------------------------------------- the recurrence
+
+def _flight_records(vx_of, t_now, spp=10, p=3):
+    """Samples (records.py columns) of a motion in flight at every whole
+    period, x* the integral of vx_of(t) (closed form below), y* and v_y*
+    periodic with period p; events: a take-off before the first sample."""
+    from vibtrans.core.kernels import records as R
+    from vibtrans.core.kernels.contact import FLIGHT
+    t = np.arange(0, int(t_now * spp) + 1) / spp
+    samples = np.zeros((t.size, R.NCOL))
+    samples[:, R.T_] = t
+    vx, x = vx_of(t)
+    samples[:, R.X], samples[:, R.VX] = x, vx
+    samples[:, R.Y] = -2.0 - np.cos(2 * np.pi * t / p)
+    samples[:, R.VY] = 2 * np.pi / p * np.sin(2 * np.pi * t / p)
+    samples[:, R.STATE] = FLIGHT
+    events = np.array([[0.5, R.TAKEOFF, 0.5]])
+    return samples, events
+
+
+def test_a_recurrent_flight_state_gives_x_at_t_obs_exactly():
+    # v_x* = 1 + 0.5 sin(2 pi t / 3): period 3, x* = t - (0.75 / pi) cos(2 pi t / 3)
+    # + 0.75 / pi; x*(T)/T at T = 2000 from the whole cycles since the last
+    # recurrence, not from a rate times the rest (the cycle's phase matters)
+    from vibtrans.core.drivers import DecidedRule
+
+    def motion(t):
+        c = 0.75 / np.pi
+        return 1 + 0.5 * np.sin(2 * np.pi * t / 3), t - c * np.cos(2 * np.pi * t / 3) + c
+    rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
+    samples, events = _flight_records(motion, 400.0)
+    assert rule._recurs(samples, 400)
+    assert REASONS[rule.reason] == "recurrent" and rule.rate == pytest.approx(1.0, rel=1e-12)
+    assert rule.drift_velocity() == pytest.approx(motion(np.array([2000.0]))[1][0] / 2000.0,
+                                                  rel=1e-12)
+    assert (400 - 3) < rule.t_strobe <= 400 and (2000.0 - rule.t_strobe) % 3 == 0
+
+
+def test_a_slowly_accelerating_flight_state_does_not_recur():
+    # v_x* grows by 1e-3 per period (paper point 4's kind of drift): its states
+    # never recur within RECUR_TOL, whatever the period looked for
+    from vibtrans.core.drivers import DecidedRule
+    rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
+    samples, events = _flight_records(lambda t: (1 + 1e-3 * t, t + 5e-4 * t * t), 400.0)
+    assert not rule._recurs(samples, 400)
+    assert REASONS[rule.reason] == "ran-to-end" and rule.drift_velocity() is None
+
+
 # ---------------------------------------------------------------- known scenes
 
 def test_full_is_the_default_and_adds_nothing():
@@ -189,17 +237,19 @@ def test_cli_simulate_stop(capsys):
 def test_decided_never_reports_a_regular_drift_outside_the_stated_error(log_a, log_m, model):
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, model=model, mu=0.3)
     full, dec, attrs = both(scene)
-    if attrs["stop_reason"] in ("regular", "flight") and not full.chaotic:
+    if attrs["stop_reason"] in ("regular", "flight", "recurrent") and not full.chaotic:
         assert within_error(dec.drift_velocity, full.drift_velocity), (
             attrs, full.drift_velocity, dec.drift_velocity)
 
 
-@pytest.mark.xfail(strict=True, reason="known limit of the rule (docs/DYNAMICS.md section 4): "
-                   "a drift that plateaus after the ramp and accelerates hundreds of periods "
-                   "later is stopped on the plateau")
 def test_plateau_then_acceleration_is_not_stopped_early():
     # A* = 10^0.6, m* = 10^3: synchronous hopping, drift -0.111 per period
-    # from 400 to 460 (the three windows agree to 3e-4), -0.49 by 1500-2000
+    # from 400 to 460 (three windows from the ramp's end, 325, agree to 3e-4
+    # there), -0.49 by 1500-2000.  Windows from the ramp's settling (180)
+    # see the approach to the plateau and do not call it converged: the run
+    # goes on.  This is the windows' reach, not a test of plateaus in
+    # general: that a plateau is never taken for the steady drift is not
+    # established (docs/DYNAMICS.md section 4; the bench's difference map)
     scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.0, mu=0.3)
     full, dec, attrs = both(scene)
     assert within_error(dec.drift_velocity, full.drift_velocity)

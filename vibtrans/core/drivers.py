@@ -497,8 +497,17 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
 # motion's tangent (its Lyapunov exponent).  Its extra cost is one short numpy
 # evaluation per check, every CHECK_EVERY periods.
 #
-# Decided, after the ramp (t >= RAMP_OFF tau, where G(t) = 1 to double
-# precision):
+# Decided, once the ramp has settled: from t_s = settle_time(tau), where
+# the ramp's residual 1 - G(t) = exp(-t^2/tau^2) is below RAMP_SHARE of
+# the tolerance (3.6 tau = 180 periods at tau = 50 for the standard preset;
+# G = 1 to double precision only at RAMP_OFF tau = 325).  The residual is a
+# relative change of the wave's amplitude: the motion it perturbs drifts
+# differently by at most S x residual (S = dlog v*/dlog A*, the drift's
+# sensitivity to the amplitude), under 1e-3 of the tolerance wherever S <
+# 1000, and it decays faster than any geometric transient, which the
+# windows below extrapolate away.  A run that measures its Lyapunov
+# exponent starts it at t_s under this rule (simulate.lyapunov_start), so
+# that no regular stop comes before the exponent is measured:
 #
 # * regular: the drift per period x*(k+1) - x*(k) (`stroboscope`) in three
 #   windows since the ramp, each a weighted Birkhoff average (Das, Sander,
@@ -525,12 +534,27 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
 #   -A*, the highest the surface comes) ends the run exactly:
 #   x*(T) = x* + v_x* (T - t), v_inf = v_x* (the launched scenes of the upper
 #   right).
+# * recurrent (the long flights the regular test leaves out, and any motion
+#   it has not decided): the state at the last whole period k spent in
+#   flight, (v_x*, y*, v_y*) on its closed form, a complete state of the run
+#   (a landing restarts the contact from the flight alone: the springs'
+#   memory and the integrator's history are the flight's, and the motion is
+#   invariant under a shift in x and of one period), recurs at k - p, k -
+#   2p, ..., k - RECUR_CYCLES p, all in flight, within RECUR_TOL of the
+#   motion's scale (2 pi A* for the velocities, A* for y*, plus the state's
+#   own size), for the smallest period p <= RECUR_LONGEST (Attractors.jl's
+#   recurrence idea, on the stroboscope).  The orbit then repeats its
+#   cycle's advance Dx: x*(T) = x*(T - n p) + n Dx (n whole cycles, T - n p
+#   within the last cycle), exact for a periodic orbit; the advances'
+#   change from cycle to cycle must not grow, and even continued at its
+#   largest as an acceleration (n + n(n+1)/2 times it) must move x*(T)/T by
+#   less than DECIDED_FRACTION of the stated error.  v_inf = Dx / p.
 # * otherwise (not steady, e.g. paper point 4's accelerating drift) the run
 #   goes on to T_obs (reason `ran-to-end`).
 STOPS = ("full", "decided")
 # why a run stopped (stored per map point as `stop_reason`)
-REASONS = ("full", "regular", "chaotic", "ran-to-end", "flight")
-STOP_FULL, STOP_REGULAR, STOP_CHAOTIC, STOP_RAN_TO_END, STOP_FLIGHT = range(5)
+REASONS = ("full", "regular", "chaotic", "ran-to-end", "flight", "recurrent")
+STOP_FULL, STOP_REGULAR, STOP_CHAOTIC, STOP_RAN_TO_END, STOP_FLIGHT, STOP_RECURRENT = range(6)
 
 MIN_WINDOW = 60          # periods after the ramp before the first check (three windows of 20)
 CHECK_EVERY = 8          # periods between checks, at least
@@ -543,6 +567,10 @@ NOISE_BLOCKS = 12        # batch means of the drifts for that standard error
 MIN_CHAOS_PERIODS = 100  # periods of Lyapunov measurement before a chaotic stop
 CHAOS_MARGIN = 2.0       # chaotic: exponent above CHAOS_MARGIN x CHAOS_LYAPUNOV
 FLIGHT_FRACTION = 0.25   # longest flight allowed in the window, of one of its thirds
+RAMP_SHARE = 1e-3        # the ramp's residual where the windows start, of the tolerance
+RECUR_CYCLES = 3         # cycles over which the in-flight stroboscope must recur
+RECUR_TOL = 1e-6         # its states' mismatch, relative to the motion's scale
+RECUR_LONGEST = 250      # longest recurrence period looked for (periods)
 
 
 def ballistic_reach_time(y, vy, mass, amplitude):
@@ -555,6 +583,17 @@ def ballistic_reach_time(y, vy, mass, amplitude):
     # root of t^2 / (2 m*) + vy t - gap = 0, in the form without cancellation
     root = math.sqrt(vy * vy + 2.0 * gap / mass)
     return mass * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
+
+
+def settle_time(tau, tolerance):
+    """The whole period from which the `decided` rule's windows start: the
+    ramp's residual 1 - G(t) = exp(-t^2 / tau^2) below RAMP_SHARE x
+    `tolerance` (the rule's share of the stated drift error), at the latest
+    RAMP_OFF tau (G = 1 to double precision).  tau = 0: 0."""
+    if tau <= 0.0:
+        return 0
+    return min(math.ceil(tau * math.sqrt(math.log(1.0 / (RAMP_SHARE * tolerance)))),
+               math.ceil(RAMP_OFF * tau))
 
 
 def check_stop(stop):
@@ -649,8 +688,8 @@ class DecidedRule:
         self.periods = float(periods)
         self.amplitude = float(amplitude)
         self.mass = float(mass)
-        self.t_ramp = math.ceil(RAMP_OFF * tau)
         self.tolerance = DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]
+        self.t_settle = settle_time(tau, self.tolerance)
         self.v0 = v0
         self.reason = STOP_RAN_TO_END
         self.t_stop = self.periods
@@ -661,12 +700,12 @@ class DecidedRule:
 
     def next_check(self, t):
         """The time of the next check after t (a chunk end)."""
-        first = self.t_ramp + MIN_WINDOW
+        first = self.t_settle + MIN_WINDOW
         if t < first:
             return float(first)
         # every CHECK_EVERY periods, or every CHECK_FRACTION of the time since
         # the ramp where that is longer (a bounded cost per run)
-        return float(math.floor(t + max(CHECK_EVERY, CHECK_FRACTION * (t - self.t_ramp))))
+        return float(math.floor(t + max(CHECK_EVERY, CHECK_FRACTION * (t - self.t_settle))))
 
     def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None,
                  flight=None):
@@ -690,32 +729,84 @@ class DecidedRule:
         k_end = int(math.floor(t_now + 1e-9))
         if samples[-1, R.T_] < k_end:   # the sample at k_end is not yet recorded
             k_end -= 1
-        third = (k_end - self.t_ramp) // 3
+        third = (k_end - self.t_settle) // 3
         if third < MIN_WINDOW // 3:
             return False
         k0 = k_end - 3 * third
-        if self._long_flight(events, k0, t_now, in_flight_since, third):
-            return False
         if lyapunov is not None:
             t0, growth = lyapunov
             if not (t_now - t0 >= 1.0 and growth / (t_now - t0) < CHAOS_LYAPUNOV):
                 return False
+        if self._long_flight(events, k0, t_now, in_flight_since, third):
+            return self._recurs(samples, k_end)
         i0 = max(int(np.searchsorted(samples[:, R.T_], k0 - 1.0)), 0)
         x = stroboscope(samples[i0:], np.arange(k0, k_end + 1, dtype=float))
         d = np.diff(x)
         scale = max(abs(float(np.mean(d[-third:]))), self.v0)
         rate = remaining_rate(d, third, self.tolerance * scale)
         if rate is None:
-            return False
+            return self._recurs(samples, k_end)
         v3, v_inf, bound = rate
         rest = self.periods - k_end
         if bound * rest / self.periods > self.tolerance * max(abs(v_inf), self.v0):
-            return False
+            return self._recurs(samples, k_end)
         self.reason = STOP_REGULAR
         self.rate = v_inf
         self.t_stop = float(samples[-1, R.T_])
         self.t_strobe = float(k_end)
         self.x_strobe = float(x[-1])
+        return True
+
+    def _recurs(self, samples, k_end):
+        """True (reason STOP_RECURRENT, the rest known) if the in-flight
+        stroboscope recurs with a period p (module comment: recurrent) and
+        its cycles' advance is decided to the tolerance."""
+        t = samples[:, R.T_]
+
+        def in_flight_at(times):
+            """The rows of the samples exactly at `times` in flight (-1 where none)."""
+            rows = np.minimum(np.searchsorted(t, times - 1e-9), t.size - 1)
+            ok = (np.abs(t[rows] - times) <= 1e-9) & (samples[rows, R.STATE] == FLIGHT)
+            return np.where(ok, rows, -1)
+        # the last whole period in flight, within reach of a recurrence
+        latest = in_flight_at(np.arange(k_end, max(self.t_settle, k_end - RECUR_LONGEST) - 1,
+                                        -1, dtype=float))
+        found = np.flatnonzero(latest >= 0)
+        if found.size == 0:
+            return False
+        row = int(latest[found[0]])
+        k = k_end - int(found[0])
+        longest = min(RECUR_LONGEST, (k - self.t_settle) // RECUR_CYCLES)
+        if longest < 1:
+            return False
+        state = [R.VX, R.Y, R.VY]
+        now = samples[row, state]
+        v_scale = 2.0 * math.pi * self.amplitude
+        tol = RECUR_TOL * (np.array([v_scale, self.amplitude, v_scale]) + np.abs(now))
+        periods = np.arange(1, longest + 1)
+        back = in_flight_at(k - np.outer(periods, np.arange(1, RECUR_CYCLES + 1)).astype(float))
+        same = (back >= 0) & np.all(np.abs(samples[back][:, :, state] - now) <= tol, axis=2)
+        hits = np.flatnonzero(same.all(axis=1))
+        if hits.size == 0:
+            return False
+        p = int(periods[hits[0]])
+        back = back[hits[0]]
+        x = samples[[row, *back], R.X]               # at k, k - p, ..., k - RECUR_CYCLES p
+        advance = x[:-1] - x[1:]                     # the cycles', latest first
+        change = np.abs(np.diff(advance))
+        rounding = 64.0 * np.finfo(float).eps * float(np.max(np.abs(x)) + 1.0)
+        if change[0] > max(float(change[1:].max()), rounding):
+            return False                             # the advance changes faster: not settled
+        n = math.ceil((self.periods - k) / p)
+        rate = float(advance[0]) / p
+        worst = float(change.max()) * (n + 0.5 * n * (n + 1))
+        if worst / self.periods > self.tolerance * max(abs(rate), self.v0):
+            return False
+        self.reason = STOP_RECURRENT
+        self.rate = rate
+        self.t_stop = float(samples[-1, R.T_])
+        self.t_strobe = self.periods - n * p          # in (k - p, k]
+        self.x_strobe = float(stroboscope(samples, np.array([self.t_strobe]))[0])
         return True
 
     def _flies_to_end(self, t, x, vx, y, vy):
@@ -780,7 +871,7 @@ class DecidedRule:
         """x*(T)/T: for a regular stop, the run to the last whole period plus
         v_inf for the rest (a flight: to its point, plus its v_x*); else None
         (the run's own x*(t)/t)."""
-        if self.reason not in (STOP_REGULAR, STOP_FLIGHT):
+        if self.reason not in (STOP_REGULAR, STOP_FLIGHT, STOP_RECURRENT):
             return None
         return (self.x_strobe + self.rate * (self.periods - self.t_strobe)) / self.periods
 

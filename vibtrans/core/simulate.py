@@ -174,11 +174,15 @@ def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
     return p, h, capacity
 
 
-def lyapunov_start(scene):
+def lyapunov_start(scene, decide=None):
     """Where a scene's Lyapunov exponent is measured from (periods): the end
     of the ramp, where the wave is periodic (G = 1 to machine precision, t =
-    RAMP_OFF tau), or half the run if that comes later."""
-    return min(RAMP_OFF * scene.tau, 0.5 * scene.periods)
+    RAMP_OFF tau), or half the run if that comes later.  Under the `decided`
+    rule (decide: its DecidedRule) from where its windows start
+    (drivers.settle_time: the ramp's residual below 1e-3 of its tolerance),
+    so that its gate on the exponent holds from its first check."""
+    start = RAMP_OFF * scene.tau if decide is None else float(decide.t_settle)
+    return min(start, 0.5 * scene.periods)
 
 
 def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
@@ -186,7 +190,7 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
     """Run the deformable or vertical kernel from rest."""
     p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
                                    steps)
-    t_from = lyapunov_start(scene) if lyapunov else None
+    t_from = lyapunov_start(scene, decide) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
                             samples_capacity=capacity, progress=progress, cancel=cancel,
                             lyapunov_from=t_from, decide=decide, law=drivers.scene_law(scene))

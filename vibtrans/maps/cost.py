@@ -31,9 +31,10 @@ import math
 
 import numpy as np
 
-from vibtrans.core.drivers import MIN_WINDOW, STOP_RAN_TO_END, check_stop
+from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, STOP_RAN_TO_END, check_stop,
+                                   settle_time)
 from vibtrans.core.errors import InputError
-from vibtrans.core.kernels.substrate import RAMP_OFF
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 
 # (f_end, extra periods) per model: `vibtrans bench --sweep`, 2026-11-27, every
 # 4th point of the shipped grid (1581 points per model): deformable f_end
@@ -42,13 +43,17 @@ from vibtrans.core.kernels.substrate import RAMP_OFF
 DECIDED_PROFILE = {"deformable": (0.143, 115.0), "point-mass": (0.209, 291.0)}
 
 
-def minimum_periods(tau):
-    """The periods every point runs under the `decided` rule: the ramp's end
-    (G = 1 to double precision, RAMP_OFF tau) and the rule's first window."""
-    return math.ceil(RAMP_OFF * tau) + MIN_WINDOW
+def minimum_periods(tau, fidelity="standard"):
+    """The periods every point runs under the `decided` rule: the ramp's
+    settling (drivers.settle_time: its residual below 1e-3 of the rule's
+    tolerance at this fidelity) and the rule's first window."""
+    if fidelity not in STATED_DRIFT_ERROR:
+        raise InputError(f"fidelity must be one of {', '.join(STATED_DRIFT_ERROR)}, "
+                         f"got {fidelity!r}")
+    return settle_time(tau, DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]) + MIN_WINDOW
 
 
-def expected_periods(model, stop, periods, tau, profile=None):
+def expected_periods(model, stop, periods, tau, profile=None, fidelity="standard"):
     """The expected periods one point of a map runs (see the module
     docstring): T_obs under stop="full"; under "decided" the model above,
     with `profile` (f_end, extra) or the model's DECIDED_PROFILE."""
@@ -63,12 +68,12 @@ def expected_periods(model, stop, periods, tau, profile=None):
     f_end, extra = DECIDED_PROFILE[model] if profile is None else profile
     if not (0.0 <= f_end <= 1.0 and extra >= 0.0):
         raise InputError(f"profile must be (f_end in [0, 1], extra >= 0), got {profile!r}")
-    early = min(periods, minimum_periods(tau) + extra)
+    early = min(periods, minimum_periods(tau, fidelity) + extra)
     return f_end * periods + (1.0 - f_end) * early
 
 
 def expected_seconds(full_steps, ns_per_step, model, stop, periods, tau, workers=1,
-                     profile=None):
+                     profile=None, fidelity="standard"):
     """Expected seconds of a map whose points would take `full_steps` steps in
     all when run to T_obs (stop="full"; the twin's included), at ns_per_step
     per step on `workers` cores: full_steps x E[periods] / T_obs x ns_per_step
@@ -77,7 +82,7 @@ def expected_seconds(full_steps, ns_per_step, model, stop, periods, tau, workers
     the ramp's steps cost some 20% more than the steady motion's."""
     if workers < 1:
         raise InputError(f"workers must be >= 1, got {workers!r}")
-    share = expected_periods(model, stop, periods, tau, profile) / float(periods)
+    share = expected_periods(model, stop, periods, tau, profile, fidelity) / float(periods)
     return float(full_steps) * share * float(ns_per_step) * 1e-9 / workers
 
 
@@ -93,7 +98,8 @@ def decided_profile(ds):
     if not done.any():
         raise InputError("the map has no finished point")
     run, reason = run[done], reason[done]
-    t_min = minimum_periods(float(ds.attrs["scene_tau"]))
+    t_min = minimum_periods(float(ds.attrs["scene_tau"]),
+                            ds.attrs.get("scene_fidelity", "standard"))
     end = reason == STOP_RAN_TO_END
     f_end = float(end.mean())
     if end.all():
