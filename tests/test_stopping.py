@@ -83,7 +83,10 @@ def _flight_records(vx_of, t_now, spp=10, p=3):
     samples[:, R.Y] = -2.0 - np.cos(2 * np.pi * t / p)
     samples[:, R.VY] = 2 * np.pi / p * np.sin(2 * np.pi * t / p)
     samples[:, R.STATE] = FLIGHT
-    events = np.array([[0.5, R.TAKEOFF, 0.5]])
+    # a take-off and landing every half period (a flight over each whole one)
+    times = np.arange(0.75, t_now, 0.5)
+    kinds = np.where(np.arange(times.size) % 2 == 0, R.LANDING, R.TAKEOFF)
+    events = np.column_stack([times, kinds, times % 1])
     return samples, events
 
 
@@ -98,7 +101,7 @@ def test_a_recurrent_flight_state_gives_x_at_t_obs_exactly():
         return 1 + 0.5 * np.sin(2 * np.pi * t / 3), t - c * np.cos(2 * np.pi * t / 3) + c
     rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
     samples, events = _flight_records(motion, 400.0)
-    assert rule._recurs(samples, 400)
+    assert rule._recurs(samples, events, 400)
     assert REASONS[rule.reason] == "recurrent" and rule.rate == pytest.approx(1.0, rel=1e-12)
     assert rule.drift_velocity() == pytest.approx(motion(np.array([2000.0]))[1][0] / 2000.0,
                                                   rel=1e-12)
@@ -111,7 +114,7 @@ def test_a_slowly_accelerating_flight_state_does_not_recur():
     from vibtrans.core.drivers import DecidedRule
     rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
     samples, events = _flight_records(lambda t: (1 + 1e-3 * t, t + 5e-4 * t * t), 400.0)
-    assert not rule._recurs(samples, 400)
+    assert not rule._recurs(samples, events, 400)
     assert REASONS[rule.reason] == "ran-to-end" and rule.drift_velocity() is None
 
 

@@ -697,6 +697,7 @@ class DecidedRule:
         self.t_strobe = math.nan
         self.x_strobe = math.nan
         self._growth = []              # (t, log growth since the start) of the tangent
+        self._quiet_until = -math.inf  # no decision can come before (a long flight's landing)
 
     def next_check(self, t):
         """The time of the next check after t (a chunk end)."""
@@ -705,7 +706,10 @@ class DecidedRule:
             return float(first)
         # every CHECK_EVERY periods, or every CHECK_FRACTION of the time since
         # the ramp where that is longer (a bounded cost per run)
-        return float(math.floor(t + max(CHECK_EVERY, CHECK_FRACTION * (t - self.t_settle))))
+        t_next = math.floor(t + max(CHECK_EVERY, CHECK_FRACTION * (t - self.t_settle)))
+        # in a flight that already blocks the windows: nothing new until it
+        # can land again (its earliest landing, `__call__`)
+        return float(max(t_next, self._quiet_until // 1.0))
 
     def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None,
                  flight=None):
@@ -718,6 +722,15 @@ class DecidedRule:
             return False
         if flight is not None and self._flies_to_end(*flight):
             return True
+        if flight is not None and in_flight_since is not None:
+            # a flight longer than the windows allow stays longer (the windows
+            # grow a quarter as fast as it): no check before its earliest
+            # landing, where it first reaches -A* (constant along the flight;
+            # before T_obs, or it would have flown to the end).  Skipped
+            # checks only delay a decision.
+            t, _, _, y, vy = flight
+            if t_now - in_flight_since > FLIGHT_FRACTION * (t_now - self.t_settle) / 3.0:
+                self._quiet_until = t + ballistic_reach_time(y, vy, self.mass, self.amplitude)
         # chaotic hopping: a run that never left the surface is not called
         # chaotic early (its tangent can grow for a while near a resonance
         # of the contact oscillation and decay later)
@@ -738,18 +751,18 @@ class DecidedRule:
             if not (t_now - t0 >= 1.0 and growth / (t_now - t0) < CHAOS_LYAPUNOV):
                 return False
         if self._long_flight(events, k0, t_now, in_flight_since, third):
-            return self._recurs(samples, k_end)
+            return self._recurs(samples, events, k_end)
         i0 = max(int(np.searchsorted(samples[:, R.T_], k0 - 1.0)), 0)
         x = stroboscope(samples[i0:], np.arange(k0, k_end + 1, dtype=float))
         d = np.diff(x)
         scale = max(abs(float(np.mean(d[-third:]))), self.v0)
         rate = remaining_rate(d, third, self.tolerance * scale)
         if rate is None:
-            return self._recurs(samples, k_end)
+            return self._recurs(samples, events, k_end)
         v3, v_inf, bound = rate
         rest = self.periods - k_end
         if bound * rest / self.periods > self.tolerance * max(abs(v_inf), self.v0):
-            return self._recurs(samples, k_end)
+            return self._recurs(samples, events, k_end)
         self.reason = STOP_REGULAR
         self.rate = v_inf
         self.t_stop = float(samples[-1, R.T_])
@@ -757,10 +770,14 @@ class DecidedRule:
         self.x_strobe = float(x[-1])
         return True
 
-    def _recurs(self, samples, k_end):
+    def _recurs(self, samples, events, k_end):
         """True (reason STOP_RECURRENT, the rest known) if the in-flight
         stroboscope recurs with a period p (module comment: recurrent) and
         its cycles' advance is decided to the tolerance."""
+        # a recurrence needs a flight in each of its cycles (a cheap test first)
+        j = int(np.searchsorted(events[:, 0], self.t_settle))
+        if np.count_nonzero(events[j:, 1] == R.TAKEOFF) < RECUR_CYCLES + 1:
+            return False
         t = samples[:, R.T_]
 
         def in_flight_at(times):
