@@ -6,7 +6,7 @@ known in advance (core.simulate.estimate_steps, the upper bound the explorer
 adds up).  Under `stop="decided"` (core.drivers.DecidedRule) a point runs
 at least to the ramp's end plus the rule's first window,
 
-    t_min = ceil(RAMP_OFF tau) + MIN_WINDOW      (385 periods at tau = 50),
+    t_min = settle_time(tau) + MIN_WINDOW      (240 periods at tau = 50, standard),
 
 and then either stops (regular, chaotic, a flight that lasts past T_obs) or
 runs to T_obs (a drift that is not steady, and the material point's chaotic
@@ -36,11 +36,12 @@ from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, STOP_RAN_TO_END
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 
-# (f_end, extra periods) per model: `vibtrans bench --sweep`, 2026-11-27, every
-# 4th point of the shipped grid (1581 points per model): deformable f_end
-# 0.143, mean periods run 714.3; material point f_end 0.209, mean 952.7;
-# extra = (mean - f_end T_obs) / (1 - f_end) - t_min
-DECIDED_PROFILE = {"deformable": (0.143, 115.0), "point-mass": (0.209, 291.0)}
+# (f_end, extra periods) per model: decided_profile of the rule's maps of every
+# 4th point of the shipped grid (1581 points per model; the D3 session,
+# 2026-11-27 05:00 UTC, the rule with its settling time and recurrence):
+# deformable f_end 0.142, mean periods run 601.9; material point f_end 0.201,
+# mean 891.8; extra = (mean - f_end T_obs) / (1 - f_end) - t_min, t_min = 240
+DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.201, 373.0)}
 
 
 def minimum_periods(tau, fidelity="standard"):
