@@ -162,7 +162,7 @@ def _bokeh_key(entries):
         key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
         if key is None:
             key = Legend(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4,
-                         padding=4, spacing=2, label_text_font_size="9pt",
+                         padding=4, spacing=10, label_text_font_size="9pt",
                          border_line_alpha=0, background_fill_alpha=0)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
