@@ -90,7 +90,8 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     chart = data.period_one_chart()
     if orbits == "period-1 orbit curves" and model == "deformable" and chart is not None:
         el = el * plots.period_one_curves(chart)
-    el = el * plots.paper_points(model)
+    # white on the Lyapunov layer's dark colours, black on the drift's light ones
+    el = el * plots.paper_points(model, "white" if layer == LYAPUNOV_LAYER else "black")
     return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title))
 
 
