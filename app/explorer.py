@@ -26,23 +26,20 @@ from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, memory, urlstate
 from .browserside import ACK_RUN, ack_js, ack_listener
-from .controller import CANCELLED, RUNNER, RunController
+from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
 from .presentation import BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, scale_fonts
-from .texts import (ANIMATION_TEXT, DYNAMICS_TEXT, INTRODUCTION, MAP_KEY, MEMORY_TEXT,
-                    POINT_LABELS, PRESENTATION_NOTE, STALE_TEXT)
+from .texts import INTRODUCTION, MAP_KEY, POINT_LABELS, PRESENTATION_NOTE, STALE_TEXT
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
                     SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, ExplorerState,
                     within)
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
-from .views.animation import ParticleAnimation
 from .views.map import MapView
 from .views.design import DesignPanel
-from .views.dynamics import DynamicsView
-from .views.memory import MemoryView
 from .views.summary import SummaryView
+from .views.runtabs import RunTabs
 from .views.trajectory import TrajectoryView, structure
 from .views.units import UnitsPanel
 from .views.vertical import VerticalView
@@ -55,8 +52,6 @@ hv.extension("bokeh")
 hv.renderer("bokeh").webgl = False
 log = logging.getLogger("vibtrans.explorer")
 
-# the run's tabs: trajectory, animation, memory diagram, downloads
-ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
 # the map's tabs: map, vertical curves, units, map on demand, difference of
 # two maps, design chart
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
@@ -135,8 +130,6 @@ class Explorer(pn.viewable.Viewer):
         self._on_point_mass_shown()
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
-        self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
-        self._animated = None               # the RunResult the animation shows
         self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
         self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
@@ -147,15 +140,6 @@ class Explorer(pn.viewable.Viewer):
         self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
                                                   sizing_mode="stretch_width")
         self.trajectories = TrajectoryView()
-        # the memory diagram is built, and computes its snapshots (a run's
-        # worth of work), only once its tab is open
-        self.memory_view = None
-        self.animation = None               # the same, for the animation
-        self.animation_box = pn.Column(sizing_mode="stretch_width")
-        self.memory_box = pn.Column(sizing_mode="stretch_width")
-        self.dynamics_view = None           # the same, for the section and orbit diagram
-        self._dynamics_pending = None       # the RunResult the dynamics tab has not seen
-        self.dynamics_box = pn.Column(sizing_mode="stretch_width")
         # the map on demand (app/mapondemand.py)
         self.ondemand = MapOnDemand(self.state, answered=self._answered, run=self.start_run,
                                     session=f"explorer-{id(self)}")
@@ -182,18 +166,9 @@ class Explorer(pn.viewable.Viewer):
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
                                    button_classes=["vt-ack-file"], shown_map=self.ondemand.computed_map)
         self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
-        # the run's views, built when their tab is first opened (a session's
-        # page costs the event loop that every session shares: what the
-        # first screen does not show is not built for it)
-        self.run_tabs = pn.Tabs(
-            ("Trajectory", self.trajectories.panel),
-            ("Animation", self.animation_box),
-            ("Memory diagram", self.memory_box),
-            ("Downloads", self.exports.panel),
-            ("Dynamics", self.dynamics_box),
-            dynamic=True, sizing_mode="stretch_width", name="trajectory")
-        self.run_tabs.param.watch(self._on_run_tab, "active")
-        self.trajectory = self.run_tabs
+        # the run's tabs, each built when first opened (app/views/runtabs.py)
+        self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
+        self.trajectory = self.run_tabs = self.runs.tabs
         self.where = pn.pane.Alert("", alert_type="info", visible=False,
                                    sizing_mode="stretch_width", name="where")
         self._on_position()
@@ -448,8 +423,7 @@ class Explorer(pn.viewable.Viewer):
         if event.new == CANCELLED:
             with pn.io.hold():
                 self.summary_view.cancelled()
-                if self.memory_view is not None:
-                    self.memory_view.mark_previous()
+                self.runs.cancelled()
             self._answered()
         else:
             self.summary_view.say(event.new)
@@ -469,57 +443,18 @@ class Explorer(pn.viewable.Viewer):
             if event.new:
                 self._answered()
 
-    def _on_run_tab(self, event):
-        if event.new == MEMORY_TAB:
-            self._update_memory()
-        elif event.new == ANIMATION_TAB:
-            self._update_animation()
-        elif event.new == DOWNLOADS_TAB:
-            self.exports.build()
-        elif event.new == DYNAMICS_TAB:
-            self._update_dynamics()
-
-    def _update_dynamics(self):
-        """The section and orbit diagram of the last run, computed when first
-        looked at."""
-        if self.dynamics_view is None:
-            self.dynamics_view = DynamicsView(RUNNER)
-            self.dynamics_view.error = self._error
-            self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
-        pending, self._dynamics_pending = self._dynamics_pending, None
-        if pending is not None:
-            self.dynamics_view.set_run(pending.scene, pending.ds)
-
-    def _update_animation(self):
-        """The animation of the last run, built when first looked at."""
-        if self.animation is None:
-            self.animation = ParticleAnimation()
-            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
-        result = self.controller.result
-        if result is not None and self._animated is not result:
-            self._animated = result
-            self.animation.show(result.scene, result.ds)
-
-    def _update_memory(self):
-        """The memory view of the last run, computed when first looked at."""
-        if self.memory_view is None:
-            self.memory_view = MemoryView(RUNNER)
-            self.memory_view.error = self._error
-            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
-        pending, self._memory_pending = self._memory_pending, None
-        if pending is not None:
-            self.memory_view.set_run(*pending)      # clears it for a point mass
+    # the run's views (RunTabs), as the page and its tests name them
+    animation = property(lambda self: self.runs.animation)
+    memory_view = property(lambda self: self.runs.memory_view)
+    dynamics_view = property(lambda self: self.runs.dynamics_view)
+    _animated = property(lambda self: self.runs.animated)
 
     def _on_session_destroyed(self, session_context):
         self.ondemand.close()                        # its map, unless another session waits
         if getattr(self, "design_panel", None) is not None:     # (made by main())
             self.design_panel.close()                # and the Design tab's
-        if self.memory_view is not None:
-            self.memory_view.clear()       # cancels its background snapshots
-        if self.dynamics_view is not None:
-            self.dynamics_view.clear()     # and its sections and diagrams
         self.controller.discard()
-        self.trajectories.clear()
+        self.runs.clear()
         memory.session_closed(session_context)
 
     def _on_result(self, event):
@@ -534,7 +469,6 @@ class Explorer(pn.viewable.Viewer):
 
     def _show(self, result):
         scene = result.scene
-        T = float(result.ds["time"].values[-1])
         key = structure(result.label)
         # Everything below goes to the browser as one message: new data for
         # the session's existing figures, no new figure models.  Bokeh
@@ -552,14 +486,7 @@ class Explorer(pn.viewable.Viewer):
             self.summary_view.show(result)
             self.stale_note.visible = False
             self._on_stale()
-            self._memory_pending = (scene, T)
-            self._dynamics_pending = result
-            if self.run_tabs.active == MEMORY_TAB:
-                self._update_memory()
-            elif self.run_tabs.active == ANIMATION_TAB:
-                self._update_animation()
-            elif self.run_tabs.active == DYNAMICS_TAB:
-                self._update_dynamics()
+            self.runs.show(result)
 
     # ---------- layout ----------
     def controls(self):
