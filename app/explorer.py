@@ -385,6 +385,7 @@ class Explorer(pn.viewable.Viewer):
             for view in self.trajectories.views.values():
                 scale_fonts(view.whole, factor)
                 scale_fonts(view.part, factor)
+            self.runs.scale_fonts(factor)
             if event.new and getattr(self, "intro", None) is not None:
                 self.intro.collapsed = True
 

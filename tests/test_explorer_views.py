@@ -71,8 +71,11 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
+    ex.run_tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
+    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
+    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "10pt"
     assert not ex.presentation_note.visible
 
 

@@ -7,6 +7,7 @@ each is fed the last run when it is looked at."""
 import panel as pn
 
 from ..controller import RUNNER
+from ..presentation import scale_fonts
 from ..texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
 from .animation import ParticleAnimation
 from .dynamics import DynamicsView
@@ -40,6 +41,18 @@ class RunTabs:
             ("Dynamics", self.dynamics_box),
             dynamic=True, sizing_mode="stretch_width", name="trajectory")
         self.tabs.param.watch(self._on_tab, "active")
+        self.font_scale = 1.0               # presentation mode's, for the views built later
+
+    def scale_fonts(self, factor):
+        """The figures of the views built so far at `factor` times Bokeh's
+        font sizes (presentation mode), and those built later too."""
+        self.font_scale = factor
+        for box in (self.animation_box, self.memory_box, self.dynamics_box):
+            self._scale(box)
+
+    def _scale(self, box):
+        for pane in box.select(pn.pane.Bokeh):
+            scale_fonts(pane.object, self.font_scale)
 
     def show(self, result):
         """A new run: the tab open shows it now, the others when opened."""
@@ -81,6 +94,7 @@ class RunTabs:
             self.dynamics_view = DynamicsView(RUNNER)
             self.dynamics_view.error = self.error
             self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
+            self._scale(self.dynamics_box)
         pending, self._dynamics_pending = self._dynamics_pending, None
         if pending is not None:
             self.dynamics_view.set_run(pending.scene, pending.ds)
@@ -90,6 +104,7 @@ class RunTabs:
         if self.animation is None:
             self.animation = ParticleAnimation()
             self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
+            self._scale(self.animation_box)
         result = self.result
         if result is not None and self.animated is not result:
             self.animated = result
@@ -101,6 +116,7 @@ class RunTabs:
             self.memory_view = MemoryView(RUNNER)
             self.memory_view.error = self.error
             self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
+            self._scale(self.memory_box)
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
             self.memory_view.set_run(*pending)      # clears it for a point mass
