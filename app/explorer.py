@@ -488,6 +488,7 @@ class Explorer(pn.viewable.Viewer):
             self.stale_note.visible = False
             self._on_stale()
             self.runs.show(result)
+        self.runs.update_open()         # after the frozen hold (RunTabs.update_open)
 
     # ---------- layout ----------
     def controls(self):

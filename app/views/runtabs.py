@@ -55,10 +55,18 @@ class RunTabs:
             scale_fonts(pane.object, self.font_scale)
 
     def show(self, result):
-        """A new run: the tab open shows it now, the others when opened."""
+        """A new run: each tab shows it when opened, the open one at
+        `update_open`."""
         self.result = result
         self._memory_pending = (result.scene, float(result.ds["time"].values[-1]))
         self._dynamics_pending = result
+
+    def update_open(self):
+        """The open tab's view shows the last run.  Called outside a frozen
+        hold: models it changes or adds while the document's model graph is
+        frozen reach the browser as references to models it was never sent
+        ("reference p4188 isn't known": the Dynamics tab, opened before its
+        run's result came, never showed its section)."""
         self._update(self.tabs.active)
 
     def cancelled(self):
