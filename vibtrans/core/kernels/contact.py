@@ -112,7 +112,9 @@ def law_eval(law, a):
         p = law[LAW_ARG]
         if a <= 0.0:
             return 0.0, 0.0
-        k = p * a ** (p - 1.0)
+        q = p - 1.0
+        # the cone (q = 1): a^1 = a exactly, no pow() to call
+        k = p * (a if q == 1.0 else a ** q)
         return a * k / p, k
     n = int(law[LAW_SIZE])
     ds = law[LAW_ARG]
