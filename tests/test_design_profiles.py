@@ -192,3 +192,24 @@ def test_cli_cone_chart_computed_names_the_profile(tmp_path, capsys):
                   periods=60.0, fidelity="preview")
     v = drift_velocity(simulate(scene))
     assert float(ds["drift_velocity"].values[0, 0]) == pytest.approx(v, rel=1e-9, abs=1e-12)
+
+
+def test_a_measured_sphere_table_reads_as_the_sphere(tmp_path):
+    # the sphere's parabola written as a table (metres): the numerical MDR's a0 and
+    # contact radius against Hertz's, and the chart asks for that table's own map
+    dev = design.preset("paper").device
+    r = np.linspace(0, 4e-5, 4001)
+    path = tmp_path / "sphere.txt"
+    np.savetxt(path, np.column_stack([r, r * r / (2 * dev.radius)]))
+    shape = tip_shape(f"file:{path}")
+    q, q0 = design.device_quantities(dev, shape=shape), design.device_quantities(dev)
+    assert q.a0 == pytest.approx(q0.a0, rel=1e-4)
+    assert q.contact_radius == pytest.approx(q0.contact_radius, rel=1e-4)
+    need = design.chart_needs(dev.substrate, dev.particle, 0.0, ("frequency", 3e4, 3e5, 3),
+                              ("amplitude", 1e-8, 1e-7, 3), ("radius", dev.radius), shape=shape)
+    assert need.profile == f"file:{path}"
+    assert need.load_over_modulus == pytest.approx(q0.load / E, rel=1e-12)
+    with pytest.raises(InputError, match="N0/E\\* spans"):
+        design.chart_needs(dev.substrate, dev.particle, 0.0, ("radius", 2e-4, 1e-3, 3),
+                           ("amplitude", 1e-8, 1e-7, 3), ("frequency", dev.frequency),
+                           shape=shape)

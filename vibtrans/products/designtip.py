@@ -297,7 +297,7 @@ def tip_warnings(shape, contact, E_eff):
     ac = float(np.max(contact.contact_radius))
     if slope > MAX_EDGE_SLOPE:
         size = {"sphere": "the sphere's radius", "flat-sphere": "the sphere's radius",
-                "file": "the table's curvature"}.get(shape.kind, "the tip radius")
+                "file": "the measured profile"}.get(shape.kind, "the tip radius")
         if shape.kind == "power" and shape.n == 1.0:
             size = "the cone: cot(half-angle) at any size"
         out.append(TipWarning(
