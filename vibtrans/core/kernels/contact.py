@@ -9,7 +9,8 @@ spring that entered contact at depth h.  Stuck springs never change w, so a
 committed step touches only the vertices it pushes or pops: O(1) amortized.
 
 Storage (plain arrays, so a kernel can stop and resume anywhere):
-    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius)
+    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius);
+                                   with a profile [capacity, 3]: h, N*'(h), N*(h)
     W, P     float64[capacity]     anchor (minus w_ref), and the running
                                    integral of w h^(-1/2) dh from h = 0
     nvert    int64[2]              vertex count (0: no contact), and how many
@@ -58,9 +59,10 @@ def _segment_integral(s0, w0, s1, w1):
 #   law[LAW_INV]    1 / ds (LAW_TABLE: ds a power of 2, so s / ds = s * (1 / ds)
 #                   exactly: a multiply, not a divide, finds the cell), then
 #                   n values N*'_i and n values N*_i
-# With a profile the memory's vertex array holds (h, N*'(h)) instead of
-# (h, sqrt h), P the running integral of w dN*' (the h = 0 atom N*'(0) w(0)
-# included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
+# With a profile the memory's vertex array has three columns (new_memory(law=))
+# and holds (h, N*'(h), N*(h)) instead of (h, sqrt h): the law is evaluated
+# once per new vertex, never in the integrals; P is the running integral of
+# w dN*' (the h = 0 atom N*'(0) w(0) included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
 # (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
 LAW_POWER = 0
 LAW_TABLE = 1
