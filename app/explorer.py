@@ -186,6 +186,22 @@ STALE_TEXT = ("**Changed since this run: press Run.** The summary, figures and d
 
 # presentation mode: the page's text and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
+BOKEH_FONT_PX = 12          # Bokeh's widgets' font size (its --bokeh-font-size default)
+# ... and in the browser: the root font size (Bootstrap sizes its buttons and
+# inputs in rem) and the sidebar's width (the template's --sidebar-width)
+PRESENTATION_JS = """
+const root = document.documentElement.style;
+if (cb_obj.active) {
+  root.fontSize = `${100 * scale}%`;
+  root.setProperty('--sidebar-width', `${Math.round(width * scale)}px`);
+} else {
+  root.fontSize = '';
+  root.removeProperty('--sidebar-width');
+}
+"""
+SIDEBAR_WIDTH = 330         # px
+PRESENTATION_NOTE = ("The **&#9776;** button at the top left hides the controls "
+                     "and shows it back.")
 
 
 def _page_location():
@@ -207,7 +223,7 @@ def _page_location():
 def scale_fonts(fig, factor):
     """Set a Bokeh figure's text to `factor` times Bokeh's default sizes
     (titles, axis labels and ticks, legends); factor 1 restores them."""
-    from bokeh.models import Legend, Title
+    from bokeh.models import ColorBar, Legend, Title
     if getattr(fig, "renderers", None) is None:     # a layout: its children
         for child in getattr(fig, "children", []):
             scale_fonts(child[0] if isinstance(child, tuple) else child, factor)
@@ -222,8 +238,9 @@ def scale_fonts(fig, factor):
     for item in [*fig.left, *fig.right, *fig.above, *fig.below, *fig.center]:
         if isinstance(item, Legend):
             item.label_text_font_size = size(9)
-            if item.name == plots.KEY_NAME:     # the map's key: one column when large
-                item.ncols = 1 if factor > 1 else 2
+        elif isinstance(item, ColorBar):
+            item.title_text_font_size = size(10)
+            item.major_label_text_font_size = size(8)
 
 
 class Explorer(pn.viewable.Viewer):
@@ -290,6 +307,8 @@ class Explorer(pn.viewable.Viewer):
         self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning", visible=False,
                                         sizing_mode="stretch_width", css_classes=["vt-stale"])
         self.summary = self.summary_view.pane
+        self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
+                                                  sizing_mode="stretch_width")
         self.trajectories = TrajectoryView()
         # the memory diagram is built, and computes its snapshots (a run's
         # worth of work), only once its tab is open
@@ -538,13 +557,19 @@ class Explorer(pn.viewable.Viewer):
         folded away so that map and trajectory share the screen."""
         factor = PRESENTATION_SCALE if event.new else 1.0
         with pn.io.hold():
-            text = {"font-size": f"{factor:g}em"} if event.new else {}
-            self.summary.styles = text
-            if getattr(self, "page", None) is not None:
-                self.page.styles = text
+            # Bokeh's font size for its widgets, tabs and text panes (a CSS
+            # property their shadow roots inherit); the page's root size,
+            # which Bootstrap's buttons and inputs follow, is set in the
+            # browser (PRESENTATION_JS)
+            text = {"--bokeh-font-size": f"{BOKEH_FONT_PX * factor:g}px"} if event.new else {}
+            for part in (getattr(self, "page", None), getattr(self, "controls_column", None)):
+                if part is not None:
+                    part.styles = text
+            self.presentation_note.visible = event.new
             self.map_view.scale_fonts = (lambda fig: scale_fonts(fig, factor)) if event.new else None
             for fig in self.map_view.figures:
                 scale_fonts(fig, factor)
+            self.map_view.fit_keys()
             for view in self.trajectories.views.values():
                 scale_fonts(view.whole, factor)
                 scale_fonts(view.part, factor)
@@ -565,7 +590,10 @@ class Explorer(pn.viewable.Viewer):
         if job is not None and structure(job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
-                    self.trajectories.view(job.label, job.scene.tau)
+                    view = self.trajectories.view(job.label, job.scene.tau)
+                    if self.presentation:
+                        scale_fonts(view.whole, PRESENTATION_SCALE)
+                        scale_fonts(view.part, PRESENTATION_SCALE)
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
@@ -699,7 +727,7 @@ class Explorer(pn.viewable.Viewer):
     # ---------- layout ----------
     def controls(self):
         s = self.state
-        return pn.Column(
+        self.controls_column = pn.Column(
             pn.Row(self.run_button, self.cancel_button),
             self.progress,
             *self._drawing([
@@ -719,10 +747,18 @@ class Explorer(pn.viewable.Viewer):
             pn.widgets.Select.from_param(s.param.integrator, name="integrator"),
             pn.widgets.Select.from_param(s.param.compare, name="compare with"),
             self.point_mass_controls,
-            pn.widgets.Toggle.from_param(self.param.presentation, name="Presentation mode",
-                                         css_classes=["vt-presentation"]),
+            self._presentation_toggle(),
+            self.presentation_note,
             sizing_mode="stretch_width",
         )
+        return self.controls_column
+
+    def _presentation_toggle(self):
+        toggle = pn.widgets.Toggle.from_param(self.param.presentation, name="Presentation mode",
+                                              css_classes=["vt-presentation"])
+        toggle.jscallback(value=PRESENTATION_JS,
+                          args={"scale": PRESENTATION_SCALE, "width": SIDEBAR_WIDTH})
+        return toggle
 
     def _drawing(self, widgets):
         """`widgets` (each redraws the map) acknowledged in the browser
@@ -804,7 +840,7 @@ def explorer_template(explorer):
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
     return pn.template.BootstrapTemplate(
         title="vibtrans: vibrational transport explorer",
-        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=330)
+        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=SIDEBAR_WIDTH)
 
 
 PAGE_TITLE = "vibtrans explorer"

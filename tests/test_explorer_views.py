@@ -64,12 +64,15 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     fig = ex.map_view.figures[0]
     ex.presentation = True
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
-    assert ex.page.styles == {"font-size": "1.5em"} and ex.intro.collapsed
+    large = {"--bokeh-font-size": f"{1.5 * E.BOKEH_FONT_PX:g}px"}
+    assert ex.page.styles == large and ex.intro.collapsed
+    assert ex.presentation_note.visible
     ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
+    assert not ex.presentation_note.visible
 
 
 def test_the_run_tabs_build_their_views_when_opened():

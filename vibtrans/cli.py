@@ -609,7 +609,7 @@ def _export_dynamics(args, kind, maps, sizes):
         vertical = E.load_vertical(maps)
         if vertical is not None:
             el = el * plots.jumping_boundary(vertical, "deformable")
-        el = plots.style(el * plots.paper_points("deformable"), common=dict(
+        el = plots.style(el * plots.paper_points("deformable", "white"), common=dict(
             title="The vertical motion's Lyapunov exponent (tau 50, 2000 periods)"))
         return E.export_dynamics(el, args.out, **sizes)
     scene = _export_scene(args)
