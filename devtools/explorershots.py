@@ -31,21 +31,26 @@ ROOT = Path(__file__).resolve().parent.parent
 SIZES = ["1024x768", "1280x800", "1920x1080"]
 RUN_TABS = ["Trajectory", "Animation", "Memory diagram", "Downloads", "Dynamics"]
 
-# the map plot's frame (its data area) and whole canvas, in CSS px
-FRAME_JS = """() => {
+# The shown map's plot: its frame (the data area), its left edge and its
+# colour bar's fonts, CSS px.
+MAP_JS = """() => {
   for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
     if (m.x_range === undefined || m.renderers === undefined) continue;
     const t = m.title && String(m.title.text);
-    if (!(m.name === "map" || (t && (t.startsWith("<v*> over") || t.includes("Lyapunov")))))
+    if (!(m.name === "map" || (t && (t.startsWith("<v*> over") || t.startsWith("Lyapunov")))))
       continue;
     const v = window.Bokeh.index.find_one(m);
     if (!v || v.el.getClientRects().length === 0) continue;
-    const f = v.frame.bbox, r = v.el.getBoundingClientRect();
-    return {title: t, frame_width: f.width, frame_height: f.height,
-            plot_width: r.width, plot_height: r.height};
+    const bars = [...m.right, ...m.left, ...m.below, ...m.above, ...m.center]
+      .filter((a) => a.type === "ColorBar");
+    return {frame_width: v.frame.bbox.width, frame_height: v.frame.bbox.height,
+            left: v.el.getBoundingClientRect().left,
+            bar_ticks: bars.length ? bars[0].major_label_text_font_size : null,
+            bar_title: bars.length ? bars[0].title_text_font_size : null};
   }
   return null;
 }"""
+
 
 IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
 
@@ -83,18 +88,18 @@ def shots(browser, url, size, out, log=print):
         log(f"  {name}-{size}.png")
 
     shot("main")
-    frames["main"] = page.evaluate(FRAME_JS)
+    frames["main"] = page.evaluate(MAP_JS)
     _button(page, "period-1 orbit curves")
     shot("orbits")
-    frames["orbits"] = page.evaluate(FRAME_JS)
+    frames["orbits"] = page.evaluate(MAP_JS)
     _button(page, "no orbit curves")
     _button(page, "Lyapunov exponent")
     shot("lyapunov")
-    frames["lyapunov"] = page.evaluate(FRAME_JS)
+    frames["lyapunov"] = page.evaluate(MAP_JS)
     _button(page, "drift velocity")
     _button(page, "both models")
     shot("both")
-    frames["both"] = page.evaluate(FRAME_JS)
+    frames["both"] = page.evaluate(MAP_JS)
     _button(page, "selected model")
     page.get_by_role("button", name="Run selected scene").first.click()
     page.locator("strong", has_text="mu = ").first.wait_for(timeout=120000)
@@ -124,13 +129,13 @@ def shots(browser, url, size, out, log=print):
     _settle(page)
     page.evaluate("() => window.scrollTo(0, 0)")
     shot("presentation")
-    frames["presentation"] = page.evaluate(FRAME_JS)
+    frames["presentation"] = page.evaluate(MAP_JS)
     hide = page.locator("#sidebar-toggle")
     if hide.count():
         hide.first.click()
         _settle(page)
         shot("no-sidebar")
-        frames["no-sidebar"] = page.evaluate(FRAME_JS)
+        frames["no-sidebar"] = page.evaluate(MAP_JS)
     page.close()
     return {"size": size, "frames": frames, "errors": errors}
 

@@ -31,6 +31,7 @@ import pytest
 
 
 from devtools.chromium import launched
+from devtools.explorershots import MAP_JS as _MAP_JS
 from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
@@ -202,26 +203,6 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
     assert presentation, ("no presentation mode: no element of class vt-presentation to "
                           f"toggle it (without it: {'; '.join(problems) or 'fits'}; {where})")
     assert not problems, "in presentation mode: " + "; ".join(problems) + f" ({where})"
-
-
-# The shown map's plot: its frame (the data area), its colour bar's fonts.
-_MAP_JS = """() => {
-  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
-    if (m.x_range === undefined || m.renderers === undefined) continue;
-    const t = m.title && String(m.title.text);
-    if (!(m.name === "map" || (t && (t.startsWith("<v*> over") || t.startsWith("Lyapunov")))))
-      continue;
-    const v = window.Bokeh.index.find_one(m);
-    if (!v || v.el.getClientRects().length === 0) continue;
-    const bars = [...m.right, ...m.left, ...m.below, ...m.above, ...m.center]
-      .filter((a) => a.type === "ColorBar");
-    return {frame_width: v.frame.bbox.width, frame_height: v.frame.bbox.height,
-            left: v.el.getBoundingClientRect().left,
-            bar_ticks: bars.length ? bars[0].major_label_text_font_size : null,
-            bar_title: bars.length ? bars[0].title_text_font_size : null};
-  }
-  return null;
-}"""
 
 
 # Each shown map's key (its legend below the plot) against its canvas: the
