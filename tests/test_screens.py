@@ -29,7 +29,6 @@ from pathlib import Path
 import pytest
 
 
-from devtools.chromium import launched
 from budget import budget_ms
 
 pytestmark = pytest.mark.browser
@@ -104,12 +103,6 @@ _GEOMETRY_JS = """(scroll) => {
           map: mapView ? box(mapView.el.getBoundingClientRect()) : null, colorbar,
           panel: panels.length ? box(panels[0]) : null};
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
 
 
 @pytest.fixture
