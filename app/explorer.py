@@ -689,17 +689,12 @@ class Explorer(pn.viewable.Viewer):
             self._on_stale()
             self._memory_pending = (scene, T)
             self._dynamics_pending = result
-        # The open run tab's view after the frozen hold: models it changes
-        # or adds while the document's model graph is frozen reach the
-        # browser as references to models it was never sent ("reference
-        # p4188 isn't known": the Dynamics tab, opened before its run's
-        # result came, never showed its section).
-        if self.run_tabs.active == MEMORY_TAB:
-            self._update_memory()
-        elif self.run_tabs.active == ANIMATION_TAB:
-            self._update_animation()
-        elif self.run_tabs.active == DYNAMICS_TAB:
-            self._update_dynamics()
+            if self.run_tabs.active == MEMORY_TAB:
+                self._update_memory()
+            elif self.run_tabs.active == ANIMATION_TAB:
+                self._update_animation()
+            elif self.run_tabs.active == DYNAMICS_TAB:
+                self._update_dynamics()
 
     # ---------- layout ----------
     def controls(self):

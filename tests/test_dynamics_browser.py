@@ -90,28 +90,3 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
         page.close()
     assert not errors, errors
 
-
-def test_the_dynamics_tab_opened_before_its_run_ends_draws_it(browser, served_explorer):
-    """The Dynamics tab opened while the link's run still computes (reference
-    fidelity: seconds of work): when the run comes, its section and orbit
-    diagram are drawn and shown.  The tab's view was set to the run inside
-    the frozen hold of the run's first figures, and the browser was sent
-    references to models it never had ("reference p4188 isn't known": the
-    section never shown; seen under a one-core CPU hog, then reproduced on
-    a busy machine by this order of events)."""
-    page, errors = new_page(browser, 1280, 800)
-    try:
-        page.goto(f"{served_explorer.url}?la=0.25&lm=0.8&fidelity=reference")
-        page.wait_for_selector("canvas", timeout=budget_ms(60))
-        page.get_by_text("Dynamics", exact=True).first.click()
-        page.wait_for_function(f"() => ({_STATE_JS})().points > 100", timeout=budget_ms(120))
-        page.wait_for_function(f"() => ({_STATE_JS})().section !== null && "
-                               f"({_STATE_JS})().diagram !== null", timeout=budget_ms(60))
-    except Exception:
-        ARTIFACTS.mkdir(exist_ok=True)
-        page.screenshot(path=str(ARTIFACTS / "dynamics-early-failed.png"))
-        print("page errors:", errors)
-        raise
-    finally:
-        page.close()
-    assert not errors, errors
