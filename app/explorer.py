@@ -11,7 +11,6 @@ serves while the kernels compile in the background, app/kernels.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
 import functools
-import json
 import logging
 import math
 from types import SimpleNamespace
@@ -19,28 +18,28 @@ from types import SimpleNamespace
 import holoviews as hv
 import panel as pn
 import param
-from bokeh.models import CustomJS, CustomJSTickFormatter, Div
+from bokeh.models import CustomJSTickFormatter, Div
 
 from vibtrans import simulate
-from vibtrans.products import plots
 from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
 from . import data, inputs, memory, urlstate
-from .controller import CANCELLED, RUNNER, RunController
+from .browserside import ACK_RUN, ack_js, ack_listener
+from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
+from .presentation import BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, scale_fonts
+from .texts import INTRODUCTION, MAP_KEY, POINT_LABELS, PRESENTATION_NOTE, STALE_TEXT
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
                     SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, ExplorerState,
                     within)
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
-from .views.animation import ParticleAnimation
 from .views.map import MapView
 from .views.design import DesignPanel
-from .views.dynamics import DynamicsView
-from .views.memory import MemoryView
 from .views.summary import SummaryView
+from .views.runtabs import RunTabs
 from .views.trajectory import TrajectoryView, structure
 from .views.units import UnitsPanel
 from .views.vertical import VerticalView
@@ -53,140 +52,12 @@ hv.extension("bokeh")
 hv.renderer("bokeh").webgl = False
 log = logging.getLogger("vibtrans.explorer")
 
-POINT_LABELS = {
-    1: "permanent contact, drift against the wave",
-    2: "permanent contact, drift with the wave",
-    3: "permanent contact, no drift",
-    4: "synchronous hopping (hovering)",
-    5: "multi-synchronous hopping",
-    6: "long contact + jump, uniform drift",
-    7: "long contact + jump, slow acceleration",
-    8: "chaotic hopping",
-    9: "point mass: symmetric sliding",
-    10: "point mass: chaotic hopping",
-}
-
-# A plain-language introduction for a class (docs/MODEL.md in short)
-INTRODUCTION = r"""
-A small particle rests on a surface that carries a **surface acoustic
-(Rayleigh) wave**. The wave travels towards **+x**; every point of the surface
-runs a small ellipse once per wave period. The particle is pushed and lifted
-by the surface, may slide, stick or hop, and on average it **drifts**: with
-the wave (+x) or against it (-x).
-
-* **A\*** is the wave's vertical amplitude, measured in **a0**, the amount by
-  which the particle's weight squeezes its contact (a0 is tiny: nanometres).
-* **m\*** compares the particle's inertia at the wave's frequency with the
-  stiffness of its contact: small m\*, the particle follows the surface; large
-  m\*, it cannot keep up.
-* **tau** is how slowly the wave is switched on (50 periods here); time is
-  counted in wave periods.
-* **<v\*>** is the mean drift velocity over the run, in a0 per period. The
-  map colours it: red with the wave, blue against it; **white** is "no
-  drift", |v\*| <= **v0\*** (the slider sets that band).
-* A hopping run measures how fast two nearby vertical motions separate (its
-  **Lyapunov exponent**): when they separate, the motion is **chaotic** (grey
-  on the map) and its drift is not a property of the scene. The run can also
-  be repeated with tau changed by 0.001, a **tau twin** ("compare with"), as
-  a second opinion: a twin that ends elsewhere also signals chaos.
-* **deformable** is the particle with elastic (Hertz) contact and friction
-  that remembers its loading history; the **point mass** is the classical
-  rigid comparison.
-
-Click the map or pick a paper point to run a scene; its trajectory appears
-below the summary.
-
-**The symbols of the figures** (docs/MODEL.md): lengths are in a0, times in
-wave periods.
-
-* **x\***, **y\***: the particle's horizontal and vertical position;
-  **u_x\***, **u_y\***: the surface's under it.
-* **a\*** = y\* - u_y\*: how much the contact is compressed (> 0 in contact,
-  the particle is in the air when it would be negative).
-* **b\***: the contact's tangential displacement (the particle against the
-  surface under it, in theta mu a0); **b\*'** its rate.
-* **N\***: the normal contact force, in units of the weight (N\* = a\*^(3/2),
-  Hertz); **T\***: the tangential (friction) force, in units of mu times the
-  weight; |T\*| = N\* when the contact slides.
-"""
-# the map's key for its markers (drawn on every map: shipped, on demand)
-MAP_KEY = ("*On the map:* <span style='color:#c9a400'>●</span> yellow circle: the selected "
-           "scene (the one Run runs) · <span style='color:#1a9c1a'>◆</span> green diamond: "
-           "the device of the Units and Design tabs · black dots with numbers: the paper's "
-           "points (the *Paper points* list)")
-
-# the run's tabs: trajectory, animation, memory diagram, downloads
-ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
 # the map's tabs: map, vertical curves, units, map on demand, difference of
 # two maps, design chart
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
-DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
-                 "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
-                 "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
-                 "computed when this tab is open.")
-ANIMATION_TEXT = ("**The particle on the wave**, the run's last periods at full resolution: "
-                  "a side view (the surface, the particle, its contact zone coloured by "
-                  "state) and the contact circle beside it, in step. Press play, or drag the "
-                  "slider.")
-MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with history, "
-               "deformable runs): the anchors w(h) of the springs over the contact depth, "
-               "their displacements u(h) with the Coulomb cone, and the stick core inside the "
-               "slip annulus. The slider scrubs through the run's last period.")
-
-# An action's acknowledgement, shown by the browser at the click (not after a
-# round trip to a busy server) and cleared by the server when it answers:
-# a busy indicator within 0.3 s for every action that takes longer.
-ACK_RUN, ACK_DRAW, ACK_FILE = "Running ...", "Drawing the map ...", "Preparing the file ..."
-# a widget's CSS class -> what the browser says when the user acts on it
-ACK_CLASSES = {"vt-ack-run": ACK_RUN, "vt-ack-draw": ACK_DRAW, "vt-ack-file": ACK_FILE}
-
-
-def ack_js(ack, text):
-    """A CustomJS that shows `text` in the Div `ack` (class vt-busy)."""
-    return CustomJS(args={"ack": ack}, code=f"ack.text = '<p class=\"vt-busy\">{text}</p>'")
-
-
-# One listener for the whole page, not a callback per widget: Panel's
-# (jscallback, js_on_click) made it walk every model of every page for its
-# links (~15 ms of the event loop per page, `python -m devtools.pagecost`).
-# It sees the browser's own changes only (`sync`: not the server's).
-_ACK_LISTENER = """
-const texts = %s;
-const actions = new Set(["value", "value_throttled", "active", "clicks"]);
-const said = (model) => {
-  for (const c of (model && model.css_classes) || []) if (c in texts) return texts[c];
-  return null;
-};
-ack.document.on_change((e) => {
-  let model = null;
-  if (e.kind === "ModelChanged" && e.sync && actions.has(e.attr))
-    model = e.model;
-  else if (e.kind === "MessageSent" && e.msg_type === "bokeh_event"
-           && e.msg_data.event_name === "button_click")
-    model = e.msg_data.origin;
-  const text = said(model);
-  if (text !== null)
-    ack.text = `<p class="vt-busy">${text}</p>`;
-});
-"""
-
-
-def ack_listener(ack):
-    """A CustomJS, run once the page is ready, that shows in the Div `ack`
-    what the browser is doing (ACK_CLASSES) at every action of the user on
-    a widget of one of those classes: a click, a choice, a slider's step."""
-    return CustomJS(args={"ack": ack}, code=_ACK_LISTENER % json.dumps(ACK_CLASSES))
-
-
 # the state's values a run is made of (a change marks the run shown stale)
 SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
                "stick_rule", "alpha_t", "theta", "nu", "tau", "periods")
-STALE_TEXT = ("**Changed since this run: press Run.** The summary, figures and downloads "
-              "below are of the run made before the change.")
-
-# presentation mode: the page's text and the figures' fonts this much larger
-PRESENTATION_SCALE = 1.5
-
 
 def _page_location():
     """The page's Location (None outside a served session), made from the
@@ -202,28 +73,6 @@ def _page_location():
     path = getattr(ctx.request, "path", None) or "/"
     return Location(pathname=path if path.startswith("/") else "/")
 
-
-
-def scale_fonts(fig, factor):
-    """Set a Bokeh figure's text to `factor` times Bokeh's default sizes
-    (titles, axis labels and ticks, legends); factor 1 restores them."""
-    from bokeh.models import Legend, Title
-    if getattr(fig, "renderers", None) is None:     # a layout: its children
-        for child in getattr(fig, "children", []):
-            scale_fonts(child[0] if isinstance(child, tuple) else child, factor)
-        return
-    def size(points):
-        return f"{points * factor:.3g}pt"
-    if isinstance(getattr(fig, "title", None), Title):
-        fig.title.text_font_size = size(10)
-    for axis in [*fig.xaxis, *fig.yaxis]:
-        axis.axis_label_text_font_size = size(10)
-        axis.major_label_text_font_size = size(8)
-    for item in [*fig.left, *fig.right, *fig.above, *fig.below, *fig.center]:
-        if isinstance(item, Legend):
-            item.label_text_font_size = size(9)
-            if item.name == plots.KEY_NAME:     # the map's key: one column when large
-                item.ncols = 1 if factor > 1 else 2
 
 
 class Explorer(pn.viewable.Viewer):
@@ -281,8 +130,6 @@ class Explorer(pn.viewable.Viewer):
         self._on_point_mass_shown()
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
-        self._memory_pending = None         # (scene, end) of a run the memory tab has not seen
-        self._animated = None               # the RunResult the animation shows
         self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
         self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
@@ -290,16 +137,9 @@ class Explorer(pn.viewable.Viewer):
         self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning", visible=False,
                                         sizing_mode="stretch_width", css_classes=["vt-stale"])
         self.summary = self.summary_view.pane
+        self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
+                                                  sizing_mode="stretch_width")
         self.trajectories = TrajectoryView()
-        # the memory diagram is built, and computes its snapshots (a run's
-        # worth of work), only once its tab is open
-        self.memory_view = None
-        self.animation = None               # the same, for the animation
-        self.animation_box = pn.Column(sizing_mode="stretch_width")
-        self.memory_box = pn.Column(sizing_mode="stretch_width")
-        self.dynamics_view = None           # the same, for the section and orbit diagram
-        self._dynamics_pending = None       # the RunResult the dynamics tab has not seen
-        self.dynamics_box = pn.Column(sizing_mode="stretch_width")
         # the map on demand (app/mapondemand.py)
         self.ondemand = MapOnDemand(self.state, answered=self._answered, run=self.start_run,
                                     session=f"explorer-{id(self)}")
@@ -326,18 +166,9 @@ class Explorer(pn.viewable.Viewer):
         self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
                                    button_classes=["vt-ack-file"], shown_map=self.ondemand.computed_map)
         self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
-        # the run's views, built when their tab is first opened (a session's
-        # page costs the event loop that every session shares: what the
-        # first screen does not show is not built for it)
-        self.run_tabs = pn.Tabs(
-            ("Trajectory", self.trajectories.panel),
-            ("Animation", self.animation_box),
-            ("Memory diagram", self.memory_box),
-            ("Downloads", self.exports.panel),
-            ("Dynamics", self.dynamics_box),
-            dynamic=True, sizing_mode="stretch_width", name="trajectory")
-        self.run_tabs.param.watch(self._on_run_tab, "active")
-        self.trajectory = self.run_tabs
+        # the run's tabs, each built when first opened (app/views/runtabs.py)
+        self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
+        self.trajectory = self.run_tabs = self.runs.tabs
         self.where = pn.pane.Alert("", alert_type="info", visible=False,
                                    sizing_mode="stretch_width", name="where")
         self._on_position()
@@ -538,16 +369,23 @@ class Explorer(pn.viewable.Viewer):
         folded away so that map and trajectory share the screen."""
         factor = PRESENTATION_SCALE if event.new else 1.0
         with pn.io.hold():
-            text = {"font-size": f"{factor:g}em"} if event.new else {}
-            self.summary.styles = text
-            if getattr(self, "page", None) is not None:
-                self.page.styles = text
+            # Bokeh's font size for its widgets, tabs and text panes (a CSS
+            # property their shadow roots inherit); the page's root size,
+            # which Bootstrap's buttons and inputs follow, is set in the
+            # browser (browserside.py)
+            text = {"--bokeh-font-size": f"{BOKEH_FONT_PX * factor:g}px"} if event.new else {}
+            for part in (getattr(self, "page", None), getattr(self, "controls_column", None)):
+                if part is not None:
+                    part.styles = text
+            self.presentation_note.visible = event.new
             self.map_view.scale_fonts = (lambda fig: scale_fonts(fig, factor)) if event.new else None
             for fig in self.map_view.figures:
                 scale_fonts(fig, factor)
+            self.map_view.fit_keys()
             for view in self.trajectories.views.values():
                 scale_fonts(view.whole, factor)
                 scale_fonts(view.part, factor)
+            self.runs.scale_fonts(factor)
             if event.new and getattr(self, "intro", None) is not None:
                 self.intro.collapsed = True
 
@@ -565,7 +403,10 @@ class Explorer(pn.viewable.Viewer):
         if job is not None and structure(job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
-                    self.trajectories.view(job.label, job.scene.tau)
+                    view = self.trajectories.view(job.label, job.scene.tau)
+                    if self.presentation:
+                        scale_fonts(view.whole, PRESENTATION_SCALE)
+                        scale_fonts(view.part, PRESENTATION_SCALE)
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
@@ -583,8 +424,7 @@ class Explorer(pn.viewable.Viewer):
         if event.new == CANCELLED:
             with pn.io.hold():
                 self.summary_view.cancelled()
-                if self.memory_view is not None:
-                    self.memory_view.mark_previous()
+                self.runs.cancelled()
             self._answered()
         else:
             self.summary_view.say(event.new)
@@ -604,57 +444,18 @@ class Explorer(pn.viewable.Viewer):
             if event.new:
                 self._answered()
 
-    def _on_run_tab(self, event):
-        if event.new == MEMORY_TAB:
-            self._update_memory()
-        elif event.new == ANIMATION_TAB:
-            self._update_animation()
-        elif event.new == DOWNLOADS_TAB:
-            self.exports.build()
-        elif event.new == DYNAMICS_TAB:
-            self._update_dynamics()
-
-    def _update_dynamics(self):
-        """The section and orbit diagram of the last run, computed when first
-        looked at."""
-        if self.dynamics_view is None:
-            self.dynamics_view = DynamicsView(RUNNER)
-            self.dynamics_view.error = self._error
-            self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
-        pending, self._dynamics_pending = self._dynamics_pending, None
-        if pending is not None:
-            self.dynamics_view.set_run(pending.scene, pending.ds)
-
-    def _update_animation(self):
-        """The animation of the last run, built when first looked at."""
-        if self.animation is None:
-            self.animation = ParticleAnimation()
-            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
-        result = self.controller.result
-        if result is not None and self._animated is not result:
-            self._animated = result
-            self.animation.show(result.scene, result.ds)
-
-    def _update_memory(self):
-        """The memory view of the last run, computed when first looked at."""
-        if self.memory_view is None:
-            self.memory_view = MemoryView(RUNNER)
-            self.memory_view.error = self._error
-            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
-        pending, self._memory_pending = self._memory_pending, None
-        if pending is not None:
-            self.memory_view.set_run(*pending)      # clears it for a point mass
+    # the run's views (RunTabs), as the page and its tests name them
+    animation = property(lambda self: self.runs.animation)
+    memory_view = property(lambda self: self.runs.memory_view)
+    dynamics_view = property(lambda self: self.runs.dynamics_view)
+    _animated = property(lambda self: self.runs.animated)
 
     def _on_session_destroyed(self, session_context):
         self.ondemand.close()                        # its map, unless another session waits
         if getattr(self, "design_panel", None) is not None:     # (made by main())
             self.design_panel.close()                # and the Design tab's
-        if self.memory_view is not None:
-            self.memory_view.clear()       # cancels its background snapshots
-        if self.dynamics_view is not None:
-            self.dynamics_view.clear()     # and its sections and diagrams
         self.controller.discard()
-        self.trajectories.clear()
+        self.runs.clear()
         memory.session_closed(session_context)
 
     def _on_result(self, event):
@@ -669,7 +470,6 @@ class Explorer(pn.viewable.Viewer):
 
     def _show(self, result):
         scene = result.scene
-        T = float(result.ds["time"].values[-1])
         key = structure(result.label)
         # Everything below goes to the browser as one message: new data for
         # the session's existing figures, no new figure models.  Bokeh
@@ -687,19 +487,13 @@ class Explorer(pn.viewable.Viewer):
             self.summary_view.show(result)
             self.stale_note.visible = False
             self._on_stale()
-            self._memory_pending = (scene, T)
-            self._dynamics_pending = result
-            if self.run_tabs.active == MEMORY_TAB:
-                self._update_memory()
-            elif self.run_tabs.active == ANIMATION_TAB:
-                self._update_animation()
-            elif self.run_tabs.active == DYNAMICS_TAB:
-                self._update_dynamics()
+            self.runs.show(result)
+        self.runs.update_open()         # after the frozen hold (RunTabs.update_open)
 
     # ---------- layout ----------
     def controls(self):
         s = self.state
-        return pn.Column(
+        self.controls_column = pn.Column(
             pn.Row(self.run_button, self.cancel_button),
             self.progress,
             *self._drawing([
@@ -719,10 +513,13 @@ class Explorer(pn.viewable.Viewer):
             pn.widgets.Select.from_param(s.param.integrator, name="integrator"),
             pn.widgets.Select.from_param(s.param.compare, name="compare with"),
             self.point_mass_controls,
+            # (the page's root sizes follow it in the browser: browserside.py)
             pn.widgets.Toggle.from_param(self.param.presentation, name="Presentation mode",
                                          css_classes=["vt-presentation"]),
+            self.presentation_note,
             sizing_mode="stretch_width",
         )
+        return self.controls_column
 
     def _drawing(self, widgets):
         """`widgets` (each redraws the map) acknowledged in the browser
@@ -804,7 +601,7 @@ def explorer_template(explorer):
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
     return pn.template.BootstrapTemplate(
         title="vibtrans: vibrational transport explorer",
-        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=330)
+        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=SIDEBAR_WIDTH)
 
 
 PAGE_TITLE = "vibtrans explorer"

@@ -381,14 +381,14 @@ class Session:
         if not self.memory_open:
             self.tab("Memory diagram")
             self.page.wait_for_function(
-                "() => window.__vtBench.titles().some((t) => t.startsWith('memory diagram w(h), t* = '))",
+                "() => window.__vtBench.titles().some((t) => t.startsWith('memory diagram w(h)\\nt* = '))",
                 timeout=ACTION_TIMEOUT_S * 1000)
             self.memory_open = True
         field = self.page.locator(".vt-field-t input").first
         field.fill(f"{t:g}")
         field.press("Tab")
         xy = self._center(self.page.get_by_role("button", name="Show the memory diagram at t*"))
-        return self._measure("title", "memory diagram w(h), t* = ",
+        return self._measure("title", "memory diagram w(h)\nt* = ",
                              lambda: self.page.mouse.click(*xy))
 
     def redraw_button(self, name):

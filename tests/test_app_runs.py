@@ -17,6 +17,7 @@ from budget import budget
 from vibtrans_explorer.live import TIMELINE_BINS
 from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.views import runtabs
 from vibtrans_explorer import memory
 from vibtrans_explorer.live import LiveTrajectory
 from vibtrans_explorer.views import map as M
@@ -444,7 +445,7 @@ def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypat
         ex.start_run()
         await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
         table = ex.summary.object
-        ex.run_tabs.active = E.MEMORY_TAB           # the memory diagram of that run
+        ex.run_tabs.active = runtabs.MEMORY_TAB           # the memory diagram of that run
         await until(lambda: ex.memory_view is not None and ex.memory_view.snapshots,
                     timeout=budget(120))
         ex.state.log_mass = -0.5                    # a new scene, run and cancelled

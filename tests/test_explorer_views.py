@@ -8,6 +8,7 @@ import pytest
 
 from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.views import runtabs
 from vibtrans_explorer.live import time_label
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps rendered)
@@ -64,12 +65,18 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     fig = ex.map_view.figures[0]
     ex.presentation = True
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
-    assert ex.page.styles == {"font-size": "1.5em"} and ex.intro.collapsed
+    large = {"--bokeh-font-size": f"{1.5 * E.BOKEH_FONT_PX:g}px"}
+    assert ex.page.styles == large and ex.intro.collapsed
+    assert ex.presentation_note.visible
     ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
+    ex.run_tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
+    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
+    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "10pt"
+    assert not ex.presentation_note.visible
 
 
 def test_the_run_tabs_build_their_views_when_opened():
@@ -85,9 +92,9 @@ def test_the_run_tabs_build_their_views_when_opened():
         ex.start_run()
         await until(lambda: ex.controller.job is None and ex.controller.result is not None)
         assert ex.animation is None and ex.memory_view is None       # nothing opened yet
-        ex.run_tabs.active = E.ANIMATION_TAB
+        ex.run_tabs.active = runtabs.ANIMATION_TAB
         assert ex.animation is not None and ex._animated is ex.controller.result
-        ex.run_tabs.active = E.MEMORY_TAB
+        ex.run_tabs.active = runtabs.MEMORY_TAB
         assert ex.memory_view is not None and ex.memory_view.scene is not None
         ex.memory_view.clear()
     asyncio.run(go())
@@ -161,7 +168,7 @@ def test_the_first_screen_builds_only_what_it_shows():
         assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency")
         ex.state.frequency = 250e3                # the device moves the map's marker
         assert ex.map_view.device.data["y"] and ex.units_panel.marker is not None
-        ex.run_tabs.active = E.DOWNLOADS_TAB
+        ex.run_tabs.active = runtabs.DOWNLOADS_TAB
         assert _has(doc, "vt-data-run-csv") and _has(doc, "vt-export-map-png")
         run_csv = next(b for b in ex.exports.buttons if b.filename == "vibtrans-run.csv")
         assert run_csv.disabled                   # no run yet
@@ -171,5 +178,5 @@ def test_the_first_screen_builds_only_what_it_shows():
         assert _has(doc, "stick rule") and ex.point_mass_controls.visible
         ex.state.model = "deformable"
         assert not ex.point_mass_controls.visible
-        ex.run_tabs.active = E.ANIMATION_TAB
+        ex.run_tabs.active = runtabs.ANIMATION_TAB
         assert _has(doc, "The particle on the wave")

@@ -24,12 +24,14 @@ coordinates):
 
 Screenshots (the viewport, what the screen shows) go to
 test-artifacts/screens-WxH.png (look at them)."""
+import time
 from pathlib import Path
 
 import pytest
 
 
-from budget import budget_ms
+from devtools.explorershots import MAP_JS as _MAP_JS
+from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
 
@@ -194,3 +196,101 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
     assert presentation, ("no presentation mode: no element of class vt-presentation to "
                           f"toggle it (without it: {'; '.join(problems) or 'fits'}; {where})")
     assert not problems, "in presentation mode: " + "; ".join(problems) + f" ({where})"
+
+
+# Each shown map's key (its legend below the plot) against its canvas: the
+# key's left and right edges and the canvas's width, CSS px.
+_KEYS_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.x_range === undefined || m.renderers === undefined) continue;
+    const t = m.title && String(m.title.text);
+    if (!(t && t.startsWith("<v*> over"))) continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v || v.el.getClientRects().length === 0) continue;
+    const key = [...v.renderer_views.values()].find((r) => r.model.type === "Legend");
+    if (key) out.push({title: t, left: key.bbox.left, right: key.bbox.right,
+                       canvas: v.canvas_view.el.getBoundingClientRect().width});
+  }
+  return out;
+}"""
+
+
+def _idle(page):
+    page.wait_for_function("() => window.Bokeh.documents.every((d) => d.is_idle)",
+                           timeout=budget_ms(60))
+    page.wait_for_timeout(800)
+
+
+def _px(locator):
+    return float(locator.evaluate("(e) => getComputedStyle(e).fontSize").rstrip("px"))
+
+
+def _font_px(size):
+    """A Bokeh font size ('11px', '8pt') in CSS px."""
+    size = str(size)
+    return float(size[:-2]) * (4 / 3 if size.endswith("pt") else 1.0)
+
+
+def test_the_map_keeps_its_frame_when_its_key_grows(screen):
+    """At 1024 x 768 the map's data area keeps its height when the key
+    below it gains the orbit curves' entries, or the Lyapunov layer's."""
+    page = screen(1024, 768)
+    before = page.evaluate(_MAP_JS)
+    for name, back in (("period-1 orbit curves", "no orbit curves"),
+                       ("Lyapunov exponent", "drift velocity")):
+        page.get_by_role("button", name=name, exact=True).first.click()
+        _idle(page)
+        after = page.evaluate(_MAP_JS)
+        assert abs(after["frame_height"] - before["frame_height"]) <= SLACK_PX, (
+            f"with {name!r} the map's frame is {after['frame_height']:.0f} px high "
+            f"against {before['frame_height']:.0f} px")
+        page.get_by_role("button", name=back, exact=True).first.click()
+        _idle(page)
+    # two maps side by side: each key within its own map's canvas (two
+    # columns of it were wider than a map and cut off at the left)
+    page.get_by_role("button", name="both models", exact=True).first.click()
+    page.wait_for_function(f"() => ({_KEYS_JS})().length === 2", timeout=budget_ms(60))
+    _idle(page)
+    keys = page.evaluate(_KEYS_JS)
+    assert len(keys) == 2, keys
+    for key in keys:
+        assert key["left"] >= -SLACK_PX and key["right"] <= key["canvas"] + SLACK_PX, keys
+
+
+def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
+    """Presentation mode: the sidebar's widgets, the tabs and the colour
+    bar's ticks and title grow with the page's text; the map's data area
+    keeps its height; the template's menu button hides the sidebar, and
+    the page then takes its room."""
+    page = screen(1280, 800)
+    widget = page.get_by_role("button", name="deformable", exact=True).first
+    tab = page.get_by_text("Vertical", exact=True).first
+    before = page.evaluate(_MAP_JS), _px(widget), _px(tab)
+    page.locator(".vt-presentation").first.locator("button").first.click()
+    _idle(page)
+    # the server's styles arrive after the browser's own change: until the tabs grew
+    deadline = time.monotonic() + budget(20)
+    while _px(tab) < 1.4 * before[2] and time.monotonic() < deadline:
+        page.wait_for_timeout(250)
+    _idle(page)
+    after = page.evaluate(_MAP_JS), _px(widget), _px(tab)
+    _shot(page, "1280x800-presentation-sidebar")
+    assert after[1] >= 1.4 * before[1], f"the sidebar's buttons: {before[1]} -> {after[1]} px"
+    assert after[2] >= 1.4 * before[2], f"the tabs: {before[2]} -> {after[2]} px"
+    for key in ("bar_ticks", "bar_title"):
+        assert _font_px(after[0][key]) >= 1.4 * _font_px(before[0][key]), (key, before[0],
+                                                                           after[0])
+    assert abs(after[0]["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (
+        before[0], after[0])
+    page.get_by_text("hides the controls").first.wait_for(timeout=budget_ms(10))
+    page.locator("#sidebar-toggle").first.click()
+    page.wait_for_timeout(1500)       # the sidebar's transition, the map's resize
+    _idle(page)
+    hidden = page.evaluate(_MAP_JS)
+    _shot(page, "1280x800-presentation-no-sidebar")
+    assert not widget.is_visible() or widget.bounding_box()["x"] + 5 < 0, \
+        "the sidebar is still shown"
+    assert hidden["left"] < after[0]["left"] - 250, ("the map did not move into the "
+                                                     "sidebar's room", after[0], hidden)
+    assert abs(hidden["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (before[0], hidden)

@@ -317,7 +317,8 @@ def _fmt(value, unit=""):
 
 
 def _design_text(dev, q, warnings, reading):
-    lines = [f"device: {units_name(dev.particle)} sphere, R = {dev.radius:.4g} m, on "
+    tip = "" if q.profile == "sphere" else f" with a {q.profile} tip"
+    lines = [f"device: {units_name(dev.particle)} sphere{tip}, R = {dev.radius:.4g} m, on "
              f"{units_name(dev.substrate)}; f = {dev.frequency:.4g} Hz, A_y = "
              f"{dev.amplitude:.4g} m, pre-load {dev.preload:g} N",
              f"  A* = {q.A_star:.4g}, m* = {q.m_star:.4g} (theta {q.theta:.4g}, nu {q.nu:g}, "
@@ -389,6 +390,8 @@ def cmd_design(args):
         check_file(out)
     surface_energy = _finite("surface_energy", args.surface_energy, 0.0, math.inf)
     mu = _finite("mu", args.mu, 0.0)
+    shape = design.tip_shape(args.profile, half_angle=args.half_angle,
+                             tip_radius=args.tip_radius, flat_radius=args.flat_radius)
     device = None
     if len(device_values) == 3:
         device = units.DeviceSpec(substrate, particle, device_values["radius"],
@@ -401,13 +404,14 @@ def cmd_design(args):
                                 compute=args.compute, store_dir=args.store,
                                 step=_finite("step", args.step, 0.0, 1.0),
                                 periods=_finite("periods", args.periods, 0.0), report=report,
-                                workers=args.workers)
+                                workers=args.workers, shape=shape)
     reading = q = None
     warnings = []
     if device is not None:
-        reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart)
-        q = design.device_quantities(device, reading, surface_energy)
-        warnings = design.validity_warnings(device, surface_energy, q.drift_velocity)
+        reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart, shape=shape)
+        q = design.device_quantities(device, reading, surface_energy, shape=shape)
+        warnings = design.validity_warnings(device, surface_energy, q.drift_velocity,
+                                            shape=shape)
     chart_warnings = design.chart_warnings(chart)
     for out in outs:
         ext = Path(out).suffix.lower()
@@ -419,6 +423,7 @@ def cmd_design(args):
             export_design(chart, out, device=mark)
     if args.json:
         print(json.dumps({
+            "profile": shape.name, "map_profile": chart.attrs["map_profile"],
             "device": None if q is None else {k: _jsonable(v) for k, v in q.as_dict().items()},
             "regime": None if reading is None else reading["regime"],
             "warnings": [w.__dict__ for w in warnings],
@@ -604,7 +609,7 @@ def _export_dynamics(args, kind, maps, sizes):
         vertical = E.load_vertical(maps)
         if vertical is not None:
             el = el * plots.jumping_boundary(vertical, "deformable")
-        el = plots.style(el * plots.paper_points("deformable"), common=dict(
+        el = plots.style(el * plots.paper_points("deformable", "white"), common=dict(
             title="The vertical motion's Lyapunov exponent (tau 50, 2000 periods)"))
         return E.export_dynamics(el, args.out, **sizes)
     scene = _export_scene(args)
@@ -888,6 +893,15 @@ def _design_parser(sub):
     d.add_argument("--y", help="QUANTITY:LO:HI:N")
     d.add_argument("--preload", type=_num, help="pre-load P, N (default 0 or the preset's)")
     d.add_argument("--mu", type=_num, default=0.3, help="friction coefficient")
+    d.add_argument("--profile", default="sphere",
+                   help="the particle's tip: sphere | cone (needs --half-angle) | power:N "
+                        "(z = r^N / (N R_t^(N-1)), R_t = --tip-radius, default the radius) | "
+                        "flat-sphere (needs --flat-radius) | file:PATH (two columns r z, m); "
+                        "a chart of another profile than the sphere reads a map of its own "
+                        "(--compute); docs/MODEL.md section 10")
+    d.add_argument("--half-angle", type=_num, help="cone half-angle, degrees in (0, 90)")
+    d.add_argument("--tip-radius", type=_num, help="power:N tip radius R_t, m")
+    d.add_argument("--flat-radius", type=_num, help="flat-sphere: radius of the flat, m")
     d.add_argument("--surface-energy", type=_num, default=DEFAULT_SURFACE_ENERGY,
                    help=f"work of adhesion w, J/m^2 (default {DEFAULT_SURFACE_ENERGY:g}: "
                         f"van der Waals, Hamaker 1e-19 J)")

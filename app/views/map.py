@@ -24,6 +24,10 @@ from .render import rendered
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
+# the map's data area, px: fixed, so that a key that grows below it (orbit
+# curves, the Lyapunov layer) or larger fonts (presentation mode) make the
+# figure taller instead of the map smaller
+MAP_FRAME_HEIGHT = 330
 MODELS = ("deformable", "point-mass")
 
 
@@ -86,7 +90,8 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     chart = data.period_one_chart()
     if orbits == "period-1 orbit curves" and model == "deformable" and chart is not None:
         el = el * plots.period_one_curves(chart)
-    el = el * plots.paper_points(model)
+    # white on the Lyapunov layer's dark colours, black on the drift's light ones
+    el = el * plots.paper_points(model, "white" if layer == LYAPUNOV_LAYER else "black")
     return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title))
 
 
@@ -180,8 +185,15 @@ def map_figure(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
         sources = {m.id: m for m in fig.references()}
     for id_, data_ in columns.items():
         sources[id_].data = dict(data_)
-    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
+    _fit(fig)
     return fig
+
+
+def _fit(fig):
+    """The map as wide as its place on the page, its data area
+    MAP_FRAME_HEIGHT high (the figure's height follows what is around it)."""
+    fig.update(sizing_mode=None, width_policy="max", height_policy="fit", width=None,
+               height=None, frame_height=MAP_FRAME_HEIGHT, min_width=MIN_WIDTH)
 
 
 _SIDES = ("center", "below", "right", "left", "above")
@@ -265,7 +277,7 @@ def computed_figure(ds, title, model, window, v0, chaotic):
     fig.document.remove_root(fig)
     _lean(fig)
     _shared_parts(fig)
-    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
+    _fit(fig)
     return fig
 
 
@@ -331,7 +343,7 @@ class MapView:
         if drawn and self.on_zoom is not None:
             for r in (fig.x_range, fig.y_range):
                 r.on_change("end", self._zoomed)
-        self._decorate(fig)
+        self._decorate(fig, len(self.shown()))
         return fig
 
     def _zoomed(self, attr, old, new):
@@ -361,7 +373,7 @@ class MapView:
         if within(x, y, *window):
             on_click(round(x, 4), round(y, 4))
 
-    def _decorate(self, fig):
+    def _decorate(self, fig, maps=1):
         """The selected scene's and the device's markers on `fig`, its
         fonts in presentation mode.  The markers are drawn by bare
         renderers: no glyph copies for selected or muted data (neither
@@ -373,6 +385,19 @@ class MapView:
                           nonselection_glyph=None, muted_glyph=None)
         if self.scale_fonts is not None:
             self.scale_fonts(fig)
+        self._fit_key(fig, maps)
+
+    def _fit_key(self, fig, maps):
+        """The key below the map in one column where two columns would be
+        wider than the map (large fonts, `maps` maps side by side), else two."""
+        narrow = self.scale_fonts is not None or maps > 1
+        for key in fig.below:
+            if getattr(key, "name", None) == plots.KEY_NAME:
+                key.ncols = 1 if narrow else 2
+
+    def fit_keys(self):
+        for fig in self.figures:
+            self._fit_key(fig, len(self.figures))
 
     def redraw(self, *events):
         if self.computed is not None:

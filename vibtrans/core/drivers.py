@@ -36,7 +36,7 @@ import numpy as np
 
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, STICK, kernel_law, law_scales,
-                                           new_memory, reset_memory_law)
+                                           new_memory)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
@@ -248,10 +248,7 @@ def scene_scales(scene):
 
 def _new_memory(capacity, law):
     """A memory diagram at rest (a* = 1, b* = 0), in the law's format."""
-    mem = list(new_memory(capacity))
-    if law is not None:
-        reset_memory_law(*mem, 1.0, 0.0, law)
-    return mem
+    return list(new_memory(capacity, law))
 
 
 def _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,

@@ -78,6 +78,12 @@ class PowerLawProfile:
         """Contact radius over the static one: a*^(1/n)."""
         return np.power(np.maximum(np.asarray(a, float), 0.0), 1.0 / self.n)
 
+    def outline(self, rho):
+        """The tip's outline z / a0 at rho = r / (static contact radius):
+        z = C r^n and a0 = kappa_n C a_c^n (MDR) give rho^n / kappa_n."""
+        kappa = math.sqrt(math.pi) * math.gamma(self.n / 2 + 1) / math.gamma(self.n / 2 + 0.5)
+        return np.power(np.abs(np.asarray(rho, float)), self.n) / kappa
+
 
 @dataclass(frozen=True)
 class FlatSphereProfile:
@@ -120,6 +126,14 @@ class FlatSphereProfile:
     def contact_radius(self, a):
         s, s1 = self._sigma(a), self._sigma(1.0)
         return np.sqrt(self.flat_radius ** 2 + s * s) / math.sqrt(self.flat_radius ** 2 + s1 * s1)
+
+    def outline(self, rho):
+        """The tip's outline z / a0 at rho = r / (static contact radius):
+        z = (r^2 - c^2) / (2R) beyond the flat, r in units of sqrt(R a0)."""
+        g2 = self.flat_radius ** 2
+        s1 = float(self._sigma(1.0))
+        r2 = np.asarray(rho, float) ** 2 * (g2 + s1 * s1)
+        return np.maximum(r2 - g2, 0.0) / 2.0
 
 
 def mdr_g(r, z, x):
@@ -190,6 +204,8 @@ class TabulatedProfile:
         x, g, n_over = x[k0:], g[k0:], n_over[k0:]
         self.a0 = d0
         self.static_contact_radius = a_static
+        self._table = (r, z)
+        self._x = x
         self._a = g / d0                   # a* at contact radius x (increasing)
         self._N = n_over / target          # N*
         self._k = 2.0 * x * d0 / load_over_modulus   # dN*/da* = 2 E* a_c a0 / N0
@@ -209,6 +225,18 @@ class TabulatedProfile:
     def stiffness(self, a):
         """dN*/da* = 2 E* a_c a0 / N0."""
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._k)
+
+    def contact_radius(self, a):
+        """Contact radius over the static one at a* (the table's MDR)."""
+        x = np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._x)
+        return x / self.static_contact_radius
+
+    def outline(self, rho):
+        """The measured outline z / a0 at rho = r / (static contact radius)
+        (NaN beyond the table)."""
+        r, z = self._table
+        return np.interp(np.abs(np.asarray(rho, float)) * self.static_contact_radius, r, z,
+                         right=np.nan) / self.a0
 
 
 def parse_profile(text, load_over_modulus=None):

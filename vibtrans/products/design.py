@@ -36,6 +36,8 @@ import numpy as np
 from vibtrans.core import units
 from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans.core.units import DeviceSpec
+from vibtrans.products import designtip
+from vibtrans.products.designtip import TipShape, tip_shape  # noqa: F401
 # (in a module of their own: the command line's parser needs them without numpy)
 from vibtrans.products.designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, MAP_STEP,  # noqa: F401
                           PRESET_NAMES, REGIMES, velocity_unit)
@@ -137,8 +139,10 @@ def preset(name):
 class DeviceQuantities:
     """What practitioners check about a device (SI; docs/MODEL.md 5).
 
-    Static: mass [kg], load m g + P [N], a0 [m], contact radius sqrt(R a0) [m],
-    mean contact pressure load / (pi a_c^2) [Pa], A*, m*, theta, r, nu;
+    Static: mass [kg], load m g + P [N], a0 [m], contact radius sqrt(R a0) [m]
+    (a tip shape's own, designtip.static_contact), mean contact pressure
+    load / (pi a_c^2) [Pa], A*, m*, theta, r, nu; the tip (profile: its
+    name, edge_slope: the profile's slope at the contact edge);
     wave: Rayleigh speed [m/s] and wavelength [m], peak vertical surface
     acceleration [g] and velocity [m/s] (horizontal: r times these);
     adhesion: JKR and DMT pull-off [N].
@@ -167,6 +171,8 @@ class DeviceQuantities:
     contact_time: float | None = None
     travel_per_period: float | None = None
     travel_over_wavelength: float | None = None
+    profile: str = "sphere"
+    edge_slope: float | None = None
 
     def as_dict(self):
         return asdict(self)
@@ -182,24 +188,52 @@ def _surface_energy(value):
     return units._nonnegative("surface_energy", value)
 
 
-def device_quantities(device, reading=None, surface_energy=DEFAULT_SURFACE_ENERGY):
+def _device_tip(device, shape):
+    """(NormalizedScene, TipContact at the device, A*, m*) of a device with a
+    tip shape (the sphere: the NormalizedScene's own a0, A*, m*)."""
+    s = device.normalized()
+    if tip_shape(shape).is_sphere:       # the converter's own numbers, as before tips
+        a_c = math.sqrt(device.radius * s.a0)
+        tip = designtip.TipContact(np.asarray(s.a0), np.asarray(a_c),
+                                   np.asarray(a_c / device.radius),
+                                   np.asarray(s.load_N / (math.pi * a_c**2)), "sphere")
+        return s, tip, s.A_star, s.m_star
+    tip = designtip.static_contact(shape, device.radius, s.load_N, _e_eff(device))
+    a0 = float(tip.a0)
+    return s, tip, device.amplitude / a0, a0 * s.mass_kg * device.frequency ** 2 / s.load_N
+
+
+def _e_eff(device):
+    sub = units._as_material("substrate", device.substrate)
+    par = units._as_material("particle", device.particle)
+    return units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
+                                   par.youngs_modulus, par.poisson_ratio)
+
+
+def device_quantities(device, reading=None, surface_energy=DEFAULT_SURFACE_ENERGY,
+                      shape=None):
     """DeviceQuantities of a DeviceSpec; `reading` (from `read_device`) adds
-    the drift, contact time and travel per period."""
+    the drift, contact time and travel per period; `shape`: the tip
+    (designtip.tip_shape; None: the sphere)."""
     device = _device(device)
     w = _surface_energy(surface_energy)
-    s = device.normalized()
-    a_c = math.sqrt(device.radius * s.a0)
+    shape = tip_shape("sphere" if shape is None else shape)
+    s, tip, A_star, m_star = _device_tip(device, shape)
+    a_c = float(tip.contact_radius)
+    a0 = float(tip.a0)
     omega = 2 * math.pi * device.frequency
-    q = dict(mass=s.mass_kg, load=s.load_N, a0=s.a0, contact_radius=a_c,
-             mean_contact_pressure=s.load_N / (math.pi * a_c**2), A_star=s.A_star,
-             m_star=s.m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R,
+    q = dict(mass=s.mass_kg, load=s.load_N, a0=a0, contact_radius=a_c,
+             mean_contact_pressure=s.load_N / (math.pi * a_c**2), A_star=A_star,
+             m_star=m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R,
              rayleigh_wavelength=s.wavelength,
              peak_acceleration_g=omega**2 * device.amplitude / G_STANDARD,
              peak_velocity=omega * device.amplitude,
              pull_off_jkr=JKR_FACTOR * w * device.radius,
-             pull_off_dmt=DMT_FACTOR * w * device.radius)
+             pull_off_dmt=DMT_FACTOR * w * device.radius, profile=shape.name,
+             edge_slope=float(tip.edge_slope))
     if reading is not None and np.isfinite(reading["v_star"]):
-        v = s.drift_velocity_si(reading["v_star"])
+        v = (s.drift_velocity_si(reading["v_star"]) if shape.is_sphere
+             else a0 * device.frequency * float(reading["v_star"]))
         q.update(v_star=float(reading["v_star"]), drift_velocity=v,
                  contact_time=float(reading["contact_fraction"]) / device.frequency,
                  travel_per_period=v / device.frequency,
@@ -217,16 +251,22 @@ class ValidityWarning:
     threshold: float
 
 
-def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_velocity=None):
+def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_velocity=None,
+                      shape=None):
     """Where the model's assumptions fail for a device: a list of ValidityWarning.
 
     * a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS;
+    * with a tip `shape` (designtip.tip_shape; None: the sphere): the
+      profile's slope at the contact edge above designtip.MAX_EDGE_SLOPE
+      ('tip-slope': the contact radius against the tip's size), and a cone's
+      singular apex pressure ('cone-apex', always for a cone);
     * DMT pull-off 2 pi w R (w = surface_energy [J/m^2], default
       DEFAULT_SURFACE_ENERGY) at least ADHESION_RATIO times m g + P;
     * |drift_velocity| [m/s] / f at least TRAVEL_FRACTION of the Rayleigh
       wavelength (only when a drift velocity is given).
     """
-    q = device_quantities(device, surface_energy=surface_energy)
+    shape = tip_shape("sphere" if shape is None else shape)
+    q = device_quantities(device, surface_energy=surface_energy, shape=shape)
     out = []
     if q.a0 < ATOMIC_SPACING:
         out.append(ValidityWarning(
@@ -238,6 +278,9 @@ def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_veloc
             "contact-subatomic", f"contact radius {q.contact_radius:.3g} m is below "
             f"{MIN_CONTACT_RADIUS:g} m (ten interatomic spacings): Hertz theory does not "
             f"hold", q.contact_radius, MIN_CONTACT_RADIUS))
+    _, tip, _, _ = _device_tip(_device(device), shape)
+    out += [ValidityWarning(w.code, w.message, w.value, w.threshold)
+            for w in designtip.tip_warnings(shape, tip, _e_eff(device))]
     ratio = q.pull_off_dmt / q.load
     if ratio >= ADHESION_RATIO:
         out.append(ValidityWarning(
@@ -267,7 +310,9 @@ def chart_warnings(chart):
     a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS (both
     strictly below); adhesion_ratio (DMT pull-off / load) at least
     ADHESION_RATIO and travel_over_wavelength at least TRAVEL_FRACTION
-    (both at or above).  A NaN value crosses none."""
+    (both at or above); edge_slope (the tip profile's slope at the contact
+    edge) above designtip.MAX_EDGE_SLOPE, and a cone's apex (every point).
+    A NaN value crosses none."""
     out = []
     n = chart["a0"].size
     for var, below, threshold, what in (
@@ -277,11 +322,22 @@ def chart_warnings(chart):
             ("adhesion_ratio", False, ADHESION_RATIO,
              "DMT pull-off at least a tenth of the load"),
             ("travel_over_wavelength", False, TRAVEL_FRACTION,
-             "travel per period at least a hundredth of the wavelength")):
+             "travel per period at least a hundredth of the wavelength"),
+            ("edge_slope", None, designtip.MAX_EDGE_SLOPE,
+             f"tip profile's slope at the contact edge above {designtip.MAX_EDGE_SLOPE:g} "
+             f"(contact radius against the tip's size)")):
+        if var not in chart:
+            continue
         vals = chart[var].values
-        bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
+        if below is None:
+            bad = int((vals > threshold).sum())
+        else:
+            bad = int(((vals < threshold) if below else (vals >= threshold)).sum())
         if bad:
             out.append(f"{what} at {bad} of {n} points")
+    if str(chart.attrs.get("profile", "sphere")).startswith("cone"):
+        out.append(f"a cone's apex pressure is infinite (it yields or wears round) at all "
+                   f"{n} points")
     return out
 
 
@@ -304,9 +360,17 @@ def _axis(spec, name):
 
 
 def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.0,
-                   g=G_STANDARD):
+                   g=G_STANDARD, shape=None):
     """(a0 [m], A*, m*) of devices given as broadcastable arrays (radius [m],
-    frequency [Hz], amplitude [m]); the vectorized `units.to_normalized`."""
+    frequency [Hz], amplitude [m]); the vectorized `units.to_normalized`.
+    shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
+    a0, A, M, _ = _normalize_tip(substrate, particle, radius, frequency, amplitude, preload,
+                                 g, shape)
+    return a0, A, M
+
+
+def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape):
+    """normalize_grid's (a0, A*, m*) and the tip's TipContact."""
     sub = units._as_material("substrate", substrate)
     par = units._as_material("particle", particle)
     radius = np.asarray(units._positive("radius", radius), dtype=float)
@@ -318,8 +382,15 @@ def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.
     load = mass * g + preload
     E_eff = units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
                                     par.youngs_modulus, par.poisson_ratio)
-    a0 = (3 * load / (4 * E_eff * np.sqrt(radius))) ** (2.0 / 3.0)
-    return a0, amplitude / a0, a0 * mass * frequency**2 / load
+    shape = tip_shape("sphere" if shape is None else shape)
+    if shape.is_sphere:
+        a0 = (3 * load / (4 * E_eff * np.sqrt(radius))) ** (2.0 / 3.0)
+        a_c = np.sqrt(radius * a0)
+        tip = designtip.TipContact(a0, a_c, a_c / radius, load / (np.pi * a_c**2), "sphere")
+    else:
+        tip = designtip.static_contact(shape, radius, load, E_eff)
+        a0 = tip.a0
+    return a0, amplitude / a0, a0 * mass * frequency**2 / load, tip
 
 
 def materials_theta_nu(substrate, particle):
@@ -343,9 +414,20 @@ def _grid_range(values, step):
     return np.round(np.arange(lo, hi + step / 2, step), 10)
 
 
-def _shipped_problems(ds, theta, nu, mu, log_a, log_m):
-    """Why a shipped map cannot serve (list of text; empty if it can)."""
+def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
+                      load_over_modulus=None):
+    """Why a shipped map cannot serve (list of text; empty if it can).
+    profile: the normalized profile the points need (a tip's
+    TipContact.profile; the map's scene_profile, absent for the sphere)."""
     problems = []
+    mp = ds.attrs.get("scene_profile", "sphere")
+    if mp != profile:
+        problems.append(f"profile {profile} (map: {mp})")
+    elif load_over_modulus is not None and not math.isclose(
+            float(ds.attrs.get("scene_load_over_modulus", math.nan)), load_over_modulus,
+            rel_tol=designtip.SHARED_RELATIVE):
+        problems.append(f"load over modulus {load_over_modulus:.4g} m^2 (map: "
+                        f"{ds.attrs.get('scene_load_over_modulus')})")
     if not math.isclose(ds.attrs.get("scene_mu", math.nan), mu, rel_tol=1e-12):
         problems.append(f"mu {mu:g} (map: {ds.attrs.get('scene_mu')})")
     mt, mn = ds.attrs["scene_theta"], ds.attrs["scene_nu"]
@@ -376,10 +458,12 @@ def compute_cost(log_amplitude, log_mass, values):
 
 
 def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=2000.0,
-                 tau=50.0, fidelity=COMPUTE_FIDELITY, report=print, workers=None):
+                 tau=50.0, fidelity=COMPUTE_FIDELITY, report=print, workers=None,
+                 profile="sphere", load_over_modulus=None):
     """The normalized window covering (log_a, log_m) on a `step`-decade grid,
     computed with vibtrans.maps.sweep into a store under `store_dir` (kept: a rerun
-    reuses or resumes it). The cost is reported before anything runs."""
+    reuses or resumes it). The cost is reported before anything runs.
+    profile, load_over_modulus: the particle's normalized profile (Scene's)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
     step = units._check("step", step, 0.0, 1.0, hi_open=False)
@@ -397,6 +481,10 @@ def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=
                          f"use a coarser step or narrower axes")
     values = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
                   fidelity=fidelity)
+    if profile != "sphere":             # (the sphere's keys, and stores, as before)
+        values["profile"] = profile
+        if load_over_modulus is not None:
+            values["load_over_modulus"] = float(load_over_modulus)
     points, per, steps = compute_cost(la, lm, values)
     key = json.dumps({**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]},
                      sort_keys=True)
@@ -405,7 +493,8 @@ def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=
     report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x "
            f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
            f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
-           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g})")
+           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
+           + ("" if profile == "sphere" else f", profile {profile}") + ")")
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
@@ -454,11 +543,14 @@ def read_map(map_ds, log_a, log_m):
     return out
 
 
-def _shipped_map(log_a, log_m, mu, theta, nu, maps):
+def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere"):
     """(the shipped map of `mu` if it serves these points, else None; why
     it cannot: a list of text, empty when it can)."""
     from vibtrans.core.errors import StoreMismatch
     from vibtrans.maps.sweep import open_map
+    if profile != "sphere":
+        return None, [f"the shipped maps are the sphere's; profile {profile} needs a map "
+                      f"of its own"]
     path = shipped_map_path(mu, maps)
     if not path.exists():
         return None, [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
@@ -479,24 +571,27 @@ class NoMapCovers(InputError):
         self.need = need
 
 
-def _map_need(mu, theta, nu, log_a, log_m, problems):
+def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None):
     return MapNeed(float(mu), float(theta), float(nu),
                    (float(np.min(log_a)), float(np.max(log_a))),
-                   (float(np.min(log_m)), float(np.max(log_m))), tuple(problems))
+                   (float(np.min(log_m)), float(np.max(log_m))), tuple(problems), profile,
+                   load_over_modulus)
 
 
 def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
-                workers):
-    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps)
+                workers, profile="sphere", load_over_modulus=None):
+    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, profile)
     if ds is not None:
         return ds, f"shipped: {shipped_map_path(mu, maps).name}"
     if not compute:
         raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
                           + ". Compute the window with --compute (API: compute=True; a "
                             "preview-fidelity sweep, cost printed first) or narrow the axes",
-                          _map_need(mu, theta, nu, log_a, log_m, problems))
+                          _map_need(mu, theta, nu, log_a, log_m, problems, profile,
+                                    load_over_modulus))
     ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
-                             periods=periods, report=report, workers=workers)
+                             periods=periods, report=report, workers=workers, profile=profile,
+                             load_over_modulus=load_over_modulus)
     return ds, f"computed: {where}"
 
 
@@ -519,11 +614,15 @@ class ChartGrid:
     m_star: np.ndarray
     theta: float
     nu: float
+    shape: TipShape = TipShape()
+    tip: designtip.TipContact | None = None
 
 
 def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
-               y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), g=G_STANDARD):
-    """The chart's ChartGrid (every value checked: InputError names it)."""
+               y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), g=G_STANDARD,
+               shape=None):
+    """The chart's ChartGrid (every value checked: InputError names it);
+    shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
     sub = units._as_material("substrate", substrate)
     par = units._as_material("particle", particle)
     xq, xv = _axis(x, "x")
@@ -537,10 +636,11 @@ def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
     fv = units._positive(f"fixed {fq}", fv)
     X, Y = np.meshgrid(xv, yv)
     dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
-    a0, A, M = normalize_grid(sub, par, dev["radius"], dev["frequency"], dev["amplitude"],
-                              preload, g)
+    shape = tip_shape("sphere" if shape is None else shape)
+    a0, A, M, tip = _normalize_tip(sub, par, dev["radius"], dev["frequency"], dev["amplitude"],
+                                   preload, g, shape)
     theta, nu = materials_theta_nu(sub, par)
-    return ChartGrid(sub, par, xq, xv, yq, yv, fq, fv, dev, a0, A, M, theta, nu)
+    return ChartGrid(sub, par, xq, xv, yq, yv, fq, fv, dev, a0, A, M, theta, nu, shape, tip)
 
 
 @dataclass(frozen=True)
@@ -554,25 +654,28 @@ class MapNeed:
     log_amplitude: tuple
     log_mass: tuple
     shipped_problems: tuple
+    profile: str = "sphere"
+    load_over_modulus: float | None = None
 
 
 def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
                 y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
-                maps=None, g=G_STANDARD):
+                maps=None, g=G_STANDARD, shape=None):
     """The MapNeed of a chart (design_chart's arguments): which map it
     reads, and whether a shipped one serves it.  Nothing is computed."""
-    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     mu = units._positive("mu", mu)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
-    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps)
-    return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems)
+    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile)
+    return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile,
+                     grid.tip.load_over_modulus)
 
 
 def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
                  y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
                  surface_energy=DEFAULT_SURFACE_ENERGY, maps=None, compute=False,
                  store_dir=None, step=MAP_STEP, periods=2000.0, report=print, workers=None,
-                 g=G_STANDARD, map_ds=None, map_name="given map"):
+                 g=G_STANDARD, map_ds=None, map_name="given map", shape=None):
     """The design chart: an xarray Dataset over the two device axes (dims
     (y, x), coordinates in SI) with drift_velocity [m/s] = a0 f v*, v_star,
     drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES index),
@@ -588,8 +691,14 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
     map_ds: read this normalized map instead (a map on demand: an opened
     sweep store; refused unless its mu, theta, nu and window serve the
     chart), named `map_name` in the chart's attrs.
+    shape: the particle's tip (designtip.tip_shape: cone half-angle, tip
+    radius, flat radius in SI, or a measured table; None: the sphere); the
+    map read is that profile's (shipped maps are the sphere's: another
+    profile needs compute=True or its own map_ds); attrs name it (profile,
+    map_profile) and edge_slope holds the profile's slope at the contact edge.
     """
-    grid = chart_grid(substrate, particle, preload, x, y, fixed, g)
+    grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
+    tip = grid.tip
     sub, par = grid.substrate, grid.particle
     xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
         grid.fixed_value
@@ -601,14 +710,16 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
     theta, nu = grid.theta, grid.nu
     log_a, log_m = np.log10(A), np.log10(M)
     if map_ds is not None:
-        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m)
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, tip.profile,
+                                     tip.load_over_modulus)
         if problems:
             raise InputError(f"the {map_name} does not serve this chart: "
                              + "; ".join(problems))
         source = map_name
     else:
         map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
-                                     step, periods, report, workers)
+                                     step, periods, report, workers, tip.profile,
+                                     tip.load_over_modulus)
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
     c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
@@ -634,7 +745,10 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
         "log_mass_read": (dims, got["log_mass_read"],
                           {"description": "log10 m* of the map point read"}),
         "a0": (dims, a0, {"units": "m"}),
-        "contact_radius": (dims, np.sqrt(dev["radius"] * a0), {"units": "m"}),
+        "contact_radius": (dims, np.broadcast_to(tip.contact_radius, a0.shape).copy(),
+                           {"units": "m"}),
+        "edge_slope": (dims, np.broadcast_to(tip.edge_slope, a0.shape).copy(),
+                       {"description": "the tip profile's slope at the static contact edge"}),
         "adhesion_ratio": (dims, DMT_FACTOR * w * dev["radius"] / load,
                            {"description": "DMT pull-off 2 pi w R over m g + P"}),
         "travel_over_wavelength": (dims, np.abs(v) / c_R,
@@ -648,6 +762,7 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
         "substrate": sub.name, "particle": par.name, "preload_N": float(preload),
         "gravity": float(g), "mu": float(mu), "theta": float(theta), "nu": float(nu),
         "surface_energy": float(w), "x": xq, "y": yq, "fixed": fq,
+        "profile": grid.shape.name, "map_profile": tip.profile,
         "fixed_value": float(fv), "fixed_units": _UNITS[fq], "map": source,
         "map_theta": float(map_ds.attrs["scene_theta"]),
         "map_nu": float(map_ds.attrs["scene_nu"]),
@@ -664,26 +779,32 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
 _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
-def read_device(device, mu=0.3, maps=None, chart=None, map_ds=None, map_name="given map"):
+def read_device(device, mu=0.3, maps=None, chart=None, map_ds=None, map_name="given map",
+                shape=None):
     """The map reading at one device (dict: v_star, contact_fraction, regime,
     map), from `map_ds` (named map_name) or `chart`'s map when given (nearest
     chart point is NOT used: the device is mapped itself), else from the
     shipped map; None when no map serves the device (outside, other
-    theta/nu/mu)."""
+    theta/nu/mu, another profile).  shape: the particle's tip (None: the sphere)."""
     from vibtrans.maps.sweep import open_map
-    s = _device(device).normalized()
-    la, lm = np.log10([s.A_star]), np.log10([s.m_star])
+    shape = tip_shape("sphere" if shape is None else shape)
+    s, tip, A_star, m_star = _device_tip(_device(device), shape)
+    la, lm = np.log10([A_star]), np.log10([m_star])
+    need = (tip.profile, tip.load_over_modulus)
     if map_ds is not None:
-        if _shipped_problems(map_ds, s.theta, s.nu, float(mu), la, lm):
+        if _shipped_problems(map_ds, s.theta, s.nu, float(mu), la, lm, *need):
             return None
         return _reading(map_ds, la, lm, map_name)
     path = shipped_map_path(mu, maps)
     if chart is not None and chart.attrs["map"].startswith("computed: "):
         path = Path(chart.attrs["map"].split(": ", 1)[1])
+    elif not shape.is_sphere:
+        return None                   # the shipped maps are the sphere's
     if not path.exists():
         return None
     ds = open_map(str(path))
-    if chart is None and _shipped_problems(ds, s.theta, s.nu, float(mu), la, lm):
+    if _shipped_problems(ds, s.theta, s.nu, float(mu), la, lm, *need) and (
+            chart is None or ds.attrs.get("scene_profile", "sphere") != tip.profile):
         return None
     ga, gm = ds["log_amplitude"].values, ds["log_mass"].values
     if not (ga[0] <= la[0] <= ga[-1] and gm[0] <= lm[0] <= gm[-1]):

@@ -162,7 +162,7 @@ def _bokeh_key(entries):
         key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
         if key is None:
             key = Legend(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4,
-                         padding=4, spacing=2, label_text_font_size="9pt",
+                         padding=4, spacing=10, label_text_font_size="9pt",
                          border_line_alpha=0, background_fill_alpha=0)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
@@ -319,18 +319,19 @@ def resonance_lines(vertical, shown=True):
     return hv.Overlay(lines)
 
 
-def paper_points(model="deformable"):
-    """The paper's labelled points of one model."""
+def paper_points(model="deformable", color="black"):
+    """The paper's labelled points of one model (`color`: white on a dark
+    map, the Lyapunov layer's)."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)
-    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color="black"),
+    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color=color),
                    bokeh=dict(size=6), matplotlib=dict(s=18))
     ys = np.array(ys)
     # labels up and right of their point; below it at the map's top edge (point 7)
     dy = np.where(ys > 4.5, -0.45, 0.12)
     labels = hv.Labels((np.array(xs) + 0.12, ys + dy, ls), [LOG_A, LOG_M], "label")
-    labels = style(labels, bokeh=dict(text_color="black"),
-                   matplotlib=dict(color="black", size=11, horizontalalignment="left",
+    labels = style(labels, bokeh=dict(text_color=color),
+                   matplotlib=dict(color=color, size=11, horizontalalignment="left",
                                    verticalalignment="bottom", weight="bold"))
     return points * labels
 

@@ -17,7 +17,11 @@ which are measured side by side, more than the absolute times).
 * the particle profile's cost (issue 34): ns per step of the deformable
   kernel at paper point 1 with a power-law tip (power:3; goal <= 1.2) and a
   tabulated law (flat-sphere:1, interpolated; goal <= 1.5) over the
-  sphere's, measured round-robin;
+  sphere's, measured round-robin; and the cost of the profile code itself:
+  the sphere's own motion (same steps, same contact states) through the
+  power-law path (p = 3/2) and through the table path (flat-sphere:0, the
+  sphere tabulated) over Hertz's path (the profiles' own motions differ
+  from the sphere's: their share of stick, slip and flight steps differs);
 * each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
   ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
   switched off alone: its speed-up and the drift difference it makes.
@@ -31,6 +35,7 @@ fidelity with its tau twin (`export_bench`), to PNG, SVG and HTML, and each
 over a plain one-panel matplotlib PNG's, measured round-robin in one run.
 """
 import json
+import math
 import os
 import platform
 import time
@@ -40,6 +45,7 @@ import numpy as np
 from vibtrans.analysis.summary import V0, drift_velocity
 from vibtrans.core.kernels.contact import memory_history, new_memory, reset_memory
 from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import records as R
 from vibtrans.core.params import paper_scene
 from vibtrans.core.simulate import simulate
 from vibtrans.core.errors import InputError
@@ -151,6 +157,34 @@ def run(quick=False):
 PROFILE_BENCH = {"power": "power:3", "tabulated": "flat-sphere:1"}
 
 
+def _profile_same_motion_ns(repeat, point=1):
+    """ns per step of the sphere's scene at a paper point through Hertz's
+    path, the power-law path (p = 3/2: the sphere's law) and the table path
+    (flat-sphere:0, the sphere tabulated), with the sphere's step, measured
+    round-robin: the same motion (to rounding), so the ratios are the
+    profile code's own cost."""
+    from vibtrans.core import drivers
+    from vibtrans.core.kernels.contact import LAW_POWER, kernel_law
+    from vibtrans.core.profiles import FlatSphereProfile
+    from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
+    sc = paper_scene(point)
+    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
+                              None)
+    laws = [None, np.array([LAW_POWER, 1.5, 1.5, 0.0, 0.0]), kernel_law(FlatSphereProfile(0.0))]
+
+    def once(law):
+        t0 = time.perf_counter()
+        run = drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
+                                law=law)
+        return time.perf_counter() - t0, int(run.ctr[R.C_STEPS])
+    steps = [once(law)[1] for law in laws]            # warm-up
+    best = [math.inf] * len(laws)
+    for _ in range(repeat):
+        for i, law in enumerate(laws):
+            best[i] = min(best[i], once(law)[0])
+    return [1e9 * b / n for b, n in zip(best, steps)], steps
+
+
 def _profile_cost(repeat, point=1):
     """ns per step of the deformable kernel with each kind of profile law
     over the sphere's (its own Hertz path), at a paper point, round-robin."""
@@ -162,6 +196,11 @@ def _profile_cost(repeat, point=1):
         out[f"{kind}_profile"] = spec
         out[f"{kind}_ns_per_step"] = v
         out[f"{kind}_over_sphere"] = v / ns[0]
+    same, steps = _profile_same_motion_ns(repeat, point)
+    out["same_motion_steps"] = steps
+    out["same_motion_sphere_ns_per_step"] = same[0]
+    out["same_motion_power_over_sphere"] = same[1] / same[0]
+    out["same_motion_tabulated_over_sphere"] = same[2] / same[0]
     return out
 
 
@@ -313,6 +352,9 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
     print(f"  profiles, paper point {c['point']}: sphere {c['sphere_ns_per_step']:.1f} ns/step; "
           f"{c['power_profile']} {c['power_over_sphere']:.2f} x (goal <= 1.2); "
           f"{c['tabulated_profile']} {c['tabulated_over_sphere']:.2f} x (goal <= 1.5)")
+    print(f"  profile code, the sphere's own motion: power-law path "
+          f"{c['same_motion_power_over_sphere']:.2f} x, table path "
+          f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's")
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")

@@ -9,7 +9,8 @@ spring that entered contact at depth h.  Stuck springs never change w, so a
 committed step touches only the vertices it pushes or pops: O(1) amortized.
 
 Storage (plain arrays, so a kernel can stop and resume anywhere):
-    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius)
+    H        float64[capacity, 2]  vertex depth h and sqrt(h) (a radius);
+                                   with a profile [capacity, 3]: h, N*'(h), N*(h)
     W, P     float64[capacity]     anchor (minus w_ref), and the running
                                    integral of w h^(-1/2) dh from h = 0
     nvert    int64[2]              vertex count (0: no contact), and how many
@@ -54,23 +55,27 @@ def _segment_integral(s0, w0, s1, w1):
 #                              fine near a flat's a* = 0), N* its exact integral
 #                              (a cubic in s per cell); extrapolated linearly in s
 #   law[LAW_K1]     N*'(1): the static contact radius in these units
-#   law[LAW_SIZE]   grid points n (LAW_TABLE), then n values N*'_i and n values N*_i
-# With a profile the memory's vertex array holds (h, N*'(h)) instead of
-# (h, sqrt h), P the running integral of w dN*' (the h = 0 atom N*'(0) w(0)
-# included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
+#   law[LAW_SIZE]   grid points n (LAW_TABLE)
+#   law[LAW_INV]    1 / ds (LAW_TABLE: ds a power of 2, so s / ds = s * (1 / ds)
+#                   exactly: a multiply, not a divide, finds the cell), then
+#                   n values N*'_i and n values N*_i
+# With a profile the memory's vertex array has three columns (new_memory(law=))
+# and holds (h, N*'(h), N*(h)) instead of (h, sqrt h): the law is evaluated
+# once per new vertex, never in the integrals; P is the running integral of
+# w dN*' (the h = 0 atom N*'(0) w(0) included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
 # (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
 LAW_POWER = 0
 LAW_TABLE = 1
-LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE = range(4)
-LAW_HEAD = 4
+LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE, LAW_INV = range(5)
+LAW_HEAD = 5
 LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
-LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024
+LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024 (a power of 2: LAW_INV)
 
 
 def kernel_law(profile):
     """The kernels' form of a profile (contact.law_eval): None for the sphere
     (Hertz's own path, bit for bit as before profiles), a power law's
-    [LAW_POWER, p, p, 0], else a table [LAW_TABLE, ds, N*'(1), n, N*'_i.., N*_i..]
+    [LAW_POWER, p, p, 0, 0], else a table [LAW_TABLE, ds, N*'(1), n, 1/ds, N*'_i.., N*_i..]
     of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
     LAW_GRID_MAX), N*' linear in s on each cell and N* its exact integral,
     both scaled so that N*(1) = 1 exactly (the rest state's force balance).
@@ -79,7 +84,7 @@ def kernel_law(profile):
         if profile.n == 2.0:
             return None
         p = profile.exponent
-        return np.array([LAW_POWER, p, p, 0.0])
+        return np.array([LAW_POWER, p, p, 0.0, 0.0])
     s = np.linspace(0.0, math.sqrt(LAW_GRID_MAX), LAW_GRID_POINTS)
     ds = float(s[1])
     k = np.asarray(profile.stiffness(s * s), float)
@@ -91,7 +96,8 @@ def kernel_law(profile):
     i1 = int(round(1.0 / ds))
     scale = 1.0 / N[i1]      # a* = 1 is a grid point
     k, N = k * scale, N * scale
-    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size)], k, N))
+    assert ds == 2.0 ** round(math.log2(ds))     # (LAW_INV exact)
+    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size), 1.0 / ds], k, N))
 
 
 def law_scales(law):
@@ -108,41 +114,35 @@ def law_eval(law, a):
         p = law[LAW_ARG]
         if a <= 0.0:
             return 0.0, 0.0
-        k = p * a ** (p - 1.0)
+        q = p - 1.0
+        # the cone (q = 1): a^1 = a exactly, no pow() to call
+        k = p * (a if q == 1.0 else a ** q)
         return a * k / p, k
     n = int(law[LAW_SIZE])
     ds = law[LAW_ARG]
+    inv = law[LAW_INV]            # 1 / ds exactly (a power of 2)
     if a <= 0.0:
         return 0.0, law[LAW_HEAD]
     s = math.sqrt(a)
-    i = int(s / ds)
+    i = int(s * inv)
     if i > n - 2:
         i = n - 2
     si = i * ds
     t = s - si
     k0 = law[LAW_HEAD + i]
-    m = (law[LAW_HEAD + i + 1] - k0) / ds
+    m = (law[LAW_HEAD + i + 1] - k0) * inv
     # N* = N*_i + int_si^s (k0 + m (x - si)) 2 x dx
     dn = 2.0 * t * (k0 * si + t * (0.5 * (k0 + m * si) + m * t / 3.0))
     return law[LAW_HEAD + n + i] + dn, k0 + m * t
 
 
 @inline
-def _law_normal(law, h, k):
-    """N*(h) given N*'(h) = k (power laws: N* = h N*' / p, no power to take)."""
-    if law[LAW_KIND] == LAW_POWER:
-        return h * k / law[LAW_ARG]
-    return law_eval(law, h)[0]
-
-
-@inline
-def _segment_integral_law(law, h0, k0, w0, h1, k1, w1):
-    """Exact integral of w dN*'(h) over a segment, w linear in h:
-    w0 (k1 - k0) + (w1 - w0) (k1 - (N1 - N0) / (h1 - h0))."""
+def _segment_integral_law(h0, k0, n0, w0, h1, k1, n1, w1):
+    """Exact integral of w dN*'(h) over a segment, w linear in h, from the
+    ends' (h, N*'(h) = k, N*(h) = n, w): w0 (k1 - k0) + (w1 - w0) (k1 - (n1 - n0) / (h1 - h0))."""
     if h1 <= h0:
         return 0.0
-    dn = _law_normal(law, h1, k1) - _law_normal(law, h0, k0)
-    return w0 * (k1 - k0) + (w1 - w0) * (k1 - dn / (h1 - h0))
+    return w0 * (k1 - k0) + (w1 - w0) * (k1 - (n1 - n0) / (h1 - h0))
 
 
 @inline
@@ -158,6 +158,15 @@ def _push(H, W, nvert, h, sqrt_h, w):
 def _put(H, W, i, h, sqrt_h, w):
     H[i, 0] = h
     H[i, 1] = sqrt_h
+    W[i] = w
+
+
+@inline
+def _put_law(H, W, i, h, k, nn, w):
+    """A profile vertex: (h, N*'(h), N*(h)) and its anchor w."""
+    H[i, 0] = h
+    H[i, 1] = k
+    H[i, 2] = nn
     W[i] = w
 
 
@@ -181,8 +190,8 @@ def _integrals_to(H, W, P, i, n, law, profiled):
         i = 1
     while i < n:
         if profiled:
-            P[i] = P[i - 1] + _segment_integral_law(law, H[i - 1, 0], H[i - 1, 1], W[i - 1],
-                                                    H[i, 0], H[i, 1], W[i])
+            P[i] = P[i - 1] + _segment_integral_law(H[i - 1, 0], H[i - 1, 1], H[i - 1, 2],
+                                                    W[i - 1], H[i, 0], H[i, 1], H[i, 2], W[i])
         else:
             P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
         i += 1
@@ -198,19 +207,24 @@ def _integrals(H, W, P, nvert, law, profiled):
     return p
 
 
-def new_memory(capacity=256):
+def new_memory(capacity=256, law=None):
     """Memory of a particle set down without tangential load at a* = 1, b* = 0.
 
     Every spring in 0 <= h <= 1 is stuck with u = 0 (docs/MODEL.md section 2).
     Returns (H, W, P, nvert, memf): H[:, 0] = h, H[:, 1] = sqrt(h) of the
     vertices; nvert = (vertex count, count with up-to-date P).
+    With a profile `law` (kernel_law) H has a third column and the vertices
+    hold (h, N*'(h), N*(h)) (`reset_memory_law`).
     """
-    H = np.zeros((capacity, 2))
+    H = np.zeros((capacity, 2 if law is None else 3))
     W = np.zeros(capacity)
     P = np.zeros(capacity)
     nvert = np.zeros(2, dtype=np.int64)
     memf = np.array([1.0, 0.0, 0.0])
-    reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+    if law is None:
+        reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
+    else:
+        reset_memory_law(H, W, P, nvert, memf, 1.0, 0.0, law)
     return H, W, P, nvert, memf
 
 
@@ -230,15 +244,18 @@ def reset_memory(H, W, P, nvert, memf, a, b):
 
 @kernel
 def reset_memory_law(H, W, P, nvert, memf, a, b, law):
-    """`reset_memory` for a profile law (vertices hold (h, N*'(h)))."""
+    """`reset_memory` for a profile law (vertices hold (h, N*'(h), N*(h)):
+    H has three columns, `new_memory(law=)`)."""
     nvert[0] = 0
     nvert[1] = 0
     memf[0] = a
     memf[1] = b
     memf[2] = b
     if a > 0.0:
-        _push(H, W, nvert, 0.0, law_eval(law, 0.0)[1], 0.0)
-        _push(H, W, nvert, a, law_eval(law, a)[1], 0.0)
+        _put_law(H, W, 0, 0.0, law_eval(law, 0.0)[1], 0.0, 0.0)
+        na, ka = law_eval(law, a)
+        _put_law(H, W, 1, a, ka, na, 0.0)
+        nvert[0] = 2
         _integrals(H, W, P, nvert, law, True)
 
 
@@ -280,10 +297,12 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1):
             bc = b0 + (b1 - b0) * (-a0) / (a1 - a0)
         memf[2] = bc
         if profiled:
-            _push(H, W, nvert, 0.0, law_eval(law, 0.0)[1], 0.0)
+            _put_law(H, W, 0, 0.0, law_eval(law, 0.0)[1], 0.0, 0.0)
+            _put_law(H, W, 1, a1, c1, n1, b1 - bc)
+            nvert[0] = 2
         else:
             _push(H, W, nvert, 0.0, 0.0, 0.0)
-        _push(H, W, nvert, a1, c1, b1 - bc)
+            _push(H, W, nvert, a1, c1, b1 - bc)
         n = 2
     elif a1 > a0:
         # New springs lie on the segment from the old apex to (a1, b1): the
@@ -348,7 +367,10 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
     if side == 0.0:
         # No spring reached its limit: full stick.
         if top != _TOP_STORED:
-            _put(H, W, n, a1, c1, bp)
+            if profiled:
+                _put_law(H, W, n, a1, c1, n1, bp)
+            else:
+                _put(H, W, n, a1, c1, bp)
             n += 1
         elif W[n - 1] != bp:
             W[n - 1] = bp
@@ -382,8 +404,8 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
         # Re-base the anchors on b1 (cheap here: the stack is two vertices).
         memf[2] += bp
         if profiled:
-            _put(H, W, 0, 0.0, H[0, 1], side * a1)
-            _put(H, W, 1, a1, c1, 0.0)
+            _put_law(H, W, 0, 0.0, H[0, 1], 0.0, side * a1)
+            _put_law(H, W, 1, a1, c1, n1, 0.0)
             nvert[0] = 2
             nvert[1] = 0
             return -side * n1, 0.0, SLIDING
@@ -408,17 +430,19 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
         # the stick edge's N*, N*'; the annulus on the cone line, by parts:
         # int w dN*' = bp (k1 - ks) - side (a1 - hs) ks + side (N1 - Ns)
         ks = sk
+        ns = H[n - 1, 2]
         if hs > hk:
+            nk = ns
             ns, ks = law_eval(law, hs)
-            ps += _segment_integral_law(law, hk, sk, wk, hs, ks, bp + side * (a1 - hs))
-            _put(H, W, n, hs, ks, bp + side * (a1 - hs))
+            ws = bp + side * (a1 - hs)
+            ps += _segment_integral_law(hk, sk, nk, wk, hs, ks, ns, ws)
+            _put_law(H, W, n, hs, ks, ns, ws)
             P[n] = ps
             n += 1
         else:
             hs = hk
-            ns = _law_normal(law, hk, sk)
         pa = ps + bp * (c1 - ks) - side * (a1 - hs) * ks + side * (n1 - ns)
-        _put(H, W, n, a1, c1, bp)
+        _put_law(H, W, n, a1, c1, n1, bp)
         P[n] = pa
         nvert[0] = n + 1
         nvert[1] = n + 1
@@ -492,7 +516,7 @@ def tangential_force_history(a, b, a_start=1.0, b_start=0.0, law=None):
     """
     a = np.ascontiguousarray(a, dtype=np.float64)
     b = np.ascontiguousarray(b, dtype=np.float64)
-    H, W, P, nvert, memf = new_memory(a.shape[0] + 8)
+    H, W, P, nvert, memf = new_memory(a.shape[0] + 8, law)
     out = np.empty((a.shape[0], 3))
     if law is None:
         reset_memory(H, W, P, nvert, memf, a_start, b_start)

@@ -409,13 +409,21 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
 
 
 @helper
-def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
+def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh, c1,
                  scale, tangential, law, profiled):
     """One sample row at the step end t1 (contact and stick radii in units
-    of the static contact radius)."""
+    of the static contact radius).  c1: N*'(a1) of the step's contact force
+    (a profile's; in contact, st != FLIGHT, it is law_eval's at a1, and at
+    s_h = a1, full stick): no law evaluated twice."""
     if profiled:
-        c = law_eval(law, a1)[1] / law[LAW_K1] if a1 > 0.0 else 0.0
-        s = law_eval(law, sh)[1] / law[LAW_K1] if sh > 0.0 else 0.0
+        k = 0.0
+        if a1 > 0.0:
+            k = c1 if st != FLIGHT else law_eval(law, a1)[1]
+        ks = 0.0
+        if sh > 0.0:
+            ks = c1 if (sh == a1 and st != FLIGHT) else law_eval(law, sh)[1]
+        c = k / law[LAW_K1]
+        s = ks / law[LAW_K1]
     else:
         c = math.sqrt(a1) if a1 > 0.0 else 0.0
         s = math.sqrt(sh) if sh > 0.0 else 0.0
@@ -699,7 +707,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
-                         scale, tangential, law, profiled)
+                         c1, scale, tangential, law, profiled)
         if st == FLIGHT and stop_at_takeoff:
             break
     if lyapunov:

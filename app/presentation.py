@@ -1,0 +1,33 @@
+"""Presentation mode: a projector's sizes.  On the server, the figures'
+fonts (`scale_fonts`) and Bokeh's widget font (a CSS property the page's
+parts inherit, set by the page); in the browser, the root font size and the
+sidebar's width (app/browserside.py: Bootstrap sizes its buttons and inputs
+in rem, which no property of a part reaches)."""
+from bokeh.models import ColorBar, Legend, Title
+
+# the page's text, its widgets and the figures' fonts this much larger
+PRESENTATION_SCALE = 1.5
+BOKEH_FONT_PX = 12          # Bokeh's widgets' font size (its --bokeh-font-size default)
+SIDEBAR_WIDTH = 330         # px
+
+
+def scale_fonts(fig, factor):
+    """Set a Bokeh figure's text to `factor` times Bokeh's default sizes
+    (titles, axis labels and ticks, legends); factor 1 restores them."""
+    if getattr(fig, "renderers", None) is None:     # a layout: its children
+        for child in getattr(fig, "children", []):
+            scale_fonts(child[0] if isinstance(child, tuple) else child, factor)
+        return
+    def size(points):
+        return f"{points * factor:.3g}pt"
+    if isinstance(getattr(fig, "title", None), Title):
+        fig.title.text_font_size = size(10)
+    for axis in [*fig.xaxis, *fig.yaxis]:
+        axis.axis_label_text_font_size = size(10)
+        axis.major_label_text_font_size = size(8)
+    for item in [*fig.left, *fig.right, *fig.above, *fig.below, *fig.center]:
+        if isinstance(item, Legend):
+            item.label_text_font_size = size(9)
+        elif isinstance(item, ColorBar):
+            item.title_text_font_size = size(10)
+            item.major_label_text_font_size = size(8)

@@ -1,0 +1,130 @@
+"""The run's tabs: its trajectory, the particle's animation, the memory
+diagram, the downloads and the dynamics (section and orbit diagram).  What
+the first screen does not show is not built for it (a session's page costs
+the event loop that every session shares): the animation, the memory
+diagram and the dynamics are built when their tab is first opened, and
+each is fed the last run when it is looked at."""
+import panel as pn
+
+from ..controller import RUNNER
+from ..presentation import scale_fonts
+from ..texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
+from .animation import ParticleAnimation
+from .dynamics import DynamicsView
+from .memory import MemoryView
+
+# the tabs, in order (0: the trajectory)
+ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
+
+
+class RunTabs:
+    """trajectories: the TrajectoryView; exports: the ExportsView; error(text)
+    says a failure on the page."""
+
+    def __init__(self, trajectories, exports, error):
+        self.trajectories, self.exports, self.error = trajectories, exports, error
+        self.result = None                  # the last run shown (a RunResult)
+        self.animation = None               # the views, built when first opened
+        self.memory_view = None
+        self.dynamics_view = None
+        self.animated = None                # the RunResult the animation shows
+        self._memory_pending = None         # the run each has not seen yet
+        self._dynamics_pending = None
+        self.animation_box = pn.Column(sizing_mode="stretch_width")
+        self.memory_box = pn.Column(sizing_mode="stretch_width")
+        self.dynamics_box = pn.Column(sizing_mode="stretch_width")
+        self.tabs = pn.Tabs(
+            ("Trajectory", trajectories.panel),
+            ("Animation", self.animation_box),
+            ("Memory diagram", self.memory_box),
+            ("Downloads", exports.panel),
+            ("Dynamics", self.dynamics_box),
+            dynamic=True, sizing_mode="stretch_width", name="trajectory")
+        self.tabs.param.watch(self._on_tab, "active")
+        self.font_scale = 1.0               # presentation mode's, for the views built later
+
+    def scale_fonts(self, factor):
+        """The figures of the views built so far at `factor` times Bokeh's
+        font sizes (presentation mode), and those built later too."""
+        self.font_scale = factor
+        for box in (self.animation_box, self.memory_box, self.dynamics_box):
+            self._scale(box)
+
+    def _scale(self, box):
+        for pane in box.select(pn.pane.Bokeh):
+            scale_fonts(pane.object, self.font_scale)
+
+    def show(self, result):
+        """A new run: each tab shows it when opened, the open one at
+        `update_open`."""
+        self.result = result
+        self._memory_pending = (result.scene, float(result.ds["time"].values[-1]))
+        self._dynamics_pending = result
+
+    def update_open(self):
+        """The open tab's view shows the last run.  Called outside a frozen
+        hold: models it changes or adds while the document's model graph is
+        frozen reach the browser as references to models it was never sent
+        ("reference p4188 isn't known": the Dynamics tab, opened before its
+        run's result came, never showed its section)."""
+        self._update(self.tabs.active)
+
+    def cancelled(self):
+        """A run cancelled: what the tabs show is the previous run's."""
+        if self.memory_view is not None:
+            self.memory_view.mark_previous()
+
+    def clear(self):
+        """The session closed: the views' background work cancelled."""
+        if self.memory_view is not None:
+            self.memory_view.clear()       # cancels its background snapshots
+        if self.dynamics_view is not None:
+            self.dynamics_view.clear()     # and its sections and diagrams
+        self.trajectories.clear()
+
+    def _on_tab(self, event):
+        if event.new == DOWNLOADS_TAB:
+            self.exports.build()
+        self._update(event.new)
+
+    def _update(self, tab):
+        if tab == MEMORY_TAB:
+            self._update_memory()
+        elif tab == ANIMATION_TAB:
+            self._update_animation()
+        elif tab == DYNAMICS_TAB:
+            self._update_dynamics()
+
+    def _update_dynamics(self):
+        """The section and orbit diagram of the last run, computed when first
+        looked at."""
+        if self.dynamics_view is None:
+            self.dynamics_view = DynamicsView(RUNNER)
+            self.dynamics_view.error = self.error
+            self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
+            self._scale(self.dynamics_box)
+        pending, self._dynamics_pending = self._dynamics_pending, None
+        if pending is not None:
+            self.dynamics_view.set_run(pending.scene, pending.ds)
+
+    def _update_animation(self):
+        """The animation of the last run, built when first looked at."""
+        if self.animation is None:
+            self.animation = ParticleAnimation()
+            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
+            self._scale(self.animation_box)
+        result = self.result
+        if result is not None and self.animated is not result:
+            self.animated = result
+            self.animation.show(result.scene, result.ds)
+
+    def _update_memory(self):
+        """The memory view of the last run, computed when first looked at."""
+        if self.memory_view is None:
+            self.memory_view = MemoryView(RUNNER)
+            self.memory_view.error = self.error
+            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
+            self._scale(self.memory_box)
+        pending, self._memory_pending = self._memory_pending, None
+        if pending is not None:
+            self.memory_view.set_run(*pending)      # clears it for a point mass

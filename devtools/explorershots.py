@@ -1,0 +1,169 @@
+"""Screenshots of the explorer as a newcomer sees it, to look at: Debian's
+headless chromium opens a server of its own (tests/netutil.py's Served) at
+1024 x 768, 1280 x 800 and 1920 x 1080 and saves the whole page in each of
+these states:
+
+    main           the page as it opens (the template's main area scrolls by
+                   itself: the shots of the run's tabs are of the screen
+                   with the tab's header at the top, and one screen on)
+    orbits         the map with its period-1 orbit curves (a longer key)
+    lyapunov       the map's Lyapunov layer
+    both           both models' maps
+    run-<tab>      after Run: each of the run's tabs (Trajectory, Animation,
+                   Memory diagram, Downloads, Dynamics)
+    presentation   presentation mode, after the run
+    no-sidebar     presentation mode with the sidebar hidden
+
+It also prints, per screen, the map plot's frame (its data area) in each map
+state, so a frame that shrinks when the key grows is seen in numbers.
+
+    python -m devtools.explorershots [--out DIR] [--sizes 1024x768 ...]
+"""
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+from devtools.chromium import launched
+
+ROOT = Path(__file__).resolve().parent.parent
+SIZES = ["1024x768", "1280x800", "1920x1080"]
+RUN_TABS = ["Trajectory", "Animation", "Memory diagram", "Downloads", "Dynamics"]
+
+# The shown map's plot: its frame (the data area), its left edge and its
+# colour bar's fonts, CSS px.
+MAP_JS = """() => {
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.x_range === undefined || m.renderers === undefined) continue;
+    const t = m.title && String(m.title.text);
+    if (!(m.name === "map" || (t && (t.startsWith("<v*> over") || t.startsWith("Lyapunov")))))
+      continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v || v.el.getClientRects().length === 0) continue;
+    const bars = [...m.right, ...m.left, ...m.below, ...m.above, ...m.center]
+      .filter((a) => a.type === "ColorBar");
+    return {frame_width: v.frame.bbox.width, frame_height: v.frame.bbox.height,
+            left: v.el.getBoundingClientRect().left,
+            bar_ticks: bars.length ? bars[0].major_label_text_font_size : null,
+            bar_title: bars.length ? bars[0].title_text_font_size : null};
+  }
+  return null;
+}"""
+
+
+IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
+
+
+def _served():
+    sys.path.insert(0, str(ROOT / "tests"))
+    from netutil import Served
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
+    return Served(env=env, cwd=ROOT)
+
+
+def _settle(page, ms=1500):
+    page.wait_for_function(IDLE_JS, timeout=120000)
+    page.wait_for_timeout(ms)
+
+
+def _button(page, name):
+    page.get_by_role("button", name=name, exact=True).first.click()
+    _settle(page)
+
+
+def shots(browser, url, size, out, log=print):
+    width, height = (int(v) for v in size.split("x"))
+    page = browser.new_page(viewport={"width": width, "height": height})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_selector("canvas", timeout=120000)
+    page.get_by_text("Paper points").first.wait_for(timeout=120000)
+    _settle(page)
+    frames = {}
+
+    def shot(name):
+        page.screenshot(path=str(out / f"{name}-{size}.png"), full_page=True)
+        log(f"  {name}-{size}.png")
+
+    shot("main")
+    frames["main"] = page.evaluate(MAP_JS)
+    _button(page, "period-1 orbit curves")
+    shot("orbits")
+    frames["orbits"] = page.evaluate(MAP_JS)
+    _button(page, "no orbit curves")
+    _button(page, "Lyapunov exponent")
+    shot("lyapunov")
+    frames["lyapunov"] = page.evaluate(MAP_JS)
+    _button(page, "drift velocity")
+    _button(page, "both models")
+    shot("both")
+    frames["both"] = page.evaluate(MAP_JS)
+    _button(page, "selected model")
+    page.get_by_role("button", name="Run selected scene").first.click()
+    page.locator("strong", has_text="mu = ").first.wait_for(timeout=120000)
+    _settle(page)
+    for tab in RUN_TABS:
+        header = page.get_by_text(tab, exact=True).first
+        header.click()
+        _settle(page, 3000)
+        # the template's main area scrolls by itself (a full-page shot
+        # does not see it): the tab's header at the top, then a screen on
+        header.evaluate("(e) => e.scrollIntoView({block: 'start'})")
+        page.wait_for_timeout(300)
+        name = "run-" + tab.lower().replace(" ", "-")
+        shot(name)
+        page.mouse.move(width * 0.7, height * 0.6)
+        page.mouse.wheel(0, height * 0.8)
+        page.wait_for_timeout(500)
+        shot(name + "-2")
+    page.get_by_text("Trajectory", exact=True).first.click()
+    toggle = page.locator(".vt-presentation").first
+    label = page.get_by_text("Paper points").first
+    small = float(label.evaluate("(e) => getComputedStyle(e).fontSize").rstrip("px"))
+    toggle.locator("button").first.click()
+    # the server's styles come after the browser's own change: until the labels grew
+    page.wait_for_function("([e, px]) => parseFloat(getComputedStyle(e).fontSize) > px",
+                           arg=[label.element_handle(), small], timeout=60000)
+    _settle(page)
+    page.evaluate("() => window.scrollTo(0, 0)")
+    shot("presentation")
+    frames["presentation"] = page.evaluate(MAP_JS)
+    hide = page.locator("#sidebar-toggle")
+    if hide.count():
+        hide.first.click()
+        _settle(page)
+        shot("no-sidebar")
+        frames["no-sidebar"] = page.evaluate(MAP_JS)
+    page.close()
+    return {"size": size, "frames": frames, "errors": errors}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default=str(ROOT / "test-artifacts" / "explorer"))
+    parser.add_argument("--sizes", nargs="+", default=SIZES)
+    parser.add_argument("--url", help="a running explorer instead of a server of its own")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    server = None
+    url = args.url
+    if url is None:
+        server = _served()
+        server.wait_page()
+        server.wait_kernels()
+        url = server.url
+    try:
+        with launched() as browser:
+            for size in args.sizes:
+                print(size)
+                print(json.dumps(shots(browser, url, size, out)))
+    finally:
+        if server is not None:
+            server.stop()
+
+
+if __name__ == "__main__":
+    main()
