@@ -15,6 +15,21 @@ def new_page(browser, width, height):
     return page, errors
 
 
+# every Bokeh document of the page has rendered its roots (BokehJS's
+# Document.is_idle: true once each root's views are first drawn)
+_IDLE_JS = ("() => window.Bokeh !== undefined && window.Bokeh.documents.length > 0 "
+            "&& window.Bokeh.documents.every((d) => d.is_idle)")
+# two animation frames: the browser has laid out and painted what was drawn
+_FRAMES_JS = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+
+
+def settle(page, timeout_s=60):
+    """Wait until the page's Bokeh documents have rendered (is_idle), then
+    for two animation frames (layout and paint, e.g. after a resize)."""
+    page.wait_for_function(_IDLE_JS, timeout=budget_ms(timeout_s))
+    page.evaluate(_FRAMES_JS)
+
+
 def open_explorer(page, url):
     """Load the explorer at `url` and wait for its map and its controls."""
     page.goto(url)

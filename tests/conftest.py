@@ -4,7 +4,11 @@ served_explorer: one `vibtrans serve` for the whole test session (a real
 command line on a free port, so it starts as from a shell: maps checked,
 re-executed on the C allocator, kernels compiled in the background), used
 by the browser, security and server tests; yields the netutil.Served
-(.url, .port, .proc, .text() for its log)."""
+(.url, .port, .proc, .text() for its log).
+
+browser: a headless chromium (devtools/chromium.py) for one test module,
+closed at its end (tests that launch their own, or the load test's, then
+start from a clean state)."""
 import os
 import shutil
 import tempfile
@@ -36,6 +40,13 @@ def served_explorer():
     finally:
         server.stop()
         shutil.rmtree(maps, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from devtools.chromium import launched
+    with launched() as b:
+        yield b
 
 
 def pytest_report_header(config):

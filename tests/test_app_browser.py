@@ -13,7 +13,7 @@ import pytest
 
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET
 
-from devtools.chromium import launched
+from browserpages import settle
 from budget import budget_ms
 
 pytestmark = pytest.mark.browser
@@ -28,12 +28,6 @@ def server(served_explorer):
     return served_explorer.url
 
 
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
-
-
 @pytest.fixture
 def page(browser, server, request):
     pg = browser.new_page(viewport={"width": 1400, "height": 1000})
@@ -43,7 +37,7 @@ def page(browser, server, request):
     ARTIFACTS.mkdir(exist_ok=True)
     # the template scrolls its main column itself: a tall viewport shows it all
     pg.set_viewport_size({"width": 1400, "height": 3300})
-    pg.wait_for_timeout(1000)
+    settle(pg)                                   # laid out again at that size
     pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}.png"), full_page=True)
     pg.close()
     assert not errors, errors
@@ -53,7 +47,7 @@ def _open(page, url):
     page.goto(url)
     page.wait_for_selector("canvas", timeout=budget_ms(60))
     page.wait_for_selector("text=Paper points", timeout=budget_ms(60))
-    page.wait_for_timeout(1000)
+    settle(page)                                 # its figures drawn and laid out
 
 
 def _summary_text(page):
@@ -73,6 +67,22 @@ _SOURCES_JS = """() => {
   return out;
 }"""
 _MODELS_JS = "() => window.Bokeh.documents.reduce((n, d) => n + d.all_models.size, 0)"
+# at least `count` canvases of the page (through the shadow roots Bokeh
+# renders into) wider than `width` and taller than `height` CSS px
+_BIG_CANVASES_JS = """([width, height, count]) => {
+  let n = 0;
+  const visit = (root) => {
+    for (const el of root.querySelectorAll("*")) {
+      if (el.shadowRoot) visit(el.shadowRoot);
+      if (el.tagName === "CANVAS") {
+        const r = el.getBoundingClientRect();
+        if (r.width > width && r.height > height) n += 1;
+      }
+    }
+  };
+  visit(document);
+  return n >= count;
+}"""
 # each figure: title, the id and extent of its x range
 _FIGURES_JS = """() => {
   const out = [];
@@ -124,7 +134,8 @@ def test_paper_point_runs_and_plots(page, server):
     _see(page, "Whole run")
     _see(page, "Last 2 periods at full resolution")
     # the trajectory figure is drawn: its canvases have a real size
-    page.wait_for_timeout(2000)
+    page.wait_for_function(_BIG_CANVASES_JS, arg=[500, 100, 3], timeout=budget_ms(30),
+                           polling=100)
     sizes = [c.bounding_box() for c in page.locator("canvas").all()]
     assert sum(1 for b in sizes if b and b["width"] > 500 and b["height"] > 100) >= 3
     # ... and data: the whole run in per-bin envelopes (one source for its

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import pytest
 
-from devtools.chromium import launched
 
 from browserpages import new_page, open_explorer
 from budget import budget, budget_ms
@@ -25,12 +24,6 @@ _TITLES_JS = """() => {
     if (m.title != null && m.title.text !== undefined) out.push(m.title.text);
   return out;
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
 
 
 def _shot(page, name):

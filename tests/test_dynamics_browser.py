@@ -10,7 +10,6 @@ from urllib.parse import quote
 
 import pytest
 
-from devtools.chromium import launched
 
 from browserpages import new_page, open_explorer
 from budget import budget_ms
@@ -55,12 +54,6 @@ _STATE_JS = """(scroll) => {
 }"""
 
 
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
-
-
 @pytest.mark.parametrize("width, height", SCREENS, ids=[f"{w}x{h}" for w, h in SCREENS])
 def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height):
     page, errors = new_page(browser, width, height)
@@ -90,7 +83,10 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
     except Exception:
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / f"dynamics-{width}x{height}-failed.png"))
+        print("page errors:", errors)
+        print("server log:", served_explorer.text()[-4000:])
         raise
     finally:
         page.close()
     assert not errors, errors
+

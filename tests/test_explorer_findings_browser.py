@@ -4,7 +4,6 @@ import pytest
 
 from browserpages import new_page, open_explorer
 from budget import budget_ms
-from devtools.chromium import launched
 
 pytestmark = pytest.mark.browser
 
@@ -30,12 +29,6 @@ _LEGEND_LABELS_JS = """() => {
   }
   return out;
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
 
 
 def test_both_models_click_names_both_lines_of_the_x_legend(browser, served_explorer):

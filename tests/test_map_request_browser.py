@@ -6,7 +6,6 @@ from pathlib import Path
 
 import pytest
 
-from devtools.chromium import launched
 from vibtrans_explorer import maprequest
 
 from browserpages import new_page, open_explorer
@@ -31,12 +30,6 @@ _RECORD_JS = """() => {
         window.__mapTexts.push(e.value);
     });
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
 
 
 def _field(page, name, text):

@@ -30,7 +30,6 @@ from pathlib import Path
 import pytest
 
 
-from devtools.chromium import launched
 from devtools.explorershots import MAP_JS as _MAP_JS
 from budget import budget, budget_ms
 
@@ -106,12 +105,6 @@ _GEOMETRY_JS = """(scroll) => {
           map: mapView ? box(mapView.el.getBoundingClientRect()) : null, colorbar,
           panel: panels.length ? box(panels[0]) : null};
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with launched() as b:
-        yield b
 
 
 @pytest.fixture
