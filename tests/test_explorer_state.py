@@ -81,6 +81,17 @@ def _open(monkeypatch, query=""):
     ex.stand_in = stand_in
     ex.pending = []
     ex.controller.schedule = ex.pending.append       # finished by the `finish` rule
+    # every job started (a click, a paper point, Run): `settled` waits for
+    # their simulate calls, which the runner's threads make in their own time
+    ex.jobs = []
+    start = ex.controller.start
+
+    def recorded(*args, **kwargs):
+        job = start(*args, **kwargs)
+        if job is not None:
+            ex.jobs.append(job)
+        return job
+    ex.controller.start = recorded
     ex.main()
     ex.units_panel.__panel__()                       # the device's form
     return ex
@@ -117,6 +128,14 @@ class ExplorerMachine(RuleBasedStateMachine):
         self.last_run = None        # (the scene the state had at Run, job or None)
 
     # ------------------------------------------------------------ helpers
+    def settled(self):
+        """The scenes asked for so far, once every job started has called
+        simulate (a run started by an earlier step must not count as this
+        step's)."""
+        for job in self.ex.jobs:
+            concurrent.futures.wait(job.futures, timeout=120)
+        return len(self.ex.stand_in.scenes)
+
     def field(self, name):
         for f in [*self.ex.fields, *self.ex.units_panel.form]:
             if isinstance(f, inputs.NumberField) and f.name_ == name:
@@ -127,7 +146,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         """Run (by `start`) and check what it did: the state's scene, or a
         refusal naming the invalid field."""
         ex = self.ex
-        before = len(ex.stand_in.scenes)
+        before = self.settled()
         job = start()
         if job is None:
             assert ex.message.visible and ex.message.object, "a refused run says why"
@@ -186,7 +205,7 @@ class ExplorerMachine(RuleBasedStateMachine):
     @rule()
     def run_device(self):
         ex = self.ex
-        before = len(ex.stand_in.scenes)
+        before = self.settled()
         job = ex._run_device()
         if job is not None:
             la, lm, theta, nu = ex.state.device_scene_values()
