@@ -29,7 +29,8 @@ from .browserside import ACK_RUN, ack_js, ack_listener
 from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
-from .presentation import BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, scale_fonts
+from .presentation import (BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, WRAPPING_TABS,
+                           scale_fonts)
 from .texts import INTRODUCTION, MAP_KEY, POINT_LABELS, PRESENTATION_NOTE, STALE_TEXT
 from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
                     SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, ExplorerState,
@@ -539,7 +540,7 @@ class Explorer(pn.viewable.Viewer):
             ("Map on demand", self.ondemand.ondemand_box),
             ("Difference", self.difference.panel),
             ("Design", self.design_box),
-            dynamic=True, sizing_mode="stretch_width",
+            dynamic=True, sizing_mode="stretch_width", stylesheets=[WRAPPING_TABS],
         )
         tabs.param.watch(self._on_tab, "active")
         self.map_tabs = self.ondemand.map_tabs = tabs

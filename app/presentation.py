@@ -9,6 +9,9 @@ from bokeh.models import ColorBar, Legend, Title
 PRESENTATION_SCALE = 1.5
 BOKEH_FONT_PX = 12          # Bokeh's widgets' font size (its --bokeh-font-size default)
 SIDEBAR_WIDTH = 330         # px
+# Tabs whose headers wrap onto a second row where they do not fit (large
+# fonts in half a screen) instead of scrolling sideways, cut off
+WRAPPING_TABS = ".bk-headers-wrapper { flex-wrap: wrap; }"
 
 
 def scale_fonts(fig, factor):

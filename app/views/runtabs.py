@@ -7,7 +7,7 @@ each is fed the last run when it is looked at."""
 import panel as pn
 
 from ..controller import RUNNER
-from ..presentation import scale_fonts
+from ..presentation import WRAPPING_TABS, scale_fonts
 from ..texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
 from .animation import ParticleAnimation
 from .dynamics import DynamicsView
@@ -39,7 +39,8 @@ class RunTabs:
             ("Memory diagram", self.memory_box),
             ("Downloads", exports.panel),
             ("Dynamics", self.dynamics_box),
-            dynamic=True, sizing_mode="stretch_width", name="trajectory")
+            dynamic=True, sizing_mode="stretch_width", name="trajectory",
+            stylesheets=[WRAPPING_TABS])
         self.tabs.param.watch(self._on_tab, "active")
         self.font_scale = 1.0               # presentation mode's, for the views built later
 
