@@ -383,9 +383,7 @@ class Explorer(pn.viewable.Viewer):
             for fig in self.map_view.figures:
                 scale_fonts(fig, factor)
             self.map_view.fit_keys()
-            for view in self.trajectories.views.values():
-                scale_fonts(view.whole, factor)
-                scale_fonts(view.part, factor)
+            self.trajectories.scale_fonts(factor)
             self.runs.scale_fonts(factor)
             if event.new and getattr(self, "intro", None) is not None:
                 self.intro.collapsed = True
@@ -404,10 +402,7 @@ class Explorer(pn.viewable.Viewer):
         if job is not None and structure(job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
-                    view = self.trajectories.view(job.label, job.scene.tau)
-                    if self.presentation:
-                        scale_fonts(view.whole, PRESENTATION_SCALE)
-                        scale_fonts(view.part, PRESENTATION_SCALE)
+                    self.trajectories.view(job.label, job.scene.tau)
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
@@ -478,12 +473,7 @@ class Explorer(pn.viewable.Viewer):
         # a frozen hold would recompute it at its end regardless (~30 ms per
         # click under load), so only a first run of a structure freezes.
         with pn.io.hold(freeze=key not in self.trajectories.views):
-            new = key not in self.trajectories.views
             self.trajectories.show(result, self.units_panel.period_seconds(scene))
-            if new and self.presentation:
-                view = self.trajectories.views[key]
-                scale_fonts(view.whole, PRESENTATION_SCALE)
-                scale_fonts(view.part, PRESENTATION_SCALE)
             self.exports.show(result)
             self.summary_view.show(result)
             self.stale_note.visible = False

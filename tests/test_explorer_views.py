@@ -72,6 +72,8 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.run_tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
+    view = ex.trajectories.view(None, 50.0)       # and a run's figures built while large
+    assert view.part.children[0].title.text_font_size == "15pt"
     assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}

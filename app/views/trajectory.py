@@ -8,6 +8,7 @@ import panel as pn
 from vibtrans.products.plots import FRAGMENT
 
 from ..live import LiveTrajectory
+from ..presentation import scale_fonts
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -24,6 +25,15 @@ class TrajectoryView:
     def __init__(self):
         self.views = {}          # structure(label) -> LiveTrajectory
         self.panel = pn.Column(sizing_mode="stretch_width", name="trajectory-figures")
+        self.font_scale = 1.0    # presentation mode's, for the figures built later
+
+    def scale_fonts(self, factor):
+        """The figures built so far at `factor` times Bokeh's font sizes
+        (presentation mode), and those built later too."""
+        self.font_scale = factor
+        for view in self.views.values():
+            scale_fonts(view.whole, factor)
+            scale_fonts(view.part, factor)
 
     def view(self, label, tau):
         """The session's figures of a run's structure: built once, then fed
@@ -40,6 +50,9 @@ class TrajectoryView:
                                  f"within a period shows)"),
                 pn.pane.Bokeh(view.part, name="fragment", sizing_mode="stretch_width"),
                 sizing_mode="stretch_width", visible=False)    # until its run is shown
+            if self.font_scale != 1.0:
+                scale_fonts(view.whole, self.font_scale)
+                scale_fonts(view.part, self.font_scale)
             self.views[key] = view
             self.panel.append(view.panel)
         return view
