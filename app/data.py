@@ -287,6 +287,17 @@ def vertical_curve():
 vertical_curve.cache_clear = _load_vertical.cache_clear
 
 
+def forget():
+    """Forget every file read, or found missing, in ASSETS (the maps, the
+    Lyapunov maps, the vertical curve, the period-one chart): the next call
+    reads the folder again, as a new process would (the verified stamps,
+    kept in the user's cache folder, stay).  For a folder that changed
+    under the process: the tests point ASSETS at copies."""
+    for load in (available_maps, _load_map, _load_lyapunov, _load_vertical, _load_period_one):
+        load.cache_clear()
+    _LOADED.clear()
+
+
 def problems():
     """One message per shipped file that cannot be used, naming the file and
     the problem; [] when all is well.  Loads (once) every file but the maps

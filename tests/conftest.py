@@ -8,9 +8,14 @@ by the browser, security and server tests; yields the netutil.Served
 
 browser: a headless chromium (devtools/chromium.py) for one test module,
 closed at its end (tests that launch their own, or the load test's, then
-start from a clean state)."""
+start from a clean state).
+
+assets_folder: point(folder) makes the explorer read its maps from
+folder/maps; the shipped ones again at the end, nothing read from the
+copies kept (tests/assetsfolder.py)."""
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -47,6 +52,29 @@ def browser():
     from devtools.chromium import launched
     with launched() as b:
         yield b
+
+
+@pytest.fixture
+def assets_folder():
+    from assetsfolder import point_assets
+    from vibtrans_explorer import data
+    shipped = data.ASSETS
+    try:
+        yield point_assets
+    finally:
+        point_assets(shipped)
+
+
+@pytest.fixture(autouse=True)
+def _assets_folder_restored():
+    """A test that points the explorer at other maps must point it back (the
+    next test in this process would read them): through assets_folder."""
+    data = sys.modules.get("vibtrans_explorer.data")
+    before = data and data.ASSETS
+    yield
+    data = sys.modules.get("vibtrans_explorer.data")
+    if data is not None and before is not None:
+        assert data.ASSETS == before, f"the test left the explorer's maps at {data.ASSETS}"
 
 
 def pytest_report_header(config):

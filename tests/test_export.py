@@ -197,20 +197,18 @@ def _capture(monkeypatch):
     return seen
 
 
-def _app_map(monkeypatch, maps_dir):
+def _app_map(maps_dir):
     """The explorer's map, built the way app/explorer.py builds it, from the
     app's data loader pointed at maps_dir."""
+    from assetsfolder import point_assets
     from vibtrans_explorer import data
-    monkeypatch.setattr(data, "ASSETS", maps_dir.parent)
-    for f in (data.available_maps, data.drift_map, data.vertical_curve):
-        f.cache_clear()
+    shipped = data.ASSETS
+    point_assets(maps_dir.parent)
     try:
         ds = data.drift_map("deformable", 0.3)
         vertical = data.vertical_curve()
     finally:
-        monkeypatch.undo()
-        for f in (data.available_maps, data.drift_map, data.vertical_curve):
-            f.cache_clear()
+        point_assets(shipped)
     el = plots.drift_map(ds, v0=0.1, chaotic="grey", title="deformable, mu = 0.3")
     el = el * plots.jumping_boundary(vertical, "deformable") * plots.resonance_lines(vertical)
     return el * plots.paper_points("deformable")
@@ -220,7 +218,7 @@ def _app_map(monkeypatch, maps_dir):
 def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir):
     export.ensure_backends()
     hv.Store.set_current_backend("bokeh")        # as in the explorer's process
-    app_el = _app_map(monkeypatch, maps_dir)
+    app_el = _app_map(maps_dir)
     seen = _capture(monkeypatch)
     assert cli.main(["export", "heatmap", "--maps", str(maps_dir), "--out",
                      str(tmp_path / "m.png"), "--dpi", "40"]) == 0

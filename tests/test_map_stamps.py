@@ -6,6 +6,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from assetsfolder import forget_maps
 
 from vibtrans.cli import main
 from vibtrans_explorer import data
@@ -18,7 +19,7 @@ CHUNK = f"{VICTIM_NAME}/drift_velocity/c/3/0"
 
 
 @pytest.fixture
-def assets(tmp_path, monkeypatch):
+def assets(tmp_path, monkeypatch, assets_folder):
     """Copies of two maps and the curve as the assets folder, files dated
     an hour ago (older than data.RACY_NS), stamps in a cache folder of
     their own."""
@@ -29,11 +30,9 @@ def assets(tmp_path, monkeypatch):
     shutil.copy(SHIPPED / "vertical.nc", maps / "vertical.nc")
     _age(maps)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setattr(data, "ASSETS", maps.parent)
     monkeypatch.setattr(data, "RACY_NS", 0)  # ctime is now (copied); mtime is what we date
-    _clear()
-    yield maps
-    _clear()
+    assets_folder(maps.parent)
+    return maps
 
 
 def _age(folder, seconds=3600):
@@ -42,11 +41,6 @@ def _age(folder, seconds=3600):
             p = os.path.join(dirpath, f)
             st = os.stat(p)
             os.utime(p, ns=(st.st_atime_ns, st.st_mtime_ns - seconds * 10**9))
-
-
-def _clear():
-    for f in (data.available_maps, data.drift_map, data.vertical_curve):
-        f.cache_clear()
 
 
 def _reads(monkeypatch):
@@ -59,7 +53,7 @@ def _reads(monkeypatch):
 def test_a_stamped_map_is_checked_without_a_read_and_read_verified_on_use(assets, monkeypatch):
     assert data.problems() == []                      # verified, stamped
     assert data._stamps_file().exists()
-    _clear()                                          # a new server
+    forget_maps()                                          # a new server
     reads = _reads(monkeypatch)
     assert data.problems() == [] and reads == []      # the stamps suffice
     assert data.drift_map(*VICTIM)["done"].values.all()
@@ -70,7 +64,7 @@ def test_a_stamped_map_is_checked_without_a_read_and_read_verified_on_use(assets
 def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, capsys,
                                                         keep_size_and_mtime):
     assert data.problems() == []                      # stamped
-    _clear()
+    forget_maps()
     chunk = assets / CHUNK
     st = os.stat(chunk)
     b = bytearray(chunk.read_bytes())
@@ -84,7 +78,7 @@ def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, ca
     assert "does not match its digest" in problems[0]
     with pytest.raises(data.MapUnavailable):
         data.drift_map(*VICTIM)
-    _clear()
+    forget_maps()
     try:                                              # and the server refuses to start
         code = main(["serve", "--port", "5999"])
     except SystemExit as exc:
@@ -96,7 +90,7 @@ def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, ca
 def test_a_damaged_stamps_file_means_a_full_check(assets, monkeypatch):
     assert data.problems() == []
     data._stamps_file().write_text("{not json")
-    _clear()
+    forget_maps()
     reads = _reads(monkeypatch)
     assert data.problems() == []
     assert sorted(reads) == sorted(str(assets / n) for n in ("deformable-mu0.3.zarr",

@@ -23,9 +23,9 @@ import pytest
 import xarray as xr
 
 from vibtrans_explorer import data
-from vibtrans_explorer.views import map as map_views
 from vibtrans.cli import main
 from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
+from assetsfolder import forget_maps
 from budget import budget
 
 # ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
@@ -115,7 +115,7 @@ DAMAGE = {
 
 
 @pytest.fixture
-def assets(tmp_path):
+def assets(tmp_path, assets_folder):
     """A copy of the shipped maps (the default one, the victim and the
     vertical curve) as the app's assets folder, as $VIBTRANS_ASSETS sets it."""
     maps = tmp_path / "assets" / "maps"
@@ -123,21 +123,8 @@ def assets(tmp_path):
     for name in ("deformable-mu0.3.zarr", VICTIM_NAME):
         shutil.copytree(SHIPPED / name, maps / name)
     shutil.copy(SHIPPED / "vertical.nc", maps / "vertical.nc")
-    old = data.ASSETS
-    data.ASSETS = maps.parent
-    _clear()
-    yield maps
-    data.ASSETS = old
-    _clear()
-
-
-def _clear():
-    # every cache of what was read from the copies (or found missing there,
-    # as the Lyapunov maps are), the map figures rendered from them too: none
-    # may outlive the test in this process (a later test's map read them)
-    for f in (data.available_maps, data.drift_map, data.vertical_curve, data.lyapunov_map,
-              map_views._map_json):
-        f.cache_clear()
+    assets_folder(maps.parent)
+    return maps
 
 
 def _cli(capsys, argv):
@@ -197,7 +184,7 @@ def test_messages_name_the_problem(assets):
             path.unlink()
         shutil.copytree(SHIPPED / VICTIM_NAME, path)
         DAMAGE[damage](str(path))
-        _clear()
+        forget_maps()
         with pytest.raises(data.MapUnavailable, match=words):
             data.drift_map(*VICTIM)
 
@@ -253,28 +240,21 @@ def test_app_and_cli_refuse_a_damaged_vertical_curve(assets, damage, capsys, tmp
     assert not (tmp_path / "v.png").exists()
 
 
-def test_missing_or_empty_assets_folder(tmp_path):
-    old = data.ASSETS
-    try:
-        data.ASSETS = tmp_path / "nowhere"
-        _clear()
-        problems = data.problems()
-        assert len(problems) == 1 and "no drift maps in" in problems[0], problems
-        assert str(tmp_path / "nowhere") in problems[0]
-        with pytest.raises(data.MapUnavailable, match="no drift map for model=deformable"):
-            data.drift_map("deformable", 0.3)
-        assert data.vertical_curve() is None
-        # only a non-default map: the default one is reported missing
-        maps = tmp_path / "only" / "maps"
-        maps.mkdir(parents=True)
-        shutil.copytree(SHIPPED / VICTIM_NAME, maps / VICTIM_NAME)
-        data.ASSETS = maps.parent
-        _clear()
-        assert data.problems() == [
-            f"no drift map for model=deformable, mu=0.3 (the explorer's default) in {maps}"]
-    finally:
-        data.ASSETS = old
-        _clear()
+def test_missing_or_empty_assets_folder(tmp_path, assets_folder):
+    assets_folder(tmp_path / "nowhere")
+    problems = data.problems()
+    assert len(problems) == 1 and "no drift maps in" in problems[0], problems
+    assert str(tmp_path / "nowhere") in problems[0]
+    with pytest.raises(data.MapUnavailable, match="no drift map for model=deformable"):
+        data.drift_map("deformable", 0.3)
+    assert data.vertical_curve() is None
+    # only a non-default map: the default one is reported missing
+    maps = tmp_path / "only" / "maps"
+    maps.mkdir(parents=True)
+    shutil.copytree(SHIPPED / VICTIM_NAME, maps / VICTIM_NAME)
+    assets_folder(maps.parent)
+    assert data.problems() == [
+        f"no drift map for model=deformable, mu=0.3 (the explorer's default) in {maps}"]
 
 
 # ------------------------------------------------------------------ the command line
