@@ -7,6 +7,9 @@ import param
 
 from vibtrans import Scene
 from vibtrans.core import units
+from vibtrans.core.errors import InputError
+from vibtrans.core.params import ProfileSpec
+from vibtrans.core.profiles import N_MIN, parse_profile
 from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
 
@@ -33,9 +36,48 @@ PAPER_DEVICE = preset("paper").device
 MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
 # the fields whose value makes the scene (a run refuses while one is
 # invalid), and those of the device (its run refuses while one is)
-SCENE_FIELDS = ("log_amplitude", "log_mass", "alpha_t", "mu")
+SCENE_FIELDS = ("log_amplitude", "log_mass", "alpha_t", "mu", "profile")
 DEVICE_FIELDS = ("substrate", "particle", "substrate_custom", "particle_custom", "radius",
                  "frequency", "amplitude", "preload")
+
+
+# the particle's profiles the explorer offers (issue 34; docs/MODEL.md
+# section 10): the library's kinds but a measured table (file:PATH), which
+# names a file on the server (a link must not read the server's files) and
+# needs the device's load: the API and the CLI take it
+PROFILE_VALUES = (f"sphere, cone, power:N (N ≥ {N_MIN:g}), flat-sphere:C (C ≥ 0, the flat's "
+                  f"radius in sqrt(R a0))")
+SPHERE = "sphere"
+
+
+class ExplorerProfile(ProfileSpec):
+    """The particle's profile as the library spells it (`Scene.profile`),
+    checked by the library (`parse_profile`: its message names the
+    parameter and its range); a measured table is refused here."""
+
+    valid_values = PROFILE_VALUES       # urlstate.valid_range's words
+
+    def _validate(self, val):
+        if isinstance(val, str) and val.startswith("file:"):
+            raise InputError(f"profile: a measured table (file:PATH) is not offered by the "
+                             f"explorer (a link cannot name a file on the server; the API and "
+                             f"`vibtrans simulate --profile file:PATH` take it); it must be "
+                             f"one of {PROFILE_VALUES}")
+        super()._validate(val)
+
+    def check_text(self, raw):
+        """The value of a typed or linked text (urlstate.convert), or the
+        library's InputError (a ValueError) saying why not."""
+        self._validate(raw)
+        return raw
+
+
+def is_sphere(profile):
+    """Does the spec run the sphere's own law (Hertz's path: the shipped
+    maps' particle)?  'sphere' and 'power:2' do; 'flat-sphere:0' is the
+    sphere tabulated (equal to rounding, not bit for bit)."""
+    shape = parse_profile(profile)
+    return getattr(shape, "n", None) == 2.0
 
 
 def within(la, lm, log_amplitude, log_mass):
@@ -54,6 +96,9 @@ class ExplorerState(param.Parameterized):
     log_mass = param.Number(default=1.0, bounds=SCENE_LOG_MASS)
     fidelity = param.Selector(default="standard", objects=["preview", "standard", "reference"])
     integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
+    # the particle's profile (the library's spec; the material point, a
+    # rigid point, runs the same whatever it is)
+    profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
     chaotic = param.Selector(default="grey", objects=["grey", "colour"])
     # what the map shows: the drift, or the chaos indicator (issue 15)
@@ -140,7 +185,8 @@ class ExplorerState(param.Parameterized):
         return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass, mu=self.mu,
                      model=self.model, fidelity=self.fidelity, integrator=self.integrator,
                      theta=self.theta, nu=self.nu, stick_rule=self.stick_rule,
-                     alpha_t=self.alpha_t, tau=self.tau, periods=self.periods)
+                     alpha_t=self.alpha_t, tau=self.tau, periods=self.periods,
+                     profile=self.profile)
 
 
 URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
@@ -149,7 +195,7 @@ URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
             "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods",
             "theta": "theta", "nu": "nu", "substrate": "substrate", "particle": "particle",
             "radius": "radius", "frequency": "freq", "amplitude": "amp",
-            "preload": "preload", "tab": "tab"}
+            "preload": "preload", "tab": "tab", "profile": "profile"}
 # a value's older spellings in links, still accepted: {parameter: {old: new}}
 URL_ALIASES = {"model": {"point_mass": "point-mass", "pointmass": "point-mass",
                          "point mass": "point-mass"},

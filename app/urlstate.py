@@ -19,6 +19,9 @@ Rules:
 * integers (param.Integer, a map request's grid): plain ASCII digits with
   an optional sign, inside the parameter's bounds;
 * options: exactly one of the selector's objects (case-sensitive);
+* a text the library checks (a parameter with `check_text`, the
+  particle's profile: ``cone``, ``power:3``): its check, whose reason is
+  added to the message;
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
 * unknown keys are ignored (tracking parameters, future keys);
@@ -37,15 +40,17 @@ import param
 
 MAX_LENGTH = 64            # longest accepted value, characters
 SHOWN = 40                 # longest given text quoted in a message
+REASON = 400               # longest library reason added to a message
 DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
 _INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
 _MARKDOWN = re.compile(r"([\\`*_{}\[\]()#+\-.!|~>])")
 
 
-def shown(raw):
-    """The given text, safe to put in a Markdown/HTML message."""
-    text = raw if len(raw) <= SHOWN else raw[:SHOWN] + "…"
+def shown(raw, limit=SHOWN):
+    """The given text, safe to put in a Markdown/HTML message (cut to
+    `limit` characters)."""
+    text = raw if len(raw) <= limit else raw[:limit] + "…"
     text = "".join(c if c.isprintable() else "\N{REPLACEMENT CHARACTER}" for c in text)
     return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=True))
 
@@ -79,6 +84,8 @@ def valid_range(p):
     "(0.0, 0.01]" where a bound is excluded)."""
     if isinstance(p, param.Selector):
         return f"one of {', '.join(map(str, p.objects))}"
+    if getattr(p, "valid_values", None):
+        return f"one of {p.valid_values}"
     what = "an integer" if isinstance(p, param.Integer) else "a number"
     lo, hi = _bounds(p)
     lo_in, hi_in = _inclusive(p)
@@ -93,6 +100,8 @@ def convert(p, raw):
     if len(raw) > MAX_LENGTH:
         raise ValueError("too long")
     raw = raw.strip(" \t")          # a '+' in a query is a space
+    if callable(getattr(p, "check_text", None)):
+        return p.check_text(raw)
     if isinstance(p, param.Selector):
         if raw not in p.objects:
             raise ValueError("not an option")
@@ -135,9 +144,11 @@ def parse(args, state, url_keys, aliases=None):
         raw = aliases.get(name, {}).get(raw.strip(" \t"), raw)
         try:
             values[name] = convert(p, raw)
-        except ValueError:
+        except ValueError as exc:
+            why = (f" ({shown(str(exc), REASON)})" if callable(getattr(p, "check_text", None))
+                   and len(raw) <= MAX_LENGTH else "")
             errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; "
-                          f"got '{shown(raw)}'")
+                          f"got '{shown(raw)}'{why}")
     return values, errors
 
 

@@ -42,10 +42,17 @@ from vibtrans.core.params import Scene
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.core.simulate")
 
+# texts the library checks (the particle's profile, issue 34)
+PROFILES = {"profile"}
 NUMERIC = {name: ExplorerState.param[name].bounds for name in URL_KEYS
-           if not hasattr(ExplorerState.param[name], "objects")}
+           if not hasattr(ExplorerState.param[name], "objects") and name not in PROFILES}
 OPTIONS = {name: ExplorerState.param[name].objects for name in URL_KEYS
-           if name not in NUMERIC}
+           if name not in NUMERIC and name not in PROFILES}
+# profile texts: valid ones, then ones the library or the explorer refuses
+PROFILE_TEXT = ["sphere", "cone", "power:3", "power:1", "power:2", "power:1.5", "flat-sphere:0",
+                "flat-sphere:0.5", " cone ", "power:0.5", "power:0", "power:-3", "power:nan",
+                "power:inf", "power:", "power", "flat-sphere:-1", "flat-sphere:x", "Cone",
+                "sphere:1", "file:/etc/passwd", "file:profile.txt", "file:", "power:3,x"]
 KEY_NAME = {key: name for name, key in URL_KEYS.items()}
 MAPS = data.available_maps()
 
@@ -70,6 +77,7 @@ def _number_text(lo, hi):
 
 def _value_text(name):
     own = (_number_text(*NUMERIC[name]) if name in NUMERIC
+           else st.sampled_from(PROFILE_TEXT) if name in PROFILES
            else st.sampled_from(list(OPTIONS[name])))
     return st.one_of(own, st.sampled_from(SPECIAL_TEXT), st.text(max_size=30))
 
@@ -108,7 +116,21 @@ def _query(pairs):
     return urllib.parse.urlencode(pairs)
 
 
+def _profile_valid(text):
+    """The library's profile check (parse_profile), a measured table refused."""
+    from vibtrans.core.profiles import parse_profile
+    if not isinstance(text, str) or text.startswith("file:"):
+        return False
+    try:
+        parse_profile(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _valid(name, value):
+    if name in PROFILES:
+        return _profile_valid(value)
     if name in OPTIONS:
         return value in OPTIONS[name]
     return isinstance(value, float) and math.isfinite(value) and _inside(name, value)
@@ -151,7 +173,7 @@ def test_parse_applies_valid_values_and_names_invalid_ones(pairs):
             assert len(texts) == 1
             given_ = texts.pop()
             given_ = URL_ALIASES.get(name, {}).get(given_, given_)
-            expected = given_ if name in OPTIONS else float(given_)
+            expected = given_ if name in OPTIONS or name in PROFILES else float(given_)
             assert values[name] == expected        # a valid value is applied as given
         else:
             assert named, (key, raw, errors)
@@ -240,6 +262,7 @@ def _fake_driver(seen):
         assert v["model"] in ("deformable", "point-mass", "vertical")
         assert v["fidelity"] in ("preview", "standard", "reference")
         assert v["integrator"] in ("ab4", "verlet") and v["stick_rule"] in ("paper", "classical")
+        assert _profile_valid(v["profile"]), v["profile"]
         assert (w0, w1) == (math.inf, -math.inf) or (
             math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= v["periods"])
         assert isinstance(samples_per_period, (int, np.integer))
@@ -283,6 +306,8 @@ def _run_now(explorer):
 @example(pairs=[("model", "point-mass"), ("la", "1.5"), ("lm", "-2"), ("compare", "none"),
                 ("fidelity", "preview")])
 @example(pairs=[("nu", "0.25"), ("theta", "1.1")])      # the material's values run too
+@example(pairs=[("la", "0.5"), ("profile", "cone"), ("compare", "point mass")])  # issue 34
+@example(pairs=[("la", "0.5"), ("profile", "file:/etc/passwd")])
 def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     explorer = url_session(pairs)
     values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, URL_ALIASES)
@@ -312,7 +337,7 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
                 "fidelity": got["fidelity"], "integrator": got["integrator"],
                 "stick_rule": got["stick_rule"], "alpha_t": got["alpha_t"],
                 "tau": got["tau"], "periods": got["periods"], "theta": got["theta"],
-                "nu": got["nu"]}
+                "nu": got["nu"], "profile": got["profile"]}
         expected = [main]
         if got["compare"] == "tau twin":
             expected.append({**main, "tau": main["tau"] + 1e-3})
@@ -437,3 +462,55 @@ def test_cli_tiny_amplitude_runs(capsys, argv):
     out = capsys.readouterr().out
     assert code == 0, out
     assert json.loads(out)["contact"] == "permanent"
+
+
+# ------------------------------------------------------------------ the particle's profile (issue 34)
+@pytest.mark.parametrize("text", PROFILE_TEXT)
+def test_profile_links_are_the_librarys_check(text):
+    """A profile in a link is applied exactly when the library accepts it
+    (a measured table refused: a link must not name a server's file); a
+    refusal names the key, the explorer's kinds and the library's reason."""
+    values, errors = urlstate.parse({"profile": [text.encode()]}, ExplorerState, URL_KEYS)
+    if _profile_valid(text.strip()):
+        assert values == {"profile": text.strip()} and errors == []
+        assert ExplorerState(**values).scene().profile == text.strip()
+        return
+    assert values == {} and len(errors) == 1
+    e = errors[0]
+    assert e.startswith("URL parameter 'profile' (profile) must be one of sphere, cone, "
+                        "power:N (N ≥ 1), flat-sphere:C (C ≥ 0")
+    if text.startswith("power:") and re.fullmatch(r"-?[0-9.]+|nan|inf", text[6:]):
+        assert "power\\-law exponent n must be a real number in \\[1, inf\\)" in e, e
+    if text.startswith("file:"):
+        assert "measured table \\(file:PATH\\) is not offered by the explorer" in e, e
+
+
+def test_the_state_refuses_a_bad_profile_with_the_librarys_message():
+    """Not clamped, not replaced: the value stays and the message names the
+    parameter and its range."""
+    s = ExplorerState(profile="cone")
+    with pytest.raises(ValueError, match=r"exponent n must be a real number in \[1, inf\)"):
+        s.profile = "power:0.5"
+    with pytest.raises(ValueError, match="file:PATH"):
+        s.profile = "file:/etc/passwd"
+    assert s.profile == "cone" and s.scene().profile == "cone"
+
+
+def test_a_profile_link_round_trips_and_no_profile_means_the_sphere():
+    s = ExplorerState(profile="flat-sphere:0.5")
+    query = urlstate.query(s, URL_KEYS)
+    assert "profile=flat-sphere%3A0.5" in query
+    args = parse_qs_bytes(query[1:], keep_blank_values=True)
+    values, errors = urlstate.parse(args, ExplorerState, URL_KEYS, URL_ALIASES)
+    assert errors == [] and values["profile"] == "flat-sphere:0.5"
+    # an older link, without the key: the sphere (the shipped maps' particle)
+    values, errors = urlstate.parse({"la": [b"0.5"]}, ExplorerState, URL_KEYS)
+    assert urlstate.resolved(values, ExplorerState, URL_KEYS)["profile"] == "sphere"
+
+
+def test_a_bad_profile_link_is_named_in_the_banner_and_runs_nothing(url_session):
+    explorer = url_session([("la", "0.5"), ("profile", "power:0.5")])
+    msg = explorer.message.object
+    assert "URL parameter 'profile' (profile) must be one of sphere, cone" in msg
+    assert "got 'power:0\\.5'" in msg
+    assert explorer.state.profile == "sphere" and not explorer.runs_on_load

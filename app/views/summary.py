@@ -8,7 +8,7 @@ import panel as pn
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 
 from ..controller import CANCELLED, TWIN_LABEL
-from ..state import MAP_MATERIAL
+from ..state import MAP_MATERIAL, SPHERE
 
 SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
                 "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
@@ -81,6 +81,17 @@ def _summary_column(scene, s, chaos, si):
             f"{s.contact_fraction:.3f}", run_cost(scene, s), si or "-"]
 
 
+def profile_words(scene):
+    """The run title's words on the particle's profile: none for the
+    sphere; the profile run, or that the material point (a rigid point)
+    ran without it."""
+    if scene.profile == SPHERE:
+        return ""
+    if scene.model == "point-mass":
+        return f", profile {scene.profile} (not used: the material point is rigid)"
+    return f", profile {scene.profile}"
+
+
 def summary_table(scene, s, chaos, si, other, twin):
     """The run's summary as a Markdown table, one column per model: the run
     (with its tau twin's verdict and cost), and the other model's run when
@@ -99,7 +110,7 @@ def summary_table(scene, s, chaos, si, other, twin):
                 f"{MAP_MATERIAL['theta']:g}, {MAP_MATERIAL['nu']:g})")
     return "\n".join([
         f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
-        f"mu = {scene.mu:g}{material}**", "",
+        f"mu = {scene.mu:g}{material}{profile_words(scene)}**", "",
         "| quantity | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|",
     ] + rows)
 
