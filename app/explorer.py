@@ -38,6 +38,7 @@ from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.map import MapView
+from .views.profile import ProfileView
 from .views.design import DesignPanel
 from .views.summary import SummaryView
 from .views.runtabs import RunTabs
@@ -58,7 +59,7 @@ log = logging.getLogger("vibtrans.explorer")
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
 # the state's values a run is made of (a change marks the run shown stale)
 SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
-               "stick_rule", "alpha_t", "theta", "nu", "tau", "periods")
+               "stick_rule", "alpha_t", "theta", "nu", "tau", "periods", "profile")
 
 def _page_location():
     """The page's Location (None outside a served session), made from the
@@ -129,6 +130,7 @@ class Explorer(pn.viewable.Viewer):
         self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         self.state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()
+        self.profile_view = ProfileView(self.state)      # the particle's profile, its tip drawn
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
         self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
@@ -498,6 +500,7 @@ class Explorer(pn.viewable.Viewer):
                     s.param.orbits, name="period-1 orbit curves (deformable)")]),
             self.point_select,
             *self.fields[:2],
+            self.profile_view,
             pn.widgets.Select.from_param(s.param.fidelity, name="fidelity"),
             pn.pane.Markdown(pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
                              css_classes=["vt-preset-note"], sizing_mode="stretch_width"),

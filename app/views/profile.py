@@ -1,0 +1,216 @@
+"""The particle's profile (issue 34): its selector and a drawing of the tip.
+
+A view of one Parameterized's `profile` (the explorer's state, or a map
+request's), never a copy: the kind (sphere, cone, power law, flat-ended
+sphere) and its number (the exponent N, the flat's radius C) are written
+into the owner's profile as the library spells it (`power:3`,
+`flat-sphere:0.5`) and checked by the library; a change of the profile from
+elsewhere (a link, a click on a map on demand) rewrites the widgets.  A
+typed number that is not valid stays in its field with the message under
+it, the profile keeps its last valid value, and an owner with
+`set_invalid` (the state) records it: a run refuses meanwhile.
+
+A measured profile (file:PATH) is not offered (app/state.ExplorerProfile).
+
+The drawing: the tip's outline z(r) of the profile chosen (the library's
+`outline`: z / a0 against r over the static contact radius, at rest under
+the weight, so that every profile touches over r <= 1 with approach a0),
+the sphere's dashed beside it.  It is built when a profile other than the
+sphere is first chosen (most pages never show it: a page costs its server
+less) and hidden for the sphere.
+"""
+import re
+
+import numpy as np
+import panel as pn
+from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.plotting import figure
+
+from vibtrans.core.profiles import N_MIN, parse_profile
+
+from .. import urlstate
+from ..inputs import ERROR_STYLE
+from ..state import SPHERE, is_sphere
+
+# the selector's kinds: label -> the spec's kind
+KINDS = {"sphere (Hertz)": "sphere", "cone": "cone", "power law z ~ r^N": "power",
+         "flat-ended sphere": "flat-sphere"}
+# the number of a kind: (its label, the value it starts from)
+NUMBERS = {"power": (f"exponent N (≥ {N_MIN:g}; 1 the cone, 2 the sphere)", "3"),
+           "flat-sphere": ("flat radius C (≥ 0, in sqrt(R a0))", "0.5")}
+RIGID_NOTE = ("*The material point is a rigid point (the paper's comparison): it runs the same "
+              "whatever the profile.*")
+DRAWN_RHO = 1.6             # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
+DRAWN_Z = 2.0               # and z in [0, DRAWN_Z] a0
+DRAWN_POINTS = 321
+_NUMBER = urlstate._NUMBER
+
+
+def kind_of(spec):
+    """(kind, its number's text or None) of a profile spec."""
+    if spec in ("sphere", "cone"):
+        return spec, None
+    kind, _, arg = spec.partition(":")
+    return kind, arg
+
+
+def outline(spec, rho):
+    """The tip's outline z / a0 at rho = r / (static contact radius)."""
+    return np.asarray(parse_profile(spec).outline(rho), float)
+
+
+class ProfileView(pn.viewable.Viewer):
+    """The profile selector of `owner.profile` (and its drawing where
+    `drawing`).  `owner.model`, where it has one, says when the profile is
+    not used (the material point)."""
+
+    def __init__(self, owner, drawing=True, width=None, **params):
+        super().__init__(**params)
+        self.owner = owner
+        self.error = ""
+        self._width = {} if width is None else {"width": width}
+        self._texts = {kind: start for kind, (_, start) in NUMBERS.items()}
+        kind, arg = kind_of(owner.profile)
+        if arg is not None:
+            self._texts[kind] = arg
+        labels = {v: k for k, v in KINDS.items()}
+        self.kind = pn.widgets.Select(name="particle profile", options=list(KINDS),
+                                      value=labels[kind], css_classes=["vt-profile-kind"],
+                                      **self._width)
+        self.number = pn.widgets.TextInput(name=NUMBERS.get(kind, NUMBERS["power"])[0],
+                                           value=self._texts.get(kind, ""),
+                                           visible=kind in NUMBERS,
+                                           css_classes=["vt-profile-number"], **self._width)
+        self.note = pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
+                                     css_classes=["vt-error-profile"], margin=(0, 10),
+                                     **self._width)
+        self.rigid = pn.pane.Markdown(RIGID_NOTE, visible=False, margin=(0, 10),
+                                      css_classes=["vt-profile-rigid"], **self._width)
+        self.figure = None                  # the drawing, built at its first use
+        self._drawing = drawing
+        self.drawing_pane = pn.Column(visible=False, margin=0, sizing_mode="stretch_width")
+        self._applying = self._echoing = False
+        self.kind.param.watch(self._chosen, "value")
+        self.number.param.watch(self._chosen, "value")
+        owner.param.watch(self._moved, "profile")
+        if "model" in owner.param:
+            owner.param.watch(self._on_model, "model")
+        self._on_model()
+        self._draw()
+        self._layout = pn.Column(self.kind, self.number, self.note, self.rigid,
+                                 self.drawing_pane, margin=0, sizing_mode="stretch_width",
+                                 name="profile")
+
+    # ---------- widgets -> owner ----------
+    def spec(self):
+        """The spec the widgets say, or ValueError naming what is wrong."""
+        kind = KINDS[self.kind.value]
+        if kind not in NUMBERS:
+            return kind
+        text = (self.number.value or "").strip()
+        label = NUMBERS[kind][0]
+        if not text:
+            raise ValueError(f"{label}: the field is empty")
+        if len(text) > urlstate.MAX_LENGTH or not _NUMBER.fullmatch(text):
+            raise ValueError(f"{label} must be a plain number; got '{urlstate.shown(text)}'")
+        spec = f"{kind}:{text}"
+        self.owner.param["profile"].check_text(spec)      # the library's range check
+        return spec
+
+    def _chosen(self, event):
+        if self._echoing:
+            return
+        kind = KINDS[self.kind.value]
+        if event.obj is self.kind:
+            self._echo_number(kind)
+        else:
+            self._texts[kind] = self.number.value
+        try:
+            spec = self.spec()
+        except ValueError as exc:
+            self._say(urlstate.shown(str(exc), urlstate.REASON))
+            return
+        self._say("")
+        self._applying = True
+        try:
+            self.owner.profile = spec
+        finally:
+            self._applying = False
+        self._draw()
+
+    def _say(self, text):
+        self.error = text
+        self.note.object = text
+        self.note.visible = bool(text)
+        record = getattr(self.owner, "set_invalid", None)
+        if record is not None:
+            record("profile", text)
+
+    def _echo_number(self, kind):
+        self._echoing = True
+        try:
+            if kind in NUMBERS:
+                self.number.param.update(name=NUMBERS[kind][0], value=self._texts[kind],
+                                         visible=True)
+            else:
+                self.number.visible = False
+        finally:
+            self._echoing = False
+
+    # ---------- owner -> widgets ----------
+    def _moved(self, event):
+        if self._applying:
+            return
+        kind, arg = kind_of(event.new)
+        if arg is not None:
+            self._texts[kind] = arg
+        self._echoing = True
+        try:
+            self.kind.value = {v: k for k, v in KINDS.items()}[kind]
+        finally:
+            self._echoing = False
+        self._echo_number(kind)
+        self._say("")
+        self._draw()
+
+    def _on_model(self, *events):
+        self.rigid.visible = getattr(self.owner, "model", None) == "point-mass"
+
+    # ---------- the drawing ----------
+    def _draw(self):
+        spec = self.owner.profile
+        shown = self._drawing and not is_sphere(spec)
+        if shown and self.figure is None:
+            self._build()
+        if self.figure is not None:
+            rho = self.source.data["r"]
+            self.source.data = {"r": rho, "z": outline(spec, rho),
+                                "sphere": self.source.data["sphere"]}
+            self.figure.title.text = f"the tip: {spec} (solid), the sphere (dashed)"
+        self.drawing_pane.visible = shown
+
+    def _build(self):
+        rho = np.linspace(-DRAWN_RHO, DRAWN_RHO, DRAWN_POINTS)
+        self.source = ColumnDataSource({"r": rho, "z": outline(SPHERE, rho),
+                                        "sphere": outline(SPHERE, rho)})
+        fig = figure(height=190, sizing_mode="stretch_width", toolbar_location=None,
+                     x_range=Range1d(-DRAWN_RHO, DRAWN_RHO), y_range=Range1d(0.0, DRAWN_Z),
+                     title="", name="profile-drawing")
+        fig.line("r", "sphere", source=self.source, line_dash="dashed", color="grey",
+                 line_width=1.5)
+        fig.line("r", "z", source=self.source, color="#1f77b4", line_width=2.5)
+        for x in (-1.0, 1.0):        # the static contact's edge
+            fig.add_layout(Span(location=x, dimension="height", line_dash="dotted",
+                                line_color="#999"))
+        fig.xaxis.axis_label = "r / static contact radius"
+        fig.yaxis.axis_label = "z / a0"
+        fig.title.text_font_size = "9pt"
+        self.figure = fig
+        self.drawing_pane.objects = [
+            pn.pane.Bokeh(fig, sizing_mode="stretch_width"),
+            pn.pane.Markdown("*At rest under the weight: every tip touches over r <= 1 "
+                             "(dotted) with approach a0.*", margin=(0, 10),
+                             sizing_mode="stretch_width")]
+
+    def __panel__(self):
+        return self._layout
