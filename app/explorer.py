@@ -161,7 +161,8 @@ class Explorer(pn.viewable.Viewer):
                                precedence=2)        # after the map's redraw
         self.map_key = pn.pane.Markdown(MAP_KEY, sizing_mode="stretch_width",
                                         css_classes=["vt-map-key"], margin=(0, 10))
-        self.map_pane = pn.Column(self.ondemand.map_banner, self.ondemand.refine_box,
+        self.map_pane = pn.Column(self.ondemand.profile_box, self.ondemand.map_banner,
+                                  self.ondemand.refine_box,
                                   self.map_view.pane,
                                   self.map_key, sizing_mode="stretch_width")
         self.state.param.watch(self.ondemand.on_map_look, ["v0", "chaotic"])

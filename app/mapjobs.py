@@ -265,10 +265,14 @@ class MapJobs:
         from vibtrans.maps.adaptive import predict_refinement
         reference = self._reference(request)
         work = None if reference is None else maprequest.reference_work(request, reference)
+        # a profile's kernel costs more per step (maprequest.PROFILE_STEP_COST);
+        # the refinement is predicted on the sphere's shipped map
+        cost = maprequest.step_cost(request)
         if work is None:
-            return (maprequest.bound_steps(request), "steps",
+            return (maprequest.bound_steps(request) * cost, "steps",
                     self.fraction(request.model, request.levels))
-        return work, "reference", predict_refinement(request.sweep(), request.levels, reference)
+        return (work * cost, "reference",
+                predict_refinement(request.sweep(), request.levels, reference))
 
     def measure_speed(self, request, work, unit):
         """Probe this server's speed for the request's model and fidelity

@@ -15,6 +15,7 @@ from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.maps.difference import describe
 
 from . import data, mapjobs, maprequest, urlstate
+from .state import SPHERE, is_sphere
 from .views.map import computed_figure
 from .views.ondemand import MapRequestPanel
 
@@ -53,6 +54,15 @@ class MapOnDemand:
         self.map_banner = pn.Row(visible=False, sizing_mode="stretch_width")
         self.refine_button = None
         self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
+        # over the map: the map shown is not of the particle selected (the
+        # shipped maps are the sphere's, issue 34); its button made at first use
+        self.profile_note = pn.pane.Alert("", alert_type="warning", visible=False, margin=0,
+                                          sizing_mode="stretch_width",
+                                          css_classes=["vt-map-profile"])
+        self.profile_button = None
+        self.profile_box = pn.Column(self.profile_note, visible=False, margin=(0, 10),
+                                     sizing_mode="stretch_width")
+        state.param.watch(self.on_profile, ["profile", "model"])
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
@@ -74,8 +84,9 @@ class MapOnDemand:
         return self.map_request_panel
 
     def shipped_request(self, window=None):
-        """A request with the shipped map's values (its stored scene), over
-        `window` (the selected scene's neighbourhood if None)."""
+        """A request with the shipped map's values (its stored scene) and
+        the selected particle's profile, over `window` (the selected scene's
+        neighbourhood if None)."""
         s = self.state
         try:
             attrs = data.drift_map(s.model, s.mu).attrs
@@ -90,7 +101,7 @@ class MapOnDemand:
                                                                  round(lm + 0.5, 3)))
         (a0, a1), (m0, m1) = window
         request = maprequest.MapRequest(model=s.model, mu=s.mu, cells=REFINE_CELLS,
-                                        levels=REFINE_LEVELS)
+                                        levels=REFINE_LEVELS, profile=s.profile)
         values = {**scene, "la_from": a0, "la_to": a1, "lm_from": m0, "lm_to": m1}
         for name, value in values.items():     # out of the request's ranges: its default
             try:
@@ -292,7 +303,8 @@ class MapOnDemand:
     async def _draw_map(self, request, ds):
         """Render the map off the event loop, then show it."""
         s = self.state
-        title = f"map on demand: {request.model}, mu = {request.mu:g}, stop: {request.stop}"
+        title = (f"map on demand: {request.model}, mu = {request.mu:g}, stop: {request.stop}"
+                 + (f", profile {request.profile}" if request.profiled() else ""))
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
             fig = await asyncio.get_running_loop().run_in_executor(
@@ -309,6 +321,7 @@ class MapOnDemand:
                                         functools.partial(self._on_computed_click, request))
             self.refine_box.visible = False
             self._show_banner()
+            self.on_profile()
             self.answered()
 
     def computed_map(self):
@@ -325,6 +338,8 @@ class MapOnDemand:
     def _on_computed_click(self, request, la, lm):
         """A click on the map on demand: the scene there, with the map's values."""
         values = request.scene_values()
+        if request.model != "point-mass":
+            values["profile"] = request.profile       # the map's particle (a sphere's too)
         with pn.io.hold():
             self.state.param.update(log_amplitude=la, log_mass=lm, **values)
         self.run()
@@ -344,5 +359,53 @@ class MapOnDemand:
                 updates["mu"] = urlstate.DEFAULT_MU if urlstate.DEFAULT_MU in mus else mus[0]
             s.param.update(**updates)
             self.map_view.show_shipped()
+            self.on_profile()
             self.answered()
 
+
+    # ---------- the particle's profile (issue 34) ----------
+    def shown_profile(self):
+        """The profile of the map shown: the map on demand's, else the
+        shipped maps' (the sphere's)."""
+        if self._map_shown is not None and self.map_view is not None \
+                and self.map_view.computed is not None:
+            return self._map_shown[0].profile
+        return SPHERE
+
+    def on_profile(self, *events):
+        """Say over the map when it is not of the particle selected: the
+        shipped maps are the sphere's, so a cone's scene is never shown on
+        them as if they were its own; a button asks for its map on demand.
+        The material point is rigid: any map of it is its own."""
+        s = self.state
+        shown = self.shown_profile()
+        same = (s.model == "point-mass" or s.profile == shown
+                or (is_sphere(s.profile) and is_sphere(shown)))
+        if not same:
+            where = "the shipped maps are" if shown == SPHERE else "this map on demand is"
+            self.profile_note.object = (
+                f"**This map is the {_particle(shown)}'s** ({where}), not the selected "
+                f"{_particle(s.profile)}'s: its colours do not say what the "
+                f"{_particle(s.profile)} does. A click on it runs the {_particle(s.profile)} "
+                f"there. Request a map on demand for {s.profile} to see its own.")
+            if self.profile_button is None:
+                self.profile_button = pn.widgets.Button(
+                    name="", button_type="primary", css_classes=["vt-map-profile-request"])
+                self.profile_button.on_click(lambda event: self.request_for_profile())
+                self.profile_box.append(self.profile_button)
+            self.profile_button.name = f"Map on demand for {s.profile}"
+        self.profile_box.visible = not same
+
+    def request_for_profile(self):
+        """Fill the request with the shipped map's values, the selected
+        profile and the selected scene's neighbourhood, and show it (its
+        estimate beside it) for the user to compute."""
+        panel = self.request_panel()
+        panel.set_values(**self.shipped_request().values())
+        if getattr(self, "map_tabs", None) is not None:
+            self.map_tabs.active = ONDEMAND_TAB
+
+
+def _particle(profile):
+    """A profile in words: "sphere", "cone", "power:3 tip", "flat-sphere:0.5 tip"."""
+    return "sphere" if is_sphere(profile) else profile if profile == "cone" else f"{profile} tip"

@@ -13,6 +13,13 @@ stated error, vibtrans.core.drivers.DecidedRule) or "full" (every point
 runs all its periods).  A link written before the rule was part of the
 request (one value fewer) meant full runs, and still does.
 
+Its particle's `profile` (issue 34; the library's spec, checked by it as
+the page's is: state.ExplorerProfile) is the 18th value; a link without it
+(older) means the sphere, as it did.  The material point is rigid: its
+requests run and are keyed without a profile (one map whatever it says).
+A profile's kernel costs more per step than the sphere's: each point's
+work is scaled by PROFILE_STEP_COST (measured once, below).
+
 The finest grid has `cells * 2**levels + 1` points per axis, from the
 window's lower to its upper bound: the adaptive refinement
 (vibtrans.maps.adaptive) starts on every 2**levels-th point (the coarse grid,
@@ -28,11 +35,12 @@ import param
 from vibtrans import Scene
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import expected_periods
-from vibtrans.core.drivers import STOPS
+from vibtrans.core.drivers import STOPS, scene_scales
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate
-from .state import RUN_PERIODS, RUN_TAU, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS
+from .state import (PROFILE_VALUES, RUN_PERIODS, RUN_TAU, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS,
+                    SPHERE, ExplorerProfile, is_sphere)
 
 # the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
 # Lyapunov exponent (no twin run; the material point falls back to its twin)
@@ -69,6 +77,12 @@ class MapRequest(param.Parameterized):
         "the points' stopping rule: decided (each run ends once its drift is known to the "
         "fidelity's stated error, or its chaos verdict is decided) or full (every run to "
         "T_obs)"))
+    profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
+
+    def profiled(self):
+        """Does the request run a profile other than the sphere's (a
+        deformable particle's; the material point has none)?"""
+        return self.model != "point-mass" and not is_sphere(self.profile)
 
     def points_per_axis(self):
         return self.cells * 2 ** self.levels + 1
@@ -104,6 +118,8 @@ class MapRequest(param.Parameterized):
                                                 "fidelity", "integrator")}
         if self.model == "point-mass":
             values.update(stick_rule=self.stick_rule, alpha_t=self.alpha_t)
+        elif self.profile != SPHERE:
+            values["profile"] = self.profile
         return values
 
     def sweep(self):
@@ -132,6 +148,8 @@ class MapRequest(param.Parameterized):
                  f"tau = {self.tau:g}, {self.periods:g} periods, {self.fidelity}")
         if self.model == "point-mass":
             scene += f", {self.stick_rule} rule, alpha_t = {self.alpha_t:g}"
+        elif self.profile != SPHERE:
+            scene += f", profile {self.profile}"
         return f"{scene}; {self.rule_text()}"
 
     def rule_text(self):
@@ -160,9 +178,10 @@ STOP_WORDS = {"decided": "each point run until its drift is decided (stop: decid
 # takes LEGACY's values for them, what it meant when it was written)
 FIELDS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
           "stick_rule", "alpha_t", "la_from", "la_to", "lm_from", "lm_to", "cells", "levels",
-          "stop")
-# the appended fields' values for an older link: before `stop` every map ran in full
-LEGACY = {"stop": "full"}
+          "stop", "profile")
+# the appended fields' values for an older link: before `stop` every map ran
+# in full, before `profile` every particle was the sphere
+LEGACY = {"stop": "full", "profile": SPHERE}
 assert tuple(LEGACY) == FIELDS[len(FIELDS) - len(LEGACY):]
 URL_KEY = "map"
 
@@ -252,7 +271,33 @@ def point_steps(request, la, lm):
     if request.model == "point-mass":
         # event-driven: scanned on its grid; a jumping point runs a twin
         return 2 * step_count(request.periods, scan_step(request.fidelity))
-    return step_count(request.periods, time_step(10.0 ** la, 10.0 ** lm, request.fidelity))
+    return step_count(request.periods, time_step(10.0 ** la, 10.0 ** lm, request.fidelity,
+                                                 scales=_scales(request.profile)))
+
+
+def _scales(profile):
+    """The profile's time-step scales (vibtrans.core.drivers.scene_scales;
+    None: the sphere's)."""
+    return scene_scales(Scene(profile=profile))
+
+
+# A profile's kernel cost per step over the sphere's (Hertz's own path): the
+# deformable kernel at paper point 1, best of 5, measured round-robin in one
+# run (`vibtrans bench --json`, its `profile_cost`: power:3 and
+# flat-sphere:1; vibtrans.tools.bench._profile_cost), on the development
+# host (2 cores shared, 2026-11-27: sphere 52.4 ns/step, power:3 111.3,
+# flat-sphere:1 94.5).  A power law (cone, power:N) runs the power path; a
+# flat-ended sphere the interpolated table path.
+PROFILE_STEP_COST = {"power": 2.13, "flat-sphere": 1.80}
+
+
+def step_cost(request):
+    """Each point's work per step over the sphere's: 1 for the sphere and
+    the material point, else PROFILE_STEP_COST of the profile's path."""
+    if not request.profiled():
+        return 1.0
+    kind = "flat-sphere" if request.profile.startswith("flat-sphere") else "power"
+    return PROFILE_STEP_COST[kind]
 
 
 def bound_steps(request):
@@ -289,7 +334,8 @@ def reference_work(request, reference):
         seconds = seconds * float(reference.attrs["scene_periods"]) / run
     ref = request.copy()
     ref.param.update(periods=float(reference.attrs["scene_periods"]),
-                     fidelity=reference.attrs["scene_fidelity"])
+                     fidelity=reference.attrs["scene_fidelity"],
+                     profile=reference.attrs.get("scene_profile", SPHERE))
     steps = bound_steps(request)
     ref_steps = np.array([[point_steps(ref, ref_la[i], ref_lm[j]) for j in im] for i in ia],
                          dtype=float)

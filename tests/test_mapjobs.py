@@ -222,11 +222,11 @@ def test_the_url_form_round_trips_and_names_a_bad_value():
     none, errors = maprequest.decode(bad)
     assert none is None and errors == [
         "URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
-    bad = ",".join([*parts[:-2], "2.5", parts[-1]])         # levels not an integer
+    bad = ",".join([*parts[:-3], "2.5", *parts[-2:]])       # levels not an integer
     assert "levels must be an integer in [1, 6]; got '2\\.5'" in maprequest.decode(bad)[1][0]
-    assert "must hold 17 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
-    assert "must hold 17" in maprequest.decode(text + ",full")[1][0]
-    bad = ",".join([*parts[:-1], "fast"])
+    assert "must hold 18 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
+    assert "must hold 18" in maprequest.decode(text + ",full")[1][0]
+    bad = ",".join([*parts[:-2], "fast", parts[-1]])
     assert "URL parameter 'map': stop must be one of decided, full; got 'fast'" in \
         maprequest.decode(bad)[1][0]
     swapped = ",".join([*parts[:10], parts[11], parts[10], *parts[12:]])
@@ -240,14 +240,14 @@ def test_a_new_request_stops_each_point_once_decided_and_an_old_link_meant_full_
     for stop in ("decided", "full"):
         request = MapRequest(**{**TINY, "stop": stop})
         text = maprequest.encode(request)
-        assert text.endswith("," + stop)
+        assert text.endswith(f",{stop},sphere")
         back, errors = maprequest.decode(text)
         assert errors == [] and back.values() == request.values()
-    old = maprequest.encode(MapRequest(**TINY)).rsplit(",", 1)[0]      # the 16 older values
+    old = maprequest.encode(MapRequest(**TINY)).rsplit(",", 2)[0]      # the 16 older values
     back, errors = maprequest.decode(old)
     assert errors == [] and back.stop == "full"
     assert back.values() == MapRequest(**{**TINY, "stop": "full"}).values()
-    assert maprequest.encode(back) == old + ",full"          # written again with its rule
+    assert maprequest.encode(back) == old + ",full,sphere"   # written again with its rule
     # the sweep it runs, and the title over its map, carry the rule
     assert MapRequest(**TINY).sweep().stop == "decided" and back.sweep().stop == "full"
     assert "stop: decided" in MapRequest(**TINY).title() and "stop: full" in back.title()
@@ -615,3 +615,126 @@ def test_the_finished_map_is_not_drawn_again_when_its_last_level_showed_it():
     changed["drift_velocity"].values[1, 2] += 1e-12
     assert not mapjobs.same_values(drawn, changed)
     assert not mapjobs.same_values(drawn, stored.drop_vars("chaotic"))
+
+
+# ------------------------------------------------------------------ the particle's profile (issue 34)
+def test_a_profile_is_the_requests_18th_value_and_an_older_link_meant_the_sphere():
+    cone = MapRequest(**{**TINY, "profile": "cone"})
+    text = maprequest.encode(cone)
+    assert text.endswith(",decided,cone")
+    back, errors = maprequest.decode(text)
+    assert errors == [] and back.values() == cone.values()
+    # a link of the 17 values (written before profiles): the sphere
+    old = text.rsplit(",", 1)[0]
+    back, errors = maprequest.decode(old)
+    assert errors == [] and back.profile == "sphere" and back.stop == "decided"
+    # a bad profile named with the explorer's kinds; a measured table refused
+    for bad in ("power:0.5", "file:/etc/passwd", "ellipsoid"):
+        none, errors = maprequest.decode(text.rsplit(",", 1)[0] + "," + bad)
+        assert none is None and len(errors) == 1
+        assert errors[0].startswith("URL parameter 'map': profile must be one of sphere, cone, "
+                                    "power:N (N ≥ 1), flat-sphere:C"), errors
+    with pytest.raises(ValueError, match=r"exponent n must be a real number in \[1, inf\)"):
+        MapRequest(profile="power:0.9")
+
+
+def test_a_profiles_map_runs_keys_and_says_its_profile_and_the_material_point_has_none():
+    from vibtrans.maps.cache import request_key
+    sphere = MapRequest(**TINY)
+    cone = MapRequest(**{**TINY, "profile": "cone"})
+    flat = MapRequest(**{**TINY, "profile": "flat-sphere:0.5"})
+    keys = {request_key(r.cache_request()) for r in (sphere, cone, flat)}
+    assert len(keys) == 3
+    # the sphere's key is the one it had before profiles (its scene's default)
+    assert sphere.cache_request()["scene"]["profile"] == "sphere"
+    assert "profile" not in sphere.scene_values() and "profile" not in sphere.sweep().attrs()
+    assert cone.sweep().values["profile"] == "cone"
+    assert cone.sweep().attrs()["scene_profile"] == "cone"
+    assert "profile cone" in cone.title() and "profile" not in sphere.title()
+    # the material point is rigid: one map whatever the profile says
+    pm = MapRequest(**{**TINY, "model": "point-mass"})
+    pm_cone = MapRequest(**{**TINY, "model": "point-mass", "profile": "cone"})
+    assert pm.cache_request() == pm_cone.cache_request() and not pm_cone.profiled()
+    assert "profile" not in pm_cone.title()
+
+
+def test_a_profiles_estimate_takes_its_own_steps_and_its_kernels_cost():
+    """Each point's steps are the profile's (the library's estimate_steps:
+    its own contact time scale), and its work per step is the profile's
+    kernel cost over the sphere's (PROFILE_STEP_COST); the reference map
+    (the sphere's) is scaled by the sphere's steps."""
+    from vibtrans import Scene, estimate_steps
+    for profile in ("cone", "power:3", "flat-sphere:0.5"):
+        request = MapRequest(**{**TINY, "profile": profile, "la_from": 2.0, "la_to": 3.0})
+        la, lm = request.axes()
+        for a, m in ((la[0], lm[0]), (la[-1], lm[-1])):
+            assert maprequest.point_steps(request, a, m) == estimate_steps(
+                Scene(amplitude=10 ** a, mass=10 ** m, **request.scene_values()))
+    # where the impacts set the step, a cone's differ from the sphere's
+    cone = MapRequest(**{**TINY, "profile": "cone", "la_from": 2.0, "la_to": 3.0})
+    sphere = MapRequest(**{**TINY, "la_from": 2.0, "la_to": 3.0})
+    assert maprequest.point_steps(cone, 3.0, 0.0) != maprequest.point_steps(sphere, 3.0, 0.0)
+    assert maprequest.step_cost(sphere) == 1.0
+    assert maprequest.step_cost(cone) == maprequest.PROFILE_STEP_COST["power"] > 1.0
+    flat = MapRequest(**{**TINY, "profile": "flat-sphere:0.5"})
+    assert maprequest.step_cost(flat) == maprequest.PROFILE_STEP_COST["flat-sphere"] > 1.0
+    assert maprequest.step_cost(MapRequest(**{**TINY, "model": "point-mass",
+                                              "profile": "cone"})) == 1.0
+    # the estimate: the sphere's reference seconds, the profile's steps over
+    # the sphere's, times its cost per step
+    jobs = mapjobs.MapJobs(folder=None, cores=2)
+    shipped = data.drift_map("deformable", 0.3)
+    for request in (MapRequest(**{**TINY, "profile": "cone"}), flat):
+        work, unit, computed = jobs.expected_work(request)
+        assert unit == "reference"
+        point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
+        ref = MapRequest(**{**TINY, "periods": 2000.0, "fidelity": "standard"})
+        assert work[2, 2] == pytest.approx(point * maprequest.step_cost(request)
+                                           * maprequest.point_steps(request, 0.0, 0.5)
+                                           / maprequest.point_steps(ref, 0.0, 0.5))
+
+
+def test_a_cone_map_on_demand_is_the_cones(jobs, gate):
+    """Computed end to end: its store names the cone, and its points are
+    the cone's runs (the library's compute_point with the request's values)."""
+    from vibtrans.maps.sweep import compute_point
+    gate.set()
+    got = Listener()
+    request = MapRequest(**{**TINY, "profile": "cone"})
+    jobs.submit("a", request, got)
+    done = got.wait()
+    assert done.kind == "done", got.kinds()
+    assert done.ds.attrs["scene_profile"] == "cone"
+    la, lm = request.axes()
+    own = compute_point(request.scene_values(), la[0], lm[0], maprequest.CHAOS, request.stop)
+    assert done.ds["drift_velocity"].values[0, 0] == own["drift_velocity"]
+
+
+def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
+    """The shipped maps are the sphere's: with a cone selected the page says
+    so over the map and offers the cone's map on demand; a click on a map
+    on demand runs its own particle."""
+    e = _explorer(monkeypatch, "profile=cone&la=0.1&lm=0.5")
+    o = e.ondemand
+    assert o.profile_box.visible
+    assert "This map is the sphere's" in o.profile_note.object
+    assert "not the selected cone's" in o.profile_note.object
+    assert o.profile_button.name == "Map on demand for cone"
+    o.request_for_profile()
+    panel = o.map_request_panel
+    assert panel.request.profile == "cone" and panel.profile.kind.value == "cone"
+    assert panel.request.la_from == pytest.approx(-0.4)      # the scene's neighbourhood
+    # the material point is rigid: no warning
+    e.state.model = "point-mass"
+    assert not o.profile_box.visible
+    e.state.model = "deformable"
+    assert o.profile_box.visible
+    e.state.profile = "power:2"                 # the sphere's own law
+    assert not o.profile_box.visible
+    # a click on a sphere's map on demand runs the sphere, on a cone's the cone
+    runs = []
+    monkeypatch.setattr(o, "run", lambda: runs.append(e.state.scene().profile))
+    e.state.profile = "cone"
+    o._on_computed_click(MapRequest(**TINY), 0.0, 0.5)
+    o._on_computed_click(MapRequest(**{**TINY, "profile": "flat-sphere:0.5"}), 0.0, 0.5)
+    assert runs == ["sphere", "flat-sphere:0.5"]

@@ -6,6 +6,7 @@ import panel as pn
 
 from .. import inputs
 from ..maprequest import FIELDS, MapRequest
+from .profile import ProfileView
 
 INTRO = ("**A drift map of your own**: any model, friction, material, ramp, run length "
          "and fidelity, over any window of the (log10 A\\*, log10 m\\*) plane, even beyond "
@@ -46,6 +47,8 @@ class MapRequestPanel(pn.viewable.Viewer):
                                       ("stick_rule", "stick rule"), ("stop", "stopping rule"))}
         self.point_mass = pn.Row(select["stick_rule"], number["alpha_t"],
                                  visible=r.model == "point-mass")
+        # the particle's profile (a view of the request's; the material point is rigid)
+        self.profile = ProfileView(r, drawing=False, width=290)
         r.param.watch(lambda e: setattr(self.point_mass, "visible", e.new == "point-mass"),
                       "model")
         self.zoom_button = pn.widgets.Button(name="Use the map's current zoom",
@@ -69,6 +72,7 @@ class MapRequestPanel(pn.viewable.Viewer):
             pn.Row(select["model"], number["mu"], number["theta"], number["nu"]),
             pn.Row(number["tau"], number["periods"], select["fidelity"], select["integrator"]),
             self.point_mass,
+            self.profile,
             pn.Row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
             self.zoom_button,
             pn.Row(number["cells"], number["levels"], select["stop"]),
@@ -81,7 +85,7 @@ class MapRequestPanel(pn.viewable.Viewer):
 
     def errors(self):
         """The fields' messages (a field whose text is not a valid value)."""
-        return [f.error for f in self.fields if f.error]
+        return [f.error for f in [*self.fields, self.profile] if f.error]
 
     def set_values(self, **values):
         self.request.param.update(**values)
