@@ -429,3 +429,35 @@ def test_a_chosen_window_shows_the_particle_travel(slipping):
     assert t[0] == pytest.approx(T_OBS - 10.0, abs=0.5) and t[-1] == all_t[-1]
     anim.window.value = WINDOWS["the last periods at full resolution"]
     assert np.array_equal(anim.frames.data["t"], short["t"])
+
+
+@pytest.mark.parametrize("profile, n", [("cone", 1.0), ("power:3", 3.0)])
+def test_a_profiles_contact_circle_is_its_own_contact_radius(profile, n):
+    """Issue 34: the contact circle of a power-law tip z = C r^n is its own
+    c(a*), not the sphere's sqrt(a*).  Closed form (MDR; Popov & Hess, the
+    power-law indenter): the approach d = kappa_n C a_c^n, so a_c grows as
+    d^(1/n) and, over the static contact radius (d = a0), c = a*^(1/n); the
+    cone (n = 1: a_c = 2 d tan(beta) / pi, beta the half-angle from the
+    axis, linear in d) gives c = a*.  Paper point 6's landings sweep a*
+    over a wide range."""
+    scene, ds = _run(6, profile=profile)
+    anim = ParticleAnimation()
+    anim.show(scene, ds)
+    f = anim.frames.data
+    touching = f["state"] > 0
+    a = np.asarray(f["a"])[touching]
+    assert touching.sum() > 20 and a.max() > 10.0 * a.min() > 0       # a real range of a*
+    closed = a ** (1.0 / n)
+    np.testing.assert_allclose(np.asarray(f["c"])[touching], closed, rtol=1e-9)
+    assert not np.allclose(closed, np.sqrt(a), rtol=1e-3)              # not the sphere's
+    i = int(np.flatnonzero(touching)[0])
+    frame = anim.frame(i)
+    assert frame["contact"]["c"][0] == pytest.approx(a[0] ** (1.0 / n), rel=1e-9)
+    assert frame["contact_title"].endswith("(static contact radii)")
+    assert anim.circle.xaxis.axis_label == "x  (static contact radii)"
+    assert f"c(a*) the {profile} profile's" in anim.circle_note.text
+    assert "the particle drawn as a sphere whatever its profile" in anim.key.text
+    # the sphere keeps its own units
+    sphere, ds = _run(6)
+    anim.show(sphere, ds)
+    assert anim.circle.xaxis.axis_label == "x  (sqrt(R a0))"

@@ -24,7 +24,9 @@ and at least three times its largest overlap a* (a real particle's radius is
 some 10^5 times its overlap: the overlap must stay a small cap of the
 circle; a smaller circle was drawn sunk whole under the surface), and its
 contact zone as Hertz's for a sphere of that radius (half-width
-c sqrt(rho) a0, c the run's contact radius in sqrt(R a0)); the wavelength is
+c sqrt(rho) a0, c the run's contact radius over the static one, sqrt(R a0)
+for the sphere; a profile's own c(a*) as its run recorded it, issue 34, the
+particle still drawn as a sphere, its tip beside the selector); the wavelength is
 drawn three views wide, so that the drawn surface's slope stays below ~0.3
 (at 1.5 views, ~0.6: the material point was drawn resting on a steep slope
 that cut into it; the model's surface under the particle is level).  The
@@ -52,6 +54,8 @@ from vibtrans.products import plots
 from vibtrans.core.kernels import substrate
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.errors import InputError, InputTypeError
+
+from ..state import is_sphere
 
 MAX_FRAMES = 3000          # frames sent to the browser per run (~0.25 MB)
 SIDE_W, SIDE_H = 620, 300  # the side view's plotting area, pixels (equal scales)
@@ -183,7 +187,7 @@ function draw(i) {
   if (!deformable) ct = "material point: rigid, no contact area";
   else if (!touching) ct = "in flight: no contact";
   else ct = "from above: c = " + c.toFixed(3) + (isNaN(s) ? "" : ", s = " + s.toFixed(3))
-            + "  (sqrt(R a0))";
+            + "  " + M.unit[0];
   contact_title.setv({text: ct}, {sync: false});
 }
 """
@@ -252,7 +256,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.frames = ColumnDataSource(self._no_frames(), name="anim-frames")
         self.meta = ColumnDataSource({k: [] for k in ("rho", "wavelength", "zone_scale",
                                                       "spacing", "width", "decimals",
-                                                      "deformable")}, name="anim-meta")
+                                                      "deformable", "unit")}, name="anim-meta")
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
@@ -484,6 +488,12 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.side.x_range.update(start=-width / 2, end=width / 2)
         self.side.y_range.update(start=z0, end=z1)
         self.ground.y2 = z0
+        # the contact radii: the run's own (its records' c: the profile's
+        # c(a*), over the static contact radius, sqrt(R a0) for the sphere)
+        sphere = is_sphere(scene.profile)
+        unit = "(sqrt(R a0))" if sphere else "(static contact radii)"
+        self.circle.xaxis.axis_label = f"x  {unit}"
+        self.circle.yaxis.axis_label = f"z  {unit}"
         cmax = float(np.nanmax(frames["c"])) if deformable and frames["c"].size else 0.0
         R = 1.1 * max(cmax, 1.0)
         self.circle.x_range.update(start=-R, end=R)
@@ -491,7 +501,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.meta.data = {"rho": [rho], "wavelength": [wavelength],
                           "zone_scale": [math.sqrt(rho)], "spacing": [spacing],
                           "width": [width], "decimals": [_decimals(extent)],
-                          "deformable": [int(deformable)]}
+                          "deformable": [int(deformable)], "unit": [unit]}
         self.table.data = {"uy": table}
         self.frames.data = frames
         n = frames["t"].size
@@ -507,7 +517,8 @@ class ParticleAnimation(pn.viewable.Viewer):
             "a rigid point has no contact area" if not deformable else
             "dotted: the static contact, c = 1" + ("; vertical model: no tangential force, "
                                                    "no stick core" if scene.model == "vertical"
-                                                   else ""))
+                                                   else "")
+            + ("" if sphere else f"; c(a*) the {scene.profile} profile's"))
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
             f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} "
@@ -516,8 +527,12 @@ class ParticleAnimation(pn.viewable.Viewer):
             "To scale, in a0: heights, the particle's motion along x"
             + (", the overlap a*." if deformable else ". Material point: the particle only."))
         self.scale_notes[2].text = "*a 0.5 mm steel bead on glass at 108 kHz"
-        zone = ("the contact zone drawn as Hertz's for the drawn radius: half-width "
-                f"c sqrt({rho:.3g}) a0. " if deformable else
+        zone = (("the contact zone drawn as Hertz's for the drawn radius: half-width "
+                 f"c sqrt({rho:.3g}) a0. ") if deformable and sphere else
+                (f"the particle drawn as a sphere whatever its profile ({scene.profile}: its "
+                 f"tip is drawn beside the profile selector), its contact zone's half-width "
+                 f"c sqrt({rho:.3g}) a0 with c the profile's own contact radius over the "
+                 f"static one. ") if deformable else
                 "Material point: no contact zone and no contact circle (rigid contact). ")
         self.key.text = self._key_head + zone + note
 
@@ -555,7 +570,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             ct = "in flight: no contact"
         else:
             ct = (f"from above: c = {_fixed(c, 3)}"
-                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "  (sqrt(R a0))")
+                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "  " + M["unit"][0])
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},
