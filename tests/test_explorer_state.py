@@ -8,9 +8,10 @@ scene's and the device's fields, selector changes, Design presets, Run,
 the device's Run (Units and Design tabs), Cancel, and reloading the page's
 own link.  After each step the invariants hold:
 
-* the map's marker, the typed fields, the mu and paper-point selectors and
-  the URL show the state's values (a field with an invalid text says so,
-  and the state records it);
+* the map's marker, the typed fields, the mu and paper-point selectors,
+  the particle's profile selector and its tip's drawing, and the URL show
+  the state's values (a field with an invalid text says so, and the state
+  records it); the map says so when it is not the selected particle's;
 * Run runs exactly the state's scene (the kernel receives it), or refuses
   with the field's message; the device's Run runs the device as the form
   shows it (never the chart drawn or a last valid value);
@@ -29,6 +30,7 @@ import functools
 import logging
 import math
 
+import numpy as np
 import panel as pn
 import pytest
 from hypothesis import HealthCheck, Phase, settings
@@ -41,8 +43,10 @@ from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import inputs, urlstate
-from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS
+from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
+from vibtrans_explorer.views import profile as P
+from vibtrans_explorer.views.summary import profile_words
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
 
@@ -111,6 +115,10 @@ def no_logged_errors(caplog):
 NUMBER_TEXT = st.one_of(st.floats(-7, 7, allow_nan=False).map(lambda v: f"{v:.3f}"),
                         st.sampled_from(["", "abc", "nan", "1e999", "2,5", " 0.5 ", "-9",
                                          "0.25", "1.5", "-0.3"]))
+# the profile selector's kinds and the numbers typed for them (valid and not)
+PROFILE_KIND = st.sampled_from(list(P.KINDS))
+PROFILE_NUMBER = st.sampled_from(["3", "1", "2", "1.5", "0.5", "0", "-1", "abc", "", "nan",
+                                  "0.25", "4"])
 DEVICE_TEXT = {
     "radius": st.sampled_from(["5e-6", "0.0005", "1e-3", "-1", "0", "abc", "2e-4"]),
     "frequency": st.sampled_from(["2e7", "108000", "1e5", "-5", "x", "5e4"]),
@@ -159,7 +167,7 @@ class ExplorerMachine(RuleBasedStateMachine):
             assert job.scene.values() == ex.state.scene().values()
             concurrent.futures.wait(job.futures, timeout=120)
             assert any(sc is job.scene for sc in ex.stand_in.scenes[before:])
-            assert not ex.state.errors(("log_amplitude", "log_mass", "alpha_t"))
+            assert not ex.state.errors(("log_amplitude", "log_mass", "alpha_t", "profile"))
         return job
 
     # ------------------------------------------------------------ rules
@@ -192,6 +200,20 @@ class ExplorerMachine(RuleBasedStateMachine):
     def selector(self, name, data):
         setattr(self.ex.state, name, data.draw(st.sampled_from(
             self.ex.state.param[name].objects)))
+
+    @rule(kind=PROFILE_KIND, number=PROFILE_NUMBER)
+    def profile(self, kind, number):
+        """The particle's profile chosen in its selector (and its number typed)."""
+        view = self.ex.profile_view
+        view.kind.value = kind
+        if view.number.visible:
+            view.number.value = number
+
+    @rule(spec=st.sampled_from(["sphere", "cone", "power:3", "flat-sphere:0.5"]))
+    def profile_elsewhere(self, spec):
+        """The profile set from elsewhere (a map on demand's click): the
+        selector follows."""
+        self.ex.state.profile = spec
 
     @rule(preset=st.sampled_from(D.PRESET_NAMES))
     def design_preset(self, preset):
@@ -273,6 +295,27 @@ class ExplorerMachine(RuleBasedStateMachine):
                 # the text is the value (as typed, or as written by a move)
                 assert urlstate.convert(s.param[f.name_], f.input.value) == \
                     getattr(s, f.name_), f.name_
+        # the profile selector and its drawing: a view of the state's profile
+        view = ex.profile_view
+        if "profile" in s.invalid:        # a bad number typed: said, the profile kept
+            assert view.error == s.invalid["profile"] and view.note.visible
+            assert view.number.visible and P.KINDS[view.kind.value] in P.NUMBERS
+        else:
+            kind, arg = P.kind_of(s.profile)
+            assert P.KINDS[view.kind.value] == kind
+            assert view.number.visible == (kind in P.NUMBERS)
+            assert not view.error and not view.note.visible
+            assert view.spec() == s.profile
+        assert view.drawing_pane.visible == (not is_sphere(s.profile))
+        if view.drawing_pane.visible:
+            np.testing.assert_array_equal(view.source.data["z"],
+                                          P.outline(s.profile, view.source.data["r"]))
+            assert s.profile in view.figure.title.text
+        assert view.rigid.visible == (s.model == "point-mass")
+        # the map shown (the shipped, the sphere's) says when it is not the
+        # particle's (the material point is rigid)
+        assert ex.ondemand.profile_box.visible == (
+            s.model != "point-mass" and not is_sphere(s.profile))
         if ex.design_panel is not None:
             for k in D.SHARED_DEVICE:
                 assert getattr(ex.design_panel, k) == getattr(s, k), k
@@ -299,6 +342,11 @@ class ExplorerMachine(RuleBasedStateMachine):
             ex.summary_view._table
         assert scene.amplitude == 10 ** ran["log_amplitude"]
         assert (scene.model, scene.mu) == (ran["model"], ran["mu"])
+        # the particle's profile run, and named where it is not the sphere
+        assert scene.profile == ran["profile"]
+        words = profile_words(scene)
+        assert (words == "") == (scene.profile == "sphere")
+        assert words in ex.summary_view._table
         changed = [k for k in E.SCENE_STATE if getattr(ex.state, k) != ran[k]]
         if changed:
             assert ex.stale_note.visible

@@ -4,6 +4,7 @@ models; the selected scene marked on the vertical curve; the trajectory's
 time axis in seconds for a device's run; presentation mode's large fonts."""
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from vibtrans_explorer import data
@@ -182,3 +183,89 @@ def test_the_first_screen_builds_only_what_it_shows():
         assert not ex.point_mass_controls.visible
         ex.run_tabs.active = runtabs.ANIMATION_TAB
         assert _has(doc, "The particle on the wave")
+
+
+# ------------------------------------------------------------------ the particle's profile (issue 34)
+def test_the_profile_selector_is_a_view_of_the_states_profile():
+    from vibtrans_explorer.views import profile as P
+    ex = _explorer()
+    view = ex.profile_view
+    assert view.kind.value == "sphere (Hertz)" and not view.number.visible
+    assert view.figure is None and not view.drawing_pane.visible     # built at first use
+    view.kind.value = "cone"
+    assert ex.state.profile == "cone" and ex.state.scene().profile == "cone"
+    view.kind.value = "power law z ~ r^N"
+    assert view.number.visible and ex.state.profile == "power:3"     # the kind's start
+    view.number.value = "1.5"
+    assert ex.state.profile == "power:1.5"
+    # a bad number: said under the field, the profile kept, a run refused
+    view.number.value = "0.5"
+    assert ex.state.profile == "power:1.5"
+    assert view.note.visible and "exponent n must be a real number in \\[1, inf\\)" in view.error
+    assert ex.state.invalid["profile"] == view.error
+    assert ex.start_run(schedule=False) is None
+    assert ex.message.object.startswith("Not run:") and "exponent n" in ex.message.object
+    view.number.value = "4"
+    assert ex.state.profile == "power:4" and "profile" not in ex.state.invalid
+    # a change from elsewhere (a link, a map on demand's click): the widgets follow
+    ex.state.profile = "flat-sphere:1.5"
+    assert view.kind.value == "flat-ended sphere" and view.number.value == "1.5"
+    assert view.number.name.startswith("flat radius C")
+    view.kind.value = "power law z ~ r^N"          # each kind keeps its own number
+    assert ex.state.profile == "power:4"
+    view.kind.value = "sphere (Hertz)"
+    assert ex.state.profile == "sphere" and not view.drawing_pane.visible
+    # the material point is rigid: said, and run all the same
+    ex.state.param.update(model="point-mass", profile="cone")
+    assert view.rigid.visible and "rigid point" in view.rigid.object
+    assert ex.start_run(schedule=False) is not None
+    assert P.KINDS[view.kind.value] == "cone"
+
+
+def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
+    """Closed forms (MDR, Popov & Hess; at rest under the weight: approach
+    d = a0, contact radius a_c = 1): the sphere z = r^2 / (2R) has g(x) =
+    x^2 / R, so d = a_c^2 / R and its edge lies at z = d / 2; the cone
+    z = C r has g(x) = (pi/2) C |x|, so d = (pi/2) C a_c and z = (2/pi) r
+    in these units; a flat-ended sphere is flat out to its flat's radius."""
+    from vibtrans_explorer.views import profile as P
+    ex = _explorer()
+    view = ex.profile_view
+    ex.state.profile = "cone"
+    assert view.drawing_pane.visible
+    src = view.source.data
+    r = np.asarray(src["r"])
+    edge = int(np.argmin(np.abs(r - 1.0)))
+    assert r[edge] == pytest.approx(1.0)
+    assert src["sphere"][edge] == pytest.approx(0.5, rel=1e-12)
+    assert src["z"][edge] == pytest.approx(2.0 / np.pi, rel=1e-12)
+    np.testing.assert_allclose(src["z"], 2.0 / np.pi * np.abs(r), rtol=1e-12)   # a cone
+    np.testing.assert_allclose(src["sphere"], r * r / 2.0, rtol=1e-12)
+    assert "cone" in view.figure.title.text
+    dashed = [g for g in view.figure.renderers if list(g.glyph.line_dash)]
+    assert len(dashed) == 1 and dashed[0].glyph.y == "sphere"
+    ex.state.profile = "flat-sphere:2"
+    z = np.asarray(view.source.data["z"])
+    from vibtrans.core.profiles import FlatSphereProfile
+    flat = FlatSphereProfile(2.0)
+    c_over_edge = 2.0 / float(np.sqrt(4.0 + flat._sigma(1.0) ** 2))   # the flat's edge
+    assert (z[np.abs(r) < c_over_edge - 1e-9] == 0.0).all()
+    assert (z[np.abs(r) > c_over_edge + 1e-9] > 0.0).all()
+    assert "flat-sphere:2" in view.figure.title.text
+    ex.state.profile = "power:2"        # the sphere's own law: nothing to compare
+    assert not view.drawing_pane.visible
+
+
+def test_the_map_requests_selector_is_a_view_of_its_request():
+    from vibtrans_explorer.views.ondemand import MapRequestPanel
+    from vibtrans_explorer.maprequest import MapRequest
+    panel = MapRequestPanel(MapRequest())
+    panel.profile.kind.value = "cone"
+    assert panel.request.profile == "cone" and panel.errors() == []
+    panel.profile.kind.value = "flat-ended sphere"
+    assert panel.request.profile == "flat-sphere:0.5"       # the kind's start
+    panel.profile.number.value = "-1"
+    assert panel.request.profile == "flat-sphere:0.5"       # kept
+    assert len(panel.errors()) == 1 and "flat radius" in panel.errors()[0]
+    panel.set_values(profile="power:3")
+    assert panel.profile.kind.value == "power law z ~ r^N" and panel.errors() == []
