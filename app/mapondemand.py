@@ -56,7 +56,7 @@ class MapOnDemand:
         self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
         # over the map: the map shown is not of the particle selected (the
         # shipped maps are the sphere's, issue 34); its button made at first use
-        self.profile_note = pn.pane.Alert("", alert_type="warning", visible=False, margin=0,
+        self.profile_note = pn.pane.Alert("", alert_type="warning", margin=0,
                                           sizing_mode="stretch_width",
                                           css_classes=["vt-map-profile"])
         self.profile_button = None

@@ -716,7 +716,7 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     on demand runs its own particle."""
     e = _explorer(monkeypatch, "profile=cone&la=0.1&lm=0.5")
     o = e.ondemand
-    assert o.profile_box.visible
+    assert o.profile_box.visible and o.profile_note.visible
     assert "This map is the sphere's" in o.profile_note.object
     assert "not the selected cone's" in o.profile_note.object
     assert o.profile_button.name == "Map on demand for cone"

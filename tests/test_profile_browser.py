@@ -1,0 +1,86 @@
+"""The particle's profile in chromium (issue 34): a link with a cone opens
+the page with the cone selected, its tip drawn in the sidebar (readable:
+inside the sidebar, not cut, as wide as its controls), the map saying it is
+the sphere's with the button for the cone's map on demand, and the run's
+heading naming the cone; at 1024 x 768, 1280 x 800 and 1920 x 1080.
+
+The screenshots go to test-artifacts/profile/ (look at them)."""
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.browser
+
+ROOT = Path(__file__).resolve().parent.parent
+ARTIFACTS = ROOT / "test-artifacts" / "profile"
+SIZES = ["1024x768", "1280x800", "1920x1080"]
+# paper point 6 (landings: the contact circle's own c(a*) moves)
+LINK = "?profile=cone&la=0.25&lm=0.8&fidelity=preview&compare=none"
+IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
+
+# the tip's drawing: its box on the screen, the sidebar's, and its title
+DRAWING_JS = """() => {
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.name !== "profile-drawing") continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v) return {found: false};
+    const r = v.el.getBoundingClientRect();
+    const side = document.querySelector("#sidebar");
+    const s = side ? side.getBoundingClientRect() : null;
+    return {found: true, left: r.left, right: r.right, width: r.width, height: r.height,
+            sidebar_left: s && s.left, sidebar_right: s && s.right,
+            title: String(m.title.text), shown: v.el.getClientRects().length > 0};
+  }
+  return {found: false};
+}"""
+
+
+def _settle(page, ms=1500):
+    page.wait_for_function(IDLE_JS, timeout=120000)
+    page.wait_for_timeout(ms)
+
+
+@pytest.mark.parametrize("size", SIZES)
+def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explorer, browser,
+                                                                   size):
+    width, height = (int(v) for v in size.split("x"))
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page = browser.new_page(viewport={"width": width, "height": height})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(served_explorer.url + LINK)
+        page.wait_for_selector("canvas", timeout=120000)
+        # the link runs its scene: its heading names the cone
+        page.locator("strong", has_text="profile cone").first.wait_for(timeout=120000)
+        _settle(page)
+        page.screenshot(path=str(ARTIFACTS / f"cone-{size}.png"), full_page=True)
+        box = page.evaluate(DRAWING_JS)
+        assert box["found"] and box["shown"], box
+        assert box["title"] == "the tip: cone (solid), the sphere (dashed)"
+        # readable: inside the sidebar, as wide as its controls, not cut
+        assert box["sidebar_left"] is not None, box
+        assert box["sidebar_left"] - 1 <= box["left"] and box["right"] <= box["sidebar_right"] + 1
+        assert box["width"] >= 250 and box["height"] >= 150, box
+        # (Markdown writes the apostrophe typographically)
+        assert page.get_by_text("This map is the sphere").first.is_visible()
+        assert page.get_by_role("button", name="Map on demand for cone").first.is_visible()
+        assert "profile=cone" in page.url
+        # the sidebar scrolled to the drawing (on a short screen it is below)
+        page.evaluate("""() => { for (const doc of window.Bokeh.documents)
+            for (const m of doc.all_models) if (m.name === "profile-drawing") {
+              window.Bokeh.index.find_one(m).el.scrollIntoView({block: "center"}); } }""")
+        page.wait_for_timeout(300)
+        page.screenshot(path=str(ARTIFACTS / f"cone-{size}-drawing.png"))
+        # the animation: its contact circle is the profile's (its key says how it is drawn)
+        page.get_by_text("Animation", exact=True).first.click()
+        _settle(page, 3000)
+        page.get_by_text("the particle drawn as a sphere whatever its profile").first.wait_for(
+            timeout=60000)
+        page.get_by_text("Animation", exact=True).first.evaluate(
+            "(e) => e.scrollIntoView({block: 'start'})")
+        page.wait_for_timeout(300)
+        page.screenshot(path=str(ARTIFACTS / f"cone-{size}-animation.png"))
+        assert not errors, errors
+    finally:
+        page.close()
