@@ -77,29 +77,62 @@ class ProfileView(pn.viewable.Viewer):
         self.kind = pn.widgets.Select(name="particle profile", options=list(KINDS),
                                       value=labels[kind], css_classes=["vt-profile-kind"],
                                       **self._width)
-        self.number = pn.widgets.TextInput(name=NUMBERS.get(kind, NUMBERS["power"])[0],
-                                           value=self._texts.get(kind, ""),
-                                           visible=kind in NUMBERS,
-                                           css_classes=["vt-profile-number"], **self._width)
-        self.note = pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
-                                     css_classes=["vt-error-profile"], margin=(0, 10),
-                                     **self._width)
-        self.rigid = pn.pane.Markdown(RIGID_NOTE, visible=False, margin=(0, 10),
-                                      css_classes=["vt-profile-rigid"], **self._width)
         self.figure = None                  # the drawing, built at its first use
         self._drawing = drawing
-        self.drawing_pane = pn.Column(visible=False, margin=0, sizing_mode="stretch_width")
         self._applying = self._echoing = False
+        # the number's field, the messages and the drawing: made at their
+        # first use (most pages show the sphere: a page costs its server less)
+        self._parts = {}
+        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width",
+                                 name="profile")
         self.kind.param.watch(self._chosen, "value")
-        self.number.param.watch(self._chosen, "value")
         owner.param.watch(self._moved, "profile")
         if "model" in owner.param:
             owner.param.watch(self._on_model, "model")
+        if kind in NUMBERS:
+            self._part("number")
         self._on_model()
         self._draw()
-        self._layout = pn.Column(self.kind, self.number, self.note, self.rigid,
-                                 self.drawing_pane, margin=0, sizing_mode="stretch_width",
-                                 name="profile")
+
+    # ---------- its parts, made when first needed ----------
+    PARTS = ("number", "note", "rigid", "drawing_pane")
+    number = property(lambda self: self._part("number"), doc="the kind's number (a TextInput)")
+    note = property(lambda self: self._part("note"), doc="the message under it")
+    rigid = property(lambda self: self._part("rigid"), doc="the material point's note")
+    drawing_pane = property(lambda self: self._part("drawing_pane"), doc="the tip's drawing")
+
+    def _made(self, name):
+        return name in self._parts
+
+    def _part(self, name):
+        if name not in self._parts:
+            self._parts[name] = getattr(self, f"_make_{name}")()
+            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS
+                                                 if n in self._parts)]
+        return self._parts[name]
+
+    def _make_number(self):
+        kind = KINDS[self.kind.value]
+        number = pn.widgets.TextInput(name=NUMBERS.get(kind, NUMBERS["power"])[0],
+                                      value=self._texts.get(kind, ""),
+                                      visible=kind in NUMBERS,
+                                      css_classes=["vt-profile-number"], **self._width)
+        number.param.watch(self._chosen, "value")
+        return number
+
+    def _make_note(self):
+        return pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
+                                css_classes=["vt-error-profile"], margin=(0, 10), **self._width)
+
+    def _make_rigid(self):
+        return pn.pane.Markdown(RIGID_NOTE, visible=self._rigid(), margin=(0, 10),
+                                css_classes=["vt-profile-rigid"], **self._width)
+
+    def _make_drawing_pane(self):
+        return pn.Column(visible=False, margin=0, sizing_mode="stretch_width")
+
+    def _rigid(self):
+        return getattr(self.owner, "model", None) == "point-mass"
 
     # ---------- widgets -> owner ----------
     def spec(self):
@@ -140,8 +173,8 @@ class ProfileView(pn.viewable.Viewer):
 
     def _say(self, text):
         self.error = text
-        self.note.object = text
-        self.note.visible = bool(text)
+        if text or self._made("note"):
+            self.note.param.update(object=text, visible=bool(text))
         record = getattr(self.owner, "set_invalid", None)
         if record is not None:
             record("profile", text)
@@ -152,7 +185,7 @@ class ProfileView(pn.viewable.Viewer):
             if kind in NUMBERS:
                 self.number.param.update(name=NUMBERS[kind][0], value=self._texts[kind],
                                          visible=True)
-            else:
+            elif self._made("number"):
                 self.number.visible = False
         finally:
             self._echoing = False
@@ -174,7 +207,8 @@ class ProfileView(pn.viewable.Viewer):
         self._draw()
 
     def _on_model(self, *events):
-        self.rigid.visible = getattr(self.owner, "model", None) == "point-mass"
+        if self._rigid() or self._made("rigid"):
+            self.rigid.visible = self._rigid()
 
     # ---------- the drawing ----------
     def _draw(self):
@@ -187,7 +221,8 @@ class ProfileView(pn.viewable.Viewer):
             self.source.data = {"r": rho, "z": outline(spec, rho),
                                 "sphere": self.source.data["sphere"]}
             self.figure.title.text = f"the tip: {spec} (solid), the sphere (dashed)"
-        self.drawing_pane.visible = shown
+        if shown or self._made("drawing_pane"):
+            self.drawing_pane.visible = shown
 
     def _build(self):
         rho = np.linspace(-DRAWN_RHO, DRAWN_RHO, DRAWN_POINTS)
