@@ -46,7 +46,7 @@ def test_the_vertical_curve_marks_the_selected_scene():
     ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
     # the map's axes (issue 32: the vertical tab had them swapped)
     assert ex.vertical.scene.data == {"x": [1.25], "y": [-0.5]}
-    fig = ex.vertical.pane.objects[0].object
+    fig = ex.vertical.pane.objects[-1].object      # (under the profile note)
     assert fig.xaxis[0].axis_label == "log10 A*" and fig.yaxis[0].axis_label == "log10 m*"
     labels = [item.label["value"] if isinstance(item.label, dict) else
               getattr(item.label, "value", item.label) for item in fig.legend[0].items]
@@ -269,3 +269,15 @@ def test_the_map_requests_selector_is_a_view_of_its_request():
     assert len(panel.errors()) == 1 and "flat radius" in panel.errors()[0]
     panel.set_values(profile="power:3")
     assert panel.profile.kind.value == "power law z ~ r^N" and panel.errors() == []
+
+
+def test_the_vertical_tab_says_its_curve_is_the_spheres():
+    ex = _explorer()
+    ex.vertical.build()
+    note = ex.vertical.profile_note
+    assert not note.visible
+    ex.state.profile = "cone"
+    assert note.visible and "curve is the sphere's" in note.object
+    assert "vibtrans threshold --profile cone" in note.object
+    ex.state.profile = "sphere"
+    assert not note.visible

@@ -13,6 +13,7 @@ from bokeh.models import ColumnDataSource
 from vibtrans.products import plots
 
 from .. import data
+from ..state import is_sphere
 from .render import rendered
 
 HEIGHT = 450
@@ -51,7 +52,9 @@ class VerticalView:
         self.scene = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.pane = pn.Column(sizing_mode="stretch_width", name="vertical")
         self._built = False
+        self.profile_note = None        # the curve is the sphere's: said (issue 34)
         state.param.watch(self._moved, ["log_amplitude", "log_mass"])
+        state.param.watch(self._on_profile, "profile")
 
     def build(self):
         """The figure, built when the tab is first opened (not with the page)."""
@@ -69,7 +72,24 @@ class VerticalView:
         r = fig.scatter("x", "y", source=self.scene, size=14, marker="circle", color="yellow",
                         line_color="black")
         fig.legend[0].items.append(_legend_item("the selected scene", r))
-        self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+        self.profile_note = pn.pane.Alert("", alert_type="warning", visible=False,
+                                          sizing_mode="stretch_width",
+                                          css_classes=["vt-vertical-profile"])
+        self.pane.objects = [self.profile_note, pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+        self._on_profile()
+
+    def _on_profile(self, *events):
+        """The shipped curve is the sphere's: with another profile, say so
+        (the library computes its own: `vibtrans threshold --profile`)."""
+        if self.profile_note is None:
+            return
+        profile = self.state.profile
+        self.profile_note.object = (
+            f"**The deformable curve is the sphere's** (Hertz, shipped), not the selected "
+            f"{profile}'s: its threshold differs. `vibtrans threshold --profile {profile} "
+            f"--mass M` computes it at a mass m*. The material point's curve holds for "
+            f"any profile (a rigid point).")
+        self.profile_note.visible = not is_sphere(profile)
 
     def _moved(self, *events):
         in_document(self.scene, {"x": [self.state.log_amplitude], "y": [self.state.log_mass]})
