@@ -91,6 +91,8 @@ def test_a_name_says_what_differs_from_the_shipped_maps():
         "deformable mu 0.3"
     assert describe(_map(LA, LM, V, scene_periods=500.0, scene_fidelity="preview")) == \
         "deformable mu 0.3 preview 500 periods"
+    # a profile's map (issue 34) names its profile
+    assert describe(_map(LA, LM, V, scene_profile="cone")) == "deformable mu 0.3 cone"
 
 
 def _export(tmp_path, *args):

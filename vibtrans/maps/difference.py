@@ -37,12 +37,14 @@ def signed_log(v, v0=V0):
 # 0.5 preview 500 periods")
 DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
              ("scene_tau", "tau {}", 50.0), ("scene_fidelity", "{}", "standard"),
-             ("scene_periods", "{} periods", 2000.0))
+             ("scene_periods", "{} periods", 2000.0),
+             ("scene_profile", "{}", "sphere"))     # (a sphere's map names no profile)
 
 
 def describe(ds):
     """A map's short name from its attributes: model and mu, then what
-    differs from the shipped maps (theta, nu, tau, fidelity, periods)."""
+    differs from the shipped maps (theta, nu, tau, fidelity, periods, the
+    particle's profile)."""
     a = ds.attrs
     parts = [str(a.get("scene_model", "?")), f"mu {a.get('scene_mu', '?')}"]
     for key, fmt, usual in DESCRIBED:
