@@ -51,9 +51,18 @@ class RunTabs:
         for box in (self.animation_box, self.memory_box, self.dynamics_box):
             self._scale(box)
 
-    def _scale(self, box):
-        for pane in box.select(pn.pane.Bokeh):
+    def _scale(self, viewable):
+        for pane in viewable.select(pn.pane.Bokeh):
             scale_fonts(pane.object, self.font_scale)
+
+    def _place(self, box, text, view):
+        """A view built for a tab into its box, its figures at the page's
+        font scale already: a figure changed after it went into the page
+        could reach the browser before the figure did (BokehJS: "reference
+        p3659 isn't known", and the view never showed), so every change a
+        new view needs (the fonts, the run) is made before it is placed."""
+        self._scale(pn.panel(view))
+        box.objects = [pn.pane.Markdown(text), view]
 
     def show(self, result):
         """A new run: each tab shows it when opened, the open one at
@@ -99,33 +108,36 @@ class RunTabs:
     def _update_dynamics(self):
         """The section and orbit diagram of the last run, computed when first
         looked at."""
-        if self.dynamics_view is None:
+        new = self.dynamics_view is None
+        if new:
             self.dynamics_view = DynamicsView(RUNNER)
             self.dynamics_view.error = self.error
-            self.dynamics_box.extend([pn.pane.Markdown(DYNAMICS_TEXT), self.dynamics_view])
-            self._scale(self.dynamics_box)
         pending, self._dynamics_pending = self._dynamics_pending, None
         if pending is not None:
             self.dynamics_view.set_run(pending.scene, pending.ds)
+        if new:
+            self._place(self.dynamics_box, DYNAMICS_TEXT, self.dynamics_view)
 
     def _update_animation(self):
         """The animation of the last run, built when first looked at."""
-        if self.animation is None:
+        new = self.animation is None
+        if new:
             self.animation = ParticleAnimation()
-            self.animation_box.objects = [pn.pane.Markdown(ANIMATION_TEXT), self.animation]
-            self._scale(self.animation_box)
         result = self.result
         if result is not None and self.animated is not result:
             self.animated = result
             self.animation.show(result.scene, result.ds)
+        if new:
+            self._place(self.animation_box, ANIMATION_TEXT, self.animation)
 
     def _update_memory(self):
         """The memory view of the last run, computed when first looked at."""
-        if self.memory_view is None:
+        new = self.memory_view is None
+        if new:
             self.memory_view = MemoryView(RUNNER)
             self.memory_view.error = self.error
-            self.memory_box.objects = [pn.pane.Markdown(MEMORY_TEXT), self.memory_view]
-            self._scale(self.memory_box)
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
             self.memory_view.set_run(*pending)      # clears it for a point mass
+        if new:
+            self._place(self.memory_box, MEMORY_TEXT, self.memory_view)
