@@ -19,7 +19,6 @@ the sphere's dashed beside it.  It is built when a profile other than the
 sphere is first chosen (most pages never show it: a page costs its server
 less) and hidden for the sphere.
 """
-import re
 
 import numpy as np
 import panel as pn
