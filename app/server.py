@@ -248,15 +248,20 @@ def serve(args):
             return
         loop.call_later(PRERENDER_PAUSE, prerender, steps)
 
-    server = pn.serve({"/": _first_page(serve_page, start_kernels)}, port=args.port,
-                      address=args.address, show=False, start=False, verbose=False,
-                      websocket_origin=allowed,
-                      title=PAGE_TITLE, num_procs=args.num_procs, liveness=True,
-                      admin=False, extra_patterns=component_routes(),
-                      # behind a proxy: the visitor's address and scheme, not the proxy's
-                      use_xheaders=bool(getattr(args, "use_xheaders", False)),
-                      unused_session_lifetime_milliseconds=args.unused_session_lifetime,
-                      check_unused_sessions_milliseconds=args.check_unused_sessions)
+    try:
+        server = pn.serve({"/": _first_page(serve_page, start_kernels)}, port=args.port,
+                          address=args.address, show=False, start=False, verbose=False,
+                          websocket_origin=allowed,
+                          title=PAGE_TITLE, num_procs=args.num_procs, liveness=True,
+                          admin=False, extra_patterns=component_routes(),
+                          # behind a proxy: the visitor's address and scheme, not the proxy's
+                          use_xheaders=bool(getattr(args, "use_xheaders", False)),
+                          unused_session_lifetime_milliseconds=args.unused_session_lifetime,
+                          check_unused_sessions_milliseconds=args.check_unused_sessions)
+    except OSError as exc:           # the port taken, or not ours to open
+        raise InputError(f"--port {args.port}: cannot listen on {args.address}:{args.port} "
+                         f"({exc.strerror or exc}); choose another port (1-65535), or stop "
+                         f"the server that holds it") from None
     # after the server is made: with --num-procs > 1 it has forked, and each
     # process compiles (or loads) its own kernels
     loop = server.io_loop

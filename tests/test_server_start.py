@@ -172,3 +172,29 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
         while any(pid_alive(p) for p in pids) and time.perf_counter() - t0 < 30:
             time.sleep(0.2)
         assert not any(pid_alive(p) for p in pids)
+
+
+def test_a_port_in_use_is_a_message_naming_it_not_a_traceback():
+    """`vibtrans serve --port P` with P held by another process: one line
+    naming the port and what to do, exit status 2, no traceback (it was
+    tornado's OSError)."""
+    import os
+    import socket
+    import subprocess
+    import sys
+    from pathlib import Path
+    held = socket.socket()
+    held.bind(("localhost", 0))
+    held.listen()
+    port = held.getsockname()[1]
+    try:
+        r = subprocess.run([sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port)],
+                           cwd=Path(__file__).resolve().parent.parent, capture_output=True,
+                           text=True, timeout=budget(120),
+                           env={k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"})
+    finally:
+        held.close()
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr, r.stderr
+    assert f"--port {port}: cannot listen on 127.0.0.1:{port}" in r.stderr, r.stderr
+    assert "choose another port" in r.stderr
