@@ -2,8 +2,9 @@
 
 What the session selected is `state.ExplorerState` (mirrored in the URL,
 app/urlstate.py); its runs are `controller.RunController` (no widgets);
-each part of the page is a view in app/views/ (map, summary, trajectory,
-units, vertical, exports) fed by the controller's result.  Physics comes
+each part of the page is a view in app/views/ (the scene's controls, the
+run's buttons, the profile, map, summary, the run's tabs, units, vertical,
+exports, ...) bound to the state or fed by the controller's result.  Physics comes
 from `vibtrans`, figures from `vibtrans.products.plots` and app/live.py.
 
 Serve with `vibtrans serve` (app/server.py: checks the maps first, then
@@ -12,36 +13,34 @@ serves while the kernels compile in the background, app/kernels.py) or
 """
 import functools
 import logging
-import math
 from types import SimpleNamespace
 
 import holoviews as hv
 import panel as pn
 import param
-from bokeh.models import CustomJSTickFormatter, Div
+from bokeh.models import Div
 
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
-from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
 
-from . import data, inputs, memory, urlstate
+from . import data, memory, urlstate
 from .browserside import ACK_RUN, ack_js, ack_listener
 from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
 from .presentation import (BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, WRAPPING_TABS,
                            scale_fonts)
-from .texts import INTRODUCTION, MAP_KEY, POINT_LABELS, PRESENTATION_NOTE, STALE_TEXT
-from .state import (DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS,
-                    SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, ExplorerState,
-                    within)
+from .texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
+from .state import DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS, ExplorerState
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.map import MapView
 from .views.profile import ProfileView
 from .views.design import DesignPanel
 from .views.summary import SummaryView
+from .views.runbuttons import RunButtons
 from .views.runtabs import RunTabs
+from .views.scene import SceneControls
 from .views.trajectory import TrajectoryView, structure
 from .views.units import UnitsPanel
 from .views.vertical import VerticalView
@@ -93,43 +92,18 @@ class Explorer(pn.viewable.Viewer):
                                      sizing_mode="stretch_width")
         self.ack = Div(text="", height=22, sizing_mode="stretch_width", name="ack",
                        styles={"color": "#555", "font-style": "italic"})
-        self.progress = pn.indicators.Progress(value=0, max=100, visible=False,
-                                               sizing_mode="stretch_width", name="progress")
-        self.cancel_button = pn.widgets.Button(name="Cancel", button_type="warning",
-                                               disabled=True)
-        self.cancel_button.on_click(self._on_cancel)
         if pn.state.curdoc is not None:      # (the page's acknowledgements)
             pn.state.curdoc.js_on_event("document_ready", ack_listener(self.ack))
-        self.run_button = pn.widgets.Button(name="Run selected scene", button_type="primary",
-                                            css_classes=["vt-run", "vt-ack-run"])
-        self.run_button.on_click(self._on_run_click)
-        self.point_select = pn.widgets.Select(
-            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
-            css_classes=["vt-ack-run", "vt-paper-points"])
-        self.point_select.param.watch(self._on_point, "value")
-        # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
-        # the small values); it shows v0* itself
-        lo, hi = ExplorerState.param.v0.bounds
-        self.v0_slider = pn.widgets.FloatSlider(
-            name="v0* (white band |v*| <= v0*)", start=math.log10(lo), end=math.log10(hi),
-            step=0.05, value=math.log10(self.state.v0),
-            format=CustomJSTickFormatter(code="return Number((10 ** tick).toPrecision(2))"))
-        self.v0_slider.param.watch(self._on_v0_slider, "value_throttled")
-        self.state.param.watch(self._on_v0, "v0")
-        # mu offers the shipped maps of the model shown (no blank map)
-        # (and the mu in use when no shipped map has it: shown as it is)
-        self.mu_select = pn.widgets.Select.from_param(
-            self.state.param.mu, options=self._mu_options(), name="mu (shipped maps)",
-            css_classes=["vt-mu"])
-        self.state.param.watch(self._on_model, ["model", "mu"])  # before the redraw (precedence)
-        # typed numbers: checked like a link's, applied only when valid
-        self.fields = [inputs.NumberField(self.state, "log_amplitude", "log10 A*"),
-                       inputs.NumberField(self.state, "log_mass", "log10 m*")]
-        # the material point's controls (its alpha_t field joins self.fields),
-        # shown when it runs (built then: most sessions never show them)
-        self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
-        self.state.param.watch(self._on_point_mass_shown, ["model", "compare"])
-        self._on_point_mass_shown()
+        # the run's buttons and progress (app/views/runbuttons.py)
+        self.run_buttons = rb = RunButtons(self.controller, run=self.start_run,
+                                           answered=self._answered)
+        self.run_button, self.cancel_button, self.progress = rb.run_button, rb.cancel_button, rb.progress
+        # the scene's controls (app/views/scene.py), as the page and its tests name them
+        self.scene_controls = sc = SceneControls(self.state, run=self.start_run,
+                                                 answered=self._answered)
+        self.point_select, self.v0_slider, self.mu_select = sc.point_select, sc.v0_slider, sc.mu_select
+        self.fields, self.point_mass_controls, self.where = sc.fields, sc.point_mass_controls, sc.where
+        self.paper_point = sc.paper_point
         self.profile_view = ProfileView(self.state)      # the particle's profile, its tip drawn
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
@@ -173,8 +147,6 @@ class Explorer(pn.viewable.Viewer):
         # the run's tabs, each built when first opened (app/views/runtabs.py)
         self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
         self.trajectory = self.run_tabs = self.runs.tabs
-        self.where = pn.pane.Alert("", alert_type="info", visible=False,
-                                   sizing_mode="stretch_width", name="where")
         self._on_position()
         self.state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
         self.units_panel.param.watch(self._on_device, "marker")
@@ -183,8 +155,6 @@ class Explorer(pn.viewable.Viewer):
         # what the controller publishes, shown
         c = self.controller
         c.param.watch(self._on_status, "status", onlychanged=False)
-        c.param.watch(self._on_busy, "busy")
-        c.param.watch(self._on_progress, "progress")
         c.param.watch(self._on_message, "message", onlychanged=False)
         c.param.watch(self._on_result, "result")
         self.param.watch(self._on_presentation, "presentation")
@@ -225,68 +195,8 @@ class Explorer(pn.viewable.Viewer):
         return self.state.errors(SCENE_FIELDS)
 
     # ---------- controls ----------
-    def _on_v0_slider(self, event):
-        v0 = float(f"{10.0 ** event.new:.2g}")
-        lo, hi = ExplorerState.param.v0.bounds
-        self.state.v0 = min(max(v0, lo), hi)     # 10**(log10 bound) may round past it
-        self._answered()            # also when v0* rounds to its old value: no redraw
-
-    def _on_v0(self, event):
-        x = math.log10(event.new)
-        if abs(self.v0_slider.value - x) > 1e-9:
-            self.v0_slider.value = x
-
-    def _on_point_mass_shown(self, *events):
-        s = self.state
-        shown = s.model == "point-mass" or s.compare == "point mass"
-        if shown and not self.point_mass_controls.objects:
-            alpha_t = inputs.NumberField(s, "alpha_t", "alpha_t (point mass: tangential restitution)")
-            self.fields.append(alpha_t)
-            self.point_mass_controls.objects = [
-                pn.widgets.Select.from_param(s.param.stick_rule,
-                                             name="stick rule (point mass: slide -> stick)"),
-                alpha_t]
-        self.point_mass_controls.visible = shown
-
-    @staticmethod
-    def _mus(model):
-        return sorted(mu for (m, mu) in data.available_maps() if m == model)
-
-    def _mu_options(self):
-        """The mus of the model's shipped maps, and the one in use if no
-        shipped map has it (a link's, a map on demand's, a device's): the
-        selector shows the value run, the map says it has no map for it."""
-        return sorted({*self._mus(self.state.model), self.state.mu})
-
-    def _on_model(self, *events):
-        options = self._mu_options()
-        if list(self.mu_select.options) != options:
-            self.mu_select.options = options
-
-    def paper_point(self):
-        """The paper point the state's scene is (its log10 A*, m* and model),
-        or 0."""
-        s = self.state
-        return next((k for k, (la, lm, model) in PAPER_POINTS.items()
-                     if (la, lm, model) == (s.log_amplitude, s.log_mass, s.model)), 0)
-
     def _on_position(self, *events):
-        la, lm = self.state.log_amplitude, self.state.log_mass
-        k = self.paper_point()
-        if self.point_select.value != k:      # a click or a link on a paper point shows it
-            self._pointing = True
-            try:
-                self.point_select.value = k
-            finally:
-                self._pointing = False
-        self.map_view.select(la, lm)
-        inside = within(la, lm, MAP_LOG_AMPLITUDE, MAP_LOG_MASS)
-        self.where.object = "" if inside else (
-            f"The selected scene (log10 A* = {la:g}, log10 m* = {lm:g}) lies outside the "
-            f"map (log10 A* in [{MAP_LOG_AMPLITUDE[0]:g}, {MAP_LOG_AMPLITUDE[1]:g}], log10 m* "
-            f"in [{MAP_LOG_MASS[0]:g}, {MAP_LOG_MASS[1]:g}]): it runs all the same, without "
-            f"a map colour to compare with.")
-        self.where.visible = not inside
+        self.map_view.select(self.state.log_amplitude, self.state.log_mass)
         if self.message.object.startswith("Not run:") and not self._field_errors():
             self._error("")         # the fields it named are valid now
 
@@ -321,36 +231,10 @@ class Explorer(pn.viewable.Viewer):
                                 **both)
         self.start_run()
 
-    def _on_point(self, event):
-        k = event.new
-        if not k or getattr(self, "_pointing", False):
-            return
-        la, lm, model = PAPER_POINTS[k]
-        self.state.param.update(model=model, log_amplitude=la, log_mass=lm, **MAP_MATERIAL,
-                                **MAP_RUN)
-        self.start_run()
-
     def _run_device(self, **scene):
-        """Run the device of the Units and Design tabs (the state's, as its
-        form shows it): its (log10 A*, m*, theta, nu) unrounded, with
-        `scene`'s other values (the Design tab's mu, periods); refused with
-        the form's message while one of its fields is invalid."""
-        errors = self.state.errors(DEVICE_FIELDS)
-        if errors:
-            self._error("Not run: " + " · ".join(errors))
-            return None
+        """Run the device of the Units and Design tabs (ExplorerState.select_device)."""
         try:
-            la, lm, theta, nu = self.state.device_scene_values()
-        except ValueError as exc:
-            self._error(f"Not run: the device is not a scene: {exc}")
-            return None
-        if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
-            self._error(f"Not run: the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is "
-                        f"outside the explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, "
-                        f"log10 m* in {list(SCENE_LOG_MASS)}.")
-            return None
-        try:
-            self.state.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, **scene)
+            self.state.select_device(**scene)
         except ValueError as exc:
             self._error(f"Not run: {exc}")
             return None
@@ -361,12 +245,6 @@ class Explorer(pn.viewable.Viewer):
         the deformable particle at its (A*, m*, theta, nu), the tab's mu and
         its map's periods; its drift and time also in SI units."""
         return self._run_device(model="deformable", mu=mu, periods=periods)
-
-    def _on_run_click(self, event):
-        self.start_run()
-
-    def _on_cancel(self, event):
-        self.controller.cancel()
 
     def _on_presentation(self, event):
         """Large text and figure fonts for a projector; the introduction
@@ -427,15 +305,6 @@ class Explorer(pn.viewable.Viewer):
             self._answered()
         else:
             self.summary_view.say(event.new)
-
-    def _on_busy(self, event):
-        with pn.io.hold():
-            self.progress.visible = event.new
-            self.cancel_button.disabled = not event.new
-            self._answered()            # the progress bar says it now
-
-    def _on_progress(self, event):
-        self.progress.value = int(100 * event.new)
 
     def _on_message(self, event):
         with pn.io.hold():

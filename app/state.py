@@ -166,6 +166,27 @@ class ExplorerState(param.Parameterized):
             raise ValueError("the device's A* is not positive")
         return math.log10(n.A_star), math.log10(n.m_star), n.theta, n.nu
 
+    def select_device(self, **scene):
+        """The device of the Units and Design tabs (as its form shows it)
+        becomes the selected scene: its (log10 A*, m*, theta, nu) unrounded,
+        with `scene`'s other values (the Design tab's mu, periods).
+        ValueError (the message for "Not run: ...") while one of its fields
+        is invalid, or its scene lies outside the explorer's range; then
+        nothing changes."""
+        errors = self.errors(DEVICE_FIELDS)
+        if errors:
+            raise ValueError(" · ".join(errors))
+        try:
+            la, lm, theta, nu = self.device_scene_values()
+        except ValueError as exc:
+            raise ValueError(f"the device is not a scene: {exc}") from None
+        if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
+            raise ValueError(
+                f"the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is outside the "
+                f"explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, log10 m* in "
+                f"{list(SCENE_LOG_MASS)}.")
+        self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, **scene)
+
     def errors(self, fields):
         """The messages of the invalid typed fields among `fields`."""
         return [msg for name, msg in self.invalid.items() if name in fields]

@@ -139,7 +139,7 @@ def test_cancel_frees_the_worker_and_says_so(monkeypatch):
         ex = _explorer()
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
         await until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
-        ex._on_cancel(None)
+        ex.cancel_button.clicks += 1
         await until(lambda: ex.summary.object == "Run cancelled.")
         assert all(f.done() for f in job.futures)
         assert not ex.progress.visible and ex.cancel_button.disabled and _idle(ex)
@@ -450,7 +450,7 @@ def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypat
                     timeout=budget(120))
         ex.state.log_mass = -0.5                    # a new scene, run and cancelled
         await _start_run_that_waits_for_cancel(ex, monkeypatch)
-        ex._on_cancel(None)
+        ex.cancel_button.clicks += 1
         await until(lambda: ex.summary.object.startswith(CANCELLED_LINE))
         assert table.split("\n")[0] in ex.summary.object     # the previous run's heading
         assert PREVIOUS_RUN in ex.memory_view.status.object

@@ -60,7 +60,7 @@ def test_a_waiting_run_can_be_cancelled(compiling):
         ex = _explorer()
         job = ex.start_run()
         await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
-        ex._on_cancel(None)
+        ex.cancel_button.clicks += 1
         await until(lambda: ex.controller.job is None)
         assert ex.summary.object == "Run cancelled."
         with pytest.raises(Cancelled):
