@@ -33,19 +33,22 @@ $(VENV)/.installed: pyproject.toml
 serve: setup
 	$(BIN)/vibtrans serve
 
-# The suite in two passes: first everything but the server and browser
-# tests on pytest-xdist's workers, one per core (TEST_WORKERS=0: all in this
-# process), each test file whole on one worker (its module fixtures made
-# once), the kernels compiled first (tests/conftest.py); then the server and
-# browser tests one at a time, as a user's machine serves one page at a time
-# (they time pages: two chromiums and two servers on two cores would only
-# measure each other).  Not one pass with --dist loadgroup (those tests on
-# one worker): with pytest 9.2 it ignores the groups
+# The suite in two passes on pytest-xdist's workers, each test file whole on
+# one worker (its module fixtures made once).  First everything but the
+# server and browser tests, one worker per core (TEST_WORKERS; 0: all in this
+# process), the kernels compiled first (tests/conftest.py).  Then the server
+# and browser tests on BROWSER_WORKERS workers (2, or 0 when TEST_WORKERS is
+# 0), each with its own `vibtrans serve` and chromium: these tests assert
+# behaviour, never wall-clock times (their waits are events, bounded by
+# budgets scaled to the machine's load: tests/budget.py), and mostly wait on
+# pages, so two share two cores.  Not one pass with --dist loadgroup (those
+# tests apart): with pytest 9.2 it ignores the groups
 # (pytest-dev/pytest-xdist#1386).
 TEST_WORKERS ?= auto
+BROWSER_WORKERS ?= $(if $(filter 0,$(TEST_WORKERS)),0,2)
 test: setup browser proxy
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not browser and not server"
-	$(BIN)/python -m pytest -q -m "browser or server"
+	$(BIN)/python -m pytest -q -n $(BROWSER_WORKERS) --dist loadfile -m "browser or server"
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
 # test`, everything).

@@ -7,8 +7,7 @@ import param
 
 from vibtrans import Scene
 from vibtrans.core import units
-from vibtrans.core.errors import InputError
-from vibtrans.core.params import ProfileSpec
+from vibtrans.core.params import ProfileSpec, check_profile
 from vibtrans.core.profiles import N_MIN, parse_profile
 from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
@@ -52,23 +51,19 @@ SPHERE = "sphere"
 
 class ExplorerProfile(ProfileSpec):
     """The particle's profile as the library spells it (`Scene.profile`),
-    checked by the library (`parse_profile`: its message names the
+    checked by the library (`check_profile`: its message names the
     parameter and its range); a measured table is refused here."""
 
     valid_values = PROFILE_VALUES       # urlstate.valid_range's words
-
-    def _validate(self, val):
-        if isinstance(val, str) and val.startswith("file:"):
-            raise InputError(f"profile: a measured table (file:PATH) is not offered by the "
-                             f"explorer (a link cannot name a file on the server; the API and "
-                             f"`vibtrans simulate --profile file:PATH` take it); it must be "
-                             f"one of {PROFILE_VALUES}")
-        super()._validate(val)
+    refuse_measured = (f"profile: a measured table (file:PATH) is not offered by the "
+                       f"explorer (a link cannot name a file on the server; the API and "
+                       f"`vibtrans simulate --profile file:PATH` take it); it must be "
+                       f"one of {PROFILE_VALUES}")
 
     def check_text(self, raw):
         """The value of a typed or linked text (urlstate.convert), or the
         library's InputError (a ValueError) saying why not."""
-        self._validate(raw)
+        check_profile(raw, self.refuse_measured)
         return raw
 
 

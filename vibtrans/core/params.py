@@ -58,16 +58,31 @@ class Physical(param.Number):
             raise InputError(f"{name} must be in {rng}, got {val!r}")
 
 
+def check_profile(val, refuse_measured=None):
+    """InputError naming the parameter and its range unless `val` is a
+    profile's spec (a file: spec is checked when its table is read);
+    `refuse_measured`: the message refusing a measured table (file:PATH),
+    for an entry point that cannot take one."""
+    if not isinstance(val, str):
+        raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {val!r}")
+    if val.startswith("file:"):
+        if refuse_measured:
+            raise InputError(refuse_measured)
+        return
+    parse_profile(val)        # raises naming the parameter and its range
+
+
 class ProfileSpec(param.String):
     """An axisymmetric particle profile: sphere | cone | power:N (N >= 1) |
     flat-sphere:C (C >= 0, units sqrt(R a0)) | file:PATH (a table r z in
-    metres; needs the scene's load_over_modulus).  docs/MODEL.md section 10."""
+    metres; needs the scene's load_over_modulus).  docs/MODEL.md section 10.
+    A subclass for an entry point that cannot take a measured table (a
+    link, a form) sets `refuse_measured` to the message that says why."""
+
+    refuse_measured = None
 
     def _validate(self, val):
-        if not isinstance(val, str):
-            raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {val!r}")
-        if not val.startswith("file:"):
-            parse_profile(val)        # raises naming the parameter and its range
+        check_profile(val, self.refuse_measured)
 
 
 @functools.lru_cache(maxsize=32)
