@@ -34,7 +34,8 @@ serve: setup
 	$(BIN)/vibtrans serve
 
 # The suite in two passes on pytest-xdist's workers, each test file whole on
-# one worker (its module fixtures made once).  First everything but the
+# one worker (its module fixtures made once), the longest files first
+# (tests/conftest.py, LONGEST_FIRST).  First everything but the
 # server and browser tests, one worker per core (TEST_WORKERS; 0: all in this
 # process), the kernels compiled first (tests/conftest.py).  Then the server
 # and browser tests on BROWSER_WORKERS workers (2, or 0 when TEST_WORKERS is
@@ -47,13 +48,16 @@ serve: setup
 TEST_WORKERS ?= auto
 BROWSER_WORKERS ?= $(if $(filter 0,$(TEST_WORKERS)),0,2)
 test: setup browser proxy
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not browser and not server"
-	$(BIN)/python -m pytest -q -n $(BROWSER_WORKERS) --dist loadfile -m "browser or server"
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder \
+		-m "not browser and not server"
+	$(BIN)/python -m pytest -q -n $(BROWSER_WORKERS) --dist loadfile --no-loadscope-reorder \
+		-m "browser or server"
 
 # The development tier: no browser, no server, nothing slow (CI runs `make
 # test`, everything).
 test-fast: setup
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not slow and not browser and not server"
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder \
+		-m "not slow and not browser and not server"
 
 # The documentation site (Sphinx + MyST-NB + the PyData theme) into
 # docs/_build/html: warnings are errors, every notebook is executed.

@@ -93,10 +93,26 @@ def pytest_configure(config):
         warmup()
 
 
+# the files of each pass of `make test` that take longest (2-4 min each,
+# `pytest --durations`: the browser and server pass's, then the other's):
+# run first, so that on pytest-xdist's workers (--dist loadfile
+# --no-loadscope-reorder hands out files in the order collected; its
+# default order, most tests first, put the one-test random walk last) none
+# of them starts last and keeps one worker busy while the other is idle
+LONGEST_FIRST = ("test_explorer_state_browser.py", "test_app_browser.py", "test_loadtest.py",
+                 "test_wheel.py", "test_lyapunov.py", "test_mapjobs.py", "test_export.py")
+
+
 def pytest_collection_modifyitems(items):
     """Every test that uses the served explorer (directly or through a
     fixture) is marked `server`, so `make test-fast` (-m "not server")
-    leaves it out without each file having to say so."""
+    leaves it out without each file having to say so.  The longest files
+    first (LONGEST_FIRST), the others in their order."""
     for item in items:
         if "served_explorer" in getattr(item, "fixturenames", ()):
             item.add_marker("server")
+
+    def rank(item):
+        name = item.path.name
+        return LONGEST_FIRST.index(name) if name in LONGEST_FIRST else len(LONGEST_FIRST)
+    items.sort(key=rank)            # stable: the rest keep their order
