@@ -46,7 +46,7 @@ from vibtrans_explorer import inputs, urlstate
 from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
 from vibtrans_explorer.views import profile as P
-from vibtrans_explorer.views.summary import profile_words
+from vibtrans_explorer.views.summary import CANCELLED_LINE, STALE_LINE, profile_words
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
 
@@ -350,8 +350,9 @@ class ExplorerMachine(RuleBasedStateMachine):
         changed = [k for k in E.SCENE_STATE if getattr(ex.state, k) != ran[k]]
         if changed:
             assert ex.stale_note.visible
-            assert ex.summary.object.startswith(
-                "**⚠ Changed since this run: press Run.**")
+            # said over the table; under the cancel's note when a later run
+            # was cancelled (a run on a busy machine was cancelled in time)
+            assert ex.summary.object.startswith((STALE_LINE, f"{CANCELLED_LINE}\n\n{STALE_LINE}"))
         elif not ex.state.invalid and not (ex.summary_view.device_run and any(
                 getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)):
             assert not ex.stale_note.visible
@@ -484,3 +485,19 @@ def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_error
     # the same list of materials in both tabs
     ex.map_tabs.active = E.DESIGN_TAB
     assert ex.design_panel.param.substrate.objects == ex.state.param.substrate.objects
+
+
+@pytest.mark.parametrize("order", ["cancel, then a change", "a change, then cancel"])
+def test_the_summary_says_cancelled_and_changed_in_one_order(order):
+    """Over the previous run's table, the cancel's note and then the stale
+    mark, whatever the order of the events (the stale mark once came first
+    or second by the order, and a change after a cancel dropped its note)."""
+    from vibtrans_explorer.views.summary import SummaryView
+    view = SummaryView(lambda *a: "")
+    view._table = "| table |"                   # a run shown
+    steps = [view.cancelled, lambda: view.mark_stale(True)]
+    for step in (steps if order.startswith("cancel") else steps[::-1]):
+        step()
+    assert view.pane.object == f"{CANCELLED_LINE}\n\n{STALE_LINE}\n\n| table |"
+    view.mark_stale(False)                      # the state back to the run's
+    assert view.pane.object == f"{CANCELLED_LINE}\n\n| table |"

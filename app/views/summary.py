@@ -125,6 +125,7 @@ class SummaryView:
         self.device_run = False     # the run shown is the device's (its SI values shown)
         self._table = None          # the run shown's table
         self._stale = False
+        self._cancelled = False     # a run after it was cancelled: said over its table
         kw = {"sizing_mode": "stretch_width"} if width is None else {"width": width}
         self.pane = pn.pane.Markdown(PLACEHOLDER_SUMMARY, name="summary", **kw)
 
@@ -137,21 +138,28 @@ class SummaryView:
         self.device_run = not si.startswith(NO_DEVICE)
         self._table = summary_table(result.scene, s, chaos_verdict(result), si,
                                     result.other, result.twin)
-        self._stale = False
-        self.pane.object = self._table
+        self._stale = self._cancelled = False
+        self._render()
 
     def cancelled(self):
         """A run was cancelled: said, over the table of the run still shown
-        (the previous one), if any; its figures and downloads are that
-        run's too."""
+        (the previous one), if any, until the next run is shown; its figures
+        and downloads are that run's too."""
         if self._table is None:
             self.pane.object = CANCELLED
             return
-        self.pane.object = "\n\n".join([CANCELLED_LINE, *([STALE_LINE] if self._stale else []),
-                                         self._table])
+        self._cancelled = True
+        self._render()
 
     def mark_stale(self, stale):
         """Mark the run shown as changed since (or not)."""
         self._stale = stale
         if self._table is not None:
-            self.pane.object = (f"{STALE_LINE}\n\n{self._table}" if stale else self._table)
+            self._render()
+
+    def _render(self):
+        """The table under what is said of it: that a later run was
+        cancelled (so this is the previous run), then that the state has
+        changed since it ran; in that order whatever the order of events."""
+        said = [CANCELLED_LINE] * self._cancelled + [STALE_LINE] * self._stale
+        self.pane.object = "\n\n".join([*said, self._table])
