@@ -147,18 +147,7 @@ def lyapunov_map(model="deformable"):
     return None if isinstance(found, str) else found
 
 
-lyapunov_map.cache_clear = _load_lyapunov.cache_clear
-
-
 _LOADED = set()         # the maps _load_map has read (or failed to read)
-
-
-def _clear_maps():
-    _load_map.cache_clear()
-    _LOADED.clear()
-
-
-drift_map.cache_clear = _clear_maps
 
 
 # ---------------------------------------------------------------- verified stamps
@@ -284,15 +273,14 @@ def vertical_curve():
     return None if isinstance(found, str) else found
 
 
-vertical_curve.cache_clear = _load_vertical.cache_clear
-
-
 def forget():
     """Forget every file read, or found missing, in ASSETS (the maps, the
     Lyapunov maps, the vertical curve, the period-one chart): the next call
     reads the folder again, as a new process would (the verified stamps,
     kept in the user's cache folder, stay).  For a folder that changed
-    under the process: the tests point ASSETS at copies."""
+    under the process: the tests point ASSETS at copies.  The one way to
+    clear these caches: clearing some of them left a Lyapunov map found
+    missing in a copy cached for the shipped maps."""
     for load in (available_maps, _load_map, _load_lyapunov, _load_vertical, _load_period_one):
         load.cache_clear()
     _LOADED.clear()
