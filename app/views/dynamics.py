@@ -159,7 +159,8 @@ class DynamicsView(pn.viewable.Viewer):
         t_end = float(ds["time"].values[-1])
         self.phase = t_end - math.floor(t_end)
         y, vy = float(ds["y"].values[-1]), float(ds["vy"].values[-1])
-        self.section_fig.title.text = (f"stroboscopic section at t = {self.phase:.3g} mod 1 "
+        # two lines: in one, the title was cut at the figure's width (1024 x 768)
+        self.section_fig.title.text = (f"stroboscopic section at t = {self.phase:.3g} mod 1\n"
                                        f"(click to seed an orbit)")
         self._seed(y, vy, first=True)
         self._start("orbit", dynamics.periodic_orbit, scene.amplitude, scene.mass, (y, vy),
