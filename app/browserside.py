@@ -1,6 +1,7 @@
 """What the explorer's page does in the browser by itself, without a round
 trip to a busy server: it acknowledges a user's action at once, and sizes
 the page for presentation mode."""
+import html
 import json
 
 from bokeh.models import CustomJS
@@ -15,9 +16,46 @@ ACK_RUN, ACK_DRAW, ACK_FILE = "Running ...", "Drawing the map ...", "Preparing t
 ACK_CLASSES = {"vt-ack-run": ACK_RUN, "vt-ack-draw": ACK_DRAW, "vt-ack-file": ACK_FILE}
 
 
-def ack_js(ack, text):
-    """A CustomJS that shows `text` in the Div `ack` (class vt-busy)."""
-    return CustomJS(args={"ack": ack}, code=f"ack.text = '<p class=\"vt-busy\">{text}</p>'")
+# The acknowledgement's pane (`ack_pane`): a Panel HTML pane, not a Bokeh
+# Div.  A Div's view re-renders at every change of its text and then lays
+# out again every figure of the page's main column (BokehJS's MarkupView:
+# `rerender` -> `compute_layout` of the layout root), which cost the browser
+# 0.1-0.3 s at every action (issue 32: twice per map redraw, once when the
+# browser shows the acknowledgement, once when the server clears it).
+# Panel's HTML view only replaces its own content, and the pane's height is
+# fixed, so nothing else moves.  The browser finds the pane's model by its
+# CSS class; Panel's HTML model holds its text HTML-escaped (its view
+# decodes it), so the browser writes it escaped too.
+ACK_CLASS = "vt-ack"
+ACK_HEIGHT = 22
+
+
+def ack_pane():
+    """The page's acknowledgement line (empty until an action)."""
+    import panel as pn
+    return pn.pane.HTML("", height=ACK_HEIGHT, sizing_mode="stretch_width",
+                        css_classes=[ACK_CLASS], margin=(0, 10),
+                        styles={"color": "#555", "font-style": "italic"})
+
+
+def _ack_text(text):
+    """The escaped text of the ack pane's model that shows `text` (class vt-busy)."""
+    return html.escape(f'<p class="vt-busy">{text}</p>')
+
+
+# the ack pane's model in the page (its documents' models, by CSS class)
+_FIND_ACK = """const vtAck = () => {
+  for (const d of window.Bokeh.documents) for (const m of d.all_models)
+    if ((m.css_classes || []).includes(%s)) return m;
+  return null;
+};
+""" % json.dumps(ACK_CLASS)
+
+
+def ack_js(text):
+    """A CustomJS that shows `text` in the ack pane (class vt-busy)."""
+    return CustomJS(code=_FIND_ACK + "const ack = vtAck();\n"
+                    f"if (ack !== null) ack.text = {json.dumps(_ack_text(text))};")
 
 
 # One listener for the whole page, not a callback per widget: Panel's
@@ -26,6 +64,7 @@ def ack_js(ack, text):
 # It sees the browser's own changes only (`sync`: not the server's).
 _ACK_LISTENER = """
 const texts = %s, SCALE = %s, SIDEBAR = %s;
+const ack = vtAck();
 const actions = new Set(["value", "value_throttled", "active", "clicks"]);
 const said = (model) => {
   for (const c of (model && model.css_classes) || []) if (c in texts) return texts[c];
@@ -44,7 +83,7 @@ const present = (on) => {
     root.removeProperty("--sidebar-width");
   }
 };
-ack.document.on_change((e) => {
+if (ack !== null) ack.document.on_change((e) => {
   let model = null;
   if (e.kind === "ModelChanged" && e.sync && e.attr === "active"
       && ((e.model.css_classes || []).includes("vt-presentation")))
@@ -56,15 +95,16 @@ ack.document.on_change((e) => {
     model = e.msg_data.origin;
   const text = said(model);
   if (text !== null)
-    ack.text = `<p class="vt-busy">${text}</p>`;
+    ack.text = text;
 });
 """
 
 
-def ack_listener(ack):
-    """A CustomJS, run once the page is ready, that shows in the Div `ack`
+def ack_listener():
+    """A CustomJS, run once the page is ready, that shows in the ack pane
     what the browser is doing (ACK_CLASSES) at every action of the user on
     a widget of one of those classes: a click, a choice, a slider's step;
     and sets the page's root sizes when presentation mode is switched."""
-    return CustomJS(args={"ack": ack}, code=_ACK_LISTENER % (
-        json.dumps(ACK_CLASSES), PRESENTATION_SCALE, SIDEBAR_WIDTH))
+    texts = {c: _ack_text(t) for c, t in ACK_CLASSES.items()}
+    return CustomJS(code=_FIND_ACK + _ACK_LISTENER % (
+        json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH))

@@ -18,13 +18,12 @@ from types import SimpleNamespace
 import holoviews as hv
 import panel as pn
 import param
-from bokeh.models import Div
 
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
 
 from . import data, memory, urlstate
-from .browserside import ACK_RUN, ack_js, ack_listener
+from .browserside import ACK_RUN, ack_js, ack_listener, ack_pane
 from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
@@ -60,6 +59,10 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
                "stick_rule", "alpha_t", "theta", "nu", "tau", "periods", "profile")
 
+# the stale note's style while the run shown is the state's (`_set_stale_note`)
+_STALE_HIDDEN = {"display": "none"}
+
+
 def _page_location():
     """The page's Location (None outside a served session), made from the
     request's path alone.  Panel's own (`pn.state.location`) parses the
@@ -90,10 +93,9 @@ class Explorer(pn.viewable.Viewer):
                                         schedule=pn.state.execute, refusals=self._field_errors)
         self.message = pn.pane.Alert("", alert_type="danger", visible=False,
                                      sizing_mode="stretch_width")
-        self.ack = Div(text="", height=22, sizing_mode="stretch_width", name="ack",
-                       styles={"color": "#555", "font-style": "italic"})
+        self.ack = ack_pane()
         if pn.state.curdoc is not None:      # (the page's acknowledgements)
-            pn.state.curdoc.js_on_event("document_ready", ack_listener(self.ack))
+            pn.state.curdoc.js_on_event("document_ready", ack_listener())
         # the run's buttons and progress (app/views/runbuttons.py)
         self.run_buttons = rb = RunButtons(self.controller, run=self.start_run,
                                            answered=self._answered)
@@ -111,8 +113,10 @@ class Explorer(pn.viewable.Viewer):
         self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
         # a run whose inputs changed since it was made: said over its views
-        self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning", visible=False,
-                                        sizing_mode="stretch_width", css_classes=["vt-stale"])
+        # shown and hidden by its style (`_set_stale_note`), not by `visible`
+        self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning",
+                                        sizing_mode="stretch_width", css_classes=["vt-stale"],
+                                        styles=_STALE_HIDDEN)
         self.summary = self.summary_view.pane
         self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
                                                   sizing_mode="stretch_width")
@@ -127,7 +131,7 @@ class Explorer(pn.viewable.Viewer):
         problems = data.problems()            # damaged or missing shipped files
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
-        self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(self.ack, ACK_RUN),
+        self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(ACK_RUN),
                                 on_zoom=self.ondemand.on_zoom)
         self.ondemand.map_view = self.map_view
         self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
@@ -215,10 +219,23 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_stale(self, *events):
         stale = bool(self.stale())
-        if self.stale_note.visible != stale:
+        if self.stale_shown() != stale:
             with pn.io.hold():
-                self.stale_note.visible = stale
+                self._set_stale_note(stale)
                 self.summary_view.mark_stale(stale)
+
+    def stale_shown(self):
+        """Whether the stale note is shown (`_set_stale_note`)."""
+        return self.stale_note.styles != _STALE_HIDDEN
+
+    def _set_stale_note(self, stale):
+        """Show or hide the stale note by its style, not by `visible`: in
+        BokehJS a change of a layout's `visible` lays out again every
+        figure of the page's main column (`invalidate_layout` of the layout
+        root: ~10 plots, each forcing a style recalculation), which cost
+        the browser 0.5-1 s at every mu or model change after a run
+        (issue 32); a style changes the note's element alone."""
+        self.stale_note.styles = {} if stale else _STALE_HIDDEN
 
     def _on_device(self, *events):
         self.map_view.mark_device(self.units_panel.marker)
@@ -294,8 +311,19 @@ class Explorer(pn.viewable.Viewer):
     def _answered(self, *events):
         """Clear the browser's acknowledgement of an action (ack_listener).  The
         new text always differs from the server's copy (whether or not the
-        browser's has reached it), so the change is always sent."""
-        self.ack.text = "" if self.ack.text != "" else "<span></span>"
+        browser's has reached it), so the change is always sent.  In a
+        served session on the document's next tick: Panel sends a pane's
+        change at once, while the changes of the answer's Bokeh models (the
+        map's sources, a run's figures) go when the callback ends; the
+        acknowledgement is cleared after them, not before."""
+        doc = pn.state.curdoc
+        if doc is not None and doc.session_context is not None:
+            doc.add_next_tick_callback(self._clear_ack)
+        else:
+            self._clear_ack()
+
+    def _clear_ack(self):
+        self.ack.object = "" if self.ack.object != "" else "<span></span>"
 
     def _on_status(self, event):
         if event.new == CANCELLED:
@@ -348,7 +376,7 @@ class Explorer(pn.viewable.Viewer):
             self.trajectories.show(result, self.units_panel.period_seconds(scene))
             self.exports.show(result)
             self.summary_view.show(result)
-            self.stale_note.visible = False
+            self._set_stale_note(False)
             self._on_stale()
             self.runs.show(result)
         self.runs.update_open()         # after the frozen hold (RunTabs.update_open)
@@ -420,7 +448,7 @@ class Explorer(pn.viewable.Viewer):
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
         self.page = pn.Column(
-            self.intro, self.message, self.where, pn.pane.Bokeh(self.ack, margin=(0, 10)),
+            self.intro, self.message, self.where, self.ack,
             pn.FlexBox(pn.Column(tabs, self.summary, styles=half, sizing_mode="stretch_width"),
                        pn.Column(self.stale_note, self.trajectory, styles=half,
                                  sizing_mode="stretch_width"),

@@ -414,7 +414,8 @@ _ACK_JS = """() => { let shown = false;
 # the Div): on a warm server the answer can clear one before a check by
 # evaluate() comes back, so each action is judged by this count rising.
 _COUNT_ACKS_JS = """() => { window.vtAcks = 0;
-  const ack = window.Bokeh.documents[0].get_model_by_name("ack");
+  const ack = [...window.Bokeh.documents[0].all_models].find(
+    (m) => (m.css_classes || []).includes("vt-ack"));
   ack.properties.text.change.connect(() => {
     if (ack.text.includes("vt-busy")) window.vtAcks += 1; }); }"""
 

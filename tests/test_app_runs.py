@@ -454,5 +454,5 @@ def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypat
         await until(lambda: ex.summary.object.startswith(CANCELLED_LINE))
         assert table.split("\n")[0] in ex.summary.object     # the previous run's heading
         assert PREVIOUS_RUN in ex.memory_view.status.object
-        assert ex.stale_note.visible                         # and it is not the state's
+        assert ex.stale_shown()                              # and it is not the state's
     asyncio.run(go())

@@ -349,13 +349,13 @@ class ExplorerMachine(RuleBasedStateMachine):
         assert words in ex.summary_view._table
         changed = [k for k in E.SCENE_STATE if getattr(ex.state, k) != ran[k]]
         if changed:
-            assert ex.stale_note.visible
+            assert ex.stale_shown()
             # said over the table; under the cancel's note when a later run
             # was cancelled (a run on a busy machine was cancelled in time)
             assert ex.summary.object.startswith((STALE_LINE, f"{CANCELLED_LINE}\n\n{STALE_LINE}"))
         elif not ex.state.invalid and not (ex.summary_view.device_run and any(
                 getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)):
-            assert not ex.stale_note.visible
+            assert not ex.stale_shown()
 
 
 def test_the_page_is_one_state_whatever_the_order(monkeypatch, no_logged_errors):
@@ -420,16 +420,16 @@ def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
                           radius=1e-5, amplitude=1e-9, fidelity="preview", compare="none")
     ex._run_device()
     asyncio.run(ex.pending.pop()())
-    assert ex.summary_view.device_run and not ex.stale_note.visible
+    assert ex.summary_view.device_run and not ex.stale_shown()
     heading = ex.summary.object.splitlines()[0]
     n = ex.state.device()
     # the heading's A*, m* are the Units table's (unrounded logs)
     assert f"A\\* = {n.A_star:.4g}, m\\* = {n.m_star:.4g}" in heading
     assert f"| A* | {n.A_star:.4g}" in ex.units_panel.info.object
     ex.state.amplitude = 1e-8
-    assert ex.stale_note.visible and "Changed since this run" in ex.summary.object
+    assert ex.stale_shown() and "Changed since this run" in ex.summary.object
     ex.state.amplitude = 1e-9
-    assert not ex.stale_note.visible
+    assert not ex.stale_shown()
     again = _open(monkeypatch, ex.url_query())
     for k in (*DEVICE_FIELDS, "theta", "nu", "log_amplitude", "log_mass"):
         assert getattr(again.state, k) == getattr(ex.state, k), k

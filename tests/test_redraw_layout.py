@@ -1,0 +1,134 @@
+"""Issue 32: a change of mu or of the model redraws the map in the browser
+within 0.5 s (`python -m devtools.browserbench --check`).
+
+A trace of those redraws (`python -m devtools.redrawtrace`) showed the time
+going to BokehJS laying out every figure of the page's main column again,
+each forcing a style recalculation: after a run, 1.0-1.7 s of "Recalculate
+Style" per change.  Two changes of the page set that off, not the map's own
+update: the stale note's `visible` (any LayoutDOM's `visible`, size, margin,
+CSS classes or children: BokehJS's `invalidate_layout` of the layout root)
+and the acknowledgement's text in a Bokeh `Div` (BokehJS's MarkupView
+re-renders at every change, then computes the root's layout).
+
+The test checks that mechanism, not a time: the document changes a mu or
+model change makes in a served page after a run (what Bokeh sends to the
+browser) touch no such property of a model in the page's main column (the
+map's root: the map, the run's figures).  The sidebar's widgets may change
+(its own root: the selector's options, the point mass's controls)."""
+import asyncio
+
+import panel as pn
+import pytest
+from bokeh.document import Document
+from bokeh.models import LayoutDOM, Plot
+from bokeh.models.widgets.markups import Markup
+from panel.io.state import set_curdoc
+
+from test_explorer_state import StandIn
+from vibtrans_explorer import data
+from vibtrans_explorer import explorer as E
+
+pytestmark = pytest.mark.slow       # an explorer session with a run, ~10 s
+
+# BokehJS (3.x) LayoutDOMView.connect_signals: a change of one of these
+# lays out the whole layout root again (`invalidate_layout`); `children`
+# too (`update_children`).  PlotView: its side panels and renderers lists,
+# its frame's size and borders.
+LAYOUT_PROPERTIES = {"css_classes", "stylesheets", "width", "height", "min_width",
+                     "min_height", "max_width", "max_height", "margin", "width_policy",
+                     "height_policy", "flow_mode", "sizing_mode", "aspect_ratio", "visible",
+                     "resizable", "children"}
+PLOT_LAYOUT_PROPERTIES = {"above", "below", "left", "right", "center", "renderers",
+                          "frame_width", "frame_height", "frame_align", "min_border",
+                          "min_border_top", "min_border_bottom", "min_border_left",
+                          "min_border_right"}
+
+
+def relayouts(events, models):
+    """The changes among `events` that make BokehJS lay out a whole root
+    again, of a model in `models`: (model type, property)."""
+    out = []
+    for e in events:
+        model, attr = getattr(e, "model", None), getattr(e, "attr", None)
+        if model is None or model not in models:
+            continue
+        if isinstance(model, LayoutDOM) and attr in LAYOUT_PROPERTIES:
+            out.append((type(model).__name__, attr))
+        elif isinstance(model, Plot) and attr in PLOT_LAYOUT_PROPERTIES:
+            out.append((type(model).__name__, attr))
+        elif (isinstance(model, Markup) and type(model).__module__.startswith("bokeh.")
+              and attr == "text"):      # a Bokeh Div's view re-renders at any change
+            out.append((type(model).__name__, attr))
+    return out
+
+
+def _served_page():
+    """A page as `vibtrans serve` builds it (Panel's server_doc), a run of
+    its scene drawn; (document, explorer)."""
+    doc = Document()
+    with set_curdoc(doc):
+        ex = E.Explorer(simulate=StandIn())
+        pending = []
+        ex.controller.schedule = pending.append
+        E.explorer_template(ex).server_doc(doc)
+        ex.state.fidelity = "preview"
+        ex.start_run()
+        asyncio.run(pending.pop()())
+    assert "drift" in ex.summary.object and not ex.stale_shown()
+    return doc, ex
+
+
+def _main_root(doc, ex):
+    """The document root holding the map (the page's main column)."""
+    fig = ex.map_view.figures[0]
+    root, = [r for r in doc.roots if fig in r.references()]
+    return root
+
+
+@pytest.mark.parametrize("changes", [
+    [("mu", 0.1), ("mu", 0.3)],
+    [("model", "point-mass"), ("model", "deformable")],
+], ids=["mu", "model"])
+def test_a_mu_or_model_change_lays_out_nothing_in_the_main_column(changes):
+    if not {("deformable", 0.1), ("deformable", 0.3), ("point-mass", 0.3)} \
+            <= set(data.available_maps()):
+        pytest.fail("the shipped maps are missing (assets/maps)")
+    doc, ex = _served_page()
+    assert ex.state.mu == 0.3 and ex.state.model == "deformable"
+    main = set(_main_root(doc, ex).references())
+    figure = ex.map_view.figures[0]
+    events = []
+    doc.on_change(events.append)
+    stale_seen = []
+    with set_curdoc(doc):
+        for name, value in changes:
+            events.clear()
+            setattr(ex.state, name, value)
+            stale_seen.append(ex.stale_shown())
+            # the map updated in place (no new figure) and the run marked
+            # stale or not: the change did reach the page
+            assert ex.map_view.figures[0] is figure
+            assert any(getattr(e, "model", None) in main for e in events)
+            found = relayouts(events, main)
+            assert found == [], (name, value, found)
+    # the first change made the run stale, the second made it current again
+    assert stale_seen == [True, False]
+
+
+def test_the_check_sees_a_relayout():
+    """The check itself: a layout's `visible` and a Bokeh Div's text in the
+    main column are found (what the page did before)."""
+    from bokeh.models import Div
+    doc = Document()
+    div, column = Div(text=""), pn.Column(pn.pane.Markdown("x")).get_root(doc)
+    doc.add_root(pn.Column().get_root(doc))
+    events = []
+    doc.add_root(column)
+    column.children.append(div)
+    doc.on_change(events.append)
+    div.text = "<p>busy</p>"
+    column.children[0].visible = False
+    column.styles = {"color": "red"}           # a style: no layout
+    assert relayouts(events, set(column.references())) == [("Div", "text"),
+                                                           (type(column.children[0]).__name__,
+                                                            "visible")]
