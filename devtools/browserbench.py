@@ -34,8 +34,13 @@ pane is loading; and every Bokeh plot shown has finished painting
 that frame has been painted.
 The download: from the click (this process's clock) to Playwright's
 download event.  A probe in the page checks the state every animation
-frame (~3 ms of the page's main thread per frame on the development
-machine).  "server's reply": from the action to the arrival of the last
+frame: it queries the page's shadow roots (found once, then kept by a
+MutationObserver) for the few elements it reads.  Its time counts in every
+time measured: until 2026-11-27 it walked every element of the page at
+every frame, 0.16 s of the page's main thread per mu change after a run
+on the 2-core machine under load (Chrome traces, `python -m
+devtools.redrawtrace`), now 0.09 s; times measured before are not
+comparable (rerun the baseline).  "server's reply": from the action to the arrival of the last
 websocket message before the result was drawn (a listener on the page's
 socket); the server's share (with the network's), the rest is the
 browser's: building and painting what came.
@@ -173,24 +178,67 @@ const allPainted = () => {
   }
   return true;
 };
+// The page's shadow roots (Bokeh's and Panel's views each render into one),
+// found once and then as nodes are added (a MutationObserver on each root):
+// a walk of every element of the page at every frame cost the page's main
+// thread 8-15 ms a frame under load, ~0.1-0.16 s of a map redraw (issue 32,
+// `python -m devtools.redrawtrace`); the scan then queries each root for
+// the few elements it reads.  A full walk every FULL_WALK_FRAMES frames
+// catches a shadow root attached to an element already in the page (no
+// mutation says so; not seen in BokehJS or Panel).
+const FULL_WALK_FRAMES = 30;
+const roots = new Set([document]);
+const adopt = (node) => {
+  const visit = (el) => {
+    const sr = el.shadowRoot;
+    if (sr && !roots.has(sr)) {
+      roots.add(sr);
+      observer.observe(sr, {childList: true, subtree: true});
+      adopt(sr);
+    }
+  };
+  if (node.nodeType === 1) visit(node);
+  for (const el of node.querySelectorAll("*")) visit(el);
+};
+const observer = new MutationObserver((records) => {
+  for (const r of records) for (const n of r.addedNodes) if (n.nodeType === 1) adopt(n);
+});
+observer.observe(document, {childList: true, subtree: true});
+adopt(document);
+let frames = 0;
+const SCANNED = "strong, canvas, progress, p, .pn-loading, .vt-busy, .loader, .alert";
+const look = (s, el) => {
+  const tag = el.tagName, cl = el.classList;
+  if (tag === "STRONG") { if (el.textContent.includes("mu = ")) s.summary = el.textContent; }
+  else if (tag === "CANVAS") { if (visible(el)) s.canvases.push(el); }
+  else if (tag === "PROGRESS") { if (visible(el)) s.progress = true; }
+  else if (tag === "P") {
+    const t = el.textContent;
+    if (t.startsWith("Running ") || t.startsWith("Compiling ")) s.running = true;
+  }
+  if (cl.contains("pn-loading") && visible(el)) s.loading += 1;
+  if (cl.contains("vt-busy") && visible(el)) s.ack = true;
+  if (cl.contains("loader") && cl.contains("spin")) s.header = true;
+  if (cl.contains("alert") && visible(el)) s.alert = el.textContent;
+};
+const fresh = () => ({summary: "", alert: "", loading: 0, progress: false, running: false,
+                      ack: false, header: false, canvases: []});
 const scan = () => {
-  const s = {summary: "", alert: "", loading: 0, progress: false, running: false,
-             ack: false, header: false, canvases: []};
+  if (++frames % FULL_WALK_FRAMES === 0) adopt(document);
+  const s = fresh();
+  for (const root of roots) {
+    if (root !== document && !root.host.isConnected) continue;
+    for (const el of root.querySelectorAll(SCANNED)) look(s, el);
+  }
+  return s;
+};
+// the walk of every element (the scan before): `B.check()` compares the two
+const fullScan = () => {
+  const s = fresh();
   const walk = (root) => {
     for (const el of root.querySelectorAll("*")) {
       if (el.shadowRoot) walk(el.shadowRoot);
-      const tag = el.tagName, cl = el.classList;
-      if (tag === "STRONG") { if (el.textContent.includes("mu = ")) s.summary = el.textContent; }
-      else if (tag === "CANVAS") { if (visible(el)) s.canvases.push(el); }
-      else if (tag === "PROGRESS") { if (visible(el)) s.progress = true; }
-      else if (tag === "P") {
-        const t = el.textContent;
-        if (t.startsWith("Running ") || t.startsWith("Compiling ")) s.running = true;
-      }
-      if (cl.contains("pn-loading") && visible(el)) s.loading += 1;
-      if (cl.contains("vt-busy") && visible(el)) s.ack = true;
-      if (cl.contains("loader") && cl.contains("spin")) s.header = true;
-      if (cl.contains("alert") && visible(el)) s.alert = el.textContent;
+      look(s, el);
     }
   };
   walk(document);
@@ -208,6 +256,11 @@ for (const type of ["pointerdown", "input"])
     }
   }, true);
 B.mapPlot = mapPlot;
+B.check = () => {         // the scan and the full walk agree (devtools/redrawtrace.py)
+  const a = scan(), b = fullScan();
+  const key = (x) => JSON.stringify({...x, canvases: x.canvases.length});
+  return key(a) === key(b) ? null : {scan: key(a), walk: key(b)};
+};
 // client coordinates of a map point (log10 A*, log10 m*), the map scrolled into view
 B.mapPoint = (x, y) => {
   const m = mapPlot();
