@@ -59,8 +59,10 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
                "stick_rule", "alpha_t", "theta", "nu", "tau", "periods", "profile")
 
-# the stale note's style while the run shown is the state's (`_set_stale_note`)
-_STALE_HIDDEN = {"display": "none"}
+# the stale note's style while the run shown is the state's, and while it is
+# not (`_set_stale_note`): BokehJS sets the properties given and removes those
+# given as None (an empty dict would leave the note hidden)
+_STALE_HIDDEN, _STALE_SHOWN = {"display": "none"}, {"display": None}
 
 
 def _page_location():
@@ -116,7 +118,7 @@ class Explorer(pn.viewable.Viewer):
         # shown and hidden by its style (`_set_stale_note`), not by `visible`
         self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning",
                                         sizing_mode="stretch_width", css_classes=["vt-stale"],
-                                        styles=_STALE_HIDDEN)
+                                        styles=dict(_STALE_HIDDEN))
         self.summary = self.summary_view.pane
         self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
                                                   sizing_mode="stretch_width")
@@ -235,7 +237,7 @@ class Explorer(pn.viewable.Viewer):
         root: ~10 plots, each forcing a style recalculation), which cost
         the browser 0.5-1 s at every mu or model change after a run
         (issue 32); a style changes the note's element alone."""
-        self.stale_note.styles = {} if stale else _STALE_HIDDEN
+        self.stale_note.styles = dict(_STALE_SHOWN if stale else _STALE_HIDDEN)
 
     def _on_device(self, *events):
         self.map_view.mark_device(self.units_panel.marker)

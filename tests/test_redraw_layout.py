@@ -132,3 +132,34 @@ def test_the_check_sees_a_relayout():
     assert relayouts(events, set(column.references())) == [("Div", "text"),
                                                            (type(column.children[0]).__name__,
                                                             "visible")]
+
+
+@pytest.fixture
+def page(browser, served_explorer):
+    pg = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    yield pg
+    pg.close()
+    assert not errors, errors
+
+
+@pytest.mark.browser
+def test_the_stale_note_shows_and_hides_in_the_browser(page, served_explorer):
+    """The stale note, shown and hidden by its style: after a run, a new mu
+    shows it over the run's figures, the run's mu hides it again (an empty
+    style left it hidden: BokehJS only sets the properties it is given)."""
+    from budget import budget_ms
+    from browserpages import settle
+    page.goto(served_explorer.url + "?la=1&lm=2&fidelity=preview")     # a link with a scene runs it
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(120))
+    settle(page)
+    # the note's own words (the summary says "Changed since this run" too);
+    # Playwright's text locator looks into the pane's shadow root
+    note = page.locator(".vt-stale").get_by_text("figures and downloads below").first
+    assert page.locator(".vt-stale").count() == 1 and not note.is_visible()
+    select = page.get_by_label("mu (shipped maps)", exact=True)
+    select.select_option("0.1")
+    note.wait_for(state="visible", timeout=budget_ms(30))
+    select.select_option("0.3")
+    note.wait_for(state="hidden", timeout=budget_ms(30))
