@@ -169,6 +169,16 @@ def forced(intervals, t0, t1):
     return out
 
 
+def cpu_ms(events, thread, t0, t1):
+    """The main thread's CPU time (ms) in its tasks that start inside
+    [t0, t1]: the trace's thread durations (`tdur`) of its top-level tasks
+    (RunTask).  Wall durations grow when other processes take the cores;
+    thread time does not (much): the measure to compare on a shared machine."""
+    return sum(e.get("tdur", 0) for e in events
+               if (e.get("pid"), e.get("tid")) == thread and e.get("ph") == "X"
+               and e.get("name") == "RunTask" and t0 <= e.get("ts", 0) < t1) / 1000
+
+
 def probe_ms(intervals, t0, t1):
     """The bench's probe (its animation-frame callback `frame`, an evaluated
     script: no URL) inside [t0, t1]: its calls' time, what they forced
@@ -215,8 +225,9 @@ def measure(browser, session, kind, act, save=None, categories=CATEGORIES + CAUS
         sb, bb = self_times(iv, t0, reply)
         before = {"ms": (reply - t0) / 1000, "busy": bb, **phases(sb)}
     probe = probe_ms(iv, t0, t1)
+    cpu = cpu_ms(events, thread, t0, t1)
     return {"kind": kind, "s": sample["s"], "reply_s": sample["reply_s"],
-            "phases_ms": dict(ph), "before_reply": before, "probe_ms": probe,
+            "phases_ms": dict(ph), "before_reply": before, "probe_ms": probe, "cpu_ms": cpu,
             "invalidations": invalidations(events, thread, t0, t1),
             "forced": forced(iv, t0, t1), "selfs": selfs}
 
@@ -272,7 +283,8 @@ def main(argv=None):
                           f"{r['frames']}", file=sys.stderr)
                     r["repeat"] = rep
                     rows.append(r)
-                    print(f"rep {rep} {kind}: {r['s']:.3f} s (reply {r['reply_s']}) "
+                    print(f"rep {rep} {kind}: {r['s']:.3f} s (reply {r['reply_s']}, "
+                          f"main thread CPU {r['cpu_ms']:.0f} ms) "
                           + " ".join(f"{k} {v:.0f}" for k, v in sorted(r["phases_ms"].items())),
                           file=sys.stderr)
                 session.close()
@@ -302,6 +314,8 @@ def report(rows, top):
             bk = sorted({k for b in br for k in b})
             print("  before the server's last reply: " + ", ".join(
                 f"{k} {statistics.mean(b.get(k, 0) for b in br):.0f}" for k in bk))
+        print(f"  the main thread's CPU time (thread time of its tasks): "
+              f"median {statistics.median(r['cpu_ms'] for r in rs):.0f} ms")
         print(f"  the bench's probe (its frame callbacks, what they forced included): "
               f"{statistics.mean(r['probe_ms'] for r in rs):.0f} ms")
         selfs = collections.Counter()
