@@ -1162,6 +1162,9 @@ def design_figure(chart, device=None, title=None):
                  f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
                  f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
                  f"({chart.attrs['map']})")
+        tip = chart.attrs.get("profile", "sphere")
+        if tip != "sphere":         # (a second line: the first fills a half-page chart)
+            title += f"\nthe particle's tip: {tip} (profile {chart.attrs['map_profile']})"
     el = hv.Overlay([_keyed(mesh, key), *layers])
     return style(el, common=dict(title=title, logx=True, logy=True,
                                  xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))
