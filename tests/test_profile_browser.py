@@ -75,8 +75,7 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         # the animation: its contact circle is the profile's (its key says how it is drawn)
         page.get_by_text("Animation", exact=True).first.click()
         _settle(page, 3000)
-        page.get_by_text("the particle drawn as a sphere whatever its profile").first.wait_for(
-            timeout=60000)
+        page.get_by_text("the particle drawn with its cone tip").first.wait_for(timeout=60000)
         page.get_by_text("Animation", exact=True).first.evaluate(
             "(e) => e.scrollIntoView({block: 'start'})")
         page.wait_for_timeout(300)
