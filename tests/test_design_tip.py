@@ -234,3 +234,22 @@ def test_the_device_run_carries_the_tips_profile(monkeypatch):
     assert runs[-1].profile == "sphere"
     n = device.normalized()
     assert math.isclose(math.log10(runs[-1].amplitude), math.log10(n.A_star), abs_tol=1e-12)
+
+
+def test_the_units_tab_gives_the_tips_numbers_and_warnings(monkeypatch):
+    from vibtrans_explorer import explorer as E
+    from vibtrans_explorer.views.units import device_warnings
+    ex = E.Explorer()
+    ex.units_panel.__panel__()
+    ex.state.param.update(tip="cone", tip_half_angle=HALF_ANGLE)
+    device = ex.state.device_spec()
+    shape = designtip.tip_shape("cone", half_angle=HALF_ANGLE)
+    q = design.device_quantities(device, shape=shape)
+    info = ex.units_panel.info.object
+    assert f"| A* | {q.A_star:.4g}" in info and f"| a0 | {q.a0:.3e} m |" in info
+    assert "| tip (the Design tab's) | cone (half-angle 60 deg): profile `cone` |" in info
+    expected = design.validity_warnings(device, shape=shape)
+    assert [w.code for w in device_warnings(ex.state)] == [w.code for w in expected]
+    assert "cone-apex" in [w.code for w in expected]
+    for w in expected:
+        assert w.message in ex.units_panel.warnings.object

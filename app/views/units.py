@@ -151,13 +151,14 @@ def device_form(state, width=150):
 
 
 def device_warnings(state):
-    """The model's validity warnings for the state's device (the Design
-    tab's: a0 below the interatomic spacing, the contact radius, adhesion)."""
+    """The model's validity warnings for the state's device with its tip
+    (the Design tab's: a0 below the interatomic spacing, the contact radius,
+    adhesion, the tip's edge slope and a cone's apex)."""
     try:
         device = units.DeviceSpec(substrate=state.material("substrate"),
                                   particle=state.material("particle"), radius=state.radius,
                                   frequency=state.frequency, amplitude=state.amplitude,
                                   preload=state.preload)
-        return list(design.validity_warnings(device))
+        return list(design.validity_warnings(device, shape=state.tip_shape()))
     except (ValueError, TypeError):
         return []
