@@ -139,10 +139,15 @@ def test_a_cone_chart_offers_the_cones_own_map_and_says_why(tmp_path):
     assert "profile" in panel.chart.attrs and panel.chart.attrs["map_profile"] == "sphere"
     # a chart whose tip changed since it was drawn is marked stale at once
     assert "Changed since" not in panel.status.object
+    panel.tip_half_angle = 30.0           # a size the sphere does not use: no change
+    assert "Changed since" not in panel.status.object
     panel.tip = "cone"
     assert panel.status.object.startswith("**Changed since this chart was drawn")
-    panel.tip = "sphere"
-    panel.tip_half_angle = 30.0           # (a size the sphere does not use: still a change)
+    # and a cone's chart when its half-angle changes
+    panel.tip_half_angle = HALF_ANGLE
+    asyncio.run(panel.draw())             # (offered its map: the chart shown stays)
+    panel._drawn_values = panel.values()  # as if drawn on the cone's map
+    panel.tip_half_angle = 45.0
     assert panel.status.object.startswith("**Changed since this chart was drawn")
 
 

@@ -513,9 +513,11 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
 
     def values(self):
         """The values as typed (SI), for the library to check."""
+        # (the tip: its kind and that kind's sizes; another kind's do not
+        # make the chart)
         names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
                  "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
-                 "y_points", "map_fidelity", "map_periods", *TIP_FIELDS)
+                 "y_points", "map_fidelity", "map_periods", "tip", *TIP_SIZES[self.tip])
         return self._with_custom_materials({k: getattr(self, k) for k in names})
 
     def field_errors(self):
