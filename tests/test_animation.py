@@ -246,6 +246,14 @@ _PAGE_JS = """() => {
 }"""
 
 
+# the side view's data extent per axis and its frame's size in pixels
+_SIDE_JS = """() => {
+  const f = window.Bokeh.documents[0].get_model_by_name("anim-side");
+  return {dx: f.x_range.end - f.x_range.start, dy: f.y_range.end - f.y_range.start,
+          w: f.inner_width, h: f.inner_height};
+}"""
+
+
 def _messages(frames, kind):
     """How many Bokeh protocol messages of a kind (PATCH-DOC, ...) among
     websocket frames (a message: a header frame, then its parts)."""
@@ -282,6 +290,7 @@ def _same_frame(page_state, f):
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
+    cone = _run(6, profile="cone")
     import panel as pn
     from netutil import free_port
 
@@ -397,6 +406,24 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.get_by_role("button", name="Pause").click()
             state = page.evaluate(_PAGE_JS)
             _same_frame(state, anim.frame(state["value"]))
+
+            # a cone (issue 34): the particle drawn with its tip, as frame() draws it,
+            # on equal scales (the frame's width as the page gives it)
+            doc.add_next_tick_callback(lambda: anim.show(*cone))
+            deadline = time.time() + budget(30)
+            while anim.runs < 5 and time.time() < deadline:
+                time.sleep(0.1)
+            page.wait_for_timeout(1000)
+            page.get_by_role("button", name="Play").click()
+            page.wait_for_timeout(700)
+            page.get_by_role("button", name="Pause").click()
+            state = page.evaluate(_PAGE_JS)
+            assert len(state["tip"]["x"]) > 0
+            _same_frame(state, anim.frame(state["value"]))
+            side = page.evaluate(_SIDE_JS)
+            assert side["w"] > 0 and side["h"] > 0, side
+            assert side["dx"] / side["w"] == pytest.approx(side["dy"] / side["h"], rel=1e-6)
+            page.screenshot(path=str(ARTIFACTS / "animation_cone.png"))
             assert not errors, errors
     finally:
         server.stop()

@@ -330,7 +330,7 @@ class ParticleAnimation(pn.viewable.Viewer):
     def _build(self):
         side = figure(frame_width=SIDE_W, frame_height=SIDE_H, x_range=Range1d(-1.0, 1.0),
                       y_range=Range1d(-1.0, 1.0), tools="", toolbar_location=None,
-                      output_backend="canvas", title="(no run)")
+                      output_backend="canvas", title="(no run)", name="anim-side")
         side.title.text_font_size = "9.5pt"
         side.xaxis.axis_label = "x - x*(t)  (a0; the view moves with the particle)"
         side.yaxis.axis_label = "height -y  (a0, up)"
