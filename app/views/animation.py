@@ -211,7 +211,7 @@ function draw(i) {
   if (!deformable) ct = "material point: rigid, no contact area";
   else if (!touching) ct = "in flight: no contact";
   else ct = "from above: c = " + c.toFixed(3) + (isNaN(s) ? "" : ", s = " + s.toFixed(3))
-            + "  " + M.unit[0];
+            + "\\n" + M.unit[0];   // (two lines: one was cut at the figure's width)
   contact_title.setv({text: ct}, {sync: false});
 }
 """
@@ -634,7 +634,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             ct = "in flight: no contact"
         else:
             ct = (f"from above: c = {_fixed(c, 3)}"
-                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "  " + M["unit"][0])
+                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "\n" + M["unit"][0])
         TS = self.tip_shape.data
         return {
             "surface": {"xi": xs, "z": height(xs)},
