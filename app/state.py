@@ -9,8 +9,8 @@ from vibtrans import Scene
 from vibtrans.core import units
 from vibtrans.core.params import ProfileSpec, check_profile
 from vibtrans.core.profiles import N_MIN, parse_profile
-from vibtrans.core.errors import InputError
 from vibtrans.products import design, designtip
+from vibtrans.products.designtip import TipSize
 from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
 
@@ -77,48 +77,6 @@ class ExplorerProfile(ProfileSpec):
 TIP_KINDS = ("sphere", "cone", "power", "flat-sphere")
 TIP_SIZES = {"sphere": (), "cone": ("tip_half_angle",), "power": ("tip_exponent", "tip_radius"),
              "flat-sphere": ("tip_flat_radius",)}
-
-
-class TipSize(param.Number):
-    """One size of the particle's tip in SI, checked by the library
-    (designtip.tip_shape: its InputError names the parameter and its valid
-    range; nothing clamped), set in code or typed or linked (urlstate.convert
-    reads a plain decimal, then calls `library_check`; an empty text is
-    None where allow_None: the tip radius, the particle's own).  `size`:
-    which (half_angle [deg], exponent, tip_radius [m], flat_radius [m]);
-    `range_text`: its range in words (urlstate.valid_range)."""
-
-    __slots__ = ["size", "range_text"]
-
-    def __init__(self, default=None, size=None, range_text="", **params):
-        self.size = size
-        self.range_text = range_text
-        super().__init__(default=default, **params)
-
-    def library_check(self, value):
-        """The library's check of `value` (InputError, a ValueError, if refused)."""
-        if value is None and self.allow_None:
-            return None
-        if self.size == "exponent":
-            if not isinstance(value, (int, float)) or isinstance(value, bool):
-                raise InputError(f"the tip's exponent N must be a real number in (1, inf), "
-                                 f"got {value!r}")
-            if value == 1:
-                raise InputError("the tip's exponent N must be a real number in (1, inf), "
-                                 "got 1 (N = 1 is the cone: choose the tip 'cone' and give its "
-                                 "half-angle)")
-            designtip.tip_shape(f"power:{float(value)!r}")
-        elif self.size == "half_angle":
-            designtip.tip_shape("cone", half_angle=value)
-        elif self.size == "tip_radius":
-            designtip.tip_shape("power:3", tip_radius=value)
-        else:
-            designtip.tip_shape("flat-sphere", flat_radius=value)
-        return float(value)
-
-    def _validate(self, val):
-        super()._validate(val)
-        self.library_check(val)
 
 
 def tip_values(owner):
