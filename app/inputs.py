@@ -20,6 +20,8 @@ def _text(value):
     """The field's text for a value: exactly the value (the shortest text
     that reads back as it: 0.3, 0.07759266752805563), so that the field
     shows what a run uses (a device's unrounded log10 A*), not a rounding."""
+    if value is None:                       # (a size that may be absent: the tip radius)
+        return ""
     if not isinstance(value, float):
         return str(value)
     value = value + 0.0                     # (-0.0: 0)
@@ -53,10 +55,13 @@ class NumberField(pn.viewable.Viewer):
         raw = event.new or ""
         try:
             value = urlstate.convert(p, raw)
-        except ValueError:
+        except ValueError as exc:
             given = (f"got '{urlstate.shown(raw.strip())}'" if raw.strip()
                      else "the field is empty")
-            self._say(f"{self.label} must be {urlstate.valid_range(p)}; {given}")
+            # a value the library checks (the tip's sizes): its reason too
+            why = (f" ({urlstate.shown(str(exc), urlstate.REASON)})"
+                   if urlstate.reason_given(p) and raw.strip() else "")
+            self._say(f"{self.label} must be {urlstate.valid_range(p)}; {given}{why}")
             self._record(self.error)
             return
         self._say("")

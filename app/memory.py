@@ -36,6 +36,8 @@ CLOSES_PER_RELEASE = 30    # closes kept uncollected at most (a server never idl
 # INFO: operators (and `python -m devtools.loadtest`, which waits for this
 # line after the last session is discarded) see when memory went back
 RELEASED = "released the memory of closed sessions"
+RELEASE_NAME = "the release of closed sessions' memory"
+CLOSED = "session closed"
 
 _RELEASE = {"handle": None, "server": None, "closes": 0}
 _AT_RELEASE = []           # callables, run at each release (the server's)
@@ -68,6 +70,7 @@ def session_closed(session_context=None):
     still open): schedule the release if it is due."""
     server = getattr(session_context, "server_context", None)
     _RELEASE["closes"] += 1
+    log.info("%s (process %d): %d open", CLOSED, os.getpid(), sessions_open(server))
     if not _due(server):
         return
     try:
@@ -95,7 +98,10 @@ def release():
     was frozen (a process that never froze, say a test's, stays so)."""
     _RELEASE["handle"] = None
     if not _due(_RELEASE["server"]):
-        return          # a session opened meanwhile: at its close
+        # a session opened meanwhile: at its close
+        log.info("%s deferred (process %d): %d sessions open", RELEASE_NAME, os.getpid(),
+                 sessions_open(_RELEASE["server"]))
+        return
     _RELEASE["closes"] = 0
     t0, before = time.perf_counter(), resident_mb()
     for fn in _AT_RELEASE:
@@ -113,6 +119,7 @@ def release():
     except (OSError, AttributeError):    # not glibc
         pass
     after = resident_mb()
-    log.info("%s: %d objects collected, RSS %s -> %s MB in %.2f s", RELEASED, collected,
+    log.info("%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s", RELEASED,
+             os.getpid(), collected,
              f"{before:.0f}" if before else "?", f"{after:.0f}" if after else "?",
              time.perf_counter() - t0)

@@ -9,6 +9,8 @@ from vibtrans import Scene
 from vibtrans.core import units
 from vibtrans.core.params import ProfileSpec, check_profile
 from vibtrans.core.profiles import N_MIN, parse_profile
+from vibtrans.products import design, designtip
+from vibtrans.products.designtip import TipSize
 from vibtrans.products.design import preset
 from vibtrans.analysis.summary import V0
 
@@ -36,8 +38,11 @@ MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
 # the fields whose value makes the scene (a run refuses while one is
 # invalid), and those of the device (its run refuses while one is)
 SCENE_FIELDS = ("log_amplitude", "log_mass", "alpha_t", "mu", "profile")
+# the particle's tip in SI (the Design tab's; designtip.tip_shape): its
+# kind, and the sizes each kind takes
+TIP_FIELDS = ("tip", "tip_half_angle", "tip_exponent", "tip_radius", "tip_flat_radius")
 DEVICE_FIELDS = ("substrate", "particle", "substrate_custom", "particle_custom", "radius",
-                 "frequency", "amplitude", "preload")
+                 "frequency", "amplitude", "preload", *TIP_FIELDS)
 
 
 # the particle's profiles the explorer offers (issue 34; docs/MODEL.md
@@ -67,6 +72,34 @@ class ExplorerProfile(ProfileSpec):
         return raw
 
 
+# the tip's kinds (designtip.TIP_KINDS but a measured table: a link must
+# not make the server read a file) and the sizes each takes
+TIP_KINDS = ("sphere", "cone", "power", "flat-sphere")
+TIP_SIZES = {"sphere": (), "cone": ("tip_half_angle",), "power": ("tip_exponent", "tip_radius"),
+             "flat-sphere": ("tip_flat_radius",)}
+
+
+def tip_values(owner):
+    """The tip's arguments of designtip.tip_shape (profile, half_angle,
+    tip_radius, flat_radius) from `owner`'s TIP_FIELDS (a Parameterized or
+    a dict), the sizes of its kind only."""
+    get = owner.get if isinstance(owner, dict) else lambda name: getattr(owner, name)
+    kind = get("tip")
+    if kind == "sphere":
+        return {"profile": "sphere"}
+    if kind == "cone":
+        return {"profile": "cone", "half_angle": get("tip_half_angle")}
+    if kind == "power":
+        return {"profile": f"power:{float(get('tip_exponent'))!r}",
+                "tip_radius": get("tip_radius")}
+    return {"profile": "flat-sphere", "flat_radius": get("tip_flat_radius")}
+
+
+def tip_shape_of(owner):
+    """The checked designtip.TipShape of `owner`'s tip fields (InputError)."""
+    return designtip.tip_shape(**tip_values(owner))
+
+
 def is_sphere(profile):
     """Does the spec run the sphere's own law (Hertz's path: the shipped
     maps' particle)?  'sphere' and 'power:2' do; 'flat-sphere:0' is the
@@ -81,7 +114,26 @@ def within(la, lm, log_amplitude, log_mass):
             and log_mass[0] <= lm <= log_mass[1])
 
 
-class ExplorerState(param.Parameterized):
+class TipFields(param.Parameterized):
+    """The particle's tip in SI (the Design tab's; docs/MODEL.md section 10,
+    "In device units"): its kind and the sizes of each kind (TIP_SIZES); a
+    link without them is the sphere.  The explorer's state and the Design
+    tab (alone, in tests) hold these."""
+
+    tip = param.Selector(default="sphere", objects=list(TIP_KINDS),
+                         doc="the particle's tip: the sphere, a cone, a power law, a flat")
+    tip_half_angle = TipSize(60.0, size="half_angle", range_text="a number in (0, 90) (degrees)",
+                             doc="the cone's half-angle, degrees")
+    tip_exponent = TipSize(3.0, size="exponent", range_text="a number in (1, inf)",
+                           doc="the power law's exponent N: z = r^N / (N R_t^(N-1))")
+    tip_radius = TipSize(None, size="tip_radius", allow_None=True,
+                         range_text="a number in (0, inf) (m), or empty: the particle's radius",
+                         doc="the power law's tip radius R_t, m (None: the particle's radius)")
+    tip_flat_radius = TipSize(1e-6, size="flat_radius", range_text="a number in [0, inf) (m)",
+                              doc="the flat-ended sphere's flat radius, m")
+
+
+class ExplorerState(TipFields):
     """What the user selected; mirrored in the URL."""
 
     model = param.Selector(default="deformable", objects=["deformable", "point-mass"])
@@ -134,6 +186,7 @@ class ExplorerState(param.Parameterized):
     amplitude = param.Number(default=PAPER_DEVICE.amplitude, bounds=(0.0, 1e-2),
                              inclusive_bounds=(False, True), doc="the wave's vertical amplitude, m")
     preload = param.Number(default=PAPER_DEVICE.preload, bounds=(0.0, 1e3), doc="pre-load, N")
+    # (the particle's tip: TipFields')
     # the map tab shown
     tab = param.Selector(default="map", objects=list(MAP_TABS))
     # the typed fields whose text is not a valid value: {parameter: message}
@@ -153,13 +206,35 @@ class ExplorerState(param.Parameterized):
                                    self.radius, self.frequency, self.amplitude,
                                    preload=self.preload)
 
+    def tip_shape(self):
+        """The particle's tip (designtip.TipShape), or the library's InputError."""
+        return tip_shape_of(self)
+
+    def device_spec(self):
+        """The device as the library takes it (units.DeviceSpec; its values
+        are checked where they are used)."""
+        return units.DeviceSpec(self.material("substrate"), self.material("particle"),
+                                self.radius, self.frequency, self.amplitude,
+                                preload=self.preload)
+
+    def device_tip(self):
+        """(A*, m*, a0 [m], the normalized profile) of the device with its
+        tip (design.device_quantities; the sphere: the converter's own
+        numbers), or the library's ValueError."""
+        if self.tip == "sphere":
+            n = self.device()
+            return n.A_star, n.m_star, n.a0, SPHERE
+        q = design.device_quantities(self.device_spec(), shape=self.tip_shape())
+        return q.A_star, q.m_star, q.a0, q.scene_profile
+
     def device_scene_values(self):
         """The scene values of the device: (log10 A*, log10 m*, theta, nu)
-        unrounded, or ValueError."""
+        unrounded, or ValueError.  With a tip, its A* and m* (its own a0)."""
         n = self.device()
-        if not n.A_star > 0:
+        A_star, m_star, _, _ = self.device_tip()
+        if not A_star > 0:
             raise ValueError("the device's A* is not positive")
-        return math.log10(n.A_star), math.log10(n.m_star), n.theta, n.nu
+        return math.log10(A_star), math.log10(m_star), n.theta, n.nu
 
     def select_device(self, **scene):
         """The device of the Units and Design tabs (as its form shows it)
@@ -168,7 +243,7 @@ class ExplorerState(param.Parameterized):
         ValueError (the message for "Not run: ...") while one of its fields
         is invalid, or its scene lies outside the explorer's range; then
         nothing changes."""
-        errors = self.errors(DEVICE_FIELDS)
+        errors = self.device_errors()
         if errors:
             raise ValueError(" · ".join(errors))
         try:
@@ -180,7 +255,19 @@ class ExplorerState(param.Parameterized):
                 f"the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is outside the "
                 f"explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, log10 m* in "
                 f"{list(SCENE_LOG_MASS)}.")
-        self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, **scene)
+        profile = self.device_tip()[3]
+        self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, profile=profile,
+                          **scene)
+
+    def device_fields(self):
+        """The device's fields in use: DEVICE_FIELDS but the sizes of the
+        tip's other kinds (hidden: their text does not make the device)."""
+        return tuple(k for k in DEVICE_FIELDS
+                     if k not in TIP_FIELDS or k == "tip" or k in TIP_SIZES[self.tip])
+
+    def device_errors(self):
+        """The messages of the device's invalid typed fields (in use)."""
+        return self.errors(self.device_fields())
 
     def errors(self, fields):
         """The messages of the invalid typed fields among `fields`."""
@@ -211,7 +298,9 @@ URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
             "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods",
             "theta": "theta", "nu": "nu", "substrate": "substrate", "particle": "particle",
             "radius": "radius", "frequency": "freq", "amplitude": "amp",
-            "preload": "preload", "tab": "tab", "profile": "profile"}
+            "preload": "preload", "tab": "tab", "profile": "profile", "tip": "tip",
+            "tip_half_angle": "tipa", "tip_exponent": "tipn", "tip_radius": "tipr",
+            "tip_flat_radius": "tipc"}
 # a value's older spellings in links, still accepted: {parameter: {old: new}}
 URL_ALIASES = {"model": {"point_mass": "point-mass", "pointmass": "point-mass",
                          "point mass": "point-mass"},

@@ -22,6 +22,9 @@ Rules:
 * a text the library checks (a parameter with `check_text`, the
   particle's profile: ``cone``, ``power:3``): its check, whose reason is
   added to the message;
+* a number the library checks (a parameter with `library_check`, the
+  particle's tip in SI: ``tipa=30``): a plain decimal, then that check
+  (its reason added); empty is None where the parameter allows None;
 * a key given several times with different values is invalid (ambiguous
   link); given several times with the same value it is that value;
 * unknown keys are ignored (tracking parameters, future keys);
@@ -86,6 +89,8 @@ def valid_range(p):
         return f"one of {', '.join(map(str, p.objects))}"
     if getattr(p, "valid_values", None):
         return f"one of {p.valid_values}"
+    if getattr(p, "range_text", None):       # a size the library checks (the particle's tip)
+        return p.range_text
     what = "an integer" if isinstance(p, param.Integer) else "a number"
     lo, hi = _bounds(p)
     lo_in, hi_in = _inclusive(p)
@@ -113,12 +118,27 @@ def convert(p, raw):
         if not _inside(p, value):
             raise ValueError("out of range")
         return value
+    checked = _library_checked(p)
+    if checked and raw == "" and p.allow_None:
+        return None                     # (a size that may be absent: the library's default)
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
     if not (math.isfinite(value) and _inside(p, value)):
         raise ValueError("out of range")
-    return value
+    return p.library_check(value) if checked else value
+
+
+def _library_checked(p):
+    """Is the parameter's value checked by the library (`library_check`:
+    the tip's sizes), whose reason a message adds?"""
+    return callable(getattr(p, "library_check", None))
+
+
+def reason_given(p):
+    """Does a refusal of `p`'s text carry the library's reason (a text or
+    a number the library checks)?"""
+    return callable(getattr(p, "check_text", None)) or _library_checked(p)
 
 
 def parse(args, state, url_keys, aliases=None):
@@ -145,7 +165,7 @@ def parse(args, state, url_keys, aliases=None):
         try:
             values[name] = convert(p, raw)
         except ValueError as exc:
-            why = (f" ({shown(str(exc), REASON)})" if callable(getattr(p, "check_text", None))
+            why = (f" ({shown(str(exc), REASON)})" if reason_given(p)
                    and len(raw) <= MAX_LENGTH else "")
             errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; "
                           f"got '{shown(raw)}'{why}")

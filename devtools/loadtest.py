@@ -64,6 +64,7 @@ done by then count as errors), and the server is always stopped.
 """
 import argparse
 import asyncio
+import collections
 import json
 import os
 import random
@@ -80,7 +81,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from vibtrans_explorer.memory import RELEASED
+from vibtrans_explorer.memory import CLOSED, RELEASE_NAME, RELEASED
 
 from .chromium import ARGS, CHROMIUM
 
@@ -158,9 +159,10 @@ def _tree(pid):
     return out
 
 
-def rss_mb(pid):
+def rss_mb(pid, tree=True):
+    """RSS (MB) of process `pid` and (tree) every process under it."""
     total = 0.0
-    for q in _tree(pid):
+    for q in (_tree(pid) if tree else [pid]):
         try:
             with open(f"/proc/{q}/status") as f:
                 for line in f:
@@ -328,10 +330,30 @@ def discarded(text):
     return len(set(re.findall(r"Discarding session '([^']+)'", text)))
 
 
+def release_lines(text):
+    """The explorer's lines on releasing closed sessions' memory (each names
+    its process), in the log's order."""
+    return [line.strip()[:200] for line in text.splitlines()
+            if RELEASED in line or RELEASE_NAME in line]
+
+
 def released_after_discards(text):
-    """Whether the explorer has released memory (its INFO line) since the
-    last session Bokeh discarded, in one process's log."""
-    return text.rfind(RELEASED) > text.rfind("Discarding session")
+    """Whether every server process has released the memory of the
+    sessions it closed (the explorer's INFO lines name their process: a
+    process's last release after its last close), and Bokeh has discarded
+    nothing since the last close.  (One check over all processes' lines
+    passed while one process had not released yet: rss_after then read
+    its sessions' garbage, +20%.)"""
+    closed, released = {}, {}
+    for i, line in enumerate(text.splitlines()):
+        m = re.search(r"\(process (\d+)\)", line)
+        if m and CLOSED in line:
+            closed[m.group(1)] = i
+        elif m and RELEASED in line:
+            released[m.group(1)] = i
+    if text.rfind(CLOSED) < text.rfind("Discarding session"):
+        return False             # a discard whose close is not logged yet
+    return bool(closed) and all(released.get(pid, -1) > i for pid, i in closed.items())
 
 
 class Server(_Measured):
@@ -814,6 +836,9 @@ def run(a):
         settle, released = server.wait_dropped(1 + a.sessions, a.settle)
         peak = server.stop_sampling()
         rss_after = server.rss()
+        rss_by_process = {str(q): round(rss_mb(q, tree=False), 1) for q in server.server_pids()}
+        releases = release_lines(server.text())
+        closes = collections.Counter(re.findall(rf"{CLOSED} \(process (\d+)\)", server.text()))
         dropped = server.discarded() - 1
         try:
             urllib.request.urlopen(server.url + "liveness", timeout=10)
@@ -873,6 +898,13 @@ def run(a):
         "rss_after_over_baseline": rss_after / rss_base - 1.0,
         "sessions_dropped": dropped, "memory_released": warm_released and released,
         "settle_s": settle,
+        # each server process's own RSS at the end, and the explorer's
+        # release lines (which process released what, or deferred it)
+        "rss_after_by_process_mb": rss_by_process, "release_lines": releases,
+        # pages built and closed, by process (a session whose page was
+        # served by one process and whose websocket reached another is
+        # built in both)
+        "pages_closed_by_process": dict(closes),
         "client_disconnect_races": disconnects,
         "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
         "server_cpu_s": server_cpu,

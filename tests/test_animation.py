@@ -241,8 +241,16 @@ _PAGE_JS = """() => {
   for (const x of doc.all_models) if (x.type == "Title" || x.constructor.name == "Title")
     titles.push(x.text);
   return {value: m("anim-frame").value, surface: cols("anim-surface"),
-          particle: cols("anim-particle"), zone: cols("anim-zone"),
+          particle: cols("anim-particle"), zone: cols("anim-zone"), tip: cols("anim-tip"),
           contact: cols("anim-contact"), titles: titles};
+}"""
+
+
+# the side view's data extent per axis and its frame's size in pixels
+_SIDE_JS = """() => {
+  const f = window.Bokeh.documents[0].get_model_by_name("anim-side");
+  return {dx: f.x_range.end - f.x_range.start, dy: f.y_range.end - f.y_range.start,
+          w: f.inner_width, h: f.inner_height};
 }"""
 
 
@@ -263,7 +271,7 @@ def _changes(frames):
 
 
 def _same_frame(page_state, f):
-    for name in ("surface", "particle", "zone", "contact"):
+    for name in ("surface", "particle", "zone", "contact", "tip"):
         for col, want in f[name].items():
             got = page_state[name][col]
             if col == "colour":
@@ -282,6 +290,7 @@ def _same_frame(page_state, f):
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
+    cone = _run(6, profile="cone")
     import panel as pn
     from netutil import free_port
 
@@ -397,6 +406,24 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.get_by_role("button", name="Pause").click()
             state = page.evaluate(_PAGE_JS)
             _same_frame(state, anim.frame(state["value"]))
+
+            # a cone (issue 34): the particle drawn with its tip, as frame() draws it,
+            # on equal scales (the frame's width as the page gives it)
+            doc.add_next_tick_callback(lambda: anim.show(*cone))
+            deadline = time.time() + budget(30)
+            while anim.runs < 5 and time.time() < deadline:
+                time.sleep(0.1)
+            page.wait_for_timeout(1000)
+            page.get_by_role("button", name="Play").click()
+            page.wait_for_timeout(700)
+            page.get_by_role("button", name="Pause").click()
+            state = page.evaluate(_PAGE_JS)
+            assert len(state["tip"]["x"]) > 0
+            _same_frame(state, anim.frame(state["value"]))
+            side = page.evaluate(_SIDE_JS)
+            assert side["w"] > 0 and side["h"] > 0, side
+            assert side["dx"] / side["w"] == pytest.approx(side["dy"] / side["h"], rel=1e-6)
+            page.screenshot(path=str(ARTIFACTS / "animation_cone.png"))
             assert not errors, errors
     finally:
         server.stop()
@@ -456,8 +483,46 @@ def test_a_profiles_contact_circle_is_its_own_contact_radius(profile, n):
     assert frame["contact_title"].endswith("(static contact radii)")
     assert anim.circle.xaxis.axis_label == "x  (static contact radii)"
     assert f"c(a*) the {profile} profile's" in anim.circle_note.text
-    assert "the particle drawn as a sphere whatever its profile" in anim.key.text
+    assert f"the particle drawn with its {profile} tip" in anim.key.text
     # the sphere keeps its own units
     sphere, ds = _run(6)
     anim.show(sphere, ds)
     assert anim.circle.xaxis.axis_label == "x  (sqrt(R a0))"
+    assert "the particle drawn with its" not in anim.key.text
+
+
+@pytest.mark.parametrize("profile", ["cone", "power:3", "flat-sphere:1"])
+def test_a_profiles_particle_is_drawn_with_its_tip(profile):
+    """Issue 34: the side view draws a profile's particle with its tip's
+    outline near the contact (the library's outline, as the tip's drawing
+    beside the profile selector), its apex at the particle's lowest point
+    (height -y*, the overlap a* to scale), not the sphere's circle."""
+    from vibtrans.core.profiles import parse_profile
+    from vibtrans_explorer.views import animation as A
+    scene, ds = _run(6, profile=profile)
+    anim = ParticleAnimation()
+    anim.show(scene, ds)
+    assert anim.tip_glyph.visible and not anim.particle_glyph.visible
+    rho = anim.meta.data["rho"][0]
+    q = math.sqrt(rho)
+    X = min(A.TIP_CONTACT_RADII * q, A.TIP_RHO_SHARE * rho)
+    shape = parse_profile(profile)
+    for i in (0, len(anim.frames.data["t"]) // 2):
+        f = anim.frame(i)
+        y = anim.frames.data["y"][i]
+        x, z = np.asarray(f["tip"]["x"]), np.asarray(f["tip"]["y"])
+        # its lowest point is the particle's, -y*; the tip's outline near the axis
+        assert z.min() == pytest.approx(-y, abs=1e-12)
+        near = np.arange(A.TIP_POINTS)
+        np.testing.assert_allclose(z[near], -y + shape.outline(x[near] / q), rtol=0,
+                                   atol=1e-12)
+        assert x[near][0] == pytest.approx(-X) and x[near][-1] == pytest.approx(X)
+        # closed by the drawn circle's arc (radius rho) through the outline's ends
+        arc = np.arange(A.TIP_POINTS, x.size)
+        centre = z[A.TIP_POINTS - 1] + math.sqrt(rho * rho - X * X)
+        np.testing.assert_allclose(np.hypot(x[arc], z[arc] - centre), rho, rtol=1e-12)
+    # the sphere: its circle, no tip
+    sphere, ds = _run(6)
+    anim.show(sphere, ds)
+    assert anim.particle_glyph.visible and not anim.tip_glyph.visible
+    assert len(anim.frame(0)["tip"]["x"]) == 0

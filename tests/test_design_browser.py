@@ -150,3 +150,67 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
     finally:
         page.close()
     assert not errors, errors
+
+
+@pytest.mark.parametrize("width, height", [(1024, 768), (1920, 1080)],
+                         ids=["1024x768", "1920x1080"])
+def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explorer, width,
+                                                           height):
+    """Issue 34: the particle's tip chosen on the Design tab (a 60-degree
+    cone): only its half-angle field shown; no shipped map serves it (the
+    sphere's), the reason said; the cone's map computed (the second size
+    reads it from the server's cache) and the chart drawn; the device's
+    table names the tip, its normalized profile and the cone's warnings."""
+    page, errors = new_page(browser, width, height)
+    try:
+        open_explorer(page, served_explorer.url)
+        page.get_by_text("Design", exact=True).first.click()
+        draw = page.get_by_role("button", name="Draw chart").first
+        draw.wait_for(timeout=budget_ms(30))
+        page.get_by_label("particle tip", exact=True).first.select_option("cone")
+        angle = page.locator(".vt-design-tip-half-angle input").first
+        angle.wait_for(timeout=budget_ms(30))
+        assert angle.input_value() == "60"
+        assert not page.locator(".vt-design-tip-exponent input").first.is_visible()
+        # a half-angle out of range: the library's message under the field
+        angle.fill("95")
+        angle.press("Enter")
+        page.locator(".vt-error-tip_half_angle").get_by_text(
+            "half_angle must be a real number in (0, 90) degrees").first.wait_for(
+                timeout=budget_ms(30))
+        angle.fill("60")
+        angle.press("Enter")
+        for name, value in (("x_lo", "1e5"), ("x_hi", "1.2e5"), ("x_points", "3"),
+                            ("y_lo", "1e-8"), ("y_hi", "1.2e-8"), ("y_points", "3")):
+            field = page.locator(f".vt-design-fields .vt-field-{name} input").first
+            field.fill(value)
+            field.press("Enter")
+        page.wait_for_timeout(500)
+        draw.click()
+        offer = page.locator(".vt-design-offer").first
+        offer.get_by_text("the shipped maps are the sphere's").first.wait_for(
+            timeout=budget_ms(60))
+        offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
+        offer.get_by_text("cone (half-angle 60 deg), runs the normalized profile").first.wait_for(
+            timeout=budget_ms(30))
+        page.get_by_role("button", name="Compute this map").first.click()
+        page.locator(".vt-design-progress").first.get_by_text(
+            "The chart's map").first.wait_for(timeout=budget_ms(240))
+        chart = page.locator(".vt-design-chart canvas").first
+        chart.wait_for(timeout=budget_ms(30))
+        text = _device_text(page)
+        assert "cone (half-angle 60 deg)" in text and "a cone's contact pressure" in text
+        titles = page.evaluate(_TITLES_JS)
+        assert any("the particle's tip: cone (half-angle 60 deg)" in t for t in titles), titles
+        page.locator(".vt-design-fields").first.scroll_into_view_if_needed()
+        _shot(page, "cone-form")
+        chart.scroll_into_view_if_needed()
+        _shot(page, "cone")
+    except Exception:
+        _shot(page, "cone-failed")
+        print("page errors:", errors)
+        print("server log:", served_explorer.text()[-3000:])
+        raise
+    finally:
+        page.close()
+    assert not errors, errors

@@ -4,7 +4,8 @@ state, without a server or a browser.
 A hypothesis state machine drives one session's Explorer (its controller,
 state, widgets and views) through random sequences of what a user does:
 clicks on the map, paper points, typed values (valid and invalid) in the
-scene's and the device's fields, selector changes, Design presets, Run,
+scene's and the device's fields (the particle's tip on the Design tab
+too), selector changes, Design presets, Run,
 the device's Run (Units and Design tabs), Cancel, and reloading the page's
 own link.  After each step the invariants hold:
 
@@ -43,7 +44,7 @@ from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import inputs, urlstate
-from vibtrans_explorer.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS, is_sphere
+from vibtrans_explorer.state import DEVICE_FIELDS, TIP_SIZES, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
 from vibtrans_explorer.views import profile as P
 from vibtrans_explorer.views.summary import CANCELLED_LINE, STALE_LINE, profile_words
@@ -124,6 +125,13 @@ DEVICE_TEXT = {
     "frequency": st.sampled_from(["2e7", "108000", "1e5", "-5", "x", "5e4"]),
     "amplitude": st.sampled_from(["1e-9", "1e-8", "2.6e-7", "0", "-1e-9", "1e-10"]),
     "preload": st.sampled_from(["0", "1e-3", "-1", "0.01"]),
+}
+# the particle's tip (the Design tab's, issue 34): sizes typed, valid and not
+TIP_TEXT = {
+    "tip_half_angle": st.sampled_from(["60", "30", "85", "90", "0", "-5", "abc"]),
+    "tip_exponent": st.sampled_from(["3", "1.5", "2", "1", "0.5", "x"]),
+    "tip_radius": st.sampled_from(["", "1e-4", "5e-3", "0", "-1e-4"]),
+    "tip_flat_radius": st.sampled_from(["1e-6", "0", "5e-7", "-1e-6", "y"]),
 }
 
 
@@ -215,6 +223,18 @@ class ExplorerMachine(RuleBasedStateMachine):
         selector follows."""
         self.ex.state.profile = spec
 
+    @rule(kind=st.sampled_from(list(TIP_SIZES)))
+    def tip_kind(self, kind):
+        """The particle's tip chosen on the Design tab."""
+        self.ex.map_tabs.active = E.DESIGN_TAB
+        self.ex.design_panel.tip_kind.value = kind
+
+    @rule(name=st.sampled_from(sorted(TIP_TEXT)), data=st.data())
+    def type_tip(self, name, data):
+        """A tip's size typed on the Design tab (shown or not)."""
+        self.ex.map_tabs.active = E.DESIGN_TAB
+        self.ex.design_panel.tip_fields[name].input.value = data.draw(TIP_TEXT[name])
+
     @rule(preset=st.sampled_from(D.PRESET_NAMES))
     def design_preset(self, preset):
         self.ex.map_tabs.active = E.DESIGN_TAB
@@ -234,10 +254,12 @@ class ExplorerMachine(RuleBasedStateMachine):
             assert (job.scene.theta, job.scene.nu) == (theta, nu)
             assert math.isclose(math.log10(job.scene.amplitude), la, abs_tol=1e-12)
             assert math.isclose(math.log10(job.scene.mass), lm, abs_tol=1e-12)
-            assert not ex.state.errors(DEVICE_FIELDS)
-        elif ex.state.errors(DEVICE_FIELDS):
+            # the tip's normalized profile runs (the sphere's device: the sphere)
+            assert job.scene.profile == ex.state.device_tip()[3] == ex.state.profile
+            assert not ex.state.device_errors()
+        elif ex.state.device_errors():
             assert len(ex.stand_in.scenes) == before
-            assert any(e in ex.message.object for e in ex.state.errors(DEVICE_FIELDS))
+            assert any(e in ex.message.object for e in ex.state.device_errors())
 
     @rule()
     def run_design_device(self):
@@ -254,6 +276,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         if job is not None:       # the form's device, not the chart drawn or a preset's
             la, lm, theta, nu = ex.state.device_scene_values()
             assert math.isclose(math.log10(job.scene.amplitude), la, abs_tol=1e-12)
+            assert job.scene.profile == ex.state.device_tip()[3]
             assert job.scene.model == "deformable" and job.scene.mu == panel.mu
 
     @rule()
@@ -319,6 +342,18 @@ class ExplorerMachine(RuleBasedStateMachine):
         if ex.design_panel is not None:
             for k in D.SHARED_DEVICE:
                 assert getattr(ex.design_panel, k) == getattr(s, k), k
+            # the tip's widgets: its kind, the sizes of that kind shown, each
+            # field's text its value or its message (the state records it)
+            panel = ex.design_panel
+            assert panel.tip_kind.value == s.tip
+            for name, box in zip(D.TIP_LABELS, panel.tip_boxes):
+                assert box.visible == (name in TIP_SIZES[s.tip]), name
+                f = panel.tip_fields[name]
+                if name in s.invalid:
+                    assert f.error == s.invalid[name] and f.error
+                else:
+                    assert not f.error
+                    assert urlstate.convert(s.param[name], f.input.value) == getattr(s, name)
 
     @invariant()
     def the_link_is_the_state(self):
@@ -327,7 +362,10 @@ class ExplorerMachine(RuleBasedStateMachine):
         values, errors = urlstate.parse(parse_qs_bytes(ex.location.search.lstrip("?")),
                                         ex.state, URL_KEYS, URL_ALIASES)
         assert not errors
-        assert values == {n: getattr(ex.state, n) for n in URL_KEYS}
+        # (a None, the tip radius that is the particle's, is left out: the default)
+        assert set(URL_KEYS) - set(values) <= {n for n in URL_KEYS if getattr(ex.state, n) is None}
+        assert urlstate.resolved(values, ex.state, URL_KEYS) == \
+            {n: getattr(ex.state, n) for n in URL_KEYS}
 
     @invariant()
     def the_run_shown_is_what_ran_and_stale_at_once(self):

@@ -122,3 +122,23 @@ def test_pinning_refuses_cores_that_are_not_there(argv, message, capsys):
         loadtest.parse(argv)
     assert exited.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def _line(what, pid):
+    return f"2026-11-27 10:00:00,000 - vibtrans.explorer - INFO - {what} (process {pid}): x"
+
+
+def test_memory_counts_as_released_only_when_every_process_released_its_closes():
+    """With several server processes in one log, one process's release
+    after the last discard does not stand for the others' (read so, one
+    process's garbage was measured as the load's memory growth, +20%)."""
+    from vibtrans_explorer.memory import CLOSED, RELEASED
+    discard = "DEBUG - Discarding session 'abc' last in use 5 milliseconds ago"
+    # process 2 closed a session after its last release; process 1 released after it
+    late = [discard, _line(CLOSED, 1), _line(RELEASED, 2), discard, _line(CLOSED, 2),
+            _line(RELEASED, 1)]
+    assert not loadtest.released_after_discards("\n".join(late))
+    assert loadtest.released_after_discards("\n".join(late + [_line(RELEASED, 2)]))
+    # a discard whose close is not logged yet
+    assert not loadtest.released_after_discards("\n".join(late + [_line(RELEASED, 2), discard]))
+    assert not loadtest.released_after_discards("")

@@ -75,12 +75,44 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         # the animation: its contact circle is the profile's (its key says how it is drawn)
         page.get_by_text("Animation", exact=True).first.click()
         _settle(page, 3000)
-        page.get_by_text("the particle drawn as a sphere whatever its profile").first.wait_for(
-            timeout=60000)
+        page.get_by_text("the particle drawn with its cone tip").first.wait_for(timeout=60000)
         page.get_by_text("Animation", exact=True).first.evaluate(
             "(e) => e.scrollIntoView({block: 'start'})")
         page.wait_for_timeout(300)
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}-animation.png"))
+        assert not errors, errors
+    finally:
+        page.close()
+
+
+# a small map on demand of the cone (5 x 5 points, 100 periods: seconds)
+CONE_MAP = "deformable,0.3,1.2,0.3,50,100,preview,ab4,paper,0.5,-1,1,-2,0,2,1,decided,cone"
+TITLES_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.title != null && m.title.text !== undefined) out.push(String(m.title.text));
+  return out;
+}"""
+
+
+def test_a_cone_map_on_demand_draws_its_linear_resonance_and_says_why(served_explorer, browser):
+    """At 1024 x 768: a link to a cone's map on demand; its lines are not
+    the sphere's shipped ones (its title's second line says so, its key
+    names the closed form's line)."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(served_explorer.url + f"?profile=cone&map={CONE_MAP}")
+        page.wait_for_selector("canvas", timeout=120000)
+        page.get_by_text("click it to run a scene there", exact=False).first.wait_for(
+            timeout=180000)
+        _settle(page)
+        titles = page.evaluate(TITLES_JS)
+        note = [t for t in titles if "no jumping boundary: the one shipped is the sphere's" in t]
+        assert note and "cone's linear resonance m* = 0.0507" in note[0], titles
+        page.screenshot(path=str(ARTIFACTS / "cone-map-on-demand-1024x768.png"))
         assert not errors, errors
     finally:
         page.close()

@@ -44,10 +44,20 @@ S = importlib.import_module("vibtrans.core.simulate")
 
 # texts the library checks (the particle's profile, issue 34)
 PROFILES = {"profile"}
+# the tip's sizes in SI (issue 34, the Design tab's): the ranges that
+# docs/MODEL.md section 10 ("In device units") and vibtrans.products.designtip
+# document ((lo, hi), (lo included, hi included)); a power law's N = 1 is
+# the cone (refused: the cone takes its half-angle); the tip radius may be
+# absent (empty: the particle's radius)
+TIPS = {"tip_half_angle": ((0.0, 90.0), (False, False)),
+        "tip_exponent": ((1.0, math.inf), (False, False)),
+        "tip_radius": ((0.0, math.inf), (False, False)),
+        "tip_flat_radius": ((0.0, math.inf), (True, False))}
 NUMERIC = {name: ExplorerState.param[name].bounds for name in URL_KEYS
-           if not hasattr(ExplorerState.param[name], "objects") and name not in PROFILES}
+           if not hasattr(ExplorerState.param[name], "objects") and name not in PROFILES
+           and name not in TIPS}
 OPTIONS = {name: ExplorerState.param[name].objects for name in URL_KEYS
-           if name not in NUMERIC and name not in PROFILES}
+           if name not in NUMERIC and name not in PROFILES and name not in TIPS}
 # profile texts: valid ones, then ones the library or the explorer refuses
 PROFILE_TEXT = ["sphere", "cone", "power:3", "power:1", "power:2", "power:1.5", "flat-sphere:0",
                 "flat-sphere:0.5", " cone ", "power:0.5", "power:0", "power:-3", "power:nan",
@@ -77,6 +87,7 @@ def _number_text(lo, hi):
 
 def _value_text(name):
     own = (_number_text(*NUMERIC[name]) if name in NUMERIC
+           else _number_text(TIPS[name][0][0], min(TIPS[name][0][1], 1e3)) if name in TIPS
            else st.sampled_from(PROFILE_TEXT) if name in PROFILES
            else st.sampled_from(list(OPTIONS[name])))
     return st.one_of(own, st.sampled_from(SPECIAL_TEXT), st.text(max_size=30))
@@ -128,9 +139,20 @@ def _profile_valid(text):
     return True
 
 
+def _tip_valid(name, value):
+    """The documented range of a tip's size (TIPS); None only for the tip radius."""
+    if value is None:
+        return name == "tip_radius"
+    (lo, hi), (lo_in, hi_in) = TIPS[name]
+    return (isinstance(value, float) and math.isfinite(value)
+            and (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi))
+
+
 def _valid(name, value):
     if name in PROFILES:
         return _profile_valid(value)
+    if name in TIPS:
+        return _tip_valid(name, value)
     if name in OPTIONS:
         return value in OPTIONS[name]
     return isinstance(value, float) and math.isfinite(value) and _inside(name, value)
@@ -173,7 +195,8 @@ def test_parse_applies_valid_values_and_names_invalid_ones(pairs):
             assert len(texts) == 1
             given_ = texts.pop()
             given_ = URL_ALIASES.get(name, {}).get(given_, given_)
-            expected = given_ if name in OPTIONS or name in PROFILES else float(given_)
+            expected = (given_ if name in OPTIONS or name in PROFILES
+                        else None if name in TIPS and given_ == "" else float(given_))
             assert values[name] == expected        # a valid value is applied as given
         else:
             assert named, (key, raw, errors)
@@ -200,6 +223,66 @@ def test_parse_numbers_exactly_the_documented_ones(name, data_):
         lo_in, hi_in = ExplorerState.param[name].inclusive_bounds
         assert (f"'{URL_KEYS[name]}' ({name}) must be a number in {'[' if lo_in else '('}{lo}, "
                 f"{hi}{']' if hi_in else ')'}") in errors[0]
+
+
+@settings(max_examples=300, deadline=None)
+@given(name=st.sampled_from(sorted(TIPS)), data_=st.data())
+@example(name="tip_exponent", data_=None)
+def test_tip_sizes_parse_exactly_the_documented_ones(name, data_):
+    # issue 34: the Design tab's tip in a link; designtip checks each size
+    # (its message added), nothing clamped
+    lo, hi = TIPS[name][0]
+    raw = "1" if data_ is None else data_.draw(st.one_of(
+        _number_text(lo, min(hi, 1e3)), st.sampled_from(SPECIAL_TEXT), st.text(max_size=20)))
+    values, errors = urlstate.parse({URL_KEYS[name]: [raw.encode()]}, ExplorerState, URL_KEYS)
+    plain = re.fullmatch(r"[ \t]*[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d{1,4})?[ \t]*", raw,
+                         re.ASCII)
+    if name == "tip_radius" and len(raw) <= urlstate.MAX_LENGTH and raw.strip(" \t") == "":
+        assert values == {name: None} and errors == []       # the particle's radius
+    elif (plain is not None and len(raw) <= urlstate.MAX_LENGTH
+          and _tip_valid(name, float(raw))):
+        assert values == {name: float(raw)} and errors == []
+    else:
+        assert values == {} and len(errors) == 1
+        assert errors[0].startswith(f"URL parameter '{URL_KEYS[name]}' ({name}) must be "
+                                    f"{ExplorerState.param[name].range_text}")
+        if plain is not None and len(raw) <= urlstate.MAX_LENGTH and math.isfinite(float(raw)):
+            # the library's reason, naming the parameter
+            word = {"tip_half_angle": "half\\_angle", "tip_exponent": "exponent",
+                    "tip_radius": "tip\\_radius", "tip_flat_radius": "flat\\_radius"}[name]
+            assert word in errors[0], errors[0]
+
+
+def test_older_links_without_a_tip_mean_the_sphere_and_links_round_trip():
+    values, errors = urlstate.parse({"la": [b"1"]}, ExplorerState, URL_KEYS)
+    state = ExplorerState(**urlstate.resolved(values, ExplorerState, URL_KEYS))
+    assert errors == [] and state.tip == "sphere" and state.tip_radius is None
+    state.param.update(tip="power", tip_exponent=2.5, tip_radius=2e-4, tip_half_angle=30.0,
+                       tip_flat_radius=0.0)
+    query = urlstate.query(state, URL_KEYS)
+    assert "tip=power" in query and "tipn=2.5" in query and "tipr=0.0002" in query
+    again, errors = urlstate.parse(parse_qs_bytes(query.lstrip("?")), ExplorerState, URL_KEYS)
+    assert errors == []
+    assert {k: again[k] for k in ("tip", "tip_exponent", "tip_radius", "tip_half_angle",
+                                  "tip_flat_radius")} == \
+        {"tip": "power", "tip_exponent": 2.5, "tip_radius": 2e-4, "tip_half_angle": 30.0,
+         "tip_flat_radius": 0.0}
+    # the particle's own radius (None) is left out of the link, and read back so
+    state.tip_radius = None
+    assert "tipr" not in urlstate.query(state, URL_KEYS)
+
+
+def test_a_tip_size_set_in_code_is_refused_with_the_librarys_message():
+    state = ExplorerState()
+    with pytest.raises(ValueError, match=r"half_angle must be a real number in \(0, 90\)"):
+        state.tip_half_angle = 90.0
+    with pytest.raises(ValueError, match=r"exponent N must be a real number in \(1, inf\)"):
+        state.tip_exponent = 1.0
+    with pytest.raises(ValueError, match=r"flat_radius must be a real number in \[0, inf\)"):
+        state.tip_flat_radius = -1e-9
+    assert (state.tip_half_angle, state.tip_exponent, state.tip_flat_radius) == \
+        (ExplorerState.param.tip_half_angle.default, ExplorerState.param.tip_exponent.default,
+         ExplorerState.param.tip_flat_radius.default)
 
 
 def test_message_is_shown_as_text_not_markup():
@@ -322,6 +405,9 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     # the URL now shows the state in use
     query = explorer.location.query_params
     for name, key in URL_KEYS.items():
+        if got[name] is None:               # (the tip radius: the particle's own)
+            assert key not in query
+            continue
         assert query[key] == got[name] or float(query[key]) == got[name]
     kernel_calls.clear()
     _run_now(explorer)

@@ -25,8 +25,13 @@ some 10^5 times its overlap: the overlap must stay a small cap of the
 circle; a smaller circle was drawn sunk whole under the surface), and its
 contact zone as Hertz's for a sphere of that radius (half-width
 c sqrt(rho) a0, c the run's contact radius over the static one, sqrt(R a0)
-for the sphere; a profile's own c(a*) as its run recorded it, issue 34, the
-particle still drawn as a sphere, its tip beside the selector); the wavelength is
+for the sphere; a profile's own c(a*) as its run recorded it, issue 34).
+A profile's particle (issue 34) is drawn as its tip's outline near the
+contact (the library's `outline`: z / a0 against r over the static contact
+radius, that radius drawn sqrt(rho) a0 as the contact zone's scale, out to
+TIP_CONTACT_RADII of them), its apex at the particle's lowest point, closed
+by the drawn circle's arc above (the body); the sphere keeps its circle,
+whose bottom that outline would be (z = r^2 / (2 rho)).  The wavelength is
 drawn three views wide, so that the drawn surface's slope stays below ~0.3
 (at 1.5 views, ~0.6: the material point was drawn resting on a steep slope
 that cut into it; the model's surface under the particle is level).  The
@@ -45,7 +50,7 @@ import numpy as np
 import panel as pn
 import xarray as xr
 from bokeh.layouts import column, row
-from bokeh.models import (Circle, ColumnDataSource, CustomJS, Div, Label, Line, Range1d,
+from bokeh.models import (Circle, ColumnDataSource, CustomJS, Div, Label, Line, Patch, Range1d,
                           Scatter, Segment, Select, Slider, Title, Toggle, VArea)
 from bokeh.plotting import figure
 
@@ -54,6 +59,7 @@ from vibtrans.products import plots
 from vibtrans.core.kernels import substrate
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.errors import InputError, InputTypeError
+from vibtrans.core.profiles import parse_profile
 
 from ..state import is_sphere
 
@@ -63,6 +69,13 @@ CIRCLE_PX = 300            # the contact circle's plotting area, pixels (square)
 RHO_FRACTION = 0.1         # drawn particle radius / the height the motion spans
 RHO_OVER_OVERLAP = 3.0     # drawn particle radius / the largest overlap a*, at least
 WAVELENGTH_VIEWS = 3.0     # drawn wavelength / the view's width
+# a profile's tip (issue 34): its outline drawn out to this many static
+# contact radii from the axis (as app/views/profile.py draws it), at most
+# this share of the drawn radius (the body's arc above it), in so many points
+TIP_CONTACT_RADII = 1.6
+TIP_RHO_SHARE = 0.8
+TIP_POINTS = 81
+ARC_POINTS = 121
 TABLE = 720                # samples per period of the surface's vertical motion
 CURVE_POINTS = 161         # points of the drawn surface
 MARKS_PER_WAVELENGTH = 8   # surface marks (points of the substrate)
@@ -155,6 +168,14 @@ function draw(i) {
   const L = M.wavelength[0], rho = M.rho[0], q = M.zone_scale[0], sp = M.spacing[0];
   const W = M.width[0], d = M.decimals[0], deformable = M.deformable[0] > 0;
   const m = T.length - 1;
+  // equal scales on both axes whatever width the page gives the frame (a
+  // narrow page shrinks it below SIDE_W: the particle was drawn an egg)
+  const iw = side.inner_width, ih = side.inner_height;
+  if (iw > 0 && ih > 0) {
+    const half = Math.min(W / 2, (side.y_range.end - side.y_range.start) * iw / ih / 2);
+    if (Math.abs(side.x_range.end - half) > 1e-9 * half)
+      side.x_range.setv({start: -half, end: half}, {sync: false});
+  }
   function height(xi) {
     let p = t - xi / L;
     p -= Math.floor(p);
@@ -167,6 +188,9 @@ function draw(i) {
   for (let j = 0; j < xs.length; j++) z[j] = height(xs[j]);
   surface.setv({data: {xi: xs, z: z}}, {sync: false});
   particle.setv({data: {x: [0.0], y: [-y + rho], r: [rho]}}, {sync: false});
+  const TS = tip_shape.data, ty = new Float64Array(TS.z.length);
+  for (let j = 0; j < ty.length; j++) ty[j] = TS.z[j] - y;
+  tip.setv({data: {x: TS.x, y: ty}}, {sync: false});
   const nm = marks.data.xi.length, k0 = Math.ceil((x - ux - W / 2) / sp);
   const mx = new Float64Array(nm), mz = new Float64Array(nm);
   for (let j = 0; j < nm; j++) { mx[j] = (k0 + j) * sp + ux - x; mz[j] = height(mx[j]); }
@@ -187,7 +211,7 @@ function draw(i) {
   if (!deformable) ct = "material point: rigid, no contact area";
   else if (!touching) ct = "in flight: no contact";
   else ct = "from above: c = " + c.toFixed(3) + (isNaN(s) ? "" : ", s = " + s.toFixed(3))
-            + "  " + M.unit[0];
+            + "\\n" + M.unit[0];   // (two lines: one was cut at the figure's width)
   contact_title.setv({text: ct}, {sync: false});
 }
 """
@@ -236,6 +260,26 @@ if (!cb_obj.active) {
 """ % TICK_MS
 
 
+def tip_outline(profile, rho):
+    """(x, z) of a profile's particle as the side view draws it, in a0,
+    z from its lowest point (the apex, at x = 0): the tip's outline
+    (the library's `outline`, z / a0 at r over the static contact radius;
+    that radius drawn sqrt(rho) a0, the contact zone's scale) for
+    |x| <= X = min(TIP_CONTACT_RADII sqrt(rho), TIP_RHO_SHARE rho), closed
+    by the arc of the drawn circle (radius rho, the body) through its ends."""
+    q = math.sqrt(rho)
+    X = min(TIP_CONTACT_RADII * q, TIP_RHO_SHARE * rho)
+    shape = parse_profile(profile)
+    xs = np.linspace(-X, X, TIP_POINTS)
+    zs = np.asarray(shape.outline(xs / q), float)
+    z_end = float(shape.outline(np.array([X / q]))[0])
+    centre = z_end + math.sqrt(rho * rho - X * X)
+    start = math.atan2(z_end - centre, X)             # below the horizontal
+    angles = np.linspace(start, math.pi - start, ARC_POINTS)[1:-1]
+    return (np.concatenate([xs, rho * np.cos(angles)]),
+            np.concatenate([zs, centre + rho * np.sin(angles)]))
+
+
 class ParticleAnimation(pn.viewable.Viewer):
     """The particle on the wave over a run's full-resolution window: side
     view and contact circle in step, with play / pause, a frame slider and
@@ -260,6 +304,10 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
+        # a profile's particle: its outline relative to its lowest point
+        # (per run), and drawn (per frame; empty for the sphere)
+        self.tip_shape = ColumnDataSource({"x": [], "z": []}, name="anim-tip-shape")
+        self.tip = ColumnDataSource({"x": [], "y": []}, name="anim-tip")
         self.marks = ColumnDataSource({"xi": [], "z": []}, name="anim-marks")
         self.zone = ColumnDataSource({"x0": [], "x1": [], "y": [], "colour": []},
                                      name="anim-zone")
@@ -282,7 +330,7 @@ class ParticleAnimation(pn.viewable.Viewer):
     def _build(self):
         side = figure(frame_width=SIDE_W, frame_height=SIDE_H, x_range=Range1d(-1.0, 1.0),
                       y_range=Range1d(-1.0, 1.0), tools="", toolbar_location=None,
-                      output_backend="canvas", title="(no run)")
+                      output_backend="canvas", title="(no run)", name="anim-side")
         side.title.text_font_size = "9.5pt"
         side.xaxis.axis_label = "x - x*(t)  (a0; the view moves with the particle)"
         side.yaxis.axis_label = "height -y  (a0, up)"
@@ -290,9 +338,12 @@ class ParticleAnimation(pn.viewable.Viewer):
         side.add_glyph(self.surface, self.ground)
         # the particle over the substrate and under its surface line: its
         # overlap with the surface (the Hertz approach a*) shows below the line
-        side.add_glyph(self.particle, Circle(x="x", y="y", radius="r", fill_color=PARTICLE_FILL,
-                                             fill_alpha=0.85, line_color="black",
-                                             line_width=1.5))
+        self.particle_glyph = side.add_glyph(
+            self.particle, Circle(x="x", y="y", radius="r", fill_color=PARTICLE_FILL,
+                                  fill_alpha=0.85, line_color="black", line_width=1.5))
+        self.tip_glyph = side.add_glyph(self.tip, Patch(x="x", y="y", fill_color=PARTICLE_FILL,
+                                                        fill_alpha=0.85, line_color="black",
+                                                        line_width=1.5))
         side.add_glyph(self.surface, Line(x="xi", y="z", line_color="#4e342e", line_width=2))
         side.add_glyph(self.marks, Scatter(x="xi", y="z", marker="triangle", size=8,
                                            fill_color="#4e342e", line_color="#4e342e"))
@@ -339,12 +390,16 @@ class ParticleAnimation(pn.viewable.Viewer):
                             width=150, name="anim-speed")
         args = dict(frames=self.frames, meta=self.meta, table=self.table,
                     surface=self.surface, particle=self.particle, marks=self.marks,
+                    tip=self.tip, tip_shape=self.tip_shape, side=side,
                     zone=self.zone, contact=self.contact, side_title=side.title,
                     contact_title=circ.title, names=list(STATE_NAMES),
                     stick_colour=plots.STATE_COLORS[1], slider=self.slider)
         self.slider.js_on_change("value", CustomJS(args=args, code=_ON_FRAME_JS))
+        # the frame's size known (or changed) in the browser: its scales made equal
+        side.js_on_change("inner_width", CustomJS(args=args, code=_DRAW_JS
+                                                  + "draw(slider.value);"))
         on_run = CustomJS(args=args, code=_ON_RUN_JS)
-        for source in (self.frames, self.meta, self.table):
+        for source in (self.frames, self.meta, self.table, self.tip_shape):
             source.js_on_change("data", on_run)
         self.play.js_on_change("active", CustomJS(
             args=dict(frames=self.frames, slider=self.slider, speed=self.speed),
@@ -389,7 +444,8 @@ class ParticleAnimation(pn.viewable.Viewer):
             self.frames.data = self._no_frames()
             self.meta.data = {k: [] for k in self.meta.data}
             self.table.data = {"uy": []}
-            for source in (self.surface, self.particle, self.marks, self.zone, self.contact):
+            for source in (self.surface, self.particle, self.marks, self.zone, self.contact,
+                           self.tip, self.tip_shape):
                 source.data = {k: [] for k in source.data}
             self.side.title.text = self.circle.title.text = "(no run)"
             for note in (*self.scale_notes, self.circle_note):
@@ -473,7 +529,11 @@ class ParticleAnimation(pn.viewable.Viewer):
         extent = max(high - low, 1.0)       # 1 a0: the static compression's scale
         overlap = float(frames["a"].max()) if deformable else 0.0
         rho = max(RHO_FRACTION * extent, RHO_OVER_OVERLAP * overlap)
-        top = max(neg_y.max() + 2.0 * rho, surf)
+        # the particle's drawing: the circle, or a profile's tip and the arc above
+        drawn_tip = deformable and not is_sphere(scene.profile)
+        tip_x, tip_z = tip_outline(scene.profile, rho) if drawn_tip else (np.zeros(0),) * 2
+        height = float(tip_z.max()) if drawn_tip else 2.0 * rho
+        top = max(neg_y.max() + height, surf)
         z0 = low - 0.2 * (top - low)        # some substrate below the lowest point
         z1 = top + 0.15 * (top - low)       # room for the label above the highest
         width = (z1 - z0) * SIDE_W / SIDE_H
@@ -503,6 +563,9 @@ class ParticleAnimation(pn.viewable.Viewer):
                           "width": [width], "decimals": [_decimals(extent)],
                           "deformable": [int(deformable)], "unit": [unit]}
         self.table.data = {"uy": table}
+        self.tip_shape.data = {"x": tip_x, "z": tip_z}
+        self.particle_glyph.visible = not drawn_tip
+        self.tip_glyph.visible = drawn_tip
         self.frames.data = frames
         n = frames["t"].size
         self.surface.data = {"xi": np.linspace(-0.51 * width, 0.51 * width, CURVE_POINTS),
@@ -529,10 +592,11 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.scale_notes[2].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = (("the contact zone drawn as Hertz's for the drawn radius: half-width "
                  f"c sqrt({rho:.3g}) a0. ") if deformable and sphere else
-                (f"the particle drawn as a sphere whatever its profile ({scene.profile}: its "
-                 f"tip is drawn beside the profile selector), its contact zone's half-width "
-                 f"c sqrt({rho:.3g}) a0 with c the profile's own contact radius over the "
-                 f"static one. ") if deformable else
+                (f"the particle drawn with its {scene.profile} tip: the tip's outline near "
+                 f"the contact (z to scale in a0; r in static contact radii, each drawn "
+                 f"sqrt({rho:.3g}) a0), its apex at the particle's lowest point, on a body "
+                 f"drawn as a circle; its contact zone's half-width c sqrt({rho:.3g}) a0 with "
+                 f"c the profile's own contact radius over the static one. ") if deformable else
                 "Material point: no contact zone and no contact circle (rigid contact). ")
         self.key.text = self._key_head + zone + note
 
@@ -570,10 +634,12 @@ class ParticleAnimation(pn.viewable.Viewer):
             ct = "in flight: no contact"
         else:
             ct = (f"from above: c = {_fixed(c, 3)}"
-                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "  " + M["unit"][0])
+                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "\n" + M["unit"][0])
+        TS = self.tip_shape.data
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},
+            "tip": {"x": np.asarray(TS["x"], float), "y": np.asarray(TS["z"], float) - y},
             "marks": {"xi": mx, "z": height(mx)},
             "zone": {"x0": np.array([-ce, -se]), "x1": np.array([ce, se]),
                      "y": np.array([zs, zs]),
@@ -589,7 +655,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def _draw(self, i):
         f = self.frame(i)
-        for name in ("surface", "particle", "marks", "zone", "contact"):
+        for name in ("surface", "particle", "marks", "zone", "contact", "tip"):
             getattr(self, name).data = f[name]
         self.side.title.text = f["side_title"]
         self.circle.title.text = f["contact_title"]

@@ -34,7 +34,7 @@ import param
 from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
-from vibtrans.products import design
+from vibtrans.products import design, designtip
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.products import plots
 from vibtrans.core import units
@@ -43,7 +43,8 @@ from vibtrans.core.errors import InputError
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
-from ..state import CUSTOM_EXAMPLE, CUSTOM_MATERIAL, MATERIAL_NAMES
+from ..state import (CUSTOM_EXAMPLE, CUSTOM_MATERIAL, MATERIAL_NAMES, TIP_FIELDS, TIP_SIZES,
+                     TipFields, tip_values)
 from .exports import read_back
 from .render import exclusively, rendered
 
@@ -52,7 +53,8 @@ CHART_HEIGHT = 540
 # a computed map's refinement levels (its coarse grid is 1/8 of its finest)
 DESIGN_LEVELS = 3
 UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
-INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset), "
+INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (or a preset) "
+         "and its particle's tip (the sphere, a cone, a power law, a flat), "
          "the two quantities on the chart's axes and their ranges (the third is fixed at the "
          "device's value), then *Draw chart*. The chart reads a drift map "
          "(deformable model) at each point: colour, the drift velocity (red with the wave, blue "
@@ -66,9 +68,19 @@ HINT = "*Press Draw chart to read the drift map for these values.*"
 CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
 # the values a preset sets: editing one makes the preset "custom"
 SHARED_DEVICE = ("substrate", "particle", "substrate_custom", "particle_custom", "preload",
-                 "frequency", "radius", "amplitude")
+                 "frequency", "radius", "amplitude", *TIP_FIELDS)
+# (a preset's particle is a sphere: a preset sets the tip's kind, not its sizes)
 PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amplitude", "x",
-                 "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points")
+                 "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points", "tip")
+# the tip's fields: label of each size (TIP_SIZES says which kind takes it)
+TIP_LABELS = {"tip_half_angle": "cone half-angle (degrees)",
+              "tip_exponent": "exponent N (z ~ r^N)",
+              "tip_radius": "tip radius R_t (m; empty: R)",
+              "tip_flat_radius": "flat radius (m)"}
+TIP_NOTE = ("*The body stays a sphere of the radius above (its mass); it touches the substrate "
+            "with this tip. Its chart reads a map of the tip's normalized profile (not the "
+            "sphere's shipped maps); \"Run this device's scene\" sets the explorer's particle "
+            "profile to it.*")
 FIGURE_FORMATS = ("png", "svg", "pdf")
 DATA_FORMATS = ("nc", "csv")
 DOWNLOAD_LABELS = {"png": "figure PNG", "svg": "figure SVG", "pdf": "figure PDF",
@@ -122,6 +134,12 @@ def _all_finite(chart):
                for v in ("drift_velocity", "A_star", "m_star"))
 
 
+def tip_shape(values):
+    """The checked tip (designtip.TipShape) of the panel's values (the
+    library's InputError names a refused size)."""
+    return designtip.tip_shape(**tip_values(values))
+
+
 def _chart_args(values):
     """design_chart's positional arguments and mu of the panel's values."""
     v = values
@@ -137,7 +155,8 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
     """(MapRequest, None) computing the map `need` asks for: the deformable
     particle at `fidelity` and `periods` (by default the library's computed
     map's: preview, 2000 periods) with the shipped maps' tau, mu, theta and
-    nu of the chart, its window snapped outward to `step` decades, the
+    nu of the chart and its particle's normalized profile (the tip's),
+    its window snapped outward to `step` decades, the
     finest step at most `step`; or (None, why) when a value or the window
     is outside what a map on demand accepts.  levels: DESIGN_LEVELS if None."""
     levels = DESIGN_LEVELS if levels is None else levels
@@ -170,8 +189,11 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
     # inside the accepted range where the snapping crossed its edge
     start = {k: min(start[k], bounds[k][1] - width) for k in spans}
     start = {k: max(v, bounds[k][0]) for k, v in start.items()}
+    if need.load_over_modulus is not None:      # (a measured table: not offered here)
+        return None, ("a measured profile's map needs its load over modulus, which a map on "
+                      "demand does not take: use `vibtrans design --compute`")
     request = MapRequest(model="deformable", mu=need.mu, theta=need.theta, nu=need.nu,
-                         fidelity=fidelity, periods=float(periods), levels=levels, cells=cells,
+                         profile=need.profile, fidelity=fidelity, periods=float(periods), levels=levels, cells=cells,
                          la_from=round(start["la"], 10), la_to=round(start["la"] + width, 10),
                          lm_from=round(start["lm"], 10), lm_to=round(start["lm"] + width, 10))
     return request, None
@@ -186,7 +208,7 @@ def build_chart(values, map_ds=None, map_name="given map"):
     xq, yq = v["x"], v["y"]
     chart = design.design_chart(*_chart_args(v), mu=v["mu"],
                                 surface_energy=v["surface_energy"], map_ds=map_ds,
-                                map_name=map_name)
+                                map_name=map_name, shape=tip_shape(v))
     if not _all_finite(chart):
         bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
         raise InputError(
@@ -210,10 +232,12 @@ def device_reading(values, chart, map_ds=None, map_name="given map"):
     device = units.DeviceSpec(v["substrate"], v["particle"], v["radius"], v["frequency"],
                               v["amplitude"], preload=v["preload"])
     device.normalized()             # checks every value (InputError names it)
+    shape = tip_shape(v)
     reading = design.read_device(device, mu=v["mu"], chart=chart, map_ds=map_ds,
-                                 map_name=map_name)
-    q = design.device_quantities(device, reading, v["surface_energy"])
-    warnings = design.validity_warnings(device, v["surface_energy"], q.drift_velocity)
+                                 map_name=map_name, shape=shape)
+    q = design.device_quantities(device, reading, v["surface_energy"], shape=shape)
+    warnings = design.validity_warnings(device, v["surface_energy"], q.drift_velocity,
+                                        shape=shape)
     return device, reading, q, warnings
 
 
@@ -251,7 +275,10 @@ def device_text(device, reading, q, warnings):
             ("peak surface velocity", _g(q.peak_velocity, "m/s")),
             ("Rayleigh speed, wavelength", f"{q.rayleigh_speed:.4g} m/s, "
                                            f"{q.rayleigh_wavelength:.4g} m"),
-            ("pull-off JKR, DMT", f"{q.pull_off_jkr:.4g} N, {q.pull_off_dmt:.4g} N")]
+            ("pull-off JKR, DMT", f"{q.pull_off_jkr:.4g} N, {q.pull_off_dmt:.4g} N"),
+            ("tip", q.profile),
+            ("normalized profile (the run's)", f"`{q.scene_profile}`"),
+            ("slope at the contact edge", _g(q.edge_slope))]
     if reading is None:
         rows.append(("drift", "not read: the device is off the chart's map (or its map "
                               "does not serve it)"))
@@ -263,7 +290,8 @@ def device_text(device, reading, q, warnings):
                  ("contact time per period", _g(q.contact_time, "s")),
                  ("travel per period", f"{_g(q.travel_per_period, 'm')} = "
                                        f"{_g(q.travel_over_wavelength)} wavelengths")]
-    head = (f"**Device**: {units.material(device.particle).name} sphere, R = "
+    tip = "sphere" if q.profile == "sphere" else f"particle with a {q.profile} tip"
+    head = (f"**Device**: {units.material(device.particle).name} {tip}, R = "
             f"{device.radius:.4g} m, on {units.material(device.substrate).name}; f = "
             f"{device.frequency:.4g} Hz, A_y = {device.amplitude:.4g} m, pre-load "
             f"{device.preload:g} N")
@@ -273,7 +301,26 @@ def device_text(device, reading, q, warnings):
     return "\n".join([head, "", *table, "", *notes])
 
 
-class DesignPanel(pn.viewable.Viewer):
+def tip_form(owner, width=150):
+    """The tip's widgets, bound to `owner`'s TipFields (the state's, or the
+    panel's alone): (its kind's selector, {name: NumberField}, the fields'
+    boxes, each shown for the kind that takes it).  Each size is checked
+    by the library as typed (app/inputs.NumberField: its message)."""
+    kind = pn.widgets.Select.from_param(owner.param.tip, name="particle tip", width=width,
+                                        css_classes=["vt-design-tip"])
+    fields = {name: inputs.NumberField(owner, name, label, width=width)
+              for name, label in TIP_LABELS.items()}
+    boxes = [pn.Column(field, margin=0, css_classes=[f"vt-design-{name.replace('_', '-')}"],
+                       visible=pn.bind(lambda k, name=name: name in TIP_SIZES[k],
+                                       owner.param.tip))
+             for name, field in fields.items()]
+    note = pn.pane.Markdown(TIP_NOTE, visible=pn.bind(lambda k: k != "sphere", owner.param.tip),
+                            sizing_mode="stretch_width", margin=(0, 10),
+                            css_classes=["vt-design-tip-note"])
+    return kind, fields, [*boxes, note]
+
+
+class DesignPanel(pn.viewable.Viewer, TipFields):
     """The Design tab: its values (SI units), its widgets, the chart.
 
     Every number is stored as typed; the library checks them when the
@@ -381,11 +428,13 @@ class DesignPanel(pn.viewable.Viewer):
         self._init_extras()
         self._layout = None
         self._syncing = False
+        # the tip's widgets: bound to the state's tip where there is one
+        self.tip_kind, self.tip_fields, self.tip_boxes = tip_form(self if state is None else state)
         if state is not None:
             self._share_device(state)
-        self.param.watch(self._on_changed, [*PRESET_VALUES, "mu", "surface_energy",
-                                            "substrate_custom", "particle_custom",
-                                            "map_fidelity", "map_periods"])
+        self.param.watch(self._on_changed, [*PRESET_VALUES, *TIP_FIELDS, "mu",
+                                            "surface_energy", "substrate_custom",
+                                            "particle_custom", "map_fidelity", "map_periods"])
 
     # ---------- the device, shared with the Units tab (the explorer's state) ----------
     def _share_device(self, state):
@@ -437,7 +486,7 @@ class DesignPanel(pn.viewable.Viewer):
         self.param.update(
             substrate=units.material(d.substrate).name, particle=units.material(d.particle).name,
             preload=float(d.preload), frequency=float(d.frequency), radius=float(d.radius),
-            amplitude=float(d.amplitude), x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
+            amplitude=float(d.amplitude), tip="sphere", x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
             x_points=int(p.x[3]), y=p.y[0], y_lo=float(p.y[1]), y_hi=float(p.y[2]),
             y_points=int(p.y[3]))
 
@@ -464,13 +513,18 @@ class DesignPanel(pn.viewable.Viewer):
 
     def values(self):
         """The values as typed (SI), for the library to check."""
+        # (the tip: its kind and that kind's sizes; another kind's do not
+        # make the chart)
         names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
                  "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
-                 "y_points", "map_fidelity", "map_periods")
+                 "y_points", "map_fidelity", "map_periods", "tip", *TIP_SIZES[self.tip])
         return self._with_custom_materials({k: getattr(self, k) for k in names})
 
     def field_errors(self):
-        return [f.error for f in self.fields.values() if f.error]
+        """The typed fields' messages: the panel's, and its tip's of the
+        kind chosen (a hidden kind's size does not make the device)."""
+        tips = [f for f in self.tip_fields.values() if f.name_ in TIP_SIZES[self.tip]]
+        return [f.error for f in [*self.fields.values(), *tips] if f.error]
 
     # ---------- drawing ----------
     def _say(self, text):
@@ -545,6 +599,11 @@ class DesignPanel(pn.viewable.Viewer):
         """Say why no shipped map serves the chart and offer the one it
         needs, with its estimated cost (or why it cannot be computed)."""
         reasons = "; ".join(need.shipped_problems)
+        if need.profile != "sphere":        # (say why, in the tip's words)
+            reasons = (f"the shipped maps are the sphere's (Hertz's contact law); this "
+                       f"particle's tip, {tip_shape(values).name}, runs the normalized "
+                       f"profile `{need.profile}` (another contact law N\\*(a\\*), "
+                       f"docs/MODEL.md section 10), so its chart reads a map of that profile")
         head = f"**No shipped map serves this chart:** {reasons}."
         request, why = map_request(need, fidelity=values["map_fidelity"],
                                    periods=values["map_periods"])
@@ -847,14 +906,15 @@ class DesignPanel(pn.viewable.Viewer):
         """The device's form: the state's (the Units tab's too) when shared."""
         head = pn.pane.Markdown("**The device** (the Units tab's too; marked on the chart; a "
                                 "click moves it and runs its scene)", margin=(0, 10))
+        tip = row(self.tip_kind, *self.tip_boxes)
         if self.state is not None:
             from .units import device_form
-            return [head, row(*device_form(self.state, width=150)),
+            return [head, row(*device_form(self.state, width=150)), tip,
                     row(f["mu"], f["surface_energy"])]
         return [row(select(self.param.substrate, name="substrate"),
                     select(self.param.particle, name="particle"), f["preload"], f["mu"],
                     f["surface_energy"]),
-                self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"])]
+                self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"]), tip]
 
     def __panel__(self):
         if self._layout is None:

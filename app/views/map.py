@@ -17,9 +17,10 @@ from bokeh.models import (AllIndices, CDSView, ColorBar, ColumnDataSource, Glyph
 from vibtrans.products import plots
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
+from vibtrans.core.profiles import linear_resonance_mass
 
 from .. import data
-from ..state import within
+from ..state import is_sphere, within
 from .render import rendered
 
 MAP_HEIGHT = 460
@@ -251,15 +252,42 @@ def update_in_place(old, new):
     return True
 
 
+def map_profile(ds, model):
+    """The particle's profile a map was made for (its store's
+    scene_profile; the sphere's where absent, and for the material point,
+    which is rigid)."""
+    return "sphere" if model == "point-mass" else str(ds.attrs.get("scene_profile", "sphere"))
+
+
+def profile_lines_note(profile):
+    """The map's words on its lines for a profile other than the sphere:
+    its linear resonance drawn (a closed form), the jumping boundary not
+    (the threshold curve shipped is the sphere's; the profile's own costs
+    about half of a map on demand's points, docs/DYNAMICS.md section 5)."""
+    m_res = linear_resonance_mass(profile)
+    return (f"dotted: {profile}'s linear resonance m* = {m_res:.3g} (closed form)\n"
+            f"no jumping boundary: the one shipped is the sphere's")
+
+
 def computed_element(ds, title, model, window, v0, chaotic):
     """A map on demand (HoloViews): its drift map over its window, with the
     jumping boundary and the resonances (the vertical motion's: they hold
     for any mu, theta, nu) where they cross it.  window: ((log10 A* from,
-    to), (log10 m* from, to))."""
+    to), (log10 m* from, to)).  A map of another profile than the sphere
+    (the deformable particle's, its store's scene_profile): the shipped
+    curve is the sphere's, so neither is drawn; its linear contact
+    resonance m*_res = N*'(1)/(4 pi^2) (a closed form) is, and the title's
+    second line says so (`profile_lines_note`)."""
     (a0, a1), (m0, m1) = window
     el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=title)
+    profile = map_profile(ds, model)
     vertical = data.vertical_curve()
-    if vertical is not None:
+    if not is_sphere(profile):
+        # the shipped threshold curve is the sphere's: not this particle's
+        # lines.  Its own linear resonance, a closed form, and a note.
+        el = el * plots.linear_resonance_line(math.log10(linear_resonance_mass(profile)))
+        title = f"{title}\n{profile_lines_note(profile)}"
+    elif vertical is not None:
         el = el * plots.jumping_boundary(vertical, model)
         if model == "deformable":
             el = el * plots.resonance_lines(vertical)

@@ -50,13 +50,14 @@ class UnitsPanel(pn.viewable.Viewer):
     def _update(self, *events):
         try:
             n = self.normalized()
+            A_star, m_star, a0, profile = self.state.device_tip()   # (the tip's a0)
         except (ValueError, TypeError) as exc:
             self.info.object = f"**Invalid input:** {exc}"
             self.warnings.object = ""
             self.marker = None
             return
-        la = math.log10(n.A_star) if n.A_star > 0 else -math.inf
-        lm = math.log10(n.m_star)
+        la = math.log10(A_star) if A_star > 0 else -math.inf
+        lm = math.log10(m_star)
         inside = within(la, lm, MAP_LOG_AMPLITUDE, MAP_LOG_MASS)
         runnable = within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS)
         self.marker = (la, lm) if runnable else None
@@ -66,9 +67,12 @@ class UnitsPanel(pn.viewable.Viewer):
                  f"log10 m* in {list(SCENE_LOG_MASS)})")
         self.info.object = "\n".join([
             "| quantity | value |", "|---|---|",
-            f"| A* | {n.A_star:.4g} (log10 {la:.4g}) |",
-            f"| m* | {n.m_star:.4g} (log10 {lm:.4g}) |",
-            f"| a0 | {n.a0:.3e} m |",
+            f"| A* | {A_star:.4g} (log10 {la:.4g}) |",
+            f"| m* | {m_star:.4g} (log10 {lm:.4g}) |",
+            f"| a0 | {a0:.3e} m |",
+            *([] if self.state.tip == "sphere" else
+              [f"| tip (the Design tab's) | {self.state.tip_shape().name}: profile "
+               f"`{profile}` |"]),
             f"| wave period | {units.duration_text(1.0 / n.frequency)} |",
             f"| Rayleigh speed c_R | {n.c_R:.0f} m/s |",
             f"| r(nu), theta | {n.r:.3f}, {n.theta:.3f} |",
@@ -87,9 +91,10 @@ class UnitsPanel(pn.viewable.Viewer):
         ran; (None, None) if neither."""
         try:
             n, values = self.normalized(), self.state.device_scene_values()
+            profile = self.state.device_tip()[3]
         except (ValueError, TypeError):
-            n = values = None
-        if n is not None and same_scene(values, scene):
+            n = values = profile = None
+        if n is not None and same_scene(values, scene) and scene.profile == profile:
             return n, "the device of the Units and Design tabs"
         return None, None
 
@@ -105,7 +110,10 @@ class UnitsPanel(pn.viewable.Viewer):
         if n is None:
             return "- (run a device from the Units or Design tab to see it in SI units)"
         run = units.duration_text(scene.periods / n.frequency)
-        return (f"{n.drift_velocity_si(v_star):.3e} m/s; the run, {scene.periods:g} periods, "
+        # a0 f v* (the tip's a0; the sphere's: the converter's own)
+        v = (n.drift_velocity_si(v_star) if self.state.tip == "sphere"
+             else self.state.device_tip()[2] * n.frequency * v_star)
+        return (f"{v:.3e} m/s; the run, {scene.periods:g} periods, "
                 f"lasts {run} ({name})")
 
     def period_seconds(self, scene):
@@ -143,13 +151,14 @@ def device_form(state, width=150):
 
 
 def device_warnings(state):
-    """The model's validity warnings for the state's device (the Design
-    tab's: a0 below the interatomic spacing, the contact radius, adhesion)."""
+    """The model's validity warnings for the state's device with its tip
+    (the Design tab's: a0 below the interatomic spacing, the contact radius,
+    adhesion, the tip's edge slope and a cone's apex)."""
     try:
         device = units.DeviceSpec(substrate=state.material("substrate"),
                                   particle=state.material("particle"), radius=state.radius,
                                   frequency=state.frequency, amplitude=state.amplitude,
                                   preload=state.preload)
-        return list(design.validity_warnings(device))
+        return list(design.validity_warnings(device, shape=state.tip_shape()))
     except (ValueError, TypeError):
         return []

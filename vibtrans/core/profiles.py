@@ -271,6 +271,17 @@ def parse_profile(text, load_over_modulus=None):
     raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {text!r}")
 
 
+def linear_resonance_mass(profile):
+    """m*_res = N*'(1) / (4 pi^2): the m* where the linearized contact
+    oscillation about the static approach, sqrt(N*'(1) / m*) radians per
+    wave period, meets the wave's 2 pi (docs/DYNAMICS.md section 5; the
+    sphere: 1.5 / (4 pi^2) = 0.038).  `profile`: a profile object or its
+    spec ('cone', 'power:3', 'flat-sphere:0.5'; a table needs its object)."""
+    if isinstance(profile, str):
+        profile = parse_profile(profile)
+    return float(profile.stiffness(1.0)) / (4.0 * math.pi ** 2)
+
+
 def tangential_force(profile, a, b, w_of_h, h_grid):
     """Reference (slow, numpy) T* = b N*'(a) - int_[0,a] w dN*'(h), for tests and twins."""
     h = h_grid[h_grid <= a]

@@ -142,7 +142,8 @@ class DeviceQuantities:
     Static: mass [kg], load m g + P [N], a0 [m], contact radius sqrt(R a0) [m]
     (a tip shape's own, designtip.static_contact), mean contact pressure
     load / (pi a_c^2) [Pa], A*, m*, theta, r, nu; the tip (profile: its
-    name, edge_slope: the profile's slope at the contact edge);
+    name, edge_slope: the profile's slope at the contact edge,
+    scene_profile: the normalized profile its dynamics runs, Scene's);
     wave: Rayleigh speed [m/s] and wavelength [m], peak vertical surface
     acceleration [g] and velocity [m/s] (horizontal: r times these);
     adhesion: JKR and DMT pull-off [N].
@@ -173,6 +174,8 @@ class DeviceQuantities:
     travel_over_wavelength: float | None = None
     profile: str = "sphere"
     edge_slope: float | None = None
+    scene_profile: str = "sphere"
+
 
     def as_dict(self):
         return asdict(self)
@@ -230,7 +233,7 @@ def device_quantities(device, reading=None, surface_energy=DEFAULT_SURFACE_ENERG
              peak_velocity=omega * device.amplitude,
              pull_off_jkr=JKR_FACTOR * w * device.radius,
              pull_off_dmt=DMT_FACTOR * w * device.radius, profile=shape.name,
-             edge_slope=float(tip.edge_slope))
+             edge_slope=float(tip.edge_slope), scene_profile=tip.profile)
     if reading is not None and np.isfinite(reading["v_star"]):
         v = (s.drift_velocity_si(reading["v_star"]) if shape.is_sphere
              else a0 * device.frequency * float(reading["v_star"]))

@@ -47,6 +47,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import param
 
 from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
@@ -313,3 +314,46 @@ def tip_warnings(shape, contact, E_eff):
             f"real apex yields or wears round; the sharp elastic cone holds while that rounded "
             f"region is small against the contact radius {ac:.3g} m", pm, 0.0))
     return out
+
+
+class TipSize(param.Number):
+    """One size of the particle's tip in SI as a Param parameter (the
+    explorer's page state holds four), checked by `tip_shape` (its
+    InputError names the parameter and its valid range; nothing clamped)
+    whether set in code, typed or linked (the explorer's link reader takes
+    a plain decimal, then calls `library_check`; an empty text is
+    None where allow_None: the tip radius, the particle's own).  `size`:
+    which (half_angle [deg], exponent, tip_radius [m], flat_radius [m]);
+    `range_text`: its range in words (for a form's or a link's message)."""
+
+    __slots__ = ["size", "range_text"]
+
+    def __init__(self, default=None, size=None, range_text="", **params):
+        self.size = size
+        self.range_text = range_text
+        super().__init__(default=default, **params)
+
+    def library_check(self, value):
+        """The library's check of `value` (InputError, a ValueError, if refused)."""
+        if value is None and self.allow_None:
+            return None
+        if self.size == "exponent":
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise InputError(f"the tip's exponent N must be a real number in (1, inf), "
+                                 f"got {value!r}")
+            if value == 1:
+                raise InputError("the tip's exponent N must be a real number in (1, inf), "
+                                 "got 1 (N = 1 is the cone: choose the tip 'cone' and give its "
+                                 "half-angle)")
+            tip_shape(f"power:{float(value)!r}")
+        elif self.size == "half_angle":
+            tip_shape("cone", half_angle=value)
+        elif self.size == "tip_radius":
+            tip_shape("power:3", tip_radius=value)
+        else:
+            tip_shape("flat-sphere", flat_radius=value)
+        return float(value)
+
+    def _validate(self, val):
+        super()._validate(val)
+        self.library_check(val)

@@ -147,6 +147,10 @@ RESONANCE_LINE = ("black", 1.0, "dashed")
 CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
 BOUNDARY_LABEL = "jumping boundary"
 RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
+# a profile's map on demand: its linear contact resonance, a closed form
+# (dotted: not the sphere's measured lines)
+LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")
+LINEAR_RESONANCE_LABEL = "linear contact resonance N*'(1)/(4 pi^2)"
 
 
 def white_label(v0=V0):
@@ -317,6 +321,15 @@ def resonance_lines(vertical, shown=True):
     if lines:
         lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE, shown)])
     return hv.Overlay(lines)
+
+
+def linear_resonance_line(log_mass, label=LINEAR_RESONANCE_LABEL):
+    """A horizontal line at log10 m* = `log_mass`, the profile's linear
+    contact resonance (profiles.linear_resonance_mass: a closed form), in
+    the map's key as `label`."""
+    colour, width, dash = LINEAR_RESONANCE_LINE
+    line = _styled_line(hv.HLine(float(log_mass)), colour, width=width, dash=dash)
+    return _keyed(line, [(label, "line", LINEAR_RESONANCE_LINE)])
 
 
 def paper_points(model="deformable", color="black"):
@@ -1162,6 +1175,9 @@ def design_figure(chart, device=None, title=None):
                  f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
                  f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
                  f"({chart.attrs['map']})")
+        tip = chart.attrs.get("profile", "sphere")
+        if tip != "sphere":         # (a second line: the first fills a half-page chart)
+            title += f"\nthe particle's tip: {tip} (profile {chart.attrs['map_profile']})"
     el = hv.Overlay([_keyed(mesh, key), *layers])
     return style(el, common=dict(title=title, logx=True, logy=True,
                                  xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))

@@ -58,7 +58,11 @@ def _segment_integral(s0, w0, s1, w1):
 #   law[LAW_SIZE]   grid points n (LAW_TABLE)
 #   law[LAW_INV]    1 / ds (LAW_TABLE: ds a power of 2, so s / ds = s * (1 / ds)
 #                   exactly: a multiply, not a divide, finds the cell), then
-#                   n values N*'_i and n values N*_i
+#                   per cell i (n - 1 of them) LAW_CELL numbers: N*_i, the
+#                   cubic's coefficients A, B, C of N* = N*_i + t (A + t (B + t C)),
+#                   N*'_i and the slope m of N*' = N*'_i + m t (t = s - s_i):
+#                   one cell's numbers side by side (one or two cache lines), and
+#                   no division in the evaluation (the cubic's 1/3 precomputed)
 # With a profile the memory's vertex array has three columns (new_memory(law=))
 # and holds (h, N*'(h), N*(h)) instead of (h, sqrt h): the law is evaluated
 # once per new vertex, never in the integrals; P is the running integral of
@@ -68,6 +72,8 @@ LAW_POWER = 0
 LAW_TABLE = 1
 LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE, LAW_INV = range(5)
 LAW_HEAD = 5
+LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
+CELL_N, CELL_A, CELL_B, CELL_C, CELL_K, CELL_M = range(LAW_CELL)
 LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
 LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024 (a power of 2: LAW_INV)
 
@@ -75,8 +81,8 @@ LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024 (a power of 2: LA
 def kernel_law(profile):
     """The kernels' form of a profile (contact.law_eval): None for the sphere
     (Hertz's own path, bit for bit as before profiles), a power law's
-    [LAW_POWER, p, p, 0, 0], else a table [LAW_TABLE, ds, N*'(1), n, 1/ds, N*'_i.., N*_i..]
-    of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
+    [LAW_POWER, p, p, 0, 0], else a table [LAW_TABLE, ds, N*'(1), n, 1/ds,
+    LAW_CELL numbers per cell] of N*' on the grid s_i = i ds uniform in s = sqrt(a*) (0 <= a* <=
     LAW_GRID_MAX), N*' linear in s on each cell and N* its exact integral,
     both scaled so that N*(1) = 1 exactly (the rest state's force balance).
     """
@@ -97,7 +103,17 @@ def kernel_law(profile):
     scale = 1.0 / N[i1]      # a* = 1 is a grid point
     k, N = k * scale, N * scale
     assert ds == 2.0 ** round(math.log2(ds))     # (LAW_INV exact)
-    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size), 1.0 / ds], k, N))
+    # per cell: N* = N*_i + int_si^s (k_i + m (x - si)) 2 x dx as a cubic in t = s - si
+    m = np.diff(k) / ds
+    k0 = k[:-1]
+    cells = np.empty((s.size - 1, LAW_CELL))
+    cells[:, CELL_N] = N[:-1]
+    cells[:, CELL_A] = 2.0 * k0 * si
+    cells[:, CELL_B] = k0 + m * si
+    cells[:, CELL_C] = (2.0 / 3.0) * m
+    cells[:, CELL_K] = k0
+    cells[:, CELL_M] = m
+    return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size), 1.0 / ds], cells.ravel()))
 
 
 def law_scales(law):
@@ -119,21 +135,16 @@ def law_eval(law, a):
         k = p * (a if q == 1.0 else a ** q)
         return a * k / p, k
     n = int(law[LAW_SIZE])
-    ds = law[LAW_ARG]
-    inv = law[LAW_INV]            # 1 / ds exactly (a power of 2)
     if a <= 0.0:
-        return 0.0, law[LAW_HEAD]
+        return 0.0, law[LAW_HEAD + CELL_K]
     s = math.sqrt(a)
-    i = int(s * inv)
+    i = int(s * law[LAW_INV])     # 1 / ds exactly (a power of 2)
     if i > n - 2:
-        i = n - 2
-    si = i * ds
-    t = s - si
-    k0 = law[LAW_HEAD + i]
-    m = (law[LAW_HEAD + i + 1] - k0) * inv
-    # N* = N*_i + int_si^s (k0 + m (x - si)) 2 x dx
-    dn = 2.0 * t * (k0 * si + t * (0.5 * (k0 + m * si) + m * t / 3.0))
-    return law[LAW_HEAD + n + i] + dn, k0 + m * t
+        i = n - 2                 # beyond the grid: the last cell's curves
+    t = s - i * law[LAW_ARG]
+    j = LAW_HEAD + LAW_CELL * i
+    return (law[j + CELL_N] + t * (law[j + CELL_A] + t * (law[j + CELL_B] + t * law[j + CELL_C])),
+            law[j + CELL_K] + law[j + CELL_M] * t)
 
 
 @inline
