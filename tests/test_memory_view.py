@@ -226,3 +226,44 @@ def test_after_a_cancel_the_diagram_is_marked_as_the_previous_runs(partial_slip)
         view.mark_previous()
         assert "previous run" in view.status.object
     asyncio.run(go())
+
+
+class _HeldSnapshots:
+    """An executor whose last-period snapshots start only once released
+    (the order of the race, made certain); everything else runs at once."""
+
+    def __init__(self):
+        self.release = threading.Event()
+
+    def submit(self, fn, *args, **kwargs):
+        if fn.__name__ == "memory_snapshots":
+            def held():
+                self.release.wait(budget(120))
+                return fn(*args, **kwargs)
+            return POOL.submit(held)
+        return POOL.submit(fn, *args, **kwargs)
+
+
+def test_a_time_shown_while_the_snapshots_compute_stays_shown():
+    """Show pressed before the last period's snapshots are ready: when they
+    come, the diagram of the typed time stays (before, the last period's
+    replaced it and the field went back to the run's end), and the slider
+    is enabled at that time."""
+    scene = _scene(9)
+    executor = _HeldSnapshots()
+
+    async def go():
+        view = MemoryView(executor)
+        view.set_run(scene, scene.periods)
+        view.time_field.input.value = "1999.5"
+        await view.show_at()
+        assert view._job is not None                 # the snapshots still to come
+        _holds(view, memory_snapshot(scene, 1999.5))
+        executor.release.set()
+        await until(lambda: view._job is None, timeout=budget(120))
+        _holds(view, memory_snapshot(scene, 1999.5))
+        t = float(view.shown["t"])                   # the time drawn (a sample's)
+        assert abs(t - 1999.5) < 1e-3
+        assert view.at.t == round(t, 4) and not view.slider.disabled
+        assert view.slider.value == t
+    asyncio.run(go())

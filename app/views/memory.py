@@ -313,7 +313,12 @@ class MemoryView(pn.viewable.Viewer):
         with pn.io.hold():
             self._busy("")
             self.slider.disabled = False
-            self._show_index(len(snaps) - 1)
+            if self.shown is None:
+                self._show_index(len(snaps) - 1)
+            else:
+                # a time the user typed was shown meanwhile: it stays (drawing
+                # the last period over it replaced what was asked for)
+                self._agree(self.shown["t"])
 
     # ---------------------------------------------------------------- controls
     def _index(self, value):
