@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from vibtrans import Scene, estimate_steps, simulate
 from vibtrans.core.errors import InputError, StepBudgetExceeded
 from vibtrans.core.fidelity import FIDELITY, contact_time_scale, step_count, time_step
+from vibtrans.core.params import MASS_MIN
 from vibtrans.core.threshold import _first_takeoff, first_takeoff
 
 MAX = 1.7976931348623157e308
@@ -46,7 +47,7 @@ def _in(lo, hi, exclude_min=False, exclude_max=False):
 # valid Scene values over their whole (float) domain
 VALID = st.fixed_dictionaries({
     "amplitude": _in(0.0, MAX),
-    "mass": _in(0.0, MAX, exclude_min=True),
+    "mass": _in(MASS_MIN, MAX),
     "mu": _in(0.0, MAX, exclude_min=True),
     "theta": _in(1.0, 1.5),
     "nu": _in(0.0, 0.5, exclude_min=True, exclude_max=True),
@@ -139,7 +140,7 @@ def test_extreme_valid_scenes_run_or_are_refused_in_bounded_work(model, values):
 @pytest.mark.parametrize("model", ["deformable", "vertical", "point-mass"])
 @settings(max_examples=60, **SETTINGS)
 @given(amplitude=st.sampled_from([1e10, 1e100, 1e200, 1e300, 1e307, 1e308, MAX]),
-       mass=st.sampled_from([5e-324, 1e-300, 1e-5, 1.0, 1e5, 1e300, MAX]),
+       mass=st.sampled_from([MASS_MIN, 1e-300, 1e-5, 1.0, 1e5, 1e300, MAX]),
        periods=st.sampled_from([5e-324, 1e-3, 2.0, 1e308]))
 def test_overflowing_forces_run_or_are_refused_in_bounded_work(model, amplitude, mass,
                                                                 periods):
@@ -175,7 +176,7 @@ def test_first_takeoff_refuses_any_bad_float(field, value):
 
 
 @settings(max_examples=150, **SETTINGS)
-@given(amplitude=_in(0.0, MAX), mass=_in(0.0, MAX, exclude_min=True), tau=_in(0.0, MAX),
+@given(amplitude=_in(0.0, MAX), mass=_in(MASS_MIN, MAX), tau=_in(0.0, MAX),
        periods=_in(0.0, MAX, exclude_min=True))
 def test_first_takeoff_finishes_or_refuses_for_extreme_valid_floats(amplitude, mass, tau,
                                                                     periods):
@@ -188,3 +189,15 @@ def test_first_takeoff_finishes_or_refuses_for_extreme_valid_floats(amplitude, m
     # (the kernel's last step may end past T_obs: a take-off inside it counts)
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False)
     assert t == math.inf or 0.0 <= t <= scene.periods + h
+
+
+def test_a_subnormal_mass_is_refused_with_its_range():
+    """Found here: m* = 5e-324 (subnormal: 1/m* overflows), A* = 0, tau = 0
+    and T_obs = 4.8e-160 periods (within the step budget) gave a NaN
+    take-off time (the particle at rest: acceleration 0 * inf).  The
+    valid range of m* starts at the smallest normal float."""
+    for mass in (5e-324, 1e-310):
+        with pytest.raises(InputError, match=r"mass must be in \[2\.22507e-308, inf\)"):
+            Scene(model="vertical", amplitude=0.0, mass=mass, tau=0.0, periods=4.8e-160)
+    scene = Scene(model="vertical", amplitude=0.0, mass=MASS_MIN, tau=0.0, periods=4.8e-160)
+    assert _first_takeoff(scene, max_steps=BUDGET) == math.inf      # at rest, never leaves

@@ -28,7 +28,7 @@ NAN, INF = float("nan"), float("inf")
 # parameter -> (valid-range text in the message, membership test of the domain)
 DOMAINS = {
     "amplitude": ("[0, inf)", lambda v: 0 <= v < INF),
-    "mass": ("(0, inf)", lambda v: 0 < v < INF),
+    "mass": ("[2.22507e-308, inf)", lambda v: 2.2250738585072014e-308 <= v < INF),
     "mu": ("(0, inf)", lambda v: 0 < v < INF),
     "theta": ("[1, 1.5]", lambda v: 1 <= v <= 1.5),
     "nu": ("(0, 0.5)", lambda v: 0 < v < 0.5),
@@ -41,7 +41,7 @@ NUMERIC = list(DOMAINS)
 # Out-of-domain numbers, per parameter (non-finite ones are added for all).
 OUT_OF_RANGE = {
     "amplitude": [-1.0, -1e-300],
-    "mass": [-1.0, 0.0, -0.0],
+    "mass": [-1.0, 0.0, -0.0, 5e-324, 1e-310],
     "mu": [-0.3, 0.0],
     "theta": [0.99, 1.51, -1.2, 0.0],
     "nu": [0.0, 0.5, 0.6, -0.1],
@@ -57,7 +57,7 @@ BAD_TYPES = [(name, v) for name in NUMERIC for v in WRONG_TYPES]
 
 VALID_EDGES = [
     ("amplitude", 0.0), ("amplitude", 0), ("amplitude", 1e-300), ("amplitude", 1e300),
-    ("mass", 1e-300), ("mass", 5e-324), ("mass", 1e300),
+    ("mass", 1e-300), ("mass", 2.2250738585072014e-308), ("mass", 1e300),
     ("mu", 1e-12), ("mu", 10.0),
     ("theta", 1.0), ("theta", 1), ("theta", 1.5), ("theta", 1.0555), ("theta", 1.3333),
     ("nu", 1e-9), ("nu", 0.4999999),
@@ -508,7 +508,7 @@ def test_cli_bad_input_exits_2_with_one_line(capsys, argv, name):
 
 
 @pytest.mark.parametrize("name, value, rng", [
-    ("amplitude", "-1", "[0, inf)"), ("mass", "0", "(0, inf)"), ("mu", "0", "(0, inf)"),
+    ("amplitude", "-1", "[0, inf)"), ("mass", "0", "[2.22507e-308, inf)"), ("mu", "0", "(0, inf)"),
     ("theta", "2", "[1, 1.5]"), ("nu", "0.7", "(0, 0.5)"), ("tau", "-1", "[0, inf)"),
 ])
 def test_cli_error_line_names_the_range(capsys, name, value, rng):

@@ -10,6 +10,7 @@ wave periods.
 import functools
 import math
 import numbers
+import sys
 
 import param
 
@@ -98,12 +99,18 @@ def _choice(name, value, options):
     return value
 
 
+# m* from the smallest normal float up: below it (a subnormal m*) 1/m* is
+# infinite, and a particle at rest, zero net force, got 0 * inf = NaN for
+# its acceleration (a NaN take-off time; found by tests/test_bad_input_properties.py)
+MASS_MIN = sys.float_info.min
+
+
 class Scene(param.Parameterized):
     """One simulated scene, in the paper's normalized units."""
 
     amplitude = Physical(10 ** -0.3, bounds=(0, None), inclusive_bounds=(True, False),
                          doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)")
-    mass = Physical(10.0, bounds=(0, None), inclusive_bounds=(False, False),
+    mass = Physical(10.0, bounds=(MASS_MIN, None), inclusive_bounds=(True, False),
                     doc="m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)")
     mu = Physical(0.3, bounds=(0, None), inclusive_bounds=(False, False),
                   doc="friction coefficient (typically 0.01 to 1)")
