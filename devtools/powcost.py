@@ -14,50 +14,33 @@ import numba as nb
 N = 10_000_000
 
 
-@nb.njit(nogil=True, cache=True)
-def _none(a, q, n):
-    x, s = a, 0.0
-    for _ in range(n):
-        y = x
-        s += y
-        x = 1.0 + 1e-9 * y + 0.5e-12 * x
-    return s
+def _chain(evaluate):
+    """A loop of n dependent evaluations of `evaluate(x, q)` (a jitted
+    function): each result feeds the next argument."""
+    @nb.njit(nogil=True)
+    def run(a, q, n):
+        x, s = a, 0.0
+        for _ in range(n):
+            y = evaluate(x, q)
+            s += y
+            x = 1.0 + 1e-9 * y + 0.5e-12 * x
+        return s
+    return run
 
 
-@nb.njit(nogil=True, cache=True)
-def _sqrt(a, q, n):
-    x, s = a, 0.0
-    for _ in range(n):
-        y = math.sqrt(x)
-        s += y
-        x = 1.0 + 1e-9 * y + 0.5e-12 * x
-    return s
-
-
-@nb.njit(nogil=True, cache=True)
-def _pow(a, q, n):
-    x, s = a, 0.0
-    for _ in range(n):
-        y = x ** q
-        s += y
-        x = 1.0 + 1e-9 * y + 0.5e-12 * x
-    return s
-
-
-@nb.njit(nogil=True, cache=True)
-def _exp_log(a, q, n):
-    x, s = a, 0.0
-    for _ in range(n):
-        y = math.exp(q * math.log(x))
-        s += y
-        x = 1.0 + 1e-9 * y + 0.5e-12 * x
-    return s
+EVALUATIONS = {
+    "loop": nb.njit(lambda x, q: x),                          # the loop alone
+    "sqrt": nb.njit(lambda x, q: math.sqrt(x)),               # the sphere's
+    "pow": nb.njit(lambda x, q: x ** q),                      # a power law's
+    "exp_log": nb.njit(lambda x, q: math.exp(q * math.log(x))),
+}
 
 
 def main(repeat=5):
     best = {}
-    for name, f in (("loop", _none), ("sqrt", _sqrt), ("pow", _pow), ("exp_log", _exp_log)):
-        f(1.3, 1 / 3, 10)                     # compiled (or loaded) off the clock
+    for name, evaluate in EVALUATIONS.items():
+        f = _chain(evaluate)
+        f(1.3, 1 / 3, 10)                     # compiled off the clock
         t = math.inf
         for _ in range(repeat):
             t0 = time.perf_counter()

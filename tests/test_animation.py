@@ -287,6 +287,20 @@ def _same_frame(page_state, f):
 
 @pytest.mark.browser
 @pytest.mark.server
+def _show_and_play(page, doc, anim, run, runs, play_ms):
+    """The server shows `run` (the animation's `runs`-th), the page plays
+    it for `play_ms` and pauses: the page's state then."""
+    doc.add_next_tick_callback(lambda: anim.show(*run))
+    deadline = time.time() + budget(30)
+    while anim.runs < runs and time.time() < deadline:
+        time.sleep(0.1)
+    page.wait_for_timeout(1000)
+    page.get_by_role("button", name="Play").click()
+    page.wait_for_timeout(play_ms)
+    page.get_by_role("button", name="Pause").click()
+    return page.evaluate(_PAGE_JS)
+
+
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
@@ -382,42 +396,18 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.screenshot(path=str(ARTIFACTS / "animation_hopping.png"))
 
             # a material point: the particle only, and the page says so
-            doc.add_next_tick_callback(lambda: anim.show(*point_mass))
-            deadline = time.time() + budget(30)
-            while anim.runs < 3 and time.time() < deadline:
-                time.sleep(0.1)
-            page.wait_for_timeout(1000)
-            page.get_by_role("button", name="Play").click()
-            page.wait_for_timeout(1000)
-            page.get_by_role("button", name="Pause").click()
-            state = page.evaluate(_PAGE_JS)
+            state = _show_and_play(page, doc, anim, point_mass, 3, 1000)
             _same_frame(state, anim.frame(state["value"]))
             assert "material point: rigid, no contact area" in state["titles"]
             page.screenshot(path=str(ARTIFACTS / "animation_point_mass.png"))
 
             # the vertical model: the contact without a stick core
-            doc.add_next_tick_callback(lambda: anim.show(*vertical))
-            deadline = time.time() + budget(30)
-            while anim.runs < 4 and time.time() < deadline:
-                time.sleep(0.1)
-            page.wait_for_timeout(1000)
-            page.get_by_role("button", name="Play").click()
-            page.wait_for_timeout(700)
-            page.get_by_role("button", name="Pause").click()
-            state = page.evaluate(_PAGE_JS)
+            state = _show_and_play(page, doc, anim, vertical, 4, 700)
             _same_frame(state, anim.frame(state["value"]))
 
             # a cone (issue 34): the particle drawn with its tip, as frame() draws it,
             # on equal scales (the frame's width as the page gives it)
-            doc.add_next_tick_callback(lambda: anim.show(*cone))
-            deadline = time.time() + budget(30)
-            while anim.runs < 5 and time.time() < deadline:
-                time.sleep(0.1)
-            page.wait_for_timeout(1000)
-            page.get_by_role("button", name="Play").click()
-            page.wait_for_timeout(700)
-            page.get_by_role("button", name="Pause").click()
-            state = page.evaluate(_PAGE_JS)
+            state = _show_and_play(page, doc, anim, cone, 5, 700)
             assert len(state["tip"]["x"]) > 0
             _same_frame(state, anim.frame(state["value"]))
             side = page.evaluate(_SIDE_JS)

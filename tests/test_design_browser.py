@@ -38,15 +38,21 @@ def _device_text(page):
                                  ".vt-design-device li").all_inner_texts())
 
 
+def _open_design(page, url):
+    """The explorer at `url`, its Design tab open: the Draw chart button."""
+    open_explorer(page, url)
+    page.get_by_text("Design", exact=True).first.click()
+    draw = page.get_by_role("button", name="Draw chart").first
+    draw.wait_for(timeout=budget_ms(30))
+    return draw
+
+
 @pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)],
                          ids=["1280x800", "1920x1080"])
 def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, height):
     page, errors = new_page(browser, width, height)
     try:
-        open_explorer(page, served_explorer.url)
-        page.get_by_text("Design", exact=True).first.click()
-        draw = page.get_by_role("button", name="Draw chart").first
-        draw.wait_for(timeout=budget_ms(30))
+        draw = _open_design(page, served_explorer.url)
         assert page.locator(".vt-design-preset select").first.input_value() == "paper"
         draw.click()
         page.get_by_text("Click the chart to move the device").first.wait_for(timeout=budget_ms(60))
@@ -108,10 +114,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
     a click on the chart runs the device's scene, given in SI units."""
     page, errors = new_page(browser, 1024, 768)
     try:
-        open_explorer(page, served_explorer.url)
-        page.get_by_text("Design", exact=True).first.click()
-        draw = page.get_by_role("button", name="Draw chart").first
-        draw.wait_for(timeout=budget_ms(30))
+        draw = _open_design(page, served_explorer.url)
         for name, value in (("mu", "0.5"), ("x_lo", "1e5"), ("x_hi", "1.2e5"),
                             ("x_points", "3"), ("y_lo", "1e-8"), ("y_hi", "1.2e-8"),
                             ("y_points", "3")):
@@ -163,10 +166,7 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
     table names the tip, its normalized profile and the cone's warnings."""
     page, errors = new_page(browser, width, height)
     try:
-        open_explorer(page, served_explorer.url)
-        page.get_by_text("Design", exact=True).first.click()
-        draw = page.get_by_role("button", name="Draw chart").first
-        draw.wait_for(timeout=budget_ms(30))
+        draw = _open_design(page, served_explorer.url)
         page.get_by_label("particle tip", exact=True).first.select_option("cone")
         angle = page.locator(".vt-design-tip-half-angle input").first
         angle.wait_for(timeout=budget_ms(30))
