@@ -47,6 +47,19 @@ def _open_design(page, url):
     return draw
 
 
+def _small_chart_offer(page, draw, **fields):
+    """A 3 x 3 chart over 1e5-1.2e5 Hz and 1e-8-1.2e-8 m (with `fields`
+    typed first), Draw pressed: the map-on-demand offer's pane."""
+    for name, value in (*fields.items(), ("x_lo", "1e5"), ("x_hi", "1.2e5"), ("x_points", "3"),
+                        ("y_lo", "1e-8"), ("y_hi", "1.2e-8"), ("y_points", "3")):
+        field = page.locator(f".vt-design-fields .vt-field-{name} input").first
+        field.fill(value)
+        field.press("Enter")
+    page.wait_for_timeout(500)
+    draw.click()
+    return page.locator(".vt-design-offer").first
+
+
 @pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)],
                          ids=["1280x800", "1920x1080"])
 def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, height):
@@ -115,15 +128,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
     page, errors = new_page(browser, 1024, 768)
     try:
         draw = _open_design(page, served_explorer.url)
-        for name, value in (("mu", "0.5"), ("x_lo", "1e5"), ("x_hi", "1.2e5"),
-                            ("x_points", "3"), ("y_lo", "1e-8"), ("y_hi", "1.2e-8"),
-                            ("y_points", "3")):
-            field = page.locator(f".vt-design-fields .vt-field-{name} input").first
-            field.fill(value)
-            field.press("Enter")
-        page.wait_for_timeout(500)
-        draw.click()
-        offer = page.locator(".vt-design-offer").first
+        offer = _small_chart_offer(page, draw, mu="0.5")
         offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
         offer.scroll_into_view_if_needed()
@@ -180,14 +185,7 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
                 timeout=budget_ms(30))
         angle.fill("60")
         angle.press("Enter")
-        for name, value in (("x_lo", "1e5"), ("x_hi", "1.2e5"), ("x_points", "3"),
-                            ("y_lo", "1e-8"), ("y_hi", "1.2e-8"), ("y_points", "3")):
-            field = page.locator(f".vt-design-fields .vt-field-{name} input").first
-            field.fill(value)
-            field.press("Enter")
-        page.wait_for_timeout(500)
-        draw.click()
-        offer = page.locator(".vt-design-offer").first
+        offer = _small_chart_offer(page, draw)
         offer.get_by_text("the shipped maps are the sphere's").first.wait_for(
             timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
