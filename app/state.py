@@ -202,9 +202,7 @@ class ExplorerState(TipFields):
     def device(self):
         """The device in normalized units (units.NormalizedScene), or the
         library's ValueError naming what is wrong."""
-        return units.to_normalized(self.material("substrate"), self.material("particle"),
-                                   self.radius, self.frequency, self.amplitude,
-                                   preload=self.preload)
+        return self.device_spec().normalized()
 
     def tip_shape(self):
         """The particle's tip (designtip.TipShape), or the library's InputError."""
