@@ -86,6 +86,7 @@ import math
 import os
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -440,9 +441,45 @@ class Session:
         field = self.page.locator(".vt-field-t input").first
         field.fill(f"{t:g}")
         field.press("Tab")
-        xy = self._center(self.page.get_by_role("button", name="Show the memory diagram at t*"))
-        return self._measure("title", "memory diagram w(h)\nt* = ",
-                             lambda: self.page.mouse.click(*xy))
+        button = self.page.get_by_role("button", name="Show the memory diagram at t*")
+        xy = self._center(button)
+        seen = {"box before": button.bounding_box(), "field before": field.input_value()}
+
+        def act():
+            seen["box at click"] = button.bounding_box()
+            seen["enabled at click"] = button.is_enabled()
+            seen["field at click"] = field.input_value()
+            self.page.mouse.click(*xy)
+        try:
+            return self._measure("title", "memory diagram w(h)\nt* = ", act)
+        except Exception as exc:
+            raise BenchError(self._evidence(f"memory view at t* = {t:g}", exc, seen)) from exc
+
+    def _evidence(self, what, exc, seen):
+        """What the page showed when an action failed: the exception, what
+        `seen` holds, the plots' titles, the field and the probe's record,
+        and a screenshot (its path)."""
+        page = self.page
+        lines = [f"{what}: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"]
+        lines += [f"  {k}: {v}" for k, v in seen.items()]
+        for name, get in (
+                ("titles now", lambda: page.evaluate("() => window.__vtBench.titles()")),
+                ("field now", lambda: page.locator(".vt-field-t input").first.input_value()),
+                ("probe", lambda: page.evaluate(
+                    "() => window.__vtBench.active || window.__vtBench.result")),
+                ("alerts", lambda: page.locator(".alert").all_inner_texts())):
+            try:
+                lines.append(f"  {name}: {get()}")
+            except Exception as e:          # noqa: BLE001 - evidence, best effort
+                lines.append(f"  {name}: ({type(e).__name__})")
+        try:
+            page.evaluate("() => window.__vtBench.stop()")
+            shot = Path(tempfile.mkdtemp(prefix="browserbench-")) / "failure.png"
+            page.screenshot(path=str(shot))
+            lines.append(f"  screenshot: {shot}")
+        except Exception as e:              # noqa: BLE001
+            lines.append(f"  screenshot: ({type(e).__name__})")
+        return "\n".join(lines)
 
     def redraw_button(self, name):
         xy = self._button(name)
@@ -488,8 +525,9 @@ def repeat(browser, url):
             except Exception as exc:            # noqa: BLE001 - reported, not hidden
                 # seen: in a later session the second typed time's diagram
                 # sometimes never came (not reproduced outside the bench)
-                out.setdefault("failures", []).append(f"memory view at t* = {t:g}: "
-                                                      f"{type(exc).__name__}")
+                out.setdefault("failures", []).append(
+                    str(exc) if isinstance(exc, BenchError)
+                    else f"memory view at t* = {t:g}: {type(exc).__name__}: {exc}")
         session.tab("Downloads")
         out["trajectory PNG export"].append(session.trajectory_png())
         session.tab("Trajectory")

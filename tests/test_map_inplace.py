@@ -185,3 +185,60 @@ def test_renderers_share_parts_and_draw_what_they_drew_alone():
     assert len({id(r.view.filter) for r in renderers}) == 1
     for r in renderers:                 # one view per source, never across sources
         assert all(o.view is not r.view or o.data_source is r.data_source for o in renderers)
+
+
+@pytest.mark.parametrize("change", [{"model": "point-mass"}, {"mu": 0.1}])
+def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, monkeypatch):
+    """Issue 32 (the model redraw in 0.5 s): the shown figure is updated
+    from the rendering cache's values (`map_content`), without decoding a
+    figure of the new setting (0.1-0.25 s of the event loop a change), and
+    only the sources whose data differ are set (each one set is sent to the
+    browser and redrawn there; a model change set all twelve before)."""
+    from bokeh.document import Document
+    from bokeh.document.events import ColumnDataChangedEvent, ModelChangedEvent
+    from bokeh.models import ColumnDataSource
+
+    from vibtrans_explorer.views import map as map_view
+
+    if ("deformable", 0.1) not in data.available_maps():
+        pytest.fail("the shipped maps are missing (assets/maps)")
+    state = ExplorerState()
+    view = MapView(state, on_click=lambda *a: None)
+    shown = view.figures[0]
+    doc = Document()
+    doc.add_root(shown)
+    new = {**state.param.values(), **change}
+    fresh = map_view.map_figure(new["model"], new["mu"], new["v0"], new["chaotic"],
+                                new["layer"], new["orbits"])
+    # the sources whose data the new setting changes (one source may serve
+    # several renderers)
+    differ = {id(r.data_source) for r, f in zip(shown.renderers, fresh.renderers)
+              if hasattr(r, "data_source")
+              and not _same_data(r.data_source.data, f.data_source.data)}
+    assert differ and len(differ) < len({id(r.data_source) for r in shown.renderers
+                                         if hasattr(r, "data_source")})
+    built = []
+    real = map_view.map_figure
+    monkeypatch.setattr(map_view, "map_figure", lambda *a, **k: built.append(a) or real(*a, **k))
+    events = []
+    doc.on_change(events.append)
+    state.param.update(**change)
+    assert view.figures[0] is shown and built == []
+    sent = {id(e.model) for e in events
+            if isinstance(e.model, ColumnDataSource)
+            and (isinstance(e, ColumnDataChangedEvent)
+                 or (isinstance(e, ModelChangedEvent) and e.attr == "data"))}
+    assert sent == differ
+    _assert_same(_drawn(shown), _drawn(fresh))
+
+
+def _same_data(a, b):
+    """Two sources' data equal (NaN equal to NaN)."""
+    if a.keys() != b.keys():
+        return False
+    for k in a:
+        x, y = np.asarray(a[k]), np.asarray(b[k])
+        nan = x.dtype.kind == "f" and y.dtype.kind == "f"
+        if x.shape != y.shape or not np.array_equal(x, y, equal_nan=nan):
+            return False
+    return True

@@ -99,7 +99,9 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
 @functools.lru_cache(maxsize=16)
 def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     """`map_element` rendered by HoloViews into Bokeh models, serialized
-    without the data of its sources, and that data ({source id: columns}).
+    without the data of its sources, that data ({source id: columns}), and
+    what the figure draws (`_content`: what a shown figure of the same
+    shape is updated to, without building a figure of its own).
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
     every value it sets from JSON, arrays included).  Every argument
@@ -117,7 +119,48 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
             m.data = {k: [] for k in m.data}
     # a plain dict (buffers inline) on every Bokeh: 3.4 returns one by
     # default, later versions a Serialized wrapper unless deferred=False
-    return doc.to_json(deferred=False), columns
+    js = doc.to_json(deferred=False)
+    # read from a figure decoded as the sessions' are: the same values
+    # (tooltips as lists, labels as value specs), so that a shown figure
+    # set to them changes only where the setting differs
+    return js, columns, _content(_decoded(js, columns))
+
+
+def _setting(model, mu, v0, chaotic, layer, orbits):
+    """The arguments of `_map_json` for a setting (all positional: see there)."""
+    if layer == LYAPUNOV_LAYER:     # the drift's settings change nothing there
+        v0, chaotic = V0, "grey"
+    return model, mu, v0, chaotic, layer, orbits
+
+
+def map_content(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
+    """What the map of a setting draws (`_content`), from the rendering
+    cache: no figure is built (decoding a figure from its JSON cost a
+    model change 0.1-0.25 s of the server's event loop, only to copy its
+    values into the shown one)."""
+    return _map_json(*_setting(model, mu, v0, chaotic, layer, orbits))[2]
+
+
+def _content(fig):
+    """What a map figure draws, as plain values (the data's arrays are the
+    shared columns: no one writes into them): its shape (`_shape`), per
+    renderer (data or None, the image placement, visible, a span's
+    location), the colour bars' (ticks, labels, title), the legends'
+    [(label, visible)], the hovers' tooltips and the title."""
+    renderers = []
+    for r in fig.renderers:
+        source, glyph = getattr(r, "data_source", None), getattr(r, "glyph", None)
+        placement = {attr: getattr(glyph, attr) for attr in ("x", "y", "dw", "dh")
+                     if glyph is not None and hasattr(glyph, attr)}
+        renderers.append((None if source is None else dict(source.data), placement,
+                          r.visible, r.location if isinstance(r, Span) else None))
+    return {"shape": _shape(fig), "renderers": renderers,
+            "bars": [(list(b.ticker.ticks), dict(b.major_label_overrides), b.title)
+                     for b in _annotations(fig, ColorBar)],
+            "keys": [[(item.label, item.visible) for item in legend.items]
+                     for legend in _annotations(fig, Legend)],
+            "tooltips": [t.tooltips for t in fig.toolbar.tools if isinstance(t, HoverTool)],
+            "title": fig.title.text}
 
 
 def _lean(fig):
@@ -173,12 +216,16 @@ def map_figure(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     its serialized models and the shared columns of its sources (a
     fraction of the server time of rendering it for every page).  The
     columns' arrays are shared by the sessions: no one writes into them."""
-    if layer == LYAPUNOV_LAYER:     # the drift's settings change nothing there
-        v0, chaotic = V0, "grey"
-    js, columns = _map_json(model, mu, v0, chaotic, layer, orbits)
-    # decoded without a Document of its own (adding the figure to one and
-    # removing it walked its model graph twice), its sources found through
-    # its renderers (a walk of the graph costs ~10 ms: ~120 models)
+    fig = _decoded(*_map_json(*_setting(model, mu, v0, chaotic, layer, orbits))[:2])
+    _fit(fig)
+    return fig
+
+
+def _decoded(js, columns):
+    """The figure of `_map_json`'s JSON, its sources given the columns.
+    Decoded without a Document of its own (adding the figure to one and
+    removing it walked its model graph twice), its sources found through
+    its renderers (a walk of the graph costs ~10 ms: ~120 models)."""
     fig, = Deserializer().decode(js["roots"])
     sources = {s.id: s for s in (getattr(r, "data_source", None) for r in fig.renderers)
                if s is not None}
@@ -186,7 +233,6 @@ def map_figure(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
         sources = {m.id: m for m in fig.references()}
     for id_, data_ in columns.items():
         sources[id_].data = dict(data_)
-    _fit(fig)
     return fig
 
 
@@ -216,39 +262,56 @@ def _shape(fig):
             len(_annotations(fig, ColorBar)))
 
 
-def update_in_place(old, new):
-    """Make the shown figure `old` draw what `new` (of the same shape)
-    draws: the sources' data, the image glyphs' placement, which renderers
-    are shown and where lines lie, the colour bars' ticks, labels and title,
-    the legends' labels and entries shown, the hover's tooltips and the
-    title.  The browser then repaints one plot instead of building a new
-    one (a new figure costs it about half a second); the zoom is kept.  False
-    (nothing changed) when the shapes differ."""
-    if _shape(old) != _shape(new):
+def _same_columns(a, b):
+    """Whether two sources' data are equal (the same arrays, mostly: the
+    shared columns of the rendering cache)."""
+    if a.keys() != b.keys():
         return False
-    for ro, rn in zip(old.renderers, new.renderers):
-        so, sn = getattr(ro, "data_source", None), getattr(rn, "data_source", None)
-        if so is not None and sn is not None and so is not sn:
-            so.data = dict(sn.data)
-        go, gn = getattr(ro, "glyph", None), getattr(rn, "glyph", None)
-        placement = {attr: getattr(gn, attr) for attr in ("x", "y", "dw", "dh")
-                     if hasattr(gn, attr) and hasattr(go, attr)}
+    for k, v in b.items():
+        w = a[k]
+        if w is v:
+            continue
+        x, y = np.asarray(w), np.asarray(v)
+        if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"
+                                                     and y.dtype.kind == "f"):
+            return False
+    return True
+
+
+def update_in_place(old, content):
+    """Make the shown figure `old` draw what a figure of `content`
+    (`map_content`, of the same shape) draws: the sources' data, the image
+    glyphs' placement, which renderers are shown and where lines lie, the
+    colour bars' ticks, labels and title, the legends' labels and entries
+    shown, the hover's tooltips and the title.  The browser then repaints
+    one plot instead of building a new one (a new figure costs it about
+    half a second); the zoom is kept.  Only what differs is set: a source's
+    data set again is sent again, and redrawn.  False (nothing changed) when
+    the shapes differ.  (The session's markers, added after the map's own
+    renderers, are not in `content` and stay.)"""
+    shape = _shape(old)
+    if (shape[0][:len(content["shape"][0])], *shape[1:]) != content["shape"]:
+        return False
+    for ro, (data_, placement, visible, location) in zip(old.renderers, content["renderers"]):
+        so = getattr(ro, "data_source", None)
+        if so is not None and data_ is not None and not _same_columns(so.data, data_):
+            so.data = dict(data_)
         if placement:
-            go.update(**placement)
-        ro.visible = rn.visible
-        if isinstance(rn, Span):
-            ro.location = rn.location
-    for bo, bn in zip(_annotations(old, ColorBar), _annotations(new, ColorBar)):
-        bo.ticker.ticks = list(bn.ticker.ticks)
-        bo.major_label_overrides = dict(bn.major_label_overrides)
-        bo.title = bn.title
-    for lo, ln in zip(_annotations(old, Legend), _annotations(new, Legend)):
-        for io, in_ in zip(lo.items, ln.items):
-            io.update(label=in_.label, visible=in_.visible)
-    hovers = [[t for t in f.toolbar.tools if isinstance(t, HoverTool)] for f in (old, new)]
-    for ho, hn in zip(*hovers):
-        ho.tooltips = hn.tooltips
-    old.title.text = new.title.text
+            ro.glyph.update(**placement)
+        ro.visible = visible
+        if location is not None:
+            ro.location = location
+    for bo, (ticks, labels, title) in zip(_annotations(old, ColorBar), content["bars"]):
+        bo.ticker.ticks = list(ticks)
+        bo.major_label_overrides = dict(labels)
+        bo.title = title
+    for lo, items in zip(_annotations(old, Legend), content["keys"]):
+        for io, (label, visible) in zip(lo.items, items):
+            io.update(label=label, visible=visible)
+    hovers = [t for t in old.toolbar.tools if isinstance(t, HoverTool)]
+    for ho, tooltips in zip(hovers, content["tooltips"]):
+        ho.tooltips = tooltips
+    old.title.text = content["title"]
     return True
 
 
@@ -350,6 +413,7 @@ class MapView:
         self.computed = None
         self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
         self._drawn = None           # what the shipped figures shown draw (redraw)
+        self._shapes = []            # their shapes (`_shape`, before the markers)
         self.redraw()
         state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer",
                                         "orbits"], precedence=1)
@@ -430,20 +494,23 @@ class MapView:
     def redraw(self, *events):
         if self.computed is not None:
             return          # a map on demand is shown: the shipped settings wait
-        figures = [self._figure(m, mu) for m, mu in self.shown()]
-        # as many maps, each drawn or not as before (that decides what a
-        # click on it does), the same layer and curves (a new model, mu, v0*
-        # or colour of the chaotic points): the shown figures are updated,
-        # not replaced
         s = self.state
+        # as many maps, each drawn or not as before (that decides what a
+        # click on it does), the same layer and curves, each of the same
+        # shape (a new model, mu, v0* or colour of the chaotic points): the
+        # shown figures are updated to what the new setting draws, from the
+        # rendering cache, without building figures
+        contents = [map_content(m, mu, s.v0, s.chaotic, s.layer, s.orbits)
+                    for m, mu in self.shown()]
         shown = ([(m, mu) in data.available_maps() for m, mu in self.shown()],
                  s.layer, s.orbits)
-        if (self.figures and self._drawn == shown
-                and len(figures) == len(self.figures)
-                and all(_shape(o) == _shape(n) for o, n in zip(self.figures, figures))):
-            for old, new in zip(self.figures, figures):
-                update_in_place(old, new)
+        if (self.figures and self._drawn == shown and len(contents) == len(self.figures)
+                and all(c["shape"] == k for c, k in zip(contents, self._shapes))):
+            for old, content in zip(self.figures, contents):
+                update_in_place(old, content)
             return
+        figures = [self._figure(m, mu) for m, mu in self.shown()]
+        self._shapes = [c["shape"] for c in contents]
         self._drawn = shown
         if len(figures) > 1:        # linked zoom and pan
             for fig in figures[1:]:
