@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from bokeh.models import ColorBar, HoverTool, Legend
 
-from vibtrans.products.plots import RESONANCE_LABEL
+from vibtrans.products.plots import RESONANCE_LABEL, colour_ticks
 from vibtrans_explorer import data
 from vibtrans_explorer.state import ExplorerState
-from vibtrans_explorer.views.map import LYAPUNOV_LAYER, MapView, map_figure
+from vibtrans_explorer.views.map import LYAPUNOV_LAYER, MapView, bar_labels, map_figure
 
 hv.extension("bokeh")       # as the explorer does
 
@@ -30,8 +30,8 @@ def _drawn(fig):
             continue        # the key's swatches
         sources.append({k: np.asarray(v) for k, v in src.data.items()})
     bar, = fig.select(type=ColorBar)
-    return {"sources": sources, "ticks": list(bar.ticker.ticks),
-            "labels": dict(bar.major_label_overrides), "bar": bar.title,
+    labels = bar_labels(bar)
+    return {"sources": sources, "ticks": sorted(labels), "labels": labels, "bar": bar.title,
             "key": [(str(getattr(i.label, "value", i.label)), i.visible)
                     for legend in fig.select(type=Legend) for i in legend.items],
             "shown": shown,
@@ -217,6 +217,10 @@ def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, 
               and not _same_data(r.data_source.data, f.data_source.data)}
     assert differ and len(differ) < len({id(r.data_source) for r in shown.renderers
                                          if hasattr(r, "data_source")})
+    # and the colour bar's labels (a source of their own: map.BAR_LABELS)
+    bar, = shown.select(type=ColorBar)
+    assert bar_labels(bar) != bar_labels(fresh.select_one({"type": ColorBar}))
+    differ.add(id(bar.ticker.args["source"]))
     built = []
     real = map_view.map_figure
     monkeypatch.setattr(map_view, "map_figure", lambda *a, **k: built.append(a) or real(*a, **k))
@@ -230,6 +234,10 @@ def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, 
                  or (isinstance(e, ModelChangedEvent) and e.attr == "data"))}
     assert sent == differ
     _assert_same(_drawn(shown), _drawn(fresh))
+    # the labels are the paper's scale of the map shown (products.plots)
+    ds = data.drift_map(state.model, state.mu)
+    want = colour_ticks(ds["drift_velocity"].values, state.v0)
+    assert bar_labels(bar) == want
 
 
 def _same_data(a, b):

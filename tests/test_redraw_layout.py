@@ -10,6 +10,12 @@ CSS classes or children: BokehJS's `invalidate_layout` of the layout root)
 and the acknowledgement's text in a Bokeh `Div` (BokehJS's MarkupView
 re-renders at every change, then computes the root's layout).
 
+A third: the map's colour bar, whose labels differ for every map (each
+side of the paper's scale runs to that map's largest drift): a change of
+a ColorBar's labels, ticks, ticker or formatter makes BokehJS lay out the
+whole root again (the bar marks its layout dirty whatever its size).  The
+labels are now read from a source (app/views/map.py BAR_LABELS).
+
 The test checks that mechanism, not a time: the document changes a mu or
 model change makes in a served page after a run (what Bokeh sends to the
 browser) touch no such property of a model in the page's main column (the
@@ -20,7 +26,7 @@ import asyncio
 import panel as pn
 import pytest
 from bokeh.document import Document
-from bokeh.models import LayoutDOM, Plot
+from bokeh.models import ColorBar, LayoutDOM, Plot, TickFormatter, Ticker
 from bokeh.models.widgets.markups import Markup
 from panel.io.state import set_curdoc
 
@@ -58,6 +64,13 @@ def relayouts(events, models):
             out.append((type(model).__name__, attr))
         elif (isinstance(model, Markup) and type(model).__module__.startswith("bokeh.")
               and attr == "text"):      # a Bokeh Div's view re-renders at any change
+            out.append((type(model).__name__, attr))
+        elif isinstance(model, (ColorBar, Ticker, TickFormatter)):
+            # BokehJS's ColorBarView passes any change of the bar to its axis,
+            # and the axis asks for a layout at a change of its labels,
+            # ticker or formatter: the bar then marks its layout dirty
+            # whatever its size (its `request_layout`), so the plot lays out
+            # its layout root again
             out.append((type(model).__name__, attr))
     return out
 
@@ -116,22 +129,28 @@ def test_a_mu_or_model_change_lays_out_nothing_in_the_main_column(changes):
 
 
 def test_the_check_sees_a_relayout():
-    """The check itself: a layout's `visible` and a Bokeh Div's text in the
-    main column are found (what the page did before)."""
-    from bokeh.models import Div
+    """The check itself: a layout's `visible`, a Bokeh Div's text and a
+    colour bar's labels in the main column are found (what the page did
+    before)."""
+    from bokeh.models import Div, LinearColorMapper
+    from bokeh.plotting import figure
     doc = Document()
     div, column = Div(text=""), pn.Column(pn.pane.Markdown("x")).get_root(doc)
+    fig = figure()
+    bar = ColorBar(color_mapper=LinearColorMapper(palette="Viridis256"))
+    fig.add_layout(bar, "right")
     doc.add_root(pn.Column().get_root(doc))
     events = []
     doc.add_root(column)
-    column.children.append(div)
+    column.children.extend([div, fig])
     doc.on_change(events.append)
     div.text = "<p>busy</p>"
     column.children[0].visible = False
     column.styles = {"color": "red"}           # a style: no layout
-    assert relayouts(events, set(column.references())) == [("Div", "text"),
-                                                           (type(column.children[0]).__name__,
-                                                            "visible")]
+    bar.major_label_overrides = {0: "-2800"}
+    assert relayouts(events, set(column.references())) == [
+        ("Div", "text"), (type(column.children[0]).__name__, "visible"),
+        ("ColorBar", "major_label_overrides")]
 
 
 @pytest.fixture

@@ -10,9 +10,9 @@ import numpy as np
 import panel as pn
 from bokeh.core.serialization import Deserializer
 from bokeh.events import Tap
-from bokeh.models import (AllIndices, CDSView, ColorBar, ColumnDataSource, GlyphRenderer,
-                          HoverTool, Legend, Scatter, Selection, Span,
-                          UnionRenderers)
+from bokeh.models import (AllIndices, CDSView, ColorBar, ColumnDataSource, CustomJSTicker,
+                          CustomJSTickFormatter, FixedTicker, GlyphRenderer, HoverTool, Legend,
+                          Scatter, Selection, Span, UnionRenderers)
 
 from vibtrans.products import plots
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0
@@ -112,9 +112,10 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     with doc.models.freeze():       # the graph recomputed once, not at every change
         _lean(fig)
         _shared_parts(fig)
+        _labels_from_data(fig)
     columns = {}
     for m in doc.models:
-        if isinstance(m, ColumnDataSource):
+        if isinstance(m, ColumnDataSource) and m.name != BAR_LABELS:   # (those: tiny)
             columns[m.id] = dict(m.data)
             m.data = {k: [] for k in m.data}
     # a plain dict (buffers inline) on every Bokeh: 3.4 returns one by
@@ -124,6 +125,53 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     # (tooltips as lists, labels as value specs), so that a shown figure
     # set to them changes only where the setting differs
     return js, columns, _content(_decoded(js, columns))
+
+
+# The colour bar's ticks and labels read from a source of their own (its
+# columns "tick": C, "label": the drift velocity there), not set on the bar:
+# a change of a ColorBar's labels or ticks makes BokehJS lay out every
+# figure of the page's main column again (its ColorBarView marks its layout
+# dirty whatever the size: docs/UPSTREAM.md 2.2), and every map has its own
+# labels (each side of the paper's scale runs to that map's largest drift).
+# A new source's data only repaints the figure, which draws the bar again
+# with the new labels; the bar's size is its title's (the labels are
+# narrower), so its place need not change.
+BAR_LABELS = "vibtrans-colour-bar-labels"
+_BAR_TICKS_JS = "return Array.from(source.data.tick);"
+_BAR_LABEL_JS = """const ticks = source.data.tick, labels = source.data.label;
+for (let i = 0; i < ticks.length; i++)
+  if (Math.abs(ticks[i] - tick) < 1e-9) return String(labels[i]);
+return "";"""
+
+
+def _labels_from_data(fig):
+    """The figure's colour bars' ticks and labels (HoloViews': a FixedTicker
+    and major_label_overrides) moved into a source of their own (BAR_LABELS),
+    read by a CustomJSTicker and a CustomJSTickFormatter."""
+    for bar in _annotations(fig, ColorBar):
+        if not isinstance(bar.ticker, FixedTicker):
+            continue            # (the Lyapunov layer's: Bokeh's own ticks, fixed)
+        labels = {float(k): v for k, v in bar.major_label_overrides.items()}
+        ticks = sorted(float(t) for t in bar.ticker.ticks)
+        source = ColumnDataSource({"tick": ticks, "label": [labels.get(t, f"{t:g}")
+                                                            for t in ticks]},
+                                  name=BAR_LABELS)
+        bar.update(ticker=CustomJSTicker(args=dict(source=source), major_code=_BAR_TICKS_JS),
+                   formatter=CustomJSTickFormatter(args=dict(source=source),
+                                                   code=_BAR_LABEL_JS),
+                   major_label_overrides={})
+
+
+def _labels_source(bar):
+    """The source of a colour bar's ticks and labels (`_labels_from_data`),
+    or None."""
+    return bar.ticker.args["source"] if isinstance(bar.ticker, CustomJSTicker) else None
+
+
+def bar_labels(bar):
+    """A map's colour bar's {tick C: label} (`_labels_from_data`)."""
+    data_ = _labels_source(bar).data
+    return dict(zip(data_["tick"], data_["label"]))
 
 
 def _setting(model, mu, v0, chaotic, layer, orbits):
@@ -145,7 +193,7 @@ def _content(fig):
     """What a map figure draws, as plain values (the data's arrays are the
     shared columns: no one writes into them): its shape (`_shape`), per
     renderer (data or None, the image placement, visible, a span's
-    location), the colour bars' (ticks, labels, title), the legends'
+    location), the colour bars' (their labels' data, title), the legends'
     [(label, visible)], the hovers' tooltips and the title."""
     renderers = []
     for r in fig.renderers:
@@ -155,8 +203,8 @@ def _content(fig):
         renderers.append((None if source is None else dict(source.data), placement,
                           r.visible, r.location if isinstance(r, Span) else None))
     return {"shape": _shape(fig), "renderers": renderers,
-            "bars": [(list(b.ticker.ticks), dict(b.major_label_overrides), b.title)
-                     for b in _annotations(fig, ColorBar)],
+            "bars": [(None if _labels_source(b) is None else dict(_labels_source(b).data),
+                      b.title) for b in _annotations(fig, ColorBar)],
             "keys": [[(item.label, item.visible) for item in legend.items]
                      for legend in _annotations(fig, Legend)],
             "tooltips": [t.tooltips for t in fig.toolbar.tools if isinstance(t, HoverTool)],
@@ -301,9 +349,10 @@ def update_in_place(old, content):
         ro.visible = visible
         if location is not None:
             ro.location = location
-    for bo, (ticks, labels, title) in zip(_annotations(old, ColorBar), content["bars"]):
-        bo.ticker.ticks = list(ticks)
-        bo.major_label_overrides = dict(labels)
+    for bo, (labels, title) in zip(_annotations(old, ColorBar), content["bars"]):
+        source = _labels_source(bo)
+        if source is not None and labels is not None and not _same_columns(source.data, labels):
+            source.data = dict(labels)
         bo.title = title
     for lo, items in zip(_annotations(old, Legend), content["keys"]):
         for io, (label, visible) in zip(lo.items, items):
