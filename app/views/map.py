@@ -134,13 +134,16 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
 # dirty whatever the size: docs/UPSTREAM.md 2.2), and every map has its own
 # labels (each side of the paper's scale runs to that map's largest drift).
 # A new source's data only repaints the figure, which draws the bar again
-# with the new labels; the bar's size is its title's (the labels are
-# narrower), so its place need not change.
+# with the new labels, in the place laid out for the first map's: the
+# labels have two significant digits (plots.colour_ticks), at most five
+# characters for every shipped map, so that place holds any of them (a new
+# v0* changes the bar's title, and the bar is laid out again).
 BAR_LABELS = "vibtrans-colour-bar-labels"
 _BAR_TICKS_JS = "return Array.from(source.data.tick);"
-_BAR_LABEL_JS = """const ticks = source.data.tick, labels = source.data.label;
-for (let i = 0; i < ticks.length; i++)
-  if (Math.abs(ticks[i] - tick) < 1e-9) return String(labels[i]);
+# (the formatter's code is a function of `tick`, `index` and `ticks`)
+_BAR_LABEL_JS = """const at = source.data.tick, labels = source.data.label;
+for (let i = 0; i < at.length; i++)
+  if (Math.abs(at[i] - tick) < 1e-9) return String(labels[i]);
 return "";"""
 
 
