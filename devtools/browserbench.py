@@ -414,9 +414,6 @@ class Session:
             raise BenchError(f"not shown: {locator}")
         return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
 
-    def _button(self, name):
-        return self._center(self.page.get_by_role("button", name=name, exact=True).first)
-
     def run(self, point, expect=None):
         """Click the map at `point` until the run is drawn; `expect`: a text
         the new summary's first line holds (the model)."""
@@ -442,14 +439,17 @@ class Session:
         field.fill(f"{t:g}")
         field.press("Tab")
         button = self.page.get_by_role("button", name="Show the memory diagram at t*")
-        xy = self._center(button)
+        button.scroll_into_view_if_needed()
         seen = {"box before": button.bounding_box(), "field before": field.input_value()}
 
         def act():
             seen["box at click"] = button.bounding_box()
             seen["enabled at click"] = button.is_enabled()
             seen["field at click"] = field.input_value()
-            self.page.mouse.click(*xy)
+            # the button, where it is when it can take the click (Playwright
+            # waits until it is enabled, in place and not covered): not the
+            # point where it was before the measurement began
+            button.click(timeout=ACTION_TIMEOUT_S * 1000)
         try:
             return self._measure("title", "memory diagram w(h)\nt* = ", act)
         except Exception as exc:
@@ -482,8 +482,10 @@ class Session:
         return "\n".join(lines)
 
     def redraw_button(self, name):
-        xy = self._button(name)
-        return self._measure("redraw", None, lambda: self.page.mouse.click(*xy))
+        button = self.page.get_by_role("button", name=name, exact=True).first
+        button.scroll_into_view_if_needed()
+        return self._measure("redraw", None,
+                             lambda: button.click(timeout=ACTION_TIMEOUT_S * 1000))
 
     def redraw_select(self, label, value):
         select = self.page.get_by_label(label, exact=True)
