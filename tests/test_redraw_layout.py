@@ -182,3 +182,24 @@ def test_the_stale_note_shows_and_hides_in_the_browser(page, served_explorer):
     note.wait_for(state="visible", timeout=budget_ms(30))
     select.select_option("0.3")
     note.wait_for(state="hidden", timeout=budget_ms(30))
+
+
+@pytest.mark.browser
+def test_the_point_mass_controls_wait_hidden_in_a_loaded_page(page, served_explorer):
+    """The material point's controls are built, hidden, once the page has
+    loaded (app/views/scene.py), so that the first switch to the point mass
+    only shows them: built at that switch, their new views made the
+    browser's redraw of the map 0.1-0.3 s slower (issue 32)."""
+    from budget import budget_ms
+    from browserpages import settle
+    page.goto(served_explorer.url)
+    page.get_by_role("button", name="point-mass", exact=True).first.wait_for(
+        timeout=budget_ms(120))
+    settle(page)
+    rule = page.get_by_text("stick rule (point mass: slide -> stick)").first
+    rule.wait_for(state="attached", timeout=budget_ms(30))
+    assert not rule.is_visible()
+    page.get_by_role("button", name="point-mass", exact=True).first.click()
+    rule.wait_for(state="visible", timeout=budget_ms(30))
+    page.get_by_role("button", name="deformable", exact=True).first.click()
+    rule.wait_for(state="hidden", timeout=budget_ms(30))

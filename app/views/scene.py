@@ -46,10 +46,17 @@ class SceneControls:
         self.fields = [inputs.NumberField(state, "log_amplitude", "log10 A*"),
                        inputs.NumberField(state, "log_mass", "log10 m*")]
         # the material point's controls (its alpha_t field joins self.fields),
-        # shown when it runs (built then: most sessions never show them)
+        # shown when it runs; built, hidden, once a served page has loaded
+        # (not with the page: most sessions never show them), so that the
+        # first switch to the point mass only shows them (built at that
+        # switch, their new views cost the browser's redraw of the map
+        # 0.1-0.3 s more, issue 32)
         self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()
+        doc = pn.state.curdoc
+        if doc is not None and doc.session_context is not None:
+            pn.state.onload(self._build_point_mass_controls)
         self.where = pn.pane.Alert("", alert_type="info", visible=False,
                                    sizing_mode="stretch_width", name="where")
         self._on_position()
@@ -102,14 +109,20 @@ class SceneControls:
     def _on_point_mass_shown(self, *events):
         s = self.state
         shown = s.model == "point-mass" or s.compare == "point mass"
-        if shown and not self.point_mass_controls.objects:
-            alpha_t = inputs.NumberField(s, "alpha_t", "alpha_t (point mass: tangential restitution)")
-            self.fields.append(alpha_t)
-            self.point_mass_controls.objects = [
-                pn.widgets.Select.from_param(s.param.stick_rule,
-                                             name="stick rule (point mass: slide -> stick)"),
-                alpha_t]
+        if shown:
+            self._build_point_mass_controls()
         self.point_mass_controls.visible = shown
+
+    def _build_point_mass_controls(self):
+        if self.point_mass_controls.objects:
+            return
+        s = self.state
+        alpha_t = inputs.NumberField(s, "alpha_t", "alpha_t (point mass: tangential restitution)")
+        self.fields.append(alpha_t)
+        self.point_mass_controls.objects = [
+            pn.widgets.Select.from_param(s.param.stick_rule,
+                                         name="stick rule (point mass: slide -> stick)"),
+            alpha_t]
 
     def _mu_options(self):
         """The mus of the model's shipped maps, and the one in use if no
