@@ -469,7 +469,8 @@ class Session:
                 ("titles now", lambda: page.evaluate("() => window.__vtBench.titles()")),
                 ("field now", lambda: page.locator(".vt-field-t input").first.input_value()),
                 ("probe", lambda: page.evaluate(
-                    "() => window.__vtBench.active || window.__vtBench.result")),
+                    "() => { const a = window.__vtBench.active || window.__vtBench.result;"
+                    " return a && {...a, base_data: undefined}; }")),
                 ("alerts", lambda: page.locator(".alert").all_inner_texts())):
             try:
                 lines.append(f"  {name}: {get()}")

@@ -267,3 +267,49 @@ def test_a_time_shown_while_the_snapshots_compute_stays_shown():
         assert view.at.t == round(t, 4) and not view.slider.disabled
         assert view.slider.value == t
     asyncio.run(go())
+
+
+def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip):
+    """Issue 32 (browserbench's failed memory views): after its await,
+    `show_at` runs without the document's lock, where a change of a plain
+    Bokeh model can be lost ("_pending_writes should be non-None"); seen:
+    the click taken, the button disabled, the diagram never drawn and the
+    button never enabled again.  In a served page the answer is made at the
+    document's next tick (which holds the lock), as a whole."""
+    from types import SimpleNamespace
+
+    import panel as pn
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    class Served(Document):
+        """A document with a session (its next-tick callbacks kept here)."""
+        session_context = SimpleNamespace()
+
+        def __init__(self):
+            super().__init__()
+            self.ticks = []
+
+        def add_next_tick_callback(self, callback):
+            self.ticks.append(callback)
+
+    scene, _ = partial_slip
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        doc = Served()
+        doc.add_root(pn.Column(view).get_root(doc))
+        before = view.w_fig.title.text
+        view.time_field.input.value = "1500.25"
+        with set_curdoc(doc):
+            await view.show_at()
+        # computed, not yet drawn: the button waits disabled with the figures
+        assert view.show_button.disabled and view.w_fig.title.text == before
+        assert doc.ticks
+        with set_curdoc(doc):
+            while doc.ticks:
+                doc.ticks.pop(0)()
+        _holds(view, memory_snapshot(scene, 1500.25))
+        assert not view.show_button.disabled and not view.figures_pane.loading
+    asyncio.run(go())

@@ -363,6 +363,7 @@ class MemoryView(pn.viewable.Viewer):
             self._say("Not shown: " + self.time_field.error)
             return
         t, scene = self.at.t, self.scene
+        doc = pn.state.curdoc          # (the click's: the answer goes to its next tick)
         # busy as an overlay on the figures: a change of the page's layout
         # (a status text, a spinner shown) costs the browser more than the
         # new data does
@@ -378,12 +379,22 @@ class MemoryView(pn.viewable.Viewer):
         except Exception as exc:
             log.exception("memory snapshot failed: %s at t = %s", scene.values(), t)
             self._say(f"The memory diagram failed: {type(exc).__name__}: {exc}")
-        with pn.io.hold():
-            self.show_button.disabled = self.scene is None
-            self.figures_pane.loading = False
-            if snap is not None and scene is self.scene:    # not replaced meanwhile
-                self.show(snap)
-                self._agree(snap["t"])
+        def answer():
+            with pn.io.hold():
+                self.show_button.disabled = self.scene is None
+                self.figures_pane.loading = False
+                if snap is not None and scene is self.scene:    # not replaced meanwhile
+                    self.show(snap)
+                    self._agree(snap["t"])
+        # after the await this coroutine runs without the document's lock:
+        # plain Bokeh models changed here can be lost ("_pending_writes
+        # should be non-None"; issue 32: now and then the diagram never came,
+        # the button left disabled), so the answer goes to the document's
+        # next tick, which holds the lock (as views/map.py's in_document)
+        if doc is not None and doc.session_context is not None:
+            doc.add_next_tick_callback(answer)
+        else:
+            answer()
 
     def _job_text(self):
         return f"computing the memory diagram at {len(self.times)} times ..."
