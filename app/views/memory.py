@@ -87,6 +87,20 @@ def _set_range(rng, lo, hi):
     rng.update(start=lo, end=hi, reset_start=lo, reset_end=hi)
 
 
+def at_next_tick(doc, answer):
+    """answer() at the next tick of `doc`, a served page's document, or now
+    (no server).  After an await a coroutine runs without the document's
+    lock: plain Bokeh models changed there can be lost ("_pending_writes
+    should be non-None"; issue 32: now and then a typed time's diagram never
+    came, the button left disabled, 1 page in ~45 of browserbench), so the
+    answer goes to the document's next tick, which holds the lock (as
+    views/map.py's in_document)."""
+    if doc is not None and doc.session_context is not None:
+        doc.add_next_tick_callback(answer)
+    else:
+        answer()
+
+
 class MemoryView(pn.viewable.Viewer):
     """The memory diagram w(h), the displacements u(h) and the contact
     circle of the session's last deformable run.
@@ -294,6 +308,7 @@ class MemoryView(pn.viewable.Viewer):
             job[1].cancel()
 
     async def _finish(self, job):
+        doc = pn.state.curdoc          # (the answer goes to its next tick: see show_at)
         try:
             snaps = await asyncio.wrap_future(job[1])
         except (Cancelled, CancelledError):
@@ -310,15 +325,18 @@ class MemoryView(pn.viewable.Viewer):
         self._job = None
         self.snapshots = snaps
         self.a_max = max(max(s["a"] for s in snaps), 0.0)
-        with pn.io.hold():
-            self._busy("")
-            self.slider.disabled = False
-            if self.shown is None:
-                self._show_index(len(snaps) - 1)
-            else:
-                # a time the user typed was shown meanwhile: it stays (drawing
-                # the last period over it replaced what was asked for)
-                self._agree(self.shown["t"])
+
+        def answer():
+            with pn.io.hold():
+                self._busy("")
+                self.slider.disabled = False
+                if self.shown is None:
+                    self._show_index(len(snaps) - 1)
+                else:
+                    # a time the user typed was shown meanwhile: it stays
+                    # (drawing the last period over it replaced what was asked for)
+                    self._agree(self.shown["t"])
+        at_next_tick(doc, answer)
 
     # ---------------------------------------------------------------- controls
     def _index(self, value):
@@ -386,15 +404,7 @@ class MemoryView(pn.viewable.Viewer):
                 if snap is not None and scene is self.scene:    # not replaced meanwhile
                     self.show(snap)
                     self._agree(snap["t"])
-        # after the await this coroutine runs without the document's lock:
-        # plain Bokeh models changed here can be lost ("_pending_writes
-        # should be non-None"; issue 32: now and then the diagram never came,
-        # the button left disabled), so the answer goes to the document's
-        # next tick, which holds the lock (as views/map.py's in_document)
-        if doc is not None and doc.session_context is not None:
-            doc.add_next_tick_callback(answer)
-        else:
-            answer()
+        at_next_tick(doc, answer)
 
     def _job_text(self):
         return f"computing the memory diagram at {len(self.times)} times ..."
