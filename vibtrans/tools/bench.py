@@ -164,13 +164,13 @@ def _profile_same_motion_ns(repeat, point=1):
     round-robin: the same motion (to rounding), so the ratios are the
     profile code's own cost."""
     from vibtrans.core import drivers
-    from vibtrans.core.kernels.contact import LAW_POWER, kernel_law
+    from vibtrans.core.kernels.contact import kernel_law, power_kernel_law
     from vibtrans.core.profiles import FlatSphereProfile
     from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
     sc = paper_scene(point)
     p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
                               None)
-    laws = [None, np.array([LAW_POWER, 1.5, 1.5, 0.0, 0.0]), kernel_law(FlatSphereProfile(0.0))]
+    laws = [None, power_kernel_law(2.0), kernel_law(FlatSphereProfile(0.0))]
 
     def once(law):
         t0 = time.perf_counter()
