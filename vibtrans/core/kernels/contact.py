@@ -217,6 +217,22 @@ def root_warm(law, a, warm):
     return a ** (law[LAW_ARG] - 1.0), False
 
 
+@kernel
+def law_history(law, a, out):
+    """The kernels' evaluation (`law_eval_warm`, one call site, its history
+    carried from each a*[i] to the next) along a sequence: out[i] = (N*, N*',
+    1.0 if the warm start was taken else 0.0).  For tests and benchmarks."""
+    warm = NO_WARM
+    for i in range(a.shape[0]):
+        used = False
+        if law[LAW_KIND] == LAW_POWER and law[LAW_ROOT] != 0.0 and a[i] > 0.0:
+            used = root_warm(law, a[i], warm)[1]
+        nn, k, warm = law_eval_warm(law, a[i], warm)
+        out[i, 0] = nn
+        out[i, 1] = k
+        out[i, 2] = 1.0 if used else 0.0
+
+
 @inline
 def _segment_integral_law(h0, k0, n0, w0, h1, k1, n1, w1):
     """Exact integral of w dN*'(h) over a segment, w linear in h, from the
