@@ -69,15 +69,15 @@ def _segment_integral(s0, w0, s1, w1):
 # w dN*' (the h = 0 atom N*'(0) w(0) included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
 # (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
 # A power law with an integer n = 1/(p - 1) >= 2 (`power:3`, ...) also keeps
-# law[LAW_ROOT] = n and, at POW_C1..POW_C3, the binomial coefficients of
+# law[LAW_ROOT] = n and, at POW_C1..POW_C4, the binomial coefficients of
 # (1 + e)^(1/n): the kernels' warm-started a*^(1/n) (`law_eval_warm`).
 LAW_POWER = 0
 LAW_TABLE = 1
 LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE, LAW_INV = range(5)
 LAW_HEAD = 5
 LAW_ROOT = LAW_SIZE     # a power law's integer n (0: none, pow() every time)
-POW_C1, POW_C2, POW_C3 = LAW_HEAD, LAW_HEAD + 1, LAW_HEAD + 2
-WARM_EPS = 2.0 ** -16   # the warm start's largest |e| = |a / y0^n - 1| (series error < 1e-20)
+POW_C1, POW_C2, POW_C3, POW_C4 = range(LAW_HEAD, LAW_HEAD + 4)
+WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series error < 3e-20)
 WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
 NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
 LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
@@ -125,15 +125,17 @@ def kernel_law(profile):
 
 def power_kernel_law(n):
     """The kernels' form of the power law z = C r^n (N* = a*^p, p = (n+1)/n):
-    [LAW_POWER, p, p, root, 0, c1, c2, c3] with root = n for an integer
+    [LAW_POWER, p, p, root, 0, c1, c2, c3, c4] with root = n for an integer
     2 <= n <= WARM_ROOT_MAX (0 otherwise) and c_k the binomial coefficients
     of (1 + e)^(1/n) (`law_eval_warm`)."""
     n = float(n)
     p = (n + 1.0) / n
     q = 1.0 / n
     integral = n == math.floor(n) and 2.0 <= n <= WARM_ROOT_MAX
-    return np.array([LAW_POWER, p, p, n if integral else 0.0, 0.0,
-                     q, q * (q - 1.0) / 2.0, q * (q - 1.0) * (q - 2.0) / 6.0])
+    c = [q]
+    for k in range(2, 5):
+        c.append(c[-1] * (q - k + 1.0) / k)
+    return np.array([LAW_POWER, p, p, n if integral else 0.0, 0.0] + c)
 
 
 def law_scales(law):
@@ -178,8 +180,8 @@ def law_eval_warm(law, a, warm):
     y = a*^(1/n)), `warm` holds the last four roots y (newest first) of the
     same call site on consecutive steps; their cubic extrapolation y0 (no
     dependence on a*: off the step's critical path) is corrected by the
-    series y = y0 (1 + e)^(1/n), e = a*/y0^n - 1, to its e^3 term: exact to
-    about 1 ulp when |e| <= WARM_EPS (the e^4 term < 1e-20 of y), which is
+    series y = y0 (1 + e)^(1/n), e = a*/y0^n - 1, to its e^4 term: exact to
+    about 1 ulp when |e| <= WARM_EPS = 2^-12 (the e^5 term < 3e-20 of y), which is
     checked; otherwise (no history yet, an impact, a non-integer n, a table)
     `law_eval` (pow).  docs/MODEL.md section 10."""
     if law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0:
@@ -201,19 +203,23 @@ def root_warm(law, a, warm):
     for _ in range(int(law[LAW_ROOT]) - 1):
         yn *= y0
     if y0 > 0.0 and yn > 0.0:
-        # y0 (1 + e)^(1/n) = y0 + y0 (c1 e + c2 e^2 + c3 e^3), e = d / yn, d = a* - yn
-        # (exact: a* and yn agree to 2^-16), as y0 + (U d + d^2 (V + W d)): the
-        # coefficients hold every division and do not depend on a*, so they
-        # are off the step's critical path, which is d -> y (four operations
-        # deep and a multiply, against sqrt's ~16 cycles).
+        # y0 (1 + e)^(1/n) = y0 + y0 (c1 e + ... + c4 e^4), e = d / yn, d = a* - yn
+        # (exact: a* and yn agree to 2^-12), as y0 + ((U d + V d^2) + d^3 (W + X d)):
+        # the coefficients U..X hold every division and do not depend on a*,
+        # so they are off the step's critical path, which is d -> y (five
+        # operations deep, against sqrt's ~16 cycles).
         inv = 1.0 / yn
         r = y0 * inv
         d = a - yn
         if abs(d * inv) <= WARM_EPS:
             U = law[POW_C1] * r
-            V = law[POW_C2] * r * inv
-            W = law[POW_C3] * r * inv * inv
-            return y0 + (U * d + (d * d) * (V + W * d)), True
+            r *= inv
+            V = law[POW_C2] * r
+            r *= inv
+            W = law[POW_C3] * r
+            X = law[POW_C4] * (r * inv)
+            d2 = d * d
+            return y0 + ((U * d + V * d2) + (d2 * d) * (W + X * d)), True
     return a ** (law[LAW_ARG] - 1.0), False
 
 
