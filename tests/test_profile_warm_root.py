@@ -73,7 +73,7 @@ def test_warm_root_within_4_ulp_of_pow(n, steps):
     assert warm.mean() > (0.99 if steps[0] == 100 else 0.05)    # the fast path is tested
     if steps[0] < 100:
         e = _start_error(a, out, law)[warm[4:]]
-        assert np.count_nonzero(e > WARM_EPS / 4) >= 500     # ... near its limit too
+        assert np.count_nonzero(e > WARM_EPS / 4) >= 200     # ... near its limit too
     assert not ref[:, 2].any()
     np.testing.assert_allclose(out[:, 0], ref[:, 0], rtol=ULPS * EPS, atol=0)
     np.testing.assert_allclose(out[:, 1], ref[:, 1], rtol=ULPS * EPS, atol=0)
