@@ -203,23 +203,13 @@ def root_warm(law, a, warm):
     for _ in range(int(law[LAW_ROOT]) - 1):
         yn *= y0
     if y0 > 0.0 and yn > 0.0:
-        # y0 (1 + e)^(1/n) = y0 + y0 (c1 e + ... + c4 e^4), e = d / yn, d = a* - yn
-        # (exact: a* and yn agree to 2^-12), as y0 + ((U d + V d^2) + d^3 (W + X d)):
-        # the coefficients U..X hold every division and do not depend on a*,
-        # so they are off the step's critical path, which is d -> y (five
-        # operations deep, against sqrt's ~16 cycles).
-        inv = 1.0 / yn
-        r = y0 * inv
-        d = a - yn
-        if abs(d * inv) <= WARM_EPS:
-            U = law[POW_C1] * r
-            r *= inv
-            V = law[POW_C2] * r
-            r *= inv
-            W = law[POW_C3] * r
-            X = law[POW_C4] * (r * inv)
-            d2 = d * d
-            return y0 + ((U * d + V * d2) + (d2 * d) * (W + X * d)), True
+        # y0 (1 + e)^(1/n) = y0 + (y0 e) (c1 + e (c2 + e (c3 + e c4))), e = (a* - yn) / yn
+        # (a* - yn exact: they agree to 2^-12; 1/yn does not depend on a*).
+        # Horner's order: fewer operations than Estrin's (measured alike).
+        e = (a - yn) * (1.0 / yn)
+        if abs(e) <= WARM_EPS:
+            return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
+                                                                          + e * law[POW_C4]))), True
     return a ** (law[LAW_ARG] - 1.0), False
 
 
