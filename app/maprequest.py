@@ -43,8 +43,12 @@ from .state import (PROFILE_VALUES, RUN_PERIODS, RUN_TAU, SCENE_LOG_AMPLITUDE, S
                     SPHERE, ExplorerProfile, is_sphere)
 
 # the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
-# Lyapunov exponent (no twin run; the material point falls back to its twin)
+# Lyapunov exponent (no twin run; the material point's of its impact map)
 CHAOS = "lyapunov"
+# a material point's map judged its chaos by the tau twin until 2026-11-27
+# (0.2.0 had no exponent for it in maps): its key names the new verdict, so
+# that a cache never serves a map of the old verdict as one of the new
+POINT_MASS_CHAOS = "impact map"
 # A server's per-request limits: beyond them a request is refused with its
 # estimate before anything runs (environment VIBTRANS_MAP_MAX_POINTS and
 # VIBTRANS_MAP_MAX_SECONDS set them for `vibtrans serve`, app/mapjobs.py).
@@ -141,6 +145,7 @@ class MapRequest(param.Parameterized):
                 "log_mass": [self.lm_from, self.lm_to],
                 "points_per_axis": self.points_per_axis(), "max_level": self.levels,
                 "drift_tolerance": DEFAULT_DRIFT_TOLERANCE, "chaos": CHAOS,
+                **({"point_mass_chaos": POINT_MASS_CHAOS} if self.model == "point-mass" else {}),
                 **({"stop": self.stop} if self.stop != "full" else {})}
 
     def title(self):
@@ -227,8 +232,8 @@ def decode(raw):
 
 class Estimate(NamedTuple):
     """A map's expected cost: `points` of the finest grid (an upper bound
-    of those computed), `steps` (an upper bound of their integration steps,
-    runs and twins: every run to T_obs), `computed` (the points the
+    of those computed), `steps` (an upper bound of their integration steps:
+    every run to T_obs), `computed` (the points the
     refinement is expected to compute) and `seconds` (the expected wall time
     on this server), both from its own measured rates (app/mapjobs.py); None
     while unknown.  `share`: the expected periods a point runs over T_obs
@@ -264,13 +269,13 @@ def _duration(seconds):
 
 
 def point_steps(request, la, lm):
-    """Upper bound of the steps of one point (its run and, where the
-    verdict needs one, its chaos twin), each run to T_obs: under the
-    `decided` rule a point is expected to run `request.expected_share()` of
-    it (`expected_steps`)."""
+    """Upper bound of the steps of one point's run to T_obs (no twin: the
+    chaos verdict is the run's own exponent, CHAOS): under the `decided`
+    rule a point is expected to run `request.expected_share()` of it
+    (`expected_steps`)."""
     if request.model == "point-mass":
-        # event-driven: scanned on its grid; a jumping point runs a twin
-        return 2 * step_count(request.periods, scan_step(request.fidelity))
+        # event-driven: scanned on its grid (high flights skip it: a bound)
+        return step_count(request.periods, scan_step(request.fidelity))
     return step_count(request.periods, time_step(10.0 ** la, 10.0 ** lm, request.fidelity,
                                                  scales=_scales(request.profile)))
 

@@ -27,10 +27,10 @@ ERR = STATED_DRIFT_ERROR["standard"]
 
 
 def both(scene, lyapunov=True):
-    """(full, decided) summaries and the decided run's attributes."""
-    measure = lyapunov and scene.model != "point-mass"
-    full = RunArrays(*run_records(scene, lyapunov=measure))
-    dec = RunArrays(*run_records(scene, lyapunov=measure, stop="decided"))
+    """(full, decided) summaries and the decided run's attributes (the
+    material point's exponent from its impact map)."""
+    full = RunArrays(*run_records(scene, lyapunov=lyapunov))
+    dec = RunArrays(*run_records(scene, lyapunov=lyapunov, stop="decided"))
     return summarize(full), summarize(dec), dec.attrs
 
 
@@ -159,6 +159,33 @@ def test_chaotic_hopping_stops_with_its_verdict():
     assert attrs["periods_run"] < scene.periods
     assert dec.lyapunov > CHAOS_LYAPUNOV
     assert "asymptotic_drift_velocity" not in attrs     # the drift so far, flagged
+
+
+def test_point_mass_chaotic_hopping_stops_with_its_impact_verdict():
+    # paper point 10: the material point's irregular hopping (the paper: its
+    # tau twin parts after ~30 periods); its impact map's exponent, measured
+    # along the run, calls it chaotic long before T_obs, as the full run's
+    # exponent over the whole run does
+    scene = paper_scene(10)
+    full, dec, attrs = both(scene)
+    assert full.lyapunov > CHAOS_LYAPUNOV and full.chaotic
+    assert attrs["stop_reason"] == "chaotic" and dec.chaotic
+    assert attrs["periods_run"] < 0.5 * scene.periods
+    assert dec.lyapunov > CHAOS_LYAPUNOV
+    # measured from where the rule's windows start, not from the ramp's end
+    assert attrs["lyapunov_from"] < RAMP_OFF * scene.tau
+
+
+def test_point_mass_that_rides_the_surface_is_not_held_back_by_its_exponent():
+    # paper point 9: the material point slides without a take-off: no impact,
+    # no exponent; its regular stop is the same as without the measurement
+    scene = paper_scene(9)
+    _, dec, attrs = both(scene)
+    _, dec0, attrs0 = both(scene, lyapunov=False)
+    assert dec.lyapunov is None
+    assert attrs["stop_reason"] == attrs0["stop_reason"]
+    assert attrs["periods_run"] == attrs0["periods_run"]
+    assert dec.drift_velocity == dec0.drift_velocity
 
 
 def test_accelerating_drift_runs_to_the_end():

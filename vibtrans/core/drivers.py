@@ -415,7 +415,7 @@ def _pm_flight_start(events):
 
 def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
                    events_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                   cancel=None, decide=None):
+                   cancel=None, decide=None, growth=None):
     """Run the material point from rest to t_end (params: a
     point_mass.PointMassParams, from point_mass.make_params).
 
@@ -424,8 +424,10 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
     is off the scan grid.  chunk_steps: scan steps per call (whole periods:
     bit-identical to one call); None: one call.  decide: a stopping rule
     (DecidedRule) checked at the whole periods it names (chunk ends
-    on the scan grid: bit-identical up to its stop).  Returns a Run (state:
-    t, x, vx, y, vy).
+    on the scan grid: bit-identical up to its stop).  growth: the impact
+    map's tangent (lyapunov.ImpactGrowth) the rule reads its exponent from
+    at each check (None: not measured).  Returns a Run (state: t, x, vx, y,
+    vy).
     """
     rule = PM.rule_code(stick_rule)
     t_end = params.t_end
@@ -460,8 +462,10 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
         def stopped():
             n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
             flying = ctr[R.C_MODE] == PM.MODE_FLIGHT
-            return decide(float(state[0]), buf["samples"][:n], buf["events"][:k],
-                          _pm_flight_start(buf["events"][:k]) if flying else None, None,
+            events = buf["events"][:k]
+            return decide(float(state[0]), buf["samples"][:n], events,
+                          _pm_flight_start(events) if flying else None,
+                          None if growth is None else growth.update(events),
                           tuple(float(v) for v in state) if flying else None)
         next_stop = decide.next_check
     _drive(call, t_end, chunk, growers, progress, cancel, stopped, next_stop)

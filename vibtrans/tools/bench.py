@@ -531,7 +531,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
     from vibtrans.core.drivers import REASONS
     from vibtrans.core.drivers import STOP_RAN_TO_END
-    from vibtrans.maps.cost import expected_periods, minimum_periods
+    from vibtrans.maps.cost import expected_time_share, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
@@ -586,7 +586,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
             # from the full map's time, against the decided map's measured time
             out[f"decided_{model}_estimate_ratio"] = (
                 out[f"decided_{model}_full_cpu_seconds"]
-                * expected_periods(model, "decided", periods, tau) / periods
+                * expected_time_share(model, "decided", periods, tau)
                 / out[f"decided_{model}_decided_cpu_seconds"])
             out[f"decided_{model}_chaos_agreement"] = float(
                 (full["chaotic"].values == dec["chaotic"].values).mean())
