@@ -168,7 +168,8 @@ def law_eval(law, a):
     j = LAW_HEAD + LAW_CELL * i
     # the cubic in Estrin's order (t^2 beside the linear parts: two multiply-add
     # levels fewer on the step's critical path than Horner's)
-    return ((law[j + CELL_N] + t * law[j + CELL_A]) + (t * t) * (law[j + CELL_B] + t * law[j + CELL_C]),
+    return ((law[j + CELL_N] + t * law[j + CELL_A])
+            + (t * t) * (law[j + CELL_B] + t * law[j + CELL_C]),
             law[j + CELL_K] + law[j + CELL_M] * t)
 
 
