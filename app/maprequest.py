@@ -49,6 +49,9 @@ CHAOS = "lyapunov"
 # (0.2.0 had no exponent for it in maps): its key names the new verdict, so
 # that a cache never serves a map of the old verdict as one of the new
 POINT_MASS_CHAOS = "impact map"
+# the run's share of a jumping point's seconds in a map judged by its tau
+# twin (the run and its twin, as long as each other to within their regimes)
+TWIN_SHARE = 0.5
 # A server's per-request limits: beyond them a request is refused with its
 # estimate before anything runs (environment VIBTRANS_MAP_MAX_POINTS and
 # VIBTRANS_MAP_MAX_SECONDS set them for `vibtrans serve`, app/mapjobs.py).
@@ -324,7 +327,9 @@ def reference_work(request, reference):
     nearest of its points), scaled by the steps of the request's run over
     those of the reference's (length and fidelity), each run to T_obs (a
     reference made with the `decided` rule: its seconds over the share of
-    its periods it ran).  None if the window is not inside the reference's."""
+    its periods it ran; one judged by its tau twin: TWIN_SHARE of its
+    jumping points' seconds, the run's without its twin).  None if the
+    window is not inside the reference's."""
     ref_la = reference["log_amplitude"].values
     ref_lm = reference["log_mass"].values
     la, lm = request.axes()
@@ -334,6 +339,11 @@ def reference_work(request, reference):
     ia = np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1)
     im = np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1)
     seconds = reference["seconds"].values[np.ix_(ia, im)]
+    if "twin_chaotic" in reference or reference.attrs.get("chaos", "twin") == "twin":
+        # a reference judged by its tau twin ran one beside each jumping
+        # point, about as long as the run: the request's points run none (CHAOS)
+        jumping = reference["contact"].values[np.ix_(ia, im)] == 1
+        seconds = np.where(jumping, TWIN_SHARE * seconds, seconds)
     if reference.attrs.get("stop", "full") != "full":
         run = reference["periods_run"].values[np.ix_(ia, im)]
         seconds = seconds * float(reference.attrs["scene_periods"]) / run

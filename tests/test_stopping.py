@@ -283,3 +283,18 @@ def test_plateau_then_acceleration_is_not_stopped_early():
     scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.0, mu=0.3)
     full, dec, attrs = both(scene)
     assert within_error(dec.drift_velocity, full.drift_velocity)
+
+
+@pytest.mark.xfail(strict=True, reason="known (docs/DYNAMICS.md section 4, twentieth "
+                   "session): the drift relaxes to a plateau that the windows accept at "
+                   "240 periods; hundreds of periods later the hopping changes and the "
+                   "full run's x*(T)/T is -0.069, the decided one -0.019")
+def test_a_small_drift_whose_hopping_changes_late_is_not_stopped_early():
+    # A* = 10^0.6, m* = 10^3.6, found by the bench's difference map (decided
+    # against full, every 4th point of the shipped grid): one of 7 points,
+    # all with |v*| < v0* (the metric over drifting points does not
+    # count them), where the stated error with its floor does not hold
+    scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.6, mu=0.3)
+    full, dec, attrs = both(scene)
+    assert within_error(dec.drift_velocity, full.drift_velocity), (
+        attrs["stop_reason"], attrs["periods_run"], full.drift_velocity, dec.drift_velocity)
