@@ -35,7 +35,7 @@ import param
 from vibtrans import Scene
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import expected_periods
-from vibtrans.core.drivers import STOPS, scene_scales
+from vibtrans.core.drivers import STOPS, law_path, scene_scales
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate
@@ -289,14 +289,15 @@ def _scales(profile):
     return scene_scales(Scene(profile=profile))
 
 
-# A profile's kernel cost per step over the sphere's (Hertz's own path): the
-# deformable kernel at paper point 1, best of 5, measured round-robin in one
-# run (`vibtrans bench --json`, its `profile_cost`: power:3 and
-# flat-sphere:1; vibtrans.tools.bench._profile_cost), on the development
-# host (2 cores shared, 2026-11-27: sphere 52.4 ns/step, power:3 111.3,
-# flat-sphere:1 94.5).  A power law (cone, power:N) runs the power path; a
-# flat-ended sphere the interpolated table path.
-PROFILE_STEP_COST = {"power": 2.13, "flat-sphere": 1.80}
+# A profile's kernel cost per step over the sphere's (Hertz's own path), per
+# contact-law path (vibtrans.core.drivers.law_path): the deformable kernel
+# at paper point 1, best of 7, measured round-robin in one run
+# (vibtrans.tools.bench._profile_cost; `vibtrans bench --json`, its
+# `profile_cost`) on the development host (2 cores shared, 2026-11-27 14:01
+# UTC, after the warm-started root: sphere 51.1 ns/step, cone 1.00x,
+# power:3 1.38-1.50x in six runs, power:4 1.47x, power:2.5 2.03x,
+# flat-sphere:1 1.41-1.45x, flat-sphere:0.5 1.39x).
+PROFILE_STEP_COST = {"cone": 1.0, "power": 1.45, "power-pow": 2.03, "table": 1.43}
 
 
 def step_cost(request):
@@ -304,8 +305,7 @@ def step_cost(request):
     the material point, else PROFILE_STEP_COST of the profile's path."""
     if not request.profiled():
         return 1.0
-    kind = "flat-sphere" if request.profile.startswith("flat-sphere") else "power"
-    return PROFILE_STEP_COST[kind]
+    return PROFILE_STEP_COST[law_path(Scene(profile=request.profile))]
 
 
 def bound_steps(request):

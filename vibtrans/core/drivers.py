@@ -35,7 +35,8 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, STICK, kernel_law, law_scales,
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_ARG, LAW_K1, LAW_KIND, LAW_ROOT,
+                                           LAW_TABLE, STICK, kernel_law, law_scales,
                                            new_memory)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
@@ -244,6 +245,25 @@ def scene_scales(scene):
     """(N*'(1), p) of a scene's profile for the time step (None: the sphere)."""
     law = scene_law(scene)
     return None if law is None else law_scales(law)
+
+
+LAW_PATHS = ("sphere", "cone", "power", "power-pow", "table")
+
+
+def law_path(scene):
+    """Which of the kernels' contact-law paths a scene runs (their costs per
+    step differ: tools.bench's profile_cost): "sphere" (Hertz's own),
+    "cone" (a power law whose N*' is linear), "power" (an integer n up to
+    WARM_ROOT_MAX: the warm-started root), "power-pow" (any other n: pow()
+    at every evaluation) or "table" (the interpolated table)."""
+    law = scene_law(scene)
+    if law is None:
+        return "sphere"
+    if law[LAW_KIND] == LAW_TABLE:
+        return "table"
+    if law[LAW_ARG] == 2.0:
+        return "cone"
+    return "power" if law[LAW_ROOT] != 0.0 else "power-pow"
 
 
 def _new_memory(capacity, law):
