@@ -2,7 +2,7 @@
 numba loop of dependent evaluations (each result feeds the next argument,
 as the step's a* feeds the next step), ns per evaluation over the loop
 alone, for libm's `pow`, `exp(q log a)` and `sqrt` (the sphere's).
-docs/MODEL.md section 10, "Why the power law stays near 2x".
+docs/MODEL.md section 10, "The power law's root" (why a warm start replaces it).
 
     python -m devtools.powcost
 """

@@ -50,7 +50,7 @@ def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
             float(dec["periods_run"].mean()))
         # the ceiling: ran-to-end points at T_obs, the others at the floor
         from vibtrans.core.drivers import STOP_RAN_TO_END
-        from vibtrans.maps.cost import expected_periods, minimum_periods
+        from vibtrans.maps.cost import DECIDED_PERIOD_COST, expected_periods, minimum_periods
         periods, tau = r["decided_periods"], float(dec.attrs["scene_tau"])
         f_end = float((dec["stop_reason"].values == STOP_RAN_TO_END).mean())
         floor = min(periods, minimum_periods(tau))
@@ -59,6 +59,7 @@ def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
         assert r[f"decided_{model}_estimate_ratio"] == pytest.approx(
             r[f"decided_{model}_full_cpu_seconds"]
             * expected_periods(model, "decided", periods, tau) / periods
+            * DECIDED_PERIOD_COST[model]     # a decided run's period over a full run's
             / r[f"decided_{model}_decided_cpu_seconds"])
     assert n > 0 and r["decided_drift_within_error"] == pytest.approx(k / n)
     assert 0.0 <= r["decided_class_agreement"] <= 1.0

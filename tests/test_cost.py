@@ -9,8 +9,8 @@ from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE, REA
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.errors import InputError
 from vibtrans.core.kernels.substrate import RAMP_OFF
-from vibtrans.maps.cost import (DECIDED_PROFILE, decided_profile, expected_periods,
-                                expected_seconds, minimum_periods)
+from vibtrans.maps.cost import (DECIDED_PERIOD_COST, DECIDED_PROFILE, decided_profile,
+                                expected_periods, expected_seconds, minimum_periods)
 
 
 def test_full_runs_every_period():
@@ -46,9 +46,14 @@ def test_decided_lies_between_the_floor_and_the_full_run(model):
 def test_seconds_scale_with_the_expected_periods():
     full = expected_seconds(1e9, 100.0, "deformable", "full", 2000.0, 50.0, workers=2)
     assert full == pytest.approx(1e9 * 100e-9 / 2)
-    dec = expected_seconds(1e9, 100.0, "deformable", "decided", 2000.0, 50.0, workers=2)
-    assert dec / full == pytest.approx(expected_periods("deformable", "decided", 2000.0, 50.0)
-                                       / 2000.0)
+    for model in DECIDED_PROFILE:
+        full = expected_seconds(1e9, 100.0, model, "full", 2000.0, 50.0, workers=2)
+        dec = expected_seconds(1e9, 100.0, model, "decided", 2000.0, 50.0, workers=2)
+        # the expected periods, each at the model's measured cost of a decided
+        # run's period over a full run's
+        assert dec / full == pytest.approx(
+            expected_periods(model, "decided", 2000.0, 50.0) / 2000.0
+            * DECIDED_PERIOD_COST[model])
 
 
 def _decided_map(run, reason, periods=2000.0, tau=50.0):

@@ -13,6 +13,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import naive
 from vibtrans import Scene, paper_scene, simulate
@@ -22,6 +24,7 @@ from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize, twin_scene
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels.substrate import vertical_displacement
+from vibtrans.core.simulate import run_records
 from vibtrans.core.threshold import threshold_amplitude
 
 
@@ -294,6 +297,54 @@ def test_a_capture_forgets_every_perturbation():
                    [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
     value, start = impact_lyapunov(ev, 1.0, 0.1, 50.0, 325.0)
     assert value == -math.inf and start == 400.0
+
+
+@pytest.fixture(scope="module")
+def hopping_events():
+    """The events of the material point's chaotic hopping (paper point 10)."""
+    scene = paper_scene(10).replace(periods=600.0)
+    return scene, run_records(scene)[1]
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(cuts=st.lists(st.integers(0, 10**6), max_size=12), t_from=st.sampled_from([0.0, 180.0, 325.0]))
+def test_the_exponent_grown_along_the_run_equals_the_whole_runs(hopping_events, cuts, t_from):
+    """The `decided` rule reads the impact exponent at each check from the
+    events so far (ImpactGrowth.update): at any chunking of the run, the
+    last value equals the exponent of the whole run's events, bit for bit,
+    and each value so far is the whole computation on that prefix (its
+    last landing left for the next rows)."""
+    from vibtrans.core.lyapunov import ImpactGrowth, impact_lyapunov
+    scene, events = hopping_events
+    growth = ImpactGrowth(scene.amplitude, scene.mass, scene.tau, t_from)
+    for cut in sorted(c % (events.shape[0] + 1) for c in cuts):
+        so_far = growth.update(events[:cut])
+        prefix = events[:cut]
+        if cut and prefix[-1, 1] == R.LANDING:
+            prefix = prefix[:-1]          # its take-off not yet seen
+        value, start = impact_lyapunov(prefix, scene.amplitude, scene.mass, scene.tau, t_from)
+        if so_far is None:
+            assert math.isnan(value)
+        else:
+            assert so_far[0] == start and so_far[1] / growth_span(growth) == value
+    growth.update(events, final=True)
+    assert growth.exponent() == impact_lyapunov(events, scene.amplitude, scene.mass, scene.tau,
+                                                t_from)
+
+
+def growth_span(growth):
+    return growth.last - growth.first
+
+
+def test_a_capture_seen_in_pieces_is_a_capture():
+    from vibtrans.core.lyapunov import ImpactGrowth
+    ev = np.array([[400.0, R.LANDING, 0.0], [400.0, R.TAKEOFF, 0.0],
+                   [401.3, R.LANDING, 0.3], [401.9, R.TAKEOFF, 0.9],
+                   [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
+    growth = ImpactGrowth(1.0, 0.1, 50.0, 325.0)
+    assert growth.update(ev[:3]) is None           # the landing at 401.3 waits
+    assert growth.update(ev[:4]) == (400.0, -math.inf)
+    assert growth.update(ev) == (400.0, -math.inf)
 
 
 def test_bad_flag_is_refused():

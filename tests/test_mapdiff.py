@@ -93,6 +93,9 @@ def test_a_name_says_what_differs_from_the_shipped_maps():
         "deformable mu 0.3 preview 500 periods"
     # a profile's map (issue 34) names its profile
     assert describe(_map(LA, LM, V, scene_profile="cone")) == "deformable mu 0.3 cone"
+    # a map made under the `decided` stopping rule says so (its store's `stop`)
+    assert describe(_map(LA, LM, V, stop="decided")) == "deformable mu 0.3 stop decided"
+    assert describe(_map(LA, LM, V, stop="full")) == "deformable mu 0.3"
 
 
 def _export(tmp_path, *args):

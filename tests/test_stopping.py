@@ -27,10 +27,10 @@ ERR = STATED_DRIFT_ERROR["standard"]
 
 
 def both(scene, lyapunov=True):
-    """(full, decided) summaries and the decided run's attributes."""
-    measure = lyapunov and scene.model != "point-mass"
-    full = RunArrays(*run_records(scene, lyapunov=measure))
-    dec = RunArrays(*run_records(scene, lyapunov=measure, stop="decided"))
+    """(full, decided) summaries and the decided run's attributes (the
+    material point's exponent from its impact map)."""
+    full = RunArrays(*run_records(scene, lyapunov=lyapunov))
+    dec = RunArrays(*run_records(scene, lyapunov=lyapunov, stop="decided"))
     return summarize(full), summarize(dec), dec.attrs
 
 
@@ -161,6 +161,33 @@ def test_chaotic_hopping_stops_with_its_verdict():
     assert "asymptotic_drift_velocity" not in attrs     # the drift so far, flagged
 
 
+def test_point_mass_chaotic_hopping_stops_with_its_impact_verdict():
+    # paper point 10: the material point's irregular hopping (the paper: its
+    # tau twin parts after ~30 periods); its impact map's exponent, measured
+    # along the run, calls it chaotic long before T_obs, as the full run's
+    # exponent over the whole run does
+    scene = paper_scene(10)
+    full, dec, attrs = both(scene)
+    assert full.lyapunov > CHAOS_LYAPUNOV and full.chaotic
+    assert attrs["stop_reason"] == "chaotic" and dec.chaotic
+    assert attrs["periods_run"] < 0.5 * scene.periods
+    assert dec.lyapunov > CHAOS_LYAPUNOV
+    # measured from where the rule's windows start, not from the ramp's end
+    assert attrs["lyapunov_from"] < RAMP_OFF * scene.tau
+
+
+def test_point_mass_that_rides_the_surface_is_not_held_back_by_its_exponent():
+    # paper point 9: the material point slides without a take-off: no impact,
+    # no exponent; its regular stop is the same as without the measurement
+    scene = paper_scene(9)
+    _, dec, attrs = both(scene)
+    _, dec0, attrs0 = both(scene, lyapunov=False)
+    assert dec.lyapunov is None
+    assert attrs["stop_reason"] == attrs0["stop_reason"]
+    assert attrs["periods_run"] == attrs0["periods_run"]
+    assert dec.drift_velocity == dec0.drift_velocity
+
+
 def test_accelerating_drift_runs_to_the_end():
     # paper point 4: synchronous hovering whose drift accelerates through the
     # 2000 periods (tests/test_paper_points.py): never stopped early
@@ -256,3 +283,18 @@ def test_plateau_then_acceleration_is_not_stopped_early():
     scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.0, mu=0.3)
     full, dec, attrs = both(scene)
     assert within_error(dec.drift_velocity, full.drift_velocity)
+
+
+@pytest.mark.xfail(strict=True, reason="known (docs/DYNAMICS.md section 4, twentieth "
+                   "session): the drift relaxes to a plateau that the windows accept at "
+                   "240 periods; hundreds of periods later the hopping changes and the "
+                   "full run's x*(T)/T is -0.069, the decided one -0.019")
+def test_a_small_drift_whose_hopping_changes_late_is_not_stopped_early():
+    # A* = 10^0.6, m* = 10^3.6, found by the bench's difference map (decided
+    # against full, every 4th point of the shipped grid): one of 7 points,
+    # all with |v*| < v0* (the issue's metric over drifting points does not
+    # count them), where the stated error with its floor does not hold
+    scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.6, mu=0.3)
+    full, dec, attrs = both(scene)
+    assert within_error(dec.drift_velocity, full.drift_velocity), (
+        attrs["stop_reason"], attrs["periods_run"], full.drift_velocity, dec.drift_velocity)

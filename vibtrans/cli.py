@@ -116,7 +116,8 @@ def cmd_simulate(args):
                       max_steps=args.max_steps, progress=update, lyapunov=True,
                       stop=args.stop)
         twin = None
-        # auto: the twin only where no Lyapunov exponent decides (the material point)
+        # auto: the twin only where no Lyapunov exponent decides (a material point
+        # with fewer than three impacts after the ramp)
         if args.twin == "always" or (args.twin == "auto" and jumped(ds)
                                      and ds.attrs.get("lyapunov") is None):
             twin = simulate(twin_scene(scene),
@@ -803,7 +804,7 @@ def build_parser():
                         "exponent alone (--model vertical)")
     w.add_argument("--chaos", default="lyapunov", choices=("lyapunov", "twin"),
                    help="transport: chaos from each run's Lyapunov exponent (the material "
-                        "point: its tau twin), or from the tau twin (as the shipped maps)")
+                        "point's: of its impact map), or from the tau twin (as the shipped maps)")
     w.add_argument("--stop", default="full", choices=("full", "decided"), help=STOP_HELP)
     w.add_argument("--out", help="PATH.zarr (resumed if it exists and matches)")
     w.add_argument("--scheduler", help="dask.distributed scheduler address tcp://HOST:PORT")

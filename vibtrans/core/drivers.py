@@ -35,7 +35,8 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, STICK, kernel_law, law_scales,
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_ARG, LAW_K1, LAW_KIND, LAW_ROOT,
+                                           LAW_TABLE, STICK, kernel_law, law_scales,
                                            new_memory)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
 from vibtrans.core.kernels.integrators import INTEGRATORS
@@ -246,6 +247,25 @@ def scene_scales(scene):
     return None if law is None else law_scales(law)
 
 
+LAW_PATHS = ("sphere", "cone", "power", "power-pow", "table")
+
+
+def law_path(scene):
+    """Which of the kernels' contact-law paths a scene runs (their costs per
+    step differ: tools.bench's profile_cost): "sphere" (Hertz's own),
+    "cone" (a power law whose N*' is linear), "power" (an integer n up to
+    WARM_ROOT_MAX: the warm-started root), "power-pow" (any other n: pow()
+    at every evaluation) or "table" (the interpolated table)."""
+    law = scene_law(scene)
+    if law is None:
+        return "sphere"
+    if law[LAW_KIND] == LAW_TABLE:
+        return "table"
+    if law[LAW_ARG] == 2.0:
+        return "cone"
+    return "power" if law[LAW_ROOT] != 0.0 else "power-pow"
+
+
 def _new_memory(capacity, law):
     """A memory diagram at rest (a* = 1, b* = 0), in the law's format."""
     return list(new_memory(capacity, law))
@@ -415,7 +435,7 @@ def _pm_flight_start(events):
 
 def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
                    events_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                   cancel=None, decide=None):
+                   cancel=None, decide=None, growth=None):
     """Run the material point from rest to t_end (params: a
     point_mass.PointMassParams, from point_mass.make_params).
 
@@ -424,8 +444,10 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
     is off the scan grid.  chunk_steps: scan steps per call (whole periods:
     bit-identical to one call); None: one call.  decide: a stopping rule
     (DecidedRule) checked at the whole periods it names (chunk ends
-    on the scan grid: bit-identical up to its stop).  Returns a Run (state:
-    t, x, vx, y, vy).
+    on the scan grid: bit-identical up to its stop).  growth: the impact
+    map's tangent (lyapunov.ImpactGrowth) the rule reads its exponent from
+    at each check (None: not measured).  Returns a Run (state: t, x, vx, y,
+    vy).
     """
     rule = PM.rule_code(stick_rule)
     t_end = params.t_end
@@ -460,8 +482,10 @@ def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
         def stopped():
             n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
             flying = ctr[R.C_MODE] == PM.MODE_FLIGHT
-            return decide(float(state[0]), buf["samples"][:n], buf["events"][:k],
-                          _pm_flight_start(buf["events"][:k]) if flying else None, None,
+            events = buf["events"][:k]
+            return decide(float(state[0]), buf["samples"][:n], events,
+                          _pm_flight_start(events) if flying else None,
+                          None if growth is None else growth.update(events),
                           tuple(float(v) for v in state) if flying else None)
         next_stop = decide.next_check
     _drive(call, t_end, chunk, growers, progress, cancel, stopped, next_stop)

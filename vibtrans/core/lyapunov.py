@@ -47,34 +47,101 @@ def impact_jacobian(t0, t1, amplitude, mass, tau):
     return np.array([[dt1_dt0, dt1_dv0], [dv1_dt0, dv1_dv0]]), v0, w1
 
 
+class ImpactGrowth:
+    """The impact map's tangent grown along a run's events as they come
+    (the `decided` rule asks for it at each check; `impact_lyapunov` at the
+    end of a run): the product of the Jacobians from the first impact at or
+    after t_from, renormalized at each.
+
+    `update(events)` takes the run's event rows so far (the rows it has seen
+    again, and more) and returns (t0, log growth since t0): t0 the first
+    impact's time, the growth -inf once the point rode the surface after
+    t_from (a capture), NaN if the tangent broke down; None before three
+    impacts (nothing measured yet).  A landing is an impact when a take-off
+    at the same instant follows it (the kernel commits the two together);
+    a landing that is the last row so far waits for the next rows, unless
+    `final`."""
+
+    def __init__(self, amplitude, mass, tau, t_from):
+        self.amplitude, self.mass, self.tau = float(amplitude), float(mass), float(tau)
+        self.t_from = float(t_from)
+        self.row = 0                  # the next event row to look at
+        self.landings = 0             # impacts counted
+        self.first = self.last = math.nan
+        self.total = 0.0              # log growth over the impacts so far
+        self.captured = self.broken = False
+        self._d = np.array([1.0, 0.0])
+
+    def update(self, events, final=False):
+        t, kind = events[:, 0], events[:, 1]
+        n = t.size
+        i = self.row
+        if not self.captured:
+            i = n
+            for j in self.row + np.flatnonzero(kind[self.row:] == R.LANDING):
+                if t[j] < self.t_from:
+                    continue
+                if j + 1 >= n and not final:
+                    i = j             # its take-off, if any, comes with the next rows
+                    break
+                if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
+                    self.captured = True
+                    if self.landings == 0:
+                        self.first = float(t[j])
+                    i = j
+                    break
+                self._impact(float(t[j]))
+        self.row = i
+        return self.value()
+
+    def _impact(self, t1):
+        if self.broken:
+            return                    # (a capture later still decides: -inf)
+        if self.landings:
+            J, _, _ = impact_jacobian(self.last, t1, self.amplitude, self.mass, self.tau)
+            d = J @ self._d
+            norm = math.hypot(d[0], d[1])
+            if not (norm > 0.0 and math.isfinite(norm)):
+                self.broken = True
+                return
+            self.total += math.log(norm)
+            self._d = d / norm
+        else:
+            self.first = t1
+        self.last = t1
+        self.landings += 1
+
+    def value(self):
+        """(t0, log growth since t0), or None (see the class)."""
+        if self.captured:
+            return self.first, -math.inf
+        if self.broken:
+            return self.first, math.nan
+        if self.landings < 3:
+            return None
+        return self.first, self.total
+
+    def exponent(self):
+        """(lambda per period, t_start) as `impact_lyapunov` returns them."""
+        if self.captured:
+            return -math.inf, self.first
+        if self.broken or self.landings < 3:
+            return math.nan, math.nan
+        return self.total / (self.last - self.first), self.first
+
+
 def impact_lyapunov(events, amplitude, mass, tau, t_from):
     """The material point's vertical Lyapunov exponent, per period, from its
     run's events (records: LANDING and TAKEOFF at one instant = an elastic
     impact): the product of the impact map's Jacobians over the impacts
     from t_from on (renormalized at each), over the time between the first
-    and the last of them.  Returns (lambda, t_start):
+    and the last of them (`ImpactGrowth`).  Returns (lambda, t_start):
 
     * -inf if the point rode the surface after t_from (a landing without a
       take-off, a capture): its detachment comes at a phase set by the
       surface alone, which forgets every perturbation (superstable);
     * NaN if fewer than three impacts fall after t_from (permanent contact,
       or a flight that never ends: nothing to measure)."""
-    t, kind = events[:, 0], events[:, 1]
-    after = t >= t_from
-    landings = t[after & (kind == R.LANDING)]
-    takeoffs = set(t[after & (kind == R.TAKEOFF)].tolist())
-    if any(tl not in takeoffs for tl in landings.tolist()):
-        return -math.inf, float(landings[0])
-    if landings.size < 3:
-        return math.nan, math.nan
-    d = np.array([1.0, 0.0])
-    total = 0.0
-    for t0, t1 in zip(landings[:-1], landings[1:]):
-        J, _, _ = impact_jacobian(t0, t1, amplitude, mass, tau)
-        d = J @ d
-        norm = math.hypot(d[0], d[1])
-        if not (norm > 0.0 and math.isfinite(norm)):
-            return math.nan, math.nan
-        total += math.log(norm)
-        d /= norm
-    return total / (landings[-1] - landings[0]), float(landings[0])
+    growth = ImpactGrowth(amplitude, mass, tau, t_from)
+    growth.update(events, final=True)
+    return growth.exponent()

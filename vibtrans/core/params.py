@@ -105,6 +105,13 @@ def _choice(name, value, options):
 MASS_MIN = sys.float_info.min
 
 
+@functools.lru_cache(maxsize=64)
+def _amplitude_ratio_of(nu):
+    """r(nu) (units.amplitude_ratio, a root of the Rayleigh equation) once
+    per Poisson ratio: a map asks for it at each of its points."""
+    return float(amplitude_ratio(nu))
+
+
 class Scene(param.Parameterized):
     """One simulated scene, in the paper's normalized units."""
 
@@ -154,7 +161,7 @@ class Scene(param.Parameterized):
     @property
     def r(self):
         """Rayleigh horizontal/vertical amplitude ratio r(nu)."""
-        return float(amplitude_ratio(self.nu))
+        return _amplitude_ratio_of(float(self.nu))
 
     def values(self):
         """The scene as a plain dict (attributes of results, JSON).  The

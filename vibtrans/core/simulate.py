@@ -22,6 +22,7 @@ from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
 from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import RAMP_OFF
+from vibtrans.core.lyapunov import ImpactGrowth
 from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
 from vibtrans.core.drivers import STOP_FLIGHT, DecidedRule, check_stop
@@ -233,15 +234,19 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
                        scene.tau, float(scene.periods), scene.alpha_t,
                        1.0 / samples_per_period, (w0, w1), dt)
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
+    growth = None
+    if lyapunov:
+        # measured along the run (the `decided` rule reads it at each check)
+        t_from = lyapunov_start(scene, decide)
+        growth = ImpactGrowth(scene.amplitude, scene.mass, scene.tau, t_from)
     run = drivers.run_point_mass(
         p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide,
+        growth=growth if decide is not None else None,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
     if lyapunov:
-        from vibtrans.core.lyapunov import impact_lyapunov
-        t_from = lyapunov_start(scene)
-        value, start = impact_lyapunov(run.events, scene.amplitude, scene.mass, scene.tau,
-                                       t_from)
+        growth.update(run.events, final=True)
+        value, start = growth.exponent()
         info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
                     lyapunov_start=None if math.isnan(start) else start)
     return run.samples, run.events, run.ctr, info

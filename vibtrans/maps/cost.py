@@ -9,8 +9,8 @@ at least to the ramp's end plus the rule's first window,
     t_min = settle_time(tau) + MIN_WINDOW      (240 periods at tau = 50, standard),
 
 and then either stops (regular, chaotic, a flight that lasts past T_obs) or
-runs to T_obs (a drift that is not steady, and the material point's chaotic
-points, whose verdict needs its twin run to the end).  The expected periods
+runs to T_obs (a drift that is not steady: most of them accelerate through
+T_obs, as paper point 4 does).  The expected periods
 of a point are modelled as
 
     E[periods] = f_end T_obs + (1 - f_end) min(T_obs, t_min + extra)
@@ -37,11 +37,20 @@ from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 
 # (f_end, extra periods) per model: decided_profile of the rule's maps of every
-# 4th point of the shipped grid (1581 points per model; the D3 session,
-# 2026-11-27 05:00 UTC, the rule with its settling time and recurrence):
-# deformable f_end 0.142, mean periods run 601.9; material point f_end 0.201,
-# mean 891.8; extra = (mean - f_end T_obs) / (1 - f_end) - t_min, t_min = 240
-DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.201, 373.0)}
+# 4th point of the shipped grid (1581 points per model; the deformable's of
+# the D3 session, 2026-11-27 05:00 UTC, the rule with its settling time and
+# recurrence, measured again unchanged at 13:24 UTC; the material point's at
+# 13:24 UTC, its chaos decided along the run by its impact exponent):
+# deformable f_end 0.142, mean periods run 601.9; material point f_end 0.020,
+# mean 521.5; extra = (mean - f_end T_obs) / (1 - f_end) - t_min, t_min = 240
+DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.020, 252.0)}
+# A decided run's time per period over a full run's, per model: (decided CPU
+# / mean periods run) / (full CPU / T_obs) of the same sample, both rules in
+# one run (2026-11-27, two runs: 0.912 and 0.925 for the deformable model,
+# whose points that run to the end cost more per period than the average
+# point; 1.463 and 1.477 for the material point, whose ramp, with its
+# stick-slip events, costs more per period than the flights it ends in).
+DECIDED_PERIOD_COST = {"deformable": 0.92, "point-mass": 1.47}
 
 
 def minimum_periods(tau, fidelity="standard"):
@@ -76,15 +85,22 @@ def expected_periods(model, stop, periods, tau, profile=None, fidelity="standard
 def expected_seconds(full_steps, ns_per_step, model, stop, periods, tau, workers=1,
                      profile=None, fidelity="standard"):
     """Expected seconds of a map whose points would take `full_steps` steps in
-    all when run to T_obs (stop="full"; the twin's included), at ns_per_step
-    per step on `workers` cores: full_steps x E[periods] / T_obs x ns_per_step
-    / workers.  The time per step of a decided run is that of a full run of
-    the same length (measured: the rule's checks cost < 5% of a run), though
-    the ramp's steps cost some 20% more than the steady motion's."""
+    all when run to T_obs (stop="full"), at ns_per_step per step on
+    `workers` cores: full_steps x E[periods] / T_obs x ns_per_step / workers,
+    under the `decided` rule times the model's DECIDED_PERIOD_COST (its
+    periods are not the average period of a full run: the ramp's and the
+    checks' cost more, the steady flights less)."""
     if workers < 1:
         raise InputError(f"workers must be >= 1, got {workers!r}")
+    return float(full_steps) * expected_time_share(model, stop, periods, tau, profile,
+                                                   fidelity) * float(ns_per_step) * 1e-9 / workers
+
+
+def expected_time_share(model, stop, periods, tau, profile=None, fidelity="standard"):
+    """A map's expected time under `stop` over its time under stop="full":
+    E[periods] / T_obs, times DECIDED_PERIOD_COST under the `decided` rule."""
     share = expected_periods(model, stop, periods, tau, profile, fidelity) / float(periods)
-    return float(full_steps) * share * float(ns_per_step) * 1e-9 / workers
+    return share if stop == "full" else share * DECIDED_PERIOD_COST[model]
 
 
 def decided_profile(ds):

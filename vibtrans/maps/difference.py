@@ -34,11 +34,12 @@ def signed_log(v, v0=V0):
 
 # What a map is, from its attributes, and the shipped maps' values (a name
 # mentions only what differs from them: "point-mass mu 0.3", "deformable mu
-# 0.5 preview 500 periods")
+# 0.5 preview 500 periods", "deformable mu 0.3 stop decided")
 DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
              ("scene_tau", "tau {}", 50.0), ("scene_fidelity", "{}", "standard"),
              ("scene_periods", "{} periods", 2000.0),
-             ("scene_profile", "{}", "sphere"))     # (a sphere's map names no profile)
+             ("scene_profile", "{}", "sphere"),     # (a sphere's map names no profile)
+             ("stop", "stop {}", "full"))           # (a full map's store names no rule)
 
 
 def describe(ds):

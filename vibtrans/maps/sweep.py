@@ -75,15 +75,15 @@ LYAPUNOV_VARIABLES = {
 
 
 # How a transport sweep judges chaos: "lyapunov" (the run's own exponent,
-# analysis.CHAOS_LYAPUNOV; no twin run; the material point, which has no
-# exponent yet, falls back to the twin) or "twin" (the tau + 1e-3 twin: the
-# shipped maps, made before the exponent existed, whose stores carry no
-# `chaos` attribute).
+# analysis.CHAOS_LYAPUNOV; no twin run; the material point's from its impact
+# map, lyapunov.impact_lyapunov, as its shipped Lyapunov map has it) or
+# "twin" (the tau + 1e-3 twin: the shipped maps, made before the exponent
+# existed, whose stores carry no `chaos` attribute).
 CHAOS_SOURCES = ("lyapunov", "twin")
 LYAPUNOV_CHAOS_VARIABLES = {
     **VARIABLES,
     "chaotic": ("i1", -1, "1 if the Lyapunov exponent exceeds analysis.CHAOS_LYAPUNOV (the "
-                          "material point: if the tau twin disagrees), else 0"),
+                          "material point's: of its impact map), else 0"),
     "lyapunov": LYAPUNOV_VARIABLES["lyapunov"],
 }
 
@@ -131,14 +131,14 @@ def parse_range(text, name):
 
 def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     """One grid point: the run with its Lyapunov exponent (chaos
-    "lyapunov"), or the run and, if it jumps, its chaos twin
-    (analysis.twin_scene; chaos "twin", and the material point always).
+    "lyapunov"; the material point's from its impact map), or the run and,
+    if it jumps, its chaos twin (analysis.twin_scene; chaos "twin").
     stop: the runs' stopping rule (core.drivers.STOPS; the twin's too).
 
     Returns a dict of the stored quantities.
     """
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
-    measure = chaos == "lyapunov" and scene.model != "point-mass"
+    measure = chaos == "lyapunov"
     # the runs' arrays, summarized as a Dataset of them would be (no Dataset)
     ds = RunArrays(*run_records(scene, lyapunov=measure, stop=stop))
     jumping = jumped(ds)

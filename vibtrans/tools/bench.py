@@ -19,9 +19,11 @@ which are measured side by side, more than the absolute times).
   tabulated law (flat-sphere:1, interpolated; goal <= 1.5) over the
   sphere's, measured round-robin; and the cost of the profile code itself:
   the sphere's own motion (same steps, same contact states) through the
-  power-law path (p = 3/2) and through the table path (flat-sphere:0, the
-  sphere tabulated) over Hertz's path (the profiles' own motions differ
-  from the sphere's: their share of stick, slip and flight steps differs);
+  power-law path (p = 3/2, its root warm-started), through it with pow()
+  at every evaluation, and through the table path (flat-sphere:0, the
+  sphere tabulated) over Hertz's path (the profiles' own motions may differ
+  from the sphere's: their share of stick, slip and flight steps;
+  `python -m devtools.profilecalls` counts them);
 * each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
   ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
   switched off alone: its speed-up and the drift difference it makes.
@@ -159,18 +161,22 @@ PROFILE_BENCH = {"power": "power:3", "tabulated": "flat-sphere:1"}
 
 def _profile_same_motion_ns(repeat, point=1):
     """ns per step of the sphere's scene at a paper point through Hertz's
-    path, the power-law path (p = 3/2: the sphere's law) and the table path
-    (flat-sphere:0, the sphere tabulated), with the sphere's step, measured
-    round-robin: the same motion (to rounding), so the ratios are the
-    profile code's own cost."""
+    path, the power-law path (p = 3/2: the sphere's law, n = 2: its root
+    warm-started as power:3's is, contact.law_eval_warm), the table path
+    (flat-sphere:0, the sphere tabulated) and the power-law path with pow()
+    at every evaluation (no warm start: the path before it), with the
+    sphere's step, measured round-robin: the same motion (to rounding), so
+    the ratios are the profile code's own cost."""
     from vibtrans.core import drivers
-    from vibtrans.core.kernels.contact import LAW_POWER, kernel_law
+    from vibtrans.core.kernels.contact import LAW_ROOT, kernel_law, power_kernel_law
     from vibtrans.core.profiles import FlatSphereProfile
     from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
     sc = paper_scene(point)
     p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
                               None)
-    laws = [None, np.array([LAW_POWER, 1.5, 1.5, 0.0, 0.0]), kernel_law(FlatSphereProfile(0.0))]
+    no_warm = power_kernel_law(2.0)
+    no_warm[LAW_ROOT] = 0.0
+    laws = [None, power_kernel_law(2.0), kernel_law(FlatSphereProfile(0.0)), no_warm]
 
     def once(law):
         t0 = time.perf_counter()
@@ -201,6 +207,7 @@ def _profile_cost(repeat, point=1):
     out["same_motion_sphere_ns_per_step"] = same[0]
     out["same_motion_power_over_sphere"] = same[1] / same[0]
     out["same_motion_tabulated_over_sphere"] = same[2] / same[0]
+    out["same_motion_power_pow_over_sphere"] = same[3] / same[0]
     return out
 
 
@@ -354,7 +361,8 @@ def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=Non
           f"{c['tabulated_profile']} {c['tabulated_over_sphere']:.2f} x (goal <= 1.5)")
     print(f"  profile code, the sphere's own motion: power-law path "
           f"{c['same_motion_power_over_sphere']:.2f} x, table path "
-          f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's")
+          f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's (power-law path with "
+          f"pow() at every evaluation {c['same_motion_power_pow_over_sphere']:.2f} x)")
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")
@@ -523,7 +531,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
     from vibtrans.core.drivers import REASONS
     from vibtrans.core.drivers import STOP_RAN_TO_END
-    from vibtrans.maps.cost import expected_periods, minimum_periods
+    from vibtrans.maps.cost import expected_time_share, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
@@ -578,7 +586,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
             # from the full map's time, against the decided map's measured time
             out[f"decided_{model}_estimate_ratio"] = (
                 out[f"decided_{model}_full_cpu_seconds"]
-                * expected_periods(model, "decided", periods, tau) / periods
+                * expected_time_share(model, "decided", periods, tau)
                 / out[f"decided_{model}_decided_cpu_seconds"])
             out[f"decided_{model}_chaos_agreement"] = float(
                 (full["chaotic"].values == dec["chaotic"].values).mean())

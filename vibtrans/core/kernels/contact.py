@@ -68,10 +68,18 @@ def _segment_integral(s0, w0, s1, w1):
 # once per new vertex, never in the integrals; P is the running integral of
 # w dN*' (the h = 0 atom N*'(0) w(0) included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
 # (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
+# A power law with an integer n = 1/(p - 1) >= 2 (`power:3`, ...) also keeps
+# law[LAW_ROOT] = n and, at POW_C1..POW_C4, the binomial coefficients of
+# (1 + e)^(1/n): the kernels' warm-started a*^(1/n) (`law_eval_warm`).
 LAW_POWER = 0
 LAW_TABLE = 1
 LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE, LAW_INV = range(5)
 LAW_HEAD = 5
+LAW_ROOT = LAW_SIZE     # a power law's integer n (0: none, pow() every time)
+POW_C1, POW_C2, POW_C3, POW_C4 = range(LAW_HEAD, LAW_HEAD + 4)
+WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series error < 3e-20)
+WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
+NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
 LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
 CELL_N, CELL_A, CELL_B, CELL_C, CELL_K, CELL_M = range(LAW_CELL)
 LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
@@ -89,8 +97,7 @@ def kernel_law(profile):
     if isinstance(profile, PowerLawProfile):
         if profile.n == 2.0:
             return None
-        p = profile.exponent
-        return np.array([LAW_POWER, p, p, 0.0, 0.0])
+        return power_kernel_law(profile.n)
     s = np.linspace(0.0, math.sqrt(LAW_GRID_MAX), LAW_GRID_POINTS)
     ds = float(s[1])
     k = np.asarray(profile.stiffness(s * s), float)
@@ -116,6 +123,21 @@ def kernel_law(profile):
     return np.concatenate(([LAW_TABLE, ds, k[i1], float(s.size), 1.0 / ds], cells.ravel()))
 
 
+def power_kernel_law(n):
+    """The kernels' form of the power law z = C r^n (N* = a*^p, p = (n+1)/n):
+    [LAW_POWER, p, p, root, 0, c1, c2, c3, c4] with root = n for an integer
+    2 <= n <= WARM_ROOT_MAX (0 otherwise) and c_k the binomial coefficients
+    of (1 + e)^(1/n) (`law_eval_warm`)."""
+    n = float(n)
+    p = (n + 1.0) / n
+    q = 1.0 / n
+    integral = n == math.floor(n) and 2.0 <= n <= WARM_ROOT_MAX
+    c = [q]
+    for k in range(2, 5):
+        c.append(c[-1] * (q - k + 1.0) / k)
+    return np.array([LAW_POWER, p, p, n if integral else 0.0, 0.0] + c)
+
+
 def law_scales(law):
     """(N*'(1), p) of a kernel law for the time step's contact scales
     (fidelity.contact_time_scale): p the power law's exponent, 2 for a table
@@ -131,9 +153,10 @@ def law_eval(law, a):
         if a <= 0.0:
             return 0.0, 0.0
         q = p - 1.0
-        # the cone (q = 1): a^1 = a exactly, no pow() to call
-        k = p * (a if q == 1.0 else a ** q)
-        return a * k / p, k
+        # the cone (q = 1): a^1 = a exactly, no pow() to call;
+        # N* = a* y, N*' = p y with y = a*^(p - 1)
+        y = a if q == 1.0 else a ** q
+        return a * y, p * y
     n = int(law[LAW_SIZE])
     if a <= 0.0:
         return 0.0, law[LAW_HEAD + CELL_K]
@@ -143,8 +166,68 @@ def law_eval(law, a):
         i = n - 2                 # beyond the grid: the last cell's curves
     t = s - i * law[LAW_ARG]
     j = LAW_HEAD + LAW_CELL * i
-    return (law[j + CELL_N] + t * (law[j + CELL_A] + t * (law[j + CELL_B] + t * law[j + CELL_C])),
+    # the cubic in Estrin's order (t^2 beside the linear parts: two multiply-add
+    # levels fewer on the step's critical path than Horner's)
+    return ((law[j + CELL_N] + t * law[j + CELL_A])
+            + (t * t) * (law[j + CELL_B] + t * law[j + CELL_C]),
             law[j + CELL_K] + law[j + CELL_M] * t)
+
+
+@inline
+def law_eval_warm(law, a, warm):
+    """`law_eval` with a warm start: (N*, N*', the new history).
+
+    For a power law with an integer n = law[LAW_ROOT] (N* = a* y, N*' = p y,
+    y = a*^(1/n)), `warm` holds the last four roots y (newest first) of the
+    same call site on consecutive steps; their cubic extrapolation y0 (no
+    dependence on a*: off the step's critical path) is corrected by the
+    series y = y0 (1 + e)^(1/n), e = a*/y0^n - 1, to its e^4 term: exact to
+    about 1 ulp when |e| <= WARM_EPS = 2^-12 (the e^5 term < 3e-20 of y), which is
+    checked; otherwise (no history yet, an impact, a non-integer n, a table)
+    `law_eval` (pow).  docs/MODEL.md section 10."""
+    if law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0:
+        nn, k = law_eval(law, a)
+        return nn, k, warm
+    if a <= 0.0:
+        return 0.0, 0.0, NO_WARM
+    y = root_warm(law, a, warm)[0]
+    p = law[LAW_ARG]
+    return a * y, p * y, (y, warm[0], warm[1], warm[2])
+
+
+@inline
+def root_warm(law, a, warm):
+    """(a*^(1/n), warm start taken) for a power law with law[LAW_ROOT] = n
+    and a* > 0 (`law_eval_warm`)."""
+    y0 = 4.0 * warm[0] - 6.0 * warm[1] + 4.0 * warm[2] - warm[3]
+    yn = y0
+    for _ in range(int(law[LAW_ROOT]) - 1):
+        yn *= y0
+    if y0 > 0.0 and yn > 0.0:
+        # y0 (1 + e)^(1/n) = y0 + (y0 e) (c1 + e (c2 + e (c3 + e c4))), e = (a* - yn) / yn
+        # (a* - yn exact: they agree to 2^-12; 1/yn does not depend on a*).
+        # Horner's order: fewer operations than Estrin's (measured alike).
+        e = (a - yn) * (1.0 / yn)
+        if abs(e) <= WARM_EPS:
+            return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
+                                                                          + e * law[POW_C4]))), True
+    return a ** (law[LAW_ARG] - 1.0), False
+
+
+@kernel
+def law_history(law, a, out):
+    """The kernels' evaluation (`law_eval_warm`, one call site, its history
+    carried from each a*[i] to the next) along a sequence: out[i] = (N*, N*',
+    1.0 if the warm start was taken else 0.0).  For tests and benchmarks."""
+    warm = NO_WARM
+    for i in range(a.shape[0]):
+        used = False
+        if law[LAW_KIND] == LAW_POWER and law[LAW_ROOT] != 0.0 and a[i] > 0.0:
+            used = root_warm(law, a[i], warm)[1]
+        nn, k, warm = law_eval_warm(law, a[i], warm)
+        out[i, 0] = nn
+        out[i, 1] = k
+        out[i, 2] = 1.0 if used else 0.0
 
 
 @inline
@@ -277,15 +360,18 @@ _TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
 
 
 @inline
-def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1):
-    """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state).
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1, warm):
+    """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state, warm).
 
     (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
     contact radius; the caller has it from N*).  s_h is the depth of the stick
     core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
     for 3 more vertices.
     With `profiled` (a compile-time constant) the profile `law` replaces the
-    sphere's: c1 = N*'(a1), n1 = N*(a1) (the caller has both from the law).
+    sphere's: c1 = N*'(a1), n1 = N*(a1) (the caller has both from the law),
+    and `warm` is the stick edge's warm-start history (law_eval_warm; the
+    caller keeps it from step to step; NO_WARM for the sphere), returned
+    updated.
     """
     a0 = memf[0]
     b0 = memf[1]
@@ -293,7 +379,7 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1):
     memf[1] = b1
     if a1 <= 0.0:
         _pop_to(nvert, 0)            # every spring left contact and forgets
-        return 0.0, 0.0, FLIGHT
+        return 0.0, 0.0, FLIGHT, warm
     n = nvert[0]
     # (`<= 0` for counts, here and below, tells the compiler that n - 1 is a
     # valid index afterwards: it drops the negative-index wraparound checks.)
@@ -333,11 +419,12 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1):
             wq = W[n - 1]
             top = _TOP_CUT
             wt = wq + (wp - wq) * (a1 - hq) / (hp - hq)
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, profiled, n1)
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, profiled, n1,
+                  warm)
 
 
 @inline
-def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
     The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
@@ -346,7 +433,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
     _TOP_CUT (unloading) it is (a1, wt), the cut top segment's end: it is
     pushed only if it survives the clamp (it usually slips: saves a push and a
     pop per slip step).
-    Returns (T*, s_h, state).
+    Returns (T*, s_h, state, warm).
     """
     # Rounding (re-basing, cone-line vertices) must not invent slip: a spring
     # counts as past its limit only beyond a few ulps of the cone's scale.
@@ -389,8 +476,9 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
         nvert[0] = n
         nvert[1] = n
         if profiled:
-            return bp * c1 - _integrals_to(H, W, P, ip, n, law, True), a1, STICK
-        return 1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law, False), a1, STICK
+            return bp * c1 - _integrals_to(H, W, P, ip, n, law, True), a1, STICK, warm
+        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law, False), a1, STICK,
+                warm)
     # Walk down, dropping the vertices outside the cone (slip annulus).
     if top == _TOP_LOAD:
         hl = a1
@@ -419,12 +507,12 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
             _put_law(H, W, 1, a1, c1, n1, 0.0)
             nvert[0] = 2
             nvert[1] = 0
-            return -side * n1, 0.0, SLIDING
+            return -side * n1, 0.0, SLIDING, warm
         _put(H, W, 0, 0.0, 0.0, side * a1)
         _put(H, W, 1, a1, c1, 0.0)
         nvert[0] = 2
         nvert[1] = 0
-        return -side * a1 * c1, 0.0, SLIDING
+        return -side * a1 * c1, 0.0, SLIDING, warm
     # The stick edge hs: where the cone line w = bp + side (a1 - h) meets the
     # stack segment k -> l (fk: vertex k's cone test, from the walk).  The
     # segment's slope and the denominator do not depend on this step's load
@@ -444,9 +532,11 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
         ns = H[n - 1, 2]
         if hs > hk:
             nk = ns
-            ns, ks = law_eval(law, hs)
+            ns, ks, warm = law_eval_warm(law, hs, warm)
             ws = bp + side * (a1 - hs)
-            ps += _segment_integral_law(hk, sk, nk, wk, hs, ks, ns, ws)
+            # w dN*' over k -> hs, w on the stack segment (slope off the critical path)
+            slope = (wl - wk) / (hl - hk)
+            ps += wk * (ks - sk) + slope * ((hs - hk) * ks - (ns - nk))
             _put_law(H, W, n, hs, ks, ns, ws)
             P[n] = ps
             n += 1
@@ -457,7 +547,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
         P[n] = pa
         nvert[0] = n + 1
         nvert[1] = n + 1
-        return bp * c1 - pa, hs, PARTIAL_SLIP
+        return bp * c1 - pa, hs, PARTIAL_SLIP, warm
     s = sk
     if hs > hk:
         s = math.sqrt(hs)
@@ -476,20 +566,21 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1):
     P[n] = pa
     nvert[0] = n + 1
     nvert[1] = n + 1
-    return 1.5 * bp * c1 - 0.75 * pa, hs, PARTIAL_SLIP
+    return 1.5 * bp * c1 - 0.75 * pa, hs, PARTIAL_SLIP, warm
 
 
 @kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, False, 0.0)
+    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, False, 0.0,
+                         NO_WARM)[:3]
 
 
 @kernel
 def memory_step_law(H, W, P, nvert, memf, a1, b1, law):
     """`memory_step` for a profile law (memory from `reset_memory_law`)."""
     n1, k1 = law_eval(law, a1)
-    return memory_commit(H, W, P, nvert, memf, a1, k1, b1, law, True, n1)
+    return memory_commit(H, W, P, nvert, memf, a1, k1, b1, law, True, n1, NO_WARM)[:3]
 
 
 @kernel
@@ -500,8 +591,8 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
     """
     for i in range(a.shape[0]):
         a1 = a[i]
-        T, sh, st = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
-                                  memf, False, 0.0)
+        T, sh, st, _ = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
+                                     memf, False, 0.0, NO_WARM)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -509,10 +600,13 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
 
 @kernel
 def memory_history_law(H, W, P, nvert, memf, a, b, law, out):
-    """`memory_history` for a profile law (memory from `reset_memory_law`)."""
+    """`memory_history` for a profile law (memory from `reset_memory_law`),
+    the kernels' way: warm-started (law_eval_warm) at a* and at the stick edge."""
+    wa = NO_WARM
+    ws = NO_WARM
     for i in range(a.shape[0]):
-        n1, k1 = law_eval(law, a[i])
-        T, sh, st = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, True, n1)
+        n1, k1, wa = law_eval_warm(law, a[i], wa)
+        T, sh, st, ws = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, True, n1, ws)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st

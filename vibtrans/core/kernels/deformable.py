@@ -28,7 +28,8 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT, LAW_K1, law_eval, memory_commit
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, NO_WARM, law_eval, law_eval_warm,
+                                           memory_commit)
 from vibtrans.core.kernels.jit import helper, inline, kernel
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
 from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
@@ -279,29 +280,33 @@ def _substrate_at(t1, cw, sw, t_flat, p):
 
 @inline
 def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential, law,
-                   profiled):
+                   profiled, warm):
     """Hertz's N* = a*^(3/2) (or the profile's law, `profiled`) and the
     memory diagram's committed T* at the step end (docs/MODEL.md sections 2,
-    10).  Returns (a*, c1, N*, b*, T*, s_h, contact state): c1 = sqrt(a*) for
-    the sphere, N*'(a*) with a profile (0 off contact)."""
+    10).  Returns (a*, c1, N*, b*, T*, s_h, contact state, warm): c1 = sqrt(a*)
+    for the sphere, N*'(a*) with a profile (0 off contact); warm: the
+    profile's warm-start histories (law_eval_warm) at a* and at the stick
+    edge, a pair the kernel carries from step to step."""
     a1 = y1 - uy
     c1 = 0.0                      # contact radius sqrt(a*) (profile: N*'(a*))
     nf = 0.0                      # Hertz: N* = a*^(3/2)
+    wa, ws = warm
     if a1 > 0.0:
         if profiled:
-            nf, c1 = law_eval(law, a1)
+            nf, c1, wa = law_eval_warm(law, a1, wa)
         else:
             c1 = math.sqrt(a1)
             nf = a1 * c1
     if tangential:
         b1 = (x1 - ux) * inv_scale
-        tf, sh, st = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, profiled, nf)
+        tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, profiled, nf,
+                                       ws)
     else:
         b1 = 0.0
         tf = 0.0
         sh = 0.0
         st = 1 if a1 > 0.0 else FLIGHT
-    return a1, c1, nf, b1, tf, sh, st
+    return a1, c1, nf, b1, tf, sh, st, (wa, ws)
 
 
 @helper
@@ -627,6 +632,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     dy = 0.0                          # the tangent's hot values (lyapunov)
     dvy = 0.0
     dh = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    warm = (NO_WARM, NO_WARM)         # a profile's warm starts (at a*, at the stick edge)
     marking = False                   # _tangent_mark still due, at t >= t_from
     t_from = 0.0
     if lyapunov:
@@ -674,8 +680,9 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         x1, vx1, y1, vy1 = _predict(integrator, state, hist, h)
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
-        a1, c1, nf, b1, tf, sh, st = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                    inv_scale, tangential, law, profiled)
+        a1, c1, nf, b1, tf, sh, st, warm = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
+                                                          inv_scale, tangential, law, profiled,
+                                                          warm)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
         dyo = 0.0
