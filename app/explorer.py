@@ -35,6 +35,7 @@ from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.map import MapView
 from .views.profile import ProfileView
+from .views.render import at_next_tick
 from .views.design import DesignPanel
 from .views.summary import SummaryView
 from .views.runbuttons import RunButtons
@@ -318,11 +319,7 @@ class Explorer(pn.viewable.Viewer):
         change at once, while the changes of the answer's Bokeh models (the
         map's sources, a run's figures) go when the callback ends; the
         acknowledgement is cleared after them, not before."""
-        doc = pn.state.curdoc
-        if doc is not None and doc.session_context is not None:
-            doc.add_next_tick_callback(self._clear_ack)
-        else:
-            self._clear_ack()
+        at_next_tick(pn.state.curdoc, self._clear_ack)
 
     def _clear_ack(self):
         self.ack.object = "" if self.ack.object != "" else "<span></span>"

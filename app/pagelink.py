@@ -9,6 +9,7 @@ import panel as pn
 
 from . import maprequest, urlstate
 from .state import URL_ALIASES, URL_KEYS
+from .views.render import at_next_tick
 
 
 def map_request_of(args):
@@ -65,11 +66,7 @@ class PageLink:
         change of that property)."""
         if event.new == self.written:
             return
-        doc = pn.state.curdoc
-        if doc is not None and doc.session_context is not None:
-            doc.add_next_tick_callback(self._rewrite)
-        else:
-            self._rewrite()
+        at_next_tick(pn.state.curdoc, self._rewrite)
 
     def _rewrite(self):
         self.written = self.query()

@@ -21,7 +21,7 @@ from vibtrans.core.profiles import linear_resonance_mass
 
 from .. import data
 from ..state import is_sphere, within
-from .render import rendered
+from .render import at_next_tick, rendered
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
@@ -49,14 +49,9 @@ def in_document(source, data):
     "_pending_writes should be non-None" in the server's log (issue 32:
     typed values did not move the map's marker).  So the change goes to
     the document's next tick, which holds the lock; outside a server, now."""
-    doc = source.document
-    if doc is None or doc.session_context is None:
-        source.data = data
-        return
-
     def apply():
         source.data = data
-    doc.add_next_tick_callback(apply)
+    at_next_tick(source.document, apply)
 
 
 def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):

@@ -33,6 +33,7 @@ from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 
 from .. import inputs
 from .note import note_pane, say
+from .render import at_next_tick
 from .summary import PREVIOUS_RUN
 
 log = logging.getLogger("vibtrans.explorer.memory")
@@ -85,20 +86,6 @@ def title_lines(title):
 def _set_range(rng, lo, hi):
     """New extent, which is also where the reset tool goes back to."""
     rng.update(start=lo, end=hi, reset_start=lo, reset_end=hi)
-
-
-def at_next_tick(doc, answer):
-    """answer() at the next tick of `doc`, a served page's document, or now
-    (no server).  After an await a coroutine runs without the document's
-    lock: plain Bokeh models changed there can be lost ("_pending_writes
-    should be non-None"; issue 32: now and then a typed time's diagram never
-    came, the button left disabled, 1 page in ~45 of browserbench), so the
-    answer goes to the document's next tick, which holds the lock (as
-    views/map.py's in_document)."""
-    if doc is not None and doc.session_context is not None:
-        doc.add_next_tick_callback(answer)
-    else:
-        answer()
 
 
 class MemoryView(pn.viewable.Viewer):
