@@ -247,9 +247,6 @@ def scene_scales(scene):
     return None if law is None else law_scales(law)
 
 
-LAW_PATHS = ("sphere", "cone", "power", "power-pow", "table")
-
-
 def law_path(scene):
     """Which of the kernels' contact-law paths a scene runs (their costs per
     step differ: tools.bench's profile_cost): "sphere" (Hertz's own),

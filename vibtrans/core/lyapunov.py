@@ -73,25 +73,23 @@ class ImpactGrowth:
         self._d = np.array([1.0, 0.0])
 
     def update(self, events, final=False):
+        if self.captured:             # -inf for good
+            return self.value()
         t, kind = events[:, 0], events[:, 1]
-        n = t.size
-        i = self.row
-        if not self.captured:
-            i = n
-            for j in self.row + np.flatnonzero(kind[self.row:] == R.LANDING):
-                if t[j] < self.t_from:
-                    continue
-                if j + 1 >= n and not final:
-                    i = j             # its take-off, if any, comes with the next rows
-                    break
-                if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
-                    self.captured = True
-                    if self.landings == 0:
-                        self.first = float(t[j])
-                    i = j
-                    break
-                self._impact(float(t[j]))
-        self.row = i
+        n, start = t.size, self.row
+        self.row = n
+        for j in start + np.flatnonzero(kind[start:] == R.LANDING):
+            if t[j] < self.t_from:
+                continue
+            if j + 1 >= n and not final:
+                self.row = j          # its take-off, if any, comes with the next rows
+                break
+            if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
+                self.captured = True
+                if self.landings == 0:
+                    self.first = float(t[j])
+                break
+            self._impact(float(t[j]))
         return self.value()
 
     def _impact(self, t1):

@@ -240,8 +240,7 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
         t_from = lyapunov_start(scene, decide)
         growth = ImpactGrowth(scene.amplitude, scene.mass, scene.tau, t_from)
     run = drivers.run_point_mass(
-        p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide,
-        growth=growth if decide is not None else None,
+        p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide, growth=growth,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
     if lyapunov:
