@@ -466,8 +466,15 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
                                         sweep.log_mass, sweep.kind, sweep.chaos,
                                         sweep.stop)] = k
                 finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    writer.add(pending.pop(fut), fut.result())
+                failed = None
+                for fut in finished:    # every chunk that finished is kept
+                    k = pending.pop(fut)
+                    if fut.exception() is None:
+                        writer.add(k, fut.result())
+                    else:
+                        failed = failed or fut
+                if failed is not None:
+                    failed.result()     # raises the chunk's error
 
 
 def _bar(total, enabled):
