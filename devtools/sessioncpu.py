@@ -56,21 +56,15 @@ TICK = os.sysconf("SC_CLK_TCK")
 def thread_cpu(pid):
     """CPU seconds so far of the process's main thread (the event loop) and
     of its other threads together."""
-    main = other = 0
-    for tid in os.listdir(f"/proc/{pid}/task"):
-        try:
-            with open(f"/proc/{pid}/task/{tid}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-        except OSError:              # a thread that ended meanwhile
-            continue
-        ticks = int(fields[11]) + int(fields[12])
-        if int(tid) == pid:
-            main += ticks
-        else:
-            other += ticks
-    # threads that ended: their time is in the process's total
-    total = sum(int(x) for x in _stat(pid)[11:13])
-    other = max(other, total - main)
+    main = 0
+    try:
+        with open(f"/proc/{pid}/task/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        main = int(fields[11]) + int(fields[12])
+    except OSError:                  # the process has ended
+        pass
+    # the process's total counts every thread, those that ended too
+    other = sum(int(x) for x in _stat(pid)[11:13]) - main
     return main / TICK, other / TICK
 
 
@@ -100,9 +94,9 @@ class CountingSession(ProtocolSession):
         return header, content
 
 
-async def _quiet(pid, idle_rate, timeout=10.0):
+async def _quiet(pid, timeout=10.0):
     """Wait until the server's CPU clock stands still for QUIET_S; returns
-    the seconds waited (its idle CPU over them: idle_rate * seconds)."""
+    the seconds waited."""
     t0 = time.perf_counter()
     last, still = sum(thread_cpu(pid)), time.perf_counter()
     while time.perf_counter() - t0 < timeout:
@@ -127,7 +121,7 @@ class Meter:
         self.at = (time.perf_counter(), *thread_cpu(self.pid))
 
     async def mark(self, phase):
-        await _quiet(self.pid, self.idle_rate)
+        await _quiet(self.pid)
         t, main, other = time.perf_counter(), *thread_cpu(self.pid)
         t0, main0, other0 = self.at
         idle = self.idle_rate * (t - t0)
@@ -256,7 +250,7 @@ def run(a):
                 raise RuntimeError("server not ready in 300 s")
             time.sleep(0.2)
         pid = _server_python(server)
-        asyncio.run(_quiet(pid, 0.0, timeout=60.0))     # the maps' pre-render
+        asyncio.run(_quiet(pid, timeout=60.0))     # the maps' pre-render
         c0, t0 = sum(thread_cpu(pid)), time.perf_counter()
         time.sleep(a.idle)
         idle_rate = (sum(thread_cpu(pid)) - c0) / (time.perf_counter() - t0)
