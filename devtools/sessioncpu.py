@@ -31,7 +31,8 @@ over that wait (measured first, with no session) is subtracted.
 "debug" (it counts Bokeh's "Discarding session" lines); a deployment logs
 at "info".  `--py-spy PATH`: the server is run under py-spy (its sampling
 profile written to PATH, raw collapsed stacks; the CPU figures of such a
-run include py-spy's pauses).
+run include py-spy's pauses); its samples are then counted by what the
+server was doing (PROFILE_PARTS: the phases above and their parts).
 """
 import argparse
 import asyncio
@@ -219,6 +220,41 @@ class _Session(CountingSession):
         self._event("document_ready", [])
 
 
+# py-spy's samples of the server by what they were doing: the first rule
+# whose frame names any of its keys, over the whole stack (inner parts of a
+# phase first: the page function is inside the GET)
+PROFILE_PARTS = [
+    ("warm-up (kernels, maps' pre-render)", ("prerender", "app/kernels.py", "_find_and_load")),
+    ("GET: the page function (serve_page)", ("_first_page.<locals>.page",)),
+    ("GET: Bokeh's document checks", ("Document.validate", "check_integrity")),
+    ("GET: the rest (session, HTML)", ("DocHandler.get",)),
+    ("pull-doc", ("ServerSession._handle_pull",)),
+    ("click: the run's figures built (first run)", ("TrajectoryView.view",)),
+    ("click: the rest of the tap", ("MapView._on_tap",)),
+    ("the browser's patches (sizes, document_ready, onload)", ("ServerSession._handle_patch",)),
+    ("after a run: its results shown", ("RunController.finish",)),
+    ("close: the explorer's release (full collection)", ("app/memory.py",)),
+    ("close: Bokeh's discard, Panel's cleanup", ("_discard_session", "on_session_destroyed")),
+]
+
+
+def profile_parts(path):
+    """{(thread, part): samples} of a py-spy raw profile (collapsed
+    stacks, "frame;frame;... count"): thread "event loop" or "other"."""
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if not line.strip():
+                continue
+            stack, count = line.rsplit(" ", 1)
+            frames = stack.split(";")
+            thread = "other" if frames[0].startswith("Thread._bootstrap") else "event loop"
+            part = next((name for name, keys in PROFILE_PARTS
+                         if any(k in fr for fr in frames for k in keys)), "rest")
+            out[thread, part] = out.get((thread, part), 0) + int(count)
+    return out
+
+
 def _server_python(server):
     """The server's Python process (under py-spy: py-spy's child)."""
     for q in _tree(server.proc.pid):
@@ -304,6 +340,9 @@ def main(argv=None):
     if not 1 <= a.idle <= 120:
         ap.error(f"--idle must be in [1, 120] s, got {a.idle}")
     out = run(a)
+    if a.py_spy:
+        parts = profile_parts(a.py_spy)
+        out["profile_samples"] = {f"{t}: {p}": n for (t, p), n in parts.items()}
     if a.json:
         print(json.dumps(out))
     else:
@@ -316,6 +355,14 @@ def main(argv=None):
         print(f"idle with {io['sessions']} open: {io['main_per_session_s'] * 1000:.3f} ms/s "
               f"(event loop) + {io['other_per_session_s'] * 1000:.3f} ms/s (others) per session")
         print(f"bytes per page (median): {out['bytes']}")
+        samples = out.get("profile_samples", {})
+        if samples:
+            total = sum(samples.values())
+            print(f"py-spy samples of the server ({total} in all, warm-up included; the "
+                  f"other threads' include waits py-spy took for work: their CPU is the "
+                  f"table's, from /proc):")
+            for name, n in sorted(samples.items(), key=lambda kv: -kv[1]):
+                print(f"  {n:6d} {100 * n / total:5.1f}%  {name}")
         for e in out.get("errors", []) + out.get("server_errors", []):
             print("ERROR:", e)
     return out

@@ -38,3 +38,19 @@ def test_release_seen_only_after_the_last_close():
     assert not _release_seen(release + close + close, 2)        # an earlier release
     assert _release_seen(close + close + release, 2)
     assert not _release_seen(close + release + close, 2)        # before the second close
+
+
+def test_profile_parts_by_the_innermost_phase(tmp_path):
+    from devtools.sessioncpu import profile_parts
+    raw = tmp_path / "raw.txt"
+    raw.write_text(
+        "main;DocHandler.get (panel/io/server.py:671);_first_page.<locals>.page (app/server.py:184) 7\n"
+        "main;DocHandler.get (panel/io/server.py:671);Document.validate (bokeh/document/document.py:842) 2\n"
+        "main;DocHandler.get (panel/io/server.py:671);render (jinja2) 1\n"
+        "Thread._bootstrap (threading.py:995);simulate (vibtrans/core/simulate.py:1) 4\n"
+        "main;BaseEventLoop._run_once (asyncio/base_events.py:1) 3\n")
+    parts = profile_parts(raw)
+    assert parts == {("event loop", "GET: the page function (serve_page)"): 7,
+                     ("event loop", "GET: Bokeh's document checks"): 2,
+                     ("event loop", "GET: the rest (session, HTML)"): 1,
+                     ("other", "rest"): 4, ("event loop", "rest"): 3}
