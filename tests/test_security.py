@@ -23,7 +23,8 @@ SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
 # modules that start processes on purpose (benchmarks, the load test, the
 # blank-page check and the deployment start `vibtrans serve`, the deployment
 # nginx; the sweep's process pool): argument lists, no shell
-SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/firstpage.py", "devtools/blankpage.py",
+SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/sessioncpu.py", "devtools/firstpage.py",
+                 "devtools/blankpage.py",
                  "devtools/deploy/__init__.py", "vibtrans/tools/bench.py", "vibtrans/maps/sweep.py"}
 
 
