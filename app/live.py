@@ -13,8 +13,9 @@ source and a few range changes, sent to the browser as one message.
 import numpy as np
 from bokeh.core.properties import field, value
 from bokeh.layouts import column
-from bokeh.models import (BasicTicker, ColumnDataSource, Grid, HoverTool, Legend, LegendItem,
-                          Line, LinearAxis, Quad, Range1d, VArea)
+from bokeh.models import (AllIndices, AllLabels, BasicTicker, BasicTickFormatter, CDSView,
+                          ColumnDataSource, Grid, HoverTool, Legend, LegendItem, Line, LinearAxis,
+                          LinearScale, Quad, Range1d, VArea)
 from bokeh.plotting import figure
 
 from vibtrans.products import plots
@@ -38,32 +39,70 @@ RIGHT_AXIS, right_columns = plots.RIGHT_AXIS, plots.right_columns
 TOOLS = "xpan,xwheel_zoom,reset"
 
 
-def _figure(title, ylabel, x_range, height, time_ticker=None):
-    """A panel; with `time_ticker`, no time axis of its own (the block's
-    bottom panel has it), only its grid lines."""
+class _Shared:
+    """The models that hold no state of a figure's own, made once per set of
+    figures and referenced by all of them: the axes' value ticker, tick
+    formatter and label policy (BokehJS 3.9 computes ticks and labels per
+    axis view: `BasicTickFormatter` keeps no precision between calls), the
+    figures' linear scale (each figure's frame draws with clones of it,
+    `CartesianFrame._get_scales`), the renderers' row filter, and one CDSView per data source (BokehJS keeps a
+    view's indices on the CDSView model, computed from its renderer's
+    source: renderers of one source can share it, those of two cannot).
+    `figure()` and `add_glyph` would make one of each per axis or renderer
+    (103 of a set's 301 models), each built by the server, serialized to the
+    browser and walked with the document's model graph at the session's
+    first run; the figures drawn are the same (docs/CAPACITY.md, twenty-first
+    session: `python -m devtools.sessioncpu`)."""
+
+    def __init__(self):
+        self.ticker = BasicTicker()
+        self.formatter = BasicTickFormatter()
+        self.labels = AllLabels()
+        self.scale = LinearScale()
+        self.rows = AllIndices()
+        self._views = {}
+
+    def axis(self, **kw):
+        """A linear axis with the shared ticker, formatter and label policy."""
+        return LinearAxis(ticker=self.ticker, formatter=self.formatter,
+                          major_label_policy=self.labels, **kw)
+
+    def view(self, source):
+        """The CDSView of every renderer of `source` (all its rows)."""
+        if source.id not in self._views:
+            self._views[source.id] = CDSView(filter=self.rows)
+        return self._views[source.id]
+
+
+def _figure(title, ylabel, x_range, height, shared, time_axis=True):
+    """A panel: its value axis (left) and grid lines, and (`time_axis`) a
+    time axis below; without, only the time's grid lines (the block's
+    bottom panel has its axis).  Every axis and grid from the `shared`
+    models."""
     fig = figure(title=title, sizing_mode="stretch_width", min_width=MIN_WIDTH, height=height,
                  x_range=x_range,
                  y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
-                 output_backend="canvas",
-                 x_axis_type=None if time_ticker is not None else "linear")
-    fig.yaxis.axis_label = ylabel
-    if time_ticker is None:
-        fig.xaxis.axis_label = "t* (periods)"
-    else:
-        fig.add_layout(Grid(dimension=0, ticker=time_ticker))
+                 output_backend="canvas", x_axis_type=None, y_axis_type=None)
+    fig.x_scale = fig.y_scale = shared.scale
+    if time_axis:
+        fig.add_layout(shared.axis(axis_label="t* (periods)"), "below")
+    fig.add_layout(shared.axis(axis_label=ylabel), "left")
+    fig.add_layout(Grid(dimension=0, ticker=shared.ticker))
+    fig.add_layout(Grid(dimension=1, ticker=shared.ticker))
     fig.toolbar.logo = None
     return fig
 
 
-def _lines(fig, sources, lines, right=(), envelope=False):
+def _lines(fig, sources, lines, shared, right=(), envelope=False):
     """Lines [(column, legend label, colour, dash), ...] of `sources` (one
     per line), a legend outside on the right, one hover for them all.
     Columns in `right` use the figure's right axis (`fig.extra_y_ranges`).
     envelope: each line is a per-bin mean, drawn over its min-max band
-    (columns <col>_lo, <col>_hi)."""
+    (columns <col>_lo, <col>_hi).  shared: the set's `_Shared` models."""
     items, renderers = [], []
     for source, (col, label, colour, dash) in zip(sources, lines):
         axis = {"y_range_name": "right"} if col in right else {}
+        axis["view"] = shared.view(source)
         drawn = []
         if envelope:
             drawn.append(fig.add_glyph(source, VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi",
@@ -112,13 +151,13 @@ class _Panel:
         self.columns, self.right = cols, right
 
 
-def _timeline(title, x_range):
-    fig = _figure(title, "state", x_range, TIMELINE_HEIGHT)
+def _timeline(title, x_range, shared):
+    fig = _figure(title, "state", x_range, TIMELINE_HEIGHT, shared)
     fig.yaxis.visible = False
     fig.ygrid.visible = False
     source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
     r = fig.add_glyph(source, Quad(left="left", right="right", bottom=0.0, top=1.0,
-                                   fill_color="color", line_width=0))
+                                   fill_color="color", line_width=0), view=shared.view(source))
     fig.add_tools(HoverTool(renderers=[r], tooltips=[("state", "@state"),
                                                      ("t*", "@left{0.000} to @right{0.000}")]))
     # the colours named on the page, not only on hover: one entry per state
@@ -158,7 +197,7 @@ class _Block:
     mean over its min-max band (every sample of a 2000-period run on 900
     pixels drew solid bands)."""
 
-    def __init__(self, timeline_title, bins, twin=None, relative=False):
+    def __init__(self, timeline_title, bins, shared, twin=None, relative=False):
         self.x_range = Range1d(0.0, 1.0)
         # relative: time and x* counted from the block's first sample (over
         # two periods at t* ~ 2000, x* ~ 10^3 moves by ~1: in absolute
@@ -173,20 +212,19 @@ class _Block:
         self.bins = bins
         bands = [f"{c}_{e}" for c in self.variables for e in ("lo", "hi")] if bins else []
         self.source = ColumnDataSource({c: [] for c in ["time", *self.variables, *bands]})
-        ticker = BasicTicker()
         self.figures, self.panels = [], []
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
             fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range,
-                          LINE_HEIGHT, ticker)
+                          LINE_HEIGHT, shared, time_axis=False)
             right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
-                right_axis = LinearAxis(y_range_name="right")
+                right_axis = shared.axis(y_range_name="right")
                 fig.add_layout(right_axis, "right")
             items = _lines(fig, [self.source] * len(lines), [(*line, None) for line in lines],
-                           right, envelope=bool(bins))
+                           shared, right, envelope=bool(bins))
             specs = {rigid: (m[i][0] + (plots.BINNED_NOTE if bins else ""), *m[i][1:])
                      for rigid, m in models.items()}
             self.panels.append(_Panel(fig, items, right_axis, specs))
@@ -194,13 +232,13 @@ class _Block:
         self.twin_source = None
         if twin is not None:
             title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
-            fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, ticker)
+            fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, shared, time_axis=False)
             self.twin_source = ColumnDataSource({"time": [], "x": []})
             self.twin_items = _lines(fig, [self.source, self.twin_source],
-                                     [("x", la, ca, da), ("x", lb, cb, db)])
+                                     [("x", la, ca, da), ("x", lb, cb, db)], shared)
             self.twin_figure = fig
         # the state timeline at the bottom carries the block's time axis
-        self.timeline, self.bands = _timeline(timeline_title, self.x_range)
+        self.timeline, self.bands = _timeline(timeline_title, self.x_range, shared)
         self.layout = column([*self.figures, *([self.twin_figure] if twin else []),
                               self.timeline], sizing_mode="stretch_width")
         self.rigid = None
@@ -270,8 +308,9 @@ class LiveTrajectory:
     def __init__(self, label, fragment, tau):
         self.fragment = fragment
         twin = plots.twin_spec(tau, label) if label else None
-        self.over = _Block(plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, twin)
-        self.last = _Block(plots.timeline_title(None), None, relative=True)
+        shared = _Shared()
+        self.over = _Block(plots.timeline_title(TIMELINE_BINS), TIMELINE_BINS, shared, twin)
+        self.last = _Block(plots.timeline_title(None), None, shared, relative=True)
         self.whole, self.part = self.over.layout, self.last.layout
         self.label = label
         self.runs = 0

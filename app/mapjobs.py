@@ -93,6 +93,11 @@ def _now(fn, *args):
     return _Done(fn(*args))
 
 
+def _class_key(request):
+    """The settings a decided map's periods per class hold for."""
+    return (request.model, float(request.periods), float(request.tau), request.fidelity)
+
+
 def default_folder():
     """$VIBTRANS_MAP_CACHE, else the user's cache folder."""
     env = os.environ.get("VIBTRANS_MAP_CACHE")
@@ -200,6 +205,8 @@ class MapJobs:
         self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
         self._profiles = {}          # model -> (f_end, extra) of its last decided map
+        # (model, periods, tau, fidelity) -> periods per class its decided maps ran
+        self._class_periods = {}
         # a thread per running map (its refinement; its points go to the
         # shared workers); a second, light pool opens the cache and
         # measures the speed, so that a cached map never waits for a big one
@@ -316,7 +323,7 @@ class MapJobs:
         workers, per unit of the work its computed points ran), the share of
         the grid computed and, for a decided map, its profile (the periods
         its points ran), for the next estimates."""
-        from vibtrans.maps.cost import decided_profile
+        from vibtrans.maps.cost import decided_profile, learn_class_periods
         computed = ds["computed"].values
         work, unit, _ = self.expected_work(request)
         if request.stop == "full":
@@ -326,6 +333,14 @@ class MapJobs:
             own = ds[["periods_run", "stop_reason"]].where(ds["computed"])
             own.attrs = dict(ds.attrs)
             self._profiles[request.model] = decided_profile(own)
+            reference = self._reference(request)
+            classes = (None if reference is None
+                       else maprequest.reference_classes(request, reference))
+            if classes is not None:
+                key = _class_key(request)
+                self._class_periods[key] = learn_class_periods(
+                    classes[computed], ds["periods_run"].values[computed],
+                    self._class_periods.get(key))
         total = float(np.nansum(ran))
         runs = wall - MAP_START_SECONDS - POINT_PASSAGE_SECONDS * int(computed.sum())
         if total > 0 and runs > 0:
@@ -345,9 +360,14 @@ class MapJobs:
             return None, [str(exc)]
         work, unit, computed = self.expected_work(request)
         rate = self.measure_speed(request, work, unit)
+        reference = self._reference(request)
         est = maprequest.estimate(request, rate, work, computed, self.cores,
                                   MAP_START_SECONDS, POINT_PASSAGE_SECONDS,
-                                  self.profile(request.model))
+                                  self.profile(request.model),
+                                  None if reference is None else
+                                  maprequest.reference_share(
+                                      request, reference,
+                                      self._class_periods.get(_class_key(request))))
         if est.seconds is not None and est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
                          f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "

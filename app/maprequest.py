@@ -34,7 +34,7 @@ import param
 
 from vibtrans import Scene
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
-from vibtrans.maps.cost import expected_periods
+from vibtrans.maps.cost import class_periods, decided_class, expected_periods
 from vibtrans.core.drivers import STOPS, law_path, scene_scales
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
@@ -321,6 +321,49 @@ def expected_steps(request, profile=None):
     return bound_steps(request) * request.expected_share(profile)
 
 
+def _nearest(request, reference):
+    """The indices (of log_amplitude, of log_mass) of `reference`'s point
+    nearest each finest-grid point of the request, or None if the window is
+    not inside the reference's."""
+    ref_la = reference["log_amplitude"].values
+    ref_lm = reference["log_mass"].values
+    la, lm = request.axes()
+    if la.min() < ref_la.min() or la.max() > ref_la.max() or \
+            lm.min() < ref_lm.min() or lm.max() > ref_lm.max():
+        return None
+    return (np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1),
+            np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1))
+
+
+def reference_classes(request, reference):
+    """Each finest-grid point's class for the `decided` rule, read on
+    `reference` (a full map of the model) at its nearest point
+    (vibtrans.maps.cost.decided_class), or None for a reference made with
+    the rule, or a window outside it."""
+    if reference.attrs.get("stop", "full") != "full":
+        return None
+    nearest = _nearest(request, reference)
+    if nearest is None:
+        return None
+    at = np.ix_(*nearest)
+    return decided_class(*(reference[name].values[at] for name in (
+        "drift_velocity", "final_drift_velocity", "chaotic", "contact",
+        "takeoffs_per_period")))
+
+
+def reference_share(request, reference, learned=None):
+    """Each finest-grid point's expected periods over T_obs under the
+    request's stopping rule, from its class in `reference`
+    (reference_classes; vibtrans.maps.cost.class_periods, with `learned`
+    periods per class); None for full runs or where the classes are
+    unknown."""
+    classes = None if request.stop == "full" else reference_classes(request, reference)
+    if classes is None:
+        return None
+    return class_periods(request.model, classes, request.periods, request.tau,
+                         request.fidelity, learned) / float(request.periods)
+
+
 def reference_work(request, reference):
     """Each finest-grid point's expected cost in `reference`'s seconds: a
     shipped map of the model (its points' measured `seconds`, read at the
@@ -330,14 +373,12 @@ def reference_work(request, reference):
     its periods it ran; one judged by its tau twin: TWIN_SHARE of its
     jumping points' seconds, the run's without its twin).  None if the
     window is not inside the reference's."""
+    nearest = _nearest(request, reference)
+    if nearest is None:
+        return None
+    ia, im = nearest
     ref_la = reference["log_amplitude"].values
     ref_lm = reference["log_mass"].values
-    la, lm = request.axes()
-    if la.min() < ref_la.min() or la.max() > ref_la.max() or \
-            lm.min() < ref_lm.min() or lm.max() > ref_lm.max():
-        return None
-    ia = np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1)
-    im = np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1)
     seconds = reference["seconds"].values[np.ix_(ia, im)]
     if "twin_chaotic" in reference or reference.attrs.get("chaos", "twin") == "twin":
         # a reference judged by its tau twin ran one beside each jumping
@@ -359,7 +400,7 @@ def reference_work(request, reference):
 
 
 def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
-             start_seconds=0.0, point_seconds=0.0, profile=None):
+             start_seconds=0.0, point_seconds=0.0, profile=None, share=None):
     """The request's Estimate (refuse it by `problems` first: this walks
     every point of the finest grid).  work: each finest-grid point's cost in
     some unit when run to T_obs (default: its bounded steps), scaled here by
@@ -368,10 +409,18 @@ def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
     wall seconds per unit of the work actually run, on one worker;
     computed: the points the refinement is expected to compute (a boolean
     array of the finest grid, or the share of it); start_seconds,
-    point_seconds: the map's own work, once and per point computed."""
+    point_seconds: the map's own work, once and per point computed; share:
+    each point's expected periods over T_obs (reference_share), else the
+    same for all (`request.expected_share(profile)`)."""
     steps = bound_steps(request)
     work = steps if work is None else work
-    share = request.expected_share(profile)
+    if share is not None:
+        # the mean share of the work, weighted by it (what the total scales by)
+        weights = work[computed] if isinstance(computed, np.ndarray) else work
+        ran = share[computed] if isinstance(computed, np.ndarray) else share
+        share = float((weights * ran).sum() / weights.sum()) if weights.sum() > 0 else 1.0
+    else:
+        share = request.expected_share(profile)
     if isinstance(computed, np.ndarray):
         n, total = float(computed.sum()), float(work[computed].sum())
     else:

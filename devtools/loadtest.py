@@ -365,7 +365,7 @@ class Server(_Measured):
         self.url = f"http://127.0.0.1:{self.port}/"
         self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-loadtest-", suffix=".log",
                                                delete=False)
-        env = dict(os.environ, BOKEH_PY_LOG_LEVEL="debug", **(env or {}))
+        env = {**os.environ, "BOKEH_PY_LOG_LEVEL": "debug", **(env or {})}
         self.proc = subprocess.Popen(
             [*wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(self.port),
              "--num-procs", str(num_procs), *SERVE_ARGS],
@@ -447,7 +447,7 @@ class ProxiedServers(_Measured):
     def __init__(self, workers, env=None, wrap=()):
         from .deploy import Deployment
         self.log_dir = tempfile.mkdtemp(prefix="vibtrans-loadtest-")
-        env = dict(os.environ, BOKEH_PY_LOG_LEVEL="debug", **(env or {}))
+        env = {**os.environ, "BOKEH_PY_LOG_LEVEL": "debug", **(env or {})}
         self.deployment = Deployment(workers=workers, port=_port(), serve_args=SERVE_ARGS,
                                      env=env, log_dir=self.log_dir, wrap=wrap, keep=True)
         self.deployment.start()

@@ -62,8 +62,12 @@ def run_map(jobs, request, session):
     done.wait()
     if times["kind"] != "done":
         raise SystemExit(f"the map ended {times['kind']}")
-    computed = int(times["ds"]["computed"].values.sum())
-    return est, times.get("first", times["done"]), times["done"], computed
+    ds = times["ds"]
+    computed = ds["computed"].values
+    # the share of T_obs its computed points ran (1 for full runs)
+    share = (float(ds["periods_run"].values[computed].mean()) / request.periods
+             if "periods_run" in ds else 1.0)
+    return est, times.get("first", times["done"]), times["done"], int(computed.sum()), share
 
 
 def main(argv=None):
@@ -84,9 +88,11 @@ def main(argv=None):
             request = maprequest.MapRequest(model=model, fidelity=fidelity, cells=cells,
                                             levels=levels, la_from=a0, la_to=a1,
                                             lm_from=m0, lm_to=m1)
-            est, first, took, computed = run_map(jobs, request, f"bench-{i}")
+            est, first, took, computed, share = run_map(jobs, request, f"bench-{i}")
             rows.append({"model": model, "fidelity": fidelity, "points": request.points(),
-                         "computed": computed, "estimated_s": est.seconds,
+                         "computed": computed, "expected_computed": est.computed,
+                         "share_run": share, "expected_share": est.share,
+                         "estimated_s": est.seconds,
                          "measured_s": took, "first_picture_s": first,
                          "ratio": took / est.seconds if est.seconds else None})
         jobs.stop_workers()
@@ -96,13 +102,16 @@ def main(argv=None):
         print(json.dumps({"maps": rows, "ratio_goal": RATIO_GOAL,
                           "first_level_goal_s": FIRST_LEVEL_GOAL_S, "ok": ok}, indent=1))
     else:
-        print(f"{'model':>11} {'fidelity':>8} {'points':>6} {'computed':>8} "
-              f"{'estimated':>9} {'measured':>8} {'ratio':>6} {'first':>6}")
+        print(f"{'model':>11} {'fidelity':>8} {'points':>6} {'computed':>8} {'expected':>8} "
+              f"{'ran':>5} {'expected':>8} {'estimated':>9} {'measured':>8} {'ratio':>6} "
+              f"{'first':>6}")
         for r in rows:
             est = f"{r['estimated_s']:9.1f}" if r["estimated_s"] else f"{'-':>9}"
             ratio = f"{r['ratio']:6.2f}" if r["ratio"] else f"{'-':>6}"
             print(f"{r['model']:>11} {r['fidelity']:>8} {r['points']:>6} {r['computed']:>8} "
-                  f"{est} {r['measured_s']:8.1f} {ratio} {r['first_picture_s']:6.1f}")
+                  f"{r['expected_computed']:8.0f} {r['share_run']:5.2f} "
+                  f"{r['expected_share']:8.2f} {est} {r['measured_s']:8.1f} {ratio} "
+                  f"{r['first_picture_s']:6.1f}")
         print(f"goals: ratio within 1/{RATIO_GOAL:g}..{RATIO_GOAL:g}, the first map's coarse "
               f"level within {FIRST_LEVEL_GOAL_S:g} s: {'met' if ok else 'NOT met'}")
     return 0 if ok or not args.check else 1

@@ -9,6 +9,9 @@ from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE, REA
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.errors import InputError
 from vibtrans.core.kernels.substrate import RAMP_OFF
+from vibtrans.maps.cost import (CLASS_PERIODS, CLASSES, LEARN_MIN_POINTS, UNSTEADY_CHANGE,
+                                UNSTEADY_FLOOR, class_periods, decided_class,
+                                learn_class_periods)
 from vibtrans.maps.cost import (DECIDED_PERIOD_COST, DECIDED_PROFILE, decided_profile,
                                 expected_periods, expected_seconds, minimum_periods)
 
@@ -111,3 +114,59 @@ def test_profile_of_a_computed_map_predicts_its_periods(tmp_path):
     assert own == pytest.approx(mean)
     shipped = expected_periods("deformable", "decided", 2000.0, 50.0)
     assert 1 / 1.5 <= shipped / mean <= 1.5
+    # each point's class on the shipped map (of mu = 0.3, every one of these
+    # points is on its grid) predicts the mean periods within 1.5x too
+    from vibtrans.maps.shipped import maps_dir
+    ref = open_map(str(maps_dir() / "deformable-mu0.3.zarr")).sel(log_amplitude=ds["log_amplitude"],
+                                           log_mass=ds["log_mass"], method="nearest")
+    classes = decided_class(*(ref[k].values for k in (
+        "drift_velocity", "final_drift_velocity", "chaotic", "contact", "takeoffs_per_period")))
+    predicted = class_periods("deformable", classes, 2000.0, 50.0).mean()
+    assert 1 / 1.5 <= predicted / mean <= 1.5
+
+
+def test_classes_of_a_full_run():
+    """decided_class: chaotic first, then a drift whose last tenth differs
+    from its mean by more than UNSTEADY_CHANGE (floor UNSTEADY_FLOOR), then
+    long flights (under LONG_FLIGHT_TAKEOFFS take-offs a period), else regular."""
+    v = np.array([1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0])
+    final = np.array([1.0, 5.0, 1.0 + 1.01 * UNSTEADY_CHANGE, 1.0 + 0.99 * UNSTEADY_CHANGE,
+                      2 * UNSTEADY_FLOOR * UNSTEADY_CHANGE, 1.0, np.nan])
+    chaotic = np.array([0, 1, 0, 0, 0, 0, 0])
+    contact = np.array([0, 1, 1, 1, 0, 1, 1])
+    takeoffs = np.array([0.0, 3.0, 1.0, 1.0, 0.0, 0.2, 1.0])
+    assert decided_class(v, final, chaotic, contact, takeoffs).tolist() == [0, 1, 2, 0, 2, 3, 2]
+    assert CLASSES[2] == "not steady"
+
+
+def test_class_periods_follow_the_rule_s_minimum_and_t_obs():
+    classes = np.arange(len(CLASSES))
+    base = class_periods("deformable", classes, 2000.0, 50.0)
+    np.testing.assert_allclose(base, CLASS_PERIODS["deformable"])
+    # a shorter ramp: every stopping class moves by the change of the minimum
+    shift = minimum_periods(20.0) - minimum_periods(50.0)
+    short = class_periods("deformable", classes, 2000.0, 20.0)
+    np.testing.assert_allclose(np.delete(short - base, 2), shift)
+    # a not-steady point runs the same share of a longer T_obs, and never
+    # less than the minimum; nothing beyond T_obs
+    assert class_periods("deformable", [2], 4000.0, 50.0)[0] == pytest.approx(
+        2 * CLASS_PERIODS["deformable"][2])
+    assert (class_periods("deformable", classes, 100.0, 50.0) == 100.0).all()
+    # learned values replace the table where known
+    learned = np.array([500.0, np.nan, np.nan, 260.0])
+    got = class_periods("point-mass", classes, 2000.0, 50.0, learned=learned)
+    np.testing.assert_allclose(got, [500.0, CLASS_PERIODS["point-mass"][1],
+                                        CLASS_PERIODS["point-mass"][2], 260.0])
+    with pytest.raises(InputError, match="model must be one of"):
+        class_periods("vertical", classes, 2000.0, 50.0)
+
+
+def test_learned_class_periods_are_the_class_means():
+    classes = np.array([0] * LEARN_MIN_POINTS + [1] * (LEARN_MIN_POINTS - 1) + [3] * 6)
+    run = np.concatenate([np.full(LEARN_MIN_POINTS, 300.0), np.full(LEARN_MIN_POINTS - 1, 700.0),
+                          [250.0, 260.0, 270.0, 280.0, 290.0, np.nan]])
+    got = learn_class_periods(classes, run)
+    assert got[0] == 300.0 and got[3] == 270.0
+    assert np.isnan(got[1]) and np.isnan(got[2])         # too few, or none
+    kept = learn_class_periods(classes, run, previous=[1.0, 2.0, 3.0, 4.0])
+    assert kept.tolist() == [300.0, 2.0, 3.0, 270.0]

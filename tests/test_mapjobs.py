@@ -269,11 +269,14 @@ def test_the_cache_key_holds_the_stopping_rule_and_a_full_map_keeps_its_old_key(
 
 
 def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_run(tmp_path):
-    """Under the decided rule a point runs vibtrans.maps.cost.expected_periods
-    of its T_obs: the runs' part of the estimate scales by that share; the
-    bound on the steps stays that of full runs; a profile measured on a
-    map replaces the model's."""
-    from vibtrans.maps.cost import DECIDED_PROFILE, expected_periods
+    """Under the decided rule a point runs a share of its T_obs: inside a
+    shipped map the share its class there runs (maprequest.reference_share:
+    vibtrans.maps.cost.decided_class, class_periods), beyond it the
+    model's profile (vibtrans.maps.cost.expected_periods), or one measured
+    on this server's last map; the runs' part of the estimate scales by the
+    work-weighted share; the bound on the steps stays that of full runs."""
+    from vibtrans.maps.cost import (CLASS_PERIODS, DECIDED_PROFILE, class_periods,
+                                    decided_class, expected_periods)
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2)
     long = {**TINY, "periods": 2000.0, "tau": 50.0}
     seconds = {}
@@ -285,25 +288,39 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
         seconds[stop] = est.seconds - mapjobs.MAP_START_SECONDS \
             - est.computed * mapjobs.POINT_PASSAGE_SECONDS
         steps = est.steps
-    share = expected_periods("deformable", "decided", 2000.0, 50.0, None, "preview") / 2000.0
-    assert 0.1 < share < 0.6                     # t_min ~ 230 of 2000, f_end ~ 0.1
+    request = MapRequest(**long)
+    work, unit, computed = jobs.expected_work(request)
+    assert unit == "reference"
+    # each point's share: its class on the shipped map, nearest point
+    shipped = data.drift_map("deformable", 0.3)
+    la, lm = request.axes()
+    near = shipped.sel(log_amplitude=la, log_mass=lm, method="nearest")
+    classes = decided_class(near["drift_velocity"].values, near["final_drift_velocity"].values,
+                            near["chaotic"].values, near["contact"].values,
+                            near["takeoffs_per_period"].values)
+    per_point = class_periods("deformable", classes, 2000.0, 50.0, "preview") / 2000.0
+    np.testing.assert_array_equal(maprequest.reference_share(request, shipped), per_point)
+    share = float((work[computed] * per_point[computed]).sum() / work[computed].sum())
+    assert 0.1 < share < 1.0 and est.share == pytest.approx(share)
     assert seconds["decided"] == pytest.approx(share * seconds["full"])
-    assert steps == maprequest.bound_steps(MapRequest(**long)).sum()
-    np.testing.assert_allclose(maprequest.expected_steps(MapRequest(**long)),
-                               share * maprequest.bound_steps(MapRequest(**long)))
+    assert steps == maprequest.bound_steps(request).sum()
     assert f"about {share:.0%} of its periods expected" in est.text(2)
-    # the material point's profile is its own
-    point = MapRequest(**{**long, "model": "point-mass"})
-    assert point.expected_share() == pytest.approx(
-        expected_periods("point-mass", "decided", 2000.0, 50.0, None, "preview") / 2000.0)
+    assert maprequest.reference_share(MapRequest(**{**long, "stop": "full"}), shipped) is None
+    # the class table's settings: a class's periods move with the rule's minimum
+    assert CLASS_PERIODS["point-mass"] != CLASS_PERIODS["deformable"]
+    # beyond the shipped maps: the model's profile, or this server's own
+    far = {**long, "la_from": 4.0, "la_to": 5.0}
+    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
+    est, _ = jobs.estimate(MapRequest(**far))
+    assert est.share == pytest.approx(
+        expected_periods("deformable", "decided", 2000.0, 50.0, None, "preview") / 2000.0)
     assert DECIDED_PROFILE["point-mass"] != DECIDED_PROFILE["deformable"]
-    # a profile this server measured on its own decided map replaces the model's
+    np.testing.assert_allclose(maprequest.expected_steps(MapRequest(**far)),
+                               est.share * maprequest.bound_steps(MapRequest(**far)))
     jobs._profiles["deformable"] = (0.5, 100.0)
-    est, _ = jobs.estimate(MapRequest(**long))
+    est, _ = jobs.estimate(MapRequest(**far))
     own = expected_periods("deformable", "decided", 2000.0, 50.0, (0.5, 100.0), "preview") / 2000.0
     assert est.share == pytest.approx(own)
-    assert est.seconds - mapjobs.MAP_START_SECONDS - est.computed * \
-        mapjobs.POINT_PASSAGE_SECONDS == pytest.approx(own * seconds["full"])
 
 
 def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_run(tmp_path):
@@ -333,9 +350,26 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
     rate = jobs.seconds_per_work("deformable", "preview", "reference", "decided")
     assert rate is None or rate > 0
     assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None
+    # and the periods each class (read on the shipped map) ran, for the next
+    # estimates at these settings (vibtrans.maps.cost.learn_class_periods)
+    from vibtrans.maps.cost import LEARN_MIN_POINTS, class_periods
+    classes = maprequest.reference_classes(request, data.drift_map("deformable", 0.3))[computed]
+    learned = jobs._class_periods[mapjobs._class_key(request)]
+    for c in range(len(learned)):
+        seen = classes == c
+        if seen.sum() >= LEARN_MIN_POINTS:
+            assert learned[c] == pytest.approx(run[seen].mean())
+        else:
+            assert np.isnan(learned[c])
+    assert np.isfinite(learned).any()
     jobs._rates.setdefault(("deformable", "preview", "reference", "decided"), 1e-3)
-    est, _ = jobs.estimate(MapRequest(**{**TINY, "periods": 300.0, "mu": 0.5}))
-    assert est.share == pytest.approx(run.mean() / 300.0)
+    again = MapRequest(**{**TINY, "periods": 300.0, "mu": 0.5})
+    est, _ = jobs.estimate(again)
+    work, _, expected = jobs.expected_work(again)
+    per_point = class_periods("deformable", maprequest.reference_classes(
+        again, data.drift_map("deformable", 0.3)), 300.0, 5.0, "preview", learned) / 300.0
+    assert est.share == pytest.approx(
+        float((work[expected] * per_point[expected]).sum() / work[expected].sum()))
 
 
 def test_the_cache_key_ignores_what_changes_no_number():

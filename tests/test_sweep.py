@@ -12,7 +12,8 @@ import pytest
 import xarray as xr
 
 from vibtrans.maps.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
-                            parse_range, run_sweep)
+                            parse_range, run_sweep, verify)
+from vibtrans.core.errors import InputError
 from budget import budget
 
 SMALL = dict(periods=120.0, tau=10.0)
@@ -94,7 +95,9 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     # (2000 periods: a chunk takes ~0.2 s, long enough for the polling below
     # to see the sweep part-way on a loaded machine; at 120 periods it could
     # finish between two polls)
-    longer = ("--periods", "2000")
+    # (--flush-every 0: each chunk written as it finishes, as a kill can
+    # then find the store part-way at every chunk)
+    longer = ("--periods", "2000", "--flush-every", "0")
     full = str(tmp_path / "full.zarr")
     subprocess.run(_cli(full, longer), check=True, capture_output=True)
     part = str(tmp_path / "part.zarr")
@@ -184,3 +187,40 @@ def test_foreign_and_missing_stores_are_refused(tmp_path):
 def test_bad_ranges(text):
     with pytest.raises(ValueError, match="log_mass"):
         parse_range(text, "log_mass")
+
+
+def test_chunks_finished_before_a_failure_are_kept(tmp_path, monkeypatch):
+    # Finished chunks wait in memory to be written together (FLUSH_EVERY_S);
+    # a sweep stopped by an error (or Ctrl-C) still writes them, so the
+    # rerun resumes after them.  flush_every=3600: nothing is written before
+    # the failure stops the sweep.
+    import vibtrans.maps.sweep as S
+    sw = small_sweep(chunk_rows=1)
+    real = S._compute_row_block
+    failing = sw.log_amplitude[3]
+
+    def compute(values, log_as, *args):
+        if failing in log_as:
+            raise RuntimeError("a point failed")
+        return real(values, log_as, *args)
+
+    monkeypatch.setattr(S, "_compute_row_block", compute)
+    path = str(tmp_path / "s.zarr")
+    with pytest.raises(RuntimeError, match="a point failed"):
+        run_sweep(sw, path, workers=1, progress=False, flush_every=3600)
+    done = xr.open_zarr(path, consolidated=False)["done"].values
+    assert done[:3].all() and not done[3]
+    verify(xr.open_zarr(path, consolidated=False), path)     # their digests match
+    monkeypatch.setattr(S, "_compute_row_block", real)
+    run_sweep(sw, path, workers=1, progress=False)
+    ref = str(tmp_path / "ref.zarr")
+    run_sweep(sw, ref, workers=1, progress=False, flush_every=0)
+    same(open_map(ref), open_map(path))
+
+
+@pytest.mark.parametrize("bad", [-1, float("nan"), float("inf"), "often", True])
+def test_flush_interval_is_validated(tmp_path, bad):
+    path = str(tmp_path / "s.zarr")
+    with pytest.raises(InputError, match=r"flush_every must be a number of seconds in \[0, 3600\]"):
+        run_sweep(small_sweep(), path, workers=1, progress=False, flush_every=bad)
+    assert not os.path.exists(path)

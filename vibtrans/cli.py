@@ -283,7 +283,7 @@ def cmd_sweep(args):
             print(f"computed fraction {fraction:.4f}")
             return 0
         run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
-                  executor=args.executor)
+                  executor=args.executor, flush_every=args.flush_every)
     except OSError as exc:
         if new:            # a store this run began and could not write: not left behind
             shutil.rmtree(out, ignore_errors=True)
@@ -811,6 +811,10 @@ def build_parser():
     w.add_argument("--workers", type=int, help="local workers (default: all cores)")
     w.add_argument("--executor", default="threads", choices=("threads", "processes"),
                    help="local pool kind (threads measured faster)")
+    w.add_argument("--flush-every", type=_num, default=None, metavar="SECONDS",
+                   help="write finished chunks together at most every SECONDS (default "
+                        "2; 0: each chunk as it finishes); a kill loses at most that much "
+                        "finished work")
     w.add_argument("--adaptive", action="store_true",
                    help="refine only where a cell's corners disagree (drift class, contact, "
                         "chaos, drift velocity): the grid above is the finest level; "

@@ -4,6 +4,7 @@ resonances, the paper points, the selected scene (yellow) and the Units
 tab's device (green diamond); a click runs the scene there."""
 import functools
 import math
+import re
 
 import holoviews as hv
 import numpy as np
@@ -109,9 +110,10 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
         _shared_parts(fig)
         _labels_from_data(fig)
     columns = {}
+    hovered = _hovered(fig)
     for m in doc.models:
         if isinstance(m, ColumnDataSource) and m.name != BAR_LABELS:   # (those: tiny)
-            columns[m.id] = dict(m.data)
+            columns[m.id] = {k: _as_sent(k, v, hovered) for k, v in m.data.items()}
             m.data = {k: [] for k in m.data}
     # a plain dict (buffers inline) on every Bokeh: 3.4 returns one by
     # default, later versions a Serialized wrapper unless deferred=False
@@ -120,6 +122,36 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     # (tooltips as lists, labels as value specs), so that a shown figure
     # set to them changes only where the setting differs
     return js, columns, _content(_decoded(js, columns))
+
+
+def _hovered(fig):
+    """The names of the columns a hover of the figure shows (`@{name}` or
+    `@name` in its tooltips)."""
+    names = set()
+    for hover in fig.select(type=HoverTool):
+        for braced, bare in re.findall(r"@\{([^}]*)\}|@(\w+)", str(hover.tooltips)):
+            names.add(braced or bare)
+    return names
+
+
+def _as_sent(name, column, hovered):
+    """A map source's column as each session's page gets it: its images
+    (a list of 2-D float64 arrays) as float32 where that changes no value a
+    hover shows (a column no hover reads, such as the colour scale C: its
+    float32 rounding, ~1e-7 of the scale's range, is far finer than the
+    palette's steps; or a column float32 holds exactly, such as the chaos
+    flags 0/1).  Every page's pull of the document carried four such
+    images of 195 kB (a 201 x 121 map); a drift the hover shows keeps
+    its float64 values.  Other columns as they are."""
+    if not (isinstance(column, list) and column
+            and all(isinstance(a, np.ndarray) and a.ndim == 2 and a.dtype == np.float64
+                    for a in column)):
+        return column
+    light = [a.astype(np.float32) for a in column]
+    if name in hovered and not all(np.array_equal(x, a, equal_nan=True)
+                                   for x, a in zip(light, column)):
+        return column
+    return light
 
 
 # The colour bar's ticks and labels read from a source of their own (its

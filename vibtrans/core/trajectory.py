@@ -42,18 +42,22 @@ class RunArrays:
     same arrays: `ds[name].values`, and `ds.attrs`), without building the
     Dataset: all that vibtrans.analysis.summary reads.  A map point (sweep.py) is
     summarized and dropped; at preview fidelity building its Dataset cost
-    more than its kernel."""
+    more than its kernel.  The float columns are views of the buffers'
+    columns (a map point reads a few of them: copying all cost ~1 ms a
+    point, a fifth of a decided material point's time); `contiguous=True`
+    copies them (a Dataset to keep)."""
     __slots__ = ("columns", "attrs")
 
-    def __init__(self, samples, events, attrs):
-        columns = {"time": samples[:, R.T_]}
+    def __init__(self, samples, events, attrs, contiguous=False):
+        take = np.ascontiguousarray if contiguous else (lambda column: column)
+        columns = {"time": take(samples[:, R.T_])}
         for i, name in enumerate(R.COLUMNS):
             if name not in ("t", "state"):
-                columns[name] = samples[:, i].copy()
+                columns[name] = take(samples[:, i])
         columns["state"] = samples[:, R.STATE].astype(np.int8)
-        columns["event_time"] = events[:, 0].copy()
+        columns["event_time"] = take(events[:, 0])
         columns["event_kind"] = events[:, 1].astype(np.int8)
-        columns["event_value"] = events[:, 2].copy()
+        columns["event_value"] = take(events[:, 2])
         self.columns = columns          # name -> array
         # what a Dataset can store: no None, booleans as 0/1
         self.attrs = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
@@ -66,7 +70,7 @@ class RunArrays:
 def build_trajectory(samples, events, attrs):
     """Dataset from the kernel's trimmed sample and event buffers: the
     arrays of their RunArrays, with units and flag meanings."""
-    run = RunArrays(samples, events, attrs)
+    run = RunArrays(samples, events, attrs, contiguous=True)
     data = {}
     for name, array in run.columns.items():
         if name in _UNITS:

@@ -26,6 +26,13 @@ server learns them from its own maps).  The profile depends on the region:
 the lower left settles at t_min, the middle (log10 A* in [0, 1]) runs to
 T_obs at a third of its points, so an estimate for a small region can be
 off by more than the whole domain's.
+
+Where a full map of the region exists (a shipped map), each point's periods
+are predicted from the class of its full run there instead
+(`decided_class`: regular, chaotic, not steady, long flights) by the mean
+periods that class ran (CLASS_PERIODS): over nine windows of the domain this
+predicted the mean periods run within 0.94-1.05x for the deformable model
+and 0.63-1.16x for the material point, against 0.5-2x for the one profile.
 """
 import math
 
@@ -51,6 +58,79 @@ DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.020, 252.0)}
 # point; 1.463 and 1.477 for the material point, whose ramp, with its
 # stick-slip events, costs more per period than the flights it ends in).
 DECIDED_PERIOD_COST = {"deformable": 0.92, "point-mass": 1.47}
+
+# A full run's class for the periods the rule will run it (decided_class):
+# not steady where its last tenth's drift (final_drift_velocity) differs from
+# its mean by more than UNSTEADY_CHANGE of the larger of |mean| and
+# UNSTEADY_FLOOR a0 per period; a long flight where it jumps at under
+# LONG_FLIGHT_TAKEOFFS take-offs a period.  The values fit the deformable
+# model's periods best of (0.05, 0.1, 0.2) x (1e-3, 0.1); the material
+# point's hardly depends on them.
+UNSTEADY_CHANGE = 0.1
+UNSTEADY_FLOOR = 1e-3
+LONG_FLIGHT_TAKEOFFS = 0.5
+CLASSES = ("regular", "chaotic", "not steady", "long flights")
+# The mean periods the rule ran per class (CLASSES order), the class read on
+# the shipped map of mu = 0.3 at every 4th point of its grid (T_obs 2000,
+# tau 50, standard fidelity), the periods from the decided maps of
+# `vibtrans bench --sweep` (2026-11-27 13:24 UTC; 979, 182, 282, 138 and
+# 548, 529, 155, 349 points).
+CLASS_PERIODS = {"deformable": (340.0, 335.0, 1834.0, 295.0),
+                 "point-mass": (247.0, 718.0, 1005.0, 440.0)}
+CLASS_REFERENCE = (2000.0, 50.0, "standard")        # (T_obs, tau, fidelity) they ran at
+
+
+def decided_class(drift_velocity, final_drift_velocity, chaotic, contact,
+                  takeoffs_per_period):
+    """Each point's class (an index of CLASSES) from a full map's fields."""
+    v = np.asarray(drift_velocity, dtype=float)
+    change = np.abs(np.asarray(final_drift_velocity, dtype=float) - v)
+    chaotic = np.asarray(chaotic) == 1
+    unsteady = ~chaotic & ~(change <= UNSTEADY_CHANGE * np.maximum(np.abs(v), UNSTEADY_FLOOR))
+    flights = (~chaotic & ~unsteady & (np.asarray(contact) == 1)
+               & (np.asarray(takeoffs_per_period, dtype=float) < LONG_FLIGHT_TAKEOFFS))
+    return np.select([chaotic, unsteady, flights], [1, 2, 3], 0)
+
+
+def class_periods(model, classes, periods, tau, fidelity="standard", learned=None):
+    """The expected periods a point of each class (decided_class) runs
+    under the `decided` rule at (T_obs = periods, tau, fidelity):
+    CLASS_PERIODS moved by the change of the rule's minimum
+    (minimum_periods), a not-steady point's as the same share of T_obs (at
+    least that minimum), all at most T_obs; `learned`: the periods per class measured at these
+    settings (learn_class_periods; NaN where a class was not seen), which
+    replace those."""
+    if model not in CLASS_PERIODS:
+        raise InputError(f"model must be one of {', '.join(CLASS_PERIODS)}, got {model!r}")
+    t_ref, tau_ref, fid_ref = CLASS_REFERENCE
+    t_min = minimum_periods(tau, fidelity)
+    table = np.array([p + t_min - minimum_periods(tau_ref, fid_ref)
+                      for p in CLASS_PERIODS[model]])
+    # (no point stops before the rule's first check)
+    table[2] = max(CLASS_PERIODS[model][2] / t_ref * float(periods), t_min)
+    if learned is not None:
+        learned = np.asarray(learned, dtype=float)
+        table = np.where(np.isfinite(learned), learned, table)
+    return np.minimum(np.maximum(table, 0.0), float(periods))[np.asarray(classes)]
+
+
+LEARN_MIN_POINTS = 5      # points of a class a map must have run to learn its periods
+
+
+def learn_class_periods(classes, periods_run, previous=None):
+    """The mean periods run per class (CLASSES order) by the points of a map
+    made with the `decided` rule (their classes, decided_class, read on a
+    full map of the same model); a class with fewer than LEARN_MIN_POINTS
+    points keeps its `previous` value (NaN if none)."""
+    classes = np.asarray(classes).ravel()
+    run = np.asarray(periods_run, dtype=float).ravel()
+    out = (np.full(len(CLASSES), np.nan) if previous is None
+           else np.array(previous, dtype=float))
+    for c in range(len(CLASSES)):
+        seen = (classes == c) & np.isfinite(run)
+        if seen.sum() >= LEARN_MIN_POINTS:
+            out[c] = float(run[seen].mean())
+    return out
 
 
 def minimum_periods(tau, fidelity="standard"):
