@@ -2,7 +2,8 @@
 (issue 34; docs/MODEL.md section 10, "Speed"): the kernel run as plain
 Python (NUMBA_DISABLE_JIT, so slow: keep `--periods` small) with the law's
 evaluations counted by call site, and, for a power law with an integer n,
-how many of them took the warm start and how many fell back to pow().
+how many of them took the warm start (its short e^2 or its long e^4
+series) and how many fell back to pow().
 Also the run's steps, its contact states and its mean memory size, to tell
 a profile's own cost from a different motion.
 
@@ -35,12 +36,12 @@ def count(profile, point, periods):
     calls = collections.Counter()
     states = collections.Counter()
     vertices = []
-    law_eval, root_warm, clamp = C.law_eval, C.root_warm, C._clamp
+    law_eval, power_warm, clamp = C.law_eval, C.power_warm, C._clamp
 
     def site():
         """The kernel phase that asked for the law (past the law's own layers)."""
         f = sys._getframe(2)
-        while f.f_code.co_name in ("law_eval", "law_eval_warm", "root_warm") \
+        while f.f_code.co_name in ("law_eval", "law_eval_warm", "power_warm") \
                 or f.f_code.co_name.startswith("counted_"):
             f = f.f_back
         return f.f_code.co_name
@@ -49,10 +50,10 @@ def count(profile, point, periods):
         calls[site()] += 1
         return law_eval(law, a)
 
-    def counted_root_warm(law, a, warm):
-        y, used = root_warm(law, a, warm)
-        calls[f"{site()} ({'warm' if used else 'pow'})"] += 1
-        return y, used
+    def counted_power_warm(law, a, warm):
+        out = power_warm(law, a, warm)
+        calls[f"{site()} ({f'warm e^{out[3]}' if out[3] else 'pow'})"] += 1
+        return out
 
     def counted_clamp(*args):
         out = clamp(*args)
@@ -61,7 +62,7 @@ def count(profile, point, periods):
         return out
 
     patches = {(C, "law_eval"): counted_law_eval, (D, "law_eval"): counted_law_eval,
-               (C, "root_warm"): counted_root_warm, (C, "_clamp"): counted_clamp}
+               (C, "power_warm"): counted_power_warm, (C, "_clamp"): counted_clamp}
     saved = {k: getattr(*k) for k in patches}
     try:
         for (mod, name), f in patches.items():

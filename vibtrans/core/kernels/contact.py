@@ -78,6 +78,7 @@ LAW_HEAD = 5
 LAW_ROOT = LAW_SIZE     # a power law's integer n (0: none, pow() every time)
 POW_C1, POW_C2, POW_C3, POW_C4 = range(LAW_HEAD, LAW_HEAD + 4)
 WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series error < 3e-20)
+WARM_EPS_SHORT = 2.0 ** -18   # the short (e^2) series' largest |e| (its rest < 2^-57 of y)
 WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
 NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
 LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
@@ -179,55 +180,68 @@ def law_eval_warm(law, a, warm):
 
     For a power law with an integer n = law[LAW_ROOT] (N* = a* y, N*' = p y,
     y = a*^(1/n)), `warm` holds the last four roots y (newest first) of the
-    same call site on consecutive steps; their cubic extrapolation y0 (no
-    dependence on a*: off the step's critical path) is corrected by the
-    series y = y0 (1 + e)^(1/n), e = a*/y0^n - 1, to its e^4 term: exact to
-    about 1 ulp when |e| <= WARM_EPS = 2^-12 (the e^5 term < 3e-20 of y), which is
-    checked; otherwise (no history yet, an impact, a non-integer n, a table)
-    `law_eval` (pow).  docs/MODEL.md section 10."""
+    same call site on consecutive steps (`power_warm`); otherwise (a
+    non-integer n, a table) `law_eval`.  docs/MODEL.md section 10."""
     if law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0:
         nn, k = law_eval(law, a)
         return nn, k, warm
     if a <= 0.0:
         return 0.0, 0.0, NO_WARM
-    y = root_warm(law, a, warm)[0]
-    p = law[LAW_ARG]
-    return a * y, p * y, (y, warm[0], warm[1], warm[2])
+    nn, k, y, _ = power_warm(law, a, warm)
+    return nn, k, (y, warm[0], warm[1], warm[2])
 
 
 @inline
-def root_warm(law, a, warm):
-    """(a*^(1/n), warm start taken) for a power law with law[LAW_ROOT] = n
-    and a* > 0 (`law_eval_warm`)."""
+def power_warm(law, a, warm):
+    """(N*, N*', y = a*^(1/n), the warm start's order: 2, 4, or 0 for pow)
+    of a power law with law[LAW_ROOT] = n and a* > 0, warm-started.
+
+    The cubic extrapolation y0 of the history `warm` (no dependence on a*:
+    off the step's critical path) is corrected by the series
+    y = y0 (1 + e)^(1/n) = y0 (1 + c1 e + c2 e^2 + ...), e = (a* - yn) (1/yn),
+    yn = y0^n (a* - yn exact: they agree to 2^-12; 1/yn does not depend on
+    a*), in Horner's order: for |e| <= WARM_EPS_SHORT = 2^-18 (most steps:
+    four operations after e) to its e^2 term (the rest < 2^-57 of y: |c3| <=
+    1/16 for n >= 2), for |e| <= WARM_EPS = 2^-12 to its e^4 term (the rest
+    < 3e-20 of y); otherwise (no history yet, an impact, a stick edge that
+    jumps) pow.  Both orders are the root to rounding (N* = a* y, N*' = p y
+    within 4 x 2^-52 of pow's).  docs/MODEL.md section 10."""
+    p = law[LAW_ARG]
     y0 = 4.0 * warm[0] - 6.0 * warm[1] + 4.0 * warm[2] - warm[3]
     yn = y0
     for _ in range(int(law[LAW_ROOT]) - 1):
         yn *= y0
     if y0 > 0.0 and yn > 0.0:
-        # y0 (1 + e)^(1/n) = y0 + (y0 e) (c1 + e (c2 + e (c3 + e c4))), e = (a* - yn) / yn
-        # (a* - yn exact: they agree to 2^-12; 1/yn does not depend on a*).
-        # Horner's order: fewer operations than Estrin's (measured alike).
-        e = (a - yn) * (1.0 / yn)
-        if abs(e) <= WARM_EPS:
-            return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
-                                                                          + e * law[POW_C4]))), True
-    return a ** (law[LAW_ARG] - 1.0), False
+        r = 1.0 / yn
+        d = a - yn
+        e = d * r
+        ae = abs(e)
+        if ae <= WARM_EPS_SHORT:
+            y = y0 + (y0 * e) * (law[POW_C1] + e * law[POW_C2])
+            return a * y, p * y, y, 2
+        if ae <= WARM_EPS:
+            y = y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
+                                                                        + e * law[POW_C4])))
+            return a * y, p * y, y, 4
+    y = a ** (p - 1.0)
+    return a * y, p * y, y, 0
 
 
 @kernel
 def law_history(law, a, out):
     """The kernels' evaluation (`law_eval_warm`, one call site, its history
     carried from each a*[i] to the next) along a sequence: out[i] = (N*, N*',
-    1.0 if the warm start was taken else 0.0).  For tests and benchmarks."""
+    the warm start's order: 2.0 or 4.0 where taken, 0.0 where not:
+    `power_warm`).  For tests and benchmarks."""
     warm = NO_WARM
     for i in range(a.shape[0]):
-        used = False
+        order = 0
         if law[LAW_KIND] == LAW_POWER and law[LAW_ROOT] != 0.0 and a[i] > 0.0:
-            used = root_warm(law, a[i], warm)[1]
+            order = power_warm(law, a[i], warm)[3]
         nn, k, warm = law_eval_warm(law, a[i], warm)
         out[i, 0] = nn
         out[i, 1] = k
-        out[i, 2] = 1.0 if used else 0.0
+        out[i, 2] = order
 
 
 @inline
