@@ -6,10 +6,11 @@ its points finish:
 
 * the data of a chunk is written first with a digest of its data, then its
   `done` flag (the flag commits the chunk); a sweep killed at any moment restarts with the same command,
-  skips the chunks marked done, and recomputes only unfinished chunks;
+  skips the chunks marked done, and recomputes only the chunks not marked;
 * finished chunks are written together, at most every FLUSH_EVERY_S seconds
   (a Zarr region write costs ~35 ms of CPU whatever its size: written one by
-  one, three writes a chunk, they were 20% of a decided map's CPU time);
+  one, three writes a chunk, they were 13-30% of a decided map's CPU time),
+  so a kill loses at most that much finished work;
 * a store whose parameters or grid differ from the command, or whose done
   chunks do not match their digests (damaged, truncated, edited), is refused
   with a clear message, never mixed or read as data.
