@@ -296,8 +296,10 @@ def _scales(profile):
 # `profile_cost`) on the development host (2 cores shared, 2026-11-27 14:01
 # UTC, after the warm-started root: sphere 51.1 ns/step, cone 1.00x,
 # power:3 1.38-1.50x in six runs, power:4 1.47x, power:2.5 2.03x,
-# flat-sphere:1 1.41-1.45x, flat-sphere:0.5 1.39x).
-PROFILE_STEP_COST = {"cone": 1.0, "power": 1.45, "power-pow": 2.03, "table": 1.43}
+# flat-sphere:1 1.41-1.45x, flat-sphere:0.5 1.39x; the power law again
+# 17:11-17:17 UTC after the short warm series, docs/MODEL.md section 10:
+# power:3 1.30-1.36x in six runs).
+PROFILE_STEP_COST = {"cone": 1.0, "power": 1.33, "power-pow": 2.03, "table": 1.43}
 
 
 def step_cost(request):
