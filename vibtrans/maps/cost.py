@@ -32,7 +32,7 @@ are predicted from the class of its full run there instead
 (`decided_class`: regular, chaotic, not steady, long flights) by the mean
 periods that class ran (CLASS_PERIODS): over nine windows of the domain this
 predicted the mean periods run within 0.94-1.05x for the deformable model
-and 0.63-1.16x for the material point, against 0.5-2x for the one profile.
+and 0.63-1.15x for the material point, against 0.5-2x for the one profile.
 """
 import math
 
@@ -73,10 +73,10 @@ CLASSES = ("regular", "chaotic", "not steady", "long flights")
 # The mean periods the rule ran per class (CLASSES order), the class read on
 # the shipped map of mu = 0.3 at every 4th point of its grid (T_obs 2000,
 # tau 50, standard fidelity), the periods from the decided maps of
-# `vibtrans bench --sweep` (2026-11-27 13:24 UTC; 979, 182, 282, 138 and
-# 548, 529, 155, 349 points).
-CLASS_PERIODS = {"deformable": (340.0, 335.0, 1834.0, 295.0),
-                 "point-mass": (247.0, 718.0, 1005.0, 440.0)}
+# `vibtrans bench --sweep` (2026-11-27 13:24 UTC; 939, 182, 328, 132 and
+# 528, 529, 227, 297 points).
+CLASS_PERIODS = {"deformable": (288.0, 335.0, 1780.0, 280.0),
+                 "point-mass": (248.0, 718.0, 1010.0, 285.0)}
 CLASS_REFERENCE = (2000.0, 50.0, "standard")        # (T_obs, tau, fidelity) they ran at
 
 
