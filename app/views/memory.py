@@ -369,13 +369,15 @@ class MemoryView(pn.viewable.Viewer):
             return
         t, scene = self.at.t, self.scene
         doc = pn.state.curdoc          # (the click's: the answer goes to its next tick)
-        # busy as an overlay on the figures: a change of the page's layout
-        # (a status text, a spinner shown) costs the browser more than the
-        # new data does
+        # busy: the button, disabled until the answer.  Not a loading
+        # overlay on the figures, nor a status text or a spinner shown: each
+        # is a change of a layout's css_classes, visible or size, and
+        # BokehJS lays out every figure of the page again at each (twice per
+        # view, on and off: 0.2-0.3 s of the browser's main thread on a calm
+        # host; docs/UPSTREAM.md 2.2)
         with pn.io.hold():
             self._say("")
             self.show_button.disabled = True         # one at a time per session
-            self.figures_pane.loading = True
         snap = None
         try:
             snap = await asyncio.wrap_future(self.executor.submit(memory_snapshot, scene, t))
@@ -387,7 +389,6 @@ class MemoryView(pn.viewable.Viewer):
         def answer():
             with pn.io.hold():
                 self.show_button.disabled = self.scene is None
-                self.figures_pane.loading = False
                 if snap is not None and scene is self.scene:    # not replaced meanwhile
                     self.show(snap)
                     self._agree(snap["t"])
