@@ -1,6 +1,7 @@
 """The explorer's responsiveness as a person sees it, in a real browser:
 
     python -m devtools.browserbench [--repeats 5] [--url URL] [--json] [--check]
+    python -m devtools.browserbench --memory-views N [--url URL] [--json] [--check]
 
 Starts `vibtrans serve` (tests/netutil.py's Served, the test suite's
 server) and waits until its kernels are compiled, or uses the running
@@ -60,6 +61,14 @@ is reported in its own column but does not count: it is 20 px in a corner
 and spins for any server callback, so it does not tell which action is
 working.
 
+--memory-views N (issue 32): instead of the actions above, N memory views
+on new pages of 10 (a deformable run, then typed times and clicks on the
+slider's track in turn), each until its diagram is drawn; a view not drawn
+within 30 s is lost (now and then a typed time's diagram never came) and
+its page is replaced.  It reports the views answered and lost, their
+median times, and the error lines of its own server's log; --check exits 1
+on a lost view or such a line.
+
 Goals (issue 14), checked against the median of the repeats; --check exits
 1 when one is missed: memory view <= 0.5 s, map redraw <= 0.5 s,
 trajectory PNG export <= 3 s, first point-mass run <= 1.5 s, first run
@@ -80,10 +89,12 @@ Selectors (names, classes and texts of app/explorer.py):
   page loaded         the map shown, Bokeh's documents idle
   run tabs            texts "Trajectory", "Memory diagram", "Downloads"
   memory time         .vt-field-t input
+  memory slider       .vt-memory-slider .noUi-base (its track)
   busy                .vt-busy, .pn-loading, <progress>, disabled <button>; the header's
                       .loader.spin
 """
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -391,11 +402,11 @@ class Session:
         if self.errors:
             raise BenchError(f"JavaScript errors in the page: {self.errors}")
 
-    def _measure(self, kind, arg, act):
+    def _measure(self, kind, arg, act, timeout_s=ACTION_TIMEOUT_S):
         self.page.evaluate("([k, a]) => window.__vtBench.start(k, a)", [kind, arg])
         act()
         self.page.wait_for_function("() => window.__vtBench.result",
-                                    timeout=ACTION_TIMEOUT_S * 1000, polling=50)
+                                    timeout=timeout_s * 1000, polling=50)
         a = self.page.evaluate("() => window.__vtBench.result")
         if a["error"]:
             raise BenchError(f"{kind}: {a['error']}")
@@ -428,7 +439,7 @@ class Session:
         self.page.get_by_text(name, exact=True).first.click()
         self.page.wait_for_timeout(500)
 
-    def memory_view(self, t):
+    def memory_view(self, t, timeout_s=ACTION_TIMEOUT_S):
         """Type t* in the memory diagram's field and click its button:
         until the diagram of that time is drawn.  The tab is opened first
         (once: its snapshots of the last period computed and drawn)."""
@@ -454,9 +465,27 @@ class Session:
             # point where it was before the measurement began
             button.click(timeout=ACTION_TIMEOUT_S * 1000)
         try:
-            return self._measure("title", "memory diagram w(h)\nt* = ", act)
+            return self._measure("title", "memory diagram w(h)\nt* = ", act, timeout_s)
         except Exception as exc:
             raise BenchError(self._evidence(f"memory view at t* = {t:g}", exc, seen)) from exc
+
+    def memory_slide(self, fraction, timeout_s=ACTION_TIMEOUT_S):
+        """Click the memory diagram's slider at `fraction` of its track (the
+        slider jumps there: noUiSlider's tap): until the diagram of the
+        snapshot nearest to that time is drawn (a new title)."""
+        track = self.page.locator(".vt-memory-slider .noUi-base").first
+        track.scroll_into_view_if_needed()
+        box = track.bounding_box()
+        if box is None:
+            raise BenchError("the memory diagram's slider is not shown")
+        xy = (box["x"] + fraction * box["width"], box["y"] + box["height"] / 2)
+        seen = {"fraction": fraction, "titles before": self.page.evaluate(
+            "() => window.__vtBench.titles()")}
+        try:
+            return self._measure("title", "memory diagram w(h)\nt* = ",
+                                 lambda: self.page.mouse.click(*xy), timeout_s)
+        except Exception as exc:
+            raise BenchError(self._evidence(f"slider at {fraction:g}", exc, seen)) from exc
 
     def _evidence(self, what, exc, seen):
         """What the page showed when an action failed: the exception, what
@@ -553,6 +582,51 @@ def repeat(browser, url):
     return out
 
 
+# --memory-views: views per page, and how long an answer may take before
+# it counts as lost (the slowest answers seen under load: ~5 s)
+MEMORY_VIEWS_PER_PAGE = 10
+MEMORY_LOST_AFTER_S = 30.0
+MEMORY_CLICK = CLICKS[1]           # a permanent contact: a memory at every time
+
+
+def memory_views(browser, url, n, log=print):
+    """n memory views (typed times and slider moves in turn, on new pages of
+    MEMORY_VIEWS_PER_PAGE each, after one deformable run): {"views": n,
+    "answered": [samples], "lost": [what the page showed]}.  A view whose
+    diagram is not drawn within MEMORY_LOST_AFTER_S is lost (issue 32: now
+    and then a typed time's diagram never came); the page is then closed
+    and the next one opened."""
+    answered, lost = [], []
+    done = 0
+    page_no = 0
+    while done < n:
+        page_no += 1
+        session = Session(browser, url)
+        try:
+            session.run(MEMORY_CLICK, "deformable:")
+            for i in range(min(MEMORY_VIEWS_PER_PAGE, n - done)):
+                done += 1
+                k = done
+                try:
+                    if i % 2 == 0:      # typed: a time of the last period, new each time
+                        t = 1999.0 + round(((k * 0.37) % 1.0) * 0.96 + 0.02, 3)
+                        sample = session.memory_view(t, MEMORY_LOST_AFTER_S)
+                        sample["how"] = f"typed {t:g}"
+                    else:               # the slider, somewhere else on its track
+                        f = 0.05 + ((k * 0.29) % 0.9)
+                        sample = session.memory_slide(f, MEMORY_LOST_AFTER_S)
+                        sample["how"] = f"slider {f:.2f}"
+                    answered.append(sample)
+                except Exception as exc:        # noqa: BLE001 - counted and said
+                    lost.append(f"page {page_no}, view {i + 1}: {exc}")
+                    log(f"lost: {lost[-1]}")
+                    break               # the page's state is unknown: a new page
+        finally:
+            session.close()
+        log(f"page {page_no}: {done} of {n} views, {len(lost)} lost")
+    return {"views": done, "answered": answered, "lost": lost}
+
+
 def _stats(samples):
     xs = sorted(x["s"] for x in samples)
     slow = [x for x in samples if x["s"] > BUSY_WITHIN_S]
@@ -612,9 +686,12 @@ def _served():
     return Served(env=env, cwd=ROOT)
 
 
-def run(repeats, url=None, log=print):
-    """Warm-up plus `repeats` repeats against `url` (or a server of its own):
-    {"rows": {...}, "page_load_s": [...], "machine": "..."}."""
+@contextlib.contextmanager
+def _browser_and_server(url, log, server_errors=None):
+    """(chromium, the explorer's URL): `url`, or a server of the bench's own,
+    started and its kernels compiled, stopped at the end.  server_errors: a
+    list given the lines of that server's log that report an error (a
+    traceback's last line, Bokeh's "_pending_writes")."""
     from playwright.sync_api import sync_playwright
     server = None
     if url is None:
@@ -629,12 +706,7 @@ def run(repeats, url=None, log=print):
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
             try:
-                log("warm-up repeat ...")
-                warmup = repeat(browser, url)
-                results = []
-                for i in range(repeats):
-                    log(f"repeat {i + 1}/{repeats} ...")
-                    results.append(repeat(browser, url))
+                yield browser, url
             finally:
                 browser.close()
     except BaseException:
@@ -643,7 +715,24 @@ def run(repeats, url=None, log=print):
         raise
     finally:
         if server is not None:
+            if server_errors is not None:
+                server_errors += [line for line in server.text().splitlines()
+                                  if "_pending_writes" in line
+                                  or line.startswith(("RuntimeError", "AttributeError",
+                                                      "ValueError", "TypeError", "KeyError"))]
             server.stop()
+
+
+def run(repeats, url=None, log=print):
+    """Warm-up plus `repeats` repeats against `url` (or a server of its own):
+    {"rows": {...}, "page_load_s": [...], "machine": "..."}."""
+    with _browser_and_server(url, log) as (browser, url):
+        log("warm-up repeat ...")
+        warmup = repeat(browser, url)
+        results = []
+        for i in range(repeats):
+            log(f"repeat {i + 1}/{repeats} ...")
+            results.append(repeat(browser, url))
     load = os.getloadavg()
     failures = [f for r in [warmup, *results] for f in r.get("failures", [])]
     for f in failures:
@@ -672,12 +761,20 @@ def main(argv=None):
                     "on a new page, after one warm-up repeat")
     ap.add_argument("--url", help="a running explorer (its kernels compiled) instead of a "
                     "server of the bench's own")
+    ap.add_argument("--memory-views", type=int, metavar="N", help="instead of the "
+                    "actions: N memory views (1-1000; typed times and slider moves in "
+                    "turn, 10 per page), counting those whose diagram never reached the "
+                    "page (--check: exit 1 if one did not)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     ap.add_argument("--check", action="store_true",
                     help="exit 1 if a goal is missed (medians, busy indicators)")
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)
     if not 1 <= a.repeats <= 50:
         ap.error(f"--repeats must be in [1, 50], got {a.repeats}")
+    if a.memory_views is not None:
+        if not 1 <= a.memory_views <= 1000:
+            ap.error(f"--memory-views must be in [1, 1000], got {a.memory_views}")
+        return _memory_main(a)
     out = run(a.repeats, a.url, log=lambda m: print(m, file=sys.stderr))
     misses = missed(out["rows"])
     if a.json:
@@ -689,6 +786,43 @@ def main(argv=None):
     if a.check and misses:
         sys.exit(1)
     return out
+
+
+def _memory_main(a):
+    log = lambda m: print(m, file=sys.stderr)      # noqa: E731
+    errors = []
+    with _browser_and_server(a.url, log, errors) as (browser, url):
+        out = memory_views(browser, url, a.memory_views, log)
+    load = os.getloadavg()
+    xs = sorted(x["s"] for x in out["answered"])
+    replies = sorted(x["reply_s"] for x in out["answered"] if x["reply_s"] is not None)
+    by = {how: sorted(x["s"] for x in out["answered"] if x["how"].startswith(how))
+          for how in ("typed", "slider")}
+    summary = {
+        "views": out["views"], "answered": len(xs), "lost": out["lost"],
+        "median_s": statistics.median(xs) if xs else None,
+        "reply_median_s": statistics.median(replies) if replies else None,
+        **{f"{how}_median_s": statistics.median(v) if v else None for how, v in by.items()},
+        "max_s": xs[-1] if xs else None,
+        "server_errors": errors if a.url is None else None,
+        "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
+                   f"{load[2]:.2f} at the end"}
+    if a.json:
+        print(json.dumps({**summary, "samples": out["answered"]}))
+    else:
+        print(f"memory views: {summary['views']}, answered {summary['answered']}, "
+              f"lost {len(out['lost'])}; median {summary['median_s']:.3f} s (typed "
+              f"{summary['typed_median_s']}, slider {summary['slider_median_s']}), server's "
+              f"reply median {summary['reply_median_s']}, max {summary['max_s']}; "
+              f"{summary['machine']}")
+        for x in out["lost"]:
+            print(f"lost: {x}")
+        if a.url is None:
+            print(f"the server's log: {len(errors)} error lines"
+                  + "".join(f"\n  {e}" for e in errors[:10]))
+    if a.check and (out["lost"] or errors):
+        sys.exit(1)
+    return summary
 
 
 if __name__ == "__main__":

@@ -118,7 +118,8 @@ class MemoryView(pn.viewable.Viewer):
         self.show_button.on_click(self._on_show_click)
         self.slider = pn.widgets.FloatSlider(name="t* (periods), the run's last period",
                                              start=0.0, end=1.0, step=0.1, value=1.0,
-                                             format="0[.]0000", disabled=True, width=600)
+                                             format="0[.]0000", disabled=True, width=600,
+                                             css_classes=["vt-memory-slider"])
         self.slider.param.watch(self._on_slide, "value")
         self.busy = pn.indicators.LoadingSpinner(value=True, size=20, visible=False)
         self.status = pn.pane.Markdown("", margin=(0, 5))
