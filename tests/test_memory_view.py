@@ -313,3 +313,65 @@ def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip)
         _holds(view, memory_snapshot(scene, 1500.25))
         assert not view.show_button.disabled
     asyncio.run(go())
+
+
+def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
+    """Issue 32 (browserbench: the memory view 0.51-0.56 s against 0.5 s):
+    the click's busy state was a loading overlay on the figures (Panel's
+    `loading`: the figures' row's css_classes), on and off, and BokehJS lays
+    out every figure of the page again at each change of a layout's
+    css_classes, visible, size or children (tests/test_redraw_layout.py
+    names them; Chrome traces, docs/UPSTREAM.md 2.2).  The busy state is the
+    disabled button: in a served page, while the diagram computes and once
+    it is drawn, no such property of a model of the page has changed."""
+    from types import SimpleNamespace
+
+    import panel as pn
+    from bokeh.document import Document
+    from bokeh.models import LayoutDOM, Plot
+    from panel.io.state import set_curdoc
+
+    from test_redraw_layout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
+
+    class Served(Document):
+        session_context = SimpleNamespace()
+
+        def __init__(self):
+            super().__init__()
+            self.ticks = []
+
+        def add_next_tick_callback(self, callback):
+            self.ticks.append(callback)
+
+    def layout(doc):
+        """What BokehJS lays the page out by: {(model id, property): value}."""
+        out = {}
+        for m in doc.models:
+            names = (LAYOUT_PROPERTIES if isinstance(m, LayoutDOM) else set()) | (
+                PLOT_LAYOUT_PROPERTIES if isinstance(m, Plot) else set())
+            for name in names & set(m.properties()):
+                value = getattr(m, name)
+                out[(m.id, name)] = [x.id for x in value] if isinstance(value, list) \
+                    and value and hasattr(value[0], "id") else repr(value)
+        return out
+
+    scene, _ = partial_slip
+
+    async def go():
+        view = _view(scene)
+        await _ready(view)
+        doc = Served()
+        doc.add_root(pn.Column(view).get_root(doc))
+        before = layout(doc)
+        view.time_field.input.value = "1500.25"
+        with set_curdoc(doc):
+            await view.show_at()
+            assert view.show_button.disabled                # busy
+            busy = layout(doc)
+            while doc.ticks:
+                doc.ticks.pop(0)()
+        _holds(view, memory_snapshot(scene, 1500.25))
+        assert not view.show_button.disabled
+        assert {k: v for k, v in busy.items() if before.get(k) != v} == {}
+        assert {k: v for k, v in layout(doc).items() if before.get(k) != v} == {}
+    asyncio.run(go())
