@@ -116,6 +116,10 @@ class MemoryView(pn.viewable.Viewer):
         self.show_button = pn.widgets.Button(name="Show the memory diagram at t*",
                                              button_type="primary", disabled=True)
         self.show_button.on_click(self._on_show_click)
+        # busy at once: the browser disables the button at the click (the
+        # server's round trip can take longer than 0.3 s on a busy host);
+        # the server enables it again with the answer
+        self.show_button.js_on_click(code="source.disabled = true;")
         self.slider = pn.widgets.FloatSlider(name="t* (periods), the run's last period",
                                              start=0.0, end=1.0, step=0.1, value=1.0,
                                              format="0[.]0000", disabled=True, width=600,
@@ -366,7 +370,12 @@ class MemoryView(pn.viewable.Viewer):
         if self.scene is None:
             return
         if self.time_field.error:
-            self._say("Not shown: " + self.time_field.error)
+            with pn.io.hold():
+                self._say("Not shown: " + self.time_field.error)
+                # the browser disabled the button at the click: enabled again
+                # (set twice: the server's copy may not have followed the browser's)
+                self.show_button.disabled = True
+                self.show_button.disabled = False
             return
         t, scene = self.at.t, self.scene
         doc = pn.state.curdoc          # (the click's: the answer goes to its next tick)
