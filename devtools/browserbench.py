@@ -810,11 +810,13 @@ def _memory_main(a):
     if a.json:
         print(json.dumps({**summary, "samples": out["answered"]}))
     else:
+        def s3(x):
+            return "-" if x is None else f"{x:.3f} s"
         print(f"memory views: {summary['views']}, answered {summary['answered']}, "
-              f"lost {len(out['lost'])}; median {summary['median_s']:.3f} s (typed "
-              f"{summary['typed_median_s']}, slider {summary['slider_median_s']}), server's "
-              f"reply median {summary['reply_median_s']}, max {summary['max_s']}; "
-              f"{summary['machine']}")
+              f"lost {len(out['lost'])}; median {s3(summary['median_s'])} (typed "
+              f"{s3(summary['typed_median_s'])}, slider {s3(summary['slider_median_s'])}), "
+              f"server's reply median {s3(summary['reply_median_s'])}, max "
+              f"{s3(summary['max_s'])}; {summary['machine']}")
         for x in out["lost"]:
             print(f"lost: {x}")
         if a.url is None:
