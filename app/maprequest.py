@@ -341,14 +341,16 @@ def _nearest(request, reference):
 def reference_classes(request, reference):
     """Each finest-grid point's class for the `decided` rule, read on
     `reference` (a full map of the model) at its nearest point
-    (vibtrans.maps.cost.decided_class), or None for a reference made with
-    the rule, or a window outside it."""
+    (vibtrans.maps.cost.decided_class), its chaos the verdict maps on demand
+    judge by (replay_reference), or None for a reference made with the
+    rule, or a window outside it."""
     if reference.attrs.get("stop", "full") != "full":
         return None
     nearest = _nearest(request, reference)
     if nearest is None:
         return None
     at = np.ix_(*nearest)
+    reference = replay_reference(reference)
     return decided_class(*(reference[name].values[at] for name in (
         "drift_velocity", "final_drift_velocity", "chaotic", "contact",
         "takeoffs_per_period")))

@@ -861,6 +861,16 @@ def test_the_refinement_is_replayed_on_the_verdicts_maps_on_demand_judge_by(tmp_
     _, _, computed = jobs.expected_work(request)
     twin = predict_refinement(request.sweep(), request.levels, shipped)
     assert computed.sum() > 1.5 * twin.sum()
+    # each point's class (the periods it is expected to run) with that verdict
+    # too: cost.CLASS_PERIODS's material-point row was measured so
+    near = np.ix_(*maprequest._nearest(request, shipped))
+    fields = ("drift_velocity", "final_drift_velocity", "chaotic", "contact",
+              "takeoffs_per_period")
+    classes = maprequest.reference_classes(request, shipped)
+    replayed_classes = decided_class(*(maprequest.replay_reference(shipped)[n].values[near]
+                                       for n in fields))
+    np.testing.assert_array_equal(classes, replayed_classes)
+    assert (classes != decided_class(*(shipped[n].values[near] for n in fields))).any()
     # the not-steady points' drifts unknown: NaN there, nothing else changed
     deformable = maprequest.replay_reference(data.drift_map("deformable", 0.3))
     unknown = maprequest.unknown_drift_reference(deformable)

@@ -75,9 +75,16 @@ CLASSES = ("regular", "chaotic", "not steady", "long flights")
 # the shipped map of mu = 0.3 at every 4th point of its grid (T_obs 2000,
 # tau 50, standard fidelity), the periods from the decided maps of
 # `vibtrans bench --sweep` (2026-11-27 13:24 UTC; 939, 182, 328, 132 and
-# 528, 529, 227, 297 points).
+# 528, 529, 227, 297 points).  The chaos verdict read is the one maps on
+# demand judge by (the run's own exponent: app/maprequest.replay_reference;
+# the shipped deformable maps' own): the material point's shipped verdict is
+# its tau twin's, with which its row was (248, 718, 1010, 285); read with
+# the exponent's verdict, the same points' periods (`vibtrans sweep --model
+# point-mass --stop decided --chaos lyapunov --log-amplitude=-3:3:0.2
+# --log-mass=-5:5:0.2`, 2026-11-27 20:16 UTC, which reproduces that row
+# with the twin's verdict) are the row below (528, 393, 353, 307 points).
 CLASS_PERIODS = {"deformable": (288.0, 335.0, 1780.0, 280.0),
-                 "point-mass": (248.0, 718.0, 1010.0, 285.0)}
+                 "point-mass": (248.0, 484.0, 1162.0, 305.0)}
 CLASS_REFERENCE = (2000.0, 50.0, "standard")        # (T_obs, tau, fidelity) they ran at
 
 
