@@ -236,24 +236,31 @@ class MapJobs:
     # ---------- speed and estimates ----------
     # A map's expected time: its own work (MAP_START_SECONDS, and
     # POINT_PASSAGE_SECONDS a point) and its points' runs.  Which points the
-    # refinement computes and what each costs are read from the shipped map
-    # of the model (nearest mu) where it covers the window: the refinement
-    # replayed on its values (adaptive.predict_refinement), each point's
-    # measured seconds scaled to the request's run length and fidelity; this
-    # server's speed against them is probed on nine points at the first
-    # estimate of a model and fidelity, then learned from each map computed.
+    # refinement computes is read from the shipped map of the model (nearest
+    # mu) where it covers the window: the refinement replayed on its values
+    # with the chaos verdict maps on demand judge by
+    # (maprequest.replay_reference; adaptive.predict_refinement), plus a
+    # share of the refinement its not-steady points' scattered drifts add
+    # (cost.NOT_STEADY_REFINED, then this server's own).  What each point
+    # costs: under the `decided` rule its bounded steps times the share of
+    # T_obs its class there runs (cost.class_periods, then this server's
+    # own); under `full` the shipped point's measured seconds scaled to the
+    # request's run length and fidelity.  This server's speed against them
+    # is probed on PROBE_POINTS points drawn by their expected work at the
+    # first estimate of a model and fidelity, then learned from each map
+    # computed (per unit of the work its points actually ran, their
+    # periods_run; pooled with the earlier measurements, _pool_rate).
     # Beyond the shipped maps: the points' bounded steps, and the share of
-    # the grid this server's last map of the model and depth computed.
-    # The work is that of runs to T_obs; under the `decided` stopping rule a
-    # point is expected to run a share of it (vibtrans.maps.cost, with the
-    # profile of this server's last decided map of the model, else the
-    # measured one of the whole domain), and its rate is measured per unit
-    # of the work its points actually ran (their periods_run).
+    # the grid this server's last map of the model and depth computed, each
+    # point's share of T_obs the profile of this server's last decided map
+    # of the model, else the measured one of the whole domain.
     def seconds_per_work(self, model, fidelity, unit, stop="full"):
         """This server's measured wall seconds of a map point's runs on one
         worker per unit of the work they ran ("reference": seconds of the
-        shipped map's point, "steps": bounded steps; both for a run to
-        T_obs, scaled by the periods run under `stop`), or None."""
+        shipped map's point, a full map's unit inside a shipped map;
+        "steps": bounded steps, a decided map's and any beyond the shipped
+        maps; both for a run to T_obs, scaled by the periods run under
+        `stop`), or None."""
         return self._rates.get((model, fidelity, unit, stop))
 
     def profile(self, model):
