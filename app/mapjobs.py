@@ -212,6 +212,7 @@ class MapJobs:
         self._sessions = {}          # session -> Ticket
         self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
         self._rate_sums = {}         # the same -> (seconds, work) behind it (_pool_rate)
+        self._whole = {}             # the same -> a point's whole time over its run's
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
         # (model, fidelity) -> the not-steady share of the refinement its last
         # map showed (cost.learn_not_steady_share)
@@ -379,16 +380,26 @@ class MapJobs:
             run = lane.submit if lane is not None else _now
             futures = [run(timed_point, probe.scene_values(), la[i], lm[j],
                            maprequest.CHAOS, probe.stop) for i, j in at]
-            seconds = dict(zip(unique, (f.result()[1] for f in futures)))
+            timed = dict(zip(unique, (f.result() for f in futures)))
         finally:
             if lane is not None:
                 lane.shutdown()
+        seconds = {k: t for k, (_, t) in timed.items()}
         flat = expected.ravel()
         rate = float(np.mean([seconds[k] / flat[k] for k in picks.tolist()]))
         if rate > 0 and key not in self._rates:
             spent = float(sum(seconds[k] for k in picks.tolist()))
             self._pool_rate(key, spent, spent / rate)
+            runs = sum(point["seconds"] for point, _ in timed.values())
+            if runs > 0:
+                self._whole[key] = sum(seconds.values()) / runs
         return self._rates.get(key)
+
+    def whole_over_run(self, key):
+        """A point's whole time in its worker over its run's own `seconds`
+        (the scene's checks and the run's summary besides the run), as this
+        server's probe of `key` measured it, else 1."""
+        return self._whole.get(key, 1.0)
 
     def _pool_rate(self, key, seconds, work):
         """Add `seconds` of runs over `work` to the rate of `key`: the
@@ -402,9 +413,9 @@ class MapJobs:
         self._rate_sums[key] = (seconds, work)
         self._rates[key] = seconds / work
 
-    def _learn_speed(self, request, ds, wall):
-        """The map's own rate (its runs' share of its wall time, on `cores`
-        workers, per unit of the work its computed points ran), the share of
+    def _learn_speed(self, request, ds):
+        """The map's own rate (its points' seconds, per unit of the work
+        they ran), the share of
         the grid computed, the not-steady points' share of its refinement
         and, for a decided map, its profile (the periods its points ran),
         for the next estimates."""
@@ -432,10 +443,15 @@ class MapJobs:
                     classes[computed], ds["periods_run"].values[computed],
                     self._class_periods.get(key))
         total = float(np.nansum(ran))
-        runs = wall - MAP_START_SECONDS - POINT_PASSAGE_SECONDS * int(computed.sum())
+        key = (request.model, request.fidelity, unit, request.stop)
+        # its points' own seconds (each run's, in its worker, times the
+        # probe's whole time over the run's): the map's wall time less its
+        # fixed costs would count those costs' growth with the host's load
+        # as the points' (a small map's runs are a few tenths of a second
+        # beside half a second of them)
+        runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
         if total > 0 and runs > 0:
-            self._pool_rate((request.model, request.fidelity, unit, request.stop),
-                            runs * self.cores, total)
+            self._pool_rate(key, runs, total)
         self._fractions[(request.model, request.levels)] = float(computed.mean())
 
     def estimate(self, request):
@@ -589,7 +605,7 @@ class MapJobs:
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            self._learn_speed(comp.request, ds, time.monotonic() - comp.started)
+            self._learn_speed(comp.request, ds)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels

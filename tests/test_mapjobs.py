@@ -238,11 +238,14 @@ def test_the_probe_measures_the_maps_own_seconds_per_step(tmp_path, monkeypatch)
 
     def fake(values, log_a, log_m, chaos, stop):
         i, j = where[(log_a, log_m)]
-        return {}, 5e-3 + 1e-9 * expected[i, j]
+        whole = 5e-3 + 1e-9 * expected[i, j]
+        return {"seconds": whole / 1.25}, whole      # the run's own: 80% of it
     monkeypatch.setattr(cost, "timed_point", fake)
     rate = jobs.measure_speed(request, work, unit, computed)
     truth = ((5e-3 + 1e-9 * expected) * computed).sum() / (expected * computed).sum()
     assert rate == pytest.approx(truth, rel=0.15)
+    # the maps after it scale their points' run seconds by the whole's share
+    assert jobs.whole_over_run(("deformable", "preview", unit, "decided")) == pytest.approx(1.25)
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():
@@ -385,10 +388,14 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
     # its own mean periods run, reproduced by the profile (f_end, extra)
     assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra), "preview") == \
         pytest.approx(run.mean())
-    # its rate (learned when its wall time exceeds its own work: a warm,
-    # quick map may not) is the decided rule's, never the full runs'
+    # its rate is the decided rule's, never the full runs': its points' own
+    # seconds per bounded step run (no probe before it: their run's seconds
+    # alone), not its wall time less its fixed costs, which grow with the
+    # host's load and a small map's runs do not outweigh
     rate = jobs.seconds_per_work("deformable", "preview", "steps", "decided")
-    assert rate is None or rate > 0
+    work = jobs.expected_work(request)[0][computed]
+    assert rate == pytest.approx(np.nansum(done.ds["seconds"].values[computed])
+                                 / (work * run / 300.0).sum())
     assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
     # and the periods each class (read on the shipped map) ran, for the next
     # estimates at these settings (vibtrans.maps.cost.learn_class_periods)
