@@ -213,8 +213,6 @@ class MapJobs:
         self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
         self._rate_sums = {}         # the same -> (seconds, work) behind it (_pool_rate)
         self._whole = {}             # the same -> a point's whole time over its run's
-        # (seconds, points) of the maps' passage of their points (point_seconds)
-        self._passage = (0.0, 0.0)
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
         # (model, fidelity) -> the not-steady share of the refinement its last
         # map showed (cost.learn_not_steady_share)
@@ -397,16 +395,6 @@ class MapJobs:
                 self._whole[key] = sum(seconds.values()) / runs
         return self._rates.get(key)
 
-    def point_seconds(self):
-        """A computed point's passage (to a worker and back, into the
-        store, the refinement's bookkeeping) in a map's wall time besides
-        its run: this server's maps' (their wall time less their start and
-        their points' own seconds, pooled as the rates are), else
-        POINT_PASSAGE_SECONDS (measured on a calm host: it grows with the
-        host's load)."""
-        seconds, points = self._passage
-        return seconds / points if points > 0 else POINT_PASSAGE_SECONDS
-
     def whole_over_run(self, key):
         """A point's whole time in its worker over its run's own `seconds`
         (the scene's checks and the run's summary besides the run), as this
@@ -425,10 +413,9 @@ class MapJobs:
         self._rate_sums[key] = (seconds, work)
         self._rates[key] = seconds / work
 
-    def _learn_speed(self, request, ds, wall):
+    def _learn_speed(self, request, ds):
         """The map's own rate (its points' seconds, per unit of the work
-        they ran), its points' passage (the rest of its `wall` time), the
-        share of
+        they ran), the share of
         the grid computed, the not-steady points' share of its refinement
         and, for a decided map, its profile (the periods its points ran),
         for the next estimates."""
@@ -465,13 +452,6 @@ class MapJobs:
         runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
         if total > 0 and runs > 0:
             self._pool_rate(key, runs, total)
-        # the rest of its wall time past its start is its points' passage
-        n = int(computed.sum())
-        if n > 0 and runs > 0:
-            passage = max(wall - MAP_START_SECONDS - runs / self.cores, 0.0)
-            old_seconds, old_points = self._passage
-            self._passage = (passage + RATE_MEMORY * old_seconds,
-                             n + RATE_MEMORY * old_points)
         self._fractions[(request.model, request.levels)] = float(computed.mean())
 
     def estimate(self, request):
@@ -487,7 +467,7 @@ class MapJobs:
         work, unit, computed = self.expected_work(request)
         rate = self.measure_speed(request, work, unit, computed)
         est = maprequest.estimate(request, rate, work, computed, self.cores,
-                                  MAP_START_SECONDS, self.point_seconds(),
+                                  MAP_START_SECONDS, POINT_PASSAGE_SECONDS,
                                   self.profile(request.model), self._share(request))
         if est.seconds is not None and est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
@@ -625,7 +605,7 @@ class MapJobs:
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            self._learn_speed(comp.request, ds, time.monotonic() - comp.started)
+            self._learn_speed(comp.request, ds)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels

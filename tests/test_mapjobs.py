@@ -397,14 +397,6 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
     assert rate == pytest.approx(np.nansum(done.ds["seconds"].values[computed])
                                  / (work * run / 300.0).sum())
     assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
-    # the rest of its wall time past its start is its points' passage, which
-    # the next estimates take instead of the calm host's POINT_PASSAGE_SECONDS
-    fresh = mapjobs.MapJobs(folder=str(tmp_path / "other"), cores=1, processes=False)
-    assert fresh.point_seconds() == mapjobs.POINT_PASSAGE_SECONDS
-    fresh._learn_speed(request, done.ds, 5.0)
-    runs = np.nansum(done.ds["seconds"].values[computed])
-    assert fresh.point_seconds() == pytest.approx(
-        (5.0 - mapjobs.MAP_START_SECONDS - runs) / computed.sum())
     # and the periods each class (read on the shipped map) ran, for the next
     # estimates at these settings (vibtrans.maps.cost.learn_class_periods)
     from vibtrans.maps.cost import LEARN_MIN_POINTS, class_periods
