@@ -415,10 +415,9 @@ class MapJobs:
 
     def _learn_speed(self, request, ds):
         """The map's own rate (its points' seconds, per unit of the work
-        they ran), the share of
-        the grid computed, the not-steady points' share of its refinement
-        and, for a decided map, its profile (the periods its points ran),
-        for the next estimates."""
+        they ran), the share of the grid computed, the not-steady points'
+        share of its refinement and, for a decided map, its profile (the
+        periods its points ran), for the next estimates."""
         from vibtrans.maps.cost import (decided_profile, learn_class_periods,
                                         learn_not_steady_share)
         computed = ds["computed"].values
