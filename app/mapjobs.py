@@ -71,6 +71,14 @@ FRACTION_PRIOR = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
 # 2-core machine, `python -m devtools.mapestimate`'s maps at 10 periods)
 MAP_START_SECONDS = 0.4
 PROBE_PERIODS = 2000.0
+# points the first estimate of a model and fidelity runs to measure this
+# server's speed (cost.probe_points: drawn by their expected work among the
+# points the refinement is expected to compute)
+PROBE_POINTS = 12
+# the weight of what a rate was measured on before, at each new measurement
+# (MapJobs._pool_rate): a map's rate counts by its runs' seconds, the
+# earlier ones by half of theirs, a quarter, ...
+RATE_MEMORY = 0.5
 POINT_PASSAGE_SECONDS = 2.2e-3
 # seconds the map workers' processes outlive the last map: a map asked for
 # meanwhile starts at once (a worker's start is ~1.3 s of CPU: imports,
@@ -203,7 +211,12 @@ class MapJobs:
         self._workers = None         # the FairPool of `cores` workers (made at first use)
         self._sessions = {}          # session -> Ticket
         self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
+        self._rate_sums = {}         # the same -> (seconds, work) behind it (_pool_rate)
+        self._whole = {}             # the same -> a point's whole time over its run's
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
+        # (model, fidelity) -> the not-steady share of the refinement its last
+        # map showed (cost.learn_not_steady_share)
+        self._not_steady = {}
         self._profiles = {}          # model -> (f_end, extra) of its last decided map
         # (model, periods, tau, fidelity) -> periods per class its decided maps ran
         self._class_periods = {}
@@ -224,24 +237,31 @@ class MapJobs:
     # ---------- speed and estimates ----------
     # A map's expected time: its own work (MAP_START_SECONDS, and
     # POINT_PASSAGE_SECONDS a point) and its points' runs.  Which points the
-    # refinement computes and what each costs are read from the shipped map
-    # of the model (nearest mu) where it covers the window: the refinement
-    # replayed on its values (adaptive.predict_refinement), each point's
-    # measured seconds scaled to the request's run length and fidelity; this
-    # server's speed against them is probed on nine points at the first
-    # estimate of a model and fidelity, then learned from each map computed.
+    # refinement computes is read from the shipped map of the model (nearest
+    # mu) where it covers the window: the refinement replayed on its values
+    # with the chaos verdict maps on demand judge by
+    # (maprequest.replay_reference; adaptive.predict_refinement), plus a
+    # share of the refinement its not-steady points' scattered drifts add
+    # (cost.NOT_STEADY_REFINED, then this server's own).  What each point
+    # costs: under the `decided` rule its bounded steps times the share of
+    # T_obs its class there runs (cost.class_periods, then this server's
+    # own); under `full` the shipped point's measured seconds scaled to the
+    # request's run length and fidelity.  This server's speed against them
+    # is probed on PROBE_POINTS points drawn by their expected work at the
+    # first estimate of a model and fidelity, then learned from each map
+    # computed (per unit of the work its points actually ran, their
+    # periods_run; pooled with the earlier measurements, _pool_rate).
     # Beyond the shipped maps: the points' bounded steps, and the share of
-    # the grid this server's last map of the model and depth computed.
-    # The work is that of runs to T_obs; under the `decided` stopping rule a
-    # point is expected to run a share of it (vibtrans.maps.cost, with the
-    # profile of this server's last decided map of the model, else the
-    # measured one of the whole domain), and its rate is measured per unit
-    # of the work its points actually ran (their periods_run).
+    # the grid this server's last map of the model and depth computed, each
+    # point's share of T_obs the profile of this server's last decided map
+    # of the model, else the measured one of the whole domain.
     def seconds_per_work(self, model, fidelity, unit, stop="full"):
         """This server's measured wall seconds of a map point's runs on one
         worker per unit of the work they ran ("reference": seconds of the
-        shipped map's point, "steps": bounded steps; both for a run to
-        T_obs, scaled by the periods run under `stop`), or None."""
+        shipped map's point, a full map's unit inside a shipped map;
+        "steps": bounded steps, a decided map's and any beyond the shipped
+        maps; both for a run to T_obs, scaled by the periods run under
+        `stop`), or None."""
         return self._rates.get((model, fidelity, unit, stop))
 
     def profile(self, model):
@@ -266,66 +286,146 @@ class MapJobs:
         except data.MapUnavailable:
             return None
 
-    def expected_work(self, request):
-        """(each finest-grid point's work, its unit, the points expected to
-        be computed: a boolean array, or the share of the grid)."""
+    def _predicted(self, request):
+        """(each finest-grid point's work, its unit, the points the replay
+        of the refinement on the shipped map computes: (a boolean array,
+        the same with the not-steady points' drifts unknown:
+        maprequest.unknown_drift_reference), or the share of the grid this
+        server's last map of the model and depth computed).  The work of a
+        decided map is its points' bounded steps (vibtrans.maps.cost: a
+        decided run's time follows its steps), of a full map the shipped
+        map's seconds where it covers the window."""
         from vibtrans.maps.adaptive import predict_refinement
         reference = self._reference(request)
-        work = None if reference is None else maprequest.reference_work(request, reference)
+        work = (None if reference is None or request.stop != "full"
+                else maprequest.reference_work(request, reference))
         # a profile's kernel costs more per step (maprequest.PROFILE_STEP_COST);
         # the refinement is predicted on the sphere's shipped map
         cost = maprequest.step_cost(request)
         if work is None:
-            return (maprequest.bound_steps(request) * cost, "steps",
-                    self.fraction(request.model, request.levels))
-        return (work * cost, "reference",
-                predict_refinement(request.sweep(), request.levels, reference))
+            work, unit = maprequest.bound_steps(request) * cost, "steps"
+        else:
+            work, unit = work * cost, "reference"
+        if reference is None or maprequest._nearest(request, reference) is None:
+            return work, unit, self.fraction(request.model, request.levels)
+        replay = maprequest.replay_reference(reference)
+        return work, unit, tuple(
+            predict_refinement(request.sweep(), request.levels, ref)
+            for ref in (replay, maprequest.unknown_drift_reference(replay)))
 
-    def measure_speed(self, request, work, unit):
+    def expected_work(self, request):
+        """(each finest-grid point's work, its unit, the points expected to
+        be computed: an array of the finest grid, each point's expected
+        count (vibtrans.maps.cost.expected_refinement with
+        `not_steady_share`), or the share of the grid)."""
+        from vibtrans.maps.cost import expected_refinement
+        work, unit, computed = self._predicted(request)
+        if isinstance(computed, tuple):
+            computed = expected_refinement(*computed, self.not_steady_share(request))
+        return work, unit, computed
+
+    def not_steady_share(self, request):
+        """The share of the not-steady points' refinement a map of the
+        request's model and fidelity adds to the replay: this server's last
+        map's where it showed one (cost.learn_not_steady_share), else
+        cost.NOT_STEADY_REFINED's (0 where it has none)."""
+        from vibtrans.maps.cost import NOT_STEADY_REFINED
+        key = (request.model, request.fidelity)
+        return self._not_steady.get(key, NOT_STEADY_REFINED.get(key, 0.0))
+
+    def _share(self, request):
+        """Each finest-grid point's expected periods over T_obs (an array,
+        from the shipped map's classes, maprequest.reference_share), or
+        None (the same for all then)."""
+        reference = self._reference(request)
+        return (None if reference is None else maprequest.reference_share(
+            request, reference, self._class_periods.get(_class_key(request))))
+
+    def measure_speed(self, request, work, unit, computed=1.0):
         """Probe this server's speed for the request's model and fidelity
-        (seconds per unit of `work`) on nine points of its window, in the map
-        workers: blocking (call it off the event loop); it also starts the
-        workers, so that a map asked for soon after its estimate starts at
-        once.  Each map computed then replaces it by its own rate."""
+        (seconds per unit of `work` run) on PROBE_POINTS points of its
+        window, in the map workers: blocking (call it off the event loop); it
+        also starts the workers, so that a map asked for soon after its
+        estimate starts at once.  Each map computed then replaces it by its
+        own rate.
+
+        The points are drawn in proportion to their expected work (their
+        `work` times the share of T_obs they are expected to run, among the
+        points `computed`: cost.probe_points), each timed whole in its
+        worker (cost.timed_point: the run and the Python around it), and the
+        rate is their mean of seconds over expected work: an unbiased
+        estimate of the map's own, its expected periods per point included
+        (a first map's share of T_obs is checked on the probe's points)."""
         key = (request.model, request.fidelity, unit, request.stop)
         if key in self._rates:
             return self._rates[key]
-        from vibtrans.maps.sweep import compute_point
+        from vibtrans.maps.cost import probe_points, timed_point
         kernels.wait()
-        # a point's cost depends on its regime: nine over the window, at the
-        # request's length (a much shorter run has the ramp's and a run's
-        # fixed costs out of proportion) up to PROBE_PERIODS
+        # at the request's length (a much shorter run has the ramp's and a
+        # run's fixed costs out of proportion) up to PROBE_PERIODS
         probe = request.copy()
         probe.periods = min(request.periods, PROBE_PERIODS)
-        scale = probe.periods / request.periods
+        share = self._share(probe)
+        share = probe.expected_share(self.profile(probe.model)) if share is None else share
+        expected = work * (probe.periods / request.periods) * share
+        weights = expected * (computed if isinstance(computed, np.ndarray) else 1.0)
+        if not (np.all(np.isfinite(weights)) and weights.sum() > 0):
+            return None
+        picks = probe_points(weights, PROBE_POINTS)
+        unique = sorted(set(picks.tolist()))
         la, lm = probe.axes()
-        n = len(la)
-        idx = [(n * a // 6, n * b // 6) for a in (1, 3, 5) for b in (1, 3, 5)]
+        at = [np.unravel_index(k, weights.shape) for k in unique]
         lane = None if self.scheduler else self.share()
         try:
             run = lane.submit if lane is not None else _now
-            futures = [run(compute_point, probe.scene_values(), la[i], lm[j],
-                           maprequest.CHAOS, probe.stop) for i, j in idx]
-            points = [f.result() for f in futures]
+            futures = [run(timed_point, probe.scene_values(), la[i], lm[j],
+                           maprequest.CHAOS, probe.stop) for i, j in at]
+            timed = dict(zip(unique, (f.result() for f in futures)))
         finally:
             if lane is not None:
                 lane.shutdown()
-        seconds = sum(p["seconds"] for p in points)
-        # the work each point ran: a decided run's share of its periods
-        probed = scale * sum(work[i, j] * p.get("periods_run", probe.periods) / probe.periods
-                             for (i, j), p in zip(idx, points))
-        if seconds > 0 and probed > 0:
-            self._rates.setdefault(key, seconds / probed)
+        seconds = {k: t for k, (_, t) in timed.items()}
+        flat = expected.ravel()
+        rate = float(np.mean([seconds[k] / flat[k] for k in picks.tolist()]))
+        if rate > 0 and key not in self._rates:
+            spent = float(sum(seconds[k] for k in picks.tolist()))
+            self._pool_rate(key, spent, spent / rate)
+            runs = sum(point["seconds"] for point, _ in timed.values())
+            if runs > 0:
+                self._whole[key] = sum(seconds.values()) / runs
         return self._rates.get(key)
 
-    def _learn_speed(self, request, ds, wall):
-        """The map's own rate (its runs' share of its wall time, on `cores`
-        workers, per unit of the work its computed points ran), the share of
-        the grid computed and, for a decided map, its profile (the periods
-        its points ran), for the next estimates."""
-        from vibtrans.maps.cost import decided_profile, learn_class_periods
+    def whole_over_run(self, key):
+        """A point's whole time in its worker over its run's own `seconds`
+        (the scene's checks and the run's summary besides the run), as this
+        server's probe of `key` measured it, else 1."""
+        return self._whole.get(key, 1.0)
+
+    def _pool_rate(self, key, seconds, work):
+        """Add `seconds` of runs over `work` to the rate of `key`: the
+        seconds and work measured so far (the probe's, each map's), the
+        older discounted by RATE_MEMORY at each new one, so that a small
+        map's noise (its runs a few tenths of a second beside its fixed
+        costs) does not set the next map's rate alone."""
+        old_seconds, old_work = self._rate_sums.get(key, (0.0, 0.0))
+        seconds += RATE_MEMORY * old_seconds
+        work += RATE_MEMORY * old_work
+        self._rate_sums[key] = (seconds, work)
+        self._rates[key] = seconds / work
+
+    def _learn_speed(self, request, ds):
+        """The map's own rate (its points' seconds, per unit of the work
+        they ran), the share of the grid computed, the not-steady points'
+        share of its refinement and, for a decided map, its profile (the
+        periods its points ran), for the next estimates."""
+        from vibtrans.maps.cost import (decided_profile, learn_class_periods,
+                                        learn_not_steady_share)
         computed = ds["computed"].values
-        work, unit, _ = self.expected_work(request)
+        work, unit, predicted = self._predicted(request)
+        if isinstance(predicted, tuple):
+            share = learn_not_steady_share(computed, *predicted)
+            if share is not None:
+                self._not_steady[(request.model, request.fidelity)] = share
         if request.stop == "full":
             ran = work[computed]
         else:
@@ -342,10 +442,15 @@ class MapJobs:
                     classes[computed], ds["periods_run"].values[computed],
                     self._class_periods.get(key))
         total = float(np.nansum(ran))
-        runs = wall - MAP_START_SECONDS - POINT_PASSAGE_SECONDS * int(computed.sum())
+        key = (request.model, request.fidelity, unit, request.stop)
+        # its points' own seconds (each run's, in its worker, times the
+        # probe's whole time over the run's): the map's wall time less its
+        # fixed costs would count those costs' growth with the host's load
+        # as the points' (a small map's runs are a few tenths of a second
+        # beside half a second of them)
+        runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
         if total > 0 and runs > 0:
-            self._rates[(request.model, request.fidelity, unit, request.stop)] = \
-                runs * self.cores / total
+            self._pool_rate(key, runs, total)
         self._fractions[(request.model, request.levels)] = float(computed.mean())
 
     def estimate(self, request):
@@ -359,15 +464,10 @@ class MapJobs:
         except ValueError as exc:
             return None, [str(exc)]
         work, unit, computed = self.expected_work(request)
-        rate = self.measure_speed(request, work, unit)
-        reference = self._reference(request)
+        rate = self.measure_speed(request, work, unit, computed)
         est = maprequest.estimate(request, rate, work, computed, self.cores,
                                   MAP_START_SECONDS, POINT_PASSAGE_SECONDS,
-                                  self.profile(request.model),
-                                  None if reference is None else
-                                  maprequest.reference_share(
-                                      request, reference,
-                                      self._class_periods.get(_class_key(request))))
+                                  self.profile(request.model), self._share(request))
         if est.seconds is not None and est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
                          f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "
@@ -504,7 +604,7 @@ class MapJobs:
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            self._learn_speed(comp.request, ds, time.monotonic() - comp.started)
+            self._learn_speed(comp.request, ds)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels

@@ -33,8 +33,9 @@ import numpy as np
 import param
 
 from vibtrans import Scene
+from vibtrans.analysis.summary import CHAOS_LYAPUNOV
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
-from vibtrans.maps.cost import class_periods, decided_class, expected_periods
+from vibtrans.maps.cost import NOT_STEADY, class_periods, decided_class, expected_periods
 from vibtrans.core.drivers import STOPS, law_path, scene_scales
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
@@ -340,14 +341,16 @@ def _nearest(request, reference):
 def reference_classes(request, reference):
     """Each finest-grid point's class for the `decided` rule, read on
     `reference` (a full map of the model) at its nearest point
-    (vibtrans.maps.cost.decided_class), or None for a reference made with
-    the rule, or a window outside it."""
+    (vibtrans.maps.cost.decided_class), its chaos the verdict maps on demand
+    judge by (replay_reference), or None for a reference made with the
+    rule, or a window outside it."""
     if reference.attrs.get("stop", "full") != "full":
         return None
     nearest = _nearest(request, reference)
     if nearest is None:
         return None
     at = np.ix_(*nearest)
+    reference = replay_reference(reference)
     return decided_class(*(reference[name].values[at] for name in (
         "drift_velocity", "final_drift_velocity", "chaotic", "contact",
         "takeoffs_per_period")))
@@ -401,6 +404,38 @@ def reference_work(request, reference):
     return np.where(np.isfinite(work), work, np.nanmedian(work))
 
 
+def replay_reference(reference):
+    """`reference` (a shipped map) with the chaos verdict maps on demand
+    judge by (CHAOS: the run's own exponent above
+    analysis.summary.CHAOS_LYAPUNOV; a point that measured none is not
+    chaotic), for replaying the refinement on it
+    (vibtrans.maps.adaptive.predict_refinement).  The shipped deformable
+    maps' verdict is that one already; the material point's shipped map
+    judged its chaos by the tau twin (POINT_MASS_CHAOS) and calls nearly all
+    of the plane's middle chaotic, a sea the refinement leaves alone, where
+    the runs' own exponents draw boundaries that it refines (the 33 x 33 map
+    of mapestimate: 270 points predicted on the twin's verdict, 488 on the
+    exponent's, 446 computed)."""
+    if "lyapunov" not in reference:
+        return reference
+    lam = reference["lyapunov"].values
+    chaotic = (np.isfinite(lam) & (lam > CHAOS_LYAPUNOV)).astype(reference["chaotic"].dtype)
+    return reference.assign(chaotic=(reference["chaotic"].dims, chaotic))
+
+
+def unknown_drift_reference(reference):
+    """`reference` (replay_reference's) with the drift of its not-steady
+    points (vibtrans.maps.cost.decided_class) unknown (NaN: a cell holding
+    one is refined, maps.adaptive.disagree): the refinement's bound where
+    such drifts scatter from point to point (cost.NOT_STEADY_REFINED)."""
+    classes = decided_class(*(reference[name].values for name in (
+        "drift_velocity", "final_drift_velocity", "chaotic", "contact",
+        "takeoffs_per_period")))
+    v = reference["drift_velocity"]
+    return reference.assign(drift_velocity=(v.dims, np.where(classes == NOT_STEADY, np.nan,
+                                                             v.values)))
+
+
 def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
              start_seconds=0.0, point_seconds=0.0, profile=None, share=None):
     """The request's Estimate (refuse it by `problems` first: this walks
@@ -409,24 +444,24 @@ def estimate(request, seconds_per_work=None, work=None, computed=1.0, workers=1,
     the periods it is expected to run under the request's stopping rule
     (`request.expected_share(profile)`); seconds_per_work: this server's
     wall seconds per unit of the work actually run, on one worker;
-    computed: the points the refinement is expected to compute (a boolean
-    array of the finest grid, or the share of it); start_seconds,
+    computed: the points the refinement is expected to compute (an array of
+    the finest grid: boolean, or each point's expected count, a weight >= 0;
+    or the share of the grid); start_seconds,
     point_seconds: the map's own work, once and per point computed; share:
     each point's expected periods over T_obs (reference_share), else the
     same for all (`request.expected_share(profile)`)."""
     steps = bound_steps(request)
     work = steps if work is None else work
+    weight = (np.asarray(computed, dtype=float) if isinstance(computed, np.ndarray)
+              else np.full(work.shape, float(computed)))
     if share is not None:
         # the mean share of the work, weighted by it (what the total scales by)
-        weights = work[computed] if isinstance(computed, np.ndarray) else work
-        ran = share[computed] if isinstance(computed, np.ndarray) else share
-        share = float((weights * ran).sum() / weights.sum()) if weights.sum() > 0 else 1.0
+        weighted = work * weight
+        share = (float((weighted * share).sum() / weighted.sum()) if weighted.sum() > 0
+                 else 1.0)
     else:
         share = request.expected_share(profile)
-    if isinstance(computed, np.ndarray):
-        n, total = float(computed.sum()), float(work[computed].sum())
-    else:
-        n, total = computed * request.points(), computed * float(work.sum())
+    n, total = float(weight.sum()), float((work * weight).sum())
     seconds = (None if seconds_per_work is None else
                start_seconds + n * point_seconds
                + share * total * seconds_per_work / max(1, workers))

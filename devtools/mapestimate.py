@@ -9,6 +9,12 @@ time to its first picture (the coarse level).
     python -m devtools.mapestimate --check     # exit 1 beyond the goals
     python -m devtools.mapestimate --quick     # the three smallest maps
 
+Columns: the points computed against the estimate's expected count; the
+share of T_obs the computed points ran, weighted by their work as the
+estimate's share is, against that share; the estimate and the measured
+time; their ratio; the first picture's time; the load average (1 min) as
+the map was asked for.
+
 Goals: measured / estimated within [1/1.5, 1.5] for every map; the first
 map's coarse level within 3 s of its request.  The first map after the start
 is the one a teacher waits for: it is measured as it comes (its workers
@@ -17,6 +23,7 @@ read from the cache.
 """
 import argparse
 import json
+import os
 import sys
 import tempfile
 import threading
@@ -64,9 +71,11 @@ def run_map(jobs, request, session):
         raise SystemExit(f"the map ended {times['kind']}")
     ds = times["ds"]
     computed = ds["computed"].values
-    # the share of T_obs its computed points ran (1 for full runs)
-    share = (float(ds["periods_run"].values[computed].mean()) / request.periods
-             if "periods_run" in ds else 1.0)
+    # the share of T_obs its computed points ran (1 for full runs), weighted
+    # by each point's work as the estimate's share is (MapJobs.expected_work)
+    work = jobs.expected_work(request)[0][computed]
+    share = (float((work * ds["periods_run"].values[computed]).sum() / work.sum())
+             / request.periods if "periods_run" in ds else 1.0)
     return est, times.get("first", times["done"]), times["done"], int(computed.sum()), share
 
 
@@ -88,8 +97,10 @@ def main(argv=None):
             request = maprequest.MapRequest(model=model, fidelity=fidelity, cells=cells,
                                             levels=levels, la_from=a0, la_to=a1,
                                             lm_from=m0, lm_to=m1)
+            load = os.getloadavg()[0]
             est, first, took, computed, share = run_map(jobs, request, f"bench-{i}")
-            rows.append({"model": model, "fidelity": fidelity, "points": request.points(),
+            rows.append({"load": load, "model": model, "fidelity": fidelity,
+                         "points": request.points(),
                          "computed": computed, "expected_computed": est.computed,
                          "share_run": share, "expected_share": est.share,
                          "estimated_s": est.seconds,
@@ -104,14 +115,14 @@ def main(argv=None):
     else:
         print(f"{'model':>11} {'fidelity':>8} {'points':>6} {'computed':>8} {'expected':>8} "
               f"{'ran':>5} {'expected':>8} {'estimated':>9} {'measured':>8} {'ratio':>6} "
-              f"{'first':>6}")
+              f"{'first':>6} {'load':>5}")
         for r in rows:
             est = f"{r['estimated_s']:9.1f}" if r["estimated_s"] else f"{'-':>9}"
             ratio = f"{r['ratio']:6.2f}" if r["ratio"] else f"{'-':>6}"
             print(f"{r['model']:>11} {r['fidelity']:>8} {r['points']:>6} {r['computed']:>8} "
                   f"{r['expected_computed']:8.0f} {r['share_run']:5.2f} "
                   f"{r['expected_share']:8.2f} {est} {r['measured_s']:8.1f} {ratio} "
-                  f"{r['first_picture_s']:6.1f}")
+                  f"{r['first_picture_s']:6.1f} {r['load']:5.1f}")
         print(f"goals: ratio within 1/{RATIO_GOAL:g}..{RATIO_GOAL:g}, the first map's coarse "
               f"level within {FIRST_LEVEL_GOAL_S:g} s: {'met' if ok else 'NOT met'}")
     return 0 if ok or not args.check else 1

@@ -170,3 +170,71 @@ def test_learned_class_periods_are_the_class_means():
     assert np.isnan(got[1]) and np.isnan(got[2])         # too few, or none
     kept = learn_class_periods(classes, run, previous=[1.0, 2.0, 3.0, 4.0])
     assert kept.tolist() == [300.0, 2.0, 3.0, 270.0]
+
+
+def test_probe_points_are_drawn_in_proportion_to_their_weight():
+    """Systematic sampling with probability proportional to size: each
+    point is drawn floor or ceil of count x its share of the total weight
+    times (Cochran, Sampling Techniques, 3rd ed., section 9A.10), a point of
+    weight 0 never, so that the mean of seconds / weight over the picks
+    estimates the total seconds over the total weight; a pick may repeat."""
+    from vibtrans.maps.cost import probe_points
+    rng = np.random.default_rng(3)
+    weights = rng.lognormal(0.0, 1.5, size=(9, 11))
+    weights[2, :] = 0.0
+    for count in (1, 7, 12, 40):
+        picks = probe_points(weights, count)
+        drawn = np.bincount(picks, minlength=weights.size).reshape(weights.shape)
+        due = count * weights / weights.sum()
+        assert drawn.sum() == count
+        assert ((drawn >= np.floor(due) - 1e-9) & (drawn <= np.ceil(due) + 1e-9)).all()
+        assert (drawn[2, :] == 0).all()
+    # seconds proportional to the weight at every point: any draw gives the rate
+    picks = probe_points(weights, 12)
+    flat = weights.ravel()
+    assert np.mean([3.0 * flat[k] / flat[k] for k in picks]) == pytest.approx(3.0)
+    for bad in (np.zeros(4), np.array([1.0, -1.0]), np.array([1.0, np.nan])):
+        with pytest.raises(InputError, match="probe_points needs finite weights"):
+            probe_points(bad, 3)
+
+
+def test_a_timed_point_is_the_maps_point_and_its_whole_time():
+    """cost.timed_point returns maps.sweep.compute_point's values unchanged
+    and its wall seconds in all, which hold the run's own `seconds`."""
+    from vibtrans.maps.cost import timed_point
+    from vibtrans.maps.sweep import compute_point
+    values = dict(model="deformable", mu=0.3, theta=1.2, nu=0.3, tau=5.0, periods=30.0,
+                  fidelity="preview", integrator="ab4")
+    point, seconds = timed_point(values, 0.0, 0.5, "lyapunov", "decided")
+    again = compute_point(values, 0.0, 0.5, "lyapunov", "decided")
+    assert point.keys() == again.keys()
+    for name in point:
+        if name != "seconds":
+            assert point[name] == again[name] or (np.isnan(point[name])
+                                                  and np.isnan(again[name])), name
+    assert seconds >= point["seconds"] > 0
+
+
+def test_the_not_steady_share_moves_the_replay_and_is_learned_back():
+    """expected_refinement is the replay moved by q towards the replay
+    with the not-steady drifts unknown (q = 0: the replay, q = 1: the
+    other); learn_not_steady_share recovers q from a map that computed that
+    many points, and says nothing where the two replays hardly differ."""
+    from vibtrans.maps.cost import (NOT_STEADY_REFINED, expected_refinement,
+                                    learn_not_steady_share)
+    replayed = np.zeros((9, 9), dtype=bool)
+    replayed[::4, ::4] = True
+    unknown = replayed.copy()
+    unknown[:5, :5] = True
+    np.testing.assert_array_equal(expected_refinement(replayed, unknown, 0.0), replayed)
+    np.testing.assert_array_equal(expected_refinement(replayed, unknown, 1.0), unknown)
+    for q in (0.0, 0.25, 0.36, 1.0):
+        counts = expected_refinement(replayed, unknown, q)
+        assert counts.sum() == pytest.approx(replayed.sum() + q * (unknown.sum()
+                                                                   - replayed.sum()))
+        computed = np.zeros(81, dtype=bool)
+        computed[:round(counts.sum())] = True
+        assert learn_not_steady_share(computed, replayed, unknown) == pytest.approx(
+            q, abs=0.5 / (unknown.sum() - replayed.sum()))
+    assert learn_not_steady_share(replayed, replayed, replayed) is None
+    assert all(0.0 <= q <= 1.0 for q in NOT_STEADY_REFINED.values())

@@ -9,12 +9,15 @@ a returning visitor gets its worker again; a foreign Origin is refused;
 the launcher stops every process it started.  Needs nginx (`make proxy`
 installs it, as `make test` does)."""
 import asyncio
+import http.server
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import urllib.request
 from pathlib import Path
@@ -81,37 +84,151 @@ def _visit(url, cookies=None, click=True):
     return asyncio.run(go())
 
 
-def _workers_of(d, route, timeout=60):
-    """{path: set of worker addresses} for one visitor's requests, once its
+def _visit_logged(d, cookies=None, click=True, timeout=60):
+    """One visitor (_visit) alone on the proxy: (its cookies, the click's
+    outcome, {path: set of worker addresses} of its requests), once its
     websocket's line is in the access log (nginx writes it when the
     connection closes)."""
+    before = len(d.requests())
+    cookies, outcome = _visit(d.url, cookies=cookies, click=click)
     t0 = time.perf_counter()
     while True:
-        mine = [r for r in d.requests() if r["route"] == route]
+        mine = d.requests()[before:]
         if any(r["path"] == "/ws" for r in mine) or time.perf_counter() - t0 > timeout:
             out = {}
             for r in mine:
                 out.setdefault(r["path"], set()).add(r["upstream"])
-            return out
+            return cookies, outcome, out
         time.sleep(0.2)
 
 
+def _address(d, name):
+    """The address of the worker a `vtworker` cookie names."""
+    return f"127.0.0.1:{d.ports[int(name.removeprefix('w'))]}"
+
+
 def test_the_configuration_is_valid_nginx(tmp_path):
-    """The rendered template passes `nginx -t`, hashes on the route cookie
-    (not the address) and names every worker."""
+    """The rendered template passes `nginx -t`; new visitors go to the
+    pool of every worker by least connections, and a cookie routes only by
+    the names listed (never an address)."""
     nginx = _nginx()
     (tmp_path / "tmp").mkdir()
     conf = tmp_path / "nginx.conf"
     conf.write_text(deploy.render_config(str(tmp_path), "127.0.0.1:8999", [7001, 7002, 7003]))
-    upstream = re.search(r"upstream vibtrans \{(.*?)\n    \}", conf.read_text(), re.S).group(1)
+    text = conf.read_text()
+    upstream = re.search(r"upstream vibtrans \{(.*?)\n    \}", text, re.S).group(1)
     directives = [ln.split("#")[0].strip() for ln in upstream.splitlines()]
     directives = [d for d in directives if d]
-    assert directives == ["hash $vtroute consistent;",
+    assert directives == ["least_conn;",
                           *(f"server 127.0.0.1:{p} max_fails=0;" for p in (7001, 7002, 7003))]
+    routes = re.search(r"map \$cookie_vtworker \$vtbackend \{(.*?)\n    \}", text, re.S).group(1)
+    entries = [ln.split("#")[0].split() for ln in routes.splitlines()]
+    assert [e for e in entries if e] == [["default", "vibtrans;"], ["w0", "vt_w0;"],
+                                         ["w1", "vt_w1;"], ["w2", "vt_w2;"]]
     checked = subprocess.run([nginx, "-t", "-p", str(tmp_path), "-c", str(conf),
                               "-e", str(tmp_path / "error.log")],
                              capture_output=True, text=True, timeout=budget(30))
     assert checked.returncode == 0, checked.stderr
+
+
+class _Backend(http.server.BaseHTTPRequestHandler):
+    """A stand-in worker: answers every GET with its own port."""
+    def do_GET(self):
+        body = str(self.server.server_address[1]).encode()
+        self.send_response(200)
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture
+def routing():
+    """nginx with the shipped configuration in front of two stand-in
+    workers (_Backend); yields (get, backends): get(cookie) -> (the port
+    that answered, the Set-Cookie header or None)."""
+    nginx = _nginx()
+    backends = [http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Backend) for _ in range(2)]
+    threads = [threading.Thread(target=b.serve_forever, daemon=True) for b in backends]
+    for th in threads:
+        th.start()
+    prefix = tempfile.mkdtemp(prefix="vibtrans-test-routing-")
+    os.chmod(prefix, 0o755)             # nginx's workers run as nobody
+    Path(prefix, "tmp").mkdir()
+    port = deploy.free_port()
+    conf = Path(prefix, "nginx.conf")
+    conf.write_text(deploy.render_config(prefix, f"127.0.0.1:{port}",
+                                         [b.server_address[1] for b in backends]))
+    proc = subprocess.Popen([nginx, "-p", prefix, "-c", str(conf), "-e", f"{prefix}/error.log"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+    def get(cookie=None):
+        req = urllib.request.Request(f"http://127.0.0.1:{port}/",
+                                     headers={"Cookie": cookie} if cookie else {})
+        with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
+            return int(r.read()), r.headers.get("Set-Cookie")
+    try:
+        t0 = time.perf_counter()
+        while True:
+            try:
+                get()
+                break
+            except OSError:
+                assert proc.poll() is None, proc.stderr.read().decode()
+                assert time.perf_counter() - t0 < budget(30), "nginx not listening in time"
+                time.sleep(0.1)
+        yield get, backends
+    finally:
+        deploy._stop(proc)
+        proc.stderr.close()
+        for b in backends:
+            b.shutdown()
+            b.server_close()
+        shutil.rmtree(prefix, ignore_errors=True)
+
+
+def test_routing_new_visitors_alternate_and_returning_ones_stay(routing):
+    """With no connection open, least_conn ties and takes the workers in
+    turn: new visitors alternate, each told its worker's name; a cookie
+    naming a worker goes there, with no new cookie."""
+    get, backends = routing
+    ports = [b.server_address[1] for b in backends]
+    answered = []
+    for _ in range(4):
+        port, cookie = get()
+        name = deploy.worker_name(ports.index(port))
+        assert cookie.startswith(f"{deploy.ROUTE_COOKIE}={name};"), cookie
+        answered.append(port)
+    assert sorted(answered) == sorted(ports * 2), answered
+    for k, p in enumerate(ports):
+        for _ in range(3):
+            assert get(f"{deploy.ROUTE_COOKIE}={deploy.worker_name(k)}") == (p, None)
+
+
+@pytest.mark.parametrize("value", ["w7", "w01", "127.0.0.1:22", "vt_w0", "vibtrans", ""])
+def test_routing_a_cookie_that_names_no_worker_is_a_new_visitor(routing, value):
+    """A forged or stale cookie never picks an address or an upstream by
+    itself: the request goes to the pool and gets a valid cookie."""
+    get, backends = routing
+    ports = [b.server_address[1] for b in backends]
+    port, cookie = get(f"{deploy.ROUTE_COOKIE}={value}")
+    name = deploy.worker_name(ports.index(port))
+    assert cookie is not None and cookie.startswith(f"{deploy.ROUTE_COOKIE}={name};"), cookie
+
+
+def test_routing_a_visitor_whose_worker_is_down_moves_and_is_told(routing):
+    """A refused connection goes on to another worker (the backups of the
+    visitor's upstream), and the answer re-points the visitor's cookie."""
+    get, backends = routing
+    ports = [b.server_address[1] for b in backends]
+    backends[0].shutdown()
+    backends[0].server_close()
+    port, cookie = get(f"{deploy.ROUTE_COOKIE}={deploy.worker_name(0)}")
+    assert port == ports[1]
+    assert cookie.startswith(f"{deploy.ROUTE_COOKIE}={deploy.worker_name(1)};"), cookie
+    assert get(f"{deploy.ROUTE_COOKIE}={deploy.worker_name(1)}") == (ports[1], None)
 
 
 @pytest.mark.slow
@@ -119,50 +236,52 @@ def test_a_session_works_through_the_proxy_and_stays_on_its_worker(proxied):
     with urllib.request.urlopen(proxied.url, timeout=TIMEOUT) as r:
         assert r.status == 200
         cookie = r.headers["Set-Cookie"]
-    assert cookie.startswith(f"{deploy.ROUTE_COOKIE}=")
+    assert cookie.startswith(f"{deploy.ROUTE_COOKIE}=w")
     assert "HttpOnly" in cookie and "SameSite=Lax" in cookie and "Path=/" in cookie
     assert "Secure" not in cookie           # plain http here; set under https only
 
-    cookies, outcome = _visit(proxied.url)
+    cookies, outcome, routes = _visit_logged(proxied)
     assert outcome == "done"                # the click's run came back over the websocket
-    routes = _workers_of(proxied, cookies[deploy.ROUTE_COOKIE])
     assert set(routes) == {"/", "/ws"}, routes
-    assert len(routes["/"] | routes["/ws"]) == 1, routes        # page and websocket together
-    ws = [r for r in proxied.requests() if r["route"] == cookies[deploy.ROUTE_COOKIE]
-          and r["path"] == "/ws"]
-    assert ws[0]["status"] == "101"
+    # page and websocket together, on the worker the cookie names
+    assert routes["/"] | routes["/ws"] == {_address(proxied, cookies[deploy.ROUTE_COOKIE])}, routes
+    ws = [r for r in proxied.requests() if r["path"] == "/ws"]
+    assert ws[-1]["status"] == "101"
 
 
 @pytest.mark.slow
-def test_visitors_from_one_address_spread_and_return_to_their_worker(proxied):
+def test_visitors_from_one_address_split_evenly_and_return_to_their_worker(proxied):
     """All visitors here come from 127.0.0.1 with the same client: an
-    address hash would send them all to one worker.  New visitors come
-    until two workers are seen (at most 16: with two balanced workers all
-    on one has probability ~3e-5); each visitor's page and websocket share
-    a worker."""
-    seen, first = set(), None
-    for _ in range(16):
-        cookies, _ = _visit(proxied.url, click=False)
-        routes = _workers_of(proxied, cookies[deploy.ROUTE_COOKIE])
-        workers = routes.get("/", set()) | routes.get("/ws", set())
-        assert len(workers) == 1 and set(routes) == {"/", "/ws"}, routes
-        first = first or (cookies, workers)
-        seen |= workers
-        if len(seen) == 2:
-            break
-    assert len(seen) == 2, f"16 visitors, all on {seen}"
-    # a returning visitor (its cookie) gets its worker again, page and websocket
-    cookies, workers = first
+    address hash would send them all to one worker, a hash of a random
+    cookie splits them by chance.  Four visitors arrive one after another
+    and stay (their websockets open): least connections gives each worker
+    two.  Each page's websocket reaches its page's worker; a returning
+    visitor (its cookie) gets its worker again."""
+    async def arrive(n):
+        sessions = []
+        try:
+            for _ in range(n):
+                s = ProtocolSession(proxied.url, timeout=TIMEOUT)
+                await s.open()
+                sessions.append(s)
+            return [dict(s.cookies)[deploy.ROUTE_COOKIE] for s in sessions]
+        finally:
+            for s in sessions:
+                s.close()
     before = len(proxied.requests())
-    _visit(proxied.url, cookies=cookies, click=False)
-    time.sleep(0.5)
+    names = asyncio.run(arrive(4))
+    assert sorted(names) == ["w0", "w0", "w1", "w1"], names
     t0 = time.perf_counter()
-    while not any(r["path"] == "/ws" for r in proxied.requests()[before:]):
-        assert time.perf_counter() - t0 < 60, "the returning visitor's websocket is not logged"
+    while sum(r["path"] == "/ws" for r in proxied.requests()[before:]) < 4:
+        assert time.perf_counter() - t0 < 60, "the visitors' websockets are not logged"
         time.sleep(0.2)
-    again = {r["upstream"] for r in proxied.requests()[before:]
-             if r["route"] == cookies[deploy.ROUTE_COOKIE]}
-    assert again == workers, (again, workers)
+    for r in proxied.requests()[before:]:
+        if r["path"] == "/ws":           # each websocket carries its page's cookie
+            assert r["upstream"] == _address(proxied, r["worker"]), r
+    cookies = {deploy.ROUTE_COOKIE: "w1"}
+    again, _, routes = _visit_logged(proxied, cookies=cookies, click=False)
+    assert routes["/"] | routes["/ws"] == {_address(proxied, "w1")}, routes
+    assert again[deploy.ROUTE_COOKIE] == "w1"
 
 
 @pytest.mark.slow

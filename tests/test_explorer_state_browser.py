@@ -176,6 +176,8 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         page.close()
     assert not errors, errors
     log = served_explorer.text()[log_start:]
-    bad = [line for line in log.splitlines() if any(e in line for e in SERVER_ERRORS)]
-    assert not bad, "\n".join(bad[:20])
+    lines = log.splitlines()
+    bad = [k for k, line in enumerate(lines) if any(e in line for e in SERVER_ERRORS)]
+    # each error with the lines after it: the traceback whole
+    assert not bad, "\n---\n".join("\n".join(lines[k:k + 40]) for k in bad[:3])
     assert len(done) == STEPS

@@ -75,8 +75,8 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     # the next estimates learn from the map computed: its share of the grid
     # and its runs' rate (its wall time less its own work, per bounded step)
     assert jobs.fraction("deformable", 1) == done.ds["computed"].values.mean()
-    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") > 0
-    assert jobs.seconds_per_work("deformable", "standard", "reference", "decided") is None
+    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") > 0
+    assert jobs.seconds_per_work("deformable", "standard", "steps", "decided") is None
     # made with the request's stopping rule (a new request's: decided), its
     # points' periods run kept; 30 periods end before the rule's first check
     assert done.ds.attrs["stop"] == "decided"
@@ -148,8 +148,8 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
                            max_seconds=10.0)
     for fidelity in ("preview", "reference"):       # s per unit of work, as if measured
-        jobs._rates[("deformable", fidelity, "reference", "decided")] = 0.5
-    request = MapRequest(**TINY)
+        jobs._rates[("deformable", fidelity, "reference", "full")] = 0.5
+    request = MapRequest(**{**TINY, "stop": "full"})
     est, problems = jobs.estimate(request)
     assert problems == []
     assert est.points == 25
@@ -161,9 +161,10 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
     assert est.steps == steps
     # inside the shipped map: the refinement replayed on it, its points'
     # seconds scaled from its 2000 standard periods to these 30 preview ones
+    # (full runs: a decided map counts steps, below)
     work, unit, computed = jobs.expected_work(request)
     assert unit == "reference" and computed.shape == (5, 5)
-    assert computed[::2, ::2].all() and est.computed == computed.sum()     # the coarse grid
+    assert (computed[::2, ::2] == 1.0).all() and est.computed == computed.sum()   # coarse grid
     shipped = data.drift_map("deformable", 0.3)
     point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
     ref = MapRequest(**{**TINY, "periods": 2000.0, "fidelity": "standard"})
@@ -174,7 +175,13 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
                                        / maprequest.point_steps(ref, 0.0, 0.5))
     assert est.seconds == pytest.approx(mapjobs.MAP_START_SECONDS
                                         + computed.sum() * mapjobs.POINT_PASSAGE_SECONDS
-                                        + work[computed].sum() * 0.5 / 2)
+                                        + (work * computed).sum() * 0.5 / 2)
+    # a decided map: each point's bounded steps, times the share it runs
+    decided = MapRequest(**TINY)
+    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
+    work, unit, computed = jobs.expected_work(decided)
+    assert unit == "steps"
+    np.testing.assert_array_equal(work, maprequest.bound_steps(decided))
     # beyond the shipped maps: the bounded steps and the share computed
     far = MapRequest(**{**TINY, "la_from": 4.0, "la_to": 5.0})
     jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
@@ -196,19 +203,49 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
 
 
 def test_the_first_estimate_of_a_model_and_fidelity_probes_its_speed(tmp_path):
-    """Before any map of its kind, the estimate runs nine of the window's
-    points (in the map workers, which it so starts for the map to come) and
-    takes their runs' seconds per bounded step."""
+    """Before any map of its kind, the estimate runs PROBE_POINTS of the
+    window's points (in the map workers, which it so starts for the map to
+    come) and takes their seconds per bounded step expected."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
-    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") is None
+    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") is None
     est, problems = jobs.estimate(MapRequest(**TINY))
-    rate = jobs.seconds_per_work("deformable", "preview", "reference", "decided")
+    rate = jobs.seconds_per_work("deformable", "preview", "steps", "decided")
     assert problems == [] and rate > 0 and est.seconds > 0
     assert "on this server (1 core, from its measured speed)" in est.text(1)
     # measured once: the next estimate of its kind uses it
     jobs.estimate(MapRequest(**{**TINY, "la_from": -0.4}))
-    assert jobs.seconds_per_work("deformable", "preview", "reference", "decided") == rate
-    assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None
+    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") == rate
+    assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
+
+
+def test_the_probe_measures_the_maps_own_seconds_per_step(tmp_path, monkeypatch):
+    """The probe's rate is the map's: its points drawn by their expected
+    work (vibtrans.maps.cost.probe_points) and timed whole
+    (cost.timed_point).  Here each point costs a fixed 5 ms (its Python: a
+    preview point's most) plus 1 ns per expected step: the map's seconds
+    per step are their sum over its expected steps.  Nine points on a
+    lattice, each weighed by its steps, made the rate of the window's
+    cheap points (issue 32 item 5: the first preview map was estimated at
+    3.4 s and took 1.5 s)."""
+    import vibtrans.maps.cost as cost
+    request = MapRequest(**{**TINY, "periods": 2000.0, "tau": 50.0, "cells": 4, "levels": 2,
+                            "la_from": -1.5, "la_to": 1.5, "lm_from": -1.5, "lm_to": 1.5})
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
+    work, unit, computed = jobs.expected_work(request)
+    expected = work * jobs._share(request)
+    la, lm = request.axes()
+    where = {(a, m): (i, j) for i, a in enumerate(la) for j, m in enumerate(lm)}
+
+    def fake(values, log_a, log_m, chaos, stop):
+        i, j = where[(log_a, log_m)]
+        whole = 5e-3 + 1e-9 * expected[i, j]
+        return {"seconds": whole / 1.25}, whole      # the run's own: 80% of it
+    monkeypatch.setattr(cost, "timed_point", fake)
+    rate = jobs.measure_speed(request, work, unit, computed)
+    truth = ((5e-3 + 1e-9 * expected) * computed).sum() / (expected * computed).sum()
+    assert rate == pytest.approx(truth, rel=0.15)
+    # the maps after it scale their points' run seconds by the whole's share
+    assert jobs.whole_over_run(("deformable", "preview", unit, "decided")) == pytest.approx(1.25)
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():
@@ -280,8 +317,9 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2)
     long = {**TINY, "periods": 2000.0, "tau": 50.0}
     seconds = {}
-    for stop in ("full", "decided"):
-        jobs._rates[("deformable", "preview", "reference", stop)] = 0.5
+    rates = {"full": 0.5, "decided": 1e-7}    # s per shipped second, per step
+    for stop, unit in (("full", "reference"), ("decided", "steps")):
+        jobs._rates[("deformable", "preview", unit, stop)] = rates[stop]
         request = MapRequest(**{**long, "stop": stop})
         est, problems = jobs.estimate(request)
         assert problems == [] and est.stop == stop
@@ -290,7 +328,7 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
         steps = est.steps
     request = MapRequest(**long)
     work, unit, computed = jobs.expected_work(request)
-    assert unit == "reference"
+    assert unit == "steps"
     # each point's share: its class on the shipped map, nearest point
     shipped = data.drift_map("deformable", 0.3)
     la, lm = request.axes()
@@ -300,9 +338,14 @@ def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_
                             near["takeoffs_per_period"].values)
     per_point = class_periods("deformable", classes, 2000.0, 50.0, "preview") / 2000.0
     np.testing.assert_array_equal(maprequest.reference_share(request, shipped), per_point)
-    share = float((work[computed] * per_point[computed]).sum() / work[computed].sum())
+    share = float((work * computed * per_point).sum() / (work * computed).sum())
     assert 0.1 < share < 1.0 and est.share == pytest.approx(share)
-    assert seconds["decided"] == pytest.approx(share * seconds["full"])
+    # the runs' seconds: the share of the expected points' steps, at the rate
+    assert seconds["decided"] == pytest.approx(share * (work * computed).sum() * 1e-7 / 2)
+    full_work, full_unit, full_computed = jobs.expected_work(MapRequest(**{**long,
+                                                                          "stop": "full"}))
+    assert full_unit == "reference"
+    assert seconds["full"] == pytest.approx((full_work * full_computed).sum() * 0.5 / 2)
     assert steps == maprequest.bound_steps(request).sum()
     assert f"about {share:.0%} of its periods expected" in est.text(2)
     assert maprequest.reference_share(MapRequest(**{**long, "stop": "full"}), shipped) is None
@@ -345,11 +388,15 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
     # its own mean periods run, reproduced by the profile (f_end, extra)
     assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra), "preview") == \
         pytest.approx(run.mean())
-    # its rate (learned when its wall time exceeds its own work: a warm,
-    # quick map may not) is the decided rule's, never the full runs'
-    rate = jobs.seconds_per_work("deformable", "preview", "reference", "decided")
-    assert rate is None or rate > 0
-    assert jobs.seconds_per_work("deformable", "preview", "reference", "full") is None
+    # its rate is the decided rule's, never the full runs': its points' own
+    # seconds per bounded step run (no probe before it: their run's seconds
+    # alone), not its wall time less its fixed costs, which grow with the
+    # host's load and a small map's runs do not outweigh
+    rate = jobs.seconds_per_work("deformable", "preview", "steps", "decided")
+    work = jobs.expected_work(request)[0][computed]
+    assert rate == pytest.approx(np.nansum(done.ds["seconds"].values[computed])
+                                 / (work * run / 300.0).sum())
+    assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
     # and the periods each class (read on the shipped map) ran, for the next
     # estimates at these settings (vibtrans.maps.cost.learn_class_periods)
     from vibtrans.maps.cost import LEARN_MIN_POINTS, class_periods
@@ -362,14 +409,14 @@ def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_ru
         else:
             assert np.isnan(learned[c])
     assert np.isfinite(learned).any()
-    jobs._rates.setdefault(("deformable", "preview", "reference", "decided"), 1e-3)
+    jobs._rates.setdefault(("deformable", "preview", "steps", "decided"), 1e-3)
     again = MapRequest(**{**TINY, "periods": 300.0, "mu": 0.5})
     est, _ = jobs.estimate(again)
     work, _, expected = jobs.expected_work(again)
     per_point = class_periods("deformable", maprequest.reference_classes(
         again, data.drift_map("deformable", 0.3)), 300.0, 5.0, "preview", learned) / 300.0
     assert est.share == pytest.approx(
-        float((work[expected] * per_point[expected]).sum() / work[expected].sum()))
+        float((work * expected * per_point).sum() / (work * expected).sum()))
 
 
 def test_the_cache_key_ignores_what_changes_no_number():
@@ -729,6 +776,12 @@ def test_a_profiles_estimate_takes_its_own_steps_and_its_kernels_cost():
     jobs = mapjobs.MapJobs(folder=None, cores=2)
     shipped = data.drift_map("deformable", 0.3)
     for request in (MapRequest(**{**TINY, "profile": "cone"}), power, flat):
+        # a decided map: the profile's bounded steps times its cost per step
+        work, unit, computed = jobs.expected_work(request)
+        assert unit == "steps"
+        np.testing.assert_allclose(work, maprequest.bound_steps(request)
+                                   * maprequest.step_cost(request))
+        request = MapRequest(**{**request.values(), "stop": "full"})
         work, unit, computed = jobs.expected_work(request)
         assert unit == "reference"
         point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
@@ -783,3 +836,60 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     o._on_computed_click(MapRequest(**TINY), 0.0, 0.5)
     o._on_computed_click(MapRequest(**{**TINY, "profile": "flat-sphere:0.5"}), 0.0, 0.5)
     assert runs == ["sphere", "flat-sphere:0.5"]
+
+
+def test_the_refinement_is_replayed_on_the_verdicts_maps_on_demand_judge_by(tmp_path):
+    """The replay of the refinement on the shipped map (its prediction of
+    the points a map computes) reads the chaos verdict that maps on demand
+    judge by (the run's own exponent: maprequest.CHAOS).  The shipped
+    deformable maps' verdict is that one; the material point's shipped map
+    judged chaos by the tau twin and calls the plane's middle a chaotic sea
+    that the replay left whole, where the runs' exponents draw boundaries
+    (mapestimate's 33 x 33 material-point map computed 446 points where 270
+    were predicted).  Its not-steady points' refinement is added by
+    cost.NOT_STEADY_REFINED's share of the replay with their drifts unknown."""
+    from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+    from vibtrans.maps.adaptive import predict_refinement
+    from vibtrans.maps.cost import NOT_STEADY, NOT_STEADY_REFINED, decided_class
+    for model, mu in data.available_maps():
+        shipped = data.drift_map(model, mu)
+        replay = maprequest.replay_reference(shipped)
+        lam = shipped["lyapunov"].values
+        np.testing.assert_array_equal(replay["chaotic"].values,
+                                      np.isfinite(lam) & (lam > CHAOS_LYAPUNOV))
+        if model == "deformable":
+            np.testing.assert_array_equal(replay["chaotic"].values, shipped["chaotic"].values)
+    shipped = data.drift_map("point-mass", 0.3)
+    assert (maprequest.replay_reference(shipped)["chaotic"].values
+            != shipped["chaotic"].values).mean() > 0.05
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
+    request = MapRequest(model="point-mass", cells=4, levels=3, la_from=-1.0, la_to=2.0,
+                         lm_from=-1.0, lm_to=1.0)
+    _, _, computed = jobs.expected_work(request)
+    twin = predict_refinement(request.sweep(), request.levels, shipped)
+    assert computed.sum() > 1.5 * twin.sum()
+    # each point's class (the periods it is expected to run) with that verdict
+    # too: cost.CLASS_PERIODS's material-point row was measured so
+    near = np.ix_(*maprequest._nearest(request, shipped))
+    fields = ("drift_velocity", "final_drift_velocity", "chaotic", "contact",
+              "takeoffs_per_period")
+    classes = maprequest.reference_classes(request, shipped)
+    replayed_classes = decided_class(*(maprequest.replay_reference(shipped)[n].values[near]
+                                       for n in fields))
+    np.testing.assert_array_equal(classes, replayed_classes)
+    assert (classes != decided_class(*(shipped[n].values[near] for n in fields))).any()
+    # the not-steady points' drifts unknown: NaN there, nothing else changed
+    deformable = maprequest.replay_reference(data.drift_map("deformable", 0.3))
+    unknown = maprequest.unknown_drift_reference(deformable)
+    classes = decided_class(*(deformable[n].values for n in (
+        "drift_velocity", "final_drift_velocity", "chaotic", "contact", "takeoffs_per_period")))
+    v, u = deformable["drift_velocity"].values, unknown["drift_velocity"].values
+    assert np.isnan(u[classes == NOT_STEADY]).all() and (classes == NOT_STEADY).any()
+    np.testing.assert_array_equal(u[classes != NOT_STEADY], v[classes != NOT_STEADY])
+    preview = MapRequest(fidelity="preview", cells=4, levels=3, la_from=-2.0, la_to=2.0,
+                         lm_from=-2.0, lm_to=2.0)
+    replayed, full = jobs._predicted(preview)[2]
+    _, _, computed = jobs.expected_work(preview)
+    q = NOT_STEADY_REFINED[("deformable", "preview")]
+    assert full.sum() > replayed.sum()
+    assert computed.sum() == pytest.approx(replayed.sum() + q * (full.sum() - replayed.sum()))

@@ -14,11 +14,13 @@ access log).  One process holds one Bokeh event loop, i.e. about one core:
 the workers are how a server with more cores serves more visitors.
 
 Stickiness: Bokeh builds a session when its page is served and expects the
-page's websocket in the same process.  nginx keys each request on a cookie
-(`vtroute`) that it sets on a browser's first response to a fresh random
-value, hashed consistently onto the workers: a page and its websocket land
-together, and browsers, even behind one address, spread over the workers.
-The reasons, and why not ip_hash, are in the template's comments.
+page's websocket in the same process.  A browser's first request goes to
+the worker with the fewest open connections (nginx's least_conn: open pages
+hold their websockets), and the answer sets a cookie (`vtworker`) naming
+that worker; the page's websocket and every later request carry it and go
+there.  Page and websocket land together, and browsers, even behind one
+address, spread evenly over the workers.  The reasons, and why neither
+ip_hash nor a hash of a random cookie, are in the template's comments.
 
 `python -m devtools.loadtest --proxy-workers N` measures the same deployment
 (`make loadtest-proxy`).  Needs nginx (`make proxy` installs Debian's).
@@ -39,10 +41,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = Path(__file__).with_name("nginx.conf.template")
-ROUTE_COOKIE = "vtroute"
+ROUTE_COOKIE = "vtworker"
 # one access-log line per request (the template's log_format)
 _ACCESS = re.compile(r'"(?P<method>\S+) (?P<path>\S+) [^"]*" (?P<status>\d+) \d+ '
-                     r'route=(?P<route>\S*) upstream=(?P<upstream>\S*)')
+                     r'worker=(?P<worker>\S*) upstream=(?P<upstream>\S*)')
 
 
 def nginx_binary():
@@ -66,13 +68,33 @@ class _Template(string.Template):
     delimiter = "@"          # nginx uses $ for its own variables
 
 
+def worker_name(k):
+    """The cookie value that routes to worker k (0-based): `w0`, `w1`, ..."""
+    return f"w{k}"
+
+
 def render_config(prefix, listen, worker_ports):
     """nginx.conf's text: listen on `listen` ("ADDRESS:PORT"), proxy to the
     workers on 127.0.0.1:`worker_ports`, keep pid, logs and temporary
     files under `prefix` (a folder)."""
-    servers = "\n".join(f"        server 127.0.0.1:{p} max_fails=0;" for p in worker_ports)
-    return _Template(TEMPLATE.read_text()).substitute(prefix=prefix, listen=listen,
-                                                      servers=servers)
+    addrs = [f"127.0.0.1:{p}" for p in worker_ports]
+    names = [worker_name(k) for k in range(len(addrs))]
+    servers = "\n".join(f"        server {a} max_fails=0;" for a in addrs)
+    upstreams = []
+    for k, a in enumerate(addrs):
+        lines = [f"    upstream vt_{names[k]} {{", f"        server {a} max_fails=0;"]
+        lines += [f"        server {b} max_fails=0 backup;" for b in addrs if b != a]
+        upstreams.append("\n".join([*lines, "    }"]))
+    routes = "\n".join(f"        {n:<8}    vt_{n};" for n in names)
+    # $upstream_addr: "ADDR", or "ADDR1, ADDR2" when the first refused
+    answered = "\n".join(f"        \"~(^|, ){re.escape(a)}$\" {n};" for a, n in zip(addrs, names))
+    set_cookie = "\n".join(
+        f"        \"{n}|{n}\" \"\";\n"
+        f"        \"~\\|{n}$\" \"{ROUTE_COOKIE}={n}; Path=/; HttpOnly; SameSite=Lax$vtworker_secure\";"
+        for n in names)
+    return _Template(TEMPLATE.read_text()).substitute(
+        prefix=prefix, listen=listen, servers=servers, worker_upstreams="\n".join(upstreams),
+        routes=routes, answered=answered, set_cookie=set_cookie)
 
 
 def access_log(path):

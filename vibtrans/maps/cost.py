@@ -35,6 +35,7 @@ predicted the mean periods run within 0.94-1.05x for the deformable model
 and 0.63-1.15x for the material point, against 0.5-2x for the one profile.
 """
 import math
+import time
 
 import numpy as np
 
@@ -74,9 +75,16 @@ CLASSES = ("regular", "chaotic", "not steady", "long flights")
 # the shipped map of mu = 0.3 at every 4th point of its grid (T_obs 2000,
 # tau 50, standard fidelity), the periods from the decided maps of
 # `vibtrans bench --sweep` (2026-11-27 13:24 UTC; 939, 182, 328, 132 and
-# 528, 529, 227, 297 points).
+# 528, 529, 227, 297 points).  The chaos verdict read is the one maps on
+# demand judge by (the run's own exponent: app/maprequest.replay_reference;
+# the shipped deformable maps' own): the material point's shipped verdict is
+# its tau twin's, with which its row was (248, 718, 1010, 285); read with
+# the exponent's verdict, the same points' periods (`vibtrans sweep --model
+# point-mass --stop decided --chaos lyapunov --log-amplitude=-3:3:0.2
+# --log-mass=-5:5:0.2`, 2026-11-27 20:16 UTC, which reproduces that row
+# with the twin's verdict) are the row below (528, 393, 353, 307 points).
 CLASS_PERIODS = {"deformable": (288.0, 335.0, 1780.0, 280.0),
-                 "point-mass": (248.0, 718.0, 1010.0, 285.0)}
+                 "point-mass": (248.0, 484.0, 1162.0, 305.0)}
 CLASS_REFERENCE = (2000.0, 50.0, "standard")        # (T_obs, tau, fidelity) they ran at
 
 
@@ -204,3 +212,82 @@ def decided_profile(ds):
     # E = f_end T + (1 - f_end) min(T, t_min + extra): the others' mean periods
     # past t_min (points stopped before t_min: none, the rule's first check)
     return f_end, max(float(run[~end].mean()) - t_min, 0.0)
+
+
+# ---------------------------------------------------------------- a map's probe
+# A decided run's seconds follow the periods it runs (its steps) far more
+# closely than the seconds its point took in a full map: over the seven maps
+# of `python -m devtools.mapestimate` (2026-11-27 19:55 UTC) the per-point
+# seconds over steps run varied by a coefficient of variation of 0.3-0.6,
+# over the shipped map's seconds (scaled by the periods run) by 0.4-1.3, and
+# the maps' sums of the latter disagreed by up to 2x between maps of one
+# model and fidelity (a decided run spends most of its time in the ramp and
+# the rule's checks, alike everywhere; a full run's cost is that of its
+# regime).  So the estimate of a decided map counts steps.
+
+def timed_point(values, log_a, log_m, chaos="twin", stop="full"):
+    """(maps.sweep.compute_point's dict, its wall seconds in all): the run
+    and the Python around it (the scene's checks, the run's summary), which
+    a map point costs but the run's own `seconds` leaves out."""
+    from vibtrans.maps.sweep import compute_point
+    start = time.perf_counter()
+    point = compute_point(values, log_a, log_m, chaos, stop)
+    return point, time.perf_counter() - start
+
+
+def probe_points(weights, count):
+    """`count` flat indices of `weights` (>= 0, any shape) drawn with
+    probability proportional to size, systematically (the points where the
+    cumulative weight crosses (k + 1/2) / count of the total, k = 0 ..
+    count - 1): a point may come more than once.  With these picks the mean
+    of seconds / weight over the picks estimates the map's seconds per unit
+    of weight without bias whatever the seconds' spread over the points
+    (Horvitz-Thompson), which nine points on a lattice do not."""
+    w = np.asarray(weights, dtype=float).ravel()
+    if not (count >= 1 and np.all(np.isfinite(w)) and np.all(w >= 0.0) and w.sum() > 0.0):
+        raise InputError("probe_points needs finite weights >= 0, not all 0, and count >= 1")
+    edges = np.cumsum(w)
+    targets = (np.arange(count) + 0.5) / count * edges[-1]
+    return np.minimum(np.searchsorted(edges, targets, side="right"), w.size - 1)
+
+
+# The share of a window's not-steady points (decided_class 2 on the shipped
+# map) whose refinement a map on demand adds to the replay's
+# (maps.adaptive.predict_refinement on the shipped map): q in
+#     expected computed = replay + q (replay with those drifts unknown - replay),
+# per (model, fidelity).  A not-steady run's x*(T)/T is its acceleration's,
+# sensitive to the run: the shipped full runs at standard fidelity draw it
+# smoothly, a preview run's scatters from point to point beyond the
+# refinement's drift tolerance, so the refinement follows it down into
+# not-steady regions the replay leaves whole (mapestimate's 97 x 97 preview
+# map, 2026-11-27: 2293 points computed, 1824 replayed, 3688 with every
+# not-steady drift unknown).  Measured on two 33 x 33 maps (3 levels) per
+# model and fidelity in windows none of mapestimate's ((-2.5..0.5,
+# -3..-1) and (0..2.5, 1..3) of log10 A*, log10 m*; 2026-11-27 20:00 UTC,
+# the window with not-steady points): deformable preview 0.36 (474
+# computed, 156 replayed, 1035 unknown), standard 0.04 (189, 156, 1035);
+# material point 0.11 (676, 663, 782).  A server learns it per model and
+# fidelity from its own maps (app/mapjobs.py); where neither, 0.
+NOT_STEADY_REFINED = {("deformable", "preview"): 0.36, ("deformable", "standard"): 0.04,
+                      ("point-mass", "standard"): 0.11}
+NOT_STEADY = CLASSES.index("not steady")
+
+
+def expected_refinement(replayed, unknown, share):
+    """Each finest-grid point's expected count in a map's refinement (in
+    [0, 1]): the replay on the shipped map (`replayed`, boolean), moved by
+    `share` (NOT_STEADY_REFINED) towards the replay with the not-steady
+    points' drift unknown (`unknown`, boolean)."""
+    replayed = np.asarray(replayed, dtype=float)
+    return np.clip(replayed + float(share) * (np.asarray(unknown, dtype=float) - replayed),
+                   0.0, 1.0)
+
+
+def learn_not_steady_share(computed, replayed, unknown, min_points=10):
+    """The share q of expected_refinement a finished map shows (its
+    computed points against the two replays), in [0, 1]; None where the
+    unknown drifts change the replay by fewer than `min_points` points."""
+    base, full = float(np.sum(replayed)), float(np.sum(unknown))
+    if full - base < min_points:
+        return None
+    return float(np.clip((float(np.sum(computed)) - base) / (full - base), 0.0, 1.0))
