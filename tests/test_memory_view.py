@@ -269,21 +269,16 @@ def test_a_time_shown_while_the_snapshots_compute_stays_shown():
     asyncio.run(go())
 
 
-def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip):
-    """Issue 32 (browserbench's failed memory views): after its await,
-    `show_at` runs without the document's lock, where a change of a plain
-    Bokeh model can be lost ("_pending_writes should be non-None"); seen:
-    the click taken, the button disabled, the diagram never drawn and the
-    button never enabled again.  In a served page the answer is made at the
-    document's next tick (which holds the lock), as a whole."""
+async def _served_view(scene):
+    """(a ready memory view of `scene`, the document it is in): a Bokeh
+    Document as a served page's, with a session, whose next-tick callbacks
+    are kept in `ticks` for the test to run."""
     from types import SimpleNamespace
 
     import panel as pn
     from bokeh.document import Document
-    from panel.io.state import set_curdoc
 
     class Served(Document):
-        """A document with a session (its next-tick callbacks kept here)."""
         session_context = SimpleNamespace()
 
         def __init__(self):
@@ -293,13 +288,26 @@ def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip)
         def add_next_tick_callback(self, callback):
             self.ticks.append(callback)
 
+    view = _view(scene)
+    await _ready(view)
+    doc = Served()
+    doc.add_root(pn.Column(view).get_root(doc))
+    return view, doc
+
+
+def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip):
+    """Issue 32 (browserbench's failed memory views): after its await,
+    `show_at` runs without the document's lock, where a change of a plain
+    Bokeh model can be lost ("_pending_writes should be non-None"); seen:
+    the click taken, the button disabled, the diagram never drawn and the
+    button never enabled again.  In a served page the answer is made at the
+    document's next tick (which holds the lock), as a whole."""
+    from panel.io.state import set_curdoc
+
     scene, _ = partial_slip
 
     async def go():
-        view = _view(scene)
-        await _ready(view)
-        doc = Served()
-        doc.add_root(pn.Column(view).get_root(doc))
+        view, doc = await _served_view(scene)
         before = view.w_fig.title.text
         view.time_field.input.value = "1500.25"
         with set_curdoc(doc):
@@ -324,24 +332,11 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     names them; Chrome traces, docs/UPSTREAM.md 2.2).  The busy state is the
     disabled button: in a served page, while the diagram computes and once
     it is drawn, no such property of a model of the page has changed."""
-    from types import SimpleNamespace
-
-    import panel as pn
-    from bokeh.document import Document
     from bokeh.models import LayoutDOM, Plot
     from panel.io.state import set_curdoc
 
     from test_redraw_layout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
 
-    class Served(Document):
-        session_context = SimpleNamespace()
-
-        def __init__(self):
-            super().__init__()
-            self.ticks = []
-
-        def add_next_tick_callback(self, callback):
-            self.ticks.append(callback)
 
     def layout(doc):
         """What BokehJS lays the page out by: {(model id, property): value}."""
@@ -358,10 +353,7 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     scene, _ = partial_slip
 
     async def go():
-        view = _view(scene)
-        await _ready(view)
-        doc = Served()
-        doc.add_root(pn.Column(view).get_root(doc))
+        view, doc = await _served_view(scene)
         before = layout(doc)
         view.time_field.input.value = "1500.25"
         with set_curdoc(doc):
