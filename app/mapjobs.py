@@ -30,7 +30,6 @@ queue, one cache, one core budget for the process.
 import logging
 import os
 import threading
-import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
@@ -178,7 +177,6 @@ class _Computation:
         self.cancel = threading.Event()
         self.tickets = []
         self.last = None          # the latest level's Update (for a late subscriber)
-        self.started = None
 
 
 class MapJobs:
@@ -591,7 +589,6 @@ class MapJobs:
         # points stay there (`.partial`) for a request that comes back; the
         # cache removes it after a day (mapcache.STALE_SECONDS)
         work = os.path.join(self.cache.folder, f"{comp.key}{TEMPORARY}{os.getpid()}")
-        comp.started = time.monotonic()
 
         def on_level(level, ds):
             self._tell(comp, Update("level", level, levels, ds))
