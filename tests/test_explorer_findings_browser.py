@@ -2,7 +2,7 @@
 as a newcomer sees it (legends, titles, sizes at 1024x768)."""
 import pytest
 
-from browserpages import new_page, open_explorer
+from browserpages import new_page, open_explorer, settle
 from budget import budget_ms
 
 pytestmark = pytest.mark.browser
@@ -66,4 +66,57 @@ def test_the_animation_player_fits_at_1024(browser, served_explorer):
         assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 1024, box
     assert window.input_value() == "the last periods at full resolution"   # (not blank)
     page.close()
+    assert not errors, errors
+
+
+# the memory tab's three figures, each where the page shows it: its box in
+# the viewport, its frame (data area) and the width of each line of its
+# title as the figure's canvas draws it (its font, measured by a canvas)
+_MEMORY_FIGURES_JS = """() => {
+  const ctx = document.createElement("canvas").getContext("2d");
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.title === undefined || m.title === null || m.renderers === undefined) continue;
+    const text = String(m.title.text);
+    if (!/^(memory diagram|spring displacements|contact)/.test(text)) continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v || v.el.getClientRects().length === 0) continue;
+    const box = v.el.getBoundingClientRect();
+    const t = m.title;
+    ctx.font = `${t.text_font_style} ${t.text_font_size} ${t.text_font}`;
+    out.push({title: text, left: box.left, right: box.right,
+              frame_width: v.frame.bbox.width, frame_height: v.frame.bbox.height,
+              lines: text.split("\\n").map((l) => [l, ctx.measureText(l).width])});
+  }
+  return out;
+}"""
+
+
+@pytest.mark.parametrize("width,height", [(1024, 768), (1920, 1080)])
+def test_the_memory_figures_and_their_titles_fit(browser, served_explorer, width, height):
+    """The memory tab at 1024 and 1920: its titles ("spring displacements
+    u(h), |u| <= a* - h", "contact: c = ..., s = ... (total sliding)") were
+    cut at their figures' edges, and one Bokeh row of the three figures
+    (~900 pixels) cut the contact circle at the page's right edge and
+    squeezed it into an ellipse.  Each figure lies inside the page, each
+    line of its title fits over its frame, and the circle's frame is
+    square."""
+    page, errors = new_page(browser, width, height)
+    open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
+    page.get_by_text("Memory diagram", exact=True).first.click()
+    page.wait_for_function("""() => (%s)().some(f => f.title.startsWith(
+                               "memory diagram w(h)\\nt* ="))""" % _MEMORY_FIGURES_JS,
+                           timeout=budget_ms(60), polling=250)
+    settle(page)
+    figures = page.evaluate(_MEMORY_FIGURES_JS)
+    page_width = page.evaluate("() => document.documentElement.clientWidth")
+    page.close()
+    assert len(figures) == 3, figures
+    for fig in figures:
+        assert fig["left"] >= 0 and fig["right"] <= page_width, (page_width, fig)
+        for line, line_width in fig["lines"]:
+            assert line_width <= fig["frame_width"], (line, line_width, fig)
+    circle, = [f for f in figures if f["title"].startswith("contact")]
+    assert abs(circle["frame_width"] - circle["frame_height"]) <= 1, circle
     assert not errors, errors

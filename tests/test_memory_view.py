@@ -59,7 +59,7 @@ def _holds(view, snap):
                                                           view.discs.data["ys"])]
     assert radii == pytest.approx([d["r"] for d in discs], rel=1e-12)
     assert view.w_fig.title.text == title_lines(plots.memory_title(snap))
-    assert view.c_fig.title.text == plots.contact_geometry(snap)["title"]
+    assert view.c_fig.title.text == title_lines(plots.contact_geometry(snap)["title"])
 
 
 def test_empty_and_disabled_before_a_run():

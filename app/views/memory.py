@@ -23,7 +23,6 @@ from concurrent.futures import CancelledError
 import numpy as np
 import panel as pn
 import param
-from bokeh.layouts import row
 from bokeh.models import (ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text)
 from bokeh.plotting import figure
 
@@ -44,7 +43,7 @@ PANEL_WIDTH = 300      # three panels in the explorer's 900 pixels
 PANEL_HEIGHT = 300
 SQUARE = 210           # the contact circle's frame (pixels)
 TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/live.py)
-EMPTY_TITLE = "memory diagram: run a deformable scene"
+EMPTY_TITLE = "memory diagram\n(run a deformable scene)"
 _NAN = float("nan")
 
 
@@ -77,9 +76,15 @@ def _figure(title, xlabel, ylabel, square=False):
 
 
 def title_lines(title):
-    """A panel's title on two lines (its name, then the rest after its first
-    comma): on one, "memory diagram w(h), t* = ..., partial slip" was cut at
-    the 300-pixel panel's edge."""
+    """A figure's title on two lines, broken before its parenthesis, or else
+    after its first comma: "memory diagram w(h)" / "t* = ..., partial slip",
+    "spring displacements u(h)" / "|u| <= a* - h", "contact: c = ..., s =
+    ..." / "(partial slip)".  On one line they were cut at their figures'
+    edges; the break does not depend on the numbers, so a title keeps its
+    height (and the figure its frame) while the slider scrubs."""
+    head, paren, rest = title.partition(" (")
+    if paren:
+        return f"{head}\n({rest}"
     return "\n".join(title.split(", ", 1))
 
 
@@ -128,7 +133,14 @@ class MemoryView(pn.viewable.Viewer):
         self.busy = pn.indicators.LoadingSpinner(value=True, size=20, visible=False)
         self.status = pn.pane.Markdown("", margin=(0, 5))
         self.note = note_pane()
-        self.figures_pane = pn.pane.Bokeh(self.figures, name="memory-figures")
+        # each figure a pane of its own in a wrapping row: the three (~900
+        # pixels) did not fit the run tabs' column (~680 pixels at 1024 x
+        # 768, ~600 beside the map at 1920 x 1080), and one Bokeh row
+        # squeezed the contact circle into an ellipse and cut it at the
+        # page's edge; now the circle goes below the other two
+        self.figures_pane = pn.FlexBox(
+            *(pn.pane.Bokeh(fig) for fig in (self.w_fig, self.u_fig, self.c_fig)),
+            flex_wrap="wrap", align_items="flex-start", name="memory-figures")
         self.layout = pn.Column(
             pn.Row(self.slider, self.busy, self.status),
             pn.Row(self.time_field, self.show_button), self.note,
@@ -143,22 +155,23 @@ class MemoryView(pn.viewable.Viewer):
         self.cone = ColumnDataSource({"h": [], "w": [], "u": []})
         self.apex = ColumnDataSource({"h": [], "w": []})
         self.spans = ColumnDataSource({k: [] for k in (
-            "left", "right", "mid", "color", "alpha", "label", "label_color", "baseline",
+            "left", "right", "label_x", "color", "alpha", "label", "label_color", "baseline",
             "w_bottom", "w_top", "u_bottom", "u_top", "w_text", "u_text")})
         self.discs = ColumnDataSource({"xs": [], "ys": [], "color": [], "dash": []})
         self.notes = ColumnDataSource({"x": [], "y": [], "text": []})
         self.circle_notes = ColumnDataSource({"x": [], "y": [], "text": []})
         self.w_fig = _figure(EMPTY_TITLE, plots.MEMORY_XLABEL, plots.MEMORY_WLABEL)
         # the u(h) panel shares the depth axis: zooming one zooms both
-        self.u_fig = _figure(plots.MEMORY_UTITLE, plots.MEMORY_XLABEL, plots.MEMORY_ULABEL)
+        self.u_fig = _figure(title_lines(plots.MEMORY_UTITLE), plots.MEMORY_XLABEL,
+                             plots.MEMORY_ULABEL)
         self.u_fig.x_range = self.w_fig.x_range
         self.c_fig = _figure("contact", plots.CIRCLE_XLABEL, plots.CIRCLE_ZLABEL, square=True)
         for fig, y in ((self.w_fig, "w"), (self.u_fig, "u")):
             fig.add_glyph(self.spans, Quad(left="left", right="right", bottom=f"{y}_bottom",
                                            top=f"{y}_top", fill_color="color",
                                            fill_alpha="alpha", line_width=0))
-            fig.add_glyph(self.spans, Text(x="mid", y=f"{y}_text", text="label",
-                                           text_color="label_color", text_align="center",
+            fig.add_glyph(self.spans, Text(x="label_x", y=f"{y}_text", text="label",
+                                           text_color="label_color", text_align="left",
                                            text_baseline="baseline", text_font_size="10pt"))
             # the Coulomb cone |b* - w| = a* - h, resp. |u| = a* - h (two lines, NaN between)
             fig.add_glyph(self.cone, Line(x="h", y=y, line_color="black", line_width=1,
@@ -176,7 +189,6 @@ class MemoryView(pn.viewable.Viewer):
         self.c_fig.add_glyph(self.circle_notes, Text(x="x", y="y", text="text",
                                                      text_align="center",
                                                      text_baseline="middle"))
-        self.figures = row(self.w_fig, self.u_fig, self.c_fig)
 
     def show(self, snapshot, limits=None):
         """Draw one snapshot (a dict from memory_snapshot).  limits: (a*
@@ -186,7 +198,7 @@ class MemoryView(pn.viewable.Viewer):
         c = plots.contact_geometry(snapshot)
         a_max = max(float(snapshot["a"]), 0.0) if limits is None else limits
         self.w_fig.title.text = title_lines(plots.memory_title(snapshot))
-        self.c_fig.title.text = c["title"]
+        self.c_fig.title.text = title_lines(c["title"])
         if g is None:                        # in flight: no memory
             self.profile.data = {"h": [], "w": [], "u": []}
             self.cone.data = {"h": [], "w": [], "u": []}
@@ -215,7 +227,7 @@ class MemoryView(pn.viewable.Viewer):
             n = len(spans)
             self.spans.data = {
                 "left": [s["left"] for s in spans], "right": [s["right"] for s in spans],
-                "mid": [(s["left"] + s["right"]) / 2 for s in spans],
+                "label_x": [s["label_x"] for s in spans],
                 "color": [s["color"] for s in spans], "alpha": [s["alpha"] for s in spans],
                 "label": [s["label"] for s in spans],
                 "label_color": [s["label_color"] for s in spans],

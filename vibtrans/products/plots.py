@@ -765,20 +765,27 @@ def memory_title(snapshot):
             f"{STATE_NAMES[int(snapshot['state'])]}")
 
 
+SPAN_LABEL_INSET = 0.02    # a band's label starts this fraction of a* inside it
+
+
 def memory_spans(snapshot):
     """The stick core [0, s_h] and the slip annulus [s_h, a*] as bands of
     contact depth h (a0): dicts of left, right, color, alpha, label,
-    label_color and label_at ("top" or "bottom" of the panel)."""
+    label_color, label_at ("top" or "bottom" of the panel) and label_x, where
+    the label starts (left-aligned, just inside its band: centred, "slip
+    annulus" over a narrow band from h = 0 was cut at the panel's edge)."""
     a, s = snapshot["a"], snapshot["stick_depth"]
+    inset = SPAN_LABEL_INSET * max(float(a), 0.0)
     slip_colour = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
     spans = []
     if s > 0:
         spans.append(dict(left=0, right=s, color=STATE_COLORS[1], alpha=0.18,
-                          label="stick core", label_color=STATE_COLORS[1], label_at="top"))
+                          label="stick core", label_color=STATE_COLORS[1], label_at="top",
+                          label_x=inset))
     if a > s:
         spans.append(dict(left=s, right=a, color=slip_colour, alpha=0.25,
                           label="slip annulus", label_color=SLIP_TEXT_COLOR,
-                          label_at="bottom"))
+                          label_at="bottom", label_x=s + inset))
     return spans
 
 
@@ -811,8 +818,8 @@ def _spans(snapshot, y0, y1):
                             matplotlib=dict(color=None, facecolor=sp["color"],
                                             edgecolor="none")))
         top = sp["label_at"] == "top"
-        layers.append(style(hv.Text((sp["left"] + sp["right"]) / 2, y1 if top else y0,
-                                    sp["label"], halign="center",
+        layers.append(style(hv.Text(sp["label_x"], y1 if top else y0,
+                                    sp["label"], halign="left",
                                     valign="top" if top else "bottom", fontsize=10),
                             common=dict(color=sp["label_color"])))
     return layers
