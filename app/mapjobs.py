@@ -30,6 +30,7 @@ queue, one cache, one core budget for the process.
 import logging
 import os
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
@@ -64,11 +65,20 @@ CHUNK_SECONDS = 10.0
 # measured with `python -m devtools.mapestimate` (2026-11-27)
 FRACTION_PRIOR = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
 # a map's own work besides its points' runs: its start (store, levels) and
-# each computed point's passage (to a worker and back, into the store):
-# maps of 10-period points, whose runs cost next to nothing, took 0.5 s for
-# 59-125 points, 0.9 s for 304 and 3.0 s for 1188 (2026-11-27, this
-# 2-core machine, `python -m devtools.mapestimate`'s maps at 10 periods)
-MAP_START_SECONDS = 0.4
+# each computed point's passage (to a worker and back, into the store), on
+# a host where a point's Python in its worker (the scene's checks, the run's
+# summary: cost.timed_point's whole time less the run's) takes
+# WORKER_PYTHON_SECONDS.  `python -m devtools.mapestimate --own-work`:
+# maps of 10-period points, whose runs cost next to nothing, less their runs
+# over the cores, 66 to 4827 points computed, fitted as 0.29 s + 0.76 ms a
+# point (0.28 s + 0.87 ms in a second run), the worker's Python 0.46 ms
+# (0.48) (2026-11-28, this 2-core machine, calm; the constants before,
+# 0.4 s + 2.2 ms, were a slower host's and older code's: on this host every
+# estimate came out 1.25-2x the time).  A server scales them by its probe's
+# worker Python over WORKER_PYTHON_SECONDS, then learns them from its own
+# maps (MapJobs.own_factor).
+MAP_START_SECONDS = 0.29
+WORKER_PYTHON_SECONDS = 4.6e-4
 PROBE_PERIODS = 2000.0
 # points the first estimate of a model and fidelity runs to measure this
 # server's speed (cost.probe_points: drawn by their expected work among the
@@ -78,7 +88,7 @@ PROBE_POINTS = 12
 # (MapJobs._pool_rate): a map's rate counts by its runs' seconds, the
 # earlier ones by half of theirs, a quarter, ...
 RATE_MEMORY = 0.5
-POINT_PASSAGE_SECONDS = 2.2e-3
+POINT_PASSAGE_SECONDS = 7.6e-4
 # seconds the map workers' processes outlive the last map: a map asked for
 # meanwhile starts at once (a worker's start is ~1.3 s of CPU: imports,
 # compiled kernels loaded); `stop_workers` ends them sooner (the server's
@@ -177,6 +187,7 @@ class _Computation:
         self.cancel = threading.Event()
         self.tickets = []
         self.last = None          # the latest level's Update (for a late subscriber)
+        self.shared = False       # another map ran beside it (its wall time is not its own)
 
 
 class MapJobs:
@@ -211,6 +222,11 @@ class MapJobs:
         self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
         self._rate_sums = {}         # the same -> (seconds, work) behind it (_pool_rate)
         self._whole = {}             # the same -> a point's whole time over its run's
+        # a map's own work (MAP_START_SECONDS, POINT_PASSAGE_SECONDS) on this
+        # server over the constants': (measured, the constants') seconds
+        # pooled over the maps computed alone (own_factor), else the probe's
+        self._own_sums = None
+        self._own_probe = None
         self._fractions = {}         # (model, levels) -> share of the finest grid computed
         # (model, fidelity) -> the not-steady share of the refinement its last
         # map showed (cost.learn_not_steady_share)
@@ -304,7 +320,7 @@ class MapJobs:
             work, unit = maprequest.bound_steps(request) * cost, "steps"
         else:
             work, unit = work * cost, "reference"
-        if reference is None or maprequest._nearest(request, reference) is None:
+        if reference is None or maprequest.nearest_points(request, reference) is None:
             return work, unit, self.fraction(request.model, request.levels)
         replay = maprequest.replay_reference(reference)
         return work, unit, tuple(
@@ -383,6 +399,10 @@ class MapJobs:
             if lane is not None:
                 lane.shutdown()
         seconds = {k: t for k, (_, t) in timed.items()}
+        if self._own_probe is None:
+            python = float(np.median([t - point["seconds"] for point, t in timed.values()]))
+            if python > 0:
+                self._own_probe = python / WORKER_PYTHON_SECONDS
         flat = expected.ravel()
         rate = float(np.mean([seconds[k] / flat[k] for k in picks.tolist()]))
         if rate > 0 and key not in self._rates:
@@ -392,6 +412,29 @@ class MapJobs:
             if runs > 0:
                 self._whole[key] = sum(seconds.values()) / runs
         return self._rates.get(key)
+
+    def own_factor(self):
+        """This server's time for a map's own work over the constants'
+        (MAP_START_SECONDS + POINT_PASSAGE_SECONDS a point): pooled over its
+        maps computed alone (each older map at RATE_MEMORY's weight), else
+        its first probe's worker Python over WORKER_PYTHON_SECONDS, else 1."""
+        if self._own_sums is not None:
+            return self._own_sums[0] / self._own_sums[1]
+        return self._own_probe or 1.0
+
+    def _learn_own(self, request, ds, wall):
+        """A map computed alone took `wall` seconds: less its points' runs
+        over the cores, the rest is its own work (its start, its points'
+        passage, the levels' waits), pooled against the constants'."""
+        computed = ds["computed"].values
+        key = (request.model, request.fidelity,
+               self._predicted(request)[1], request.stop)
+        runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
+        own = wall - runs / max(1, self.cores)
+        constants = MAP_START_SECONDS + int(computed.sum()) * POINT_PASSAGE_SECONDS
+        if own > 0:
+            measured, weight = self._own_sums or (0.0, 0.0)
+            self._own_sums = (own + RATE_MEMORY * measured, constants + RATE_MEMORY * weight)
 
     def whole_over_run(self, key):
         """A point's whole time in its worker over its run's own `seconds`
@@ -463,12 +506,13 @@ class MapJobs:
             return None, [str(exc)]
         work, unit, computed = self.expected_work(request)
         rate = self.measure_speed(request, work, unit, computed)
+        own = self.own_factor()
         est = maprequest.estimate(request, rate, work, computed, self.cores,
-                                  MAP_START_SECONDS, POINT_PASSAGE_SECONDS,
+                                  own * MAP_START_SECONDS, own * POINT_PASSAGE_SECONDS,
                                   self.profile(request.model), self._share(request))
         if est.seconds is not None and est.seconds > self.max_seconds:
-            return est, [f"estimated {maprequest._duration(est.seconds)}, over this server's "
-                         f"limit of {maprequest._duration(self.max_seconds)} per map: fewer "
+            return est, [f"estimated {maprequest.duration(est.seconds)}, over this server's "
+                         f"limit of {maprequest.duration(self.max_seconds)} per map: fewer "
                          f"points, periods or a lower fidelity"]
         return est, []
 
@@ -577,6 +621,10 @@ class MapJobs:
             if comp.cancel.is_set():
                 return
             self._running.add(comp)
+            # its wall time tells its own work only if no other map shared
+            # the workers meanwhile
+            for other in self._running:
+                other.shared = len(self._running) > 1 or other.shared
         try:
             self._compute_now(comp)
         finally:
@@ -595,6 +643,7 @@ class MapJobs:
         try:
             if not kernels.wait(comp.cancel):
                 raise Cancelled("map cancelled")
+            started = time.perf_counter()
             self._build(comp, work, on_level)
             self.computed += 1
             self.cache.publish(comp.key, work)
@@ -602,6 +651,10 @@ class MapJobs:
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
             self._learn_speed(comp.request, ds)
+            with self._lock:
+                alone = not comp.shared
+            if alone:
+                self._learn_own(comp.request, ds, time.perf_counter() - started)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels

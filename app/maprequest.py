@@ -252,7 +252,7 @@ class Estimate(NamedTuple):
 
     def text(self, workers):
         when = ("seconds unknown until this server's speed is measured" if self.seconds is None
-                else f"about {_duration(self.seconds)} on this server ({workers} "
+                else f"about {duration(self.seconds)} on this server ({workers} "
                      f"core{'s' if workers != 1 else ''}, from its measured speed)")
         some = ("" if self.computed is None else
                 f" The refinement computes only where the map changes: about "
@@ -264,7 +264,8 @@ class Estimate(NamedTuple):
                 f"{self.steps:.3g} integration steps{rule}: {when}.{some}")
 
 
-def _duration(seconds):
+def duration(seconds):
+    """`seconds` as the page says a map's time: "12 s", "3 min", "1.5 h"."""
     if seconds < 90:
         return f"{max(seconds, 0.1):.2g} s"
     if seconds < 5400:
@@ -324,7 +325,7 @@ def expected_steps(request, profile=None):
     return bound_steps(request) * request.expected_share(profile)
 
 
-def _nearest(request, reference):
+def nearest_points(request, reference):
     """The indices (of log_amplitude, of log_mass) of `reference`'s point
     nearest each finest-grid point of the request, or None if the window is
     not inside the reference's."""
@@ -346,7 +347,7 @@ def reference_classes(request, reference):
     rule, or a window outside it."""
     if reference.attrs.get("stop", "full") != "full":
         return None
-    nearest = _nearest(request, reference)
+    nearest = nearest_points(request, reference)
     if nearest is None:
         return None
     at = np.ix_(*nearest)
@@ -378,7 +379,7 @@ def reference_work(request, reference):
     its periods it ran; one judged by its tau twin: TWIN_SHARE of its
     jumping points' seconds, the run's without its twin).  None if the
     window is not inside the reference's."""
-    nearest = _nearest(request, reference)
+    nearest = nearest_points(request, reference)
     if nearest is None:
         return None
     ia, im = nearest

@@ -8,12 +8,20 @@ time to its first picture (the coarse level).
     python -m devtools.mapestimate --json      # the same, machine-readable
     python -m devtools.mapestimate --check     # exit 1 beyond the goals
     python -m devtools.mapestimate --quick     # the three smallest maps
+    python -m devtools.mapestimate --own-work  # app/mapjobs.py's constants
 
 Columns: the points computed against the estimate's expected count; the
 share of T_obs the computed points ran, weighted by their work as the
 estimate's share is, against that share; the estimate and the measured
 time; their ratio; the first picture's time; the load average (1 min) as
 the map was asked for.
+
+--own-work measures what app/mapjobs.py's MAP_START_SECONDS,
+POINT_PASSAGE_SECONDS and WORKER_PYTHON_SECONDS say: maps of 10-period
+points (whose runs cost next to nothing) of 81 to 9409 points, each one's
+wall time less its runs over the cores, fitted as a start plus a cost per
+point computed; and a point's Python in its worker (cost.timed_point's
+whole time less its run's), the median over 18 points.
 
 Goals: measured / estimated within [1/1.5, 1.5] for every map; the first
 map's coarse level within 3 s of its request.  The first map after the start
@@ -79,15 +87,83 @@ def run_map(jobs, request, session):
     return est, times.get("first", times["done"]), times["done"], int(computed.sum()), share
 
 
+def own_work():
+    """(start seconds, seconds per point computed, worker Python seconds,
+    rows): app/mapjobs.py's constants measured on this host."""
+    import numpy as np
+    from vibtrans.maps.cost import timed_point
+    from vibtrans_explorer import mapjobs, maprequest
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        jobs = mapjobs.MapJobs(folder=folder)
+        jobs.start_helpers()
+        first = maprequest.MapRequest(model="deformable", fidelity="standard", cells=4,
+                                      levels=1)
+        python = []
+        for repeat in range(3):
+            for la in (-1.0, 0.0, 1.0):
+                for lm in (-1.0, 0.0, 1.0):
+                    point, whole = timed_point(first.scene_values(), la, lm,
+                                               maprequest.CHAOS, first.stop)
+                    if repeat:                  # the first round warms up
+                        python.append(whole - point["seconds"])
+        # the first map starts the workers: measured, not fitted
+        for i, (model, _, cells, levels, (a0, a1, m0, m1)) in enumerate(
+                [MAPS[2], MAPS[2], MAPS[0], *MAPS[3:]]):
+            request = maprequest.MapRequest(model=model, fidelity="preview", cells=cells,
+                                            levels=levels, la_from=a0 + 0.01 * i, la_to=a1,
+                                            lm_from=m0, lm_to=m1, periods=10.0)
+            done = threading.Event()
+            ended = {}
+
+            def on_update(u):
+                if u.final:
+                    ended["u"] = u
+                    done.set()
+            t0 = time.perf_counter()
+            jobs.submit(f"own-{i}", request, on_update)
+            done.wait()
+            wall = time.perf_counter() - t0
+            if ended["u"].kind != "done":
+                raise SystemExit(f"the map ended {ended['u'].kind}")
+            ds = ended["u"].ds
+            computed = ds["computed"].values
+            runs = float(np.nansum(ds["seconds"].values[computed]))
+            rows.append({"points": request.points(), "computed": int(computed.sum()),
+                         "wall_s": wall, "runs_s": runs, "own_s": wall - runs / jobs.cores})
+        jobs.stop_workers()
+    fitted = rows[1:]
+    n = np.array([r["computed"] for r in fitted], dtype=float)
+    own = np.array([r["own_s"] for r in fitted])
+    start, per_point = np.linalg.lstsq(np.column_stack([np.ones_like(n), n]), own,
+                                       rcond=None)[0]
+    return float(start), float(per_point), float(np.median(python)), rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--quick", action="store_true", help="the three smallest maps")
+    parser.add_argument("--own-work", action="store_true",
+                        help="measure app/mapjobs.py's constants of a map's own work")
     args = parser.parse_args(argv)
     from vibtrans_explorer import kernels, mapjobs, maprequest
     kernels.start()
     kernels.wait()
+    if args.own_work:
+        start, per_point, python, rows = own_work()
+        if args.json:
+            print(json.dumps({"start_s": start, "per_point_s": per_point,
+                              "worker_python_s": python, "maps": rows}, indent=1))
+        else:
+            for r in rows:
+                print(f"{r['points']:6d} points, {r['computed']:5d} computed: "
+                      f"{r['wall_s']:6.2f} s, runs {r['runs_s']:5.2f} s, own {r['own_s']:6.2f} s")
+            print(f"own work: {start:.2f} s + {per_point * 1e3:.2f} ms a point computed "
+                  f"(the first map, which starts the workers, left out); a point's Python "
+                  f"in its worker {python * 1e3:.2f} ms; load average {os.getloadavg()[0]:.1f}")
+        return 0
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         jobs = mapjobs.MapJobs(folder=folder)

@@ -870,7 +870,7 @@ def test_the_refinement_is_replayed_on_the_verdicts_maps_on_demand_judge_by(tmp_
     assert computed.sum() > 1.5 * twin.sum()
     # each point's class (the periods it is expected to run) with that verdict
     # too: cost.CLASS_PERIODS's material-point row was measured so
-    near = np.ix_(*maprequest._nearest(request, shipped))
+    near = np.ix_(*maprequest.nearest_points(request, shipped))
     fields = ("drift_velocity", "final_drift_velocity", "chaotic", "contact",
               "takeoffs_per_period")
     classes = maprequest.reference_classes(request, shipped)
@@ -893,3 +893,52 @@ def test_the_refinement_is_replayed_on_the_verdicts_maps_on_demand_judge_by(tmp_
     q = NOT_STEADY_REFINED[("deformable", "preview")]
     assert full.sum() > replayed.sum()
     assert computed.sum() == pytest.approx(replayed.sum() + q * (full.sum() - replayed.sum()))
+
+
+def test_a_map_computed_alone_teaches_the_server_its_own_work(tmp_path, gate):
+    """A map's own work (its start, its points' passage: MAP_START_SECONDS,
+    POINT_PASSAGE_SECONDS) is this server's: the constants, measured on one
+    host, made every estimate 1.3-2x the time on a faster one
+    (devtools/mapestimate.py).  Before any map the factor is 1 (no probe
+    here); a map computed alone sets it to its wall time less its runs over
+    the constants' (a second's wait in its build counted as its own work);
+    two maps computed side by side teach nothing (their wall times share
+    the workers); and the estimate scales both constants by it."""
+    def build(comp, path, on_level):
+        assert gate.wait(60)
+        time.sleep(1.0)
+        jobs._run_adaptive(comp, path, on_level)
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False,
+                           build=build)
+    assert jobs.own_factor() == 1.0
+    # side by side: nothing learned
+    pair = [Listener(), Listener()]
+    jobs.submit("a", MapRequest(**TINY), pair[0])
+    jobs.submit("b", MapRequest(**{**TINY, "la_to": 0.6}), pair[1])
+    until = time.perf_counter() + budget(30)
+    while len(jobs._running) < 2:
+        assert time.perf_counter() < until
+        time.sleep(0.01)
+    gate.set()
+    assert [p.wait().kind for p in pair] == ["done", "done"]
+    assert jobs.own_factor() == 1.0 and jobs._own_sums is None
+    # alone: its own work, the wait included
+    alone = Listener()
+    jobs.submit("c", MapRequest(**{**TINY, "la_to": 0.7}), alone)
+    done = alone.wait()
+    assert done.kind == "done"
+    n = int(done.ds["computed"].values.sum())
+    constants = mapjobs.MAP_START_SECONDS + n * mapjobs.POINT_PASSAGE_SECONDS
+    assert jobs.own_factor() * constants >= 1.0
+    # the estimate's own work is the constants scaled by it
+    request = MapRequest(**{**TINY, "la_to": 0.8})
+    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-9
+    est, problems = jobs.estimate(request)
+    assert not problems
+    work, unit, computed = jobs.expected_work(request)
+    own = jobs.own_factor()
+    assert est.seconds == pytest.approx(maprequest.estimate(
+        request, 1e-9, work, computed, jobs.cores, own * mapjobs.MAP_START_SECONDS,
+        own * mapjobs.POINT_PASSAGE_SECONDS, jobs.profile("deformable"),
+        jobs._share(request)).seconds)
+    assert est.seconds > 1.0
