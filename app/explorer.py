@@ -28,7 +28,7 @@ from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
 from .presentation import (BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, WRAPPING_TABS,
-                           scale_fonts)
+                           ExplorerDesign, scale_fonts)
 from .texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
 from .state import DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS, ExplorerState
 from .views.difference import DifferenceView
@@ -492,7 +492,8 @@ def explorer_template(explorer):
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
     return pn.template.BootstrapTemplate(
         title="vibtrans: vibrational transport explorer",
-        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=SIDEBAR_WIDTH)
+        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=SIDEBAR_WIDTH,
+        design=ExplorerDesign)
 
 
 PAGE_TITLE = "vibtrans explorer"

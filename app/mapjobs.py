@@ -72,7 +72,7 @@ FRACTION_PRIOR = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
 # maps of 10-period points, whose runs cost next to nothing, less their runs
 # over the cores, 66 to 4827 points computed, fitted as 0.29 s + 0.76 ms a
 # point (0.28 s + 0.87 ms in a second run), the worker's Python 0.46 ms
-# (0.48) (2026-11-28, this 2-core machine, calm; the constants before,
+# (0.48) (2026-11-27 23:59 UTC, this 2-core machine, calm; the constants before,
 # 0.4 s + 2.2 ms, were a slower host's and older code's: on this host every
 # estimate came out 1.25-2x the time).  A server scales them by its probe's
 # worker Python over WORKER_PYTHON_SECONDS, then learns them from its own

@@ -3,6 +3,7 @@ fonts (`scale_fonts`) and Bokeh's widget font (a CSS property the page's
 parts inherit, set by the page); in the browser, the root font size and the
 sidebar's width (app/browserside.py: Bootstrap sizes its buttons and inputs
 in rem, which no property of a part reaches)."""
+import panel as pn
 from bokeh.models import ColorBar, Legend, Title
 
 # the page's text, its widgets and the figures' fonts this much larger
@@ -12,6 +13,19 @@ SIDEBAR_WIDTH = 330         # px
 # Tabs whose headers wrap onto a second row where they do not fit (large
 # fonts in half a screen) instead of scrolling sideways, cut off
 WRAPPING_TABS = ".bk-headers-wrapper { flex-wrap: wrap; }"
+# The text in text inputs and selects: the browser's own size for a form's
+# controls (13.33 px, not inherited, so presentation mode left the typed
+# log10 A* and the chosen mu at it beside 18-pixel labels), in rem so that
+# it follows the page's root size as Bootstrap's paddings do
+INPUT_FONT = "input.bk-input, select.bk-input, textarea.bk-input { font-size: 0.8333rem; }"
+
+
+class ExplorerDesign(pn.theme.Bootstrap):
+    """Panel's Bootstrap design with INPUT_FONT in every widget (a design's
+    modifiers, Panel's public way to style each component of a page, the
+    Units and Design tabs' forms built later included)."""
+
+    modifiers = {pn.widgets.Widget: {"stylesheets": [INPUT_FONT]}}
 
 
 def scale_fonts(fig, factor):

@@ -266,7 +266,11 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     page = screen(1280, 800)
     widget = page.get_by_role("button", name="deformable", exact=True).first
     tab = page.get_by_text("Vertical", exact=True).first
-    before = page.evaluate(_MAP_JS), _px(widget), _px(tab)
+    # the typed log10 A* and the chosen fidelity (they stayed at the
+    # browser's 13.33 px for a form's controls)
+    typed = page.locator("input.bk-input").first
+    chosen = page.locator("select.bk-input").first
+    before = page.evaluate(_MAP_JS), _px(widget), _px(tab), _px(typed), _px(chosen)
     page.locator(".vt-presentation").first.locator("button").first.click()
     _idle(page)
     # the server's styles arrive after the browser's own change: until the tabs grew
@@ -274,10 +278,12 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     while _px(tab) < 1.4 * before[2] and time.monotonic() < deadline:
         page.wait_for_timeout(250)
     _idle(page)
-    after = page.evaluate(_MAP_JS), _px(widget), _px(tab)
+    after = page.evaluate(_MAP_JS), _px(widget), _px(tab), _px(typed), _px(chosen)
     _shot(page, "1280x800-presentation-sidebar")
     assert after[1] >= 1.4 * before[1], f"the sidebar's buttons: {before[1]} -> {after[1]} px"
     assert after[2] >= 1.4 * before[2], f"the tabs: {before[2]} -> {after[2]} px"
+    assert after[3] >= 1.4 * before[3], f"a text input's text: {before[3]} -> {after[3]} px"
+    assert after[4] >= 1.4 * before[4], f"a select's text: {before[4]} -> {after[4]} px"
     for key in ("bar_ticks", "bar_title"):
         assert _font_px(after[0][key]) >= 1.4 * _font_px(before[0][key]), (key, before[0],
                                                                            after[0])
