@@ -169,7 +169,7 @@ def test_the_point_mass_shows_the_particle_only():
         assert f["contact_title"] == "material point: rigid, no contact area"
         assert f["particle"]["r"][0] > 0
         assert "overlap" not in f["side_title"]
-    assert "Material point" in anim.scale_notes[1].text
+    assert "Material point" in anim.scale_notes[2].text
     assert "no contact zone and no contact circle" in anim.key.text
 
 

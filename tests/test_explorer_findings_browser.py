@@ -65,8 +65,44 @@ def test_the_animation_player_fits_at_1024(browser, served_explorer):
         box = el.bounding_box()
         assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 1024, box
     assert window.input_value() == "the last periods at full resolution"   # (not blank)
+    # every line of the figures' titles and notes within its figure's frame:
+    # the contact's title ("from above: c = ..., s = ...") and the side
+    # view's "Not to scale: ..." note were cut at 1024
+    page.wait_for_function("""() => (%s)().some(f => f.name === "anim-circle"
+                               && f.lines.some(l => l[0].startsWith("from above")))"""
+                           % _ANIMATION_TEXTS_JS, timeout=budget_ms(30), polling=250)
+    settle(page)
+    figures = page.evaluate(_ANIMATION_TEXTS_JS)
     page.close()
+    assert sorted(f["name"] for f in figures) == ["anim-circle", "anim-side"], figures
+    for fig in figures:
+        assert any(l.startswith("Not to scale") for l, _ in fig["lines"]) or \
+            fig["name"] == "anim-circle", fig
+        for line, line_width in fig["lines"]:
+            assert line_width <= fig["frame_width"], (line, line_width, fig)
     assert not errors, errors
+
+
+# the animation's two figures: each line of their titles (above and below
+# the frame) with its width as the canvas draws it, and the frame's width
+_ANIMATION_TEXTS_JS = """() => {
+  const ctx = document.createElement("canvas").getContext("2d");
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.name !== "anim-side" && m.name !== "anim-circle") continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v || v.el.getClientRects().length === 0) continue;
+    const titles = [m.title, ...m.below].filter(
+      (t) => t && typeof t.text === "string" && t.text_font_size !== undefined);
+    const lines = [];
+    for (const t of titles) {
+      ctx.font = `${t.text_font_style} ${t.text_font_size} ${t.text_font}`;
+      for (const l of String(t.text).split("\\n")) if (l) lines.push([l, ctx.measureText(l).width]);
+    }
+    out.push({name: m.name, frame_width: v.frame.bbox.width, lines: lines});
+  }
+  return out;
+}"""
 
 
 # the memory tab's three figures, each where the page shows it: its box in

@@ -210,8 +210,10 @@ function draw(i) {
   let ct;
   if (!deformable) ct = "material point: rigid, no contact area";
   else if (!touching) ct = "in flight: no contact";
-  else ct = "from above: c = " + c.toFixed(3) + (isNaN(s) ? "" : ", s = " + s.toFixed(3))
-            + "\\n" + M.unit[0];   // (two lines: one was cut at the figure's width)
+  else ct = "from above: c = " + c.toFixed(3) + "\\n"
+            + (isNaN(s) ? "" : "s = " + s.toFixed(3) + " ") + M.unit[0];
+            // (two lines, c on the first: one line, then "c, s" on one,
+            // were cut at the figure's width at 1024 pixels)
   contact_title.setv({text: ct}, {sync: false});
 }
 """
@@ -355,7 +357,7 @@ class ParticleAnimation(pn.viewable.Viewer):
                               background_fill_color="white", background_fill_alpha=0.7))
         # short lines: a long one was cut at the figure's edge at 1024 pixels
         self.scale_notes = [Title(text="", text_font_size="8.5pt", text_font_style="italic")
-                            for _ in range(3)]
+                            for _ in range(4)]
         for note in self.scale_notes:
             side.add_layout(note, "below")
         side.toolbar.logo = None
@@ -363,7 +365,8 @@ class ParticleAnimation(pn.viewable.Viewer):
 
         circ = figure(frame_width=CIRCLE_PX, frame_height=CIRCLE_PX,
                       x_range=Range1d(-1.1, 1.1), y_range=Range1d(-1.1, 1.1), tools="",
-                      toolbar_location=None, output_backend="canvas", title="(no run)")
+                      toolbar_location=None, output_backend="canvas", title="(no run)",
+                      name="anim-circle")
         circ.title.text_font_size = "9.5pt"
         circ.xaxis.axis_label = "x  (sqrt(R a0))"
         circ.yaxis.axis_label = "z  (sqrt(R a0))"
@@ -584,12 +587,13 @@ class ParticleAnimation(pn.viewable.Viewer):
             + ("" if sphere else f"; c(a*) the {scene.profile} profile's"))
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
-            f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} "
-            f"a0*), wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
+            f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),")
         self.scale_notes[1].text = (
+            f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
+        self.scale_notes[2].text = (
             "To scale, in a0: heights, the particle's motion along x"
             + (", the overlap a*." if deformable else ". Material point: the particle only."))
-        self.scale_notes[2].text = "*a 0.5 mm steel bead on glass at 108 kHz"
+        self.scale_notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = (("the contact zone drawn as Hertz's for the drawn radius: half-width "
                  f"c sqrt({rho:.3g}) a0. ") if deformable and sphere else
                 (f"the particle drawn with its {scene.profile} tip: the tip's outline near "
@@ -633,8 +637,8 @@ class ParticleAnimation(pn.viewable.Viewer):
         elif not touching:
             ct = "in flight: no contact"
         else:
-            ct = (f"from above: c = {_fixed(c, 3)}"
-                  + ("" if np.isnan(s) else f", s = {_fixed(s, 3)}") + "\n" + M["unit"][0])
+            ct = (f"from above: c = {_fixed(c, 3)}\n"
+                  + ("" if np.isnan(s) else f"s = {_fixed(s, 3)} ") + M["unit"][0])
         TS = self.tip_shape.data
         return {
             "surface": {"xi": xs, "z": height(xs)},
