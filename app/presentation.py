@@ -25,7 +25,9 @@ class ExplorerDesign(pn.theme.Bootstrap):
     modifiers, Panel's public way to style each component of a page, the
     Units and Design tabs' forms built later included)."""
 
-    modifiers = {pn.widgets.Widget: {"stylesheets": [INPUT_FONT]}}
+    # Inherit: the design's own stylesheets first (without it, a modifier
+    # replaces them, and the widgets lost Bootstrap's look)
+    modifiers = {pn.widgets.Widget: {"stylesheets": [pn.theme.Inherit, INPUT_FONT]}}
 
 
 def scale_fonts(fig, factor):

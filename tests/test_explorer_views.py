@@ -281,3 +281,25 @@ def test_the_vertical_tab_says_its_curve_is_the_spheres():
     assert "vibtrans threshold --profile cone" in note.object
     ex.state.profile = "sphere"
     assert not note.visible
+
+
+def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets():
+    """ExplorerDesign (app/presentation.py) gives every widget INPUT_FONT
+    (text inputs and selects sized in rem, so that presentation mode grows
+    them) on top of Bootstrap's own stylesheets: a modifier without
+    `Inherit` replaced them, and the widgets lost Bootstrap's look."""
+    import panel as pn
+    from bokeh.document import Document
+    from vibtrans_explorer.presentation import INPUT_FONT, ExplorerDesign
+
+    def stylesheets(design):
+        field = pn.widgets.TextInput(name="log10 A*")
+        doc = Document()
+        pn.template.BootstrapTemplate(sidebar=[field], design=design).server_doc(doc)
+        model, = [m for m in doc.models if type(m).__name__ == "TextInput"]
+        return [getattr(s, "url", None) or getattr(s, "css", None) or s
+                for s in model.stylesheets]
+
+    bootstrap, ours = stylesheets(pn.theme.Bootstrap), stylesheets(ExplorerDesign)
+    assert any("bootstrap" in str(s) for s in bootstrap), bootstrap
+    assert ours == bootstrap + [INPUT_FONT], (bootstrap, ours)

@@ -258,6 +258,45 @@ def test_the_map_keeps_its_frame_when_its_key_grows(screen):
         assert key["left"] >= -SLACK_PX and key["right"] <= key["canvas"] + SLACK_PX, keys
 
 
+# both models' maps: each map figure's box in the page
+_MAPS_JS = """() => {
+  const out = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.x_range === undefined || m.renderers === undefined) continue;
+    const t = m.title && String(m.title.text);
+    if (!(t && t.startsWith("<v*> over"))) continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v || v.el.getClientRects().length === 0) continue;
+    const r = v.el.getBoundingClientRect();
+    out.push({title: t, left: r.left, right: r.right, top: r.top, bottom: r.bottom,
+              frame_width: v.frame.bbox.width});
+  }
+  return out;
+}"""
+
+
+@pytest.mark.parametrize("width,height,side_by_side", [(1024, 768, False), (1280, 800, True)])
+def test_both_models_maps_fit_the_page(screen, width, height, side_by_side):
+    """'both models' at 1024 x 768 put the point-mass map beside the
+    deformable one, cut off at the page's right edge: each map lies inside
+    the page, side by side where both fit (1280 x 800), else one under the
+    other, each at least as wide as one map alone at 1024."""
+    page = screen(width, height)
+    page.get_by_role("button", name="both models", exact=True).first.click()
+    page.wait_for_function(f"() => ({_MAPS_JS})().length === 2", timeout=budget_ms(60))
+    _idle(page)
+    maps = sorted(page.evaluate(_MAPS_JS), key=lambda m: (m["top"], m["left"]))
+    page_width = page.evaluate("() => document.documentElement.clientWidth")
+    for m in maps:
+        assert m["left"] >= 0 and m["right"] <= page_width + SLACK_PX, (page_width, maps)
+    first, second = maps
+    if side_by_side:
+        assert abs(first["top"] - second["top"]) <= SLACK_PX and \
+            second["left"] >= first["right"] - SLACK_PX, maps
+    else:
+        assert second["top"] >= first["bottom"] - SLACK_PX, maps
+
+
 def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     """Presentation mode: the sidebar's widgets, the tabs and the colour
     bar's ticks and title grow with the page's text; the map's data area

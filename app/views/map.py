@@ -471,6 +471,15 @@ def prerender():
         step()
 
 
+def _map_pane(fig):
+    """A map's pane in the map view's wrapping row: it takes the row's
+    width, shared with the other map where each gets MIN_WIDTH (the
+    figure's own style: a Bokeh pane's element has none of its own in the
+    page, `display: contents`)."""
+    fig.styles = {**fig.styles, "flex": f"1 1 {MIN_WIDTH}px"}
+    return pn.pane.Bokeh(fig, sizing_mode="stretch_width")
+
+
 class MapView:
     """The session's map pane.  `on_click(la, lm, both)` is called for a
     click inside a drawn map (`both`: the two models were shown side by
@@ -485,7 +494,11 @@ class MapView:
         self.on_tap_js = on_tap_js       # a CustomJS run in the browser at a click
         self.selected = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.device = ColumnDataSource({"x": [], "y": []})
-        self.pane = pn.Row(sizing_mode="stretch_width", name="map", css_classes=["vt-map"])
+        # both models' maps side by side where each gets MIN_WIDTH, else
+        # one under the other: side by side at 1024 x 768 (a 680-pixel
+        # column) the second was cut off at the page's right edge
+        self.pane = pn.FlexBox(sizing_mode="stretch_width", name="map", css_classes=["vt-map"],
+                               flex_wrap="wrap")
         self.figures = []
         # a map on demand shown instead of the shipped ones: (figure, window,
         # on_click(la, lm)); None: the shipped maps
@@ -531,7 +544,7 @@ class MapView:
         self.computed = fig
         self._drawn = None
         self.figures = [fig]
-        self.pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+        self.pane.objects = [_map_pane(fig)]
 
     def show_shipped(self):
         self.computed = None
@@ -595,7 +608,7 @@ class MapView:
             for fig in figures[1:]:
                 fig.x_range, fig.y_range = figures[0].x_range, figures[0].y_range
         self.figures = figures
-        self.pane.objects = [pn.pane.Bokeh(f, sizing_mode="stretch_width") for f in figures]
+        self.pane.objects = [_map_pane(f) for f in figures]
 
     def view_ranges(self):
         """((log10 A* from, to), (log10 m* from, to)) of the zoomed view."""
