@@ -148,6 +148,8 @@ class _Panel:
             for r in item.renderers:
                 r.visible = col in cols
                 r.y_range_name = "right" if col in right else "default"
+                if hasattr(r.glyph, "line_dash"):       # (its line, not its band)
+                    r.glyph.line_dash = plots.axis_dash(col, right) or "solid"
         self.columns, self.right = cols, right
 
 
@@ -223,7 +225,8 @@ class _Block:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
                 right_axis = shared.axis(y_range_name="right")
                 fig.add_layout(right_axis, "right")
-            items = _lines(fig, [self.source] * len(lines), [(*line, None) for line in lines],
+            items = _lines(fig, [self.source] * len(lines),
+                           [(*line, plots.axis_dash(line[0], right)) for line in lines],
                            shared, right, envelope=bool(bins))
             specs = {rigid: (m[i][0] + (plots.BINNED_NOTE if bins else ""), *m[i][1:])
                      for rigid, m in models.items()}

@@ -445,6 +445,8 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
             np.testing.assert_array_equal(np.isin(lo, v), True)
             np.testing.assert_array_equal(np.isin(hi, v), True)
             line = next(ln for ln in on[0].lines if ln.get_label() == label)
+            # a right-axis line dashed (solid, x* hid b* where they coincide)
+            assert line.get_linestyle() == ("--" if var in right else "-"), (var, right)
             np.testing.assert_allclose(line.get_ydata(), plots.binned(t, {var: v},
                                                                         plots.OVERVIEW_BINS)[var])
             # the window: every sample, nothing else

@@ -70,6 +70,21 @@ def _drawn_panels(block):
     return out
 
 
+def _dashes(block):
+    """{column: its line's dash} of the lines drawn in a block's panels: a
+    right-axis line is dashed (plots.RIGHT_AXIS_DASH), so that it says
+    which axis it is read on and is seen where it coincides with the other
+    (solid, x* hid b* in a steady slide)."""
+    out = {}
+    for panel in block.panels:
+        for r in panel.fig.renderers:
+            if r.visible and type(r.glyph).__name__ == "Line":
+                dash = r.glyph.line_dash
+                out[r.glyph.y] = dash if isinstance(dash, str) else ("solid" if not dash
+                                                                     else "dashed")
+    return out
+
+
 def test_both_models_draw_into_one_set_of_figures():
     """Issue 14: the first point-mass run built a second set of figures
     (1.9 s in chromium).  The point mass's panels are the deformable
@@ -81,12 +96,15 @@ def test_both_models_draw_into_one_set_of_figures():
     view = LiveTrajectory(None, 2.0, 50.0)
     view.show(deformable)
     before = _drawn_panels(view.over)
+    assert _dashes(view.over) == {"a": "solid", "y": "dashed", "b": "solid", "x": "dashed",
+                                  "N": "solid", "T": "solid", "bdot": "dashed"}
     figures = list(view.over.figures)
     view.show(point, rigid=True)
     assert view.over.figures == figures                  # no new figure
     for (title, ylabel, lines), drawn in zip(panel_spec(True), _drawn_panels(view.over)):
         assert drawn[0].startswith(title) and drawn[1] == ylabel and drawn[2] is None
         assert drawn[3] == {c: "default" for c, _, _ in lines}     # one axis, the left
+    assert set(_dashes(view.over).values()) == {"solid"}    # one axis each: all solid
     y_panel = view.over.panels[0]
     y = point["y"].values
     assert y_panel.fig.y_range.start <= y.min() and y_panel.fig.y_range.end >= y.max()

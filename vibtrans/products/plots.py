@@ -586,6 +586,17 @@ class Trace:
 # thousands; b* and x* over the last two periods were two flat lines).  The
 # explorer's live figures and the exports (PNG, SVG, PDF, HTML) follow it.
 RIGHT_AXIS = ("y", "x", "bdot")
+# A line on the right axis is dashed: it says which axis it is read on,
+# and where the two lines coincide (b* and x* of a steady slide, both
+# straight from 0, each on its own axis's range) both stay visible; solid,
+# x* hid b* entirely.
+RIGHT_AXIS_DASH = "dashed"
+
+
+def axis_dash(column, right):
+    """The dash of `column`'s line in a panel whose right-axis columns are
+    `right` (`right_columns`): RIGHT_AXIS_DASH there, else None (solid)."""
+    return RIGHT_AXIS_DASH if column in right else None
 
 
 def right_columns(columns):
@@ -661,11 +672,13 @@ def _line_panels(ds, specs, bins):
     xlim = (float(t[0]), float(t[-1]))
     panels = []
     for title, ylabel, lines in specs:
+        right = tuple(right_columns([var for var, _, _ in lines]))
         traces = tuple(Trace(var, label, colour, data["time"], data[var],
-                             data.get(f"{var}_lo"), data.get(f"{var}_hi"))
+                             data.get(f"{var}_lo"), data.get(f"{var}_hi"),
+                             axis_dash(var, right))
                        for var, label, colour in lines)
         panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces,
-                            right=tuple(right_columns([var for var, _, _ in lines]))))
+                            right=right))
     return panels, data
 
 
