@@ -18,7 +18,8 @@ from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import (LAW_ARG, LAW_KIND, LAW_ROOT, LAW_TABLE, WARM_EPS,
                                            WARM_EPS_SHORT, kernel_law, law_eval, law_history,
-                                           power_kernel_law, tangential_force_history)
+                                           power_kernel_law, power_warm,
+                                           tangential_force_history)
 from vibtrans.core.params import paper_scene
 from vibtrans.core.profiles import FlatSphereProfile
 from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
@@ -71,7 +72,7 @@ def test_warm_root_within_4_ulp_of_pow(n, steps):
     a, out = _run(law, n, steps=steps)
     _, ref = _run(_pow_law(law), n, steps=steps)
     order = out[:, 2]
-    assert set(np.unique(order)) <= {0.0, 2.0, 4.0}
+    assert set(np.unique(order)) <= {0.0, 1.0, 2.0, 4.0}      # 1: a second start
     warm = order > 0.0
     assert warm.mean() > (0.99 if steps[0] == 100 else 0.05)    # the fast path is tested
     e = _start_error(a, out, law)
@@ -134,18 +135,63 @@ def test_warm_root_against_a_40_digit_reference(n):
 
 
 def test_warm_root_falls_back_to_pow_where_the_start_is_far():
-    # a* in random order: no extrapolation lands within WARM_EPS, every value
-    # is pow()'s bit for bit; so are the first four of any history
+    # a* in random order: no cubic extrapolation lands within WARM_EPS, and
+    # the linear one (the second start) only by chance: every other value is
+    # pow()'s bit for bit; so are the first two of any history (no second
+    # start before two roots), and the cubic start takes over from the fifth
     law = power_kernel_law(3)
     a = np.random.default_rng(5).uniform(1e-3, 50.0, 4000)
     out = np.empty((a.size, 3))
     law_history(law, a, out)
-    assert not out[:, 2].any()
+    assert set(np.unique(out[:, 2])) <= {0.0, 1.0}
+    assert np.count_nonzero(out[:, 2]) <= 10
     for i in range(a.size):
-        assert (out[i, 0], out[i, 1]) == law_eval(law, a[i])
+        if out[i, 2] == 0.0:
+            assert (out[i, 0], out[i, 1]) == law_eval(law, a[i])
+        else:
+            np.testing.assert_allclose(out[i, :2], law_eval(law, a[i]), rtol=ULPS * EPS)
     a2, out2 = _run(law, 3, size=50)
-    assert not out2[:4, 2].any() and out2[4:, 2].all()
+    assert not out2[:2, 2].any() and set(out2[2:4, 2]) <= {0.0, 1.0}
+    assert np.all((out2[4:, 2] == 2.0) | (out2[4:, 2] == 4.0))
     assert WARM_EPS <= 2.0 ** -12     # the series' e^5 term stays below 3e-20 of y
+
+
+@pytest.mark.parametrize("n", [2, 3, 7, 64])
+def test_second_starts_within_4_ulp_where_the_cubic_start_is_far(n):
+    # a history whose slope jumps at its newest point (as a stick edge's does
+    # when it reaches another segment of the memory), then goes on straight:
+    # the cubic start misses by twice the jump, the linear one (2 y1 - y2)
+    # takes the e^4 series; with the linear start far too, the caller's
+    # k_alt = N*'(a') of a nearby a' (the stick edge's: N*'(a*)); with
+    # neither, pow() bit for bit
+    law = power_kernel_law(n)
+    p = law[LAW_ARG]
+    rng = np.random.default_rng(40 + n)
+
+    def root(x):
+        return float(Decimal(x) ** (Decimal(1) / Decimal(n)))
+
+    def check(a, warm, k_alt, expect):
+        nn, k, _, order = power_warm(law, a, warm, k_alt)
+        assert order == expect
+        if order == 0:
+            assert (nn, k) == law_eval(law, a)
+        else:
+            ref = root(a)
+            np.testing.assert_allclose([k, nn], [p * ref, a * ref], rtol=ULPS * EPS, atol=0)
+
+    for _ in range(300):
+        a0 = math.exp(rng.uniform(-4, 4))
+        s1 = rng.uniform(-1e-3, 1e-3) * a0
+        s2 = s1 + rng.choice([-1, 1]) * rng.uniform(1e-3, 1e-2) * a0
+        hist = [a0, a0 + s1, a0 + 2 * s1, a0 + 2 * s1 + s2]
+        a = hist[3] + s2
+        y = [root(x) for x in hist]
+        check(a, (y[3], y[2], y[1], y[0]), 0.0, 1)                     # the linear start
+        far = (y[3], 0.5 * y[3], y[1], y[0])
+        check(a, far, p * root(a * (1 + rng.uniform(-1e-5, 1e-5))), 1)  # the caller's
+        check(a, far, 0.0, 0)                                           # pow
+        check(a, far, p * root(a * 1.1), 0)
 
 
 @pytest.mark.parametrize("law", [power_kernel_law(2.5), power_kernel_law(1.0),
