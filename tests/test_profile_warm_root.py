@@ -237,3 +237,34 @@ def test_power3_run_drift_matches_the_pow_path(point):
     assert int(runs[0].ctr[R.C_STEPS]) == steps
     x, x0 = runs[0].state[D.S_X], runs[1].state[D.S_X]
     assert abs(x - x0) <= steps * EPS * abs(x0)
+
+
+@pytest.mark.parametrize("lyapunov", [False, True], ids=["plain", "lyapunov"])
+def test_power_kernels_are_the_profile_kernels_bit_for_bit(monkeypatch, lyapunov):
+    # a warm-started power law runs in kernels of its own (deformable.py,
+    # WARM_POWER: the law's kind a compile-time constant); the general
+    # profile kernels give the same records, bit for bit (point 6: jumps,
+    # sliding, second starts and pow at the stick edge)
+    sc = paper_scene(6).replace(profile="power:3", periods=100.0)
+    law = drivers.scene_law(sc)
+    assert drivers._deformable_profile(law) is D.deformable_power_kernel
+    assert drivers._deformable_profile(law, lyapunov=True) is D.deformable_power_lyapunov_kernel
+    assert drivers._deformable_profile(_pow_law(law)) is D.deformable_profile_kernel
+    table = kernel_law(FlatSphereProfile(1.0))
+    assert drivers._deformable_profile(table) is D.deformable_profile_kernel
+    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
+                              D.SHORTCUTS_ALL, None)
+    general = {False: D.deformable_profile_kernel, True: D.deformable_profile_lyapunov_kernel}
+    runs = []
+    for own in (True, False):
+        if not own:
+            monkeypatch.setattr(drivers, "_deformable_profile",
+                                lambda law, lyapunov=False: general[lyapunov])
+        runs.append(drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
+                                      law=law, lyapunov_from=1.0 if lyapunov else None))
+    a, b = runs
+    assert int(a.ctr[R.C_STEPS]) > 10_000
+    assert np.array_equal(a.samples, b.samples) and np.array_equal(a.events, b.events)
+    assert np.array_equal(a.state, b.state)
+    if lyapunov:
+        assert np.array_equal(a.tangent, b.tangent)

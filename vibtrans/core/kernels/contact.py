@@ -275,8 +275,8 @@ def power_warm(law, a, warm, k_alt):
 def law_history(law, a, out):
     """The kernels' evaluation (`law_eval_warm`, one call site, its history
     carried from each a*[i] to the next) along a sequence: out[i] = (N*, N*',
-    the warm start's order: 2.0 or 4.0 where taken, 0.0 where not:
-    `power_warm`).  For tests and benchmarks."""
+    the warm start's order: 2.0 or 4.0 where taken, 1.0 for a second start,
+    0.0 for pow: `power_warm`).  For tests and benchmarks."""
     warm = NO_WARM
     for i in range(a.shape[0]):
         order = 0
