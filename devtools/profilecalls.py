@@ -50,9 +50,10 @@ def count(profile, point, periods):
         calls[site()] += 1
         return law_eval(law, a)
 
-    def counted_power_warm(law, a, warm):
-        out = power_warm(law, a, warm)
-        calls[f"{site()} ({f'warm e^{out[3]}' if out[3] else 'pow'})"] += 1
+    def counted_power_warm(law, a, warm, k_alt):
+        out = power_warm(law, a, warm, k_alt)
+        kind = {0: "pow", 1: "second start e^4"}.get(out[3], f"warm e^{out[3]}")
+        calls[f"{site()} ({kind})"] += 1
         return out
 
     def counted_clamp(*args):

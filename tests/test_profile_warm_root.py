@@ -18,7 +18,8 @@ from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import (LAW_ARG, LAW_KIND, LAW_ROOT, LAW_TABLE, WARM_EPS,
                                            WARM_EPS_SHORT, kernel_law, law_eval, law_history,
-                                           power_kernel_law, tangential_force_history)
+                                           power_kernel_law, power_warm,
+                                           tangential_force_history)
 from vibtrans.core.params import paper_scene
 from vibtrans.core.profiles import FlatSphereProfile
 from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
@@ -71,7 +72,7 @@ def test_warm_root_within_4_ulp_of_pow(n, steps):
     a, out = _run(law, n, steps=steps)
     _, ref = _run(_pow_law(law), n, steps=steps)
     order = out[:, 2]
-    assert set(np.unique(order)) <= {0.0, 2.0, 4.0}
+    assert set(np.unique(order)) <= {0.0, 1.0, 2.0, 4.0}      # 1: a second start
     warm = order > 0.0
     assert warm.mean() > (0.99 if steps[0] == 100 else 0.05)    # the fast path is tested
     e = _start_error(a, out, law)
@@ -134,18 +135,63 @@ def test_warm_root_against_a_40_digit_reference(n):
 
 
 def test_warm_root_falls_back_to_pow_where_the_start_is_far():
-    # a* in random order: no extrapolation lands within WARM_EPS, every value
-    # is pow()'s bit for bit; so are the first four of any history
+    # a* in random order: no cubic extrapolation lands within WARM_EPS, and
+    # the linear one (the second start) only by chance: every other value is
+    # pow()'s bit for bit; so are the first two of any history (no second
+    # start before two roots), and the cubic start takes over from the fifth
     law = power_kernel_law(3)
     a = np.random.default_rng(5).uniform(1e-3, 50.0, 4000)
     out = np.empty((a.size, 3))
     law_history(law, a, out)
-    assert not out[:, 2].any()
+    assert set(np.unique(out[:, 2])) <= {0.0, 1.0}
+    assert np.count_nonzero(out[:, 2]) <= 10
     for i in range(a.size):
-        assert (out[i, 0], out[i, 1]) == law_eval(law, a[i])
+        if out[i, 2] == 0.0:
+            assert (out[i, 0], out[i, 1]) == law_eval(law, a[i])
+        else:
+            np.testing.assert_allclose(out[i, :2], law_eval(law, a[i]), rtol=ULPS * EPS)
     a2, out2 = _run(law, 3, size=50)
-    assert not out2[:4, 2].any() and out2[4:, 2].all()
+    assert not out2[:2, 2].any() and set(out2[2:4, 2]) <= {0.0, 1.0}
+    assert np.all((out2[4:, 2] == 2.0) | (out2[4:, 2] == 4.0))
     assert WARM_EPS <= 2.0 ** -12     # the series' e^5 term stays below 3e-20 of y
+
+
+@pytest.mark.parametrize("n", [2, 3, 7, 64])
+def test_second_starts_within_4_ulp_where_the_cubic_start_is_far(n):
+    # a history whose slope jumps at its newest point (as a stick edge's does
+    # when it reaches another segment of the memory), then goes on straight:
+    # the cubic start misses by twice the jump, the linear one (2 y1 - y2)
+    # takes the e^4 series; with the linear start far too, the caller's
+    # k_alt = N*'(a') of a nearby a' (the stick edge's: N*'(a*)); with
+    # neither, pow() bit for bit
+    law = power_kernel_law(n)
+    p = law[LAW_ARG]
+    rng = np.random.default_rng(40 + n)
+
+    def root(x):
+        return float(Decimal(x) ** (Decimal(1) / Decimal(n)))
+
+    def check(a, warm, k_alt, expect):
+        nn, k, _, order = power_warm(law, a, warm, k_alt)
+        assert order == expect
+        if order == 0:
+            assert (nn, k) == law_eval(law, a)
+        else:
+            ref = root(a)
+            np.testing.assert_allclose([k, nn], [p * ref, a * ref], rtol=ULPS * EPS, atol=0)
+
+    for _ in range(300):
+        a0 = math.exp(rng.uniform(-4, 4))
+        s1 = rng.uniform(-1e-3, 1e-3) * a0
+        s2 = s1 + rng.choice([-1, 1]) * rng.uniform(1e-3, 1e-2) * a0
+        hist = [a0, a0 + s1, a0 + 2 * s1, a0 + 2 * s1 + s2]
+        a = hist[3] + s2
+        y = [root(x) for x in hist]
+        check(a, (y[3], y[2], y[1], y[0]), 0.0, 1)                     # the linear start
+        far = (y[3], 0.5 * y[3], y[1], y[0])
+        check(a, far, p * root(a * (1 + rng.uniform(-1e-5, 1e-5))), 1)  # the caller's
+        check(a, far, 0.0, 0)                                           # pow
+        check(a, far, p * root(a * 1.1), 0)
 
 
 @pytest.mark.parametrize("law", [power_kernel_law(2.5), power_kernel_law(1.0),
@@ -191,3 +237,34 @@ def test_power3_run_drift_matches_the_pow_path(point):
     assert int(runs[0].ctr[R.C_STEPS]) == steps
     x, x0 = runs[0].state[D.S_X], runs[1].state[D.S_X]
     assert abs(x - x0) <= steps * EPS * abs(x0)
+
+
+@pytest.mark.parametrize("lyapunov", [False, True], ids=["plain", "lyapunov"])
+def test_power_kernels_are_the_profile_kernels_bit_for_bit(monkeypatch, lyapunov):
+    # a warm-started power law runs in kernels of its own (deformable.py,
+    # WARM_POWER: the law's kind a compile-time constant); the general
+    # profile kernels give the same records, bit for bit (point 6: jumps,
+    # sliding, second starts and pow at the stick edge)
+    sc = paper_scene(6).replace(profile="power:3", periods=100.0)
+    law = drivers.scene_law(sc)
+    assert drivers._deformable_profile(law) is D.deformable_power_kernel
+    assert drivers._deformable_profile(law, lyapunov=True) is D.deformable_power_lyapunov_kernel
+    assert drivers._deformable_profile(_pow_law(law)) is D.deformable_profile_kernel
+    table = kernel_law(FlatSphereProfile(1.0))
+    assert drivers._deformable_profile(table) is D.deformable_profile_kernel
+    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
+                              D.SHORTCUTS_ALL, None)
+    general = {False: D.deformable_profile_kernel, True: D.deformable_profile_lyapunov_kernel}
+    runs = []
+    for own in (True, False):
+        if not own:
+            monkeypatch.setattr(drivers, "_deformable_profile",
+                                lambda law, lyapunov=False: general[lyapunov])
+        runs.append(drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
+                                      law=law, lyapunov_from=1.0 if lyapunov else None))
+    a, b = runs
+    assert int(a.ctr[R.C_STEPS]) > 10_000
+    assert np.array_equal(a.samples, b.samples) and np.array_equal(a.events, b.events)
+    assert np.array_equal(a.state, b.state)
+    if lyapunov:
+        assert np.array_equal(a.tangent, b.tangent)

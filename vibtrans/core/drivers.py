@@ -268,15 +268,26 @@ def _new_memory(capacity, law):
     return list(new_memory(capacity, law))
 
 
+def _deformable_profile(law, lyapunov=False):
+    """The deformable kernel for a profile's `law`: the warm-started power
+    law's own (its kind a compile-time constant; the same numbers, bit for
+    bit) or the general profile kernel."""
+    if law[LAW_KIND] != LAW_TABLE and law[LAW_ROOT] != 0.0:
+        return D.deformable_power_lyapunov_kernel if lyapunov else D.deformable_power_kernel
+    return D.deformable_profile_lyapunov_kernel if lyapunov else D.deformable_profile_kernel
+
+
 def _profile_call(params, integ, state, hist, tangent, mem, buf, ctr, tangential,
                   stop_at_takeoff, law):
     """run_hertz's kernel call for a profile law (the *_profile_* kernels)."""
     if tangential and tangent is not None:
-        return lambda t_stop: D.deformable_profile_lyapunov_kernel(
+        kernel = _deformable_profile(law, lyapunov=True)
+        return lambda t_stop: kernel(
             params, integ, state, hist, tangent, *mem, buf["samples"], buf["events"], ctr,
             t_stop, law)
     if tangential:
-        return lambda t_stop: D.deformable_profile_kernel(
+        kernel = _deformable_profile(law)
+        return lambda t_stop: kernel(
             params, integ, state, hist, *mem, buf["samples"], buf["events"], ctr, t_stop, law)
     if tangent is not None:
         return lambda t_stop: vertical_profile_lyapunov_kernel(
@@ -334,8 +345,8 @@ def _final_step(params, integ, state, hist, mem, ctr, law=None):
 
     def call(t_stop):
         if law is not None:
-            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
-                                               buf["samples"], buf["events"], ctr, t_stop, law)
+            return _deformable_profile(law)(params, integ, state, hist, *mem,
+                                            buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 
@@ -373,8 +384,8 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
 
     def call(t_stop):
         if law is not None:
-            return D.deformable_profile_kernel(params, integ, state, hist, *mem,
-                                               buf["samples"], buf["events"], ctr, t_stop, law)
+            return _deformable_profile(law)(params, integ, state, hist, *mem,
+                                            buf["samples"], buf["events"], ctr, t_stop, law)
         return D.deformable_kernel(params, integ, state, hist, *mem, buf["samples"],
                                    buf["events"], ctr, t_stop)
 

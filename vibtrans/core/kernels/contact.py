@@ -81,6 +81,7 @@ WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series 
 WARM_EPS_SHORT = 2.0 ** -18   # the short (e^2) series' largest |e| (its rest < 2^-57 of y)
 WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
 NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
+WARM_POWER = 2          # `profiled` of kernels compiled for a warm-started power law alone
 LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
 CELL_N, CELL_A, CELL_B, CELL_C, CELL_K, CELL_M = range(LAW_CELL)
 LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
@@ -175,26 +176,59 @@ def law_eval(law, a):
 
 
 @inline
-def law_eval_warm(law, a, warm):
+def law_eval_warm(law, a, warm, k_alt, profiled):
     """`law_eval` with a warm start: (N*, N*', the new history).
 
     For a power law with an integer n = law[LAW_ROOT] (N* = a* y, N*' = p y,
     y = a*^(1/n)), `warm` holds the last four roots y (newest first) of the
-    same call site on consecutive steps (`power_warm`); otherwise (a
-    non-integer n, a table) `law_eval`.  docs/MODEL.md section 10."""
-    if law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0:
+    same call site on consecutive steps (`power_warm`; k_alt: its second
+    start's N*', 0.0 for none); otherwise (a non-integer n, a table)
+    `law_eval`.  `profiled` = WARM_POWER (a compile-time constant: the
+    kernels of such laws alone, deformable.py) skips the law's kind tests.
+    docs/MODEL.md section 10."""
+    if profiled != WARM_POWER and (law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0):
         nn, k = law_eval(law, a)
         return nn, k, warm
     if a <= 0.0:
         return 0.0, 0.0, NO_WARM
-    nn, k, y, _ = power_warm(law, a, warm)
+    nn, k, y, _ = power_warm(law, a, warm, k_alt)
     return nn, k, (y, warm[0], warm[1], warm[2])
 
 
 @inline
-def power_warm(law, a, warm):
-    """(N*, N*', y = a*^(1/n), the warm start's order: 2, 4, or 0 for pow)
-    of a power law with law[LAW_ROOT] = n and a* > 0, warm-started.
+def _power_yn(law, y0):
+    """y0^n, n = law[LAW_ROOT] (n - 1 multiplies in order; n = 2 and 3, the
+    common tips, without the loop's count and exit: the same bits)."""
+    nr = law[LAW_ROOT]
+    if nr == 3.0:
+        return y0 * y0 * y0
+    if nr == 2.0:
+        return y0 * y0
+    yn = y0
+    for _ in range(int(nr) - 1):
+        yn *= y0
+    return yn
+
+
+@inline
+def _power_rescue(law, a, y0):
+    """The root y = a*^(1/n) from the start y0 by the e^4 series if
+    |e| <= WARM_EPS (`power_warm`), else 0.0 (no start)."""
+    if y0 > 0.0:
+        yn = _power_yn(law, y0)
+        if yn > 0.0:
+            e = (a - yn) * (1.0 / yn)
+            if abs(e) <= WARM_EPS:
+                return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
+                                                                              + e * law[POW_C4])))
+    return 0.0
+
+
+@inline
+def power_warm(law, a, warm, k_alt):
+    """(N*, N*', y = a*^(1/n), the warm start's order: 2, 4, 1 (a second
+    start) or 0 for pow) of a power law with law[LAW_ROOT] = n and a* > 0,
+    warm-started.
 
     The cubic extrapolation y0 of the history `warm` (no dependence on a*:
     off the step's critical path) is corrected by the series
@@ -203,14 +237,16 @@ def power_warm(law, a, warm):
     a*), in Horner's order: for |e| <= WARM_EPS_SHORT = 2^-18 (most steps:
     four operations after e) to its e^2 term (the rest < 2^-57 of y: |c3| <=
     1/16 for n >= 2), for |e| <= WARM_EPS = 2^-12 to its e^4 term (the rest
-    < 3e-20 of y); otherwise (no history yet, an impact, a stick edge that
-    jumps) pow.  Both orders are the root to rounding (N* = a* y, N*' = p y
-    within 4 x 2^-52 of pow's).  docs/MODEL.md section 10."""
+    < 3e-20 of y).  Where the cubic start is farther (an impact, a stick
+    edge that kinks or jumps) two second starts take the e^4 series under
+    the same bound (order 1): the linear extrapolation 2 y1 - y2 of the
+    history, then the root of `k_alt` (an N*' = p y known to the caller,
+    the step's own a*'s at the stick edge; 0.0: none); otherwise (no
+    history yet) pow.  All orders are the root to rounding (N* = a* y, N*' =
+    p y within 4 x 2^-52 of pow's).  docs/MODEL.md section 10."""
     p = law[LAW_ARG]
     y0 = 4.0 * warm[0] - 6.0 * warm[1] + 4.0 * warm[2] - warm[3]
-    yn = y0
-    for _ in range(int(law[LAW_ROOT]) - 1):
-        yn *= y0
+    yn = _power_yn(law, y0)
     if y0 > 0.0 and yn > 0.0:
         r = 1.0 / yn
         d = a - yn
@@ -223,6 +259,14 @@ def power_warm(law, a, warm):
             y = y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
                                                                         + e * law[POW_C4])))
             return a * y, p * y, y, 4
+    if warm[1] > 0.0:
+        y = _power_rescue(law, a, 2.0 * warm[0] - warm[1])
+        if y > 0.0:
+            return a * y, p * y, y, 1
+    if k_alt > 0.0:
+        y = _power_rescue(law, a, k_alt / p)
+        if y > 0.0:
+            return a * y, p * y, y, 1
     y = a ** (p - 1.0)
     return a * y, p * y, y, 0
 
@@ -231,14 +275,14 @@ def power_warm(law, a, warm):
 def law_history(law, a, out):
     """The kernels' evaluation (`law_eval_warm`, one call site, its history
     carried from each a*[i] to the next) along a sequence: out[i] = (N*, N*',
-    the warm start's order: 2.0 or 4.0 where taken, 0.0 where not:
-    `power_warm`).  For tests and benchmarks."""
+    the warm start's order: 2.0 or 4.0 where taken, 1.0 for a second start,
+    0.0 for pow: `power_warm`).  For tests and benchmarks."""
     warm = NO_WARM
     for i in range(a.shape[0]):
         order = 0
         if law[LAW_KIND] == LAW_POWER and law[LAW_ROOT] != 0.0 and a[i] > 0.0:
-            order = power_warm(law, a[i], warm)[3]
-        nn, k, warm = law_eval_warm(law, a[i], warm)
+            order = power_warm(law, a[i], warm, 0.0)[3]
+        nn, k, warm = law_eval_warm(law, a[i], warm, 0.0, True)
         out[i, 0] = nn
         out[i, 1] = k
         out[i, 2] = order
@@ -546,7 +590,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
         ns = H[n - 1, 2]
         if hs > hk:
             nk = ns
-            ns, ks, warm = law_eval_warm(law, hs, warm)
+            ns, ks, warm = law_eval_warm(law, hs, warm, c1, profiled)
             ws = bp + side * (a1 - hs)
             # w dN*' over k -> hs, w on the stack segment (slope off the critical path)
             slope = (wl - wk) / (hl - hk)
@@ -619,7 +663,7 @@ def memory_history_law(H, W, P, nvert, memf, a, b, law, out):
     wa = NO_WARM
     ws = NO_WARM
     for i in range(a.shape[0]):
-        n1, k1, wa = law_eval_warm(law, a[i], wa)
+        n1, k1, wa = law_eval_warm(law, a[i], wa, 0.0, True)
         T, sh, st, ws = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, True, n1, ws)
         out[i, 0] = T
         out[i, 1] = sh

@@ -28,7 +28,8 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, NO_WARM, law_eval, law_eval_warm,
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, NO_WARM, PARTIAL_SLIP, WARM_POWER,
+                                           law_eval, law_eval_warm,
                                            memory_commit)
 from vibtrans.core.kernels.jit import helper, inline, kernel
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
@@ -293,7 +294,7 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential,
     wa, ws = warm
     if a1 > 0.0:
         if profiled:
-            nf, c1, wa = law_eval_warm(law, a1, wa)
+            nf, c1, wa = law_eval_warm(law, a1, wa, 0.0, profiled)
         else:
             c1 = math.sqrt(a1)
             nf = a1 * c1
@@ -413,22 +414,32 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
                  st, 0.0, c)
 
 
+@inline
+def _stick_stiffness(H, nvert, st, sh, a1, c1):
+    """A profile's N*'(s_h) at the step end, for its record: in partial slip
+    the stick edge's vertex, just below the top one (contact._clamp: (s_h,
+    N*'(s_h), N*(s_h))), in full stick (s_h = a*) N*'(a*) = c1, else 0."""
+    if st == PARTIAL_SLIP:
+        return H[nvert[0] - 2, 1]
+    if sh > 0.0 and sh == a1 and st != FLIGHT:
+        return c1
+    return 0.0
+
+
 @helper
 def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh, c1,
                  scale, tangential, law, profiled):
     """One sample row at the step end t1 (contact and stick radii in units
     of the static contact radius).  c1: N*'(a1) of the step's contact force
-    (a profile's; in contact, st != FLIGHT, it is law_eval's at a1, and at
-    s_h = a1, full stick): no law evaluated twice."""
+    (a profile's; in contact, st != FLIGHT, it is law_eval's at a1).  sh:
+    the stick core's depth s_h (the sphere) or, with a profile, its N*'(s_h)
+    (`_stick_stiffness`, from the memory): no law evaluated twice."""
     if profiled:
         k = 0.0
         if a1 > 0.0:
             k = c1 if st != FLIGHT else law_eval(law, a1)[1]
-        ks = 0.0
-        if sh > 0.0:
-            ks = c1 if (sh == a1 and st != FLIGHT) else law_eval(law, sh)[1]
         c = k / law[LAW_K1]
-        s = ks / law[LAW_K1]
+        s = sh / law[LAW_K1]
     else:
         c = math.sqrt(a1) if a1 > 0.0 else 0.0
         s = math.sqrt(sh) if sh > 0.0 else 0.0
@@ -713,7 +724,10 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
                 _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
-            _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh,
+            stick = sh
+            if profiled and tangential:
+                stick = _stick_stiffness(H, nvert, st, sh, a1, c1)
+            _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, stick,
                          c1, scale, tangential, law, profiled)
         if st == FLIGHT and stop_at_takeoff:
             break
@@ -761,3 +775,25 @@ def deformable_profile_lyapunov_kernel(params, integrator, state, hist, tangent,
     return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
                            nvert, memf, samples, events, ctr, t_stop, True, True,
                            law, True)
+
+
+@kernel
+def deformable_power_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
+                            samples, events, ctr, t_stop, law):
+    """deformable_profile_kernel for a power law with the warm-started root
+    (law[LAW_ROOT] != 0, contact.power_kernel_law) alone: the law's kind is
+    a compile-time constant (WARM_POWER), so its tests and the table's code
+    leave the step; the same numbers, bit for bit."""
+    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, False,
+                           law, WARM_POWER)
+
+
+@kernel
+def deformable_power_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P,
+                                     nvert, memf, samples, events, ctr, t_stop, law):
+    """deformable_profile_lyapunov_kernel for a warm-started power law alone
+    (`deformable_power_kernel`)."""
+    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
+                           nvert, memf, samples, events, ctr, t_stop, True, True,
+                           law, WARM_POWER)
