@@ -198,9 +198,10 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
     assert not problems, "in presentation mode: " + "; ".join(problems) + f" ({where})"
 
 
-# Each shown map's key (its legend below the plot) against its canvas: the
-# key's left and right edges and the canvas's width, CSS px.
-_KEYS_JS = """() => {
+# Each shown map: its box in the page (CSS px), its frame's width, and its
+# key (its legend below the plot) against its canvas: the key's left and
+# right edges and the canvas's width (key null where it has none)
+_MAPS_JS = """() => {
   const out = [];
   for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
     if (m.x_range === undefined || m.renderers === undefined) continue;
@@ -208,9 +209,12 @@ _KEYS_JS = """() => {
     if (!(t && t.startsWith("<v*> over"))) continue;
     const v = window.Bokeh.index.find_one(m);
     if (!v || v.el.getClientRects().length === 0) continue;
+    const r = v.el.getBoundingClientRect();
     const key = [...v.renderer_views.values()].find((r) => r.model.type === "Legend");
-    if (key) out.push({title: t, left: key.bbox.left, right: key.bbox.right,
-                       canvas: v.canvas_view.el.getBoundingClientRect().width});
+    out.push({title: t, left: r.left, right: r.right, top: r.top, bottom: r.bottom,
+              frame_width: v.frame.bbox.width,
+              key: key ? {left: key.bbox.left, right: key.bbox.right,
+                          canvas: v.canvas_view.el.getBoundingClientRect().width} : null});
   }
   return out;
 }"""
@@ -250,29 +254,12 @@ def test_the_map_keeps_its_frame_when_its_key_grows(screen):
     # two maps side by side: each key within its own map's canvas (two
     # columns of it were wider than a map and cut off at the left)
     page.get_by_role("button", name="both models", exact=True).first.click()
-    page.wait_for_function(f"() => ({_KEYS_JS})().length === 2", timeout=budget_ms(60))
+    page.wait_for_function(f"() => ({_MAPS_JS})().length === 2", timeout=budget_ms(60))
     _idle(page)
-    keys = page.evaluate(_KEYS_JS)
-    assert len(keys) == 2, keys
+    keys = [m["key"] for m in page.evaluate(_MAPS_JS)]
+    assert len(keys) == 2 and all(keys), keys
     for key in keys:
         assert key["left"] >= -SLACK_PX and key["right"] <= key["canvas"] + SLACK_PX, keys
-
-
-# both models' maps: each map figure's box in the page
-_MAPS_JS = """() => {
-  const out = [];
-  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
-    if (m.x_range === undefined || m.renderers === undefined) continue;
-    const t = m.title && String(m.title.text);
-    if (!(t && t.startsWith("<v*> over"))) continue;
-    const v = window.Bokeh.index.find_one(m);
-    if (!v || v.el.getClientRects().length === 0) continue;
-    const r = v.el.getBoundingClientRect();
-    out.push({title: t, left: r.left, right: r.right, top: r.top, bottom: r.bottom,
-              frame_width: v.frame.bbox.width});
-  }
-  return out;
-}"""
 
 
 @pytest.mark.parametrize("width,height,side_by_side", [(1024, 768, False), (1280, 800, True)])
