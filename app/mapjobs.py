@@ -422,13 +422,13 @@ class MapJobs:
             return self._own_sums[0] / self._own_sums[1]
         return self._own_probe or 1.0
 
-    def _learn_own(self, request, ds, wall):
+    def _learn_own(self, key, ds, wall):
         """A map computed alone took `wall` seconds: less its points' runs
         over the cores, the rest is its own work (its start, its points'
-        passage, the levels' waits), pooled against the constants'."""
+        passage, the levels' waits), pooled against the constants'.  key:
+        its rate's (`_learn_speed`'s), whose probe measured a point's whole
+        time over its run's."""
         computed = ds["computed"].values
-        key = (request.model, request.fidelity,
-               self._predicted(request)[1], request.stop)
         runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
         own = wall - runs / max(1, self.cores)
         constants = MAP_START_SECONDS + int(computed.sum()) * POINT_PASSAGE_SECONDS
@@ -458,7 +458,8 @@ class MapJobs:
         """The map's own rate (its points' seconds, per unit of the work
         they ran), the share of the grid computed, the not-steady points'
         share of its refinement and, for a decided map, its profile (the
-        periods its points ran), for the next estimates."""
+        periods its points ran), for the next estimates.  Returns its rate's
+        key, (model, fidelity, unit, stop)."""
         from vibtrans.maps.cost import (decided_profile, learn_class_periods,
                                         learn_not_steady_share)
         computed = ds["computed"].values
@@ -493,6 +494,7 @@ class MapJobs:
         if total > 0 and runs > 0:
             self._pool_rate(key, runs, total)
         self._fractions[(request.model, request.levels)] = float(computed.mean())
+        return key
 
     def estimate(self, request):
         """(Estimate or None, problems): the request's expected cost, or why
@@ -623,8 +625,9 @@ class MapJobs:
             self._running.add(comp)
             # its wall time tells its own work only if no other map shared
             # the workers meanwhile
-            for other in self._running:
-                other.shared = len(self._running) > 1 or other.shared
+            if len(self._running) > 1:
+                for other in self._running:
+                    other.shared = True
         try:
             self._compute_now(comp)
         finally:
@@ -650,11 +653,12 @@ class MapJobs:
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            self._learn_speed(comp.request, ds)
+            key = self._learn_speed(comp.request, ds)
+            wall = time.perf_counter() - started
             with self._lock:
                 alone = not comp.shared
             if alone:
-                self._learn_own(comp.request, ds, time.perf_counter() - started)
+                self._learn_own(key, ds, wall)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels
