@@ -54,12 +54,9 @@ MAPS = [
 ]
 
 
-def run_map(jobs, request, session):
-    """(estimate, seconds to the first picture, seconds to done, points
-    computed) of one map."""
-    est, problems = jobs.estimate(request)
-    if problems:
-        raise SystemExit(f"refused: {problems}")
+def computed_map(jobs, request, session):
+    """Submit `request` and wait for it: (seconds to its first picture,
+    seconds to done, the finished map's Dataset)."""
     done = threading.Event()
     times = {}
     t0 = time.perf_counter()
@@ -77,14 +74,23 @@ def run_map(jobs, request, session):
     done.wait()
     if times["kind"] != "done":
         raise SystemExit(f"the map ended {times['kind']}")
-    ds = times["ds"]
+    return times.get("first", times["done"]), times["done"], times["ds"]
+
+
+def run_map(jobs, request, session):
+    """(estimate, seconds to the first picture, seconds to done, points
+    computed) of one map."""
+    est, problems = jobs.estimate(request)
+    if problems:
+        raise SystemExit(f"refused: {problems}")
+    first, took, ds = computed_map(jobs, request, session)
     computed = ds["computed"].values
     # the share of T_obs its computed points ran (1 for full runs), weighted
     # by each point's work as the estimate's share is (MapJobs.expected_work)
     work = jobs.expected_work(request)[0][computed]
     share = (float((work * ds["periods_run"].values[computed]).sum() / work.sum())
              / request.periods if "periods_run" in ds else 1.0)
-    return est, times.get("first", times["done"]), times["done"], int(computed.sum()), share
+    return est, first, took, int(computed.sum()), share
 
 
 def own_work():
@@ -113,20 +119,7 @@ def own_work():
             request = maprequest.MapRequest(model=model, fidelity="preview", cells=cells,
                                             levels=levels, la_from=a0 + 0.01 * i, la_to=a1,
                                             lm_from=m0, lm_to=m1, periods=10.0)
-            done = threading.Event()
-            ended = {}
-
-            def on_update(u):
-                if u.final:
-                    ended["u"] = u
-                    done.set()
-            t0 = time.perf_counter()
-            jobs.submit(f"own-{i}", request, on_update)
-            done.wait()
-            wall = time.perf_counter() - t0
-            if ended["u"].kind != "done":
-                raise SystemExit(f"the map ended {ended['u'].kind}")
-            ds = ended["u"].ds
+            _, wall, ds = computed_map(jobs, request, f"own-{i}")
             computed = ds["computed"].values
             runs = float(np.nansum(ds["seconds"].values[computed]))
             rows.append({"points": request.points(), "computed": int(computed.sum()),
