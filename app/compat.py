@@ -16,6 +16,17 @@ measurement and its upstream report, in docs/UPSTREAM.md.
    load test, `python -m devtools.loadtest --maps 5`: 46 failed drawings).
    Workaround: the switch kept per thread.
 
+2. Panel's text panes (Markdown, HTML, Alert) update a model with the
+   properties of the model's own document (`HTMLBasePane._update`).  A
+   hidden tab of a `Tabs(dynamic=True)` keeps its rendered models detached
+   (no document), so a pane updated while its tab is hidden gets its
+   stylesheets resolved for no document: Panel's CDN.  The stylesheet
+   objects are shared, so once the tab is shown again the page fetches its
+   theme, markdown.css and loading.css from cdn.holoviz.org (a page offline
+   loses its table borders and padding).  Workaround: a detached model is
+   updated with the properties of the session's document, as an attached
+   one is.
+
 `apply()` is called once by the server (app/server.py); nothing else here
 runs at import.  Nothing here imports the rest of the app.
 """
@@ -77,10 +88,58 @@ def _stock_validation():
     validation.validate.__exit__ = _STOCK["validate_exit"]
 
 
+def hidden_tab_update_fetches_the_cdn():
+    """The probe of bug 2: True when a Markdown pane updated while its tab
+    is hidden (a dynamic Tabs) comes back with stylesheets on Panel's CDN,
+    in a document whose stylesheets are served locally."""
+    import panel as pn
+    from bokeh.document import Document
+    from bokeh.models import ImportedStyleSheet
+    from panel.io.resources import CDN_DIST, LOCAL_DIST
+    from panel.io.state import set_curdoc
+
+    doc = Document()
+    doc.template_variables["dist_url"] = LOCAL_DIST       # as a served page's
+    shown, hidden = pn.pane.Markdown("shown"), pn.pane.Markdown("hidden")
+    tabs = pn.Tabs(("shown", shown), ("hidden", hidden), dynamic=True, active=1)
+    with set_curdoc(doc):
+        doc.add_root(tabs.get_root(doc))
+        tabs.active = 0
+        hidden.object = "changed while hidden"
+        tabs.active = 1
+    urls = {s.url for m in doc.models for s in getattr(m, "stylesheets", ())
+            if isinstance(s, ImportedStyleSheet)}
+    return any(u.startswith(CDN_DIST) for u in urls)
+
+
+def _text_update_in_the_sessions_document():
+    from panel.pane.markup import HTMLBasePane
+    from panel.io.state import state
+
+    stock = _STOCK.setdefault("text_update", HTMLBasePane._update)
+
+    def _update(self, ref, model):
+        doc = state.curdoc
+        if model.document is None and doc is not None and not self.enable_streaming:
+            model.update(**self._get_properties(doc))
+        else:
+            stock(self, ref, model)
+    HTMLBasePane._update = _update
+
+
+def _stock_text_update():
+    from panel.pane.markup import HTMLBasePane
+    if "text_update" in _STOCK:
+        HTMLBasePane._update = _STOCK["text_update"]
+
+
 # (name, probe: True where the bug shows, workaround, undo)
 WORKAROUNDS = [
     ("Bokeh's validation switch per thread (docs/UPSTREAM.md #1)",
      validation_switch_is_process_wide, _validation_per_thread, _stock_validation),
+    ("Panel's text panes updated in a hidden tab keep the page's stylesheets (docs/UPSTREAM.md 1.2)",
+     hidden_tab_update_fetches_the_cdn, _text_update_in_the_sessions_document,
+     _stock_text_update),
 ]
 
 

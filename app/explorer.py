@@ -13,6 +13,8 @@ serves while the kernels compile in the background, app/kernels.py) or
 """
 import functools
 import logging
+import uuid
+import weakref
 from types import SimpleNamespace
 
 import holoviews as hv
@@ -504,6 +506,30 @@ def create_app():
     return explorer_template(Explorer())
 
 
+# each served page's explorer, by its document: where a failure in one of
+# its callbacks is said (`report_failure`)
+_PAGES = weakref.WeakKeyDictionary()
+FAILURE_TEXT = ("Something failed in the server while it answered the page (reference "
+                "{reference}): what you did last may not have taken effect.  Reload the page "
+                "to start again; the server's log names the cause under that reference.")
+
+
+def failure_reference():
+    """A short reference that ties what a user sees to the server's log."""
+    return uuid.uuid4().hex[:8]
+
+
+def report_failure(exception):
+    """Panel's exception handler (`pn.config.exception_handler`, set by the
+    server): a callback that raised is logged with its traceback, and its
+    page says so in its own words, with no traceback and no server path."""
+    reference = failure_reference()
+    log.error("a page's callback failed (reference %s)", reference, exc_info=exception)
+    explorer = _PAGES.get(pn.state.curdoc) if pn.state.curdoc is not None else None
+    if explorer is not None:
+        explorer._error(FAILURE_TEXT.format(reference=reference))
+
+
 def serve_page():
     """The server's page function: this session's page built into its
     document (`pn.state.curdoc`) by Panel's public `server_doc`, with the
@@ -516,6 +542,7 @@ def serve_page():
     explorer = Explorer()
     location = explorer.location if explorer.location is not None else True
     doc = pn.state.curdoc
+    _PAGES[doc] = explorer
     with doc.models.freeze():
         explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=location)
 

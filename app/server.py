@@ -174,6 +174,32 @@ KERNELS_AFTER = 2.0
 PRERENDER_PAUSE = 0.05
 
 
+FAILED_PAGE = """### The explorer could not open this page
+
+Something failed in the server while it built the page (reference `{reference}`).
+[Open the explorer with its default scene](./), or try the link again later;
+the server's log names the cause under that reference."""
+
+
+def failed_page():
+    """The page served when building the explorer's raised: its own short
+    message (never Panel's traceback, which shows the server's paths), the
+    failure logged with its traceback under a reference the page gives."""
+    import panel as pn
+
+    from .explorer import PAGE_TITLE, failure_reference
+    reference = failure_reference()
+    logging.getLogger("vibtrans.explorer").exception("building a page failed (reference %s)",
+                                                     reference)
+    doc = pn.state.curdoc
+    if doc is not None:
+        doc.clear()                 # whatever the failed build had attached
+        doc.title = PAGE_TITLE
+    return pn.Column(pn.pane.Markdown(FAILED_PAGE.format(reference=reference),
+                                      css_classes=["vt-failed-page"]),
+                     margin=20, sizing_mode="stretch_width")
+
+
 def _first_page(serve_page, start_kernels):
     """The page function for the server (`serve_page`: builds the session's
     page into its document): every page is frozen once built
@@ -181,7 +207,10 @@ def _first_page(serve_page, start_kernels):
     answered (add_callback: after the handler, which builds and writes the
     page without yielding once the session exists)."""
     def page():
-        app = serve_page()
+        try:
+            app = serve_page()
+        except Exception:
+            app = failed_page()
         memory.page_built()
         from tornado.ioloop import IOLoop
         IOLoop.current().add_callback(start_kernels)
@@ -216,6 +245,8 @@ def serve(args):
     _log_to_stderr(logging.getLogger("vibtrans"))
     for line in compat.apply():
         say(line)
+    from .explorer import report_failure
+    pn.config.param.update(exception_handler=report_failure)   # a callback failed: said, logged
     _freeze()
     started = []
 

@@ -8,7 +8,7 @@ import param
 from vibtrans import Scene
 from vibtrans.core import units
 from vibtrans.core.params import ProfileSpec, check_profile
-from vibtrans.core.profiles import N_MIN, parse_profile
+from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans.products import design, designtip
 from vibtrans.products.designtip import TipSize
 from vibtrans.products.design import preset
@@ -49,8 +49,8 @@ DEVICE_FIELDS = ("substrate", "particle", "substrate_custom", "particle_custom",
 # section 10): the library's kinds but a measured table (file:PATH), which
 # names a file on the server (a link must not read the server's files) and
 # needs the device's load: the API and the CLI take it
-PROFILE_VALUES = (f"sphere, cone, power:N (N ≥ {N_MIN:g}), flat-sphere:C (C ≥ 0, the flat's "
-                  f"radius in sqrt(R a0))")
+PROFILE_VALUES = (f"sphere, cone, power:N (N ≥ {N_MIN:g}), flat-sphere:C (0 ≤ C ≤ {FLAT_MAX:g}, "
+                  f"the flat's radius in sqrt(R a0))")
 SPHERE = "sphere"
 
 

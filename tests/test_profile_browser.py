@@ -116,3 +116,29 @@ def test_a_cone_map_on_demand_draws_its_linear_resonance_and_says_why(served_exp
         assert not errors, errors
     finally:
         page.close()
+
+
+def test_a_steep_power_law_link_opens_its_page_and_runs(served_explorer, browser):
+    """power:1e300 (valid: n >= 1) overflowed the tip's outline: the page
+    was Panel's traceback with the server's paths.  Now the page opens, its
+    tip is drawn, the linked scene runs (its animation draws the tip too),
+    and the server logs no exception."""
+    logged = len(served_explorer.text())
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(served_explorer.url + "?profile=power:1e300&la=0.25&lm=0.8"
+                                        "&fidelity=preview&compare=none")
+        page.locator("strong", has_text="profile power:1e+300").first.wait_for(timeout=120000)
+        page.get_by_text("Animation", exact=True).first.click()
+        page.wait_for_function(IDLE_JS, timeout=120000)
+        box = page.evaluate(DRAWING_JS)
+        assert box["found"] and box["title"] == "the tip: power:1e+300 (solid), the sphere (dashed)"
+        body = page.inner_text("body")
+        assert "Traceback" not in body and "Error" not in body
+    finally:
+        page.close()
+    log = served_explorer.text()[logged:]
+    assert "Traceback" not in log and "Error" not in log, log
+    assert not errors, errors

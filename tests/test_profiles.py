@@ -182,3 +182,24 @@ def test_file_profile(tmp_path):
         parse_profile(f"file:{path}")
     with pytest.raises(InputError, match="readable"):
         parse_profile(f"file:{tmp_path / 'missing.txt'}", load_over_modulus=1e-16)
+
+
+@pytest.mark.parametrize("n", [1.0, 2.0, 3.0, 340.0, 400.0, 1e9, 1e300, 1.7976931348623157e308])
+def test_power_law_outline_is_finite_within_the_contact_for_every_valid_exponent(n):
+    """The tip's outline z / a0 = rho^n / kappa_n, kappa_n = sqrt(pi)
+    Gamma(n/2 + 1) / Gamma(n/2 + 1/2) (Popov & Hess), for any n >= 1: the
+    two Gammas overflow from n = 341, their ratio does not (~ sqrt(n/2)).
+    Inside the static contact it is finite; beyond, +inf where it passes the
+    largest float, without a warning (the suite makes warnings errors)."""
+    shape = PowerLawProfile(n)
+    rho = np.array([0.0, 0.5, 1.0, 1.6])
+    z = shape.outline(rho)
+    if n < 341:
+        kappa = math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
+    else:               # the ratio's asymptotic series (DLMF 5.11.13), to O(x^-5)
+        u = 2 / n
+        kappa = math.sqrt(math.pi) * math.sqrt(n / 2) * (
+            1 + u / 8 + u ** 2 / 128 - 5 * u ** 3 / 1024 - 21 * u ** 4 / 32768)
+    assert z[0] == 0.0 and z[2] == pytest.approx(1 / kappa, rel=1e-12)
+    assert np.all(np.isfinite(z[:3])) and z[1] == pytest.approx(0.5 ** n / kappa, rel=1e-12)
+    assert z[3] > z[2] and not np.isnan(z[3])

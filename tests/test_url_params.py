@@ -85,10 +85,21 @@ def _number_text(lo, hi):
                      st.integers(-10 ** 30, 10 ** 30).map(str))
 
 
+def _profile_text():
+    """Profile texts: the fixed ones, and a power law's or a flat's number
+    over every float, huge integers and exponents (power:1e300)."""
+    number = st.one_of(_number_text(0.0, 1e3), st.floats().map(repr),
+                       st.integers(0, 10 ** 400).map(str),
+                       st.integers(-400, 400).map(lambda e: f"1e{e}"))
+    return st.one_of(st.sampled_from(PROFILE_TEXT),
+                     st.tuples(st.sampled_from(["power", "flat-sphere"]), number).map(
+                         lambda kv: f"{kv[0]}:{kv[1]}"))
+
+
 def _value_text(name):
     own = (_number_text(*NUMERIC[name]) if name in NUMERIC
            else _number_text(TIPS[name][0][0], min(TIPS[name][0][1], 1e3)) if name in TIPS
-           else st.sampled_from(PROFILE_TEXT) if name in PROFILES
+           else _profile_text() if name in PROFILES
            else st.sampled_from(list(OPTIONS[name])))
     return st.one_of(own, st.sampled_from(SPECIAL_TEXT), st.text(max_size=30))
 
@@ -393,6 +404,10 @@ def _run_now(explorer):
 @example(pairs=[("nu", "0.25"), ("theta", "1.1")])      # the material's values run too
 @example(pairs=[("la", "0.5"), ("profile", "cone"), ("compare", "point mass")])  # issue 34
 @example(pairs=[("la", "0.5"), ("profile", "file:/etc/passwd")])
+# a steep power law: its tip's outline overflowed (a traceback page)
+@example(pairs=[("profile", "power:400")])
+@example(pairs=[("profile", "power:1e300"), ("la", "0.5")])
+@example(pairs=[("profile", "flat-sphere:1e300")])
 def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     explorer = url_session(pairs)
     values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, URL_ALIASES)
@@ -566,7 +581,7 @@ def test_profile_links_are_the_librarys_check(text):
     assert values == {} and len(errors) == 1
     e = errors[0]
     assert e.startswith("URL parameter 'profile' (profile) must be one of sphere, cone, "
-                        "power:N (N ≥ 1), flat-sphere:C (C ≥ 0")
+                        "power:N (N ≥ 1), flat-sphere:C (0 ≤ C ≤ 1e+50")
     if text.startswith("power:") and re.fullmatch(r"-?[0-9.]+|nan|inf", text[6:]):
         assert "power\\-law exponent n must be a real number in \\[1, inf\\)" in e, e
     if text.startswith("file:"):

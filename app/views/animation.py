@@ -75,6 +75,7 @@ WAVELENGTH_VIEWS = 3.0     # drawn wavelength / the view's width
 TIP_CONTACT_RADII = 1.6
 TIP_RHO_SHARE = 0.8
 TIP_POINTS = 81
+TIP_HEIGHT_SPHERES = 2.0    # a steeper tip's drawing ends at twice the sphere's height
 ARC_POINTS = 121
 TABLE = 720                # samples per period of the surface's vertical motion
 CURVE_POINTS = 161         # points of the drawn surface
@@ -262,16 +263,35 @@ if (!cb_obj.active) {
 """ % TICK_MS
 
 
+def _tip_span(shape, q, span, height):
+    """The tip drawn over |x| <= span, or less where its outline rises
+    above `height` first (a steep power law, nearly a flat punch): there
+    the span ends where the outline reaches that height (bisection on the
+    monotone outline), so the body's arc closes it at a finite height."""
+    def z(x):
+        return float(shape.outline(np.array([x / q]))[0])
+    if z(span) <= height:
+        return span
+    lo, hi = 0.0, span
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if z(mid) <= height else (lo, mid)
+    return lo
+
+
 def tip_outline(profile, rho):
     """(x, z) of a profile's particle as the side view draws it, in a0,
     z from its lowest point (the apex, at x = 0): the tip's outline
     (the library's `outline`, z / a0 at r over the static contact radius;
     that radius drawn sqrt(rho) a0, the contact zone's scale) for
-    |x| <= X = min(TIP_CONTACT_RADII sqrt(rho), TIP_RHO_SHARE rho), closed
+    |x| <= X = min(TIP_CONTACT_RADII sqrt(rho), TIP_RHO_SHARE rho) (less for
+    a tip steeper than twice the sphere's height there: _tip_span), closed
     by the arc of the drawn circle (radius rho, the body) through its ends."""
     q = math.sqrt(rho)
     X = min(TIP_CONTACT_RADII * q, TIP_RHO_SHARE * rho)
     shape = parse_profile(profile)
+    # at most TIP_HEIGHT_SPHERES times the sphere's height at that span
+    X = _tip_span(shape, q, X, TIP_HEIGHT_SPHERES * 0.5 * (X / q) ** 2)
     xs = np.linspace(-X, X, TIP_POINTS)
     zs = np.asarray(shape.outline(xs / q), float)
     z_end = float(shape.outline(np.array([X / q]))[0])

@@ -25,7 +25,7 @@ import panel as pn
 from bokeh.models import ColumnDataSource, Range1d, Span
 from bokeh.plotting import figure
 
-from vibtrans.core.profiles import N_MIN, parse_profile
+from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 
 from .. import urlstate
 from ..inputs import ERROR_STYLE
@@ -36,7 +36,7 @@ KINDS = {"sphere (Hertz)": "sphere", "cone": "cone", "power law z ~ r^N": "power
          "flat-ended sphere": "flat-sphere"}
 # the number of a kind: (its label, the value it starts from)
 NUMBERS = {"power": (f"exponent N (≥ {N_MIN:g}; 1 the cone, 2 the sphere)", "3"),
-           "flat-sphere": ("flat radius C (≥ 0, in sqrt(R a0))", "0.5")}
+           "flat-sphere": (f"flat radius C (0 to {FLAT_MAX:g}, in sqrt(R a0))", "0.5")}
 RIGID_NOTE = ("*The material point is a rigid point (the paper's comparison): it runs the same "
               "whatever the profile.*")
 DRAWN_RHO = 1.6             # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
@@ -54,8 +54,10 @@ def kind_of(spec):
 
 
 def outline(spec, rho):
-    """The tip's outline z / a0 at rho = r / (static contact radius)."""
-    return np.asarray(parse_profile(spec).outline(rho), float)
+    """The tip's outline z / a0 at rho = r / (static contact radius), as
+    drawn: a steep law's heights past the frame (up to +inf) are drawn at
+    twice its top, so the line leaves the frame and no inf reaches the plot."""
+    return np.minimum(np.asarray(parse_profile(spec).outline(rho), float), 2 * DRAWN_Z)
 
 
 class ProfileView(pn.viewable.Viewer):

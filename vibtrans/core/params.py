@@ -75,7 +75,7 @@ def check_profile(val, refuse_measured=None):
 
 class ProfileSpec(param.String):
     """An axisymmetric particle profile: sphere | cone | power:N (N >= 1) |
-    flat-sphere:C (C >= 0, units sqrt(R a0)) | file:PATH (a table r z in
+    flat-sphere:C (0 <= C <= 1e50, units sqrt(R a0)) | file:PATH (a table r z in
     metres; needs the scene's load_over_modulus).  docs/MODEL.md section 10.
     A subclass for an entry point that cannot take a measured table (a
     link, a form) sets `refuse_measured` to the message that says why."""

@@ -36,6 +36,9 @@ from vibtrans.core.errors import InputError
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
 N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
+# flat radius upper bound (units sqrt(R a0)): the law squares it twice, and
+# a wider flat is the flat punch (N* = a*) to within rounding
+FLAT_MAX = 1e50
 MIN_TABLE_POINTS_IN_CONTACT = 20   # table rows inside the static contact radius
 
 
@@ -80,9 +83,16 @@ class PowerLawProfile:
 
     def outline(self, rho):
         """The tip's outline z / a0 at rho = r / (static contact radius):
-        z = C r^n and a0 = kappa_n C a_c^n (MDR) give rho^n / kappa_n."""
-        kappa = math.sqrt(math.pi) * math.gamma(self.n / 2 + 1) / math.gamma(self.n / 2 + 0.5)
-        return np.power(np.abs(np.asarray(rho, float)), self.n) / kappa
+        z = C r^n and a0 = kappa_n C a_c^n (MDR) give rho^n / kappa_n.
+
+        Finite for every valid n at |rho| <= 1; beyond, +inf where z / a0
+        passes the largest float (a steep law: power:400 at rho = 7)."""
+        # kappa_n = sqrt(pi) Gamma(n/2 + 1) / Gamma(n/2 + 1/2) as one Pochhammer
+        # symbol: the two Gammas overflow from n = 341 while their ratio is ~sqrt(n/2)
+        from scipy.special import poch
+        kappa = math.sqrt(math.pi) * float(poch(self.n / 2 + 0.5, 0.5))
+        with np.errstate(over="ignore"):
+            return np.power(np.abs(np.asarray(rho, float)), self.n) / kappa
 
 
 @dataclass(frozen=True)
@@ -99,8 +109,10 @@ class FlatSphereProfile:
 
     def __post_init__(self):
         c = self.flat_radius
-        if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) or c < 0:
-            raise InputError(f"profile flat radius (units sqrt(R a0)) must be a real number in [0, inf), got {c!r}")
+        if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) \
+                or not 0 <= c <= FLAT_MAX:
+            raise InputError(f"profile flat radius (units sqrt(R a0)) must be a real number in "
+                             f"[0, {FLAT_MAX:g}], got {c!r}")
 
     @property
     def name(self):

@@ -163,15 +163,20 @@ def export_html(obj, out, title="vibtrans"):
     """Standalone interactive HTML (bokeh, resources inline: opens offline,
     no server).  obj: a HoloViews object built with the bokeh backend loaded,
     a Bokeh model, or anything Panel can show."""
+    from bokeh.document import Document
     from bokeh.model import Model
+    from panel.io.state import set_curdoc
     _format(out, ("html",))
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    with atomic(out) as tmp:
+    # Panel's save renders into a document of its own but takes its
+    # stylesheets from the current one's cache: from a served page's callback
+    # it rewrote that page's shared stylesheets to Panel's CDN.  A scratch
+    # current document keeps the page's apart.
+    with atomic(out) as tmp, set_curdoc(Document()):
         if isinstance(obj, hv.core.dimension.Dimensioned):
             ensure_backends()
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
         elif isinstance(obj, Model):
-            from bokeh.document import Document
             from bokeh.embed import file_html
             from bokeh.resources import INLINE
             # a document of its own, whose only root is obj: file_html then
