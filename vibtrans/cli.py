@@ -743,7 +743,7 @@ def _export_parser(sub):
 STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its drift is "
              "known to the fidelity's stated error (regular motion, extrapolated to "
              "--periods) or its Lyapunov exponent calls it chaotic with margin "
-             "(vibtrans.core.drivers.DecidedRule)")
+             "(vibtrans.core.stopping.DecidedRule)")
 
 
 def build_parser():

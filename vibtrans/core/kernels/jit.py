@@ -80,7 +80,7 @@ from numba import njit
 
 # Every module that defines a compiled function (all in this package).
 SOURCES = ("jit.py", "records.py", "contact.py", "substrate.py", "integrators.py",
-           "deformable.py", "vertical.py", "point_mass.py")
+           "deformable.py", "point_mass.py")
 _PACKAGE = Path(__file__).resolve().parent
 _MODULES = frozenset(f"{__package__}.{s[:-3]}" for s in SOURCES)
 
