@@ -19,11 +19,13 @@ Storage (plain arrays, so a kernel can stop and resume anywhere):
 W is stored relative to w_ref (re-based whenever the contact slides or starts)
 so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
 """
+import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from vibtrans.core.kernels.jit import inline, kernel
+from vibtrans.core.kernels.jit import inline, kernel, specialize, template
 from vibtrans.core.profiles import PowerLawProfile
 
 # Contact states (timeline codes; shared by every model).
@@ -346,8 +348,8 @@ def _pop_to(nvert, n):
         nvert[1] = n
 
 
-@inline
-def _integrals_to(H, W, P, i, n, law, law_kind):
+@template(inline)
+def _integrals_to(H, W, P, i, n, law):
     """Bring the running integrals P of vertices i..n-1 up to date (the
     leading i are); return P[n - 1].  Only pushed vertices are stale, so a
     vertex pushed and popped within one step costs nothing."""
@@ -367,11 +369,11 @@ def _integrals_to(H, W, P, i, n, law, law_kind):
     return P[n - 1]
 
 
-@inline
-def _integrals(H, W, P, nvert, law, law_kind):
+@template(inline)
+def _integrals(H, W, P, nvert, law):
     """`_integrals_to` on the whole stack, recorded in nvert[1]."""
     n = nvert[0]
-    p = _integrals_to(H, W, P, nvert[1], n, law, law_kind)
+    p = _integrals_to(H, W, P, nvert[1], n, law)
     nvert[1] = n
     return p
 
@@ -408,7 +410,7 @@ def reset_memory(H, W, P, nvert, memf, a, b):
     if a > 0.0:
         _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a, math.sqrt(a), 0.0)
-        _integrals(H, W, P, nvert, memf, SPHERE)
+        _sphere_integrals(H, W, P, nvert, memf)
 
 
 @kernel
@@ -425,7 +427,7 @@ def reset_memory_law(H, W, P, nvert, memf, a, b, law):
         na, ka = law_eval(law, a)
         _put_law(H, W, 1, a, ka, na, 0.0)
         nvert[0] = 2
-        _integrals(H, W, P, nvert, law, PROFILE)
+        _profile_integrals(H, W, P, nvert, law)
 
 
 # Where the clamp finds the top vertex (h = a1): a compile-time constant.
@@ -434,15 +436,15 @@ _TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
 _TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
 
 
-@inline
-def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, law_kind, n1, warm):
+@template(inline)
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, n1, warm):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state, warm).
 
     (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
     contact radius; the caller has it from N*).  s_h is the depth of the stick
     core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
     for 3 more vertices.
-    With a `law_kind` other than SPHERE (a compile-time constant) the
+    With a `law_kind` other than SPHERE (the copy's: memory_steps) the
     profile `law` replaces the sphere's: c1 = N*'(a1), n1 = N*(a1) (the
     caller has both from the law),
     and `warm` is the stick edge's warm-start history (law_eval_warm; the
@@ -495,12 +497,11 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, law_kind, n1, warm):
             wq = W[n - 1]
             top = _TOP_CUT
             wt = wq + (wp - wq) * (a1 - hq) / (hp - hq)
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, law_kind, n1,
-                  warm)
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, n1, warm)
 
 
-@inline
-def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, law_kind, n1, warm):
+@template(inline)
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
     The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
@@ -552,8 +553,8 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, law_kind, n1, warm
         nvert[0] = n
         nvert[1] = n
         if law_kind != SPHERE:
-            return bp * c1 - _integrals_to(H, W, P, ip, n, law, law_kind), a1, STICK, warm
-        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law, SPHERE), a1, STICK,
+            return bp * c1 - _integrals_to(H, W, P, ip, n, law), a1, STICK, warm
+        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law), a1, STICK,
                 warm)
     # Walk down, dropping the vertices outside the cone (slip annulus).
     if top == _TOP_LOAD:
@@ -600,7 +601,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, law_kind, n1, warm
     wk = W[n - 1]
     lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
-    ps = _integrals_to(H, W, P, min(ip, n), n, law, law_kind)      # P at vertex k
+    ps = _integrals_to(H, W, P, min(ip, n), n, law)      # P at vertex k
     if law_kind != SPHERE:
         # the stick edge's N*, N*'; the annulus on the cone line, by parts:
         # int w dN*' = bp (k1 - ks) - side (a1 - hs) ks + side (N1 - Ns)
@@ -648,15 +649,15 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, law_kind, n1, warm
 @kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, SPHERE,
-                         0.0, NO_WARM)[:3]
+    return _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, 0.0,
+                          NO_WARM)[:3]
 
 
 @kernel
 def memory_step_law(H, W, P, nvert, memf, a1, b1, law):
     """`memory_step` for a profile law (memory from `reset_memory_law`)."""
     n1, k1 = law_eval(law, a1)
-    return memory_commit(H, W, P, nvert, memf, a1, k1, b1, law, PROFILE, n1, NO_WARM)[:3]
+    return _profile_commit(H, W, P, nvert, memf, a1, k1, b1, law, n1, NO_WARM)[:3]
 
 
 @kernel
@@ -667,8 +668,8 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
     """
     for i in range(a.shape[0]):
         a1 = a[i]
-        T, sh, st, _ = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
-                                     memf, SPHERE, 0.0, NO_WARM)
+        T, sh, st, _ = _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
+                                      memf, 0.0, NO_WARM)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -682,7 +683,7 @@ def memory_history_law(H, W, P, nvert, memf, a, b, law, out):
     ws = NO_WARM
     for i in range(a.shape[0]):
         n1, k1, wa = law_eval_warm(law, a[i], wa, 0.0, PROFILE)
-        T, sh, st, ws = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, PROFILE, n1, ws)
+        T, sh, st, ws = _profile_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, n1, ws)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -712,3 +713,24 @@ def anchor_profile(H, W, nvert, memf):
     """The memory diagram now: (h, w) vertices, w in absolute b* units."""
     n = int(nvert[0])
     return H[:n, 0].copy(), W[:n] + memf[2]
+
+
+class MemorySteps(NamedTuple):
+    """The memory diagram's compiled steps for one contact law kind."""
+    commit: object      # memory_commit's copy: (H, W, P, nvert, memf, a1, c1, b1, law, n1, warm)
+    integrals: object   # _integrals's copy: (H, W, P, nvert, law)
+
+
+@functools.lru_cache(maxsize=None)
+def memory_steps(law_kind):
+    """The memory diagram's steps (`memory_commit` and what it calls,
+    inlined) for one contact law kind, `law_kind` a global constant of the
+    copies (jit.specialize): the sphere's leave the profiles' code out."""
+    copies = specialize((_integrals_to, _integrals, _clamp, memory_commit),
+                        LAW_KINDS[law_kind].replace("-", "_"), law_kind=law_kind)
+    return MemorySteps(copies["memory_commit"], copies["_integrals"])
+
+
+# this module's own kernels: the sphere's and the profile laws' steps
+_sphere_commit, _sphere_integrals = memory_steps(SPHERE)
+_profile_commit, _profile_integrals = memory_steps(PROFILE)

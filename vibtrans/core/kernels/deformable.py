@@ -8,10 +8,11 @@ Normalized equations (docs/MODEL.md section 1):
 
 One loop serves every variant (`HertzVariant`: the full model or the
 vertical one, with or without the Lyapunov tangent, and the contact law's
-kind), each compiled as a kernel of its own (`hertz_kernel`), its flags
-compile-time constants: the vertical kernel (`tangential` False) has no
-memory diagram, no sin and no x (about half the deformable step, `vibtrans
-bench`).  kernels.dispatch.KERNELS says which variant runs a scene.  A
+kind), each compiled as a kernel of its own (`hertz_kernel`: a copy of the
+loop whose flags are global constants, jit.specialize): the vertical kernel
+(`tangential` False) has no memory diagram, no sin and no x (about half the
+deformable step, `vibtrans bench`).  kernels.dispatch.KERNELS says which
+variant runs a scene.  A
 kernel runs until t_stop and returns, with every piece of its state in the
 arrays it was given, so a caller can show progress, cancel between chunks,
 and grow buffers (records.py).
@@ -35,8 +36,8 @@ import numpy as np
 
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, LAW_KINDS, NO_WARM, PARTIAL_SLIP,
-                                           SPHERE, law_eval, law_eval_warm, memory_commit)
-from vibtrans.core.kernels.jit import helper, inline, kernel
+                                           SPHERE, law_eval, law_eval_warm, memory_steps)
+from vibtrans.core.kernels.jit import helper, inline, kernel, specialize, template
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
 from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
 
@@ -292,9 +293,8 @@ def _substrate_at(t1, cw, sw, t_flat, p):
     return wave_motion(cw, sw, g, g1, p.amplitude, p.r)
 
 
-@inline
-def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential, law,
-                   law_kind, warm):
+@template(inline)
+def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm):
     """Hertz's N* = a*^(3/2) (or the profile's law, `law_kind`) and the
     memory diagram's committed T* at the step end (docs/MODEL.md sections 2,
     10).  Returns (a*, c1, N*, b*, T*, s_h, contact state, warm): c1 = sqrt(a*)
@@ -313,8 +313,7 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential,
             nf = a1 * c1
     if tangential:
         b1 = (x1 - ux) * inv_scale
-        tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, law_kind, nf,
-                                       ws)
+        tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, nf, ws)
     else:
         b1 = 0.0
         tf = 0.0
@@ -621,16 +620,16 @@ def _tangent_flight(tangent, s, landed):
 
 
 # ------------------------------------------------------------------ the kernel
-@helper
+@template(kernel)
 def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, Pm,
-                    nvert, memf, samples, events, ctr, t_stop, law, tangential, lyapunov,
-                    law_kind):
+                    nvert, memf, samples, events, ctr, t_stop, law):
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
-    contact one committed step at a time.  The last three arguments are a
-    HertzVariant's, compile-time constants: `tangential` (the memory diagram
-    and x, or the vertical motion alone), `lyapunov` (the vertical motion's
-    tangent advanced alongside, in `tangent`) and `law_kind` (contact.SPHERE:
-    Hertz's law; else the profile's `law`, contact.law_eval).  Returns a
+    contact one committed step at a time.  A template (`hertz_kernel`): its
+    HertzVariant's flags are global constants of each copy, `tangential`
+    (the memory diagram and x, or the vertical motion alone), `lyapunov`
+    (the vertical motion's tangent advanced alongside, in `tangent`) and
+    `law_kind` (contact.SPHERE: Hertz's law; else the profile's `law`,
+    contact.law_eval), with the law kind's `memory_commit`.  Returns a
     records.* status.
 
     The tangent's hot values (dy, dvy, dh: `_tangent_load`) live in locals;
@@ -706,8 +705,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
         a1, c1, nf, b1, tf, sh, st, warm = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                          inv_scale, tangential, law, law_kind,
-                                                          warm)
+                                                          inv_scale, law, warm)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
         dyo = 0.0
@@ -768,22 +766,18 @@ def hertz_kernel(variant):
 
     runs the particle from state[S_T] to t_stop (or its first take-off, with
     `stop_at_takeoff`) and returns a records.* status, every array updated in
-    place.  The arrays a variant leaves alone still come, as any arrays of
-    their types: `tangent` (float64[NTANGENT] with lyapunov) without
-    lyapunov, the memory diagram (H, W, P, nvert, memf: contact.new_memory)
-    in the vertical model, `law` (contact.kernel_law) for the sphere.  Every
-    variant records the same numbers, bit for bit, where they overlap."""
+    place: `tangent` float64[NTANGENT] (`rest_tangent`), the memory diagram
+    (H, W, P, nvert, memf: contact.new_memory), `law` a contact.kernel_law.
+    An array the variant does not use is still passed, as any array of its
+    type, never read or written: `tangent` without lyapunov, the memory in
+    the vertical model (`unused_memory`), `law` for the sphere.  A lyapunov
+    variant records what its plain twin records, bit for bit, and so do the
+    WARM_POWER and PROFILE kernels for a warm-started power law."""
     tangential, lyapunov, law_kind = (bool(variant.tangential), bool(variant.lyapunov),
                                       int(variant.law_kind))
-
-    # one closure per variant: its flags are frozen into the compiled code
-    # (numba types them as literals, so each branch they decide is folded)
-    def particle(params, integrator, stop_at_takeoff, state, hist, tangent, H, W, P,
-                 nvert, memf, samples, events, ctr, t_stop, law):
-        return _hertz_particle(params, integrator, stop_at_takeoff, state, hist, tangent,
-                               H, W, P, nvert, memf, samples, events, ctr, t_stop, law,
-                               tangential=tangential, lyapunov=lyapunov, law_kind=law_kind)
-    particle.__qualname__ = particle.__name__ = (
-        f"hertz_{'deformable' if tangential else 'vertical'}"
-        f"{'_lyapunov' if lyapunov else ''}_{LAW_KINDS[law_kind].replace('-', '_')}")
-    return kernel(particle)
+    name = (f"{'deformable' if tangential else 'vertical'}{'_lyapunov' if lyapunov else ''}"
+            f"_{LAW_KINDS[law_kind].replace('-', '_')}")
+    copies = specialize((_contact_force, _hertz_particle), name, tangential=tangential,
+                        lyapunov=lyapunov, law_kind=law_kind,
+                        memory_commit=memory_steps(law_kind).commit)
+    return copies["_hertz_particle"]
