@@ -38,7 +38,7 @@ import numpy as np
 
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.maps.cache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
-from vibtrans.core.precompile import warmup
+from vibtrans.core.simulate import warmup
 
 from . import kernels, maprequest
 from .fairshare import FairPool

@@ -9,7 +9,7 @@ form, its sweep and cache key, and its estimated cost.
 
 Its stopping rule (`stop`, issue 35): "decided" (the default of a new
 request: each point's run ends once its drift is known to the fidelity's
-stated error, vibtrans.core.drivers.DecidedRule) or "full" (every point
+stated error, vibtrans.core.stopping.DecidedRule) or "full" (every point
 runs all its periods).  A link written before the rule was part of the
 request (one value fewer) meant full runs, and still does.
 
@@ -36,7 +36,8 @@ from vibtrans import Scene
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import NOT_STEADY, class_periods, decided_class, expected_periods
-from vibtrans.core.drivers import STOPS, law_path, scene_scales
+from vibtrans.core.drivers import law_path, scene_scales
+from vibtrans.core.stopping import STOPS
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate

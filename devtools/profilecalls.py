@@ -26,6 +26,17 @@ import sys  # noqa: E402
 import numpy as np  # noqa: E402
 
 
+def _get(where, name):
+    return where[name] if isinstance(where, dict) else getattr(where, name)
+
+
+def _set(where, name, value):
+    if isinstance(where, dict):
+        where[name] = value
+    else:
+        setattr(where, name, value)
+
+
 def count(profile, point, periods):
     """Per-step counts of one run (a dict)."""
     from vibtrans.core.kernels import contact as C
@@ -36,7 +47,7 @@ def count(profile, point, periods):
     calls = collections.Counter()
     states = collections.Counter()
     vertices = []
-    law_eval, power_warm, clamp = C.law_eval, C.power_warm, C._clamp
+    law_eval, power_warm = C.law_eval, C.power_warm
 
     def site():
         """The kernel phase that asked for the law (past the law's own layers)."""
@@ -56,25 +67,33 @@ def count(profile, point, periods):
         calls[f"{site()} ({kind})"] += 1
         return out
 
-    def counted_clamp(*args):
-        out = clamp(*args)
-        states[C.STATE_NAMES[out[2]]] += 1
-        vertices.append(args[3][0])
-        return out
+    def counting(clamp):
+        def counted_clamp(*args):
+            out = clamp(*args)
+            states[C.STATE_NAMES[out[2]]] += 1
+            vertices.append(args[3][0])
+            return out
+        return counted_clamp
 
-    patches = {(C, "law_eval"): counted_law_eval, (D, "law_eval"): counted_law_eval,
-               (C, "power_warm"): counted_power_warm, (C, "_clamp"): counted_clamp}
-    saved = {k: getattr(*k) for k in patches}
+    patches = [(C, "law_eval", counted_law_eval), (D, "law_eval", counted_law_eval),
+               (C, "power_warm", counted_power_warm)]
+    # the memory diagram's copies for each law kind (contact.memory_steps,
+    # jit.specialize) look their callees up in a namespace of their own
+    for kind in range(len(C.LAW_KINDS)):
+        space = C.memory_steps(kind).commit.__globals__
+        patches += [(space, "law_eval", counted_law_eval),
+                    (space, "_clamp", counting(space["_clamp"]))]
+    saved = [(where, name, _get(where, name)) for where, name, _ in patches]
     try:
-        for (mod, name), f in patches.items():
-            setattr(mod, name, f)
+        for where, name, f in patches:
+            _set(where, name, f)
         scene = paper_scene(point).replace(periods=float(periods))
         if profile != "sphere":
             scene = scene.replace(profile=profile)
         steps = int(simulate(scene).attrs["steps"])
     finally:
-        for (mod, name), f in saved.items():
-            setattr(mod, name, f)
+        for where, name, f in saved:
+            _set(where, name, f)
     total = sum(states.values())
     return {"steps": steps,
             "per_step": {k: v / steps for k, v in sorted(calls.items())},

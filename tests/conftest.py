@@ -89,7 +89,7 @@ def pytest_configure(config):
     each then loads them, instead of every worker compiling the same kernels
     at once on a cold cache (vibtrans.core.kernels.jit)."""
     if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):
-        from vibtrans.core.precompile import warmup
+        from vibtrans.core.simulate import warmup
         warmup()
 
 

@@ -49,7 +49,7 @@ def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
         assert r[f"decided_{model}_mean_periods_run"] == pytest.approx(
             float(dec["periods_run"].mean()))
         # the ceiling: ran-to-end points at T_obs, the others at the floor
-        from vibtrans.core.drivers import STOP_RAN_TO_END
+        from vibtrans.core.stopping import STOP_RAN_TO_END
         from vibtrans.maps.cost import DECIDED_PERIOD_COST, expected_periods, minimum_periods
         periods, tau = r["decided_periods"], float(dec.attrs["scene_tau"])
         f_end = float((dec["stop_reason"].values == STOP_RAN_TO_END).mean())

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE, REASONS,
-                                   STOP_RAN_TO_END)
+from vibtrans.core.stopping import (DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE, REASONS,
+                                    STOP_RAN_TO_END)
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.errors import InputError
 from vibtrans.core.kernels.substrate import RAMP_OFF

@@ -47,7 +47,8 @@ from vibtrans.core.kernels.contact import STICK
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR, time_step
 from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
-from vibtrans.core.kernels.vertical import vertical_kernel
+from vibtrans.core.drivers import grow
+from vibtrans.core.kernels.dispatch import kernel_for
 from vibtrans.core.params import Scene
 from vibtrans.core.simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded, estimate_steps, simulate
 
@@ -224,13 +225,14 @@ def free_oscillator(y0, mass, periods, integrator, refine=1.0, samples_per_perio
     events = np.empty((1024, 3))
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
+    vertical_kernel = kernel_for("vertical")
     while True:
         code = vertical_kernel(p, INTEGRATORS[integrator], False, state, hist, np.empty(0),
-                               samples, events, ctr, periods)
+                               *D.unused_memory(), samples, events, ctr, periods, np.empty(0))
         if code == R.DONE:
             break
         assert code == R.EVENTS_FULL, code
-        events = S._grow(events)
+        events = grow(events)
     return samples[:ctr[R.C_NSAMP]], events[:ctr[R.C_NEVT]]
 
 

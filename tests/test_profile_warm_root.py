@@ -16,13 +16,15 @@ import pytest
 from vibtrans.core import drivers
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (LAW_ARG, LAW_KIND, LAW_ROOT, LAW_TABLE, WARM_EPS,
-                                           WARM_EPS_SHORT, kernel_law, law_eval, law_history,
+from vibtrans.core.kernels.contact import (LAW_ARG, LAW_KIND, LAW_ROOT, LAW_TABLE, PROFILE,
+                                           WARM_EPS, WARM_EPS_SHORT, WARM_POWER, kernel_law,
+                                           kind_of_law, law_eval, law_history,
                                            power_kernel_law, power_warm,
                                            tangential_force_history)
+from vibtrans.core.kernels.dispatch import kernel_for
 from vibtrans.core.params import paper_scene
 from vibtrans.core.profiles import FlatSphereProfile
-from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
+from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
 
 EPS = 2.0 ** -52          # one unit in the last place, relative (the upper end)
 ULPS = 4                  # the stated accuracy (docs/MODEL.md section 10)
@@ -229,7 +231,7 @@ def test_power3_run_drift_matches_the_pow_path(point):
     # entirely); the bound: a rounding difference per step, not amplified
     sc = paper_scene(point).replace(profile="power:3")
     law = drivers.scene_law(sc)
-    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
                               D.SHORTCUTS_ALL, None)
     runs = [drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap, law=L)
             for L in (law, _pow_law(law))]
@@ -247,19 +249,19 @@ def test_power_kernels_are_the_profile_kernels_bit_for_bit(monkeypatch, lyapunov
     # sliding, second starts and pow at the stick edge)
     sc = paper_scene(6).replace(profile="power:3", periods=100.0)
     law = drivers.scene_law(sc)
-    assert drivers._deformable_profile(law) is D.deformable_power_kernel
-    assert drivers._deformable_profile(law, lyapunov=True) is D.deformable_power_lyapunov_kernel
-    assert drivers._deformable_profile(_pow_law(law)) is D.deformable_profile_kernel
+    power = {lyap: D.hertz_kernel(D.HertzVariant(True, lyap, WARM_POWER)) for lyap in (False, True)}
+    general = {lyap: D.hertz_kernel(D.HertzVariant(True, lyap, PROFILE)) for lyap in (False, True)}
+    assert kernel_for("deformable", False, kind_of_law(law)) is power[False]
+    assert kernel_for("deformable", True, kind_of_law(law)) is power[True]
+    assert kernel_for("deformable", False, kind_of_law(_pow_law(law))) is general[False]
     table = kernel_law(FlatSphereProfile(1.0))
-    assert drivers._deformable_profile(table) is D.deformable_profile_kernel
-    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
+    assert kernel_for("deformable", False, kind_of_law(table)) is general[False]
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
                               D.SHORTCUTS_ALL, None)
-    general = {False: D.deformable_profile_kernel, True: D.deformable_profile_lyapunov_kernel}
     runs = []
     for own in (True, False):
         if not own:
-            monkeypatch.setattr(drivers, "_deformable_profile",
-                                lambda law, lyapunov=False: general[lyapunov])
+            monkeypatch.setattr(drivers, "kind_of_law", lambda law: PROFILE)
         runs.append(drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
                                       law=law, lyapunov_from=1.0 if lyapunov else None))
     a, b = runs

@@ -20,7 +20,7 @@ from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.params import Scene
 from vibtrans.core.simulate import run_records
-from vibtrans.core.drivers import MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff
+from vibtrans.core.stopping import MIN_WINDOW, REASONS, remaining_rate, weighted_birkhoff
 from vibtrans.core.trajectory import RunArrays
 
 ERR = STATED_DRIFT_ERROR["standard"]
@@ -94,7 +94,7 @@ def test_a_recurrent_flight_state_gives_x_at_t_obs_exactly():
     # v_x* = 1 + 0.5 sin(2 pi t / 3): period 3, x* = t - (0.75 / pi) cos(2 pi t / 3)
     # + 0.75 / pi; x*(T)/T at T = 2000 from the whole cycles since the last
     # recurrence, not from a rate times the rest (the cycle's phase matters)
-    from vibtrans.core.drivers import DecidedRule
+    from vibtrans.core.stopping import DecidedRule
 
     def motion(t):
         c = 0.75 / np.pi
@@ -111,7 +111,7 @@ def test_a_recurrent_flight_state_gives_x_at_t_obs_exactly():
 def test_a_slowly_accelerating_flight_state_does_not_recur():
     # v_x* grows by 1e-3 per period (paper point 4's kind of drift): its states
     # never recur within RECUR_TOL, whatever the period looked for
-    from vibtrans.core.drivers import DecidedRule
+    from vibtrans.core.stopping import DecidedRule
     rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
     samples, events = _flight_records(lambda t: (1 + 1e-3 * t, t + 5e-4 * t * t), 400.0)
     assert not rule._recurs(samples, events, 400)

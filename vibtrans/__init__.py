@@ -17,7 +17,7 @@ from vibtrans.version import __version__
 # public name -> the submodule defining it
 _LAZY = {"Scene": "core.params", "paper_scene": "core.params", "PAPER_POINTS": "core.params",
          "Cancelled": "core.errors", "StepBudgetExceeded": "core.errors",
-         "warmup": "core.precompile", "maps_dir": "maps.shipped",
+         "warmup": "core.simulate", "maps_dir": "maps.shipped",
          "simulate": "core.simulate", "estimate_steps": "core.simulate"}
 
 __all__ = ["Scene", "paper_scene", "PAPER_POINTS", "simulate", "estimate_steps",

@@ -94,6 +94,22 @@ def _progress_bar(label):
     return bar, update
 
 
+COMPILING = ("compiling the kernels this run needs (numba: once after an install or an "
+             "update; later runs load them from the cache) ...")
+
+
+def _compiling(bar):
+    """A block that says on stderr, above the progress bar and under its
+    label, when a kernel compiles; the bar goes back to 0% meanwhile (the
+    twin's run may compile after the first run's 100%)."""
+    from vibtrans.core.kernels.jit import compile_notice
+
+    def notice(name):
+        bar.reset()
+        bar.write(f"{bar.desc}: {COMPILING}", file=sys.stderr)
+    return compile_notice(notice)
+
+
 def _jsonable(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
@@ -112,17 +128,18 @@ def cmd_simulate(args):
         window = None
     bar, update = _progress_bar("simulate")
     try:
-        ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
-                      max_steps=args.max_steps, progress=update, lyapunov=True,
-                      stop=args.stop)
-        twin = None
-        # auto: the twin only where no Lyapunov exponent decides (a material point
-        # with fewer than three impacts after the ramp)
-        if args.twin == "always" or (args.twin == "auto" and jumped(ds)
-                                     and ds.attrs.get("lyapunov") is None):
-            twin = simulate(twin_scene(scene),
-                            samples_per_period=args.samples_per_period,
-                            max_steps=args.max_steps, stop=args.stop)
+        with _compiling(bar):
+            ds = simulate(scene, window=window, samples_per_period=args.samples_per_period,
+                          max_steps=args.max_steps, progress=update, lyapunov=True,
+                          stop=args.stop)
+            twin = None
+            # auto: the twin only where no Lyapunov exponent decides (a material point
+            # with fewer than three impacts after the ramp)
+            if args.twin == "always" or (args.twin == "auto" and jumped(ds)
+                                         and ds.attrs.get("lyapunov") is None):
+                twin = simulate(twin_scene(scene),
+                                samples_per_period=args.samples_per_period,
+                                max_steps=args.max_steps, stop=args.stop)
     finally:
         bar.close()
     summary = summarize(ds, twin)
@@ -743,7 +760,7 @@ def _export_parser(sub):
 STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its drift is "
              "known to the fidelity's stated error (regular motion, extrapolated to "
              "--periods) or its Lyapunov exponent calls it chaotic with margin "
-             "(vibtrans.core.drivers.DecidedRule)")
+             "(vibtrans.core.stopping.DecidedRule)")
 
 
 def build_parser():

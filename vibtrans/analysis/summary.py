@@ -15,7 +15,7 @@ from vibtrans.core.kernels.contact import FLIGHT
 # V0 (|v*| <= V0: no drift) and CHAOS_LYAPUNOV (the chaos threshold) are the
 # core's (its stopping rule uses them); named here for every caller
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, V0  # noqa: F401
-from vibtrans.core.drivers import ballistic_reach_time
+from vibtrans.core.stopping import ballistic_reach_time
 
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
@@ -45,7 +45,7 @@ def jumped(ds):
 def drift_velocity(ds):
     """<v_x*> = x*(T_obs) / T_obs, the paper's definition (a run stopped as
     regular by the `decided` rule: its extrapolation to T_obs, attribute
-    decided_drift_velocity, drivers.DecidedRule)."""
+    decided_drift_velocity, stopping.DecidedRule)."""
     decided = ds.attrs.get("decided_drift_velocity")
     if decided is not None:
         return float(decided)

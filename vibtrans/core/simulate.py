@@ -1,6 +1,7 @@
 """Run a scene: validate, estimate its cost, choose the step, run its driver.
 
-The public entry point is `simulate(scene)`.  The kernels run through
+The public entry point is `simulate(scene)`; `warmup` compiles the kernels
+ahead of the first run.  The kernels run through
 `vibtrans.core.drivers` in chunks of about two million steps; between chunks the
 driver reports progress, honours a cancel request, and grows any buffer a
 kernel reports full, so a long run stays responsive and memory follows the
@@ -15,7 +16,6 @@ import numpy as np
 from vibtrans.core import drivers
 from vibtrans.core.kernels import records as R
 from vibtrans.core.drivers import DEFAULT_MAX_STEPS
-from vibtrans.core.drivers import grow as _grow  # noqa: F401  (tests/test_extremes_edges.py)
 from vibtrans.core.errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded  # noqa: F401
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 from vibtrans.core.kernels import deformable as D
@@ -25,7 +25,7 @@ from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.lyapunov import ImpactGrowth
 from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
-from vibtrans.core.drivers import STOP_FLIGHT, DecidedRule, check_stop
+from vibtrans.core.stopping import STOP_FLIGHT, DecidedRule, check_stop
 
 SAMPLES_PER_PERIOD = 10
 
@@ -119,7 +119,7 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
         from its impact map (lyapunov.impact_lyapunov: -inf where it rides
         the surface after the ramp, None with fewer than three impacts).
     stop: "full" (run to T_obs) or "decided" (stop once the outcome is
-        known to the fidelity's stated drift error: drivers.DecidedRule;
+        known to the fidelity's stated drift error: stopping.DecidedRule;
         attrs `stop`, `stop_reason`, `periods_run`,
         `asymptotic_drift_velocity`, `decided_drift_velocity`, the x*(T)/T
         that analysis.summary.drift_velocity reports).  "full" adds no attribute.
@@ -164,7 +164,9 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
     return samples, events, attrs
 
 
-def _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
+def hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
+    """(HertzParams, h, samples capacity) of a Hertz scene's run: its time
+    step, the full-resolution window [w0, w1], the sampling and shortcuts."""
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
                   scales=drivers.scene_scales(scene))
     p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
@@ -180,7 +182,7 @@ def lyapunov_start(scene, decide=None):
     of the ramp, where the wave is periodic (G = 1 to machine precision, t =
     RAMP_OFF tau), or half the run if that comes later.  Under the `decided`
     rule (decide: its DecidedRule) from where its windows start
-    (drivers.settle_time: the ramp's residual below 1e-3 of its tolerance),
+    (stopping.settle_time: the ramp's residual below 1e-3 of its tolerance),
     so that its gate on the exponent holds from its first check."""
     start = RAMP_OFF * scene.tau if decide is None else float(decide.t_settle)
     return min(start, 0.5 * scene.periods)
@@ -189,7 +191,7 @@ def lyapunov_start(scene, decide=None):
 def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
                shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, decide=None):
     """Run the deformable or vertical kernel from rest."""
-    p, h, capacity = _hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
+    p, h, capacity = hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
                                    steps)
     t_from = lyapunov_start(scene, decide) if lyapunov else None
     run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
@@ -204,7 +206,7 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
 
 
 def _flight_tangent_to_end(tangent, state, t_end):
-    """A run stopped in a flight that lasts past t_end (drivers.STOP_FLIGHT):
+    """A run stopped in a flight that lasts past t_end (stopping.STOP_FLIGHT):
     its tangent at t_end, on the flight's closed form (dy' constant), as the
     run to t_end would have it (its measurement started on the flight if
     the flight spans its start: kernels.deformable._tangent_mark_in_flight)."""
@@ -285,7 +287,7 @@ def memory_snapshot(scene=None, t=None, **values):
             or not (0 <= t <= scene.periods):
         raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), MIN_SNAPSHOT_TIME))
-    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    p, _, capacity = hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
     run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity,
                             law=drivers.scene_law(short))
     return _snapshot(run.state, run.ctr, run.memory)
@@ -311,7 +313,7 @@ def memory_snapshots(scene=None, times=None, *, progress=None, cancel=None, **va
     _deformable(scene)
     stops = _snapshot_times(times, scene.periods)
     short = scene.replace(periods=stops[-1])
-    p, _, capacity = _hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
+    p, _, capacity = hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
     runs = drivers.run_memory_stops(p, short.integrator, stops, samples_capacity=capacity,
                                     progress=progress, cancel=cancel, law=drivers.scene_law(short))
     return [_snapshot(*run) for run in runs]
@@ -347,3 +349,42 @@ def _stick_depth(h, w, a, b):
     while i > 0 and at_limit[i - 1]:
         i -= 1
     return float(h[i]) if i < h.size - 1 else float(a)
+
+
+# Compiled variants by model, in the order warmup compiles them.
+MODELS = ("deformable", "vertical", "point-mass")
+
+
+def _warm(model):
+    for integrator in ("ab4", "verlet"):
+        # one compiled kernel per model: the integrator is a run-time argument
+        simulate(Scene(model=model, integrator=integrator, amplitude=100.0, mass=1.0,
+                       periods=2.0, tau=0.5), window=(1.0, 1.5))
+    # the chaos indicator's variant (the explorer's and the CLI's runs
+    # measure it): the Hertz models advance the tangent map in a kernel of
+    # their own, the material point's exponent comes from its impact map.
+    # (The jumping threshold's runs, which stop at the first take-off, use
+    # the vertical model's kernel: stopping there is a run-time argument.)
+    simulate(Scene(model=model, amplitude=100.0, mass=1.0, periods=2.0, tau=0.5),
+             window=(1.0, 1.5), lyapunov=True)
+
+
+def warmup(models=MODELS, progress=None):
+    """Compile (or load from the on-disk cache) the kernels of `models`,
+    so that no user-facing run pays for compilation (`vibtrans.warmup`).
+
+    models: any of "deformable", "vertical" (also the jumping threshold) and
+        "point-mass"; each is one compiled variant.
+    progress: callable(done, total, label), called after each variant is
+        ready (done = 1 .. total, label such as "deformable kernel").
+    Cheap once the cache holds them (about 0.1 s per variant).
+    """
+    models = (models,) if isinstance(models, str) else tuple(models)
+    for model in models:
+        if model not in MODELS:
+            raise InputError(f"models must be among {', '.join(MODELS)}, got {model!r}")
+    models = tuple(dict.fromkeys(models))
+    for done, model in enumerate(models, start=1):
+        _warm(model)
+        if progress is not None:
+            progress(done, len(models), f"{model} kernel")

@@ -53,7 +53,7 @@ import numpy as np
 
 from vibtrans.analysis.summary import V0
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
-from vibtrans.core.precompile import warmup
+from vibtrans.core.simulate import warmup
 from vibtrans.maps.sweep import (_bar, _check_store, _digest, _why, compute_point, verify)
 
 MAX_LEVELS = (1, 8)

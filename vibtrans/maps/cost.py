@@ -3,7 +3,7 @@
 A map point's cost is its integration steps times the machine's time per
 step.  Under `stop="full"` every point runs T_obs periods, so its steps are
 known in advance (core.simulate.estimate_steps, the upper bound the explorer
-adds up).  Under `stop="decided"` (core.drivers.DecidedRule) a point runs
+adds up).  Under `stop="decided"` (core.stopping.DecidedRule) a point runs
 at least to the ramp's end plus the rule's first window,
 
     t_min = settle_time(tau) + MIN_WINDOW      (240 periods at tau = 50, standard),
@@ -39,8 +39,8 @@ import time
 
 import numpy as np
 
-from vibtrans.core.drivers import (DECIDED_FRACTION, MIN_WINDOW, STOP_RAN_TO_END, check_stop,
-                                   settle_time)
+from vibtrans.core.stopping import (DECIDED_FRACTION, MIN_WINDOW, STOP_RAN_TO_END, check_stop,
+                                    settle_time)
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 
@@ -143,7 +143,7 @@ def learn_class_periods(classes, periods_run, previous=None):
 
 def minimum_periods(tau, fidelity="standard"):
     """The periods every point runs under the `decided` rule: the ramp's
-    settling (drivers.settle_time: its residual below 1e-3 of the rule's
+    settling (stopping.settle_time: its residual below 1e-3 of the rule's
     tolerance at this fidelity) and the rule's first window."""
     if fidelity not in STATED_DRIFT_ERROR:
         raise InputError(f"fidelity must be one of {', '.join(STATED_DRIFT_ERROR)}, "

@@ -36,11 +36,10 @@ import xarray as xr
 from vibtrans.version import __version__
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
 from vibtrans.core.params import Scene
-from vibtrans.core.precompile import warmup
-from vibtrans.core.simulate import run_records
+from vibtrans.core.simulate import run_records, warmup
 from vibtrans.core.trajectory import RunArrays
 from vibtrans.core.errors import InputError, StoreMismatch
-from vibtrans.core.drivers import REASONS, STOPS, check_stop
+from vibtrans.core.stopping import REASONS, STOPS, check_stop
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -93,7 +92,7 @@ LYAPUNOV_CHAOS_VARIABLES = {
 }
 
 
-# A transport sweep under the `decided` stopping rule (core.drivers.DecidedRule) stores
+# A transport sweep under the `decided` stopping rule (core.stopping.DecidedRule) stores
 # per point how long its run was and why it stopped; its drift_velocity is
 # x*(T)/T extrapolated from a regular stop (analysis.drift_velocity).
 DECIDED_VARIABLES = {
@@ -138,7 +137,7 @@ def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"; the material point's from its impact map), or the run and,
     if it jumps, its chaos twin (analysis.twin_scene; chaos "twin").
-    stop: the runs' stopping rule (core.drivers.STOPS; the twin's too).
+    stop: the runs' stopping rule (core.stopping.STOPS; the twin's too).
 
     Returns a dict of the stored quantities.
     """

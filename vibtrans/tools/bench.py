@@ -170,9 +170,9 @@ def _profile_same_motion_ns(repeat, point=1):
     from vibtrans.core import drivers
     from vibtrans.core.kernels.contact import LAW_ROOT, kernel_law, power_kernel_law
     from vibtrans.core.profiles import FlatSphereProfile
-    from vibtrans.core.simulate import SAMPLES_PER_PERIOD, _hertz_params
+    from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
     sc = paper_scene(point)
-    p, _, cap = _hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
                               None)
     no_warm = power_kernel_law(2.0)
     no_warm[LAW_ROOT] = 0.0
@@ -400,7 +400,7 @@ def sweep_step_ratio(quick=False):
     import tempfile
 
     from vibtrans.maps.sweep import run_sweep
-    from vibtrans.core.precompile import warmup
+    from vibtrans.core.simulate import warmup
     warmup()
     points, periods = (11, 500.0) if quick else (41, 2000.0)
     sweep = _window_sweep(points, periods=periods)
@@ -440,7 +440,7 @@ def preview_window_times(quick=False):
     import tempfile
 
     from vibtrans.maps.adaptive import run_adaptive
-    from vibtrans.core.precompile import warmup
+    from vibtrans.core.simulate import warmup
     warmup()
     points, levels, periods = (17, 2, 200.0) if quick else (41, 3, 500.0)
     sweep = _window_sweep(points, periods=periods, fidelity="preview")
@@ -529,8 +529,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     import tempfile
 
     from vibtrans.core.fidelity import STATED_DRIFT_ERROR
-    from vibtrans.core.drivers import REASONS
-    from vibtrans.core.drivers import STOP_RAN_TO_END
+    from vibtrans.core.stopping import REASONS, STOP_RAN_TO_END
     from vibtrans.maps.cost import expected_time_share, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride

@@ -1,4 +1,6 @@
 """The compiled layer (numba, `jit.kernel`/`jit.helper`): records (caller-owned
 buffers), the substrate's motion, the contact laws and memory diagram, the
-integrators and the three models (deformable, point mass, vertical).  Plain
-arrays and scalars in and out; nothing here imports Python-level code above."""
+integrators, the models (the Hertz particle, deformable or vertical, and the
+material point) and the one table that says which kernel runs a scene
+(dispatch.KERNELS).  Plain arrays and scalars in and out; nothing here
+imports Python-level code above."""

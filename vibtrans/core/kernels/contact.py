@@ -19,11 +19,13 @@ Storage (plain arrays, so a kernel can stop and resume anywhere):
 W is stored relative to w_ref (re-based whenever the contact slides or starts)
 so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
 """
+import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from vibtrans.core.kernels.jit import inline, kernel
+from vibtrans.core.kernels.jit import inline, kernel, specialize, template
 from vibtrans.core.profiles import PowerLawProfile
 
 # Contact states (timeline codes; shared by every model).
@@ -67,7 +69,7 @@ def _segment_integral(s0, w0, s1, w1):
 # and holds (h, N*'(h), N*(h)) instead of (h, sqrt h): the law is evaluated
 # once per new vertex, never in the integrals; P is the running integral of
 # w dN*' (the h = 0 atom N*'(0) w(0) included), and T* = b* N*'(a*) - P.  The sphere keeps its own path
-# (`profiled` False, a compile-time constant): N*' = 1.5 sqrt(h).
+# (`law_kind` SPHERE, a compile-time constant): N*' = 1.5 sqrt(h).
 # A power law with an integer n = 1/(p - 1) >= 2 (`power:3`, ...) also keeps
 # law[LAW_ROOT] = n and, at POW_C1..POW_C4, the binomial coefficients of
 # (1 + e)^(1/n): the kernels' warm-started a*^(1/n) (`law_eval_warm`).
@@ -81,11 +83,17 @@ WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series 
 WARM_EPS_SHORT = 2.0 ** -18   # the short (e^2) series' largest |e| (its rest < 2^-57 of y)
 WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
 NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
-WARM_POWER = 2          # `profiled` of kernels compiled for a warm-started power law alone
 LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
 CELL_N, CELL_A, CELL_B, CELL_C, CELL_K, CELL_M = range(LAW_CELL)
 LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
 LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024 (a power of 2: LAW_INV)
+
+# The contact law a kernel is compiled for, its `law_kind` (a compile-time
+# constant: a kind's kernels leave the other kinds' code out)
+SPHERE = 0       # Hertz's own N* = a*^(3/2), N*' = 1.5 sqrt(a*): no law array read
+PROFILE = 1      # a profile's law array (a table or a power law), its kind read at each use
+WARM_POWER = 2   # a power law with an integer n alone: the warm-started root, no kind tests
+LAW_KINDS = ("sphere", "profile", "warm-power")
 
 
 def kernel_law(profile):
@@ -147,6 +155,17 @@ def law_scales(law):
     return float(law[LAW_K1]), float(law[LAW_ARG]) if law[LAW_KIND] == LAW_POWER else 2.0
 
 
+def kind_of_law(law):
+    """The kernels' `law_kind` of a kernel law (None: the sphere): WARM_POWER
+    for a power law with the warm-started root (law[LAW_ROOT] != 0), its own
+    kernels; PROFILE for any other law."""
+    if law is None:
+        return SPHERE
+    if law[LAW_KIND] != LAW_TABLE and law[LAW_ROOT] != 0.0:
+        return WARM_POWER
+    return PROFILE
+
+
 @inline
 def law_eval(law, a):
     """(N*, N*') of the profile law at a* (a* <= 0: (0, N*'(0)))."""
@@ -176,17 +195,17 @@ def law_eval(law, a):
 
 
 @inline
-def law_eval_warm(law, a, warm, k_alt, profiled):
+def law_eval_warm(law, a, warm, k_alt, law_kind):
     """`law_eval` with a warm start: (N*, N*', the new history).
 
     For a power law with an integer n = law[LAW_ROOT] (N* = a* y, N*' = p y,
     y = a*^(1/n)), `warm` holds the last four roots y (newest first) of the
     same call site on consecutive steps (`power_warm`; k_alt: its second
     start's N*', 0.0 for none); otherwise (a non-integer n, a table)
-    `law_eval`.  `profiled` = WARM_POWER (a compile-time constant: the
+    `law_eval`.  `law_kind` = WARM_POWER (a compile-time constant: the
     kernels of such laws alone, deformable.py) skips the law's kind tests.
     docs/MODEL.md section 10."""
-    if profiled != WARM_POWER and (law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0):
+    if law_kind != WARM_POWER and (law[LAW_KIND] != LAW_POWER or law[LAW_ROOT] == 0.0):
         nn, k = law_eval(law, a)
         return nn, k, warm
     if a <= 0.0:
@@ -282,7 +301,7 @@ def law_history(law, a, out):
         order = 0
         if law[LAW_KIND] == LAW_POWER and law[LAW_ROOT] != 0.0 and a[i] > 0.0:
             order = power_warm(law, a[i], warm, 0.0)[3]
-        nn, k, warm = law_eval_warm(law, a[i], warm, 0.0, True)
+        nn, k, warm = law_eval_warm(law, a[i], warm, 0.0, PROFILE)
         out[i, 0] = nn
         out[i, 1] = k
         out[i, 2] = order
@@ -329,19 +348,19 @@ def _pop_to(nvert, n):
         nvert[1] = n
 
 
-@inline
-def _integrals_to(H, W, P, i, n, law, profiled):
+@template(inline)
+def _integrals_to(H, W, P, i, n, law):
     """Bring the running integrals P of vertices i..n-1 up to date (the
     leading i are); return P[n - 1].  Only pushed vertices are stale, so a
     vertex pushed and popped within one step costs nothing."""
     if i <= 0:
-        if profiled:
+        if law_kind != SPHERE:
             P[0] = W[0] * H[0, 1]     # the springs entering at h = 0 (a flat)
         else:
             P[0] = 0.0
         i = 1
     while i < n:
-        if profiled:
+        if law_kind != SPHERE:
             P[i] = P[i - 1] + _segment_integral_law(H[i - 1, 0], H[i - 1, 1], H[i - 1, 2],
                                                     W[i - 1], H[i, 0], H[i, 1], H[i, 2], W[i])
         else:
@@ -350,11 +369,11 @@ def _integrals_to(H, W, P, i, n, law, profiled):
     return P[n - 1]
 
 
-@inline
-def _integrals(H, W, P, nvert, law, profiled):
+@template(inline)
+def _integrals(H, W, P, nvert, law):
     """`_integrals_to` on the whole stack, recorded in nvert[1]."""
     n = nvert[0]
-    p = _integrals_to(H, W, P, nvert[1], n, law, profiled)
+    p = _integrals_to(H, W, P, nvert[1], n, law)
     nvert[1] = n
     return p
 
@@ -391,7 +410,7 @@ def reset_memory(H, W, P, nvert, memf, a, b):
     if a > 0.0:
         _push(H, W, nvert, 0.0, 0.0, 0.0)
         _push(H, W, nvert, a, math.sqrt(a), 0.0)
-        _integrals(H, W, P, nvert, memf, False)
+        _sphere_integrals(H, W, P, nvert, memf)
 
 
 @kernel
@@ -408,7 +427,7 @@ def reset_memory_law(H, W, P, nvert, memf, a, b, law):
         na, ka = law_eval(law, a)
         _put_law(H, W, 1, a, ka, na, 0.0)
         nvert[0] = 2
-        _integrals(H, W, P, nvert, law, True)
+        _profile_integrals(H, W, P, nvert, law)
 
 
 # Where the clamp finds the top vertex (h = a1): a compile-time constant.
@@ -417,16 +436,17 @@ _TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
 _TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
 
 
-@inline
-def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1, warm):
+@template(inline)
+def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, n1, warm):
     """Commit one step of (a*, b*) to (a1, b1); return (T*, s_h, state, warm).
 
     (a*, b*) moves along a straight line during the step.  c1 = sqrt(a1) (the
     contact radius; the caller has it from N*).  s_h is the depth of the stick
     core edge (stick radius s = sqrt(s_h)).  The caller guarantees capacity
     for 3 more vertices.
-    With `profiled` (a compile-time constant) the profile `law` replaces the
-    sphere's: c1 = N*'(a1), n1 = N*(a1) (the caller has both from the law),
+    With a `law_kind` other than SPHERE (the copy's: memory_steps) the
+    profile `law` replaces the sphere's: c1 = N*'(a1), n1 = N*(a1) (the
+    caller has both from the law),
     and `warm` is the stick edge's warm-start history (law_eval_warm; the
     caller keeps it from step to step; NO_WARM for the sphere), returned
     updated.
@@ -451,7 +471,7 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1, warm):
         if a0 < 0.0:
             bc = b0 + (b1 - b0) * (-a0) / (a1 - a0)
         memf[2] = bc
-        if profiled:
+        if law_kind != SPHERE:
             _put_law(H, W, 0, 0.0, law_eval(law, 0.0)[1], 0.0, 0.0)
             _put_law(H, W, 1, a1, c1, n1, b1 - bc)
             nvert[0] = 2
@@ -477,12 +497,11 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, profiled, n1, warm):
             wq = W[n - 1]
             top = _TOP_CUT
             wt = wq + (wp - wq) * (a1 - hq) / (hp - hq)
-    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, profiled, n1,
-                  warm)
+    return _clamp(H, W, P, nvert, memf, a1, c1, b1 - memf[2], n, top, wt, law, n1, warm)
 
 
-@inline
-def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm):
+@template(inline)
+def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
     """Coulomb clamp of the polyline into the cone |bp - w| <= a1 - h.
 
     The top vertex sits at h = a1 (c1 = sqrt(a1)); bp = b1 - w_ref; n >= 1 is
@@ -523,7 +542,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
     if side == 0.0:
         # No spring reached its limit: full stick.
         if top != _TOP_STORED:
-            if profiled:
+            if law_kind != SPHERE:
                 _put_law(H, W, n, a1, c1, n1, bp)
             else:
                 _put(H, W, n, a1, c1, bp)
@@ -533,9 +552,9 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
             ip = min(ip, n - 1)
         nvert[0] = n
         nvert[1] = n
-        if profiled:
-            return bp * c1 - _integrals_to(H, W, P, ip, n, law, True), a1, STICK, warm
-        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law, False), a1, STICK,
+        if law_kind != SPHERE:
+            return bp * c1 - _integrals_to(H, W, P, ip, n, law), a1, STICK, warm
+        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law), a1, STICK,
                 warm)
     # Walk down, dropping the vertices outside the cone (slip annulus).
     if top == _TOP_LOAD:
@@ -560,7 +579,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
         # The slip annulus reached the centre: total sliding, T* = +-N*.
         # Re-base the anchors on b1 (cheap here: the stack is two vertices).
         memf[2] += bp
-        if profiled:
+        if law_kind != SPHERE:
             _put_law(H, W, 0, 0.0, H[0, 1], 0.0, side * a1)
             _put_law(H, W, 1, a1, c1, n1, 0.0)
             nvert[0] = 2
@@ -582,15 +601,15 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
     wk = W[n - 1]
     lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
-    ps = _integrals_to(H, W, P, min(ip, n), n, law, profiled)      # P at vertex k
-    if profiled:
+    ps = _integrals_to(H, W, P, min(ip, n), n, law)      # P at vertex k
+    if law_kind != SPHERE:
         # the stick edge's N*, N*'; the annulus on the cone line, by parts:
         # int w dN*' = bp (k1 - ks) - side (a1 - hs) ks + side (N1 - Ns)
         ks = sk
         ns = H[n - 1, 2]
         if hs > hk:
             nk = ns
-            ns, ks, warm = law_eval_warm(law, hs, warm, c1, profiled)
+            ns, ks, warm = law_eval_warm(law, hs, warm, c1, law_kind)
             ws = bp + side * (a1 - hs)
             # w dN*' over k -> hs, w on the stack segment (slope off the critical path)
             slope = (wl - wk) / (hl - hk)
@@ -630,15 +649,15 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, profiled, n1, warm
 @kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, False, 0.0,
-                         NO_WARM)[:3]
+    return _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, 0.0,
+                          NO_WARM)[:3]
 
 
 @kernel
 def memory_step_law(H, W, P, nvert, memf, a1, b1, law):
     """`memory_step` for a profile law (memory from `reset_memory_law`)."""
     n1, k1 = law_eval(law, a1)
-    return memory_commit(H, W, P, nvert, memf, a1, k1, b1, law, True, n1, NO_WARM)[:3]
+    return _profile_commit(H, W, P, nvert, memf, a1, k1, b1, law, n1, NO_WARM)[:3]
 
 
 @kernel
@@ -649,8 +668,8 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
     """
     for i in range(a.shape[0]):
         a1 = a[i]
-        T, sh, st, _ = memory_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
-                                     memf, False, 0.0, NO_WARM)
+        T, sh, st, _ = _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
+                                      memf, 0.0, NO_WARM)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -663,8 +682,8 @@ def memory_history_law(H, W, P, nvert, memf, a, b, law, out):
     wa = NO_WARM
     ws = NO_WARM
     for i in range(a.shape[0]):
-        n1, k1, wa = law_eval_warm(law, a[i], wa, 0.0, True)
-        T, sh, st, ws = memory_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, True, n1, ws)
+        n1, k1, wa = law_eval_warm(law, a[i], wa, 0.0, PROFILE)
+        T, sh, st, ws = _profile_commit(H, W, P, nvert, memf, a[i], k1, b[i], law, n1, ws)
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -694,3 +713,24 @@ def anchor_profile(H, W, nvert, memf):
     """The memory diagram now: (h, w) vertices, w in absolute b* units."""
     n = int(nvert[0])
     return H[:n, 0].copy(), W[:n] + memf[2]
+
+
+class MemorySteps(NamedTuple):
+    """The memory diagram's compiled steps for one contact law kind."""
+    commit: object      # memory_commit's copy: (H, W, P, nvert, memf, a1, c1, b1, law, n1, warm)
+    integrals: object   # _integrals's copy: (H, W, P, nvert, law)
+
+
+@functools.lru_cache(maxsize=None)
+def memory_steps(law_kind):
+    """The memory diagram's steps (`memory_commit` and what it calls,
+    inlined) for one contact law kind, `law_kind` a global constant of the
+    copies (jit.specialize): the sphere's leave the profiles' code out."""
+    copies = specialize((_integrals_to, _integrals, _clamp, memory_commit),
+                        LAW_KINDS[law_kind].replace("-", "_"), law_kind=law_kind)
+    return MemorySteps(copies["memory_commit"], copies["_integrals"])
+
+
+# this module's own kernels: the sphere's and the profile laws' steps
+_sphere_commit, _sphere_integrals = memory_steps(SPHERE)
+_profile_commit, _profile_integrals = memory_steps(PROFILE)

@@ -1,15 +1,21 @@
-"""The deformable (Hertz + Cattaneo-Mindlin memory diagram) particle kernel.
+"""The Hertz particle kernels: the deformable particle (Hertz + Cattaneo-
+Mindlin memory diagram) and its vertical-only model.
 
 Normalized equations (docs/MODEL.md section 1):
 
     m* x'' = -mu T*(b*, a*, history),   m* y'' = 1 - N*(a*),
     a* = y* - u_y*(t),   theta mu b* = x* - u_x*(t).
 
-One numba kernel serves both the full model and the vertical-only model
-(`tangential=False` is a compile-time constant there, so the vertical scene
-never touches the memory diagram).  The kernel runs until t_stop and returns,
-with every piece of its state in the arrays it was given, so a caller can
-show progress, cancel between chunks, and grow buffers (records.py).
+One loop serves every variant (`HertzVariant`: the full model or the
+vertical one, with or without the Lyapunov tangent, and the contact law's
+kind), each compiled as a kernel of its own (`hertz_kernel`: a copy of the
+loop whose flags are global constants, jit.specialize): the vertical kernel
+(`tangential` False) has no memory diagram, no sin and no x (about half the
+deformable step, `vibtrans bench`).  kernels.dispatch.KERNELS says which
+variant runs a scene.  A
+kernel runs until t_stop and returns, with every piece of its state in the
+arrays it was given, so a caller can show progress, cancel between chunks,
+and grow buffers (records.py).
 
 Arguments:
     params  HertzParams (a NamedTuple, from `kernel_params`): the scene, the
@@ -22,16 +28,16 @@ function, vibtrans/core/kernels/jit.py): in flight `_sample_flight`, `_land`; in
 `_predict`, `_advance_wave`, `_contact_force`, `_commit_step`, `_take_off`,
 `_note_state`, `_record_step` (or `_record_end` for the step holding t_end).
 """
+import functools
 import math
 from typing import NamedTuple
 
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, NO_WARM, PARTIAL_SLIP, WARM_POWER,
-                                           law_eval, law_eval_warm,
-                                           memory_commit)
-from vibtrans.core.kernels.jit import helper, inline, kernel
+from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, LAW_KINDS, NO_WARM, PARTIAL_SLIP,
+                                           SPHERE, law_eval, law_eval_warm, memory_steps)
+from vibtrans.core.kernels.jit import helper, inline, kernel, specialize, template
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
 from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
 
@@ -98,6 +104,14 @@ def rest_state(y0=1.0):
     state[S_Y] = y0
     state[S_GAP] = y0
     return state, np.zeros((4, 4))
+
+
+def unused_memory():
+    """(H, W, P, nvert, memf) for a kernel without a memory diagram (the
+    vertical model, `hertz_kernel`): arrays of the right types, never read
+    or written."""
+    return [np.empty((0, 2)), np.empty(0), np.empty(0), np.zeros(2, dtype=np.int64),
+            np.empty(0)]
 
 
 def rest_tangent(mass, step, t_from, stiffness=1.5):
@@ -279,10 +293,9 @@ def _substrate_at(t1, cw, sw, t_flat, p):
     return wave_motion(cw, sw, g, g1, p.amplitude, p.r)
 
 
-@inline
-def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential, law,
-                   profiled, warm):
-    """Hertz's N* = a*^(3/2) (or the profile's law, `profiled`) and the
+@template(inline)
+def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm):
+    """Hertz's N* = a*^(3/2) (or the profile's law, `law_kind`) and the
     memory diagram's committed T* at the step end (docs/MODEL.md sections 2,
     10).  Returns (a*, c1, N*, b*, T*, s_h, contact state, warm): c1 = sqrt(a*)
     for the sphere, N*'(a*) with a profile (0 off contact); warm: the
@@ -293,15 +306,14 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, tangential,
     nf = 0.0                      # Hertz: N* = a*^(3/2)
     wa, ws = warm
     if a1 > 0.0:
-        if profiled:
-            nf, c1, wa = law_eval_warm(law, a1, wa, 0.0, profiled)
+        if law_kind != SPHERE:
+            nf, c1, wa = law_eval_warm(law, a1, wa, 0.0, law_kind)
         else:
             c1 = math.sqrt(a1)
             nf = a1 * c1
     if tangential:
         b1 = (x1 - ux) * inv_scale
-        tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, profiled, nf,
-                                       ws)
+        tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, nf, ws)
     else:
         b1 = 0.0
         tf = 0.0
@@ -377,7 +389,7 @@ def _hermite(p0, v0, p1, v1, h, s):
 
 @helper
 def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
-                t1, x1, vx1, y1, vy1, tangential, law, profiled):
+                t1, x1, vx1, y1, vy1, tangential, law, law_kind):
     """Record the state at t_end, inside the last step (t0, t1]: positions
     and velocities exact on a flight parabola, else Hermite-interpolated;
     a*, b*, b*', N* from them and the exact substrate motion at t_end; the
@@ -396,7 +408,7 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
         y, vy = _hermite(y0, vy0, y1, vy1, t1 - t0, s)
     ux, uy, uxd, uyd = surface_motion(t_end, p.amplitude, p.r, p.tau)
     a = y - uy
-    if profiled:
+    if law_kind != SPHERE:
         nf, c = law_eval(law, a) if a > 0.0 else (0.0, 0.0)
         c = c / law[LAW_K1]       # contact radius / the static one
         stick = (min(law_eval(law, sh)[1] / law[LAW_K1], c)
@@ -428,13 +440,13 @@ def _stick_stiffness(H, nvert, st, sh, a1, c1):
 
 @helper
 def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh, c1,
-                 scale, tangential, law, profiled):
+                 scale, tangential, law, law_kind):
     """One sample row at the step end t1 (contact and stick radii in units
     of the static contact radius).  c1: N*'(a1) of the step's contact force
     (a profile's; in contact, st != FLIGHT, it is law_eval's at a1).  sh:
     the stick core's depth s_h (the sphere) or, with a profile, its N*'(s_h)
     (`_stick_stiffness`, from the memory): no law evaluated twice."""
-    if profiled:
+    if law_kind != SPHERE:
         k = 0.0
         if a1 > 0.0:
             k = c1 if st != FLIGHT else law_eval(law, a1)[1]
@@ -536,7 +548,7 @@ def _tangent_store(tangent, dy, dvy, dh):
 
 
 @helper
-def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, profiled):
+def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, law_kind):
     """One committed contact step of the tangent, with the run's integrator:
     m* dy'' = -1.5 sqrt(a*) dy at the step end (c1 = sqrt(a*), 0 off contact;
     with a profile m* dy'' = -N*'(a*) dy, c1 = N*'(a*)).
@@ -544,10 +556,10 @@ def _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, profiled):
     if integrator == AB4:
         dy1 = dy + h / 24.0 * (55.0 * dh[0] - 59.0 * dh[2] + 37.0 * dh[4] - 9.0 * dh[6])
         dvy1 = dvy + h / 24.0 * (55.0 * dh[1] - 59.0 * dh[3] + 37.0 * dh[5] - 9.0 * dh[7])
-        dacc1 = -c1 * dy1 * inv_m if profiled else -1.5 * c1 * dy1 * inv_m
+        dacc1 = -c1 * dy1 * inv_m if law_kind != SPHERE else -1.5 * c1 * dy1 * inv_m
     else:
         dy1 = dy + h * dvy + 0.5 * h * h * dh[1]
-        dacc1 = -c1 * dy1 * inv_m if profiled else -1.5 * c1 * dy1 * inv_m
+        dacc1 = -c1 * dy1 * inv_m if law_kind != SPHERE else -1.5 * c1 * dy1 * inv_m
         dvy1 = dvy + 0.5 * h * (dh[1] + dacc1)
     return dy1, dvy1, (dvy1, dacc1, dh[0], dh[1], dh[2], dh[3], dh[4], dh[5])
 
@@ -608,16 +620,17 @@ def _tangent_flight(tangent, s, landed):
 
 
 # ------------------------------------------------------------------ the kernel
-@helper
+@template(kernel)
 def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, Pm,
-                    nvert, memf, samples, events, ctr, t_stop, tangential, lyapunov,
-                    law, profiled):
+                    nvert, memf, samples, events, ctr, t_stop, law):
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
-    contact one committed step at a time.  With `lyapunov` (a compile-time
-    constant, like `tangential`) the vertical motion's tangent advances
-    alongside, in `tangent`.  With `profiled` (a compile-time constant) the
-    profile's `law` (contact.law_eval) replaces Hertz's.  Returns a records.*
-    status.
+    contact one committed step at a time.  A template (`hertz_kernel`): its
+    HertzVariant's flags are global constants of each copy, `tangential`
+    (the memory diagram and x, or the vertical motion alone), `lyapunov`
+    (the vertical motion's tangent advanced alongside, in `tangent`) and
+    `law_kind` (contact.SPHERE: Hertz's law; else the profile's `law`,
+    contact.law_eval), with the law kind's `memory_commit`.  Returns a
+    records.* status.
 
     The tangent's hot values (dy, dvy, dh: `_tangent_load`) live in locals;
     the array is current whenever the particle is in flight at the loop's
@@ -692,8 +705,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
         a1, c1, nf, b1, tf, sh, st, warm = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                          inv_scale, tangential, law, profiled,
-                                                          warm)
+                                                          inv_scale, law, warm)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
         dyo = 0.0
@@ -701,7 +713,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         if lyapunov:
             dyo = dy
             dvyo = dvy
-            dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, profiled)
+            dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, law_kind)
         if st == FLIGHT:
             x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
                                          vyo, m)
@@ -719,16 +731,16 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
             _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
-                        t1, x1, vx1, y1, vy1, tangential, law, profiled)
+                        t1, x1, vx1, y1, vy1, tangential, law, law_kind)
             if lyapunov:
                 _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
               or (final and t1 >= t_end)):
             stick = sh
-            if profiled and tangential:
+            if law_kind != SPHERE and tangential:
                 stick = _stick_stiffness(H, nvert, st, sh, a1, c1)
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, stick,
-                         c1, scale, tangential, law, profiled)
+                         c1, scale, tangential, law, law_kind)
         if st == FLIGHT and stop_at_takeoff:
             break
     if lyapunov:
@@ -736,64 +748,36 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     return R.DONE
 
 
-@kernel
-def deformable_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
-                      samples, events, ctr, t_stop):
-    """Deformable particle (Hertz + memory diagram) from state[S_T] to t_stop.
-
-    Returns a records.* status code; every array is updated in place.
-    """
-    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, False,
-                           memf, False)
+class HertzVariant(NamedTuple):
+    """What a Hertz kernel is compiled for: compile-time constants, each
+    variant a kernel of its own (kernels.dispatch.KERNELS picks one)."""
+    tangential: bool    # the memory diagram and x* (deformable), or y* alone (vertical)
+    lyapunov: bool      # the vertical motion's tangent advanced alongside
+    law_kind: int       # contact.SPHERE, PROFILE or WARM_POWER
 
 
-@kernel
-def deformable_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P, nvert,
-                               memf, samples, events, ctr, t_stop):
-    """deformable_kernel with the vertical motion's tangent advanced alongside
-    (`tangent`, float64[NTANGENT]; the same records, bit for bit)."""
-    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, True,
-                           memf, False)
+@functools.lru_cache(maxsize=None)
+def hertz_kernel(variant):
+    """The Hertz kernel of a HertzVariant, compiled on its first call (or
+    loaded from the disk cache):
 
+        kernel(params, integrator, stop_at_takeoff, state, hist, tangent,
+               H, W, P, nvert, memf, samples, events, ctr, t_stop, law)
 
-@kernel
-def deformable_profile_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
-                              samples, events, ctr, t_stop, law):
-    """deformable_kernel for an axisymmetric profile's `law` (float64 array,
-    vibtrans.core.kernels.contact.kernel_law; docs/MODEL.md section 10)."""
-    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, False,
-                           law, True)
-
-
-@kernel
-def deformable_profile_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P,
-                                       nvert, memf, samples, events, ctr, t_stop, law):
-    """deformable_lyapunov_kernel for a profile's `law`."""
-    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, True,
-                           law, True)
-
-
-@kernel
-def deformable_power_kernel(params, integrator, state, hist, H, W, P, nvert, memf,
-                            samples, events, ctr, t_stop, law):
-    """deformable_profile_kernel for a power law with the warm-started root
-    (law[LAW_ROOT] != 0, contact.power_kernel_law) alone: the law's kind is
-    a compile-time constant (WARM_POWER), so its tests and the table's code
-    leave the step; the same numbers, bit for bit."""
-    return _hertz_particle(params, integrator, False, state, hist, memf, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, False,
-                           law, WARM_POWER)
-
-
-@kernel
-def deformable_power_lyapunov_kernel(params, integrator, state, hist, tangent, H, W, P,
-                                     nvert, memf, samples, events, ctr, t_stop, law):
-    """deformable_profile_lyapunov_kernel for a warm-started power law alone
-    (`deformable_power_kernel`)."""
-    return _hertz_particle(params, integrator, False, state, hist, tangent, H, W, P,
-                           nvert, memf, samples, events, ctr, t_stop, True, True,
-                           law, WARM_POWER)
+    runs the particle from state[S_T] to t_stop (or its first take-off, with
+    `stop_at_takeoff`) and returns a records.* status, every array updated in
+    place: `tangent` float64[NTANGENT] (`rest_tangent`), the memory diagram
+    (H, W, P, nvert, memf: contact.new_memory), `law` a contact.kernel_law.
+    An array the variant does not use is still passed, as any array of its
+    type, never read or written: `tangent` without lyapunov, the memory in
+    the vertical model (`unused_memory`), `law` for the sphere.  A lyapunov
+    variant records what its plain twin records, bit for bit, and so do the
+    WARM_POWER and PROFILE kernels for a warm-started power law."""
+    tangential, lyapunov, law_kind = (bool(variant.tangential), bool(variant.lyapunov),
+                                      int(variant.law_kind))
+    name = (f"{'deformable' if tangential else 'vertical'}{'_lyapunov' if lyapunov else ''}"
+            f"_{LAW_KINDS[law_kind].replace('-', '_')}")
+    copies = specialize((_contact_force, _hertz_particle), name, tangential=tangential,
+                        lyapunov=lyapunov, law_kind=law_kind,
+                        memory_commit=memory_steps(law_kind).commit)
+    return copies["_hertz_particle"]

@@ -1,6 +1,6 @@
 """The JIT policy: every compiled function of the library goes through here.
 
-Three decorators:
+Three decorators,
 
 * `kernel` - a function compiled on its own (an entry point called from
   Python): numba.njit(nogil=True, error_model="numpy") without numba's
@@ -17,6 +17,18 @@ Three decorators:
   it stayed a call in every step, and every float live across a call is
   spilled to the stack and reloaded around it, all xmm registers being
   caller-saved: inlined, each step of every Hertz kernel ~4 ns cheaper).
+
+and `template`, `specialize` for code written once for several variants
+(the Hertz kernels' model, Lyapunov tangent and contact law's kind): each
+variant a copy whose flags are global names, not arguments.  numba freezes
+globals as constants and drops the branches they decide before it inlines
+and types the rest, where a flag passed as an argument, even a literal one,
+leaves every branch to inline, type and lower: the sphere's deformable
+kernel carried the profiles' memory diagram and warm-started roots, unused.
+Measured on this 2-core machine, empty cache (a cold `vibtrans simulate
+--log-amplitude 2.5 --log-mass 0`, one kernel with its Lyapunov tangent):
+25 s with the flags as arguments, 11-12.5 s as copies' globals; the same
+records bit for bit (`python -m devtools.fingerprint`).
 
 Why no NRT (measured): our kernels never allocate: they work in arrays their
 caller owns (and keeps alive) and return plain numbers.  With NRT on, every
@@ -70,8 +82,10 @@ Only the library's functions use that folder: numba's global setting is
 switched to it just while one of our functions is decorated, so other
 libraries' numba caches stay where they were.
 """
+import contextlib
 import hashlib
 import os
+import types
 from pathlib import Path
 
 import numba
@@ -80,7 +94,7 @@ from numba import njit
 
 # Every module that defines a compiled function (all in this package).
 SOURCES = ("jit.py", "records.py", "contact.py", "substrate.py", "integrators.py",
-           "deformable.py", "vertical.py", "point_mass.py")
+           "deformable.py", "point_mass.py")
 _PACKAGE = Path(__file__).resolve().parent
 _MODULES = frozenset(f"{__package__}.{s[:-3]}" for s in SOURCES)
 
@@ -141,3 +155,58 @@ def inline(fn):
     """Inline `fn` at numba IR level into each caller (compile time per call
     site: keep the call sites few)."""
     return _compile(fn, inline="always")
+
+
+@contextlib.contextmanager
+def compile_notice(report):
+    """Within the block, report(name) once, as numba starts compiling one of
+    the library's functions (name: its qualified name); loading one from
+    the disk cache is not compiling.  For front ends, which say so while
+    the first run after an install or an edit compiles."""
+    from numba.core import event
+
+    class Notice(event.Listener):
+        told = False
+
+        def on_start(self, ev):
+            fn = ev.data["dispatcher"].py_func
+            if not self.told and fn.__module__ in _MODULES:
+                self.told = True
+                report(fn.__qualname__)
+
+        def on_end(self, ev):
+            pass
+
+    with event.install_listener("numba:compile", Notice()):
+        yield
+
+
+def template(decorate):
+    """Mark `fn` as a template: not compiled itself, only in the copies
+    `specialize` makes, each with `decorate` (kernel, helper or inline)."""
+    def mark(fn):
+        fn.jit_decorator = decorate
+        return fn
+    return mark
+
+
+def specialize(templates, name, **constants):
+    """Compiled copies of `templates` (functions of one module, `template`)
+    whose global names also hold `constants` (and each other's copies).
+
+    numba freezes a global as a compile-time constant and drops the branches
+    it decides before it inlines and types the rest: a copy for the sphere
+    leaves the profiles' code out, where a flag passed as an argument would
+    have it inlined and compiled, unused (a Hertz kernel compiles in half the
+    time).  `name` (the constants in words) joins each copy's qualified name:
+    numba's disk cache tells the copies apart by it.  Returns the copies'
+    namespace: copy = namespace[template's name]."""
+    namespace = dict(templates[0].__globals__)
+    namespace.update(constants)
+    for fn in templates:
+        copy = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__,
+                                  fn.__closure__)
+        copy.__qualname__ = f"{fn.__qualname__}__{name}"
+        copy.__doc__ = fn.__doc__
+        namespace[fn.__name__] = fn.jit_decorator(copy)
+    return namespace

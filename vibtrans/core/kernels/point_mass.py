@@ -360,7 +360,7 @@ def _resolve(nf, f, vrel, ax, rule):
 
 
 @helper
-def _record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
+def record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
                 m, mu, tmu):
     if mode == MODE_FLIGHT:
         nf = 0.0
@@ -440,7 +440,7 @@ def _fresh_start(p, stick_rule, state, samples, events, ctr):
                 return SAMPLES_FULL
             ux, uy, dux, duy = surface_motion(0.0, A, p.r, p.tau)
             ax, ay = surface_acceleration(0.0, A, p.r, p.tau)
-            _record_row(samples, ctr, 0.0, state[1], state[2], state[3],
+            record_row(samples, ctr, 0.0, state[1], state[2], state[3],
                         state[4], ctr[C_MODE], ux, uy, dux, duy, ax, ay, m, mu,
                         p.theta * mu)
     return GO
@@ -644,7 +644,7 @@ def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events,
     if in_win and ctr[C_NSAMP] + 2 > samples.shape[0]:
         return SAMPLES_FULL
     if in_win:
-        _record_row(samples, ctr, te, x, vx, y, vy, mode, ux, uy, dux, duy, ax,
+        record_row(samples, ctr, te, x, vx, y, vy, mode, ux, uy, dux, duy, ax,
                     ay, m, mu, tmu)
     state[0] = te
     state[1] = nx
@@ -662,7 +662,7 @@ def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events,
         ctr[C_STATE] = code
     ctr[C_FEVALS] += nev
     if in_win:
-        _record_row(samples, ctr, te, nx, nvx, ny, nvy, new_mode, ux, uy, dux,
+        record_row(samples, ctr, te, nx, nvx, ny, nvy, new_mode, ux, uy, dux,
                     duy, ax, ay, m, mu, tmu)
     return GO
 
@@ -690,7 +690,7 @@ def _commit_step_end(b, sample_here, scanned, nev, mode, end, p, state,
         ctr[C_STEPS] += 1
     ctr[C_FEVALS] += nev
     if take:
-        _record_row(samples, ctr, b, xb, vxb, yb, vyb, mode, uxb, uyb, duxb,
+        record_row(samples, ctr, b, xb, vxb, yb, vyb, mode, uxb, uyb, duxb,
                     duyb, axb, ayb, p.mass, p.mu, p.theta * p.mu)
     return GO
 
