@@ -393,9 +393,9 @@ class MapJobs:
         """A level's or chunk's Update, with the time left from the points
         done so far and the points the refinement is expected to compute."""
         request = comp.request
-        expected = maprequest.COMPUTED_SHARE.get(request.levels, 1.0) * request.points()
         left = maprequest.seconds_left(time.monotonic() - comp.started,
-                                       int(ds["computed"].values.sum()), expected)
+                                       int(ds["computed"].values.sum()),
+                                       maprequest.expected_points(request))
         return Update(kind, level, request.levels, ds, seconds_left=left)
 
     def start_helpers(self):

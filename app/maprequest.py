@@ -52,9 +52,17 @@ POINT_MASS_CHAOS = "impact map"
 # VIBTRANS_MAP_MAX_SECONDS set them for `vibtrans serve`, app/mapjobs.py).
 MAX_POINTS = 100_000
 MAX_SECONDS = 1800.0
-# the share of the finest grid the refinement computes, by levels (measured
-# on maps of both models over the regime plane's middle)
-COMPUTED_SHARE = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
+# the share of the finest grid the refinement computes, by the finest grid's
+# points per axis (measured on maps of 4 coarse cells, 1 to 6 levels, over
+# the regime plane's middle; a map of more coarse cells computes the share
+# of its own points per axis: the refinement follows the regimes' boundaries,
+# so its points grow with the grid's side, not its area)
+COMPUTED_SHARE = ((9, 0.9), (17, 0.66), (33, 0.45), (65, 0.3), (129, 0.2), (257, 0.15))
+# a map's own seconds besides its points (its store, its levels' pictures,
+# its points' passage to the workers and back): most of a map of a few
+# seconds, which without it came out at 2-5x its a-priori time (81 to 1089
+# points, one worker, a 2-core host)
+MAP_START_SECONDS = 0.4
 
 
 class MapRequest(param.Parameterized):
@@ -227,7 +235,7 @@ def decode(raw):
 class Estimate(NamedTuple):
     """A map's a-priori time, before any of its points has run: `points` of
     the finest grid, `computed` the points the refinement is expected to
-    compute (COMPUTED_SHARE of them), `steps` their expected integration
+    compute (expected_points), `steps` their expected integration
     steps under the request's stopping rule, `seconds` their time at this
     server's measured cost per step and per point over its map workers."""
     points: int
@@ -268,17 +276,27 @@ def bound_steps(request):
 
 
 def estimate(request, step_seconds, point_seconds=0.0, workers=1):
-    """The request's a-priori Estimate: the points expected to be computed
-    x (their mean expected steps x `step_seconds`, this server's measured
-    seconds per step of the request's kernel, + `point_seconds`, a point's
-    measured cost besides its steps) over `workers`.  Refuse the request by
+    """The request's a-priori Estimate: MAP_START_SECONDS + the points
+    expected to be computed x (their mean expected steps x `step_seconds`,
+    this server's measured seconds per step of the request's kernel, +
+    `point_seconds`, a point's measured cost besides its steps) over
+    `workers`.  Refuse the request by
     `problems` first: this walks every point of the finest grid."""
     steps = bound_steps(request)
-    computed = COMPUTED_SHARE.get(request.levels, 1.0) * steps.size
+    computed = expected_points(request)
     per_point = float(steps.mean()) * expected_time_share(
         request.model, request.stop, request.periods, request.tau, request.fidelity)
     return Estimate(request.points(), computed, computed * per_point,
-                    computed * (per_point * step_seconds + point_seconds) / max(1, workers))
+                    MAP_START_SECONDS
+                    + computed * (per_point * step_seconds + point_seconds) / max(1, workers))
+
+
+def expected_points(request):
+    """The points the refinement is expected to compute: COMPUTED_SHARE
+    (interpolated in log points per axis) of the finest grid."""
+    n, share = zip(*COMPUTED_SHARE)
+    return float(np.interp(np.log(request.points_per_axis()), np.log(n), share)) \
+        * request.points()
 
 
 def seconds_left(elapsed, done, expected):

@@ -160,10 +160,11 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path, mo
     steps = np.array([[estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m,
                                             **request.scene_values())) for m in lm] for a in la])
     np.testing.assert_array_equal(maprequest.bound_steps(request), steps)
-    assert est.computed == pytest.approx(maprequest.COMPUTED_SHARE[1] * 25)
+    assert est.computed == pytest.approx(0.9 * 25)          # 5 points per axis: the 9's share
     assert est.steps == pytest.approx(est.computed * steps.mean())
-    assert est.seconds == pytest.approx(est.computed * (steps.mean() * 1e-7 + 1e-3) / 2)
-    assert "about 0.1 s on this server (2 cores, from its measured time" in est.text(2)
+    assert est.seconds == pytest.approx(maprequest.MAP_START_SECONDS
+                                        + est.computed * (steps.mean() * 1e-7 + 1e-3) / 2)
+    assert "about 0.41 s on this server (2 cores, from its measured time" in est.text(2)
     # a decided map: each point's steps times the share of them it is expected to run
     decided = MapRequest(**TINY)
     share = expected_time_share("deformable", "decided", 30.0, 5.0, "preview")
@@ -192,6 +193,18 @@ def test_the_cost_per_step_is_measured_once_per_kernel_and_fidelity(tmp_path):
     material = jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass"}))
     assert jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass",
                                            "profile": "cone"})) == material
+
+
+def test_the_points_expected_follow_the_finest_grid_s_side():
+    """expected_points: COMPUTED_SHARE at the finest grid's points per axis,
+    in between interpolated in log points per axis."""
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 4, "levels": 3})) \
+        == pytest.approx(0.45 * 33 ** 2)
+    # 8 cells, 3 levels: 65 per axis, the share of 4 cells and 4 levels
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 8, "levels": 3})) \
+        == pytest.approx(0.3 * 65 ** 2)
+    between = maprequest.expected_points(MapRequest(**{**TINY, "cells": 6, "levels": 3}))
+    assert 0.3 * 49 ** 2 < between < 0.45 * 49 ** 2
 
 
 def test_the_time_left_is_the_progress_bars():
