@@ -206,7 +206,7 @@ def decode(raw):
     """(MapRequest or None, errors): the URL's `map=` value checked field by
     field (urlstate.convert: the same rules as the other URL values), then
     as a whole (MapRequest.problems, without a server's point limit)."""
-    raw = urlstate._text(raw)
+    raw = urlstate.as_text(raw)
     if len(raw) > urlstate.MAX_LENGTH * len(FIELDS):
         return None, [f"URL parameter '{URL_KEY}' (a map request) is too long"]
     parts = raw.split(",")
