@@ -400,10 +400,10 @@ class MapJobs:
 
     def start_helpers(self):
         """At the server's warm-up: measure the sphere's and the material
-        point's cost per step at the default fidelity (step_seconds), and start the helper
-        process that worker processes need for the server's whole life
-        (multiprocessing's resource tracker, ~13 MB), so that it is not
-        first started, and counted as memory kept, by a map."""
+        point's cost per step at the default fidelity (step_seconds), and
+        start the helper process that worker processes need for the
+        server's whole life (multiprocessing's resource tracker, ~13 MB), so
+        that it is not first started, and counted as memory kept, by a map."""
         for model in kernels.MODELS:
             self.step_seconds(maprequest.MapRequest(model=model))
         if self.processes and not self.scheduler:
