@@ -60,59 +60,14 @@ MAP_NICE = 10
 # every 3 s, 10.0 and 3.5 s with one every 10 s, 7.6 s with none (and 4.5,
 # 9.5 s for the code before pictures): within the noise at 10 s
 CHUNK_SECONDS = 10.0
-# the share of the finest grid the refinement computes, by levels, before
-# this server has computed a map of that model and depth (then its own):
-# measured with `python -m devtools.mapestimate` (2026-11-27)
-FRACTION_PRIOR = {1: 0.9, 2: 0.66, 3: 0.45, 4: 0.3, 5: 0.2, 6: 0.15}
-# a map's own work besides its points' runs: its start (store, levels) and
-# each computed point's passage (to a worker and back, into the store), on
-# a host where a point's Python in its worker (the scene's checks, the run's
-# summary: cost.timed_point's whole time less the run's) takes
-# WORKER_PYTHON_SECONDS.  `python -m devtools.mapestimate --own-work`:
-# maps of 10-period points, whose runs cost next to nothing, less their runs
-# over the cores, 66 to 4827 points computed, fitted as 0.29 s + 0.76 ms a
-# point (0.28 s + 0.87 ms in a second run), the worker's Python 0.46 ms
-# (0.48) (2026-11-27 23:59 UTC, this 2-core machine, calm; the constants before,
-# 0.4 s + 2.2 ms, were a slower host's and older code's: on this host every
-# estimate came out 1.25-2x the time).  A server scales them by its probe's
-# worker Python over WORKER_PYTHON_SECONDS, then learns them from its own
-# maps (MapJobs.own_factor).
-MAP_START_SECONDS = 0.29
-WORKER_PYTHON_SECONDS = 4.6e-4
-PROBE_PERIODS = 2000.0
-# points the first estimate of a model and fidelity runs to measure this
-# server's speed (cost.probe_points: drawn by their expected work among the
-# points the refinement is expected to compute)
-PROBE_POINTS = 12
-# the weight of what a rate was measured on before, at each new measurement
-# (MapJobs._pool_rate): a map's rate counts by its runs' seconds, the
-# earlier ones by half of theirs, a quarter, ...
-RATE_MEMORY = 0.5
-POINT_PASSAGE_SECONDS = 7.6e-4
+# the timed run that measures a kernel's seconds per step (step_seconds):
+# long enough that the run's fixed costs are a small part of it
+STEP_PERIODS = 2000.0
 # seconds the map workers' processes outlive the last map: a map asked for
 # meanwhile starts at once (a worker's start is ~1.3 s of CPU: imports,
 # compiled kernels loaded); `stop_workers` ends them sooner (the server's
 # memory release, once no session is open)
 WORKERS_LINGER = 60.0
-
-
-class _Done:
-    """A finished future's stand-in (the probe without workers)."""
-
-    def __init__(self, value):
-        self.value = value
-
-    def result(self):
-        return self.value
-
-
-def _now(fn, *args):
-    return _Done(fn(*args))
-
-
-def _class_key(request):
-    """The settings a decided map's periods per class hold for."""
-    return (request.model, float(request.periods), float(request.tau), request.fidelity)
 
 
 def default_folder():
@@ -145,10 +100,12 @@ class Update(NamedTuple):
     """What a map's subscriber hears.  kind: "queued" (text says how many
     wait before it), "level" (ds: the map so far after `level` of
     `levels`), "chunk" (ds: the map so far while `level` is computed:
-    every CHUNK_SECONDS within a level), "done" (ds: the finished,
-    verified map; cached: read from the cache; shown: its values are those
-    of the finest level's map, sent before it to every subscriber, so a
-    picture of that one stands), "failed" (text), "cancelled"."""
+    every CHUNK_SECONDS within a level; both with `seconds_left`, the time
+    left as a progress bar says it: maprequest.seconds_left), "done" (ds:
+    the finished, verified map; cached: read from the cache; shown: its
+    values are those of the finest level's map, sent before it to every
+    subscriber, so a picture of that one stands), "failed" (text),
+    "cancelled"."""
     kind: str
     level: int = 0
     levels: int = 0
@@ -156,6 +113,13 @@ class Update(NamedTuple):
     text: str = ""
     cached: bool = False
     shown: bool = False
+    seconds_left: object = None
+
+    def left_text(self):
+        """", about 3 min left" while the time left is known, else ""."""
+        if not self.seconds_left:
+            return ""
+        return f", about {maprequest.duration(self.seconds_left)} left"
 
     @property
     def final(self):
@@ -187,7 +151,7 @@ class _Computation:
         self.cancel = threading.Event()
         self.tickets = []
         self.last = None          # the latest level's Update (for a late subscriber)
-        self.shared = False       # another map ran beside it (its wall time is not its own)
+        self.started = None       # when its points began (time.monotonic)
 
 
 class MapJobs:
@@ -211,7 +175,7 @@ class MapJobs:
         self.max_seconds = max_seconds
         # build(computation, path, on_level): computes the map's store at
         # path (run_adaptive; a test passes a stand-in)
-        self._build = build or self._run_adaptive
+        self._build = build or self.run_adaptive
         self._cache = None
         self._lock = threading.Lock()
         self._computations = {}      # key -> _Computation (queued or running)
@@ -219,24 +183,10 @@ class MapJobs:
         self._running = set()        # the computations running
         self._workers = None         # the FairPool of `cores` workers (made at first use)
         self._sessions = {}          # session -> Ticket
-        self._rates = {}             # (model, fidelity, unit, stop) -> s per unit run, measured
-        self._rate_sums = {}         # the same -> (seconds, work) behind it (_pool_rate)
-        self._whole = {}             # the same -> a point's whole time over its run's
-        # a map's own work (MAP_START_SECONDS, POINT_PASSAGE_SECONDS) on this
-        # server over the constants': (measured, the constants') seconds
-        # pooled over the maps computed alone (own_factor), else the probe's
-        self._own_sums = None
-        self._own_probe = None
-        self._fractions = {}         # (model, levels) -> share of the finest grid computed
-        # (model, fidelity) -> the not-steady share of the refinement its last
-        # map showed (cost.learn_not_steady_share)
-        self._not_steady = {}
-        self._profiles = {}          # model -> (f_end, extra) of its last decided map
-        # (model, periods, tau, fidelity) -> periods per class its decided maps ran
-        self._class_periods = {}
+        self._step_seconds = {}      # (model, profile, fidelity) -> step_seconds
         # a thread per running map (its refinement; its points go to the
-        # shared workers); a second, light pool opens the cache and
-        # measures the speed, so that a cached map never waits for a big one
+        # shared workers); a second, light pool opens the cache, so that a
+        # cached map never waits for a big one
         self._runner = ThreadPoolExecutor(max_workers=max_running,
                                           thread_name_prefix="vibtrans-map")
         self._front = ThreadPoolExecutor(max_workers=2, thread_name_prefix="vibtrans-map-front")
@@ -248,257 +198,42 @@ class MapJobs:
             self._cache = MapCache(self.folder, self.max_bytes)
         return self._cache
 
-    # ---------- speed and estimates ----------
-    # A map's expected time: its own work (MAP_START_SECONDS, and
-    # POINT_PASSAGE_SECONDS a point) and its points' runs.  Which points the
-    # refinement computes is read from the shipped map of the model (nearest
-    # mu) where it covers the window: the refinement replayed on its values
-    # with the chaos verdict maps on demand judge by
-    # (maprequest.replay_reference; adaptive.predict_refinement), plus a
-    # share of the refinement its not-steady points' scattered drifts add
-    # (cost.NOT_STEADY_REFINED, then this server's own).  What each point
-    # costs: under the `decided` rule its bounded steps times the share of
-    # T_obs its class there runs (cost.class_periods, then this server's
-    # own); under `full` the shipped point's measured seconds scaled to the
-    # request's run length and fidelity.  This server's speed against them
-    # is probed on PROBE_POINTS points drawn by their expected work at the
-    # first estimate of a model and fidelity, then learned from each map
-    # computed (per unit of the work its points actually ran, their
-    # periods_run; pooled with the earlier measurements, _pool_rate).
-    # Beyond the shipped maps: the points' bounded steps, and the share of
-    # the grid this server's last map of the model and depth computed, each
-    # point's share of T_obs the profile of this server's last decided map
-    # of the model, else the measured one of the whole domain.
-    def seconds_per_work(self, model, fidelity, unit, stop="full"):
-        """This server's measured wall seconds of a map point's runs on one
-        worker per unit of the work they ran ("reference": seconds of the
-        shipped map's point, a full map's unit inside a shipped map;
-        "steps": bounded steps, a decided map's and any beyond the shipped
-        maps; both for a run to T_obs, scaled by the periods run under
-        `stop`), or None."""
-        return self._rates.get((model, fidelity, unit, stop))
-
-    def profile(self, model):
-        """The (f_end, extra periods) of this server's last map of `model`
-        made with the `decided` rule (vibtrans.maps.cost.decided_profile),
-        or None (the model's measured profile then)."""
-        return self._profiles.get(model)
-
-    def fraction(self, model, levels):
-        """The share of the finest grid the refinement computes: this
-        server's last maps' of `model` and `levels`, else FRACTION_PRIOR's."""
-        return self._fractions.get((model, levels), FRACTION_PRIOR.get(levels, 1.0))
-
-    def _reference(self, request):
-        """The shipped drift map of the request's model nearest its mu, or None."""
-        from . import data
-        mus = [mu for model, mu in data.available_maps() if model == request.model]
-        if not mus:
-            return None
-        try:
-            return data.drift_map(request.model, min(mus, key=lambda mu: abs(mu - request.mu)))
-        except data.MapUnavailable:
-            return None
-
-    def _predicted(self, request):
-        """(each finest-grid point's work, its unit, the points the replay
-        of the refinement on the shipped map computes: (a boolean array,
-        the same with the not-steady points' drifts unknown:
-        maprequest.unknown_drift_reference), or the share of the grid this
-        server's last map of the model and depth computed).  The work of a
-        decided map is its points' bounded steps (vibtrans.maps.cost: a
-        decided run's time follows its steps), of a full map the shipped
-        map's seconds where it covers the window."""
-        from vibtrans.maps.adaptive import predict_refinement
-        reference = self._reference(request)
-        work = (None if reference is None or request.stop != "full"
-                else maprequest.reference_work(request, reference))
-        # a profile's kernel costs more per step (maprequest.PROFILE_STEP_COST);
-        # the refinement is predicted on the sphere's shipped map
-        cost = maprequest.step_cost(request)
-        if work is None:
-            work, unit = maprequest.bound_steps(request) * cost, "steps"
-        else:
-            work, unit = work * cost, "reference"
-        if reference is None or maprequest.nearest_points(request, reference) is None:
-            return work, unit, self.fraction(request.model, request.levels)
-        replay = maprequest.replay_reference(reference)
-        return work, unit, tuple(
-            predict_refinement(request.sweep(), request.levels, ref)
-            for ref in (replay, maprequest.unknown_drift_reference(replay)))
-
-    def expected_work(self, request):
-        """(each finest-grid point's work, its unit, the points expected to
-        be computed: an array of the finest grid, each point's expected
-        count (vibtrans.maps.cost.expected_refinement with
-        `not_steady_share`), or the share of the grid)."""
-        from vibtrans.maps.cost import expected_refinement
-        work, unit, computed = self._predicted(request)
-        if isinstance(computed, tuple):
-            computed = expected_refinement(*computed, self.not_steady_share(request))
-        return work, unit, computed
-
-    def not_steady_share(self, request):
-        """The share of the not-steady points' refinement a map of the
-        request's model and fidelity adds to the replay: this server's last
-        map's where it showed one (cost.learn_not_steady_share), else
-        cost.NOT_STEADY_REFINED's (0 where it has none)."""
-        from vibtrans.maps.cost import NOT_STEADY_REFINED
-        key = (request.model, request.fidelity)
-        return self._not_steady.get(key, NOT_STEADY_REFINED.get(key, 0.0))
-
-    def _share(self, request):
-        """Each finest-grid point's expected periods over T_obs (an array,
-        from the shipped map's classes, maprequest.reference_share), or
-        None (the same for all then)."""
-        reference = self._reference(request)
-        return (None if reference is None else maprequest.reference_share(
-            request, reference, self._class_periods.get(_class_key(request))))
-
-    def measure_speed(self, request, work, unit, computed=1.0):
-        """Probe this server's speed for the request's model and fidelity
-        (seconds per unit of `work` run) on PROBE_POINTS points of its
-        window, in the map workers: blocking (call it off the event loop); it
-        also starts the workers, so that a map asked for soon after its
-        estimate starts at once.  Each map computed then replaces it by its
-        own rate.
-
-        The points are drawn in proportion to their expected work (their
-        `work` times the share of T_obs they are expected to run, among the
-        points `computed`: cost.probe_points), each timed whole in its
-        worker (cost.timed_point: the run and the Python around it), and the
-        rate is their mean of seconds over expected work: an unbiased
-        estimate of the map's own, its expected periods per point included
-        (a first map's share of T_obs is checked on the probe's points)."""
-        key = (request.model, request.fidelity, unit, request.stop)
-        if key in self._rates:
-            return self._rates[key]
-        from vibtrans.maps.cost import probe_points, timed_point
+    # ---------- the a-priori time ----------
+    def step_seconds(self, request):
+        """(seconds per integration step, seconds a point costs besides its
+        steps) of the request's kernel (its model, profile and fidelity) on
+        this host, measured once: a map point of STEP_PERIODS run to the end
+        (its chaos verdict's exponent included), timed after an untimed one
+        that compiles or loads the kernel; the run's seconds over the steps
+        the estimate counts for it, and the point's Python around the run
+        (the scene's checks, the run's summary).  Blocking."""
+        from vibtrans import Scene, estimate_steps
+        from vibtrans.maps.sweep import compute_point
+        key = (request.model, request.profile if request.profiled() else None,
+               request.fidelity)
+        with self._lock:
+            known = self._step_seconds.get(key)
+        if known is not None:
+            return known
         kernels.wait()
-        # at the request's length (a much shorter run has the ramp's and a
-        # run's fixed costs out of proportion) up to PROBE_PERIODS
-        probe = request.copy()
-        probe.periods = min(request.periods, PROBE_PERIODS)
-        share = self._share(probe)
-        share = probe.expected_share(self.profile(probe.model)) if share is None else share
-        expected = work * (probe.periods / request.periods) * share
-        weights = expected * (computed if isinstance(computed, np.ndarray) else 1.0)
-        if not (np.all(np.isfinite(weights)) and weights.sum() > 0):
-            return None
-        picks = probe_points(weights, PROBE_POINTS)
-        unique = sorted(set(picks.tolist()))
-        la, lm = probe.axes()
-        at = [np.unravel_index(k, weights.shape) for k in unique]
-        lane = None if self.scheduler else self.share()
-        try:
-            run = lane.submit if lane is not None else _now
-            futures = [run(timed_point, probe.scene_values(), la[i], lm[j],
-                           maprequest.CHAOS, probe.stop) for i, j in at]
-            timed = dict(zip(unique, (f.result() for f in futures)))
-        finally:
-            if lane is not None:
-                lane.shutdown()
-        seconds = {k: t for k, (_, t) in timed.items()}
-        if self._own_probe is None:
-            python = float(np.median([t - point["seconds"] for point, t in timed.values()]))
-            if python > 0:
-                self._own_probe = python / WORKER_PYTHON_SECONDS
-        flat = expected.ravel()
-        rate = float(np.mean([seconds[k] / flat[k] for k in picks.tolist()]))
-        if rate > 0 and key not in self._rates:
-            spent = float(sum(seconds[k] for k in picks.tolist()))
-            self._pool_rate(key, spent, spent / rate)
-            runs = sum(point["seconds"] for point, _ in timed.values())
-            if runs > 0:
-                self._whole[key] = sum(seconds.values()) / runs
-        return self._rates.get(key)
-
-    def own_factor(self):
-        """This server's time for a map's own work over the constants'
-        (MAP_START_SECONDS + POINT_PASSAGE_SECONDS a point): pooled over its
-        maps computed alone (each older map at RATE_MEMORY's weight), else
-        its first probe's worker Python over WORKER_PYTHON_SECONDS, else 1."""
-        if self._own_sums is not None:
-            return self._own_sums[0] / self._own_sums[1]
-        return self._own_probe or 1.0
-
-    def _learn_own(self, key, ds, wall):
-        """A map computed alone took `wall` seconds: less its points' runs
-        over the cores, the rest is its own work (its start, its points'
-        passage, the levels' waits), pooled against the constants'.  key:
-        its rate's (`_learn_speed`'s), whose probe measured a point's whole
-        time over its run's."""
-        computed = ds["computed"].values
-        runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
-        own = wall - runs / max(1, self.cores)
-        constants = MAP_START_SECONDS + int(computed.sum()) * POINT_PASSAGE_SECONDS
-        if own > 0:
-            measured, weight = self._own_sums or (0.0, 0.0)
-            self._own_sums = (own + RATE_MEMORY * measured, constants + RATE_MEMORY * weight)
-
-    def whole_over_run(self, key):
-        """A point's whole time in its worker over its run's own `seconds`
-        (the scene's checks and the run's summary besides the run), as this
-        server's probe of `key` measured it, else 1."""
-        return self._whole.get(key, 1.0)
-
-    def _pool_rate(self, key, seconds, work):
-        """Add `seconds` of runs over `work` to the rate of `key`: the
-        seconds and work measured so far (the probe's, each map's), the
-        older discounted by RATE_MEMORY at each new one, so that a small
-        map's noise (its runs a few tenths of a second beside its fixed
-        costs) does not set the next map's rate alone."""
-        old_seconds, old_work = self._rate_sums.get(key, (0.0, 0.0))
-        seconds += RATE_MEMORY * old_seconds
-        work += RATE_MEMORY * old_work
-        self._rate_sums[key] = (seconds, work)
-        self._rates[key] = seconds / work
-
-    def _learn_speed(self, request, ds):
-        """The map's own rate (its points' seconds, per unit of the work
-        they ran), the share of the grid computed, the not-steady points'
-        share of its refinement and, for a decided map, its profile (the
-        periods its points ran), for the next estimates.  Returns its rate's
-        key, (model, fidelity, unit, stop)."""
-        from vibtrans.maps.cost import (decided_profile, learn_class_periods,
-                                        learn_not_steady_share)
-        computed = ds["computed"].values
-        work, unit, predicted = self._predicted(request)
-        if isinstance(predicted, tuple):
-            share = learn_not_steady_share(computed, *predicted)
-            if share is not None:
-                self._not_steady[(request.model, request.fidelity)] = share
-        if request.stop == "full":
-            ran = work[computed]
-        else:
-            ran = work[computed] * ds["periods_run"].values[computed] / request.periods
-            own = ds[["periods_run", "stop_reason"]].where(ds["computed"])
-            own.attrs = dict(ds.attrs)
-            self._profiles[request.model] = decided_profile(own)
-            reference = self._reference(request)
-            classes = (None if reference is None
-                       else maprequest.reference_classes(request, reference))
-            if classes is not None:
-                key = _class_key(request)
-                self._class_periods[key] = learn_class_periods(
-                    classes[computed], ds["periods_run"].values[computed],
-                    self._class_periods.get(key))
-        total = float(np.nansum(ran))
-        key = (request.model, request.fidelity, unit, request.stop)
-        # its points' own seconds (each run's, in its worker, times the
-        # probe's whole time over the run's): the map's wall time less its
-        # fixed costs would count those costs' growth with the host's load
-        # as the points' (a small map's runs are a few tenths of a second
-        # beside half a second of them)
-        runs = self.whole_over_run(key) * float(np.nansum(ds["seconds"].values[computed]))
-        if total > 0 and runs > 0:
-            self._pool_rate(key, runs, total)
-        self._fractions[(request.model, request.levels)] = float(computed.mean())
-        return key
+        values = {**request.scene_values(), "periods": STEP_PERIODS}
+        compute_point(values, 0.0, 0.0, maprequest.CHAOS, "full")
+        timed = []
+        for _ in range(3):
+            start = time.perf_counter()
+            run = compute_point(values, 0.0, 0.0, maprequest.CHAOS, "full")["seconds"]
+            timed.append((time.perf_counter() - start, run))
+        whole, run = min(timed)
+        measured = (run / estimate_steps(Scene(amplitude=1.0, mass=1.0, **values)),
+                    max(whole - run, 0.0))
+        with self._lock:
+            self._step_seconds[key] = measured
+        return measured
 
     def estimate(self, request):
-        """(Estimate or None, problems): the request's expected cost, or why
-        it is refused (the server's limits included); blocking (off the loop)."""
+        """(Estimate or None, problems): the request's a-priori time, or why
+        it is refused (the server's limits included, the time by that
+        figure); blocking (off the loop)."""
         problems = request.problems(self.max_points)
         if problems:
             return None, problems
@@ -506,13 +241,8 @@ class MapJobs:
             request.sweep()            # every scene value, the library's checks
         except ValueError as exc:
             return None, [str(exc)]
-        work, unit, computed = self.expected_work(request)
-        rate = self.measure_speed(request, work, unit, computed)
-        own = self.own_factor()
-        est = maprequest.estimate(request, rate, work, computed, self.cores,
-                                  own * MAP_START_SECONDS, own * POINT_PASSAGE_SECONDS,
-                                  self.profile(request.model), self._share(request))
-        if est.seconds is not None and est.seconds > self.max_seconds:
+        est = maprequest.estimate(request, *self.step_seconds(request), self.cores)
+        if est.seconds > self.max_seconds:
             return est, [f"estimated {maprequest.duration(est.seconds)}, over this server's "
                          f"limit of {maprequest.duration(self.max_seconds)} per map: fewer "
                          f"points, periods or a lower fidelity"]
@@ -623,11 +353,6 @@ class MapJobs:
             if comp.cancel.is_set():
                 return
             self._running.add(comp)
-            # its wall time tells its own work only if no other map shared
-            # the workers meanwhile
-            if len(self._running) > 1:
-                for other in self._running:
-                    other.shared = True
         try:
             self._compute_now(comp)
         finally:
@@ -642,23 +367,17 @@ class MapJobs:
         work = os.path.join(self.cache.folder, f"{comp.key}{TEMPORARY}{os.getpid()}")
 
         def on_level(level, ds):
-            self._tell(comp, Update("level", level, levels, ds))
+            self._tell(comp, self._progress(comp, "level", level, ds))
         try:
             if not kernels.wait(comp.cancel):
                 raise Cancelled("map cancelled")
-            started = time.perf_counter()
+            comp.started = time.monotonic()
             self._build(comp, work, on_level)
             self.computed += 1
             self.cache.publish(comp.key, work)
             ds = self.cache.get(comp.key)
             if ds is None:
                 raise StoreMismatch("the computed map could not be read back")
-            key = self._learn_speed(comp.request, ds)
-            wall = time.perf_counter() - started
-            with self._lock:
-                alone = not comp.shared
-            if alone:
-                self._learn_own(key, ds, wall)
             with self._lock:
                 last = comp.last
             shown = (last is not None and last.kind == "level" and last.level == levels
@@ -670,11 +389,23 @@ class MapJobs:
             log.exception("a map on demand failed: %s", comp.request.title())
             self._tell(comp, Update("failed", text=f"{type(exc).__name__}: {exc}"), final=True)
 
+    def _progress(self, comp, kind, level, ds):
+        """A level's or chunk's Update, with the time left from the points
+        done so far and the points the refinement is expected to compute."""
+        request = comp.request
+        left = maprequest.seconds_left(time.monotonic() - comp.started,
+                                       int(ds["computed"].values.sum()),
+                                       maprequest.expected_points(request))
+        return Update(kind, level, request.levels, ds, seconds_left=left)
+
     def start_helpers(self):
-        """Start, at the server's warm-up, the helper process that worker
-        processes need for the server's whole life (multiprocessing's
-        resource tracker, ~13 MB), so that it is not first started, and
-        counted as memory kept, by a map."""
+        """At the server's warm-up: measure the sphere's and the material
+        point's cost per step at the default fidelity (step_seconds), and
+        start the helper process that worker processes need for the
+        server's whole life (multiprocessing's resource tracker, ~13 MB), so
+        that it is not first started, and counted as memory kept, by a map."""
+        for model in kernels.MODELS:
+            self.step_seconds(maprequest.MapRequest(model=model))
         if self.processes and not self.scheduler:
             from multiprocessing import resource_tracker
             resource_tracker.ensure_running()
@@ -696,15 +427,14 @@ class MapJobs:
         if workers is not None:
             workers.stop_processes()
 
-    def _run_adaptive(self, comp, path, on_level):
+    def run_adaptive(self, comp, path, on_level):
         from vibtrans.maps.adaptive import run_adaptive
         lane = None if self.scheduler else self.share()
-        levels = comp.request.levels
 
         def on_chunk(level, ds):
-            self._tell(comp, Update("chunk", level, levels, ds))
+            self._tell(comp, self._progress(comp, "chunk", level, ds))
         try:
-            run_adaptive(comp.request.sweep(), path, levels, workers=self.cores,
+            run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
                          scheduler=self.scheduler, progress=False, on_level=on_level,
                          cancel=comp.cancel, executor=lane, on_chunk=on_chunk,
                          chunk_seconds=CHUNK_SECONDS)

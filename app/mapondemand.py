@@ -257,7 +257,8 @@ class MapOnDemand:
             self.map_tabs.active = 0
         started = time.monotonic()
         n = request.points_per_axis()
-        self._map_say(f"Computing a {n} x {n} map ({request.title()}) ...")
+        self._map_say(f"Computing a {n} x {n} map ({request.title()}), about "
+                      f"{maprequest.duration(est.seconds)} expected ...")
         while True:
             # every level is drawn (at most levels + 1 of them): each shows
             # where the refinement went
@@ -281,10 +282,12 @@ class MapOnDemand:
                 seconds = time.monotonic() - started
                 if update.kind == "level":
                     self._map_say(f"Level {update.level} of {update.levels} drawn: {done:,} of "
-                                  f"{n * n:,} points computed, {seconds:.0f} s ...")
+                                  f"{n * n:,} points computed, {seconds:.0f} s"
+                                  f"{update.left_text()} ...")
                 elif update.kind == "chunk":
                     self._map_say(f"Level {update.level} of {update.levels} computing: {done:,} "
-                                  f"of {n * n:,} points computed so far, {seconds:.0f} s ...")
+                                  f"of {n * n:,} points computed so far, {seconds:.0f} s"
+                                  f"{update.left_text()} ...")
                 elif update.cached:
                     self._map_say(f"Map from this server's cache ({done:,} of {n * n:,} "
                                   f"points computed): click it to run a scene there.")

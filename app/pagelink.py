@@ -19,7 +19,7 @@ def map_request_of(args):
         return None, []
     if isinstance(given, (str, bytes)):
         given = [given]
-    texts = {urlstate._text(v) for v in given}
+    texts = {urlstate.as_text(v) for v in given}
     if len(texts) > 1:
         return None, [f"URL parameter '{maprequest.URL_KEY}' is given {len(given)} times "
                       f"with different values"]

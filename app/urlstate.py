@@ -58,7 +58,8 @@ def shown(raw, limit=SHOWN):
     return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=True))
 
 
-def _text(value):
+def as_text(value):
+    """A URL value as text (bytes decoded as UTF-8)."""
     if isinstance(value, bytes):
         return value.decode("utf-8", errors="replace")
     return str(value)
@@ -152,7 +153,7 @@ def parse(args, state, url_keys, aliases=None):
         given = args[key]
         if isinstance(given, (str, bytes)):
             given = [given]
-        texts = [_text(v) for v in given]
+        texts = [as_text(v) for v in given]
         p = state.param[name]
         if not texts:
             continue

@@ -2,7 +2,7 @@
 the map's lines): the curve over the default map on demand's m* grid (33
 values, log10 m* -1..1, standard fidelity, 2000 periods: the jumping
 boundary's resolution there) against that map's expected points (a 9 x 9
-sample of its window, decided stop, scaled to mapjobs.FRACTION_PRIOR[3] of
+sample of its window, decided stop, scaled to maprequest.expected_points of
 its 33 x 33 grid); CPU seconds of this process and its workers, one
 worker.  Run niced and say the load average:
 
@@ -39,7 +39,7 @@ def main():
     map_cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system) + (c1.user - c0.user)
     map_wall = time.perf_counter() - w0
     per_point = map_cpu / 81
-    expected_points = 0.45 * 33 * 33     # mapjobs.FRACTION_PRIOR[3] of the 33 x 33 grid
+    expected_points = 0.45 * 33 * 33     # maprequest.expected_points of the 33 x 33 grid
     print(json.dumps({"profile": profile, "threshold_masses": int(lm.size),
                       "threshold_cpu_s": round(thr_cpu, 2), "threshold_wall_s": round(thr_wall, 2),
                       "map_points_sampled": 81, "map_cpu_s": round(map_cpu, 2),

@@ -13,7 +13,7 @@ import pytest
 import xarray as xr
 
 import vibtrans.maps.adaptive as adaptive
-from vibtrans.maps.adaptive import predict_refinement, run_adaptive
+from vibtrans.maps.adaptive import run_adaptive
 from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
 from budget import budget
@@ -49,17 +49,6 @@ def maps(tmp_path_factory):
         out[name] = (open_map(str(folder / "adaptive.zarr")),
                      open_map(str(folder / "uniform.zarr")), fraction)
     return out
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", list(WINDOWS))
-def test_the_refinement_replayed_on_the_uniform_sweep_computes_the_same_points(maps, name):
-    """predict_refinement (the explorer's estimate of a map's work) replays
-    the refinement on a reference map's values: on the map's own uniform
-    sweep it must choose exactly the points the adaptive run computed."""
-    ad, un, _ = maps[name]
-    predicted = predict_refinement(window_sweep(name), 3, un)
-    np.testing.assert_array_equal(predicted, ad["computed"].values)
 
 
 @pytest.mark.slow

@@ -47,7 +47,7 @@ def jobs(tmp_path, gate):
     """MapJobs on a fresh cache folder whose maps start once `gate` is set."""
     def build(comp, path, on_level):
         assert gate.wait(60)
-        made._run_adaptive(comp, path, on_level)
+        made.run_adaptive(comp, path, on_level)
     made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build)
     return made
 
@@ -72,16 +72,14 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     again = second.wait()
     assert again.kind == "done" and again.cached and jobs.computed == 1
     assert not again.shown                  # nothing drawn before: draw it
-    # the next estimates learn from the map computed: its share of the grid
-    # and its runs' rate (its wall time less its own work, per bounded step)
-    assert jobs.fraction("deformable", 1) == done.ds["computed"].values.mean()
-    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") > 0
-    assert jobs.seconds_per_work("deformable", "standard", "steps", "decided") is None
+    # each level says the time left from the points done: some after the
+    # coarse grid (9 of the 0.9 x 25 expected), none once they are all done
+    left = [u.seconds_left for u in first.updates if u.kind == "level"]
+    assert left[0] > 0 and left[-1] == 0 and "left" in first.updates[0].left_text()
     # made with the request's stopping rule (a new request's: decided), its
     # points' periods run kept; 30 periods end before the rule's first check
     assert done.ds.attrs["stop"] == "decided"
     assert (done.ds["periods_run"].values[done.ds["computed"].values] == 30.0).all()
-    assert jobs.profile("deformable") == (1.0, 0.0)        # every point ran to the end
     np.testing.assert_array_equal(again.ds["drift_velocity"].values,
                                   done.ds["drift_velocity"].values)
 
@@ -144,108 +142,79 @@ def test_a_damaged_cache_entry_is_recomputed_not_shown(jobs, gate):
     assert done.kind == "done" and not done.cached and jobs.computed == 2
 
 
-def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path):
+def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path, monkeypatch):
+    """The a-priori time: the points the refinement is expected to compute
+    x (their mean expected steps x the measured seconds per step + a
+    point's own seconds) over the workers; beyond the server's limits the
+    request is refused by it."""
+    from vibtrans import Scene, estimate_steps
+    from vibtrans.maps.cost import expected_time_share
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
                            max_seconds=10.0)
-    for fidelity in ("preview", "reference"):       # s per unit of work, as if measured
-        jobs._rates[("deformable", fidelity, "reference", "full")] = 0.5
+    monkeypatch.setattr(jobs, "step_seconds", lambda request: (1e-7, 1e-3))
     request = MapRequest(**{**TINY, "stop": "full"})
     est, problems = jobs.estimate(request)
-    assert problems == []
-    assert est.points == 25
+    assert problems == [] and est.points == 25
     # every point's steps at its own step (the contact time scale's): the bound
     la, lm = request.axes()
-    from vibtrans import Scene, estimate_steps
-    steps = sum(estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m, **request.scene_values()))
-                for a in la for m in lm)
-    assert est.steps == steps
-    # inside the shipped map: the refinement replayed on it, its points'
-    # seconds scaled from its 2000 standard periods to these 30 preview ones
-    # (full runs: a decided map counts steps, below)
-    work, unit, computed = jobs.expected_work(request)
-    assert unit == "reference" and computed.shape == (5, 5)
-    assert (computed[::2, ::2] == 1.0).all() and est.computed == computed.sum()   # coarse grid
-    shipped = data.drift_map("deformable", 0.3)
-    point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
-    ref = MapRequest(**{**TINY, "periods": 2000.0, "fidelity": "standard"})
-    # (a jumping point of a map judged by its twin: the run's share of its seconds)
-    assert shipped["contact"].sel(log_amplitude=0.0, log_mass=0.5).item() == 1
-    assert work[2, 2] == pytest.approx(point * maprequest.TWIN_SHARE
-                                       * maprequest.point_steps(request, 0.0, 0.5)
-                                       / maprequest.point_steps(ref, 0.0, 0.5))
-    assert est.seconds == pytest.approx(mapjobs.MAP_START_SECONDS
-                                        + computed.sum() * mapjobs.POINT_PASSAGE_SECONDS
-                                        + (work * computed).sum() * 0.5 / 2)
-    # a decided map: each point's bounded steps, times the share it runs
+    steps = np.array([[estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m,
+                                            **request.scene_values())) for m in lm] for a in la])
+    np.testing.assert_array_equal(maprequest.bound_steps(request), steps)
+    assert est.computed == pytest.approx(0.9 * 25)          # 5 points per axis: the 9's share
+    assert est.steps == pytest.approx(est.computed * steps.mean())
+    assert est.seconds == pytest.approx(maprequest.MAP_START_SECONDS
+                                        + est.computed * (steps.mean() * 1e-7 + 1e-3) / 2)
+    assert "about 0.41 s on this server (2 cores, from its measured time" in est.text(2)
+    # a decided map: each point's steps times the share of them it is expected to run
     decided = MapRequest(**TINY)
-    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
-    work, unit, computed = jobs.expected_work(decided)
-    assert unit == "steps"
-    np.testing.assert_array_equal(work, maprequest.bound_steps(decided))
-    # beyond the shipped maps: the bounded steps and the share computed
-    far = MapRequest(**{**TINY, "la_from": 4.0, "la_to": 5.0})
-    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
-    est, problems = jobs.estimate(far)
-    work, unit, share = jobs.expected_work(far)
-    assert unit == "steps" and share == mapjobs.FRACTION_PRIOR[1] and problems == []
-    assert est.seconds == pytest.approx(mapjobs.MAP_START_SECONDS
-                                        + share * 25 * mapjobs.POINT_PASSAGE_SECONDS
-                                        + share * work.sum() * 1e-7 / 2)
+    share = expected_time_share("deformable", "decided", 30.0, 5.0, "preview")
+    assert share < 1.0
+    assert jobs.estimate(decided)[0].steps == pytest.approx(est.steps * share)
     big = MapRequest(**{**TINY, "cells": 8, "levels": 3})       # 65 x 65
     est, problems = jobs.estimate(big)
     assert est is None and "4,225 points is over this server's limit of 1,000" in problems[0]
     slow = MapRequest(**{**TINY, "periods": 10000.0, "fidelity": "reference", "stop": "full"})
-    jobs._rates[("deformable", "reference", "reference", "full")] = 0.5
     est, problems = jobs.estimate(slow)
-    assert est is not None and "over this server's limit of 10 s per map" in problems[0]
+    assert est.seconds > 10.0 and "over this server's limit of 10 s per map" in problems[0]
     empty = MapRequest(**{**TINY, "la_from": 0.5, "la_to": -0.5})
     assert "log10 A* 'from' (0.5) must be below its 'to' (-0.5)" in jobs.estimate(empty)[1][0]
 
 
-def test_the_first_estimate_of_a_model_and_fidelity_probes_its_speed(tmp_path):
-    """Before any map of its kind, the estimate runs PROBE_POINTS of the
-    window's points (in the map workers, which it so starts for the map to
-    come) and takes their seconds per bounded step expected."""
+def test_the_cost_per_step_is_measured_once_per_kernel_and_fidelity(tmp_path):
+    """step_seconds: a map point's run timed on this host, once for each
+    model, profile and fidelity; the material point has no profile."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
-    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") is None
-    est, problems = jobs.estimate(MapRequest(**TINY))
-    rate = jobs.seconds_per_work("deformable", "preview", "steps", "decided")
-    assert problems == [] and rate > 0 and est.seconds > 0
-    assert "on this server (1 core, from its measured speed)" in est.text(1)
-    # measured once: the next estimate of its kind uses it
-    jobs.estimate(MapRequest(**{**TINY, "la_from": -0.4}))
-    assert jobs.seconds_per_work("deformable", "preview", "steps", "decided") == rate
-    assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
+    step, point = jobs.step_seconds(MapRequest(**TINY))
+    assert 0 < step < 1e-5 and 0 <= point < 1.0
+    assert jobs.step_seconds(MapRequest(**{**TINY, "la_from": -0.4})) == (step, point)
+    cone = jobs.step_seconds(MapRequest(**{**TINY, "profile": "cone"}))
+    standard = jobs.step_seconds(MapRequest(**{**TINY, "fidelity": "standard"}))
+    assert cone != (step, point) and standard != (step, point)
+    material = jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass"}))
+    assert jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass",
+                                           "profile": "cone"})) == material
 
 
-def test_the_probe_measures_the_maps_own_seconds_per_step(tmp_path, monkeypatch):
-    """The probe's rate is the map's: its points drawn by their expected
-    work (vibtrans.maps.cost.probe_points) and timed whole
-    (cost.timed_point).  Here each point costs a fixed 5 ms (its Python: a
-    preview point's most) plus 1 ns per expected step: the map's seconds
-    per step are their sum over its expected steps.  Nine points on a
-    lattice, each weighed by its steps, made the rate of the window's
-    cheap points (issue 32 item 5: the first preview map was estimated at
-    3.4 s and took 1.5 s)."""
-    import vibtrans.maps.cost as cost
-    request = MapRequest(**{**TINY, "periods": 2000.0, "tau": 50.0, "cells": 4, "levels": 2,
-                            "la_from": -1.5, "la_to": 1.5, "lm_from": -1.5, "lm_to": 1.5})
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
-    work, unit, computed = jobs.expected_work(request)
-    expected = work * jobs._share(request)
-    la, lm = request.axes()
-    where = {(a, m): (i, j) for i, a in enumerate(la) for j, m in enumerate(lm)}
+def test_the_points_expected_follow_the_finest_grid_s_side():
+    """expected_points: COMPUTED_SHARE at the finest grid's points per axis,
+    in between interpolated in log points per axis."""
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 4, "levels": 3})) \
+        == pytest.approx(0.45 * 33 ** 2)
+    # 8 cells, 3 levels: 65 per axis, the share of 4 cells and 4 levels
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 8, "levels": 3})) \
+        == pytest.approx(0.3 * 65 ** 2)
+    between = maprequest.expected_points(MapRequest(**{**TINY, "cells": 6, "levels": 3}))
+    assert 0.3 * 49 ** 2 < between < 0.45 * 49 ** 2
 
-    def fake(values, log_a, log_m, chaos, stop):
-        i, j = where[(log_a, log_m)]
-        whole = 5e-3 + 1e-9 * expected[i, j]
-        return {"seconds": whole / 1.25}, whole      # the run's own: 80% of it
-    monkeypatch.setattr(cost, "timed_point", fake)
-    rate = jobs.measure_speed(request, work, unit, computed)
-    truth = ((5e-3 + 1e-9 * expected) * computed).sum() / (expected * computed).sum()
-    assert rate == pytest.approx(truth, rel=0.15)
-    # the maps after it scale their points' run seconds by the whole's share
-    assert jobs.whole_over_run(("deformable", "preview", unit, "decided")) == pytest.approx(1.25)
+
+def test_the_time_left_is_the_progress_bars():
+    """seconds_left: elapsed / done x the points still expected (tqdm's and
+    dask's remaining time), none before a point is done, none past the end."""
+    assert maprequest.seconds_left(10.0, 0, 100) is None
+    assert maprequest.seconds_left(10.0, 20, 100) == pytest.approx(40.0)
+    assert maprequest.seconds_left(10.0, 120, 100) == 0.0
+    assert mapjobs.Update("chunk", seconds_left=150.0).left_text() == ", about 2.5 min left"
+    assert mapjobs.Update("chunk").left_text() == ""
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():
@@ -303,120 +272,6 @@ def test_the_cache_key_holds_the_stopping_rule_and_a_full_map_keeps_its_old_key(
     # attributes name no rule either: vibtrans.maps.sweep.Sweep.attrs)
     assert "stop" not in full.cache_request()
     assert "stop" not in full.sweep().attrs() and decided.sweep().attrs()["stop"] == "decided"
-
-
-def test_the_estimate_scales_each_point_s_work_by_the_periods_it_is_expected_to_run(tmp_path):
-    """Under the decided rule a point runs a share of its T_obs: inside a
-    shipped map the share its class there runs (maprequest.reference_share:
-    vibtrans.maps.cost.decided_class, class_periods), beyond it the
-    model's profile (vibtrans.maps.cost.expected_periods), or one measured
-    on this server's last map; the runs' part of the estimate scales by the
-    work-weighted share; the bound on the steps stays that of full runs."""
-    from vibtrans.maps.cost import (CLASS_PERIODS, DECIDED_PROFILE, class_periods,
-                                    decided_class, expected_periods)
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2)
-    long = {**TINY, "periods": 2000.0, "tau": 50.0}
-    seconds = {}
-    rates = {"full": 0.5, "decided": 1e-7}    # s per shipped second, per step
-    for stop, unit in (("full", "reference"), ("decided", "steps")):
-        jobs._rates[("deformable", "preview", unit, stop)] = rates[stop]
-        request = MapRequest(**{**long, "stop": stop})
-        est, problems = jobs.estimate(request)
-        assert problems == [] and est.stop == stop
-        seconds[stop] = est.seconds - mapjobs.MAP_START_SECONDS \
-            - est.computed * mapjobs.POINT_PASSAGE_SECONDS
-        steps = est.steps
-    request = MapRequest(**long)
-    work, unit, computed = jobs.expected_work(request)
-    assert unit == "steps"
-    # each point's share: its class on the shipped map, nearest point
-    shipped = data.drift_map("deformable", 0.3)
-    la, lm = request.axes()
-    near = shipped.sel(log_amplitude=la, log_mass=lm, method="nearest")
-    classes = decided_class(near["drift_velocity"].values, near["final_drift_velocity"].values,
-                            near["chaotic"].values, near["contact"].values,
-                            near["takeoffs_per_period"].values)
-    per_point = class_periods("deformable", classes, 2000.0, 50.0, "preview") / 2000.0
-    np.testing.assert_array_equal(maprequest.reference_share(request, shipped), per_point)
-    share = float((work * computed * per_point).sum() / (work * computed).sum())
-    assert 0.1 < share < 1.0 and est.share == pytest.approx(share)
-    # the runs' seconds: the share of the expected points' steps, at the rate
-    assert seconds["decided"] == pytest.approx(share * (work * computed).sum() * 1e-7 / 2)
-    full_work, full_unit, full_computed = jobs.expected_work(MapRequest(**{**long,
-                                                                          "stop": "full"}))
-    assert full_unit == "reference"
-    assert seconds["full"] == pytest.approx((full_work * full_computed).sum() * 0.5 / 2)
-    assert steps == maprequest.bound_steps(request).sum()
-    assert f"about {share:.0%} of its periods expected" in est.text(2)
-    assert maprequest.reference_share(MapRequest(**{**long, "stop": "full"}), shipped) is None
-    # the class table's settings: a class's periods move with the rule's minimum
-    assert CLASS_PERIODS["point-mass"] != CLASS_PERIODS["deformable"]
-    # beyond the shipped maps: the model's profile, or this server's own
-    far = {**long, "la_from": 4.0, "la_to": 5.0}
-    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-7
-    est, _ = jobs.estimate(MapRequest(**far))
-    assert est.share == pytest.approx(
-        expected_periods("deformable", "decided", 2000.0, 50.0, None, "preview") / 2000.0)
-    assert DECIDED_PROFILE["point-mass"] != DECIDED_PROFILE["deformable"]
-    np.testing.assert_allclose(maprequest.expected_steps(MapRequest(**far)),
-                               est.share * maprequest.bound_steps(MapRequest(**far)))
-    jobs._profiles["deformable"] = (0.5, 100.0)
-    est, _ = jobs.estimate(MapRequest(**far))
-    own = expected_periods("deformable", "decided", 2000.0, 50.0, (0.5, 100.0), "preview") / 2000.0
-    assert est.share == pytest.approx(own)
-
-
-def test_a_decided_map_teaches_the_server_its_profile_and_its_rate_per_period_run(tmp_path):
-    """A map long enough for the rule to stop points: its computed points
-    carry periods_run below T_obs; the server keeps its profile (what
-    vibtrans.maps.cost.decided_profile measures on those points) for the next
-    estimate, and its rate under the decided rule only."""
-    from vibtrans.maps.cost import decided_profile, expected_periods, minimum_periods
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False)
-    request = MapRequest(**{**TINY, "periods": 300.0})        # t_min 93 at tau 5
-    got = Listener()
-    jobs.submit("a", request, got)
-    done = got.wait()
-    assert done.kind == "done", got.kinds()
-    computed = done.ds["computed"].values
-    run = done.ds["periods_run"].values[computed]
-    assert run.min() >= minimum_periods(5.0, "preview") and (run < 300.0).any()
-    f_end, extra = jobs.profile("deformable")
-    mine = done.ds[["periods_run", "stop_reason"]].where(done.ds["computed"])
-    mine.attrs = dict(done.ds.attrs)
-    assert (f_end, extra) == decided_profile(mine)
-    # its own mean periods run, reproduced by the profile (f_end, extra)
-    assert expected_periods("deformable", "decided", 300.0, 5.0, (f_end, extra), "preview") == \
-        pytest.approx(run.mean())
-    # its rate is the decided rule's, never the full runs': its points' own
-    # seconds per bounded step run (no probe before it: their run's seconds
-    # alone), not its wall time less its fixed costs, which grow with the
-    # host's load and a small map's runs do not outweigh
-    rate = jobs.seconds_per_work("deformable", "preview", "steps", "decided")
-    work = jobs.expected_work(request)[0][computed]
-    assert rate == pytest.approx(np.nansum(done.ds["seconds"].values[computed])
-                                 / (work * run / 300.0).sum())
-    assert jobs.seconds_per_work("deformable", "preview", "steps", "full") is None
-    # and the periods each class (read on the shipped map) ran, for the next
-    # estimates at these settings (vibtrans.maps.cost.learn_class_periods)
-    from vibtrans.maps.cost import LEARN_MIN_POINTS, class_periods
-    classes = maprequest.reference_classes(request, data.drift_map("deformable", 0.3))[computed]
-    learned = jobs._class_periods[mapjobs._class_key(request)]
-    for c in range(len(learned)):
-        seen = classes == c
-        if seen.sum() >= LEARN_MIN_POINTS:
-            assert learned[c] == pytest.approx(run[seen].mean())
-        else:
-            assert np.isnan(learned[c])
-    assert np.isfinite(learned).any()
-    jobs._rates.setdefault(("deformable", "preview", "steps", "decided"), 1e-3)
-    again = MapRequest(**{**TINY, "periods": 300.0, "mu": 0.5})
-    est, _ = jobs.estimate(again)
-    work, _, expected = jobs.expected_work(again)
-    per_point = class_periods("deformable", maprequest.reference_classes(
-        again, data.drift_map("deformable", 0.3)), 300.0, 5.0, "preview", learned) / 300.0
-    assert est.share == pytest.approx(
-        float((work * expected * per_point).sum() / (work * expected).sum()))
 
 
 def test_the_cache_key_ignores_what_changes_no_number():
@@ -633,7 +488,7 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     second overtake the first, as a busy machine can)."""
     def build(comp, path, on_level):
         assert gate.wait(60)
-        made._run_adaptive(comp, path, on_level)
+        made.run_adaptive(comp, path, on_level)
     made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build,
                            max_running=1)
     read = made.cache.get
@@ -742,56 +597,6 @@ def test_a_profiles_map_runs_keys_and_says_its_profile_and_the_material_point_ha
     assert "profile" not in pm_cone.title()
 
 
-def test_a_profiles_estimate_takes_its_own_steps_and_its_kernels_cost():
-    """Each point's steps are the profile's (the library's estimate_steps:
-    its own contact time scale), and its work per step is the profile's
-    kernel cost over the sphere's (PROFILE_STEP_COST); the reference map
-    (the sphere's) is scaled by the sphere's steps."""
-    from vibtrans import Scene, estimate_steps
-    for profile in ("cone", "power:3", "flat-sphere:0.5"):
-        request = MapRequest(**{**TINY, "profile": profile, "la_from": 2.0, "la_to": 3.0})
-        la, lm = request.axes()
-        for a, m in ((la[0], lm[0]), (la[-1], lm[-1])):
-            assert maprequest.point_steps(request, a, m) == estimate_steps(
-                Scene(amplitude=10 ** a, mass=10 ** m, **request.scene_values()))
-    # where the impacts set the step, a cone's differ from the sphere's
-    cone = MapRequest(**{**TINY, "profile": "cone", "la_from": 2.0, "la_to": 3.0})
-    sphere = MapRequest(**{**TINY, "la_from": 2.0, "la_to": 3.0})
-    assert maprequest.point_steps(cone, 3.0, 0.0) != maprequest.point_steps(sphere, 3.0, 0.0)
-    assert maprequest.step_cost(sphere) == 1.0
-    # each contact-law path at its measured cost (the cone's N*' is linear:
-    # no root to take, the sphere's cost)
-    assert maprequest.step_cost(cone) == maprequest.PROFILE_STEP_COST["cone"]
-    power = MapRequest(**{**TINY, "profile": "power:3"})
-    assert maprequest.step_cost(power) == maprequest.PROFILE_STEP_COST["power"] > 1.0
-    fractional = MapRequest(**{**TINY, "profile": "power:2.5"})
-    assert (maprequest.step_cost(fractional) == maprequest.PROFILE_STEP_COST["power-pow"]
-            > maprequest.step_cost(power))
-    flat = MapRequest(**{**TINY, "profile": "flat-sphere:0.5"})
-    assert maprequest.step_cost(flat) == maprequest.PROFILE_STEP_COST["table"] > 1.0
-    assert maprequest.step_cost(MapRequest(**{**TINY, "model": "point-mass",
-                                              "profile": "cone"})) == 1.0
-    # the estimate: the sphere's reference seconds, the profile's steps over
-    # the sphere's, times its cost per step
-    jobs = mapjobs.MapJobs(folder=None, cores=2)
-    shipped = data.drift_map("deformable", 0.3)
-    for request in (MapRequest(**{**TINY, "profile": "cone"}), power, flat):
-        # a decided map: the profile's bounded steps times its cost per step
-        work, unit, computed = jobs.expected_work(request)
-        assert unit == "steps"
-        np.testing.assert_allclose(work, maprequest.bound_steps(request)
-                                   * maprequest.step_cost(request))
-        request = MapRequest(**{**request.values(), "stop": "full"})
-        work, unit, computed = jobs.expected_work(request)
-        assert unit == "reference"
-        point = shipped["seconds"].sel(log_amplitude=0.0, log_mass=0.5).item()
-        ref = MapRequest(**{**TINY, "periods": 2000.0, "fidelity": "standard"})
-        assert work[2, 2] == pytest.approx(point * maprequest.TWIN_SHARE
-                                           * maprequest.step_cost(request)
-                                           * maprequest.point_steps(request, 0.0, 0.5)
-                                           / maprequest.point_steps(ref, 0.0, 0.5))
-
-
 def test_a_cone_map_on_demand_is_the_cones(jobs, gate):
     """Computed end to end: its store names the cone, and its points are
     the cone's runs (the library's compute_point with the request's values)."""
@@ -836,109 +641,3 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     o._on_computed_click(MapRequest(**TINY), 0.0, 0.5)
     o._on_computed_click(MapRequest(**{**TINY, "profile": "flat-sphere:0.5"}), 0.0, 0.5)
     assert runs == ["sphere", "flat-sphere:0.5"]
-
-
-def test_the_refinement_is_replayed_on_the_verdicts_maps_on_demand_judge_by(tmp_path):
-    """The replay of the refinement on the shipped map (its prediction of
-    the points a map computes) reads the chaos verdict that maps on demand
-    judge by (the run's own exponent: maprequest.CHAOS).  The shipped
-    deformable maps' verdict is that one; the material point's shipped map
-    judged chaos by the tau twin and calls the plane's middle a chaotic sea
-    that the replay left whole, where the runs' exponents draw boundaries
-    (mapestimate's 33 x 33 material-point map computed 446 points where 270
-    were predicted).  Its not-steady points' refinement is added by
-    cost.NOT_STEADY_REFINED's share of the replay with their drifts unknown."""
-    from vibtrans.analysis.summary import CHAOS_LYAPUNOV
-    from vibtrans.maps.adaptive import predict_refinement
-    from vibtrans.maps.cost import NOT_STEADY, NOT_STEADY_REFINED, decided_class
-    for model, mu in data.available_maps():
-        shipped = data.drift_map(model, mu)
-        replay = maprequest.replay_reference(shipped)
-        lam = shipped["lyapunov"].values
-        np.testing.assert_array_equal(replay["chaotic"].values,
-                                      np.isfinite(lam) & (lam > CHAOS_LYAPUNOV))
-        if model == "deformable":
-            np.testing.assert_array_equal(replay["chaotic"].values, shipped["chaotic"].values)
-    shipped = data.drift_map("point-mass", 0.3)
-    assert (maprequest.replay_reference(shipped)["chaotic"].values
-            != shipped["chaotic"].values).mean() > 0.05
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
-    request = MapRequest(model="point-mass", cells=4, levels=3, la_from=-1.0, la_to=2.0,
-                         lm_from=-1.0, lm_to=1.0)
-    _, _, computed = jobs.expected_work(request)
-    twin = predict_refinement(request.sweep(), request.levels, shipped)
-    assert computed.sum() > 1.5 * twin.sum()
-    # each point's class (the periods it is expected to run) with that verdict
-    # too: cost.CLASS_PERIODS's material-point row was measured so
-    near = np.ix_(*maprequest.nearest_points(request, shipped))
-    fields = ("drift_velocity", "final_drift_velocity", "chaotic", "contact",
-              "takeoffs_per_period")
-    classes = maprequest.reference_classes(request, shipped)
-    replayed_classes = decided_class(*(maprequest.replay_reference(shipped)[n].values[near]
-                                       for n in fields))
-    np.testing.assert_array_equal(classes, replayed_classes)
-    assert (classes != decided_class(*(shipped[n].values[near] for n in fields))).any()
-    # the not-steady points' drifts unknown: NaN there, nothing else changed
-    deformable = maprequest.replay_reference(data.drift_map("deformable", 0.3))
-    unknown = maprequest.unknown_drift_reference(deformable)
-    classes = decided_class(*(deformable[n].values for n in (
-        "drift_velocity", "final_drift_velocity", "chaotic", "contact", "takeoffs_per_period")))
-    v, u = deformable["drift_velocity"].values, unknown["drift_velocity"].values
-    assert np.isnan(u[classes == NOT_STEADY]).all() and (classes == NOT_STEADY).any()
-    np.testing.assert_array_equal(u[classes != NOT_STEADY], v[classes != NOT_STEADY])
-    preview = MapRequest(fidelity="preview", cells=4, levels=3, la_from=-2.0, la_to=2.0,
-                         lm_from=-2.0, lm_to=2.0)
-    replayed, full = jobs._predicted(preview)[2]
-    _, _, computed = jobs.expected_work(preview)
-    q = NOT_STEADY_REFINED[("deformable", "preview")]
-    assert full.sum() > replayed.sum()
-    assert computed.sum() == pytest.approx(replayed.sum() + q * (full.sum() - replayed.sum()))
-
-
-def test_a_map_computed_alone_teaches_the_server_its_own_work(tmp_path, gate):
-    """A map's own work (its start, its points' passage: MAP_START_SECONDS,
-    POINT_PASSAGE_SECONDS) is this server's: the constants, measured on one
-    host, made every estimate 1.3-2x the time on a faster one
-    (devtools/mapestimate.py).  Before any map the factor is 1 (no probe
-    here); a map computed alone sets it to its wall time less its runs over
-    the constants' (a second's wait in its build counted as its own work);
-    two maps computed side by side teach nothing (their wall times share
-    the workers); and the estimate scales both constants by it."""
-    def build(comp, path, on_level):
-        assert gate.wait(60)
-        time.sleep(1.0)
-        jobs._run_adaptive(comp, path, on_level)
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, processes=False,
-                           build=build)
-    assert jobs.own_factor() == 1.0
-    # side by side: nothing learned
-    pair = [Listener(), Listener()]
-    jobs.submit("a", MapRequest(**TINY), pair[0])
-    jobs.submit("b", MapRequest(**{**TINY, "la_to": 0.6}), pair[1])
-    until = time.perf_counter() + budget(30)
-    while len(jobs._running) < 2:
-        assert time.perf_counter() < until
-        time.sleep(0.01)
-    gate.set()
-    assert [p.wait().kind for p in pair] == ["done", "done"]
-    assert jobs.own_factor() == 1.0 and jobs._own_sums is None
-    # alone: its own work, the wait included
-    alone = Listener()
-    jobs.submit("c", MapRequest(**{**TINY, "la_to": 0.7}), alone)
-    done = alone.wait()
-    assert done.kind == "done"
-    n = int(done.ds["computed"].values.sum())
-    constants = mapjobs.MAP_START_SECONDS + n * mapjobs.POINT_PASSAGE_SECONDS
-    assert jobs.own_factor() * constants >= 1.0
-    # the estimate's own work is the constants scaled by it
-    request = MapRequest(**{**TINY, "la_to": 0.8})
-    jobs._rates[("deformable", "preview", "steps", "decided")] = 1e-9
-    est, problems = jobs.estimate(request)
-    assert not problems
-    work, unit, computed = jobs.expected_work(request)
-    own = jobs.own_factor()
-    assert est.seconds == pytest.approx(maprequest.estimate(
-        request, 1e-9, work, computed, jobs.cores, own * mapjobs.MAP_START_SECONDS,
-        own * mapjobs.POINT_PASSAGE_SECONDS, jobs.profile("deformable"),
-        jobs._share(request)).seconds)
-    assert est.seconds > 1.0

@@ -703,9 +703,11 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                 seconds = time.monotonic() - started
                 self.progress.object = (
                     f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
-                    f"points computed, {seconds:.0f} s ..." if update.kind == "level" else
+                    f"points computed, {seconds:.0f} s{update.left_text()} ..."
+                    if update.kind == "level" else
                     f"Level {update.level} of {update.levels} computing: {done:,} of "
-                    f"{n * n:,} points computed so far, {seconds:.0f} s ..."
+                    f"{n * n:,} points computed so far, {seconds:.0f} s"
+                    f"{update.left_text()} ..."
                     if update.kind == "chunk" else
                     f"The chart's map, from this server's cache ({done:,} of {n * n:,} points "
                     f"computed)." if update.cached else

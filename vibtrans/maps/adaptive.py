@@ -523,32 +523,3 @@ def _write_store(sweep, grid, path, max_level, tol, fraction):
                encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
                          for name in variables})
     os.rename(tmp, path)
-
-
-def predict_refinement(sweep, max_level, reference, drift_tolerance=DEFAULT_DRIFT_TOLERANCE):
-    """The points the refinement of `sweep` would compute if its points had
-    the values of `reference` (a map of the same model whose grid covers the
-    sweep's window, read at the nearest of its points): a boolean array on
-    the sweep's finest grid.  An estimate of a map's work before it runs
-    (the explorer's maps on demand), never a substitute for the map: where
-    the sweep's grid is finer than the reference's, nearest values hide
-    boundaries and the prediction is low.  ValueError if the window is not
-    inside the reference's."""
-    check_levels(sweep, max_level)
-    ref_la = reference["log_amplitude"].values
-    ref_lm = reference["log_mass"].values
-    la, lm = sweep.log_amplitude, sweep.log_mass
-    if la.min() < ref_la.min() or la.max() > ref_la.max() or \
-            lm.min() < ref_lm.min() or lm.max() > ref_lm.max():
-        raise ValueError("the sweep's window is not inside the reference map's")
-    ia = np.abs(la[:, None] - ref_la[None, :]).argmin(axis=1)
-    im = np.abs(lm[:, None] - ref_lm[None, :]).argmin(axis=1)
-    grid = _Grid(sweep)
-    for name in ("chaotic", "contact", "drift", "drift_velocity"):
-        grid.data[name][...] = reference[name].values[np.ix_(ia, im)]
-
-    def compute(points, level, tiling):
-        for p in points:
-            grid.computed[p] = True
-    _refine(sweep, max_level, drift_tolerance, grid, compute)
-    return grid.computed
