@@ -118,8 +118,10 @@ def test_scene_profile_validation():
         Scene(profile="power:0.5")
     with pytest.raises(InputError, match="profile must be one of"):
         Scene(profile="ellipsoid")
-    with pytest.raises(InputError, match=r"flat radius .* \[0, inf\)"):
+    with pytest.raises(InputError, match=r"flat radius .* \[0, 1e\+50\]"):
         Scene(profile="flat-sphere:-1")
+    with pytest.raises(InputError, match=r"flat radius .* \[0, 1e\+50\]"):
+        Scene(profile="flat-sphere:1e51")
     scene = Scene()
     with pytest.raises(InputError, match="exponent n"):
         scene.profile = "power:0.9"
