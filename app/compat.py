@@ -31,6 +31,7 @@ measurement and its upstream report, in docs/UPSTREAM.md.
 runs at import.  Nothing here imports the rest of the app.
 """
 import threading
+import traceback
 
 from bokeh.core.property import bases, validation
 
@@ -131,6 +132,16 @@ def _stock_text_update():
     from panel.pane.markup import HTMLBasePane
     if "text_update" in _STOCK:
         HTMLBasePane._update = _STOCK["text_update"]
+
+
+def is_panels_query_parse_failure(exception):
+    """True for bug 2.1's failure: Panel's Location parses the browser's raw
+    query in its own watcher (`parse_query`: int('²') raises).  The explorer
+    reads the link itself (app/urlstate.py) and says what is wrong with it,
+    so this failure changes nothing on the page: logged, not said."""
+    return isinstance(exception, ValueError) and any(
+        frame.name == "parse_query" and "panel" in frame.filename
+        for frame in traceback.extract_tb(exception.__traceback__))
 
 
 # (name, probe: True where the bug shows, workaround, undo)

@@ -24,7 +24,7 @@ import param
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
 
-from . import data, memory, urlstate
+from . import compat, data, memory, urlstate
 from .browserside import ACK_RUN, ack_js, ack_listener, ack_pane
 from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
@@ -523,6 +523,10 @@ def report_failure(exception):
     """Panel's exception handler (`pn.config.exception_handler`, set by the
     server): a callback that raised is logged with its traceback, and its
     page says so in its own words, with no traceback and no server path."""
+    if compat.is_panels_query_parse_failure(exception):
+        log.warning("Panel could not parse the browser's query (a known Panel bug, the link "
+                    "is read by the explorer): %s", exception)
+        return
     reference = failure_reference()
     log.error("a page's callback failed (reference %s)", reference, exc_info=exception)
     explorer = _PAGES.get(pn.state.curdoc) if pn.state.curdoc is not None else None

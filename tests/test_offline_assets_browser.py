@@ -7,6 +7,7 @@ import re
 from urllib.parse import urlsplit
 
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from browserpages import new_page, open_explorer
 from budget import budget_ms
@@ -25,9 +26,18 @@ MAP_FIELDS = {"tau": "20", "periods": "100", "la_from": "-0.5", "la_to": "0.5",
 def _tab(page, name):
     """Open the tab `name` (of the map's or the run's tabs) and wait until it
     is the active one and the page has fetched what it shows."""
-    page.locator(".bk-tab", has_text=re.compile(f"^{re.escape(name)}$")).first.click()
-    page.locator(".bk-tab.bk-active", has_text=re.compile(f"^{re.escape(name)}$")).first.wait_for(
-        timeout=budget_ms(30))
+    exact = re.compile(f"^{re.escape(name)}$")
+    active = page.locator(".bk-tab.bk-active", has_text=exact).first
+    # a click that lands while the page lays out a large change can be lost:
+    # clicked again until the tab is the active one (an event, not a delay)
+    for _ in range(3):
+        page.locator(".bk-tab", has_text=exact).first.click()
+        try:
+            active.wait_for(timeout=budget_ms(10))
+            break
+        except PlaywrightTimeout:
+            continue
+    active.wait_for(timeout=budget_ms(30))
     page.wait_for_load_state("networkidle", timeout=budget_ms(30))
 
 
