@@ -37,7 +37,7 @@ class NumberField(pn.viewable.Viewer):
         self.label = label
         self.error = ""
         self._width = {} if width is None else {"width": width}
-        self.input = pn.widgets.TextInput(name=label, value=_text(getattr(owner, name)),
+        self.input = pn.widgets.TextInput(label=label, value=_text(getattr(owner, name)),
                                           css_classes=[f"vt-field-{name}"], **self._width)
         # the message under the field: made at the first error (a page's
         # fields are mostly never wrong, and every pane costs its server time)

@@ -165,7 +165,7 @@ class MapOnDemand:
                          and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m)
         if small and self.refine_button is None:
             self.refine_button = pn.widgets.Button(
-                name="Refine this window (compute it finer)", button_type="success",
+                label="Refine this window (compute it finer)", color="success",
                 css_classes=["vt-map-refine"])
             self.refine_button.on_click(lambda event: self.refine_window())
             self.refine_box.objects = [self.refine_button]
@@ -202,10 +202,10 @@ class MapOnDemand:
         if self.map_status is None:
             self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
                                                css_classes=["vt-map-banner"])
-            self.back_button = pn.widgets.Button(name="Back to the shipped map",
+            self.back_button = pn.widgets.Button(label="Back to the shipped map",
                                                  css_classes=["vt-map-back", "vt-ack-draw"])
             self.back_button.on_click(lambda event: self.back_to_shipped())
-            self.map_cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+            self.map_cancel_button = pn.widgets.Button(label="Cancel map", color="warning",
                                                        css_classes=["vt-map-cancel-banner"])
             self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
             self.map_banner.objects = [self.map_status, self.map_cancel_button,
@@ -393,10 +393,10 @@ class MapOnDemand:
                 f"there. Request a map on demand for {s.profile} to see its own.")
             if self.profile_button is None:
                 self.profile_button = pn.widgets.Button(
-                    name="", button_type="primary", css_classes=["vt-map-profile-request"])
+                    label="", color="primary", css_classes=["vt-map-profile-request"])
                 self.profile_button.on_click(lambda event: self.request_for_profile())
                 self.profile_box.append(self.profile_button)
-            self.profile_button.name = f"Map on demand for {s.profile}"
+            self.profile_button.label = f"Map on demand for {s.profile}"
         self.profile_box.visible = not same
 
     def request_for_profile(self):

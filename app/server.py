@@ -261,7 +261,7 @@ def serve(args):
         # the maps pre-rendered (a change of model, mu or grey: a copy, not a
         # render) on the event loop, one render per turn: rendered in this
         # thread while a page was being built, about one first page in ten
-        # came to the browser blank (devtools/blankpage.py)
+        # came to the browser blank
         loop.add_callback(prerender, map_view.prerender_steps())
 
     def prerender(steps):

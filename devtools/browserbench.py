@@ -42,8 +42,7 @@ frame: it queries the page's shadow roots (found once, then kept by a
 MutationObserver) for the few elements it reads.  Its time counts in every
 time measured: until 2026-11-27 it walked every element of the page at
 every frame, 0.16 s of the page's main thread per mu change after a run
-on the 2-core machine under load (Chrome traces, `python -m
-devtools.redrawtrace`), now 0.09 s; times measured before are not
+on the 2-core machine under load (Chrome traces), now 0.09 s; times measured before are not
 comparable (rerun the baseline).  "server's reply": from the action to the arrival of the last
 websocket message before the result was drawn (a listener on the page's
 socket); the server's share (with the network's), the rest is the
@@ -196,8 +195,8 @@ const allPainted = () => {
 // The page's shadow roots (Bokeh's and Panel's views each render into one),
 // found once and then as nodes are added (a MutationObserver on each root):
 // a walk of every element of the page at every frame cost the page's main
-// thread 8-15 ms a frame under load, ~0.1-0.16 s of a map redraw (issue 32,
-// `python -m devtools.redrawtrace`); the scan then queries each root for
+// thread 8-15 ms a frame under load, ~0.1-0.16 s of a map redraw (Chrome
+// traces); the scan then queries each root for
 // the few elements it reads.  A full walk every FULL_WALK_FRAMES frames
 // catches a shadow root attached to an element already in the page (no
 // mutation says so; not seen in BokehJS or Panel).
@@ -271,7 +270,7 @@ for (const type of ["pointerdown", "input"])
     }
   }, true);
 B.mapPlot = mapPlot;
-B.check = () => {         // the scan and the full walk agree (devtools/redrawtrace.py)
+B.check = () => {         // the scan and the full walk agree
   const a = scan(), b = fullScan();
   const key = (x) => JSON.stringify({...x, canvases: x.canvases.length});
   return key(a) === key(b) ? null : {scan: key(a), walk: key(b)};

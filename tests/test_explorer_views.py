@@ -210,7 +210,7 @@ def test_the_profile_selector_is_a_view_of_the_states_profile():
     # a change from elsewhere (a link, a map on demand's click): the widgets follow
     ex.state.profile = "flat-sphere:1.5"
     assert view.kind.value == "flat-ended sphere" and view.number.value == "1.5"
-    assert view.number.name.startswith("flat radius C")
+    assert view.number.label.startswith("flat radius C")
     view.kind.value = "power law z ~ r^N"          # each kind keeps its own number
     assert ex.state.profile == "power:4"
     view.kind.value = "sphere (Hertz)"
@@ -293,7 +293,7 @@ def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets(
     from vibtrans_explorer.presentation import INPUT_FONT, ExplorerDesign
 
     def stylesheets(design):
-        field = pn.widgets.TextInput(name="log10 A*")
+        field = pn.widgets.TextInput(label="log10 A*")
         doc = Document()
         pn.template.BootstrapTemplate(sidebar=[field], design=design).server_doc(doc)
         model, = [m for m in doc.models if type(m).__name__ == "TextInput"]

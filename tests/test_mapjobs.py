@@ -622,7 +622,7 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     assert o.profile_box.visible and o.profile_note.visible
     assert "This map is the sphere's" in o.profile_note.object
     assert "not the selected cone's" in o.profile_note.object
-    assert o.profile_button.name == "Map on demand for cone"
+    assert o.profile_button.label == "Map on demand for cone"
     o.request_for_profile()
     panel = o.map_request_panel
     assert panel.request.profile == "cone" and panel.profile.kind.value == "cone"

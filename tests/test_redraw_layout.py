@@ -1,7 +1,7 @@
-"""Issue 32: a change of mu or of the model redraws the map in the browser
+"""A change of mu or of the model redraws the map in the browser
 within 0.5 s (`python -m devtools.browserbench --check`).
 
-A trace of those redraws (`python -m devtools.redrawtrace`) showed the time
+A Chrome trace of those redraws showed the time
 going to BokehJS laying out every figure of the page's main column again,
 each forcing a style recalculation: after a run, 1.0-1.7 s of "Recalculate
 Style" per change.  Two changes of the page set that off, not the map's own

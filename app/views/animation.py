@@ -338,7 +338,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.runs = 0
         self._run = None            # (scene, ds) shown, for a new window
         self._pane = pn.pane.Bokeh(self.layout, name="particle-animation")
-        self.window = pn.widgets.Select(name="show", options=WINDOWS, value="window", width=300,
+        self.window = pn.widgets.Select(label="show", options=WINDOWS, value="window", width=300,
                                         css_classes=["vt-anim-window"])
         self.window.param.watch(self._on_window, "value")
         self._panel = pn.Column(self.window, self._pane, margin=0)

@@ -306,7 +306,7 @@ def tip_form(owner, width=150):
     panel's alone): (its kind's selector, {name: NumberField}, the fields'
     boxes, each shown for the kind that takes it).  Each size is checked
     by the library as typed (app/inputs.NumberField: its message)."""
-    kind = pn.widgets.Select.from_param(owner.param.tip, name="particle tip", width=width,
+    kind = pn.widgets.Select.from_param(owner.param.tip, label="particle tip", width=width,
                                         css_classes=["vt-design-tip"])
     fields = {name: inputs.NumberField(owner, name, label, width=width)
               for name, label in TIP_LABELS.items()}
@@ -383,15 +383,15 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self.info = pn.pane.Markdown("", sizing_mode="stretch_width",
                                      css_classes=["vt-design-device"])
         self.note = pn.pane.Markdown("", sizing_mode="stretch_width")
-        self.draw_button = pn.widgets.Button(name="Draw chart", button_type="primary",
+        self.draw_button = pn.widgets.Button(label="Draw chart", color="primary",
                                              css_classes=["vt-design-draw"])
         self.draw_button.on_click(lambda event: pn.state.execute(self.draw))
         self.offer = pn.pane.Markdown("", sizing_mode="stretch_width",
                                       css_classes=["vt-design-offer"])
-        self.compute_button = pn.widgets.Button(name="Compute this map", button_type="success",
+        self.compute_button = pn.widgets.Button(label="Compute this map", color="success",
                                                 css_classes=["vt-design-compute"])
         self.compute_button.on_click(lambda event: pn.state.execute(self.compute))
-        self.cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+        self.cancel_button = pn.widgets.Button(label="Cancel map", color="warning",
                                                css_classes=["vt-design-cancel"])
         self.cancel_button.on_click(lambda event: self.cancel())
         # what the map computing is doing (apart from the offer: a chart
@@ -399,7 +399,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self.progress = pn.pane.Markdown("", sizing_mode="stretch_width",
                                          css_classes=["vt-design-progress"])
         self.map_fields = pn.Row(
-            pn.widgets.Select.from_param(self.param.map_fidelity, name="map fidelity",
+            pn.widgets.Select.from_param(self.param.map_fidelity, label="map fidelity",
                                          width=150, css_classes=["vt-design-map-fidelity"]),
             inputs.NumberField(self, "map_periods", "map periods", width=150))
         # a new fidelity or run length: the offer (and its estimate) anew
@@ -407,7 +407,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self.offer_box = pn.Column(self.offer, self.map_fields,
                                    pn.Row(self.compute_button, self.cancel_button),
                                    self.progress, visible=False, sizing_mode="stretch_width")
-        self.run_button = pn.widgets.Button(name="Run this device's scene", button_type="primary",
+        self.run_button = pn.widgets.Button(label="Run this device's scene", color="primary",
                                             disabled=on_run is None,
                                             css_classes=["vt-design-run", "vt-ack-run"])
         self.run_button.on_click(lambda event: self.run_device())
@@ -783,7 +783,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         downloads (made with the panel; shown by __panel__)."""
         self.custom_inputs = {
             k: pn.widgets.TextInput.from_param(
-                self.param[f"{k}_custom"], name=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
+                self.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
                 placeholder=CUSTOM_EXAMPLE, visible=getattr(self, k) == CUSTOM_MATERIAL,
                 css_classes=[f"vt-design-{k}-custom"])
             for k in ("substrate", "particle")}
@@ -797,7 +797,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             fmt: pn.widgets.FileDownload(
                 callback=functools.partial(self.chart_file, fmt),
                 filename=f"vibtrans-design.{fmt}",
-                label=DOWNLOAD_LABELS[fmt], button_type="light", width=95, disabled=True,
+                label=DOWNLOAD_LABELS[fmt], color="light", width=95, disabled=True,
                 css_classes=[f"vt-design-download-{fmt}"])
             for fmt in (*FIGURE_FORMATS, *DATA_FORMATS)}
         self.download_note = pn.pane.Markdown(DOWNLOAD_HINT, margin=(5, 10))
@@ -913,8 +913,8 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             from .units import device_form
             return [head, row(*device_form(self.state, width=150)), tip,
                     row(f["mu"], f["surface_energy"])]
-        return [row(select(self.param.substrate, name="substrate"),
-                    select(self.param.particle, name="particle"), f["preload"], f["mu"],
+        return [row(select(self.param.substrate, label="substrate"),
+                    select(self.param.particle, label="particle"), f["preload"], f["mu"],
                     f["surface_energy"]),
                 self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"]), tip]
 
@@ -930,11 +930,11 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                                     sizing_mode="stretch_width")
             controls = pn.Column(
                 pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
-                pn.Row(select(self.param.preset, name="preset", css_classes=["vt-design-preset"]),
+                pn.Row(select(self.param.preset, label="preset", css_classes=["vt-design-preset"]),
                        self.note, sizing_mode="stretch_width"),
                 *self._device_rows(row, f, select),
-                row(select(self.param.x, name="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
-                row(select(self.param.y, name="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
+                row(select(self.param.x, label="x axis"), f["x_lo"], f["x_hi"], f["x_points"]),
+                row(select(self.param.y, label="y axis"), f["y_lo"], f["y_hi"], f["y_points"]),
                 fixed,
                 pn.Row(self.draw_button, self.spinner, self.run_button),
                 sizing_mode="stretch_width", css_classes=["vt-design-fields"])

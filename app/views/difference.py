@@ -62,7 +62,7 @@ class DifferenceView:
                                            css_classes=["vt-diff-first"])
             self.second = pn.widgets.Select(label="second map (compared with the first)",
                                             width=330, css_classes=["vt-diff-second"])
-            self.button = pn.widgets.Button(label="Show the difference", button_type="primary",
+            self.button = pn.widgets.Button(label="Show the difference", color="primary",
                                             css_classes=["vt-diff-show"])
             self.button.on_click(self._on_show)
             self.message = pn.pane.Alert("", alert_type="warning", visible=False,

@@ -118,13 +118,13 @@ class ExportsView:
     def _figure_download(self, kind, fmt):
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.figure_file, kind, fmt),
-            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
+            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
             css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "trajectory" and self.result is None)
 
     def _data_download(self, kind, fmt):
         return pn.widgets.FileDownload(
             callback=functools.partial(self._answering, self.data_file, kind, fmt),
-            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", button_type="light",
+            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
             css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "run" and self.result is None)

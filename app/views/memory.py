@@ -118,14 +118,14 @@ class MemoryView(pn.viewable.Viewer):
         self._build_figures()
         self.at = SnapshotTime()
         self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200)
-        self.show_button = pn.widgets.Button(name="Show the memory diagram at t*",
-                                             button_type="primary", disabled=True)
+        self.show_button = pn.widgets.Button(label="Show the memory diagram at t*",
+                                             color="primary", disabled=True)
         self.show_button.on_click(self._on_show_click)
         # busy at once: the browser disables the button at the click (the
         # server's round trip can take longer than 0.3 s on a busy host);
         # the server enables it again with the answer
         self.show_button.js_on_click(code="source.disabled = true;")
-        self.slider = pn.widgets.FloatSlider(name="t* (periods), the run's last period",
+        self.slider = pn.widgets.FloatSlider(label="t* (periods), the run's last period",
                                              start=0.0, end=1.0, step=0.1, value=1.0,
                                              format="0[.]0000", disabled=True, width=600,
                                              css_classes=["vt-memory-slider"])

@@ -40,7 +40,7 @@ class MapRequestPanel(pn.viewable.Viewer):
             ("lm_from", "log10 m* from"), ("lm_to", "log10 m* to"),
             ("cells", "coarse cells per axis"), ("levels", "levels K"))}
         self.fields = list(number.values())
-        select = {name: pn.widgets.Select.from_param(r.param[name], name=label, width=140,
+        select = {name: pn.widgets.Select.from_param(r.param[name], label=label, width=140,
                                                      css_classes=[f"vt-map-{name}"])
                   for name, label in (("model", "model"), ("fidelity", "fidelity"),
                                       ("integrator", "integrator"),
@@ -51,11 +51,11 @@ class MapRequestPanel(pn.viewable.Viewer):
         self.profile = ProfileView(r, drawing=False, width=290)
         r.param.watch(lambda e: setattr(self.point_mass, "visible", e.new == "point-mass"),
                       "model")
-        self.zoom_button = pn.widgets.Button(name="Use the map's current zoom",
+        self.zoom_button = pn.widgets.Button(label="Use the map's current zoom",
                                              css_classes=["vt-map-zoom"])
-        self.compute_button = pn.widgets.Button(name="Compute map", button_type="primary",
+        self.compute_button = pn.widgets.Button(label="Compute map", color="primary",
                                                 css_classes=["vt-map-compute"])
-        self.cancel_button = pn.widgets.Button(name="Cancel map", button_type="warning",
+        self.cancel_button = pn.widgets.Button(label="Cancel map", color="warning",
                                                disabled=True, css_classes=["vt-map-cancel"])
         for button, fn in ((self.zoom_button, on_zoom), (self.compute_button, on_compute),
                            (self.cancel_button, on_cancel)):

@@ -75,7 +75,7 @@ class ProfileView(pn.viewable.Viewer):
         if arg is not None:
             self._texts[kind] = arg
         labels = {v: k for k, v in KINDS.items()}
-        self.kind = pn.widgets.Select(name="particle profile", options=list(KINDS),
+        self.kind = pn.widgets.Select(label="particle profile", options=list(KINDS),
                                       value=labels[kind], css_classes=["vt-profile-kind"],
                                       **self._width)
         self.figure = None                  # the drawing, built at its first use
@@ -114,7 +114,7 @@ class ProfileView(pn.viewable.Viewer):
 
     def _make_number(self):
         kind = KINDS[self.kind.value]
-        number = pn.widgets.TextInput(name=NUMBERS.get(kind, NUMBERS["power"])[0],
+        number = pn.widgets.TextInput(label=NUMBERS.get(kind, NUMBERS["power"])[0],
                                       value=self._texts.get(kind, ""),
                                       visible=kind in NUMBERS,
                                       css_classes=["vt-profile-number"], **self._width)
@@ -184,7 +184,7 @@ class ProfileView(pn.viewable.Viewer):
         self._echoing = True
         try:
             if kind in NUMBERS:
-                self.number.param.update(name=NUMBERS[kind][0], value=self._texts[kind],
+                self.number.param.update(label=NUMBERS[kind][0], value=self._texts[kind],
                                          visible=True)
             elif self._made("number"):
                 self.number.visible = False

@@ -12,11 +12,11 @@ class RunButtons:
     def __init__(self, controller, run, answered):
         self.controller, self.answered = controller, answered
         self.progress = pn.indicators.Progress(value=0, max=100, visible=False,
-                                               sizing_mode="stretch_width", name="progress")
-        self.cancel_button = pn.widgets.Button(name="Cancel", button_type="warning",
+                                               sizing_mode="stretch_width", label="progress")
+        self.cancel_button = pn.widgets.Button(label="Cancel", color="warning",
                                                disabled=True)
         self.cancel_button.on_click(lambda event: controller.cancel())
-        self.run_button = pn.widgets.Button(name="Run selected scene", button_type="primary",
+        self.run_button = pn.widgets.Button(label="Run selected scene", color="primary",
                                             css_classes=["vt-run", "vt-ack-run"])
         self.run_button.on_click(lambda event: run())
         controller.param.watch(self._on_busy, "busy")

@@ -24,14 +24,14 @@ class SceneControls:
         self.state, self.run, self.answered = state, run, answered
         self._pointing = False          # the selector follows the state: no run
         self.point_select = pn.widgets.Select(
-            name="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
+            label="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
             css_classes=["vt-ack-run", "vt-paper-points"])
         self.point_select.param.watch(self._on_point, "value")
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
         # the small values); it shows v0* itself
         lo, hi = ExplorerState.param.v0.bounds
         self.v0_slider = pn.widgets.FloatSlider(
-            name="v0* (white band |v*| <= v0*)", start=math.log10(lo), end=math.log10(hi),
+            label="v0* (white band |v*| <= v0*)", start=math.log10(lo), end=math.log10(hi),
             step=0.05, value=math.log10(state.v0),
             format=CustomJSTickFormatter(code="return Number((10 ** tick).toPrecision(2))"))
         self.v0_slider.param.watch(self._on_v0_slider, "value_throttled")
@@ -39,7 +39,7 @@ class SceneControls:
         # mu offers the shipped maps of the model shown (no blank map)
         # (and the mu in use when no shipped map has it: shown as it is)
         self.mu_select = pn.widgets.Select.from_param(
-            state.param.mu, options=self._mu_options(), name="mu (shipped maps)",
+            state.param.mu, options=self._mu_options(), label="mu (shipped maps)",
             css_classes=["vt-mu"])
         state.param.watch(self._on_model, ["model", "mu"])  # before the map's redraw
         # typed numbers: checked like a link's, applied only when valid
@@ -121,7 +121,7 @@ class SceneControls:
         self.fields.append(alpha_t)
         self.point_mass_controls.objects = [
             pn.widgets.Select.from_param(s.param.stick_rule,
-                                         name="stick rule (point mass: slide -> stick)"),
+                                         label="stick rule (point mass: slide -> stick)"),
             alpha_t]
 
     def _mu_options(self):

@@ -122,7 +122,7 @@ class UnitsPanel(pn.viewable.Viewer):
         return None if n is None else 1.0 / n.frequency
 
     def __panel__(self):
-        go = pn.widgets.Button(name="Run this device's scene", button_type="primary",
+        go = pn.widgets.Button(label="Run this device's scene", color="primary",
                                css_classes=["vt-units-run", "vt-ack-run"])
         go.on_click(lambda event: self.on_run())
         self.form = device_form(self.state, width=260)
@@ -140,12 +140,12 @@ def device_form(state, width=150):
     frequency, amplitude, pre-load."""
     select = functools.partial(pn.widgets.Select.from_param, width=width)
     customs = {k: pn.widgets.TextInput.from_param(
-        state.param[f"{k}_custom"], name=f"{k}: E (Pa), nu, rho (kg/m^3)", width=width,
+        state.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=width,
         visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, state.param[k]),
         css_classes=[f"vt-{k}-custom"]) for k in ("substrate", "particle")}
-    return [select(state.param.substrate, name="substrate", css_classes=["vt-substrate"]),
+    return [select(state.param.substrate, label="substrate", css_classes=["vt-substrate"]),
             customs["substrate"],
-            select(state.param.particle, name="particle", css_classes=["vt-particle"]),
+            select(state.param.particle, label="particle", css_classes=["vt-particle"]),
             customs["particle"],
             *[inputs.NumberField(state, k, v, width=width) for k, v in DEVICE_LABELS.items()]]
 
