@@ -1,0 +1,372 @@
+"""What one session costs the server's CPU, phase by phase.
+
+    python -m devtools.sessioncpu [--sessions 10] [--clicks 1] [--idle 10]
+                                  [--log-level debug|info] [--py-spy PATH] [--json]
+
+Starts `vibtrans serve` (one process, the load test's session settings),
+waits until its warm-up is over and it is idle, then drives `--sessions`
+protocol sessions (devtools/protoclient.py: the page's own messages) ONE
+AT A TIME through each phase, so that the server's CPU time (from /proc,
+user + system, the event loop's thread apart from the others) between two
+marks is that phase's alone:
+
+- `get`: the HTTP GET of the page (Bokeh makes the session and Panel builds
+  its page into the document; the HTML is rendered);
+- `pull_doc`: the websocket opened and the document pulled (the page's
+  163 models serialized: the bytes are given too);
+- `ready`: the browser's first size reports and `document_ready` (the
+  page's onload callbacks);
+- `idle_per_s`: every session open, nothing asked, per session and second
+  (periodic callbacks, the session checker);
+- `click`: one map click each, from the tap to its run shown;
+- `close`: every connection closed, Bokeh's discard of the sessions and
+  Panel's and the explorer's collection after them, per session.
+
+After each mark the tool waits until the server is quiet (its CPU clock
+still for QUIET_S), so that work a phase leaves behind (a callback at the
+next tick, a debounced collection) is counted in it; the server's idle CPU
+over that wait (measured first, with no session) is subtracted.
+
+`--log-level`: the server's Bokeh log level.  The load test runs it at
+"debug" (it counts Bokeh's "Discarding session" lines); a deployment logs
+at "info".  `--py-spy PATH`: the server is run under py-spy (its sampling
+profile written to PATH, raw collapsed stacks; the CPU figures of such a
+run include py-spy's pauses); its samples are then counted by what the
+server was doing (PROFILE_PARTS: the phases above and their parts).
+"""
+import argparse
+import asyncio
+import json
+import os
+import re
+import signal
+import statistics
+import subprocess
+import sys
+import time
+
+from vibtrans_explorer.memory import CLOSED, RELEASED
+
+from .loadtest import KERNELS_READY, Server, _range_points, _stat, _tree
+from .protoclient import ProtocolSession
+
+QUIET_S = 0.3          # the server's CPU clock unchanged this long: quiet
+TICK = os.sysconf("SC_CLK_TCK")
+
+
+def thread_cpu(pid):
+    """CPU seconds so far of the process's main thread (the event loop) and
+    of its other threads together."""
+    main = 0
+    try:
+        with open(f"/proc/{pid}/task/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        main = int(fields[11]) + int(fields[12])
+    except OSError:                  # the process has ended
+        pass
+    # the process's total counts every thread, those that ended too
+    other = sum(int(x) for x in _stat(pid)[11:13]) - main
+    return main / TICK, other / TICK
+
+
+class CountingSession(ProtocolSession):
+    """A protocol session whose opening is marked in phases (`marks`: a
+    callable given the phase's name after it) and whose received bytes are
+    counted by message type."""
+
+    def __init__(self, url, marks, **kw):
+        super().__init__(url, **kw)
+        self.marks = marks
+        self.bytes = {}
+
+    async def _read(self):
+        h = await self.conn.read_message()
+        if h is None:
+            raise ConnectionError("the server closed the websocket")
+        header = json.loads(h)
+        size = len(h)
+        size += len(await self.conn.read_message())
+        content = await self.conn.read_message()
+        size += len(content)
+        for _ in range(2 * header.get("num_buffers", 0)):
+            size += len(await self.conn.read_message())
+        kind = header["msgtype"]
+        self.bytes[kind] = self.bytes.get(kind, 0) + size
+        return header, content
+
+
+async def _quiet(pid, timeout=10.0):
+    """Wait until the server's CPU clock stands still for QUIET_S; returns
+    the seconds waited."""
+    t0 = time.perf_counter()
+    last, still = sum(thread_cpu(pid)), time.perf_counter()
+    while time.perf_counter() - t0 < timeout:
+        await asyncio.sleep(0.05)
+        now = sum(thread_cpu(pid))
+        if now != last:
+            last, still = now, time.perf_counter()
+        elif time.perf_counter() - still >= QUIET_S:
+            break
+    return time.perf_counter() - t0
+
+
+class Meter:
+    """The server's CPU between marks, by phase, less its idle rate."""
+
+    def __init__(self, pid, idle_rate):
+        self.pid, self.idle_rate = pid, idle_rate
+        self.phases = {}
+        self.at = (time.perf_counter(), *thread_cpu(pid))
+
+    def reset(self):
+        self.at = (time.perf_counter(), *thread_cpu(self.pid))
+
+    async def mark(self, phase):
+        await _quiet(self.pid)
+        t, main, other = time.perf_counter(), *thread_cpu(self.pid)
+        t0, main0, other0 = self.at
+        idle = self.idle_rate * (t - t0)
+        self.phases.setdefault(phase, []).append((main - main0 - idle, other - other0))
+        self.reset()
+
+
+def _release_seen(text, closes):
+    """Whether `closes` sessions have been closed and their memory released
+    after the last of them (the explorer's log lines)."""
+    found = [m.start() for m in re.finditer(CLOSED, text)]
+    return len(found) >= closes and text.rfind(RELEASED) > found[closes - 1]
+
+
+async def _drive(server, pid, a, idle_rate, out):
+    meter = Meter(pid, idle_rate)
+    sessions = []
+    for k in range(a.sessions):
+        s = _Session(server.url, meter.mark, timeout=120.0)
+        meter.reset()
+        await s.open()
+        await s.announce()
+        await meter.mark("ready")
+        sessions.append(s)
+    out["bytes"] = {kind: statistics.median(s.bytes.get(kind, 0) for s in sessions)
+                    for kind in ("html", "PULL-DOC-REPLY", "PATCH-DOC")}
+    meter.reset()
+    t0 = time.perf_counter()
+    await asyncio.sleep(a.idle)
+    main, other = thread_cpu(pid)
+    dt = time.perf_counter() - t0
+    main0, other0 = meter.at[1:]
+    out["idle_open"] = {"seconds": dt, "sessions": a.sessions,
+                        "main_per_session_s": (main - main0 - idle_rate * dt) / dt / a.sessions,
+                        "other_per_session_s": (other - other0) / dt / a.sessions}
+    meter.reset()
+    for c in range(a.clicks):
+        for k, s in enumerate(sessions):
+            fx, fy = _range_points(k + 100, a.clicks)[c]
+            meter.reset()
+            status, text = await s.click(fx, fy)
+            if status != "done":
+                out.setdefault("errors", []).append(f"session {k}, click {c + 1}: {text[:200]}")
+            await meter.mark("click" if c else "first click")
+    closes_before = server.text().count(CLOSED)
+    meter.reset()
+    for s in sessions:
+        s.close()
+    t0 = time.perf_counter()
+    while not _release_seen(server.text(), closes_before + a.sessions):
+        if time.perf_counter() - t0 > 60:
+            out.setdefault("errors", []).append("the sessions' release was not logged in 60 s")
+            break
+        await asyncio.sleep(0.2)
+    await meter.mark("close")
+    out["close_wait_s"] = time.perf_counter() - t0
+    return meter.phases
+
+
+class _Session(CountingSession):
+    """ProtocolSession.open split at its marks: GET, then the websocket and
+    PULL-DOC, then (announce) the size reports and document_ready."""
+
+    async def open(self):
+        from tornado.httpclient import AsyncHTTPClient, HTTPRequest
+        from tornado.websocket import websocket_connect
+
+        from .protoclient import _walk
+        http = AsyncHTTPClient(force_instance=True)
+        try:
+            page = await http.fetch(self.url + self.query, request_timeout=self.timeout)
+        finally:
+            http.close()
+        self.bytes["html"] = len(page.body)
+        await self.marks("get")
+        token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
+        ws = HTTPRequest("ws" + self.url[4:] + "ws", headers={"Origin": self.url.rstrip("/")},
+                         request_timeout=self.timeout)
+        self.conn = await websocket_connect(ws, subprotocols=["bokeh", token],
+                                            max_message_size=1 << 30)
+        header, _ = await self._read()
+        self._send("PULL-DOC-REQ", {})
+        while True:
+            header, content = await self._read()
+            if header["msgtype"] == "PULL-DOC-REPLY":
+                break
+        _walk(json.loads(content), self.models)
+        await self.marks("pull_doc")
+        self._reader = asyncio.ensure_future(self._loop())
+        self.map = next(f for f in self._figures() if "tap" in (
+            f["attributes"].get("subscribed_events") or {}).get("entries", []))
+
+    async def announce(self):
+        self._sizes([self.map], 0)
+        self._event("document_ready", [])
+
+
+# py-spy's samples of the server by what they were doing: the first rule
+# whose frame names any of its keys, over the whole stack (inner parts of a
+# phase first: the page function is inside the GET)
+PROFILE_PARTS = [
+    ("warm-up (kernels, maps' pre-render)", ("prerender", "app/kernels.py", "_find_and_load")),
+    ("GET: the page function (serve_page)", ("_first_page.<locals>.page",)),
+    ("GET: Bokeh's document checks", ("Document.validate", "check_integrity")),
+    ("GET: the rest (session, HTML)", ("DocHandler.get",)),
+    ("pull-doc", ("ServerSession._handle_pull",)),
+    ("click: the run's figures built (first run)", ("TrajectoryView.view",)),
+    ("click: the rest of the tap", ("MapView._on_tap",)),
+    ("the browser's patches (sizes, document_ready, onload)", ("ServerSession._handle_patch",)),
+    ("after a run: its results shown", ("RunController.finish",)),
+    ("close: the explorer's release (full collection)", ("app/memory.py",)),
+    ("close: Bokeh's discard, Panel's cleanup", ("_discard_session", "on_session_destroyed")),
+]
+
+
+def profile_parts(path):
+    """{(thread, part): samples} of a py-spy raw profile (collapsed
+    stacks, "frame;frame;... count"): thread "event loop" or "other"."""
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if not line.strip():
+                continue
+            stack, count = line.rsplit(" ", 1)
+            frames = stack.split(";")
+            thread = "other" if frames[0].startswith("Thread._bootstrap") else "event loop"
+            part = next((name for name, keys in PROFILE_PARTS
+                         if any(k in fr for fr in frames for k in keys)), "rest")
+            out[thread, part] = out.get((thread, part), 0) + int(count)
+    return out
+
+
+def _server_python(server):
+    """The server's Python process (under py-spy: py-spy's child)."""
+    for q in _tree(server.proc.pid):
+        try:
+            with open(f"/proc/{q}/cmdline", "rb") as f:
+                args = f.read().split(b"\0")
+        except OSError:
+            continue
+        if b"vibtrans.cli" in args and not args[0].endswith(b"py-spy"):
+            return q
+    return server.proc.pid
+
+
+def run(a):
+    env = {"BOKEH_PY_LOG_LEVEL": a.log_level, "PYTHONMALLOC": "malloc"}
+    wrap = ()
+    if a.py_spy:
+        wrap = (a.py_spy_bin, "record", "-r", "100", "-f", "raw", "-o", a.py_spy, "--")
+    server = Server(num_procs=1, env=env, wrap=wrap)
+    out = {"command": "python -m devtools.sessioncpu " + " ".join(a.argv),
+           "load_average_before": [round(x, 2) for x in os.getloadavg()],
+           "log_level": a.log_level}
+    try:
+        t0 = time.perf_counter()
+        while server.text().count(KERNELS_READY) < 1:
+            if not server.alive():
+                raise RuntimeError(f"server exited:\n{server.text()[-3000:]}")
+            if time.perf_counter() - t0 > 300:
+                raise RuntimeError("server not ready in 300 s")
+            time.sleep(0.2)
+        pid = _server_python(server)
+        asyncio.run(_quiet(pid, timeout=60.0))     # the maps' pre-render
+        c0, t0 = sum(thread_cpu(pid)), time.perf_counter()
+        time.sleep(a.idle)
+        idle_rate = (sum(thread_cpu(pid)) - c0) / (time.perf_counter() - t0)
+        out["idle_no_session_cpu_per_s"] = idle_rate
+        phases = asyncio.run(_drive(server, pid, a, idle_rate, out))
+        out["phases"] = {
+            name: {"n": len(v), "main_median_s": statistics.median(m for m, _ in v),
+                   "main_mean_s": statistics.fmean(m for m, _ in v),
+                   "other_mean_s": statistics.fmean(o for _, o in v)}
+            for name, v in phases.items()}
+        # the close phase is one mark for every session: per session
+        close = out["phases"].get("close")
+        if close:
+            for key in ("main_median_s", "main_mean_s", "other_mean_s"):
+                close[key] /= a.sessions
+            close["n"] = a.sessions
+        out["server_errors"] = server.errors()[0]
+    finally:
+        if a.py_spy:
+            try:
+                os.kill(_server_python(server), signal.SIGINT)
+                server.proc.wait(60)
+            except (OSError, subprocess.TimeoutExpired):
+                pass
+        server.stop()
+        server.remove_logs()
+    out["load_average_after"] = [round(x, 2) for x in os.getloadavg()]
+    return out
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    ap = argparse.ArgumentParser(prog="python -m devtools.sessioncpu",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--sessions", type=int, default=10, help="sessions (1-60)")
+    ap.add_argument("--clicks", type=int, default=1, help="clicks per session (0-10)")
+    ap.add_argument("--idle", type=float, default=10.0,
+                    help="seconds of the idle phases (1-120)")
+    ap.add_argument("--log-level", default="debug", choices=("debug", "info"),
+                    help="the server's Bokeh log level (the load test's: debug)")
+    ap.add_argument("--py-spy", default=None, metavar="PATH",
+                    help="run the server under py-spy, its raw profile to PATH")
+    ap.add_argument("--py-spy-bin", default="py-spy", help="the py-spy executable")
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON")
+    a = ap.parse_args(argv)
+    a.argv = argv
+    if not 1 <= a.sessions <= 60:
+        ap.error(f"--sessions must be in [1, 60], got {a.sessions}")
+    if not 0 <= a.clicks <= 10:
+        ap.error(f"--clicks must be in [0, 10], got {a.clicks}")
+    if not 1 <= a.idle <= 120:
+        ap.error(f"--idle must be in [1, 120] s, got {a.idle}")
+    out = run(a)
+    if a.py_spy:
+        parts = profile_parts(a.py_spy)
+        out["profile_samples"] = {f"{t}: {p}": n for (t, p), n in parts.items()}
+    if a.json:
+        print(json.dumps(out))
+    else:
+        print(f"server idle, no session: {out['idle_no_session_cpu_per_s'] * 1000:.2f} ms CPU/s")
+        print(f"{'phase':>10} {'n':>4} {'event loop ms (median/mean)':>30} {'other threads ms':>17}")
+        for name, p in out["phases"].items():
+            print(f"{name:>10} {p['n']:>4} {p['main_median_s'] * 1000:>14.1f} / "
+                  f"{p['main_mean_s'] * 1000:<13.1f} {p['other_mean_s'] * 1000:>17.1f}")
+        io = out["idle_open"]
+        print(f"idle with {io['sessions']} open: {io['main_per_session_s'] * 1000:.3f} ms/s "
+              f"(event loop) + {io['other_per_session_s'] * 1000:.3f} ms/s (others) per session")
+        print(f"bytes per page (median): {out['bytes']}")
+        samples = out.get("profile_samples", {})
+        if samples:
+            total = sum(samples.values())
+            print(f"py-spy samples of the server ({total} in all, warm-up included; the "
+                  f"other threads' include waits py-spy took for work: their CPU is the "
+                  f"table's, from /proc):")
+            for name, n in sorted(samples.items(), key=lambda kv: -kv[1]):
+                print(f"  {n:6d} {100 * n / total:5.1f}%  {name}")
+        for e in out.get("errors", []) + out.get("server_errors", []):
+            print("ERROR:", e)
+    return out
+
+
+if __name__ == "__main__":
+    main()
