@@ -3,7 +3,7 @@ the app changes Panel's, Param's, Bokeh's or HoloViews' code.  Each is
 applied only where its probe shows the bug in the installed version, so a
 version that fixes it runs stock; tests/test_compat.py fails on the day a
 version fixes one (then delete it here).  Each is written up, with its
-measurement and its upstream report, in docs/UPSTREAM.md.
+measurement and its upstream report, in docs/how-to/deployment.md.
 
 1. Bokeh's property validation is one flag for the whole process
    (`bokeh.core.property.validation.validate` sets
@@ -146,9 +146,9 @@ def is_panels_query_parse_failure(exception):
 
 # (name, probe: True where the bug shows, workaround, undo)
 WORKAROUNDS = [
-    ("Bokeh's validation switch per thread (docs/UPSTREAM.md #1)",
+    ("Bokeh's validation switch per thread (docs/how-to/deployment.md 1.1)",
      validation_switch_is_process_wide, _validation_per_thread, _stock_validation),
-    ("Panel's text panes updated in a hidden tab keep the page's stylesheets (docs/UPSTREAM.md 1.2)",
+    ("Panel's text panes updated in a hidden tab keep the page's stylesheets (docs/how-to/deployment.md 1.2)",
      hidden_tab_update_fetches_the_cdn, _text_update_in_the_sessions_document,
      _stock_text_update),
 ]

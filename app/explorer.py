@@ -538,7 +538,7 @@ def serve_page():
     """The server's page function: this session's page built into its
     document (`pn.state.curdoc`) by Panel's public `server_doc`, with the
     explorer's own Location (`_page_location`): Panel's would parse the
-    query itself and fail on some texts (docs/UPSTREAM.md).  Attached under
+    query itself and fail on some texts (docs/how-to/deployment.md).  Attached under
     one `Document.models.freeze()` (Bokeh's public context: the document's
     model graph recomputed once, not after each of the template's ~10
     roots; ~20% of a page, `python -m devtools.pagecost`).  Returns None:

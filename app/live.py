@@ -51,7 +51,7 @@ class _Shared:
     `figure()` and `add_glyph` would make one of each per axis or renderer
     (103 of a set's 301 models), each built by the server, serialized to the
     browser and walked with the document's model graph at the session's
-    first run; the figures drawn are the same (docs/CAPACITY.md)."""
+    first run; the figures drawn are the same (docs/how-to/deployment.md)."""
 
     def __init__(self):
         self.ticker = BasicTicker()

@@ -5,7 +5,7 @@ run's figures are built when a run starts, the memory diagram when its tab
 opens), then Bokeh's checks of the new document, which the stock server
 runs for every session (`Document.validate`, unless BOKEH_VALIDATE_DOC
 says otherwise).  Stock Panel, Param, Bokeh and HoloViews: the explorer
-replaces none of their code (docs/UPSTREAM.md lists where a page's time
+replaces none of their code (docs/how-to/deployment.md lists where a page's time
 goes in them, as proposals for upstream).  `page_cpu_s` is the process's
 CPU time per page (less sensitive to other processes than the wall-clock
 figures).  The shipped maps are prerendered first, as the server's warm-up

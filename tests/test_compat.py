@@ -1,6 +1,6 @@
 """app/compat.py: each workaround answers a bug the installed framework
 versions show.  The test of each bug runs stock code and fails on the day
-a version fixes it: then delete the workaround (docs/UPSTREAM.md)."""
+a version fixes it: then delete the workaround (docs/how-to/deployment.md)."""
 import subprocess
 import sys
 
@@ -11,7 +11,7 @@ _STOCK_PROBE = ("from vibtrans_explorer import compat; "
 
 
 def test_bokeh_validation_switch_is_one_flag_for_the_process():
-    """Bug 1 (docs/UPSTREAM.md): Bokeh's `validate(False)` in one thread
+    """Bug 1.1 (docs/how-to/deployment.md): Bokeh's `validate(False)` in one thread
     turns validation off in every thread.  Probed in a fresh process:
     stock Bokeh, nothing applied."""
     out = subprocess.run([sys.executable, "-c", _STOCK_PROBE], capture_output=True,
@@ -21,7 +21,7 @@ def test_bokeh_validation_switch_is_one_flag_for_the_process():
 
 
 def test_panels_text_panes_in_a_hidden_tab_fetch_the_cdn():
-    """Bug 1.2 (docs/UPSTREAM.md): a Markdown pane updated while its tab of
+    """Bug 1.2 (docs/how-to/deployment.md): a Markdown pane updated while its tab of
     a dynamic Tabs is hidden comes back with its stylesheets (shared with
     the page's other models) on Panel's CDN.  Probed in a fresh process:
     stock Panel, nothing applied."""
@@ -64,7 +64,7 @@ def test_nothing_is_applied_at_import():
 
 
 def test_panels_query_parsing_fails_on_a_superscript_digit():
-    """Bug 2 (docs/UPSTREAM.md): Panel's `parse_query` takes '²' for an
+    """Bug 2.1 (docs/how-to/deployment.md): Panel's `parse_query` takes '²' for an
     integer ('²'.isdigit() is True) and `int('²')` raises, so a Location
     Panel makes from a request with ?x=² fails the page (a 500).  The
     explorer gives Panel a Location of its own through the public
@@ -120,7 +120,7 @@ def test_the_app_imports_nothing_private_and_assigns_nothing_to_its_frameworks()
     """No private import from Panel, Bokeh, Param or HoloViews; no
     assignment to an attribute of one of their modules or classes (a
     process-wide replacement), by `=` or `setattr`; nothing private of
-    theirs assigned anywhere.  app/compat.py alone may (docs/UPSTREAM.md)."""
+    theirs assigned anywhere.  app/compat.py alone may (docs/how-to/deployment.md)."""
     found = []
     sources = _app_sources()
     assert len(sources) > 20

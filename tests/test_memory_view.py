@@ -329,7 +329,7 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     `loading`: the figures' row's css_classes), on and off, and BokehJS lays
     out every figure of the page again at each change of a layout's
     css_classes, visible, size or children (tests/test_redraw_layout.py
-    names them; Chrome traces, docs/UPSTREAM.md 2.2).  The busy state is the
+    names them; Chrome traces, docs/how-to/deployment.md 2.2).  The busy state is the
     disabled button: in a served page, while the diagram computes and once
     it is drawn, no such property of a model of the page has changed."""
     from bokeh.models import LayoutDOM, Plot

@@ -1,5 +1,5 @@
-"""The power law's warm-started a*^(1/n) (contact.law_eval_warm; issue 34,
-docs/MODEL.md section 10 "Speed").
+"""The power law's warm-started a*^(1/n) (contact.law_eval_warm;
+docs/explanation/performance.md, "Simulation kernels").
 
 Sources: a 40-digit decimal reference (Python's decimal module: a*^(1/n)
 rounded once to double), the pow() path it replaces (law_eval, and the same

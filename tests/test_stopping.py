@@ -285,8 +285,8 @@ def test_plateau_then_acceleration_is_not_stopped_early():
     assert within_error(dec.drift_velocity, full.drift_velocity)
 
 
-@pytest.mark.xfail(strict=True, reason="known (docs/DYNAMICS.md section 4, twentieth "
-                   "session): the drift relaxes to a plateau that the windows accept at "
+@pytest.mark.xfail(strict=True, reason="known (docs/DYNAMICS.md section 4, known "
+                   "inaccuracy at small drifts): the drift relaxes to a plateau that the windows accept at "
                    "240 periods; hundreds of periods later the hopping changes and the "
                    "full run's x*(T)/T is -0.069, the decided one -0.019")
 def test_a_small_drift_whose_hopping_changes_late_is_not_stopped_early():

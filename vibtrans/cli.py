@@ -857,7 +857,7 @@ def build_parser():
                         "map workers).  A page's HTTP request and its websocket may land in "
                         "different processes, which then both build its session "
                         "(bokeh#10183); instances on separate ports behind a proxy with "
-                        "sticky sessions avoid that (docs/CAPACITY.md, docs/SECURITY.md)")
+                        "sticky sessions avoid that (docs/how-to/deployment.md, docs/SECURITY.md)")
     v.add_argument("--use-xheaders", action="store_true",
                    help="take the client's address and scheme from the proxy's X-Real-Ip, "
                         "X-Forwarded-For and X-Forwarded-Proto headers (only behind a "

@@ -158,7 +158,7 @@ def _as_sent(name, column, hovered):
 # columns "tick": C, "label": the drift velocity there), not set on the bar:
 # a change of a ColorBar's labels or ticks makes BokehJS lay out every
 # figure of the page's main column again (its ColorBarView marks its layout
-# dirty whatever the size: docs/UPSTREAM.md 2.2), and every map has its own
+# dirty whatever the size: docs/how-to/deployment.md 2.2), and every map has its own
 # labels (each side of the paper's scale runs to that map's largest drift).
 # A new source's data only repaints the figure, which draws the bar again
 # with the new labels, in the place laid out for the first map's: the

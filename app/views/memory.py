@@ -396,7 +396,7 @@ class MemoryView(pn.viewable.Viewer):
         # is a change of a layout's css_classes, visible or size, and
         # BokehJS lays out every figure of the page again at each (twice per
         # view, on and off: 0.2-0.3 s of the browser's main thread on a calm
-        # host; docs/UPSTREAM.md 2.2)
+        # host; docs/how-to/deployment.md 2.2)
         with pn.io.hold():
             self._say("")
             self.show_button.disabled = True         # one at a time per session

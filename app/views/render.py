@@ -53,7 +53,7 @@ def at_next_tick(doc, answer):
     runs after the callback in progress has sent its own changes.  (A
     typed time's memory diagram that now and then never came, before this
     was used there, was not traced to this: none lost in 202 views since,
-    docs/UPSTREAM.md 2.2.)"""
+    docs/how-to/deployment.md 2.2.)"""
     if doc is not None and doc.session_context is not None:
         doc.add_next_tick_callback(answer)
     else:
