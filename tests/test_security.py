@@ -20,10 +20,12 @@ from budget import budget
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),
                   *ROOT.glob("devtools/**/*.py")])
-# modules that start processes on purpose (benchmarks, the load test and
-# the deployment start `vibtrans serve`, the deployment nginx; the sweep's
-# process pool): argument lists, no shell
-SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/deploy/__init__.py", "vibtrans/tools/bench.py", "vibtrans/maps/sweep.py"}
+# modules that start processes on purpose (benchmarks, the load test, the
+# session-cost and first-start measurements and the deployment start
+# `vibtrans serve`, the deployment nginx; the sweep's process pool):
+# argument lists, no shell
+SUBPROCESS_OK = {"devtools/loadtest.py", "devtools/sessioncpu.py", "devtools/firstpage.py",
+                 "devtools/deploy/__init__.py", "vibtrans/tools/bench.py", "vibtrans/maps/sweep.py"}
 
 
 # ------------------------------------------------------------------ no code from input
