@@ -529,7 +529,7 @@ def cmd_export(args):
                              f"{args.out!r}")
         check_folder(args.out, create=False)
     else:
-        E._format(args.out, E.FORMATS + ("html",))
+        E.output_format(args.out, E.FORMATS + ("html",))
         check_file(args.out)
     sizes = _export_sizes(args)
     if kind not in ("trajectory", "paper") and args.window is not None:

@@ -30,7 +30,7 @@ _NU = (0.0, 0.5)  # open interval: the elastic range of an isotropic solid with 
 
 
 # --------------------------------------------------------------------------- validation
-def _check(name, value, lo=-_INF, hi=_INF, lo_open=True, hi_open=True):
+def check_interval(name, value, lo=-_INF, hi=_INF, lo_open=True, hi_open=True):
     """Return ``value`` as float (or float array) after checking it is finite and
     inside the interval; raise TypeError / ValueError naming ``name`` otherwise."""
     interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
@@ -55,16 +55,16 @@ def _out(x):
     return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
-def _positive(name, value):
-    return _check(name, value, 0.0, _INF)
+def check_positive(name, value):
+    return check_interval(name, value, 0.0, _INF)
 
 
-def _nonnegative(name, value):
-    return _check(name, value, 0.0, _INF, lo_open=False)
+def check_nonnegative(name, value):
+    return check_interval(name, value, 0.0, _INF, lo_open=False)
 
 
 def _poisson(name, value):
-    return _check(name, value, *_NU)
+    return check_interval(name, value, *_NU)
 
 
 # --------------------------------------------------------------------------- materials
@@ -84,9 +84,9 @@ class Material:
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
             raise InputTypeError(f"name must be a non-empty string, got {self.name!r}")
-        _positive("youngs_modulus", self.youngs_modulus)
+        check_positive("youngs_modulus", self.youngs_modulus)
         _poisson("poisson_ratio", self.poisson_ratio)
-        _positive("density", self.density)
+        check_positive("density", self.density)
         if not isinstance(self.source, str):
             raise InputTypeError(f"source must be a string, got {self.source!r}")
 
@@ -198,7 +198,7 @@ def material(name: str) -> Material:
     return MATERIALS[key]
 
 
-def _as_material(name, value) -> Material:
+def as_material(name, value) -> Material:
     if isinstance(value, Material):
         return value
     if isinstance(value, str):
@@ -279,7 +279,7 @@ def rayleigh_speed_ratio(nu):
 
 def rayleigh_speed(E, nu, rho):
     """Rayleigh wave speed c_R [m/s] of an isotropic half-space: E [Pa], nu, rho [kg/m^3]."""
-    E, rho = _positive("E", E), _positive("rho", rho)
+    E, rho = check_positive("E", E), check_positive("rho", rho)
     c_t = np.sqrt(E / (2 * (1 + _poisson("nu", nu)) * rho))  # shear speed sqrt(G/rho)
     return _out(rayleigh_speed_ratio(nu) * c_t)
 
@@ -306,7 +306,7 @@ def stiffness_ratio(E, nu, E_p, nu_p):
 
     Substrate (E [Pa], nu) and particle (E_p [Pa], nu_p). In [1, 1.5] for nu in (0, 0.5).
     """
-    E, E_p = _positive("E", E), _positive("E_p", E_p)
+    E, E_p = check_positive("E", E), check_positive("E_p", E_p)
     nu, nu_p = _poisson("nu", nu), _poisson("nu_p", nu_p)
     tangential = (2 - nu) * (1 + nu) / (2 * E) + (2 - nu_p) * (1 + nu_p) / (2 * E_p)
     return _out(tangential / ((1 - nu**2) / E + (1 - nu_p**2) / E_p))
@@ -314,7 +314,7 @@ def stiffness_ratio(E, nu, E_p, nu_p):
 
 def effective_modulus(E, nu, E_p, nu_p):
     """Hertz effective modulus E_eff [Pa]: 1/E_eff = (1-nu^2)/E + (1-nu_p^2)/E_p."""
-    E, E_p = _positive("E", E), _positive("E_p", E_p)
+    E, E_p = check_positive("E", E), check_positive("E_p", E_p)
     nu, nu_p = _poisson("nu", nu), _poisson("nu_p", nu_p)
     return _out(1.0 / ((1 - nu**2) / E + (1 - nu_p**2) / E_p))
 
@@ -322,14 +322,14 @@ def effective_modulus(E, nu, E_p, nu_p):
 def hertz_compression(load_N, radius_m, E_eff):
     """Static Hertz compression a0 [m] of a sphere (radius [m]) on a half-space
     under load [N]: load = (4/3) E_eff sqrt(R) a0^(3/2)."""
-    load_N, radius_m = _positive("load_N", load_N), _positive("radius_m", radius_m)
-    E_eff = _positive("E_eff", E_eff)
+    load_N, radius_m = check_positive("load_N", load_N), check_positive("radius_m", radius_m)
+    E_eff = check_positive("E_eff", E_eff)
     return _out((3 * load_N / (4 * E_eff * np.sqrt(radius_m))) ** (2.0 / 3.0))
 
 
 def sphere_mass(radius_m, density):
     """Mass [kg] of a solid sphere of radius [m] and density [kg/m^3]."""
-    radius_m, density = _positive("radius_m", radius_m), _positive("density", density)
+    radius_m, density = check_positive("radius_m", radius_m), check_positive("density", density)
     return _out(4.0 / 3.0 * math.pi * radius_m**3 * density)
 
 
@@ -360,14 +360,14 @@ class NormalizedScene:
 
     def drift_velocity_si(self, v_star):
         """Dimensional velocity [m/s] of a normalized one: v = a0 f v*."""
-        return _out(self.a0 * self.frequency * _check("v_star", v_star))
+        return _out(self.a0 * self.frequency * check_interval("v_star", v_star))
 
 
-def _static_contact(substrate, particle, radius, preload, g):
+def static_contact(substrate, particle, radius, preload, g):
     """(substrate, particle, mass [kg], load [N], a0 [m]) shared by the converters."""
-    sub, par = _as_material("substrate", substrate), _as_material("particle", particle)
-    radius = _positive("radius", radius)
-    preload, g = _nonnegative("preload", preload), _nonnegative("g", g)
+    sub, par = as_material("substrate", substrate), as_material("particle", particle)
+    radius = check_positive("radius", radius)
+    preload, g = check_nonnegative("preload", preload), check_nonnegative("g", g)
     mass = sphere_mass(radius, par.density)
     load = mass * g + preload
     if load <= 0:  # only reachable with g = 0 and no preload
@@ -382,9 +382,9 @@ def to_normalized(substrate, particle, radius, frequency, amplitude, preload=0.0
     """Normalize a device: sphere of ``radius`` [m] made of ``particle`` on ``substrate``
     (names or Material), wave ``frequency`` [Hz], vertical amplitude A_y ``amplitude`` [m],
     pre-load ``preload`` [N], gravity ``g`` [m/s^2]. Returns a NormalizedScene."""
-    sub, par, mass, load, a0 = _static_contact(substrate, particle, radius, preload, g)
-    f = _positive("frequency", frequency)
-    A_y = _nonnegative("amplitude", amplitude)
+    sub, par, mass, load, a0 = static_contact(substrate, particle, radius, preload, g)
+    f = check_positive("frequency", frequency)
+    A_y = check_nonnegative("amplitude", amplitude)
     nu = sub.poisson_ratio
     return NormalizedScene(
         mass_kg=mass, load_N=load, a0=a0,
@@ -415,14 +415,14 @@ class DeviceSpec:
 def frequency_for_mass_ratio(m_star, substrate, particle, radius, preload=0.0, g=9.81):
     """Wave frequency f [Hz] at which the device has the given m* (a0 does not depend on f):
     f = sqrt(m* Mg / (a0 m))."""
-    m_star = _positive("m_star", m_star)
-    _, _, mass, load, a0 = _static_contact(substrate, particle, radius, preload, g)
+    m_star = check_positive("m_star", m_star)
+    _, _, mass, load, a0 = static_contact(substrate, particle, radius, preload, g)
     return _out(np.sqrt(m_star * load / (a0 * mass)))
 
 
 def amplitude_from_normalized(A_star, a0):
     """Vertical wave amplitude A_y = A* a0 [m] from A* [-] and a0 [m]."""
-    return _out(_nonnegative("A_star", A_star) * _positive("a0", a0))
+    return _out(check_nonnegative("A_star", A_star) * check_positive("a0", a0))
 
 
 def duration_text(seconds):

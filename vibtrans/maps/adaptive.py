@@ -54,7 +54,8 @@ import numpy as np
 from vibtrans.analysis.summary import V0
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.core.simulate import warmup
-from vibtrans.maps.sweep import (_bar, _check_store, _digest, _why, compute_point, verify)
+from vibtrans.maps.sweep import (block_digest, check_store, compute_point, progress_bar,
+                                 short_reason, verify)
 
 MAX_LEVELS = (1, 8)
 DEFAULT_DRIFT_TOLERANCE = 0.5
@@ -207,7 +208,7 @@ class _Partial:
             with open(path, "rb") as f:
                 stored = json.loads(f.read().decode())
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete "
+            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete "
                                 f"{self.folder} and rerun") from None
         if not isinstance(stored, dict):
             raise StoreMismatch(f"{path} is not an adaptive sweep's parameters")
@@ -229,7 +230,7 @@ class _Partial:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete that file "
+            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete that file "
                                 f"and rerun to recompute its points") from None
         digest = arrays.pop("sha256", None)
         if (digest is None or sorted(arrays) != sorted(want)
@@ -389,7 +390,7 @@ def fill(grid, leaves):
 
 
 def _check_adaptive_store(ds, sweep, max_level, tol, path):
-    _check_store(ds, sweep, path)
+    check_store(ds, sweep, path)
     got = (ds.attrs.get("adaptive_max_level"), ds.attrs.get("adaptive_tolerance"))
     if got != (max_level, tol):
         raise StoreMismatch(f"{path} was made with other parameters (adaptive max_level, "
@@ -435,7 +436,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
             existing = xr.open_zarr(path, consolidated=False, chunks=None)
         except Exception as exc:
             raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({_why(exc)})") from None
+                                f"({short_reason(exc)})") from None
         _check_adaptive_store(existing, sweep, max_level, tol, path)
         verify(existing, path)
         if not existing["done"].values.all():
@@ -448,7 +449,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     partial = _Partial(path, sweep, max_level, tol)
     partial.open(grid)
     warmup()
-    bar = _bar(None, progress)
+    bar = progress_bar(None, progress)
     client = None
     if scheduler:
         from dask.distributed import Client
@@ -513,7 +514,7 @@ def _write_store(sweep, grid, path, max_level, tol, fraction):
                       {"description": COMPUTED["computed"][2]})
     variables = {**sweep.variables, **COMPUTED}
     for k in range(sweep.n_chunks):
-        ds["digest"].values[k] = _digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
+        ds["digest"].values[k] = block_digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
     ds["done"].values[:] = True
     ds.attrs.update(adaptive_max_level=max_level, adaptive_tolerance=tol,
                     computed_fraction=fraction)

@@ -112,7 +112,7 @@ def variables_of(kind, chaos, stop="full"):
     return {**variables, **DECIDED_VARIABLES} if stop == "decided" else variables
 
 
-def _why(exc, limit=240):
+def short_reason(exc, limit=240):
     """An underlying error as one short line (for StoreMismatch messages)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if len(text) <= limit else text[:limit] + "..."
@@ -192,7 +192,7 @@ def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin", s
     return [[compute_point(values, la, lm, chaos, stop) for lm in log_ms] for la in log_as]
 
 
-def _digest(block, variables=VARIABLES):
+def block_digest(block, variables=VARIABLES):
     h = hashlib.sha256()
     for name in variables:
         h.update(np.ascontiguousarray(block[name].values).tobytes())
@@ -261,7 +261,7 @@ class Sweep:
                           attrs=self.attrs())
 
 
-def _check_store(ds, sweep, path):
+def check_store(ds, sweep, path):
     problems = []
     for k, v in sweep.values.items():
         got = ds.attrs.get(f"scene_{k}")
@@ -315,7 +315,7 @@ def verify(ds, path="store"):
         done, digests = ds["done"].values, ds["digest"].values
     except Exception as exc:   # undecodable flags: damaged or truncated
         raise StoreMismatch(f"{path}: the done flags or digests cannot be read "
-                            f"({_why(exc)})") from None
+                            f"({short_reason(exc)})") from None
     n_chunks = -(-ds.sizes.get("log_amplitude", 0) // rows)
     if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
         raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
@@ -329,8 +329,8 @@ def verify(ds, path="store"):
             block = (ds[list(variables)].isel(log_amplitude=sl).load() if whole is None
                      else whole.isel(log_amplitude=sl))
         except Exception as exc:   # undecodable chunk: damaged or truncated
-            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({_why(exc)})") from None
-        if _digest(block, variables) != digests[k]:
+            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({short_reason(exc)})") from None
+        if block_digest(block, variables) != digests[k]:
             raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
                                 f"(damaged or edited); delete the store and rerun")
 
@@ -348,7 +348,7 @@ def open_map(path, expect=None):
         # overhead made opening the shipped maps take seconds)
         ds = xr.open_zarr(path, consolidated=False, chunks=None)
     except Exception as exc:
-        raise StoreMismatch(f"{path} is not a readable Zarr store ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} is not a readable Zarr store ({short_reason(exc)})") from None
     made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
     if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
         have = ", ".join(f"{k}={v}" for k, v in made.items())
@@ -359,7 +359,7 @@ def open_map(path, expect=None):
     try:
         ds = ds.load()
     except Exception as exc:   # e.g. an unfinished chunk that is damaged
-        raise StoreMismatch(f"{path} cannot be read ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)})") from None
     rows = int(ds.attrs["chunk_rows"])
     done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
     return ds.assign(point_done=("log_amplitude", done_rows))
@@ -377,7 +377,7 @@ def open_vertical(path):
     try:
         ds = xr.load_dataset(path)
     except Exception as exc:
-        raise StoreMismatch(f"{path} is not a readable netCDF file ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} is not a readable netCDF file ({short_reason(exc)})") from None
     missing = [v for v in ("log_mass", *VERTICAL_VARIABLES) if v not in ds.variables]
     if missing:
         raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: "
@@ -409,8 +409,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
             existing = xr.open_zarr(path, consolidated=False)
         except Exception as exc:
             raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({_why(exc)})") from None
-        _check_store(existing, sweep, path)
+                                f"({short_reason(exc)})") from None
+        check_store(existing, sweep, path)
         verify(existing, path)
         done = existing["done"].values.copy()
     else:
@@ -422,8 +422,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
     if not todo:
         return path
     warmup()   # fill the numba cache once, before any worker starts
-    bar = _bar(sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size,
-               progress)
+    total = sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size
+    bar = progress_bar(total, progress)
     writer = _ChunkWriter(path, sweep, bar, flush_every)
     try:
         _run_chunks(sweep, todo, writer, workers, scheduler, executor)
@@ -477,7 +477,7 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
                     failed.result()     # raises the chunk's error
 
 
-def _bar(total, enabled):
+def progress_bar(total, enabled):
     from tqdm import tqdm
     return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
                 desc="sweep", smoothing=0.05)
@@ -537,7 +537,7 @@ def _write_chunks(path, sweep, ks, blocks):
         data[name] = (("log_amplitude", "log_mass"),
                       np.array([[p[name] for p in row] for row in rows], dtype=dt))
     block = xr.Dataset(data)
-    digests = [_digest(block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start,
+    digests = [block_digest(block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start,
                                                       sweep.rows(k).stop - sl.start)),
                        sweep.variables) for k in ks]
     chunks = slice(ks[0], ks[-1] + 1)

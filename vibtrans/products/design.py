@@ -188,7 +188,7 @@ def _device(device):
 
 
 def _surface_energy(value):
-    return units._nonnegative("surface_energy", value)
+    return units.check_nonnegative("surface_energy", value)
 
 
 def _device_tip(device, shape):
@@ -207,8 +207,8 @@ def _device_tip(device, shape):
 
 
 def _e_eff(device):
-    sub = units._as_material("substrate", device.substrate)
-    par = units._as_material("particle", device.particle)
+    sub = units.as_material("substrate", device.substrate)
+    par = units.as_material("particle", device.particle)
     return units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
                                    par.youngs_modulus, par.poisson_ratio)
 
@@ -294,7 +294,7 @@ def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_veloc
             f"(--preload, the paper's parameter for such forces) or treat the results as "
             f"qualitative", ratio, ADHESION_RATIO))
     if drift_velocity is not None:
-        v = units._check("drift_velocity", drift_velocity)
+        v = units.check_interval("drift_velocity", drift_velocity)
         travel = abs(v) / q.rayleigh_speed
         if travel >= TRAVEL_FRACTION:
             out.append(ValidityWarning(
@@ -352,8 +352,8 @@ def _axis(spec, name):
     q, lo, hi, n = spec
     if q not in AXES:
         raise InputError(f"{name} quantity must be one of {', '.join(AXES)}, got {q!r}")
-    lo = units._positive(f"{name} lo ({q})", lo)
-    hi = units._positive(f"{name} hi ({q})", hi)
+    lo = units.check_positive(f"{name} lo ({q})", lo)
+    hi = units.check_positive(f"{name} hi ({q})", hi)
     if not hi > lo:
         raise InputError(f"{name} ({q}) must have lo < hi, got {lo:g} and {hi:g}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 2 <= n <= MAX_AXIS_POINTS:
@@ -374,13 +374,13 @@ def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.
 
 def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape):
     """normalize_grid's (a0, A*, m*) and the tip's TipContact."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
-    radius = np.asarray(units._positive("radius", radius), dtype=float)
-    frequency = np.asarray(units._positive("frequency", frequency), dtype=float)
-    amplitude = np.asarray(units._positive("amplitude", amplitude), dtype=float)
-    preload = units._nonnegative("preload", preload)
-    g = units._positive("g", g)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
+    radius = np.asarray(units.check_positive("radius", radius), dtype=float)
+    frequency = np.asarray(units.check_positive("frequency", frequency), dtype=float)
+    amplitude = np.asarray(units.check_positive("amplitude", amplitude), dtype=float)
+    preload = units.check_nonnegative("preload", preload)
+    g = units.check_positive("g", g)
     mass = units.sphere_mass(radius, par.density)
     load = mass * g + preload
     E_eff = units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
@@ -398,8 +398,8 @@ def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g
 
 def materials_theta_nu(substrate, particle):
     """(theta, nu) of a substrate / particle pair (docs/MODEL.md 1)."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
     theta = units.stiffness_ratio(sub.youngs_modulus, sub.poisson_ratio,
                                   par.youngs_modulus, par.poisson_ratio)
     return theta, sub.poisson_ratio
@@ -469,7 +469,7 @@ def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=
     profile, load_over_modulus: the particle's normalized profile (Scene's)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
-    step = units._check("step", step, 0.0, 1.0, hi_open=False)
+    step = units.check_interval("step", step, 0.0, 1.0, hi_open=False)
     store_dir = check_folder(store_dir, "store_dir")
     la, lm = _grid_range(log_a, step), _grid_range(log_m, step)
     if la.size < 2:
@@ -626,8 +626,8 @@ def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
                shape=None):
     """The chart's ChartGrid (every value checked: InputError names it);
     shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
     xq, xv = _axis(x, "x")
     yq, yv = _axis(y, "y")
     if not isinstance(fixed, (tuple, list)) or len(fixed) != 2:
@@ -636,7 +636,7 @@ def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
     if xq == yq or fq in (xq, yq) or fq not in AXES:
         raise InputError(f"x, y and fixed must be the three quantities {', '.join(AXES)} "
                          f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}")
-    fv = units._positive(f"fixed {fq}", fv)
+    fv = units.check_positive(f"fixed {fq}", fv)
     X, Y = np.meshgrid(xv, yv)
     dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
     shape = tip_shape("sphere" if shape is None else shape)
@@ -667,7 +667,7 @@ def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
     """The MapNeed of a chart (design_chart's arguments): which map it
     reads, and whether a shipped one serves it.  Nothing is computed."""
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
-    mu = units._positive("mu", mu)
+    mu = units.check_positive("mu", mu)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
     _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile)
     return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile,
@@ -705,7 +705,7 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
     sub, par = grid.substrate, grid.particle
     xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
         grid.fixed_value
-    mu = units._positive("mu", mu)
+    mu = units.check_positive("mu", mu)
     w = _surface_energy(surface_energy)
     if compute and store_dir is None:
         raise InputError("store_dir (--store) is needed to compute a map")

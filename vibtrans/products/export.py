@@ -65,7 +65,7 @@ def ensure_backends():
     hv.Store.set_current_backend(had or "bokeh")     # also fills hv.opts builders
 
 
-def _format(out, allowed=FORMATS):
+def output_format(out, allowed=FORMATS):
     ext = Path(out).suffix.lower().lstrip(".")
     if ext not in allowed:
         raise InputError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
@@ -132,7 +132,7 @@ def render(obj, width=7.0, height=5.0, hspace=HSPACE):
 def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI, hspace=HSPACE):
     """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
     exactly width*dpi x height*dpi pixels for PNG."""
-    fmt = _format(out)
+    fmt = output_format(out)
     _check_size(width, height, dpi)
     import matplotlib.pyplot as plt
     fig = render(obj, width, height, hspace)
@@ -166,7 +166,7 @@ def export_html(obj, out, title="vibtrans"):
     from bokeh.document import Document
     from bokeh.model import Model
     from panel.io.state import set_curdoc
-    _format(out, ("html",))
+    output_format(out, ("html",))
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     # Panel's save renders into a document of its own but takes its
     # stylesheets from the current one's cache: from a served page's callback
@@ -235,14 +235,14 @@ def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
             title += " (partial map)"
         if chaotic == "grey" and bool((map_ds["chaotic"].values == 1).any()):
             title += "; grey: chaotic"
-    x0, y0, x1, y1 = plots._bounds(map_ds)
+    x0, y0, x1, y1 = plots.map_bounds(map_ds)
     return plots.style(el, common=dict(title=title, xlim=(x0, x1), ylim=(y0, y1)))
 
 
 def export_heatmap(map_ds, out, v0=V0, vertical=None, dpi=DEFAULT_DPI, width=7.0,
                    height=5.2, chaotic="grey", title=None):
     """Drift map (`open_map` Dataset) to out (.png/.svg/.pdf, or .html)."""
-    _format(out, FORMATS + ("html",))
+    output_format(out, FORMATS + ("html",))
     return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height,
                   dpi)
 
@@ -255,7 +255,7 @@ def export_trajectory(ds, out, window=None, twin=None, dpi=DEFAULT_DPI, width=11
     with a twin run (tau + 1e-3), a last row compares x*(t).  To out (.png,
     .svg, .pdf: matplotlib, `render_trajectory`; .html: Bokeh,
     `trajectory_bokeh`).  Returns the `plots.TrajectoryFigure` drawn."""
-    fmt = _format(out, FORMATS + ("html",))
+    fmt = output_format(out, FORMATS + ("html",))
     if height is None:
         height = 13.0 if twin is not None else 11.0
     figure = plots.trajectory_figure(ds, window=window, twin=twin, title=title)
@@ -486,7 +486,7 @@ def map_window(map_ds, log_amplitude, log_mass):
 
 def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
     """A_J*(m*) of both models on log axes (paper Fig. 2)."""
-    _format(out, FORMATS + ("html",))
+    output_format(out, FORMATS + ("html",))
     ensure_backends()
     return _write(plots.vertical_curves(vertical), out, width, height, dpi)
 
@@ -495,7 +495,7 @@ def export_dynamics(el, out, dpi=DEFAULT_DPI, width=7.0, height=5.2):
     """A map-like figure (plots.lyapunov_map, section_figure,
     orbit_diagram_figure, continuation_figure, map_difference_figure: the
     explorer's) to out."""
-    _format(out, FORMATS + ("html",))
+    output_format(out, FORMATS + ("html",))
     return _write(el, out, width, height, dpi)
 
 
@@ -508,7 +508,7 @@ def memory_figure(snapshot):
 
 def export_memory(snapshot, out, dpi=DEFAULT_DPI, width=13.0, height=4.2):
     """The memory diagram at one instant (`memory_snapshot` dict)."""
-    _format(out, FORMATS + ("html",))
+    output_format(out, FORMATS + ("html",))
     return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
 
 
@@ -522,7 +522,7 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
     Each scene's points are joined from coarse to fine step."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
-    fmt = _format(out)
+    fmt = output_format(out)
     _check_size(width, height, dpi)
     rows = [r if isinstance(r, dict) else r._asdict() for r in results]
 
@@ -758,7 +758,7 @@ def export_design(chart, out, device=None, dpi=DEFAULT_DPI, width=7.5, height=6.
                   title=None):
     """Design chart (`design.design_chart` Dataset) to out (.png/.svg/.pdf, or
     .html); device: (x, y) to mark, in the chart's coordinates."""
-    _format(out, FORMATS + ("html",))
+    output_format(out, FORMATS + ("html",))
     ensure_backends()
     el = plots.design_figure(chart, device, title).opts(
         {k: dict(aspect="auto") for k in ("QuadMesh", "Path", "Labels", "Points")},

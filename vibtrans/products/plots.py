@@ -120,7 +120,7 @@ def _short(v):
     return f"{round(v, -int(np.floor(np.log10(a))) + 1):g}"
 
 
-def _bounds(ds):
+def map_bounds(ds):
     la = ds["log_amplitude"].values
     lm = ds["log_mass"].values
     da = (la[1] - la[0]) / 2 if la.size > 1 else 0.5

@@ -410,9 +410,9 @@ def main(quick=False, as_json=False, plot=None, pinned=None):
     import platform
     import sys
     if plot is not None:
-        from vibtrans.products.export import FORMATS, _format
+        from vibtrans.products.export import FORMATS, output_format
         try:                                       # a bad name fails before the run
-            _format(plot, FORMATS)
+            output_format(plot, FORMATS)
         except ValueError:
             raise InputError(f"plot must end in {', '.join('.' + f for f in FORMATS)}; "
                              f"got {plot!r}") from None

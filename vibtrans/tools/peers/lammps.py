@@ -186,7 +186,7 @@ def default_step(scene):
 
 def si_mapping(scene, h=None, *, device=DEVICE, samples_per_period=10):
     """The SI numbers of a scene on a device, with the run's step and length."""
-    from vibtrans.core.units import _static_contact, frequency_for_mass_ratio
+    from vibtrans.core.units import static_contact, frequency_for_mass_ratio
     if scene.model not in ("deformable", "vertical"):
         raise InputError(f"model must be deformable or vertical for the LAMMPS peer, "
                          f"got {scene.model!r}")
@@ -199,7 +199,7 @@ def si_mapping(scene, h=None, *, device=DEVICE, samples_per_period=10):
                                                     and 1 <= samples_per_period <= 10000):
         raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
-    _, _, mass, load, a0 = _static_contact(device.substrate, device.particle, device.radius,
+    _, _, mass, load, a0 = static_contact(device.substrate, device.particle, device.radius,
                                            device.preload, device.g)
     f = frequency_for_mass_ratio(scene.mass, device.substrate, device.particle, device.radius,
                                  device.preload, device.g)
