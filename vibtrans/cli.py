@@ -323,8 +323,8 @@ def _design_axis(text, name):
     if len(parts) != 4:
         raise InputError(f"{name} must be QUANTITY:LO:HI:N (quantity one of frequency, "
                          f"radius, amplitude), got {text!r}")
-    q, lo, hi, n = parts
-    n = _num(n)
+    q, lo, hi, count = parts
+    n = _num(count)
     if isinstance(n, float) and n.is_integer():
         n = int(n)
     return (q, _num(lo), _num(hi), n)
@@ -423,12 +423,12 @@ def cmd_design(args):
                                 step=_finite("step", args.step, 0.0, 1.0),
                                 periods=_finite("periods", args.periods, 0.0), report=report,
                                 workers=args.workers, shape=shape)
-    reading = q = None
+    reading = quantities = None
     warnings = []
     if device is not None:
         reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart, shape=shape)
-        q = design.device_quantities(device, reading, surface_energy, shape=shape)
-        warnings = design.validity_warnings(device, surface_energy, q.drift_velocity,
+        quantities = design.device_quantities(device, reading, surface_energy, shape=shape)
+        warnings = design.validity_warnings(device, surface_energy, quantities.drift_velocity,
                                             shape=shape)
     chart_warnings = design.chart_warnings(chart)
     for out in outs:
@@ -442,7 +442,8 @@ def cmd_design(args):
     if args.json:
         print(json.dumps({
             "profile": shape.name, "map_profile": chart.attrs["map_profile"],
-            "device": None if q is None else {k: _jsonable(v) for k, v in q.as_dict().items()},
+            "device": None if quantities is None else {k: _jsonable(v)
+                                                      for k, v in quantities.as_dict().items()},
             "regime": None if reading is None else reading["regime"],
             "warnings": [w.__dict__ for w in warnings],
             "chart_warnings": chart_warnings,
@@ -455,7 +456,7 @@ def cmd_design(args):
             "outputs": outs}))
     else:
         if device is not None:
-            print(_design_text(device, q, warnings, reading))
+            print(_design_text(device, quantities, warnings, reading))
         print(f"chart: {chart.sizes[y[0]]} x {chart.sizes[x[0]]} points, map "
               f"{chart.attrs['map']} ({chart.attrs['reading']})")
         for text in chart_warnings:

@@ -16,7 +16,7 @@ previous steps, which `_contact_history` integrates backwards with small
 RK4 steps (the kernels never start in contact from a bare state otherwise).
 """
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -95,7 +95,7 @@ def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0, law=N
     p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
     gap = y - amplitude * math.cos(TWO_PI * t0)
     columns = []
-    end = None
+    end: Any = None
     for e in ((1.0, 0.0), (0.0, 1.0)):
         state, hist = D.rest_state()
         state[[D.S_T, D.S_Y, D.S_VY]] = (t0, y, vy)
@@ -261,7 +261,9 @@ def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, 
     law = drivers.scene_law(base)
     if guess is None:
         guess = run_guess(base)
-    points, folds, doublings = [], [], []
+    points: list = []
+    folds: list = []
+    doublings: list = []
     ended = "reached the end"
     z_prev = None
     z = np.array(guess, dtype=float)

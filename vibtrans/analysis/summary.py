@@ -178,7 +178,7 @@ def phase_spread(phases):
     if len(phases) == 0:
         return math.nan
     z = np.mean(np.exp(2j * np.pi * np.asarray(phases)))
-    rho = min(abs(z), 1.0)
+    rho = min(float(abs(z)), 1.0)
     return math.sqrt(-2.0 * math.log(rho)) / (2.0 * math.pi) if rho > 0 else math.inf
 
 

@@ -82,7 +82,7 @@ class ImpactGrowth:
             if t[j] < self.t_from:
                 continue
             if j + 1 >= n and not final:
-                self.row = j          # its take-off, if any, comes with the next rows
+                self.row = int(j)     # its take-off, if any, comes with the next rows
                 break
             if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
                 self.captured = True

@@ -130,10 +130,10 @@ class Scene(param.Parameterized):
                        doc="observation time T_obs, wave periods")
     alpha_t = Physical(0.5, bounds=(0.0, 1.0),
                        doc="point mass: tangential restitution at rebounds")
-    model = param.Selector(default="deformable", objects=list(MODELS))
-    integrator = param.Selector(default="ab4", objects=list(INTEGRATORS))
-    fidelity = param.Selector(default="standard", objects=list(FIDELITIES))
-    stick_rule = param.Selector(default="paper", objects=list(STICK_RULES),
+    model: param.Selector = param.Selector(default="deformable", objects=list(MODELS))
+    integrator: param.Selector = param.Selector(default="ab4", objects=list(INTEGRATORS))
+    fidelity: param.Selector = param.Selector(default="standard", objects=list(FIDELITIES))
+    stick_rule: param.Selector = param.Selector(default="paper", objects=list(STICK_RULES),
                                 doc="point mass slide->stick rule (docs/MODEL.md section 3)")
     profile = ProfileSpec("sphere", doc="particle profile (deformable and vertical models): "
                           + ", ".join(PROFILE_KINDS))

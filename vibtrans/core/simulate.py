@@ -245,7 +245,7 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
         p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide, growth=growth,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
     info = {"h": dt}
-    if lyapunov:
+    if growth is not None:
         growth.update(run.events, final=True)
         value, start = growth.exponent()
         info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
@@ -260,7 +260,7 @@ def _deformable(scene):
 
 def _is_time(t, periods):
     return (isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_))
-            and 0 <= t <= periods)
+            and 0 <= float(t) <= periods)
 
 
 def _snapshot(state, ctr, memory):

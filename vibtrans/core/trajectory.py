@@ -71,7 +71,7 @@ def build_trajectory(samples, events, attrs):
     """Dataset from the kernel's trimmed sample and event buffers: the
     arrays of their RunArrays, with units and flag meanings."""
     run = RunArrays(samples, events, attrs, contiguous=True)
-    data = {}
+    data: dict[str, tuple] = {}
     for name, array in run.columns.items():
         if name in _UNITS:
             symbol, desc = _UNITS[name]

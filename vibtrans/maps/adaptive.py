@@ -305,7 +305,8 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
         own = executor is None
         pool = ThreadPoolExecutor(max_workers=workers) if own else executor
         try:
-            pending, queue = {}, list(tasks)
+            pending: dict = {}
+            queue = list(tasks)
             while queue or pending:
                 while queue and len(pending) < 2 * workers and not _set(cancel):
                     t = queue.pop(0)
@@ -342,7 +343,7 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     coarse = [(i, j, top) for i, j in cells]
     compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0,
             coarse)
-    leaves = []
+    leaves: list = []
     size = top
     if on_level is not None:
         on_level(0, coarse)

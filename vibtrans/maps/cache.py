@@ -171,10 +171,10 @@ class MapCache:
                 return running
             ds = self.get(key)
             if ds is not None:
-                done = Future()
+                done: Future = Future()
                 done.set_result(ds)
                 return done
-            future = Future()
+            future: Future = Future()
             self._computing[key] = future
 
         def job():

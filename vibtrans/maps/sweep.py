@@ -27,8 +27,8 @@ import os
 import shlex
 import sys
 import time
-from concurrent.futures import (FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor,
-                                wait)
+from concurrent.futures import (FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor,
+                                ThreadPoolExecutor, wait)
 
 import numpy as np
 import xarray as xr
@@ -250,7 +250,7 @@ class Sweep:
 
     def empty_dataset(self):
         shape = (self.log_amplitude.size, self.log_mass.size)
-        data = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
+        data: dict[str, tuple] = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
                        {"description": desc})
                 for name, (dt, fill, desc) in self.variables.items()}
         data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
@@ -451,12 +451,12 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
         workers = workers or os.cpu_count() or 1
         import multiprocessing as mp
         if executor == "threads":
-            pool_cm = ThreadPoolExecutor(max_workers=workers)
+            pool_cm: Executor = ThreadPoolExecutor(max_workers=workers)
         else:
             pool_cm = ProcessPoolExecutor(max_workers=workers, initializer=warmup,
                                           mp_context=mp.get_context("spawn"))
         with pool_cm as pool:
-            pending = {}
+            pending: dict[Future, int] = {}
             queue = list(todo)
             while queue or pending:
                 while queue and len(pending) < 2 * workers:

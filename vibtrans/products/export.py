@@ -16,6 +16,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -34,6 +35,9 @@ from vibtrans.maps.shipped import maps_dir  # noqa: E402
 from vibtrans.core.errors import InputError  # noqa: E402
 from vibtrans.maps.outfiles import atomic  # noqa: E402
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
+
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
 FRAGMENT = plots.FRAGMENT
@@ -43,7 +47,7 @@ HSPACE = 0.35            # gap between a layout's columns, in axes widths
 MAPS_HSPACE = 0.6        # ... beside a map: its colour bar, ticks and two-line title
 
 # publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
-RC = {
+RC: "dict[RcKeyType, Any]" = {
     "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11,
     "xtick.labelsize": 9.5, "ytick.labelsize": 9.5, "legend.fontsize": 9,
     "legend.framealpha": 0.85, "axes.linewidth": 0.8, "axes.formatter.useoffset": False,
@@ -88,7 +92,7 @@ def _check_size(width, height, dpi):
 def _publication(obj, width, height, hspace=HSPACE):
     """matplotlib options of a publication figure: axes fill their cells (the
     final size is fixed later), no sub-figure letters, no shared ranges."""
-    spec = {k: dict(aspect="auto") for k in _ELEMENTS}
+    spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
     spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace,
                           vspace=0.6)
     spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
@@ -295,7 +299,7 @@ def _mpl_panel(ax, panel):
     if panel.strip is not None:
         from matplotlib.collections import PolyCollection
         edges, shares = panel.strip
-        handles = []
+        handles: list = []
         for code, name in enumerate(STATE_NAMES):
             if shares[:, code].any():
                 # one polygon per state, not snapped to pixels: a band
@@ -317,7 +321,7 @@ def _mpl_panel(ax, panel):
     # the panel's right-axis quantities (y* beside a*, ...) on an axis of
     # their own, as the explorer draws them (plots.RIGHT_AXIS)
     left_label, right_label = panel.axis_labels
-    twin = None
+    twin: Any = None
     if panel.right:
         twin = ax.twinx()
         twin.spines["top"].set_visible(False)
@@ -411,7 +415,9 @@ def trajectory_bokeh(figure, cell=(650, 180)):
                 f.add_layout(Legend(items=items, location="top_left",
                                     orientation="horizontal"))
             else:
-                lines, on_left, on_right = [], [], []
+                lines: list = []
+                on_left: list = []
+                on_right: list = []
                 left_label, right_label = panel.axis_labels
                 if panel.right:
                     from bokeh.models import DataRange1d, LinearAxis

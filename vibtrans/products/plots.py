@@ -191,13 +191,14 @@ def _mpl_key(entries):
     (its own artist: HoloViews' legend handling leaves it alone)."""
     def hook(plot, element):
         from matplotlib.legend import Legend
+        from matplotlib.artist import Artist
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
         ax = plot.handles["axis"]
         old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
         mine = list(old.entries) if old is not None else []
         mine += [e[:3] for e in entries if e[3] and e[0] not in {m[0] for m in mine}]
-        handles = []
+        handles: list[Artist] = []
         for label, kind, spec in mine:
             if kind == "patch":
                 handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
@@ -212,7 +213,7 @@ def _mpl_key(entries):
                      bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2, frameon=False,
                      handlelength=1.8, columnspacing=1.2, fontsize="small")
         key.set_gid(KEY_NAME)
-        key.entries = mine
+        key.entries = mine      # type: ignore[attr-defined]  # read back at the next redraw
         ax.add_artist(key)
         key.set_clip_on(False)      # (add_artist clips to the axes: out of tight layouts)
     return hook
@@ -258,7 +259,7 @@ def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
                     (LOG_A.label, "$x"), (LOG_M.label, "$y"),
                     ("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]),
                 matplotlib=dict(cbar_ticks=ticks))
-    key = [(white_label(v0), "patch", ("white", "#606060"))]
+    key: list[tuple] = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
     shown = chaotic == "grey" and bool(chaos.any())
     if shown or always_grey:
@@ -339,10 +340,10 @@ def paper_points(model="deformable", color="black"):
     xs, ys, ls = zip(*pts)
     points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color=color),
                    bokeh=dict(size=6), matplotlib=dict(s=18))
-    ys = np.array(ys)
+    y = np.array(ys)
     # labels up and right of their point; below it at the map's top edge (point 7)
-    dy = np.where(ys > 4.5, -0.45, 0.12)
-    labels = hv.Labels((np.array(xs) + 0.12, ys + dy, ls), [LOG_A, LOG_M], "label")
+    dy = np.where(y > 4.5, -0.45, 0.12)
+    labels = hv.Labels((np.array(xs) + 0.12, y + dy, ls), [LOG_A, LOG_M], "label")
     labels = style(labels, bokeh=dict(text_color=color),
                    matplotlib=dict(color=color, size=11, horizontalalignment="left",
                                    verticalalignment="bottom", weight="bold"))
@@ -657,7 +658,7 @@ class TrajectoryFigure:
     title: str
     columns: tuple
     window: tuple
-    bins: int | None
+    bins: int | np.integer | None
 
 
 def _line_panels(ds, specs, bins):
@@ -1148,7 +1149,8 @@ def design_figure(chart, device=None, title=None):
                      (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
                      (f"drift velocity ({unit})", "@{v}")]),
                  matplotlib=dict(cbar_ticks=ticks))
-    layers, key = [], []
+    layers: list = []
+    key: list[tuple] = []
     lx, ly = np.log10(x), np.log10(y)
     regime = chart["regime"].values
     for k, name in enumerate(REGIMES):

@@ -41,6 +41,7 @@ import math
 import os
 import platform
 import time
+from typing import Any
 
 import numpy as np
 
@@ -195,7 +196,7 @@ def _profile_cost(repeat, point=1):
     """ns per step of the deformable kernel with each kind of profile law
     over the sphere's (its own Hertz path), at a paper point, round-robin."""
     sphere = paper_scene(point)
-    runs = [(sphere, {})] + [(sphere.replace(profile=p), {}) for p in PROFILE_BENCH.values()]
+    runs: list[tuple] = [(sphere, {})] + [(sphere.replace(profile=p), {}) for p in PROFILE_BENCH.values()]
     ns = _interleaved_ns(runs, repeat)
     out = {"point": point, "sphere_ns_per_step": ns[0]}
     for (kind, spec), v in zip(PROFILE_BENCH.items(), ns[1:]):
@@ -538,7 +539,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     lm = parse_range(_strided(SHIPPED_GRID[1], stride), "log_mass")
     folder = keep or tempfile.mkdtemp()
     os.makedirs(folder, exist_ok=True)
-    out = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
+    out: dict[str, Any] = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
                            f"121 x 201 grid)", "decided_periods": periods}
     seconds = {"full": 0.0, "decided": 0.0}
     cpu = {"full": 0.0, "decided": 0.0}

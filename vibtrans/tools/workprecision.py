@@ -244,7 +244,7 @@ def study(quick=False, cases=None, ladder=None, reference=None,
         v_ref, vf_ref = drift_velocity(ref), final_drift_velocity(ref)
         del base, twin
         for integrator in integrators:
-            done = {}           # h -> Point (settings that give the same step)
+            done: dict = {}     # h -> Point (settings that give the same step)
             for setting in ladder:
                 h = _step(case.scene, setting)
                 if h in done:

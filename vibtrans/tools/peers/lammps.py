@@ -519,7 +519,7 @@ def race(scene, h=None, *, repeat=3, copies=(1,), copies_periods=50.0):
 
 # (label, paper point, overrides, tolerance on the relative drift difference;
 # None: no drift agreement expected or asked)
-CASES = (
+CASES: tuple[tuple[str, int, dict, float | None], ...] = (
     ("vertical (point 6, tau 10)", 6, {"model": "vertical", "tau": 10.0}, None),
     ("gross sliding (point 2, mu 0.05)", 2, {"mu": 0.05}, 0.02),
     ("hovering (point 4)", 4, {}, 0.02),
