@@ -3,16 +3,22 @@
 Bad input exits with status 2 and one line naming the parameter and its
 valid range.
 """
+from __future__ import annotations
+
 import argparse
 import json
 import math
 import os
 import shutil
 import sys
+from typing import TYPE_CHECKING, Any
 
 from vibtrans.version import __version__
 from vibtrans.core.errors import InputError
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
+
+if TYPE_CHECKING:
+    from vibtrans.core.params import Scene
 
 
 class _Parser(argparse.ArgumentParser):
@@ -72,7 +78,7 @@ def _log10_value(name, value):
     return 10.0 ** value
 
 
-def scene_from_args(args):
+def scene_from_args(args: argparse.Namespace) -> Scene:
     from vibtrans.core.params import Scene
     amplitude = (args.amplitude if args.log_amplitude is None
                  else _log10_value("log_amplitude", args.log_amplitude))
@@ -116,7 +122,7 @@ def _jsonable(value):
     return value
 
 
-def cmd_simulate(args):
+def cmd_simulate(args: argparse.Namespace) -> int:
     from vibtrans.analysis.summary import jumped, summarize, twin_scene
     from vibtrans.core.simulate import simulate
     scene = scene_from_args(args)
@@ -167,13 +173,14 @@ def _orbit_json(orbit):
     return out
 
 
-def cmd_orbit(args):
+def cmd_orbit(args: argparse.Namespace) -> int:
     """A period-k orbit of the vertical motion's stroboscopic map (Newton
     shooting), or its continuation along log10 A* or log10 m*."""
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
     period = _finite("period", args.period, 1, 64, integer=True)
+    guess: tuple[float, ...]
     if args.guess == "run":
         guess = Y.run_guess(scene)
     elif args.guess == "rest":
@@ -215,7 +222,7 @@ def cmd_orbit(args):
     return 0
 
 
-def cmd_threshold(args):
+def cmd_threshold(args: argparse.Namespace) -> int:
     from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude
     if args.sweep:
         return _threshold_sweep(args)
@@ -250,7 +257,7 @@ def _threshold_sweep(args):
     return 0
 
 
-def cmd_bench(args):
+def cmd_bench(args: argparse.Namespace) -> int:
     from vibtrans.tools.bench import main as bench_main
     if args.plot is not None:
         check_file(args.plot, "plot")
@@ -259,7 +266,7 @@ def cmd_bench(args):
                       export=args.export)
 
 
-def cmd_sweep(args):
+def cmd_sweep(args: argparse.Namespace) -> int:
     from vibtrans.maps.sweep import Sweep, command_line, parse_range, run_sweep
     sweep = Sweep(parse_range(args.log_amplitude, "log_amplitude"),
                   parse_range(args.log_mass, "log_mass"), chunk_rows=args.chunk_rows,
@@ -362,11 +369,11 @@ def _design_text(dev, q, warnings, reading):
     return "\n".join(lines)
 
 
-def units_name(m):
+def units_name(m: Any) -> Any:
     return m if isinstance(m, str) else m.name
 
 
-def cmd_design(args):
+def cmd_design(args: argparse.Namespace) -> int:
     from pathlib import Path
     from vibtrans.products import design
     from vibtrans.core import units
@@ -466,7 +473,7 @@ def cmd_design(args):
     return 0
 
 
-def cmd_serve(args):
+def cmd_serve(args: argparse.Namespace):
     """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
     server), not the library's: this is the library's one import of it, done
     only here, so `import vibtrans` and the other commands never load Panel."""
@@ -518,7 +525,7 @@ def _export_sizes(args):
     return out
 
 
-def cmd_export(args):
+def cmd_export(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from vibtrans.products import export as E
@@ -964,10 +971,10 @@ def _glue_negative_values(argv):
     return out
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> Any:
     parser = build_parser()
     command_line = argv is None
-    argv = sys.argv[1:] if command_line else list(argv)
+    argv = sys.argv[1:] if command_line else list(argv or ())
     args = parser.parse_args(_glue_negative_values(argv))
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process

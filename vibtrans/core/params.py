@@ -7,16 +7,24 @@ and a bad one raises ValueError naming the parameter and its valid range
 Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
 wave periods.
 """
+from __future__ import annotations
+
 import functools
 import math
 import numbers
 import sys
+from typing import TYPE_CHECKING, Any
 
 import param
 
 from vibtrans.core.units import amplitude_ratio
 from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
+
+if TYPE_CHECKING:
+    from vibtrans.core.profiles import FlatSphereProfile
+    from vibtrans.core.profiles import PowerLawProfile
+    from vibtrans.core.profiles import TabulatedProfile
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
@@ -59,7 +67,7 @@ class Physical(param.Number):
             raise InputError(f"{name} must be in {rng}, got {val!r}")
 
 
-def check_profile(val, refuse_measured=None):
+def check_profile(val: Any, refuse_measured: str | None = None) -> None:
     """InputError naming the parameter and its range unless `val` is a
     profile's spec (a file: spec is checked when its table is read);
     `refuse_measured`: the message refusing a measured table (file:PATH),
@@ -142,7 +150,7 @@ class Scene(param.Parameterized):
                                  doc="N0/E*, m^2: the static load over the contact modulus "
                                      "(file: profiles only, whose table is in metres)")
 
-    def __init__(self, **params):
+    def __init__(self, **params: Any) -> None:
         for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
                              ("fidelity", FIDELITIES), ("stick_rule", STICK_RULES)):
             if key in params:
@@ -153,7 +161,7 @@ class Scene(param.Parameterized):
         super().__init__(**params)
         self.profile_shape()           # a file profile is read and checked now
 
-    def profile_shape(self):
+    def profile_shape(self) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
         """The profile object (vibtrans.core.profiles) of this scene; its
         kernels' law: vibtrans.core.drivers.scene_law(scene)."""
         return _profile_shape(self.profile, self.load_over_modulus)
@@ -163,13 +171,13 @@ class Scene(param.Parameterized):
         """Rayleigh horizontal/vertical amplitude ratio r(nu)."""
         return _amplitude_ratio_of(float(self.nu))
 
-    def values(self):
+    def values(self) -> dict[str, Any]:
         """The scene as a plain dict (attributes of results, JSON).  The
         profile's load appears only where it is set (a file: profile)."""
         return {k: getattr(self, k) for k in self.param
                 if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)}
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> Scene:
         """A copy with some values changed (validated)."""
         return Scene(**{**self.values(), **changes})
 
@@ -193,8 +201,29 @@ PAPER_POINTS = {
 }
 
 
-def paper_scene(point, **overrides):
-    """Scene of the paper's point 1-10 (mu = 0.3, theta = 1.2, tau = 50)."""
+def paper_scene(point: int, **overrides: Any) -> Scene:
+    """Scene of one of the paper's ten labelled points.
+
+    The points share mu = 0.3, theta = 1.2 and tau = 50; `PAPER_POINTS`
+    gives each one's model, log10 A* and log10 m*.
+
+    Parameters
+    ----------
+    point : int
+        The point's number, 1 to 10.
+    **overrides
+        Scene parameters to set instead of the point's (e.g. `periods=60`).
+
+    Returns
+    -------
+    Scene
+        The point's scene, with the overrides applied.
+
+    Raises
+    ------
+    InputError
+        If `point` is not 1-10 or an override is outside its range.
+    """
     if point not in PAPER_POINTS:
         raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]

@@ -42,12 +42,15 @@ digests per chunk, `computed` among the digested variables; sweep.verify and
 sweep.open_map accept it) to a temporary folder renamed to <out>, and the
 partial folder is removed.
 """
+from __future__ import annotations
+
 import hashlib
 import json
 import os
 import shutil
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -56,6 +59,10 @@ from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.core.simulate import warmup
 from vibtrans.maps.sweep import (block_digest, check_store, compute_point, progress_bar,
                                  short_reason, verify)
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from vibtrans.maps.sweep import Sweep
 
 MAX_LEVELS = (1, 8)
 DEFAULT_DRIFT_TOLERANCE = 0.5
@@ -68,7 +75,7 @@ BATCH_POINTS = 64          # points per batch file (a kill loses at most these)
 POINTS_PER_TASK = 4        # points per worker task (amortizes the pool's overhead)
 
 
-def check_levels(sweep, max_level):
+def check_levels(sweep: Sweep, max_level: int) -> None:
     """Refuse (InputError) a finest level outside 1..8 or a grid whose sizes
     do not fit it ((n - 1) divisible by 2^K on both axes)."""
     lo, hi = MAX_LEVELS
@@ -85,7 +92,7 @@ def check_levels(sweep, max_level):
                              f"{stride} (e.g. {sizes} points)")
 
 
-def check_tolerance(tol):
+def check_tolerance(tol: float) -> float:
     """Refuse (InputError) a drift tolerance outside (0, 100]."""
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) \
             or not 0 < tol <= 100:
@@ -125,7 +132,7 @@ def _cell_points(i0, j0, s):
             (i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h)]
 
 
-def disagree(grid, i0, j0, s, tol):
+def disagree(grid: Any, i0: int, j0: int, s: Any, tol: float) -> bool:
     """True if the cell's computed corners and edge midpoints disagree (the
     module docstring's rule).  Adding points never turns True into False, so
     the refinement is the same whatever order the points arrive in (a
@@ -367,7 +374,7 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     return leaves         # (cells of size 1 hold no missing points)
 
 
-def fill(grid, leaves):
+def fill(grid: Any, leaves: Any) -> None:
     """Fill every point not computed from the smallest leaf holding it."""
     cont = [v for v in CONTINUOUS if v in grid.data]
     cat = [v for v in CATEGORICAL if v in grid.data]
@@ -399,9 +406,11 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
                             f"another --out or delete it")
 
 
-def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
-                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None,
-                 executor=None, on_chunk=None, chunk_seconds=2.0):
+def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
+                 drift_tolerance: Any = DEFAULT_DRIFT_TOLERANCE, workers: int | None = None,
+                 scheduler: Any = None, progress: bool = True, on_level: Any = None,
+                 cancel: Any = None, executor: str | None = None, on_chunk: Any = None,
+                 chunk_seconds: float = 2.0) -> float:
     """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
     finest) into the Zarr store `path`, resuming from `<path>.partial/`.
 
@@ -492,7 +501,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     return fraction
 
 
-def snapshot(sweep, grid, cells):
+def snapshot(sweep: Sweep, grid: Any, cells: Any) -> xr.Dataset:
     """The map so far as a Dataset on the finest grid: a copy of the grid
     filled from `cells` (a tiling), with `computed`."""
     import xarray as xr

@@ -21,6 +21,8 @@ process pool on this 2-core machine: 59 vs 42 points/s, 89% vs 91% parallel
 efficiency), or on a dask.distributed cluster given its scheduler address;
 the kernels are the same either way.
 """
+from __future__ import annotations
+
 import hashlib
 import math
 import os
@@ -29,6 +31,7 @@ import sys
 import time
 from concurrent.futures import (FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor,
                                 ThreadPoolExecutor, wait)
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 import xarray as xr
@@ -40,6 +43,9 @@ from vibtrans.core.simulate import run_records, warmup
 from vibtrans.core.trajectory import RunArrays
 from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -104,7 +110,7 @@ DECIDED_VARIABLES = {
 }
 
 
-def variables_of(kind, chaos, stop="full"):
+def variables_of(kind: str, chaos: str, stop: str = "full") -> dict[str, Any]:
     """The stored variables of a sweep of this kind, chaos source and stop rule."""
     if kind == "lyapunov":
         return LYAPUNOV_VARIABLES
@@ -112,13 +118,13 @@ def variables_of(kind, chaos, stop="full"):
     return {**variables, **DECIDED_VARIABLES} if stop == "decided" else variables
 
 
-def short_reason(exc, limit=240):
+def short_reason(exc: BaseException, limit: int = 240) -> str:
     """An underlying error as one short line (for StoreMismatch messages)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if len(text) <= limit else text[:limit] + "..."
 
 
-def parse_range(text, name):
+def parse_range(text: str, name: str) -> np.ndarray:
     """'start:stop:step' (inclusive stop) -> 1-D array, validated."""
     try:
         start, stop, step = (float(v) for v in str(text).split(":"))
@@ -133,7 +139,8 @@ def parse_range(text, name):
     return np.round(start + step * np.arange(n), 10)
 
 
-def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
+def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
+                  stop: str = "full") -> dict[str, Any]:
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"; the material point's from its impact map), or the run and,
     if it jumps, its chaos twin (analysis.twin_scene; chaos "twin").
@@ -173,7 +180,7 @@ def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     }
 
 
-def lyapunov_point(values, log_a, log_m):
+def lyapunov_point(values: Any, log_a: Any, log_m: Any) -> dict[str, Any]:
     """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
     ds = RunArrays(*run_records(scene, lyapunov=True))
@@ -192,7 +199,7 @@ def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin", s
     return [[compute_point(values, la, lm, chaos, stop) for lm in log_ms] for la in log_as]
 
 
-def block_digest(block, variables=VARIABLES):
+def block_digest(block: Any, variables: Any = VARIABLES) -> np.unsignedinteger:
     h = hashlib.sha256()
     for name in variables:
         h.update(np.ascontiguousarray(block[name].values).tobytes())
@@ -202,8 +209,9 @@ def block_digest(block, variables=VARIABLES):
 class Sweep:
     """A sweep's definition: scene values (everything but A*, m*) and grid."""
 
-    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None,
-                 kind="transport", chaos="lyapunov", stop="full", **values):
+    def __init__(self, log_amplitude: npt.ArrayLike, log_mass: npt.ArrayLike, chunk_rows: int = 4,
+                 command: str | None = None, kind: str = "transport", chaos: str = "lyapunov",
+                 stop: str = "full", **values: Any) -> None:
         if kind not in KINDS:
             raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if chaos not in CHAOS_SOURCES:
@@ -237,10 +245,10 @@ class Sweep:
     def n_chunks(self):
         return -(-self.log_amplitude.size // self.chunk_rows)
 
-    def rows(self, k):
+    def rows(self, k: int) -> slice[Any, int, Any]:
         return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
 
-    def attrs(self):
+    def attrs(self) -> dict[str, Any]:
         return {**{f"scene_{k}": v for k, v in self.values.items()},
                 "chunk_rows": self.chunk_rows, "code_version": __version__,
                 "command": self.command,
@@ -248,7 +256,7 @@ class Sweep:
                 **({"chaos": self.chaos} if self.kind == "transport" else {}),
                 **({"stop": self.stop} if self.stop != "full" else {})}
 
-    def empty_dataset(self):
+    def empty_dataset(self) -> xr.Dataset:
         shape = (self.log_amplitude.size, self.log_mass.size)
         data: dict[str, tuple] = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
                        {"description": desc})
@@ -261,7 +269,7 @@ class Sweep:
                           attrs=self.attrs())
 
 
-def check_store(ds, sweep, path):
+def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> None:
     problems = []
     for k, v in sweep.values.items():
         got = ds.attrs.get(f"scene_{k}")
@@ -288,7 +296,7 @@ def check_store(ds, sweep, path):
                             f"use another --out or delete it")
 
 
-def verify(ds, path="store"):
+def verify(ds: xr.Dataset, path: Any = "store") -> None:
     """Raise StoreMismatch unless every done chunk matches its digest."""
     rows = ds.attrs.get("chunk_rows", 0)
     if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
@@ -335,12 +343,28 @@ def verify(ds, path="store"):
                                 f"(damaged or edited); delete the store and rerun")
 
 
-def open_map(path, expect=None):
+def open_map(path: str | os.PathLike[str], expect: Any = None) -> xr.Dataset:
     """Open a finished or partial sweep, verified; undone points are masked.
 
-    expect: scene values the store must have been made with (e.g.
-    {"model": "deformable", "mu": 0.3}, from a map's file name); a store made
-    with others is refused (StoreMismatch)."""
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The Zarr store (or a netCDF file) of a sweep.
+    expect : dict, optional
+        Scene values the store must have been made with (e.g.
+        `{"model": "deformable", "mu": 0.3}`, from a map's file name).
+
+    Returns
+    -------
+    xarray.Dataset
+        The map over (log_amplitude, log_mass).
+
+    Raises
+    ------
+    StoreMismatch
+        If the store is unreadable, damaged, or made with other values than
+        `expect`.
+    """
     if not os.path.exists(path):
         raise FileNotFoundError(f"no sweep store at {path}")
     try:
@@ -368,10 +392,25 @@ def open_map(path, expect=None):
 VERTICAL_VARIABLES = ("threshold_amplitude", "point_mass_threshold_amplitude")
 
 
-def open_vertical(path):
-    """The jumping-threshold curve A_J*(m*) (netCDF, from `vibtrans threshold
-    --sweep`), checked: StoreMismatch naming the path and the problem if it
-    is unreadable (damaged, truncated) or not such a curve (foreign)."""
+def open_vertical(path: str | os.PathLike[str]) -> xr.Dataset:
+    """The jumping-threshold curve A_J*(m*), checked.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The netCDF file written by `vibtrans threshold --sweep`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The curve along `log_mass`.
+
+    Raises
+    ------
+    StoreMismatch
+        Naming the path and the problem, if the file is unreadable (damaged,
+        truncated) or not such a curve.
+    """
     if not os.path.exists(path):
         raise FileNotFoundError(f"no vertical curve at {path}")
     try:
@@ -393,13 +432,43 @@ def open_vertical(path):
     return ds
 
 
-def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
-              executor="threads", flush_every=None):
+def run_sweep(sweep: Sweep, path: str | os.PathLike[str], workers: int | None = None,
+              scheduler: Any = None, progress: bool = True, executor: str = "threads",
+              flush_every: float | None = None) -> str | os.PathLike[str]:
     """Compute every unfinished chunk of `sweep` into the Zarr store `path`.
 
-    executor: "threads" (default, measured faster: the numba kernels release
-    the GIL) or "processes".  flush_every: seconds finished chunks may wait
-    before they are written (default FLUSH_EVERY_S; 0: each as it finishes).
+    A store left by an interrupted run resumes where it stopped.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The map's definition: scene values and grid.
+    path : str or os.PathLike
+        The Zarr store, created if missing.
+    workers : int, optional
+        Parallel workers; None: one per core.
+    scheduler : str, optional
+        A Dask scheduler address (tcp://HOST:PORT) to send the chunks to.
+    progress : bool
+        Show a progress bar on stderr.
+    executor : str
+        "threads" (default, measured faster: the numba kernels release the
+        GIL) or "processes".
+    flush_every : float, optional
+        Seconds finished chunks may wait before they are written (default
+        FLUSH_EVERY_S; 0: each as it finishes).
+
+    Returns
+    -------
+    str or os.PathLike
+        `path`.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    StoreMismatch
+        If `path` holds a store of another sweep, or an unreadable one.
     """
     if executor not in ("processes", "threads"):
         raise InputError(f"executor must be processes or threads, got {executor!r}")
@@ -477,7 +546,7 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
                     failed.result()     # raises the chunk's error
 
 
-def progress_bar(total, enabled):
+def progress_bar(total: Any, enabled: bool) -> Any[NoReturn]:
     from tqdm import tqdm
     return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
                 desc="sweep", smoothing=0.05)
@@ -486,7 +555,7 @@ def progress_bar(total, enabled):
 FLUSH_EVERY_S = 2.0    # finished chunks wait in memory at most this long
 
 
-def check_flush_every(seconds):
+def check_flush_every(seconds: float) -> float:
     """The validated flush interval (seconds, a number in [0, 3600])."""
     if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
             or not 0.0 <= seconds <= 3600.0):
@@ -550,5 +619,5 @@ def _write_chunks(path, sweep, ks, blocks):
         path, region={"chunk": chunks}, consolidated=False)
 
 
-def command_line():
+def command_line() -> str:
     return "vibtrans " + " ".join(shlex.quote(a) for a in sys.argv[1:])

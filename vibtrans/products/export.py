@@ -11,6 +11,8 @@ changing `hv.Store.current_backend`, and every render names its backend.
 Every `export_*` function returns the HoloViews object it rendered
 (`export_trajectory`: the `plots.TrajectoryFigure`, drawn without HoloViews).
 """
+from __future__ import annotations
+
 import math
 import shlex
 import sys
@@ -36,7 +38,12 @@ from vibtrans.core.errors import InputError  # noqa: E402
 from vibtrans.maps.outfiles import atomic  # noqa: E402
 
 if TYPE_CHECKING:
+    import os
+    import xarray as xr
+    from matplotlib.figure import Figure
     from matplotlib.typing import RcKeyType
+    from vibtrans.core.params import Scene
+    from vibtrans.products.plots import TrajectoryFigure
 
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
@@ -59,7 +66,7 @@ _ELEMENTS = ("Curve", "Image", "Rectangles", "Polygons", "Points", "Labels", "Te
 
 
 # ---------------------------------------------------------------- backends
-def ensure_backends():
+def ensure_backends() -> None:
     """Load the bokeh and matplotlib plotting backends of HoloViews (their
     option trees) without changing the current backend (bokeh if none was
     selected yet).  Call before building figures to be rendered headless."""
@@ -69,7 +76,7 @@ def ensure_backends():
     hv.Store.set_current_backend(had or "bokeh")     # also fills hv.opts builders
 
 
-def output_format(out, allowed=FORMATS):
+def output_format(out: str | os.PathLike[str], allowed: tuple[str, ...] = FORMATS) -> str:
     ext = Path(out).suffix.lower().lstrip(".")
     if ext not in allowed:
         raise InputError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
@@ -119,7 +126,7 @@ def _fit(fig, pad=0.06, rounds=6):
                              p.width * sx, p.height * sy])
 
 
-def render(obj, width=7.0, height=5.0, hspace=HSPACE):
+def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE):
     """A matplotlib Figure of `obj` at width x height inches (not shown;
     close it with matplotlib.pyplot.close when done); a layout's columns
     `hspace` axes widths apart."""
@@ -133,7 +140,8 @@ def render(obj, width=7.0, height=5.0, hspace=HSPACE):
     return fig
 
 
-def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI, hspace=HSPACE):
+def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: float = 5.0,
+         dpi: int = DEFAULT_DPI, hspace: float = HSPACE):
     """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
     exactly width*dpi x height*dpi pixels for PNG."""
     fmt = output_format(out)
@@ -163,10 +171,31 @@ def _metadata(fmt):
     return {"Creator": creator, "CreationDate": None}
 
 
-def export_html(obj, out, title="vibtrans"):
-    """Standalone interactive HTML (bokeh, resources inline: opens offline,
-    no server).  obj: a HoloViews object built with the bokeh backend loaded,
-    a Bokeh model, or anything Panel can show."""
+def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") -> Any:
+    """A standalone interactive HTML file (Bokeh, resources inline).
+
+    It opens offline, with no server.
+
+    Parameters
+    ----------
+    obj : object
+        A HoloViews object built with the bokeh backend loaded, a Bokeh
+        model, or anything Panel can show.
+    out : str or os.PathLike
+        The .html file.
+    title : str
+        The page's title.
+
+    Returns
+    -------
+    object
+        `obj`.
+
+    Raises
+    ------
+    InputError
+        If `out` does not end in .html.
+    """
     from bokeh.document import Document
     from bokeh.model import Model
     from panel.io.state import set_curdoc
@@ -215,7 +244,8 @@ def _write(obj, out, width, height, dpi, html_cell=None):
 
 
 # ---------------------------------------------------------------- figures
-def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
+def heatmap_figure(map_ds: xr.Dataset, v0: float = V0, vertical: xr.Dataset | None = None,
+                   chaotic: str = "grey", title: str | None = None):
     """The explorer's map (same layers): drift velocity in the paper's colour
     scale, jumping boundary (and resonances, deformable), paper points."""
     ensure_backends()
@@ -243,22 +273,84 @@ def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
     return plots.style(el, common=dict(title=title, xlim=(x0, x1), ylim=(y0, y1)))
 
 
-def export_heatmap(map_ds, out, v0=V0, vertical=None, dpi=DEFAULT_DPI, width=7.0,
-                   height=5.2, chaotic="grey", title=None):
-    """Drift map (`open_map` Dataset) to out (.png/.svg/.pdf, or .html)."""
+def export_heatmap(map_ds: xr.Dataset, out: str | os.PathLike[str], v0: float = V0,
+                   vertical: xr.Dataset | None = None, dpi: int = DEFAULT_DPI, width: float = 7.0,
+                   height: float = 5.2, chaotic: str = "grey", title: str | None = None) -> Any:
+    """The drift map of a sweep, as a figure file.
+
+    Parameters
+    ----------
+    map_ds : xarray.Dataset
+        A map, as `open_map` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html (interactive).
+    v0 : float
+        Drift speeds below this (a0 per period) are drawn as no drift.
+    vertical : xarray.Dataset, optional
+        The jumping threshold (`open_vertical`), drawn over the map.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+    chaotic : str
+        How chaotic points are drawn ("grey": a grey layer).
+    title : str, optional
+        The figure's title; None: the map's.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
     output_format(out, FORMATS + ("html",))
     return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height,
                   dpi)
 
 
-def export_trajectory(ds, out, window=None, twin=None, dpi=DEFAULT_DPI, width=11.0,
-                      height=None, title=None):
-    """Trajectory figure (`plots.trajectory_figure`): the whole run as
-    per-bin mean and min-max envelope, and the full-resolution fragment
-    `window` (default: the run's recorded window, else its last 2 periods);
-    with a twin run (tau + 1e-3), a last row compares x*(t).  To out (.png,
-    .svg, .pdf: matplotlib, `render_trajectory`; .html: Bokeh,
-    `trajectory_bokeh`).  Returns the `plots.TrajectoryFigure` drawn."""
+def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
+                      window: tuple[float, float] | None = None, twin: xr.Dataset | None = None,
+                      dpi: int = DEFAULT_DPI, width: float = 11.0, height: float | None = None,
+                      title: str | None = None) -> TrajectoryFigure:
+    """A run's trajectory figure, as a file.
+
+    The whole run as per-bin mean and min-max envelope, and the
+    full-resolution fragment `window`; with a twin run (tau + 1e-3), a last
+    row compares x*(t).  Matplotlib draws .png, .svg and .pdf; Bokeh .html.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A run, as `simulate` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    window : tuple of float, optional
+        (t0, t1) of the fragment; None: the run's recorded window, else its
+        last 2 periods.
+    twin : xarray.Dataset, optional
+        The tau + 1e-3 twin run.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+        None height: from the number of rows.
+    title : str, optional
+        The figure's title; None: the scene's.
+
+    Returns
+    -------
+    TrajectoryFigure
+        The figure drawn, as data.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension, the window or a size is not accepted.
+    """
     fmt = output_format(out, FORMATS + ("html",))
     if height is None:
         height = 13.0 if twin is not None else 11.0
@@ -349,7 +441,7 @@ def _mpl_panel(ax, panel):
     ax.legend(handles, [tr.label for tr in panel.traces], loc="best")
 
 
-def render_trajectory(figure, width=11.0, height=13.0):
+def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) -> Figure:
     """A matplotlib Figure of a `plots.TrajectoryFigure`, width x height
     inches, its columns side by side (close it with
     matplotlib.pyplot.close when done)."""
@@ -376,7 +468,7 @@ def render_trajectory(figure, width=11.0, height=13.0):
     return fig
 
 
-def trajectory_bokeh(figure, cell=(650, 180)):
+def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
     """A Bokeh layout of a `plots.TrajectoryFigure` (standalone HTML): the
     title, then the columns side by side, each panel `cell` = (width,
     height) pixels, a column's panels on one linked, zoomable time axis."""
@@ -460,7 +552,7 @@ def trajectory_bokeh(figure, cell=(650, 180)):
 
 
 # ---------------------------------------------------------------- data files
-def samples_csv(ds):
+def samples_csv(ds: xr.Dataset) -> str:
     """The run's samples as CSV text: one row per recorded instant, a
     column per variable on the time axis (normalized units, docs/MODEL.md
     section 4), after a comment header with the scene and the units.  The
@@ -481,7 +573,7 @@ def samples_csv(ds):
     return buf.getvalue()
 
 
-def map_window(map_ds, log_amplitude, log_mass):
+def map_window(map_ds: xr.Dataset, log_amplitude: Any, log_mass: Any) -> xr.Dataset:
     """The map's points inside [log_amplitude] x [log_mass] (closed ranges,
     e.g. a zoomed view's), with the map's attributes."""
     (a0, a1), (m0, m1) = sorted(log_amplitude), sorted(log_mass)
@@ -490,36 +582,107 @@ def map_window(map_ds, log_amplitude, log_mass):
                       log_mass=lm[(lm >= m0) & (lm <= m1)])
 
 
-def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
-    """A_J*(m*) of both models on log axes (paper Fig. 2)."""
+def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                    width: float = 6.5, height: float = 4.8) -> Any:
+    """The jumping threshold A_J*(m*) of both models on log axes (paper Fig. 2).
+
+    Parameters
+    ----------
+    vertical : xarray.Dataset
+        The curve, as `open_vertical` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
     output_format(out, FORMATS + ("html",))
     ensure_backends()
     return _write(plots.vertical_curves(vertical), out, width, height, dpi)
 
 
-def export_dynamics(el, out, dpi=DEFAULT_DPI, width=7.0, height=5.2):
-    """A map-like figure (plots.lyapunov_map, section_figure,
-    orbit_diagram_figure, continuation_figure, map_difference_figure: the
-    explorer's) to out."""
+def export_dynamics(el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                    width: float = 7.0, height: float = 5.2) -> Any:
+    """A map-like figure of the dynamics, as a file.
+
+    Parameters
+    ----------
+    el : object
+        A figure of `plots`: lyapunov_map, section_figure,
+        orbit_diagram_figure, continuation_figure or map_difference_figure
+        (the explorer's).
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
     output_format(out, FORMATS + ("html",))
     return _write(el, out, width, height, dpi)
 
 
-def memory_figure(snapshot):
+def memory_figure(snapshot: Any) -> Any:
     """Memory diagram w(h), spring displacements u(h) and the contact circle."""
     ensure_backends()
     mem = plots.memory_diagram(snapshot)
     return (mem + plots.contact_circle(snapshot)).cols(3)
 
 
-def export_memory(snapshot, out, dpi=DEFAULT_DPI, width=13.0, height=4.2):
-    """The memory diagram at one instant (`memory_snapshot` dict)."""
+def export_memory(snapshot: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                  width: float = 13.0, height: float = 4.2) -> Any:
+    """The memory diagram at one instant, as a figure file.
+
+    Parameters
+    ----------
+    snapshot : dict
+        A snapshot, as `vibtrans.core.simulate.memory_snapshot` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
     output_format(out, FORMATS + ("html",))
     return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
 
 
-def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
-                          targets=(0.05, 0.005), reference="the reference preset refined twice"):
+def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                          width: float = 12.0, height: float = 5.6,
+                          targets: tuple[float, float] = (0.05, 0.005),
+                          reference: str = "the reference preset refined twice") -> Figure:
     """Work-precision diagram of `workprecision.study` points (named tuples or
     their dicts): error against kernel seconds, log-log; left the relative
     drift error, right the trajectory error; one colour per scene, one marker
@@ -596,17 +759,17 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
 
 
 # ---------------------------------------------------------------- paper
-def default_maps_dir():
+def default_maps_dir() -> Path:
     """The shipped maps (vibtrans.maps_dir(): $VIBTRANS_ASSETS/maps, else
     the maps installed with the package)."""
     return maps_dir()
 
 
-def map_path(maps_dir, model, mu):
+def map_path(maps_dir: str | os.PathLike[str], model: str, mu: float) -> Path:
     return Path(maps_dir) / f"{model}-mu{mu:g}.zarr"
 
 
-def load_vertical(maps_dir):
+def load_vertical(maps_dir: str | os.PathLike[str]) -> xr.Dataset | None:
     """The vertical curve of maps_dir, checked (sweep.open_vertical), or None
     if there is none; StoreMismatch (a ValueError) if it is unusable."""
     from vibtrans.maps.sweep import open_vertical
@@ -614,7 +777,9 @@ def load_vertical(maps_dir):
     return open_vertical(str(path)) if path.exists() else None
 
 
-def paper_trajectory(point, periods=None, window=None, twin=False, progress=None):
+def paper_trajectory(point: int, periods: float | None = None,
+                     window: tuple[float, float] | None = None, twin: bool = False,
+                     progress: Any = None) -> tuple[Scene, xr.Dataset, xr.Dataset | None]:
     """Run a paper point as the figures show it: decimated overview and the
     full-resolution window (default: the last 2 periods)."""
     from vibtrans.core.simulate import simulate
@@ -640,7 +805,7 @@ PAPER_FIGURES = {
 TWIN_POINTS = (8, 10)      # chaotic: shown with their chaos twin (analysis.twin_scene)
 
 
-def point_title(point, scene):
+def point_title(point: int, scene: Scene) -> str:
     """Title of a paper point's trajectory figure."""
     la, lm, model = PAPER_POINTS[point]
     return f"Point {point}: {model}, A* = 10^{la:g}, m* = 10^{lm:g}, mu = {scene.mu:g}"
@@ -652,12 +817,40 @@ def _point_command(point, out):
     return cmd + (" --twin" if point in TWIN_POINTS else "")
 
 
-def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=None, fmt="png"):
-    """Regenerate the paper's figures into out_dir, one file per figure, and
-    an index.md naming each figure's scene and the command that makes it
-    alone.  maps: folder of the shipped maps (default_maps_dir()).  A figure
-    whose data is missing is listed in the index as not made.  Returns
-    {figure number: path or None}."""
+def export_paper(out_dir: str | os.PathLike[str], progress: bool = True, maps: Any = None,
+                 dpi: int = DEFAULT_DPI, periods: float | None = None,
+                 fmt: str = "png") -> dict[Any, Any]:
+    """Regenerate the paper's figures into a folder.
+
+    One file per figure, and an index.md naming each figure's scene and the
+    command that makes it alone.  A figure whose data is missing is listed in
+    the index as not made.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The folder, created if missing.
+    progress : bool
+        Show a progress bar on stderr.
+    maps : str or os.PathLike, optional
+        Folder of the shipped maps; None: `default_maps_dir()`.
+    dpi : int
+        Resolution of raster figures.
+    periods : float, optional
+        T_obs of the trajectories' runs; None: the paper's.
+    fmt : str
+        "png", "svg" or "pdf".
+
+    Returns
+    -------
+    dict
+        {figure number: path, or None where not made}.
+
+    Raises
+    ------
+    InputError
+        If `fmt` or `dpi` is not accepted.
+    """
     from tqdm import tqdm
 
     from vibtrans.maps.sweep import open_map
@@ -671,7 +864,9 @@ def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=Non
     ensure_backends()
     vertical = load_vertical(maps)
     maps_arg = "" if maps == default_maps_dir() else f" --maps {shlex.quote(str(maps))}"
-    made, rows = {}, []
+    made: dict = {}
+    rows: list[tuple] = []
+    path: Path | None
     start = time.perf_counter()
     bar = tqdm(PAPER_FIGURES.items(), total=len(PAPER_FIGURES), desc="paper figures",
                file=sys.stderr, disable=not progress, unit="fig")
@@ -760,10 +955,36 @@ def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
         Path(tmp).write_text("\n".join(lines))
 
 
-def export_design(chart, out, device=None, dpi=DEFAULT_DPI, width=7.5, height=6.0,
-                  title=None):
-    """Design chart (`design.design_chart` Dataset) to out (.png/.svg/.pdf, or
-    .html); device: (x, y) to mark, in the chart's coordinates."""
+def export_design(chart: xr.Dataset, out: str | os.PathLike[str], device: Any = None,
+                  dpi: int = DEFAULT_DPI, width: float = 7.5, height: float = 6.0,
+                  title: str | None = None) -> Any:
+    """A design chart, as a figure file.
+
+    Parameters
+    ----------
+    chart : xarray.Dataset
+        A chart, as `design_chart` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    device : tuple of float, optional
+        (x, y) of a device to mark, in the chart's coordinates.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+    title : str, optional
+        The figure's title; None: the chart's.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
     output_format(out, FORMATS + ("html",))
     ensure_backends()
     el = plots.design_figure(chart, device, title).opts(
