@@ -150,7 +150,8 @@ class Orbit(NamedTuple):
     residual: float          # |P^k(z) - z| at the end
 
 
-def periodic_orbit(amplitude: Any, mass: Any, guess: Any, period: int = 1,
+def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | np.ndarray,
+                   period: int = 1,
                    fidelity: str = "standard", tol: float = SHOOTING_TOL,
                    max_iterations: int = SHOOTING_ITERATIONS, phase: float = 0.0,
                    law: Any = None) -> Orbit:

@@ -22,6 +22,7 @@ from vibtrans.core.stopping import ballistic_reach_time
 if TYPE_CHECKING:
     import xarray as xr
     from vibtrans.core.params import Scene
+    from vibtrans.core.trajectory import RunArrays
 
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
@@ -48,7 +49,7 @@ def jumped(ds: Any) -> bool:
     return bool((ds["event_kind"].values == R.TAKEOFF).any())
 
 
-def drift_velocity(ds: xr.Dataset) -> float:
+def drift_velocity(ds: xr.Dataset | RunArrays) -> float:
     """<v_x*> = x*(T_obs) / T_obs, the paper's definition (a run stopped as
     regular by the `decided` rule: its extrapolation to T_obs, attribute
     decided_drift_velocity, stopping.DecidedRule)."""
@@ -59,7 +60,7 @@ def drift_velocity(ds: xr.Dataset) -> float:
     return float(ds["x"].values[-1]) / t
 
 
-def final_drift_velocity(ds: xr.Dataset, fraction: float = FINAL_FRACTION) -> float:
+def final_drift_velocity(ds: xr.Dataset | RunArrays, fraction: float = FINAL_FRACTION) -> float:
     """Mean velocity over the last `fraction` of the run (a run stopped as
     regular by the `decided` rule: its asymptotic drift rate)."""
     rate = ds.attrs.get("asymptotic_drift_velocity")
@@ -72,7 +73,7 @@ def final_drift_velocity(ds: xr.Dataset, fraction: float = FINAL_FRACTION) -> fl
     return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
 
 
-def steadiness(ds: xr.Dataset, v0: float = V0, fraction: float = FINAL_FRACTION,
+def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0, fraction: float = FINAL_FRACTION,
                tolerance: float = STEADY_TOLERANCE) -> tuple[bool, str]:
     """(steady, words) of a run's drift: its mean velocity over the last
     `fraction` of the run against that over the `fraction` before, in a0
@@ -92,7 +93,7 @@ def steadiness(ds: xr.Dataset, v0: float = V0, fraction: float = FINAL_FRACTION,
                    f"last two tenths of the run); the mean depends on the run's length")
 
 
-def flights(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+def flights(ds: xr.Dataset | RunArrays) -> tuple[np.ndarray, np.ndarray]:
     """(take-off, landing) times of every flight; landing = inf if still flying."""
     to, _ = _events(ds, R.TAKEOFF)
     la, _ = _events(ds, R.LANDING)
@@ -109,7 +110,7 @@ def _events(ds, kind):
     return ds["event_time"].values[sel], ds["event_value"].values[sel]
 
 
-def contact_fraction(ds: xr.Dataset, t0: float | None = None, t1: float | None = None) -> float:
+def contact_fraction(ds: xr.Dataset | RunArrays, t0: float | None = None, t1: float | None = None) -> float:
     """Fraction of [t0, t1] spent in contact (default: the final window)."""
     t_end = float(ds["time"].values[-1])
     t1 = t_end if t1 is None else t1
@@ -131,7 +132,7 @@ def _starts_in_flight(ds):
     return bool(st_t.size and st_t[0] == 0.0 and st_v[0] == FLIGHT)
 
 
-def open_flight_start(ds: xr.Dataset) -> float | None:
+def open_flight_start(ds: xr.Dataset | RunArrays) -> float | None:
     """Start time of the flight still in progress at the end of the run
     (periods), or None if the run ends in contact.  A run that starts in
     flight and never lands has been in flight since t* = 0."""
@@ -142,7 +143,7 @@ def open_flight_start(ds: xr.Dataset) -> float | None:
     return 0.0 if _starts_in_flight(ds) and no_landing else None
 
 
-def launch_time(ds: xr.Dataset, fraction: float = LAUNCH_FRACTION) -> float | None:
+def launch_time(ds: xr.Dataset | RunArrays, fraction: float = LAUNCH_FRACTION) -> float | None:
     """Take-off time (periods) of a launched run, else None.
 
     Launched: the flight still in progress at the end began before
@@ -162,7 +163,7 @@ def launch_time(ds: xr.Dataset, fraction: float = LAUNCH_FRACTION) -> float | No
     return t0 if t0 is not None and t0 < fraction * t_end else None
 
 
-def earliest_landing(ds: xr.Dataset) -> float:
+def earliest_landing(ds: xr.Dataset | RunArrays) -> float:
     """Earliest time (periods) at which the flight in progress at the end
     can reach the substrate again, continued ballistically (in flight
     m* y*'' = 1, docs/MODEL.md sections 1 and 3): when y* first reaches
@@ -173,7 +174,7 @@ def earliest_landing(ds: xr.Dataset) -> float:
                                         float(ds.attrs["mass"]), float(ds.attrs["amplitude"]))
 
 
-def takeoff_phases(ds: xr.Dataset, t0: float = 0.0) -> np.ndarray:
+def takeoff_phases(ds: xr.Dataset | RunArrays, t0: float = 0.0) -> np.ndarray:
     """Phases (t mod 1) of the take-offs after t0."""
     t, phase = _events(ds, R.TAKEOFF)
     return phase[t >= t0]
@@ -227,7 +228,7 @@ def drift_class(v: float, v0: float = V0) -> str:
     return "none"
 
 
-def chaos_verdict(ds: xr.Dataset, twin: xr.Dataset, rel_tol: float = 0.1, v0: float = V0) -> bool:
+def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1, v0: float = V0) -> bool:
     """Does the tau + 1e-3 twin disagree? (True: chaotic, the drift is not a
     property of the scene.)  Disagreement: different drift class, or drift
     velocities differing by more than rel_tol of the larger plus v0."""
@@ -238,7 +239,7 @@ def chaos_verdict(ds: xr.Dataset, twin: xr.Dataset, rel_tol: float = 0.1, v0: fl
     return abs(v1 - v2) > rel_tol * max(abs(v1), abs(v2)) + v0
 
 
-def lyapunov_verdict(ds: xr.Dataset,
+def lyapunov_verdict(ds: xr.Dataset | RunArrays,
                      threshold: float = CHAOS_LYAPUNOV) -> tuple[None, None] | tuple[float, bool]:
     """(lambda, chaotic) from a run's measured Lyapunov exponent: (None,
     None) when the run did not measure one."""
@@ -248,7 +249,7 @@ def lyapunov_verdict(ds: xr.Dataset,
     return float(value), bool(value > threshold)
 
 
-def divergence_time(ds: xr.Dataset, twin: xr.Dataset, threshold: float = 1.0) -> float:
+def divergence_time(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, threshold: float = 1.0) -> float:
     """First time the twins' x* differ by more than `threshold` (a0 units);
     inf if never.  Compared on the coarse sample grid."""
     t = ds["time"].values
@@ -339,7 +340,8 @@ class Summary(NamedTuple):
     steadiness: str = ""         # that, in words
 
 
-def summarize(ds: Any, twin: Any = None, v0: float = V0) -> Summary:
+def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = None,
+              v0: float = V0) -> Summary:
     """All derived quantities of a run, and of its tau + 1e-3 twin if given.
 
     Parameters

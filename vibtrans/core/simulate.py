@@ -31,6 +31,9 @@ from vibtrans.version import __version__
 from vibtrans.core.stopping import STOP_FLIGHT, DecidedRule, check_stop
 
 if TYPE_CHECKING:
+    import threading
+    from collections.abc import Callable, Sequence
+
     import xarray as xr
     from vibtrans.core.kernels.deformable import HertzParams
 
@@ -45,7 +48,8 @@ def _scene(scene, values):
     return scene.replace(**values) if values else scene
 
 
-def estimate_steps(scene: Scene, refine: float = 1.0, steps: int | None = None) -> int:
+def estimate_steps(scene: Scene, refine: float = 1.0,
+                   steps: tuple[float, float] | None = None) -> int:
     """Upper estimate of a scene's integration steps, before running it.
 
     Parameters
@@ -54,8 +58,9 @@ def estimate_steps(scene: Scene, refine: float = 1.0, steps: int | None = None) 
         The scene.
     refine : float
         Factor dividing the fidelity's time step.
-    steps : int, optional
-        Steps per period instead of the fidelity's.
+    steps : tuple of float, optional
+        (steps per period, steps per contact time scale) in place of the
+        fidelity's pair.
 
     Returns
     -------
@@ -106,9 +111,11 @@ def _window(window, periods):
 
 
 def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
-             samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: Any = DEFAULT_MAX_STEPS,
-             progress: Any = None, cancel: Any = None, refine: float = 1.0,
-             shortcuts: Any = D.SHORTCUTS_ALL, steps: Any = None, lyapunov: bool = False,
+             samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
+             progress: Callable[[float], object] | None = None,
+             cancel: threading.Event | None = None, refine: float = 1.0,
+             shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
+             lyapunov: bool = False,
              stop: str = "full", **values: Any) -> xr.Dataset:
     """Simulate one scene and return its trajectory.
 
@@ -124,7 +131,7 @@ def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None =
         resolution); None: no window.
     samples_per_period : int
         Decimated samples per wave period over the whole run.
-    max_steps : int
+    max_steps : float
         Step budget; a scene estimated to need more is refused.
     progress : callable, optional
         Called as `progress(fraction)` between chunks of the run.
@@ -133,9 +140,11 @@ def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None =
     refine : float
         Factor dividing the fidelity's time step.
     shortcuts : int
-        Kernel shortcut flags (the default enables all of them).
-    steps : int, optional
-        Steps per period instead of the fidelity's.
+        Bit mask of the Hertz kernels' exact-to-rounding shortcuts (the
+        default enables all of them; 0 switches them off).
+    steps : tuple of float, optional
+        (steps per period, steps per contact time scale) in place of the
+        fidelity's pair (Hertz models only).
     lyapunov : bool
         Also measure the vertical motion's Lyapunov exponent
         (attributes `lyapunov`, `lyapunov_from`, `lyapunov_start`).
@@ -166,9 +175,11 @@ def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None =
 
 
 def run_records(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
-                samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: int = DEFAULT_MAX_STEPS,
-                progress: Any = None, cancel: Any = None, refine: float = 1.0,
-                shortcuts: Any = D.SHORTCUTS_ALL, steps: int | None = None, lyapunov: bool = False,
+                samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
+                progress: Callable[[float], object] | None = None,
+                cancel: threading.Event | None = None, refine: float = 1.0,
+                shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
+                lyapunov: bool = False,
                 stop: str = "full", **values: Any) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Simulate one scene: its (samples, events, attrs), the kernel's
     trimmed buffers (records.COLUMNS, records event rows) and the run's
@@ -446,7 +457,8 @@ def _warm(model):
              window=(1.0, 1.5), lyapunov=True)
 
 
-def warmup(models: Any = MODELS, progress: Any = None) -> None:
+def warmup(models: Sequence[str] = MODELS,
+           progress: Callable[[int, int, str], object] | None = None) -> None:
     """Compile (or load from the on-disk cache) the kernels of `models`.
 
     Then no user-facing run pays for compilation.  Cheap once the cache

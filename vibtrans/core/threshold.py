@@ -88,7 +88,7 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
 
 def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
                         fidelity: str = "standard", integrator: str = "ab4", rel_tol: float = 1e-3,
-                        guess: Any = None, profile: str = "sphere",
+                        guess: float | None = None, profile: str = "sphere",
                         load_over_modulus: float | None = None) -> float:
     """The jumping threshold A_J*(m*): the smallest A* with a contact loss.
 

@@ -67,8 +67,8 @@ class RunArrays:
         columns["event_value"] = take(events[:, 2])
         self.columns = columns          # name -> array
         # what a Dataset can store: no None, booleans as 0/1
-        self.attrs = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
-                      if v is not None}
+        self.attrs: dict[str, Any] = {k: (v if not isinstance(v, bool) else int(v))
+                                      for k, v in attrs.items() if v is not None}
 
     def __getitem__(self, name):
         return _Column(self.columns[name])

@@ -45,6 +45,8 @@ from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     import numpy.typing as npt
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
@@ -245,7 +247,7 @@ class Sweep:
     def n_chunks(self):
         return -(-self.log_amplitude.size // self.chunk_rows)
 
-    def rows(self, k: int) -> slice[Any, int, Any]:
+    def rows(self, k: int) -> slice:
         return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
 
     def attrs(self) -> dict[str, Any]:
@@ -343,7 +345,8 @@ def verify(ds: xr.Dataset, path: Any = "store") -> None:
                                 f"(damaged or edited); delete the store and rerun")
 
 
-def open_map(path: str | os.PathLike[str], expect: Any = None) -> xr.Dataset:
+def open_map(path: str | os.PathLike[str],
+             expect: Mapping[str, Any] | None = None) -> xr.Dataset:
     """Open a finished or partial sweep, verified; undone points are masked.
 
     Parameters
@@ -376,7 +379,7 @@ def open_map(path: str | os.PathLike[str], expect: Any = None) -> xr.Dataset:
     made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
     if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
         have = ", ".join(f"{k}={v}" for k, v in made.items())
-        want = ", ".join(f"{k}={v}" for k, v in expect.items())
+        want = ", ".join(f"{k}={v}" for k, v in (expect or {}).items())
         raise StoreMismatch(f"{path} was made for {have}, not {want} (a sweep store under "
                             f"another map's name?)")
     verify(ds, path)
@@ -433,7 +436,7 @@ def open_vertical(path: str | os.PathLike[str]) -> xr.Dataset:
 
 
 def run_sweep(sweep: Sweep, path: str | os.PathLike[str], workers: int | None = None,
-              scheduler: Any = None, progress: bool = True, executor: str = "threads",
+              scheduler: str | None = None, progress: bool = True, executor: str = "threads",
               flush_every: float | None = None) -> str | os.PathLike[str]:
     """Compute every unfinished chunk of `sweep` into the Zarr store `path`.
 

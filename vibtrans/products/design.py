@@ -45,9 +45,12 @@ from vibtrans.products.designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, 
 
 if TYPE_CHECKING:
     import os
+    from collections.abc import Callable
+
     import numpy.typing as npt
     import xarray as xr
-    from vibtrans.core.units import Material
+
+    from vibtrans.core.units import DeviceSpec, Material
 
 G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
 
@@ -701,14 +704,16 @@ def chart_needs(substrate: str | Material, particle: str | Material, preload: fl
                      grid.tip.load_over_modulus)
 
 
-def design_chart(substrate: str | Material, particle: str | Material, preload: Any = 0.0,
+def design_chart(substrate: str | Material, particle: str | Material, preload: float = 0.0,
                  x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
-                 fixed: tuple = ("radius", 0.5e-3), mu: Any = 0.3,
-                 surface_energy: float = DEFAULT_SURFACE_ENERGY, maps: Any = None,
-                 compute: bool = False, store_dir: str | os.PathLike[str] | None = None,
-                 step: Any = MAP_STEP, periods: Any = 2000.0, report: Any = print,
-                 workers: Any = None, g: Any = G_STANDARD, map_ds: Any = None,
-                 map_name: str = "given map", shape: Any = None) -> xr.Dataset:
+                 fixed: tuple = ("radius", 0.5e-3), mu: float = 0.3,
+                 surface_energy: float = DEFAULT_SURFACE_ENERGY,
+                 maps: str | os.PathLike[str] | None = None, compute: bool = False,
+                 store_dir: str | os.PathLike[str] | None = None, step: float = MAP_STEP,
+                 periods: float = 2000.0, report: Callable[[str], object] = print,
+                 workers: int | None = None, g: float = G_STANDARD,
+                 map_ds: xr.Dataset | None = None, map_name: str = "given map",
+                 shape: TipShape | None = None) -> xr.Dataset:
     """The design chart: a device's drift over two of its SI quantities.
 
     Each point of the (y, x) grid is mapped to the normalized plane and read
@@ -855,9 +860,9 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: A
 _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
-def read_device(device: Any, mu: float = 0.3, maps: Any = None, chart: xr.Dataset | None = None,
-                map_ds: xr.Dataset | None = None, map_name: str = "given map",
-                shape: Any = None) -> dict[str, Any] | None:
+def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str] | None = None,
+                chart: xr.Dataset | None = None, map_ds: xr.Dataset | None = None,
+                map_name: str = "given map", shape: TipShape | None = None) -> dict[str, Any] | None:
     """The map reading at one device.
 
     From `map_ds` (named `map_name`) or `chart`'s map when given (the device

@@ -114,7 +114,7 @@ def _real(name, value, lo, hi, lo_open=True, hi_open=True, unit=""):
     return float(value)
 
 
-def tip_shape(profile: str = "sphere", half_angle: float | None = None,
+def tip_shape(profile: str | TipShape = "sphere", half_angle: float | None = None,
               tip_radius: float | None = None, flat_radius: float | None = None):
     """A checked TipShape from a profile name (TIP_KINDS) and its SI sizes:
     half_angle [deg] for a cone (or power:1), tip_radius [m] for power:N

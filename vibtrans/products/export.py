@@ -650,7 +650,7 @@ def memory_figure(snapshot: Any) -> Any:
     return (mem + plots.contact_circle(snapshot)).cols(3)
 
 
-def export_memory(snapshot: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
                   width: float = 13.0, height: float = 4.2) -> Any:
     """The memory diagram at one instant, as a figure file.
 
@@ -817,7 +817,8 @@ def _point_command(point, out):
     return cmd + (" --twin" if point in TWIN_POINTS else "")
 
 
-def export_paper(out_dir: str | os.PathLike[str], progress: bool = True, maps: Any = None,
+def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
+                 maps: str | os.PathLike[str] | None = None,
                  dpi: int = DEFAULT_DPI, periods: float | None = None,
                  fmt: str = "png") -> dict[Any, Any]:
     """Regenerate the paper's figures into a folder.
@@ -955,7 +956,8 @@ def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
         Path(tmp).write_text("\n".join(lines))
 
 
-def export_design(chart: xr.Dataset, out: str | os.PathLike[str], device: Any = None,
+def export_design(chart: xr.Dataset, out: str | os.PathLike[str],
+                  device: tuple[float, float] | None = None,
                   dpi: int = DEFAULT_DPI, width: float = 7.5, height: float = 6.0,
                   title: str | None = None) -> Any:
     """A design chart, as a figure file.
