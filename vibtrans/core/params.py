@@ -121,7 +121,47 @@ def _amplitude_ratio_of(nu):
 
 
 class Scene(param.Parameterized):
-    """One simulated scene, in the paper's normalized units."""
+    """One simulated scene, in the paper's normalized units.
+
+    Every parameter is checked when set; `replace` makes a changed copy.
+
+    Parameters
+    ----------
+    amplitude : float
+        A*: vertical wave amplitude / a0 (the maps span 1e-3 to 1e3).
+    mass : float
+        m* = a0 m f^2 / (M g) (the maps span 1e-5 to 1e5).
+    mu : float
+        Friction coefficient.
+    theta : float
+        Tangential/normal compliance ratio, in [1, 1.5].
+    nu : float
+        Substrate Poisson ratio, in (0, 0.5): sets the Rayleigh ratio r.
+    tau : float
+        Ramp time of the wave, periods (0: no ramp).
+    periods : float
+        Observation time T_obs, wave periods.
+    alpha_t : float
+        Material point: tangential restitution at rebounds.
+    model : str
+        "deformable", "point-mass" or "vertical".
+    integrator : str
+        "ab4" or "verlet".
+    fidelity : str
+        "preview", "standard" or "reference".
+    stick_rule : str
+        Material point's slide-to-stick rule: "paper" or "classical".
+    profile : str
+        The particle's profile (deformable and vertical models), one of
+        PROFILE_KINDS (e.g. "power:3").
+    load_over_modulus : float, optional
+        N0/E* [m^2], for file: profiles (their table is in metres).
+
+    Raises
+    ------
+    InputError
+        If a parameter is unknown or outside its range.
+    """
 
     amplitude = Physical(10 ** -0.3, bounds=(0, None), inclusive_bounds=(True, False),
                          doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)")

@@ -115,7 +115,7 @@ def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
     guess : float, optional
         A nearby threshold to start the bracket from.
     profile : str
-        The particle's tip profile ("sphere", "cone:...", ...).
+        The particle's tip profile, one of PROFILE_KINDS.
     load_over_modulus : float, optional
         N0/E* [m^2], needed by measured profiles.
 

@@ -209,7 +209,31 @@ def block_digest(block: Any, variables: Any = VARIABLES) -> np.unsignedinteger:
 
 
 class Sweep:
-    """A sweep's definition: scene values (everything but A*, m*) and grid."""
+    """A sweep's definition: the scene values (everything but A*, m*) and the grid.
+
+    Parameters
+    ----------
+    log_amplitude, log_mass : array_like
+        The grid's log10 A* and log10 m*.
+    chunk_rows : int
+        Rows of log_amplitude per chunk (the unit of work and of resuming).
+    command : str, optional
+        The command that made the store, recorded in its attributes.
+    kind : str
+        "transport" (drift maps) or "lyapunov" (the vertical motion's
+        exponent).
+    chaos : str
+        Where a transport map's chaos flag comes from: "lyapunov" or "twin".
+    stop : str
+        "full" or "decided" (stop each point once its drift is decided).
+    **values
+        Scene values (`Scene`'s parameters but amplitude and mass).
+
+    Raises
+    ------
+    InputError
+        If a value is outside its range, or the combination is not a sweep.
+    """
 
     def __init__(self, log_amplitude: npt.ArrayLike, log_mass: npt.ArrayLike, chunk_rows: int = 4,
                  command: str | None = None, kind: str = "transport", chaos: str = "lyapunov",
