@@ -6,7 +6,7 @@ with a message naming the parameter and its valid range.  Front ends
 (`vibtrans.cli`, the explorer) catch these and nothing else, so a bug still
 shows its traceback.
 """
-from __future__ import annotations
+
 
 class InputError(ValueError):
     """A value outside its valid range, refused before any work starts."""

@@ -22,9 +22,7 @@ from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
 
 if TYPE_CHECKING:
-    from vibtrans.core.profiles import FlatSphereProfile
-    from vibtrans.core.profiles import PowerLawProfile
-    from vibtrans.core.profiles import TabulatedProfile
+    from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")

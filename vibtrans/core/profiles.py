@@ -31,14 +31,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vibtrans.core.errors import InputError
 
 if TYPE_CHECKING:
-    from typing import Any
     import numpy.typing as npt
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")

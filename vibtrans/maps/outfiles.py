@@ -14,6 +14,7 @@ import errno
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from vibtrans.core.errors import InputError
@@ -92,7 +93,8 @@ def _umask():
 
 
 @contextlib.contextmanager
-def atomic(path: str | os.PathLike[str], name: str = "out", errors: tuple = ()):
+def atomic(path: str | os.PathLike[str], name: str = "out",
+           errors: tuple = ()) -> Iterator[str]:
     """Yield a temporary path beside `path` (same suffix, so writers that
     choose a format from the name choose the same); when the block ends
     without an exception, rename it to `path`.  On any exception the
