@@ -473,7 +473,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_serve(args: argparse.Namespace):
+def cmd_serve(args: argparse.Namespace) -> int:
     """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
     server), not the library's: this is the library's one import of it, done
     only here, so `import vibtrans` and the other commands never load Panel."""
@@ -771,7 +771,7 @@ STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its d
              "(vibtrans.core.stopping.DecidedRule)")
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="vibtrans", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"vibtrans {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)

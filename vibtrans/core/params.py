@@ -205,7 +205,7 @@ class Scene(param.Parameterized):
         return _profile_shape(self.profile, self.load_over_modulus)
 
     @property
-    def r(self):
+    def r(self) -> float:
         """Rayleigh horizontal/vertical amplitude ratio r(nu)."""
         return _amplitude_ratio_of(float(self.nu))
 

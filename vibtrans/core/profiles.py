@@ -63,7 +63,7 @@ class PowerLawProfile:
             raise InputError(f"profile power-law exponent n must be a real number in [{N_MIN:g}, inf), got {n!r}")
 
     @property
-    def name(self):
+    def name(self) -> str:
         if self.n == 2.0:
             return "sphere"
         if self.n == 1.0:
@@ -71,7 +71,7 @@ class PowerLawProfile:
         return f"power:{self.n:g}"
 
     @property
-    def exponent(self):
+    def exponent(self) -> float:
         """p in N* = a*^p."""
         return (self.n + 1.0) / self.n
 
@@ -79,7 +79,7 @@ class PowerLawProfile:
         """N*(a*) (units N0), a* >= 0 in units of a0."""
         return np.power(np.maximum(np.asarray(a, float), 0.0), self.exponent)
 
-    def stiffness(self, a: npt.ArrayLike):
+    def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = normalized contact radius; the memory springs' cumulative weight."""
         return _power_stiffness(self.exponent, np.maximum(np.asarray(a, float), 0.0))
 
@@ -121,7 +121,7 @@ class FlatSphereProfile:
                              f"[0, {FLAT_MAX:g}], got {c!r}")
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"flat-sphere:{self.flat_radius:g}"
 
     def _sigma(self, a):
@@ -230,7 +230,7 @@ class TabulatedProfile:
         self._k = 2.0 * x * d0 / load_over_modulus   # dN*/da* = 2 E* a_c a0 / N0
         self.a_max = float(self._a[-1])
 
-    def normal_force(self, a: npt.ArrayLike):
+    def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._N)
 
     @staticmethod
@@ -241,11 +241,11 @@ class TabulatedProfile:
         G = np.concatenate(([0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(x))))
         return x, g, x * g - G
 
-    def stiffness(self, a: npt.ArrayLike):
+    def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = 2 E* a_c a0 / N0."""
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._k)
 
-    def contact_radius(self, a: npt.ArrayLike):
+    def contact_radius(self, a: npt.ArrayLike) -> np.ndarray:
         """Contact radius over the static one at a* (the table's MDR)."""
         x = np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._x)
         return x / self.static_contact_radius

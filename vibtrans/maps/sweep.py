@@ -268,7 +268,7 @@ class Sweep:
         self.command = command or "python API"
 
     @property
-    def n_chunks(self):
+    def n_chunks(self) -> int:
         return -(-self.log_amplitude.size // self.chunk_rows)
 
     def rows(self, k: int) -> slice:

@@ -84,7 +84,7 @@ class TipShape:
     table: tuple = field(default=(), repr=False)
 
     @property
-    def name(self):
+    def name(self) -> str:
         """The shape as a reader names it (charts' attrs, JSON)."""
         if self.kind == "sphere":
             return "sphere"
@@ -98,7 +98,7 @@ class TipShape:
         return f"file:{self.path}"
 
     @property
-    def is_sphere(self):
+    def is_sphere(self) -> bool:
         return self.kind == "sphere"
 
 
@@ -115,7 +115,7 @@ def _real(name, value, lo, hi, lo_open=True, hi_open=True, unit=""):
 
 
 def tip_shape(profile: str | TipShape = "sphere", half_angle: float | None = None,
-              tip_radius: float | None = None, flat_radius: float | None = None):
+              tip_radius: float | None = None, flat_radius: float | None = None) -> TipShape:
     """A checked TipShape from a profile name (TIP_KINDS) and its SI sizes:
     half_angle [deg] for a cone (or power:1), tip_radius [m] for power:N
     (optional), flat_radius [m] for flat-sphere.  A size the profile does

@@ -126,7 +126,7 @@ def _fit(fig, pad=0.06, rounds=6):
                              p.width * sx, p.height * sy])
 
 
-def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE):
+def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE) -> Figure:
     """A matplotlib Figure of `obj` at width x height inches (not shown;
     close it with matplotlib.pyplot.close when done); a layout's columns
     `hspace` axes widths apart."""
@@ -141,7 +141,7 @@ def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HS
 
 
 def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: float = 5.0,
-         dpi: int = DEFAULT_DPI, hspace: float = HSPACE):
+         dpi: int = DEFAULT_DPI, hspace: float = HSPACE) -> Any:
     """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
     exactly width*dpi x height*dpi pixels for PNG."""
     fmt = output_format(out)

@@ -652,7 +652,7 @@ class Panel:
     right: tuple = ()                # variables drawn on the panel's right axis
 
     @property
-    def axis_labels(self):
+    def axis_labels(self) -> tuple[str, str]:
         """(left, right) y-axis labels (right "" when it has no right
         axis): `ylabel` on a single axis, else each axis's quantities."""
         if not self.right:
