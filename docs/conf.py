@@ -24,6 +24,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx.ext.napoleon",          # the public API's numpydoc sections
     "sphinx.ext.viewcode",
 ]
 # .rst first: autosummary writes its generated pages with the first suffix
@@ -42,6 +43,8 @@ autosummary_generate = True
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": True}
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"
+napoleon_google_docstring = False
+napoleon_numpy_docstring = True
 
 
 def _as_text(line):
@@ -58,14 +61,48 @@ def _as_text(line):
     return "".join(parts)
 
 
+_NUMPYDOC_SECTIONS = {"Parameters", "Returns", "Raises", "Yields", "Attributes",
+                      "Other Parameters", "See Also", "Notes", "Examples", "Warns"}
+# sections whose unindented lines are names and types (napoleon reads them)
+_NAMED_SECTIONS = {"Parameters", "Returns", "Raises", "Yields", "Attributes",
+                   "Other Parameters", "Warns"}
+
+
+def _is_numpydoc(lines):
+    return any(line.strip() in _NUMPYDOC_SECTIONS and nxt.strip()
+               and set(nxt.strip()) == {"-"} for line, nxt in zip(lines, lines[1:]))
+
+
+def _numpydoc_as_written(lines):
+    """A numpydoc docstring's prose escaped as in `_as_text`, its section
+    headers and the names and types of its entries left for napoleon."""
+    out, section = [], None
+    for i, line in enumerate(lines):
+        nxt = lines[i + 1] if i + 1 < len(lines) else ""
+        if line.strip() in _NUMPYDOC_SECTIONS and nxt.strip() and set(nxt.strip()) == {"-"}:
+            section = line.strip()
+            out.append(line)
+        elif line.strip() and set(line.strip()) == {"-"}:
+            out.append(line)
+        elif section in _NAMED_SECTIONS and line and not line[0].isspace():
+            out.append(line)
+        else:
+            out.append(_as_text(line))
+    return out
+
+
 def _docstring_as_written(app, what, name, obj, options, lines):
     """The docstrings are plain text written for `help()` (A*, m*, x*(t) and
     ASCII tables): the first paragraph stays text, its markup characters
     escaped (autosummary's one-line summaries come from it: a literal block
     there left every summary empty), the rest is shown as written, in a
     literal block, rather than parsed as reStructuredText (which would read
-    every * as emphasis)."""
+    every * as emphasis).  A numpydoc docstring (the public API's) keeps
+    its sections for napoleon, its prose escaped."""
     if not lines:
+        return
+    if _is_numpydoc(lines):
+        lines[:] = _numpydoc_as_written(lines)
         return
     cut = lines.index("") if "" in lines else len(lines)
     first = [_as_text(line) for line in lines[:cut]]
@@ -96,7 +133,8 @@ class CommandLineHelp(SphinxDirective):
 
 
 def setup(app):
-    app.connect("autodoc-process-docstring", _docstring_as_written)
+    # before napoleon (priority 500), which turns numpydoc sections into fields
+    app.connect("autodoc-process-docstring", _docstring_as_written, priority=400)
     app.add_directive("vibtrans-help", CommandLineHelp)
 
 

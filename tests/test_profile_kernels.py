@@ -194,10 +194,10 @@ def test_sweep_names_the_profile_and_keeps_the_sphere_keys():
 
 def test_sweep_store_of_another_profile_is_refused(tmp_path):
     from vibtrans.core.errors import StoreMismatch
-    from vibtrans.maps.sweep import Sweep, _check_store
+    from vibtrans.maps.sweep import Sweep, check_store
     grid = (np.array([0.0]), np.array([0.0]))
     cone_store = Sweep(*grid, model="deformable", profile="cone").empty_dataset()
     with pytest.raises(StoreMismatch, match="profile: store 'cone', command 'sphere'"):
-        _check_store(cone_store, Sweep(*grid, model="deformable"), "store")
+        check_store(cone_store, Sweep(*grid, model="deformable"), "store")
     with pytest.raises(StoreMismatch, match="profile"):
-        _check_store(cone_store, Sweep(*grid, model="deformable", profile="power:3"), "store")
+        check_store(cone_store, Sweep(*grid, model="deformable", profile="power:3"), "store")

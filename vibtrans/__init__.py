@@ -11,17 +11,83 @@ re-execution on the C allocator before paying for them (paid twice before).
 import importlib
 import sys
 import types
+from typing import TYPE_CHECKING
 
 from vibtrans.version import __version__
 
-# public name -> the submodule defining it
-_LAZY = {"Scene": "core.params", "paper_scene": "core.params", "PAPER_POINTS": "core.params",
-         "Cancelled": "core.errors", "StepBudgetExceeded": "core.errors",
-         "warmup": "core.simulate", "maps_dir": "maps.shipped",
-         "simulate": "core.simulate", "estimate_steps": "core.simulate"}
+if TYPE_CHECKING:  # the same names, for type checkers and editors
+    from vibtrans.core.params import Scene, paper_scene, PAPER_POINTS
+    from vibtrans.core.simulate import simulate, estimate_steps, warmup
+    from vibtrans.core.errors import Cancelled, StepBudgetExceeded
+    from vibtrans.core.threshold import threshold_amplitude, first_takeoff, threshold_curve
+    from vibtrans.analysis.summary import summarize, Summary
+    from vibtrans.analysis.dynamics import periodic_orbit, run_guess
+    from vibtrans.maps.sweep import Sweep, run_sweep, open_map, open_vertical
+    from vibtrans.maps.shipped import maps_dir
+    from vibtrans.products.design import design_chart, preset, read_device
+    from vibtrans.products.export import (export_design, export_dynamics, export_heatmap,
+                                          export_html, export_memory, export_paper,
+                                          export_trajectory, export_vertical)
 
-__all__ = ["Scene", "paper_scene", "PAPER_POINTS", "simulate", "estimate_steps",
-           "Cancelled", "StepBudgetExceeded", "warmup", "maps_dir", "__version__"]
+# public name -> the submodule defining it
+_LAZY = {
+    # scenes and runs
+    "Scene": "core.params", "paper_scene": "core.params", "PAPER_POINTS": "core.params",
+    "simulate": "core.simulate", "estimate_steps": "core.simulate", "warmup": "core.simulate",
+    "Cancelled": "core.errors", "StepBudgetExceeded": "core.errors",
+    # take-off thresholds
+    "threshold_amplitude": "core.threshold", "first_takeoff": "core.threshold",
+    "threshold_curve": "core.threshold",
+    # reading a run
+    "summarize": "analysis.summary", "Summary": "analysis.summary",
+    "periodic_orbit": "analysis.dynamics", "run_guess": "analysis.dynamics",
+    # maps
+    "Sweep": "maps.sweep", "run_sweep": "maps.sweep", "open_map": "maps.sweep",
+    "open_vertical": "maps.sweep", "maps_dir": "maps.shipped",
+    # design charts
+    "design_chart": "products.design", "preset": "products.design",
+    "read_device": "products.design",
+    # figures and files
+    "export_heatmap": "products.export", "export_trajectory": "products.export",
+    "export_html": "products.export", "export_design": "products.export",
+    "export_vertical": "products.export", "export_dynamics": "products.export",
+    "export_memory": "products.export", "export_paper": "products.export",
+}
+
+__all__ = [
+    "Scene",
+    "paper_scene",
+    "PAPER_POINTS",
+    "simulate",
+    "estimate_steps",
+    "warmup",
+    "Cancelled",
+    "StepBudgetExceeded",
+    "threshold_amplitude",
+    "first_takeoff",
+    "threshold_curve",
+    "summarize",
+    "Summary",
+    "periodic_orbit",
+    "run_guess",
+    "Sweep",
+    "run_sweep",
+    "open_map",
+    "open_vertical",
+    "maps_dir",
+    "design_chart",
+    "preset",
+    "read_device",
+    "export_heatmap",
+    "export_trajectory",
+    "export_html",
+    "export_design",
+    "export_vertical",
+    "export_dynamics",
+    "export_memory",
+    "export_paper",
+    "__version__",
+]
 
 
 class _Package(types.ModuleType):

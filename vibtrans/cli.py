@@ -3,16 +3,22 @@
 Bad input exits with status 2 and one line naming the parameter and its
 valid range.
 """
+from __future__ import annotations
+
 import argparse
 import json
 import math
 import os
 import shutil
 import sys
+from typing import TYPE_CHECKING, Any
 
 from vibtrans.version import __version__
 from vibtrans.core.errors import InputError
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
+
+if TYPE_CHECKING:
+    from vibtrans.core.params import Scene
 
 
 class _Parser(argparse.ArgumentParser):
@@ -72,7 +78,7 @@ def _log10_value(name, value):
     return 10.0 ** value
 
 
-def scene_from_args(args):
+def scene_from_args(args: argparse.Namespace) -> Scene:
     from vibtrans.core.params import Scene
     amplitude = (args.amplitude if args.log_amplitude is None
                  else _log10_value("log_amplitude", args.log_amplitude))
@@ -116,7 +122,7 @@ def _jsonable(value):
     return value
 
 
-def cmd_simulate(args):
+def cmd_simulate(args: argparse.Namespace) -> int:
     from vibtrans.analysis.summary import jumped, summarize, twin_scene
     from vibtrans.core.simulate import simulate
     scene = scene_from_args(args)
@@ -167,13 +173,14 @@ def _orbit_json(orbit):
     return out
 
 
-def cmd_orbit(args):
+def cmd_orbit(args: argparse.Namespace) -> int:
     """A period-k orbit of the vertical motion's stroboscopic map (Newton
     shooting), or its continuation along log10 A* or log10 m*."""
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
     period = _finite("period", args.period, 1, 64, integer=True)
+    guess: tuple[float, ...]
     if args.guess == "run":
         guess = Y.run_guess(scene)
     elif args.guess == "rest":
@@ -215,7 +222,7 @@ def cmd_orbit(args):
     return 0
 
 
-def cmd_threshold(args):
+def cmd_threshold(args: argparse.Namespace) -> int:
     from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude
     if args.sweep:
         return _threshold_sweep(args)
@@ -250,7 +257,7 @@ def _threshold_sweep(args):
     return 0
 
 
-def cmd_bench(args):
+def cmd_bench(args: argparse.Namespace) -> int:
     from vibtrans.tools.bench import main as bench_main
     if args.plot is not None:
         check_file(args.plot, "plot")
@@ -259,7 +266,7 @@ def cmd_bench(args):
                       export=args.export)
 
 
-def cmd_sweep(args):
+def cmd_sweep(args: argparse.Namespace) -> int:
     from vibtrans.maps.sweep import Sweep, command_line, parse_range, run_sweep
     sweep = Sweep(parse_range(args.log_amplitude, "log_amplitude"),
                   parse_range(args.log_mass, "log_mass"), chunk_rows=args.chunk_rows,
@@ -323,8 +330,8 @@ def _design_axis(text, name):
     if len(parts) != 4:
         raise InputError(f"{name} must be QUANTITY:LO:HI:N (quantity one of frequency, "
                          f"radius, amplitude), got {text!r}")
-    q, lo, hi, n = parts
-    n = _num(n)
+    q, lo, hi, count = parts
+    n = _num(count)
     if isinstance(n, float) and n.is_integer():
         n = int(n)
     return (q, _num(lo), _num(hi), n)
@@ -362,11 +369,11 @@ def _design_text(dev, q, warnings, reading):
     return "\n".join(lines)
 
 
-def units_name(m):
+def units_name(m: Any) -> Any:
     return m if isinstance(m, str) else m.name
 
 
-def cmd_design(args):
+def cmd_design(args: argparse.Namespace) -> int:
     from pathlib import Path
     from vibtrans.products import design
     from vibtrans.core import units
@@ -423,12 +430,12 @@ def cmd_design(args):
                                 step=_finite("step", args.step, 0.0, 1.0),
                                 periods=_finite("periods", args.periods, 0.0), report=report,
                                 workers=args.workers, shape=shape)
-    reading = q = None
+    reading = quantities = None
     warnings = []
     if device is not None:
         reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart, shape=shape)
-        q = design.device_quantities(device, reading, surface_energy, shape=shape)
-        warnings = design.validity_warnings(device, surface_energy, q.drift_velocity,
+        quantities = design.device_quantities(device, reading, surface_energy, shape=shape)
+        warnings = design.validity_warnings(device, surface_energy, quantities.drift_velocity,
                                             shape=shape)
     chart_warnings = design.chart_warnings(chart)
     for out in outs:
@@ -442,7 +449,8 @@ def cmd_design(args):
     if args.json:
         print(json.dumps({
             "profile": shape.name, "map_profile": chart.attrs["map_profile"],
-            "device": None if q is None else {k: _jsonable(v) for k, v in q.as_dict().items()},
+            "device": None if quantities is None else {k: _jsonable(v)
+                                                      for k, v in quantities.as_dict().items()},
             "regime": None if reading is None else reading["regime"],
             "warnings": [w.__dict__ for w in warnings],
             "chart_warnings": chart_warnings,
@@ -455,7 +463,7 @@ def cmd_design(args):
             "outputs": outs}))
     else:
         if device is not None:
-            print(_design_text(device, q, warnings, reading))
+            print(_design_text(device, quantities, warnings, reading))
         print(f"chart: {chart.sizes[y[0]]} x {chart.sizes[x[0]]} points, map "
               f"{chart.attrs['map']} ({chart.attrs['reading']})")
         for text in chart_warnings:
@@ -465,7 +473,7 @@ def cmd_design(args):
     return 0
 
 
-def cmd_serve(args):
+def cmd_serve(args: argparse.Namespace) -> int:
     """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
     server), not the library's: this is the library's one import of it, done
     only here, so `import vibtrans` and the other commands never load Panel."""
@@ -517,7 +525,7 @@ def _export_sizes(args):
     return out
 
 
-def cmd_export(args):
+def cmd_export(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from vibtrans.products import export as E
@@ -529,7 +537,7 @@ def cmd_export(args):
                              f"{args.out!r}")
         check_folder(args.out, create=False)
     else:
-        E._format(args.out, E.FORMATS + ("html",))
+        E.output_format(args.out, E.FORMATS + ("html",))
         check_file(args.out)
     sizes = _export_sizes(args)
     if kind not in ("trajectory", "paper") and args.window is not None:
@@ -763,7 +771,7 @@ STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its d
              "(vibtrans.core.stopping.DecidedRule)")
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="vibtrans", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"vibtrans {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -963,10 +971,10 @@ def _glue_negative_values(argv):
     return out
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> Any:
     parser = build_parser()
     command_line = argv is None
-    argv = sys.argv[1:] if command_line else list(argv)
+    argv = sys.argv[1:] if command_line else list(argv or ())
     args = parser.parse_args(_glue_negative_values(argv))
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process

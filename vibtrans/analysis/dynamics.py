@@ -15,8 +15,10 @@ multistep history (and the tangent's) is the exact solution's at the three
 previous steps, which `_contact_history` integrates backwards with small
 RK4 steps (the kernels never start in contact from a bare state otherwise).
 """
+from __future__ import annotations
+
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -27,6 +29,10 @@ from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels.contact import LAW_K1, law_eval, law_scales
 from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import TWO_PI
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    import xarray as xr
 
 RK4_SUBSTEPS = 16          # per step of the backward history integration
 SHOOTING_TOL = 1e-10       # Newton's stop: |P^k(z) - z| below this (a0, a0/period)
@@ -87,7 +93,8 @@ def _params(amplitude, mass, fidelity, t_end, law=None):
     return D.kernel_params(amplitude, mass, 0.3, 1.2, 0.0, 0.0, h, t_end, 1e9), h
 
 
-def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0, law=None):
+def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
+           fidelity: str = "standard", t0: float = 0.0, law: Any = None) -> Strobe:
     """P^periods(y, vy) from the integer time t0 (the wave on, tau = 0) with
     its Jacobian, from the vertical kernel and its tangent (two runs, one
     per column).  law: a profile's kernel law (drivers.scene_law(scene); None:
@@ -95,7 +102,7 @@ def strobe(amplitude, mass, y, vy, periods=1, fidelity="standard", t0=0.0, law=N
     p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
     gap = y - amplitude * math.cos(TWO_PI * t0)
     columns = []
-    end = None
+    end: Any = None
     for e in ((1.0, 0.0), (0.0, 1.0)):
         state, hist = D.rest_state()
         state[[D.S_T, D.S_Y, D.S_VY]] = (t0, y, vy)
@@ -143,11 +150,47 @@ class Orbit(NamedTuple):
     residual: float          # |P^k(z) - z| at the end
 
 
-def periodic_orbit(amplitude, mass, guess, period=1, fidelity="standard",
-                   tol=SHOOTING_TOL, max_iterations=SHOOTING_ITERATIONS, phase=0.0, law=None):
-    """Newton shooting on P^period from `guess` = (y, y') with the tangent
+def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | np.ndarray,
+                   period: int = 1,
+                   fidelity: str = "standard", tol: float = SHOOTING_TOL,
+                   max_iterations: int = SHOOTING_ITERATIONS, phase: float = 0.0,
+                   law: Any = None) -> Orbit:
+    """A periodic orbit of the vertical motion's stroboscopic map.
+
+    Newton shooting on P^period from `guess` = (y, y') with the tangent
     map's Jacobian (damped: a step never more than doubles the residual).
-    phase: the section's time mod 1 (0: t = 0 mod 1)."""
+
+    Parameters
+    ----------
+    amplitude : float
+        A*, the normalized wave amplitude.
+    mass : float
+        m*, the normalized mass.
+    guess : tuple of float
+        (y, y') to start from, e.g. from `run_guess`.
+    period : int
+        The orbit's period, in wave periods.
+    fidelity : str
+        Time-step preset.
+    tol : float
+        Residual at which the shooting stops.
+    max_iterations : int
+        Newton steps at most.
+    phase : float
+        The section's time mod 1 (0: t = 0 mod 1).
+    law : optional
+        The contact law's compiled parameters (None: the sphere's).
+
+    Returns
+    -------
+    Orbit
+        The orbit's point, trace, multipliers, stability and convergence.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    """
     _check_orbit_args(amplitude, mass, period)
     z = np.array(guess, dtype=float)
     s = strobe(amplitude, mass, z[0], z[1], period, fidelity, phase, law)
@@ -188,7 +231,7 @@ def _check_orbit_args(amplitude, mass, period):
         raise InputError(f"period must be an integer in [1, 64], got {period!r}")
 
 
-def rest_guess(amplitude, mass, law=None):
+def rest_guess(amplitude: float, mass: float, law: Any = None) -> tuple[float, float]:
     """The section point of the small-amplitude contact orbit, to first order
     in A*: y* = 1 + A* / (1 - (2 pi)^2 m* / N*'(1)), y*' = 0 (the linearized
     contact oscillator driven at the wave's frequency; off near resonance;
@@ -197,8 +240,8 @@ def rest_guess(amplitude, mass, law=None):
     return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / k1), 0.0
 
 
-def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, cancel=None,
-            law=None):
+def section(amplitude: float, mass: float, y: Any, vy: Any, periods: Any,
+            fidelity: str = "standard", phase: float = 0.0, cancel: Any = None, law: Any = None):
     """The orbit of (y, y') under the stroboscopic map at time `phase` mod 1:
     float64[periods + 1, 2] (the first row the start).  One kernel call per
     period (each restarts from a state, as `strobe`; the same map).
@@ -214,9 +257,29 @@ def section(amplitude, mass, y, vy, periods, fidelity="standard", phase=0.0, can
     return out
 
 
-def run_guess(scene, periods=None):
-    """A guess for a periodic orbit: the section point where the scene's
-    vertical run (from rest, through its ramp) ends, at an integer time."""
+def run_guess(scene: Scene, periods: float | None = None) -> tuple[float, float]:
+    """A starting point for `periodic_orbit` from a run of the scene.
+
+    The section point where the scene's vertical run (from rest, through its
+    ramp) ends, at an integer time.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its vertical motion is run).
+    periods : float, optional
+        Length of the run; None: the scene's T_obs.
+
+    Returns
+    -------
+    tuple of float
+        (y, y') at the run's end.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    """
     from vibtrans.core.simulate import simulate
     periods = float(math.ceil(periods or scene.periods))
     ds = simulate(scene.replace(model="vertical", periods=periods), samples_per_period=1)
@@ -243,8 +306,9 @@ class Branch(NamedTuple):
     ended: str                     # why the continuation stopped
 
 
-def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, guess=None,
-                   fidelity="standard", profile="sphere", load_over_modulus=None):
+def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, step: Any = 0.02,
+                   period: Any = 1, guess: Any = None, fidelity: Any = "standard",
+                   profile: Any = "sphere", load_over_modulus: float | None = None) -> Branch:
     """Natural-parameter continuation of a period-k orbit from (log10 A*,
     log10 m*) along log10 A* or log10 m* towards `to`, in steps of `step`
     decades, each Newton solve started from the previous orbits' secant
@@ -261,7 +325,9 @@ def continue_orbit(log_amplitude, log_mass, parameter, to, step=0.02, period=1, 
     law = drivers.scene_law(base)
     if guess is None:
         guess = run_guess(base)
-    points, folds, doublings = [], [], []
+    points: list = []
+    folds: list = []
+    doublings: list = []
     ended = "reached the end"
     z_prev = None
     z = np.array(guess, dtype=float)
@@ -297,7 +363,8 @@ def _crossing(pair, parameter, level):
     return p0 + (level - t0) * (p1 - p0) / (t1 - t0) if t1 != t0 else p0
 
 
-def period_one_chart(log_amplitudes, log_masses, fidelity="standard"):
+def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
+                     fidelity: str = "standard") -> xr.Dataset:
     """Where the period-1 orbit born from the small-amplitude contact orbit
     exists and is stable, over a (log10 A*, log10 m*) grid: for each m* it
     is continued upwards in A* from the first amplitude (rest_guess there),
@@ -351,7 +418,8 @@ class OrbitDiagram(NamedTuple):
 MAX_DIAGRAM_RUNS = 2000
 
 
-def orbit_diagram(scene, parameter, values, final_periods=100.0, progress=None, cancel=None):
+def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: float = 100.0,
+                  progress: Any = None, cancel: Any = None) -> OrbitDiagram:
     """Runs of the vertical motion of `scene` (from rest, through its ramp)
     at each log10 value of A* or m* in `values`, the other held: the
     take-off phases and section points y*(k) of their final periods."""

@@ -5,8 +5,10 @@ All in normalized units (docs/MODEL.md section 4).  Functions take the Dataset o
 named tuple for the CLI, the sweeps and the app, with one plain-language
 verdict (`Summary.regime`) that never contradicts its numbers.
 """
+from __future__ import annotations
+
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -16,6 +18,11 @@ from vibtrans.core.kernels.contact import FLIGHT
 # core's (its stopping rule uses them); named here for every caller
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, V0  # noqa: F401
 from vibtrans.core.stopping import ballistic_reach_time
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from vibtrans.core.params import Scene
+    from vibtrans.core.trajectory import RunArrays
 
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
@@ -30,19 +37,19 @@ LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
 LAUNCH_FRACTION = 0.5    # launched: still in flight at the end, since before this fraction of the run
 
 
-def twin_scene(scene):
+def twin_scene(scene: Scene) -> Scene:
     """The chaos check's twin: the scene with its ramp time moved by
     TWIN_TAU_OFFSET (a regular regime does not notice; a chaotic one ends
     elsewhere)."""
     return scene.replace(tau=scene.tau + TWIN_TAU_OFFSET)
 
 
-def jumped(ds):
+def jumped(ds: Any) -> bool:
     """True if the particle lost contact at least once during the run."""
     return bool((ds["event_kind"].values == R.TAKEOFF).any())
 
 
-def drift_velocity(ds):
+def drift_velocity(ds: xr.Dataset | RunArrays) -> float:
     """<v_x*> = x*(T_obs) / T_obs, the paper's definition (a run stopped as
     regular by the `decided` rule: its extrapolation to T_obs, attribute
     decided_drift_velocity, stopping.DecidedRule)."""
@@ -53,7 +60,7 @@ def drift_velocity(ds):
     return float(ds["x"].values[-1]) / t
 
 
-def final_drift_velocity(ds, fraction=FINAL_FRACTION):
+def final_drift_velocity(ds: xr.Dataset | RunArrays, fraction: float = FINAL_FRACTION) -> float:
     """Mean velocity over the last `fraction` of the run (a run stopped as
     regular by the `decided` rule: its asymptotic drift rate)."""
     rate = ds.attrs.get("asymptotic_drift_velocity")
@@ -66,7 +73,8 @@ def final_drift_velocity(ds, fraction=FINAL_FRACTION):
     return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
 
 
-def steadiness(ds, v0=V0, fraction=FINAL_FRACTION, tolerance=STEADY_TOLERANCE):
+def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0, fraction: float = FINAL_FRACTION,
+               tolerance: float = STEADY_TOLERANCE) -> tuple[bool, str]:
     """(steady, words) of a run's drift: its mean velocity over the last
     `fraction` of the run against that over the `fraction` before, in a0
     per period; steady when they differ by at most `tolerance` of the
@@ -85,7 +93,7 @@ def steadiness(ds, v0=V0, fraction=FINAL_FRACTION, tolerance=STEADY_TOLERANCE):
                    f"last two tenths of the run); the mean depends on the run's length")
 
 
-def flights(ds):
+def flights(ds: xr.Dataset | RunArrays) -> tuple[np.ndarray, np.ndarray]:
     """(take-off, landing) times of every flight; landing = inf if still flying."""
     to, _ = _events(ds, R.TAKEOFF)
     la, _ = _events(ds, R.LANDING)
@@ -102,7 +110,7 @@ def _events(ds, kind):
     return ds["event_time"].values[sel], ds["event_value"].values[sel]
 
 
-def contact_fraction(ds, t0=None, t1=None):
+def contact_fraction(ds: xr.Dataset | RunArrays, t0: float | None = None, t1: float | None = None) -> float:
     """Fraction of [t0, t1] spent in contact (default: the final window)."""
     t_end = float(ds["time"].values[-1])
     t1 = t_end if t1 is None else t1
@@ -124,7 +132,7 @@ def _starts_in_flight(ds):
     return bool(st_t.size and st_t[0] == 0.0 and st_v[0] == FLIGHT)
 
 
-def open_flight_start(ds):
+def open_flight_start(ds: xr.Dataset | RunArrays) -> float | None:
     """Start time of the flight still in progress at the end of the run
     (periods), or None if the run ends in contact.  A run that starts in
     flight and never lands has been in flight since t* = 0."""
@@ -135,7 +143,7 @@ def open_flight_start(ds):
     return 0.0 if _starts_in_flight(ds) and no_landing else None
 
 
-def launch_time(ds, fraction=LAUNCH_FRACTION):
+def launch_time(ds: xr.Dataset | RunArrays, fraction: float = LAUNCH_FRACTION) -> float | None:
     """Take-off time (periods) of a launched run, else None.
 
     Launched: the flight still in progress at the end began before
@@ -155,7 +163,7 @@ def launch_time(ds, fraction=LAUNCH_FRACTION):
     return t0 if t0 is not None and t0 < fraction * t_end else None
 
 
-def earliest_landing(ds):
+def earliest_landing(ds: xr.Dataset | RunArrays) -> float:
     """Earliest time (periods) at which the flight in progress at the end
     can reach the substrate again, continued ballistically (in flight
     m* y*'' = 1, docs/MODEL.md sections 1 and 3): when y* first reaches
@@ -166,23 +174,22 @@ def earliest_landing(ds):
                                         float(ds.attrs["mass"]), float(ds.attrs["amplitude"]))
 
 
-
-def takeoff_phases(ds, t0=0.0):
+def takeoff_phases(ds: xr.Dataset | RunArrays, t0: float = 0.0) -> np.ndarray:
     """Phases (t mod 1) of the take-offs after t0."""
     t, phase = _events(ds, R.TAKEOFF)
     return phase[t >= t0]
 
 
-def phase_spread(phases):
+def phase_spread(phases: np.ndarray | list[float]) -> float:
     """Circular standard deviation of phases, in periods (0 = all equal)."""
     if len(phases) == 0:
         return math.nan
     z = np.mean(np.exp(2j * np.pi * np.asarray(phases)))
-    rho = min(abs(z), 1.0)
+    rho = min(float(abs(z)), 1.0)
     return math.sqrt(-2.0 * math.log(rho)) / (2.0 * math.pi) if rho > 0 else math.inf
 
 
-def rebound_pattern(ds):
+def rebound_pattern(ds: Any) -> str | None:
     """'synchronous', 'multi-synchronous', 'irregular', or None (no jumping).
 
     Synchronous: in the final window, one take-off per period at one phase.
@@ -212,7 +219,7 @@ def rebound_pattern(ds):
     return "irregular"
 
 
-def drift_class(v, v0=V0):
+def drift_class(v: float, v0: float = V0) -> str:
     """'with-wave' (v > v0), 'against-wave' (v < -v0) or 'none'."""
     if v > v0:
         return "with-wave"
@@ -221,7 +228,7 @@ def drift_class(v, v0=V0):
     return "none"
 
 
-def chaos_verdict(ds, twin, rel_tol=0.1, v0=V0):
+def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1, v0: float = V0) -> bool:
     """Does the tau + 1e-3 twin disagree? (True: chaotic, the drift is not a
     property of the scene.)  Disagreement: different drift class, or drift
     velocities differing by more than rel_tol of the larger plus v0."""
@@ -232,7 +239,8 @@ def chaos_verdict(ds, twin, rel_tol=0.1, v0=V0):
     return abs(v1 - v2) > rel_tol * max(abs(v1), abs(v2)) + v0
 
 
-def lyapunov_verdict(ds, threshold=CHAOS_LYAPUNOV):
+def lyapunov_verdict(ds: xr.Dataset | RunArrays,
+                     threshold: float = CHAOS_LYAPUNOV) -> tuple[None, None] | tuple[float, bool]:
     """(lambda, chaotic) from a run's measured Lyapunov exponent: (None,
     None) when the run did not measure one."""
     value = ds.attrs.get("lyapunov")
@@ -241,7 +249,7 @@ def lyapunov_verdict(ds, threshold=CHAOS_LYAPUNOV):
     return float(value), bool(value > threshold)
 
 
-def divergence_time(ds, twin, threshold=1.0):
+def divergence_time(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, threshold: float = 1.0) -> float:
     """First time the twins' x* differ by more than `threshold` (a0 units);
     inf if never.  Compared on the coarse sample grid."""
     t = ds["time"].values
@@ -264,7 +272,7 @@ def _drift_words(v, v_final, v0):
     return f"{words(run)} over the run, {words(final)} over its final {FINAL_FRACTION:.0%}"
 
 
-def chaos_words(lyapunov):
+def chaos_words(lyapunov: Any) -> str:
     """Why a run is called chaotic: its Lyapunov exponent, or (None) its twin."""
     if lyapunov is None:
         return f"the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere"
@@ -272,8 +280,9 @@ def chaos_words(lyapunov):
             f"(> {CHAOS_LYAPUNOV:g})")
 
 
-def regime(contact, pattern, chaotic, v, v_final, launch=None, landing=None, t_end=None,
-           v0=V0, lyapunov=None):
+def regime(contact: Any, pattern: Any, chaotic: Any, v: float, v_final: float,
+           launch: float | None = None, landing: float | None = None, t_end: float | None = None,
+           v0: float = V0, lyapunov: Any = None) -> str:
     """One plain-language verdict, consistent with the other fields of
     `Summary`.  A launched run gets no transport regime and a chaotic one no
     drift direction (its drift is not a property of the scene).  lyapunov:
@@ -331,11 +340,31 @@ class Summary(NamedTuple):
     steadiness: str = ""         # that, in words
 
 
-def summarize(ds, twin=None, v0=V0):
-    """All derived quantities of a run (and of its tau + 1e-3 twin, if given).
+def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = None,
+              v0: float = V0) -> Summary:
+    """All derived quantities of a run, and of its tau + 1e-3 twin if given.
 
-    The twin must come from the same model (a comparison run of the other
-    model is not a twin): ValueError otherwise.
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A run, as `simulate` returns it.
+    twin : xarray.Dataset, optional
+        The same scene run with tau + TWIN_TAU_OFFSET, for the chaos verdict
+        when the run has no measured Lyapunov exponent.
+    v0 : float
+        Drift speeds below this (a0 per period) count as no drift.
+
+    Returns
+    -------
+    Summary
+        Drift velocities, contact fraction, rebound pattern, regime, chaos
+        verdict and the run's costs.
+
+    Raises
+    ------
+    ValueError
+        If the twin comes from another model (a comparison run of the other
+        model is not a twin).
     """
     model = ds.attrs.get("model")
     if twin is not None and twin.attrs.get("model") != model:

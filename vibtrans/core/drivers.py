@@ -30,9 +30,11 @@ commit (bit-identical on its scan grid).  Each caller keeps its own chunking
 (`chunk_steps`; None = one call) and buffer sizes, which is what makes its
 results reproducible bit for bit.
 """
+from __future__ import annotations
+
 import functools
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -46,6 +48,9 @@ from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
 from vibtrans.core.kernels.dispatch import kernel_for
 from vibtrans.core.kernels.substrate import surface_acceleration, surface_motion
+
+if TYPE_CHECKING:
+    from vibtrans.core.params import Scene
 
 DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
 CHUNK_STEPS = 2_000_000           # kernel steps between progress/cancel checks
@@ -67,7 +72,7 @@ class Run(NamedTuple):
     tangent: object = None     # Hertz with lyapunov_from: float64[NTANGENT]
 
 
-def checked_steps(n, max_steps, what, h=None):
+def checked_steps(n: Any, max_steps: Any, what: str, h: Any = None) -> int:
     """n (a step estimate) if it is within max_steps, else StepBudgetExceeded
     with the estimate in the message (n = math.inf: a count no float holds)."""
     if n == math.inf:
@@ -82,7 +87,7 @@ def checked_steps(n, max_steps, what, h=None):
     return n
 
 
-def grow(a, factor=2):
+def grow(a: Any, factor: Any = 2) -> np.ndarray:
     """A copy of `a` with `factor` times the rows (the used rows copied)."""
     out = np.empty((a.shape[0] * factor,) + a.shape[1:], dtype=a.dtype)
     out[:a.shape[0]] = a
@@ -167,10 +172,12 @@ def _record_rest(buf, ctr):
     ctr[R.C_NEXT] = 1
 
 
-def run_hertz(params, integrator, *, tangential, samples_capacity, events_capacity=1024,
-              memory_capacity=1024, state=None, hist=None, record_rest=True,
-              stop_at_takeoff=False, chunk_steps=CHUNK_STEPS, progress=None, cancel=None,
-              lyapunov_from=None, tangent=None, in_flight=False, decide=None, law=None):
+def run_hertz(params: Any, integrator: str, *, tangential: Any, samples_capacity: int,
+              events_capacity: int = 1024, memory_capacity: int = 1024, state: Any = None,
+              hist: Any = None, record_rest: bool = True, stop_at_takeoff: bool = False,
+              chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
+              lyapunov_from: Any = None, tangent: Any = None, in_flight: bool = False,
+              decide: Any = None, law: Any = None) -> Run:
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -244,19 +251,19 @@ def _law_of(profile, load_over_modulus):
                       .profile_shape())
 
 
-def scene_law(scene):
+def scene_law(scene: Scene) -> np.ndarray | None:
     """The kernels' law of a scene's profile (kernels.contact.kernel_law;
     None: the sphere's own path), built once per profile."""
     return _law_of(scene.profile, scene.load_over_modulus)
 
 
-def scene_scales(scene):
+def scene_scales(scene: Scene) -> tuple[float, float] | None:
     """(N*'(1), p) of a scene's profile for the time step (None: the sphere)."""
     law = scene_law(scene)
     return None if law is None else law_scales(law)
 
 
-def law_path(scene):
+def law_path(scene: Scene) -> str:
     """Which of the kernels' contact-law paths a scene runs (their costs per
     step differ: tools.bench's profile_cost): "sphere" (Hertz's own),
     "cone" (a power law whose N*' is linear), "power" (an integer n up to
@@ -334,9 +341,10 @@ def _final_step(params, integ, state, hist, mem, ctr, law=None):
     return state, ctr, tuple(mem)
 
 
-def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capacity=1024,
-                     memory_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                     cancel=None, law=None):
+def run_memory_stops(params: Any, integrator: str, stops: Any, *, samples_capacity: int,
+                     events_capacity: int = 1024, memory_capacity: int = 1024,
+                     chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
+                     law: Any = None) -> list[Any]:
     """One run of the deformable kernel from rest, with the memory diagram
     taken at each of `stops` (non-decreasing times, periods, the last one
     params.t_end): a list of (state, ctr, memory), one per stop, each what
@@ -378,7 +386,7 @@ def run_memory_stops(params, integrator, stops, *, samples_capacity, events_capa
     return out
 
 
-def point_mass_capacity(params):
+def point_mass_capacity(params: Any) -> int:
     """Initial sample rows of a point-mass run (coarse samples, window, margin)."""
     t_end = params.t_end
     sample_dt = params.sample_dt
@@ -403,9 +411,10 @@ def _pm_flight_start(events):
     return 0.0
 
 
-def run_point_mass(params, stick_rule=PM.RULE_PAPER, *, samples_capacity=None,
-                   events_capacity=1024, chunk_steps=CHUNK_STEPS, progress=None,
-                   cancel=None, decide=None, growth=None):
+def run_point_mass(params: Any, stick_rule: Any = PM.RULE_PAPER, *,
+                   samples_capacity: int | None = None, events_capacity: int = 1024,
+                   chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
+                   decide: Any = None, growth: Any = None) -> Run:
     """Run the material point from rest to t_end (params: a
     point_mass.PointMassParams, from point_mass.make_params).
 

@@ -8,7 +8,10 @@ contact time scale / steps_per_contact).  Contact time scales (normalized):
   t_c = 2.94 a_max / v with a_max = (5 m* v^2 / 4)^(2/5)  (Hertz impact).
 This bound keeps stiff light-particle scenes (m* = 1e-5) stable.
 """
+from __future__ import annotations
+
 import math
+from typing import Any
 
 FIDELITY = {
     # name: (steps per period, steps per shortest contact time scale)
@@ -65,7 +68,8 @@ def _profile_time_scale(amplitude, mass, impacts, scales):
     return min(t_lin, t_imp)
 
 
-def contact_time_scale(amplitude, mass, impacts=True, scales=None):
+def contact_time_scale(amplitude: float, mass: float, impacts: bool = True,
+                       scales: Any = None) -> float:
     """Shortest contact time scale of a scene, in wave periods (> 0, not NaN,
     for any amplitude >= 0 and mass > 0 a float can hold: where the direct
     formulas overflow or underflow, the same quantities in logarithms).
@@ -97,8 +101,8 @@ def contact_time_scale(amplitude, mass, impacts=True, scales=None):
     return min(t_lin, t_imp)
 
 
-def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, steps=None,
-              scales=None):
+def time_step(amplitude: float, mass: float, fidelity: Any = "standard", refine: float = 1.0,
+              impacts: bool = True, steps: Any = None, scales: Any = None) -> Any:
     """Integration step (periods) for the deformable and vertical models
     (>= 0; 0 only where the impact time scale underflows: an unbounded cost).
 
@@ -111,7 +115,7 @@ def time_step(amplitude, mass, fidelity="standard", refine=1.0, impacts=True, st
     return h / refine
 
 
-def step_count(duration, h):
+def step_count(duration: float, h: Any) -> int | float:
     """ceil(duration / h) as an int, or math.inf where it does not fit a float
     (h = 0, or duration / h overflows): an upper estimate of the steps."""
     n = duration / h if h > 0.0 else math.inf
@@ -123,6 +127,6 @@ def step_count(duration, h):
 POINT_MASS_SCAN = {"preview": 1.0 / 32, "standard": 1.0 / 64, "reference": 1.0 / 256}
 
 
-def scan_step(fidelity="standard", refine=1.0):
+def scan_step(fidelity: str = "standard", refine: float = 1.0) -> float:
     """Scan step (periods) of the event-driven material point."""
     return POINT_MASS_SCAN[fidelity] / refine

@@ -7,7 +7,10 @@ events.  (The deformable particle's exponent comes from its tangent
 equations inside the kernel instead.)  Normalized units: time in periods,
 lengths in a0.
 """
+from __future__ import annotations
+
 import math
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +28,8 @@ def _surface(t, amplitude, tau):
     return u, du, ddu
 
 
-def impact_jacobian(t0, t1, amplitude, mass, tau):
+def impact_jacobian(t0: float, t1: float, amplitude: float, mass: float,
+                    tau: float) -> tuple[np.ndarray, float, float]:
     """The Jacobian of the material point's impact map (t_n, v_n) ->
     (t_{n+1}, v_{n+1}): a flight launched from the surface at t_n with
     vertical velocity v_n lands at t_{n+1}, where the elastic impact
@@ -62,7 +66,7 @@ class ImpactGrowth:
     a landing that is the last row so far waits for the next rows, unless
     `final`."""
 
-    def __init__(self, amplitude, mass, tau, t_from):
+    def __init__(self, amplitude: float, mass: float, tau: float, t_from: float) -> None:
         self.amplitude, self.mass, self.tau = float(amplitude), float(mass), float(tau)
         self.t_from = float(t_from)
         self.row = 0                  # the next event row to look at
@@ -72,7 +76,7 @@ class ImpactGrowth:
         self.captured = self.broken = False
         self._d = np.array([1.0, 0.0])
 
-    def update(self, events, final=False):
+    def update(self, events: np.ndarray, final: bool = False) -> tuple[float, float] | None:
         if self.captured:             # -inf for good
             return self.value()
         t, kind = events[:, 0], events[:, 1]
@@ -82,7 +86,7 @@ class ImpactGrowth:
             if t[j] < self.t_from:
                 continue
             if j + 1 >= n and not final:
-                self.row = j          # its take-off, if any, comes with the next rows
+                self.row = int(j)     # its take-off, if any, comes with the next rows
                 break
             if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
                 self.captured = True
@@ -109,7 +113,7 @@ class ImpactGrowth:
         self.last = t1
         self.landings += 1
 
-    def value(self):
+    def value(self) -> tuple[float, float] | None:
         """(t0, log growth since t0), or None (see the class)."""
         if self.captured:
             return self.first, -math.inf
@@ -119,7 +123,7 @@ class ImpactGrowth:
             return None
         return self.first, self.total
 
-    def exponent(self):
+    def exponent(self) -> tuple[float, float]:
         """(lambda per period, t_start) as `impact_lyapunov` returns them."""
         if self.captured:
             return -math.inf, self.first
@@ -128,7 +132,8 @@ class ImpactGrowth:
         return self.total / (self.last - self.first), self.first
 
 
-def impact_lyapunov(events, amplitude, mass, tau, t_from):
+def impact_lyapunov(events: np.ndarray, amplitude: float, mass: float, tau: float,
+                    t_from: float) -> tuple[float, float]:
     """The material point's vertical Lyapunov exponent, per period, from its
     run's events (records: LANDING and TAKEOFF at one instant = an elastic
     impact): the product of the impact map's Jacobians over the impacts

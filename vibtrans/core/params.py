@@ -7,16 +7,22 @@ and a bad one raises ValueError naming the parameter and its valid range
 Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
 wave periods.
 """
+from __future__ import annotations
+
 import functools
 import math
 import numbers
 import sys
+from typing import TYPE_CHECKING, Any
 
 import param
 
 from vibtrans.core.units import amplitude_ratio
 from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
+
+if TYPE_CHECKING:
+    from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
 
 MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
@@ -59,7 +65,7 @@ class Physical(param.Number):
             raise InputError(f"{name} must be in {rng}, got {val!r}")
 
 
-def check_profile(val, refuse_measured=None):
+def check_profile(val: Any, refuse_measured: str | None = None) -> None:
     """InputError naming the parameter and its range unless `val` is a
     profile's spec (a file: spec is checked when its table is read);
     `refuse_measured`: the message refusing a measured table (file:PATH),
@@ -113,7 +119,47 @@ def _amplitude_ratio_of(nu):
 
 
 class Scene(param.Parameterized):
-    """One simulated scene, in the paper's normalized units."""
+    """One simulated scene, in the paper's normalized units.
+
+    Every parameter is checked when set; `replace` makes a changed copy.
+
+    Parameters
+    ----------
+    amplitude : float
+        A*: vertical wave amplitude / a0 (the maps span 1e-3 to 1e3).
+    mass : float
+        m* = a0 m f^2 / (M g) (the maps span 1e-5 to 1e5).
+    mu : float
+        Friction coefficient.
+    theta : float
+        Tangential/normal compliance ratio, in [1, 1.5].
+    nu : float
+        Substrate Poisson ratio, in (0, 0.5): sets the Rayleigh ratio r.
+    tau : float
+        Ramp time of the wave, periods (0: no ramp).
+    periods : float
+        Observation time T_obs, wave periods.
+    alpha_t : float
+        Material point: tangential restitution at rebounds.
+    model : str
+        "deformable", "point-mass" or "vertical".
+    integrator : str
+        "ab4" or "verlet".
+    fidelity : str
+        "preview", "standard" or "reference".
+    stick_rule : str
+        Material point's slide-to-stick rule: "paper" or "classical".
+    profile : str
+        The particle's profile (deformable and vertical models), one of
+        PROFILE_KINDS (e.g. "power:3").
+    load_over_modulus : float, optional
+        N0/E* [m^2], for file: profiles (their table is in metres).
+
+    Raises
+    ------
+    InputError
+        If a parameter is unknown or outside its range.
+    """
 
     amplitude = Physical(10 ** -0.3, bounds=(0, None), inclusive_bounds=(True, False),
                          doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)")
@@ -130,10 +176,10 @@ class Scene(param.Parameterized):
                        doc="observation time T_obs, wave periods")
     alpha_t = Physical(0.5, bounds=(0.0, 1.0),
                        doc="point mass: tangential restitution at rebounds")
-    model = param.Selector(default="deformable", objects=list(MODELS))
-    integrator = param.Selector(default="ab4", objects=list(INTEGRATORS))
-    fidelity = param.Selector(default="standard", objects=list(FIDELITIES))
-    stick_rule = param.Selector(default="paper", objects=list(STICK_RULES),
+    model: param.Selector = param.Selector(default="deformable", objects=list(MODELS))
+    integrator: param.Selector = param.Selector(default="ab4", objects=list(INTEGRATORS))
+    fidelity: param.Selector = param.Selector(default="standard", objects=list(FIDELITIES))
+    stick_rule: param.Selector = param.Selector(default="paper", objects=list(STICK_RULES),
                                 doc="point mass slide->stick rule (docs/MODEL.md section 3)")
     profile = ProfileSpec("sphere", doc="particle profile (deformable and vertical models): "
                           + ", ".join(PROFILE_KINDS))
@@ -142,7 +188,7 @@ class Scene(param.Parameterized):
                                  doc="N0/E*, m^2: the static load over the contact modulus "
                                      "(file: profiles only, whose table is in metres)")
 
-    def __init__(self, **params):
+    def __init__(self, **params: Any) -> None:
         for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
                              ("fidelity", FIDELITIES), ("stick_rule", STICK_RULES)):
             if key in params:
@@ -153,23 +199,23 @@ class Scene(param.Parameterized):
         super().__init__(**params)
         self.profile_shape()           # a file profile is read and checked now
 
-    def profile_shape(self):
+    def profile_shape(self) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
         """The profile object (vibtrans.core.profiles) of this scene; its
         kernels' law: vibtrans.core.drivers.scene_law(scene)."""
         return _profile_shape(self.profile, self.load_over_modulus)
 
     @property
-    def r(self):
+    def r(self) -> float:
         """Rayleigh horizontal/vertical amplitude ratio r(nu)."""
         return _amplitude_ratio_of(float(self.nu))
 
-    def values(self):
+    def values(self) -> dict[str, Any]:
         """The scene as a plain dict (attributes of results, JSON).  The
         profile's load appears only where it is set (a file: profile)."""
         return {k: getattr(self, k) for k in self.param
                 if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)}
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> Scene:
         """A copy with some values changed (validated)."""
         return Scene(**{**self.values(), **changes})
 
@@ -193,8 +239,29 @@ PAPER_POINTS = {
 }
 
 
-def paper_scene(point, **overrides):
-    """Scene of the paper's point 1-10 (mu = 0.3, theta = 1.2, tau = 50)."""
+def paper_scene(point: int, **overrides: Any) -> Scene:
+    """Scene of one of the paper's ten labelled points.
+
+    The points share mu = 0.3, theta = 1.2 and tau = 50; `PAPER_POINTS`
+    gives each one's model, log10 A* and log10 m*.
+
+    Parameters
+    ----------
+    point : int
+        The point's number, 1 to 10.
+    **overrides
+        Scene parameters to set instead of the point's (e.g. `periods=60`).
+
+    Returns
+    -------
+    Scene
+        The point's scene, with the overrides applied.
+
+    Raises
+    ------
+    InputError
+        If `point` is not 1-10 or an override is outside its range.
+    """
     if point not in PAPER_POINTS:
         raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]

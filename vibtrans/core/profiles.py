@@ -27,12 +27,18 @@ The kernels take a profile as `kernels.contact.kernel_law(profile)`: None for th
 own, unchanged path), else a float64 array (contact.law_eval): the power law's
 exponent, or N*'(a*) on a uniform grid with N* its exact integral.
 """
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vibtrans.core.errors import InputError
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
 N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
@@ -57,7 +63,7 @@ class PowerLawProfile:
             raise InputError(f"profile power-law exponent n must be a real number in [{N_MIN:g}, inf), got {n!r}")
 
     @property
-    def name(self):
+    def name(self) -> str:
         if self.n == 2.0:
             return "sphere"
         if self.n == 1.0:
@@ -65,23 +71,23 @@ class PowerLawProfile:
         return f"power:{self.n:g}"
 
     @property
-    def exponent(self):
+    def exponent(self) -> float:
         """p in N* = a*^p."""
         return (self.n + 1.0) / self.n
 
-    def normal_force(self, a):
+    def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
         """N*(a*) (units N0), a* >= 0 in units of a0."""
         return np.power(np.maximum(np.asarray(a, float), 0.0), self.exponent)
 
-    def stiffness(self, a):
+    def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = normalized contact radius; the memory springs' cumulative weight."""
         return _power_stiffness(self.exponent, np.maximum(np.asarray(a, float), 0.0))
 
-    def contact_radius(self, a):
+    def contact_radius(self, a: npt.ArrayLike) -> np.ndarray:
         """Contact radius over the static one: a*^(1/n)."""
         return np.power(np.maximum(np.asarray(a, float), 0.0), 1.0 / self.n)
 
-    def outline(self, rho):
+    def outline(self, rho: npt.ArrayLike) -> np.ndarray:
         """The tip's outline z / a0 at rho = r / (static contact radius):
         z = C r^n and a0 = kappa_n C a_c^n (MDR) give rho^n / kappa_n.
 
@@ -115,7 +121,7 @@ class FlatSphereProfile:
                              f"[0, {FLAT_MAX:g}], got {c!r}")
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"flat-sphere:{self.flat_radius:g}"
 
     def _sigma(self, a):
@@ -127,19 +133,19 @@ class FlatSphereProfile:
     def _raw(self, s):
         return self.flat_radius ** 2 * s + (2.0 / 3.0) * s ** 3
 
-    def normal_force(self, a):
+    def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
         return self._raw(self._sigma(a)) / self._raw(self._sigma(1.0))
 
-    def stiffness(self, a):
+    def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = a_c / raw(1), a_c = sqrt(gamma^2 + sigma^2) (units sqrt(R a0)), since dN/dd = 2E* a_c."""
         s, s1 = self._sigma(a), self._sigma(1.0)
         return np.sqrt(self.flat_radius ** 2 + s * s) / self._raw(s1)
 
-    def contact_radius(self, a):
+    def contact_radius(self, a: npt.ArrayLike) -> np.ndarray:
         s, s1 = self._sigma(a), self._sigma(1.0)
         return np.sqrt(self.flat_radius ** 2 + s * s) / math.sqrt(self.flat_radius ** 2 + s1 * s1)
 
-    def outline(self, rho):
+    def outline(self, rho: npt.ArrayLike) -> np.ndarray:
         """The tip's outline z / a0 at rho = r / (static contact radius):
         z = (r^2 - c^2) / (2R) beyond the flat, r in units of sqrt(R a0)."""
         g2 = self.flat_radius ** 2
@@ -148,7 +154,7 @@ class FlatSphereProfile:
         return np.maximum(r2 - g2, 0.0) / 2.0
 
 
-def mdr_g(r, z, x):
+def mdr_g(r: Any, z: Any, x: Any) -> np.ndarray:
     """MDR 1D profile g(x) of a piecewise-linear z(r) table, exactly (units of z).
 
     g(x) = x sum_k slope_k [asin(min(r_{k+1}, x)/x) - asin(r_k/x)] over segments below x.
@@ -175,7 +181,8 @@ class TabulatedProfile:
     contact radius, and the table reaching a_max_star times the static approach.
     """
 
-    def __init__(self, r, z, load_over_modulus, a_max_star=8.0, samples=4001, name="file"):
+    def __init__(self, r: Any, z: Any, load_over_modulus: float, a_max_star: float = 8.0,
+                 samples: int = 4001, name: str = "file") -> None:
         r = np.asarray(r, float)
         z = np.asarray(z, float)
         if r.ndim != 1 or r.shape != z.shape or r.size < 3:
@@ -223,7 +230,7 @@ class TabulatedProfile:
         self._k = 2.0 * x * d0 / load_over_modulus   # dN*/da* = 2 E* a_c a0 / N0
         self.a_max = float(self._a[-1])
 
-    def normal_force(self, a):
+    def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._N)
 
     @staticmethod
@@ -234,16 +241,16 @@ class TabulatedProfile:
         G = np.concatenate(([0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(x))))
         return x, g, x * g - G
 
-    def stiffness(self, a):
+    def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = 2 E* a_c a0 / N0."""
         return np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._k)
 
-    def contact_radius(self, a):
+    def contact_radius(self, a: npt.ArrayLike) -> np.ndarray:
         """Contact radius over the static one at a* (the table's MDR)."""
         x = np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._x)
         return x / self.static_contact_radius
 
-    def outline(self, rho):
+    def outline(self, rho: npt.ArrayLike):
         """The measured outline z / a0 at rho = r / (static contact radius)
         (NaN beyond the table)."""
         r, z = self._table
@@ -251,7 +258,8 @@ class TabulatedProfile:
                          right=np.nan) / self.a0
 
 
-def parse_profile(text, load_over_modulus=None):
+def parse_profile(text: str,
+                  load_over_modulus: float | None = None) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
     """'sphere' | 'cone' | 'power:N' | 'flat-sphere:C' | 'file:PATH' -> profile object.
 
     file:PATH is a two-column text table r, z in metres and needs the load N0/E* (m^2).
@@ -283,7 +291,7 @@ def parse_profile(text, load_over_modulus=None):
     raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {text!r}")
 
 
-def linear_resonance_mass(profile):
+def linear_resonance_mass(profile: Any) -> float:
     """m*_res = N*'(1) / (4 pi^2): the m* where the linearized contact
     oscillation about the static approach, sqrt(N*'(1) / m*) radians per
     wave period, meets the wave's 2 pi (docs/DYNAMICS.md section 5; the
@@ -294,7 +302,7 @@ def linear_resonance_mass(profile):
     return float(profile.stiffness(1.0)) / (4.0 * math.pi ** 2)
 
 
-def tangential_force(profile, a, b, w_of_h, h_grid):
+def tangential_force(profile: Any, a: Any, b: Any, w_of_h: Any, h_grid: Any):
     """Reference (slow, numpy) T* = b N*'(a) - int_[0,a] w dN*'(h), for tests and twins."""
     h = h_grid[h_grid <= a]
     k = profile.stiffness(h)

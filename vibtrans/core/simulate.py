@@ -7,9 +7,12 @@ driver reports progress, honours a cancel request, and grows any buffer a
 kernel reports full, so a long run stays responsive and memory follows the
 need.
 """
+from __future__ import annotations
+
 import math
 import numbers
 import time
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +30,13 @@ from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
 from vibtrans.core.stopping import STOP_FLIGHT, DecidedRule, check_stop
 
+if TYPE_CHECKING:
+    import threading
+    from collections.abc import Callable, Sequence
+
+    import xarray as xr
+    from vibtrans.core.kernels.deformable import HertzParams
+
 SAMPLES_PER_PERIOD = 10
 
 
@@ -38,10 +48,31 @@ def _scene(scene, values):
     return scene.replace(**values) if values else scene
 
 
-def estimate_steps(scene, refine=1.0, steps=None):
-    """Upper estimate of the integration steps of a scene (before running),
-    an int; a count that no float holds (a huge T_obs, or a step that
-    underflows at an extreme A*) raises StepBudgetExceeded."""
+def estimate_steps(scene: Scene, refine: float = 1.0,
+                   steps: tuple[float, float] | None = None) -> int:
+    """Upper estimate of a scene's integration steps, before running it.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    refine : float
+        Factor dividing the fidelity's time step.
+    steps : tuple of float, optional
+        (steps per period, steps per contact time scale) in place of the
+        fidelity's pair.
+
+    Returns
+    -------
+    int
+        The estimated number of steps.
+
+    Raises
+    ------
+    StepBudgetExceeded
+        If the count is too large for a float to hold (a huge T_obs, or a step
+        that underflows at an extreme A*).
+    """
     if scene.model == "point-mass":
         h = scan_step(scene.fidelity, refine)
     else:
@@ -79,23 +110,77 @@ def _window(window, periods):
     return w0, w1
 
 
-def simulate(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
-             max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-             refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, stop="full",
-             **values):
-    """Simulate one scene and return its trajectory (xarray.Dataset):
-    `run_records`' samples, events and attributes as a Dataset
-    (trajectory.build_trajectory).  The arguments are `run_records`'."""
+def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
+             samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
+             progress: Callable[[float], object] | None = None,
+             cancel: threading.Event | None = None, refine: float = 1.0,
+             shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
+             lyapunov: bool = False,
+             stop: str = "full", **values: Any) -> xr.Dataset:
+    """Simulate one scene and return its trajectory.
+
+    The run's decimated samples, its events and its attributes, as built by
+    `run_records` and `trajectory.build_trajectory`.
+
+    Parameters
+    ----------
+    scene : Scene, optional
+        The scene to run; None: a default Scene.
+    window : tuple of float, optional
+        (t0, t1) in wave periods where every step is recorded (full
+        resolution); None: no window.
+    samples_per_period : int
+        Decimated samples per wave period over the whole run.
+    max_steps : float
+        Step budget; a scene estimated to need more is refused.
+    progress : callable, optional
+        Called as `progress(fraction)` between chunks of the run.
+    cancel : threading.Event, optional
+        Checked between chunks; once set, the run stops (Cancelled).
+    refine : float
+        Factor dividing the fidelity's time step.
+    shortcuts : int
+        Bit mask of the Hertz kernels' exact-to-rounding shortcuts (the
+        default enables all of them; 0 switches them off).
+    steps : tuple of float, optional
+        (steps per period, steps per contact time scale) in place of the
+        fidelity's pair (Hertz models only).
+    lyapunov : bool
+        Also measure the vertical motion's Lyapunov exponent
+        (attributes `lyapunov`, `lyapunov_from`, `lyapunov_start`).
+    stop : str
+        "full" runs to T_obs; "decided" stops once the drift is decided.
+    **values
+        Scene parameters overriding the scene's (or a default Scene's).
+
+    Returns
+    -------
+    xarray.Dataset
+        The trajectory: samples along `time`, events along `event`, the
+        scene and the run's measures in `attrs`.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    StepBudgetExceeded
+        If the run would need more than `max_steps` steps.
+    Cancelled
+        If `cancel` asked the run to stop.
+    """
     return build_trajectory(*run_records(
         scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
         progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
         lyapunov=lyapunov, stop=stop, **values))
 
 
-def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIOD,
-                max_steps=DEFAULT_MAX_STEPS, progress=None, cancel=None,
-                refine=1.0, shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False,
-                stop="full", **values):
+def run_records(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
+                samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
+                progress: Callable[[float], object] | None = None,
+                cancel: threading.Event | None = None, refine: float = 1.0,
+                shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
+                lyapunov: bool = False,
+                stop: str = "full", **values: Any) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Simulate one scene: its (samples, events, attrs), the kernel's
     trimmed buffers (records.COLUMNS, records event rows) and the run's
     attributes, before they become a Dataset (`simulate`; a map point
@@ -164,7 +249,8 @@ def run_records(scene=None, *, window=None, samples_per_period=SAMPLES_PER_PERIO
     return samples, events, attrs
 
 
-def hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
+def hertz_params(scene: Scene, w0: Any, w1: Any, samples_per_period: int, refine: float,
+                 shortcuts: Any, steps: Any) -> tuple[HertzParams, float, int]:
     """(HertzParams, h, samples capacity) of a Hertz scene's run: its time
     step, the full-resolution window [w0, w1], the sampling and shortcuts."""
     h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
@@ -177,7 +263,7 @@ def hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps):
     return p, h, capacity
 
 
-def lyapunov_start(scene, decide=None):
+def lyapunov_start(scene: Scene, decide: Any = None) -> Any:
     """Where a scene's Lyapunov exponent is measured from (periods): the end
     of the ramp, where the wave is periodic (G = 1 to machine precision, t =
     RAMP_OFF tau), or half the run if that comes later.  Under the `decided`
@@ -244,8 +330,8 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
     run = drivers.run_point_mass(
         p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide, growth=growth,
         samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
-    info = {"h": dt}
-    if lyapunov:
+    info: dict[str, Any] = {"h": dt}
+    if growth is not None:
         growth.update(run.events, final=True)
         value, start = growth.exponent()
         info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
@@ -260,7 +346,7 @@ def _deformable(scene):
 
 def _is_time(t, periods):
     return (isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_))
-            and 0 <= t <= periods)
+            and 0 <= float(t) <= periods)
 
 
 def _snapshot(state, ctr, memory):
@@ -273,7 +359,8 @@ def _snapshot(state, ctr, memory):
             "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
 
 
-def memory_snapshot(scene=None, t=None, **values):
+def memory_snapshot(scene: Scene | None = None, t: float | None = None,
+                    **values: Any) -> dict[str, Any]:
     """The memory diagram of a deformable scene at time t (periods).
 
     Runs the scene from rest to t and returns a dict: t, a, b (a*, b* at t),
@@ -297,7 +384,8 @@ MIN_SNAPSHOT_TIME = 1e-9     # t = 0 shows the first step (a run needs a length)
 MAX_SNAPSHOTS = 10_000
 
 
-def memory_snapshots(scene=None, times=None, *, progress=None, cancel=None, **values):
+def memory_snapshots(scene: Scene | None = None, times: Any = None, *, progress: Any = None,
+                     cancel: Any = None, **values: Any) -> list[dict[str, Any]]:
     """The memory diagram of a deformable scene at each of several times
     (periods, increasing), from ONE run from rest: a list of the dicts
     `memory_snapshot` returns, one per time.
@@ -369,15 +457,30 @@ def _warm(model):
              window=(1.0, 1.5), lyapunov=True)
 
 
-def warmup(models=MODELS, progress=None):
-    """Compile (or load from the on-disk cache) the kernels of `models`,
-    so that no user-facing run pays for compilation (`vibtrans.warmup`).
+def warmup(models: Sequence[str] = MODELS,
+           progress: Callable[[int, int, str], object] | None = None) -> None:
+    """Compile (or load from the on-disk cache) the kernels of `models`.
 
-    models: any of "deformable", "vertical" (also the jumping threshold) and
+    Then no user-facing run pays for compilation.  Cheap once the cache
+    holds them (about 0.1 s per variant).
+
+    Parameters
+    ----------
+    models : sequence of str
+        Any of "deformable", "vertical" (also the jumping threshold) and
         "point-mass"; each is one compiled variant.
-    progress: callable(done, total, label), called after each variant is
+    progress : callable, optional
+        Called as `progress(done, total, label)` after each variant is
         ready (done = 1 .. total, label such as "deformable kernel").
-    Cheap once the cache holds them (about 0.1 s per variant).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    InputError
+        If a model is not one of the three.
     """
     models = (models,) if isinstance(models, str) else tuple(models)
     for model in models:

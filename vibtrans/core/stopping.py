@@ -65,7 +65,10 @@ that no regular stop comes before the exponent is measured:
 * otherwise (not steady, e.g. paper point 4's accelerating drift) the run
   goes on to T_obs (reason `ran-to-end`).
 """
+from __future__ import annotations
+
 import math
+from typing import Any
 
 import numpy as np
 
@@ -97,7 +100,7 @@ RECUR_TOL = 1e-6         # its states' mismatch, relative to the motion's scale
 RECUR_LONGEST = 250      # longest recurrence period looked for (periods)
 
 
-def ballistic_reach_time(y, vy, mass, amplitude):
+def ballistic_reach_time(y: Any, vy: Any, mass: float, amplitude: float) -> Any:
     """Time (periods) until a particle at (y*, y*') in free flight (m* y*''
     = 1, y* down) first reaches y* = -A*, the highest the surface ever comes
     (0 if it is already within reach)."""
@@ -109,7 +112,7 @@ def ballistic_reach_time(y, vy, mass, amplitude):
     return mass * (root - vy) if vy <= 0.0 else 2.0 * gap / (vy + root)
 
 
-def settle_time(tau, tolerance):
+def settle_time(tau: float, tolerance: float) -> int:
     """The whole period from which the `decided` rule's windows start: the
     ramp's residual 1 - G(t) = exp(-t^2 / tau^2) below RAMP_SHARE x
     `tolerance` (the rule's share of the stated drift error), at the latest
@@ -120,14 +123,14 @@ def settle_time(tau, tolerance):
                math.ceil(RAMP_OFF * tau))
 
 
-def check_stop(stop):
+def check_stop(stop: str) -> str:
     """The validated stop rule name."""
     if stop not in STOPS:
         raise InputError(f"stop must be one of {', '.join(STOPS)}, got {stop!r}")
     return stop
 
 
-def birkhoff_weights(n):
+def birkhoff_weights(n: int) -> Any:
     """The weights exp(-1/(s(1-s))), s = (j+1)/(n+1), j < n, normalized to sum 1
     (Das, Sander, Saiki and Yorke 2017)."""
     s = np.arange(1, n + 1) / (n + 1.0)
@@ -135,13 +138,13 @@ def birkhoff_weights(n):
     return w / w.sum()
 
 
-def weighted_birkhoff(values):
+def weighted_birkhoff(values: Any) -> float:
     """The weighted Birkhoff average of a sequence (float)."""
     values = np.asarray(values, dtype=float)
     return float(birkhoff_weights(values.size) @ values)
 
 
-def recurrence_period(values, tol, longest=MAX_PERIOD):
+def recurrence_period(values: Any, tol: float, longest: Any = MAX_PERIOD) -> int | None:
     """The smallest p <= longest with |values[k + p] - values[k]| <= tol for
     every k (the stroboscopic state's recurrence, seen in its drift per
     period), or None."""
@@ -152,7 +155,8 @@ def recurrence_period(values, tol, longest=MAX_PERIOD):
     return None
 
 
-def remaining_rate(drift_per_period, n, recur_tol=0.0):
+def remaining_rate(drift_per_period: float, n: int,
+                   recur_tol: float = 0.0) -> tuple[float, float, float] | None:
     """The asymptotic drift rate from the last 3 n drifts per period: the
     weighted Birkhoff averages v1, v2, v3 of three windows of n periods, and
     (v3, v_inf, bound): v_inf the rate they tend to, with the change from
@@ -189,7 +193,7 @@ def remaining_rate(drift_per_period, n, recur_tol=0.0):
     return v3, v3 + tail, abs(tail) + abs(d2) + noise
 
 
-def stroboscope(samples, times):
+def stroboscope(samples: Any, times: Any):
     """x* at the integer times `times` from coarse samples (t, x, vx): the
     first sample at or after each time, moved back to it along its velocity
     (a sample lies within one step of its grid time)."""
@@ -208,7 +212,8 @@ class DecidedRule:
     `t_strobe`, `x_strobe` (the whole period the extrapolation starts from).
     """
 
-    def __init__(self, periods, tau, amplitude, mass, fidelity="standard", v0=V0):
+    def __init__(self, periods: float, tau: float, amplitude: float, mass: float,
+                 fidelity: str = "standard", v0: float = V0) -> None:
         self.periods = float(periods)
         self.amplitude = float(amplitude)
         self.mass = float(mass)
@@ -220,10 +225,10 @@ class DecidedRule:
         self.rate = math.nan
         self.t_strobe = math.nan
         self.x_strobe = math.nan
-        self._growth = []              # (t, log growth since the start) of the tangent
+        self._growth: list = []              # (t, log growth since the start) of the tangent
         self._quiet_until = -math.inf  # no decision can come before (a long flight's landing)
 
-    def next_check(self, t):
+    def next_check(self, t: float) -> float:
         """The time of the next check after t (a chunk end)."""
         first = self.t_settle + MIN_WINDOW
         if t < first:
@@ -408,7 +413,7 @@ class DecidedRule:
         overlap = t_la[j[ok]] >= k0
         return bool(np.any(dur[overlap] > limit))
 
-    def drift_velocity(self):
+    def drift_velocity(self) -> Any:
         """x*(T)/T: for a regular stop, the run to the last whole period plus
         v_inf for the rest (a flight: to its point, plus its v_x*); else None
         (the run's own x*(t)/t)."""
@@ -416,7 +421,7 @@ class DecidedRule:
             return None
         return (self.x_strobe + self.rate * (self.periods - self.t_strobe)) / self.periods
 
-    def attrs(self):
+    def attrs(self) -> dict[str, Any]:
         """The run's attributes of the rule."""
         return {"stop": "decided", "stop_reason": REASONS[self.reason],
                 "periods_run": self.t_stop,

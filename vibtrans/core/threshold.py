@@ -5,7 +5,10 @@ alone, docs/MODEL.md section 4), found by bisection in log10 A*.
 Jumping is monotonic in A* (the paper's argument: if it jumps at A*, it jumps
 at any larger amplitude), which is what makes bisection valid.
 """
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,12 +20,46 @@ from vibtrans.core.fidelity import step_count, time_step
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.params import Scene
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    import xarray as xr
 
-def first_takeoff(amplitude, mass, tau=50.0, periods=2000.0, fidelity="standard",
-                  integrator="ab4", profile="sphere", load_over_modulus=None):
-    """Time of the first contact loss of the vertical Hertz particle, or inf.
+
+def first_takeoff(amplitude: float, mass: float, tau: float = 50.0, periods: float = 2000.0,
+                  fidelity: str = "standard", integrator: str = "ab4", profile: str = "sphere",
+                  load_over_modulus: float | None = None) -> float:
+    """Time of the first contact loss of the vertical Hertz particle.
 
     Inputs are validated as a Scene would validate them.
+
+    Parameters
+    ----------
+    amplitude : float
+        A*, the normalized wave amplitude.
+    mass : float
+        m*, the normalized mass.
+    tau : float
+        Ramp time of the wave, periods.
+    periods : float
+        Observation time T_obs, periods.
+    fidelity : str
+        Time-step preset.
+    integrator : str
+        "ab4" or "verlet".
+    profile : str
+        The particle's tip profile.
+    load_over_modulus : float, optional
+        N0/E* [m^2], needed by measured profiles.
+
+    Returns
+    -------
+    float
+        The time of the first take-off, periods; inf if none within `periods`.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
     """
     scene = Scene(amplitude=amplitude, mass=mass, tau=tau, periods=periods,
                   fidelity=fidelity, integrator=integrator, model="vertical",
@@ -49,16 +86,50 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     return float(run.events[hit[0], 0]) if hit.size else math.inf
 
 
-def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
-                        integrator="ab4", rel_tol=1e-3, guess=None, profile="sphere",
-                        load_over_modulus=None):
-    """A_J*(m*): smallest A* with a contact loss within `periods`.
+def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
+                        fidelity: str = "standard", integrator: str = "ab4", rel_tol: float = 1e-3,
+                        guess: float | None = None, profile: str = "sphere",
+                        load_over_modulus: float | None = None) -> float:
+    """The jumping threshold A_J*(m*): the smallest A* with a contact loss.
 
-    Bisection in log10 A* to a relative width rel_tol.  Without a guess the
+    Bisection in log10 A* to a relative width `rel_tol`.  Without a guess the
     bracket starts from the rigid line 1 / (4 pi^2 m*) (a rigid contact jumps
     first at low m*; above the resonance, at A* ~ 1); with a guess (the
     threshold of a neighbouring mass) it starts at guess / 1.25 .. guess * 1.25
     and widens as needed, which saves most of the full-length runs.
+
+    Parameters
+    ----------
+    mass : float
+        m*, the normalized mass.
+    tau : float
+        Ramp time of the wave, periods.
+    periods : float
+        Observation time T_obs, periods: a contact loss must come within it.
+    fidelity : str
+        Time-step preset ("preview", "standard", ...).
+    integrator : str
+        "ab4" or "verlet".
+    rel_tol : float
+        Relative width of the final bracket, in [1e-12, 0.5].
+    guess : float, optional
+        A nearby threshold to start the bracket from.
+    profile : str
+        The particle's tip profile, one of PROFILE_KINDS.
+    load_over_modulus : float, optional
+        N0/E* [m^2], needed by measured profiles.
+
+    Returns
+    -------
+    float
+        A_J*, the geometric mean of the final bracket.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    RuntimeError
+        If no contact loss occurs up to A* = 1e8.
     """
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) \
             or not 1e-12 <= rel_tol <= 0.5:
@@ -99,12 +170,13 @@ def threshold_amplitude(mass, tau=50.0, periods=2000.0, fidelity="standard",
     return math.sqrt(lo * hi)
 
 
-def point_mass_threshold(mass):
+def point_mass_threshold(mass: float) -> float:
     """Rigid contact: jumping at m* = 1/(4 pi^2 A*) (docs/MODEL.md section 3)."""
     return 1.0 / (4.0 * math.pi ** 2 * mass)
 
 
-def point_mass_sliding_threshold(mass, mu=0.3, r=None, nu=0.3):
+def point_mass_sliding_threshold(mass: float, mu: float = 0.3, r: Any = None,
+                                 nu: float = 0.3) -> float:
     """Rigid contact: sliding starts at m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*)."""
     if r is None:
         r = Scene(nu=nu).r
@@ -124,14 +196,14 @@ def _threshold_task(args):
     return out
 
 
-def local_minima(log_mass, aj):
+def local_minima(log_mass: npt.ArrayLike, aj: npt.ArrayLike) -> np.ndarray:
     """Indices of the strict local minima of A_J*(m*) (resonance candidates)."""
     aj = np.asarray(aj)
     i = np.arange(1, aj.size - 1)
     return i[(aj[i] < aj[i - 1]) & (aj[i] <= aj[i + 1])]
 
 
-def resonances(log_mass, aj):
+def resonances(log_mass: npt.ArrayLike, aj: npt.ArrayLike) -> dict[Any, Any] | dict[str, int]:
     """Name the resonances of the curve (paper, section III.A).
 
     fundamental: the deepest minimum (m_c* ~ 3/(8 pi^2)); subharmonic: the
@@ -155,10 +227,43 @@ def resonances(log_mass, aj):
     return out
 
 
-def threshold_curve(log_mass, tau=50.0, periods=2000.0, fidelity="standard",
-                    workers=None, progress=True, profile="sphere", load_over_modulus=None):
-    """A_J*(m*) over a grid of log10 m*, with the rigid line and the resonances
-    (xarray.Dataset).  Runs on a local process pool."""
+def threshold_curve(log_mass: npt.ArrayLike, tau: float = 50.0, periods: float = 2000.0,
+                    fidelity: str = "standard", workers: int | None = None, progress: bool = True,
+                    profile: str = "sphere", load_over_modulus: float | None = None) -> xr.Dataset:
+    """The jumping threshold A_J*(m*) over a grid of log10 m*.
+
+    With the rigid line and the resonances; runs on a local process pool.
+
+    Parameters
+    ----------
+    log_mass : array_like
+        The grid of log10 m*.
+    tau : float
+        Ramp time of the wave, periods.
+    periods : float
+        Observation time T_obs, periods.
+    fidelity : str
+        Time-step preset.
+    workers : int, optional
+        Processes of the pool; None: one per core.
+    progress : bool
+        Show a progress bar on stderr.
+    profile : str
+        The particle's tip profile.
+    load_over_modulus : float, optional
+        N0/E* [m^2], needed by measured profiles.
+
+    Returns
+    -------
+    xarray.Dataset
+        `threshold_amplitude` (and the material point's) along
+        `log_mass`, as read by `open_vertical`.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    """
     import multiprocessing as mp
     import os
     import sys

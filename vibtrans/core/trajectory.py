@@ -9,11 +9,17 @@
 Normalized units (docs/MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
 periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import STATE_NAMES
+
+if TYPE_CHECKING:
+    from typing import Any
 
 _UNITS = {
     "x": ("x*", "horizontal position / a0"),
@@ -48,7 +54,8 @@ class RunArrays:
     copies them (a Dataset to keep)."""
     __slots__ = ("columns", "attrs")
 
-    def __init__(self, samples, events, attrs, contiguous=False):
+    def __init__(self, samples: Any, events: np.ndarray, attrs: Any,
+                 contiguous: bool = False) -> None:
         take = np.ascontiguousarray if contiguous else (lambda column: column)
         columns = {"time": take(samples[:, R.T_])}
         for i, name in enumerate(R.COLUMNS):
@@ -60,18 +67,18 @@ class RunArrays:
         columns["event_value"] = take(events[:, 2])
         self.columns = columns          # name -> array
         # what a Dataset can store: no None, booleans as 0/1
-        self.attrs = {k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items()
-                      if v is not None}
+        self.attrs: dict[str, Any] = {k: (v if not isinstance(v, bool) else int(v))
+                                      for k, v in attrs.items() if v is not None}
 
     def __getitem__(self, name):
         return _Column(self.columns[name])
 
 
-def build_trajectory(samples, events, attrs):
+def build_trajectory(samples: Any, events: np.ndarray, attrs: Any) -> xr.Dataset:
     """Dataset from the kernel's trimmed sample and event buffers: the
     arrays of their RunArrays, with units and flag meanings."""
     run = RunArrays(samples, events, attrs, contiguous=True)
-    data = {}
+    data: dict[str, tuple] = {}
     for name, array in run.columns.items():
         if name in _UNITS:
             symbol, desc = _UNITS[name]
@@ -88,7 +95,7 @@ def build_trajectory(samples, events, attrs):
                       attrs=run.attrs)
 
 
-def events_of(ds, kind):
+def events_of(ds: xr.Dataset, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """Times and values of the events of one kind (records.TAKEOFF, ...)."""
     sel = ds["event_kind"].values == kind
     return ds["event_time"].values[sel], ds["event_value"].values[sel]

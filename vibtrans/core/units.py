@@ -11,11 +11,14 @@ Everything here is plain numpy/scipy; SI units throughout unless stated.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from vibtrans.core.errors import InputError, InputTypeError
+
 
 __all__ = [
     "Material", "MATERIALS", "material", "material_names", "custom_material",
@@ -30,7 +33,8 @@ _NU = (0.0, 0.5)  # open interval: the elastic range of an isotropic solid with 
 
 
 # --------------------------------------------------------------------------- validation
-def _check(name, value, lo=-_INF, hi=_INF, lo_open=True, hi_open=True):
+def check_interval(name: str, value: Any, lo: Any = -_INF, hi: Any = _INF, lo_open: bool = True,
+                   hi_open: bool = True) -> Any:
     """Return ``value`` as float (or float array) after checking it is finite and
     inside the interval; raise TypeError / ValueError naming ``name`` otherwise."""
     interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
@@ -55,16 +59,16 @@ def _out(x):
     return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
-def _positive(name, value):
-    return _check(name, value, 0.0, _INF)
+def check_positive(name: str, value: Any) -> Any:
+    return check_interval(name, value, 0.0, _INF)
 
 
-def _nonnegative(name, value):
-    return _check(name, value, 0.0, _INF, lo_open=False)
+def check_nonnegative(name: str, value: Any) -> Any:
+    return check_interval(name, value, 0.0, _INF, lo_open=False)
 
 
 def _poisson(name, value):
-    return _check(name, value, *_NU)
+    return check_interval(name, value, *_NU)
 
 
 # --------------------------------------------------------------------------- materials
@@ -84,9 +88,9 @@ class Material:
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
             raise InputTypeError(f"name must be a non-empty string, got {self.name!r}")
-        _positive("youngs_modulus", self.youngs_modulus)
+        check_positive("youngs_modulus", self.youngs_modulus)
         _poisson("poisson_ratio", self.poisson_ratio)
-        _positive("density", self.density)
+        check_positive("density", self.density)
         if not isinstance(self.source, str):
             raise InputTypeError(f"source must be a string, got {self.source!r}")
 
@@ -144,12 +148,13 @@ _ALIASES = {"aluminum": "aluminium", "fused_silica": "quartz", "silica": "quartz
 CUSTOM_KEYS = {"e": "youngs_modulus", "nu": "poisson_ratio", "rho": "density"}
 
 
-def material_names():
+def material_names() -> list[str]:
     """Every name and alias `material` accepts, as people write them."""
     return sorted({m.name for m in MATERIALS.values()} | set(MATERIALS) | set(_ALIASES))
 
 
-def custom_material(youngs_modulus, poisson_ratio, density, name="custom"):
+def custom_material(youngs_modulus: float, poisson_ratio: float, density: float,
+                    name: str = "custom") -> Material:
     """A material by its three properties: E [Pa], nu in (0, 0.5), density [kg/m^3]."""
     return Material(name, youngs_modulus, poisson_ratio, density,
                     source="user-supplied values")
@@ -178,7 +183,7 @@ def _parse_custom(text):
     return custom_material(name=f"custom ({text.strip()})", **values)
 
 
-def material(name: str) -> Material:
+def material(name: Any) -> Material:
     """Look up a material by (case-insensitive) name or alias ("lithium niobate",
     "LiNbO3", "fused silica", "teflon", ...), or build one from the form
     "E=<Pa>,nu=<->,rho=<kg/m^3>"; InputError lists the valid names."""
@@ -198,7 +203,7 @@ def material(name: str) -> Material:
     return MATERIALS[key]
 
 
-def _as_material(name, value) -> Material:
+def as_material(name: str, value: Any) -> Material:
     if isinstance(value, Material):
         return value
     if isinstance(value, str):
@@ -270,21 +275,21 @@ def _rayleigh_xi(nu: float) -> float:
     return _brentq(secular, 0.5, 1.0, xtol=1e-15, rtol=1e-14)
 
 
-def rayleigh_speed_ratio(nu):
+def rayleigh_speed_ratio(nu: float) -> Any:
     """Rayleigh speed over shear speed, c_R/c_t [-], for Poisson ratio nu in (0, 0.5).
     Scalars give a float, arrays an array."""
     nu = _poisson("nu", nu)
     return np.vectorize(_rayleigh_xi, otypes=[float])(nu) if np.ndim(nu) else _rayleigh_xi(nu)
 
 
-def rayleigh_speed(E, nu, rho):
+def rayleigh_speed(E: Any, nu: float, rho: Any) -> Any:
     """Rayleigh wave speed c_R [m/s] of an isotropic half-space: E [Pa], nu, rho [kg/m^3]."""
-    E, rho = _positive("E", E), _positive("rho", rho)
+    E, rho = check_positive("E", E), check_positive("rho", rho)
     c_t = np.sqrt(E / (2 * (1 + _poisson("nu", nu)) * rho))  # shear speed sqrt(G/rho)
     return _out(rayleigh_speed_ratio(nu) * c_t)
 
 
-def amplitude_ratio(nu):
+def amplitude_ratio(nu: Any) -> Any:
     """r(nu) = |u_x| / |u_y| at the free surface for a Rayleigh wave [-] (docs/MODEL.md 1).
 
     Wavenumbers scaled by k_t = 1 (only ratios matter): k = c_t/c_R,
@@ -301,35 +306,35 @@ def amplitude_ratio(nu):
 
 
 # --------------------------------------------------------------------------- contact
-def stiffness_ratio(E, nu, E_p, nu_p):
+def stiffness_ratio(E: Any, nu: float, E_p: Any, nu_p: float) -> Any:
     """theta = E*/G*: ratio of normal to tangential Hertz-Mindlin contact stiffness [-].
 
     Substrate (E [Pa], nu) and particle (E_p [Pa], nu_p). In [1, 1.5] for nu in (0, 0.5).
     """
-    E, E_p = _positive("E", E), _positive("E_p", E_p)
+    E, E_p = check_positive("E", E), check_positive("E_p", E_p)
     nu, nu_p = _poisson("nu", nu), _poisson("nu_p", nu_p)
     tangential = (2 - nu) * (1 + nu) / (2 * E) + (2 - nu_p) * (1 + nu_p) / (2 * E_p)
     return _out(tangential / ((1 - nu**2) / E + (1 - nu_p**2) / E_p))
 
 
-def effective_modulus(E, nu, E_p, nu_p):
+def effective_modulus(E: Any, nu: float, E_p: Any, nu_p: float) -> Any:
     """Hertz effective modulus E_eff [Pa]: 1/E_eff = (1-nu^2)/E + (1-nu_p^2)/E_p."""
-    E, E_p = _positive("E", E), _positive("E_p", E_p)
+    E, E_p = check_positive("E", E), check_positive("E_p", E_p)
     nu, nu_p = _poisson("nu", nu), _poisson("nu_p", nu_p)
     return _out(1.0 / ((1 - nu**2) / E + (1 - nu_p**2) / E_p))
 
 
-def hertz_compression(load_N, radius_m, E_eff):
+def hertz_compression(load_N: Any, radius_m: Any, E_eff: Any) -> Any:
     """Static Hertz compression a0 [m] of a sphere (radius [m]) on a half-space
     under load [N]: load = (4/3) E_eff sqrt(R) a0^(3/2)."""
-    load_N, radius_m = _positive("load_N", load_N), _positive("radius_m", radius_m)
-    E_eff = _positive("E_eff", E_eff)
+    load_N, radius_m = check_positive("load_N", load_N), check_positive("radius_m", radius_m)
+    E_eff = check_positive("E_eff", E_eff)
     return _out((3 * load_N / (4 * E_eff * np.sqrt(radius_m))) ** (2.0 / 3.0))
 
 
-def sphere_mass(radius_m, density):
+def sphere_mass(radius_m: Any, density: Any) -> Any:
     """Mass [kg] of a solid sphere of radius [m] and density [kg/m^3]."""
-    radius_m, density = _positive("radius_m", radius_m), _positive("density", density)
+    radius_m, density = check_positive("radius_m", radius_m), check_positive("density", density)
     return _out(4.0 / 3.0 * math.pi * radius_m**3 * density)
 
 
@@ -358,16 +363,17 @@ class NormalizedScene:
         """Rayleigh wavelength c_R/f [m]."""
         return self.c_R / self.frequency
 
-    def drift_velocity_si(self, v_star):
+    def drift_velocity_si(self, v_star: float) -> Any:
         """Dimensional velocity [m/s] of a normalized one: v = a0 f v*."""
-        return _out(self.a0 * self.frequency * _check("v_star", v_star))
+        return _out(self.a0 * self.frequency * check_interval("v_star", v_star))
 
 
-def _static_contact(substrate, particle, radius, preload, g):
+def static_contact(substrate: str | Material, particle: str | Material, radius: Any, preload: Any,
+                   g: Any) -> tuple[Material, Material, Any, Any, Any]:
     """(substrate, particle, mass [kg], load [N], a0 [m]) shared by the converters."""
-    sub, par = _as_material("substrate", substrate), _as_material("particle", particle)
-    radius = _positive("radius", radius)
-    preload, g = _nonnegative("preload", preload), _nonnegative("g", g)
+    sub, par = as_material("substrate", substrate), as_material("particle", particle)
+    radius = check_positive("radius", radius)
+    preload, g = check_nonnegative("preload", preload), check_nonnegative("g", g)
     mass = sphere_mass(radius, par.density)
     load = mass * g + preload
     if load <= 0:  # only reachable with g = 0 and no preload
@@ -378,13 +384,15 @@ def _static_contact(substrate, particle, radius, preload, g):
     return sub, par, mass, load, hertz_compression(load, radius, E_eff)
 
 
-def to_normalized(substrate, particle, radius, frequency, amplitude, preload=0.0, g=9.81):
+def to_normalized(substrate: str | Material, particle: str | Material, radius: float,
+                  frequency: Any, amplitude: float, preload: float = 0.0,
+                  g: float = 9.81) -> NormalizedScene:
     """Normalize a device: sphere of ``radius`` [m] made of ``particle`` on ``substrate``
     (names or Material), wave ``frequency`` [Hz], vertical amplitude A_y ``amplitude`` [m],
     pre-load ``preload`` [N], gravity ``g`` [m/s^2]. Returns a NormalizedScene."""
-    sub, par, mass, load, a0 = _static_contact(substrate, particle, radius, preload, g)
-    f = _positive("frequency", frequency)
-    A_y = _nonnegative("amplitude", amplitude)
+    sub, par, mass, load, a0 = static_contact(substrate, particle, radius, preload, g)
+    f = check_positive("frequency", frequency)
+    A_y = check_nonnegative("amplitude", amplitude)
     nu = sub.poisson_ratio
     return NormalizedScene(
         mass_kg=mass, load_N=load, a0=a0,
@@ -412,20 +420,21 @@ class DeviceSpec:
                              self.amplitude, self.preload, self.g)
 
 
-def frequency_for_mass_ratio(m_star, substrate, particle, radius, preload=0.0, g=9.81):
+def frequency_for_mass_ratio(m_star: Any, substrate: str | Material, particle: str | Material,
+                             radius: float, preload: float = 0.0, g: float = 9.81) -> Any:
     """Wave frequency f [Hz] at which the device has the given m* (a0 does not depend on f):
     f = sqrt(m* Mg / (a0 m))."""
-    m_star = _positive("m_star", m_star)
-    _, _, mass, load, a0 = _static_contact(substrate, particle, radius, preload, g)
+    m_star = check_positive("m_star", m_star)
+    _, _, mass, load, a0 = static_contact(substrate, particle, radius, preload, g)
     return _out(np.sqrt(m_star * load / (a0 * mass)))
 
 
-def amplitude_from_normalized(A_star, a0):
+def amplitude_from_normalized(A_star: float, a0: float) -> Any:
     """Vertical wave amplitude A_y = A* a0 [m] from A* [-] and a0 [m]."""
-    return _out(_nonnegative("A_star", A_star) * _positive("a0", a0))
+    return _out(check_nonnegative("A_star", A_star) * check_positive("a0", a0))
 
 
-def duration_text(seconds):
+def duration_text(seconds: float) -> str:
     """A time in seconds as text, in the unit that reads best (ns to s)."""
     for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
         if abs(seconds) >= scale:

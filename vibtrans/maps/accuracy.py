@@ -11,6 +11,8 @@ drift of an accelerating regime depends on the observation time, so the
 shorter runs' 90th percentile is large while their classes mostly agree.
 The explorer's map request shows the nearest setting's figures.
 """
+from __future__ import annotations
+
 # (fidelity, periods): (class agreement, median, p90 drift difference, steps ratio)
 MEASURED = {
     ("preview", 500.0): (0.9811, 3.6e-05, 0.654, 0.117),
@@ -23,7 +25,7 @@ MEASURED = {
 REFERENCE = ("standard", 2000.0)
 
 
-def nearest(fidelity, periods):
+def nearest(fidelity: str, periods: float) -> tuple[str, float] | None:
     """The measured setting closest to (fidelity, periods): the same preset,
     the nearest period count in log; None for "reference" (not measured:
     more accurate than the standard map the others are judged against)."""
@@ -34,7 +36,7 @@ def nearest(fidelity, periods):
     return fidelity, min(same, key=lambda p: abs(math.log(p / periods)))
 
 
-def note(fidelity, periods):
+def note(fidelity: str, periods: float) -> str:
     """One line for a map request: what its nearest measured setting gave."""
     key = nearest(fidelity, periods)
     if key is None:

@@ -42,19 +42,27 @@ digests per chunk, `computed` among the digested variables; sweep.verify and
 sweep.open_map accept it) to a temporary folder renamed to <out>, and the
 partial folder is removed.
 """
+from __future__ import annotations
+
 import hashlib
 import json
 import os
 import shutil
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vibtrans.analysis.summary import V0
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.core.simulate import warmup
-from vibtrans.maps.sweep import (_bar, _check_store, _digest, _why, compute_point, verify)
+from vibtrans.maps.sweep import (block_digest, check_store, compute_point, progress_bar,
+                                 short_reason, verify)
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from vibtrans.maps.sweep import Sweep
 
 MAX_LEVELS = (1, 8)
 DEFAULT_DRIFT_TOLERANCE = 0.5
@@ -67,7 +75,7 @@ BATCH_POINTS = 64          # points per batch file (a kill loses at most these)
 POINTS_PER_TASK = 4        # points per worker task (amortizes the pool's overhead)
 
 
-def check_levels(sweep, max_level):
+def check_levels(sweep: Sweep, max_level: int) -> None:
     """Refuse (InputError) a finest level outside 1..8 or a grid whose sizes
     do not fit it ((n - 1) divisible by 2^K on both axes)."""
     lo, hi = MAX_LEVELS
@@ -84,7 +92,7 @@ def check_levels(sweep, max_level):
                              f"{stride} (e.g. {sizes} points)")
 
 
-def check_tolerance(tol):
+def check_tolerance(tol: float) -> float:
     """Refuse (InputError) a drift tolerance outside (0, 100]."""
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) \
             or not 0 < tol <= 100:
@@ -124,7 +132,7 @@ def _cell_points(i0, j0, s):
             (i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h)]
 
 
-def disagree(grid, i0, j0, s, tol):
+def disagree(grid: Any, i0: int, j0: int, s: Any, tol: float) -> bool:
     """True if the cell's computed corners and edge midpoints disagree (the
     module docstring's rule).  Adding points never turns True into False, so
     the refinement is the same whatever order the points arrive in (a
@@ -207,7 +215,7 @@ class _Partial:
             with open(path, "rb") as f:
                 stored = json.loads(f.read().decode())
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete "
+            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete "
                                 f"{self.folder} and rerun") from None
         if not isinstance(stored, dict):
             raise StoreMismatch(f"{path} is not an adaptive sweep's parameters")
@@ -229,7 +237,7 @@ class _Partial:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({_why(exc)}); delete that file "
+            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete that file "
                                 f"and rerun to recompute its points") from None
         digest = arrays.pop("sha256", None)
         if (digest is None or sorted(arrays) != sorted(want)
@@ -304,7 +312,8 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
         own = executor is None
         pool = ThreadPoolExecutor(max_workers=workers) if own else executor
         try:
-            pending, queue = {}, list(tasks)
+            pending: dict = {}
+            queue = list(tasks)
             while queue or pending:
                 while queue and len(pending) < 2 * workers and not _set(cancel):
                     t = queue.pop(0)
@@ -341,7 +350,7 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     coarse = [(i, j, top) for i, j in cells]
     compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0,
             coarse)
-    leaves = []
+    leaves: list = []
     size = top
     if on_level is not None:
         on_level(0, coarse)
@@ -365,7 +374,7 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     return leaves         # (cells of size 1 hold no missing points)
 
 
-def fill(grid, leaves):
+def fill(grid: Any, leaves: Any) -> None:
     """Fill every point not computed from the smallest leaf holding it."""
     cont = [v for v in CONTINUOUS if v in grid.data]
     cat = [v for v in CATEGORICAL if v in grid.data]
@@ -389,7 +398,7 @@ def fill(grid, leaves):
 
 
 def _check_adaptive_store(ds, sweep, max_level, tol, path):
-    _check_store(ds, sweep, path)
+    check_store(ds, sweep, path)
     got = (ds.attrs.get("adaptive_max_level"), ds.attrs.get("adaptive_tolerance"))
     if got != (max_level, tol):
         raise StoreMismatch(f"{path} was made with other parameters (adaptive max_level, "
@@ -397,9 +406,11 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
                             f"another --out or delete it")
 
 
-def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE,
-                 workers=None, scheduler=None, progress=True, on_level=None, cancel=None,
-                 executor=None, on_chunk=None, chunk_seconds=2.0):
+def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
+                 drift_tolerance: Any = DEFAULT_DRIFT_TOLERANCE, workers: int | None = None,
+                 scheduler: Any = None, progress: bool = True, on_level: Any = None,
+                 cancel: Any = None, executor: str | None = None, on_chunk: Any = None,
+                 chunk_seconds: float = 2.0) -> float:
     """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
     finest) into the Zarr store `path`, resuming from `<path>.partial/`.
 
@@ -435,7 +446,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
             existing = xr.open_zarr(path, consolidated=False, chunks=None)
         except Exception as exc:
             raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({_why(exc)})") from None
+                                f"({short_reason(exc)})") from None
         _check_adaptive_store(existing, sweep, max_level, tol, path)
         verify(existing, path)
         if not existing["done"].values.all():
@@ -448,7 +459,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     partial = _Partial(path, sweep, max_level, tol)
     partial.open(grid)
     warmup()
-    bar = _bar(None, progress)
+    bar = progress_bar(None, progress)
     client = None
     if scheduler:
         from dask.distributed import Client
@@ -490,7 +501,7 @@ def run_adaptive(sweep, path, max_level, drift_tolerance=DEFAULT_DRIFT_TOLERANCE
     return fraction
 
 
-def snapshot(sweep, grid, cells):
+def snapshot(sweep: Sweep, grid: Any, cells: Any) -> xr.Dataset:
     """The map so far as a Dataset on the finest grid: a copy of the grid
     filled from `cells` (a tiling), with `computed`."""
     import xarray as xr
@@ -513,7 +524,7 @@ def _write_store(sweep, grid, path, max_level, tol, fraction):
                       {"description": COMPUTED["computed"][2]})
     variables = {**sweep.variables, **COMPUTED}
     for k in range(sweep.n_chunks):
-        ds["digest"].values[k] = _digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
+        ds["digest"].values[k] = block_digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
     ds["done"].values[:] = True
     ds.attrs.update(adaptive_max_level=max_level, adaptive_tolerance=tol,
                     computed_fraction=fraction)

@@ -17,6 +17,8 @@ checked on every open).  The cache keeps finished ones under a folder:
 * two callers asking for the same key while it is computed share one
   computation (`MapCache.compute` returns the same Future).
 """
+from __future__ import annotations
+
 import hashlib
 import json
 import logging
@@ -26,9 +28,13 @@ import threading
 import time
 import uuid
 from concurrent.futures import Future
+from typing import TYPE_CHECKING, Any
 
 from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.version import __version__
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 log = logging.getLogger("vibtrans.maps.cache")
 
@@ -38,7 +44,7 @@ DEFAULT_MAX_BYTES = 2 * 2**30      # 2 GiB: ~500 shipped-size maps (~4 MB each)
 STALE_SECONDS = 24 * 3600          # a temporary this old was left by a killed server
 
 
-def request_key(request):
+def request_key(request: Any) -> str:
     """The cache key of a map request: a dict of JSON-able values (scene
     values, grid bounds and steps, refinement settings), with the code
     version.  Key order does not matter; 0.3 and 0.30 are one value."""
@@ -67,7 +73,7 @@ class MapCache:
     """Finished maps under `folder` (created if missing), at most
     `max_bytes` in all (the least recently used go first)."""
 
-    def __init__(self, folder, max_bytes=DEFAULT_MAX_BYTES):
+    def __init__(self, folder: str | os.PathLike[str], max_bytes: int = DEFAULT_MAX_BYTES) -> None:
         if not isinstance(max_bytes, int) or isinstance(max_bytes, bool) or max_bytes < 1:
             raise InputError(f"max_bytes must be a positive integer (bytes), got {max_bytes!r}")
         self.folder = os.fspath(folder)
@@ -78,7 +84,7 @@ class MapCache:
             raise InputError(f"map cache folder {self.folder!r} cannot be made "
                              f"({exc.strerror or exc})") from None
         self._lock = threading.Lock()
-        self._computing = {}         # key -> Future of the dataset
+        self._computing: dict = {}         # key -> Future of the dataset
         self._remove_stale_temporaries()
 
     def _remove_stale_temporaries(self):
@@ -92,10 +98,10 @@ class MapCache:
             except OSError:
                 pass
 
-    def path(self, key):
+    def path(self, key: Any) -> str:
         return os.path.join(self.folder, key + SUFFIX)
 
-    def entries(self):
+    def entries(self) -> list[Any]:
         """Finished entries' keys, least recently used first."""
         found = []
         for name in os.listdir(self.folder):
@@ -107,7 +113,7 @@ class MapCache:
                     pass
         return [key for _, key in sorted(found)]
 
-    def get(self, key):
+    def get(self, key: Any) -> xr.Dataset | None:
         """The entry's dataset, verified (sweep.open_map), or None if there
         is none; a damaged or unfinished one is deleted (and None)."""
         from vibtrans.maps.sweep import open_map
@@ -128,11 +134,11 @@ class MapCache:
             pass
         return ds
 
-    def temporary_path(self, key):
+    def temporary_path(self, key: Any) -> str:
         """Where a computation writes the entry before `publish` renames it."""
         return os.path.join(self.folder, f"{key}{TEMPORARY}{uuid.uuid4().hex}")
 
-    def publish(self, key, temporary):
+    def publish(self, key: Any, temporary: Any) -> str:
         """Move a finished store from `temporary` into place, then evict."""
         path = self.path(key)
         if os.path.exists(path):     # another process finished first: keep one
@@ -142,7 +148,7 @@ class MapCache:
         self.evict(keep=key)
         return path
 
-    def evict(self, keep=None):
+    def evict(self, keep: Any = None) -> list[Any]:
         """Remove least recently used entries (never `keep`) until the
         folder's maps take at most max_bytes; returns the removed keys."""
         keys = self.entries()
@@ -159,7 +165,7 @@ class MapCache:
             removed.append(key)
         return removed
 
-    def compute(self, key, build, submit):
+    def compute(self, key: Any, build: Any, submit: Any) -> Any:
         """The entry `key`: from the cache when finished there, else computed
         once by `build(temporary_path)` (which writes a sweep store there),
         through `submit(fn)` (an executor's submit: where the work runs).
@@ -171,10 +177,10 @@ class MapCache:
                 return running
             ds = self.get(key)
             if ds is not None:
-                done = Future()
+                done: Future = Future()
                 done.set_result(ds)
                 return done
-            future = Future()
+            future: Future = Future()
             self._computing[key] = future
 
         def job():

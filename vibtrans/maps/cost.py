@@ -27,6 +27,8 @@ the lower left settles at t_min, the middle (log10 A* in [0, 1]) runs to
 T_obs at a third of its points, so an estimate for a small region can be
 off by more than the whole domain's.
 """
+from __future__ import annotations
+
 import math
 
 from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, check_stop, settle_time
@@ -50,7 +52,7 @@ DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.020, 252.0)}
 DECIDED_PERIOD_COST = {"deformable": 0.92, "point-mass": 1.47}
 
 
-def minimum_periods(tau, fidelity="standard"):
+def minimum_periods(tau: float, fidelity: str = "standard") -> int:
     """The periods every point runs under the `decided` rule: the ramp's
     settling (stopping.settle_time: its residual below 1e-3 of the rule's
     tolerance at this fidelity) and the rule's first window."""
@@ -60,7 +62,8 @@ def minimum_periods(tau, fidelity="standard"):
     return settle_time(tau, DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]) + MIN_WINDOW
 
 
-def expected_periods(model, stop, periods, tau, fidelity="standard"):
+def expected_periods(model: str, stop: str, periods: float, tau: float,
+                     fidelity: str = "standard") -> float:
     """The expected periods one point of a map runs (see the module
     docstring): T_obs under stop="full"; under "decided" the model above,
     with the model's DECIDED_PROFILE."""
@@ -77,7 +80,8 @@ def expected_periods(model, stop, periods, tau, fidelity="standard"):
     return f_end * periods + (1.0 - f_end) * early
 
 
-def expected_time_share(model, stop, periods, tau, fidelity="standard"):
+def expected_time_share(model: str, stop: str, periods: float, tau: float,
+                        fidelity: str = "standard") -> float:
     """A map's expected time under `stop` over its time under stop="full":
     E[periods] / T_obs, times DECIDED_PERIOD_COST under the `decided` rule."""
     share = expected_periods(model, stop, periods, tau, fidelity) / float(periods)

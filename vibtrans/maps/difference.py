@@ -17,6 +17,9 @@ chaotic point's drift is not a property of the scene): the fraction whose
 drift class agrees and the median relative drift difference
 |v2 - v1| / max(|v1|, v0).
 """
+from __future__ import annotations
+
+from typing import Any
 import numpy as np
 import xarray as xr
 
@@ -26,7 +29,7 @@ from vibtrans.core.errors import InputError
 GRID = ("log_amplitude", "log_mass")
 
 
-def signed_log(v, v0=V0):
+def signed_log(v: Any, v0: float = V0) -> Any:
     """s(v) = sign(v) log10(1 + |v| / v0): decades of drift, 0 at v = 0."""
     v = np.asarray(v, dtype=float)
     return np.sign(v) * np.log10(1.0 + np.abs(v) / v0)
@@ -42,7 +45,7 @@ DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
              ("stop", "stop {}", "full"))           # (a full map's store names no rule)
 
 
-def describe(ds):
+def describe(ds: xr.Dataset) -> str:
     """A map's short name from its attributes: model and mu, then what
     differs from the shipped maps (theta, nu, tau, fidelity, periods, the
     particle's profile)."""
@@ -68,7 +71,7 @@ def _step(coord):
     return float(np.min(np.diff(values))) if values.size > 1 else np.inf
 
 
-def map_difference(first, second, v0=V0):
+def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     """second against first, on first's grid (module docstring).
 
     first, second: drift maps (sweep.open_map Datasets: drift_velocity,

@@ -7,11 +7,14 @@ temporary file beside the target and renames it over the target at the end
 (os.replace: atomic within a folder), so a failure (disk full, permissions
 changed, an exception in the writer) leaves neither a partial file nor a
 damaged earlier one; the failure is an InputError naming the path."""
+from __future__ import annotations
+
 import contextlib
 import errno
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from vibtrans.core.errors import InputError
@@ -35,7 +38,7 @@ def _probe(folder, name):
     os.unlink(tmp)
 
 
-def check_file(path, name="out"):
+def check_file(path: str | os.PathLike[str], name: str = "out") -> Path:
     """Refuse (InputError) an output file path that cannot be written: its
     folder missing or not a folder, not writable, or the path an existing
     folder.  Returns the path as a Path."""
@@ -53,7 +56,7 @@ def check_file(path, name="out"):
     return p
 
 
-def check_folder(path, name="out", create=True):
+def check_folder(path: str | os.PathLike[str], name: str = "out", create: bool = True) -> Path:
     """Refuse an output folder that cannot be made or written: its parent
     missing or not writable, or the path an existing file.  The folder itself
     is created if missing (create=True).  Returns it as a Path."""
@@ -90,7 +93,8 @@ def _umask():
 
 
 @contextlib.contextmanager
-def atomic(path, name="out", errors=()):
+def atomic(path: str | os.PathLike[str], name: str = "out",
+           errors: tuple = ()) -> Iterator[str]:
     """Yield a temporary path beside `path` (same suffix, so writers that
     choose a format from the name choose the same); when the block ends
     without an exception, rename it to `path`.  On any exception the

@@ -2,6 +2,8 @@
 curve (vertical.nc) installed with the package as the data package
 `vibtrans_assets` (the repository's assets/ folder), unless VIBTRANS_ASSETS
 names another folder holding maps/."""
+from __future__ import annotations
+
 import os
 from importlib import resources
 from pathlib import Path
@@ -10,11 +12,16 @@ ENV = "VIBTRANS_ASSETS"
 PACKAGE = "vibtrans_assets"
 
 
-def maps_dir():
-    """The folder of the shipped maps: $VIBTRANS_ASSETS/maps if that variable
-    is set, else the maps installed with vibtrans (a wheel's
-    vibtrans_assets/maps, the repository's assets/maps in an editable
-    install or a source tree)."""
+def maps_dir() -> Path:
+    """The folder of the shipped maps.
+
+    Returns
+    -------
+    pathlib.Path
+        $VIBTRANS_ASSETS/maps if that variable is set, else the maps
+        installed with vibtrans (a wheel's vibtrans_assets/maps, the
+        repository's assets/maps in an editable install or a source tree).
+    """
     root = os.environ.get(ENV)
     if root:
         return Path(root) / "maps"

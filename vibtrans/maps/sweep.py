@@ -21,14 +21,17 @@ process pool on this 2-core machine: 59 vs 42 points/s, 89% vs 91% parallel
 efficiency), or on a dask.distributed cluster given its scheduler address;
 the kernels are the same either way.
 """
+from __future__ import annotations
+
 import hashlib
 import math
 import os
 import shlex
 import sys
 import time
-from concurrent.futures import (FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor,
-                                wait)
+from concurrent.futures import (FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor,
+                                ThreadPoolExecutor, wait)
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 import xarray as xr
@@ -40,6 +43,11 @@ from vibtrans.core.simulate import run_records, warmup
 from vibtrans.core.trajectory import RunArrays
 from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    import numpy.typing as npt
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
@@ -104,7 +112,7 @@ DECIDED_VARIABLES = {
 }
 
 
-def variables_of(kind, chaos, stop="full"):
+def variables_of(kind: str, chaos: str, stop: str = "full") -> dict[str, Any]:
     """The stored variables of a sweep of this kind, chaos source and stop rule."""
     if kind == "lyapunov":
         return LYAPUNOV_VARIABLES
@@ -112,13 +120,13 @@ def variables_of(kind, chaos, stop="full"):
     return {**variables, **DECIDED_VARIABLES} if stop == "decided" else variables
 
 
-def _why(exc, limit=240):
+def short_reason(exc: BaseException, limit: int = 240) -> str:
     """An underlying error as one short line (for StoreMismatch messages)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if len(text) <= limit else text[:limit] + "..."
 
 
-def parse_range(text, name):
+def parse_range(text: str, name: str) -> np.ndarray:
     """'start:stop:step' (inclusive stop) -> 1-D array, validated."""
     try:
         start, stop, step = (float(v) for v in str(text).split(":"))
@@ -133,7 +141,8 @@ def parse_range(text, name):
     return np.round(start + step * np.arange(n), 10)
 
 
-def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
+def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
+                  stop: str = "full") -> dict[str, Any]:
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"; the material point's from its impact map), or the run and,
     if it jumps, its chaos twin (analysis.twin_scene; chaos "twin").
@@ -173,7 +182,7 @@ def compute_point(values, log_a, log_m, chaos="twin", stop="full"):
     }
 
 
-def lyapunov_point(values, log_a, log_m):
+def lyapunov_point(values: Any, log_a: Any, log_m: Any) -> dict[str, Any]:
     """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
     scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
     ds = RunArrays(*run_records(scene, lyapunov=True))
@@ -192,7 +201,7 @@ def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin", s
     return [[compute_point(values, la, lm, chaos, stop) for lm in log_ms] for la in log_as]
 
 
-def _digest(block, variables=VARIABLES):
+def block_digest(block: Any, variables: Any = VARIABLES) -> np.unsignedinteger:
     h = hashlib.sha256()
     for name in variables:
         h.update(np.ascontiguousarray(block[name].values).tobytes())
@@ -200,10 +209,35 @@ def _digest(block, variables=VARIABLES):
 
 
 class Sweep:
-    """A sweep's definition: scene values (everything but A*, m*) and grid."""
+    """A sweep's definition: the scene values (everything but A*, m*) and the grid.
 
-    def __init__(self, log_amplitude, log_mass, chunk_rows=4, command=None,
-                 kind="transport", chaos="lyapunov", stop="full", **values):
+    Parameters
+    ----------
+    log_amplitude, log_mass : array_like
+        The grid's log10 A* and log10 m*.
+    chunk_rows : int
+        Rows of log_amplitude per chunk (the unit of work and of resuming).
+    command : str, optional
+        The command that made the store, recorded in its attributes.
+    kind : str
+        "transport" (drift maps) or "lyapunov" (the vertical motion's
+        exponent).
+    chaos : str
+        Where a transport map's chaos flag comes from: "lyapunov" or "twin".
+    stop : str
+        "full" or "decided" (stop each point once its drift is decided).
+    **values
+        Scene values (`Scene`'s parameters but amplitude and mass).
+
+    Raises
+    ------
+    InputError
+        If a value is outside its range, or the combination is not a sweep.
+    """
+
+    def __init__(self, log_amplitude: npt.ArrayLike, log_mass: npt.ArrayLike, chunk_rows: int = 4,
+                 command: str | None = None, kind: str = "transport", chaos: str = "lyapunov",
+                 stop: str = "full", **values: Any) -> None:
         if kind not in KINDS:
             raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if chaos not in CHAOS_SOURCES:
@@ -234,13 +268,13 @@ class Sweep:
         self.command = command or "python API"
 
     @property
-    def n_chunks(self):
+    def n_chunks(self) -> int:
         return -(-self.log_amplitude.size // self.chunk_rows)
 
-    def rows(self, k):
+    def rows(self, k: int) -> slice:
         return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
 
-    def attrs(self):
+    def attrs(self) -> dict[str, Any]:
         return {**{f"scene_{k}": v for k, v in self.values.items()},
                 "chunk_rows": self.chunk_rows, "code_version": __version__,
                 "command": self.command,
@@ -248,9 +282,9 @@ class Sweep:
                 **({"chaos": self.chaos} if self.kind == "transport" else {}),
                 **({"stop": self.stop} if self.stop != "full" else {})}
 
-    def empty_dataset(self):
+    def empty_dataset(self) -> xr.Dataset:
         shape = (self.log_amplitude.size, self.log_mass.size)
-        data = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
+        data: dict[str, tuple] = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
                        {"description": desc})
                 for name, (dt, fill, desc) in self.variables.items()}
         data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
@@ -261,7 +295,7 @@ class Sweep:
                           attrs=self.attrs())
 
 
-def _check_store(ds, sweep, path):
+def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> None:
     problems = []
     for k, v in sweep.values.items():
         got = ds.attrs.get(f"scene_{k}")
@@ -288,7 +322,7 @@ def _check_store(ds, sweep, path):
                             f"use another --out or delete it")
 
 
-def verify(ds, path="store"):
+def verify(ds: xr.Dataset, path: Any = "store") -> None:
     """Raise StoreMismatch unless every done chunk matches its digest."""
     rows = ds.attrs.get("chunk_rows", 0)
     if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
@@ -315,7 +349,7 @@ def verify(ds, path="store"):
         done, digests = ds["done"].values, ds["digest"].values
     except Exception as exc:   # undecodable flags: damaged or truncated
         raise StoreMismatch(f"{path}: the done flags or digests cannot be read "
-                            f"({_why(exc)})") from None
+                            f"({short_reason(exc)})") from None
     n_chunks = -(-ds.sizes.get("log_amplitude", 0) // rows)
     if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
         raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
@@ -329,18 +363,35 @@ def verify(ds, path="store"):
             block = (ds[list(variables)].isel(log_amplitude=sl).load() if whole is None
                      else whole.isel(log_amplitude=sl))
         except Exception as exc:   # undecodable chunk: damaged or truncated
-            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({_why(exc)})") from None
-        if _digest(block, variables) != digests[k]:
+            raise StoreMismatch(f"{path}: chunk {k} cannot be read ({short_reason(exc)})") from None
+        if block_digest(block, variables) != digests[k]:
             raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
                                 f"(damaged or edited); delete the store and rerun")
 
 
-def open_map(path, expect=None):
+def open_map(path: str | os.PathLike[str],
+             expect: Mapping[str, Any] | None = None) -> xr.Dataset:
     """Open a finished or partial sweep, verified; undone points are masked.
 
-    expect: scene values the store must have been made with (e.g.
-    {"model": "deformable", "mu": 0.3}, from a map's file name); a store made
-    with others is refused (StoreMismatch)."""
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The Zarr store (or a netCDF file) of a sweep.
+    expect : dict, optional
+        Scene values the store must have been made with (e.g.
+        `{"model": "deformable", "mu": 0.3}`, from a map's file name).
+
+    Returns
+    -------
+    xarray.Dataset
+        The map over (log_amplitude, log_mass).
+
+    Raises
+    ------
+    StoreMismatch
+        If the store is unreadable, damaged, or made with other values than
+        `expect`.
+    """
     if not os.path.exists(path):
         raise FileNotFoundError(f"no sweep store at {path}")
     try:
@@ -348,18 +399,18 @@ def open_map(path, expect=None):
         # overhead made opening the shipped maps take seconds)
         ds = xr.open_zarr(path, consolidated=False, chunks=None)
     except Exception as exc:
-        raise StoreMismatch(f"{path} is not a readable Zarr store ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} is not a readable Zarr store ({short_reason(exc)})") from None
     made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
     if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
         have = ", ".join(f"{k}={v}" for k, v in made.items())
-        want = ", ".join(f"{k}={v}" for k, v in expect.items())
+        want = ", ".join(f"{k}={v}" for k, v in (expect or {}).items())
         raise StoreMismatch(f"{path} was made for {have}, not {want} (a sweep store under "
                             f"another map's name?)")
     verify(ds, path)
     try:
         ds = ds.load()
     except Exception as exc:   # e.g. an unfinished chunk that is damaged
-        raise StoreMismatch(f"{path} cannot be read ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)})") from None
     rows = int(ds.attrs["chunk_rows"])
     done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
     return ds.assign(point_done=("log_amplitude", done_rows))
@@ -368,16 +419,31 @@ def open_map(path, expect=None):
 VERTICAL_VARIABLES = ("threshold_amplitude", "point_mass_threshold_amplitude")
 
 
-def open_vertical(path):
-    """The jumping-threshold curve A_J*(m*) (netCDF, from `vibtrans threshold
-    --sweep`), checked: StoreMismatch naming the path and the problem if it
-    is unreadable (damaged, truncated) or not such a curve (foreign)."""
+def open_vertical(path: str | os.PathLike[str]) -> xr.Dataset:
+    """The jumping-threshold curve A_J*(m*), checked.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The netCDF file written by `vibtrans threshold --sweep`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The curve along `log_mass`.
+
+    Raises
+    ------
+    StoreMismatch
+        Naming the path and the problem, if the file is unreadable (damaged,
+        truncated) or not such a curve.
+    """
     if not os.path.exists(path):
         raise FileNotFoundError(f"no vertical curve at {path}")
     try:
         ds = xr.load_dataset(path)
     except Exception as exc:
-        raise StoreMismatch(f"{path} is not a readable netCDF file ({_why(exc)})") from None
+        raise StoreMismatch(f"{path} is not a readable netCDF file ({short_reason(exc)})") from None
     missing = [v for v in ("log_mass", *VERTICAL_VARIABLES) if v not in ds.variables]
     if missing:
         raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: "
@@ -393,13 +459,43 @@ def open_vertical(path):
     return ds
 
 
-def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
-              executor="threads", flush_every=None):
+def run_sweep(sweep: Sweep, path: str | os.PathLike[str], workers: int | None = None,
+              scheduler: str | None = None, progress: bool = True, executor: str = "threads",
+              flush_every: float | None = None) -> str | os.PathLike[str]:
     """Compute every unfinished chunk of `sweep` into the Zarr store `path`.
 
-    executor: "threads" (default, measured faster: the numba kernels release
-    the GIL) or "processes".  flush_every: seconds finished chunks may wait
-    before they are written (default FLUSH_EVERY_S; 0: each as it finishes).
+    A store left by an interrupted run resumes where it stopped.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The map's definition: scene values and grid.
+    path : str or os.PathLike
+        The Zarr store, created if missing.
+    workers : int, optional
+        Parallel workers; None: one per core.
+    scheduler : str, optional
+        A Dask scheduler address (tcp://HOST:PORT) to send the chunks to.
+    progress : bool
+        Show a progress bar on stderr.
+    executor : str
+        "threads" (default, measured faster: the numba kernels release the
+        GIL) or "processes".
+    flush_every : float, optional
+        Seconds finished chunks may wait before they are written (default
+        FLUSH_EVERY_S; 0: each as it finishes).
+
+    Returns
+    -------
+    str or os.PathLike
+        `path`.
+
+    Raises
+    ------
+    InputError
+        If a parameter is outside its range.
+    StoreMismatch
+        If `path` holds a store of another sweep, or an unreadable one.
     """
     if executor not in ("processes", "threads"):
         raise InputError(f"executor must be processes or threads, got {executor!r}")
@@ -409,8 +505,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
             existing = xr.open_zarr(path, consolidated=False)
         except Exception as exc:
             raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({_why(exc)})") from None
-        _check_store(existing, sweep, path)
+                                f"({short_reason(exc)})") from None
+        check_store(existing, sweep, path)
         verify(existing, path)
         done = existing["done"].values.copy()
     else:
@@ -422,8 +518,8 @@ def run_sweep(sweep, path, workers=None, scheduler=None, progress=True,
     if not todo:
         return path
     warmup()   # fill the numba cache once, before any worker starts
-    bar = _bar(sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size,
-               progress)
+    total = sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size
+    bar = progress_bar(total, progress)
     writer = _ChunkWriter(path, sweep, bar, flush_every)
     try:
         _run_chunks(sweep, todo, writer, workers, scheduler, executor)
@@ -451,12 +547,12 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
         workers = workers or os.cpu_count() or 1
         import multiprocessing as mp
         if executor == "threads":
-            pool_cm = ThreadPoolExecutor(max_workers=workers)
+            pool_cm: Executor = ThreadPoolExecutor(max_workers=workers)
         else:
             pool_cm = ProcessPoolExecutor(max_workers=workers, initializer=warmup,
                                           mp_context=mp.get_context("spawn"))
         with pool_cm as pool:
-            pending = {}
+            pending: dict[Future, int] = {}
             queue = list(todo)
             while queue or pending:
                 while queue and len(pending) < 2 * workers:
@@ -477,7 +573,7 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
                     failed.result()     # raises the chunk's error
 
 
-def _bar(total, enabled):
+def progress_bar(total: Any, enabled: bool) -> Any[NoReturn]:
     from tqdm import tqdm
     return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
                 desc="sweep", smoothing=0.05)
@@ -486,7 +582,7 @@ def _bar(total, enabled):
 FLUSH_EVERY_S = 2.0    # finished chunks wait in memory at most this long
 
 
-def check_flush_every(seconds):
+def check_flush_every(seconds: float) -> float:
     """The validated flush interval (seconds, a number in [0, 3600])."""
     if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
             or not 0.0 <= seconds <= 3600.0):
@@ -537,7 +633,7 @@ def _write_chunks(path, sweep, ks, blocks):
         data[name] = (("log_amplitude", "log_mass"),
                       np.array([[p[name] for p in row] for row in rows], dtype=dt))
     block = xr.Dataset(data)
-    digests = [_digest(block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start,
+    digests = [block_digest(block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start,
                                                       sweep.rows(k).stop - sl.start)),
                        sweep.variables) for k in ks]
     chunks = slice(ks[0], ks[-1] + 1)
@@ -550,5 +646,5 @@ def _write_chunks(path, sweep, ks, blocks):
         path, region={"chunk": chunks}, consolidated=False)
 
 
-def command_line():
+def command_line() -> str:
     return "vibtrans " + " ".join(shlex.quote(a) for a in sys.argv[1:])

@@ -30,6 +30,7 @@ import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +42,15 @@ from vibtrans.products.designtip import TipShape, tip_shape  # noqa: F401
 # (in a module of their own: the command line's parser needs them without numpy)
 from vibtrans.products.designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, MAP_STEP,  # noqa: F401
                           PRESET_NAMES, REGIMES, velocity_unit)
+
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Callable
+
+    import numpy.typing as npt
+    import xarray as xr
+
+    from vibtrans.core.units import DeviceSpec, Material
 
 G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
 
@@ -125,10 +135,24 @@ def _presets():
     }
 
 
+def preset(name: str) -> Preset:
+    """One of the named example devices.
 
+    Parameters
+    ----------
+    name : str
+        One of PRESET_NAMES ("paper", "saw-motor", "saw-powder", "feeder").
 
-def preset(name):
-    """The named Preset (PRESET_NAMES); InputError lists the names."""
+    Returns
+    -------
+    Preset
+        The device and the chart's axes.
+
+    Raises
+    ------
+    InputError
+        Listing the names, if `name` is not one of them.
+    """
     if not isinstance(name, str) or name not in PRESET_NAMES:
         raise InputError(f"preset must be one of {', '.join(PRESET_NAMES)}, got {name!r}")
     return _presets()[name]
@@ -177,7 +201,7 @@ class DeviceQuantities:
     scene_profile: str = "sphere"
 
 
-    def as_dict(self):
+    def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
@@ -188,7 +212,7 @@ def _device(device):
 
 
 def _surface_energy(value):
-    return units._nonnegative("surface_energy", value)
+    return units.check_nonnegative("surface_energy", value)
 
 
 def _device_tip(device, shape):
@@ -207,14 +231,15 @@ def _device_tip(device, shape):
 
 
 def _e_eff(device):
-    sub = units._as_material("substrate", device.substrate)
-    par = units._as_material("particle", device.particle)
+    sub = units.as_material("substrate", device.substrate)
+    par = units.as_material("particle", device.particle)
     return units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
                                    par.youngs_modulus, par.poisson_ratio)
 
 
-def device_quantities(device, reading=None, surface_energy=DEFAULT_SURFACE_ENERGY,
-                      shape=None):
+def device_quantities(device: Any, reading: Any = None,
+                      surface_energy: float = DEFAULT_SURFACE_ENERGY,
+                      shape: Any = None) -> DeviceQuantities:
     """DeviceQuantities of a DeviceSpec; `reading` (from `read_device`) adds
     the drift, contact time and travel per period; `shape`: the tip
     (designtip.tip_shape; None: the sphere)."""
@@ -254,8 +279,8 @@ class ValidityWarning:
     threshold: float
 
 
-def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_velocity=None,
-                      shape=None):
+def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERGY,
+                      drift_velocity: float | None = None, shape: Any = None) -> list[Any]:
     """Where the model's assumptions fail for a device: a list of ValidityWarning.
 
     * a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS;
@@ -294,7 +319,7 @@ def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_veloc
             f"(--preload, the paper's parameter for such forces) or treat the results as "
             f"qualitative", ratio, ADHESION_RATIO))
     if drift_velocity is not None:
-        v = units._check("drift_velocity", drift_velocity)
+        v = units.check_interval("drift_velocity", drift_velocity)
         travel = abs(v) / q.rayleigh_speed
         if travel >= TRAVEL_FRACTION:
             out.append(ValidityWarning(
@@ -304,7 +329,7 @@ def validity_warnings(device, surface_energy=DEFAULT_SURFACE_ENERGY, drift_veloc
     return out
 
 
-def chart_warnings(chart):
+def chart_warnings(chart: xr.Dataset) -> list[Any]:
     """Where a design chart (`design_chart`'s Dataset) leaves the model's
     validity: one line of text per threshold that some chart points cross,
     with how many ("... at 12 of 1681 points"); an empty list when none.
@@ -352,8 +377,8 @@ def _axis(spec, name):
     q, lo, hi, n = spec
     if q not in AXES:
         raise InputError(f"{name} quantity must be one of {', '.join(AXES)}, got {q!r}")
-    lo = units._positive(f"{name} lo ({q})", lo)
-    hi = units._positive(f"{name} hi ({q})", hi)
+    lo = units.check_positive(f"{name} lo ({q})", lo)
+    hi = units.check_positive(f"{name} hi ({q})", hi)
     if not hi > lo:
         raise InputError(f"{name} ({q}) must have lo < hi, got {lo:g} and {hi:g}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 2 <= n <= MAX_AXIS_POINTS:
@@ -362,8 +387,9 @@ def _axis(spec, name):
     return q, np.geomspace(lo, hi, int(n))
 
 
-def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.0,
-                   g=G_STANDARD, shape=None):
+def normalize_grid(substrate: str | Material, particle: str | Material, radius: float,
+                   frequency: float, amplitude: float, preload: float = 0.0, g: float = G_STANDARD,
+                   shape: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a0 [m], A*, m*) of devices given as broadcastable arrays (radius [m],
     frequency [Hz], amplitude [m]); the vectorized `units.to_normalized`.
     shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
@@ -374,13 +400,13 @@ def normalize_grid(substrate, particle, radius, frequency, amplitude, preload=0.
 
 def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape):
     """normalize_grid's (a0, A*, m*) and the tip's TipContact."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
-    radius = np.asarray(units._positive("radius", radius), dtype=float)
-    frequency = np.asarray(units._positive("frequency", frequency), dtype=float)
-    amplitude = np.asarray(units._positive("amplitude", amplitude), dtype=float)
-    preload = units._nonnegative("preload", preload)
-    g = units._positive("g", g)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
+    radius = np.asarray(units.check_positive("radius", radius), dtype=float)
+    frequency = np.asarray(units.check_positive("frequency", frequency), dtype=float)
+    amplitude = np.asarray(units.check_positive("amplitude", amplitude), dtype=float)
+    preload = units.check_nonnegative("preload", preload)
+    g = units.check_positive("g", g)
     mass = units.sphere_mass(radius, par.density)
     load = mass * g + preload
     E_eff = units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
@@ -396,17 +422,17 @@ def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g
     return a0, amplitude / a0, a0 * mass * frequency**2 / load, tip
 
 
-def materials_theta_nu(substrate, particle):
+def materials_theta_nu(substrate: str | Material, particle: str | Material) -> tuple[float, float]:
     """(theta, nu) of a substrate / particle pair (docs/MODEL.md 1)."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
     theta = units.stiffness_ratio(sub.youngs_modulus, sub.poisson_ratio,
                                   par.youngs_modulus, par.poisson_ratio)
     return theta, sub.poisson_ratio
 
 
 # ---------------------------------------------------------------- which map
-def shipped_map_path(mu, maps=None):
+def shipped_map_path(mu: float, maps: Any = None) -> Path:
     from vibtrans.maps.shipped import maps_dir
     return Path(maps or maps_dir()) / f"deformable-mu{float(mu):g}.zarr"
 
@@ -449,7 +475,7 @@ def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
     return problems
 
 
-def compute_cost(log_amplitude, log_mass, values):
+def compute_cost(log_amplitude: Any, log_mass: Any, values: Any) -> tuple[int, Any, int]:
     """(points, periods, integration steps: an upper estimate) of a sweep."""
     from vibtrans.core.params import Scene
     from vibtrans.core.simulate import estimate_steps
@@ -460,16 +486,18 @@ def compute_cost(log_amplitude, log_mass, values):
     return len(log_amplitude) * len(log_mass), values["periods"], steps
 
 
-def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=2000.0,
-                 tau=50.0, fidelity=COMPUTE_FIDELITY, report=print, workers=None,
-                 profile="sphere", load_over_modulus=None):
+def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: float, nu: float,
+                 store_dir: str | os.PathLike[str], step: Any = MAP_STEP, periods: float = 2000.0,
+                 tau: float = 50.0, fidelity: str = COMPUTE_FIDELITY, report: Any = print,
+                 workers: int | None = None, profile: str = "sphere",
+                 load_over_modulus: float | None = None) -> tuple[xr.Dataset, str]:
     """The normalized window covering (log_a, log_m) on a `step`-decade grid,
     computed with vibtrans.maps.sweep into a store under `store_dir` (kept: a rerun
     reuses or resumes it). The cost is reported before anything runs.
     profile, load_over_modulus: the particle's normalized profile (Scene's)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
-    step = units._check("step", step, 0.0, 1.0, hi_open=False)
+    step = units.check_interval("step", step, 0.0, 1.0, hi_open=False)
     store_dir = check_folder(store_dir, "store_dir")
     la, lm = _grid_range(log_a, step), _grid_range(log_m, step)
     if la.size < 2:
@@ -482,7 +510,7 @@ def computed_map(log_a, log_m, mu, theta, nu, store_dir, step=MAP_STEP, periods=
                          f"[{la[0]:g}, {la[-1]:g}] x {lm.size} in log10 m* [{lm[0]:g}, "
                          f"{lm[-1]:g}] at step {step:g}), more than {MAX_COMPUTE_POINTS}; "
                          f"use a coarser step or narrower axes")
-    values = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
+    values: dict[str, Any] = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
                   fidelity=fidelity)
     if profile != "sphere":             # (the sphere's keys, and stores, as before)
         values["profile"] = profile
@@ -511,7 +539,7 @@ def _nearest(grid, values):
     return np.where(left, i - 1, i)
 
 
-def regime_of(drift, contact, pattern, chaotic):
+def regime_of(drift: Any, contact: Any, pattern: Any, chaotic: Any) -> np.ndarray:
     """Regime index (REGIMES) from a map's flags (arrays of equal shape)."""
     drift, contact = np.asarray(drift), np.asarray(contact)
     pattern, chaotic = np.asarray(pattern), np.asarray(chaotic)
@@ -524,7 +552,7 @@ def regime_of(drift, contact, pattern, chaotic):
     return np.where(drift < -1, -1, r).astype(np.int8)     # -1: not computed
 
 
-def read_map(map_ds, log_a, log_m):
+def read_map(map_ds: xr.Dataset, log_a: npt.ArrayLike, log_m: npt.ArrayLike) -> dict[Any, Any]:
     """Nearest-grid-point values of a map at (log_a, log_m) arrays: a dict of
     arrays (v_star, drift, contact, pattern, chaotic, contact_fraction,
     log_amplitude_read, log_mass_read). Undone points read as NaN / -2."""
@@ -569,7 +597,7 @@ class NoMapCovers(InputError):
     """design_chart's refusal when no shipped map serves the chart (and
     nothing is to be computed); `need`: the MapNeed, the map it would read."""
 
-    def __init__(self, message, need):
+    def __init__(self, message: str, need: Any) -> None:
         super().__init__(message)
         self.need = need
 
@@ -603,8 +631,8 @@ class ChartGrid:
     """A chart's devices mapped to the normalized plane: the axes'
     quantities and values (SI), the fixed quantity, the devices' arrays
     (dims (y, x)), their a0 [m], A*, m*, and theta, nu of the materials."""
-    substrate: object
-    particle: object
+    substrate: units.Material
+    particle: units.Material
     x: str
     x_values: np.ndarray
     y: str
@@ -617,17 +645,18 @@ class ChartGrid:
     m_star: np.ndarray
     theta: float
     nu: float
-    shape: TipShape = TipShape()
-    tip: designtip.TipContact | None = None
+    shape: TipShape
+    tip: designtip.TipContact
 
 
-def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
-               y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), g=G_STANDARD,
-               shape=None):
+def chart_grid(substrate: str | Material, particle: str | Material, preload: float = 0.0,
+               x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+               fixed: tuple = ("radius", 0.5e-3), g: float = G_STANDARD,
+               shape: Any = None) -> ChartGrid:
     """The chart's ChartGrid (every value checked: InputError names it);
     shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
-    sub = units._as_material("substrate", substrate)
-    par = units._as_material("particle", particle)
+    sub = units.as_material("substrate", substrate)
+    par = units.as_material("particle", particle)
     xq, xv = _axis(x, "x")
     yq, yv = _axis(y, "y")
     if not isinstance(fixed, (tuple, list)) or len(fixed) != 2:
@@ -636,7 +665,7 @@ def chart_grid(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
     if xq == yq or fq in (xq, yq) or fq not in AXES:
         raise InputError(f"x, y and fixed must be the three quantities {', '.join(AXES)} "
                          f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}")
-    fv = units._positive(f"fixed {fq}", fv)
+    fv = units.check_positive(f"fixed {fq}", fv)
     X, Y = np.meshgrid(xv, yv)
     dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
     shape = tip_shape("sphere" if shape is None else shape)
@@ -661,51 +690,100 @@ class MapNeed:
     load_over_modulus: float | None = None
 
 
-def chart_needs(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
-                y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
-                maps=None, g=G_STANDARD, shape=None):
+def chart_needs(substrate: str | Material, particle: str | Material, preload: float = 0.0,
+                x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+                fixed: tuple = ("radius", 0.5e-3), mu: Any = 0.3, maps: Any = None,
+                g: float = G_STANDARD, shape: Any = None) -> MapNeed:
     """The MapNeed of a chart (design_chart's arguments): which map it
     reads, and whether a shipped one serves it.  Nothing is computed."""
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
-    mu = units._positive("mu", mu)
+    mu = units.check_positive("mu", mu)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
     _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile)
     return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile,
                      grid.tip.load_over_modulus)
 
 
-def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41),
-                 y=("amplitude", 1e-9, 1e-6, 41), fixed=("radius", 0.5e-3), mu=0.3,
-                 surface_energy=DEFAULT_SURFACE_ENERGY, maps=None, compute=False,
-                 store_dir=None, step=MAP_STEP, periods=2000.0, report=print, workers=None,
-                 g=G_STANDARD, map_ds=None, map_name="given map", shape=None):
-    """The design chart: an xarray Dataset over the two device axes (dims
-    (y, x), coordinates in SI) with drift_velocity [m/s] = a0 f v*, v_star,
-    drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES index),
-    contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
-    adhesion_ratio (DMT pull-off / load) and travel_over_wavelength (|v| / c_R);
-    attrs name the map read and how (nearest grid point).
+def design_chart(substrate: str | Material, particle: str | Material, preload: float = 0.0,
+                 x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+                 fixed: tuple = ("radius", 0.5e-3), mu: float = 0.3,
+                 surface_energy: float = DEFAULT_SURFACE_ENERGY,
+                 maps: str | os.PathLike[str] | None = None, compute: bool = False,
+                 store_dir: str | os.PathLike[str] | None = None, step: float = MAP_STEP,
+                 periods: float = 2000.0, report: Callable[[str], object] = print,
+                 workers: int | None = None, g: float = G_STANDARD,
+                 map_ds: xr.Dataset | None = None, map_name: str = "given map",
+                 shape: TipShape | None = None) -> xr.Dataset:
+    """The design chart: a device's drift over two of its SI quantities.
 
-    x, y: (quantity, lo, hi, n) with quantity among AXES, n log-spaced points;
-    fixed: (the third quantity, value). preload [N], mu, surface_energy
-    [J/m^2]. compute: compute the window (into store_dir, `step` decades,
-    `periods`, preview fidelity) when no shipped map serves, else refuse
-    (NoMapCovers, with the MapNeed).
-    map_ds: read this normalized map instead (a map on demand: an opened
-    sweep store; refused unless its mu, theta, nu and window serve the
-    chart), named `map_name` in the chart's attrs.
-    shape: the particle's tip (designtip.tip_shape: cone half-angle, tip
-    radius, flat radius in SI, or a measured table; None: the sphere); the
-    map read is that profile's (shipped maps are the sphere's: another
-    profile needs compute=True or its own map_ds); attrs name it (profile,
-    map_profile) and edge_slope holds the profile's slope at the contact edge.
+    Each point of the (y, x) grid is mapped to the normalized plane and read
+    from a shipped map (nearest grid point), a computed window or `map_ds`.
+
+    Parameters
+    ----------
+    substrate, particle : str or Material
+        The materials (a name of MATERIALS, or a Material).
+    preload : float
+        Extra normal load on the particle [N].
+    x, y : tuple
+        (quantity, lo, hi, n) with quantity among AXES ("frequency",
+        "radius", "amplitude"), n log-spaced points.
+    fixed : tuple
+        (the third quantity, value).
+    mu : float
+        Friction coefficient.
+    surface_energy : float
+        Work of adhesion [J/m^2], for the adhesion ratio.
+    maps : str or os.PathLike, optional
+        Folder of the shipped maps; None: `maps_dir()`.
+    compute : bool
+        Compute the window (into `store_dir`, `step` decades, `periods`,
+        preview fidelity) when no shipped map serves, else refuse.
+    store_dir : str or os.PathLike, optional
+        Where computed windows are stored; needed with `compute`.
+    step : float
+        Grid step of a computed window, decades.
+    periods : float
+        T_obs of a computed window, periods.
+    report : callable
+        Called with one line of text on what is read or computed.
+    workers : int, optional
+        Workers of a computed window.
+    g : float
+        Gravity [m/s^2].
+    map_ds : xarray.Dataset, optional
+        A normalized map to read instead (an opened sweep store; refused
+        unless its mu, theta, nu and window serve the chart).
+    map_name : str
+        `map_ds`'s name in the chart's attrs.
+    shape : TipShape, optional
+        The particle's tip (`designtip.tip_shape`; None: the sphere); the
+        map read is that profile's.
+
+    Returns
+    -------
+    xarray.Dataset
+        Over dims (y, x), coordinates in SI: drift_velocity [m/s] = a0 f v*,
+        v_star, drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES
+        index), contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
+        adhesion_ratio (DMT pull-off / load) and travel_over_wavelength
+        (abs(v) / c_R); attrs name the map read and the profile.
+
+    Raises
+    ------
+    InputError
+        If a value is outside its range, or `compute` lacks `store_dir`, or
+        `map_ds` does not serve the chart.
+    NoMapCovers
+        If no shipped map serves the chart and `compute` is False (with the
+        MapNeed).
     """
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     tip = grid.tip
     sub, par = grid.substrate, grid.particle
     xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
         grid.fixed_value
-    mu = units._positive("mu", mu)
+    mu = units.check_positive("mu", mu)
     w = _surface_energy(surface_energy)
     if compute and store_dir is None:
         raise InputError("store_dir (--store) is needed to compute a map")
@@ -782,13 +860,43 @@ def design_chart(substrate, particle, preload=0.0, x=("frequency", 1e4, 1e6, 41)
 _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
-def read_device(device, mu=0.3, maps=None, chart=None, map_ds=None, map_name="given map",
-                shape=None):
-    """The map reading at one device (dict: v_star, contact_fraction, regime,
-    map), from `map_ds` (named map_name) or `chart`'s map when given (nearest
-    chart point is NOT used: the device is mapped itself), else from the
-    shipped map; None when no map serves the device (outside, other
-    theta/nu/mu, another profile).  shape: the particle's tip (None: the sphere)."""
+def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str] | None = None,
+                chart: xr.Dataset | None = None, map_ds: xr.Dataset | None = None,
+                map_name: str = "given map", shape: TipShape | None = None) -> dict[str, Any] | None:
+    """The map reading at one device.
+
+    From `map_ds` (named `map_name`) or `chart`'s map when given (the device
+    is mapped itself, not to the nearest chart point), else from the shipped
+    map.
+
+    Parameters
+    ----------
+    device : DeviceSpec
+        The device in SI units (a preset's `device`).
+    mu : float
+        Friction coefficient.
+    maps : str or os.PathLike, optional
+        Folder of the shipped maps; None: `maps_dir()`.
+    chart : xarray.Dataset, optional
+        A design chart whose map to read.
+    map_ds : xarray.Dataset, optional
+        A normalized map to read.
+    map_name : str
+        `map_ds`'s name in the reading.
+    shape : TipShape, optional
+        The particle's tip (None: the sphere).
+
+    Returns
+    -------
+    dict or None
+        v_star, contact_fraction, regime and map; None when no map serves
+        the device (outside, other theta/nu/mu, another profile).
+
+    Raises
+    ------
+    InputError
+        If a value is outside its range.
+    """
     from vibtrans.maps.sweep import open_map
     shape = tip_shape("sphere" if shape is None else shape)
     s, tip, A_star, m_star = _device_tip(_device(device), shape)
@@ -824,7 +932,7 @@ def _reading(ds, la, lm, name):
             "map": name}
 
 
-def write_chart_data(chart, out):
+def write_chart_data(chart: xr.Dataset, out: str | os.PathLike[str]) -> str | os.PathLike[str]:
     """The chart's numbers to out: .nc (netCDF, every variable) or .csv (one
     row per device point)."""
     from vibtrans.maps.outfiles import atomic, check_file

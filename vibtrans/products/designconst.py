@@ -2,6 +2,12 @@
 and the figure shares with the chart (vibtrans.products.design and vibtrans.products.plots
 use them; this module imports nothing, so building the parser loads no
 numerics, and the figure does not import the chart's computing)."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 # Work of adhesion w of two solids in air held by van der Waals forces:
 # w = A_H / (12 pi D0^2) with a Hamaker constant A_H = 1e-19 J (typical of
@@ -17,7 +23,7 @@ REGIMES = ("no drift", "sliding with the wave", "sliding against the wave",
            "synchronous hopping", "other hopping", "chaotic")
 
 
-def velocity_unit(v):
+def velocity_unit(v: npt.ArrayLike) -> tuple[str, float]:
     """(name, scale) of the unit that reads best for speeds v [m/s] (an
     array): mm/s when the largest finite |v| is at least 1 mm/s, else um/s."""
     import numpy as np         # (here: the parser imports this module)

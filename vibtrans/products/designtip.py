@@ -43,6 +43,8 @@ Validity (`tip_warnings`):
 """
 from __future__ import annotations
 
+from typing import Any
+
 import math
 from dataclasses import dataclass, field
 
@@ -62,7 +64,7 @@ TIP_KINDS = ("sphere", "cone", "power:N", "flat-sphere", "file:PATH")
 SHARED_RELATIVE = 1e-9
 
 
-def kappa(n):
+def kappa(n: int) -> float:
     """MDR's factor of z = C r^n: g(x) = kappa_n C |x|^n."""
     return math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
 
@@ -82,7 +84,7 @@ class TipShape:
     table: tuple = field(default=(), repr=False)
 
     @property
-    def name(self):
+    def name(self) -> str:
         """The shape as a reader names it (charts' attrs, JSON)."""
         if self.kind == "sphere":
             return "sphere"
@@ -96,7 +98,7 @@ class TipShape:
         return f"file:{self.path}"
 
     @property
-    def is_sphere(self):
+    def is_sphere(self) -> bool:
         return self.kind == "sphere"
 
 
@@ -112,7 +114,8 @@ def _real(name, value, lo, hi, lo_open=True, hi_open=True, unit=""):
     return float(value)
 
 
-def tip_shape(profile="sphere", half_angle=None, tip_radius=None, flat_radius=None):
+def tip_shape(profile: str | TipShape = "sphere", half_angle: float | None = None,
+              tip_radius: float | None = None, flat_radius: float | None = None) -> TipShape:
     """A checked TipShape from a profile name (TIP_KINDS) and its SI sizes:
     half_angle [deg] for a cone (or power:1), tip_radius [m] for power:N
     (optional), flat_radius [m] for flat-sphere.  A size the profile does
@@ -215,7 +218,7 @@ class TipContact:
     load_over_modulus: float | None = None
 
 
-def static_contact(shape, radius, load, E_eff):
+def static_contact(shape: Any, radius: Any, load: Any, E_eff: Any) -> TipContact:
     """TipContact of a tip shape on a body of `radius` [m] under `load` [N]
     (broadcastable arrays), contact modulus E_eff [Pa].  A flat-ended
     sphere's gamma or a table's N0/E* must be shared by all the points
@@ -259,7 +262,7 @@ def static_contact(shape, radius, load, E_eff):
                       load / (np.pi * ac ** 2), f"file:{shape.path}", lom)
 
 
-def outline(shape, r, radius):
+def outline(shape: Any, r: Any, radius: float) -> Any:
     """The tip's outline z(r) [m] at radii r [m] (arrays) of a body of
     `radius` [m]: for a drawing of the tip (sphere and flat-sphere: the
     parabolic profile the contact law uses, r^2 / (2R) beyond the flat)."""
@@ -288,7 +291,7 @@ class TipWarning:
     threshold: float
 
 
-def tip_warnings(shape, contact, E_eff):
+def tip_warnings(shape: Any, contact: Any, E_eff: float) -> list[Any]:
     """TipWarnings of a tip's static contact (`static_contact` at one point):
     'tip-slope' (slope at the contact edge above MAX_EDGE_SLOPE) and
     'cone-apex' (always for a cone: its apex pressure is singular)."""
@@ -328,12 +331,13 @@ class TipSize(param.Number):
 
     __slots__ = ["size", "range_text"]
 
-    def __init__(self, default=None, size=None, range_text="", **params):
+    def __init__(self, default: Any = None, size: Any = None, range_text: str = "",
+                 **params: Any) -> None:
         self.size = size
         self.range_text = range_text
         super().__init__(default=default, **params)
 
-    def library_check(self, value):
+    def library_check(self, value: Any) -> float | None:
         """The library's check of `value` (InputError, a ValueError, if refused)."""
         if value is None and self.allow_None:
             return None

@@ -11,11 +11,14 @@ changing `hv.Store.current_backend`, and every render names its backend.
 Every `export_*` function returns the HoloViews object it rendered
 (`export_trajectory`: the `plots.TrajectoryFigure`, drawn without HoloViews).
 """
+from __future__ import annotations
+
 import math
 import shlex
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -34,6 +37,14 @@ from vibtrans.maps.shipped import maps_dir  # noqa: E402
 from vibtrans.core.errors import InputError  # noqa: E402
 from vibtrans.maps.outfiles import atomic  # noqa: E402
 
+if TYPE_CHECKING:
+    import os
+    import xarray as xr
+    from matplotlib.figure import Figure
+    from matplotlib.typing import RcKeyType
+    from vibtrans.core.params import Scene
+    from vibtrans.products.plots import TrajectoryFigure
+
 FORMATS = ("png", "svg", "pdf")
 DEFAULT_DPI = 150
 FRAGMENT = plots.FRAGMENT
@@ -43,7 +54,7 @@ HSPACE = 0.35            # gap between a layout's columns, in axes widths
 MAPS_HSPACE = 0.6        # ... beside a map: its colour bar, ticks and two-line title
 
 # publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
-RC = {
+RC: "dict[RcKeyType, Any]" = {
     "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11,
     "xtick.labelsize": 9.5, "ytick.labelsize": 9.5, "legend.fontsize": 9,
     "legend.framealpha": 0.85, "axes.linewidth": 0.8, "axes.formatter.useoffset": False,
@@ -55,7 +66,7 @@ _ELEMENTS = ("Curve", "Image", "Rectangles", "Polygons", "Points", "Labels", "Te
 
 
 # ---------------------------------------------------------------- backends
-def ensure_backends():
+def ensure_backends() -> None:
     """Load the bokeh and matplotlib plotting backends of HoloViews (their
     option trees) without changing the current backend (bokeh if none was
     selected yet).  Call before building figures to be rendered headless."""
@@ -65,7 +76,7 @@ def ensure_backends():
     hv.Store.set_current_backend(had or "bokeh")     # also fills hv.opts builders
 
 
-def _format(out, allowed=FORMATS):
+def output_format(out: str | os.PathLike[str], allowed: tuple[str, ...] = FORMATS) -> str:
     ext = Path(out).suffix.lower().lstrip(".")
     if ext not in allowed:
         raise InputError(f"out must end in {', '.join('.' + a for a in allowed)}; got {str(out)!r}")
@@ -88,7 +99,7 @@ def _check_size(width, height, dpi):
 def _publication(obj, width, height, hspace=HSPACE):
     """matplotlib options of a publication figure: axes fill their cells (the
     final size is fixed later), no sub-figure letters, no shared ranges."""
-    spec = {k: dict(aspect="auto") for k in _ELEMENTS}
+    spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
     spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace,
                           vspace=0.6)
     spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
@@ -115,7 +126,7 @@ def _fit(fig, pad=0.06, rounds=6):
                              p.width * sx, p.height * sy])
 
 
-def render(obj, width=7.0, height=5.0, hspace=HSPACE):
+def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE) -> Figure:
     """A matplotlib Figure of `obj` at width x height inches (not shown;
     close it with matplotlib.pyplot.close when done); a layout's columns
     `hspace` axes widths apart."""
@@ -129,10 +140,11 @@ def render(obj, width=7.0, height=5.0, hspace=HSPACE):
     return fig
 
 
-def save(obj, out, width=7.0, height=5.0, dpi=DEFAULT_DPI, hspace=HSPACE):
+def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: float = 5.0,
+         dpi: int = DEFAULT_DPI, hspace: float = HSPACE) -> Any:
     """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
     exactly width*dpi x height*dpi pixels for PNG."""
-    fmt = _format(out)
+    fmt = output_format(out)
     _check_size(width, height, dpi)
     import matplotlib.pyplot as plt
     fig = render(obj, width, height, hspace)
@@ -159,14 +171,35 @@ def _metadata(fmt):
     return {"Creator": creator, "CreationDate": None}
 
 
-def export_html(obj, out, title="vibtrans"):
-    """Standalone interactive HTML (bokeh, resources inline: opens offline,
-    no server).  obj: a HoloViews object built with the bokeh backend loaded,
-    a Bokeh model, or anything Panel can show."""
+def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") -> Any:
+    """A standalone interactive HTML file (Bokeh, resources inline).
+
+    It opens offline, with no server.
+
+    Parameters
+    ----------
+    obj : object
+        A HoloViews object built with the bokeh backend loaded, a Bokeh
+        model, or anything Panel can show.
+    out : str or os.PathLike
+        The .html file.
+    title : str
+        The page's title.
+
+    Returns
+    -------
+    object
+        `obj`.
+
+    Raises
+    ------
+    InputError
+        If `out` does not end in .html.
+    """
     from bokeh.document import Document
     from bokeh.model import Model
     from panel.io.state import set_curdoc
-    _format(out, ("html",))
+    output_format(out, ("html",))
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     # Panel's save renders into a document of its own but takes its
     # stylesheets from the current one's cache: from a served page's callback
@@ -211,7 +244,8 @@ def _write(obj, out, width, height, dpi, html_cell=None):
 
 
 # ---------------------------------------------------------------- figures
-def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
+def heatmap_figure(map_ds: xr.Dataset, v0: float = V0, vertical: xr.Dataset | None = None,
+                   chaotic: str = "grey", title: str | None = None):
     """The explorer's map (same layers): drift velocity in the paper's colour
     scale, jumping boundary (and resonances, deformable), paper points."""
     ensure_backends()
@@ -235,27 +269,89 @@ def heatmap_figure(map_ds, v0=V0, vertical=None, chaotic="grey", title=None):
             title += " (partial map)"
         if chaotic == "grey" and bool((map_ds["chaotic"].values == 1).any()):
             title += "; grey: chaotic"
-    x0, y0, x1, y1 = plots._bounds(map_ds)
+    x0, y0, x1, y1 = plots.map_bounds(map_ds)
     return plots.style(el, common=dict(title=title, xlim=(x0, x1), ylim=(y0, y1)))
 
 
-def export_heatmap(map_ds, out, v0=V0, vertical=None, dpi=DEFAULT_DPI, width=7.0,
-                   height=5.2, chaotic="grey", title=None):
-    """Drift map (`open_map` Dataset) to out (.png/.svg/.pdf, or .html)."""
-    _format(out, FORMATS + ("html",))
+def export_heatmap(map_ds: xr.Dataset, out: str | os.PathLike[str], v0: float = V0,
+                   vertical: xr.Dataset | None = None, dpi: int = DEFAULT_DPI, width: float = 7.0,
+                   height: float = 5.2, chaotic: str = "grey", title: str | None = None) -> Any:
+    """The drift map of a sweep, as a figure file.
+
+    Parameters
+    ----------
+    map_ds : xarray.Dataset
+        A map, as `open_map` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html (interactive).
+    v0 : float
+        Drift speeds below this (a0 per period) are drawn as no drift.
+    vertical : xarray.Dataset, optional
+        The jumping threshold (`open_vertical`), drawn over the map.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+    chaotic : str
+        How chaotic points are drawn ("grey": a grey layer).
+    title : str, optional
+        The figure's title; None: the map's.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
+    output_format(out, FORMATS + ("html",))
     return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height,
                   dpi)
 
 
-def export_trajectory(ds, out, window=None, twin=None, dpi=DEFAULT_DPI, width=11.0,
-                      height=None, title=None):
-    """Trajectory figure (`plots.trajectory_figure`): the whole run as
-    per-bin mean and min-max envelope, and the full-resolution fragment
-    `window` (default: the run's recorded window, else its last 2 periods);
-    with a twin run (tau + 1e-3), a last row compares x*(t).  To out (.png,
-    .svg, .pdf: matplotlib, `render_trajectory`; .html: Bokeh,
-    `trajectory_bokeh`).  Returns the `plots.TrajectoryFigure` drawn."""
-    fmt = _format(out, FORMATS + ("html",))
+def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
+                      window: tuple[float, float] | None = None, twin: xr.Dataset | None = None,
+                      dpi: int = DEFAULT_DPI, width: float = 11.0, height: float | None = None,
+                      title: str | None = None) -> TrajectoryFigure:
+    """A run's trajectory figure, as a file.
+
+    The whole run as per-bin mean and min-max envelope, and the
+    full-resolution fragment `window`; with a twin run (tau + 1e-3), a last
+    row compares x*(t).  Matplotlib draws .png, .svg and .pdf; Bokeh .html.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A run, as `simulate` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    window : tuple of float, optional
+        (t0, t1) of the fragment; None: the run's recorded window, else its
+        last 2 periods.
+    twin : xarray.Dataset, optional
+        The tau + 1e-3 twin run.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+        None height: from the number of rows.
+    title : str, optional
+        The figure's title; None: the scene's.
+
+    Returns
+    -------
+    TrajectoryFigure
+        The figure drawn, as data.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension, the window or a size is not accepted.
+    """
+    fmt = output_format(out, FORMATS + ("html",))
     if height is None:
         height = 13.0 if twin is not None else 11.0
     figure = plots.trajectory_figure(ds, window=window, twin=twin, title=title)
@@ -295,7 +391,7 @@ def _mpl_panel(ax, panel):
     if panel.strip is not None:
         from matplotlib.collections import PolyCollection
         edges, shares = panel.strip
-        handles = []
+        handles: list = []
         for code, name in enumerate(STATE_NAMES):
             if shares[:, code].any():
                 # one polygon per state, not snapped to pixels: a band
@@ -317,7 +413,7 @@ def _mpl_panel(ax, panel):
     # the panel's right-axis quantities (y* beside a*, ...) on an axis of
     # their own, as the explorer draws them (plots.RIGHT_AXIS)
     left_label, right_label = panel.axis_labels
-    twin = None
+    twin: Any = None
     if panel.right:
         twin = ax.twinx()
         twin.spines["top"].set_visible(False)
@@ -345,7 +441,7 @@ def _mpl_panel(ax, panel):
     ax.legend(handles, [tr.label for tr in panel.traces], loc="best")
 
 
-def render_trajectory(figure, width=11.0, height=13.0):
+def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) -> Figure:
     """A matplotlib Figure of a `plots.TrajectoryFigure`, width x height
     inches, its columns side by side (close it with
     matplotlib.pyplot.close when done)."""
@@ -372,7 +468,7 @@ def render_trajectory(figure, width=11.0, height=13.0):
     return fig
 
 
-def trajectory_bokeh(figure, cell=(650, 180)):
+def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
     """A Bokeh layout of a `plots.TrajectoryFigure` (standalone HTML): the
     title, then the columns side by side, each panel `cell` = (width,
     height) pixels, a column's panels on one linked, zoomable time axis."""
@@ -411,7 +507,9 @@ def trajectory_bokeh(figure, cell=(650, 180)):
                 f.add_layout(Legend(items=items, location="top_left",
                                     orientation="horizontal"))
             else:
-                lines, on_left, on_right = [], [], []
+                lines: list = []
+                on_left: list = []
+                on_right: list = []
                 left_label, right_label = panel.axis_labels
                 if panel.right:
                     from bokeh.models import DataRange1d, LinearAxis
@@ -454,7 +552,7 @@ def trajectory_bokeh(figure, cell=(650, 180)):
 
 
 # ---------------------------------------------------------------- data files
-def samples_csv(ds):
+def samples_csv(ds: xr.Dataset) -> str:
     """The run's samples as CSV text: one row per recorded instant, a
     column per variable on the time axis (normalized units, docs/MODEL.md
     section 4), after a comment header with the scene and the units.  The
@@ -475,7 +573,7 @@ def samples_csv(ds):
     return buf.getvalue()
 
 
-def map_window(map_ds, log_amplitude, log_mass):
+def map_window(map_ds: xr.Dataset, log_amplitude: Any, log_mass: Any) -> xr.Dataset:
     """The map's points inside [log_amplitude] x [log_mass] (closed ranges,
     e.g. a zoomed view's), with the map's attributes."""
     (a0, a1), (m0, m1) = sorted(log_amplitude), sorted(log_mass)
@@ -484,36 +582,107 @@ def map_window(map_ds, log_amplitude, log_mass):
                       log_mass=lm[(lm >= m0) & (lm <= m1)])
 
 
-def export_vertical(vertical, out, dpi=DEFAULT_DPI, width=6.5, height=4.8):
-    """A_J*(m*) of both models on log axes (paper Fig. 2)."""
-    _format(out, FORMATS + ("html",))
+def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                    width: float = 6.5, height: float = 4.8) -> Any:
+    """The jumping threshold A_J*(m*) of both models on log axes (paper Fig. 2).
+
+    Parameters
+    ----------
+    vertical : xarray.Dataset
+        The curve, as `open_vertical` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
+    output_format(out, FORMATS + ("html",))
     ensure_backends()
     return _write(plots.vertical_curves(vertical), out, width, height, dpi)
 
 
-def export_dynamics(el, out, dpi=DEFAULT_DPI, width=7.0, height=5.2):
-    """A map-like figure (plots.lyapunov_map, section_figure,
-    orbit_diagram_figure, continuation_figure, map_difference_figure: the
-    explorer's) to out."""
-    _format(out, FORMATS + ("html",))
+def export_dynamics(el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                    width: float = 7.0, height: float = 5.2) -> Any:
+    """A map-like figure of the dynamics, as a file.
+
+    Parameters
+    ----------
+    el : object
+        A figure of `plots`: lyapunov_map, section_figure,
+        orbit_diagram_figure, continuation_figure or map_difference_figure
+        (the explorer's).
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
+    output_format(out, FORMATS + ("html",))
     return _write(el, out, width, height, dpi)
 
 
-def memory_figure(snapshot):
+def memory_figure(snapshot: Any) -> Any:
     """Memory diagram w(h), spring displacements u(h) and the contact circle."""
     ensure_backends()
     mem = plots.memory_diagram(snapshot)
     return (mem + plots.contact_circle(snapshot)).cols(3)
 
 
-def export_memory(snapshot, out, dpi=DEFAULT_DPI, width=13.0, height=4.2):
-    """The memory diagram at one instant (`memory_snapshot` dict)."""
-    _format(out, FORMATS + ("html",))
+def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                  width: float = 13.0, height: float = 4.2) -> Any:
+    """The memory diagram at one instant, as a figure file.
+
+    Parameters
+    ----------
+    snapshot : dict
+        A snapshot, as `vibtrans.core.simulate.memory_snapshot` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+
+    Returns
+    -------
+    object
+        The figure drawn.
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
+    output_format(out, FORMATS + ("html",))
     return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
 
 
-def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
-                          targets=(0.05, 0.005), reference="the reference preset refined twice"):
+def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
+                          width: float = 12.0, height: float = 5.6,
+                          targets: tuple[float, float] = (0.05, 0.005),
+                          reference: str = "the reference preset refined twice") -> Figure:
     """Work-precision diagram of `workprecision.study` points (named tuples or
     their dicts): error against kernel seconds, log-log; left the relative
     drift error, right the trajectory error; one colour per scene, one marker
@@ -522,7 +691,7 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
     Each scene's points are joined from coarse to fine step."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
-    fmt = _format(out)
+    fmt = output_format(out)
     _check_size(width, height, dpi)
     rows = [r if isinstance(r, dict) else r._asdict() for r in results]
 
@@ -590,17 +759,17 @@ def export_work_precision(results, out, dpi=DEFAULT_DPI, width=12.0, height=5.6,
 
 
 # ---------------------------------------------------------------- paper
-def default_maps_dir():
+def default_maps_dir() -> Path:
     """The shipped maps (vibtrans.maps_dir(): $VIBTRANS_ASSETS/maps, else
     the maps installed with the package)."""
     return maps_dir()
 
 
-def map_path(maps_dir, model, mu):
+def map_path(maps_dir: str | os.PathLike[str], model: str, mu: float) -> Path:
     return Path(maps_dir) / f"{model}-mu{mu:g}.zarr"
 
 
-def load_vertical(maps_dir):
+def load_vertical(maps_dir: str | os.PathLike[str]) -> xr.Dataset | None:
     """The vertical curve of maps_dir, checked (sweep.open_vertical), or None
     if there is none; StoreMismatch (a ValueError) if it is unusable."""
     from vibtrans.maps.sweep import open_vertical
@@ -608,7 +777,9 @@ def load_vertical(maps_dir):
     return open_vertical(str(path)) if path.exists() else None
 
 
-def paper_trajectory(point, periods=None, window=None, twin=False, progress=None):
+def paper_trajectory(point: int, periods: float | None = None,
+                     window: tuple[float, float] | None = None, twin: bool = False,
+                     progress: Any = None) -> tuple[Scene, xr.Dataset, xr.Dataset | None]:
     """Run a paper point as the figures show it: decimated overview and the
     full-resolution window (default: the last 2 periods)."""
     from vibtrans.core.simulate import simulate
@@ -634,7 +805,7 @@ PAPER_FIGURES = {
 TWIN_POINTS = (8, 10)      # chaotic: shown with their chaos twin (analysis.twin_scene)
 
 
-def point_title(point, scene):
+def point_title(point: int, scene: Scene) -> str:
     """Title of a paper point's trajectory figure."""
     la, lm, model = PAPER_POINTS[point]
     return f"Point {point}: {model}, A* = 10^{la:g}, m* = 10^{lm:g}, mu = {scene.mu:g}"
@@ -646,12 +817,41 @@ def _point_command(point, out):
     return cmd + (" --twin" if point in TWIN_POINTS else "")
 
 
-def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=None, fmt="png"):
-    """Regenerate the paper's figures into out_dir, one file per figure, and
-    an index.md naming each figure's scene and the command that makes it
-    alone.  maps: folder of the shipped maps (default_maps_dir()).  A figure
-    whose data is missing is listed in the index as not made.  Returns
-    {figure number: path or None}."""
+def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
+                 maps: str | os.PathLike[str] | None = None,
+                 dpi: int = DEFAULT_DPI, periods: float | None = None,
+                 fmt: str = "png") -> dict[Any, Any]:
+    """Regenerate the paper's figures into a folder.
+
+    One file per figure, and an index.md naming each figure's scene and the
+    command that makes it alone.  A figure whose data is missing is listed in
+    the index as not made.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The folder, created if missing.
+    progress : bool
+        Show a progress bar on stderr.
+    maps : str or os.PathLike, optional
+        Folder of the shipped maps; None: `default_maps_dir()`.
+    dpi : int
+        Resolution of raster figures.
+    periods : float, optional
+        T_obs of the trajectories' runs; None: the paper's.
+    fmt : str
+        "png", "svg" or "pdf".
+
+    Returns
+    -------
+    dict
+        {figure number: path, or None where not made}.
+
+    Raises
+    ------
+    InputError
+        If `fmt` or `dpi` is not accepted.
+    """
     from tqdm import tqdm
 
     from vibtrans.maps.sweep import open_map
@@ -665,7 +865,9 @@ def export_paper(out_dir, progress=True, maps=None, dpi=DEFAULT_DPI, periods=Non
     ensure_backends()
     vertical = load_vertical(maps)
     maps_arg = "" if maps == default_maps_dir() else f" --maps {shlex.quote(str(maps))}"
-    made, rows = {}, []
+    made: dict = {}
+    rows: list[tuple] = []
+    path: Path | None
     start = time.perf_counter()
     bar = tqdm(PAPER_FIGURES.items(), total=len(PAPER_FIGURES), desc="paper figures",
                file=sys.stderr, disable=not progress, unit="fig")
@@ -754,11 +956,38 @@ def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
         Path(tmp).write_text("\n".join(lines))
 
 
-def export_design(chart, out, device=None, dpi=DEFAULT_DPI, width=7.5, height=6.0,
-                  title=None):
-    """Design chart (`design.design_chart` Dataset) to out (.png/.svg/.pdf, or
-    .html); device: (x, y) to mark, in the chart's coordinates."""
-    _format(out, FORMATS + ("html",))
+def export_design(chart: xr.Dataset, out: str | os.PathLike[str],
+                  device: tuple[float, float] | None = None,
+                  dpi: int = DEFAULT_DPI, width: float = 7.5, height: float = 6.0,
+                  title: str | None = None) -> Any:
+    """A design chart, as a figure file.
+
+    Parameters
+    ----------
+    chart : xarray.Dataset
+        A chart, as `design_chart` returns it.
+    out : str or os.PathLike
+        The file: .png, .svg, .pdf or .html.
+    device : tuple of float, optional
+        (x, y) of a device to mark, in the chart's coordinates.
+    dpi : int
+        Resolution of a raster output.
+    width, height : float
+        Size in inches.
+    title : str, optional
+        The figure's title; None: the chart's.
+
+    Returns
+    -------
+    object
+        The figure drawn (a HoloViews object).
+
+    Raises
+    ------
+    InputError
+        If `out`'s extension or a size is not accepted.
+    """
+    output_format(out, FORMATS + ("html",))
     ensure_backends()
     el = plots.design_figure(chart, device, title).opts(
         {k: dict(aspect="auto") for k in ("QuadMesh", "Path", "Labels", "Points")},

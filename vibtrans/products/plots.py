@@ -14,8 +14,11 @@ bokeh).  Figures must therefore be built after the backends they will be
 rendered with are loaded: `vibtrans.products.export` loads matplotlib before it builds
 anything, and loading it never changes `hv.Store.current_backend`.
 """
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import holoviews as hv
@@ -25,6 +28,9 @@ from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, V0
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans.core.errors import InputError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}   # flight, stick, partial, sliding
 CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
@@ -44,7 +50,7 @@ OVERVIEW_SAMPLES = 5     # samples per period of the whole-run view (app and exp
 
 
 # ---------------------------------------------------------------- styling
-def loaded_backends():
+def loaded_backends() -> list[str]:
     """The HoloViews plotting backends whose options can be set now
     (bokeh is loaded if none is)."""
     if not hv.Store.renderers:
@@ -52,7 +58,7 @@ def loaded_backends():
     return [b for b in BACKENDS if b in hv.Store.renderers]
 
 
-def style(obj, common=None, bokeh=None, matplotlib=None):
+def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None):
     """Apply options to `obj` for every loaded backend: `common` (names valid
     in both backends) plus each backend's own (dicts of options)."""
     per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
@@ -79,7 +85,7 @@ def _styled_line(el, color, width=None, dash=None):
 
 
 # ---------------------------------------------------------------- drift map
-def colour_scale(v, v0=V0):
+def colour_scale(v: Any, v0: float = V0) -> np.ndarray:
     """The paper's colour quantity C (eq. colormap): signed log10(|v|/v0),
     normalised separately on each side, 0 inside |v| <= v0."""
     v = np.asarray(v, dtype=float)
@@ -96,7 +102,7 @@ def colour_scale(v, v0=V0):
     return c
 
 
-def colour_ticks(v, v0=V0, n=3):
+def colour_ticks(v: Any, v0: Any = V0, n: int = 3) -> dict[float, str]:
     """Colour-bar ticks of the paper's scale: positions in C and the drift
     velocities they stand for ({C: label}), each side with its own maximum."""
     v = np.asarray(v, dtype=float)
@@ -120,7 +126,7 @@ def _short(v):
     return f"{round(v, -int(np.floor(np.log10(a))) + 1):g}"
 
 
-def _bounds(ds):
+def map_bounds(ds: xr.Dataset) -> tuple[Any, Any, Any, Any]:
     la = ds["log_amplitude"].values
     lm = ds["log_mass"].values
     da = (la[1] - la[0]) / 2 if la.size > 1 else 0.5
@@ -128,7 +134,7 @@ def _bounds(ds):
     return (la[0] - da, lm[0] - dm, la[-1] + da, lm[-1] + dm)
 
 
-def colour_bar_title(v0=V0):
+def colour_bar_title(v0: float = V0) -> str:
     """The colour bar's title: what the colours stand for (the drift
     velocity, not the colour value C) and what white means."""
     return f"<v*> (signed log scale)\nwhite: |v*| <= v0* = {v0:g}"
@@ -153,7 +159,7 @@ LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")
 LINEAR_RESONANCE_LABEL = "linear contact resonance N*'(1)/(4 pi^2)"
 
 
-def white_label(v0=V0):
+def white_label(v0: float = V0) -> str:
     # short: the key's two columns fit the map's width on a 1024 px screen
     return f"white: no drift (|v*| <= {v0:g})"
 
@@ -191,13 +197,14 @@ def _mpl_key(entries):
     (its own artist: HoloViews' legend handling leaves it alone)."""
     def hook(plot, element):
         from matplotlib.legend import Legend
+        from matplotlib.artist import Artist
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
         ax = plot.handles["axis"]
         old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
         mine = list(old.entries) if old is not None else []
         mine += [e[:3] for e in entries if e[3] and e[0] not in {m[0] for m in mine}]
-        handles = []
+        handles: list[Artist] = []
         for label, kind, spec in mine:
             if kind == "patch":
                 handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
@@ -212,7 +219,7 @@ def _mpl_key(entries):
                      bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2, frameon=False,
                      handlelength=1.8, columnspacing=1.2, fontsize="small")
         key.set_gid(KEY_NAME)
-        key.entries = mine
+        key.entries = mine      # type: ignore[attr-defined]  # read back at the next redraw
         ax.add_artist(key)
         key.set_clip_on(False)      # (add_artist clips to the axes: out of tight layouts)
     return hook
@@ -228,7 +235,8 @@ def _keyed(el, entries):
                  matplotlib=dict(hooks=[_mpl_key(entries)]))
 
 
-def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
+def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str = "",
+              always_grey: bool = False) -> hv.Overlay:
     """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
 
     chaotic: "grey" (chaotic points drawn grey: their colour is not a
@@ -258,7 +266,7 @@ def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
                     (LOG_A.label, "$x"), (LOG_M.label, "$y"),
                     ("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]),
                 matplotlib=dict(cbar_ticks=ticks))
-    key = [(white_label(v0), "patch", ("white", "#606060"))]
+    key: list[tuple] = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
     shown = chaotic == "grey" and bool(chaos.any())
     if shown or always_grey:
@@ -275,7 +283,7 @@ def drift_map(ds, v0=V0, chaotic="grey", title="", always_grey=False):
     return hv.Overlay([_keyed(img, key), *layers])
 
 
-def chaos_reason(ds, short=False):
+def chaos_reason(ds: xr.Dataset, short: bool = False) -> str:
     """What a map's chaotic points mean, from its chaos source (short: for
     the map's key)."""
     if ds.attrs.get("chaos") == "lyapunov":
@@ -286,7 +294,7 @@ def chaos_reason(ds, short=False):
     return f"{'' if short else 'the '}tau + {TWIN_TAU_OFFSET:g} twin disagrees"
 
 
-def jumping_boundary(vertical, model="deformable"):
+def jumping_boundary(vertical: xr.Dataset, model: str = "deformable"):
     """The jumping boundary as a curve in the (log10 A*, log10 m*) plane."""
     lm = vertical["log_mass"].values
     var = "threshold_amplitude" if model == "deformable" else "point_mass_threshold_amplitude"
@@ -307,7 +315,7 @@ def _resonances(vertical):
     return out
 
 
-def resonance_lines(vertical, shown=True):
+def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
     """Horizontal lines at the fundamental and subharmonic resonances (not
     `shown`: there, hidden, with their key entry: the explorer's point-mass
     map, made of the same parts as a deformable one)."""
@@ -323,7 +331,7 @@ def resonance_lines(vertical, shown=True):
     return hv.Overlay(lines)
 
 
-def linear_resonance_line(log_mass, label=LINEAR_RESONANCE_LABEL):
+def linear_resonance_line(log_mass: float, label: str = LINEAR_RESONANCE_LABEL) -> Any:
     """A horizontal line at log10 m* = `log_mass`, the profile's linear
     contact resonance (profiles.linear_resonance_mass: a closed form), in
     the map's key as `label`."""
@@ -332,17 +340,17 @@ def linear_resonance_line(log_mass, label=LINEAR_RESONANCE_LABEL):
     return _keyed(line, [(label, "line", LINEAR_RESONANCE_LINE)])
 
 
-def paper_points(model="deformable", color="black"):
+def paper_points(model: str = "deformable", color: str = "black"):
     """The paper's labelled points of one model (`color`: white on a dark
     map, the Lyapunov layer's)."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)
     points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color=color),
                    bokeh=dict(size=6), matplotlib=dict(s=18))
-    ys = np.array(ys)
+    y = np.array(ys)
     # labels up and right of their point; below it at the map's top edge (point 7)
-    dy = np.where(ys > 4.5, -0.45, 0.12)
-    labels = hv.Labels((np.array(xs) + 0.12, ys + dy, ls), [LOG_A, LOG_M], "label")
+    dy = np.where(y > 4.5, -0.45, 0.12)
+    labels = hv.Labels((np.array(xs) + 0.12, y + dy, ls), [LOG_A, LOG_M], "label")
     labels = style(labels, bokeh=dict(text_color=color),
                    matplotlib=dict(color=color, size=11, horizontalalignment="left",
                                    verticalalignment="bottom", weight="bold"))
@@ -350,7 +358,7 @@ def paper_points(model="deformable", color="black"):
 
 
 # ---------------------------------------------------------------- vertical
-def vertical_curves(vertical):
+def vertical_curves(vertical: xr.Dataset) -> Any:
     """A_J*(m*) of the deformable particle and of the material point on log
     axes (paper Fig. 2), with the resonances marked (dotted lines; the
     fundamental m_c* and the subharmonic labelled)."""
@@ -393,7 +401,7 @@ OVERVIEW_BINS = 1000     # time bins of the whole run in the trajectory figure:
 # sample of 2000 periods drew lines that filled their min-max band anyway)
 
 
-def overview_samples(ds, window_samples=200):
+def overview_samples(ds: xr.Dataset, window_samples: int = 200) -> xr.Dataset:
     """The run for a whole-run view: its samples, with the full-resolution
     window (thousands of steps) thinned to about `window_samples` samples
     (every k-th; the first and last kept); the events are kept whole."""
@@ -412,7 +420,7 @@ def overview_samples(ds, window_samples=200):
     return ds.isel(time=keep)
 
 
-def binned(t, columns, bins):
+def binned(t: Any, columns: Any, bins: Any) -> dict[str, np.ndarray]:
     """Per-bin mean, min and max of each column over `bins` equal time bins
     of [t[0], t[-1]] (empty bins dropped): {"time": bin centres (the mid-point
     of the bin's first and last sample), c: mean, c_lo: min, c_hi: max}.
@@ -464,7 +472,7 @@ def _dominant_states(ds, bins):
     return edges[starts], edges[ends], dom[starts]
 
 
-def state_shares(ds, bins):
+def state_shares(ds: xr.Dataset, bins: int) -> tuple[Any, np.ndarray]:
     """(edges, shares): `bins` + 1 equal bin edges over the samples' time
     span and the fraction of each bin's time spent in each contact state, a
     (bins, len(STATE_NAMES)) array whose rows sum to 1."""
@@ -474,7 +482,7 @@ def state_shares(ds, bins):
         return edges, np.where(total > 0, time / total, 0.0)
 
 
-def strip_outline(edges, shares, code):
+def strip_outline(edges: Any, shares: Any, code: Any) -> tuple[np.ndarray, np.ndarray]:
     """The outline (x, y arrays, one closed polygon) of state `code`'s layer
     in a strip that stacks each bin's shares from the bottom (flight) up
     (total sliding) within [0, 1]: one polygon per state, so adjacent bins
@@ -501,7 +509,8 @@ def _state_runs(ds):
     return t0, t1, vals
 
 
-def state_bands(ds, bins=None):
+def state_bands(ds: xr.Dataset,
+                bins: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t0, t1, state code) arrays of the contact-state bands over the
     samples' time span: the exact runs, or the dominant state of each of
     `bins` equal time bins; empty bands dropped."""
@@ -510,7 +519,8 @@ def state_bands(ds, bins=None):
     return t0[keep], t1[keep], vals[keep]
 
 
-def panel_spec(rigid, split_velocity=False):
+def panel_spec(rigid: Any,
+               split_velocity: bool = False) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
     """The line panels of the trajectory figure, as data (shared with the
     explorer's live figures): [(title, y label, [(variable, legend label,
     colour), ...]), ...].  The material point has no contact deformation:
@@ -531,14 +541,14 @@ def panel_spec(rigid, split_velocity=False):
     return panels + [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
 
 
-def timeline_title(bins=None):
+def timeline_title(bins: int | None = None) -> str:
     return "contact state" + (" (dominant per bin)" if bins else "")
 
 
 BINNED_NOTE = " (mean, min-max per bin)"     # a binned panel's title ends so
 
 
-def twin_spec(tau, label):
+def twin_spec(tau: float, label: str) -> tuple[str, str, list[Any]]:
     """The twin comparison panel of a run with ramp time `tau`: (title,
     y label, [(legend label, colour, dash) of the run, of its twin])."""
     # a tau twin is the same scene; another model is a comparison, not a twin
@@ -552,7 +562,8 @@ def twin_spec(tau, label):
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
 
-def fragment_window(ds, window=None):
+def fragment_window(ds: xr.Dataset,
+                    window: tuple[float, float] | None = None) -> tuple[float, float]:
     """(t0, t1) of the full-resolution fragment: `window`, else the run's
     recorded window, else its last FRAGMENT periods."""
     if window is not None:
@@ -593,13 +604,13 @@ RIGHT_AXIS = ("y", "x", "bdot")
 RIGHT_AXIS_DASH = "dashed"
 
 
-def axis_dash(column, right):
+def axis_dash(column: Any, right: Any) -> str | None:
     """The dash of `column`'s line in a panel whose right-axis columns are
     `right` (`right_columns`): RIGHT_AXIS_DASH there, else None (solid)."""
     return RIGHT_AXIS_DASH if column in right else None
 
 
-def right_columns(columns):
+def right_columns(columns: Any) -> list[Any] | list[str]:
     """The columns of a panel drawn on its right axis (none if it has one
     quantity only)."""
     if len(columns) < 2:
@@ -613,7 +624,7 @@ AXIS_UNITS = {"a": "a0", "y": "a0", "x": "a0", "b": "theta mu a0",
               "bdot": "theta mu a0/period"}
 
 
-def axis_labels(labels, right):
+def axis_labels(labels: Any, right: Any) -> tuple[str, str]:
     """(left, right) axis labels of a panel whose lines are {column: legend
     label} with `right` (`right_columns`) on its right axis: each axis names
     its quantities and their unit (`AXIS_UNITS`)."""
@@ -641,7 +652,7 @@ class Panel:
     right: tuple = ()                # variables drawn on the panel's right axis
 
     @property
-    def axis_labels(self):
+    def axis_labels(self) -> tuple[str, str]:
         """(left, right) y-axis labels (right "" when it has no right
         axis): `ylabel` on a single axis, else each axis's quantities."""
         if not self.right:
@@ -657,7 +668,7 @@ class TrajectoryFigure:
     title: str
     columns: tuple
     window: tuple
-    bins: int | None
+    bins: int | np.integer | None
 
 
 def _line_panels(ds, specs, bins):
@@ -695,14 +706,14 @@ def _twin_panel(ds, data, twin, bins, xlim):
     return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
 
 
-def default_title(ds):
+def default_title(ds: xr.Dataset) -> str:
     """The trajectory figure's title: model, A*, m* and mu of the run."""
     a = ds.attrs
     return (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
             f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
 
 
-def state_strip(ds, bins=None):
+def state_strip(ds: xr.Dataset, bins: int | None = None) -> tuple[tuple[Any, np.ndarray], str]:
     """The contact-state strip (`Panel.strip`) and its title: the exact
     runs, each its state's alone; with `bins`, each bin's time shares
     stacked (a long run's bands are far narrower than a pixel: drawn
@@ -716,7 +727,9 @@ def state_strip(ds, bins=None):
 SHARES_TITLE = "contact state (time share per bin)"
 
 
-def trajectory_figure(ds, window=None, twin=None, title=None, bins=OVERVIEW_BINS):
+def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
+                      twin: xr.Dataset | None = None, title: str | None = None,
+                      bins: int = OVERVIEW_BINS) -> TrajectoryFigure:
     """The trajectory figure (a `TrajectoryFigure`): left the whole run, each
     quantity drawn as its mean over `bins` equal time bins with the bin's
     min-max envelope (every sample is inside its bin's band) and the
@@ -772,7 +785,7 @@ CIRCLE_XLABEL = "x (sqrt(R a0))"
 CIRCLE_ZLABEL = "z (sqrt(R a0))"
 
 
-def memory_title(snapshot):
+def memory_title(snapshot: Any) -> str:
     """The memory diagram's title: t* and the contact state."""
     return (f"memory diagram w(h), t* = {snapshot['t']:.6g}, "
             f"{STATE_NAMES[int(snapshot['state'])]}")
@@ -781,7 +794,7 @@ def memory_title(snapshot):
 SPAN_LABEL_INSET = 0.02    # a band's label starts this fraction of a* inside it
 
 
-def memory_spans(snapshot):
+def memory_spans(snapshot: Any) -> list[Any]:
     """The stick core [0, s_h] and the slip annulus [s_h, a*] as bands of
     contact depth h (a0): dicts of left, right, color, alpha, label,
     label_color, label_at ("top" or "bottom" of the panel) and label_x, where
@@ -802,7 +815,7 @@ def memory_spans(snapshot):
     return spans
 
 
-def memory_geometry(snapshot):
+def memory_geometry(snapshot: Any) -> dict[str, Any] | None:
     """What the memory diagram draws (None in flight, where there is no
     memory): h, w, u = b* - w of the vertices; hc = (0, a*) and the Coulomb
     cone's two lines over it, cone_w = b* +- (a* - hc) and cone_u =
@@ -838,7 +851,7 @@ def _spans(snapshot, y0, y1):
     return layers
 
 
-def memory_diagram(snapshot):
+def memory_diagram(snapshot: Any) -> hv.Layout:
     """The memory diagram at one instant (a dict from `memory_snapshot`):
     left, the spring anchors w(h) with the Coulomb cone |b* - w| = a* - h
     (apex (a*, b*)); right, the spring displacements u(h) = b* - w with
@@ -879,13 +892,13 @@ def memory_diagram(snapshot):
     return hv.Layout([left, right]).cols(2)
 
 
-def disc_outline(r, n=181):
+def disc_outline(r: Any, n: int = 181) -> np.ndarray:
     """A circle of radius r about the origin: (n, 2) points, closed."""
     phi = np.linspace(0, 2 * np.pi, n)
     return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
 
 
-def contact_geometry(snapshot):
+def contact_geometry(snapshot: Any) -> dict[str, Any]:
     """What the contact circle draws: c = sqrt(a*) and s = sqrt(s_h)
     (sqrt(R a0)), the half-width rmax of the view, the title, and the discs
     (largest first: dicts of r, color, dashed, label; none in flight)."""
@@ -904,7 +917,7 @@ def contact_geometry(snapshot):
     return dict(c=c, s=s, rmax=max(c, 1.0) * 1.1, title=title, discs=discs)
 
 
-def contact_circle(snapshot):
+def contact_circle(snapshot: Any) -> Any:
     """The contact seen from above: contact circle c = sqrt(a*), stick core
     s = sqrt(s_h), the slip annulus between them coloured."""
     g = contact_geometry(snapshot)
@@ -941,7 +954,7 @@ DIFFERENCE_DIM = hv.Dimension("log_difference", label="s(v2) - s(v1)")
 CLASS_CHANGE_COLOUR = "black"
 
 
-def map_difference_figure(diff):
+def map_difference_figure(diff: xr.Dataset) -> Any:
     """Two maps compared (a `mapdiff.map_difference` Dataset): the second's
     drift against the first's in decades of the signed log scale (red: the
     second drifts more towards +x), black where the drift class differs,
@@ -988,7 +1001,7 @@ def map_difference_figure(diff):
         matplotlib=dict(aspect=1.2, fontsize={"title": 9}))
 
 
-def lyapunov_map(ds, threshold, title=""):
+def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
     """The chaos indicator over (log10 A*, log10 m*): log10 of the vertical
     motion's Lyapunov exponent (a `vibtrans sweep --kind lyapunov` store),
     values at or below LYAPUNOV_FLOOR (regular, or slightly negative: the
@@ -1008,7 +1021,7 @@ def lyapunov_map(ds, threshold, title=""):
                  matplotlib=dict(cbar_ticks=ticks))
 
 
-def section_figure(orbits, title="Stroboscopic section (t = 0 mod 1)"):
+def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)") -> Any:
     """Sections of several orbits, one colour each: `orbits` a list of
     float64[n, 2] arrays of (y*, y*') (dynamics.section)."""
     layers = []
@@ -1023,7 +1036,7 @@ def section_figure(orbits, title="Stroboscopic section (t = 0 mod 1)"):
     return style(hv.Overlay(layers), common=dict(title=title))
 
 
-def orbit_diagram_figure(diagram):
+def orbit_diagram_figure(diagram: Any) -> Any:
     """Take-off phases and section points y* of the final periods against the
     parameter (dynamics.orbit_diagram): two panels, one x axis."""
     name = LOG_A if diagram.parameter == "amplitude" else LOG_M
@@ -1040,7 +1053,7 @@ def orbit_diagram_figure(diagram):
     return (phases + ys).cols(1)
 
 
-def continuation_figure(branch):
+def continuation_figure(branch: Any) -> Any:
     """The trace of a continued period-k orbit against its parameter, with
     the stability limits trace = +-2 and the folds and period doublings."""
     key = 0 if branch.parameter == "amplitude" else 1
@@ -1069,7 +1082,7 @@ PERIOD_DOUBLING_LABEL = "period-1 orbit: period doubling (trace = -2)"
 STABLE_ORBIT_LABEL = "period-1 hopping orbit: stable inside"
 
 
-def period_one_curves(chart):
+def period_one_curves(chart: xr.Dataset) -> hv.Overlay:
     """Where the period-1 orbit (dynamics.period_one_chart, shipped as
     period-one.nc) doubles its period (trace = -2) and the boundary of the
     region where it is a stable hopping orbit, as contour lines over
@@ -1098,7 +1111,7 @@ SPEED_CONTOUR = ("#303030", 0.8, "dotted")
 DEVICE_MARKER = "#000000"
 
 
-def level_lines(x, y, z, level):
+def level_lines(x: Any, y: Any, z: Any, level: Any) -> list:
     """Contour lines of z (shape (y, x)) at `level`, as a list of (n, 2)
     arrays in (x, y) coordinates (contourpy; NaN cells are left out)."""
     import contourpy
@@ -1114,7 +1127,7 @@ def _padded(u):
     return np.concatenate([[u[0] - d0], u, [u[-1] + d1]])
 
 
-def design_figure(chart, device=None, title=None):
+def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = None) -> Any:
     """The design chart as a HoloViews overlay (log axes in device units).
 
     chart: a `design.design_chart` Dataset; device: (x, y) of a device to
@@ -1148,7 +1161,8 @@ def design_figure(chart, device=None, title=None):
                      (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
                      (f"drift velocity ({unit})", "@{v}")]),
                  matplotlib=dict(cbar_ticks=ticks))
-    layers, key = [], []
+    layers: list = []
+    key: list[tuple] = []
     lx, ly = np.log10(x), np.log10(y)
     regime = chart["regime"].values
     for k, name in enumerate(REGIMES):

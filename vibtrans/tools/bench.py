@@ -36,11 +36,14 @@ export the explorer's trajectory figure of paper point 8 at standard
 fidelity with its tau twin (`export_bench`), to PNG, SVG and HTML, and each
 over a plain one-panel matplotlib PNG's, measured round-robin in one run.
 """
+from __future__ import annotations
+
 import json
 import math
 import os
 import platform
 import time
+from typing import Any
 
 import numpy as np
 
@@ -118,7 +121,7 @@ def _pin_one_core():
         return False
 
 
-def run(quick=False):
+def run(quick: bool = False) -> dict[str, Any]:
     repeat = 3 if quick else 7
     pinned = _pin_one_core()
     scene = paper_scene(1)
@@ -195,7 +198,7 @@ def _profile_cost(repeat, point=1):
     """ns per step of the deformable kernel with each kind of profile law
     over the sphere's (its own Hertz path), at a paper point, round-robin."""
     sphere = paper_scene(point)
-    runs = [(sphere, {})] + [(sphere.replace(profile=p), {}) for p in PROFILE_BENCH.values()]
+    runs: list[tuple] = [(sphere, {})] + [(sphere.replace(profile=p), {}) for p in PROFILE_BENCH.values()]
     ns = _interleaved_ns(runs, repeat)
     out = {"point": point, "sphere_ns_per_step": ns[0]}
     for (kind, spec), v in zip(PROFILE_BENCH.items(), ns[1:]):
@@ -226,7 +229,7 @@ def _lyapunov_cost(repeat):
     return out
 
 
-def export_bench(quick=False, point=8):
+def export_bench(quick: bool = False, point: int = 8) -> dict[str, Any]:
     """The explorer's trajectory export (its Export buttons call
     `export.export_trajectory(ds, out, twin=twin)`) of paper `point`'s
     scene as the explorer runs it: 2000 periods at standard fidelity,
@@ -300,8 +303,8 @@ def _reference_png(out):
     fig.savefig(out, dpi=150)
 
 
-def main(quick=False, as_json=False, sweep=False, work_precision=False, plot=None,
-         export=False):
+def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
+         work_precision: bool = False, plot: Any = None, export: bool = False) -> int:
     if work_precision:
         from vibtrans.tools.workprecision import main as wp_main
         pinned = _pin_one_core()
@@ -381,7 +384,7 @@ def _window_sweep(points, **values):
                  mu=SWEEP_MU, **values)
 
 
-def sweep_step_ratio(quick=False):
+def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
     """Issue 16's figure of a sweep's overhead, measured in one run: a
     standard, 2000-period sweep of the 41 x 41 window (SWEEP_WINDOW; quick:
     11 x 11, 500 periods) on all local cores, as
@@ -431,7 +434,7 @@ def sweep_step_ratio(quick=False):
             "sweep_overhead_factor": ratio / kernels}
 
 
-def preview_window_times(quick=False):
+def preview_window_times(quick: bool = False) -> dict[str, Any]:
     """Issue 16's progressive preview: an adaptive preview, 500-period map of
     the same window (41 x 41 finest points, 3 levels: a 6 x 6 coarse grid;
     quick: 17 x 17, 2 levels, 200 periods) on all local cores; seconds to
@@ -459,7 +462,7 @@ def preview_window_times(quick=False):
             "preview_first_image_seconds": first[0], "preview_window_seconds": total}
 
 
-def sweep_bench(quick=False):
+def sweep_bench(quick: bool = False) -> dict[str, Any]:
     """Points per second of a small sweep on 1 and 2 workers, processes vs
     threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)));
     then issue 16's sweep_step_ratio and the progressive preview's times."""
@@ -505,7 +508,8 @@ def _strided(text, stride):
     return f"{start}:{stop}:{step * stride}"
 
 
-def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
+def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = None,
+                  models: Any = DECIDED_MODELS) -> dict[str, Any]:
     """The speed/accuracy trade of the `decided` stopping rule (issue 35),
     measured in one run: each model's sample of the shipped grid (every
     `stride`-th point; quick: a 6 x 6 sample over 500 periods) swept with
@@ -538,7 +542,7 @@ def decided_trade(quick=False, stride=None, keep=None, models=DECIDED_MODELS):
     lm = parse_range(_strided(SHIPPED_GRID[1], stride), "log_mass")
     folder = keep or tempfile.mkdtemp()
     os.makedirs(folder, exist_ok=True)
-    out = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
+    out: dict[str, Any] = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
                            f"121 x 201 grid)", "decided_periods": periods}
     seconds = {"full": 0.0, "decided": 0.0}
     cpu = {"full": 0.0, "decided": 0.0}

@@ -33,9 +33,11 @@ of the preset summary.
 Every ladder point runs with `simulate(..., steps=(steps per period, steps
 per contact time scale))`, the presets' own pairs included.
 """
+from __future__ import annotations
+
 import math
 import time
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -44,6 +46,9 @@ from vibtrans.analysis.summary import V0, chaos_verdict, drift_velocity, final_d
 from vibtrans.core.params import Scene, paper_scene
 from vibtrans.core.simulate import simulate
 from vibtrans.core.errors import InputError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 INTEGRATORS = ("ab4", "verlet")
 TRAJ_TAU = 2.0            # ramp of the trajectory runs, periods
@@ -147,7 +152,7 @@ class Point(NamedTuple):
 
 
 # ------------------------------------------------------------------ running
-def run_setting(scene, setting, integrator, **kw):
+def run_setting(scene: Scene, setting: Any, integrator: str, **kw: Any) -> xr.Dataset:
     """simulate(scene) with the step of `setting` and `integrator`."""
     return simulate(scene.replace(integrator=integrator),
                     steps=(setting.per_period, setting.per_contact),
@@ -172,7 +177,7 @@ def _trajectory_run(case, setting, integrator):
     return run_setting(sc, setting, integrator, window=(0.0, T), samples_per_period=1)
 
 
-def hermite(ds, tq):
+def hermite(ds: xr.Dataset, tq: Any) -> tuple[Any, Any]:
     """(x*, y*) of a run recorded at every step, at times tq: quintic Hermite
     interpolation from position, velocity and acceleration
     (x'' = -mu T*/m*, y'' = (1 - N*)/m*)."""
@@ -202,7 +207,8 @@ def hermite(ds, tq):
     return out[0], out[1]
 
 
-def trajectory_error(ds, ref, periods, grid=GRID):
+def trajectory_error(ds: xr.Dataset, ref: Any, periods: float,
+                     grid: Any = GRID) -> tuple[float, float]:
     """(max |dx*|, max |dy*|) over [0, periods] on a grid of `grid` per period."""
     tq = np.linspace(0.0, periods, int(round(periods * grid)) + 1)
     x1, y1 = hermite(ds, tq)
@@ -225,8 +231,8 @@ def _bounded(ds, ref):
                for k in ("x", "y"))
 
 
-def study(quick=False, cases=None, ladder=None, reference=None,
-          integrators=INTEGRATORS, progress=None):
+def study(quick: bool = False, cases: Any = None, ladder: Any = None, reference: Any = None,
+          integrators: Any = INTEGRATORS, progress: Any = None) -> list[Any]:
     """Run the work-precision study; a list of `Point`, one per scene,
     integrator and ladder setting.  progress: callable(str) or None."""
     cases = cases or (QUICK_CASES if quick else CASES)
@@ -244,7 +250,7 @@ def study(quick=False, cases=None, ladder=None, reference=None,
         v_ref, vf_ref = drift_velocity(ref), final_drift_velocity(ref)
         del base, twin
         for integrator in integrators:
-            done = {}           # h -> Point (settings that give the same step)
+            done: dict = {}     # h -> Point (settings that give the same step)
             for setting in ladder:
                 h = _step(case.scene, setting)
                 if h in done:
@@ -290,7 +296,8 @@ def _point(case, setting, integrator, ref, ref_traj, v_ref, vf_ref, chaotic):
 
 
 # ----------------------------------------------------------------- analysis
-def pareto_front(points, scene, error="drift_error", cost="seconds"):
+def pareto_front(points: Any, scene: Scene, error: str = "drift_error",
+                 cost: str = "seconds") -> list[Any]:
     """The points of one scene (both integrators) that no other point beats
     on both cost and error, sorted by cost."""
     pts = sorted((p for p in points if p.scene == scene and p.stable),
@@ -304,7 +311,8 @@ def pareto_front(points, scene, error="drift_error", cost="seconds"):
     return front
 
 
-def pareto_fronts(points, error="drift_error", cost="seconds"):
+def pareto_fronts(points: Any, error: str = "drift_error",
+                  cost: str = "seconds") -> dict[Any, list[Any]]:
     """{scene: pareto_front} for every scene of the study."""
     scenes = list(dict.fromkeys(p.scene for p in points))
     return {s: pareto_front(points, s, error, cost) for s in scenes}
@@ -325,7 +333,8 @@ class PresetSummary(NamedTuple):
     steps_vs_standard: float     # total steps of standard AB4 / total steps here
 
 
-def preset_summary(points, settings=None, baseline=("standard", "ab4")):
+def preset_summary(points: Any, settings: Any = None,
+                   baseline: tuple = ("standard", "ab4")) -> list[Any]:
     """Each setting's (default: the presets of fidelity.FIDELITY) measured max
     drift error over the non-chaotic scenes and its speed relative to the
     baseline (standard preset, AB4), per integrator."""
@@ -356,7 +365,7 @@ def preset_summary(points, settings=None, baseline=("standard", "ab4")):
 
 
 # ------------------------------------------------------------------ report
-def table(points):
+def table(points: Any) -> str:
     """The study as text, one line per point."""
     lines = [f"{'scene':<22} {'integ':<6} {'setting':<12} {'steps/T':>8} {'steps':>9} "
              f"{'seconds':>8} {'wall':>7} {'drift err':>9} {'traj err':>9} {'dx':>9} {'dy':>9}"]
@@ -370,7 +379,7 @@ def table(points):
     return "\n".join(lines)
 
 
-def summary_table(summaries):
+def summary_table(summaries: Any) -> str:
     """Max drift error (all non-chaotic scenes, and those with |v*| > V0),
     max trajectory error, and speed against standard AB4 (total seconds,
     the worst scene's ratio, total steps)."""
@@ -387,14 +396,14 @@ def summary_table(summaries):
     return "\n".join(lines)
 
 
-def from_jsonable(rows):
+def from_jsonable(rows: Any) -> list[Point]:
     """Points back from `jsonable` rows (the "points" of the --json output)."""
     def num(v):
         return math.nan if v is None else (float(v) if v in ("inf", "-inf") else v)
     return [Point(**{k: num(v) for k, v in r.items()}) for r in rows]
 
 
-def jsonable(points):
+def jsonable(points: Any) -> list[dict[str, Any]]:
     def clean(v):
         if isinstance(v, float) and not math.isfinite(v):
             return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
@@ -402,7 +411,7 @@ def jsonable(points):
     return [{k: clean(v) for k, v in p._asdict().items()} for p in points]
 
 
-def main(quick=False, as_json=False, plot=None, pinned=None):
+def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: Any = None) -> int:
     """`vibtrans bench --work-precision`: run the study, print the table and
     the preset summary (or one JSON object), write the diagram to `plot`."""
     import json
@@ -410,9 +419,9 @@ def main(quick=False, as_json=False, plot=None, pinned=None):
     import platform
     import sys
     if plot is not None:
-        from vibtrans.products.export import FORMATS, _format
+        from vibtrans.products.export import FORMATS, output_format
         try:                                       # a bad name fails before the run
-            _format(plot, FORMATS)
+            output_format(plot, FORMATS)
         except ValueError:
             raise InputError(f"plot must end in {', '.join('.' + f for f in FORMATS)}; "
                              f"got {plot!r}") from None

