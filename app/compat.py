@@ -114,8 +114,8 @@ def hidden_tab_update_fetches_the_cdn():
 
 
 def _text_update_in_the_sessions_document():
-    from panel.pane.markup import HTMLBasePane
     from panel.io.state import state
+    from panel.pane.markup import HTMLBasePane
 
     stock = _STOCK.setdefault("text_update", HTMLBasePane._update)
 

@@ -24,8 +24,8 @@ import param
 
 from vibtrans import Cancelled, estimate_steps, simulate
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, Summary, jumped, summarize, twin_scene
-from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans.core.simulate import StepBudgetExceeded
+from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
 
 from . import kernels
 from .fairshare import lower_priority

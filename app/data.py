@@ -68,7 +68,7 @@ def drift_map(model, mu):
     return found
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _load_map(model, mu):
     """The map, or the message saying why it cannot be used (cached too:
     a damaged store is not read again on every redraw)."""
@@ -126,7 +126,7 @@ def with_lyapunov(ds, lyapunov):
     return out
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _load_lyapunov(model):
     name = LYAPUNOV_MAPS[model]
     path = ASSETS / "maps" / name

@@ -29,20 +29,26 @@ from .browserside import ACK_RUN, ack_js, ack_listener, ack_pane
 from .controller import CANCELLED, RunController
 from .mapondemand import MapOnDemand
 from .pagelink import PageLink
-from .presentation import (BOKEH_FONT_PX, PRESENTATION_SCALE, SIDEBAR_WIDTH, WRAPPING_TABS,
-                           ExplorerDesign, scale_fonts)
-from .texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
+from .presentation import (
+    BOKEH_FONT_PX,
+    PRESENTATION_SCALE,
+    SIDEBAR_WIDTH,
+    WRAPPING_TABS,
+    ExplorerDesign,
+    scale_fonts,
+)
 from .state import DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS, ExplorerState
+from .texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
+from .views.design import DesignPanel
 from .views.difference import DifferenceView
 from .views.exports import ExportsView
 from .views.map import MapView
 from .views.profile import ProfileView
 from .views.render import at_next_tick
-from .views.design import DesignPanel
-from .views.summary import SummaryView
 from .views.runbuttons import RunButtons
 from .views.runtabs import RunTabs
 from .views.scene import SceneControls
+from .views.summary import SummaryView
 from .views.trajectory import TrajectoryView, structure
 from .views.units import UnitsPanel
 from .views.vertical import VerticalView

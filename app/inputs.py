@@ -6,7 +6,8 @@ text.  What is typed is checked by the same function as a link's value
 bounds); a valid value is applied, an invalid one stays in the field with a
 message under it naming the range, and the parameter keeps its value until
 the text is corrected (`error` says why, and an owner with `set_invalid`,
-the explorer's state, records it: a run refuses while it has one).  A change of the parameter from elsewhere (a map click,
+the explorer's state, records it: a run refuses while it has one).  A change
+of the parameter from elsewhere (a map click,
 a paper point, a link) rewrites the text and clears the message.
 """
 import panel as pn

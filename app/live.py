@@ -13,14 +13,29 @@ source and a few range changes, sent to the browser as one message.
 import numpy as np
 from bokeh.core.properties import field, value
 from bokeh.layouts import column
-from bokeh.models import (AllIndices, AllLabels, BasicTicker, BasicTickFormatter, CDSView,
-                          ColumnDataSource, Grid, HoverTool, Legend, LegendItem, Line, LinearAxis,
-                          LinearScale, Quad, Range1d, VArea)
+from bokeh.models import (
+    AllIndices,
+    AllLabels,
+    BasicTicker,
+    BasicTickFormatter,
+    CDSView,
+    ColumnDataSource,
+    Grid,
+    HoverTool,
+    Legend,
+    LegendItem,
+    Line,
+    LinearAxis,
+    LinearScale,
+    Quad,
+    Range1d,
+    VArea,
+)
 from bokeh.plotting import figure
 
-from vibtrans.products import plots
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.units import duration_text
+from vibtrans.products import plots
 
 MIN_WIDTH = 360               # the figures take their column's width, at least this
 LINE_HEIGHT = 190

@@ -37,8 +37,8 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
-from vibtrans.maps.cache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
 from vibtrans.core.simulate import warmup
+from vibtrans.maps.cache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
 
 from . import kernels, maprequest
 from .fairshare import FairPool

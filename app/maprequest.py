@@ -31,15 +31,23 @@ import numpy as np
 import param
 
 from vibtrans import Scene
+from vibtrans.core.drivers import scene_scales
+from vibtrans.core.fidelity import scan_step, step_count, time_step
+from vibtrans.core.stopping import STOPS
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import expected_time_share
-from vibtrans.core.drivers import scene_scales
-from vibtrans.core.stopping import STOPS
-from vibtrans.core.fidelity import scan_step, step_count, time_step
 
 from . import urlstate
-from .state import (PROFILE_VALUES, RUN_PERIODS, RUN_TAU, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS,
-                    SPHERE, ExplorerProfile, is_sphere)
+from .state import (
+    PROFILE_VALUES,
+    RUN_PERIODS,
+    RUN_TAU,
+    SCENE_LOG_AMPLITUDE,
+    SCENE_LOG_MASS,
+    SPHERE,
+    ExplorerProfile,
+    is_sphere,
+)
 
 # the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
 # Lyapunov exponent (no twin run; the material point's of its impact map)

@@ -231,7 +231,7 @@ def serve(args):
                       max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
                       cores=getattr(args, "map_cores", None),
                       scheduler=getattr(args, "scheduler", None))
-    mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start
+    mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start  # noqa: B018
     memory.at_release(mapjobs.jobs().stop_workers)      # no session left: no map to come
     problems = data.preload()        # damaged, foreign or missing maps: refuse to start
     if problems:                     # (in one line: nothing printed before it)

@@ -6,13 +6,13 @@ import math
 import param
 
 from vibtrans import Scene
+from vibtrans.analysis.summary import V0
 from vibtrans.core import units
 from vibtrans.core.params import ProfileSpec, check_profile
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans.products import design, designtip
-from vibtrans.products.designtip import TipSize
 from vibtrans.products.design import preset
-from vibtrans.analysis.summary import V0
+from vibtrans.products.designtip import TipSize
 
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}

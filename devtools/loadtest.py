@@ -626,7 +626,7 @@ async def _protocol_session(url, k, a, result, rng):
             start = time.perf_counter()
             try:
                 kind, text = await client.click(fx, fy)
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 result["errors"].append(f"session {k}, click {c + 1}: no result within "
                                         f"{a.click_timeout:g} s (at map range fraction "
                                         f"{fx:.3f}, {fy:.3f})")
@@ -656,7 +656,7 @@ async def _map_session(url, k, a, result, index):
         result["load_kinds"].append("map")
         try:
             kind, text = await asyncio.wait_for(ended, a.timeout)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             result["errors"].append(f"session {k}: its map did not finish")
             return
         if kind == "error":

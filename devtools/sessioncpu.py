@@ -140,7 +140,7 @@ def _release_seen(text, closes):
 async def _drive(server, pid, a, idle_rate, out):
     meter = Meter(pid, idle_rate)
     sessions = []
-    for k in range(a.sessions):
+    for _ in range(a.sessions):
         s = _Session(server.url, meter.mark, timeout=120.0)
         meter.reset()
         await s.open()

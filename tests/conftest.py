@@ -57,6 +57,7 @@ def browser():
 @pytest.fixture
 def assets_folder():
     from assetsfolder import point_assets
+
     from vibtrans_explorer import data
     shipped = data.ASSETS
     try:

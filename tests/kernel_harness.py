@@ -4,9 +4,9 @@ free Hertz oscillator), through the production driver (vibtrans.core.drivers).""
 import numpy as np
 
 from vibtrans.core import drivers
-from vibtrans.core.kernels import records as R
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import records as R
 
 
 def free_oscillator(y0, mass, periods, integrator="ab4", fidelity="standard",

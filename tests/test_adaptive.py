@@ -11,12 +11,12 @@ import time
 import numpy as np
 import pytest
 import xarray as xr
+from budget import budget
 
 import vibtrans.maps.adaptive as adaptive
-from vibtrans.maps.adaptive import run_adaptive
 from vibtrans.core.errors import InputError, StoreMismatch
+from vibtrans.maps.adaptive import run_adaptive
 from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
-from budget import budget
 
 FAST = dict(periods=250.0, fidelity="preview")
 
@@ -372,6 +372,7 @@ def test_a_cancelled_map_stops_and_resumes(tmp_path, monkeypatch):
     """cancel: no new point starts once set; Cancelled is raised, the store
     is not written, and the same call later computes only what is missing."""
     import threading
+
     from vibtrans.core.errors import Cancelled
     path = str(tmp_path / "a.zarr")
     cancel = threading.Event()

@@ -15,16 +15,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from vibtrans import paper_scene, simulate
-from vibtrans.products import plots
-from vibtrans.core.kernels import substrate
-from vibtrans.core.kernels.contact import STATE_NAMES
-from vibtrans.core.errors import InputError, InputTypeError
-from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
+from budget import budget, budget_ms
 
 from devtools.chromium import launched
-from budget import budget, budget_ms
+from vibtrans import paper_scene, simulate
+from vibtrans.core.errors import InputError, InputTypeError
+from vibtrans.core.kernels import substrate
+from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.products import plots
+from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"

@@ -9,12 +9,10 @@ import os
 from pathlib import Path
 
 import pytest
-
-
-from vibtrans.analysis.summary import TWIN_TAU_OFFSET
-
 from browserpages import settle
 from budget import budget_ms
+
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET
 
 pytestmark = pytest.mark.browser
 

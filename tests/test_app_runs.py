@@ -11,17 +11,16 @@ import weakref
 
 import numpy as np
 import pytest
-
 from asyncutil import until
 from budget import budget
-from vibtrans_explorer.live import TIMELINE_BINS
+
+from vibtrans import Cancelled
 from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer.views import runtabs
 from vibtrans_explorer import memory
-from vibtrans_explorer.live import LiveTrajectory
+from vibtrans_explorer.live import TIMELINE_BINS, LiveTrajectory
 from vibtrans_explorer.views import map as M
-from vibtrans import Cancelled
+from vibtrans_explorer.views import runtabs
 
 # explorer sessions with real runs, ~40 s (make test-fast leaves them out)
 pytestmark = pytest.mark.slow

@@ -1,7 +1,6 @@
 """The time budgets of the tests (tests/budget.py) scale with the machine's load."""
-import pytest
-
 import budget as B
+import pytest
 
 
 def test_a_budget_is_never_below_the_idle_machine_one():

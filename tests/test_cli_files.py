@@ -10,9 +10,9 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from budget import budget
 
 from vibtrans.cli import main
-from budget import budget
 
 SIM = ["simulate", "--amplitude", "0.5", "--mass", "1", "--periods", "2", "--tau", "0.5",
        "--twin", "never"]

@@ -73,7 +73,7 @@ def test_panels_query_parsing_fails_on_a_superscript_digit():
     import pytest
     from panel.io.location import Location
     with pytest.raises(ValueError, match="²"):
-        Location(search="?la=²").query_params
+        Location(search="?la=²").query_params  # noqa: B018
 
 
 # --- the app replaces nothing of its frameworks (issue 33) ---------------

@@ -6,10 +6,10 @@ import threading
 import time
 
 import pytest
-
 from asyncutil import until
+
 from vibtrans import Cancelled, simulate
-from vibtrans_explorer.controller import RunController, TWIN_LABEL, comparison
+from vibtrans_explorer.controller import TWIN_LABEL, RunController, comparison
 from vibtrans_explorer.state import ExplorerState
 
 

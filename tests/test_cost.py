@@ -3,12 +3,17 @@
 import numpy as np
 import pytest
 
-from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE
-from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.errors import InputError
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR
 from vibtrans.core.kernels.substrate import RAMP_OFF
-from vibtrans.maps.cost import (DECIDED_PERIOD_COST, DECIDED_PROFILE, expected_periods,
-                                expected_time_share, minimum_periods)
+from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, RAMP_SHARE
+from vibtrans.maps.cost import (
+    DECIDED_PERIOD_COST,
+    DECIDED_PROFILE,
+    expected_periods,
+    expected_time_share,
+    minimum_periods,
+)
 
 
 def test_full_runs_every_period():

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 import xarray as xr
-
 from asyncutil import until
+
 from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
 

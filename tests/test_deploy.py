@@ -23,13 +23,13 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from budget import budget
 from tornado.httpclient import HTTPClientError, HTTPRequest
 from tornado.websocket import websocket_connect
 
 from devtools import deploy
 from devtools.loadtest import _tree, pid_alive
 from devtools.protoclient import ProtocolSession
-from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 # the server settings as shipped, not the caller's (conftest.SERVER_ENV_UNSET)

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from vibtrans import cli
-from vibtrans.products import design
+from vibtrans.analysis.summary import summarize
 from vibtrans.core import units
 from vibtrans.core.errors import InputError
 from vibtrans.core.params import PAPER_POINTS, Scene
-from vibtrans.maps.shipped import maps_dir
 from vibtrans.core.simulate import simulate
-from vibtrans.analysis.summary import summarize
+from vibtrans.maps.shipped import maps_dir
 from vibtrans.maps.sweep import open_map
+from vibtrans.products import design
 
 SHIPPED = maps_dir() / "deformable-mu0.3.zarr"
 # a small chart window on the shipped map around the paper's device (cheap to read)

@@ -6,8 +6,6 @@ import time
 from pathlib import Path
 
 import pytest
-
-
 from browserpages import new_page, open_explorer
 from budget import budget, budget_ms
 

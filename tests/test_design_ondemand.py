@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from vibtrans.products import design
 from vibtrans.core.errors import InputError
 from vibtrans.maps.sweep import open_map
+from vibtrans.products import design
 from vibtrans_explorer import mapjobs
 from vibtrans_explorer.views import design as D
 

@@ -185,8 +185,8 @@ def test_cli_cone_chart_computed_names_the_profile(tmp_path, capsys):
     ds = open_map(str(store))
     assert ds.attrs["scene_profile"] == "cone"
     la, lm = float(ds["log_amplitude"].values[0]), float(ds["log_mass"].values[0])
-    from vibtrans.core.simulate import simulate
     from vibtrans.analysis.summary import drift_velocity
+    from vibtrans.core.simulate import simulate
     scene = Scene(amplitude=10 ** la, mass=10 ** lm, profile="cone", mu=0.3,
                   theta=ds.attrs["scene_theta"], nu=ds.attrs["scene_nu"], tau=50.0,
                   periods=60.0, fidelity="preview")

@@ -192,7 +192,7 @@ def test_the_design_tab_is_built_when_first_opened():
 
 # ---------------------------------------------------------------- custom materials
 from vibtrans.core import units  # noqa: E402
-from vibtrans_explorer.views import design as D                                 # noqa: E402
+from vibtrans_explorer.views import design as D  # noqa: E402
 
 # the chart's numbers (every variable but the names in attrs)
 CHART_VARS = ("drift_velocity", "v_star", "drift", "contact", "pattern", "chaotic", "regime",
@@ -292,6 +292,7 @@ def test_the_chart_wide_warnings_and_ranges_are_shown_below_the_status(drawn):
 def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
     import io
     import xml.etree.ElementTree as ET
+
     import pandas as pd
     import xarray as xr
     panel = _small(DesignPanel())

@@ -4,8 +4,16 @@ kind), each variant's flags global constants of its own copy."""
 import pytest
 
 from vibtrans.core.kernels import deformable as D
-from vibtrans.core.kernels.contact import (LAW_KINDS, PROFILE, SPHERE, WARM_POWER, kind_of_law,
-                                           kernel_law, memory_steps, power_kernel_law)
+from vibtrans.core.kernels.contact import (
+    LAW_KINDS,
+    PROFILE,
+    SPHERE,
+    WARM_POWER,
+    kernel_law,
+    kind_of_law,
+    memory_steps,
+    power_kernel_law,
+)
 from vibtrans.core.kernels.dispatch import KERNELS, MODELS, kernel_for
 from vibtrans.core.kernels.point_mass import point_mass_kernel
 from vibtrans.core.profiles import FlatSphereProfile

@@ -9,8 +9,6 @@ from pathlib import Path
 from urllib.parse import quote
 
 import pytest
-
-
 from browserpages import new_page, open_explorer
 from budget import budget_ms
 

@@ -8,16 +8,14 @@ import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import pytest
-from bokeh.events import RangesUpdate, Tap
-
 from asyncutil import until
+from bokeh.events import RangesUpdate, Tap
+from budget import budget
+
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis import dynamics
 from vibtrans.products import plots
-from budget import budget
-from vibtrans_explorer.views.dynamics import (DIAGRAM_RUNS, POINT_MASS_TEXT, SECTION_PERIODS,
-                                              DynamicsView)
+from vibtrans_explorer.views.dynamics import DIAGRAM_RUNS, POINT_MASS_TEXT, SECTION_PERIODS, DynamicsView
 
 POOL = ThreadPoolExecutor(max_workers=2)
 

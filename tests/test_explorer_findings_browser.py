@@ -1,7 +1,6 @@
 """Findings of issue 32's walkthrough, each replayed in chromium: the page
 as a newcomer sees it (legends, titles, sizes at 1024x768)."""
 import pytest
-
 from browserpages import new_page, open_explorer, settle
 from budget import budget_ms
 

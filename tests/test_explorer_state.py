@@ -36,7 +36,7 @@ import panel as pn
 import pytest
 from hypothesis import HealthCheck, Phase, settings
 from hypothesis import strategies as st
-from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
+from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
 from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
@@ -55,7 +55,7 @@ EXAMPLES = 12         # sequences per run (CI: two cores)
 STEPS = 25            # steps per sequence
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _real_run(model, lyapunov):
     """A short real run of `model` (the stand-in's answer)."""
     scene = Scene(model=model, amplitude=10 ** -0.3, mass=10.0, periods=20.0, tau=5.0,

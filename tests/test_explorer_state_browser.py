@@ -6,16 +6,15 @@ fields, the selectors, the map's marker and the run's heading show one
 scene; and that the server logged no error meanwhile (a failed callback,
 Bokeh's `_pending_writes`).  STEPS and SEED: VIBTRANS_TWIN_STEPS,
 VIBTRANS_TWIN_SEED."""
-import math
 import os
 import random
 import time
 from urllib.parse import parse_qs
 
 import pytest
+from budget import budget, budget_ms
 
 from devtools.chromium import launched
-from budget import budget, budget_ms
 from vibtrans.core.params import PAPER_POINTS
 
 pytestmark = pytest.mark.browser
@@ -144,7 +143,7 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         page.locator(".vt-mu select").select_option("0.3")
         _settled(page, time.monotonic() + budget(60))
         done = []
-        for step in range(STEPS):
+        for _ in range(STEPS):
             kind = rng.choice(["click", "click", "type", "type", "bad", "mu", "model",
                                "point", "run"])
             if kind == "click":

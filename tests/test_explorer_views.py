@@ -9,8 +9,8 @@ import pytest
 
 from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer.views import runtabs
 from vibtrans_explorer.live import time_label
+from vibtrans_explorer.views import runtabs
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps rendered)
 
@@ -228,7 +228,6 @@ def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
     x^2 / R, so d = a_c^2 / R and its edge lies at z = d / 2; the cone
     z = C r has g(x) = (pi/2) C |x|, so d = (pi/2) C a_c and z = (2/pi) r
     in these units; a flat-ended sphere is flat out to its flat's radius."""
-    from vibtrans_explorer.views import profile as P
     ex = _explorer()
     view = ex.profile_view
     ex.state.profile = "cone"
@@ -257,8 +256,8 @@ def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
 
 
 def test_the_map_requests_selector_is_a_view_of_its_request():
-    from vibtrans_explorer.views.ondemand import MapRequestPanel
     from vibtrans_explorer.maprequest import MapRequest
+    from vibtrans_explorer.views.ondemand import MapRequestPanel
     panel = MapRequestPanel(MapRequest())
     panel.profile.kind.value = "cone"
     assert panel.request.profile == "cone" and panel.errors() == []
@@ -290,6 +289,7 @@ def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets(
     `Inherit` replaced them, and the widgets lost Bootstrap's look."""
     import panel as pn
     from bokeh.document import Document
+
     from vibtrans_explorer.presentation import INPUT_FONT, ExplorerDesign
 
     def stylesheets(design):

@@ -16,17 +16,16 @@ import holoviews as hv
 import numpy as np
 import pytest
 import xarray as xr
+from budget import budget
 
 from vibtrans import cli
-from vibtrans.products import export
-from vibtrans.products import plots
 from vibtrans.analysis.summary import twin_scene
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.params import paper_scene
 from vibtrans.core.simulate import memory_snapshot, simulate
-from vibtrans.maps.sweep import Sweep, open_map, run_sweep
 from vibtrans.core.threshold import threshold_curve
-from budget import budget
+from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+from vibtrans.products import export, plots
 
 ROOT = Path(__file__).resolve().parent.parent
 PERIODS = 50
@@ -201,6 +200,7 @@ def _app_map(maps_dir):
     """The explorer's map, built the way app/explorer.py builds it, from the
     app's data loader pointed at maps_dir."""
     from assetsfolder import point_assets
+
     from vibtrans_explorer import data
     shipped = data.ASSETS
     point_assets(maps_dir.parent)
@@ -234,7 +234,8 @@ def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir
     np.testing.assert_array_equal(first(app_el, hv.Points).array(),
                                   first(cli_el, hv.Points).array())
     # and what each backend drew: bokeh's image source vs matplotlib's AxesImage
-    from bokeh.models import GlyphRenderer, Image as BkImage, Line
+    from bokeh.models import GlyphRenderer, Line
+    from bokeh.models import Image as BkImage
     bk = hv.render(app_el, backend="bokeh")
     rends = [r for r in bk.renderers if isinstance(r, GlyphRenderer)]
     bk_img = next(r for r in rends if isinstance(r.glyph, BkImage)).data_source.data["image"][0]
@@ -319,7 +320,8 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
                 want = np.round(np.array(img.to_rgba(c[i, j])[:3]) * 255)
                 assert np.abs(rgb - want).max() <= 2, (la, lm, rgb, want)
     # bokeh (the explorer): row 0 at the bottom, x, y, dw, dh the extent
-    from bokeh.models import GlyphRenderer, Image as BkImage
+    from bokeh.models import GlyphRenderer
+    from bokeh.models import Image as BkImage
     bk = hv.render(export.heatmap_figure(ds), backend="bokeh")
     r = next(r for r in bk.renderers if isinstance(r, GlyphRenderer)
              and isinstance(r.glyph, BkImage))

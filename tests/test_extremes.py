@@ -31,8 +31,8 @@ import warnings
 import numpy as np
 import pytest
 
-from vibtrans.core.kernels import records as R
 from vibtrans.analysis.summary import summarize
+from vibtrans.core.kernels import records as R
 from vibtrans.core.simulate import simulate
 
 PERIODS = 2000.0

@@ -39,16 +39,16 @@ import warnings
 
 import numpy as np
 import pytest
-
 from kernel_harness import hertz_energy
-from vibtrans.core.kernels import records as R
+
 from vibtrans.analysis.summary import V0, chaos_verdict, drift_velocity, summarize
-from vibtrans.core.kernels.contact import STICK
-from vibtrans.core.fidelity import STATED_DRIFT_ERROR, time_step
-from vibtrans.core.kernels.integrators import INTEGRATORS
-from vibtrans.core.kernels import deformable as D
 from vibtrans.core.drivers import grow
+from vibtrans.core.fidelity import STATED_DRIFT_ERROR, time_step
+from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import STICK
 from vibtrans.core.kernels.dispatch import kernel_for
+from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.params import Scene
 from vibtrans.core.simulate import DEFAULT_MAX_STEPS, StepBudgetExceeded, estimate_steps, simulate
 
@@ -80,7 +80,7 @@ def scene(model, sid, **changes):
     return Scene(model=model, periods=periods, **{**MID, **values, **changes})
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def run(model, sid, fidelity="standard", twin=False):
     """Simulate (and summarize) with every warning an error; cached, so the
     sanity and the fidelity tests share the standard runs."""

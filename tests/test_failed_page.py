@@ -64,7 +64,7 @@ def test_panels_own_query_parse_failure_is_logged_not_said(caplog):
     doc, page = Document(), Page()
     explorer._PAGES[doc] = page
     try:
-        Location(search="?la=²").query_params
+        Location(search="?la=²").query_params  # noqa: B018
     except ValueError as exc:
         failure = exc
     with set_curdoc(doc), caplog.at_level(logging.WARNING, logger="vibtrans.explorer"):

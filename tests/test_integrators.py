@@ -6,8 +6,8 @@ Hertz oscillator (docs/MODEL.md section 7).
 """
 import numpy as np
 import pytest
-
 from kernel_harness import free_oscillator, hertz_energy
+
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis.summary import V0, drift_velocity
 

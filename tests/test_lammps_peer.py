@@ -17,9 +17,9 @@ import math
 
 import pytest
 
+from vibtrans.core.kernels.substrate import surface_motion
 from vibtrans.core.params import Scene, paper_scene
 from vibtrans.tools.peers import lammps as peer
-from vibtrans.core.kernels.substrate import surface_motion
 
 
 # --------------------------------------------------------------------------- no LAMMPS needed

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibtrans.analysis import summary as an
 from vibtrans import paper_scene, simulate
+from vibtrans.analysis import summary as an
 from vibtrans.cli import main
 from vibtrans.core.params import Scene
 from vibtrans.maps.sweep import DRIFTS, PATTERNS, SCENE_KEYS, compute_point, open_map

@@ -7,6 +7,7 @@ import sys
 import textwrap
 import tomllib
 from pathlib import Path
+
 from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent

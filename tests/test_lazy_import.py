@@ -24,7 +24,7 @@ def test_public_names_resolve_and_simulate_stays_the_function():
     assert callable(vibtrans.warmup) and callable(vibtrans.maps_dir)
     assert set(vibtrans.__all__) <= set(dir(vibtrans))
     try:
-        vibtrans.no_such_name
+        vibtrans.no_such_name  # noqa: B018
     except AttributeError:
         pass
     else:

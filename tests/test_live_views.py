@@ -41,7 +41,7 @@ def test_forces_and_velocity_each_fill_their_axis():
     ds = simulate(paper_scene(4).replace(periods=40.0), window=(38.0, 40.0))
     view = LiveTrajectory(None, 2.0, 50.0)
     view.show(ds)
-    for block, data in ((view.over, ds), (view.last, ds.isel(time=slice(-200, None)))):
+    for block, _data in ((view.over, ds), (view.last, ds.isel(time=slice(-200, None)))):
         forces = next(f for f in block.figures if f.title.text.startswith("forces"))
         n_t = np.concatenate([ds["N"].values, ds["T"].values])
         bdot = ds["bdot"].values

@@ -11,18 +11,18 @@ import math
 import subprocess
 import sys
 
+import naive
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import naive
 from vibtrans import Scene, paper_scene, simulate
-from vibtrans.core import drivers
-from vibtrans.core.kernels import records as R
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize, twin_scene
+from vibtrans.core import drivers
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.substrate import vertical_displacement
 from vibtrans.core.simulate import run_records
 from vibtrans.core.threshold import threshold_amplitude

@@ -13,11 +13,10 @@ import pytest
 import xarray as xr
 from bokeh.models import ColorBar, FixedTicker, GlyphRenderer, Legend, Patch
 
-from vibtrans.products import export
-from vibtrans.products import plots
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.params import paper_scene
 from vibtrans.core.simulate import simulate
+from vibtrans.products import export, plots
 
 LA = np.array([-1.0, 0.0, 1.0, 2.0])
 LM = np.array([-2.0, 0.0, 2.0])
@@ -204,6 +203,7 @@ def test_live_strips_name_the_state_colours(run4):
     # the explorer's strips (app/live.py): a legend grouped by the bands'
     # state names, fed with each run; the colours are the plots' ones
     from bokeh.core.property.vectorization import Field
+
     from vibtrans_explorer import live
     view = live.LiveTrajectory(label=None, fragment=2.0, tau=50.0)
     view.show(run4)

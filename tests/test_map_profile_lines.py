@@ -12,8 +12,7 @@ import holoviews as hv
 import numpy as np
 import pytest
 
-from vibtrans.core.profiles import (FlatSphereProfile, PowerLawProfile,
-                                    linear_resonance_mass)
+from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, linear_resonance_mass
 from vibtrans_explorer import data
 from vibtrans_explorer.views import map as M
 

@@ -44,6 +44,7 @@ def test_renders_on_several_threads_at_once_all_succeed():
     failed in about half its runs (a race: when it strikes, most renders
     fail)."""
     import threading
+
     from vibtrans_explorer.views.render import rendered
     failures, figures = [], []
 

@@ -5,11 +5,10 @@ server's cache.  Screenshots at 1280 x 800 go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
-
-from vibtrans_explorer import maprequest
-
 from browserpages import new_page, open_explorer
 from budget import budget_ms
+
+from vibtrans_explorer import maprequest
 
 pytestmark = pytest.mark.browser
 

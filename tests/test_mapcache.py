@@ -10,12 +10,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
+from budget import budget
 
-from vibtrans.maps import cache as mapcache
 from vibtrans.core.errors import InputError
+from vibtrans.maps import cache as mapcache
 from vibtrans.maps.cache import TEMPORARY, MapCache, request_key
 from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
-from budget import budget
 
 REQUEST = {"model": "deformable", "mu": 0.3, "periods": 60.0, "tau": 10.0,
            "log_amplitude": "0:1:0.5", "log_mass": "-1:0:1"}

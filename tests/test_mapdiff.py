@@ -7,10 +7,10 @@ import sys
 import numpy as np
 import pytest
 import xarray as xr
+from budget import budget
 
 from vibtrans.core.errors import InputError
 from vibtrans.maps.difference import describe, map_difference, signed_log
-from budget import budget
 
 GRID = ("log_amplitude", "log_mass")
 

@@ -7,10 +7,10 @@ import time
 
 import numpy as np
 import pytest
-
-from vibtrans_explorer import data, maprequest, mapjobs
-from vibtrans_explorer.maprequest import MapRequest
 from budget import budget
+
+from vibtrans_explorer import mapjobs, maprequest
+from vibtrans_explorer.maprequest import MapRequest
 
 # a tiny map: 5 x 5 points (2 coarse cells, K = 1), 30 periods at preview
 TINY = dict(model="deformable", fidelity="preview", periods=30.0, tau=5.0,
@@ -286,9 +286,11 @@ def test_the_cache_key_ignores_what_changes_no_number():
 
 # ------------------------------------------------------------------ the explorer's side
 def _explorer(monkeypatch, query):
+    from urllib.parse import parse_qs
+
     import panel as pn
     from panel.io.location import Location
-    from urllib.parse import parse_qs
+
     from vibtrans_explorer import explorer as E
     monkeypatch.setattr(E, "_page_location", lambda: Location(search="?" + query))
     args = {k: [v.encode() for v in vs] for k, vs in parse_qs(query).items()}

@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from scipy.integrate import trapezoid   # numpy < 2 has no np.trapezoid
+from scipy.integrate import trapezoid  # numpy < 2 has no np.trapezoid
 
 from vibtrans.core.kernels.contact import (
     FLIGHT,
@@ -314,7 +314,7 @@ HISTORIES = [  # (seed, steps, a_start, b_start)
 M_LEVELS = (2000, 8000, 32000)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def random_history(seed, n):
     """Smooth-ish random (a*, b*) walk: a* oscillates and dips below 0 (flight),
     b* is an AR(1)-velocity walk whose speed switches between slow (stick and
@@ -345,14 +345,14 @@ def random_history(seed, n):
     return a, b
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def stack_run(idx):
     seed, n, a0, b0 = HISTORIES[idx]
     a, b = random_history(seed, n)
     return hist(a, b, a_start=a0, b_start=b0)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def bed_run(idx, M):
     seed, n, a0, b0 = HISTORIES[idx]
     a, b = random_history(seed, n)

@@ -9,12 +9,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-
 from asyncutil import until
-from vibtrans import paper_scene
-from vibtrans.products import plots
-from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from budget import budget
+
+from vibtrans import paper_scene
+from vibtrans.core.simulate import memory_snapshot, memory_snapshots
+from vibtrans.products import plots
 from vibtrans_explorer import urlstate
 from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times, title_lines
 
@@ -334,7 +334,6 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     it is drawn, no such property of a model of the page has changed."""
     from bokeh.models import LayoutDOM, Plot
     from panel.io.state import set_curdoc
-
     from test_redraw_layout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
 
 

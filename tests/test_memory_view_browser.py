@@ -11,14 +11,13 @@ from pathlib import Path
 
 import panel as pn
 import pytest
-
+from budget import budget, budget_ms
 from netutil import free_port
+
+from devtools.chromium import launched
 from vibtrans import paper_scene
 from vibtrans.core.simulate import memory_snapshot
 from vibtrans_explorer.views.memory import MemoryView
-
-from devtools.chromium import launched
-from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
 

@@ -18,12 +18,12 @@ small steps, the spring bed for the memory):
 """
 import math
 
+import naive
 import numpy as np
 import pytest
 
-import naive
-from vibtrans.core.kernels import records as R
 from vibtrans import simulate
+from vibtrans.core.kernels import records as R
 from vibtrans.core.params import Scene
 
 # ------------------------------------------------------------------ one Hertz step

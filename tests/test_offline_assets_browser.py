@@ -1,4 +1,5 @@
-"""Every asset the explorer's page loads comes from our own server: a classroom or lab network without internet must get the page whole.
+"""Every asset the explorer's page loads comes from our own server: a
+classroom or lab network without internet must get the page whole.
 The test records every request the page makes while every tab is opened
 and every button that builds something is pressed (a map on demand, the
 design charts, each download, presentation mode), and fails on any to
@@ -7,10 +8,10 @@ import re
 from urllib.parse import urlsplit
 
 import pytest
-from playwright.sync_api import TimeoutError as PlaywrightTimeout
-
 from browserpages import new_page, open_explorer
 from budget import budget_ms
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
 from devtools.chromium import launched
 
 pytestmark = pytest.mark.browser

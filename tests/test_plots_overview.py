@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from vibtrans import Scene, simulate
-from vibtrans.products import plots
 from vibtrans.core.kernels.contact import STATE_NAMES
+from vibtrans.products import plots
 
 
 @pytest.fixture(scope="module")

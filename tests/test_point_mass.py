@@ -14,9 +14,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from vibtrans.core import drivers
+from vibtrans.core.kernels import point_mass as pm
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import FLIGHT, SLIDING, STICK
-from vibtrans.core.kernels import point_mass as pm
 from vibtrans.core.kernels.substrate import surface_motion
 
 MU, R_NU, THETA = 0.3, 0.656, 1.2
@@ -322,7 +322,7 @@ def test_closed_forms_match_numerical_integration(A, m, rule, tau, T):
     # and STATE_CHANGE(flight) after a detachment's TAKEOFF
     names = {STICK: "stick", SLIDING: "slide"}
     mine = []
-    for i, (t, k, v) in enumerate(e[1:], start=1):
+    for i, (_t, k, v) in enumerate(e[1:], start=1):
         if k == R.LANDING:
             mine.append("landing")
         elif k == R.TAKEOFF and e[i - 1, 1] != R.LANDING:

@@ -15,10 +15,9 @@ import numpy as np
 import pytest
 
 from tests.naive import SpringBed
-from vibtrans.core.errors import InputError
 from vibtrans.core.drivers import scene_law
-from vibtrans.core.kernels.contact import (kernel_law, law_eval, power_kernel_law,
-                                           tangential_force_history)
+from vibtrans.core.errors import InputError
+from vibtrans.core.kernels.contact import kernel_law, law_eval, power_kernel_law, tangential_force_history
 from vibtrans.core.params import Scene
 from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
 

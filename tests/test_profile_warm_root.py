@@ -16,11 +16,23 @@ import pytest
 from vibtrans.core import drivers
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (LAW_ARG, LAW_KIND, LAW_ROOT, LAW_TABLE, PROFILE,
-                                           WARM_EPS, WARM_EPS_SHORT, WARM_POWER, kernel_law,
-                                           kind_of_law, law_eval, law_history,
-                                           power_kernel_law, power_warm,
-                                           tangential_force_history)
+from vibtrans.core.kernels.contact import (
+    LAW_ARG,
+    LAW_KIND,
+    LAW_ROOT,
+    LAW_TABLE,
+    PROFILE,
+    WARM_EPS,
+    WARM_EPS_SHORT,
+    WARM_POWER,
+    kernel_law,
+    kind_of_law,
+    law_eval,
+    law_history,
+    power_kernel_law,
+    power_warm,
+    tangential_force_history,
+)
 from vibtrans.core.kernels.dispatch import kernel_for
 from vibtrans.core.params import paper_scene
 from vibtrans.core.profiles import FlatSphereProfile

@@ -11,8 +11,14 @@ import numpy as np
 import pytest
 
 from vibtrans.core.errors import InputError
-from vibtrans.core.profiles import (FlatSphereProfile, PowerLawProfile, TabulatedProfile,
-                               mdr_g, parse_profile, tangential_force)
+from vibtrans.core.profiles import (
+    FlatSphereProfile,
+    PowerLawProfile,
+    TabulatedProfile,
+    mdr_g,
+    parse_profile,
+    tangential_force,
+)
 
 
 def test_sphere_is_hertz_and_cone_is_sneddon():

@@ -26,11 +26,11 @@ import asyncio
 import panel as pn
 import pytest
 from bokeh.document import Document
-from bokeh.models import ColorBar, LayoutDOM, Plot, TickFormatter, Ticker
+from bokeh.models import ColorBar, LayoutDOM, Plot, Ticker, TickFormatter
 from bokeh.models.widgets.markups import Markup
 from panel.io.state import set_curdoc
-
 from test_explorer_state import StandIn
+
 from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
 
@@ -168,8 +168,8 @@ def test_the_stale_note_shows_and_hides_in_the_browser(page, served_explorer):
     """The stale note, shown and hidden by its style: after a run, a new mu
     shows it over the run's figures, the run's mu hides it again (an empty
     style left it hidden: BokehJS only sets the properties it is given)."""
-    from budget import budget_ms
     from browserpages import settle
+    from budget import budget_ms
     page.goto(served_explorer.url + "?la=1&lm=2&fidelity=preview")     # a link with a scene runs it
     page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(120))
     settle(page)
@@ -190,8 +190,8 @@ def test_the_point_mass_controls_wait_hidden_in_a_loaded_page(page, served_explo
     loaded (app/views/scene.py), so that the first switch to the point mass
     only shows them: built at that switch, their new views made the
     browser's redraw of the map 0.1-0.3 s slower (issue 32)."""
-    from budget import budget_ms
     from browserpages import settle
+    from budget import budget_ms
     page.goto(served_explorer.url)
     page.get_by_role("button", name="point-mass", exact=True).first.wait_for(
         timeout=budget_ms(120))

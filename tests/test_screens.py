@@ -28,10 +28,9 @@ import time
 from pathlib import Path
 
 import pytest
-
+from budget import budget, budget_ms
 
 from devtools.explorershots import MAP_JS as _MAP_JS
-from budget import budget, budget_ms
 
 pytestmark = pytest.mark.browser
 

@@ -11,11 +11,11 @@ from argparse import Namespace
 from pathlib import Path
 
 import pytest
+from budget import budget
 
 from vibtrans.cli import build_parser
 from vibtrans.core.errors import InputError
 from vibtrans_explorer.server import origins as _origins
-from budget import budget
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),

@@ -7,13 +7,13 @@ import re
 import threading
 
 import pytest
+from asyncutil import until
+from budget import budget
 
 import vibtrans
 from vibtrans import Cancelled
-from asyncutil import until
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer import kernels
-from budget import budget
 
 
 @pytest.fixture
@@ -125,14 +125,14 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
     test's sessions); stopping the server's process tree ends them all."""
     import os
     import signal
-    import sys
     import time
     from pathlib import Path
 
     from conftest import SERVER_ENV, SERVER_ENV_UNSET
+    from netutil import Served
+
     from devtools.loadtest import _tree, pid_alive
     from devtools.protoclient import ProtocolSession
-    from netutil import Served
 
     root = Path(__file__).resolve().parent.parent
     env = {k: v for k, v in os.environ.items() if k not in SERVER_ENV_UNSET}

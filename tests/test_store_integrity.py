@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-
-from vibtrans_explorer import data
-from vibtrans.cli import main
-from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
 from assetsfolder import forget_maps
 from budget import budget
+
+from vibtrans.cli import main
+from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
+from vibtrans_explorer import data
 
 # ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
 pytestmark = pytest.mark.slow

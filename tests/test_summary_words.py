@@ -37,6 +37,7 @@ def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
     # "Invalid field" (a string set on a LegendItem after its creation is
     # taken by Bokeh as a column name)
     from bokeh.core.property.vectorization import Value
+
     from vibtrans_explorer.live import LiveTrajectory
     view = LiveTrajectory("tau + 0.001", 2.0, 50.0)
     view.relabel(50.0, "point mass")

@@ -10,11 +10,19 @@ import time
 import numpy as np
 import pytest
 import xarray as xr
-
-from vibtrans.maps.sweep import (VARIABLES, StoreMismatch, Sweep, compute_point, open_map,
-                            parse_range, run_sweep, verify)
-from vibtrans.core.errors import InputError
 from budget import budget
+
+from vibtrans.core.errors import InputError
+from vibtrans.maps.sweep import (
+    VARIABLES,
+    StoreMismatch,
+    Sweep,
+    compute_point,
+    open_map,
+    parse_range,
+    run_sweep,
+    verify,
+)
 
 SMALL = dict(periods=120.0, tau=10.0)
 LA = "0:2.5:0.5"      # 6 amplitudes

@@ -13,11 +13,11 @@ invalid value exits 2 with one stderr line naming the parameter; a valid
 one reaches the kernel only as finite, in-domain values.  The fixed cases
 are in tests/test_validation.py; these are random ones.
 """
-import json
 import contextlib
 import html
 import importlib
 import io
+import json
 import math
 import re
 import urllib.parse
@@ -31,13 +31,12 @@ from hypothesis import strategies as st
 from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
+from vibtrans.cli import main
+from vibtrans.core.params import Scene
 from vibtrans_explorer import data, maprequest, urlstate
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.explorer import Explorer, ExplorerState
-from vibtrans_explorer.state import URL_KEYS
-from vibtrans_explorer.state import URL_ALIASES
-from vibtrans.cli import main
-from vibtrans.core.params import Scene
+from vibtrans_explorer.state import URL_ALIASES, URL_KEYS
 
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.core.simulate")

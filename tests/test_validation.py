@@ -7,8 +7,8 @@ The CLI answers bad input with exit status 2 and ONE line on stderr.
 """
 
 import json
-import re
 import math
+import re
 import threading
 
 import numpy as np

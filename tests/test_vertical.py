@@ -10,8 +10,12 @@ import pytest
 
 from vibtrans import simulate
 from vibtrans.analysis.summary import summarize
-from vibtrans.core.threshold import (first_takeoff, point_mass_sliding_threshold,
-                                point_mass_threshold, threshold_amplitude)
+from vibtrans.core.threshold import (
+    first_takeoff,
+    point_mass_sliding_threshold,
+    point_mass_threshold,
+    threshold_amplitude,
+)
 
 
 @pytest.mark.slow

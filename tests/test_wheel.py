@@ -17,8 +17,8 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from netutil import Served
 from budget import budget
+from netutil import Served
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = pytest.mark.slow

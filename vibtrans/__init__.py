@@ -16,18 +16,25 @@ from typing import TYPE_CHECKING
 from vibtrans.version import __version__
 
 if TYPE_CHECKING:  # the same names, for type checkers and editors
-    from vibtrans.core.params import Scene, paper_scene, PAPER_POINTS
-    from vibtrans.core.simulate import simulate, estimate_steps, warmup
-    from vibtrans.core.errors import Cancelled, StepBudgetExceeded
-    from vibtrans.core.threshold import threshold_amplitude, first_takeoff, threshold_curve
-    from vibtrans.analysis.summary import summarize, Summary
     from vibtrans.analysis.dynamics import periodic_orbit, run_guess
-    from vibtrans.maps.sweep import Sweep, run_sweep, open_map, open_vertical
+    from vibtrans.analysis.summary import Summary, summarize
+    from vibtrans.core.errors import Cancelled, StepBudgetExceeded
+    from vibtrans.core.params import PAPER_POINTS, Scene, paper_scene
+    from vibtrans.core.simulate import estimate_steps, simulate, warmup
+    from vibtrans.core.threshold import first_takeoff, threshold_amplitude, threshold_curve
     from vibtrans.maps.shipped import maps_dir
+    from vibtrans.maps.sweep import Sweep, open_map, open_vertical, run_sweep
     from vibtrans.products.design import design_chart, preset, read_device
-    from vibtrans.products.export import (export_design, export_dynamics, export_heatmap,
-                                          export_html, export_memory, export_paper,
-                                          export_trajectory, export_vertical)
+    from vibtrans.products.export import (
+        export_design,
+        export_dynamics,
+        export_heatmap,
+        export_html,
+        export_memory,
+        export_paper,
+        export_trajectory,
+        export_vertical,
+    )
 
 # public name -> the submodule defining it
 _LAZY = {

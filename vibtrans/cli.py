@@ -13,9 +13,9 @@ import shutil
 import sys
 from typing import TYPE_CHECKING, Any
 
-from vibtrans.version import __version__
 from vibtrans.core.errors import InputError
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
+from vibtrans.version import __version__
 
 if TYPE_CHECKING:
     from vibtrans.core.params import Scene
@@ -242,8 +242,8 @@ def cmd_threshold(args: argparse.Namespace) -> int:
 
 
 def _threshold_sweep(args):
-    from vibtrans.maps.sweep import command_line, parse_range
     from vibtrans.core.threshold import threshold_curve
+    from vibtrans.maps.sweep import command_line, parse_range
     log_mass = parse_range(args.log_mass, "log_mass")
     out = args.out or "vertical.nc"
     check_file(out)
@@ -375,8 +375,9 @@ def units_name(m: Any) -> Any:
 
 def cmd_design(args: argparse.Namespace) -> int:
     from pathlib import Path
-    from vibtrans.products import design
+
     from vibtrans.core import units
+    from vibtrans.products import design
     pre = design.preset(args.preset) if args.preset else None
     device_values = {}
     for q in design.AXES:
@@ -528,8 +529,8 @@ def _export_sizes(args):
 def cmd_export(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from vibtrans.products import export as E
     from vibtrans.analysis.summary import twin_scene
+    from vibtrans.products import export as E
     kind = args.kind
     if kind == "paper":
         if Path(args.out).suffix.lower() in (".png", ".svg", ".pdf", ".html"):
@@ -618,9 +619,9 @@ def _export_dynamics(args, kind, maps, sizes):
     import numpy as np
 
     from vibtrans.analysis import dynamics as Y
+    from vibtrans.analysis.summary import CHAOS_LYAPUNOV
     from vibtrans.products import export as E
     from vibtrans.products import plots
-    from vibtrans.analysis.summary import CHAOS_LYAPUNOV
     E.ensure_backends()
     if kind == "lyapunov-map":
         from vibtrans.maps.sweep import open_map
@@ -686,9 +687,9 @@ def _open_named_map(text, maps, option):
 
 
 def _export_map_difference(args, maps, v0, sizes):
+    from vibtrans.maps.difference import map_difference
     from vibtrans.products import export as E
     from vibtrans.products import plots
-    from vibtrans.maps.difference import map_difference
     if not args.map or not args.other:
         raise InputError("map-difference needs --map A and --other B (a store's path or a "
                          "shipped map's name such as deformable-mu0.3)")

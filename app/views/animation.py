@@ -50,16 +50,31 @@ import numpy as np
 import panel as pn
 import xarray as xr
 from bokeh.layouts import column, row
-from bokeh.models import (Circle, ColumnDataSource, CustomJS, Div, Label, Line, Patch, Range1d,
-                          Scatter, Segment, Select, Slider, Title, Toggle, VArea)
+from bokeh.models import (
+    Circle,
+    ColumnDataSource,
+    CustomJS,
+    Div,
+    Label,
+    Line,
+    Patch,
+    Range1d,
+    Scatter,
+    Segment,
+    Select,
+    Slider,
+    Title,
+    Toggle,
+    VArea,
+)
 from bokeh.plotting import figure
 
 from vibtrans import Scene
-from vibtrans.products import plots
+from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans.core.kernels import substrate
 from vibtrans.core.kernels.contact import STATE_NAMES
-from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans.core.profiles import parse_profile
+from vibtrans.products import plots
 
 from ..state import is_sphere
 

@@ -34,17 +34,23 @@ import param
 from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
-from vibtrans.products import design, designtip
-from vibtrans.maps import accuracy as mapaccuracy
-from vibtrans.products import plots
 from vibtrans.core import units
-from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans.core.errors import InputError
+from vibtrans.maps import accuracy as mapaccuracy
+from vibtrans.products import design, designtip, plots
+from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 
 from .. import inputs, mapjobs
 from ..maprequest import MapRequest
-from ..state import (CUSTOM_EXAMPLE, CUSTOM_MATERIAL, MATERIAL_NAMES, TIP_FIELDS, TIP_SIZES,
-                     TipFields, tip_values)
+from ..state import (
+    CUSTOM_EXAMPLE,
+    CUSTOM_MATERIAL,
+    MATERIAL_NAMES,
+    TIP_FIELDS,
+    TIP_SIZES,
+    TipFields,
+    tip_values,
+)
 from .exports import read_back
 from .render import exclusively, rendered
 
@@ -193,7 +199,8 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
         return None, ("a measured profile's map needs its load over modulus, which a map on "
                       "demand does not take: use `vibtrans design --compute`")
     request = MapRequest(model="deformable", mu=need.mu, theta=need.theta, nu=need.nu,
-                         profile=need.profile, fidelity=fidelity, periods=float(periods), levels=levels, cells=cells,
+                         profile=need.profile, fidelity=fidelity, periods=float(periods),
+                         levels=levels, cells=cells,
                          la_from=round(start["la"], 10), la_to=round(start["la"] + width, 10),
                          lm_from=round(start["lm"], 10), lm_to=round(start["lm"] + width, 10))
     return request, None

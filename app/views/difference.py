@@ -9,9 +9,9 @@ import logging
 
 import panel as pn
 
-from vibtrans.products import plots
 from vibtrans.core.errors import InputError
 from vibtrans.maps.difference import map_difference
+from vibtrans.products import plots
 
 from .. import data
 from .map import MIN_WIDTH

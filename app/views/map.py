@@ -11,14 +11,27 @@ import numpy as np
 import panel as pn
 from bokeh.core.serialization import Deserializer
 from bokeh.events import Tap
-from bokeh.models import (AllIndices, CDSView, ColorBar, ColumnDataSource, CustomJSTicker,
-                          CustomJSTickFormatter, FixedTicker, GlyphRenderer, HoverTool, Legend,
-                          Scatter, Selection, Span, UnionRenderers)
+from bokeh.models import (
+    AllIndices,
+    CDSView,
+    ColorBar,
+    ColumnDataSource,
+    CustomJSTicker,
+    CustomJSTickFormatter,
+    FixedTicker,
+    GlyphRenderer,
+    HoverTool,
+    Legend,
+    Scatter,
+    Selection,
+    Span,
+    UnionRenderers,
+)
 
-from vibtrans.products import plots
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.core.profiles import linear_resonance_mass
+from vibtrans.products import plots
 
 from .. import data
 from ..state import is_sphere, within

@@ -23,12 +23,12 @@ from concurrent.futures import CancelledError
 import numpy as np
 import panel as pn
 import param
-from bokeh.models import (ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text)
+from bokeh.models import ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text
 from bokeh.plotting import figure
 
 from vibtrans import Cancelled
-from vibtrans.products import plots
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
+from vibtrans.products import plots
 
 from .. import inputs
 from .note import note_pane, say

@@ -5,8 +5,6 @@ import functools
 import holoviews as hv
 import numpy as np
 import panel as pn
-
-from .map import in_document
 from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
@@ -14,6 +12,7 @@ from vibtrans.products import plots
 
 from .. import data
 from ..state import is_sphere
+from .map import in_document
 from .render import rendered
 
 HEIGHT = 450

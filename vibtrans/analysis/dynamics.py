@@ -27,8 +27,8 @@ from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import time_step
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels.contact import LAW_K1, law_eval, law_scales
-from vibtrans.core.params import Scene
 from vibtrans.core.kernels.substrate import TWO_PI
+from vibtrans.core.params import Scene
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -423,8 +423,8 @@ def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: floa
     """Runs of the vertical motion of `scene` (from rest, through its ramp)
     at each log10 value of A* or m* in `values`, the other held: the
     take-off phases and section points y*(k) of their final periods."""
-    from vibtrans.core.simulate import simulate
     from vibtrans.core.kernels import records as R
+    from vibtrans.core.simulate import simulate
     if parameter not in ("amplitude", "mass"):
         raise InputError(f"parameter must be amplitude or mass, got {parameter!r}")
     values = np.asarray(values, dtype=float)

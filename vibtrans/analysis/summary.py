@@ -12,15 +12,16 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import FLIGHT
 # V0 (|v*| <= V0: no drift) and CHAOS_LYAPUNOV (the chaos threshold) are the
 # core's (its stopping rule uses them); named here for every caller
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, V0  # noqa: F401
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import FLIGHT
 from vibtrans.core.stopping import ballistic_reach_time
 
 if TYPE_CHECKING:
     import xarray as xr
+
     from vibtrans.core.params import Scene
     from vibtrans.core.trajectory import RunArrays
 
@@ -228,7 +229,8 @@ def drift_class(v: float, v0: float = V0) -> str:
     return "none"
 
 
-def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1, v0: float = V0) -> bool:
+def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1,
+                  v0: float = V0) -> bool:
     """Does the tau + 1e-3 twin disagree? (True: chaotic, the drift is not a
     property of the scene.)  Disagreement: different drift class, or drift
     velocities differing by more than rel_tol of the larger plus v0."""
@@ -249,7 +251,8 @@ def lyapunov_verdict(ds: xr.Dataset | RunArrays,
     return float(value), bool(value > threshold)
 
 
-def divergence_time(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, threshold: float = 1.0) -> float:
+def divergence_time(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays,
+                    threshold: float = 1.0) -> float:
     """First time the twins' x* differ by more than `threshold` (a0 units);
     inf if never.  Compared on the coarse sample grid."""
     t = ds["time"].values

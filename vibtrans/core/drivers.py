@@ -38,15 +38,25 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_ARG, LAW_K1, LAW_KIND, LAW_ROOT,
-                                           LAW_TABLE, STICK, kernel_law, kind_of_law,
-                                           law_scales, new_memory)
 from vibtrans.core.errors import Cancelled, InputError, StepBudgetExceeded
-from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
+from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import (
+    FLIGHT,
+    LAW_ARG,
+    LAW_K1,
+    LAW_KIND,
+    LAW_ROOT,
+    LAW_TABLE,
+    STICK,
+    kernel_law,
+    kind_of_law,
+    law_scales,
+    new_memory,
+)
 from vibtrans.core.kernels.dispatch import kernel_for
+from vibtrans.core.kernels.integrators import INTEGRATORS
 from vibtrans.core.kernels.substrate import surface_acceleration, surface_motion
 
 if TYPE_CHECKING:

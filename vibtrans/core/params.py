@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 
 import param
 
-from vibtrans.core.units import amplitude_ratio
 from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import PROFILE_KINDS, parse_profile
+from vibtrans.core.units import amplitude_ratio
 
 if TYPE_CHECKING:
     from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile

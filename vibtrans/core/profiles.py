@@ -60,7 +60,8 @@ class PowerLawProfile:
     def __post_init__(self):
         n = self.n
         if isinstance(n, bool) or not isinstance(n, (int, float)) or not math.isfinite(n) or n < N_MIN:
-            raise InputError(f"profile power-law exponent n must be a real number in [{N_MIN:g}, inf), got {n!r}")
+            raise InputError(f"profile power-law exponent n must be a real number in "
+                             f"[{N_MIN:g}, inf), got {n!r}")
 
     @property
     def name(self) -> str:
@@ -198,8 +199,10 @@ class TabulatedProfile:
             raise InputError("profile table z must be nondecreasing in r (monotonic profile)")
         if np.any(np.diff(slope) < -1e-9 * max(1.0, float(np.max(np.abs(slope))))):
             raise InputError("profile table z must be convex in r (slopes nondecreasing)")
-        if not (isinstance(load_over_modulus, (int, float)) and math.isfinite(load_over_modulus) and load_over_modulus > 0):
-            raise InputError(f"profile load N0/E* must be a real number in (0, inf) m^2, got {load_over_modulus!r}")
+        if not (isinstance(load_over_modulus, (int, float)) and math.isfinite(load_over_modulus)
+                and load_over_modulus > 0):
+            raise InputError(f"profile load N0/E* must be a real number in (0, inf) m^2, "
+                             f"got {load_over_modulus!r}")
         self.name = name
         target = 0.5 * load_over_modulus
         x, g, n_over = self._laws(r, z, r[-1], samples)
@@ -210,13 +213,14 @@ class TabulatedProfile:
             j = min(int(np.searchsorted(g, 1.05 * a_max_star * d_static)) + 1, x.size - 1)
             x, g, n_over = self._laws(r, z, x[j], samples)
         if n_over[-1] < target:
-            raise InputError("profile table too short: the static load needs a contact radius beyond its last r")
+            raise InputError("profile table too short: the static load needs a contact radius "
+                             "beyond its last r")
         i = int(np.searchsorted(n_over, target))
         a_static = np.interp(target, n_over[:i + 1], x[:i + 1])
         d0 = float(np.interp(a_static, x, g))
         if np.count_nonzero(r <= a_static) < MIN_TABLE_POINTS_IN_CONTACT:
-            raise InputError(f"profile table too coarse: fewer than {MIN_TABLE_POINTS_IN_CONTACT} rows inside "
-                             f"the static contact radius {a_static:.3g} m")
+            raise InputError(f"profile table too coarse: fewer than {MIN_TABLE_POINTS_IN_CONTACT} rows "
+                             f"inside the static contact radius {a_static:.3g} m")
         if g[-1] < a_max_star * d0:
             raise InputError(f"profile table too short: it must reach an approach of {a_max_star:g} a0")
         k0 = int(np.flatnonzero(g <= 0.0)[-1])   # the flat part (g = 0) enters at a* = 0 at once
@@ -259,7 +263,8 @@ class TabulatedProfile:
 
 
 def parse_profile(text: str,
-                  load_over_modulus: float | None = None) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
+                  load_over_modulus: float | None = None,
+                  ) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
     """'sphere' | 'cone' | 'power:N' | 'flat-sphere:C' | 'file:PATH' -> profile object.
 
     file:PATH is a two-column text table r, z in metres and needs the load N0/E* (m^2).
@@ -271,7 +276,8 @@ def parse_profile(text: str,
         try:
             table = np.loadtxt(path, ndmin=2)
         except (OSError, ValueError) as exc:
-            raise InputError(f"profile file {path!r} must be a readable two-column text table r z (m): {exc}") from None
+            raise InputError(f"profile file {path!r} must be a readable two-column text table "
+                             f"r z (m): {exc}") from None
         if table.shape[1] != 2:
             raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
         return TabulatedProfile(table[:, 0], table[:, 1], load_over_modulus, name=text)

@@ -17,24 +17,25 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vibtrans.core import drivers
-from vibtrans.core.kernels import records as R
 from vibtrans.core.drivers import DEFAULT_MAX_STEPS
 from vibtrans.core.errors import Cancelled, InputError, InputTypeError, StepBudgetExceeded  # noqa: F401
 from vibtrans.core.fidelity import scan_step, step_count, time_step
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import point_mass as PM
-from vibtrans.core.params import Scene
+from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.substrate import RAMP_OFF
 from vibtrans.core.lyapunov import ImpactGrowth
+from vibtrans.core.params import Scene
+from vibtrans.core.stopping import STOP_FLIGHT, DecidedRule, check_stop
 from vibtrans.core.trajectory import build_trajectory
 from vibtrans.version import __version__
-from vibtrans.core.stopping import STOP_FLIGHT, DecidedRule, check_stop
 
 if TYPE_CHECKING:
     import threading
     from collections.abc import Callable, Sequence
 
     import xarray as xr
+
     from vibtrans.core.kernels.deformable import HertzParams
 
 SAMPLES_PER_PERIOD = 10

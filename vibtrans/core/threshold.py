@@ -13,11 +13,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vibtrans.core import drivers
-from vibtrans.core.kernels import records as R
 from vibtrans.core.drivers import DEFAULT_MAX_STEPS
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import step_count, time_step
 from vibtrans.core.kernels import deformable as D
+from vibtrans.core.kernels import records as R
 from vibtrans.core.params import Scene
 
 if TYPE_CHECKING:

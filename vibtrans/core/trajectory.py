@@ -12,6 +12,7 @@ periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+
 import numpy as np
 import xarray as xr
 

@@ -11,14 +11,13 @@ Everything here is plain numpy/scipy; SI units throughout unless stated.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
-from vibtrans.core.errors import InputError, InputTypeError
 
+from vibtrans.core.errors import InputError, InputTypeError
 
 __all__ = [
     "Material", "MATERIALS", "material", "material_names", "custom_material",

@@ -57,11 +57,11 @@ import numpy as np
 from vibtrans.analysis.summary import V0
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
 from vibtrans.core.simulate import warmup
-from vibtrans.maps.sweep import (block_digest, check_store, compute_point, progress_bar,
-                                 short_reason, verify)
+from vibtrans.maps.sweep import block_digest, check_store, compute_point, progress_bar, short_reason, verify
 
 if TYPE_CHECKING:
     import xarray as xr
+
     from vibtrans.maps.sweep import Sweep
 
 MAX_LEVELS = (1, 8)

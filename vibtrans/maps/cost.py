@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import math
 
-from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, check_stop, settle_time
 from vibtrans.core.errors import InputError
 from vibtrans.core.fidelity import STATED_DRIFT_ERROR
+from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, check_stop, settle_time
 
 # (f_end, extra periods) per model, measured on the rule's maps of every
 # 4th point of the shipped grid (1581 points per model; the deformable's of

@@ -20,6 +20,7 @@ drift class agrees and the median relative drift difference
 from __future__ import annotations
 
 from typing import Any
+
 import numpy as np
 import xarray as xr
 

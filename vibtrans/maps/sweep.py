@@ -29,20 +29,26 @@ import os
 import shlex
 import sys
 import time
-from concurrent.futures import (FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor,
-                                ThreadPoolExecutor, wait)
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    Executor,
+    Future,
+    ProcessPoolExecutor,
+    ThreadPoolExecutor,
+    wait,
+)
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 import xarray as xr
 
-from vibtrans.version import __version__
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
+from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.core.params import Scene
 from vibtrans.core.simulate import run_records, warmup
-from vibtrans.core.trajectory import RunArrays
-from vibtrans.core.errors import InputError, StoreMismatch
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
+from vibtrans.core.trajectory import RunArrays
+from vibtrans.version import __version__
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -74,7 +80,8 @@ VARIABLES = {
 
 # The chaos indicator's map: the vertical motion's largest Lyapunov exponent.
 # The vertical motion does not feel the tangential one, so one such map
-# (model "vertical"; "point-mass" for the material point's maps) serves every deformable map of the same tau, fidelity,
+# (model "vertical"; "point-mass" for the material point's maps) serves every
+# deformable map of the same tau, fidelity,
 # integrator and periods, whatever mu and theta (the same steps; equal to
 # rounding, as kernel calls differ: tests/test_lyapunov.py).
 LYAPUNOV_VARIABLES = {

@@ -38,10 +38,17 @@ from vibtrans.core import units
 from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans.core.units import DeviceSpec
 from vibtrans.products import designtip
-from vibtrans.products.designtip import TipShape, tip_shape  # noqa: F401
+
 # (in a module of their own: the command line's parser needs them without numpy)
-from vibtrans.products.designconst import (AXIS_LABELS, DEFAULT_SURFACE_ENERGY, MAP_STEP,  # noqa: F401
-                          PRESET_NAMES, REGIMES, velocity_unit)
+from vibtrans.products.designconst import (  # noqa: F401
+    AXIS_LABELS,
+    DEFAULT_SURFACE_ENERGY,
+    MAP_STEP,
+    PRESET_NAMES,
+    REGIMES,
+    velocity_unit,
+)
+from vibtrans.products.designtip import TipShape, tip_shape  # noqa: F401
 
 if TYPE_CHECKING:
     import os

@@ -26,7 +26,7 @@ REGIMES = ("no drift", "sliding with the wave", "sliding against the wave",
 def velocity_unit(v: npt.ArrayLike) -> tuple[str, float]:
     """(name, scale) of the unit that reads best for speeds v [m/s] (an
     array): mm/s when the largest finite |v| is at least 1 mm/s, else um/s."""
-    import numpy as np         # (here: the parser imports this module)
+    import numpy as np  # (here: the parser imports this module)
     finite = np.abs(np.asarray(v, dtype=float))
     finite = finite[np.isfinite(finite)]
     return ("mm/s", 1e-3) if finite.size and finite.max() >= 1e-3 else ("um/s", 1e-6)

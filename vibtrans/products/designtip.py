@@ -43,10 +43,9 @@ Validity (`tip_warnings`):
 """
 from __future__ import annotations
 
-from typing import Any
-
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import param

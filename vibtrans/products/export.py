@@ -26,22 +26,24 @@ if "matplotlib.pyplot" not in sys.modules:
     matplotlib.use("Agg")          # before pyplot is imported (by HoloViews)
 
 import holoviews as hv  # noqa: E402
-from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 
-from vibtrans.products import plots  # noqa: E402
 from vibtrans.analysis.summary import V0, twin_scene  # noqa: E402
+from vibtrans.core.errors import InputError  # noqa: E402
 from vibtrans.core.kernels.contact import STATE_NAMES  # noqa: E402
 from vibtrans.core.params import PAPER_POINTS, paper_scene  # noqa: E402
-from vibtrans.maps.shipped import maps_dir  # noqa: E402
-from vibtrans.core.errors import InputError  # noqa: E402
 from vibtrans.maps.outfiles import atomic  # noqa: E402
+from vibtrans.maps.shipped import maps_dir  # noqa: E402
+from vibtrans.products import plots  # noqa: E402
 
 if TYPE_CHECKING:
     import os
+
     import xarray as xr
     from matplotlib.figure import Figure
     from matplotlib.typing import RcKeyType
+
     from vibtrans.core.params import Scene
     from vibtrans.products.plots import TrajectoryFigure
 
@@ -54,7 +56,7 @@ HSPACE = 0.35            # gap between a layout's columns, in axes widths
 MAPS_HSPACE = 0.6        # ... beside a map: its colour bar, ticks and two-line title
 
 # publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
-RC: "dict[RcKeyType, Any]" = {
+RC: dict[RcKeyType, Any] = {
     "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11,
     "xtick.labelsize": 9.5, "ytick.labelsize": 9.5, "legend.fontsize": 9,
     "legend.framealpha": 0.85, "axes.linewidth": 0.8, "axes.formatter.useoffset": False,
@@ -476,8 +478,7 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
     from itertools import zip_longest
 
     from bokeh.layouts import column, gridplot
-    from bokeh.models import (ColumnDataSource, Div, HoverTool, Legend, LegendItem,
-                              Range1d)
+    from bokeh.models import ColumnDataSource, Div, HoverTool, Legend, LegendItem, Range1d
     from bokeh.plotting import figure as bokeh_figure
     width, height = cell
     grid = []

@@ -20,14 +20,14 @@ import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import holoviews as hv
+import numpy as np
 
+from vibtrans.analysis.summary import TWIN_TAU_OFFSET, V0
+from vibtrans.core.errors import InputError
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import STATE_NAMES
-from vibtrans.analysis.summary import TWIN_TAU_OFFSET, V0
 from vibtrans.core.params import PAPER_POINTS
-from vibtrans.core.errors import InputError
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -196,8 +196,8 @@ def _mpl_key(entries):
     """Hook adding `entries` to the map's key, a legend below the axes
     (its own artist: HoloViews' legend handling leaves it alone)."""
     def hook(plot, element):
-        from matplotlib.legend import Legend
         from matplotlib.artist import Artist
+        from matplotlib.legend import Legend
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
         ax = plot.handles["axis"]
@@ -205,7 +205,7 @@ def _mpl_key(entries):
         mine = list(old.entries) if old is not None else []
         mine += [e[:3] for e in entries if e[3] and e[0] not in {m[0] for m in mine}]
         handles: list[Artist] = []
-        for label, kind, spec in mine:
+        for _label, kind, spec in mine:
             if kind == "patch":
                 handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
             else:

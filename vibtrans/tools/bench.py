@@ -48,12 +48,12 @@ from typing import Any
 import numpy as np
 
 from vibtrans.analysis.summary import V0, drift_velocity
-from vibtrans.core.kernels.contact import memory_history, new_memory, reset_memory
+from vibtrans.core.errors import InputError
 from vibtrans.core.kernels import deformable as D
 from vibtrans.core.kernels import records as R
+from vibtrans.core.kernels.contact import memory_history, new_memory, reset_memory
 from vibtrans.core.params import paper_scene
 from vibtrans.core.simulate import simulate
-from vibtrans.core.errors import InputError
 
 
 def _best(fn, repeat):
@@ -136,7 +136,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     for point in (1, 4, 6):
         sc = paper_scene(point)
         simulate(sc)
-        best, ds = _best(lambda: simulate(sc), repeat)
+        best, ds = _best(lambda: simulate(sc), repeat)  # noqa: B023 (called in this iteration)
         scenes[point] = {"seconds": best, "steps": int(ds.attrs["steps"]),
                          "kernel_seconds": float(ds.attrs["seconds"])}
     return {
@@ -243,9 +243,8 @@ def export_bench(quick: bool = False, point: int = 8) -> dict[str, Any]:
     import shutil
     import tempfile
 
-    from vibtrans.products import export
-    from vibtrans.products import plots
     from vibtrans.analysis.summary import twin_scene
+    from vibtrans.products import export, plots
     repeat = 2 if quick else 5
     scene = paper_scene(point)
     T = scene.periods
@@ -402,8 +401,8 @@ def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
     import shutil
     import tempfile
 
-    from vibtrans.maps.sweep import run_sweep
     from vibtrans.core.simulate import warmup
+    from vibtrans.maps.sweep import run_sweep
     warmup()
     points, periods = (11, 500.0) if quick else (41, 2000.0)
     sweep = _window_sweep(points, periods=periods)
@@ -442,8 +441,8 @@ def preview_window_times(quick: bool = False) -> dict[str, Any]:
     import shutil
     import tempfile
 
-    from vibtrans.maps.adaptive import run_adaptive
     from vibtrans.core.simulate import warmup
+    from vibtrans.maps.adaptive import run_adaptive
     warmup()
     points, levels, periods = (17, 2, 200.0) if quick else (41, 3, 500.0)
     sweep = _window_sweep(points, periods=periods, fidelity="preview")

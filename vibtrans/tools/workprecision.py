@@ -41,11 +41,11 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from vibtrans.core import fidelity as F
 from vibtrans.analysis.summary import V0, chaos_verdict, drift_velocity, final_drift_velocity
+from vibtrans.core import fidelity as F
+from vibtrans.core.errors import InputError
 from vibtrans.core.params import Scene, paper_scene
 from vibtrans.core.simulate import simulate
-from vibtrans.core.errors import InputError
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -721,7 +721,7 @@ class MemorySteps(NamedTuple):
     integrals: object   # _integrals's copy: (H, W, P, nvert, law)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def memory_steps(law_kind):
     """The memory diagram's steps (`memory_commit` and what it calls,
     inlined) for one contact law kind, `law_kind` a global constant of the

@@ -35,11 +35,21 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.kernels import records as R
-from vibtrans.core.kernels.contact import (FLIGHT, LAW_K1, LAW_KINDS, NO_WARM, PARTIAL_SLIP,
-                                           SPHERE, law_eval, law_eval_warm, memory_steps)
-from vibtrans.core.kernels.jit import helper, inline, kernel, specialize, template
+from vibtrans.core.kernels.contact import (
+    FLIGHT,
+    LAW_K1,
+    LAW_KINDS,
+    NO_WARM,
+    PARTIAL_SLIP,
+    SPHERE,
+    law_eval,
+    law_eval_warm,
+    memory_steps,
+)
 from vibtrans.core.kernels.integrators import AB4, ab4_increment, find_landing, push_history
+from vibtrans.core.kernels.jit import helper, inline, kernel, specialize, template
 from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surface_motion, wave_motion
+
 
 class HertzParams(NamedTuple):
     """The Hertz kernels' parameters (normalized units, docs/MODEL.md section 1)."""
@@ -756,7 +766,7 @@ class HertzVariant(NamedTuple):
     law_kind: int       # contact.SPHERE, PROFILE or WARM_POWER
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def hertz_kernel(variant):
     """The Hertz kernel of a HertzVariant, compiled on its first call (or
     loaded from the disk cache):

@@ -16,9 +16,7 @@ order without a Runge-Kutta starter.
 """
 import math
 
-
 from vibtrans.core.kernels.jit import helper, kernel
-
 from vibtrans.core.kernels.substrate import TWO_PI, vertical_displacement
 
 AB4 = 0

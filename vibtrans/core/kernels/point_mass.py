@@ -96,13 +96,29 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vibtrans.core.errors import InputError
 from vibtrans.core.kernels.contact import FLIGHT, SLIDING, STICK
 from vibtrans.core.kernels.jit import helper, inline, kernel
-from vibtrans.core.kernels.records import (C_FEVALS, C_MODE, C_NEVT, C_NEXT, C_NSAMP, C_STATE,
-                       C_STEPS, DONE, EVENTS_FULL, EVENTS_RUNAWAY, LANDING, SAMPLES_FULL,
-                       STATE_CHANGE, TAKEOFF, add_event, record, want_sample)
+from vibtrans.core.kernels.records import (
+    C_FEVALS,
+    C_MODE,
+    C_NEVT,
+    C_NEXT,
+    C_NSAMP,
+    C_STATE,
+    C_STEPS,
+    DONE,
+    EVENTS_FULL,
+    EVENTS_RUNAWAY,
+    LANDING,
+    SAMPLES_FULL,
+    STATE_CHANGE,
+    TAKEOFF,
+    add_event,
+    record,
+    want_sample,
+)
 from vibtrans.core.kernels.substrate import surface_acceleration, surface_motion
-from vibtrans.core.errors import InputError
 
 # modes (ctr[C_MODE])
 MODE_STICK = 0

@@ -65,6 +65,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
 from vibtrans.core.errors import InputError
 
 if TYPE_CHECKING:
@@ -193,7 +194,7 @@ def default_step(scene: Scene) -> Any:
 def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE,
                samples_per_period: int = 10) -> Mapping:
     """The SI numbers of a scene on a device, with the run's step and length."""
-    from vibtrans.core.units import static_contact, frequency_for_mass_ratio
+    from vibtrans.core.units import frequency_for_mass_ratio, static_contact
     if scene.model not in ("deformable", "vertical"):
         raise InputError(f"model must be deformable or vertical for the LAMMPS peer, "
                          f"got {scene.model!r}")
