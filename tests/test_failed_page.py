@@ -9,6 +9,21 @@ from panel.io.state import set_curdoc
 from vibtrans_explorer import explorer, server
 
 
+class _Page:
+    """Stands in for a served page's explorer: what it was told to say."""
+    said = None
+
+    def _error(self, text):
+        self.said = text
+
+
+def _served_page():
+    """(document, its page) as the server registers them."""
+    doc, page = Document(), _Page()
+    explorer._PAGES[doc] = page
+    return doc, page
+
+
 def _raises():
     raise OverflowError("math range error in /srv/vibtrans/somewhere.py")
 
@@ -29,14 +44,7 @@ def test_a_page_whose_build_fails_is_the_explorers_message(caplog):
 
 
 def test_a_failed_callback_is_said_in_its_page_and_logged(caplog):
-    class Page:
-        said = None
-
-        def _error(self, text):
-            self.said = text
-
-    doc, page = Document(), Page()
-    explorer._PAGES[doc] = page
+    doc, page = _served_page()
     with set_curdoc(doc), caplog.at_level(logging.ERROR, logger="vibtrans.explorer"):
         explorer.report_failure(OverflowError("in /srv/vibtrans/x.py"))
     record = next(r for r in caplog.records if "callback failed" in r.getMessage())
@@ -55,14 +63,7 @@ def test_panels_own_query_parse_failure_is_logged_not_said(caplog):
     says what is wrong with it, so that failure is not news for the page."""
     from panel.io.location import Location
 
-    class Page:
-        said = None
-
-        def _error(self, text):
-            self.said = text
-
-    doc, page = Document(), Page()
-    explorer._PAGES[doc] = page
+    doc, page = _served_page()
     try:
         Location(search="?la=²").query_params  # noqa: B018
     except ValueError as exc:
