@@ -1,14 +1,14 @@
 """The vibtrans explorer's page: layout and callbacks only.
 
 What the session selected is `state.ExplorerState` (mirrored in the URL,
-app/urlstate.py); its runs are `controller.RunController` (no widgets);
+app/session/urlstate.py); its runs are `controller.RunController` (no widgets);
 each part of the page is a view in app/views/ (the scene's controls, the
 run's buttons, the profile, map, summary, the run's tabs, units, vertical,
 exports, ...) bound to the state or fed by the controller's result.  Physics comes
-from `vibtrans`, figures from `vibtrans.products.plots` and app/live.py.
+from `vibtrans`, figures from `vibtrans.products.plots` and app/views/live.py.
 
-Serve with `vibtrans serve` (app/server.py: checks the maps first, then
-serves while the kernels compile in the background, app/kernels.py) or
+Serve with `vibtrans serve` (app/server/serve.py: checks the maps first, then
+serves while the kernels compile in the background, app/server/warmup.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
 import functools
@@ -23,13 +23,26 @@ import param
 
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
-
-from . import compat, data, memory, urlstate
-from .browserside import ACK_RUN, ack_js, ack_listener, ack_pane
-from .controller import CANCELLED, RunController
-from .mapondemand import MapOnDemand
-from .pagelink import PageLink
-from .presentation import (
+from vibtrans_explorer.server import compat, data, memory
+from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session.controller import CANCELLED, RunController
+from vibtrans_explorer.session.pagelink import PageLink
+from vibtrans_explorer.session.state import (
+    DEVICE_FIELDS,
+    MAP_MATERIAL,
+    MAP_RUN,
+    MAP_TABS,
+    SCENE_FIELDS,
+    ExplorerState,
+)
+from vibtrans_explorer.texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
+from vibtrans_explorer.views.browserside import ACK_RUN, ack_js, ack_listener, ack_pane
+from vibtrans_explorer.views.design import DesignPanel
+from vibtrans_explorer.views.difference import DifferenceView
+from vibtrans_explorer.views.exports import ExportsView
+from vibtrans_explorer.views.map import MapView
+from vibtrans_explorer.views.mapondemand import MapOnDemand
+from vibtrans_explorer.views.presentation import (
     BOKEH_FONT_PX,
     PRESENTATION_SCALE,
     SIDEBAR_WIDTH,
@@ -37,21 +50,15 @@ from .presentation import (
     ExplorerDesign,
     scale_fonts,
 )
-from .state import DEVICE_FIELDS, MAP_MATERIAL, MAP_RUN, MAP_TABS, SCENE_FIELDS, ExplorerState
-from .texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
-from .views.design import DesignPanel
-from .views.difference import DifferenceView
-from .views.exports import ExportsView
-from .views.map import MapView
-from .views.profile import ProfileView
-from .views.render import at_next_tick
-from .views.runbuttons import RunButtons
-from .views.runtabs import RunTabs
-from .views.scene import SceneControls
-from .views.summary import SummaryView
-from .views.trajectory import TrajectoryView, structure
-from .views.units import UnitsPanel
-from .views.vertical import VerticalView
+from vibtrans_explorer.views.profile import ProfileView
+from vibtrans_explorer.views.render import at_next_tick
+from vibtrans_explorer.views.runbuttons import RunButtons
+from vibtrans_explorer.views.runtabs import RunTabs
+from vibtrans_explorer.views.scene import SceneControls
+from vibtrans_explorer.views.summary import SummaryView
+from vibtrans_explorer.views.trajectory import TrajectoryView, structure
+from vibtrans_explorer.views.units import UnitsPanel
+from vibtrans_explorer.views.vertical import VerticalView
 
 hv.extension("bokeh")
 # Canvas, not WebGL: the figures hold at most ~10^4 points per curve, which a
@@ -132,7 +139,7 @@ class Explorer(pn.viewable.Viewer):
         self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
                                                   sizing_mode="stretch_width")
         self.trajectories = TrajectoryView()
-        # the map on demand (app/mapondemand.py)
+        # the map on demand (app/views/mapondemand.py)
         self.ondemand = MapOnDemand(self.state, answered=self._answered, run=self.start_run,
                                     session=f"explorer-{id(self)}")
         self.location = _page_location()
@@ -178,7 +185,7 @@ class Explorer(pn.viewable.Viewer):
 
     # ---------- URL ----------
     def _apply_url(self):
-        """Apply the link's values (app/pagelink.py: checked, then the URL
+        """Apply the link's values (app/session/pagelink.py: checked, then the URL
         follows the state), and run its scene once the page has loaded if
         the link names one (log10 A* or m*) and every value in it is valid
         (a link with an error runs nothing and says so)."""

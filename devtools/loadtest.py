@@ -81,14 +81,14 @@ import time
 import urllib.request
 from pathlib import Path
 
-from vibtrans_explorer.memory import CLOSED, RELEASE_NAME, RELEASED
+from vibtrans_explorer.server.memory import CLOSED, RELEASE_NAME, RELEASED
 
 from .chromium import ARGS, CHROMIUM
 
 ROOT = Path(__file__).resolve().parent.parent
 LIFETIME_MS, CHECK_MS = 3000, 1000
 BENIGN = ("WebSocketClosedError", "StreamClosedError")
-KERNELS_READY = "kernels ready"                         # app/kernels.py logs it
+KERNELS_READY = "kernels ready"                         # app/server/warmup.py logs it
 # a message from a page that is closing, handled after its connection was
 # detached from the session (Bokeh's assertion): a disconnect race too
 DETACHED = "assert self._session is not None"
@@ -554,7 +554,7 @@ def map_request(k):
     the jumping boundary, 33 x 33 points at the finest level, preview
     fidelity and 500 periods, at a mu of its own (so that no two sessions
     share a computation)."""
-    from vibtrans_explorer.maprequest import MapRequest, encode
+    from vibtrans_explorer.session.maprequest import MapRequest, encode
     return encode(MapRequest(model="deformable", mu=round(0.31 + 0.02 * k, 2),
                              fidelity="preview", periods=500.0, la_from=0.0, la_to=1.5,
                              lm_from=-1.5, lm_to=1.5, cells=8, levels=2))

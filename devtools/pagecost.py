@@ -23,8 +23,8 @@ import time
 from bokeh.document import Document
 from panel.io.state import set_curdoc
 
-from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as map_view
 
 
@@ -45,7 +45,7 @@ def run(pages):
     problems = data.preload()
     if problems:
         raise RuntimeError("; ".join(problems))
-    # as a served explorer after its warm-up (app/server.py): every map
+    # as a served explorer after its warm-up (app/server/serve.py): every map
     # rendered and read, so a page's check of the shipped files stats none
     map_view.prerender()
     for _ in range(2):                       # warm-up: imports, caches

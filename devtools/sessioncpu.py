@@ -45,7 +45,7 @@ import subprocess
 import sys
 import time
 
-from vibtrans_explorer.memory import CLOSED, RELEASED
+from vibtrans_explorer.server.memory import CLOSED, RELEASED
 
 from .loadtest import KERNELS_READY, Server, _range_points, _stat, _tree
 from .protoclient import ProtocolSession
@@ -224,7 +224,7 @@ class _Session(CountingSession):
 # whose frame names any of its keys, over the whole stack (inner parts of a
 # phase first: the page function is inside the GET)
 PROFILE_PARTS = [
-    ("warm-up (kernels, maps' pre-render)", ("prerender", "app/kernels.py", "_find_and_load")),
+    ("warm-up (kernels, maps' pre-render)", ("prerender", "app/server/warmup.py", "_find_and_load")),
     ("GET: the page function (serve_page)", ("_first_page.<locals>.page",)),
     ("GET: Bokeh's document checks", ("Document.validate", "check_integrity")),
     ("GET: the rest (session, HTML)", ("DocHandler.get",)),
@@ -233,7 +233,7 @@ PROFILE_PARTS = [
     ("click: the rest of the tap", ("MapView._on_tap",)),
     ("the browser's patches (sizes, document_ready, onload)", ("ServerSession._handle_patch",)),
     ("after a run: its results shown", ("RunController.finish",)),
-    ("close: the explorer's release (full collection)", ("app/memory.py",)),
+    ("close: the explorer's release (full collection)", ("app/server/memory.py",)),
     ("close: Bokeh's discard, Panel's cleanup", ("_discard_session", "on_session_destroyed")),
 ]
 

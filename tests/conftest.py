@@ -58,7 +58,7 @@ def browser():
 def assets_folder():
     from assetsfolder import point_assets
 
-    from vibtrans_explorer import data
+    from vibtrans_explorer.server import data
     shipped = data.ASSETS
     try:
         yield point_assets
@@ -70,10 +70,10 @@ def assets_folder():
 def _assets_folder_restored():
     """A test that points the explorer at other maps must point it back (the
     next test in this process would read them): through assets_folder."""
-    data = sys.modules.get("vibtrans_explorer.data")
+    data = sys.modules.get("vibtrans_explorer.server.data")
     before = data and data.ASSETS
     yield
-    data = sys.modules.get("vibtrans_explorer.data")
+    data = sys.modules.get("vibtrans_explorer.server.data")
     if data is not None and before is not None:
         assert data.ASSETS == before, f"the test left the explorer's maps at {data.ASSETS}"
 

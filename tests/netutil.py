@@ -12,7 +12,7 @@ from pathlib import Path
 
 from budget import budget
 
-READY_LINE = "kernels ready"        # app/kernels.py, once the warm-up is done
+READY_LINE = "kernels ready"        # app/server/warmup.py, once the warm-up is done
 
 
 def free_port():

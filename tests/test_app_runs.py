@@ -15,12 +15,12 @@ from asyncutil import until
 from budget import budget
 
 from vibtrans import Cancelled
-from vibtrans_explorer import controller as C
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer import memory
-from vibtrans_explorer.live import TIMELINE_BINS, LiveTrajectory
+from vibtrans_explorer.server import memory
+from vibtrans_explorer.session import controller as C
 from vibtrans_explorer.views import map as M
 from vibtrans_explorer.views import runtabs
+from vibtrans_explorer.views.live import TIMELINE_BINS, LiveTrajectory
 
 # explorer sessions with real runs, ~40 s (make test-fast leaves them out)
 pytestmark = pytest.mark.slow
@@ -273,7 +273,7 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
 def test_the_server_freezes_every_page_once_built(monkeypatch):
     """`vibtrans serve`'s page function freezes each page it builds (not
     only the first, which also starts the kernels)."""
-    from vibtrans_explorer import server
+    from vibtrans_explorer.server import serve as server
     built, kernels = [], []
     monkeypatch.setattr(memory, "page_built", lambda: built.append(1))
     page = server._first_page(lambda: "a page", lambda: kernels.append(1))

@@ -1,10 +1,10 @@
-"""app/compat.py: each workaround answers a bug the installed framework
+"""app/server/compat.py: each workaround answers a bug the installed framework
 versions show.  The test of each bug runs stock code and fails on the day
 a version fixes it: then delete the workaround (docs/how-to/deployment.md)."""
 import subprocess
 import sys
 
-from vibtrans_explorer import compat
+from vibtrans_explorer.server import compat
 
 _STOCK_PROBE = ("from vibtrans_explorer import compat; "
                 "print(compat.validation_switch_is_process_wide())")
@@ -17,7 +17,7 @@ def test_bokeh_validation_switch_is_one_flag_for_the_process():
     out = subprocess.run([sys.executable, "-c", _STOCK_PROBE], capture_output=True,
                          text=True, timeout=120, check=True).stdout.split()
     assert out[-1] == "True", ("Bokeh's validation switch no longer leaks across threads: "
-                               "delete workaround 1 of app/compat.py")
+                               "delete workaround 1 of app/server/compat.py")
 
 
 def test_panels_text_panes_in_a_hidden_tab_fetch_the_cdn():
@@ -30,7 +30,7 @@ def test_panels_text_panes_in_a_hidden_tab_fetch_the_cdn():
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True,
                          text=True, timeout=120, check=True).stdout.split()
     assert out[-1] == "True", ("Panel's hidden-tab text updates keep the page's stylesheets: "
-                               "delete workaround 2 of app/compat.py")
+                               "delete workaround 2 of app/server/compat.py")
 
 
 def test_apply_applies_what_is_shown_and_undo_restores_bokeh():
@@ -57,7 +57,7 @@ def test_apply_applies_what_is_shown_and_undo_restores_bokeh():
 
 def test_nothing_is_applied_at_import():
     out = subprocess.run([sys.executable, "-c",
-                          "import vibtrans_explorer.explorer, vibtrans_explorer.compat as c; "
+                          "import vibtrans_explorer.explorer, vibtrans_explorer.server.compat as c; "
                           "print(c.applied())"],
                          capture_output=True, text=True, timeout=300, check=True).stdout.split()
     assert out[-1] == "[]"
@@ -120,7 +120,7 @@ def test_the_app_imports_nothing_private_and_assigns_nothing_to_its_frameworks()
     """No private import from Panel, Bokeh, Param or HoloViews; no
     assignment to an attribute of one of their modules or classes (a
     process-wide replacement), by `=` or `setattr`; nothing private of
-    theirs assigned anywhere.  app/compat.py alone may (docs/how-to/deployment.md)."""
+    theirs assigned anywhere.  app/server/compat.py alone may (docs/how-to/deployment.md)."""
     found = []
     sources = _app_sources()
     assert len(sources) > 20

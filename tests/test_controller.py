@@ -1,4 +1,4 @@
-"""The run controller without a server or widgets (app/controller.py): a
+"""The run controller without a server or widgets (app/session/controller.py): a
 stand-in simulate, asyncio.run, and the parameters the page shows.  The
 controller is what issue 14 asked for: the runs testable without Panel."""
 import asyncio
@@ -9,8 +9,8 @@ import pytest
 from asyncutil import until
 
 from vibtrans import Cancelled, simulate
-from vibtrans_explorer.controller import TWIN_LABEL, RunController, comparison
-from vibtrans_explorer.state import ExplorerState
+from vibtrans_explorer.session.controller import TWIN_LABEL, RunController, comparison
+from vibtrans_explorer.session.state import ExplorerState
 
 
 def _state(**values):

@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 from asyncutil import until
 
-from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.server import data
 
 pytestmark = pytest.mark.slow       # a real run in an explorer session
 

@@ -359,7 +359,7 @@ def test_serve_hands_use_xheaders_to_bokeh(monkeypatch):
     import panel
 
     from vibtrans.cli import build_parser
-    from vibtrans_explorer import server
+    from vibtrans_explorer.server import serve as server
 
     given = []
 

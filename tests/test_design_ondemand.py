@@ -1,6 +1,6 @@
 """A design chart no shipped map serves: the map it needs (design.chart_needs),
 read from a given map (design_chart's map_ds), and in the explorer's Design
-tab offered with its cost, computed as a map on demand (app/mapjobs.py),
+tab offered with its cost, computed as a map on demand (app/server/mapjobs.py),
 drawn, shared through the server's cache, cancelled, and its device run."""
 import asyncio
 import math
@@ -11,7 +11,7 @@ import pytest
 from vibtrans.core.errors import InputError
 from vibtrans.maps.sweep import open_map
 from vibtrans.products import design
-from vibtrans_explorer import mapjobs
+from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.views import design as D
 
 PAPER = dict(substrate="glass", particle="steel", preload=0.0,

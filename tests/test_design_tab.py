@@ -11,7 +11,7 @@ from bokeh.models import ColumnDataSource
 
 from vibtrans.products import design
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer import mapjobs
+from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.views.design import DesignPanel
 
 pytestmark = pytest.mark.slow       # charts rendered

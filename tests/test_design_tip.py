@@ -19,8 +19,8 @@ import pytest
 from vibtrans.core import units
 from vibtrans.maps.sweep import open_map
 from vibtrans.products import design, designtip
-from vibtrans_explorer import mapjobs
-from vibtrans_explorer.state import TIP_SIZES, ExplorerState
+from vibtrans_explorer.server import mapjobs
+from vibtrans_explorer.session.state import TIP_SIZES, ExplorerState
 from vibtrans_explorer.views import design as D
 
 pytestmark = pytest.mark.slow       # panels built, charts read
@@ -101,8 +101,8 @@ def test_a_bad_tip_size_is_refused_with_the_librarys_range_never_clamped(
 
 
 def test_a_bad_tip_in_a_link_is_named_and_nothing_is_applied():
-    from vibtrans_explorer import urlstate
-    from vibtrans_explorer.state import URL_KEYS
+    from vibtrans_explorer.session import urlstate
+    from vibtrans_explorer.session.state import URL_KEYS
     values, errors = urlstate.parse({"tip": [b"cone"], "tipa": [b"90"], "tipc": [b"-1"],
                                      "tipn": [b"1"], "tipr": [b"0"]}, ExplorerState, URL_KEYS)
     assert values == {"tip": "cone"}

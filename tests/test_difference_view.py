@@ -12,8 +12,8 @@ import pytest
 import xarray as xr
 
 from vibtrans.maps.difference import describe, map_difference
-from vibtrans_explorer import data
-from vibtrans_explorer.state import ExplorerState
+from vibtrans_explorer.server import data
+from vibtrans_explorer.session.state import ExplorerState
 from vibtrans_explorer.views.difference import COMPUTED, DifferenceView, shipped_label
 from vibtrans_explorer.views.exports import ExportsView
 

@@ -43,9 +43,10 @@ from tornado.httputil import parse_qs_bytes
 from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer import inputs, urlstate
-from vibtrans_explorer.state import DEVICE_FIELDS, TIP_SIZES, URL_ALIASES, URL_KEYS, is_sphere
+from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session.state import DEVICE_FIELDS, TIP_SIZES, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
+from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views import profile as P
 from vibtrans_explorer.views.summary import CANCELLED_LINE, STALE_LINE, profile_words
 

@@ -7,10 +7,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer.live import time_label
+from vibtrans_explorer.server import data
 from vibtrans_explorer.views import runtabs
+from vibtrans_explorer.views.live import time_label
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps rendered)
 
@@ -256,7 +256,7 @@ def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
 
 
 def test_the_map_requests_selector_is_a_view_of_its_request():
-    from vibtrans_explorer.maprequest import MapRequest
+    from vibtrans_explorer.session.maprequest import MapRequest
     from vibtrans_explorer.views.ondemand import MapRequestPanel
     panel = MapRequestPanel(MapRequest())
     panel.profile.kind.value = "cone"
@@ -283,14 +283,14 @@ def test_the_vertical_tab_says_its_curve_is_the_spheres():
 
 
 def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets():
-    """ExplorerDesign (app/presentation.py) gives every widget INPUT_FONT
+    """ExplorerDesign (app/views/presentation.py) gives every widget INPUT_FONT
     (text inputs and selects sized in rem, so that presentation mode grows
     them) on top of Bootstrap's own stylesheets: a modifier without
     `Inherit` replaced them, and the widgets lost Bootstrap's look."""
     import panel as pn
     from bokeh.document import Document
 
-    from vibtrans_explorer.presentation import INPUT_FONT, ExplorerDesign
+    from vibtrans_explorer.views.presentation import INPUT_FONT, ExplorerDesign
 
     def stylesheets(design):
         field = pn.widgets.TextInput(label="log10 A*")

@@ -201,7 +201,7 @@ def _app_map(maps_dir):
     app's data loader pointed at maps_dir."""
     from assetsfolder import point_assets
 
-    from vibtrans_explorer import data
+    from vibtrans_explorer.server import data
     shipped = data.ASSETS
     point_assets(maps_dir.parent)
     try:

@@ -6,7 +6,8 @@ import logging
 from bokeh.document import Document
 from panel.io.state import set_curdoc
 
-from vibtrans_explorer import explorer, server
+from vibtrans_explorer import explorer
+from vibtrans_explorer.server import serve as server
 
 
 class _Page:

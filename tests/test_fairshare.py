@@ -1,9 +1,9 @@
-"""app/fairshare.py: the server's workers shared between maps in turn."""
+"""app/server/fairshare.py: the server's workers shared between maps in turn."""
 import threading
 
 import pytest
 
-from vibtrans_explorer.fairshare import FairPool
+from vibtrans_explorer.server.fairshare import FairPool
 
 
 def _blocked_pool():
@@ -83,8 +83,8 @@ def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
     core), the maps' workers nicer still."""
     import os
 
-    from vibtrans_explorer.controller import RUN_NICE, RUNNER
-    from vibtrans_explorer.mapjobs import MAP_NICE
+    from vibtrans_explorer.server.mapjobs import MAP_NICE
+    from vibtrans_explorer.session.controller import RUN_NICE, RUNNER
     here = os.getpriority(os.PRIO_PROCESS, 0)
     got = RUNNER.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
     assert got.result(timeout=30) == min(19, here + RUN_NICE)

@@ -1,4 +1,4 @@
-"""The explorer's number fields (app/inputs.py): a typed value is checked
+"""The explorer's number fields (app/views/inputs.py): a typed value is checked
 like a link's (urlstate.convert), applied only when valid, and an invalid
 one is a message beside the field, never a silent revert or clamp; the
 explorer refuses to run while a field holds one (issue 14: log10 A* = 99,
@@ -8,7 +8,7 @@ import param
 import pytest
 
 from vibtrans_explorer.explorer import Explorer
-from vibtrans_explorer.inputs import NumberField
+from vibtrans_explorer.views.inputs import NumberField
 
 
 class _Owner(param.Parameterized):

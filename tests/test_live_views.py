@@ -1,4 +1,4 @@
-"""The explorer's live trajectory panels (app/live.py): a panel's second
+"""The explorer's live trajectory panels (app/views/live.py): a panel's second
 quantity on an axis of its own, and the whole run as per-bin envelopes
 (issue 14: N* and T* lay flat beside b*' in the thousands, b* and x* over
 the last two periods were two flat lines, the whole-run panels were solid
@@ -8,7 +8,7 @@ import pytest
 
 from vibtrans import paper_scene, simulate
 from vibtrans.products.plots import binned
-from vibtrans_explorer.live import LiveTrajectory, right_columns
+from vibtrans_explorer.views.live import LiveTrajectory, right_columns
 
 
 def test_binned_is_the_naive_per_bin_min_mean_max():

@@ -132,7 +132,7 @@ def test_memory_counts_as_released_only_when_every_process_released_its_closes()
     """With several server processes in one log, one process's release
     after the last discard does not stand for the others' (read so, one
     process's garbage was measured as the load's memory growth, +20%)."""
-    from vibtrans_explorer.memory import CLOSED, RELEASED
+    from vibtrans_explorer.server.memory import CLOSED, RELEASED
     discard = "DEBUG - Discarding session 'abc' last in use 5 milliseconds ago"
     # process 2 closed a session after its last release; process 1 released after it
     late = [discard, _line(CLOSED, 1), _line(RELEASED, 2), discard, _line(CLOSED, 2),

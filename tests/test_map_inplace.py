@@ -11,8 +11,8 @@ import pytest
 from bokeh.models import ColorBar, HoverTool, Legend
 
 from vibtrans.products.plots import RESONANCE_LABEL, colour_ticks
-from vibtrans_explorer import data
-from vibtrans_explorer.state import ExplorerState
+from vibtrans_explorer.server import data
+from vibtrans_explorer.session.state import ExplorerState
 from vibtrans_explorer.views.map import LYAPUNOV_LAYER, MapView, bar_labels, map_figure
 
 hv.extension("bokeh")       # as the explorer does

@@ -200,11 +200,11 @@ def test_html_export_state_strip_shows_the_state_colours(tmp_path, run4):
 
 
 def test_live_strips_name_the_state_colours(run4):
-    # the explorer's strips (app/live.py): a legend grouped by the bands'
+    # the explorer's strips (app/views/live.py): a legend grouped by the bands'
     # state names, fed with each run; the colours are the plots' ones
     from bokeh.core.property.vectorization import Field
 
-    from vibtrans_explorer import live
+    from vibtrans_explorer.views import live
     view = live.LiveTrajectory(label=None, fragment=2.0, tau=50.0)
     view.show(run4)
     for block in (view.over, view.last):

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, linear_resonance_mass
-from vibtrans_explorer import data
+from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as M
 
 hv.extension("bokeh")       # as the explorer does

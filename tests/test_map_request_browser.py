@@ -8,7 +8,7 @@ import pytest
 from browserpages import new_page, open_explorer
 from budget import budget_ms
 
-from vibtrans_explorer import maprequest
+from vibtrans_explorer.session import maprequest
 
 pytestmark = pytest.mark.browser
 

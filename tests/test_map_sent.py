@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from bokeh.models import ColumnDataSource, HoverTool
 
-from vibtrans_explorer import data
+from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as M
 from vibtrans_explorer.views.render import rendered
 

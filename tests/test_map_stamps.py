@@ -1,4 +1,4 @@
-"""Verified stamps of the shipped maps (app/data.py): a warm server start
+"""Verified stamps of the shipped maps (app/server/data.py): a warm server start
 checks a stamp instead of reading every map, and a map changed after its
 stamp was cached is still verified, and refused, before the start."""
 import os
@@ -9,7 +9,7 @@ import pytest
 from assetsfolder import forget_maps
 
 from vibtrans.cli import main
-from vibtrans_explorer import data
+from vibtrans_explorer.server import data
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "assets" / "maps"

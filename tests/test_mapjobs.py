@@ -1,4 +1,4 @@
-"""Maps on demand (app/maprequest.py, app/mapjobs.py): the request's checks
+"""Maps on demand (app/session/maprequest.py, app/server/mapjobs.py): the request's checks
 and URL form, the server-wide queue (one map per session, sessions sharing
 a computation, cancel, the cache's reuse and a damaged entry recomputed)."""
 import os
@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from budget import budget
 
-from vibtrans_explorer import mapjobs, maprequest
-from vibtrans_explorer.maprequest import MapRequest
+from vibtrans_explorer.server import mapjobs
+from vibtrans_explorer.session import maprequest
+from vibtrans_explorer.session.maprequest import MapRequest
 
 # a tiny map: 5 x 5 points (2 coarse cells, K = 1), 30 periods at preview
 TINY = dict(model="deformable", fidelity="preview", periods=30.0, tau=5.0,
@@ -448,7 +449,7 @@ def test_a_closing_page_cancels_its_map(monkeypatch, tmp_path, gate):
 
 
 def test_a_small_map_asked_for_later_is_not_starved_by_a_big_one(tmp_path):
-    """Maps share the server's workers in turn (app/fairshare.py): on one
+    """Maps share the server's workers in turn (app/server/fairshare.py): on one
     core, a 5 x 5 map asked for while a 33 x 33 map computes finishes
     first, and both maps equal the ones computed alone."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)

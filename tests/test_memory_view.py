@@ -15,7 +15,7 @@ from budget import budget
 from vibtrans import paper_scene
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans.products import plots
-from vibtrans_explorer import urlstate
+from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.views.memory import SNAPSHOTS, MemoryView, snapshot_times, title_lines
 
 POOL = ThreadPoolExecutor(max_workers=2)

@@ -31,8 +31,8 @@ from bokeh.models.widgets.markups import Markup
 from panel.io.state import set_curdoc
 from test_explorer_state import StandIn
 
-from vibtrans_explorer import data
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.server import data
 
 pytestmark = pytest.mark.slow       # an explorer session with a run, ~10 s
 

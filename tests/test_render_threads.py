@@ -1,5 +1,5 @@
 """Bokeh's property validation switched per thread where the installed
-Bokeh keeps it in one flag for the whole process (app/compat.py, as the
+Bokeh keeps it in one flag for the whole process (app/server/compat.py, as the
 server applies it): HoloViews turns it off around updates of a render's
 sources, in the worker threads that render maps on demand, while the event
 loop builds other figures whose values only validation converts (a title
@@ -12,12 +12,12 @@ from bokeh.core.property.validation import validate
 from bokeh.models import Title
 from bokeh.plotting import figure
 
-from vibtrans_explorer import compat
+from vibtrans_explorer.server import compat
 
 
 @pytest.fixture
 def as_served():
-    """compat applied as app/server.py applies it, undone after."""
+    """compat applied as app/server/serve.py applies it, undone after."""
     was = compat.applied()
     compat.apply()
     yield

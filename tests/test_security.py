@@ -15,7 +15,7 @@ from budget import budget
 
 from vibtrans.cli import build_parser
 from vibtrans.core.errors import InputError
-from vibtrans_explorer.server import origins as _origins
+from vibtrans_explorer.server.serve import origins as _origins
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"),

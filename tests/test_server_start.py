@@ -1,4 +1,4 @@
-"""`vibtrans serve`'s start (app/server.py, app/kernels.py): it says what it
+"""`vibtrans serve`'s start (app/server/serve.py, app/server/warmup.py): it says what it
 does on stderr, serves pages while the kernels compile in a background
 thread, and a run asked for before they are ready waits with a message in
 the page (then runs, or is cancelled)."""
@@ -13,17 +13,17 @@ from budget import budget
 import vibtrans
 from vibtrans import Cancelled
 from vibtrans_explorer import explorer as E
-from vibtrans_explorer import kernels
+from vibtrans_explorer.server import warmup
 
 
 @pytest.fixture
 def compiling(monkeypatch):
     """The kernels as at a cold start: a warm-up under way, 1 of 4 kernels ready."""
-    monkeypatch.setattr(kernels, "READY", threading.Event())
-    monkeypatch.setattr(kernels, "_thread", object())
-    monkeypatch.setattr(kernels, "_state", dict(kernels._state, done=1, total=4,
+    monkeypatch.setattr(warmup, "READY", threading.Event())
+    monkeypatch.setattr(warmup, "_thread", object())
+    monkeypatch.setattr(warmup, "_state", dict(warmup._state, done=1, total=4,
                                                 label="deformable, ab4"))
-    return kernels.READY
+    return warmup.READY
 
 
 def _explorer():
@@ -70,37 +70,37 @@ def test_a_waiting_run_can_be_cancelled(compiling):
 
 def test_outside_vibtrans_serve_runs_do_not_wait():
     # no warm-up started in this process (panel serve app/explorer.py, tests)
-    assert kernels._thread is None and kernels.ready() and kernels.status() is None
+    assert warmup._thread is None and warmup.ready() and warmup.status() is None
 
 
 def test_compile_all_reports_each_step(monkeypatch):
     seen = {}
 
-    def warmup(models=None, progress=None):
+    def fake_warmup(models=None, progress=None):
         seen["models"] = models
         for k, label in enumerate(("deformable kernel", "point-mass kernel"), 1):
             progress(k, 2, label)
-    monkeypatch.setattr(vibtrans, "warmup", warmup)
-    monkeypatch.setattr(kernels, "READY", threading.Event())
+    monkeypatch.setattr(vibtrans, "warmup", fake_warmup)
+    monkeypatch.setattr(warmup, "READY", threading.Event())
     lines = []
-    kernels.compile_all(lines.append)
-    assert kernels.READY.is_set()
+    warmup.compile_all(lines.append)
+    assert warmup.READY.is_set()
     assert lines[0].startswith("compiling the kernels in the background")
     steps = [re.sub(r", [0-9.]+ s$", "", ln) for ln in lines[1:-1]]
-    assert seen["models"] == kernels.MODELS
+    assert seen["models"] == warmup.MODELS
     assert steps == ["kernels 1/2 ready (deformable kernel)",
                      "kernels 2/2 ready (point-mass kernel)"]
     assert lines[-1].startswith("kernels ready in ")
 
 
 def test_a_failed_warm_up_still_lets_runs_start(monkeypatch):
-    def warmup(models=None, progress=None):
+    def fake_warmup(models=None, progress=None):
         raise RuntimeError("boom")
-    monkeypatch.setattr(vibtrans, "warmup", warmup)
-    monkeypatch.setattr(kernels, "READY", threading.Event())
+    monkeypatch.setattr(vibtrans, "warmup", fake_warmup)
+    monkeypatch.setattr(warmup, "READY", threading.Event())
     lines = []
-    kernels.compile_all(lines.append)
-    assert kernels.READY.is_set()
+    warmup.compile_all(lines.append)
+    assert warmup.READY.is_set()
     assert "warm-up failed: RuntimeError: boom" in lines[-1]
 
 

@@ -6,7 +6,7 @@ import threading
 import time
 
 from devtools.sessioncpu import _release_seen, thread_cpu
-from vibtrans_explorer.memory import CLOSED, RELEASED
+from vibtrans_explorer.server.memory import CLOSED, RELEASED
 
 
 def _burn(seconds):
@@ -44,7 +44,7 @@ def test_profile_parts_by_the_innermost_phase(tmp_path):
     from devtools.sessioncpu import profile_parts
     raw = tmp_path / "raw.txt"
     raw.write_text(
-        "main;DocHandler.get (panel/io/server.py:671);_first_page.<locals>.page (app/server.py:184) 7\n"
+        "main;DocHandler.get (panel/io/server.py:671);_first_page.<locals>.page (app/server/serve.py:184) 7\n"
         "main;DocHandler.get (panel/io/server.py:671);Document.validate (bokeh/document/document.py:842) 2\n"
         "main;DocHandler.get (panel/io/server.py:671);render (jinja2) 1\n"
         "Thread._bootstrap (threading.py:995);simulate (vibtrans/core/simulate.py:1) 4\n"

@@ -1,5 +1,5 @@
 """Corrupted, truncated and foreign stores where the app and the command
-line read them: the assets folder of the explorer (app/data.py, from
+line read them: the assets folder of the explorer (app/server/data.py, from
 $VIBTRANS_ASSETS) and stores given on the command line (`vibtrans export
 --maps`, `vibtrans sweep --out`, `vibtrans serve`).
 
@@ -26,7 +26,7 @@ from budget import budget
 
 from vibtrans.cli import main
 from vibtrans.maps.sweep import StoreMismatch, open_map, open_vertical
-from vibtrans_explorer import data
+from vibtrans_explorer.server import data
 
 # ~2 min: every damage through the app and the CLI (make test-fast leaves it out)
 pytestmark = pytest.mark.slow

@@ -50,7 +50,7 @@ def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
     """The issue's example (log10 A* = 0.5, log10 m* = -2): the exponent says
     chaotic, the tau twin happened to agree; the row says both, the
     exponent's verdict first (it decides)."""
-    from vibtrans_explorer.controller import interpret
+    from vibtrans_explorer.session.controller import interpret
     from vibtrans_explorer.views.summary import chaos_verdict
     scene = paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0)
     ds = simulate(scene, lyapunov=True)

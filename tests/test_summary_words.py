@@ -38,7 +38,7 @@ def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
     # taken by Bokeh as a column name)
     from bokeh.core.property.vectorization import Value
 
-    from vibtrans_explorer.live import LiveTrajectory
+    from vibtrans_explorer.views.live import LiveTrajectory
     view = LiveTrajectory("tau + 0.001", 2.0, 50.0)
     view.relabel(50.0, "point mass")
     labels = [item.label for item in view.over.twin_items]

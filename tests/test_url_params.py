@@ -1,7 +1,7 @@
 """Bad input through the explorer's URL and through `vibtrans simulate`,
 property-based (hypothesis).
 
-URL (app/urlstate.py, called by Explorer._apply_url): every invalid value
+URL (app/session/urlstate.py, called by Explorer._apply_url): every invalid value
 gives a message naming the URL key and the parameter and leaves the default;
 valid values are applied; unknown keys are ignored; the given text is shown
 escaped (the message is rendered as Markdown/HTML); the state after
@@ -33,10 +33,11 @@ from tornado.httputil import parse_qs_bytes
 
 from vibtrans.cli import main
 from vibtrans.core.params import Scene
-from vibtrans_explorer import data, maprequest, urlstate
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.explorer import Explorer, ExplorerState
-from vibtrans_explorer.state import URL_ALIASES, URL_KEYS
+from vibtrans_explorer.server import data
+from vibtrans_explorer.session import maprequest, urlstate
+from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
 
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.core.simulate")
@@ -299,7 +300,7 @@ def test_a_tip_size_set_in_code_is_refused_with_the_librarys_message():
 
 def test_message_is_shown_as_text_not_markup():
     # What the browser receives for the Alert (its innerHTML): the given
-    # text is inert.  Before app/urlstate.py the raw value went into the
+    # text is inert.  Before app/session/urlstate.py the raw value went into the
     # Markdown as is: `?la=<img src=x onerror=alert(1)>` made an <img> tag.
     _, errors = urlstate.parse({"la": [b"<img src=x onerror=alert(1)>"],
                                 "lm": [b"**[x](javascript:alert(2))**"]},

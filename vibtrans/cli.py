@@ -478,7 +478,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
     server), not the library's: this is the library's one import of it, done
     only here, so `import vibtrans` and the other commands never load Panel."""
-    from vibtrans_explorer.server import serve
+    from vibtrans_explorer.server.serve import serve
     return serve(args)
 
 

@@ -75,8 +75,7 @@ from vibtrans.core.kernels import substrate
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.profiles import parse_profile
 from vibtrans.products import plots
-
-from ..state import is_sphere
+from vibtrans_explorer.session.state import is_sphere
 
 MAX_FRAMES = 3000          # frames sent to the browser per run (~0.25 MB)
 SIDE_W, SIDE_H = 620, 300  # the side view's plotting area, pixels (equal scales)

@@ -5,7 +5,7 @@ are typed here; "Draw chart" reads a shipped drift map for them
 (`vibtrans.products.design.design_chart`, off the event loop) and draws
 `vibtrans.products.plots.design_figure`.  When no shipped map serves the chart
 (another mu, theta or nu of the materials, a window outside the shipped
-maps), the tab offers the map it needs as a map on demand (app/mapjobs.py:
+maps), the tab offers the map it needs as a map on demand (app/server/mapjobs.py:
 the server's queue, cache and fair share of cores), with its estimated cost
 shown before anything runs; the chart is drawn level by level as the map is
 refined.  A click on the chart moves the device there and shows its
@@ -39,10 +39,9 @@ from vibtrans.core.errors import InputError
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.products import design, designtip, plots
 from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
-
-from .. import inputs, mapjobs
-from ..maprequest import MapRequest
-from ..state import (
+from vibtrans_explorer.server import mapjobs
+from vibtrans_explorer.session.maprequest import MapRequest
+from vibtrans_explorer.session.state import (
     CUSTOM_EXAMPLE,
     CUSTOM_MATERIAL,
     MATERIAL_NAMES,
@@ -51,8 +50,9 @@ from ..state import (
     TipFields,
     tip_values,
 )
-from .exports import read_back
-from .render import exclusively, rendered
+from vibtrans_explorer.views import inputs
+from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.render import exclusively, rendered
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -917,7 +917,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                                 "click moves it and runs its scene)", margin=(0, 10))
         tip = row(self.tip_kind, *self.tip_boxes)
         if self.state is not None:
-            from .units import device_form
+            from vibtrans_explorer.views.units import device_form
             return [head, row(*device_form(self.state, width=150)), tip,
                     row(f["mu"], f["surface_energy"])]
         return [row(select(self.param.substrate, label="substrate"),

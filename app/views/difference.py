@@ -12,10 +12,9 @@ import panel as pn
 from vibtrans.core.errors import InputError
 from vibtrans.maps.difference import map_difference
 from vibtrans.products import plots
-
-from .. import data
-from .map import MIN_WIDTH
-from .render import rendered
+from vibtrans_explorer.server import data
+from vibtrans_explorer.views.map import MIN_WIDTH
+from vibtrans_explorer.views.render import rendered
 
 log = logging.getLogger("vibtrans.explorer")
 

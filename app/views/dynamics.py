@@ -25,8 +25,7 @@ from bokeh.plotting import figure
 from vibtrans import Cancelled
 from vibtrans.analysis import dynamics
 from vibtrans.products import plots
-
-from .note import note_pane, say
+from vibtrans_explorer.views.note import note_pane, say
 
 log = logging.getLogger("vibtrans.explorer.dynamics")
 

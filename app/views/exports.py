@@ -9,8 +9,8 @@ import tempfile
 
 import panel as pn
 
-from .. import data
-from .render import exclusively
+from vibtrans_explorer.server import data
+from vibtrans_explorer.views.render import exclusively
 
 FIGURES = [(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")]
 DATA = [("run", "nc"), ("run", "csv"), ("map-window", "nc")]

@@ -1,7 +1,7 @@
 """The memory diagram and the contact circle, scrubbed through time.
 
 Plain Bokeh figures built once per session and fed new data through their
-ColumnDataSources, as app/live.py does for the trajectories: rendering
+ColumnDataSources, as app/views/live.py does for the trajectories: rendering
 `plots.memory_diagram + plots.contact_circle` through HoloViews took 2.2-3.8 s
 from click to drawn (issue 14), almost all of it building new figures.  The
 figures draw what `vibtrans.products.plots` defines (memory_geometry, memory_spans,
@@ -29,11 +29,10 @@ from bokeh.plotting import figure
 from vibtrans import Cancelled
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans.products import plots
-
-from .. import inputs
-from .note import note_pane, say
-from .render import at_next_tick
-from .summary import PREVIOUS_RUN
+from vibtrans_explorer.views import inputs
+from vibtrans_explorer.views.note import note_pane, say
+from vibtrans_explorer.views.render import at_next_tick
+from vibtrans_explorer.views.summary import PREVIOUS_RUN
 
 log = logging.getLogger("vibtrans.explorer.memory")
 
@@ -42,7 +41,7 @@ WINDOW = 1.0           # periods before the run's end that the slider spans
 PANEL_WIDTH = 300      # three panels in the explorer's 900 pixels
 PANEL_HEIGHT = 300
 SQUARE = 210           # the contact circle's frame (pixels)
-TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/live.py)
+TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/views/live.py)
 EMPTY_TITLE = "memory diagram\n(run a deformable scene)"
 _NAN = float("nan")
 

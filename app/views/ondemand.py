@@ -1,12 +1,12 @@
-"""The "Map on demand" tab: a map request's fields (app/maprequest.py),
+"""The "Map on demand" tab: a map request's fields (app/session/maprequest.py),
 its estimated cost shown before anything runs, Compute and Cancel, and
-what the computation is doing.  The explorer runs it (app/mapjobs.py) and
+what the computation is doing.  The explorer runs it (app/server/mapjobs.py) and
 draws the map in the map tab."""
 import panel as pn
 
-from .. import inputs
-from ..maprequest import FIELDS, MapRequest
-from .profile import ProfileView
+from vibtrans_explorer.session.maprequest import FIELDS, MapRequest
+from vibtrans_explorer.views import inputs
+from vibtrans_explorer.views.profile import ProfileView
 
 INTRO = ("**A drift map of your own**: any model, friction, material, ramp, run length "
          "and fidelity, over any window of the (log10 A\\*, log10 m\\*) plane, even beyond "

@@ -26,10 +26,9 @@ from bokeh.models import ColumnDataSource, Range1d, Span
 from bokeh.plotting import figure
 
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
-
-from .. import urlstate
-from ..inputs import ERROR_STYLE
-from ..state import SPHERE, is_sphere
+from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session.state import SPHERE, is_sphere
+from vibtrans_explorer.views.inputs import ERROR_STYLE
 
 # the selector's kinds: label -> the spec's kind
 KINDS = {"sphere (Hertz)": "sphere", "cone": "cone", "power law z ~ r^N": "power",

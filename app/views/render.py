@@ -16,7 +16,7 @@ render here holds one lock.
 HoloViews turns Bokeh's property validation off around some updates of a
 render's sources (`with validate(False)`), and Bokeh keeps that switch in
 one flag for the whole process: renders in worker threads need the
-workaround in app/compat.py (applied where that bug is shown)."""
+workaround in app/server/compat.py (applied where that bug is shown)."""
 import threading
 
 import holoviews as hv

@@ -6,12 +6,12 @@ diagram and the dynamics are built when their tab is first opened, and
 each is fed the last run when it is looked at."""
 import panel as pn
 
-from ..controller import RUNNER
-from ..presentation import WRAPPING_TABS, scale_fonts
-from ..texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
-from .animation import ParticleAnimation
-from .dynamics import DynamicsView
-from .memory import MemoryView
+from vibtrans_explorer.session.controller import RUNNER
+from vibtrans_explorer.texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
+from vibtrans_explorer.views.animation import ParticleAnimation
+from vibtrans_explorer.views.dynamics import DynamicsView
+from vibtrans_explorer.views.memory import MemoryView
+from vibtrans_explorer.views.presentation import WRAPPING_TABS, scale_fonts
 
 # the tabs, in order (0: the trajectory)
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4

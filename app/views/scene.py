@@ -9,10 +9,10 @@ import panel as pn
 from bokeh.models import CustomJSTickFormatter
 
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS, PAPER_POINTS
-
-from .. import data, inputs
-from ..state import MAP_MATERIAL, MAP_RUN, ExplorerState, within
-from ..texts import POINT_LABELS
+from vibtrans_explorer.server import data
+from vibtrans_explorer.session.state import MAP_MATERIAL, MAP_RUN, ExplorerState, within
+from vibtrans_explorer.texts import POINT_LABELS
+from vibtrans_explorer.views import inputs
 
 
 class SceneControls:

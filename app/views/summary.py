@@ -6,9 +6,8 @@ import math
 import panel as pn
 
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
-
-from ..controller import CANCELLED, TWIN_LABEL
-from ..state import MAP_MATERIAL, SPHERE
+from vibtrans_explorer.session.controller import CANCELLED, TWIN_LABEL
+from vibtrans_explorer.session.state import MAP_MATERIAL, SPHERE
 
 SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
                 "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",

@@ -1,4 +1,4 @@
-"""The run's trajectory figures (app/live.py): one set per structure
+"""The run's trajectory figures (app/views/live.py): one set per structure
 (model, comparison) shown so far, built once per session and then fed new
 data; only the run's structure is visible."""
 import logging
@@ -6,9 +6,8 @@ import logging
 import panel as pn
 
 from vibtrans.products.plots import FRAGMENT
-
-from ..live import LiveTrajectory
-from ..presentation import scale_fonts
+from vibtrans_explorer.views.live import LiveTrajectory
+from vibtrans_explorer.views.presentation import scale_fonts
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -16,7 +15,7 @@ log = logging.getLogger("vibtrans.explorer")
 def structure(label):
     """The figures' structure of a run: whether a comparison run is drawn
     beside it.  Every comparison shares one set of figures, relabelled, and
-    both models draw into the same figures (app/live.py): changing the
+    both models draw into the same figures (app/views/live.py): changing the
     comparison or the model builds no new figures."""
     return "beside a comparison" if label is not None else "alone"
 

@@ -10,9 +10,14 @@ import param
 from vibtrans.core import units
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.products import design
-
-from .. import inputs
-from ..state import CUSTOM_MATERIAL, DEVICE_FIELDS, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within
+from vibtrans_explorer.session.state import (
+    CUSTOM_MATERIAL,
+    DEVICE_FIELDS,
+    SCENE_LOG_AMPLITUDE,
+    SCENE_LOG_MASS,
+    within,
+)
+from vibtrans_explorer.views import inputs
 
 
 def same_scene(device, scene):

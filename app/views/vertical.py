@@ -9,11 +9,10 @@ from bokeh.document import Document
 from bokeh.models import ColumnDataSource
 
 from vibtrans.products import plots
-
-from .. import data
-from ..state import is_sphere
-from .map import in_document
-from .render import rendered
+from vibtrans_explorer.server import data
+from vibtrans_explorer.session.state import is_sphere
+from vibtrans_explorer.views.map import in_document
+from vibtrans_explorer.views.render import rendered
 
 HEIGHT = 450
 

@@ -10,7 +10,7 @@ load Panel.  Start-up, each step said on stderr:
 3. the shipped maps are loaded and verified: a damaged, foreign or missing
    map refuses the start;
 4. the server listens and serves pages while the simulation kernels compile
-   in a background thread (kernels.py; "kernels 1/2 ready (...)"), started
+   in a background thread (warmup.py; "kernels 1/2 ready (...)"), started
    once the first page is answered (or KERNELS_AFTER s after listening if
    none is asked for); a run asked for before they are ready waits, with a
    message in the page.
@@ -24,8 +24,7 @@ import threading
 import time
 
 from vibtrans.core.errors import InputError
-
-from . import compat, memory
+from vibtrans_explorer.server import compat, memory
 
 
 def _age():
@@ -187,7 +186,7 @@ def failed_page():
     failure logged with its traceback under a reference the page gives."""
     import panel as pn
 
-    from .explorer import PAGE_TITLE, failure_reference
+    from vibtrans_explorer.explorer import PAGE_TITLE, failure_reference
     reference = failure_reference()
     logging.getLogger("vibtrans.explorer").exception("building a page failed (reference %s)",
                                                      reference)
@@ -226,7 +225,7 @@ def serve(args):
     # before the heavy imports, which would be paid twice: `import vibtrans`
     # loads no numerics (lazy names), so the command line got here in ~0.1 s
     _reexec_on_c_allocator(args)
-    from . import data, kernels, mapjobs
+    from vibtrans_explorer.server import data, mapjobs, warmup
     mapjobs.configure(folder=getattr(args, "map_cache", None),
                       max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
                       cores=getattr(args, "map_cores", None),
@@ -241,22 +240,22 @@ def serve(args):
         f"loading the explorer ...")
     import panel as pn
 
-    from .explorer import PAGE_TITLE, serve_page
+    from vibtrans_explorer.explorer import PAGE_TITLE, serve_page
     _log_to_stderr(logging.getLogger("vibtrans"))
     for line in compat.apply():
         say(line)
-    from .explorer import report_failure
+    from vibtrans_explorer.explorer import report_failure
     pn.config.param.update(exception_handler=report_failure)   # a callback failed: said, logged
     _freeze()
     started = []
 
-    def start_kernels():            # once per process (kernels.start is too)
+    def start_kernels():            # once per process (warmup.start is too)
         if not started:
             started.append(True)
-            kernels.start(report=say, on_ready=ready)
+            warmup.start(report=say, on_ready=ready)
 
     def ready():                    # in the kernels' thread, after the warm-up
-        from .views import map as map_view
+        from vibtrans_explorer.views import map as map_view
         mapjobs.jobs().start_helpers()
         # the maps pre-rendered (a change of model, mu or grey: a copy, not a
         # render) on the event loop, one render per turn: rendered in this

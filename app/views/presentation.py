@@ -1,7 +1,7 @@
 """Presentation mode: a projector's sizes.  On the server, the figures'
 fonts (`scale_fonts`) and Bokeh's widget font (a CSS property the page's
 parts inherit, set by the page); in the browser, the root font size and the
-sidebar's width (app/browserside.py: Bootstrap sizes its buttons and inputs
+sidebar's width (app/views/browserside.py: Bootstrap sizes its buttons and inputs
 in rem, which no property of a part reaches)."""
 import panel as pn
 from bokeh.models import ColorBar, Legend, Title

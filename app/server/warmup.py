@@ -1,6 +1,6 @@
 """The simulation kernels, compiled (or loaded from numba's on-disk cache)
 while the server already serves pages: `vibtrans serve` starts `start()`
-in a background thread once its first page is answered (app/server.py),
+in a background thread once its first page is answered (app/server/serve.py),
 and says on stderr what it
 compiles; a run asked for before the kernels are ready waits for them
 (`wait`), and the page shows `status()` meanwhile.

@@ -1,7 +1,7 @@
 """The map on demand's work in a session (issue 33: out of the page
 assembler, app/explorer.py): its request panel (views/ondemand.py, built
 when its tab opens), the estimate, the request handed to the server's queue
-(app/mapjobs.py) and its levels drawn on the map as they come, the banner
+(app/server/mapjobs.py) and its levels drawn on the map as they come, the banner
 over the map, "refine this window" on a zoomed shipped map, a click on the
 map on demand running its scene, and the way back to the shipped map."""
 import asyncio
@@ -13,11 +13,11 @@ import panel as pn
 
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.maps.difference import describe
-
-from . import data, mapjobs, maprequest, urlstate
-from .state import SPHERE, is_sphere
-from .views.map import computed_figure
-from .views.ondemand import MapRequestPanel
+from vibtrans_explorer.server import data, mapjobs
+from vibtrans_explorer.session import maprequest, urlstate
+from vibtrans_explorer.session.state import SPHERE, is_sphere
+from vibtrans_explorer.views.map import computed_figure
+from vibtrans_explorer.views.ondemand import MapRequestPanel
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -41,7 +41,7 @@ class MapOnDemand:
         self.map_view = None
         self.map_tabs = None
         # its request panel (built when its tab opens), the request shown,
-        # its Ticket while it computes (app/mapjobs.py)
+        # its Ticket while it computes (app/server/mapjobs.py)
         self.map_request_panel = None
         self.ondemand_box = pn.Column(sizing_mode="stretch_width", name="ondemand")
         self._map_session = session

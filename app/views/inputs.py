@@ -12,7 +12,7 @@ a paper point, a link) rewrites the text and clears the message.
 """
 import panel as pn
 
-from . import urlstate
+from vibtrans_explorer.session import urlstate
 
 ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 

@@ -6,7 +6,7 @@ import json
 
 from bokeh.models import CustomJS
 
-from .presentation import PRESENTATION_SCALE, SIDEBAR_WIDTH
+from vibtrans_explorer.views.presentation import PRESENTATION_SCALE, SIDEBAR_WIDTH
 
 # An action's acknowledgement, shown by the browser at the click (not after a
 # round trip to a busy server) and cleared by the server when it answers:

@@ -27,7 +27,7 @@ measurement and its upstream report, in docs/how-to/deployment.md.
    updated with the properties of the session's document, as an attached
    one is.
 
-`apply()` is called once by the server (app/server.py); nothing else here
+`apply()` is called once by the server (app/server/serve.py); nothing else here
 runs at import.  Nothing here imports the rest of the app.
 """
 import threading
@@ -137,7 +137,7 @@ def _stock_text_update():
 def is_panels_query_parse_failure(exception):
     """True for bug 2.1's failure: Panel's Location parses the browser's raw
     query in its own watcher (`parse_query`: int('²') raises).  The explorer
-    reads the link itself (app/urlstate.py) and says what is wrong with it,
+    reads the link itself (app/session/urlstate.py) and says what is wrong with it,
     so this failure changes nothing on the page: logged, not said."""
     return isinstance(exception, ValueError) and any(
         frame.name == "parse_query" and "panel" in frame.filename

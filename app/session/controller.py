@@ -26,9 +26,8 @@ from vibtrans import Cancelled, estimate_steps, simulate
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, Summary, jumped, summarize, twin_scene
 from vibtrans.core.simulate import StepBudgetExceeded
 from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
-
-from . import kernels
-from .fairshare import lower_priority
+from vibtrans_explorer.server import warmup
+from vibtrans_explorer.server.fairshare import lower_priority
 
 CANCELLED = "Run cancelled."        # the status after the user's Cancel
 
@@ -109,13 +108,13 @@ class Job:
         self.progress = fraction
 
     def submit(self, fn, *args, **kwargs):
-        if kernels.ready():
+        if warmup.ready():
             self.futures.append(self.executor.submit(fn, *args, **kwargs))
         else:       # the server has just started: its kernels are compiling
             self.futures.append(self.executor.submit(self._when_compiled, fn, *args, **kwargs))
 
     def _when_compiled(self, fn, *args, **kwargs):
-        if not kernels.wait(self.event):
+        if not warmup.wait(self.event):
             raise Cancelled("cancelled while the kernels compiled")
         return fn(*args, **kwargs)
 
@@ -236,7 +235,7 @@ class RunController(param.Parameterized):
                 if self.busy or time.perf_counter() - t0 > BUSY_AFTER:
                     self.param.update(
                         busy=True, progress=job.progress,
-                        status=kernels.status() or (
+                        status=warmup.status() or (
                             f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
                             f"m* = {scene.mass:.4g} ..."))
             ds = job.futures[0].result()

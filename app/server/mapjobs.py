@@ -16,14 +16,14 @@ queue, one cache, one core budget for the process.
   (each hears its levels); it is cancelled when the last of them cancels
   (or closes), its finished points kept for a request that comes back.
 * Up to `max_running` maps compute at once and share `cores` workers
-  fairly (app/fairshare.py: their points take turns, so a big map asked
+  fairly (app/server/fairshare.py: their points take turns, so a big map asked
   for first never starves a small one asked for later; a map alone gets
   every worker), niced (MAP_NICE) below the sessions' runs and the event
   loop.  The workers are processes (started for the maps, stopped when
   none computes), so that the points' Python never holds this process's
   GIL against its event loop.  `cores` is by default all cores but one,
   which stays for the sessions' clicks (their runs use
-  app/controller.py's pool, never these workers).  Further maps wait
+  app/session/controller.py's pool, never these workers).  Further maps wait
   first come, first served; at most `max_queued` wait, beyond that a
   request is refused.
 """
@@ -37,11 +37,11 @@ from typing import NamedTuple
 import numpy as np
 
 from vibtrans.core.errors import Cancelled, InputError, StoreMismatch
-from vibtrans.core.simulate import warmup
+from vibtrans.core.simulate import warmup as compile_kernels
 from vibtrans.maps.cache import DEFAULT_MAX_BYTES, TEMPORARY, MapCache, request_key
-
-from . import kernels, maprequest
-from .fairshare import FairPool
+from vibtrans_explorer.server import warmup
+from vibtrans_explorer.server.fairshare import FairPool
+from vibtrans_explorer.session import maprequest
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -215,7 +215,7 @@ class MapJobs:
             known = self._step_seconds.get(key)
         if known is not None:
             return known
-        kernels.wait()
+        warmup.wait()
         values = {**request.scene_values(), "periods": STEP_PERIODS}
         compute_point(values, 0.0, 0.0, maprequest.CHAOS, "full")
         timed = []
@@ -369,7 +369,7 @@ class MapJobs:
         def on_level(level, ds):
             self._tell(comp, self._progress(comp, "level", level, ds))
         try:
-            if not kernels.wait(comp.cancel):
+            if not warmup.wait(comp.cancel):
                 raise Cancelled("map cancelled")
             comp.started = time.monotonic()
             self._build(comp, work, on_level)
@@ -404,19 +404,19 @@ class MapJobs:
         start the helper process that worker processes need for the
         server's whole life (multiprocessing's resource tracker, ~13 MB), so
         that it is not first started, and counted as memory kept, by a map."""
-        for model in kernels.MODELS:
+        for model in warmup.MODELS:
             self.step_seconds(maprequest.MapRequest(model=model))
         if self.processes and not self.scheduler:
             from multiprocessing import resource_tracker
             resource_tracker.ensure_running()
 
     def share(self):
-        """A new lane of the server's workers (app/fairshare.py) for one map."""
+        """A new lane of the server's workers (app/server/fairshare.py) for one map."""
         with self._lock:
             if self._workers is None:
                 self._workers = FairPool(self.cores, name="vibtrans-map-point",
                                          nice=MAP_NICE, processes=self.processes,
-                                         initializer=warmup, linger=WORKERS_LINGER)
+                                         initializer=compile_kernels, linger=WORKERS_LINGER)
             return self._workers.lane()
 
     def stop_workers(self):

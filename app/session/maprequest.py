@@ -36,9 +36,8 @@ from vibtrans.core.fidelity import scan_step, step_count, time_step
 from vibtrans.core.stopping import STOPS
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import expected_time_share
-
-from . import urlstate
-from .state import (
+from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session.state import (
     PROFILE_VALUES,
     RUN_PERIODS,
     RUN_TAU,
@@ -58,7 +57,7 @@ CHAOS = "lyapunov"
 POINT_MASS_CHAOS = "impact map"
 # A server's per-request limits: beyond them a request is refused with its
 # a-priori time before anything runs (environment VIBTRANS_MAP_MAX_POINTS and
-# VIBTRANS_MAP_MAX_SECONDS set them for `vibtrans serve`, app/mapjobs.py).
+# VIBTRANS_MAP_MAX_SECONDS set them for `vibtrans serve`, app/server/mapjobs.py).
 MAX_POINTS = 100_000
 MAX_SECONDS = 1800.0
 # the share of the finest grid the refinement computes, by the finest grid's

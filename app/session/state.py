@@ -17,7 +17,7 @@ from vibtrans.products.designtip import TipSize
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
 # the shipped maps' ramp and observation time (Scene's defaults); a map on
-# demand may have its own (app/maprequest.py)
+# demand may have its own (app/session/maprequest.py)
 MAP_RUN = {"tau": Scene.param.tau.default, "periods": Scene.param.periods.default}
 RUN_TAU = (0.0, 1000.0)              # tau, periods
 RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap refuses costly runs)
@@ -170,7 +170,7 @@ class ExplorerState(TipFields):
     # scene); the shipped maps' otherwise
     tau = param.Number(default=Scene.param.tau.default, bounds=RUN_TAU)
     periods = param.Number(default=Scene.param.periods.default, bounds=RUN_PERIODS)
-    # the map on demand shown (app/maprequest.py's URL form), None: the shipped map
+    # the map on demand shown (app/session/maprequest.py's URL form), None: the shipped map
     map_request = param.String(default=None, allow_None=True)
 
     # the device of the Units and Design tabs (SI units; one form, two tabs),

@@ -102,7 +102,7 @@ def valid_range(p):
 def convert(p, raw):
     """The parameter's value for the text `raw`, or ValueError.  The one
     check of a typed or linked value: the explorer's number fields use it
-    too (app/inputs.py)."""
+    too (app/views/inputs.py)."""
     if len(raw) > MAX_LENGTH:
         raise ValueError("too long")
     raw = raw.strip(" \t")          # a '+' in a query is a space

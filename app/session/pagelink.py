@@ -1,15 +1,15 @@
 """The page's link as a view of its state (issue 32: a link reproduces the
 page).  A link is read once, when the page opens, and every value checked
-(app/urlstate.py: messages naming the key and the valid range); from then
+(app/session/urlstate.py: messages naming the key and the valid range); from then
 on the URL is written from the state (`PageLink.query`: every URL key, one
 spelling, numbers exact), one way.  Panel's Location.sync is not used: it
 applies the browser's raw query of its own when the page connects (a
 `?mu=0.5` reached the run unchecked while the page said 0.3)."""
 import panel as pn
 
-from . import maprequest, urlstate
-from .state import URL_ALIASES, URL_KEYS
-from .views.render import at_next_tick
+from vibtrans_explorer.session import maprequest, urlstate
+from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
+from vibtrans_explorer.views.render import at_next_tick
 
 
 def map_request_of(args):
