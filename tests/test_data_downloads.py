@@ -64,3 +64,31 @@ def test_map_window_is_the_zoomed_view(shown, tmp_path):
         assert np.array_equal(got["log_mass"].values, inside_m)
         want = full["drift_velocity"].sel(log_amplitude=inside_a, log_mass=inside_m)
         assert np.array_equal(got["drift_velocity"].values, want.values, equal_nan=True)
+
+
+def test_each_download_is_named_after_what_it_holds(shown):
+    # the run's scene and the map's model and mu are in the names: a second
+    # download of another scene does not overwrite the first
+    shown.exports.build()
+    buttons = dict(zip(["map.png", "map.svg", "map.html", "trajectory.png", "trajectory.svg",
+                        "trajectory.html", "run.nc", "run.csv", "map-window.nc"],
+                       shown.exports.buttons))
+    run = buttons["run.nc"]
+    run.callback()
+    assert run.filename == "vibtrans-run-deformable-A316.2-m1-mu0.3.nc"
+    figure = buttons["map.png"]
+    figure.callback()
+    assert figure.filename == "vibtrans-map-deformable-mu0.3.png"
+    window = buttons["map-window.nc"]
+    window.callback()
+    assert window.filename.startswith("vibtrans-map-window-deformable-mu0.3-la")
+
+
+def test_download_names_differ_between_scenes():
+    from vibtrans_explorer.views.exports import download_name
+    a = {"model": "deformable", "amplitude": 0.5012, "mass": 10.0, "mu": 0.3,
+         "profile": "sphere"}
+    b = {**a, "profile": "power:3"}
+    names = {download_name("run", "csv", scene=s) for s in (a, b, {**a, "mu": 0.1})}
+    assert len(names) == 3
+    assert download_name("run", "csv", scene=b) == "vibtrans-run-deformable-A0.5012-m10-mu0.3-power3.csv"

@@ -16,6 +16,33 @@ FIGURES = [(k, f) for k in ("map", "trajectory") for f in ("png", "svg", "html")
 DATA = [("run", "nc"), ("run", "csv"), ("map-window", "nc")]
 
 
+def _value(number):
+    """A number as a file name spells it: 4 significant digits, no '+'."""
+    return f"{number:.4g}".replace("+", "")
+
+
+def download_name(kind, fmt, scene=None, map_name=None, window=None):
+    """The name a download is saved under: what it holds, so that a second
+    download of another scene or map does not overwrite the first.
+
+    scene: the run's attributes (model, amplitude, mass, mu, profile);
+    map_name: the map's name (a shipped map's model and mu, or a map on
+    demand's); window: the zoomed view's (A* from, to, m* from, to), log10."""
+    parts = ["vibtrans", kind]
+    if scene is not None:
+        parts += [scene["model"], f"A{_value(scene['amplitude'])}", f"m{_value(scene['mass'])}",
+                  f"mu{_value(scene['mu'])}"]
+        profile = scene.get("profile", "sphere")
+        if scene["model"] != "point-mass" and profile != "sphere":
+            parts.append(profile.replace(":", ""))
+    if map_name is not None:
+        parts.append(map_name)
+    if window is not None:
+        parts.append("la{}_{}-lm{}_{}".format(*(_value(v) for v in window)))
+    name = "-".join(parts)
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) + f".{fmt}"
+
+
 def read_back(write, name):
     """The bytes `write(path)` writes to a file named `name` (in a folder
     of its own, removed after), for a download button."""
@@ -107,24 +134,43 @@ class ExportsView:
             return data.drift_map(self.state.model, self.state.mu), None
         return shown[1], shown[0]
 
-    def _answering(self, make, kind, fmt):
-        """make(kind, fmt), then `answered` (also when it fails)."""
+    def file_name(self, kind, fmt):
+        """The name of a download of `kind` (what it holds: download_name)."""
+        if kind in ("run", "trajectory"):
+            return download_name(kind, fmt, scene=None if self.result is None
+                                 else self.result.ds.attrs)
+        shown = self.shown_map()
+        map_name = (f"{self.state.model}-mu{_value(self.state.mu)}" if shown is None
+                    else shown[0])
+        window = None
+        if kind == "map-window":
+            (a0, a1), (m0, m1) = self.map_view.view_ranges()
+            window = (a0, a1, m0, m1)
+        return download_name(kind, fmt, map_name=map_name, window=window)
+
+    def _answering(self, make, kind, fmt, button=None):
+        """make(kind, fmt) under the name of what it holds, then `answered`
+        (also when it fails)."""
         try:
+            if button is not None:
+                button.filename = self.file_name(kind, fmt)
             return make(kind, fmt)
         finally:
             if self.answered is not None:
                 self.answered()
 
     def _figure_download(self, kind, fmt):
-        return pn.widgets.FileDownload(
-            callback=functools.partial(self._answering, self.figure_file, kind, fmt),
+        button = pn.widgets.FileDownload(
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
             css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "trajectory" and self.result is None)
+        button.callback = functools.partial(self._answering, self.figure_file, kind, fmt, button)
+        return button
 
     def _data_download(self, kind, fmt):
-        return pn.widgets.FileDownload(
-            callback=functools.partial(self._answering, self.data_file, kind, fmt),
+        button = pn.widgets.FileDownload(
             filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
             css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes], width=150,
             disabled=kind == "run" and self.result is None)
+        button.callback = functools.partial(self._answering, self.data_file, kind, fmt, button)
+        return button
