@@ -177,3 +177,15 @@ def test_a_really_full_disk(name, small_tmpfs, capsys):
     line = _refused(capsys, argv, target)
     assert "cannot write" in line and "space" in line, line
     _no_files(small_tmpfs, before={"filler"})
+
+
+def test_the_help_names_every_subcommand(capsys):
+    # the summary line is made from the subcommands (it once left out orbit)
+    import re
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    commands = re.search(r"\{([a-z,]+)\}", text).group(1).split(",")
+    assert "orbit" in commands
+    summary = re.search(r"Command line: vibtrans ([a-z| ]+)\.", text).group(1)
+    assert summary.split(" | ") == commands

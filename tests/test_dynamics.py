@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import pytest
 
-from vibtrans import Scene
+from vibtrans import Scene, paper_scene
 from vibtrans.analysis import dynamics as Y
 from vibtrans.core.errors import InputError
 
@@ -124,7 +124,6 @@ def test_orbit_diagram_shows_one_phase_on_a_synchronous_line_and_many_in_chaos()
     """Paper point 6 (synchronous) along A*: one take-off per period at one
     phase (spread < 0.02, the synchronous criterion); paper point 8's
     neighbourhood (chaotic by the exponent): phases spread over the period."""
-    from vibtrans import paper_scene
     d = Y.orbit_diagram(paper_scene(6), "amplitude", [0.2, 0.25, 0.3], final_periods=50)
     for v in d.values:
         p = d.phase[d.phase_value == v]
@@ -182,3 +181,16 @@ def test_multipliers_product_is_one_at_reference_fidelity(amplitude, mass, guess
     assert abs(orbit.determinant - 1.0) < 1e-8
     m1, m2 = orbit.multipliers
     assert abs(m1 * m2 - 1.0) < 1e-8
+
+
+def test_point_six_hop_is_elliptic_not_an_attractor():
+    # the researcher's tutorial states it: the period-1 hop of point 6 has a
+    # complex pair of multipliers ON the unit circle (an area-preserving map:
+    # product 1), so nearby motions circle it and its exponent is ~0
+    from pathlib import Path
+    scene = paper_scene(6)
+    orbit = Y.periodic_orbit(scene.amplitude, scene.mass, Y.run_guess(scene))
+    assert orbit.found and orbit.stable and abs(orbit.trace) < 2
+    assert all(abs(abs(m) - 1.0) < 1e-6 for m in orbit.multipliers), orbit.multipliers
+    text = (Path(__file__).resolve().parents[1] / "docs/tutorials/researcher.md").read_text()
+    assert "inside the unit circle" not in text and "is *elliptic*" in text

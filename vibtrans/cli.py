@@ -1,4 +1,4 @@
-"""Command line: vibtrans simulate | threshold | sweep | serve | bench | export | design.
+"""The `vibtrans` command line: one subcommand per task (`vibtrans --help` lists them).
 
 Bad input exits with status 2 and one line naming the parameter and its
 valid range.
@@ -773,7 +773,7 @@ STOP_HELP = ("full: run every scene to --periods; decided: stop a run once its d
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="vibtrans", description=__doc__.splitlines()[0])
+    p = _Parser(prog="vibtrans")
     p.add_argument("--version", action="version", version=f"vibtrans {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -905,6 +905,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _export_parser(sub)
     _design_parser(sub)
+    p.description = f"Command line: vibtrans {' | '.join(sub.choices)}."
     return p
 
 
