@@ -41,6 +41,13 @@ the wave (+x) or against it (-x).
 * **deformable** is the particle with elastic (Hertz) contact and friction
   that remembers its loading history; the **point mass** is the classical
   rigid comparison.
+* The contact's friction has three states (the colours of the contact
+  strip and of the animation's contact zone): **stick**, the whole contact
+  moves with the surface;
+  **partial slip**, a ring at the contact's edge slides while its centre
+  still sticks (Cattaneo-Mindlin);
+  **total sliding**, the whole contact slides and the friction force is mu
+  times the normal force.
 
 Click the map or pick a paper point to run a scene; its trajectory appears
 below the summary.

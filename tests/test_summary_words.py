@@ -58,3 +58,13 @@ def test_the_map_has_a_key_for_its_markers_and_the_introduction_a_glossary():
     for symbol in ("**a\\***", "**b\\***", "**b\\*'**", "**N\\***", "**T\\***", "**x\\***",
                    "**y\\***"):
         assert symbol in E.INTRODUCTION, symbol
+
+
+def test_the_introduction_defines_each_contact_state():
+    # the contact strip and the animation colour these states: the
+    # introduction says what each one is
+    from vibtrans.core.kernels.contact import STATE_NAMES
+    from vibtrans_explorer import texts
+    for name in STATE_NAMES:
+        if name != "flight":
+            assert f"**{name}**" in texts.INTRODUCTION, name
