@@ -43,8 +43,9 @@ def test_a_change_from_elsewhere_rewrites_the_field():
     field = NumberField(owner, "x", "log10 A*")
     field.input.value = "abc"
     owner.x = 0.1 + 0.2                           # e.g. a map click
-    # the field shows the value exactly as stored (what a run would use)
-    assert field.input.value == repr(0.1 + 0.2) and field.error == ""
+    # the field shows the value to 6 digits; the state keeps it exactly
+    assert field.input.value == "0.3" and field.error == ""
+    assert owner.x == 0.1 + 0.2
 
 
 def test_the_explorer_refuses_to_run_while_a_field_is_invalid():
@@ -61,6 +62,19 @@ def test_the_explorer_refuses_to_run_while_a_field_is_invalid():
 def test_showing_a_value_does_not_round_it():
     # the field shows 6 significant digits; the value set elsewhere keeps all
     owner = _Owner()
-    NumberField(owner, "x", "log10 A*")
+    field = NumberField(owner, "x", "log10 A*")
     owner.x = 1.171875
     assert owner.x == 1.171875
+    assert field.input.value == "1.17188"
+
+
+def test_a_device_value_is_shown_short_and_kept_exact():
+    # a frequency made by the Design tab's chart, or a device's radius
+    class Device(param.Parameterized):
+        x = param.Number(default=1.0, bounds=(0.0, None))
+    owner = Device()
+    field = NumberField(owner, "x", "frequency (Hz)")
+    owner.x = 108300.59370879376
+    assert field.input.value == "108301" and owner.x == 108300.59370879376
+    owner.x = 2.6448882818205527e-07
+    assert field.input.value == "2.64489e-07"

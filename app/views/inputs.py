@@ -18,16 +18,14 @@ ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 
 
 def _text(value):
-    """The field's text for a value: exactly the value (the shortest text
-    that reads back as it: 0.3, 0.07759266752805563), so that the field
-    shows what a run uses (a device's unrounded log10 A*), not a rounding."""
+    """The field's text for a value: 6 significant digits (108301, not
+    108300.59370879376).  The parameter keeps its exact value: a run uses
+    it, and the page's link spells it in full."""
     if value is None:                       # (a size that may be absent: the tip radius)
         return ""
     if not isinstance(value, float):
         return str(value)
-    value = value + 0.0                     # (-0.0: 0)
-    short = f"{value:.15g}"                 # 108000, not 108000.0
-    return short if float(short) == value else repr(value)
+    return f"{value + 0.0:.6g}"             # (+ 0.0: -0.0 shows as 0)
 
 
 class NumberField(pn.viewable.Viewer):
