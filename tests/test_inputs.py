@@ -4,6 +4,7 @@ one is a message beside the field, never a silent revert or clamp; the
 explorer refuses to run while a field holds one (issue 14: log10 A* = 99,
 -10 or 1e400 stayed in the field and the run used the previous value;
 clearing it raised in the server log)."""
+import panel as pn
 import param
 import pytest
 
@@ -78,3 +79,35 @@ def test_a_device_value_is_shown_short_and_kept_exact():
     assert field.input.value == "108301" and owner.x == 108300.59370879376
     owner.x = 2.6448882818205527e-07
     assert field.input.value == "2.64489e-07"
+
+
+@pytest.mark.parametrize("typed", ["abc", "it's", "<b>1</b>", "1.5#2", "*x*", "a & b", "\\(1\\)"])
+def test_a_message_shows_the_typed_text_as_typed(typed):
+    # the message is Markdown: rendered, it reads exactly what was typed
+    # (no '&#x27;' or doubled backslashes on the page)
+    import html
+    import re
+
+    from markdown_it import MarkdownIt
+    owner = _Owner()
+    field = NumberField(owner, "x", "log10 A*")
+    field.input.value = typed
+    rendered = MarkdownIt("commonmark").render(field.note.object)
+    text = html.unescape(re.sub(r"<[^>]+>", "", rendered)).strip()
+    assert text == f"log10 A* must be a number in [-6.0, 6.0]; got '{typed}'"
+
+
+def test_a_profile_message_shows_the_typed_text_as_typed():
+    import html
+    import re
+
+    from markdown_it import MarkdownIt
+
+    from vibtrans_explorer.session.state import ExplorerState
+    from vibtrans_explorer.views.profile import ProfileView
+    view = ProfileView(ExplorerState())
+    view.kind.value = next(k for k in view.kind.options if "power" in k.lower())
+    view.number.value = "a'1.5"
+    notes = [o.object for o in view.__panel__().select(pn.pane.Markdown) if "got" in o.object]
+    text = html.unescape(re.sub(r"<[^>]+>", "", MarkdownIt("commonmark").render(notes[0])))
+    assert text.strip().endswith("must be a plain number; got 'a'1.5'")

@@ -55,7 +55,9 @@ def shown(raw, limit=SHOWN):
     `limit` characters)."""
     text = raw if len(raw) <= limit else raw[:limit] + "…"
     text = "".join(c if c.isprintable() else "\N{REPLACEMENT CHARACTER}" for c in text)
-    return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=True))
+    # (quotes stay: a message is Markdown text, not an attribute; escaped, the
+    # Markdown escape of '#' broke the entity and '&#x27;' reached the page)
+    return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=False))
 
 
 def as_text(value):

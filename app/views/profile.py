@@ -145,7 +145,7 @@ class ProfileView(pn.viewable.Viewer):
         if not text:
             raise ValueError(f"{label}: the field is empty")
         if len(text) > urlstate.MAX_LENGTH or not _NUMBER.fullmatch(text):
-            raise ValueError(f"{label} must be a plain number; got '{urlstate.shown(text)}'")
+            raise ValueError(f"{label} must be a plain number; got '{text}'")   # shown by _say
         spec = f"{kind}:{text}"
         self.owner.param["profile"].check_text(spec)      # the library's range check
         return spec
