@@ -26,6 +26,7 @@ from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans_explorer.server import compat, data, memory
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.controller import CANCELLED, RunController
+from vibtrans_explorer.session.latest import at_next_tick
 from vibtrans_explorer.session.pagelink import PageLink
 from vibtrans_explorer.session.state import (
     DEVICE_FIELDS,
@@ -51,7 +52,6 @@ from vibtrans_explorer.views.presentation import (
     scale_fonts,
 )
 from vibtrans_explorer.views.profile import ProfileView
-from vibtrans_explorer.views.render import at_next_tick
 from vibtrans_explorer.views.runbuttons import RunButtons
 from vibtrans_explorer.views.runtabs import RunTabs
 from vibtrans_explorer.views.scene import SceneControls
@@ -309,7 +309,7 @@ class Explorer(pn.viewable.Viewer):
         return self.state.scene()
 
     def start_run(self, schedule=True):
-        """Run the selected scene (RunController.start): returns the Job, or
+        """Run the selected scene (RunController.start): returns the RunJob, or
         None if refused.  The figures of a structure (a comparison or none)
         not shown before are built now, while its kernels run (they release
         the GIL), not when the page loads: a page costs the server less
@@ -486,7 +486,7 @@ class Explorer(pn.viewable.Viewer):
     # the map on demand's parts, as the page and its tests name them
     refine_box = property(lambda self: self.ondemand.refine_box)
     refine_button = property(lambda self: self.ondemand.refine_button)
-    _map_session = property(lambda self: self.ondemand._map_session)
+    _map_session = property(lambda self: self.ondemand.session)
     map_request_panel = property(lambda self: self.ondemand.map_request_panel)
     _back_to_shipped = property(lambda self: self.ondemand.back_to_shipped)
     _refine_window = property(lambda self: self.ondemand.refine_window)
