@@ -26,6 +26,7 @@ from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans_explorer.server import compat, data, memory
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.controller import CANCELLED, RunController
+from vibtrans_explorer.session.latest import at_next_tick
 from vibtrans_explorer.session.pagelink import PageLink
 from vibtrans_explorer.session.state import (
     DEVICE_FIELDS,
@@ -51,7 +52,6 @@ from vibtrans_explorer.views.presentation import (
     scale_fonts,
 )
 from vibtrans_explorer.views.profile import ProfileView
-from vibtrans_explorer.views.render import at_next_tick
 from vibtrans_explorer.views.runbuttons import RunButtons
 from vibtrans_explorer.views.runtabs import RunTabs
 from vibtrans_explorer.views.scene import SceneControls
@@ -115,15 +115,11 @@ class Explorer(pn.viewable.Viewer):
         if pn.state.curdoc is not None:      # (the page's acknowledgements)
             pn.state.curdoc.js_on_event("document_ready", ack_listener())
         # the run's buttons and progress (app/views/runbuttons.py)
-        self.run_buttons = rb = RunButtons(self.controller, run=self.start_run,
-                                           answered=self._answered)
-        self.run_button, self.cancel_button, self.progress = rb.run_button, rb.cancel_button, rb.progress
-        # the scene's controls (app/views/scene.py), as the page and its tests name them
-        self.scene_controls = sc = SceneControls(self.state, run=self.start_run,
-                                                 answered=self._answered)
-        self.point_select, self.v0_slider, self.mu_select = sc.point_select, sc.v0_slider, sc.mu_select
-        self.fields, self.point_mass_controls, self.where = sc.fields, sc.point_mass_controls, sc.where
-        self.paper_point = sc.paper_point
+        self.run_buttons = RunButtons(self.controller, run=self.start_run,
+                                      answered=self._answered)
+        # the scene's controls (app/views/scene.py)
+        self.scene_controls = SceneControls(self.state, run=self.start_run,
+                                            answered=self._answered)
         self.profile_view = ProfileView(self.state)      # the particle's profile, its tip drawn
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
@@ -135,7 +131,6 @@ class Explorer(pn.viewable.Viewer):
         self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning",
                                         sizing_mode="stretch_width", css_classes=["vt-stale"],
                                         styles=dict(_STALE_HIDDEN))
-        self.summary = self.summary_view.pane
         self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
                                                   sizing_mode="stretch_width")
         self.trajectories = TrajectoryView()
@@ -168,7 +163,6 @@ class Explorer(pn.viewable.Viewer):
         self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
         # the run's tabs, each built when first opened (app/views/runtabs.py)
         self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
-        self.trajectory = self.run_tabs = self.runs.tabs
         self._on_position()
         self.state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
         self.units_panel.param.watch(self._on_device, "marker")
@@ -305,11 +299,8 @@ class Explorer(pn.viewable.Viewer):
                 self.intro.collapsed = True
 
     # ---------- runs ----------
-    def scene(self):
-        return self.state.scene()
-
     def start_run(self, schedule=True):
-        """Run the selected scene (RunController.start): returns the Job, or
+        """Run the selected scene (RunController.start): returns the RunJob, or
         None if refused.  The figures of a structure (a comparison or none)
         not shown before are built now, while its kernels run (they release
         the GIL), not when the page loads: a page costs the server less
@@ -322,9 +313,6 @@ class Explorer(pn.viewable.Viewer):
             except Exception:      # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
-
-    async def _run(self):
-        await self.controller.run()
 
     def _answered(self, *events):
         """Clear the browser's acknowledgement of an action (ack_listener).  The
@@ -353,12 +341,6 @@ class Explorer(pn.viewable.Viewer):
             self._error(event.new)
             if event.new:
                 self._answered()
-
-    # the run's views (RunTabs), as the page and its tests name them
-    animation = property(lambda self: self.runs.animation)
-    memory_view = property(lambda self: self.runs.memory_view)
-    dynamics_view = property(lambda self: self.runs.dynamics_view)
-    _animated = property(lambda self: self.runs.animated)
 
     def _on_session_destroyed(self, session_context):
         self.ondemand.close()                        # its map, unless another session waits
@@ -397,28 +379,28 @@ class Explorer(pn.viewable.Viewer):
 
     # ---------- layout ----------
     def controls(self):
-        s = self.state
+        s, rb, sc = self.state, self.run_buttons, self.scene_controls
         self.controls_column = pn.Column(
-            pn.Row(self.run_button, self.cancel_button),
-            self.progress,
+            pn.Row(rb.run_button, rb.cancel_button),
+            rb.progress,
             *self._drawing([
                 pn.widgets.RadioButtonGroup.from_param(s.param.model, label="model"),
-                self.mu_select,
+                sc.mu_select,
                 pn.widgets.RadioButtonGroup.from_param(s.param.maps, label="maps"),
-                self.v0_slider,
+                sc.v0_slider,
                 pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, label="chaotic points"),
                 pn.widgets.RadioButtonGroup.from_param(s.param.layer, label="map shows"),
                 pn.widgets.RadioButtonGroup.from_param(
                     s.param.orbits, label="period-1 orbit curves (deformable)")]),
-            self.point_select,
-            *self.fields[:2],
+            sc.point_select,
+            *sc.fields[:2],
             self.profile_view,
             pn.widgets.Select.from_param(s.param.fidelity, label="fidelity"),
             pn.pane.Markdown(pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
                              css_classes=["vt-preset-note"], sizing_mode="stretch_width"),
             pn.widgets.Select.from_param(s.param.integrator, label="integrator"),
             pn.widgets.Select.from_param(s.param.compare, label="compare with"),
-            self.point_mass_controls,
+            sc.point_mass_controls,
             # (the page's root sizes follow it in the browser: browserside.py)
             pn.widgets.Toggle.from_param(self.param.presentation, label="Presentation mode",
                                          css_classes=["vt-presentation"]),
@@ -462,9 +444,10 @@ class Explorer(pn.viewable.Viewer):
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
         self.page = pn.Column(
-            self.intro, self.message, self.where, self.ack,
-            pn.FlexBox(pn.Column(tabs, self.summary, styles=half, sizing_mode="stretch_width"),
-                       pn.Column(self.stale_note, self.trajectory, styles=half,
+            self.intro, self.message, self.scene_controls.where, self.ack,
+            pn.FlexBox(pn.Column(tabs, self.summary_view.pane, styles=half,
+                                 sizing_mode="stretch_width"),
+                       pn.Column(self.stale_note, self.runs.tabs, styles=half,
                                  sizing_mode="stretch_width"),
                        flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
@@ -482,17 +465,6 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == DESIGN_TAB and self.design_panel is None:
             self.design_panel = DesignPanel(on_run=self._run_design_device, state=self.state)
             self.design_box.objects = [self.design_panel]
-
-    # the map on demand's parts, as the page and its tests name them
-    refine_box = property(lambda self: self.ondemand.refine_box)
-    refine_button = property(lambda self: self.ondemand.refine_button)
-    _map_session = property(lambda self: self.ondemand._map_session)
-    map_request_panel = property(lambda self: self.ondemand.map_request_panel)
-    _back_to_shipped = property(lambda self: self.ondemand.back_to_shipped)
-    _refine_window = property(lambda self: self.ondemand.refine_window)
-    _shipped_request = property(lambda self: self.ondemand.shipped_request)
-    _compute_map = property(lambda self: self.ondemand.compute_map)
-    _computed_map = property(lambda self: self.ondemand.computed_map)
 
     def _on_intro(self, event):
         if not event.new and not self.intro.objects:

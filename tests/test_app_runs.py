@@ -61,7 +61,7 @@ def test_a_run_shows_its_summary_and_figures():
     async def go():
         ex = _explorer()
         ex.start_run()
-        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary_view.pane.object)
         assert not ex.message.visible
         assert list(ex.trajectories.views) == ["alone"]
         view = ex.trajectories.views["alone"]
@@ -74,10 +74,10 @@ def test_a_run_shows_its_summary_and_figures():
         # a second run of the same structure feeds the same figures
         ex.state.log_mass = 0.5
         ex.start_run()
-        await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary.object)
+        await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary_view.pane.object)
         assert ex.trajectories.views["alone"] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
-        assert len(ex.trajectory) == 5          # tabs: figures, animation, memory, downloads, dynamics
+        assert len(ex.runs.tabs) == 5          # tabs: figures, animation, memory, downloads, dynamics
         assert len(ex.trajectories.panel) == 1  # one structure's figures
     asyncio.run(go())
 
@@ -105,8 +105,8 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
         # the replaced run's worker is free at once (its kernel saw the flag)
         await until(lambda: all(f.done() for f in first.futures), timeout=budget(5))
         assert len(seen_cancel) == 1
-        await until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary.object)
-        assert "cancelled" not in ex.summary.object and not ex.message.visible
+        await until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary_view.pane.object)
+        assert "cancelled" not in ex.summary_view.pane.object and not ex.message.visible
     asyncio.run(go())
 
 
@@ -137,11 +137,11 @@ def test_cancel_frees_the_worker_and_says_so(monkeypatch):
     async def go():
         ex = _explorer()
         job = await _start_run_that_waits_for_cancel(ex, monkeypatch)
-        await until(lambda: ex.progress.visible and not ex.cancel_button.disabled)
-        ex.cancel_button.clicks += 1
-        await until(lambda: ex.summary.object == "Run cancelled.")
+        await until(lambda: ex.run_buttons.progress.visible and not ex.run_buttons.cancel_button.disabled)
+        ex.run_buttons.cancel_button.clicks += 1
+        await until(lambda: ex.summary_view.pane.object == "Run cancelled.")
         assert all(f.done() for f in job.futures)
-        assert not ex.progress.visible and ex.cancel_button.disabled and _idle(ex)
+        assert not ex.run_buttons.progress.visible and ex.run_buttons.cancel_button.disabled and _idle(ex)
     asyncio.run(go())
 
 
@@ -155,14 +155,14 @@ def test_a_failing_run_shows_an_error_in_its_session_only(monkeypatch):
         ex.start_run()
         await until(lambda: _idle(ex) and ex.message.visible)
         assert "The run failed: RuntimeError: kernel exploded" in ex.message.object
-        assert ex.summary.object == "" and not ex.progress.visible
+        assert ex.summary_view.pane.object == "" and not ex.run_buttons.progress.visible
         assert not other.message.visible
         # the server and the other session carry on; so does this one
         monkeypatch.setattr(ex.controller, "simulate", REAL_SIMULATE)
         other.start_run()
-        await until(lambda: _idle(other) and "drift <v*>" in other.summary.object)
+        await until(lambda: _idle(other) and "drift <v*>" in other.summary_view.pane.object)
         ex.start_run()
-        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary_view.pane.object)
         assert not ex.message.visible
     asyncio.run(go())
 
@@ -311,7 +311,7 @@ def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
     from types import SimpleNamespace
     ex = _explorer()
     runs = []
-    monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.scene()))
+    monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
     ex.map_view._on_tap(True, SimpleNamespace(x=0.51234, y=-1.25))
     assert (ex.state.log_amplitude, ex.state.log_mass) == (0.512, -1.25)
     assert ex.map_view.selected.data == {"x": [0.512], "y": [-1.25]}
@@ -442,16 +442,16 @@ def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypat
     async def go():
         ex = _explorer(log_amplitude=2.5, log_mass=0.0)
         ex.start_run()
-        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary.object)
-        table = ex.summary.object
-        ex.run_tabs.active = runtabs.MEMORY_TAB           # the memory diagram of that run
-        await until(lambda: ex.memory_view is not None and ex.memory_view.snapshots,
+        await until(lambda: _idle(ex) and "drift <v*>" in ex.summary_view.pane.object)
+        table = ex.summary_view.pane.object
+        ex.runs.tabs.active = runtabs.MEMORY_TAB           # the memory diagram of that run
+        await until(lambda: ex.runs.memory_view is not None and ex.runs.memory_view.snapshots,
                     timeout=budget(120))
         ex.state.log_mass = -0.5                    # a new scene, run and cancelled
         await _start_run_that_waits_for_cancel(ex, monkeypatch)
-        ex.cancel_button.clicks += 1
-        await until(lambda: ex.summary.object.startswith(CANCELLED_LINE))
-        assert table.split("\n")[0] in ex.summary.object     # the previous run's heading
-        assert PREVIOUS_RUN in ex.memory_view.status.object
+        ex.run_buttons.cancel_button.clicks += 1
+        await until(lambda: ex.summary_view.pane.object.startswith(CANCELLED_LINE))
+        assert table.split("\n")[0] in ex.summary_view.pane.object     # the previous run's heading
+        assert PREVIOUS_RUN in ex.runs.memory_view.status.object
         assert ex.stale_shown()                              # and it is not the state's
     asyncio.run(go())

@@ -24,7 +24,7 @@ def shown():
         ex.state.param.update(fidelity="preview", compare="none", log_amplitude=2.5,
                               log_mass=0.0)
         ex.start_run()
-        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary.object)
+        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary_view.pane.object)
         return ex
     return asyncio.run(go())
 

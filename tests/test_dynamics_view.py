@@ -21,7 +21,7 @@ POOL = ThreadPoolExecutor(max_workers=2)
 
 
 def _idle(view):
-    return not view._jobs
+    return not view.computing
 
 
 def _run():

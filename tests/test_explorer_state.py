@@ -154,7 +154,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         return len(self.ex.stand_in.scenes)
 
     def field(self, name):
-        for f in [*self.ex.fields, *self.ex.units_panel.form]:
+        for f in [*self.ex.scene_controls.fields, *self.ex.units_panel.form]:
             if isinstance(f, inputs.NumberField) and f.name_ == name:
                 return f
         raise KeyError(name)
@@ -186,7 +186,7 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @rule(k=st.sampled_from(sorted(PAPER_POINTS)))
     def paper_point(self, k):
-        self.ex.point_select.value = k
+        self.ex.scene_controls.point_select.value = k
 
     @rule(name=st.sampled_from(["log_amplitude", "log_mass"]), text=NUMBER_TEXT)
     def type_scene(self, name, text):
@@ -203,7 +203,8 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @rule(data=st.data())
     def mu(self, data):
-        self.ex.mu_select.value = data.draw(st.sampled_from(list(self.ex.mu_select.options)))
+        mu_select = self.ex.scene_controls.mu_select
+        mu_select.value = data.draw(st.sampled_from(list(mu_select.options)))
 
     @rule(name=st.sampled_from(["model", "fidelity", "compare", "integrator"]), data=st.data())
     def selector(self, name, data):
@@ -289,7 +290,7 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @rule()
     def cancel(self):
-        self.ex.cancel_button.clicks += 1
+        self.ex.run_buttons.cancel_button.clicks += 1
 
     @rule()
     def reload(self):
@@ -308,9 +309,9 @@ class ExplorerMachine(RuleBasedStateMachine):
     def views_show_the_state(self):
         ex, s = self.ex, self.ex.state
         assert ex.map_view.selected.data == {"x": [s.log_amplitude], "y": [s.log_mass]}
-        assert ex.mu_select.value == s.mu and s.mu in ex.mu_select.options
-        assert ex.point_select.value == ex.paper_point()
-        for f in [*ex.fields, *(f for f in ex.units_panel.form
+        assert ex.scene_controls.mu_select.value == s.mu and s.mu in ex.scene_controls.mu_select.options
+        assert ex.scene_controls.point_select.value == ex.scene_controls.paper_point()
+        for f in [*ex.scene_controls.fields, *(f for f in ex.units_panel.form
                                 if isinstance(f, inputs.NumberField))]:
             if f.name_ in s.invalid:
                 assert f.error == s.invalid[f.name_] and f.error
@@ -392,7 +393,7 @@ class ExplorerMachine(RuleBasedStateMachine):
             assert ex.stale_shown()
             # said over the table; under the cancel's note when a later run
             # was cancelled (a run on a busy machine was cancelled in time)
-            assert ex.summary.object.startswith((STALE_LINE, f"{CANCELLED_LINE}\n\n{STALE_LINE}"))
+            assert ex.summary_view.pane.object.startswith((STALE_LINE, f"{CANCELLED_LINE}\n\n{STALE_LINE}"))
         elif not ex.state.invalid and not (ex.summary_view.device_run and any(
                 getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)):
             assert not ex.stale_shown()
@@ -461,13 +462,13 @@ def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
     ex._run_device()
     asyncio.run(ex.pending.pop()())
     assert ex.summary_view.device_run and not ex.stale_shown()
-    heading = ex.summary.object.splitlines()[0]
+    heading = ex.summary_view.pane.object.splitlines()[0]
     n = ex.state.device()
     # the heading's A*, m* are the Units table's (unrounded logs)
     assert f"A\\* = {n.A_star:.4g}, m\\* = {n.m_star:.4g}" in heading
     assert f"| A* | {n.A_star:.4g}" in ex.units_panel.info.object
     ex.state.amplitude = 1e-8
-    assert ex.stale_shown() and "Changed since this run" in ex.summary.object
+    assert ex.stale_shown() and "Changed since this run" in ex.summary_view.pane.object
     ex.state.amplitude = 1e-9
     assert not ex.stale_shown()
     again = _open(monkeypatch, ex.url_query())
@@ -480,13 +481,14 @@ def test_a_mu_without_a_shipped_map_is_shown_as_it_is(monkeypatch, no_logged_err
     # issue 32: ?la=2.5&lm=0&mu=0.5: the banner said 0.3, the selector 0.1,
     # the run used 0.5
     ex = _open(monkeypatch, "?la=2.5&lm=0&mu=0.5")
-    assert ex.state.mu == 0.5 and ex.mu_select.value == 0.5 and 0.5 in ex.mu_select.options
+    mu_select = ex.scene_controls.mu_select
+    assert ex.state.mu == 0.5 and mu_select.value == 0.5 and 0.5 in mu_select.options
     assert not ex.message.visible
     assert "No usable drift map for deformable, mu = 0.5" in str(
         ex.map_view.figures[0].title.text) or ex.map_view.figures[0] is not None
     job = ex.start_run()
     assert job.scene.mu == 0.5
-    ex.mu_select.value = 0.1
+    ex.scene_controls.mu_select.value = 0.1
     assert ex.state.mu == 0.1
 
 
@@ -500,11 +502,11 @@ def test_an_invalid_link_runs_nothing_and_claims_no_defaults(monkeypatch, no_log
 def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_errors):
     la, lm, model = PAPER_POINTS[4]
     ex = _open(monkeypatch, f"?la={la}&lm={lm}&model={model}")
-    assert ex.point_select.value == 4
+    assert ex.scene_controls.point_select.value == 4
     ex._on_map_click(*PAPER_POINTS[6][:2], False)
-    assert ex.point_select.value == 6
+    assert ex.scene_controls.point_select.value == 6
     ex._on_map_click(0.123, 0.456, False)
-    assert ex.point_select.value == 0
+    assert ex.scene_controls.point_select.value == 0
 
 
 def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_errors):

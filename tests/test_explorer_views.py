@@ -72,13 +72,13 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
-    ex.run_tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
+    ex.runs.tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
     view = ex.trajectories.view(None, 50.0)       # and a run's figures built while large
     assert view.part.children[0].title.text_font_size == "15pt"
-    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
+    assert ex.runs.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
     assert fig.xaxis[0].axis_label_text_font_size == "10pt" and ex.page.styles == {}
-    assert ex.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "10pt"
+    assert ex.runs.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "10pt"
     assert not ex.presentation_note.visible
 
 
@@ -91,15 +91,15 @@ def test_the_run_tabs_build_their_views_when_opened():
 
     async def go():
         ex = _explorer(log_amplitude=0.3, log_mass=-2.0)
-        assert ex.animation is None and ex.memory_view is None
+        assert ex.runs.animation is None and ex.runs.memory_view is None
         ex.start_run()
         await until(lambda: ex.controller.job is None and ex.controller.result is not None)
-        assert ex.animation is None and ex.memory_view is None       # nothing opened yet
-        ex.run_tabs.active = runtabs.ANIMATION_TAB
-        assert ex.animation is not None and ex._animated is ex.controller.result
-        ex.run_tabs.active = runtabs.MEMORY_TAB
-        assert ex.memory_view is not None and ex.memory_view.scene is not None
-        ex.memory_view.clear()
+        assert ex.runs.animation is None and ex.runs.memory_view is None       # nothing opened yet
+        ex.runs.tabs.active = runtabs.ANIMATION_TAB
+        assert ex.runs.animation is not None and ex.runs.animated is ex.controller.result
+        ex.runs.tabs.active = runtabs.MEMORY_TAB
+        assert ex.runs.memory_view is not None and ex.runs.memory_view.scene is not None
+        ex.runs.memory_view.clear()
     asyncio.run(go())
 
 
@@ -171,17 +171,17 @@ def test_the_first_screen_builds_only_what_it_shows():
         assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency")
         ex.state.frequency = 250e3                # the device moves the map's marker
         assert ex.map_view.device.data["y"] and ex.units_panel.marker is not None
-        ex.run_tabs.active = runtabs.DOWNLOADS_TAB
+        ex.runs.tabs.active = runtabs.DOWNLOADS_TAB
         assert _has(doc, "vt-data-run-csv") and _has(doc, "vt-export-map-png")
         run_csv = next(b for b in ex.exports.buttons if b.filename == "vibtrans-run.csv")
         assert run_csv.disabled                   # no run yet
         ex.intro.collapsed = False
         assert _has(doc, "surface acoustic")
         ex.state.model = "point-mass"
-        assert _has(doc, "stick rule") and ex.point_mass_controls.visible
+        assert _has(doc, "stick rule") and ex.scene_controls.point_mass_controls.visible
         ex.state.model = "deformable"
-        assert not ex.point_mass_controls.visible
-        ex.run_tabs.active = runtabs.ANIMATION_TAB
+        assert not ex.scene_controls.point_mass_controls.visible
+        ex.runs.tabs.active = runtabs.ANIMATION_TAB
         assert _has(doc, "The particle on the wave")
 
 

@@ -51,7 +51,7 @@ def test_a_change_from_elsewhere_rewrites_the_field():
 
 def test_the_explorer_refuses_to_run_while_a_field_is_invalid():
     explorer = Explorer()
-    la = explorer.fields[0]
+    la = explorer.scene_controls.fields[0]
     la.input.value = "1e400"
     assert explorer.start_run(schedule=False) is None
     assert explorer.message.visible

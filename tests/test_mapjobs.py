@@ -306,7 +306,7 @@ def test_a_link_with_a_map_request_shows_it_and_a_bad_one_says_why(monkeypatch):
     assert e.state.map_request == text and e._url_map.values() == request.values()
     assert e.state.mu == 0.45 and not e.message.visible      # the map's own mu: no reset
     assert f"map={text.replace(',', '%2C')}" in e.location.search
-    e._back_to_shipped()                                      # the request leaves the link
+    e.ondemand.back_to_shipped()                                      # the request leaves the link
     assert e.state.map_request is None and "map=" not in e.location.search
     assert e.state.mu == 0.3                                  # a shipped map's, and said so
     bad = _explorer(monkeypatch, "map=" + text.replace("deformable", "rigid"))
@@ -321,13 +321,13 @@ def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monke
     fig = e.map_view.figures[0]
     fig.x_range.start, fig.x_range.end = -1.0, 1.0        # 40 cells of 0.05: no offer
     fig.y_range.start, fig.y_range.end = 0.0, 2.0
-    assert e.refine_button is None and not e.refine_box.visible
+    assert e.ondemand.refine_button is None and not e.ondemand.refine_box.visible
     fig.x_range.start, fig.x_range.end = 0.1, 0.3         # 4 x 4 cells
     fig.y_range.start, fig.y_range.end = 0.5, 0.7
-    assert e.refine_box.visible and e.refine_button.visible
-    e._refine_window()
-    r = e.map_request_panel.request
-    shipped = e._shipped_request()        # the shipped map's stored scene
+    assert e.ondemand.refine_box.visible and e.ondemand.refine_button.visible
+    e.ondemand.refine_window()
+    r = e.ondemand.map_request_panel.request
+    shipped = e.ondemand.shipped_request()        # the shipped map's stored scene
     assert (r.la_from, r.la_to, r.lm_from, r.lm_to) == (0.1, 0.3, 0.5, 0.7)
     assert (r.tau, r.periods, r.fidelity, r.model, r.mu) == (
         shipped.tau, shipped.periods, shipped.fidelity, "deformable", 0.3)
@@ -441,7 +441,7 @@ def test_a_closing_page_cancels_its_map(monkeypatch, tmp_path, gate):
     monkeypatch.setattr(mapjobs, "jobs", lambda: made)
     e = _explorer(monkeypatch, "")
     mine = Listener()
-    made.submit(e._map_session, MapRequest(**TINY), mine)
+    made.submit(e.ondemand.session, MapRequest(**TINY), mine)
     assert made.busy() == (1, 1)
     e._on_session_destroyed(None)
     assert mine.wait(5).kind == "cancelled" and made.busy() == (0, 0)

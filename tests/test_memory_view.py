@@ -35,7 +35,7 @@ def partial_slip():
 
 async def _ready(view):
     view.set_run(*view._next)
-    await until(lambda: view._job is None, timeout=budget(120))
+    await until(lambda: not view.computing, timeout=budget(120))
 
 
 def _view(scene):
@@ -76,7 +76,7 @@ def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
         view = _view(scene)
         view.set_run(scene, scene.periods)
         assert view.busy.visible and view.slider.disabled       # computing, said so
-        await until(lambda: view._job is None, timeout=budget(120))
+        await until(lambda: not view.computing, timeout=budget(120))
         assert not view.busy.visible and not view.slider.disabled
         assert len(view.snapshots) == SNAPSHOTS
         _holds(view, snaps[-1])                                 # the run's end first
@@ -147,10 +147,10 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
     async def go():
         view = MemoryView(POOL)
         view.set_run(first, first.periods)
-        cancel = view._job[0]
+        cancel = view.work.job.event
         view.set_run(second, second.periods)
         assert cancel.is_set()                          # the first run stops
-        await until(lambda: view._job is None, timeout=budget(120))
+        await until(lambda: not view.computing, timeout=budget(120))
         assert view.scene is second and view.times[-1] == 100.0
         expected = memory_snapshots(second, snapshot_times(100.0))[-1]
         _holds(view, expected)
@@ -257,10 +257,10 @@ def test_a_time_shown_while_the_snapshots_compute_stays_shown():
         view.set_run(scene, scene.periods)
         view.time_field.input.value = "1999.5"
         await view.show_at()
-        assert view._job is not None                 # the snapshots still to come
+        assert view.computing                        # the snapshots still to come
         _holds(view, memory_snapshot(scene, 1999.5))
         executor.release.set()
-        await until(lambda: view._job is None, timeout=budget(120))
+        await until(lambda: not view.computing, timeout=budget(120))
         _holds(view, memory_snapshot(scene, 1999.5))
         t = float(view.shown["t"])                   # the time drawn (a sample's)
         assert abs(t - 1999.5) < 1e-3

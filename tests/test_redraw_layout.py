@@ -87,7 +87,7 @@ def _served_page():
         ex.state.fidelity = "preview"
         ex.start_run()
         asyncio.run(pending.pop()())
-    assert "drift" in ex.summary.object and not ex.stale_shown()
+    assert "drift" in ex.summary_view.pane.object and not ex.stale_shown()
     return doc, ex
 
 

@@ -44,13 +44,13 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         ex = _explorer()
         monkeypatch.setattr(ex.controller, "simulate", recorded)
         ex.start_run()
-        await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
-        assert "(1 of 4 ready)" in ex.summary.object, ex.summary.object
-        assert ex.progress.visible and not ex.cancel_button.disabled
+        await until(lambda: "Compiling the simulation kernels" in ex.summary_view.pane.object)
+        assert "(1 of 4 ready)" in ex.summary_view.pane.object, ex.summary_view.pane.object
+        assert ex.run_buttons.progress.visible and not ex.run_buttons.cancel_button.disabled
         await asyncio.sleep(0.5)
         assert not calls                       # the run waits for the kernels
         compiling.set()
-        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary.object)
+        await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary_view.pane.object)
         assert len(calls) == 1
     asyncio.run(go())
 
@@ -59,10 +59,10 @@ def test_a_waiting_run_can_be_cancelled(compiling):
     async def go():
         ex = _explorer()
         job = ex.start_run()
-        await until(lambda: "Compiling the simulation kernels" in ex.summary.object)
-        ex.cancel_button.clicks += 1
+        await until(lambda: "Compiling the simulation kernels" in ex.summary_view.pane.object)
+        ex.run_buttons.cancel_button.clicks += 1
         await until(lambda: ex.controller.job is None)
-        assert ex.summary.object == "Run cancelled."
+        assert ex.summary_view.pane.object == "Run cancelled."
         with pytest.raises(Cancelled):
             job.futures[0].result(timeout=budget(5))
     asyncio.run(go())

@@ -378,9 +378,9 @@ def kernel_calls(monkeypatch):
 
 
 def _run_now(explorer):
-    """Explorer._run without a server: its pool runs the (faked) kernels."""
+    """The explorer's controller.run without a server: its pool runs the (faked) kernels."""
     import asyncio
-    asyncio.run(explorer._run())
+    asyncio.run(explorer.controller.run())
 
 
 @pytest.mark.slow

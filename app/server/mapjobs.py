@@ -15,6 +15,8 @@ queue, one cache, one core budget for the process.
   previous one.  Sessions asking for the same map share one computation
   (each hears its levels); it is cancelled when the last of them cancels
   (or closes), its finished points kept for a request that comes back.
+  (The session's side, which drops a replaced map's updates, is a
+  LatestJob: app/session/latest.py.)
 * Up to `max_running` maps compute at once and share `cores` workers
   fairly (app/server/fairshare.py: their points take turns, so a big map asked
   for first never starves a small one asked for later; a map alone gets

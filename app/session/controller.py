@@ -9,13 +9,13 @@ error, for the page's alert) and `result` (the last run shown, a
 controller runs in a test with `asyncio.run` and a stand-in `simulate`.
 
 One run per session: a new request cancels the running one (its kernels
-stop at their next chunk, runs not started are dropped) and replaces it.
+stop at their next chunk, runs not started are dropped) and replaces it
+(app/session/latest.py's LatestJob).
 """
 import asyncio
 import functools
 import logging
 import os
-import threading
 import time
 from concurrent.futures import CancelledError, ThreadPoolExecutor
 from typing import NamedTuple
@@ -28,6 +28,7 @@ from vibtrans.core.simulate import StepBudgetExceeded
 from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans_explorer.server import warmup
 from vibtrans_explorer.server.fairshare import lower_priority
+from vibtrans_explorer.session.latest import Job, LatestJob
 
 CANCELLED = "Run cancelled."        # the status after the user's Cancel
 
@@ -93,36 +94,30 @@ def _retrieved(future):
         future.exception()
 
 
-class Job:
-    """One run of a session (a scene and its comparison run): its cancel
-    flag, its worker futures and its progress."""
+class RunJob(Job):
+    """One run of a session (a scene and its comparison run): a Job
+    (app/session/latest.py: its cancel event and worker futures) with its
+    scene, its label and its progress."""
 
     def __init__(self, scene, label, executor):
+        super().__init__(executor)
         self.scene, self.label = scene, label
-        self.executor = executor
-        self.event = threading.Event()
-        self.futures = []
         self.progress = 0.0
+        self.ran = None         # the state's values when the run was made
 
     def set_progress(self, fraction):
         self.progress = fraction
 
     def submit(self, fn, *args, **kwargs):
         if warmup.ready():
-            self.futures.append(self.executor.submit(fn, *args, **kwargs))
-        else:       # the server has just started: its kernels are compiling
-            self.futures.append(self.executor.submit(self._when_compiled, fn, *args, **kwargs))
+            return super().submit(fn, *args, **kwargs)
+        # the server has just started: its kernels are compiling
+        return super().submit(self._when_compiled, fn, *args, **kwargs)
 
     def _when_compiled(self, fn, *args, **kwargs):
         if not warmup.wait(self.event):
             raise Cancelled("cancelled while the kernels compiled")
         return fn(*args, **kwargs)
-
-    def cancel(self):
-        """Stop the kernels at their next chunk; drop the runs not started."""
-        self.event.set()
-        for f in self.futures:
-            f.cancel()
 
 
 def _create_task(start):
@@ -155,12 +150,17 @@ class RunController(param.Parameterized):
         self.schedule = schedule
         self.refusals = refusals
         self.max_steps = max_steps
-        self.job = None               # the running Job, if any
+        self.runs = LatestJob(executor)       # the latest run wins (its RunJob)
+
+    @property
+    def job(self):
+        """The running RunJob, if any."""
+        return self.runs.job if self.runs.running else None
 
     def start(self, schedule=True):
         """Run the selected scene; the kernels start here, at once, and
         `finish` (scheduled unless `schedule` is False) waits for them.
-        Returns the Job, or None if the run was refused (`message` says
+        Returns the RunJob, or None if the run was refused (`message` says
         why)."""
         self.discard()
         errors = self.refusals()
@@ -178,7 +178,7 @@ class RunController(param.Parameterized):
             return None
         self.message = ""
         other_scene, label = comparison(scene, self.state.compare)
-        job = self.job = Job(scene, label, self.executor)
+        job = self.runs.start(RunJob(scene, label, self.executor))
         job.ran = dict(self.state.param.values())
         # The comparison run goes in parallel with the main one (the kernels
         # release the GIL).
@@ -210,10 +210,7 @@ class RunController(param.Parameterized):
     def discard(self):
         """Stop the running job (if any) silently (it is replaced, or its
         session closed); returns it."""
-        job, self.job = self.job, None
-        if job is not None:
-            job.cancel()
-        return job
+        return self.runs.cancel()
 
     async def finish(self, job):
         """Wait for a job's runs, then publish them as `result`, if it is
@@ -226,7 +223,7 @@ class RunController(param.Parameterized):
             t0 = time.perf_counter()
             while True:
                 _, pending = await asyncio.wait(waiting, timeout=0.1)
-                if self.job is not job:         # replaced by a newer run
+                if not self.runs.is_latest(job):        # replaced by a newer run
                     return
                 if not pending:
                     break
@@ -241,28 +238,26 @@ class RunController(param.Parameterized):
             ds = job.futures[0].result()
             other = None if len(job.futures) < 2 else job.futures[1].result()
         except (Cancelled, CancelledError):
-            if self.job is job:
+            if self.runs.is_latest(job):
                 self.status = CANCELLED
             return
         except StepBudgetExceeded as exc:
-            if self.job is job:
+            if self.runs.is_latest(job):
                 self.param.update(status="", message=f"This scene is over this server's "
                                   f"limit (VIBTRANS_MAX_STEPS): {exc}")
             return
         except Exception as exc:          # a failed run harms only this session
-            if self.job is job:
+            if self.runs.is_latest(job):
                 log.exception("run failed: %s", scene.values())
                 self.param.update(status="",
                                   message=f"The run failed: {type(exc).__name__}: {exc}")
             return
         finally:
-            if self.job is job:
-                self.job = None
+            self.runs.finish(job)
             if self.job is None and self.busy:
                 self.param.update(busy=False, progress=0.0)
         try:
-            result = interpret(scene, ds, other, job.label)._replace(
-                ran=getattr(job, "ran", None))
+            result = interpret(scene, ds, other, job.label)._replace(ran=job.ran)
             self.param.update(status="", result=result)
         except Exception as exc:
             log.exception("showing a run failed: %s", scene.values())

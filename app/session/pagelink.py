@@ -8,8 +8,8 @@ applies the browser's raw query of its own when the page connects (a
 import panel as pn
 
 from vibtrans_explorer.session import maprequest, urlstate
+from vibtrans_explorer.session.latest import at_next_tick
 from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
-from vibtrans_explorer.views.render import at_next_tick
 
 
 def map_request_of(args):

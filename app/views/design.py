@@ -35,11 +35,12 @@ from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
 from vibtrans.core import units
-from vibtrans.core.errors import InputError
+from vibtrans.core.errors import Cancelled, InputError
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.products import design, designtip, plots
 from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
 from vibtrans_explorer.server import mapjobs
+from vibtrans_explorer.session.latest import LatestJob
 from vibtrans_explorer.session.maprequest import MapRequest
 from vibtrans_explorer.session.state import (
     CUSTOM_EXAMPLE,
@@ -367,7 +368,9 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._jobs = jobs
         self._session = f"design-{id(self)}"    # its key in the server's map queue
         self._offer = None          # (MapRequest, values) of the map offered, not computing
-        self._ticket = None         # the map computing's Ticket (mapjobs)
+        # the map computing (its Ticket in the server's queue, mapjobs):
+        # cancelling its job cancels the session's request there
+        self.map_work = LatestJob()
         self._map = None            # (ds, name) of the map on demand the chart reads
         self.chart = None           # the chart drawn (design_chart's Dataset)
         self.figure = None          # its Bokeh figure
@@ -377,8 +380,10 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._chart_map = None      # (ds, name) of the map on demand the chart read, or None
         self._marker = None         # the figure's device marker's source
         self._drawn_values = None   # the values the chart drawn was made with
-        self._draws = 0             # the latest draw's number (older ones dropped)
-        self._marks = 0
+        # the chart's drawing and a click's reading, off the event loop: the
+        # latest of each wins (an older one's result is dropped)
+        self.draws = LatestJob()
+        self.marks = LatestJob()
         self.alert = pn.pane.Alert("", alert_type="danger", visible=False,
                                    sizing_mode="stretch_width", css_classes=["vt-design-alert"])
         self.status = pn.pane.Markdown(HINT, sizing_mode="stretch_width",
@@ -552,38 +557,37 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         if errors:
             self._say("**Cannot draw the chart:** " + "; ".join(errors))
             return
-        self._draws += 1
-        token = self._draws
+        job = self.draws.start()
         values = self.values()
         self._busy(True, "Drawing the chart ...")
-        loop = asyncio.get_running_loop()
         try:
             chart_map = None
             try:
-                result = await loop.run_in_executor(None, build_chart, values)
+                result = await job.run(build_chart, values)
             except design.NoMapCovers as exc:
                 result = None
                 if self._map is not None:
                     try:
-                        result = await loop.run_in_executor(None, build_chart, values,
-                                                            *self._map)
+                        result = await job.run(build_chart, values, *self._map)
                         chart_map = self._map
                     except ValueError:  # (the values passed: the map does not serve them)
                         pass
                 if result is None:
-                    if token == self._draws:
-                        await self._offer_map(exc.need, values, token)
+                    if self.draws.is_latest(job):
+                        await self._offer_map(exc.need, values, job)
                     return
         except ValueError as exc:        # the library's InputError (TypeError kind too)
-            if token == self._draws:
+            if self.draws.is_latest(job):
                 self._say(f"**Cannot draw the chart:** {exc}")
                 self._busy(False, self._shown_status())
             return
-        if token != self._draws:
+        except Cancelled:
             return              # a newer draw was asked for meanwhile
+        if not self.draws.is_latest(job):
+            return
         self._offer = None                  # served: nothing to offer
         self.offer.object = ""
-        self.offer_box.visible = self._ticket is not None     # (a map computing goes on)
+        self.offer_box.visible = self.map_work.running     # (a map computing goes on)
         self._buttons()
         self._show_chart(values, result, chart_map)
 
@@ -602,7 +606,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             self._busy(False, self._shown_status())
 
     # ---------- a map on demand for the chart ----------
-    async def _offer_map(self, need, values, token):
+    async def _offer_map(self, need, values, job):
         """Say why no shipped map serves the chart and offer the one it
         needs, with its estimated cost (or why it cannot be computed)."""
         reasons = "; ".join(need.shipped_problems)
@@ -617,7 +621,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._say("")
         self.offer_box.visible = True
         self._offer = None
-        if self._ticket is None:
+        if not self.map_work.running:
             self.progress.object = ""       # (a finished map's words)
         if request is None:
             self.offer.object = f"{head}\n\n**It cannot be computed here:** {why}."
@@ -633,11 +637,12 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._buttons()
         jobs = self.jobs
         try:
-            est, problems = await asyncio.get_running_loop().run_in_executor(
-                None, jobs.estimate, request)
+            est, problems = await job.run(jobs.estimate, request)
+        except Cancelled:
+            return              # a newer draw was asked for meanwhile
         except Exception as exc:        # a bug: said, and logged by the caller's loop
             est, problems = None, [f"{type(exc).__name__}: {exc}"]
-        if token != self._draws:
+        if not self.draws.is_latest(job):
             return
         cost = "" if est is None else est.text(jobs.cores)
         refused = "".join(f"\n\n**Refused:** {p}." for p in problems)
@@ -648,11 +653,11 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._busy(False, self._shown_status())
 
     def _on_map_settings(self, *events):
-        if self.offer_box.visible and self._ticket is None and not self.busy:
+        if self.offer_box.visible and not self.map_work.running and not self.busy:
             pn.state.execute(self.draw)
 
     def _buttons(self):
-        computing = self._ticket is not None
+        computing = self.map_work.running
         self.compute_button.visible = self._offer is not None or computing
         self.compute_button.disabled = computing or self._offer is None
         self.cancel_button.visible = computing
@@ -660,7 +665,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
     async def compute(self):
         """Compute the map offered (the server's queue; shared with every
         session asking for it) and draw the chart on it level by level."""
-        if self._offer is None or self._ticket is not None:
+        if self._offer is None or self.map_work.running:
             return
         request, values = self._offer
         loop = asyncio.get_running_loop()
@@ -669,14 +674,17 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         def deliver(update):            # a worker thread: hand it to this loop
             loop.call_soon_threadsafe(updates.put_nowait, update)
         jobs = self.jobs
+        job = self.map_work.start()
         try:
-            ticket = jobs.submit(self._session, request, deliver)
+            jobs.submit(self._session, request, deliver)
         except mapjobs.MapRefused as exc:
+            self.map_work.finish(job)
             self.progress.object = f"**Not computed:** {exc}."
             return
-        self._ticket, self._offer = ticket, None
+        job.when_cancelled(functools.partial(jobs.cancel, self._session))
+        self._offer = None
         self._buttons()
-        token = self._draws
+        drawn = self.draws.job         # the chart asked for when the map was
         started = time.monotonic()
         n = request.points_per_axis()
         # (short: the chart's title names it; the offer says the rest)
@@ -684,7 +692,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self.progress.object = f"Computing the chart's {n} x {n} map ({request.title()}) ..."
         while True:
             update = await updates.get()
-            if self._ticket is not ticket:
+            if not self.map_work.is_latest(job):
                 return          # cancelled: its updates are no one's
             if update.kind == "chunk" and not updates.empty():
                 continue        # a newer picture (or the level's) is waiting: draw that
@@ -697,14 +705,14 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                     # the finest level's chart stands: the verified map has its values
                     if self._chart_map is drawn_from:
                         self._chart_map = self._map
-                elif token == self._draws:      # the chart asked for is still the one shown
+                elif self.draws.is_latest(drawn):   # the chart asked for is still the one shown
                     try:
                         result = await loop.run_in_executor(None, build_chart, values,
                                                             update.ds, name)
                     except ValueError as exc:
                         result = None
                         self._say(f"**The chart could not be read on the map:** {exc}")
-                    if result is not None and token == self._draws:
+                    if result is not None and self.draws.is_latest(drawn):
                         self._show_chart(values, result, self._map)
                 done = int(update.ds["computed"].values.sum())
                 seconds = time.monotonic() - started
@@ -725,25 +733,22 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             elif update.kind == "cancelled":
                 self.progress.object = "Map cancelled."
             if update.final:
-                self._ticket = None
+                self.map_work.finish(job)
                 self._buttons()
                 return
 
     def cancel(self):
         """Cancel the map computing (unless another session waits for it)."""
-        if self._ticket is None:
+        if not self.map_work.running:
             return
-        self._ticket = None
-        self.jobs.cancel(self._session)
+        self.map_work.cancel()
         self.progress.object = ("Map cancelled: its finished points are kept on this "
                                 "server; computing it again resumes from them.")
         self._buttons()
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
-        if self._ticket is not None:
-            self._ticket = None
-            self.jobs.cancel(self._session)
+        self.map_work.cancel()
 
     # ---------- the device's scene ----------
     def run_device(self):
@@ -893,15 +898,15 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             return
         x, y = float(f"{x:.4g}"), float(f"{y:.4g}")
         values = {**self._drawn_values, xq: x, yq: y}
-        self._marks += 1
-        token = self._marks
+        job = self.marks.start()
         try:
-            got = await asyncio.get_running_loop().run_in_executor(
-                None, device_reading, values, c, *(self._chart_map or ()))
+            got = await job.run(device_reading, values, c, *(self._chart_map or ()))
+        except Cancelled:
+            return              # a newer click was made meanwhile
         except ValueError as exc:
             self._say(f"**Cannot read the device:** {exc}")
             return
-        if token != self._marks or c is not self.chart:
+        if not self.marks.is_latest(job) or c is not self.chart:
             return
         self._say("")
         with pn.io.hold():

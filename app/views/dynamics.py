@@ -9,12 +9,9 @@ orbit_diagram), in the executor given, cancelled when a newer request or
 run replaces it.  The exports draw the same with HoloViews (`vibtrans
 export section | orbit-diagram`).
 """
-import asyncio
 import functools
 import logging
 import math
-import threading
-from concurrent.futures import CancelledError
 
 import numpy as np
 import panel as pn
@@ -22,9 +19,9 @@ from bokeh.events import RangesUpdate, Tap
 from bokeh.models import ColumnDataSource, Range1d
 from bokeh.plotting import figure
 
-from vibtrans import Cancelled
 from vibtrans.analysis import dynamics
 from vibtrans.products import plots
+from vibtrans_explorer.session.latest import LatestJob
 from vibtrans_explorer.views.note import note_pane, say
 
 log = logging.getLogger("vibtrans.explorer.dynamics")
@@ -86,7 +83,8 @@ class DynamicsView(pn.viewable.Viewer):
         self.scene = None
         self.phase = 0.0
         self.orbits = []            # float64[n, 2] per orbit, the run's first
-        self._jobs = {}             # what -> (cancel event, future)
+        # its work, one of each kind at a time (the latest request wins)
+        self.work = {what: LatestJob(executor) for what in ("orbit", "section", "diagram")}
         self.diagram_window = None  # (parameter, lo, hi) drawn
         self._history = []          # windows before the zooms (back)
         self._build()
@@ -168,8 +166,8 @@ class DynamicsView(pn.viewable.Viewer):
         self._diagram_reset()
 
     def clear(self):
-        for what in list(self._jobs):
-            self._cancel(what)
+        for work in self.work.values():
+            work.cancel()
         self.scene = None
         self.orbits = []
         self._history = []
@@ -184,57 +182,49 @@ class DynamicsView(pn.viewable.Viewer):
             self._buttons()
 
     # ---------------------------------------------------------------- jobs
-    def _start(self, what, fn, *args, **kwargs):
-        """Run fn in the executor (one job per kind: a newer one cancels it)."""
-        self._cancel(what)
-        event = threading.Event()
-        if "cancel" in kwargs:
-            kwargs["cancel"] = event
-        job = (event, self.executor.submit(fn, *args, **kwargs))
-        self._jobs[what] = job
-        pn.state.execute(functools.partial(self._finish, what, job))
+    def _start(self, what, fn, *args, cancellable=False, **kwargs):
+        """fn in the executor (one job per kind: a newer one cancels it);
+        cancellable: fn takes the job's cancel event (`cancel=`)."""
+        work = self.work[what]
+        job = work.start()
+        if cancellable:
+            kwargs["cancel"] = job.event
+        job.submit(fn, *args, **kwargs)
+        work.deliver(job, functools.partial(self._show, what),
+                     functools.partial(self._failed, what))
 
-    def _cancel(self, what):
-        job = self._jobs.pop(what, None)
-        if job is not None:
-            job[0].set()
-            job[1].cancel()
+    @property
+    def computing(self):
+        """Whether any of its work (orbit, section, diagram) is still to come."""
+        return any(work.running for work in self.work.values())
 
-    async def _finish(self, what, job):
-        try:
-            out = await asyncio.wrap_future(job[1])
-        except (Cancelled, CancelledError):
-            return
-        except Exception as exc:
-            if self._jobs.get(what) is job:
-                self._jobs.pop(what)
-                log.exception("dynamics %s failed: %s", what, self.scene and self.scene.values())
-                self._say(f"The {what} failed: {type(exc).__name__}: {exc}")
-                self._status(what, "")
-                self._buttons()
-            return
-        if self._jobs.get(what) is not job:
-            return
-        self._jobs.pop(what)
+    def _failed(self, what, exc):
+        log.error("dynamics %s failed: %s", what, self.scene and self.scene.values(),
+                  exc_info=exc)
+        self._say(f"The {what} failed: {type(exc).__name__}: {exc}")
+        self._status(what, "")
+        self._buttons()
+
+    def _show(self, what, out):
         with pn.io.hold():
-            getattr(self, f"_show_{what.split(':')[0]}")(out)
+            getattr(self, f"_show_{what}")(out)
             self._buttons()
 
     def _status(self, what, text):
         {"orbit": self.orbit_status, "section": self.section_status,
-         "diagram": self.diagram_status}[what.split(":")[0]].object = text
+         "diagram": self.diagram_status}[what].object = text
 
     # ---------------------------------------------------------------- section
     def _seed(self, y, vy, first=False):
         s = self.scene
         self._start("section", dynamics.section, s.amplitude, s.mass, y, vy, SECTION_PERIODS,
-                    s.fidelity, phase=self.phase, cancel=True)
+                    s.fidelity, phase=self.phase, cancellable=True)
         self.section_status.object = (f"iterating the map {SECTION_PERIODS} times from "
                                       f"y* = {y:.4g}, y*' = {vy:.4g} ...")
         self._seeding_first = first
 
     def _on_tap(self, event):
-        if self.scene is None or "section" in self._jobs:
+        if self.scene is None or self.work["section"].running:
             return
         self._seed(float(event.x), float(event.y))
         self._buttons()
@@ -310,7 +300,7 @@ class DynamicsView(pn.viewable.Viewer):
         self.diagram_window = (along, lo, hi)
         values = np.linspace(lo, hi, DIAGRAM_RUNS)
         self._start("diagram", dynamics.orbit_diagram, self.scene, along, values,
-                    DIAGRAM_FINAL, cancel=True)
+                    DIAGRAM_FINAL, cancellable=True)
         dim = plots.LOG_A if along == "amplitude" else plots.LOG_M
         self.diagram_fig.xaxis.axis_label = dim.label
         self.diagram_status.object = (f"computing {DIAGRAM_RUNS} runs over {dim.label} in "
@@ -328,7 +318,7 @@ class DynamicsView(pn.viewable.Viewer):
 
     # ---------------------------------------------------------------- controls
     def _buttons(self):
-        busy = "section" in self._jobs
+        busy = self.work["section"].running
         self.back_button.disabled = busy or len(self.orbits) < 2
         self.clear_button.disabled = busy or len(self.orbits) < 2
         self.diagram_back.disabled = not self._history

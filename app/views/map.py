@@ -33,8 +33,9 @@ from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.core.profiles import linear_resonance_mass
 from vibtrans.products import plots
 from vibtrans_explorer.server import data
+from vibtrans_explorer.session.latest import at_next_tick
 from vibtrans_explorer.session.state import is_sphere, within
-from vibtrans_explorer.views.render import at_next_tick, rendered
+from vibtrans_explorer.views.render import rendered
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420

@@ -11,10 +11,12 @@ import time
 
 import panel as pn
 
+from vibtrans.core.errors import Cancelled
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.maps.difference import describe
 from vibtrans_explorer.server import data, mapjobs
 from vibtrans_explorer.session import maprequest, urlstate
+from vibtrans_explorer.session.latest import LatestJob
 from vibtrans_explorer.session.state import SPHERE, is_sphere
 from vibtrans_explorer.views.map import computed_figure
 from vibtrans_explorer.views.ondemand import MapRequestPanel
@@ -44,10 +46,13 @@ class MapOnDemand:
         # its Ticket while it computes (app/server/mapjobs.py)
         self.map_request_panel = None
         self.ondemand_box = pn.Column(sizing_mode="stretch_width", name="ondemand")
-        self._map_session = session
-        self._map_ticket = None
+        self.session = session              # its key in the server's map queue
+        # the map computing (its Ticket in the server's queue: cancelling its
+        # job cancels the session's request there) and the request's
+        # estimate; the latest of each wins
+        self.map_work = LatestJob()
+        self.estimates = LatestJob()
         self._map_shown = None              # (request, ds) of the map on demand drawn
-        self._estimates = 0                 # the latest estimate's number (older ones dropped)
         # the line over the map and the refinement's offer: their widgets
         # made at their first use (most pages never show them)
         self.map_status = self.back_button = self.map_cancel_button = None
@@ -66,7 +71,7 @@ class MapOnDemand:
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
-        mapjobs.jobs().cancel(self._map_session)
+        mapjobs.jobs().cancel(self.session)
 
     def request_panel(self):
         """The request's panel, built at its first use (most sessions never
@@ -120,8 +125,7 @@ class MapOnDemand:
         panel = self.map_request_panel
         if panel is None:
             return
-        self._estimates += 1
-        number = self._estimates
+        job = self.estimates.start()
         if panel.errors():
             panel.estimate.object = "*Correct the fields above for an estimate.*"
             return
@@ -129,12 +133,13 @@ class MapOnDemand:
         panel.estimate.object = "*Estimating ...*"
         jobs = mapjobs.jobs()
         try:
-            est, problems = await asyncio.get_running_loop().run_in_executor(
-                None, jobs.estimate, request)
+            est, problems = await job.run(jobs.estimate, request)
+        except Cancelled:
+            return          # an older estimate: a newer one was asked for
         except Exception as exc:
             log.exception("estimating a map failed")
             est, problems = None, [f"{type(exc).__name__}: {exc}"]
-        if number != self._estimates:
+        if not self.estimates.is_latest(job):
             return
         lines = [] if est is None else [est.text(jobs.cores)]
         lines.append(mapaccuracy.note(request.fidelity, request.periods))
@@ -190,10 +195,9 @@ class MapOnDemand:
         pn.state.execute(functools.partial(self.compute_map, panel.request.copy()))
 
     def _on_map_cancel(self):
-        if self._map_ticket is None:
+        if not self.map_work.running:
             return
-        self._map_ticket = None
-        mapjobs.jobs().cancel(self._map_session)
+        self.map_work.cancel()
         self._map_say("Map cancelled: its finished points are kept on this server; "
                       "computing it again resumes from them.")
         self._buttons_for_map()
@@ -219,7 +223,7 @@ class MapOnDemand:
             self.map_request_panel.status.object = text
 
     def _buttons_for_map(self):
-        running = self._map_ticket is not None
+        running = self.map_work.running
         if self.map_cancel_button is not None:
             self.map_cancel_button.visible = running
         if self.map_request_panel is not None:
@@ -245,12 +249,15 @@ class MapOnDemand:
 
         def deliver(update):            # a worker thread: hand it to this loop
             loop.call_soon_threadsafe(updates.put_nowait, update)
+        job = self.map_work.start()        # (a map computing before: no one's now)
         try:
-            ticket = jobs.submit(self._map_session, request, deliver)
+            jobs.submit(self.session, request, deliver)
         except mapjobs.MapRefused as exc:
+            self.map_work.finish(job)
             self._map_say(f"**Not computed:** {exc}.")
+            self._buttons_for_map()
             return
-        self._map_ticket = ticket
+        job.when_cancelled(functools.partial(jobs.cancel, self.session))
         self.state.map_request = maprequest.encode(request)
         self._buttons_for_map()
         if getattr(self, "map_tabs", None) is not None:
@@ -263,7 +270,7 @@ class MapOnDemand:
             # every level is drawn (at most levels + 1 of them): each shows
             # where the refinement went
             update = await updates.get()
-            if self._map_ticket is not ticket:
+            if not self.map_work.is_latest(job):
                 return          # cancelled or replaced: its updates are no one's
             if update.kind == "chunk" and not updates.empty():
                 continue        # a newer picture (or the level's) is waiting: draw that
@@ -276,7 +283,7 @@ class MapOnDemand:
                     self._map_shown = (request, update.ds)
                 else:
                     await self._draw_map(request, update.ds)
-                if self._map_ticket is not ticket:
+                if not self.map_work.is_latest(job):
                     return
                 done = int(update.ds["computed"].values.sum())
                 seconds = time.monotonic() - started
@@ -299,7 +306,7 @@ class MapOnDemand:
             elif update.kind == "cancelled":
                 self._map_say("Map cancelled.")
             if update.final:
-                self._map_ticket = None
+                self.map_work.finish(job)
                 self._buttons_for_map()
                 return
 
@@ -350,7 +357,7 @@ class MapOnDemand:
     def back_to_shipped(self):
         """The shipped map again: at the map on demand's mu if a shipped map
         has it, else at the default mu (the state's: every view follows)."""
-        if self._map_ticket is not None:
+        if self.map_work.running:
             self._on_map_cancel()
         self._map_shown = None
         self.map_banner.visible = False

@@ -15,10 +15,7 @@ scrubs through them with no computing.  The time field and its button show
 the diagram at any time of the run (`memory_snapshot`, a run from rest).
 """
 import asyncio
-import functools
 import logging
-import threading
-from concurrent.futures import CancelledError
 
 import numpy as np
 import panel as pn
@@ -26,12 +23,11 @@ import param
 from bokeh.models import ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text
 from bokeh.plotting import figure
 
-from vibtrans import Cancelled
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans.products import plots
+from vibtrans_explorer.session.latest import LatestJob, at_next_tick
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.note import note_pane, say
-from vibtrans_explorer.views.render import at_next_tick
 from vibtrans_explorer.views.summary import PREVIOUS_RUN
 
 log = logging.getLogger("vibtrans.explorer.memory")
@@ -110,7 +106,7 @@ class MemoryView(pn.viewable.Viewer):
         self.scene = None
         self.times = np.zeros(0)
         self.snapshots = []
-        self._job = None            # (cancel event, future) of the running snapshots
+        self.work = LatestJob(executor)     # the snapshots of the latest run
         self.a_max = 0.0            # the largest a* over the snapshots (their scale)
         self.shown = None           # the snapshot drawn
         self._following = False     # the slider is moved to the time drawn (no redraw)
@@ -264,7 +260,7 @@ class MemoryView(pn.viewable.Viewer):
         """A new run to show: its scene (deformable; any other model clears
         the view) and its end t_end (periods).  Cancels the snapshots of the
         run it replaces, starts those of this one, and enables the view."""
-        self._cancel()
+        self.work.cancel()
         if scene is None or scene.model != "deformable":
             self.clear()
             return
@@ -284,16 +280,19 @@ class MemoryView(pn.viewable.Viewer):
             # end before start: Bokeh's slider needs end > start
             self.slider.param.update(start=t0, end=max(t1, t0 + step), step=step, value=t1,
                                      disabled=True)
-        event = threading.Event()
-        future = self.executor.submit(memory_snapshots, scene, list(self.times),
-                                      cancel=event)
-        self._job = job = (event, future)
+        job = self.work.start()
+        job.submit(memory_snapshots, scene, list(self.times), cancel=job.event)
         self._busy(self._job_text())
-        pn.state.execute(functools.partial(self._finish, job))
+        self.work.deliver(job, self._show_snapshots, self._snapshots_failed)
+
+    @property
+    def computing(self):
+        """Whether the snapshots of the run shown are still to come."""
+        return self.work.running
 
     def clear(self):
         """No run (or not a deformable one): empty and disabled."""
-        self._cancel()
+        self.work.cancel()
         self.scene = None
         self.times = np.zeros(0)
         self.snapshots = []
@@ -304,42 +303,24 @@ class MemoryView(pn.viewable.Viewer):
             self.show_button.disabled = True
             self.slider.disabled = True
 
-    def _cancel(self):
-        job, self._job = self._job, None
-        if job is not None:
-            job[0].set()
-            job[1].cancel()
+    def _snapshots_failed(self, exc):
+        log.error("memory snapshots failed: %s", self.scene.values(), exc_info=exc)
+        self._busy("")
+        self._say(f"The memory diagram failed: {type(exc).__name__}: {exc}")
 
-    async def _finish(self, job):
-        doc = pn.state.curdoc          # (the answer goes to its next tick: see show_at)
-        try:
-            snaps = await asyncio.wrap_future(job[1])
-        except (Cancelled, CancelledError):
-            return                       # replaced by a newer run, or cleared
-        except Exception as exc:
-            if self._job is job:
-                self._job = None
-                log.exception("memory snapshots failed: %s", self.scene.values())
-                self._busy("")
-                self._say(f"The memory diagram failed: {type(exc).__name__}: {exc}")
-            return
-        if self._job is not job:
-            return
-        self._job = None
+    def _show_snapshots(self, snaps):
+        """The latest run's snapshots (at the page's next tick: work.deliver)."""
         self.snapshots = snaps
         self.a_max = max(max(s["a"] for s in snaps), 0.0)
-
-        def answer():
-            with pn.io.hold():
-                self._busy("")
-                self.slider.disabled = False
-                if self.shown is None:
-                    self._show_index(len(snaps) - 1)
-                else:
-                    # a time the user typed was shown meanwhile: it stays
-                    # (drawing the last period over it replaced what was asked for)
-                    self._agree(self.shown["t"])
-        at_next_tick(doc, answer)
+        with pn.io.hold():
+            self._busy("")
+            self.slider.disabled = False
+            if self.shown is None:
+                self._show_index(len(snaps) - 1)
+            else:
+                # a time the user typed was shown meanwhile: it stays
+                # (drawing the last period over it replaced what was asked for)
+                self._agree(self.shown["t"])
 
     # ---------------------------------------------------------------- controls
     def _index(self, value):

@@ -43,23 +43,6 @@ def exclusively(work, *args, **kwargs):
         return work(*args, **kwargs)
 
 
-def at_next_tick(doc, answer):
-    """answer() at the next tick of `doc`, a served page's document, or now
-    (no server).  Code that runs without the document's lock (after an
-    await in a coroutine, or in a watcher where Panel applies a browser's
-    change `unlocked`) and changes plain Bokeh models raised "_pending_writes
-    should be non-None" in the server's log (issue 32: typed values did not
-    move the map's marker); the document's next tick holds the lock, and
-    runs after the callback in progress has sent its own changes.  (A
-    typed time's memory diagram that now and then never came, before this
-    was used there, was not traced to this: none lost in 202 views since,
-    docs/how-to/deployment.md 2.2.)"""
-    if doc is not None and doc.session_context is not None:
-        doc.add_next_tick_callback(answer)
-    else:
-        answer()
-
-
 def _render(element):
     renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes
