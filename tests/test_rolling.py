@@ -318,3 +318,14 @@ def test_sweep_names_a_rolling_store():
         "sweep-deformable-mu0.3-rolling-solid.zarr"
     assert _sweep_name("deformable", 0.5, "power:3", 0.25) == \
         "sweep-deformable-mu0.5-power3-rolling-0.25.zarr"
+
+
+def test_bench_times_the_rolling_kernel_on_the_same_motion():
+    # what `vibtrans bench`'s rolling ratio rests on: the rolling kernel, its
+    # contact point at x* exactly, runs the plain kernel's steps and records
+    from vibtrans.tools import bench
+    c = bench.rolling_cost(1, points=(1,))["point 1"]
+    assert c["same_motion_records_equal"] is True
+    for key in ("same_motion_over_none", "solid_over_none", "shell_over_none"):
+        assert math.isfinite(c[key]) and c[key] > 0, key
+    assert set(c["ns_per_step"]) == {"none", "same_motion", "solid", "shell"}
