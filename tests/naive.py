@@ -259,6 +259,50 @@ def deformable_run(A, m, mu, theta, r, tau, periods, h, springs=2000, hmax=4.0):
     return out
 
 
+# ------------------------------------------------------ the rolling particle
+def rolling_run(A, m, mu, theta, r, tau, periods, h, j, springs=2000, hmax=4.0):
+    """The rolling deformable particle from rest (docs/MODEL.md section 11),
+    slowly, with its rotation as a degree of freedom of its own:
+
+        m* x'' = -mu T*,  j m* w' = -mu T*  (w = omega R),  q' = w,
+        m* y'' = 1 - N*(a*),  a* = y* - u_y,
+        theta mu b* = x* + q* - u_x  (the contact point),
+
+    T* from a SpringBed, velocity Verlet with the fixed step h for x, q and
+    y alike (the bed committed once per step), as `deformable_run`.  Start
+    at rest, q = w = 0.  Returns a dict of arrays t, x, vx, q, w, y, vy, a,
+    b, N, T over every step (index k at t = k h)."""
+    n = int(round(periods / h))
+    bed = SpringBed(springs, hmax, a_start=1.0, b_start=0.0)
+    scale = theta * mu
+    x, vx, q, w, y, vy, ax, aw, ay = 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
+    names = ("t", "x", "vx", "q", "w", "y", "vy", "a", "b", "N", "T")
+    out = {k: np.empty(n + 1) for k in names}
+    rows = [out[k] for k in names]
+    for arr, v in zip(rows, (0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0)):
+        arr[0] = v
+    for k in range(1, n + 1):
+        t1 = k * h
+        x1 = x + h * vx + 0.5 * h * h * ax
+        q1 = q + h * w + 0.5 * h * h * aw
+        y1 = y + h * vy + 0.5 * h * h * ay
+        ux, uy = surface(t1, A, r, tau)[:2]
+        a1 = y1 - uy
+        b1 = (x1 + q1 - ux) / scale
+        if a1 > hmax:
+            raise ValueError(f"a* = {a1:g} is deeper than the spring bed (hmax = {hmax:g})")
+        tf = bed.force_step(a1, b1)
+        nf = hertz_force(a1)
+        ax1, aw1, ay1 = -mu * tf / m, -mu * tf / (j * m), (1.0 - nf) / m
+        vx += 0.5 * h * (ax + ax1)
+        w += 0.5 * h * (aw + aw1)
+        vy += 0.5 * h * (ay + ay1)
+        x, q, y, ax, aw, ay = x1, q1, y1, ax1, aw1, ay1
+        for arr, v in zip(rows, (t1, x, vx, q, w, y, vy, a1, b1, nf, tf)):
+            arr[k] = v
+    return out
+
+
 # ------------------------------------------------------ the material point
 STICK_MODE, SLIDE_POS, SLIDE_NEG, FLIGHT_MODE = "stick", "slide+", "slide-", "flight"
 

@@ -58,6 +58,7 @@ def _model_args(g):
     g.add_argument("--fidelity", default="standard", help="preview | standard | reference")
     g.add_argument("--integrator", default="ab4", help="ab4 | verlet")
     _profile_args(g)
+    _rolling_args(g)
 
 
 PROFILE_HELP = ("particle profile: sphere | cone | power:N (z = C r^N, N >= 1) | "
@@ -70,6 +71,15 @@ def _profile_args(g):
     g.add_argument("--load-over-modulus", type=_num, default=None,
                    help="N0/E* in m^2 (the static load over the contact modulus): "
                         "file: profiles only")
+
+
+ROLLING_HELP = ("how the particle turns (deformable model): none (slides without turning, "
+                "the paper's particle) | solid (a solid sphere, j = 2/5) | shell (a thin "
+                "shell, j = 2/3) | J (j = I/(m R^2) in (0, 1]); docs/MODEL.md section 11")
+
+
+def _rolling_args(g, help_text=ROLLING_HELP):
+    g.add_argument("--rolling", default="none", help=help_text)
 
 
 def _log10_value(name, value):
@@ -87,7 +97,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
                  theta=args.theta, nu=args.nu, tau=args.tau, periods=args.periods,
                  alpha_t=args.alpha_t, stick_rule=args.stick_rule, fidelity=args.fidelity,
                  integrator=args.integrator, profile=args.profile,
-                 load_over_modulus=args.load_over_modulus)
+                 load_over_modulus=args.load_over_modulus, rolling=args.rolling)
 
 
 def _progress_bar(label):
@@ -179,6 +189,10 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
+    if scene.rolling != "none":
+        raise InputError(f"rolling must be none for an orbit: the orbit is the vertical "
+                         f"motion's, the same for every rolling (docs/MODEL.md section 11); "
+                         f"got {scene.rolling!r}")
     period = _finite("period", args.period, 1, 64, integer=True)
     guess: tuple[float, ...]
     if args.guess == "run":
@@ -274,7 +288,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                   nu=args.nu, tau=args.tau, periods=args.periods, fidelity=args.fidelity,
                   integrator=args.integrator, alpha_t=args.alpha_t, stick_rule=args.stick_rule,
                   kind=args.kind, chaos=args.chaos, stop=args.stop, profile=args.profile,
-                  load_over_modulus=args.load_over_modulus)
+                  load_over_modulus=args.load_over_modulus, rolling=args.rolling)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
@@ -294,8 +308,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         check_levels(sweep, args.max_level)        # before any file is made
         tol = check_tolerance(DEFAULT_DRIFT_TOLERANCE if args.drift_tolerance is None
                               else args.drift_tolerance)
-    out = args.out or (f"sweep-{args.model}-mu{args.mu:g}.zarr" if args.profile == "sphere"
-                       else f"sweep-{args.model}-mu{args.mu:g}-{_profile_slug(args.profile)}.zarr")
+    out = args.out or _sweep_name(args.model, args.mu, args.profile, sweep.values.get("rolling"))
     new = not os.path.exists(out)
     check_folder(out, create=False)      # a Zarr store is a folder (resumed if it exists)
     try:
@@ -315,6 +328,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                          f"existed before is kept and resumes") from None
     print(out)
     return 0
+
+
+def _sweep_name(model, mu, profile, rolling=None):
+    """A sweep's default store name: sweep-MODEL-muMU[-PROFILE][-rolling-ROLLING].zarr."""
+    name = f"sweep-{model}-mu{mu:g}"
+    if profile != "sphere":
+        name += f"-{_profile_slug(profile)}"
+    if rolling is not None:
+        name += f"-rolling-{rolling:g}" if isinstance(rolling, float) else f"-rolling-{rolling}"
+    return name + ".zarr"
 
 
 def _profile_slug(profile):
@@ -341,8 +364,10 @@ def _fmt(value, unit=""):
     return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
 
 
-def _design_text(dev, q, warnings, reading):
+def _design_text(dev, q, warnings, reading, rolling="none"):
     tip = "" if q.profile == "sphere" else f" with a {q.profile} tip"
+    if rolling != "none":
+        tip += f", rolling {rolling}"
     lines = [f"device: {units_name(dev.particle)} sphere{tip}, R = {dev.radius:.4g} m, on "
              f"{units_name(dev.substrate)}; f = {dev.frequency:.4g} Hz, A_y = "
              f"{dev.amplitude:.4g} m, pre-load {dev.preload:g} N",
@@ -377,6 +402,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from vibtrans.core import units
+    from vibtrans.core.params import check_rolling
     from vibtrans.products import design
     pre = design.preset(args.preset) if args.preset else None
     device_values = {}
@@ -418,6 +444,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     mu = _finite("mu", args.mu, 0.0)
     shape = design.tip_shape(args.profile, half_angle=args.half_angle,
                              tip_radius=args.tip_radius, flat_radius=args.flat_radius)
+    rolling = check_rolling(args.rolling)
     device = None
     if len(device_values) == 3:
         device = units.DeviceSpec(substrate, particle, device_values["radius"],
@@ -430,11 +457,12 @@ def cmd_design(args: argparse.Namespace) -> int:
                                 compute=args.compute, store_dir=args.store,
                                 step=_finite("step", args.step, 0.0, 1.0),
                                 periods=_finite("periods", args.periods, 0.0), report=report,
-                                workers=args.workers, shape=shape)
+                                workers=args.workers, shape=shape, rolling=rolling)
     reading = quantities = None
     warnings = []
     if device is not None:
-        reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart, shape=shape)
+        reading = design.read_device(device, mu=mu, maps=args.maps, chart=chart, shape=shape,
+                                     rolling=rolling)
         quantities = design.device_quantities(device, reading, surface_energy, shape=shape)
         warnings = design.validity_warnings(device, surface_energy, quantities.drift_velocity,
                                             shape=shape)
@@ -450,6 +478,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({
             "profile": shape.name, "map_profile": chart.attrs["map_profile"],
+            **({"rolling": rolling} if rolling != "none" else {}),
             "device": None if quantities is None else {k: _jsonable(v)
                                                       for k, v in quantities.as_dict().items()},
             "regime": None if reading is None else reading["regime"],
@@ -464,7 +493,7 @@ def cmd_design(args: argparse.Namespace) -> int:
             "outputs": outs}))
     else:
         if device is not None:
-            print(_design_text(device, quantities, warnings, reading))
+            print(_design_text(device, quantities, warnings, reading, rolling))
         print(f"chart: {chart.sizes[y[0]]} x {chart.sizes[x[0]]} points, map "
               f"{chart.attrs['map']} ({chart.attrs['reading']})")
         for text in chart_warnings:
@@ -931,6 +960,8 @@ def _design_parser(sub):
                         "flat-sphere (needs --flat-radius) | file:PATH (two columns r z, m); "
                         "a chart of another profile than the sphere reads a map of its own "
                         "(--compute); docs/MODEL.md section 10")
+    _rolling_args(d, ROLLING_HELP + "; a chart of a particle that turns reads a map of its own "
+                                    "(--compute)")
     d.add_argument("--half-angle", type=_num, help="cone half-angle, degrees in (0, 90)")
     d.add_argument("--tip-radius", type=_num, help="power:N tip radius R_t, m")
     d.add_argument("--flat-radius", type=_num, help="flat-sphere: radius of the flat, m")

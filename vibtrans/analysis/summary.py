@@ -341,6 +341,20 @@ class Summary(NamedTuple):
     twin_chaotic: bool | None = None  # the twin's verdict (None: no twin ran)
     steady: bool | None = None   # the drift steady at the run's end (`steadiness`)
     steadiness: str = ""         # that, in words
+    rolling: str = "none"        # how the particle turns (docs/MODEL.md section 11), in words
+    max_episode_roll: float | None = None   # rolling: the largest rolled arc of a contact
+    #                                         episode, a0 (None: the particle does not turn)
+
+
+def rolling_words(attrs: Any) -> str:
+    """Whether a run's particle rolls, in words: "none" (it slides without
+    turning, the paper's particle), else its rolling and j = I/(m R^2)
+    (e.g. "solid sphere, j = 0.4")."""
+    j = attrs.get("inertia_ratio")
+    if j is None:
+        return "none"
+    name = {"solid": "solid sphere", "shell": "thin shell"}.get(str(attrs.get("rolling")))
+    return f"{name}, j = {float(j):.4g}" if name else f"j = {float(j):.4g}"
 
 
 def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = None,
@@ -366,12 +380,16 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
     Raises
     ------
     ValueError
-        If the twin comes from another model (a comparison run of the other
-        model is not a twin).
+        If the twin comes from another model, or rolls otherwise (a
+        comparison run of another particle is not a twin).
     """
     model = ds.attrs.get("model")
     if twin is not None and twin.attrs.get("model") != model:
         raise ValueError(f"the chaos twin must be a {model} run, got {twin.attrs.get('model')}")
+    if twin is not None and twin.attrs.get("inertia_ratio") != ds.attrs.get("inertia_ratio"):
+        raise ValueError(f"the chaos twin must roll as the run does (j = "
+                         f"{ds.attrs.get('inertia_ratio')}), got j = "
+                         f"{twin.attrs.get('inertia_ratio')}")
     t_to, _ = _events(ds, R.TAKEOFF)
     t_end = float(ds["time"].values[-1])
     tw = t_end * (1.0 - FINAL_FRACTION)
@@ -393,6 +411,10 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
         landing = earliest_landing(ds)
     # a run that starts in flight and never lands has no take-off event
     contact = "jumping" if jumping or launch is not None else "permanent"
+    verdict = regime(contact, pattern, chaotic, v, v_final, launch, landing, t_end, v0, lyapunov)
+    rolls = rolling_words(ds.attrs)
+    if rolls != "none":
+        verdict += f"; rolls ({rolls})"
     return Summary(
         drift_velocity=v,
         final_drift_velocity=v_final,
@@ -408,8 +430,7 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
         steps=int(ds.attrs.get("steps", 0)),
         seconds=float(ds.attrs.get("seconds", 0.0)),
         model=model,
-        regime=regime(contact, pattern, chaotic, v, v_final, launch, landing, t_end, v0,
-                      lyapunov),
+        regime=verdict,
         launched=launch is not None,
         launch_time=launch,
         earliest_landing=landing,
@@ -419,4 +440,7 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
         twin_chaotic=twin_chaotic,
         steady=steady,
         steadiness=steady_words,
+        rolling=rolls,
+        max_episode_roll=(None if ds.attrs.get("max_episode_roll") is None
+                          else float(ds.attrs["max_episode_roll"])),
     )

@@ -298,10 +298,14 @@ def _hertz_call(params, integ, state, hist, tangent, mem, buf, ctr, law, *, tang
                 stop_at_takeoff=False):
     """A Hertz run's kernel call to t_stop, call(t_stop) -> status: the
     kernel that kernels.dispatch.KERNELS names for the run (its model,
-    whether `tangent` advances, its law's kind), on the run's arrays (`mem`
-    and `buf` read at each call: the growers replace them)."""
+    whether `tangent` advances, its law's kind, whether the particle turns:
+    params.roll_ratio non-zero), on the run's arrays (`mem` and `buf` read
+    at each call: the growers replace them)."""
+    rolling = params.roll_ratio != 0.0
+    if rolling and not tangential:
+        raise ValueError("a rolling particle runs the deformable kernel (tangential=True)")
     kernel = kernel_for("deformable" if tangential else "vertical", tangent is not None,
-                        kind_of_law(law))
+                        kind_of_law(law), rolling)
     tangent = _NO_TANGENT if tangent is None else tangent
     law = _NO_LAW if law is None else law
 

@@ -28,6 +28,13 @@ MODELS = ("deformable", "point-mass", "vertical")
 INTEGRATORS = ("ab4", "verlet")
 FIDELITIES = ("preview", "standard", "reference")
 STICK_RULES = ("paper", "classical")
+# Rolling (docs/MODEL.md section 11): the particle's moment of inertia about
+# its centre, I = j m R^2, by name; "none" is the paper's particle, which
+# slides without turning.
+ROLLING_NAMES = {"solid": 0.4, "shell": 2.0 / 3.0}
+ROLLING_NONE = "none"
+ROLLING_RANGE = ("rolling must be none, solid (j = 2/5), shell (j = 2/3) or a number "
+                 "j = I/(m R^2) in (0, 1]")
 
 
 def _interval(lo, hi, inclusive):
@@ -92,6 +99,48 @@ class ProfileSpec(param.String):
         check_profile(val, self.refuse_measured)
 
 
+def check_rolling(val: Any) -> str | float:
+    """The canonical form of a rolling value: "none", "solid", "shell" or
+    j = I/(m R^2) as a float in (0, 1] (a number or its text); else
+    InputError naming the parameter and its range."""
+    if isinstance(val, str):
+        text = val.strip()
+        if text == ROLLING_NONE or text in ROLLING_NAMES:
+            return text
+        try:
+            number: Any = float(text)
+        except ValueError:
+            raise InputError(f"{ROLLING_RANGE}; got {val!r}") from None
+    elif isinstance(val, numbers.Real) and not isinstance(val, bool):
+        number = val
+    else:
+        raise InputError(f"{ROLLING_RANGE}; got {val!r}")
+    try:
+        j = float(number)
+    except OverflowError:
+        raise InputError(f"{ROLLING_RANGE}; got an integer too large") from None
+    if not 0.0 < j <= 1.0:             # (NaN fails too)
+        raise InputError(f"{ROLLING_RANGE}; got {val!r}")
+    return j
+
+
+def inertia_ratio(rolling: Any) -> float | None:
+    """j = I/(m R^2) of a rolling value (`check_rolling`); None: no rolling."""
+    value = check_rolling(rolling)
+    if value == ROLLING_NONE:
+        return None
+    return ROLLING_NAMES[value] if isinstance(value, str) else value
+
+
+class RollingSpec(param.Parameter):
+    """How the particle turns: none (it slides without turning, the paper's
+    model), solid (a solid sphere, j = 2/5), shell (a thin shell, j = 2/3) or
+    j = I/(m R^2) in (0, 1]; docs/MODEL.md section 11."""
+
+    def _validate(self, val):
+        check_rolling(val)
+
+
 @functools.lru_cache(maxsize=32)
 def _profile_shape(profile, load_over_modulus):
     """The profile object of a spec, parsed once (a file profile's MDR costs
@@ -154,6 +203,10 @@ class Scene(param.Parameterized):
         PROFILE_KINDS (e.g. "power:3").
     load_over_modulus : float, optional
         N0/E* [m^2], for file: profiles (their table is in metres).
+    rolling : str or float
+        How the particle turns (deformable model): "none" (the paper's
+        particle), "solid" (j = 2/5), "shell" (j = 2/3) or j = I/(m R^2)
+        in (0, 1], given as a number or its text.
 
     Raises
     ------
@@ -187,6 +240,8 @@ class Scene(param.Parameterized):
                                  inclusive_bounds=(False, False),
                                  doc="N0/E*, m^2: the static load over the contact modulus "
                                      "(file: profiles only, whose table is in metres)")
+    rolling = RollingSpec(ROLLING_NONE, doc="how the particle turns (deformable model): none, "
+                          "solid (j = 2/5), shell (j = 2/3) or j = I/(m R^2) in (0, 1]")
 
     def __init__(self, **params: Any) -> None:
         for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
@@ -196,8 +251,21 @@ class Scene(param.Parameterized):
         unknown = set(params) - set(self.param) - {"name"}
         if unknown:
             raise InputError(f"unknown scene parameter(s): {', '.join(sorted(unknown))}")
+        if "rolling" in params:
+            params = {**params, "rolling": check_rolling(params["rolling"])}
         super().__init__(**params)
         self.profile_shape()           # a file profile is read and checked now
+        if self.rolling != ROLLING_NONE and self.model != "deformable":
+            why = ("the material point has no size to turn" if self.model == "point-mass"
+                   else "the vertical model has no tangential motion")
+            raise InputError(f"rolling applies to the deformable model only ({why}): "
+                             f"use rolling='none' with model={self.model!r}; got "
+                             f"rolling={self.rolling!r}")
+
+    @property
+    def inertia_ratio(self) -> float | None:
+        """j = I/(m R^2) of a rolling particle; None: it does not turn."""
+        return inertia_ratio(self.rolling)
 
     def profile_shape(self) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
         """The profile object (vibtrans.core.profiles) of this scene; its
@@ -211,9 +279,13 @@ class Scene(param.Parameterized):
 
     def values(self) -> dict[str, Any]:
         """The scene as a plain dict (attributes of results, JSON).  The
-        profile's load appears only where it is set (a file: profile)."""
+        profile's load appears only where it is set (a file: profile),
+        rolling only where the particle rolls (a scene that does not keeps
+        the values, the results' attributes and the map keys it had before
+        rolling existed)."""
         return {k: getattr(self, k) for k in self.param
-                if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)}
+                if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)
+                and not (k == "rolling" and self.rolling == ROLLING_NONE)}
 
     def replace(self, **changes: Any) -> Scene:
         """A copy with some values changed (validated)."""

@@ -258,10 +258,17 @@ def hertz_params(scene: Scene, w0: Any, w1: Any, samples_per_period: int, refine
                   scales=drivers.scene_scales(scene))
     p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
                         scene.tau, h, scene.periods, 1.0 / samples_per_period, (w0, w1),
-                        shortcuts)
+                        shortcuts, roll_ratio(scene))
     n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
     capacity = int(scene.periods * samples_per_period) + n_win + 16
     return p, h, capacity
+
+
+def roll_ratio(scene: Scene) -> float:
+    """1/j = m R^2 / I of a rolling scene's particle (the kernels'
+    HertzParams.roll_ratio), 0.0 for one that does not turn."""
+    j = scene.inertia_ratio
+    return 0.0 if j is None else 1.0 / j
 
 
 def lyapunov_start(scene: Scene, decide: Any = None) -> Any:
@@ -285,6 +292,11 @@ def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
                             samples_capacity=capacity, progress=progress, cancel=cancel,
                             lyapunov_from=t_from, decide=decide, law=drivers.scene_law(scene))
     info = {"h": h}
+    if p.roll_ratio != 0.0:
+        # the rolled arc within a contact episode: the plane model's check
+        # (docs/MODEL.md section 11)
+        info.update(inertia_ratio=scene.inertia_ratio, max_episode_roll=D.episode_roll(
+            run.state, run.ctr[R.C_MODE] == D.MODE_CONTACT, p.roll_ratio))
     if lyapunov:
         if decide is not None and decide.reason == STOP_FLIGHT:
             _flight_tangent_to_end(run.tangent, run.state, scene.periods)

@@ -2,9 +2,11 @@
 
     dims:  time (recorded instants), event (take-offs, landings, state changes)
     vars:  x, vx, y, vy, a, b, bdot, N, T, state, stick_radius, contact_radius
-           event_time, event_kind, event_value
+           event_time, event_kind, event_value; a rolling particle's also
+           roll, roll_velocity, slip_velocity (docs/MODEL.md section 11)
     attrs: every scene parameter, r, the step h, steps, force_evaluations,
-           seconds, the code version, and the run's window.
+           seconds, the code version, and the run's window; a rolling
+           particle's inertia_ratio j and max_episode_roll.
 
 Normalized units (docs/MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
 periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
@@ -34,7 +36,23 @@ _UNITS = {
     "T": ("T*", "tangential force / (mu N(a0))"),
     "stick_radius": ("s", "stick radius, units of sqrt(R a0)"),
     "contact_radius": ("c", "contact radius, units of sqrt(R a0)"),
+    "roll": ("omega R dt", "rolled arc, the integral of omega R, / a0 (angle x R / a0)"),
+    "roll_velocity": ("omega R", "rolling velocity of the surface about the centre, a0 per "
+                                 "period"),
+    "slip_velocity": ("x*' + omega R - u_x*'", "contact point's velocity relative to the "
+                                               "substrate, a0 per period"),
 }
+
+
+def _rolling_columns(columns, attrs):
+    """A rolling particle's rotation, which the kernel does not record: with
+    j (omega R)' = x*'' from rest, omega R = x*'/j and its integral x*/j at
+    every instant (flights included); the contact point slips at
+    theta mu b*' (b*' = ((1 + 1/j) x*' - u_x*') / (theta mu))."""
+    roll_ratio = 1.0 / float(attrs["inertia_ratio"])     # as the kernel's (simulate.roll_ratio)
+    columns["roll"] = columns["x"] * roll_ratio
+    columns["roll_velocity"] = columns["vx"] * roll_ratio
+    columns["slip_velocity"] = columns["bdot"] * (float(attrs["theta"]) * float(attrs["mu"]))
 
 
 class _Column:
@@ -63,6 +81,8 @@ class RunArrays:
             if name not in ("t", "state"):
                 columns[name] = take(samples[:, i])
         columns["state"] = samples[:, R.STATE].astype(np.int8)
+        if "inertia_ratio" in attrs:
+            _rolling_columns(columns, attrs)
         columns["event_time"] = take(events[:, 0])
         columns["event_kind"] = events[:, 1].astype(np.int8)
         columns["event_value"] = take(events[:, 2])

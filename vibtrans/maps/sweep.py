@@ -63,6 +63,10 @@ SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
 # is not the sphere (stores made before profiles are the sphere's, and keep
 # their keys); load_over_modulus only with a file: profile.
 PROFILE_KEYS = ("profile", "load_over_modulus")
+# How the particle turns (docs/MODEL.md section 11): in a sweep's values and
+# attrs only for a particle that turns (a map of one that does not keeps
+# the keys, stores and cache entries it had before rolling existed).
+ROLLING_KEY = "rolling"
 VARIABLES = {
     # name: (dtype, fill, description)
     "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
@@ -267,6 +271,8 @@ class Sweep:
             self.values["profile"] = scene.profile
             if scene.load_over_modulus is not None:
                 self.values["load_over_modulus"] = scene.load_over_modulus
+        if ROLLING_KEY in scene.values():
+            self.values[ROLLING_KEY] = scene.rolling
         self.log_amplitude = np.asarray(log_amplitude, dtype=float)
         self.log_mass = np.asarray(log_mass, dtype=float)
         if not (isinstance(chunk_rows, int) and chunk_rows >= 1):
@@ -312,6 +318,9 @@ def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> N
         if k not in sweep.values and f"scene_{k}" in ds.attrs:
             problems.append(f"{k}: store {ds.attrs[f'scene_{k}']!r}, command "
                             f"{'sphere' if k == 'profile' else None!r}")
+    if ROLLING_KEY not in sweep.values and f"scene_{ROLLING_KEY}" in ds.attrs:
+        problems.append(f"{ROLLING_KEY}: store {ds.attrs[f'scene_{ROLLING_KEY}']!r}, "
+                        f"command 'none'")
     for name in ("log_amplitude", "log_mass"):
         grid = getattr(sweep, name)
         if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):

@@ -36,6 +36,7 @@ import numpy as np
 
 from vibtrans.core import units
 from vibtrans.core.errors import InputError, InputTypeError
+from vibtrans.core.params import ROLLING_NONE, check_rolling, inertia_ratio
 from vibtrans.core.units import DeviceSpec
 from vibtrans.products import designtip
 
@@ -451,11 +452,16 @@ def _grid_range(values, step):
 
 
 def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
-                      load_over_modulus=None):
+                      load_over_modulus=None, rolling=ROLLING_NONE):
     """Why a shipped map cannot serve (list of text; empty if it can).
     profile: the normalized profile the points need (a tip's
-    TipContact.profile; the map's scene_profile, absent for the sphere)."""
+    TipContact.profile; the map's scene_profile, absent for the sphere);
+    rolling: how the particle turns (the map's scene_rolling, absent for
+    a particle that does not)."""
     problems = []
+    mr = ds.attrs.get("scene_rolling", ROLLING_NONE)
+    if inertia_ratio(mr) != inertia_ratio(rolling):
+        problems.append(f"rolling {rolling} (map: {mr})")
     mp = ds.attrs.get("scene_profile", "sphere")
     if mp != profile:
         problems.append(f"profile {profile} (map: {mp})")
@@ -497,11 +503,13 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
                  store_dir: str | os.PathLike[str], step: Any = MAP_STEP, periods: float = 2000.0,
                  tau: float = 50.0, fidelity: str = COMPUTE_FIDELITY, report: Any = print,
                  workers: int | None = None, profile: str = "sphere",
-                 load_over_modulus: float | None = None) -> tuple[xr.Dataset, str]:
+                 load_over_modulus: float | None = None,
+                 rolling: str | float = ROLLING_NONE) -> tuple[xr.Dataset, str]:
     """The normalized window covering (log_a, log_m) on a `step`-decade grid,
     computed with vibtrans.maps.sweep into a store under `store_dir` (kept: a rerun
     reuses or resumes it). The cost is reported before anything runs.
-    profile, load_over_modulus: the particle's normalized profile (Scene's)."""
+    profile, load_over_modulus: the particle's normalized profile (Scene's);
+    rolling: how it turns (Scene's)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
     step = units.check_interval("step", step, 0.0, 1.0, hi_open=False)
@@ -523,6 +531,9 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
         values["profile"] = profile
         if load_over_modulus is not None:
             values["load_over_modulus"] = float(load_over_modulus)
+    rolling = check_rolling(rolling)
+    if rolling != ROLLING_NONE:         # (a particle that does not turn: keys as before)
+        values["rolling"] = rolling
     points, per, steps = compute_cost(la, lm, values)
     key = json.dumps({**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]},
                      sort_keys=True)
@@ -532,7 +543,8 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
            f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
            f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
            f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
-           + ("" if profile == "sphere" else f", profile {profile}") + ")")
+           + ("" if profile == "sphere" else f", profile {profile}")
+           + ("" if rolling == ROLLING_NONE else f", rolling {rolling}") + ")")
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
@@ -581,7 +593,7 @@ def read_map(map_ds: xr.Dataset, log_a: npt.ArrayLike, log_m: npt.ArrayLike) -> 
     return out
 
 
-def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere"):
+def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere", rolling=ROLLING_NONE):
     """(the shipped map of `mu` if it serves these points, else None; why
     it cannot: a list of text, empty when it can)."""
     from vibtrans.core.errors import StoreMismatch
@@ -589,6 +601,9 @@ def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere"):
     if profile != "sphere":
         return None, [f"the shipped maps are the sphere's; profile {profile} needs a map "
                       f"of its own"]
+    if check_rolling(rolling) != ROLLING_NONE:
+        return None, [f"the shipped maps are of a particle that does not turn; rolling "
+                      f"{rolling} needs a map of its own"]
     path = shipped_map_path(mu, maps)
     if not path.exists():
         return None, [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
@@ -609,16 +624,17 @@ class NoMapCovers(InputError):
         self.need = need
 
 
-def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None):
+def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None,
+              rolling=ROLLING_NONE):
     return MapNeed(float(mu), float(theta), float(nu),
                    (float(np.min(log_a)), float(np.max(log_a))),
                    (float(np.min(log_m)), float(np.max(log_m))), tuple(problems), profile,
-                   load_over_modulus)
+                   load_over_modulus, check_rolling(rolling))
 
 
 def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
-                workers, profile="sphere", load_over_modulus=None):
-    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, profile)
+                workers, profile="sphere", load_over_modulus=None, rolling=ROLLING_NONE):
+    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, profile, rolling)
     if ds is not None:
         return ds, f"shipped: {shipped_map_path(mu, maps).name}"
     if not compute:
@@ -626,10 +642,10 @@ def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, per
                           + ". Compute the window with --compute (API: compute=True; a "
                             "preview-fidelity sweep, cost printed first) or narrow the axes",
                           _map_need(mu, theta, nu, log_a, log_m, problems, profile,
-                                    load_over_modulus))
+                                    load_over_modulus, rolling))
     ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
                              periods=periods, report=report, workers=workers, profile=profile,
-                             load_over_modulus=load_over_modulus)
+                             load_over_modulus=load_over_modulus, rolling=rolling)
     return ds, f"computed: {where}"
 
 
@@ -695,20 +711,24 @@ class MapNeed:
     shipped_problems: tuple
     profile: str = "sphere"
     load_over_modulus: float | None = None
+    rolling: str | float = ROLLING_NONE
 
 
 def chart_needs(substrate: str | Material, particle: str | Material, preload: float = 0.0,
                 x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
                 fixed: tuple = ("radius", 0.5e-3), mu: Any = 0.3, maps: Any = None,
-                g: float = G_STANDARD, shape: Any = None) -> MapNeed:
+                g: float = G_STANDARD, shape: Any = None,
+                rolling: str | float = ROLLING_NONE) -> MapNeed:
     """The MapNeed of a chart (design_chart's arguments): which map it
     reads, and whether a shipped one serves it.  Nothing is computed."""
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     mu = units.check_positive("mu", mu)
+    rolling = check_rolling(rolling)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
-    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile)
+    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile,
+                               rolling)
     return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile,
-                     grid.tip.load_over_modulus)
+                     grid.tip.load_over_modulus, rolling)
 
 
 def design_chart(substrate: str | Material, particle: str | Material, preload: float = 0.0,
@@ -720,7 +740,8 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
                  periods: float = 2000.0, report: Callable[[str], object] = print,
                  workers: int | None = None, g: float = G_STANDARD,
                  map_ds: xr.Dataset | None = None, map_name: str = "given map",
-                 shape: TipShape | None = None) -> xr.Dataset:
+                 shape: TipShape | None = None,
+                 rolling: str | float = ROLLING_NONE) -> xr.Dataset:
     """The design chart: a device's drift over two of its SI quantities.
 
     Each point of the (y, x) grid is mapped to the normalized plane and read
@@ -766,6 +787,10 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     shape : TipShape, optional
         The particle's tip (`designtip.tip_shape`; None: the sphere); the
         map read is that profile's.
+    rolling : str or float
+        How the particle turns (Scene's `rolling`: none, solid, shell or
+        j = I/(m R^2)); the map read is that particle's (the shipped maps'
+        particle does not turn).
 
     Returns
     -------
@@ -774,7 +799,8 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
         v_star, drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES
         index), contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
         adhesion_ratio (DMT pull-off / load) and travel_over_wavelength
-        (abs(v) / c_R); attrs name the map read and the profile.
+        (abs(v) / c_R); attrs name the map read, the profile and, for a
+        particle that turns, its rolling.
 
     Raises
     ------
@@ -791,6 +817,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
         grid.fixed_value
     mu = units.check_positive("mu", mu)
+    rolling = check_rolling(rolling)
     w = _surface_energy(surface_energy)
     if compute and store_dir is None:
         raise InputError("store_dir (--store) is needed to compute a map")
@@ -799,7 +826,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     log_a, log_m = np.log10(A), np.log10(M)
     if map_ds is not None:
         problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, tip.profile,
-                                     tip.load_over_modulus)
+                                     tip.load_over_modulus, rolling)
         if problems:
             raise InputError(f"the {map_name} does not serve this chart: "
                              + "; ".join(problems))
@@ -807,7 +834,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     else:
         map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
                                      step, periods, report, workers, tip.profile,
-                                     tip.load_over_modulus)
+                                     tip.load_over_modulus, rolling)
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
     c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
@@ -861,6 +888,8 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
                     f"decades from the device in log10 A* and in log10 m*"),
         "rayleigh_speed": float(c_R),
     }
+    if rolling != ROLLING_NONE:
+        attrs["rolling"] = rolling
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -869,7 +898,8 @@ _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str] | None = None,
                 chart: xr.Dataset | None = None, map_ds: xr.Dataset | None = None,
-                map_name: str = "given map", shape: TipShape | None = None) -> dict[str, Any] | None:
+                map_name: str = "given map", shape: TipShape | None = None,
+                rolling: str | float = ROLLING_NONE) -> dict[str, Any] | None:
     """The map reading at one device.
 
     From `map_ds` (named `map_name`) or `chart`'s map when given (the device
@@ -892,12 +922,14 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
         `map_ds`'s name in the reading.
     shape : TipShape, optional
         The particle's tip (None: the sphere).
+    rolling : str or float
+        How the particle turns (Scene's `rolling`).
 
     Returns
     -------
     dict or None
         v_star, contact_fraction, regime and map; None when no map serves
-        the device (outside, other theta/nu/mu, another profile).
+        the device (outside, other theta/nu/mu, another profile or rolling).
 
     Raises
     ------
@@ -908,7 +940,8 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
     shape = tip_shape("sphere" if shape is None else shape)
     s, tip, A_star, m_star = _device_tip(_device(device), shape)
     la, lm = np.log10([A_star]), np.log10([m_star])
-    need = (tip.profile, tip.load_over_modulus)
+    rolling = check_rolling(rolling)
+    need = (tip.profile, tip.load_over_modulus, rolling)
     if map_ds is not None:
         if _shipped_problems(map_ds, s.theta, s.nu, float(mu), la, lm, *need):
             return None
@@ -916,13 +949,14 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
     path = shipped_map_path(mu, maps)
     if chart is not None and chart.attrs["map"].startswith("computed: "):
         path = Path(chart.attrs["map"].split(": ", 1)[1])
-    elif not shape.is_sphere:
-        return None                   # the shipped maps are the sphere's
+    elif not shape.is_sphere or rolling != ROLLING_NONE:
+        return None                   # the shipped maps are a sphere's that does not turn
     if not path.exists():
         return None
     ds = open_map(str(path))
     if _shipped_problems(ds, s.theta, s.nu, float(mu), la, lm, *need) and (
-            chart is None or ds.attrs.get("scene_profile", "sphere") != tip.profile):
+            chart is None or ds.attrs.get("scene_profile", "sphere") != tip.profile
+            or inertia_ratio(ds.attrs.get("scene_rolling", ROLLING_NONE)) != inertia_ratio(rolling)):
         return None
     ga, gm = ds["log_amplitude"].values, ds["log_mass"].values
     if not (ga[0] <= la[0] <= ga[-1] and gm[0] <= lm[0] <= gm[-1]):

@@ -24,6 +24,13 @@ which are measured side by side, more than the absolute times).
   sphere tabulated) over Hertz's path (the profiles' own motions may differ
   from the sphere's: their share of stick, slip and flight steps;
   `python -m devtools.profilecalls` counts them);
+* the rolling particle's cost (docs/MODEL.md section 11): ns per step of
+  the rolling kernel on the motion of the particle that does not turn (its
+  1/j so small that the contact point is x* exactly: the same records bit
+  for bit) over the plain kernel's, at paper points 1, 4, 6, measured
+  round-robin: the rolling code's own cost (goal <= 1.05); beside it the
+  cost per step of the scenes with a solid and a shell particle, whose
+  motion (share of stick, slip and sliding steps) is their own;
 * each exact-to-rounding kernel shortcut (models.deformable.SHORT_*: the
   ramp G = 1 once exp(-t^2/tau^2) < 2^-60, sin/cos advanced by rotation)
   switched off alone: its speed-up and the drift difference it makes.
@@ -132,6 +139,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     ns_mem, states = _memory_ns(repeat)
     lyapunov = _lyapunov_cost(repeat)
     profiles = _profile_cost(repeat)
+    rolling = rolling_cost(repeat)
     scenes = {}
     for point in (1, 4, 6):
         sc = paper_scene(point)
@@ -156,6 +164,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         "scene_seconds_2000_periods": scenes,
         "lyapunov_cost": lyapunov,
         "profile_cost": profiles,
+        "rolling_cost": rolling,
     }
 
 
@@ -211,6 +220,62 @@ def _profile_cost(repeat, point=1):
     out["same_motion_power_over_sphere"] = same[1] / same[0]
     out["same_motion_tabulated_over_sphere"] = same[2] / same[0]
     out["same_motion_power_pow_over_sphere"] = same[3] / same[0]
+    return out
+
+
+# 1/j of the rolling kernel's same-motion run: 1 + 1/j == 1.0 exactly
+SAME_MOTION_ROLL_RATIO = 1e-300
+
+
+def rolling_cost(repeat: int, points: tuple[int, ...] = (1, 4, 6)) -> dict[str, Any]:
+    """ns per step of the deformable kernel at paper points, round-robin in
+    one process: the plain kernel; the rolling kernel on the same motion
+    (1/j = SAME_MOTION_ROLL_RATIO: its contact point is x* exactly, its
+    records the plain kernel's bit for bit), whose ratio is the rolling
+    code's own cost; and the scenes of a solid and a shell particle
+    (Scene rolling solid, shell), whose motion differs.  Per point: the
+    ns per step, the ratios, whether the same-motion records are equal,
+    and each run's share of stick, partial-slip and sliding samples.
+    Timed in the calling thread's CPU time (the kernel runs there), best of
+    3 x `repeat` rounds: a ratio of a few per cent needs more than the wall
+    time of a shared machine gives."""
+    from vibtrans.core import drivers
+    from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
+    out: dict[str, Any] = {}
+    for point in points:
+        sc = paper_scene(point)
+        runs = {}
+        for name, scene in (("none", sc), ("solid", sc.replace(rolling="solid")),
+                            ("shell", sc.replace(rolling="shell"))):
+            p, _, cap = hertz_params(scene, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1.0,
+                                     D.SHORTCUTS_ALL, None)
+            runs[name] = (p, cap)
+        runs["same_motion"] = (runs["none"][0]._replace(roll_ratio=SAME_MOTION_ROLL_RATIO),
+                               runs["none"][1])
+        integrator = sc.integrator
+
+        def once(p, cap):
+            t0 = time.thread_time()
+            run = drivers.run_hertz(p, integrator, tangential=True,  # noqa: B023 (this point's)
+                                    samples_capacity=cap)
+            return time.thread_time() - t0, run
+        first = {name: once(*args)[1] for name, args in runs.items()}      # warm-up
+        best = dict.fromkeys(runs, math.inf)
+        for _ in range(3 * repeat):
+            for name, args in runs.items():
+                best[name] = min(best[name], once(*args)[0])
+        ns = {name: 1e9 * best[name] / int(first[name].ctr[R.C_STEPS]) for name in runs}
+        states = {name: [int(v) for v in np.bincount(
+            first[name].samples[:, R.STATE].astype(int), minlength=4)[1:]] for name in runs}
+        out[f"point {point}"] = {
+            "ns_per_step": ns,
+            "same_motion_over_none": ns["same_motion"] / ns["none"],
+            "same_motion_records_equal": bool(np.array_equal(first["same_motion"].samples,
+                                                             first["none"].samples)),
+            "solid_over_none": ns["solid"] / ns["none"],
+            "shell_over_none": ns["shell"] / ns["none"],
+            "samples_stick_partial_sliding": states,
+        }
     return out
 
 
@@ -365,6 +430,11 @@ def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
           f"{c['same_motion_power_over_sphere']:.2f} x, table path "
           f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's (power-law path with "
           f"pow() at every evaluation {c['same_motion_power_pow_over_sphere']:.2f} x)")
+    for point, c in r["rolling_cost"].items():
+        print(f"  rolling, paper {point}: rolling kernel on the same motion "
+              f"{c['same_motion_over_none']:.3f} x (goal <= 1.05; records equal: "
+              f"{c['same_motion_records_equal']}); solid {c['solid_over_none']:.2f} x, shell "
+              f"{c['shell_over_none']:.2f} x per step (their own motion)")
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")

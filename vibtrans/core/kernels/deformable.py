@@ -6,6 +6,12 @@ Normalized equations (docs/MODEL.md section 1):
     m* x'' = -mu T*(b*, a*, history),   m* y'' = 1 - N*(a*),
     a* = y* - u_y*(t),   theta mu b* = x* - u_x*(t).
 
+A rolling particle (docs/MODEL.md section 11; HertzVariant.rolling) turns
+under T*: j m* (omega R)' = -mu T*, so omega R - x*'/j is constant, zero
+from rest, and the contact point, which the memory diagram sees, is at
+(1 + 1/j) x*: theta mu b* = (1 + 1/j) x* - u_x*(t).  The state stays the
+centre's; HertzParams.roll_ratio is 1/j.
+
 One loop serves every variant (`HertzVariant`: the full model or the
 vertical one, with or without the Lyapunov tangent, and the contact law's
 kind), each compiled as a kernel of its own (`hertz_kernel`: a copy of the
@@ -20,7 +26,8 @@ and grow buffers (records.py).
 Arguments:
     params  HertzParams (a NamedTuple, from `kernel_params`): the scene, the
             step and the sampling.
-    state   float64[NSTATE]: current (t, x, vx, y, vy) and the flight origin.
+    state   float64[NSTATE]: current (t, x, vx, y, vy), the flight origin, and
+            a rolling kernel's contact-episode extremes.
     hist    float64[4, 4]:   derivative history F = (vx, ax, vy, ay), hist[j] = F_{n-j}.
 
 The kernel is a loop over named phases (each a helper or an inlined
@@ -65,6 +72,7 @@ class HertzParams(NamedTuple):
     win_t0: float       # full-resolution window [win_t0, win_t1], periods
     win_t1: float       #   (empty when win_t0 > win_t1)
     shortcuts: int      # bits SHORT_* switched on
+    roll_ratio: float = 0.0   # 1/j = m R^2 / I of a rolling particle (rolling kernels only)
 
 
 # Shortcuts (bits of HertzParams.shortcuts); `vibtrans bench` measures
@@ -75,7 +83,10 @@ SHORTCUTS_ALL = SHORT_RAMP | SHORT_ROTATION
 ROTATION_STEPS = 64  # exact cos, sin every 64 steps: rounding stays ~1e-14
 # state
 S_T, S_X, S_VX, S_Y, S_VY, S_T0, S_X0, S_VX0, S_Y0, S_VY0, S_GAP = range(11)
-NSTATE = 11  # S_GAP: a* at the last committed step (locates take-offs)
+# a rolling kernel's contact episodes: the lowest and highest x* of the one
+# in progress, and the largest span (highest - lowest x*) of the finished ones
+S_EPISODE_LO, S_EPISODE_HI, S_EPISODE_SPAN = range(11, 14)
+NSTATE = 14  # S_GAP: a* at the last committed step (locates take-offs)
 MODE_CONTACT = 0
 MODE_FLIGHT = 1
 
@@ -98,13 +109,25 @@ TANGENT_BIG = 1e100              # renormalize when |d|^2 leaves [1/BIG, BIG]
 
 
 def kernel_params(amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt,
-                  window=(math.inf, -math.inf), shortcuts=SHORTCUTS_ALL):
+                  window=(math.inf, -math.inf), shortcuts=SHORTCUTS_ALL, roll_ratio=0.0):
     """The kernels' HertzParams (values already validated).  Every field is
     converted to float (shortcuts to int), so that one compiled variant
-    serves every caller."""
+    serves every caller.  roll_ratio: 1/j of a rolling particle, 0 for one
+    that does not turn (the kernel is chosen by it: drivers.run_hertz)."""
     return HertzParams(float(amplitude), float(mass), float(mu), float(theta), float(r),
                        float(tau), float(h), float(t_end), float(sample_dt),
-                       float(window[0]), float(window[1]), int(shortcuts))
+                       float(window[0]), float(window[1]), int(shortcuts), float(roll_ratio))
+
+
+def episode_roll(state, in_contact, roll_ratio):
+    """The largest rolling travel within one contact episode of a rolling
+    run, in a0: the span of the rolled arc x*/j over each episode (the one
+    in progress too, if `in_contact`), from the kernel's S_EPISODE_* (to
+    within a step at the run's end)."""
+    span = state[S_EPISODE_SPAN]
+    if in_contact:
+        span = max(span, state[S_EPISODE_HI] - state[S_EPISODE_LO])
+    return float(span * roll_ratio)
 
 
 def rest_state(y0=1.0):
@@ -168,6 +191,22 @@ def lyapunov_exponent(tangent, state):
 
 
 @helper
+def contact_point(x, kc, rolling):
+    """A rolling particle's contact point kc x* (kc = 1 + 1/j; the same
+    for velocities), else the centre's x*."""
+    return kc * x if rolling else x
+
+
+@helper
+def _episode_end(state):
+    """A contact episode ends at the take-off state[S_X0]: its span (highest
+    minus lowest x*, the take-off's included) joins S_EPISODE_SPAN."""
+    x_off = state[S_X0]
+    span = max(state[S_EPISODE_HI], x_off) - min(state[S_EPISODE_LO], x_off)
+    state[S_EPISODE_SPAN] = max(state[S_EPISODE_SPAN], span)
+
+
+@helper
 def _set_motion(state, x, vx, y, vy):
     """The particle's current position and velocity (state[S_X:S_VY])."""
     state[S_X] = x
@@ -187,21 +226,22 @@ def _flight_point(state, t, m):
 
 
 @helper
-def _record_flight(samples, ctr, state, t, p, tangential):
+def _record_flight(samples, ctr, state, t, p, tangential, rolling):
     """One sample row at time t of the flight (N* = T* = 0)."""
     x, vx, y, vy = _flight_point(state, t, p.mass)
     ux, uy, uxd, uyd = surface_motion(t, p.amplitude, p.r, p.tau)
     if tangential:
         scale = p.theta * p.mu
-        R.record(samples, ctr, t, x, vx, y, vy, y - uy, (x - ux) / scale,
-                 (vx - uxd) / scale, 0.0, 0.0, FLIGHT, 0.0, 0.0)
+        kc = 1.0 + p.roll_ratio if rolling else 1.0
+        R.record(samples, ctr, t, x, vx, y, vy, y - uy, (contact_point(x, kc, rolling) - ux) / scale,
+                 (contact_point(vx, kc, rolling) - uxd) / scale, 0.0, 0.0, FLIGHT, 0.0, 0.0)
     else:
         R.record(samples, ctr, t, 0.0, 0.0, y, vy, y - uy, 0.0, 0.0,
                  0.0, 0.0, FLIGHT, 0.0, 0.0)
 
 
 @helper
-def _sample_flight(p, state, samples, ctr, t, t_fin, tangential):
+def _sample_flight(p, state, samples, ctr, t, t_fin, tangential, rolling):
     """Record the flight's coarse samples and full-resolution window points
     in (t, t_fin] (a flight has no steps: window points lie on the step grid
     k h).  False when `samples` is full (nothing lost: the cursors say where
@@ -223,7 +263,7 @@ def _sample_flight(p, state, samples, ctr, t, t_fin, tangential):
             return True
         if ctr[R.C_NSAMP] >= cap_s:
             return False
-        _record_flight(samples, ctr, state, ts, p, tangential)
+        _record_flight(samples, ctr, state, ts, p, tangential, rolling)
         if tc <= ts:
             ctr[R.C_NEXT] += 1
         if tw <= ts:
@@ -231,7 +271,7 @@ def _sample_flight(p, state, samples, ctr, t, t_fin, tangential):
 
 
 @helper
-def _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential):
+def _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential, rolling):
     """Landing at t = state[S_T]: contact restarts.  The springs attach
     where the particle touches (a virgin memory diagram at b* of the
     landing point), and the multistep history is filled from the parabola
@@ -248,7 +288,7 @@ def _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential):
         nvert[0] = 0
         nvert[1] = 0
         memf[0] = 0.0
-        memf[1] = (x - ux) / (p.theta * p.mu)
+        memf[1] = (contact_point(x, 1.0 + p.roll_ratio, rolling) - ux) / (p.theta * p.mu)
     for j in range(4):
         hist[j, 0] = vx
         hist[j, 1] = 0.0
@@ -304,13 +344,14 @@ def _substrate_at(t1, cw, sw, t_flat, p):
 
 
 @template(inline)
-def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm):
+def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm, roll_ratio):
     """Hertz's N* = a*^(3/2) (or the profile's law, `law_kind`) and the
     memory diagram's committed T* at the step end (docs/MODEL.md sections 2,
     10).  Returns (a*, c1, N*, b*, T*, s_h, contact state, warm): c1 = sqrt(a*)
     for the sphere, N*'(a*) with a profile (0 off contact); warm: the
     profile's warm-start histories (law_eval_warm) at a* and at the stick
-    edge, a pair the kernel carries from step to step."""
+    edge, a pair the kernel carries from step to step.  roll_ratio: a
+    rolling particle's 1/j (its contact point is at (1 + 1/j) x*)."""
     a1 = y1 - uy
     c1 = 0.0                      # contact radius sqrt(a*) (profile: N*'(a*))
     nf = 0.0                      # Hertz: N* = a*^(3/2)
@@ -322,7 +363,7 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm):
             c1 = math.sqrt(a1)
             nf = a1 * c1
     if tangential:
-        b1 = (x1 - ux) * inv_scale
+        b1 = ((x1 * (1.0 + roll_ratio) if rolling else x1) - ux) * inv_scale
         tf, sh, st, ws = memory_commit(H, W, Pm, nvert, memf, a1, c1, b1, law, nf, ws)
     else:
         b1 = 0.0
@@ -399,7 +440,7 @@ def _hermite(p0, v0, p1, v1, h, s):
 
 @helper
 def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
-                t1, x1, vx1, y1, vy1, tangential, law, law_kind):
+                t1, x1, vx1, y1, vy1, tangential, law, law_kind, rolling):
     """Record the state at t_end, inside the last step (t0, t1]: positions
     and velocities exact on a flight parabola, else Hermite-interpolated;
     a*, b*, b*', N* from them and the exact substrate motion at t_end; the
@@ -429,8 +470,10 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
         nf = a * c
     if tangential:
         scale = p.theta * p.mu
-        R.record(samples, ctr, t_end, x, vx, y, vy, a, (x - ux) / scale,
-                 (vx - uxd) / scale, nf, max(-nf, min(tf, nf)), st, stick, c)
+        kc = 1.0 + p.roll_ratio if rolling else 1.0
+        R.record(samples, ctr, t_end, x, vx, y, vy, a, (contact_point(x, kc, rolling) - ux) / scale,
+                 (contact_point(vx, kc, rolling) - uxd) / scale, nf, max(-nf, min(tf, nf)), st,
+                 stick, c)
     else:
         R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, nf, 0.0,
                  st, 0.0, c)
@@ -450,7 +493,7 @@ def _stick_stiffness(H, nvert, st, sh, a1, c1):
 
 @helper
 def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh, c1,
-                 scale, tangential, law, law_kind):
+                 scale, tangential, law, law_kind, kc, rolling):
     """One sample row at the step end t1 (contact and stick radii in units
     of the static contact radius).  c1: N*'(a1) of the step's contact force
     (a profile's; in contact, st != FLIGHT, it is law_eval's at a1).  sh:
@@ -465,7 +508,7 @@ def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh
     else:
         c = math.sqrt(a1) if a1 > 0.0 else 0.0
         s = math.sqrt(sh) if sh > 0.0 else 0.0
-    bd = (vx1 - uxd) / scale if tangential else 0.0
+    bd = (contact_point(vx1, kc, rolling) - uxd) / scale if tangential else 0.0
     R.record(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, bd, nf, tf, st, s, c)
 
 
@@ -637,9 +680,11 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     contact one committed step at a time.  A template (`hertz_kernel`): its
     HertzVariant's flags are global constants of each copy, `tangential`
     (the memory diagram and x, or the vertical motion alone), `lyapunov`
-    (the vertical motion's tangent advanced alongside, in `tangent`) and
+    (the vertical motion's tangent advanced alongside, in `tangent`),
     `law_kind` (contact.SPHERE: Hertz's law; else the profile's `law`,
-    contact.law_eval), with the law kind's `memory_commit`.  Returns a
+    contact.law_eval), with the law kind's `memory_commit`, and `rolling`
+    (the memory diagram sees the contact point at (1 + 1/j) x*, and the
+    contact episodes' extremes of x* are kept, S_EPISODE_*).  Returns a
     records.* status.
 
     The tangent's hot values (dy, dvy, dh: `_tangent_load`) live in locals;
@@ -680,7 +725,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             t_land = find_landing(state[S_T0], state[S_Y0], state[S_VY0], m, p.amplitude,
                                   p.tau, t, limit, h)
             t_fin = limit if t_land < 0.0 else t_land
-            if not _sample_flight(p, state, samples, ctr, t, t_fin, tangential):
+            if not _sample_flight(p, state, samples, ctr, t, t_fin, tangential, rolling):
                 return R.SAMPLES_FULL
             if ctr[R.C_NEVT] + 2 > events.shape[0]:
                 return R.EVENTS_FULL
@@ -695,7 +740,10 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
                 marking, t_from = _tangent_marking(tangent)
             if t_land < 0.0:
                 break
-            _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential)
+            _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential, rolling)
+            if rolling:               # a contact episode starts
+                state[S_EPISODE_LO] = x
+                state[S_EPISODE_HI] = x
             rot_left = 0              # off the step grid: restart the rotation
             continue
         # ---- one committed contact step, t -> t1
@@ -715,7 +763,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
         a1, c1, nf, b1, tf, sh, st, warm = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                          inv_scale, law, warm)
+                                                          inv_scale, law, warm, p.roll_ratio)
         vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
                                     tf, nf, a1, mu_m, inv_m)
         dyo = 0.0
@@ -728,11 +776,22 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
                                          vyo, m)
             a1 = y1 - uy
-            b1 = (x1 - ux) / scale if tangential else 0.0
+            b1 = ((contact_point(x1, 1.0 + p.roll_ratio, rolling) - ux) / scale
+                  if tangential else 0.0)
+            if rolling:
+                _episode_end(state)
             if lyapunov:
                 dy, dvy = _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, dh[3],
                                             state[S_T0], t1)
                 _tangent_store(tangent, dy, dvy, dh)   # the flight's phases use the array
+        elif rolling:
+            # the contact episode's extremes, in the state array: as locals
+            # they were live across the step's calls, spilled and reloaded
+            # around each (a rolling step ~3% dearer, `vibtrans bench`)
+            if x1 < state[S_EPISODE_LO]:
+                state[S_EPISODE_LO] = x1
+            elif x1 > state[S_EPISODE_HI]:
+                state[S_EPISODE_HI] = x1
         if lyapunov:
             if marking and t1 >= t_from:
                 _tangent_mark(tangent, t1, dy, dvy)
@@ -741,7 +800,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
             _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
-                        t1, x1, vx1, y1, vy1, tangential, law, law_kind)
+                        t1, x1, vx1, y1, vy1, tangential, law, law_kind, rolling)
             if lyapunov:
                 _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
         elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
@@ -750,7 +809,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             if law_kind != SPHERE and tangential:
                 stick = _stick_stiffness(H, nvert, st, sh, a1, c1)
             _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, stick,
-                         c1, scale, tangential, law, law_kind)
+                         c1, scale, tangential, law, law_kind, 1.0 + p.roll_ratio, rolling)
         if st == FLIGHT and stop_at_takeoff:
             break
     if lyapunov:
@@ -764,6 +823,7 @@ class HertzVariant(NamedTuple):
     tangential: bool    # the memory diagram and x* (deformable), or y* alone (vertical)
     lyapunov: bool      # the vertical motion's tangent advanced alongside
     law_kind: int       # contact.SPHERE, PROFILE or WARM_POWER
+    rolling: bool = False   # the particle turns (deformable only; HertzParams.roll_ratio)
 
 
 @functools.cache
@@ -783,11 +843,13 @@ def hertz_kernel(variant):
     the vertical model (`unused_memory`), `law` for the sphere.  A lyapunov
     variant records what its plain twin records, bit for bit, and so do the
     WARM_POWER and PROFILE kernels for a warm-started power law."""
-    tangential, lyapunov, law_kind = (bool(variant.tangential), bool(variant.lyapunov),
-                                      int(variant.law_kind))
+    tangential, lyapunov, law_kind, rolling = (bool(variant.tangential), bool(variant.lyapunov),
+                                               int(variant.law_kind), bool(variant.rolling))
+    if rolling and not tangential:
+        raise ValueError("a rolling kernel is a deformable one (tangential=True)")
     name = (f"{'deformable' if tangential else 'vertical'}{'_lyapunov' if lyapunov else ''}"
-            f"_{LAW_KINDS[law_kind].replace('-', '_')}")
+            f"_{LAW_KINDS[law_kind].replace('-', '_')}{'_rolling' if rolling else ''}")
     copies = specialize((_contact_force, _hertz_particle), name, tangential=tangential,
-                        lyapunov=lyapunov, law_kind=law_kind,
+                        lyapunov=lyapunov, law_kind=law_kind, rolling=rolling,
                         memory_commit=memory_steps(law_kind).commit)
     return copies["_hertz_particle"]

@@ -1,6 +1,6 @@
 """Which compiled kernel runs a scene: one table for every model.
 
-KERNELS is keyed by (model, lyapunov, law kind):
+KERNELS is keyed by (model, lyapunov, law kind, rolling):
 
 * model: "deformable", "vertical" (the Hertz particle, deformable.py) or
   "point-mass" (point_mass.py);
@@ -10,7 +10,12 @@ KERNELS is keyed by (model, lyapunov, law kind):
 * the contact law's kind: contact.SPHERE (Hertz's own), PROFILE (a profile's
   law array) or WARM_POWER (a power law with the warm-started root).  The
   vertical model runs every profile in its PROFILE kernel (the same numbers:
-  one kernel fewer to compile); the material point has no contact law.
+  one kernel fewer to compile); the material point has no contact law;
+* rolling: whether the particle turns (docs/MODEL.md section 11; its 1/j is
+  a run-time parameter, HertzParams.roll_ratio): deformable only, the
+  material point having no size and the vertical model no tangential
+  motion.  A particle that does not turn runs the kernel it ran before
+  rolling existed.
 
 An entry is a deformable.HertzVariant (its kernel: deformable.hertz_kernel,
 the call documented there) or POINT_MASS (point_mass.point_mass_kernel).
@@ -27,15 +32,16 @@ POINT_MASS = "point-mass"        # the material point's one kernel
 KERNELS = {}
 for _lyapunov in (False, True):
     for _kind in (SPHERE, PROFILE, WARM_POWER):
-        KERNELS["deformable", _lyapunov, _kind] = HertzVariant(
-            tangential=True, lyapunov=_lyapunov, law_kind=_kind)
-        KERNELS["vertical", _lyapunov, _kind] = HertzVariant(
+        for _rolling in (False, True):
+            KERNELS["deformable", _lyapunov, _kind, _rolling] = HertzVariant(
+                tangential=True, lyapunov=_lyapunov, law_kind=_kind, rolling=_rolling)
+        KERNELS["vertical", _lyapunov, _kind, False] = HertzVariant(
             tangential=False, lyapunov=_lyapunov, law_kind=SPHERE if _kind == SPHERE else PROFILE)
-    KERNELS["point-mass", _lyapunov, SPHERE] = POINT_MASS
-del _lyapunov, _kind
+    KERNELS["point-mass", _lyapunov, SPHERE, False] = POINT_MASS
+del _lyapunov, _kind, _rolling
 
 
-def kernel_for(model, lyapunov=False, law_kind=SPHERE):
-    """The compiled kernel of KERNELS[model, lyapunov, law_kind]."""
-    entry = KERNELS[model, bool(lyapunov), law_kind]
+def kernel_for(model, lyapunov=False, law_kind=SPHERE, rolling=False):
+    """The compiled kernel of KERNELS[model, lyapunov, law_kind, rolling]."""
+    entry = KERNELS[model, bool(lyapunov), law_kind, bool(rolling)]
     return point_mass_kernel if entry == POINT_MASS else hertz_kernel(entry)
