@@ -156,8 +156,10 @@ class MapRequest(param.Parameterized):
         stopping rule is named where it is not "full" (a full map keeps the
         key it had before the rule existed, as its store's attributes do)."""
         scene = Scene(**self.scene_values())
+        # (a particle that does not roll keeps the key it had before rolling)
         return {"scene": {k: getattr(scene, k) for k in sorted(scene.param) if k not in
-                          ("name", "amplitude", "mass")},
+                          ("name", "amplitude", "mass")
+                          and not (k == "rolling" and scene.rolling == "none")},
                 "log_amplitude": [self.la_from, self.la_to],
                 "log_mass": [self.lm_from, self.lm_to],
                 "points_per_axis": self.points_per_axis(), "max_level": self.levels,
