@@ -266,3 +266,10 @@ def paper_scene(point: int, **overrides: Any) -> Scene:
         raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]
     return Scene(amplitude=10 ** la, mass=10 ** lm, model=model, **overrides)
+
+
+# A scene's point on the regime plane (a map's axes, log10 A* and log10 m*),
+# and the material point's own settings (no other model reads them): the
+# groups of Scene's parameters that a map and an entry point treat apart.
+PLANE = ("amplitude", "mass")
+POINT_MASS_SETTINGS = ("alpha_t", "stick_rule")

@@ -44,7 +44,7 @@ import xarray as xr
 
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
 from vibtrans.core.errors import InputError, StoreMismatch
-from vibtrans.core.params import Scene
+from vibtrans.core.params import PLANE, Scene
 from vibtrans.core.simulate import run_records, warmup
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
 from vibtrans.core.trajectory import RunArrays
@@ -57,12 +57,13 @@ if TYPE_CHECKING:
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
-SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
-              "integrator", "alpha_t", "stick_rule")
 # The particle's profile (issue 34): in a sweep's values and attrs only when it
 # is not the sphere (stores made before profiles are the sphere's, and keep
 # their keys); load_over_modulus only with a file: profile.
 PROFILE_KEYS = ("profile", "load_over_modulus")
+# A sweep's scene values (its store's scene_* attributes): Scene's settings
+# but its point on the plane (the sweep's grid) and the profile's keys
+SCENE_KEYS = tuple(k for k in Scene.param if k not in ("name", *PLANE, *PROFILE_KEYS))
 VARIABLES = {
     # name: (dtype, fill, description)
     "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
