@@ -71,9 +71,9 @@ log = logging.getLogger("vibtrans.explorer")
 # the map's tabs: map, vertical curves, units, map on demand, difference of
 # two maps, design chart
 VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 5
-# the state's values a run is made of (a change marks the run shown stale)
-SCENE_STATE = ("model", "mu", "log_amplitude", "log_mass", "fidelity", "integrator", "compare",
-               "stick_rule", "alpha_t", "theta", "nu", "tau", "periods", "profile")
+# the state's values a run is made of (a change marks the run shown stale):
+# its scene's, and the twin run beside it
+SCENE_STATE = (*SCENE_FIELDS, "compare")
 
 # the stale note's style while the run shown is the state's, and while it is
 # not (`_set_stale_note`): BokehJS sets the properties given and removes those

@@ -125,9 +125,9 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert chart.attrs["map"] == "computed on this server: preview, 2000 periods"
     # the chart is the library's reading of the map computed
     ds = panel._map[0]
-    direct = design.design_chart(panel.substrate, panel.particle, 0.0,
+    direct = design.design_chart(panel.device.substrate, panel.device.particle, 0.0,
                                  ("frequency", 1e5, 1.2e5, 3), ("amplitude", 1e-8, 1.2e-8, 3),
-                                 ("radius", panel.radius), mu=0.5, map_ds=ds,
+                                 ("radius", panel.device.radius), mu=0.5, map_ds=ds,
                                  map_name=chart.attrs["map"])
     for name in ("drift_velocity", "v_star", "regime"):
         np.testing.assert_array_equal(chart[name].values, direct[name].values)
@@ -136,7 +136,7 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     x, y = 1.1e5, 1.1e-8
     asyncio.run(panel.mark(x, y))
     assert panel.reading is not None and panel.reading["map"] == chart.attrs["map"]
-    assert (panel.frequency, panel.amplitude) == (x, y)
+    assert (panel.device.frequency, panel.device.amplitude) == (x, y)
     # its scene runs in the explorer at the chart's mu and periods (the
     # click ran it; the button runs it again)
     assert not panel.run_button.disabled and len(runs) == 1

@@ -62,7 +62,7 @@ def test_the_paper_preset_draws_a_chart_with_data(drawn):
     # the preset's device is marked and described
     dev = design.preset("paper").device
     assert drawn._marker.data["frequency"] == [dev.frequency]
-    assert drawn.device == dev
+    assert drawn.marked == dev
     assert "drift velocity" in drawn.info.object and not drawn.busy
 
 
@@ -73,10 +73,11 @@ def test_a_click_at_the_papers_device_gives_its_quantities(drawn):
     # the click as Bokeh delivers it (data coordinates of the log axes)
     drawn._on_tap(SimpleNamespace(x=None, y=None))          # nothing: no place
     asyncio.run(drawn.mark(dev.frequency * 1.0001, dev.amplitude * 0.9999))
-    clicked = drawn.device
+    clicked = drawn.marked
     assert (clicked.frequency, clicked.amplitude) == (float(f"{dev.frequency * 1.0001:.4g}"),
                                                       float(f"{dev.amplitude * 0.9999:.4g}"))
-    assert (drawn.frequency, drawn.amplitude) == (clicked.frequency, clicked.amplitude)
+    assert (drawn.device.frequency, drawn.device.amplitude) == (clicked.frequency,
+                                                              clicked.amplitude)
     reading = design.read_device(clicked, chart=drawn.chart)
     expect = design.device_quantities(clicked, reading)
     q = drawn.quantities
@@ -93,7 +94,7 @@ def test_a_click_at_the_papers_device_gives_its_quantities(drawn):
     assert drawn._marker.data["frequency"] == [clicked.frequency]
     # a click outside the chart's window moves nothing
     asyncio.run(drawn.mark(1e9, dev.amplitude))
-    assert drawn.device == clicked
+    assert drawn.marked == clicked
 
 
 def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
@@ -114,11 +115,11 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     drawn.fields["x_hi"].input.value = "1e6"
     drawn.x_lo = 1e4
     # a device value the library refuses
-    drawn.radius = 0.0
+    drawn.device.radius = 0.0
     asyncio.run(drawn.draw())
     assert "radius" in drawn.alert.object and "(0, inf)" in drawn.alert.object
     assert drawn.figure is fig
-    drawn.radius = 0.5e-3
+    drawn.device.radius = 0.5e-3
     # materials no shipped map serves: the library's reason, and the map
     # the chart needs offered with its cost; nothing computed yet
     drawn.preset = "feeder"
@@ -217,15 +218,15 @@ def test_a_custom_material_equal_to_glass_draws_the_same_chart():
     panel = _small(DesignPanel())
     panel.__panel__()
     assert not panel.custom_row.visible
-    panel.substrate = D.CUSTOM_MATERIAL
+    panel.device.substrate = D.CUSTOM_MATERIAL
     assert panel.custom_row.visible and panel.custom_inputs["substrate"].visible
     assert not panel.custom_inputs["particle"].visible
     glass, example = units.material("glass"), units.material(D.CUSTOM_EXAMPLE)
-    assert panel.substrate_custom == D.CUSTOM_EXAMPLE       # glass's E, nu, rho
+    assert panel.device.substrate_custom == D.CUSTOM_EXAMPLE       # glass's E, nu, rho
     assert ((example.youngs_modulus, example.poisson_ratio, example.density)
             == (glass.youngs_modulus, glass.poisson_ratio, glass.density))
-    panel.particle = D.CUSTOM_MATERIAL
-    panel.particle_custom = _custom(units.material("steel"))
+    panel.device.particle = D.CUSTOM_MATERIAL
+    panel.device.particle_custom = _custom(units.material("steel"))
     assert panel.values()["substrate"] == D.CUSTOM_EXAMPLE
     assert panel.values()["particle"] == _custom(units.material("steel"))
     asyncio.run(panel.draw())
@@ -237,7 +238,7 @@ def test_a_custom_material_equal_to_glass_draws_the_same_chart():
     assert panel.quantities == named.quantities
     assert "custom (E=70e9" in panel.info.object
     # back to a named material: its field hidden
-    panel.particle = "steel"
+    panel.device.particle = "steel"
     assert not panel.custom_inputs["particle"].visible and panel.custom_row.visible
 
 
@@ -248,14 +249,14 @@ def test_a_bad_custom_material_gets_the_librarys_message(text):
     panel = _small(DesignPanel())
     asyncio.run(panel.draw())
     chart = panel.chart
-    panel.substrate = D.CUSTOM_MATERIAL
-    panel.substrate_custom = text
+    panel.device.substrate = D.CUSTOM_MATERIAL
+    panel.device.substrate_custom = text
     asyncio.run(panel.draw())
     with pytest.raises(ValueError) as refused:
         units.material(text)
     assert panel.alert.visible
     assert panel.alert.object == f"**Cannot draw the chart:** {refused.value}"
-    assert panel.substrate_custom == text and panel.chart is chart      # nothing clamped
+    assert panel.device.substrate_custom == text and panel.chart is chart      # nothing clamped
 
 
 # ---------------------------------------------------------------- the chart's notes
@@ -339,32 +340,32 @@ def test_editing_a_value_labels_the_preset_custom():
     panel = DesignPanel()
     paper = design.preset("paper")
     assert panel.param.preset.objects[-1] == D.CUSTOM_PRESET
-    panel.radius = 1e-3
-    assert panel.preset == D.CUSTOM_PRESET and panel.radius == 1e-3       # nothing re-applied
+    panel.device.radius = 1e-3
+    assert panel.preset == D.CUSTOM_PRESET and panel.device.radius == 1e-3       # nothing re-applied
     assert "Custom values" in panel.note.object
-    assert (panel.x_lo, panel.frequency) == (paper.x[1], paper.device.frequency)
+    assert (panel.x_lo, panel.device.frequency) == (paper.x[1], paper.device.frequency)
     panel.preset = "paper"                                  # a real preset: applied as before
-    assert panel.radius == paper.device.radius and panel.preset == "paper"
+    assert panel.device.radius == paper.device.radius and panel.preset == "paper"
     assert panel.note.object == f"*{paper.note}*"
     # a value typed in its field, an axis, a material: each makes it custom
     for edit in (lambda: setattr(panel.fields["x_lo"].input, "value", "2e4"),
                  lambda: setattr(panel, "y", "radius"),
                  lambda: setattr(panel, "x_points", 11),
-                 lambda: setattr(panel, "particle", "glass"),
-                 lambda: setattr(panel, "substrate", D.CUSTOM_MATERIAL)):
+                 lambda: setattr(panel.device, "particle", "glass"),
+                 lambda: setattr(panel.device, "substrate", D.CUSTOM_MATERIAL)):
         panel.preset = "paper"
         assert panel.preset == "paper"
         edit()
         assert panel.preset == D.CUSTOM_PRESET
     # back to a preset: its named materials, the custom field hidden
     panel.preset = "saw-motor"
-    assert panel.substrate == "lithium niobate" and not panel.custom_row.visible
+    assert panel.device.substrate == "lithium niobate" and not panel.custom_row.visible
     # a custom material's text counts only while that material is custom
-    panel.substrate_custom = "E=1e9,nu=0.3,rho=1000"
+    panel.device.substrate_custom = "E=1e9,nu=0.3,rho=1000"
     assert panel.preset == "saw-motor"
-    panel.substrate = D.CUSTOM_MATERIAL
+    panel.device.substrate = D.CUSTOM_MATERIAL
     panel.preset = "paper"
-    panel.substrate = D.CUSTOM_MATERIAL
+    panel.device.substrate = D.CUSTOM_MATERIAL
     assert panel.preset == D.CUSTOM_PRESET
     # choosing "custom" by hand applies nothing
     values = panel.values()

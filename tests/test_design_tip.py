@@ -1,5 +1,5 @@
 """The Design tab takes the particle's tip (issue 34): the tip in the page's
-one state (ExplorerState's TipFields, mirrored in the link), its widgets
+one state (ExplorerState, a designtip.Tip, mirrored in the link), its widgets
 (the kind's sizes only, each checked by designtip as typed), the chart
 drawn for that tip (another profile than the sphere: a map of its own,
 offered with the reason), the device's table (the tip, its normalized
@@ -19,8 +19,9 @@ import pytest
 from vibtrans.core import units
 from vibtrans.maps.sweep import open_map
 from vibtrans.products import design, designtip
+from vibtrans.products.designtip import TIP_SIZES
 from vibtrans_explorer.server import mapjobs
-from vibtrans_explorer.session.state import TIP_SIZES, ExplorerState
+from vibtrans_explorer.session.state import ExplorerState
 from vibtrans_explorer.views import design as D
 
 pytestmark = pytest.mark.slow       # panels built, charts read
@@ -30,23 +31,29 @@ HALF_ANGLE = 60.0
 
 
 def _panel(tmp_path, state=None, **values):
+    """A Design panel given `values`: the panel's, its device's and its tip's."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
     panel = D.DesignPanel(jobs=jobs, state=state)
     panel.__panel__()
+    parts = [panel.device, panel.particle_tip]
+    given = [{k: values.pop(k) for k in list(values) if k in part.param} for part in parts]
     panel.param.update(**values)
+    for part, part_values in zip(parts, given):
+        part.param.update(**part_values)
     return panel
 
 
 def test_the_tip_is_the_states_and_its_widgets_show_the_kinds_sizes(tmp_path):
     state = ExplorerState()
     panel = _panel(tmp_path, state)
-    assert state.tip == panel.tip == "sphere"
+    assert panel.particle_tip is state and panel.device is state      # one state
+    assert state.tip == panel.particle_tip.tip == "sphere"
     # the widgets are the state's (one form): a kind chosen is the state's
     panel.tip_kind.value = "cone"
-    assert state.tip == "cone" == panel.tip
+    assert state.tip == "cone" == panel.particle_tip.tip
     for kind, sizes in TIP_SIZES.items():
         state.tip = kind
-        assert panel.tip == kind
+        assert panel.particle_tip.tip == kind
         shown = {name for name, box in zip(D.TIP_LABELS, panel.tip_boxes) if box.visible}
         assert shown == set(sizes), kind
         assert panel.tip_boxes[-1].visible == (kind != "sphere")     # the tip's note
@@ -55,7 +62,7 @@ def test_the_tip_is_the_states_and_its_widgets_show_the_kinds_sizes(tmp_path):
     panel.tip_fields["tip_exponent"].input.value = "2.5"
     panel.tip_fields["tip_radius"].input.value = "2e-4"
     assert (state.tip_exponent, state.tip_radius) == (2.5, 2e-4)
-    assert (panel.tip_exponent, panel.tip_radius) == (2.5, 2e-4)
+    assert (panel.particle_tip.tip_exponent, panel.particle_tip.tip_radius) == (2.5, 2e-4)
     assert D.tip_shape(panel.values()).name == "power:2.5 (tip radius 0.0002 m)"
     # empty: the particle's radius (None), as designtip's default
     panel.tip_fields["tip_radius"].input.value = ""
@@ -129,25 +136,25 @@ def test_a_cone_chart_offers_the_cones_own_map_and_says_why(tmp_path):
     request, values = panel._offer
     assert request.profile == "cone" and values["tip"] == "cone"
     need = design.chart_needs("glass", "steel", 0.0, ("frequency", 1e4, 1e6, 5),
-                              ("amplitude", 1e-9, 5e-7, 5), ("radius", panel.radius),
+                              ("amplitude", 1e-9, 5e-7, 5), ("radius", panel.device.radius),
                               shape=designtip.tip_shape("cone", half_angle=HALF_ANGLE))
     assert D.map_request(need)[0].values() == request.values()
     # the sphere's chart is the shipped map's, as before
-    panel.tip = "sphere"
+    panel.particle_tip.tip = "sphere"
     asyncio.run(panel.draw())
     assert panel.chart is not None and panel.chart.attrs["map"].startswith("shipped")
     assert "profile" in panel.chart.attrs and panel.chart.attrs["map_profile"] == "sphere"
     # a chart whose tip changed since it was drawn is marked stale at once
     assert "Changed since" not in panel.status.object
-    panel.tip_half_angle = 30.0           # a size the sphere does not use: no change
+    panel.particle_tip.tip_half_angle = 30.0           # a size the sphere does not use: no change
     assert "Changed since" not in panel.status.object
-    panel.tip = "cone"
+    panel.particle_tip.tip = "cone"
     assert panel.status.object.startswith("**Changed since this chart was drawn")
     # and a cone's chart when its half-angle changes
-    panel.tip_half_angle = HALF_ANGLE
+    panel.particle_tip.tip_half_angle = HALF_ANGLE
     asyncio.run(panel.draw())             # (offered its map: the chart shown stays)
     panel._drawn_values = panel.values()  # as if drawn on the cone's map
-    panel.tip_half_angle = 45.0
+    panel.particle_tip.tip_half_angle = 45.0
     assert panel.status.object.startswith("**Changed since this chart was drawn")
 
 

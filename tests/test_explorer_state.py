@@ -42,9 +42,10 @@ from tornado.httputil import parse_qs_bytes
 
 from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
+from vibtrans.products.designtip import TIP_SIZES
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.session import urlstate
-from vibtrans_explorer.session.state import DEVICE_FIELDS, TIP_SIZES, URL_ALIASES, URL_KEYS, is_sphere
+from vibtrans_explorer.session.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views import profile as P
@@ -343,8 +344,8 @@ class ExplorerMachine(RuleBasedStateMachine):
         assert ex.ondemand.profile_box.visible == (
             s.model != "point-mass" and not is_sphere(s.profile))
         if ex.design_panel is not None:
-            for k in D.SHARED_DEVICE:
-                assert getattr(ex.design_panel, k) == getattr(s, k), k
+            # the Design tab's device and tip are the state's (one form, no copy)
+            assert ex.design_panel.device is s and ex.design_panel.particle_tip is s
             # the tip's widgets: its kind, the sizes of that kind shown, each
             # field's text its value or its message (the state records it)
             panel = ex.design_panel
@@ -421,7 +422,8 @@ def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logg
     panel.preset = "paper"
     ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=2e7,
                           radius=5e-6, amplitude=1e-9)
-    assert (panel.substrate, panel.frequency, panel.radius) == ("lithium niobate", 2e7, 5e-6)
+    assert (panel.device.substrate, panel.device.frequency, panel.device.radius) == \
+        ("lithium niobate", 2e7, 5e-6)
     assert panel.preset == "custom"
     panel.run_device()
     job = ex.controller.job
@@ -526,7 +528,7 @@ def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_error
     assert all(w.message in ex.units_panel.warnings.object for w in expected)
     # the same list of materials in both tabs
     ex.map_tabs.active = E.DESIGN_TAB
-    assert ex.design_panel.param.substrate.objects == ex.state.param.substrate.objects
+    assert ex.design_panel.device.param.substrate.objects == ex.state.param.substrate.objects
 
 
 @pytest.mark.parametrize("order", ["cancel, then a change", "a change, then cancel"])

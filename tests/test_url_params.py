@@ -32,7 +32,7 @@ from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
 from vibtrans.cli import main
-from vibtrans.core.params import Scene
+from vibtrans.core.params import MASS_MIN, Scene
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.explorer import Explorer, ExplorerState
 from vibtrans_explorer.server import data
@@ -473,13 +473,14 @@ def test_valid_url_is_applied_without_message(url_session):
 
 # ------------------------------------------------------------------ vibtrans simulate
 DOMAIN = {  # CLI option -> membership test of its valid values (vibtrans/core/params.py)
-    "--amplitude": lambda v: 0 <= v < math.inf, "--mass": lambda v: 0 < v < math.inf,
+    "--amplitude": lambda v: 0 <= v < math.inf, "--mass": lambda v: MASS_MIN <= v < math.inf,
     "--mu": lambda v: 0 < v < math.inf, "--theta": lambda v: 1 <= v <= 1.5,
     "--nu": lambda v: 0 < v < 0.5, "--tau": lambda v: 0 <= v < math.inf,
     "--periods": lambda v: 0 < v < math.inf, "--alpha-t": lambda v: 0 <= v <= 1,
     "--log-amplitude": lambda v: abs(v) <= 300, "--log-mass": lambda v: abs(v) <= 300,
 }
 CHOICES = {"--model": ("deformable", "point-mass", "vertical"),
+           "--rolling": ("none", "solid", "shell"),
            "--fidelity": ("preview", "standard", "reference"),
            "--integrator": ("ab4", "verlet"), "--stick-rule": ("paper", "classical")}
 OTHER = ("--samples-per-period", "--max-steps", "--window")

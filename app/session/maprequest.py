@@ -33,18 +33,17 @@ import param
 from vibtrans import Scene
 from vibtrans.core.drivers import scene_scales
 from vibtrans.core.fidelity import scan_step, step_count, time_step
+from vibtrans.core.params import POINT_MASS_SETTINGS
 from vibtrans.core.stopping import STOPS
 from vibtrans.maps.adaptive import DEFAULT_DRIFT_TOLERANCE
 from vibtrans.maps.cost import expected_time_share
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.state import (
-    PROFILE_VALUES,
-    RUN_PERIODS,
-    RUN_TAU,
     SCENE_LOG_AMPLITUDE,
     SCENE_LOG_MASS,
+    SETTINGS,
     SPHERE,
-    ExplorerProfile,
+    ExplorerScene,
     is_sphere,
 )
 
@@ -73,21 +72,11 @@ COMPUTED_SHARE = ((9, 0.9), (17, 0.66), (33, 0.45), (65, 0.3), (129, 0.2), (257,
 MAP_START_SECONDS = 0.4
 
 
-class MapRequest(param.Parameterized):
-    """What a map on demand computes: the scene's values but A* and m*,
-    the window (log10 bounds) and the resolution."""
+class MapRequest(ExplorerScene):
+    """What a map on demand computes: the scene's settings (ExplorerScene's:
+    the library's within the explorer's limits), the window (log10 bounds)
+    and the resolution."""
 
-    model = param.Selector(default="deformable", objects=["deformable", "point-mass"])
-    mu = param.Number(default=0.3, bounds=(0.01, 1.0))
-    theta = param.Number(default=Scene.param.theta.default, bounds=Scene.param.theta.bounds)
-    nu = param.Number(default=Scene.param.nu.default, bounds=(0.01, 0.49))
-    tau = param.Number(default=Scene.param.tau.default, bounds=RUN_TAU)
-    periods = param.Number(default=Scene.param.periods.default, bounds=RUN_PERIODS)
-    fidelity = param.Selector(default="standard", objects=["preview", "standard", "reference"])
-    integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
-    stick_rule = param.Selector(default=Scene.param.stick_rule.default,
-                                objects=Scene.param.stick_rule.objects)
-    alpha_t = param.Number(default=Scene.param.alpha_t.default, bounds=Scene.param.alpha_t.bounds)
     la_from = param.Number(default=-1.0, bounds=SCENE_LOG_AMPLITUDE, doc="log10 A* from")
     la_to = param.Number(default=1.0, bounds=SCENE_LOG_AMPLITUDE, doc="log10 A* to")
     lm_from = param.Number(default=-1.0, bounds=SCENE_LOG_MASS, doc="log10 m* from")
@@ -98,7 +87,6 @@ class MapRequest(param.Parameterized):
         "the points' stopping rule: decided (each run ends once its drift is known to the "
         "fidelity's stated error, or its chaos verdict is decided) or full (every run to "
         "T_obs)"))
-    profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
 
     def profiled(self):
         """Does the request run a profile other than the sphere's (a
@@ -135,10 +123,10 @@ class MapRequest(param.Parameterized):
     def scene_values(self):
         """The scene's values but A* and m* (a dict for vibtrans.Sweep); the
         material point's own rules only for it (they change nothing else)."""
-        values = {k: getattr(self, k) for k in ("model", "mu", "theta", "nu", "tau", "periods",
-                                                "fidelity", "integrator")}
+        values = {k: getattr(self, k) for k in SETTINGS
+                  if k not in (*POINT_MASS_SETTINGS, "profile")}
         if self.model == "point-mass":
-            values.update(stick_rule=self.stick_rule, alpha_t=self.alpha_t)
+            values.update({k: getattr(self, k) for k in POINT_MASS_SETTINGS})
         elif self.profile != SPHERE:
             values["profile"] = self.profile
         return values
@@ -190,16 +178,20 @@ class MapRequest(param.Parameterized):
 STOP_WORDS = {"decided": "each point run until its drift is decided (stop: decided)",
               "full": "every point run all its periods (stop: full)"}
 
-# the URL form: the values in this order, comma-separated (a link keeps
-# working while fields are only appended: a link without the appended ones
-# takes LEGACY's values for them, what it meant when it was written)
+# The URL form: a request's parameters, comma-separated, in the order links
+# hold them (the form's first sixteen, then those appended since).  A link
+# keeps working while fields are only appended: a link without the appended
+# ones takes LEGACY's values for them, what it meant when it was written.
 FIELDS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
           "stick_rule", "alpha_t", "la_from", "la_to", "lm_from", "lm_to", "cells", "levels",
-          "stop", "profile")
+          "stop", "profile", "rolling")
 # the appended fields' values for an older link: before `stop` every map ran
-# in full, before `profile` every particle was the sphere
-LEGACY = {"stop": "full", "profile": SPHERE}
+# in full, before `profile` every particle was the sphere, before `rolling`
+# no particle turned
+LEGACY = {"stop": "full", "profile": SPHERE, "rolling": "none"}
 assert tuple(LEGACY) == FIELDS[len(FIELDS) - len(LEGACY):]
+# (every parameter of a request is in its link, once)
+assert sorted(FIELDS) == sorted(k for k in MapRequest.param if k != "name")
 URL_KEY = "map"
 
 

@@ -1,18 +1,25 @@
 """What a session of the explorer has selected, with no widgets: the
 scene's parameters and the page's settings (`ExplorerState`, mirrored in
-the URL through `URL_KEYS`), and the ranges the explorer runs."""
+the URL through `URL_KEYS`), and the ranges the explorer runs.
+
+The settings are the library's: the scene's are `vibtrans.Scene`'s
+parameters (`ExplorerScene`: copies of their declarations within the
+explorer's limits, `SCENE_LIMITS`), the device's and its particle's tip
+are `design.Device` and `designtip.Tip` (the state is one of each: the
+Units and Design tabs edit it).  The lists of fields and the link's keys
+are read from `.param`."""
+import copy
 import math
 
 import param
 
 from vibtrans import Scene
 from vibtrans.analysis.summary import V0
-from vibtrans.core import units
-from vibtrans.core.params import ProfileSpec, check_profile
+from vibtrans.core.params import PLANE, ProfileSpec, check_profile
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
-from vibtrans.products import design, designtip
-from vibtrans.products.design import preset
-from vibtrans.products.designtip import TipSize
+from vibtrans.products import design
+from vibtrans.products.design import Device
+from vibtrans.products.designtip import Tip
 
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
@@ -26,23 +33,40 @@ RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap r
 # refuses the costly ones.
 SCENE_LOG_AMPLITUDE = (-6.0, 6.0)    # log10 A*
 SCENE_LOG_MASS = (-8.0, 8.0)         # log10 m*
-# the device's materials (the Units and Design tabs' one list: the library's
-# names) and the entry for a material typed as its three properties
-MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
-CUSTOM_MATERIAL = "custom (E, nu, rho)"
-CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"   # units.material's custom form (glass's values)
+# The explorer's limits on the library's scene settings (each narrower than
+# Scene's, whose declaration the explorer's copy keeps: default, doc, the
+# message naming the parameter and its range): the two models its maps
+# show, mu over the shipped maps' friction range, the run's ramp and
+# length (RUN_TAU, RUN_PERIODS).  The state, a map request and the Design
+# tab take these (ExplorerScene, `limited`).
+SCENE_LIMITS = {"model": {"objects": ["deformable", "point-mass"]},
+                "mu": {"bounds": (0.01, 1.0), "inclusive_bounds": (True, True)},
+                "tau": {"bounds": RUN_TAU, "inclusive_bounds": (True, True)},
+                "periods": {"bounds": RUN_PERIODS, "inclusive_bounds": (True, True)}}
+# The explorer's limits on the device (the library takes any positive size;
+# a link or a form of the explorer stays within these).
+DEVICE_LIMITS = {"radius": {"bounds": (1e-9, 1.0), "inclusive_bounds": (False, True)},
+                 "frequency": {"bounds": (1.0, 1e10)},
+                 "amplitude": {"bounds": (0.0, 1e-2), "inclusive_bounds": (False, True)},
+                 "preload": {"bounds": (0.0, 1e3)}}
 # the map tabs, as the URL names them
-# the device the page opens on: the paper's worked example at point 4
-PAPER_DEVICE = preset("paper").device
 MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
-# the fields whose value makes the scene (a run refuses while one is
-# invalid), and those of the device (its run refuses while one is)
-SCENE_FIELDS = ("log_amplitude", "log_mass", "alpha_t", "mu", "profile")
-# the particle's tip in SI (the Design tab's; designtip.tip_shape): its
-# kind, and the sizes each kind takes
-TIP_FIELDS = ("tip", "tip_half_angle", "tip_exponent", "tip_radius", "tip_flat_radius")
-DEVICE_FIELDS = ("substrate", "particle", "substrate_custom", "particle_custom", "radius",
-                 "frequency", "amplitude", "preload", *TIP_FIELDS)
+
+
+def limited(source, limits, names=None, base=param.Parameterized, name=None):
+    """A Parameterized class (a subclass of `base`) holding copies of the
+    parameters `names` of `source` (default: those `limits` names): each
+    keeps the library's declaration (default, doc, check) with the
+    explorer's limit `limits[name]` (the Parameter's attributes it sets:
+    bounds, inclusive_bounds, objects), if any."""
+    names = tuple(limits) if names is None else tuple(names)
+    params = {}
+    for n in names:
+        p = copy.deepcopy(source.param[n])      # (its own lists: the library's stay as they are)
+        for attribute, value in limits.get(n, {}).items():
+            setattr(p, attribute, value)
+        params[n] = p
+    return type(name or f"Limited{source.__name__}", (base,), params)
 
 
 # the particle's profiles the explorer offers (issue 34; docs/MODEL.md
@@ -72,34 +96,6 @@ class ExplorerProfile(ProfileSpec):
         return raw
 
 
-# the tip's kinds (designtip.TIP_KINDS but a measured table: a link must
-# not make the server read a file) and the sizes each takes
-TIP_KINDS = ("sphere", "cone", "power", "flat-sphere")
-TIP_SIZES = {"sphere": (), "cone": ("tip_half_angle",), "power": ("tip_exponent", "tip_radius"),
-             "flat-sphere": ("tip_flat_radius",)}
-
-
-def tip_values(owner):
-    """The tip's arguments of designtip.tip_shape (profile, half_angle,
-    tip_radius, flat_radius) from `owner`'s TIP_FIELDS (a Parameterized or
-    a dict), the sizes of its kind only."""
-    get = owner.get if isinstance(owner, dict) else lambda name: getattr(owner, name)
-    kind = get("tip")
-    if kind == "sphere":
-        return {"profile": "sphere"}
-    if kind == "cone":
-        return {"profile": "cone", "half_angle": get("tip_half_angle")}
-    if kind == "power":
-        return {"profile": f"power:{float(get('tip_exponent'))!r}",
-                "tip_radius": get("tip_radius")}
-    return {"profile": "flat-sphere", "flat_radius": get("tip_flat_radius")}
-
-
-def tip_shape_of(owner):
-    """The checked designtip.TipShape of `owner`'s tip fields (InputError)."""
-    return designtip.tip_shape(**tip_values(owner))
-
-
 def is_sphere(profile):
     """Does the spec run the sphere's own law (Hertz's path: the shipped
     maps' particle)?  'sphere' and 'power:2' do; 'flat-sphere:0' is the
@@ -114,38 +110,37 @@ def within(la, lm, log_amplitude, log_mass):
             and log_mass[0] <= lm <= log_mass[1])
 
 
-class TipFields(param.Parameterized):
-    """The particle's tip in SI (the Design tab's; docs/MODEL.md section 10,
-    "In device units"): its kind and the sizes of each kind (TIP_SIZES); a
-    link without them is the sphere.  The explorer's state and the Design
-    tab (alone, in tests) hold these."""
-
-    tip = param.Selector(default="sphere", objects=list(TIP_KINDS),
-                         doc="the particle's tip: the sphere, a cone, a power law, a flat")
-    tip_half_angle = TipSize(60.0, size="half_angle", range_text="a number in (0, 90) (degrees)",
-                             doc="the cone's half-angle, degrees")
-    tip_exponent = TipSize(3.0, size="exponent", range_text="a number in (1, inf)",
-                           doc="the power law's exponent N: z = r^N / (N R_t^(N-1))")
-    tip_radius = TipSize(None, size="tip_radius", allow_None=True,
-                         range_text="a number in (0, inf) (m), or empty: the particle's radius",
-                         doc="the power law's tip radius R_t, m (None: the particle's radius)")
-    tip_flat_radius = TipSize(1e-6, size="flat_radius", range_text="a number in [0, inf) (m)",
-                              doc="the flat-ended sphere's flat radius, m")
+# the library's scene settings a session chooses: Scene's but its point on
+# the plane (the state's log10 A* and m*, a map request's window) and a
+# measured profile's load (the explorer offers no measured table)
+SETTINGS = tuple(k for k in Scene.param if k not in ("name", *PLANE, "load_over_modulus"))
 
 
-class ExplorerState(TipFields):
-    """What the user selected; mirrored in the URL."""
+class ExplorerScene(limited(Scene, SCENE_LIMITS, SETTINGS, name="ExplorerSceneSettings")):
+    """The scene's settings a session chooses (the state's, a map
+    request's): Scene's parameters within SCENE_LIMITS, and the particle's
+    profile without a measured table (ExplorerProfile).  The state's theta
+    and nu are the maps' (Scene's defaults) unless a device set its own;
+    its tau and periods the shipped maps' unless a click on a map on
+    demand ran that map's."""
 
-    model = param.Selector(default="deformable", objects=["deformable", "point-mass"])
-    mu = param.Number(default=0.3, bounds=(0.01, 1.0))
+    profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
+
+
+# the device of the Units and Design tabs (SI units; one form, two tabs)
+# within the explorer's limits
+ExplorerDevice = limited(Device, DEVICE_LIMITS, base=Device, name="ExplorerDevice")
+
+
+class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
+    """What the user selected; mirrored in the URL.  Its scene's settings
+    are ExplorerScene's, its device and the particle's tip the library's
+    (Device within DEVICE_LIMITS, Tip): the Units and Design tabs edit
+    them here."""
+
     v0 = param.Number(default=V0, bounds=(1e-3, 10.0), doc="white band |v*| <= v0*")
     log_amplitude = param.Number(default=-0.3, bounds=SCENE_LOG_AMPLITUDE)
     log_mass = param.Number(default=1.0, bounds=SCENE_LOG_MASS)
-    fidelity = param.Selector(default="standard", objects=["preview", "standard", "reference"])
-    integrator = param.Selector(default="ab4", objects=["ab4", "verlet"])
-    # the particle's profile (the library's spec; the material point, a
-    # rigid point, runs the same whatever it is)
-    profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
     chaotic = param.Selector(default="grey", objects=["grey", "colour"])
     # what the map shows: the drift, or the chaos indicator (issue 15)
@@ -156,64 +151,18 @@ class ExplorerState(TipFields):
                             objects=["no orbit curves", "period-1 orbit curves"])
     # one map (the selected model's) or the two models side by side, linked
     maps = param.Selector(default="selected model", objects=["selected model", "both models"])
-    # the material point's own rules (docs/MODEL.md section 3)
-    stick_rule = param.Selector(default=Scene.param.stick_rule.default,
-                                objects=Scene.param.stick_rule.objects)
-    alpha_t = param.Number(default=Scene.param.alpha_t.default, bounds=Scene.param.alpha_t.bounds)
-    # the material's theta and Poisson ratio: the maps' values (Scene's
-    # defaults) unless the Units tab's device set its own
-    theta = param.Number(default=Scene.param.theta.default, bounds=Scene.param.theta.bounds)
-    nu = param.Number(default=Scene.param.nu.default, bounds=Scene.param.nu.bounds,
-                      inclusive_bounds=(False, False))
-
-    # a map on demand's ramp and observation time (a click on it runs its
-    # scene); the shipped maps' otherwise
-    tau = param.Number(default=Scene.param.tau.default, bounds=RUN_TAU)
-    periods = param.Number(default=Scene.param.periods.default, bounds=RUN_PERIODS)
     # the map on demand shown (app/session/maprequest.py's URL form), None: the shipped map
     map_request = param.String(default=None, allow_None=True)
-
-    # the device of the Units and Design tabs (SI units; one form, two tabs),
-    # the paper's worked example at point 4 (the Design tab's "paper" preset)
-    substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
-    particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
-    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
-    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
-    radius = param.Number(default=PAPER_DEVICE.radius, bounds=(1e-9, 1.0),
-                          inclusive_bounds=(False, True), doc="the particle's radius, m")
-    frequency = param.Number(default=PAPER_DEVICE.frequency, bounds=(1.0, 1e10),
-                             doc="the wave's frequency, Hz")
-    amplitude = param.Number(default=PAPER_DEVICE.amplitude, bounds=(0.0, 1e-2),
-                             inclusive_bounds=(False, True), doc="the wave's vertical amplitude, m")
-    preload = param.Number(default=PAPER_DEVICE.preload, bounds=(0.0, 1e3), doc="pre-load, N")
-    # (the particle's tip: TipFields')
     # the map tab shown
     tab = param.Selector(default="map", objects=list(MAP_TABS))
     # the typed fields whose text is not a valid value: {parameter: message}
     # (the parameter keeps its last valid value; a run refuses meanwhile)
     invalid = param.Dict(default={}, precedence=-1)
 
-    def material(self, which):
-        """The text the library reads for the substrate or particle: its
-        name, or the custom material's properties."""
-        name = getattr(self, which)
-        return getattr(self, f"{which}_custom") if name == CUSTOM_MATERIAL else name
-
     def device(self):
         """The device in normalized units (units.NormalizedScene), or the
         library's ValueError naming what is wrong."""
         return self.device_spec().normalized()
-
-    def tip_shape(self):
-        """The particle's tip (designtip.TipShape), or the library's InputError."""
-        return tip_shape_of(self)
-
-    def device_spec(self):
-        """The device as the library takes it (units.DeviceSpec; its values
-        are checked where they are used)."""
-        return units.DeviceSpec(self.material("substrate"), self.material("particle"),
-                                self.radius, self.frequency, self.amplitude,
-                                preload=self.preload)
 
     def device_tip(self):
         """(A*, m*, a0 [m], the normalized profile) of the device with its
@@ -261,7 +210,7 @@ class ExplorerState(TipFields):
         """The device's fields in use: DEVICE_FIELDS but the sizes of the
         tip's other kinds (hidden: their text does not make the device)."""
         return tuple(k for k in DEVICE_FIELDS
-                     if k not in TIP_FIELDS or k == "tip" or k in TIP_SIZES[self.tip])
+                     if k not in TIP_FIELDS or k == "tip" or k in self.sizes())
 
     def device_errors(self):
         """The messages of the device's invalid typed fields (in use)."""
@@ -283,22 +232,27 @@ class ExplorerState(TipFields):
 
     def scene(self):
         """The selected scene (a vibtrans.Scene; ValueError if invalid)."""
-        return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass, mu=self.mu,
-                     model=self.model, fidelity=self.fidelity, integrator=self.integrator,
-                     theta=self.theta, nu=self.nu, stick_rule=self.stick_rule,
-                     alpha_t=self.alpha_t, tau=self.tau, periods=self.periods,
-                     profile=self.profile)
+        return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass,
+                     **{k: getattr(self, k) for k in SETTINGS})
 
 
-URL_KEYS = {"model": "model", "mu": "mu", "v0": "v0", "log_amplitude": "la",
-            "log_mass": "lm", "fidelity": "fidelity", "integrator": "integrator",
-            "compare": "compare", "maps": "maps", "stick_rule": "rule", "alpha_t": "at",
-            "layer": "layer", "orbits": "orbits", "tau": "tau", "periods": "periods",
-            "theta": "theta", "nu": "nu", "substrate": "substrate", "particle": "particle",
-            "radius": "radius", "frequency": "freq", "amplitude": "amp",
-            "preload": "preload", "tab": "tab", "profile": "profile", "tip": "tip",
-            "tip_half_angle": "tipa", "tip_exponent": "tipn", "tip_radius": "tipr",
-            "tip_flat_radius": "tipc"}
+# the fields whose value makes the scene (a run refuses while one is
+# invalid): its settings and its point
+SCENE_FIELDS = (*SETTINGS, "log_amplitude", "log_mass")
+# the particle's tip in SI (the Design tab's; designtip.Tip): its kind, and
+# the sizes each kind takes
+TIP_FIELDS = tuple(k for k in Tip.param if k != "name")
+# the device's fields (its run refuses while one is invalid): Device's and its tip's
+DEVICE_FIELDS = (*(k for k in Device.param if k != "name"), *TIP_FIELDS)
+# The link: every parameter of the state but the page's own bookkeeping (the
+# map on demand has its own key, maprequest.URL_KEY), the map's colour of
+# chaos and a custom material's properties; some under a short key.
+NOT_IN_LINK = ("name", "chaotic", "map_request", "invalid", "substrate_custom",
+               "particle_custom")
+SHORT_KEYS = {"log_amplitude": "la", "log_mass": "lm", "stick_rule": "rule", "alpha_t": "at",
+              "frequency": "freq", "amplitude": "amp", "tip_half_angle": "tipa",
+              "tip_exponent": "tipn", "tip_radius": "tipr", "tip_flat_radius": "tipc"}
+URL_KEYS = {k: SHORT_KEYS.get(k, k) for k in ExplorerState.param if k not in NOT_IN_LINK}
 # a value's older spellings in links, still accepted: {parameter: {old: new}}
 URL_ALIASES = {"model": {"point_mass": "point-mass", "pointmass": "point-mass",
                          "point mass": "point-mass"},

@@ -34,26 +34,22 @@ import param
 from bokeh.events import Tap
 from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scatter
 
+from vibtrans import Scene
 from vibtrans.core import units
 from vibtrans.core.errors import Cancelled, InputError
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.products import design, designtip, plots
+from vibtrans.products.design import CUSTOM_EXAMPLE, CUSTOM_MATERIAL, Device
 from vibtrans.products.designconst import DEFAULT_SURFACE_ENERGY, PRESET_NAMES
+from vibtrans.products.designtip import TIP_SIZES, Tip
 from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.session.latest import LatestJob
 from vibtrans_explorer.session.maprequest import MapRequest
-from vibtrans_explorer.session.state import (
-    CUSTOM_EXAMPLE,
-    CUSTOM_MATERIAL,
-    MATERIAL_NAMES,
-    TIP_FIELDS,
-    TIP_SIZES,
-    TipFields,
-    tip_values,
-)
+from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
 from vibtrans_explorer.views.render import exclusively, rendered
+from vibtrans_explorer.views.units import DEVICE_LABELS, device_form
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -73,12 +69,11 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "computed on this server like a map on demand.")
 HINT = "*Press Draw chart to read the drift map for these values.*"
 CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
-# the values a preset sets: editing one makes the preset "custom"
-SHARED_DEVICE = ("substrate", "particle", "substrate_custom", "particle_custom", "preload",
-                 "frequency", "radius", "amplitude", *TIP_FIELDS)
-# (a preset's particle is a sphere: a preset sets the tip's kind, not its sizes)
-PRESET_VALUES = ("substrate", "particle", "preload", "frequency", "radius", "amplitude", "x",
-                 "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi", "y_points", "tip")
+# the device's values a preset sets (Device's but a custom material's
+# text), with the tip's kind (a preset's particle is a sphere; the sizes
+# stay as typed) and the chart's axes (AXIS_VALUES): editing one makes the
+# preset "custom"
+PRESET_DEVICE = tuple(k for k in Device.param if k != "name" and not k.endswith("_custom"))
 # the tip's fields: label of each size (TIP_SIZES says which kind takes it)
 TIP_LABELS = {"tip_half_angle": "cone half-angle (degrees)",
               "tip_exponent": "exponent N (z ~ r^N)",
@@ -144,7 +139,15 @@ def _all_finite(chart):
 def tip_shape(values):
     """The checked tip (designtip.TipShape) of the panel's values (the
     library's InputError names a refused size)."""
-    return designtip.tip_shape(**tip_values(values))
+    return designtip.tip_shape(**designtip.tip_arguments(values))
+
+
+def preset_device(p):
+    """The device's values (PRESET_DEVICE) a preset `p` sets, as the form
+    holds them (its materials by name)."""
+    values = {k: getattr(p.device, k) for k in PRESET_DEVICE}
+    return {k: units.material(v).name if k in ("substrate", "particle") else float(v)
+            for k, v in values.items()}
 
 
 def _chart_args(values):
@@ -172,12 +175,13 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
                       f"{', '.join(MapRequest.param.fidelity.objects)}; got {fidelity!r}")
     for name, value in (("mu", need.mu), ("theta", need.theta), ("nu", need.nu),
                         ("periods", periods)):
-        lo, hi = MapRequest.param[name].bounds
-        if not lo <= value <= hi:
+        p = MapRequest.param[name]
+        (lo, hi), (lo_in, hi_in) = p.bounds, p.inclusive_bounds
+        if not ((lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)):
             what = {"theta": "theta of the materials", "nu": "nu of the substrate",
                     "periods": "the map's periods"}.get(name, name)
             return None, (f"{what} is {value:.4g}; a map on demand accepts {name} in "
-                          f"[{lo:g}, {hi:g}]")
+                          f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}")
     spans = {"la": need.log_amplitude, "lm": need.log_mass}
     bounds = {k: MapRequest.param[f"{k}_from"].bounds for k in spans}
     for k, label in (("la", "log10 A*"), ("lm", "log10 m*")):
@@ -310,9 +314,9 @@ def device_text(device, reading, q, warnings):
 
 
 def tip_form(owner, width=150):
-    """The tip's widgets, bound to `owner`'s TipFields (the state's, or the
-    panel's alone): (its kind's selector, {name: NumberField}, the fields'
-    boxes, each shown for the kind that takes it).  Each size is checked
+    """The tip's widgets, bound to the designtip.Tip `owner` (the state, or
+    the panel's own alone): (its kind's selector, {name: NumberField}, the
+    fields' boxes, each shown for the kind that takes it).  Each size is checked
     by the library as typed (app/inputs.NumberField: its message)."""
     kind = pn.widgets.Select.from_param(owner.param.tip, label="particle tip", width=width,
                                         css_classes=["vt-design-tip"])
@@ -328,25 +332,25 @@ def tip_form(owner, width=150):
     return kind, fields, [*boxes, note]
 
 
-class DesignPanel(pn.viewable.Viewer, TipFields):
+class DesignPanel(pn.viewable.Viewer,
+                  limited(Scene, SCENE_LIMITS, ("mu",), name="DesignScene")):
     """The Design tab: its values (SI units), its widgets, the chart.
 
-    Every number is stored as typed; the library checks them when the
-    chart is drawn (`draw`) and its refusal is shown in `alert`.
-    on_run(device, mu, periods): run a device's scene (the explorer's);
-    jobs: the server's maps on demand (mapjobs.jobs() if None)."""
+    The device and its particle's tip are `device` (a design.Device) and
+    `particle_tip` (a designtip.Tip): the explorer's state, whose device
+    the Units tab shows too (one form), or the panel's own alone.  Its mu
+    (the chart's map's and the device's run's) is Scene's within the
+    explorer's limits.  The chart's numbers are stored as typed; the
+    library checks them when the chart is drawn (`draw`) and its refusal
+    is shown in `alert`.  on_run(mu, periods): run the device's scene (the
+    explorer's); jobs: the server's maps on demand (mapjobs.jobs() if None)."""
 
+    device = param.ClassSelector(class_=Device, instantiate=False,
+                                 doc="the device edited (SI units)")
+    particle_tip = param.ClassSelector(class_=Tip, instantiate=False,
+                                       doc="the particle's tip edited")
     preset = param.Selector(default="paper", objects=[*PRESET_NAMES, CUSTOM_PRESET])
-    substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
-    particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
-    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
-    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="E=<Pa>,nu=<->,rho=<kg/m^3>")
-    preload = param.Number(default=0.0, doc="pre-load P, N")
-    mu = param.Number(default=0.3, doc="friction coefficient (shipped maps: 0.1, 0.3, 1)")
     surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
-    frequency = param.Number(default=1e5, doc="the device's wave frequency, Hz")
-    radius = param.Number(default=0.5e-3, doc="the device's particle radius, m")
-    amplitude = param.Number(default=1e-8, doc="the device's vertical wave amplitude, m")
     x = param.Selector(default="frequency", objects=list(design.AXES))
     x_lo = param.Number(default=1e4)
     x_hi = param.Number(default=1e6)
@@ -362,7 +366,8 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
     busy = param.Boolean(default=False)
 
     def __init__(self, on_run=None, jobs=None, state=None, **params):
-        super().__init__(**params)
+        super().__init__(device=Device() if state is None else state,
+                         particle_tip=Tip() if state is None else state, **params)
         self.on_run = on_run
         self.state = state
         self._jobs = jobs
@@ -374,7 +379,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self._map = None            # (ds, name) of the map on demand the chart reads
         self.chart = None           # the chart drawn (design_chart's Dataset)
         self.figure = None          # its Bokeh figure
-        self.device = None          # the device marked (units.DeviceSpec)
+        self.marked = None          # the device marked (units.DeviceSpec)
         self.quantities = self.reading = None
         self.warnings = []
         self._chart_map = None      # (ds, name) of the map on demand the chart read, or None
@@ -424,54 +429,39 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                                             css_classes=["vt-design-run", "vt-ack-run"])
         self.run_button.on_click(lambda event: self.run_device())
         self._buttons()
-        labels = {"preload": "preload (N)", "mu": "mu (friction)",
-                  "surface_energy": "surface energy (J/m^2)",
-                  "frequency": "frequency (Hz)", "radius": "radius (m)",
-                  "amplitude": "amplitude (m)", "x_lo": "x lo", "x_hi": "x hi",
-                  "x_points": "x points", "y_lo": "y lo", "y_hi": "y hi",
-                  "y_points": "y points"}
-        # (the parameters have no bounds: a typed number is applied, the
+        labels = {"mu": "mu (friction)", "surface_energy": "surface energy (J/m^2)",
+                  "x_lo": "x lo", "x_hi": "x hi", "x_points": "x points", "y_lo": "y lo",
+                  "y_hi": "y hi", "y_points": "y points"}
+        # (the chart's numbers have no bounds: a typed number is applied, the
         # library checks its range when the chart is drawn)
         self.fields = {k: inputs.NumberField(self, k, v, width=150) for k, v in labels.items()}
+        if state is None:           # (shared, the Units tab's form is the device's)
+            self.fields.update({k: inputs.NumberField(self.device, k, v, width=150)
+                                for k, v in DEVICE_LABELS.items()})
         self._presetting = False
         self.param.watch(self._on_preset, "preset")
         self.param.watch(self._on_axis, ["x", "y"])
-        self._on_preset()
+        # alone, the preset applied; shared, the state's device stays (the
+        # preset's axes only, and its label "custom" if the device is not its)
+        self._on_preset(device=state is None)
         self._init_extras()
         self._layout = None
-        self._syncing = False
-        # the tip's widgets: bound to the state's tip where there is one
-        self.tip_kind, self.tip_fields, self.tip_boxes = tip_form(self if state is None else state)
-        if state is not None:
-            self._share_device(state)
-        self.param.watch(self._on_changed, [*PRESET_VALUES, *TIP_FIELDS, "mu",
-                                            "surface_energy", "substrate_custom",
-                                            "particle_custom", "map_fidelity", "map_periods"])
+        self.tip_kind, self.tip_fields, self.tip_boxes = tip_form(self.particle_tip)
+        self.param.watch(self._on_changed, [*AXIS_VALUES, "mu", "surface_energy",
+                                            "map_fidelity", "map_periods"])
+        self.device.param.watch(self._on_changed, [k for k in Device.param if k != "name"])
+        self.particle_tip.param.watch(self._on_changed, list(TIP_FIELDS))
 
-    # ---------- the device, shared with the Units tab (the explorer's state) ----------
-    def _share_device(self, state):
-        """The device's values are the state's (one form for the Units and
-        Design tabs): the state's now (the preset then says "custom" if they
-        differ from it), and each change of either copied to the other."""
-        self._copy(state, self, [(k, getattr(state, k)) for k in SHARED_DEVICE])
-        self.param.watch(lambda *events: self._copy(self, state, events), list(SHARED_DEVICE))
-        state.param.watch(lambda *events: self._copy(state, self, events), list(SHARED_DEVICE))
-
-    def _copy(self, source, target, events):
-        if self._syncing:
-            return
-        values = dict((e.name, e.new) for e in events) if events and hasattr(
-            events[0], "name") else dict(events)
-        values = {k: v for k, v in values.items() if getattr(target, k) != v}
-        if not values:
-            return
-        self._syncing = True
+    def _set_device(self, **values):
+        """Set the device's values (a preset's, a click's); a value the
+        device refuses (the state's limits) is said and nothing is set."""
         try:
-            target.param.update(**values)
-        except ValueError as exc:      # a preset's or a click's value the state refuses
+            type(self.device)(**values)         # (each checked before any is set)
+        except ValueError as exc:
             self._say(f"**The device cannot take these values:** {exc}")
-        finally:
-            self._syncing = False
+            return False
+        self.device.param.update(**values)
+        return True
 
     def _on_changed(self, *events):
         """A value changed since the chart was drawn: the chart is marked stale."""
@@ -481,26 +471,29 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                                   + self._shown_status())
 
     # ---------- values ----------
-    def _on_preset(self, *events):
+    def _on_preset(self, *events, device=True):
+        """A preset chosen: its device (a sphere) and its chart's axes
+        applied.  device=False (the state's device, opening the tab): its
+        axes only, and the label "custom" if the device is not the preset's."""
         if self.preset == CUSTOM_PRESET:        # nothing applied: the values stay as typed
             self.note.object = "*Custom values (no preset applied).*"
             return
         p = design.preset(self.preset)
-        d = p.device
+        values = preset_device(p)
         self._presetting = True
         try:
-            self._apply_preset(p, d)
+            if device and self._set_device(**values):
+                self.particle_tip.tip = "sphere"
+            self.param.update(x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
+                              x_points=int(p.x[3]), y=p.y[0], y_lo=float(p.y[1]),
+                              y_hi=float(p.y[2]), y_points=int(p.y[3]))
         finally:
             self._presetting = False
+        if not device and (self.particle_tip.tip != "sphere" or any(
+                getattr(self.device, k) != v for k, v in values.items())):
+            self.preset = CUSTOM_PRESET
+            return
         self.note.object = f"*{p.note}*"
-
-    def _apply_preset(self, p, d):
-        self.param.update(
-            substrate=units.material(d.substrate).name, particle=units.material(d.particle).name,
-            preload=float(d.preload), frequency=float(d.frequency), radius=float(d.radius),
-            amplitude=float(d.amplitude), tip="sphere", x=p.x[0], x_lo=float(p.x[1]), x_hi=float(p.x[2]),
-            x_points=int(p.x[3]), y=p.y[0], y_lo=float(p.y[1]), y_hi=float(p.y[2]),
-            y_points=int(p.y[3]))
 
     def _on_axis(self, *events):
         """A new quantity on an axis: its range becomes a decade around the
@@ -509,7 +502,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         if self._presetting:
             return
         for e in events:
-            value = getattr(self, e.new)
+            value = getattr(self.device, e.new)
             if isinstance(value, (int, float)) and math.isfinite(value) and value > 0:
                 lo, hi = float(f"{value / 10 ** 0.5:.3g}"), float(f"{value * 10 ** 0.5:.3g}")
                 self.param.update(**{f"{e.name}_lo": lo, f"{e.name}_hi": hi})
@@ -524,18 +517,21 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                 f"fixed: {q} = the device's {q} ({UNITS[q]})")
 
     def values(self):
-        """The values as typed (SI), for the library to check."""
-        # (the tip: its kind and that kind's sizes; another kind's do not
-        # make the chart)
-        names = ("substrate", "particle", "preload", "mu", "surface_energy", "frequency",
-                 "radius", "amplitude", "x", "x_lo", "x_hi", "x_points", "y", "y_lo", "y_hi",
-                 "y_points", "map_fidelity", "map_periods", "tip", *TIP_SIZES[self.tip])
-        return self._with_custom_materials({k: getattr(self, k) for k in names})
+        """The values as typed (SI), for the library to check: the chart's,
+        the device's (a material: its name, or a custom one's properties)
+        and its tip's (its kind and that kind's sizes; another kind's do
+        not make the chart)."""
+        tip = self.particle_tip
+        names = ("mu", "surface_energy", *AXIS_VALUES, "map_fidelity", "map_periods")
+        return {**{k: getattr(self, k) for k in names},
+                **{k: getattr(self.device, k) for k in PRESET_DEVICE},
+                **{k: self.device.material(k) for k in ("substrate", "particle")},
+                **{k: getattr(tip, k) for k in ("tip", *tip.sizes())}}
 
     def field_errors(self):
         """The typed fields' messages: the panel's, and its tip's of the
         kind chosen (a hidden kind's size does not make the device)."""
-        tips = [f for f in self.tip_fields.values() if f.name_ in TIP_SIZES[self.tip]]
+        tips = [f for f in self.tip_fields.values() if f.name_ in self.particle_tip.sizes()]
         return [f.error for f in [*self.fields.values(), *tips] if f.error]
 
     # ---------- drawing ----------
@@ -780,7 +776,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         self.status.object = text
 
     def _show_device(self, device, reading, q, warnings):
-        self.device, self.reading, self.quantities, self.warnings = device, reading, q, warnings
+        self.marked, self.reading, self.quantities, self.warnings = device, reading, q, warnings
         self.info.object = device_text(device, reading, q, warnings)
         if self._marker is not None and self.chart is not None:
             xq, yq = self.chart.attrs["x"], self.chart.attrs["y"]
@@ -793,16 +789,19 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
     def _init_extras(self):
         """The widgets of the custom materials, the chart-wide notes and the
         downloads (made with the panel; shown by __panel__)."""
+        device = self.device
         self.custom_inputs = {
             k: pn.widgets.TextInput.from_param(
-                self.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
-                placeholder=CUSTOM_EXAMPLE, visible=getattr(self, k) == CUSTOM_MATERIAL,
+                device.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=230,
+                placeholder=CUSTOM_EXAMPLE, visible=getattr(device, k) == CUSTOM_MATERIAL,
                 css_classes=[f"vt-design-{k}-custom"])
             for k in ("substrate", "particle")}
         self.custom_row = pn.Row(*self.custom_inputs.values(), visible=self._any_custom(),
                                  margin=(0, 0, 10, 0))
-        self.param.watch(self._on_material, ["substrate", "particle"])
-        self.param.watch(self._on_edit, [*PRESET_VALUES, "substrate_custom", "particle_custom"])
+        device.param.watch(self._on_material, ["substrate", "particle"])
+        self.param.watch(self._on_edit, list(AXIS_VALUES))
+        device.param.watch(self._on_edit, [*PRESET_DEVICE, "substrate_custom", "particle_custom"])
+        self.particle_tip.param.watch(self._on_edit, "tip")
         self.chart_notes = pn.pane.Markdown("", visible=False, sizing_mode="stretch_width",
                                             css_classes=["vt-design-chart-notes"])
         self.download_buttons = {
@@ -819,20 +818,12 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                                     css_classes=["vt-design-downloads"])
 
     def _any_custom(self):
-        return CUSTOM_MATERIAL in (self.substrate, self.particle)
+        return CUSTOM_MATERIAL in (self.device.substrate, self.device.particle)
 
     def _on_material(self, *events):
         for k, w in self.custom_inputs.items():
-            w.visible = getattr(self, k) == CUSTOM_MATERIAL
+            w.visible = getattr(self.device, k) == CUSTOM_MATERIAL
         self.custom_row.visible = self._any_custom()
-
-    def _with_custom_materials(self, values):
-        """values with a custom material's text in place of its selector's
-        entry (the library parses it and names what is wrong)."""
-        for k in ("substrate", "particle"):
-            if values[k] == CUSTOM_MATERIAL:
-                values[k] = getattr(self, f"{k}_custom")
-        return values
 
     def _on_edit(self, *events):
         """A value of the preset's edited: the preset shown becomes "custom"
@@ -840,7 +831,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         that material is custom."""
         if self._presetting or self.preset == CUSTOM_PRESET:
             return
-        if all(e.name.endswith("_custom") and getattr(self, e.name[:-7]) != CUSTOM_MATERIAL
+        if all(e.name.endswith("_custom") and getattr(self.device, e.name[:-7]) != CUSTOM_MATERIAL
                for e in events):
             return
         self.preset = CUSTOM_PRESET
@@ -855,7 +846,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
 
     def device_mark(self):
         """(x, y) of the device marked on the chart shown, or None."""
-        c, d = self.chart, self.device
+        c, d = self.chart, self.marked
         if c is None or d is None:
             return None
         return (getattr(d, c.attrs["x"]), getattr(d, c.attrs["y"]))
@@ -910,23 +901,24 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             return
         self._say("")
         with pn.io.hold():
-            self.param.update(**{xq: x, yq: y})
+            if not self._set_device(**{xq: x, yq: y}):
+                return
             self._show_device(*got)
         # a click runs the device's scene, as on the map: on the next tick,
         # holding the document's lock (the explorer sets Bokeh models)
         pn.state.execute(self.run_device, schedule=True)
 
     def _device_rows(self, row, f, select):
-        """The device's form: the state's (the Units tab's too) when shared."""
+        """The device's form: the Units tab's (one form) when the device is
+        the state's."""
         head = pn.pane.Markdown("**The device** (the Units tab's too; marked on the chart; a "
                                 "click moves it and runs its scene)", margin=(0, 10))
         tip = row(self.tip_kind, *self.tip_boxes)
         if self.state is not None:
-            from vibtrans_explorer.views.units import device_form
-            return [head, row(*device_form(self.state, width=150)), tip,
+            return [head, row(*device_form(self.device, width=150)), tip,
                     row(f["mu"], f["surface_energy"])]
-        return [row(select(self.param.substrate, label="substrate"),
-                    select(self.param.particle, label="particle"), f["preload"], f["mu"],
+        return [row(select(self.device.param.substrate, label="substrate"),
+                    select(self.device.param.particle, label="particle"), f["preload"], f["mu"],
                     f["surface_energy"]),
                 self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"]), tip]
 
@@ -962,3 +954,6 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
                 sizing_mode="stretch_width", name="design")
         return self._layout
 
+
+# the chart's axes: each one's quantity and range (a preset sets them)
+AXIS_VALUES = tuple(k for k in DesignPanel.param if k.split("_")[0] in ("x", "y"))

@@ -10,8 +10,8 @@ import param
 from vibtrans.core import units
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.products import design
+from vibtrans.products.design import CUSTOM_MATERIAL
 from vibtrans_explorer.session.state import (
-    CUSTOM_MATERIAL,
     DEVICE_FIELDS,
     SCENE_LOG_AMPLITUDE,
     SCENE_LOG_MASS,
@@ -139,20 +139,21 @@ DEVICE_LABELS = {"radius": "particle radius (m)", "frequency": "frequency (Hz)",
                  "amplitude": "vertical wave amplitude (m)", "preload": "pre-load (N)"}
 
 
-def device_form(state, width=150):
+def device_form(device, width=150):
     """The device's widgets (the Units and Design tabs show one form: these,
-    bound to the state): materials, custom materials' properties, radius,
+    bound to the state's device; the Design tab alone, to its own
+    design.Device): materials, custom materials' properties, radius,
     frequency, amplitude, pre-load."""
     select = functools.partial(pn.widgets.Select.from_param, width=width)
     customs = {k: pn.widgets.TextInput.from_param(
-        state.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=width,
-        visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, state.param[k]),
+        device.param[f"{k}_custom"], label=f"{k}: E (Pa), nu, rho (kg/m^3)", width=width,
+        visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, device.param[k]),
         css_classes=[f"vt-{k}-custom"]) for k in ("substrate", "particle")}
-    return [select(state.param.substrate, label="substrate", css_classes=["vt-substrate"]),
+    return [select(device.param.substrate, label="substrate", css_classes=["vt-substrate"]),
             customs["substrate"],
-            select(state.param.particle, label="particle", css_classes=["vt-particle"]),
+            select(device.param.particle, label="particle", css_classes=["vt-particle"]),
             customs["particle"],
-            *[inputs.NumberField(state, k, v, width=width) for k, v in DEVICE_LABELS.items()]]
+            *[inputs.NumberField(device, k, v, width=width) for k, v in DEVICE_LABELS.items()]]
 
 
 def device_warnings(state):
@@ -160,10 +161,6 @@ def device_warnings(state):
     (the Design tab's: a0 below the interatomic spacing, the contact radius,
     adhesion, the tip's edge slope and a cone's apex)."""
     try:
-        device = units.DeviceSpec(substrate=state.material("substrate"),
-                                  particle=state.material("particle"), radius=state.radius,
-                                  frequency=state.frequency, amplitude=state.amplitude,
-                                  preload=state.preload)
-        return list(design.validity_warnings(device, shape=state.tip_shape()))
+        return list(design.validity_warnings(state.device_spec(), shape=state.tip_shape()))
     except (ValueError, TypeError):
         return []

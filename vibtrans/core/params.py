@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+import re
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -132,13 +133,26 @@ def inertia_ratio(rolling: Any) -> float | None:
     return ROLLING_NAMES[value] if isinstance(value, str) else value
 
 
+# a number as a link or a field spells it: plain decimals (no nan, inf, 1_0)
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
+
+
 class RollingSpec(param.Parameter):
     """How the particle turns: none (it slides without turning, the paper's
     model), solid (a solid sphere, j = 2/5), shell (a thin shell, j = 2/3) or
     j = I/(m R^2) in (0, 1]; docs/MODEL.md section 11."""
 
+    valid_values = f"{ROLLING_NONE}, {', '.join(ROLLING_NAMES)}, or a number j in (0, 1]"
+
     def _validate(self, val):
         check_rolling(val)
+
+    def check_text(self, raw: str) -> str | float:
+        """The value of a typed or linked text (j as a plain decimal), or
+        InputError naming the parameter and its range."""
+        if raw not in (ROLLING_NONE, *ROLLING_NAMES) and not _DECIMAL.fullmatch(raw):
+            raise InputError(f"{ROLLING_RANGE}; got {raw!r}")
+        return check_rolling(raw)
 
 
 @functools.lru_cache(maxsize=32)
@@ -338,3 +352,10 @@ def paper_scene(point: int, **overrides: Any) -> Scene:
         raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]
     return Scene(amplitude=10 ** la, mass=10 ** lm, model=model, **overrides)
+
+
+# A scene's point on the regime plane (a map's axes, log10 A* and log10 m*),
+# and the material point's own settings (no other model reads them): the
+# groups of Scene's parameters that a map and an entry point treat apart.
+PLANE = ("amplitude", "mass")
+POINT_MASS_SETTINGS = ("alpha_t", "stick_rule")

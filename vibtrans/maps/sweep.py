@@ -44,7 +44,7 @@ import xarray as xr
 
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, jumped, rebound_pattern, summarize, twin_scene
 from vibtrans.core.errors import InputError, StoreMismatch
-from vibtrans.core.params import Scene
+from vibtrans.core.params import PLANE, Scene
 from vibtrans.core.simulate import run_records, warmup
 from vibtrans.core.stopping import REASONS, STOPS, check_stop
 from vibtrans.core.trajectory import RunArrays
@@ -57,8 +57,6 @@ if TYPE_CHECKING:
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
-SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity",
-              "integrator", "alpha_t", "stick_rule")
 # The particle's profile (issue 34): in a sweep's values and attrs only when it
 # is not the sphere (stores made before profiles are the sphere's, and keep
 # their keys); load_over_modulus only with a file: profile.
@@ -67,6 +65,10 @@ PROFILE_KEYS = ("profile", "load_over_modulus")
 # attrs only for a particle that turns (a map of one that does not keeps
 # the keys, stores and cache entries it had before rolling existed).
 ROLLING_KEY = "rolling"
+# A sweep's scene values (its store's scene_* attributes): Scene's settings
+# but its point on the plane (the sweep's grid), the profile's keys and rolling
+SCENE_KEYS = tuple(k for k in Scene.param
+                   if k not in ("name", *PLANE, *PROFILE_KEYS, ROLLING_KEY))
 VARIABLES = {
     # name: (dtype, fill, description)
     "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),

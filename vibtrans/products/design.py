@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import param
 
 from vibtrans.core import units
 from vibtrans.core.errors import InputError, InputTypeError
@@ -164,6 +165,86 @@ def preset(name: str) -> Preset:
     if not isinstance(name, str) or name not in PRESET_NAMES:
         raise InputError(f"preset must be one of {', '.join(PRESET_NAMES)}, got {name!r}")
     return _presets()[name]
+
+
+# The device's materials as a form offers them (the library's names), and
+# the entry for a material given by its three properties (its `*_custom`
+# text, units.material's custom form: by default glass's values)
+MATERIAL_NAMES = tuple(sorted(m.name for m in units.MATERIALS.values()))
+CUSTOM_MATERIAL = "custom (E, nu, rho)"
+CUSTOM_EXAMPLE = "E=70e9,nu=0.3,rho=2500"
+
+
+class Device(param.Parameterized):
+    """A device in SI units as a form or a link gives it: units.DeviceSpec's
+    values, by default the "paper" preset's (the paper's worked example at
+    its point 4).
+
+    The values are kept as given; the library checks them where it uses
+    them (`device_spec().normalized()`: an InputError naming the parameter
+    and its valid range).  An entry point may narrow a parameter's range
+    (the explorer's link and forms do).
+
+    Parameters
+    ----------
+    substrate, particle : str
+        The materials: one of MATERIAL_NAMES, or CUSTOM_MATERIAL for the
+        properties given in `substrate_custom` / `particle_custom`.
+    substrate_custom, particle_custom : str
+        A custom material's properties, "E=<Pa>,nu=<->,rho=<kg/m^3>".
+    radius : float
+        The particle's radius, m.
+    frequency : float
+        The wave's frequency, Hz.
+    amplitude : float
+        The wave's vertical amplitude A_y, m.
+    preload : float
+        The pre-load P, N.
+    """
+
+    _paper = _paper_device()
+    substrate: param.Selector = param.Selector(
+        default=units.material(_paper.substrate).name,
+        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL], doc="the substrate's material")
+    particle: param.Selector = param.Selector(
+        default=units.material(_paper.particle).name,
+        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL], doc="the particle's material")
+    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="a custom substrate's "
+                                    "properties: E=<Pa>,nu=<->,rho=<kg/m^3>")
+    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="a custom particle's "
+                                   "properties: E=<Pa>,nu=<->,rho=<kg/m^3>")
+    radius = param.Number(default=_paper.radius, doc="the particle's radius, m")
+    frequency = param.Number(default=_paper.frequency, doc="the wave's frequency, Hz")
+    amplitude = param.Number(default=_paper.amplitude, doc="the wave's vertical amplitude, m")
+    preload = param.Number(default=_paper.preload, doc="the pre-load, N")
+    del _paper
+
+    def material(self, which: str) -> str:
+        """The text the library reads for a material (units.material).
+
+        Parameters
+        ----------
+        which : str
+            "substrate" or "particle".
+
+        Returns
+        -------
+        str
+            Its name, or the custom material's properties.
+        """
+        name = getattr(self, which)
+        return getattr(self, f"{which}_custom") if name == CUSTOM_MATERIAL else name
+
+    def device_spec(self) -> DeviceSpec:
+        """The device as the library takes it.
+
+        Returns
+        -------
+        units.DeviceSpec
+            Its values (checked where they are used: `normalized()`).
+        """
+        return DeviceSpec(self.material("substrate"), self.material("particle"), self.radius,
+                          self.frequency, self.amplitude, preload=self.preload)
 
 
 # ---------------------------------------------------------------- device quantities

@@ -45,13 +45,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import param
 
 from vibtrans.core.errors import InputError
 from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
 
 # Hertz's (and MDR's) half-space solution assumes a nearly flat profile over
 # the contact, a << R (Johnson, Contact Mechanics, 1985, sec. 4.1); a tenth
@@ -360,3 +363,93 @@ class TipSize(param.Number):
     def _validate(self, val):
         super()._validate(val)
         self.library_check(val)
+
+
+# The kinds of tip its sizes give (TIP_KINDS but a measured table, which a
+# path gives: tip_shape("file:PATH")), and the sizes each takes (Tip's)
+TIP_SIZES: dict[str, tuple[str, ...]] = {
+    "sphere": (), "cone": ("tip_half_angle",), "power": ("tip_exponent", "tip_radius"),
+    "flat-sphere": ("tip_flat_radius",)}
+
+
+def tip_arguments(values: Mapping[str, Any]) -> dict[str, Any]:
+    """`tip_shape`'s arguments of a Tip's values.
+
+    Parameters
+    ----------
+    values : mapping
+        A Tip's values by name: its kind (`tip`) and that kind's sizes at least.
+
+    Returns
+    -------
+    dict
+        profile, and half_angle, tip_radius or flat_radius as the kind takes.
+    """
+    kind = values["tip"]
+    if kind == "sphere":
+        return {"profile": "sphere"}
+    if kind == "cone":
+        return {"profile": "cone", "half_angle": values["tip_half_angle"]}
+    if kind == "power":
+        return {"profile": f"power:{float(values['tip_exponent'])!r}",
+                "tip_radius": values["tip_radius"]}
+    return {"profile": "flat-sphere", "flat_radius": values["tip_flat_radius"]}
+
+
+class Tip(param.Parameterized):
+    """The particle's tip in SI as a form or a link gives it (docs/MODEL.md
+    section 10, "In device units"): its kind and the sizes of each kind
+    (TIP_SIZES), each checked by `tip_shape` as it is set (TipSize: its
+    InputError names the size and its range); by default the sphere.
+
+    Parameters
+    ----------
+    tip : str
+        The kind: one of TIP_SIZES ("sphere", "cone", "power", "flat-sphere").
+    tip_half_angle : float
+        The cone's half-angle, degrees, in (0, 90).
+    tip_exponent : float
+        The power law's exponent N > 1: z = r^N / (N R_t^(N-1)).
+    tip_radius : float or None
+        The power law's tip radius R_t, m (None: the particle's radius).
+    tip_flat_radius : float
+        The flat-ended sphere's flat radius, m, at least 0.
+    """
+
+    tip: param.Selector = param.Selector(
+        default="sphere", objects=list(TIP_SIZES),
+        doc="the particle's tip: the sphere, a cone, a power law, a flat")
+    tip_half_angle = TipSize(60.0, size="half_angle", range_text="a number in (0, 90) (degrees)",
+                             doc="the cone's half-angle, degrees")
+    tip_exponent = TipSize(3.0, size="exponent", range_text="a number in (1, inf)",
+                           doc="the power law's exponent N: z = r^N / (N R_t^(N-1))")
+    tip_radius = TipSize(None, size="tip_radius", allow_None=True,
+                         range_text="a number in (0, inf) (m), or empty: the particle's radius",
+                         doc="the power law's tip radius R_t, m (None: the particle's radius)")
+    tip_flat_radius = TipSize(1e-6, size="flat_radius", range_text="a number in [0, inf) (m)",
+                              doc="the flat-ended sphere's flat radius, m")
+
+    def sizes(self) -> tuple[str, ...]:
+        """The names of the sizes its kind takes (the others do not make the tip).
+
+        Returns
+        -------
+        tuple of str
+            Names of its parameters, TIP_SIZES[tip].
+        """
+        return TIP_SIZES[self.tip]
+
+    def tip_shape(self) -> TipShape:
+        """The tip as the design charts take it.
+
+        Returns
+        -------
+        TipShape
+            Checked by `tip_shape`.
+
+        Raises
+        ------
+        InputError
+            Naming a size outside its range.
+        """
+        return tip_shape(**tip_arguments(self.param.values()))
