@@ -234,8 +234,8 @@ def test_the_url_form_round_trips_and_names_a_bad_value():
         "URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
     bad = ",".join([*parts[:-3], "2.5", *parts[-2:]])       # levels not an integer
     assert "levels must be an integer in [1, 6]; got '2\\.5'" in maprequest.decode(bad)[1][0]
-    assert "must hold 18 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
-    assert "must hold 18" in maprequest.decode(text + ",full")[1][0]
+    assert "must hold 19 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
+    assert "must hold 19" in maprequest.decode(text + ",none,full")[1][0]
     bad = ",".join([*parts[:-2], "fast", parts[-1]])
     assert "URL parameter 'map': stop must be one of decided, full; got 'fast'" in \
         maprequest.decode(bad)[1][0]

@@ -44,6 +44,10 @@ S = importlib.import_module("vibtrans.core.simulate")
 
 # texts the library checks (the particle's profile, issue 34)
 PROFILES = {"profile"}
+# how the particle turns: none, solid, shell or j = I/(m R^2) in (0, 1]
+ROLLINGS = {"rolling"}
+ROLLING_TEXT = ["none", "solid", "shell", "0.4", "1", "0.5e0", "0", "1.5", "-0.1", "nan", "inf",
+                "1_0", "Solid", " solid", "1e-300"]
 # the tip's sizes in SI (issue 34, the Design tab's): the ranges that
 # docs/MODEL.md section 10 ("In device units") and vibtrans.products.designtip
 # document ((lo, hi), (lo included, hi included)); a power law's N = 1 is
@@ -55,9 +59,10 @@ TIPS = {"tip_half_angle": ((0.0, 90.0), (False, False)),
         "tip_flat_radius": ((0.0, math.inf), (True, False))}
 NUMERIC = {name: ExplorerState.param[name].bounds for name in URL_KEYS
            if not hasattr(ExplorerState.param[name], "objects") and name not in PROFILES
-           and name not in TIPS}
+           and name not in TIPS and name not in ROLLINGS}
 OPTIONS = {name: ExplorerState.param[name].objects for name in URL_KEYS
-           if name not in NUMERIC and name not in PROFILES and name not in TIPS}
+           if name not in NUMERIC and name not in PROFILES and name not in TIPS
+           and name not in ROLLINGS}
 # profile texts: valid ones, then ones the library or the explorer refuses
 PROFILE_TEXT = ["sphere", "cone", "power:3", "power:1", "power:2", "power:1.5", "flat-sphere:0",
                 "flat-sphere:0.5", " cone ", "power:0.5", "power:0", "power:-3", "power:nan",
@@ -100,6 +105,8 @@ def _value_text(name):
     own = (_number_text(*NUMERIC[name]) if name in NUMERIC
            else _number_text(TIPS[name][0][0], min(TIPS[name][0][1], 1e3)) if name in TIPS
            else _profile_text() if name in PROFILES
+           else st.one_of(st.sampled_from(ROLLING_TEXT), st.floats().map(repr))
+           if name in ROLLINGS
            else st.sampled_from(list(OPTIONS[name])))
     return st.one_of(own, st.sampled_from(SPECIAL_TEXT), st.text(max_size=30))
 
@@ -161,9 +168,26 @@ def _tip_valid(name, value):
             and (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi))
 
 
+def _rolling_valid(value):
+    """none, solid, shell, or a number j in (0, 1] (the text of a plain decimal)."""
+    if value in ("none", "solid", "shell"):
+        return True
+    return isinstance(value, float) and 0.0 < value <= 1.0
+
+
+def _rolling_value(text):
+    """A rolling text as the oracle reads it: a name, or a plain decimal's value."""
+    text = text.strip()
+    if text in ("none", "solid", "shell"):
+        return text
+    return float(text) if re.fullmatch(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", text) else None
+
+
 def _valid(name, value):
     if name in PROFILES:
         return _profile_valid(value)
+    if name in ROLLINGS:
+        return _rolling_valid(value)
     if name in TIPS:
         return _tip_valid(name, value)
     if name in OPTIONS:
@@ -209,6 +233,7 @@ def test_parse_applies_valid_values_and_names_invalid_ones(pairs):
             given_ = texts.pop()
             given_ = URL_ALIASES.get(name, {}).get(given_, given_)
             expected = (given_ if name in OPTIONS or name in PROFILES
+                        or (name in ROLLINGS and given_ in ("none", "solid", "shell"))
                         else None if name in TIPS and given_ == "" else float(given_))
             assert values[name] == expected        # a valid value is applied as given
         else:
@@ -480,17 +505,17 @@ DOMAIN = {  # CLI option -> membership test of its valid values (vibtrans/core/p
     "--log-amplitude": lambda v: abs(v) <= 300, "--log-mass": lambda v: abs(v) <= 300,
 }
 CHOICES = {"--model": ("deformable", "point-mass", "vertical"),
-           "--rolling": ("none", "solid", "shell"),
            "--fidelity": ("preview", "standard", "reference"),
            "--integrator": ("ab4", "verlet"), "--stick-rule": ("paper", "classical")}
-OTHER = ("--samples-per-period", "--max-steps", "--window")
+OTHER = ("--samples-per-period", "--max-steps", "--window", "--rolling")
 BASE = {"--amplitude": "0.5", "--mass": "10", "--periods": "5"}
 
 
 def _cli_text(option):
     near = {"--samples-per-period": st.integers(-2, 20000).map(str),
             "--max-steps": st.floats(-10, 1e9).map(repr),
-            "--window": st.floats(-1, 6).map(lambda v: f"{v:.3g}")}
+            "--window": st.floats(-1, 6).map(lambda v: f"{v:.3g}"),
+            "--rolling": st.sampled_from(ROLLING_TEXT)}
     own = (st.sampled_from(CHOICES[option]) if option in CHOICES
            else near.get(option, st.floats(-0.5, 2.5).map(lambda v: f"{v:.3g}")
                          if option not in ("--theta", "--nu") else st.floats(0.9, 1.6).map(str)
@@ -539,6 +564,8 @@ def test_cli_simulate_value_is_refused_in_one_line_or_reaches_the_kernel_checked
             assert math.isfinite(v) and DOMAIN[option](v), (option, values)
         elif option in CHOICES:
             assert values[0] in CHOICES[option]
+        elif option == "--rolling":
+            assert _rolling_valid(_rolling_value(values[0])), values
         return
     assert code == 2, (args, code, err)
     lines = err.splitlines()
@@ -555,6 +582,8 @@ def test_cli_simulate_value_is_refused_in_one_line_or_reaches_the_kernel_checked
         assert not (math.isfinite(v) and DOMAIN[option](v)), (option, values, line)
     if option in CHOICES:
         assert values[0] not in CHOICES[option], line
+    if option == "--rolling":
+        assert not _rolling_valid(_rolling_value(values[0])), (values, line)
 
 
 @pytest.mark.parametrize("argv", [["--amplitude", "1.48e-289"], ["--log-amplitude=-300"]])

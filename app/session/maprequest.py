@@ -199,9 +199,18 @@ def _text(value):
     return value if isinstance(value, str) else f"{value:.10g}"
 
 
+# appended fields a link leaves out at their LEGACY value (a particle that
+# does not roll keeps the link it had before rolling)
+OMITTED_AT_LEGACY = ("rolling",)
+
+
 def encode(request):
     """The request as the URL's `map=` value."""
-    return ",".join(_text(getattr(request, k)) for k in FIELDS)
+    texts = [_text(getattr(request, k)) for k in FIELDS]
+    while FIELDS[len(texts) - 1] in OMITTED_AT_LEGACY and \
+            getattr(request, FIELDS[len(texts) - 1]) == LEGACY[FIELDS[len(texts) - 1]]:
+        texts.pop()
+    return ",".join(texts)
 
 
 def decode(raw):
