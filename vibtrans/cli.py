@@ -9,6 +9,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import shutil
 import sys
 from typing import TYPE_CHECKING, Any
@@ -271,7 +272,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
                       work_precision=args.work_precision, plot=args.plot,
                       export=args.export, cold=args.cold_start,
-                      results_dir=args.results_dir, output=args.output)
+                      results_dir=args.results_dir, output=args.output,
+                      command=" ".join(["vibtrans", *(shlex.quote(w) for w in args.words)]))
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -995,6 +997,7 @@ def main(argv: list[str] | None = None) -> Any:
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process
     args.argv = argv if command_line else None
+    args.words = argv                   # what was asked, for a record of the run
     try:
         return args.func(args)
     except InputError as exc:   # refused input: one line, status 2 (a bug keeps its traceback)

@@ -364,10 +364,12 @@ def _reference_png(out):
 
 def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
          work_precision: bool = False, plot: Any = None, export: bool = False,
-         cold: bool = False, results_dir: Any = None, output: Any = None) -> int:
+         cold: bool = False, results_dir: Any = None, output: Any = None,
+         command: str | None = None) -> int:
     """`vibtrans bench`: run the bench the flags choose, print it (or one
     JSON object with `as_json`) and, with `results_dir` (a folder) or
-    `output` (a file), write its record (vibtrans.tools.results)."""
+    `output` (a file), write its record (vibtrans.tools.results; `command`:
+    the command line it records, default this process's)."""
     from vibtrans.tools import results as results_file
     if plot is not None and not work_precision:
         raise InputError("plot: only bench --work-precision takes --plot")
@@ -409,7 +411,7 @@ def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
         status = _print_run(saved, quick, as_json)
     if results_dir is not None or output is not None:
         saved["quick"] = quick
-        record = results_file.result_record(name, saved, begun)
+        record = results_file.result_record(name, saved, begun, command=command)
         path = results_file.write_result(record, folder=results_dir, output=output)
         print(f"results: {path}", file=sys.stderr)
     return status

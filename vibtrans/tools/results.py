@@ -102,8 +102,9 @@ def machine_description(packages: Iterable[str] = KEY_PACKAGES) -> dict[str, Any
     -------
     dict
         cpu_model, cores (os.cpu_count), usable_cores (this process's
-        affinity), memory_gb, platform, python, python_implementation and
-        packages ({name: version}).
+        affinity; `result_record` takes it from `begin`), memory_gb,
+        platform, python, python_implementation and packages
+        ({name: version}).
     """
     return {"cpu_model": _cpu_model(), "cores": os.cpu_count(), "usable_cores": _usable_cores(),
             "memory_gb": _memory_gb(), "platform": platform.platform(),
@@ -145,9 +146,11 @@ def git_state(root: str | os.PathLike[str] | None = None) -> dict[str, Any] | No
 
 def begin(git_root: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """What a record needs from the start of a run: the UTC time, the load
-    average and the source's git state (`git_state(git_root)`: the code that
+    average, the cores this process may use (a bench may pin itself to one
+    later) and the source's git state (`git_state(git_root)`: the code that
     runs is the code at the start); pass it to `result_record` at the end."""
-    return {"started": _utc_now(), "load_average_start": _load(), "git": git_state(git_root)}
+    return {"started": _utc_now(), "load_average_start": _load(),
+            "usable_cores": _usable_cores(), "git": git_state(git_root)}
 
 
 def _plain(value: Any) -> Any:
@@ -200,6 +203,7 @@ def result_record(bench: str, results: Mapping[str, Any], begun: Mapping[str, An
     if not bench or not all(c.isalnum() or c == "-" for c in bench):
         raise ValueError(f"bench must be letters, digits and dashes, got {bench!r}")
     machine = machine_description(packages)
+    machine["usable_cores"] = begun.get("usable_cores", machine["usable_cores"])
     machine["load_average_start"] = begun.get("load_average_start")
     machine["load_average_end"] = _load()
     return _plain({
