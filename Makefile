@@ -87,22 +87,30 @@ test-oldest: setup browser
 		"tests/test_server_start.py::test_the_server_says_what_it_does" \
 		tests/test_app_browser.py -k "test_page_loads_with_the_map or test_click_on_the_map_runs_that_scene"
 
+# The kernels' speed ratios and the cold start (a first `vibtrans simulate`
+# on an empty kernel cache over a warm one), written as JSON into
+# benchmarks/results/ with the machine and the commit (the docs' benchmarks
+# page shows the latest of each bench).
+RESULTS ?= benchmarks/results
 bench: setup
-	$(BIN)/vibtrans bench
+	mkdir -p $(RESULTS)
+	$(BIN)/vibtrans bench --cold-start --results-dir $(RESULTS)
 
 # The explorer's responsiveness in chromium (a server of its own, kernels
 # compiled first): click to drawn per action, busy indicators, issue 14's
 # goals (devtools/browserbench.py; --check to fail on a missed goal).
 bench-browser: setup browser
-	$(BIN)/python -m devtools.browserbench
+	mkdir -p $(RESULTS)
+	$(BIN)/python -m devtools.browserbench --results-dir $(RESULTS)
 
 # The load test (30 sessions x 5 clicks) through nginx in front of
 # WORKERS `vibtrans serve` processes (devtools/deploy); more options in
 # LOADTEST_ARGS, e.g. LOADTEST_ARGS="--pin-server 0-2 --pin-clients 3".
 WORKERS ?= 2
 loadtest-proxy: setup browser proxy
+	mkdir -p $(RESULTS)
 	$(BIN)/python -m devtools.loadtest --proxy-workers $(WORKERS) --sessions 30 --clicks 5 \
-		$(LOADTEST_ARGS)
+		--results-dir $(RESULTS) $(LOADTEST_ARGS)
 
 # The product as one file: library, command line, explorer and maps
 # (tests/test_wheel.py installs it in a fresh venv and runs it).

@@ -23,6 +23,7 @@ import statistics
 import sys
 import time
 
+from . import results
 from .loadtest import ARGS, CHROMIUM, Server, _quantile
 
 # In the page: the summary's first line (bold, "... mu = ..."), the alert,
@@ -89,7 +90,10 @@ def main(argv=None):
                     help="at most this many seconds to wait for closed sessions to be "
                          "dropped and their memory released")
     ap.add_argument("--json", action="store_true")
+    results.add_option(ap)
+    argv = sys.argv[1:] if argv is None else list(argv)
     a = ap.parse_args(argv)
+    begun = results.begin()
     server = Server()
     try:
         ready = server.wait_ready()
@@ -128,6 +132,8 @@ def main(argv=None):
            "rss_after_mb": rss_after, "rss_after_vs_baseline": rss_after / rss_base - 1,
            "memory_released": warm_released and released,
            "machine": f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}"}
+    results.save("latency", out, begun, a.results_dir,
+                 " ".join(["python -m devtools.bench", *argv]))
     if a.json:
         print(json.dumps(out))
     else:

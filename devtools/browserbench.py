@@ -103,6 +103,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from . import results
 from .chromium import ARGS, CHROMIUM
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -767,15 +768,20 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     ap.add_argument("--check", action="store_true",
                     help="exit 1 if a goal is missed (medians, busy indicators)")
-    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    results.add_option(ap)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    a = ap.parse_args(argv)
+    a.command = " ".join(["python -m devtools.browserbench", *argv])
     if not 1 <= a.repeats <= 50:
         ap.error(f"--repeats must be in [1, 50], got {a.repeats}")
     if a.memory_views is not None:
         if not 1 <= a.memory_views <= 1000:
             ap.error(f"--memory-views must be in [1, 1000], got {a.memory_views}")
         return _memory_main(a)
+    begun = results.begin()
     out = run(a.repeats, a.url, log=lambda m: print(m, file=sys.stderr))
     misses = missed(out["rows"])
+    results.save("browserbench", {**out, "missed": misses}, begun, a.results_dir, a.command)
     if a.json:
         print(json.dumps({**out, "missed": misses}))
     else:
@@ -790,6 +796,7 @@ def main(argv=None):
 def _memory_main(a):
     log = lambda m: print(m, file=sys.stderr)      # noqa: E731
     errors = []
+    begun = results.begin()
     with _browser_and_server(a.url, log, errors) as (browser, url):
         out = memory_views(browser, url, a.memory_views, log)
     load = os.getloadavg()
@@ -806,6 +813,8 @@ def _memory_main(a):
         "server_errors": errors if a.url is None else None,
         "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
                    f"{load[2]:.2f} at the end"}
+    results.save("browserbench-memory-views", {**summary, "samples": out["answered"]}, begun,
+                 a.results_dir, a.command)
     if a.json:
         print(json.dumps({**summary, "samples": out["answered"]}))
     else:

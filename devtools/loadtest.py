@@ -83,6 +83,7 @@ from pathlib import Path
 
 from vibtrans_explorer.server.memory import CLOSED, RELEASE_NAME, RELEASED
 
+from . import results
 from .chromium import ARGS, CHROMIUM
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -972,6 +973,7 @@ def parser():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--verbose", action="store_true", help="each click's latency on stderr")
+    results.add_option(ap)
     return ap
 
 
@@ -1029,7 +1031,9 @@ def parse(argv):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     a = parse(argv)
+    begun = results.begin()
     out = run(a)
+    results.save("loadtest", out, begun, a.results_dir, out["command"])
     if a.json:
         print(json.dumps(out))
     else:

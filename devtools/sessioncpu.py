@@ -47,6 +47,7 @@ import time
 
 from vibtrans_explorer.server.memory import CLOSED, RELEASED
 
+from . import results
 from .loadtest import KERNELS_READY, Server, _range_points, _stat, _tree
 from .protoclient import ProtocolSession
 
@@ -331,6 +332,7 @@ def main(argv=None):
                     help="run the server under py-spy, its raw profile to PATH")
     ap.add_argument("--py-spy-bin", default="py-spy", help="the py-spy executable")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
+    results.add_option(ap)
     a = ap.parse_args(argv)
     a.argv = argv
     if not 1 <= a.sessions <= 60:
@@ -339,10 +341,13 @@ def main(argv=None):
         ap.error(f"--clicks must be in [0, 10], got {a.clicks}")
     if not 1 <= a.idle <= 120:
         ap.error(f"--idle must be in [1, 120] s, got {a.idle}")
+    begun = results.begin()
     out = run(a)
     if a.py_spy:
         parts = profile_parts(a.py_spy)
         out["profile_samples"] = {f"{t}: {p}": n for (t, p), n in parts.items()}
+    results.save("sessioncpu", out, begun, a.results_dir,
+                 " ".join(["python -m devtools.sessioncpu", *argv]))
     if a.json:
         print(json.dumps(out))
     else:

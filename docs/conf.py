@@ -9,11 +9,14 @@ from the parser itself (sphinx-argparse).  Built with -W: a warning fails.
 import argparse
 import os
 import re
+import sys
 
 from docutils import nodes
 from sphinx.util.docutils import SphinxDirective
 
 import vibtrans
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "_ext"))
 
 project = "vibtrans"
 author = "the vibtrans developers"
@@ -26,7 +29,10 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.napoleon",          # the public API's numpydoc sections
     "sphinx.ext.viewcode",
+    "benchresults",                 # the latest benchmark results as tables (docs/_ext)
 ]
+# the benches' JSON records (vibtrans.tools.results), relative to this folder
+bench_results_dir = "../benchmarks/results"
 # .rst first: autosummary writes its generated pages with the first suffix
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 exclude_patterns = ["_build", "**/.ipynb_checkpoints", "figures/README.md"]

@@ -21,13 +21,88 @@ _IDLE_JS = ("() => window.Bokeh !== undefined && window.Bokeh.documents.length >
             "&& window.Bokeh.documents.every((d) => d.is_idle)")
 # two animation frames: the browser has laid out and painted what was drawn
 _FRAMES_JS = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+# the page's fonts loaded (text laid out in its own font)
+_FONTS_JS = "() => document.fonts.ready.then(() => true)"
+# what a layout change moves: the document's scroll size and the box of each
+# figure (BokehJS's view of each plot)
+BOXES_JS = """() => {
+  const out = [document.scrollingElement.scrollWidth, document.scrollingElement.scrollHeight];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
+    if (m.x_range === undefined || m.renderers === undefined) continue;
+    const v = window.Bokeh.index.find_one(m);
+    if (!v) continue;
+    const r = v.el.getBoundingClientRect();
+    out.push(m.id, r.left, r.top, r.width, r.height);
+  }
+  return out;
+}"""
+
+
+# the page's acknowledgement of an action (app/views/browserside.py: shown by
+# the browser at the action, a `.vt-busy` line, cleared by the server after
+# its answer's changes) is not shown
+_ANSWERED_JS = """() => {
+  const visit = (root) => {
+    for (const e of root.querySelectorAll("*")) {
+      if (e.classList.contains("vt-busy") && e.textContent.trim()) return false;
+      if (e.shadowRoot && !visit(e.shadowRoot)) return false;
+    }
+    return true;
+  };
+  return visit(document);
+}"""
+
+
+def answered(page, timeout_s=60):
+    """Wait until the server has answered the last acknowledged action (a
+    run, a map redraw, a file: the page's acknowledgement line is cleared
+    after the answer's changes)."""
+    page.wait_for_function(_ANSWERED_JS, timeout=budget_ms(timeout_s), polling=50)
+
+
+def frames(page):
+    """Wait for two animation frames: the browser has laid out and painted
+    what it was given."""
+    page.evaluate(_FRAMES_JS)
 
 
 def settle(page, timeout_s=60):
-    """Wait until the page's Bokeh documents have rendered (is_idle), then
-    for two animation frames (layout and paint, e.g. after a resize)."""
+    """Wait until the page's Bokeh documents have rendered (is_idle) and
+    its fonts have loaded, then for two animation frames (layout and
+    paint, e.g. after a resize)."""
     page.wait_for_function(_IDLE_JS, timeout=budget_ms(timeout_s))
+    page.evaluate(_FONTS_JS)
     page.evaluate(_FRAMES_JS)
+
+
+def steady(page, what_js=BOXES_JS, still_frames=5, timeout_s=60):
+    """`settle`, then wait until the page stays put: `what_js` (a page
+    function; default BOXES_JS, the figures' boxes and the scroll size)
+    returns the same for `still_frames` animation frames in a row (a CSS
+    transition, a resize or a layout pass has ended)."""
+    settle(page, timeout_s)
+    page.evaluate("() => { window.__vtSteady = null; }")
+    page.wait_for_function(f"""() => {{
+      const now = JSON.stringify(({what_js})());
+      const s = window.__vtSteady;
+      if (s && s.last === now) s.same += 1; else window.__vtSteady = {{last: now, same: 0}};
+      return window.__vtSteady.same >= {int(still_frames)};
+    }}""", timeout=budget_ms(timeout_s))       # evaluated at every animation frame
+
+
+def changed(page, what_js, last, timeout_ms, polling=100):
+    """Wait until the page function `what_js` returns something other than
+    `last` (JSON text, as `read` gives it): the next change of what it
+    reads; returns the new value as JSON text.  Checked every `polling` ms."""
+    handle = page.wait_for_function(
+        f"(last) => {{ const now = JSON.stringify(({what_js})()); return now !== last && now; }}",
+        arg=last, timeout=timeout_ms, polling=polling)
+    return handle.json_value()
+
+
+def read(page, what_js):
+    """The page function `what_js`'s value as JSON text (for `changed`)."""
+    return page.evaluate(f"() => JSON.stringify(({what_js})())")
 
 
 def open_explorer(page, url):

@@ -6,11 +6,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 import xarray as xr
+from asyncutil import wait_until
 from budget import budget
 
 import vibtrans.maps.adaptive as adaptive
@@ -295,12 +295,10 @@ def test_sigkilled_cli_resumes_bit_identical(tmp_path):
     subprocess.run([*cmd, full], check=True, capture_output=True, timeout=budget(600))
     proc = subprocess.Popen([*cmd, part], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    deadline = time.time() + budget(300)
-    while time.time() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-        if os.path.isdir(part + ".partial") and any(
-                f.endswith(".npz") for f in os.listdir(part + ".partial")):
-            break
+    # the first level's points saved (or the process ended: then nothing is tested)
+    wait_until(lambda: proc.poll() is not None or (os.path.isdir(part + ".partial") and any(
+        f.endswith(".npz") for f in os.listdir(part + ".partial"))), budget(300),
+        "the first saved points")
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     assert not os.path.exists(part), "finished before the kill: nothing tested"

@@ -10,12 +10,12 @@ The screenshots go to test-artifacts/ (look at them)."""
 import json
 import math
 import re
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from budget import budget, budget_ms
+from browserpages import settle
+from budget import budget_ms
 
 from devtools.chromium import launched
 from vibtrans import paper_scene, simulate
@@ -23,7 +23,7 @@ from vibtrans.core.errors import InputError, InputTypeError
 from vibtrans.core.kernels import substrate
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.products import plots
-from vibtrans_explorer.views.animation import ParticleAnimation, _fixed, frame_indices
+from vibtrans_explorer.views.animation import TICK_MS, ParticleAnimation, _fixed, frame_indices
 
 ROOT = Path(__file__).resolve().parent.parent
 ARTIFACTS = ROOT / "test-artifacts"
@@ -284,20 +284,60 @@ def _same_frame(page_state, f):
     assert f["contact_title"] in page_state["titles"]
 
 
+# the frames' data the page holds now, kept; and a test that it was replaced
+# (a run's frames come as a new data object)
+_KEEP_FRAMES_JS = ("() => { window.__vtFrames = "
+                   "window.Bokeh.documents[0].get_model_by_name('anim-frames').data; }")
+_NEW_FRAMES_JS = ("() => window.Bokeh.documents[0].get_model_by_name('anim-frames').data "
+                  "!== window.__vtFrames")
+# the frame the slider shows
+_VALUE_JS = "() => window.Bokeh.documents[0].get_model_by_name('anim-frame').value"
+# three ticks of a timer of the player's period, started now: a player still
+# running would have ticked before each of them
+_TICKS_JS = """(ms) => new Promise((resolve) => {
+  let n = 0;
+  const id = setInterval(() => { if (++n === 3) { clearInterval(id); resolve(); } }, ms);
+})"""
+
+
+def _show(page, doc, anim, run):
+    """The server shows `run`; wait until its frames are in the page (they
+    come in the message that shows the run)."""
+    page.evaluate(_KEEP_FRAMES_JS)
+    doc.add_next_tick_callback(lambda: anim.show(*run))
+    page.wait_for_function(_NEW_FRAMES_JS, timeout=budget_ms(30))
+
+
+def _play_a_while(page):
+    """Play until the page shows another frame, then pause."""
+    first = page.evaluate(_VALUE_JS)
+    page.get_by_role("button", name="Play").click()
+    page.wait_for_function(f"(first) => ({_VALUE_JS})() !== first", arg=first,
+                           timeout=budget_ms(30))
+    page.get_by_role("button", name="Pause").click()
+
+
+def _show_and_play(page, doc, anim, run):
+    """The server shows `run`, the page plays it until its frame moves and
+    pauses: the page's state then."""
+    _show(page, doc, anim, run)
+    _play_a_while(page)
+    return page.evaluate(_PAGE_JS)
+
+
+def _server_mark(doc, socket, received, title):
+    """A change the server sends after everything it sent before (the
+    document's title, set on its next tick): wait until it has come; the
+    index of its message's first frame among `received` (a message: a
+    header, a metadata and a content frame, then its buffers)."""
+    doc.add_next_tick_callback(lambda: setattr(doc, "title", title))
+    socket.wait_for_event("framereceived", predicate=lambda m: title in str(m),
+                          timeout=budget_ms(30))
+    return next(k for k, m in enumerate(received) if isinstance(m, str) and title in m) - 2
+
+
 @pytest.mark.browser
 @pytest.mark.server
-def _show_and_play(page, doc, anim, run, runs, play_ms):
-    """The server shows `run` (the animation's `runs`-th), the page plays
-    it for `play_ms` and pauses: the page's state then."""
-    doc.add_next_tick_callback(lambda: anim.show(*run))
-    deadline = time.time() + budget(30)
-    while anim.runs < runs and time.time() < deadline:
-        time.sleep(0.1)
-    page.wait_for_timeout(1000)
-    page.get_by_role("button", name="Play").click()
-    page.wait_for_timeout(play_ms)
-    page.get_by_role("button", name="Pause").click()
-    return page.evaluate(_PAGE_JS)
 
 
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
@@ -325,12 +365,14 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.on("pageerror", lambda e: errors.append(str(e)))
             received = []      # the server's websocket messages to the page
             sent = []          # the page's to the server
+            sockets = []
             page.on("websocket", lambda ws: (
+                sockets.append(ws),
                 ws.on("framereceived", lambda m: received.append(m)),
                 ws.on("framesent", lambda m: sent.append(m))))
             page.goto(f"http://127.0.0.1:{port}/")
             page.wait_for_selector("canvas", timeout=budget_ms(60))
-            page.wait_for_timeout(1000)
+            settle(page)                                  # the first run's frame drawn
             anim, doc = sessions[-1]
             state = page.evaluate(_PAGE_JS)
             assert state["value"] == 0
@@ -341,13 +383,13 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             play = page.get_by_role("button", name="Play")
             sent_at_play = len(sent)
             play.click()
-            page.wait_for_timeout(1200)
+            page.wait_for_function(f"() => ({_VALUE_JS})() > 0", timeout=budget_ms(30))
             playing = page.evaluate(_PAGE_JS)["value"]
             assert playing > 0                             # play advances the frame
             page.screenshot(path=str(ARTIFACTS / "animation_playing.png"))
             page.get_by_role("button", name="Pause").click()
             paused = page.evaluate(_PAGE_JS)
-            page.wait_for_timeout(800)
+            page.evaluate(_TICKS_JS, TICK_MS)              # the player's ticks, had it gone on
             later = page.evaluate(_PAGE_JS)
             # the page told the server of the two clicks, of no frame
             assert _changes(sent[sent_at_play:]) == ["active", "active"]
@@ -365,7 +407,8 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             page.mouse.move(track["x"] + 0.25 * track["width"], handle["y"] + handle["height"] / 2,
                             steps=8)
             page.mouse.up()
-            page.wait_for_timeout(300)
+            page.wait_for_function(f"(v) => ({_VALUE_JS})() !== v", arg=later["value"],
+                                   timeout=budget_ms(30))
             scrubbed = page.evaluate(_PAGE_JS)
             n = anim.frames.data["t"].size
             assert abs(scrubbed["value"] - 0.25 * (n - 1)) <= 2, (scrubbed["value"], n)
@@ -374,39 +417,34 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             # a new run from the server: back to its first frame, drawn
             before = len(received)
             sent_before = len(sent)
-            doc.add_next_tick_callback(lambda: anim.show(*hopping))
-            deadline = time.time() + budget(30)
-            while anim.runs < 2 and time.time() < deadline:
-                time.sleep(0.1)
-            page.wait_for_timeout(1000)
-            # the run came in one message, and the page sent nothing about it
-            # (layout sizes aside)
-            assert _messages(received[before:], "PATCH-DOC") == 1
+            _show(page, doc, anim, hopping)
+            # the run came in one message (all of it before a later change of
+            # the server's), and the page sent nothing about it (layout sizes aside)
+            mark = _server_mark(doc, sockets[-1], received, "after the second run")
+            assert _messages(received[before:mark], "PATCH-DOC") == 1
             assert not set(_changes(sent[sent_before:])) - {"outer_width", "outer_height"}
             state = page.evaluate(_PAGE_JS)
             assert state["value"] == 0
             _same_frame(state, anim.frame(0))
-            page.get_by_role("button", name="Play").click()
-            page.wait_for_timeout(1500)
-            page.get_by_role("button", name="Pause").click()
+            _play_a_while(page)
             state = page.evaluate(_PAGE_JS)
             assert state["value"] > 0
             _same_frame(state, anim.frame(state["value"]))
             page.screenshot(path=str(ARTIFACTS / "animation_hopping.png"))
 
             # a material point: the particle only, and the page says so
-            state = _show_and_play(page, doc, anim, point_mass, 3, 1000)
+            state = _show_and_play(page, doc, anim, point_mass)
             _same_frame(state, anim.frame(state["value"]))
             assert "material point: rigid, no contact area" in state["titles"]
             page.screenshot(path=str(ARTIFACTS / "animation_point_mass.png"))
 
             # the vertical model: the contact without a stick core
-            state = _show_and_play(page, doc, anim, vertical, 4, 700)
+            state = _show_and_play(page, doc, anim, vertical)
             _same_frame(state, anim.frame(state["value"]))
 
             # a cone (issue 34): the particle drawn with its tip, as frame() draws it,
             # on equal scales (the frame's width as the page gives it)
-            state = _show_and_play(page, doc, anim, cone, 5, 700)
+            state = _show_and_play(page, doc, anim, cone)
             assert len(state["tip"]["x"]) > 0
             _same_frame(state, anim.frame(state["value"]))
             side = page.evaluate(_SIDE_JS)

@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 import pytest
-from browserpages import settle
+from browserpages import answered, settle
 from budget import budget_ms
 
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET
@@ -163,12 +163,12 @@ def test_a_second_run_feeds_the_same_figures(page, server):
     box = page.locator("canvas").first.bounding_box()
     page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
     _summary_text(page).wait_for(timeout=budget_ms(60))
-    page.wait_for_timeout(1000)
+    answered(page)                               # the run's figures and data came with it
     first, models = _sources(page), page.evaluate(_MODELS_JS)
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
     page.mouse.click(box["x"] + box["width"] * 0.75, box["y"] + box["height"] * 0.25)
     page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=budget_ms(60), polling=100)
-    page.wait_for_timeout(1000)
+    answered(page)
     second = _sources(page)
     assert second.keys() == first.keys()
     assert second != first                       # new data in them
@@ -183,7 +183,7 @@ def test_both_models_draw_into_the_same_figures(page, server):
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="4: synchronous hopping (hovering)")
     _summary_text(page).wait_for(timeout=budget_ms(60))
-    page.wait_for_timeout(1000)
+    answered(page)                               # the run's figures came with it
     trajectory = lambda: sorted((x, t) for t, x, *_ in page.evaluate(_FIGURES_JS)  # noqa: E731
                                 if not t.startswith("<v*>"))
     before = trajectory()
@@ -191,7 +191,7 @@ def test_both_models_draw_into_the_same_figures(page, server):
     select.select_option(label="10: point mass: chaotic hopping")
     page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=budget_ms(60), polling=100)
     _see(page, "point-mass:")
-    page.wait_for_timeout(1000)
+    answered(page)
     after = trajectory()
     assert [x for x, _ in after] == [x for x, _ in before]     # the same figures
     titles = {t for _, t in after}
@@ -222,7 +222,10 @@ def test_the_step_cap_is_a_message(page, server):
     # the click's acknowledgement ("Running ...") goes with the refusal, and
     # nothing runs
     page.get_by_text("Running").first.wait_for(state="hidden", timeout=budget_ms(30))
-    page.wait_for_timeout(1000)
+    # a later answer of the server (the introduction, added when first
+    # opened): a run the click had started would have said so before it
+    page.get_by_text("What is this? (a short introduction)").first.click()
+    _see(page, "A small particle rests on a surface")
     assert page.get_by_text("Running").count() == 0
 
 

@@ -6,7 +6,6 @@ import asyncio
 import gc
 import logging
 import threading
-import time
 import weakref
 
 import numpy as np
@@ -38,8 +37,7 @@ def _runs_until_cancelled(started):
     """A stand-in for simulate that sets `started` and runs until cancelled."""
     def slow(scene, *, cancel=None, **kwargs):
         started.set()
-        while not cancel.is_set():
-            time.sleep(0.005)
+        cancel.wait()
         raise Cancelled("run cancelled")
     return slow
 
@@ -88,8 +86,7 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
 
     def slow(scene, *, cancel=None, **kwargs):
         started.set()
-        while not cancel.is_set():
-            time.sleep(0.005)
+        cancel.wait()
         seen_cancel.append(scene)
         raise Cancelled("run cancelled")
 
@@ -220,7 +217,8 @@ def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog, thawed
     async def go():
         for _ in range(3):
             memory.session_closed()
-        await asyncio.sleep(0.3)
+        # released, and nothing scheduled after (each close replaced the last's)
+        await until(lambda: calls and memory._RELEASE["handle"] is None)
     asyncio.run(go())
     assert calls == [1] and memory._RELEASE["handle"] is None
     released = [r.getMessage() for r in caplog.records if memory.RELEASED in r.getMessage()]
@@ -256,15 +254,15 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
     async def go():
         for _ in range(3):            # two sessions stay open: nothing due
             memory.session_closed(ctx)
-            await asyncio.sleep(0.05)
+            assert memory._RELEASE["handle"] is None          # nothing scheduled
         gc.collect()
         assert calls == [] and gone() is not None     # frozen: not even a full pass
         memory.session_closed(ctx)    # the 4th close: due, sessions open or not
-        await asyncio.sleep(0.1)
+        await until(lambda: calls)
         assert calls == [2] and gone() is None
         open_sessions.clear()
         memory.session_closed(ctx)    # the last session: due at once
-        await asyncio.sleep(0.1)
+        await until(lambda: len(calls) == 2)
         assert calls == [2, 0]
     asyncio.run(go())
     assert gc.get_freeze_count() > 0      # the server's own objects, frozen again
@@ -280,7 +278,7 @@ def test_the_server_freezes_every_page_once_built(monkeypatch):
 
     async def go():
         pages = page(), page(), page()
-        await asyncio.sleep(0.05)
+        await until(lambda: len(kernels) == 3)      # each page's start_kernels called
         return pages
     assert asyncio.run(go()) == ("a page",) * 3 and built == [1, 1, 1]
 

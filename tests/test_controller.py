@@ -3,7 +3,6 @@ stand-in simulate, asyncio.run, and the parameters the page shows.  The
 controller is what issue 14 asked for: the runs testable without Panel."""
 import asyncio
 import threading
-import time
 
 import pytest
 from asyncutil import until
@@ -81,8 +80,7 @@ def test_cancel_says_so_and_a_replaced_run_is_silent():
 
     def until_cancelled(scene, cancel=None, **kwargs):
         started.set()
-        while not cancel.is_set():
-            time.sleep(0.005)
+        cancel.wait()
         raise Cancelled("cancelled")
 
     async def go():

@@ -18,11 +18,11 @@ import subprocess
 import sys
 import tempfile
 import threading
-import time
 import urllib.request
 from pathlib import Path
 
 import pytest
+from asyncutil import wait_until
 from budget import budget
 from tornado.httpclient import HTTPClientError, HTTPRequest
 from tornado.websocket import websocket_connect
@@ -56,11 +56,11 @@ def proxied():
     d.start()
     try:
         d.wait_ready(timeout=budget(300))
-        t0 = time.perf_counter()
-        while not all("kernels ready" in Path(p).read_text(errors="replace") for p in d.logs):
+
+        def kernels_ready():
             assert d.exited() is None, d.exited()
-            assert time.perf_counter() - t0 < 300, "workers' kernels not ready in 300 s"
-            time.sleep(0.2)
+            return all("kernels ready" in Path(p).read_text(errors="replace") for p in d.logs)
+        wait_until(kernels_ready, 300, "the workers' kernels")
         yield d
     finally:
         d.stop()
@@ -91,15 +91,14 @@ def _visit_logged(d, cookies=None, click=True, timeout=60):
     connection closes)."""
     before = len(d.requests())
     cookies, outcome = _visit(d.url, cookies=cookies, click=click)
-    t0 = time.perf_counter()
-    while True:
-        mine = d.requests()[before:]
-        if any(r["path"] == "/ws" for r in mine) or time.perf_counter() - t0 > timeout:
-            out = {}
-            for r in mine:
-                out.setdefault(r["path"], set()).add(r["upstream"])
-            return cookies, outcome, out
-        time.sleep(0.2)
+    try:
+        wait_until(lambda: any(r["path"] == "/ws" for r in d.requests()[before:]), timeout)
+    except AssertionError:
+        pass                     # the caller's checks say what is missing
+    out = {}
+    for r in d.requests()[before:]:
+        out.setdefault(r["path"], set()).add(r["upstream"])
+    return cookies, outcome, out
 
 
 def _address(d, name):
@@ -169,16 +168,15 @@ def routing():
                                      headers={"Cookie": cookie} if cookie else {})
         with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
             return int(r.read()), r.headers.get("Set-Cookie")
+    def listening():
+        try:
+            get()
+            return True
+        except OSError:
+            assert proc.poll() is None, proc.stderr.read().decode()
+            return False
     try:
-        t0 = time.perf_counter()
-        while True:
-            try:
-                get()
-                break
-            except OSError:
-                assert proc.poll() is None, proc.stderr.read().decode()
-                assert time.perf_counter() - t0 < budget(30), "nginx not listening in time"
-                time.sleep(0.1)
+        wait_until(listening, budget(30), "nginx listening")
         yield get, backends
     finally:
         deploy._stop(proc)
@@ -241,10 +239,7 @@ def test_a_session_works_through_the_proxy_and_stays_on_its_worker(proxied):
     # this request's line in the access log before the visit below counts
     # its own: unread, the page was logged once the connection closed, and
     # was counted as the visit's (a page on the other worker; make test, once)
-    until_logged = time.perf_counter() + budget(30)
-    while len(proxied.requests()) == logged:
-        assert time.perf_counter() < until_logged, "the page's request never logged"
-        time.sleep(0.05)
+    wait_until(lambda: len(proxied.requests()) != logged, budget(30), "the page's request logged")
     assert cookie.startswith(f"{deploy.ROUTE_COOKIE}=w")
     assert "HttpOnly" in cookie and "SameSite=Lax" in cookie and "Path=/" in cookie
     assert "Secure" not in cookie           # plain http here; set under https only
@@ -280,10 +275,8 @@ def test_visitors_from_one_address_split_evenly_and_return_to_their_worker(proxi
     before = len(proxied.requests())
     names = asyncio.run(arrive(4))
     assert sorted(names) == ["w0", "w0", "w1", "w1"], names
-    t0 = time.perf_counter()
-    while sum(r["path"] == "/ws" for r in proxied.requests()[before:]) < 4:
-        assert time.perf_counter() - t0 < 60, "the visitors' websockets are not logged"
-        time.sleep(0.2)
+    wait_until(lambda: sum(r["path"] == "/ws" for r in proxied.requests()[before:]) >= 4, 60,
+               "the visitors' websockets logged")
     for r in proxied.requests()[before:]:
         if r["path"] == "/ws":           # each websocket carries its page's cookie
             assert r["upstream"] == _address(proxied, r["worker"]), r
@@ -325,11 +318,10 @@ def test_the_launcher_serves_and_stops_everything(tmp_path):
                              "--port", str(port)], cwd=ROOT, env=ENV, stdout=log,
                             stderr=subprocess.STDOUT)
     try:
-        t0 = time.perf_counter()
-        while b"Ctrl-C stops" not in (tmp_path / "deploy.log").read_bytes():
+        def launched():
             assert proc.poll() is None, (tmp_path / "deploy.log").read_text()
-            assert time.perf_counter() - t0 < 300, "the launcher was not ready in 300 s"
-            time.sleep(0.2)
+            return b"Ctrl-C stops" in (tmp_path / "deploy.log").read_bytes()
+        wait_until(launched, 300, "the launcher ready")
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=TIMEOUT) as r:
             assert r.status == 200 and b"token" in r.read()
         text = (tmp_path / "deploy.log").read_text()

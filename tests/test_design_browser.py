@@ -2,12 +2,12 @@
 1280 x 800: opened, the paper preset's chart drawn and shown with its
 chart-wide notes and downloads, a click on it moving the device, a custom
 substrate's field shown.  Screenshots go to test-artifacts/."""
-import time
 from pathlib import Path
 
 import pytest
 from browserpages import new_page, open_explorer
-from budget import budget, budget_ms
+from budget import budget_ms
+from playwright.sync_api import expect
 
 pytestmark = pytest.mark.browser
 
@@ -30,10 +30,14 @@ def _shot(page, name):
     page.screenshot(path=str(ARTIFACTS / f"design-{name}-{size['width']}.png"))
 
 
+def _device(page):
+    """The device's Markdown's paragraphs, cells and items (its text is in
+    the pane's shadow root)."""
+    return page.locator(".vt-design-device p, .vt-design-device td, .vt-design-device li")
+
+
 def _device_text(page):
-    """The device's Markdown (its text is in the pane's shadow root)."""
-    return " ".join(page.locator(".vt-design-device p, .vt-design-device td, "
-                                 ".vt-design-device li").all_inner_texts())
+    return " ".join(_device(page).all_inner_texts())
 
 
 def _open_design(page, url):
@@ -95,10 +99,10 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         chart.scroll_into_view_if_needed()
         box = chart.bounding_box()
         # a click inside the plot moves the device
+        shown = _device(page).all_inner_texts()
         page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.35)
-        deadline = time.perf_counter() + budget(20)
-        while _device_text(page) == before and time.perf_counter() < deadline:
-            page.wait_for_timeout(200)
+        expect(_device(page)).not_to_have_text(shown, use_inner_text=True,
+                                               timeout=budget_ms(20))
         assert _device_text(page) != before
         _shot(page, "clicked")
         # a custom substrate: its text field appears beside the materials

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from asyncutil import until
 
 from vibtrans.core.errors import InputError
 from vibtrans.maps.sweep import open_map
@@ -175,8 +176,7 @@ def test_a_map_can_be_cancelled_and_a_closed_session_cancels_it(tmp_path):
         async def run():
             await panel.draw()
             task = asyncio.create_task(panel.compute())
-            while not started or started[-1].cancel.is_set():
-                await asyncio.sleep(0.05)
+            await until(lambda: started and not started[-1].cancel.is_set())
             assert panel.cancel_button.visible and panel.compute_button.disabled
             # another chart drawn meanwhile offers its own map; the first goes on
             panel.mu = 0.6

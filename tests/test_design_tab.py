@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from asyncutil import until
 from bokeh.models import ColumnDataSource
 
 from vibtrans.products import design
@@ -134,7 +135,7 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
 
     async def busy_while_drawing():
         task = asyncio.create_task(drawn.draw())
-        await asyncio.sleep(0)          # the draw has started: off the event loop now
+        await until(lambda: drawn.busy)     # the draw has started: off the event loop now
         assert drawn.busy and drawn.spinner.visible and drawn.draw_button.disabled
         assert "Drawing the chart" in drawn.status.object
         await task

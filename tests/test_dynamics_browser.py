@@ -9,7 +9,7 @@ from pathlib import Path
 from urllib.parse import quote
 
 import pytest
-from browserpages import new_page, open_explorer
+from browserpages import new_page, open_explorer, steady
 from budget import budget_ms
 
 pytestmark = pytest.mark.browser
@@ -70,7 +70,7 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
             assert s[fig]["left"] >= -1 and s[fig]["right"] <= s["width"] + 1, (fig, s)
         assert len(s["colours"]) == 1
         page.evaluate(_STATE_JS, True)           # the section into the viewport
-        page.wait_for_timeout(300)
+        steady(page)                             # scrolled, laid out
         box = page.evaluate(_STATE_JS)["section"]
         assert 0 <= box["top"] and box["bottom"] <= height, box
         page.mouse.click((box["left"] + box["right"]) / 2 + 40,

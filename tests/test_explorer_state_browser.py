@@ -6,13 +6,16 @@ fields, the selectors, the map's marker and the run's heading show one
 scene; and that the server logged no error meanwhile (a failed callback,
 Bokeh's `_pending_writes`).  STEPS and SEED: VIBTRANS_TWIN_STEPS,
 VIBTRANS_TWIN_SEED."""
+import json
 import os
 import random
 import time
 from urllib.parse import parse_qs
 
 import pytest
+from browserpages import changed, frames, read
 from budget import budget, budget_ms
+from playwright.sync_api import TimeoutError as PageTimeout
 
 from devtools.chromium import launched
 from vibtrans.core.params import PAPER_POINTS
@@ -102,15 +105,19 @@ def _consistent(page_state):
 
 def _settled(page, deadline):
     """Wait until the page's scene agrees everywhere; its state then."""
-    problem = "not read"
-    while time.monotonic() < deadline:
-        got = page.evaluate(_PAGE_JS)
-        if not got["ack"]:
-            problem = _consistent(got)
-            if problem is None:
-                return got
-        page.wait_for_timeout(150)
-    raise AssertionError(f"the page disagrees with itself: {problem}")
+    text = read(page, _PAGE_JS)
+    while True:
+        got = json.loads(text)
+        problem = (f"the server has not answered ({got['ack']!r} shown)" if got["ack"]
+                   else _consistent(got))
+        if problem is None:
+            return got
+        left = deadline - time.monotonic()
+        try:
+            # the page's next change (an answer of the server's arriving)
+            text = changed(page, _PAGE_JS, text, timeout_ms=max(left, 0.001) * 1000)
+        except PageTimeout:
+            raise AssertionError(f"the page disagrees with itself: {problem}") from None
 
 
 def _map_box(page):
@@ -123,7 +130,7 @@ def _map_box(page):
         box = canvas.bounding_box()
         if box is not None and box["width"] > 0:
             return box
-        page.wait_for_timeout(100)
+        frames(page)                 # laid out again
     raise AssertionError("the map's canvas was never on screen for a click")
 
 
@@ -170,7 +177,9 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
             else:
                 page.locator("button", has_text="Run selected scene").click()
             done.append(kind)
-            page.wait_for_timeout(100)
+            # no wait first: the browser shows its acknowledgement of each
+            # action at once (typed values: the field disagrees with the URL)
+            # until the server's answer, which _settled waits for
             _settled(page, time.monotonic() + budget(SETTLE_S))
         page.close()
     assert not errors, errors

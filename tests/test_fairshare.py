@@ -128,15 +128,19 @@ def test_process_workers_run_the_tasks_elsewhere_and_stop_when_idle():
 def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
     """A lane shut down while its task runs in a process: the task ends
     with its result, then the processes stop."""
+    import multiprocessing
     pool = FairPool(1, processes=True)
     lane, other = pool.lane(), pool.lane()
     assert lane.submit(_process_facts, 0).result(timeout=120)     # processes up
-    running = lane.submit(_sleep_then, 3.0, "done")
-    assert _soon(running.running)
-    lane.shutdown()
-    other.shutdown()
-    assert pool.processes_up()                  # its task still runs there
-    assert running.result(timeout=120) == "done"
+    with multiprocessing.Manager() as manager:
+        gate = manager.Event()                  # the task runs until it is set
+        running = lane.submit(_wait_then, gate, "done")
+        assert _soon(running.running)
+        lane.shutdown()
+        other.shutdown()
+        assert pool.processes_up()              # its task still runs there
+        gate.set()
+        assert running.result(timeout=120) == "done"
     assert _soon(lambda: not pool.processes_up())
 
 
@@ -146,18 +150,25 @@ def test_process_workers_linger_for_the_next_map_then_stop():
     spell is counted from the last lane's end; `stop_processes` ends it
     at once, not while a lane is open."""
     import time
-    pool = FairPool(1, processes=True, linger=3.0)
-    lane = pool.lane()
+    linger = 3.0
+    pool = FairPool(1, processes=True, linger=linger)
+    # a second pool whose linger starts with the first lane's end: its stop
+    # says when a spell counted from that end is over
+    clock = FairPool(1, processes=True, linger=linger)
+    lane, clock_lane = pool.lane(), clock.lane()
     pid = lane.submit(_process_facts, 0).result(timeout=120)[0]
+    clock_lane.submit(_process_facts, 0).result(timeout=120)
     lane.shutdown()
-    time.sleep(1.0)
+    clock_lane.shutdown()
     lane = pool.lane()
     assert lane.submit(_process_facts, 1).result(timeout=120)[0] == pid    # the same worker
-    time.sleep(2.5)
+    assert _soon(lambda: not clock.processes_up())      # a spell from the first lane's end is over
+    assert pool.processes_up()                          # ... the lane open since keeps them
     lane.shutdown()
-    time.sleep(1.0)             # over 3 s after the first lane's end, 1 s after the last's
+    last = time.monotonic()
     assert pool.processes_up()
     assert _soon(lambda: not pool.processes_up())       # 3 s after the last lane
+    assert time.monotonic() - last >= 0.9 * linger, time.monotonic() - last
     lane = pool.lane()
     assert lane.submit(_process_facts, 2).result(timeout=120)[0] != pid
     assert not pool.stop_processes() and pool.processes_up()   # a lane is open
@@ -165,19 +176,17 @@ def test_process_workers_linger_for_the_next_map_then_stop():
     assert pool.stop_processes() and not pool.processes_up()
 
 
-def _sleep_then(seconds, value):
-    import time
-    time.sleep(seconds)
+def _wait_then(gate, value):
+    assert gate.wait(120)
     return value
 
 
 def _soon(condition, seconds=30.0):
     """Whether `condition()` holds within `seconds` (a worker thread's
     bookkeeping follows the result it hands over)."""
-    import time
-    deadline = time.monotonic() + seconds
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
+    from asyncutil import wait_until
+    try:
+        wait_until(condition, seconds, every=0.01)
+    except AssertionError:
+        return False
     return True

@@ -15,7 +15,7 @@ CORES = sorted(os.sched_getaffinity(0))    # the cores this process may use
 
 
 @pytest.mark.browser                    # a real chromium session
-def test_small_load_has_no_errors_and_bounded_memory():
+def test_small_load_has_no_errors_and_bounded_memory(tmp_path):
     """Where there are two cores, pinned (--pin): the server's processes on
     the first core, the clients (this process and the chromium it drives)
     on the second, as read back from the kernel; this process's own
@@ -26,8 +26,9 @@ def test_small_load_has_no_errors_and_bounded_memory():
     pin = ["--pin"] if len(CORES) >= 2 else []
     out = loadtest.main(["--sessions", "3", "--clicks", "2", "--browsers", "1", "--think", "0.5",
                          "--ramp", "1", "--click-timeout", "90", "--timeout", "120",
-                         "--settle", "30", "--json", *pin])
+                         "--settle", "30", "--json", "--results-dir", str(tmp_path), *pin])
     assert out["errors"] == 0, out["error_samples"]
+    assert len(list(tmp_path.glob("loadtest-*.json"))) == 1      # the run, as a record
     assert out["refused"] == 0
     assert out["browser_clicks"] == 2 and out["protocol_clicks"] == 4, out
     assert out["sessions_dropped"] == 3           # Bokeh dropped every closed session
@@ -52,14 +53,15 @@ def test_small_load_has_no_errors_and_bounded_memory():
 
 @pytest.mark.server
 @pytest.mark.slow
-def test_a_session_asking_for_a_map_gets_it_while_the_others_click():
+def test_a_session_asking_for_a_map_gets_it_while_the_others_click(tmp_path):
     """--maps: one protocol session opens a link with a map request and
     waits for the finished map (computed: the server's map cache is a fresh
     folder) while two sessions click; every click answered, the map
     finished, no errors."""
     out = loadtest.main(["--sessions", "3", "--clicks", "2", "--browsers", "0", "--maps", "1",
                          "--think", "0.5", "--ramp", "1", "--click-timeout", "90",
-                         "--timeout", "240", "--settle", "30", "--json"])
+                         "--timeout", "240", "--settle", "30", "--json",
+                         "--results-dir", str(tmp_path)])
     assert out["errors"] == 0, out["error_samples"]
     assert out["map_sessions"] == 1 and out["maps_finished"] == 1, out
     assert out["goal_maps_finished"]

@@ -5,7 +5,7 @@ server's cache.  Screenshots at 1280 x 800 go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
-from browserpages import new_page, open_explorer
+from browserpages import new_page, open_explorer, steady
 from budget import budget_ms
 
 from vibtrans_explorer.session import maprequest
@@ -58,7 +58,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         page.evaluate(_RECORD_JS)
         page.get_by_role("button", name="Compute map").first.click()
         page.get_by_text("Map finished:").first.wait_for(timeout=budget_ms(120))
-        page.wait_for_timeout(500)
+        steady(page)                             # the finished map drawn and laid out
         _shot(page, "finished")
         texts = page.evaluate("() => window.__mapTexts")
         # the coarse grid's 3 x 3 points drawn first, then each level's
@@ -87,7 +87,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         assert query["fidelity"] == "preview" and float(query["periods"]) == 100.0
         assert float(query["tau"]) == 20.0 and -0.5 <= float(query["la"]) <= 0.5
         assert 0.0 <= float(query["lm"]) <= 1.0 and "map" in query
-        page.wait_for_timeout(1000)
+        steady(page)
         _shot(page, "clicked")
         link = page.evaluate("() => window.location.href")
     except Exception:
@@ -109,7 +109,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
           return out;
         }""")
         assert any("map on demand: deformable, mu = 0.3" in t for t in titles), titles
-        again.wait_for_timeout(500)
+        steady(again)
         _shot(again, "reopened")
         # the Difference tab compares the map on demand (on its grid) with the
         # shipped map of its model and mu
@@ -123,7 +123,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         again.get_by_text("points compared").first.wait_for(timeout=budget_ms(60))
         summary = again.get_by_text("points compared").first.inner_text()
         assert "deformable mu 0.3 tau 20 preview 100 periods" in summary, summary
-        again.wait_for_timeout(500)
+        steady(again)
         _shot(again, "difference")
         again.get_by_text("Map", exact=True).first.click()
         # back to the shipped map: the request leaves the link
@@ -154,7 +154,7 @@ def test_the_difference_tab_compares_the_two_models(browser, served_explorer, wi
         summary = page.get_by_text("points compared").first.inner_text()
         assert "point-mass mu 0.3" in summary and "deformable mu 0.3" in summary, summary
         assert "drift class agrees at" in summary, summary
-        page.wait_for_timeout(800)
+        steady(page)
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / f"difference-{width}x{height}.png"), full_page=True)
     finally:

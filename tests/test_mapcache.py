@@ -10,6 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
+from asyncutil import wait_until
 from budget import budget
 
 from vibtrans.core.errors import InputError
@@ -118,13 +119,23 @@ def test_a_damaged_or_unfinished_entry_is_recomputed_not_shown(tmp_path, damage)
     assert len(calls) == before + 1 and ds["done"].values.all()
 
 
+def _clock_past(path, probe):
+    """Wait until the file system's clock has moved past `path`'s time
+    stamp: a file touched from now on is stamped later (`probe`: a file to
+    touch, no entry)."""
+    def later():
+        probe.touch()
+        return probe.stat().st_mtime_ns > os.stat(path).st_mtime_ns
+    wait_until(later, budget(10), "the file system's clock to move on")
+
+
 def test_least_recently_used_entries_go_beyond_the_cap(tmp_path):
     requests = [{**REQUEST, "mu": mu} for mu in (0.2, 0.3, 0.4)]
     keys = [request_key(r) for r in requests]
     big = MapCache(tmp_path)
     for request, key in zip(requests, keys):
         big.compute(key, _builder(request, []), _now).result()
-        time.sleep(0.02)          # distinct time stamps
+        _clock_past(big.path(key), tmp_path / "clock")         # distinct time stamps
     size = mapcache._folder_bytes(big.path(keys[0]))
     big.get(keys[0])              # the oldest becomes the most recently used
     assert big.entries() == [keys[1], keys[2], keys[0]]

@@ -3,10 +3,10 @@ and URL form, the server-wide queue (one map per session, sessions sharing
 a computation, cancel, the cache's reuse and a damaged entry recomputed)."""
 import os
 import threading
-import time
 
 import numpy as np
 import pytest
+from asyncutil import wait_until
 from budget import budget
 
 from vibtrans_explorer.server import mapjobs
@@ -364,9 +364,7 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
         remote.submit("b", bigger, cancel_at_first_level)
         assert cancelled.wait().kind == "cancelled", cancelled.kinds()
         # the computation ends (its queued points dropped), leaving no map
-        deadline = time.monotonic() + budget(120)
-        while remote._running and time.monotonic() < deadline:
-            time.sleep(0.1)
+        wait_until(lambda: not remote._running, budget(120), "the computation's end")
         from vibtrans.maps.cache import request_key
         assert not remote._running
         assert remote.cache.get(request_key(bigger.cache_request())) is None
@@ -392,16 +390,16 @@ def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path, mo
         np.testing.assert_array_equal(got.ds[v].values, expected.ds[v].values)
     assert jobs._workers.processes and threads._workers is not None
     assert not threads._workers.processes
-    deadline = time.monotonic() + budget(60)
-    while jobs._workers.processes_up() and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_until(lambda: not jobs._workers.processes_up(), budget(60), "the processes' end")
     assert not jobs._workers.processes_up()
     monkeypatch.setattr(mapjobs, "WORKERS_LINGER", 600.0)
     again = mapjobs.MapJobs(folder=str(tmp_path / "again"), cores=1)
     mine = Listener()
     again.submit("a", MapRequest(**TINY), mine)
     assert mine.wait().kind == "done"
-    time.sleep(0.5)
+    # the map's bookkeeping done, its lane shut (without a linger its
+    # processes would have stopped then)
+    wait_until(lambda: not again._running, budget(60), "the map's end")
     assert again._workers.processes_up()            # lingering for the next map
     again.stop_workers()
     assert not again._workers.processes_up()
@@ -489,7 +487,10 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     """With max_running maps computing, the next one says it waits, whichever
     of two requests reaches the queue first (a slow cache read lets the
     second overtake the first, as a busy machine can)."""
+    building = threading.Event()
+
     def build(comp, path, on_level):
+        building.set()
         assert gate.wait(60)
         made.run_adaptive(comp, path, on_level)
     made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build,
@@ -499,8 +500,8 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
                                                  {**TINY, "mu": 0.5})).cache_request())
 
     def get(key):
-        if key == slow_key:
-            time.sleep(0.5)
+        if key == slow_key:           # read once the other map computes
+            assert building.wait(60)
         return read(key)
     made.cache.get = get
     first, second = Listener(), Listener()
@@ -508,10 +509,7 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     made.submit("b", MapRequest(**{**TINY, "mu": 0.5}), second)
     # the two requests open the cache on two threads: either may reach the
     # queue first, and the other is the one that waits
-    deadline = time.monotonic() + budget(60)
-    while ("queued" not in first.kinds() + second.kinds()
-           and time.monotonic() < deadline):
-        time.sleep(0.05)
+    wait_until(lambda: "queued" in first.kinds() + second.kinds(), budget(60), "a queued map")
     gate.set()
     assert first.wait().kind == "done" and second.wait().kind == "done"
     queued = [u for listener in (first, second) for u in listener.updates

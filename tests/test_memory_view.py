@@ -147,14 +147,18 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
     async def go():
         view = MemoryView(POOL)
         view.set_run(first, first.periods)
-        cancel = view.work.job.event
+        first_job = view.work.job
+        cancel = first_job.event
         view.set_run(second, second.periods)
         assert cancel.is_set()                          # the first run stops
         await until(lambda: not view.computing, timeout=budget(120))
         assert view.scene is second and view.times[-1] == 100.0
         expected = memory_snapshots(second, snapshot_times(100.0))[-1]
         _holds(view, expected)
-        await asyncio.sleep(0.3)                        # the first's end changes nothing
+        # the first's end (its thread done, then every task the view started
+        # for it) changes nothing
+        await until(lambda: all(f.done() for f in first_job.futures), timeout=budget(120))
+        await asyncio.gather(*(asyncio.all_tasks() - {asyncio.current_task()}))
         assert view.scene is second
         _holds(view, expected)
         view.set_run(second.replace(model="point-mass"), 100.0)   # no memory diagram

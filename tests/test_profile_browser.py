@@ -8,6 +8,7 @@ The screenshots go to test-artifacts/profile/ (look at them)."""
 from pathlib import Path
 
 import pytest
+from browserpages import steady
 
 pytestmark = pytest.mark.browser
 
@@ -16,7 +17,6 @@ ARTIFACTS = ROOT / "test-artifacts" / "profile"
 SIZES = ["1024x768", "1280x800", "1920x1080"]
 # paper point 6 (landings: the contact circle's own c(a*) moves)
 LINK = "?profile=cone&la=0.25&lm=0.8&fidelity=preview&compare=none"
-IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
 
 # the tip's drawing: its box on the screen, the sidebar's, and its title
 DRAWING_JS = """() => {
@@ -35,11 +35,6 @@ DRAWING_JS = """() => {
 }"""
 
 
-def _settle(page, ms=1500):
-    page.wait_for_function(IDLE_JS, timeout=120000)
-    page.wait_for_timeout(ms)
-
-
 @pytest.mark.parametrize("size", SIZES)
 def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explorer, browser,
                                                                    size):
@@ -53,7 +48,7 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         page.wait_for_selector("canvas", timeout=120000)
         # the link runs its scene: its heading names the cone
         page.locator("strong", has_text="profile cone").first.wait_for(timeout=120000)
-        _settle(page)
+        steady(page, timeout_s=120)              # the run's figures drawn and laid out
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}.png"), full_page=True)
         box = page.evaluate(DRAWING_JS)
         assert box["found"] and box["shown"], box
@@ -70,15 +65,15 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         page.evaluate("""() => { for (const doc of window.Bokeh.documents)
             for (const m of doc.all_models) if (m.name === "profile-drawing") {
               window.Bokeh.index.find_one(m).el.scrollIntoView({block: "center"}); } }""")
-        page.wait_for_timeout(300)
+        steady(page)                             # scrolled
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}-drawing.png"))
         # the animation: its contact circle is the profile's (its key says how it is drawn)
         page.get_by_text("Animation", exact=True).first.click()
-        _settle(page, 3000)
         page.get_by_text("the particle drawn with its cone tip").first.wait_for(timeout=60000)
+        steady(page, timeout_s=120)              # the tab's figures drawn and laid out
         page.get_by_text("Animation", exact=True).first.evaluate(
             "(e) => e.scrollIntoView({block: 'start'})")
-        page.wait_for_timeout(300)
+        steady(page)                             # scrolled
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}-animation.png"))
         assert not errors, errors
     finally:
@@ -108,7 +103,7 @@ def test_a_cone_map_on_demand_draws_its_linear_resonance_and_says_why(served_exp
         page.wait_for_selector("canvas", timeout=120000)
         page.get_by_text("click it to run a scene there", exact=False).first.wait_for(
             timeout=180000)
-        _settle(page)
+        steady(page, timeout_s=120)
         titles = page.evaluate(TITLES_JS)
         note = [t for t in titles if "no jumping boundary: the one shipped is the sphere's" in t]
         assert note and "cone's linear resonance m* = 0.0507" in note[0], titles
@@ -132,7 +127,7 @@ def test_a_steep_power_law_link_opens_its_page_and_runs(served_explorer, browser
                                         "&fidelity=preview&compare=none")
         page.locator("strong", has_text="profile power:1e300").first.wait_for(timeout=120000)
         page.get_by_text("Animation", exact=True).first.click()
-        page.wait_for_function(IDLE_JS, timeout=120000)
+        steady(page, timeout_s=120)
         box = page.evaluate(DRAWING_JS)
         assert box["found"] and box["title"] == "the tip: power:1e300 (solid), the sphere (dashed)"
         body = page.inner_text("body")

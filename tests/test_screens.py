@@ -24,11 +24,11 @@ coordinates):
 
 Screenshots (the viewport, what the screen shows) go to
 test-artifacts/screens-WxH.png (look at them)."""
-import time
 from pathlib import Path
 
 import pytest
-from budget import budget, budget_ms
+from browserpages import answered, frames, steady
+from budget import budget_ms
 
 from devtools.explorershots import MAP_JS as _MAP_JS
 
@@ -119,9 +119,7 @@ def screen(browser, served_explorer):
         page.goto(served_explorer.url)
         page.wait_for_selector("canvas", timeout=budget_ms(60))
         page.get_by_text("Paper points").first.wait_for(timeout=budget_ms(60))
-        page.wait_for_function("() => window.Bokeh.documents.every((d) => d.is_idle)",
-                               timeout=budget_ms(60))
-        page.wait_for_timeout(1000)        # the prebuilt trajectory figures, fonts
+        steady(page)                       # drawn, fonts loaded, laid out for good
         return page
     yield open_
     for page in pages:
@@ -174,12 +172,15 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
     if presentation:
         inner = toggle.first.locator("button, input, [role=switch]")
         (inner.first if inner.count() else toggle.first).click()
-        page.wait_for_timeout(1000)
+        _presented(page)
     page.get_by_role("button", name="Run selected scene").first.click()
     page.locator("strong", has_text="mu = ").first.wait_for(timeout=budget_ms(60))
-    page.wait_for_timeout(1500)           # the run's data drawn
+    # the run's figures shown (they come with its summary), laid out
+    page.wait_for_function(f"() => ({_GEOMETRY_JS})(false).panel !== null",
+                           timeout=budget_ms(60))
+    steady(page)
     page.evaluate(_GEOMETRY_JS, True)     # the map at the top of the screen
-    page.wait_for_timeout(300)
+    frames(page)
     _shot(page, f"{width}x{height}-presentation")
     g = page.evaluate(_GEOMETRY_JS, False)
     problems = list(filter(None, [_across("the map figure", g["map"], g["width"]),
@@ -220,9 +221,19 @@ _MAPS_JS = """() => {
 
 
 def _idle(page):
-    page.wait_for_function("() => window.Bokeh.documents.every((d) => d.is_idle)",
-                           timeout=budget_ms(60))
-    page.wait_for_timeout(800)
+    """The server's answer to the last action arrived (the page's
+    acknowledgement, shown by the browser at the action, cleared by the
+    server after its answer), and the page laid out again for good."""
+    answered(page)
+    steady(page)
+
+
+def _presented(page):
+    """After presentation mode is switched on: the server's answer (its note
+    on hiding the controls, sent with its styles and fonts) shown and the
+    page laid out again for good."""
+    page.get_by_text("hides the controls").first.wait_for(timeout=budget_ms(30))
+    steady(page)
 
 
 def _px(locator):
@@ -297,12 +308,7 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     chosen = page.locator("select.bk-input").first
     before = page.evaluate(_MAP_JS), _px(widget), _px(tab), _px(typed), _px(chosen)
     page.locator(".vt-presentation").first.locator("button").first.click()
-    _idle(page)
-    # the server's styles arrive after the browser's own change: until the tabs grew
-    deadline = time.monotonic() + budget(20)
-    while _px(tab) < 1.4 * before[2] and time.monotonic() < deadline:
-        page.wait_for_timeout(250)
-    _idle(page)
+    _presented(page)
     after = page.evaluate(_MAP_JS), _px(widget), _px(tab), _px(typed), _px(chosen)
     _shot(page, "1280x800-presentation-sidebar")
     assert after[1] >= 1.4 * before[1], f"the sidebar's buttons: {before[1]} -> {after[1]} px"
@@ -316,8 +322,7 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
         before[0], after[0])
     page.get_by_text("hides the controls").first.wait_for(timeout=budget_ms(10))
     page.locator("#sidebar-toggle").first.click()
-    page.wait_for_timeout(1500)       # the sidebar's transition, the map's resize
-    _idle(page)
+    steady(page)                      # the sidebar's transition ended, the map resized
     hidden = page.evaluate(_MAP_JS)
     _shot(page, "1280x800-presentation-no-sidebar")
     assert not widget.is_visible() or widget.bounding_box()["x"] + 5 < 0, \

@@ -7,7 +7,7 @@ import re
 import threading
 
 import pytest
-from asyncutil import until
+from asyncutil import until, wait_until
 from budget import budget
 
 import vibtrans
@@ -33,12 +33,18 @@ def _explorer():
 
 
 def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monkeypatch):
-    calls = []
+    calls, waiting = [], threading.Event()
 
     def recorded(*args, **kwargs):
         calls.append(args)
         return real(*args, **kwargs)
     real = E.simulate
+
+    def wait(cancel=None):          # the run's thread waiting for the kernels
+        waiting.set()
+        return real_wait(cancel)
+    real_wait = warmup.wait
+    monkeypatch.setattr(warmup, "wait", wait)
 
     async def go():
         ex = _explorer()
@@ -47,7 +53,7 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         await until(lambda: "Compiling the simulation kernels" in ex.summary_view.pane.object)
         assert "(1 of 4 ready)" in ex.summary_view.pane.object, ex.summary_view.pane.object
         assert ex.run_buttons.progress.visible and not ex.run_buttons.cancel_button.disabled
-        await asyncio.sleep(0.5)
+        await until(waiting.is_set)            # its thread waits (simulate comes after)
         assert not calls                       # the run waits for the kernels
         compiling.set()
         await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary_view.pane.object)
@@ -125,7 +131,6 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
     test's sessions); stopping the server's process tree ends them all."""
     import os
     import signal
-    import time
     from pathlib import Path
 
     from conftest import SERVER_ENV, SERVER_ENV_UNSET
@@ -139,11 +144,11 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
     served = Served(env={**env, **SERVER_ENV}, cwd=root, args=("--num-procs", "2"))
     try:
         served.wait_page()
-        t0 = time.perf_counter()
-        while served.text().count("kernels ready in") < 2:
+
+        def both_ready():
             assert served.proc.poll() is None, served.text()[-4000:]
-            assert time.perf_counter() - t0 < 600, served.text()[-4000:]
-            time.sleep(0.2)
+            return served.text().count("kernels ready in") >= 2
+        wait_until(both_ready, 600, "both processes' kernels")
         text = served.text()
         for k in (1, 2):
             assert f"process {k}/2: explorer on http://" in text, text[-4000:]
@@ -168,9 +173,7 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
                 os.kill(pid, signal.SIGTERM)
             except ProcessLookupError:
                 pass
-        t0 = time.perf_counter()
-        while any(pid_alive(p) for p in pids) and time.perf_counter() - t0 < 30:
-            time.sleep(0.2)
+        wait_until(lambda: not any(pid_alive(p) for p in pids), 30, "every process ended")
         assert not any(pid_alive(p) for p in pids)
 
 

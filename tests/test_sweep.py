@@ -5,11 +5,11 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 import xarray as xr
+from asyncutil import wait_until
 from budget import budget
 
 from vibtrans.core.errors import InputError
@@ -111,15 +111,15 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     part = str(tmp_path / "part.zarr")
     proc = subprocess.Popen(_cli(part, longer), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + budget(240)
-    while time.time() < deadline:
-        time.sleep(0.05)
+    def part_way():
+        if proc.poll() is not None:             # ended: the check below says so
+            return True
         try:
             done = xr.open_zarr(part, consolidated=False)["done"].values
         except Exception:
-            continue
-        if 1 <= done.sum() < done.size - 1:
-            break
+            return False
+        return 1 <= done.sum() < done.size - 1
+    wait_until(part_way, budget(240), "the sweep part-way")
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     done_before = xr.open_zarr(part, consolidated=False)["done"].values.copy()

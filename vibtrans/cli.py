@@ -9,6 +9,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import shutil
 import sys
 from typing import TYPE_CHECKING, Any
@@ -275,9 +276,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from vibtrans.tools.bench import main as bench_main
     if args.plot is not None:
         check_file(args.plot, "plot")
+    if args.results_dir is not None and args.output is not None:
+        raise InputError("--results-dir and --output: give one (a folder for a file named by "
+                         "the bench and its time, or the file)")
+    if args.results_dir is not None:            # refused before the run, not after it
+        check_folder(args.results_dir, "results-dir")
+    if args.output is not None:
+        check_file(args.output, "output")
     return bench_main(quick=args.quick, as_json=args.json, sweep=args.sweep,
                       work_precision=args.work_precision, plot=args.plot,
-                      export=args.export)
+                      export=args.export, cold=args.cold_start,
+                      results_dir=args.results_dir, output=args.output,
+                      command=" ".join(["vibtrans", *(shlex.quote(w) for w in args.words)]))
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -930,6 +940,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--export", action="store_true",
                    help="seconds to export the explorer's trajectory figure (PNG, SVG, HTML) "
                         "of paper point 8 with its twin, and over its simulation's")
+    b.add_argument("--cold-start", action="store_true",
+                   help="also time a first `vibtrans simulate` on an empty kernel cache "
+                        "against the same on a warm one (about half a minute)")
+    b.add_argument("--results-dir", metavar="DIR",
+                   help="also write the run as JSON (results, machine, load, git commit) "
+                        "into DIR, named by the bench and its UTC start")
+    b.add_argument("--output", metavar="FILE", help="as --results-dir, into FILE")
     b.set_defaults(func=cmd_bench)
 
     _export_parser(sub)
@@ -1012,6 +1029,7 @@ def main(argv: list[str] | None = None) -> Any:
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process
     args.argv = argv if command_line else None
+    args.words = argv                   # what was asked, for a record of the run
     try:
         return args.func(args)
     except InputError as exc:   # refused input: one line, status 2 (a bug keeps its traceback)

@@ -17,26 +17,27 @@ from vibtrans_explorer.session import urlstate
 ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 
 
-def _text(value):
-    """The field's text for a value: 6 significant digits (108301, not
-    108300.59370879376).  The parameter keeps its exact value: a run uses
+def _text(value, digits=6):
+    """The field's text for a value: `digits` significant digits (108301,
+    not 108300.59370879376).  The parameter keeps its exact value: a run uses
     it, and the page's link spells it in full."""
     if value is None:                       # (a size that may be absent: the tip radius)
         return ""
     if not isinstance(value, float):
         return str(value)
-    return f"{value + 0.0:.6g}"             # (+ 0.0: -0.0 shows as 0)
+    return f"{value + 0.0:.{digits}g}"      # (+ 0.0: -0.0 shows as 0)
 
 
 class NumberField(pn.viewable.Viewer):
-    def __init__(self, owner, name, label, width=None, **params):
+    def __init__(self, owner, name, label, width=None, digits=6, **params):
         super().__init__(**params)
+        self.digits = digits
         self.owner = owner
         self.name_ = name
         self.label = label
         self.error = ""
         self._width = {} if width is None else {"width": width}
-        self.input = pn.widgets.TextInput(label=label, value=_text(getattr(owner, name)),
+        self.input = pn.widgets.TextInput(label=label, value=_text(getattr(owner, name), digits),
                                           css_classes=[f"vt-field-{name}"], **self._width)
         # the message under the field: made at the first error (a page's
         # fields are mostly never wrong, and every pane costs its server time)
@@ -81,7 +82,7 @@ class NumberField(pn.viewable.Viewer):
             return
         self._say("")
         self._record("")
-        text = _text(event.new)
+        text = _text(event.new, self.digits)
         if self.input.value != text:
             self._echoing = True
             try:

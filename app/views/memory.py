@@ -112,7 +112,8 @@ class MemoryView(pn.viewable.Viewer):
         self._following = False     # the slider is moved to the time drawn (no redraw)
         self._build_figures()
         self.at = SnapshotTime()
-        self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200)
+        self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200,
+                                             digits=10)     # (a sample's time: 1999.1067)
         self.show_button = pn.widgets.Button(label="Show the memory diagram at t*",
                                              color="primary", disabled=True)
         self.show_button.on_click(self._on_show_click)

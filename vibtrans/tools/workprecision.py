@@ -411,9 +411,11 @@ def jsonable(points: Any) -> list[dict[str, Any]]:
     return [{k: clean(v) for k, v in p._asdict().items()} for p in points]
 
 
-def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: Any = None) -> int:
+def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: Any = None,
+         on_result: Any = None) -> int:
     """`vibtrans bench --work-precision`: run the study, print the table and
-    the preset summary (or one JSON object), write the diagram to `plot`."""
+    the preset summary (or one JSON object), write the diagram to `plot`;
+    on_result(results), if given, receives the JSON object's dict."""
     import json
     import os
     import platform
@@ -436,14 +438,16 @@ def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: A
         ref = QUICK_REFERENCE if quick else REFERENCE
         export_work_precision(points, plot, reference=f"'{ref.label}' ({ref.per_period:g} "
                                                       f"steps/period)")
+    out = {"machine": f"{platform.processor() or platform.machine()}, "
+                      f"{os.cpu_count()} cores, python {platform.python_version()}",
+           "pinned_to_one_core": pinned, "quick": quick, "seconds": seconds,
+           "points": jsonable(points),
+           "presets": jsonable(presets), "settings": jsonable(ladder),
+           "pareto_drift": {s: [p.setting + "/" + p.integrator for p in f]
+                            for s, f in pareto_fronts(points).items()}}
+    if on_result is not None:
+        on_result(out)
     if as_json:
-        out = {"machine": f"{platform.processor() or platform.machine()}, "
-                          f"{os.cpu_count()} cores, python {platform.python_version()}",
-               "pinned_to_one_core": pinned, "quick": quick, "seconds": seconds,
-               "points": jsonable(points),
-               "presets": jsonable(presets), "settings": jsonable(ladder),
-               "pareto_drift": {s: [p.setting + "/" + p.integrator for p in f]
-                                for s, f in pareto_fronts(points).items()}}
         print(json.dumps(out))
         return 0
     print(f"vibtrans bench --work-precision ({'quick' if quick else 'full'}; "
