@@ -267,35 +267,32 @@ def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERG
     q = device_quantities(device, surface_energy=surface_energy, shape=shape)
     out = []
     if q.a0 < ATOMIC_SPACING:
-        out.append(ValidityWarning(
-            "a0-subatomic", f"static compression a0 = {q.a0:.3g} m is below the interatomic "
-            f"spacing ({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical "
-            f"here", q.a0, ATOMIC_SPACING))
+        msg = (f"static compression a0 = {q.a0:.3g} m is below the interatomic spacing "
+               f"({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical here")
+        out.append(ValidityWarning("a0-subatomic", msg, q.a0, ATOMIC_SPACING))
     if q.contact_radius < MIN_CONTACT_RADIUS:
-        out.append(ValidityWarning(
-            "contact-subatomic", f"contact radius {q.contact_radius:.3g} m is below "
-            f"{MIN_CONTACT_RADIUS:g} m (ten interatomic spacings): Hertz theory does not "
-            f"hold", q.contact_radius, MIN_CONTACT_RADIUS))
+        msg = (f"contact radius {q.contact_radius:.3g} m is below {MIN_CONTACT_RADIUS:g} m "
+               f"(ten interatomic spacings): Hertz theory does not hold")
+        out.append(ValidityWarning("contact-subatomic", msg, q.contact_radius, MIN_CONTACT_RADIUS))
     _, tip, _, _ = _device_tip(_device(device), shape)
     out += [ValidityWarning(w.code, w.message, w.value, w.threshold)
             for w in designtip.tip_warnings(shape, tip, _e_eff(device))]
     ratio = q.pull_off_dmt / q.load
     if ratio >= ADHESION_RATIO:
-        out.append(ValidityWarning(
-            "adhesion", f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
-            f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
-            f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
-            f"the model neglects adhesion: count it in the pre-load "
-            f"(--preload, the paper's parameter for such forces) or treat the results as "
-            f"qualitative", ratio, ADHESION_RATIO))
+        msg = (f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
+               f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
+               f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
+               f"the model neglects adhesion: count it in the pre-load "
+               f"(--preload, the paper's parameter for such forces) or treat the results as "
+               f"qualitative")
+        out.append(ValidityWarning("adhesion", msg, ratio, ADHESION_RATIO))
     if drift_velocity is not None:
         v = units.check_interval("drift_velocity", drift_velocity)
         travel = abs(v) / q.rayleigh_speed
         if travel >= TRAVEL_FRACTION:
-            out.append(ValidityWarning(
-                "travel", f"the particle travels {travel:.3g} wavelengths per period "
-                f"(|v| / c_R); the model neglects k_R x, valid only well below "
-                f"{TRAVEL_FRACTION:g}", travel, TRAVEL_FRACTION))
+            msg = (f"the particle travels {travel:.3g} wavelengths per period (|v| / c_R); the "
+                   f"model neglects k_R x, valid only well below {TRAVEL_FRACTION:g}")
+            out.append(ValidityWarning("travel", msg, travel, TRAVEL_FRACTION))
     return out
 
 
@@ -560,23 +557,6 @@ def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over
                    load_over_modulus)
 
 
-def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
-                workers, profile="sphere", load_over_modulus=None):
-    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, profile)
-    if ds is not None:
-        return ds, f"shipped: {shipped_map_path(mu, maps).name}"
-    if not compute:
-        need = _map_need(mu, theta, nu, log_a, log_m, problems, profile, load_over_modulus)
-        raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
-                          + ". Compute the window with --compute (API: compute=True; a "
-                            "preview-fidelity sweep, cost printed first) or narrow the axes",
-                          need)
-    ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
-                             periods=periods, report=report, workers=workers, profile=profile,
-                             load_over_modulus=load_over_modulus)
-    return ds, f"computed: {where}"
-
-
 @dataclass(frozen=True)
 class ChartGrid:
     """A chart's devices in the normalized plane: the axes' quantities and
@@ -727,16 +707,25 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     dev, a0, A, M = grid.devices, grid.a0, grid.A_star, grid.m_star
     theta, nu = grid.theta, grid.nu
     log_a, log_m = np.log10(A), np.log10(M)
+    profile: dict[str, Any] = dict(profile=tip.profile, load_over_modulus=tip.load_over_modulus)
     if map_ds is not None:
-        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, tip.profile,
-                                     tip.load_over_modulus)
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, **profile)
         if problems:
             raise InputError(f"the {map_name} does not serve this chart: " + "; ".join(problems))
         source = map_name
     else:
-        map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
-                                     step, periods, report, workers, tip.profile,
-                                     tip.load_over_modulus)
+        map_ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, tip.profile)
+        source = f"shipped: {shipped_map_path(mu, maps).name}"
+        if map_ds is None and not compute:
+            need = _map_need(mu, theta, nu, log_a, log_m, problems, **profile)
+            raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
+                              + ". Compute the window with --compute (API: compute=True; a "
+                                "preview-fidelity sweep, cost printed first) or narrow the axes",
+                              need)
+        if map_ds is None:
+            run: dict[str, Any] = dict(store_dir=store_dir, step=step, periods=periods, report=report)
+            map_ds, where = computed_map(log_a, log_m, mu, theta, nu, workers=workers, **run, **profile)
+            source = f"computed: {where}"
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
     c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
@@ -769,21 +758,16 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
             for k, (vals, a) in variables.items()}
     coords = {q: (q, vals, {"units": _UNITS[q], "long_name": AXIS_LABELS[q]})
               for q, vals in ((xq, grid.x_values), (yq, grid.y_values))}
-    attrs = {
-        "substrate": sub.name, "particle": par.name, "preload_N": float(preload),
-        "gravity": float(g), "mu": float(mu), "theta": float(theta), "nu": float(nu),
-        "surface_energy": float(w), "x": xq, "y": yq, "fixed": fq,
-        "profile": grid.shape.name, "map_profile": tip.profile,
-        "fixed_value": float(grid.fixed_value), "fixed_units": _UNITS[fq], "map": source,
-        "map_theta": float(map_ds.attrs["scene_theta"]),
-        "map_nu": float(map_ds.attrs["scene_nu"]),
-        "map_periods": float(map_ds.attrs["scene_periods"]),
-        "map_fidelity": str(map_ds.attrs["scene_fidelity"]),
-        "map_step": grid_step,
-        "reading": (f"nearest grid point: the map point read is at most {grid_step / 2:g} "
-                    f"decades from the device in log10 A* and in log10 m*"),
-        "rayleigh_speed": float(c_R),
-    }
+    attrs = dict(substrate=sub.name, particle=par.name, preload_N=float(preload), gravity=float(g))
+    attrs.update(mu=float(mu), theta=float(theta), nu=float(nu), surface_energy=float(w))
+    attrs.update(x=xq, y=yq, fixed=fq, profile=grid.shape.name, map_profile=tip.profile)
+    attrs.update(fixed_value=float(grid.fixed_value), fixed_units=_UNITS[fq], map=source)
+    m = map_ds.attrs
+    attrs.update(map_theta=float(m["scene_theta"]), map_nu=float(m["scene_nu"]),
+                 map_periods=float(m["scene_periods"]), map_fidelity=str(m["scene_fidelity"]))
+    attrs.update(map_step=grid_step, reading=f"nearest grid point: the map point read is at most "
+                 f"{grid_step / 2:g} decades from the device in log10 A* and in log10 m*",
+                 rayleigh_speed=float(c_R))
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
