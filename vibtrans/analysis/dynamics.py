@@ -89,6 +89,7 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
     gap = y - amplitude * math.cos(TWO_PI * t0)
     columns = []
     end: Any = None
+    fixed = dict(tangential=False, samples_capacity=16, record_rest=False, chunk_steps=None, law=law)
     for e in ((1.0, 0.0), (0.0, 1.0)):
         state, hist = D.rest_state()
         state[[D.S_T, D.S_Y, D.S_VY]] = (t0, y, vy)
@@ -103,9 +104,8 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
             hist, thist = _contact_history(t0, y, vy, e, h, amplitude, mass, law)
             tangent[D.L_HIST:D.L_HIST + 8] = thist.ravel()
             state[D.S_GAP] = gap
-        run = drivers.run_hertz(p, "ab4", tangential=False, samples_capacity=16, state=state,
-                                hist=hist, record_rest=False, tangent=tangent,
-                                in_flight=in_flight, chunk_steps=None, law=law)
+        run = drivers.run_hertz(p, "ab4", state=state, hist=hist, tangent=tangent,
+                                in_flight=in_flight, **fixed)
         t_end, dy, dvy = D.tangent_at_end(run.tangent, run.state)
         columns.append((dy, dvy))
         end = _end_state(run, t_end)
@@ -193,13 +193,12 @@ def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | n
 
 
 def _orbit(z, s, r, period, iterations, tol):
-    mult = np.linalg.eigvals(s.jacobian)
-    trace = float(np.trace(s.jacobian))
+    mult = tuple(complex(v) for v in np.linalg.eigvals(s.jacobian))
+    trace, det = float(np.trace(s.jacobian)), float(np.linalg.det(s.jacobian))
     residual = float(np.linalg.norm(r))
-    return Orbit(found=bool(residual <= tol * 100), y=float(z[0]), vy=float(z[1]),
-                 period=int(period), multipliers=tuple(complex(v) for v in mult), trace=trace,
-                 determinant=float(np.linalg.det(s.jacobian)), stable=bool(abs(trace) < 2.0),
-                 iterations=iterations, residual=residual)
+    found, stable = bool(residual <= tol * 100), bool(abs(trace) < 2.0)
+    return Orbit(found, float(z[0]), float(z[1]), int(period), mult, trace, det, stable, iterations,
+                 residual)
 
 
 def _check_orbit_args(amplitude, mass, period):

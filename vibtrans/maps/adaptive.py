@@ -98,9 +98,7 @@ class _Grid:
 
 def _cell_points(i0, j0, s):
     """A cell's corners and edge midpoints: the points its level can know."""
-    h = s // 2
-    return [(i0, j0), (i0, j0 + s), (i0 + s, j0), (i0 + s, j0 + s),
-            (i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h)]
+    return [(i0 + a, j0 + b) for a in (0, s) for b in (0, s)] + _new_points(i0, j0, s)[:4]
 
 
 def disagree(grid: Any, i0: int, j0: int, s: Any, tol: float) -> bool:
@@ -128,17 +126,16 @@ def _new_points(i0, j0, s):
 
 
 def _children(i0, j0, s):
-    h = s // 2
-    return [(i0, j0), (i0, j0 + h), (i0 + h, j0), (i0 + h, j0 + h)]
+    return [(i0 + a, j0 + b) for a in (0, s // 2) for b in (0, s // 2)]
 
 
 # ---------------------------------------------------------------- partial folder
 def _params(sweep, max_level, tol):
-    return {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos,
-            **({"stop": sweep.stop} if sweep.stop != "full" else {}),
-            "log_amplitude": [float(v) for v in sweep.log_amplitude],
-            "log_mass": [float(v) for v in sweep.log_mass],
-            "max_level": int(max_level), "drift_tolerance": float(tol)}
+    p = {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos}
+    if sweep.stop != "full":
+        p["stop"] = sweep.stop
+    grid = {k: [float(v) for v in getattr(sweep, k)] for k in ("log_amplitude", "log_mass")}
+    return {**p, **grid, "max_level": int(max_level), "drift_tolerance": float(tol)}
 
 
 def _atomic_write(path, write):

@@ -99,16 +99,13 @@ def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     agreement = float((~changed[regular]).mean()) if regular.any() else float("nan")
     relative = np.abs(v2 - v1) / np.maximum(np.abs(v1), v0)
     median = float(np.median(relative[regular])) if regular.any() else float("nan")
-    return xr.Dataset(
-        {"drift_velocity_first": (GRID, v1), "drift_velocity_second": (GRID, v2),
-         "drift_first": (GRID, np.where(compared, d1, np.nan)),
-         "drift_second": (GRID, np.where(compared, d2, np.nan)),
-         "compared": (GRID, compared), "class_changed": (GRID, changed),
-         "chaotic_either": (GRID, chaotic),
-         "log_difference": (GRID, np.where(compared, signed_log(v2, v0) - signed_log(v1, v0),
-                                           np.nan),
-                            {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})},
-        coords={"log_amplitude": la, "log_mass": lm},
-        attrs={"first": describe(first), "second": describe(second), "v0": float(v0),
-               "compared_points": int(compared.sum()), "regular_points": int(regular.sum()),
-               "class_agreement": agreement, "median_relative_difference": median})
+    data = dict(drift_velocity_first=v1, drift_velocity_second=v2,
+                drift_first=np.where(compared, d1, np.nan), drift_second=np.where(compared, d2, np.nan),
+                compared=compared, class_changed=changed, chaotic_either=chaotic)
+    data = {k: (GRID, v) for k, v in data.items()}
+    s = np.where(compared, signed_log(v2, v0) - signed_log(v1, v0), np.nan)
+    data["log_difference"] = (GRID, s, {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})
+    attrs = dict(first=describe(first), second=describe(second), v0=float(v0),
+                 compared_points=int(compared.sum()), regular_points=int(regular.sum()),
+                 class_agreement=agreement, median_relative_difference=median)
+    return xr.Dataset(data, coords={"log_amplitude": la, "log_mass": lm}, attrs=attrs)

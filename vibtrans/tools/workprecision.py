@@ -79,22 +79,17 @@ QUICK_CASES = (
 
 # "P/C": P steps per period, C per contact time scale; 24/4 and 24/8 are below
 # AB4's stability limit (C >= ~15) but not Verlet's (C > pi)
-LADDER = (
-    Setting("24/4", 24, 4),
-    Setting("24/8", 24, 8),
-    Setting("16/16", 16, 16),
-    Setting("24/16", 24, 16),
-    Setting("32/16", 32, 16),
-    Setting("preview", *F.FIDELITY["preview"]),
-    Setting("preview x2", 2 * F.FIDELITY["preview"][0], 2 * F.FIDELITY["preview"][1]),
-    Setting("standard", *F.FIDELITY["standard"]),
-    Setting("standard x2", 2 * F.FIDELITY["standard"][0], 2 * F.FIDELITY["standard"][1]),
-    Setting("standard x4", 4 * F.FIDELITY["standard"][0], 4 * F.FIDELITY["standard"][1]),
-    Setting("reference", *F.FIDELITY["reference"]),
-)
+def _preset(name, k=1):
+    """The preset `name`'s steps, k times finer."""
+    p, c = F.FIDELITY[name]
+    return Setting(name if k == 1 else f"{name} x{k}", k * p, k * c)
+
+
+LADDER = (*(Setting(f"{p}/{c}", p, c) for p, c in ((24, 4), (24, 8), (16, 16), (24, 16), (32, 16))),
+          _preset("preview"), _preset("preview", 2), _preset("standard"), _preset("standard", 2),
+          _preset("standard", 4), _preset("reference"))
 QUICK_LADDER = (Setting("32/16", 32, 16), LADDER[5], LADDER[7], LADDER[8])
-REFERENCE = Setting("reference x2", 2 * F.FIDELITY["reference"][0],
-                    2 * F.FIDELITY["reference"][1])
+REFERENCE = _preset("reference", 2)
 QUICK_REFERENCE = LADDER[-1]
 
 
@@ -318,14 +313,12 @@ def preset_summary(points: Any, settings: Any = None,
             worst_d = max(drifting, key=lambda p: p.drift_error) if drifting else None
             sec = sum(p.seconds for p in pts)
             steps = sum(p.steps for p in pts)
-            out.append(PresetSummary(
-                s, integ, worst.drift_error, worst.scene,
-                worst_d.drift_error if worst_d else math.nan,
-                worst_d.scene if worst_d else "",
-                max(p.traj_error for p in pts), sec, steps,
-                sum(base[p.scene].seconds for p in pts) / sec,
-                min(base[p.scene].seconds / p.seconds for p in pts),
-                sum(base[p.scene].steps for p in pts) / max(steps, 1)))
+            wd: tuple[float, str] = (worst_d.drift_error, worst_d.scene) if worst_d else (math.nan, "")
+            speed: tuple[float, float, float] = (sum(base[p.scene].seconds for p in pts) / sec,
+                     min(base[p.scene].seconds / p.seconds for p in pts),
+                     sum(base[p.scene].steps for p in pts) / max(steps, 1))
+            out.append(PresetSummary(s, integ, worst.drift_error, worst.scene, *wd,
+                                     max(p.traj_error for p in pts), sec, steps, *speed))
     return out
 
 
@@ -392,13 +385,13 @@ def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: A
         export_work_precision(points, plot, reference=f"'{ref.label}' ({ref.per_period:g} "
                                                       f"steps/period)")
     if as_json:
-        out = {"machine": f"{platform.processor() or platform.machine()}, "
-                          f"{os.cpu_count()} cores, python {platform.python_version()}",
-               "pinned_to_one_core": pinned, "quick": quick, "seconds": seconds,
-               "points": jsonable(points),
-               "presets": jsonable(presets), "settings": jsonable(ladder),
-               "pareto_drift": {s: [p.setting + "/" + p.integrator for p in f]
-                                for s, f in pareto_fronts(points).items()}}
+        machine = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                   f"python {platform.python_version()}")
+        pareto = {s: [p.setting + "/" + p.integrator for p in f]
+                  for s, f in pareto_fronts(points).items()}
+        out = dict(machine=machine, pinned_to_one_core=pinned, quick=quick, seconds=seconds,
+                   points=jsonable(points), presets=jsonable(presets), settings=jsonable(ladder),
+                   pareto_drift=pareto)
         print(json.dumps(out))
         return 0
     print(f"vibtrans bench --work-precision ({'quick' if quick else 'full'}; "

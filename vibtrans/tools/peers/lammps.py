@@ -401,23 +401,16 @@ def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
     i0 = np.searchsorted(lm.t, 0.9 * lm.t_end)
     lm_final = (lm.x_end - lm.x[i0]) / (lm.t_end - lm.t[i0])
     scale = max(abs(ours), abs(lm.drift), 1e-300)
-    out = {
-        "amplitude": scene.amplitude, "mass": scene.mass, "mu": scene.mu,
-        "theta": scene.theta, "tau": scene.tau, "periods": scene.periods, "h": h,
-        "model": scene.model, "tangential": tangential,
-        "integrator": integrator or scene.integrator,
-        "ours_drift": ours, "lammps_drift": lm.drift,
-        "drift_difference": lm.drift - ours,
-        "drift_relative_difference": abs(lm.drift - ours) / scale,
-        "ours_final_drift": ours_final, "lammps_final_drift": float(lm_final),
-        "vertical_max_error": float(dy.max()),
-        "y_range": float(np.ptp(ds["y"].values)),
-        "x_max_error": float(dx.max()),
-        "ours_states": _state_fractions(ds),
-        "lammps_states": lammps_states(lm, scene),
-        "ours_seconds": float(ds.attrs["seconds"]), "lammps_seconds": lm.loop_seconds,
-        "_ours": ds, "_lammps": lm,
-    }
+    out = {k: getattr(scene, k) for k in ("amplitude", "mass", "mu", "theta", "tau", "periods")}
+    out.update(h=h, model=scene.model, tangential=tangential,
+               integrator=integrator or scene.integrator, ours_drift=ours, lammps_drift=lm.drift)
+    out.update(drift_difference=lm.drift - ours, drift_relative_difference=abs(lm.drift - ours) / scale,
+               ours_final_drift=ours_final, lammps_final_drift=float(lm_final))
+    out.update(vertical_max_error=float(dy.max()), y_range=float(np.ptp(ds["y"].values)),
+               x_max_error=float(dx.max()), ours_states=_state_fractions(ds),
+               lammps_states=lammps_states(lm, scene))
+    out.update(ours_seconds=float(ds.attrs["seconds"]), lammps_seconds=lm.loop_seconds,
+               _ours=ds, _lammps=lm)
     if lm.fine and scene.model == "deformable":
         t0 = lm.fine["t"][0]
         sel = t >= t0 - 1e-9
@@ -452,17 +445,14 @@ def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...
             secs, steps = ours_best()
             lm = run_lammps(sc, h, copies=n)
             ours_ns = 1e9 * secs / steps
-            rounds.append({"ours_ns_per_step": ours_ns, "ours_steps": steps,
-                           "ours_seconds": secs, "lammps_steps": lm.steps,
-                           "lammps_seconds": lm.loop_seconds,
-                           "lammps_ns_per_particle_step": lm.ns_per_particle_step,
-                           "ratio": lm.ns_per_particle_step / ours_ns})
+            ns = lm.ns_per_particle_step
+            rounds.append(dict(ours_ns_per_step=ours_ns, ours_steps=steps, ours_seconds=secs,
+                               lammps_steps=lm.steps, lammps_seconds=lm.loop_seconds,
+                               lammps_ns_per_particle_step=ns, ratio=ns / ours_ns))
         med = sorted(rounds, key=lambda r: r["ratio"])[len(rounds) // 2]
-        out["lammps"][n] = {"particles": n, "periods": sc.periods,
-                            "steps": med["lammps_steps"], "seconds": med["lammps_seconds"],
-                            "ns_per_particle_step": med["lammps_ns_per_particle_step"],
-                            "ours_ns_per_step": med["ours_ns_per_step"],
-                            "ours_speedup": med["ratio"],
+        lmp = {k: med["lammps_" + k] for k in ("steps", "seconds", "ns_per_particle_step")}
+        out["lammps"][n] = {"particles": n, "periods": sc.periods, **lmp,
+                            "ours_ns_per_step": med["ours_ns_per_step"], "ours_speedup": med["ratio"],
                             "ratios": [r["ratio"] for r in rounds]}
         if n == 1:
             out["rounds"] = rounds
@@ -493,21 +483,16 @@ def peer_bench(quick: bool = False) -> dict[str, Any]:
         periods = 50.0 if overrides.get("model") == "vertical" else (150.0 if quick else 500.0)
         scene = paper_scene(point).replace(periods=periods, **overrides)
         c = compare(scene)
-        rows.append({
-            "scene": label, "amplitude": scene.amplitude, "mass": scene.mass,
-            "mu": scene.mu, "tau": scene.tau, "periods": periods, "h": c["h"],
-            "ours_drift": c["ours_drift"], "lammps_drift": c["lammps_drift"],
-            "difference": c["drift_difference"],
-            "relative_difference": c["drift_relative_difference"],
-            "ours_final_drift": c["ours_final_drift"],
-            "lammps_final_drift": c["lammps_final_drift"],
-            "tolerance": tol,
-            "agrees": None if tol is None else bool(c["drift_relative_difference"] <= tol),
-            "vertical_max_error": c["vertical_max_error"], "y_range": c["y_range"],
-            "ours_states": c["ours_states"], "lammps_states": c["lammps_states"],
-            "ours_loop_energy": c.get("ours_loop_energy"),
-            "lammps_loop_energy": c.get("lammps_loop_energy"),
-        })
+        rel = c["drift_relative_difference"]
+        row = dict(scene=label, amplitude=scene.amplitude, mass=scene.mass, mu=scene.mu,
+                   tau=scene.tau, periods=periods, h=c["h"], ours_drift=c["ours_drift"])
+        row.update(lammps_drift=c["lammps_drift"], difference=c["drift_difference"],
+                   relative_difference=rel, ours_final_drift=c["ours_final_drift"])
+        row.update(lammps_final_drift=c["lammps_final_drift"], tolerance=tol,
+                   agrees=None if tol is None else bool(rel <= tol))
+        row.update({k: c[k] for k in ("vertical_max_error", "y_range", "ours_states",
+                                      "lammps_states")})
+        rows.append({**row, **{k: c.get(k) for k in ("ours_loop_energy", "lammps_loop_energy")}})
     pinned = _pin_one_core()
     try:
         speed = race(paper_scene(1, periods=200.0 if quick else 2000.0), repeat=3,
