@@ -199,9 +199,9 @@ def _device_tip(device, shape):
     s = device.normalized()
     if tip_shape(shape).is_sphere:       # the converter's own numbers
         a_c = math.sqrt(device.radius * s.a0)
-        tip = designtip.TipContact(np.asarray(s.a0), np.asarray(a_c),
-                                   np.asarray(a_c / device.radius),
-                                   np.asarray(s.load_N / (math.pi * a_c**2)), "sphere")
+        p = s.load_N / (math.pi * a_c**2)
+        c0, ca, slope, p = (np.asarray(v) for v in (s.a0, a_c, a_c / device.radius, p))
+        tip = designtip.TipContact(c0, ca, slope, p, "sphere")
         return s, tip, s.A_star, s.m_star
     tip = designtip.static_contact(shape, device.radius, s.load_N, _e_eff(device))
     a0 = float(tip.a0)
@@ -227,22 +227,19 @@ def device_quantities(device: Any, reading: Any = None,
     a_c = float(tip.contact_radius)
     a0 = float(tip.a0)
     omega = 2 * math.pi * device.frequency
-    q = dict(mass=s.mass_kg, load=s.load_N, a0=a0, contact_radius=a_c,
-             mean_contact_pressure=s.load_N / (math.pi * a_c**2), A_star=A_star,
-             m_star=m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R,
-             rayleigh_wavelength=s.wavelength,
-             peak_acceleration_g=omega**2 * device.amplitude / G_STANDARD,
-             peak_velocity=omega * device.amplitude,
-             pull_off_jkr=JKR_FACTOR * w * device.radius,
-             pull_off_dmt=DMT_FACTOR * w * device.radius, profile=shape.name,
-             edge_slope=float(tip.edge_slope), scene_profile=tip.profile)
+    load, f, amp, radius = s.load_N, device.frequency, device.amplitude, device.radius
+    q = dict(mass=s.mass_kg, load=load, a0=a0, contact_radius=a_c)
+    q.update(mean_contact_pressure=load / (math.pi * a_c**2))
+    q.update(A_star=A_star, m_star=m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R)
+    q.update(rayleigh_wavelength=s.wavelength, peak_acceleration_g=omega**2 * amp / G_STANDARD)
+    q.update(peak_velocity=omega * amp, pull_off_jkr=JKR_FACTOR * w * radius)
+    q.update(pull_off_dmt=DMT_FACTOR * w * radius)
+    q.update(profile=shape.name, edge_slope=float(tip.edge_slope), scene_profile=tip.profile)
     if reading is not None and np.isfinite(reading["v_star"]):
-        v = (s.drift_velocity_si(reading["v_star"]) if shape.is_sphere
-             else a0 * device.frequency * float(reading["v_star"]))
-        q.update(v_star=float(reading["v_star"]), drift_velocity=v,
-                 contact_time=float(reading["contact_fraction"]) / device.frequency,
-                 travel_per_period=v / device.frequency,
-                 travel_over_wavelength=abs(v) / s.c_R)
+        v_star = float(reading["v_star"])
+        v = s.drift_velocity_si(reading["v_star"]) if shape.is_sphere else a0 * f * v_star
+        q.update(v_star=v_star, drift_velocity=v, contact_time=float(reading["contact_fraction"]) / f)
+        q.update(travel_per_period=v / f, travel_over_wavelength=abs(v) / s.c_R)
     return DeviceQuantities(**q)
 
 
@@ -476,10 +473,10 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
                      sort_keys=True)
     path = Path(store_dir) / f"design-{hashlib.sha256(key.encode()).hexdigest()[:16]}.zarr"
     verb = "reading (resuming if unfinished)" if path.exists() else "computing"
-    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x "
-           f"{per:g} periods, about {steps:.3g} integration steps ({span[0]}, {span[1]}, "
-           f"step {step:g}; mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
-           + ("" if profile == "sphere" else f", profile {profile}") + ")")
+    material = f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
+    material += "" if profile == "sphere" else f", profile {profile}"
+    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x {per:g} periods, about "
+           f"{steps:.3g} integration steps ({span[0]}, {span[1]}, step {step:g}; {material})")
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
@@ -499,8 +496,9 @@ def regime_of(drift: Any, contact: Any, pattern: Any, chaotic: Any) -> np.ndarra
     pattern, chaotic = np.asarray(pattern), np.asarray(chaotic)
     r = np.full(drift.shape, REGIMES.index("other hopping"), dtype=np.int8)
     r = np.where(np.isin(pattern, SYNCHRONOUS_PATTERNS), REGIMES.index("synchronous hopping"), r)
-    r = np.where(contact == 0, np.where(drift > 0, REGIMES.index("sliding with the wave"),
-                                        REGIMES.index("sliding against the wave")), r)
+    with_, against = REGIMES.index("sliding with the wave"), REGIMES.index("sliding against the wave")
+    sliding = np.where(drift > 0, with_, against)
+    r = np.where(contact == 0, sliding, r)
     r = np.where(drift == 0, REGIMES.index("no drift"), r)
     r = np.where(chaotic == 1, REGIMES.index("chaotic"), r)
     return np.where(drift < -1, -1, r).astype(np.int8)

@@ -354,10 +354,10 @@ def _mpl_panel(ax, panel):
                 # one polygon per state, not snapped: a band narrower than a pixel
                 # keeps its share (a collection: add_patch walked every vertex in Python)
                 x, y = plots.strip_outline(edges, shares, code)
-                ax.add_collection(PolyCollection([np.column_stack([x, y])], snap=False,
-                                                 facecolors=plots.STATE_COLORS[code],
-                                                 linewidths=0), autolim=False)
-                handles.append(Patch(facecolor=plots.STATE_COLORS[code], label=name))
+                colour = plots.STATE_COLORS[code]
+                poly = PolyCollection([np.column_stack([x, y])], snap=False, facecolors=colour, linewidths=0)
+                ax.add_collection(poly, autolim=False)
+                handles.append(Patch(facecolor=colour, label=name))
         ax.set_ylim(0.0, 1.8)           # the bands below, their legend above
         ax.set_yticks([])
         ax.spines["left"].set_visible(False)
@@ -375,9 +375,9 @@ def _mpl_panel(ax, panel):
         band = None
         if tr.lo is not None:
             # outlined: a bin far taller than its neighbours (an impact) stays a visible spike
-            band = on.fill_between(tr.time, tr.lo, tr.hi, facecolor=to_rgba(tr.colour, ENVELOPE_ALPHA),
-                                   edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA),
-                                   linewidth=ENVELOPE_EDGE_WIDTH, linestyle=dash)
+            look = dict(edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA), linewidth=ENVELOPE_EDGE_WIDTH)
+            fill = to_rgba(tr.colour, ENVELOPE_ALPHA)
+            band = on.fill_between(tr.time, tr.lo, tr.hi, facecolor=fill, linestyle=dash, **look)
         line, = on.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH, linestyle=dash,
                         label=tr.label)
         handles.append(line if band is None else (band, line))
@@ -427,9 +427,8 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
         x_range = Range1d(*col[0].xlim)
         figs = []
         for panel in col:
-            f = bokeh_figure(title=panel.title, width=width, height=height, x_range=x_range,
-                             tools="xpan,xwheel_zoom,box_zoom,reset,save",
-                             active_scroll="xwheel_zoom")
+            tools = dict(tools="xpan,xwheel_zoom,box_zoom,reset,save", active_scroll="xwheel_zoom")
+            f = bokeh_figure(title=panel.title, width=width, height=height, x_range=x_range, **tools)
             f.xaxis.axis_label = TIME_LABEL
             f.toolbar.logo = None
             figs.append(f)
@@ -464,8 +463,8 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
                 src = ColumnDataSource(data)
                 line = dict(line_color=tr.colour, line_dash=tr.dash or "solid", source=src, **axis)
                 if tr.lo is not None:
-                    drawn.append(f.varea(x="time", y1="lo", y2="hi", fill_color=tr.colour,
-                                         fill_alpha=ENVELOPE_ALPHA, source=src, **axis))
+                    fill = dict(fill_color=tr.colour, fill_alpha=ENVELOPE_ALPHA, source=src)
+                    drawn.append(f.varea(x="time", y1="lo", y2="hi", **fill, **axis))
                     drawn += [f.line(x="time", y=edge, line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
                                      **line) for edge in ("lo", "hi")]
                 r = f.line(x="time", y="value", line_width=LINE_WIDTH, **line)
@@ -641,12 +640,11 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
                     xs = [num(r["seconds"]) for r in pts]
                     ys = [max(num(r[key]), floor) for r in pts]
                     mk, c = markers.get(integ, "^"), colours(i % 10)
-                    ax.plot(xs, ys, ls="-" if integ == "ab4" else ":", lw=1.0, color=c, marker=mk,
-                            ms=4.5, mfc=c, mec="none", alpha=0.9)
+                    ls = "-" if integ == "ab4" else ":"
+                    ax.plot(xs, ys, ls=ls, lw=1.0, color=c, marker=mk, ms=4.5, mfc=c, mec="none", alpha=0.9)
                     pre = [(x, y) for x, y, r in zip(xs, ys, pts) if r["setting"] in presets]
                     if pre:
-                        ax.plot(*zip(*pre), ls="none", marker=mk, ms=7, mfc="none", mec="black",
-                                mew=1.0)
+                        ax.plot(*zip(*pre), ls="none", marker=mk, ms=7, mfc="none", mec="black", mew=1.0)
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel("kernel seconds (best of repeats)")
@@ -658,9 +656,9 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
         handles = [Line2D([], [], color=colours(i % 10), lw=2,
                           label=s + (" (chaotic)" if s in chaotic else ""))
                    for i, s in enumerate(scenes)]
-        handles += [Line2D([], [], color="black", ls="-" if g == "ab4" else ":",
-                           marker=markers.get(g, "^"), label=g.upper() if g == "ab4" else
-                           g.capitalize()) for g in integrators]
+        for g in integrators:
+            ls, label = ("-", g.upper()) if g == "ab4" else (":", g.capitalize())
+            handles.append(Line2D([], [], color="black", ls=ls, marker=markers.get(g, "^"), label=label))
         handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="none", mec="black",
                               label="fidelity preset"))
         fig.legend(handles=handles, loc="lower center", ncol=6, frameon=False)
@@ -759,8 +757,7 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
     rows: list[tuple] = []
     path: Path | None
     start = time.perf_counter()
-    bar = tqdm(PAPER_FIGURES.items(), total=len(PAPER_FIGURES), desc="paper figures",
-               file=sys.stderr, disable=not progress, unit="fig")
+    bar = tqdm(PAPER_FIGURES.items(), desc="paper figures", file=sys.stderr, disable=not progress, unit="fig")
     for number, (kind, point) in bar:
         name = f"fig{number:02d}" + {"vertical": "-vertical", "maps": "-drift-maps"}.get(
             kind, f"-point{point}")

@@ -67,6 +67,12 @@ def _coloured(img, cmap, clim, clabel, hover, ticks=None, **common):
     return style(img, dict(cmap=cmap, clim=clim, colorbar=True, clabel=clabel, **common), bk, mp)
 
 
+def _map_image(ds, *values, vdims, label=""):
+    """An image over a map's (log10 A*, log10 m*) of `values`, (amplitude, mass) arrays."""
+    axes = (ds["log_amplitude"].values, ds["log_mass"].values)
+    return hv.Image((*axes, *(v.T for v in values)), kdims=[LOG_A, LOG_M], vdims=vdims, label=label)
+
+
 def _styled_line(el, color, width=None, dash=None):
     bk, mp = {"color": color}, {"color": color}
     if width is not None:
@@ -148,9 +154,11 @@ def white_label(v0: float = V0) -> str:
     return f"white: no drift (|v*| <= {v0:g})"
 
 
-_BOKEH_KEY = dict(margin=4, padding=4, spacing=10, border_line_alpha=0, background_fill_alpha=0)
+_BOKEH_KEY = dict(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4, padding=4, spacing=10)
+_BOKEH_KEY.update(border_line_alpha=0, background_fill_alpha=0)
 # below the tick labels and the axis label (offset in font sizes)
-_MPL_KEY: dict[str, Any] = dict(loc="upper center", bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4)
+_MPL_KEY: dict[str, Any] = dict(loc="upper center", bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2)
+_MPL_KEY.update(frameon=False, handlelength=1.8, columnspacing=1.2, fontsize="small")
 
 
 def _bokeh_key(entries):
@@ -159,8 +167,7 @@ def _bokeh_key(entries):
         fig = plot.state
         key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
         if key is None:
-            key = Legend(name=KEY_NAME, label_text_font_size="9pt", orientation="horizontal", ncols=2,
-                         **_BOKEH_KEY)
+            key = Legend(label_text_font_size="9pt", **_BOKEH_KEY)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
         for label, kind, spec, shown in entries:
@@ -196,8 +203,7 @@ def _mpl_key(entries):
                                       linestyle=spec[2] or "solid"))
         if old is not None:
             old.remove()
-        key = Legend(ax, handles, [m[0] for m in mine], ncols=2, frameon=False, handlelength=1.8,
-                     columnspacing=1.2, fontsize="small", **_MPL_KEY)
+        key = Legend(ax, handles, [m[0] for m in mine], **_MPL_KEY)
         key.set_gid(KEY_NAME)
         key.entries = mine      # type: ignore[attr-defined]  # read back at the next redraw
         ax.add_artist(key)
@@ -226,12 +232,8 @@ def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str 
     chaos = (ds["chaotic"].values == 1).T
     if chaotic == "grey":
         c = np.where(chaos.T, np.nan, c)
-    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, v.T,
-                    chaos.astype(float)),
-                   kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
-                                                hv.Dimension("v", label="<v*>"),
-                                                hv.Dimension("chaotic")],
-                   label=title)
+    vdims = [hv.Dimension("C", range=(-1, 1)), hv.Dimension("v", label="<v*>"), "chaotic"]
+    img = _map_image(ds, c, v, chaos.T.astype(float), vdims=vdims, label=title)
     ticks = list(colour_ticks(v, v0).items())
     hover = [("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]
     img = _coloured(img, CMAP, (-1, 1), colour_bar_title(v0), hover, ticks)
@@ -241,8 +243,7 @@ def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str 
     if shown or always_grey:
         # an all-NaN image has no range: a hidden layer holds ones
         mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
-        grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, mask),
-                        kdims=[LOG_A, LOG_M], vdims=["chaotic"])
+        grey = _map_image(ds, mask.T, vdims=["chaotic"])
         # no hover of its own: it would cover the map's
         layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
                             bokeh=dict(tools=[], visible=shown)))
@@ -300,15 +301,13 @@ def paper_points(model: str = "deformable", color: str = "black"):
     """The paper's labelled points of one model."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)
-    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color=color),
-                   bokeh=dict(size=6), matplotlib=dict(s=18))
+    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), dict(color=color), dict(size=6), dict(s=18))
     y = np.array(ys)
     # labels up and right of their point; below it at the map's top edge (point 7)
     dy = np.where(y > 4.5, -0.45, 0.12)
     labels = hv.Labels((np.array(xs) + 0.12, y + dy, ls), [LOG_A, LOG_M], "label")
-    labels = style(labels, bokeh=dict(text_color=color),
-                   matplotlib=dict(color=color, size=11, horizontalalignment="left",
-                                   verticalalignment="bottom", weight="bold"))
+    mp = dict(color=color, size=11, horizontalalignment="left", verticalalignment="bottom")
+    labels = style(labels, bokeh=dict(text_color=color), matplotlib=dict(weight="bold", **mp))
     return points * labels
 
 
@@ -319,23 +318,21 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
     aj = vertical["threshold_amplitude"].values
     pm = vertical["point_mass_threshold_amplitude"].values
     pm = hv.Curve((m, pm), M_DIM, AJ_DIM, label="material point 1/(4 pi^2 m*)")
-    layers = [_styled_line(hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)"), "#1f77b4", 2),
-              _styled_line(pm, "black", 1.5, "dashed")]
+    de = hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)")
+    layers = [_styled_line(de, "#1f77b4", 2), _styled_line(pm, "black", 1.5, "dashed")]
     names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
     for name, lm in _resonances(vertical):
         color = "#d62728" if name in names else "grey"
         layers.append(_styled_line(hv.VLine(10.0 ** lm), color, width=1, dash="dotted"))
         if name in names:
             depth = float(np.interp(lm, vertical["log_mass"].values, aj))
-            layers.append(style(hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center",
-                                        valign="top", fontsize=10),
-                                bokeh=dict(text_color=color), matplotlib=dict(color=color)))
+            text = hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center", valign="top", fontsize=10)
+            layers.append(style(text, bokeh=dict(text_color=color), matplotlib=dict(color=color)))
     finite = aj[np.isfinite(aj) & (aj > 0)]
     lo = 10.0 ** (np.floor(np.log10(finite.min())) - 1) if finite.size else 1e-3
     hi = 10.0 ** (np.ceil(np.log10(finite.max())) + 0.3) if finite.size else 1e4
-    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"),
-                 common=dict(logx=True, logy=True, legend_position="top_right",
-                             ylim=(lo, hi), xlabel="m*", ylabel="A_J*"))
+    opts = dict(logx=True, logy=True, legend_position="top_right", ylim=(lo, hi), xlabel="m*")
+    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"), dict(ylabel="A_J*", **opts))
 
 
 # ---------------------------------------------------------------- trajectories
@@ -593,14 +590,12 @@ def _line_panels(ds, specs, bins):
         right = tuple(right_columns([var for var, _, _ in lines]))
         traces = tuple(Trace(v, lab, col, data["time"], data[v], dash=axis_dash(v, right),
                              **_envelope(data, v)) for v, lab, col in lines)
-        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces,
-                            right=right))
+        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces, right=right))
     return panels, data
 
 
 def _twin_panel(ds, data, twin, bins, xlim):
-    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0),
-                                                            TWIN_LABEL)
+    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), TWIN_LABEL)
     tt, tx = twin["time"].values, twin["x"].values
     other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
     traces = tuple(Trace("x", lab, col, d["time"], d["x"], dash=dash, **_envelope(d, "x"))
@@ -725,11 +720,10 @@ def _spans(snapshot, y0, y1):
     layers = []
     for sp in memory_spans(snapshot):
         mp = dict(color=None, facecolor=sp["color"], edgecolor="none")
-        layers.append(style(hv.VSpan(sp["left"], sp["right"]), dict(alpha=sp["alpha"]),
-                            dict(color=sp["color"]), mp))
-        top = sp["label_at"] == "top"
-        text = hv.Text(sp["label_x"], y1 if top else y0, sp["label"], halign="left",
-                       valign="top" if top else "bottom", fontsize=10)
+        span = hv.VSpan(sp["left"], sp["right"])
+        layers.append(style(span, dict(alpha=sp["alpha"]), dict(color=sp["color"]), mp))
+        y, at = (y1, "top") if sp["label_at"] == "top" else (y0, "bottom")
+        text = hv.Text(sp["label_x"], y, sp["label"], halign="left", valign=at, fontsize=10)
         layers.append(style(text, dict(color=sp["label_color"])))
     return layers
 
@@ -749,10 +743,9 @@ def memory_diagram(snapshot: Any) -> hv.Layout:
     panels = []
     for dim, y, colour, ylabel, head in ((W_DIM, "w", W_COLOR, MEMORY_WLABEL, title),
                                          (U_DIM, "u", U_COLOR, MEMORY_ULABEL, MEMORY_UTITLE)):
-        cone = "Coulomb cone" if y == "w" else ""
-        layers = _spans(snapshot, *g[f"{y}_lim"]) + [
-            _styled_line(hv.Curve((g["hc"], c), H_DIM, dim, label=cone if i == 0 else ""), "black",
-                         1, "dashed") for i, c in enumerate(g[f"cone_{y}"])]
+        names = ["Coulomb cone" if y == "w" else "", ""]
+        cone = [hv.Curve((g["hc"], c), H_DIM, dim, label=n) for c, n in zip(g[f"cone_{y}"], names)]
+        layers = _spans(snapshot, *g[f"{y}_lim"]) + [_styled_line(c, "black", 1, "dashed") for c in cone]
         layers.append(_styled_line(hv.Curve((g["h"], g[y]), H_DIM, dim, label=f"{y}(h)"), colour, 2))
         if y == "w":            # the cone's apex (a*, b*)
             apex = hv.Points([(g["a"], g["b"])], [H_DIM, W_DIM])
@@ -774,13 +767,12 @@ def contact_geometry(snapshot: Any) -> dict[str, Any]:
     a = max(float(snapshot["a"]), 0.0)
     s_h = min(max(float(snapshot["stick_depth"]), 0.0), a)
     c, s = np.sqrt(a), np.sqrt(s_h)
-    title = (f"contact: c = {c:.3g}, s = {s:.3g} "
-             f"({STATE_NAMES[int(snapshot['state'])]})")
+    title = f"contact: c = {c:.3g}, s = {s:.3g} ({STATE_NAMES[int(snapshot['state'])]})"
     discs = []
     if c > 0:
         slip = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
-        discs.append(dict(r=c, color=slip if s < c else STATE_COLORS[1], dashed=False,
-                          label="slip annulus" if s < c else "stick"))
+        outer = (slip, "slip annulus") if s < c else (STATE_COLORS[1], "stick")
+        discs.append(dict(r=c, color=outer[0], dashed=False, label=outer[1]))
         if 0 < s < c:
             discs.append(dict(r=s, color=STATE_COLORS[1], dashed=True, label="stick core"))
     return dict(c=c, s=s, rmax=max(c, 1.0) * 1.1, title=title, discs=discs)
@@ -795,16 +787,13 @@ def contact_circle(snapshot: Any) -> Any:
         mp = dict(color=None, facecolor=d["color"], edgecolor="black")
         if d["dashed"]:
             bk["line_dash"], mp["linestyle"] = "dashed", "dashed"
-        layers.append(style(hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM],
-                                        label=d["label"]),
-                            common=dict(alpha=0.9), bokeh=bk, matplotlib=mp))
+        disc = hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM], label=d["label"])
+        layers.append(style(disc, dict(alpha=0.9), bk, mp))
     if not g["discs"]:
         layers.append(hv.Text(0, 0, "in flight: no contact"))
-    rmax = g["rmax"]
-    return style(hv.Overlay(layers).relabel(g["title"]),
-                 common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
-                             show_legend=False, xlabel=CIRCLE_XLABEL,
-                             ylabel=CIRCLE_ZLABEL))
+    lim = (-g["rmax"], g["rmax"])
+    opts = dict(xlim=lim, ylim=lim, data_aspect=1, show_legend=False, xlabel=CIRCLE_XLABEL)
+    return style(hv.Overlay(layers).relabel(g["title"]), dict(ylabel=CIRCLE_ZLABEL, **opts))
 
 
 # ---------------------------------------------------------------- dynamics
@@ -824,18 +813,15 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
     """Two maps compared (`map_difference`): s(v2) - s(v1) in decades (red:
     the second drifts more towards +x), black where the drift class differs,
     grey where either is chaotic; colours saturate at the 99th percentile."""
-    la, lm = diff["log_amplitude"].values, diff["log_mass"].values
     d = diff["log_difference"].values
     chaotic = diff["chaotic_either"].values
     shown = np.where(chaotic, np.nan, d)
     finite = np.abs(shown[np.isfinite(shown)])
     # up to the next half decade (a few outliers would wash out the rest)
     top = max(0.5, float(np.ceil(2.0 * np.percentile(finite, 99)) / 2.0)) if finite.size else 0.5
-    img = hv.Image((la, lm, shown.T, diff["drift_velocity_first"].values.T,
-                    diff["drift_velocity_second"].values.T),
-                   kdims=[LOG_A, LOG_M],
-                   vdims=[DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"),
-                          hv.Dimension("v2", label="<v*> second")])
+    v1, v2 = diff["drift_velocity_first"].values, diff["drift_velocity_second"].values
+    vdims = [DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"), hv.Dimension("v2", label="<v*> second")]
+    img = _map_image(diff, shown, v1, v2, vdims=vdims)
     hover = [("<v*> first", "@{v1}"), ("<v*> second", "@{v2}"),
              ("difference (decades)", "@{log_difference}")]
     clabel = f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"
@@ -846,8 +832,7 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
     changed = diff["class_changed"].values & ~chaotic     # a chaotic point's change is noise
     for mask, colour in ((chaotic, CHAOTIC_GREY), (changed, CLASS_CHANGE_COLOUR)):
         if mask.any():
-            layer = hv.Image((la, lm, np.where(mask, 1.0, np.nan).T), kdims=[LOG_A, LOG_M],
-                             vdims=["mask"])
+            layer = _map_image(diff, np.where(mask, 1.0, np.nan), vdims=["mask"])
             layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9),
                                 bokeh=dict(tools=[])))
     a = diff.attrs
@@ -865,12 +850,9 @@ def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
     at LYAPUNOV_FLOOR), the chaos threshold marked on the colour bar."""
     lam = ds["lyapunov"].values
     c = np.log10(np.clip(lam, LYAPUNOV_FLOOR, None))
-    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, lam.T),
-                   kdims=[LOG_A, LOG_M], vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")],
-                   label=title)
-    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), (float(np.log10(threshold)),
-                                                 f"{threshold:g} (chaotic above)"),
-             (-1.0, "0.1"), (0.0, "1")]
+    img = _map_image(ds, c, lam, vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")], label=title)
+    mark = (float(np.log10(threshold)), f"{threshold:g} (chaotic above)")
+    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), mark, (-1.0, "0.1"), (0.0, "1")]
     clabel = "Lyapunov exponent of the vertical motion, per period"
     return _coloured(img, "viridis", (-4.0, 0.0), clabel, [("lambda", "@{lam}")], ticks)
 
@@ -892,17 +874,15 @@ def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)
 def orbit_diagram_figure(diagram: Any) -> Any:
     """Take-off phases and section points y* against the parameter, two panels."""
     name = LOG_A if diagram.parameter == "amplitude" else LOG_M
-    phases = hv.Scatter((diagram.phase_value, diagram.phase), kdims=[name],
-                        vdims=[PHASE_DIM])
-    ys = hv.Scatter((diagram.section_value, diagram.section_y), kdims=[name], vdims=[Y_DIM])
     tail = f"final {diagram.final_periods:g} periods"
-    phases = style(phases, common=dict(title=f"take-off phases, {tail}"),
-                   bokeh=dict(size=2, color="#1f77b4", responsive=True, height=260),
-                   matplotlib=dict(s=1, color="#1f77b4", aspect=2.5))
-    ys = style(ys, common=dict(title=f"section y*(k), {tail}"),
-               bokeh=dict(size=2, color="#444444", responsive=True, height=260),
-               matplotlib=dict(s=1, color="#444444", aspect=2.5))
-    return (phases + ys).cols(1)
+    panels = []
+    for x, y, dim, colour, title in (
+            (diagram.phase_value, diagram.phase, PHASE_DIM, "#1f77b4", "take-off phases"),
+            (diagram.section_value, diagram.section_y, Y_DIM, "#444444", "section y*(k)")):
+        bk = dict(size=2, color=colour, responsive=True, height=260)
+        el = hv.Scatter((x, y), kdims=[name], vdims=[dim])
+        panels.append(style(el, dict(title=f"{title}, {tail}"), bk, dict(s=1, color=colour, aspect=2.5)))
+    return (panels[0] + panels[1]).cols(1)
 
 
 def continuation_figure(branch: Any) -> Any:
@@ -958,9 +938,8 @@ DEVICE_MARKER = "#000000"
 def level_lines(x: Any, y: Any, z: Any, level: Any) -> list:
     """Contour lines of z (shape (y, x)) at `level`: (n, 2) arrays (NaN cells left out)."""
     import contourpy
-    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float),
-                                      np.ma.masked_invalid(np.asarray(z, float)),
-                                      line_type=contourpy.LineType.Separate)
+    z = np.ma.masked_invalid(np.asarray(z, float))
+    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float), z, line_type="Separate")
     return [seg for seg in gen.lines(level) if len(seg) > 1]
 
 
@@ -1018,8 +997,7 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
             segs = level_lines(lx, ly, np.log10(speed), e)
             if not segs:
                 continue
-            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]),
-                                       *SPEED_CONTOUR))
+            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]), *SPEED_CONTOUR))
             longest = max(segs, key=len)
             mx, my = 10.0 ** longest[len(longest) // 2]
             labels.append((mx, my, f"{10.0 ** e:g}"))

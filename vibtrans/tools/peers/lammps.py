@@ -402,15 +402,13 @@ def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
     lm_final = (lm.x_end - lm.x[i0]) / (lm.t_end - lm.t[i0])
     scale = max(abs(ours), abs(lm.drift), 1e-300)
     out = {k: getattr(scene, k) for k in ("amplitude", "mass", "mu", "theta", "tau", "periods")}
-    out.update(h=h, model=scene.model, tangential=tangential,
-               integrator=integrator or scene.integrator, ours_drift=ours, lammps_drift=lm.drift)
-    out.update(drift_difference=lm.drift - ours, drift_relative_difference=abs(lm.drift - ours) / scale,
-               ours_final_drift=ours_final, lammps_final_drift=float(lm_final))
-    out.update(vertical_max_error=float(dy.max()), y_range=float(np.ptp(ds["y"].values)),
-               x_max_error=float(dx.max()), ours_states=_state_fractions(ds),
-               lammps_states=lammps_states(lm, scene))
-    out.update(ours_seconds=float(ds.attrs["seconds"]), lammps_seconds=lm.loop_seconds,
-               _ours=ds, _lammps=lm)
+    out.update(h=h, model=scene.model, tangential=tangential, integrator=integrator or scene.integrator)
+    out.update(ours_drift=ours, lammps_drift=lm.drift, drift_difference=lm.drift - ours)
+    out.update(drift_relative_difference=abs(lm.drift - ours) / scale, ours_final_drift=ours_final)
+    out.update(lammps_final_drift=float(lm_final), vertical_max_error=float(dy.max()))
+    out.update(y_range=float(np.ptp(ds["y"].values)), x_max_error=float(dx.max()))
+    out.update(ours_states=_state_fractions(ds), lammps_states=lammps_states(lm, scene))
+    out.update(ours_seconds=float(ds.attrs["seconds"]), lammps_seconds=lm.loop_seconds, _ours=ds, _lammps=lm)
     if lm.fine and scene.model == "deformable":
         t0 = lm.fine["t"][0]
         sel = t >= t0 - 1e-9
@@ -484,14 +482,12 @@ def peer_bench(quick: bool = False) -> dict[str, Any]:
         scene = paper_scene(point).replace(periods=periods, **overrides)
         c = compare(scene)
         rel = c["drift_relative_difference"]
-        row = dict(scene=label, amplitude=scene.amplitude, mass=scene.mass, mu=scene.mu,
-                   tau=scene.tau, periods=periods, h=c["h"], ours_drift=c["ours_drift"])
-        row.update(lammps_drift=c["lammps_drift"], difference=c["drift_difference"],
-                   relative_difference=rel, ours_final_drift=c["ours_final_drift"])
-        row.update(lammps_final_drift=c["lammps_final_drift"], tolerance=tol,
-                   agrees=None if tol is None else bool(rel <= tol))
-        row.update({k: c[k] for k in ("vertical_max_error", "y_range", "ours_states",
-                                      "lammps_states")})
+        row = dict(scene=label, amplitude=scene.amplitude, mass=scene.mass, mu=scene.mu, tau=scene.tau)
+        row.update(periods=periods, h=c["h"], ours_drift=c["ours_drift"], lammps_drift=c["lammps_drift"])
+        row.update(difference=c["drift_difference"], relative_difference=rel)
+        row.update(ours_final_drift=c["ours_final_drift"], lammps_final_drift=c["lammps_final_drift"])
+        row.update(tolerance=tol, agrees=None if tol is None else bool(rel <= tol))
+        row.update({k: c[k] for k in ("vertical_max_error", "y_range", "ours_states", "lammps_states")})
         rows.append({**row, **{k: c.get(k) for k in ("ours_loop_energy", "lammps_loop_energy")}})
     pinned = _pin_one_core()
     try:
