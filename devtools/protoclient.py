@@ -107,11 +107,10 @@ class ProtocolSession:
         """Tap the map at fractions (fx, fy) of its x and y ranges."""
         (x0, x1), (y0, y1) = self._range("x_range"), self._range("y_range")
         done = self._wait(lambda s: bool(_DONE.search(s) or _FAILED.search(s)))
-        self._event("tap", [["model", {"id": self.map["id"]}],
-                            ["sx", 100 + 700 * fx], ["sy", 400 - 380 * fy],
-                            ["x", x0 + fx * (x1 - x0)], ["y", y0 + fy * (y1 - y0)],
-                            ["modifiers", {"type": "map", "entries": [
-                                ["shift", False], ["ctrl", False], ["alt", False]]}]])
+        keys = {"type": "map", "entries": [["shift", False], ["ctrl", False], ["alt", False]]}
+        at = [["sx", 100 + 700 * fx], ["sy", 400 - 380 * fy]]
+        at += [["x", x0 + fx * (x1 - x0)], ["y", y0 + fy * (y1 - y0)]]
+        self._event("tap", [["model", {"id": self.map["id"]}], *at, ["modifiers", keys]])
         text = await asyncio.wait_for(done, self.timeout)
         if _FAILED.search(text):
             return "error", text
@@ -184,8 +183,8 @@ class ProtocolSession:
         self._send("PATCH-DOC", {"events": events})
 
     def _event(self, name, entries):
-        self._patch([{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": {
-            "type": "event", "name": name, "values": {"type": "map", "entries": entries}}}])
+        data = {"type": "event", "name": name, "values": {"type": "map", "entries": entries}}
+        self._patch([{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": data}])
 
     def _figures(self):
         return [m for m in self.models.values() if m["name"] == "Figure"]
@@ -195,10 +194,9 @@ class ProtocolSession:
         for f in figures:
             a = f["attributes"]
             w, h = a.get("width") or 900, a.get("height") or 300
-            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr,
-                          "new": v} for attr, v in (("inner_width", w - 175 - shrink),
-                                                    ("inner_height", h - 70),
-                                                    ("outer_width", w), ("outer_height", h))])
+            sizes = dict(inner_width=w - 175 - shrink, inner_height=h - 70, outer_width=w, outer_height=h)
+            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr, "new": v}
+                         for attr, v in sizes.items()])
 
     def _range(self, which):
         ref = self.map["attributes"][which]["id"]

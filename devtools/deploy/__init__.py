@@ -80,9 +80,9 @@ def render_config(prefix, listen, worker_ports):
         f"        \"{n}|{n}\" \"\";\n"
         f"        \"~\\|{n}$\" \"{ROUTE_COOKIE}={n}; Path=/; HttpOnly; SameSite=Lax$vtworker_secure\";"
         for n in names)
-    return _Template(TEMPLATE.read_text()).substitute(
-        prefix=prefix, listen=listen, servers=servers, worker_upstreams="\n".join(upstreams),
-        routes=routes, answered=answered, set_cookie=set_cookie)
+    parts = dict(servers=servers, worker_upstreams="\n".join(upstreams), routes=routes, answered=answered)
+    return _Template(TEMPLATE.read_text()).substitute(prefix=prefix, listen=listen, set_cookie=set_cookie,
+                                                      **parts)
 
 
 def access_log(path):
@@ -145,10 +145,9 @@ class Deployment:
             conf = Path(self.prefix, "nginx.conf")
             conf.write_text(render_config(self.prefix, f"{self.address}:{self.port}", self.ports))
             Path(self.prefix, "tmp").mkdir()
-            self.nginx = subprocess.Popen(
-                [*self.wrap, self.nginx_bin, "-p", self.prefix, "-c", str(conf),
-                 "-e", str(Path(self.prefix, "error.log"))],
-                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            cmd = [self.nginx_bin, "-p", self.prefix, "-c", str(conf), "-e", self.error_log_path]
+            out = dict(stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            self.nginx = subprocess.Popen([*self.wrap, *cmd], **out)
         except BaseException:
             self.stop()
             raise
@@ -156,8 +155,8 @@ class Deployment:
 
     def _start_worker(self, k):
         port = free_port()
-        args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port),
-                "--address", "127.0.0.1", "--use-xheaders", *self.serve_args]
+        serve = ["serve", "--port", str(port), "--address", "127.0.0.1", "--use-xheaders"]
+        args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", *serve, *self.serve_args]
         for o in self.origins:
             args += ["--allow-websocket-origin", o]
         out = None

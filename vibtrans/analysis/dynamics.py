@@ -354,13 +354,12 @@ def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
             z = zn if z_prev is None else 2.0 * zn - z_prev
             z_prev = zn
     exists = np.isfinite(trace)
-    dims = ("log_amplitude", "log_mass")
-    return xr.Dataset(
-        {"trace": (dims, trace), "exists": (dims, exists),
-         "stable": (dims, exists & (np.abs(trace) < 2.0)), "in_flight": (dims, flight)},
-        coords={"log_amplitude": la, "log_mass": lm},
-        attrs={"fidelity": fidelity, "description": "period-1 orbit continued upwards in A* "
-               "from the small-amplitude contact orbit (vibtrans.analysis.dynamics.period_one_chart)"})
+    data = dict(trace=trace, exists=exists, stable=exists & (np.abs(trace) < 2.0), in_flight=flight)
+    what = ("period-1 orbit continued upwards in A* from the small-amplitude contact orbit "
+            "(vibtrans.analysis.dynamics.period_one_chart)")
+    data = {k: (("log_amplitude", "log_mass"), v) for k, v in data.items()}
+    coords = {"log_amplitude": la, "log_mass": lm}
+    return xr.Dataset(data, coords=coords, attrs={"fidelity": fidelity, "description": what})
 
 
 class OrbitDiagram(NamedTuple):

@@ -422,8 +422,8 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
                 on_chunk(level, snapshot(sweep, grid, tiling))
                 last[0] = time.monotonic()
         if todo:
-            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor,
-                        None if on_chunk is None else chunk_done)
+            done = None if on_chunk is None else chunk_done
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor, done)
         elif _set(cancel):
             raise Cancelled("map cancelled")
 

@@ -169,16 +169,14 @@ def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE,
                                                     and 1 <= samples_per_period <= 10000):
         raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
-    _, _, mass, load, a0 = static_contact(device.substrate, device.particle, device.radius,
-                                           device.preload, device.g)
-    f = frequency_for_mass_ratio(scene.mass, device.substrate, device.particle, device.radius,
-                                 device.preload, device.g)
+    d = (device.substrate, device.particle, device.radius, device.preload, device.g)
+    _, _, mass, load, a0 = static_contact(*d)
+    f = frequency_for_mass_ratio(scene.mass, *d)
     kn = load / (math.sqrt(device.radius) * a0 ** 1.5)
-    return Mapping(a0=a0, mass=mass, load=load, frequency=f, radius=device.radius,
-                   amplitude=scene.amplitude * a0, kn=kn, kt=1.5 * kn / scene.theta,
-                   h=float(h), dt=float(h) / f,
-                   steps=int(math.ceil(scene.periods / h - 1e-9)),
-                   every=max(1, int(round(1.0 / (h * samples_per_period)))))
+    run = dict(h=float(h), dt=float(h) / f, steps=int(math.ceil(scene.periods / h - 1e-9)))
+    every = max(1, int(round(1.0 / (h * samples_per_period))))
+    return Mapping(a0, mass, load, f, device.radius, scene.amplitude * a0, kn, 1.5 * kn / scene.theta,
+                   every=every, **run)
 
 
 def _g(x):
@@ -332,11 +330,10 @@ def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per
     c = normalized(coarse, np.arange(coarse.shape[0]) * mp.every * mp.h)
     f = normalized(fine, (mp.steps - n_fine + np.arange(fine.shape[0])) * mp.h) if n_fine else {}
     t_end = step_end * mp.h
-    return LammpsRun(t=c["t"], x=c["x"], y=c["y"], T=c["T"], fine=f, t_end=t_end,
-                     x_end=x_end, drift=x_end / t_end, steps=step_end, copies=copies,
-                     loop_seconds=seconds,
-                     ns_per_particle_step=1e9 * seconds / (step_end * copies),
-                     mapping=mp, script=script, version=version)
+    ns = 1e9 * seconds / (step_end * copies)
+    run: dict[str, Any] = dict(steps=step_end, copies=copies, loop_seconds=seconds, ns_per_particle_step=ns)
+    return LammpsRun(c["t"], c["x"], c["y"], c["T"], f, t_end, x_end, x_end / t_end, mapping=mp,
+                     script=script, version=version, **run)
 
 
 def _surface(t, scene):
