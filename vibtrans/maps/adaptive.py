@@ -11,10 +11,8 @@ sweep's.  Points not computed are filled from their smallest unrefined cell:
 categories from the nearest corner, continuous values bilinearly; `computed`
 marks the simulated ones.
 
-Resumable: points are written in digested .npz batches to `<out>.partial/`;
-a rerun verifies them (a damaged one: StoreMismatch naming it), re-derives
-the refinement and computes only what is missing.  The result is a regular
-sweep store (sweep.verify and open_map accept it), renamed into place.
+Resumable from digested .npz batches in `<out>.partial/` (a damaged one:
+StoreMismatch naming it); the result is a regular sweep store.
 """
 from __future__ import annotations
 

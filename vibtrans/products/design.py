@@ -1,18 +1,12 @@
 """Design charts in device units: where a device sits on the drift maps, how
 fast and which way its particle moves, and where the model stops holding.
 
-A device (`units.DeviceSpec`) maps to (A*, m*) through theta and r(nu) of its
-materials (docs/MODEL.md 1, 5).  A chart varies two of (frequency, radius,
-amplitude), maps every point and reads a normalized map of the same mu,
-theta and nu: a shipped map that covers it, else one computed on request
-(`compute=True`), else a refusal naming what is outside.
-
-Reading takes the nearest grid point (drift class, pattern and chaos are
-categories: a blend across a regime boundary belongs to no scene), at most
-h/2 decades away on a map of step h.  tests/test_design.py: a steel-on-glass
-device between grid points (log10 A* 2.40, log10 m* 0.23) reads v* = -168
-where its direct run gives -176.8, within the spread of its 3 x 3 neighbours.
-SI units unless a name says otherwise.
+A chart varies two of (frequency, radius, amplitude), maps each device to
+(A*, m*) (docs/MODEL.md 1, 5) and reads a map of the same mu, theta and nu:
+shipped, computed on request (`compute=True`), else refused.  It reads the
+nearest grid point (categories do not blend), at most h/2 decades away:
+tests/test_design.py reads v* = -168 where a direct run gives -176.8, within
+the spread of the 3 x 3 neighbours.  SI units unless a name says otherwise.
 """
 from __future__ import annotations
 
