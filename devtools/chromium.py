@@ -1,7 +1,5 @@
-"""Debian's chromium as the tests and the benches drive it (Playwright's own
-browser download does not work on these machines): where it is, and the
-flags that keep a headless page from being throttled or talking to the
-network."""
+"""Debian's chromium as the tests and benches drive it (Playwright's download
+does not work here), with flags against throttling and network chatter."""
 import shutil
 from contextlib import contextmanager
 from pathlib import Path

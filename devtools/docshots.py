@@ -1,16 +1,10 @@
-"""Screenshots of the built documentation site, as a newcomer's browser
-shows it: Debian's headless chromium (devtools/chromium.py) opens each page
-of docs/_build/html at 1280 x 800 and saves the first screen and the whole
-page as PNGs, and reports what a reader would see broken: a page's console
-errors and images that did not load; it counts the Panel/Bokeh outputs and
-those that drew something.  Run after `make docs`:
+"""Screenshots of the built documentation site (after `make docs`): each page
+at 1280 x 800, first screen and whole page, with what a reader would see
+broken (console errors, images not loaded) and the Bokeh outputs drawn.
 
     python -m devtools.docshots [--html docs/_build/html] [--out DIR] [PAGE ...]
 
-PAGE is a path under the site (default: the front page, getting started,
-the tutorials, the command-line and API references and every gallery
-notebook).  Prints one JSON line per page; exits 1 when any page shows a
-problem.
+Prints a JSON line per page; exits 1 when any page shows a problem.
 """
 import argparse
 import json
@@ -20,16 +14,12 @@ from pathlib import Path
 from devtools.chromium import launched
 
 VIEWPORT = {"width": 1280, "height": 800}
-# What a page shows broken, read in the page after it loaded: images with no
-# pixels, and Bokeh roots (every Panel/Bokeh output) that drew no canvas.
+# images with no pixels; Bokeh roots and those whose output cell has a height
+# (reported, not judged: pn.extension()'s own root draws nothing)
 PROBE = """() => {
   const broken = [...document.images].filter(i => i.complete && i.naturalWidth === 0)
                                      .map(i => i.getAttribute('src'));
-  // a Bokeh root renders into its output cell (the root's own div may be
-  // display: contents): the cell's height tells whether anything was drawn
   const roots = [...document.querySelectorAll('[data-root-id]')];
-  // (pn.extension()'s own output is a root that draws nothing, so this is
-  // reported, not judged)
   const drawn = roots.filter(r => ((r.closest('.cell_output, .output') || r.parentElement)
                                    .getBoundingClientRect().height) >= 50).length;
   return {broken_images: broken, bokeh_roots: roots.length, bokeh_roots_drawn: drawn,

@@ -1,11 +1,8 @@
 """The figures of docs/DYNAMICS.md: the period-1 orbit's stability over the
-shipped map's synchronous and chaotic zones.
+shipped map's zones; the chart (`period_one_chart` on the shipped grid, a few
+minutes) is read from --chart, else computed there.
 
     python -m devtools.dynamics_figures [--chart assets/maps/period-one.nc] [--out docs/figures]
-
-The period-1 chart (vibtrans.analysis.dynamics.period_one_chart on the shipped
-0.05-decade grid; a few minutes on 2 cores) is read from --chart if that file
-exists, else computed and written there.
 """
 import argparse
 import json
@@ -43,8 +40,7 @@ def _shipped():
 
 
 def stability_numbers(p1):
-    """How the period-1 orbit's stability lines up with the shipped regimes
-    (the chart and the maps share the 0.05-decade grid)."""
+    """How the period-1 orbit's stability lines up with the shipped regimes (one grid)."""
     drift, lyap, _ = _shipped()
     sync = drift["pattern"].values == 1
     jumping = drift["contact"].values == 1

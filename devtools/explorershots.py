@@ -1,21 +1,8 @@
-"""Screenshots of the explorer as a newcomer sees it, to look at: Debian's
-headless chromium opens a server of its own (tests/netutil.py's Served) at
-1024 x 768, 1280 x 800 and 1920 x 1080 and saves the whole page in each of
-these states:
-
-    main           the page as it opens (the template's main area scrolls by
-                   itself: the shots of the run's tabs are of the screen
-                   with the tab's header at the top, and one screen on)
-    orbits         the map with its period-1 orbit curves (a longer key)
-    lyapunov       the map's Lyapunov layer
-    both           both models' maps
-    run-<tab>      after Run: each of the run's tabs (Trajectory, Animation,
-                   Memory diagram, Downloads, Dynamics)
-    presentation   presentation mode, after the run
-    no-sidebar     presentation mode with the sidebar hidden
-
-It also prints, per screen, the map plot's frame (its data area) in each map
-state, so a frame that shrinks when the key grows is seen in numbers.
+"""Screenshots of the explorer as a newcomer sees it, from a server of its own
+at 1024 x 768, 1280 x 800 and 1920 x 1080: main, orbits (period-1 curves),
+lyapunov, both (models), run-<tab> (each run tab, its header at the top and
+a screen on), presentation, no-sidebar.  Prints the map's frame per state,
+so a frame that shrinks when the key grows shows in numbers.
 
     python -m devtools.explorershots [--out DIR] [--sizes 1024x768 ...]
 """
@@ -31,8 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SIZES = ["1024x768", "1280x800", "1920x1080"]
 RUN_TABS = ["Trajectory", "Animation", "Memory diagram", "Downloads", "Dynamics"]
 
-# The shown map's plot: its frame (the data area), its left edge and its
-# colour bar's fonts, CSS px.
+# The shown map's frame (data area), left edge and colour bar's fonts, CSS px
 MAP_JS = """() => {
   for (const doc of window.Bokeh.documents) for (const m of doc.all_models) {
     if (m.x_range === undefined || m.renderers === undefined) continue;
@@ -108,8 +94,7 @@ def shots(browser, url, size, out, log=print):
         header = page.get_by_text(tab, exact=True).first
         header.click()
         _settle(page, 3000)
-        # the template's main area scrolls by itself (a full-page shot
-        # does not see it): the tab's header at the top, then a screen on
+        # the main area scrolls by itself: the tab's header at the top, then a screen on
         header.evaluate("(e) => e.scrollIntoView({block: 'start'})")
         page.wait_for_timeout(300)
         name = "run-" + tab.lower().replace(" ", "-")
@@ -123,7 +108,7 @@ def shots(browser, url, size, out, log=print):
     label = page.get_by_text("Paper points").first
     small = float(label.evaluate("(e) => getComputedStyle(e).fontSize").rstrip("px"))
     toggle.locator("button").first.click()
-    # the server's styles come after the browser's own change: until the labels grew
+    # the server's styles follow the browser's change: until the labels grew
     page.wait_for_function("([e, px]) => parseFloat(getComputedStyle(e).fontSize) > px",
                            arg=[label.element_handle(), small], timeout=60000)
     _settle(page)

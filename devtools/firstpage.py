@@ -1,15 +1,10 @@
-"""Start-up times of `vibtrans serve` and `vibtrans simulate`, cold and warm:
+"""Start-up times of `vibtrans serve` and `vibtrans simulate`, cold (a new
+empty NUMBA_CACHE_DIR) and warm (the same, filled): the server's first page
+(with its CPU seconds) and "kernels ready"; simulate's whole command (paper
+point 4).  The machine's load is printed beside the figures.
 
     python -m devtools.firstpage [--rounds 2] [--json]
-
-cold: NUMBA_CACHE_DIR set to a new empty folder (nothing compiled yet);
-warm: the same folder again, now filled.  For the server: seconds from the
-command to the first answered page (GET /, 200), with the CPU seconds the
-server used by then (less dependent on the machine's load), and to
-"kernels ready" (the background compilation done); for simulate: the whole command
-(`vibtrans simulate --log-amplitude 2.5 --log-mass 0 --json`, paper point 4).
-Each round makes a new cold folder; the machine's load is printed beside
-the figures (a shared machine's times are only as quiet as it is)."""
+"""
 import argparse
 import json
 import os
@@ -37,8 +32,7 @@ def _vibtrans():
 
 
 def _cpu_s(pid):
-    """CPU seconds (user + system) the process has used: less dependent on
-    the machine's load than wall time."""
+    """CPU seconds (user + system) the process has used."""
     try:
         with open(f"/proc/{pid}/stat") as f:
             fields = f.read().rsplit(")", 1)[1].split()
@@ -48,8 +42,7 @@ def _cpu_s(pid):
 
 
 def serve_times(cache, timeout=900):
-    """(seconds to the first page, CPU seconds the server used by then,
-    seconds to kernels ready, the server's stderr)."""
+    """(seconds to the first page, CPU seconds by then, seconds to kernels ready, log)."""
     port = _port()
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     with tempfile.TemporaryFile(mode="w+") as log:

@@ -1,7 +1,6 @@
-"""The chaos indicator's threshold, from the shipped grid: the histogram of
-the vertical motion's Lyapunov exponent (assets/maps/vertical-lyapunov.zarr)
-and its agreement with the tau-twin verdicts stored in the shipped
-deformable maps (docs/DYNAMICS.md).
+"""The chaos indicator's threshold from the shipped grid (docs/DYNAMICS.md):
+the histogram of the vertical motion's Lyapunov exponent and its agreement
+with the shipped maps' tau-twin verdicts.
 
     python -m devtools.lyapunov_study [--figure FILE] [--json]
 """

@@ -1,16 +1,10 @@
-"""Map-level speed against accuracy (issue 16): for each fidelity preset and
-period count, how a map computed with them compares with the standard,
-2000-period map of the same window: the share of the points regular in both
-whose drift class agrees, the median and 90th-percentile relative drift
-difference |v - v_ref| / max(|v_ref|, v0) over them, and the points' steps
-relative to the reference.  The window is issue 16's (log10 A* in [-3, 3],
-log10 m* in [-5, 5], mu 0.5, 41 x 41 points).
+"""Map-level speed against accuracy: each fidelity preset and period count's
+map against the standard 2000-period one (log10 A* in [-3, 3], log10 m* in
+[-5, 5], mu 0.5): class agreement, median and 90th percentile of the
+relative drift difference, steps.  The table is vibtrans/maps/accuracy.py's
+MEASURED; stores are kept in --out (a rerun reuses them).
 
-    python -m devtools.map_accuracy --out /tmp/mapacc [--points 41] [--json]
-
-Stores are kept in --out (resumable: a rerun reuses finished ones).  The
-table it prints is copied into vibtrans/maps/accuracy.py (MEASURED), which the
-explorer's map request shows beside the choice of fidelity and periods.
+    python -m devtools.map_accuracy --out DIR [--points 41] [--json]
 """
 import argparse
 import json

@@ -1,8 +1,6 @@
-"""Checks for the oldest tier (`make test-oldest`, issue 33): that its venv
-runs the oldest Python pyproject.toml declares, and that every runtime
-dependency was installed at exactly its declared lower bound (the
-resolution is uv's lowest-direct; this checks what landed, e.g. that no
-bound names a yanked or uninstallable version the resolver stepped over).
+"""Checks for the oldest tier (`make test-oldest`): its venv runs the oldest
+Python pyproject.toml declares, and every runtime dependency landed at
+exactly its declared lower bound (not a version the resolver stepped to).
 
     python devtools/oldest.py --check-python
     python devtools/oldest.py --check-installed CONSTRAINTS
@@ -29,9 +27,8 @@ def oldest_python(requires):
 
 
 def lower_bounds():
-    """{distribution name (normalized): lower bound} of the runtime
-    dependencies whose markers hold here; a dependency without a '>='
-    bound is an error (every one must declare its oldest version)."""
+    """{normalized name: lower bound} of the runtime dependencies whose markers
+    hold here; every one must declare exactly one '>=' bound."""
     from packaging.requirements import Requirement
     from packaging.utils import canonicalize_name
 

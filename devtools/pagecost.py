@@ -1,16 +1,8 @@
-"""What one page costs the server's event loop, which every session shares:
-building a session's page as the server builds it (`explorer.serve_page`:
-the explorer, its template attached by Panel to the session's document; the
-run's figures are built when a run starts, the memory diagram when its tab
-opens), then Bokeh's checks of the new document, which the stock server
-runs for every session (`Document.validate`, unless BOKEH_VALIDATE_DOC
-says otherwise).  Stock Panel, Param, Bokeh and HoloViews: the explorer
-replaces none of their code (docs/how-to/deployment.md lists where a page's time
-goes in them, as proposals for upstream).  `page_cpu_s` is the process's
-CPU time per page (less sensitive to other processes than the wall-clock
-figures).  The shipped maps are prerendered first, as the server's warm-up
-does: pages opened before it ends also stat the maps not yet read (~0.02 s
-each).  Issue 14's goal: a page <= 0.1 s.
+"""What one page costs the server's event loop: building a session's page as
+the server does (`explorer.serve_page`), then Bokeh's document checks
+(`Document.validate`), after the warm-up's prerender of the shipped maps.
+`page_cpu_s`: CPU time per page (steadier than wall time).  The goal: a
+page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
 """
@@ -29,8 +21,7 @@ from vibtrans_explorer.views import map as map_view
 
 
 def _page():
-    """(seconds to build and attach a page, its CPU seconds, seconds of
-    Bokeh's document checks, models in the document)."""
+    """(seconds to build a page, its CPU seconds, seconds of the checks, models)."""
     doc = Document()
     with set_curdoc(doc):
         t0, c0 = time.perf_counter(), time.process_time()
@@ -45,9 +36,7 @@ def run(pages):
     problems = data.preload()
     if problems:
         raise RuntimeError("; ".join(problems))
-    # as a served explorer after its warm-up (app/server/serve.py): every map
-    # rendered and read, so a page's check of the shipped files stats none
-    map_view.prerender()
+    map_view.prerender()                     # as the server's warm-up
     for _ in range(2):                       # warm-up: imports, caches
         _page()
     wall, cpu, checks = [], [], []

@@ -1,15 +1,8 @@
-"""A session of the explorer at the Bokeh protocol level: what chromium
-sends to the server, without drawing anything (devtools/loadtest.py).
-
-A person's browser renders on their own machine; a load test that renders
-30 pages on the server's own 2 cores measures the browsers, not the server.
-This client does what the page does over its websocket (recorded from
-chromium: the HTTP GET that creates the session, PULL-DOC, the browser's
-first property patches, `document_ready`, a `tap` event per click, and the
-figures' size changes after each new run) and times a click from the tap
-to the server's reply that carries the run's summary and data.  Only the
-JSON headers are parsed (and the document, to find the figures): the
-client costs milliseconds per click, so the server gets the cores.
+"""An explorer session at the Bokeh protocol level: the messages chromium sends
+(recorded from it: the GET, PULL-DOC, the size patches, `document_ready`, a
+`tap` per click), without drawing anything, so that a load test measures the
+server, not browsers on its cores.  Only the JSON headers are parsed (and the
+document, to find the figures): a click costs the client milliseconds.
 """
 import asyncio
 import json
@@ -19,11 +12,9 @@ import uuid
 from tornado.httpclient import AsyncHTTPClient, HTTPRequest
 from tornado.websocket import websocket_connect
 
-# the summary of a finished run: "<model>: A* = .., m* = .., mu = .." (the
-# progress line is "Running <model> at A* = ...")
+# a finished run's summary "<model>: A* = .., m* = .., mu = .." (not "Running ... at A* = ")
 _DONE = re.compile(r": A\* = [^,]*, m\* = [^,]*, mu = ")
 _FAILED = re.compile(r"run failed|server's limit|Drawing the run failed")
-# a map on demand's end (app/explorer.py's map status)
 _MAP_DONE = re.compile(r"Map finished: |Map from this server's cache ")
 _MAP_FAILED = re.compile(r"The map failed|Not computed|Drawing the map failed|Map cancelled")
 
@@ -42,31 +33,33 @@ def _walk(obj, out):
 
 
 class ProtocolSession:
-    """One explorer session over Bokeh's websocket protocol.
-
-    `await open()` loads the page (with `query`, a link's "?..." part) and
-    reports it ready (`document_ready`, as a browser's page does); `await
-    click(fx, fy)` taps the map at fractions of its axes' ranges and returns
-    ("done" | "error", summary text); `map_ended()` (called right after
-    open) a future of the map on demand's end, ("done" | "error", status);
-    `close()` closes the connection.
-    """
+    """One explorer session over Bokeh's websocket protocol: `await open()`
+    loads the page (`query`: a link's "?..." part) and reports it ready;
+    `await click(fx, fy)` taps the map at fractions of its ranges, ("done" |
+    "error", summary); `map_ended()` a future of the map on demand's end;
+    `close()`.  `bytes`: the bytes received per message type."""
 
     def __init__(self, url, timeout=180.0, cookies=None, query=""):
         self.url = url.rstrip("/") + "/"
         self.query = query
         self.timeout = timeout
-        # as a browser's cookie jar for this one site: what the server (or
-        # a proxy in front of it: devtools/deploy) sets on the page comes
-        # back with the websocket, which a sticky proxy routes by
+        # a cookie jar for this site: what the server or a proxy sets comes back
+        # with the websocket, which a sticky proxy routes by
         self.cookies = dict(cookies or {})
         self.models = {}
+        self.bytes = {}
         self._waiters = []
         self._reader = None
         self.conn = None
 
     async def open(self):
-        # a client of its own: Tornado's shared one queues beyond 10 requests
+        await self._connect(await self._get())
+        self._listen()
+        self.announce()
+
+    async def _get(self):
+        """The page: Bokeh makes the session (a client of its own: Tornado's
+        shared one queues beyond 10 requests)."""
         http = AsyncHTTPClient(force_instance=True)
         try:
             page = await http.fetch(self.url + self.query, request_timeout=self.timeout,
@@ -76,6 +69,11 @@ class ProtocolSession:
         for line in page.headers.get_list("Set-Cookie"):
             name, _, value = line.split(";", 1)[0].partition("=")
             self.cookies[name.strip()] = value.strip()
+        self.bytes["html"] = len(page.body)
+        return page
+
+    async def _connect(self, page):
+        """The websocket, and the document pulled."""
         token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
         ws = HTTPRequest("ws" + self.url[4:] + "ws",
                          headers={"Origin": self.url.rstrip("/"), **self._cookie_header()},
@@ -93,12 +91,15 @@ class ProtocolSession:
             if header["msgtype"] != "PATCH-DOC":
                 raise RuntimeError(f"expected PULL-DOC-REPLY, got {header['msgtype']}")
         _walk(json.loads(content), self.models)
+
+    def _listen(self):
         self._reader = asyncio.ensure_future(self._loop())
         # the map: the figure whose clicks the server listens to
         self.map = next(f for f in self._figures() if "tap" in (
             f["attributes"].get("subscribed_events") or {}).get("entries", []))
-        # as the page: its size, then document_ready (the run's figures come
-        # with the first run, in the patch that starts it)
+
+    def announce(self):
+        """As the page: its size, then document_ready (the run's figures come with a run)."""
         self._sizes([self.map], 0)
         self._event("document_ready", [])
 
@@ -106,11 +107,10 @@ class ProtocolSession:
         """Tap the map at fractions (fx, fy) of its x and y ranges."""
         (x0, x1), (y0, y1) = self._range("x_range"), self._range("y_range")
         done = self._wait(lambda s: bool(_DONE.search(s) or _FAILED.search(s)))
-        self._event("tap", [["model", {"id": self.map["id"]}],
-                            ["sx", 100 + 700 * fx], ["sy", 400 - 380 * fy],
-                            ["x", x0 + fx * (x1 - x0)], ["y", y0 + fy * (y1 - y0)],
-                            ["modifiers", {"type": "map", "entries": [
-                                ["shift", False], ["ctrl", False], ["alt", False]]}]])
+        keys = {"type": "map", "entries": [["shift", False], ["ctrl", False], ["alt", False]]}
+        at = [["sx", 100 + 700 * fx], ["sy", 400 - 380 * fy]]
+        at += [["x", x0 + fx * (x1 - x0)], ["y", y0 + fy * (y1 - y0)]]
+        self._event("tap", [["model", {"id": self.map["id"]}], *at, ["modifiers", keys]])
         text = await asyncio.wait_for(done, self.timeout)
         if _FAILED.search(text):
             return "error", text
@@ -119,8 +119,7 @@ class ProtocolSession:
         return "done", text
 
     def map_ended(self):
-        """A future: ("done" | "error", text) once the map the link asked
-        for is finished (computed or from the cache) or has failed."""
+        """A future: ("done" | "error", text) once the linked map is finished or failed."""
         async def ended(found):
             text = await found
             return ("error" if _MAP_FAILED.search(text) else "done"), text
@@ -149,10 +148,12 @@ class ProtocolSession:
         if h is None:
             raise ConnectionError("the server closed the websocket")
         header = json.loads(h)
-        await self.conn.read_message()                  # metadata
+        size = len(h) + len(await self.conn.read_message())        # metadata
         content = await self.conn.read_message()
+        size += len(content)
         for _ in range(2 * header.get("num_buffers", 0)):
-            await self.conn.read_message()
+            size += len(await self.conn.read_message())
+        self.bytes[header["msgtype"]] = self.bytes.get(header["msgtype"], 0) + size
         return header, content
 
     async def _loop(self):
@@ -182,8 +183,8 @@ class ProtocolSession:
         self._send("PATCH-DOC", {"events": events})
 
     def _event(self, name, entries):
-        self._patch([{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": {
-            "type": "event", "name": name, "values": {"type": "map", "entries": entries}}}])
+        data = {"type": "event", "name": name, "values": {"type": "map", "entries": entries}}
+        self._patch([{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": data}])
 
     def _figures(self):
         return [m for m in self.models.values() if m["name"] == "Figure"]
@@ -193,10 +194,9 @@ class ProtocolSession:
         for f in figures:
             a = f["attributes"]
             w, h = a.get("width") or 900, a.get("height") or 300
-            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr,
-                          "new": v} for attr, v in (("inner_width", w - 175 - shrink),
-                                                    ("inner_height", h - 70),
-                                                    ("outer_width", w), ("outer_height", h))])
+            sizes = dict(inner_width=w - 175 - shrink, inner_height=h - 70, outer_width=w, outer_height=h)
+            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr, "new": v}
+                         for attr, v in sizes.items()])
 
     def _range(self, which):
         ref = self.map["attributes"][which]["id"]

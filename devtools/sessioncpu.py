@@ -3,36 +3,17 @@
     python -m devtools.sessioncpu [--sessions 10] [--clicks 1] [--idle 10]
                                   [--log-level debug|info] [--py-spy PATH] [--json]
 
-Starts `vibtrans serve` (one process, the load test's session settings),
-waits until its warm-up is over and it is idle, then drives `--sessions`
-protocol sessions (devtools/protoclient.py: the page's own messages) ONE
-AT A TIME through each phase, so that the server's CPU time (from /proc,
-user + system, the event loop's thread apart from the others) between two
-marks is that phase's alone:
-
-- `get`: the HTTP GET of the page (Bokeh makes the session and Panel builds
-  its page into the document; the HTML is rendered);
-- `pull_doc`: the websocket opened and the document pulled (the page's
-  163 models serialized: the bytes are given too);
-- `ready`: the browser's first size reports and `document_ready` (the
-  page's onload callbacks);
-- `idle_per_s`: every session open, nothing asked, per session and second
-  (periodic callbacks, the session checker);
-- `click`: one map click each, from the tap to its run shown;
-- `close`: every connection closed, Bokeh's discard of the sessions and
-  Panel's and the explorer's collection after them, per session.
-
-After each mark the tool waits until the server is quiet (its CPU clock
-still for QUIET_S), so that work a phase leaves behind (a callback at the
-next tick, a debounced collection) is counted in it; the server's idle CPU
-over that wait (measured first, with no session) is subtracted.
-
-`--log-level`: the server's Bokeh log level.  The load test runs it at
-"debug" (it counts Bokeh's "Discarding session" lines); a deployment logs
-at "info".  `--py-spy PATH`: the server is run under py-spy (its sampling
-profile written to PATH, raw collapsed stacks; the CPU figures of such a
-run include py-spy's pauses); its samples are then counted by what the
-server was doing (PROFILE_PARTS: the phases above and their parts).
+Starts `vibtrans serve` (the load test's settings), waits until it is idle,
+then drives protocol sessions (devtools/protoclient.py) ONE AT A TIME through
+each phase, so the server's CPU (from /proc, event loop apart from other
+threads) between two marks is that phase's: `get` (the page built), `pull_doc`
+(the document serialized), `ready` (size reports, document_ready), idle
+per session and second, `click` (tap to run shown), `close` (discard and
+collection, per session).  After each mark it waits until the server's CPU
+clock stands still for QUIET_S, less the idle rate measured first.
+`--log-level`: the server's Bokeh log level (the load test's: debug).
+`--py-spy PATH`: run the server under py-spy and count its samples by
+PROFILE_PARTS.
 """
 import argparse
 import asyncio
@@ -56,8 +37,7 @@ TICK = os.sysconf("SC_CLK_TCK")
 
 
 def thread_cpu(pid):
-    """CPU seconds so far of the process's main thread (the event loop) and
-    of its other threads together."""
+    """CPU seconds so far of the process's main thread (the event loop) and of the others."""
     main = 0
     try:
         with open(f"/proc/{pid}/task/{pid}/stat") as f:
@@ -70,35 +50,23 @@ def thread_cpu(pid):
     return main / TICK, other / TICK
 
 
-class CountingSession(ProtocolSession):
-    """A protocol session whose opening is marked in phases (`marks`: a
-    callable given the phase's name after it) and whose received bytes are
-    counted by message type."""
+class _Session(ProtocolSession):
+    """A protocol session whose opening is marked in phases (`marks(phase)`)."""
 
     def __init__(self, url, marks, **kw):
         super().__init__(url, **kw)
         self.marks = marks
-        self.bytes = {}
 
-    async def _read(self):
-        h = await self.conn.read_message()
-        if h is None:
-            raise ConnectionError("the server closed the websocket")
-        header = json.loads(h)
-        size = len(h)
-        size += len(await self.conn.read_message())
-        content = await self.conn.read_message()
-        size += len(content)
-        for _ in range(2 * header.get("num_buffers", 0)):
-            size += len(await self.conn.read_message())
-        kind = header["msgtype"]
-        self.bytes[kind] = self.bytes.get(kind, 0) + size
-        return header, content
+    async def open(self):
+        page = await self._get()
+        await self.marks("get")
+        await self._connect(page)
+        await self.marks("pull_doc")
+        self._listen()
 
 
 async def _quiet(pid, timeout=10.0):
-    """Wait until the server's CPU clock stands still for QUIET_S; returns
-    the seconds waited."""
+    """Wait until the server's CPU clock stands still for QUIET_S; the seconds waited."""
     t0 = time.perf_counter()
     last, still = sum(thread_cpu(pid)), time.perf_counter()
     while time.perf_counter() - t0 < timeout:
@@ -132,8 +100,7 @@ class Meter:
 
 
 def _release_seen(text, closes):
-    """Whether `closes` sessions have been closed and their memory released
-    after the last of them (the explorer's log lines)."""
+    """Whether the log shows `closes` sessions closed and a release after the last."""
     found = [m.start() for m in re.finditer(CLOSED, text)]
     return len(found) >= closes and text.rfind(RELEASED) > found[closes - 1]
 
@@ -145,7 +112,7 @@ async def _drive(server, pid, a, idle_rate, out):
         s = _Session(server.url, meter.mark, timeout=120.0)
         meter.reset()
         await s.open()
-        await s.announce()
+        s.announce()
         await meter.mark("ready")
         sessions.append(s)
     out["bytes"] = {kind: statistics.median(s.bytes.get(kind, 0) for s in sessions)
@@ -183,47 +150,8 @@ async def _drive(server, pid, a, idle_rate, out):
     return meter.phases
 
 
-class _Session(CountingSession):
-    """ProtocolSession.open split at its marks: GET, then the websocket and
-    PULL-DOC, then (announce) the size reports and document_ready."""
-
-    async def open(self):
-        from tornado.httpclient import AsyncHTTPClient, HTTPRequest
-        from tornado.websocket import websocket_connect
-
-        from .protoclient import _walk
-        http = AsyncHTTPClient(force_instance=True)
-        try:
-            page = await http.fetch(self.url + self.query, request_timeout=self.timeout)
-        finally:
-            http.close()
-        self.bytes["html"] = len(page.body)
-        await self.marks("get")
-        token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
-        ws = HTTPRequest("ws" + self.url[4:] + "ws", headers={"Origin": self.url.rstrip("/")},
-                         request_timeout=self.timeout)
-        self.conn = await websocket_connect(ws, subprotocols=["bokeh", token],
-                                            max_message_size=1 << 30)
-        header, _ = await self._read()
-        self._send("PULL-DOC-REQ", {})
-        while True:
-            header, content = await self._read()
-            if header["msgtype"] == "PULL-DOC-REPLY":
-                break
-        _walk(json.loads(content), self.models)
-        await self.marks("pull_doc")
-        self._reader = asyncio.ensure_future(self._loop())
-        self.map = next(f for f in self._figures() if "tap" in (
-            f["attributes"].get("subscribed_events") or {}).get("entries", []))
-
-    async def announce(self):
-        self._sizes([self.map], 0)
-        self._event("document_ready", [])
-
-
-# py-spy's samples of the server by what they were doing: the first rule
-# whose frame names any of its keys, over the whole stack (inner parts of a
-# phase first: the page function is inside the GET)
+# py-spy's samples by what the server did: the first rule whose keys a frame
+# names (inner parts of a phase first: the page function is inside the GET)
 PROFILE_PARTS = [
     ("warm-up (kernels, maps' pre-render)", ("prerender", "app/server/warmup.py", "_find_and_load")),
     ("GET: the page function (serve_page)", ("_first_page.<locals>.page",)),
@@ -240,8 +168,7 @@ PROFILE_PARTS = [
 
 
 def profile_parts(path):
-    """{(thread, part): samples} of a py-spy raw profile (collapsed
-    stacks, "frame;frame;... count"): thread "event loop" or "other"."""
+    """{(thread, part): samples} of a py-spy raw profile (thread "event loop" or "other")."""
     out = {}
     with open(path) as f:
         for line in f:
@@ -257,7 +184,7 @@ def profile_parts(path):
 
 
 def _server_python(server):
-    """The server's Python process (under py-spy: py-spy's child)."""
+    """The server's Python process (under py-spy: its child)."""
     for q in _tree(server.proc.pid):
         try:
             with open(f"/proc/{q}/cmdline", "rb") as f:

@@ -4,26 +4,15 @@ one process (docs/SECURITY.md, "Several processes").
     python -m devtools.deploy --workers 2 --port 8080 [--address 127.0.0.1]
                               [--origin vib.example.org] [--keep]
 
-Starts `--workers` `vibtrans serve` processes on free loopback ports (each
-with --use-xheaders and the proxy's address as its only websocket origin),
-writes nginx's configuration from nginx.conf.template into a temporary
-prefix (its logs there too), runs Debian's nginx in the foreground on
-`--address:--port`, and on Ctrl-C, SIGTERM or the exit of any of them stops
-everything and removes the prefix (--keep: leave it, e.g. to read the
-access log).  One process holds one Bokeh event loop, i.e. about one core:
-the workers are how a server with more cores serves more visitors.
-
-Stickiness: Bokeh builds a session when its page is served and expects the
-page's websocket in the same process.  A browser's first request goes to
-the worker with the fewest open connections (nginx's least_conn: open pages
-hold their websockets), and the answer sets a cookie (`vtworker`) naming
-that worker; the page's websocket and every later request carry it and go
-there.  Page and websocket land together, and browsers, even behind one
-address, spread evenly over the workers.  The reasons, and why neither
-ip_hash nor a hash of a random cookie, are in the template's comments.
-
-`python -m devtools.loadtest --proxy-workers N` measures the same deployment
-(`make loadtest-proxy`).  Needs nginx (`make proxy` installs Debian's).
+Starts the workers on free loopback ports (--use-xheaders, the proxy as
+websocket origin), writes nginx's configuration from nginx.conf.template into
+a temporary prefix and runs nginx in the foreground until Ctrl-C, SIGTERM or
+any process's exit (--keep: leave the prefix and its logs).  A worker is one
+event loop, about one core.  Stickiness: Bokeh expects a page's websocket in
+the process that served the page, so the first request goes to the least
+connected worker and a cookie (`vtworker`) routes the rest there (the
+template says why not ip_hash).  `python -m devtools.loadtest
+--proxy-workers N` measures it; `make proxy` installs nginx.
 """
 import argparse
 import os
@@ -48,7 +37,7 @@ _ACCESS = re.compile(r'"(?P<method>\S+) (?P<path>\S+) [^"]*" (?P<status>\d+) \d+
 
 
 def nginx_binary():
-    """nginx's path; a clear error if it is not installed."""
+    """nginx's path (RuntimeError if it is not installed)."""
     found = shutil.which("nginx") or next(
         (p for p in ("/usr/sbin/nginx", "/usr/local/sbin/nginx") if os.access(p, os.X_OK)), None)
     if found is None:
@@ -69,14 +58,13 @@ class _Template(string.Template):
 
 
 def worker_name(k):
-    """The cookie value that routes to worker k (0-based): `w0`, `w1`, ..."""
+    """The cookie value that routes to worker k (0-based)."""
     return f"w{k}"
 
 
 def render_config(prefix, listen, worker_ports):
-    """nginx.conf's text: listen on `listen` ("ADDRESS:PORT"), proxy to the
-    workers on 127.0.0.1:`worker_ports`, keep pid, logs and temporary
-    files under `prefix` (a folder)."""
+    """nginx.conf: listen on "ADDRESS:PORT", proxy to 127.0.0.1:`worker_ports`,
+    pid, logs and temporary files under `prefix`."""
     addrs = [f"127.0.0.1:{p}" for p in worker_ports]
     names = [worker_name(k) for k in range(len(addrs))]
     servers = "\n".join(f"        server {a} max_fails=0;" for a in addrs)
@@ -92,14 +80,13 @@ def render_config(prefix, listen, worker_ports):
         f"        \"{n}|{n}\" \"\";\n"
         f"        \"~\\|{n}$\" \"{ROUTE_COOKIE}={n}; Path=/; HttpOnly; SameSite=Lax$vtworker_secure\";"
         for n in names)
-    return _Template(TEMPLATE.read_text()).substitute(
-        prefix=prefix, listen=listen, servers=servers, worker_upstreams="\n".join(upstreams),
-        routes=routes, answered=answered, set_cookie=set_cookie)
+    parts = dict(servers=servers, worker_upstreams="\n".join(upstreams), routes=routes, answered=answered)
+    return _Template(TEMPLATE.read_text()).substitute(prefix=prefix, listen=listen, set_cookie=set_cookie,
+                                                      **parts)
 
 
 def access_log(path):
-    """The proxy's access log as dicts (method, path, status, route,
-    upstream), one a request."""
+    """The proxy's access log: a dict (method, path, status, worker, upstream) per request."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
@@ -108,8 +95,7 @@ def access_log(path):
 
 
 def _stop(proc, sig=signal.SIGTERM, wait=15):
-    """Stop one process started here (and wait for it); SIGKILL if it
-    lingers."""
+    """Stop one process started here and wait for it (SIGKILL if it lingers)."""
     if proc.poll() is None:
         proc.send_signal(sig)
         try:
@@ -120,17 +106,11 @@ def _stop(proc, sig=signal.SIGTERM, wait=15):
 
 
 class Deployment:
-    """`workers` `vibtrans serve` processes and nginx in front of them.
-
-    port, address: where nginx listens (the public side; the workers listen
-    on 127.0.0.1 only).  origins: extra public HOST[:PORT] values the
-    workers accept as websocket origin (the proxy's own address:port is
-    always accepted, and localhost:port when address is loopback).
-    serve_args: more `vibtrans serve` options; env: the workers'
-    environment; log_dir: a folder for each worker's log (worker-K.log),
-    else they write to this process's stderr; wrap: a command prefix for
-    every process (e.g. ["taskset", "-c", "0"]: the load test's pinning).
-    Use as a context manager or call start() and stop()."""
+    """`workers` `vibtrans serve` processes behind nginx on address:port (the
+    workers on 127.0.0.1).  origins: more public HOST[:PORT] accepted as
+    websocket origin; serve_args: more serve options; env: the workers';
+    log_dir: worker-K.log files (else stderr); wrap: a command prefix (e.g.
+    taskset).  A context manager, or start() and stop()."""
 
     def __init__(self, workers=2, port=8080, address="127.0.0.1", origins=(), serve_args=(),
                  env=None, log_dir=None, wrap=(), keep=False):
@@ -165,10 +145,9 @@ class Deployment:
             conf = Path(self.prefix, "nginx.conf")
             conf.write_text(render_config(self.prefix, f"{self.address}:{self.port}", self.ports))
             Path(self.prefix, "tmp").mkdir()
-            self.nginx = subprocess.Popen(
-                [*self.wrap, self.nginx_bin, "-p", self.prefix, "-c", str(conf),
-                 "-e", str(Path(self.prefix, "error.log"))],
-                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            cmd = [self.nginx_bin, "-p", self.prefix, "-c", str(conf), "-e", self.error_log_path]
+            out = dict(stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            self.nginx = subprocess.Popen([*self.wrap, *cmd], **out)
         except BaseException:
             self.stop()
             raise
@@ -176,8 +155,8 @@ class Deployment:
 
     def _start_worker(self, k):
         port = free_port()
-        args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(port),
-                "--address", "127.0.0.1", "--use-xheaders", *self.serve_args]
+        serve = ["serve", "--port", str(port), "--address", "127.0.0.1", "--use-xheaders"]
+        args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", *serve, *self.serve_args]
         for o in self.origins:
             args += ["--allow-websocket-origin", o]
         out = None
@@ -194,8 +173,7 @@ class Deployment:
         self.ports.append(port)
 
     def wait_ready(self, timeout=300):
-        """Wait until every worker and the proxy answer /liveness; returns
-        the seconds waited."""
+        """Wait until every worker and the proxy answer /liveness; the seconds waited."""
         t0 = time.perf_counter()
         pending = [f"http://127.0.0.1:{p}/liveness" for p in self.ports]
         pending.append(self.url + "liveness")
@@ -216,7 +194,7 @@ class Deployment:
         return time.perf_counter() - t0
 
     def exited(self):
-        """A description of the first process that has exited, else None."""
+        """The first process that has exited, in words, else None."""
         for k, p in enumerate(self.procs):
             if p.poll() is not None:
                 return f"worker {k + 1} (port {self.ports[k]}, status {p.returncode})"
@@ -235,12 +213,10 @@ class Deployment:
         return f":\n{text[-2000:]}" if text.strip() else ""
 
     def pids(self):
-        """The workers' process ids."""
         return [p.pid for p in self.procs]
 
     def stop(self):
-        """Stop nginx (fast shutdown) and the workers; remove the prefix
-        unless keep."""
+        """Stop nginx and the workers; remove the prefix unless keep."""
         if self.nginx is not None:
             _stop(self.nginx)
             self.nginx.stderr.close()
@@ -268,12 +244,10 @@ class Deployment:
         return str(Path(self.prefix, "error.log"))
 
     def requests(self):
-        """The proxy's access log so far (access_log)."""
         return access_log(self.access_log_path)
 
     def sessions_per_worker(self):
-        """Websockets opened through the proxy (status 101), per worker
-        address: how the visitors spread."""
+        """Websockets opened through the proxy (status 101) per worker address."""
         counts = {f"127.0.0.1:{p}": 0 for p in self.ports}
         for r in self.requests():
             if r["path"].split("?")[0] == "/ws" and r["status"] == "101":

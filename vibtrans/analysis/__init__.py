@@ -1,3 +1,2 @@
-"""What a run means: drift, regimes, steadiness and the chaos check
-(`summary`), and the dynamics of the stroboscopic map (`dynamics`: sections,
-period-one orbits, continuation, orbit diagrams)."""
+"""What a run means (`summary`: drift, regime, chaos check) and the
+stroboscopic map's dynamics (`dynamics`: orbits, continuation, diagrams)."""

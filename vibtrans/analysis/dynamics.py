@@ -1,19 +1,10 @@
-"""The vertical motion as a dynamical system: its stroboscopic map, periodic
-orbits and their Floquet multipliers (docs/DYNAMICS.md).
-
-After the ramp (G = 1) the vertical motion m* y'' = 1 - N*(y* - u_y*(t)) is
-a periodically forced oscillator with one degree of freedom; its
-stroboscopic map P: (y*, y*') at t = k -> (y*, y*') at t = k + 1 is area
-preserving, and the tangent map (the vertical kernel's own, advanced with
-the state: models.deformable, "tangent phases") gives its Jacobian.  Here
-the wave is on from t = 0 (tau = 0), so P is the same map at every integer
-time, the post-ramp map of any tau.
-
-A state at an integer time is a complete initial condition: in flight the
-kernel starts from the flight itself (`in_flight`); in contact its
-multistep history (and the tangent's) is the exact solution's at the three
-previous steps, which `_contact_history` integrates backwards with small
-RK4 steps (the kernels never start in contact from a bare state otherwise).
+"""The vertical motion as a dynamical system (docs/DYNAMICS.md): after the
+ramp, m* y'' = 1 - N*(y* - u_y*(t)) is a forced oscillator whose
+stroboscopic map P: (y*, y*') at t = k -> t = k + 1 is area preserving; the
+vertical kernel's tangent map gives its Jacobian.  The wave is on from t = 0
+(tau = 0), so P is the post-ramp map of any tau.  A state at an integer time
+starts the kernel: in flight directly, in contact with the multistep history
+integrated backwards by RK4 (`_contact_history`).
 """
 from __future__ import annotations
 
@@ -40,9 +31,8 @@ SHOOTING_ITERATIONS = 40
 
 
 def _field(t, z, A, m, law=None):
-    """d/dt of (y, y', dy, dy') with the wave on (G = 1): the vertical
-    equation and its variational equation (law: a profile's kernel law,
-    None: Hertz)."""
+    """d/dt of (y, y', dy, dy'): the vertical equation and its variational one
+    (law: a profile's kernel law, None: Hertz)."""
     y, vy, dy, dvy = z
     a = y - A * math.cos(TWO_PI * t)
     if law is not None:
@@ -61,9 +51,8 @@ def _rk4(t, z, dt, A, m, law=None):
 
 
 def _contact_history(t, y, vy, d, h, A, m, law=None):
-    """The AB4 derivative histories (state's float64[4, 4], the tangent's
-    float64[4, 2]) of the solution through (y, vy) and tangent d at t: F at
-    t, t - h, t - 2h, t - 3h, integrated backwards with RK4."""
+    """The AB4 histories (state's [4, 4], tangent's [4, 2]) of the solution
+    through (y, vy), tangent d at t: F at t, t - h, t - 2h, t - 3h."""
     hist = np.zeros((4, 4))
     thist = np.zeros((4, 2))
     z = np.array([y, vy, d[0], d[1]])
@@ -81,8 +70,7 @@ def _contact_history(t, y, vy, d, h, A, m, law=None):
 
 
 class Strobe(NamedTuple):
-    """The stroboscopic map's image of a point after `periods` periods and
-    its Jacobian d(y, y')/d(y0, y0')."""
+    """The image of a point after `periods` periods and its Jacobian d(y, y')/d(y0, y0')."""
     y: float
     vy: float
     jacobian: np.ndarray
@@ -95,14 +83,13 @@ def _params(amplitude, mass, fidelity, t_end, law=None):
 
 def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
            fidelity: str = "standard", t0: float = 0.0, law: Any = None) -> Strobe:
-    """P^periods(y, vy) from the integer time t0 (the wave on, tau = 0) with
-    its Jacobian, from the vertical kernel and its tangent (two runs, one
-    per column).  law: a profile's kernel law (drivers.scene_law(scene); None:
-    the sphere)."""
+    """P^periods(y, vy) from the integer time t0 with its Jacobian (a kernel run
+    per column); law: drivers.scene_law(scene) (None: the sphere)."""
     p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
     gap = y - amplitude * math.cos(TWO_PI * t0)
     columns = []
     end: Any = None
+    fixed = dict(tangential=False, samples_capacity=16, record_rest=False, chunk_steps=None, law=law)
     for e in ((1.0, 0.0), (0.0, 1.0)):
         state, hist = D.rest_state()
         state[[D.S_T, D.S_Y, D.S_VY]] = (t0, y, vy)
@@ -117,9 +104,8 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
             hist, thist = _contact_history(t0, y, vy, e, h, amplitude, mass, law)
             tangent[D.L_HIST:D.L_HIST + 8] = thist.ravel()
             state[D.S_GAP] = gap
-        run = drivers.run_hertz(p, "ab4", tangential=False, samples_capacity=16, state=state,
-                                hist=hist, record_rest=False, tangent=tangent,
-                                in_flight=in_flight, chunk_steps=None, law=law)
+        run = drivers.run_hertz(p, "ab4", state=state, hist=hist, tangent=tangent,
+                                in_flight=in_flight, **fixed)
         t_end, dy, dvy = D.tangent_at_end(run.tangent, run.state)
         columns.append((dy, dvy))
         end = _end_state(run, t_end)
@@ -127,8 +113,7 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
 
 
 def _end_state(run, t_end):
-    """(y, y') at t_end: the record the kernel interpolated there in contact,
-    or the state where a flight stopped."""
+    """(y, y') at t_end: the record interpolated there in contact, or the flight's state."""
     from vibtrans.core.kernels import records as R
     if run.samples.shape[0] and run.samples[-1, R.T_] == t_end:
         return run.samples[-1, R.Y], run.samples[-1, R.VY]
@@ -136,8 +121,7 @@ def _end_state(run, t_end):
 
 
 class Orbit(NamedTuple):
-    """A period-k orbit of the stroboscopic map (found or not) and its
-    Floquet multipliers (the Jacobian's eigenvalues over k periods)."""
+    """A period-k orbit (found or not) and its Floquet multipliers."""
     found: bool
     y: float                 # the section point (t = 0 mod 1), a0
     vy: float                #   and its velocity, a0 per period
@@ -155,29 +139,23 @@ def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | n
                    fidelity: str = "standard", tol: float = SHOOTING_TOL,
                    max_iterations: int = SHOOTING_ITERATIONS, phase: float = 0.0,
                    law: Any = None) -> Orbit:
-    """A periodic orbit of the vertical motion's stroboscopic map.
-
-    Newton shooting on P^period from `guess` = (y, y') with the tangent
-    map's Jacobian (damped: a step never more than doubles the residual).
+    """A periodic orbit of the stroboscopic map: damped Newton shooting on
+    P^period (a step never more than doubles the residual).
 
     Parameters
     ----------
-    amplitude : float
-        A*, the normalized wave amplitude.
-    mass : float
-        m*, the normalized mass.
+    amplitude, mass : float
+        A* and m*.
     guess : tuple of float
-        (y, y') to start from, e.g. from `run_guess`.
+        (y, y') to start from, e.g. `run_guess`'s.
     period : int
         The orbit's period, in wave periods.
     fidelity : str
         Time-step preset.
-    tol : float
-        Residual at which the shooting stops.
-    max_iterations : int
-        Newton steps at most.
+    tol, max_iterations : float, int
+        The residual that stops the shooting; Newton steps at most.
     phase : float
-        The section's time mod 1 (0: t = 0 mod 1).
+        The section's time mod 1.
     law : optional
         The contact law's compiled parameters (None: the sphere's).
 
@@ -215,13 +193,12 @@ def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | n
 
 
 def _orbit(z, s, r, period, iterations, tol):
-    mult = np.linalg.eigvals(s.jacobian)
-    trace = float(np.trace(s.jacobian))
+    mult = tuple(complex(v) for v in np.linalg.eigvals(s.jacobian))
+    trace, det = float(np.trace(s.jacobian)), float(np.linalg.det(s.jacobian))
     residual = float(np.linalg.norm(r))
-    return Orbit(found=bool(residual <= tol * 100), y=float(z[0]), vy=float(z[1]),
-                 period=int(period), multipliers=tuple(complex(v) for v in mult), trace=trace,
-                 determinant=float(np.linalg.det(s.jacobian)), stable=bool(abs(trace) < 2.0),
-                 iterations=iterations, residual=residual)
+    found, stable = bool(residual <= tol * 100), bool(abs(trace) < 2.0)
+    return Orbit(found, float(z[0]), float(z[1]), int(period), mult, trace, det, stable, iterations,
+                 residual)
 
 
 def _check_orbit_args(amplitude, mass, period):
@@ -232,20 +209,16 @@ def _check_orbit_args(amplitude, mass, period):
 
 
 def rest_guess(amplitude: float, mass: float, law: Any = None) -> tuple[float, float]:
-    """The section point of the small-amplitude contact orbit, to first order
-    in A*: y* = 1 + A* / (1 - (2 pi)^2 m* / N*'(1)), y*' = 0 (the linearized
-    contact oscillator driven at the wave's frequency; off near resonance;
-    N*'(1) = 1.5 for the sphere)."""
+    """The small-amplitude contact orbit's section point, to first order in A*:
+    y* = 1 + A* / (1 - (2 pi)^2 m* / N*'(1)), y*' = 0 (off near resonance)."""
     k1 = 1.5 if law is None else float(law[LAW_K1])
     return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / k1), 0.0
 
 
 def section(amplitude: float, mass: float, y: Any, vy: Any, periods: Any,
             fidelity: str = "standard", phase: float = 0.0, cancel: Any = None, law: Any = None):
-    """The orbit of (y, y') under the stroboscopic map at time `phase` mod 1:
-    float64[periods + 1, 2] (the first row the start).  One kernel call per
-    period (each restarts from a state, as `strobe`; the same map).
-    cancel: an object with is_set() (raises Cancelled between periods)."""
+    """The orbit of (y, y') under the map at `phase` mod 1: float64[periods + 1, 2],
+    a kernel call per period; Cancelled between periods once `cancel` is set."""
     from vibtrans.core.errors import Cancelled
     out = np.empty((periods + 1, 2))
     out[0] = y, vy
@@ -258,10 +231,8 @@ def section(amplitude: float, mass: float, y: Any, vy: Any, periods: Any,
 
 
 def run_guess(scene: Scene, periods: float | None = None) -> tuple[float, float]:
-    """A starting point for `periodic_orbit` from a run of the scene.
-
-    The section point where the scene's vertical run (from rest, through its
-    ramp) ends, at an integer time.
+    """A starting point for `periodic_orbit`: where the scene's vertical run
+    (from rest, through its ramp) ends, at an integer time.
 
     Parameters
     ----------
@@ -287,18 +258,15 @@ def run_guess(scene: Scene, periods: float | None = None) -> tuple[float, float]
 
 
 class BranchPoint(NamedTuple):
-    """One point of a continued branch: the parameters (log10) and its orbit."""
+    """One point of a continued branch: log10 parameters and its orbit."""
     log_amplitude: float
     log_mass: float
     orbit: Orbit
 
 
 class Branch(NamedTuple):
-    """A period-k orbit continued in one parameter, with its bifurcations:
-    where trace = 2 (a fold: the orbit meets a twin and both vanish; the
-    natural-parameter continuation ends there) and trace = -2 (a period
-    doubling: the orbit turns hyperbolic with multipliers through -1),
-    each located by linear interpolation of the trace between two points."""
+    """A period-k orbit continued in one parameter, with its folds (trace = 2:
+    the continuation ends) and period doublings (trace = -2), interpolated."""
     parameter: str                 # "amplitude" | "mass"
     points: list                   # BranchPoint, in continuation order
     folds: list                    # log10 parameter values
@@ -309,10 +277,9 @@ class Branch(NamedTuple):
 def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, step: Any = 0.02,
                    period: Any = 1, guess: Any = None, fidelity: Any = "standard",
                    profile: Any = "sphere", load_over_modulus: float | None = None) -> Branch:
-    """Natural-parameter continuation of a period-k orbit from (log10 A*,
-    log10 m*) along log10 A* or log10 m* towards `to`, in steps of `step`
-    decades, each Newton solve started from the previous orbits' secant
-    prediction.  The guess of the first: `guess`, else the run's end."""
+    """Natural-parameter continuation of a period-k orbit along log10 A* or
+    log10 m* towards `to` in `step` decades, each solve started from the
+    secant prediction (the first: `guess`, else the run's end)."""
     if parameter not in ("amplitude", "mass"):
         raise InputError(f"parameter must be amplitude or mass, got {parameter!r}")
     if not (isinstance(step, float) and 1e-4 <= step <= 0.5):
@@ -365,15 +332,10 @@ def _crossing(pair, parameter, level):
 
 def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
                      fidelity: str = "standard") -> xr.Dataset:
-    """Where the period-1 orbit born from the small-amplitude contact orbit
-    exists and is stable, over a (log10 A*, log10 m*) grid: for each m* it
-    is continued upwards in A* from the first amplitude (rest_guess there),
-    each solve started from the previous orbit, until Newton loses it (a
-    fold, or a branch the step cannot follow).
-
-    Returns an xarray Dataset on (log_amplitude, log_mass): `trace` (NaN
-    where the orbit was not followed), `exists`, `stable` (|trace| < 2),
-    `in_flight` (the section point has a* < 0: a hopping orbit)."""
+    """Where the period-1 orbit born from the contact orbit exists and is stable:
+    continued upwards in A* on each m* column until Newton loses it.  A
+    Dataset of `trace` (NaN: not followed), `exists`, `stable` (|trace| < 2)
+    and `in_flight` (a* < 0 at the section: hopping)."""
     import xarray as xr
     la = np.asarray(log_amplitudes, dtype=float)
     lm = np.asarray(log_masses, dtype=float)
@@ -392,26 +354,23 @@ def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
             z = zn if z_prev is None else 2.0 * zn - z_prev
             z_prev = zn
     exists = np.isfinite(trace)
-    return xr.Dataset(
-        {"trace": (("log_amplitude", "log_mass"), trace),
-         "exists": (("log_amplitude", "log_mass"), exists),
-         "stable": (("log_amplitude", "log_mass"), exists & (np.abs(trace) < 2.0)),
-         "in_flight": (("log_amplitude", "log_mass"), flight)},
-        coords={"log_amplitude": la, "log_mass": lm},
-        attrs={"fidelity": fidelity, "description": "period-1 orbit continued upwards in A* "
-               "from the small-amplitude contact orbit (vibtrans.analysis.dynamics.period_one_chart)"})
+    data = dict(trace=trace, exists=exists, stable=exists & (np.abs(trace) < 2.0), in_flight=flight)
+    what = ("period-1 orbit continued upwards in A* from the small-amplitude contact orbit "
+            "(vibtrans.analysis.dynamics.period_one_chart)")
+    data = {k: (("log_amplitude", "log_mass"), v) for k, v in data.items()}
+    coords = {"log_amplitude": la, "log_mass": lm}
+    return xr.Dataset(data, coords=coords, attrs={"fidelity": fidelity, "description": what})
 
 
 class OrbitDiagram(NamedTuple):
-    """Take-off phases (t mod 1) and section points y* over the final periods
-    of a run, against one parameter (log10 A* or log10 m*) along a line."""
+    """Take-off phases and section points y* of runs' final periods, against
+    log10 A* or log10 m* along a line."""
     parameter: str           # "amplitude" | "mass"
     values: np.ndarray       # the log10 parameter of each run
     phase_value: np.ndarray  # (flattened) the run's log10 parameter of each take-off
     phase: np.ndarray        #   and its phase, periods mod 1
     section_value: np.ndarray
-    section_y: np.ndarray    # y* at the integer times of the final periods (in contact:
-    #                          the first step at or after each)
+    section_y: np.ndarray    # y* at the final periods' integer times (or the next step)
     final_periods: float
 
 
@@ -420,8 +379,7 @@ MAX_DIAGRAM_RUNS = 2000
 
 def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: float = 100.0,
                   progress: Any = None, cancel: Any = None) -> OrbitDiagram:
-    """Runs of the vertical motion of `scene` (from rest, through its ramp)
-    at each log10 value of A* or m* in `values`, the other held: the
+    """Vertical runs of `scene` at each log10 A* or m* of `values`: the
     take-off phases and section points y*(k) of their final periods."""
     from vibtrans.core.kernels import records as R
     from vibtrans.core.simulate import simulate
@@ -448,8 +406,7 @@ def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: floa
         sel = (kind == R.TAKEOFF) & (t >= t0)
         ph.append(ds["event_value"].values[sel])
         pv.append(np.full(sel.sum(), v))
-        # the coarse samples: at each integer time in flight, at the first
-        # step at or after it in contact (within one step: a diagram's accuracy)
+        # one sample per period: the integer time, in contact the step at or after it
         time = ds["time"].values
         at = time >= t0
         sy.append(ds["y"].values[at])

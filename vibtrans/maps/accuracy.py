@@ -1,15 +1,9 @@
-"""A map's accuracy against its cost, by fidelity preset and run length.
-
-Measured by `python -m devtools.map_accuracy --out DIR` on 2026-11-24: the
-41 x 41 window log10 A* in [-3, 3], log10 m* in [-5, 5] at mu 0.5, each
-setting's uniform map against the standard, 2000-period map of the same
-window (chaos judged by each point's Lyapunov exponent).  Per setting:
-the share of the points regular in both maps whose drift class agrees, the
-median and 90th percentile of the relative drift difference |v - v_ref| /
-max(|v_ref|, 0.1) over them, and the steps relative to the reference.  The
-drift of an accelerating regime depends on the observation time, so the
-shorter runs' 90th percentile is large while their classes mostly agree.
-The explorer's map request shows the nearest setting's figures.
+"""A map's accuracy against its cost, by fidelity preset and run length, for
+the explorer's map request.  `python -m devtools.map_accuracy --out DIR`: each
+setting's 41 x 41 map (log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5)
+against the standard 2000-period one; the share of regular points whose
+drift class agrees, the median and 90th percentile of |v - v_ref| /
+max(|v_ref|, 0.1) (large for short runs: accelerating drifts), the steps.
 """
 from __future__ import annotations
 
@@ -26,9 +20,7 @@ REFERENCE = ("standard", 2000.0)
 
 
 def nearest(fidelity: str, periods: float) -> tuple[str, float] | None:
-    """The measured setting closest to (fidelity, periods): the same preset,
-    the nearest period count in log; None for "reference" (not measured:
-    more accurate than the standard map the others are judged against)."""
+    """The measured setting of the same preset nearest in log periods (None: not measured)."""
     import math
     same = [p for f, p in MEASURED if f == fidelity]
     if not same or not (isinstance(periods, (int, float)) and periods > 0):
@@ -37,7 +29,7 @@ def nearest(fidelity: str, periods: float) -> tuple[str, float] | None:
 
 
 def note(fidelity: str, periods: float) -> str:
-    """One line for a map request: what its nearest measured setting gave."""
+    """A map request's line: what its nearest measured setting gave."""
     key = nearest(fidelity, periods)
     if key is None:
         return (f"*Accuracy: {fidelity} is more accurate than the standard, 2000-period "

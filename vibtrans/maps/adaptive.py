@@ -1,46 +1,18 @@
 """Adaptive drift maps: points are computed only where the map changes.
 
-The finest grid is a sweep's (log_amplitude, log_mass) grid.  With the
-finest level K, level 0 is every 2^K-th point on each axis; level l's cells
-are squares of 2^(K-l) finest steps.  Level by level, a cell is refined (the
-missing points of the next level inside it, its edge midpoints and centre,
-are computed) when its corners and the edge midpoints that refined
-neighbours computed disagree in
+The finest grid is a sweep's; level 0 is every 2^K-th point (K the finest
+level), level l's cells are 2^(K-l) finest steps wide.  A cell is refined
+(its edge midpoints and centre computed) when its known corners and edge
+midpoints differ in drift class, contact mode or chaos verdict, or in drift
+velocity by more than tol * max(V0, max|v|); an all-chaotic cell is not
+refined on drift (its drift is noise).  Cells are re-examined until none
+changes.  Points come from sweep.compute_point, bit-identical to a uniform
+sweep's.  Points not computed are filled from their smallest unrefined cell:
+categories from the nearest corner, continuous values bilinearly; `computed`
+marks the simulated ones.
 
-* drift class (`drift`), contact mode (`contact`) or chaos verdict
-  (`chaotic`), or
-* drift velocity: max(v) - min(v) > tol * max(V0, max|v|), with V0 = 0.1 the
-  no-drift band (analysis.V0) and tol the drift tolerance (default 0.5: a
-  cell is refined where its drift changes by more than half its size, or by
-  more than 0.05 around no drift),
-
-except that a cell whose known points are all chaotic is not refined on
-drift: a chaotic point's drift is not reproducible (its twin or exponent
-says so), so subdividing a chaotic sea would compute all of it for noise.
-Within a level, cells are re-examined until none changes (a neighbour's edge
-midpoints may reveal a disagreement its corners missed).  The refinement is
-a deterministic function of the computed values, and every point is computed
-by sweep.compute_point, as in a uniform sweep, so computed points are
-bit-identical to the uniform sweep's.
-
-Every finest-grid point not computed is filled from the smallest unrefined
-cell holding it: categorical variables (drift, contact, chaotic, pattern)
-from the nearest corner, continuous ones (drift_velocity,
-final_drift_velocity, contact_fraction, takeoffs_per_period, lyapunov)
-bilinearly from the four corners; steps and seconds keep their fill values
-(-1, NaN: not simulated).  The boolean `computed` says which points were
-simulated.
-
-Resumable: finished points are written in batches to `<out>.partial/`, each
-batch a .npz file written through a temporary file and os.replace, with a
-sha256 digest of its arrays; a restart with the same command verifies and
-loads the batches, re-derives the refinement and computes only the missing
-points.  A damaged batch is refused (StoreMismatch naming it; deleting that
-file makes the next run recompute its points), never read as data.  At the
-end the finest grid is written as a regular sweep store (done flags and
-digests per chunk, `computed` among the digested variables; sweep.verify and
-sweep.open_map accept it) to a temporary folder renamed to <out>, and the
-partial folder is removed.
+Resumable from digested .npz batches in `<out>.partial/` (a damaged one:
+StoreMismatch naming it); the result is a regular sweep store.
 """
 from __future__ import annotations
 
@@ -76,8 +48,7 @@ POINTS_PER_TASK = 4        # points per worker task (amortizes the pool's overhe
 
 
 def check_levels(sweep: Sweep, max_level: int) -> None:
-    """Refuse (InputError) a finest level outside 1..8 or a grid whose sizes
-    do not fit it ((n - 1) divisible by 2^K on both axes)."""
+    """Refuse a finest level outside 1..8 or a grid it cannot refine ((n - 1) % 2^K)."""
     lo, hi = MAX_LEVELS
     if isinstance(max_level, bool) or not isinstance(max_level, (int, np.integer)) \
             or not lo <= max_level <= hi:
@@ -93,7 +64,7 @@ def check_levels(sweep: Sweep, max_level: int) -> None:
 
 
 def check_tolerance(tol: float) -> float:
-    """Refuse (InputError) a drift tolerance outside (0, 100]."""
+    """Refuse a drift tolerance outside (0, 100]."""
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) \
             or not 0 < tol <= 100:
         raise InputError(f"drift_tolerance must be a number in (0, 100], got {tol!r}")
@@ -124,19 +95,13 @@ class _Grid:
 
 
 def _cell_points(i0, j0, s):
-    """A cell's corners and edge midpoints (finest-grid indices): the points
-    the refinement of its level can know (the midpoints are computed by the
-    refinement of this cell or of a neighbour of the same level)."""
-    h = s // 2
-    return [(i0, j0), (i0, j0 + s), (i0 + s, j0), (i0 + s, j0 + s),
-            (i0 + h, j0), (i0 + h, j0 + s), (i0, j0 + h), (i0 + s, j0 + h)]
+    """A cell's corners and edge midpoints: the points its level can know."""
+    return [(i0 + a, j0 + b) for a in (0, s) for b in (0, s)] + _new_points(i0, j0, s)[:4]
 
 
 def disagree(grid: Any, i0: int, j0: int, s: Any, tol: float) -> bool:
-    """True if the cell's computed corners and edge midpoints disagree (the
-    module docstring's rule).  Adding points never turns True into False, so
-    the refinement is the same whatever order the points arrive in (a
-    resumed run knows some midpoints earlier)."""
+    """True if the cell's known points disagree (the module docstring's rule);
+    more points never turn True into False, so arrival order does not matter."""
     pts = [p for p in _cell_points(i0, j0, s) if grid.computed[p]]
     ii, jj = np.array(pts).T
     d = grid.data
@@ -159,18 +124,16 @@ def _new_points(i0, j0, s):
 
 
 def _children(i0, j0, s):
-    h = s // 2
-    return [(i0, j0), (i0, j0 + h), (i0 + h, j0), (i0 + h, j0 + h)]
+    return [(i0 + a, j0 + b) for a in (0, s // 2) for b in (0, s // 2)]
 
 
 # ---------------------------------------------------------------- partial folder
-
 def _params(sweep, max_level, tol):
-    return {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos,
-            **({"stop": sweep.stop} if sweep.stop != "full" else {}),
-            "log_amplitude": [float(v) for v in sweep.log_amplitude],
-            "log_mass": [float(v) for v in sweep.log_mass],
-            "max_level": int(max_level), "drift_tolerance": float(tol)}
+    p = {"scene": sweep.values, "kind": sweep.kind, "chaos": sweep.chaos}
+    if sweep.stop != "full":
+        p["stop"] = sweep.stop
+    grid = {k: [float(v) for v in getattr(sweep, k)] for k in ("log_amplitude", "log_mass")}
+    return {**p, **grid, "max_level": int(max_level), "drift_tolerance": float(tol)}
 
 
 def _atomic_write(path, write):
@@ -200,8 +163,8 @@ class _Partial:
         self.next = 0
 
     def open(self, grid):
-        """Check the folder against the command and load its batches into
-        grid (a new folder is created).  Returns the points loaded."""
+        """Check the folder against the command, load its batches into grid;
+        the points loaded."""
         path = os.path.join(self.folder, "params.json")
         if not os.path.isdir(self.folder):
             os.makedirs(self.folder)
@@ -266,7 +229,6 @@ class _Partial:
 
 
 # ---------------------------------------------------------------- computing
-
 def _compute_points(values, coords, chaos, stop="full"):
     """A worker task: a few points [(log_a, log_m), ...]."""
     return [compute_point(values, la, lm, chaos, stop) for la, lm in coords]
@@ -274,13 +236,9 @@ def _compute_points(values, coords, chaos, stop="full"):
 
 def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
                 executor=None, on_done=None):
-    """Compute the points `todo` [(i, j), ...] into grid, writing batches;
-    Cancelled once `cancel` (a threading.Event) is set (between tasks: the
-    finished points are kept in the partial folder).  executor: a
-    concurrent.futures.Executor to run the tasks on (a server's share of
-    its workers) instead of a pool of `workers` threads of our own.
-    on_done(): called (in this thread) after each finished task's points
-    are in the grid."""
+    """Compute `todo` [(i, j)] into grid, writing batches, on `executor` or a
+    pool of `workers` threads; Cancelled between tasks once `cancel` is set;
+    on_done() after each task's points are in."""
     la, lm = sweep.log_amplitude, sweep.log_mass
     tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
     finished = []
@@ -337,13 +295,10 @@ def _set(event):
 
 
 def _refine(sweep, max_level, tol, grid, compute, on_level=None):
-    """The level-by-level refinement; compute(points, level, tiling)
-    computes the missing ones of `level` (tiling: every cell that holds a
-    point computed so far, for a snapshot in the middle of a level);
-    on_level(level, cells) is called after each level with every cell that
-    holds its points (leaves so far and the level's cells: a complete
-    tiling, for a snapshot).  Returns the unrefined cells (leaves) as
-    (i0, j0, size)."""
+    """The level-by-level refinement: compute(points, level, tiling) computes
+    a level's missing points (tiling: cells covering the grid, for a
+    snapshot), on_level(level, tiling) follows each level.  The leaves
+    (unrefined cells) as (i0, j0, size)."""
     top = 2 ** max_level
     n_a, n_m = grid.shape
     cells = [(i, j) for i in range(0, n_a - 1, top) for j in range(0, n_m - 1, top)]
@@ -411,28 +366,15 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
                  scheduler: Any = None, progress: bool = True, on_level: Any = None,
                  cancel: Any = None, executor: str | None = None, on_chunk: Any = None,
                  chunk_seconds: float = 2.0) -> float:
-    """Compute the adaptive map of `sweep` (a transport Sweep, its grid the
-    finest) into the Zarr store `path`, resuming from `<path>.partial/`.
-
-    max_level: the finest level K (1..8); drift_tolerance: the relative drift
-    velocity spread that refines a cell (module docstring).
-    on_level: callable(level, snapshot), called after level 0 (the coarse
-        grid) and after each refinement, with the map so far on the finest
-        grid (an xarray Dataset like the final store's: points not yet
-        computed filled from their cell): a progressive picture.
-    on_chunk: callable(level, snapshot), called within a refinement level
-        (level: the one being computed, 1..max_level) when points have
-        come in and `chunk_seconds` have passed since the last picture: the
-        same picture, finer than a level (a level of a large map can take
-        minutes).  Not within the coarse grid: until its corners are in, a
-        cell has nothing to fill its points from.
-    cancel: a threading.Event; once set, no new point starts and the call
-        raises vibtrans.core.errors.Cancelled (the finished points stay in the
-        partial folder: the same call resumes).
-    executor: a concurrent.futures.Executor for the points (a server shares
-        its workers between maps this way), keeping at most 2 x `workers`
-        tasks in it; else a pool of `workers` threads.
-    Returns the fraction of finest-grid points computed.
+    """Compute the adaptive map of a transport `sweep` (its grid the finest)
+    into the Zarr store `path`, resuming from `<path>.partial/`; the fraction
+    of points computed.  max_level: K (1..8); drift_tolerance: the spread that
+    refines a cell.  on_level(level, snapshot): the map so far (`snapshot`)
+    after level 0 and each refinement; on_chunk(level, snapshot): within a
+    refinement level, every `chunk_seconds` while points come in.  cancel:
+    a threading.Event (Cancelled; the finished points stay for a rerun).
+    executor: a concurrent.futures.Executor shared with other maps, holding
+    at most 2 x `workers` tasks; else a pool of `workers` threads.
     """
     import xarray as xr
     if sweep.kind != "transport":
@@ -478,8 +420,8 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
                 on_chunk(level, snapshot(sweep, grid, tiling))
                 last[0] = time.monotonic()
         if todo:
-            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor,
-                        None if on_chunk is None else chunk_done)
+            done = None if on_chunk is None else chunk_done
+            _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor, done)
         elif _set(cancel):
             raise Cancelled("map cancelled")
 
@@ -502,8 +444,7 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
 
 
 def snapshot(sweep: Sweep, grid: Any, cells: Any) -> xr.Dataset:
-    """The map so far as a Dataset on the finest grid: a copy of the grid
-    filled from `cells` (a tiling), with `computed`."""
+    """The map so far on the finest grid: a copy filled from `cells` (a tiling)."""
     import xarray as xr
     copy = grid.copy()
     fill(copy, cells)
@@ -515,8 +456,7 @@ def snapshot(sweep: Sweep, grid: Any, cells: Any) -> xr.Dataset:
 
 
 def _write_store(sweep, grid, path, max_level, tol, fraction):
-    """The finest grid as a finished sweep store, through a temporary folder
-    renamed to path (a kill before the rename leaves the partial folder)."""
+    """The finest grid as a finished sweep store, written aside and renamed to path."""
     ds = sweep.empty_dataset()
     for name in sweep.variables:
         ds[name].values[...] = grid.data[name]

