@@ -1,9 +1,9 @@
-"""Map-level speed against accuracy (issue 16): for each fidelity preset and
+"""Map-level speed against accuracy: for each fidelity preset and
 period count, how a map computed with them compares with the standard,
 2000-period map of the same window: the share of the points regular in both
 whose drift class agrees, the median and 90th-percentile relative drift
 difference |v - v_ref| / max(|v_ref|, v0) over them, and the points' steps
-relative to the reference.  The window is issue 16's (log10 A* in [-3, 3],
+relative to the reference.  The window is the sweep benchmark's (log10 A* in [-3, 3],
 log10 m* in [-5, 5], mu 0.5, 41 x 41 points).
 
     python -m devtools.map_accuracy --out /tmp/mapacc [--points 41] [--json]

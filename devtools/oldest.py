@@ -1,4 +1,4 @@
-"""Checks for the oldest tier (`make test-oldest`, issue 33): that its venv
+"""Checks for the oldest tier (`make test-oldest`): that its venv
 runs the oldest Python pyproject.toml declares, and that every runtime
 dependency was installed at exactly its declared lower bound (the
 resolution is uv's lowest-direct; this checks what landed, e.g. that no

@@ -10,7 +10,7 @@ goes in them, as proposals for upstream).  `page_cpu_s` is the process's
 CPU time per page (less sensitive to other processes than the wall-clock
 figures).  The shipped maps are prerendered first, as the server's warm-up
 does: pages opened before it ends also stat the maps not yet read (~0.02 s
-each).  Issue 14's goal: a page <= 0.1 s.
+each).  The goal: a page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
 """

@@ -1,6 +1,6 @@
 """A map's accuracy against its cost, by fidelity preset and run length.
 
-Measured by `python -m devtools.map_accuracy --out DIR` on 2026-11-24: the
+Measured by `python -m devtools.map_accuracy --out DIR`: the
 41 x 41 window log10 A* in [-3, 3], log10 m* in [-5, 5] at mu 0.5, each
 setting's uniform map against the standard, 2000-period map of the same
 window (chaos judged by each point's Lyapunov exponent).  Per setting:

@@ -37,15 +37,15 @@ from vibtrans.core.stopping import DECIDED_FRACTION, MIN_WINDOW, check_stop, set
 
 # (f_end, extra periods) per model, measured on the rule's maps of every
 # 4th point of the shipped grid (1581 points per model; the deformable's of
-# the D3 session, 2026-11-27 05:00 UTC, the rule with its settling time and
-# recurrence, measured again unchanged at 13:24 UTC; the material point's at
-# 13:24 UTC, its chaos decided along the run by its impact exponent):
+# the rule with its settling time and recurrence, the same when measured again;
+# the material point's with its chaos decided along the run by its impact
+# exponent; `vibtrans bench --sweep --json` measures both):
 # deformable f_end 0.142, mean periods run 601.9; material point f_end 0.020,
 # mean 521.5; extra = (mean - f_end T_obs) / (1 - f_end) - t_min, t_min = 240
 DECIDED_PROFILE = {"deformable": (0.142, 130.0), "point-mass": (0.020, 252.0)}
 # A decided run's time per period over a full run's, per model: (decided CPU
 # / mean periods run) / (full CPU / T_obs) of the same sample, both rules in
-# one run (2026-11-27, two runs: 0.912 and 0.925 for the deformable model,
+# one run (two runs: 0.912 and 0.925 for the deformable model,
 # whose points that run to the end cost more per period than the average
 # point; 1.463 and 1.477 for the material point, whose ramp, with its
 # stick-slip events, costs more per period than the flights it ends in).

@@ -1,4 +1,4 @@
-"""The difference of two drift maps (issue 16, item 6): mu 0.1 against 0.3,
+"""The difference of two drift maps: mu 0.1 against 0.3,
 the deformable particle against the material point, preview against
 standard, a computed map against a shipped one.
 

@@ -395,7 +395,7 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
 # `state_bands`, `twin_spec`) with Bokeh.  Not through HoloViews: its matplotlib
 # backend took 10-17 s for this figure's twelve panels, nearly all of it
 # per-element option handling and layout, whatever the number of points
-# (issue 14; profiled with cProfile, see vibtrans.tools.bench.export_bench).
+# (profiled with cProfile, see vibtrans.tools.bench.export_bench).
 OVERVIEW_BINS = 1000     # time bins of the whole run in the trajectory figure:
 # about 1.5 per pixel column of a panel at the default 11 in, 150 dpi (every
 # sample of 2000 periods drew lines that filled their min-max band anyway)
@@ -593,7 +593,7 @@ class Trace:
 
 # A panel's second quantity goes on an axis of its own at the right: y*
 # beside a*, x* beside b*, b*' beside N* and T*.  On one axis the larger
-# flattened the other (issue 14: N*, T* ~ 1-20 lay flat beside b*' in the
+# flattened the other (N*, T* ~ 1-20 lay flat beside b*' in the
 # thousands; b* and x* over the last two periods were two flat lines).  The
 # explorer's live figures and the exports (PNG, SVG, PDF, HTML) follow it.
 RIGHT_AXIS = ("y", "x", "bdot")
