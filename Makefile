@@ -66,7 +66,7 @@ docs: setup
 	rm -rf docs/_build docs/reference/generated
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
-# The oldest tier (issue 33): a fresh venv on this Python with every runtime
+# The oldest tier: a fresh venv on this Python with every runtime
 # dependency at exactly its declared lower bound (uv's lowest-direct
 # resolution of pyproject.toml; the rest resolves to what those allow), then
 # the development tier, one served page and one browser smoke test.  The
@@ -97,7 +97,7 @@ bench: setup
 	$(BIN)/vibtrans bench --cold-start --results-dir $(RESULTS)
 
 # The explorer's responsiveness in chromium (a server of its own, kernels
-# compiled first): click to drawn per action, busy indicators, issue 14's
+# compiled first): click to drawn per action, busy indicators, the page's
 # goals (devtools/browserbench.py; --check to fail on a missed goal).
 bench-browser: setup browser
 	mkdir -p $(RESULTS)

@@ -246,7 +246,7 @@ class Explorer(pn.viewable.Viewer):
         figure of the page's main column (`invalidate_layout` of the layout
         root: ~10 plots, each forcing a style recalculation), which cost
         the browser 0.5-1 s at every mu or model change after a run
-        (issue 32); a style changes the note's element alone."""
+        (measured in chromium); a style changes the note's element alone."""
         self.stale_note.styles = dict(_STALE_SHOWN if stale else _STALE_HIDDEN)
 
     def _on_device(self, *events):

@@ -40,10 +40,9 @@ The download: from the click (this process's clock) to Playwright's
 download event.  A probe in the page checks the state every animation
 frame: it queries the page's shadow roots (found once, then kept by a
 MutationObserver) for the few elements it reads.  Its time counts in every
-time measured: until 2026-11-27 it walked every element of the page at
-every frame, 0.16 s of the page's main thread per mu change after a run
-on the 2-core machine under load (Chrome traces), now 0.09 s; times measured before are not
-comparable (rerun the baseline).  "server's reply": from the action to the arrival of the last
+time measured: 0.09 s of the page's main thread per mu change after a run
+on the 2-core machine under load (Chrome traces; walking every element of the
+page at every frame took 0.16 s).  "server's reply": from the action to the arrival of the last
 websocket message before the result was drawn (a listener on the page's
 socket); the server's share (with the network's), the rest is the
 browser's: building and painting what came.
@@ -60,7 +59,7 @@ is reported in its own column but does not count: it is 20 px in a corner
 and spins for any server callback, so it does not tell which action is
 working.
 
---memory-views N (issue 32): instead of the actions above, N memory views
+--memory-views N: instead of the actions above, N memory views
 on new pages of 10 (a deformable run, then typed times and clicks on the
 slider's track in turn), each until its diagram is drawn; a view not drawn
 within 30 s is lost (now and then a typed time's diagram never came) and
@@ -68,7 +67,7 @@ its page is replaced.  It reports the views answered and lost, their
 median times, and the error lines of its own server's log; --check exits 1
 on a lost view or such a line.
 
-Goals (issue 14), checked against the median of the repeats; --check exits
+Goals, checked against the median of the repeats; --check exits
 1 when one is missed: memory view <= 0.5 s, map redraw <= 0.5 s,
 trajectory PNG export <= 3 s, first point-mass run <= 1.5 s, first run
 after changing the comparison <= 1.5 s.  The warm-up repeat (the first on
@@ -111,7 +110,7 @@ VIEWPORT = {"width": 1400, "height": 1000}
 BUSY_WITHIN_S = 0.3
 ACTION_TIMEOUT_S = 120.0
 
-# goals of issue 14 (seconds, median of the repeats)
+# the explorer's goals (seconds, median of the repeats)
 GOALS = {"memory view": 0.5, "map redraw: colour": 0.5, "map redraw: mu": 0.5,
          "map redraw: model": 0.5, "trajectory PNG export": 3.0,
          "first point-mass run": 1.5, "first run after compare": 1.5}
@@ -558,7 +557,7 @@ def repeat(browser, url):
             try:
                 out["memory view"].append(session.memory_view(t))
             except Exception as exc:            # noqa: BLE001 - reported, not hidden
-                # seen (issue 32): now and then a typed time's diagram never
+                # seen: now and then a typed time's diagram never
                 # came (1 in ~45 pages, clicked at a point measured before
                 # the action; not seen since the click goes to the button);
                 # the failure says what the page showed
@@ -593,7 +592,7 @@ def memory_views(browser, url, n, log=print):
     """n memory views (typed times and slider moves in turn, on new pages of
     MEMORY_VIEWS_PER_PAGE each, after one deformable run): {"views": n,
     "answered": [samples], "lost": [what the page showed]}.  A view whose
-    diagram is not drawn within MEMORY_LOST_AFTER_S is lost (issue 32: now
+    diagram is not drawn within MEMORY_LOST_AFTER_S is lost (now
     and then a typed time's diagram never came); the page is then closed
     and the next one opened."""
     answered, lost = [], []

@@ -442,7 +442,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             state = _show_and_play(page, doc, anim, vertical)
             _same_frame(state, anim.frame(state["value"]))
 
-            # a cone (issue 34): the particle drawn with its tip, as frame() draws it,
+            # a cone: the particle drawn with its tip, as frame() draws it,
             # on equal scales (the frame's width as the page gives it)
             state = _show_and_play(page, doc, anim, cone)
             assert len(state["tip"]["x"]) > 0
@@ -457,7 +457,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
 
 
 def test_a_chosen_window_shows_the_particle_travel(slipping):
-    """Issue 32: the animation showed the last two periods only, so a class
+    """With only the last two periods shown, a class
     could not see the particle travel at point 1.  The user chooses a
     longer stretch, up to the whole run: its frames are the run's samples,
     evenly in time (the overview's rate before the full-resolution window),
@@ -487,7 +487,7 @@ def test_a_chosen_window_shows_the_particle_travel(slipping):
 
 @pytest.mark.parametrize("profile, n", [("cone", 1.0), ("power:3", 3.0)])
 def test_a_profiles_contact_circle_is_its_own_contact_radius(profile, n):
-    """Issue 34: the contact circle of a power-law tip z = C r^n is its own
+    """The contact circle of a power-law tip z = C r^n is its own
     c(a*), not the sphere's sqrt(a*).  Closed form (MDR; Popov & Hess, the
     power-law indenter): the approach d = kappa_n C a_c^n, so a_c grows as
     d^(1/n) and, over the static contact radius (d = a0), c = a*^(1/n); the
@@ -520,7 +520,7 @@ def test_a_profiles_contact_circle_is_its_own_contact_radius(profile, n):
 
 @pytest.mark.parametrize("profile", ["cone", "power:3", "flat-sphere:1"])
 def test_a_profiles_particle_is_drawn_with_its_tip(profile):
-    """Issue 34: the side view draws a profile's particle with its tip's
+    """The side view draws a profile's particle with its tip's
     outline near the contact (the library's outline, as the tip's drawing
     beside the profile selector), its apex at the particle's lowest point
     (height -y*, the overlap a* to scale), not the sphere's circle."""

@@ -142,8 +142,8 @@ def test_paper_point_runs_and_plots(page, server):
     assert len(lengths) == 3 and lengths[0] >= 2 * 40, lengths
     assert 400 in lengths and lengths[-1] >= 10000, lengths
     # one linked time axis for the whole run (its 5 panels), one for the
-    # fragment, whose time counts from its start (t0 = 1998: issue 14, the
-    # motion within a period hid behind absolute numbers)
+    # fragment, whose time counts from its start (t0 = 1998: in absolute
+    # numbers the motion within a period would hide)
     figures = page.evaluate(_FIGURES_JS)
     whole = {(x, s, e) for t, x, s, e in figures if s == 0 and e == 2000}
     last = {(x, s, e) for t, x, s, e in figures if s == 0 and e == 2}
@@ -176,8 +176,8 @@ def test_a_second_run_feeds_the_same_figures(page, server):
 
 
 def test_both_models_draw_into_the_same_figures(page, server):
-    """Issue 14: the first point-mass run built a set of figures of its own
-    (1.9 s in chromium).  The material point's panels are drawn in the
+    """A set of figures of the first point-mass run's own would cost 1.9 s
+    in chromium.  The material point's panels are drawn in the
     deformable particle's figures, with its own titles and quantities."""
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
@@ -279,7 +279,7 @@ def test_other_script_digits_in_a_link_are_a_message_not_a_500(page, server, que
 
 def test_a_scene_outside_the_map_runs_and_says_where_it_is(page, server):
     # lithium niobate at 10 MHz, 1 nm, a 10 um silica particle: A* = 1820
-    # (issue 14), log10 A* = 3.26 beyond the map's 3
+    # log10 A* = 3.26, beyond the map's 3
     _open(page, server + "?la=3.26&lm=-1&fidelity=preview")
     _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "A* = 1820")
@@ -321,7 +321,7 @@ def test_units_view_moves_the_marker(page, server):
 
 
 def test_a_device_runs_with_its_own_material_and_si_units(page, server):
-    # lithium niobate at 10 MHz, 1 nm, a 10 um silica particle (issue 14:
+    # lithium niobate at 10 MHz, 1 nm, a 10 um silica particle (for which
     # A* = 1820; with the glass here A* = 1700), beyond the map; the run uses
     # the device's theta (1.2001) and nu (0.25), and the SI row is this device's
     _open(page, server + "?fidelity=preview")
@@ -337,7 +337,7 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
     page.locator("button", has_text="Run this device's scene").click()
     _summary_text(page).wait_for(timeout=budget_ms(120))
     _see(page, "(the maps: 1.2, 0.3)")
-    # the drift and the run's length in SI units (issue 14: time in seconds)
+    # the drift and the run's length in SI units (time in seconds)
     _see(page, "periods, lasts")
     _see(page, "(the device of the Units and Design tabs)")
 
@@ -394,7 +394,7 @@ _FRAME_JS = """() => { for (const doc of window.Bokeh.documents) {
 
 
 def test_the_animation_tab_plays_the_run(page, server):
-    """Issue 14: the particle on the wave, in the explorer: the Animation
+    """The particle on the wave, in the explorer: the Animation
     tab shows the last run's final periods and plays them in the browser."""
     _open(page, server + "?la=0.3&lm=-2&fidelity=preview&compare=none")
     _summary_text(page).wait_for(timeout=budget_ms(60))
@@ -431,7 +431,7 @@ def _acknowledged(page, action):
 
 
 def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server):
-    """Issue 14: a busy indicator on every action over 0.3 s.  The browser
+    """A busy indicator on every action over 0.3 s.  The browser
     shows "Running ..." at the click itself (no round trip to the server),
     and the server's answer clears it; the same for a map redraw."""
     _open(page, server + "?fidelity=preview&compare=none")
@@ -444,7 +444,7 @@ def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server)
     assert _acknowledged(page, page.get_by_role("button", name="colour", exact=True).click)
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))
     # the run button, a paper point, a download: each acknowledged at once
-    # (one listener for the page: issue 14's page cost)
+    # (one listener for the page: its cost per page)
     assert _acknowledged(page, page.locator("button", has_text="Run selected scene").click)
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     select = page.locator("select").filter(has_text="synchronous hopping")

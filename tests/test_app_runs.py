@@ -431,9 +431,9 @@ def test_the_page_passes_bokehs_document_checks():
 
 
 def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypatch):
-    """Issue 32: after Cancel the summary said only 'Run cancelled.' while
-    the figures, the memory diagram and the downloads still showed the
-    previous run as if current.  Now the summary says whose they are, over
+    """After Cancel the figures, the memory diagram and the downloads still
+    show the previous run: a bare 'Run cancelled.' would pass it off as
+    current.  The summary says whose they are, over
     the previous run's table, and the memory diagram says so too."""
     from vibtrans_explorer.views.summary import CANCELLED_LINE, PREVIOUS_RUN
 

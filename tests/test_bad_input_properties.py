@@ -1,6 +1,6 @@
 """Property tests: any float in any scene value ends in bounded work.
 
-Issue 13, item 7: every entry point finishes or refuses for any float (1e308,
+Every entry point finishes or refuses for any float (1e308,
 5e-324, -0.0, inf, nan, huge integers).  The cost estimate is overflow-safe:
 it is a finite step count or a refusal (StepBudgetExceeded, the estimate in
 its message), never an OverflowError, a ZeroDivisionError or a count that

@@ -1,4 +1,4 @@
-"""The profile part of `vibtrans bench` (issue 34): what its ratios rest on.
+"""The profile part of `vibtrans bench`: what its ratios rest on.
 
 `same_motion_*` compares the profile code with Hertz's on the sphere's own
 motion; that holds only if every path runs the same steps (to rounding: the

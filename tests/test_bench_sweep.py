@@ -1,4 +1,4 @@
-"""`vibtrans bench --sweep`'s issue-16 figures are computed from what they
+"""`vibtrans bench --sweep`'s figures are computed from what they
 claim (the numbers themselves are the benchmark's, not asserted here: a
 shared machine's timings are noisy)."""
 import pytest
@@ -24,7 +24,7 @@ def test_sweep_figures_are_made_of_their_parts():
 
 @pytest.mark.slow
 def test_decided_trade_figures_are_made_of_their_parts(tmp_path):
-    # issue 35's keys, computed from the four stores the bench leaves in `keep`
+    # the decided trade's keys, computed from the four stores the bench leaves in `keep`
     import numpy as np
 
     from vibtrans.analysis.summary import V0

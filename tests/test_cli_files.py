@@ -1,4 +1,4 @@
-"""File problems at the command line (issue 13, item 7): an --out (or
+"""File problems at the command line: an --out (or
 --plot) into a missing folder, an unwritable place, a path that is a
 folder, or a full disk is one line on stderr naming the path, exit status
 2, and no partial file left (outputs are written to a temporary file

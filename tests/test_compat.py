@@ -76,7 +76,7 @@ def test_panels_query_parsing_fails_on_a_superscript_digit():
         Location(search="?la=²").query_params  # noqa: B018
 
 
-# --- the app replaces nothing of its frameworks (issue 33) ---------------
+# --- the app replaces nothing of its frameworks ---------------
 import ast  # noqa: E402
 import importlib  # noqa: E402
 import inspect  # noqa: E402

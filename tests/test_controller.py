@@ -1,6 +1,6 @@
 """The run controller without a server or widgets (app/session/controller.py): a
 stand-in simulate, asyncio.run, and the parameters the page shows.  The
-controller is what issue 14 asked for: the runs testable without Panel."""
+controller makes the runs testable without Panel."""
 import asyncio
 import threading
 

@@ -1,4 +1,4 @@
-"""The explorer's data downloads (issue 14, for a lab): the run's samples
+"""The explorer's data downloads (for a lab): the run's samples
 and events as netCDF and its samples as CSV, equal to the run shown; the
 map's points inside the map's current (zoomed) view as netCDF, equal to the
 shipped map there."""

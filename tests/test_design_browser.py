@@ -166,7 +166,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
                          ids=["1024x768", "1920x1080"])
 def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explorer, width,
                                                            height):
-    """Issue 34: the particle's tip chosen on the Design tab (a 60-degree
+    """The particle's tip chosen on the Design tab (a 60-degree
     cone): only its half-angle field shown; no shipped map serves it (the
     sphere's), the reason said; the cone's map computed (the second size
     reads it from the server's cache) and the chart drawn; the device's

@@ -1,4 +1,4 @@
-"""Design charts with the particle's tip shape in SI (issue 34; vibtrans.products.designtip,
+"""Design charts with the particle's tip shape in SI (vibtrans.products.designtip,
 `vibtrans design --profile`).
 
 Sources: Hertz's a0 = (3 N / (4 E* sqrt R))^(2/3); Sneddon's cone N = (2/pi) E* tan(alpha) d^2,

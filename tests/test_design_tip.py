@@ -1,4 +1,4 @@
-"""The Design tab takes the particle's tip (issue 34): the tip in the page's
+"""The Design tab takes the particle's tip: the tip in the page's
 one state (ExplorerState, a designtip.Tip, mirrored in the link), its widgets
 (the kind's sizes only, each checked by designtip as typed), the chart
 drawn for that tip (another profile than the sphere: a map of its own,

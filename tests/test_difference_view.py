@@ -1,4 +1,4 @@
-"""The explorer's Difference tab (issue 16, item 6) and the downloads of a
+"""The explorer's Difference tab and the downloads of a
 map on demand: the tab shows `vibtrans.maps.difference.map_difference` of the two
 maps chosen (the library's numbers, checked against a direct call), says
 why when it cannot, and a map on demand shown in the map tab can be

@@ -3,7 +3,7 @@ browser (the served explorer), at 1024 x 768, 1280 x 800 and 1920 x 1080:
 a link with layer=Lyapunov exponent draws the exponent's colour bar; the
 run it names shows its section and orbit diagram in the Dynamics tab, with
 no sideways scrolling; a click on the section starts a second orbit in a
-new colour (issue 15, items 1, 2, 5).  Screenshots go to
+new colour.  Screenshots go to
 test-artifacts/dynamics-WxH.png (look at them)."""
 from pathlib import Path
 from urllib.parse import quote

@@ -1,7 +1,7 @@
 """The explorer's dynamics view (app/views/dynamics.py), server side: a run's
 section and period-1 orbit, a click on the section seeding a new orbit in a
 new colour (back and clear), the orbit diagram recomputed in a zoomed window
-(back and reset), the material point explained (issue 15, items 2, 3, 5).
+(back and reset), the material point explained.
 The numbers are vibtrans.analysis.dynamics' own, computed here beside the view."""
 import asyncio
 import math

@@ -1,4 +1,4 @@
-"""Findings of issue 32's walkthrough, each replayed in chromium: the page
+"""What a first look at the page finds, each replayed in chromium: the page
 as a newcomer sees it (legends, titles, sizes at 1024x768)."""
 import pytest
 from browserpages import new_page, open_explorer, settle

@@ -1,4 +1,4 @@
-"""One scene, one truth (issue 32): a model-based test of the explorer's page
+"""One scene, one truth: a model-based test of the explorer's page
 state, without a server or a browser.
 
 A hypothesis state machine drives one session's Explorer (its controller,
@@ -128,7 +128,7 @@ DEVICE_TEXT = {
     "amplitude": st.sampled_from(["1e-9", "1e-8", "2.6e-7", "0", "-1e-9", "1e-10"]),
     "preload": st.sampled_from(["0", "1e-3", "-1", "0.01"]),
 }
-# the particle's tip (the Design tab's, issue 34): sizes typed, valid and not
+# the particle's tip (the Design tab's): sizes typed, valid and not
 TIP_TEXT = {
     "tip_half_angle": st.sampled_from(["60", "30", "85", "90", "0", "-5", "abc"]),
     "tip_exponent": st.sampled_from(["3", "1.5", "2", "1", "0.5", "x"]),
@@ -411,10 +411,10 @@ def test_the_page_is_one_state_whatever_the_order(monkeypatch, no_logged_errors)
         suppress_health_check=list(HealthCheck)))
 
 
-# ------------------------------------------------------------ the walkthrough's cases
+# ------------------------------------------------------------ cases met on the page
 def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logged_errors):
-    # issue 32: lithium niobate / glass, 2e7 Hz, R = 5e-6 m, 1e-9 m, then
-    # "Run this device's scene" ran the paper preset (A* = 316.2, m* = 1)
+    # lithium niobate / glass, 2e7 Hz, R = 5e-6 m, 1e-9 m, then
+    # "Run this device's scene" must not run the paper preset (A* = 316.2, m* = 1)
     ex = _open(monkeypatch)
     ex.map_tabs.active = E.DESIGN_TAB
     panel = ex.design_panel
@@ -437,7 +437,7 @@ def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logg
 
 
 def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, no_logged_errors):
-    # issue 32: with radius "-1" flagged invalid, Run ran the last valid device
+    # with radius "-1" flagged invalid, Run must not run the last valid device
     ex = _open(monkeypatch)
     field = next(f for f in ex.units_panel.form
                  if isinstance(f, inputs.NumberField) and f.name_ == "radius")
@@ -456,8 +456,8 @@ def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, n
 
 def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
         monkeypatch, no_logged_errors):
-    # issue 32: amplitude 1 -> 10 nm without a run, the summary still gave the
-    # old device's m/s; a device run's link reopened with nu = 0.3, no device
+    # amplitude 1 -> 10 nm without a run: the summary must not give the
+    # old device's m/s; a device run's link must not reopen with nu = 0.3, no device
     ex = _open(monkeypatch)
     ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=1e7,
                           radius=1e-5, amplitude=1e-9, fidelity="preview", compare="none")
@@ -480,8 +480,8 @@ def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
 
 
 def test_a_mu_without_a_shipped_map_is_shown_as_it_is(monkeypatch, no_logged_errors):
-    # issue 32: ?la=2.5&lm=0&mu=0.5: the banner said 0.3, the selector 0.1,
-    # the run used 0.5
+    # ?la=2.5&lm=0&mu=0.5: the banner, the selector and the run all take 0.5
+    # (the banner must not say 0.3, nor the selector 0.1)
     ex = _open(monkeypatch, "?la=2.5&lm=0&mu=0.5")
     mu_select = ex.scene_controls.mu_select
     assert ex.state.mu == 0.5 and mu_select.value == 0.5 and 0.5 in mu_select.options
@@ -512,7 +512,7 @@ def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_err
 
 
 def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_errors):
-    # issue 32: one device form; the Units tab gives the model's validity
+    # one device form; the Units tab gives the model's validity
     # warnings (design.validity_warnings) as the Design tab does
     from vibtrans.core import units
     from vibtrans.products import design

@@ -1,4 +1,4 @@
-"""The browser twin of tests/test_explorer_state.py (issue 32): a seeded
+"""The browser twin of tests/test_explorer_state.py: a seeded
 random walk of a few hundred steps in chromium (map clicks, typed values
 valid and invalid, mu, model and paper-point choices, Run), checking after
 each step, from the page's DOM and its Bokeh documents, that the URL, the
@@ -141,7 +141,7 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         page = browser.new_page(viewport={"width": 1280, "height": 800})
         errors = []
         page.on("pageerror", lambda e: errors.append(str(e)))
-        # a link with a mu no shipped map has: shown as it is (issue 32)
+        # a link with a mu no shipped map has: shown as it is
         page.goto(served_explorer.url + "?la=0.5&lm=1&mu=0.5&fidelity=preview&compare=none")
         page.wait_for_selector("canvas", timeout=budget_ms(60))
         page.wait_for_selector(".vt-paper-points select", timeout=budget_ms(60))

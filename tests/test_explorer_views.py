@@ -1,4 +1,4 @@
-"""The explorer's views without a server (issue 14, for a lab and a class):
+"""The explorer's views without a server (for a lab and a class):
 both models' maps side by side with one zoom, a click on them running both
 models; the selected scene marked on the vertical curve; the trajectory's
 time axis in seconds for a device's run; presentation mode's large fonts."""
@@ -44,7 +44,7 @@ def test_the_vertical_curve_marks_the_selected_scene():
     ex = _explorer()
     ex.vertical.build()
     ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
-    # the map's axes (issue 32: the vertical tab had them swapped)
+    # the map's axes (the vertical tab's, not swapped)
     assert ex.vertical.scene.data == {"x": [1.25], "y": [-0.5]}
     fig = ex.vertical.pane.objects[-1].object      # (under the profile note)
     assert fig.xaxis[0].axis_label == "log10 A*" and fig.yaxis[0].axis_label == "log10 m*"
@@ -104,8 +104,8 @@ def test_the_run_tabs_build_their_views_when_opened():
 
 
 def test_changing_the_comparison_relabels_the_same_figures():
-    """Issue 14: the first run after changing "compare with" built a new
-    set of figures (2.8-6 s).  Every comparison shares one set, relabelled:
+    """A new set of figures for the first run after changing "compare with"
+    would cost 2.8-6 s.  Every comparison shares one set, relabelled:
     the tau twin's panel becomes the point mass's, no new figure."""
     import asyncio
 
@@ -152,7 +152,7 @@ def _has(doc, needle):
 
 
 def test_the_first_screen_builds_only_what_it_shows():
-    """Issue 14 (capacity): a page costs the event loop every session shares,
+    """Capacity: a page costs the event loop every session shares,
     so what the first screen hides (the Units and Downloads tabs, the
     introduction's text, the point mass's controls, the animation's and
     memory diagram's texts) is built when first shown, and then works."""
@@ -185,7 +185,7 @@ def test_the_first_screen_builds_only_what_it_shows():
         assert _has(doc, "The particle on the wave")
 
 
-# ------------------------------------------------------------------ the particle's profile (issue 34)
+# ------------------------------------------------------------------ the particle's profile
 def test_the_profile_selector_is_a_view_of_the_states_profile():
     from vibtrans_explorer.views import profile as P
     ex = _explorer()

@@ -562,7 +562,7 @@ def test_export_bench_measures_each_format(monkeypatch):
 def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4):
     """A download callback in the server runs where Bokeh's curdoc() is a
     session's document that may already be destroyed (a closed page's); the
-    trajectory's .html then never arrived (issue 32: AttributeError
+    trajectory's .html would then never arrive (AttributeError
     '_js_event_callbacks' in bokeh.embed's new document).  The export makes
     its own Document and does not read curdoc()."""
     from bokeh.document import Document
@@ -579,7 +579,7 @@ def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4)
 
 
 def test_exported_trajectory_gives_y_its_own_axis(run4):
-    """Issue 32: the exported trajectory drew y* on a*'s axis (the app gives
+    """The exported trajectory draws y* on an axis of its own, not a*'s (the app gives
     it an axis of its own at the right, plots.RIGHT_AXIS); the PNG/SVG/PDF
     (matplotlib) and the HTML (Bokeh) are drawn from one figure definition
     (plots.trajectory_figure), whose panels say which lines go right."""

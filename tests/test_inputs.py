@@ -1,9 +1,9 @@
 """The explorer's number fields (app/views/inputs.py): a typed value is checked
 like a link's (urlstate.convert), applied only when valid, and an invalid
 one is a message beside the field, never a silent revert or clamp; the
-explorer refuses to run while a field holds one (issue 14: log10 A* = 99,
--10 or 1e400 stayed in the field and the run used the previous value;
-clearing it raised in the server log)."""
+explorer refuses to run while a field holds one (log10 A* = 99, -10 or
+1e400 left in the field must not run the previous value; clearing it
+must not raise in the server log)."""
 import panel as pn
 import param
 import pytest

@@ -1,4 +1,4 @@
-"""Launched runs and the one-line verdict on real scenes (issue 14).
+"""Launched runs and the one-line verdict on real scenes.
 
 Sources: closed form (a flight is ballistic, m* y*'' = 1 and x*'' = 0,
 docs/MODEL.md sections 1 and 3; the point mass leaves the surface where
@@ -21,7 +21,7 @@ from vibtrans.core.params import Scene
 from vibtrans.maps.sweep import DRIFTS, PATTERNS, SCENE_KEYS, compute_point, open_map
 
 MAPS = Path(__file__).resolve().parent.parent / "assets" / "maps"
-# the upper right of both maps: log10 A* = 2.5, log10 m* = 3 (issue 14)
+# the upper right of both maps: log10 A* = 2.5, log10 m* = 3
 UPPER_RIGHT = dict(amplitude=10.0 ** 2.5, mass=10.0 ** 3.0)
 
 
@@ -57,7 +57,7 @@ def test_the_upper_right_is_launched_not_a_transport_regime(model, t_launch):
     assert_ballistic_after(ds, starts[-1])
     # far from coming back: the ballistic landing lies beyond 8 runs' length
     assert s.earliest_landing > 8.0 * T
-    # its "drift" is its flight velocity (issue 14: -71 for the point mass)
+    # its "drift" is its flight velocity (-71 for the point mass)
     vx = float(ds["vx"].values[-1])
     assert s.final_drift_velocity == pytest.approx(vx, rel=1e-9)
     assert s.drift_velocity == pytest.approx(vx, rel=0.05)

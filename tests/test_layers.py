@@ -90,7 +90,7 @@ def test_every_package_is_in_the_wheel_list():
 
 
 def test_each_library_folder_is_small_enough_to_read_at_a_glance():
-    # issue 33: sub-packages a reader can name at a glance, about ten
+    # sub-packages a reader can name at a glance, about ten
     # entries at any level (modules and sub-packages, __init__ left out;
     # core holds 12 with the profiles)
     for folder in [ROOT / "vibtrans", *(p for p in (ROOT / "vibtrans").rglob("*")

@@ -1,6 +1,6 @@
 """The explorer's live trajectory panels (app/views/live.py): a panel's second
 quantity on an axis of its own, and the whole run as per-bin envelopes
-(issue 14: N* and T* lay flat beside b*' in the thousands, b* and x* over
+(otherwise N* and T* lay flat beside b*' in the thousands, b* and x* over
 the last two periods were two flat lines, the whole-run panels were solid
 bands)."""
 import numpy as np
@@ -86,8 +86,8 @@ def _dashes(block):
 
 
 def test_both_models_draw_into_one_set_of_figures():
-    """Issue 14: the first point-mass run built a second set of figures
-    (1.9 s in chromium).  The point mass's panels are the deformable
+    """A second set of figures for the first point-mass run would cost
+    1.9 s in chromium.  The point mass's panels are the deformable
     particle's with fewer quantities: the same figures show the model of
     the run, each quantity on its own axis, as plots.panel_spec says."""
     from vibtrans.products.plots import panel_spec
@@ -119,7 +119,7 @@ def test_both_models_draw_into_one_set_of_figures():
 
 
 def test_relabelled_comparison_legend_is_text_not_a_column():
-    """Issue 32: after 'both models' (the figures first built for another
+    """After 'both models' (the figures first built for another
     comparison, then relabelled) both x*(t) legend lines read 'Invalid
     field': a label set as a bare string is a column name to Bokeh."""
     from bokeh.core.property.vectorization import Value

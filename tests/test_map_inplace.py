@@ -189,7 +189,7 @@ def test_renderers_share_parts_and_draw_what_they_drew_alone():
 
 @pytest.mark.parametrize("change", [{"model": "point-mass"}, {"mu": 0.1}])
 def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, monkeypatch):
-    """Issue 32 (the model redraw in 0.5 s): the shown figure is updated
+    """The model redraw in 0.5 s: the shown figure is updated
     from the rendering cache's values (`map_content`), without decoding a
     figure of the new setting (0.1-0.25 s of the event loop a change), and
     only the sources whose data differ are set (each one set is sent to the

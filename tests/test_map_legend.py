@@ -1,4 +1,4 @@
-"""The map and the state strips explain themselves (issue 14, deliverable 2):
+"""The map and the state strips explain themselves:
 the colour bar is labelled in drift velocities v* at the colours that stand
 for them and follows v0*; a key outside the plot names grey, white, the
 jumping boundary and the resonances, in the explorer (bokeh) and in every

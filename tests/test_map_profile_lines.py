@@ -1,5 +1,5 @@
 """The lines over a map on demand made for a profile other than the sphere
-(issue 34).  The jumping boundary and the resonances drawn over the maps
+(a cone, a power law).  The jumping boundary and the resonances drawn over the maps
 come from the shipped threshold curve (assets/maps/vertical.nc), the
 sphere's; on a cone's map they would be wrong.  The profile's own threshold
 curve costs about half of a default map on demand's points (measured,

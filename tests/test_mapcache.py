@@ -1,4 +1,4 @@
-"""The shared map cache (vibtrans/maps/cache.py, issue 16 item 4): keyed by
+"""The shared map cache (vibtrans/maps/cache.py): keyed by
 the request and the code version, computed once however many ask, verified
 on every open (a damaged entry is recomputed, never shown), least recently
 used entries evicted beyond the size cap.  Tiny sweeps (6 points, short

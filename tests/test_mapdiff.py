@@ -1,4 +1,4 @@
-"""Two maps compared (vibtrans/maps/difference.py, issue 16 item 6): hand-made maps
+"""Two maps compared (vibtrans/maps/difference.py): hand-made maps
 whose differences are known, the signed log scale's closed form, and the
 command line on the shipped maps."""
 import subprocess
@@ -91,7 +91,7 @@ def test_a_name_says_what_differs_from_the_shipped_maps():
         "deformable mu 0.3"
     assert describe(_map(LA, LM, V, scene_periods=500.0, scene_fidelity="preview")) == \
         "deformable mu 0.3 preview 500 periods"
-    # a profile's map (issue 34) names its profile
+    # a profile's map names its profile
     assert describe(_map(LA, LM, V, scene_profile="cone")) == "deformable mu 0.3 cone"
     # a map made under the `decided` stopping rule says so (its store's `stop`)
     assert describe(_map(LA, LM, V, stop="decided")) == "deformable mu 0.3 stop decided"

@@ -557,7 +557,7 @@ def test_the_finished_map_is_not_drawn_again_when_its_last_level_showed_it():
     assert not mapjobs.same_values(drawn, stored.drop_vars("chaotic"))
 
 
-# ------------------------------------------------------------------ the particle's profile (issue 34)
+# ------------------------------------------------------------------ the particle's profile
 def test_a_profile_is_the_requests_18th_value_and_an_older_link_meant_the_sphere():
     cone = MapRequest(**{**TINY, "profile": "cone"})
     text = maprequest.encode(cone)

@@ -1,5 +1,5 @@
 """memory_snapshots: the memory diagram at several times from one run
-(issue 14: the explorer's time slider scrubs through them), checked against
+(the explorer's time slider scrubs through them), checked against
 memory_snapshot, which runs from rest to each time on its own."""
 import threading
 

@@ -2,7 +2,7 @@
 browser): built once, empty and disabled before a deformable run, fed a real
 preview run's snapshots through its sources, scrubbed by its slider, a typed
 time shown or refused with a message, a new run replacing the snapshots of
-the last (issue 14: memory view <= 0.5 s, scrubbed through time)."""
+the last (memory view <= 0.5 s, scrubbed through time)."""
 import asyncio
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -190,8 +190,8 @@ def test_snapshot_times_cover_the_last_period():
 
 
 def test_the_slider_and_the_time_field_show_the_time_drawn(partial_slip):
-    """Issue 32: the slider stood at the run's end while the time field
-    said the last period's start, and neither followed the other.  Both
+    """The slider must not stand at the run's end while the time field
+    says the last period's start, each not following the other.  Both
     show the time of the diagram drawn: after the snapshots, a slide and a
     typed time inside the slider's range; the titles name that time."""
     scene, snaps = partial_slip
@@ -221,7 +221,7 @@ def test_the_slider_and_the_time_field_show_the_time_drawn(partial_slip):
 
 
 def test_after_a_cancel_the_diagram_is_marked_as_the_previous_runs(partial_slip):
-    """Issue 32: after Cancel the old plots were shown as if current."""
+    """After Cancel the old plots are not shown as if current."""
     scene, _ = partial_slip
 
     async def go():
@@ -300,7 +300,7 @@ async def _served_view(scene):
 
 
 def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip):
-    """Issue 32 (browserbench's failed memory views): after its await,
+    """After its await,
     `show_at` runs without the document's lock, where a change of a plain
     Bokeh model can be lost ("_pending_writes should be non-None"); seen:
     the click taken, the button disabled, the diagram never drawn and the
@@ -328,9 +328,9 @@ def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip)
 
 
 def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
-    """Issue 32 (browserbench: the memory view 0.51-0.56 s against 0.5 s):
-    the click's busy state was a loading overlay on the figures (Panel's
-    `loading`: the figures' row's css_classes), on and off, and BokehJS lays
+    """The memory view within 0.5 s (browserbench): a loading overlay on
+    the figures as the click's busy state (Panel's
+    `loading`: the figures' row's css_classes), on and off, costs more (0.51-0.56 s), as BokehJS lays
     out every figure of the page again at each change of a layout's
     css_classes, visible, size or children (tests/test_redraw_layout.py
     names them; Chrome traces, docs/how-to/deployment.md 2.2).  The busy state is the

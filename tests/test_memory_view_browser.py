@@ -2,7 +2,7 @@
 of only the view (pn.serve in a thread), fed a preview run; a slider step
 and a typed time change the figures in the browser, and the time from the
 key press (or the click) to the new title in the page's Bokeh document is
-printed (issue 14: click/scrub to drawn <= 0.5 s; tests assert behaviour,
+printed (the goal: click/scrub to drawn <= 0.5 s; tests assert behaviour,
 not wall-clock times).  A screenshot goes to test-artifacts/."""
 import socket
 import time

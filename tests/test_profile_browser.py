@@ -1,4 +1,4 @@
-"""The particle's profile in chromium (issue 34): a link with a cone opens
+"""The particle's profile in chromium: a link with a cone opens
 the page with the cone selected, its tip drawn in the sidebar (readable:
 inside the sidebar, not cut, as wide as its controls), the map saying it is
 the sphere's with the button for the cone's map on demand, and the run's

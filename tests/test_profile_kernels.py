@@ -1,4 +1,4 @@
-"""Profiles through the kernels (issue 34): the memory diagram's profile path,
+"""Profiles through the kernels: the memory diagram's profile path,
 the deformable/vertical *_profile_* kernels, Scene(profile=...).
 
 Sources: the independent spring-bed twin (tests/naive.py, SpringBed(profile=));

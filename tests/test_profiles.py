@@ -1,4 +1,4 @@
-"""Axisymmetric profiles (issue 34): normal laws and spring weights.
+"""Axisymmetric profiles: normal laws and spring weights.
 
 Sources: Popov & Hess, Method of Dimensionality Reduction (power law
 g = kappa_n C |x|^n, kappa_n = sqrt(pi) Gamma(n/2+1)/Gamma(n/2+1/2), N ~ d^((n+1)/n));

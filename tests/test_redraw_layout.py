@@ -189,7 +189,7 @@ def test_the_point_mass_controls_wait_hidden_in_a_loaded_page(page, served_explo
     """The material point's controls are built, hidden, once the page has
     loaded (app/views/scene.py), so that the first switch to the point mass
     only shows them: built at that switch, their new views made the
-    browser's redraw of the map 0.1-0.3 s slower (issue 32)."""
+    browser's redraw of the map 0.1-0.3 s slower)."""
     from browserpages import settle
     from budget import budget_ms
     page.goto(served_explorer.url)

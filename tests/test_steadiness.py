@@ -1,4 +1,4 @@
-"""Issue 32 (walkthrough): a drift that is not steady is said so.  Paper
+"""A drift that is not steady is said so.  Paper
 point 4 at 2000 periods drifts at -299 on average but at -569 over its last
 tenth: still accelerating, so its mean depends on the run's length.  The
 summary (`analysis.steadiness`, Summary.steady), `simulate --json`
@@ -50,5 +50,5 @@ def test_point_4_says_it_is_still_accelerating():
     got = json.loads(out.getvalue())
     assert got["steady"] is False, got
     assert got["steadiness"].startswith("not steady: still accelerating"), got["steadiness"]
-    # the walkthrough's figures: the mean and the last tenth far apart
+    # paper point 4's figures: the mean and the last tenth far apart
     assert abs(got["final_drift_velocity"]) > 1.5 * abs(got["drift_velocity"])

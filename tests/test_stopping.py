@@ -1,4 +1,4 @@
-"""The `decided` stopping rule (vibtrans.core.drivers, issue 35) against full runs.
+"""The `decided` stopping rule (vibtrans.core.drivers) against full runs.
 
 The reference of every check is the same scene run to T_obs (stop="full"):
 a regular stop must report x*(T)/T within the standard preset's stated drift

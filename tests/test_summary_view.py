@@ -1,6 +1,6 @@
 """The explorer's run summary names the model behind each number and lists
-the tau twin's cost apart (issue 14: with the point-mass comparison the
-summary showed only the deformable numbers, and the cost row silently added
+the tau twin's cost apart (with the point-mass comparison, not only the
+deformable numbers; the cost row does not silently add
 the twin's steps)."""
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis.summary import summarize, twin_scene
@@ -56,7 +56,7 @@ def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
     ds = simulate(scene, lyapunov=True)
     row = chaos_verdict(interpret(scene, ds, simulate(twin_scene(scene)), "tau + 0.001"))
     assert row.startswith("chaotic: Lyapunov exponent 0.1") and "(> 0.01)" in row
-    # what the twin did, plainly (issue 32: not "agrees" for a twin whose
+    # what the twin did, plainly (not "agrees" for a twin whose
     # trajectory parted): its path parted, its mean drift the same
     assert "the tau + 0.001 twin's trajectory parted from this run after" in row
     assert row.endswith("and its drift is the same")

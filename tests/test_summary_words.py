@@ -1,4 +1,4 @@
-"""Issue 32 (walkthrough): the chaos line says plainly what the tau twin did
+"""The chaos line says plainly what the tau twin did
 ("the twin's trajectory parted from this run after N periods") rather than
 "agrees" / "disagrees"."""
 import math
@@ -33,7 +33,7 @@ def test_a_twin_that_stayed_says_so():
 
 
 def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
-    # issue 32: "both models", a click: both lines of the x*(t) legend read
+    # "both models", a click: neither line of the x*(t) legend may read
     # "Invalid field" (a string set on a LegendItem after its creation is
     # taken by Bokeh as a column name)
     from bokeh.core.property.vectorization import Value
@@ -47,7 +47,7 @@ def test_a_relabelled_comparison_legend_shows_its_text_not_a_field():
 
 
 def test_the_map_has_a_key_for_its_markers_and_the_introduction_a_glossary():
-    # issue 32: nothing said what the yellow circle, the green diamond and
+    # the page says what the yellow circle, the green diamond and
     # the numbered dots on the map are, nor what a*, b*, N*, T* mean
     from vibtrans_explorer import explorer as E
     ex = E.Explorer()

@@ -42,13 +42,13 @@ from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.core.simulate")
 
-# texts the library checks (the particle's profile, issue 34)
+# texts the library checks (the particle's profile)
 PROFILES = {"profile"}
 # how the particle turns: none, solid, shell or j = I/(m R^2) in (0, 1]
 ROLLINGS = {"rolling"}
 ROLLING_TEXT = ["none", "solid", "shell", "0.4", "1", "0.5e0", "0", "1.5", "-0.1", "nan", "inf",
                 "1_0", "Solid", " solid", "1e-300"]
-# the tip's sizes in SI (issue 34, the Design tab's): the ranges that
+# the tip's sizes in SI (the Design tab's): the ranges that
 # docs/MODEL.md section 10 ("In device units") and vibtrans.products.designtip
 # document ((lo, hi), (lo included, hi included)); a power law's N = 1 is
 # the cone (refused: the cone takes its half-angle); the tip radius may be
@@ -267,7 +267,7 @@ def test_parse_numbers_exactly_the_documented_ones(name, data_):
 @given(name=st.sampled_from(sorted(TIPS)), data_=st.data())
 @example(name="tip_exponent", data_=None)
 def test_tip_sizes_parse_exactly_the_documented_ones(name, data_):
-    # issue 34: the Design tab's tip in a link; designtip checks each size
+    # the Design tab's tip in a link; designtip checks each size
     # (its message added), nothing clamped
     lo, hi = TIPS[name][0]
     raw = "1" if data_ is None else data_.draw(st.one_of(
@@ -337,8 +337,8 @@ def test_message_is_shown_as_text_not_markup():
 
 
 def test_mu_without_a_shipped_map_is_kept_as_given():
-    # issue 32: `?mu=0.5` said "showing mu = 0.3", its selector showed 0.1,
-    # and the run used 0.5; the value is now the link's, everywhere
+    # `?mu=0.5` must not say "showing mu = 0.3" with its selector at 0.1
+    # while the run uses 0.5: the value is the link's, everywhere
     values, errors = urlstate.parse({"model": [b"point-mass"], "mu": [b"0.1"]},
                                     ExplorerState, URL_KEYS, URL_ALIASES)
     assert values == {"model": "point-mass", "mu": 0.1} and errors == []
@@ -427,7 +427,7 @@ def _run_now(explorer):
 @example(pairs=[("model", "point-mass"), ("la", "1.5"), ("lm", "-2"), ("compare", "none"),
                 ("fidelity", "preview")])
 @example(pairs=[("nu", "0.25"), ("theta", "1.1")])      # the material's values run too
-@example(pairs=[("la", "0.5"), ("profile", "cone"), ("compare", "point mass")])  # issue 34
+@example(pairs=[("la", "0.5"), ("profile", "cone"), ("compare", "point mass")])  # a profile
 @example(pairs=[("la", "0.5"), ("profile", "file:/etc/passwd")])
 # a steep power law: its tip's outline overflowed (a traceback page)
 @example(pairs=[("profile", "power:400")])
@@ -597,7 +597,7 @@ def test_cli_tiny_amplitude_runs(capsys, argv):
     assert json.loads(out)["contact"] == "permanent"
 
 
-# ------------------------------------------------------------------ the particle's profile (issue 34)
+# ------------------------------------------------------------------ the particle's profile
 @pytest.mark.parametrize("text", PROFILE_TEXT)
 def test_profile_links_are_the_librarys_check(text):
     """A profile in a link is applied exactly when the library accepts it

@@ -1,4 +1,4 @@
-"""The wheel is the whole product (issue 13, item 1): built from the
+"""The wheel is the whole product: built from the
 repository, installed with pip into a fresh virtual environment (no
 access to the repository or to this environment's packages), it runs
 `vibtrans simulate`, `vibtrans export heatmap` and `vibtrans serve` (maps

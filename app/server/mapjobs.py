@@ -58,7 +58,7 @@ MAP_NICE = 10
 # a picture of a map within a refinement level at most this often: a level
 # of a large map takes minutes.  Each picture costs a render (under the
 # render lock) and a redraw in the browser: the five-map load test on one
-# server core (2026-11-25, a noisy day) gave click p95 12.6 s with a picture
+# server core (`python -m devtools.loadtest --maps 5`, noisy) gave click p95 12.6 s with a picture
 # every 3 s, 10.0 and 3.5 s with one every 10 s, 7.6 s with none (and 4.5,
 # 9.5 s for the code before pictures): within the noise at 10 s
 CHUNK_SECONDS = 10.0

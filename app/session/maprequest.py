@@ -7,13 +7,13 @@ form, its sweep and cache key, and its a-priori time.
     text = encode(request)    # the `map=` URL value; decode(text) -> (request, errors)
     estimate(request, step_seconds, workers)   # its a-priori time (Estimate)
 
-Its stopping rule (`stop`, issue 35): "decided" (the default of a new
+Its stopping rule (`stop`): "decided" (the default of a new
 request: each point's run ends once its drift is known to the fidelity's
 stated error, vibtrans.core.stopping.DecidedRule) or "full" (every point
 runs all its periods).  A link written before the rule was part of the
 request (one value fewer) meant full runs, and still does.
 
-Its particle's `profile` (issue 34; the library's spec, checked by it as
+Its particle's `profile` (the library's spec, checked by it as
 the page's is: state.ExplorerProfile) is the 18th value; a link without it
 (older) means the sphere, as it did.  The material point is rigid: its
 requests run and are keyed without a profile (one map whatever it says).
@@ -50,7 +50,7 @@ from vibtrans_explorer.session.state import (
 # the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
 # Lyapunov exponent (no twin run; the material point's of its impact map)
 CHAOS = "lyapunov"
-# a material point's map judged its chaos by the tau twin until 2026-11-27
+# a material point's map judged its chaos by the tau twin in older versions
 # (0.2.0 had no exponent for it in maps): its key names the new verdict, so
 # that a cache never serves a map of the old verdict as one of the new
 POINT_MASS_CHAOS = "impact map"

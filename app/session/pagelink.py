@@ -1,4 +1,4 @@
-"""The page's link as a view of its state (issue 32: a link reproduces the
+"""The page's link as a view of its state (a link reproduces the
 page).  A link is read once, when the page opens, and every value checked
 (app/session/urlstate.py: messages naming the key and the valid range); from then
 on the URL is written from the state (`PageLink.query`: every URL key, one

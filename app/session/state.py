@@ -69,7 +69,7 @@ def limited(source, limits, names=None, base=param.Parameterized, name=None):
     return type(name or f"Limited{source.__name__}", (base,), params)
 
 
-# the particle's profiles the explorer offers (issue 34; docs/MODEL.md
+# the particle's profiles the explorer offers (docs/MODEL.md
 # section 10): the library's kinds but a measured table (file:PATH), which
 # names a file on the server (a link must not read the server's files) and
 # needs the device's load: the API and the CLI take it
@@ -143,7 +143,7 @@ class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
     log_mass = param.Number(default=1.0, bounds=SCENE_LOG_MASS)
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
     chaotic = param.Selector(default="grey", objects=["grey", "colour"])
-    # what the map shows: the drift, or the chaos indicator (issue 15)
+    # what the map shows: the drift, or the chaos indicator
     layer = param.Selector(default="drift velocity",
                            objects=["drift velocity", "Lyapunov exponent"])
     # the period-1 orbit's period doubling and stability region over the map

@@ -25,8 +25,8 @@ some 10^5 times its overlap: the overlap must stay a small cap of the
 circle; a smaller circle was drawn sunk whole under the surface), and its
 contact zone as Hertz's for a sphere of that radius (half-width
 c sqrt(rho) a0, c the run's contact radius over the static one, sqrt(R a0)
-for the sphere; a profile's own c(a*) as its run recorded it, issue 34).
-A profile's particle (issue 34) is drawn as its tip's outline near the
+for the sphere; a profile's own c(a*) as its run recorded it).
+A profile's particle is drawn as its tip's outline near the
 contact (the library's `outline`: z / a0 against r over the static contact
 radius, that radius drawn sqrt(rho) a0 as the contact zone's scale, out to
 TIP_CONTACT_RADII of them), its apex at the particle's lowest point, closed
@@ -83,7 +83,7 @@ CIRCLE_PX = 300            # the contact circle's plotting area, pixels (square)
 RHO_FRACTION = 0.1         # drawn particle radius / the height the motion spans
 RHO_OVER_OVERLAP = 3.0     # drawn particle radius / the largest overlap a*, at least
 WAVELENGTH_VIEWS = 3.0     # drawn wavelength / the view's width
-# a profile's tip (issue 34): its outline drawn out to this many static
+# a profile's tip: its outline drawn out to this many static
 # contact radii from the axis (as app/views/profile.py draws it), at most
 # this share of the drawn radius (the body's arc above it), in so many points
 TIP_CONTACT_RADII = 1.6

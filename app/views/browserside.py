@@ -20,7 +20,7 @@ ACK_CLASSES = {"vt-ack-run": ACK_RUN, "vt-ack-draw": ACK_DRAW, "vt-ack-file": AC
 # Div.  A Div's view re-renders at every change of its text and then lays
 # out again every figure of the page's main column (BokehJS's MarkupView:
 # `rerender` -> `compute_layout` of the layout root), which cost the browser
-# 0.1-0.3 s at every action (issue 32: twice per map redraw, once when the
+# 0.1-0.3 s at every action (twice per map redraw: once when the
 # browser shows the acknowledgement, once when the server clears it).
 # Panel's HTML view only replaces its own content, and the pane's height is
 # fixed, so nothing else moves.  The browser finds the pane's model by its

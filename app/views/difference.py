@@ -1,4 +1,4 @@
-"""The "Difference" tab: two drift maps compared (issue 16, item 6): mu 0.1
+"""The "Difference" tab: two drift maps compared: mu 0.1
 against 0.3, the deformable particle against the material point, a map on
 demand against a shipped map.  The comparison is the library's
 (`vibtrans.maps.difference.map_difference`, drawn by `plots.map_difference_figure`,

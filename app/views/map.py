@@ -60,7 +60,7 @@ def in_document(source, data):
     In a served session such a watcher may run where Panel applies a
     widget's change from the browser without the document's lock (its
     `unlocked`): a plain Bokeh model changed there is lost, with
-    "_pending_writes should be non-None" in the server's log (issue 32:
+    "_pending_writes should be non-None" in the server's log (then
     typed values did not move the map's marker).  So the change goes to
     the document's next tick, which holds the lock; outside a server, now."""
     def apply():

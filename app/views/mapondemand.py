@@ -1,4 +1,4 @@
-"""The map on demand's work in a session (issue 33: out of the page
+"""The map on demand's work in a session (out of the page
 assembler, app/explorer.py): its request panel (views/ondemand.py, built
 when its tab opens), the estimate, the request handed to the server's queue
 (app/server/mapjobs.py) and its levels drawn on the map as they come, the banner
@@ -60,7 +60,7 @@ class MapOnDemand:
         self.refine_button = None
         self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
         # over the map: the map shown is not of the particle selected (the
-        # shipped maps are the sphere's, issue 34); its button made at first use
+        # shipped maps are the sphere's); its button made at first use
         self.profile_note = pn.pane.Alert("", alert_type="warning", margin=0,
                                           sizing_mode="stretch_width",
                                           css_classes=["vt-map-profile"])
@@ -373,7 +373,7 @@ class MapOnDemand:
             self.answered()
 
 
-    # ---------- the particle's profile (issue 34) ----------
+    # ---------- the particle's profile ----------
     def shown_profile(self):
         """The profile of the map shown: the map on demand's, else the
         shipped maps' (the sphere's)."""

@@ -3,7 +3,7 @@
 Plain Bokeh figures built once per session and fed new data through their
 ColumnDataSources, as app/views/live.py does for the trajectories: rendering
 `plots.memory_diagram + plots.contact_circle` through HoloViews took 2.2-3.8 s
-from click to drawn (issue 14), almost all of it building new figures.  The
+from click to drawn, almost all of it building new figures.  The
 figures draw what `vibtrans.products.plots` defines (memory_geometry, memory_spans,
 contact_geometry, its colours and labels; the exports draw the same with
 HoloViews).

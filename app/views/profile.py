@@ -1,4 +1,4 @@
-"""The particle's profile (issue 34): its selector and a drawing of the tip.
+"""The particle's profile: its selector and a drawing of the tip.
 
 A view of one Parameterized's `profile` (the explorer's state, or a map
 request's), never a copy: the kind (sphere, cone, power law, flat-ended

@@ -50,7 +50,7 @@ class SceneControls:
         # (not with the page: most sessions never show them), so that the
         # first switch to the point mass only shows them (built at that
         # switch, their new views cost the browser's redraw of the map
-        # 0.1-0.3 s more, issue 32)
+        # 0.1-0.3 s more)
         self.point_mass_controls = pn.Column(margin=0, name="point-mass-controls")
         state.param.watch(self._on_point_mass_shown, ["model", "compare"])
         self._on_point_mass_shown()

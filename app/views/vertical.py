@@ -50,7 +50,7 @@ class VerticalView:
         self.scene = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.pane = pn.Column(sizing_mode="stretch_width", name="vertical")
         self._built = False
-        self.profile_note = None        # the curve is the sphere's: said (issue 34)
+        self.profile_note = None        # the curve is the sphere's: said so
         state.param.watch(self._moved, ["log_amplitude", "log_mass"])
         state.param.watch(self._on_profile, "profile")
 

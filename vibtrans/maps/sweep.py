@@ -57,7 +57,7 @@ if TYPE_CHECKING:
 
 PATTERNS = ("none", "synchronous", "multi-synchronous", "chaotic", "irregular")
 DRIFTS = {"against-wave": -1, "none": 0, "with-wave": 1}
-# The particle's profile (issue 34): in a sweep's values and attrs only when it
+# The particle's profile: in a sweep's values and attrs only when it
 # is not the sphere (stores made before profiles are the sphere's, and keep
 # their keys); load_over_modulus only with a file: profile.
 PROFILE_KEYS = ("profile", "load_over_modulus")

@@ -1,4 +1,4 @@
-"""The particle's contact profile in device units, for design charts (issue 34).
+"""The particle's contact profile in device units, for design charts.
 
 A design chart's particle is a body of radius R (its mass, 4/3 pi R^3 rho)
 touching the substrate with a tip of a given shape (SI units):

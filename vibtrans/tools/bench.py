@@ -14,7 +14,7 @@ which are measured side by side, more than the absolute times).
   exponent over the same scene alone (paper point 1, in contact, and the
   jumping scene log10 A* = 0.5, log10 m* = -2; goal <= 1.3), beside the
   twin's (scene plus tau twin over the scene alone, about 2);
-* the particle profile's cost (issue 34): ns per step of the deformable
+* the particle profile's cost: ns per step of the deformable
   kernel at paper point 1 with a power-law tip (power:3; goal <= 1.2) and a
   tabulated law (flat-sphere:1, interpolated; goal <= 1.5) over the
   sphere's, measured round-robin; and the cost of the profile code itself:
@@ -546,7 +546,7 @@ def _print_run(r, quick, as_json):
     return 0
 
 
-# Issue 16's sweep window: log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5
+# The sweep window: log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5
 SWEEP_WINDOW = ((-3.0, 3.0), (-5.0, 5.0))
 SWEEP_MU = 0.5
 
@@ -559,7 +559,7 @@ def _window_sweep(points, **values):
 
 
 def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
-    """Issue 16's figure of a sweep's overhead, measured in one run: a
+    """The figure of a sweep's overhead, measured in one run: a
     standard, 2000-period sweep of the 41 x 41 window (SWEEP_WINDOW; quick:
     11 x 11, 500 periods) on all local cores, as
 
@@ -609,7 +609,7 @@ def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
 
 
 def preview_window_times(quick: bool = False) -> dict[str, Any]:
-    """Issue 16's progressive preview: an adaptive preview, 500-period map of
+    """The progressive preview: an adaptive preview, 500-period map of
     the same window (41 x 41 finest points, 3 levels: a 6 x 6 coarse grid;
     quick: 17 x 17, 2 levels, 200 periods) on all local cores; seconds to
     the first (coarse) image and to the complete map."""
@@ -639,7 +639,7 @@ def preview_window_times(quick: bool = False) -> dict[str, Any]:
 def sweep_bench(quick: bool = False) -> dict[str, Any]:
     """Points per second of a small sweep on 1 and 2 workers, processes vs
     threads, measured in one run (parallel efficiency = rate(2) / (2 rate(1)));
-    then issue 16's sweep_step_ratio and the progressive preview's times."""
+    then the sweep_step_ratio and the progressive preview's times."""
     import shutil
     import tempfile
 
@@ -667,7 +667,7 @@ def sweep_bench(quick: bool = False) -> dict[str, Any]:
     return out
 
 
-# Issue 35's trade: the shipped maps' grid (assets/maps: log10 A* -3:3:0.05,
+# The `decided` rule's trade: the shipped maps' grid (assets/maps: log10 A* -3:3:0.05,
 # log10 m* -5:5:0.05, 121 x 201; tau 50, 2000 periods, standard, mu 0.3),
 # every DECIDED_STRIDE-th point on both axes (the whole grid is ~4 minutes
 # per map and rule on an idle 2-core machine), run with --stop full and
@@ -684,7 +684,7 @@ def _strided(text, stride):
 
 def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = None,
                   models: Any = DECIDED_MODELS) -> dict[str, Any]:
-    """The speed/accuracy trade of the `decided` stopping rule (issue 35),
+    """The speed/accuracy trade of the `decided` stopping rule,
     measured in one run: each model's sample of the shipped grid (every
     `stride`-th point; quick: a 6 x 6 sample over 500 periods) swept with
     stop="full" and with stop="decided", on all cores.  Keys:

@@ -47,7 +47,7 @@ goes on with inf/NaN values, which the step estimate and the bounded event
 searches keep finite in time, instead of ending in a traceback.
 
 Why two kinds of inlining (measured on this 2-core machine, empty cache,
-2026-11-24; compile seconds deformable / point mass / vertical):
+compile seconds deformable / point mass / vertical):
 
 * everything through `inline`: 39 / 19 / 26 s.  Numba copies the callee's IR
   at every inlined call, deep-copying each block with the function's whole
