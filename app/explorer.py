@@ -23,7 +23,7 @@ import param
 
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
-from vibtrans_explorer.server import compat, data, memory
+from vibtrans_explorer.server import compat, data, memory, warmup
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.controller import CANCELLED, RunController
 from vibtrans_explorer.session.latest import at_next_tick
@@ -51,7 +51,7 @@ from vibtrans_explorer.views.presentation import (
     ExplorerDesign,
     scale_fonts,
 )
-from vibtrans_explorer.views.profile import ProfileView
+from vibtrans_explorer.views.profile import ProfileView, RollingView
 from vibtrans_explorer.views.runbuttons import RunButtons
 from vibtrans_explorer.views.runtabs import RunTabs
 from vibtrans_explorer.views.scene import SceneControls
@@ -121,6 +121,7 @@ class Explorer(pn.viewable.Viewer):
         self.scene_controls = SceneControls(self.state, run=self.start_run,
                                             answered=self._answered)
         self.profile_view = ProfileView(self.state)      # the particle's profile, its tip drawn
+        self.rolling_view = RollingView(self.state)      # whether (and how) it rolls
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
         self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
@@ -141,6 +142,10 @@ class Explorer(pn.viewable.Viewer):
         self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
         self._url_map = None                # a map request named by the link
         self._apply_url()
+        # a particle that rolls: its kernels compile in the background now
+        # (once per server), before its first run is asked for
+        self.state.param.watch(self._on_rolling, "rolling")
+        self._on_rolling()
         problems = data.problems()            # damaged or missing shipped files
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
@@ -251,6 +256,10 @@ class Explorer(pn.viewable.Viewer):
 
     def _on_device(self, *events):
         self.map_view.mark_device(self.units_panel.marker)
+
+    def _on_rolling(self, *events):
+        if self.state.rolling != "none":
+            warmup.prepare_rolling()
 
     def _on_map_click(self, la, lm, both):
         """A click on a map: that point's scene, in the map's material; with
@@ -372,6 +381,9 @@ class Explorer(pn.viewable.Viewer):
             self.trajectories.show(result, self.units_panel.period_seconds(scene))
             self.exports.show(result)
             self.summary_view.show(result)
+            rolled = self.units_panel.show_run(result)      # (a device's run that rolls)
+            if getattr(self, "design_panel", None) is not None:     # (made by main())
+                self.design_panel.show_run_note(rolled)
             self._set_stale_note(False)
             self._on_stale()
             self.runs.show(result)
@@ -395,6 +407,7 @@ class Explorer(pn.viewable.Viewer):
             sc.point_select,
             *sc.fields[:2],
             self.profile_view,
+            self.rolling_view,
             pn.widgets.Select.from_param(s.param.fidelity, label="fidelity"),
             pn.pane.Markdown(pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
                              css_classes=["vt-preset-note"], sizing_mode="stretch_width"),
@@ -464,6 +477,7 @@ class Explorer(pn.viewable.Viewer):
             self.difference.build()
         elif event.new == DESIGN_TAB and self.design_panel is None:
             self.design_panel = DesignPanel(on_run=self._run_design_device, state=self.state)
+            self.design_panel.show_run_note(self.units_panel.run_note.object)
             self.design_box.objects = [self.design_panel]
 
     def _on_intro(self, event):

@@ -241,7 +241,7 @@ _PAGE_JS = """() => {
     titles.push(x.text);
   return {value: m("anim-frame").value, surface: cols("anim-surface"),
           particle: cols("anim-particle"), zone: cols("anim-zone"), tip: cols("anim-tip"),
-          contact: cols("anim-contact"), titles: titles};
+          contact: cols("anim-contact"), mark: cols("anim-mark"), titles: titles};
 }"""
 
 
@@ -270,7 +270,7 @@ def _changes(frames):
 
 
 def _same_frame(page_state, f):
-    for name in ("surface", "particle", "zone", "contact", "tip"):
+    for name in ("surface", "particle", "zone", "contact", "tip", "mark"):
         for col, want in f[name].items():
             got = page_state[name][col]
             if col == "colour":
@@ -344,6 +344,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
     cone = _run(6, profile="cone")
+    rolling = _run(4, rolling="solid")
     import panel as pn
     from netutil import free_port
 
@@ -451,6 +452,12 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             assert side["w"] > 0 and side["h"] > 0, side
             assert side["dx"] / side["w"] == pytest.approx(side["dy"] / side["h"], rel=1e-6)
             page.screenshot(path=str(ARTIFACTS / "animation_cone.png"))
+
+            # a particle that rolls: its mark turned by the rolled arc, as
+            # frame() draws it
+            state = _show_and_play(page, doc, anim, rolling, 6, 700)
+            assert len(state["mark"]["x0"]) == 1
+            _same_frame(state, anim.frame(state["value"]))
             assert not errors, errors
     finally:
         server.stop()

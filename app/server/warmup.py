@@ -6,12 +6,20 @@ compiles; a run asked for before the kernels are ready waits for them
 (`wait`), and the page shows `status()` meanwhile.
 
 A cold start (empty numba cache) compiles for a minute or more on two
-cores; a warm one loads the cached kernels in about a second."""
+cores; a warm one loads the cached kernels in about a second.
+
+The kernels of a particle that rolls (docs/MODEL.md section 11) are not in
+the warm-up: most sessions never run one, and compiling them cold costs
+~10-20 s of a core.  They compile in the background on their first need
+(`prepare_rolling`: a session chose a rolling particle, or asked for a
+run of one), after the warm-up; a rolling run asked for meanwhile waits
+for them, and the page says "Compiling" (`status(scene)`)."""
 import logging
 import threading
 import time
 
 import vibtrans
+from vibtrans.core.params import ROLLING_NONE
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -21,9 +29,12 @@ log = logging.getLogger("vibtrans.explorer")
 MODELS = ("deformable", "point-mass")
 
 READY = threading.Event()
-_state = {"done": 0, "total": 0, "label": "", "seconds": None, "error": None}
+ROLLING_READY = threading.Event()       # the rolling particle's kernels
+_state = {"done": 0, "total": 0, "label": "", "seconds": None, "error": None,
+          "report": None}
 _lock = threading.Lock()
 _thread = None
+_rolling_thread = None
 
 
 def compile_all(report=None):
@@ -62,6 +73,7 @@ def start(report=None, on_ready=None):
     global _thread
     if _thread is not None:
         return _thread
+    _state["report"] = report
 
     def run():
         compile_all(report)
@@ -72,16 +84,76 @@ def start(report=None, on_ready=None):
     return _thread
 
 
-def ready():
-    """Whether runs may start: the warm-up is done, or was never started
-    (an explorer outside `vibtrans serve`: runs compile what they need)."""
-    return _thread is None or READY.is_set()
+def _rolls(scene):
+    return scene is not None and getattr(scene, "rolling", ROLLING_NONE) != ROLLING_NONE
 
 
-def status():
-    """None once the kernels are ready; else a line for the page."""
-    if ready():
+def compile_rolling():
+    """Compile (or load) the kernels of a particle that rolls, in this
+    thread: the explorer's run (with its Lyapunov tangent) and its tau
+    twin's.  Sets ROLLING_READY, also when it fails (runs then compile
+    what they need themselves)."""
+    t0 = time.perf_counter()
+    try:
+        scene = vibtrans.Scene(amplitude=100.0, mass=1.0, periods=2.0, tau=0.5,
+                               rolling="solid")
+        for lyapunov in (True, False):
+            vibtrans.simulate(scene, window=(1.0, 1.5), lyapunov=lyapunov)
+        error = None
+    except Exception as exc:          # a bug here must not stop the server
+        log.exception("compiling the rolling particle's kernels failed")
+        error = f"{type(exc).__name__}: {exc}"
+    finally:
+        ROLLING_READY.set()
+    report = _state["report"]
+    if report is not None:
+        report(f"rolling particle's kernels ready in {time.perf_counter() - t0:.1f} s"
+               + (f" (failed: {error})" if error else ""))
+
+
+def _after_warmup(fn):
+    READY.wait()
+    fn()
+
+
+def prepare_rolling():
+    """Compile the rolling particle's kernels in a daemon thread, once per
+    process, after the warm-up: off the page's critical path (a session
+    calls it when its particle first rolls).  Only where the warm-up runs
+    (`vibtrans serve`): elsewhere runs compile what they need."""
+    global _rolling_thread
+    with _lock:
+        if _thread is None or _rolling_thread is not None:
+            return
+        _rolling_thread = threading.Thread(target=_after_warmup, args=(compile_rolling,),
+                                           name="vibtrans-rolling-kernels", daemon=True)
+    _rolling_thread.start()
+
+
+def ready(scene=None):
+    """Whether runs (of `scene`, if given) may start: the warm-up is done,
+    or was never started (an explorer outside `vibtrans serve`: runs
+    compile what they need); a scene whose particle rolls also waits for
+    its kernels (started here if they were not: `prepare_rolling`)."""
+    if _thread is None:
+        return True
+    if not READY.is_set():
+        return False
+    if _rolls(scene):
+        prepare_rolling()
+        return ROLLING_READY.is_set()
+    return True
+
+
+def status(scene=None):
+    """None once the kernels (of `scene`, if given) are ready; else a line
+    for the page."""
+    if ready(scene):
         return None
+    if READY.is_set():              # (the rolling particle's, `ready`)
+        return ("Compiling the kernels of a particle that rolls (once per server start: "
+                "numba loads them from its cache, or compiles them after an install) "
+                "...")
     with _lock:
         done, total = _state["done"], _state["total"]
     count = f" ({done} of {total} ready)" if total else ""
@@ -89,11 +161,12 @@ def status():
             f"empty compilation cache; the run starts as soon as they are ready ...")
 
 
-def wait(cancel=None):
-    """Block until the kernels are ready; returns False if `cancel` (a
-    threading.Event) was set first."""
-    while not ready():
-        if READY.wait(0.2):
+def wait(cancel=None, scene=None):
+    """Block until the kernels (of `scene`, if given) are ready; returns
+    False if `cancel` (a threading.Event) was set first."""
+    while not ready(scene):
+        event = ROLLING_READY if READY.is_set() else READY
+        if event.wait(0.2) and ready(scene):
             break
         if cancel is not None and cancel.is_set():
             return False

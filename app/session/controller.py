@@ -76,7 +76,8 @@ def comparison(scene, compare):
     if compare == "tau twin":
         return twin_scene(scene), TWIN_LABEL
     if compare == "point mass" and scene.model == "deformable":
-        return scene.replace(model="point-mass"), "point mass"
+        # (the material point has no size: it does not turn, whatever the run does)
+        return scene.replace(model="point-mass", rolling="none"), "point mass"
     return None, None
 
 
@@ -109,13 +110,14 @@ class RunJob(Job):
         self.progress = fraction
 
     def submit(self, fn, *args, **kwargs):
-        if warmup.ready():
+        if warmup.ready(self.scene):
             return super().submit(fn, *args, **kwargs)
-        # the server has just started: its kernels are compiling
+        # the server has just started, or a particle that rolls is run for
+        # the first time: its kernels are compiling
         return super().submit(self._when_compiled, fn, *args, **kwargs)
 
     def _when_compiled(self, fn, *args, **kwargs):
-        if not warmup.wait(self.event):
+        if not warmup.wait(self.event, self.scene):
             raise Cancelled("cancelled while the kernels compiled")
         return fn(*args, **kwargs)
 
@@ -232,7 +234,7 @@ class RunController(param.Parameterized):
                 if self.busy or time.perf_counter() - t0 > BUSY_AFTER:
                     self.param.update(
                         busy=True, progress=job.progress,
-                        status=warmup.status() or (
+                        status=warmup.status(scene) or (
                             f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
                             f"m* = {scene.mass:.4g} ..."))
             ds = job.futures[0].result()

@@ -45,6 +45,7 @@ from vibtrans_explorer.session.state import (
     SPHERE,
     ExplorerScene,
     is_sphere,
+    rolling_refused,
 )
 
 # the sweep's chaos verdict (vibtrans.maps.sweep.CHAOS_SOURCES): the run's own
@@ -93,6 +94,10 @@ class MapRequest(ExplorerScene):
         deformable particle's; the material point has none)?"""
         return self.model != "point-mass" and not is_sphere(self.profile)
 
+    def rolls(self):
+        """Does the request's particle turn (docs/MODEL.md section 11)?"""
+        return self.rolling != "none"
+
     def points_per_axis(self):
         return self.cells * 2 ** self.levels + 1
 
@@ -114,6 +119,8 @@ class MapRequest(ExplorerScene):
             if not lo < hi:
                 out.append(f"the window's {axis} 'from' ({lo:g}) must be below its 'to' "
                            f"({hi:g})")
+        if rolling_refused(self.model, self.rolling):
+            out.append(rolling_refused(self.model, self.rolling))
         if self.points() > max_points:
             out.append(f"{self.points_per_axis()} x {self.points_per_axis()} = "
                        f"{self.points():,} points is over this server's limit of "
@@ -162,6 +169,8 @@ class MapRequest(ExplorerScene):
             scene += f", {self.stick_rule} rule, alpha_t = {self.alpha_t:g}"
         elif self.profile != SPHERE:
             scene += f", profile {self.profile}"
+        if self.rolls():
+            scene += f", rolling {_text(self.rolling)}"
         return f"{scene}; {self.rule_text()}"
 
     def rule_text(self):

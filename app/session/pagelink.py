@@ -9,7 +9,7 @@ import panel as pn
 
 from vibtrans_explorer.session import maprequest, urlstate
 from vibtrans_explorer.session.latest import at_next_tick
-from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
+from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS, link_conflicts
 
 
 def map_request_of(args):
@@ -40,6 +40,8 @@ class PageLink:
         valid values are applied; then the URL follows the state."""
         request, map_errors = map_request_of(args)
         values, errors = urlstate.parse(args, self.state, URL_KEYS, URL_ALIASES)
+        values, conflicts = link_conflicts(values, URL_KEYS)
+        errors += conflicts
         self.state.param.update(**urlstate.resolved(values, self.state, URL_KEYS))
         if request is not None:
             self.state.map_request = maprequest.encode(request)

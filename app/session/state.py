@@ -15,7 +15,7 @@ import param
 
 from vibtrans import Scene
 from vibtrans.analysis.summary import V0
-from vibtrans.core.params import PLANE, ProfileSpec, check_profile
+from vibtrans.core.params import PLANE, ROLLING_NONE, ProfileSpec, check_profile
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans.products import design
 from vibtrans.products.design import Device
@@ -125,6 +125,37 @@ class ExplorerScene(limited(Scene, SCENE_LIMITS, SETTINGS, name="ExplorerSceneSe
     demand ran that map's."""
 
     profile = ExplorerProfile(SPHERE, doc=f"the particle's profile: {PROFILE_VALUES}")
+
+    @param.depends("model", watch=True)
+    def _point_does_not_roll(self):
+        # the material point has no size to turn (docs/MODEL.md section 11):
+        # its scene is the one Scene takes (the rolling selector says so)
+        if rolling_refused(self.model, self.rolling):
+            self.rolling = ROLLING_NONE
+
+
+def rolling_refused(model, rolling):
+    """Why `rolling` cannot go with `model` (the library's rule: only the
+    deformable particle turns), or "" when it can."""
+    if rolling == ROLLING_NONE or model == "deformable":
+        return ""
+    return (f"rolling must be none with model {model} (the material point has no size to "
+            f"turn); with model deformable it is {ExplorerScene.param.rolling.valid_values}")
+
+
+def link_conflicts(values, url_keys):
+    """(values, errors): a link's checked values (urlstate.parse) that are
+    valid alone but not together, refused with a message naming the URL
+    key and what it takes; the refused value is left out (its parameter
+    keeps its default, and the link runs nothing)."""
+    model = values.get("model", ExplorerScene.param.model.default)
+    why = rolling_refused(model, values.get("rolling", ROLLING_NONE))
+    if not why:
+        return values, []
+    given = values["rolling"]
+    given = f"{given:g}" if isinstance(given, float) else given
+    values = {k: v for k, v in values.items() if k != "rolling"}
+    return values, [f"URL parameter '{url_keys['rolling']}' (rolling): {why}; got '{given}'"]
 
 
 # the device of the Units and Design tabs (SI units; one form, two tabs)

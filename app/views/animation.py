@@ -90,6 +90,7 @@ TIP_CONTACT_RADII = 1.6
 TIP_RHO_SHARE = 0.8
 TIP_POINTS = 81
 TIP_HEIGHT_SPHERES = 2.0    # a steeper tip's drawing ends at twice the sphere's height
+MARK_COLOUR = "#08306b"     # a rolling particle's mark: a radius that turns with it
 ARC_POINTS = 121
 TABLE = 720                # samples per period of the surface's vertical motion
 CURVE_POINTS = 161         # points of the drawn surface
@@ -206,6 +207,11 @@ function draw(i) {
   const TS = tip_shape.data, ty = new Float64Array(TS.z.length);
   for (let j = 0; j < ty.length; j++) ty[j] = TS.z[j] - y;
   tip.setv({data: {x: TS.x, y: ty}}, {sync: false});
+  if (M.rolls[0] > 0) {
+    const th = -Math.PI / 2 + F.roll[i] / rho, cy = M.mark_cy[0] - y;
+    mark.setv({data: {x0: [0.0], y0: [cy], x1: [rho * Math.cos(th)],
+                      y1: [cy + rho * Math.sin(th)]}}, {sync: false});
+  } else mark.setv({data: {x0: [], y0: [], x1: [], y1: []}}, {sync: false});
   const nm = marks.data.xi.length, k0 = Math.ceil((x - ux - W / 2) / sp);
   const mx = new Float64Array(nm), mz = new Float64Array(nm);
   for (let j = 0; j < nm; j++) { mx[j] = (k0 + j) * sp + ux - x; mz[j] = height(mx[j]); }
@@ -277,6 +283,17 @@ if (!cb_obj.active) {
 """ % TICK_MS
 
 
+def mark_angle(roll, rho):
+    """The angle (radians, counter-clockwise from +x) of a rolling
+    particle's mark: the radius to the material point that started at the
+    contact (straight down, -pi/2), turned by the rolled arc `roll` (a0)
+    over the drawn radius `rho` (a0).  Counter-clockwise: omega > 0 moves
+    the contact point towards +x (docs/MODEL.md section 11)."""
+    # R / a0 is not known for a normalized scene: the drawn radius turns the
+    # mark, so that its rim travels the rolled arc, to scale in a0
+    return -0.5 * math.pi + roll / rho
+
+
 def _tip_span(shape, q, span, height):
     """The tip drawn over |x| <= span, or less where its outline rises
     above `height` first (a steep power law, nearly a flat punch): there
@@ -336,7 +353,8 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.frames = ColumnDataSource(self._no_frames(), name="anim-frames")
         self.meta = ColumnDataSource({k: [] for k in ("rho", "wavelength", "zone_scale",
                                                       "spacing", "width", "decimals",
-                                                      "deformable", "unit")}, name="anim-meta")
+                                                      "deformable", "unit", "rolls",
+                                                      "mark_cy")}, name="anim-meta")
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
@@ -344,6 +362,8 @@ class ParticleAnimation(pn.viewable.Viewer):
         # (per run), and drawn (per frame; empty for the sphere)
         self.tip_shape = ColumnDataSource({"x": [], "z": []}, name="anim-tip-shape")
         self.tip = ColumnDataSource({"x": [], "y": []}, name="anim-tip")
+        # a rolling particle's mark (per frame; empty for one that does not roll)
+        self.mark = ColumnDataSource({"x0": [], "y0": [], "x1": [], "y1": []}, name="anim-mark")
         self.marks = ColumnDataSource({"xi": [], "z": []}, name="anim-marks")
         self.zone = ColumnDataSource({"x0": [], "x1": [], "y": [], "colour": []},
                                      name="anim-zone")
@@ -360,7 +380,7 @@ class ParticleAnimation(pn.viewable.Viewer):
     @staticmethod
     def _no_frames():
         return {k: [] for k in ("t", "x", "y", "a", "state", "c", "s", "g", "ux", "uy",
-                                "outer")}
+                                "outer", "roll")}
 
     # ------------------------------------------------------------ figures
     def _build(self):
@@ -380,6 +400,10 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.tip_glyph = side.add_glyph(self.tip, Patch(x="x", y="y", fill_color=PARTICLE_FILL,
                                                         fill_alpha=0.85, line_color="black",
                                                         line_width=1.5))
+        side.add_glyph(self.mark, Segment(x0="x0", y0="y0", x1="x1", y1="y1",
+                                          line_color=MARK_COLOUR, line_width=2.5))
+        side.add_glyph(self.mark, Scatter(x="x1", y="y1", marker="circle", size=7,
+                                          fill_color=MARK_COLOUR, line_color=MARK_COLOUR))
         side.add_glyph(self.surface, Line(x="xi", y="z", line_color="#4e342e", line_width=2))
         side.add_glyph(self.marks, Scatter(x="xi", y="z", marker="triangle", size=8,
                                            fill_color="#4e342e", line_color="#4e342e"))
@@ -427,7 +451,7 @@ class ParticleAnimation(pn.viewable.Viewer):
                             width=150, name="anim-speed")
         args = dict(frames=self.frames, meta=self.meta, table=self.table,
                     surface=self.surface, particle=self.particle, marks=self.marks,
-                    tip=self.tip, tip_shape=self.tip_shape, side=side,
+                    tip=self.tip, tip_shape=self.tip_shape, side=side, mark=self.mark,
                     zone=self.zone, contact=self.contact, side_title=side.title,
                     contact_title=circ.title, names=list(STATE_NAMES),
                     stick_colour=plots.STATE_COLORS[1], slider=self.slider)
@@ -482,7 +506,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             self.meta.data = {k: [] for k in self.meta.data}
             self.table.data = {"uy": []}
             for source in (self.surface, self.particle, self.marks, self.zone, self.contact,
-                           self.tip, self.tip_shape):
+                           self.tip, self.tip_shape, self.mark):
                 source.data = {k: [] for k in source.data}
             self.side.title.text = self.circle.title.text = "(no run)"
             for note in (*self.scale_notes, self.circle_note):
@@ -540,9 +564,11 @@ class ParticleAnimation(pn.viewable.Viewer):
             # the rule above would colour as total sliding)
             s = np.full_like(c, np.nan)
             outer = np.array([plots.STATE_COLORS[k] for k in state])
+        # a rolling particle's rolled arc q* (a0; plots.rolls), else none
+        roll = win["roll"].values if plots.rolls(win) else np.zeros(t.size)
         frames = {"t": t, "x": win["x"].values, "y": win["y"].values, "a": win["a"].values,
                   "state": state, "c": c, "s": s, "g": g,
-                  "ux": u[:, 0], "uy": u[:, 1], "outer": outer}
+                  "ux": u[:, 0], "uy": u[:, 1], "outer": outer, "roll": roll}
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
         if periods is not None and w0 < full[0]:
             return frames, (
@@ -595,10 +621,14 @@ class ParticleAnimation(pn.viewable.Viewer):
         R = 1.1 * max(cmax, 1.0)
         self.circle.x_range.update(start=-R, end=R)
         self.circle.y_range.update(start=-R, end=R)
+        rolls = scene.rolling != "none"
+        # the mark turns about the body's centre: the circle's, over its lowest point
+        mark_cy = float(tip_z.max()) - rho if drawn_tip else rho
         self.meta.data = {"rho": [rho], "wavelength": [wavelength],
                           "zone_scale": [math.sqrt(rho)], "spacing": [spacing],
                           "width": [width], "decimals": [_decimals(extent)],
-                          "deformable": [int(deformable)], "unit": [unit]}
+                          "deformable": [int(deformable)], "unit": [unit],
+                          "rolls": [int(rolls)], "mark_cy": [mark_cy]}
         self.table.data = {"uy": table}
         self.tip_shape.data = {"x": tip_x, "z": tip_z}
         self.particle_glyph.visible = not drawn_tip
@@ -636,7 +666,12 @@ class ParticleAnimation(pn.viewable.Viewer):
                  f"drawn as a circle; its contact zone's half-width c sqrt({rho:.3g}) a0 with "
                  f"c the profile's own contact radius over the static one. ") if deformable else
                 "Material point: no contact zone and no contact circle (rigid contact). ")
-        self.key.text = self._key_head + zone + note
+        turning = ((f"The particle rolls ({scene.rolling}): the dark radius marks its material "
+                    f"point that started at the contact and turns by the rolled arc q* over the "
+                    f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
+                    f"normalized scene), so that its rim travels q*, to scale in a0. ")
+                   if rolls else "")
+        self.key.text = self._key_head + zone + turning + note
 
     def frame(self, i):
         """Frame i drawn (what the browser draws for it): the data of each
@@ -674,10 +709,17 @@ class ParticleAnimation(pn.viewable.Viewer):
             ct = (f"from above: c = {_fixed(c, 3)}\n"
                   + ("" if np.isnan(s) else f"s = {_fixed(s, 3)} ") + M["unit"][0])
         TS = self.tip_shape.data
+        if M["rolls"][0]:
+            th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
+            mark = {"x0": np.array([0.0]), "y0": np.array([cy]),
+                    "x1": np.array([rho * math.cos(th)]), "y1": np.array([cy + rho * math.sin(th)])}
+        else:
+            mark = {k: np.zeros(0) for k in ("x0", "y0", "x1", "y1")}
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},
             "tip": {"x": np.asarray(TS["x"], float), "y": np.asarray(TS["z"], float) - y},
+            "mark": mark,
             "marks": {"xi": mx, "z": height(mx)},
             "zone": {"x0": np.array([-ce, -se]), "x1": np.array([ce, se]),
                      "y": np.array([zs, zs]),
@@ -693,7 +735,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def _draw(self, i):
         f = self.frame(i)
-        for name in ("surface", "particle", "marks", "zone", "contact", "tip"):
+        for name in ("surface", "particle", "marks", "zone", "contact", "tip", "mark"):
             getattr(self, name).data = f[name]
         self.side.title.text = f["side_title"]
         self.circle.title.text = f["contact_title"]

@@ -37,6 +37,7 @@ from bokeh.models import CustomJSTickFormatter, FixedTicker, GlyphRenderer, Scat
 from vibtrans import Scene
 from vibtrans.core import units
 from vibtrans.core.errors import Cancelled, InputError
+from vibtrans.core.params import ROLLING_NONE
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.products import design, designtip, plots
 from vibtrans.products.design import CUSTOM_EXAMPLE, CUSTOM_MATERIAL, Device
@@ -48,6 +49,7 @@ from vibtrans_explorer.session.maprequest import MapRequest
 from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
 from vibtrans_explorer.views.units import DEVICE_LABELS, device_form
 
@@ -83,6 +85,19 @@ TIP_NOTE = ("*The body stays a sphere of the radius above (its mass); it touches
             "with this tip. Its chart reads a map of the tip's normalized profile (not the "
             "sphere's shipped maps); \"Run this device's scene\" sets the explorer's particle "
             "profile to it.*")
+# the particle's body: whether it rolls, a solid or a hollow (thin-shell)
+# sphere (docs/MODEL.md section 11; the state's `rolling`, the sidebar's too)
+DESIGN_ROLLINGS = {"does not roll (the paper's)": "none",
+                   "solid sphere, rolls (j = 2/5)": "solid",
+                   "hollow (thin shell), rolls (j = 2/3)": "shell",
+                   "another j = I/(m R^2), rolls": "j"}
+HOLLOW_NOTE = ("*A hollow particle: its mass is taken as a solid sphere's of the particle's "
+               "density (m\\* follows it), so give it as a custom particle whose density is the "
+               "shell's mean density (its mass over 4/3 pi R^3); its contact is Hertz's while "
+               "its wall is much thicker than the contact radius.*")
+ROLLING_CHART_NOTE = ("the shipped maps are of a particle that does not roll; this particle "
+                      "rolls ({rolling}), so its chart reads a map of its own, computed on "
+                      "this server (`vibtrans design --rolling {rolling}` needs --compute)")
 FIGURE_FORMATS = ("png", "svg", "pdf")
 DATA_FORMATS = ("nc", "csv")
 DOWNLOAD_LABELS = {"png": "figure PNG", "svg": "figure SVG", "pdf": "figure PDF",
@@ -165,8 +180,8 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
     """(MapRequest, None) computing the map `need` asks for: the deformable
     particle at `fidelity` and `periods` (by default the library's computed
     map's: preview, 2000 periods) with the shipped maps' tau, mu, theta and
-    nu of the chart and its particle's normalized profile (the tip's),
-    its window snapped outward to `step` decades, the
+    nu of the chart, its particle's normalized profile (the tip's) and
+    its rolling, its window snapped outward to `step` decades, the
     finest step at most `step`; or (None, why) when a value or the window
     is outside what a map on demand accepts.  levels: DESIGN_LEVELS if None."""
     levels = DESIGN_LEVELS if levels is None else levels
@@ -204,7 +219,8 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
         return None, ("a measured profile's map needs its load over modulus, which a map on "
                       "demand does not take: use `vibtrans design --compute`")
     request = MapRequest(model="deformable", mu=need.mu, theta=need.theta, nu=need.nu,
-                         profile=need.profile, fidelity=fidelity, periods=float(periods),
+                         profile=need.profile, rolling=need.rolling, fidelity=fidelity,
+                         periods=float(periods),
                          levels=levels, cells=cells,
                          la_from=round(start["la"], 10), la_to=round(start["la"] + width, 10),
                          lm_from=round(start["lm"], 10), lm_to=round(start["lm"] + width, 10))
@@ -220,7 +236,7 @@ def build_chart(values, map_ds=None, map_name="given map"):
     xq, yq = v["x"], v["y"]
     chart = design.design_chart(*_chart_args(v), mu=v["mu"],
                                 surface_energy=v["surface_energy"], map_ds=map_ds,
-                                map_name=map_name, shape=tip_shape(v))
+                                map_name=map_name, shape=tip_shape(v), rolling=v["rolling"])
     if not _all_finite(chart):
         bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
         raise InputError(
@@ -246,7 +262,7 @@ def device_reading(values, chart, map_ds=None, map_name="given map"):
     device.normalized()             # checks every value (InputError names it)
     shape = tip_shape(v)
     reading = design.read_device(device, mu=v["mu"], chart=chart, map_ds=map_ds,
-                                 map_name=map_name, shape=shape)
+                                 map_name=map_name, shape=shape, rolling=v["rolling"])
     q = design.device_quantities(device, reading, v["surface_energy"], shape=shape)
     warnings = design.validity_warnings(device, v["surface_energy"], q.drift_velocity,
                                         shape=shape)
@@ -275,8 +291,9 @@ def _g(value, unit=""):
     return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
 
 
-def device_text(device, reading, q, warnings):
-    """The device's quantities and warnings as Markdown."""
+def device_text(device, reading, q, warnings, rolling=ROLLING_NONE):
+    """The device's quantities and warnings as Markdown (`rolling`: how its
+    particle turns, the Design tab's choice)."""
     rows = [("A*, m*", f"{q.A_star:.4g}, {q.m_star:.4g}"),
             ("theta, nu, r", f"{q.theta:.4g}, {q.nu:g}, {q.r:.4g}"),
             ("mass, load m g + P", f"{q.mass:.4g} kg, {q.load:.4g} N"),
@@ -303,6 +320,9 @@ def device_text(device, reading, q, warnings):
                  ("travel per period", f"{_g(q.travel_per_period, 'm')} = "
                                        f"{_g(q.travel_over_wavelength)} wavelengths")]
     tip = "sphere" if q.profile == "sphere" else f"particle with a {q.profile} tip"
+    body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
+    tip += (f", {body}" if body and rolling != ROLLING_NONE else
+            f", rolling with j = {rolling:g}" if rolling != ROLLING_NONE else "")
     head = (f"**Device**: {units.material(device.particle).name} {tip}, R = "
             f"{device.radius:.4g} m, on {units.material(device.substrate).name}; f = "
             f"{device.frequency:.4g} Hz, A_y = {device.amplitude:.4g} m, pre-load "
@@ -447,10 +467,32 @@ class DesignPanel(pn.viewable.Viewer,
         self._init_extras()
         self._layout = None
         self.tip_kind, self.tip_fields, self.tip_boxes = tip_form(self.particle_tip)
+        # whether the particle rolls: the state's (the sidebar's selector
+        # too), or the panel's own alone
+        self.rolling_owner = state if state is not None else DesignRolling()
+        self.rolling_view = RollingView(self.rolling_owner, width=320, options=DESIGN_ROLLINGS,
+                                        label="particle body")
+        self.hollow_note = pn.pane.Markdown(HOLLOW_NOTE, sizing_mode="stretch_width",
+                                            margin=(0, 10), css_classes=["vt-design-hollow"],
+                                            visible=self.rolling_owner.rolling == "shell")
+        self.rolling_owner.param.watch(self._on_rolling, "rolling")
+        # the last run of the device, if it rolled: its contact patch's check
+        self.run_note = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                         css_classes=["vt-design-rolling"])
         self.param.watch(self._on_changed, [*AXIS_VALUES, "mu", "surface_energy",
                                             "map_fidelity", "map_periods"])
         self.device.param.watch(self._on_changed, [k for k in Device.param if k != "name"])
         self.particle_tip.param.watch(self._on_changed, list(TIP_FIELDS))
+
+    def _on_rolling(self, event):
+        self.hollow_note.visible = event.new == "shell"
+        self._on_changed(event)
+
+    def show_run_note(self, text):
+        """The explorer's note on the last run of the device, if it rolled
+        (UnitsPanel.rolling_note: its contact patch against the contact
+        radius, a warning where it moved)."""
+        self.run_note.object = text
 
     def _set_device(self, **values):
         """Set the device's values (a preset's, a click's); a value the
@@ -518,12 +560,13 @@ class DesignPanel(pn.viewable.Viewer,
 
     def values(self):
         """The values as typed (SI), for the library to check: the chart's,
-        the device's (a material: its name, or a custom one's properties)
-        and its tip's (its kind and that kind's sizes; another kind's do
+        the device's (a material: its name, or a custom one's properties),
+        whether its particle rolls, and its tip's (its kind and that kind's sizes; another kind's do
         not make the chart)."""
         tip = self.particle_tip
         names = ("mu", "surface_energy", *AXIS_VALUES, "map_fidelity", "map_periods")
         return {**{k: getattr(self, k) for k in names},
+                "rolling": self.rolling_owner.rolling,
                 **{k: getattr(self.device, k) for k in PRESET_DEVICE},
                 **{k: self.device.material(k) for k in ("substrate", "particle")},
                 **{k: getattr(tip, k) for k in ("tip", *tip.sizes())}}
@@ -532,7 +575,7 @@ class DesignPanel(pn.viewable.Viewer,
         """The typed fields' messages: the panel's, and its tip's of the
         kind chosen (a hidden kind's size does not make the device)."""
         tips = [f for f in self.tip_fields.values() if f.name_ in self.particle_tip.sizes()]
-        return [f.error for f in [*self.fields.values(), *tips] if f.error]
+        return [f.error for f in [*self.fields.values(), *tips, self.rolling_view] if f.error]
 
     # ---------- drawing ----------
     def _say(self, text):
@@ -611,6 +654,10 @@ class DesignPanel(pn.viewable.Viewer,
                        f"particle's tip, {tip_shape(values).name}, runs the normalized "
                        f"profile `{need.profile}` (another contact law N\\*(a\\*), "
                        f"docs/MODEL.md section 10), so its chart reads a map of that profile")
+        if need.rolling != ROLLING_NONE:    # (and why a rolling particle's needs its own)
+            named = need.rolling if isinstance(need.rolling, str) else f"{need.rolling:g}"
+            rolling = ROLLING_CHART_NOTE.format(rolling=named)
+            reasons = rolling if need.profile == "sphere" else f"{reasons}; {rolling}"
         head = f"**No shipped map serves this chart:** {reasons}."
         request, why = map_request(need, fidelity=values["map_fidelity"],
                                    periods=values["map_periods"])
@@ -777,7 +824,8 @@ class DesignPanel(pn.viewable.Viewer,
 
     def _show_device(self, device, reading, q, warnings):
         self.marked, self.reading, self.quantities, self.warnings = device, reading, q, warnings
-        self.info.object = device_text(device, reading, q, warnings)
+        self.info.object = device_text(device, reading, q, warnings,
+                                       (self._drawn_values or {}).get("rolling", ROLLING_NONE))
         if self._marker is not None and self.chart is not None:
             xq, yq = self.chart.attrs["x"], self.chart.attrs["y"]
             keys = list(self._marker.data)
@@ -914,13 +962,16 @@ class DesignPanel(pn.viewable.Viewer,
         head = pn.pane.Markdown("**The device** (the Units tab's too; marked on the chart; a "
                                 "click moves it and runs its scene)", margin=(0, 10))
         tip = row(self.tip_kind, *self.tip_boxes)
+        body = pn.Column(self.rolling_view, self.hollow_note, margin=0,
+                         sizing_mode="stretch_width")
         if self.state is not None:
-            return [head, row(*device_form(self.device, width=150)), tip,
+            return [head, row(*device_form(self.device, width=150)), tip, body,
                     row(f["mu"], f["surface_energy"])]
         return [row(select(self.device.param.substrate, label="substrate"),
                     select(self.device.param.particle, label="particle"), f["preload"], f["mu"],
                     f["surface_energy"]),
-                self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"]), tip]
+                self.custom_row, head, row(f["frequency"], f["radius"], f["amplitude"]), tip,
+                body]
 
     def __panel__(self):
         if self._layout is None:
@@ -947,7 +998,8 @@ class DesignPanel(pn.viewable.Viewer,
                 # the device's table beside the chart where both fit, else below it
                 pn.FlexBox(pn.Column(self.chart_pane, styles={"flex": "2 1 560px",
                                                               "min-width": "0"}),
-                           pn.Column(self.info, styles={"flex": "1 1 260px", "min-width": "0"}),
+                           pn.Column(self.info, self.run_note,
+                                     styles={"flex": "1 1 260px", "min-width": "0"}),
                            flex_wrap="wrap", align_items="flex-start",
                            sizing_mode="stretch_width"),
                 self.downloads,
@@ -955,5 +1007,7 @@ class DesignPanel(pn.viewable.Viewer,
         return self._layout
 
 
+# whether the particle rolls, for a Design tab alone (the explorer's is its state)
+DesignRolling = limited(Scene, SCENE_LIMITS, ("rolling",), name="DesignRolling")
 # the chart's axes: each one's quantity and range (a preset sets them)
 AXIS_VALUES = tuple(k for k in DesignPanel.param if k.split("_")[0] in ("x", "y"))

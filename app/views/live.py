@@ -229,6 +229,10 @@ class _Block:
         bands = [f"{c}_{e}" for c in self.variables for e in ("lo", "hi")] if bins else []
         self.source = ColumnDataSource({c: [] for c in ["time", *self.variables, *bands]})
         self.figures, self.panels = [], []
+        self.shared = shared
+        # a rolling particle's rotation (plots.ROLLING_PANEL): its figure
+        # built at the first run that rolls, shown for those only
+        self.rolling_figure = self.rolling_source = None
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
@@ -260,6 +264,40 @@ class _Block:
                               self.timeline], sizing_mode="stretch_width")
         self.rigid = None
         self.configure(False)
+
+    def _build_rolling(self):
+        """The rotation's figure (plots.ROLLING_PANEL), placed under the
+        line panels."""
+        title, ylabel, lines = plots.ROLLING_PANEL
+        bins = bool(self.bins)
+        fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range,
+                      LINE_HEIGHT, self.shared, time_axis=False)
+        cols = [c for c, _, _ in lines]
+        bands = [f"{c}_{e}" for c in cols for e in ("lo", "hi")] if bins else []
+        self.rolling_source = ColumnDataSource({c: [] for c in ["time", *cols, *bands]})
+        _lines(fig, [self.rolling_source] * len(lines), [(*line, None) for line in lines],
+               self.shared, envelope=bins)
+        self.rolling_figure = fig
+        children = list(self.layout.children)
+        children.insert(len(self.figures), fig)
+        self.layout.children = children
+
+    def _show_rolling(self, ds, t):
+        """The rotation's panel of a run that rolls (built at the first);
+        hidden for one that does not.  t: the samples' times as drawn."""
+        rolls = plots.rolls(ds)
+        if rolls and self.rolling_figure is None:
+            self._build_rolling()
+        if self.rolling_figure is None:
+            return
+        self.rolling_figure.visible = rolls
+        if not rolls:
+            return
+        raw = {c: ds[c].values for c in plots.ROLLING_VARIABLES}
+        self.rolling_source.data = (plots.binned(t, raw, self.bins) if self.bins
+                                    else {"time": t, **raw})
+        lo, hi = _extent(list(raw.values()))
+        self.rolling_figure.y_range.update(start=lo, end=hi)
 
     @staticmethod
     def _specs(specs, relative):
@@ -293,6 +331,7 @@ class _Block:
                                                     period_seconds)
         data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         self.source.data = data
+        self._show_rolling(ds, t)
         self.x_range.update(start=float(t[0]), end=float(t[-1]))
         for panel in self.panels:
             lo, hi = _extent([raw[c] for c in panel.columns if c not in panel.right])

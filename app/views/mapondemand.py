@@ -12,6 +12,7 @@ import time
 import panel as pn
 
 from vibtrans.core.errors import Cancelled
+from vibtrans.core.params import ROLLING_NONE, inertia_ratio
 from vibtrans.maps import accuracy as mapaccuracy
 from vibtrans.maps.difference import describe
 from vibtrans_explorer.server import data, mapjobs
@@ -60,14 +61,15 @@ class MapOnDemand:
         self.refine_button = None
         self.refine_box = pn.Column(visible=False, sizing_mode="stretch_width", margin=0)
         # over the map: the map shown is not of the particle selected (the
-        # shipped maps are the sphere's); its button made at first use
+        # shipped maps are of a sphere that does not roll); its button made
+        # at first use
         self.profile_note = pn.pane.Alert("", alert_type="warning", margin=0,
                                           sizing_mode="stretch_width",
                                           css_classes=["vt-map-profile"])
         self.profile_button = None
         self.profile_box = pn.Column(self.profile_note, visible=False, margin=(0, 10),
                                      sizing_mode="stretch_width")
-        state.param.watch(self.on_profile, ["profile", "model"])
+        state.param.watch(self.on_profile, ["profile", "model", "rolling"])
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
@@ -90,8 +92,8 @@ class MapOnDemand:
 
     def shipped_request(self, window=None):
         """A request with the shipped map's values (its stored scene) and
-        the selected particle's profile, over `window` (the selected scene's
-        neighbourhood if None)."""
+        the selected particle (its profile, whether it rolls), over
+        `window` (the selected scene's neighbourhood if None)."""
         s = self.state
         try:
             attrs = data.drift_map(s.model, s.mu).attrs
@@ -106,7 +108,8 @@ class MapOnDemand:
                                                                  round(lm + 0.5, 3)))
         (a0, a1), (m0, m1) = window
         request = maprequest.MapRequest(model=s.model, mu=s.mu, cells=REFINE_CELLS,
-                                        levels=REFINE_LEVELS, profile=s.profile)
+                                        levels=REFINE_LEVELS, profile=s.profile,
+                                        rolling=s.rolling)
         values = {**scene, "la_from": a0, "la_to": a1, "lm_from": m0, "lm_to": m1}
         for name, value in values.items():     # out of the request's ranges: its default
             try:
@@ -314,7 +317,8 @@ class MapOnDemand:
         """Render the map off the event loop, then show it."""
         s = self.state
         title = (f"map on demand: {request.model}, mu = {request.mu:g}, stop: {request.stop}"
-                 + (f", profile {request.profile}" if request.profiled() else ""))
+                 + (f", profile {request.profile}" if request.profiled() else "")
+                 + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else ""))
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
             fig = await asyncio.get_running_loop().run_in_executor(
@@ -346,7 +350,8 @@ class MapOnDemand:
             pn.state.execute(functools.partial(self._draw_map, *self._map_shown))
 
     def _on_computed_click(self, request, la, lm):
-        """A click on the map on demand: the scene there, with the map's values."""
+        """A click on the map on demand: the scene there, with the map's
+        values (its particle's profile and rolling among them)."""
         values = request.scene_values()
         if request.model != "point-mass":
             values["profile"] = request.profile       # the map's particle (a sphere's too)
@@ -373,43 +378,64 @@ class MapOnDemand:
             self.answered()
 
 
-    # ---------- the particle's profile ----------
+    # ---------- the particle: its profile, whether it rolls ----------
     def shown_profile(self):
         """The profile of the map shown: the map on demand's, else the
         shipped maps' (the sphere's)."""
+        return self.shown_particle()[0]
+
+    def shown_particle(self):
+        """(profile, rolling) of the map shown: the map on demand's, else
+        the shipped maps' (a sphere that does not roll)."""
         if self._map_shown is not None and self.map_view is not None \
                 and self.map_view.computed is not None:
-            return self._map_shown[0].profile
-        return SPHERE
+            request = self._map_shown[0]
+            return request.profile, request.rolling
+        return SPHERE, ROLLING_NONE
 
     def on_profile(self, *events):
         """Say over the map when it is not of the particle selected: the
-        shipped maps are the sphere's, so a cone's scene is never shown on
-        them as if they were its own; a button asks for its map on demand.
-        The material point is rigid: any map of it is its own."""
+        shipped maps are of a sphere that does not roll, so a cone's scene,
+        or a rolling sphere's, is never shown on them as if they were its
+        own; a button asks for its map on demand.  The material point is
+        rigid and has no size: any map of it is its own."""
         s = self.state
-        shown = self.shown_profile()
-        same = (s.model == "point-mass" or s.profile == shown
-                or (is_sphere(s.profile) and is_sphere(shown)))
-        if not same:
-            where = "the shipped maps are" if shown == SPHERE else "this map on demand is"
-            self.profile_note.object = (
-                f"**This map is the {_particle(shown)}'s** ({where}), not the selected "
+        profile, rolling = self.shown_particle()
+        point = s.model == "point-mass"
+        same_profile = (point or s.profile == profile
+                        or (is_sphere(s.profile) and is_sphere(profile)))
+        same_rolling = point or inertia_ratio(s.rolling) == inertia_ratio(rolling)
+        shipped = self.map_view is None or self.map_view.computed is None
+        where = "the shipped maps are" if shipped else "this map on demand is"
+        notes, wanted = [], []
+        if not same_profile:
+            notes.append(
+                f"**This map is the {_particle(profile)}'s** ({where}), not the selected "
                 f"{_particle(s.profile)}'s: its colours do not say what the "
                 f"{_particle(s.profile)} does. A click on it runs the {_particle(s.profile)} "
                 f"there. Request a map on demand for {s.profile} to see its own.")
+            wanted.append(s.profile)
+        if not same_rolling:
+            notes.append(
+                f"**This map is of a {rolling_phrase(rolling)}** ({where}), not of the selected "
+                f"{rolling_phrase(s.rolling)}: its colours do not say where that particle "
+                f"drifts. A click on it runs the selected particle there, rolling. Request a "
+                f"map on demand for rolling {_rolling_name(s.rolling)} to see its own.")
+            wanted.append(f"rolling {_rolling_name(s.rolling)}")
+        if notes:
+            self.profile_note.object = "\n\n".join(notes)
             if self.profile_button is None:
                 self.profile_button = pn.widgets.Button(
                     label="", color="primary", css_classes=["vt-map-profile-request"])
                 self.profile_button.on_click(lambda event: self.request_for_profile())
                 self.profile_box.append(self.profile_button)
-            self.profile_button.label = f"Map on demand for {s.profile}"
-        self.profile_box.visible = not same
+            self.profile_button.label = f"Map on demand for {', '.join(wanted)}"
+        self.profile_box.visible = bool(notes)
 
     def request_for_profile(self):
         """Fill the request with the shipped map's values, the selected
-        profile and the selected scene's neighbourhood, and show it (its
-        estimate beside it) for the user to compute."""
+        particle (profile, rolling) and the selected scene's neighbourhood,
+        and show it (its estimate beside it) for the user to compute."""
         panel = self.request_panel()
         panel.set_values(**self.shipped_request().values())
         if getattr(self, "map_tabs", None) is not None:
@@ -419,3 +445,19 @@ class MapOnDemand:
 def _particle(profile):
     """A profile in words: "sphere", "cone", "power:3 tip", "flat-sphere:0.5 tip"."""
     return "sphere" if is_sphere(profile) else profile if profile == "cone" else f"{profile} tip"
+
+
+def _rolling_name(rolling):
+    return rolling if isinstance(rolling, str) else f"{rolling:g}"
+
+
+def rolling_phrase(rolling):
+    """Whether a particle rolls, in words: "particle that does not roll",
+    "solid sphere that rolls (j = 2/5)", "particle that rolls with j = 0.5"."""
+    if rolling == ROLLING_NONE:
+        return "particle that does not roll"
+    if rolling == "solid":
+        return "solid sphere that rolls (j = 2/5)"
+    if rolling == "shell":
+        return "thin shell that rolls (j = 2/3)"
+    return f"particle that rolls with j = {_rolling_name(rolling)}"

@@ -6,7 +6,7 @@ import panel as pn
 
 from vibtrans_explorer.session.maprequest import FIELDS, MapRequest
 from vibtrans_explorer.views import inputs
-from vibtrans_explorer.views.profile import ProfileView
+from vibtrans_explorer.views.profile import ProfileView, RollingView
 
 INTRO = ("**A drift map of your own**: any model, friction, material, ramp, run length "
          "and fidelity, over any window of the (log10 A\\*, log10 m\\*) plane, even beyond "
@@ -49,6 +49,8 @@ class MapRequestPanel(pn.viewable.Viewer):
                                  visible=r.model == "point-mass")
         # the particle's profile (a view of the request's; the material point is rigid)
         self.profile = ProfileView(r, drawing=False, width=290)
+        # and whether it rolls (the shipped maps' particle does not)
+        self.rolling = RollingView(r, width=290)
         r.param.watch(lambda e: setattr(self.point_mass, "visible", e.new == "point-mass"),
                       "model")
         self.zoom_button = pn.widgets.Button(label="Use the map's current zoom",
@@ -73,6 +75,7 @@ class MapRequestPanel(pn.viewable.Viewer):
             pn.Row(number["tau"], number["periods"], select["fidelity"], select["integrator"]),
             self.point_mass,
             self.profile,
+            self.rolling,
             pn.Row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
             self.zoom_button,
             pn.Row(number["cells"], number["levels"], select["stop"]),
@@ -85,7 +88,7 @@ class MapRequestPanel(pn.viewable.Viewer):
 
     def errors(self):
         """The fields' messages (a field whose text is not a valid value)."""
-        return [f.error for f in [*self.fields, self.profile] if f.error]
+        return [f.error for f in [*self.fields, self.profile, self.rolling] if f.error]
 
     def set_values(self, **values):
         self.request.param.update(**values)

@@ -249,3 +249,189 @@ class ProfileView(pn.viewable.Viewer):
 
     def __panel__(self):
         return self._layout
+
+
+# ---------------------------------------------------------------- rolling
+# How the particle turns (docs/MODEL.md section 11): the selector's labels
+# -> the owner's `rolling`; "j" takes the number typed in its field
+ROLLINGS = {"no: it slides (the paper's)": "none",
+            "solid sphere (j = 2/5)": "solid",
+            "thin shell (j = 2/3)": "shell",
+            "another j = I/(m R^2)": "j"}
+J_LABEL = "j = I/(m R^2), in (0, 1]"
+J_START = "0.5"
+ROLLING_POINT_NOTE = ("*A material point has no size, so it does not roll: the selector "
+                      "applies to the deformable particle.*")
+
+
+def rolling_label(value, options=ROLLINGS):
+    """The selector's label of a rolling value among `options` (a number:
+    "another j")."""
+    labels = {v: k for k, v in options.items()}
+    return labels.get(value, labels["j"])
+
+
+def rolling_text(value):
+    """A rolling value as its field shows it (a number j), or None for a name."""
+    return None if isinstance(value, str) else f"{value:g}"
+
+
+class RollingView(pn.viewable.Viewer):
+    """The rolling selector of `owner.rolling` (the explorer's state, or a
+    map request's): does not roll, a solid sphere, a thin shell, or a typed
+    j.  A view, never a copy: a change of the owner's rolling from
+    elsewhere (a link, a click on a map on demand) rewrites it.  A typed j
+    that is not valid stays in its field with the library's message under
+    it (the owner keeps its last valid value; an owner with `set_invalid`,
+    the state, records it: a run refuses meanwhile).  With the material
+    point (`owner.model`) the selector is disabled, with a note: the owner
+    then does not roll (ExplorerScene), and the deformable particle's
+    choice comes back with it.  options: {label: value} ("j": the typed
+    number), ROLLINGS by default."""
+
+    def __init__(self, owner, width=None, options=ROLLINGS, label="particle rolls?", **params):
+        super().__init__(**params)
+        self.owner = owner
+        self.options = dict(options)
+        self.error = ""
+        self._width = {} if width is None else {"width": width}
+        self._text = rolling_text(owner.rolling) or J_START
+        self._remembered = None         # the deformable particle's choice, the point mass shown
+        self._applying = self._echoing = False
+        self.kind = pn.widgets.Select(label=label, options=list(self.options),
+                                      value=self._label(owner.rolling),
+                                      css_classes=["vt-rolling"], **self._width)
+        # the number's field and the notes: made at their first use
+        self._parts = {}
+        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width",
+                                 name="rolling")
+        self.kind.param.watch(self._chosen, "value")
+        owner.param.watch(self._moved, "rolling")
+        if "model" in owner.param:
+            owner.param.watch(self._on_model, "model")
+        if self._kind() == "j":
+            self._part("number")
+        self._on_model()
+
+    def _kind(self):
+        return self.options[self.kind.value]
+
+    def _label(self, value):
+        return rolling_label(value, self.options)
+
+    PARTS = ("number", "note", "point")
+    number = property(lambda self: self._part("number"), doc="j's field (a TextInput)")
+    note = property(lambda self: self._part("note"), doc="the message under it")
+    point = property(lambda self: self._part("point"), doc="the material point's note")
+
+    def _part(self, name):
+        if name not in self._parts:
+            self._parts[name] = getattr(self, f"_make_{name}")()
+            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS
+                                                 if n in self._parts)]
+        return self._parts[name]
+
+    def _make_number(self):
+        number = pn.widgets.TextInput(label=J_LABEL, value=self._text,
+                                      visible=self._kind() == "j",
+                                      css_classes=["vt-rolling-j"], **self._width)
+        number.param.watch(self._chosen, "value")
+        return number
+
+    def _make_note(self):
+        return pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
+                                css_classes=["vt-error-rolling"], margin=(0, 10), **self._width)
+
+    def _make_point(self):
+        return pn.pane.Markdown(ROLLING_POINT_NOTE, visible=False, margin=(0, 10),
+                                css_classes=["vt-rolling-point"], **self._width)
+
+    def _point_mass(self):
+        return getattr(self.owner, "model", "deformable") != "deformable"
+
+    # ---------- widgets -> owner ----------
+    def value(self):
+        """The rolling value the widgets say, or ValueError naming what is
+        wrong (the library's message: the parameter and its range)."""
+        kind = self._kind()
+        if kind != "j":
+            return kind
+        text = (self.number.value or "").strip()
+        if not text:
+            raise ValueError(f"{J_LABEL}: the field is empty")
+        if len(text) > urlstate.MAX_LENGTH:
+            raise ValueError(f"{J_LABEL}: too long")
+        return self.owner.param["rolling"].check_text(text)
+
+    def _chosen(self, event):
+        if self._echoing:
+            return
+        if event.obj is self.kind:
+            self._show_number()
+        else:
+            self._text = self.number.value
+        try:
+            value = self.value()
+        except ValueError as exc:
+            self._say(urlstate.shown(str(exc), urlstate.REASON))
+            return
+        self._say("")
+        self._applying = True
+        try:
+            self.owner.rolling = value
+        finally:
+            self._applying = False
+
+    def _show_number(self):
+        shown = self._kind() == "j"
+        if shown or "number" in self._parts:
+            self._echoing = True
+            try:
+                self.number.param.update(visible=shown, value=self._text)
+            finally:
+                self._echoing = False
+
+    def _say(self, text):
+        self.error = text
+        if text or "note" in self._parts:
+            self.note.param.update(object=text, visible=bool(text))
+        record = getattr(self.owner, "set_invalid", None)
+        if record is not None:
+            record("rolling", text)
+
+    # ---------- owner -> widgets ----------
+    def _moved(self, event):
+        if self._point_mass() and event.new == "none" and event.old != "none":
+            self._remembered = event.old        # (the point mass's: ExplorerScene)
+        if self._applying:
+            return
+        if rolling_text(event.new) is not None:
+            self._text = rolling_text(event.new)
+        self._echoing = True
+        try:
+            self.kind.value = self._label(event.new)
+        finally:
+            self._echoing = False
+        self._show_number()
+        self._say("")
+
+    def _on_model(self, *events):
+        point = self._point_mass()
+        self.kind.disabled = point
+        if point or "point" in self._parts:
+            self.point.visible = point
+        if point and self.error:           # (a typed j: not the point's)
+            self._echoing = True
+            try:
+                self.kind.value = self._label(self.owner.rolling)
+            finally:
+                self._echoing = False
+            self._show_number()
+            self._say("")
+        if not point and self._remembered is not None:
+            remembered, self._remembered = self._remembered, None
+            if self.owner.rolling == "none":
+                self.owner.rolling = remembered
+
+    def __panel__(self):
+        return self._layout

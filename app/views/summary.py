@@ -10,7 +10,7 @@ from vibtrans_explorer.session.controller import CANCELLED, TWIN_LABEL
 from vibtrans_explorer.session.state import MAP_MATERIAL, SPHERE
 
 SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
-                "chaos verdict", "take-offs", "contact fraction (final 10%)", "cost",
+                "chaos verdict", "take-offs", "contact fraction (final 10%)", "rolls?", "cost",
                 "in SI units"]
 # the summary before the first run: the same lines (so the page keeps its layout)
 PLACEHOLDER_SUMMARY = "\n".join(
@@ -72,12 +72,24 @@ def run_cost(scene, s):
     return text
 
 
+def rolls_words(s):
+    """Whether the run's particle rolls (the library's Summary.rolling), and
+    the largest rolled arc within one contact episode (docs/MODEL.md
+    section 11)."""
+    if s.rolling == "none":
+        return ("no: a material point has no size" if s.model == "point-mass" else
+                "no: it slides without turning (the paper's particle)")
+    arc = ("" if s.max_episode_roll is None else
+           f"; largest rolled arc within one contact {s.max_episode_roll:.3g} a0")
+    return f"yes: {s.rolling}{arc}"
+
+
 def _summary_column(scene, s, chaos, si):
     """One model's values, in the order of SUMMARY_ROWS."""
     return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.steadiness,
             s.regime, chaos,
             f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
-            f"{s.contact_fraction:.3f}", run_cost(scene, s), si or "-"]
+            f"{s.contact_fraction:.3f}", rolls_words(s), run_cost(scene, s), si or "-"]
 
 
 def profile_words(scene):
@@ -89,6 +101,16 @@ def profile_words(scene):
     if scene.model == "point-mass":
         return f", profile {scene.profile} (not used: the material point is rigid)"
     return f", profile {scene.profile}"
+
+
+def rolling_heading(scene):
+    """The run title's words on the particle's rolling: none where it does
+    not roll."""
+    if scene.rolling == "none":
+        return ""
+    j = scene.inertia_ratio
+    name = {"solid": "a solid sphere", "shell": "a thin shell"}.get(scene.rolling, "j")
+    return f", rolling ({name}, j = {j:.4g})" if name != "j" else f", rolling (j = {j:.4g})"
 
 
 def summary_table(scene, s, chaos, si, other, twin):
@@ -109,7 +131,7 @@ def summary_table(scene, s, chaos, si, other, twin):
                 f"{MAP_MATERIAL['theta']:g}, {MAP_MATERIAL['nu']:g})")
     return "\n".join([
         f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
-        f"mu = {scene.mu:g}{material}{profile_words(scene)}**", "",
+        f"mu = {scene.mu:g}{material}{profile_words(scene)}{rolling_heading(scene)}**", "",
         "| quantity | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|",
     ] + rows)
 

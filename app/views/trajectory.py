@@ -63,6 +63,10 @@ class TrajectoryView:
         if result.label is not None and view.label != result.label:
             view.relabel(scene.tau, result.label)
         view.show(result.ds, result.other, period_seconds, rigid=scene.model == "point-mass")
+        if self.font_scale != 1.0:      # (a rolling run's panel, built at its first run)
+            for block in (view.over, view.last):
+                if block.rolling_figure is not None:
+                    scale_fonts(block.rolling_figure, self.font_scale)
         for k, v in self.views.items():
             v.panel.visible = k == key
 

@@ -1,6 +1,7 @@
 """The Units tab: a device in SI units -> its (A*, m*) (a marker on the
 map), a0, c_R, and the run's drift and time in SI units when the scene run
-is that device."""
+is that device; for a run of it that rolls, whether its contact patch stayed
+put (`rolling_note`: the library's design.rolling_warning)."""
 import functools
 import math
 
@@ -46,6 +47,9 @@ class UnitsPanel(pn.viewable.Viewer):
         self.info = pn.pane.Markdown(sizing_mode="stretch_width", name="units-info")
         self.warnings = pn.pane.Markdown("", sizing_mode="stretch_width",
                                          css_classes=["vt-units-warnings"])
+        # the last run of the device, if it rolled: its contact patch's check
+        self.run_note = pn.pane.Markdown("", sizing_mode="stretch_width",
+                                         css_classes=["vt-units-rolling"])
         state.param.watch(self._update, list(DEVICE_FIELDS))
         self._update()
 
@@ -121,6 +125,34 @@ class UnitsPanel(pn.viewable.Viewer):
         return (f"{v:.3e} m/s; the run, {scene.periods:g} periods, "
                 f"lasts {run} ({name})")
 
+    def rolling_note(self, result):
+        """A run that rolls, of the device: its largest rolled arc within
+        one contact (the run's max_episode_roll, in a0, times the device's
+        a0) against the device's contact radius (design.rolling_warning:
+        a warning at or above design.ROLL_CONTACT_FRACTION of it), as
+        Markdown; "" for a run that does not roll or is no device's."""
+        roll = result.summary.max_episode_roll
+        if roll is None or self.device_of(result.scene) is None:
+            return ""
+        try:
+            a0 = self.state.device_tip()[2]
+            radius = design.device_quantities(self.state.device_spec(),
+                                              shape=self.state.tip_shape()).contact_radius
+            warning = design.rolling_warning(roll, a0, radius)
+        except (ValueError, TypeError) as exc:
+            return f"*The run's rolled arc could not be checked: {exc}*"
+        if warning is not None:
+            return f"**Warning (the run):** {warning.message}"
+        return (f"*The run's particle rolled at most {roll:.3g} a0 = {roll * a0:.3g} m within "
+                f"one contact, {roll * a0 / radius:.2g} of the contact radius {radius:.3g} m "
+                f"(below {design.ROLL_CONTACT_FRACTION:g}): its contact patch stayed put, as "
+                f"the model assumes.*")
+
+    def show_run(self, result):
+        """A run shown: its rolling note (`rolling_note`) in the tab; returned."""
+        self.run_note.object = self.rolling_note(result)
+        return self.run_note.object
+
     def period_seconds(self, scene):
         """The wave period in seconds if `scene` is a device's, else None."""
         n = self.device_of(scene)
@@ -132,7 +164,7 @@ class UnitsPanel(pn.viewable.Viewer):
         go.on_click(lambda event: self.on_run())
         self.form = device_form(self.state, width=260)
         return pn.Column(pn.pane.Markdown("### Device in SI units (the Design tab's too)"),
-                         *self.form, go, self.warnings, self.info)
+                         *self.form, go, self.warnings, self.run_note, self.info)
 
 
 DEVICE_LABELS = {"radius": "particle radius (m)", "frequency": "frequency (Hz)",

@@ -253,7 +253,10 @@ def run_guess(scene: Scene, periods: float | None = None) -> tuple[float, float]
     """
     from vibtrans.core.simulate import simulate
     periods = float(math.ceil(periods or scene.periods))
-    ds = simulate(scene.replace(model="vertical", periods=periods), samples_per_period=1)
+    # (the vertical motion is the same whether the particle rolls or not:
+    # docs/MODEL.md section 11; the vertical model takes no rolling)
+    ds = simulate(scene.replace(model="vertical", rolling="none", periods=periods),
+                  samples_per_period=1)
     return float(ds["y"].values[-1]), float(ds["vy"].values[-1])
 
 
@@ -393,7 +396,8 @@ def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: floa
     if not (isinstance(final_periods, (int, float)) and 1 <= final_periods <= scene.periods):
         raise InputError(f"final_periods must be in [1, {scene.periods:g}], "
                          f"got {final_periods!r}")
-    base = scene.replace(model="vertical", periods=float(math.ceil(scene.periods)))
+    base = scene.replace(model="vertical", rolling="none",
+                         periods=float(math.ceil(scene.periods)))
     t0 = base.periods - final_periods
     pv, ph, sv, sy = [], [], [], []
     for n, v in enumerate(values):

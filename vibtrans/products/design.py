@@ -57,6 +57,11 @@ ADHESION_RATIO = 0.1              # pull-off "comparable to" the load: a tenth o
 # The model drops k_R x (docs/MODEL.md 1): warn from a hundredth of a
 # wavelength per period (a phase slip of 0.063 rad).
 TRAVEL_FRACTION = 0.01
+# A particle that rolls carries its contact patch over its surface by the
+# rolled arc; the memory diagram is a fixed bed of springs (docs/MODEL.md
+# section 11): warn where one contact episode rolls a tenth of the contact
+# radius or more (about 6% of the contact's area then fresh, at its edge).
+ROLL_CONTACT_FRACTION = 0.1
 # Pull-off of a sphere on a flat: JKR 1.5 pi w R, DMT 2 pi w R (the larger: it warns first).
 JKR_FACTOR = 1.5 * math.pi
 DMT_FACTOR = 2.0 * math.pi
@@ -367,6 +372,52 @@ def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERG
                    f"model neglects k_R x, valid only well below {TRAVEL_FRACTION:g}")
             out.append(ValidityWarning("travel", msg, travel, TRAVEL_FRACTION))
     return out
+
+
+def rolling_warning(max_episode_roll: float | None, a0: float,
+                    contact_radius: float) -> ValidityWarning | None:
+    """The fixed contact patch of a run that rolls (docs/MODEL.md section 11).
+
+    Parameters
+    ----------
+    max_episode_roll : float or None
+        The run's largest rolled arc within one contact episode, in a0 (its
+        attribute `max_episode_roll`, `Summary.max_episode_roll`); None: the
+        particle does not roll.
+    a0 : float
+        The device's static compression [m].
+    contact_radius : float
+        Its static contact radius [m] (sqrt(R a0) for the sphere; a tip's own).
+
+    Returns
+    -------
+    ValidityWarning or None
+        'rolling-patch' where max_episode_roll a0 is at least
+        ROLL_CONTACT_FRACTION of the contact radius: the patch has moved over
+        the particle's surface, onto material the memory diagram does not
+        hold; None where it stays small (or the particle does not roll).
+
+    Raises
+    ------
+    InputError
+        If a value is not a finite number (a0 and the radius positive).
+    """
+    if max_episode_roll is None:
+        return None
+    roll = units.check_interval("max_episode_roll", max_episode_roll, 0.0, math.inf,
+                                lo_open=False)
+    a0 = units.check_positive("a0", a0)
+    radius = units.check_positive("contact_radius", contact_radius)
+    share = roll * a0 / radius
+    if share < ROLL_CONTACT_FRACTION:
+        return None
+    return ValidityWarning(
+        "rolling-patch", f"the particle rolled {roll:.3g} a0 = {roll * a0:.3g} m within one "
+        f"contact, {share:.3g} of the contact radius {radius:.3g} m (at or above "
+        f"{ROLL_CONTACT_FRACTION:g}): the contact patch moved over the particle's surface "
+        f"onto material whose loading history the model does not hold (a fixed patch, "
+        f"docs/MODEL.md section 11); treat the tangential motion as qualitative",
+        share, ROLL_CONTACT_FRACTION)
 
 
 def chart_warnings(chart: xr.Dataset) -> list[Any]:

@@ -317,7 +317,7 @@ def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
     """
     fmt = output_format(out, FORMATS + ("html",))
     if height is None:
-        height = 13.0 if twin is not None else 11.0
+        height = (13.0 if twin is not None else 11.0) + (2.0 if plots.rolls(ds) else 0.0)
     figure = plots.trajectory_figure(ds, window=window, twin=twin, title=title)
     if fmt == "html":
         export_html(trajectory_bokeh(figure), out, title=figure.title)

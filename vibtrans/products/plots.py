@@ -445,9 +445,23 @@ def state_bands(ds: xr.Dataset,
     return t0[keep], t1[keep], vals[keep]
 
 
-def panel_spec(rigid: Any,
-               split_velocity: bool = False) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
-    """The line panels: [(title, y label, [(variable, legend label, colour)])]."""
+# A rolling particle's rotation (docs/MODEL.md section 11), drawn only for a
+# run that rolls: omega R* and the contact point's slip, a0 per period
+ROLLING_VARIABLES = ("roll_velocity", "slip_velocity")
+ROLLING_PANEL = ("rotation: omega R*(t), contact slip", "omega R*, slip (a0/period)",
+                 [("roll_velocity", "omega R*", "#17becf"),
+                  ("slip_velocity", "contact slip", "#bcbd22")])
+
+
+def rolls(ds: Any) -> bool:
+    """Does the run's particle roll (its Dataset has `ROLLING_VARIABLES`)?"""
+    return all(v in ds.variables for v in ROLLING_VARIABLES)
+
+
+def panel_spec(rigid: Any, split_velocity: bool = False,
+               rolling: bool = False) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
+    """The line panels: [(title, y label, [(variable, legend label, colour)])];
+    rolling: the rotation's panel last (`ROLLING_PANEL`)."""
     forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
     if rigid:
         return [("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
@@ -458,10 +472,12 @@ def panel_spec(rigid: Any,
               ("tangential: b*(t), x*(t)", "b* (theta mu a0), x* (a0)",
                [("b", "b*", "#2ca02c"), ("x", "x*", "#d62728")])]
     if split_velocity:
-        return panels + [("forces: N*, T*", "N*, T*", forces),
-                         ("relative tangential velocity b*'", "b*' (theta mu a0/period)",
-                          [("bdot", "b*'", "#7f7f7f")])]
-    return panels + [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
+        panels += [("forces: N*, T*", "N*, T*", forces),
+                   ("relative tangential velocity b*'", "b*' (theta mu a0/period)",
+                    [("bdot", "b*'", "#7f7f7f")])]
+    else:
+        panels += [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
+    return panels + ([ROLLING_PANEL] if rolling else [])
 
 
 def timeline_title(bins: int | None = None) -> str:
@@ -530,7 +546,8 @@ def right_columns(columns: Any) -> list[Any] | list[str]:
 
 # units of the quantities (docs/MODEL.md; N*, T* are in units of the weight)
 AXIS_UNITS = {"a": "a0", "y": "a0", "x": "a0", "b": "theta mu a0",
-              "bdot": "theta mu a0/period"}
+              "bdot": "theta mu a0/period", "roll_velocity": "a0/period",
+              "slip_velocity": "a0/period"}
 
 
 def axis_labels(labels: Any, right: Any) -> tuple[str, str]:
@@ -628,7 +645,8 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
     """The trajectory figure: left the whole run (per-bin mean and min-max
     envelope over `bins` bins, state shares; None: every sample), right the
     fragment `window` (`fragment_window`) sample by sample.  Rows:
-    `panel_spec`, the state strip, and x*(t) of both runs with a `twin`."""
+    `panel_spec` (a particle that rolls: its rotation's panel too), the
+    state strip, and x*(t) of both runs with a `twin`."""
     t0, t1 = fragment_window(ds, window)
     t = ds["time"].values
     # (index slicing: a label-based sel builds a pandas hash index first)
@@ -639,7 +657,8 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
                              or bins < 1):
         raise InputError(f"bins must be a positive integer or None, got {bins!r}")
     frag = ds.isel(time=slice(i0, i1))
-    specs = panel_spec(ds.attrs.get("model") == "point-mass", split_velocity=True)
+    rigid = ds.attrs.get("model") == "point-mass"
+    specs = panel_spec(rigid, split_velocity=True, rolling=not rigid and rolls(ds))
     columns = []
     for part, part_bins, head in ((ds, bins, "whole run"), (frag, None, f"t* in [{t0:g}, {t1:g}]")):
         panels, data = _line_panels(part, specs, part_bins)
