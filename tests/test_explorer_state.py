@@ -486,8 +486,10 @@ def test_a_mu_without_a_shipped_map_is_shown_as_it_is(monkeypatch, no_logged_err
     mu_select = ex.scene_controls.mu_select
     assert ex.state.mu == 0.5 and mu_select.value == 0.5 and 0.5 in mu_select.options
     assert not ex.message.visible
-    assert "No usable drift map for deformable, mu = 0.5" in str(
-        ex.map_view.figures[0].title.text) or ex.map_view.figures[0] is not None
+    # the page says no shipped map has it, and offers its map on demand
+    assert ex.ondemand.profile_box.visible
+    assert "No shipped map has mu = 0.5" in ex.ondemand.profile_note.object
+    assert ex.ondemand.profile_button.label == "Map on demand for mu 0.5"
     job = ex.start_run()
     assert job.scene.mu == 0.5
     ex.scene_controls.mu_select.value = 0.1

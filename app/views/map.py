@@ -77,8 +77,7 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     try:
         ds = data.drift_map(model, mu)
     except data.MapUnavailable:    # the reason (with the file) is said at session start
-        return _unavailable(f"No usable drift map for {model}, mu = {mu:g}:\n"
-                            f"pick another model or mu; a click here runs nothing")
+        return _unavailable(f"No shipped map: {model}, mu = {mu:g}")   # (the note above says more)
     if layer == LYAPUNOV_LAYER:
         lyapunov = data.lyapunov_map(model)
         if lyapunov is None:

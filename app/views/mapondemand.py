@@ -69,7 +69,7 @@ class MapOnDemand:
         self.profile_button = None
         self.profile_box = pn.Column(self.profile_note, visible=False, margin=(0, 10),
                                      sizing_mode="stretch_width")
-        state.param.watch(self.on_profile, ["profile", "model", "rolling"])
+        state.param.watch(self.on_profile, ["profile", "model", "rolling", "mu"])
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
@@ -422,6 +422,14 @@ class MapOnDemand:
                 f"drifts. A click on it runs the selected particle there, rolling. Request a "
                 f"map on demand for rolling {_rolling_name(s.rolling)} to see its own.")
             wanted.append(f"rolling {_rolling_name(s.rolling)}")
+        shipped_mus = sorted(mu for model, mu in data.available_maps() if model == s.model)
+        if shipped and s.mu not in shipped_mus:
+            listed = ", ".join(f"{mu:g}" for mu in shipped_mus) or "none"
+            notes.append(
+                f"**No shipped map has mu = {s.mu:g}** (the {s.model} maps shipped: mu = "
+                f"{listed}). Pick one of those, or request a map on demand for mu = "
+                f"{s.mu:g}: it is computed here, with its progress shown.")
+            wanted.append(f"mu {s.mu:g}")
         if notes:
             self.profile_note.object = "\n\n".join(notes)
             if self.profile_button is None:
