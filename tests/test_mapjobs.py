@@ -642,3 +642,23 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     o._on_computed_click(MapRequest(**TINY), 0.0, 0.5)
     o._on_computed_click(MapRequest(**{**TINY, "profile": "flat-sphere:0.5"}), 0.0, 0.5)
     assert runs == ["sphere", "flat-sphere:0.5"]
+
+
+def test_a_map_on_demand_of_another_scene_says_how_it_differs(monkeypatch):
+    """A map on demand stays on screen while the form moves on: its note
+    names every value that differs (mu, not only the profile) and says when
+    the selected scene lies off the map."""
+    e = _explorer(monkeypatch, "la=1.5&lm=1&mu=0.1&profile=flat-sphere:0.5")
+    o = e.ondemand
+    request = MapRequest(mu=0.1, profile="flat-sphere:0.5", la_from=1.0, la_to=2.0,
+                         lm_from=0.5, lm_to=1.5)
+    monkeypatch.setattr(o, "_map_shown", (request, None))
+    monkeypatch.setattr(e.map_view, "computed", object())       # a map on demand is shown
+    o.on_profile()
+    assert not o.profile_box.visible                            # it is this scene's map
+    e.state.param.update(mu=0.3, profile="sphere", log_amplitude=1.7, log_mass=-2.0)
+    note = o.profile_note.object
+    assert o.profile_box.visible
+    assert "of another scene**: mu 0.1 (selected: 0.3)" in note
+    assert "flat" in note and "not the selected sphere's" in note
+    assert "lies off this map on demand" in note

@@ -69,7 +69,9 @@ class MapOnDemand:
         self.profile_button = None
         self.profile_box = pn.Column(self.profile_note, visible=False, margin=(0, 10),
                                      sizing_mode="stretch_width")
-        state.param.watch(self.on_profile, ["profile", "model", "rolling", "mu"])
+        state.param.watch(self.on_profile, ["profile", "model", "rolling", "mu", "theta", "nu",
+                                             "tau", "periods", "fidelity", "integrator",
+                                             "log_amplitude", "log_mass"])
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
@@ -422,6 +424,25 @@ class MapOnDemand:
                 f"drifts. A click on it runs the selected particle there, rolling. Request a "
                 f"map on demand for rolling {_rolling_name(s.rolling)} to see its own.")
             wanted.append(f"rolling {_rolling_name(s.rolling)}")
+        request = None if shipped or self._map_shown is None else self._map_shown[0]
+        if request is not None:
+            differs = [f"{name} {getattr(request, name):g} (selected: {getattr(s, name):g})"
+                       for name in ("mu", "theta", "nu", "tau", "periods")
+                       if getattr(request, name) != getattr(s, name)]
+            differs += [f"{name} {getattr(request, name)} (selected: {getattr(s, name)})"
+                        for name in ("model", "fidelity", "integrator")
+                        if getattr(request, name) != getattr(s, name)]
+            if differs:
+                notes.append(f"**This map on demand is of another scene**: {'; '.join(differs)}. "
+                             f"Its colours do not say what the selected scene does; "
+                             f"*Back to the shipped map* shows the shipped one.")
+            inside = (request.la_from <= s.log_amplitude <= request.la_to
+                      and request.lm_from <= s.log_mass <= request.lm_to)
+            if not inside:
+                notes.append(f"**The selected scene (log10 A\\* = {s.log_amplitude:.4g}, "
+                             f"log10 m\\* = {s.log_mass:.4g}) lies off this map on demand** "
+                             f"(log10 A\\* {request.la_from:g} to {request.la_to:g}, log10 m\\* "
+                             f"{request.lm_from:g} to {request.lm_to:g}).")
         shipped_mus = sorted(mu for model, mu in data.available_maps() if model == s.model)
         if shipped and s.mu not in shipped_mus:
             listed = ", ".join(f"{mu:g}" for mu in shipped_mus) or "none"
@@ -438,6 +459,7 @@ class MapOnDemand:
                 self.profile_button.on_click(lambda event: self.request_for_profile())
                 self.profile_box.append(self.profile_button)
             self.profile_button.label = f"Map on demand for {', '.join(wanted)}"
+            self.profile_button.visible = bool(wanted)
         self.profile_box.visible = bool(notes)
 
     def request_for_profile(self):
