@@ -17,7 +17,17 @@ import numpy as np
 from vibtrans.core.fidelity import CHAOS_LYAPUNOV, V0  # noqa: F401
 from vibtrans.core.kernels import records as R
 from vibtrans.core.kernels.contact import FLIGHT
-from vibtrans.core.stopping import ballistic_reach_time
+from vibtrans.core.stopping import (
+    DECIDED_FRACTION,
+    MIN_WINDOW,
+    STOP_RECURRENT,
+    STOP_REGULAR,
+    DecidedRule,
+    ballistic_reach_time,
+    replay,
+    stroboscope,
+    weighted_birkhoff,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -27,11 +37,6 @@ if TYPE_CHECKING:
 
 TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
 FINAL_FRACTION = 0.1     # the final window: last 10% of the run
-# A drift is steady when its mean velocity over the run's last tenth differs
-# from that over the tenth before by at most this fraction of the larger
-# (or by at most v0*, the "no drift" band): else the run is still
-# accelerating or decelerating, and its mean <v*> depends on its length.
-STEADY_TOLERANCE = 0.1
 SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
 SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
 LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
@@ -74,24 +79,76 @@ def final_drift_velocity(ds: xr.Dataset | RunArrays, fraction: float = FINAL_FRA
     return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
 
 
-def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0, fraction: float = FINAL_FRACTION,
-               tolerance: float = STEADY_TOLERANCE) -> tuple[bool, str]:
-    """(steady, words) of a run's drift: its mean velocity over the last
-    `fraction` of the run against that over the `fraction` before, in a0
-    per period; steady when they differ by at most `tolerance` of the
-    larger or by at most v0 (STEADY_TOLERANCE)."""
-    t, x = ds["time"].values, ds["x"].values
-    t2 = float(t[-1])
-    t1, t0 = t2 * (1.0 - fraction), t2 * (1.0 - 2.0 * fraction)
-    x0, x1 = np.interp([t0, t1], t, x)
-    v_before = float((x1 - x0) / (t1 - t0))
-    v_last = float((x[-1] - x1) / (t2 - t1))
-    if abs(v_last - v_before) <= max(v0, tolerance * max(abs(v_last), abs(v_before))):
-        return True, (f"steady: the drift over the last two tenths of the run, {v_before:.4g} "
-                      f"then {v_last:.4g}")
-    word = "accelerating" if abs(v_last) > abs(v_before) else "decelerating"
-    return False, (f"not steady: still {word} (drift {v_before:.4g}, then {v_last:.4g} over the "
-                   f"last two tenths of the run); the mean depends on the run's length")
+def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0,
+               chaotic: bool | None = None) -> tuple[bool | None, str]:
+    """Whether a run's drift is steady, by the `decided` stop's own test.
+
+    Steady when stopping.DecidedRule decides the drift: what the drift per
+    period has left to change moves x*(T)/T by less than DECIDED_FRACTION
+    of the fidelity's stated drift error, relative to |v*| (at least v0).
+    A run the rule stopped is what it said; a run to T_obs is checked by
+    the rule afterwards (stopping.replay).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset or RunArrays
+        A run, as `simulate` returns it.
+    v0 : float
+        The rule's floor of |v*|, a0 per period.
+    chaotic : bool, optional
+        The run's chaos verdict (`Summary.chaotic`); a chaotic run, or one
+        whose Lyapunov exponent exceeds CHAOS_LYAPUNOV, has no steady
+        drift, nor has a launched one.
+
+    Returns
+    -------
+    tuple
+        (steady, words): True, False, or None for a run too short for the
+        test; the verdict in words, with the test's tolerance.
+    """
+    attrs = ds.attrs
+    lyapunov, measured = lyapunov_verdict(ds)
+    if chaotic or measured or attrs.get("stop_reason") == "chaotic":
+        return False, f"chaotic: no steady drift ({chaos_words(lyapunov)})"
+    launch = launch_time(ds)
+    if launch is not None:
+        return False, (f"launched: no steady drift (in flight from t* = {launch:.4g} to the "
+                       "end; <v*> is mostly that flight's horizontal velocity)")
+    fidelity = str(attrs.get("fidelity", "standard"))
+    rule = DecidedRule(attrs["periods"], attrs.get("tau", 0.0), attrs["amplitude"],
+                       attrs["mass"], fidelity, v0=v0)
+    test = (f"by the decided stop's test: what the drift per period has left to change "
+            f"moves <v*> by less than {rule.tolerance:.2%} of |v*| (at least v0* = {v0:g}), "
+            f"{DECIDED_FRACTION:g} of the {fidelity} fidelity's stated drift error")
+    reason = attrs.get("stop_reason")
+    if reason in ("regular", "recurrent"):
+        return True, (f"steady: known from t* = {math.floor(attrs['periods_run'])} (drift per "
+                      f"period {float(attrs['asymptotic_drift_velocity']):.4g}), {test}")
+    t = ds["time"].values
+    samples = np.zeros((t.size, R.NCOL))
+    for column, name in ((R.T_, "time"), (R.X, "x"), (R.VX, "vx"), (R.Y, "y"), (R.VY, "vy"),
+                         (R.STATE, "state")):
+        samples[:, column] = ds[name].values
+    k_end = math.floor(float(t[-1]) + 1e-9)
+    third = (k_end - rule.t_settle) // 3
+    if third < MIN_WINDOW // 3:
+        return None, (f"not judged: the run is too short for the decided stop's test (after "
+                      f"the ramp, from t* = {rule.t_settle}, it needs {MIN_WINDOW} periods)")
+    if reason is None:          # a run to T_obs: the rule checks it now
+        events = np.column_stack([ds["event_time"].values, ds["event_kind"].values,
+                                  ds["event_value"].values])
+        replay(rule, samples, events)
+        if rule.reason in (STOP_REGULAR, STOP_RECURRENT):
+            return True, (f"steady: known from t* = {rule.t_strobe:.0f} (drift per period "
+                          f"{rule.rate:.4g}), {test}")
+    k0 = k_end - 3 * third
+    drift = np.diff(stroboscope(samples, np.arange(k0, k_end + 1, dtype=float)))
+    v1, v2, v3 = (weighted_birkhoff(drift[i * third:(i + 1) * third]) for i in range(3))
+    word = ("accelerating" if abs(v1) < abs(v2) < abs(v3) else
+            "decelerating" if abs(v1) > abs(v2) > abs(v3) else "changing")
+    return False, (f"not steady: still {word} (drift per period {v1:.4g}, {v2:.4g}, then "
+                   f"{v3:.4g} over three equal windows from t* = {k0} to {k_end}); "
+                   f"not decided {test}; the mean depends on the run's length")
 
 
 def flights(ds: xr.Dataset | RunArrays) -> tuple[np.ndarray, np.ndarray]:
@@ -395,13 +452,13 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
     tw = t_end * (1.0 - FINAL_FRACTION)
     v = drift_velocity(ds)
     v_final = final_drift_velocity(ds)
-    steady, steady_words = steadiness(ds, v0=v0)
     jumping = t_to.size > 0
     pattern = rebound_pattern(ds)
     twin_chaotic = None if twin is None else chaos_verdict(ds, twin, v0=v0)
     lyapunov, chaotic = lyapunov_verdict(ds)
     if chaotic is None:
         chaotic = twin_chaotic
+    steady, steady_words = steadiness(ds, v0=v0, chaotic=chaotic)
     if jumping and chaotic:
         pattern = "chaotic"
     launch = launch_time(ds)   # a launched run's take-offs are no rebound pattern

@@ -427,3 +427,43 @@ class DecidedRule:
                 "periods_run": self.t_stop,
                 "asymptotic_drift_velocity": None if math.isnan(self.rate) else self.rate,
                 "decided_drift_velocity": self.drift_velocity()}
+
+
+def replay(rule: DecidedRule, samples: Any, events: Any) -> DecidedRule:
+    """The `decided` rule checked on a finished run's records.
+
+    Checked at the times its checks come in a run (`DecidedRule.next_check`
+    from t = 0), each given the records up to its time and the flight then
+    in progress.  Left out: the Lyapunov exponent (the caller judges chaos)
+    and a flight's continuation to T_obs (a flight stop is a launch).
+
+    Parameters
+    ----------
+    rule : DecidedRule
+        A new rule for the run's scene (its T_obs, tau, A*, m*, fidelity).
+    samples : numpy.ndarray
+        float[n, records.NCOL], the run's samples (columns t, x, vx, y, vy
+        and state read).
+    events : numpy.ndarray
+        float[k, 3], the run's events (t, kind, value).
+
+    Returns
+    -------
+    DecidedRule
+        `rule`, saying where it stops the run (`reason` STOP_REGULAR or
+        STOP_RECURRENT, `t_strobe`, `rate`), else left at STOP_RAN_TO_END.
+    """
+    t = samples[:, R.T_]
+    t_events, kinds = events[:, 0], events[:, 1]
+    check = rule.next_check(0.0)
+    while check < rule.periods and check <= t[-1]:
+        n = int(np.searchsorted(t, check + 1e-9, side="right"))
+        k = int(np.searchsorted(t_events, check, side="right"))
+        took_off = np.flatnonzero(kinds[:k] == R.TAKEOFF)
+        landed = np.flatnonzero(kinds[:k] == R.LANDING)
+        flying = took_off.size and (landed.size == 0 or took_off[-1] > landed[-1])
+        since = float(t_events[took_off[-1]]) if flying else None
+        if rule(check, samples[:n], events[:k], since):
+            break
+        check = rule.next_check(check)
+    return rule
