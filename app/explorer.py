@@ -269,12 +269,16 @@ class Explorer(pn.viewable.Viewer):
                                 **both)
         self.start_run()
 
-    def _run_device(self, **scene):
-        """Run the device of the Units and Design tabs (ExplorerState.select_device)."""
+    def _run_device(self, say=None, **scene):
+        """Run the device of the Units and Design tabs (ExplorerState.select_device);
+        a refusal said over the page, and by `say(text)` where given (beside
+        the tab's Run button)."""
         try:
             self.state.select_device(**scene)
         except ValueError as exc:
             self._error(f"Not run: {exc}")
+            if say is not None:
+                say(f"Not run: {exc}")
             return None
         return self.start_run()
 
@@ -315,6 +319,8 @@ class Explorer(pn.viewable.Viewer):
         the GIL), not when the page loads: a page costs the server less
         (`python -m devtools.pagecost`) and the first run no more."""
         job = self.controller.start(schedule=schedule)
+        if job is not None:
+            self.scene_controls.claim()
         if job is not None and structure(job.label) not in self.trajectories.views:
             try:
                 with pn.io.hold(freeze=True):
@@ -367,7 +373,7 @@ class Explorer(pn.viewable.Viewer):
                 self._answered()
         except Exception as exc:
             log.exception("drawing a run failed: %s", result.scene.values())
-            self._error(f"Drawing the run failed: {type(exc).__name__}: {exc}")
+            self._error(f"Drawing the run failed: {type(exc).__name__}: {urlstate.literal(exc)}")
 
     def _show(self, result):
         scene = result.scene

@@ -344,12 +344,13 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
 
 def test_teaching_view_and_export(page, server):
     _open(page, server)
-    # the page opens on paper point 1, which the paper-points selector shows
-    # (it follows the scene): Run runs it
+    # the page opens on paper point 1's scene, not run: the paper-points
+    # selector names no point; picking 1 runs it
     select = page.locator("select").filter(has_text="synchronous hopping")
     assert select.input_value() == select.locator(
-        "option", has_text="1: permanent contact").get_attribute("value")
-    page.locator("button", has_text="Run selected scene").click()
+        "option", has_text="choose a paper point").get_attribute("value")
+    select.select_option(label=select.locator(
+        "option", has_text="1: permanent contact").text_content())
     _summary_text(page).wait_for(timeout=budget_ms(60))
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()

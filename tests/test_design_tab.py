@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from asyncutil import until
 from bokeh.models import ColumnDataSource
+from markdowntext import emphasized, shown_text
 
 from vibtrans.products import design
 from vibtrans_explorer import explorer as E
@@ -154,7 +155,7 @@ def test_a_new_axis_quantity_takes_a_range_around_the_device(tmp_path):
     assert panel.x_lo < dev.radius < panel.x_hi and panel.x_hi / panel.x_lo == pytest.approx(
         10, rel=0.01)
     asyncio.run(panel.draw())           # small radii: A* beyond the shipped map's 10^3
-    assert "log10 A* spans" in panel.offer.object and panel.chart is None       # (offered)
+    assert "log10 A* spans" in shown_text(panel.offer.object) and panel.chart is None  # (offered)
     panel.y_hi = 1e-7
     asyncio.run(panel.draw())
     assert not panel.alert.visible and panel.chart.attrs["fixed"] == "frequency"
@@ -256,7 +257,8 @@ def test_a_bad_custom_material_gets_the_librarys_message(text):
     with pytest.raises(ValueError) as refused:
         units.material(text)
     assert panel.alert.visible
-    assert panel.alert.object == f"**Cannot draw the chart:** {refused.value}"
+    # (as the page shows it: the message is Markdown)
+    assert shown_text(panel.alert.object).strip() == f"Cannot draw the chart: {refused.value}"
     assert panel.device.substrate_custom == text and panel.chart is chart      # nothing clamped
 
 
@@ -347,7 +349,7 @@ def test_editing_a_value_labels_the_preset_custom():
     assert (panel.x_lo, panel.device.frequency) == (paper.x[1], paper.device.frequency)
     panel.preset = "paper"                                  # a real preset: applied as before
     assert panel.device.radius == paper.device.radius and panel.preset == "paper"
-    assert panel.note.object == f"*{paper.note}*"
+    assert emphasized(panel.note.object) == [paper.note]      # shown whole, in italics
     # a value typed in its field, an axis, a material: each makes it custom
     for edit in (lambda: setattr(panel.fields["x_lo"].input, "value", "2e4"),
                  lambda: setattr(panel, "y", "radius"),
@@ -378,3 +380,36 @@ def test_editing_a_value_labels_the_preset_custom():
     panel.preset = "paper"
     panel.surface_energy = 0.01
     assert panel.preset == "paper"
+
+
+def test_a_chart_of_other_values_is_marked_and_the_table_follows_the_device(tmp_path):
+    # walkthrough: paper preset, Draw chart (sphere), then frequency 200000
+    # and a cone tip, Draw chart: the sphere's chart stayed with its
+    # caption, the table kept the sphere's -0.02708 m/s and the banner
+    # "Changed since this chart was drawn" went away
+    from vibtrans_explorer.session.state import ExplorerState
+    from vibtrans_explorer.views import design as D
+    state = ExplorerState()
+    panel = DesignPanel(jobs=mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1),
+                        state=state)
+    panel.__panel__()
+    asyncio.run(panel.draw())
+    chart = panel.chart
+    assert chart.attrs["map"] == "shipped: deformable-mu0.3.zarr"
+    assert panel.status.object.startswith("*steel on glass") and "m/s" in panel.info.object
+    state.param.update(frequency=200000.0, tip="cone")
+    assert panel.status.object.startswith(D.STALE)
+    asyncio.run(panel.draw())
+    # the cone's chart needs its own map: offered, the reason said
+    assert panel.offer_box.visible and "the shipped maps are the sphere's" in panel.offer.object
+    # the chart shown stays, under a banner that says why it is not redrawn
+    assert panel.chart is chart
+    assert panel.status.object.startswith(D.STALE_OFFERED)
+    assert "*The chart shown: steel on glass" in panel.status.object
+    # the table is the form's device: the cone at 2e5 Hz, its drift not read
+    info = panel.info.object
+    assert "f = 2e+05 Hz" in info and "cone" in info and D.UNREAD_OFFERED in info
+    assert "m/s**" not in info
+    # the values of the chart again: no banner
+    state.param.update(frequency=design.preset("paper").device.frequency, tip="sphere")
+    assert not panel.stale() and panel.status.object.startswith("*steel on glass")

@@ -547,3 +547,53 @@ def test_the_summary_says_cancelled_and_changed_in_one_order(order):
     assert view.pane.object == f"{CANCELLED_LINE}\n\n{STALE_LINE}\n\n| table |"
     view.mark_stale(False)                      # the state back to the run's
     assert view.pane.object == f"{CANCELLED_LINE}\n\n| table |"
+
+
+def test_a_fresh_page_names_no_paper_point_and_picking_1_runs_it(monkeypatch, no_logged_errors):
+    # walkthrough: a fresh page's selector showed point 1 (its scene's) though
+    # nothing had run, so picking "1" did nothing
+    from vibtrans_explorer.views.scene import CHOOSE_POINT
+    ex = _open(monkeypatch)
+    select = ex.scene_controls.point_select
+    assert select.value == 0 and select.options[CHOOSE_POINT] == 0
+    assert (ex.state.log_amplitude, ex.state.log_mass, ex.state.model) == PAPER_POINTS[1]
+    select.value = 1
+    assert len(ex.jobs) == 1
+    # the job runs point 1 (the state's scene, which is point 1's)
+    assert ex.jobs[0].scene.values() == ex.state.scene().values()
+    assert (ex.state.log_amplitude, ex.state.log_mass, ex.state.model) == PAPER_POINTS[1]
+    assert select.value == 1
+    # Run on a fresh page runs point 1: the selector names it then
+    ex = _open(monkeypatch)
+    ex.start_run()
+    assert ex.scene_controls.point_select.value == 1
+
+
+def test_an_invalid_device_field_withholds_the_units_tabs_values_and_says_so_by_run(
+        monkeypatch, no_logged_errors):
+    # walkthrough: with an invalid amplitude the Units tab kept showing the
+    # last valid device's A* 316.2 unmarked, and its Run's "Not run" was
+    # said at the top of the page, out of view
+    ex = _open(monkeypatch)
+    panel = ex.units_panel
+    assert "| A* | 316.2" in panel.info.object and panel.marker is not None
+    field = next(f for f in panel.form
+                 if isinstance(f, inputs.NumberField) and f.name_ == "amplitude")
+    field.input.value = "-1e-9"
+    assert "amplitude" in ex.state.invalid
+    assert "| A* |" not in panel.info.object and "316.2" not in panel.info.object
+    assert panel.info.object.startswith("**Invalid input:** vertical wave amplitude (m) must be")
+    assert panel.marker is None and not panel.warnings.object
+    # the tab's Run: refused, and said beside its button
+    before = len(ex.stand_in.scenes)
+    panel.run()
+    assert ex.controller.job is None and len(ex.stand_in.scenes) == before
+    assert panel.refusal.visible
+    assert panel.refusal.object.startswith("Not run: vertical wave amplitude (m) must be")
+    layout = panel.__panel__()
+    go = next(o for o in layout.objects if isinstance(o, pn.widgets.Button))
+    assert layout.objects.index(panel.refusal) == layout.objects.index(go) + 1
+    # corrected: the values again, and the refusal gone
+    field.input.value = "2.6e-7"
+    assert "| A* |" in panel.info.object and panel.marker is not None
+    assert not panel.refusal.visible

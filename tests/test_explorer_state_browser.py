@@ -19,6 +19,7 @@ from playwright.sync_api import TimeoutError as PageTimeout
 
 from devtools.chromium import launched
 from vibtrans.core.params import PAPER_POINTS
+from vibtrans_explorer.views.scene import CHOOSE_POINT
 
 pytestmark = pytest.mark.browser
 
@@ -97,8 +98,8 @@ def _consistent(page_state):
     if [la, lm] not in [list(s) for s in page_state["sources"]]:
         return f"no marker at the URL's ({la}, {lm}): {page_state['sources']}"
     point = next((k for k, p in PAPER_POINTS.items() if p == (la, lm, model)), 0)
-    shown = page_state["points"] or "-"
-    if (point == 0) != (shown == "-") or (point and not shown.startswith(f"{point}:")):
+    shown = page_state["points"] or CHOOSE_POINT
+    if (point == 0) != (shown == CHOOSE_POINT) or (point and not shown.startswith(f"{point}:")):
         return f"paper points shows {shown!r}, the scene is point {point}"
     return None
 

@@ -4,6 +4,8 @@
 import math
 from types import SimpleNamespace
 
+from markdowntext import table_rows
+
 from vibtrans_explorer.views.summary import chaos_verdict
 
 
@@ -68,3 +70,70 @@ def test_the_introduction_defines_each_contact_state():
     for name in STATE_NAMES:
         if name != "flight":
             assert f"**{name}**" in texts.INTRODUCTION, name
+
+
+# ---------------------------------------------------------------- steady, in the table and in SI
+SI = ("-2.708e-02 m/s; the run, 2000 periods, lasts 18.47 ms (the device of the Units and "
+      "Design tabs)")
+
+
+def _summary(x_of_t, v_of_t, **attrs):
+    """The library's summary (analysis.summarize) of a closed-form run in
+    contact (tests/test_steadiness.py's)."""
+    import numpy as np
+    import xarray as xr
+
+    from vibtrans.analysis.summary import summarize
+    from vibtrans.core.kernels.contact import STICK
+    t = np.arange(8001) / 4.0
+    zero = np.zeros_like(t)
+    ds = xr.Dataset(
+        {"x": ("time", x_of_t(t)), "vx": ("time", v_of_t(t)), "y": ("time", zero),
+         "vy": ("time", zero), "state": ("time", np.full(t.size, STICK, dtype=np.int8)),
+         "event_time": ("event", np.zeros(0)), "event_kind": ("event", np.zeros(0, np.int8)),
+         "event_value": ("event", np.zeros(0))},
+        coords={"time": t},
+        attrs={"periods": 2000.0, "tau": 50.0, "amplitude": 1.0, "mass": 1.0,
+               "fidelity": "standard", "model": "deformable", **attrs})
+    return summarize(ds)
+
+
+def _shown_table(s):
+    """The summary pane of a device run whose library summary is `s`."""
+    from vibtrans import Scene
+    from vibtrans_explorer.views.summary import SummaryView
+    view = SummaryView(lambda v_star, scene: SI)
+    view.show(SimpleNamespace(summary=s, scene=Scene(), other=None, twin=None,
+                              twin_unneeded=False))
+    return view.pane.object
+
+
+def _row(table, name):
+    """The cells of the table's row `name`, as the page shows them."""
+    return next(r for r in table_rows(table) if r[0] == name)
+
+
+def test_an_unsteady_drift_is_said_so_in_the_si_row_too():
+    # walkthrough: the SI row converted the run's mean where the table said
+    # its drift was not steady; now it says so, as the "steady?" row does
+    s = _summary(lambda t: -1e-3 * t ** 2 / 2, lambda t: -1e-3 * t)
+    assert s.steady is False
+    table = _shown_table(s)
+    assert _row(table, "steady?") == ["steady?", s.steadiness]
+    assert s.steadiness.startswith("not steady: still accelerating")
+    assert _row(table, "in SI units") == [
+        "in SI units", f"not steady (see steady?): {SI}; this run's mean, which depends on its "
+                       f"length"]
+    # a chaotic run's mean is no drift of the scene either
+    s = _summary(lambda t: -3.0 * t, lambda t: -3.0 + 0 * t, lyapunov=0.2)
+    assert _row(_shown_table(s), "in SI units")[1].startswith(f"chaotic (see steady?): {SI}")
+
+
+def test_a_steady_drift_is_converted_as_it_is():
+    s = _summary(lambda t: -3.0 * t, lambda t: -3.0 + 0 * t)
+    assert s.steady is True
+    table = _shown_table(s)
+    assert _row(table, "in SI units") == ["in SI units", SI]
+    # the rule, in the table's words, shown as written (its |v*| and <v*>)
+    assert _row(table, "steady?") == ["steady?", s.steadiness]
+    assert "moves <v*> by less than 0.25% of |v*| (at least v0* = 0.1)" in s.steadiness

@@ -29,6 +29,7 @@ from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans_explorer.server import warmup
 from vibtrans_explorer.server.fairshare import lower_priority
 from vibtrans_explorer.session.latest import Job, LatestJob
+from vibtrans_explorer.session.urlstate import literal
 
 CANCELLED = "Run cancelled."        # the status after the user's Cancel
 
@@ -173,7 +174,7 @@ class RunController(param.Parameterized):
             scene = self.state.scene()
             steps = estimate_steps(scene)
         except ValueError as exc:
-            self.message = str(exc)
+            self.message = literal(exc)
             return None
         if steps > self.max_steps:
             self.message = over_budget(steps, self.max_steps)
@@ -246,13 +247,13 @@ class RunController(param.Parameterized):
         except StepBudgetExceeded as exc:
             if self.runs.is_latest(job):
                 self.param.update(status="", message=f"This scene is over this server's "
-                                  f"limit (VIBTRANS_MAX_STEPS): {exc}")
+                                  f"limit (VIBTRANS_MAX_STEPS): {literal(exc)}")
             return
         except Exception as exc:          # a failed run harms only this session
             if self.runs.is_latest(job):
                 log.exception("run failed: %s", scene.values())
                 self.param.update(status="",
-                                  message=f"The run failed: {type(exc).__name__}: {exc}")
+                                  message=f"The run failed: {type(exc).__name__}: {literal(exc)}")
             return
         finally:
             self.runs.finish(job)
@@ -263,4 +264,4 @@ class RunController(param.Parameterized):
             self.param.update(status="", result=result)
         except Exception as exc:
             log.exception("showing a run failed: %s", scene.values())
-            self.message = f"Showing the run failed: {type(exc).__name__}: {exc}"
+            self.message = f"Showing the run failed: {type(exc).__name__}: {literal(exc)}"

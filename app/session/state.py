@@ -20,6 +20,7 @@ from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans.products import design
 from vibtrans.products.design import Device
 from vibtrans.products.designtip import Tip
+from vibtrans_explorer.session.urlstate import literal
 
 # the material of the shipped maps and the paper (Scene's defaults)
 MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default}
@@ -155,7 +156,7 @@ def link_conflicts(values, url_keys):
     given = values["rolling"]
     given = f"{given:g}" if isinstance(given, float) else given
     values = {k: v for k, v in values.items() if k != "rolling"}
-    return values, [f"URL parameter '{url_keys['rolling']}' (rolling): {why}; got '{given}'"]
+    return values, [f"URL parameter '{url_keys['rolling']}' (rolling): {literal(why)}; got '{given}'"]
 
 
 # the device of the Units and Design tabs (SI units; one form, two tabs)
@@ -218,21 +219,21 @@ class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
         """The device of the Units and Design tabs (as its form shows it)
         becomes the selected scene: its (log10 A*, m*, theta, nu) unrounded,
         with `scene`'s other values (the Design tab's mu, periods).
-        ValueError (the message for "Not run: ...") while one of its fields
-        is invalid, or its scene lies outside the explorer's range; then
-        nothing changes."""
+        ValueError (the message for "Not run: ...", Markdown) while one of its
+        fields is invalid, or its scene lies outside the explorer's range;
+        then nothing changes."""
         errors = self.device_errors()
         if errors:
             raise ValueError(" · ".join(errors))
         try:
             la, lm, theta, nu = self.device_scene_values()
         except ValueError as exc:
-            raise ValueError(f"the device is not a scene: {exc}") from None
+            raise ValueError(f"the device is not a scene: {literal(exc)}") from None
         if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
-            raise ValueError(
+            raise ValueError(literal(
                 f"the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is outside the "
                 f"explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, log10 m* in "
-                f"{list(SCENE_LOG_MASS)}.")
+                f"{list(SCENE_LOG_MASS)}."))
         profile = self.device_tip()[3]
         self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, profile=profile,
                           **scene)

@@ -47,17 +47,28 @@ REASON = 400               # longest library reason added to a message
 DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
 _INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
-_MARKDOWN = re.compile(r"([\\`*_{}\[\]()#+\-.!|~>])")
+# what makes emphasis, code, links, tables or strike-through inside a line
+_INLINE = re.compile(r"([\\`*_\[\]|~])")
+# and what starts a block at a line's start, or a typed text may begin with
+_BLOCK = re.compile(r"([{}()#+\-.!])")
+
+
+def literal(text):
+    """A text (a library's message, a name) as Markdown that shows it as
+    it is, inside a line of a Markdown pane: HTML and the characters of
+    inline Markdown escaped ("log10 A* and m*" keeps its stars)."""
+    # (quotes stay: a message is Markdown text, not an attribute; escaped, the
+    # Markdown escape of '#' broke the entity and '&#x27;' reached the page)
+    return _INLINE.sub(r"\\\1", html.escape(str(text), quote=False))
 
 
 def shown(raw, limit=SHOWN):
     """The given text, safe to put in a Markdown/HTML message (cut to
-    `limit` characters)."""
+    `limit` characters): `literal`, and what would start a block escaped
+    too (a typed text may be anything)."""
     text = raw if len(raw) <= limit else raw[:limit] + "…"
     text = "".join(c if c.isprintable() else "\N{REPLACEMENT CHARACTER}" for c in text)
-    # (quotes stay: a message is Markdown text, not an attribute; escaped, the
-    # Markdown escape of '#' broke the entity and '&#x27;' reached the page)
-    return _MARKDOWN.sub(r"\\\1", html.escape(text, quote=False))
+    return _BLOCK.sub(r"\\\1", literal(text))
 
 
 def as_text(value):

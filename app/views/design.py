@@ -47,6 +47,7 @@ from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.session.latest import LatestJob
 from vibtrans_explorer.session.maprequest import MapRequest
 from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
+from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
 from vibtrans_explorer.views.profile import RollingView
@@ -70,6 +71,10 @@ INTRO = ("**Design chart in device units** (`vibtrans design`): pick a device (o
          "outside the shipped maps), the map it needs is offered, its cost shown first, and "
          "computed on this server like a map on demand.")
 HINT = "*Press Draw chart to read the drift map for these values.*"
+# over a chart drawn for other values than the form's
+STALE = "**Changed since this chart was drawn: press Draw chart.**"
+STALE_OFFERED = ("**Changed since this chart was drawn:** no shipped map serves the chart of "
+                 "these values (below: the map it needs).")
 CUSTOM_PRESET = "custom"                    # the preset selector once a value is edited
 # the device's values a preset sets (Device's but a custom material's
 # text), with the tip's kind (a preset's particle is a sphere; the sizes
@@ -252,14 +257,22 @@ def build_chart(values, map_ds=None, map_name="given map"):
     return chart, fig, device, reading, q, warnings
 
 
+def device_spec(values):
+    """The checked units.DeviceSpec of the panel's values (InputError names
+    a value refused)."""
+    v = values
+    device = units.DeviceSpec(v["substrate"], v["particle"], v["radius"], v["frequency"],
+                              v["amplitude"], preload=v["preload"])
+    device.normalized()             # checks every value
+    return device
+
+
 def device_reading(values, chart, map_ds=None, map_name="given map"):
     """(device, reading, quantities, warnings) of the panel's device, read
     on `chart`'s map (`map_ds` when it is a map on demand); InputError for
     a value the library refuses."""
     v = values
-    device = units.DeviceSpec(v["substrate"], v["particle"], v["radius"], v["frequency"],
-                              v["amplitude"], preload=v["preload"])
-    device.normalized()             # checks every value (InputError names it)
+    device = device_spec(v)
     shape = tip_shape(v)
     reading = design.read_device(device, mu=v["mu"], chart=chart, map_ds=map_ds,
                                  map_name=map_name, shape=shape, rolling=v["rolling"])
@@ -279,7 +292,7 @@ def chart_text(chart):
     """The chart-wide validity warnings (`design.chart_warnings`) and the
     ranges of a0, contact radius, A* and m* over the chart, as Markdown."""
     lines = design.chart_warnings(chart)
-    warned = ([f"* **chart warning:** {line}" for line in lines]
+    warned = ([f"* **chart warning:** {literal(line)}" for line in lines]
               or ["*No validity warnings over the chart.*"])
     ranges = (f"**Over the chart:** a0 {_range(chart['a0'].values, 'm')}; contact radius "
               f"{_range(chart['contact_radius'].values, 'm')}; A* "
@@ -291,9 +304,15 @@ def _g(value, unit=""):
     return "n/a" if value is None else f"{value:.4g}{(' ' + unit) if unit else ''}"
 
 
-def device_text(device, reading, q, warnings, rolling=ROLLING_NONE):
+UNREAD = "not read: the device is off the chart's map (or its map does not serve it)"
+# the device of a chart that needs a map on demand, before it is computed
+UNREAD_OFFERED = "not read: no map serves this device's chart yet (the map offered above)"
+
+
+def device_text(device, reading, q, warnings, rolling=ROLLING_NONE, unread=UNREAD):
     """The device's quantities and warnings as Markdown (`rolling`: how its
-    particle turns, the Design tab's choice)."""
+    particle turns, the Design tab's choice; `unread`: the drift's row when
+    there is no reading)."""
     rows = [("A*, m*", f"{q.A_star:.4g}, {q.m_star:.4g}"),
             ("theta, nu, r", f"{q.theta:.4g}, {q.nu:g}, {q.r:.4g}"),
             ("mass, load m g + P", f"{q.mass:.4g} kg, {q.load:.4g} N"),
@@ -305,17 +324,16 @@ def device_text(device, reading, q, warnings, rolling=ROLLING_NONE):
             ("Rayleigh speed, wavelength", f"{q.rayleigh_speed:.4g} m/s, "
                                            f"{q.rayleigh_wavelength:.4g} m"),
             ("pull-off JKR, DMT", f"{q.pull_off_jkr:.4g} N, {q.pull_off_dmt:.4g} N"),
-            ("tip", q.profile),
+            ("tip", literal(q.profile)),
             ("normalized profile (the run's)", f"`{q.scene_profile}`"),
             ("slope at the contact edge", _g(q.edge_slope))]
     if reading is None:
-        rows.append(("drift", "not read: the device is off the chart's map (or its map "
-                              "does not serve it)"))
+        rows.append(("drift", unread))
     else:
         rows += [("drift velocity", f"**{q.drift_velocity:.4g} m/s** "
                                     f"({q.drift_velocity * 100:.3g} cm/s)"),
-                 ("v*", f"{q.v_star:.4g} ({reading['map']}, nearest grid point)"),
-                 ("regime", reading["regime"]),
+                 ("v*", f"{q.v_star:.4g} ({literal(reading['map'])}, nearest grid point)"),
+                 ("regime", literal(reading["regime"])),
                  ("contact time per period", _g(q.contact_time, "s")),
                  ("travel per period", f"{_g(q.travel_per_period, 'm')} = "
                                        f"{_g(q.travel_over_wavelength)} wavelengths")]
@@ -323,12 +341,12 @@ def device_text(device, reading, q, warnings, rolling=ROLLING_NONE):
     body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
     tip += (f", {body}" if body and rolling != ROLLING_NONE else
             f", rolling with j = {rolling:g}" if rolling != ROLLING_NONE else "")
-    head = (f"**Device**: {units.material(device.particle).name} {tip}, R = "
-            f"{device.radius:.4g} m, on {units.material(device.substrate).name}; f = "
+    head = (f"**Device**: {literal(units.material(device.particle).name)} {literal(tip)}, R = "
+            f"{device.radius:.4g} m, on {literal(units.material(device.substrate).name)}; f = "
             f"{device.frequency:.4g} Hz, A_y = {device.amplitude:.4g} m, pre-load "
             f"{device.preload:g} N")
     table = ["| quantity | value |", "|---|---|", *(f"| {k} | {v} |" for k, v in rows)]
-    notes = ([f"* **warning:** {w.message}" for w in warnings]
+    notes = ([f"* **warning:** {literal(w.message)}" for w in warnings]
              or ["*No validity warnings.*"])
     return "\n".join([head, "", *table, "", *notes])
 
@@ -405,6 +423,7 @@ class DesignPanel(pn.viewable.Viewer,
         self._chart_map = None      # (ds, name) of the map on demand the chart read, or None
         self._marker = None         # the figure's device marker's source
         self._drawn_values = None   # the values the chart drawn was made with
+        self._offered_values = None  # the values a draw offered a map for
         # the chart's drawing and a click's reading, off the event loop: the
         # latest of each wins (an older one's result is dropped)
         self.draws = LatestJob()
@@ -500,17 +519,16 @@ class DesignPanel(pn.viewable.Viewer,
         try:
             type(self.device)(**values)         # (each checked before any is set)
         except ValueError as exc:
-            self._say(f"**The device cannot take these values:** {exc}")
+            self._say(f"**The device cannot take these values:** {literal(exc)}")
             return False
         self.device.param.update(**values)
         return True
 
     def _on_changed(self, *events):
-        """A value changed since the chart was drawn: the chart is marked stale."""
-        if self.chart is not None and self._drawn_values is not None \
-                and self.values() != self._drawn_values:
-            self.status.object = ("**Changed since this chart was drawn: press Draw chart.** "
-                                  + self._shown_status())
+        """A value changed: the chart shown is marked stale if it was drawn
+        for other values (and no longer once they are its own again)."""
+        if not self.busy:
+            self.status.object = self._shown_status()
 
     # ---------- values ----------
     def _on_preset(self, *events, device=True):
@@ -535,7 +553,7 @@ class DesignPanel(pn.viewable.Viewer,
                 getattr(self.device, k) != v for k, v in values.items())):
             self.preset = CUSTOM_PRESET
             return
-        self.note.object = f"*{p.note}*"
+        self.note.object = f"*{literal(p.note)}*"
 
     def _on_axis(self, *events):
         """A new quantity on an axis: its range becomes a decade around the
@@ -617,7 +635,7 @@ class DesignPanel(pn.viewable.Viewer,
                     return
         except ValueError as exc:        # the library's InputError (TypeError kind too)
             if self.draws.is_latest(job):
-                self._say(f"**Cannot draw the chart:** {exc}")
+                self._say(f"**Cannot draw the chart:** {literal(exc)}")
                 self._busy(False, self._shown_status())
             return
         except Cancelled:
@@ -635,6 +653,7 @@ class DesignPanel(pn.viewable.Viewer,
         self._say("")
         with pn.io.hold():
             self.chart, self.figure, self._drawn_values = chart, fig, values
+            self._offered_values = None
             self._chart_map = chart_map
             self._marker = _device_marker(fig)
             fig.on_event(Tap, self._on_tap)
@@ -648,10 +667,10 @@ class DesignPanel(pn.viewable.Viewer,
     async def _offer_map(self, need, values, job):
         """Say why no shipped map serves the chart and offer the one it
         needs, with its estimated cost (or why it cannot be computed)."""
-        reasons = "; ".join(need.shipped_problems)
+        reasons = literal("; ".join(need.shipped_problems))
         if need.profile != "sphere":        # (say why, in the tip's words)
             reasons = (f"the shipped maps are the sphere's (Hertz's contact law); this "
-                       f"particle's tip, {tip_shape(values).name}, runs the normalized "
+                       f"particle's tip, {literal(tip_shape(values).name)}, runs the normalized "
                        f"profile `{need.profile}` (another contact law N\\*(a\\*), "
                        f"docs/MODEL.md section 10), so its chart reads a map of that profile")
         if need.rolling != ROLLING_NONE:    # (and why a rolling particle's needs its own)
@@ -662,12 +681,14 @@ class DesignPanel(pn.viewable.Viewer,
         request, why = map_request(need, fidelity=values["map_fidelity"],
                                    periods=values["map_periods"])
         self._say("")
+        self._offered_values = values
+        self._show_unread_device(values)
         self.offer_box.visible = True
         self._offer = None
         if not self.map_work.running:
             self.progress.object = ""       # (a finished map's words)
         if request is None:
-            self.offer.object = f"{head}\n\n**It cannot be computed here:** {why}."
+            self.offer.object = f"{head}\n\n**It cannot be computed here:** {literal(why)}."
             self._buttons()
             self._busy(False, self._shown_status())
             return
@@ -684,11 +705,11 @@ class DesignPanel(pn.viewable.Viewer,
         except Cancelled:
             return              # a newer draw was asked for meanwhile
         except Exception as exc:        # a bug: said, and logged by the caller's loop
-            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+            est, problems = None, [f"{type(exc).__name__}: {literal(exc)}"]
         if not self.draws.is_latest(job):
             return
         cost = "" if est is None else est.text(jobs.cores)
-        refused = "".join(f"\n\n**Refused:** {p}." for p in problems)
+        refused = "".join(f"\n\n**Refused:** {literal(p)}." for p in problems)
         accuracy = mapaccuracy.note(request.fidelity, request.periods)
         self.offer.object = f"{head}\n\n{what} {cost}\n\n{accuracy}{refused}"
         self._offer = None if problems else (request, values)
@@ -722,7 +743,7 @@ class DesignPanel(pn.viewable.Viewer,
             jobs.submit(self._session, request, deliver)
         except mapjobs.MapRefused as exc:
             self.map_work.finish(job)
-            self.progress.object = f"**Not computed:** {exc}."
+            self.progress.object = f"**Not computed:** {literal(exc)}."
             return
         job.when_cancelled(functools.partial(jobs.cancel, self._session))
         self._offer = None
@@ -754,7 +775,8 @@ class DesignPanel(pn.viewable.Viewer,
                                                             update.ds, name)
                     except ValueError as exc:
                         result = None
-                        self._say(f"**The chart could not be read on the map:** {exc}")
+                        self._say(f"**The chart could not be read on the map:** "
+                                  f"{literal(exc)}")
                     if result is not None and self.draws.is_latest(drawn):
                         self._show_chart(values, result, self._map)
                 done = int(update.ds["computed"].values.sum())
@@ -806,21 +828,45 @@ class DesignPanel(pn.viewable.Viewer,
             return
         self.on_run(self.mu, self.map_periods)
 
+    def stale(self):
+        """Whether the chart shown was drawn for other values than the form's."""
+        return self.chart is not None and self.values() != self._drawn_values
+
     def _shown_status(self):
+        """The status line of the chart shown: what it is, under a banner
+        while the form's values are not its own."""
         c = self.chart
         if c is None:
             return HINT
-        return (f"*{c.attrs['particle']} on {c.attrs['substrate']}, {c.sizes[c.attrs['y']]} x "
-                f"{c.sizes[c.attrs['x']]} points, {c.attrs['fixed']} = "
-                f"{c.attrs['fixed_value']:.4g} {c.attrs['fixed_units']}; map "
-                f"{c.attrs['map']} ({c.attrs['reading']}). Click the chart to move the "
-                f"device there and run its scene.*")
+        text = literal(f"{c.attrs['particle']} on {c.attrs['substrate']}, "
+                       f"{c.sizes[c.attrs['y']]} x {c.sizes[c.attrs['x']]} points, "
+                       f"{c.attrs['fixed']} = {c.attrs['fixed_value']:.4g} "
+                       f"{c.attrs['fixed_units']}; map {c.attrs['map']} "
+                       f"({c.attrs['reading']}). Click the chart to move the device there "
+                       f"and run its scene.")
+        if not self.stale():
+            return f"*{text}*"
+        banner = STALE_OFFERED if self._offered_values == self.values() else STALE
+        return f"{banner} *The chart shown: {text}*"
 
     def _busy(self, on, text):
         self.busy = on
         self.spinner.value = self.spinner.visible = on
         self.draw_button.disabled = on
         self.status.object = text
+
+    def _show_unread_device(self, values):
+        """The table shows the device of `values`, its drift not read (its
+        chart needs a map on demand): the table follows the device, not
+        the chart shown."""
+        try:
+            device, shape = device_spec(values), tip_shape(values)
+            q = design.device_quantities(device, None, values["surface_energy"], shape=shape)
+            warnings = design.validity_warnings(device, values["surface_energy"], shape=shape)
+        except ValueError:          # (the chart's check said it first)
+            return
+        self.info.object = device_text(device, None, q, warnings,
+                                       values.get("rolling", ROLLING_NONE), UNREAD_OFFERED)
 
     def _show_device(self, device, reading, q, warnings):
         self.marked, self.reading, self.quantities, self.warnings = device, reading, q, warnings
@@ -943,7 +989,7 @@ class DesignPanel(pn.viewable.Viewer,
         except Cancelled:
             return              # a newer click was made meanwhile
         except ValueError as exc:
-            self._say(f"**Cannot read the device:** {exc}")
+            self._say(f"**Cannot read the device:** {literal(exc)}")
             return
         if not self.marks.is_latest(job) or c is not self.chart:
             return

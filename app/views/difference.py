@@ -13,6 +13,7 @@ from vibtrans.core.errors import InputError
 from vibtrans.maps.difference import map_difference
 from vibtrans.products import plots
 from vibtrans_explorer.server import data
+from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views.map import MIN_WIDTH
 from vibtrans_explorer.views.render import rendered
 
@@ -135,7 +136,7 @@ class DifferenceView:
             return
         except Exception as exc:        # a bug: said, and logged with its traceback
             log.exception("the difference of two maps failed")
-            self._say(f"Comparing the maps failed: {type(exc).__name__}: {exc}")
+            self._say(f"Comparing the maps failed: {type(exc).__name__}: {literal(exc)}")
             return
         finally:
             self.button.loading = False
@@ -146,7 +147,7 @@ class DifferenceView:
                      f"{a['regular_points']} points regular in both; the median relative "
                      f"drift difference |v2 - v1| / max(|v1|, v0\\*) is "
                      f"{a['median_relative_difference']:.2g}")
-        self.summary.object = (f"**{a['second']}** against **{a['first']}**: "
+        self.summary.object = (f"**{literal(a['second'])}** against **{literal(a['first'])}**: "
                                f"{a['compared_points']} points compared; {agreement}.")
         self.figure.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 

@@ -22,6 +22,7 @@ from bokeh.plotting import figure
 from vibtrans.analysis import dynamics
 from vibtrans.products import plots
 from vibtrans_explorer.session.latest import LatestJob
+from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views.note import note_pane, say
 
 log = logging.getLogger("vibtrans.explorer.dynamics")
@@ -201,7 +202,7 @@ class DynamicsView(pn.viewable.Viewer):
     def _failed(self, what, exc):
         log.error("dynamics %s failed: %s", what, self.scene and self.scene.values(),
                   exc_info=exc)
-        self._say(f"The {what} failed: {type(exc).__name__}: {exc}")
+        self._say(f"The {what} failed: {type(exc).__name__}: {literal(exc)}")
         self._status(what, "")
         self._buttons()
 

@@ -143,12 +143,12 @@ class MapOnDemand:
             return          # an older estimate: a newer one was asked for
         except Exception as exc:
             log.exception("estimating a map failed")
-            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+            est, problems = None, [f"{type(exc).__name__}: {urlstate.literal(exc)}"]
         if not self.estimates.is_latest(job):
             return
         lines = [] if est is None else [est.text(jobs.cores)]
         lines.append(mapaccuracy.note(request.fidelity, request.periods))
-        lines += [f"**Refused:** {p}." for p in problems]
+        lines += [f"**Refused:** {urlstate.literal(p)}." for p in problems]
         panel.estimate.object = "\n\n".join(lines)
 
     def _on_use_zoom(self):
@@ -245,10 +245,10 @@ class MapOnDemand:
             est, problems = await loop.run_in_executor(None, jobs.estimate, request)
         except Exception as exc:
             log.exception("estimating a map failed")
-            est, problems = None, [f"{type(exc).__name__}: {exc}"]
+            est, problems = None, [f"{type(exc).__name__}: {urlstate.literal(exc)}"]
         if problems:
             text = "" if est is None else est.text(jobs.cores) + " "
-            self._map_say(f"**Not computed:** {'; '.join(problems)}. {text}")
+            self._map_say(f"**Not computed:** {urlstate.literal('; '.join(problems))}. {text}")
             return
         updates = asyncio.Queue()
 
@@ -259,7 +259,7 @@ class MapOnDemand:
             jobs.submit(self.session, request, deliver)
         except mapjobs.MapRefused as exc:
             self.map_work.finish(job)
-            self._map_say(f"**Not computed:** {exc}.")
+            self._map_say(f"**Not computed:** {urlstate.literal(exc)}.")
             self._buttons_for_map()
             return
         job.when_cancelled(functools.partial(jobs.cancel, self.session))
@@ -327,7 +327,7 @@ class MapOnDemand:
                 None, computed_figure, ds, title, request.model, window, s.v0, s.chaotic)
         except Exception as exc:
             log.exception("drawing a map on demand failed")
-            self._map_say(f"**Drawing the map failed:** {type(exc).__name__}: {exc}")
+            self._map_say(f"**Drawing the map failed:** {type(exc).__name__}: {urlstate.literal(exc)}")
             return
         if self.state.map_request != maprequest.encode(request):
             return          # the shipped map came back meanwhile

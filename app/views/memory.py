@@ -26,6 +26,7 @@ from bokeh.plotting import figure
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
 from vibtrans.products import plots
 from vibtrans_explorer.session.latest import LatestJob, at_next_tick
+from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.note import note_pane, say
 from vibtrans_explorer.views.summary import PREVIOUS_RUN
@@ -307,7 +308,7 @@ class MemoryView(pn.viewable.Viewer):
     def _snapshots_failed(self, exc):
         log.error("memory snapshots failed: %s", self.scene.values(), exc_info=exc)
         self._busy("")
-        self._say(f"The memory diagram failed: {type(exc).__name__}: {exc}")
+        self._say(f"The memory diagram failed: {type(exc).__name__}: {literal(exc)}")
 
     def _show_snapshots(self, snaps):
         """The latest run's snapshots (at the page's next tick: work.deliver)."""
@@ -388,7 +389,7 @@ class MemoryView(pn.viewable.Viewer):
             self._say(str(exc))
         except Exception as exc:
             log.exception("memory snapshot failed: %s at t = %s", scene.values(), t)
-            self._say(f"The memory diagram failed: {type(exc).__name__}: {exc}")
+            self._say(f"The memory diagram failed: {type(exc).__name__}: {literal(exc)}")
         def answer():
             with pn.io.hold():
                 self.show_button.disabled = self.scene is None

@@ -14,6 +14,8 @@ from vibtrans_explorer.session.state import MAP_MATERIAL, MAP_RUN, ExplorerState
 from vibtrans_explorer.texts import POINT_LABELS
 from vibtrans_explorer.views import inputs
 
+CHOOSE_POINT = "choose a paper point"      # the selector naming none
+
 
 class SceneControls:
     """SceneControls(state, run, answered): `run()` runs the state's scene (a
@@ -23,8 +25,12 @@ class SceneControls:
     def __init__(self, state, run, answered):
         self.state, self.run, self.answered = state, run, answered
         self._pointing = False          # the selector follows the state: no run
+        # a fresh page has run nothing: its selector names no point (its
+        # scene is point 1's) until the page runs or moves the scene
+        self._claimed = False
         self.point_select = pn.widgets.Select(
-            label="Paper points", options={"-": 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
+            label="Paper points",
+            options={CHOOSE_POINT: 0, **{f"{k}: {v}": k for k, v in POINT_LABELS.items()}},
             css_classes=["vt-ack-run", "vt-paper-points"])
         self.point_select.param.watch(self._on_point, "value")
         # v0* on a log scale (a linear slider from 0.001 to 10 could not reach
@@ -63,22 +69,32 @@ class SceneControls:
         state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
 
     def paper_point(self):
-        """The paper point the state's scene is (its log10 A*, m* and model),
-        or 0."""
+        """The paper point the selector names: the one the state's scene is
+        (its log10 A*, m* and model), once the page has run or moved the
+        scene (`claim`), else 0."""
         s = self.state
         return next((k for k, (la, lm, model) in PAPER_POINTS.items()
-                     if (la, lm, model) == (s.log_amplitude, s.log_mass, s.model)), 0)
+                     if self._claimed
+                     and (la, lm, model) == (s.log_amplitude, s.log_mass, s.model)), 0)
+
+    def claim(self):
+        """A run started: the selector names the state's paper point."""
+        if not self._claimed:
+            self._claimed = True
+            self._on_position()
 
     def _on_point(self, event):
         k = event.new
         if not k or self._pointing:
             return
         la, lm, model = PAPER_POINTS[k]
+        self._claimed = True        # (point 1 on a fresh page moves nothing)
         self.state.param.update(model=model, log_amplitude=la, log_mass=lm, **MAP_MATERIAL,
                                 **MAP_RUN)
         self.run()
 
     def _on_position(self, *events):
+        self._claimed = self._claimed or bool(events)      # the scene moved
         la, lm = self.state.log_amplitude, self.state.log_mass
         k = self.paper_point()
         if self.point_select.value != k:      # a click or a link on a paper point shows it

@@ -8,6 +8,7 @@ import panel as pn
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, summarize
 from vibtrans_explorer.session.controller import CANCELLED, TWIN_LABEL
 from vibtrans_explorer.session.state import MAP_MATERIAL, SPHERE
+from vibtrans_explorer.session.urlstate import literal
 
 SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
                 "chaos verdict", "take-offs", "contact fraction (final 10%)", "rolls?", "cost",
@@ -84,12 +85,24 @@ def rolls_words(s):
     return f"yes: {s.rolling}{arc}"
 
 
+def si_words(s, si):
+    """The SI row of run `s`: the device's drift `si` (UnitsPanel.si_text),
+    said to be this run's mean, which depends on its length, where its
+    drift is not steady (Summary.steady, the "steady?" row's verdict)."""
+    if not si or si.startswith(NO_DEVICE) or s.steady:
+        return si
+    verdict = s.steadiness.split(":")[0]      # not steady, chaotic, launched, not judged
+    return f"{verdict} (see steady?): {si}; this run's mean, which depends on its length"
+
+
 def _summary_column(scene, s, chaos, si):
-    """One model's values, in the order of SUMMARY_ROWS."""
-    return [f"**{s.drift_velocity:.4g}**", f"{s.final_drift_velocity:.4g}", s.steadiness,
-            s.regime, chaos,
-            f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
-            f"{s.contact_fraction:.3f}", rolls_words(s), run_cost(scene, s), si or "-"]
+    """One model's values, in the order of SUMMARY_ROWS, as Markdown (the
+    library's words shown as they are)."""
+    return [f"**{s.drift_velocity:.4g}**", *map(literal, [
+        f"{s.final_drift_velocity:.4g}", s.steadiness, s.regime, chaos,
+        f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
+        f"{s.contact_fraction:.3f}", rolls_words(s), run_cost(scene, s),
+        si_words(s, si) or "-"])]
 
 
 def profile_words(scene):
@@ -99,8 +112,8 @@ def profile_words(scene):
     if scene.profile == SPHERE:
         return ""
     if scene.model == "point-mass":
-        return f", profile {scene.profile} (not used: the material point is rigid)"
-    return f", profile {scene.profile}"
+        return f", profile {literal(scene.profile)} (not used: the material point is rigid)"
+    return f", profile {literal(scene.profile)}"
 
 
 def rolling_heading(scene):
@@ -123,8 +136,8 @@ def summary_table(scene, s, chaos, si, other, twin):
         so = summarize(other)
         cols.append(_summary_column(scene, so, "not checked (comparison run)", None))
         heads.append(so.model)
-    # a '|' inside a cell (e.g. "|v*| <= 0.1") would end it
-    rows = [f"| {row} | " + " | ".join(c[i].replace("|", "\\|") for c in cols) + " |"
+    # (a '|' inside a cell, e.g. "|v*| <= 0.1", is escaped: `literal`)
+    rows = [f"| {row} | " + " | ".join(c[i] for c in cols) + " |"
             for i, row in enumerate(SUMMARY_ROWS)]
     material = ("" if (scene.theta, scene.nu) == tuple(MAP_MATERIAL.values()) else
                 f", theta = {scene.theta:.4g}, nu = {scene.nu:.4g} (the maps: "

@@ -18,6 +18,7 @@ from vibtrans_explorer.session.state import (
     SCENE_LOG_MASS,
     within,
 )
+from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 
 
@@ -34,8 +35,9 @@ class UnitsPanel(pn.viewable.Viewer):
     """The state's device (SI units, the same form as the Design tab's) ->
     (A*, m*) marker on the map, a0, c_R, drift in m/s.
 
-    on_run(): run the device's scene (the explorer's; it refuses while a
-    field is invalid); on_error(text): say why it cannot."""
+    on_run(say): run the device's scene (the explorer's; it refuses while a
+    field is invalid, and says why by say(text) too); on_error(text): say
+    why it cannot."""
 
     marker = param.Tuple(default=None, allow_None=True, length=2)
 
@@ -50,18 +52,29 @@ class UnitsPanel(pn.viewable.Viewer):
         # the last run of the device, if it rolled: its contact patch's check
         self.run_note = pn.pane.Markdown("", sizing_mode="stretch_width",
                                          css_classes=["vt-units-rolling"])
-        state.param.watch(self._update, list(DEVICE_FIELDS))
+        # why the tab's Run did not run, beside its button
+        self.refusal = pn.pane.Alert("", alert_type="danger", visible=False,
+                                     sizing_mode="stretch_width",
+                                     css_classes=["vt-units-refusal"])
+        state.param.watch(self._update, [*DEVICE_FIELDS, "invalid"])
         self._update()
 
     def normalized(self):
         return self.state.device()
 
     def _update(self, *events):
+        errors = self.state.device_errors()
+        if not errors:
+            self.say_refusal("")            # (the fields it named are valid now)
         try:
+            if errors:      # (the state keeps the last valid values: none is shown)
+                raise ValueError(" · ".join(errors))
             n = self.normalized()
             A_star, m_star, a0, profile = self.state.device_tip()   # (the tip's a0)
         except (ValueError, TypeError) as exc:
-            self.info.object = f"**Invalid input:** {exc}"
+            why = str(exc) if errors else literal(exc)
+            self.info.object = (f"**Invalid input:** {why}\n\n*The device's A\\*, m\\*, a0 and "
+                                f"its marker on the map are shown once it is valid.*")
             self.warnings.object = ""
             self.marker = None
             return
@@ -80,14 +93,26 @@ class UnitsPanel(pn.viewable.Viewer):
             f"| m* | {m_star:.4g} (log10 {lm:.4g}) |",
             f"| a0 | {a0:.3e} m |",
             *([] if self.state.tip == "sphere" else
-              [f"| tip (the Design tab's) | {self.state.tip_shape().name}: profile "
+              [f"| tip (the Design tab's) | {literal(self.state.tip_shape().name)}: profile "
                f"`{profile}` |"]),
             f"| wave period | {units.duration_text(1.0 / n.frequency)} |",
             f"| Rayleigh speed c_R | {n.c_R:.0f} m/s |",
             f"| r(nu), theta | {n.r:.3f}, {n.theta:.3f} |",
             f"| on the map | {where} |",
         ])
-        self.warnings.object = "\n\n".join(f"**Warning:** {w.message}" for w in device_warnings(self.state))
+        self.warnings.object = "\n\n".join(f"**Warning:** {literal(w.message)}"
+                                           for w in device_warnings(self.state))
+
+    def run(self):
+        """The tab's Run: the device's scene (`on_run`), or why not, said
+        beside the button (and over the page)."""
+        self.say_refusal("")
+        self.on_run(say=self.say_refusal)
+
+    def say_refusal(self, text):
+        """Say why the tab's Run did not run ("": nothing to say)."""
+        self.refusal.object = text
+        self.refusal.visible = bool(text)
 
     def use_device(self, device, name):
         """A device run from another tab: its (log10 A*, log10 m*, theta,
@@ -140,9 +165,9 @@ class UnitsPanel(pn.viewable.Viewer):
                                               shape=self.state.tip_shape()).contact_radius
             warning = design.rolling_warning(roll, a0, radius)
         except (ValueError, TypeError) as exc:
-            return f"*The run's rolled arc could not be checked: {exc}*"
+            return f"*The run's rolled arc could not be checked: {literal(exc)}*"
         if warning is not None:
-            return f"**Warning (the run):** {warning.message}"
+            return f"**Warning (the run):** {literal(warning.message)}"
         return (f"*The run's particle rolled at most {roll:.3g} a0 = {roll * a0:.3g} m within "
                 f"one contact, {roll * a0 / radius:.2g} of the contact radius {radius:.3g} m "
                 f"(below {design.ROLL_CONTACT_FRACTION:g}): its contact patch stayed put, as "
@@ -161,10 +186,11 @@ class UnitsPanel(pn.viewable.Viewer):
     def __panel__(self):
         go = pn.widgets.Button(label="Run this device's scene", color="primary",
                                css_classes=["vt-units-run", "vt-ack-run"])
-        go.on_click(lambda event: self.on_run())
+        go.on_click(lambda event: self.run())
         self.form = device_form(self.state, width=260)
         return pn.Column(pn.pane.Markdown("### Device in SI units (the Design tab's too)"),
-                         *self.form, go, self.warnings, self.run_note, self.info)
+                         *self.form, go, self.refusal, self.warnings, self.run_note,
+                         self.info)
 
 
 DEVICE_LABELS = {"radius": "particle radius (m)", "frequency": "frequency (Hz)",
