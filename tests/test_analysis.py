@@ -34,8 +34,9 @@ LAUNCH_FRACTION = 0.5
 def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, states=(),
          tau=50.0, n=1001, y_end=None, vy_end=None, attrs=None):
     """A trajectory Dataset as `simulate` returns it (the variables analysis
-    reads): time, x (linear from 0 to x_end unless given), events; y*, y*'
-    constant at y_end, vy_end if given; attrs added to tau, steps, seconds."""
+    reads): time, x (linear from 0 to x_end unless given) and its vx, events;
+    y*, y*' constant at y_end, vy_end if given (else 0); attrs added to tau,
+    steps, seconds and the scene's periods (t_end), amplitude and mass."""
     t = np.linspace(0.0, t_end, n)
     xs = np.linspace(0.0, x_end, n) if x is None else np.asarray(x, dtype=float)
     takeoffs = list(takeoffs)
@@ -46,15 +47,20 @@ def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, 
     ev += [(tt, R.STATE_CHANGE, code) for tt, code in states]
     ev.sort(key=lambda e: (e[0], e[1]))
     ev = np.array(ev, dtype=float).reshape(-1, 3)
-    data = {"x": ("time", xs),
+    data = {"x": ("time", xs), "vx": ("time", np.gradient(xs, t)),
+            "state": ("time", np.zeros(n, dtype=np.int8)),
             "event_time": ("event", ev[:, 0]),
             "event_kind": ("event", ev[:, 1].astype(np.int8)),
             "event_value": ("event", ev[:, 2])}
     if y_end is not None:
         data["y"] = ("time", np.full(n, float(y_end)))
         data["vy"] = ("time", np.full(n, float(vy_end)))
+    else:
+        data["y"] = data["vy"] = ("time", np.zeros(n))
+    # (the scene's attributes the drift's steadiness reads: stopping.DecidedRule's)
     return xr.Dataset(data, coords={"time": t},
-                      attrs={"tau": tau, "steps": 10, "seconds": 0.5, **(attrs or {})})
+                      attrs={"tau": tau, "steps": 10, "seconds": 0.5, "periods": t_end,
+                             "amplitude": 1.0, "mass": 1.0, **(attrs or {})})
 
 
 def spread_pair(sigma):
