@@ -383,10 +383,10 @@ def test_editing_a_value_labels_the_preset_custom():
 
 
 def test_a_chart_of_other_values_is_marked_and_the_table_follows_the_device(tmp_path):
-    # walkthrough: paper preset, Draw chart (sphere), then frequency 200000
-    # and a cone tip, Draw chart: the sphere's chart stayed with its
-    # caption, the table kept the sphere's -0.02708 m/s and the banner
-    # "Changed since this chart was drawn" went away
+    # paper preset, Draw chart (sphere), then frequency 200000 and a cone
+    # tip, Draw chart: the cone's chart needs its own map (offered); the
+    # sphere's chart stays under the banner "Changed since this chart was
+    # drawn", and the table shows the cone's device, not the sphere's m/s
     from vibtrans_explorer.session.state import ExplorerState
     from vibtrans_explorer.views import design as D
     state = ExplorerState()

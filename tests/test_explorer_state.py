@@ -550,8 +550,8 @@ def test_the_summary_says_cancelled_and_changed_in_one_order(order):
 
 
 def test_a_fresh_page_names_no_paper_point_and_picking_1_runs_it(monkeypatch, no_logged_errors):
-    # walkthrough: a fresh page's selector showed point 1 (its scene's) though
-    # nothing had run, so picking "1" did nothing
+    # a fresh page's scene is point 1's, not run: its selector names no point
+    # (had it named 1, picking "1" would change nothing and run nothing)
     from vibtrans_explorer.views.scene import CHOOSE_POINT
     ex = _open(monkeypatch)
     select = ex.scene_controls.point_select
@@ -571,9 +571,9 @@ def test_a_fresh_page_names_no_paper_point_and_picking_1_runs_it(monkeypatch, no
 
 def test_an_invalid_device_field_withholds_the_units_tabs_values_and_says_so_by_run(
         monkeypatch, no_logged_errors):
-    # walkthrough: with an invalid amplitude the Units tab kept showing the
-    # last valid device's A* 316.2 unmarked, and its Run's "Not run" was
-    # said at the top of the page, out of view
+    # with an invalid amplitude the state keeps the last valid device: the
+    # Units tab shows none of its values (A* 316.2), and its Run's "Not run"
+    # is said beside the button, not only at the top of the page
     ex = _open(monkeypatch)
     panel = ex.units_panel
     assert "| A* | 316.2" in panel.info.object and panel.marker is not None

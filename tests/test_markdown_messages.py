@@ -1,8 +1,8 @@
 """The library's words in the explorer's Markdown panes are shown as
 written (urlstate.literal): a star of A*, v* or t*, a '|v*|', an '_' or an
 'E=<Pa>' is neither emphasis, a table's cell edge nor an HTML tag.  The
-walkthrough's case: the Design tab's status line, in italics, said "... in
-log10 A and in log10 m*" (the star of A* closed the italics).
+Design tab's status line is in italics: unescaped, the star of "log10 A*"
+in its chart's reading would close them ("... in log10 A and in log10 m*").
 
 Each test renders a pane as the page does (markdown-it, tests/markdowntext.py)
 and finds the library's message in it, stars included."""

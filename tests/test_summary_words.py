@@ -114,8 +114,8 @@ def _row(table, name):
 
 
 def test_an_unsteady_drift_is_said_so_in_the_si_row_too():
-    # walkthrough: the SI row converted the run's mean where the table said
-    # its drift was not steady; now it says so, as the "steady?" row does
+    # the SI row converts the run's mean: where the drift is not steady it
+    # says so, as the "steady?" row does
     s = _summary(lambda t: -1e-3 * t ** 2 / 2, lambda t: -1e-3 * t)
     assert s.steady is False
     table = _shown_table(s)
