@@ -48,9 +48,10 @@ DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
 _INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
 # what makes emphasis, code, links, tables or strike-through inside a line
-_INLINE = re.compile(r"([\\`*_\[\]|~])")
+# (a link or a footnote starts with '[': a ']' alone is text)
+_INLINE = re.compile(r"([\\`*_\[|~])")
 # and what starts a block at a line's start, or a typed text may begin with
-_BLOCK = re.compile(r"([{}()#+\-.!])")
+_BLOCK = re.compile(r"([{}()#+\-.!\]])")
 
 
 def literal(text):
