@@ -189,3 +189,13 @@ def test_the_help_names_every_subcommand(capsys):
     assert "orbit" in commands
     summary = re.search(r"Command line: vibtrans ([a-z| ]+)\.", text).group(1)
     assert summary.split(" | ") == commands
+
+
+def test_a_decided_run_that_goes_to_its_end_prints_its_summary(capsys):
+    # paper point 4 still accelerates at 100 periods: the decided stop runs
+    # it to the end, which has no asymptotic rate (null, not a crash)
+    import json
+    assert main(["simulate", "--log-amplitude", "2.5", "--log-mass", "0", "--periods", "100",
+                 "--stop", "decided", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["stop_reason"] == "ran-to-end" and out["asymptotic_drift_velocity"] is None

@@ -44,6 +44,7 @@ from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans.products.designtip import TIP_SIZES
 from vibtrans_explorer import explorer as E
+from vibtrans_explorer.server import data
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS, is_sphere
 from vibtrans_explorer.views import design as D
@@ -339,10 +340,13 @@ class ExplorerMachine(RuleBasedStateMachine):
                                           P.outline(s.profile, view.source.data["r"]))
             assert s.profile in view.figure.title.text
         assert view.rigid.visible == (s.model == "point-mass")
-        # the map shown (the shipped, the sphere's) says when it is not the
-        # particle's (the material point is rigid)
-        assert ex.ondemand.profile_box.visible == (
-            s.model != "point-mass" and not is_sphere(s.profile))
+        # the map shown (the shipped, the sphere's that does not roll) says
+        # when it is not the particle's (the material point is rigid), or
+        # when no shipped map has the selected mu
+        other_particle = s.model != "point-mass" and (not is_sphere(s.profile)
+                                                      or s.rolling != "none")
+        no_map = (s.model, s.mu) not in data.available_maps()
+        assert ex.ondemand.profile_box.visible == (other_particle or no_map)
         if ex.design_panel is not None:
             # the Design tab's device and tip are the state's (one form, no copy)
             assert ex.design_panel.device is s and ex.design_panel.particle_tip is s

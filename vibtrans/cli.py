@@ -167,7 +167,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     out = {k: _jsonable(v) for k, v in summary._asdict().items()}
     out["scene"] = scene.values()
     if args.stop == "decided":
-        out.update({k: _jsonable(ds.attrs[k]) for k in
+        # (a run that went to its end has no asymptotic rate: null)
+        out.update({k: _jsonable(ds.attrs.get(k)) for k in
                     ("stop_reason", "periods_run", "asymptotic_drift_velocity")})
     if args.json:
         print(json.dumps(out))
