@@ -6,7 +6,7 @@ import sys
 
 from vibtrans_explorer.server import compat
 
-_STOCK_PROBE = ("from vibtrans_explorer import compat; "
+_STOCK_PROBE = ("from vibtrans_explorer.server import compat; "
                 "print(compat.validation_switch_is_process_wide())")
 
 
@@ -25,7 +25,7 @@ def test_panels_text_panes_in_a_hidden_tab_fetch_the_cdn():
     a dynamic Tabs is hidden comes back with its stylesheets (shared with
     the page's other models) on Panel's CDN.  Probed in a fresh process:
     stock Panel, nothing applied."""
-    probe = ("from vibtrans_explorer import compat; "
+    probe = ("from vibtrans_explorer.server import compat; "
              "print(compat.hidden_tab_update_fetches_the_cdn())")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True,
                          text=True, timeout=120, check=True).stdout.split()

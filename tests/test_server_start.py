@@ -40,9 +40,9 @@ def test_a_run_before_the_kernels_are_ready_waits_with_a_message(compiling, monk
         return real(*args, **kwargs)
     real = E.simulate
 
-    def wait(cancel=None):          # the run's thread waiting for the kernels
+    def wait(cancel=None, scene=None):      # the run's thread waiting for the kernels
         waiting.set()
-        return real_wait(cancel)
+        return real_wait(cancel, scene)
     real_wait = warmup.wait
     monkeypatch.setattr(warmup, "wait", wait)
 
