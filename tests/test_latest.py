@@ -36,7 +36,9 @@ def test_a_newer_request_cancels_the_older_and_only_its_result_is_shown():
         work.deliver(second, shown.append, failed.append)
         assert first.event.is_set() and not work.is_latest(first)
         await until(lambda: not work.running)
-        await asyncio.sleep(0.05)                   # the first's end changes nothing
+        # the first's end (its thread done, then every task it left) changes nothing
+        await until(lambda: all(f.done() for f in first.futures))
+        await asyncio.gather(*(asyncio.all_tasks() - {asyncio.current_task()}))
         assert shown == ["second"] and failed == [] and work.job is second
     asyncio.run(go())
 
