@@ -24,20 +24,27 @@ import param
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
 from vibtrans_explorer.server import compat, data, memory, warmup
-from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session import maprequest, urlstate
 from vibtrans_explorer.session.controller import CANCELLED, RunController
 from vibtrans_explorer.session.latest import at_next_tick
-from vibtrans_explorer.session.pagelink import PageLink
+from vibtrans_explorer.session.pagelink import PageLink, map_request_of
 from vibtrans_explorer.session.state import (
     DEVICE_FIELDS,
     MAP_MATERIAL,
     MAP_RUN,
     MAP_TABS,
     SCENE_FIELDS,
+    URL_KEYS,
     ExplorerState,
 )
 from vibtrans_explorer.texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
-from vibtrans_explorer.views.browserside import ACK_RUN, ack_js, ack_listener, ack_pane
+from vibtrans_explorer.views.browserside import (
+    ACK_RUN,
+    BrowserAddress,
+    ack_js,
+    ack_listener,
+    ack_pane,
+)
 from vibtrans_explorer.views.design import DesignPanel
 from vibtrans_explorer.views.difference import DifferenceView
 from vibtrans_explorer.views.exports import ExportsView
@@ -81,20 +88,33 @@ SCENE_STATE = (*SCENE_FIELDS, "compare")
 _STALE_HIDDEN, _STALE_SHOWN = {"display": "none"}, {"display": None}
 
 
-def _page_location():
-    """The page's Location (None outside a served session), made from the
-    request's path alone.  Panel's own (`pn.state.location`) parses the
-    query itself and fails on some texts ('?la=²': '²'.isdigit() is true,
-    int('²') raises), which gave a 500 page; the query is read by urlstate
-    (every value checked, messages) and the URL rewritten from the result."""
+def _request():
+    """The served session's HTTP request (None outside a served session)."""
     doc = pn.state.curdoc
     ctx = doc.session_context if doc is not None else None
-    if ctx is None or getattr(ctx, "request", None) is None:
-        return None
-    from panel.io.location import Location
-    path = getattr(ctx.request, "path", None) or "/"
-    return Location(pathname=path if path.startswith("/") else "/")
+    return getattr(ctx, "request", None) if ctx is not None else None
 
+
+def _page_location():
+    """The page's address in the browser (views.browserside.BrowserAddress;
+    None outside a served session): the link written from the state, the
+    browser's Back and Forward followed (app/session/pagelink.py)."""
+    return None if _request() is None else BrowserAddress()
+
+
+def _template_location():
+    """The Location Panel's template embeds (its page requires one), made
+    from the request's path alone and never written: the page's address
+    is `_page_location`'s.  Panel's own (`pn.state.location`) parses the
+    query itself and fails on some texts ('?la=²': '²'.isdigit() is true,
+    int('²') raises), which gave a 500 page.  True outside a served session
+    (Panel's default)."""
+    request = _request()
+    if request is None:
+        return True
+    from panel.io.location import Location
+    path = getattr(request, "path", None) or "/"
+    return Location(pathname=path if path.startswith("/") else "/")
 
 
 class Explorer(pn.viewable.Viewer):
@@ -184,24 +204,50 @@ class Explorer(pn.viewable.Viewer):
 
     # ---------- URL ----------
     def _apply_url(self):
-        """Apply the link's values (app/session/pagelink.py: checked, then the URL
-        follows the state), and run its scene once the page has loaded if
-        the link names one (log10 A* or m*) and every value in it is valid
-        (a link with an error runs nothing and says so)."""
+        """Apply the link's values (app/session/pagelink.py: checked, then the
+        address follows the state), and run its scene once the page has
+        loaded if the link names one (`_follow_link`)."""
         if self.location is None:
             return
-        self.link = PageLink(self.state, self.location)
+        self.link = PageLink(self.state, self.location, navigated=self._on_navigation)
         values, errors, request = self.link.read(pn.state.session_args or {})
-        self._error(urlstate.message(errors))
-        self._url_map = request
-        self.runs_on_load = not errors and ("log_amplitude" in values or "log_mass" in values)
         doc = pn.state.curdoc
         served = doc is not None and doc.session_context is not None
-        if request is not None and served and not errors:    # from the cache, or computed again
-            pn.state.onload(lambda: pn.state.execute(
-                functools.partial(self.ondemand.compute_map, request)))
-        if self.runs_on_load and served:
-            pn.state.onload(self.start_run)
+        self.runs_on_load = self._follow_link(values, errors, request,
+                                              later=pn.state.onload if served else None)
+
+    def _follow_link(self, values, errors, request, later):
+        """What a link does once its values are applied: its errors said (a
+        link with an error runs nothing), its map on demand drawn (from the
+        cache, or computed again), and its scene run if it names one (log10
+        A* or m*).  later(f): f called when the page can take it (None: not
+        called).  Returns whether the link's scene runs."""
+        self._error(urlstate.message(errors))
+        self._url_map = request
+        runs = not errors and ("log_amplitude" in values or "log_mass" in values)
+        if later is not None and request is not None and not errors:
+            later(lambda: pn.state.execute(functools.partial(self.ondemand.compute_map, request)))
+        if later is not None and runs:
+            later(self.start_run)
+        return runs
+
+    def _on_navigation(self, args):
+        """The browser's Back or Forward reached another address of the page:
+        its scene, as a link names it, in one step (form, marker, map, run)."""
+        request, _ = map_request_of(args)
+        with pn.io.hold():
+            if request is None and self.state.map_request is not None:
+                self.ondemand.back_to_shipped()     # (the map on demand leaves the page)
+            shown = self.state.map_request
+            values, errors, request = self.link.apply(args)
+            # a field left with an invalid text shows the link's value (a value
+            # the state had already: no change reached the field)
+            typed = [name for name in self.state.invalid if name in URL_KEYS]
+            if typed:
+                self.state.param.trigger(*typed)
+            if request is not None and maprequest.encode(request) == shown:
+                request = None              # the map shown already
+            self._follow_link(values, errors, request, later=lambda f: f())
 
     def url_query(self):
         """The page's link query (PageLink.query)."""
@@ -462,8 +508,9 @@ class Explorer(pn.viewable.Viewer):
         # Side by side on a wide screen (the map with its summary, the
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
+        address = [] if self.location is None else [self.location]
         self.page = pn.Column(
-            self.intro, self.message, self.scene_controls.where, self.ack,
+            self.intro, self.message, self.scene_controls.where, self.ack, *address,
             pn.FlexBox(pn.Column(tabs, self.summary_view.pane, styles=half,
                                  sizing_mode="stretch_width"),
                        pn.Column(self.stale_note, self.runs.tabs, styles=half,
@@ -541,19 +588,21 @@ def report_failure(exception):
 
 def serve_page():
     """The server's page function: this session's page built into its
-    document (`pn.state.curdoc`) by Panel's public `server_doc`, with the
-    explorer's own Location (`_page_location`): Panel's would parse the
-    query itself and fail on some texts (docs/how-to/deployment.md).  Attached under
+    document (`pn.state.curdoc`) by Panel's public `server_doc`, with an
+    inert Location of the explorer's (`_template_location`; Panel's would
+    parse the query itself and fail on some texts, docs/how-to/deployment.md):
+    the page's address is the explorer's own (`_page_location`, in the
+    page's main column).  Attached under
     one `Document.models.freeze()` (Bokeh's public context: the document's
     model graph recomputed once, not after each of the template's ~10
     roots; ~20% of a page, `python -m devtools.pagecost`).  Returns None:
     Panel then serves the document as built."""
     explorer = Explorer()
-    location = explorer.location if explorer.location is not None else True
     doc = pn.state.curdoc
     _PAGES[doc] = explorer
     with doc.models.freeze():
-        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=location)
+        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE,
+                                               location=_template_location())
 
 
 if pn.state.served:

@@ -455,7 +455,7 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
 
             # a particle that rolls: its mark turned by the rolled arc, as
             # frame() draws it
-            state = _show_and_play(page, doc, anim, rolling, 6, 700)
+            state = _show_and_play(page, doc, anim, rolling)
             assert len(state["mark"]["x0"]) == 1
             _same_frame(state, anim.frame(state["value"]))
             assert not errors, errors

@@ -36,8 +36,7 @@ import panel as pn
 import pytest
 from hypothesis import HealthCheck, Phase, settings
 from hypothesis import strategies as st
-from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
-from panel.io.location import Location
+from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 from tornado.httputil import parse_qs_bytes
 
 from vibtrans import Scene, simulate
@@ -50,6 +49,7 @@ from vibtrans_explorer.session.state import DEVICE_FIELDS, URL_ALIASES, URL_KEYS
 from vibtrans_explorer.views import design as D
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views import profile as P
+from vibtrans_explorer.views.browserside import BrowserAddress
 from vibtrans_explorer.views.summary import CANCELLED_LINE, STALE_LINE, profile_words
 
 pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
@@ -81,7 +81,7 @@ class StandIn:
 
 def _open(monkeypatch, query=""):
     """An Explorer as a served session opening `query` would build it."""
-    monkeypatch.setattr(E, "_page_location", lambda: Location(pathname="/"))
+    monkeypatch.setattr(E, "_page_location", BrowserAddress)
     args = parse_qs_bytes(query.lstrip("?"), keep_blank_values=True)
     monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
     stand_in = StandIn()
@@ -145,6 +145,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         super().__init__()
         self.ex = _open(self.monkeypatch)
         self.last_run = None        # (the scene the state had at Run, job or None)
+        self.addresses = []         # the page's addresses so far (its browser's history)
 
     # ------------------------------------------------------------ helpers
     def settled(self):
@@ -294,6 +295,29 @@ class ExplorerMachine(RuleBasedStateMachine):
     def cancel(self):
         self.ex.run_buttons.cancel_button.clicks += 1
 
+    @precondition(lambda self: self.addresses)
+    @rule(data=st.data())
+    def back_or_forward(self, data):
+        """The browser's Back or Forward reaches an earlier address of the
+        page (its report of the address): the state is that link's, and its
+        scene runs; the address stays as it is."""
+        ex = self.ex
+        address = data.draw(st.sampled_from(self.addresses))
+        before, jobs = ex.location.search, len(ex.jobs)
+        ex.location.search = address
+        assert ex.location.search == address
+        values, errors = urlstate.parse(parse_qs_bytes(address.lstrip("?")), ex.state,
+                                        URL_KEYS, URL_ALIASES)
+        assert not errors and urlstate.resolved(values, ex.state, URL_KEYS) == \
+            {n: getattr(ex.state, n) for n in URL_KEYS}
+        if address == before:
+            assert len(ex.jobs) == jobs             # the address shown: nothing to do
+        elif len(ex.jobs) == jobs:                  # refused: the message says why
+            assert ex.message.visible and ex.message.object
+        else:
+            assert len(ex.jobs) == jobs + 1
+            assert ex.jobs[-1].scene.values() == ex.state.scene().values()
+
     @rule()
     def reload(self):
         """Open the page's own link: the same state."""
@@ -365,8 +389,11 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @invariant()
     def the_link_is_the_state(self):
+        """(and records the address, an entry of the browser's history)"""
         ex = self.ex
         assert ex.location.search == ex.url_query()
+        if ex.location.search not in self.addresses:
+            self.addresses.append(ex.location.search)
         values, errors = urlstate.parse(parse_qs_bytes(ex.location.search.lstrip("?")),
                                         ex.state, URL_KEYS, URL_ALIASES)
         assert not errors
@@ -505,6 +532,25 @@ def test_an_invalid_link_runs_nothing_and_claims_no_defaults(monkeypatch, no_log
     assert not ex.runs_on_load
     assert ex.message.object.startswith("This link has errors, so nothing was run:")
     assert "default" not in ex.message.object
+
+
+def test_a_link_with_an_error_stays_in_the_address_until_a_change(monkeypatch,
+                                                                  no_logged_errors):
+    """Opened, or reached by the browser's Back, a link with an error stays
+    in the address (the browser's) while its message shows: nothing is
+    written until the state changes, then the state's address."""
+    ex = _open(monkeypatch, "?la=abc&lm=1")
+    assert ex.location.search == ""                 # nothing written: the link as given
+    ex.state.mu = 0.1
+    assert ex.location.search == ex.url_query() and "la=-0.3" in ex.location.search
+    jobs = len(ex.jobs)
+    ex.location.search = "?la=abc&lm=1"             # the browser's Back to it
+    assert ex.message.object.startswith("This link has errors, so nothing was run:")
+    assert "URL parameter 'la' (log_amplitude)" in ex.message.object
+    assert ex.location.search == "?la=abc&lm=1" and len(ex.jobs) == jobs
+    assert (ex.state.mu, ex.state.log_mass) == (0.3, 1.0)
+    ex.state.log_mass = 0.5
+    assert ex.location.search == ex.url_query()
 
 
 def test_a_link_on_a_paper_point_shows_it_in_the_list(monkeypatch, no_logged_errors):

@@ -13,7 +13,7 @@ import time
 from urllib.parse import parse_qs
 
 import pytest
-from browserpages import changed, frames, read
+from browserpages import changed, frames, new_page, open_explorer, read, settle
 from budget import budget, budget_ms
 from playwright.sync_api import TimeoutError as PageTimeout
 
@@ -190,3 +190,80 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
     # each error with the lines after it: the traceback whole
     assert not bad, "\n---\n".join("\n".join(lines[k:k + 40]) for k in bad[:3])
     assert len(done) == STEPS
+
+
+# ------------------------------------------------------------------ the browser's history
+def _at(page, la):
+    """Wait until the page's address names log10 A* = `la` and the page
+    agrees with it everywhere (fields, selectors, marker); its state."""
+    deadline = time.monotonic() + budget(60)
+    got = _settled(page, deadline)
+    while float(_query(got["search"])["la"]) != la:
+        assert time.monotonic() < deadline, f"the address stays at {got['search']!r}"
+        page.wait_for_function("(s) => window.location.search !== s", arg=got["search"],
+                               timeout=budget_ms(60))
+        got = _settled(page, deadline)
+    return got
+
+
+def _shows_run(page, amplitude):
+    """Wait until the summary is of a run at A* = `amplitude` (its heading)
+    and no stale note says the form has changed since."""
+    page.locator("strong", has_text=f"A* = {amplitude}, m* = ").first.wait_for(
+        timeout=budget_ms(120))
+    page.locator(".vt-stale").first.wait_for(state="hidden", timeout=budget_ms(30))
+
+
+def test_back_forward_and_reload_restore_the_scene_of_the_address(browser, served_explorer):
+    """The browser's Back and Forward reach the page's earlier and later
+    addresses: the form, the map's marker, the paper points and the run
+    shown follow the address (Panel's Location changed the address alone:
+    Back showed la=-0.3 over a form and a run at 0.5); a reload keeps the
+    scene the address names."""
+    page, errors = new_page(browser, 1280, 800)
+    open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview&compare=none")
+    _at(page, -0.3)
+    _shows_run(page, "0.5012")                  # scene A, run by its link
+    field = page.locator(".vt-field-log_amplitude input")
+    field.fill("0.5")
+    field.press("Enter")
+    _at(page, 0.5)
+    page.locator("button", has_text="Run selected scene").click()
+    _shows_run(page, "3.162")                   # scene B
+    entries = page.evaluate("() => history.length")
+    page.go_back()
+    a = _at(page, -0.3)
+    _shows_run(page, "0.5012")
+    assert a["la"] == "-0.3" and page.evaluate("() => history.length") == entries
+    page.go_forward()
+    b = _at(page, 0.5)
+    _shows_run(page, "3.162")
+    page.reload()
+    page.wait_for_selector("canvas", timeout=budget_ms(60))
+    assert _at(page, 0.5)["search"] == b["search"]
+    _shows_run(page, "3.162")
+    page.close()
+    assert not errors, errors
+
+
+def test_a_link_with_an_error_stays_in_the_address_until_a_change(browser, served_explorer):
+    """A link with an error is kept in the address while its message shows
+    (it was rewritten to the defaults at once: the user could not see what
+    was wrong in it); the first change writes the state's address."""
+    page, errors = new_page(browser, 1280, 800)
+    open_explorer(page, served_explorer.url + "?la=abc&mu=0.3")
+    page.get_by_text("URL parameter 'la' (log_amplitude) must be").first.wait_for(
+        timeout=budget_ms(60))
+    # a round trip to the server after the page connected (its text added
+    # when the introduction first opens): any rewrite of the address is in
+    page.get_by_text("What is this? (a short introduction)").first.click()
+    page.get_by_text("The wave travels towards").first.wait_for(timeout=budget_ms(30))
+    settle(page)
+    assert page.evaluate("() => window.location.search") == "?la=abc&mu=0.3"
+    page.locator(".vt-mu select").select_option("0.1")
+    page.wait_for_function("() => window.location.search.includes('mu=0.1')",
+                           timeout=budget_ms(60))
+    got = _settled(page, time.monotonic() + budget(60))
+    assert "la=abc" not in got["search"] and float(_query(got["search"])["la"]) == -0.3
+    page.close()
+    assert not errors, errors

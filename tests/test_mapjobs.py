@@ -290,10 +290,10 @@ def _explorer(monkeypatch, query):
     from urllib.parse import parse_qs
 
     import panel as pn
-    from panel.io.location import Location
 
     from vibtrans_explorer import explorer as E
-    monkeypatch.setattr(E, "_page_location", lambda: Location(search="?" + query))
+    from vibtrans_explorer.views.browserside import BrowserAddress
+    monkeypatch.setattr(E, "_page_location", BrowserAddress)
     args = {k: [v.encode() for v in vs] for k, vs in parse_qs(query).items()}
     monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
     return E.Explorer()
@@ -313,6 +313,21 @@ def test_a_link_with_a_map_request_shows_it_and_a_bad_one_says_why(monkeypatch):
     assert bad.state.map_request is None
     assert "URL parameter 'map': model must be one of deformable, point-mass; got 'rigid'" \
         in bad.message.object
+
+
+def test_back_to_an_address_without_the_map_shows_the_shipped_map(monkeypatch):
+    """The browser's Back from a link with a map on demand to one without:
+    the shipped map again, and the page's state is the address's."""
+    text = maprequest.encode(MapRequest(**{**TINY, "mu": 0.45}))
+    e = _explorer(monkeypatch, f"map={text}&mu=0.45&la=0.1&lm=0.5")
+    with_map = e.location.search
+    e.location.search = "?la=0.2&lm=0.5&mu=0.3"           # as the browser reports it
+    assert e.state.map_request is None and e.ondemand.computed_map() is None
+    assert (e.state.log_amplitude, e.state.mu) == (0.2, 0.3)
+    assert e.location.search == "?la=0.2&lm=0.5&mu=0.3"    # the address stays as it is
+    e.state.log_mass = 0.7                                # a change: a new address
+    assert "map=" not in e.location.search and "lm=0.7" in e.location.search
+    assert with_map != e.location.search
 
 
 def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monkeypatch):

@@ -4,8 +4,8 @@ property-based (hypothesis).
 URL (app/session/urlstate.py, called by Explorer._apply_url): every invalid value
 gives a message naming the URL key and the parameter and leaves the default;
 valid values are applied; unknown keys are ignored; the given text is shown
-escaped (the message is rendered as Markdown/HTML); the state after
-Location.sync is exactly the parsed one; and whatever the URL, only finite,
+escaped (the message is rendered as Markdown/HTML); the state is exactly
+the parsed one; and whatever the URL, only finite,
 in-range scenes reach a kernel.
 
 CLI: over `vibtrans simulate` arguments (in-process `cli.main(argv)`), an
@@ -28,7 +28,6 @@ import panel as pn
 import pytest
 from hypothesis import HealthCheck, assume, event, example, given, settings
 from hypothesis import strategies as st
-from panel.io.location import Location
 from tornado.httputil import parse_qs_bytes
 
 from vibtrans.cli import main
@@ -38,6 +37,7 @@ from vibtrans_explorer.explorer import Explorer, ExplorerState
 from vibtrans_explorer.server import data
 from vibtrans_explorer.session import maprequest, urlstate
 from vibtrans_explorer.session.state import URL_ALIASES, URL_KEYS
+from vibtrans_explorer.views.browserside import BrowserAddress
 
 # the module (the package's `simulate` attribute is the function)
 S = importlib.import_module("vibtrans.core.simulate")
@@ -356,10 +356,10 @@ def test_old_spellings_are_accepted_and_links_use_one():
 @pytest.fixture
 def url_session(monkeypatch):
     """Make Explorer() see `pairs` as its page's query, as a served session
-    does: pn.state.session_args (Tornado's parse) and a Location whose
-    search is the raw query (Location.sync applies it on its own)."""
+    does: pn.state.session_args (Tornado's parse) and the page's address
+    (nothing written in it yet: the browser shows the link as given)."""
     def open_(pairs):
-        monkeypatch.setattr(E, "_page_location", lambda: Location(search="?" + _query(pairs)))
+        monkeypatch.setattr(E, "_page_location", BrowserAddress)
         monkeypatch.setattr(type(pn.state), "session_args",
                             property(lambda self: _args(pairs)))
         return Explorer()
@@ -438,14 +438,22 @@ def test_explorer_state_is_the_validated_one(url_session, kernel_calls, pairs):
     values, errors = urlstate.parse(_args(pairs), ExplorerState, URL_KEYS, URL_ALIASES)
     expected = urlstate.resolved(values, ExplorerState, URL_KEYS)
     got = {name: getattr(explorer.state, name) for name in URL_KEYS}
-    assert got == expected                      # Location.sync applied nothing of its own
+    assert got == expected
     assert explorer.message.visible == bool(errors)
     assert explorer.message.object == urlstate.message(errors)
     # a link naming a scene (log10 A* or m*) runs it when the page has
     # loaded, unless the link has an error (then the message is the news)
     assert explorer.runs_on_load == (not errors and ("la" in dict(pairs) or "lm" in dict(pairs)))
+    if errors:
+        # a link with an error stays in the address while its message
+        # shows (nothing written); the first change writes the state's
+        assert explorer.location.search == ""
+        v0 = explorer.state.v0
+        explorer.state.v0 = 0.5 if v0 != 0.5 else 0.2
+        explorer.state.v0 = v0
     # the URL now shows the state in use
-    query = explorer.location.query_params
+    query = {k: v[0] for k, v in urllib.parse.parse_qs(
+        explorer.location.search.lstrip("?"), keep_blank_values=True).items()}
     for name, key in URL_KEYS.items():
         if got[name] is None:               # (the tip radius: the particle's own)
             assert key not in query

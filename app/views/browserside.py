@@ -1,10 +1,13 @@
 """What the explorer's page does in the browser by itself, without a round
-trip to a busy server: it acknowledges a user's action at once, and sizes
-the page for presentation mode."""
+trip to a busy server: it acknowledges a user's action at once, sizes
+the page for presentation mode, and keeps the page's address in the
+browser's history (`BrowserAddress`)."""
 import html
 import json
 
+import param
 from bokeh.models import CustomJS
+from panel.custom import JSComponent
 
 from vibtrans_explorer.views.presentation import PRESENTATION_SCALE, SIDEBAR_WIDTH
 
@@ -108,3 +111,43 @@ def ack_listener():
     texts = {c: _ack_text(t) for c, t in ACK_CLASSES.items()}
     return CustomJS(code=_FIND_ACK + _ACK_LISTENER % (
         json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH))
+
+
+# The page's address in the browser's history.  A change of `search` from
+# the server is a new entry (pushed unless the address is that already;
+# the first one, the link as opened, is replaced); the browser's Back and
+# Forward (`popstate`) report the address they reach to the server, which
+# restores the scene it names.  Plain ESM, no imports: nothing is loaded
+# from another host.
+_ADDRESS_ESM = """
+export function render({ model }) {
+  const go = (replace) => {
+    const search = model.search;
+    if (!search || search === window.location.search) return;
+    const url = window.location.pathname + search + window.location.hash;
+    if (replace) window.history.replaceState(window.history.state, "", url);
+    else window.history.pushState(null, "", url);
+  };
+  go(true);
+  model.on("search", () => go(false));
+  const navigated = () => { model.search = window.location.search; };
+  window.addEventListener("popstate", navigated);
+  model.on("remove", () => window.removeEventListener("popstate", navigated));
+}
+"""
+
+
+class BrowserAddress(JSComponent):
+    """The query of the page's address (its link).  Set by the server: the
+    browser shows it, as a new entry of its history; set by the browser
+    when its Back or Forward reaches another entry of the page (no entry
+    added).  Empty: the address as the browser has it.  Takes no room on
+    the page."""
+
+    search = param.String(default="", doc="the address's query, '?key=value&...' or empty")
+
+    _esm = _ADDRESS_ESM
+
+    def __init__(self, **params):
+        params = {"width": 0, "height": 0, "margin": 0, "sizing_mode": "fixed", **params}
+        super().__init__(**params)
