@@ -16,7 +16,7 @@ browser:
 	@command -v chromium >/dev/null 2>&1 || (apt-get update -qq && \
 		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null)
 
-# The deployment behind a proxy (devtools/deploy, tests/test_deploy.py) runs
+# The deployment behind a proxy (devtools/deploy, tests/browser/test_deploy.py) runs
 # Debian's nginx; installed once, needs root.  (On a machine with systemd its
 # package also starts the system's nginx on port 80: devtools/deploy runs
 # its own, on its own port and prefix.)
@@ -84,8 +84,8 @@ test-oldest: setup browser
 	$(OLDEST)/bin/python devtools/oldest.py --check-installed $(OLDEST)/constraints.txt
 	$(OLDEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow and not browser and not server"
 	$(OLDEST)/bin/python -m pytest -q -p no:cacheprovider \
-		"tests/test_server_start.py::test_the_server_says_what_it_does" \
-		tests/test_app_browser.py -k "test_page_loads_with_the_map or test_click_on_the_map_runs_that_scene"
+		"tests/browser/test_server_start.py::test_the_server_says_what_it_does" \
+		tests/browser/test_app_browser.py -k "test_page_loads_with_the_map or test_click_on_the_map_runs_that_scene"
 
 # The kernels' speed ratios and the cold start (a first `vibtrans simulate`
 # on an empty kernel cache over a warm one), written as JSON into
@@ -113,7 +113,7 @@ loadtest-proxy: setup browser proxy
 		--results-dir $(RESULTS) $(LOADTEST_ARGS)
 
 # The product as one file: library, command line, explorer and maps
-# (tests/test_wheel.py installs it in a fresh venv and runs it).
+# (tests/project/test_wheel.py installs it in a fresh venv and runs it).
 wheel: setup
 	$(BIN)/python -m pip wheel --no-deps . -w dist
 

@@ -1,7 +1,7 @@
 """Workarounds for bugs of the explorer's frameworks: the only place where
 the app changes Panel's, Param's, Bokeh's or HoloViews' code.  Each is
 applied only where its probe shows the bug in the installed version, so a
-version that fixes it runs stock; tests/test_compat.py fails on the day a
+version that fixes it runs stock; tests/app/test_compat.py fails on the day a
 version fixes one (then delete it here).  Each is written up, with its
 measurement and its upstream report, in docs/how-to/deployment.md.
 

@@ -1,5 +1,5 @@
 """The explorer's URL query, parsed and validated without Panel (a pure
-function, tested alone in tests/test_url_params.py).
+function, tested alone in tests/app/test_url_params.py).
 
     values, errors = parse(args, state, URL_KEYS, available_maps)
 

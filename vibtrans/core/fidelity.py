@@ -28,7 +28,7 @@ FIDELITY = {
 # Stated accuracy: the largest relative drift error (floor v0* = 0.1) against a
 # 4096-steps/period reference on the non-chaotic scenes that drift, measured by
 # `vibtrans bench --work-precision` (preview 1.6e-2, standard 1.0e-4,
-# reference 3.5e-6, both integrators); tests/test_presets.py holds each preset
+# reference 3.5e-6, both integrators); tests/products/test_presets.py holds each preset
 # to its bound on the quick study.
 V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band; the floor above)
 # Chaotic: the vertical motion's largest Lyapunov exponent above this, per

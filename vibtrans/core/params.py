@@ -170,7 +170,7 @@ def _choice(name, value, options):
 
 # m* from the smallest normal float up: below it (a subnormal m*) 1/m* is
 # infinite, and a particle at rest, zero net force, got 0 * inf = NaN for
-# its acceleration (a NaN take-off time; found by tests/test_bad_input_properties.py)
+# its acceleration (a NaN take-off time; found by tests/core/test_bad_input_properties.py)
 MASS_MIN = sys.float_info.min
 
 

@@ -214,7 +214,7 @@ def as_material(name: str, value: Any) -> Material:
 def _brentq(f, xa, xb, xtol, rtol, maxiter=100):
     """scipy.optimize.brentq, operation for operation (its C code,
     scipy/optimize/Zeros/brentq.c, in Python floats: the same IEEE doubles,
-    so the same root to the last bit; tests/test_units.py compares them).
+    so the same root to the last bit; tests/core/test_units.py compares them).
     Here because importing scipy.optimize cost ~0.55 s of every command that
     makes a Scene (e.g. `vibtrans simulate`, 2.7 s in all).
 

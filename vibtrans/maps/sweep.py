@@ -89,7 +89,7 @@ VARIABLES = {
 # (model "vertical"; "point-mass" for the material point's maps) serves every
 # deformable map of the same tau, fidelity,
 # integrator and periods, whatever mu and theta (the same steps; equal to
-# rounding, as kernel calls differ: tests/test_lyapunov.py).
+# rounding, as kernel calls differ: tests/core/test_lyapunov.py).
 LYAPUNOV_VARIABLES = {
     "lyapunov": ("f8", np.nan, "largest Lyapunov exponent of the vertical motion, per "
                                "period, from the end of the ramp"),

@@ -5,7 +5,7 @@ A chart varies two of (frequency, radius, amplitude), maps each device to
 (A*, m*) (docs/MODEL.md 1, 5) and reads a map of the same mu, theta and nu:
 shipped, computed on request (`compute=True`), else refused.  It reads the
 nearest grid point (categories do not blend), at most h/2 decades away:
-tests/test_design.py reads v* = -168 where a direct run gives -176.8, within
+tests/products/test_design.py reads v* = -168 where a direct run gives -176.8, within
 the spread of the 3 x 3 neighbours.  SI units unless a name says otherwise.
 """
 from __future__ import annotations
@@ -103,7 +103,7 @@ def _paper_device():
     return DeviceSpec("glass", "steel", radius, f, 10.0 ** log_a * a0)
 
 
-# The paper's figures for its worked example and this model's (tests/test_design.py
+# The paper's figures for its worked example and this model's (tests/products/test_design.py
 # runs the device): the paper's v* ~ -1e3 is the drift once settled, which
 # a 2000-period run (the maps', the explorer's) has not reached
 PAPER_NOTE = ("Terzi et al.'s worked example: 1 mm steel ball on glass at its point 4. The "
