@@ -57,7 +57,7 @@ def _small_chart_offer(page, draw, **fields):
         field = page.locator(f".vt-design-fields .vt-field-{name} input").first
         field.fill(value)
         field.press("Enter")
-    # (the fields' changes reach the server before the click, in the order sent)
+    page.wait_for_timeout(500)
     draw.click()
     return page.locator(".vt-design-offer").first
 
