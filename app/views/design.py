@@ -53,6 +53,7 @@ from vibtrans_explorer.session.state import (
 )
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.render import exclusively, rendered
 
 MIN_WIDTH = 420
@@ -336,6 +337,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
     on_run(device, mu, periods): run a device's scene (the explorer's);
     jobs: the server's maps on demand (mapjobs.jobs() if None)."""
 
+    font_scale = 1.0        # the chart's text (presentation mode's; set by the page)
     preset = param.Selector(default="paper", objects=[*PRESET_NAMES, CUSTOM_PRESET])
     substrate = param.Selector(default="glass", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
     particle = param.Selector(default="steel", objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL])
@@ -599,6 +601,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
             self._chart_map = chart_map
             self._marker = _device_marker(fig)
             fig.on_event(Tap, self._on_tap)
+            scale_fonts(fig, self.font_scale)
             self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
                                                      min_width=MIN_WIDTH)]
             self._show_device(device, reading, q, warnings)
@@ -923,7 +926,7 @@ class DesignPanel(pn.viewable.Viewer, TipFields):
         tip = row(self.tip_kind, *self.tip_boxes)
         if self.state is not None:
             from vibtrans_explorer.views.units import device_form
-            return [head, row(*device_form(self.state, width=150)), tip,
+            return [head, row(*device_form(self.state, width=180)), tip,
                     row(f["mu"], f["surface_energy"])]
         return [row(select(self.param.substrate, label="substrate"),
                     select(self.param.particle, label="particle"), f["preload"], f["mu"],

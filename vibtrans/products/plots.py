@@ -776,7 +776,7 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
 W_COLOR = "#1f77b4"                # the anchors w(h)
 U_COLOR = "#ff7f0e"                # the displacements u(h)
 SLIP_TEXT_COLOR = "#a05a00"
-FLIGHT_TEXT = "in flight: no contact, no memory"
+FLIGHT_TEXT = "in flight:\nno contact, no memory"     # (two lines: one was cut at a panel's width)
 MEMORY_XLABEL = "h (contact depth, a0)"
 MEMORY_WLABEL = "w (theta mu a0)"
 MEMORY_ULABEL = "u = b* - w (theta mu a0)"
@@ -976,7 +976,7 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
     img = style(img, common=dict(cmap="RdBu_r", clim=(-top, top), colorbar=True,
                                  # (s(v) = sign(v) log10(1 + |v|/v0*): in the title
                                  # would be clipped; the tab and `compare` say it)
-                                 clabel=f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"),
+                                 clabel=f"s(v2) - s(v1), decades\n(v0* = {diff.attrs['v0']:g})"),
                 bokeh=dict(tools=["hover"], hover_tooltips=[
                     (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("<v*> first", "@{v1}"),
                     ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]))
@@ -1015,7 +1015,7 @@ def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
                                                  f"{threshold:g} (chaotic above)"),
              (-1.0, "0.1"), (0.0, "1")]
     return style(img, common=dict(cmap="viridis", clim=(-4.0, 0.0), colorbar=True,
-                                  clabel="Lyapunov exponent of the vertical motion, per period"),
+                                  clabel="Lyapunov exponent of the\nvertical motion, per period"),
                  bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
                      (LOG_A.label, "$x"), (LOG_M.label, "$y"), ("lambda", "@{lam}")]),
                  matplotlib=dict(cbar_ticks=ticks))
@@ -1154,8 +1154,8 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
                               hv.Dimension("v", label=f"v ({unit})")])
     ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
     mesh = style(mesh, common=dict(cmap=CMAP, clim=(-1, 1), colorbar=True, logx=True,
-                                   logy=True, clabel=f"drift velocity ({unit}), signed log "
-                                                     f"scale; white: no drift"),
+                                   logy=True, clabel=f"drift velocity ({unit})\nsigned log "
+                                                     f"scale\nwhite: no drift"),
                  # (the hover: the device's axes and its drift, not the colour value C)
                  bokeh=dict(cticks=ticks, tools=["hover"], hover_tooltips=[
                      (AXIS_LABELS[xq], "$x"), (AXIS_LABELS[yq], "$y"),
@@ -1205,9 +1205,10 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
                             matplotlib=dict(marker="X", s=120)))
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
-        title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}, "
+        # (lines short enough for half a screen in presentation mode)
+        title = (f"{chart.attrs['particle']} on {chart.attrs['substrate']}\n"
                  f"{chart.attrs['fixed']} = {chart.attrs['fixed_value']:.3g} "
-                 f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g} "
+                 f"{chart.attrs['fixed_units']}, mu = {chart.attrs['mu']:g}\n"
                  f"({chart.attrs['map']})")
         tip = chart.attrs.get("profile", "sphere")
         if tip != "sphere":         # (a second line: the first fills a half-page chart)
