@@ -37,7 +37,13 @@ from vibtrans_explorer.session.state import (
     URL_KEYS,
     ExplorerState,
 )
-from vibtrans_explorer.texts import INTRODUCTION, MAP_KEY, PRESENTATION_NOTE, STALE_TEXT
+from vibtrans_explorer.texts import (
+    INTRODUCTION,
+    MAP_KEY,
+    POINT_DESCRIPTIONS,
+    PRESENTATION_NOTE,
+    STALE_TEXT,
+)
 from vibtrans_explorer.views.browserside import (
     ACK_RUN,
     BrowserAddress,
@@ -57,6 +63,7 @@ from vibtrans_explorer.views.presentation import (
     WRAPPING_TABS,
     ExplorerDesign,
     scale_fonts,
+    scale_widths,
 )
 from vibtrans_explorer.views.profile import ProfileView, RollingView
 from vibtrans_explorer.views.runbuttons import RunButtons
@@ -82,10 +89,19 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 # its scene's, and the twin run beside it
 SCENE_STATE = (*SCENE_FIELDS, "compare")
 
+# the sidebar's widgets that take its width (`controls`)
+SIDEBAR_STRETCHED = (pn.widgets.Select, pn.widgets.TextInput, pn.widgets.RadioButtonGroup,
+                     pn.widgets.FloatSlider)
+
 # the stale note's style while the run shown is the state's, and while it is
 # not (`_set_stale_note`): BokehJS sets the properties given and removes those
 # given as None (an empty dict would leave the note hidden)
 _STALE_HIDDEN, _STALE_SHOWN = {"display": "none"}, {"display": None}
+
+
+def _point_note(point):
+    """The chosen paper point in full words, under its selector (empty for none)."""
+    return f"*Point {point}: {POINT_DESCRIPTIONS[point]}*" if point else ""
 
 
 def _request():
@@ -188,6 +204,7 @@ class Explorer(pn.viewable.Viewer):
         self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
         # the run's tabs, each built when first opened (app/views/runtabs.py)
         self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
+        self._widths = self.runs.widths     # the widgets' own widths (`scale_widths`)
         self._on_position()
         self.state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
         self.units_panel.param.watch(self._on_device, "marker")
@@ -354,8 +371,23 @@ class Explorer(pn.viewable.Viewer):
             self.map_view.fit_keys()
             self.trajectories.scale_fonts(factor)
             self.runs.scale_fonts(factor)
+            self._scale_tabs(factor)
             if event.new and getattr(self, "intro", None) is not None:
                 self.intro.collapsed = True
+
+    def _scale_tabs(self, factor):
+        """The map's tabs and the sidebar's drawing at `factor` times their
+        text's sizes: their figures' fonts (and those drawn later), the
+        widths of their selects and text boxes."""
+        for view in (self.vertical, self.difference, self.profile_view):
+            view.scale_fonts(factor)
+        if self.design_panel is not None:
+            self.design_panel.font_scale = factor
+            for pane in self.design_panel.chart_pane.select(pn.pane.Bokeh):
+                scale_fonts(pane.object, factor)
+        for part in (getattr(self, "page", None), getattr(self, "controls_column", None)):
+            if part is not None:
+                scale_widths(part, factor, self._widths)
 
     # ---------- runs ----------
     def start_run(self, schedule=True):
@@ -457,6 +489,9 @@ class Explorer(pn.viewable.Viewer):
                 pn.widgets.RadioButtonGroup.from_param(
                     s.param.orbits, label="period-1 orbit curves (deformable)")]),
             sc.point_select,
+            pn.pane.Markdown(pn.bind(_point_note, sc.point_select.param.value),
+                             css_classes=["vt-point-note"], sizing_mode="stretch_width",
+                             margin=(0, 10)),
             *sc.fields[:2],
             self.profile_view,
             self.rolling_view,
@@ -472,6 +507,12 @@ class Explorer(pn.viewable.Viewer):
             self.presentation_note,
             sizing_mode="stretch_width",
         )
+        # the sidebar's widgets take its width (in presentation mode it is
+        # wider, and its texts larger: a paper point's name was cut in a box
+        # of the normal width)
+        for w in self.controls_column.select(pn.widgets.Widget):
+            if isinstance(w, SIDEBAR_STRETCHED) and w.sizing_mode is None:
+                w.sizing_mode = "stretch_width"
         return self.controls_column
 
     def _drawing(self, widgets):
@@ -523,7 +564,7 @@ class Explorer(pn.viewable.Viewer):
         if event.new == VERTICAL_TAB:
             self.vertical.build()
         elif event.new == UNITS_TAB and not self.units_box.objects:
-            self.units_box.objects = [self.units_panel]
+            self.units_box.objects = [self._scaled(self.units_panel)]
         elif event.new == ONDEMAND_TAB:
             self.ondemand.request_panel()
         elif event.new == DIFFERENCE_TAB:
@@ -531,7 +572,19 @@ class Explorer(pn.viewable.Viewer):
         elif event.new == DESIGN_TAB and self.design_panel is None:
             self.design_panel = DesignPanel(on_run=self._run_design_device, state=self.state)
             self.design_panel.show_run_note(self.units_panel.run_note.object)
-            self.design_box.objects = [self.design_panel]
+            self.design_panel.font_scale = self._font_scale()
+            self.design_box.objects = [self._scaled(self.design_panel)]
+
+    def _font_scale(self):
+        return PRESENTATION_SCALE if self.presentation else 1.0
+
+    def _scaled(self, view):
+        """The layout of a view built for a tab, its selects' and text boxes'
+        widths at the page's scale before it goes into the page
+        (`scale_widths`)."""
+        layout = pn.panel(view)
+        scale_widths(layout, self._font_scale(), self._widths)
+        return layout
 
     def _on_intro(self, event):
         if not event.new and not self.intro.objects:

@@ -2,9 +2,24 @@
 map's key and the run tabs' captions (no code: the views and the page read
 them)."""
 
+# The paper points' names in the selector, short (a select shows its choice
+# on one line: in presentation mode at 1024 pixels, ~27 characters), and
+# in full under it
 POINT_LABELS = {
-    1: "permanent contact, drift against the wave",
-    2: "permanent contact, drift with the wave",
+    1: "contact, drift -x",
+    2: "contact, drift +x",
+    3: "contact, no drift",
+    4: "synchronous hopping",
+    5: "multi-synchronous hops",
+    6: "jumps, uniform drift",
+    7: "jumps, accelerating",
+    8: "chaotic hopping",
+    9: "point mass, sliding",
+    10: "point mass, chaotic",
+}
+POINT_DESCRIPTIONS = {
+    1: "permanent contact, drift against the wave (-x)",
+    2: "permanent contact, drift with the wave (+x)",
     3: "permanent contact, no drift",
     4: "synchronous hopping (hovering)",
     5: "multi-synchronous hopping",

@@ -49,7 +49,7 @@ import math
 import numpy as np
 import panel as pn
 import xarray as xr
-from bokeh.layouts import column, row
+from bokeh.layouts import row
 from bokeh.models import (
     Circle,
     ColumnDataSource,
@@ -76,10 +76,12 @@ from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.profiles import parse_profile
 from vibtrans.products import plots
 from vibtrans_explorer.session.state import is_sphere
+from vibtrans_explorer.views.presentation import INPUT_FONT
 
 MAX_FRAMES = 3000          # frames sent to the browser per run (~0.25 MB)
-SIDE_W, SIDE_H = 620, 300  # the side view's plotting area, pixels (equal scales)
+SIDE_W, SIDE_H = 460, 300  # the side view's plotting area, pixels (equal scales)
 CIRCLE_PX = 300            # the contact circle's plotting area, pixels (square)
+PLAYER = (100, 360, 150)   # the player's widths: its button, slider and speed selector
 RHO_FRACTION = 0.1         # drawn particle radius / the height the motion spans
 RHO_OVER_OVERLAP = 3.0     # drawn particle radius / the largest overlap a*, at least
 WAVELENGTH_VIEWS = 3.0     # drawn wavelength / the view's width
@@ -371,7 +373,16 @@ class ParticleAnimation(pn.viewable.Viewer):
         self._build()
         self.runs = 0
         self._run = None            # (scene, ds) shown, for a new window
-        self._pane = pn.pane.Bokeh(self.layout, name="particle-animation")
+        # the contact circle beside the side view where both fit, else below
+        # it (one Bokeh row squeezed it beside the side view at 1024 pixels,
+        # its frame narrower than its title's lines): each figure a pane of
+        # its own in a wrapping row
+        self._pane = pn.Column(
+            pn.pane.Bokeh(self.player),
+            pn.FlexBox(pn.pane.Bokeh(self.side), pn.pane.Bokeh(self.circle),
+                       flex_wrap="wrap", align_items="flex-start"),
+            pn.pane.Bokeh(self.key), name="particle-animation", margin=0,
+            sizing_mode="stretch_width")
         self.window = pn.widgets.Select(label="show", options=WINDOWS, value="window", width=300,
                                         css_classes=["vt-anim-window"])
         self.window.param.watch(self._on_window, "value")
@@ -443,12 +454,13 @@ class ParticleAnimation(pn.viewable.Viewer):
         circ.toolbar.logo = None
         self.circle = circ
 
-        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=360,
+        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=PLAYER[1],
                              disabled=True, name="anim-frame")
-        self.play = Toggle(label="\u25b6 Play", active=False, width=100, disabled=True,
+        self.play = Toggle(label="\u25b6 Play", active=False, width=PLAYER[0], disabled=True,
                            button_type="success", name="anim-play")
+        # (its text follows the page's root size, as the Panel widgets' do)
         self.speed = Select(title="speed", value=DEFAULT_SPEED, options=list(SPEEDS),
-                            width=150, name="anim-speed")
+                            width=PLAYER[2], name="anim-speed", stylesheets=[INPUT_FONT])
         args = dict(frames=self.frames, meta=self.meta, table=self.table,
                     surface=self.surface, particle=self.particle, marks=self.marks,
                     tip=self.tip, tip_shape=self.tip_shape, side=side, mark=self.mark,
@@ -467,7 +479,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             code=_PLAY_JS))
         swatch = ('<span style="display:inline-block;width:11px;height:11px;'
                   'background:{};border:1px solid #555;margin:0 3px 0 10px"></span>{}')
-        self.key = Div(text="", width=SIDE_W + CIRCLE_PX + 120)
+        self.key = Div(text="", sizing_mode="stretch_width")
         self._key_head = ("<b>contact state</b>" + "".join(
             swatch.format(plots.STATE_COLORS[k], STATE_NAMES[k]) for k in (1, 2, 3))
             + " &nbsp; (flight: no contact zone). Side view: the contact zone on the "
@@ -477,7 +489,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             "the particle).<br>")
         # the player above the figures: at 1024 pixels, below them its speed
         # selector was off the page's right edge
-        self.layout = column(row(self.play, self.slider, self.speed), row(side, circ), self.key)
+        self.player = row(self.play, self.slider, self.speed)
 
     # ------------------------------------------------------------ data
     def show(self, scene, ds):
@@ -645,17 +657,17 @@ class ParticleAnimation(pn.viewable.Viewer):
         self.static_contact.visible = deformable
         self.circle_note.text = (
             "a rigid point has no contact area" if not deformable else
-            "dotted: the static contact, c = 1" + ("; vertical model: no tangential force, "
+            "dotted: the static contact, c = 1" + ("\nvertical model: no tangential force, "
                                                    "no stick core" if scene.model == "vertical"
                                                    else "")
-            + ("" if sphere else f"; c(a*) the {scene.profile} profile's"))
+            + ("" if sphere else f"\nc(a*) the {scene.profile} profile's"))
         R_a0, wave_a0 = _example_device()
         self.scale_notes[0].text = (
             f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),")
         self.scale_notes[1].text = (
             f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
         self.scale_notes[2].text = (
-            "To scale, in a0: heights, the particle's motion along x"
+            "To scale (a0): heights, the motion along x"
             + (", the overlap a*." if deformable else ". Material point: the particle only."))
         self.scale_notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = (("the contact zone drawn as Hertz's for the drawn radius: half-width "
@@ -739,6 +751,19 @@ class ParticleAnimation(pn.viewable.Viewer):
             getattr(self, name).data = f[name]
         self.side.title.text = f["side_title"]
         self.circle.title.text = f["contact_title"]
+
+    def references(self):
+        """Every Bokeh model of the animation's figures and player."""
+        return {m for part in (self.player, self.side, self.circle, self.key)
+                for m in part.references()}
+
+    def scale_sizes(self, factor):
+        """The player's button and speed selector at `factor` times their
+        width (presentation mode: their text grows), its slider shorter by
+        as much, so that the player keeps its width."""
+        play, slider, speed = PLAYER
+        self.play.width, self.speed.width = round(play * factor), round(speed * factor)
+        self.slider.width = round(slider - (factor - 1.0) * (play + speed))
 
     def __panel__(self):
         return self._panel

@@ -9,7 +9,11 @@ import param
 from bokeh.models import CustomJS
 from panel.custom import JSComponent
 
-from vibtrans_explorer.views.presentation import PRESENTATION_SCALE, SIDEBAR_WIDTH
+from vibtrans_explorer.views.presentation import (
+    PRESENTATION_SCALE,
+    PRESENTATION_SIDEBAR_VW,
+    SIDEBAR_WIDTH,
+)
 
 # An action's acknowledgement, shown by the browser at the click (not after a
 # round trip to a busy server) and cleared by the server when it answers:
@@ -66,7 +70,7 @@ def ack_js(text):
 # links (~15 ms of the event loop per page, `python -m devtools.pagecost`).
 # It sees the browser's own changes only (`sync`: not the server's).
 _ACK_LISTENER = """
-const texts = %s, SCALE = %s, SIDEBAR = %s;
+const texts = %s, SCALE = %s, SIDEBAR = %s, SIDEBAR_VW = %s;
 const ack = vtAck();
 const actions = new Set(["value", "value_throttled", "active", "clicks"]);
 const said = (model) => {
@@ -75,12 +79,13 @@ const said = (model) => {
 };
 // presentation mode (the toggle of class vt-presentation): the root font
 // size, which Bootstrap's rem-sized buttons and inputs follow, and the
-// sidebar's width (the template's --sidebar-width)
+// sidebar's width (the template's --sidebar-width), at most a share of
+// the screen's
 const present = (on) => {
   const root = document.documentElement.style;
   if (on) {
     root.fontSize = `${100 * SCALE}%%`;
-    root.setProperty("--sidebar-width", `${Math.round(SIDEBAR * SCALE)}px`);
+    root.setProperty("--sidebar-width", `min(${Math.round(SIDEBAR * SCALE)}px, ${SIDEBAR_VW}vw)`);
   } else {
     root.fontSize = "";
     root.removeProperty("--sidebar-width");
@@ -110,7 +115,7 @@ def ack_listener():
     and sets the page's root sizes when presentation mode is switched."""
     texts = {c: _ack_text(t) for c, t in ACK_CLASSES.items()}
     return CustomJS(code=_FIND_ACK + _ACK_LISTENER % (
-        json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH))
+        json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH, PRESENTATION_SIDEBAR_VW))
 
 
 # The page's address in the browser's history.  A change of `search` from

@@ -50,6 +50,7 @@ from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
 from vibtrans_explorer.views.units import DEVICE_LABELS, device_form
@@ -387,6 +388,7 @@ class DesignPanel(pn.viewable.Viewer,
                                  doc="the device edited (SI units)")
     particle_tip = param.ClassSelector(class_=Tip, instantiate=False,
                                        doc="the particle's tip edited")
+    font_scale = 1.0        # the chart's text (presentation mode's; set by the page)
     preset = param.Selector(default="paper", objects=[*PRESET_NAMES, CUSTOM_PRESET])
     surface_energy = param.Number(default=DEFAULT_SURFACE_ENERGY, doc="work of adhesion, J/m^2")
     x = param.Selector(default="frequency", objects=list(design.AXES))
@@ -657,6 +659,7 @@ class DesignPanel(pn.viewable.Viewer,
             self._chart_map = chart_map
             self._marker = _device_marker(fig)
             fig.on_event(Tap, self._on_tap)
+            scale_fonts(fig, self.font_scale)
             self.chart_pane.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width",
                                                      min_width=MIN_WIDTH)]
             self._show_device(device, reading, q, warnings)
@@ -1011,7 +1014,7 @@ class DesignPanel(pn.viewable.Viewer,
         body = pn.Column(self.rolling_view, self.hollow_note, margin=0,
                          sizing_mode="stretch_width")
         if self.state is not None:
-            return [head, row(*device_form(self.device, width=150)), tip, body,
+            return [head, row(*device_form(self.device, width=180)), tip, body,
                     row(f["mu"], f["surface_energy"])]
         return [row(select(self.device.param.substrate, label="substrate"),
                     select(self.device.param.particle, label="particle"), f["preload"], f["mu"],

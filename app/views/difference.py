@@ -14,7 +14,8 @@ from vibtrans.maps.difference import map_difference
 from vibtrans.products import plots
 from vibtrans_explorer.server import data
 from vibtrans_explorer.session.urlstate import literal
-from vibtrans_explorer.views.map import MIN_WIDTH
+from vibtrans_explorer.views.map import MAP_FRAME_HEIGHT, MIN_WIDTH
+from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.render import rendered
 
 log = logging.getLogger("vibtrans.explorer")
@@ -38,7 +39,14 @@ def difference_figure(first, second, v0):
     diff = map_difference(first, second, v0)
     _, fig = rendered(plots.map_difference_figure, diff)
     fig.document.remove_root(fig)
-    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None)
+    # the map's frame height (the default figure's left its colour bar
+    # shorter than the bar's title); the title names the maps, on two lines,
+    # and the summary above the figure says how they agree (on the figure,
+    # a line of that was wider than its frame)
+    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None, height=None,
+               frame_height=MAP_FRAME_HEIGHT)
+    a = diff.attrs
+    fig.title.text = f"{a['second']}\nagainst {a['first']}"
     return fig, diff
 
 
@@ -49,6 +57,7 @@ class DifferenceView:
     def __init__(self, state, computed=lambda: None):
         self.state, self.computed = state, computed
         self.diff = None               # the Dataset shown
+        self.font_scale = 1.0          # presentation mode's (`scale_fonts`)
         self.panel = pn.Column(sizing_mode="stretch_width", name="difference")
         self._built = False
 
@@ -58,10 +67,14 @@ class DifferenceView:
         every time (a map on demand may have been shown since)."""
         if not self._built:
             self._built = True
-            self.first = pn.widgets.Select(label="first map", width=330,
-                                           css_classes=["vt-diff-first"])
+            # one under the other, as wide as the tab (side by side at 330
+            # pixels each, the second was off the page and their choices cut
+            # in presentation mode)
+            self.first = pn.widgets.Select(label="first map", sizing_mode="stretch_width",
+                                           max_width=600, css_classes=["vt-diff-first"])
             self.second = pn.widgets.Select(label="second map (compared with the first)",
-                                            width=330, css_classes=["vt-diff-second"])
+                                            sizing_mode="stretch_width", max_width=600,
+                                            css_classes=["vt-diff-second"])
             self.button = pn.widgets.Button(label="Show the difference", color="primary",
                                             css_classes=["vt-diff-show"])
             self.button.on_click(self._on_show)
@@ -72,7 +85,7 @@ class DifferenceView:
                                             css_classes=["vt-diff-summary"])
             self.figure = pn.Column(sizing_mode="stretch_width")
             self.panel.objects = [pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
-                                  pn.Row(self.first, self.second), self.button, self.message,
+                                  self.first, self.second, self.button, self.message,
                                   self.summary, self.figure]
         self.refresh()
 
@@ -149,7 +162,15 @@ class DifferenceView:
                      f"{a['median_relative_difference']:.2g}")
         self.summary.object = (f"**{literal(a['second'])}** against **{literal(a['first'])}**: "
                                f"{a['compared_points']} points compared; {agreement}.")
+        scale_fonts(fig, self.font_scale)       # (before it goes into the page)
         self.figure.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+
+    def scale_fonts(self, factor):
+        """The figure's text at `factor` times Bokeh's sizes (presentation
+        mode), and when one is drawn later."""
+        self.font_scale = factor
+        for pane in self.figure.select(pn.pane.Bokeh) if self._built else []:
+            scale_fonts(pane.object, factor)
 
     def _say(self, text):
         self.message.object = text

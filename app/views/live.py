@@ -36,10 +36,16 @@ from bokeh.plotting import figure
 from vibtrans.core.kernels.contact import STATE_NAMES
 from vibtrans.core.units import duration_text
 from vibtrans.products import plots
+from vibtrans_explorer.views.presentation import scale_fonts
 
 MIN_WIDTH = 360               # the figures take their column's width, at least this
-LINE_HEIGHT = 190
-TIMELINE_HEIGHT = 116         # the strip and, above it, its legend of the states
+# The frames' heights (their data areas; each figure's height follows its
+# title, legend and axes): with the figure's height fixed instead, the
+# presentation mode's larger text took the state strip's whole height (its
+# bars not drawn) and left a line panel's frame shorter than its right
+# axis's label; in presentation mode they grow with the text (`scale_frames`)
+LINE_FRAME = 150
+STRIP_FRAME = 32              # the state strip (its legend above it, the time axis below)
 TIMELINE_BINS = 400           # time bins of the whole-run state timeline
 _COLOURS = np.array([plots.STATE_COLORS[k] for k in range(len(STATE_NAMES))])
 _NAMES = np.array(STATE_NAMES)
@@ -88,13 +94,19 @@ class _Shared:
         return self._views[source.id]
 
 
-def _figure(title, ylabel, x_range, height, shared, time_axis=True):
+def binned_title(title):
+    """A panel's title over per-bin means: the binning's note on a line of its
+    own (on one line the title was wider than the panel's frame)."""
+    return f"{title}\n{plots.BINNED_NOTE.strip()}"
+
+
+def _figure(title, ylabel, x_range, frame_height, shared, time_axis=True):
     """A panel: its value axis (left) and grid lines, and (`time_axis`) a
     time axis below; without, only the time's grid lines (the block's
     bottom panel has its axis).  Every axis and grid from the `shared`
     models."""
-    fig = figure(title=title, sizing_mode="stretch_width", min_width=MIN_WIDTH, height=height,
-                 x_range=x_range,
+    fig = figure(title=title, sizing_mode="stretch_width", min_width=MIN_WIDTH, height=None,
+                 frame_height=frame_height, x_range=x_range,
                  y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
                  output_backend="canvas", x_axis_type=None, y_axis_type=None)
     fig.x_scale = fig.y_scale = shared.scale
@@ -167,8 +179,18 @@ class _Panel:
         self.columns, self.right = cols, right
 
 
+def _relative_title(title):
+    """A fragment panel's title: x* counted from the window's start, on a
+    line of its own after another quantity (on one line the title was wider
+    than its frame at 1024 pixels in presentation mode)."""
+    if ", x*(t)" in title:
+        return title.replace(", x*(t)", ",\nx*(t) - x*(t0)")
+    return title.replace("x*(t)", "x*(t) - x*(t0)")
+
+
 def _timeline(title, x_range, shared):
-    fig = _figure(title, "state", x_range, TIMELINE_HEIGHT, shared)
+    # (its parenthesis on a line of its own, as a binned panel's note)
+    fig = _figure(title.replace(" (", "\n("), "state", x_range, STRIP_FRAME, shared)
     fig.yaxis.visible = False
     fig.ygrid.visible = False
     source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
@@ -233,11 +255,12 @@ class _Block:
         # a rolling particle's rotation (plots.ROLLING_PANEL): its figure
         # built at the first run that rolls, shown for those only
         self.rolling_figure = self.rolling_source = None
+        self.scale = 1.0            # presentation mode's (`scale_frames`)
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
-            fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range,
-                          LINE_HEIGHT, shared, time_axis=False)
+            fig = _figure(binned_title(title) if bins else title, ylabel, self.x_range,
+                          LINE_FRAME, shared, time_axis=False)
             right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
@@ -246,14 +269,14 @@ class _Block:
             items = _lines(fig, [self.source] * len(lines),
                            [(*line, plots.axis_dash(line[0], right)) for line in lines],
                            shared, right, envelope=bool(bins))
-            specs = {rigid: (m[i][0] + (plots.BINNED_NOTE if bins else ""), *m[i][1:])
+            specs = {rigid: (binned_title(m[i][0]) if bins else m[i][0], *m[i][1:])
                      for rigid, m in models.items()}
             self.panels.append(_Panel(fig, items, right_axis, specs))
             self.figures.append(fig)
         self.twin_source = None
         if twin is not None:
             title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
-            fig = _figure(title, ylabel, self.x_range, LINE_HEIGHT, shared, time_axis=False)
+            fig = _figure(title, ylabel, self.x_range, LINE_FRAME, shared, time_axis=False)
             self.twin_source = ColumnDataSource({"time": [], "x": []})
             self.twin_items = _lines(fig, [self.source, self.twin_source],
                                      [("x", la, ca, da), ("x", lb, cb, db)], shared)
@@ -270,14 +293,17 @@ class _Block:
         line panels."""
         title, ylabel, lines = plots.ROLLING_PANEL
         bins = bool(self.bins)
-        fig = _figure(title + (plots.BINNED_NOTE if bins else ""), ylabel, self.x_range,
-                      LINE_HEIGHT, self.shared, time_axis=False)
+        fig = _figure(binned_title(title) if bins else title, ylabel, self.x_range,
+                      LINE_FRAME, self.shared, time_axis=False)
         cols = [c for c, _, _ in lines]
         bands = [f"{c}_{e}" for c in cols for e in ("lo", "hi")] if bins else []
         self.rolling_source = ColumnDataSource({c: [] for c in ["time", *cols, *bands]})
         _lines(fig, [self.rolling_source] * len(lines), [(*line, None) for line in lines],
                self.shared, envelope=bins)
         self.rolling_figure = fig
+        if self.scale != 1.0:
+            scale_fonts(fig, self.scale)
+            fig.frame_height = round(LINE_FRAME * self.scale)
         children = list(self.layout.children)
         children.insert(len(self.figures), fig)
         self.layout.children = children
@@ -303,10 +329,19 @@ class _Block:
     def _specs(specs, relative):
         if not relative:
             return specs
-        return [(title.replace("x*(t)", "x*(t) - x*(t0)"),
+        return [(_relative_title(title),
                  ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
                  [(c, f"{label} - x*(t0)" if c == "x" else label, colour)
                   for c, label, colour in lines]) for title, ylabel, lines in specs]
+
+    def scale_frames(self, factor):
+        """The frames' heights at `factor` times their own (presentation mode)."""
+        self.scale = factor
+        rolling = [self.rolling_figure] if self.rolling_figure is not None else []
+        for fig in [*self.figures, *([self.twin_figure] if self.twin_source is not None else []),
+                    *rolling]:
+            fig.frame_height = round(LINE_FRAME * factor)
+        self.timeline.frame_height = round(STRIP_FRAME * factor)
 
     def configure(self, rigid):
         """Draw the deformable particle's panels or the material point's."""
@@ -370,6 +405,12 @@ class LiveTrajectory:
         self.whole, self.part = self.over.layout, self.last.layout
         self.label = label
         self.runs = 0
+
+    def scale_frames(self, factor):
+        """Every frame's height at `factor` times its own (presentation mode:
+        they grow with the text)."""
+        for block in (self.over, self.last):
+            block.scale_frames(factor)
 
     def relabel(self, tau, label):
         """Name the comparison run `label` (a tau twin, or the other model:

@@ -84,14 +84,16 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
             return _unavailable(f"No usable Lyapunov map for {model}: show the drift "
                                 f"velocity instead")
         el = plots.lyapunov_map(lyapunov, CHAOS_LYAPUNOV)
-        title = f"Lyapunov exponent of the vertical motion: {model} (any mu)"
+        title = f"Lyapunov exponent of the vertical motion\n{model} (any mu)"
     else:
         # every map of the same parts (the grey layer and the resonances
         # there, hidden where they show nothing): a change of model or of
         # the chaotic points' colour updates the shown figure in place
         el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}",
                              always_grey=True)
-        title = f"<v*> over 2000 periods: {model}, mu = {mu:g}"
+        # (two lines: on one, the title was wider than the map's frame at 1024
+        # pixels in presentation mode)
+        title = f"<v*> over 2000 periods\n{model}, mu = {mu:g}"
     vertical = data.vertical_curve()
     if vertical is not None:
         el = el * plots.jumping_boundary(vertical, model).select(log_amplitude=MAP_LOG_AMPLITUDE)

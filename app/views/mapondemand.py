@@ -318,7 +318,7 @@ class MapOnDemand:
     async def _draw_map(self, request, ds):
         """Render the map off the event loop, then show it."""
         s = self.state
-        title = (f"map on demand: {request.model}, mu = {request.mu:g}, stop: {request.stop}"
+        title = (f"map on demand: {request.model}, mu = {request.mu:g}\nstop: {request.stop}"
                  + (f", profile {request.profile}" if request.profiled() else "")
                  + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else ""))
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))

@@ -38,6 +38,7 @@ WINDOW = 1.0           # periods before the run's end that the slider spans
 PANEL_WIDTH = 300      # three panels in the explorer's 900 pixels
 PANEL_HEIGHT = 300
 SQUARE = 210           # the contact circle's frame (pixels)
+NOTE_FONT = "11pt"     # the words inside a panel ("in flight: ...")
 TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/views/live.py)
 EMPTY_TITLE = "memory diagram\n(run a deformable scene)"
 _NAN = float("nan")
@@ -138,9 +139,12 @@ class MemoryView(pn.viewable.Viewer):
         self.figures_pane = pn.FlexBox(
             *(pn.pane.Bokeh(fig) for fig in (self.w_fig, self.u_fig, self.c_fig)),
             flex_wrap="wrap", align_items="flex-start", name="memory-figures")
+        # (rows that wrap: in presentation mode at 1024 pixels the button
+        # beside the time's field was cut at the page's edge)
         self.layout = pn.Column(
             pn.Row(self.slider, self.busy, self.status),
-            pn.Row(self.time_field, self.show_button), self.note,
+            pn.FlexBox(self.time_field, self.show_button, flex_wrap="wrap",
+                       align_items="flex-end"), self.note,
             self.figures_pane)
 
     def __panel__(self):
@@ -177,15 +181,19 @@ class MemoryView(pn.viewable.Viewer):
                 x="h", y=y, line_width=2,
                 line_color=plots.W_COLOR if y == "w" else plots.U_COLOR))
             fig.add_glyph(self.notes, Text(x="x", y="y", text="text", text_align="center",
-                                           text_baseline="middle"))
+                                           text_baseline="middle", text_font_size=NOTE_FONT))
         self.w_fig.add_glyph(self.apex, Scatter(x="h", y="w", size=7, fill_color="black",
                                                 line_color="black"))
         self.c_fig.add_glyph(self.discs, Patches(xs="xs", ys="ys", fill_color="color",
                                                  fill_alpha=0.9, line_color="black",
                                                  line_dash="dash"))
         self.c_fig.add_glyph(self.circle_notes, Text(x="x", y="y", text="text",
-                                                     text_align="center",
+                                                     text_align="center", text_font_size=NOTE_FONT,
                                                      text_baseline="middle"))
+        # the words drawn in the panels, each with its own size (in points)
+        self._texts = [(r.glyph, float(str(r.glyph.text_font_size)[:-2]))
+                       for fig in (self.w_fig, self.u_fig, self.c_fig) for r in fig.renderers
+                       if isinstance(r.glyph, Text)]
 
     def show(self, snapshot, limits=None):
         """Draw one snapshot (a dict from memory_snapshot).  limits: (a*
@@ -286,6 +294,16 @@ class MemoryView(pn.viewable.Viewer):
         job.submit(memory_snapshots, scene, list(self.times), cancel=job.event)
         self._busy(self._job_text())
         self.work.deliver(job, self._show_snapshots, self._snapshots_failed)
+
+    def scale_sizes(self, factor):
+        """The panels at `factor` times their size, and the words inside
+        them (presentation mode: the text grows, the frames with it; the
+        panels wrap onto more rows)."""
+        for fig in (self.w_fig, self.u_fig):
+            fig.update(width=round(PANEL_WIDTH * factor), height=round(PANEL_HEIGHT * factor))
+        self.c_fig.update(frame_width=round(SQUARE * factor), frame_height=round(SQUARE * factor))
+        for glyph, points in self._texts:
+            glyph.text_font_size = f"{points * factor:.3g}pt"
 
     @property
     def computing(self):

@@ -2,6 +2,8 @@
 its estimated cost shown before anything runs, Compute and Cancel, and
 what the computation is doing.  The explorer runs it (app/server/mapjobs.py) and
 draws the map in the map tab."""
+import functools
+
 import panel as pn
 
 from vibtrans_explorer.session.maprequest import FIELDS, MapRequest
@@ -40,7 +42,8 @@ class MapRequestPanel(pn.viewable.Viewer):
             ("lm_from", "log10 m* from"), ("lm_to", "log10 m* to"),
             ("cells", "coarse cells per axis"), ("levels", "levels K"))}
         self.fields = list(number.values())
-        select = {name: pn.widgets.Select.from_param(r.param[name], label=label, width=140,
+        # (wider than the fields: "deformable" was cut in presentation mode)
+        select = {name: pn.widgets.Select.from_param(r.param[name], label=label, width=170,
                                                      css_classes=[f"vt-map-{name}"])
                   for name, label in (("model", "model"), ("fidelity", "fidelity"),
                                       ("integrator", "integrator"),
@@ -69,16 +72,20 @@ class MapRequestPanel(pn.viewable.Viewer):
                                        css_classes=["vt-map-status"])
         if on_change is not None:
             r.param.watch(lambda *e: on_change(), list(FIELDS))
+        # rows that wrap where the tab is narrower than four fields (half of
+        # a 1024-pixel screen: the fourth was cut at the page's edge)
+        row = functools.partial(pn.FlexBox, flex_wrap="wrap", align_items="flex-start",
+                                sizing_mode="stretch_width")
         self._layout = pn.Column(
             pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
-            pn.Row(select["model"], number["mu"], number["theta"], number["nu"]),
-            pn.Row(number["tau"], number["periods"], select["fidelity"], select["integrator"]),
+            row(select["model"], number["mu"], number["theta"], number["nu"]),
+            row(number["tau"], number["periods"], select["fidelity"], select["integrator"]),
             self.point_mass,
             self.profile,
             self.rolling,
-            pn.Row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
+            row(number["la_from"], number["la_to"], number["lm_from"], number["lm_to"]),
             self.zoom_button,
-            pn.Row(number["cells"], number["levels"], select["stop"]),
+            row(number["cells"], number["levels"], select["stop"]),
             pn.pane.Markdown(RESOLUTION, sizing_mode="stretch_width"),
             pn.pane.Markdown(STOP_NOTE, sizing_mode="stretch_width"),
             self.estimate,

@@ -10,9 +10,20 @@ from bokeh.models import ColorBar, Legend, Title
 PRESENTATION_SCALE = 1.5
 BOKEH_FONT_PX = 12          # Bokeh's widgets' font size (its --bokeh-font-size default)
 SIDEBAR_WIDTH = 330         # px
+# In presentation mode the sidebar grows with its text, to at most this
+# share of the screen's width (vw): at 1024 pixels a sidebar of 1.5 x 330
+# left the map half its room and cut the run's figures' titles
+PRESENTATION_SIDEBAR_VW = 35
 # Tabs whose headers wrap onto a second row where they do not fit (large
 # fonts in half a screen) instead of scrolling sideways, cut off
 WRAPPING_TABS = ".bk-headers-wrapper { flex-wrap: wrap; }"
+# A button group's labels wrap inside their buttons where the group is
+# narrower than its labels on one line (large fonts in the sidebar), instead
+# of running out of the sidebar
+WRAPPING_BUTTONS = ".bk-btn-group > .bk-btn { white-space: normal; }"
+# A widget's label wraps where it is wider than the widget (Bokeh keeps it on
+# one line, cut: "exponent N (≥ 1; 1 the cone, 2 the sp" in the sidebar)
+WRAPPING_LABELS = ".bk-input-group > label { white-space: normal; }"
 # The text in text inputs and selects: the browser's own size for a form's
 # controls (13.33 px, not inherited, so presentation mode left the typed
 # log10 A* and the chosen mu at it beside 18-pixel labels), in rem so that
@@ -27,7 +38,30 @@ class ExplorerDesign(pn.theme.Bootstrap):
 
     # Inherit: the design's own stylesheets first (without it, a modifier
     # replaces them, and the widgets lost Bootstrap's look)
-    modifiers = {pn.widgets.Widget: {"stylesheets": [pn.theme.Inherit, INPUT_FONT]}}
+    modifiers = {pn.widgets.Widget: {"stylesheets": [pn.theme.Inherit, INPUT_FONT,
+                                                      WRAPPING_LABELS]},
+                 pn.widgets.RadioButtonGroup: {"stylesheets": [pn.theme.Inherit, INPUT_FONT,
+                                                               WRAPPING_LABELS,
+                                                               WRAPPING_BUTTONS]}}
+
+
+# the widgets whose own width `scale_widths` scales (text boxes and
+# selects, whose text grows; not sliders, which would outgrow their rows)
+SCALED_WIDGETS = (pn.widgets.Select, pn.widgets.TextInput)
+
+
+def scale_widths(viewable, factor, widths):
+    """Set the widgets under `viewable` that have a width of their own (a
+    select or text box, `SCALED_WIDGETS`) to `factor` times that width, so
+    that their text, which grows with the page's in presentation mode, keeps
+    its room; factor 1 restores them.  widths: {id: (widget, own width)},
+    where each widget's own width is remembered when first seen."""
+    for w in viewable.select(pn.widgets.Widget):
+        if not isinstance(w, SCALED_WIDGETS) or w.width is None \
+                or w.sizing_mode not in (None, "fixed"):
+            continue
+        own = widths.setdefault(id(w), (w, w.width))[1]
+        w.width = round(own * factor)
 
 
 def scale_fonts(fig, factor):
@@ -41,6 +75,10 @@ def scale_fonts(fig, factor):
         return f"{points * factor:.3g}pt"
     if isinstance(getattr(fig, "title", None), Title):
         fig.title.text_font_size = size(10)
+    # the figure's other titles (notes above or below its frame), a size smaller
+    for item in [*fig.above, *fig.below]:
+        if isinstance(item, Title) and item is not fig.title:
+            item.text_font_size = size(8.5)
     for axis in [*fig.xaxis, *fig.yaxis]:
         axis.axis_label_text_font_size = size(10)
         axis.major_label_text_font_size = size(8)

@@ -29,6 +29,7 @@ from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans_explorer.session import urlstate
 from vibtrans_explorer.session.state import SPHERE, is_sphere
 from vibtrans_explorer.views.inputs import ERROR_STYLE
+from vibtrans_explorer.views.presentation import scale_fonts
 
 # the selector's kinds: label -> the spec's kind
 KINDS = {"sphere (Hertz)": "sphere", "cone": "cone", "power law z ~ r^N": "power",
@@ -78,6 +79,7 @@ class ProfileView(pn.viewable.Viewer):
                                       value=labels[kind], css_classes=["vt-profile-kind"],
                                       **self._width)
         self.figure = None                  # the drawing, built at its first use
+        self.font_scale = 1.0               # presentation mode's (`scale_fonts`)
         self._drawing = drawing
         self._applying = self._echoing = False
         # the number's field, the messages and the drawing: made at their
@@ -220,7 +222,8 @@ class ProfileView(pn.viewable.Viewer):
             rho = self.source.data["r"]
             self.source.data = {"r": rho, "z": outline(spec, rho),
                                 "sphere": self.source.data["sphere"]}
-            self.figure.title.text = f"the tip: {spec} (solid), the sphere (dashed)"
+            # (two lines: on one it was wider than the sidebar's figure)
+            self.figure.title.text = f"the tip: {spec} (solid)\nthe sphere (dashed)"
         if shown or self._made("drawing_pane"):
             self.drawing_pane.visible = shown
 
@@ -240,12 +243,21 @@ class ProfileView(pn.viewable.Viewer):
         fig.xaxis.axis_label = "r / static contact radius"
         fig.yaxis.axis_label = "z / a0"
         fig.title.text_font_size = "9pt"
+        if self.font_scale != 1.0:
+            scale_fonts(fig, self.font_scale)
         self.figure = fig
         self.drawing_pane.objects = [
             pn.pane.Bokeh(fig, sizing_mode="stretch_width"),
             pn.pane.Markdown("*At rest under the weight: every tip touches over r <= 1 "
                              "(dotted) with approach a0.*", margin=(0, 10),
                              sizing_mode="stretch_width")]
+
+    def scale_fonts(self, factor):
+        """The drawing's text at `factor` times Bokeh's sizes (presentation
+        mode), and when it is built later."""
+        self.font_scale = factor
+        if self.figure is not None:
+            scale_fonts(self.figure, factor)
 
     def __panel__(self):
         return self._layout

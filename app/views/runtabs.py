@@ -11,7 +11,7 @@ from vibtrans_explorer.texts import ANIMATION_TEXT, DYNAMICS_TEXT, MEMORY_TEXT
 from vibtrans_explorer.views.animation import ParticleAnimation
 from vibtrans_explorer.views.dynamics import DynamicsView
 from vibtrans_explorer.views.memory import MemoryView
-from vibtrans_explorer.views.presentation import WRAPPING_TABS, scale_fonts
+from vibtrans_explorer.views.presentation import WRAPPING_TABS, scale_fonts, scale_widths
 
 # the tabs, in order (0: the trajectory)
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
@@ -43,15 +43,26 @@ class RunTabs:
             stylesheets=[WRAPPING_TABS])
         self.tabs.param.watch(self._on_tab, "active")
         self.font_scale = 1.0               # presentation mode's, for the views built later
+        # the widgets' own widths (`scale_widths`), the page's one record
+        # of them (a second would take a scaled width for a widget's own)
+        self.widths = {}
 
     def scale_fonts(self, factor):
-        """The figures of the views built so far at `factor` times Bokeh's
-        font sizes (presentation mode), and those built later too."""
+        """The views built so far at `factor` times their text's sizes
+        (presentation mode: the figures' fonts, the sizes that grow with
+        them, the widths of their selects and text boxes), and those built
+        later too."""
         self.font_scale = factor
-        for box in (self.animation_box, self.memory_box, self.dynamics_box):
-            self._scale(box)
+        for view in (self.animation, self.memory_view, self.dynamics_view):
+            if view is not None:
+                self._scale(view)
 
-    def _scale(self, viewable):
+    def _scale(self, view):
+        sizes = getattr(view, "scale_sizes", None)
+        if sizes is not None:
+            sizes(self.font_scale)
+        viewable = pn.panel(view)
+        scale_widths(viewable, self.font_scale, self.widths)
         for pane in viewable.select(pn.pane.Bokeh):
             scale_fonts(pane.object, self.font_scale)
 
@@ -61,7 +72,7 @@ class RunTabs:
         could reach the browser before the figure did (BokehJS: "reference
         p3659 isn't known", and the view never showed), so every change a
         new view needs (the fonts, the run) is made before it is placed."""
-        self._scale(pn.panel(view))
+        self._scale(view)
         box.objects = [pn.pane.Markdown(text), view]
 
     def show(self, result):

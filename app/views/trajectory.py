@@ -33,6 +33,7 @@ class TrajectoryView:
         for view in self.views.values():
             scale_fonts(view.whole, factor)
             scale_fonts(view.part, factor)
+            view.scale_frames(factor)
 
     def view(self, label, tau):
         """The session's figures of a run's structure: built once, then fed
@@ -52,6 +53,7 @@ class TrajectoryView:
             if self.font_scale != 1.0:
                 scale_fonts(view.whole, self.font_scale)
                 scale_fonts(view.part, self.font_scale)
+                view.scale_frames(self.font_scale)
             self.views[key] = view
             self.panel.append(view.panel)
         return view

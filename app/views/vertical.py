@@ -12,6 +12,7 @@ from vibtrans.products import plots
 from vibtrans_explorer.server import data
 from vibtrans_explorer.session.state import is_sphere
 from vibtrans_explorer.views.map import in_document
+from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.render import rendered
 
 HEIGHT = 450
@@ -28,7 +29,7 @@ def vertical_element(vertical):
     lines = [hv.HLine(vertical.attrs[k]).opts(color="grey", line_dash="dotted")
              for k in vertical.attrs if k.startswith("resonance_") and k.endswith("log_mass")]
     return hv.Overlay([de, pm, *lines]).opts(
-        height=HEIGHT, title="Jumping threshold A_J*(m*), axes as the map's: right of a "
+        height=HEIGHT, title="Jumping threshold A_J*(m*), axes as the map's\nright of a "
         "curve, the particle jumps", legend_position="top_right")
 
 
@@ -50,7 +51,9 @@ class VerticalView:
         self.scene = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.pane = pn.Column(sizing_mode="stretch_width", name="vertical")
         self._built = False
-        self.profile_note = None        # the curve is the sphere's: said so
+        self.figure = None
+        self.font_scale = 1.0           # presentation mode's (`scale_fonts`)
+        self.profile_note = None        # the curve is the sphere's: said
         state.param.watch(self._moved, ["log_amplitude", "log_mass"])
         state.param.watch(self._on_profile, "profile")
 
@@ -70,11 +73,20 @@ class VerticalView:
         r = fig.scatter("x", "y", source=self.scene, size=14, marker="circle", color="yellow",
                         line_color="black")
         fig.legend[0].items.append(_legend_item("the selected scene", r))
+        scale_fonts(fig, self.font_scale)       # (before it goes into the page)
+        self.figure = fig
         self.profile_note = pn.pane.Alert("", alert_type="warning", visible=False,
                                           sizing_mode="stretch_width",
                                           css_classes=["vt-vertical-profile"])
         self.pane.objects = [self.profile_note, pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
         self._on_profile()
+
+    def scale_fonts(self, factor):
+        """The figure's text at `factor` times Bokeh's sizes (presentation
+        mode), and when it is built later."""
+        self.font_scale = factor
+        if self.figure is not None:
+            scale_fonts(self.figure, factor)
 
     def _on_profile(self, *events):
         """The shipped curve is the sphere's: with another profile, say so

@@ -27,7 +27,6 @@ records the scene it was asked for.
 """
 import asyncio
 import concurrent.futures
-import functools
 import logging
 import math
 
@@ -37,9 +36,9 @@ import pytest
 from hypothesis import HealthCheck, Phase, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
+from standin import StandIn
 from tornado.httputil import parse_qs_bytes
 
-from vibtrans import Scene, simulate
 from vibtrans.core.params import PAPER_POINTS
 from vibtrans.products.designtip import TIP_SIZES
 from vibtrans_explorer import explorer as E
@@ -56,27 +55,6 @@ pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
 
 EXAMPLES = 12         # sequences per run (CI: two cores)
 STEPS = 25            # steps per sequence
-
-
-@functools.cache
-def _real_run(model, lyapunov):
-    """A short real run of `model` (the stand-in's answer)."""
-    scene = Scene(model=model, amplitude=10 ** -0.3, mass=10.0, periods=20.0, tau=5.0,
-                  fidelity="preview")
-    kw = {"lyapunov": True, "window": (18.0, 20.0)} if lyapunov else {}
-    return simulate(scene, samples_per_period=5, **kw)
-
-
-class StandIn:
-    """simulate's stand-in: records each scene asked for, answers a short
-    real run of its model."""
-
-    def __init__(self):
-        self.scenes = []
-
-    def __call__(self, scene, **kwargs):
-        self.scenes.append(scene)
-        return _real_run(scene.model, bool(kwargs.get("lyapunov")))
 
 
 def _open(monkeypatch, query=""):

@@ -285,12 +285,13 @@ def test_the_vertical_tab_says_its_curve_is_the_spheres():
 def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets():
     """ExplorerDesign (app/views/presentation.py) gives every widget INPUT_FONT
     (text inputs and selects sized in rem, so that presentation mode grows
-    them) on top of Bootstrap's own stylesheets: a modifier without
+    them) and WRAPPING_LABELS (a label wraps, not cut) on top of Bootstrap's
+    own stylesheets: a modifier without
     `Inherit` replaced them, and the widgets lost Bootstrap's look."""
     import panel as pn
     from bokeh.document import Document
 
-    from vibtrans_explorer.views.presentation import INPUT_FONT, ExplorerDesign
+    from vibtrans_explorer.views.presentation import INPUT_FONT, WRAPPING_LABELS, ExplorerDesign
 
     def stylesheets(design):
         field = pn.widgets.TextInput(label="log10 A*")
@@ -302,4 +303,4 @@ def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets(
 
     bootstrap, ours = stylesheets(pn.theme.Bootstrap), stylesheets(ExplorerDesign)
     assert any("bootstrap" in str(s) for s in bootstrap), bootstrap
-    assert ours == bootstrap + [INPUT_FONT], (bootstrap, ours)
+    assert ours == bootstrap + [INPUT_FONT, WRAPPING_LABELS], (bootstrap, ours)

@@ -332,13 +332,13 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     the figures as the click's busy state (Panel's
     `loading`: the figures' row's css_classes), on and off, costs more (0.51-0.56 s), as BokehJS lays
     out every figure of the page again at each change of a layout's
-    css_classes, visible, size or children (tests/browser/test_redraw_layout.py
+    css_classes, visible, size or children (tests/relayout.py
     names them; Chrome traces, docs/how-to/deployment.md 2.2).  The busy state is the
     disabled button: in a served page, while the diagram computes and once
     it is drawn, no such property of a model of the page has changed."""
     from bokeh.models import LayoutDOM, Plot
     from panel.io.state import set_curdoc
-    from test_redraw_layout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
+    from relayout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
 
 
     def layout(doc):

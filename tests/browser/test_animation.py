@@ -203,13 +203,13 @@ def test_the_vertical_model_has_no_stick_core():
 def test_a_second_run_changes_data_only(slipping, hopping):
     anim = ParticleAnimation()
     anim.show(*slipping)
-    models = {m.id for m in anim.layout.references()}
+    models = {m.id for m in anim.references()}
     anim.show(*hopping)
-    assert {m.id for m in anim.layout.references()} == models
+    assert {m.id for m in anim.references()} == models
     assert anim.frames.data["t"].size == _window(hopping[1]).sizes["time"]
     anim.clear()
     assert anim.frames.data["t"] == [] and anim.play.disabled and not anim.play.active
-    assert {m.id for m in anim.layout.references()} == models
+    assert {m.id for m in anim.references()} == models
 
 
 def test_bad_input_is_refused_with_its_name(slipping):

@@ -126,7 +126,7 @@ def test_page_loads_with_the_map(page, server):
 def test_paper_point_runs_and_plots(page, server):
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
-    select.select_option(label="4: synchronous hopping (hovering)")
+    select.select_option(label="4: synchronous hopping")
     _summary_text(page).wait_for(timeout=budget_ms(60))
     _see(page, "jumping, synchronous, drift against the wave")
     _see(page, "Whole run")
@@ -150,9 +150,9 @@ def test_paper_point_runs_and_plots(page, server):
     titles = [t for t, *_ in figures]
     assert len(whole) == 1 and len(last) == 1, figures
     assert sum(1 for t, x, *_ in figures if (x, 0, 2000) in whole) == 5, figures
-    for title in ("normal: a*(t), y*(t)", "contact state (dominant per bin)",
+    for title in ("normal: a*(t), y*(t)", "contact state\n(dominant per bin)",
                   f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin",
-                  "tangential: b*(t), x*(t) - x*(t0)"):
+                  "tangential: b*(t),\nx*(t) - x*(t0)"):
         assert title in titles, titles
 
 
@@ -181,21 +181,21 @@ def test_both_models_draw_into_the_same_figures(page, server):
     deformable particle's figures, with its own titles and quantities."""
     _open(page, server)
     select = page.locator("select").filter(has_text="synchronous hopping")
-    select.select_option(label="4: synchronous hopping (hovering)")
+    select.select_option(label="4: synchronous hopping")
     _summary_text(page).wait_for(timeout=budget_ms(60))
     answered(page)                               # the run's figures came with it
     trajectory = lambda: sorted((x, t) for t, x, *_ in page.evaluate(_FIGURES_JS)  # noqa: E731
                                 if not t.startswith("<v*>"))
     before = trajectory()
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
-    select.select_option(label="10: point mass: chaotic hopping")
+    select.select_option(label="10: point mass, chaotic")
     page.wait_for_function(_NEW_SUMMARY_JS, arg=summary, timeout=budget_ms(60), polling=100)
     _see(page, "point-mass:")
     answered(page)
     after = trajectory()
     assert [x for x, _ in after] == [x for x, _ in before]     # the same figures
     titles = {t for _, t in after}
-    assert {"normal: y*(t) (mean, min-max per bin)", "forces: N*, T*",
+    assert {"normal: y*(t)\n(mean, min-max per bin)", "forces: N*, T*",
             "tangential: x*(t) - x*(t0)"} <= titles, titles
     assert not any(t.startswith("normal: a*(t)") for t in titles), titles
 
@@ -207,7 +207,7 @@ def test_a_new_click_replaces_a_running_run(page, server):
     page.locator("button", has_text="Run selected scene").click()
     _see(page, "Running")
     page.locator("select").filter(has_text="synchronous hopping").select_option(
-        label="4: synchronous hopping (hovering)")
+        label="4: synchronous hopping")
     _see(page, "A* = 316.2", timeout=budget_ms(120))
     _summary_text(page).wait_for(timeout=budget_ms(120))
     assert page.get_by_text("Run cancelled.").count() == 0
@@ -350,7 +350,7 @@ def test_teaching_view_and_export(page, server):
     assert select.input_value() == select.locator(
         "option", has_text="choose a paper point").get_attribute("value")
     select.select_option(label=select.locator(
-        "option", has_text="1: permanent contact").text_content())
+        "option", has_text="1: contact, drift -x").text_content())
     _summary_text(page).wait_for(timeout=budget_ms(60))
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()
@@ -450,7 +450,7 @@ def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server)
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     select = page.locator("select").filter(has_text="synchronous hopping")
     assert _acknowledged(page, lambda: select.select_option(
-        label="3: permanent contact, no drift"))
+        label="3: contact, no drift"))
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     page.get_by_text("Downloads", exact=True).click()
     with page.expect_download(timeout=budget_ms(60)):

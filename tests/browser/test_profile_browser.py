@@ -52,7 +52,7 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}.png"), full_page=True)
         box = page.evaluate(DRAWING_JS)
         assert box["found"] and box["shown"], box
-        assert box["title"] == "the tip: cone (solid), the sphere (dashed)"
+        assert box["title"] == "the tip: cone (solid)\nthe sphere (dashed)"
         # readable: inside the sidebar, as wide as its controls, not cut
         assert box["sidebar_left"] is not None, box
         assert box["sidebar_left"] - 1 <= box["left"] and box["right"] <= box["sidebar_right"] + 1
@@ -129,7 +129,7 @@ def test_a_steep_power_law_link_opens_its_page_and_runs(served_explorer, browser
         page.get_by_text("Animation", exact=True).first.click()
         steady(page, timeout_s=120)
         box = page.evaluate(DRAWING_JS)
-        assert box["found"] and box["title"] == "the tip: power:1e300 (solid), the sphere (dashed)"
+        assert box["found"] and box["title"] == "the tip: power:1e300 (solid)\nthe sphere (dashed)"
         body = page.inner_text("body")
         assert "Traceback" not in body and "Error" not in body
     finally:

@@ -39,6 +39,8 @@ ARTIFACTS = ROOT / "test-artifacts"
 SCREENS = [(1024, 768), (1280, 800), (1920, 1080)]
 PROJECTOR = (1920, 1080)
 SLACK_PX = 1          # sub-pixel layout rounding
+MAP_SHARE = 0.55      # presentation mode at 1024: the map's frame, of the main area's width
+STRIP_PX = 30         # the contact-state strip's frame, at least (its bars drawn in it)
 
 # The page's geometry: the viewport, horizontal scrolling, and the boxes of
 # the map figure, its colour bar and the first trajectory panel (through
@@ -330,3 +332,79 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     assert hidden["left"] < after[0]["left"] - 250, ("the map did not move into the "
                                                      "sidebar's room", after[0], hidden)
     assert abs(hidden["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (before[0], hidden)
+
+
+# In presentation mode: the map's frame and the main area's width, the
+# state strips' frames and whether their bars have data, the Vertical
+# tab's tick labels (model) and the animation's speed selector's text (CSS
+# px, as the browser draws it); null where not shown
+_PRESENTED_JS = """() => {
+  const plots = [];
+  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
+    if (m.x_range !== undefined && m.renderers !== undefined && m.title) {
+      const v = window.Bokeh.index.find_one(m);
+      if (v && v.el.checkVisibility({visibilityProperty: true}) && v.frame.bbox.width > 0)
+        plots.push([String(m.title.text), m, v]);
+    }
+  const titled = (start) => plots.filter(([t]) => t.startsWith(start));
+  const map = titled("<v*> over")[0];
+  const main = document.querySelector("#main");
+  const strips = titled("contact state").map(([t, m, v]) => {
+    const bands = m.renderers.find((r) => r.glyph && r.glyph.type === "Quad");
+    const data = bands.data_source.data;
+    return {title: t, frame_height: v.frame.bbox.height,
+            bars: (data instanceof Map ? data.get("left") : data.left).length};
+  });
+  const vertical = titled("Jumping threshold")[0];
+  let speed = null;
+  for (const doc of window.Bokeh.documents) {
+    const m = doc.get_model_by_name("anim-speed");
+    const v = m && window.Bokeh.index.find_one(m);
+    const root = v && (v.shadow_el || v.el.shadowRoot);
+    const el = root && root.querySelector("select");
+    if (el && el.checkVisibility()) speed = parseFloat(getComputedStyle(el).fontSize);
+  }
+  return {main: main ? main.getBoundingClientRect().width : null,
+          map: map ? map[2].frame.bbox.width : null, strips,
+          vertical_ticks: vertical ? vertical[1].below.find(
+            (a) => a.major_label_text_font_size !== undefined).major_label_text_font_size : null,
+          speed};
+}"""
+
+
+def _tab_shows(page, name, start):
+    """Open the tab `name` and wait until a plot titled `start`... is shown."""
+    from test_first_look_browser import open_tab
+    open_tab(page, name, start)
+    return page.evaluate(_PRESENTED_JS)
+
+
+def test_presentation_at_1024_keeps_the_map_the_strips_and_enlarges_every_text(
+        browser, served_explorer):
+    """Presentation mode at 1024 x 768, the sidebar shown: the map's frame
+    keeps at least MAP_SHARE of the main area's width (a sidebar of 1.5 x
+    330 pixels left it ~260 of ~530 pixels); the contact-state strips keep
+    a frame of at least STRIP_PX with their bars (with the fonts scaled,
+    their text took the figures' whole fixed height); the Vertical tab's
+    ticks and the animation's speed selector grow with the page's text
+    (they stayed at their normal sizes)."""
+    from browserpages import new_page, open_explorer
+    from test_first_look_browser import presentation_on
+    page, errors = new_page(browser, 1024, 768)
+    open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
+    page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
+    normal = _tab_shows(page, "Animation", "t* = ")["speed"]
+    presentation_on(page)
+    got = _tab_shows(page, "Map", "<v*> over")
+    assert got["map"] >= MAP_SHARE * got["main"], got
+    got = _tab_shows(page, "Trajectory", "contact state")
+    assert len(got["strips"]) == 2, got
+    for strip in got["strips"]:
+        assert strip["frame_height"] >= STRIP_PX and strip["bars"] > 0, strip
+    assert _font_px(_tab_shows(page, "Vertical", "Jumping threshold")["vertical_ticks"]) \
+        >= 1.4 * _font_px("8pt")
+    speed = _tab_shows(page, "Animation", "t* = ")["speed"]
+    assert normal and speed >= 1.4 * normal, (normal, speed)
+    _shot(page, "1024x768-presentation-animation")
+    page.close()
+    assert not errors, errors

@@ -684,7 +684,7 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
 W_COLOR = "#1f77b4"                # the anchors w(h)
 U_COLOR = "#ff7f0e"                # the displacements u(h)
 SLIP_TEXT_COLOR = "#a05a00"
-FLIGHT_TEXT = "in flight: no contact, no memory"
+FLIGHT_TEXT = "in flight:\nno contact, no memory"     # (two lines: one was cut at a panel's width)
 MEMORY_XLABEL = "h (contact depth, a0)"
 MEMORY_WLABEL = "w (theta mu a0)"
 MEMORY_ULABEL = "u = b* - w (theta mu a0)"
@@ -843,7 +843,7 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
     img = _map_image(diff, shown, v1, v2, vdims=vdims)
     hover = [("<v*> first", "@{v1}"), ("<v*> second", "@{v2}"),
              ("difference (decades)", "@{log_difference}")]
-    clabel = f"s(v2) - s(v1), decades (v0* = {diff.attrs['v0']:g})"
+    clabel = f"s(v2) - s(v1), decades\n(v0* = {diff.attrs['v0']:g})"
     img = _coloured(img, "RdBu_r", (-top, top), clabel, hover)
     key = [("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
            ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY))]
@@ -872,7 +872,7 @@ def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
     img = _map_image(ds, c, lam, vdims=[LAMBDA_DIM, hv.Dimension("lam", label="lambda")], label=title)
     mark = (float(np.log10(threshold)), f"{threshold:g} (chaotic above)")
     ticks = [(-4.0, "<= 1e-4"), (-3.0, "1e-3"), mark, (-1.0, "0.1"), (0.0, "1")]
-    clabel = "Lyapunov exponent of the vertical motion, per period"
+    clabel = "Lyapunov exponent of the\nvertical motion, per period"
     return _coloured(img, "viridis", (-4.0, 0.0), clabel, [("lambda", "@{lam}")], ticks)
 
 
@@ -989,7 +989,7 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
                        vdims=[hv.Dimension("C", range=(-1, 1)),
                               hv.Dimension("v", label=f"v ({unit})")])
     ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
-    clabel = f"drift velocity ({unit}), signed log scale; white: no drift"
+    clabel = f"drift velocity ({unit})\nsigned log scale\nwhite: no drift"
     mesh = _coloured(mesh, CMAP, (-1, 1), clabel, [(f"drift velocity ({unit})", "@{v}")], ticks,
                      logx=True, logy=True)
     layers: list = []
@@ -1034,8 +1034,9 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
         a = chart.attrs
-        title = (f"{a['particle']} on {a['substrate']}, {a['fixed']} = {a['fixed_value']:.3g} "
-                 f"{a['fixed_units']}, mu = {a['mu']:g} ({a['map']})")
+        # (lines short enough for half a screen in presentation mode)
+        title = (f"{a['particle']} on {a['substrate']}\n{a['fixed']} = {a['fixed_value']:.3g} "
+                 f"{a['fixed_units']}, mu = {a['mu']:g}\n({a['map']})")
         tip = a.get("profile", "sphere")
         if tip != "sphere":         # (a second line: the first fills a half-page chart)
             title += f"\nthe particle's tip: {tip} (profile {a['map_profile']})"
