@@ -191,10 +191,6 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
     scene = scene_from_args(args)
-    if scene.rolling != "none":
-        raise InputError(f"rolling must be none for an orbit: the orbit is the vertical "
-                         f"motion's, the same for every rolling (docs/MODEL.md section 11); "
-                         f"got {scene.rolling!r}")
     period = _finite("period", args.period, 1, 64, integer=True)
     guess: tuple[float, ...]
     if args.guess == "run":
@@ -226,6 +222,12 @@ def cmd_orbit(args: argparse.Namespace) -> int:
                "period_doublings": branch.period_doublings, "ended": branch.ended,
                "points": [{"log_amplitude": p.log_amplitude, "log_mass": p.log_mass,
                            **_orbit_json(p.orbit)} for p in branch.points]}
+    # (rolling turns the particle, not its height: the orbit is the same for
+    # every rolling, and is said so where a user would wonder)
+    out["rolling"] = scene.rolling
+    if scene.rolling != "none":
+        out["rolling_note"] = ("the vertical motion's orbit: the same for every rolling "
+                               "(docs/MODEL.md section 11)")
     if args.json:
         print(json.dumps(out))
     else:

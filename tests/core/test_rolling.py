@@ -302,13 +302,31 @@ def test_cli_takes_rolling(capsys):
              RANGE_TEXT),
             (["simulate", "--log-amplitude", "0", "--log-mass", "0", "--rolling", "solid",
               "--model", "point-mass"], "rolling applies to the deformable model only"),
-            (["orbit", "--log-amplitude", "0", "--log-mass", "0", "--rolling", "shell"],
-             "rolling must be none for an orbit"),
+            (["orbit", "--log-amplitude", "0", "--log-mass", "0", "--rolling", "2"],
+             RANGE_TEXT),
             (["sweep", "--rolling", "x"], RANGE_TEXT),
             (["design", "--preset", "paper", "--rolling", "0"], RANGE_TEXT)):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, err
+
+
+def test_orbit_takes_rolling_and_says_the_vertical_orbit_is_the_same(capsys):
+    """Rolling turns the particle, not its height (the normal contact does
+    not see the tangential motion): the vertical orbit of a rolling scene is
+    the non-rolling one's, number for number, and the output says why."""
+    import json
+    argv = ["orbit", "--log-amplitude", "0.3", "--log-mass", "0", "--tau", "5",
+            "--periods", "200", "--fidelity", "preview", "--json"]
+    outs = {}
+    for rolling in ("none", "shell"):
+        assert main([*argv, "--rolling", rolling]) == 0
+        outs[rolling] = json.loads(capsys.readouterr().out)
+    none, shell = outs["none"], outs["shell"]
+    assert shell.pop("rolling") == "shell" and none.pop("rolling") == "none"
+    assert "same for every rolling" in shell.pop("rolling_note")
+    assert "rolling_note" not in none
+    assert shell == none
 
 
 def test_sweep_names_a_rolling_store():
