@@ -24,6 +24,7 @@ import param
 
 from vibtrans import Cancelled, estimate_steps, simulate
 from vibtrans.analysis.summary import TWIN_TAU_OFFSET, Summary, jumped, summarize, twin_scene
+from vibtrans.core.kernels.jit import compile_notice
 from vibtrans.core.simulate import StepBudgetExceeded
 from vibtrans.products.plots import FRAGMENT, OVERVIEW_SAMPLES
 from vibtrans_explorer.server import warmup
@@ -46,6 +47,10 @@ RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
                             thread_name_prefix="vibtrans-run",
                             initializer=lower_priority, initargs=(RUN_NICE,))
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
+# while a run's kernels compile (a tip or a rolling particle run for the
+# first time since an install): its progress stays at 0 meanwhile
+COMPILING = ("Compiling the kernels of this scene (numba: once after an install; later runs "
+             "load them from the cache) ...")
 BUSY_AFTER = 0.25     # s: a run still going then shows progress and Cancel
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
@@ -105,22 +110,28 @@ class RunJob(Job):
         super().__init__(executor)
         self.scene, self.label = scene, label
         self.progress = 0.0
+        self.compiling = False  # a kernel of its runs is compiling
         self.ran = None         # the state's values when the run was made
 
     def set_progress(self, fraction):
         self.progress = fraction
+        self.compiling = False
 
     def submit(self, fn, *args, **kwargs):
         if warmup.ready(self.scene):
-            return super().submit(fn, *args, **kwargs)
+            return super().submit(self._noticed, fn, *args, **kwargs)
         # the server has just started, or a particle that rolls is run for
         # the first time: its kernels are compiling
         return super().submit(self._when_compiled, fn, *args, **kwargs)
 
+    def _noticed(self, fn, *args, **kwargs):
+        with compile_notice(lambda name: setattr(self, "compiling", True)):
+            return fn(*args, **kwargs)
+
     def _when_compiled(self, fn, *args, **kwargs):
         if not warmup.wait(self.event, self.scene):
             raise Cancelled("cancelled while the kernels compiled")
-        return fn(*args, **kwargs)
+        return self._noticed(fn, *args, **kwargs)
 
 
 def _create_task(start):
@@ -235,9 +246,9 @@ class RunController(param.Parameterized):
                 if self.busy or time.perf_counter() - t0 > BUSY_AFTER:
                     self.param.update(
                         busy=True, progress=job.progress,
-                        status=warmup.status(scene) or (
+                        status=warmup.status(scene) or (COMPILING if job.compiling else (
                             f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
-                            f"m* = {scene.mass:.4g} ..."))
+                            f"m* = {scene.mass:.4g} ...")))
             ds = job.futures[0].result()
             other = None if len(job.futures) < 2 else job.futures[1].result()
         except (Cancelled, CancelledError):

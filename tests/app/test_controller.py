@@ -56,6 +56,40 @@ def test_a_slow_run_is_busy_with_progress_then_idle():
     asyncio.run(go())
 
 
+def test_a_run_whose_kernel_compiles_says_compiling_until_its_progress_moves():
+    """A tip or a rolling particle run for the first time compiles its
+    kernel, its progress at 0 meanwhile: the status says "Compiling", then
+    "Running" once the kernel reports progress.  numba's own compile event
+    stands in for a compile (a real one would depend on the cache)."""
+    from numba.core import event
+
+    from vibtrans.core.kernels import contact
+    compiled, gate = threading.Event(), threading.Event()
+
+    class Dispatcher:               # what numba's event carries: the function compiled
+        py_func = contact.tangential_force_history
+
+    def compiling(scene, progress=None, **kwargs):
+        with event.trigger_event("numba:compile", data={"dispatcher": Dispatcher()}):
+            compiled.wait(10)
+        if progress is not None:
+            progress(0.25)
+        gate.wait(10)
+        return simulate(scene, **kwargs)
+
+    async def go():
+        c = RunController(_state(), simulate=compiling)
+        c.start()
+        await until(lambda: c.busy)
+        assert c.status.startswith("Compiling the kernels of this scene") and c.progress == 0
+        compiled.set()
+        await until(lambda: c.progress == 0.25)
+        await until(lambda: c.status.startswith("Running deformable at A* = "))
+        gate.set()
+        await until(lambda: c.result is not None)
+    asyncio.run(go())
+
+
 def test_the_comparison_runs_beside_and_is_labelled():
     c = RunController(_state(compare="point mass"))
     asyncio.run(c.run())
