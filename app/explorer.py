@@ -11,6 +11,7 @@ Serve with `vibtrans serve` (app/server/serve.py: checks the maps first, then
 serves while the kernels compile in the background, app/server/warmup.py) or
 `panel serve app/explorer.py` (runs then compile what they need).
 """
+
 import functools
 import logging
 import uuid
@@ -90,8 +91,12 @@ VERTICAL_TAB, UNITS_TAB, ONDEMAND_TAB, DIFFERENCE_TAB, DESIGN_TAB = 1, 2, 3, 4, 
 SCENE_STATE = (*SCENE_FIELDS, "compare")
 
 # the sidebar's widgets that take its width (`controls`)
-SIDEBAR_STRETCHED = (pn.widgets.Select, pn.widgets.TextInput, pn.widgets.RadioButtonGroup,
-                     pn.widgets.FloatSlider)
+SIDEBAR_STRETCHED = (
+    pn.widgets.Select,
+    pn.widgets.TextInput,
+    pn.widgets.RadioButtonGroup,
+    pn.widgets.FloatSlider,
+)
 
 # the stale note's style while the run shown is the state's, and while it is
 # not (`_set_stale_note`): BokehJS sets the properties given and removes those
@@ -129,6 +134,7 @@ def _template_location():
     if request is None:
         return True
     from panel.io.location import Location
+
     path = getattr(request, "path", None) or "/"
     return Location(pathname=path if path.startswith("/") else "/")
 
@@ -143,21 +149,19 @@ class Explorer(pn.viewable.Viewer):
         super().__init__(**params)
         self.state = ExplorerState()
         served = pn.state.curdoc is not None and pn.state.curdoc.session_context is not None
-        self.controller = RunController(self.state, simulate=simulate,
-                                        schedule=pn.state.execute, refusals=self._field_errors)
-        self.message = pn.pane.Alert("", alert_type="danger", visible=False,
-                                     sizing_mode="stretch_width")
+        self.controller = RunController(
+            self.state, simulate=simulate, schedule=pn.state.execute, refusals=self._field_errors
+        )
+        self.message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width")
         self.ack = ack_pane()
-        if pn.state.curdoc is not None:      # (the page's acknowledgements)
+        if pn.state.curdoc is not None:  # (the page's acknowledgements)
             pn.state.curdoc.js_on_event("document_ready", ack_listener())
         # the run's buttons and progress (app/views/runbuttons.py)
-        self.run_buttons = RunButtons(self.controller, run=self.start_run,
-                                      answered=self._answered)
+        self.run_buttons = RunButtons(self.controller, run=self.start_run, answered=self._answered)
         # the scene's controls (app/views/scene.py)
-        self.scene_controls = SceneControls(self.state, run=self.start_run,
-                                            answered=self._answered)
-        self.profile_view = ProfileView(self.state)      # the particle's profile, its tip drawn
-        self.rolling_view = RollingView(self.state)      # whether (and how) it rolls
+        self.scene_controls = SceneControls(self.state, run=self.start_run, answered=self._answered)
+        self.profile_view = ProfileView(self.state)  # the particle's profile, its tip drawn
+        self.rolling_view = RollingView(self.state)  # whether (and how) it rolls
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
         self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
@@ -165,46 +169,63 @@ class Explorer(pn.viewable.Viewer):
         self.summary_view = SummaryView(self.units_panel.si_text)
         # a run whose inputs changed since it was made: said over its views
         # shown and hidden by its style (`_set_stale_note`), not by `visible`
-        self.stale_note = pn.pane.Alert(STALE_TEXT, alert_type="warning",
-                                        sizing_mode="stretch_width", css_classes=["vt-stale"],
-                                        styles=dict(_STALE_HIDDEN))
-        self.presentation_note = pn.pane.Markdown(PRESENTATION_NOTE, visible=False,
-                                                  sizing_mode="stretch_width")
+        self.stale_note = pn.pane.Alert(
+            STALE_TEXT,
+            alert_type="warning",
+            sizing_mode="stretch_width",
+            css_classes=["vt-stale"],
+            styles=dict(_STALE_HIDDEN),
+        )
+        self.presentation_note = pn.pane.Markdown(
+            PRESENTATION_NOTE, visible=False, sizing_mode="stretch_width"
+        )
         self.trajectories = TrajectoryView()
         # the map on demand (app/views/mapondemand.py)
-        self.ondemand = MapOnDemand(self.state, answered=self._answered, run=self.start_run,
-                                    session=f"explorer-{id(self)}")
+        self.ondemand = MapOnDemand(
+            self.state, answered=self._answered, run=self.start_run, session=f"explorer-{id(self)}"
+        )
         self.location = _page_location()
-        self.runs_on_load = False           # a link naming a scene runs it (_apply_url)
-        self._url_map = None                # a map request named by the link
+        self.runs_on_load = False  # a link naming a scene runs it (_apply_url)
+        self._url_map = None  # a map request named by the link
         self._apply_url()
         # a particle that rolls: its kernels compile in the background now
         # (once per server), before its first run is asked for
         self.state.param.watch(self._on_rolling, "rolling")
         self._on_rolling()
-        problems = data.problems()            # damaged or missing shipped files
+        problems = data.problems()  # damaged or missing shipped files
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
-        self.map_view = MapView(self.state, self._on_map_click, on_tap_js=ack_js(ACK_RUN),
-                                on_zoom=self.ondemand.on_zoom)
+        self.map_view = MapView(
+            self.state, self._on_map_click, on_tap_js=ack_js(ACK_RUN), on_zoom=self.ondemand.on_zoom
+        )
         self.ondemand.map_view = self.map_view
-        self.state.param.watch(self._answered, ["model", "mu", "v0", "chaotic", "maps",
-                                                "layer", "orbits"],
-                               precedence=2)        # after the map's redraw
-        self.map_key = pn.pane.Markdown(MAP_KEY, sizing_mode="stretch_width",
-                                        css_classes=["vt-map-key"], margin=(0, 10))
-        self.map_pane = pn.Column(self.ondemand.profile_box, self.ondemand.map_banner,
-                                  self.ondemand.refine_box,
-                                  self.map_view.pane,
-                                  self.map_key, sizing_mode="stretch_width")
+        self.state.param.watch(
+            self._answered, ["model", "mu", "v0", "chaotic", "maps", "layer", "orbits"], precedence=2
+        )  # after the map's redraw
+        self.map_key = pn.pane.Markdown(
+            MAP_KEY, sizing_mode="stretch_width", css_classes=["vt-map-key"], margin=(0, 10)
+        )
+        self.map_pane = pn.Column(
+            self.ondemand.profile_box,
+            self.ondemand.map_banner,
+            self.ondemand.refine_box,
+            self.map_view.pane,
+            self.map_key,
+            sizing_mode="stretch_width",
+        )
         self.state.param.watch(self.ondemand.on_map_look, ["v0", "chaotic"])
         self.vertical = VerticalView(self.state)
-        self.exports = ExportsView(self.state, self.map_view, answered=self._answered,
-                                   button_classes=["vt-ack-file"], shown_map=self.ondemand.computed_map)
+        self.exports = ExportsView(
+            self.state,
+            self.map_view,
+            answered=self._answered,
+            button_classes=["vt-ack-file"],
+            shown_map=self.ondemand.computed_map,
+        )
         self.difference = DifferenceView(self.state, computed=self.ondemand.computed_map)
         # the run's tabs, each built when first opened (app/views/runtabs.py)
         self.runs = RunTabs(self.trajectories, self.exports, error=self._error)
-        self._widths = self.runs.widths     # the widgets' own widths (`scale_widths`)
+        self._widths = self.runs.widths  # the widgets' own widths (`scale_widths`)
         self._on_position()
         self.state.param.watch(self._on_position, ["log_amplitude", "log_mass", "model"])
         self.units_panel.param.watch(self._on_device, "marker")
@@ -230,8 +251,9 @@ class Explorer(pn.viewable.Viewer):
         values, errors, request = self.link.read(pn.state.session_args or {})
         doc = pn.state.curdoc
         served = doc is not None and doc.session_context is not None
-        self.runs_on_load = self._follow_link(values, errors, request,
-                                              later=pn.state.onload if served else None)
+        self.runs_on_load = self._follow_link(
+            values, errors, request, later=pn.state.onload if served else None
+        )
 
     def _follow_link(self, values, errors, request, later):
         """What a link does once its values are applied: its errors said (a
@@ -254,7 +276,7 @@ class Explorer(pn.viewable.Viewer):
         request, _ = map_request_of(args)
         with pn.io.hold():
             if request is None and self.state.map_request is not None:
-                self.ondemand.back_to_shipped()     # (the map on demand leaves the page)
+                self.ondemand.back_to_shipped()  # (the map on demand leaves the page)
             shown = self.state.map_request
             values, errors, request = self.link.apply(args)
             # a field left with an invalid text shows the link's value (a value
@@ -263,7 +285,7 @@ class Explorer(pn.viewable.Viewer):
             if typed:
                 self.state.param.trigger(*typed)
             if request is not None and maprequest.encode(request) == shown:
-                request = None              # the map shown already
+                request = None  # the map shown already
             self._follow_link(values, errors, request, later=lambda f: f())
 
     def url_query(self):
@@ -282,7 +304,7 @@ class Explorer(pn.viewable.Viewer):
     def _on_position(self, *events):
         self.map_view.select(self.state.log_amplitude, self.state.log_mass)
         if self.message.object.startswith("Not run:") and not self._field_errors():
-            self._error("")         # the fields it named are valid now
+            self._error("")  # the fields it named are valid now
 
     def stale(self):
         """Why the run shown is not the state's (a list of its changed
@@ -292,7 +314,7 @@ class Explorer(pn.viewable.Viewer):
             return []
         ran, s = result.ran, self.state
         changed = [k for k in SCENE_STATE if getattr(s, k) != ran[k]]
-        if self.summary_view.device_run:        # its SI values: the device's
+        if self.summary_view.device_run:  # its SI values: the device's
             changed += [k for k in DEVICE_FIELDS if getattr(s, k) != ran[k]]
         changed += [k for k in s.errors(SCENE_FIELDS)]
         return changed
@@ -328,8 +350,7 @@ class Explorer(pn.viewable.Viewer):
         """A click on a map: that point's scene, in the map's material; with
         both maps shown, the deformable run beside the point mass's."""
         both = {"model": "deformable", "compare": "point mass"} if both else {}
-        self.state.param.update(log_amplitude=la, log_mass=lm, **MAP_MATERIAL, **MAP_RUN,
-                                **both)
+        self.state.param.update(log_amplitude=la, log_mass=lm, **MAP_MATERIAL, **MAP_RUN, **both)
         self.start_run()
 
     def _run_device(self, say=None, **scene):
@@ -403,7 +424,7 @@ class Explorer(pn.viewable.Viewer):
             try:
                 with pn.io.hold(freeze=True):
                     self.trajectories.view(job.label, job.scene.tau)
-            except Exception:      # the run's _show builds them (and reports a failure)
+            except Exception:  # the run's _show builds them (and reports a failure)
                 log.exception("building the trajectory figures failed")
         return job
 
@@ -436,9 +457,9 @@ class Explorer(pn.viewable.Viewer):
                 self._answered()
 
     def _on_session_destroyed(self, session_context):
-        self.ondemand.close()                        # its map, unless another session waits
-        if getattr(self, "design_panel", None) is not None:     # (made by main())
-            self.design_panel.close()                # and the Design tab's
+        self.ondemand.close()  # its map, unless another session waits
+        if getattr(self, "design_panel", None) is not None:  # (made by main())
+            self.design_panel.close()  # and the Design tab's
         self.controller.discard()
         self.runs.clear()
         memory.session_closed(session_context)
@@ -465,13 +486,13 @@ class Explorer(pn.viewable.Viewer):
             self.trajectories.show(result, self.units_panel.period_seconds(scene))
             self.exports.show(result)
             self.summary_view.show(result)
-            rolled = self.units_panel.show_run(result)      # (a device's run that rolls)
-            if getattr(self, "design_panel", None) is not None:     # (made by main())
+            rolled = self.units_panel.show_run(result)  # (a device's run that rolls)
+            if getattr(self, "design_panel", None) is not None:  # (made by main())
                 self.design_panel.show_run_note(rolled)
             self._set_stale_note(False)
             self._on_stale()
             self.runs.show(result)
-        self.runs.update_open()         # after the frozen hold (RunTabs.update_open)
+        self.runs.update_open()  # after the frozen hold (RunTabs.update_open)
 
     # ---------- layout ----------
     def controls(self):
@@ -479,31 +500,42 @@ class Explorer(pn.viewable.Viewer):
         self.controls_column = pn.Column(
             pn.Row(rb.run_button, rb.cancel_button),
             rb.progress,
-            *self._drawing([
-                pn.widgets.RadioButtonGroup.from_param(s.param.model, label="model"),
-                sc.mu_select,
-                pn.widgets.RadioButtonGroup.from_param(s.param.maps, label="maps"),
-                sc.v0_slider,
-                pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, label="chaotic points"),
-                pn.widgets.RadioButtonGroup.from_param(s.param.layer, label="map shows"),
-                pn.widgets.RadioButtonGroup.from_param(
-                    s.param.orbits, label="period-1 orbit curves (deformable)")]),
+            *self._drawing(
+                [
+                    pn.widgets.RadioButtonGroup.from_param(s.param.model, label="model"),
+                    sc.mu_select,
+                    pn.widgets.RadioButtonGroup.from_param(s.param.maps, label="maps"),
+                    sc.v0_slider,
+                    pn.widgets.RadioButtonGroup.from_param(s.param.chaotic, label="chaotic points"),
+                    pn.widgets.RadioButtonGroup.from_param(s.param.layer, label="map shows"),
+                    pn.widgets.RadioButtonGroup.from_param(
+                        s.param.orbits, label="period-1 orbit curves (deformable)"
+                    ),
+                ]
+            ),
             sc.point_select,
-            pn.pane.Markdown(pn.bind(_point_note, sc.point_select.param.value),
-                             css_classes=["vt-point-note"], sizing_mode="stretch_width",
-                             margin=(0, 10)),
+            pn.pane.Markdown(
+                pn.bind(_point_note, sc.point_select.param.value),
+                css_classes=["vt-point-note"],
+                sizing_mode="stretch_width",
+                margin=(0, 10),
+            ),
             *sc.fields[:2],
             self.profile_view,
             self.rolling_view,
             pn.widgets.Select.from_param(s.param.fidelity, label="fidelity"),
-            pn.pane.Markdown(pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
-                             css_classes=["vt-preset-note"], sizing_mode="stretch_width"),
+            pn.pane.Markdown(
+                pn.bind(lambda f: f"*{f}: {PRESET_NOTES[f]}*", s.param.fidelity),
+                css_classes=["vt-preset-note"],
+                sizing_mode="stretch_width",
+            ),
             pn.widgets.Select.from_param(s.param.integrator, label="integrator"),
             pn.widgets.Select.from_param(s.param.compare, label="compare with"),
             sc.point_mass_controls,
             # (the page's root sizes follow it in the browser: browserside.py)
-            pn.widgets.Toggle.from_param(self.param.presentation, label="Presentation mode",
-                                         css_classes=["vt-presentation"]),
+            pn.widgets.Toggle.from_param(
+                self.param.presentation, label="Presentation mode", css_classes=["vt-presentation"]
+            ),
             self.presentation_note,
             sizing_mode="stretch_width",
         )
@@ -524,7 +556,7 @@ class Explorer(pn.viewable.Viewer):
         return widgets
 
     def main(self):
-        self.design_panel = None            # the Design tab's, built when it is first opened
+        self.design_panel = None  # the Design tab's, built when it is first opened
         self.design_box = pn.Column(sizing_mode="stretch_width", name="design")
         tabs = pn.Tabs(
             ("Map", self.map_pane),
@@ -533,7 +565,9 @@ class Explorer(pn.viewable.Viewer):
             ("Map on demand", self.ondemand.ondemand_box),
             ("Difference", self.difference.panel),
             ("Design", self.design_box),
-            dynamic=True, sizing_mode="stretch_width", stylesheets=[WRAPPING_TABS],
+            dynamic=True,
+            sizing_mode="stretch_width",
+            stylesheets=[WRAPPING_TABS],
         )
         tabs.param.watch(self._on_tab, "active")
         self.map_tabs = self.ondemand.map_tabs = tabs
@@ -543,21 +577,32 @@ class Explorer(pn.viewable.Viewer):
         tabs.param.watch(lambda e: setattr(self.state, "tab", MAP_TABS[e.new]), "active")
         self.state.param.watch(lambda e: setattr(tabs, "active", MAP_TABS.index(e.new)), "tab")
         # folded: its text is added when it is first opened
-        self.intro = pn.Card(title="What is this? (a short introduction)", collapsed=True,
-                             sizing_mode="stretch_width", css_classes=["vt-introduction"])
+        self.intro = pn.Card(
+            title="What is this? (a short introduction)",
+            collapsed=True,
+            sizing_mode="stretch_width",
+            css_classes=["vt-introduction"],
+        )
         self.intro.param.watch(self._on_intro, "collapsed")
         # Side by side on a wide screen (the map with its summary, the
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
         address = [] if self.location is None else [self.location]
         self.page = pn.Column(
-            self.intro, self.message, self.scene_controls.where, self.ack, *address,
-            pn.FlexBox(pn.Column(tabs, self.summary_view.pane, styles=half,
-                                 sizing_mode="stretch_width"),
-                       pn.Column(self.stale_note, self.runs.tabs, styles=half,
-                                 sizing_mode="stretch_width"),
-                       flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"),
-            sizing_mode="stretch_width")
+            self.intro,
+            self.message,
+            self.scene_controls.where,
+            self.ack,
+            *address,
+            pn.FlexBox(
+                pn.Column(tabs, self.summary_view.pane, styles=half, sizing_mode="stretch_width"),
+                pn.Column(self.stale_note, self.runs.tabs, styles=half, sizing_mode="stretch_width"),
+                flex_wrap="wrap",
+                align_items="flex-start",
+                sizing_mode="stretch_width",
+            ),
+            sizing_mode="stretch_width",
+        )
         return self.page
 
     def _on_tab(self, event):
@@ -599,8 +644,11 @@ def explorer_template(explorer):
     root (a plain Row of controls and plots collapsed the trajectory plots)."""
     return pn.template.BootstrapTemplate(
         title="vibtrans: vibrational transport explorer",
-        sidebar=[explorer.controls()], main=[explorer.main()], sidebar_width=SIDEBAR_WIDTH,
-        design=ExplorerDesign)
+        sidebar=[explorer.controls()],
+        main=[explorer.main()],
+        sidebar_width=SIDEBAR_WIDTH,
+        design=ExplorerDesign,
+    )
 
 
 PAGE_TITLE = "vibtrans explorer"
@@ -614,9 +662,11 @@ def create_app():
 # each served page's explorer, by its document: where a failure in one of
 # its callbacks is said (`report_failure`)
 _PAGES = weakref.WeakKeyDictionary()
-FAILURE_TEXT = ("Something failed in the server while it answered the page (reference "
-                "{reference}): what you did last may not have taken effect.  Reload the page "
-                "to start again; the server's log names the cause under that reference.")
+FAILURE_TEXT = (
+    "Something failed in the server while it answered the page (reference "
+    "{reference}): what you did last may not have taken effect.  Reload the page "
+    "to start again; the server's log names the cause under that reference."
+)
 
 
 def failure_reference():
@@ -629,8 +679,11 @@ def report_failure(exception):
     server): a callback that raised is logged with its traceback, and its
     page says so in its own words, with no traceback and no server path."""
     if compat.is_panels_query_parse_failure(exception):
-        log.warning("Panel could not parse the browser's query (a known Panel bug, the link "
-                    "is read by the explorer): %s", exception)
+        log.warning(
+            "Panel could not parse the browser's query (a known Panel bug, the link "
+            "is read by the explorer): %s",
+            exception,
+        )
         return
     reference = failure_reference()
     log.error("a page's callback failed (reference %s)", reference, exc_info=exception)
@@ -654,8 +707,7 @@ def serve_page():
     doc = pn.state.curdoc
     _PAGES[doc] = explorer
     with doc.models.freeze():
-        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE,
-                                               location=_template_location())
+        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=_template_location())
 
 
 if pn.state.served:

@@ -81,28 +81,37 @@ wave periods.
   weight; |T\*| = N\* when the contact slides.
 """
 # the map's key for its markers (drawn on every map: shipped, on demand)
-MAP_KEY = ("*On the map:* <span style='color:#c9a400'>●</span> yellow circle: the selected "
-           "scene (the one Run runs) · <span style='color:#1a9c1a'>◆</span> green diamond: "
-           "the device of the Units and Design tabs · black dots with numbers: the paper's "
-           "points (the *Paper points* list)")
+MAP_KEY = (
+    "*On the map:* <span style='color:#c9a400'>●</span> yellow circle: the selected "
+    "scene (the one Run runs) · <span style='color:#1a9c1a'>◆</span> green diamond: "
+    "the device of the Units and Design tabs · black dots with numbers: the paper's "
+    "points (the *Paper points* list)"
+)
 
-DYNAMICS_TEXT = ("The run's vertical motion as a dynamical system: its stroboscopic section "
-                 "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
-                 "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
-                 "computed when this tab is open.")
-ANIMATION_TEXT = ("**The particle on the wave**, the run's last periods at full resolution: "
-                  "a side view (the surface, the particle, its contact zone coloured by "
-                  "state) and the contact circle beside it, in step. Press play, or drag the "
-                  "slider.")
-MEMORY_TEXT = ("**Memory diagram and contact circle** (Cattaneo-Mindlin with history, "
-               "deformable runs): the anchors w(h) of the springs over the contact depth, "
-               "their displacements u(h) with the Coulomb cone, and the stick core inside the "
-               "slip annulus. The slider scrubs through the run's last period.")
+DYNAMICS_TEXT = (
+    "The run's vertical motion as a dynamical system: its stroboscopic section "
+    "(click it to start more orbits), its period-1 orbit's Floquet multipliers, "
+    "and an orbit diagram along A* or m* (docs/DYNAMICS.md). Run a scene; "
+    "computed when this tab is open."
+)
+ANIMATION_TEXT = (
+    "**The particle on the wave**, the run's last periods at full resolution: "
+    "a side view (the surface, the particle, its contact zone coloured by "
+    "state) and the contact circle beside it, in step. Press play, or drag the "
+    "slider."
+)
+MEMORY_TEXT = (
+    "**Memory diagram and contact circle** (Cattaneo-Mindlin with history, "
+    "deformable runs): the anchors w(h) of the springs over the contact depth, "
+    "their displacements u(h) with the Coulomb cone, and the stick core inside the "
+    "slip annulus. The slider scrubs through the run's last period."
+)
 
 # a run whose inputs changed since it was made: said over its views
-STALE_TEXT = ("**Changed since this run: press Run.** The summary, figures and downloads "
-              "below are of the run made before the change.")
+STALE_TEXT = (
+    "**Changed since this run: press Run.** The summary, figures and downloads "
+    "below are of the run made before the change."
+)
 
 # presentation mode: where the sidebar's switch is
-PRESENTATION_NOTE = ("The **&#9776;** button at the top left hides the controls "
-                     "and shows it back.")
+PRESENTATION_NOTE = "The **&#9776;** button at the top left hides the controls and shows it back."

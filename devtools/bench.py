@@ -16,6 +16,7 @@ are closed, dropped and their memory released (the explorer's log line;
 waited for at most `--settle` seconds), with after/baseline.  The server
 is devtools/loadtest.py's.  Needs Debian's chromium (make test installs it).
 """
+
 import argparse
 import json
 import os
@@ -43,15 +44,18 @@ _SUMMARY_JS = """
   return {summary, alert};
 }
 """
-_DONE_JS = "(before) => { const s = (" + _SUMMARY_JS + """)();
+_DONE_JS = (
+    "(before) => { const s = ("
+    + _SUMMARY_JS
+    + """)();
   if (s.alert) return {error: s.alert};
   return s.summary && s.summary !== before ? s : null; }"""
+)
 _PAINTED_JS = "() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))"
 
 
 def _points(n):
-    return [(0.30 + 0.5 * ((i * 0.618) % 1.0), 0.15 + 0.6 * ((i * 0.382) % 1.0))
-            for i in range(n)]
+    return [(0.30 + 0.5 * ((i * 0.618) % 1.0), 0.15 + 0.6 * ((i * 0.382) % 1.0)) for i in range(n)]
 
 
 def _session(browser, url, points, on_click=None):
@@ -68,8 +72,7 @@ def _session(browser, url, points, on_click=None):
             before = page.evaluate(_SUMMARY_JS)["summary"]
             start = time.perf_counter()
             page.mouse.click(box["x"] + box["width"] * fx, box["y"] + box["height"] * fy)
-            done = page.wait_for_function(_DONE_JS, arg=before, polling=20,
-                                          timeout=120000).json_value()
+            done = page.wait_for_function(_DONE_JS, arg=before, polling=20, timeout=120000).json_value()
             if "error" in done:
                 raise RuntimeError(f"the run failed: {done['error']}")
             page.evaluate(_PAINTED_JS)
@@ -83,12 +86,16 @@ def _session(browser, url, points, on_click=None):
 
 def main(argv=None):
     from playwright.sync_api import sync_playwright
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=8)
     ap.add_argument("--sessions", type=int, default=3)
-    ap.add_argument("--settle", type=float, default=120.0,
-                    help="at most this many seconds to wait for closed sessions to be "
-                         "dropped and their memory released")
+    ap.add_argument(
+        "--settle",
+        type=float,
+        default=120.0,
+        help="at most this many seconds to wait for closed sessions to be dropped and their memory released",
+    )
     ap.add_argument("--json", action="store_true")
     results.add_option(ap)
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -106,7 +113,7 @@ def main(argv=None):
 
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
-            _session(browser, server.url, _points(a.points))   # warm-up, not counted
+            _session(browser, server.url, _points(a.points))  # warm-up, not counted
             _, warm_released = server.wait_dropped(1, a.settle)
             rss_base = server.rss()
             peak[0] = rss_base
@@ -123,17 +130,22 @@ def main(argv=None):
         server.stop()
     os.remove(server.log.name)
     lat = sorted(latencies)
-    out = {"server_start_to_ready_s": ready, "clicks": len(lat),
-           "click_to_plot_p50_s": statistics.median(lat),
-           "click_to_plot_p95_s": _quantile(lat, 0.95),
-           "click_to_plot_max_s": lat[-1],
-           "click_to_plot_s": [round(x, 3) for x in latencies],
-           "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak[0],
-           "rss_after_mb": rss_after, "rss_after_vs_baseline": rss_after / rss_base - 1,
-           "memory_released": warm_released and released,
-           "machine": f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}"}
-    results.save("latency", out, begun, a.results_dir,
-                 " ".join(["python -m devtools.bench", *argv]))
+    out = {
+        "server_start_to_ready_s": ready,
+        "clicks": len(lat),
+        "click_to_plot_p50_s": statistics.median(lat),
+        "click_to_plot_p95_s": _quantile(lat, 0.95),
+        "click_to_plot_max_s": lat[-1],
+        "click_to_plot_s": [round(x, 3) for x in latencies],
+        "rss_ready_mb": rss_ready,
+        "rss_baseline_mb": rss_base,
+        "rss_peak_mb": peak[0],
+        "rss_after_mb": rss_after,
+        "rss_after_vs_baseline": rss_after / rss_base - 1,
+        "memory_released": warm_released and released,
+        "machine": f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}",
+    }
+    results.save("latency", out, begun, a.results_dir, " ".join(["python -m devtools.bench", *argv]))
     if a.json:
         print(json.dumps(out))
     else:

@@ -91,6 +91,7 @@ Selectors (names, classes and texts of app/explorer.py):
   busy                .vt-busy, .pn-loading, <progress>, disabled <button>; the header's
                       .loader.spin
 """
+
 import argparse
 import contextlib
 import json
@@ -111,19 +112,32 @@ BUSY_WITHIN_S = 0.3
 ACTION_TIMEOUT_S = 120.0
 
 # the explorer's goals (seconds, median of the repeats)
-GOALS = {"memory view": 0.5, "map redraw: colour": 0.5, "map redraw: mu": 0.5,
-         "map redraw: model": 0.5, "trajectory PNG export": 3.0,
-         "first point-mass run": 1.5, "first run after compare": 1.5}
-ACTIONS = ["map click", "memory view", "trajectory PNG export", "map redraw: colour",
-           "map redraw: mu", "map redraw: model", "first point-mass run",
-           "first run after compare"]
+GOALS = {
+    "memory view": 0.5,
+    "map redraw: colour": 0.5,
+    "map redraw: mu": 0.5,
+    "map redraw: model": 0.5,
+    "trajectory PNG export": 3.0,
+    "first point-mass run": 1.5,
+    "first run after compare": 1.5,
+}
+ACTIONS = [
+    "map click",
+    "memory view",
+    "trajectory PNG export",
+    "map redraw: colour",
+    "map redraw: mu",
+    "map redraw: model",
+    "first point-mass run",
+    "first run after compare",
+]
 
 # map points (log10 A*, log10 m*) clicked, inside the shipped maps: a
 # chaotic hopping scene, then a permanent contact (the memory diagram's
 # case); consecutive runs differ (the summary's first line tells a new run
 # from the last one)
 CLICKS = [(1.5, -2.0), (1.0, 2.0)]
-POINT_MASS_CLICK = (2.5, 4.0)     # the point mass drifting against the wave
+POINT_MASS_CLICK = (2.5, 4.0)  # the point mass drifting against the wave
 COMPARE_CLICK = (0.5, 1.5)
 
 # Before the page's scripts: the arrival time of every websocket message
@@ -370,6 +384,7 @@ def _seconds(a, t_end=None):
 
     def rel(t):
         return None if t is None else (t - t0) / 1000.0
+
     return rel(end), rel(a["t_busy"]), rel(a["t_header"]), rel(a.get("t_reply"))
 
 
@@ -390,8 +405,9 @@ class Session:
         # loaded: the map drawn and painted; then quiet a moment, so no
         # action meets the page's start
         self.page.wait_for_function(
-            "() => window.__vtBench.mapPlot() !== null && "
-            "window.Bokeh.documents.every((d) => d.is_idle)", timeout=120000)
+            "() => window.__vtBench.mapPlot() !== null && window.Bokeh.documents.every((d) => d.is_idle)",
+            timeout=120000,
+        )
         self.load_s = time.perf_counter() - t0
         self.memory_open = False
         self.page.wait_for_timeout(1500)
@@ -404,8 +420,7 @@ class Session:
     def _measure(self, kind, arg, act, timeout_s=ACTION_TIMEOUT_S):
         self.page.evaluate("([k, a]) => window.__vtBench.start(k, a)", [kind, arg])
         act()
-        self.page.wait_for_function("() => window.__vtBench.result",
-                                    timeout=timeout_s * 1000, polling=50)
+        self.page.wait_for_function("() => window.__vtBench.result", timeout=timeout_s * 1000, polling=50)
         a = self.page.evaluate("() => window.__vtBench.result")
         if a["error"]:
             raise BenchError(f"{kind}: {a['error']}")
@@ -446,7 +461,8 @@ class Session:
             self.tab("Memory diagram")
             self.page.wait_for_function(
                 "() => window.__vtBench.titles().some((t) => t.startsWith('memory diagram w(h)\\nt* = '))",
-                timeout=ACTION_TIMEOUT_S * 1000)
+                timeout=ACTION_TIMEOUT_S * 1000,
+            )
             self.memory_open = True
         field = self.page.locator(".vt-field-t input").first
         field.fill(f"{t:g}")
@@ -463,6 +479,7 @@ class Session:
             # waits until it is enabled, in place and not covered): not the
             # point where it was before the measurement began
             button.click(timeout=ACTION_TIMEOUT_S * 1000)
+
         try:
             return self._measure("title", "memory diagram w(h)\nt* = ", act, timeout_s)
         except Exception as exc:
@@ -478,11 +495,11 @@ class Session:
         if box is None:
             raise BenchError("the memory diagram's slider is not shown")
         xy = (box["x"] + fraction * box["width"], box["y"] + box["height"] / 2)
-        seen = {"fraction": fraction, "titles before": self.page.evaluate(
-            "() => window.__vtBench.titles()")}
+        seen = {"fraction": fraction, "titles before": self.page.evaluate("() => window.__vtBench.titles()")}
         try:
-            return self._measure("title", "memory diagram w(h)\nt* = ",
-                                 lambda: self.page.mouse.click(*xy), timeout_s)
+            return self._measure(
+                "title", "memory diagram w(h)\nt* = ", lambda: self.page.mouse.click(*xy), timeout_s
+            )
         except Exception as exc:
             raise BenchError(self._evidence(f"slider at {fraction:g}", exc, seen)) from exc
 
@@ -494,30 +511,34 @@ class Session:
         lines = [f"{what}: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"]
         lines += [f"  {k}: {v}" for k, v in seen.items()]
         for name, get in (
-                ("titles now", lambda: page.evaluate("() => window.__vtBench.titles()")),
-                ("field now", lambda: page.locator(".vt-field-t input").first.input_value()),
-                ("probe", lambda: page.evaluate(
+            ("titles now", lambda: page.evaluate("() => window.__vtBench.titles()")),
+            ("field now", lambda: page.locator(".vt-field-t input").first.input_value()),
+            (
+                "probe",
+                lambda: page.evaluate(
                     "() => { const a = window.__vtBench.active || window.__vtBench.result;"
-                    " return a && {...a, base_data: undefined}; }")),
-                ("alerts", lambda: page.locator(".alert").all_inner_texts())):
+                    " return a && {...a, base_data: undefined}; }"
+                ),
+            ),
+            ("alerts", lambda: page.locator(".alert").all_inner_texts()),
+        ):
             try:
                 lines.append(f"  {name}: {get()}")
-            except Exception as e:          # noqa: BLE001 - evidence, best effort
+            except Exception as e:  # noqa: BLE001 - evidence, best effort
                 lines.append(f"  {name}: ({type(e).__name__})")
         try:
             page.evaluate("() => window.__vtBench.stop()")
             shot = Path(tempfile.mkdtemp(prefix="browserbench-")) / "failure.png"
             page.screenshot(path=str(shot))
             lines.append(f"  screenshot: {shot}")
-        except Exception as e:              # noqa: BLE001
+        except Exception as e:  # noqa: BLE001
             lines.append(f"  screenshot: ({type(e).__name__})")
         return "\n".join(lines)
 
     def redraw_button(self, name):
         button = self.page.get_by_role("button", name=name, exact=True).first
         button.scroll_into_view_if_needed()
-        return self._measure("redraw", None,
-                             lambda: button.click(timeout=ACTION_TIMEOUT_S * 1000))
+        return self._measure("redraw", None, lambda: button.click(timeout=ACTION_TIMEOUT_S * 1000))
 
     def redraw_select(self, label, value):
         select = self.page.get_by_label(label, exact=True)
@@ -556,14 +577,16 @@ def repeat(browser, url):
         for t in (1999.3, 1999.7):
             try:
                 out["memory view"].append(session.memory_view(t))
-            except Exception as exc:            # noqa: BLE001 - reported, not hidden
+            except Exception as exc:  # noqa: BLE001 - reported, not hidden
                 # seen: now and then a typed time's diagram never
                 # came (1 in ~45 pages, clicked at a point measured before
                 # the action; not seen since the click goes to the button);
                 # the failure says what the page showed
                 out.setdefault("failures", []).append(
-                    str(exc) if isinstance(exc, BenchError)
-                    else f"memory view at t* = {t:g}: {type(exc).__name__}: {exc}")
+                    str(exc)
+                    if isinstance(exc, BenchError)
+                    else f"memory view at t* = {t:g}: {type(exc).__name__}: {exc}"
+                )
         session.tab("Downloads")
         out["trajectory PNG export"].append(session.trajectory_png())
         session.tab("Trajectory")
@@ -585,7 +608,7 @@ def repeat(browser, url):
 # it counts as lost (the slowest answers seen under load: ~5 s)
 MEMORY_VIEWS_PER_PAGE = 10
 MEMORY_LOST_AFTER_S = 30.0
-MEMORY_CLICK = CLICKS[1]           # a permanent contact: a memory at every time
+MEMORY_CLICK = CLICKS[1]  # a permanent contact: a memory at every time
 
 
 def memory_views(browser, url, n, log=print):
@@ -607,19 +630,19 @@ def memory_views(browser, url, n, log=print):
                 done += 1
                 k = done
                 try:
-                    if i % 2 == 0:      # typed: a time of the last period, new each time
+                    if i % 2 == 0:  # typed: a time of the last period, new each time
                         t = 1999.0 + round(((k * 0.37) % 1.0) * 0.96 + 0.02, 3)
                         sample = session.memory_view(t, MEMORY_LOST_AFTER_S)
                         sample["how"] = f"typed {t:g}"
-                    else:               # the slider, somewhere else on its track
+                    else:  # the slider, somewhere else on its track
                         f = 0.05 + ((k * 0.29) % 0.9)
                         sample = session.memory_slide(f, MEMORY_LOST_AFTER_S)
                         sample["how"] = f"slider {f:.2f}"
                     answered.append(sample)
-                except Exception as exc:        # noqa: BLE001 - counted and said
+                except Exception as exc:  # noqa: BLE001 - counted and said
                     lost.append(f"page {page_no}, view {i + 1}: {exc}")
                     log(f"lost: {lost[-1]}")
-                    break               # the page's state is unknown: a new page
+                    break  # the page's state is unknown: a new page
         finally:
             session.close()
         log(f"page {page_no}: {done} of {n} views, {len(lost)} lost")
@@ -630,15 +653,29 @@ def _stats(samples):
     xs = sorted(x["s"] for x in samples)
     slow = [x for x in samples if x["s"] > BUSY_WITHIN_S]
     busy_ok = [x for x in slow if x["busy_s"] is not None and x["busy_s"] <= BUSY_WITHIN_S]
-    header_ok = [x for x in slow
-                 if x["header_busy_s"] is not None and x["header_busy_s"] <= BUSY_WITHIN_S]
+    header_ok = [x for x in slow if x["header_busy_s"] is not None and x["header_busy_s"] <= BUSY_WITHIN_S]
     replies = [x["reply_s"] for x in samples if x["reply_s"] is not None]
-    if not xs:                     # every sample failed (run()'s "failures" say why)
-        return {"n": 0, "min_s": math.nan, "median_s": math.nan, "max_s": math.nan,
-                "reply_median_s": None, "slow": 0, "busy_within": 0, "header_busy_within": 0}
-    return {"n": len(xs), "min_s": xs[0], "median_s": statistics.median(xs), "max_s": xs[-1],
-            "reply_median_s": statistics.median(replies) if replies else None,
-            "slow": len(slow), "busy_within": len(busy_ok), "header_busy_within": len(header_ok)}
+    if not xs:  # every sample failed (run()'s "failures" say why)
+        return {
+            "n": 0,
+            "min_s": math.nan,
+            "median_s": math.nan,
+            "max_s": math.nan,
+            "reply_median_s": None,
+            "slow": 0,
+            "busy_within": 0,
+            "header_busy_within": 0,
+        }
+    return {
+        "n": len(xs),
+        "min_s": xs[0],
+        "median_s": statistics.median(xs),
+        "max_s": xs[-1],
+        "reply_median_s": statistics.median(replies) if replies else None,
+        "slow": len(slow),
+        "busy_within": len(busy_ok),
+        "header_busy_within": len(header_ok),
+    }
 
 
 def summarize(warmup, repeats):
@@ -651,8 +688,7 @@ def summarize(warmup, repeats):
         row["warmup_s"] = [round(x["s"], 3) for x in warmup[action]]
         row["samples_s"] = [round(x["s"], 3) for x in samples]
         for key in ("busy_s", "header_busy_s", "reply_s"):
-            row[key + "_samples"] = [None if x[key] is None else round(x[key], 3)
-                                     for x in samples]
+            row[key + "_samples"] = [None if x[key] is None else round(x[key], 3) for x in samples]
         goal = GOALS.get(action)
         row["goal_s"] = goal
         row["goal_met"] = None if goal is None else bool(row["median_s"] <= goal)
@@ -663,24 +699,29 @@ def summarize(warmup, repeats):
 
 def table(rows):
     """The results as a Markdown table."""
-    lines = ["| action | warm-up | min | median | max | n | goal | met | server's reply "
-             "(median) | busy <= 0.3 s (of > 0.3 s) | header spinner <= 0.3 s |",
-             "|---" * 11 + "|"]
+    lines = [
+        "| action | warm-up | min | median | max | n | goal | met | server's reply "
+        "(median) | busy <= 0.3 s (of > 0.3 s) | header spinner <= 0.3 s |",
+        "|---" * 11 + "|",
+    ]
     for action, r in rows.items():
         goal = "-" if r["goal_s"] is None else f"<= {r['goal_s']:g} s"
         met = "-" if r["goal_met"] is None else ("yes" if r["goal_met"] else "**no**")
         busy = f"{r['busy_within']}/{r['slow']}" + ("" if r["busy_met"] else " **no**")
         warm = ", ".join(f"{x:.2f}" for x in r["warmup_s"]) or "-"
         reply = "-" if r["reply_median_s"] is None else f"{r['reply_median_s']:.2f}"
-        lines.append(f"| {action} | {warm} | {r['min_s']:.2f} | {r['median_s']:.2f} | "
-                     f"{r['max_s']:.2f} | {r['n']} | {goal} | {met} | {reply} | {busy} | "
-                     f"{r['header_busy_within']}/{r['slow']} |")
+        lines.append(
+            f"| {action} | {warm} | {r['min_s']:.2f} | {r['median_s']:.2f} | "
+            f"{r['max_s']:.2f} | {r['n']} | {goal} | {met} | {reply} | {busy} | "
+            f"{r['header_busy_within']}/{r['slow']} |"
+        )
     return "\n".join(lines)
 
 
 def _served():
     sys.path.insert(0, str(ROOT / "tests"))
     from netutil import Served
+
     env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
     return Served(env=env, cwd=ROOT)
 
@@ -692,6 +733,7 @@ def _browser_and_server(url, log, server_errors=None):
     list given the lines of that server's log that report an error (a
     traceback's last line, Bokeh's "_pending_writes")."""
     from playwright.sync_api import sync_playwright
+
     server = None
     if url is None:
         server = _served()
@@ -715,10 +757,14 @@ def _browser_and_server(url, log, server_errors=None):
     finally:
         if server is not None:
             if server_errors is not None:
-                server_errors += [line for line in server.text().splitlines()
-                                  if "_pending_writes" in line
-                                  or line.startswith(("RuntimeError", "AttributeError",
-                                                      "ValueError", "TypeError", "KeyError"))]
+                server_errors += [
+                    line
+                    for line in server.text().splitlines()
+                    if "_pending_writes" in line
+                    or line.startswith(
+                        ("RuntimeError", "AttributeError", "ValueError", "TypeError", "KeyError")
+                    )
+                ]
             server.stop()
 
 
@@ -736,9 +782,13 @@ def run(repeats, url=None, log=print):
     failures = [f for r in [warmup, *results] for f in r.get("failures", [])]
     for f in failures:
         log(f"failed: {f}")
-    return {"rows": summarize(warmup, results), "repeats": repeats, "failures": failures,
-            "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
-                       f"{load[2]:.2f} at the end"}
+    return {
+        "rows": summarize(warmup, results),
+        "repeats": repeats,
+        "failures": failures,
+        "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
+        f"{load[2]:.2f} at the end",
+    }
 
 
 def missed(rows):
@@ -748,25 +798,37 @@ def missed(rows):
         if r["goal_met"] is False:
             out.append(f"{action}: median {r['median_s']:.2f} s > {r['goal_s']:g} s")
         if not r["busy_met"]:
-            out.append(f"{action}: a busy indicator within {BUSY_WITHIN_S} s in "
-                       f"{r['busy_within']} of {r['slow']} actions over {BUSY_WITHIN_S} s")
+            out.append(
+                f"{action}: a busy indicator within {BUSY_WITHIN_S} s in "
+                f"{r['busy_within']} of {r['slow']} actions over {BUSY_WITHIN_S} s"
+            )
     return out
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m devtools.browserbench",
-                                 description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=5, help="measured repeats (1-50), each "
-                    "on a new page, after one warm-up repeat")
-    ap.add_argument("--url", help="a running explorer (its kernels compiled) instead of a "
-                    "server of the bench's own")
-    ap.add_argument("--memory-views", type=int, metavar="N", help="instead of the "
-                    "actions: N memory views (1-1000; typed times and slider moves in "
-                    "turn, 10 per page), counting those whose diagram never reached the "
-                    "page (--check: exit 1 if one did not)")
+    ap = argparse.ArgumentParser(prog="python -m devtools.browserbench", description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--repeats",
+        type=int,
+        default=5,
+        help="measured repeats (1-50), each on a new page, after one warm-up repeat",
+    )
+    ap.add_argument(
+        "--url", help="a running explorer (its kernels compiled) instead of a server of the bench's own"
+    )
+    ap.add_argument(
+        "--memory-views",
+        type=int,
+        metavar="N",
+        help="instead of the "
+        "actions: N memory views (1-1000; typed times and slider moves in "
+        "turn, 10 per page), counting those whose diagram never reached the "
+        "page (--check: exit 1 if one did not)",
+    )
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
-    ap.add_argument("--check", action="store_true",
-                    help="exit 1 if a goal is missed (medians, busy indicators)")
+    ap.add_argument(
+        "--check", action="store_true", help="exit 1 if a goal is missed (medians, busy indicators)"
+    )
     results.add_option(ap)
     argv = sys.argv[1:] if argv is None else list(argv)
     a = ap.parse_args(argv)
@@ -793,7 +855,7 @@ def main(argv=None):
 
 
 def _memory_main(a):
-    log = lambda m: print(m, file=sys.stderr)      # noqa: E731
+    log = lambda m: print(m, file=sys.stderr)  # noqa: E731
     errors = []
     begun = results.begin()
     with _browser_and_server(a.url, log, errors) as (browser, url):
@@ -801,34 +863,43 @@ def _memory_main(a):
     load = os.getloadavg()
     xs = sorted(x["s"] for x in out["answered"])
     replies = sorted(x["reply_s"] for x in out["answered"] if x["reply_s"] is not None)
-    by = {how: sorted(x["s"] for x in out["answered"] if x["how"].startswith(how))
-          for how in ("typed", "slider")}
+    by = {
+        how: sorted(x["s"] for x in out["answered"] if x["how"].startswith(how))
+        for how in ("typed", "slider")
+    }
     summary = {
-        "views": out["views"], "answered": len(xs), "lost": out["lost"],
+        "views": out["views"],
+        "answered": len(xs),
+        "lost": out["lost"],
         "median_s": statistics.median(xs) if xs else None,
         "reply_median_s": statistics.median(replies) if replies else None,
         **{f"{how}_median_s": statistics.median(v) if v else None for how, v in by.items()},
         "max_s": xs[-1] if xs else None,
         "server_errors": errors if a.url is None else None,
         "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
-                   f"{load[2]:.2f} at the end"}
-    results.save("browserbench-memory-views", {**summary, "samples": out["answered"]}, begun,
-                 a.results_dir, a.command)
+        f"{load[2]:.2f} at the end",
+    }
+    results.save(
+        "browserbench-memory-views", {**summary, "samples": out["answered"]}, begun, a.results_dir, a.command
+    )
     if a.json:
         print(json.dumps({**summary, "samples": out["answered"]}))
     else:
+
         def s3(x):
             return "-" if x is None else f"{x:.3f} s"
-        print(f"memory views: {summary['views']}, answered {summary['answered']}, "
-              f"lost {len(out['lost'])}; median {s3(summary['median_s'])} (typed "
-              f"{s3(summary['typed_median_s'])}, slider {s3(summary['slider_median_s'])}), "
-              f"server's reply median {s3(summary['reply_median_s'])}, max "
-              f"{s3(summary['max_s'])}; {summary['machine']}")
+
+        print(
+            f"memory views: {summary['views']}, answered {summary['answered']}, "
+            f"lost {len(out['lost'])}; median {s3(summary['median_s'])} (typed "
+            f"{s3(summary['typed_median_s'])}, slider {s3(summary['slider_median_s'])}), "
+            f"server's reply median {s3(summary['reply_median_s'])}, max "
+            f"{s3(summary['max_s'])}; {summary['machine']}"
+        )
         for x in out["lost"]:
             print(f"lost: {x}")
         if a.url is None:
-            print(f"the server's log: {len(errors)} error lines"
-                  + "".join(f"\n  {e}" for e in errors[:10]))
+            print(f"the server's log: {len(errors)} error lines" + "".join(f"\n  {e}" for e in errors[:10]))
     if a.check and (out["lost"] or errors):
         sys.exit(1)
     return summary

@@ -6,6 +6,7 @@ broken (console errors, images not loaded) and the Bokeh outputs drawn.
 
 Prints a JSON line per page; exits 1 when any page shows a problem.
 """
+
 import argparse
 import json
 import sys
@@ -43,17 +44,15 @@ def shoot(html, out, pages, settle_ms=1500):
             page = browser.new_page(viewport=VIEWPORT)
             errors = []
             page.on("pageerror", lambda e, errors=errors: errors.append(str(e)))
-            page.on("console", lambda m, errors=errors:
-                    errors.append(m.text) if m.type == "error" else None)
+            page.on("console", lambda m, errors=errors: errors.append(m.text) if m.type == "error" else None)
             page.goto((html / page_path).resolve().as_uri(), wait_until="load")
-            page.wait_for_timeout(settle_ms)       # Bokeh draws after load
+            page.wait_for_timeout(settle_ms)  # Bokeh draws after load
             found = page.evaluate(PROBE)
             stem = page_path.removesuffix(".html").replace("/", "-")
             page.screenshot(path=str(out / f"docs-{stem}.png"))
             page.screenshot(path=str(out / f"docs-{stem}-full.png"), full_page=True)
             page.close()
-            found.update(page=page_path, console_errors=errors,
-                         ok=not errors and not found["broken_images"])
+            found.update(page=page_path, console_errors=errors, ok=not errors and not found["broken_images"])
             results.append(found)
     return results
 

@@ -6,6 +6,7 @@ so a frame that shrinks when the key grows shows in numbers.
 
     python -m devtools.explorershots [--out DIR] [--sizes 1024x768 ...]
 """
+
 import argparse
 import json
 import os
@@ -44,6 +45,7 @@ IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
 def _served():
     sys.path.insert(0, str(ROOT / "tests"))
     from netutil import Served
+
     env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
     return Served(env=env, cwd=ROOT)
 
@@ -109,8 +111,11 @@ def shots(browser, url, size, out, log=print):
     small = float(label.evaluate("(e) => getComputedStyle(e).fontSize").rstrip("px"))
     toggle.locator("button").first.click()
     # the server's styles follow the browser's change: until the labels grew
-    page.wait_for_function("([e, px]) => parseFloat(getComputedStyle(e).fontSize) > px",
-                           arg=[label.element_handle(), small], timeout=60000)
+    page.wait_for_function(
+        "([e, px]) => parseFloat(getComputedStyle(e).fontSize) > px",
+        arg=[label.element_handle(), small],
+        timeout=60000,
+    )
     _settle(page)
     page.evaluate("() => window.scrollTo(0, 0)")
     shot("presentation")

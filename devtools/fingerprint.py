@@ -10,6 +10,7 @@ the paper points and across the jumping region.
 Compared with np.array_equal (NaN equal to NaN); the wall time attribute
 `seconds` is left out.
 """
+
 import argparse
 import sys
 
@@ -36,8 +37,7 @@ def _runs():
                         out[f"{key}/{name}"] = np.asarray(var.values)
                     for name, val in ds.attrs.items():
                         if name != "seconds":
-                            out[f"{key}/@{name}"] = np.asarray(
-                                "None" if val is None else val)
+                            out[f"{key}/@{name}"] = np.asarray("None" if val is None else val)
         for t in (0.37, 3.5, 17.25):
             snap = memory_snapshot(paper_scene(k).replace(model="deformable"), t=t)
             for name, val in snap.items():
@@ -46,40 +46,41 @@ def _runs():
     for i in range(40):
         n = 400
         kind = i % 4
-        if kind == 0:      # random walk in both
+        if kind == 0:  # random walk in both
             a = 1.0 + np.cumsum(rng.normal(0, 0.05, n))
             b = np.cumsum(rng.normal(0, 0.05, n))
-        elif kind == 1:    # oscillating normal load, drifting tangent
+        elif kind == 1:  # oscillating normal load, drifting tangent
             s = np.linspace(0, 20, n)
             a = 1.0 + 0.8 * np.sin(s * rng.uniform(0.5, 3))
             b = 0.3 * np.sin(s * rng.uniform(0.5, 3)) + 0.01 * s
-        elif kind == 2:    # with losses of contact
+        elif kind == 2:  # with losses of contact
             a = 0.5 + np.cumsum(rng.normal(0, 0.1, n))
             b = np.cumsum(rng.normal(0, 0.2, n))
-        else:              # large random jumps
+        else:  # large random jumps
             a = rng.uniform(-0.2, 3.0, n)
             b = rng.uniform(-3.0, 3.0, n)
         T, sh, st = tangential_force_history(a, b)
         out[f"hist{i}/T"], out[f"hist{i}/sh"], out[f"hist{i}/st"] = T, sh, st
     lyapunov_scenes = [(f"p{k}", paper_scene(k)) for k in range(1, 11)]
-    lyapunov_scenes += [(f"a{la}m{lm}", paper_scene(1).replace(amplitude=10.0 ** la,
-                                                               mass=10.0 ** lm))
-                        for la in (-1.5, 0.0, 0.5, 1.5, 2.5) for lm in (-4.0, -2.0, 0.0, 3.0)]
+    lyapunov_scenes += [
+        (f"a{la}m{lm}", paper_scene(1).replace(amplitude=10.0**la, mass=10.0**lm))
+        for la in (-1.5, 0.0, 0.5, 1.5, 2.5)
+        for lm in (-4.0, -2.0, 0.0, 3.0)
+    ]
     for name, sc in lyapunov_scenes:
         for model in ("deformable", "vertical"):
             for integ in ("ab4", "verlet"):
-                ds = simulate(sc.replace(model=model, integrator=integ, periods=300.0),
-                              lyapunov=True)
+                ds = simulate(sc.replace(model=model, integrator=integ, periods=300.0), lyapunov=True)
                 for attr in ("lyapunov", "lyapunov_from", "lyapunov_start", "steps"):
                     val = ds.attrs[attr]
                     out[f"lyapunov/{name}/{model}/{integ}/{attr}"] = np.asarray(
-                        "None" if val is None else val)
+                        "None" if val is None else val
+                    )
                 out[f"lyapunov/{name}/{model}/{integ}/y"] = np.asarray(ds["y"].values)
     for lm in (-3.0, -1.0, 0.5, 2.0):
         for la in (-1.0, 0.0, 1.0):
-            out[f"takeoff/{la}/{lm}"] = np.asarray(first_takeoff(10 ** la, 10 ** lm,
-                                                                 periods=300.0))
-        out[f"threshold/{lm}"] = np.asarray(threshold_amplitude(10 ** lm, periods=200.0))
+            out[f"takeoff/{la}/{lm}"] = np.asarray(first_takeoff(10**la, 10**lm, periods=300.0))
+        out[f"threshold/{lm}"] = np.asarray(threshold_amplitude(10**lm, periods=200.0))
     return out
 
 
@@ -108,8 +109,7 @@ def main(argv=None):
         print("only in one:", k)
     for k in differ[:20]:
         print("differs:", k)
-    print(f"{len(ref.files)} reference arrays: {len(differ)} differ, "
-          f"{len(missing)} present on one side only")
+    print(f"{len(ref.files)} reference arrays: {len(differ)} differ, {len(missing)} present on one side only")
     return 1 if differ or missing else 0
 
 

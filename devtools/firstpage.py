@@ -5,6 +5,7 @@ point 4).  The machine's load is printed beside the figures.
 
     python -m devtools.firstpage [--rounds 2] [--json]
 """
+
 import argparse
 import json
 import os
@@ -47,8 +48,13 @@ def serve_times(cache, timeout=900):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     with tempfile.TemporaryFile(mode="w+") as log:
         t0 = time.perf_counter()
-        proc = subprocess.Popen([*_vibtrans(), "serve", "--port", str(port)], env=env,
-                                stdout=log, stderr=subprocess.STDOUT, cwd=tempfile.gettempdir())
+        proc = subprocess.Popen(
+            [*_vibtrans(), "serve", "--port", str(port)],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=tempfile.gettempdir(),
+        )
         page = ready = cpu = None
         try:
             while time.perf_counter() - t0 < timeout and (page is None or ready is None):
@@ -81,14 +87,14 @@ def serve_times(cache, timeout=900):
 def simulate_time(cache):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     t0 = time.perf_counter()
-    subprocess.run([*_vibtrans(), *SIMULATE], env=env, check=True, capture_output=True,
-                   cwd=tempfile.gettempdir())
+    subprocess.run(
+        [*_vibtrans(), *SIMULATE], env=env, check=True, capture_output=True, cwd=tempfile.gettempdir()
+    )
     return time.perf_counter() - t0
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m devtools.firstpage",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.firstpage", description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--skip-simulate", action="store_true")
@@ -100,19 +106,21 @@ def main(argv=None):
             load = os.getloadavg()[0]
             cold_page, cold_cpu, cold_ready, cold_log = serve_times(cache)
             warm_page, warm_cpu, warm_ready, _ = serve_times(cache)
-            row = {"load_1min": round(load, 2), "serve_cold_first_page_s": cold_page,
-                   "serve_cold_first_page_cpu_s": cold_cpu,
-                   "serve_cold_kernels_ready_s": cold_ready,
-                   "serve_warm_first_page_s": warm_page,
-                   "serve_warm_first_page_cpu_s": warm_cpu,
-                   "serve_warm_kernels_ready_s": warm_ready}
+            row = {
+                "load_1min": round(load, 2),
+                "serve_cold_first_page_s": cold_page,
+                "serve_cold_first_page_cpu_s": cold_cpu,
+                "serve_cold_kernels_ready_s": cold_ready,
+                "serve_warm_first_page_s": warm_page,
+                "serve_warm_first_page_cpu_s": warm_cpu,
+                "serve_warm_kernels_ready_s": warm_ready,
+            }
             if not a.skip_simulate:
                 shutil.rmtree(cache)
                 cache.mkdir()
                 row["simulate_cold_s"] = simulate_time(cache)
                 row["simulate_warm_s"] = simulate_time(cache)
-            row["cold_server_log"] = [ln for ln in cold_log.splitlines()
-                                      if ln.startswith("vibtrans serve:")]
+            row["cold_server_log"] = [ln for ln in cold_log.splitlines() if ln.startswith("vibtrans serve:")]
             rows.append(row)
         finally:
             shutil.rmtree(cache, ignore_errors=True)

@@ -62,6 +62,7 @@ the workers' together, and the report says how the sessions spread.
 Bounded: at most --sessions sessions, --timeout seconds in all (clicks not
 done by then count as errors), and the server is always stopped.
 """
+
 import argparse
 import asyncio
 import collections
@@ -89,7 +90,7 @@ from .chromium import ARGS, CHROMIUM
 ROOT = Path(__file__).resolve().parent.parent
 LIFETIME_MS, CHECK_MS = 3000, 1000
 BENIGN = ("WebSocketClosedError", "StreamClosedError")
-KERNELS_READY = "kernels ready"                         # app/server/warmup.py logs it
+KERNELS_READY = "kernels ready"  # app/server/warmup.py logs it
 # a message from a page that is closing, handled after its connection was
 # detached from the session (Bokeh's assertion): a disconnect race too
 DETACHED = "assert self._session is not None"
@@ -115,8 +116,10 @@ window.__vtState = () => {
   return out;
 };
 """
-_IDLE_JS = ("() => window.Bokeh !== undefined && Bokeh.documents.length > 0 "
-            "&& Bokeh.documents.every((d) => d.is_idle)")
+_IDLE_JS = (
+    "() => window.Bokeh !== undefined && Bokeh.documents.length > 0 "
+    "&& Bokeh.documents.every((d) => d.is_idle)"
+)
 _DONE_JS = """
 (before) => {
   const s = window.__vtState();
@@ -163,7 +166,7 @@ def _tree(pid):
 def rss_mb(pid, tree=True):
     """RSS (MB) of process `pid` and (tree) every process under it."""
     total = 0.0
-    for q in (_tree(pid) if tree else [pid]):
+    for q in _tree(pid) if tree else [pid]:
         try:
             with open(f"/proc/{q}/status") as f:
                 for line in f:
@@ -185,15 +188,14 @@ def cpu_seconds(pids):
     for q in pids:
         try:
             fields = _stat(q)
-            total += int(fields[11]) + int(fields[12])     # utime, stime
+            total += int(fields[11]) + int(fields[12])  # utime, stime
         except (OSError, IndexError, ValueError):
             pass
     return total / tick
 
 
 # the server's session settings under load: closed sessions dropped in seconds
-SERVE_ARGS = ["--unused-session-lifetime", str(LIFETIME_MS),
-              "--check-unused-sessions", str(CHECK_MS)]
+SERVE_ARGS = ["--unused-session-lifetime", str(LIFETIME_MS), "--check-unused-sessions", str(CHECK_MS)]
 
 
 def parse_cpus(text, option):
@@ -207,17 +209,22 @@ def parse_cpus(text, option):
         try:
             first, last = int(lo), int(hi) if sep else int(lo)
         except ValueError:
-            raise ValueError(f"{option} must be a list of cores such as 0, 0,2 or 0-1 "
-                             f"(cores here: {_cpu_list(allowed)}), got {text!r}") from None
+            raise ValueError(
+                f"{option} must be a list of cores such as 0, 0,2 or 0-1 "
+                f"(cores here: {_cpu_list(allowed)}), got {text!r}"
+            ) from None
         if first < 0 or last < first:
-            raise ValueError(f"{option}: {part.strip()!r} is not a core range "
-                             f"(cores here: {_cpu_list(allowed)})")
+            raise ValueError(
+                f"{option}: {part.strip()!r} is not a core range (cores here: {_cpu_list(allowed)})"
+            )
         cpus.update(range(first, last + 1))
     missing = sorted(cpus - set(allowed))
     if missing:
-        raise ValueError(f"{option}: core{'s' if len(missing) > 1 else ''} "
-                         f"{_cpu_list(missing)} do{'es' if len(missing) == 1 else ''} not "
-                         f"exist here (cores here: {_cpu_list(allowed)}), got {text!r}")
+        raise ValueError(
+            f"{option}: core{'s' if len(missing) > 1 else ''} "
+            f"{_cpu_list(missing)} do{'es' if len(missing) == 1 else ''} not "
+            f"exist here (cores here: {_cpu_list(allowed)}), got {text!r}"
+        )
     return sorted(cpus)
 
 
@@ -258,6 +265,7 @@ def affinity(pids):
 class _Measured:
     """What the load test reads from the server side: RSS (sampled), the
     sessions dropped and released, errors in the logs."""
+
     peak = 0.0
     _sampling = False
 
@@ -281,6 +289,7 @@ class _Measured:
             while self._sampling and self.alive():
                 self.peak = max(self.peak, self.rss())
                 time.sleep(0.2)
+
         threading.Thread(target=loop, daemon=True).start()
 
     def stop_sampling(self):
@@ -297,6 +306,7 @@ class _Measured:
 
         def waited():
             return time.perf_counter() - t0
+
         while waited() < timeout:
             if self.discarded() < sessions or not self.released_after_discards():
                 time.sleep(0.25)
@@ -334,8 +344,7 @@ def discarded(text):
 def release_lines(text):
     """The explorer's lines on releasing closed sessions' memory (each names
     its process), in the log's order."""
-    return [line.strip()[:200] for line in text.splitlines()
-            if RELEASED in line or RELEASE_NAME in line]
+    return [line.strip()[:200] for line in text.splitlines() if RELEASED in line or RELEASE_NAME in line]
 
 
 def released_after_discards(text):
@@ -353,7 +362,7 @@ def released_after_discards(text):
         elif m and RELEASED in line:
             released[m.group(1)] = i
     if text.rfind(CLOSED) < text.rfind("Discarding session"):
-        return False             # a discard whose close is not logged yet
+        return False  # a discard whose close is not logged yet
     return bool(closed) and all(released.get(pid, -1) > i for pid, i in closed.items())
 
 
@@ -364,13 +373,26 @@ class Server(_Measured):
     def __init__(self, num_procs=1, env=None, wrap=()):
         self.port = _port()
         self.url = f"http://127.0.0.1:{self.port}/"
-        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-loadtest-", suffix=".log",
-                                               delete=False)
+        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-loadtest-", suffix=".log", delete=False)
         env = {**os.environ, "BOKEH_PY_LOG_LEVEL": "debug", **(env or {})}
         self.proc = subprocess.Popen(
-            [*wrap, sys.executable, "-m", "vibtrans.cli", "serve", "--port", str(self.port),
-             "--num-procs", str(num_procs), *SERVE_ARGS],
-            cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+            [
+                *wrap,
+                sys.executable,
+                "-m",
+                "vibtrans.cli",
+                "serve",
+                "--port",
+                str(self.port),
+                "--num-procs",
+                str(num_procs),
+                *SERVE_ARGS,
+            ],
+            cwd=ROOT,
+            env=env,
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+        )
         self.processes = num_procs or os.cpu_count() or 1
 
     def wait_ready(self, timeout=300):
@@ -398,7 +420,7 @@ class Server(_Measured):
         return self.proc.poll() is None
 
     def rss(self):
-        return rss_mb(self.proc.pid)       # the tree: --num-procs > 1 forks
+        return rss_mb(self.proc.pid)  # the tree: --num-procs > 1 forks
 
     def text(self):
         with open(self.log.name, errors="replace") as f:
@@ -447,10 +469,18 @@ class ProxiedServers(_Measured):
 
     def __init__(self, workers, env=None, wrap=()):
         from .deploy import Deployment
+
         self.log_dir = tempfile.mkdtemp(prefix="vibtrans-loadtest-")
         env = {**os.environ, "BOKEH_PY_LOG_LEVEL": "debug", **(env or {})}
-        self.deployment = Deployment(workers=workers, port=_port(), serve_args=SERVE_ARGS,
-                                     env=env, log_dir=self.log_dir, wrap=wrap, keep=True)
+        self.deployment = Deployment(
+            workers=workers,
+            port=_port(),
+            serve_args=SERVE_ARGS,
+            env=env,
+            log_dir=self.log_dir,
+            wrap=wrap,
+            keep=True,
+        )
         self.deployment.start()
         self.url = self.deployment.url
 
@@ -520,26 +550,28 @@ def log_errors(text):
     WebSocketClosedError/StreamClosedError: counted apart, not errors."""
     errors, benign = [], 0
     lines = text.splitlines()
-    i, pending = 0, None            # pending: an ERROR line waiting for its traceback
+    i, pending = 0, None  # pending: an ERROR line waiting for its traceback
     while i < len(lines):
         line = lines[i]
         if line.startswith("Traceback"):
             j = i + 1
-            while j < len(lines) and (not lines[j] or lines[j][0].isspace()
-                                      or lines[j].startswith(("Traceback", "During handling"))
-                                      or "exception occurred" in lines[j]):
+            while j < len(lines) and (
+                not lines[j]
+                or lines[j][0].isspace()
+                or lines[j].startswith(("Traceback", "During handling"))
+                or "exception occurred" in lines[j]
+            ):
                 j += 1
             final = lines[j] if j < len(lines) else "(truncated traceback)"
-            block = "\n".join(lines[i:j + 1])
-            if any(k in final for k in BENIGN) or (
-                    final.startswith("AssertionError") and DETACHED in block):
+            block = "\n".join(lines[i : j + 1])
+            if any(k in final for k in BENIGN) or (final.startswith("AssertionError") and DETACHED in block):
                 benign += 1
             else:
                 errors.append(f"{pending + ': ' if pending else ''}{final}"[:300])
             pending = None
             i = j + 1
             continue
-        if pending is not None and " - " in line[:30]:     # the next log line: no traceback
+        if pending is not None and " - " in line[:30]:  # the next log line: no traceback
             errors.append(pending)
             pending = None
         if " - ERROR - " in line or line.startswith("ERROR:"):
@@ -556,9 +588,21 @@ def map_request(k):
     fidelity and 500 periods, at a mu of its own (so that no two sessions
     share a computation)."""
     from vibtrans_explorer.session.maprequest import MapRequest, encode
-    return encode(MapRequest(model="deformable", mu=round(0.31 + 0.02 * k, 2),
-                             fidelity="preview", periods=500.0, la_from=0.0, la_to=1.5,
-                             lm_from=-1.5, lm_to=1.5, cells=8, levels=2))
+
+    return encode(
+        MapRequest(
+            model="deformable",
+            mu=round(0.31 + 0.02 * k, 2),
+            fidelity="preview",
+            periods=500.0,
+            la_from=0.0,
+            la_to=1.5,
+            lm_from=-1.5,
+            lm_to=1.5,
+            cells=8,
+            levels=2,
+        )
+    )
 
 
 def map_sessions(sessions, browsers, maps):
@@ -566,8 +610,7 @@ def map_sessions(sessions, browsers, maps):
     spread over the arrival order."""
     protocol = [k for k in range(sessions) if k not in browser_sessions(sessions, browsers)]
     maps = min(maps, len(protocol))
-    return {protocol[int((i + 0.5) * len(protocol) / maps)] for i in range(maps)} if maps \
-        else set()
+    return {protocol[int((i + 0.5) * len(protocol) / maps)] for i in range(maps)} if maps else set()
 
 
 def _sequence(session, clicks):
@@ -601,8 +644,7 @@ async def _clicked(result, a, rng, k, kind, start, error=None, note=""):
     """A click's outcome: a refusal or an error (its message), else its
     latency; then the think time before the next click."""
     if error is not None:
-        result["refused" if "server's limit" in error else "errors"].append(
-            f"session {k}: {error[:200]}")
+        result["refused" if "server's limit" in error else "errors"].append(f"session {k}: {error[:200]}")
         return
     latency = time.perf_counter() - start
     result["latencies"].append(latency)
@@ -616,6 +658,7 @@ async def _clicked(result, a, rng, k, kind, start, error=None, note=""):
 async def _protocol_session(url, k, a, result, rng):
     """One person, at the protocol level (devtools/protoclient.py)."""
     from .protoclient import ProtocolSession
+
     await _arrive(a, k)
     client = ProtocolSession(url, timeout=a.click_timeout)
     try:
@@ -628,13 +671,14 @@ async def _protocol_session(url, k, a, result, rng):
             try:
                 kind, text = await client.click(fx, fy)
             except TimeoutError:
-                result["errors"].append(f"session {k}, click {c + 1}: no result within "
-                                        f"{a.click_timeout:g} s (at map range fraction "
-                                        f"{fx:.3f}, {fy:.3f})")
+                result["errors"].append(
+                    f"session {k}, click {c + 1}: no result within "
+                    f"{a.click_timeout:g} s (at map range fraction "
+                    f"{fx:.3f}, {fy:.3f})"
+                )
                 continue
-            await _clicked(result, a, rng, k, "protocol", start,
-                           error=text if kind == "error" else None)
-    except Exception as exc:                  # noqa: BLE001 - counted, reported
+            await _clicked(result, a, rng, k, "protocol", start, error=text if kind == "error" else None)
+    except Exception as exc:  # noqa: BLE001 - counted, reported
         result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
     finally:
         client.close()
@@ -646,13 +690,13 @@ async def _map_session(url, k, a, result, index):
     from urllib.parse import quote
 
     from .protoclient import ProtocolSession
+
     await _arrive(a, k)
-    client = ProtocolSession(url, timeout=a.click_timeout,
-                             query=f"?map={quote(map_request(index))}")
+    client = ProtocolSession(url, timeout=a.click_timeout, query=f"?map={quote(map_request(index))}")
     try:
         t0 = time.perf_counter()
         await client.open()
-        ended = client.map_ended()         # before any await: its end cannot be missed
+        ended = client.map_ended()  # before any await: its end cannot be missed
         result["load_s"].append(time.perf_counter() - t0)
         result["load_kinds"].append("map")
         try:
@@ -664,7 +708,7 @@ async def _map_session(url, k, a, result, index):
             result["errors"].append(f"session {k}: its map: {text[:300]}")
         else:
             result["map_s"].append(time.perf_counter() - t0)
-    except Exception as exc:                  # noqa: BLE001 - counted, reported
+    except Exception as exc:  # noqa: BLE001 - counted, reported
         result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
     finally:
         client.close()
@@ -695,18 +739,21 @@ async def _session(browser, url, k, a, result, rng):
             start = time.perf_counter()
             await page.mouse.click(box["x"] + box["width"] * fx, box["y"] + box["height"] * fy)
             try:
-                handle = await page.wait_for_function(_DONE_JS, arg=before,
-                                                      polling=100,
-                                                      timeout=a.click_timeout * 1000)
+                handle = await page.wait_for_function(
+                    _DONE_JS, arg=before, polling=100, timeout=a.click_timeout * 1000
+                )
                 done = await handle.json_value()
-            except Exception as exc:          # noqa: BLE001 - counted, reported
-                result["errors"].append(f"session {k}, click {c + 1}: no result within "
-                                        f"{a.click_timeout:g} s (at map canvas fraction "
-                                        f"{fx:.3f}, {fy:.3f}; {type(exc).__name__})")
+            except Exception as exc:  # noqa: BLE001 - counted, reported
+                result["errors"].append(
+                    f"session {k}, click {c + 1}: no result within "
+                    f"{a.click_timeout:g} s (at map canvas fraction "
+                    f"{fx:.3f}, {fy:.3f}; {type(exc).__name__})"
+                )
                 continue
-            await _clicked(result, a, rng, k, "browser", start, error=done.get("error"),
-                           note=done.get("summary", ""))
-    except Exception as exc:                  # noqa: BLE001 - counted, reported
+            await _clicked(
+                result, a, rng, k, "browser", start, error=done.get("error"), note=done.get("summary", "")
+            )
+    except Exception as exc:  # noqa: BLE001 - counted, reported
         result["errors"].append(f"session {k}: {type(exc).__name__}: {str(exc)[:200]}")
     finally:
         result["errors"] += [f"session {k}: JavaScript error: {e[:200]}" for e in js_errors]
@@ -746,10 +793,12 @@ async def _drive(url, a, sessions, result, seed):
         if k in asking:
             return _map_session(url, k, a, result, asking.index(k))
         return _protocol_session(url, k, a, result, rng)
+
     if not in_browser:
         await _gather([protocol(k) for k in range(sessions)], a, result)
         return
     from playwright.async_api import async_playwright
+
     # processes this one had started before (the server; a test session's
     # own servers): not clients
     before = set(_tree(os.getpid())) - {os.getpid()}
@@ -758,12 +807,18 @@ async def _drive(url, a, sessions, result, seed):
         _renice_browser(a.browser_nice)
         # the clients' cores, read back: this process and what it started
         # for them (Playwright's driver, chromium)
-        result["client_cores"] = affinity(p for p in _tree(os.getpid())
-                                          if p not in before
-                                          and p not in result.get("server_pids", ()))
+        result["client_cores"] = affinity(
+            p for p in _tree(os.getpid()) if p not in before and p not in result.get("server_pids", ())
+        )
         try:
-            await _gather([_session(browser, url, k, a, result, rng) if k in in_browser
-                           else protocol(k) for k in range(sessions)], a, result)
+            await _gather(
+                [
+                    _session(browser, url, k, a, result, rng) if k in in_browser else protocol(k)
+                    for k in range(sessions)
+                ],
+                a,
+                result,
+            )
         finally:
             await browser.close()
 
@@ -774,8 +829,7 @@ async def _gather(coroutines, a, result):
     for t in pending:
         t.cancel()
     if pending:
-        result["errors"].append(f"{len(pending)} sessions not finished within "
-                                f"--timeout {a.timeout:g} s")
+        result["errors"].append(f"{len(pending)} sessions not finished within --timeout {a.timeout:g} s")
         await asyncio.gather(*pending, return_exceptions=True)
 
 
@@ -784,8 +838,17 @@ def _median(values):
 
 
 def _new_result():
-    return {"latencies": [], "browser_latencies": [], "protocol_latencies": [], "timeline": [],
-            "errors": [], "refused": [], "load_s": [], "load_kinds": [], "map_s": []}
+    return {
+        "latencies": [],
+        "browser_latencies": [],
+        "protocol_latencies": [],
+        "timeline": [],
+        "errors": [],
+        "refused": [],
+        "load_s": [],
+        "load_kinds": [],
+        "map_s": [],
+    }
 
 
 def _quantile(values, q):
@@ -818,8 +881,17 @@ def run(a):
         rss_ready = server.rss()
         # warm-up: one session, one click, closed and dropped -> the baseline
         warm = _new_result()
-        warm_args = argparse.Namespace(**{**vars(a), "sessions": 1, "clicks": 1, "think": 0.0,
-                                          "ramp": 0.0, "first_point": 997, "maps": 0})
+        warm_args = argparse.Namespace(
+            **{
+                **vars(a),
+                "sessions": 1,
+                "clicks": 1,
+                "think": 0.0,
+                "ramp": 0.0,
+                "first_point": 997,
+                "maps": 0,
+            }
+        )
         asyncio.run(_drive(server.url, warm_args, 1, warm, a.seed))
         _, warm_released = server.wait_dropped(1, a.settle)
         rss_base = server.rss()
@@ -858,20 +930,25 @@ def run(a):
     errors = warm["errors"] + result["errors"] + [f"server log: {e}" for e in server_errors]
     if not alive:
         errors.append("server not alive after the load")
-    count = len(errors)              # the note below is not an error
+    count = len(errors)  # the note below is not an error
     if errors:
         errors.append(f"the server's log is kept in {server.logs()}")
     else:
         server.remove_logs()
     out = {
         "command": "python -m devtools.loadtest " + " ".join(a.argv),
-        "sessions": a.sessions, "clicks_per_session": a.clicks, "think_s": a.think,
-        "ramp_s": a.ramp, "clicks_planned": a.sessions * a.clicks,
-        "clicks_measured": len(lat), "refused": len(result["refused"]),
+        "sessions": a.sessions,
+        "clicks_per_session": a.clicks,
+        "think_s": a.think,
+        "ramp_s": a.ramp,
+        "clicks_planned": a.sessions * a.clicks,
+        "clicks_measured": len(lat),
+        "refused": len(result["refused"]),
         "map_sessions": len(map_sessions(a.sessions, a.browsers, a.maps)),
         "maps_finished": len(result["map_s"]),
         "map_seconds": [round(x, 1) for x in sorted(result["map_s"])],
-        "errors": count, "error_samples": errors[:10],
+        "errors": count,
+        "error_samples": errors[:10],
         "click_to_plot_p50_s": statistics.median(lat) if lat else float("nan"),
         "click_to_plot_p95_s": _quantile(lat, 0.95),
         "click_to_plot_max_s": max(lat) if lat else float("nan"),
@@ -890,24 +967,31 @@ def run(a):
         "page_load_p95_s": _quantile(result["load_s"], 0.95) if result["load_s"] else None,
         "page_load_max_s": max(result["load_s"]) if result["load_s"] else None,
         # which pages are slow: [[kind (protocol, map or browser), seconds], ...], slowest first
-        "page_loads": sorted(([k, round(t, 3)] for k, t in zip(result["load_kinds"], result["load_s"])),
-                             key=lambda kt: -kt[1]),
+        "page_loads": sorted(
+            ([k, round(t, 3)] for k, t in zip(result["load_kinds"], result["load_s"])), key=lambda kt: -kt[1]
+        ),
         "warmup_click_s": warm["latencies"][0] if warm["latencies"] else None,
         "server_start_to_ready_s": ready,
-        "rss_ready_mb": rss_ready, "rss_baseline_mb": rss_base, "rss_peak_mb": peak,
-        "rss_all_closed_mb": rss_closed, "rss_after_mb": rss_after,
+        "rss_ready_mb": rss_ready,
+        "rss_baseline_mb": rss_base,
+        "rss_peak_mb": peak,
+        "rss_all_closed_mb": rss_closed,
+        "rss_after_mb": rss_after,
         "rss_after_over_baseline": rss_after / rss_base - 1.0,
-        "sessions_dropped": dropped, "memory_released": warm_released and released,
+        "sessions_dropped": dropped,
+        "memory_released": warm_released and released,
         "settle_s": settle,
         # each server process's own RSS at the end, and the explorer's
         # release lines (which process released what, or deferred it)
-        "rss_after_by_process_mb": rss_by_process, "release_lines": releases,
+        "rss_after_by_process_mb": rss_by_process,
+        "release_lines": releases,
         # pages built and closed, by process (a session whose page was
         # served by one process and whose websocket reached another is
         # built in both)
         "pages_closed_by_process": dict(closes),
         "client_disconnect_races": disconnects,
-        "load_wall_s": load_wall, "total_wall_s": time.perf_counter() - t_all,
+        "load_wall_s": load_wall,
+        "total_wall_s": time.perf_counter() - t_all,
         "server_cpu_s": server_cpu,
         "machine": f"{os.cpu_count()} cores",
         "load_average_before": [round(x, 2) for x in load_before],
@@ -937,39 +1021,63 @@ def _within(seconds, goal):
 
 
 def parser():
-    ap = argparse.ArgumentParser(prog="python -m devtools.loadtest",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.loadtest", description=__doc__.splitlines()[0])
     ap.add_argument("--sessions", type=int, default=30, help="concurrent sessions (1-100)")
     ap.add_argument("--clicks", type=int, default=5, help="map clicks per session (1-50)")
-    ap.add_argument("--browsers", type=int, default=2,
-                    help="how many of the sessions are real chromium pages (the others "
-                         "are protocol sessions); 0 to --sessions")
-    ap.add_argument("--maps", type=int, default=0,
-                    help="how many of the protocol sessions ask for a map on demand "
-                         "instead of clicking; 0 to --sessions - --browsers")
-    ap.add_argument("--think", type=float, default=10.0,
-                    help="seconds between a result and the next click (+-50%%)")
-    ap.add_argument("--ramp", type=float, default=30.0,
-                    help="seconds over which the sessions start")
-    ap.add_argument("--click-timeout", type=float, default=180.0,
-                    help="seconds a click (or a page load) may take before it is an error")
-    ap.add_argument("--timeout", type=float, default=1500.0,
-                    help="seconds for all the sessions; the rest count as errors")
-    ap.add_argument("--settle", type=float, default=120.0,
-                    help="at most this many seconds for Bokeh to drop closed sessions")
+    ap.add_argument(
+        "--browsers",
+        type=int,
+        default=2,
+        help="how many of the sessions are real chromium pages (the others "
+        "are protocol sessions); 0 to --sessions",
+    )
+    ap.add_argument(
+        "--maps",
+        type=int,
+        default=0,
+        help="how many of the protocol sessions ask for a map on demand "
+        "instead of clicking; 0 to --sessions - --browsers",
+    )
+    ap.add_argument(
+        "--think", type=float, default=10.0, help="seconds between a result and the next click (+-50%%)"
+    )
+    ap.add_argument("--ramp", type=float, default=30.0, help="seconds over which the sessions start")
+    ap.add_argument(
+        "--click-timeout",
+        type=float,
+        default=180.0,
+        help="seconds a click (or a page load) may take before it is an error",
+    )
+    ap.add_argument(
+        "--timeout", type=float, default=1500.0, help="seconds for all the sessions; the rest count as errors"
+    )
+    ap.add_argument(
+        "--settle",
+        type=float,
+        default=120.0,
+        help="at most this many seconds for Bokeh to drop closed sessions",
+    )
     ap.add_argument("--num-procs", type=int, default=1, help="server processes")
-    ap.add_argument("--proxy-workers", type=int, default=0, metavar="N",
-                    help="serve through nginx in front of N `vibtrans serve` processes "
-                         "(devtools/deploy), 0: no proxy; 0-16")
-    ap.add_argument("--pin", action="store_true",
-                    help="the server on the first core this process may use, the clients "
-                         "on the second (needs 2 cores)")
-    ap.add_argument("--pin-server", metavar="CPUS",
-                    help="cores for the server's processes (taskset list: 0, 0,2, 0-1)")
-    ap.add_argument("--pin-clients", metavar="CPUS",
-                    help="cores for the clients (this process, chromium)")
-    ap.add_argument("--browser-nice", type=int, default=10,
-                    help="niceness of the browser's processes (0: as the server)")
+    ap.add_argument(
+        "--proxy-workers",
+        type=int,
+        default=0,
+        metavar="N",
+        help="serve through nginx in front of N `vibtrans serve` processes "
+        "(devtools/deploy), 0: no proxy; 0-16",
+    )
+    ap.add_argument(
+        "--pin",
+        action="store_true",
+        help="the server on the first core this process may use, the clients on the second (needs 2 cores)",
+    )
+    ap.add_argument(
+        "--pin-server", metavar="CPUS", help="cores for the server's processes (taskset list: 0, 0,2, 0-1)"
+    )
+    ap.add_argument("--pin-clients", metavar="CPUS", help="cores for the clients (this process, chromium)")
+    ap.add_argument(
+        "--browser-nice", type=int, default=10, help="niceness of the browser's processes (0: as the server)"
+    )
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--verbose", action="store_true", help="each click's latency on stderr")
@@ -986,8 +1094,7 @@ def _pinning(ap, a):
     if a.pin:
         cores = sorted(os.sched_getaffinity(0))
         if len(cores) < 2:
-            ap.error(f"--pin needs 2 cores, this process may use {len(cores)} "
-                     f"({_cpu_list(cores)})")
+            ap.error(f"--pin needs 2 cores, this process may use {len(cores)} ({_cpu_list(cores)})")
         a.pin_server, a.pin_clients = cores[:1], cores[1:2]
         return
     try:
@@ -996,8 +1103,10 @@ def _pinning(ap, a):
     except ValueError as exc:
         ap.error(str(exc))
     if a.pin_server and a.pin_clients and set(a.pin_server) & set(a.pin_clients):
-        ap.error(f"--pin-server {_cpu_list(a.pin_server)} and --pin-clients "
-                 f"{_cpu_list(a.pin_clients)} share cores: give disjoint ones")
+        ap.error(
+            f"--pin-server {_cpu_list(a.pin_server)} and --pin-clients "
+            f"{_cpu_list(a.pin_clients)} share cores: give disjoint ones"
+        )
 
 
 def parse(argv):
@@ -1011,8 +1120,7 @@ def parse(argv):
     if not 0 <= a.browsers <= a.sessions:
         ap.error(f"--browsers must be in [0, --sessions = {a.sessions}], got {a.browsers}")
     if not 0 <= a.maps <= a.sessions - a.browsers:
-        ap.error(f"--maps must be in [0, --sessions - --browsers = {a.sessions - a.browsers}], "
-                 f"got {a.maps}")
+        ap.error(f"--maps must be in [0, --sessions - --browsers = {a.sessions - a.browsers}], got {a.maps}")
     if not 1 <= a.clicks <= 50:
         ap.error(f"--clicks must be in [1, 50], got {a.clicks}")
     for name in ("think", "ramp", "click_timeout", "timeout", "settle"):
@@ -1022,8 +1130,9 @@ def parse(argv):
     if not 0 <= a.proxy_workers <= 16:
         ap.error(f"--proxy-workers must be in [0, 16], got {a.proxy_workers}")
     if a.proxy_workers and a.num_procs != 1:
-        ap.error("--num-procs and --proxy-workers exclude each other (the proxy's workers "
-                 "are one process each)")
+        ap.error(
+            "--num-procs and --proxy-workers exclude each other (the proxy's workers are one process each)"
+        )
     _pinning(ap, a)
     return a
 

@@ -5,6 +5,7 @@ exactly its declared lower bound (not a version the resolver stepped to).
     python devtools/oldest.py --check-python
     python devtools/oldest.py --check-installed CONSTRAINTS
 """
+
 import argparse
 import re
 import sys
@@ -52,13 +53,16 @@ def main(argv=None):
     if args.check_python:
         want = oldest_python(project()["requires-python"])
         if sys.version_info[:2] != want:
-            raise SystemExit(f"the oldest tier needs Python {want[0]}.{want[1]} (requires-python), "
-                             f"this is {sys.version.split()[0]}")
+            raise SystemExit(
+                f"the oldest tier needs Python {want[0]}.{want[1]} (requires-python), "
+                f"this is {sys.version.split()[0]}"
+            )
         print(f"oldest tier: Python {sys.version.split()[0]}")
     if args.check_installed:
         from importlib.metadata import version
 
         from packaging.version import Version
+
         wrong = []
         for name, low in sorted(lower_bounds().items()):
             have = version(name)
@@ -66,8 +70,10 @@ def main(argv=None):
                 wrong.append(f"{name} {have} (declared lower bound {low})")
         if wrong:
             raise SystemExit("not at the declared lower bound: " + "; ".join(wrong))
-        print(f"oldest tier: {len(lower_bounds())} runtime dependencies at their lower bounds "
-              f"({Path(args.check_installed).name})")
+        print(
+            f"oldest tier: {len(lower_bounds())} runtime dependencies at their lower bounds "
+            f"({Path(args.check_installed).name})"
+        )
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ page <= 0.1 s.
 
     python -m devtools.pagecost [--pages N] [--json]
 """
+
 import argparse
 import json
 import statistics
@@ -36,8 +37,8 @@ def run(pages):
     problems = data.preload()
     if problems:
         raise RuntimeError("; ".join(problems))
-    map_view.prerender()                     # as the server's warm-up
-    for _ in range(2):                       # warm-up: imports, caches
+    map_view.prerender()  # as the server's warm-up
+    for _ in range(2):  # warm-up: imports, caches
         _page()
     wall, cpu, checks = [], [], []
     for _ in range(pages):
@@ -45,15 +46,18 @@ def run(pages):
         wall.append(page)
         cpu.append(page_cpu)
         checks.append(check)
-    return {"pages": pages, "page_s_served": statistics.median(wall),
-            "page_cpu_s": statistics.median(cpu), "checks_s": statistics.median(checks),
-            "page_and_checks_s": statistics.median(w + c for w, c in zip(wall, checks)),
-            "models": models}
+    return {
+        "pages": pages,
+        "page_s_served": statistics.median(wall),
+        "page_cpu_s": statistics.median(cpu),
+        "checks_s": statistics.median(checks),
+        "page_and_checks_s": statistics.median(w + c for w, c in zip(wall, checks)),
+        "models": models,
+    }
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m devtools.pagecost",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.pagecost", description=__doc__.splitlines()[0])
     ap.add_argument("--pages", type=int, default=10, help="pages to build (1-200)")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)

@@ -4,6 +4,7 @@
 server, not browsers on its cores.  Only the JSON headers are parsed (and the
 document, to find the figures): a click costs the client milliseconds.
 """
+
 import asyncio
 import json
 import re
@@ -62,8 +63,9 @@ class ProtocolSession:
         shared one queues beyond 10 requests)."""
         http = AsyncHTTPClient(force_instance=True)
         try:
-            page = await http.fetch(self.url + self.query, request_timeout=self.timeout,
-                                    headers=self._cookie_header())
+            page = await http.fetch(
+                self.url + self.query, request_timeout=self.timeout, headers=self._cookie_header()
+            )
         finally:
             http.close()
         for line in page.headers.get_list("Set-Cookie"):
@@ -75,16 +77,17 @@ class ProtocolSession:
     async def _connect(self, page):
         """The websocket, and the document pulled."""
         token = re.search(r'"token":"([^"]+)"', page.body.decode()).group(1)
-        ws = HTTPRequest("ws" + self.url[4:] + "ws",
-                         headers={"Origin": self.url.rstrip("/"), **self._cookie_header()},
-                         request_timeout=self.timeout)
-        self.conn = await websocket_connect(ws, subprotocols=["bokeh", token],
-                                            max_message_size=1 << 30)
+        ws = HTTPRequest(
+            "ws" + self.url[4:] + "ws",
+            headers={"Origin": self.url.rstrip("/"), **self._cookie_header()},
+            request_timeout=self.timeout,
+        )
+        self.conn = await websocket_connect(ws, subprotocols=["bokeh", token], max_message_size=1 << 30)
         header, _ = await self._read()
         if header["msgtype"] != "ACK":
             raise RuntimeError(f"expected ACK, got {header['msgtype']}")
         self._send("PULL-DOC-REQ", {})
-        while True:         # patches sent before the reply are in the document it carries
+        while True:  # patches sent before the reply are in the document it carries
             header, content = await self._read()
             if header["msgtype"] == "PULL-DOC-REPLY":
                 break
@@ -95,8 +98,11 @@ class ProtocolSession:
     def _listen(self):
         self._reader = asyncio.ensure_future(self._loop())
         # the map: the figure whose clicks the server listens to
-        self.map = next(f for f in self._figures() if "tap" in (
-            f["attributes"].get("subscribed_events") or {}).get("entries", []))
+        self.map = next(
+            f
+            for f in self._figures()
+            if "tap" in (f["attributes"].get("subscribed_events") or {}).get("entries", [])
+        )
 
     def announce(self):
         """As the page: its size, then document_ready (the run's figures come with a run)."""
@@ -120,9 +126,11 @@ class ProtocolSession:
 
     def map_ended(self):
         """A future: ("done" | "error", text) once the linked map is finished or failed."""
+
         async def ended(found):
             text = await found
             return ("error" if _MAP_FAILED.search(text) else "done"), text
+
         found = self._wait(lambda s: bool(_MAP_DONE.search(s) or _MAP_FAILED.search(s)))
         return asyncio.ensure_future(ended(found))
 
@@ -133,8 +141,7 @@ class ProtocolSession:
             self._reader.cancel()
 
     def _cookie_header(self):
-        return {"Cookie": "; ".join(f"{k}={v}" for k, v in self.cookies.items())} \
-            if self.cookies else {}
+        return {"Cookie": "; ".join(f"{k}={v}" for k, v in self.cookies.items())} if self.cookies else {}
 
     # ---------- protocol ----------
     def _send(self, msgtype, content):
@@ -148,7 +155,7 @@ class ProtocolSession:
         if h is None:
             raise ConnectionError("the server closed the websocket")
         header = json.loads(h)
-        size = len(h) + len(await self.conn.read_message())        # metadata
+        size = len(h) + len(await self.conn.read_message())  # metadata
         content = await self.conn.read_message()
         size += len(content)
         for _ in range(2 * header.get("num_buffers", 0)):
@@ -168,11 +175,10 @@ class ProtocolSession:
                     if w[0](content) and not w[1].done():
                         w[1].set_result(content)
                         self._waiters.remove(w)
-        except Exception as exc:              # noqa: BLE001 - passed to the waiters
+        except Exception as exc:  # noqa: BLE001 - passed to the waiters
             for _, f in self._waiters:
                 if not f.done():
-                    f.set_exception(exc if isinstance(exc, ConnectionError)
-                                    else ConnectionError(repr(exc)))
+                    f.set_exception(exc if isinstance(exc, ConnectionError) else ConnectionError(repr(exc)))
 
     def _wait(self, predicate):
         f = asyncio.get_running_loop().create_future()
@@ -195,8 +201,12 @@ class ProtocolSession:
             a = f["attributes"]
             w, h = a.get("width") or 900, a.get("height") or 300
             sizes = dict(inner_width=w - 175 - shrink, inner_height=h - 70, outer_width=w, outer_height=h)
-            self._patch([{"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr, "new": v}
-                         for attr, v in sizes.items()])
+            self._patch(
+                [
+                    {"kind": "ModelChanged", "model": {"id": f["id"]}, "attr": attr, "new": v}
+                    for attr, v in sizes.items()
+                ]
+            )
 
     def _range(self, which):
         ref = self.map["attributes"][which]["id"]

@@ -2,6 +2,7 @@
 machine and the git commit as one JSON file into benchmarks/results/ (or
 --results-dir; vibtrans.tools.results), which the documentation renders
 (docs/reference/benchmarks.md)."""
+
 import sys
 from pathlib import Path
 
@@ -14,10 +15,14 @@ begin = results.begin
 def add_option(ap):
     """--results-dir on an argparse parser (default: the checkout's
     benchmarks/results; an empty value writes nothing)."""
-    ap.add_argument("--results-dir", default=str(RESULTS_DIR), metavar="DIR",
-                    help="write the run as JSON (figures, machine, load, git commit) into "
-                         "DIR, named by the bench and its UTC start (default: "
-                         "benchmarks/results; '' for none)")
+    ap.add_argument(
+        "--results-dir",
+        default=str(RESULTS_DIR),
+        metavar="DIR",
+        help="write the run as JSON (figures, machine, load, git commit) into "
+        "DIR, named by the bench and its UTC start (default: "
+        "benchmarks/results; '' for none)",
+    )
 
 
 def save(bench, out, begun, folder, command, note=None):

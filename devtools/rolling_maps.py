@@ -13,6 +13,7 @@ cores; an interrupted one resumes) into DIR/rolling-{none,shell,solid}.zarr;
 `figure` draws the figure from them and prints the numbers the section
 quotes (JSON).
 """
+
 import argparse
 import json
 import os
@@ -39,10 +40,19 @@ def store_path(folder, rolling):
 def compute(folder, workers=None):
     """The three sweeps into `folder` (the library's CLI, as a user runs it)."""
     from vibtrans.cli import main
+
     os.makedirs(folder, exist_ok=True)
     for rolling in ROLLINGS:
-        argv = ["sweep", "--rolling", rolling, "--stop", "decided", *GRID,
-                "--out", store_path(folder, rolling)]
+        argv = [
+            "sweep",
+            "--rolling",
+            rolling,
+            "--stop",
+            "decided",
+            *GRID,
+            "--out",
+            store_path(folder, rolling),
+        ]
         if workers:
             argv += ["--workers", str(workers)]
         main(argv)
@@ -53,8 +63,9 @@ def load(folder):
     out = {}
     for rolling in ROLLINGS:
         ds = open_map(store_path(folder, rolling), expect={"model": "deformable", "mu": 0.3})
-        regime = regime_of(ds["drift"].values, ds["contact"].values, ds["pattern"].values,
-                           ds["chaotic"].values)
+        regime = regime_of(
+            ds["drift"].values, ds["contact"].values, ds["pattern"].values, ds["chaotic"].values
+        )
         out[rolling] = (ds, regime)
     return out
 
@@ -79,14 +90,14 @@ def numbers(maps):
             j = ROLLING_NAMES[rolling]
             ratio = ds["final_drift_velocity"].values / base["final_drift_velocity"].values
             sync = base_regime == SYNCHRONOUS
-            row["synchronous_ratio_near_j"] = int(
-                (sync & (np.abs(ratio - j / (1 + j)) < 0.05)).sum())
+            row["synchronous_ratio_near_j"] = int((sync & (np.abs(ratio - j / (1 + j)) < 0.05)).sum())
             row["synchronous_ratio_near_1"] = int((sync & (np.abs(ratio - 1) < 0.05)).sum())
             row["j_over_1_plus_j"] = j / (1 + j)
-            for k in (1, 2):        # the sliding regimes: drift over the non-rolling one's
+            for k in (1, 2):  # the sliding regimes: drift over the non-rolling one's
                 where = base_regime == k
-                row[f"{REGIMES[k]}: median drift ratio"] = float(np.median(
-                    ds["drift_velocity"].values[where] / base["drift_velocity"].values[where]))
+                row[f"{REGIMES[k]}: median drift ratio"] = float(
+                    np.median(ds["drift_velocity"].values[where] / base["drift_velocity"].values[where])
+                )
         out[rolling] = row
     return out
 
@@ -96,9 +107,11 @@ def figure(maps, out):
     of the solid sphere over the non-rolling particle's, and its histogram
     over the synchronous zone (lines at j/(1 + j))."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
+
     base, base_regime = maps["none"]
     la, lm = base["log_amplitude"].values, base["log_mass"].values
     extent = (lm[0] - 0.125, lm[-1] + 0.125, la[0] - 0.075, la[-1] + 0.075)
@@ -108,11 +121,19 @@ def figure(maps, out):
     words = {"none": "does not roll", "shell": "thin shell, j = 2/3", "solid": "solid sphere, j = 2/5"}
     for ax, rolling in zip(axes[0], ROLLINGS):
         regime = np.ma.masked_less(maps[rolling][1], 0)
-        ax.imshow(regime, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
-                  interpolation="nearest")
+        ax.imshow(
+            regime,
+            origin="lower",
+            extent=extent,
+            aspect="auto",
+            cmap=cmap,
+            norm=norm,
+            interpolation="nearest",
+        )
         changed = int((maps[rolling][1] != base_regime).sum())
-        ax.set_title(f"{words[rolling]}" + ("" if rolling == "none" else
-                                            f" ({changed} points change regime)"))
+        ax.set_title(
+            f"{words[rolling]}" + ("" if rolling == "none" else f" ({changed} points change regime)")
+        )
         ax.set_xlabel("log10 m*")
         ax.set_ylabel("log10 A*")
     handles = [plt.Rectangle((0, 0), 1, 1, color=REGIME_COLORS[r]) for r in REGIMES]
@@ -124,11 +145,19 @@ def figure(maps, out):
         ds = maps[rolling][0]
         ratio = ds["final_drift_velocity"].values / base["final_drift_velocity"].values
         shown = np.where(np.abs(base["drift_velocity"].values) > 0.1, ratio, np.nan)
-        im = ax.imshow(np.ma.masked_invalid(shown), origin="lower", extent=extent,
-                       aspect="auto", cmap=ratio_cmap, vmin=0.0, vmax=1.2,
-                       interpolation="nearest")
-        ax.set_title(f"{words[rolling]}: final drift over the non-rolling one's\n"
-                     f"(grey: no drift without rolling)")
+        im = ax.imshow(
+            np.ma.masked_invalid(shown),
+            origin="lower",
+            extent=extent,
+            aspect="auto",
+            cmap=ratio_cmap,
+            vmin=0.0,
+            vmax=1.2,
+            interpolation="nearest",
+        )
+        ax.set_title(
+            f"{words[rolling]}: final drift over the non-rolling one's\n(grey: no drift without rolling)"
+        )
         ax.set_xlabel("log10 m*")
         ax.set_ylabel("log10 A*")
         fig.colorbar(im, ax=ax, shrink=0.85)
@@ -136,25 +165,24 @@ def figure(maps, out):
     for rolling, colour in (("shell", "#e08214"), ("solid", "#2166ac")):
         ds = maps[rolling][0]
         ratio = (ds["final_drift_velocity"].values / base["final_drift_velocity"].values)[sync]
-        ax.hist(ratio, bins=np.linspace(0.0, 1.1, 45), color=colour, alpha=0.6,
-                label=words[rolling])
+        ax.hist(ratio, bins=np.linspace(0.0, 1.1, 45), color=colour, alpha=0.6, label=words[rolling])
         j = ROLLING_NAMES[rolling]
         ax.axvline(j / (1 + j), color=colour, linestyle="dashed")
-    ax.set_title(f"synchronous hopping ({int(sync.sum())} points): final drift ratio\n"
-                 f"(dashed: j / (1 + j), 2/5 and 2/7)")
+    ax.set_title(
+        f"synchronous hopping ({int(sync.sum())} points): final drift ratio\n"
+        f"(dashed: j / (1 + j), 2/5 and 2/7)"
+    )
     ax.set_xlabel("drift over the non-rolling particle's")
     ax.set_ylabel("points")
     ax.legend(fontsize=8)
-    fig.suptitle("A particle that rolls: regimes and drift (deformable, mu 0.3, 2000 periods, "
-                 "stop: decided)")
+    fig.suptitle("A particle that rolls: regimes and drift (deformable, mu 0.3, 2000 periods, stop: decided)")
     os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
     fig.savefig(out, dpi=80)
     plt.close(fig)
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m devtools.rolling_maps",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.rolling_maps", description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("compute", "figure"))
     ap.add_argument("--store", default=STORE, help="the maps' folder")
     ap.add_argument("--out", default=FIGURE, help="the figure (figure)")

@@ -15,6 +15,7 @@ clock stands still for QUIET_S, less the idle rate measured first.
 `--py-spy PATH`: run the server under py-spy and count its samples by
 PROFILE_PARTS.
 """
+
 import argparse
 import asyncio
 import json
@@ -32,7 +33,7 @@ from . import results
 from .loadtest import KERNELS_READY, Server, _range_points, _stat, _tree
 from .protoclient import ProtocolSession
 
-QUIET_S = 0.3          # the server's CPU clock unchanged this long: quiet
+QUIET_S = 0.3  # the server's CPU clock unchanged this long: quiet
 TICK = os.sysconf("SC_CLK_TCK")
 
 
@@ -43,7 +44,7 @@ def thread_cpu(pid):
         with open(f"/proc/{pid}/task/{pid}/stat") as f:
             fields = f.read().rsplit(")", 1)[1].split()
         main = int(fields[11]) + int(fields[12])
-    except OSError:                  # the process has ended
+    except OSError:  # the process has ended
         pass
     # the process's total counts every thread, those that ended too
     other = sum(int(x) for x in _stat(pid)[11:13]) - main
@@ -115,17 +116,22 @@ async def _drive(server, pid, a, idle_rate, out):
         s.announce()
         await meter.mark("ready")
         sessions.append(s)
-    out["bytes"] = {kind: statistics.median(s.bytes.get(kind, 0) for s in sessions)
-                    for kind in ("html", "PULL-DOC-REPLY", "PATCH-DOC")}
+    out["bytes"] = {
+        kind: statistics.median(s.bytes.get(kind, 0) for s in sessions)
+        for kind in ("html", "PULL-DOC-REPLY", "PATCH-DOC")
+    }
     meter.reset()
     t0 = time.perf_counter()
     await asyncio.sleep(a.idle)
     main, other = thread_cpu(pid)
     dt = time.perf_counter() - t0
     main0, other0 = meter.at[1:]
-    out["idle_open"] = {"seconds": dt, "sessions": a.sessions,
-                        "main_per_session_s": (main - main0 - idle_rate * dt) / dt / a.sessions,
-                        "other_per_session_s": (other - other0) / dt / a.sessions}
+    out["idle_open"] = {
+        "seconds": dt,
+        "sessions": a.sessions,
+        "main_per_session_s": (main - main0 - idle_rate * dt) / dt / a.sessions,
+        "other_per_session_s": (other - other0) / dt / a.sessions,
+    }
     meter.reset()
     for c in range(a.clicks):
         for k, s in enumerate(sessions):
@@ -177,8 +183,9 @@ def profile_parts(path):
             stack, count = line.rsplit(" ", 1)
             frames = stack.split(";")
             thread = "other" if frames[0].startswith("Thread._bootstrap") else "event loop"
-            part = next((name for name, keys in PROFILE_PARTS
-                         if any(k in fr for fr in frames for k in keys)), "rest")
+            part = next(
+                (name for name, keys in PROFILE_PARTS if any(k in fr for fr in frames for k in keys)), "rest"
+            )
             out[thread, part] = out.get((thread, part), 0) + int(count)
     return out
 
@@ -202,9 +209,11 @@ def run(a):
     if a.py_spy:
         wrap = (a.py_spy_bin, "record", "-r", "100", "-f", "raw", "-o", a.py_spy, "--")
     server = Server(num_procs=1, env=env, wrap=wrap)
-    out = {"command": "python -m devtools.sessioncpu " + " ".join(a.argv),
-           "load_average_before": [round(x, 2) for x in os.getloadavg()],
-           "log_level": a.log_level}
+    out = {
+        "command": "python -m devtools.sessioncpu " + " ".join(a.argv),
+        "load_average_before": [round(x, 2) for x in os.getloadavg()],
+        "log_level": a.log_level,
+    }
     try:
         t0 = time.perf_counter()
         while server.text().count(KERNELS_READY) < 1:
@@ -214,17 +223,21 @@ def run(a):
                 raise RuntimeError("server not ready in 300 s")
             time.sleep(0.2)
         pid = _server_python(server)
-        asyncio.run(_quiet(pid, timeout=60.0))     # the maps' pre-render
+        asyncio.run(_quiet(pid, timeout=60.0))  # the maps' pre-render
         c0, t0 = sum(thread_cpu(pid)), time.perf_counter()
         time.sleep(a.idle)
         idle_rate = (sum(thread_cpu(pid)) - c0) / (time.perf_counter() - t0)
         out["idle_no_session_cpu_per_s"] = idle_rate
         phases = asyncio.run(_drive(server, pid, a, idle_rate, out))
         out["phases"] = {
-            name: {"n": len(v), "main_median_s": statistics.median(m for m, _ in v),
-                   "main_mean_s": statistics.fmean(m for m, _ in v),
-                   "other_mean_s": statistics.fmean(o for _, o in v)}
-            for name, v in phases.items()}
+            name: {
+                "n": len(v),
+                "main_median_s": statistics.median(m for m, _ in v),
+                "main_mean_s": statistics.fmean(m for m, _ in v),
+                "other_mean_s": statistics.fmean(o for _, o in v),
+            }
+            for name, v in phases.items()
+        }
         # the close phase is one mark for every session: per session
         close = out["phases"].get("close")
         if close:
@@ -247,16 +260,19 @@ def run(a):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
-    ap = argparse.ArgumentParser(prog="python -m devtools.sessioncpu",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.sessioncpu", description=__doc__.splitlines()[0])
     ap.add_argument("--sessions", type=int, default=10, help="sessions (1-60)")
     ap.add_argument("--clicks", type=int, default=1, help="clicks per session (0-10)")
-    ap.add_argument("--idle", type=float, default=10.0,
-                    help="seconds of the idle phases (1-120)")
-    ap.add_argument("--log-level", default="debug", choices=("debug", "info"),
-                    help="the server's Bokeh log level (the load test's: debug)")
-    ap.add_argument("--py-spy", default=None, metavar="PATH",
-                    help="run the server under py-spy, its raw profile to PATH")
+    ap.add_argument("--idle", type=float, default=10.0, help="seconds of the idle phases (1-120)")
+    ap.add_argument(
+        "--log-level",
+        default="debug",
+        choices=("debug", "info"),
+        help="the server's Bokeh log level (the load test's: debug)",
+    )
+    ap.add_argument(
+        "--py-spy", default=None, metavar="PATH", help="run the server under py-spy, its raw profile to PATH"
+    )
     ap.add_argument("--py-spy-bin", default="py-spy", help="the py-spy executable")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     results.add_option(ap)
@@ -273,26 +289,31 @@ def main(argv=None):
     if a.py_spy:
         parts = profile_parts(a.py_spy)
         out["profile_samples"] = {f"{t}: {p}": n for (t, p), n in parts.items()}
-    results.save("sessioncpu", out, begun, a.results_dir,
-                 " ".join(["python -m devtools.sessioncpu", *argv]))
+    results.save("sessioncpu", out, begun, a.results_dir, " ".join(["python -m devtools.sessioncpu", *argv]))
     if a.json:
         print(json.dumps(out))
     else:
         print(f"server idle, no session: {out['idle_no_session_cpu_per_s'] * 1000:.2f} ms CPU/s")
         print(f"{'phase':>10} {'n':>4} {'event loop ms (median/mean)':>30} {'other threads ms':>17}")
         for name, p in out["phases"].items():
-            print(f"{name:>10} {p['n']:>4} {p['main_median_s'] * 1000:>14.1f} / "
-                  f"{p['main_mean_s'] * 1000:<13.1f} {p['other_mean_s'] * 1000:>17.1f}")
+            print(
+                f"{name:>10} {p['n']:>4} {p['main_median_s'] * 1000:>14.1f} / "
+                f"{p['main_mean_s'] * 1000:<13.1f} {p['other_mean_s'] * 1000:>17.1f}"
+            )
         io = out["idle_open"]
-        print(f"idle with {io['sessions']} open: {io['main_per_session_s'] * 1000:.3f} ms/s "
-              f"(event loop) + {io['other_per_session_s'] * 1000:.3f} ms/s (others) per session")
+        print(
+            f"idle with {io['sessions']} open: {io['main_per_session_s'] * 1000:.3f} ms/s "
+            f"(event loop) + {io['other_per_session_s'] * 1000:.3f} ms/s (others) per session"
+        )
         print(f"bytes per page (median): {out['bytes']}")
         samples = out.get("profile_samples", {})
         if samples:
             total = sum(samples.values())
-            print(f"py-spy samples of the server ({total} in all, warm-up included; the "
-                  f"other threads' include waits py-spy took for work: their CPU is the "
-                  f"table's, from /proc):")
+            print(
+                f"py-spy samples of the server ({total} in all, warm-up included; the "
+                f"other threads' include waits py-spy took for work: their CPU is the "
+                f"table's, from /proc):"
+            )
             for name, n in sorted(samples.items(), key=lambda kv: -kv[1]):
                 print(f"  {n:6d} {100 * n / total:5.1f}%  {name}")
         for e in out.get("errors", []) + out.get("server_errors", []):

@@ -6,6 +6,7 @@ well on GitHub, notebooks executed at every build (an error fails it), the
 API reference from the docstrings (autodoc) and the command-line reference
 from the parser itself (sphinx-argparse).  Built with -W: a warning fails.
 """
+
 import argparse
 import os
 import re
@@ -23,13 +24,13 @@ author = "the vibtrans developers"
 release = version = vibtrans.__version__
 
 extensions = [
-    "myst_nb",                      # Markdown pages and executed notebooks (MyST-NB)
+    "myst_nb",  # Markdown pages and executed notebooks (MyST-NB)
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
-    "sphinx.ext.napoleon",          # the public API's numpydoc sections
+    "sphinx.ext.napoleon",  # the public API's numpydoc sections
     "sphinx.ext.viewcode",
-    "benchresults",                 # the latest benchmark results as tables (docs/_ext)
+    "benchresults",  # the latest benchmark results as tables (docs/_ext)
 ]
 # the benches' JSON records (vibtrans.tools.results), relative to this folder
 bench_results_dir = "../benchmarks/results"
@@ -67,16 +68,27 @@ def _as_text(line):
     return "".join(parts)
 
 
-_NUMPYDOC_SECTIONS = {"Parameters", "Returns", "Raises", "Yields", "Attributes",
-                      "Other Parameters", "See Also", "Notes", "Examples", "Warns"}
+_NUMPYDOC_SECTIONS = {
+    "Parameters",
+    "Returns",
+    "Raises",
+    "Yields",
+    "Attributes",
+    "Other Parameters",
+    "See Also",
+    "Notes",
+    "Examples",
+    "Warns",
+}
 # sections whose unindented lines are names and types (napoleon reads them)
-_NAMED_SECTIONS = {"Parameters", "Returns", "Raises", "Yields", "Attributes",
-                   "Other Parameters", "Warns"}
+_NAMED_SECTIONS = {"Parameters", "Returns", "Raises", "Yields", "Attributes", "Other Parameters", "Warns"}
 
 
 def _is_numpydoc(lines):
-    return any(line.strip() in _NUMPYDOC_SECTIONS and nxt.strip()
-               and set(nxt.strip()) == {"-"} for line, nxt in zip(lines, lines[1:]))
+    return any(
+        line.strip() in _NUMPYDOC_SECTIONS and nxt.strip() and set(nxt.strip()) == {"-"}
+        for line, nxt in zip(lines, lines[1:])
+    )
 
 
 def _numpydoc_as_written(lines):
@@ -125,10 +137,10 @@ class CommandLineHelp(SphinxDirective):
     def run(self):
         from vibtrans.cli import build_parser
 
-        os.environ["COLUMNS"] = "90"          # argparse's wrap width, fixed for the page
+        os.environ["COLUMNS"] = "90"  # argparse's wrap width, fixed for the page
         parser = build_parser()
         out = [nodes.literal_block(text=parser.format_help(), language="text")]
-        for action in parser._actions:       # read only: the sub-commands' parsers
+        for action in parser._actions:  # read only: the sub-commands' parsers
             if isinstance(action, argparse._SubParsersAction):
                 for name, sub in action.choices.items():
                     section = nodes.section(ids=[f"vibtrans-{name}"])
@@ -149,8 +161,7 @@ html_theme = "pydata_sphinx_theme"
 # logs "Got invalid theme mode" on every page: devtools/docshots.py)
 html_context = {"default_mode": "auto"}
 # pages with no sub-pages: no empty "Section Navigation" column beside them
-html_sidebars = {"getting-started": [], "reference/*": [], "MODEL": [], "DYNAMICS": [],
-                 "SECURITY": []}
+html_sidebars = {"getting-started": [], "reference/*": [], "MODEL": [], "DYNAMICS": [], "SECURITY": []}
 html_title = "vibtrans"
 html_logo = None
 html_theme_options = {
@@ -163,4 +174,7 @@ html_theme_options = {
 html_static_path = []
 html_show_sourcelink = False
 # Panel's and HoloViews' live-kernel mime types (the page shows their HTML)
-suppress_warnings = ["myst.header", "mystnb.unknown_mime_type"]     # MODEL.md's numbered sections start at level 2
+suppress_warnings = [
+    "myst.header",
+    "mystnb.unknown_mime_type",
+]  # MODEL.md's numbered sections start at level 2

@@ -4,6 +4,7 @@ conftest.py), so nothing read from the copies, or found missing there,
 outlives the test in its process (once a Lyapunov map found missing in a
 copy stayed cached, and every later test of that pytest worker saw maps
 without a chaos indicator)."""
+
 from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as map_views
 from vibtrans_explorer.views import vertical as vertical_views

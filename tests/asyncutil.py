@@ -2,6 +2,7 @@
 in-process (`until`, on the running event loop), or a server, a process or
 a file from a test's own thread (`wait_until`).  The only polling loops of
 the tests: each names what it waited for when it times out."""
+
 import asyncio
 import time
 

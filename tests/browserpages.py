@@ -9,7 +9,7 @@ from budget import budget_ms
 def new_page(browser, width, height):
     """(page of width x height, the list its page errors are appended to)."""
     page = browser.new_page(viewport={"width": width, "height": height})
-    page.set_default_timeout(budget_ms(30))   # Playwright's own default, scaled
+    page.set_default_timeout(budget_ms(30))  # Playwright's own default, scaled
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     return page, errors
@@ -17,8 +17,10 @@ def new_page(browser, width, height):
 
 # every Bokeh document of the page has rendered its roots (BokehJS's
 # Document.is_idle: true once each root's views are first drawn)
-_IDLE_JS = ("() => window.Bokeh !== undefined && window.Bokeh.documents.length > 0 "
-            "&& window.Bokeh.documents.every((d) => d.is_idle)")
+_IDLE_JS = (
+    "() => window.Bokeh !== undefined && window.Bokeh.documents.length > 0 "
+    "&& window.Bokeh.documents.every((d) => d.is_idle)"
+)
 # two animation frames: the browser has laid out and painted what was drawn
 _FRAMES_JS = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
 # the page's fonts loaded (text laid out in its own font)
@@ -82,12 +84,15 @@ def steady(page, what_js=BOXES_JS, still_frames=5, timeout_s=60):
     transition, a resize or a layout pass has ended)."""
     settle(page, timeout_s)
     page.evaluate("() => { window.__vtSteady = null; }")
-    page.wait_for_function(f"""() => {{
+    page.wait_for_function(
+        f"""() => {{
       const now = JSON.stringify(({what_js})());
       const s = window.__vtSteady;
       if (s && s.last === now) s.same += 1; else window.__vtSteady = {{last: now, same: 0}};
       return window.__vtSteady.same >= {int(still_frames)};
-    }}""", timeout=budget_ms(timeout_s))       # evaluated at every animation frame
+    }}""",
+        timeout=budget_ms(timeout_s),
+    )  # evaluated at every animation frame
 
 
 def changed(page, what_js, last, timeout_ms, polling=100):
@@ -96,7 +101,10 @@ def changed(page, what_js, last, timeout_ms, polling=100):
     reads; returns the new value as JSON text.  Checked every `polling` ms."""
     handle = page.wait_for_function(
         f"(last) => {{ const now = JSON.stringify(({what_js})()); return now !== last && now; }}",
-        arg=last, timeout=timeout_ms, polling=polling)
+        arg=last,
+        timeout=timeout_ms,
+        polling=polling,
+    )
     return handle.json_value()
 
 

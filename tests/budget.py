@@ -34,8 +34,7 @@ def factor():
     try:
         extra = float(extra)
     except ValueError:
-        raise ValueError("VIBTRANS_TEST_BUDGET_FACTOR must be a number >= 1, "
-                         f"got {extra!r}") from None
+        raise ValueError(f"VIBTRANS_TEST_BUDGET_FACTOR must be a number >= 1, got {extra!r}") from None
     if not extra >= 1:
         raise ValueError(f"VIBTRANS_TEST_BUDGET_FACTOR must be >= 1, got {extra}")
     return max(1.0, (load + 1.0) / usable_cores()) * extra

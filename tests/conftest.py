@@ -13,6 +13,7 @@ start from a clean state).
 assets_folder: point(folder) makes the explorer read its maps from
 folder/maps; the shipped ones again at the end, nothing read from the
 copies kept (tests/assetsfolder.py)."""
+
 import os
 import shutil
 import sys
@@ -40,7 +41,7 @@ def served_explorer():
     server = Served(env={**env, **SERVER_ENV, "VIBTRANS_MAP_CACHE": maps}, cwd=ROOT)
     try:
         server.wait_page()
-        server.wait_kernels()       # runs clicked in the tests start at once
+        server.wait_kernels()  # runs clicked in the tests start at once
         yield server
     finally:
         server.stop()
@@ -50,6 +51,7 @@ def served_explorer():
 @pytest.fixture(scope="module")
 def browser():
     from devtools.chromium import launched
+
     with launched() as b:
         yield b
 
@@ -59,6 +61,7 @@ def assets_folder():
     from assetsfolder import point_assets
 
     from vibtrans_explorer.server import data
+
     shipped = data.ASSETS
     try:
         yield point_assets
@@ -80,8 +83,10 @@ def _assets_folder_restored():
 
 def pytest_report_header(config):
     """The scale of every wait's budget this session (tests/budget.py)."""
-    return (f"test budgets: x{factor():.2f} of an idle machine's "
-            f"({usable_cores()} usable cores, load {os.getloadavg()[0]:.1f})")
+    return (
+        f"test budgets: x{factor():.2f} of an idle machine's "
+        f"({usable_cores()} usable cores, load {os.getloadavg()[0]:.1f})"
+    )
 
 
 def pytest_configure(config):
@@ -91,6 +96,7 @@ def pytest_configure(config):
     at once on a cold cache (vibtrans.core.kernels.jit)."""
     if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):
         from vibtrans.core.simulate import warmup
+
         warmup()
 
 
@@ -100,8 +106,15 @@ def pytest_configure(config):
 # --no-loadscope-reorder hands out files in the order collected; its
 # default order, most tests first, put the one-test random walk last) none
 # of them starts last and keeps one worker busy while the other is idle
-LONGEST_FIRST = ("test_explorer_state_browser.py", "test_app_browser.py", "test_loadtest.py",
-                 "test_wheel.py", "test_lyapunov.py", "test_mapjobs.py", "test_export.py")
+LONGEST_FIRST = (
+    "test_explorer_state_browser.py",
+    "test_app_browser.py",
+    "test_loadtest.py",
+    "test_wheel.py",
+    "test_lyapunov.py",
+    "test_mapjobs.py",
+    "test_export.py",
+)
 
 
 def pytest_collection_modifyitems(items):
@@ -116,4 +129,5 @@ def pytest_collection_modifyitems(items):
     def rank(item):
         name = item.path.name
         return LONGEST_FIRST.index(name) if name in LONGEST_FIRST else len(LONGEST_FIRST)
-    items.sort(key=rank)            # stable: the rest keep their order
+
+    items.sort(key=rank)  # stable: the rest keep their order

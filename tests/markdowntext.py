@@ -1,5 +1,6 @@
 """What a Markdown pane shows: its text rendered as Panel renders it
 (markdown-it: CommonMark with tables and strike-through), tags dropped."""
+
 import html
 import re
 
@@ -19,12 +20,15 @@ def shown_text(markdown):
 
 def emphasized(markdown):
     """The texts the page shows in italics or bold for `markdown`."""
-    return [_text(m) for m in re.findall(r"<(?:em|strong)>(.*?)</(?:em|strong)>",
-                                         _PARSER.render(markdown), re.S)]
+    return [
+        _text(m) for m in re.findall(r"<(?:em|strong)>(.*?)</(?:em|strong)>", _PARSER.render(markdown), re.S)
+    ]
 
 
 def table_rows(markdown):
     """The cells of each row of the tables in `markdown`, as shown."""
     out = _PARSER.render(markdown)
-    return [[_text(c) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row, re.S)]
-            for row in re.findall(r"<tr>(.*?)</tr>", out, re.S)]
+    return [
+        [_text(c) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row, re.S)]
+        for row in re.findall(r"<tr>(.*?)</tr>", out, re.S)
+    ]

@@ -26,6 +26,7 @@ exactly, so the singularity at h = 0 costs nothing).  The springs themselves
 are exact: spring j follows exactly the anchor w(h_j) = b* - u_j of the
 continuum; only T* carries a quadrature error, O(dh^1.5) or better.
 """
+
 import numpy as np
 
 FLIGHT, STICK, PARTIAL_SLIP, SLIDING = 0, 1, 2, 3
@@ -85,7 +86,7 @@ class SpringBed:
 
         # 3. Coulomb, spring by spring.
         lim = np.where(on, a1 - h, 0.0)
-        excess = np.abs(u) - lim                        # > 0: pushed past limit
+        excess = np.abs(u) - lim  # > 0: pushed past limit
         clipped = on & (excess > 0.0)
         u = np.where(on, np.clip(u, -lim, lim), 0.0)
 
@@ -100,7 +101,7 @@ class SpringBed:
         if self.profile is not None:
             k = self.profile.stiffness
             weight = k(np.maximum(hi, self.h_lo)) - k(self.h_lo)
-            weight[0] += float(k(0.0))        # a flat part: springs all entering at h = 0
+            weight[0] += float(k(0.0))  # a flat part: springs all entering at h = 0
             return float(np.sum(np.where(self.on, self.u, 0.0) * weight))
         weight = 2.0 * (np.sqrt(np.maximum(hi, self.h_lo)) - np.sqrt(self.h_lo))
         return 0.75 * float(np.sum(np.where(self.on, self.u, 0.0) * weight))
@@ -133,15 +134,14 @@ class SpringBed:
         n_on, n_slide = out["n_on"], out["n_slide"]
         ambiguous = bool((on & ~sure_slide & ~sure_stick).any()) or n_on == 0
         if n_on == 0:
-            state = None                        # contact thinner than one cell
+            state = None  # contact thinner than one cell
         elif n_slide == 0:
             state = STICK
         elif n_slide == n_on:
             state = SLIDING
         else:
             state = PARTIAL_SLIP
-        out.update(state=state, s_lo=s_lo, s_hi=s_hi, contiguous=contiguous,
-                   ambiguous=ambiguous)
+        out.update(state=state, s_lo=s_lo, s_hi=s_hi, contiguous=contiguous, ambiguous=ambiguous)
         return out
 
 
@@ -168,8 +168,8 @@ def ramp(t, tau):
     """G(t) = 1 - exp(-t^2/tau^2) and its first two derivatives (tau = 0: 1)."""
     if tau == 0.0:
         return 1.0, 0.0, 0.0
-    e = math.exp(-(t / tau) ** 2)
-    return 1.0 - e, 2.0 * t / tau ** 2 * e, (2.0 / tau ** 2 - 4.0 * t * t / tau ** 4) * e
+    e = math.exp(-((t / tau) ** 2))
+    return 1.0 - e, 2.0 * t / tau**2 * e, (2.0 / tau**2 - 4.0 * t * t / tau**4) * e
 
 
 def surface(t, A, r, tau):
@@ -188,7 +188,7 @@ def surface(t, A, r, tau):
 
 def hertz_force(a):
     """N* = a*^(3/2) in contact, 0 out of it."""
-    return a ** 1.5 if a > 0.0 else 0.0
+    return a**1.5 if a > 0.0 else 0.0
 
 
 # ------------------------------------------------------ one vertical Hertz step
@@ -334,7 +334,7 @@ class MaterialPoint:
     def __init__(self, A, m, mu, r, tau, alpha_t=0.5, rule="paper", capture_t=1e-3):
         self.A, self.m, self.mu, self.r, self.tau = A, m, mu, r, tau
         self.alpha_t, self.rule, self.capture_t = alpha_t, rule, capture_t
-        self.events = []        # (t, "takeoff" | "landing" | "state", value)
+        self.events = []  # (t, "takeoff" | "landing" | "state", value)
         ux, uy, dux, duy, ddux, dduy = self.sub(0.0)
         nf = 1.0 - m * dduy
         self.mode = self.resolve(nf, mu * nf - m * abs(ddux), -dux, ddux)
@@ -372,9 +372,9 @@ class MaterialPoint:
 
         def acc(tt):
             return -(self.mu * s / m) * (1.0 - m * self.sub(tt)[5])
+
         k1, k2, k4 = acc(t0), acc(t0 + 0.5 * dt), acc(t)
-        return (x0 + dt * v0 + dt * dt / 6.0 * (k1 + 2.0 * k2),
-                v0 + dt / 6.0 * (k1 + 4.0 * k2 + k4), uy, duy)
+        return (x0 + dt * v0 + dt * dt / 6.0 * (k1 + 2.0 * k2), v0 + dt / 6.0 * (k1 + 4.0 * k2 + k4), uy, duy)
 
     def phis(self, t):
         """{event: value} of the mode's event functions at t (event: > 0,
@@ -449,7 +449,7 @@ class MaterialPoint:
             new = FLIGHT_MODE if nf < 0.0 else (STICK_MODE if f >= 0.0 else reverse)
             if new == FLIGHT_MODE:
                 self.events.append((te, "takeoff", phase))
-        else:                                       # landing
+        else:  # landing
             vn = abs(vy - duy)
             vt = self.alpha_t * (vx - dux)
             vx = dux + vt
@@ -488,12 +488,12 @@ def vertical_lyapunov(A, m, tau, periods, t_from, rtol=1e-11):
     def rhs(t, z):
         y, vy, dy, dvy = z
         a = y - surface(t, A, 0.0, tau)[1]
-        n = a ** 1.5 if a > 0.0 else 0.0
+        n = a**1.5 if a > 0.0 else 0.0
         dn = 1.5 * math.sqrt(a) if a > 0.0 else 0.0
         return [vy, (1.0 - n) / m, dvy, -dn * dy / m]
 
     z = np.array([1.0, 0.0, 1.0, 0.0])
-    log_norm = 0.0                   # log|d| with the renormalizations
+    log_norm = 0.0  # log|d| with the renormalizations
     log_from = None
     stops = sorted({*np.arange(0.0, periods, 1.0)[1:], t_from, periods})
     t = 0.0
@@ -520,8 +520,7 @@ def bouncing_ball_flight(t0, v0, A, m, tau, dt=1e-3, t_max=1e4):
 
     def gap(t):
         s = t - t0
-        return (surface(t0, A, 0.0, tau)[1] + v0 * s + 0.5 * s * s / m
-                - surface(t, A, 0.0, tau)[1])
+        return surface(t0, A, 0.0, tau)[1] + v0 * s + 0.5 * s * s / m - surface(t, A, 0.0, tau)[1]
 
     t = t0 + 1e-9
     while t < t0 + t_max:

@@ -1,6 +1,7 @@
 """Network helpers shared by the tests that start a server: a free port and
 `vibtrans serve` as a process (the served-explorer fixture in conftest.py,
 and the installed wheel's server in test_wheel.py)."""
+
 import os
 import socket
 import subprocess
@@ -12,7 +13,7 @@ from pathlib import Path
 
 from budget import budget
 
-READY_LINE = "kernels ready"        # app/server/warmup.py, once the warm-up is done
+READY_LINE = "kernels ready"  # app/server/warmup.py, once the warm-up is done
 
 
 def free_port():
@@ -32,12 +33,15 @@ class Served:
     def __init__(self, command=None, env=None, cwd=None, args=()):
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}/"
-        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-serve-", suffix=".log",
-                                               delete=False)
+        self.log = tempfile.NamedTemporaryFile(prefix="vibtrans-serve-", suffix=".log", delete=False)
         command = list(command or [sys.executable, "-m", "vibtrans.cli"])
-        self.proc = subprocess.Popen([*command, "serve", "--port", str(self.port), *args],
-                                     cwd=cwd, env=env, stdout=self.log,
-                                     stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen(
+            [*command, "serve", "--port", str(self.port), *args],
+            cwd=cwd,
+            env=env,
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+        )
         self.started = time.perf_counter()
         self.first_page_s = None
 
@@ -58,12 +62,10 @@ class Served:
             except OSError:
                 pass
             if self.proc.poll() is not None:
-                raise RuntimeError(f"vibtrans serve exited ({self.proc.returncode}):\n"
-                                   f"{self.text()[-4000:]}")
+                raise RuntimeError(f"vibtrans serve exited ({self.proc.returncode}):\n{self.text()[-4000:]}")
             if time.perf_counter() - self.started > timeout:
                 self.stop()
-                raise RuntimeError(f"vibtrans serve: no page in {timeout:.0f} s:\n"
-                                   f"{self.text()[-4000:]}")
+                raise RuntimeError(f"vibtrans serve: no page in {timeout:.0f} s:\n{self.text()[-4000:]}")
             time.sleep(0.2)
 
     def wait_kernels(self, timeout=None):
@@ -74,8 +76,9 @@ class Served:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"vibtrans serve exited:\n{self.text()[-4000:]}")
             if time.perf_counter() - self.started > timeout:
-                raise RuntimeError(f"vibtrans serve: kernels not ready in {timeout:.0f} s:\n"
-                                   f"{self.text()[-4000:]}")
+                raise RuntimeError(
+                    f"vibtrans serve: kernels not ready in {timeout:.0f} s:\n{self.text()[-4000:]}"
+                )
             time.sleep(0.2)
 
     def stop(self):

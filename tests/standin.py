@@ -10,8 +10,7 @@ from vibtrans import Scene, simulate
 @functools.cache
 def _real_run(model, lyapunov):
     """A short real run of `model` (the stand-in's answer)."""
-    scene = Scene(model=model, amplitude=10 ** -0.3, mass=10.0, periods=20.0, tau=5.0,
-                  fidelity="preview")
+    scene = Scene(model=model, amplitude=10**-0.3, mass=10.0, periods=20.0, tau=5.0, fidelity="preview")
     kw = {"lyapunov": True, "window": (18.0, 20.0)} if lyapunov else {}
     return simulate(scene, samples_per_period=5, **kw)
 

@@ -8,6 +8,7 @@ alone, and so the command line (`vibtrans.cli`), load none of the numerics
 (numba, xarray, scipy: ~1.5 s), so that `vibtrans serve` decides its
 re-execution on the C allocator before paying for them (paid twice before).
 """
+
 import importlib
 import sys
 import types
@@ -39,26 +40,42 @@ if TYPE_CHECKING:  # the same names, for type checkers and editors
 # public name -> the submodule defining it
 _LAZY = {
     # scenes and runs
-    "Scene": "core.params", "paper_scene": "core.params", "PAPER_POINTS": "core.params",
-    "simulate": "core.simulate", "estimate_steps": "core.simulate", "warmup": "core.simulate",
-    "Cancelled": "core.errors", "StepBudgetExceeded": "core.errors",
+    "Scene": "core.params",
+    "paper_scene": "core.params",
+    "PAPER_POINTS": "core.params",
+    "simulate": "core.simulate",
+    "estimate_steps": "core.simulate",
+    "warmup": "core.simulate",
+    "Cancelled": "core.errors",
+    "StepBudgetExceeded": "core.errors",
     # take-off thresholds
-    "threshold_amplitude": "core.threshold", "first_takeoff": "core.threshold",
+    "threshold_amplitude": "core.threshold",
+    "first_takeoff": "core.threshold",
     "threshold_curve": "core.threshold",
     # reading a run
-    "summarize": "analysis.summary", "Summary": "analysis.summary",
-    "periodic_orbit": "analysis.dynamics", "run_guess": "analysis.dynamics",
+    "summarize": "analysis.summary",
+    "Summary": "analysis.summary",
+    "periodic_orbit": "analysis.dynamics",
+    "run_guess": "analysis.dynamics",
     # maps
-    "Sweep": "maps.sweep", "run_sweep": "maps.sweep", "open_map": "maps.sweep",
-    "open_vertical": "maps.sweep", "maps_dir": "maps.shipped",
+    "Sweep": "maps.sweep",
+    "run_sweep": "maps.sweep",
+    "open_map": "maps.sweep",
+    "open_vertical": "maps.sweep",
+    "maps_dir": "maps.shipped",
     # design charts
-    "design_chart": "products.design", "preset": "products.design",
+    "design_chart": "products.design",
+    "preset": "products.design",
     "read_device": "products.design",
     # figures and files
-    "export_heatmap": "products.export", "export_trajectory": "products.export",
-    "export_html": "products.export", "export_design": "products.export",
-    "export_vertical": "products.export", "export_dynamics": "products.export",
-    "export_memory": "products.export", "export_paper": "products.export",
+    "export_heatmap": "products.export",
+    "export_trajectory": "products.export",
+    "export_html": "products.export",
+    "export_design": "products.export",
+    "export_vertical": "products.export",
+    "export_dynamics": "products.export",
+    "export_memory": "products.export",
+    "export_paper": "products.export",
 }
 
 __all__ = [

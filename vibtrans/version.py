@@ -1,6 +1,7 @@
 """The installed package's version (results and stores record it), in a
 module of its own so that any layer may read it without importing the
 package's re-exports of every layer."""
+
 from importlib.metadata import PackageNotFoundError, version
 
 try:

@@ -30,15 +30,18 @@ measurement and its upstream report, in docs/how-to/deployment.md.
 `apply()` is called once by the server (app/server/serve.py); nothing else here
 runs at import.  Nothing here imports the rest of the app.
 """
+
 import threading
 import traceback
 
 from bokeh.core.property import bases, validation
 
-_VALIDATION = threading.local()      # .on: this thread's switch (None: Bokeh's default)
-_STOCK = {"validation_on": bases.validation_on,
-          "validate_init": validation.validate.__init__,
-          "validate_exit": validation.validate.__exit__}
+_VALIDATION = threading.local()  # .on: this thread's switch (None: Bokeh's default)
+_STOCK = {
+    "validation_on": bases.validation_on,
+    "validate_init": validation.validate.__init__,
+    "validate_exit": validation.validate.__exit__,
+}
 
 
 def validation_switch_is_process_wide(timeout=10.0):
@@ -100,7 +103,7 @@ def hidden_tab_update_fetches_the_cdn():
     from panel.io.state import set_curdoc
 
     doc = Document()
-    doc.template_variables["dist_url"] = LOCAL_DIST       # as a served page's
+    doc.template_variables["dist_url"] = LOCAL_DIST  # as a served page's
     shown, hidden = pn.pane.Markdown("shown"), pn.pane.Markdown("hidden")
     tabs = pn.Tabs(("shown", shown), ("hidden", hidden), dynamic=True, active=1)
     with set_curdoc(doc):
@@ -108,8 +111,9 @@ def hidden_tab_update_fetches_the_cdn():
         tabs.active = 0
         hidden.object = "changed while hidden"
         tabs.active = 1
-    urls = {s.url for m in doc.models for s in getattr(m, "stylesheets", ())
-            if isinstance(s, ImportedStyleSheet)}
+    urls = {
+        s.url for m in doc.models for s in getattr(m, "stylesheets", ()) if isinstance(s, ImportedStyleSheet)
+    }
     return any(u.startswith(CDN_DIST) for u in urls)
 
 
@@ -125,11 +129,13 @@ def _text_update_in_the_sessions_document():
             model.update(**self._get_properties(doc))
         else:
             stock(self, ref, model)
+
     HTMLBasePane._update = _update
 
 
 def _stock_text_update():
     from panel.pane.markup import HTMLBasePane
+
     if "text_update" in _STOCK:
         HTMLBasePane._update = _STOCK["text_update"]
 
@@ -141,16 +147,25 @@ def is_panels_query_parse_failure(exception):
     so this failure changes nothing on the page: logged, not said."""
     return isinstance(exception, ValueError) and any(
         frame.name == "parse_query" and "panel" in frame.filename
-        for frame in traceback.extract_tb(exception.__traceback__))
+        for frame in traceback.extract_tb(exception.__traceback__)
+    )
 
 
 # (name, probe: True where the bug shows, workaround, undo)
 WORKAROUNDS = [
-    ("Bokeh's validation switch per thread (docs/how-to/deployment.md 1.1)",
-     validation_switch_is_process_wide, _validation_per_thread, _stock_validation),
-    ("Panel's text panes updated in a hidden tab keep the page's stylesheets (docs/how-to/deployment.md 1.2)",
-     hidden_tab_update_fetches_the_cdn, _text_update_in_the_sessions_document,
-     _stock_text_update),
+    (
+        "Bokeh's validation switch per thread (docs/how-to/deployment.md 1.1)",
+        validation_switch_is_process_wide,
+        _validation_per_thread,
+        _stock_validation,
+    ),
+    (
+        "Panel's text panes updated in a hidden tab keep the page's stylesheets "
+        "(docs/how-to/deployment.md 1.2)",
+        hidden_tab_update_fetches_the_cdn,
+        _text_update_in_the_sessions_document,
+        _stock_text_update,
+    ),
 ]
 
 

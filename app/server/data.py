@@ -16,6 +16,7 @@ map itself is read, digests verified again, on first use (`drift_map`).  A
 changed file (written, truncated, replaced, touched: any write moves its
 ctime, which no one can set back) no longer matches and is verified before
 the start as before.  Every read of a map as data is a verified one."""
+
 import contextlib
 import functools
 import hashlib
@@ -38,7 +39,7 @@ from vibtrans.version import __version__
 # vibtrans (vibtrans.maps_dir())
 ASSETS = maps_dir().parent
 _NAME = re.compile(r"(deformable|point-mass)-mu([0-9.]+)\.zarr$")
-DEFAULT_MAP = ("deformable", 0.3)       # the explorer opens on this one
+DEFAULT_MAP = ("deformable", 0.3)  # the explorer opens on this one
 
 
 class MapUnavailable(KeyError):
@@ -75,7 +76,7 @@ def _load_map(model, mu):
     path = available_maps().get((model, mu))
     if path is None:
         return f"no drift map for model={model}, mu={mu:g} in {ASSETS / 'maps'}"
-    tree = _tree(path)                      # before the read: a write meanwhile shows
+    tree = _tree(path)  # before the read: a write meanwhile shows
     try:
         found = open_map(str(path), expect={"model": model, "mu": mu})
     except (StoreMismatch, OSError) as exc:
@@ -93,8 +94,7 @@ def _load_map(model, mu):
 # the chaos indicator's maps: the vertical motion's exponent, one per model
 # (the vertical motion of every deformable map is the same, of every
 # material-point map too)
-LYAPUNOV_MAPS = {"deformable": "vertical-lyapunov.zarr",
-                 "point-mass": "point-mass-lyapunov.zarr"}
+LYAPUNOV_MAPS = {"deformable": "vertical-lyapunov.zarr", "point-mass": "point-mass-lyapunov.zarr"}
 # the vertical motion is the same in every deformable map of these settings
 _VERTICAL_KEYS = ("tau", "periods", "fidelity", "integrator")
 
@@ -107,21 +107,26 @@ def with_lyapunov(ds, lyapunov):
     Lyapunov map was not made for (other tau, periods, fidelity,
     integrator, or a point off its grid), or one that stores its own
     exponent, is returned as it is."""
-    if "lyapunov" in ds or any(ds.attrs.get(f"scene_{k}") != lyapunov.attrs.get(f"scene_{k}")
-                               for k in _VERTICAL_KEYS):
+    if "lyapunov" in ds or any(
+        ds.attrs.get(f"scene_{k}") != lyapunov.attrs.get(f"scene_{k}") for k in _VERTICAL_KEYS
+    ):
         return ds
     try:
-        lam = lyapunov["lyapunov"].sel(log_amplitude=ds["log_amplitude"],
-                                       log_mass=ds["log_mass"], method="nearest",
-                                       tolerance=1e-6).values
+        lam = (
+            lyapunov["lyapunov"]
+            .sel(log_amplitude=ds["log_amplitude"], log_mass=ds["log_mass"], method="nearest", tolerance=1e-6)
+            .values
+        )
     except KeyError:
         return ds
     twin = ds["chaotic"].values
     # NaN: no exponent (no impacts, a flight that never ends): the twin's verdict
     chaotic = np.where(np.isnan(lam) | (twin < 0), twin, (lam > CHAOS_LYAPUNOV).astype(np.int8))
-    out = ds.assign(twin_chaotic=ds["chaotic"],
-                    chaotic=(ds["chaotic"].dims, chaotic.astype(np.int8)),
-                    lyapunov=(ds["chaotic"].dims, lam))
+    out = ds.assign(
+        twin_chaotic=ds["chaotic"],
+        chaotic=(ds["chaotic"].dims, chaotic.astype(np.int8)),
+        lyapunov=(ds["chaotic"].dims, lam),
+    )
     out.attrs["chaos"] = "lyapunov"
     return out
 
@@ -133,8 +138,7 @@ def _load_lyapunov(model):
     if not path.exists():
         return None
     try:
-        return open_map(str(path), expect={"model": "vertical" if model == "deformable"
-                                           else model})
+        return open_map(str(path), expect={"model": "vertical" if model == "deformable" else model})
     except (StoreMismatch, OSError) as exc:
         return f"the Lyapunov map {name} cannot be used: {exc}"
 
@@ -147,7 +151,7 @@ def lyapunov_map(model="deformable"):
     return None if isinstance(found, str) else found
 
 
-_LOADED = set()         # the maps _load_map has read (or failed to read)
+_LOADED = set()  # the maps _load_map has read (or failed to read)
 
 
 # ---------------------------------------------------------------- verified stamps
@@ -161,7 +165,7 @@ def _stamps_file():
     return Path(root) / "vibtrans" / "verified-maps.json"
 
 
-RACY_NS = 2 * 10**9     # a file changed this recently may change again in the same tick
+RACY_NS = 2 * 10**9  # a file changed this recently may change again in the same tick
 
 
 def _tree(path):
@@ -183,8 +187,10 @@ def _tree(path):
                     st = os.stat(full)
                     if max(st.st_mtime_ns, st.st_ctime_ns) > recent:
                         return None
-                    h.update(f"{os.path.relpath(full, path)}\0{st.st_size}\0{st.st_mtime_ns}\0"
-                             f"{st.st_ctime_ns}\0{st.st_ino}\n".encode())
+                    h.update(
+                        f"{os.path.relpath(full, path)}\0{st.st_size}\0{st.st_mtime_ns}\0"
+                        f"{st.st_ctime_ns}\0{st.st_ino}\n".encode()
+                    )
         if not os.path.isdir(path) or os.path.islink(path):
             return None
     except OSError:
@@ -206,8 +212,7 @@ def _stamp(path, key, tree):
     read-only cache folder only means no stamps)."""
     with _STAMPS_LOCK:
         stamps = {p: v for p, v in _read_stamps().items() if os.path.exists(p)}
-        stamps[str(Path(path).resolve())] = {"map": list(key), "version": __version__,
-                                              "tree": tree}
+        stamps[str(Path(path).resolve())] = {"map": list(key), "version": __version__, "tree": tree}
         target = _stamps_file()
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
@@ -226,9 +231,13 @@ def _stamp(path, key, tree):
 def _stamped(path, key, stamps):
     """Whether the map at path still carries the stamp of its verification."""
     entry = stamps.get(str(Path(path).resolve()))
-    return (isinstance(entry, dict) and entry.get("map") == list(key)
-            and entry.get("version") == __version__ and entry.get("tree") is not None
-            and entry.get("tree") == _tree(path))
+    return (
+        isinstance(entry, dict)
+        and entry.get("map") == list(key)
+        and entry.get("version") == __version__
+        and entry.get("tree") is not None
+        and entry.get("tree") == _tree(path)
+    )
 
 
 @functools.lru_cache(maxsize=1)
@@ -249,13 +258,16 @@ def _load_period_one():
         return None
     try:
         import xarray as xr
+
         ds = xr.load_dataset(path)
     except (OSError, ValueError) as exc:
         return f"the period-1 orbit chart period-one.nc cannot be used: {exc}"
     missing = [v for v in ("trace", "exists", "stable", "in_flight") if v not in ds]
     if missing or ds["trace"].dims != ("log_amplitude", "log_mass"):
-        return (f"the period-1 orbit chart period-one.nc cannot be used: not a chart of "
-                f"vibtrans.analysis.dynamics.period_one_chart (missing: {', '.join(missing) or 'dims'})")
+        return (
+            f"the period-1 orbit chart period-one.nc cannot be used: not a chart of "
+            f"vibtrans.analysis.dynamics.period_one_chart (missing: {', '.join(missing) or 'dims'})"
+        )
     return ds
 
 
@@ -293,11 +305,14 @@ def problems():
     out = []
     maps = available_maps()
     if not maps:
-        out.append(f"no drift maps in {ASSETS / 'maps'} (VIBTRANS_ASSETS must name a folder "
-                   f"holding maps/*.zarr)")
+        out.append(
+            f"no drift maps in {ASSETS / 'maps'} (VIBTRANS_ASSETS must name a folder holding maps/*.zarr)"
+        )
     elif DEFAULT_MAP not in maps:
-        out.append(f"no drift map for model={DEFAULT_MAP[0]}, mu={DEFAULT_MAP[1]:g} (the "
-                   f"explorer's default) in {ASSETS / 'maps'}")
+        out.append(
+            f"no drift map for model={DEFAULT_MAP[0]}, mu={DEFAULT_MAP[1]:g} (the "
+            f"explorer's default) in {ASSETS / 'maps'}"
+        )
     stamps = _read_stamps()
     for key, path in maps.items():
         if key not in _LOADED and _stamped(path, key, stamps):
@@ -305,8 +320,7 @@ def problems():
         found = _load_map(*key)
         if isinstance(found, str):
             out.append(found)
-    for found in (_load_vertical(), _load_period_one(),
-                  *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
+    for found in (_load_vertical(), _load_period_one(), *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
         if isinstance(found, str):
             out.append(found)
     return out

@@ -16,6 +16,7 @@ closed (a map asked for meanwhile starts at once: a worker's start, its
 imports and compiled kernels loaded, is ~1.3 s of CPU) or when the owner
 calls `stop_processes`.  Nothing here knows about maps.
 """
+
 import multiprocessing
 import os
 import threading
@@ -33,8 +34,7 @@ def lower_priority(nice):
         return
     try:
         tid = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, tid,
-                       min(19, os.getpriority(os.PRIO_PROCESS, tid) + nice))
+        os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + nice))
     except (OSError, AttributeError):
         pass
 
@@ -65,26 +65,26 @@ class FairPool:
     `linger` seconds after every lane is shut down and no task runs (they
     hold memory: ~220 MB each for the map points), or at `stop_processes`."""
 
-    def __init__(self, workers, name="vibtrans-fair", nice=0, processes=False,
-                 initializer=None, linger=0.0):
+    def __init__(self, workers, name="vibtrans-fair", nice=0, processes=False, initializer=None, linger=0.0):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = int(workers)
         self.nice = int(nice)
-        try:        # the worker processes' niceness: `nice` below this process's
+        try:  # the worker processes' niceness: `nice` below this process's
             self._process_niceness = min(19, os.getpriority(os.PRIO_PROCESS, 0) + self.nice)
         except (OSError, AttributeError):
             self._process_niceness = None
         self.processes = bool(processes)
         self.initializer = initializer
         self.linger = float(linger)
-        self._processes = None            # the ProcessPoolExecutor while one is up
-        self._idle_timer = None           # stops the processes after `linger` s idle
-        self._busy = 0                    # tasks running
+        self._processes = None  # the ProcessPoolExecutor while one is up
+        self._idle_timer = None  # stops the processes after `linger` s idle
+        self._busy = 0  # tasks running
         self._ready = threading.Condition()
-        self._lanes = OrderedDict()       # Lane -> deque of (future, fn, args, kwargs)
-        self._threads = [threading.Thread(target=self._serve, name=f"{name}-{k}", daemon=True)
-                         for k in range(self.workers)]
+        self._lanes = OrderedDict()  # Lane -> deque of (future, fn, args, kwargs)
+        self._threads = [
+            threading.Thread(target=self._serve, name=f"{name}-{k}", daemon=True) for k in range(self.workers)
+        ]
         for t in self._threads:
             t.start()
 
@@ -102,7 +102,7 @@ class FairPool:
             if lane not in self._lanes:
                 raise RuntimeError("cannot submit to a lane that was shut down")
             self._lanes[lane].append((future, fn, args, kwargs))
-            if self._idle_timer is not None:    # work again: the idle spell ended
+            if self._idle_timer is not None:  # work again: the idle spell ended
                 self._idle_timer.cancel()
                 self._idle_timer = None
             self._ready.notify()
@@ -135,7 +135,7 @@ class FairPool:
                 if future.set_running_or_notify_cancel():
                     try:
                         result = self._run(fn, args, kwargs)
-                    except BaseException as exc:      # handed to the map that asked
+                    except BaseException as exc:  # handed to the map that asked
                         future.set_exception(exc)
                     else:
                         future.set_result(result)
@@ -150,9 +150,11 @@ class FairPool:
         with self._ready:
             if self._processes is None:
                 self._processes = ProcessPoolExecutor(
-                    self.workers, mp_context=multiprocessing.get_context("spawn"),
+                    self.workers,
+                    mp_context=multiprocessing.get_context("spawn"),
                     initializer=_start_worker_process,
-                    initargs=(self._process_niceness, self.initializer))
+                    initargs=(self._process_niceness, self.initializer),
+                )
             processes = self._processes
         try:
             return processes.submit(fn, *args, **kwargs).result()

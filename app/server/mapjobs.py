@@ -29,6 +29,7 @@ queue, one cache, one core budget for the process.
   first come, first served; at most `max_queued` wait, beyond that a
   request is refused.
 """
+
 import logging
 import os
 import threading
@@ -89,9 +90,10 @@ def default_cores():
 def same_values(snapshot, ds):
     """Whether the map `ds` holds what `snapshot` (a map so far) does, value
     for value, in every variable of the snapshot."""
-    return all(name in ds and np.array_equal(snapshot[name].values, ds[name].values,
-                                             equal_nan=True)
-               for name in snapshot.data_vars)
+    return all(
+        name in ds and np.array_equal(snapshot[name].values, ds[name].values, equal_nan=True)
+        for name in snapshot.data_vars
+    )
 
 
 class MapRefused(Exception):
@@ -108,6 +110,7 @@ class Update(NamedTuple):
     values are those of the finest level's map, sent before it to every
     subscriber, so a picture of that one stands), "failed" (text),
     "cancelled"."""
+
     kind: str
     level: int = 0
     levels: int = 0
@@ -118,7 +121,7 @@ class Update(NamedTuple):
     seconds_left: object = None
 
     def left_text(self):
-        """", about 3 min left" while the time left is known, else ""."""
+        """ ", about 3 min left" while the time left is known, else ""."""
         if not self.seconds_left:
             return ""
         return f", about {maprequest.duration(self.seconds_left)} left"
@@ -142,7 +145,7 @@ class Ticket:
             return
         try:
             self.on_update(update)
-        except Exception:       # a closed session's loop: nobody listens any more
+        except Exception:  # a closed session's loop: nobody listens any more
             log.exception("a map update could not be delivered")
 
 
@@ -152,17 +155,26 @@ class _Computation:
         self.request = request
         self.cancel = threading.Event()
         self.tickets = []
-        self.last = None          # the latest level's Update (for a late subscriber)
-        self.started = None       # when its points began (time.monotonic)
+        self.last = None  # the latest level's Update (for a late subscriber)
+        self.started = None  # when its points began (time.monotonic)
 
 
 class MapJobs:
     """The process's maps on demand (module docstring)."""
 
-    def __init__(self, folder=None, max_bytes=DEFAULT_MAX_BYTES, cores=None,
-                 max_queued=MAX_QUEUED, max_points=maprequest.MAX_POINTS,
-                 max_seconds=maprequest.MAX_SECONDS, build=None, scheduler=None,
-                 max_running=MAX_RUNNING, processes=True):
+    def __init__(
+        self,
+        folder=None,
+        max_bytes=DEFAULT_MAX_BYTES,
+        cores=None,
+        max_queued=MAX_QUEUED,
+        max_points=maprequest.MAX_POINTS,
+        max_seconds=maprequest.MAX_SECONDS,
+        build=None,
+        scheduler=None,
+        max_running=MAX_RUNNING,
+        processes=True,
+    ):
         self.folder = folder or default_folder()
         # a dask.distributed scheduler's address: the points run on its
         # cluster instead of this process's threads (`vibtrans serve --scheduler`)
@@ -180,19 +192,18 @@ class MapJobs:
         self._build = build or self.run_adaptive
         self._cache = None
         self._lock = threading.Lock()
-        self._computations = {}      # key -> _Computation (queued or running)
-        self._queue = []             # computations waiting, in order
-        self._running = set()        # the computations running
-        self._workers = None         # the FairPool of `cores` workers (made at first use)
-        self._sessions = {}          # session -> Ticket
-        self._step_seconds = {}      # (model, profile, fidelity) -> step_seconds
+        self._computations = {}  # key -> _Computation (queued or running)
+        self._queue = []  # computations waiting, in order
+        self._running = set()  # the computations running
+        self._workers = None  # the FairPool of `cores` workers (made at first use)
+        self._sessions = {}  # session -> Ticket
+        self._step_seconds = {}  # (model, profile, fidelity) -> step_seconds
         # a thread per running map (its refinement; its points go to the
         # shared workers); a second, light pool opens the cache, so that a
         # cached map never waits for a big one
-        self._runner = ThreadPoolExecutor(max_workers=max_running,
-                                          thread_name_prefix="vibtrans-map")
+        self._runner = ThreadPoolExecutor(max_workers=max_running, thread_name_prefix="vibtrans-map")
         self._front = ThreadPoolExecutor(max_workers=2, thread_name_prefix="vibtrans-map-front")
-        self.computed = 0            # maps computed (not read from the cache): for tests
+        self.computed = 0  # maps computed (not read from the cache): for tests
 
     @property
     def cache(self):
@@ -211,8 +222,8 @@ class MapJobs:
         (the scene's checks, the run's summary).  Blocking."""
         from vibtrans import Scene, estimate_steps
         from vibtrans.maps.sweep import compute_point
-        key = (request.model, request.profile if request.profiled() else None,
-               request.fidelity)
+
+        key = (request.model, request.profile if request.profiled() else None, request.fidelity)
         with self._lock:
             known = self._step_seconds.get(key)
         if known is not None:
@@ -226,8 +237,7 @@ class MapJobs:
             run = compute_point(values, 0.0, 0.0, maprequest.CHAOS, "full")["seconds"]
             timed.append((time.perf_counter() - start, run))
         whole, run = min(timed)
-        measured = (run / estimate_steps(Scene(amplitude=1.0, mass=1.0, **values)),
-                    max(whole - run, 0.0))
+        measured = (run / estimate_steps(Scene(amplitude=1.0, mass=1.0, **values)), max(whole - run, 0.0))
         with self._lock:
             self._step_seconds[key] = measured
         return measured
@@ -240,14 +250,16 @@ class MapJobs:
         if problems:
             return None, problems
         try:
-            request.sweep()            # every scene value, the library's checks
+            request.sweep()  # every scene value, the library's checks
         except ValueError as exc:
             return None, [str(exc)]
         est = maprequest.estimate(request, *self.step_seconds(request), self.cores)
         if est.seconds > self.max_seconds:
-            return est, [f"estimated {maprequest.duration(est.seconds)}, over this server's "
-                         f"limit of {maprequest.duration(self.max_seconds)} per map: fewer "
-                         f"points, periods or a lower fidelity"]
+            return est, [
+                f"estimated {maprequest.duration(est.seconds)}, over this server's "
+                f"limit of {maprequest.duration(self.max_seconds)} per map: fewer "
+                f"points, periods or a lower fidelity"
+            ]
         return est, []
 
     # ---------- requests ----------
@@ -263,8 +275,10 @@ class MapJobs:
             comp = self._computations.get(key)
             if comp is None or comp.cancel.is_set():
                 if len(self._queue) >= self.max_queued:
-                    raise MapRefused(f"this server's map queue is full ({self.max_queued} maps "
-                                     f"waiting): try again in a while")
+                    raise MapRefused(
+                        f"this server's map queue is full ({self.max_queued} maps "
+                        f"waiting): try again in a while"
+                    )
                 comp = _Computation(key, request)
                 self._computations[key] = comp
                 start = True
@@ -324,15 +338,15 @@ class MapJobs:
 
     def _open_or_queue(self, comp):
         try:
-            ds = self.cache.get(comp.key)       # verified; a damaged entry is removed
+            ds = self.cache.get(comp.key)  # verified; a damaged entry is removed
         except Exception as exc:
             log.exception("the map cache could not be read")
-            self._tell(comp, Update("failed", text=f"the map cache could not be read: {exc}"),
-                       final=True)
+            self._tell(comp, Update("failed", text=f"the map cache could not be read: {exc}"), final=True)
             return
         if ds is not None:
-            self._tell(comp, Update("done", comp.request.levels, comp.request.levels, ds,
-                                    cached=True), final=True)
+            self._tell(
+                comp, Update("done", comp.request.levels, comp.request.levels, ds, cached=True), final=True
+            )
             return
         with self._lock:
             self._queue.append(comp)
@@ -343,9 +357,15 @@ class MapJobs:
             computing = min(before, self.max_running)
             ahead = before - computing
         if before >= self.max_running:
-            self._tell(comp, Update("queued", text=f"waiting: {computing} map(s) computing "
-                                                   f"and {ahead} waiting before it in this "
-                                                   f"server's queue"))
+            self._tell(
+                comp,
+                Update(
+                    "queued",
+                    text=f"waiting: {computing} map(s) computing "
+                    f"and {ahead} waiting before it in this "
+                    f"server's queue",
+                ),
+            )
         self._runner.submit(self._compute, comp)
 
     def _compute(self, comp):
@@ -370,6 +390,7 @@ class MapJobs:
 
         def on_level(level, ds):
             self._tell(comp, self._progress(comp, "level", level, ds))
+
         try:
             if not warmup.wait(comp.cancel):
                 raise Cancelled("map cancelled")
@@ -382,8 +403,12 @@ class MapJobs:
                 raise StoreMismatch("the computed map could not be read back")
             with self._lock:
                 last = comp.last
-            shown = (last is not None and last.kind == "level" and last.level == levels
-                     and same_values(last.ds, ds))
+            shown = (
+                last is not None
+                and last.kind == "level"
+                and last.level == levels
+                and same_values(last.ds, ds)
+            )
             self._tell(comp, Update("done", levels, levels, ds, shown=shown), final=True)
         except Cancelled:
             self._tell(comp, Update("cancelled"), final=True)
@@ -395,9 +420,11 @@ class MapJobs:
         """A level's or chunk's Update, with the time left from the points
         done so far and the points the refinement is expected to compute."""
         request = comp.request
-        left = maprequest.seconds_left(time.monotonic() - comp.started,
-                                       int(ds["computed"].values.sum()),
-                                       maprequest.expected_points(request))
+        left = maprequest.seconds_left(
+            time.monotonic() - comp.started,
+            int(ds["computed"].values.sum()),
+            maprequest.expected_points(request),
+        )
         return Update(kind, level, request.levels, ds, seconds_left=left)
 
     def start_helpers(self):
@@ -410,15 +437,21 @@ class MapJobs:
             self.step_seconds(maprequest.MapRequest(model=model))
         if self.processes and not self.scheduler:
             from multiprocessing import resource_tracker
+
             resource_tracker.ensure_running()
 
     def share(self):
         """A new lane of the server's workers (app/server/fairshare.py) for one map."""
         with self._lock:
             if self._workers is None:
-                self._workers = FairPool(self.cores, name="vibtrans-map-point",
-                                         nice=MAP_NICE, processes=self.processes,
-                                         initializer=compile_kernels, linger=WORKERS_LINGER)
+                self._workers = FairPool(
+                    self.cores,
+                    name="vibtrans-map-point",
+                    nice=MAP_NICE,
+                    processes=self.processes,
+                    initializer=compile_kernels,
+                    linger=WORKERS_LINGER,
+                )
             return self._workers.lane()
 
     def stop_workers(self):
@@ -431,15 +464,26 @@ class MapJobs:
 
     def run_adaptive(self, comp, path, on_level):
         from vibtrans.maps.adaptive import run_adaptive
+
         lane = None if self.scheduler else self.share()
 
         def on_chunk(level, ds):
             self._tell(comp, self._progress(comp, "chunk", level, ds))
+
         try:
-            run_adaptive(comp.request.sweep(), path, comp.request.levels, workers=self.cores,
-                         scheduler=self.scheduler, progress=False, on_level=on_level,
-                         cancel=comp.cancel, executor=lane, on_chunk=on_chunk,
-                         chunk_seconds=CHUNK_SECONDS)
+            run_adaptive(
+                comp.request.sweep(),
+                path,
+                comp.request.levels,
+                workers=self.cores,
+                scheduler=self.scheduler,
+                progress=False,
+                on_level=on_level,
+                cancel=comp.cancel,
+                executor=lane,
+                on_chunk=on_chunk,
+                chunk_seconds=CHUNK_SECONDS,
+            )
         finally:
             if lane is not None:
                 lane.shutdown()
@@ -451,10 +495,11 @@ _JOBS = {"jobs": None, "settings": {}}
 def configure(folder=None, max_bytes=None, cores=None, scheduler=None):
     """The server's settings (`vibtrans serve --map-cache --map-cache-mb
     --map-cores --scheduler`), before the first session."""
-    _JOBS["settings"] = {k: v for k, v in
-                         (("folder", folder), ("max_bytes", max_bytes), ("cores", cores),
-                          ("scheduler", scheduler))
-                         if v is not None}
+    _JOBS["settings"] = {
+        k: v
+        for k, v in (("folder", folder), ("max_bytes", max_bytes), ("cores", cores), ("scheduler", scheduler))
+        if v is not None
+    }
     _JOBS["jobs"] = None
 
 
@@ -465,11 +510,12 @@ def jobs():
     threads of the server, not in worker processes)."""
     if _JOBS["jobs"] is None:
         settings = dict(_JOBS["settings"])
-        for name, key, kind, lo, hi in (("cores", "VIBTRANS_MAP_CORES", int, 1, 256),
-                                        ("max_points", "VIBTRANS_MAP_MAX_POINTS", int, 1, 1e7),
-                                        ("max_seconds", "VIBTRANS_MAP_MAX_SECONDS", float, 1,
-                                         1e6),
-                                        ("processes", "VIBTRANS_MAP_PROCESSES", int, 0, 1)):
+        for name, key, kind, lo, hi in (
+            ("cores", "VIBTRANS_MAP_CORES", int, 1, 256),
+            ("max_points", "VIBTRANS_MAP_MAX_POINTS", int, 1, 1e7),
+            ("max_seconds", "VIBTRANS_MAP_MAX_SECONDS", float, 1, 1e6),
+            ("processes", "VIBTRANS_MAP_PROCESSES", int, 0, 1),
+        ):
             text = os.environ.get(key)
             if name in settings or not text:
                 continue

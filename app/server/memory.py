@@ -22,6 +22,7 @@ each, collecting almost nothing).  Now:
 Nothing here imports the app; `server.py` installs it, `explorer.py`
 reports the closes.
 """
+
 import asyncio
 import ctypes
 import gc
@@ -31,8 +32,8 @@ import time
 
 log = logging.getLogger("vibtrans.explorer")
 
-RELEASE_DELAY = 2.0        # s after the last session closed (a burst of closes: once)
-CLOSES_PER_RELEASE = 30    # closes kept uncollected at most (a server never idle)
+RELEASE_DELAY = 2.0  # s after the last session closed (a burst of closes: once)
+CLOSES_PER_RELEASE = 30  # closes kept uncollected at most (a server never idle)
 # INFO: operators (and `python -m devtools.loadtest`, which waits for this
 # line after the last session is discarded) see when memory went back
 RELEASED = "released the memory of closed sessions"
@@ -40,7 +41,7 @@ RELEASE_NAME = "the release of closed sessions' memory"
 CLOSED = "session closed"
 
 _RELEASE = {"handle": None, "server": None, "closes": 0}
-_AT_RELEASE = []           # callables, run at each release (the server's)
+_AT_RELEASE = []  # callables, run at each release (the server's)
 
 
 def at_release(fn):
@@ -99,27 +100,36 @@ def release():
     _RELEASE["handle"] = None
     if not _due(_RELEASE["server"]):
         # a session opened meanwhile: at its close
-        log.info("%s deferred (process %d): %d sessions open", RELEASE_NAME, os.getpid(),
-                 sessions_open(_RELEASE["server"]))
+        log.info(
+            "%s deferred (process %d): %d sessions open",
+            RELEASE_NAME,
+            os.getpid(),
+            sessions_open(_RELEASE["server"]),
+        )
         return
     _RELEASE["closes"] = 0
     t0, before = time.perf_counter(), resident_mb()
     for fn in _AT_RELEASE:
         try:
             fn()
-        except Exception:            # the release goes on
+        except Exception:  # the release goes on
             log.exception("a release hook failed")
-    frozen = gc.get_freeze_count() > 0     # the server froze start-up and pages
+    frozen = gc.get_freeze_count() > 0  # the server froze start-up and pages
     gc.unfreeze()
     collected = gc.collect()
     if frozen:
         gc.freeze()
     try:
         ctypes.CDLL(None).malloc_trim(0)
-    except (OSError, AttributeError):    # not glibc
+    except (OSError, AttributeError):  # not glibc
         pass
     after = resident_mb()
-    log.info("%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s", RELEASED,
-             os.getpid(), collected,
-             f"{before:.0f}" if before else "?", f"{after:.0f}" if after else "?",
-             time.perf_counter() - t0)
+    log.info(
+        "%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s",
+        RELEASED,
+        os.getpid(),
+        collected,
+        f"{before:.0f}" if before else "?",
+        f"{after:.0f}" if after else "?",
+        time.perf_counter() - t0,
+    )

@@ -15,6 +15,7 @@ load Panel.  Start-up, each step said on stderr:
    none is asked for); a run asked for before they are ready waits, with a
    message in the page.
 """
+
 import gc
 import logging
 import os
@@ -48,9 +49,10 @@ _STARTED = None if _AGE is None else time.monotonic() - _AGE
 
 
 def _process():
-    """"process K/N: " in a process forked by --num-procs (Tornado's task
+    """ "process K/N: " in a process forked by --num-procs (Tornado's task
     id), else ""."""
     from tornado.process import task_id
+
     k = task_id()
     return "" if k is None else f"process {k + 1}/{_PROCESSES[0]}: "
 
@@ -81,8 +83,7 @@ def origins(args):
         return [f"localhost:{args.port}", f"127.0.0.1:{args.port}"]
     for o in found:
         if "://" in o or "/" in o or any(c.isspace() for c in o):
-            raise InputError(f"allow_websocket_origin must be HOST[:PORT] (no scheme, no path), "
-                             f"got {o!r}")
+            raise InputError(f"allow_websocket_origin must be HOST[:PORT] (no scheme, no path), got {o!r}")
     return found
 
 
@@ -109,8 +110,7 @@ def _log_to_stderr(logger):
     close) beside Bokeh's, in Bokeh's format."""
     if not logger.handlers:
         handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(
-            logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
+        handler.setFormatter(logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
         logger.addHandler(handler)
     logger.setLevel(logging.INFO)
     logger.propagate = False
@@ -125,10 +125,8 @@ def _check(args):
     if cores is not None and not 1 <= cores <= 256:
         raise InputError(f"map-cores must be in [1, 256], got {cores}")
     scheduler = getattr(args, "scheduler", None)
-    if scheduler is not None and not re.fullmatch(r"(tcp|tls|inproc)://[^\s/]+(:\d+)?",
-                                                    scheduler):
-        raise InputError(f"scheduler must be an address such as tcp://HOST:PORT, got "
-                         f"{scheduler!r}")
+    if scheduler is not None and not re.fullmatch(r"(tcp|tls|inproc)://[^\s/]+(:\d+)?", scheduler):
+        raise InputError(f"scheduler must be an address such as tcp://HOST:PORT, got {scheduler!r}")
     mb = getattr(args, "map_cache_mb", None)
     if mb is not None and not 1 <= mb <= 10**7:
         raise InputError(f"map-cache-mb must be in [1, 10000000] (MB), got {mb}")
@@ -148,8 +146,11 @@ def _reexec_on_c_allocator(args):
     real command line is re-executed (args.argv set by vibtrans.cli.main):
     callers of main(argv) (tests, scripts) keep their process."""
     if os.environ.get("PYTHONMALLOC") is None and getattr(args, "argv", None) is not None:
-        os.execve(sys.executable, [sys.executable, "-m", "vibtrans.cli", *args.argv],
-                  dict(os.environ, PYTHONMALLOC="malloc"))
+        os.execve(
+            sys.executable,
+            [sys.executable, "-m", "vibtrans.cli", *args.argv],
+            dict(os.environ, PYTHONMALLOC="malloc"),
+        )
 
 
 def _freeze():
@@ -187,16 +188,18 @@ def failed_page():
     import panel as pn
 
     from vibtrans_explorer.explorer import PAGE_TITLE, failure_reference
+
     reference = failure_reference()
-    logging.getLogger("vibtrans.explorer").exception("building a page failed (reference %s)",
-                                                     reference)
+    logging.getLogger("vibtrans.explorer").exception("building a page failed (reference %s)", reference)
     doc = pn.state.curdoc
     if doc is not None:
-        doc.clear()                 # whatever the failed build had attached
+        doc.clear()  # whatever the failed build had attached
         doc.title = PAGE_TITLE
-    return pn.Column(pn.pane.Markdown(FAILED_PAGE.format(reference=reference),
-                                      css_classes=["vt-failed-page"]),
-                     margin=20, sizing_mode="stretch_width")
+    return pn.Column(
+        pn.pane.Markdown(FAILED_PAGE.format(reference=reference), css_classes=["vt-failed-page"]),
+        margin=20,
+        sizing_mode="stretch_width",
+    )
 
 
 def _first_page(serve_page, start_kernels):
@@ -205,6 +208,7 @@ def _first_page(serve_page, start_kernels):
     (memory.page_built); the first page also starts the kernels, once it is
     answered (add_callback: after the handler, which builds and writes the
     page without yielding once the session exists)."""
+
     def page():
         try:
             app = serve_page()
@@ -212,8 +216,10 @@ def _first_page(serve_page, start_kernels):
             app = failed_page()
         memory.page_built()
         from tornado.ioloop import IOLoop
+
         IOLoop.current().add_callback(start_kernels)
         return app
+
     return page
 
 
@@ -226,36 +232,44 @@ def serve(args):
     # loads no numerics (lazy names), so the command line got here in ~0.1 s
     _reexec_on_c_allocator(args)
     from vibtrans_explorer.server import data, mapjobs, warmup
-    mapjobs.configure(folder=getattr(args, "map_cache", None),
-                      max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
-                      cores=getattr(args, "map_cores", None),
-                      scheduler=getattr(args, "scheduler", None))
-    mapjobs.jobs().cache          # its folder made now: an unusable one refuses to start  # noqa: B018
-    memory.at_release(mapjobs.jobs().stop_workers)      # no session left: no map to come
-    problems = data.preload()        # damaged, foreign or missing maps: refuse to start
-    if problems:                     # (in one line: nothing printed before it)
+
+    mapjobs.configure(
+        folder=getattr(args, "map_cache", None),
+        max_bytes=getattr(args, "map_cache_mb", None) and args.map_cache_mb * 2**20,
+        cores=getattr(args, "map_cores", None),
+        scheduler=getattr(args, "scheduler", None),
+    )
+    mapjobs.jobs().cache  # its folder made now: an unusable one refuses to start  # noqa: B018
+    memory.at_release(mapjobs.jobs().stop_workers)  # no session left: no map to come
+    problems = data.preload()  # damaged, foreign or missing maps: refuse to start
+    if problems:  # (in one line: nothing printed before it)
         raise InputError("; ".join(problems))
     curve = " and the vertical curve" if data.vertical_curve() is not None else ""
-    say(f"{len(data.available_maps())} drift maps{curve} checked in {data.ASSETS / 'maps'}; "
-        f"loading the explorer ...")
+    say(
+        f"{len(data.available_maps())} drift maps{curve} checked in {data.ASSETS / 'maps'}; "
+        f"loading the explorer ..."
+    )
     import panel as pn
 
     from vibtrans_explorer.explorer import PAGE_TITLE, serve_page
+
     _log_to_stderr(logging.getLogger("vibtrans"))
     for line in compat.apply():
         say(line)
     from vibtrans_explorer.explorer import report_failure
-    pn.config.param.update(exception_handler=report_failure)   # a callback failed: said, logged
+
+    pn.config.param.update(exception_handler=report_failure)  # a callback failed: said, logged
     _freeze()
     started = []
 
-    def start_kernels():            # once per process (warmup.start is too)
+    def start_kernels():  # once per process (warmup.start is too)
         if not started:
             started.append(True)
             warmup.start(report=say, on_ready=ready)
 
-    def ready():                    # in the kernels' thread, after the warm-up
+    def ready():  # in the kernels' thread, after the warm-up
         from vibtrans_explorer.views import map as map_view
+
         mapjobs.jobs().start_helpers()
         # the maps pre-rendered (a change of model, mu or grey: a copy, not a
         # render) on the event loop, one render per turn: rendered in this
@@ -272,32 +286,42 @@ def serve(args):
             return
         try:
             step()
-        except Exception:           # only an optimisation: the rest is left
+        except Exception:  # only an optimisation: the rest is left
             logging.getLogger("vibtrans.explorer").exception("prerendering the maps failed")
             _freeze()
             return
         loop.call_later(PRERENDER_PAUSE, prerender, steps)
 
     try:
-        server = pn.serve({"/": _first_page(serve_page, start_kernels)}, port=args.port,
-                          address=args.address, show=False, start=False, verbose=False,
-                          websocket_origin=allowed,
-                          title=PAGE_TITLE, num_procs=args.num_procs, liveness=True,
-                          admin=False, extra_patterns=component_routes(),
-                          # behind a proxy: the visitor's address and scheme, not the proxy's
-                          use_xheaders=bool(getattr(args, "use_xheaders", False)),
-                          unused_session_lifetime_milliseconds=args.unused_session_lifetime,
-                          check_unused_sessions_milliseconds=args.check_unused_sessions)
-    except OSError as exc:           # the port taken, or not ours to open
-        raise InputError(f"--port {args.port}: cannot listen on {args.address}:{args.port} "
-                         f"({exc.strerror or exc}); choose another port (1-65535), or stop "
-                         f"the server that holds it") from None
+        server = pn.serve(
+            {"/": _first_page(serve_page, start_kernels)},
+            port=args.port,
+            address=args.address,
+            show=False,
+            start=False,
+            verbose=False,
+            websocket_origin=allowed,
+            title=PAGE_TITLE,
+            num_procs=args.num_procs,
+            liveness=True,
+            admin=False,
+            extra_patterns=component_routes(),
+            # behind a proxy: the visitor's address and scheme, not the proxy's
+            use_xheaders=bool(getattr(args, "use_xheaders", False)),
+            unused_session_lifetime_milliseconds=args.unused_session_lifetime,
+            check_unused_sessions_milliseconds=args.check_unused_sessions,
+        )
+    except OSError as exc:  # the port taken, or not ours to open
+        raise InputError(
+            f"--port {args.port}: cannot listen on {args.address}:{args.port} "
+            f"({exc.strerror or exc}); choose another port (1-65535), or stop "
+            f"the server that holds it"
+        ) from None
     # after the server is made: with --num-procs > 1 it has forked, and each
     # process compiles (or loads) its own kernels
     loop = server.io_loop
     loop.call_later(KERNELS_AFTER, start_kernels)
-    say(f"explorer on http://{args.address}:{args.port}/ (websocket origins: "
-        f"{', '.join(allowed)})")
+    say(f"explorer on http://{args.address}:{args.port}/ (websocket origins: {', '.join(allowed)})")
     server.start()
     try:
         loop.start()

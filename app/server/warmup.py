@@ -14,6 +14,7 @@ the warm-up: most sessions never run one, and compiling them cold costs
 (`prepare_rolling`: a session chose a rolling particle, or asked for a
 run of one), after the warm-up; a rolling run asked for meanwhile waits
 for them, and the page says "Compiling" (`status(scene)`)."""
+
 import logging
 import threading
 import time
@@ -29,9 +30,8 @@ log = logging.getLogger("vibtrans.explorer")
 MODELS = ("deformable", "point-mass")
 
 READY = threading.Event()
-ROLLING_READY = threading.Event()       # the rolling particle's kernels
-_state = {"done": 0, "total": 0, "label": "", "seconds": None, "error": None,
-          "report": None}
+ROLLING_READY = threading.Event()  # the rolling particle's kernels
+_state = {"done": 0, "total": 0, "label": "", "seconds": None, "error": None, "report": None}
 _lock = threading.Lock()
 _thread = None
 _rolling_thread = None
@@ -50,11 +50,13 @@ def compile_all(report=None):
             report(f"kernels {done}/{total} ready ({label}), {time.perf_counter() - t0:.1f} s")
 
     if report is not None:
-        report("compiling the kernels in the background (numba; only the first start "
-               "after an install compiles, later ones load them from the cache) ...")
+        report(
+            "compiling the kernels in the background (numba; only the first start "
+            "after an install compiles, later ones load them from the cache) ..."
+        )
     try:
         vibtrans.warmup(models=MODELS, progress=progress)
-    except Exception as exc:          # a bug in the warm-up must not stop the server
+    except Exception as exc:  # a bug in the warm-up must not stop the server
         log.exception("compiling the kernels failed")
         with _lock:
             _state["error"] = f"{type(exc).__name__}: {exc}"
@@ -63,8 +65,10 @@ def compile_all(report=None):
             _state["seconds"] = time.perf_counter() - t0
         READY.set()
     if report is not None:
-        report(f"kernels ready in {_state['seconds']:.1f} s"
-               + (f" (warm-up failed: {_state['error']})" if _state["error"] else ""))
+        report(
+            f"kernels ready in {_state['seconds']:.1f} s"
+            + (f" (warm-up failed: {_state['error']})" if _state["error"] else "")
+        )
 
 
 def start(report=None, on_ready=None):
@@ -79,6 +83,7 @@ def start(report=None, on_ready=None):
         compile_all(report)
         if on_ready is not None:
             on_ready()
+
     _thread = threading.Thread(target=run, name="vibtrans-kernels", daemon=True)
     _thread.start()
     return _thread
@@ -95,20 +100,21 @@ def compile_rolling():
     what they need themselves)."""
     t0 = time.perf_counter()
     try:
-        scene = vibtrans.Scene(amplitude=100.0, mass=1.0, periods=2.0, tau=0.5,
-                               rolling="solid")
+        scene = vibtrans.Scene(amplitude=100.0, mass=1.0, periods=2.0, tau=0.5, rolling="solid")
         for lyapunov in (True, False):
             vibtrans.simulate(scene, window=(1.0, 1.5), lyapunov=lyapunov)
         error = None
-    except Exception as exc:          # a bug here must not stop the server
+    except Exception as exc:  # a bug here must not stop the server
         log.exception("compiling the rolling particle's kernels failed")
         error = f"{type(exc).__name__}: {exc}"
     finally:
         ROLLING_READY.set()
     report = _state["report"]
     if report is not None:
-        report(f"rolling particle's kernels ready in {time.perf_counter() - t0:.1f} s"
-               + (f" (failed: {error})" if error else ""))
+        report(
+            f"rolling particle's kernels ready in {time.perf_counter() - t0:.1f} s"
+            + (f" (failed: {error})" if error else "")
+        )
 
 
 def _after_warmup(fn):
@@ -125,8 +131,9 @@ def prepare_rolling():
     with _lock:
         if _thread is None or _rolling_thread is not None:
             return
-        _rolling_thread = threading.Thread(target=_after_warmup, args=(compile_rolling,),
-                                           name="vibtrans-rolling-kernels", daemon=True)
+        _rolling_thread = threading.Thread(
+            target=_after_warmup, args=(compile_rolling,), name="vibtrans-rolling-kernels", daemon=True
+        )
     _rolling_thread.start()
 
 
@@ -150,15 +157,19 @@ def status(scene=None):
     for the page."""
     if ready(scene):
         return None
-    if READY.is_set():              # (the rolling particle's, `ready`)
-        return ("Compiling the kernels of a particle that rolls (once per server start: "
-                "numba loads them from its cache, or compiles them after an install) "
-                "...")
+    if READY.is_set():  # (the rolling particle's, `ready`)
+        return (
+            "Compiling the kernels of a particle that rolls (once per server start: "
+            "numba loads them from its cache, or compiles them after an install) "
+            "..."
+        )
     with _lock:
         done, total = _state["done"], _state["total"]
     count = f" ({done} of {total} ready)" if total else ""
-    return (f"Compiling the simulation kernels{count}: this server has just started with an "
-            f"empty compilation cache; the run starts as soon as they are ready ...")
+    return (
+        f"Compiling the simulation kernels{count}: this server has just started with an "
+        f"empty compilation cache; the run starts as soon as they are ready ..."
+    )
 
 
 def wait(cancel=None, scene=None):

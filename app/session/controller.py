@@ -12,6 +12,7 @@ One run per session: a new request cancels the running one (its kernels
 stop at their next chunk, runs not started are dropped) and replaces it
 (app/session/latest.py's LatestJob).
 """
+
 import asyncio
 import functools
 import logging
@@ -32,7 +33,7 @@ from vibtrans_explorer.server.fairshare import lower_priority
 from vibtrans_explorer.session.latest import Job, LatestJob
 from vibtrans_explorer.session.urlstate import literal
 
-CANCELLED = "Run cancelled."        # the status after the user's Cancel
+CANCELLED = "Run cancelled."  # the status after the user's Cancel
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -43,21 +44,28 @@ log = logging.getLogger("vibtrans.explorer")
 RUN_NICE = 5
 # One pool for the process: numba kernels release the GIL, so runs proceed
 # while the server keeps serving other sessions.
-RUNNER = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2),
-                            thread_name_prefix="vibtrans-run",
-                            initializer=lower_priority, initargs=(RUN_NICE,))
+RUNNER = ThreadPoolExecutor(
+    max_workers=max(2, os.cpu_count() or 2),
+    thread_name_prefix="vibtrans-run",
+    initializer=lower_priority,
+    initargs=(RUN_NICE,),
+)
 MAX_STEPS = int(float(os.environ.get("VIBTRANS_MAX_STEPS", 5e7)))
 # while a run's kernels compile (a tip or a rolling particle run for the
 # first time since an install): its progress stays at 0 meanwhile
-COMPILING = ("Compiling the kernels of this scene (numba: once after an install; later runs "
-             "load them from the cache) ...")
-BUSY_AFTER = 0.25     # s: a run still going then shows progress and Cancel
+COMPILING = (
+    "Compiling the kernels of this scene (numba: once after an install; later runs "
+    "load them from the cache) ..."
+)
+BUSY_AFTER = 0.25  # s: a run still going then shows progress and Cancel
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
 
 def over_budget(steps, max_steps):
-    return (f"This scene needs about {steps:.2g} steps, over this server's limit of "
-            f"{max_steps:.2g} (VIBTRANS_MAX_STEPS): lower the fidelity or choose another point.")
+    return (
+        f"This scene needs about {steps:.2g} steps, over this server's limit of "
+        f"{max_steps:.2g} (VIBTRANS_MAX_STEPS): lower the fidelity or choose another point."
+    )
 
 
 class RunResult(NamedTuple):
@@ -66,6 +74,7 @@ class RunResult(NamedTuple):
     chaos verdict (None if none was needed: no take-off, or no twin run),
     the summary of both (analysis.Summary), and whether a twin ran but had
     nothing to decide (the run never took off)."""
+
     scene: object
     ds: object
     other: object
@@ -73,7 +82,7 @@ class RunResult(NamedTuple):
     twin: object
     summary: Summary
     twin_unneeded: bool
-    ran: dict = None        # the state's values when the run was made (all of them)
+    ran: dict = None  # the state's values when the run was made (all of them)
 
 
 def comparison(scene, compare):
@@ -92,7 +101,7 @@ def interpret(scene, ds, other, label):
     twin = other if (other is not None and other.attrs["model"] == scene.model) else None
     unneeded = twin is not None and not jumped(ds)
     if unneeded:
-        twin = None       # no take-off: the tau twin has nothing to decide
+        twin = None  # no take-off: the tau twin has nothing to decide
     return RunResult(scene, ds, other, label, twin, summarize(ds, twin), unneeded)
 
 
@@ -111,7 +120,7 @@ class RunJob(Job):
         self.scene, self.label = scene, label
         self.progress = 0.0
         self.compiling = False  # a kernel of its runs is compiling
-        self.ran = None         # the state's values when the run was made
+        self.ran = None  # the state's values when the run was made
 
     def set_progress(self, fraction):
         self.progress = fraction
@@ -155,8 +164,16 @@ class RunController(param.Parameterized):
     message = param.String(default="", doc="why a run was refused or failed; empty if none")
     result = param.Parameter(default=None, doc="the last RunResult shown")
 
-    def __init__(self, state, simulate=simulate, executor=RUNNER, schedule=_create_task,
-                 refusals=list, max_steps=MAX_STEPS, **params):
+    def __init__(
+        self,
+        state,
+        simulate=simulate,
+        executor=RUNNER,
+        schedule=_create_task,
+        refusals=list,
+        max_steps=MAX_STEPS,
+        **params,
+    ):
         super().__init__(**params)
         self.state = state
         self.simulate = simulate
@@ -164,7 +181,7 @@ class RunController(param.Parameterized):
         self.schedule = schedule
         self.refusals = refusals
         self.max_steps = max_steps
-        self.runs = LatestJob(executor)       # the latest run wins (its RunJob)
+        self.runs = LatestJob(executor)  # the latest run wins (its RunJob)
 
     @property
     def job(self):
@@ -198,12 +215,24 @@ class RunController(param.Parameterized):
         # release the GIL).
         T = scene.periods
         # the chaos verdict: the run's own Lyapunov exponent (Hertz models)
-        job.submit(self.simulate, scene, window=(T - FRAGMENT, T),
-                   samples_per_period=OVERVIEW_SAMPLES, progress=job.set_progress,
-                   cancel=job.event, max_steps=self.max_steps, lyapunov=True)
+        job.submit(
+            self.simulate,
+            scene,
+            window=(T - FRAGMENT, T),
+            samples_per_period=OVERVIEW_SAMPLES,
+            progress=job.set_progress,
+            cancel=job.event,
+            max_steps=self.max_steps,
+            lyapunov=True,
+        )
         if other_scene is not None:
-            job.submit(self.simulate, other_scene, samples_per_period=OVERVIEW_SAMPLES,
-                       cancel=job.event, max_steps=self.max_steps)
+            job.submit(
+                self.simulate,
+                other_scene,
+                samples_per_period=OVERVIEW_SAMPLES,
+                cancel=job.event,
+                max_steps=self.max_steps,
+            )
         if schedule:
             self.schedule(functools.partial(self.finish, job))
         return job
@@ -231,13 +260,13 @@ class RunController(param.Parameterized):
         still the session's job (a replaced job ends silently)."""
         scene = job.scene
         waiting = [asyncio.wrap_future(f) for f in job.futures]
-        for w in waiting:        # a replaced job's errors are not for anyone
+        for w in waiting:  # a replaced job's errors are not for anyone
             w.add_done_callback(_retrieved)
         try:
             t0 = time.perf_counter()
             while True:
                 _, pending = await asyncio.wait(waiting, timeout=0.1)
-                if not self.runs.is_latest(job):        # replaced by a newer run
+                if not self.runs.is_latest(job):  # replaced by a newer run
                     return
                 if not pending:
                     break
@@ -245,10 +274,18 @@ class RunController(param.Parameterized):
                 # goes straight from the click to its plots)
                 if self.busy or time.perf_counter() - t0 > BUSY_AFTER:
                     self.param.update(
-                        busy=True, progress=job.progress,
-                        status=warmup.status(scene) or (COMPILING if job.compiling else (
-                            f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
-                            f"m* = {scene.mass:.4g} ...")))
+                        busy=True,
+                        progress=job.progress,
+                        status=warmup.status(scene)
+                        or (
+                            COMPILING
+                            if job.compiling
+                            else (
+                                f"Running {scene.model} at A* = {scene.amplitude:.4g}, "
+                                f"m* = {scene.mass:.4g} ..."
+                            )
+                        ),
+                    )
             ds = job.futures[0].result()
             other = None if len(job.futures) < 2 else job.futures[1].result()
         except (Cancelled, CancelledError):
@@ -257,14 +294,15 @@ class RunController(param.Parameterized):
             return
         except StepBudgetExceeded as exc:
             if self.runs.is_latest(job):
-                self.param.update(status="", message=f"This scene is over this server's "
-                                  f"limit (VIBTRANS_MAX_STEPS): {literal(exc)}")
+                self.param.update(
+                    status="",
+                    message=f"This scene is over this server's limit (VIBTRANS_MAX_STEPS): {literal(exc)}",
+                )
             return
-        except Exception as exc:          # a failed run harms only this session
+        except Exception as exc:  # a failed run harms only this session
             if self.runs.is_latest(job):
                 log.exception("run failed: %s", scene.values())
-                self.param.update(status="",
-                                  message=f"The run failed: {type(exc).__name__}: {literal(exc)}")
+                self.param.update(status="", message=f"The run failed: {type(exc).__name__}: {literal(exc)}")
             return
         finally:
             self.runs.finish(job)

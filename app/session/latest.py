@@ -23,6 +23,7 @@ asking for it and stops only when the last of them cancels, which no
 session's object can decide alone.  A session's side of it is a LatestJob
 whose cancellation withdraws the session's request (`Job.when_cancelled`).
 """
+
 import asyncio
 import functools
 import threading
@@ -71,8 +72,7 @@ class Job:
         """fn(*args, **kwargs) in the executor; returns its future (kept in
         `futures`, cancelled with the job)."""
         if self.executor is None:
-            future = asyncio.get_running_loop().run_in_executor(
-                None, functools.partial(fn, *args, **kwargs))
+            future = asyncio.get_running_loop().run_in_executor(None, functools.partial(fn, *args, **kwargs))
         else:
             future = self.executor.submit(fn, *args, **kwargs)
         self.futures.append(future)
@@ -112,11 +112,10 @@ class LatestJob:
     start() returns (Panel's pn.state.execute by default, which keeps the
     session's document current in it)."""
 
-    def __init__(self, executor: Executor | None = None,
-                 schedule: Callable[[Callable], Any] | None = None):
+    def __init__(self, executor: Executor | None = None, schedule: Callable[[Callable], Any] | None = None):
         self.executor = executor
         self.schedule = schedule or pn.state.execute
-        self.job = None         # the latest Job (kept once finished), None once cancelled
+        self.job = None  # the latest Job (kept once finished), None once cancelled
 
     @property
     def running(self) -> bool:
@@ -146,8 +145,7 @@ class LatestJob:
             job.cancel()
         return job
 
-    def deliver(self, job: Job, show: Callable[[Any], Any],
-                failed: Callable[[Exception], Any]) -> None:
+    def deliver(self, job: Job, show: Callable[[Any], Any], failed: Callable[[Exception], Any]) -> None:
         """Wait for the job's first future (off the event loop), then, at the
         page's next tick and if `job` is still the latest: finish it and
         show(result), or failed(exception) if its work raised.  A cancelled
@@ -155,11 +153,11 @@ class LatestJob:
         self.schedule(functools.partial(self._deliver, job, show, failed))
 
     async def _deliver(self, job, show, failed):
-        doc = pn.state.curdoc          # (the session's: its next tick answers)
+        doc = pn.state.curdoc  # (the session's: its next tick answers)
         try:
             out = await asyncio.wrap_future(job.futures[0])
         except (Cancelled, CancelledError, asyncio.CancelledError):
-            self.finish(job)           # replaced by a newer request, or cancelled
+            self.finish(job)  # replaced by a newer request, or cancelled
             return
         except Exception as exc:
             at_next_tick(doc, functools.partial(self._answer, job, failed, exc))

@@ -24,6 +24,7 @@ window's lower to its upper bound: the adaptive refinement
 `cells + 1` points per axis) and refines level by level where the map
 changes.
 """
+
 import math
 from typing import NamedTuple
 
@@ -84,10 +85,15 @@ class MapRequest(ExplorerScene):
     lm_to = param.Number(default=1.0, bounds=SCENE_LOG_MASS, doc="log10 m* to")
     cells = param.Integer(default=4, bounds=(1, 64), doc="coarse grid cells per axis")
     levels = param.Integer(default=3, bounds=(1, 6), doc="refinement levels K")
-    stop = param.Selector(default="decided", objects=sorted(STOPS), doc=(
-        "the points' stopping rule: decided (each run ends once its drift is known to the "
-        "fidelity's stated error, or its chaos verdict is decided) or full (every run to "
-        "T_obs)"))
+    stop = param.Selector(
+        default="decided",
+        objects=sorted(STOPS),
+        doc=(
+            "the points' stopping rule: decided (each run ends once its drift is known to the "
+            "fidelity's stated error, or its chaos verdict is decided) or full (every run to "
+            "T_obs)"
+        ),
+    )
 
     def profiled(self):
         """Does the request run a profile other than the sphere's (a
@@ -99,7 +105,7 @@ class MapRequest(ExplorerScene):
         return self.rolling != "none"
 
     def points_per_axis(self):
-        return self.cells * 2 ** self.levels + 1
+        return self.cells * 2**self.levels + 1
 
     def points(self):
         """Points of the finest grid (an upper bound of those computed)."""
@@ -108,30 +114,31 @@ class MapRequest(ExplorerScene):
     def axes(self):
         """(log10 A* values, log10 m* values) of the finest grid."""
         n = self.points_per_axis()
-        return (np.round(np.linspace(self.la_from, self.la_to, n), 10),
-                np.round(np.linspace(self.lm_from, self.lm_to, n), 10))
+        return (
+            np.round(np.linspace(self.la_from, self.la_to, n), 10),
+            np.round(np.linspace(self.lm_from, self.lm_to, n), 10),
+        )
 
     def problems(self, max_points=MAX_POINTS):
         """What makes the request impossible, one message each ([] if none)."""
         out = []
-        for axis, lo, hi in (("log10 A*", self.la_from, self.la_to),
-                             ("log10 m*", self.lm_from, self.lm_to)):
+        for axis, lo, hi in (("log10 A*", self.la_from, self.la_to), ("log10 m*", self.lm_from, self.lm_to)):
             if not lo < hi:
-                out.append(f"the window's {axis} 'from' ({lo:g}) must be below its 'to' "
-                           f"({hi:g})")
+                out.append(f"the window's {axis} 'from' ({lo:g}) must be below its 'to' ({hi:g})")
         if rolling_refused(self.model, self.rolling):
             out.append(rolling_refused(self.model, self.rolling))
         if self.points() > max_points:
-            out.append(f"{self.points_per_axis()} x {self.points_per_axis()} = "
-                       f"{self.points():,} points is over this server's limit of "
-                       f"{max_points:,}: fewer coarse cells or levels")
+            out.append(
+                f"{self.points_per_axis()} x {self.points_per_axis()} = "
+                f"{self.points():,} points is over this server's limit of "
+                f"{max_points:,}: fewer coarse cells or levels"
+            )
         return out
 
     def scene_values(self):
         """The scene's values but A* and m* (a dict for vibtrans.Sweep); the
         material point's own rules only for it (they change nothing else)."""
-        values = {k: getattr(self, k) for k in SETTINGS
-                  if k not in (*POINT_MASS_SETTINGS, "profile")}
+        values = {k: getattr(self, k) for k in SETTINGS if k not in (*POINT_MASS_SETTINGS, "profile")}
         if self.model == "point-mass":
             values.update({k: getattr(self, k) for k in POINT_MASS_SETTINGS})
         elif self.profile != SPHERE:
@@ -141,9 +148,11 @@ class MapRequest(ExplorerScene):
     def sweep(self):
         """The vibtrans.Sweep of the finest grid (InputError if invalid)."""
         from vibtrans.maps.sweep import Sweep
+
         la, lm = self.axes()
-        return Sweep(la, lm, chaos=CHAOS, command="explorer map on demand", stop=self.stop,
-                     **self.scene_values())
+        return Sweep(
+            la, lm, chaos=CHAOS, command="explorer map on demand", stop=self.stop, **self.scene_values()
+        )
 
     def cache_request(self):
         """The dict that keys the map in the cache (vibtrans.maps.cache):
@@ -152,19 +161,27 @@ class MapRequest(ExplorerScene):
         key it had before the rule existed, as its store's attributes do)."""
         scene = Scene(**self.scene_values())
         # (a particle that does not roll keeps the key it had before rolling)
-        return {"scene": {k: getattr(scene, k) for k in sorted(scene.param) if k not in
-                          ("name", "amplitude", "mass")
-                          and not (k == "rolling" and scene.rolling == "none")},
-                "log_amplitude": [self.la_from, self.la_to],
-                "log_mass": [self.lm_from, self.lm_to],
-                "points_per_axis": self.points_per_axis(), "max_level": self.levels,
-                "drift_tolerance": DEFAULT_DRIFT_TOLERANCE, "chaos": CHAOS,
-                **({"point_mass_chaos": POINT_MASS_CHAOS} if self.model == "point-mass" else {}),
-                **({"stop": self.stop} if self.stop != "full" else {})}
+        return {
+            "scene": {
+                k: getattr(scene, k)
+                for k in sorted(scene.param)
+                if k not in ("name", "amplitude", "mass") and not (k == "rolling" and scene.rolling == "none")
+            },
+            "log_amplitude": [self.la_from, self.la_to],
+            "log_mass": [self.lm_from, self.lm_to],
+            "points_per_axis": self.points_per_axis(),
+            "max_level": self.levels,
+            "drift_tolerance": DEFAULT_DRIFT_TOLERANCE,
+            "chaos": CHAOS,
+            **({"point_mass_chaos": POINT_MASS_CHAOS} if self.model == "point-mass" else {}),
+            **({"stop": self.stop} if self.stop != "full" else {}),
+        }
 
     def title(self):
-        scene = (f"{self.model}, mu = {self.mu:g}, theta = {self.theta:g}, nu = {self.nu:g}, "
-                 f"tau = {self.tau:g}, {self.periods:g} periods, {self.fidelity}")
+        scene = (
+            f"{self.model}, mu = {self.mu:g}, theta = {self.theta:g}, nu = {self.nu:g}, "
+            f"tau = {self.tau:g}, {self.periods:g} periods, {self.fidelity}"
+        )
         if self.model == "point-mass":
             scene += f", {self.stick_rule} rule, alpha_t = {self.alpha_t:g}"
         elif self.profile != SPHERE:
@@ -184,21 +201,41 @@ class MapRequest(ExplorerScene):
         return {k: getattr(self, k) for k in FIELDS}
 
 
-STOP_WORDS = {"decided": "each point run until its drift is decided (stop: decided)",
-              "full": "every point run all its periods (stop: full)"}
+STOP_WORDS = {
+    "decided": "each point run until its drift is decided (stop: decided)",
+    "full": "every point run all its periods (stop: full)",
+}
 
 # The URL form: a request's parameters, comma-separated, in the order links
 # hold them (the form's first sixteen, then those appended since).  A link
 # keeps working while fields are only appended: a link without the appended
 # ones takes LEGACY's values for them, what it meant when it was written.
-FIELDS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
-          "stick_rule", "alpha_t", "la_from", "la_to", "lm_from", "lm_to", "cells", "levels",
-          "stop", "profile", "rolling")
+FIELDS = (
+    "model",
+    "mu",
+    "theta",
+    "nu",
+    "tau",
+    "periods",
+    "fidelity",
+    "integrator",
+    "stick_rule",
+    "alpha_t",
+    "la_from",
+    "la_to",
+    "lm_from",
+    "lm_to",
+    "cells",
+    "levels",
+    "stop",
+    "profile",
+    "rolling",
+)
 # the appended fields' values for an older link: before `stop` every map ran
 # in full, before `profile` every particle was the sphere, before `rolling`
 # no particle turned
 LEGACY = {"stop": "full", "profile": SPHERE, "rolling": "none"}
-assert tuple(LEGACY) == FIELDS[len(FIELDS) - len(LEGACY):]
+assert tuple(LEGACY) == FIELDS[len(FIELDS) - len(LEGACY) :]
 # (every parameter of a request is in its link, once)
 assert sorted(FIELDS) == sorted(k for k in MapRequest.param if k != "name")
 URL_KEY = "map"
@@ -216,8 +253,10 @@ OMITTED_AT_LEGACY = ("rolling",)
 def encode(request):
     """The request as the URL's `map=` value."""
     texts = [_text(getattr(request, k)) for k in FIELDS]
-    while FIELDS[len(texts) - 1] in OMITTED_AT_LEGACY and \
-            getattr(request, FIELDS[len(texts) - 1]) == LEGACY[FIELDS[len(texts) - 1]]:
+    while (
+        FIELDS[len(texts) - 1] in OMITTED_AT_LEGACY
+        and getattr(request, FIELDS[len(texts) - 1]) == LEGACY[FIELDS[len(texts) - 1]]
+    ):
         texts.pop()
     return ",".join(texts)
 
@@ -232,17 +271,21 @@ def decode(raw):
     parts = raw.split(",")
     older = len(FIELDS) - len(parts)
     if not 0 <= older <= len(LEGACY):
-        return None, [f"URL parameter '{URL_KEY}' (a map request) must hold {len(FIELDS)} "
-                      f"comma-separated values ({', '.join(FIELDS)}; an older link may omit "
-                      f"the last {len(LEGACY)}: {', '.join(LEGACY)}); got {len(parts)}"]
-    values, errors = {k: LEGACY[k] for k in FIELDS[len(parts):]}, []
+        return None, [
+            f"URL parameter '{URL_KEY}' (a map request) must hold {len(FIELDS)} "
+            f"comma-separated values ({', '.join(FIELDS)}; an older link may omit "
+            f"the last {len(LEGACY)}: {', '.join(LEGACY)}); got {len(parts)}"
+        ]
+    values, errors = {k: LEGACY[k] for k in FIELDS[len(parts) :]}, []
     for name, text in zip(FIELDS, parts):
         p = MapRequest.param[name]
         try:
             values[name] = urlstate.convert(p, text)
         except ValueError:
-            errors.append(f"URL parameter '{URL_KEY}': {name} must be "
-                          f"{urlstate.valid_range(p)}; got '{urlstate.shown(text.strip())}'")
+            errors.append(
+                f"URL parameter '{URL_KEY}': {name} must be "
+                f"{urlstate.valid_range(p)}; got '{urlstate.shown(text.strip())}'"
+            )
     if errors:
         return None, errors
     request = MapRequest(**values)
@@ -258,18 +301,21 @@ class Estimate(NamedTuple):
     compute (expected_points), `steps` their expected integration
     steps under the request's stopping rule, `seconds` their time at this
     server's measured cost per step and per point over its map workers."""
+
     points: int
     computed: float
     steps: float
     seconds: float
 
     def text(self, workers):
-        return (f"At most {self.points:,} points ({math.isqrt(self.points)} per axis); the "
-                f"refinement computes only where the map changes: about {self.computed:,.0f} "
-                f"of them expected, {self.steps:.3g} integration steps: about "
-                f"{duration(self.seconds)} on this server ({workers} "
-                f"core{'s' if workers != 1 else ''}, from its measured time per step). "
-                f"The time left is shown as the map computes.")
+        return (
+            f"At most {self.points:,} points ({math.isqrt(self.points)} per axis); the "
+            f"refinement computes only where the map changes: about {self.computed:,.0f} "
+            f"of them expected, {self.steps:.3g} integration steps: about "
+            f"{duration(self.seconds)} on this server ({workers} "
+            f"core{'s' if workers != 1 else ''}, from its measured time per step). "
+            f"The time left is shown as the map computes."
+        )
 
 
 def duration(seconds):
@@ -290,9 +336,16 @@ def bound_steps(request):
         return np.full((request.points_per_axis(),) * 2, float(steps))
     scales = scene_scales(Scene(profile=request.profile))
     la, lm = request.axes()
-    return np.array([[step_count(request.periods, time_step(10.0 ** a, 10.0 ** m,
-                                                            request.fidelity, scales=scales))
-                      for m in lm] for a in la], dtype=float)
+    return np.array(
+        [
+            [
+                step_count(request.periods, time_step(10.0**a, 10.0**m, request.fidelity, scales=scales))
+                for m in lm
+            ]
+            for a in la
+        ],
+        dtype=float,
+    )
 
 
 def estimate(request, step_seconds, point_seconds=0.0, workers=1):
@@ -305,18 +358,21 @@ def estimate(request, step_seconds, point_seconds=0.0, workers=1):
     steps = bound_steps(request)
     computed = expected_points(request)
     per_point = float(steps.mean()) * expected_time_share(
-        request.model, request.stop, request.periods, request.tau, request.fidelity)
-    return Estimate(request.points(), computed, computed * per_point,
-                    MAP_START_SECONDS
-                    + computed * (per_point * step_seconds + point_seconds) / max(1, workers))
+        request.model, request.stop, request.periods, request.tau, request.fidelity
+    )
+    return Estimate(
+        request.points(),
+        computed,
+        computed * per_point,
+        MAP_START_SECONDS + computed * (per_point * step_seconds + point_seconds) / max(1, workers),
+    )
 
 
 def expected_points(request):
     """The points the refinement is expected to compute: COMPUTED_SHARE
     (interpolated in log points per axis) of the finest grid."""
     n, share = zip(*COMPUTED_SHARE)
-    return float(np.interp(np.log(request.points_per_axis()), np.log(n), share)) \
-        * request.points()
+    return float(np.interp(np.log(request.points_per_axis()), np.log(n), share)) * request.points()
 
 
 def seconds_left(elapsed, done, expected):

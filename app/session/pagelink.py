@@ -10,6 +10,7 @@ shows, until the state changes.  Panel's Location is not used: it pushes
 a history entry at every change, answers no Back, and applies the
 browser's raw query of its own when the page connects (a `?mu=0.5`
 reached the run unchecked while the page said 0.3)."""
+
 import panel as pn
 from tornado.httputil import parse_qs_bytes
 
@@ -27,16 +28,16 @@ def map_request_of(args):
         given = [given]
     texts = {urlstate.as_text(v) for v in given}
     if len(texts) > 1:
-        return None, [f"URL parameter '{maprequest.URL_KEY}' is given {len(given)} times "
-                      f"with different values"]
+        return None, [
+            f"URL parameter '{maprequest.URL_KEY}' is given {len(given)} times with different values"
+        ]
     return maprequest.decode(texts.pop())
 
 
 def query_args(search):
     """A query ('?la=0.5&...') as the server's request gives it: {key: [bytes]}
     (Tornado's parse: blank values kept, '+' a space, escapes decoded)."""
-    return parse_qs_bytes(search[1:] if search.startswith("?") else search,
-                          keep_blank_values=True)
+    return parse_qs_bytes(search[1:] if search.startswith("?") else search, keep_blank_values=True)
 
 
 class PageLink:
@@ -50,8 +51,8 @@ class PageLink:
         self.state = state
         self.location = location
         self.navigated = navigated
-        self.written = None       # the address the browser shows, as the server knows it
-        self._following = False   # the state follows the browser's address: nothing written
+        self.written = None  # the address the browser shows, as the server knows it
+        self._following = False  # the state follows the browser's address: nothing written
 
     def apply(self, args):
         """Apply a link's query (Tornado's {key: [bytes]}) to the state:
@@ -79,8 +80,7 @@ class PageLink:
 
     def query(self):
         """The page's link query: the state's values, one spelling each."""
-        extra = ([] if self.state.map_request is None
-                 else [(maprequest.URL_KEY, self.state.map_request)])
+        extra = [] if self.state.map_request is None else [(maprequest.URL_KEY, self.state.map_request)]
         return urlstate.query(self.state, URL_KEYS, extra)
 
     def write(self, *events):
@@ -102,7 +102,7 @@ class PageLink:
         """The browser shows `search` (its Back or Forward): the state
         follows it, as a link (`navigated`); the address stays as it is."""
         if search != self.location.search:
-            return              # the browser went on meanwhile: its latest address is next
+            return  # the browser went on meanwhile: its latest address is next
         self._following = True
         try:
             if self.navigated is not None:

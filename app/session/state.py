@@ -8,6 +8,7 @@ explorer's limits, `SCENE_LIMITS`), the device's and its particle's tip
 are `design.Device` and `designtip.Tip` (the state is one of each: the
 Units and Design tabs edit it).  The lists of fields and the link's keys
 are read from `.param`."""
+
 import copy
 import math
 
@@ -27,29 +28,33 @@ MAP_MATERIAL = {"theta": Scene.param.theta.default, "nu": Scene.param.nu.default
 # the shipped maps' ramp and observation time (Scene's defaults); a map on
 # demand may have its own (app/session/maprequest.py)
 MAP_RUN = {"tau": Scene.param.tau.default, "periods": Scene.param.periods.default}
-RUN_TAU = (0.0, 1000.0)              # tau, periods
-RUN_PERIODS = (10.0, 10000.0)        # observation time, periods (the step cap refuses costly runs)
+RUN_TAU = (0.0, 1000.0)  # tau, periods
+RUN_PERIODS = (10.0, 10000.0)  # observation time, periods (the step cap refuses costly runs)
 # Wider than the shipped maps (vibtrans.core.params.MAP_LOG_*): a scene runs
 # wherever the kernels do (a SAW device reaches A* ~ 2e3); the step budget
 # refuses the costly ones.
-SCENE_LOG_AMPLITUDE = (-6.0, 6.0)    # log10 A*
-SCENE_LOG_MASS = (-8.0, 8.0)         # log10 m*
+SCENE_LOG_AMPLITUDE = (-6.0, 6.0)  # log10 A*
+SCENE_LOG_MASS = (-8.0, 8.0)  # log10 m*
 # The explorer's limits on the library's scene settings (each narrower than
 # Scene's, whose declaration the explorer's copy keeps: default, doc, the
 # message naming the parameter and its range): the two models its maps
 # show, mu over the shipped maps' friction range, the run's ramp and
 # length (RUN_TAU, RUN_PERIODS).  The state, a map request and the Design
 # tab take these (ExplorerScene, `limited`).
-SCENE_LIMITS = {"model": {"objects": ["deformable", "point-mass"]},
-                "mu": {"bounds": (0.01, 1.0), "inclusive_bounds": (True, True)},
-                "tau": {"bounds": RUN_TAU, "inclusive_bounds": (True, True)},
-                "periods": {"bounds": RUN_PERIODS, "inclusive_bounds": (True, True)}}
+SCENE_LIMITS = {
+    "model": {"objects": ["deformable", "point-mass"]},
+    "mu": {"bounds": (0.01, 1.0), "inclusive_bounds": (True, True)},
+    "tau": {"bounds": RUN_TAU, "inclusive_bounds": (True, True)},
+    "periods": {"bounds": RUN_PERIODS, "inclusive_bounds": (True, True)},
+}
 # The explorer's limits on the device (the library takes any positive size;
 # a link or a form of the explorer stays within these).
-DEVICE_LIMITS = {"radius": {"bounds": (1e-9, 1.0), "inclusive_bounds": (False, True)},
-                 "frequency": {"bounds": (1.0, 1e10)},
-                 "amplitude": {"bounds": (0.0, 1e-2), "inclusive_bounds": (False, True)},
-                 "preload": {"bounds": (0.0, 1e3)}}
+DEVICE_LIMITS = {
+    "radius": {"bounds": (1e-9, 1.0), "inclusive_bounds": (False, True)},
+    "frequency": {"bounds": (1.0, 1e10)},
+    "amplitude": {"bounds": (0.0, 1e-2), "inclusive_bounds": (False, True)},
+    "preload": {"bounds": (0.0, 1e3)},
+}
 # the map tabs, as the URL names them
 MAP_TABS = ("map", "vertical", "units", "map-on-demand", "difference", "design")
 
@@ -63,7 +68,7 @@ def limited(source, limits, names=None, base=param.Parameterized, name=None):
     names = tuple(limits) if names is None else tuple(names)
     params = {}
     for n in names:
-        p = copy.deepcopy(source.param[n])      # (its own lists: the library's stay as they are)
+        p = copy.deepcopy(source.param[n])  # (its own lists: the library's stay as they are)
         for attribute, value in limits.get(n, {}).items():
             setattr(p, attribute, value)
         params[n] = p
@@ -74,8 +79,10 @@ def limited(source, limits, names=None, base=param.Parameterized, name=None):
 # section 10): the library's kinds but a measured table (file:PATH), which
 # names a file on the server (a link must not read the server's files) and
 # needs the device's load: the API and the CLI take it
-PROFILE_VALUES = (f"sphere, cone, power:N (N ≥ {N_MIN:g}), flat-sphere:C (0 ≤ C ≤ {FLAT_MAX:g}, "
-                  f"the flat's radius in sqrt(R a0))")
+PROFILE_VALUES = (
+    f"sphere, cone, power:N (N ≥ {N_MIN:g}), flat-sphere:C (0 ≤ C ≤ {FLAT_MAX:g}, "
+    f"the flat's radius in sqrt(R a0))"
+)
 SPHERE = "sphere"
 
 
@@ -84,11 +91,13 @@ class ExplorerProfile(ProfileSpec):
     checked by the library (`check_profile`: its message names the
     parameter and its range); a measured table is refused here."""
 
-    valid_values = PROFILE_VALUES       # urlstate.valid_range's words
-    refuse_measured = (f"profile: a measured table (file:PATH) is not offered by the "
-                       f"explorer (a link cannot name a file on the server; the API and "
-                       f"`vibtrans simulate --profile file:PATH` take it); it must be "
-                       f"one of {PROFILE_VALUES}")
+    valid_values = PROFILE_VALUES  # urlstate.valid_range's words
+    refuse_measured = (
+        f"profile: a measured table (file:PATH) is not offered by the "
+        f"explorer (a link cannot name a file on the server; the API and "
+        f"`vibtrans simulate --profile file:PATH` take it); it must be "
+        f"one of {PROFILE_VALUES}"
+    )
 
     def check_text(self, raw):
         """The value of a typed or linked text (urlstate.convert), or the
@@ -107,8 +116,7 @@ def is_sphere(profile):
 
 def within(la, lm, log_amplitude, log_mass):
     """Is (log10 A*, log10 m*) inside the closed ranges given?"""
-    return (log_amplitude[0] <= la <= log_amplitude[1]
-            and log_mass[0] <= lm <= log_mass[1])
+    return log_amplitude[0] <= la <= log_amplitude[1] and log_mass[0] <= lm <= log_mass[1]
 
 
 # the library's scene settings a session chooses: Scene's but its point on
@@ -140,8 +148,10 @@ def rolling_refused(model, rolling):
     deformable particle turns), or "" when it can."""
     if rolling == ROLLING_NONE or model == "deformable":
         return ""
-    return (f"rolling must be none with model {model} (the material point has no size to "
-            f"turn); with model deformable it is {ExplorerScene.param.rolling.valid_values}")
+    return (
+        f"rolling must be none with model {model} (the material point has no size to "
+        f"turn); with model deformable it is {ExplorerScene.param.rolling.valid_values}"
+    )
 
 
 def link_conflicts(values, url_keys):
@@ -176,11 +186,9 @@ class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
     compare = param.Selector(default="tau twin", objects=["none", "tau twin", "point mass"])
     chaotic = param.Selector(default="grey", objects=["grey", "colour"])
     # what the map shows: the drift, or the chaos indicator
-    layer = param.Selector(default="drift velocity",
-                           objects=["drift velocity", "Lyapunov exponent"])
+    layer = param.Selector(default="drift velocity", objects=["drift velocity", "Lyapunov exponent"])
     # the period-1 orbit's period doubling and stability region over the map
-    orbits = param.Selector(default="no orbit curves",
-                            objects=["no orbit curves", "period-1 orbit curves"])
+    orbits = param.Selector(default="no orbit curves", objects=["no orbit curves", "period-1 orbit curves"])
     # one map (the selected model's) or the two models side by side, linked
     maps = param.Selector(default="selected model", objects=["selected model", "both models"])
     # the map on demand shown (app/session/maprequest.py's URL form), None: the shipped map
@@ -230,19 +238,20 @@ class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
         except ValueError as exc:
             raise ValueError(f"the device is not a scene: {literal(exc)}") from None
         if not within(la, lm, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS):
-            raise ValueError(literal(
-                f"the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is outside the "
-                f"explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, log10 m* in "
-                f"{list(SCENE_LOG_MASS)}."))
+            raise ValueError(
+                literal(
+                    f"the device (log10 A* = {la:.4g}, log10 m* = {lm:.4g}) is outside the "
+                    f"explorer's range: log10 A* in {list(SCENE_LOG_AMPLITUDE)}, log10 m* in "
+                    f"{list(SCENE_LOG_MASS)}."
+                )
+            )
         profile = self.device_tip()[3]
-        self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, profile=profile,
-                          **scene)
+        self.param.update(log_amplitude=la, log_mass=lm, theta=theta, nu=nu, profile=profile, **scene)
 
     def device_fields(self):
         """The device's fields in use: DEVICE_FIELDS but the sizes of the
         tip's other kinds (hidden: their text does not make the device)."""
-        return tuple(k for k in DEVICE_FIELDS
-                     if k not in TIP_FIELDS or k == "tip" or k in self.sizes())
+        return tuple(k for k in DEVICE_FIELDS if k not in TIP_FIELDS or k == "tip" or k in self.sizes())
 
     def device_errors(self):
         """The messages of the device's invalid typed fields (in use)."""
@@ -264,8 +273,11 @@ class ExplorerState(Tip, ExplorerDevice, ExplorerScene):
 
     def scene(self):
         """The selected scene (a vibtrans.Scene; ValueError if invalid)."""
-        return Scene(amplitude=10 ** self.log_amplitude, mass=10 ** self.log_mass,
-                     **{k: getattr(self, k) for k in SETTINGS})
+        return Scene(
+            amplitude=10**self.log_amplitude,
+            mass=10**self.log_mass,
+            **{k: getattr(self, k) for k in SETTINGS},
+        )
 
 
 # the fields whose value makes the scene (a run refuses while one is
@@ -279,14 +291,22 @@ DEVICE_FIELDS = (*(k for k in Device.param if k != "name"), *TIP_FIELDS)
 # The link: every parameter of the state but the page's own bookkeeping (the
 # map on demand has its own key, maprequest.URL_KEY), the map's colour of
 # chaos and a custom material's properties; some under a short key.
-NOT_IN_LINK = ("name", "chaotic", "map_request", "invalid", "substrate_custom",
-               "particle_custom")
-SHORT_KEYS = {"log_amplitude": "la", "log_mass": "lm", "stick_rule": "rule", "alpha_t": "at",
-              "frequency": "freq", "amplitude": "amp", "tip_half_angle": "tipa",
-              "tip_exponent": "tipn", "tip_radius": "tipr", "tip_flat_radius": "tipc"}
+NOT_IN_LINK = ("name", "chaotic", "map_request", "invalid", "substrate_custom", "particle_custom")
+SHORT_KEYS = {
+    "log_amplitude": "la",
+    "log_mass": "lm",
+    "stick_rule": "rule",
+    "alpha_t": "at",
+    "frequency": "freq",
+    "amplitude": "amp",
+    "tip_half_angle": "tipa",
+    "tip_exponent": "tipn",
+    "tip_radius": "tipr",
+    "tip_flat_radius": "tipc",
+}
 URL_KEYS = {k: SHORT_KEYS.get(k, k) for k in ExplorerState.param if k not in NOT_IN_LINK}
 # a value's older spellings in links, still accepted: {parameter: {old: new}}
-URL_ALIASES = {"model": {"point_mass": "point-mass", "pointmass": "point-mass",
-                         "point mass": "point-mass"},
-               "compare": {"point-mass": "point mass", "point_mass": "point mass",
-                           "tau-twin": "tau twin"}}
+URL_ALIASES = {
+    "model": {"point_mass": "point-mass", "pointmass": "point-mass", "point mass": "point-mass"},
+    "compare": {"point-mass": "point mass", "point_mass": "point mass", "tau-twin": "tau twin"},
+}

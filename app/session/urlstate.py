@@ -35,15 +35,16 @@ Rules:
 * the given text is shown in the message escaped (no HTML, no Markdown)
   and cut to 40 characters: the message is rendered as Markdown.
 """
+
 import html
 import math
 import re
 
 import param
 
-MAX_LENGTH = 64            # longest accepted value, characters
-SHOWN = 40                 # longest given text quoted in a message
-REASON = 400               # longest library reason added to a message
+MAX_LENGTH = 64  # longest accepted value, characters
+SHOWN = 40  # longest given text quoted in a message
+REASON = 400  # longest library reason added to a message
 DEFAULT_MU = 0.3
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
 _INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
@@ -93,8 +94,7 @@ def _inclusive(p):
 def _inside(p, value):
     lo, hi = _bounds(p)
     lo_in, hi_in = _inclusive(p)
-    return ((lo <= value if lo_in else lo < value)
-            and (value <= hi if hi_in else value < hi))
+    return (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
 
 
 def valid_range(p):
@@ -104,13 +104,16 @@ def valid_range(p):
         return f"one of {', '.join(map(str, p.objects))}"
     if getattr(p, "valid_values", None):
         return f"one of {p.valid_values}"
-    if getattr(p, "range_text", None):       # a size the library checks (the particle's tip)
+    if getattr(p, "range_text", None):  # a size the library checks (the particle's tip)
         return p.range_text
     what = "an integer" if isinstance(p, param.Integer) else "a number"
     lo, hi = _bounds(p)
     lo_in, hi_in = _inclusive(p)
-    return what if (lo, hi) == (-math.inf, math.inf) else (
-        f"{what} in {'[' if lo_in else '('}{lo}, {hi}{']' if hi_in else ')'}")
+    return (
+        what
+        if (lo, hi) == (-math.inf, math.inf)
+        else (f"{what} in {'[' if lo_in else '('}{lo}, {hi}{']' if hi_in else ')'}")
+    )
 
 
 def convert(p, raw):
@@ -119,7 +122,7 @@ def convert(p, raw):
     too (app/views/inputs.py)."""
     if len(raw) > MAX_LENGTH:
         raise ValueError("too long")
-    raw = raw.strip(" \t")          # a '+' in a query is a space
+    raw = raw.strip(" \t")  # a '+' in a query is a space
     if callable(getattr(p, "check_text", None)):
         return p.check_text(raw)
     if isinstance(p, param.Selector):
@@ -135,7 +138,7 @@ def convert(p, raw):
         return value
     checked = _library_checked(p)
     if checked and raw == "" and p.allow_None:
-        return None                     # (a size that may be absent: the library's default)
+        return None  # (a size that may be absent: the library's default)
     if not _NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
@@ -172,18 +175,18 @@ def parse(args, state, url_keys, aliases=None):
         if not texts:
             continue
         if len(set(texts)) > 1:
-            errors.append(f"URL parameter '{key}' ({name}) is given {len(texts)} times with "
-                          f"different values; it must be {valid_range(p)}")
+            errors.append(
+                f"URL parameter '{key}' ({name}) is given {len(texts)} times with "
+                f"different values; it must be {valid_range(p)}"
+            )
             continue
         raw = texts[0]
         raw = aliases.get(name, {}).get(raw.strip(" \t"), raw)
         try:
             values[name] = convert(p, raw)
         except ValueError as exc:
-            why = (f" ({shown(str(exc), REASON)})" if reason_given(p)
-                   and len(raw) <= MAX_LENGTH else "")
-            errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; "
-                          f"got '{shown(raw)}'{why}")
+            why = f" ({shown(str(exc), REASON)})" if reason_given(p) and len(raw) <= MAX_LENGTH else ""
+            errors.append(f"URL parameter '{key}' ({name}) must be {valid_range(p)}; got '{shown(raw)}'{why}")
     return values, errors
 
 
@@ -191,7 +194,7 @@ def written(value):
     """A value as a link writes it: numbers exactly (repr: the run a link
     reproduces is the run shown), options as they are."""
     if isinstance(value, float):
-        return repr(value + 0.0)        # (-0.0 is 0.0: equal, no change seen)
+        return repr(value + 0.0)  # (-0.0 is 0.0: equal, no change seen)
     return str(value)
 
 
@@ -199,8 +202,12 @@ def query(state, url_keys, extra=()):
     """The link's query ("?la=...&lm=...") of the state: every key of
     `url_keys`, then `extra` ((key, text) pairs); None values left out."""
     from urllib.parse import urlencode
-    pairs = [(key, written(getattr(state, name))) for name, key in url_keys.items()
-             if getattr(state, name) is not None]
+
+    pairs = [
+        (key, written(getattr(state, name)))
+        for name, key in url_keys.items()
+        if getattr(state, name) is not None
+    ]
     return "?" + urlencode([*pairs, *extra])
 
 
@@ -212,5 +219,10 @@ def resolved(values, state, url_keys):
 def message(errors):
     """The one line the explorer shows for a link's errors (empty if none):
     nothing of such a link is run."""
-    return ("This link has errors, so nothing was run: " + " · ".join(errors)
-            + ". Correct the link, or choose a scene and press Run." if errors else "")
+    return (
+        "This link has errors, so nothing was run: "
+        + " · ".join(errors)
+        + ". Correct the link, or choose a scene and press Run."
+        if errors
+        else ""
+    )

@@ -42,6 +42,7 @@ elsewhere, so its crests move right while the particle sits on the surface
 exactly as computed.  The view moves with the particle (x - x*(t));
 marks on the surface, points of the substrate, show it sliding under it.
 """
+
 import decimal
 import functools
 import math
@@ -78,37 +79,48 @@ from vibtrans.products import plots
 from vibtrans_explorer.session.state import is_sphere
 from vibtrans_explorer.views.presentation import INPUT_FONT
 
-MAX_FRAMES = 3000          # frames sent to the browser per run (~0.25 MB)
+MAX_FRAMES = 3000  # frames sent to the browser per run (~0.25 MB)
 SIDE_W, SIDE_H = 460, 300  # the side view's plotting area, pixels (equal scales)
-CIRCLE_PX = 300            # the contact circle's plotting area, pixels (square)
-PLAYER = (100, 360, 150)   # the player's widths: its button, slider and speed selector
-RHO_FRACTION = 0.1         # drawn particle radius / the height the motion spans
-RHO_OVER_OVERLAP = 3.0     # drawn particle radius / the largest overlap a*, at least
-WAVELENGTH_VIEWS = 3.0     # drawn wavelength / the view's width
+CIRCLE_PX = 300  # the contact circle's plotting area, pixels (square)
+PLAYER = (100, 360, 150)  # the player's widths: its button, slider and speed selector
+RHO_FRACTION = 0.1  # drawn particle radius / the height the motion spans
+RHO_OVER_OVERLAP = 3.0  # drawn particle radius / the largest overlap a*, at least
+WAVELENGTH_VIEWS = 3.0  # drawn wavelength / the view's width
 # a profile's tip: its outline drawn out to this many static
 # contact radii from the axis (as app/views/profile.py draws it), at most
 # this share of the drawn radius (the body's arc above it), in so many points
 TIP_CONTACT_RADII = 1.6
 TIP_RHO_SHARE = 0.8
 TIP_POINTS = 81
-TIP_HEIGHT_SPHERES = 2.0    # a steeper tip's drawing ends at twice the sphere's height
-MARK_COLOUR = "#08306b"     # a rolling particle's mark: a radius that turns with it
+TIP_HEIGHT_SPHERES = 2.0  # a steeper tip's drawing ends at twice the sphere's height
+MARK_COLOUR = "#08306b"  # a rolling particle's mark: a radius that turns with it
 ARC_POINTS = 121
-TABLE = 720                # samples per period of the surface's vertical motion
-CURVE_POINTS = 161         # points of the drawn surface
-MARKS_PER_WAVELENGTH = 8   # surface marks (points of the substrate)
-TICK_MS = 40               # the player's clock tick
-SPEEDS = (("0.05", "0.05 periods/s"), ("0.1", "0.1 periods/s"), ("0.25", "0.25 periods/s"),
-          ("0.5", "0.5 periods/s"), ("1", "1 period/s"), ("5", "5 periods/s"),
-          ("20", "20 periods/s"), ("100", "100 periods/s"))
+TABLE = 720  # samples per period of the surface's vertical motion
+CURVE_POINTS = 161  # points of the drawn surface
+MARKS_PER_WAVELENGTH = 8  # surface marks (points of the substrate)
+TICK_MS = 40  # the player's clock tick
+SPEEDS = (
+    ("0.05", "0.05 periods/s"),
+    ("0.1", "0.1 periods/s"),
+    ("0.25", "0.25 periods/s"),
+    ("0.5", "0.5 periods/s"),
+    ("1", "1 period/s"),
+    ("5", "5 periods/s"),
+    ("20", "20 periods/s"),
+    ("100", "100 periods/s"),
+)
 # the stretch of the run the animation shows: the full-resolution window
 # ("window": the run's last periods recorded sample by sample), or the last
 # so many periods of the run ("0": all of it), decimated: before the window the run
 # is recorded at plots.OVERVIEW_SAMPLES per period (the drift shows, a hop
 # within a period does not)
-WINDOWS = {"the last periods at full resolution": "window", "the last 10 periods": "10",
-           "the last 100 periods": "100", "the last 1000 periods": "1000",
-           "the whole run (decimated)": "0"}
+WINDOWS = {
+    "the last periods at full resolution": "window",
+    "the last 10 periods": "10",
+    "the last 100 periods": "100",
+    "the last 1000 periods": "1000",
+    "the whole run (decimated)": "0",
+}
 DEFAULT_SPEED = "0.25"
 PARTICLE_FILL = "#c6dbef"
 SUBSTRATE_FILL = "#bcaaa4"
@@ -127,6 +139,7 @@ def _example_device():
     """(R / a0, wavelength / a0) of the Units tab's default device, a 0.5 mm
     steel bead on glass at 108 kHz: how far from scale the side view is."""
     from vibtrans.core import units
+
     radius, frequency = 0.5e-3, 108e3
     n = units.to_normalized("glass", "steel", radius, frequency, 1e-9)
     return radius / n.a0, n.c_R / frequency / n.a0
@@ -136,8 +149,11 @@ def _fixed(v, decimals):
     """`v` with `decimals` decimals as JavaScript's toFixed writes it (ties
     away from zero, on the exact binary value; Python's format rounds ties
     to even: 39.40625 -> '39.4062', toFixed '39.4063')."""
-    return str(decimal.Decimal(float(v)).quantize(decimal.Decimal(1).scaleb(-int(decimals)),
-                                                  rounding=decimal.ROUND_HALF_UP))
+    return str(
+        decimal.Decimal(float(v)).quantize(
+            decimal.Decimal(1).scaleb(-int(decimals)), rounding=decimal.ROUND_HALF_UP
+        )
+    )
 
 
 def _short(v):
@@ -245,15 +261,19 @@ function draw(i) {
 _ON_FRAME_JS = _DRAW_JS + "draw(cb_obj.value);"
 
 # a new run (or none): back to its first frame
-_ON_RUN_JS = _DRAW_JS + """
+_ON_RUN_JS = (
+    _DRAW_JS
+    + """
 if (slider.value != 0) slider.setv({value: 0}, {sync: false});
 draw(0);
 """
+)
 
 # play / pause: a clock in periods, advanced by the wall time elapsed times
 # the speed; the frame shown is the last one at or before it (the end wraps
 # to the start).  A hand on the slider moves the clock there.
-_PLAY_JS = """
+_PLAY_JS = (
+    """
 const key = "_vibtrans_anim_" + cb_obj.id;
 const st = window[key] || (window[key] = {timer: null});
 if (st.timer !== null) { clearInterval(st.timer); st.timer = null; }
@@ -282,7 +302,9 @@ if (!cb_obj.active) {
     if (lo != slider.value) slider.setv({value: lo}, {sync: false});
   }, %d);
 }
-""" % TICK_MS
+"""
+    % TICK_MS
+)
 
 
 def mark_angle(roll, rho):
@@ -301,8 +323,10 @@ def _tip_span(shape, q, span, height):
     above `height` first (a steep power law, nearly a flat punch): there
     the span ends where the outline reaches that height (bisection on the
     monotone outline), so the body's arc closes it at a finite height."""
+
     def z(x):
         return float(shape.outline(np.array([x / q]))[0])
+
     if z(span) <= height:
         return span
     lo, hi = 0.0, span
@@ -329,10 +353,9 @@ def tip_outline(profile, rho):
     zs = np.asarray(shape.outline(xs / q), float)
     z_end = float(shape.outline(np.array([X / q]))[0])
     centre = z_end + math.sqrt(rho * rho - X * X)
-    start = math.atan2(z_end - centre, X)             # below the horizontal
+    start = math.atan2(z_end - centre, X)  # below the horizontal
     angles = np.linspace(start, math.pi - start, ARC_POINTS)[1:-1]
-    return (np.concatenate([xs, rho * np.cos(angles)]),
-            np.concatenate([zs, centre + rho * np.sin(angles)]))
+    return (np.concatenate([xs, rho * np.cos(angles)]), np.concatenate([zs, centre + rho * np.sin(angles)]))
 
 
 class ParticleAnimation(pn.viewable.Viewer):
@@ -348,15 +371,28 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def __init__(self, max_frames=MAX_FRAMES, **params):
         super().__init__(**params)
-        if isinstance(max_frames, bool) or not isinstance(max_frames, (int, np.integer)) \
-                or max_frames < 2:
+        if isinstance(max_frames, bool) or not isinstance(max_frames, (int, np.integer)) or max_frames < 2:
             raise InputError(f"max_frames must be an integer >= 2, got {max_frames!r}")
         self.max_frames = int(max_frames)
         self.frames = ColumnDataSource(self._no_frames(), name="anim-frames")
-        self.meta = ColumnDataSource({k: [] for k in ("rho", "wavelength", "zone_scale",
-                                                      "spacing", "width", "decimals",
-                                                      "deformable", "unit", "rolls",
-                                                      "mark_cy")}, name="anim-meta")
+        self.meta = ColumnDataSource(
+            {
+                k: []
+                for k in (
+                    "rho",
+                    "wavelength",
+                    "zone_scale",
+                    "spacing",
+                    "width",
+                    "decimals",
+                    "deformable",
+                    "unit",
+                    "rolls",
+                    "mark_cy",
+                )
+            },
+            name="anim-meta",
+        )
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
@@ -367,37 +403,51 @@ class ParticleAnimation(pn.viewable.Viewer):
         # a rolling particle's mark (per frame; empty for one that does not roll)
         self.mark = ColumnDataSource({"x0": [], "y0": [], "x1": [], "y1": []}, name="anim-mark")
         self.marks = ColumnDataSource({"xi": [], "z": []}, name="anim-marks")
-        self.zone = ColumnDataSource({"x0": [], "x1": [], "y": [], "colour": []},
-                                     name="anim-zone")
+        self.zone = ColumnDataSource({"x0": [], "x1": [], "y": [], "colour": []}, name="anim-zone")
         self.contact = ColumnDataSource({"c": [], "s": [], "colour": []}, name="anim-contact")
         self._build()
         self.runs = 0
-        self._run = None            # (scene, ds) shown, for a new window
+        self._run = None  # (scene, ds) shown, for a new window
         # the contact circle beside the side view where both fit, else below
         # it (one Bokeh row squeezed it beside the side view at 1024 pixels,
         # its frame narrower than its title's lines): each figure a pane of
         # its own in a wrapping row
         self._pane = pn.Column(
             pn.pane.Bokeh(self.player),
-            pn.FlexBox(pn.pane.Bokeh(self.side), pn.pane.Bokeh(self.circle),
-                       flex_wrap="wrap", align_items="flex-start"),
-            pn.pane.Bokeh(self.key), name="particle-animation", margin=0,
-            sizing_mode="stretch_width")
-        self.window = pn.widgets.Select(label="show", options=WINDOWS, value="window", width=300,
-                                        css_classes=["vt-anim-window"])
+            pn.FlexBox(
+                pn.pane.Bokeh(self.side),
+                pn.pane.Bokeh(self.circle),
+                flex_wrap="wrap",
+                align_items="flex-start",
+            ),
+            pn.pane.Bokeh(self.key),
+            name="particle-animation",
+            margin=0,
+            sizing_mode="stretch_width",
+        )
+        self.window = pn.widgets.Select(
+            label="show", options=WINDOWS, value="window", width=300, css_classes=["vt-anim-window"]
+        )
         self.window.param.watch(self._on_window, "value")
         self._panel = pn.Column(self.window, self._pane, margin=0)
 
     @staticmethod
     def _no_frames():
-        return {k: [] for k in ("t", "x", "y", "a", "state", "c", "s", "g", "ux", "uy",
-                                "outer", "roll")}
+        return {k: [] for k in ("t", "x", "y", "a", "state", "c", "s", "g", "ux", "uy", "outer", "roll")}
 
     # ------------------------------------------------------------ figures
     def _build(self):
-        side = figure(frame_width=SIDE_W, frame_height=SIDE_H, x_range=Range1d(-1.0, 1.0),
-                      y_range=Range1d(-1.0, 1.0), tools="", toolbar_location=None,
-                      output_backend="canvas", title="(no run)", name="anim-side")
+        side = figure(
+            frame_width=SIDE_W,
+            frame_height=SIDE_H,
+            x_range=Range1d(-1.0, 1.0),
+            y_range=Range1d(-1.0, 1.0),
+            tools="",
+            toolbar_location=None,
+            output_backend="canvas",
+            title="(no run)",
+            name="anim-side",
+        )
         side.title.text_font_size = "9.5pt"
         side.xaxis.axis_label = "x - x*(t)  (a0; the view moves with the particle)"
         side.yaxis.axis_label = "height -y  (a0, up)"
@@ -406,87 +456,163 @@ class ParticleAnimation(pn.viewable.Viewer):
         # the particle over the substrate and under its surface line: its
         # overlap with the surface (the Hertz approach a*) shows below the line
         self.particle_glyph = side.add_glyph(
-            self.particle, Circle(x="x", y="y", radius="r", fill_color=PARTICLE_FILL,
-                                  fill_alpha=0.85, line_color="black", line_width=1.5))
-        self.tip_glyph = side.add_glyph(self.tip, Patch(x="x", y="y", fill_color=PARTICLE_FILL,
-                                                        fill_alpha=0.85, line_color="black",
-                                                        line_width=1.5))
-        side.add_glyph(self.mark, Segment(x0="x0", y0="y0", x1="x1", y1="y1",
-                                          line_color=MARK_COLOUR, line_width=2.5))
-        side.add_glyph(self.mark, Scatter(x="x1", y="y1", marker="circle", size=7,
-                                          fill_color=MARK_COLOUR, line_color=MARK_COLOUR))
+            self.particle,
+            Circle(
+                x="x",
+                y="y",
+                radius="r",
+                fill_color=PARTICLE_FILL,
+                fill_alpha=0.85,
+                line_color="black",
+                line_width=1.5,
+            ),
+        )
+        self.tip_glyph = side.add_glyph(
+            self.tip,
+            Patch(
+                x="x", y="y", fill_color=PARTICLE_FILL, fill_alpha=0.85, line_color="black", line_width=1.5
+            ),
+        )
+        side.add_glyph(
+            self.mark, Segment(x0="x0", y0="y0", x1="x1", y1="y1", line_color=MARK_COLOUR, line_width=2.5)
+        )
+        side.add_glyph(
+            self.mark,
+            Scatter(x="x1", y="y1", marker="circle", size=7, fill_color=MARK_COLOUR, line_color=MARK_COLOUR),
+        )
         side.add_glyph(self.surface, Line(x="xi", y="z", line_color="#4e342e", line_width=2))
-        side.add_glyph(self.marks, Scatter(x="xi", y="z", marker="triangle", size=8,
-                                           fill_color="#4e342e", line_color="#4e342e"))
-        side.add_glyph(self.zone, Segment(x0="x0", y0="y", x1="x1", y1="y",
-                                          line_color="colour", line_width=7, line_cap="round"))
-        side.add_layout(Label(x=8, y=SIDE_H - 40, x_units="screen", y_units="screen",
-                              text="wave travels to +x \u2192\nphase 0.5: crest under the "
-                              "particle", text_font_size="9pt",
-                              background_fill_color="white", background_fill_alpha=0.7))
+        side.add_glyph(
+            self.marks,
+            Scatter(x="xi", y="z", marker="triangle", size=8, fill_color="#4e342e", line_color="#4e342e"),
+        )
+        side.add_glyph(
+            self.zone,
+            Segment(x0="x0", y0="y", x1="x1", y1="y", line_color="colour", line_width=7, line_cap="round"),
+        )
+        side.add_layout(
+            Label(
+                x=8,
+                y=SIDE_H - 40,
+                x_units="screen",
+                y_units="screen",
+                text="wave travels to +x \u2192\nphase 0.5: crest under the particle",
+                text_font_size="9pt",
+                background_fill_color="white",
+                background_fill_alpha=0.7,
+            )
+        )
         # short lines: a long one was cut at the figure's edge at 1024 pixels
-        self.scale_notes = [Title(text="", text_font_size="8.5pt", text_font_style="italic")
-                            for _ in range(4)]
+        self.scale_notes = [
+            Title(text="", text_font_size="8.5pt", text_font_style="italic") for _ in range(4)
+        ]
         for note in self.scale_notes:
             side.add_layout(note, "below")
         side.toolbar.logo = None
         self.side = side
 
-        circ = figure(frame_width=CIRCLE_PX, frame_height=CIRCLE_PX,
-                      x_range=Range1d(-1.1, 1.1), y_range=Range1d(-1.1, 1.1), tools="",
-                      toolbar_location=None, output_backend="canvas", title="(no run)",
-                      name="anim-circle")
+        circ = figure(
+            frame_width=CIRCLE_PX,
+            frame_height=CIRCLE_PX,
+            x_range=Range1d(-1.1, 1.1),
+            y_range=Range1d(-1.1, 1.1),
+            tools="",
+            toolbar_location=None,
+            output_backend="canvas",
+            title="(no run)",
+            name="anim-circle",
+        )
         circ.title.text_font_size = "9.5pt"
         circ.xaxis.axis_label = "x  (sqrt(R a0))"
         circ.yaxis.axis_label = "z  (sqrt(R a0))"
         # the static contact under the weight alone: c = 1 (a* = 1)
         self.static_contact = circ.add_glyph(
             ColumnDataSource({"r": [1.0]}),
-            Circle(x=0.0, y=0.0, radius="r", fill_alpha=0.0, line_color="grey",
-                   line_dash="dotted"))
-        circ.add_glyph(self.contact, Circle(x=0.0, y=0.0, radius="c", fill_color="colour",
-                                            fill_alpha=0.9, line_color="black"))
-        circ.add_glyph(self.contact, Circle(x=0.0, y=0.0, radius="s",
-                                            fill_color=plots.STATE_COLORS[1], fill_alpha=1.0,
-                                            line_color="black", line_dash="dashed"))
+            Circle(x=0.0, y=0.0, radius="r", fill_alpha=0.0, line_color="grey", line_dash="dotted"),
+        )
+        circ.add_glyph(
+            self.contact,
+            Circle(x=0.0, y=0.0, radius="c", fill_color="colour", fill_alpha=0.9, line_color="black"),
+        )
+        circ.add_glyph(
+            self.contact,
+            Circle(
+                x=0.0,
+                y=0.0,
+                radius="s",
+                fill_color=plots.STATE_COLORS[1],
+                fill_alpha=1.0,
+                line_color="black",
+                line_dash="dashed",
+            ),
+        )
         self.circle_note = Title(text="", text_font_size="8.5pt", text_font_style="italic")
         circ.add_layout(self.circle_note, "below")
         circ.toolbar.logo = None
         self.circle = circ
 
-        self.slider = Slider(start=0, end=1, value=0, step=1, title="frame", width=PLAYER[1],
-                             disabled=True, name="anim-frame")
-        self.play = Toggle(label="\u25b6 Play", active=False, width=PLAYER[0], disabled=True,
-                           button_type="success", name="anim-play")
+        self.slider = Slider(
+            start=0, end=1, value=0, step=1, title="frame", width=PLAYER[1], disabled=True, name="anim-frame"
+        )
+        self.play = Toggle(
+            label="\u25b6 Play",
+            active=False,
+            width=PLAYER[0],
+            disabled=True,
+            button_type="success",
+            name="anim-play",
+        )
         # (its text follows the page's root size, as the Panel widgets' do)
-        self.speed = Select(title="speed", value=DEFAULT_SPEED, options=list(SPEEDS),
-                            width=PLAYER[2], name="anim-speed", stylesheets=[INPUT_FONT])
-        args = dict(frames=self.frames, meta=self.meta, table=self.table,
-                    surface=self.surface, particle=self.particle, marks=self.marks,
-                    tip=self.tip, tip_shape=self.tip_shape, side=side, mark=self.mark,
-                    zone=self.zone, contact=self.contact, side_title=side.title,
-                    contact_title=circ.title, names=list(STATE_NAMES),
-                    stick_colour=plots.STATE_COLORS[1], slider=self.slider)
+        self.speed = Select(
+            title="speed",
+            value=DEFAULT_SPEED,
+            options=list(SPEEDS),
+            width=PLAYER[2],
+            name="anim-speed",
+            stylesheets=[INPUT_FONT],
+        )
+        args = dict(
+            frames=self.frames,
+            meta=self.meta,
+            table=self.table,
+            surface=self.surface,
+            particle=self.particle,
+            marks=self.marks,
+            tip=self.tip,
+            tip_shape=self.tip_shape,
+            side=side,
+            mark=self.mark,
+            zone=self.zone,
+            contact=self.contact,
+            side_title=side.title,
+            contact_title=circ.title,
+            names=list(STATE_NAMES),
+            stick_colour=plots.STATE_COLORS[1],
+            slider=self.slider,
+        )
         self.slider.js_on_change("value", CustomJS(args=args, code=_ON_FRAME_JS))
         # the frame's size known (or changed) in the browser: its scales made equal
-        side.js_on_change("inner_width", CustomJS(args=args, code=_DRAW_JS
-                                                  + "draw(slider.value);"))
+        side.js_on_change("inner_width", CustomJS(args=args, code=_DRAW_JS + "draw(slider.value);"))
         on_run = CustomJS(args=args, code=_ON_RUN_JS)
         for source in (self.frames, self.meta, self.table, self.tip_shape):
             source.js_on_change("data", on_run)
-        self.play.js_on_change("active", CustomJS(
-            args=dict(frames=self.frames, slider=self.slider, speed=self.speed),
-            code=_PLAY_JS))
-        swatch = ('<span style="display:inline-block;width:11px;height:11px;'
-                  'background:{};border:1px solid #555;margin:0 3px 0 10px"></span>{}')
+        self.play.js_on_change(
+            "active",
+            CustomJS(args=dict(frames=self.frames, slider=self.slider, speed=self.speed), code=_PLAY_JS),
+        )
+        swatch = (
+            '<span style="display:inline-block;width:11px;height:11px;'
+            'background:{};border:1px solid #555;margin:0 3px 0 10px"></span>{}'
+        )
         self.key = Div(text="", sizing_mode="stretch_width")
-        self._key_head = ("<b>contact state</b>" + "".join(
-            swatch.format(plots.STATE_COLORS[k], STATE_NAMES[k]) for k in (1, 2, 3))
+        self._key_head = (
+            "<b>contact state</b>"
+            + "".join(swatch.format(plots.STATE_COLORS[k], STATE_NAMES[k]) for k in (1, 2, 3))
             + " &nbsp; (flight: no contact zone). Side view: the contact zone on the "
             "surface, its stick core green; right: the contact seen from above, the stick "
             "core (radius s) inside the slip annulus (out to the contact radius c). "
             "Triangles: points of the substrate's surface (they show it sliding under "
-            "the particle).<br>")
+            "the particle).<br>"
+        )
         # the player above the figures: at 1024 pixels, below them its speed
         # selector was off the page's right edge
         self.player = row(self.play, self.slider, self.speed)
@@ -517,8 +643,16 @@ class ParticleAnimation(pn.viewable.Viewer):
             self.frames.data = self._no_frames()
             self.meta.data = {k: [] for k in self.meta.data}
             self.table.data = {"uy": []}
-            for source in (self.surface, self.particle, self.marks, self.zone, self.contact,
-                           self.tip, self.tip_shape, self.mark):
+            for source in (
+                self.surface,
+                self.particle,
+                self.marks,
+                self.zone,
+                self.contact,
+                self.tip,
+                self.tip_shape,
+                self.mark,
+            ):
                 source.data = {k: [] for k in source.data}
             self.side.title.text = self.circle.title.text = "(no run)"
             for note in (*self.scale_notes, self.circle_note):
@@ -533,22 +667,25 @@ class ParticleAnimation(pn.viewable.Viewer):
         if not isinstance(scene, Scene):
             raise InputTypeError(f"scene must be a vibtrans Scene, got {type(scene).__name__}")
         if not isinstance(ds, xr.Dataset) or "time" not in ds.dims:
-            raise InputTypeError(f"ds must be the Dataset of simulate(scene, window=...), "
-                                 f"got {type(ds).__name__}")
+            raise InputTypeError(
+                f"ds must be the Dataset of simulate(scene, window=...), got {type(ds).__name__}"
+            )
         w0, w1 = ds.attrs.get("window_start"), ds.attrs.get("window_end")
         if w0 is None or w1 is None:
-            raise InputError("ds has no full-resolution window: run it with "
-                             "simulate(scene, window=(T - 2, T))")
+            raise InputError(
+                "ds has no full-resolution window: run it with simulate(scene, window=(T - 2, T))"
+            )
         for key in ("amplitude", "mass", "model", "tau", "nu"):
             if ds.attrs.get(key) != getattr(scene, key):
-                raise InputError(f"ds is not a run of this scene: its {key} is "
-                                 f"{ds.attrs.get(key)!r}, the scene's {getattr(scene, key)!r}")
+                raise InputError(
+                    f"ds is not a run of this scene: its {key} is "
+                    f"{ds.attrs.get(key)!r}, the scene's {getattr(scene, key)!r}"
+                )
         t_all = ds["time"].values
-        full = (w0, w1)                     # the run's full-resolution window
+        full = (w0, w1)  # the run's full-resolution window
         if periods is not None:
             if not (isinstance(periods, (int, float)) and periods >= 0):
-                raise InputError(f"periods must be a number >= 0 (0: the whole run), "
-                                 f"got {periods!r}")
+                raise InputError(f"periods must be a number >= 0 (0: the whole run), got {periods!r}")
             w1 = float(t_all[-1])
             w0 = float(t_all[0]) if periods == 0 else max(float(t_all[0]), w1 - periods)
         start = int(np.searchsorted(t_all, w0, side="left"))
@@ -559,7 +696,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         # isel: a label-based sel builds a pandas index of the times first
         if periods is None:
             pick = start + frame_indices(n, self.max_frames)
-        else:                               # sampled at two rates: evenly in time
+        else:  # sampled at two rates: evenly in time
             pick = start + frame_indices_in_time(t_all[start:stop], self.max_frames)
         win = ds.isel(time=pick)
         t = win["time"].values
@@ -578,21 +715,35 @@ class ParticleAnimation(pn.viewable.Viewer):
             outer = np.array([plots.STATE_COLORS[k] for k in state])
         # a rolling particle's rolled arc q* (a0; plots.rolls), else none
         roll = win["roll"].values if plots.rolls(win) else np.zeros(t.size)
-        frames = {"t": t, "x": win["x"].values, "y": win["y"].values, "a": win["a"].values,
-                  "state": state, "c": c, "s": s, "g": g,
-                  "ux": u[:, 0], "uy": u[:, 1], "outer": outer, "roll": roll}
+        frames = {
+            "t": t,
+            "x": win["x"].values,
+            "y": win["y"].values,
+            "a": win["a"].values,
+            "state": state,
+            "c": c,
+            "s": s,
+            "g": g,
+            "ux": u[:, 0],
+            "uy": u[:, 1],
+            "outer": outer,
+            "roll": roll,
+        }
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
         if periods is not None and w0 < full[0]:
             return frames, (
                 f"Frames: {pick.size} of the {n} samples of {span}, evenly spaced in time. "
                 f"Before t* = {full[0]:g} the run is recorded at {plots.OVERVIEW_SAMPLES} "
                 f"samples per period: the particle's travel shows, its motion within a "
-                f"period does not (choose the last periods at full resolution for that).")
+                f"period does not (choose the last periods at full resolution for that)."
+            )
         if pick.size == n:
             note = f"Frames: all {n} samples of {span}, the run's full resolution."
         else:
-            note = (f"Frames: {pick.size} of the {n} samples of {span}, evenly spaced in "
-                    f"time (one in about {n / pick.size:.1f}: decimated for the browser).")
+            note = (
+                f"Frames: {pick.size} of the {n} samples of {span}, evenly spaced in "
+                f"time (one in about {n / pick.size:.1f}: decimated for the browser)."
+            )
         return frames, note
 
     def _set_run(self, scene, frames, note):
@@ -601,7 +752,7 @@ class ParticleAnimation(pn.viewable.Viewer):
         neg_y = -frames["y"]
         surf = float(frames["g"].max()) * A
         low, high = min(neg_y.min(), -surf), max(neg_y.max(), surf)
-        extent = max(high - low, 1.0)       # 1 a0: the static compression's scale
+        extent = max(high - low, 1.0)  # 1 a0: the static compression's scale
         overlap = float(frames["a"].max()) if deformable else 0.0
         rho = max(RHO_FRACTION * extent, RHO_OVER_OVERLAP * overlap)
         # the particle's drawing: the circle, or a profile's tip and the arc above
@@ -609,17 +760,17 @@ class ParticleAnimation(pn.viewable.Viewer):
         tip_x, tip_z = tip_outline(scene.profile, rho) if drawn_tip else (np.zeros(0),) * 2
         height = float(tip_z.max()) if drawn_tip else 2.0 * rho
         top = max(neg_y.max() + height, surf)
-        z0 = low - 0.2 * (top - low)        # some substrate below the lowest point
-        z1 = top + 0.15 * (top - low)       # room for the label above the highest
+        z0 = low - 0.2 * (top - low)  # some substrate below the lowest point
+        z1 = top + 0.15 * (top - low)  # room for the label above the highest
         width = (z1 - z0) * SIDE_W / SIDE_H
         wavelength = WAVELENGTH_VIEWS * width
         spacing = wavelength / MARKS_PER_WAVELENGTH
         phase = np.linspace(0.0, 1.0, TABLE + 1)
         # the surface's vertical motion over one period (per unit ramp G):
         # the library's formula, sampled; the browser interpolates it
-        table = substrate.wave_motion.py_func(np.cos(substrate.TWO_PI * phase),
-                                              np.sin(substrate.TWO_PI * phase), 1.0, 0.0,
-                                              A, r)[1]
+        table = substrate.wave_motion.py_func(
+            np.cos(substrate.TWO_PI * phase), np.sin(substrate.TWO_PI * phase), 1.0, 0.0, A, r
+        )[1]
         self.side.x_range.update(start=-width / 2, end=width / 2)
         self.side.y_range.update(start=z0, end=z1)
         self.ground.y2 = z0
@@ -636,19 +787,28 @@ class ParticleAnimation(pn.viewable.Viewer):
         rolls = scene.rolling != "none"
         # the mark turns about the body's centre: the circle's, over its lowest point
         mark_cy = float(tip_z.max()) - rho if drawn_tip else rho
-        self.meta.data = {"rho": [rho], "wavelength": [wavelength],
-                          "zone_scale": [math.sqrt(rho)], "spacing": [spacing],
-                          "width": [width], "decimals": [_decimals(extent)],
-                          "deformable": [int(deformable)], "unit": [unit],
-                          "rolls": [int(rolls)], "mark_cy": [mark_cy]}
+        self.meta.data = {
+            "rho": [rho],
+            "wavelength": [wavelength],
+            "zone_scale": [math.sqrt(rho)],
+            "spacing": [spacing],
+            "width": [width],
+            "decimals": [_decimals(extent)],
+            "deformable": [int(deformable)],
+            "unit": [unit],
+            "rolls": [int(rolls)],
+            "mark_cy": [mark_cy],
+        }
         self.table.data = {"uy": table}
         self.tip_shape.data = {"x": tip_x, "z": tip_z}
         self.particle_glyph.visible = not drawn_tip
         self.tip_glyph.visible = drawn_tip
         self.frames.data = frames
         n = frames["t"].size
-        self.surface.data = {"xi": np.linspace(-0.51 * width, 0.51 * width, CURVE_POINTS),
-                             "z": np.zeros(CURVE_POINTS)}
+        self.surface.data = {
+            "xi": np.linspace(-0.51 * width, 0.51 * width, CURVE_POINTS),
+            "z": np.zeros(CURVE_POINTS),
+        }
         nm = int(math.ceil(width / spacing)) + 2
         self.marks.data = {"xi": np.zeros(nm), "z": np.zeros(nm)}
         self.slider.update(end=max(n - 1, 1), value=0, disabled=n < 2)
@@ -656,33 +816,44 @@ class ParticleAnimation(pn.viewable.Viewer):
         self._draw(0)
         self.static_contact.visible = deformable
         self.circle_note.text = (
-            "a rigid point has no contact area" if not deformable else
-            "dotted: the static contact, c = 1" + ("\nvertical model: no tangential force, "
-                                                   "no stick core" if scene.model == "vertical"
-                                                   else "")
-            + ("" if sphere else f"\nc(a*) the {scene.profile} profile's"))
+            "a rigid point has no contact area"
+            if not deformable
+            else "dotted: the static contact, c = 1"
+            + ("\nvertical model: no tangential force, no stick core" if scene.model == "vertical" else "")
+            + ("" if sphere else f"\nc(a*) the {scene.profile} profile's")
+        )
         R_a0, wave_a0 = _example_device()
-        self.scale_notes[0].text = (
-            f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),")
-        self.scale_notes[1].text = (
-            f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)")
-        self.scale_notes[2].text = (
-            "To scale (a0): heights, the motion along x"
-            + (", the overlap a*." if deformable else ". Material point: the particle only."))
+        self.scale_notes[
+            0
+        ].text = f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),"
+        self.scale_notes[1].text = f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)"
+        self.scale_notes[2].text = "To scale (a0): heights, the motion along x" + (
+            ", the overlap a*." if deformable else ". Material point: the particle only."
+        )
         self.scale_notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
-        zone = (("the contact zone drawn as Hertz's for the drawn radius: half-width "
-                 f"c sqrt({rho:.3g}) a0. ") if deformable and sphere else
-                (f"the particle drawn with its {scene.profile} tip: the tip's outline near "
-                 f"the contact (z to scale in a0; r in static contact radii, each drawn "
-                 f"sqrt({rho:.3g}) a0), its apex at the particle's lowest point, on a body "
-                 f"drawn as a circle; its contact zone's half-width c sqrt({rho:.3g}) a0 with "
-                 f"c the profile's own contact radius over the static one. ") if deformable else
-                "Material point: no contact zone and no contact circle (rigid contact). ")
-        turning = ((f"The particle rolls ({scene.rolling}): the dark radius marks its material "
-                    f"point that started at the contact and turns by the rolled arc q* over the "
-                    f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
-                    f"normalized scene), so that its rim travels q*, to scale in a0. ")
-                   if rolls else "")
+        zone = (
+            (f"the contact zone drawn as Hertz's for the drawn radius: half-width c sqrt({rho:.3g}) a0. ")
+            if deformable and sphere
+            else (
+                f"the particle drawn with its {scene.profile} tip: the tip's outline near "
+                f"the contact (z to scale in a0; r in static contact radii, each drawn "
+                f"sqrt({rho:.3g}) a0), its apex at the particle's lowest point, on a body "
+                f"drawn as a circle; its contact zone's half-width c sqrt({rho:.3g}) a0 with "
+                f"c the profile's own contact radius over the static one. "
+            )
+            if deformable
+            else "Material point: no contact zone and no contact circle (rigid contact). "
+        )
+        turning = (
+            (
+                f"The particle rolls ({scene.rolling}): the dark radius marks its material "
+                f"point that started at the contact and turns by the rolled arc q* over the "
+                f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
+                f"normalized scene), so that its rim travels q*, to scale in a0. "
+            )
+            if rolls
+            else ""
+        )
         self.key.text = self._key_head + zone + turning + note
 
     def frame(self, i):
@@ -711,20 +882,32 @@ class ParticleAnimation(pn.viewable.Viewer):
         touching = deformable and st > 0 and c > 0
         ce, se = (c * q, s * q) if touching else (np.nan, np.nan)
         zs = -uy
-        gap = (f"gap {_fixed(-a, d)} a0" if a < 0 else
-               f"overlap a* = {_fixed(a, d)} a0" if deformable else "on the surface")
+        gap = (
+            f"gap {_fixed(-a, d)} a0"
+            if a < 0
+            else f"overlap a* = {_fixed(a, d)} a0"
+            if deformable
+            else "on the surface"
+        )
         if not deformable:
             ct = "material point: rigid, no contact area"
         elif not touching:
             ct = "in flight: no contact"
         else:
-            ct = (f"from above: c = {_fixed(c, 3)}\n"
-                  + ("" if np.isnan(s) else f"s = {_fixed(s, 3)} ") + M["unit"][0])
+            ct = (
+                f"from above: c = {_fixed(c, 3)}\n"
+                + ("" if np.isnan(s) else f"s = {_fixed(s, 3)} ")
+                + M["unit"][0]
+            )
         TS = self.tip_shape.data
         if M["rolls"][0]:
             th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
-            mark = {"x0": np.array([0.0]), "y0": np.array([cy]),
-                    "x1": np.array([rho * math.cos(th)]), "y1": np.array([cy + rho * math.sin(th)])}
+            mark = {
+                "x0": np.array([0.0]),
+                "y0": np.array([cy]),
+                "x1": np.array([rho * math.cos(th)]),
+                "y1": np.array([cy + rho * math.sin(th)]),
+            }
         else:
             mark = {k: np.zeros(0) for k in ("x0", "y0", "x1", "y1")}
         return {
@@ -733,15 +916,22 @@ class ParticleAnimation(pn.viewable.Viewer):
             "tip": {"x": np.asarray(TS["x"], float), "y": np.asarray(TS["z"], float) - y},
             "mark": mark,
             "marks": {"xi": mx, "z": height(mx)},
-            "zone": {"x0": np.array([-ce, -se]), "x1": np.array([ce, se]),
-                     "y": np.array([zs, zs]),
-                     "colour": [F["outer"][i], plots.STATE_COLORS[1]]},
-            "contact": {"c": np.array([c if touching else np.nan]),
-                        "s": np.array([s if touching else np.nan]),
-                        "colour": [F["outer"][i]]},
-            "side_title": (f"t* = {_fixed(t, 4)}   wave phase t* mod 1 = "
-                           f"{_fixed(t - math.floor(t), 3)}\n{STATE_NAMES[st]}   "
-                           f"y* = {_fixed(y, d)} a0   {gap}"),
+            "zone": {
+                "x0": np.array([-ce, -se]),
+                "x1": np.array([ce, se]),
+                "y": np.array([zs, zs]),
+                "colour": [F["outer"][i], plots.STATE_COLORS[1]],
+            },
+            "contact": {
+                "c": np.array([c if touching else np.nan]),
+                "s": np.array([s if touching else np.nan]),
+                "colour": [F["outer"][i]],
+            },
+            "side_title": (
+                f"t* = {_fixed(t, 4)}   wave phase t* mod 1 = "
+                f"{_fixed(t - math.floor(t), 3)}\n{STATE_NAMES[st]}   "
+                f"y* = {_fixed(y, d)} a0   {gap}"
+            ),
             "contact_title": ct,
         }
 
@@ -754,8 +944,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def references(self):
         """Every Bokeh model of the animation's figures and player."""
-        return {m for part in (self.player, self.side, self.circle, self.key)
-                for m in part.references()}
+        return {m for part in (self.player, self.side, self.circle, self.key) for m in part.references()}
 
     def scale_sizes(self, factor):
         """The player's button and speed selector at `factor` times their

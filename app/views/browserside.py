@@ -2,6 +2,7 @@
 trip to a busy server: it acknowledges a user's action at once, sizes
 the page for presentation mode, and keeps the page's address in the
 browser's history (`BrowserAddress`)."""
+
 import html
 import json
 
@@ -40,9 +41,15 @@ ACK_HEIGHT = 22
 def ack_pane():
     """The page's acknowledgement line (empty until an action)."""
     import panel as pn
-    return pn.pane.HTML("", height=ACK_HEIGHT, sizing_mode="stretch_width",
-                        css_classes=[ACK_CLASS], margin=(0, 10),
-                        styles={"color": "#555", "font-style": "italic"})
+
+    return pn.pane.HTML(
+        "",
+        height=ACK_HEIGHT,
+        sizing_mode="stretch_width",
+        css_classes=[ACK_CLASS],
+        margin=(0, 10),
+        styles={"color": "#555", "font-style": "italic"},
+    )
 
 
 def _ack_text(text):
@@ -61,8 +68,9 @@ _FIND_ACK = """const vtAck = () => {
 
 def ack_js(text):
     """A CustomJS that shows `text` in the ack pane (class vt-busy)."""
-    return CustomJS(code=_FIND_ACK + "const ack = vtAck();\n"
-                    f"if (ack !== null) ack.text = {json.dumps(_ack_text(text))};")
+    return CustomJS(
+        code=_FIND_ACK + f"const ack = vtAck();\nif (ack !== null) ack.text = {json.dumps(_ack_text(text))};"
+    )
 
 
 # One listener for the whole page, not a callback per widget: Panel's
@@ -114,8 +122,10 @@ def ack_listener():
     a widget of one of those classes: a click, a choice, a slider's step;
     and sets the page's root sizes when presentation mode is switched."""
     texts = {c: _ack_text(t) for c, t in ACK_CLASSES.items()}
-    return CustomJS(code=_FIND_ACK + _ACK_LISTENER % (
-        json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH, PRESENTATION_SIDEBAR_VW))
+    return CustomJS(
+        code=_FIND_ACK
+        + _ACK_LISTENER % (json.dumps(texts), PRESENTATION_SCALE, SIDEBAR_WIDTH, PRESENTATION_SIDEBAR_VW)
+    )
 
 
 # The page's address in the browser's history.  A change of `search` from

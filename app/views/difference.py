@@ -4,6 +4,7 @@ demand against a shipped map.  The comparison is the library's
 (`vibtrans.maps.difference.map_difference`, drawn by `plots.map_difference_figure`,
 the same as `vibtrans compare`); this view only picks the two maps and
 shows the result."""
+
 import asyncio
 import logging
 
@@ -21,13 +22,15 @@ from vibtrans_explorer.views.render import rendered
 log = logging.getLogger("vibtrans.explorer")
 
 COMPUTED = "map on demand"
-INTRO = ("**Two maps compared.** The second map's drift against the first's at the first "
-         "map's points, in decades of the maps' signed log scale s(v) = sign(v) log10(1 + "
-         "|v|/v0\\*): red where the second drifts more towards +x, blue less, black where "
-         "the drift class (against, none, with the wave) differs, grey where either map "
-         "calls the point chaotic (its drift is not a property of the scene), blank where "
-         "the maps do not both have the point. A map on demand appears here once it is "
-         "shown in the map tab.")
+INTRO = (
+    "**Two maps compared.** The second map's drift against the first's at the first "
+    "map's points, in decades of the maps' signed log scale s(v) = sign(v) log10(1 + "
+    "|v|/v0\\*): red where the second drifts more towards +x, blue less, black where "
+    "the drift class (against, none, with the wave) differs, grey where either map "
+    "calls the point chaotic (its drift is not a property of the scene), blank where "
+    "the maps do not both have the point. A map on demand appears here once it is "
+    "shown in the map tab."
+)
 
 
 def shipped_label(model, mu):
@@ -43,8 +46,13 @@ def difference_figure(first, second, v0):
     # shorter than the bar's title); the title names the maps, on two lines,
     # and the summary above the figure says how they agree (on the figure,
     # a line of that was wider than its frame)
-    fig.update(sizing_mode="stretch_width", min_width=MIN_WIDTH, width=None, height=None,
-               frame_height=MAP_FRAME_HEIGHT)
+    fig.update(
+        sizing_mode="stretch_width",
+        min_width=MIN_WIDTH,
+        width=None,
+        height=None,
+        frame_height=MAP_FRAME_HEIGHT,
+    )
     a = diff.attrs
     fig.title.text = f"{a['second']}\nagainst {a['first']}"
     return fig, diff
@@ -56,8 +64,8 @@ class DifferenceView:
 
     def __init__(self, state, computed=lambda: None):
         self.state, self.computed = state, computed
-        self.diff = None               # the Dataset shown
-        self.font_scale = 1.0          # presentation mode's (`scale_fonts`)
+        self.diff = None  # the Dataset shown
+        self.font_scale = 1.0  # presentation mode's (`scale_fonts`)
         self.panel = pn.Column(sizing_mode="stretch_width", name="difference")
         self._built = False
 
@@ -70,29 +78,42 @@ class DifferenceView:
             # one under the other, as wide as the tab (side by side at 330
             # pixels each, the second was off the page and their choices cut
             # in presentation mode)
-            self.first = pn.widgets.Select(label="first map", sizing_mode="stretch_width",
-                                           max_width=600, css_classes=["vt-diff-first"])
-            self.second = pn.widgets.Select(label="second map (compared with the first)",
-                                            sizing_mode="stretch_width", max_width=600,
-                                            css_classes=["vt-diff-second"])
-            self.button = pn.widgets.Button(label="Show the difference", color="primary",
-                                            css_classes=["vt-diff-show"])
+            self.first = pn.widgets.Select(
+                label="first map", sizing_mode="stretch_width", max_width=600, css_classes=["vt-diff-first"]
+            )
+            self.second = pn.widgets.Select(
+                label="second map (compared with the first)",
+                sizing_mode="stretch_width",
+                max_width=600,
+                css_classes=["vt-diff-second"],
+            )
+            self.button = pn.widgets.Button(
+                label="Show the difference", color="primary", css_classes=["vt-diff-show"]
+            )
             self.button.on_click(self._on_show)
-            self.message = pn.pane.Alert("", alert_type="warning", visible=False,
-                                         sizing_mode="stretch_width",
-                                         css_classes=["vt-diff-message"])
-            self.summary = pn.pane.Markdown("", sizing_mode="stretch_width",
-                                            css_classes=["vt-diff-summary"])
+            self.message = pn.pane.Alert(
+                "",
+                alert_type="warning",
+                visible=False,
+                sizing_mode="stretch_width",
+                css_classes=["vt-diff-message"],
+            )
+            self.summary = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-diff-summary"])
             self.figure = pn.Column(sizing_mode="stretch_width")
-            self.panel.objects = [pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
-                                  self.first, self.second, self.button, self.message,
-                                  self.summary, self.figure]
+            self.panel.objects = [
+                pn.pane.Markdown(INTRO, sizing_mode="stretch_width"),
+                self.first,
+                self.second,
+                self.button,
+                self.message,
+                self.summary,
+                self.figure,
+            ]
         self.refresh()
 
     def choices(self):
         """{label: ("shipped", model, mu) or ("computed",)}: the maps one can compare."""
-        out = {shipped_label(m, mu): ("shipped", m, mu)
-               for (m, mu) in sorted(data.available_maps())}
+        out = {shipped_label(m, mu): ("shipped", m, mu) for (m, mu) in sorted(data.available_maps())}
         shown = self.computed()
         if shown is not None:
             out[f"{COMPUTED}: {shown[0]}"] = ("computed",)
@@ -115,10 +136,12 @@ class DifferenceView:
         self.first.options, self.second.options = labels, labels
         # by default, the issue's example: the deformable particle against the
         # material point at mu 0.3
-        first = keep[0] or next((l for l in labels if l.startswith("deformable, mu = 0.3")),
-                                labels[0] if labels else None)
-        second = keep[1] or next((l for l in labels if l.startswith("point-mass")),
-                                 labels[-1] if labels else None)
+        first = keep[0] or next(
+            (l for l in labels if l.startswith("deformable, mu = 0.3")), labels[0] if labels else None
+        )
+        second = keep[1] or next(
+            (l for l in labels if l.startswith("point-mass")), labels[-1] if labels else None
+        )
         self.first.value, self.second.value = first, second
 
     def _dataset(self, label):
@@ -143,11 +166,12 @@ class DifferenceView:
         try:
             first, second = self._dataset(self.first.value), self._dataset(self.second.value)
             fig, diff = await asyncio.get_running_loop().run_in_executor(
-                None, difference_figure, first, second, self.state.v0)
+                None, difference_figure, first, second, self.state.v0
+            )
         except (InputError, data.MapUnavailable) as exc:
             self._say(str(exc))
             return
-        except Exception as exc:        # a bug: said, and logged with its traceback
+        except Exception as exc:  # a bug: said, and logged with its traceback
             log.exception("the difference of two maps failed")
             self._say(f"Comparing the maps failed: {type(exc).__name__}: {literal(exc)}")
             return
@@ -155,14 +179,19 @@ class DifferenceView:
             self.button.loading = False
         self.diff = diff
         a = diff.attrs
-        agreement = ("no point is regular in both maps" if a["regular_points"] == 0 else
-                     f"the drift class agrees at **{100 * a['class_agreement']:.1f}%** of the "
-                     f"{a['regular_points']} points regular in both; the median relative "
-                     f"drift difference |v2 - v1| / max(|v1|, v0\\*) is "
-                     f"{a['median_relative_difference']:.2g}")
-        self.summary.object = (f"**{literal(a['second'])}** against **{literal(a['first'])}**: "
-                               f"{a['compared_points']} points compared; {agreement}.")
-        scale_fonts(fig, self.font_scale)       # (before it goes into the page)
+        agreement = (
+            "no point is regular in both maps"
+            if a["regular_points"] == 0
+            else f"the drift class agrees at **{100 * a['class_agreement']:.1f}%** of the "
+            f"{a['regular_points']} points regular in both; the median relative "
+            f"drift difference |v2 - v1| / max(|v1|, v0\\*) is "
+            f"{a['median_relative_difference']:.2g}"
+        )
+        self.summary.object = (
+            f"**{literal(a['second'])}** against **{literal(a['first'])}**: "
+            f"{a['compared_points']} points compared; {agreement}."
+        )
+        scale_fonts(fig, self.font_scale)  # (before it goes into the page)
         self.figure.objects = [pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
 
     def scale_fonts(self, factor):

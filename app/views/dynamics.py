@@ -9,6 +9,7 @@ orbit_diagram), in the executor given, cancelled when a newer request or
 run replaces it.  The exports draw the same with HoloViews (`vibtrans
 export section | orbit-diagram`).
 """
+
 import functools
 import logging
 import math
@@ -27,20 +28,29 @@ from vibtrans_explorer.views.note import note_pane, say
 
 log = logging.getLogger("vibtrans.explorer.dynamics")
 
-SECTION_PERIODS = 300      # iterates of the stroboscopic map per orbit
-DIAGRAM_RUNS = 40          # runs along the line per diagram (each a whole run)
-DIAGRAM_HALF_WIDTH = 0.5   # decades each side of the run's point at first
-DIAGRAM_FINAL = 100.0      # final periods whose take-offs are drawn
-MIN_DIAGRAM_WIDTH = 1e-4   # decades: a narrower zoom is not recomputed
+SECTION_PERIODS = 300  # iterates of the stroboscopic map per orbit
+DIAGRAM_RUNS = 40  # runs along the line per diagram (each a whole run)
+DIAGRAM_HALF_WIDTH = 0.5  # decades each side of the run's point at first
+DIAGRAM_FINAL = 100.0  # final periods whose take-offs are drawn
+MIN_DIAGRAM_WIDTH = 1e-4  # decades: a narrower zoom is not recomputed
 TOOLS = "pan,box_zoom,wheel_zoom,reset"
-POINT_MASS_TEXT = ("The material point's stroboscopic map needs its impact map's Jacobian, "
-                   "which is not built yet: run a deformable scene for its section and orbits.")
+POINT_MASS_TEXT = (
+    "The material point's stroboscopic map needs its impact map's Jacobian, "
+    "which is not built yet: run a deformable scene for its section and orbits."
+)
 
 
 def _figure(title, xlabel, ylabel, width=440, height=360):
-    fig = figure(title=title, tools=TOOLS, toolbar_location="above", width=width,
-                 height=height, x_range=Range1d(0.0, 1.0), y_range=Range1d(0.0, 1.0),
-                 output_backend="canvas")
+    fig = figure(
+        title=title,
+        tools=TOOLS,
+        toolbar_location="above",
+        width=width,
+        height=height,
+        x_range=Range1d(0.0, 1.0),
+        y_range=Range1d(0.0, 1.0),
+        output_backend="canvas",
+    )
     fig.title.text_font_size = "9pt"
     fig.xaxis.axis_label = xlabel
     fig.yaxis.axis_label = ylabel
@@ -63,10 +73,11 @@ def orbit_text(orbit):
     if not orbit.found:
         return "period-1 orbit: not found from the run's section point (Newton did not converge)"
     m1, m2 = orbit.multipliers
-    kind = ("elliptic (linearly stable)" if orbit.stable else
-            "hyperbolic (unstable)")
-    return (f"period-1 orbit at y* = {orbit.y:.5g}, y*' = {orbit.vy:.3g}: trace "
-            f"{orbit.trace:.4f}, multipliers {m1:.3g} and {m2:.3g}, {kind}")
+    kind = "elliptic (linearly stable)" if orbit.stable else "hyperbolic (unstable)"
+    return (
+        f"period-1 orbit at y* = {orbit.y:.5g}, y*' = {orbit.vy:.3g}: trace "
+        f"{orbit.trace:.4f}, multipliers {m1:.3g} and {m2:.3g}, {kind}"
+    )
 
 
 class DynamicsView(pn.viewable.Viewer):
@@ -83,11 +94,11 @@ class DynamicsView(pn.viewable.Viewer):
         self.error = None
         self.scene = None
         self.phase = 0.0
-        self.orbits = []            # float64[n, 2] per orbit, the run's first
+        self.orbits = []  # float64[n, 2] per orbit, the run's first
         # its work, one of each kind at a time (the latest request wins)
         self.work = {what: LatestJob(executor) for what in ("orbit", "section", "diagram")}
         self.diagram_window = None  # (parameter, lo, hi) drawn
-        self._history = []          # windows before the zooms (back)
+        self._history = []  # windows before the zooms (back)
         self._build()
 
     def __panel__(self):
@@ -97,26 +108,24 @@ class DynamicsView(pn.viewable.Viewer):
     def _build(self):
         self.points = ColumnDataSource({"y": [], "vy": [], "color": []})
         self.fixed = ColumnDataSource({"y": [], "vy": []})
-        self.section_fig = _figure("stroboscopic section: run a deformable scene",
-                                   plots.Y_DIM.label, plots.VY_DIM.label)
+        self.section_fig = _figure(
+            "stroboscopic section: run a deformable scene", plots.Y_DIM.label, plots.VY_DIM.label
+        )
         self.section_fig.scatter("y", "vy", color="color", size=3, source=self.points)
-        self.section_fig.scatter("y", "vy", marker="star", size=14, fill_color="gold",
-                                 line_color="black", source=self.fixed)
+        self.section_fig.scatter(
+            "y", "vy", marker="star", size=14, fill_color="gold", line_color="black", source=self.fixed
+        )
         self.section_fig.on_event(Tap, self._on_tap)
         self.phases = ColumnDataSource({"x": [], "phase": []})
-        self.diagram_fig = _figure("orbit diagram", plots.LOG_A.label, plots.PHASE_DIM.label,
-                                   width=520)
-        self.diagram_fig.scatter("x", "phase", size=2, color=plots.ORBIT_COLORS[0],
-                                 source=self.phases)
+        self.diagram_fig = _figure("orbit diagram", plots.LOG_A.label, plots.PHASE_DIM.label, width=520)
+        self.diagram_fig.scatter("x", "phase", size=2, color=plots.ORBIT_COLORS[0], source=self.phases)
         _set_range(self.diagram_fig.y_range, 0.0, 1.0)
         self.diagram_fig.on_event(RangesUpdate, self._on_ranges)
-        self.back_button = pn.widgets.Button(label="Back (remove the last orbit)",
-                                             disabled=True)
+        self.back_button = pn.widgets.Button(label="Back (remove the last orbit)", disabled=True)
         self.clear_button = pn.widgets.Button(label="Clear the seeded orbits", disabled=True)
         self.back_button.on_click(lambda e: self._drop(len(self.orbits) - 1))
         self.clear_button.on_click(lambda e: self._drop(1))
-        self.along = pn.widgets.RadioButtonGroup(options=["amplitude", "mass"],
-                                                 value="amplitude")
+        self.along = pn.widgets.RadioButtonGroup(options=["amplitude", "mass"], value="amplitude")
         self.along.param.watch(lambda e: self._diagram_reset(), "value")
         self.diagram_back = pn.widgets.Button(label="Back (previous window)", disabled=True)
         self.diagram_reset = pn.widgets.Button(label="Reset the window", disabled=True)
@@ -135,16 +144,25 @@ class DynamicsView(pn.viewable.Viewer):
                 "**Click the section** to start a new orbit there (wave fully on), in a new "
                 "colour. The orbit diagram shows the take-off phases of the final "
                 f"{DIAGRAM_FINAL:g} periods of runs along a line through this scene; "
-                "**zoom it** to recompute it in the window.", margin=(0, 5)),
-            self.note, self.orbit_status,
+                "**zoom it** to recompute it in the window.",
+                margin=(0, 5),
+            ),
+            self.note,
+            self.orbit_status,
             # side by side where the page is wide enough, else one below the other
-            pn.FlexBox(pn.Column(self.section_pane,
-                                 pn.Row(self.back_button, self.clear_button),
-                                 self.section_status),
-                       pn.Column(self.diagram_pane,
-                                 pn.FlexBox(self.along, self.diagram_back, self.diagram_reset),
-                                 self.diagram_status),
-                       flex_wrap="wrap", sizing_mode="stretch_width"))
+            pn.FlexBox(
+                pn.Column(
+                    self.section_pane, pn.Row(self.back_button, self.clear_button), self.section_status
+                ),
+                pn.Column(
+                    self.diagram_pane,
+                    pn.FlexBox(self.along, self.diagram_back, self.diagram_reset),
+                    self.diagram_status,
+                ),
+                flex_wrap="wrap",
+                sizing_mode="stretch_width",
+            ),
+        )
 
     # ---------------------------------------------------------------- the run
     def set_run(self, scene, ds):
@@ -158,11 +176,20 @@ class DynamicsView(pn.viewable.Viewer):
         self.phase = t_end - math.floor(t_end)
         y, vy = float(ds["y"].values[-1]), float(ds["vy"].values[-1])
         # two lines: in one, the title was cut at the figure's width (1024 x 768)
-        self.section_fig.title.text = (f"stroboscopic section at t = {self.phase:.3g} mod 1\n"
-                                       f"(click to seed an orbit)")
+        self.section_fig.title.text = (
+            f"stroboscopic section at t = {self.phase:.3g} mod 1\n(click to seed an orbit)"
+        )
         self._seed(y, vy, first=True)
-        self._start("orbit", dynamics.periodic_orbit, scene.amplitude, scene.mass, (y, vy),
-                    1, scene.fidelity, phase=self.phase)
+        self._start(
+            "orbit",
+            dynamics.periodic_orbit,
+            scene.amplitude,
+            scene.mass,
+            (y, vy),
+            1,
+            scene.fidelity,
+            phase=self.phase,
+        )
         self.orbit_status.object = "finding the period-1 orbit ..."
         self._diagram_reset()
 
@@ -191,8 +218,7 @@ class DynamicsView(pn.viewable.Viewer):
         if cancellable:
             kwargs["cancel"] = job.event
         job.submit(fn, *args, **kwargs)
-        work.deliver(job, functools.partial(self._show, what),
-                     functools.partial(self._failed, what))
+        work.deliver(job, functools.partial(self._show, what), functools.partial(self._failed, what))
 
     @property
     def computing(self):
@@ -200,8 +226,7 @@ class DynamicsView(pn.viewable.Viewer):
         return any(work.running for work in self.work.values())
 
     def _failed(self, what, exc):
-        log.error("dynamics %s failed: %s", what, self.scene and self.scene.values(),
-                  exc_info=exc)
+        log.error("dynamics %s failed: %s", what, self.scene and self.scene.values(), exc_info=exc)
         self._say(f"The {what} failed: {type(exc).__name__}: {literal(exc)}")
         self._status(what, "")
         self._buttons()
@@ -212,16 +237,28 @@ class DynamicsView(pn.viewable.Viewer):
             self._buttons()
 
     def _status(self, what, text):
-        {"orbit": self.orbit_status, "section": self.section_status,
-         "diagram": self.diagram_status}[what].object = text
+        {"orbit": self.orbit_status, "section": self.section_status, "diagram": self.diagram_status}[
+            what
+        ].object = text
 
     # ---------------------------------------------------------------- section
     def _seed(self, y, vy, first=False):
         s = self.scene
-        self._start("section", dynamics.section, s.amplitude, s.mass, y, vy, SECTION_PERIODS,
-                    s.fidelity, phase=self.phase, cancellable=True)
-        self.section_status.object = (f"iterating the map {SECTION_PERIODS} times from "
-                                      f"y* = {y:.4g}, y*' = {vy:.4g} ...")
+        self._start(
+            "section",
+            dynamics.section,
+            s.amplitude,
+            s.mass,
+            y,
+            vy,
+            SECTION_PERIODS,
+            s.fidelity,
+            phase=self.phase,
+            cancellable=True,
+        )
+        self.section_status.object = (
+            f"iterating the map {SECTION_PERIODS} times from y* = {y:.4g}, y*' = {vy:.4g} ..."
+        )
         self._seeding_first = first
 
     def _on_tap(self, event):
@@ -232,8 +269,8 @@ class DynamicsView(pn.viewable.Viewer):
 
     def _show_section(self, pts):
         finite = np.isfinite(pts).all(axis=1)
-        if not finite.all():            # a seed deep in the contact: the step cannot follow
-            pts = pts[:np.argmin(finite)]
+        if not finite.all():  # a seed deep in the contact: the step cannot follow
+            pts = pts[: np.argmin(finite)]
         if self._seeding_first:
             self.orbits = [pts]
         else:
@@ -241,7 +278,9 @@ class DynamicsView(pn.viewable.Viewer):
         self._draw_section()
         self.section_status.object = (
             f"{len(self.orbits)} orbit(s); the last ended early: it left the step's range"
-            if not finite.all() else f"{len(self.orbits)} orbit(s) of {SECTION_PERIODS} periods")
+            if not finite.all()
+            else f"{len(self.orbits)} orbit(s) of {SECTION_PERIODS} periods"
+        )
 
     def _draw_section(self, keep_view=None):
         ys, vys, colors = [], [], []
@@ -252,21 +291,20 @@ class DynamicsView(pn.viewable.Viewer):
         y = np.concatenate(ys) if ys else np.zeros(0)
         vy = np.concatenate(vys) if vys else np.zeros(0)
         self.points.data = {"y": y, "vy": vy, "color": colors}
-        if len(self.orbits) == 1 and y.size:     # the run's orbit sets the view
+        if len(self.orbits) == 1 and y.size:  # the run's orbit sets the view
             _set_range(self.section_fig.x_range, *_padded(y, 0.3, 1e-6))
             _set_range(self.section_fig.y_range, *_padded(vy, 0.3, 1e-6))
 
     def _drop(self, keep):
         """Keep the first `keep` orbits (back: all but the last; clear: the run's)."""
-        self.orbits = self.orbits[:max(keep, 1)]
+        self.orbits = self.orbits[: max(keep, 1)]
         self._draw_section()
         self.section_status.object = f"{len(self.orbits)} orbit(s)"
         self._buttons()
 
     def _show_orbit(self, orbit):
         self.orbit_status.object = orbit_text(orbit)
-        self.fixed.data = ({"y": [orbit.y], "vy": [orbit.vy]} if orbit.found
-                           else {"y": [], "vy": []})
+        self.fixed.data = {"y": [orbit.y], "vy": [orbit.vy]} if orbit.found else {"y": [], "vy": []}
 
     # ---------------------------------------------------------------- diagram
     def _diagram_reset(self):
@@ -288,10 +326,9 @@ class DynamicsView(pn.viewable.Viewer):
         along, lo, hi = self.diagram_window
         x0, x1 = float(event.x0), float(event.x1)
         if abs(x0 - lo) < 1e-9 and abs(x1 - hi) < 1e-9:
-            return                       # our own range update
+            return  # our own range update
         if not x1 - x0 >= MIN_DIAGRAM_WIDTH:
-            self.diagram_status.object = (f"a window under {MIN_DIAGRAM_WIDTH:g} decades is "
-                                          "not recomputed")
+            self.diagram_status.object = f"a window under {MIN_DIAGRAM_WIDTH:g} decades is not recomputed"
             return
         self._diagram(along, x0, x1)
 
@@ -300,22 +337,24 @@ class DynamicsView(pn.viewable.Viewer):
             self._history.append(self.diagram_window)
         self.diagram_window = (along, lo, hi)
         values = np.linspace(lo, hi, DIAGRAM_RUNS)
-        self._start("diagram", dynamics.orbit_diagram, self.scene, along, values,
-                    DIAGRAM_FINAL, cancellable=True)
+        self._start(
+            "diagram", dynamics.orbit_diagram, self.scene, along, values, DIAGRAM_FINAL, cancellable=True
+        )
         dim = plots.LOG_A if along == "amplitude" else plots.LOG_M
         self.diagram_fig.xaxis.axis_label = dim.label
-        self.diagram_status.object = (f"computing {DIAGRAM_RUNS} runs over {dim.label} in "
-                                      f"[{lo:.4g}, {hi:.4g}] ...")
+        self.diagram_status.object = (
+            f"computing {DIAGRAM_RUNS} runs over {dim.label} in [{lo:.4g}, {hi:.4g}] ..."
+        )
         self._buttons()
 
     def _show_diagram(self, diagram):
         self.phases.data = {"x": diagram.phase_value, "phase": diagram.phase}
         _, lo, hi = self.diagram_window
         _set_range(self.diagram_fig.x_range, lo, hi)
-        self.diagram_fig.title.text = (f"take-off phases, final {diagram.final_periods:g} "
-                                       f"periods, {len(diagram.values)} runs")
-        self.diagram_status.object = (f"{diagram.phase.size} take-offs; zoom to recompute "
-                                      "in the window")
+        self.diagram_fig.title.text = (
+            f"take-off phases, final {diagram.final_periods:g} periods, {len(diagram.values)} runs"
+        )
+        self.diagram_status.object = f"{diagram.phase.size} take-offs; zoom to recompute in the window"
 
     # ---------------------------------------------------------------- controls
     def _buttons(self):

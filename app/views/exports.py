@@ -2,6 +2,7 @@
 export`), the run's data (netCDF, CSV) and the map's points in the zoomed
 view (netCDF).  Files are written to a temporary folder, read back and the
 folder removed: nothing is left on the server per click."""
+
 import functools
 import io
 import os
@@ -30,8 +31,12 @@ def download_name(kind, fmt, scene=None, map_name=None, window=None):
     demand's); window: the zoomed view's (A* from, to, m* from, to), log10."""
     parts = ["vibtrans", kind]
     if scene is not None:
-        parts += [scene["model"], f"A{_value(scene['amplitude'])}", f"m{_value(scene['mass'])}",
-                  f"mu{_value(scene['mu'])}"]
+        parts += [
+            scene["model"],
+            f"A{_value(scene['amplitude'])}",
+            f"m{_value(scene['mass'])}",
+            f"mu{_value(scene['mu'])}",
+        ]
         profile = scene.get("profile", "sphere")
         if scene["model"] != "point-mass" and profile != "sphere":
             parts.append(profile.replace(":", ""))
@@ -65,7 +70,7 @@ class ExportsView:
         self.state, self.map_view = state, map_view
         self.shown_map = shown_map or (lambda: None)
         self.button_classes = list(button_classes)
-        self.answered = answered        # called once a file is ready (or failed)
+        self.answered = answered  # called once a file is ready (or failed)
         self.result = None
         self.buttons, self.run_buttons = [], []
         self.panel = pn.Column(sizing_mode="stretch_width", name="downloads")
@@ -78,14 +83,18 @@ class ExportsView:
         figures = [self._figure_download(k, f) for k, f in FIGURES]
         datas = [self._data_download(k, f) for k, f in DATA]
         self.buttons = figures + datas
-        self.run_buttons = [b for b, (k, _) in zip(self.buttons, FIGURES + DATA)
-                            if k in ("trajectory", "run")]
+        self.run_buttons = [
+            b for b, (k, _) in zip(self.buttons, FIGURES + DATA) if k in ("trajectory", "run")
+        ]
         self.panel.objects = [
             pn.pane.Markdown("**Export** (same figures as `vibtrans export`)"),
             pn.FlexBox(*figures),
-            pn.pane.Markdown("**Data** (the run: samples and events in netCDF, samples in CSV; "
-                             "the map's points in the zoomed view)"),
-            pn.FlexBox(*datas)]
+            pn.pane.Markdown(
+                "**Data** (the run: samples and events in netCDF, samples in CSV; "
+                "the map's points in the zoomed view)"
+            ),
+            pn.FlexBox(*datas),
+        ]
         return True
 
     def show(self, result):
@@ -96,26 +105,28 @@ class ExportsView:
     def figure_file(self, kind, fmt):
         """The bytes of a figure download (`map` or `trajectory`)."""
         from vibtrans.products import export
+
         s = self.state
         if kind == "map":
             map_ds, name = self._map()
             title = None if name is None else f"<v*>, map on demand: {name}"
 
             def write(out):
-                export.export_heatmap(map_ds, out, v0=s.v0, vertical=data.vertical_curve(),
-                                      title=title)
+                export.export_heatmap(map_ds, out, v0=s.v0, vertical=data.vertical_curve(), title=title)
         else:
             if self.result is None:
                 raise ValueError("no run yet")
 
             def write(out):
                 export.export_trajectory(self.result.ds, out, twin=self.result.twin)
+
         return exclusively(read_back, write, f"{kind}.{fmt}")
 
     def data_file(self, kind, fmt):
         """The bytes of a data download: the last run (`run`, netCDF or CSV)
         or the map's points inside the map's current view (`map-window`)."""
         from vibtrans.products import export
+
         if kind == "run":
             if self.result is None:
                 raise ValueError("no run yet")
@@ -137,11 +148,9 @@ class ExportsView:
     def file_name(self, kind, fmt):
         """The name of a download of `kind` (what it holds: download_name)."""
         if kind in ("run", "trajectory"):
-            return download_name(kind, fmt, scene=None if self.result is None
-                                 else self.result.ds.attrs)
+            return download_name(kind, fmt, scene=None if self.result is None else self.result.ds.attrs)
         shown = self.shown_map()
-        map_name = (f"{self.state.model}-mu{_value(self.state.mu)}" if shown is None
-                    else shown[0])
+        map_name = f"{self.state.model}-mu{_value(self.state.mu)}" if shown is None else shown[0]
         window = None
         if kind == "map-window":
             (a0, a1), (m0, m1) = self.map_view.view_ranges()
@@ -161,16 +170,24 @@ class ExportsView:
 
     def _figure_download(self, kind, fmt):
         button = pn.widgets.FileDownload(
-            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
-            css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes], width=150,
-            disabled=kind == "trajectory" and self.result is None)
+            filename=f"vibtrans-{kind}.{fmt}",
+            label=f"{kind} .{fmt}",
+            color="light",
+            css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes],
+            width=150,
+            disabled=kind == "trajectory" and self.result is None,
+        )
         button.callback = functools.partial(self._answering, self.figure_file, kind, fmt, button)
         return button
 
     def _data_download(self, kind, fmt):
         button = pn.widgets.FileDownload(
-            filename=f"vibtrans-{kind}.{fmt}", label=f"{kind} .{fmt}", color="light",
-            css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes], width=150,
-            disabled=kind == "run" and self.result is None)
+            filename=f"vibtrans-{kind}.{fmt}",
+            label=f"{kind} .{fmt}",
+            color="light",
+            css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes],
+            width=150,
+            disabled=kind == "run" and self.result is None,
+        )
         button.callback = functools.partial(self._answering, self.data_file, kind, fmt, button)
         return button

@@ -10,6 +10,7 @@ the explorer's state, records it: a run refuses while it has one).  A change
 of the parameter from elsewhere (a map click,
 a paper point, a link) rewrites the text and clears the message.
 """
+
 import panel as pn
 
 from vibtrans_explorer.session import urlstate
@@ -21,11 +22,11 @@ def _text(value, digits=6):
     """The field's text for a value: `digits` significant digits (108301,
     not 108300.59370879376).  The parameter keeps its exact value: a run uses
     it, and the page's link spells it in full."""
-    if value is None:                       # (a size that may be absent: the tip radius)
+    if value is None:  # (a size that may be absent: the tip radius)
         return ""
     if not isinstance(value, float):
         return str(value)
-    return f"{value + 0.0:.{digits}g}"      # (+ 0.0: -0.0 shows as 0)
+    return f"{value + 0.0:.{digits}g}"  # (+ 0.0: -0.0 shows as 0)
 
 
 class NumberField(pn.viewable.Viewer):
@@ -37,8 +38,12 @@ class NumberField(pn.viewable.Viewer):
         self.label = label
         self.error = ""
         self._width = {} if width is None else {"width": width}
-        self.input = pn.widgets.TextInput(label=label, value=_text(getattr(owner, name), digits),
-                                          css_classes=[f"vt-field-{name}"], **self._width)
+        self.input = pn.widgets.TextInput(
+            label=label,
+            value=_text(getattr(owner, name), digits),
+            css_classes=[f"vt-field-{name}"],
+            **self._width,
+        )
         # the message under the field: made at the first error (a page's
         # fields are mostly never wrong, and every pane costs its server time)
         self.note = None
@@ -50,17 +55,19 @@ class NumberField(pn.viewable.Viewer):
 
     def _typed(self, event):
         if self._echoing:
-            return          # the text shows the value: nothing to apply
+            return  # the text shows the value: nothing to apply
         p = self.owner.param[self.name_]
         raw = event.new or ""
         try:
             value = urlstate.convert(p, raw)
         except ValueError as exc:
-            given = (f"got '{urlstate.shown(raw.strip())}'" if raw.strip()
-                     else "the field is empty")
+            given = f"got '{urlstate.shown(raw.strip())}'" if raw.strip() else "the field is empty"
             # a value the library checks (the tip's sizes): its reason too
-            why = (f" ({urlstate.shown(str(exc), urlstate.REASON)})"
-                   if urlstate.reason_given(p) and raw.strip() else "")
+            why = (
+                f" ({urlstate.shown(str(exc), urlstate.REASON)})"
+                if urlstate.reason_given(p) and raw.strip()
+                else ""
+            )
             self._say(f"{self.label} must be {urlstate.valid_range(p)}; {given}{why}")
             self._record(self.error)
             return
@@ -95,8 +102,9 @@ class NumberField(pn.viewable.Viewer):
         if self.note is None:
             if not text:
                 return
-            self.note = pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
-                                         css_classes=[f"vt-error-{self.name_}"], **self._width)
+            self.note = pn.pane.Markdown(
+                "", visible=False, styles=ERROR_STYLE, css_classes=[f"vt-error-{self.name_}"], **self._width
+            )
             if self._box is not None:
                 self._box.append(self.note)
         self.note.object = text

@@ -10,6 +10,7 @@ feeding them ~0.15 s per run (measured with py-spy under the load test);
 plain figures take a fraction of that, and a run is one data change per
 source and a few range changes, sent to the browser as one message.
 """
+
 import numpy as np
 from bokeh.core.properties import field, value
 from bokeh.layouts import column
@@ -38,15 +39,15 @@ from vibtrans.core.units import duration_text
 from vibtrans.products import plots
 from vibtrans_explorer.views.presentation import scale_fonts
 
-MIN_WIDTH = 360               # the figures take their column's width, at least this
+MIN_WIDTH = 360  # the figures take their column's width, at least this
 # The frames' heights (their data areas; each figure's height follows its
 # title, legend and axes): with the figure's height fixed instead, the
 # presentation mode's larger text took the state strip's whole height (its
 # bars not drawn) and left a line panel's frame shorter than its right
 # axis's label; in presentation mode they grow with the text (`scale_frames`)
 LINE_FRAME = 150
-STRIP_FRAME = 32              # the state strip (its legend above it, the time axis below)
-TIMELINE_BINS = 400           # time bins of the whole-run state timeline
+STRIP_FRAME = 32  # the state strip (its legend above it, the time axis below)
+TIMELINE_BINS = 400  # time bins of the whole-run state timeline
 _COLOURS = np.array([plots.STATE_COLORS[k] for k in range(len(STATE_NAMES))])
 _NAMES = np.array(STATE_NAMES)
 # a panel's second quantity on an axis of its own at the right (plots.py)
@@ -84,8 +85,7 @@ class _Shared:
 
     def axis(self, **kw):
         """A linear axis with the shared ticker, formatter and label policy."""
-        return LinearAxis(ticker=self.ticker, formatter=self.formatter,
-                          major_label_policy=self.labels, **kw)
+        return LinearAxis(ticker=self.ticker, formatter=self.formatter, major_label_policy=self.labels, **kw)
 
     def view(self, source):
         """The CDSView of every renderer of `source` (all its rows)."""
@@ -105,10 +105,20 @@ def _figure(title, ylabel, x_range, frame_height, shared, time_axis=True):
     time axis below; without, only the time's grid lines (the block's
     bottom panel has its axis).  Every axis and grid from the `shared`
     models."""
-    fig = figure(title=title, sizing_mode="stretch_width", min_width=MIN_WIDTH, height=None,
-                 frame_height=frame_height, x_range=x_range,
-                 y_range=Range1d(0.0, 1.0), tools=TOOLS, active_scroll="xwheel_zoom",
-                 output_backend="canvas", x_axis_type=None, y_axis_type=None)
+    fig = figure(
+        title=title,
+        sizing_mode="stretch_width",
+        min_width=MIN_WIDTH,
+        height=None,
+        frame_height=frame_height,
+        x_range=x_range,
+        y_range=Range1d(0.0, 1.0),
+        tools=TOOLS,
+        active_scroll="xwheel_zoom",
+        output_backend="canvas",
+        x_axis_type=None,
+        y_axis_type=None,
+    )
     fig.x_scale = fig.y_scale = shared.scale
     if time_axis:
         fig.add_layout(shared.axis(axis_label="t* (periods)"), "below")
@@ -131,14 +141,21 @@ def _lines(fig, sources, lines, shared, right=(), envelope=False):
         axis["view"] = shared.view(source)
         drawn = []
         if envelope:
-            drawn.append(fig.add_glyph(source, VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi",
-                                                     fill_color=colour, fill_alpha=0.3), **axis))
-        r = fig.add_glyph(source, Line(x="time", y=col, line_color=colour, line_width=1.5,
-                                       line_dash=dash or "solid"), **axis)
+            drawn.append(
+                fig.add_glyph(
+                    source,
+                    VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi", fill_color=colour, fill_alpha=0.3),
+                    **axis,
+                )
+            )
+        r = fig.add_glyph(
+            source,
+            Line(x="time", y=col, line_color=colour, line_width=1.5, line_dash=dash or "solid"),
+            **axis,
+        )
         renderers.append(r)
         items.append(LegendItem(label=label, renderers=[r, *drawn]))
-    fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"),
-                                                           ("value", "$y{0.0000}")]))
+    fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"), ("value", "$y{0.0000}")]))
     fig.add_layout(Legend(items=items, location="top_left"), "right")
     return items
 
@@ -154,8 +171,8 @@ class _Panel:
 
     def __init__(self, fig, items, right_axis, specs):
         self.fig, self.right_axis = fig, right_axis
-        self.items = dict(zip((c for c, _, _ in specs[False][2]), items))   # column -> its item
-        self.specs = specs          # {rigid: (title, y label, [(column, label, colour)])}
+        self.items = dict(zip((c for c, _, _ in specs[False][2]), items))  # column -> its item
+        self.specs = specs  # {rigid: (title, y label, [(column, label, colour)])}
         self.columns, self.right = [], []
 
     def configure(self, rigid):
@@ -174,7 +191,7 @@ class _Panel:
             for r in item.renderers:
                 r.visible = col in cols
                 r.y_range_name = "right" if col in right else "default"
-                if hasattr(r.glyph, "line_dash"):       # (its line, not its band)
+                if hasattr(r.glyph, "line_dash"):  # (its line, not its band)
                     r.glyph.line_dash = plots.axis_dash(col, right) or "solid"
         self.columns, self.right = cols, right
 
@@ -194,15 +211,28 @@ def _timeline(title, x_range, shared):
     fig.yaxis.visible = False
     fig.ygrid.visible = False
     source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
-    r = fig.add_glyph(source, Quad(left="left", right="right", bottom=0.0, top=1.0,
-                                   fill_color="color", line_width=0), view=shared.view(source))
-    fig.add_tools(HoverTool(renderers=[r], tooltips=[("state", "@state"),
-                                                     ("t*", "@left{0.000} to @right{0.000}")]))
+    r = fig.add_glyph(
+        source,
+        Quad(left="left", right="right", bottom=0.0, top=1.0, fill_color="color", line_width=0),
+        view=shared.view(source),
+    )
+    fig.add_tools(
+        HoverTool(renderers=[r], tooltips=[("state", "@state"), ("t*", "@left{0.000} to @right{0.000}")])
+    )
     # the colours named on the page, not only on hover: one entry per state
     # the run shows, grouped by the browser from the bands' names (two models)
-    fig.add_layout(Legend(items=[LegendItem(label=field("state"), renderers=[r])],
-                          orientation="horizontal", location="top_left", margin=2, padding=2,
-                          label_text_font_size="9pt", border_line_alpha=0), "above")
+    fig.add_layout(
+        Legend(
+            items=[LegendItem(label=field("state"), renderers=[r])],
+            orientation="horizontal",
+            location="top_left",
+            margin=2,
+            padding=2,
+            label_text_font_size="9pt",
+            border_line_alpha=0,
+        ),
+        "above",
+    )
     return fig, source
 
 
@@ -241,12 +271,13 @@ class _Block:
         # two periods at t* ~ 2000, x* ~ 10^3 moves by ~1: in absolute
         # numbers the ticks read 2000.5, 4123.2 and the motion hides)
         self.relative = relative
-        models = {rigid: self._specs(plots.panel_spec(rigid), relative)
-                  for rigid in (False, True)}
-        for full, fewer in zip(*models.values(), strict=True):   # (the _Panel premise)
+        models = {rigid: self._specs(plots.panel_spec(rigid), relative) for rigid in (False, True)}
+        for full, fewer in zip(*models.values(), strict=True):  # (the _Panel premise)
             assert {c for c, _, _ in fewer[2]} <= {c for c, _, _ in full[2]}
-        self.variables = sorted({col for _, _, lines in models[False] for col, _, _ in lines}
-                                | ({"x"} if twin is not None else set()))
+        self.variables = sorted(
+            {col for _, _, lines in models[False] for col, _, _ in lines}
+            | ({"x"} if twin is not None else set())
+        )
         self.bins = bins
         bands = [f"{c}_{e}" for c in self.variables for e in ("lo", "hi")] if bins else []
         self.source = ColumnDataSource({c: [] for c in ["time", *self.variables, *bands]})
@@ -255,22 +286,34 @@ class _Block:
         # a rolling particle's rotation (plots.ROLLING_PANEL): its figure
         # built at the first run that rolls, shown for those only
         self.rolling_figure = self.rolling_source = None
-        self.scale = 1.0            # presentation mode's (`scale_frames`)
+        self.scale = 1.0  # presentation mode's (`scale_frames`)
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
-            fig = _figure(binned_title(title) if bins else title, ylabel, self.x_range,
-                          LINE_FRAME, shared, time_axis=False)
+            fig = _figure(
+                binned_title(title) if bins else title,
+                ylabel,
+                self.x_range,
+                LINE_FRAME,
+                shared,
+                time_axis=False,
+            )
             right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
                 right_axis = shared.axis(y_range_name="right")
                 fig.add_layout(right_axis, "right")
-            items = _lines(fig, [self.source] * len(lines),
-                           [(*line, plots.axis_dash(line[0], right)) for line in lines],
-                           shared, right, envelope=bool(bins))
-            specs = {rigid: (binned_title(m[i][0]) if bins else m[i][0], *m[i][1:])
-                     for rigid, m in models.items()}
+            items = _lines(
+                fig,
+                [self.source] * len(lines),
+                [(*line, plots.axis_dash(line[0], right)) for line in lines],
+                shared,
+                right,
+                envelope=bool(bins),
+            )
+            specs = {
+                rigid: (binned_title(m[i][0]) if bins else m[i][0], *m[i][1:]) for rigid, m in models.items()
+            }
             self.panels.append(_Panel(fig, items, right_axis, specs))
             self.figures.append(fig)
         self.twin_source = None
@@ -278,13 +321,15 @@ class _Block:
             title, ylabel, ((la, ca, da), (lb, cb, db)) = twin
             fig = _figure(title, ylabel, self.x_range, LINE_FRAME, shared, time_axis=False)
             self.twin_source = ColumnDataSource({"time": [], "x": []})
-            self.twin_items = _lines(fig, [self.source, self.twin_source],
-                                     [("x", la, ca, da), ("x", lb, cb, db)], shared)
+            self.twin_items = _lines(
+                fig, [self.source, self.twin_source], [("x", la, ca, da), ("x", lb, cb, db)], shared
+            )
             self.twin_figure = fig
         # the state timeline at the bottom carries the block's time axis
         self.timeline, self.bands = _timeline(timeline_title, self.x_range, shared)
-        self.layout = column([*self.figures, *([self.twin_figure] if twin else []),
-                              self.timeline], sizing_mode="stretch_width")
+        self.layout = column(
+            [*self.figures, *([self.twin_figure] if twin else []), self.timeline], sizing_mode="stretch_width"
+        )
         self.rigid = None
         self.configure(False)
 
@@ -293,13 +338,24 @@ class _Block:
         line panels."""
         title, ylabel, lines = plots.ROLLING_PANEL
         bins = bool(self.bins)
-        fig = _figure(binned_title(title) if bins else title, ylabel, self.x_range,
-                      LINE_FRAME, self.shared, time_axis=False)
+        fig = _figure(
+            binned_title(title) if bins else title,
+            ylabel,
+            self.x_range,
+            LINE_FRAME,
+            self.shared,
+            time_axis=False,
+        )
         cols = [c for c, _, _ in lines]
         bands = [f"{c}_{e}" for c in cols for e in ("lo", "hi")] if bins else []
         self.rolling_source = ColumnDataSource({c: [] for c in ["time", *cols, *bands]})
-        _lines(fig, [self.rolling_source] * len(lines), [(*line, None) for line in lines],
-               self.shared, envelope=bins)
+        _lines(
+            fig,
+            [self.rolling_source] * len(lines),
+            [(*line, None) for line in lines],
+            self.shared,
+            envelope=bins,
+        )
         self.rolling_figure = fig
         if self.scale != 1.0:
             scale_fonts(fig, self.scale)
@@ -320,8 +376,7 @@ class _Block:
         if not rolls:
             return
         raw = {c: ds[c].values for c in plots.ROLLING_VARIABLES}
-        self.rolling_source.data = (plots.binned(t, raw, self.bins) if self.bins
-                                    else {"time": t, **raw})
+        self.rolling_source.data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         lo, hi = _extent(list(raw.values()))
         self.rolling_figure.y_range.update(start=lo, end=hi)
 
@@ -329,17 +384,20 @@ class _Block:
     def _specs(specs, relative):
         if not relative:
             return specs
-        return [(_relative_title(title),
-                 ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
-                 [(c, f"{label} - x*(t0)" if c == "x" else label, colour)
-                  for c, label, colour in lines]) for title, ylabel, lines in specs]
+        return [
+            (
+                _relative_title(title),
+                ylabel.replace("x* (a0)", "x* - x*(t0) (a0)"),
+                [(c, f"{label} - x*(t0)" if c == "x" else label, colour) for c, label, colour in lines],
+            )
+            for title, ylabel, lines in specs
+        ]
 
     def scale_frames(self, factor):
         """The frames' heights at `factor` times their own (presentation mode)."""
         self.scale = factor
         rolling = [self.rolling_figure] if self.rolling_figure is not None else []
-        for fig in [*self.figures, *([self.twin_figure] if self.twin_source is not None else []),
-                    *rolling]:
+        for fig in [*self.figures, *([self.twin_figure] if self.twin_source is not None else []), *rolling]:
             fig.frame_height = round(LINE_FRAME * factor)
         self.timeline.frame_height = round(STRIP_FRAME * factor)
 
@@ -356,14 +414,12 @@ class _Block:
         also reads in seconds), or None."""
         t = ds["time"].values
         # (a material point has no a*, b*, b*': their lines are hidden)
-        raw = {v: ds[v].values if v in ds else np.full(t.shape, np.nan)
-               for v in self.variables}
+        raw = {v: ds[v].values if v in ds else np.full(t.shape, np.nan) for v in self.variables}
         t0 = float(t[0])
         if self.relative:
             t = t - t0
             raw["x"] = raw["x"] - raw["x"][0]
-        self.timeline.xaxis.axis_label = time_label(t0 if self.relative else None,
-                                                    period_seconds)
+        self.timeline.xaxis.axis_label = time_label(t0 if self.relative else None, period_seconds)
         data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
         self.source.data = data
         self._show_rolling(ds, t)
@@ -383,8 +439,7 @@ class _Block:
         t0, t1, codes = plots.state_bands(ds, self.bins)
         if self.relative:
             t0, t1 = t0 - float(ds["time"].values[0]), t1 - float(ds["time"].values[0])
-        self.bands.data = {"left": t0, "right": t1, "color": _COLOURS[codes],
-                           "state": _NAMES[codes]}
+        self.bands.data = {"left": t0, "right": t1, "color": _COLOURS[codes], "state": _NAMES[codes]}
 
 
 class LiveTrajectory:
@@ -419,7 +474,7 @@ class LiveTrajectory:
         block = self.over
         block.twin_figure.title.text = title
         for item, (text, _, _) in zip(block.twin_items, lines):
-            item.label = value(text)        # (a bare string set later is a column name)
+            item.label = value(text)  # (a bare string set later is a column name)
         self.label = label
 
     def show(self, ds, other=None, period_seconds=None, rigid=False):

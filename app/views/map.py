@@ -2,6 +2,7 @@
 models side by side, their zoom linked), the jumping boundary, the
 resonances, the paper points, the selected scene (yellow) and the Units
 tab's device (green diamond); a click runs the scene there."""
+
 import functools
 import math
 import re
@@ -63,8 +64,10 @@ def in_document(source, data):
     "_pending_writes should be non-None" in the server's log (then
     typed values did not move the map's marker).  So the change goes to
     the document's next tick, which holds the lock; outside a server, now."""
+
     def apply():
         source.data = data
+
     at_next_tick(source.document, apply)
 
 
@@ -76,21 +79,19 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     period doubling and stability region."""
     try:
         ds = data.drift_map(model, mu)
-    except data.MapUnavailable:    # the reason (with the file) is said at session start
-        return _unavailable(f"No shipped map: {model}, mu = {mu:g}")   # (the note above says more)
+    except data.MapUnavailable:  # the reason (with the file) is said at session start
+        return _unavailable(f"No shipped map: {model}, mu = {mu:g}")  # (the note above says more)
     if layer == LYAPUNOV_LAYER:
         lyapunov = data.lyapunov_map(model)
         if lyapunov is None:
-            return _unavailable(f"No usable Lyapunov map for {model}: show the drift "
-                                f"velocity instead")
+            return _unavailable(f"No usable Lyapunov map for {model}: show the drift velocity instead")
         el = plots.lyapunov_map(lyapunov, CHAOS_LYAPUNOV)
         title = f"Lyapunov exponent of the vertical motion\n{model} (any mu)"
     else:
         # every map of the same parts (the grey layer and the resonances
         # there, hidden where they show nothing): a change of model or of
         # the chaotic points' colour updates the shown figure in place
-        el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}",
-                             always_grey=True)
+        el = plots.drift_map(ds, v0=v0, chaotic=chaotic, title=f"{model}, mu = {mu:g}", always_grey=True)
         # (two lines: on one, the title was wider than the map's frame at 1024
         # pixels in presentation mode)
         title = f"<v*> over 2000 periods\n{model}, mu = {mu:g}"
@@ -119,14 +120,14 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     arguments were passed too (the warm-up's calls, defaults left out, once
     missed what the pages read)."""
     doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
-    with doc.models.freeze():       # the graph recomputed once, not at every change
+    with doc.models.freeze():  # the graph recomputed once, not at every change
         _lean(fig)
         _shared_parts(fig)
         _labels_from_data(fig)
     columns = {}
     hovered = _hovered(fig)
     for m in doc.models:
-        if isinstance(m, ColumnDataSource) and m.name != BAR_LABELS:   # (those: tiny)
+        if isinstance(m, ColumnDataSource) and m.name != BAR_LABELS:  # (those: tiny)
             columns[m.id] = {k: _as_sent(k, v, hovered) for k, v in m.data.items()}
             m.data = {k: [] for k in m.data}
     # a plain dict (buffers inline) on every Bokeh: 3.4 returns one by
@@ -157,13 +158,14 @@ def _as_sent(name, column, hovered):
     flags 0/1).  Every page's pull of the document carried four such
     images of 195 kB (a 201 x 121 map); a drift the hover shows keeps
     its float64 values.  Other columns as they are."""
-    if not (isinstance(column, list) and column
-            and all(isinstance(a, np.ndarray) and a.ndim == 2 and a.dtype == np.float64
-                    for a in column)):
+    if not (
+        isinstance(column, list)
+        and column
+        and all(isinstance(a, np.ndarray) and a.ndim == 2 and a.dtype == np.float64 for a in column)
+    ):
         return column
     light = [a.astype(np.float32) for a in column]
-    if name in hovered and not all(np.array_equal(x, a, equal_nan=True)
-                                   for x, a in zip(light, column)):
+    if name in hovered and not all(np.array_equal(x, a, equal_nan=True) for x, a in zip(light, column)):
         return column
     return light
 
@@ -194,16 +196,17 @@ def _labels_from_data(fig):
     read by a CustomJSTicker and a CustomJSTickFormatter."""
     for bar in _annotations(fig, ColorBar):
         if not isinstance(bar.ticker, FixedTicker):
-            continue            # (the Lyapunov layer's: Bokeh's own ticks, fixed)
+            continue  # (the Lyapunov layer's: Bokeh's own ticks, fixed)
         labels = {float(k): v for k, v in bar.major_label_overrides.items()}
         ticks = sorted(float(t) for t in bar.ticker.ticks)
-        source = ColumnDataSource({"tick": ticks, "label": [labels.get(t, f"{t:g}")
-                                                            for t in ticks]},
-                                  name=BAR_LABELS)
-        bar.update(ticker=CustomJSTicker(args=dict(source=source), major_code=_BAR_TICKS_JS),
-                   formatter=CustomJSTickFormatter(args=dict(source=source),
-                                                   code=_BAR_LABEL_JS),
-                   major_label_overrides={})
+        source = ColumnDataSource(
+            {"tick": ticks, "label": [labels.get(t, f"{t:g}") for t in ticks]}, name=BAR_LABELS
+        )
+        bar.update(
+            ticker=CustomJSTicker(args=dict(source=source), major_code=_BAR_TICKS_JS),
+            formatter=CustomJSTickFormatter(args=dict(source=source), code=_BAR_LABEL_JS),
+            major_label_overrides={},
+        )
 
 
 def _labels_source(bar):
@@ -220,7 +223,7 @@ def bar_labels(bar):
 
 def _setting(model, mu, v0, chaotic, layer, orbits):
     """The arguments of `_map_json` for a setting (all positional: see there)."""
-    if layer == LYAPUNOV_LAYER:     # the drift's settings change nothing there
+    if layer == LYAPUNOV_LAYER:  # the drift's settings change nothing there
         v0, chaotic = V0, "grey"
     return model, mu, v0, chaotic, layer, orbits
 
@@ -242,17 +245,32 @@ def _content(fig):
     renderers = []
     for r in fig.renderers:
         source, glyph = getattr(r, "data_source", None), getattr(r, "glyph", None)
-        placement = {attr: getattr(glyph, attr) for attr in ("x", "y", "dw", "dh")
-                     if glyph is not None and hasattr(glyph, attr)}
-        renderers.append((None if source is None else dict(source.data), placement,
-                          r.visible, r.location if isinstance(r, Span) else None))
-    return {"shape": _shape(fig), "renderers": renderers,
-            "bars": [(None if _labels_source(b) is None else dict(_labels_source(b).data),
-                      b.title) for b in _annotations(fig, ColorBar)],
-            "keys": [[(item.label, item.visible) for item in legend.items]
-                     for legend in _annotations(fig, Legend)],
-            "tooltips": [t.tooltips for t in fig.toolbar.tools if isinstance(t, HoverTool)],
-            "title": fig.title.text}
+        placement = {
+            attr: getattr(glyph, attr)
+            for attr in ("x", "y", "dw", "dh")
+            if glyph is not None and hasattr(glyph, attr)
+        }
+        renderers.append(
+            (
+                None if source is None else dict(source.data),
+                placement,
+                r.visible,
+                r.location if isinstance(r, Span) else None,
+            )
+        )
+    return {
+        "shape": _shape(fig),
+        "renderers": renderers,
+        "bars": [
+            (None if _labels_source(b) is None else dict(_labels_source(b).data), b.title)
+            for b in _annotations(fig, ColorBar)
+        ],
+        "keys": [
+            [(item.label, item.visible) for item in legend.items] for legend in _annotations(fig, Legend)
+        ],
+        "tooltips": [t.tooltips for t in fig.toolbar.tools if isinstance(t, HoverTool)],
+        "title": fig.title.text,
+    }
 
 
 def _lean(fig):
@@ -272,7 +290,8 @@ def _same_rows(a, b):
         return not a and not b
     lengths = {len(v) for v in (*a.values(), *b.values())}
     return len(lengths) == 1 and all(
-        np.array_equal(np.asarray(a[k]), np.asarray(b[k])) for k in a.keys() & b.keys())
+        np.array_equal(np.asarray(a[k]), np.asarray(b[k])) for k in a.keys() & b.keys()
+    )
 
 
 def _shared_parts(fig):
@@ -285,7 +304,7 @@ def _shared_parts(fig):
     from the points, so they keep their own).  Called once per rendered
     setting, before it is serialized."""
     selection, policy, everything = Selection(), UnionRenderers(), AllIndices()
-    merged = []         # [(source, its view)]
+    merged = []  # [(source, its view)]
     for r in fig.renderers:
         if not isinstance(r, GlyphRenderer):
             continue
@@ -318,10 +337,9 @@ def _decoded(js, columns):
     Decoded without a Document of its own (adding the figure to one and
     removing it walked its model graph twice), its sources found through
     its renderers (a walk of the graph costs ~10 ms: ~120 models)."""
-    fig, = Deserializer().decode(js["roots"])
-    sources = {s.id: s for s in (getattr(r, "data_source", None) for r in fig.renderers)
-               if s is not None}
-    if not columns.keys() <= sources.keys():        # a source elsewhere: walk the graph
+    (fig,) = Deserializer().decode(js["roots"])
+    sources = {s.id: s for s in (getattr(r, "data_source", None) for r in fig.renderers) if s is not None}
+    if not columns.keys() <= sources.keys():  # a source elsewhere: walk the graph
         sources = {m.id: m for m in fig.references()}
     for id_, data_ in columns.items():
         sources[id_].data = dict(data_)
@@ -331,8 +349,15 @@ def _decoded(js, columns):
 def _fit(fig):
     """The map as wide as its place on the page, its data area
     MAP_FRAME_HEIGHT high (the figure's height follows what is around it)."""
-    fig.update(sizing_mode=None, width_policy="max", height_policy="fit", width=None,
-               height=None, frame_height=MAP_FRAME_HEIGHT, min_width=MIN_WIDTH)
+    fig.update(
+        sizing_mode=None,
+        width_policy="max",
+        height_policy="fit",
+        width=None,
+        height=None,
+        frame_height=MAP_FRAME_HEIGHT,
+        min_width=MIN_WIDTH,
+    )
 
 
 _SIDES = ("center", "below", "right", "left", "above")
@@ -348,10 +373,11 @@ def _shape(fig):
     """What a map figure is made of: its renderers' glyph types in order,
     its legends' item counts and its colour bars' count.  Two figures of the
     same shape differ only in their data, labels and ticks."""
-    return ([(type(r).__name__, type(getattr(r, "glyph", None)).__name__)
-             for r in fig.renderers],
-            [len(legend.items) for legend in _annotations(fig, Legend)],
-            len(_annotations(fig, ColorBar)))
+    return (
+        [(type(r).__name__, type(getattr(r, "glyph", None)).__name__) for r in fig.renderers],
+        [len(legend.items) for legend in _annotations(fig, Legend)],
+        len(_annotations(fig, ColorBar)),
+    )
 
 
 def _same_columns(a, b):
@@ -364,8 +390,9 @@ def _same_columns(a, b):
         if w is v:
             continue
         x, y = np.asarray(w), np.asarray(v)
-        if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"
-                                                     and y.dtype.kind == "f"):
+        if x.shape != y.shape or not np.array_equal(
+            x, y, equal_nan=x.dtype.kind == "f" and y.dtype.kind == "f"
+        ):
             return False
     return True
 
@@ -382,7 +409,7 @@ def update_in_place(old, content):
     the shapes differ.  (The session's markers, added after the map's own
     renderers, are not in `content` and stay.)"""
     shape = _shape(old)
-    if (shape[0][:len(content["shape"][0])], *shape[1:]) != content["shape"]:
+    if (shape[0][: len(content["shape"][0])], *shape[1:]) != content["shape"]:
         return False
     for ro, (data_, placement, visible, location) in zip(old.renderers, content["renderers"]):
         so = getattr(ro, "data_source", None)
@@ -421,8 +448,10 @@ def profile_lines_note(profile):
     (the threshold curve shipped is the sphere's; the profile's own costs
     about half of a map on demand's points, docs/DYNAMICS.md section 5)."""
     m_res = linear_resonance_mass(profile)
-    return (f"dotted: {profile}'s linear resonance m* = {m_res:.3g} (closed form)\n"
-            f"no jumping boundary: the one shipped is the sphere's")
+    return (
+        f"dotted: {profile}'s linear resonance m* = {m_res:.3g} (closed form)\n"
+        f"no jumping boundary: the one shipped is the sphere's"
+    )
 
 
 def computed_element(ds, title, model, window, v0, chaotic):
@@ -450,8 +479,10 @@ def computed_element(ds, title, model, window, v0, chaotic):
     # half a cell beyond the outer points: the image's own extent
     da = (a1 - a0) / max(1, ds.sizes["log_amplitude"] - 1) / 2
     dm = (m1 - m0) / max(1, ds.sizes["log_mass"] - 1) / 2
-    return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title),
-                   hv.opts.Overlay(xlim=(a0 - da, a1 + da), ylim=(m0 - dm, m1 + dm)))
+    return el.opts(
+        hv.opts.Image(height=MAP_HEIGHT, title=title),
+        hv.opts.Overlay(xlim=(a0 - da, a1 + da), ylim=(m0 - dm, m1 + dm)),
+    )
 
 
 def computed_figure(ds, title, model, window, v0, chaotic):
@@ -473,9 +504,8 @@ def prerender_steps():
     them on its event loop one at a time after its warm-up."""
     for model, mu in sorted(data.available_maps()):
         for chaotic in ("grey", "colour"):
-            yield functools.partial(_map_json, model, mu, V0, chaotic, DRIFT_LAYER,
-                                    NO_ORBITS)
-    for model, mu in sorted(data.available_maps()):      # the chaos indicator's layer
+            yield functools.partial(_map_json, model, mu, V0, chaotic, DRIFT_LAYER, NO_ORBITS)
+    for model, mu in sorted(data.available_maps()):  # the chaos indicator's layer
         yield functools.partial(_map_json, model, mu, V0, "grey", LYAPUNOV_LAYER, NO_ORBITS)
 
 
@@ -503,26 +533,28 @@ class MapView:
 
     def __init__(self, state, on_click, on_tap_js=None, on_zoom=None):
         self.state = state
-        self.on_zoom = on_zoom           # f(view_ranges()): the shipped map zoomed or panned
+        self.on_zoom = on_zoom  # f(view_ranges()): the shipped map zoomed or panned
         self.on_click = on_click
-        self.on_tap_js = on_tap_js       # a CustomJS run in the browser at a click
+        self.on_tap_js = on_tap_js  # a CustomJS run in the browser at a click
         self.selected = ColumnDataSource({"x": [state.log_amplitude], "y": [state.log_mass]})
         self.device = ColumnDataSource({"x": [], "y": []})
         # both models' maps side by side where each gets MIN_WIDTH, else
         # one under the other: side by side at 1024 x 768 (a 680-pixel
         # column) the second was cut off at the page's right edge
-        self.pane = pn.FlexBox(sizing_mode="stretch_width", name="map", css_classes=["vt-map"],
-                               flex_wrap="wrap")
+        self.pane = pn.FlexBox(
+            sizing_mode="stretch_width", name="map", css_classes=["vt-map"], flex_wrap="wrap"
+        )
         self.figures = []
         # a map on demand shown instead of the shipped ones: (figure, window,
         # on_click(la, lm)); None: the shipped maps
         self.computed = None
-        self.scale_fonts = None      # f(fig): presentation mode's fonts, applied to new figures
-        self._drawn = None           # what the shipped figures shown draw (redraw)
-        self._shapes = []            # their shapes (`_shape`, before the markers)
+        self.scale_fonts = None  # f(fig): presentation mode's fonts, applied to new figures
+        self._drawn = None  # what the shipped figures shown draw (redraw)
+        self._shapes = []  # their shapes (`_shape`, before the markers)
         self.redraw()
-        state.param.watch(self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer",
-                                        "orbits"], precedence=1)
+        state.param.watch(
+            self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer", "orbits"], precedence=1
+        )
 
     def shown(self):
         """The (model, mu) of each map drawn."""
@@ -576,11 +608,13 @@ class MapView:
         fonts in presentation mode.  The markers are drawn by bare
         renderers: no glyph copies for selected or muted data (neither
         happens on a map), four models fewer per page."""
-        for source, marker, colour in ((self.selected, "circle", "yellow"),
-                                       (self.device, "diamond", "lime")):
-            fig.add_glyph(source, Scatter(x="x", y="y", size=14, marker=marker,
-                                          fill_color=colour, line_color="black"),
-                          nonselection_glyph=None, muted_glyph=None)
+        for source, marker, colour in ((self.selected, "circle", "yellow"), (self.device, "diamond", "lime")):
+            fig.add_glyph(
+                source,
+                Scatter(x="x", y="y", size=14, marker=marker, fill_color=colour, line_color="black"),
+                nonselection_glyph=None,
+                muted_glyph=None,
+            )
         if self.scale_fonts is not None:
             self.scale_fonts(fig)
         self._fit_key(fig, maps)
@@ -599,26 +633,28 @@ class MapView:
 
     def redraw(self, *events):
         if self.computed is not None:
-            return          # a map on demand is shown: the shipped settings wait
+            return  # a map on demand is shown: the shipped settings wait
         s = self.state
         # as many maps, each drawn or not as before (that decides what a
         # click on it does), the same layer and curves, each of the same
         # shape (a new model, mu, v0* or colour of the chaotic points): the
         # shown figures are updated to what the new setting draws, from the
         # rendering cache, without building figures
-        contents = [map_content(m, mu, s.v0, s.chaotic, s.layer, s.orbits)
-                    for m, mu in self.shown()]
-        shown = ([(m, mu) in data.available_maps() for m, mu in self.shown()],
-                 s.layer, s.orbits)
-        if (self.figures and self._drawn == shown and len(contents) == len(self.figures)
-                and all(c["shape"] == k for c, k in zip(contents, self._shapes))):
+        contents = [map_content(m, mu, s.v0, s.chaotic, s.layer, s.orbits) for m, mu in self.shown()]
+        shown = ([(m, mu) in data.available_maps() for m, mu in self.shown()], s.layer, s.orbits)
+        if (
+            self.figures
+            and self._drawn == shown
+            and len(contents) == len(self.figures)
+            and all(c["shape"] == k for c, k in zip(contents, self._shapes))
+        ):
             for old, content in zip(self.figures, contents):
                 update_in_place(old, content)
             return
         figures = [self._figure(m, mu) for m, mu in self.shown()]
         self._shapes = [c["shape"] for c in contents]
         self._drawn = shown
-        if len(figures) > 1:        # linked zoom and pan
+        if len(figures) > 1:  # linked zoom and pan
             for fig in figures[1:]:
                 fig.x_range, fig.y_range = figures[0].x_range, figures[0].y_range
         self.figures = figures
@@ -633,15 +669,17 @@ class MapView:
         in_document(self.selected, {"x": [la], "y": [lm]})
 
     def mark_device(self, marker):
-        in_document(self.device, {"x": [] if marker is None else [marker[0]],
-                                  "y": [] if marker is None else [marker[1]]})
+        in_document(
+            self.device,
+            {"x": [] if marker is None else [marker[0]], "y": [] if marker is None else [marker[1]]},
+        )
 
     def _on_tap(self, drawn, event):
         x, y = event.x, event.y
         if not drawn:
-            return          # no map drawn: the click has no meaning
+            return  # no map drawn: the click has no meaning
         if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
             return
         if not within(x, y, MAP_LOG_AMPLITUDE, MAP_LOG_MASS):
-            return          # outside the map's domain (its padding): not a scene
+            return  # outside the map's domain (its padding): not a scene
         self.on_click(round(x, 3), round(y, 3), len(self.figures) > 1)

@@ -4,6 +4,7 @@ when its tab opens), the estimate, the request handed to the server's queue
 (app/server/mapjobs.py) and its levels drawn on the map as they come, the banner
 over the map, "refine this window" on a zoomed shipped map, a click on the
 map on demand running its scene, and the way back to the shipped map."""
+
 import asyncio
 import functools
 import logging
@@ -29,7 +30,7 @@ log = logging.getLogger("vibtrans.explorer")
 REFINE_BELOW_CELLS = 5
 # a refinement of the shipped map: the coarse cells and levels of its request
 REFINE_CELLS, REFINE_LEVELS = 2, 3
-ONDEMAND_TAB = 3        # the map tabs' index of "Map on demand"
+ONDEMAND_TAB = 3  # the map tabs' index of "Map on demand"
 
 
 class MapOnDemand:
@@ -47,13 +48,13 @@ class MapOnDemand:
         # its Ticket while it computes (app/server/mapjobs.py)
         self.map_request_panel = None
         self.ondemand_box = pn.Column(sizing_mode="stretch_width", name="ondemand")
-        self.session = session              # its key in the server's map queue
+        self.session = session  # its key in the server's map queue
         # the map computing (its Ticket in the server's queue: cancelling its
         # job cancels the session's request there) and the request's
         # estimate; the latest of each wins
         self.map_work = LatestJob()
         self.estimates = LatestJob()
-        self._map_shown = None              # (request, ds) of the map on demand drawn
+        self._map_shown = None  # (request, ds) of the map on demand drawn
         # the line over the map and the refinement's offer: their widgets
         # made at their first use (most pages never show them)
         self.map_status = self.back_button = self.map_cancel_button = None
@@ -63,15 +64,30 @@ class MapOnDemand:
         # over the map: the map shown is not of the particle selected (the
         # shipped maps are of a sphere that does not roll); its button made
         # at first use
-        self.profile_note = pn.pane.Alert("", alert_type="warning", margin=0,
-                                          sizing_mode="stretch_width",
-                                          css_classes=["vt-map-profile"])
+        self.profile_note = pn.pane.Alert(
+            "", alert_type="warning", margin=0, sizing_mode="stretch_width", css_classes=["vt-map-profile"]
+        )
         self.profile_button = None
-        self.profile_box = pn.Column(self.profile_note, visible=False, margin=(0, 10),
-                                     sizing_mode="stretch_width")
-        state.param.watch(self.on_profile, ["profile", "model", "rolling", "mu", "theta", "nu",
-                                             "tau", "periods", "fidelity", "integrator",
-                                             "log_amplitude", "log_mass"])
+        self.profile_box = pn.Column(
+            self.profile_note, visible=False, margin=(0, 10), sizing_mode="stretch_width"
+        )
+        state.param.watch(
+            self.on_profile,
+            [
+                "profile",
+                "model",
+                "rolling",
+                "mu",
+                "theta",
+                "nu",
+                "tau",
+                "periods",
+                "fidelity",
+                "integrator",
+                "log_amplitude",
+                "log_mass",
+            ],
+        )
 
     def close(self):
         """The session closed: its map stops unless another session waits."""
@@ -81,11 +97,13 @@ class MapOnDemand:
         """The request's panel, built at its first use (most sessions never
         open it), its values those of the map shown."""
         if self.map_request_panel is None:
-            panel = MapRequestPanel(self._map_shown[0].copy() if self._map_shown else
-                                    self.shipped_request(),
-                                    on_compute=self._on_map_compute,
-                                    on_cancel=self._on_map_cancel, on_zoom=self._on_use_zoom,
-                                    on_change=self._estimate_later)
+            panel = MapRequestPanel(
+                self._map_shown[0].copy() if self._map_shown else self.shipped_request(),
+                on_compute=self._on_map_compute,
+                on_cancel=self._on_map_cancel,
+                on_zoom=self._on_use_zoom,
+                on_change=self._estimate_later,
+            )
             self.map_request_panel = panel
             self.ondemand_box.objects = [panel]
             self._buttons_for_map()
@@ -101,22 +119,31 @@ class MapOnDemand:
             attrs = data.drift_map(s.model, s.mu).attrs
         except data.MapUnavailable:
             attrs = {}
-        scene = {k: attrs[f"scene_{k}"] for k in ("tau", "periods", "fidelity", "integrator",
-                                                  "theta", "nu", "stick_rule", "alpha_t")
-                 if f"scene_{k}" in attrs}
+        scene = {
+            k: attrs[f"scene_{k}"]
+            for k in ("tau", "periods", "fidelity", "integrator", "theta", "nu", "stick_rule", "alpha_t")
+            if f"scene_{k}" in attrs
+        }
         if window is None:
             la, lm = s.log_amplitude, s.log_mass
-            window = ((round(la - 0.5, 3), round(la + 0.5, 3)), (round(lm - 0.5, 3),
-                                                                 round(lm + 0.5, 3)))
+            window = ((round(la - 0.5, 3), round(la + 0.5, 3)), (round(lm - 0.5, 3), round(lm + 0.5, 3)))
         (a0, a1), (m0, m1) = window
-        request = maprequest.MapRequest(model=s.model, mu=s.mu, cells=REFINE_CELLS,
-                                        levels=REFINE_LEVELS, profile=s.profile,
-                                        rolling=s.rolling)
+        request = maprequest.MapRequest(
+            model=s.model,
+            mu=s.mu,
+            cells=REFINE_CELLS,
+            levels=REFINE_LEVELS,
+            profile=s.profile,
+            rolling=s.rolling,
+        )
         values = {**scene, "la_from": a0, "la_to": a1, "lm_from": m0, "lm_to": m1}
-        for name, value in values.items():     # out of the request's ranges: its default
+        for name, value in values.items():  # out of the request's ranges: its default
             try:
-                setattr(request, name, float(value) if name in ("tau", "periods", "theta",
-                                                                 "nu", "alpha_t") else value)
+                setattr(
+                    request,
+                    name,
+                    float(value) if name in ("tau", "periods", "theta", "nu", "alpha_t") else value,
+                )
             except ValueError:
                 pass
         return request
@@ -140,7 +167,7 @@ class MapOnDemand:
         try:
             est, problems = await job.run(jobs.estimate, request)
         except Cancelled:
-            return          # an older estimate: a newer one was asked for
+            return  # an older estimate: a newer one was asked for
         except Exception as exc:
             log.exception("estimating a map failed")
             est, problems = None, [f"{type(exc).__name__}: {urlstate.literal(exc)}"]
@@ -155,8 +182,9 @@ class MapOnDemand:
         (a0, a1), (m0, m1) = self.map_view.view_ranges()
         if None in (a0, a1, m0, m1):
             return
-        self.request_panel().set_values(la_from=round(a0, 3), la_to=round(a1, 3),
-                                         lm_from=round(m0, 3), lm_to=round(m1, 3))
+        self.request_panel().set_values(
+            la_from=round(a0, 3), la_to=round(a1, 3), lm_from=round(m0, 3), lm_to=round(m1, 3)
+        )
 
     def on_zoom(self, ranges):
         """Offer "refine this window" once the shipped map is zoomed beyond
@@ -171,12 +199,13 @@ class MapOnDemand:
             if ds is not None:
                 step_a = float(ds["log_amplitude"].values[1] - ds["log_amplitude"].values[0])
                 step_m = float(ds["log_mass"].values[1] - ds["log_mass"].values[0])
-                small = (abs(a1 - a0) < REFINE_BELOW_CELLS * step_a
-                         and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m)
+                small = (
+                    abs(a1 - a0) < REFINE_BELOW_CELLS * step_a and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m
+                )
         if small and self.refine_button is None:
             self.refine_button = pn.widgets.Button(
-                label="Refine this window (compute it finer)", color="success",
-                css_classes=["vt-map-refine"])
+                label="Refine this window (compute it finer)", color="success", css_classes=["vt-map-refine"]
+            )
             self.refine_button.on_click(lambda event: self.refine_window())
             self.refine_box.objects = [self.refine_button]
         self.refine_box.visible = bool(small)
@@ -203,22 +232,24 @@ class MapOnDemand:
         if not self.map_work.running:
             return
         self.map_work.cancel()
-        self._map_say("Map cancelled: its finished points are kept on this server; "
-                      "computing it again resumes from them.")
+        self._map_say(
+            "Map cancelled: its finished points are kept on this server; "
+            "computing it again resumes from them."
+        )
         self._buttons_for_map()
 
     def _show_banner(self):
         if self.map_status is None:
-            self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width",
-                                               css_classes=["vt-map-banner"])
-            self.back_button = pn.widgets.Button(label="Back to the shipped map",
-                                                 css_classes=["vt-map-back", "vt-ack-draw"])
+            self.map_status = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-map-banner"])
+            self.back_button = pn.widgets.Button(
+                label="Back to the shipped map", css_classes=["vt-map-back", "vt-ack-draw"]
+            )
             self.back_button.on_click(lambda event: self.back_to_shipped())
-            self.map_cancel_button = pn.widgets.Button(label="Cancel map", color="warning",
-                                                       css_classes=["vt-map-cancel-banner"])
+            self.map_cancel_button = pn.widgets.Button(
+                label="Cancel map", color="warning", css_classes=["vt-map-cancel-banner"]
+            )
             self.map_cancel_button.on_click(lambda event: self._on_map_cancel())
-            self.map_banner.objects = [self.map_status, self.map_cancel_button,
-                                       self.back_button]
+            self.map_banner.objects = [self.map_status, self.map_cancel_button, self.back_button]
         self.map_banner.visible = True
 
     def _map_say(self, text):
@@ -252,9 +283,10 @@ class MapOnDemand:
             return
         updates = asyncio.Queue()
 
-        def deliver(update):            # a worker thread: hand it to this loop
+        def deliver(update):  # a worker thread: hand it to this loop
             loop.call_soon_threadsafe(updates.put_nowait, update)
-        job = self.map_work.start()        # (a map computing before: no one's now)
+
+        job = self.map_work.start()  # (a map computing before: no one's now)
         try:
             jobs.submit(self.session, request, deliver)
         except mapjobs.MapRefused as exc:
@@ -269,16 +301,18 @@ class MapOnDemand:
             self.map_tabs.active = 0
         started = time.monotonic()
         n = request.points_per_axis()
-        self._map_say(f"Computing a {n} x {n} map ({request.title()}), about "
-                      f"{maprequest.duration(est.seconds)} expected ...")
+        self._map_say(
+            f"Computing a {n} x {n} map ({request.title()}), about "
+            f"{maprequest.duration(est.seconds)} expected ..."
+        )
         while True:
             # every level is drawn (at most levels + 1 of them): each shows
             # where the refinement went
             update = await updates.get()
             if not self.map_work.is_latest(job):
-                return          # cancelled or replaced: its updates are no one's
+                return  # cancelled or replaced: its updates are no one's
             if update.kind == "chunk" and not updates.empty():
-                continue        # a newer picture (or the level's) is waiting: draw that
+                continue  # a newer picture (or the level's) is waiting: draw that
             if update.kind == "queued":
                 self._map_say(f"{update.text.capitalize()} ...")
             elif update.kind in ("level", "chunk", "done"):
@@ -293,19 +327,27 @@ class MapOnDemand:
                 done = int(update.ds["computed"].values.sum())
                 seconds = time.monotonic() - started
                 if update.kind == "level":
-                    self._map_say(f"Level {update.level} of {update.levels} drawn: {done:,} of "
-                                  f"{n * n:,} points computed, {seconds:.0f} s"
-                                  f"{update.left_text()} ...")
+                    self._map_say(
+                        f"Level {update.level} of {update.levels} drawn: {done:,} of "
+                        f"{n * n:,} points computed, {seconds:.0f} s"
+                        f"{update.left_text()} ..."
+                    )
                 elif update.kind == "chunk":
-                    self._map_say(f"Level {update.level} of {update.levels} computing: {done:,} "
-                                  f"of {n * n:,} points computed so far, {seconds:.0f} s"
-                                  f"{update.left_text()} ...")
+                    self._map_say(
+                        f"Level {update.level} of {update.levels} computing: {done:,} "
+                        f"of {n * n:,} points computed so far, {seconds:.0f} s"
+                        f"{update.left_text()} ..."
+                    )
                 elif update.cached:
-                    self._map_say(f"Map from this server's cache ({done:,} of {n * n:,} "
-                                  f"points computed): click it to run a scene there.")
+                    self._map_say(
+                        f"Map from this server's cache ({done:,} of {n * n:,} "
+                        f"points computed): click it to run a scene there."
+                    )
                 else:
-                    self._map_say(f"Map finished: {done:,} of {n * n:,} points computed in "
-                                  f"{seconds:.0f} s. Click it to run a scene there.")
+                    self._map_say(
+                        f"Map finished: {done:,} of {n * n:,} points computed in "
+                        f"{seconds:.0f} s. Click it to run a scene there."
+                    )
             elif update.kind == "failed":
                 self._map_say(f"**The map failed:** {update.text}")
             elif update.kind == "cancelled":
@@ -318,23 +360,25 @@ class MapOnDemand:
     async def _draw_map(self, request, ds):
         """Render the map off the event loop, then show it."""
         s = self.state
-        title = (f"map on demand: {request.model}, mu = {request.mu:g}\nstop: {request.stop}"
-                 + (f", profile {request.profile}" if request.profiled() else "")
-                 + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else ""))
+        title = (
+            f"map on demand: {request.model}, mu = {request.mu:g}\nstop: {request.stop}"
+            + (f", profile {request.profile}" if request.profiled() else "")
+            + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else "")
+        )
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
             fig = await asyncio.get_running_loop().run_in_executor(
-                None, computed_figure, ds, title, request.model, window, s.v0, s.chaotic)
+                None, computed_figure, ds, title, request.model, window, s.v0, s.chaotic
+            )
         except Exception as exc:
             log.exception("drawing a map on demand failed")
             self._map_say(f"**Drawing the map failed:** {type(exc).__name__}: {urlstate.literal(exc)}")
             return
         if self.state.map_request != maprequest.encode(request):
-            return          # the shipped map came back meanwhile
+            return  # the shipped map came back meanwhile
         self._map_shown = (request, ds)
         with pn.io.hold():
-            self.map_view.show_computed(fig, window,
-                                        functools.partial(self._on_computed_click, request))
+            self.map_view.show_computed(fig, window, functools.partial(self._on_computed_click, request))
             self.refine_box.visible = False
             self._show_banner()
             self.on_profile()
@@ -356,7 +400,7 @@ class MapOnDemand:
         values (its particle's profile and rolling among them)."""
         values = request.scene_values()
         if request.model != "point-mass":
-            values["profile"] = request.profile       # the map's particle (a sphere's too)
+            values["profile"] = request.profile  # the map's particle (a sphere's too)
         with pn.io.hold():
             self.state.param.update(log_amplitude=la, log_mass=lm, **values)
         self.run()
@@ -379,7 +423,6 @@ class MapOnDemand:
             self.on_profile()
             self.answered()
 
-
     # ---------- the particle: its profile, whether it rolls ----------
     def shown_profile(self):
         """The profile of the map shown: the map on demand's, else the
@@ -389,8 +432,7 @@ class MapOnDemand:
     def shown_particle(self):
         """(profile, rolling) of the map shown: the map on demand's, else
         the shipped maps' (a sphere that does not roll)."""
-        if self._map_shown is not None and self.map_view is not None \
-                and self.map_view.computed is not None:
+        if self._map_shown is not None and self.map_view is not None and self.map_view.computed is not None:
             request = self._map_shown[0]
             return request.profile, request.rolling
         return SPHERE, ROLLING_NONE
@@ -404,8 +446,7 @@ class MapOnDemand:
         s = self.state
         profile, rolling = self.shown_particle()
         point = s.model == "point-mass"
-        same_profile = (point or s.profile == profile
-                        or (is_sphere(s.profile) and is_sphere(profile)))
+        same_profile = point or s.profile == profile or (is_sphere(s.profile) and is_sphere(profile))
         same_rolling = point or inertia_ratio(s.rolling) == inertia_ratio(rolling)
         shipped = self.map_view is None or self.map_view.computed is None
         where = "the shipped maps are" if shipped else "this map on demand is"
@@ -415,47 +456,61 @@ class MapOnDemand:
                 f"**This map is the {_particle(profile)}'s** ({where}), not the selected "
                 f"{_particle(s.profile)}'s: its colours do not say what the "
                 f"{_particle(s.profile)} does. A click on it runs the {_particle(s.profile)} "
-                f"there. Request a map on demand for {s.profile} to see its own.")
+                f"there. Request a map on demand for {s.profile} to see its own."
+            )
             wanted.append(s.profile)
         if not same_rolling:
             notes.append(
                 f"**This map is of a {rolling_phrase(rolling)}** ({where}), not of the selected "
                 f"{rolling_phrase(s.rolling)}: its colours do not say where that particle "
                 f"drifts. A click on it runs the selected particle there, rolling. Request a "
-                f"map on demand for rolling {_rolling_name(s.rolling)} to see its own.")
+                f"map on demand for rolling {_rolling_name(s.rolling)} to see its own."
+            )
             wanted.append(f"rolling {_rolling_name(s.rolling)}")
         request = None if shipped or self._map_shown is None else self._map_shown[0]
         if request is not None:
-            differs = [f"{name} {getattr(request, name):g} (selected: {getattr(s, name):g})"
-                       for name in ("mu", "theta", "nu", "tau", "periods")
-                       if getattr(request, name) != getattr(s, name)]
-            differs += [f"{name} {getattr(request, name)} (selected: {getattr(s, name)})"
-                        for name in ("model", "fidelity", "integrator")
-                        if getattr(request, name) != getattr(s, name)]
+            differs = [
+                f"{name} {getattr(request, name):g} (selected: {getattr(s, name):g})"
+                for name in ("mu", "theta", "nu", "tau", "periods")
+                if getattr(request, name) != getattr(s, name)
+            ]
+            differs += [
+                f"{name} {getattr(request, name)} (selected: {getattr(s, name)})"
+                for name in ("model", "fidelity", "integrator")
+                if getattr(request, name) != getattr(s, name)
+            ]
             if differs:
-                notes.append(f"**This map on demand is of another scene**: {'; '.join(differs)}. "
-                             f"Its colours do not say what the selected scene does; "
-                             f"*Back to the shipped map* shows the shipped one.")
-            inside = (request.la_from <= s.log_amplitude <= request.la_to
-                      and request.lm_from <= s.log_mass <= request.lm_to)
+                notes.append(
+                    f"**This map on demand is of another scene**: {'; '.join(differs)}. "
+                    f"Its colours do not say what the selected scene does; "
+                    f"*Back to the shipped map* shows the shipped one."
+                )
+            inside = (
+                request.la_from <= s.log_amplitude <= request.la_to
+                and request.lm_from <= s.log_mass <= request.lm_to
+            )
             if not inside:
-                notes.append(f"**The selected scene (log10 A\\* = {s.log_amplitude:.4g}, "
-                             f"log10 m\\* = {s.log_mass:.4g}) lies off this map on demand** "
-                             f"(log10 A\\* {request.la_from:g} to {request.la_to:g}, log10 m\\* "
-                             f"{request.lm_from:g} to {request.lm_to:g}).")
+                notes.append(
+                    f"**The selected scene (log10 A\\* = {s.log_amplitude:.4g}, "
+                    f"log10 m\\* = {s.log_mass:.4g}) lies off this map on demand** "
+                    f"(log10 A\\* {request.la_from:g} to {request.la_to:g}, log10 m\\* "
+                    f"{request.lm_from:g} to {request.lm_to:g})."
+                )
         shipped_mus = sorted(mu for model, mu in data.available_maps() if model == s.model)
         if shipped and s.mu not in shipped_mus:
             listed = ", ".join(f"{mu:g}" for mu in shipped_mus) or "none"
             notes.append(
                 f"**No shipped map has mu = {s.mu:g}** (the {s.model} maps shipped: mu = "
                 f"{listed}). Pick one of those, or request a map on demand for mu = "
-                f"{s.mu:g}: it is computed here, with its progress shown.")
+                f"{s.mu:g}: it is computed here, with its progress shown."
+            )
             wanted.append(f"mu {s.mu:g}")
         if notes:
             self.profile_note.object = "\n\n".join(notes)
             if self.profile_button is None:
                 self.profile_button = pn.widgets.Button(
-                    label="", color="primary", css_classes=["vt-map-profile-request"])
+                    label="", color="primary", css_classes=["vt-map-profile-request"]
+                )
                 self.profile_button.on_click(lambda event: self.request_for_profile())
                 self.profile_box.append(self.profile_button)
             self.profile_button.label = f"Map on demand for {', '.join(wanted)}"

@@ -14,6 +14,7 @@ diagram at SNAPSHOTS times over the run's last WINDOW periods; the slider
 scrubs through them with no computing.  The time field and its button show
 the diagram at any time of the run (`memory_snapshot`, a run from rest).
 """
+
 import asyncio
 import logging
 
@@ -33,13 +34,13 @@ from vibtrans_explorer.views.summary import PREVIOUS_RUN
 
 log = logging.getLogger("vibtrans.explorer.memory")
 
-SNAPSHOTS = 48         # times the slider holds
-WINDOW = 1.0           # periods before the run's end that the slider spans
-PANEL_WIDTH = 300      # three panels in the explorer's 900 pixels
+SNAPSHOTS = 48  # times the slider holds
+WINDOW = 1.0  # periods before the run's end that the slider spans
+PANEL_WIDTH = 300  # three panels in the explorer's 900 pixels
 PANEL_HEIGHT = 300
-SQUARE = 210           # the contact circle's frame (pixels)
-NOTE_FONT = "11pt"     # the words inside a panel ("in flight: ...")
-TOOLS = "pan,wheel_zoom,reset"      # few models per session (app/views/live.py)
+SQUARE = 210  # the contact circle's frame (pixels)
+NOTE_FONT = "11pt"  # the words inside a panel ("in flight: ...")
+TOOLS = "pan,wheel_zoom,reset"  # few models per session (app/views/live.py)
 EMPTY_TITLE = "memory diagram\n(run a deformable scene)"
 _NAN = float("nan")
 
@@ -58,14 +59,23 @@ def snapshot_times(t_end, n=SNAPSHOTS, window=WINDOW):
 
 def _figure(title, xlabel, ylabel, square=False):
     # square: a frame of equal sides, so that the contact circle is round
-    size = (dict(frame_width=SQUARE, frame_height=SQUARE) if square else
-            dict(width=PANEL_WIDTH, height=PANEL_HEIGHT))
+    size = (
+        dict(frame_width=SQUARE, frame_height=SQUARE)
+        if square
+        else dict(width=PANEL_WIDTH, height=PANEL_HEIGHT)
+    )
     # the toolbar at the right: above, it shared the title's row and cut the
     # title ("memory diagram w(h), t* = ..., partial slip") short
-    fig = figure(title=title, tools=TOOLS, toolbar_location="right",
-                 x_range=Range1d(0.0, 1.0), y_range=Range1d(-1.0, 1.0),
-                 output_backend="canvas", **size)
-    fig.title.text_font_size = "9pt"      # "memory diagram w(h), t* = ..., partial slip"
+    fig = figure(
+        title=title,
+        tools=TOOLS,
+        toolbar_location="right",
+        x_range=Range1d(0.0, 1.0),
+        y_range=Range1d(-1.0, 1.0),
+        output_backend="canvas",
+        **size,
+    )
+    fig.title.text_font_size = "9pt"  # "memory diagram w(h), t* = ..., partial slip"
     fig.xaxis.axis_label = xlabel
     fig.yaxis.axis_label = ylabel
     fig.toolbar.logo = None
@@ -108,25 +118,34 @@ class MemoryView(pn.viewable.Viewer):
         self.scene = None
         self.times = np.zeros(0)
         self.snapshots = []
-        self.work = LatestJob(executor)     # the snapshots of the latest run
-        self.a_max = 0.0            # the largest a* over the snapshots (their scale)
-        self.shown = None           # the snapshot drawn
-        self._following = False     # the slider is moved to the time drawn (no redraw)
+        self.work = LatestJob(executor)  # the snapshots of the latest run
+        self.a_max = 0.0  # the largest a* over the snapshots (their scale)
+        self.shown = None  # the snapshot drawn
+        self._following = False  # the slider is moved to the time drawn (no redraw)
         self._build_figures()
         self.at = SnapshotTime()
-        self.time_field = inputs.NumberField(self.at, "t", "time t* (periods)", width=200,
-                                             digits=10)     # (a sample's time: 1999.1067)
-        self.show_button = pn.widgets.Button(label="Show the memory diagram at t*",
-                                             color="primary", disabled=True)
+        self.time_field = inputs.NumberField(
+            self.at, "t", "time t* (periods)", width=200, digits=10
+        )  # (a sample's time: 1999.1067)
+        self.show_button = pn.widgets.Button(
+            label="Show the memory diagram at t*", color="primary", disabled=True
+        )
         self.show_button.on_click(self._on_show_click)
         # busy at once: the browser disables the button at the click (the
         # server's round trip can take longer than 0.3 s on a busy host);
         # the server enables it again with the answer
         self.show_button.js_on_click(code="source.disabled = true;")
-        self.slider = pn.widgets.FloatSlider(label="t* (periods), the run's last period",
-                                             start=0.0, end=1.0, step=0.1, value=1.0,
-                                             format="0[.]0000", disabled=True, width=600,
-                                             css_classes=["vt-memory-slider"])
+        self.slider = pn.widgets.FloatSlider(
+            label="t* (periods), the run's last period",
+            start=0.0,
+            end=1.0,
+            step=0.1,
+            value=1.0,
+            format="0[.]0000",
+            disabled=True,
+            width=600,
+            css_classes=["vt-memory-slider"],
+        )
         self.slider.param.watch(self._on_slide, "value")
         self.busy = pn.indicators.LoadingSpinner(value=True, size=20, visible=False)
         self.status = pn.pane.Markdown("", margin=(0, 5))
@@ -138,14 +157,18 @@ class MemoryView(pn.viewable.Viewer):
         # page's edge; now the circle goes below the other two
         self.figures_pane = pn.FlexBox(
             *(pn.pane.Bokeh(fig) for fig in (self.w_fig, self.u_fig, self.c_fig)),
-            flex_wrap="wrap", align_items="flex-start", name="memory-figures")
+            flex_wrap="wrap",
+            align_items="flex-start",
+            name="memory-figures",
+        )
         # (rows that wrap: in presentation mode at 1024 pixels the button
         # beside the time's field was cut at the page's edge)
         self.layout = pn.Column(
             pn.Row(self.slider, self.busy, self.status),
-            pn.FlexBox(self.time_field, self.show_button, flex_wrap="wrap",
-                       align_items="flex-end"), self.note,
-            self.figures_pane)
+            pn.FlexBox(self.time_field, self.show_button, flex_wrap="wrap", align_items="flex-end"),
+            self.note,
+            self.figures_pane,
+        )
 
     def __panel__(self):
         return self.layout
@@ -155,45 +178,102 @@ class MemoryView(pn.viewable.Viewer):
         self.profile = ColumnDataSource({"h": [], "w": [], "u": []})
         self.cone = ColumnDataSource({"h": [], "w": [], "u": []})
         self.apex = ColumnDataSource({"h": [], "w": []})
-        self.spans = ColumnDataSource({k: [] for k in (
-            "left", "right", "label_x", "color", "alpha", "label", "label_color", "baseline",
-            "w_bottom", "w_top", "u_bottom", "u_top", "w_text", "u_text")})
+        self.spans = ColumnDataSource(
+            {
+                k: []
+                for k in (
+                    "left",
+                    "right",
+                    "label_x",
+                    "color",
+                    "alpha",
+                    "label",
+                    "label_color",
+                    "baseline",
+                    "w_bottom",
+                    "w_top",
+                    "u_bottom",
+                    "u_top",
+                    "w_text",
+                    "u_text",
+                )
+            }
+        )
         self.discs = ColumnDataSource({"xs": [], "ys": [], "color": [], "dash": []})
         self.notes = ColumnDataSource({"x": [], "y": [], "text": []})
         self.circle_notes = ColumnDataSource({"x": [], "y": [], "text": []})
         self.w_fig = _figure(EMPTY_TITLE, plots.MEMORY_XLABEL, plots.MEMORY_WLABEL)
         # the u(h) panel shares the depth axis: zooming one zooms both
-        self.u_fig = _figure(title_lines(plots.MEMORY_UTITLE), plots.MEMORY_XLABEL,
-                             plots.MEMORY_ULABEL)
+        self.u_fig = _figure(title_lines(plots.MEMORY_UTITLE), plots.MEMORY_XLABEL, plots.MEMORY_ULABEL)
         self.u_fig.x_range = self.w_fig.x_range
         self.c_fig = _figure("contact", plots.CIRCLE_XLABEL, plots.CIRCLE_ZLABEL, square=True)
         for fig, y in ((self.w_fig, "w"), (self.u_fig, "u")):
-            fig.add_glyph(self.spans, Quad(left="left", right="right", bottom=f"{y}_bottom",
-                                           top=f"{y}_top", fill_color="color",
-                                           fill_alpha="alpha", line_width=0))
-            fig.add_glyph(self.spans, Text(x="label_x", y=f"{y}_text", text="label",
-                                           text_color="label_color", text_align="left",
-                                           text_baseline="baseline", text_font_size="10pt"))
+            fig.add_glyph(
+                self.spans,
+                Quad(
+                    left="left",
+                    right="right",
+                    bottom=f"{y}_bottom",
+                    top=f"{y}_top",
+                    fill_color="color",
+                    fill_alpha="alpha",
+                    line_width=0,
+                ),
+            )
+            fig.add_glyph(
+                self.spans,
+                Text(
+                    x="label_x",
+                    y=f"{y}_text",
+                    text="label",
+                    text_color="label_color",
+                    text_align="left",
+                    text_baseline="baseline",
+                    text_font_size="10pt",
+                ),
+            )
             # the Coulomb cone |b* - w| = a* - h, resp. |u| = a* - h (two lines, NaN between)
-            fig.add_glyph(self.cone, Line(x="h", y=y, line_color="black", line_width=1,
-                                          line_dash="dashed"))
-            fig.add_glyph(self.profile, Line(
-                x="h", y=y, line_width=2,
-                line_color=plots.W_COLOR if y == "w" else plots.U_COLOR))
-            fig.add_glyph(self.notes, Text(x="x", y="y", text="text", text_align="center",
-                                           text_baseline="middle", text_font_size=NOTE_FONT))
-        self.w_fig.add_glyph(self.apex, Scatter(x="h", y="w", size=7, fill_color="black",
-                                                line_color="black"))
-        self.c_fig.add_glyph(self.discs, Patches(xs="xs", ys="ys", fill_color="color",
-                                                 fill_alpha=0.9, line_color="black",
-                                                 line_dash="dash"))
-        self.c_fig.add_glyph(self.circle_notes, Text(x="x", y="y", text="text",
-                                                     text_align="center", text_font_size=NOTE_FONT,
-                                                     text_baseline="middle"))
+            fig.add_glyph(self.cone, Line(x="h", y=y, line_color="black", line_width=1, line_dash="dashed"))
+            fig.add_glyph(
+                self.profile,
+                Line(x="h", y=y, line_width=2, line_color=plots.W_COLOR if y == "w" else plots.U_COLOR),
+            )
+            fig.add_glyph(
+                self.notes,
+                Text(
+                    x="x",
+                    y="y",
+                    text="text",
+                    text_align="center",
+                    text_baseline="middle",
+                    text_font_size=NOTE_FONT,
+                ),
+            )
+        self.w_fig.add_glyph(self.apex, Scatter(x="h", y="w", size=7, fill_color="black", line_color="black"))
+        self.c_fig.add_glyph(
+            self.discs,
+            Patches(
+                xs="xs", ys="ys", fill_color="color", fill_alpha=0.9, line_color="black", line_dash="dash"
+            ),
+        )
+        self.c_fig.add_glyph(
+            self.circle_notes,
+            Text(
+                x="x",
+                y="y",
+                text="text",
+                text_align="center",
+                text_font_size=NOTE_FONT,
+                text_baseline="middle",
+            ),
+        )
         # the words drawn in the panels, each with its own size (in points)
-        self._texts = [(r.glyph, float(str(r.glyph.text_font_size)[:-2]))
-                       for fig in (self.w_fig, self.u_fig, self.c_fig) for r in fig.renderers
-                       if isinstance(r.glyph, Text)]
+        self._texts = [
+            (r.glyph, float(str(r.glyph.text_font_size)[:-2]))
+            for fig in (self.w_fig, self.u_fig, self.c_fig)
+            for r in fig.renderers
+            if isinstance(r.glyph, Text)
+        ]
 
     def show(self, snapshot, limits=None):
         """Draw one snapshot (a dict from memory_snapshot).  limits: (a*
@@ -204,7 +284,7 @@ class MemoryView(pn.viewable.Viewer):
         a_max = max(float(snapshot["a"]), 0.0) if limits is None else limits
         self.w_fig.title.text = title_lines(plots.memory_title(snapshot))
         self.c_fig.title.text = title_lines(c["title"])
-        if g is None:                        # in flight: no memory
+        if g is None:  # in flight: no memory
             self.profile.data = {"h": [], "w": [], "u": []}
             self.cone.data = {"h": [], "w": [], "u": []}
             self.apex.data = {"h": [], "w": []}
@@ -216,50 +296,70 @@ class MemoryView(pn.viewable.Viewer):
             a, b, hc = g["a"], g["b"], g["hc"]
             self.profile.data = {"h": g["h"], "w": g["w"], "u": g["u"]}
             (w_up, w_lo), (u_up, u_lo) = g["cone_w"], g["cone_u"]
-            self.cone.data = {"h": [hc[0], hc[1], _NAN, hc[0], hc[1]],
-                              "w": [w_up[0], w_up[1], _NAN, w_lo[0], w_lo[1]],
-                              "u": [u_up[0], u_up[1], _NAN, u_lo[0], u_lo[1]]}
+            self.cone.data = {
+                "h": [hc[0], hc[1], _NAN, hc[0], hc[1]],
+                "w": [w_up[0], w_up[1], _NAN, w_lo[0], w_lo[1]],
+                "u": [u_up[0], u_up[1], _NAN, u_lo[0], u_lo[1]],
+            }
             self.apex.data = {"h": [a], "w": [b]}
             self.notes.data = {"x": [], "y": [], "text": []}
             w_lim = g["w_lim"]
             if limits is None:
                 h_lim, u_lim = g["h_lim"], g["u_lim"]
-            else:            # the same construction, over the slider's times
+            else:  # the same construction, over the slider's times
                 pad = 0.08 * a_max
                 h_lim, u_lim = (0.0, a_max * 1.02), (-(a_max + pad), a_max + pad)
             spans = plots.memory_spans(snapshot)
             top = [s["label_at"] == "top" for s in spans]
             n = len(spans)
             self.spans.data = {
-                "left": [s["left"] for s in spans], "right": [s["right"] for s in spans],
+                "left": [s["left"] for s in spans],
+                "right": [s["right"] for s in spans],
                 "label_x": [s["label_x"] for s in spans],
-                "color": [s["color"] for s in spans], "alpha": [s["alpha"] for s in spans],
+                "color": [s["color"] for s in spans],
+                "alpha": [s["alpha"] for s in spans],
                 "label": [s["label"] for s in spans],
                 "label_color": [s["label_color"] for s in spans],
                 "baseline": ["top" if t else "bottom" for t in top],
-                "w_bottom": [w_lim[0]] * n, "w_top": [w_lim[1]] * n,
-                "u_bottom": [u_lim[0]] * n, "u_top": [u_lim[1]] * n,
+                "w_bottom": [w_lim[0]] * n,
+                "w_top": [w_lim[1]] * n,
+                "u_bottom": [u_lim[0]] * n,
+                "u_top": [u_lim[1]] * n,
                 "w_text": [w_lim[1] if t else w_lim[0] for t in top],
-                "u_text": [u_lim[1] if t else u_lim[0] for t in top]}
+                "u_text": [u_lim[1] if t else u_lim[0] for t in top],
+            }
         _set_range(self.w_fig.x_range, *h_lim)
         _set_range(self.w_fig.y_range, *w_lim)
         _set_range(self.u_fig.y_range, *u_lim)
         # the circle: its discs (largest first), on a fixed square view
         discs = c["discs"]
         outlines = [plots.disc_outline(d["r"]) for d in discs]
-        self.discs.data = {"xs": [o[:, 0] for o in outlines], "ys": [o[:, 1] for o in outlines],
-                           "color": [d["color"] for d in discs],
-                           "dash": ["dashed" if d["dashed"] else "solid" for d in discs]}
-        self.circle_notes.data = ({"x": [], "y": [], "text": []} if discs else
-                                  {"x": [0.0], "y": [0.0], "text": ["in flight: no contact"]})
+        self.discs.data = {
+            "xs": [o[:, 0] for o in outlines],
+            "ys": [o[:, 1] for o in outlines],
+            "color": [d["color"] for d in discs],
+            "dash": ["dashed" if d["dashed"] else "solid" for d in discs],
+        }
+        self.circle_notes.data = (
+            {"x": [], "y": [], "text": []}
+            if discs
+            else {"x": [0.0], "y": [0.0], "text": ["in flight: no contact"]}
+        )
         rmax = max(np.sqrt(a_max), 1.0) * 1.1
         _set_range(self.c_fig.x_range, -rmax, rmax)
         _set_range(self.c_fig.y_range, -rmax, rmax)
         self.shown = snapshot
 
     def _blank(self):
-        for src in (self.profile, self.cone, self.apex, self.spans, self.discs, self.notes,
-                    self.circle_notes):
+        for src in (
+            self.profile,
+            self.cone,
+            self.apex,
+            self.spans,
+            self.discs,
+            self.notes,
+            self.circle_notes,
+        ):
             src.data = {k: [] for k in src.data}
         self.w_fig.title.text = EMPTY_TITLE
         self.c_fig.title.text = "contact"
@@ -288,8 +388,7 @@ class MemoryView(pn.viewable.Viewer):
             t0, t1 = float(self.times[0]), float(self.times[-1])
             step = (t1 - t0) / (len(self.times) - 1) if t1 > t0 else 1.0
             # end before start: Bokeh's slider needs end > start
-            self.slider.param.update(start=t0, end=max(t1, t0 + step), step=step, value=t1,
-                                     disabled=True)
+            self.slider.param.update(start=t0, end=max(t1, t0 + step), step=step, value=t1, disabled=True)
         job = self.work.start()
         job.submit(memory_snapshots, scene, list(self.times), cancel=job.event)
         self._busy(self._job_text())
@@ -360,8 +459,7 @@ class MemoryView(pn.viewable.Viewer):
         """The slider and the time field show the time drawn, t (periods):
         the field exactly (4 decimals, within the run), the slider where it
         has that time in its range (its own value moved without redrawing)."""
-        self.at.t = min(max(round(float(t), 4), self.at.param.t.bounds[0]),
-                        self.at.param.t.bounds[1])
+        self.at.t = min(max(round(float(t), 4), self.at.param.t.bounds[0]), self.at.param.t.bounds[1])
         if len(self.times) and self.slider.start <= t <= self.slider.end:
             self._following = True
             try:
@@ -390,7 +488,7 @@ class MemoryView(pn.viewable.Viewer):
                 self.show_button.disabled = False
             return
         t, scene = self.at.t, self.scene
-        doc = pn.state.curdoc          # (the click's: the answer goes to its next tick)
+        doc = pn.state.curdoc  # (the click's: the answer goes to its next tick)
         # busy: the button, disabled until the answer.  Not a loading
         # overlay on the figures, nor a status text or a spinner shown: each
         # is a change of a layout's css_classes, visible or size, and
@@ -399,7 +497,7 @@ class MemoryView(pn.viewable.Viewer):
         # host; docs/how-to/deployment.md 2.2)
         with pn.io.hold():
             self._say("")
-            self.show_button.disabled = True         # one at a time per session
+            self.show_button.disabled = True  # one at a time per session
         snap = None
         try:
             snap = await asyncio.wrap_future(self.executor.submit(memory_snapshot, scene, t))
@@ -408,12 +506,14 @@ class MemoryView(pn.viewable.Viewer):
         except Exception as exc:
             log.exception("memory snapshot failed: %s at t = %s", scene.values(), t)
             self._say(f"The memory diagram failed: {type(exc).__name__}: {literal(exc)}")
+
         def answer():
             with pn.io.hold():
                 self.show_button.disabled = self.scene is None
-                if snap is not None and scene is self.scene:    # not replaced meanwhile
+                if snap is not None and scene is self.scene:  # not replaced meanwhile
                     self.show(snap)
                     self._agree(snap["t"])
+
         at_next_tick(doc, answer)
 
     def _job_text(self):

@@ -1,6 +1,7 @@
 """A view's messages: to the page's alert when the explorer gave the view an
 `error` callback, else in the view's own note pane (a view on its own, in
 tests or another layout)."""
+
 import panel as pn
 
 MESSAGE_STYLE = {"color": "#b00020", "font-size": "0.85em"}

@@ -3,13 +3,14 @@ fonts (`scale_fonts`) and Bokeh's widget font (a CSS property the page's
 parts inherit, set by the page); in the browser, the root font size and the
 sidebar's width (app/views/browserside.py: Bootstrap sizes its buttons and inputs
 in rem, which no property of a part reaches)."""
+
 import panel as pn
 from bokeh.models import ColorBar, Legend, Title
 
 # the page's text, its widgets and the figures' fonts this much larger
 PRESENTATION_SCALE = 1.5
-BOKEH_FONT_PX = 12          # Bokeh's widgets' font size (its --bokeh-font-size default)
-SIDEBAR_WIDTH = 330         # px
+BOKEH_FONT_PX = 12  # Bokeh's widgets' font size (its --bokeh-font-size default)
+SIDEBAR_WIDTH = 330  # px
 # In presentation mode the sidebar grows with its text, to at most this
 # share of the screen's width (vw): at 1024 pixels a sidebar of 1.5 x 330
 # left the map half its room and cut the run's figures' titles
@@ -38,11 +39,12 @@ class ExplorerDesign(pn.theme.Bootstrap):
 
     # Inherit: the design's own stylesheets first (without it, a modifier
     # replaces them, and the widgets lost Bootstrap's look)
-    modifiers = {pn.widgets.Widget: {"stylesheets": [pn.theme.Inherit, INPUT_FONT,
-                                                      WRAPPING_LABELS]},
-                 pn.widgets.RadioButtonGroup: {"stylesheets": [pn.theme.Inherit, INPUT_FONT,
-                                                               WRAPPING_LABELS,
-                                                               WRAPPING_BUTTONS]}}
+    modifiers = {
+        pn.widgets.Widget: {"stylesheets": [pn.theme.Inherit, INPUT_FONT, WRAPPING_LABELS]},
+        pn.widgets.RadioButtonGroup: {
+            "stylesheets": [pn.theme.Inherit, INPUT_FONT, WRAPPING_LABELS, WRAPPING_BUTTONS]
+        },
+    }
 
 
 # the widgets whose own width `scale_widths` scales (text boxes and
@@ -57,8 +59,7 @@ def scale_widths(viewable, factor, widths):
     its room; factor 1 restores them.  widths: {id: (widget, own width)},
     where each widget's own width is remembered when first seen."""
     for w in viewable.select(pn.widgets.Widget):
-        if not isinstance(w, SCALED_WIDGETS) or w.width is None \
-                or w.sizing_mode not in (None, "fixed"):
+        if not isinstance(w, SCALED_WIDGETS) or w.width is None or w.sizing_mode not in (None, "fixed"):
             continue
         own = widths.setdefault(id(w), (w, w.width))[1]
         w.width = round(own * factor)
@@ -67,12 +68,14 @@ def scale_widths(viewable, factor, widths):
 def scale_fonts(fig, factor):
     """Set a Bokeh figure's text to `factor` times Bokeh's default sizes
     (titles, axis labels and ticks, legends); factor 1 restores them."""
-    if getattr(fig, "renderers", None) is None:     # a layout: its children
+    if getattr(fig, "renderers", None) is None:  # a layout: its children
         for child in getattr(fig, "children", []):
             scale_fonts(child[0] if isinstance(child, tuple) else child, factor)
         return
+
     def size(points):
         return f"{points * factor:.3g}pt"
+
     if isinstance(getattr(fig, "title", None), Title):
         fig.title.text_font_size = size(10)
     # the figure's other titles (notes above or below its frame), a size smaller

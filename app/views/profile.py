@@ -32,15 +32,22 @@ from vibtrans_explorer.views.inputs import ERROR_STYLE
 from vibtrans_explorer.views.presentation import scale_fonts
 
 # the selector's kinds: label -> the spec's kind
-KINDS = {"sphere (Hertz)": "sphere", "cone": "cone", "power law z ~ r^N": "power",
-         "flat-ended sphere": "flat-sphere"}
+KINDS = {
+    "sphere (Hertz)": "sphere",
+    "cone": "cone",
+    "power law z ~ r^N": "power",
+    "flat-ended sphere": "flat-sphere",
+}
 # the number of a kind: (its label, the value it starts from)
-NUMBERS = {"power": (f"exponent N (≥ {N_MIN:g}; 1 the cone, 2 the sphere)", "3"),
-           "flat-sphere": (f"flat radius C (0 to {FLAT_MAX:g}, in sqrt(R a0))", "0.5")}
-RIGID_NOTE = ("*The material point is a rigid point (the paper's comparison): it runs the same "
-              "whatever the profile.*")
-DRAWN_RHO = 1.6             # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
-DRAWN_Z = 2.0               # and z in [0, DRAWN_Z] a0
+NUMBERS = {
+    "power": (f"exponent N (≥ {N_MIN:g}; 1 the cone, 2 the sphere)", "3"),
+    "flat-sphere": (f"flat radius C (0 to {FLAT_MAX:g}, in sqrt(R a0))", "0.5"),
+}
+RIGID_NOTE = (
+    "*The material point is a rigid point (the paper's comparison): it runs the same whatever the profile.*"
+)
+DRAWN_RHO = 1.6  # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
+DRAWN_Z = 2.0  # and z in [0, DRAWN_Z] a0
 DRAWN_POINTS = 321
 _NUMBER = urlstate._NUMBER
 
@@ -75,18 +82,21 @@ class ProfileView(pn.viewable.Viewer):
         if arg is not None:
             self._texts[kind] = arg
         labels = {v: k for k, v in KINDS.items()}
-        self.kind = pn.widgets.Select(label="particle profile", options=list(KINDS),
-                                      value=labels[kind], css_classes=["vt-profile-kind"],
-                                      **self._width)
-        self.figure = None                  # the drawing, built at its first use
-        self.font_scale = 1.0               # presentation mode's (`scale_fonts`)
+        self.kind = pn.widgets.Select(
+            label="particle profile",
+            options=list(KINDS),
+            value=labels[kind],
+            css_classes=["vt-profile-kind"],
+            **self._width,
+        )
+        self.figure = None  # the drawing, built at its first use
+        self.font_scale = 1.0  # presentation mode's (`scale_fonts`)
         self._drawing = drawing
         self._applying = self._echoing = False
         # the number's field, the messages and the drawing: made at their
         # first use (most pages show the sphere: a page costs its server less)
         self._parts = {}
-        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width",
-                                 name="profile")
+        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name="profile")
         self.kind.param.watch(self._chosen, "value")
         owner.param.watch(self._moved, "profile")
         if "model" in owner.param:
@@ -109,26 +119,35 @@ class ProfileView(pn.viewable.Viewer):
     def _part(self, name):
         if name not in self._parts:
             self._parts[name] = getattr(self, f"_make_{name}")()
-            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS
-                                                 if n in self._parts)]
+            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS if n in self._parts)]
         return self._parts[name]
 
     def _make_number(self):
         kind = KINDS[self.kind.value]
-        number = pn.widgets.TextInput(label=NUMBERS.get(kind, NUMBERS["power"])[0],
-                                      value=self._texts.get(kind, ""),
-                                      visible=kind in NUMBERS,
-                                      css_classes=["vt-profile-number"], **self._width)
+        number = pn.widgets.TextInput(
+            label=NUMBERS.get(kind, NUMBERS["power"])[0],
+            value=self._texts.get(kind, ""),
+            visible=kind in NUMBERS,
+            css_classes=["vt-profile-number"],
+            **self._width,
+        )
         number.param.watch(self._chosen, "value")
         return number
 
     def _make_note(self):
-        return pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
-                                css_classes=["vt-error-profile"], margin=(0, 10), **self._width)
+        return pn.pane.Markdown(
+            "",
+            visible=False,
+            styles=ERROR_STYLE,
+            css_classes=["vt-error-profile"],
+            margin=(0, 10),
+            **self._width,
+        )
 
     def _make_rigid(self):
-        return pn.pane.Markdown(RIGID_NOTE, visible=self._rigid(), margin=(0, 10),
-                                css_classes=["vt-profile-rigid"], **self._width)
+        return pn.pane.Markdown(
+            RIGID_NOTE, visible=self._rigid(), margin=(0, 10), css_classes=["vt-profile-rigid"], **self._width
+        )
 
     def _make_drawing_pane(self):
         return pn.Column(visible=False, margin=0, sizing_mode="stretch_width")
@@ -147,9 +166,9 @@ class ProfileView(pn.viewable.Viewer):
         if not text:
             raise ValueError(f"{label}: the field is empty")
         if len(text) > urlstate.MAX_LENGTH or not _NUMBER.fullmatch(text):
-            raise ValueError(f"{label} must be a plain number; got '{text}'")   # shown by _say
+            raise ValueError(f"{label} must be a plain number; got '{text}'")  # shown by _say
         spec = f"{kind}:{text}"
-        self.owner.param["profile"].check_text(spec)      # the library's range check
+        self.owner.param["profile"].check_text(spec)  # the library's range check
         return spec
 
     def _chosen(self, event):
@@ -185,8 +204,7 @@ class ProfileView(pn.viewable.Viewer):
         self._echoing = True
         try:
             if kind in NUMBERS:
-                self.number.param.update(label=NUMBERS[kind][0], value=self._texts[kind],
-                                         visible=True)
+                self.number.param.update(label=NUMBERS[kind][0], value=self._texts[kind], visible=True)
             elif self._made("number"):
                 self.number.visible = False
         finally:
@@ -220,8 +238,7 @@ class ProfileView(pn.viewable.Viewer):
             self._build()
         if self.figure is not None:
             rho = self.source.data["r"]
-            self.source.data = {"r": rho, "z": outline(spec, rho),
-                                "sphere": self.source.data["sphere"]}
+            self.source.data = {"r": rho, "z": outline(spec, rho), "sphere": self.source.data["sphere"]}
             # (two lines: on one it was wider than the sidebar's figure)
             self.figure.title.text = f"the tip: {spec} (solid)\nthe sphere (dashed)"
         if shown or self._made("drawing_pane"):
@@ -229,17 +246,20 @@ class ProfileView(pn.viewable.Viewer):
 
     def _build(self):
         rho = np.linspace(-DRAWN_RHO, DRAWN_RHO, DRAWN_POINTS)
-        self.source = ColumnDataSource({"r": rho, "z": outline(SPHERE, rho),
-                                        "sphere": outline(SPHERE, rho)})
-        fig = figure(height=190, sizing_mode="stretch_width", toolbar_location=None,
-                     x_range=Range1d(-DRAWN_RHO, DRAWN_RHO), y_range=Range1d(0.0, DRAWN_Z),
-                     title="", name="profile-drawing")
-        fig.line("r", "sphere", source=self.source, line_dash="dashed", color="grey",
-                 line_width=1.5)
+        self.source = ColumnDataSource({"r": rho, "z": outline(SPHERE, rho), "sphere": outline(SPHERE, rho)})
+        fig = figure(
+            height=190,
+            sizing_mode="stretch_width",
+            toolbar_location=None,
+            x_range=Range1d(-DRAWN_RHO, DRAWN_RHO),
+            y_range=Range1d(0.0, DRAWN_Z),
+            title="",
+            name="profile-drawing",
+        )
+        fig.line("r", "sphere", source=self.source, line_dash="dashed", color="grey", line_width=1.5)
         fig.line("r", "z", source=self.source, color="#1f77b4", line_width=2.5)
-        for x in (-1.0, 1.0):        # the static contact's edge
-            fig.add_layout(Span(location=x, dimension="height", line_dash="dotted",
-                                line_color="#999"))
+        for x in (-1.0, 1.0):  # the static contact's edge
+            fig.add_layout(Span(location=x, dimension="height", line_dash="dotted", line_color="#999"))
         fig.xaxis.axis_label = "r / static contact radius"
         fig.yaxis.axis_label = "z / a0"
         fig.title.text_font_size = "9pt"
@@ -248,9 +268,12 @@ class ProfileView(pn.viewable.Viewer):
         self.figure = fig
         self.drawing_pane.objects = [
             pn.pane.Bokeh(fig, sizing_mode="stretch_width"),
-            pn.pane.Markdown("*At rest under the weight: every tip touches over r <= 1 "
-                             "(dotted) with approach a0.*", margin=(0, 10),
-                             sizing_mode="stretch_width")]
+            pn.pane.Markdown(
+                "*At rest under the weight: every tip touches over r <= 1 (dotted) with approach a0.*",
+                margin=(0, 10),
+                sizing_mode="stretch_width",
+            ),
+        ]
 
     def scale_fonts(self, factor):
         """The drawing's text at `factor` times Bokeh's sizes (presentation
@@ -266,14 +289,17 @@ class ProfileView(pn.viewable.Viewer):
 # ---------------------------------------------------------------- rolling
 # How the particle turns (docs/MODEL.md section 11): the selector's labels
 # -> the owner's `rolling`; "j" takes the number typed in its field
-ROLLINGS = {"no: it slides (the paper's)": "none",
-            "solid sphere (j = 2/5)": "solid",
-            "thin shell (j = 2/3)": "shell",
-            "another j = I/(m R^2)": "j"}
+ROLLINGS = {
+    "no: it slides (the paper's)": "none",
+    "solid sphere (j = 2/5)": "solid",
+    "thin shell (j = 2/3)": "shell",
+    "another j = I/(m R^2)": "j",
+}
 J_LABEL = "j = I/(m R^2), in (0, 1]"
 J_START = "0.5"
-ROLLING_POINT_NOTE = ("*A material point has no size, so it does not roll: the selector "
-                      "applies to the deformable particle.*")
+ROLLING_POINT_NOTE = (
+    "*A material point has no size, so it does not roll: the selector applies to the deformable particle.*"
+)
 
 
 def rolling_label(value, options=ROLLINGS):
@@ -308,15 +334,18 @@ class RollingView(pn.viewable.Viewer):
         self.error = ""
         self._width = {} if width is None else {"width": width}
         self._text = rolling_text(owner.rolling) or J_START
-        self._remembered = None         # the deformable particle's choice, the point mass shown
+        self._remembered = None  # the deformable particle's choice, the point mass shown
         self._applying = self._echoing = False
-        self.kind = pn.widgets.Select(label=label, options=list(self.options),
-                                      value=self._label(owner.rolling),
-                                      css_classes=["vt-rolling"], **self._width)
+        self.kind = pn.widgets.Select(
+            label=label,
+            options=list(self.options),
+            value=self._label(owner.rolling),
+            css_classes=["vt-rolling"],
+            **self._width,
+        )
         # the number's field and the notes: made at their first use
         self._parts = {}
-        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width",
-                                 name="rolling")
+        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name="rolling")
         self.kind.param.watch(self._chosen, "value")
         owner.param.watch(self._moved, "rolling")
         if "model" in owner.param:
@@ -339,24 +368,34 @@ class RollingView(pn.viewable.Viewer):
     def _part(self, name):
         if name not in self._parts:
             self._parts[name] = getattr(self, f"_make_{name}")()
-            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS
-                                                 if n in self._parts)]
+            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS if n in self._parts)]
         return self._parts[name]
 
     def _make_number(self):
-        number = pn.widgets.TextInput(label=J_LABEL, value=self._text,
-                                      visible=self._kind() == "j",
-                                      css_classes=["vt-rolling-j"], **self._width)
+        number = pn.widgets.TextInput(
+            label=J_LABEL,
+            value=self._text,
+            visible=self._kind() == "j",
+            css_classes=["vt-rolling-j"],
+            **self._width,
+        )
         number.param.watch(self._chosen, "value")
         return number
 
     def _make_note(self):
-        return pn.pane.Markdown("", visible=False, styles=ERROR_STYLE,
-                                css_classes=["vt-error-rolling"], margin=(0, 10), **self._width)
+        return pn.pane.Markdown(
+            "",
+            visible=False,
+            styles=ERROR_STYLE,
+            css_classes=["vt-error-rolling"],
+            margin=(0, 10),
+            **self._width,
+        )
 
     def _make_point(self):
-        return pn.pane.Markdown(ROLLING_POINT_NOTE, visible=False, margin=(0, 10),
-                                css_classes=["vt-rolling-point"], **self._width)
+        return pn.pane.Markdown(
+            ROLLING_POINT_NOTE, visible=False, margin=(0, 10), css_classes=["vt-rolling-point"], **self._width
+        )
 
     def _point_mass(self):
         return getattr(self.owner, "model", "deformable") != "deformable"
@@ -414,7 +453,7 @@ class RollingView(pn.viewable.Viewer):
     # ---------- owner -> widgets ----------
     def _moved(self, event):
         if self._point_mass() and event.new == "none" and event.old != "none":
-            self._remembered = event.old        # (the point mass's: ExplorerScene)
+            self._remembered = event.old  # (the point mass's: ExplorerScene)
         if self._applying:
             return
         if rolling_text(event.new) is not None:
@@ -432,7 +471,7 @@ class RollingView(pn.viewable.Viewer):
         self.kind.disabled = point
         if point or "point" in self._parts:
             self.point.visible = point
-        if point and self.error:           # (a typed j: not the point's)
+        if point and self.error:  # (a typed j: not the point's)
             self._echoing = True
             try:
                 self.kind.value = self._label(self.owner.rolling)

@@ -17,6 +17,7 @@ HoloViews turns Bokeh's property validation off around some updates of a
 render's sources (`with validate(False)`), and Bokeh keeps that switch in
 one flag for the whole process: renders in worker threads need the
 workaround in app/server/compat.py (applied where that bug is shown)."""
+
 import threading
 
 import holoviews as hv
@@ -44,7 +45,7 @@ def exclusively(work, *args, **kwargs):
 
 
 def _render(element):
-    renderer = hv.renderer("bokeh").instance(mode="server")   # mode server: takes `doc`
+    renderer = hv.renderer("bokeh").instance(mode="server")  # mode server: takes `doc`
     # (the renderer sets its theme on the scratch document; the figure goes
     # to a plain one, as hv.render's did: the page's theme applies)
     plot = renderer.get_plot(element, doc=Document())

@@ -4,6 +4,7 @@ the first screen does not show is not built for it (a session's page costs
 the event loop that every session shares): the animation, the memory
 diagram and the dynamics are built when their tab is first opened, and
 each is fed the last run when it is looked at."""
+
 import panel as pn
 
 from vibtrans_explorer.session.controller import RUNNER
@@ -23,12 +24,12 @@ class RunTabs:
 
     def __init__(self, trajectories, exports, error):
         self.trajectories, self.exports, self.error = trajectories, exports, error
-        self.result = None                  # the last run shown (a RunResult)
-        self.animation = None               # the views, built when first opened
+        self.result = None  # the last run shown (a RunResult)
+        self.animation = None  # the views, built when first opened
         self.memory_view = None
         self.dynamics_view = None
-        self.animated = None                # the RunResult the animation shows
-        self._memory_pending = None         # the run each has not seen yet
+        self.animated = None  # the RunResult the animation shows
+        self._memory_pending = None  # the run each has not seen yet
         self._dynamics_pending = None
         self.animation_box = pn.Column(sizing_mode="stretch_width")
         self.memory_box = pn.Column(sizing_mode="stretch_width")
@@ -39,10 +40,13 @@ class RunTabs:
             ("Memory diagram", self.memory_box),
             ("Downloads", exports.panel),
             ("Dynamics", self.dynamics_box),
-            dynamic=True, sizing_mode="stretch_width", name="trajectory",
-            stylesheets=[WRAPPING_TABS])
+            dynamic=True,
+            sizing_mode="stretch_width",
+            name="trajectory",
+            stylesheets=[WRAPPING_TABS],
+        )
         self.tabs.param.watch(self._on_tab, "active")
-        self.font_scale = 1.0               # presentation mode's, for the views built later
+        self.font_scale = 1.0  # presentation mode's, for the views built later
         # the widgets' own widths (`scale_widths`), the page's one record
         # of them (a second would take a scaled width for a widget's own)
         self.widths = {}
@@ -98,9 +102,9 @@ class RunTabs:
     def clear(self):
         """The session closed: the views' background work cancelled."""
         if self.memory_view is not None:
-            self.memory_view.clear()       # cancels its background snapshots
+            self.memory_view.clear()  # cancels its background snapshots
         if self.dynamics_view is not None:
-            self.dynamics_view.clear()     # and its sections and diagrams
+            self.dynamics_view.clear()  # and its sections and diagrams
         self.trajectories.clear()
 
     def _on_tab(self, event):
@@ -149,6 +153,6 @@ class RunTabs:
             self.memory_view.error = self.error
         pending, self._memory_pending = self._memory_pending, None
         if pending is not None:
-            self.memory_view.set_run(*pending)      # clears it for a point mass
+            self.memory_view.set_run(*pending)  # clears it for a point mass
         if new:
             self._place(self.memory_box, MEMORY_TEXT, self.memory_view)

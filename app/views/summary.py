@@ -1,6 +1,7 @@
 """The run's summary: one Markdown table, one column per model, each number
 under the model that produced it (the run with its tau twin's verdict and
 cost; the other model's run when that is the comparison)."""
+
 import math
 
 import panel as pn
@@ -10,20 +11,29 @@ from vibtrans_explorer.session.controller import CANCELLED, TWIN_LABEL
 from vibtrans_explorer.session.state import MAP_MATERIAL, SPHERE
 from vibtrans_explorer.session.urlstate import literal
 
-SUMMARY_ROWS = ["drift <v*> (mean over the run)", "drift, final 10%", "steady?", "regime",
-                "chaos verdict", "take-offs", "contact fraction (final 10%)", "rolls?", "cost",
-                "in SI units"]
+SUMMARY_ROWS = [
+    "drift <v*> (mean over the run)",
+    "drift, final 10%",
+    "steady?",
+    "regime",
+    "chaos verdict",
+    "take-offs",
+    "contact fraction (final 10%)",
+    "rolls?",
+    "cost",
+    "in SI units",
+]
 # the summary before the first run: the same lines (so the page keeps its layout)
 PLACEHOLDER_SUMMARY = "\n".join(
     ["**Click the map or pick a paper point.**", "", "| quantity | value |", "|---|---|"]
-    + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS])
+    + [f"| {row.split(' (')[0]} | - |" for row in SUMMARY_ROWS]
+)
 
 
-NO_DEVICE = "- (run a device"    # the SI row of a run that is no device's (UnitsPanel.si_text)
+NO_DEVICE = "- (run a device"  # the SI row of a run that is no device's (UnitsPanel.si_text)
 STALE_LINE = "**⚠ Changed since this run: press Run.**"
 # over the previous run's table after a cancel: what the page shows is that run
-CANCELLED_LINE = (f"**{CANCELLED}** The summary, figures and downloads shown are still the "
-                  "previous run's:")
+CANCELLED_LINE = f"**{CANCELLED}** The summary, figures and downloads shown are still the previous run's:"
 PREVIOUS_RUN = "the previous run's (the run after it was cancelled)"
 
 
@@ -34,9 +44,11 @@ def twin_words(s, twin_name):
     if s.twin_chaotic is None:
         return ""
     t = s.divergence_time
-    path = (f"the {twin_name}'s trajectory parted from this run after {t:.4g} periods"
-            if t is not None and math.isfinite(t) else
-            f"the {twin_name}'s trajectory stayed within 1 a0 of this run's")
+    path = (
+        f"the {twin_name}'s trajectory parted from this run after {t:.4g} periods"
+        if t is not None and math.isfinite(t)
+        else f"the {twin_name}'s trajectory stayed within 1 a0 of this run's"
+    )
     drift = "its drift differs" if s.twin_chaotic else "its drift is the same"
     return f"; {path}, and {drift}"
 
@@ -49,12 +61,16 @@ def chaos_verdict(result):
     s = result.summary
     twin = twin_words(s, twin_name)
     if s.lyapunov == float("-inf"):
-        return ("regular: the point rides the surface after the ramp, and each detachment "
-                f"forgets its past (Lyapunov exponent -inf){twin}")
+        return (
+            "regular: the point rides the surface after the ramp, and each detachment "
+            f"forgets its past (Lyapunov exponent -inf){twin}"
+        )
     if s.lyapunov is not None:
         word = "chaotic" if s.chaotic else "regular"
-        return (f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
-                f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin}")
+        return (
+            f"{word}: Lyapunov exponent {s.lyapunov:.2g} per period "
+            f"({'>' if s.chaotic else '<='} {CHAOS_LYAPUNOV:g}){twin}"
+        )
     if result.twin_unneeded:
         return f"not checked: no take-off (the {twin_name} is drawn below)"
     if s.chaotic is None:
@@ -65,8 +81,7 @@ def chaos_verdict(result):
 def run_cost(scene, s):
     """The cost of run `s` (of `scene`'s fidelity and integrator, its own
     model), and its twin's apart."""
-    how = ("closed form, scanned" if s.model == "point-mass"
-           else f"{scene.fidelity}, {scene.integrator}")
+    how = "closed form, scanned" if s.model == "point-mass" else f"{scene.fidelity}, {scene.integrator}"
     text = f"{s.steps:,} steps, {s.seconds:.3f} s ({how})"
     if s.twin_steps:
         text += f"; its tau twin: {s.twin_steps:,} steps, {s.twin_seconds:.3f} s"
@@ -78,10 +93,16 @@ def rolls_words(s):
     the largest rolled arc within one contact episode (docs/MODEL.md
     section 11)."""
     if s.rolling == "none":
-        return ("no: a material point has no size" if s.model == "point-mass" else
-                "no: it slides without turning (the paper's particle)")
-    arc = ("" if s.max_episode_roll is None else
-           f"; largest rolled arc within one contact {s.max_episode_roll:.3g} a0")
+        return (
+            "no: a material point has no size"
+            if s.model == "point-mass"
+            else "no: it slides without turning (the paper's particle)"
+        )
+    arc = (
+        ""
+        if s.max_episode_roll is None
+        else f"; largest rolled arc within one contact {s.max_episode_roll:.3g} a0"
+    )
     return f"yes: {s.rolling}{arc}"
 
 
@@ -91,18 +112,30 @@ def si_words(s, si):
     drift is not steady (Summary.steady, the "steady?" row's verdict)."""
     if not si or si.startswith(NO_DEVICE) or s.steady:
         return si
-    verdict = s.steadiness.split(":")[0]      # not steady, chaotic, launched, not judged
+    verdict = s.steadiness.split(":")[0]  # not steady, chaotic, launched, not judged
     return f"{verdict} (see steady?): {si}; this run's mean, which depends on its length"
 
 
 def _summary_column(scene, s, chaos, si):
     """One model's values, in the order of SUMMARY_ROWS, as Markdown (the
     library's words shown as they are)."""
-    return [f"**{s.drift_velocity:.4g}**", *map(literal, [
-        f"{s.final_drift_velocity:.4g}", s.steadiness, s.regime, chaos,
-        f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
-        f"{s.contact_fraction:.3f}", rolls_words(s), run_cost(scene, s),
-        si_words(s, si) or "-"])]
+    return [
+        f"**{s.drift_velocity:.4g}**",
+        *map(
+            literal,
+            [
+                f"{s.final_drift_velocity:.4g}",
+                s.steadiness,
+                s.regime,
+                chaos,
+                f"{s.takeoffs} ({s.takeoffs_per_period:.3g} per period at the end)",
+                f"{s.contact_fraction:.3f}",
+                rolls_words(s),
+                run_cost(scene, s),
+                si_words(s, si) or "-",
+            ],
+        ),
+    ]
 
 
 def profile_words(scene):
@@ -137,16 +170,23 @@ def summary_table(scene, s, chaos, si, other, twin):
         cols.append(_summary_column(scene, so, "not checked (comparison run)", None))
         heads.append(so.model)
     # (a '|' inside a cell, e.g. "|v*| <= 0.1", is escaped: `literal`)
-    rows = [f"| {row} | " + " | ".join(c[i] for c in cols) + " |"
-            for i, row in enumerate(SUMMARY_ROWS)]
-    material = ("" if (scene.theta, scene.nu) == tuple(MAP_MATERIAL.values()) else
-                f", theta = {scene.theta:.4g}, nu = {scene.nu:.4g} (the maps: "
-                f"{MAP_MATERIAL['theta']:g}, {MAP_MATERIAL['nu']:g})")
-    return "\n".join([
-        f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
-        f"mu = {scene.mu:g}{material}{profile_words(scene)}{rolling_heading(scene)}**", "",
-        "| quantity | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|",
-    ] + rows)
+    rows = [f"| {row} | " + " | ".join(c[i] for c in cols) + " |" for i, row in enumerate(SUMMARY_ROWS)]
+    material = (
+        ""
+        if (scene.theta, scene.nu) == tuple(MAP_MATERIAL.values())
+        else f", theta = {scene.theta:.4g}, nu = {scene.nu:.4g} (the maps: "
+        f"{MAP_MATERIAL['theta']:g}, {MAP_MATERIAL['nu']:g})"
+    )
+    return "\n".join(
+        [
+            f"**{scene.model}: A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}, "
+            f"mu = {scene.mu:g}{material}{profile_words(scene)}{rolling_heading(scene)}**",
+            "",
+            "| quantity | " + " | ".join(heads) + " |",
+            "|---" * (len(heads) + 1) + "|",
+        ]
+        + rows
+    )
 
 
 class SummaryView:
@@ -156,10 +196,10 @@ class SummaryView:
 
     def __init__(self, si_text, width=None):
         self.si_text = si_text
-        self.device_run = False     # the run shown is the device's (its SI values shown)
-        self._table = None          # the run shown's table
+        self.device_run = False  # the run shown is the device's (its SI values shown)
+        self._table = None  # the run shown's table
         self._stale = False
-        self._cancelled = False     # a run after it was cancelled: said over its table
+        self._cancelled = False  # a run after it was cancelled: said over its table
         kw = {"sizing_mode": "stretch_width"} if width is None else {"width": width}
         self.pane = pn.pane.Markdown(PLACEHOLDER_SUMMARY, name="summary", **kw)
 
@@ -170,8 +210,7 @@ class SummaryView:
         s = result.summary
         si = self.si_text(s.drift_velocity, result.scene)
         self.device_run = not si.startswith(NO_DEVICE)
-        self._table = summary_table(result.scene, s, chaos_verdict(result), si,
-                                    result.other, result.twin)
+        self._table = summary_table(result.scene, s, chaos_verdict(result), si, result.other, result.twin)
         self._stale = self._cancelled = False
         self._render()
 

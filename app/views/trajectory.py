@@ -1,6 +1,7 @@
 """The run's trajectory figures (app/views/live.py): one set per structure
 (model, comparison) shown so far, built once per session and then fed new
 data; only the run's structure is visible."""
+
 import logging
 
 import panel as pn
@@ -22,9 +23,9 @@ def structure(label):
 
 class TrajectoryView:
     def __init__(self):
-        self.views = {}          # structure(label) -> LiveTrajectory
+        self.views = {}  # structure(label) -> LiveTrajectory
         self.panel = pn.Column(sizing_mode="stretch_width", name="trajectory-figures")
-        self.font_scale = 1.0    # presentation mode's, for the figures built later
+        self.font_scale = 1.0  # presentation mode's, for the figures built later
 
     def scale_fonts(self, factor):
         """The figures built so far at `factor` times Bokeh's font sizes
@@ -45,11 +46,15 @@ class TrajectoryView:
             view.panel = pn.Column(
                 pn.pane.Markdown("**Whole run** (linked, zoomable time axis)"),
                 pn.pane.Bokeh(view.whole, name="whole-run", sizing_mode="stretch_width"),
-                pn.pane.Markdown(f"**Last {FRAGMENT:g} periods at full resolution** (time "
-                                 f"and x\\* counted from the window's start, so the motion "
-                                 f"within a period shows)"),
+                pn.pane.Markdown(
+                    f"**Last {FRAGMENT:g} periods at full resolution** (time "
+                    f"and x\\* counted from the window's start, so the motion "
+                    f"within a period shows)"
+                ),
                 pn.pane.Bokeh(view.part, name="fragment", sizing_mode="stretch_width"),
-                sizing_mode="stretch_width", visible=False)    # until its run is shown
+                sizing_mode="stretch_width",
+                visible=False,
+            )  # until its run is shown
             if self.font_scale != 1.0:
                 scale_fonts(view.whole, self.font_scale)
                 scale_fonts(view.part, self.font_scale)
@@ -65,7 +70,7 @@ class TrajectoryView:
         if result.label is not None and view.label != result.label:
             view.relabel(scene.tau, result.label)
         view.show(result.ds, result.other, period_seconds, rigid=scene.model == "point-mass")
-        if self.font_scale != 1.0:      # (a rolling run's panel, built at its first run)
+        if self.font_scale != 1.0:  # (a rolling run's panel, built at its first run)
             for block in (view.over, view.last):
                 if block.rolling_figure is not None:
                     scale_fonts(block.rolling_figure, self.font_scale)

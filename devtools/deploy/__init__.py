@@ -14,6 +14,7 @@ connected worker and a cookie (`vtworker`) routes the rest there (the
 template says why not ip_hash).  `python -m devtools.loadtest
 --proxy-workers N` measures it; `make proxy` installs nginx.
 """
+
 import argparse
 import os
 import re
@@ -32,17 +33,21 @@ ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = Path(__file__).with_name("nginx.conf.template")
 ROUTE_COOKIE = "vtworker"
 # one access-log line per request (the template's log_format)
-_ACCESS = re.compile(r'"(?P<method>\S+) (?P<path>\S+) [^"]*" (?P<status>\d+) \d+ '
-                     r'worker=(?P<worker>\S*) upstream=(?P<upstream>\S*)')
+_ACCESS = re.compile(
+    r'"(?P<method>\S+) (?P<path>\S+) [^"]*" (?P<status>\d+) \d+ '
+    r"worker=(?P<worker>\S*) upstream=(?P<upstream>\S*)"
+)
 
 
 def nginx_binary():
     """nginx's path (RuntimeError if it is not installed)."""
     found = shutil.which("nginx") or next(
-        (p for p in ("/usr/sbin/nginx", "/usr/local/sbin/nginx") if os.access(p, os.X_OK)), None)
+        (p for p in ("/usr/sbin/nginx", "/usr/local/sbin/nginx") if os.access(p, os.X_OK)), None
+    )
     if found is None:
-        raise RuntimeError("nginx is required: install Debian's (`make proxy`, as root: "
-                           "apt-get install nginx-light)")
+        raise RuntimeError(
+            "nginx is required: install Debian's (`make proxy`, as root: apt-get install nginx-light)"
+        )
     return found
 
 
@@ -54,7 +59,7 @@ def free_port(address="127.0.0.1"):
 
 
 class _Template(string.Template):
-    delimiter = "@"          # nginx uses $ for its own variables
+    delimiter = "@"  # nginx uses $ for its own variables
 
 
 def worker_name(k):
@@ -75,14 +80,16 @@ def render_config(prefix, listen, worker_ports):
         upstreams.append("\n".join([*lines, "    }"]))
     routes = "\n".join(f"        {n:<8}    vt_{n};" for n in names)
     # $upstream_addr: "ADDR", or "ADDR1, ADDR2" when the first refused
-    answered = "\n".join(f"        \"~(^|, ){re.escape(a)}$\" {n};" for a, n in zip(addrs, names))
+    answered = "\n".join(f'        "~(^|, ){re.escape(a)}$" {n};' for a, n in zip(addrs, names))
     set_cookie = "\n".join(
-        f"        \"{n}|{n}\" \"\";\n"
-        f"        \"~\\|{n}$\" \"{ROUTE_COOKIE}={n}; Path=/; HttpOnly; SameSite=Lax$vtworker_secure\";"
-        for n in names)
+        f'        "{n}|{n}" "";\n'
+        f'        "~\\|{n}$" "{ROUTE_COOKIE}={n}; Path=/; HttpOnly; SameSite=Lax$vtworker_secure";'
+        for n in names
+    )
     parts = dict(servers=servers, worker_upstreams="\n".join(upstreams), routes=routes, answered=answered)
-    return _Template(TEMPLATE.read_text()).substitute(prefix=prefix, listen=listen, set_cookie=set_cookie,
-                                                      **parts)
+    return _Template(TEMPLATE.read_text()).substitute(
+        prefix=prefix, listen=listen, set_cookie=set_cookie, **parts
+    )
 
 
 def access_log(path):
@@ -112,8 +119,18 @@ class Deployment:
     log_dir: worker-K.log files (else stderr); wrap: a command prefix (e.g.
     taskset).  A context manager, or start() and stop()."""
 
-    def __init__(self, workers=2, port=8080, address="127.0.0.1", origins=(), serve_args=(),
-                 env=None, log_dir=None, wrap=(), keep=False):
+    def __init__(
+        self,
+        workers=2,
+        port=8080,
+        address="127.0.0.1",
+        origins=(),
+        serve_args=(),
+        env=None,
+        log_dir=None,
+        wrap=(),
+        keep=False,
+    ):
         if not 1 <= workers <= 64:
             raise ValueError(f"workers must be in [1, 64], got {workers}")
         if not 1 <= port <= 65535:
@@ -129,9 +146,9 @@ class Deployment:
         self.serve_args, self.env, self.wrap, self.keep = list(serve_args), env, list(wrap), keep
         self.log_dir = log_dir
         self.prefix = None
-        self.procs = []             # the workers' Popen objects
+        self.procs = []  # the workers' Popen objects
         self.ports = []
-        self.logs = []              # the workers' log paths (with log_dir)
+        self.logs = []  # the workers' log paths (with log_dir)
         self.nginx = None
 
     # ---------- life cycle ----------
@@ -165,8 +182,11 @@ class Deployment:
             self.logs.append(str(path))
             out = open(path, "wb")
         try:
-            self.procs.append(subprocess.Popen(args, cwd=ROOT, env=self.env, stdout=out,
-                                               stderr=subprocess.STDOUT if out else None))
+            self.procs.append(
+                subprocess.Popen(
+                    args, cwd=ROOT, env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None
+                )
+            )
         finally:
             if out is not None:
                 out.close()
@@ -186,8 +206,7 @@ class Deployment:
                 pass
             dead = self.exited()
             if dead:
-                raise RuntimeError(f"{dead} exited before the deployment was ready"
-                                   f"{self._nginx_error()}")
+                raise RuntimeError(f"{dead} exited before the deployment was ready{self._nginx_error()}")
             if time.perf_counter() - t0 > timeout:
                 raise RuntimeError(f"not ready in {timeout} s: {pending[0]}")
             time.sleep(0.2)
@@ -260,43 +279,53 @@ class Deployment:
             lines = Path(self.error_log_path).read_text(errors="replace").splitlines()
         except OSError:
             return []
-        return [line for line in lines
-                if re.search(r"\[(error|crit|alert|emerg)\]", line)]
+        return [line for line in lines if re.search(r"\[(error|crit|alert|emerg)\]", line)]
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m devtools.deploy",
-                                 description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m devtools.deploy", description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=2, help="`vibtrans serve` processes (1-64)")
     ap.add_argument("--port", type=int, default=8080, help="nginx's port (1-65535)")
-    ap.add_argument("--address", default="127.0.0.1",
-                    help="nginx's interface (the workers stay on 127.0.0.1)")
-    ap.add_argument("--origin", action="append", default=[], metavar="HOST[:PORT]",
-                    help="public host the browsers' address bar shows (repeatable; "
-                         "docs/SECURITY.md)")
-    ap.add_argument("--keep", action="store_true",
-                    help="keep nginx's prefix (configuration, logs) after exit")
+    ap.add_argument(
+        "--address", default="127.0.0.1", help="nginx's interface (the workers stay on 127.0.0.1)"
+    )
+    ap.add_argument(
+        "--origin",
+        action="append",
+        default=[],
+        metavar="HOST[:PORT]",
+        help="public host the browsers' address bar shows (repeatable; docs/SECURITY.md)",
+    )
+    ap.add_argument(
+        "--keep", action="store_true", help="keep nginx's prefix (configuration, logs) after exit"
+    )
     a = ap.parse_args(argv)
     if not 1 <= a.workers <= 64:
         ap.error(f"--workers must be in [1, 64], got {a.workers}")
     if not 1 <= a.port <= 65535:
         ap.error(f"--port must be in [1, 65535], got {a.port}")
     try:
-        deployment = Deployment(workers=a.workers, port=a.port, address=a.address,
-                                origins=a.origin, keep=a.keep)
+        deployment = Deployment(
+            workers=a.workers, port=a.port, address=a.address, origins=a.origin, keep=a.keep
+        )
     except RuntimeError as exc:
         ap.error(str(exc))
 
     def terminate(signum, frame):
         raise KeyboardInterrupt
+
     signal.signal(signal.SIGTERM, terminate)
     deployment.start()
     try:
         deployment.wait_ready()
-        print(f"devtools.deploy: {a.workers} workers (ports "
-              f"{', '.join(map(str, deployment.ports))}) behind nginx on {deployment.url} "
-              f"(websocket origins: {', '.join(deployment.origins)}); prefix "
-              f"{deployment.prefix}; Ctrl-C stops", file=sys.stderr, flush=True)
+        print(
+            f"devtools.deploy: {a.workers} workers (ports "
+            f"{', '.join(map(str, deployment.ports))}) behind nginx on {deployment.url} "
+            f"(websocket origins: {', '.join(deployment.origins)}); prefix "
+            f"{deployment.prefix}; Ctrl-C stops",
+            file=sys.stderr,
+            flush=True,
+        )
         while (dead := deployment.exited()) is None:
             time.sleep(0.5)
         print(f"devtools.deploy: {dead} exited; stopping", file=sys.stderr)
@@ -305,4 +334,3 @@ def main(argv=None):
         return 0
     finally:
         deployment.stop()
-

@@ -14,6 +14,7 @@ missing folder or an unreadable file gives a sentence, never a failed
 build.  The rendering is Markdown text (`render`), parsed by the page's
 own parser (MyST).
 """
+
 from __future__ import annotations
 
 import json
@@ -33,7 +34,7 @@ COMMANDS = {
     "sessioncpu": "python -m devtools.sessioncpu --sessions 10 --clicks 5",
 }
 _ESCAPE = "\\`*_[]<>|$~#!&{}"
-_LIST_ITEMS = 8          # longer lists are shown by their length
+_LIST_ITEMS = 8  # longer lists are shown by their length
 
 
 def records(folder: str | Path) -> list[tuple[Path, dict]]:
@@ -46,8 +47,11 @@ def records(folder: str | Path) -> list[tuple[Path, dict]]:
             record = json.loads(path.read_text())
         except (OSError, ValueError):
             continue
-        if isinstance(record, dict) and isinstance(record.get("bench"), str) \
-                and isinstance(record.get("results"), dict):
+        if (
+            isinstance(record, dict)
+            and isinstance(record.get("bench"), str)
+            and isinstance(record.get("results"), dict)
+        ):
             out.append((path, record))
     return out
 
@@ -55,8 +59,11 @@ def records(folder: str | Path) -> list[tuple[Path, dict]]:
 def latest(folder: str | Path, bench: str) -> tuple[Path, dict] | None:
     """The newest record of `bench` in `folder` (by its finish time, then
     its file name), or None."""
-    mine = [(r.get("finished_utc") or r.get("started_utc") or "", p.name, p, r)
-            for p, r in records(folder) if r["bench"] == bench]
+    mine = [
+        (r.get("finished_utc") or r.get("started_utc") or "", p.name, p, r)
+        for p, r in records(folder)
+        if r["bench"] == bench
+    ]
     if not mine:
         return None
     *_, path, record = max(mine, key=lambda m: (m[0], m[1]))
@@ -104,28 +111,34 @@ def _where(path: Path, record: dict) -> str:
     if m.get("description"):
         parts.append(_escape(m["description"]))
     else:
-        cpu = ", ".join(filter(None, [
-            m.get("cpu_model"),
-            f"{m['cores']} cores" if m.get("cores") else None,
-            f"{m['usable_cores']} usable" if m.get("usable_cores") not in (None, m.get("cores"))
-            else None,
-            f"{m['memory_gb']:g} GB" if m.get("memory_gb") else None]))
+        cpu = ", ".join(
+            filter(
+                None,
+                [
+                    m.get("cpu_model"),
+                    f"{m['cores']} cores" if m.get("cores") else None,
+                    f"{m['usable_cores']} usable"
+                    if m.get("usable_cores") not in (None, m.get("cores"))
+                    else None,
+                    f"{m['memory_gb']:g} GB" if m.get("memory_gb") else None,
+                ],
+            )
+        )
         if cpu:
             parts.append(_escape(cpu))
     start, end = m.get("load_average_start"), m.get("load_average_end")
     if start or end:
-        parts.append("load average " + " -> ".join(
-            value_text(x[0]) if x else "?" for x in (start, end)))
+        parts.append("load average " + " -> ".join(value_text(x[0]) if x else "?" for x in (start, end)))
     versions = m.get("packages") or {}
     soft = [f"Python {m['python']}"] if m.get("python") else []
-    soft += [f"{k} {versions[k]}" for k in ("vibtrans", "numpy", "numba", "panel", "bokeh")
-             if k in versions]
+    soft += [f"{k} {versions[k]}" for k in ("vibtrans", "numpy", "numba", "panel", "bokeh") if k in versions]
     if soft:
         parts.append(_escape(", ".join(soft)))
     git = record.get("git")
     if git and git.get("commit"):
-        parts.append(f"commit `{git['commit'][:10]}`"
-                     + (" with uncommitted changes" if git.get("dirty") else ""))
+        parts.append(
+            f"commit `{git['commit'][:10]}`" + (" with uncommitted changes" if git.get("dirty") else "")
+        )
     when = record.get("finished_utc") or record.get("started_utc") or "?"
     text = f"Measured {_escape(when)}"
     if parts:
@@ -155,12 +168,13 @@ def setup(app):
 
     class BenchResults(SphinxDirective):
         """```{bench-results} NAME```: the latest record of the bench NAME."""
+
         required_arguments = 1
 
         def run(self):
             folder = Path(self.env.srcdir) / self.config.bench_results_dir
             if folder.is_dir():
-                for path, _ in records(folder):     # rebuilt when a record changes
+                for path, _ in records(folder):  # rebuilt when a record changes
                     self.env.note_dependency(str(path))
             return self.parse_text_to_nodes(render(folder, self.arguments[0]))
 

@@ -2,6 +2,7 @@
 request cancels and replaces the running one, freeing its worker), the step
 cap, a failing run (only its session sees an error), Cancel, and figures
 that are built once and then fed new data."""
+
 import asyncio
 import gc
 import logging
@@ -35,10 +36,12 @@ def _explorer(**state):
 
 def _runs_until_cancelled(started):
     """A stand-in for simulate that sets `started` and runs until cancelled."""
+
     def slow(scene, *, cancel=None, **kwargs):
         started.set()
         cancel.wait()
         raise Cancelled("run cancelled")
+
     return slow
 
 
@@ -75,8 +78,9 @@ def test_a_run_shows_its_summary_and_figures():
         await until(lambda: _idle(ex) and "m\\* = 3.162" in ex.summary_view.pane.object)
         assert ex.trajectories.views["alone"] is view and view.runs == 2
         assert view.over.source is source and source.data["x"] is not first
-        assert len(ex.runs.tabs) == 5          # tabs: figures, animation, memory, downloads, dynamics
+        assert len(ex.runs.tabs) == 5  # tabs: figures, animation, memory, downloads, dynamics
         assert len(ex.trajectories.panel) == 1  # one structure's figures
+
     asyncio.run(go())
 
 
@@ -98,12 +102,13 @@ def test_a_new_run_cancels_and_replaces_the_running_one(monkeypatch):
         monkeypatch.setattr(ex.controller, "simulate", REAL_SIMULATE)
         ex.state.log_amplitude = 0.5
         second = ex.start_run()
-        assert first.event.is_set() and ex.controller.job is second     # one run per session
+        assert first.event.is_set() and ex.controller.job is second  # one run per session
         # the replaced run's worker is free at once (its kernel saw the flag)
         await until(lambda: all(f.done() for f in first.futures), timeout=budget(5))
         assert len(seen_cancel) == 1
         await until(lambda: _idle(ex) and "A\\* = 3.162" in ex.summary_view.pane.object)
         assert "cancelled" not in ex.summary_view.pane.object and not ex.message.visible
+
     asyncio.run(go())
 
 
@@ -122,6 +127,7 @@ def test_runs_not_started_are_dropped_when_replaced(monkeypatch):
         gate.set()
         await until(lambda: all(f.done() for f in second.futures))
         assert len(calls) == 1
+
     try:
         asyncio.run(go())
     finally:
@@ -139,6 +145,7 @@ def test_cancel_frees_the_worker_and_says_so(monkeypatch):
         await until(lambda: ex.summary_view.pane.object == "Run cancelled.")
         assert all(f.done() for f in job.futures)
         assert not ex.run_buttons.progress.visible and ex.run_buttons.cancel_button.disabled and _idle(ex)
+
     asyncio.run(go())
 
 
@@ -161,6 +168,7 @@ def test_a_failing_run_shows_an_error_in_its_session_only(monkeypatch):
         ex.start_run()
         await until(lambda: _idle(ex) and "drift <v*>" in ex.summary_view.pane.object)
         assert not ex.message.visible
+
     asyncio.run(go())
 
 
@@ -174,6 +182,7 @@ def test_a_failure_drawing_a_run_is_reported(monkeypatch):
         ex.start_run()
         await until(lambda: _idle(ex) and ex.message.visible)
         assert "Drawing the run failed: ValueError: no figure" in ex.message.object
+
     asyncio.run(go())
 
 
@@ -194,6 +203,7 @@ def test_closing_the_session_cancels_its_run(monkeypatch):
         ex._on_session_destroyed(None)
         await until(lambda: all(f.done() for f in job.futures), timeout=budget(5))
         assert ex.controller.job is None and not ex.trajectories.views
+
     asyncio.run(go())
 
 
@@ -219,6 +229,7 @@ def test_closed_sessions_give_their_memory_back_once(monkeypatch, caplog, thawed
             memory.session_closed()
         # released, and nothing scheduled after (each close replaced the last's)
         await until(lambda: calls and memory._RELEASE["handle"] is None)
+
     asyncio.run(go())
     assert calls == [1] and memory._RELEASE["handle"] is None
     released = [r.getMessage() for r in caplog.records if memory.RELEASED in r.getMessage()]
@@ -232,6 +243,7 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
     closed session's page, frozen when it was built (`page_built`), is
     collected then, and what lives on is frozen again."""
     from types import SimpleNamespace
+
     monkeypatch.setattr(memory, "RELEASE_DELAY", 0.01)
     monkeypatch.setattr(memory, "CLOSES_PER_RELEASE", 4)
     monkeypatch.setitem(memory._RELEASE, "closes", 0)
@@ -241,9 +253,10 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
     real = memory.release
     monkeypatch.setattr(memory, "release", lambda: (calls.append(len(open_sessions)), real()))
 
-    class Page:           # a closed session's document: a reference cycle
+    class Page:  # a closed session's document: a reference cycle
         def __init__(self):
             self.me = self
+
     page = Page()
     frozen = gc.get_freeze_count()
     memory.page_built()
@@ -252,34 +265,37 @@ def test_memory_is_released_when_the_last_session_closes_or_after_many_closes(mo
     del page
 
     async def go():
-        for _ in range(3):            # two sessions stay open: nothing due
+        for _ in range(3):  # two sessions stay open: nothing due
             memory.session_closed(ctx)
-            assert memory._RELEASE["handle"] is None          # nothing scheduled
+            assert memory._RELEASE["handle"] is None  # nothing scheduled
         gc.collect()
-        assert calls == [] and gone() is not None     # frozen: not even a full pass
-        memory.session_closed(ctx)    # the 4th close: due, sessions open or not
+        assert calls == [] and gone() is not None  # frozen: not even a full pass
+        memory.session_closed(ctx)  # the 4th close: due, sessions open or not
         await until(lambda: calls)
         assert calls == [2] and gone() is None
         open_sessions.clear()
-        memory.session_closed(ctx)    # the last session: due at once
+        memory.session_closed(ctx)  # the last session: due at once
         await until(lambda: len(calls) == 2)
         assert calls == [2, 0]
+
     asyncio.run(go())
-    assert gc.get_freeze_count() > 0      # the server's own objects, frozen again
+    assert gc.get_freeze_count() > 0  # the server's own objects, frozen again
 
 
 def test_the_server_freezes_every_page_once_built(monkeypatch):
     """`vibtrans serve`'s page function freezes each page it builds (not
     only the first, which also starts the kernels)."""
     from vibtrans_explorer.server import serve as server
+
     built, kernels = [], []
     monkeypatch.setattr(memory, "page_built", lambda: built.append(1))
     page = server._first_page(lambda: "a page", lambda: kernels.append(1))
 
     async def go():
         pages = page(), page(), page()
-        await until(lambda: len(kernels) == 3)      # each page's start_kernels called
+        await until(lambda: len(kernels) == 3)  # each page's start_kernels called
         return pages
+
     assert asyncio.run(go()) == ("a page",) * 3 and built == [1, 1, 1]
 
 
@@ -307,13 +323,14 @@ def test_a_map_click_selects_and_runs_that_scene(monkeypatch):
     selected point's marker and runs that scene; a tap in the map's padding,
     outside the domain, is no scene: nothing is clamped into it."""
     from types import SimpleNamespace
+
     ex = _explorer()
     runs = []
     monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
     ex.map_view._on_tap(True, SimpleNamespace(x=0.51234, y=-1.25))
     assert (ex.state.log_amplitude, ex.state.log_mass) == (0.512, -1.25)
     assert ex.map_view.selected.data == {"x": [0.512], "y": [-1.25]}
-    assert len(runs) == 1 and abs(runs[0].amplitude - 10 ** 0.512) < 1e-12
+    assert len(runs) == 1 and abs(runs[0].amplitude - 10**0.512) < 1e-12
     for x, y in ((3.2, 0.0), (0.0, -5.3), (float("nan"), 0.0), (None, 1.0)):
         ex.map_view._on_tap(True, SimpleNamespace(x=x, y=y))
     assert len(runs) == 1 and ex.state.log_amplitude == 0.512
@@ -327,10 +344,8 @@ def test_each_session_gets_its_own_map_figure():
     fa, fb = a.map_view.figures[0], b.map_view.figures[0]
     assert fa is not fb and fa.title.text == fb.title.text
     glyphs = [[r for r in f.renderers if hasattr(r, "data_source")] for f in (fa, fb)]
-    images = [[r.data_source.data["image"][0] for r in g if "image" in r.data_source.data]
-              for g in glyphs]
-    assert len(images[0]) >= 1 and all(np.array_equal(x, y, equal_nan=True)
-                                       for x, y in zip(*images))
+    images = [[r.data_source.data["image"][0] for r in g if "image" in r.data_source.data] for g in glyphs]
+    assert len(images[0]) >= 1 and all(np.array_equal(x, y, equal_nan=True) for x, y in zip(*images))
     sources = [{r.data_source for r in g} for g in glyphs]
     assert a.map_view.selected in sources[0] and a.map_view.selected not in sources[1]
     assert b.map_view.selected in sources[1]
@@ -339,9 +354,12 @@ def test_each_session_gets_its_own_map_figure():
     a.state.mu = 0.1
     assert "mu = 0.1" in a.map_view.figures[0].title.text
     assert b.map_view.figures[0] is fb and "mu = 0.3" in fb.title.text
-    image_a = [r.data_source.data["image"][0] for r in a.map_view.figures[0].renderers
-               if hasattr(r, "data_source") and "image" in r.data_source.data]
-    assert not np.array_equal(image_a[0], images[1][0], equal_nan=True)   # the mu 0.1 map
+    image_a = [
+        r.data_source.data["image"][0]
+        for r in a.map_view.figures[0].renderers
+        if hasattr(r, "data_source") and "image" in r.data_source.data
+    ]
+    assert not np.array_equal(image_a[0], images[1][0], equal_nan=True)  # the mu 0.1 map
 
 
 def _serialized(doc):
@@ -350,10 +368,13 @@ def _serialized(doc):
     import re
 
     from bokeh.core.json_encoder import serialize_json
+
     ids = {}
-    return re.sub(r"p\d{3,}|[A-Za-z]*-?\d{4,}",
-                  lambda m: ids.setdefault(m.group(0), f"ID{len(ids)}"),
-                  serialize_json(doc.to_json()))
+    return re.sub(
+        r"p\d{3,}|[A-Za-z]*-?\d{4,}",
+        lambda m: ids.setdefault(m.group(0), f"ID{len(ids)}"),
+        serialize_json(doc.to_json()),
+    )
 
 
 def test_served_page_is_the_template_attached_by_panel():
@@ -368,7 +389,7 @@ def test_served_page_is_the_template_attached_by_panel():
 
     texts = []
     for served in (False, True):
-        map_view._map_json.cache_clear()        # the map rendered inside each build too
+        map_view._map_json.cache_clear()  # the map rendered inside each build too
         doc = Document()
         with set_curdoc(doc):
             if served:
@@ -387,6 +408,7 @@ def test_page_cost_bench_runs_and_validates():
     """`python -m devtools.pagecost` measures pages as served; a bad
     --pages is refused naming the option."""
     from devtools import pagecost
+
     out = pagecost.main(["--pages", "1", "--json"])
     assert out["page_s_served"] > 0 and out["checks_s"] > 0
     assert out["models"] > 100 and out["page_cpu_s"] > 0
@@ -401,6 +423,7 @@ def test_the_map_hover_shows_drift_and_verdict_never_nan(chaotic):
     under the grey of chaotic points (the grey layer's own hover used to
     cover it and show 'chaotic: NaN' off the grey)."""
     from bokeh.models import HoverTool
+
     fig = M.map_figure("deformable", 0.3, 0.1, chaotic)
     hovers = [t for t in fig.tools if isinstance(t, HoverTool)]
     assert len(hovers) == 1 and len(hovers[0].renderers) == 1
@@ -428,8 +451,6 @@ def test_the_page_passes_bokehs_document_checks():
     assert warnings <= {"EMPTY_LAYOUT"}, warnings
 
 
-
-
 def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypatch):
     """After Cancel the figures, the memory diagram and the downloads still
     show the previous run: a bare 'Run cancelled.' would pass it off as
@@ -442,14 +463,16 @@ def test_after_a_cancel_the_previous_run_is_shown_as_the_previous_runs(monkeypat
         ex.start_run()
         await until(lambda: _idle(ex) and "drift <v*>" in ex.summary_view.pane.object)
         table = ex.summary_view.pane.object
-        ex.runs.tabs.active = runtabs.MEMORY_TAB           # the memory diagram of that run
-        await until(lambda: ex.runs.memory_view is not None and ex.runs.memory_view.snapshots,
-                    timeout=budget(120))
-        ex.state.log_mass = -0.5                    # a new scene, run and cancelled
+        ex.runs.tabs.active = runtabs.MEMORY_TAB  # the memory diagram of that run
+        await until(
+            lambda: ex.runs.memory_view is not None and ex.runs.memory_view.snapshots, timeout=budget(120)
+        )
+        ex.state.log_mass = -0.5  # a new scene, run and cancelled
         await _start_run_that_waits_for_cancel(ex, monkeypatch)
         ex.run_buttons.cancel_button.clicks += 1
         await until(lambda: ex.summary_view.pane.object.startswith(CANCELLED_LINE))
-        assert table.split("\n")[0] in ex.summary_view.pane.object     # the previous run's heading
+        assert table.split("\n")[0] in ex.summary_view.pane.object  # the previous run's heading
         assert PREVIOUS_RUN in ex.runs.memory_view.status.object
-        assert ex.stale_shown()                              # and it is not the state's
+        assert ex.stale_shown()  # and it is not the state's
+
     asyncio.run(go())

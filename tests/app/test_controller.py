@@ -1,6 +1,7 @@
 """The run controller without a server or widgets (app/session/controller.py): a
 stand-in simulate, asyncio.run, and the parameters the page shows.  The
 controller makes the runs testable without Panel."""
+
 import asyncio
 import threading
 
@@ -20,8 +21,9 @@ def _state(**values):
 
 def _recorder(controller):
     seen = []
-    controller.param.watch(lambda *events: seen.extend((e.name, e.new) for e in events),
-                           ["status", "busy", "message", "result"])
+    controller.param.watch(
+        lambda *events: seen.extend((e.name, e.new) for e in events), ["status", "busy", "message", "result"]
+    )
     return seen
 
 
@@ -53,6 +55,7 @@ def test_a_slow_run_is_busy_with_progress_then_idle():
         gate.set()
         await until(lambda: c.result is not None)
         assert not c.busy and c.status == ""
+
     asyncio.run(go())
 
 
@@ -64,9 +67,10 @@ def test_a_run_whose_kernel_compiles_says_compiling_until_its_progress_moves():
     from numba.core import event
 
     from vibtrans.core.kernels import contact
+
     compiled, gate = threading.Event(), threading.Event()
 
-    class Dispatcher:               # what numba's event carries: the function compiled
+    class Dispatcher:  # what numba's event carries: the function compiled
         py_func = contact.tangential_force_history
 
     def compiling(scene, progress=None, **kwargs):
@@ -87,6 +91,7 @@ def test_a_run_whose_kernel_compiles_says_compiling_until_its_progress_moves():
         await until(lambda: c.status.startswith("Running deformable at A* = "))
         gate.set()
         await until(lambda: c.result is not None)
+
     asyncio.run(go())
 
 
@@ -95,14 +100,15 @@ def test_the_comparison_runs_beside_and_is_labelled():
     asyncio.run(c.run())
     r = c.result
     assert r.label == "point mass" and r.other.attrs["model"] == "point-mass"
-    assert r.twin is None            # a comparison model is no tau twin
+    assert r.twin is None  # a comparison model is no tau twin
     assert comparison(c.state.scene(), "tau twin")[1] == TWIN_LABEL
 
 
 def test_refusals_and_the_step_budget_are_messages_and_run_nothing():
     calls = []
-    c = RunController(_state(), simulate=lambda *a, **k: calls.append(a),
-                      refusals=lambda: ["log10 A* must be ..."])
+    c = RunController(
+        _state(), simulate=lambda *a, **k: calls.append(a), refusals=lambda: ["log10 A* must be ..."]
+    )
     assert c.start() is None and c.message == "Not run: log10 A* must be ..."
     c.refusals, c.max_steps = list, 10
     assert c.start() is None and "over this server's limit of 10" in c.message
@@ -128,10 +134,11 @@ def test_cancel_says_so_and_a_replaced_run_is_silent():
         first = c.start()
         await until(started.is_set)
         c.simulate = simulate
-        second = c.start()            # replaces the first: no word of it
+        second = c.start()  # replaces the first: no word of it
         assert first.event.is_set() and c.job is second
         await until(lambda: c.result is not None)
         assert c.status == "" and c.message == ""
+
     asyncio.run(go())
 
 
@@ -139,6 +146,7 @@ def test_cancel_says_so_and_a_replaced_run_is_silent():
 def test_a_failed_run_is_a_message(error, words):
     def broken(*a, **k):
         raise error
+
     c = RunController(_state(), simulate=broken)
     asyncio.run(c.run())
     assert c.message == words and c.result is None and c.job is None

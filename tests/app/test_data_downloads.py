@@ -2,6 +2,7 @@
 and events as netCDF and its samples as CSV, equal to the run shown; the
 map's points inside the map's current (zoomed) view as netCDF, equal to the
 shipped map there."""
+
 import asyncio
 import io
 
@@ -14,18 +15,18 @@ from asyncutil import until
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.server import data
 
-pytestmark = pytest.mark.slow       # a real run in an explorer session
+pytestmark = pytest.mark.slow  # a real run in an explorer session
 
 
 @pytest.fixture(scope="module")
 def shown():
     async def go():
         ex = E.Explorer()
-        ex.state.param.update(fidelity="preview", compare="none", log_amplitude=2.5,
-                              log_mass=0.0)
+        ex.state.param.update(fidelity="preview", compare="none", log_amplitude=2.5, log_mass=0.0)
         ex.start_run()
         await until(lambda: ex.controller.job is None and "drift <v*>" in ex.summary_view.pane.object)
         return ex
+
     return asyncio.run(go())
 
 
@@ -44,14 +45,14 @@ def test_run_csv_is_the_run_shown(shown):
     text = shown.exports.data_file("run", "csv").getvalue().decode()
     assert text.startswith("# vibtrans run: model=deformable")
     table = pd.read_csv(io.StringIO(text), comment="#")
-    assert list(table["time"]) == list(ds["time"].values)          # %.17g: exact
+    assert list(table["time"]) == list(ds["time"].values)  # %.17g: exact
     for name in ("x", "vx", "y", "a", "b", "bdot", "N", "T", "state"):
         assert np.array_equal(table[name].values, ds[name].values), name
 
 
 def test_map_window_is_the_zoomed_view(shown, tmp_path):
     fig = shown.map_view.figures[0]
-    fig.x_range.start, fig.x_range.end = 0.02, 1.3      # a zoom, off the grid
+    fig.x_range.start, fig.x_range.end = 0.02, 1.3  # a zoom, off the grid
     fig.y_range.start, fig.y_range.end = -2.1, -0.4
     path = tmp_path / "map.nc"
     path.write_bytes(shown.exports.data_file("map-window", "nc").getvalue())
@@ -70,9 +71,22 @@ def test_each_download_is_named_after_what_it_holds(shown):
     # the run's scene and the map's model and mu are in the names: a second
     # download of another scene does not overwrite the first
     shown.exports.build()
-    buttons = dict(zip(["map.png", "map.svg", "map.html", "trajectory.png", "trajectory.svg",
-                        "trajectory.html", "run.nc", "run.csv", "map-window.nc"],
-                       shown.exports.buttons))
+    buttons = dict(
+        zip(
+            [
+                "map.png",
+                "map.svg",
+                "map.html",
+                "trajectory.png",
+                "trajectory.svg",
+                "trajectory.html",
+                "run.nc",
+                "run.csv",
+                "map-window.nc",
+            ],
+            shown.exports.buttons,
+        )
+    )
     run = buttons["run.nc"]
     run.callback()
     assert run.filename == "vibtrans-run-deformable-A316.2-m1-mu0.3.nc"
@@ -86,8 +100,8 @@ def test_each_download_is_named_after_what_it_holds(shown):
 
 def test_download_names_differ_between_scenes():
     from vibtrans_explorer.views.exports import download_name
-    a = {"model": "deformable", "amplitude": 0.5012, "mass": 10.0, "mu": 0.3,
-         "profile": "sphere"}
+
+    a = {"model": "deformable", "amplitude": 0.5012, "mass": 10.0, "mu": 0.3, "profile": "sphere"}
     b = {**a, "profile": "power:3"}
     names = {download_name("run", "csv", scene=s) for s in (a, b, {**a, "mu": 0.1})}
     assert len(names) == 3

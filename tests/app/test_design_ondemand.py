@@ -2,6 +2,7 @@
 read from a given map (design_chart's map_ds), and in the explorer's Design
 tab offered with its cost, computed as a map on demand (app/server/mapjobs.py),
 drawn, shared through the server's cache, cancelled, and its device run."""
+
 import asyncio
 import math
 
@@ -15,9 +16,14 @@ from vibtrans.products import design
 from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.views import design as D
 
-PAPER = dict(substrate="glass", particle="steel", preload=0.0,
-             x=("frequency", 1e4, 1e6, 21), y=("amplitude", 1e-9, 5e-7, 21),
-             fixed=("radius", 0.5e-3))
+PAPER = dict(
+    substrate="glass",
+    particle="steel",
+    preload=0.0,
+    x=("frequency", 1e4, 1e6, 21),
+    y=("amplitude", 1e-9, 5e-7, 21),
+    fixed=("radius", 0.5e-3),
+)
 # a small chart at mu 0.5 (no shipped map): a 0.2-decade window of the map
 SMALL = dict(mu=0.5, x_lo=1e5, x_hi=1.2e5, x_points=3, y_lo=1e-8, y_hi=1.2e-8, y_points=3)
 
@@ -32,10 +38,14 @@ def test_a_chart_on_the_shipped_map_needs_nothing_else():
     assert hi == pytest.approx(np.log10(chart["A_star"].values).max(), abs=1e-12)
 
 
-@pytest.mark.parametrize("change, reason", [
-    (dict(mu=0.5), "no shipped map for mu = 0.5"),
-    (dict(particle="PTFE"), "theta"),
-    (dict(x=("frequency", 1e4, 1e6, 21), y=("amplitude", 1e-9, 1e-3, 21)), "log10 A* spans")])
+@pytest.mark.parametrize(
+    "change, reason",
+    [
+        (dict(mu=0.5), "no shipped map for mu = 0.5"),
+        (dict(particle="PTFE"), "theta"),
+        (dict(x=("frequency", 1e4, 1e6, 21), y=("amplitude", 1e-9, 1e-3, 21)), "log10 A* spans"),
+    ],
+)
 def test_the_need_says_why_the_shipped_map_cannot_serve(change, reason):
     values = {**PAPER, "mu": 0.3, **change}
     need = design.chart_needs(**values)
@@ -70,8 +80,7 @@ def test_the_map_requested_covers_the_chart_at_the_shipped_step_or_finer(preset)
     p = design.preset(preset)
     d = p.device
     fq = next(q for q in design.AXES if q not in (p.x[0], p.y[0]))
-    need = design.chart_needs(d.substrate, d.particle, d.preload, p.x, p.y,
-                              (fq, getattr(d, fq)), mu=0.5)
+    need = design.chart_needs(d.substrate, d.particle, d.preload, p.x, p.y, (fq, getattr(d, fq)), mu=0.5)
     request, why = D.map_request(need)
     assert why is None
     la, lm = request.axes()
@@ -90,8 +99,9 @@ def test_the_map_s_fidelity_and_periods_are_the_user_s_and_checked():
     request, why = D.map_request(need, fidelity="standard", periods=500.0)
     assert why is None and (request.fidelity, request.periods) == ("standard", 500.0)
     request, why = D.map_request(need, periods=5.0)
-    assert request is None and why == ("the map's periods is 5; a map on demand accepts "
-                                       "periods in [10, 10000]")
+    assert request is None and why == (
+        "the map's periods is 5; a map on demand accepts periods in [10, 10000]"
+    )
     request, why = D.map_request(need, fidelity="fast")
     assert request is None and "fidelity must be one of preview, standard" in why
 
@@ -107,9 +117,9 @@ def test_a_window_beyond_what_a_map_on_demand_accepts_is_said():
     assert why is None and request.la_to == 6.0 and request.la_from <= 5.02
 
 
-@pytest.mark.slow                 # a small map computed (preview, 2000 periods)
+@pytest.mark.slow  # a small map computed (preview, 2000 periods)
 def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkeypatch):
-    monkeypatch.setattr(D, "DESIGN_LEVELS", 1)          # 3 x 3 coarse, 5 x 5 finest
+    monkeypatch.setattr(D, "DESIGN_LEVELS", 1)  # 3 x 3 coarse, 5 x 5 finest
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
     runs = []
     panel = D.DesignPanel(jobs=jobs, on_run=lambda *args: runs.append(args))
@@ -126,10 +136,17 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
     assert chart.attrs["map"] == "computed on this server: preview, 2000 periods"
     # the chart is the library's reading of the map computed
     ds = panel._map[0]
-    direct = design.design_chart(panel.device.substrate, panel.device.particle, 0.0,
-                                 ("frequency", 1e5, 1.2e5, 3), ("amplitude", 1e-8, 1.2e-8, 3),
-                                 ("radius", panel.device.radius), mu=0.5, map_ds=ds,
-                                 map_name=chart.attrs["map"])
+    direct = design.design_chart(
+        panel.device.substrate,
+        panel.device.particle,
+        0.0,
+        ("frequency", 1e5, 1.2e5, 3),
+        ("amplitude", 1e-8, 1.2e-8, 3),
+        ("radius", panel.device.radius),
+        mu=0.5,
+        map_ds=ds,
+        map_name=chart.attrs["map"],
+    )
     for name in ("drift_velocity", "v_star", "regime"):
         np.testing.assert_array_equal(chart[name].values, direct[name].values)
     assert np.isfinite(chart["drift_velocity"].values).all()
@@ -163,10 +180,11 @@ def test_the_tab_computes_the_map_draws_the_chart_and_shares_it(tmp_path, monkey
 def test_a_map_can_be_cancelled_and_a_closed_session_cancels_it(tmp_path):
     started = []
 
-    def build(comp, path, on_level):    # a map that never finishes until cancelled
+    def build(comp, path, on_level):  # a map that never finishes until cancelled
         started.append(comp)
         comp.cancel.wait(30)
         raise mapjobs.Cancelled("map cancelled")
+
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build)
     for close in (False, True):
         panel = D.DesignPanel(jobs=jobs)
@@ -186,23 +204,30 @@ def test_a_map_can_be_cancelled_and_a_closed_session_cancels_it(tmp_path):
             panel.mu = 0.5
             panel.close() if close else panel.cancel()
             await asyncio.wait_for(task, 10)
+
         asyncio.run(run())
         assert started[-1].cancel.is_set() and jobs.busy() == (0, 0)
         if not close:
             assert "Map cancelled" in panel.progress.object and not panel.cancel_button.visible
 
 
-@pytest.mark.slow                 # an explorer session (maps rendered)
+@pytest.mark.slow  # an explorer session (maps rendered)
 def test_the_explorer_runs_the_design_tabs_device_and_gives_it_in_si_units(monkeypatch):
     from vibtrans import Scene
     from vibtrans_explorer import explorer as E
+
     ex = E.Explorer()
     runs = []
     monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
-    device = design.preset("paper").device          # steel on glass: theta 1.214
-    ex.state.param.update(substrate=device.substrate, particle=device.particle,
-                          radius=device.radius, frequency=device.frequency,
-                          amplitude=device.amplitude, preload=device.preload)
+    device = design.preset("paper").device  # steel on glass: theta 1.214
+    ex.state.param.update(
+        substrate=device.substrate,
+        particle=device.particle,
+        radius=device.radius,
+        frequency=device.frequency,
+        amplitude=device.amplitude,
+        preload=device.preload,
+    )
     ex._run_design_device(0.3, 2000.0)
     scene = runs[-1]
     n = device.normalized()
@@ -215,9 +240,11 @@ def test_the_explorer_runs_the_design_tabs_device_and_gives_it_in_si_units(monke
     assert ex.units_panel.period_seconds(scene) == pytest.approx(1 / device.frequency)
     # another scene is no device: the hint, as before
     assert "run a device from the Units or Design tab" in ex.units_panel.si_text(
-        1.0, Scene(amplitude=10.0, mass=1.0))
+        1.0, Scene(amplitude=10.0, mass=1.0)
+    )
     # a device beyond the explorer's range is refused with a message, nothing runs
-    ex.state.param.update(substrate="lithium niobate", particle="fused silica", radius=1e-6,
-                          frequency=1e7, amplitude=1e-3)
+    ex.state.param.update(
+        substrate="lithium niobate", particle="fused silica", radius=1e-6, frequency=1e7, amplitude=1e-3
+    )
     ex._run_design_device(0.3, 2000.0)
     assert len(runs) == 1 and "outside the explorer's range" in ex.message.object

@@ -2,6 +2,7 @@
 library's design chart drawn from a preset, a click on it reading the
 device there, bad values refused with the library's message, the tab
 built when first opened."""
+
 import asyncio
 from types import SimpleNamespace
 
@@ -16,7 +17,7 @@ from vibtrans_explorer import explorer as E
 from vibtrans_explorer.server import mapjobs
 from vibtrans_explorer.views.design import DesignPanel
 
-pytestmark = pytest.mark.slow       # charts rendered
+pytestmark = pytest.mark.slow  # charts rendered
 
 
 def _numbers(value):
@@ -73,13 +74,14 @@ def test_a_click_at_the_papers_device_gives_its_quantities(drawn):
     library gives it for the device clicked."""
     dev = design.preset("paper").device
     # the click as Bokeh delivers it (data coordinates of the log axes)
-    drawn._on_tap(SimpleNamespace(x=None, y=None))          # nothing: no place
+    drawn._on_tap(SimpleNamespace(x=None, y=None))  # nothing: no place
     asyncio.run(drawn.mark(dev.frequency * 1.0001, dev.amplitude * 0.9999))
     clicked = drawn.marked
-    assert (clicked.frequency, clicked.amplitude) == (float(f"{dev.frequency * 1.0001:.4g}"),
-                                                      float(f"{dev.amplitude * 0.9999:.4g}"))
-    assert (drawn.device.frequency, drawn.device.amplitude) == (clicked.frequency,
-                                                              clicked.amplitude)
+    assert (clicked.frequency, clicked.amplitude) == (
+        float(f"{dev.frequency * 1.0001:.4g}"),
+        float(f"{dev.amplitude * 0.9999:.4g}"),
+    )
+    assert (drawn.device.frequency, drawn.device.amplitude) == (clicked.frequency, clicked.amplitude)
     reading = design.read_device(clicked, chart=drawn.chart)
     expect = design.device_quantities(clicked, reading)
     q = drawn.quantities
@@ -101,13 +103,13 @@ def test_a_click_at_the_papers_device_gives_its_quantities(drawn):
 
 def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
     fig, chart = drawn.figure, drawn.chart
-    drawn.x_lo = -1e4                          # a negative frequency
+    drawn.x_lo = -1e4  # a negative frequency
     asyncio.run(drawn.draw())
     assert drawn.alert.visible
     text = drawn.alert.object
     assert "x lo (frequency)" in text and "(0, inf)" in text and "-10000" in text
     assert "Traceback" not in text
-    assert drawn.figure is fig and drawn.chart is chart and drawn.x_lo == -1e4   # not clamped
+    assert drawn.figure is fig and drawn.chart is chart and drawn.x_lo == -1e4  # not clamped
     assert drawn.chart_pane.objects[0].object is fig and not drawn.busy
     # text that is no number: said under its field, and the draw refuses
     drawn.fields["x_hi"].input.value = "abc"
@@ -136,11 +138,12 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
 
     async def busy_while_drawing():
         task = asyncio.create_task(drawn.draw())
-        await until(lambda: drawn.busy)     # the draw has started: off the event loop now
+        await until(lambda: drawn.busy)  # the draw has started: off the event loop now
         assert drawn.busy and drawn.spinner.visible and drawn.draw_button.disabled
         assert "Drawing the chart" in drawn.status.object
         await task
         assert not drawn.busy and not drawn.spinner.visible and not drawn.draw_button.disabled
+
     asyncio.run(busy_while_drawing())
     assert not drawn.alert.visible and drawn.figure is not fig
 
@@ -148,20 +151,19 @@ def test_a_bad_value_names_the_parameter_and_the_chart_stays(drawn):
 def test_a_new_axis_quantity_takes_a_range_around_the_device(tmp_path):
     panel = DesignPanel(jobs=mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1))
     dev = design.preset("paper").device
-    assert (panel.x, panel.y) == ("frequency", "amplitude")    # the preset's, kept as given
+    assert (panel.x, panel.y) == ("frequency", "amplitude")  # the preset's, kept as given
     assert (panel.x_lo, panel.x_hi) == (1e4, 1e6)
     panel.x = "radius"
     assert panel.fixed_quantity() == "frequency"
-    assert panel.x_lo < dev.radius < panel.x_hi and panel.x_hi / panel.x_lo == pytest.approx(
-        10, rel=0.01)
-    asyncio.run(panel.draw())           # small radii: A* beyond the shipped map's 10^3
+    assert panel.x_lo < dev.radius < panel.x_hi and panel.x_hi / panel.x_lo == pytest.approx(10, rel=0.01)
+    asyncio.run(panel.draw())  # small radii: A* beyond the shipped map's 10^3
     assert "log10 A* spans" in shown_text(panel.offer.object) and panel.chart is None  # (offered)
     panel.y_hi = 1e-7
     asyncio.run(panel.draw())
     assert not panel.alert.visible and panel.chart.attrs["fixed"] == "frequency"
-    assert not panel.offer_box.visible          # a shipped map serves: the offer is gone
+    assert not panel.offer_box.visible  # a shipped map serves: the offer is gone
     assert panel.chart.attrs["fixed_value"] == dev.frequency
-    panel.y = "radius"                  # the same quantity twice: the library's message
+    panel.y = "radius"  # the same quantity twice: the library's message
     asyncio.run(panel.draw())
     assert "once each" in panel.alert.object
 
@@ -171,6 +173,7 @@ def test_the_design_tab_is_built_when_first_opened():
     browser) before; opened, its widgets are in the page."""
     from bokeh.document import Document
     from panel.io.state import set_curdoc
+
     doc = Document()
     with set_curdoc(doc):
         ex = E.Explorer()
@@ -186,11 +189,11 @@ def test_the_design_tab_is_built_when_first_opened():
         assert [m for m in doc.models if "vt-design-draw" in getattr(m, "css_classes", [])]
         panel = ex.design_panel
         assert isinstance(panel, DesignPanel) and panel.chart is None
-        shown, = ex.design_box.objects
+        (shown,) = ex.design_box.objects
         assert panel.draw_button in shown.select(type(panel.draw_button))
         ex.map_tabs.active = 0
         ex.map_tabs.active = E.DESIGN_TAB
-        assert ex.design_panel is panel and ex.design_box.objects == [shown]     # built once
+        assert ex.design_panel is panel and ex.design_box.objects == [shown]  # built once
 
 
 # ---------------------------------------------------------------- custom materials
@@ -198,9 +201,22 @@ from vibtrans.core import units  # noqa: E402
 from vibtrans_explorer.views import design as D  # noqa: E402
 
 # the chart's numbers (every variable but the names in attrs)
-CHART_VARS = ("drift_velocity", "v_star", "drift", "contact", "pattern", "chaotic", "regime",
-              "contact_fraction", "A_star", "m_star", "a0", "contact_radius",
-              "adhesion_ratio", "travel_over_wavelength")
+CHART_VARS = (
+    "drift_velocity",
+    "v_star",
+    "drift",
+    "contact",
+    "pattern",
+    "chaotic",
+    "regime",
+    "contact_fraction",
+    "A_star",
+    "m_star",
+    "a0",
+    "contact_radius",
+    "adhesion_ratio",
+    "travel_over_wavelength",
+)
 
 
 def _small(panel):
@@ -224,9 +240,12 @@ def test_a_custom_material_equal_to_glass_draws_the_same_chart():
     assert panel.custom_row.visible and panel.custom_inputs["substrate"].visible
     assert not panel.custom_inputs["particle"].visible
     glass, example = units.material("glass"), units.material(D.CUSTOM_EXAMPLE)
-    assert panel.device.substrate_custom == D.CUSTOM_EXAMPLE       # glass's E, nu, rho
-    assert ((example.youngs_modulus, example.poisson_ratio, example.density)
-            == (glass.youngs_modulus, glass.poisson_ratio, glass.density))
+    assert panel.device.substrate_custom == D.CUSTOM_EXAMPLE  # glass's E, nu, rho
+    assert (example.youngs_modulus, example.poisson_ratio, example.density) == (
+        glass.youngs_modulus,
+        glass.poisson_ratio,
+        glass.density,
+    )
     panel.device.particle = D.CUSTOM_MATERIAL
     panel.device.particle_custom = _custom(units.material("steel"))
     assert panel.values()["substrate"] == D.CUSTOM_EXAMPLE
@@ -235,8 +254,7 @@ def test_a_custom_material_equal_to_glass_draws_the_same_chart():
     assert not panel.alert.visible, panel.alert.object
     assert panel.chart.attrs["substrate"] == f"custom ({D.CUSTOM_EXAMPLE})"
     for name in CHART_VARS:
-        np.testing.assert_array_equal(panel.chart[name].values, named.chart[name].values,
-                                      err_msg=name)
+        np.testing.assert_array_equal(panel.chart[name].values, named.chart[name].values, err_msg=name)
     assert panel.quantities == named.quantities
     assert "custom (E=70e9" in panel.info.object
     # back to a named material: its field hidden
@@ -244,9 +262,17 @@ def test_a_custom_material_equal_to_glass_draws_the_same_chart():
     assert not panel.custom_inputs["particle"].visible and panel.custom_row.visible
 
 
-@pytest.mark.parametrize("text", ["E=70e9,nu=0.3", "E=70e9,nu=0.7,rho=2500",
-                                  "E=abc,nu=0.3,rho=2500", "E=70e9,nu=0.3,rho=2500,k=1",
-                                  "unobtainium", ""])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "E=70e9,nu=0.3",
+        "E=70e9,nu=0.7,rho=2500",
+        "E=abc,nu=0.3,rho=2500",
+        "E=70e9,nu=0.3,rho=2500,k=1",
+        "unobtainium",
+        "",
+    ],
+)
 def test_a_bad_custom_material_gets_the_librarys_message(text):
     panel = _small(DesignPanel())
     asyncio.run(panel.draw())
@@ -259,7 +285,7 @@ def test_a_bad_custom_material_gets_the_librarys_message(text):
     assert panel.alert.visible
     # (as the page shows it: the message is Markdown)
     assert shown_text(panel.alert.object).strip() == f"Cannot draw the chart: {refused.value}"
-    assert panel.device.substrate_custom == text and panel.chart is chart      # nothing clamped
+    assert panel.device.substrate_custom == text and panel.chart is chart  # nothing clamped
 
 
 # ---------------------------------------------------------------- the chart's notes
@@ -272,8 +298,12 @@ def test_the_chart_wide_warnings_and_ranges_are_shown_below_the_status(drawn):
     lines = design.chart_warnings(chart)
     assert lines and all(f"**chart warning:** {line}" in notes.object for line in lines)
     assert "No validity warnings" not in notes.object
-    for var, label in (("a0", "a0"), ("contact_radius", "contact radius"),
-                       ("A_star", "A*"), ("m_star", "m*")):
+    for var, label in (
+        ("a0", "a0"),
+        ("contact_radius", "contact radius"),
+        ("A_star", "A*"),
+        ("m_star", "m*"),
+    ):
         lo, hi = f"{chart[var].values.min():.3g}", f"{chart[var].values.max():.3g}"
         assert f"{label} {lo if lo == hi else f'{lo} – {hi}'}" in notes.object, var
     # (a0 and the contact radius depend on the radius only: fixed on this chart)
@@ -299,6 +329,7 @@ def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
 
     import pandas as pd
     import xarray as xr
+
     panel = _small(DesignPanel())
     buttons = panel.download_buttons
     assert set(buttons) == {"png", "svg", "pdf", "nc", "csv"}
@@ -317,15 +348,16 @@ def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
     (tmp_path / "chart.nc").write_bytes(got["nc"])
     with xr.open_dataset(tmp_path / "chart.nc") as back:
         assert back.attrs["map"] == chart.attrs["map"]
-        assert back.load().equals(chart)            # every variable and coordinate
+        assert back.load().equals(chart)  # every variable and coordinate
         for name in CHART_VARS:
             np.testing.assert_array_equal(back[name].values, chart[name].values, err_msg=name)
         for q in (chart.attrs["x"], chart.attrs["y"]):
             np.testing.assert_array_equal(back[q].values, chart[q].values)
     table = pd.read_csv(io.BytesIO(got["csv"]))
     assert len(table) == chart["a0"].size == 6 * 5
-    np.testing.assert_allclose(np.sort(table["drift_velocity"].values),
-                               np.sort(chart["drift_velocity"].values.ravel()))
+    np.testing.assert_allclose(
+        np.sort(table["drift_velocity"].values), np.sort(chart["drift_velocity"].values.ravel())
+    )
     # the figure marks the device shown (moved by a click)
     asyncio.run(panel.mark(1e5, 5e-8))
     seen = {}
@@ -333,6 +365,7 @@ def test_the_downloads_are_of_the_chart_shown(monkeypatch, tmp_path):
     def fake_export(chart_, out, device=None):
         seen.update(chart=chart_, device=device)
         open(out, "wb").write(b"x")
+
     monkeypatch.setattr("vibtrans.products.export.export_design", fake_export)
     assert buttons["svg"].callback().getvalue() == b"x"
     assert seen == {"chart": chart, "device": (1e5, 5e-8)}
@@ -344,18 +377,20 @@ def test_editing_a_value_labels_the_preset_custom():
     paper = design.preset("paper")
     assert panel.param.preset.objects[-1] == D.CUSTOM_PRESET
     panel.device.radius = 1e-3
-    assert panel.preset == D.CUSTOM_PRESET and panel.device.radius == 1e-3       # nothing re-applied
+    assert panel.preset == D.CUSTOM_PRESET and panel.device.radius == 1e-3  # nothing re-applied
     assert "Custom values" in panel.note.object
     assert (panel.x_lo, panel.device.frequency) == (paper.x[1], paper.device.frequency)
-    panel.preset = "paper"                                  # a real preset: applied as before
+    panel.preset = "paper"  # a real preset: applied as before
     assert panel.device.radius == paper.device.radius and panel.preset == "paper"
-    assert emphasized(panel.note.object) == [paper.note]      # shown whole, in italics
+    assert emphasized(panel.note.object) == [paper.note]  # shown whole, in italics
     # a value typed in its field, an axis, a material: each makes it custom
-    for edit in (lambda: setattr(panel.fields["x_lo"].input, "value", "2e4"),
-                 lambda: setattr(panel, "y", "radius"),
-                 lambda: setattr(panel, "x_points", 11),
-                 lambda: setattr(panel.device, "particle", "glass"),
-                 lambda: setattr(panel.device, "substrate", D.CUSTOM_MATERIAL)):
+    for edit in (
+        lambda: setattr(panel.fields["x_lo"].input, "value", "2e4"),
+        lambda: setattr(panel, "y", "radius"),
+        lambda: setattr(panel, "x_points", 11),
+        lambda: setattr(panel.device, "particle", "glass"),
+        lambda: setattr(panel.device, "substrate", D.CUSTOM_MATERIAL),
+    ):
         panel.preset = "paper"
         assert panel.preset == "paper"
         edit()
@@ -389,9 +424,9 @@ def test_a_chart_of_other_values_is_marked_and_the_table_follows_the_device(tmp_
     # drawn", and the table shows the cone's device, not the sphere's m/s
     from vibtrans_explorer.session.state import ExplorerState
     from vibtrans_explorer.views import design as D
+
     state = ExplorerState()
-    panel = DesignPanel(jobs=mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1),
-                        state=state)
+    panel = DesignPanel(jobs=mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1), state=state)
     panel.__panel__()
     asyncio.run(panel.draw())
     chart = panel.chart

@@ -3,6 +3,7 @@ map on demand: the tab shows `vibtrans.maps.difference.map_difference` of the tw
 maps chosen (the library's numbers, checked against a direct call), says
 why when it cannot, and a map on demand shown in the map tab can be
 compared and downloaded (not the shipped map behind it)."""
+
 import asyncio
 import re
 from pathlib import Path
@@ -19,7 +20,8 @@ from vibtrans_explorer.views.exports import ExportsView
 
 needs_both = pytest.mark.skipif(
     not {("deformable", 0.3), ("point-mass", 0.3)} <= data.available_maps().keys(),
-    reason="needs the shipped deformable and point-mass maps at mu = 0.3")
+    reason="needs the shipped deformable and point-mass maps at mu = 0.3",
+)
 
 
 def _window(ds):
@@ -36,11 +38,9 @@ def test_the_default_pair_is_the_two_models_and_the_numbers_are_the_librarys():
     assert view.second.value == shipped_label("point-mass", 0.3)
     asyncio.run(view.show())
     assert not view.message.visible
-    direct = map_difference(data.drift_map("deformable", 0.3), data.drift_map("point-mass", 0.3),
-                            state.v0)
+    direct = map_difference(data.drift_map("deformable", 0.3), data.drift_map("point-mass", 0.3), state.v0)
     assert view.diff.attrs == direct.attrs
-    np.testing.assert_array_equal(view.diff["log_difference"].values,
-                                  direct["log_difference"].values)
+    np.testing.assert_array_equal(view.diff["log_difference"].values, direct["log_difference"].values)
     assert f"{100 * direct.attrs['class_agreement']:.1f}%" in view.summary.object
     fig = view.figure.objects[0].object
     assert "point-mass" in fig.title.text and "deformable" in fig.title.text
@@ -60,11 +60,17 @@ def test_the_documented_figures_are_the_tabs():
     asyncio.run(view.show())
     a = view.diff.attrs
     text = " ".join(DOCS.read_text().split())
-    quoted = re.search(r"deformable against point mass at mu 0\.3: ([\d.]+)% of (\d+) points, "
-                       r"median ([\d.]*\d)", text)
+    quoted = re.search(
+        r"deformable against point mass at mu 0\.3: ([\d.]+)% of (\d+) points, "
+        r"median ([\d.]*\d)",
+        text,
+    )
     assert quoted, f"{DOCS.name} no longer quotes the default pair's figures"
-    assert quoted.groups() == (f"{100 * a['class_agreement']:.1f}", str(a["regular_points"]),
-                               f"{a['median_relative_difference']:.2g}")
+    assert quoted.groups() == (
+        f"{100 * a['class_agreement']:.1f}",
+        str(a["regular_points"]),
+        f"{a['median_relative_difference']:.2g}",
+    )
     assert quoted.group(1) + "%" in view.summary.object
 
 
@@ -85,15 +91,14 @@ def test_a_map_on_demand_is_offered_once_shown_and_compared_on_its_points():
     view.build()
     assert not any(label.startswith(COMPUTED) for label in view.first.options)
     shown.append((describe(window), window))
-    view.build()                    # the tab opened again: the list is refreshed
+    view.build()  # the tab opened again: the list is refreshed
     # compared at once on its own grid, with the shipped map of its model and mu
     assert view.first.value.startswith(COMPUTED)
     assert view.second.value == shipped_label("deformable", 0.3)
     asyncio.run(view.show())
     assert not view.message.visible
     assert view.diff["log_difference"].shape == window["drift_velocity"].shape
-    assert view.diff.attrs["compared_points"] == int(np.isfinite(
-        window["drift_velocity"].values).sum())
+    assert view.diff.attrs["compared_points"] == int(np.isfinite(window["drift_velocity"].values).sum())
     # a map against itself: every regular point agrees, no difference
     assert view.diff.attrs["class_agreement"] == 1.0
     assert np.nanmax(np.abs(view.diff["log_difference"].values)) == 0.0
@@ -102,7 +107,8 @@ def test_a_map_on_demand_is_offered_once_shown_and_compared_on_its_points():
 def test_maps_that_share_no_point_say_so():
     shipped = data.drift_map("deformable", 0.3)
     far = shipped.isel(log_amplitude=slice(0, 3)).assign_coords(
-        log_amplitude=shipped["log_amplitude"].values[:3] + 50.0)
+        log_amplitude=shipped["log_amplitude"].values[:3] + 50.0
+    )
     view = DifferenceView(ExplorerState(), computed=lambda: ("far away", far))
     view.build()
     assert view.first.value.startswith(COMPUTED)
@@ -125,14 +131,12 @@ def test_the_downloads_are_of_the_map_on_demand_when_one_is_shown(tmp_path):
     shipped = data.drift_map("deformable", 0.3)
     window = _window(shipped)
     shown = []
-    exports = ExportsView(ExplorerState(), _MapView(),
-                          shown_map=lambda: shown[0] if shown else None)
+    exports = ExportsView(ExplorerState(), _MapView(), shown_map=lambda: shown[0] if shown else None)
     whole = _opened(tmp_path, exports.data_file("map-window", "nc"), "whole.nc")
     assert whole.sizes == shipped.sizes
     shown.append(("deformable mu 0.3 window", window))
     part = _opened(tmp_path, exports.data_file("map-window", "nc"), "part.nc")
     assert part.sizes == window.sizes
-    np.testing.assert_array_equal(part["drift_velocity"].values,
-                                  window["drift_velocity"].values)
+    np.testing.assert_array_equal(part["drift_velocity"].values, window["drift_velocity"].values)
     png = exports.figure_file("map", "png").getvalue()
     assert png.startswith(b"\x89PNG")

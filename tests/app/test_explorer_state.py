@@ -25,6 +25,7 @@ Bokeh's `_pending_writes`, a failed run).  The runs are stand-ins: each
 returns a short real run of the same model (the views draw real data), and
 records the scene it was asked for.
 """
+
 import asyncio
 import concurrent.futures
 import logging
@@ -51,10 +52,10 @@ from vibtrans_explorer.views import profile as P
 from vibtrans_explorer.views.browserside import BrowserAddress
 from vibtrans_explorer.views.summary import CANCELLED_LINE, STALE_LINE, profile_words
 
-pytestmark = pytest.mark.slow       # explorer sessions (maps drawn), ~1 min
+pytestmark = pytest.mark.slow  # explorer sessions (maps drawn), ~1 min
 
-EXAMPLES = 12         # sequences per run (CI: two cores)
-STEPS = 25            # steps per sequence
+EXAMPLES = 12  # sequences per run (CI: two cores)
+STEPS = 25  # steps per sequence
 
 
 def _open(monkeypatch, query=""):
@@ -66,7 +67,7 @@ def _open(monkeypatch, query=""):
     ex = E.Explorer(simulate=stand_in)
     ex.stand_in = stand_in
     ex.pending = []
-    ex.controller.schedule = ex.pending.append       # finished by the `finish` rule
+    ex.controller.schedule = ex.pending.append  # finished by the `finish` rule
     # every job started (a click, a paper point, Run): `settled` waits for
     # their simulate calls, which the runner's threads make in their own time
     ex.jobs = []
@@ -77,9 +78,10 @@ def _open(monkeypatch, query=""):
         if job is not None:
             ex.jobs.append(job)
         return job
+
     ex.controller.start = recorded
     ex.main()
-    ex.units_panel.__panel__()                       # the device's form
+    ex.units_panel.__panel__()  # the device's form
     return ex
 
 
@@ -89,18 +91,17 @@ def no_logged_errors(caplog):
     Bokeh's `_pending_writes`, a failed run or drawing)."""
     caplog.set_level(logging.WARNING)
     yield
-    bad = [r for r in caplog.records if r.levelno >= logging.ERROR
-           or "_pending_writes" in r.getMessage()]
+    bad = [r for r in caplog.records if r.levelno >= logging.ERROR or "_pending_writes" in r.getMessage()]
     assert not bad, [f"{r.name}: {r.getMessage()}" for r in bad]
 
 
-NUMBER_TEXT = st.one_of(st.floats(-7, 7, allow_nan=False).map(lambda v: f"{v:.3f}"),
-                        st.sampled_from(["", "abc", "nan", "1e999", "2,5", " 0.5 ", "-9",
-                                         "0.25", "1.5", "-0.3"]))
+NUMBER_TEXT = st.one_of(
+    st.floats(-7, 7, allow_nan=False).map(lambda v: f"{v:.3f}"),
+    st.sampled_from(["", "abc", "nan", "1e999", "2,5", " 0.5 ", "-9", "0.25", "1.5", "-0.3"]),
+)
 # the profile selector's kinds and the numbers typed for them (valid and not)
 PROFILE_KIND = st.sampled_from(list(P.KINDS))
-PROFILE_NUMBER = st.sampled_from(["3", "1", "2", "1.5", "0.5", "0", "-1", "abc", "", "nan",
-                                  "0.25", "4"])
+PROFILE_NUMBER = st.sampled_from(["3", "1", "2", "1.5", "0.5", "0", "-1", "abc", "", "nan", "0.25", "4"])
 DEVICE_TEXT = {
     "radius": st.sampled_from(["5e-6", "0.0005", "1e-3", "-1", "0", "abc", "2e-4"]),
     "frequency": st.sampled_from(["2e7", "108000", "1e5", "-5", "x", "5e4"]),
@@ -117,13 +118,13 @@ TIP_TEXT = {
 
 
 class ExplorerMachine(RuleBasedStateMachine):
-    monkeypatch = None          # set by the test
+    monkeypatch = None  # set by the test
 
     def __init__(self):
         super().__init__()
         self.ex = _open(self.monkeypatch)
-        self.last_run = None        # (the scene the state had at Run, job or None)
-        self.addresses = []         # the page's addresses so far (its browser's history)
+        self.last_run = None  # (the scene the state had at Run, job or None)
+        self.addresses = []  # the page's addresses so far (its browser's history)
 
     # ------------------------------------------------------------ helpers
     def settled(self):
@@ -148,7 +149,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         job = start()
         if job is None:
             assert ex.message.visible and ex.message.object, "a refused run says why"
-            assert len(ex.stand_in.scenes) == before      # nothing ran
+            assert len(ex.stand_in.scenes) == before  # nothing ran
             errors = ex.state.errors(ex.state.invalid)
             if errors:
                 assert any(e in ex.message.object for e in errors)
@@ -179,8 +180,7 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @rule(which=st.sampled_from(["substrate", "particle"]), data=st.data())
     def material(self, which, data):
-        setattr(self.ex.state, which, data.draw(st.sampled_from(
-            self.ex.state.param[which].objects[:-1])))
+        setattr(self.ex.state, which, data.draw(st.sampled_from(self.ex.state.param[which].objects[:-1])))
 
     @rule(data=st.data())
     def mu(self, data):
@@ -189,8 +189,7 @@ class ExplorerMachine(RuleBasedStateMachine):
 
     @rule(name=st.sampled_from(["model", "fidelity", "compare", "integrator"]), data=st.data())
     def selector(self, name, data):
-        setattr(self.ex.state, name, data.draw(st.sampled_from(
-            self.ex.state.param[name].objects)))
+        setattr(self.ex.state, name, data.draw(st.sampled_from(self.ex.state.param[name].objects)))
 
     @rule(kind=PROFILE_KIND, number=PROFILE_NUMBER)
     def profile(self, kind, number):
@@ -254,9 +253,10 @@ class ExplorerMachine(RuleBasedStateMachine):
         def on_run(mu, periods):
             nonlocal job
             job = ex._run_design_device(mu, periods)
+
         panel.on_run = on_run
         panel.run_device()
-        if job is not None:       # the form's device, not the chart drawn or a preset's
+        if job is not None:  # the form's device, not the chart drawn or a preset's
             la, lm, theta, nu = ex.state.device_scene_values()
             assert math.isclose(math.log10(job.scene.amplitude), la, abs_tol=1e-12)
             assert job.scene.profile == ex.state.device_tip()[3]
@@ -284,13 +284,13 @@ class ExplorerMachine(RuleBasedStateMachine):
         before, jobs = ex.location.search, len(ex.jobs)
         ex.location.search = address
         assert ex.location.search == address
-        values, errors = urlstate.parse(parse_qs_bytes(address.lstrip("?")), ex.state,
-                                        URL_KEYS, URL_ALIASES)
-        assert not errors and urlstate.resolved(values, ex.state, URL_KEYS) == \
-            {n: getattr(ex.state, n) for n in URL_KEYS}
+        values, errors = urlstate.parse(parse_qs_bytes(address.lstrip("?")), ex.state, URL_KEYS, URL_ALIASES)
+        assert not errors and urlstate.resolved(values, ex.state, URL_KEYS) == {
+            n: getattr(ex.state, n) for n in URL_KEYS
+        }
         if address == before:
-            assert len(ex.jobs) == jobs             # the address shown: nothing to do
-        elif len(ex.jobs) == jobs:                  # refused: the message says why
+            assert len(ex.jobs) == jobs  # the address shown: nothing to do
+        elif len(ex.jobs) == jobs:  # refused: the message says why
             assert ex.message.visible and ex.message.object
         else:
             assert len(ex.jobs) == jobs + 1
@@ -315,8 +315,10 @@ class ExplorerMachine(RuleBasedStateMachine):
         assert ex.map_view.selected.data == {"x": [s.log_amplitude], "y": [s.log_mass]}
         assert ex.scene_controls.mu_select.value == s.mu and s.mu in ex.scene_controls.mu_select.options
         assert ex.scene_controls.point_select.value == ex.scene_controls.paper_point()
-        for f in [*ex.scene_controls.fields, *(f for f in ex.units_panel.form
-                                if isinstance(f, inputs.NumberField))]:
+        for f in [
+            *ex.scene_controls.fields,
+            *(f for f in ex.units_panel.form if isinstance(f, inputs.NumberField)),
+        ]:
             if f.name_ in s.invalid:
                 assert f.error == s.invalid[f.name_] and f.error
             else:
@@ -327,7 +329,7 @@ class ExplorerMachine(RuleBasedStateMachine):
                 assert shown == value or math.isclose(shown, value, rel_tol=5e-6), f.name_
         # the profile selector and its drawing: a view of the state's profile
         view = ex.profile_view
-        if "profile" in s.invalid:        # a bad number typed: said, the profile kept
+        if "profile" in s.invalid:  # a bad number typed: said, the profile kept
             assert view.error == s.invalid["profile"] and view.note.visible
             assert view.number.visible and P.KINDS[view.kind.value] in P.NUMBERS
         else:
@@ -338,15 +340,13 @@ class ExplorerMachine(RuleBasedStateMachine):
             assert view.spec() == s.profile
         assert view.drawing_pane.visible == (not is_sphere(s.profile))
         if view.drawing_pane.visible:
-            np.testing.assert_array_equal(view.source.data["z"],
-                                          P.outline(s.profile, view.source.data["r"]))
+            np.testing.assert_array_equal(view.source.data["z"], P.outline(s.profile, view.source.data["r"]))
             assert s.profile in view.figure.title.text
         assert view.rigid.visible == (s.model == "point-mass")
         # the map shown (the shipped, the sphere's that does not roll) says
         # when it is not the particle's (the material point is rigid), or
         # when no shipped map has the selected mu
-        other_particle = s.model != "point-mass" and (not is_sphere(s.profile)
-                                                      or s.rolling != "none")
+        other_particle = s.model != "point-mass" and (not is_sphere(s.profile) or s.rolling != "none")
         no_map = (s.model, s.mu) not in data.available_maps()
         assert ex.ondemand.profile_box.visible == (other_particle or no_map)
         if ex.design_panel is not None:
@@ -372,13 +372,13 @@ class ExplorerMachine(RuleBasedStateMachine):
         assert ex.location.search == ex.url_query()
         if ex.location.search not in self.addresses:
             self.addresses.append(ex.location.search)
-        values, errors = urlstate.parse(parse_qs_bytes(ex.location.search.lstrip("?")),
-                                        ex.state, URL_KEYS, URL_ALIASES)
+        values, errors = urlstate.parse(
+            parse_qs_bytes(ex.location.search.lstrip("?")), ex.state, URL_KEYS, URL_ALIASES
+        )
         assert not errors
         # (a None, the tip radius that is the particle's, is left out: the default)
         assert set(URL_KEYS) - set(values) <= {n for n in URL_KEYS if getattr(ex.state, n) is None}
-        assert urlstate.resolved(values, ex.state, URL_KEYS) == \
-            {n: getattr(ex.state, n) for n in URL_KEYS}
+        assert urlstate.resolved(values, ex.state, URL_KEYS) == {n: getattr(ex.state, n) for n in URL_KEYS}
 
     @invariant()
     def the_run_shown_is_what_ran_and_stale_at_once(self):
@@ -389,8 +389,7 @@ class ExplorerMachine(RuleBasedStateMachine):
         ran = result.ran
         scene = result.scene
         # the heading: the scene run
-        assert f"A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}" in \
-            ex.summary_view._table
+        assert f"A\\* = {scene.amplitude:.4g}, m\\* = {scene.mass:.4g}" in ex.summary_view._table
         assert scene.amplitude == 10 ** ran["log_amplitude"]
         assert (scene.model, scene.mu) == (ran["model"], ran["mu"])
         # the particle's profile run, and named where it is not the sphere
@@ -404,20 +403,28 @@ class ExplorerMachine(RuleBasedStateMachine):
             # said over the table; under the cancel's note when a later run
             # was cancelled (a run on a busy machine was cancelled in time)
             assert ex.summary_view.pane.object.startswith((STALE_LINE, f"{CANCELLED_LINE}\n\n{STALE_LINE}"))
-        elif not ex.state.invalid and not (ex.summary_view.device_run and any(
-                getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)):
+        elif not ex.state.invalid and not (
+            ex.summary_view.device_run and any(getattr(ex.state, k) != ran[k] for k in DEVICE_FIELDS)
+        ):
             assert not ex.stale_shown()
 
 
 def test_the_page_is_one_state_whatever_the_order(monkeypatch, no_logged_errors):
     ExplorerMachine.monkeypatch = monkeypatch
     from hypothesis.stateful import run_state_machine_as_test
-    run_state_machine_as_test(ExplorerMachine, settings=settings(
-        max_examples=EXAMPLES, stateful_step_count=STEPS, deadline=None,
-        # (no shrinking: a failing sequence is printed as found; shrinking
-        # one rebuilds a page per try, minutes)
-        phases=[Phase.explicit, Phase.reuse, Phase.generate],
-        suppress_health_check=list(HealthCheck)))
+
+    run_state_machine_as_test(
+        ExplorerMachine,
+        settings=settings(
+            max_examples=EXAMPLES,
+            stateful_step_count=STEPS,
+            deadline=None,
+            # (no shrinking: a failing sequence is printed as found; shrinking
+            # one rebuilds a page per try, minutes)
+            phases=[Phase.explicit, Phase.reuse, Phase.generate],
+            suppress_health_check=list(HealthCheck),
+        ),
+    )
 
 
 # ------------------------------------------------------------ cases met on the page
@@ -429,10 +436,14 @@ def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logg
     panel = ex.design_panel
     assert panel.run_button.disabled is False
     panel.preset = "paper"
-    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=2e7,
-                          radius=5e-6, amplitude=1e-9)
-    assert (panel.device.substrate, panel.device.frequency, panel.device.radius) == \
-        ("lithium niobate", 2e7, 5e-6)
+    ex.state.param.update(
+        substrate="lithium niobate", particle="glass", frequency=2e7, radius=5e-6, amplitude=1e-9
+    )
+    assert (panel.device.substrate, panel.device.frequency, panel.device.radius) == (
+        "lithium niobate",
+        2e7,
+        5e-6,
+    )
     assert panel.preset == "custom"
     panel.run_device()
     job = ex.controller.job
@@ -442,14 +453,13 @@ def test_the_design_tabs_run_runs_the_device_the_form_shows(monkeypatch, no_logg
     assert math.log10(job.scene.mass) == pytest.approx(lm, abs=1e-12)
     assert (job.scene.theta, job.scene.nu) == (theta, nu) != (1.2, 0.3)
     # the Units tab shows the same device (one form)
-    assert f"{10 ** la:.4g}" in ex.units_panel.info.object
+    assert f"{10**la:.4g}" in ex.units_panel.info.object
 
 
 def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, no_logged_errors):
     # with radius "-1" flagged invalid, Run must not run the last valid device
     ex = _open(monkeypatch)
-    field = next(f for f in ex.units_panel.form
-                 if isinstance(f, inputs.NumberField) and f.name_ == "radius")
+    field = next(f for f in ex.units_panel.form if isinstance(f, inputs.NumberField) and f.name_ == "radius")
     field.input.value = "-1"
     assert "radius" in ex.state.invalid
     before = len(ex.stand_in.scenes)
@@ -463,13 +473,19 @@ def test_an_invalid_device_field_refuses_the_run_with_its_message(monkeypatch, n
     assert ex.message.object.startswith("Not run: particle radius (m)")
 
 
-def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(
-        monkeypatch, no_logged_errors):
+def test_a_device_run_is_stale_once_the_device_changes_and_its_link_holds_it(monkeypatch, no_logged_errors):
     # amplitude 1 -> 10 nm without a run: the summary must not give the
     # old device's m/s; a device run's link must not reopen with nu = 0.3, no device
     ex = _open(monkeypatch)
-    ex.state.param.update(substrate="lithium niobate", particle="glass", frequency=1e7,
-                          radius=1e-5, amplitude=1e-9, fidelity="preview", compare="none")
+    ex.state.param.update(
+        substrate="lithium niobate",
+        particle="glass",
+        frequency=1e7,
+        radius=1e-5,
+        amplitude=1e-9,
+        fidelity="preview",
+        compare="none",
+    )
     ex._run_device()
     asyncio.run(ex.pending.pop()())
     assert ex.summary_view.device_run and not ex.stale_shown()
@@ -512,17 +528,16 @@ def test_an_invalid_link_runs_nothing_and_claims_no_defaults(monkeypatch, no_log
     assert "default" not in ex.message.object
 
 
-def test_a_link_with_an_error_stays_in_the_address_until_a_change(monkeypatch,
-                                                                  no_logged_errors):
+def test_a_link_with_an_error_stays_in_the_address_until_a_change(monkeypatch, no_logged_errors):
     """Opened, or reached by the browser's Back, a link with an error stays
     in the address (the browser's) while its message shows: nothing is
     written until the state changes, then the state's address."""
     ex = _open(monkeypatch, "?la=abc&lm=1")
-    assert ex.location.search == ""                 # nothing written: the link as given
+    assert ex.location.search == ""  # nothing written: the link as given
     ex.state.mu = 0.1
     assert ex.location.search == ex.url_query() and "la=-0.3" in ex.location.search
     jobs = len(ex.jobs)
-    ex.location.search = "?la=abc&lm=1"             # the browser's Back to it
+    ex.location.search = "?la=abc&lm=1"  # the browser's Back to it
     assert ex.message.object.startswith("This link has errors, so nothing was run:")
     assert "URL parameter 'la' (log_amplitude)" in ex.message.object
     assert ex.location.search == "?la=abc&lm=1" and len(ex.jobs) == jobs
@@ -546,14 +561,17 @@ def test_the_units_tab_warns_as_the_design_tab_does(monkeypatch, no_logged_error
     # warnings (design.validity_warnings) as the Design tab does
     from vibtrans.core import units
     from vibtrans.products import design
+
     ex = _open(monkeypatch)
-    bead = design.validity_warnings(units.DeviceSpec(
-        substrate="glass", particle="steel", radius=5e-4, frequency=108e3, amplitude=1e-9))
-    assert [w.code for w in bead] == ["adhesion"]      # the default bead: adhesion only
+    bead = design.validity_warnings(
+        units.DeviceSpec(substrate="glass", particle="steel", radius=5e-4, frequency=108e3, amplitude=1e-9)
+    )
+    assert [w.code for w in bead] == ["adhesion"]  # the default bead: adhesion only
     assert bead[0].message in ex.units_panel.warnings.object
     ex.state.param.update(radius=1e-8, particle="PTFE", amplitude=1e-12)
-    expected = design.validity_warnings(units.DeviceSpec(
-        substrate="glass", particle="PTFE", radius=1e-8, frequency=108e3, amplitude=1e-12))
+    expected = design.validity_warnings(
+        units.DeviceSpec(substrate="glass", particle="PTFE", radius=1e-8, frequency=108e3, amplitude=1e-12)
+    )
     assert len(expected) > 1
     assert all(w.message in ex.units_panel.warnings.object for w in expected)
     # the same list of materials in both tabs
@@ -567,13 +585,14 @@ def test_the_summary_says_cancelled_and_changed_in_one_order(order):
     mark, whatever the order of the events (the stale mark once came first
     or second by the order, and a change after a cancel dropped its note)."""
     from vibtrans_explorer.views.summary import SummaryView
+
     view = SummaryView(lambda *a: "")
-    view._table = "| table |"                   # a run shown
+    view._table = "| table |"  # a run shown
     steps = [view.cancelled, lambda: view.mark_stale(True)]
-    for step in (steps if order.startswith("cancel") else steps[::-1]):
+    for step in steps if order.startswith("cancel") else steps[::-1]:
         step()
     assert view.pane.object == f"{CANCELLED_LINE}\n\n{STALE_LINE}\n\n| table |"
-    view.mark_stale(False)                      # the state back to the run's
+    view.mark_stale(False)  # the state back to the run's
     assert view.pane.object == f"{CANCELLED_LINE}\n\n| table |"
 
 
@@ -581,6 +600,7 @@ def test_a_fresh_page_names_no_paper_point_and_picking_1_runs_it(monkeypatch, no
     # a fresh page's scene is point 1's, not run: its selector names no point
     # (had it named 1, picking "1" would change nothing and run nothing)
     from vibtrans_explorer.views.scene import CHOOSE_POINT
+
     ex = _open(monkeypatch)
     select = ex.scene_controls.point_select
     assert select.value == 0 and select.options[CHOOSE_POINT] == 0
@@ -598,15 +618,15 @@ def test_a_fresh_page_names_no_paper_point_and_picking_1_runs_it(monkeypatch, no
 
 
 def test_an_invalid_device_field_withholds_the_units_tabs_values_and_says_so_by_run(
-        monkeypatch, no_logged_errors):
+    monkeypatch, no_logged_errors
+):
     # with an invalid amplitude the state keeps the last valid device: the
     # Units tab shows none of its values (A* 316.2), and its Run's "Not run"
     # is said beside the button, not only at the top of the page
     ex = _open(monkeypatch)
     panel = ex.units_panel
     assert "| A* | 316.2" in panel.info.object and panel.marker is not None
-    field = next(f for f in panel.form
-                 if isinstance(f, inputs.NumberField) and f.name_ == "amplitude")
+    field = next(f for f in panel.form if isinstance(f, inputs.NumberField) and f.name_ == "amplitude")
     field.input.value = "-1e-9"
     assert "amplitude" in ex.state.invalid
     assert "| A* |" not in panel.info.object and "316.2" not in panel.info.object

@@ -2,6 +2,7 @@
 both models' maps side by side with one zoom, a click on them running both
 models; the selected scene marked on the vertical curve; the trajectory's
 time axis in seconds for a device's run; presentation mode's large fonts."""
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -12,7 +13,7 @@ from vibtrans_explorer.server import data
 from vibtrans_explorer.views import runtabs
 from vibtrans_explorer.views.live import time_label
 
-pytestmark = pytest.mark.slow       # explorer sessions (maps rendered)
+pytestmark = pytest.mark.slow  # explorer sessions (maps rendered)
 
 
 def _explorer(**state):
@@ -21,15 +22,16 @@ def _explorer(**state):
     return ex
 
 
-@pytest.mark.skipif(("point-mass", 0.3) not in data.available_maps(),
-                    reason="needs the shipped point-mass map at mu = 0.3")
+@pytest.mark.skipif(
+    ("point-mass", 0.3) not in data.available_maps(), reason="needs the shipped point-mass map at mu = 0.3"
+)
 def test_both_maps_share_one_zoom_and_a_click_runs_both_models(monkeypatch):
     ex = _explorer(model="point-mass")
     assert len(ex.map_view.figures) == 1
     ex.state.maps = "both models"
     dm, pm = ex.map_view.figures
     assert "deformable" in dm.title.text and "point-mass" in pm.title.text
-    assert pm.x_range is dm.x_range and pm.y_range is dm.y_range     # linked zoom
+    assert pm.x_range is dm.x_range and pm.y_range is dm.y_range  # linked zoom
     runs = []
     monkeypatch.setattr(ex, "start_run", lambda: runs.append(ex.state.scene()))
     ex.map_view._on_tap(True, SimpleNamespace(x=0.4, y=1.2))
@@ -46,10 +48,12 @@ def test_the_vertical_curve_marks_the_selected_scene():
     ex.state.param.update(log_amplitude=1.25, log_mass=-0.5)
     # the map's axes (the vertical tab's, not swapped)
     assert ex.vertical.scene.data == {"x": [1.25], "y": [-0.5]}
-    fig = ex.vertical.pane.objects[-1].object      # (under the profile note)
+    fig = ex.vertical.pane.objects[-1].object  # (under the profile note)
     assert fig.xaxis[0].axis_label == "log10 A*" and fig.yaxis[0].axis_label == "log10 m*"
-    labels = [item.label["value"] if isinstance(item.label, dict) else
-              getattr(item.label, "value", item.label) for item in fig.legend[0].items]
+    labels = [
+        item.label["value"] if isinstance(item.label, dict) else getattr(item.label, "value", item.label)
+        for item in fig.legend[0].items
+    ]
     assert "the selected scene" in labels
 
 
@@ -69,11 +73,11 @@ def test_presentation_mode_enlarges_and_restores_the_figures_fonts():
     large = {"--bokeh-font-size": f"{1.5 * E.BOKEH_FONT_PX:g}px"}
     assert ex.page.styles == large and ex.intro.collapsed
     assert ex.presentation_note.visible
-    ex.state.chaotic = "colour"         # a redrawn map keeps the large fonts
+    ex.state.chaotic = "colour"  # a redrawn map keeps the large fonts
     fig = ex.map_view.figures[0]
     assert fig.xaxis[0].axis_label_text_font_size == "15pt"
-    ex.runs.tabs.active = runtabs.DYNAMICS_TAB     # a run tab built while large: large too
-    view = ex.trajectories.view(None, 50.0)       # and a run's figures built while large
+    ex.runs.tabs.active = runtabs.DYNAMICS_TAB  # a run tab built while large: large too
+    view = ex.trajectories.view(None, 50.0)  # and a run's figures built while large
     assert view.part.children[0].title.text_font_size == "15pt"
     assert ex.runs.dynamics_view.section_fig.xaxis[0].axis_label_text_font_size == "15pt"
     ex.presentation = False
@@ -94,12 +98,13 @@ def test_the_run_tabs_build_their_views_when_opened():
         assert ex.runs.animation is None and ex.runs.memory_view is None
         ex.start_run()
         await until(lambda: ex.controller.job is None and ex.controller.result is not None)
-        assert ex.runs.animation is None and ex.runs.memory_view is None       # nothing opened yet
+        assert ex.runs.animation is None and ex.runs.memory_view is None  # nothing opened yet
         ex.runs.tabs.active = runtabs.ANIMATION_TAB
         assert ex.runs.animation is not None and ex.runs.animated is ex.controller.result
         ex.runs.tabs.active = runtabs.MEMORY_TAB
         assert ex.runs.memory_view is not None and ex.runs.memory_view.scene is not None
         ex.runs.memory_view.clear()
+
     asyncio.run(go())
 
 
@@ -115,7 +120,7 @@ def test_changing_the_comparison_relabels_the_same_figures():
         ex = _explorer(compare="tau twin", log_amplitude=0.5, log_mass=1.5)
         ex.start_run()
         await until(lambda: ex.controller.job is None and ex.controller.result is not None)
-        (key, view), = ex.trajectories.views.items()
+        ((key, view),) = ex.trajectories.views.items()
         assert key == "beside a comparison" and view.over.twin_figure.title.text.endswith("twin")
         first = ex.controller.result
         ex.state.compare = "point mass"
@@ -123,7 +128,8 @@ def test_changing_the_comparison_relabels_the_same_figures():
         await until(lambda: ex.controller.job is None and ex.controller.result is not first)
         assert list(ex.trajectories.views) == [key] and view.runs == 2
         assert view.over.twin_figure.title.text == "x*(t) and the point mass run of the same scene"
-        assert [i.label.value for i in view.over.twin_items][1] == "x*, point mass"   # a value, not a field
+        assert [i.label.value for i in view.over.twin_items][1] == "x*, point mass"  # a value, not a field
+
     asyncio.run(go())
 
 
@@ -132,6 +138,7 @@ def _page_document():
     it (devtools/pagecost.py)."""
     from bokeh.document import Document
     from panel.io.state import set_curdoc
+
     doc = Document()
     with set_curdoc(doc):
         ex = E.Explorer()
@@ -142,9 +149,17 @@ def _page_document():
 def _shown(doc):
     """What the browser has of the page: each model's type, CSS classes and
     text, one string per model."""
-    return [" ".join([type(m).__name__, *getattr(m, "css_classes", []),
-                      str(getattr(m, "text", "") or ""), str(getattr(m, "title", "") or "")])
-            for m in doc.models]
+    return [
+        " ".join(
+            [
+                type(m).__name__,
+                *getattr(m, "css_classes", []),
+                str(getattr(m, "text", "") or ""),
+                str(getattr(m, "title", "") or ""),
+            ]
+        )
+        for m in doc.models
+    ]
 
 
 def _has(doc, needle):
@@ -157,24 +172,30 @@ def test_the_first_screen_builds_only_what_it_shows():
     introduction's text, the point mass's controls, the animation's and
     memory diagram's texts) is built when first shown, and then works."""
     from panel.io.state import set_curdoc
+
     ex, doc = _page_document()
-    hidden = {"units": "vt-substrate", "downloads": "vt-data-run-csv",
-              "introduction": "surface acoustic", "point mass": "stick rule",
-              "animation": "The particle on the wave", "memory": "Memory diagram and contact"}
+    hidden = {
+        "units": "vt-substrate",
+        "downloads": "vt-data-run-csv",
+        "introduction": "surface acoustic",
+        "point mass": "stick rule",
+        "animation": "The particle on the wave",
+        "memory": "Memory diagram and contact",
+    }
     early = [k for k, needle in hidden.items() if _has(doc, needle)]
     assert not early, f"built with the page: {early}"
     # nor made in Python (hidden tabs have no models anyway: their widgets)
     assert not ex.exports.buttons and not ex.units_box.objects and not ex.intro.objects
-    assert _has(doc, "vt-field-log_amplitude") and _has(doc, "vt-run")    # the first screen is
+    assert _has(doc, "vt-field-log_amplitude") and _has(doc, "vt-run")  # the first screen is
     with set_curdoc(doc):
         ex.map_tabs.active = E.UNITS_TAB
         assert _has(doc, "vt-substrate") and _has(doc, "vt-field-frequency")
-        ex.state.frequency = 250e3                # the device moves the map's marker
+        ex.state.frequency = 250e3  # the device moves the map's marker
         assert ex.map_view.device.data["y"] and ex.units_panel.marker is not None
         ex.runs.tabs.active = runtabs.DOWNLOADS_TAB
         assert _has(doc, "vt-data-run-csv") and _has(doc, "vt-export-map-png")
         run_csv = next(b for b in ex.exports.buttons if b.filename == "vibtrans-run.csv")
-        assert run_csv.disabled                   # no run yet
+        assert run_csv.disabled  # no run yet
         ex.intro.collapsed = False
         assert _has(doc, "surface acoustic")
         ex.state.model = "point-mass"
@@ -188,14 +209,15 @@ def test_the_first_screen_builds_only_what_it_shows():
 # ------------------------------------------------------------------ the particle's profile
 def test_the_profile_selector_is_a_view_of_the_states_profile():
     from vibtrans_explorer.views import profile as P
+
     ex = _explorer()
     view = ex.profile_view
     assert view.kind.value == "sphere (Hertz)" and not view.number.visible
-    assert view.figure is None and not view.drawing_pane.visible     # built at first use
+    assert view.figure is None and not view.drawing_pane.visible  # built at first use
     view.kind.value = "cone"
     assert ex.state.profile == "cone" and ex.state.scene().profile == "cone"
     view.kind.value = "power law z ~ r^N"
-    assert view.number.visible and ex.state.profile == "power:3"     # the kind's start
+    assert view.number.visible and ex.state.profile == "power:3"  # the kind's start
     view.number.value = "1.5"
     assert ex.state.profile == "power:1.5"
     # a bad number: said under the field, the profile kept, a run refused
@@ -211,7 +233,7 @@ def test_the_profile_selector_is_a_view_of_the_states_profile():
     ex.state.profile = "flat-sphere:1.5"
     assert view.kind.value == "flat-ended sphere" and view.number.value == "1.5"
     assert view.number.label.startswith("flat radius C")
-    view.kind.value = "power law z ~ r^N"          # each kind keeps its own number
+    view.kind.value = "power law z ~ r^N"  # each kind keeps its own number
     assert ex.state.profile == "power:4"
     view.kind.value = "sphere (Hertz)"
     assert ex.state.profile == "sphere" and not view.drawing_pane.visible
@@ -238,7 +260,7 @@ def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
     assert r[edge] == pytest.approx(1.0)
     assert src["sphere"][edge] == pytest.approx(0.5, rel=1e-12)
     assert src["z"][edge] == pytest.approx(2.0 / np.pi, rel=1e-12)
-    np.testing.assert_allclose(src["z"], 2.0 / np.pi * np.abs(r), rtol=1e-12)   # a cone
+    np.testing.assert_allclose(src["z"], 2.0 / np.pi * np.abs(r), rtol=1e-12)  # a cone
     np.testing.assert_allclose(src["sphere"], r * r / 2.0, rtol=1e-12)
     assert "cone" in view.figure.title.text
     dashed = [g for g in view.figure.renderers if list(g.glyph.line_dash)]
@@ -246,25 +268,27 @@ def test_the_tips_drawing_is_the_librarys_outline_beside_the_spheres():
     ex.state.profile = "flat-sphere:2"
     z = np.asarray(view.source.data["z"])
     from vibtrans.core.profiles import FlatSphereProfile
+
     flat = FlatSphereProfile(2.0)
-    c_over_edge = 2.0 / float(np.sqrt(4.0 + flat._sigma(1.0) ** 2))   # the flat's edge
+    c_over_edge = 2.0 / float(np.sqrt(4.0 + flat._sigma(1.0) ** 2))  # the flat's edge
     assert (z[np.abs(r) < c_over_edge - 1e-9] == 0.0).all()
     assert (z[np.abs(r) > c_over_edge + 1e-9] > 0.0).all()
     assert "flat-sphere:2" in view.figure.title.text
-    ex.state.profile = "power:2"        # the sphere's own law: nothing to compare
+    ex.state.profile = "power:2"  # the sphere's own law: nothing to compare
     assert not view.drawing_pane.visible
 
 
 def test_the_map_requests_selector_is_a_view_of_its_request():
     from vibtrans_explorer.session.maprequest import MapRequest
     from vibtrans_explorer.views.ondemand import MapRequestPanel
+
     panel = MapRequestPanel(MapRequest())
     panel.profile.kind.value = "cone"
     assert panel.request.profile == "cone" and panel.errors() == []
     panel.profile.kind.value = "flat-ended sphere"
-    assert panel.request.profile == "flat-sphere:0.5"       # the kind's start
+    assert panel.request.profile == "flat-sphere:0.5"  # the kind's start
     panel.profile.number.value = "-1"
-    assert panel.request.profile == "flat-sphere:0.5"       # kept
+    assert panel.request.profile == "flat-sphere:0.5"  # kept
     assert len(panel.errors()) == 1 and "flat radius" in panel.errors()[0]
     panel.set_values(profile="power:3")
     assert panel.profile.kind.value == "power law z ~ r^N" and panel.errors() == []
@@ -297,9 +321,8 @@ def test_the_explorers_design_adds_the_input_font_to_bootstraps_own_stylesheets(
         field = pn.widgets.TextInput(label="log10 A*")
         doc = Document()
         pn.template.BootstrapTemplate(sidebar=[field], design=design).server_doc(doc)
-        model, = [m for m in doc.models if type(m).__name__ == "TextInput"]
-        return [getattr(s, "url", None) or getattr(s, "css", None) or s
-                for s in model.stylesheets]
+        (model,) = [m for m in doc.models if type(m).__name__ == "TextInput"]
+        return [getattr(s, "url", None) or getattr(s, "css", None) or s for s in model.stylesheets]
 
     bootstrap, ours = stylesheets(pn.theme.Bootstrap), stylesheets(ExplorerDesign)
     assert any("bootstrap" in str(s) for s in bootstrap), bootstrap

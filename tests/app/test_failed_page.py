@@ -1,6 +1,7 @@
 """Whatever fails while the server answers a page, the page says so in its
 own words: never Panel's traceback, never a server path.  The failure is
 logged with its traceback under a reference the page gives."""
+
 import logging
 
 from bokeh.document import Document
@@ -12,6 +13,7 @@ from vibtrans_explorer.server import serve as server
 
 class _Page:
     """Stands in for a served page's explorer: what it was told to say."""
+
     said = None
 
     def _error(self, text):

@@ -1,4 +1,5 @@
 """app/server/fairshare.py: the server's workers shared between maps in turn."""
+
 import threading
 
 import pytest
@@ -16,6 +17,7 @@ def _blocked_pool():
     def hold():
         holding.set()
         assert gate.wait(30)
+
     held = first.submit(hold)
     assert holding.wait(30)
     return pool, first, second, gate, held
@@ -40,6 +42,7 @@ def test_a_failing_task_reaches_its_future_and_the_worker_goes_on():
 
     def fail():
         raise ValueError("a point failed")
+
     bad = lane.submit(fail)
     good = lane.submit(lambda: 42)
     with pytest.raises(ValueError, match="a point failed"):
@@ -69,12 +72,13 @@ def test_a_pool_needs_a_worker():
 def test_the_workers_run_at_the_niceness_asked_for():
     """Map workers yield a shared core to the server's other threads."""
     import os
+
     pool = FairPool(1, nice=7)
     lane = pool.lane()
     here = os.getpriority(os.PRIO_PROCESS, 0)
     got = lane.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
     assert got.result(timeout=30) == min(19, here + 7)
-    assert os.getpriority(os.PRIO_PROCESS, 0) == here        # this thread unchanged
+    assert os.getpriority(os.PRIO_PROCESS, 0) == here  # this thread unchanged
 
 
 def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
@@ -85,6 +89,7 @@ def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
 
     from vibtrans_explorer.server.mapjobs import MAP_NICE
     from vibtrans_explorer.session.controller import RUN_NICE, RUNNER
+
     here = os.getpriority(os.PRIO_PROCESS, 0)
     got = RUNNER.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
     assert got.result(timeout=30) == min(19, here + RUN_NICE)
@@ -94,6 +99,7 @@ def test_the_sessions_runs_yield_to_the_event_loop_and_maps_to_them():
 def _process_facts(value):
     """A task for a worker process: its pid, niceness and an echo."""
     import os
+
     return os.getpid(), os.getpriority(os.PRIO_PROCESS, 0), value
 
 
@@ -106,6 +112,7 @@ def test_process_workers_run_the_tasks_elsewhere_and_stop_when_idle():
     calling process's Python free for its event loop), which stop once no
     lane is left and start again for the next task."""
     import os
+
     here = os.getpriority(os.PRIO_PROCESS, 0)
     pool = FairPool(1, nice=3, processes=True)
     lane = pool.lane()
@@ -114,10 +121,10 @@ def test_process_workers_run_the_tasks_elsewhere_and_stop_when_idle():
     assert nice == min(19, here + 3)
     with pytest.raises(ValueError, match="failed in its process"):
         lane.submit(_fail_in_process).result(timeout=120)
-    assert lane.submit(_process_facts, 2).result(timeout=120)[2] == 2   # the worker goes on
+    assert lane.submit(_process_facts, 2).result(timeout=120)[2] == 2  # the worker goes on
     assert pool.processes_up()
     lane.shutdown()
-    assert _soon(lambda: not pool.processes_up())   # no lane, no task: the memory goes back
+    assert _soon(lambda: not pool.processes_up())  # no lane, no task: the memory goes back
     again = pool.lane()
     pid2, _, _ = again.submit(_process_facts, None).result(timeout=120)
     assert pid2 not in (pid, os.getpid())
@@ -129,16 +136,17 @@ def test_process_workers_stay_while_a_task_of_a_shut_lane_runs():
     """A lane shut down while its task runs in a process: the task ends
     with its result, then the processes stop."""
     import multiprocessing
+
     pool = FairPool(1, processes=True)
     lane, other = pool.lane(), pool.lane()
-    assert lane.submit(_process_facts, 0).result(timeout=120)     # processes up
+    assert lane.submit(_process_facts, 0).result(timeout=120)  # processes up
     with multiprocessing.Manager() as manager:
-        gate = manager.Event()                  # the task runs until it is set
+        gate = manager.Event()  # the task runs until it is set
         running = lane.submit(_wait_then, gate, "done")
         assert _soon(running.running)
         lane.shutdown()
         other.shutdown()
-        assert pool.processes_up()              # its task still runs there
+        assert pool.processes_up()  # its task still runs there
         gate.set()
         assert running.result(timeout=120) == "done"
     assert _soon(lambda: not pool.processes_up())
@@ -150,6 +158,7 @@ def test_process_workers_linger_for_the_next_map_then_stop():
     spell is counted from the last lane's end; `stop_processes` ends it
     at once, not while a lane is open."""
     import time
+
     linger = 3.0
     pool = FairPool(1, processes=True, linger=linger)
     # a second pool whose linger starts with the first lane's end: its stop
@@ -161,17 +170,17 @@ def test_process_workers_linger_for_the_next_map_then_stop():
     lane.shutdown()
     clock_lane.shutdown()
     lane = pool.lane()
-    assert lane.submit(_process_facts, 1).result(timeout=120)[0] == pid    # the same worker
-    assert _soon(lambda: not clock.processes_up())      # a spell from the first lane's end is over
-    assert pool.processes_up()                          # ... the lane open since keeps them
+    assert lane.submit(_process_facts, 1).result(timeout=120)[0] == pid  # the same worker
+    assert _soon(lambda: not clock.processes_up())  # a spell from the first lane's end is over
+    assert pool.processes_up()  # ... the lane open since keeps them
     lane.shutdown()
     last = time.monotonic()
     assert pool.processes_up()
-    assert _soon(lambda: not pool.processes_up())       # 3 s after the last lane
+    assert _soon(lambda: not pool.processes_up())  # 3 s after the last lane
     assert time.monotonic() - last >= 0.9 * linger, time.monotonic() - last
     lane = pool.lane()
     assert lane.submit(_process_facts, 2).result(timeout=120)[0] != pid
-    assert not pool.stop_processes() and pool.processes_up()   # a lane is open
+    assert not pool.stop_processes() and pool.processes_up()  # a lane is open
     lane.shutdown()
     assert pool.stop_processes() and not pool.processes_up()
 
@@ -185,6 +194,7 @@ def _soon(condition, seconds=30.0):
     """Whether `condition()` holds within `seconds` (a worker thread's
     bookkeeping follows the result it hands over)."""
     from asyncutil import wait_until
+
     try:
         wait_until(condition, seconds, every=0.01)
     except AssertionError:

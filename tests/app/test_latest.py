@@ -2,6 +2,7 @@
 newer request cancels the older one, whose result is never shown; results
 and failures come at the document's next tick; a coroutine's step raises
 Cancelled once its job is replaced."""
+
 import asyncio
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -40,6 +41,7 @@ def test_a_newer_request_cancels_the_older_and_only_its_result_is_shown():
         await until(lambda: all(f.done() for f in first.futures))
         await asyncio.gather(*(asyncio.all_tasks() - {asyncio.current_task()}))
         assert shown == ["second"] and failed == [] and work.job is second
+
     asyncio.run(go())
 
 
@@ -55,6 +57,7 @@ def test_a_cancelled_job_is_forgotten_and_says_nothing():
         assert work.job is None and not work.running
         await until(lambda: job.finished)
         assert shown == [] and failed == []
+
     asyncio.run(go())
 
 
@@ -71,6 +74,7 @@ def test_a_failure_is_delivered_and_ends_the_job():
         work.deliver(job, shown.append, failed.append)
         await until(lambda: not work.running)
         assert shown == [] and [type(e) for e in failed] == [ZeroDivisionError]
+
     asyncio.run(go())
 
 
@@ -78,7 +82,7 @@ def test_a_coroutines_step_raises_cancelled_once_replaced():
     gate = threading.Event()
 
     async def go():
-        work = LatestJob()                          # the event loop's default executor
+        work = LatestJob()  # the event loop's default executor
         job = work.start()
         step = asyncio.ensure_future(job.run(gate.wait, 10))
         await asyncio.sleep(0)
@@ -87,6 +91,7 @@ def test_a_coroutines_step_raises_cancelled_once_replaced():
             await step
         gate.set()
         assert await work.job.run(lambda: 42) == 42
+
     asyncio.run(go())
 
 

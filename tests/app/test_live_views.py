@@ -3,6 +3,7 @@ quantity on an axis of its own, and the whole run as per-bin envelopes
 (otherwise N* and T* lay flat beside b*' in the thousands, b* and x* over
 the last two periods were two flat lines, the whole-run panels were solid
 bands)."""
+
 import numpy as np
 import pytest
 
@@ -30,9 +31,17 @@ def test_binned_is_the_naive_per_bin_min_mean_max():
     assert k == out["time"].size
 
 
-@pytest.mark.parametrize("columns, right", [
-    (["a", "y"], ["y"]), (["b", "x"], ["x"]), (["N", "T", "bdot"], ["bdot"]),
-    (["y"], []), (["x"], []), (["N", "T"], [])])
+@pytest.mark.parametrize(
+    "columns, right",
+    [
+        (["a", "y"], ["y"]),
+        (["b", "x"], ["x"]),
+        (["N", "T", "bdot"], ["bdot"]),
+        (["y"], []),
+        (["x"], []),
+        (["N", "T"], []),
+    ],
+)
 def test_second_quantities_go_right(columns, right):
     assert right_columns(columns) == right
 
@@ -45,7 +54,7 @@ def test_forces_and_velocity_each_fill_their_axis():
         forces = next(f for f in block.figures if f.title.text.startswith("forces"))
         n_t = np.concatenate([ds["N"].values, ds["T"].values])
         bdot = ds["bdot"].values
-        assert abs(bdot).max() > 10 * abs(n_t).max()       # the scales the issue met
+        assert abs(bdot).max() > 10 * abs(n_t).max()  # the scales the issue met
         left, right = forces.y_range, forces.extra_y_ranges["right"]
         # each axis spans its own quantities, not the other's
         assert right.end - right.start > 10 * (left.end - left.start)
@@ -60,8 +69,9 @@ def _drawn_panels(block):
     out = []
     for panel in block.panels:
         fig = panel.fig
-        right = panel.right_axis.axis_label if panel.right_axis is not None and \
-            panel.right_axis.visible else None
+        right = (
+            panel.right_axis.axis_label if panel.right_axis is not None and panel.right_axis.visible else None
+        )
         lines = {}
         for r in fig.renderers:
             if r.visible and type(r.glyph).__name__ == "Line":
@@ -80,8 +90,7 @@ def _dashes(block):
         for r in panel.fig.renderers:
             if r.visible and type(r.glyph).__name__ == "Line":
                 dash = r.glyph.line_dash
-                out[r.glyph.y] = dash if isinstance(dash, str) else ("solid" if not dash
-                                                                     else "dashed")
+                out[r.glyph.y] = dash if isinstance(dash, str) else ("solid" if not dash else "dashed")
     return out
 
 
@@ -91,20 +100,28 @@ def test_both_models_draw_into_one_set_of_figures():
     particle's with fewer quantities: the same figures show the model of
     the run, each quantity on its own axis, as plots.panel_spec says."""
     from vibtrans.products.plots import panel_spec
+
     deformable = simulate(paper_scene(4).replace(periods=40.0), window=(38.0, 40.0))
     point = simulate(paper_scene(10).replace(periods=40.0), window=(38.0, 40.0))
     view = LiveTrajectory(None, 2.0, 50.0)
     view.show(deformable)
     before = _drawn_panels(view.over)
-    assert _dashes(view.over) == {"a": "solid", "y": "dashed", "b": "solid", "x": "dashed",
-                                  "N": "solid", "T": "solid", "bdot": "dashed"}
+    assert _dashes(view.over) == {
+        "a": "solid",
+        "y": "dashed",
+        "b": "solid",
+        "x": "dashed",
+        "N": "solid",
+        "T": "solid",
+        "bdot": "dashed",
+    }
     figures = list(view.over.figures)
     view.show(point, rigid=True)
-    assert view.over.figures == figures                  # no new figure
+    assert view.over.figures == figures  # no new figure
     for (title, ylabel, lines), drawn in zip(panel_spec(True), _drawn_panels(view.over)):
         assert drawn[0].startswith(title) and drawn[1] == ylabel and drawn[2] is None
-        assert drawn[3] == {c: "default" for c, _, _ in lines}     # one axis, the left
-    assert set(_dashes(view.over).values()) == {"solid"}    # one axis each: all solid
+        assert drawn[3] == {c: "default" for c, _, _ in lines}  # one axis, the left
+    assert set(_dashes(view.over).values()) == {"solid"}  # one axis each: all solid
     y_panel = view.over.panels[0]
     y = point["y"].values
     assert y_panel.fig.y_range.start <= y.min() and y_panel.fig.y_range.end >= y.max()
@@ -113,7 +130,7 @@ def test_both_models_draw_into_one_set_of_figures():
     assert "x*(t) - x*(t0)" in view.last.panels[1].fig.title.text
     assert set(_drawn_panels(view.last)[2][3]) == {"N", "T"}
     view.show(deformable)
-    assert _drawn_panels(view.over) == before            # and back
+    assert _drawn_panels(view.over) == before  # and back
     for (title, _, lines), drawn in zip(panel_spec(False), before):
         assert drawn[0].startswith(title) and set(drawn[3]) == {c for c, _, _ in lines}
 
@@ -123,6 +140,7 @@ def test_relabelled_comparison_legend_is_text_not_a_column():
     comparison, then relabelled) both x*(t) legend lines read 'Invalid
     field': a label set as a bare string is a column name to Bokeh."""
     from bokeh.core.property.vectorization import Value
+
     view = LiveTrajectory("tau + 0.001", 2.0, 10.0)
     view.relabel(10.0, "point mass")
     labels = [item.label for item in view.over.twin_items]

@@ -5,6 +5,7 @@ must equal a freshly built figure of the new settings: every source's data,
 which renderers are shown and where the resonance lines lie, the colour
 bar's ticks, labels and title, the key's entries shown, the hover and the
 title.  Another layer builds a new figure."""
+
 import holoviews as hv
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from vibtrans_explorer.server import data
 from vibtrans_explorer.session.state import ExplorerState
 from vibtrans_explorer.views.map import LYAPUNOV_LAYER, MapView, bar_labels, map_figure
 
-hv.extension("bokeh")       # as the explorer does
+hv.extension("bokeh")  # as the explorer does
 
 
 def _drawn(fig):
@@ -24,19 +25,27 @@ def _drawn(fig):
     for r in fig.renderers:
         src = getattr(r, "data_source", None)
         if src is not None and set(src.data) == {"x", "y"}:
-            continue        # the session's markers (shared)
+            continue  # the session's markers (shared)
         shown.append((type(r).__name__, r.visible, getattr(r, "location", None)))
         if src is None or not src.data:
-            continue        # the key's swatches
+            continue  # the key's swatches
         sources.append({k: np.asarray(v) for k, v in src.data.items()})
-    bar, = fig.select(type=ColorBar)
+    (bar,) = fig.select(type=ColorBar)
     labels = bar_labels(bar)
-    return {"sources": sources, "ticks": sorted(labels), "labels": labels, "bar": bar.title,
-            "key": [(str(getattr(i.label, "value", i.label)), i.visible)
-                    for legend in fig.select(type=Legend) for i in legend.items],
-            "shown": shown,
-            "hover": [h.tooltips for h in fig.select(type=HoverTool)],
-            "title": fig.title.text}
+    return {
+        "sources": sources,
+        "ticks": sorted(labels),
+        "labels": labels,
+        "bar": bar.title,
+        "key": [
+            (str(getattr(i.label, "value", i.label)), i.visible)
+            for legend in fig.select(type=Legend)
+            for i in legend.items
+        ],
+        "shown": shown,
+        "hover": [h.tooltips for h in fig.select(type=HoverTool)],
+        "title": fig.title.text,
+    }
 
 
 def _assert_same(a, b):
@@ -58,17 +67,17 @@ def test_a_new_mu_or_v0_updates_the_figure_to_what_a_new_one_draws(change):
     shown = view.figures[0]
     before = _drawn(shown)
     state.param.update(**change)
-    assert view.figures[0] is shown                  # updated, not replaced
-    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer,
-                       state.orbits)
+    assert view.figures[0] is shown  # updated, not replaced
+    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer, state.orbits)
     after = _drawn(shown)
     _assert_same(after, _drawn(fresh))
     # and it changed (not two pictures of the old settings)
     assert any(after[k] != before[k] for k in ("title", "ticks", "labels", "bar", "key"))
 
 
-@pytest.mark.parametrize("change", [{"model": "point-mass"}, {"chaotic": "colour"},
-                                    {"model": "point-mass", "chaotic": "colour"}])
+@pytest.mark.parametrize(
+    "change", [{"model": "point-mass"}, {"chaotic": "colour"}, {"model": "point-mass", "chaotic": "colour"}]
+)
 def test_another_model_or_colouring_updates_the_figure_too(change):
     state = ExplorerState()
     view = MapView(state, on_click=lambda *a: None)
@@ -76,8 +85,7 @@ def test_another_model_or_colouring_updates_the_figure_too(change):
     before = _drawn(shown)
     state.param.update(**change)
     assert view.figures[0] is shown
-    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer,
-                       state.orbits)
+    fresh = map_figure(state.model, state.mu, state.v0, state.chaotic, state.layer, state.orbits)
     after = _drawn(shown)
     _assert_same(after, _drawn(fresh))
     # what differs is drawn: the grey layer's key entry hidden in colour,
@@ -88,7 +96,7 @@ def test_another_model_or_colouring_updates_the_figure_too(change):
     assert key[RESONANCE_LABEL] == (state.model == "deformable")
     spans = [v for t, v, _ in after["shown"] if t == "Span"]
     assert spans and all(v == (state.model == "deformable") for v in spans)
-    state.param.update(model="deformable", chaotic="grey")      # and back
+    state.param.update(model="deformable", chaotic="grey")  # and back
     _assert_same(_drawn(shown), before)
 
 
@@ -103,7 +111,7 @@ def test_another_layer_builds_a_new_figure():
 def test_the_shipped_map_after_a_computed_one_is_a_new_figure():
     state = ExplorerState()
     view = MapView(state, on_click=lambda *a: None)
-    computed = map_figure("deformable", 0.3, state.v0, state.chaotic)   # a stand-in
+    computed = map_figure("deformable", 0.3, state.v0, state.chaotic)  # a stand-in
     view.show_computed(computed, ((-1.0, 1.0), (-1.0, 1.0)), lambda la, lm: None)
     view.show_shipped()
     assert view.figures[0] is not computed
@@ -136,8 +144,7 @@ def test_prerendered_maps_serve_every_shipped_setting_without_a_render(monkeypat
     map_view.prerender()
     renders = []
     real = map_view.rendered
-    monkeypatch.setattr(map_view, "rendered",
-                        lambda *a, **k: renders.append(a[1:3]) or real(*a, **k))
+    monkeypatch.setattr(map_view, "rendered", lambda *a, **k: renders.append(a[1:3]) or real(*a, **k))
     state = ExplorerState()
     view = MapView(state, on_click=lambda *a: None)
     for model, mu in sorted(data.available_maps()):
@@ -162,8 +169,7 @@ def test_renderers_share_parts_and_draw_what_they_drew_alone():
     _, alone = rendered(map_view.map_element, "deformable", 0.3, 1.0, "grey")
     _, shared = rendered(map_view.map_element, "deformable", 0.3, 1.0, "grey")
     map_view._shared_parts(shared)
-    pairs = [(a, s) for a, s in zip(alone.renderers, shared.renderers)
-             if isinstance(a, GlyphRenderer)]
+    pairs = [(a, s) for a, s in zip(alone.renderers, shared.renderers) if isinstance(a, GlyphRenderer)]
     assert len(pairs) >= 8
     fields = 0
     for a, s in pairs:
@@ -174,16 +180,15 @@ def test_renderers_share_parts_and_draw_what_they_drew_alone():
                 fields += 1
                 before = np.asarray(a.data_source.data[field])
                 after = np.asarray(s.data_source.data[field])
-                assert np.array_equal(before, after, equal_nan=before.dtype.kind == "f"), \
-                    (a.glyph, name)
+                assert np.array_equal(before, after, equal_nan=before.dtype.kind == "f"), (a.glyph, name)
     assert fields >= 8
     renderers = [s for _, s in pairs]
     sources = {id(r.data_source): r.data_source for r in renderers}
-    assert len(sources) < len(renderers)            # the key's swatches share one
+    assert len(sources) < len(renderers)  # the key's swatches share one
     assert len({id(s.selected) for s in sources.values()}) == 1
     assert len({id(s.selection_policy) for s in sources.values()}) == 1
     assert len({id(r.view.filter) for r in renderers}) == 1
-    for r in renderers:                 # one view per source, never across sources
+    for r in renderers:  # one view per source, never across sources
         assert all(o.view is not r.view or o.data_source is r.data_source for o in renderers)
 
 
@@ -208,17 +213,21 @@ def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, 
     doc = Document()
     doc.add_root(shown)
     new = {**state.param.values(), **change}
-    fresh = map_view.map_figure(new["model"], new["mu"], new["v0"], new["chaotic"],
-                                new["layer"], new["orbits"])
+    fresh = map_view.map_figure(
+        new["model"], new["mu"], new["v0"], new["chaotic"], new["layer"], new["orbits"]
+    )
     # the sources whose data the new setting changes (one source may serve
     # several renderers)
-    differ = {id(r.data_source) for r, f in zip(shown.renderers, fresh.renderers)
-              if hasattr(r, "data_source")
-              and not _same_data(r.data_source.data, f.data_source.data)}
-    assert differ and len(differ) < len({id(r.data_source) for r in shown.renderers
-                                         if hasattr(r, "data_source")})
+    differ = {
+        id(r.data_source)
+        for r, f in zip(shown.renderers, fresh.renderers)
+        if hasattr(r, "data_source") and not _same_data(r.data_source.data, f.data_source.data)
+    }
+    assert differ and len(differ) < len(
+        {id(r.data_source) for r in shown.renderers if hasattr(r, "data_source")}
+    )
     # and the colour bar's labels (a source of their own: map.BAR_LABELS)
-    bar, = shown.select(type=ColorBar)
+    (bar,) = shown.select(type=ColorBar)
     assert bar_labels(bar) != bar_labels(fresh.select_one({"type": ColorBar}))
     differ.add(id(bar.ticker.args["source"]))
     built = []
@@ -228,10 +237,12 @@ def test_a_change_builds_no_figure_and_sends_only_the_data_that_differs(change, 
     doc.on_change(events.append)
     state.param.update(**change)
     assert view.figures[0] is shown and built == []
-    sent = {id(e.model) for e in events
-            if isinstance(e.model, ColumnDataSource)
-            and (isinstance(e, ColumnDataChangedEvent)
-                 or (isinstance(e, ModelChangedEvent) and e.attr == "data"))}
+    sent = {
+        id(e.model)
+        for e in events
+        if isinstance(e.model, ColumnDataSource)
+        and (isinstance(e, ColumnDataChangedEvent) or (isinstance(e, ModelChangedEvent) and e.attr == "data"))
+    }
     assert sent == differ
     _assert_same(_drawn(shown), _drawn(fresh))
     # the labels are the paper's scale of the map shown (products.plots)

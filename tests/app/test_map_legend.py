@@ -7,6 +7,7 @@ strips, and the exported HTML strip shows them (it was solid black).
 
 All on hand-made data: a 4 x 3 map whose drift velocities give round
 ticks, a threshold curve with two resonances, and a short run."""
+
 import holoviews as hv
 import numpy as np
 import pytest
@@ -21,10 +22,7 @@ from vibtrans.products import export, plots
 LA = np.array([-1.0, 0.0, 1.0, 2.0])
 LM = np.array([-2.0, 0.0, 2.0])
 # with-wave drift up to 1000, against-wave down to -100, one chaotic cell
-V = np.array([[0.0, 0.05, -0.05],
-              [1000.0, 3.0, -100.0],
-              [20.0, -7.0, 0.5],
-              [-30.0, 400.0, 0.0]])
+V = np.array([[0.0, 0.05, -0.05], [1000.0, 3.0, -100.0], [20.0, -7.0, 0.5], [-30.0, 400.0, 0.0]])
 CHAOTIC_CELL = (3, 2)
 
 # Source: the paper's colour scale (docs/MODEL.md section 4) by hand.  The
@@ -35,35 +33,44 @@ CHAOTIC_CELL = (3, 2)
 #             |v_min|/v0 = 1e3 -> -1, -10, -100;
 #   v0 = 1:   1e3 -> 10, 100, 1000;  1e2 -> -4.64 ("-4.6"), -21.5 ("-22"), -100.
 EXPECTED_TICKS = {
-    0.1: {-1: "-100", -2 / 3: "-10", -1 / 3: "-1", 0: "\u00b10.1",
-          1 / 3: "2.2", 2 / 3: "46", 1: "1000"},
-    1.0: {-1: "-100", -2 / 3: "-22", -1 / 3: "-4.6", 0: "\u00b11",
-          1 / 3: "10", 2 / 3: "100", 1: "1000"},
+    0.1: {-1: "-100", -2 / 3: "-10", -1 / 3: "-1", 0: "\u00b10.1", 1 / 3: "2.2", 2 / 3: "46", 1: "1000"},
+    1.0: {-1: "-100", -2 / 3: "-22", -1 / 3: "-4.6", 0: "\u00b11", 1 / 3: "10", 2 / 3: "100", 1: "1000"},
 }
 
 
 def _hand_map(model="deformable"):
     chaotic = np.zeros(V.shape, np.int8)
     chaotic[CHAOTIC_CELL] = 1
-    return xr.Dataset({"drift_velocity": (("log_amplitude", "log_mass"), V),
-                       "chaotic": (("log_amplitude", "log_mass"), chaotic)},
-                      coords={"log_amplitude": LA, "log_mass": LM},
-                      attrs={"scene_model": model, "scene_mu": 0.3, "scene_periods": 2000.0})
+    return xr.Dataset(
+        {
+            "drift_velocity": (("log_amplitude", "log_mass"), V),
+            "chaotic": (("log_amplitude", "log_mass"), chaotic),
+        },
+        coords={"log_amplitude": LA, "log_mass": LM},
+        attrs={"scene_model": model, "scene_mu": 0.3, "scene_periods": 2000.0},
+    )
 
 
 def _hand_vertical():
     lm = np.linspace(-2.5, 2.5, 11)
-    return xr.Dataset({"threshold_amplitude": ("log_mass", 10.0 ** (-lm - 1)),
-                       "point_mass_threshold_amplitude": ("log_mass", 10.0 ** (-lm - 1.5))},
-                      coords={"log_mass": lm},
-                      attrs={"resonance_fundamental_log_mass": -0.8,
-                             "resonance_subharmonic_log_mass": -1.4})
+    return xr.Dataset(
+        {
+            "threshold_amplitude": ("log_mass", 10.0 ** (-lm - 1)),
+            "point_mass_threshold_amplitude": ("log_mass", 10.0 ** (-lm - 1.5)),
+        },
+        coords={"log_mass": lm},
+        attrs={"resonance_fundamental_log_mass": -0.8, "resonance_subharmonic_log_mass": -1.4},
+    )
 
 
 def _key(v0, chaotic=True, boundary=True, resonances=True):
     """The key the map must carry, in drawing order."""
-    return ([plots.white_label(v0)] + [plots.CHAOTIC_LABEL] * chaotic
-            + [plots.BOUNDARY_LABEL] * boundary + [plots.RESONANCE_LABEL] * resonances)
+    return (
+        [plots.white_label(v0)]
+        + [plots.CHAOTIC_LABEL] * chaotic
+        + [plots.BOUNDARY_LABEL] * boundary
+        + [plots.RESONANCE_LABEL] * resonances
+    )
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -85,14 +92,15 @@ def test_bokeh_colour_bar_is_labelled_in_drift_velocities(v0):
     assert isinstance(bar.ticker, FixedTicker)
     np.testing.assert_allclose(bar.ticker.ticks, sorted(want), atol=1e-12)
     got = {float(c): label for c, label in bar.major_label_overrides.items()}
-    assert set(got) == set(bar.ticker.ticks)        # every tick has its label
+    assert set(got) == set(bar.ticker.ticks)  # every tick has its label
     assert [got[c] for c in sorted(got)] == [want[c] for c in sorted(want)]
     # ... and a tick's colour is the colour of its velocity: C(v) = tick
     for c, label in want.items():
         if c:
             v = float(label)
-            np.testing.assert_allclose(plots.colour_scale(np.r_[V.ravel(), v], v0)[-1], c,
-                                       atol=0.02, err_msg=label)   # v rounded to 2 digits
+            np.testing.assert_allclose(
+                plots.colour_scale(np.r_[V.ravel(), v], v0)[-1], c, atol=0.02, err_msg=label
+            )  # v rounded to 2 digits
     # the title names the drift velocity and this v0*, not "C"
     assert "<v*>" in bar.title and f"v0* = {v0:g}" in bar.title and "signed log" in bar.title
 
@@ -113,19 +121,20 @@ def test_colour_bar_follows_v0_in_both_backends():
             assert f"v0* = {v0:g}" in cax.get_ylabel()
         finally:
             import matplotlib.pyplot as plt
+
             plt.close(fig)
         assert bk == mp == [EXPECTED_TICKS[v0][c] for c in sorted(EXPECTED_TICKS[v0])]
         labels[v0] = bk
     assert labels[0.1] != labels[1.0]
 
 
-@pytest.mark.parametrize("model, chaotic", [("deformable", "grey"), ("deformable", "colour"),
-                                            ("point-mass", "grey")])
+@pytest.mark.parametrize(
+    "model, chaotic", [("deformable", "grey"), ("deformable", "colour"), ("point-mass", "grey")]
+)
 def test_map_key_names_every_layer_outside_the_map(model, chaotic):
     # grey only where chaotic points are drawn grey; resonances only on the
     # deformable map (the exporter and the explorer draw them only there)
-    el = export.heatmap_figure(_hand_map(model), v0=0.1, vertical=_hand_vertical(),
-                               chaotic=chaotic)
+    el = export.heatmap_figure(_hand_map(model), v0=0.1, vertical=_hand_vertical(), chaotic=chaotic)
     want = _key(0.1, chaotic=chaotic == "grey", resonances=model == "deformable")
     # bokeh: one legend, below the plot (not over the map, where it took
     # the clicks in its corner)
@@ -135,6 +144,7 @@ def test_map_key_names_every_layer_outside_the_map(model, chaotic):
     assert [item.label.value for item in legends[0].items] == want
     # matplotlib: the key below the axes, inside the figure
     import matplotlib.pyplot as plt
+
     f = export.render(el)
     try:
         ax = next(a for a in f.axes if a.images)
@@ -155,14 +165,17 @@ def test_paper_map_pair_keeps_colour_bar_titles_clear_of_the_next_map():
     # two-line colour-bar title overlapped the second map's y label at the
     # layout's usual column gap
     import matplotlib.pyplot as plt
-    pair = hv.Layout([export.heatmap_figure(_hand_map(m), vertical=_hand_vertical())
-                      for m in ("deformable", "point-mass")]).cols(2)
+
+    pair = hv.Layout(
+        [export.heatmap_figure(_hand_map(m), vertical=_hand_vertical()) for m in ("deformable", "point-mass")]
+    ).cols(2)
     f = export.render(pair, 13.0, 5.2, hspace=export.MAPS_HSPACE)
     try:
         r = f.canvas.get_renderer()
         maps = sorted((a for a in f.axes if a.images), key=lambda a: a.get_position().x0)
-        bars = sorted((a for a in f.axes if a.get_ylabel().startswith("<v*>")),
-                      key=lambda a: a.get_position().x0)
+        bars = sorted(
+            (a for a in f.axes if a.get_ylabel().startswith("<v*>")), key=lambda a: a.get_position().x0
+        )
         assert len(maps) == len(bars) == 2
         title = bars[0].yaxis.label.get_window_extent(r)
         assert title.x1 < maps[1].yaxis.label.get_window_extent(r).x0
@@ -193,10 +206,9 @@ def test_html_export_state_strip_shows_the_state_colours(tmp_path, run4):
     colours = set(plots.STATE_COLORS.values())
     for r in strips:
         assert r.glyph.fill_color in colours
-        assert r.glyph.line_alpha == 0 or r.glyph.line_width == 0 or \
-            r.glyph.line_color == r.glyph.fill_color
+        assert r.glyph.line_alpha == 0 or r.glyph.line_width == 0 or r.glyph.line_color == r.glyph.fill_color
     names = {item.label.value for lg in fig.select({"type": Legend}) for item in lg.items}
-    assert {"flight", "total sliding"} <= names       # the states point 4 visits
+    assert {"flight", "total sliding"} <= names  # the states point 4 visits
 
 
 def test_live_strips_name_the_state_colours(run4):
@@ -205,6 +217,7 @@ def test_live_strips_name_the_state_colours(run4):
     from bokeh.core.property.vectorization import Field
 
     from vibtrans_explorer.views import live
+
     view = live.LiveTrajectory(label=None, fragment=2.0, tau=50.0)
     view.show(run4)
     for block in (view.over, view.last):

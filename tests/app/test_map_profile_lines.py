@@ -6,6 +6,7 @@ curve costs about half of a default map on demand's points (measured,
 docs/DYNAMICS.md section 5), so such a map draws its linear contact
 resonance m*_res = N*'(1)/(4 pi^2) (a closed form) instead, and its title
 says that the jumping boundary is the sphere's only."""
+
 import math
 
 import holoviews as hv
@@ -16,7 +17,7 @@ from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, linear_re
 from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as M
 
-hv.extension("bokeh")       # as the explorer does
+hv.extension("bokeh")  # as the explorer does
 
 
 def _flat_sphere_stiffness(gamma):
@@ -24,37 +25,42 @@ def _flat_sphere_stiffness(gamma):
     section 10): N* = (gamma^2 s + 2 s^3/3) / (same at a* = 1),
     s^2 = (sqrt(gamma^4 + 4 a*^2) - gamma^2) / 2, so dN*/da* = (a*/s) / norm
     (gamma^2 + 2 s^2 = sqrt(gamma^4 + 4 a*^2))."""
-    s1 = math.sqrt((math.sqrt(gamma ** 4 + 4.0) - gamma ** 2) / 2)
-    return 1.0 / (s1 * (gamma ** 2 * s1 + 2 * s1 ** 3 / 3))
+    s1 = math.sqrt((math.sqrt(gamma**4 + 4.0) - gamma**2) / 2)
+    return 1.0 / (s1 * (gamma**2 * s1 + 2 * s1**3 / 3))
 
 
-@pytest.mark.parametrize("spec, stiffness", [
-    ("sphere", 1.5), ("cone", 2.0), ("power:3", 4.0 / 3.0), ("power:1.5", 5.0 / 3.0),
-    ("flat-sphere:1", _flat_sphere_stiffness(1.0)),
-    ("flat-sphere:0.3", _flat_sphere_stiffness(0.3))])
+@pytest.mark.parametrize(
+    "spec, stiffness",
+    [
+        ("sphere", 1.5),
+        ("cone", 2.0),
+        ("power:3", 4.0 / 3.0),
+        ("power:1.5", 5.0 / 3.0),
+        ("flat-sphere:1", _flat_sphere_stiffness(1.0)),
+        ("flat-sphere:0.3", _flat_sphere_stiffness(0.3)),
+    ],
+)
 def test_the_linear_resonance_is_the_closed_form(spec, stiffness):
     # z = C r^n: N* = a*^((n+1)/n), N*'(1) = (n+1)/n; the flat: its closed form
     # (the flat-ended sphere's law is tabulated in s: 1e-6 relative)
-    assert linear_resonance_mass(spec) == pytest.approx(stiffness / (4 * math.pi ** 2),
-                                                        rel=1e-6 if "flat" in spec else 1e-15)
+    assert linear_resonance_mass(spec) == pytest.approx(
+        stiffness / (4 * math.pi**2), rel=1e-6 if "flat" in spec else 1e-15
+    )
 
 
 def test_the_documented_values():
     # docs/DYNAMICS.md section 5: 0.038 (sphere), 0.051 (cone), 0.034
     # (power:3), 0.029 (flat-sphere:1)
-    got = [round(linear_resonance_mass(s), 3)
-           for s in ("sphere", "cone", "power:3", "flat-sphere:1")]
+    got = [round(linear_resonance_mass(s), 3) for s in ("sphere", "cone", "power:3", "flat-sphere:1")]
     assert got == [0.038, 0.051, 0.034, 0.029]
     assert linear_resonance_mass(PowerLawProfile(1.0)) == linear_resonance_mass("cone")
-    assert linear_resonance_mass(FlatSphereProfile(1.0)) == linear_resonance_mass(
-        "flat-sphere:1")
+    assert linear_resonance_mass(FlatSphereProfile(1.0)) == linear_resonance_mass("flat-sphere:1")
 
 
 def _window_map(profile):
     """A window of the shipped map standing for a map on demand of `profile`
     (the lines do not depend on the drift's values, only on the profile)."""
-    ds = data.drift_map("deformable", 0.3).sel(log_amplitude=slice(-1, 1),
-                                               log_mass=slice(-2, 0)).copy()
+    ds = data.drift_map("deformable", 0.3).sel(log_amplitude=slice(-1, 1), log_mass=slice(-2, 0)).copy()
     ds.attrs = dict(ds.attrs)
     if profile != "sphere":
         ds.attrs["scene_profile"] = profile
@@ -80,8 +86,7 @@ def test_a_spheres_map_on_demand_draws_the_shipped_lines():
     boundary = np.log10(vertical["threshold_amplitude"].values)
     assert any(c.shape == boundary.shape and np.array_equal(c, boundary) for c in curves)
     assert vertical.attrs["resonance_fundamental_log_mass"] in hlines
-    title = M.computed_figure(_window_map("sphere"), "map", "deformable", WINDOW, 0.1,
-                              "grey").title.text
+    title = M.computed_figure(_window_map("sphere"), "map", "deformable", WINDOW, 0.1, "grey").title.text
     assert title == "map"
 
 
@@ -97,8 +102,7 @@ def test_a_profiles_map_on_demand_draws_its_linear_resonance_and_says_why(profil
     assert vertical.attrs["resonance_subharmonic_log_mass"] not in hlines
     # its own linear resonance: N*'(1)/(4 pi^2)
     assert hlines == [math.log10(linear_resonance_mass(profile))]
-    title = M.computed_figure(_window_map(profile), "map", "deformable", WINDOW, 0.1,
-                              "grey").title.text
+    title = M.computed_figure(_window_map(profile), "map", "deformable", WINDOW, 0.1, "grey").title.text
     assert title.startswith("map\n")
     assert f"{profile}'s linear resonance m* = {linear_resonance_mass(profile):.3g}" in title
     assert title.endswith("(closed form)\nno jumping boundary: the one shipped is the sphere's")

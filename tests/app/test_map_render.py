@@ -4,6 +4,7 @@ Document of their own (app/views/render.py).  `hv.render` attached them to
 document: the map's redraw then raised AttributeError, the map stayed as it
 was and the click's acknowledgement was never cleared (seen in CI when a
 change of colour missed the figure cache after other pages had closed)."""
+
 import holoviews as hv
 from bokeh.document import Document
 from bokeh.io.doc import curdoc, set_curdoc
@@ -12,19 +13,21 @@ from bokeh.models import ColorBar
 from vibtrans_explorer.views import map as map_view
 from vibtrans_explorer.views import vertical
 
-hv.extension("bokeh")       # as the explorer does
+hv.extension("bokeh")  # as the explorer does
 
 
 def test_a_destroyed_current_document_does_not_break_a_render():
     closed = Document()
-    def session(event):                       # (Bokeh's sessions listen to their document)
+
+    def session(event):  # (Bokeh's sessions listen to their document)
         pass
-    closed.on_change(session)                 # a session's document ...
-    closed.destroy(session)                   # ... as Bokeh leaves it when the page closes
+
+    closed.on_change(session)  # a session's document ...
+    closed.destroy(session)  # ... as Bokeh leaves it when the page closes
     before = curdoc()
     set_curdoc(closed)
     try:
-        map_view._map_json.cache_clear()      # a render, not a cached copy
+        map_view._map_json.cache_clear()  # a render, not a cached copy
         vertical._vertical_json.cache_clear()
         fig = map_view.map_figure("deformable", 0.3, map_view.V0, "colour")
         threshold = vertical._vertical_json()
@@ -46,16 +49,17 @@ def test_renders_on_several_threads_at_once_all_succeed():
     import threading
 
     from vibtrans_explorer.views.render import rendered
+
     failures, figures = [], []
 
     def render(i):
         for k in range(6):
             try:
-                _, fig = rendered(map_view.map_element, "deformable", 0.3,
-                                  0.1 * (i + 1) + 0.01 * k, "colour")
+                _, fig = rendered(map_view.map_element, "deformable", 0.3, 0.1 * (i + 1) + 0.01 * k, "colour")
                 figures.append(fig)
-            except Exception as exc:       # noqa: BLE001 (counted, reported below)
+            except Exception as exc:  # noqa: BLE001 (counted, reported below)
                 failures.append(repr(exc))
+
     # (the elements are built holding the lock too: that also keeps the
     # shipped data's lazily opened netCDF files from being opened by two
     # threads at once, which crashed the process)

@@ -2,6 +2,7 @@
 float32 where that changes no value a hover shows, float64 where it would.
 The reference is HoloViews' own rendering of the same map element (float64
 throughout), made here beside the explorer's cached one."""
+
 import holoviews as hv
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as M
 from vibtrans_explorer.views.render import rendered
 
-hv.extension("bokeh")       # as the explorer does
+hv.extension("bokeh")  # as the explorer does
 
 
 def _images(fig):
@@ -23,15 +24,13 @@ def _images(fig):
         if not isinstance(src, ColumnDataSource):
             continue
         for k, v in src.data.items():
-            if isinstance(v, list) and v and all(isinstance(a, np.ndarray) and a.ndim == 2
-                                                 for a in v):
+            if isinstance(v, list) and v and all(isinstance(a, np.ndarray) and a.ndim == 2 for a in v):
                 out[(i, k)] = v
     return out
 
 
 def _hovered(fig):
-    return {f.strip("@{}") for h in fig.select(type=HoverTool) for _, f in h.tooltips
-            if f.startswith("@")}
+    return {f.strip("@{}") for h in fig.select(type=HoverTool) for _, f in h.tooltips if f.startswith("@")}
 
 
 @pytest.mark.parametrize("layer", [M.DRIFT_LAYER, M.LYAPUNOV_LAYER])
@@ -44,7 +43,7 @@ def test_hovered_values_exact_and_colours_float32(layer):
     got, ref = _images(sent), _images(reference)
     assert got.keys() == ref.keys() and got
     hovered = _hovered(sent)
-    assert hovered          # the map's hover reads its columns
+    assert hovered  # the map's hover reads its columns
     light = 0
     for key, arrays in got.items():
         for a, b in zip(arrays, ref[key], strict=True):
@@ -58,4 +57,4 @@ def test_hovered_values_exact_and_colours_float32(layer):
                 assert np.array_equal(np.isnan(a), np.isnan(b)), key
                 assert np.allclose(a, b, rtol=1e-6, atol=1e-7, equal_nan=True), key
             light += a.dtype == np.float32
-    assert light >= 1       # fewer bytes per page: some image sent as float32
+    assert light >= 1  # fewer bytes per page: some image sent as float32

@@ -1,6 +1,7 @@
 """Verified stamps of the shipped maps (app/server/data.py): a warm server start
 checks a stamp instead of reading every map, and a map changed after its
 stamp was cached is still verified, and refused, before the start."""
+
 import os
 import shutil
 from pathlib import Path
@@ -51,26 +52,25 @@ def _reads(monkeypatch):
 
 
 def test_a_stamped_map_is_checked_without_a_read_and_read_verified_on_use(assets, monkeypatch):
-    assert data.problems() == []                      # verified, stamped
+    assert data.problems() == []  # verified, stamped
     assert data._stamps_file().exists()
-    forget_maps()                                          # a new server
+    forget_maps()  # a new server
     reads = _reads(monkeypatch)
-    assert data.problems() == [] and reads == []      # the stamps suffice
+    assert data.problems() == [] and reads == []  # the stamps suffice
     assert data.drift_map(*VICTIM)["done"].values.all()
-    assert reads == [str(assets / VICTIM_NAME)]       # first use: read (and verified)
+    assert reads == [str(assets / VICTIM_NAME)]  # first use: read (and verified)
 
 
 @pytest.mark.parametrize("keep_size_and_mtime", [False, True])
-def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, capsys,
-                                                        keep_size_and_mtime):
-    assert data.problems() == []                      # stamped
+def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, capsys, keep_size_and_mtime):
+    assert data.problems() == []  # stamped
     forget_maps()
     chunk = assets / CHUNK
     st = os.stat(chunk)
     b = bytearray(chunk.read_bytes())
     b[-9] ^= 0xFF
     chunk.write_bytes(bytes(b))
-    if keep_size_and_mtime:                           # only the ctime tells
+    if keep_size_and_mtime:  # only the ctime tells
         os.utime(chunk, ns=(st.st_atime_ns, st.st_mtime_ns))
         assert os.stat(chunk).st_size == st.st_size
     problems = data.problems()
@@ -79,7 +79,7 @@ def test_a_map_modified_after_its_stamp_is_still_refused(assets, monkeypatch, ca
     with pytest.raises(data.MapUnavailable):
         data.drift_map(*VICTIM)
     forget_maps()
-    try:                                              # and the server refuses to start
+    try:  # and the server refuses to start
         code = main(["serve", "--port", "5999"])
     except SystemExit as exc:
         code = exc.code
@@ -93,11 +93,10 @@ def test_a_damaged_stamps_file_means_a_full_check(assets, monkeypatch):
     forget_maps()
     reads = _reads(monkeypatch)
     assert data.problems() == []
-    assert sorted(reads) == sorted(str(assets / n) for n in ("deformable-mu0.3.zarr",
-                                                             VICTIM_NAME))
+    assert sorted(reads) == sorted(str(assets / n) for n in ("deformable-mu0.3.zarr", VICTIM_NAME))
 
 
 def test_a_freshly_changed_map_gets_no_stamp(assets, monkeypatch):
-    monkeypatch.setattr(data, "RACY_NS", 10**12)      # every file counts as just changed
+    monkeypatch.setattr(data, "RACY_NS", 10**12)  # every file counts as just changed
     assert data.problems() == []
     assert not data._stamps_file().exists()

@@ -1,6 +1,7 @@
 """Maps on demand (app/session/maprequest.py, app/server/mapjobs.py): the request's checks
 and URL form, the server-wide queue (one map per session, sessions sharing
 a computation, cancel, the cache's reuse and a damaged entry recomputed)."""
+
 import os
 import threading
 
@@ -14,8 +15,18 @@ from vibtrans_explorer.session import maprequest
 from vibtrans_explorer.session.maprequest import MapRequest
 
 # a tiny map: 5 x 5 points (2 coarse cells, K = 1), 30 periods at preview
-TINY = dict(model="deformable", fidelity="preview", periods=30.0, tau=5.0,
-            la_from=-0.5, la_to=0.5, lm_from=0.0, lm_to=1.0, cells=2, levels=1)
+TINY = dict(
+    model="deformable",
+    fidelity="preview",
+    periods=30.0,
+    tau=5.0,
+    la_from=-0.5,
+    la_to=0.5,
+    lm_from=0.0,
+    lm_to=1.0,
+    cells=2,
+    levels=1,
+)
 
 
 class Listener:
@@ -46,9 +57,11 @@ def gate():
 @pytest.fixture
 def jobs(tmp_path, gate):
     """MapJobs on a fresh cache folder whose maps start once `gate` is set."""
+
     def build(comp, path, on_level):
         assert gate.wait(60)
         made.run_adaptive(comp, path, on_level)
+
     made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build)
     return made
 
@@ -60,10 +73,10 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     done = first.wait()
     assert done.kind == "done" and not done.cached, first.kinds()
     levels = [u.level for u in first.updates if u.kind == "level"]
-    assert levels == [0, 1]                 # the coarse grid, then the finest
+    assert levels == [0, 1]  # the coarse grid, then the finest
     coarse = next(u.ds for u in first.updates if u.kind == "level")
-    assert coarse["computed"].values.sum() == 9          # 3 x 3 coarse points
-    assert np.isfinite(coarse["drift_velocity"].values).all()    # filled from its cells
+    assert coarse["computed"].values.sum() == 9  # 3 x 3 coarse points
+    assert np.isfinite(coarse["drift_velocity"].values).all()  # filled from its cells
     assert done.ds["drift_velocity"].shape == (5, 5)
     # the finest level's picture is the verified map's: a subscriber keeps it
     assert done.shown
@@ -72,7 +85,7 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     jobs.submit("b", MapRequest(**TINY), second)
     again = second.wait()
     assert again.kind == "done" and again.cached and jobs.computed == 1
-    assert not again.shown                  # nothing drawn before: draw it
+    assert not again.shown  # nothing drawn before: draw it
     # each level says the time left from the points done: some after the
     # coarse grid (9 of the 0.9 x 25 expected), none once they are all done
     left = [u.seconds_left for u in first.updates if u.kind == "level"]
@@ -81,8 +94,7 @@ def test_a_map_arrives_level_by_level_then_comes_from_the_cache(jobs, gate):
     # points' periods run kept; 30 periods end before the rule's first check
     assert done.ds.attrs["stop"] == "decided"
     assert (done.ds["periods_run"].values[done.ds["computed"].values] == 30.0).all()
-    np.testing.assert_array_equal(again.ds["drift_velocity"].values,
-                                  done.ds["drift_velocity"].values)
+    np.testing.assert_array_equal(again.ds["drift_velocity"].values, done.ds["drift_velocity"].values)
 
 
 def test_sessions_asking_for_one_map_share_its_computation(jobs, gate):
@@ -102,12 +114,13 @@ def test_a_new_request_of_a_session_cancels_its_previous_one(jobs, gate):
     assert old.wait(5).kind == "cancelled"
     gate.set()
     assert new.wait().kind == "done"
-    assert jobs.computed == 1             # the first one never ran
+    assert jobs.computed == 1  # the first one never ran
     assert jobs.busy() == (0, 0)
 
 
 def test_cancel_stops_the_map_and_caches_nothing_but_spares_other_sessions(jobs, gate):
     from vibtrans.maps.cache import request_key
+
     alone, shared_a, shared_b = Listener(), Listener(), Listener()
     request = MapRequest(**TINY)
     jobs.submit("a", request, alone)
@@ -116,7 +129,7 @@ def test_cancel_stops_the_map_and_caches_nothing_but_spares_other_sessions(jobs,
     other = MapRequest(**{**TINY, "mu": 0.5})
     jobs.submit("b", other, shared_a)
     jobs.submit("c", other, shared_b)
-    jobs.cancel("b")                       # c still waits for it
+    jobs.cancel("b")  # c still waits for it
     gate.set()
     assert shared_b.wait().kind == "done"
     assert shared_a.kinds()[-1] == "cancelled" and "done" not in shared_a.kinds()
@@ -130,9 +143,13 @@ def test_a_damaged_cache_entry_is_recomputed_not_shown(jobs, gate):
     jobs.submit("a", MapRequest(**TINY), first)
     first.wait()
     entry = jobs.cache.path(jobs.cache.entries()[0])
-    chunk = next(os.path.join(root, f) for root, _, files in os.walk(entry)
-                 for f in files if "drift_velocity" in root and not f.startswith("."))
-    with open(chunk, "r+b") as f:          # flip a byte of the data
+    chunk = next(
+        os.path.join(root, f)
+        for root, _, files in os.walk(entry)
+        for f in files
+        if "drift_velocity" in root and not f.startswith(".")
+    )
+    with open(chunk, "r+b") as f:  # flip a byte of the data
         f.seek(max(0, os.path.getsize(chunk) // 2))
         byte = f.read(1)
         f.seek(-1, 1)
@@ -150,28 +167,33 @@ def test_the_estimate_bounds_the_work_and_refuses_beyond_the_limits(tmp_path, mo
     request is refused by it."""
     from vibtrans import Scene, estimate_steps
     from vibtrans.maps.cost import expected_time_share
-    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000,
-                           max_seconds=10.0)
+
+    jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=2, max_points=1000, max_seconds=10.0)
     monkeypatch.setattr(jobs, "step_seconds", lambda request: (1e-7, 1e-3))
     request = MapRequest(**{**TINY, "stop": "full"})
     est, problems = jobs.estimate(request)
     assert problems == [] and est.points == 25
     # every point's steps at its own step (the contact time scale's): the bound
     la, lm = request.axes()
-    steps = np.array([[estimate_steps(Scene(amplitude=10 ** a, mass=10 ** m,
-                                            **request.scene_values())) for m in lm] for a in la])
+    steps = np.array(
+        [
+            [estimate_steps(Scene(amplitude=10**a, mass=10**m, **request.scene_values())) for m in lm]
+            for a in la
+        ]
+    )
     np.testing.assert_array_equal(maprequest.bound_steps(request), steps)
-    assert est.computed == pytest.approx(0.9 * 25)          # 5 points per axis: the 9's share
+    assert est.computed == pytest.approx(0.9 * 25)  # 5 points per axis: the 9's share
     assert est.steps == pytest.approx(est.computed * steps.mean())
-    assert est.seconds == pytest.approx(maprequest.MAP_START_SECONDS
-                                        + est.computed * (steps.mean() * 1e-7 + 1e-3) / 2)
+    assert est.seconds == pytest.approx(
+        maprequest.MAP_START_SECONDS + est.computed * (steps.mean() * 1e-7 + 1e-3) / 2
+    )
     assert "about 0.41 s on this server (2 cores, from its measured time" in est.text(2)
     # a decided map: each point's steps times the share of them it is expected to run
     decided = MapRequest(**TINY)
     share = expected_time_share("deformable", "decided", 30.0, 5.0, "preview")
     assert share < 1.0
     assert jobs.estimate(decided)[0].steps == pytest.approx(est.steps * share)
-    big = MapRequest(**{**TINY, "cells": 8, "levels": 3})       # 65 x 65
+    big = MapRequest(**{**TINY, "cells": 8, "levels": 3})  # 65 x 65
     est, problems = jobs.estimate(big)
     assert est is None and "4,225 points is over this server's limit of 1,000" in problems[0]
     slow = MapRequest(**{**TINY, "periods": 10000.0, "fidelity": "reference", "stop": "full"})
@@ -192,20 +214,21 @@ def test_the_cost_per_step_is_measured_once_per_kernel_and_fidelity(tmp_path):
     standard = jobs.step_seconds(MapRequest(**{**TINY, "fidelity": "standard"}))
     assert cone != (step, point) and standard != (step, point)
     material = jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass"}))
-    assert jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass",
-                                           "profile": "cone"})) == material
+    assert jobs.step_seconds(MapRequest(**{**TINY, "model": "point-mass", "profile": "cone"})) == material
 
 
 def test_the_points_expected_follow_the_finest_grid_s_side():
     """expected_points: COMPUTED_SHARE at the finest grid's points per axis,
     in between interpolated in log points per axis."""
-    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 4, "levels": 3})) \
-        == pytest.approx(0.45 * 33 ** 2)
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 4, "levels": 3})) == pytest.approx(
+        0.45 * 33**2
+    )
     # 8 cells, 3 levels: 65 per axis, the share of 4 cells and 4 levels
-    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 8, "levels": 3})) \
-        == pytest.approx(0.3 * 65 ** 2)
+    assert maprequest.expected_points(MapRequest(**{**TINY, "cells": 8, "levels": 3})) == pytest.approx(
+        0.3 * 65**2
+    )
     between = maprequest.expected_points(MapRequest(**{**TINY, "cells": 6, "levels": 3}))
-    assert 0.3 * 49 ** 2 < between < 0.45 * 49 ** 2
+    assert 0.3 * 49**2 < between < 0.45 * 49**2
 
 
 def test_the_time_left_is_the_progress_bars():
@@ -219,26 +242,39 @@ def test_the_time_left_is_the_progress_bars():
 
 
 def test_the_url_form_round_trips_and_names_a_bad_value():
-    request = MapRequest(model="point-mass", mu=0.45, theta=1.1, nu=0.25, tau=20.0,
-                         periods=150.0, fidelity="preview", stick_rule="classical",
-                         alpha_t=0.2, la_from=-3.5, la_to=4.25, lm_from=-6.0, lm_to=7.0,
-                         cells=3, levels=2)
+    request = MapRequest(
+        model="point-mass",
+        mu=0.45,
+        theta=1.1,
+        nu=0.25,
+        tau=20.0,
+        periods=150.0,
+        fidelity="preview",
+        stick_rule="classical",
+        alpha_t=0.2,
+        la_from=-3.5,
+        la_to=4.25,
+        lm_from=-6.0,
+        lm_to=7.0,
+        cells=3,
+        levels=2,
+    )
     text = maprequest.encode(request)
     back, errors = maprequest.decode(text)
     assert errors == [] and back.values() == request.values()
     assert maprequest.encode(back) == text
     parts = text.split(",")
-    bad = ",".join([*parts[:1], "2", *parts[2:]])           # mu = 2
+    bad = ",".join([*parts[:1], "2", *parts[2:]])  # mu = 2
     none, errors = maprequest.decode(bad)
-    assert none is None and errors == [
-        "URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
-    bad = ",".join([*parts[:-3], "2.5", *parts[-2:]])       # levels not an integer
+    assert none is None and errors == ["URL parameter 'map': mu must be a number in [0.01, 1.0]; got '2'"]
+    bad = ",".join([*parts[:-3], "2.5", *parts[-2:]])  # levels not an integer
     assert "levels must be an integer in [1, 6]; got '2\\.5'" in maprequest.decode(bad)[1][0]
     assert "must hold 19 comma-separated values" in maprequest.decode("deformable,0.3")[1][0]
     assert "must hold 19" in maprequest.decode(text + ",none,full")[1][0]
     bad = ",".join([*parts[:-2], "fast", parts[-1]])
-    assert "URL parameter 'map': stop must be one of decided, full; got 'fast'" in \
-        maprequest.decode(bad)[1][0]
+    assert (
+        "URL parameter 'map': stop must be one of decided, full; got 'fast'" in maprequest.decode(bad)[1][0]
+    )
     swapped = ",".join([*parts[:10], parts[11], parts[10], *parts[12:]])
     assert "'from' (4.25) must be below its 'to' (-3.5)" in maprequest.decode(swapped)[1][0]
 
@@ -253,11 +289,11 @@ def test_a_new_request_stops_each_point_once_decided_and_an_old_link_meant_full_
         assert text.endswith(f",{stop},sphere")
         back, errors = maprequest.decode(text)
         assert errors == [] and back.values() == request.values()
-    old = maprequest.encode(MapRequest(**TINY)).rsplit(",", 2)[0]      # the 16 older values
+    old = maprequest.encode(MapRequest(**TINY)).rsplit(",", 2)[0]  # the 16 older values
     back, errors = maprequest.decode(old)
     assert errors == [] and back.stop == "full"
     assert back.values() == MapRequest(**{**TINY, "stop": "full"}).values()
-    assert maprequest.encode(back) == old + ",full,sphere"   # written again with its rule
+    assert maprequest.encode(back) == old + ",full,sphere"  # written again with its rule
     # the sweep it runs, and the title over its map, carry the rule
     assert MapRequest(**TINY).sweep().stop == "decided" and back.sweep().stop == "full"
     assert "stop: decided" in MapRequest(**TINY).title() and "stop: full" in back.title()
@@ -265,6 +301,7 @@ def test_a_new_request_stops_each_point_once_decided_and_an_old_link_meant_full_
 
 def test_the_cache_key_holds_the_stopping_rule_and_a_full_map_keeps_its_old_key():
     from vibtrans.maps.cache import request_key
+
     full = MapRequest(**{**TINY, "stop": "full"})
     decided = MapRequest(**{**TINY, "stop": "decided"})
     assert request_key(full.cache_request()) != request_key(decided.cache_request())
@@ -280,8 +317,14 @@ def test_the_cache_key_ignores_what_changes_no_number():
     # the material point's rules do not enter a deformable map
     same = MapRequest(**{**TINY, "stick_rule": "classical", "alpha_t": 0.1})
     assert base.cache_request() == same.cache_request()
-    for change in ({"mu": 0.31}, {"periods": 31.0}, {"la_to": 0.6}, {"levels": 2},
-                   {"fidelity": "standard"}, {"stop": "full"}):
+    for change in (
+        {"mu": 0.31},
+        {"periods": 31.0},
+        {"la_to": 0.6},
+        {"levels": 2},
+        {"fidelity": "standard"},
+        {"stop": "full"},
+    ):
         assert MapRequest(**{**TINY, **change}).cache_request() != base.cache_request()
 
 
@@ -293,6 +336,7 @@ def _explorer(monkeypatch, query):
 
     from vibtrans_explorer import explorer as E
     from vibtrans_explorer.views.browserside import BrowserAddress
+
     monkeypatch.setattr(E, "_page_location", BrowserAddress)
     args = {k: [v.encode() for v in vs] for k, vs in parse_qs(query).items()}
     monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
@@ -304,15 +348,16 @@ def test_a_link_with_a_map_request_shows_it_and_a_bad_one_says_why(monkeypatch):
     text = maprequest.encode(request)
     e = _explorer(monkeypatch, f"map={text}&mu=0.45&la=0.1&lm=0.5")
     assert e.state.map_request == text and e._url_map.values() == request.values()
-    assert e.state.mu == 0.45 and not e.message.visible      # the map's own mu: no reset
+    assert e.state.mu == 0.45 and not e.message.visible  # the map's own mu: no reset
     assert f"map={text.replace(',', '%2C')}" in e.location.search
-    e.ondemand.back_to_shipped()                                      # the request leaves the link
+    e.ondemand.back_to_shipped()  # the request leaves the link
     assert e.state.map_request is None and "map=" not in e.location.search
-    assert e.state.mu == 0.3                                  # a shipped map's, and said so
+    assert e.state.mu == 0.3  # a shipped map's, and said so
     bad = _explorer(monkeypatch, "map=" + text.replace("deformable", "rigid"))
     assert bad.state.map_request is None
-    assert "URL parameter 'map': model must be one of deformable, point-mass; got 'rigid'" \
-        in bad.message.object
+    assert (
+        "URL parameter 'map': model must be one of deformable, point-mass; got 'rigid'" in bad.message.object
+    )
 
 
 def test_back_to_an_address_without_the_map_shows_the_shipped_map(monkeypatch):
@@ -321,11 +366,11 @@ def test_back_to_an_address_without_the_map_shows_the_shipped_map(monkeypatch):
     text = maprequest.encode(MapRequest(**{**TINY, "mu": 0.45}))
     e = _explorer(monkeypatch, f"map={text}&mu=0.45&la=0.1&lm=0.5")
     with_map = e.location.search
-    e.location.search = "?la=0.2&lm=0.5&mu=0.3"           # as the browser reports it
+    e.location.search = "?la=0.2&lm=0.5&mu=0.3"  # as the browser reports it
     assert e.state.map_request is None and e.ondemand.computed_map() is None
     assert (e.state.log_amplitude, e.state.mu) == (0.2, 0.3)
-    assert e.location.search == "?la=0.2&lm=0.5&mu=0.3"    # the address stays as it is
-    e.state.log_mass = 0.7                                # a change: a new address
+    assert e.location.search == "?la=0.2&lm=0.5&mu=0.3"  # the address stays as it is
+    e.state.log_mass = 0.7  # a change: a new address
     assert "map=" not in e.location.search and "lm=0.7" in e.location.search
     assert with_map != e.location.search
 
@@ -334,18 +379,23 @@ def test_zooming_the_shipped_map_beyond_its_resolution_offers_a_refinement(monke
     e = _explorer(monkeypatch, "")
     e.main()
     fig = e.map_view.figures[0]
-    fig.x_range.start, fig.x_range.end = -1.0, 1.0        # 40 cells of 0.05: no offer
+    fig.x_range.start, fig.x_range.end = -1.0, 1.0  # 40 cells of 0.05: no offer
     fig.y_range.start, fig.y_range.end = 0.0, 2.0
     assert e.ondemand.refine_button is None and not e.ondemand.refine_box.visible
-    fig.x_range.start, fig.x_range.end = 0.1, 0.3         # 4 x 4 cells
+    fig.x_range.start, fig.x_range.end = 0.1, 0.3  # 4 x 4 cells
     fig.y_range.start, fig.y_range.end = 0.5, 0.7
     assert e.ondemand.refine_box.visible and e.ondemand.refine_button.visible
     e.ondemand.refine_window()
     r = e.ondemand.map_request_panel.request
-    shipped = e.ondemand.shipped_request()        # the shipped map's stored scene
+    shipped = e.ondemand.shipped_request()  # the shipped map's stored scene
     assert (r.la_from, r.la_to, r.lm_from, r.lm_to) == (0.1, 0.3, 0.5, 0.7)
     assert (r.tau, r.periods, r.fidelity, r.model, r.mu) == (
-        shipped.tau, shipped.periods, shipped.fidelity, "deformable", 0.3)
+        shipped.tau,
+        shipped.periods,
+        shipped.fidelity,
+        "deformable",
+        0.3,
+    )
     assert e.map_tabs.active == 3
 
 
@@ -355,32 +405,35 @@ def test_a_cluster_computes_the_same_map_and_can_cancel_it(tmp_path):
     cluster (here a LocalCluster) and the map equals the local one; a cancel
     drops the cluster's queued points."""
     from dask.distributed import LocalCluster
+
     local = mapjobs.MapJobs(folder=str(tmp_path / "local"), cores=1)
     mine = Listener()
     local.submit("a", MapRequest(**TINY), mine)
     expected = mine.wait()
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                      dashboard_address=None) as cluster:
-        remote = mapjobs.MapJobs(folder=str(tmp_path / "remote"), cores=1,
-                                 scheduler=cluster.scheduler_address)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+        remote = mapjobs.MapJobs(
+            folder=str(tmp_path / "remote"), cores=1, scheduler=cluster.scheduler_address
+        )
         theirs = Listener()
         remote.submit("a", MapRequest(**TINY), theirs)
         got = theirs.wait()
         assert got.kind == "done" and not got.cached, theirs.kinds()
         for v in ("drift_velocity", "drift", "chaotic", "computed"):
             np.testing.assert_array_equal(got.ds[v].values, expected.ds[v].values)
-        bigger = MapRequest(**{**TINY, "cells": 4, "levels": 2})      # 17 x 17
+        bigger = MapRequest(**{**TINY, "cells": 4, "levels": 2})  # 17 x 17
         cancelled = Listener()
 
         def cancel_at_first_level(update):
             cancelled(update)
             if update.kind == "level":
                 remote.cancel("b")
+
         remote.submit("b", bigger, cancel_at_first_level)
         assert cancelled.wait().kind == "cancelled", cancelled.kinds()
         # the computation ends (its queued points dropped), leaving no map
         wait_until(lambda: not remote._running, budget(120), "the computation's end")
         from vibtrans.maps.cache import request_key
+
         assert not remote._running
         assert remote.cache.get(request_key(bigger.cache_request())) is None
 
@@ -415,7 +468,7 @@ def test_worker_processes_compute_the_threads_map_and_stop_after_it(tmp_path, mo
     # the map's bookkeeping done, its lane shut (without a linger its
     # processes would have stopped then)
     wait_until(lambda: not again._running, budget(60), "the map's end")
-    assert again._workers.processes_up()            # lingering for the next map
+    assert again._workers.processes_up()  # lingering for the next map
     again.stop_workers()
     assert not again._workers.processes_up()
 
@@ -426,18 +479,25 @@ def test_the_environment_switches_the_map_workers_to_threads(monkeypatch):
     assert mapjobs.jobs().processes is False
     monkeypatch.setattr(mapjobs, "_JOBS", {"jobs": None, "settings": {}})
     monkeypatch.setenv("VIBTRANS_MAP_PROCESSES", "2")
-    with pytest.raises(mapjobs.InputError, match=r"VIBTRANS_MAP_PROCESSES must be a number "
-                                                 r"in \[0, 1\], got '2'"):
+    with pytest.raises(
+        mapjobs.InputError,
+        match=r"VIBTRANS_MAP_PROCESSES must be a number "
+        r"in \[0, 1\], got '2'",
+    ):
         mapjobs.jobs()
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--scheduler", "localhost:8786"], "scheduler must be an address such as tcp://HOST:PORT"),
-    (["--map-cores", "0"], "map-cores must be in [1, 256]"),
-    (["--map-cache-mb", "0"], "map-cache-mb must be in [1, 10000000]"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--scheduler", "localhost:8786"], "scheduler must be an address such as tcp://HOST:PORT"),
+        (["--map-cores", "0"], "map-cores must be in [1, 256]"),
+        (["--map-cache-mb", "0"], "map-cache-mb must be in [1, 10000000]"),
+    ],
+)
 def test_serve_refuses_bad_map_settings_before_starting(capsys, argv, message):
     from vibtrans.cli import main
+
     try:
         code = main(["serve", "--port", "5999", *argv])
     except SystemExit as exc:
@@ -449,8 +509,9 @@ def test_serve_refuses_bad_map_settings_before_starting(capsys, argv, message):
 def test_a_closing_page_cancels_its_map(monkeypatch, tmp_path, gate):
     """A session that closes while its map waits cancels it (unless another
     session waits for it too): the explorer's session-destroyed callback."""
-    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1,
-                           build=lambda comp, path, on_level: gate.wait(60))
+    made = mapjobs.MapJobs(
+        folder=str(tmp_path / "maps"), cores=1, build=lambda comp, path, on_level: gate.wait(60)
+    )
     monkeypatch.setattr(mapjobs, "jobs", lambda: made)
     e = _explorer(monkeypatch, "")
     mine = Listener()
@@ -466,7 +527,7 @@ def test_a_small_map_asked_for_later_is_not_starved_by_a_big_one(tmp_path):
     core, a 5 x 5 map asked for while a 33 x 33 map computes finishes
     first, and both maps equal the ones computed alone."""
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
-    big_request = MapRequest(**{**TINY, "cells": 8, "levels": 2})       # 33 x 33
+    big_request = MapRequest(**{**TINY, "cells": 8, "levels": 2})  # 33 x 33
     small_request = MapRequest(**{**TINY, "mu": 0.5})
     ended = []
     big, small = Listener(), Listener()
@@ -483,9 +544,9 @@ def test_a_small_map_asked_for_later_is_not_starved_by_a_big_one(tmp_path):
         small(update)
         if update.final:
             ended.append("small")
+
     jobs.submit("big", big_request, on_big)
-    assert small.wait().kind == "done" and big.wait().kind == "done", (big.kinds(),
-                                                                       small.kinds())
+    assert small.wait().kind == "done" and big.wait().kind == "done", (big.kinds(), small.kinds())
     assert ended == ["small", "big"]
     assert "queued" not in small.kinds()
     alone = mapjobs.MapJobs(folder=str(tmp_path / "alone"), cores=1)
@@ -508,16 +569,18 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
         building.set()
         assert gate.wait(60)
         made.run_adaptive(comp, path, on_level)
-    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build,
-                           max_running=1)
+
+    made = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1, build=build, max_running=1)
     read = made.cache.get
-    slow_key = mapjobs.request_key(MapRequest(**(TINY if slow_cache_read == "first" else
-                                                 {**TINY, "mu": 0.5})).cache_request())
+    slow_key = mapjobs.request_key(
+        MapRequest(**(TINY if slow_cache_read == "first" else {**TINY, "mu": 0.5})).cache_request()
+    )
 
     def get(key):
-        if key == slow_key:           # read once the other map computes
+        if key == slow_key:  # read once the other map computes
             assert building.wait(60)
         return read(key)
+
     made.cache.get = get
     first, second = Listener(), Listener()
     made.submit("a", MapRequest(**TINY), first)
@@ -527,8 +590,7 @@ def test_beyond_the_running_maps_a_request_waits_its_turn(tmp_path, gate, slow_c
     wait_until(lambda: "queued" in first.kinds() + second.kinds(), budget(60), "a queued map")
     gate.set()
     assert first.wait().kind == "done" and second.wait().kind == "done"
-    queued = [u for listener in (first, second) for u in listener.updates
-              if u.kind == "queued"]
+    queued = [u for listener in (first, second) for u in listener.updates if u.kind == "queued"]
     assert len(queued) == 1 and "1 map(s) computing and 0 waiting" in queued[0].text
 
 
@@ -537,15 +599,16 @@ def test_a_map_is_pictured_within_its_levels(tmp_path, monkeypatch):
     updates between the levels, each a complete picture (no NaN), their
     computed points growing, the last update the map."""
     from vibtrans.maps import adaptive
+
     monkeypatch.setattr(mapjobs, "CHUNK_SECONDS", 0.0)
     monkeypatch.setattr(adaptive, "POINTS_PER_TASK", 1)
     jobs = mapjobs.MapJobs(folder=str(tmp_path / "maps"), cores=1)
     got = Listener()
-    jobs.submit("a", MapRequest(**{**TINY, "levels": 2}), got)       # 9 x 9
+    jobs.submit("a", MapRequest(**{**TINY, "levels": 2}), got)  # 9 x 9
     assert got.wait().kind == "done", got.kinds()
     kinds = got.kinds()
     assert kinds[0] == "level" and kinds.count("level") == 3 and "chunk" in kinds
-    assert kinds.index("chunk") > 0                     # not within the coarse grid
+    assert kinds.index("chunk") > 0  # not within the coarse grid
     pictures = [u for u in got.updates if u.kind in ("level", "chunk", "done")]
     counts = [int(u.ds["computed"].values.sum()) for u in pictures]
     assert counts == sorted(counts)
@@ -560,11 +623,16 @@ def test_the_finished_map_is_not_drawn_again_when_its_last_level_showed_it():
     Design tab keep their picture: no second render, no redraw in every
     browser); any difference draws it."""
     import xarray as xr
+
     grid = np.arange(6.0).reshape(2, 3)
-    drawn = xr.Dataset({"drift_velocity": (("a", "m"), grid),
-                        "chaotic": (("a", "m"), grid > 2),
-                        "lyapunov": (("a", "m"), np.where(grid > 4, np.nan, grid))})
-    stored = drawn.assign(digest=("a", np.zeros(2)))      # the store holds more
+    drawn = xr.Dataset(
+        {
+            "drift_velocity": (("a", "m"), grid),
+            "chaotic": (("a", "m"), grid > 2),
+            "lyapunov": (("a", "m"), np.where(grid > 4, np.nan, grid)),
+        }
+    )
+    stored = drawn.assign(digest=("a", np.zeros(2)))  # the store holds more
     assert mapjobs.same_values(drawn, stored)
     changed = stored.copy(deep=True)
     changed["drift_velocity"].values[1, 2] += 1e-12
@@ -587,14 +655,16 @@ def test_a_profile_is_the_requests_18th_value_and_an_older_link_meant_the_sphere
     for bad in ("power:0.5", "file:/etc/passwd", "ellipsoid"):
         none, errors = maprequest.decode(text.rsplit(",", 1)[0] + "," + bad)
         assert none is None and len(errors) == 1
-        assert errors[0].startswith("URL parameter 'map': profile must be one of sphere, cone, "
-                                    "power:N (N ≥ 1), flat-sphere:C"), errors
+        assert errors[0].startswith(
+            "URL parameter 'map': profile must be one of sphere, cone, power:N (N ≥ 1), flat-sphere:C"
+        ), errors
     with pytest.raises(ValueError, match=r"exponent n must be a real number in \[1, inf\)"):
         MapRequest(profile="power:0.9")
 
 
 def test_a_profiles_map_runs_keys_and_says_its_profile_and_the_material_point_has_none():
     from vibtrans.maps.cache import request_key
+
     sphere = MapRequest(**TINY)
     cone = MapRequest(**{**TINY, "profile": "cone"})
     flat = MapRequest(**{**TINY, "profile": "flat-sphere:0.5"})
@@ -617,6 +687,7 @@ def test_a_cone_map_on_demand_is_the_cones(jobs, gate):
     """Computed end to end: its store names the cone, and its points are
     the cone's runs (the library's compute_point with the request's values)."""
     from vibtrans.maps.sweep import compute_point
+
     gate.set()
     got = Listener()
     request = MapRequest(**{**TINY, "profile": "cone"})
@@ -642,13 +713,13 @@ def test_the_page_says_when_the_map_shown_is_not_the_particles(monkeypatch):
     o.request_for_profile()
     panel = o.map_request_panel
     assert panel.request.profile == "cone" and panel.profile.kind.value == "cone"
-    assert panel.request.la_from == pytest.approx(-0.4)      # the scene's neighbourhood
+    assert panel.request.la_from == pytest.approx(-0.4)  # the scene's neighbourhood
     # the material point is rigid: no warning
     e.state.model = "point-mass"
     assert not o.profile_box.visible
     e.state.model = "deformable"
     assert o.profile_box.visible
-    e.state.profile = "power:2"                 # the sphere's own law
+    e.state.profile = "power:2"  # the sphere's own law
     assert not o.profile_box.visible
     # a click on a sphere's map on demand runs the sphere, on a cone's the cone
     runs = []
@@ -665,12 +736,11 @@ def test_a_map_on_demand_of_another_scene_says_how_it_differs(monkeypatch):
     the selected scene lies off the map."""
     e = _explorer(monkeypatch, "la=1.5&lm=1&mu=0.1&profile=flat-sphere:0.5")
     o = e.ondemand
-    request = MapRequest(mu=0.1, profile="flat-sphere:0.5", la_from=1.0, la_to=2.0,
-                         lm_from=0.5, lm_to=1.5)
+    request = MapRequest(mu=0.1, profile="flat-sphere:0.5", la_from=1.0, la_to=2.0, lm_from=0.5, lm_to=1.5)
     monkeypatch.setattr(o, "_map_shown", (request, None))
-    monkeypatch.setattr(e.map_view, "computed", object())       # a map on demand is shown
+    monkeypatch.setattr(e.map_view, "computed", object())  # a map on demand is shown
     o.on_profile()
-    assert not o.profile_box.visible                            # it is this scene's map
+    assert not o.profile_box.visible  # it is this scene's map
     e.state.param.update(mu=0.3, profile="sphere", log_amplitude=1.7, log_mass=-2.0)
     note = o.profile_note.object
     assert o.profile_box.visible

@@ -6,6 +6,7 @@ in its chart's reading would close them ("... in log10 A and in log10 m*").
 
 Each test renders a pane as the page does (markdown-it, tests/markdowntext.py)
 and finds the library's message in it, stars included."""
+
 import asyncio
 
 import pytest
@@ -70,6 +71,7 @@ def test_the_design_tabs_status_note_and_alert_show_the_librarys_words(tmp_path)
 
 def test_a_cone_tips_warnings_keep_their_stars():
     from vibtrans.products import designtip
+
     device = design.preset("paper").device
     shape = designtip.tip_shape("cone", half_angle=60.0)
     q = design.device_quantities(device, shape=shape)
@@ -85,8 +87,10 @@ def test_the_units_tab_shows_the_librarys_refusal_and_warnings():
     ex.units_panel.__panel__()
     ex.state.param.update(tip="cone", tip_half_angle=60.0)
     shown = shown_text(ex.units_panel.warnings.object)
-    assert all(w.message in shown for w in design.validity_warnings(
-        ex.state.device_spec(), shape=ex.state.tip_shape()))
+    assert all(
+        w.message in shown
+        for w in design.validity_warnings(ex.state.device_spec(), shape=ex.state.tip_shape())
+    )
     ex.state.param.update(substrate="custom (E, nu, rho)", substrate_custom="E=70e9")
     with pytest.raises(ValueError) as refused:
         ex.state.device()
@@ -96,7 +100,7 @@ def test_the_units_tab_shows_the_librarys_refusal_and_warnings():
 
 def test_a_device_outside_the_range_is_said_with_its_stars():
     ex = E.Explorer()
-    ex.state.param.update(amplitude=1e-3)               # A* far beyond the explorer's range
+    ex.state.param.update(amplitude=1e-3)  # A* far beyond the explorer's range
     assert ex._run_device() is None
     shown = shown_text(ex.message.object)
     assert "Not run: the device (log10 A* = " in shown and ", log10 m* = " in shown
@@ -107,9 +111,19 @@ def test_the_summary_shows_the_librarys_words_in_its_cells():
     # a launched run's regime (two t*) and a steadiness (<v*>, |v*|): each
     # cell shows the library's words whole
     s = analysis.Summary(*[None] * len(analysis.Summary._fields))._replace(
-        drift_velocity=-12.5, final_drift_velocity=-12.5, takeoffs=1, takeoffs_per_period=0.0,
-        contact_fraction=0.0, steps=10, seconds=0.1, model="deformable", twin_steps=0,
-        regime=LIBRARY_TEXTS[1], steadiness=f"not steady: {LIBRARY_TEXTS[2]}", steady=False)
+        drift_velocity=-12.5,
+        final_drift_velocity=-12.5,
+        takeoffs=1,
+        takeoffs_per_period=0.0,
+        contact_fraction=0.0,
+        steps=10,
+        seconds=0.1,
+        model="deformable",
+        twin_steps=0,
+        regime=LIBRARY_TEXTS[1],
+        steadiness=f"not steady: {LIBRARY_TEXTS[2]}",
+        steady=False,
+    )
     table = summary_table(Scene(profile="power:3"), s, "not checked", None, None, None)
     rows = {r[0]: r[1:] for r in table_rows(table)}
     assert rows["regime"] == [LIBRARY_TEXTS[1]]

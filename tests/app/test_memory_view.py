@@ -3,6 +3,7 @@ browser): built once, empty and disabled before a deformable run, fed a real
 preview run's snapshots through its sources, scrubbed by its slider, a typed
 time shown or refused with a message, a new run replacing the snapshots of
 the last (memory view <= 0.5 s, scrubbed through time)."""
+
 import asyncio
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -55,8 +56,7 @@ def _holds(view, snap):
     assert view.spans.data["right"] == [s["right"] for s in spans]
     assert view.spans.data["label"] == [s["label"] for s in spans]
     discs = plots.contact_geometry(snap)["discs"]
-    radii = [float(np.hypot(x[0], y[0])) for x, y in zip(view.discs.data["xs"],
-                                                          view.discs.data["ys"])]
+    radii = [float(np.hypot(x[0], y[0])) for x, y in zip(view.discs.data["xs"], view.discs.data["ys"])]
     assert radii == pytest.approx([d["r"] for d in discs], rel=1e-12)
     assert view.w_fig.title.text == title_lines(plots.memory_title(snap))
     assert view.c_fig.title.text == title_lines(plots.contact_geometry(snap)["title"])
@@ -65,8 +65,7 @@ def _holds(view, snap):
 def test_empty_and_disabled_before_a_run():
     view = MemoryView(POOL)
     assert view.slider.disabled and view.show_button.disabled
-    assert all(len(v) == 0 for src in (view.profile, view.spans, view.discs)
-               for v in src.data.values())
+    assert all(len(v) == 0 for src in (view.profile, view.spans, view.discs) for v in src.data.values())
 
 
 def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
@@ -75,12 +74,12 @@ def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
     async def go():
         view = _view(scene)
         view.set_run(scene, scene.periods)
-        assert view.busy.visible and view.slider.disabled       # computing, said so
+        assert view.busy.visible and view.slider.disabled  # computing, said so
         await until(lambda: not view.computing, timeout=budget(120))
         assert not view.busy.visible and not view.slider.disabled
         assert len(view.snapshots) == SNAPSHOTS
-        _holds(view, snaps[-1])                                 # the run's end first
-        assert len(view.spans.data["left"]) == 2                # stick core, slip annulus
+        _holds(view, snaps[-1])  # the run's end first
+        assert len(view.spans.data["left"]) == 2  # stick core, slip annulus
         # every position of the slider shows its snapshot
         for i in (0, 7, SNAPSHOTS // 2, SNAPSHOTS - 2):
             view.slider.value = float(view.times[i])
@@ -89,6 +88,7 @@ def test_a_run_fills_the_sources_and_the_slider_scrubs(partial_slip):
         a_max = max(s["a"] for s in snaps)
         assert view.w_fig.x_range.end == pytest.approx(1.02 * a_max)
         assert view.c_fig.x_range.end == pytest.approx(1.1 * max(np.sqrt(a_max), 1.0))
+
     asyncio.run(go())
 
 
@@ -117,6 +117,7 @@ def test_a_typed_time_is_shown_and_bad_ones_are_messages(partial_slip):
         view.time_field.input.value = "2001"
         await view.show_at()
         assert len(said) == 1 and "'2001'" in said[0]
+
     asyncio.run(go())
 
 
@@ -137,11 +138,12 @@ def test_in_flight_there_is_no_memory():
         view.slider.value = float(view.times[j])
         _holds(view, snaps[j])
         assert view.notes.data["text"] == []
+
     asyncio.run(go())
 
 
 def test_a_new_run_cancels_and_replaces_the_snapshots():
-    first = _scene(9, fidelity="standard")           # ~0.5 s of snapshots
+    first = _scene(9, fidelity="standard")  # ~0.5 s of snapshots
     second = _scene(7, periods=100.0)
 
     async def go():
@@ -150,7 +152,7 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
         first_job = view.work.job
         cancel = first_job.event
         view.set_run(second, second.periods)
-        assert cancel.is_set()                          # the first run stops
+        assert cancel.is_set()  # the first run stops
         await until(lambda: not view.computing, timeout=budget(120))
         assert view.scene is second and view.times[-1] == 100.0
         expected = memory_snapshots(second, snapshot_times(100.0))[-1]
@@ -161,9 +163,10 @@ def test_a_new_run_cancels_and_replaces_the_snapshots():
         await asyncio.gather(*(asyncio.all_tasks() - {asyncio.current_task()}))
         assert view.scene is second
         _holds(view, expected)
-        view.set_run(second.replace(model="point-mass"), 100.0)   # no memory diagram
+        view.set_run(second.replace(model="point-mass"), 100.0)  # no memory diagram
         assert view.scene is None and view.slider.disabled and view.show_button.disabled
         assert len(view.profile.data["h"]) == 0
+
     asyncio.run(go())
 
 
@@ -176,8 +179,9 @@ def test_clear_empties_and_disables(partial_slip):
         view.clear()
         assert view.slider.disabled and view.show_button.disabled and view.shown is None
         assert all(len(v) == 0 for v in view.profile.data.values())
-        await view.show_at()                     # nothing to show: nothing happens
+        await view.show_at()  # nothing to show: nothing happens
         assert view.shown is None and not view.note.visible
+
     asyncio.run(go())
 
 
@@ -198,7 +202,7 @@ def test_the_slider_and_the_time_field_show_the_time_drawn(partial_slip):
 
     async def go():
         view = _view(scene)
-        assert view.w_fig.toolbar_location != "above"      # the title has the whole row
+        assert view.w_fig.toolbar_location != "above"  # the title has the whole row
         await _ready(view)
         # (the field holds times within the run: its end's snapshot may lie a
         # step past the run's end)
@@ -210,13 +214,14 @@ def test_the_slider_and_the_time_field_show_the_time_drawn(partial_slip):
         # (a snapshot's time is the step nearest to the one asked for)
         assert view.at.t == round(snaps[5]["t"], 4)
         assert view.slider.value == pytest.approx(snaps[5]["t"])
-        assert float(view.time_field.input.value) == view.at.t          # the field's text
-        t = round(float((view.times[10] + view.times[11]) / 2), 4)    # between two snapshots
+        assert float(view.time_field.input.value) == view.at.t  # the field's text
+        t = round(float((view.times[10] + view.times[11]) / 2), 4)  # between two snapshots
         view.time_field.input.value = str(t)
         await view.show_at()
         assert view.shown["t"] == pytest.approx(t) and view.slider.value == pytest.approx(t)
-        _holds(view, view.shown)          # (not replaced by the nearest snapshot)
+        _holds(view, view.shown)  # (not replaced by the nearest snapshot)
         assert f"t* = {view.shown['t']:.6g}" in view.w_fig.title.text
+
     asyncio.run(go())
 
 
@@ -229,6 +234,7 @@ def test_after_a_cancel_the_diagram_is_marked_as_the_previous_runs(partial_slip)
         await _ready(view)
         view.mark_previous()
         assert "previous run" in view.status.object
+
     asyncio.run(go())
 
 
@@ -241,9 +247,11 @@ class _HeldSnapshots:
 
     def submit(self, fn, *args, **kwargs):
         if fn.__name__ == "memory_snapshots":
+
             def held():
                 self.release.wait(budget(120))
                 return fn(*args, **kwargs)
+
             return POOL.submit(held)
         return POOL.submit(fn, *args, **kwargs)
 
@@ -261,15 +269,16 @@ def test_a_time_shown_while_the_snapshots_compute_stays_shown():
         view.set_run(scene, scene.periods)
         view.time_field.input.value = "1999.5"
         await view.show_at()
-        assert view.computing                        # the snapshots still to come
+        assert view.computing  # the snapshots still to come
         _holds(view, memory_snapshot(scene, 1999.5))
         executor.release.set()
         await until(lambda: not view.computing, timeout=budget(120))
         _holds(view, memory_snapshot(scene, 1999.5))
-        t = float(view.shown["t"])                   # the time drawn (a sample's)
+        t = float(view.shown["t"])  # the time drawn (a sample's)
         assert abs(t - 1999.5) < 1e-3
         assert view.at.t == round(t, 4) and not view.slider.disabled
         assert view.slider.value == t
+
     asyncio.run(go())
 
 
@@ -324,6 +333,7 @@ def test_a_typed_times_diagram_is_drawn_at_the_documents_next_tick(partial_slip)
                 doc.ticks.pop(0)()
         _holds(view, memory_snapshot(scene, 1500.25))
         assert not view.show_button.disabled
+
     asyncio.run(go())
 
 
@@ -340,17 +350,20 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
     from panel.io.state import set_curdoc
     from relayout import LAYOUT_PROPERTIES, PLOT_LAYOUT_PROPERTIES
 
-
     def layout(doc):
         """What BokehJS lays the page out by: {(model id, property): value}."""
         out = {}
         for m in doc.models:
             names = (LAYOUT_PROPERTIES if isinstance(m, LayoutDOM) else set()) | (
-                PLOT_LAYOUT_PROPERTIES if isinstance(m, Plot) else set())
+                PLOT_LAYOUT_PROPERTIES if isinstance(m, Plot) else set()
+            )
             for name in names & set(m.properties()):
                 value = getattr(m, name)
-                out[(m.id, name)] = [x.id for x in value] if isinstance(value, list) \
-                    and value and hasattr(value[0], "id") else repr(value)
+                out[(m.id, name)] = (
+                    [x.id for x in value]
+                    if isinstance(value, list) and value and hasattr(value[0], "id")
+                    else repr(value)
+                )
         return out
 
     scene, _ = partial_slip
@@ -361,7 +374,7 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
         view.time_field.input.value = "1500.25"
         with set_curdoc(doc):
             await view.show_at()
-            assert view.show_button.disabled                # busy
+            assert view.show_button.disabled  # busy
             busy = layout(doc)
             while doc.ticks:
                 doc.ticks.pop(0)()
@@ -369,4 +382,5 @@ def test_a_typed_time_lays_out_no_figure_of_the_page_again(partial_slip):
         assert not view.show_button.disabled
         assert {k: v for k, v in busy.items() if before.get(k) != v} == {}
         assert {k: v for k, v in layout(doc).items() if before.get(k) != v} == {}
+
     asyncio.run(go())

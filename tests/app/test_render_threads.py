@@ -5,6 +5,7 @@ sources, in the worker threads that render maps on demand, while the event
 loop builds other figures whose values only validation converts (a title
 given as a string becomes a Title).  With Bokeh's one flag, a five-map load
 test lost 46 drawings to that."""
+
 import threading
 
 import pytest
@@ -49,5 +50,5 @@ def test_validation_off_still_applies_to_its_own_thread_and_is_restored(as_serve
         with validate(False):
             pass
         unchecked = figure(title="unconverted")
-    assert unchecked.title == "unconverted"          # not validated, not converted
+    assert unchecked.title == "unconverted"  # not validated, not converted
     assert isinstance(figure(title="after").title, Title)

@@ -4,6 +4,7 @@ and its map on demand, the rotation's panel in the figures, the
 animation's turning mark, the summary's words, the Design tab's solid and
 hollow particles, the fixed contact patch's warning (Units and Design
 tabs), and the rolling kernels compiled off the warm-up."""
+
 import asyncio
 import math
 import threading
@@ -36,8 +37,7 @@ LABEL = {v: k for k, v in ROLLINGS.items()}
 
 
 def _run(point, rolling, **changes):
-    scene = paper_scene(point).replace(fidelity="preview", periods=T_OBS, rolling=rolling,
-                                       **changes)
+    scene = paper_scene(point).replace(fidelity="preview", periods=T_OBS, rolling=rolling, **changes)
     return scene, simulate(scene, window=WINDOW, samples_per_period=5)
 
 
@@ -57,6 +57,7 @@ def _explorer(monkeypatch, query):
     from panel.io.location import Location
 
     from vibtrans_explorer import explorer as E
+
     monkeypatch.setattr(E, "_page_location", lambda: Location(search="?" + query))
     args = {k: [v.encode() for v in vs] for k, vs in parse_qs(query).items()}
     monkeypatch.setattr(type(pn.state), "session_args", property(lambda self: args))
@@ -64,9 +65,9 @@ def _explorer(monkeypatch, query):
 
 
 # ---------------------------------------------------------------- state and link
-@pytest.mark.parametrize("label, value", [(LABEL["solid"], "solid"),
-                                          (LABEL["shell"], "shell"),
-                                          (LABEL["none"], "none")])
+@pytest.mark.parametrize(
+    "label, value", [(LABEL["solid"], "solid"), (LABEL["shell"], "shell"), (LABEL["none"], "none")]
+)
 def test_the_selector_sets_the_state_and_the_link_reproduces_it(label, value):
     state = ExplorerState()
     view = RollingView(state)
@@ -82,7 +83,7 @@ def test_a_typed_j_is_checked_and_its_link_is_exact():
     state = ExplorerState()
     view = RollingView(state)
     view.kind.value = LABEL["j"]
-    assert view.number.visible and state.rolling == 0.5       # the field's starting j
+    assert view.number.visible and state.rolling == 0.5  # the field's starting j
     view.number.value = "0.3"
     assert state.rolling == 0.3 and not view.error
     values, _ = urlstate.parse({"rolling": "0.3"}, ExplorerState, URL_KEYS)
@@ -91,7 +92,7 @@ def test_a_typed_j_is_checked_and_its_link_is_exact():
     # state keeps its value and records the error: a run refuses meanwhile
     view.number.value = "1.5"
     assert state.rolling == 0.3
-    said = view.error.replace("\\", "")         # (escaped for Markdown)
+    said = view.error.replace("\\", "")  # (escaped for Markdown)
     assert "rolling must be none, solid" in said and "(0, 1]" in said and "1.5" in said
     assert view.note.visible and "rolling" in state.invalid
     view.number.value = "0.25"
@@ -109,7 +110,7 @@ def test_the_material_point_does_not_roll_and_says_why():
     assert state.rolling == "none" and state.scene().model == "point-mass"
     assert view.kind.disabled and view.point.visible
     assert "has no size" in view.point.object
-    state.model = "deformable"                   # the deformable particle's choice again
+    state.model = "deformable"  # the deformable particle's choice again
     assert state.rolling == "solid" and not view.kind.disabled and not view.point.visible
 
 
@@ -117,8 +118,7 @@ def test_a_link_rolling_a_material_point_is_refused_with_its_range(monkeypatch):
     e = _explorer(monkeypatch, "model=point-mass&rolling=solid&la=0.1&lm=0.5")
     text = e.message.object
     assert e.message.visible and text.startswith("This link has errors, so nothing was run")
-    assert "URL parameter 'rolling' (rolling): rolling must be none with model point-mass" \
-        in text
+    assert "URL parameter 'rolling' (rolling): rolling must be none with model point-mass" in text
     assert "none, solid, shell, or a number j in (0, 1]" in text and "got 'solid'" in text
     assert "Traceback" not in text
     assert not e.runs_on_load and e.state.rolling == "none"
@@ -137,7 +137,7 @@ def test_a_map_request_that_rolls_names_it_and_refuses_the_point_mass():
     point = MapRequest(model="point-mass", rolling="solid")
     assert any("rolling must be none with model point-mass" in p for p in point.problems())
     point.model = "deformable"
-    point.model = "point-mass"          # a request switched to the point mass drops it
+    point.model = "point-mass"  # a request switched to the point mass drops it
     assert point.rolling == "none" and not point.problems()
 
 
@@ -167,8 +167,9 @@ def test_the_map_says_it_is_of_a_particle_that_does_not_roll(monkeypatch):
     # a click on a map on demand runs its own particle: rolling or not
     runs = []
     monkeypatch.setattr(o, "run", lambda: runs.append(e.state.scene().rolling))
-    tiny = dict(fidelity="preview", periods=30.0, la_from=-0.5, la_to=0.5, lm_from=0.0,
-                lm_to=1.0, cells=2, levels=1)
+    tiny = dict(
+        fidelity="preview", periods=30.0, la_from=-0.5, la_to=0.5, lm_from=0.0, lm_to=1.0, cells=2, levels=1
+    )
     o._on_computed_click(MapRequest(**tiny, rolling="shell"), 0.0, 0.5)
     o._on_computed_click(MapRequest(**tiny), 0.0, 0.5)
     assert runs == ["shell", "none"]
@@ -179,7 +180,7 @@ def test_a_click_on_the_shipped_map_runs_the_particle_rolling(monkeypatch):
     runs = []
     monkeypatch.setattr(e, "start_run", lambda *a, **k: runs.append(e.state.scene()))
     e._on_map_click(0.25, 0.8, False)
-    assert runs[0].rolling == "shell" and runs[0].amplitude == 10 ** 0.25
+    assert runs[0].rolling == "shell" and runs[0].amplitude == 10**0.25
 
 
 def test_the_point_mass_comparison_of_a_rolling_run_does_not_roll():
@@ -197,8 +198,7 @@ def test_the_figures_show_the_rotation_of_a_run_that_rolls(rolling_run, plain_ru
     for column in fig.columns:
         rows = [{t.var for t in p.traces} for p in column]
         assert {"roll_velocity", "slip_velocity"} in rows
-        panel = next(p for p in column if {t.var for t in p.traces} == {"roll_velocity",
-                                                                          "slip_velocity"})
+        panel = next(p for p in column if {t.var for t in p.traces} == {"roll_velocity", "slip_velocity"})
         assert panel.title.startswith("rotation: omega R*(t), contact slip")
         assert panel.axis_labels[0].startswith("omega R*, slip")
     # omega R* = x*'/j (the library's column, drawn as it is)
@@ -215,7 +215,7 @@ def test_the_live_figures_show_the_rotation_only_for_a_run_that_rolls(rolling_ru
     _, ds = rolling_run
     view = LiveTrajectory(None, 2.0, 50.0)
     view.show(plain_run[1])
-    assert view.over.rolling_figure is None            # built at the first run that rolls
+    assert view.over.rolling_figure is None  # built at the first run that rolls
     view.show(ds)
     for block in (view.over, view.last):
         fig = block.rolling_figure
@@ -244,7 +244,7 @@ def test_the_animation_turns_a_mark_by_the_rolled_arc(rolling_run, plain_run):
     for i in (0, n // 3, 2 * n // 3, n - 1):
         m = anim.frame(i)["mark"]
         dx, dy = m["x1"][0] - m["x0"][0], m["y1"][0] - m["y0"][0]
-        assert math.hypot(dx, dy) == pytest.approx(rho, rel=1e-9)       # a radius
+        assert math.hypot(dx, dy) == pytest.approx(rho, rel=1e-9)  # a radius
         angle = math.atan2(dy, dx)
         want = mark_angle(rolls[i], rho)
         assert math.remainder(angle - want, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
@@ -252,7 +252,7 @@ def test_the_animation_turns_a_mark_by_the_rolled_arc(rolling_run, plain_run):
         p = anim.frame(i)["particle"]
         assert (m["x0"][0], m["y0"][0]) == pytest.approx((p["x"][0], p["y"][0]))
         angles.append(angle)
-    assert len({round(a, 6) for a in angles}) > 1           # it turns between frames
+    assert len({round(a, 6) for a in angles}) > 1  # it turns between frames
     # theta = roll / rho: the rim travels the rolled arc; counter-clockwise
     # for a positive arc (the contact point moves towards +x)
     assert mark_angle(0.0, 2.0) == -math.pi / 2
@@ -269,18 +269,15 @@ def test_the_summary_says_whether_the_particle_rolls(rolling_run, plain_run):
     scene, ds = rolling_run
     result = interpret(scene, ds, None, None)
     s = result.summary
-    assert rolls_words(s).startswith("yes: solid sphere, j = 0.4; largest rolled arc "
-                                     "within one contact ")
+    assert rolls_words(s).startswith("yes: solid sphere, j = 0.4; largest rolled arc within one contact ")
     assert f"{s.max_episode_roll:.3g} a0" in rolls_words(s)
     table = summary_table(scene, s, "-", None, None, None)
     assert "| rolls? | yes: solid sphere, j = 0.4" in table
     assert "rolling (a solid sphere, j = 0.4)**" in table.splitlines()[0]
     plain = interpret(*plain_run, None, None).summary
     assert rolls_words(plain) == "no: it slides without turning (the paper's particle)"
-    assert "rolling" not in summary_table(plain_run[0], plain, "-", None, None, None) \
-        .splitlines()[0]
-    assert rolls_words(plain._replace(model="point-mass")) == \
-        "no: a material point has no size"
+    assert "rolling" not in summary_table(plain_run[0], plain, "-", None, None, None).splitlines()[0]
+    assert rolls_words(plain._replace(model="point-mass")) == "no: a material point has no size"
 
 
 # ---------------------------------------------------------------- the Design tab
@@ -325,13 +322,13 @@ def test_the_design_tabs_device_names_its_body():
 # ---------------------------------------------------------------- validity
 def test_the_rolling_warning_is_at_a_tenth_of_the_contact_radius():
     assert design.ROLL_CONTACT_FRACTION == 0.1
-    a0, radius = 1e-9, 2e-6            # contact radius sqrt(R a0): 2000 a0
-    at = design.ROLL_CONTACT_FRACTION * radius / a0            # 200 a0
+    a0, radius = 1e-9, 2e-6  # contact radius sqrt(R a0): 2000 a0
+    at = design.ROLL_CONTACT_FRACTION * radius / a0  # 200 a0
     w = design.rolling_warning(at, a0, radius)
     assert w.code == "rolling-patch" and w.value == pytest.approx(0.1)
     assert w.threshold == 0.1 and "within one contact" in w.message
     assert design.rolling_warning(0.99 * at, a0, radius) is None
-    assert design.rolling_warning(None, a0, radius) is None          # it does not roll
+    assert design.rolling_warning(None, a0, radius) is None  # it does not roll
     for bad in (-1.0, math.nan, "1"):
         with pytest.raises(InputError, match="max_episode_roll"):
             design.rolling_warning(bad, a0, radius)
@@ -347,14 +344,12 @@ def test_the_units_and_design_tabs_warn_when_a_device_run_rolled_far(rolling_run
     scene = state.scene().replace(fidelity="preview", periods=T_OBS)
     s = interpret(*rolling_run, None, None).summary
     a0 = state.device_tip()[2]
-    radius = math.sqrt(state.radius * a0)              # the sphere's contact radius
-    far = RunResult(scene, None, None, None, None,
-                    s._replace(max_episode_roll=0.5 * radius / a0), False)
+    radius = math.sqrt(state.radius * a0)  # the sphere's contact radius
+    far = RunResult(scene, None, None, None, None, s._replace(max_episode_roll=0.5 * radius / a0), False)
     note = units.show_run(far)
     assert note.startswith("**Warning (the run):** the particle rolled")
     assert "0.5 of the contact radius" in note and units.run_note.object == note
-    near = RunResult(scene, None, None, None, None,
-                     s._replace(max_episode_roll=0.01 * radius / a0), False)
+    near = RunResult(scene, None, None, None, None, s._replace(max_episode_roll=0.01 * radius / a0), False)
     assert "its contact patch stayed put" in units.rolling_note(near)
     # a run that is no device's, or does not roll: nothing to say
     other = far._replace(scene=scene.replace(mass=scene.mass * 2))
@@ -379,7 +374,7 @@ def rolling_compiling(monkeypatch):
     warmup.READY.set()
     monkeypatch.setattr(warmup, "_thread", object())
     monkeypatch.setattr(warmup, "ROLLING_READY", threading.Event())
-    monkeypatch.setattr(warmup, "_rolling_thread", object())     # (under way)
+    monkeypatch.setattr(warmup, "_rolling_thread", object())  # (under way)
     return warmup.ROLLING_READY
 
 
@@ -388,25 +383,27 @@ def test_a_rolling_run_waits_for_its_kernels_saying_compiling(rolling_compiling)
 
     async def go():
         ex = E.Explorer()
-        ex.state.param.update(fidelity="preview", compare="none", periods=20.0,
-                              rolling="solid")
+        ex.state.param.update(fidelity="preview", compare="none", periods=20.0, rolling="solid")
         plain = ex.state.scene().replace(rolling="none")
-        assert warmup.ready(plain) and warmup.status(plain) is None    # others do not wait
+        assert warmup.ready(plain) and warmup.status(plain) is None  # others do not wait
         ex.start_run()
-        await until(lambda: "Compiling the kernels of a particle that rolls"
-                    in ex.summary_view.pane.object)
+        await until(lambda: "Compiling the kernels of a particle that rolls" in ex.summary_view.pane.object)
         assert not ex.controller.job.futures[0].done()
         rolling_compiling.set()
-        await until(lambda: ex.controller.job is None
-                    and "| rolls? | yes: solid sphere" in ex.summary_view.pane.object)
+        await until(
+            lambda: (
+                ex.controller.job is None and "| rolls? | yes: solid sphere" in ex.summary_view.pane.object
+            )
+        )
+
     asyncio.run(go())
 
 
 def test_the_warm_up_leaves_the_rolling_kernels_to_their_first_need(monkeypatch):
     import vibtrans
+
     seen = []
-    monkeypatch.setattr(vibtrans, "warmup", lambda models=None, progress=None:
-                        seen.append(models))
+    monkeypatch.setattr(vibtrans, "warmup", lambda models=None, progress=None: seen.append(models))
     monkeypatch.setattr(warmup, "READY", threading.Event())
     warmup.compile_all()
     assert seen == [warmup.MODELS] and not warmup.ROLLING_READY.is_set()

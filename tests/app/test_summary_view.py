@@ -2,6 +2,7 @@
 the tau twin's cost apart (with the point-mass comparison, not only the
 deformable numbers; the cost row does not silently add
 the twin's steps)."""
+
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis.summary import summarize, twin_scene
 from vibtrans_explorer.views.summary import summary_table as _summary_table
@@ -27,7 +28,7 @@ def test_a_point_mass_comparison_has_its_own_column():
 
 
 def test_the_twin_cost_is_listed_apart():
-    scene = paper_scene(4).replace(periods=20.0)      # jumps: the twin runs
+    scene = paper_scene(4).replace(periods=20.0)  # jumps: the twin runs
     ds, twin = simulate(scene), simulate(twin_scene(scene))
     s = summarize(ds, twin)
     table = _summary_table(scene, s, "robust", None, twin, twin)
@@ -38,12 +39,15 @@ def test_the_twin_cost_is_listed_apart():
 
 
 def test_a_bar_in_a_cell_does_not_break_the_table():
-    scene = paper_scene(3).replace(periods=20.0)      # no drift: "|v*| <= 0.1"
+    scene = paper_scene(3).replace(periods=20.0)  # no drift: "|v*| <= 0.1"
     s = summarize(simulate(scene))
     assert "|" in s.regime
     table = _summary_table(scene, s, "not checked", None, None, None)
-    assert all(line.count("|") - line.count("\\|") == 3 for line in table.splitlines()
-               if line.startswith("| ") and "quantity" not in line)
+    assert all(
+        line.count("|") - line.count("\\|") == 3
+        for line in table.splitlines()
+        if line.startswith("| ") and "quantity" not in line
+    )
 
 
 def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
@@ -52,7 +56,8 @@ def test_the_chaos_row_gives_the_lyapunov_exponents_verdict_and_the_twins():
     exponent's verdict first (it decides)."""
     from vibtrans_explorer.session.controller import interpret
     from vibtrans_explorer.views.summary import chaos_verdict
-    scene = paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0)
+
+    scene = paper_scene(1).replace(amplitude=10**0.5, mass=10**-2.0)
     ds = simulate(scene, lyapunov=True)
     row = chaos_verdict(interpret(scene, ds, simulate(twin_scene(scene)), "tau + 0.001"))
     assert row.startswith("chaotic: Lyapunov exponent 0.1") and "(> 0.01)" in row

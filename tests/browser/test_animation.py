@@ -7,6 +7,7 @@ slider shows that frame, a new run starts at its first frame, and the
 browser's frames are the ones `frame(i)` draws.
 
 The screenshots go to test-artifacts/ (look at them)."""
+
 import json
 import math
 import re
@@ -60,10 +61,16 @@ def test_the_frames_are_every_sample_of_the_window(which, request):
     anim.show(scene, ds)
     win = _window(ds)
     f = anim.frames.data
-    assert win.sizes["time"] > 30          # a window, not the 5-per-period overview
+    assert win.sizes["time"] > 30  # a window, not the 5-per-period overview
     np.testing.assert_array_equal(f["t"], win["time"].values)
-    for col, var in (("x", "x"), ("y", "y"), ("a", "a"), ("state", "state"),
-                     ("c", "contact_radius"), ("s", "stick_radius")):
+    for col, var in (
+        ("x", "x"),
+        ("y", "y"),
+        ("a", "a"),
+        ("state", "state"),
+        ("c", "contact_radius"),
+        ("s", "stick_radius"),
+    ):
         np.testing.assert_array_equal(f[col], win[var].values)
     # the overview samples before the window are not frames
     assert ds.sizes["time"] > win.sizes["time"]
@@ -72,8 +79,7 @@ def test_the_frames_are_every_sample_of_the_window(which, request):
 
 
 def _state_colour_rule(s, c):
-    return (plots.STATE_COLORS[1] if s >= c else
-            plots.STATE_COLORS[2] if s > 0 else plots.STATE_COLORS[3])
+    return plots.STATE_COLORS[1] if s >= c else plots.STATE_COLORS[2] if s > 0 else plots.STATE_COLORS[3]
 
 
 @pytest.mark.parametrize("which", ["slipping", "hopping"])
@@ -94,15 +100,15 @@ def test_each_frame_draws_the_runs_state(which, request):
         # the particle's lowest point is at height -y*
         p = f["particle"]
         assert p["y"][0] - p["r"][0] == pytest.approx(-y, abs=1e-9 * (1 + abs(y)))
-        assert p["x"][0] == 0.0                    # the view moves with the particle
+        assert p["x"][0] == 0.0  # the view moves with the particle
         # the surface: the wave travelling to +x, u_y(t - xi / L), scaled by the
         # ramp; under the particle it is the run's surface, y* - a*
         g = substrate.ramp(t, scene.tau)[0]
         xi = f["surface"]["xi"]
-        expected = np.array([-g * substrate.surface_motion(t - v / L, scene.amplitude,
-                                                           scene.r, 0.0)[1] for v in xi])
-        np.testing.assert_allclose(f["surface"]["z"], expected, rtol=0,
-                                   atol=1e-4 * scene.amplitude)
+        expected = np.array(
+            [-g * substrate.surface_motion(t - v / L, scene.amplitude, scene.r, 0.0)[1] for v in xi]
+        )
+        np.testing.assert_allclose(f["surface"]["z"], expected, rtol=0, atol=1e-4 * scene.amplitude)
         under = np.interp(0.0, xi, f["surface"]["z"])
         assert under == pytest.approx(-(y - a), abs=1e-3 * scene.amplitude + 1e-9)
         # the contact zone (half-widths c sqrt(rho), s sqrt(rho)) and circle
@@ -115,11 +121,12 @@ def test_each_frame_draws_the_runs_state(which, request):
             assert z["x1"][1] == pytest.approx(s * math.sqrt(rho))
             assert z["y"][0] == pytest.approx(-(y - a), abs=1e-9 * (1 + abs(y)))
             assert z["colour"][0] == f["contact"]["colour"][0] == _state_colour_rule(s, c)
-            assert z["colour"][0] == plots.STATE_COLORS[state]     # the state's colour
-            assert z["colour"][1] == plots.STATE_COLORS[1]          # the stick core
+            assert z["colour"][0] == plots.STATE_COLORS[state]  # the state's colour
+            assert z["colour"][1] == plots.STATE_COLORS[1]  # the stick core
             assert (f["contact"]["c"][0], f["contact"]["s"][0]) == (c, s)
-        shown = re.match(r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)\n(.+?)   y\* = (\S+) a0",
-                         f["side_title"]).groups()
+        shown = re.match(
+            r"t\* = (\S+)   wave phase t\* mod 1 = (\S+)\n(.+?)   y\* = (\S+) a0", f["side_title"]
+        ).groups()
         assert float(shown[0]) == pytest.approx(t, abs=5.1e-5)
         assert float(shown[1]) == pytest.approx(t % 1.0, abs=5.1e-4)
         assert shown[2] == STATE_NAMES[state]
@@ -172,9 +179,18 @@ def test_the_point_mass_shows_the_particle_only():
     assert "no contact zone and no contact circle" in anim.key.text
 
 
-@pytest.mark.parametrize("v, d, text", [(39.40625, 4, "39.4063"), (-0.40625, 4, "-0.4063"),
-                                         (0.125, 2, "0.13"), (2.5, 0, "3"), (1.0, 3, "1.000"),
-                                         (-0.0001, 3, "-0.000"), (123.456, 1, "123.5")])
+@pytest.mark.parametrize(
+    "v, d, text",
+    [
+        (39.40625, 4, "39.4063"),
+        (-0.40625, 4, "-0.4063"),
+        (0.125, 2, "0.13"),
+        (2.5, 0, "3"),
+        (1.0, 3, "1.000"),
+        (-0.0001, 3, "-0.000"),
+        (123.456, 1, "123.5"),
+    ],
+)
 def test_numbers_are_written_as_the_browser_writes_them(v, d, text):
     # the titles are written by the browser (toFixed) and by frame(); a tie
     # (a time on the material point's 1/32 grid) rounds away from zero in both
@@ -256,8 +272,9 @@ _SIDE_JS = """() => {
 def _messages(frames, kind):
     """How many Bokeh protocol messages of a kind (PATCH-DOC, ...) among
     websocket frames (a message: a header frame, then its parts)."""
-    return sum(1 for m in frames if isinstance(m, str) and m.startswith("{")
-               and json.loads(m).get("msgtype") == kind)
+    return sum(
+        1 for m in frames if isinstance(m, str) and m.startswith("{") and json.loads(m).get("msgtype") == kind
+    )
 
 
 def _changes(frames):
@@ -278,18 +295,19 @@ def _same_frame(page_state, f):
             else:
                 # NaN arrives as null
                 got = np.array([np.nan if v is None else v for v in got], float)
-                np.testing.assert_allclose(got, np.asarray(want, float), rtol=1e-9, atol=1e-9,
-                                           err_msg=f"{name}.{col}")
+                np.testing.assert_allclose(
+                    got, np.asarray(want, float), rtol=1e-9, atol=1e-9, err_msg=f"{name}.{col}"
+                )
     assert f["side_title"] in page_state["titles"]
     assert f["contact_title"] in page_state["titles"]
 
 
 # the frames' data the page holds now, kept; and a test that it was replaced
 # (a run's frames come as a new data object)
-_KEEP_FRAMES_JS = ("() => { window.__vtFrames = "
-                   "window.Bokeh.documents[0].get_model_by_name('anim-frames').data; }")
-_NEW_FRAMES_JS = ("() => window.Bokeh.documents[0].get_model_by_name('anim-frames').data "
-                  "!== window.__vtFrames")
+_KEEP_FRAMES_JS = (
+    "() => { window.__vtFrames = window.Bokeh.documents[0].get_model_by_name('anim-frames').data; }"
+)
+_NEW_FRAMES_JS = "() => window.Bokeh.documents[0].get_model_by_name('anim-frames').data !== window.__vtFrames"
 # the frame the slider shows
 _VALUE_JS = "() => window.Bokeh.documents[0].get_model_by_name('anim-frame').value"
 # three ticks of a timer of the player's period, started now: a player still
@@ -312,8 +330,7 @@ def _play_a_while(page):
     """Play until the page shows another frame, then pause."""
     first = page.evaluate(_VALUE_JS)
     page.get_by_role("button", name="Play").click()
-    page.wait_for_function(f"(first) => ({_VALUE_JS})() !== first", arg=first,
-                           timeout=budget_ms(30))
+    page.wait_for_function(f"(first) => ({_VALUE_JS})() !== first", arg=first, timeout=budget_ms(30))
     page.get_by_role("button", name="Pause").click()
 
 
@@ -331,15 +348,12 @@ def _server_mark(doc, socket, received, title):
     index of its message's first frame among `received` (a message: a
     header, a metadata and a content frame, then its buffers)."""
     doc.add_next_tick_callback(lambda: setattr(doc, "title", title))
-    socket.wait_for_event("framereceived", predicate=lambda m: title in str(m),
-                          timeout=budget_ms(30))
+    socket.wait_for_event("framereceived", predicate=lambda m: title in str(m), timeout=budget_ms(30))
     return next(k for k, m in enumerate(received) if isinstance(m, str) and title in m) - 2
 
 
 @pytest.mark.browser
 @pytest.mark.server
-
-
 def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
     point_mass = _run(9, model="point-mass")
     vertical = _run(1, model="vertical")
@@ -357,27 +371,37 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
         return anim
 
     port = free_port()
-    server = pn.serve({"/": app}, port=port, address="127.0.0.1", threaded=True, show=False,
-                      websocket_origin=[f"127.0.0.1:{port}"])
+    server = pn.serve(
+        {"/": app},
+        port=port,
+        address="127.0.0.1",
+        threaded=True,
+        show=False,
+        websocket_origin=[f"127.0.0.1:{port}"],
+    )
     try:
         with launched() as browser:
             page = browser.new_page(viewport={"width": 1200, "height": 700})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
-            received = []      # the server's websocket messages to the page
-            sent = []          # the page's to the server
+            received = []  # the server's websocket messages to the page
+            sent = []  # the page's to the server
             sockets = []
-            page.on("websocket", lambda ws: (
-                sockets.append(ws),
-                ws.on("framereceived", lambda m: received.append(m)),
-                ws.on("framesent", lambda m: sent.append(m))))
+            page.on(
+                "websocket",
+                lambda ws: (
+                    sockets.append(ws),
+                    ws.on("framereceived", lambda m: received.append(m)),
+                    ws.on("framesent", lambda m: sent.append(m)),
+                ),
+            )
             page.goto(f"http://127.0.0.1:{port}/")
             page.wait_for_selector("canvas", timeout=budget_ms(60))
-            settle(page)                                  # the first run's frame drawn
+            settle(page)  # the first run's frame drawn
             anim, doc = sessions[-1]
             state = page.evaluate(_PAGE_JS)
             assert state["value"] == 0
-            _same_frame(state, anim.frame(0))             # drawn by the server
+            _same_frame(state, anim.frame(0))  # drawn by the server
             ARTIFACTS.mkdir(exist_ok=True)
 
             page.locator("select").filter(has_text="1 period/s").select_option(label="1 period/s")
@@ -386,15 +410,15 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             play.click()
             page.wait_for_function(f"() => ({_VALUE_JS})() > 0", timeout=budget_ms(30))
             playing = page.evaluate(_PAGE_JS)["value"]
-            assert playing > 0                             # play advances the frame
+            assert playing > 0  # play advances the frame
             page.screenshot(path=str(ARTIFACTS / "animation_playing.png"))
             page.get_by_role("button", name="Pause").click()
             paused = page.evaluate(_PAGE_JS)
-            page.evaluate(_TICKS_JS, TICK_MS)              # the player's ticks, had it gone on
+            page.evaluate(_TICKS_JS, TICK_MS)  # the player's ticks, had it gone on
             later = page.evaluate(_PAGE_JS)
             # the page told the server of the two clicks, of no frame
             assert _changes(sent[sent_at_play:]) == ["active", "active"]
-            assert later["value"] == paused["value"]        # pause stops it
+            assert later["value"] == paused["value"]  # pause stops it
             # the browser drew the frame its slider shows, as frame() draws it
             _same_frame(later, anim.frame(later["value"]))
             # ... without telling the server: no message per frame
@@ -405,11 +429,9 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             track = page.locator(".noUi-base").first.bounding_box()
             page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
             page.mouse.down()
-            page.mouse.move(track["x"] + 0.25 * track["width"], handle["y"] + handle["height"] / 2,
-                            steps=8)
+            page.mouse.move(track["x"] + 0.25 * track["width"], handle["y"] + handle["height"] / 2, steps=8)
             page.mouse.up()
-            page.wait_for_function(f"(v) => ({_VALUE_JS})() !== v", arg=later["value"],
-                                   timeout=budget_ms(30))
+            page.wait_for_function(f"(v) => ({_VALUE_JS})() !== v", arg=later["value"], timeout=budget_ms(30))
             scrubbed = page.evaluate(_PAGE_JS)
             n = anim.frames.data["t"].size
             assert abs(scrubbed["value"] - 0.25 * (n - 1)) <= 2, (scrubbed["value"], n)
@@ -470,20 +492,21 @@ def test_a_chosen_window_shows_the_particle_travel(slipping):
     evenly in time (the overview's rate before the full-resolution window),
     at most max_frames of them, and the note says what is decimated."""
     from vibtrans_explorer.views.animation import WINDOWS
+
     scene, ds = slipping
     anim = ParticleAnimation(max_frames=100)
     anim.show(scene, ds)
     short = dict(anim.frames.data)
     assert short["t"][0] == pytest.approx(WINDOW[0])
-    anim.window.value = WINDOWS["the whole run (decimated)"]      # re-shows the run
+    anim.window.value = WINDOWS["the whole run (decimated)"]  # re-shows the run
     t = np.asarray(anim.frames.data["t"])
     all_t = ds["time"].values
     assert t[0] == all_t[0] and t[-1] == all_t[-1] and 2 <= t.size <= 100
-    assert np.all(np.isin(t, all_t))                              # the run's own samples
+    assert np.all(np.isin(t, all_t))  # the run's own samples
     steps = np.diff(t)
-    assert steps.max() < 3 * (all_t[-1] - all_t[0]) / 100         # evenly in time
+    assert steps.max() < 3 * (all_t[-1] - all_t[0]) / 100  # evenly in time
     x = np.asarray(anim.frames.data["x"])
-    assert np.ptp(x) > 5 * np.ptp(short["x"])         # the travel over the run shows
+    assert np.ptp(x) > 5 * np.ptp(short["x"])  # the travel over the run shows
     assert "samples per period" in anim.key.text and "does not" in anim.key.text
     anim.window.value = WINDOWS["the last 10 periods"]
     t = np.asarray(anim.frames.data["t"])
@@ -507,10 +530,10 @@ def test_a_profiles_contact_circle_is_its_own_contact_radius(profile, n):
     f = anim.frames.data
     touching = f["state"] > 0
     a = np.asarray(f["a"])[touching]
-    assert touching.sum() > 20 and a.max() > 10.0 * a.min() > 0       # a real range of a*
+    assert touching.sum() > 20 and a.max() > 10.0 * a.min() > 0  # a real range of a*
     closed = a ** (1.0 / n)
     np.testing.assert_allclose(np.asarray(f["c"])[touching], closed, rtol=1e-9)
-    assert not np.allclose(closed, np.sqrt(a), rtol=1e-3)              # not the sphere's
+    assert not np.allclose(closed, np.sqrt(a), rtol=1e-3)  # not the sphere's
     i = int(np.flatnonzero(touching)[0])
     frame = anim.frame(i)
     assert frame["contact"]["c"][0] == pytest.approx(a[0] ** (1.0 / n), rel=1e-9)
@@ -533,6 +556,7 @@ def test_a_profiles_particle_is_drawn_with_its_tip(profile):
     (height -y*, the overlap a* to scale), not the sphere's circle."""
     from vibtrans.core.profiles import parse_profile
     from vibtrans_explorer.views import animation as A
+
     scene, ds = _run(6, profile=profile)
     anim = ParticleAnimation()
     anim.show(scene, ds)
@@ -548,8 +572,7 @@ def test_a_profiles_particle_is_drawn_with_its_tip(profile):
         # its lowest point is the particle's, -y*; the tip's outline near the axis
         assert z.min() == pytest.approx(-y, abs=1e-12)
         near = np.arange(A.TIP_POINTS)
-        np.testing.assert_allclose(z[near], -y + shape.outline(x[near] / q), rtol=0,
-                                   atol=1e-12)
+        np.testing.assert_allclose(z[near], -y + shape.outline(x[near] / q), rtol=0, atol=1e-12)
         assert x[near][0] == pytest.approx(-X) and x[near][-1] == pytest.approx(X)
         # closed by the drawn circle's arc (radius rho) through the outline's ends
         arc = np.arange(A.TIP_POINTS, x.size)

@@ -5,6 +5,7 @@ units, URL.
 
 Screenshots (the whole main column, trajectories included) go to
 test-artifacts/ (look at them)."""
+
 import os
 from pathlib import Path
 
@@ -35,7 +36,7 @@ def page(browser, server, request):
     ARTIFACTS.mkdir(exist_ok=True)
     # the template scrolls its main column itself: a tall viewport shows it all
     pg.set_viewport_size({"width": 1400, "height": 3300})
-    settle(pg)                                   # laid out again at that size
+    settle(pg)  # laid out again at that size
     pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}.png"), full_page=True)
     pg.close()
     assert not errors, errors
@@ -45,7 +46,7 @@ def _open(page, url):
     page.goto(url)
     page.wait_for_selector("canvas", timeout=budget_ms(60))
     page.wait_for_selector("text=Paper points", timeout=budget_ms(60))
-    settle(page)                                 # its figures drawn and laid out
+    settle(page)  # its figures drawn and laid out
 
 
 def _summary_text(page):
@@ -112,15 +113,14 @@ def _sources(page):
 def _see(page, text, timeout=None):
     """Wait until `text` is shown (Playwright's text locators pierce the
     shadow DOM that Bokeh renders into; body.innerText does not)."""
-    page.get_by_text(text).first.wait_for(
-        timeout=budget_ms(30) if timeout is None else timeout)
+    page.get_by_text(text).first.wait_for(timeout=budget_ms(30) if timeout is None else timeout)
 
 
 def test_page_loads_with_the_map(page, server):
     _open(page, server)
     assert page.locator("canvas").count() >= 1
     box = page.locator("canvas").first.bounding_box()
-    assert box["width"] > 600 and box["height"] > 300     # the map, full size
+    assert box["width"] > 600 and box["height"] > 300  # the map, full size
 
 
 def test_paper_point_runs_and_plots(page, server):
@@ -132,8 +132,7 @@ def test_paper_point_runs_and_plots(page, server):
     _see(page, "Whole run")
     _see(page, "Last 2 periods at full resolution")
     # the trajectory figure is drawn: its canvases have a real size
-    page.wait_for_function(_BIG_CANVASES_JS, arg=[500, 100, 3], timeout=budget_ms(30),
-                           polling=100)
+    page.wait_for_function(_BIG_CANVASES_JS, arg=[500, 100, 3], timeout=budget_ms(30), polling=100)
     sizes = [c.bounding_box() for c in page.locator("canvas").all()]
     assert sum(1 for b in sizes if b and b["width"] > 500 and b["height"] > 100) >= 3
     # ... and data: the whole run in per-bin envelopes (one source for its
@@ -150,9 +149,12 @@ def test_paper_point_runs_and_plots(page, server):
     titles = [t for t, *_ in figures]
     assert len(whole) == 1 and len(last) == 1, figures
     assert sum(1 for t, x, *_ in figures if (x, 0, 2000) in whole) == 5, figures
-    for title in ("normal: a*(t), y*(t)", "contact state\n(dominant per bin)",
-                  f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin",
-                  "tangential: b*(t),\nx*(t) - x*(t0)"):
+    for title in (
+        "normal: a*(t), y*(t)",
+        "contact state\n(dominant per bin)",
+        f"x*(t) and its tau + {TWIN_TAU_OFFSET:g} twin",
+        "tangential: b*(t),\nx*(t) - x*(t0)",
+    ):
         assert title in titles, titles
 
 
@@ -163,7 +165,7 @@ def test_a_second_run_feeds_the_same_figures(page, server):
     box = page.locator("canvas").first.bounding_box()
     page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
     _summary_text(page).wait_for(timeout=budget_ms(60))
-    answered(page)                               # the run's figures and data came with it
+    answered(page)  # the run's figures and data came with it
     first, models = _sources(page), page.evaluate(_MODELS_JS)
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
     page.mouse.click(box["x"] + box["width"] * 0.75, box["y"] + box["height"] * 0.25)
@@ -171,7 +173,7 @@ def test_a_second_run_feeds_the_same_figures(page, server):
     answered(page)
     second = _sources(page)
     assert second.keys() == first.keys()
-    assert second != first                       # new data in them
+    assert second != first  # new data in them
     assert page.evaluate(_MODELS_JS) == models
 
 
@@ -183,9 +185,12 @@ def test_both_models_draw_into_the_same_figures(page, server):
     select = page.locator("select").filter(has_text="synchronous hopping")
     select.select_option(label="4: synchronous hopping")
     _summary_text(page).wait_for(timeout=budget_ms(60))
-    answered(page)                               # the run's figures came with it
-    trajectory = lambda: sorted((x, t) for t, x, *_ in page.evaluate(_FIGURES_JS)  # noqa: E731
-                                if not t.startswith("<v*>"))
+    answered(page)  # the run's figures came with it
+    trajectory = lambda: sorted(
+        (x, t)
+        for t, x, *_ in page.evaluate(_FIGURES_JS)  # noqa: E731
+        if not t.startswith("<v*>")
+    )
     before = trajectory()
     summary = page.locator("strong", has_text="mu = 0.3").first.inner_text()
     select.select_option(label="10: point mass, chaotic")
@@ -193,10 +198,13 @@ def test_both_models_draw_into_the_same_figures(page, server):
     _see(page, "point-mass:")
     answered(page)
     after = trajectory()
-    assert [x for x, _ in after] == [x for x, _ in before]     # the same figures
+    assert [x for x, _ in after] == [x for x, _ in before]  # the same figures
     titles = {t for _, t in after}
-    assert {"normal: y*(t)\n(mean, min-max per bin)", "forces: N*, T*",
-            "tangential: x*(t) - x*(t0)"} <= titles, titles
+    assert {
+        "normal: y*(t)\n(mean, min-max per bin)",
+        "forces: N*, T*",
+        "tangential: x*(t) - x*(t0)",
+    } <= titles, titles
     assert not any(t.startswith("normal: a*(t)") for t in titles), titles
 
 
@@ -207,7 +215,8 @@ def test_a_new_click_replaces_a_running_run(page, server):
     page.locator("button", has_text="Run selected scene").click()
     _see(page, "Running")
     page.locator("select").filter(has_text="synchronous hopping").select_option(
-        label="4: synchronous hopping")
+        label="4: synchronous hopping"
+    )
     _see(page, "A* = 316.2", timeout=budget_ms(120))
     _summary_text(page).wait_for(timeout=budget_ms(120))
     assert page.get_by_text("Run cancelled.").count() == 0
@@ -286,9 +295,16 @@ def test_a_scene_outside_the_map_runs_and_says_where_it_is(page, server):
     _see(page, "lies outside the map")
 
 
-@pytest.mark.parametrize("typed, shown", [
-    ("99", "got '99'"), ("-10", "got '-10'"), ("1e400", "got '1e400'"),
-    ("abc", "got 'abc'"), ("", "the field is empty")])
+@pytest.mark.parametrize(
+    "typed, shown",
+    [
+        ("99", "got '99'"),
+        ("-10", "got '-10'"),
+        ("1e400", "got '1e400'"),
+        ("abc", "got 'abc'"),
+        ("", "the field is empty"),
+    ],
+)
 def test_a_bad_number_is_a_message_and_nothing_runs(page, server, typed, shown):
     _open(page, server)
     field = page.locator(".vt-field-log_amplitude input")
@@ -328,7 +344,7 @@ def test_a_device_runs_with_its_own_material_and_si_units(page, server):
     page.get_by_text("Units", exact=True).first.click()
     _see(page, "Rayleigh speed c_R")
     page.locator(".vt-substrate select").first.select_option("lithium niobate")
-    page.locator(".vt-particle select").first.select_option("glass")      # silica
+    page.locator(".vt-particle select").first.select_option("glass")  # silica
     for key, value in (("radius", "1e-5"), ("frequency", "1e7"), ("amplitude", "1e-9")):
         f = page.locator(f".vt-field-{key} input").first
         f.fill(value)
@@ -347,17 +363,21 @@ def test_teaching_view_and_export(page, server):
     # the page opens on paper point 1's scene, not run: the paper-points
     # selector names no point; picking 1 runs it
     select = page.locator("select").filter(has_text="synchronous hopping")
-    assert select.input_value() == select.locator(
-        "option", has_text="choose a paper point").get_attribute("value")
-    select.select_option(label=select.locator(
-        "option", has_text="1: contact, drift -x").text_content())
+    assert select.input_value() == select.locator("option", has_text="choose a paper point").get_attribute(
+        "value"
+    )
+    select.select_option(label=select.locator("option", has_text="1: contact, drift -x").text_content())
     _summary_text(page).wait_for(timeout=budget_ms(60))
     # the memory tab computes the run's last period when opened (app/views/memory.py)
     page.get_by_text("Memory diagram", exact=True).click()
     # a snapshot drawn: the diagram's title names its time
-    page.wait_for_function("""() => (page_figures => page_figures.some(
-        f => f[0].startsWith("memory diagram w(h)\\nt* = ")))((%s)())""" % _FIGURES_JS,
-                           timeout=budget_ms(60), polling=250)
+    page.wait_for_function(
+        """() => (page_figures => page_figures.some(
+        f => f[0].startsWith("memory diagram w(h)\\nt* = ")))((%s)())"""
+        % _FIGURES_JS,
+        timeout=budget_ms(60),
+        polling=250,
+    )
     page.get_by_text("Downloads", exact=True).click()
     for kind in ("trajectory-png", "map-svg"):
         with page.expect_download(timeout=budget_ms(120)) as dl:
@@ -373,10 +393,11 @@ def test_data_downloads(page, server):
     _open(page, server + "?la=2.5&lm=0&fidelity=preview")
     _summary_text(page).wait_for(timeout=budget_ms(60))
     page.get_by_text("Downloads", exact=True).click()
-    for cls, check in ((".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
-                       (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
-                       (".vt-data-map-window-nc",
-                        lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF")):
+    for cls, check in (
+        (".vt-data-run-csv", lambda b: b.startswith(b"# vibtrans run")),
+        (".vt-data-run-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
+        (".vt-data-map-window-nc", lambda b: b[:3] == b"CDF" or b[:4] == b"\x89HDF"),
+    ):
         with page.expect_download(timeout=budget_ms(60)) as dl:
             page.locator(cls).locator("button, a").first.click()
         body = open(dl.value.path(), "rb").read()
@@ -438,8 +459,9 @@ def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server)
     _open(page, server + "?fidelity=preview&compare=none")
     page.evaluate(_COUNT_ACKS_JS)
     box = page.locator("canvas").first.bounding_box()
-    assert _acknowledged(page, lambda: page.mouse.click(box["x"] + box["width"] * 0.55,
-                                                        box["y"] + box["height"] * 0.35))
+    assert _acknowledged(
+        page, lambda: page.mouse.click(box["x"] + box["width"] * 0.55, box["y"] + box["height"] * 0.35)
+    )
     _summary_text(page).wait_for(timeout=budget_ms(60))
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))
     assert _acknowledged(page, page.get_by_role("button", name="colour", exact=True).click)
@@ -449,11 +471,9 @@ def test_a_click_is_acknowledged_at_once_and_cleared_by_the_answer(page, server)
     assert _acknowledged(page, page.locator("button", has_text="Run selected scene").click)
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     select = page.locator("select").filter(has_text="synchronous hopping")
-    assert _acknowledged(page, lambda: select.select_option(
-        label="3: contact, no drift"))
+    assert _acknowledged(page, lambda: select.select_option(label="3: contact, no drift"))
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(60))
     page.get_by_text("Downloads", exact=True).click()
     with page.expect_download(timeout=budget_ms(60)):
-        assert _acknowledged(page, page.locator(".vt-data-run-csv").locator("button, a")
-                             .first.click)
+        assert _acknowledged(page, page.locator(".vt-data-run-csv").locator("button, a").first.click)
     page.wait_for_function(f"() => !({_ACK_JS})()", timeout=budget_ms(30))

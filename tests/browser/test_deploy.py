@@ -8,6 +8,7 @@ come from 127.0.0.1, as visitors behind one NAT) spread over the workers;
 a returning visitor gets its worker again; a foreign Origin is refused;
 the launcher stops every process it started.  Needs nginx (`make proxy`
 installs it, as `make test` does)."""
+
 import asyncio
 import http.server
 import os
@@ -33,11 +34,14 @@ from devtools.protoclient import ProtocolSession
 
 ROOT = Path(__file__).resolve().parents[2]
 # the server settings as shipped, not the caller's (conftest.SERVER_ENV_UNSET)
-ENV = {k: v for k, v in os.environ.items()
-       if k not in ("VIBTRANS_ALLOWED_ORIGINS", "PYTHONMALLOC", "BOKEH_ALLOW_WS_ORIGIN")}
-TIMEOUT = budget(180)        # page loads and clicks on a loaded 2-core machine
+ENV = {
+    k: v
+    for k, v in os.environ.items()
+    if k not in ("VIBTRANS_ALLOWED_ORIGINS", "PYTHONMALLOC", "BOKEH_ALLOW_WS_ORIGIN")
+}
+TIMEOUT = budget(180)  # page loads and clicks on a loaded 2-core machine
 
-pytestmark = pytest.mark.server      # starts `vibtrans serve`; needs nginx (make test)
+pytestmark = pytest.mark.server  # starts `vibtrans serve`; needs nginx (make test)
 
 
 def _nginx():
@@ -60,6 +64,7 @@ def proxied():
         def kernels_ready():
             assert d.exited() is None, d.exited()
             return all("kernels ready" in Path(p).read_text(errors="replace") for p in d.logs)
+
         wait_until(kernels_ready, 300, "the workers' kernels")
         yield d
     finally:
@@ -73,6 +78,7 @@ def _visit(url, cookies=None, click=True):
     """One visitor through the proxy: load the page, open its websocket
     session, click the map once (when click); returns (the session's
     cookies, the click's outcome or None)."""
+
     async def go():
         s = ProtocolSession(url, timeout=TIMEOUT, cookies=cookies)
         try:
@@ -81,6 +87,7 @@ def _visit(url, cookies=None, click=True):
             return dict(s.cookies), outcome
         finally:
             s.close()
+
     return asyncio.run(go())
 
 
@@ -94,7 +101,7 @@ def _visit_logged(d, cookies=None, click=True, timeout=60):
     try:
         wait_until(lambda: any(r["path"] == "/ws" for r in d.requests()[before:]), timeout)
     except AssertionError:
-        pass                     # the caller's checks say what is missing
+        pass  # the caller's checks say what is missing
     out = {}
     for r in d.requests()[before:]:
         out.setdefault(r["path"], set()).add(r["upstream"])
@@ -118,20 +125,27 @@ def test_the_configuration_is_valid_nginx(tmp_path):
     upstream = re.search(r"upstream vibtrans \{(.*?)\n    \}", text, re.S).group(1)
     directives = [ln.split("#")[0].strip() for ln in upstream.splitlines()]
     directives = [d for d in directives if d]
-    assert directives == ["least_conn;",
-                          *(f"server 127.0.0.1:{p} max_fails=0;" for p in (7001, 7002, 7003))]
+    assert directives == ["least_conn;", *(f"server 127.0.0.1:{p} max_fails=0;" for p in (7001, 7002, 7003))]
     routes = re.search(r"map \$cookie_vtworker \$vtbackend \{(.*?)\n    \}", text, re.S).group(1)
     entries = [ln.split("#")[0].split() for ln in routes.splitlines()]
-    assert [e for e in entries if e] == [["default", "vibtrans;"], ["w0", "vt_w0;"],
-                                         ["w1", "vt_w1;"], ["w2", "vt_w2;"]]
-    checked = subprocess.run([nginx, "-t", "-p", str(tmp_path), "-c", str(conf),
-                              "-e", str(tmp_path / "error.log")],
-                             capture_output=True, text=True, timeout=budget(30))
+    assert [e for e in entries if e] == [
+        ["default", "vibtrans;"],
+        ["w0", "vt_w0;"],
+        ["w1", "vt_w1;"],
+        ["w2", "vt_w2;"],
+    ]
+    checked = subprocess.run(
+        [nginx, "-t", "-p", str(tmp_path), "-c", str(conf), "-e", str(tmp_path / "error.log")],
+        capture_output=True,
+        text=True,
+        timeout=budget(30),
+    )
     assert checked.returncode == 0, checked.stderr
 
 
 class _Backend(http.server.BaseHTTPRequestHandler):
     """A stand-in worker: answers every GET with its own port."""
+
     def do_GET(self):
         body = str(self.server.server_address[1]).encode()
         self.send_response(200)
@@ -154,20 +168,26 @@ def routing():
     for th in threads:
         th.start()
     prefix = tempfile.mkdtemp(prefix="vibtrans-test-routing-")
-    os.chmod(prefix, 0o755)             # nginx's workers run as nobody
+    os.chmod(prefix, 0o755)  # nginx's workers run as nobody
     Path(prefix, "tmp").mkdir()
     port = deploy.free_port()
     conf = Path(prefix, "nginx.conf")
-    conf.write_text(deploy.render_config(prefix, f"127.0.0.1:{port}",
-                                         [b.server_address[1] for b in backends]))
-    proc = subprocess.Popen([nginx, "-p", prefix, "-c", str(conf), "-e", f"{prefix}/error.log"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    conf.write_text(
+        deploy.render_config(prefix, f"127.0.0.1:{port}", [b.server_address[1] for b in backends])
+    )
+    proc = subprocess.Popen(
+        [nginx, "-p", prefix, "-c", str(conf), "-e", f"{prefix}/error.log"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
 
     def get(cookie=None):
-        req = urllib.request.Request(f"http://127.0.0.1:{port}/",
-                                     headers={"Cookie": cookie} if cookie else {})
+        req = urllib.request.Request(
+            f"http://127.0.0.1:{port}/", headers={"Cookie": cookie} if cookie else {}
+        )
         with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
             return int(r.read()), r.headers.get("Set-Cookie")
+
     def listening():
         try:
             get()
@@ -175,6 +195,7 @@ def routing():
         except OSError:
             assert proc.poll() is None, proc.stderr.read().decode()
             return False
+
     try:
         wait_until(listening, budget(30), "nginx listening")
         yield get, backends
@@ -242,10 +263,10 @@ def test_a_session_works_through_the_proxy_and_stays_on_its_worker(proxied):
     wait_until(lambda: len(proxied.requests()) != logged, budget(30), "the page's request logged")
     assert cookie.startswith(f"{deploy.ROUTE_COOKIE}=w")
     assert "HttpOnly" in cookie and "SameSite=Lax" in cookie and "Path=/" in cookie
-    assert "Secure" not in cookie           # plain http here; set under https only
+    assert "Secure" not in cookie  # plain http here; set under https only
 
     cookies, outcome, routes = _visit_logged(proxied)
-    assert outcome == "done"                # the click's run came back over the websocket
+    assert outcome == "done"  # the click's run came back over the websocket
     assert set(routes) == {"/", "/ws"}, routes
     # page and websocket together, on the worker the cookie names
     assert routes["/"] | routes["/ws"] == {_address(proxied, cookies[deploy.ROUTE_COOKIE])}, routes
@@ -261,6 +282,7 @@ def test_visitors_from_one_address_split_evenly_and_return_to_their_worker(proxi
     and stay (their websockets open): least connections gives each worker
     two.  Each page's websocket reaches its page's worker; a returning
     visitor (its cookie) gets its worker again."""
+
     async def arrive(n):
         sessions = []
         try:
@@ -272,13 +294,17 @@ def test_visitors_from_one_address_split_evenly_and_return_to_their_worker(proxi
         finally:
             for s in sessions:
                 s.close()
+
     before = len(proxied.requests())
     names = asyncio.run(arrive(4))
     assert sorted(names) == ["w0", "w0", "w1", "w1"], names
-    wait_until(lambda: sum(r["path"] == "/ws" for r in proxied.requests()[before:]) >= 4, 60,
-               "the visitors' websockets logged")
+    wait_until(
+        lambda: sum(r["path"] == "/ws" for r in proxied.requests()[before:]) >= 4,
+        60,
+        "the visitors' websockets logged",
+    )
     for r in proxied.requests()[before:]:
-        if r["path"] == "/ws":           # each websocket carries its page's cookie
+        if r["path"] == "/ws":  # each websocket carries its page's cookie
             assert r["upstream"] == _address(proxied, r["worker"]), r
     cookies = {deploy.ROUTE_COOKIE: "w1"}
     again, _, routes = _visit_logged(proxied, cookies=cookies, click=False)
@@ -295,15 +321,18 @@ def test_a_foreign_origin_is_refused_through_the_proxy(proxied):
         token = r.read().decode().split('"token":"')[1].split('"')[0]
 
     async def connect(origin):
-        req = HTTPRequest(proxied.url.replace("http", "ws") + "ws",
-                          headers={"Origin": origin, "Cookie": cookie}, request_timeout=TIMEOUT)
+        req = HTTPRequest(
+            proxied.url.replace("http", "ws") + "ws",
+            headers={"Origin": origin, "Cookie": cookie},
+            request_timeout=TIMEOUT,
+        )
         conn = await websocket_connect(req, subprotocols=["bokeh", token])
         conn.close()
 
     with pytest.raises(HTTPClientError) as refused:
         asyncio.run(connect("http://evil.example.org"))
     assert refused.value.code == 403
-    asyncio.run(connect(proxied.url.rstrip("/")))             # the proxy's own: accepted
+    asyncio.run(connect(proxied.url.rstrip("/")))  # the proxy's own: accepted
 
 
 @pytest.mark.slow
@@ -314,13 +343,19 @@ def test_the_launcher_serves_and_stops_everything(tmp_path):
     _nginx()
     port = deploy.free_port()
     log = open(tmp_path / "deploy.log", "wb")
-    proc = subprocess.Popen([sys.executable, "-m", "devtools.deploy", "--workers", "1",
-                             "--port", str(port)], cwd=ROOT, env=ENV, stdout=log,
-                            stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "devtools.deploy", "--workers", "1", "--port", str(port)],
+        cwd=ROOT,
+        env=ENV,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
     try:
+
         def launched():
             assert proc.poll() is None, (tmp_path / "deploy.log").read_text()
             return b"Ctrl-C stops" in (tmp_path / "deploy.log").read_bytes()
+
         wait_until(launched, 300, "the launcher ready")
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=TIMEOUT) as r:
             assert r.status == 200 and b"token" in r.read()
@@ -358,8 +393,9 @@ def test_serve_hands_use_xheaders_to_bokeh(monkeypatch):
     def fake_serve(*args, **kwargs):
         given.append(kwargs.get("use_xheaders"))
         raise _Served
+
     monkeypatch.setattr(panel, "serve", fake_serve)
-    monkeypatch.setattr(server, "_freeze", lambda: None)     # not in the test process
+    monkeypatch.setattr(server, "_freeze", lambda: None)  # not in the test process
     for argv, expected in ((["serve", "--use-xheaders"], True), (["serve"], False)):
         with pytest.raises(_Served):
             server.serve(build_parser().parse_args(argv))

@@ -2,6 +2,7 @@
 1280 x 800: opened, the paper preset's chart drawn and shown with its
 chart-wide notes and downloads, a click on it moving the device, a custom
 substrate's field shown.  Screenshots go to test-artifacts/."""
+
 from pathlib import Path
 
 import pytest
@@ -52,8 +53,15 @@ def _open_design(page, url):
 def _small_chart_offer(page, draw, **fields):
     """A 3 x 3 chart over 1e5-1.2e5 Hz and 1e-8-1.2e-8 m (with `fields`
     typed first), Draw pressed: the map-on-demand offer's pane."""
-    for name, value in (*fields.items(), ("x_lo", "1e5"), ("x_hi", "1.2e5"), ("x_points", "3"),
-                        ("y_lo", "1e-8"), ("y_hi", "1.2e-8"), ("y_points", "3")):
+    for name, value in (
+        *fields.items(),
+        ("x_lo", "1e5"),
+        ("x_hi", "1.2e5"),
+        ("x_points", "3"),
+        ("y_lo", "1e-8"),
+        ("y_hi", "1.2e-8"),
+        ("y_points", "3"),
+    ):
         field = page.locator(f".vt-design-fields .vt-field-{name} input").first
         field.fill(value)
         field.press("Enter")
@@ -62,8 +70,7 @@ def _small_chart_offer(page, draw, **fields):
     return page.locator(".vt-design-offer").first
 
 
-@pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)],
-                         ids=["1280x800", "1920x1080"])
+@pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)], ids=["1280x800", "1920x1080"])
 def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, height):
     page, errors = new_page(browser, width, height)
     try:
@@ -92,7 +99,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         _shot(page, "notes")
         page.locator(".vt-design-downloads").first.scroll_into_view_if_needed()
         _shot(page, "downloads")
-        with page.expect_download(timeout=budget_ms(60)) as got:         # the figure, as a browser gets it
+        with page.expect_download(timeout=budget_ms(60)) as got:  # the figure, as a browser gets it
             png.click()
         assert Path(got.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert got.value.suggested_filename == "vibtrans-design.png"
@@ -101,8 +108,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         # a click inside the plot moves the device
         shown = _device(page).all_inner_texts()
         page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.35)
-        expect(_device(page)).not_to_have_text(shown, use_inner_text=True,
-                                               timeout=budget_ms(20))
+        expect(_device(page)).not_to_have_text(shown, use_inner_text=True, timeout=budget_ms(20))
         assert _device_text(page) != before
         _shot(page, "clicked")
         # a custom substrate: its text field appears beside the materials
@@ -122,8 +128,7 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
     assert not errors, errors
 
 
-def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
-                                                                        served_explorer):
+def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser, served_explorer):
     """At 1024 x 768: mu 0.5 has no shipped map; the map the chart needs
     is offered with its cost, computed on a click, the chart drawn on it;
     a click on the chart runs the device's scene, given in SI units."""
@@ -136,20 +141,19 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
         offer.scroll_into_view_if_needed()
         _shot(page, "offer")
         page.get_by_role("button", name="Compute this map").first.click()
-        page.locator(".vt-design-progress").first.get_by_text(
-            "The chart's map is finished").first.wait_for(timeout=budget_ms(180))
+        page.locator(".vt-design-progress").first.get_by_text("The chart's map is finished").first.wait_for(
+            timeout=budget_ms(180)
+        )
         chart = page.locator(".vt-design-chart canvas").first
         chart.wait_for(timeout=budget_ms(30))
         chart.scroll_into_view_if_needed()
         titles = page.evaluate(_TITLES_JS)
         assert any("steel on glass" in t for t in titles), titles
-        assert "computed on this server" in " ".join(
-            page.locator(".vt-design-status p").all_inner_texts())
+        assert "computed on this server" in " ".join(page.locator(".vt-design-status p").all_inner_texts())
         _shot(page, "computed")
         box = chart.bounding_box()
         page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
-        page.get_by_text("(the device of the Units and Design tabs)").first.wait_for(
-            timeout=budget_ms(120))
+        page.get_by_text("(the device of the Units and Design tabs)").first.wait_for(timeout=budget_ms(120))
         _shot(page, "device-run")
     except Exception:
         ARTIFACTS.mkdir(exist_ok=True)
@@ -162,10 +166,8 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser,
     assert not errors, errors
 
 
-@pytest.mark.parametrize("width, height", [(1024, 768), (1920, 1080)],
-                         ids=["1024x768", "1920x1080"])
-def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explorer, width,
-                                                           height):
+@pytest.mark.parametrize("width, height", [(1024, 768), (1920, 1080)], ids=["1024x768", "1920x1080"])
+def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explorer, width, height):
     """The particle's tip chosen on the Design tab (a 60-degree
     cone): only its half-angle field shown; no shipped map serves it (the
     sphere's), the reason said; the cone's map computed (the second size
@@ -183,19 +185,20 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
         angle.fill("95")
         angle.press("Enter")
         page.locator(".vt-error-tip_half_angle").get_by_text(
-            "half_angle must be a real number in (0, 90) degrees").first.wait_for(
-                timeout=budget_ms(30))
+            "half_angle must be a real number in (0, 90) degrees"
+        ).first.wait_for(timeout=budget_ms(30))
         angle.fill("60")
         angle.press("Enter")
         offer = _small_chart_offer(page, draw)
-        offer.get_by_text("the shipped maps are the sphere's").first.wait_for(
-            timeout=budget_ms(60))
+        offer.get_by_text("the shipped maps are the sphere's").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("cone (half-angle 60 deg), runs the normalized profile").first.wait_for(
-            timeout=budget_ms(30))
+            timeout=budget_ms(30)
+        )
         page.get_by_role("button", name="Compute this map").first.click()
-        page.locator(".vt-design-progress").first.get_by_text(
-            "The chart's map").first.wait_for(timeout=budget_ms(240))
+        page.locator(".vt-design-progress").first.get_by_text("The chart's map").first.wait_for(
+            timeout=budget_ms(240)
+        )
         chart = page.locator(".vt-design-chart canvas").first
         chart.wait_for(timeout=budget_ms(30))
         text = _device_text(page)

@@ -5,6 +5,7 @@ run it names shows its section and orbit diagram in the Dynamics tab, with
 no sideways scrolling; a click on the section starts a second orbit in a
 new colour.  Screenshots go to
 test-artifacts/dynamics-WxH.png (look at them)."""
+
 from pathlib import Path
 from urllib.parse import quote
 
@@ -56,25 +57,31 @@ _STATE_JS = """(scroll) => {
 def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height):
     page, errors = new_page(browser, width, height)
     try:
-        open_explorer(page, f"{served_explorer.url}?la=0.25&lm=0.8&layer={quote('Lyapunov exponent')}"
-                  f"&orbits={quote('period-1 orbit curves')}")
-        page.wait_for_function(f"() => ({_STATE_JS})().bars.some((t) => t && "
-                               "t.startsWith('Lyapunov exponent'))", timeout=budget_ms(60))
+        open_explorer(
+            page,
+            f"{served_explorer.url}?la=0.25&lm=0.8&layer={quote('Lyapunov exponent')}"
+            f"&orbits={quote('period-1 orbit curves')}",
+        )
+        page.wait_for_function(
+            f"() => ({_STATE_JS})().bars.some((t) => t && t.startsWith('Lyapunov exponent'))",
+            timeout=budget_ms(60),
+        )
         page.get_by_text("Dynamics", exact=True).first.click()
         page.wait_for_function(f"() => ({_STATE_JS})().points > 100", timeout=budget_ms(120))
-        page.wait_for_function(f"() => ({_STATE_JS})().section !== null && "
-                               f"({_STATE_JS})().diagram !== null", timeout=budget_ms(60))
+        page.wait_for_function(
+            f"() => ({_STATE_JS})().section !== null && ({_STATE_JS})().diagram !== null",
+            timeout=budget_ms(60),
+        )
         s = page.evaluate(_STATE_JS)
         assert s["scroll_width"] <= s["width"], s
-        for fig in ("section", "diagram"):       # neither cut off at the right
+        for fig in ("section", "diagram"):  # neither cut off at the right
             assert s[fig]["left"] >= -1 and s[fig]["right"] <= s["width"] + 1, (fig, s)
         assert len(s["colours"]) == 1
-        page.evaluate(_STATE_JS, True)           # the section into the viewport
-        steady(page)                             # scrolled, laid out
+        page.evaluate(_STATE_JS, True)  # the section into the viewport
+        steady(page)  # scrolled, laid out
         box = page.evaluate(_STATE_JS)["section"]
         assert 0 <= box["top"] and box["bottom"] <= height, box
-        page.mouse.click((box["left"] + box["right"]) / 2 + 40,
-                         (box["top"] + box["bottom"]) / 2 + 20)
+        page.mouse.click((box["left"] + box["right"]) / 2 + 40, (box["top"] + box["bottom"]) / 2 + 20)
         page.wait_for_function(f"() => ({_STATE_JS})().colours.length === 2", timeout=budget_ms(120))
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / f"dynamics-{width}x{height}.png"))
@@ -87,7 +94,6 @@ def test_lyapunov_layer_and_dynamics_tab(browser, served_explorer, width, height
     finally:
         page.close()
     assert not errors, errors
-
 
 
 def test_the_dynamics_tab_opened_before_its_run_ends_shows_the_section(browser, served_explorer):
@@ -104,8 +110,7 @@ def test_the_dynamics_tab_opened_before_its_run_ends_shows_the_section(browser, 
             page.wait_for_selector("canvas", timeout=budget_ms(60))
             page.get_by_text("Dynamics", exact=True).first.click()
             page.wait_for_function(f"() => ({_STATE_JS})().points > 100", timeout=budget_ms(120))
-            page.wait_for_function(f"() => ({_STATE_JS})().section !== null",
-                                   timeout=budget_ms(60))
+            page.wait_for_function(f"() => ({_STATE_JS})().section !== null", timeout=budget_ms(60))
         finally:
             page.close()
         assert not errors, errors

@@ -6,6 +6,7 @@ fields, the selectors, the map's marker and the run's heading show one
 scene; and that the server logged no error meanwhile (a failed callback,
 Bokeh's `_pending_writes`).  STEPS and SEED: VIBTRANS_TWIN_STEPS,
 VIBTRANS_TWIN_SEED."""
+
 import json
 import os
 import random
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.browser
 
 STEPS = int(os.environ.get("VIBTRANS_TWIN_STEPS", 200))
 SEED = int(os.environ.get("VIBTRANS_TWIN_SEED", 32))
-SETTLE_S = 15.0          # the longest a step's answer may take, idle (scaled by budget())
+SETTLE_S = 15.0  # the longest a step's answer may take, idle (scaled by budget())
 SERVER_ERRORS = ("Traceback", "ERROR", "_pending_writes")
 
 # the page's view of the scene: URL, fields, selectors, marker sources, heading
@@ -87,7 +88,7 @@ def _consistent(page_state):
     for name, value, error in (("la", la, "la_error"), ("lm", lm, "lm_error")):
         text = page_state[name]
         if page_state[error]:
-            continue            # an invalid text, said under the field
+            continue  # an invalid text, said under the field
         try:
             if float(text) != value:
                 return f"field {name} {text!r} != URL {value!r}"
@@ -109,8 +110,7 @@ def _settled(page, deadline):
     text = read(page, _PAGE_JS)
     while True:
         got = json.loads(text)
-        problem = (f"the server has not answered ({got['ack']!r} shown)" if got["ack"]
-                   else _consistent(got))
+        problem = f"the server has not answered ({got['ack']!r} shown)" if got["ack"] else _consistent(got)
         if problem is None:
             return got
         left = deadline - time.monotonic()
@@ -131,7 +131,7 @@ def _map_box(page):
         box = canvas.bounding_box()
         if box is not None and box["width"] > 0:
             return box
-        frames(page)                 # laid out again
+        frames(page)  # laid out again
     raise AssertionError("the map's canvas was never on screen for a click")
 
 
@@ -152,16 +152,20 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
         _settled(page, time.monotonic() + budget(60))
         done = []
         for _ in range(STEPS):
-            kind = rng.choice(["click", "click", "type", "type", "bad", "mu", "model",
-                               "point", "run"])
+            kind = rng.choice(["click", "click", "type", "type", "bad", "mu", "model", "point", "run"])
             if kind == "click":
                 box = _map_box(page)
-                page.mouse.click(box["x"] + box["width"] * rng.uniform(0.25, 0.75),
-                                 box["y"] + box["height"] * rng.uniform(0.25, 0.75))
+                page.mouse.click(
+                    box["x"] + box["width"] * rng.uniform(0.25, 0.75),
+                    box["y"] + box["height"] * rng.uniform(0.25, 0.75),
+                )
             elif kind in ("type", "bad"):
                 name = rng.choice(["log_amplitude", "log_mass"])
-                text = (f"{rng.uniform(-1, 2):.3f}" if kind == "type"
-                        else rng.choice(["abc", "", "99", "1e400", "nan"]))
+                text = (
+                    f"{rng.uniform(-1, 2):.3f}"
+                    if kind == "type"
+                    else rng.choice(["abc", "", "99", "1e400", "nan"])
+                )
                 field = page.locator(f".vt-field-{name} input")
                 field.fill(text)
                 field.press("Enter")
@@ -169,12 +173,12 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
                 options = page.locator(".vt-mu select option").all_text_contents()
                 page.locator(".vt-mu select").select_option(rng.choice(options))
             elif kind == "model":
-                page.locator(".vt-ack-draw button", has_text=rng.choice(
-                    ["deformable", "point-mass"])).first.click()
+                page.locator(
+                    ".vt-ack-draw button", has_text=rng.choice(["deformable", "point-mass"])
+                ).first.click()
             elif kind == "point":
                 labels = page.locator(".vt-paper-points select option").all_text_contents()
-                page.locator(".vt-paper-points select").select_option(
-                    label=rng.choice(labels[1:]))
+                page.locator(".vt-paper-points select").select_option(label=rng.choice(labels[1:]))
             else:
                 page.locator("button", has_text="Run selected scene").click()
             done.append(kind)
@@ -188,7 +192,7 @@ def test_a_random_walk_keeps_one_scene(served_explorer):
     lines = log.splitlines()
     bad = [k for k, line in enumerate(lines) if any(e in line for e in SERVER_ERRORS)]
     # each error with the lines after it: the traceback whole
-    assert not bad, "\n---\n".join("\n".join(lines[k:k + 40]) for k in bad[:3])
+    assert not bad, "\n---\n".join("\n".join(lines[k : k + 40]) for k in bad[:3])
     assert len(done) == STEPS
 
 
@@ -200,8 +204,9 @@ def _at(page, la):
     got = _settled(page, deadline)
     while float(_query(got["search"])["la"]) != la:
         assert time.monotonic() < deadline, f"the address stays at {got['search']!r}"
-        page.wait_for_function("(s) => window.location.search !== s", arg=got["search"],
-                               timeout=budget_ms(60))
+        page.wait_for_function(
+            "(s) => window.location.search !== s", arg=got["search"], timeout=budget_ms(60)
+        )
         got = _settled(page, deadline)
     return got
 
@@ -209,8 +214,7 @@ def _at(page, la):
 def _shows_run(page, amplitude):
     """Wait until the summary is of a run at A* = `amplitude` (its heading)
     and no stale note says the form has changed since."""
-    page.locator("strong", has_text=f"A* = {amplitude}, m* = ").first.wait_for(
-        timeout=budget_ms(120))
+    page.locator("strong", has_text=f"A* = {amplitude}, m* = ").first.wait_for(timeout=budget_ms(120))
     page.locator(".vt-stale").first.wait_for(state="hidden", timeout=budget_ms(30))
 
 
@@ -223,13 +227,13 @@ def test_back_forward_and_reload_restore_the_scene_of_the_address(browser, serve
     page, errors = new_page(browser, 1280, 800)
     open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview&compare=none")
     _at(page, -0.3)
-    _shows_run(page, "0.5012")                  # scene A, run by its link
+    _shows_run(page, "0.5012")  # scene A, run by its link
     field = page.locator(".vt-field-log_amplitude input")
     field.fill("0.5")
     field.press("Enter")
     _at(page, 0.5)
     page.locator("button", has_text="Run selected scene").click()
-    _shows_run(page, "3.162")                   # scene B
+    _shows_run(page, "3.162")  # scene B
     entries = page.evaluate("() => history.length")
     page.go_back()
     a = _at(page, -0.3)
@@ -252,8 +256,7 @@ def test_a_link_with_an_error_stays_in_the_address_until_a_change(browser, serve
     was wrong in it); the first change writes the state's address."""
     page, errors = new_page(browser, 1280, 800)
     open_explorer(page, served_explorer.url + "?la=abc&mu=0.3")
-    page.get_by_text("URL parameter 'la' (log_amplitude) must be").first.wait_for(
-        timeout=budget_ms(60))
+    page.get_by_text("URL parameter 'la' (log_amplitude) must be").first.wait_for(timeout=budget_ms(60))
     # a round trip to the server after the page connected (its text added
     # when the introduction first opens): any rewrite of the address is in
     page.get_by_text("What is this? (a short introduction)").first.click()
@@ -261,8 +264,7 @@ def test_a_link_with_an_error_stays_in_the_address_until_a_change(browser, serve
     settle(page)
     assert page.evaluate("() => window.location.search") == "?la=abc&mu=0.3"
     page.locator(".vt-mu select").select_option("0.1")
-    page.wait_for_function("() => window.location.search.includes('mu=0.1')",
-                           timeout=budget_ms(60))
+    page.wait_for_function("() => window.location.search.includes('mu=0.1')", timeout=budget_ms(60))
     # (the page has run nothing: its paper-point list names none, which the
     # random walk's agreement check would take for point 1's disagreement)
     search = page.evaluate("() => window.location.search")

@@ -1,5 +1,6 @@
 """What a first look at the page finds, each replayed in chromium: the page
 as a newcomer sees it (legends, titles, sizes at 1024x768)."""
+
 import re
 from pathlib import Path
 
@@ -39,11 +40,15 @@ def test_both_models_click_names_both_lines_of_the_x_legend(browser, served_expl
     """'both models', a scene at (0.5, 1.5): the x*(t) legend named its two
     lines 'Invalid field' (a label set as a column name)."""
     page, errors = new_page(browser, 1280, 800)
-    open_explorer(page, served_explorer.url
-                  + "?la=0.5&lm=1.5&maps=both%20models&compare=point%20mass&fidelity=preview")
+    open_explorer(
+        page, served_explorer.url + "?la=0.5&lm=1.5&maps=both%20models&compare=point%20mass&fidelity=preview"
+    )
     page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
-    page.wait_for_function("""() => (%s)().some(l => l[1].startsWith("x*, point mass"))"""
-                           % _LEGEND_LABELS_JS, timeout=budget_ms(30), polling=250)
+    page.wait_for_function(
+        """() => (%s)().some(l => l[1].startsWith("x*, point mass"))""" % _LEGEND_LABELS_JS,
+        timeout=budget_ms(30),
+        polling=250,
+    )
     labels = page.evaluate(_LEGEND_LABELS_JS)
     page.close()
     assert not [l for l in labels if l[0] == "field"], labels
@@ -68,20 +73,23 @@ def test_the_animation_player_fits_at_1024(browser, served_explorer):
         el.scroll_into_view_if_needed()
         box = el.bounding_box()
         assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 1024, box
-    assert window.input_value() == "the last periods at full resolution"   # (not blank)
+    assert window.input_value() == "the last periods at full resolution"  # (not blank)
     # every line of the figures' titles and notes within its figure's frame:
     # the contact's title ("from above: c = ..., s = ...") and the side
     # view's "Not to scale: ..." note were cut at 1024
-    page.wait_for_function("""() => (%s)().some(f => f.name === "anim-circle"
+    page.wait_for_function(
+        """() => (%s)().some(f => f.name === "anim-circle"
                                && f.lines.some(l => l[0].startsWith("from above")))"""
-                           % _ANIMATION_TEXTS_JS, timeout=budget_ms(30), polling=250)
+        % _ANIMATION_TEXTS_JS,
+        timeout=budget_ms(30),
+        polling=250,
+    )
     settle(page)
     figures = page.evaluate(_ANIMATION_TEXTS_JS)
     page.close()
     assert sorted(f["name"] for f in figures) == ["anim-circle", "anim-side"], figures
     for fig in figures:
-        assert any(l.startswith("Not to scale") for l, _ in fig["lines"]) or \
-            fig["name"] == "anim-circle", fig
+        assert any(l.startswith("Not to scale") for l, _ in fig["lines"]) or fig["name"] == "anim-circle", fig
         for line, line_width in fig["lines"]:
             assert line_width <= fig["frame_width"], (line, line_width, fig)
     assert not errors, errors
@@ -145,9 +153,13 @@ def test_the_memory_figures_and_their_titles_fit(browser, served_explorer, width
     open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
     page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
     page.get_by_text("Memory diagram", exact=True).first.click()
-    page.wait_for_function("""() => (%s)().some(f => f.title.startsWith(
-                               "memory diagram w(h)\\nt* ="))""" % _MEMORY_FIGURES_JS,
-                           timeout=budget_ms(60), polling=250)
+    page.wait_for_function(
+        """() => (%s)().some(f => f.title.startsWith(
+                               "memory diagram w(h)\\nt* ="))"""
+        % _MEMORY_FIGURES_JS,
+        timeout=budget_ms(60),
+        polling=250,
+    )
     settle(page)
     figures = page.evaluate(_MEMORY_FIGURES_JS)
     page_width = page.evaluate("() => document.documentElement.clientWidth")
@@ -157,7 +169,7 @@ def test_the_memory_figures_and_their_titles_fit(browser, served_explorer, width
         assert fig["left"] >= 0 and fig["right"] <= page_width, (page_width, fig)
         for line, line_width in fig["lines"]:
             assert line_width <= fig["frame_width"], (line, line_width, fig)
-    circle, = [f for f in figures if f["title"].startswith("contact")]
+    (circle,) = [f for f in figures if f["title"].startswith("contact")]
     assert abs(circle["frame_width"] - circle["frame_height"]) <= 1, circle
     assert not errors, errors
 
@@ -297,12 +309,19 @@ _PLOT_SHOWN_JS = """(start) => {
 }"""
 # what each tab shows once its content has come from the server: the
 # start of a plot's title, or a text
-TAB_READY = {"Map": ("plot", "<v*> over"), "Vertical": ("plot", "Jumping threshold"),
-             "Units": ("text", "Device in SI units"), "Map on demand": ("text", "Compute map"),
-             "Difference": ("text", "Show the difference"), "Design": ("text", "Draw chart"),
-             "Trajectory": ("plot", "normal:"), "Animation": ("plot", "t* = "),
-             "Memory diagram": ("plot", "memory diagram w(h)\nt* = "),
-             "Downloads": ("text", "trajectory .png"), "Dynamics": ("plot", "stroboscopic section")}
+TAB_READY = {
+    "Map": ("plot", "<v*> over"),
+    "Vertical": ("plot", "Jumping threshold"),
+    "Units": ("text", "Device in SI units"),
+    "Map on demand": ("text", "Compute map"),
+    "Difference": ("text", "Show the difference"),
+    "Design": ("text", "Draw chart"),
+    "Trajectory": ("plot", "normal:"),
+    "Animation": ("plot", "t* = "),
+    "Memory diagram": ("plot", "memory diagram w(h)\nt* = "),
+    "Downloads": ("text", "trajectory .png"),
+    "Dynamics": ("plot", "stroboscopic section"),
+}
 
 
 def open_tab(page, name, ready=None):
@@ -327,12 +346,10 @@ def _fill_tab(page, name):
     chart."""
     if name == "Difference":
         page.get_by_role("button", name="Show the difference").first.click()
-        page.locator(".vt-diff-summary").get_by_text(re.compile(".")).first.wait_for(
-            timeout=budget_ms(120))
+        page.locator(".vt-diff-summary").get_by_text(re.compile(".")).first.wait_for(timeout=budget_ms(120))
     elif name == "Design":
         page.get_by_role("button", name="Draw chart").first.click()
-        page.get_by_text("Click the chart to move the device").first.wait_for(
-            timeout=budget_ms(180))
+        page.get_by_text("Click the chart to move the device").first.wait_for(timeout=budget_ms(180))
     settle(page)
 
 
@@ -343,8 +360,11 @@ def presentation_on(page):
     tab = page.locator(".bk-tab").first
     before = tab.evaluate("(e) => parseFloat(getComputedStyle(e).fontSize)")
     page.locator(".vt-presentation").first.locator("button").first.click()
-    page.wait_for_function("([e, px]) => parseFloat(getComputedStyle(e).fontSize) > 1.4 * px",
-                           arg=[tab.element_handle(), before], timeout=budget_ms(30))
+    page.wait_for_function(
+        "([e, px]) => parseFloat(getComputedStyle(e).fontSize) > 1.4 * px",
+        arg=[tab.element_handle(), before],
+        timeout=budget_ms(30),
+    )
     settle(page)
 
 
@@ -353,8 +373,7 @@ SCREENS = [(1024, 768), (1280, 800), (1920, 1080)]
 
 @pytest.mark.parametrize("presentation", [False, True], ids=["normal", "presentation"])
 @pytest.mark.parametrize("width,height", SCREENS, ids=[f"{w}x{h}" for w, h in SCREENS])
-def test_every_title_label_and_dropdown_fits(browser, served_explorer, width, height,
-                                              presentation):
+def test_every_title_label_and_dropdown_fits(browser, served_explorer, width, height, presentation):
     """Every tab of the map and of the run, after a run, in normal and
     presentation mode: no title, axis label, text in a figure or dropdown
     option is cut at its figure's frame or its box (`_TEXTS_JS`).  The
@@ -385,10 +404,12 @@ def test_every_title_label_and_dropdown_fits(browser, served_explorer, width, he
     # a hopping scene (paper point 4), in flight at its end: the memory
     # diagram's and the animation's words for a flight
     page.locator(".vt-paper-points select").select_option(index=4)
-    page.locator("strong", has_text="A* = 316.2, m* = 1,").first.wait_for(
-        timeout=budget_ms(120))
-    for name, ready in (("Memory diagram", "memory diagram w(h)\nt* = 2000, flight"),
-                        ("Animation", "t* = "), ("Trajectory", "normal:")):
+    page.locator("strong", has_text="A* = 316.2, m* = 1,").first.wait_for(timeout=budget_ms(120))
+    for name, ready in (
+        ("Memory diagram", "memory diagram w(h)\nt* = 2000, flight"),
+        ("Animation", "t* = "),
+        ("Trajectory", "normal:"),
+    ):
         open_tab(page, name, ready)
         check(name, None)
     page.close()

@@ -2,6 +2,7 @@
 map requested in its tab (its estimate shown first), drawn level by level
 in the map tab, clicked to run its scene, its link reopening it from the
 server's cache.  Screenshots at 1280 x 800 go to test-artifacts/."""
+
 from pathlib import Path
 
 import pytest
@@ -16,8 +17,16 @@ ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "test-artifacts"
 WIDTH, HEIGHT = 1280, 800
 # 9 x 9 points (2 coarse cells, K = 2), 100 periods at preview
-FIELDS = {"tau": "20", "periods": "100", "la_from": "-0.5", "la_to": "0.5",
-          "lm_from": "0", "lm_to": "1", "cells": "2", "levels": "2"}
+FIELDS = {
+    "tau": "20",
+    "periods": "100",
+    "la_from": "-0.5",
+    "la_to": "0.5",
+    "lm_from": "0",
+    "lm_to": "1",
+    "cells": "2",
+    "levels": "2",
+}
 
 # every text the page's models were given, recorded as the browser applies
 # the server's changes (the levels of a tiny map pass quickly)
@@ -58,7 +67,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         page.evaluate(_RECORD_JS)
         page.get_by_role("button", name="Compute map").first.click()
         page.get_by_text("Map finished:").first.wait_for(timeout=budget_ms(120))
-        steady(page)                             # the finished map drawn and laid out
+        steady(page)  # the finished map drawn and laid out
         _shot(page, "finished")
         texts = page.evaluate("() => window.__mapTexts")
         # the coarse grid's 3 x 3 points drawn first, then each level's
@@ -66,16 +75,14 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         assert any("Level 0 of 2 drawn: 9 of 81 points" in t for t in said), said
         assert any("Level 1 of 2 drawn" in t for t in said), said
         finished = next(t for t in said if "Map finished" in t)
-        computed = int(finished.split("Map finished:")[1].split(" of ")[0].strip()
-                       .replace(",", ""))
+        computed = int(finished.split("Map finished:")[1].split(" of ")[0].strip().replace(",", ""))
         assert 9 < computed <= 81
         # the link carries the request
         url = page.evaluate("() => window.location.href")
         request, problems = maprequest.decode(_query(url)["map"])
         assert problems == [] and request.points_per_axis() == 9
         assert (request.fidelity, request.periods, request.tau) == ("preview", 100.0, 20.0)
-        assert (request.la_from, request.la_to, request.lm_from, request.lm_to) == (
-            -0.5, 0.5, 0.0, 1.0)
+        assert (request.la_from, request.la_to, request.lm_from, request.lm_to) == (-0.5, 0.5, 0.0, 1.0)
         # a click on the map runs its scene, with the map's values
         canvas = page.locator("canvas").first
         box = canvas.bounding_box()
@@ -117,8 +124,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
         first = again.locator(".vt-diff-first select").first
         first.wait_for(timeout=budget_ms(30))
         assert first.input_value().startswith("map on demand:")
-        assert (again.locator(".vt-diff-second select").first.input_value()
-                == "deformable, mu = 0.3 (shipped)")
+        assert again.locator(".vt-diff-second select").first.input_value() == "deformable, mu = 0.3 (shipped)"
         again.get_by_role("button", name="Show the difference").first.click()
         again.get_by_text("points compared").first.wait_for(timeout=budget_ms(60))
         summary = again.get_by_text("points compared").first.inner_text()
@@ -135,6 +141,7 @@ def test_a_map_on_demand_is_drawn_by_levels_clicked_and_linked(browser, served_e
 
 def _query(url):
     from urllib.parse import parse_qs, urlsplit
+
     return {k: v[0] for k, v in parse_qs(urlsplit(url).query).items()}
 
 

@@ -4,6 +4,7 @@ and a typed time change the figures in the browser, and the time from the
 key press (or the click) to the new title in the page's Bokeh document is
 printed (the goal: click/scrub to drawn <= 0.5 s; tests assert behaviour,
 not wall-clock times).  A screenshot goes to test-artifacts/."""
+
 import socket
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -40,15 +41,22 @@ _CHANGED_JS = f"(before) => {{ const t = ({_TITLE_JS})(); return t !== null && t
 @pytest.fixture(scope="module")
 def served():
     pool = ThreadPoolExecutor(2)
-    memory_snapshot(SCENE, 1.0)             # kernels loaded before the page asks
+    memory_snapshot(SCENE, 1.0)  # kernels loaded before the page asks
 
     def app():
         view = MemoryView(pool)
         pn.state.onload(lambda: view.set_run(SCENE, SCENE.periods))
         return view
+
     port = free_port()
-    server = pn.serve({"memory": app}, port=port, address="127.0.0.1", show=False,
-                      threaded=True, websocket_origin=[f"127.0.0.1:{port}"])
+    server = pn.serve(
+        {"memory": app},
+        port=port,
+        address="127.0.0.1",
+        show=False,
+        threaded=True,
+        websocket_origin=[f"127.0.0.1:{port}"],
+    )
     # ready once its port accepts a connection (the thread Panel returns
     # has no public "started" signal)
     wait_until(lambda: _accepts(port), budget(30), f"panel serve on port {port}")
@@ -82,24 +90,27 @@ def test_the_slider_and_a_typed_time_update_the_figures(served):
         page.on("pageerror", lambda e: errors.append(str(e)))
         page.goto(served)
         page.wait_for_function(f"() => ({_TITLE_JS})() !== null", timeout=budget_ms(60))
-        assert "t* = 200," in page.evaluate(_TITLE_JS)      # the run's end first
+        assert "t* = 200," in page.evaluate(_TITLE_JS)  # the run's end first
         handle = page.locator(".noUi-handle").first
         handle.focus()
         scrubs = []
         for _ in range(5):
             dt, title = _elapsed_until_changed(page, lambda: page.keyboard.press("ArrowLeft"))
             scrubs.append(dt)
-        assert "t* = 199.8" in title                       # five steps of 1/47 period back
+        assert "t* = 199.8" in title  # five steps of 1/47 period back
         field = page.locator("input[type=text]").first
         field.fill("123.45")
         field.press("Enter")
         # no wait: the typed time goes to the server before the click, on the
         # same websocket, and the server handles the two in that order
         dt_click, title = _elapsed_until_changed(
-            page, lambda: page.get_by_role("button", name="Show the memory diagram at t*").click())
+            page, lambda: page.get_by_role("button", name="Show the memory diagram at t*").click()
+        )
         assert "t* = 123.45" in title
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "memory_view.png"), full_page=True)
-    print(f"\nkey press to new title: {', '.join(f'{s * 1e3:.0f}' for s in scrubs)} ms; "
-          f"click to new title: {dt_click * 1e3:.0f} ms")
+    print(
+        f"\nkey press to new title: {', '.join(f'{s * 1e3:.0f}' for s in scrubs)} ms; "
+        f"click to new title: {dt_click * 1e3:.0f} ms"
+    )
     assert not errors, errors

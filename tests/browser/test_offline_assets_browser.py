@@ -4,6 +4,7 @@ The test records every request the page makes while every tab is opened
 and every button that builds something is pressed (a map on demand, the
 design charts, each download, presentation mode), and fails on any to
 another host."""
+
 import re
 from urllib.parse import urlsplit
 
@@ -21,8 +22,17 @@ RUN_TABS = ("Animation", "Memory diagram", "Downloads", "Dynamics", "Trajectory"
 
 
 # a tiny map on demand (tests/browser/test_map_request_browser.py's)
-MAP_FIELDS = {"tau": "20", "periods": "100", "la_from": "-0.5", "la_to": "0.5",
-              "lm_from": "0", "lm_to": "1", "cells": "2", "levels": "2"}
+MAP_FIELDS = {
+    "tau": "20",
+    "periods": "100",
+    "la_from": "-0.5",
+    "la_to": "0.5",
+    "lm_from": "0",
+    "lm_to": "1",
+    "cells": "2",
+    "levels": "2",
+}
+
 
 def _tab(page, name):
     """Open the tab `name` (of the map's or the run's tabs) and wait until it
@@ -71,7 +81,8 @@ def _every_action(page, url):
         _type(page, f".vt-field-{name} input", text)
     page.get_by_role("button", name="Compute map").first.click()
     page.locator(".vt-map-banner").get_by_text(
-        re.compile("Map finished|from this server's cache")).first.wait_for(timeout=budget_ms(240))
+        re.compile("Map finished|from this server's cache")
+    ).first.wait_for(timeout=budget_ms(240))
     _tab(page, "Map")
     _tab(page, "Map on demand")
     # a run, then each of its downloads and the map's
@@ -103,6 +114,7 @@ def test_every_request_goes_to_the_server(served_explorer):
             parts = urlsplit(request.url)
             if parts.scheme in ("http", "https", "ws", "wss") and parts.netloc != own:
                 elsewhere.append(request.url)
+
         page.on("request", seen)
         try:
             try:
@@ -114,7 +126,6 @@ def test_every_request_goes_to_the_server(served_explorer):
         finally:
             page.close()
             # offline, a page whose assets are elsewhere never loads: say why
-            assert not elsewhere, (f"requests to hosts other than {own}: "
-                                   f"{sorted(set(elsewhere))}")
+            assert not elsewhere, f"requests to hosts other than {own}: {sorted(set(elsewhere))}"
     assert not elsewhere, f"requests to hosts other than {own}: {sorted(set(elsewhere))}"
     assert not errors, errors

@@ -5,6 +5,7 @@ the sphere's with the button for the cone's map on demand, and the run's
 heading naming the cone; at 1024 x 768, 1280 x 800 and 1920 x 1080.
 
 The screenshots go to test-artifacts/profile/ (look at them)."""
+
 from pathlib import Path
 
 import pytest
@@ -36,8 +37,7 @@ DRAWING_JS = """() => {
 
 
 @pytest.mark.parametrize("size", SIZES)
-def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explorer, browser,
-                                                                   size):
+def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explorer, browser, size):
     width, height = (int(v) for v in size.split("x"))
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     page = browser.new_page(viewport={"width": width, "height": height})
@@ -48,7 +48,7 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         page.wait_for_selector("canvas", timeout=120000)
         # the link runs its scene: its heading names the cone
         page.locator("strong", has_text="profile cone").first.wait_for(timeout=120000)
-        steady(page, timeout_s=120)              # the run's figures drawn and laid out
+        steady(page, timeout_s=120)  # the run's figures drawn and laid out
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}.png"), full_page=True)
         box = page.evaluate(DRAWING_JS)
         assert box["found"] and box["shown"], box
@@ -65,15 +65,14 @@ def test_a_cone_link_shows_its_tip_the_maps_note_and_runs_the_cone(served_explor
         page.evaluate("""() => { for (const doc of window.Bokeh.documents)
             for (const m of doc.all_models) if (m.name === "profile-drawing") {
               window.Bokeh.index.find_one(m).el.scrollIntoView({block: "center"}); } }""")
-        steady(page)                             # scrolled
+        steady(page)  # scrolled
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}-drawing.png"))
         # the animation: its contact circle is the profile's (its key says how it is drawn)
         page.get_by_text("Animation", exact=True).first.click()
         page.get_by_text("the particle drawn with its cone tip").first.wait_for(timeout=60000)
-        steady(page, timeout_s=120)              # the tab's figures drawn and laid out
-        page.get_by_text("Animation", exact=True).first.evaluate(
-            "(e) => e.scrollIntoView({block: 'start'})")
-        steady(page)                             # scrolled
+        steady(page, timeout_s=120)  # the tab's figures drawn and laid out
+        page.get_by_text("Animation", exact=True).first.evaluate("(e) => e.scrollIntoView({block: 'start'})")
+        steady(page)  # scrolled
         page.screenshot(path=str(ARTIFACTS / f"cone-{size}-animation.png"))
         assert not errors, errors
     finally:
@@ -101,8 +100,7 @@ def test_a_cone_map_on_demand_draws_its_linear_resonance_and_says_why(served_exp
     try:
         page.goto(served_explorer.url + f"?profile=cone&map={CONE_MAP}")
         page.wait_for_selector("canvas", timeout=120000)
-        page.get_by_text("click it to run a scene there", exact=False).first.wait_for(
-            timeout=180000)
+        page.get_by_text("click it to run a scene there", exact=False).first.wait_for(timeout=180000)
         steady(page, timeout_s=120)
         titles = page.evaluate(TITLES_JS)
         note = [t for t in titles if "no jumping boundary: the one shipped is the sphere's" in t]
@@ -123,8 +121,7 @@ def test_a_steep_power_law_link_opens_its_page_and_runs(served_explorer, browser
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     try:
-        page.goto(served_explorer.url + "?profile=power:1e300&la=0.25&lm=0.8"
-                                        "&fidelity=preview&compare=none")
+        page.goto(served_explorer.url + "?profile=power:1e300&la=0.25&lm=0.8&fidelity=preview&compare=none")
         page.locator("strong", has_text="profile power:1e300").first.wait_for(timeout=120000)
         page.get_by_text("Animation", exact=True).first.click()
         steady(page, timeout_s=120)

@@ -21,6 +21,7 @@ model change makes in a served page after a run (what Bokeh sends to the
 browser) touch no such property of a model in the page's main column (the
 map's root: the map, the run's figures).  The sidebar's widgets may change
 (its own root: the selector's options, the point mass's controls)."""
+
 import asyncio
 
 import panel as pn
@@ -35,8 +36,7 @@ from standin import StandIn
 from vibtrans_explorer import explorer as E
 from vibtrans_explorer.server import data
 
-pytestmark = pytest.mark.slow       # an explorer session with a run, ~10 s
-
+pytestmark = pytest.mark.slow  # an explorer session with a run, ~10 s
 
 
 def relayouts(events, models):
@@ -51,8 +51,9 @@ def relayouts(events, models):
             out.append((type(model).__name__, attr))
         elif isinstance(model, Plot) and attr in PLOT_LAYOUT_PROPERTIES:
             out.append((type(model).__name__, attr))
-        elif (isinstance(model, Markup) and type(model).__module__.startswith("bokeh.")
-              and attr == "text"):      # a Bokeh Div's view re-renders at any change
+        elif (
+            isinstance(model, Markup) and type(model).__module__.startswith("bokeh.") and attr == "text"
+        ):  # a Bokeh Div's view re-renders at any change
             out.append((type(model).__name__, attr))
         elif isinstance(model, (ColorBar, Ticker, TickFormatter)):
             # BokehJS's ColorBarView passes any change of the bar to its axis,
@@ -83,17 +84,20 @@ def _served_page():
 def _main_root(doc, ex):
     """The document root holding the map (the page's main column)."""
     fig = ex.map_view.figures[0]
-    root, = [r for r in doc.roots if fig in r.references()]
+    (root,) = [r for r in doc.roots if fig in r.references()]
     return root
 
 
-@pytest.mark.parametrize("changes", [
-    [("mu", 0.1), ("mu", 0.3)],
-    [("model", "point-mass"), ("model", "deformable")],
-], ids=["mu", "model"])
+@pytest.mark.parametrize(
+    "changes",
+    [
+        [("mu", 0.1), ("mu", 0.3)],
+        [("model", "point-mass"), ("model", "deformable")],
+    ],
+    ids=["mu", "model"],
+)
 def test_a_mu_or_model_change_lays_out_nothing_in_the_main_column(changes):
-    if not {("deformable", 0.1), ("deformable", 0.3), ("point-mass", 0.3)} \
-            <= set(data.available_maps()):
+    if not {("deformable", 0.1), ("deformable", 0.3), ("point-mass", 0.3)} <= set(data.available_maps()):
         pytest.fail("the shipped maps are missing (assets/maps)")
     doc, ex = _served_page()
     assert ex.state.mu == 0.3 and ex.state.model == "deformable"
@@ -123,6 +127,7 @@ def test_the_check_sees_a_relayout():
     before)."""
     from bokeh.models import Div, LinearColorMapper
     from bokeh.plotting import figure
+
     doc = Document()
     div, column = Div(text=""), pn.Column(pn.pane.Markdown("x")).get_root(doc)
     fig = figure()
@@ -135,11 +140,13 @@ def test_the_check_sees_a_relayout():
     doc.on_change(events.append)
     div.text = "<p>busy</p>"
     column.children[0].visible = False
-    column.styles = {"color": "red"}           # a style: no layout
+    column.styles = {"color": "red"}  # a style: no layout
     bar.major_label_overrides = {0: "-2800"}
     assert relayouts(events, set(column.references())) == [
-        ("Div", "text"), (type(column.children[0]).__name__, "visible"),
-        ("ColorBar", "major_label_overrides")]
+        ("Div", "text"),
+        (type(column.children[0]).__name__, "visible"),
+        ("ColorBar", "major_label_overrides"),
+    ]
 
 
 @pytest.fixture
@@ -159,7 +166,8 @@ def test_the_stale_note_shows_and_hides_in_the_browser(page, served_explorer):
     style left it hidden: BokehJS only sets the properties it is given)."""
     from browserpages import settle
     from budget import budget_ms
-    page.goto(served_explorer.url + "?la=1&lm=2&fidelity=preview")     # a link with a scene runs it
+
+    page.goto(served_explorer.url + "?la=1&lm=2&fidelity=preview")  # a link with a scene runs it
     page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(120))
     settle(page)
     # the note's own words (the summary says "Changed since this run" too);
@@ -181,9 +189,9 @@ def test_the_point_mass_controls_wait_hidden_in_a_loaded_page(page, served_explo
     browser's redraw of the map 0.1-0.3 s slower)."""
     from browserpages import settle
     from budget import budget_ms
+
     page.goto(served_explorer.url)
-    page.get_by_role("button", name="point-mass", exact=True).first.wait_for(
-        timeout=budget_ms(120))
+    page.get_by_role("button", name="point-mass", exact=True).first.wait_for(timeout=budget_ms(120))
     settle(page)
     rule = page.get_by_text("stick rule (point mass: slide -> stick)").first
     rule.wait_for(state="attached", timeout=budget_ms(30))

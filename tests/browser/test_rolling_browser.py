@@ -6,6 +6,7 @@ points at the angle the rolled arc gives, and that angle changes between
 frames as the animation plays.
 
 The screenshots go to test-artifacts/rolling/ (look at them)."""
+
 import math
 from pathlib import Path
 
@@ -70,28 +71,28 @@ def _turned_to(state):
     return -0.5 * math.pi + state["roll"] / state["rho"]
 
 
-def test_a_rolling_solid_sphere_clicked_on_the_map_turns_in_the_animation(served_explorer,
-                                                                          browser):
+def test_a_rolling_solid_sphere_clicked_on_the_map_turns_in_the_animation(served_explorer, browser):
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     page, errors = new_page(browser, 1400, 1000)
     try:
         open_explorer(page, served_explorer.url + "?fidelity=preview&compare=none")
         page.locator("select").filter(has_text=SOLID).select_option(label=SOLID)
-        page.get_by_text("This map is of a particle that does not roll").first.wait_for(
-            timeout=budget_ms(30))
+        page.get_by_text("This map is of a particle that does not roll").first.wait_for(timeout=budget_ms(30))
         page.get_by_role("button", name="Map on demand for rolling solid").first.wait_for(
-            timeout=budget_ms(30))
-        page.wait_for_function("() => location.search.includes('rolling=solid')",
-                               timeout=budget_ms(30))
+            timeout=budget_ms(30)
+        )
+        page.wait_for_function("() => location.search.includes('rolling=solid')", timeout=budget_ms(30))
         settle(page)
         at = page.evaluate(MAP_POINT_JS, list(POINT))
         assert at is not None
         page.mouse.click(at["x"], at["y"])
         # the run is the rolling particle's: its heading and summary say so
         page.locator("strong", has_text="rolling (a solid sphere, j = 0.4)").first.wait_for(
-            timeout=budget_ms(120))
+            timeout=budget_ms(120)
+        )
         page.get_by_text("yes: solid sphere, j = 0.4; largest rolled arc").first.wait_for(
-            timeout=budget_ms(30))
+            timeout=budget_ms(30)
+        )
         # the trajectory shows its rotation (omega R* and the contact's slip)
         page.wait_for_function(ROTATION_SHOWN_JS, timeout=budget_ms(30), polling=100)
         settle(page)
@@ -102,22 +103,22 @@ def test_a_rolling_solid_sphere_clicked_on_the_map_turns_in_the_animation(served
         page.get_by_text("The particle rolls (solid)").first.wait_for(timeout=budget_ms(30))
         first = page.evaluate(MARK_JS)
         assert first["length"] == pytest.approx(first["rho"], rel=1e-6)
-        assert math.remainder(first["angle"] - _turned_to(first), 2 * math.pi) == \
-            pytest.approx(0.0, abs=1e-6)
+        assert math.remainder(first["angle"] - _turned_to(first), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
         page.locator("select").filter(has_text="5 periods/s").select_option(label="5 periods/s")
         page.get_by_role("button", name="Play").click()
         # it turns as the animation plays: another frame, another angle
         page.wait_for_function(
             f"""(a) => {{ const s = ({MARK_JS})();
                 return s !== null && s.frame > 0 && Math.abs(s.angle - a) > 1e-4; }}""",
-            arg=first["angle"], timeout=budget_ms(30), polling=100)
+            arg=first["angle"],
+            timeout=budget_ms(30),
+            polling=100,
+        )
         page.get_by_role("button", name="Pause").click()
         later = page.evaluate(MARK_JS)
         assert later["frame"] != first["frame"] and later["roll"] != first["roll"]
-        assert math.remainder(later["angle"] - _turned_to(later), 2 * math.pi) == \
-            pytest.approx(0.0, abs=1e-6)
-        page.get_by_text("Animation", exact=True).first.evaluate(
-            "(e) => e.scrollIntoView({block: 'start'})")
+        assert math.remainder(later["angle"] - _turned_to(later), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+        page.get_by_text("Animation", exact=True).first.evaluate("(e) => e.scrollIntoView({block: 'start'})")
         settle(page)
         page.screenshot(path=str(ARTIFACTS / "rolling-animation.png"))
         assert not errors, errors

@@ -24,6 +24,7 @@ coordinates):
 
 Screenshots (the viewport, what the screen shows) go to
 test-artifacts/screens-WxH.png (look at them)."""
+
 from pathlib import Path
 
 import pytest
@@ -38,9 +39,9 @@ ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "test-artifacts"
 SCREENS = [(1024, 768), (1280, 800), (1920, 1080)]
 PROJECTOR = (1920, 1080)
-SLACK_PX = 1          # sub-pixel layout rounding
-MAP_SHARE = 0.55      # presentation mode at 1024: the map's frame, of the main area's width
-STRIP_PX = 30         # the contact-state strip's frame, at least (its bars drawn in it)
+SLACK_PX = 1  # sub-pixel layout rounding
+MAP_SHARE = 0.55  # presentation mode at 1024: the map's frame, of the main area's width
+STRIP_PX = 30  # the contact-state strip's frame, at least (its bars drawn in it)
 
 # The page's geometry: the viewport, horizontal scrolling, and the boxes of
 # the map figure, its colour bar and the first trajectory panel (through
@@ -121,8 +122,9 @@ def screen(browser, served_explorer):
         page.goto(served_explorer.url)
         page.wait_for_selector("canvas", timeout=budget_ms(60))
         page.get_by_text("Paper points").first.wait_for(timeout=budget_ms(60))
-        steady(page)                       # drawn, fonts loaded, laid out for good
+        steady(page)  # drawn, fonts loaded, laid out for good
         return page
+
     yield open_
     for page in pages:
         page.close()
@@ -143,8 +145,10 @@ def _across(what, box, width):
     if box is None:
         return f"{what} is not shown"
     if box["left"] < -SLACK_PX or box["right"] > width + SLACK_PX:
-        return (f"{what} spans {_span(box)}, beyond the viewport's width {width} px "
-                f"(cut off or reached only by scrolling sideways)")
+        return (
+            f"{what} spans {_span(box)}, beyond the viewport's width {width} px "
+            f"(cut off or reached only by scrolling sideways)"
+        )
     return None
 
 
@@ -157,12 +161,19 @@ def test_the_page_fits_the_screen(screen, width, height):
     run = run and {"left": run["x"], "right": run["x"] + run["width"]}
     problems = []
     if g["scroll_width"] > g["width"]:
-        problems.append(f"a horizontal scrollbar: the document is {g['scroll_width']} px "
-                        f"wide in a {g['width']} px viewport")
+        problems.append(
+            f"a horizontal scrollbar: the document is {g['scroll_width']} px "
+            f"wide in a {g['width']} px viewport"
+        )
     problems += [f"a horizontal scrollbar inside the page: {s}" for s in g["scrollers"]]
-    problems += filter(None, [_across("the map figure", g["map"], g["width"]),
-                              _across("the map's colour bar", g["colorbar"], g["width"]),
-                              _across("the Run button", run, g["width"])])
+    problems += filter(
+        None,
+        [
+            _across("the map figure", g["map"], g["width"]),
+            _across("the map's colour bar", g["colorbar"], g["width"]),
+            _across("the Run button", run, g["width"]),
+        ],
+    )
     assert not problems, f"at {width} x {height}: " + "; ".join(problems)
 
 
@@ -178,25 +189,34 @@ def test_the_map_and_a_trajectory_fit_one_projector_screen(screen):
     page.get_by_role("button", name="Run selected scene").first.click()
     page.locator("strong", has_text="mu = ").first.wait_for(timeout=budget_ms(60))
     # the run's figures shown (they come with its summary), laid out
-    page.wait_for_function(f"() => ({_GEOMETRY_JS})(false).panel !== null",
-                           timeout=budget_ms(60))
+    page.wait_for_function(f"() => ({_GEOMETRY_JS})(false).panel !== null", timeout=budget_ms(60))
     steady(page)
-    page.evaluate(_GEOMETRY_JS, True)     # the map at the top of the screen
+    page.evaluate(_GEOMETRY_JS, True)  # the map at the top of the screen
     frames(page)
     _shot(page, f"{width}x{height}-presentation")
     g = page.evaluate(_GEOMETRY_JS, False)
-    problems = list(filter(None, [_across("the map figure", g["map"], g["width"]),
-                                  _across("the trajectory's first panel", g["panel"],
-                                          g["width"])]))
+    problems = list(
+        filter(
+            None,
+            [
+                _across("the map figure", g["map"], g["width"]),
+                _across("the trajectory's first panel", g["panel"], g["width"]),
+            ],
+        )
+    )
     if g["map"] and g["panel"]:
         top = min(g["map"]["top"], g["panel"]["top"])
         bottom = max(g["map"]["bottom"], g["panel"]["bottom"])
         if bottom - top > g["height"] + SLACK_PX:
-            problems.append(f"the map and the trajectory's first panel span {bottom - top:.0f} "
-                            f"px of height, more than the screen's {g['height']} px")
-    where = (f"map {g['map']}, first panel {g['panel']}")
-    assert presentation, ("no presentation mode: no element of class vt-presentation to "
-                          f"toggle it (without it: {'; '.join(problems) or 'fits'}; {where})")
+            problems.append(
+                f"the map and the trajectory's first panel span {bottom - top:.0f} "
+                f"px of height, more than the screen's {g['height']} px"
+            )
+    where = f"map {g['map']}, first panel {g['panel']}"
+    assert presentation, (
+        "no presentation mode: no element of class vt-presentation to "
+        f"toggle it (without it: {'; '.join(problems) or 'fits'}; {where})"
+    )
     assert not problems, "in presentation mode: " + "; ".join(problems) + f" ({where})"
 
 
@@ -253,14 +273,14 @@ def test_the_map_keeps_its_frame_when_its_key_grows(screen):
     below it gains the orbit curves' entries, or the Lyapunov layer's."""
     page = screen(1024, 768)
     before = page.evaluate(_MAP_JS)
-    for name, back in (("period-1 orbit curves", "no orbit curves"),
-                       ("Lyapunov exponent", "drift velocity")):
+    for name, back in (("period-1 orbit curves", "no orbit curves"), ("Lyapunov exponent", "drift velocity")):
         page.get_by_role("button", name=name, exact=True).first.click()
         _idle(page)
         after = page.evaluate(_MAP_JS)
         assert abs(after["frame_height"] - before["frame_height"]) <= SLACK_PX, (
             f"with {name!r} the map's frame is {after['frame_height']:.0f} px high "
-            f"against {before['frame_height']:.0f} px")
+            f"against {before['frame_height']:.0f} px"
+        )
         page.get_by_role("button", name=back, exact=True).first.click()
         _idle(page)
     # two maps side by side: each key within its own map's canvas (two
@@ -290,8 +310,9 @@ def test_both_models_maps_fit_the_page(screen, width, height, side_by_side):
         assert m["left"] >= 0 and m["right"] <= page_width + SLACK_PX, (page_width, maps)
     first, second = maps
     if side_by_side:
-        assert abs(first["top"] - second["top"]) <= SLACK_PX and \
-            second["left"] >= first["right"] - SLACK_PX, maps
+        assert (
+            abs(first["top"] - second["top"]) <= SLACK_PX and second["left"] >= first["right"] - SLACK_PX
+        ), maps
     else:
         assert second["top"] >= first["bottom"] - SLACK_PX, maps
 
@@ -318,19 +339,19 @@ def test_presentation_mode_scales_everything_and_the_sidebar_can_hide(screen):
     assert after[3] >= 1.4 * before[3], f"a text input's text: {before[3]} -> {after[3]} px"
     assert after[4] >= 1.4 * before[4], f"a select's text: {before[4]} -> {after[4]} px"
     for key in ("bar_ticks", "bar_title"):
-        assert _font_px(after[0][key]) >= 1.4 * _font_px(before[0][key]), (key, before[0],
-                                                                           after[0])
-    assert abs(after[0]["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (
-        before[0], after[0])
+        assert _font_px(after[0][key]) >= 1.4 * _font_px(before[0][key]), (key, before[0], after[0])
+    assert abs(after[0]["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (before[0], after[0])
     page.get_by_text("hides the controls").first.wait_for(timeout=budget_ms(10))
     page.locator("#sidebar-toggle").first.click()
-    steady(page)                      # the sidebar's transition ended, the map resized
+    steady(page)  # the sidebar's transition ended, the map resized
     hidden = page.evaluate(_MAP_JS)
     _shot(page, "1280x800-presentation-no-sidebar")
-    assert not widget.is_visible() or widget.bounding_box()["x"] + 5 < 0, \
-        "the sidebar is still shown"
-    assert hidden["left"] < after[0]["left"] - 250, ("the map did not move into the "
-                                                     "sidebar's room", after[0], hidden)
+    assert not widget.is_visible() or widget.bounding_box()["x"] + 5 < 0, "the sidebar is still shown"
+    assert hidden["left"] < after[0]["left"] - 250, (
+        "the map did not move into the sidebar's room",
+        after[0],
+        hidden,
+    )
     assert abs(hidden["frame_height"] - before[0]["frame_height"]) <= SLACK_PX, (before[0], hidden)
 
 
@@ -375,12 +396,12 @@ _PRESENTED_JS = """() => {
 def _tab_shows(page, name, start):
     """Open the tab `name` and wait until a plot titled `start`... is shown."""
     from test_first_look_browser import open_tab
+
     open_tab(page, name, start)
     return page.evaluate(_PRESENTED_JS)
 
 
-def test_presentation_at_1024_keeps_the_map_the_strips_and_enlarges_every_text(
-        browser, served_explorer):
+def test_presentation_at_1024_keeps_the_map_the_strips_and_enlarges_every_text(browser, served_explorer):
     """Presentation mode at 1024 x 768, the sidebar shown: the map's frame
     keeps at least MAP_SHARE of the main area's width (a sidebar of 1.5 x
     330 pixels left it ~260 of ~530 pixels); the contact-state strips keep
@@ -390,6 +411,7 @@ def test_presentation_at_1024_keeps_the_map_the_strips_and_enlarges_every_text(
     (they stayed at their normal sizes)."""
     from browserpages import new_page, open_explorer
     from test_first_look_browser import presentation_on
+
     page, errors = new_page(browser, 1024, 768)
     open_explorer(page, served_explorer.url + "?la=-0.3&lm=1&fidelity=preview")
     page.get_by_text("drift <v*> (mean over the run)").first.wait_for(timeout=budget_ms(90))
@@ -401,8 +423,9 @@ def test_presentation_at_1024_keeps_the_map_the_strips_and_enlarges_every_text(
     assert len(got["strips"]) == 2, got
     for strip in got["strips"]:
         assert strip["frame_height"] >= STRIP_PX and strip["bars"] > 0, strip
-    assert _font_px(_tab_shows(page, "Vertical", "Jumping threshold")["vertical_ticks"]) \
-        >= 1.4 * _font_px("8pt")
+    assert _font_px(_tab_shows(page, "Vertical", "Jumping threshold")["vertical_ticks"]) >= 1.4 * _font_px(
+        "8pt"
+    )
     speed = _tab_shows(page, "Animation", "t* = ")["speed"]
     assert normal and speed >= 1.4 * normal, (normal, speed)
     _shot(page, "1024x768-presentation-animation")

@@ -7,6 +7,7 @@ threshold (V0, SYNC_TOL, SYNC_SPREAD, LONG_FLIGHT, the chaos tolerance, the
 divergence threshold, the final window, the launch fraction) is approached
 from both sides.
 """
+
 import math
 
 import numpy as np
@@ -31,8 +32,20 @@ LONG_FLIGHT = 3.0
 LAUNCH_FRACTION = 0.5
 
 
-def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, states=(),
-         tau=50.0, n=1001, y_end=None, vy_end=None, attrs=None):
+def traj(
+    t_end=100.0,
+    x_end=0.0,
+    x=None,
+    takeoffs=(),
+    landings=(),
+    phases=None,
+    states=(),
+    tau=50.0,
+    n=1001,
+    y_end=None,
+    vy_end=None,
+    attrs=None,
+):
     """A trajectory Dataset as `simulate` returns it (the variables analysis
     reads): time, x (linear from 0 to x_end unless given) and its vx, events;
     y*, y*' constant at y_end, vy_end if given (else 0); attrs added to tau,
@@ -47,20 +60,33 @@ def traj(t_end=100.0, x_end=0.0, x=None, takeoffs=(), landings=(), phases=None, 
     ev += [(tt, R.STATE_CHANGE, code) for tt, code in states]
     ev.sort(key=lambda e: (e[0], e[1]))
     ev = np.array(ev, dtype=float).reshape(-1, 3)
-    data = {"x": ("time", xs), "vx": ("time", np.gradient(xs, t)),
-            "state": ("time", np.zeros(n, dtype=np.int8)),
-            "event_time": ("event", ev[:, 0]),
-            "event_kind": ("event", ev[:, 1].astype(np.int8)),
-            "event_value": ("event", ev[:, 2])}
+    data = {
+        "x": ("time", xs),
+        "vx": ("time", np.gradient(xs, t)),
+        "state": ("time", np.zeros(n, dtype=np.int8)),
+        "event_time": ("event", ev[:, 0]),
+        "event_kind": ("event", ev[:, 1].astype(np.int8)),
+        "event_value": ("event", ev[:, 2]),
+    }
     if y_end is not None:
         data["y"] = ("time", np.full(n, float(y_end)))
         data["vy"] = ("time", np.full(n, float(vy_end)))
     else:
         data["y"] = data["vy"] = ("time", np.zeros(n))
     # (the scene's attributes the drift's steadiness reads: stopping.DecidedRule's)
-    return xr.Dataset(data, coords={"time": t},
-                      attrs={"tau": tau, "steps": 10, "seconds": 0.5, "periods": t_end,
-                             "amplitude": 1.0, "mass": 1.0, **(attrs or {})})
+    return xr.Dataset(
+        data,
+        coords={"time": t},
+        attrs={
+            "tau": tau,
+            "steps": 10,
+            "seconds": 0.5,
+            "periods": t_end,
+            "amplitude": 1.0,
+            "mass": 1.0,
+            **(attrs or {}),
+        },
+    )
 
 
 def spread_pair(sigma):
@@ -88,10 +114,20 @@ def test_final_drift_velocity_is_the_last_tenth():
     assert an.final_drift_velocity(ds, fraction=0.5) == pytest.approx(33.0 / 50.0)
 
 
-@pytest.mark.parametrize("v, expected", [
-    (V0 + EPS, "with-wave"), (V0, "none"), (V0 - EPS, "none"), (0.0, "none"),
-    (-V0 + EPS, "none"), (-V0, "none"), (-V0 - EPS, "against-wave"),
-    (1e3, "with-wave"), (-1e3, "against-wave")])
+@pytest.mark.parametrize(
+    "v, expected",
+    [
+        (V0 + EPS, "with-wave"),
+        (V0, "none"),
+        (V0 - EPS, "none"),
+        (0.0, "none"),
+        (-V0 + EPS, "none"),
+        (-V0, "none"),
+        (-V0 - EPS, "against-wave"),
+        (1e3, "with-wave"),
+        (-1e3, "against-wave"),
+    ],
+)
 def test_drift_class_threshold_from_both_sides(v, expected):
     assert an.drift_class(v) == expected
 
@@ -123,8 +159,7 @@ def test_contact_fraction_over_the_final_window():
     ds = traj(takeoffs=[89.0], landings=[90.5])
     assert an.contact_fraction(ds) == pytest.approx(0.95)
     # explicit window, and no flight at all
-    assert an.contact_fraction(traj(takeoffs=[10.0], landings=[12.0]), 0.0, 20.0) == \
-        pytest.approx(0.9)
+    assert an.contact_fraction(traj(takeoffs=[10.0], landings=[12.0]), 0.0, 20.0) == pytest.approx(0.9)
     assert an.contact_fraction(traj()) == 1.0
 
 
@@ -151,8 +186,8 @@ def test_phase_spread_is_circular():
         expected = math.sqrt(-2.0 * math.log(math.cos(2.0 * math.pi * d))) / (2.0 * math.pi)
         for centre in (0.3, 0.0):
             assert an.phase_spread([(centre - d) % 1.0, centre + d]) == pytest.approx(expected)
-    assert an.phase_spread([0.99, 0.01]) < 0.011       # 0.02 apart across 0, not 0.98
-    assert an.phase_spread([0.0, 0.5]) > 1.0           # opposite phases: no mean direction
+    assert an.phase_spread([0.99, 0.01]) < 0.011  # 0.02 apart across 0, not 0.98
+    assert an.phase_spread([0.0, 0.5]) > 1.0  # opposite phases: no mean direction
     sigma = 0.015
     d = spread_pair(sigma)
     assert an.phase_spread([-d, d]) == pytest.approx(sigma)
@@ -172,16 +207,23 @@ def test_no_takeoff_no_pattern():
     assert an.rebound_pattern(traj()) is None
 
 
-@pytest.mark.parametrize("gap, expected", [
-    (1.0, "synchronous"), (1.0 + SYNC_TOL - 0.01, "synchronous"),
-    (1.0 - SYNC_TOL + 0.01, "synchronous"),
-    (1.0 + SYNC_TOL + 0.01, "irregular"), (1.0 - SYNC_TOL - 0.01, "irregular")])
+@pytest.mark.parametrize(
+    "gap, expected",
+    [
+        (1.0, "synchronous"),
+        (1.0 + SYNC_TOL - 0.01, "synchronous"),
+        (1.0 - SYNC_TOL + 0.01, "synchronous"),
+        (1.0 + SYNC_TOL + 0.01, "irregular"),
+        (1.0 - SYNC_TOL - 0.01, "irregular"),
+    ],
+)
 def test_synchronous_interval_threshold_from_both_sides(gap, expected):
     assert an.rebound_pattern(sync_run(gap=gap)) == expected
 
 
-@pytest.mark.parametrize("sigma, expected", [
-    (SYNC_SPREAD - 0.002, "synchronous"), (SYNC_SPREAD + 0.002, "irregular")])
+@pytest.mark.parametrize(
+    "sigma, expected", [(SYNC_SPREAD - 0.002, "synchronous"), (SYNC_SPREAD + 0.002, "irregular")]
+)
 def test_synchronous_phase_spread_threshold_from_both_sides(sigma, expected):
     assert an.rebound_pattern(sync_run(sigma=sigma)) == expected
 
@@ -191,8 +233,7 @@ def test_synchronous_needs_three_takeoffs_in_the_final_window():
     assert an.rebound_pattern(sync_run(n=2)) == "irregular"
 
 
-def bursts(long_gap=10.0, burst=5, n_bursts=4, sync_gap=1.0, start=200.0, sigma=0.0,
-           extra=None):
+def bursts(long_gap=10.0, burst=5, n_bursts=4, sync_gap=1.0, start=200.0, sigma=0.0, extra=None):
     """Take-offs after the ramp (t >= 3 tau = 150 of 1000 periods), in
     bursts of `burst` take-offs `sync_gap` apart, `long_gap` between bursts;
     none in the final window [900, 1000]."""
@@ -213,20 +254,23 @@ def test_multisynchronous_bursts():
     assert an.rebound_pattern(bursts()) == "multi-synchronous"
 
 
-@pytest.mark.parametrize("long_gap, expected", [
-    (LONG_FLIGHT + 0.1, "multi-synchronous"), (LONG_FLIGHT - 0.1, "irregular")])
+@pytest.mark.parametrize(
+    "long_gap, expected", [(LONG_FLIGHT + 0.1, "multi-synchronous"), (LONG_FLIGHT - 0.1, "irregular")]
+)
 def test_long_flight_threshold_from_both_sides(long_gap, expected):
     assert an.rebound_pattern(bursts(long_gap=long_gap)) == expected
 
 
-@pytest.mark.parametrize("sync_gap, expected", [
-    (1.0 + SYNC_TOL - 0.01, "multi-synchronous"), (1.0 + SYNC_TOL + 0.01, "irregular")])
+@pytest.mark.parametrize(
+    "sync_gap, expected", [(1.0 + SYNC_TOL - 0.01, "multi-synchronous"), (1.0 + SYNC_TOL + 0.01, "irregular")]
+)
 def test_burst_interval_threshold_from_both_sides(sync_gap, expected):
     assert an.rebound_pattern(bursts(sync_gap=sync_gap)) == expected
 
 
-@pytest.mark.parametrize("sigma, expected", [
-    (SYNC_SPREAD - 0.002, "multi-synchronous"), (SYNC_SPREAD + 0.002, "irregular")])
+@pytest.mark.parametrize(
+    "sigma, expected", [(SYNC_SPREAD - 0.002, "multi-synchronous"), (SYNC_SPREAD + 0.002, "irregular")]
+)
 def test_burst_phase_spread_threshold_from_both_sides(sigma, expected):
     assert an.rebound_pattern(bursts(sigma=sigma)) == expected
 
@@ -238,21 +282,27 @@ def after_ramp(gaps):
 
 
 def test_bursts_need_half_of_the_intervals_synchronous_and_four_intervals():
-    assert an.rebound_pattern(after_ramp([1, 1, 10, 10])) == "multi-synchronous"   # 2 of 4
-    assert an.rebound_pattern(after_ramp([1, 10, 10, 10])) == "irregular"          # 1 of 4
+    assert an.rebound_pattern(after_ramp([1, 1, 10, 10])) == "multi-synchronous"  # 2 of 4
+    assert an.rebound_pattern(after_ramp([1, 10, 10, 10])) == "irregular"  # 1 of 4
     assert an.rebound_pattern(after_ramp([1, 1, 1, 10])) == "multi-synchronous"
-    assert an.rebound_pattern(after_ramp([1, 1, 10])) == "irregular"               # 3 intervals
-    assert an.rebound_pattern(after_ramp([1, 1, 1, 1])) == "irregular"             # no long flight
+    assert an.rebound_pattern(after_ramp([1, 1, 10])) == "irregular"  # 3 intervals
+    assert an.rebound_pattern(after_ramp([1, 1, 1, 1])) == "irregular"  # no long flight
     # one interval neither synchronous nor long (2 periods) spoils the pattern
     assert an.rebound_pattern(bursts(extra=2.0)) == "irregular"
     assert an.rebound_pattern(bursts(extra=1.0)) == "multi-synchronous"
     # take-offs during the ramp (t < 3 tau) are not looked at
-    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[100, 101, 102, 140, 141],
-                                   phases=[0.7] * 5, tau=50.0)) == "irregular"
-    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171],
-                                   phases=[0.7] * 5, tau=50.0)) == "multi-synchronous"
-    assert an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171],
-                                   phases=[0.7] * 5, tau=60.0)) == "irregular"
+    assert (
+        an.rebound_pattern(traj(t_end=1000.0, takeoffs=[100, 101, 102, 140, 141], phases=[0.7] * 5, tau=50.0))
+        == "irregular"
+    )
+    assert (
+        an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171], phases=[0.7] * 5, tau=50.0))
+        == "multi-synchronous"
+    )
+    assert (
+        an.rebound_pattern(traj(t_end=1000.0, takeoffs=[160, 161, 162, 170, 171], phases=[0.7] * 5, tau=60.0))
+        == "irregular"
+    )
 
 
 # ------------------------------------------------------------------ chaos
@@ -260,15 +310,22 @@ def pair(v1, v2, t_end=100.0):
     return traj(t_end=t_end, x_end=v1 * t_end), traj(t_end=t_end, x_end=v2 * t_end)
 
 
-@pytest.mark.parametrize("v1, v2, expected", [
-    # same class: chaotic iff |v1 - v2| > 0.1 max(|v1|, |v2|) + v0 = 1.1 here
-    (-10.0, -10.0 + 1.1 - 0.01, False), (-10.0, -10.0 + 1.1 + 0.01, True),
-    # away from 0 by d: chaotic iff d > 0.1 (10 + d) + 0.1, d > 1.1 / 0.9
-    (-10.0, -10.0 - 1.1 / 0.9 + 0.01, False), (-10.0, -10.0 - 1.1 / 0.9 - 0.01, True),
-    (5.0, 5.0, False),
-    # different drift class: chaotic even when close
-    (V0 + 0.001, V0 - 0.001, True), (-V0 - 0.001, -V0 + 0.001, True),
-    (0.05, -0.05, False)])                           # both 'none'
+@pytest.mark.parametrize(
+    "v1, v2, expected",
+    [
+        # same class: chaotic iff |v1 - v2| > 0.1 max(|v1|, |v2|) + v0 = 1.1 here
+        (-10.0, -10.0 + 1.1 - 0.01, False),
+        (-10.0, -10.0 + 1.1 + 0.01, True),
+        # away from 0 by d: chaotic iff d > 0.1 (10 + d) + 0.1, d > 1.1 / 0.9
+        (-10.0, -10.0 - 1.1 / 0.9 + 0.01, False),
+        (-10.0, -10.0 - 1.1 / 0.9 - 0.01, True),
+        (5.0, 5.0, False),
+        # different drift class: chaotic even when close
+        (V0 + 0.001, V0 - 0.001, True),
+        (-V0 - 0.001, -V0 + 0.001, True),
+        (0.05, -0.05, False),
+    ],
+)  # both 'none'
 def test_chaos_verdict_threshold_from_both_sides(v1, v2, expected):
     ds, twin = pair(v1, v2)
     assert an.chaos_verdict(ds, twin) is expected
@@ -277,21 +334,22 @@ def test_chaos_verdict_threshold_from_both_sides(v1, v2, expected):
 
 def test_chaos_verdict_takes_its_tolerances():
     ds, twin = pair(10.0, 8.0)
-    assert an.chaos_verdict(ds, twin) is True                     # 2 > 1.1
-    assert an.chaos_verdict(ds, twin, rel_tol=0.2) is False       # 2 <= 2.1
-    assert an.chaos_verdict(ds, twin, v0=1.5) is False            # 2 <= 2.5
+    assert an.chaos_verdict(ds, twin) is True  # 2 > 1.1
+    assert an.chaos_verdict(ds, twin, rel_tol=0.2) is False  # 2 <= 2.1
+    assert an.chaos_verdict(ds, twin, v0=1.5) is False  # 2 <= 2.5
 
 
 def test_divergence_time_is_the_first_separation_over_threshold():
     t = np.linspace(0.0, 100.0, 1001)
     x = np.zeros_like(t)
     ds = traj(x=x)
-    twin = traj(x=np.where(t >= 40.0, 0.02 * (t - 40.0) ** 2, 0.0))   # 1.0 at t = 47.07
+    twin = traj(x=np.where(t >= 40.0, 0.02 * (t - 40.0) ** 2, 0.0))  # 1.0 at t = 47.07
     t_div = an.divergence_time(ds, twin)
     assert t_div == pytest.approx(40.0 + math.sqrt(1.0 / 0.02), abs=0.15)
     assert an.divergence_time(ds, twin) > 40.0 + math.sqrt(1.0 / 0.02) - 1e-9
     assert an.divergence_time(ds, twin, threshold=2.0) == pytest.approx(
-        40.0 + math.sqrt(2.0 / 0.02), abs=0.15)
+        40.0 + math.sqrt(2.0 / 0.02), abs=0.15
+    )
     # a separation of exactly the threshold is not divergence
     assert an.divergence_time(ds, traj(x=np.full_like(t, 1.0))) == math.inf
     assert an.divergence_time(ds, traj(x=np.full_like(t, 1.0 + 1e-9))) == 0.0
@@ -301,9 +359,10 @@ def test_divergence_time_is_the_first_separation_over_threshold():
 def test_twin_scene_moves_tau_only():
     scene = Scene(amplitude=2.0, mass=0.5, tau=50.0)
     twin = an.twin_scene(scene)
-    assert twin.tau == 50.001                 # docs/MODEL.md section 4: tau + 1e-3
-    assert {k: v for k, v in twin.values().items() if k != "tau"} == \
-        {k: v for k, v in scene.values().items() if k != "tau"}
+    assert twin.tau == 50.001  # docs/MODEL.md section 4: tau + 1e-3
+    assert {k: v for k, v in twin.values().items() if k != "tau"} == {
+        k: v for k, v in scene.values().items() if k != "tau"
+    }
 
 
 # ------------------------------------------------------------------ summary
@@ -316,8 +375,13 @@ def test_summarize_gathers_the_same_numbers():
     s = an.summarize(ds)
     assert s.drift_velocity == pytest.approx(-2.2)
     assert s.final_drift_velocity == pytest.approx(-4.0)
-    assert (s.contact, s.drift, s.pattern, s.chaotic, s.divergence_time) == \
-        ("jumping", "against-wave", "synchronous", None, None)
+    assert (s.contact, s.drift, s.pattern, s.chaotic, s.divergence_time) == (
+        "jumping",
+        "against-wave",
+        "synchronous",
+        None,
+        None,
+    )
     assert s.takeoffs == 10 and s.takeoffs_per_period == pytest.approx(1.0)
     assert s.takeoff_phase_spread == pytest.approx(0.0, abs=1e-7)
     assert s.contact_fraction == pytest.approx(0.75)
@@ -327,7 +391,7 @@ def test_summarize_gathers_the_same_numbers():
     twin = traj(x=-1.0 * t, takeoffs=times, landings=[tt + 0.25 for tt in times])
     s2 = an.summarize(ds, twin)
     assert s2.chaotic is True and s2.pattern == "chaotic"
-    assert s2.divergence_time == pytest.approx(1.0, abs=0.15)     # |x - x_twin| = t
+    assert s2.divergence_time == pytest.approx(1.0, abs=0.15)  # |x - x_twin| = t
     assert (s2.steps, s2.seconds, s2.twin_steps, s2.twin_seconds) == (10, 0.5, 10, 0.5)
     # permanent contact is never 'chaotic' as a pattern (no rebounds)
     calm = traj(x=-0.05 * t)
@@ -345,15 +409,20 @@ def test_open_flight_start():
     assert an.open_flight_start(traj()) is None
     # starts in flight (state FLIGHT at t = 0): open from 0 only if it never lands
     assert an.open_flight_start(traj(states=[(0.0, FLIGHT)])) == 0.0
-    assert an.open_flight_start(traj(landings=[2.0], states=[(0.0, FLIGHT), (2.0, STICK)])) \
-        is None
+    assert an.open_flight_start(traj(landings=[2.0], states=[(0.0, FLIGHT), (2.0, STICK)])) is None
 
 
-@pytest.mark.parametrize("t_off, expected", [
-    (LAUNCH_FRACTION * 100.0 - EPS, True), (LAUNCH_FRACTION * 100.0, False),
-    (LAUNCH_FRACTION * 100.0 + EPS, False),
-    (89.0, False),        # in flight over the whole final window [90, 100], yet not launched
-    (95.0, False), (0.25, True)])
+@pytest.mark.parametrize(
+    "t_off, expected",
+    [
+        (LAUNCH_FRACTION * 100.0 - EPS, True),
+        (LAUNCH_FRACTION * 100.0, False),
+        (LAUNCH_FRACTION * 100.0 + EPS, False),
+        (89.0, False),  # in flight over the whole final window [90, 100], yet not launched
+        (95.0, False),
+        (0.25, True),
+    ],
+)
 def test_launch_time_threshold_from_both_sides(t_off, expected):
     ds = traj(takeoffs=[0.1, t_off], landings=[0.2])
     assert (an.launch_time(ds) == t_off) is expected
@@ -394,8 +463,7 @@ def test_earliest_landing_is_the_ballistic_return_within_reach():
 def test_summary_costs_list_the_twin_apart():
     t = np.linspace(0.0, 100.0, 1001)
     ds = traj(x=-2.0 * t, takeoffs=[95.0], landings=[95.5])
-    twin = traj(x=-2.0 * t, takeoffs=[95.0], landings=[95.5],
-                attrs={"steps": 7, "seconds": 0.25})
+    twin = traj(x=-2.0 * t, takeoffs=[95.0], landings=[95.5], attrs={"steps": 7, "seconds": 0.25})
     s = an.summarize(ds, twin)
     assert (s.steps, s.seconds, s.twin_steps, s.twin_seconds) == (10, 0.5, 7, 0.25)
     s = an.summarize(ds)
@@ -408,7 +476,7 @@ def test_summary_names_its_model_and_refuses_another_models_twin():
     assert an.summarize(ds, traj(attrs={"model": "deformable"})).model == "deformable"
     with pytest.raises(ValueError, match="point-mass"):
         an.summarize(ds, traj(attrs={"model": "point-mass"}))
-    assert an.summarize(traj()).model is None          # a hand-made Dataset names none
+    assert an.summarize(traj()).model is None  # a hand-made Dataset names none
 
 
 DIRECTION_WORDS = ("with the wave", "against the wave", "no drift")
@@ -418,14 +486,15 @@ def test_regime_of_regular_runs_names_contact_pattern_and_drift():
     t = np.linspace(0.0, 100.0, 1001)
     calm = traj(x=-0.05 * t)
     assert an.summarize(calm, calm).regime == f"permanent contact, no drift (|v*| <= {V0:g})"
-    assert an.summarize(traj(x=(V0 + EPS) * t)).regime == \
-        "permanent contact, drift with the wave (+x)"
+    assert an.summarize(traj(x=(V0 + EPS) * t)).regime == "permanent contact, drift with the wave (+x)"
     times = [90.5 + k for k in range(10)]
     hop = traj(x=-2.0 * t, takeoffs=times, landings=[tt + 0.25 for tt in times])
     assert an.summarize(hop, hop).regime == "jumping, synchronous, drift against the wave (-x)"
     # no twin: the verdict says the drift was not checked for chaos
-    assert an.summarize(hop).regime == \
-        "jumping, synchronous, drift against the wave (-x); chaos not checked (no twin run)"
+    assert (
+        an.summarize(hop).regime
+        == "jumping, synchronous, drift against the wave (-x); chaos not checked (no twin run)"
+    )
 
 
 def test_regime_says_when_the_final_drift_differs_from_the_mean():
@@ -434,8 +503,10 @@ def test_regime_says_when_the_final_drift_differs_from_the_mean():
     x = np.where(t <= 90.0, 40.0 / 90.0 * t, 40.0 - (t - 90.0))
     s = an.summarize(traj(x=x), traj(x=x))
     assert (s.drift, an.drift_class(s.final_drift_velocity)) == ("with-wave", "against-wave")
-    assert s.regime == ("permanent contact, drift with the wave (+x) over the run, "
-                        "drift against the wave (-x) over its final 10%")
+    assert s.regime == (
+        "permanent contact, drift with the wave (+x) over the run, "
+        "drift against the wave (-x) over its final 10%"
+    )
 
 
 def test_a_chaotic_regime_claims_no_drift_direction():
@@ -445,9 +516,11 @@ def test_a_chaotic_regime_claims_no_drift_direction():
     ds = traj(x=0.5 * t, takeoffs=times, landings=[tt + 0.5 for tt in times])
     twin = traj(x=-2.17 * t, takeoffs=times, landings=[tt + 0.5 for tt in times])
     s = an.summarize(ds, twin)
-    assert (s.chaotic, s.pattern, s.drift) == (True, "chaotic", "with-wave")   # drift: own <v*>
-    assert s.regime == (f"jumping, chaotic: the tau + {an.TWIN_TAU_OFFSET:g} twin ends "
-                        "elsewhere, the drift is not a property of the scene")
+    assert (s.chaotic, s.pattern, s.drift) == (True, "chaotic", "with-wave")  # drift: own <v*>
+    assert s.regime == (
+        f"jumping, chaotic: the tau + {an.TWIN_TAU_OFFSET:g} twin ends "
+        "elsewhere, the drift is not a property of the scene"
+    )
     assert not any(w in s.regime for w in DIRECTION_WORDS)
     # the same run with an agreeing twin: the drift is stated
     s = an.summarize(ds, ds)
@@ -457,9 +530,15 @@ def test_a_chaotic_regime_claims_no_drift_direction():
 def launched_run(t_off=17.0, x_slope=-70.0, **kw):
     """Hops until t = 10, then one flight from t_off to the end, at x*' = x_slope."""
     t = np.linspace(0.0, 100.0, 1001)
-    return traj(x=np.where(t > t_off, x_slope * (t - t_off), 0.0),
-                takeoffs=[5.0, 6.0, 7.0, t_off], landings=[5.5, 6.5, 7.5],
-                y_end=-1e4, vy_end=-10.0, attrs={"amplitude": 300.0, "mass": 1000.0}, **kw)
+    return traj(
+        x=np.where(t > t_off, x_slope * (t - t_off), 0.0),
+        takeoffs=[5.0, 6.0, 7.0, t_off],
+        landings=[5.5, 6.5, 7.5],
+        y_end=-1e4,
+        vy_end=-10.0,
+        attrs={"amplitude": 300.0, "mass": 1000.0},
+        **kw,
+    )
 
 
 def test_a_launched_run_is_labelled_as_such_and_gets_no_regime():
@@ -468,9 +547,10 @@ def test_a_launched_run_is_labelled_as_such_and_gets_no_regime():
     landing = 100.0 + 1000.0 * (10.0 + math.sqrt(100.0 + 2.0 * 9700.0 / 1000.0))
     assert (s.launched, s.launch_time, s.pattern, s.contact) == (True, 17.0, "launched", "jumping")
     assert s.earliest_landing == pytest.approx(landing, rel=1e-14)
-    assert s.drift == "against-wave"               # the class of its own <v*>, as sweeps store
-    assert s.regime.startswith("launched: leaves the substrate at t* = 17 and is still in "
-                               "flight at the end (t* = 100)")
+    assert s.drift == "against-wave"  # the class of its own <v*>, as sweeps store
+    assert s.regime.startswith(
+        "launched: leaves the substrate at t* = 17 and is still in flight at the end (t* = 100)"
+    )
     assert f"cannot land again before t* = {landing:.3g}" in s.regime
     assert not any(w in s.regime for w in DIRECTION_WORDS + ("irregular",))
     # launched outranks chaotic as the pattern; the chaos verdict is still said
@@ -485,7 +565,6 @@ def test_a_launched_run_is_labelled_as_such_and_gets_no_regime():
 
 
 def test_a_run_that_starts_in_flight_and_never_lands_is_launched():
-    ds = traj(states=[(0.0, FLIGHT)], y_end=-50.0, vy_end=-1.0,
-              attrs={"amplitude": 1.0, "mass": 1.0})
+    ds = traj(states=[(0.0, FLIGHT)], y_end=-50.0, vy_end=-1.0, attrs={"amplitude": 1.0, "mass": 1.0})
     s = an.summarize(ds)
     assert (s.launched, s.launch_time, s.contact, s.takeoffs) == (True, 0.0, "jumping", 0)

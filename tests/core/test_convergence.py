@@ -18,6 +18,7 @@ Measured (this code): smooth scene y*: AB4 3.98-4.00, Verlet 2.00; x*
 2% (the smooth scene's x*: fitted 1.5, too); flights (point 6) y*: AB4
 2.26-2.51, Verlet 2.21-2.50.  The whole file takes a few seconds.
 """
+
 import numpy as np
 import pytest
 
@@ -26,18 +27,21 @@ from vibtrans.core.params import Scene, paper_scene
 from vibtrans.core.simulate import simulate
 from vibtrans.tools.workprecision import hermite
 
-T = 10.0              # run length, periods
-T_FIX = 9.5           # the fixed time t*
+T = 10.0  # run length, periods
+T_FIX = 9.5  # the fixed time t*
 REFINES = (1, 2, 4, 8)
-REF_REFINE = 128      # reference step h/128
-BASE = (64.0, 24.0)   # h: 64 steps per period, 24 per contact time scale
+REF_REFINE = 128  # reference step h/128
+BASE = (64.0, 24.0)  # h: 64 steps per period, 24 per contact time scale
 
 
 def state_at(scene, refine, integrator):
     """(x*, y*) at T_FIX and the run's contact-state counts."""
-    ds = simulate(scene.replace(integrator=integrator, periods=T),
-                  steps=(BASE[0] * refine, BASE[1] * refine), window=(T - 1.0, T),
-                  samples_per_period=1)
+    ds = simulate(
+        scene.replace(integrator=integrator, periods=T),
+        steps=(BASE[0] * refine, BASE[1] * refine),
+        window=(T - 1.0, T),
+        samples_per_period=1,
+    )
     x, y = hermite(ds, np.array([T_FIX]))
     return x[0], y[0], ds
 
@@ -66,7 +70,7 @@ def fitted_order(e):
 def states(ds):
     """Every contact state the run entered (state-change events, every step)."""
     sel = ds["event_kind"].values == R.STATE_CHANGE
-    return set(ds["event_value"].values[sel].astype(int).tolist()) | {1}   # starts stuck
+    return set(ds["event_value"].values[sel].astype(int).tolist()) | {1}  # starts stuck
 
 
 # A* = 0.1, m* = 10: permanent contact, stick and partial slip only (no flight,
@@ -80,17 +84,20 @@ def test_smooth_scene_is_permanent_stick_partial_slip_contact():
     for refine in (REFINES[0], REF_REFINE):
         _, _, ds = state_at(SMOOTH, refine, "ab4")
         assert not (ds["event_kind"].values == R.TAKEOFF).any()
-        assert states(ds) == {1, 2}            # stick and partial slip only
+        assert states(ds) == {1, 2}  # stick and partial slip only
 
 
-@pytest.mark.parametrize("integrator,lo,hi", [
-    # AB4: method order 4 (source above).  Lower bound 3.5 excludes order 3 by
-    # a wide margin; upper bound 4.6 leaves room for the next error term and
-    # for the finest pair, whose error (~1e-11) nears the reference's own.
-    ("ab4", 3.5, 4.6),
-    # Verlet: method order 2 (source above); +-0.2 / 0.3 for higher-order terms.
-    ("verlet", 1.8, 2.3),
-])
+@pytest.mark.parametrize(
+    "integrator,lo,hi",
+    [
+        # AB4: method order 4 (source above).  Lower bound 3.5 excludes order 3 by
+        # a wide margin; upper bound 4.6 leaves room for the next error term and
+        # for the finest pair, whose error (~1e-11) nears the reference's own.
+        ("ab4", 3.5, 4.6),
+        # Verlet: method order 2 (source above); +-0.2 / 0.3 for higher-order terms.
+        ("verlet", 1.8, 2.3),
+    ],
+)
 def test_order_on_a_smooth_force(integrator, lo, hi):
     # Vertical position y* at t* of the smooth scene: the observed order is the
     # method's (measured AB4 3.98-4.06, Verlet 2.00).
@@ -125,7 +132,7 @@ def test_order_drops_for_the_tangential_memory_diagram():
     ex_ab4, ey_ab4 = errors(scene, "ab4")
     ex_verlet, _ = errors(scene, "verlet")
     _, _, ds = state_at(scene, 8, "ab4")
-    assert {2, 3} <= states(ds)                  # partial slip and total sliding
+    assert {2, 3} <= states(ds)  # partial slip and total sliding
     # the x* error is the contact law's: both integrators agree to 10%
     # (measured 2%) although their orders differ by 2
     assert np.all(np.abs(ex_verlet / ex_ab4 - 1.0) < 0.1), ex_verlet / ex_ab4
@@ -152,7 +159,7 @@ def test_order_drops_with_flights():
     scene = paper_scene(6, tau=2.0)
     _, _, ds = state_at(scene, REF_REFINE, "ab4")
     takeoffs = int(np.sum(ds["event_kind"].values == R.TAKEOFF))
-    assert takeoffs >= 5                          # flights every period by t = 5
+    assert takeoffs >= 5  # flights every period by t = 5
     ex, ey = errors(scene, "ab4")
     p = orders(ey)
     # band [1.8, 3.1]: around the 5/2 of the argument above (measured
@@ -171,17 +178,25 @@ def test_hermite_reads_a_quintic_exactly():
     # interpolation; source: Hermite interpolation from (p, p', p'') at two
     # nodes is exact for polynomials of degree <= 5 (error ~ h^6 p^(6)).
     import xarray as xr
+
     m, mu = 2.0, 0.3
     t = np.array([0.0, 0.3, 0.5, 1.1])
-    c = np.array([0.7, -1.2, 0.4, 2.0, -0.9, 0.25])          # p(t) = sum c_k t^k
+    c = np.array([0.7, -1.2, 0.4, 2.0, -0.9, 0.25])  # p(t) = sum c_k t^k
     p = np.polynomial.Polynomial(c)
     dp, ddp = p.deriv(), p.deriv(2)
     # x'' = -mu T / m and y'' = (1 - N) / m: store the accelerations that way
-    ds = xr.Dataset({"x": ("time", p(t)), "vx": ("time", dp(t)),
-                     "T": ("time", -m * ddp(t) / mu),
-                     "y": ("time", 2 * p(t)), "vy": ("time", 2 * dp(t)),
-                     "N": ("time", 1.0 - m * 2 * ddp(t))},
-                    coords={"time": t}, attrs={"mass": m, "mu": mu})
+    ds = xr.Dataset(
+        {
+            "x": ("time", p(t)),
+            "vx": ("time", dp(t)),
+            "T": ("time", -m * ddp(t) / mu),
+            "y": ("time", 2 * p(t)),
+            "vy": ("time", 2 * dp(t)),
+            "N": ("time", 1.0 - m * 2 * ddp(t)),
+        },
+        coords={"time": t},
+        attrs={"mass": m, "mu": mu},
+    )
     tq = np.linspace(0.0, 1.1, 23)
     x, y = hermite(ds, tq)
     assert np.allclose(x, p(tq), rtol=0, atol=1e-12)
@@ -193,20 +208,45 @@ def test_pareto_front_and_preset_summary():
     from vibtrans.tools.workprecision import Point, pareto_front, preset_summary
 
     def pt(scene, integ, setting, seconds, err, steps, v_ref=-1.0, chaotic=False):
-        return Point(scene, integ, setting, 1.0, 1.0, steps, seconds, seconds, 0.0, 0.0,
-                     err, err, err, err, err, err, 20.0, True, chaotic, v_ref)
-    pts = [pt("a", "ab4", "preview", 1.0, 1e-2, 100), pt("a", "ab4", "standard", 4.0, 1e-4, 400),
-           pt("a", "verlet", "preview", 1.0, 2e-2, 100), pt("a", "verlet", "standard", 5.0, 1e-3, 400),
-           pt("b", "ab4", "preview", 2.0, 3e-2, 100, v_ref=0.0),
-           pt("b", "ab4", "standard", 4.0, 1e-3, 400, v_ref=0.0),
-           pt("c", "ab4", "preview", 1.0, 0.9, 100, chaotic=True),
-           pt("c", "ab4", "standard", 2.0, 0.9, 400, chaotic=True)]
+        return Point(
+            scene,
+            integ,
+            setting,
+            1.0,
+            1.0,
+            steps,
+            seconds,
+            seconds,
+            0.0,
+            0.0,
+            err,
+            err,
+            err,
+            err,
+            err,
+            err,
+            20.0,
+            True,
+            chaotic,
+            v_ref,
+        )
+
+    pts = [
+        pt("a", "ab4", "preview", 1.0, 1e-2, 100),
+        pt("a", "ab4", "standard", 4.0, 1e-4, 400),
+        pt("a", "verlet", "preview", 1.0, 2e-2, 100),
+        pt("a", "verlet", "standard", 5.0, 1e-3, 400),
+        pt("b", "ab4", "preview", 2.0, 3e-2, 100, v_ref=0.0),
+        pt("b", "ab4", "standard", 4.0, 1e-3, 400, v_ref=0.0),
+        pt("c", "ab4", "preview", 1.0, 0.9, 100, chaotic=True),
+        pt("c", "ab4", "standard", 2.0, 0.9, 400, chaotic=True),
+    ]
     front = pareto_front(pts, "a")
     assert [(p.integrator, p.setting) for p in front] == [("ab4", "preview"), ("ab4", "standard")]
     summary = {(s.setting, s.integrator): s for s in preset_summary(pts)}
     prev = summary[("preview", "ab4")]
-    assert prev.max_drift_error == 3e-2 and prev.worst_scene == "b"   # chaotic c left out
-    assert prev.max_drift_error_drifting == 1e-2                       # b does not drift
+    assert prev.max_drift_error == 3e-2 and prev.worst_scene == "b"  # chaotic c left out
+    assert prev.max_drift_error_drifting == 1e-2  # b does not drift
     assert prev.speed_vs_standard == pytest.approx(8.0 / 3.0)
     assert prev.min_speed_vs_standard == pytest.approx(2.0)
     assert summary[("standard", "ab4")].speed_vs_standard == 1.0

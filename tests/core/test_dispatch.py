@@ -1,6 +1,7 @@
 """The one table of kernels (vibtrans.core.kernels.dispatch) and the copies
 it compiles: every scene's kernel found by (model, Lyapunov tangent, law
 kind, rolling), each variant's flags global constants of its own copy."""
+
 import pytest
 
 from vibtrans.core.kernels import deformable as D
@@ -19,8 +20,7 @@ from vibtrans.core.kernels.point_mass import point_mass_kernel
 from vibtrans.core.profiles import FlatSphereProfile
 
 
-@pytest.mark.parametrize("model, rolling", [("deformable", False), ("deformable", True),
-                                            ("vertical", False)])
+@pytest.mark.parametrize("model, rolling", [("deformable", False), ("deformable", True), ("vertical", False)])
 @pytest.mark.parametrize("lyapunov", [False, True])
 @pytest.mark.parametrize("kind", [SPHERE, PROFILE, WARM_POWER])
 def test_every_hertz_scene_has_its_kernel(model, rolling, lyapunov, kind):
@@ -30,11 +30,10 @@ def test_every_hertz_scene_has_its_kernel(model, rolling, lyapunov, kind):
     # the vertical model runs every profile in its PROFILE kernel
     assert variant.law_kind == (kind if model == "deformable" or kind == SPHERE else PROFILE)
     kernel = kernel_for(model, lyapunov, kind, rolling)
-    assert kernel is D.hertz_kernel(variant)          # built once, on first use
+    assert kernel is D.hertz_kernel(variant)  # built once, on first use
     # the copy's flags are its globals (numba folds them: jit.specialize)
     names = kernel.py_func.__globals__
-    assert (names["tangential"], names["lyapunov"], names["law_kind"],
-            names["rolling"]) == tuple(variant)
+    assert (names["tangential"], names["lyapunov"], names["law_kind"], names["rolling"]) == tuple(variant)
     assert names["memory_commit"] is memory_steps(variant.law_kind).commit
     assert LAW_KINDS[variant.law_kind].replace("-", "_") in kernel.py_func.__qualname__
     assert ("_rolling" in kernel.py_func.__qualname__) == rolling
@@ -60,8 +59,8 @@ def test_the_material_point_has_one_kernel():
 
 def test_a_law_names_its_kind():
     assert kind_of_law(None) == SPHERE
-    assert kind_of_law(power_kernel_law(3.0)) == WARM_POWER      # the warm-started root
-    assert kind_of_law(power_kernel_law(2.5)) == PROFILE         # pow() every time
+    assert kind_of_law(power_kernel_law(3.0)) == WARM_POWER  # the warm-started root
+    assert kind_of_law(power_kernel_law(2.5)) == PROFILE  # pow() every time
     assert kind_of_law(kernel_law(FlatSphereProfile(1.0))) == PROFILE
 
 

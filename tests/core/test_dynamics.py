@@ -8,6 +8,7 @@ the period-1 orbit's multipliers exp(+-i w0), w0 = sqrt(3 / (2 m*)), trace
 det = 1 (the map is area preserving); the shipped map's synchronous points
 (a synchronous hopping regime is a stable period-1 orbit).
 """
+
 import json
 import math
 import subprocess
@@ -20,11 +21,10 @@ from vibtrans import Scene, paper_scene
 from vibtrans.analysis import dynamics as Y
 from vibtrans.core.errors import InputError
 
-M_C = 1.5 / (4.0 * math.pi ** 2)        # w0 = 2 pi: the fundamental contact resonance
+M_C = 1.5 / (4.0 * math.pi**2)  # w0 = 2 pi: the fundamental contact resonance
 
 
-@pytest.mark.parametrize("mass", [0.3 * M_C, 0.9 * M_C, 1.1 * M_C, 2 * M_C, 4 * M_C,
-                                  0.5, 2.0, 20.0])
+@pytest.mark.parametrize("mass", [0.3 * M_C, 0.9 * M_C, 1.1 * M_C, 2 * M_C, 4 * M_C, 0.5, 2.0, 20.0])
 def test_small_amplitude_contact_orbit_has_the_linear_multipliers(mass):
     amplitude = 1e-4
     orbit = Y.periodic_orbit(amplitude, mass, Y.rest_guess(amplitude, mass))
@@ -33,7 +33,7 @@ def test_small_amplitude_contact_orbit_has_the_linear_multipliers(mass):
     assert orbit.trace == pytest.approx(2.0 * math.cos(w0), abs=2e-4)
     expected = np.exp(1j * w0)
     got = min(orbit.multipliers, key=lambda v: abs(v - expected))
-    assert abs(got - expected) < 2e-2       # multipliers near a double root meet as sqrt
+    assert abs(got - expected) < 2e-2  # multipliers near a double root meet as sqrt
     assert orbit.determinant == pytest.approx(1.0, abs=1e-5)
     assert orbit.stable == (abs(2.0 * math.cos(w0)) < 2.0)
 
@@ -46,9 +46,9 @@ def test_period_doubling_tongue_opens_at_four_times_the_resonance_mass():
     masses = np.linspace(log_4mc - 0.1, log_4mc + 0.1, 41)
 
     def traces(amplitude):
-        return np.array([Y.periodic_orbit(amplitude, 10 ** lm,
-                                          Y.rest_guess(amplitude, 10 ** lm)).trace
-                         for lm in masses])
+        return np.array(
+            [Y.periodic_orbit(amplitude, 10**lm, Y.rest_guess(amplitude, 10**lm)).trace for lm in masses]
+        )
 
     small = traces(1e-3)
     assert small.min() == pytest.approx(-2.0, abs=2e-3)
@@ -59,11 +59,14 @@ def test_period_doubling_tongue_opens_at_four_times_the_resonance_mass():
     assert (traces(0.3) < -2.0).sum() > band.size
 
 
-@pytest.mark.parametrize("amplitude,mass,y,vy", [
-    (1e-2, 0.5, 1.004, 0.01),        # contact start: the bootstrapped history
-    (10 ** 0.4, 10 ** 1.3, -3.0, 1.0),  # flight start, landing, hopping
-    (10 ** 1.1, 10 ** 0.4, 0.0, 0.0),
-])
+@pytest.mark.parametrize(
+    "amplitude,mass,y,vy",
+    [
+        (1e-2, 0.5, 1.004, 0.01),  # contact start: the bootstrapped history
+        (10**0.4, 10**1.3, -3.0, 1.0),  # flight start, landing, hopping
+        (10**1.1, 10**0.4, 0.0, 0.0),
+    ],
+)
 def test_jacobian_is_the_maps_derivative(amplitude, mass, y, vy):
     s = Y.strobe(amplitude, mass, y, vy, 2)
     eps = 1e-6
@@ -78,18 +81,24 @@ def test_jacobian_is_the_maps_derivative(amplitude, mass, y, vy):
 
 def test_synchronous_points_of_the_shipped_map_are_stable_period_one_orbits():
     for la, lm in ((0.15, 0.9), (1.1, 0.4), (1.95, 0.9)):
-        A, m = 10 ** la, 10 ** lm
+        A, m = 10**la, 10**lm
         orbit = Y.periodic_orbit(A, m, Y.run_guess(Scene(amplitude=A, mass=m)))
         assert orbit.found and orbit.stable, (la, lm, orbit)
-        assert orbit.y - A * 1.0 < 0.0          # at t = 0 mod 1 it is in flight (a* < 0)
+        assert orbit.y - A * 1.0 < 0.0  # at t = 0 mod 1 it is in flight (a* < 0)
         assert orbit.determinant == pytest.approx(1.0, abs=1e-5)
 
 
 def test_continuation_finds_the_tongues_period_doublings():
     log_4mc = math.log10(4 * M_C)
     A = 0.3
-    branch = Y.continue_orbit(math.log10(A), log_4mc + 0.15, "mass", log_4mc - 0.15,
-                              step=0.01, guess=Y.rest_guess(A, 10 ** (log_4mc + 0.15)))
+    branch = Y.continue_orbit(
+        math.log10(A),
+        log_4mc + 0.15,
+        "mass",
+        log_4mc - 0.15,
+        step=0.01,
+        guess=Y.rest_guess(A, 10 ** (log_4mc + 0.15)),
+    )
     assert branch.ended == "reached the end"
     assert len(branch.period_doublings) == 2
     lo, hi = sorted(branch.period_doublings)
@@ -108,15 +117,41 @@ def test_bad_arguments_are_refused():
 
 
 def test_cli_orbit_prints_the_orbit():
-    out = subprocess.run([sys.executable, "-m", "vibtrans.cli", "orbit", "--log-amplitude",
-                          "0.15", "--log-mass", "0.9", "--json"], capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "vibtrans.cli",
+            "orbit",
+            "--log-amplitude",
+            "0.15",
+            "--log-mass",
+            "0.9",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     got = json.loads(out.stdout)
     assert got["found"] is True and got["stable"] is True and abs(got["trace"]) < 2
     assert len(got["multipliers"]) == 2 and {"y", "vy"} <= set(got)
-    bad = subprocess.run([sys.executable, "-m", "vibtrans.cli", "orbit", "--log-amplitude",
-                          "0.15", "--log-mass", "0.9", "--period", "0"], capture_output=True,
-                         text=True)
+    bad = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "vibtrans.cli",
+            "orbit",
+            "--log-amplitude",
+            "0.15",
+            "--log-mass",
+            "0.9",
+            "--period",
+            "0",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode != 0 and "period" in bad.stderr and "Traceback" not in bad.stderr
 
 
@@ -130,48 +165,89 @@ def test_orbit_diagram_shows_one_phase_on_a_synchronous_line_and_many_in_chaos()
         assert p.size == 50 and np.ptp(p) < 0.02
         assert (d.section_value == v).sum() == 51
     c = Y.orbit_diagram(paper_scene(8), "mass", [-2.05, -2.0], final_periods=1000)
-    for v in c.values:        # long flights: 10-22 take-offs in 1000 periods
+    for v in c.values:  # long flights: 10-22 take-offs in 1000 periods
         p = c.phase[c.phase_value == v]
         assert p.size >= 5 and np.ptp(p) > 0.3
     with pytest.raises(InputError, match="values must be 1 to"):
         Y.orbit_diagram(paper_scene(6), "amplitude", [])
 
 
-@pytest.mark.parametrize("args", [
-    ["lyapunov-map"],
-    ["section", "--point", "6", "--section-periods", "50"],
-    ["orbit-diagram", "--point", "6", "--along", "amplitude", "--to", "0.5", "--runs", "4",
-     "--final", "20"],
-    ["continuation", "--log-amplitude", "-1", "--log-mass", "-0.7", "--along", "mass",
-     "--to", "-0.9", "--step", "0.05"],
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["lyapunov-map"],
+        ["section", "--point", "6", "--section-periods", "50"],
+        [
+            "orbit-diagram",
+            "--point",
+            "6",
+            "--along",
+            "amplitude",
+            "--to",
+            "0.5",
+            "--runs",
+            "4",
+            "--final",
+            "20",
+        ],
+        [
+            "continuation",
+            "--log-amplitude",
+            "-1",
+            "--log-mass",
+            "-0.7",
+            "--along",
+            "mass",
+            "--to",
+            "-0.9",
+            "--step",
+            "0.05",
+        ],
+    ],
+)
 def test_dynamics_figures_export(tmp_path, args):
     from vibtrans.cli import main
+
     out = tmp_path / "fig.png"
     assert main(["export", *args, "--out", str(out), "--dpi", "40"]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("args,message", [
-    (["orbit-diagram", "--point", "6", "--to", "1"], "needs --along amplitude|mass and --to"),
-    (["orbit-diagram", "--point", "6", "--along", "mass", "--to", "1", "--runs", "1"],
-     "runs must be an integer in [2, 2000]"),
-    (["section", "--point", "6", "--section-periods", "0"],
-     "section_periods must be an integer in [1, 20000]"),
-    (["continuation", "--point", "6", "--along", "mass", "--to", "1", "--step", "2"],
-     "step must be a number in [0.0001, 0.5]"),
-])
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["orbit-diagram", "--point", "6", "--to", "1"], "needs --along amplitude|mass and --to"),
+        (
+            ["orbit-diagram", "--point", "6", "--along", "mass", "--to", "1", "--runs", "1"],
+            "runs must be an integer in [2, 2000]",
+        ),
+        (
+            ["section", "--point", "6", "--section-periods", "0"],
+            "section_periods must be an integer in [1, 20000]",
+        ),
+        (
+            ["continuation", "--point", "6", "--along", "mass", "--to", "1", "--step", "2"],
+            "step must be a number in [0.0001, 0.5]",
+        ),
+    ],
+)
 def test_dynamics_exports_refuse_bad_input(tmp_path, capsys, args, message):
     from vibtrans.cli import main
+
     assert main(["export", *args, "--out", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("amplitude,mass,guess", [
-    (1e-3, 0.01, None), (1e-3, 0.1, None), (1e-3, 1.0, None),
-    (10 ** 0.15, 10 ** 0.9, (0.619, 0.0)),           # a synchronous hopping orbit
-])
+@pytest.mark.parametrize(
+    "amplitude,mass,guess",
+    [
+        (1e-3, 0.01, None),
+        (1e-3, 0.1, None),
+        (1e-3, 1.0, None),
+        (10**0.15, 10**0.9, (0.619, 0.0)),  # a synchronous hopping orbit
+    ],
+)
 def test_multipliers_product_is_one_at_reference_fidelity(amplitude, mass, guess):
     """det = 1 (area preserving) to 1e-8 at the reference step; the standard
     step's AB4 damping of stiff contact leaves up to 3e-6 (m* = 0.01)."""
@@ -188,6 +264,7 @@ def test_point_six_hop_is_elliptic_not_an_attractor():
     # complex pair of multipliers ON the unit circle (an area-preserving map:
     # product 1), so nearby motions circle it and its exponent is ~0
     from pathlib import Path
+
     scene = paper_scene(6)
     orbit = Y.periodic_orbit(scene.amplitude, scene.mass, Y.run_guess(scene))
     assert orbit.found and orbit.stable and abs(orbit.trace) < 2

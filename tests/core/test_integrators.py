@@ -4,6 +4,7 @@ Sources: independent integrators (AB4, 4th order multistep; Verlet, 2nd
 order symplectic) agreeing on the same scene; the exact energy of the free
 Hertz oscillator (docs/MODEL.md section 7).
 """
+
 import numpy as np
 import pytest
 from kernel_harness import free_oscillator, hertz_energy
@@ -11,7 +12,7 @@ from kernel_harness import free_oscillator, hertz_energy
 from vibtrans import paper_scene, simulate
 from vibtrans.analysis.summary import V0, drift_velocity
 
-REL = 1e-3   # the issue's bar: integrators and step halving agree to 1e-3
+REL = 1e-3  # the issue's bar: integrators and step halving agree to 1e-3
 
 
 @pytest.mark.parametrize("point", [1, 2, 3, 4, 5, 6, 7])
@@ -28,7 +29,7 @@ def test_ab4_and_verlet_agree_and_step_halving_converges(point):
     assert abs(v_half - v_ab4) <= REL * scale
 
 
-M_RES = 3.0 / (8.0 * np.pi ** 2)   # linear period = 1 wave period
+M_RES = 3.0 / (8.0 * np.pi**2)  # linear period = 1 wave period
 
 
 @pytest.mark.parametrize("integrator,bound", [("ab4", 2e-4), ("verlet", 1e-4)])
@@ -38,7 +39,7 @@ def test_free_hertz_oscillator_energy_in_contact(integrator, bound):
     # at the standard step (measured: AB4 4.4e-5, Verlet 1.1e-5 of |E|).
     s, e, _, _ = free_oscillator(1.3, M_RES, 1e4, integrator)
     energy = hertz_energy(s, M_RES)
-    assert not np.any(e[:, 1] == 0)        # no take-off in this test
+    assert not np.any(e[:, 1] == 0)  # no take-off in this test
     drift = np.max(np.abs(energy - energy[0])) / abs(energy[0])
     assert drift < bound
 

@@ -7,6 +7,7 @@ so under the unramped wave (tau = 0) its flight lasts about 4 pi A* m*
 periods), the events of the runs, and the shipped maps (what a sweep
 stores must not change).
 """
+
 import json
 import math
 from pathlib import Path
@@ -22,7 +23,7 @@ from vibtrans.maps.sweep import DRIFTS, PATTERNS, SCENE_KEYS, compute_point, ope
 
 MAPS = Path(__file__).resolve().parents[2] / "assets" / "maps"
 # the upper right of both maps: log10 A* = 2.5, log10 m* = 3
-UPPER_RIGHT = dict(amplitude=10.0 ** 2.5, mass=10.0 ** 3.0)
+UPPER_RIGHT = dict(amplitude=10.0**2.5, mass=10.0**3.0)
 
 
 def run(scene):
@@ -39,8 +40,9 @@ def assert_ballistic_after(ds, t0):
     s = t[sel] - T
     y_end, vy_end = float(ds["y"].values[-1]), float(ds["vy"].values[-1])
     scale = abs(y_end) + abs(vy_end) * T
-    np.testing.assert_allclose(ds["y"].values[sel], y_end + vy_end * s + s * s / (2.0 * m),
-                               rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(
+        ds["y"].values[sel], y_end + vy_end * s + s * s / (2.0 * m), rtol=0, atol=1e-9 * scale
+    )
     np.testing.assert_allclose(ds["vx"].values[sel], float(ds["vx"].values[-1]), rtol=1e-12)
 
 
@@ -74,10 +76,10 @@ def test_an_unramped_launch_flies_4_pi_A_m_periods():
     # reach (y* = -A*) before the root of the free-fall parabola.
     A, m = 1000.0, 1000.0
     ds, s = run(Scene(model="point-mass", tau=0.0, amplitude=A, mass=m))
-    phase = math.acos(-1.0 / (4.0 * math.pi ** 2 * A * m)) / (2.0 * math.pi)
+    phase = math.acos(-1.0 / (4.0 * math.pi**2 * A * m)) / (2.0 * math.pi)
     y0 = A * math.cos(2.0 * math.pi * phase)
     v_up = 2.0 * math.pi * A * math.sin(2.0 * math.pi * phase)
-    flight = m * (v_up + math.sqrt(v_up ** 2 - 2.0 * (y0 + A) / m))   # y0 - v_up s + s^2/(2 m) = -A
+    flight = m * (v_up + math.sqrt(v_up**2 - 2.0 * (y0 + A) / m))  # y0 - v_up s + s^2/(2 m) = -A
     assert s.launched and s.launch_time == pytest.approx(phase, abs=1e-9)
     assert s.earliest_landing == pytest.approx(phase + flight, rel=1e-9)
     assert s.earliest_landing == pytest.approx(4.0 * math.pi * A * m, rel=1e-6)
@@ -88,7 +90,7 @@ def test_an_unramped_launch_flies_4_pi_A_m_periods():
 def test_hopping_runs_that_end_mid_flight_are_not_launched(point, pattern):
     ds, s = run(paper_scene(point))
     starts, ends = an.flights(ds)
-    assert math.isinf(ends[-1])                  # both end in the middle of a flight
+    assert math.isinf(ends[-1])  # both end in the middle of a flight
     assert (s.launched, s.launch_time, s.earliest_landing) == (False, None, None)
     assert s.pattern == pattern and s.chaotic is False
     assert s.regime == f"jumping, {pattern}, drift against the wave (-x)"
@@ -97,7 +99,7 @@ def test_hopping_runs_that_end_mid_flight_are_not_launched(point, pattern):
 def test_bursts_whose_long_flight_spans_the_final_window_are_not_launched():
     # log10 A* = 2.5, log10 m* = 1.55 (beside paper point 5): the run ends in
     # a flight begun before the final window, as long as its earlier ones
-    ds, s = run(Scene(amplitude=10.0 ** 2.5, mass=10.0 ** 1.55))
+    ds, s = run(Scene(amplitude=10.0**2.5, mass=10.0**1.55))
     T = float(ds["time"].values[-1])
     starts, ends = an.flights(ds)
     assert math.isinf(ends[-1]) and starts[-1] < (1.0 - an.FINAL_FRACTION) * T
@@ -117,17 +119,37 @@ def test_a_sweep_stores_what_the_shipped_maps_hold_for_launched_points():
         i = int(np.argmin(np.abs(ds["log_amplitude"].values - 2.5)))
         j = int(np.argmin(np.abs(ds["log_mass"].values - 3.0)))
         got = compute_point(values, float(ds["log_amplitude"][i]), float(ds["log_mass"][j]))
-        for name in ("drift_velocity", "final_drift_velocity", "contact", "drift", "pattern",
-                     "chaotic", "contact_fraction", "takeoffs_per_period", "steps"):
+        for name in (
+            "drift_velocity",
+            "final_drift_velocity",
+            "contact",
+            "drift",
+            "pattern",
+            "chaotic",
+            "contact_fraction",
+            "takeoffs_per_period",
+            "steps",
+        ):
             assert got[name] == pytest.approx(float(ds[name].values[i, j]), rel=1e-9), name
         assert PATTERNS[got["pattern"]] == "irregular" and got["drift"] == DRIFTS["against-wave"]
-        scene = Scene(amplitude=10.0 ** 2.5, mass=10.0 ** 3.0, **values)
+        scene = Scene(amplitude=10.0**2.5, mass=10.0**3.0, **values)
         s = an.summarize(simulate(scene), simulate(an.twin_scene(scene)))
         assert s.launched and got["steps"] == s.steps + s.twin_steps
 
 
-SHORT_LAUNCH = ["simulate", "--model", "point-mass", "--tau", "0", "--amplitude", "1000",
-                "--mass", "1000", "--periods", "20"]
+SHORT_LAUNCH = [
+    "simulate",
+    "--model",
+    "point-mass",
+    "--tau",
+    "0",
+    "--amplitude",
+    "1000",
+    "--mass",
+    "1000",
+    "--periods",
+    "20",
+]
 
 
 def test_cli_prints_the_verdict_and_the_twin_cost_apart(capsys):
@@ -138,8 +160,10 @@ def test_cli_prints_the_verdict_and_the_twin_cost_apart(capsys):
     assert out["regime"].startswith("launched: ") and out["pattern"] == "launched"
     assert out["steps"] > 0 and out["twin_steps"] > 0 and out["twin_seconds"] >= 0.0
     assert main(SHORT_LAUNCH) == 0
-    lines = {line.split(":", 1)[0].strip(): line.split(":", 1)[1].strip()
-             for line in capsys.readouterr().out.splitlines()}
+    lines = {
+        line.split(":", 1)[0].strip(): line.split(":", 1)[1].strip()
+        for line in capsys.readouterr().out.splitlines()
+    }
     assert lines["regime"].startswith("launched: leaves the substrate")
     assert int(lines["twin_steps"]) == out["twin_steps"] and int(lines["steps"]) == out["steps"]
     assert main([*SHORT_LAUNCH, "--twin", "never", "--json"]) == 0

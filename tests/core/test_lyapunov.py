@@ -6,6 +6,7 @@ closed form det = 1 of an area-preserving flow (the tangent map of
 m* y'' = 1 - N*(a*) has zero divergence), and the paper's regimes (regular
 points 1-7, chaotic point 8).
 """
+
 import json
 import math
 import subprocess
@@ -33,7 +34,7 @@ def _flight_start(la, lm, t_s, t_end, y0, vy0, refine, direction=None):
     """The vertical kernel from a flight that starts at t_s at (y0, vy0) (a
     complete initial condition: the history is the flight's at landing) to
     t_end: ((y, y') at t_end, the tangent at t_end or None, the run)."""
-    A, m = 10.0 ** la, 10.0 ** lm
+    A, m = 10.0**la, 10.0**lm
     h = time_step(A, m, "standard", refine)
     p = D.kernel_params(A, m, 0.3, 1.2, 0.6, 50.0, h, t_end, 1e9)
     state, hist = D.rest_state()
@@ -44,11 +45,20 @@ def _flight_start(la, lm, t_s, t_end, y0, vy0, refine, direction=None):
         tangent[[D.L_FROM, D.L_START, D.L_END_T]] = (t_s, -1.0, -1.0)
         tangent[[D.L_DY0, D.L_DVY0]] = direction
         tangent[[D.L_DY, D.L_DVY]] = direction
-    run = drivers.run_hertz(p, "ab4", tangential=False, samples_capacity=64, state=state,
-                            hist=hist, record_rest=False, tangent=tangent, in_flight=True)
-    if run.samples.shape[0] and run.samples[-1, R.T_] == t_end:   # ends in contact
+    run = drivers.run_hertz(
+        p,
+        "ab4",
+        tangential=False,
+        samples_capacity=64,
+        state=state,
+        hist=hist,
+        record_rest=False,
+        tangent=tangent,
+        in_flight=True,
+    )
+    if run.samples.shape[0] and run.samples[-1, R.T_] == t_end:  # ends in contact
         end = run.samples[-1, [R.Y, R.VY]]
-    else:                                                         # ends in a flight
+    else:  # ends in a flight
         assert run.state[D.S_T] == t_end
         end = run.state[[D.S_Y, D.S_VY]]
     if tangent is None:
@@ -62,14 +72,12 @@ def _tangent_and_differences(la, lm, periods, refine, gap=0.3, eps=1e-6):
     """The tangent map over `periods` from a flight `gap` above the surface
     at t = 400.25 (after the ramp), and its central finite differences."""
     t_s = 400.25
-    y0 = vertical_displacement(t_s, 10.0 ** la, 50.0) - gap
+    y0 = vertical_displacement(t_s, 10.0**la, 50.0) - gap
     tangent, differences = np.zeros((2, 2)), np.zeros((2, 2))
     for j, e in enumerate(np.eye(2)):
         _, tangent[:, j], run = _flight_start(la, lm, t_s, t_s + periods, y0, 0.0, refine, e)
-        plus, _, _ = _flight_start(la, lm, t_s, t_s + periods, y0 + eps * e[0],
-                                   eps * e[1], refine)
-        minus, _, _ = _flight_start(la, lm, t_s, t_s + periods, y0 - eps * e[0],
-                                    -eps * e[1], refine)
+        plus, _, _ = _flight_start(la, lm, t_s, t_s + periods, y0 + eps * e[0], eps * e[1], refine)
+        minus, _, _ = _flight_start(la, lm, t_s, t_s + periods, y0 - eps * e[0], -eps * e[1], refine)
         differences[:, j] = (plus - minus) / (2.0 * eps)
     landings = int(np.sum(run.events[:, 1] == R.LANDING))
     return tangent, differences, landings
@@ -77,15 +85,18 @@ def _tangent_and_differences(la, lm, periods, refine, gap=0.3, eps=1e-6):
 
 def _grazing_log_amplitude(lm):
     """Just above the jumping threshold: take-offs that barely leave."""
-    return math.log10(1.02 * threshold_amplitude(10.0 ** lm, periods=200.0))
+    return math.log10(1.02 * threshold_amplitude(10.0**lm, periods=200.0))
 
 
-@pytest.mark.parametrize("orbit,la,lm", [
-    ("contact", -1.5, 0.0),          # lands, then stays in contact
-    ("hopping", 0.5, -1.0),
-    ("hopping, light", 1.0, -2.0),
-    ("grazing", None, 0.5),
-])
+@pytest.mark.parametrize(
+    "orbit,la,lm",
+    [
+        ("contact", -1.5, 0.0),  # lands, then stays in contact
+        ("hopping", 0.5, -1.0),
+        ("hopping, light", 1.0, -2.0),
+        ("grazing", None, 0.5),
+    ],
+)
 def test_tangent_map_is_the_flows_derivative(orbit, la, lm):
     """The tangent against central differences of the kernel's flow, over a
     step sweep: through landings, contact and take-offs it agrees to the
@@ -117,8 +128,7 @@ def _lyapunov(scene, **kw):
     return ds.attrs.get("lyapunov"), ds
 
 
-@pytest.mark.parametrize("la,lm", [(1.7, -2.0), (0.5, -2.0), (1.0, -2.7), (-0.3, 1.0),
-                                   (0.25, 0.8)])
+@pytest.mark.parametrize("la,lm", [(1.7, -2.0), (0.5, -2.0), (1.0, -2.7), (-0.3, 1.0), (0.25, 0.8)])
 @pytest.mark.parametrize("periods", [8.0, 16.0])
 def test_exponent_against_the_independent_twin(la, lm, periods):
     """Short horizons, no ramp (tau = 0: measured from t = 0), where the two
@@ -127,11 +137,10 @@ def test_exponent_against_the_independent_twin(la, lm, periods):
     or regular.  (At the standard step the chaotic ones differ by up to
     ~20%: the step's trajectory error, amplified; over long runs both are
     statistical estimates of the same exponent, test below.)"""
-    scene = dict(model="vertical", amplitude=10.0 ** la, mass=10.0 ** lm, periods=periods,
-                 tau=0.0)
+    scene = dict(model="vertical", amplitude=10.0**la, mass=10.0**lm, periods=periods, tau=0.0)
     value, ds = _lyapunov(Scene(**scene), refine=4.0)
     assert ds.attrs["lyapunov_from"] == 0.0
-    twin = naive.vertical_lyapunov(10.0 ** la, 10.0 ** lm, 0.0, periods, 0.0)
+    twin = naive.vertical_lyapunov(10.0**la, 10.0**lm, 0.0, periods, 0.0)
     assert abs(value - twin) <= 0.05 * abs(twin) + 2e-5, (value, twin)
 
 
@@ -143,10 +152,8 @@ def test_long_run_exponents_agree_with_the_twin_statistically():
     such samples scatter: both well above the threshold, within a factor 3
     (measured: 0.042 vs 0.081, 0.140 vs 0.098)."""
     for la, lm in ((1.7, -2.0), (0.5, -2.0)):
-        value, ds = _lyapunov(paper_scene(8).replace(model="vertical", amplitude=10.0 ** la,
-                                                     mass=10.0 ** lm))
-        twin = naive.vertical_lyapunov(10.0 ** la, 10.0 ** lm, 50.0, 2000.0,
-                                       ds.attrs["lyapunov_from"])
+        value, ds = _lyapunov(paper_scene(8).replace(model="vertical", amplitude=10.0**la, mass=10.0**lm))
+        twin = naive.vertical_lyapunov(10.0**la, 10.0**lm, 50.0, 2000.0, ds.attrs["lyapunov_from"])
         assert min(value, twin) > 3 * CHAOS_LYAPUNOV
         assert max(value, twin) / min(value, twin) < 3.0, (la, lm, value, twin)
 
@@ -163,11 +170,9 @@ def test_records_are_unchanged_and_the_exponent_is_the_vertical_motions():
         plain = simulate(scene, window=(390.0, 391.0))
         value, measured = _lyapunov(scene, window=(390.0, 391.0))
         for name in plain.variables:
-            assert np.array_equal(plain[name].values, measured[name].values,
-                                  equal_nan=True), (k, name)
-        assert value == _lyapunov(scene)[0]          # the window records, nothing more
-        others = [_lyapunov(scene.replace(model="vertical"))[0],
-                  _lyapunov(scene.replace(mu=1.0))[0]]
+            assert np.array_equal(plain[name].values, measured[name].values, equal_nan=True), (k, name)
+        assert value == _lyapunov(scene)[0]  # the window records, nothing more
+        others = [_lyapunov(scene.replace(model="vertical"))[0], _lyapunov(scene.replace(mu=1.0))[0]]
         if k == 8:
             assert min(value, *others) > CHAOS_LYAPUNOV
         else:
@@ -183,7 +188,7 @@ def test_paper_points_keep_their_regimes():
     for k in range(1, 9):
         scene = paper_scene(k).replace(model="vertical")
         got = []
-        for periods in ((1000.0, 3000.0) if k <= 7 else (1000.0, 2000.0, 4000.0, 8000.0)):
+        for periods in (1000.0, 3000.0) if k <= 7 else (1000.0, 2000.0, 4000.0, 8000.0):
             value, ds = _lyapunov(scene.replace(periods=periods))
             measured = periods - ds.attrs["lyapunov_start"]
             got.append(value)
@@ -200,7 +205,7 @@ def test_the_issue_example_is_chaotic_though_the_twin_agreed():
     """log10 A* = 0.5, log10 m* = -2: the twin's drift lands within the
     tolerance (twin_chaotic False) but its x* departs from the run's after
     ~92 periods; the exponent says chaotic, and the summary says why."""
-    scene = paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0)
+    scene = paper_scene(1).replace(amplitude=10**0.5, mass=10**-2.0)
     value, ds = _lyapunov(scene)
     s = summarize(ds, simulate(twin_scene(scene)))
     assert value > 5 * CHAOS_LYAPUNOV
@@ -231,6 +236,7 @@ def test_impact_map_jacobian_against_an_independent_bouncing_ball():
     where the kernel's event says (to 1e-12), and central differences of
     that flight equal lyapunov.impact_jacobian (to 1e-5)."""
     from vibtrans.core.lyapunov import impact_jacobian
+
     scene = paper_scene(10)
     _, t = _impacts(scene)
     A, m, tau = scene.amplitude, scene.mass, scene.tau
@@ -254,21 +260,23 @@ def test_point_mass_exponent_is_the_impact_maps():
     here with the naive flights' finite-difference Jacobians along the
     kernel's impacts; and paper point 10 is chaotic by it."""
     from vibtrans.core.lyapunov import impact_lyapunov
+
     scene = paper_scene(10)
     ds, t = _impacts(scene)
     assert ds.attrs["lyapunov"] > 2 * CHAOS_LYAPUNOV
     assert summarize(ds).chaotic is True
     t = t[:12]
-    events = np.stack([ds["event_time"].values, ds["event_kind"].values,
-                       ds["event_value"].values], axis=1)
-    value, start = impact_lyapunov(events[events[:, 0] <= t[-1]], scene.amplitude,
-                                   scene.mass, scene.tau, ds.attrs["lyapunov_from"])
+    events = np.stack([ds["event_time"].values, ds["event_kind"].values, ds["event_value"].values], axis=1)
+    value, start = impact_lyapunov(
+        events[events[:, 0] <= t[-1]], scene.amplitude, scene.mass, scene.tau, ds.attrs["lyapunov_from"]
+    )
     assert start == t[0]
     A, m, tau = scene.amplitude, scene.mass, scene.tau
     d, total = np.array([1.0, 0.0]), 0.0
     for t0, t1 in zip(t[:-1], t[1:]):
-        v0 = (naive.surface(t1, A, 0.0, tau)[1] - naive.surface(t0, A, 0.0, tau)[1]
-              - 0.5 * (t1 - t0) ** 2 / m) / (t1 - t0)
+        v0 = (
+            naive.surface(t1, A, 0.0, tau)[1] - naive.surface(t0, A, 0.0, tau)[1] - 0.5 * (t1 - t0) ** 2 / m
+        ) / (t1 - t0)
         eps, fd = 1e-7, np.zeros((2, 2))
         for j, e in enumerate(np.eye(2)):
             p = naive.bouncing_ball_flight(t0 + eps * e[0], v0 + eps * e[1], A, m, tau)
@@ -292,9 +300,17 @@ def test_a_capture_forgets_every_perturbation():
     ramp: the detachment's phase is the surface's alone, so the exponent
     is -inf (superstable), and the run is not chaotic."""
     from vibtrans.core.lyapunov import impact_lyapunov
-    ev = np.array([[400.0, R.LANDING, 0.0], [400.0, R.TAKEOFF, 0.0],
-                   [401.3, R.LANDING, 0.3], [401.9, R.TAKEOFF, 0.9],
-                   [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
+
+    ev = np.array(
+        [
+            [400.0, R.LANDING, 0.0],
+            [400.0, R.TAKEOFF, 0.0],
+            [401.3, R.LANDING, 0.3],
+            [401.9, R.TAKEOFF, 0.9],
+            [403.1, R.LANDING, 0.1],
+            [403.1, R.TAKEOFF, 0.1],
+        ]
+    )
     value, start = impact_lyapunov(ev, 1.0, 0.1, 50.0, 325.0)
     assert value == -math.inf and start == 400.0
 
@@ -315,21 +331,21 @@ def test_the_exponent_grown_along_the_run_equals_the_whole_runs(hopping_events, 
     and each value so far is the whole computation on that prefix (its
     last landing left for the next rows)."""
     from vibtrans.core.lyapunov import ImpactGrowth, impact_lyapunov
+
     scene, events = hopping_events
     growth = ImpactGrowth(scene.amplitude, scene.mass, scene.tau, t_from)
     for cut in sorted(c % (events.shape[0] + 1) for c in cuts):
         so_far = growth.update(events[:cut])
         prefix = events[:cut]
         if cut and prefix[-1, 1] == R.LANDING:
-            prefix = prefix[:-1]          # its take-off not yet seen
+            prefix = prefix[:-1]  # its take-off not yet seen
         value, start = impact_lyapunov(prefix, scene.amplitude, scene.mass, scene.tau, t_from)
         if so_far is None:
             assert math.isnan(value)
         else:
             assert so_far[0] == start and so_far[1] / growth_span(growth) == value
     growth.update(events, final=True)
-    assert growth.exponent() == impact_lyapunov(events, scene.amplitude, scene.mass, scene.tau,
-                                                t_from)
+    assert growth.exponent() == impact_lyapunov(events, scene.amplitude, scene.mass, scene.tau, t_from)
 
 
 def growth_span(growth):
@@ -338,11 +354,19 @@ def growth_span(growth):
 
 def test_a_capture_seen_in_pieces_is_a_capture():
     from vibtrans.core.lyapunov import ImpactGrowth
-    ev = np.array([[400.0, R.LANDING, 0.0], [400.0, R.TAKEOFF, 0.0],
-                   [401.3, R.LANDING, 0.3], [401.9, R.TAKEOFF, 0.9],
-                   [403.1, R.LANDING, 0.1], [403.1, R.TAKEOFF, 0.1]])
+
+    ev = np.array(
+        [
+            [400.0, R.LANDING, 0.0],
+            [400.0, R.TAKEOFF, 0.0],
+            [401.3, R.LANDING, 0.3],
+            [401.9, R.TAKEOFF, 0.9],
+            [403.1, R.LANDING, 0.1],
+            [403.1, R.TAKEOFF, 0.1],
+        ]
+    )
     growth = ImpactGrowth(1.0, 0.1, 50.0, 325.0)
-    assert growth.update(ev[:3]) is None           # the landing at 401.3 waits
+    assert growth.update(ev[:3]) is None  # the landing at 401.3 waits
     assert growth.update(ev[:4]) == (400.0, -math.inf)
     assert growth.update(ev) == (400.0, -math.inf)
 
@@ -353,9 +377,26 @@ def test_bad_flag_is_refused():
 
 
 def test_cli_reports_the_exponent_and_both_verdicts():
-    out = subprocess.run([sys.executable, "-m", "vibtrans.cli", "simulate", "--log-amplitude",
-                          "0.5", "--log-mass", "-2", "--periods", "600", "--twin", "always",
-                          "--json"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "vibtrans.cli",
+            "simulate",
+            "--log-amplitude",
+            "0.5",
+            "--log-mass",
+            "-2",
+            "--periods",
+            "600",
+            "--twin",
+            "always",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     got = json.loads(out.stdout)
     assert got["lyapunov"] > CHAOS_LYAPUNOV and got["chaotic"] is True
     assert got["twin_chaotic"] in (True, False)
@@ -370,6 +411,7 @@ def test_sweeps_store_the_exponent_and_judge_chaos_by_it(tmp_path):
     verify, resume, and refuse a command of the other kind or source."""
     from vibtrans.core.errors import StoreMismatch
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+
     la, lm = np.array([0.5, 1.7]), np.array([-2.0, 0.0])
     common = dict(periods=400.0, chunk_rows=1)
     transport = Sweep(la, lm, model="deformable", **common)
@@ -385,22 +427,27 @@ def test_sweeps_store_the_exponent_and_judge_chaos_by_it(tmp_path):
             value, ds = _lyapunov(scene)
             assert t["lyapunov"].values[i, j] == value
             assert t["chaotic"].values[i, j] == int(value > CHAOS_LYAPUNOV)
-            assert t["steps"].values[i, j] == ds.attrs["steps"]          # no twin
-            np.testing.assert_allclose(v["lyapunov"].values[i, j], value, rtol=1e-6) \
-                if value < CHAOS_LYAPUNOV else None
+            assert t["steps"].values[i, j] == ds.attrs["steps"]  # no twin
+            np.testing.assert_allclose(
+                v["lyapunov"].values[i, j], value, rtol=1e-6
+            ) if value < CHAOS_LYAPUNOV else None
     assert (t["chaotic"].values == (v["lyapunov"].values > CHAOS_LYAPUNOV)).all()
-    run_sweep(transport, paths["transport"], workers=1, progress=False)    # all done: resumes
+    run_sweep(transport, paths["transport"], workers=1, progress=False)  # all done: resumes
     with pytest.raises(StoreMismatch, match="chaos: store lyapunov, command twin"):
-        run_sweep(Sweep(la, lm, model="deformable", chaos="twin", **common),
-                  paths["transport"], workers=1, progress=False)
+        run_sweep(
+            Sweep(la, lm, model="deformable", chaos="twin", **common),
+            paths["transport"],
+            workers=1,
+            progress=False,
+        )
     with pytest.raises(StoreMismatch, match="kind: store lyapunov, command transport"):
-        run_sweep(Sweep(la, lm, model="vertical", **common), paths["lyapunov"], workers=1,
-                  progress=False)
+        run_sweep(Sweep(la, lm, model="vertical", **common), paths["lyapunov"], workers=1, progress=False)
 
 
 def test_a_lyapunov_sweep_needs_the_vertical_model():
     from vibtrans.core.errors import InputError
     from vibtrans.maps.sweep import Sweep
+
     with pytest.raises(InputError, match="vertical model"):
         Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="deformable")
     Sweep(np.array([0.0]), np.array([0.0]), kind="lyapunov", model="point-mass")

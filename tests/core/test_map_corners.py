@@ -51,8 +51,9 @@ def run(model, log_a, log_m, periods=PERIODS, fidelity="standard", **values):
     """Simulate and summarize with every warning turned into an error."""
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        ds = simulate(amplitude=10.0 ** log_a, mass=10.0 ** log_m, model=model,
-                      periods=periods, fidelity=fidelity, **values)
+        ds = simulate(
+            amplitude=10.0**log_a, mass=10.0**log_m, model=model, periods=periods, fidelity=fidelity, **values
+        )
         summary = summarize(ds)
     return ds, summary
 
@@ -66,14 +67,19 @@ def check_finite(ds, summary):
     assert t[-1] == pytest.approx(float(ds.attrs["periods"]), abs=ds.attrs["h"] + 1e-9)
 
     s = summary
-    for key in ("drift_velocity", "final_drift_velocity", "takeoffs_per_period",
-                "contact_fraction", "seconds"):
+    for key in (
+        "drift_velocity",
+        "final_drift_velocity",
+        "takeoffs_per_period",
+        "contact_fraction",
+        "seconds",
+    ):
         assert math.isfinite(getattr(s, key)), key
     assert s.contact in ("permanent", "jumping")
     assert s.drift in ("with-wave", "against-wave", "none")
     assert s.pattern in PATTERNS
     assert (s.pattern is None) == (s.contact == "permanent")
-    assert s.chaotic is None and s.divergence_time is None      # no twin
+    assert s.chaotic is None and s.divergence_time is None  # no twin
     assert s.takeoffs >= 0 and s.steps > 0
     assert 0.0 <= s.contact_fraction <= 1.0
     assert (s.takeoffs > 0) == (s.contact == "jumping")
@@ -120,8 +126,9 @@ def check_obvious_regime(ds, summary, log_a, log_m):
 
 
 # ------------------------------------------------------------------ deformable
-@pytest.mark.parametrize("log_a, log_m, mu, theta", DEFORMABLE,
-                         ids=[f"A1e{a}-m1e{m}-mu{mu}-th{th}" for a, m, mu, th in DEFORMABLE])
+@pytest.mark.parametrize(
+    "log_a, log_m, mu, theta", DEFORMABLE, ids=[f"A1e{a}-m1e{m}-mu{mu}-th{th}" for a, m, mu, th in DEFORMABLE]
+)
 def test_deformable_corner(log_a, log_m, mu, theta):
     ds, summary = run("deformable", log_a, log_m, mu=mu, theta=theta)
     check_finite(ds, summary)
@@ -153,7 +160,7 @@ def test_point_mass_corner(log_a, log_m, stick_rule):
     check_finite(ds, summary)
     check_physics(ds)
     # rigid contact (docs/MODEL.md section 3): jumping iff m* > 1 / (4 pi^2 A*)
-    jumps = 10.0 ** log_m > 1.0 / (4 * math.pi ** 2 * 10.0 ** log_a)
+    jumps = 10.0**log_m > 1.0 / (4 * math.pi**2 * 10.0**log_a)
     assert summary.contact == ("jumping" if jumps else "permanent"), summary
 
 

@@ -57,20 +57,28 @@ S = importlib.import_module("vibtrans.core.simulate")
 
 STATES = {0, 1, 2, 3}
 MID = dict(amplitude=1.0, mass=1.0, mu=0.505, theta=1.1944, nu=0.25, tau=50.0)
-EDGES = dict(amplitude=(1e-3, 1e3), mass=(1e-5, 1e5), mu=(0.01, 1.0),
-             theta=(1.0555, 1.3333), nu=(0.1, 0.4), tau=(0.0, 500.0))
+EDGES = dict(
+    amplitude=(1e-3, 1e3),
+    mass=(1e-5, 1e5),
+    mu=(0.01, 1.0),
+    theta=(1.0555, 1.3333),
+    nu=(0.1, 0.4),
+    tau=(0.0, 500.0),
+)
 PERIODS = 200.0
 
 # id -> (overrides of MID, periods)
 SCENES = {f"{k}={v:g}": ({k: v}, PERIODS) for k, pair in EDGES.items() for v in pair}
-SCENES.update({
-    "tau0-A1e3": ({"tau": 0.0, "amplitude": 1e3}, PERIODS),
-    "tau0-m1e-5": ({"tau": 0.0, "mass": 1e-5}, PERIODS),
-    "tau500-P2000": ({"tau": 500.0}, 2000.0),
-    # the stiffest scenes (8.2e5 standard / 6.6e6 reference steps): kept short
-    "nu0.1-A1e3-m1e-5": ({"nu": 0.1, "amplitude": 1e3, "mass": 1e-5}, 100.0),
-    "nu0.4-A1e3-m1e-5": ({"nu": 0.4, "amplitude": 1e3, "mass": 1e-5}, 100.0),
-})
+SCENES.update(
+    {
+        "tau0-A1e3": ({"tau": 0.0, "amplitude": 1e3}, PERIODS),
+        "tau0-m1e-5": ({"tau": 0.0, "mass": 1e-5}, PERIODS),
+        "tau500-P2000": ({"tau": 500.0}, 2000.0),
+        # the stiffest scenes (8.2e5 standard / 6.6e6 reference steps): kept short
+        "nu0.1-A1e3-m1e-5": ({"nu": 0.1, "amplitude": 1e3, "mass": 1e-5}, 100.0),
+        "nu0.4-A1e3-m1e-5": ({"nu": 0.4, "amplitude": 1e3, "mass": 1e-5}, 100.0),
+    }
+)
 MODELS = ("deformable", "point-mass")
 CASES = [(model, sid) for model in MODELS for sid in SCENES]
 
@@ -108,8 +116,7 @@ def test_edge_midpoint_is_finite_and_physical(model, sid):
     t = ds["time"].values
     assert t[0] == 0.0 and np.all(np.diff(t) > 0)
     assert sc.periods - 1e-9 <= t[-1] <= sc.periods + ds.attrs["h"] + 1e-9, t[-1]
-    for key in ("drift_velocity", "final_drift_velocity", "takeoffs_per_period",
-                "contact_fraction"):
+    for key in ("drift_velocity", "final_drift_velocity", "takeoffs_per_period", "contact_fraction"):
         assert math.isfinite(getattr(s, key)), key
     assert 0.0 <= s.contact_fraction <= 1.0
     assert (s.takeoffs > 0) == (s.contact == "jumping")
@@ -143,8 +150,8 @@ def test_edge_midpoint_is_finite_and_physical(model, sid):
     else:
         # closed form (docs/MODEL.md section 3): a rigid contact loses N* > 0 iff
         # m* |u_y''| > 1, |u_y''| ~ 4 pi^2 A* G(t); G's largest value is at T_obs.
-        g_end = 1.0 if sc.tau == 0 else 1.0 - math.exp(-(sc.periods / sc.tau) ** 2)
-        jumps = 4 * math.pi ** 2 * sc.mass * sc.amplitude * g_end > 1.0
+        g_end = 1.0 if sc.tau == 0 else 1.0 - math.exp(-((sc.periods / sc.tau) ** 2))
+        jumps = 4 * math.pi**2 * sc.mass * sc.amplitude * g_end > 1.0
         assert s.contact == ("jumping" if jumps else "permanent"), s
 
 
@@ -156,14 +163,20 @@ XFAIL_DRIFT = {
         "inside the no-drift band |v*| < v0, so chaos_verdict's tolerance 0.1|v*| + v0 "
         "says 'not chaotic'), yet divergence_time(twin) = 122.9 and (reference) = 122.6 "
         "periods < T_obs = 200: reference v*=+0.0189, error 0.50 of the floor 0.1 "
-        "(stated 5e-3)"),
+        "(stated 5e-3)"
+    ),
 }
 FIDELITY_CASES = [
-    pytest.param(m, s, id=f"{m}-{s}",
-                 marks=[pytest.mark.xfail(strict=True, raises=AssertionError,
-                                          reason=XFAIL_DRIFT[m, s])]
-                 if (m, s) in XFAIL_DRIFT else [])
-    for m, s in CASES]
+    pytest.param(
+        m,
+        s,
+        id=f"{m}-{s}",
+        marks=[pytest.mark.xfail(strict=True, raises=AssertionError, reason=XFAIL_DRIFT[m, s])]
+        if (m, s) in XFAIL_DRIFT
+        else [],
+    )
+    for m, s in CASES
+]
 
 
 # Chaotic by the tau + 1e-3 twin (measured at 200 periods, standard
@@ -180,7 +193,7 @@ KNOWN_CHAOTIC = {
     ("point-mass", "nu=0.4"): "v* -0.697, twin +1.085",
     ("point-mass", "tau=0"): "v* +0.397, twin +0.963",
     ("point-mass", "tau0-A1e3"): "v* +2156, twin +0.067 (tau = 0: starts stuck to a surface "
-                                 "moving at 2 pi A* r; tau > 0: at rest)",
+    "moving at 2 pi A* r; tau > 0: at rest)",
     ("point-mass", "tau500-P2000"): "v* +0.091, twin -0.405",
 }
 
@@ -200,8 +213,10 @@ def test_standard_agrees_with_reference_at_edge_midpoint(model, sid):
     v, v_twin = drift_velocity(ds), drift_velocity(twin)
     assert chaotic == ((model, sid) in KNOWN_CHAOTIC), (v, v_twin)
     if chaotic:
-        pytest.skip(f"chaotic by the tau + 1e-3 twin: v*={v:+.4g}, twin {v_twin:+.4g} "
-                    f"(KNOWN_CHAOTIC: {KNOWN_CHAOTIC[model, sid]})")
+        pytest.skip(
+            f"chaotic by the tau + 1e-3 twin: v*={v:+.4g}, twin {v_twin:+.4g} "
+            f"(KNOWN_CHAOTIC: {KNOWN_CHAOTIC[model, sid]})"
+        )
     ref, _ = run(model, sid, fidelity="reference")
     v_ref = drift_velocity(ref)
     err = abs(v - v_ref) / max(abs(v_ref), V0)
@@ -218,7 +233,7 @@ def free_oscillator(y0, mass, periods, integrator, refine=1.0, samples_per_perio
     h = time_step(0.0, mass, "standard") / refine
     p = D.kernel_params(0.0, mass, 1.0, 1.0, 0.0, 0.0, h, periods, 1.0 / samples_per_period)
     state, hist = D.rest_state(y0)
-    ay = (1.0 - max(y0, 0.0) ** 1.5) / mass   # at rest before t = 0: constant force
+    ay = (1.0 - max(y0, 0.0) ** 1.5) / mass  # at rest before t = 0: constant force
     hist[:, 3] = ay
     hist[:, 2] = -np.arange(4) * h * ay
     samples = np.empty((int(periods * samples_per_period) + 16, R.NCOL))
@@ -227,13 +242,25 @@ def free_oscillator(y0, mass, periods, integrator, refine=1.0, samples_per_perio
     ctr[R.C_STATE] = STICK
     vertical_kernel = kernel_for("vertical")
     while True:
-        code = vertical_kernel(p, INTEGRATORS[integrator], False, state, hist, np.empty(0),
-                               *D.unused_memory(), samples, events, ctr, periods, np.empty(0))
+        code = vertical_kernel(
+            p,
+            INTEGRATORS[integrator],
+            False,
+            state,
+            hist,
+            np.empty(0),
+            *D.unused_memory(),
+            samples,
+            events,
+            ctr,
+            periods,
+            np.empty(0),
+        )
         if code == R.DONE:
             break
         assert code == R.EVENTS_FULL, code
         events = grow(events)
-    return samples[:ctr[R.C_NSAMP]], events[:ctr[R.C_NEVT]]
+    return samples[: ctr[R.C_NSAMP]], events[: ctr[R.C_NEVT]]
 
 
 def linear_period(mass):
@@ -257,7 +284,7 @@ def oscillator_run(mass, y0, integrator, refine=1.0):
 # (mass, integrator): bound, measured.  The existing bounds (AB4 2e-4, Verlet
 # 1e-4) were set at 256 steps per oscillation; at m* = 1e5 there are 4e5.
 IN_CONTACT = [
-    pytest.param(1e5, "ab4", 2e-4, id="m1e5-ab4"),       # measured 6.2e-14
+    pytest.param(1e5, "ab4", 2e-4, id="m1e5-ab4"),  # measured 6.2e-14
     pytest.param(1e5, "verlet", 1e-4, id="m1e5-verlet"),  # measured 8.0e-12
     # Verlet is symplectic: its energy error is bounded, O((omega h)^2).  At
     # m* = 1e-5 the standard step is 1/40 of the oscillation (contact time
@@ -265,14 +292,22 @@ IN_CONTACT = [
     # Measured 8.28e-4 (8.28e-4 after 100 oscillations already: no growth);
     # refine 2: 2.1e-4, refine 4: 5.3e-5 (second order).
     pytest.param(1e-5, "verlet", 1e-4 * (256 / 40) ** 2, id="m1e-5-verlet"),
-    pytest.param(1e-5, "ab4", 2e-4, id="m1e-5-ab4", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError,
-        reason="AB4 damps the free oscillation at the standard step of m*=1e-5"
-        " (40 steps per oscillation): |E-E0|/|E0| = 8.5e-3 after 100 "
-        "oscillations, 6.4e-2 after 1e3, 0.134 after 1e4 = all of the oscillation "
-        "energy (E0 - E_eq = 0.071 of |E0| = 0.529): the particle comes to rest. "
-        "Existing bound 2e-4; scaling it as AB4's (omega h)^5 per oscillation gives "
-        "2.1, a vacuous bound.  refine 2: 2.5e-2, refine 4: 8.6e-4")),
+    pytest.param(
+        1e-5,
+        "ab4",
+        2e-4,
+        id="m1e-5-ab4",
+        marks=pytest.mark.xfail(
+            strict=True,
+            raises=AssertionError,
+            reason="AB4 damps the free oscillation at the standard step of m*=1e-5"
+            " (40 steps per oscillation): |E-E0|/|E0| = 8.5e-3 after 100 "
+            "oscillations, 6.4e-2 after 1e3, 0.134 after 1e4 = all of the oscillation "
+            "energy (E0 - E_eq = 0.071 of |E0| = 0.529): the particle comes to rest. "
+            "Existing bound 2e-4; scaling it as AB4's (omega h)^5 per oscillation gives "
+            "2.1, a vacuous bound.  refine 2: 2.5e-2, refine 4: 8.6e-4",
+        ),
+    ),
 ]
 
 
@@ -286,7 +321,7 @@ def test_free_oscillator_energy_in_contact_at_mass_extremes(mass, integrator, bo
     assert drift < bound, drift
     if integrator == "verlet" and mass < 1:
         # method property (symplectic): no secular growth after the first 1%
-        assert drift <= 1.05 * np.abs(rel[:rel.size // 100]).max()
+        assert drift <= 1.05 * np.abs(rel[: rel.size // 100]).max()
 
 
 def test_ab4_at_m_1e_5_only_loses_energy_and_converges_at_fifth_order():
@@ -304,16 +339,32 @@ def test_ab4_at_m_1e_5_only_loses_energy_and_converges_at_fifth_order():
 
 
 WITH_FLIGHTS = [
-    pytest.param(1e5, "ab4", id="m1e5-ab4"),       # measured 4.1e-12, 7 flights
+    pytest.param(1e5, "ab4", id="m1e5-ab4"),  # measured 4.1e-12, 7 flights
     pytest.param(1e5, "verlet", id="m1e5-verlet"),  # measured 8.6e-11, 7 flights
-    pytest.param(1e-5, "ab4", id="m1e-5-ab4", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError, reason="m*=1e-5, standard step, ~6600 flights in 1e4 "
-        "oscillations: |E-E0|/|E0| = 0.145 (energy lost at the non-smooth landings), "
-        "existing bound 0.02; refine 2, 4, 8: 4.3e-2, 1.0e-2, 2.5e-3")),
-    pytest.param(1e-5, "verlet", id="m1e-5-verlet", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError, reason="m*=1e-5, standard step, ~6600 flights in 1e4 "
-        "oscillations: |E-E0|/|E0| = 0.110, existing bound 0.02; refine 2, 4, 8: "
-        "4.6e-2, 1.5e-2, 1.6e-4")),
+    pytest.param(
+        1e-5,
+        "ab4",
+        id="m1e-5-ab4",
+        marks=pytest.mark.xfail(
+            strict=True,
+            raises=AssertionError,
+            reason="m*=1e-5, standard step, ~6600 flights in 1e4 "
+            "oscillations: |E-E0|/|E0| = 0.145 (energy lost at the non-smooth landings), "
+            "existing bound 0.02; refine 2, 4, 8: 4.3e-2, 1.0e-2, 2.5e-3",
+        ),
+    ),
+    pytest.param(
+        1e-5,
+        "verlet",
+        id="m1e-5-verlet",
+        marks=pytest.mark.xfail(
+            strict=True,
+            raises=AssertionError,
+            reason="m*=1e-5, standard step, ~6600 flights in 1e4 "
+            "oscillations: |E-E0|/|E0| = 0.110, existing bound 0.02; refine 2, 4, 8: "
+            "4.6e-2, 1.5e-2, 1.6e-4",
+        ),
+    ),
 ]
 
 
@@ -360,8 +411,9 @@ BUDGET = [
 
 
 @pytest.mark.parametrize("model, fidelity, periods, max_steps, preset", BUDGET)
-def test_over_budget_scene_is_refused_before_it_runs(model, fidelity, periods, max_steps,
-                                                     preset, monkeypatch):
+def test_over_budget_scene_is_refused_before_it_runs(
+    model, fidelity, periods, max_steps, preset, monkeypatch
+):
     # Source: closed form of the step count at the stiffest corner (A* = 1e3,
     # m* = 1e-5: the impact time scale sets h = 1.2e-4 at standard), and the
     # method property that simulate() estimates before it runs: the runners
@@ -385,4 +437,4 @@ def test_over_budget_scene_is_refused_before_it_runs(model, fidelity, periods, m
     assert progress == []
     message = str(info.value)
     assert f"{n:.3g} steps" in message and f"{max_steps:.3g}" in message, message
-    assert isinstance(info.value, ValueError)   # callers that catch ValueError see it
+    assert isinstance(info.value, ValueError)  # callers that catch ValueError see it

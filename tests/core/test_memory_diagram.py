@@ -4,6 +4,7 @@ Sources: closed forms of docs/MODEL.md section 7 (Cattaneo-Mindlin, Mindlin-Dere
 Masing), the spring-bed rules of docs/MODEL.md section 2, and the slow spring-bed twin
 in tests/naive.py.
 """
+
 import functools
 import os
 import sys
@@ -77,7 +78,7 @@ def test_cattaneo_mindlin_monotonic(a, sign):
     sliding = x > a * (1 + 1e-9)
     assert st[0] == STICK and T[0] == 0.0 and sh[0] == a
     assert np.all(st[partial] == PARTIAL_SLIP)
-    assert np.max(np.abs(sh[partial] - (a - x[partial]))) <= TOL   # stick core h < a - |b|
+    assert np.max(np.abs(sh[partial] - (a - x[partial]))) <= TOL  # stick core h < a - |b|
     assert np.all(st[sliding] == SLIDING)
     assert np.all(sh[sliding] == 0.0)
     assert np.all(T[sliding] == sign * a**1.5)
@@ -101,8 +102,11 @@ def _loop(a, bm, A, n, pre=()):
     b = np.concatenate([np.asarray(pre, float), up, down, back])
     T, sh, st = hist(np.full_like(b, a), b, a_start=a, b_start=0.0)
     k = len(pre) + len(up)
-    return (b[k - 1], T[k - 1]), (b[k:k + len(down)], T[k:k + len(down)], st[k:k + len(down)]), (
-        b[k + len(down):], T[k + len(down):], st[k + len(down):])
+    return (
+        (b[k - 1], T[k - 1]),
+        (b[k : k + len(down)], T[k : k + len(down)], st[k : k + len(down)]),
+        (b[k + len(down) :], T[k + len(down) :], st[k + len(down) :]),
+    )
 
 
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
@@ -116,15 +120,16 @@ def test_mindlin_deresiewicz_loop_from_partial_slip(a):
     assert b_m == bm and abs(T_m - cm(a, bm)) <= TOL
     assert np.max(np.abs(Td - md_unload(a, b_m, T_m, bd))) <= TOL
     b_min, T_min = bd[-1], Td[-1]
-    assert abs(T_min + T_m) <= TOL                      # symmetric loop: T_min = -T_m
+    assert abs(T_min + T_m) <= TOL  # symmetric loop: T_min = -T_m
     assert np.max(np.abs(Tr - md_reload(a, b_min, T_min, br))) <= TOL
-    assert abs(Tr[-1] - T_m) <= TOL                     # Masing: the loop closes
+    assert abs(Tr[-1] - T_m) <= TOL  # Masing: the loop closes
     assert np.all(sd[:-1] == PARTIAL_SLIP) and np.all(sr[:-1] == PARTIAL_SLIP)
     # Dissipated energy: closed-loop integral of T db (trapezoid on the stack's
     # forces) against the analytic integral of the two branches.
     W_stack = trapezoid(np.r_[T_m, Td], np.r_[b_m, bd]) + trapezoid(np.r_[T_min, Tr], np.r_[b_min, br])
     W_trap_cf = trapezoid(md_unload(a, b_m, T_m, np.r_[b_m, bd]), np.r_[b_m, bd]) + trapezoid(
-        md_reload(a, b_min, T_min, np.r_[b_min, br]), np.r_[b_min, br])
+        md_reload(a, b_min, T_min, np.r_[b_min, br]), np.r_[b_min, br]
+    )
     W = loop_energy(a, bm)
     assert W > 0
     assert abs(W_stack - W_trap_cf) <= 1e-11 * max(1.0, W)
@@ -151,12 +156,12 @@ def test_unloading_past_the_mirror_point_follows_the_virgin_curve(a):
     b = np.r_[up, down]
     T, sh, st = hist(np.full_like(b, a), b, a_start=a)
     Tm = cm(a, bm)
-    Td, sd = T[len(up):], st[len(up):]
+    Td, sd = T[len(up) :], st[len(up) :]
     first = down >= -bm
     assert np.max(np.abs(Td[first] - md_unload(a, bm, Tm, down[first]))) <= TOL
     assert np.max(np.abs(Td[~first] - cm(a, down[~first]))) <= TOL
     assert np.all(sd[down < -a * (1 + 1e-9)] == SLIDING)
-    assert np.all(Td[down < -a * (1 + 1e-9)] == -a**1.5)
+    assert np.all(Td[down < -a * (1 + 1e-9)] == -(a**1.5))
 
 
 @pytest.mark.parametrize("a", [0.5, 1.0, 2.3])
@@ -166,12 +171,12 @@ def test_mindlin_deresiewicz_loop_after_total_sliding(a):
     # (it reaches -N* exactly at b_m - b = 2a, then slides); a loop of
     # half-amplitude A = 0.8 a closes (Masing) with area loop_energy(a, A).
     N = a**1.5
-    bs = 1.3 * a                                  # slid through: T = N, memory wiped
+    bs = 1.3 * a  # slid through: T = N, memory wiped
     # (i) unloading all the way: md_unload, then total sliding at -N
     b = np.r_[np.linspace(0.0, bs, 301)[1:], np.linspace(bs, bs - 2.5 * a, 2501)[1:]]
     T, sh, st = hist(np.full_like(b, a), b, a_start=a)
     k = 300
-    assert np.all(T[k - 60:k] == N) and np.all(st[k - 60:k] == SLIDING)
+    assert np.all(T[k - 60 : k] == N) and np.all(st[k - 60 : k] == SLIDING)
     bd, Td, sd = b[k:], T[k:], st[k:]
     valid = bs - bd <= 2 * a
     assert np.max(np.abs(Td[valid] - md_unload(a, bs, N, bd[valid]))) <= TOL
@@ -199,13 +204,13 @@ def test_total_sliding_is_exactly_coulomb():
     # limit u = a* - h, which integrates to T* = a*^(3/2) = N*; and the states
     # table (T* = sign(b*') N*, s = 0).
     a = np.linspace(1.0, 2.0, 401)
-    b = 3.0 * (a - 1.0) + 1.2               # starts slid through, |db| = 3 da > da
+    b = 3.0 * (a - 1.0) + 1.2  # starts slid through, |db| = 3 da > da
     T, sh, st = hist(a, b)
     assert np.all(st == SLIDING) and np.all(sh == 0.0)
     assert np.max(np.abs(T - a**1.5)) <= TOL
     # shrinking contact while sliding backwards
     a2 = np.linspace(2.0, 0.3, 301)
-    b2 = -2.5 - 2.0 * (2.0 - a2)           # first step |db| = 2.5 > a: slid through
+    b2 = -2.5 - 2.0 * (2.0 - a2)  # first step |db| = 2.5 > a: slid through
     T, sh, st = hist(a2, b2, a_start=2.0, b_start=0.0)
     assert np.all(st == SLIDING)
     assert np.max(np.abs(T + a2**1.5)) <= TOL
@@ -220,10 +225,10 @@ def test_contact_loss_and_virgin_recontact():
     a1 = 0.8
     for direction in (1.0, -1.0):
         seg = [
-            (np.full(50, 1.0), np.linspace(0.0, 1.5, 51)[1:]),          # slide, T = N
-            (np.linspace(1.0, -0.5, 61)[1:], np.full(60, 1.5)),         # lift off
-            (np.full(20, -0.5), np.linspace(1.5, 2.0, 21)[1:]),          # b moves in flight
-            (np.array([a1]), np.array([2.0])),                           # set down at b = 2
+            (np.full(50, 1.0), np.linspace(0.0, 1.5, 51)[1:]),  # slide, T = N
+            (np.linspace(1.0, -0.5, 61)[1:], np.full(60, 1.5)),  # lift off
+            (np.full(20, -0.5), np.linspace(1.5, 2.0, 21)[1:]),  # b moves in flight
+            (np.array([a1]), np.array([2.0])),  # set down at b = 2
             (np.full(200, a1), 2.0 + direction * np.linspace(0.0, 1.2 * a1, 201)[1:]),
         ]
         a = np.concatenate([s[0] for s in seg])
@@ -235,7 +240,7 @@ def test_contact_loss_and_virgin_recontact():
         assert np.all(st[~flight] != FLIGHT)
         k = 50 + 60 + 20
         assert st[k] == STICK and T[k] == 0.0
-        assert np.max(np.abs(T[k + 1:] - cm(a1, b[k + 1:] - 2.0))) <= TOL
+        assert np.max(np.abs(T[k + 1 :] - cm(a1, b[k + 1 :] - 2.0))) <= TOL
 
 
 def test_recontact_within_a_step_attaches_on_the_line():
@@ -252,7 +257,7 @@ def test_recontact_within_a_step_attaches_on_the_line():
         if abs(b1 - bc) < a1:
             assert st[1] == STICK
             assert abs(T[1] - (b1 - bc) * np.sqrt(a1)) <= TOL
-        else:                                   # steeper than the cone: slides at once
+        else:  # steeper than the cone: slides at once
             assert st[1] == SLIDING
             assert abs(T[1] - np.sign(b1 - bc) * a1**1.5) <= TOL
 
@@ -279,7 +284,7 @@ def test_normal_loading_at_constant_b_keeps_stick_and_force():
     i_up = slice(30, 30 + len(up))
     assert np.all(st[i_up] == STICK) and np.all(sh[i_up] == a[i_up])
     assert np.max(np.abs(T[i_up] - T0)) <= TOL
-    Td, sd, shd = T[30 + len(up):], st[30 + len(up):], sh[30 + len(up):]
+    Td, sd, shd = T[30 + len(up) :], st[30 + len(up) :], sh[30 + len(up) :]
     above = down > a0 * (1 + 1e-9)
     assert np.all(sd[above] == STICK) and np.max(np.abs(Td[above] - T0)) <= TOL
     below = down <= a0
@@ -339,9 +344,9 @@ def random_history(seed, n):
         i0 = int(rng.integers(0, n - 20))
         length = int(rng.integers(3, 15))
         if rng.random() < 0.5:
-            a[i0:i0 + length] = a[i0]
+            a[i0 : i0 + length] = a[i0]
         else:
-            b[i0:i0 + length] = b[i0]
+            b[i0 : i0 + length] = b[i0]
     return a, b
 
 
@@ -383,8 +388,10 @@ def test_random_history_force_converges_to_stack(idx):
     for M in M_LEVELS:
         Tb = np.array([r["T"] for r in bed_run(idx, M)])
         errs.append(np.max(np.abs(Tb - T)) / scale)
-    print(f"history {HISTORIES[idx][0]}: rel. max error for M = {M_LEVELS}: "
-          + ", ".join(f"{e:.2e}" for e in errs))
+    print(
+        f"history {HISTORIES[idx][0]}: rel. max error for M = {M_LEVELS}: "
+        + ", ".join(f"{e:.2e}" for e in errs)
+    )
     assert errs[0] > errs[1] > errs[2]
     assert errs[0] / errs[1] > 4.0 and errs[1] / errs[2] > 4.0
     assert errs[2] < 2e-3

@@ -1,6 +1,7 @@
 """memory_snapshots: the memory diagram at several times from one run
 (the explorer's time slider scrubs through them), checked against
 memory_snapshot, which runs from rest to each time on its own."""
+
 import threading
 
 import numpy as np
@@ -22,16 +23,14 @@ RTOL = 1e-9
 
 
 def _scene(point, periods=60.0):
-    return paper_scene(point).replace(model="deformable", fidelity="preview",
-                                      periods=periods)
+    return paper_scene(point).replace(model="deformable", fidelity="preview", periods=periods)
 
 
 def _same(s, ref):
     return all(np.array_equal(s[k], ref[k]) for k in KEYS)
 
 
-@pytest.mark.parametrize("point, t", [(1, 0.0), (1, 0.3), (3, 7.77), (4, 41.5), (9, 12.25),
-                                      (7, 60.0)])
+@pytest.mark.parametrize("point, t", [(1, 0.0), (1, 0.3), (3, 7.77), (4, 41.5), (9, 12.25), (7, 60.0)])
 def test_one_time_is_memory_snapshot_bit_for_bit(point, t):
     (snap,) = memory_snapshots(_scene(point), [t])
     assert _same(snap, memory_snapshot(_scene(point), t))
@@ -53,7 +52,7 @@ def test_each_time_is_memory_snapshot_to_rounding(point):
         for k in ("a", "b", "h", "w", "u", "stick_depth"):
             np.testing.assert_allclose(s[k], ref[k], rtol=0, atol=RTOL * scale, err_msg=k)
         states.add(s["state"])
-    assert len(states) > 1 or point == 4      # the times cross state changes (4: in flight)
+    assert len(states) > 1 or point == 4  # the times cross state changes (4: in flight)
 
 
 def test_the_snapshots_cover_flight_and_contact():
@@ -73,14 +72,23 @@ def test_progress_rises_to_one_and_cancel_stops():
         memory_snapshots(_scene(9), [10.0, 20.0, 30.0], cancel=stop)
 
 
-@pytest.mark.parametrize("times, says", [
-    (None, "got None"), ("12", "got '12'"), (5.0, "got 5.0"), ([], "got 0 times"),
-    ([1.0, float("nan")], "times[1] = nan is not"),
-    ([-0.5], "times[0] = -0.5 is not"), ([1.0, 60.5], "times[1] = 60.5 is not"),
-    ([True], "times[0] = True is not"), (["3"], "times[0] = '3' is not"),
-    ([2.0, 2.0], "times[1] = 2.0 does not follow times[0] = 2.0"),
-    ([3.0, 1.0], "times[1] = 1.0 does not follow"),
-    (np.linspace(0, 1, MAX_SNAPSHOTS + 1), f"got {MAX_SNAPSHOTS + 1} times")])
+@pytest.mark.parametrize(
+    "times, says",
+    [
+        (None, "got None"),
+        ("12", "got '12'"),
+        (5.0, "got 5.0"),
+        ([], "got 0 times"),
+        ([1.0, float("nan")], "times[1] = nan is not"),
+        ([-0.5], "times[0] = -0.5 is not"),
+        ([1.0, 60.5], "times[1] = 60.5 is not"),
+        ([True], "times[0] = True is not"),
+        (["3"], "times[0] = '3' is not"),
+        ([2.0, 2.0], "times[1] = 2.0 does not follow times[0] = 2.0"),
+        ([3.0, 1.0], "times[1] = 1.0 does not follow"),
+        (np.linspace(0, 1, MAX_SNAPSHOTS + 1), f"got {MAX_SNAPSHOTS + 1} times"),
+    ],
+)
 def test_bad_times_are_named_with_their_range(times, says):
     with pytest.raises(InputError) as err:
         memory_snapshots(_scene(1), times)

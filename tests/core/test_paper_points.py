@@ -5,6 +5,7 @@ tau = 50, 2000 periods, standard fidelity) with its tau + 1e-3 twin, and is
 checked for contact mode, drift sign and rebound pattern, the qualitative
 facts the paper states.  Quantitative tolerances say where they come from.
 """
+
 import math
 
 import numpy as np
@@ -49,17 +50,28 @@ REFERENCE_DRIFT = {
 # 1: 9.1e-5, 2: 9.9e-5, 3: 3.2e-6, 4: 1.9e-7, 5: 7.2e-6, 6: 5.2e-5, 7: 4.8e-5,
 # 9: 6.1e-7, 9-classical: 2.0e-10; so 5e-3 has a 50x margin, and a drift
 # off by 1% (let alone doubled) fails.
-PINNED = [("1", 1, {}), ("2", 2, {}), ("3", 3, {}), ("4", 4, {}), ("5", 5, {}), ("6", 6, {}),
-          ("7", 7, {}), ("9", 9, {}), ("9-classical", 9, {"stick_rule": "classical"})]
+PINNED = [
+    ("1", 1, {}),
+    ("2", 2, {}),
+    ("3", 3, {}),
+    ("4", 4, {}),
+    ("5", 5, {}),
+    ("6", 6, {}),
+    ("7", 7, {}),
+    ("9", 9, {}),
+    ("9-classical", 9, {"stick_rule": "classical"}),
+]
 
 
 @pytest.mark.parametrize("key, point, overrides", PINNED, ids=[p[0] for p in PINNED])
 def test_drift_is_the_reference_fidelity_value(key, point, overrides):
     _, _, s = run(point, **overrides)
-    assert s.chaotic is False                  # the tau twin agrees: the drift is the scene's
+    assert s.chaotic is False  # the tau twin agrees: the drift is the scene's
     v_ref = REFERENCE_DRIFT[key]
-    assert abs(s.drift_velocity - v_ref) <= STATED_DRIFT_ERROR["standard"] * abs(v_ref), \
-        (s.drift_velocity, v_ref)
+    assert abs(s.drift_velocity - v_ref) <= STATED_DRIFT_ERROR["standard"] * abs(v_ref), (
+        s.drift_velocity,
+        v_ref,
+    )
 
 
 def test_point1_permanent_contact_drifts_against_the_wave():
@@ -108,7 +120,7 @@ def test_point4_synchronous_hovering_against_the_wave():
     t = ds["time"].values
     y = ds["y"].values
     last = t > 0.9 * t[-1]
-    assert np.mean(y[last]) == pytest.approx(-A, rel=0.2)   # hovering, |y*| ~ A*
+    assert np.mean(y[last]) == pytest.approx(-A, rel=0.2)  # hovering, |y*| ~ A*
     # docs/MODEL.md section 4: friction changes x*' by at most (mu/m*) * integral
     # of N* dt, and that integral over [t_i, t_j] is exactly (t_j - t_i) -
     # m* (y*'(t_j) - y*'(t_i)) by the vertical equation.  Check it on every
@@ -161,7 +173,7 @@ def test_point7_long_contact_slowly_accelerating_against_the_wave():
     assert s.pattern == "synchronous"
     assert s.contact_fraction > 0.8
     assert s.final_drift_velocity < s.drift_velocity < 0
-    assert s.final_drift_velocity < 1.5 * s.drift_velocity     # accelerating
+    assert s.final_drift_velocity < 1.5 * s.drift_velocity  # accelerating
 
 
 def test_point8_chaotic_hopping_diverges_with_tau():
@@ -179,7 +191,7 @@ def test_point9_point_mass_symmetric_sliding_no_drift():
     _, ds, s = run(9)
     assert s.contact == "permanent"
     assert s.drift == "none"
-    assert 3 in set(np.unique(ds["state"].values))          # it does slide
+    assert 3 in set(np.unique(ds["state"].values))  # it does slide
     assert abs(s.final_drift_velocity) < 1e-3
 
 

@@ -20,21 +20,34 @@ from vibtrans.core.kernels.contact import FLIGHT, SLIDING, STICK
 from vibtrans.core.kernels.substrate import surface_motion
 
 MU, R_NU, THETA = 0.3, 0.656, 1.2
-P9 = (10**2.7, 10**-4.4)    # docs/MODEL.md section 6, point 9
-P10 = (10**1.2, 10**-1.0)   # docs/MODEL.md section 6, point 10
+P9 = (10**2.7, 10**-4.4)  # docs/MODEL.md section 6, point 9
+P10 = (10**1.2, 10**-1.0)  # docs/MODEL.md section 6, point 10
 
 
-def run_point_mass(A, m, mu=MU, theta=THETA, r=R_NU, tau=50.0, periods=2000.0,
-                   alpha_t=0.5, stick_rule=0, samples_per_period=8, scan_dt=1.0 / 64.0,
-                   window=(math.inf, math.inf), capture_t=None):
+def run_point_mass(
+    A,
+    m,
+    mu=MU,
+    theta=THETA,
+    r=R_NU,
+    tau=50.0,
+    periods=2000.0,
+    alpha_t=0.5,
+    stick_rule=0,
+    samples_per_period=8,
+    scan_dt=1.0 / 64.0,
+    window=(math.inf, math.inf),
+    capture_t=None,
+):
     """The material point from rest through the production driver
     (vibtrans.core.drivers.run_point_mass): (samples, events, counters, final
     state t, x, vx, y, vy).  samples_per_period = 0: no coarse samples;
     `window` = (t0, t1): every scan step and both sides of every event
     inside it; capture_t overrides point_mass.CAPTURE_T."""
     sample_dt = 1.0 / samples_per_period if samples_per_period > 0 else math.inf
-    params = pm.make_params(A, m, mu, theta, r, tau, float(periods), alpha_t, sample_dt,
-                            window, scan_dt, capture_t)
+    params = pm.make_params(
+        A, m, mu, theta, r, tau, float(periods), alpha_t, sample_dt, window, scan_dt, capture_t
+    )
     run = drivers.run_point_mass(params, stick_rule)
     return run.samples, run.events, run.ctr, run.state
 
@@ -106,7 +119,7 @@ def test_slides_between_lines_without_jumping():
     assert_finite(s, e, st)
     assert len(takeoffs(e)) == 0
     slides = state_changes(e, SLIDING)[:, 0]
-    after = slides[slides > 6.5 * 5.0]        # ramp is exactly 1 after 6.5 tau
+    after = slides[slides > 6.5 * 5.0]  # ramp is exactly 1 after 6.5 tau
     assert len(np.unique(np.floor(after))) >= int(200 - 6.5 * 5.0) - 1
     assert np.all(s[:, R.A] == 0.0) and np.all(s[:, R.STATE] != FLIGHT)
 
@@ -130,10 +143,10 @@ def test_numerical_boundaries_match_analytic_lines():
     def run(m):
         return run_point_mass(A, m, tau=5.0, periods=100.0, samples_per_period=0)[1]
 
-    m_s = _threshold(lambda m: len(state_changes(run(m), SLIDING)) > 0,
-                     sliding_line(A) / 1.5, sliding_line(A) * 1.5)
-    m_j = _threshold(lambda m: len(takeoffs(run(m))) > 0,
-                     jumping_line(A) / 1.5, jumping_line(A) * 1.5)
+    m_s = _threshold(
+        lambda m: len(state_changes(run(m), SLIDING)) > 0, sliding_line(A) / 1.5, sliding_line(A) * 1.5
+    )
+    m_j = _threshold(lambda m: len(takeoffs(run(m))) > 0, jumping_line(A) / 1.5, jumping_line(A) * 1.5)
     err_s = m_s / sliding_line(A) - 1
     err_j = m_j / jumping_line(A) - 1
     print(f"boundary errors: sliding {err_s:+.2e}, jumping {err_j:+.2e}")
@@ -150,9 +163,9 @@ def test_point9_paper_rule_symmetric_sliding_no_drift(point9):
     assert len(takeoffs(e)) == 0 and np.all(s[:, R.STATE] != FLIGHT)
     slides = state_changes(e, SLIDING)[:, 0]
     periods = np.unique(np.floor(slides[slides >= 400.0]))
-    assert len(periods) == 1600                   # slides in every period
+    assert len(periods) == 1600  # slides in every period
     drift = st[1] / st[0]
-    print(f"point 9, paper rule: <v*> = {drift:+.4f}, {point9['paper_time']*1e3:.1f} ms")
+    print(f"point 9, paper rule: <v*> = {drift:+.4f}, {point9['paper_time'] * 1e3:.1f} ms")
     assert abs(drift) <= 0.1
 
 
@@ -163,7 +176,7 @@ def test_point9_classical_rule_drifts_with_the_wave(point9):
     assert_finite(s, e, st)
     assert len(takeoffs(e)) == 0
     drift = st[1] / st[0]
-    print(f"point 9, classical rule: <v*> = {drift:+.2f}, {point9['classical_time']*1e3:.1f} ms")
+    print(f"point 9, classical rule: <v*> = {drift:+.2f}, {point9['classical_time'] * 1e3:.1f} ms")
     assert drift > 1.0
 
 
@@ -173,15 +186,17 @@ def test_point10_chaotic_jumping(point10):
     (s1, e1, c1, st1), (s2, e2, c2, st2), _, elapsed = point10
     assert_finite(s1, e1, st1, s2, e2, st2)
     assert len(takeoffs(e1)) > 20 and len(takeoffs(e2)) > 20
-    coarse1 = s1[np.mod(s1[:, R.T_], 0.125) == 0]   # drop the window's extra rows
+    coarse1 = s1[np.mod(s1[:, R.T_], 0.125) == 0]  # drop the window's extra rows
     coarse2 = s2[np.mod(s2[:, R.T_], 0.125) == 0]
     t = coarse1[:, R.T_]
     assert np.array_equal(t, coarse2[:, R.T_]) and len(t) == 16001
     dx = np.abs(coarse1[:, R.X] - coarse2[:, R.X])
-    assert dx[t <= 10.0].max() < 0.1 * P10[0]     # same start ...
+    assert dx[t <= 10.0].max() < 0.1 * P10[0]  # same start ...
     assert dx[t >= 300.0].max() > 100.0 * P10[0]  # ... diverged after hundreds of periods
-    print(f"point 10: <v*> = {st1[1]/st1[0]:+.2f} (tau 50), {st2[1]/st2[0]:+.2f} "
-          f"(tau 50.001), {elapsed*1e3:.1f} ms")
+    print(
+        f"point 10: <v*> = {st1[1] / st1[0]:+.2f} (tau 50), {st2[1] / st2[0]:+.2f} "
+        f"(tau 50.001), {elapsed * 1e3:.1f} ms"
+    )
 
 
 # --------------------------------------------------------------------------- exactness
@@ -199,13 +214,14 @@ def test_flight_is_an_exact_parabola(point10):
     for t0 in offs[(offs > w0) & (offs < w1)]:
         nxt = lands[lands > t0]
         t1 = nxt[0] if len(nxt) else np.inf
-        r0 = _rows_at(s, t0)[-1]                  # post-takeoff row
+        r0 = _rows_at(s, t0)[-1]  # post-takeoff row
         inside = s[(s[:, R.T_] > t0) & (s[:, R.T_] < min(t1, w1))]
         dt = inside[:, R.T_] - t0
         y = r0[R.Y] + r0[R.VY] * dt + dt**2 / (2 * m)
         scale = 1.0 + np.abs(inside[:, R.Y]).max()
-        np.testing.assert_allclose(inside[:, R.X], r0[R.X] + r0[R.VX] * dt,
-                                   rtol=0, atol=1e-11 * (1 + np.abs(inside[:, R.X]).max()))
+        np.testing.assert_allclose(
+            inside[:, R.X], r0[R.X] + r0[R.VX] * dt, rtol=0, atol=1e-11 * (1 + np.abs(inside[:, R.X]).max())
+        )
         np.testing.assert_allclose(inside[:, R.VX], r0[R.VX], rtol=1e-14)
         np.testing.assert_allclose(inside[:, R.Y], y, rtol=0, atol=1e-11 * scale)
         np.testing.assert_allclose(inside[:, R.VY], r0[R.VY] + dt / m, rtol=1e-12)
@@ -229,7 +245,7 @@ def test_rebound_is_elastic_with_tangential_restitution(point10):
         assert vn_in > 0
         assert vn_out == pytest.approx(-vn_in, rel=1e-12, abs=1e-12 * A)
         assert post[R.VX] - dux == pytest.approx(0.5 * (pre[R.VX] - dux), rel=1e-12, abs=1e-12 * A)
-        assert t in takeoffs(e)[:, 0]             # LANDING then TAKEOFF at once
+        assert t in takeoffs(e)[:, 0]  # LANDING then TAKEOFF at once
 
 
 def _surface(t, A, r, tau):
@@ -239,12 +255,19 @@ def _surface(t, A, r, tau):
     G, G1, G2 = 1 - ex, 2 * t / tau**2 * ex, (2 / tau**2 - 4 * t * t / tau**4) * ex
     w = 2 * math.pi
     c, s = math.cos(w * t), math.sin(w * t)
-    return (G * A * r * s, G * A * c, A * r * (G1 * s + w * G * c), A * (G1 * c - w * G * s),
-            A * r * (G2 * s + 2 * w * G1 * c - w * w * G * s), A * (G2 * c - 2 * w * G1 * s - w * w * G * c))
+    return (
+        G * A * r * s,
+        G * A * c,
+        A * r * (G1 * s + w * G * c),
+        A * (G1 * c - w * G * s),
+        A * r * (G2 * s + 2 * w * G1 * c - w * w * G * s),
+        A * (G2 * c - 2 * w * G1 * s - w * w * G * c),
+    )
 
 
 def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
     """Event-driven numerical integration with scipy's DOP853 (no closed forms)."""
+
     def N(t):
         return 1 - m * _surface(t, A, r, tau)[5]
 
@@ -262,8 +285,13 @@ def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
     while t < T:
         if mode == "stick":
             c = x - _surface(t, A, r, tau)[0]
-            sol = solve_ivp(lambda tt, z: [0.0], (t, T), [0.0], **kw,
-                            events=[ev(lambda tt, z: f(tt), -1), ev(lambda tt, z: N(tt), -1)])
+            sol = solve_ivp(
+                lambda tt, z: [0.0],
+                (t, T),
+                [0.0],
+                **kw,
+                events=[ev(lambda tt, z: f(tt), -1), ev(lambda tt, z: N(tt), -1)],
+            )
             t = sol.t[-1]
             ux, uy, dux, duy, ax, _ = _surface(t, A, r, tau)
             x, vx, y, vy = c + ux, dux, uy, duy
@@ -275,12 +303,10 @@ def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
                     mode, s = "slide", (-1 if ax > 0 else 1)
                     kinds.append("slide")
         elif mode == "slide":
-            evs = [ev(lambda tt, z: s * (z[1] - _surface(tt, A, r, tau)[2]), -1),
-                   ev(lambda tt, z: N(tt), -1)]
+            evs = [ev(lambda tt, z: s * (z[1] - _surface(tt, A, r, tau)[2]), -1), ev(lambda tt, z: N(tt), -1)]
             if rule == "paper":
                 evs.append(ev(lambda tt, z: f(tt), 1))
-            sol = solve_ivp(lambda tt, z: [z[1], -mu * s * N(tt) / m], (t, T), [x, vx],
-                            events=evs, **kw)
+            sol = solve_ivp(lambda tt, z: [z[1], -mu * s * N(tt) / m], (t, T), [x, vx], events=evs, **kw)
             t = sol.t[-1]
             x, vx = sol.y[:, -1]
             _, y, dux, vy, ax, _ = _surface(t, A, r, tau)
@@ -295,8 +321,13 @@ def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
                 else:
                     vx, s = dux, (-1 if ax > 0 else 1)
         else:
-            sol = solve_ivp(lambda tt, z: [z[1], 0.0, z[3], 1 / m], (t, T), [x, vx, y, vy],
-                            events=[ev(lambda tt, z: z[2] - _surface(tt, A, r, tau)[1], 1)], **kw)
+            sol = solve_ivp(
+                lambda tt, z: [z[1], 0.0, z[3], 1 / m],
+                (t, T),
+                [x, vx, y, vy],
+                events=[ev(lambda tt, z: z[2] - _surface(tt, A, r, tau)[1], 1)],
+                **kw,
+            )
             t = sol.t[-1]
             x, vx, y, vy = sol.y[:, -1]
             if sol.status == 1:
@@ -306,12 +337,15 @@ def _reference(A, m, rule, tau, T, mu=MU, r=R_NU, alpha_t=0.5):
     return np.array([t, x, vx, y, vy]), kinds
 
 
-@pytest.mark.parametrize("A,m,rule,tau,T", [
-    (10.0, 1.5e-3, "paper", 2.0, 12.0),
-    (10.0, 1.5e-3, "classical", 2.0, 12.0),
-    (P9[0], P9[1], "classical", 3.0, 8.0),
-    (P10[0], P10[1], "paper", 5.0, 30.0),
-])
+@pytest.mark.parametrize(
+    "A,m,rule,tau,T",
+    [
+        (10.0, 1.5e-3, "paper", 2.0, 12.0),
+        (10.0, 1.5e-3, "classical", 2.0, 12.0),
+        (P9[0], P9[1], "classical", 3.0, 8.0),
+        (P10[0], P10[1], "paper", 5.0, 30.0),
+    ],
+)
 def test_closed_forms_match_numerical_integration(A, m, rule, tau, T):
     # The closed forms and event logic against an independent DOP853
     # integration of docs/MODEL.md section 3's equations with the same rules.
@@ -362,13 +396,13 @@ def _chunked(A, m, stops, rule, window, grow=3, periods=None):
             returns[code] += 1
             if code == R.SAMPLES_FULL:
                 new = np.empty((samples.shape[0] + grow, R.NCOL))
-                new[:ctr[R.C_NSAMP]] = samples[:ctr[R.C_NSAMP]]
+                new[: ctr[R.C_NSAMP]] = samples[: ctr[R.C_NSAMP]]
                 samples = new
             else:
                 new = np.empty((events.shape[0] + grow, 3))
-                new[:ctr[R.C_NEVT]] = events[:ctr[R.C_NEVT]]
+                new[: ctr[R.C_NEVT]] = events[: ctr[R.C_NEVT]]
                 events = new
-    return samples[:ctr[R.C_NSAMP]], events[:ctr[R.C_NEVT]], ctr, state, returns
+    return samples[: ctr[R.C_NSAMP]], events[: ctr[R.C_NEVT]], ctr, state, returns
 
 
 @pytest.mark.parametrize("point,rule", [(P10, 0), (P9, 1)])
@@ -378,8 +412,9 @@ def test_chunked_runs_are_bit_identical(point, rule):
     window = (100.0, 104.0)
     T = 300.0
     one = run_point_mass(*point, periods=T, stick_rule=rule, window=window)
-    many = _chunked(*point, stops=[0.0, 7.0, 50.0, 100.5, 102.25, 211.0, T], rule=rule,
-                    window=window, periods=T)
+    many = _chunked(
+        *point, stops=[0.0, 7.0, 50.0, 100.5, 102.25, 211.0, T], rule=rule, window=window, periods=T
+    )
     assert many[4][R.SAMPLES_FULL] > 100 and many[4][R.EVENTS_FULL] > 10
     for a, b in zip(one, many[:4]):
         assert np.array_equal(a, b)
@@ -395,9 +430,11 @@ def test_corners_finish_finite():
         dt = time.perf_counter() - t0
         assert_finite(s, e, st)
         assert st[0] == 2000.0 and len(s) == 16001
-        assert np.all(s[:, R.A] <= 1e-9 * (1 + A))      # never below the surface
-        print(f"A*={A:g} m*={m:g} mu={mu:g}: {dt*1e3:.1f} ms, <v*>={st[1]/2000:+.3g}, "
-              f"steps={ctr[R.C_STEPS]}, events={len(e)}")
+        assert np.all(s[:, R.A] <= 1e-9 * (1 + A))  # never below the surface
+        print(
+            f"A*={A:g} m*={m:g} mu={mu:g}: {dt * 1e3:.1f} ms, <v*>={st[1] / 2000:+.3g}, "
+            f"steps={ctr[R.C_STEPS]}, events={len(e)}"
+        )
 
 
 def test_chatter_near_jumping_line_is_bounded():
@@ -412,8 +449,7 @@ def test_chatter_near_jumping_line_is_bounded():
         assert len(e) < 200 * 1000
         assert np.all(s[:, R.A] <= 1e-9 * A)
         # a coarser capture (capture_t) is accepted and bounded too
-        s2, e2, _, st2 = run_point_mass(A, factor * jumping_line(A), tau=5.0,
-                                        periods=200.0, capture_t=1e-2)
+        s2, e2, _, st2 = run_point_mass(A, factor * jumping_line(A), tau=5.0, periods=200.0, capture_t=1e-2)
         assert_finite(s2, e2, st2)
         assert len(e2) < 200 * 100
 

@@ -9,6 +9,7 @@ the linearized contact oscillation m* dy'' = -N*'(1) dy (the small-amplitude
 period-1 orbit's Floquet trace 2 cos(sqrt(N*'(1)/m*)), time in periods);
 docs/MODEL.md section 10.
 """
+
 import math
 
 import numpy as np
@@ -58,16 +59,14 @@ def test_kernel_cattaneo_mindlin_closed_forms(prof):
     up = np.linspace(0.02, bmax, 15)
     down = np.linspace(bmax - 0.05, -bmax, 15)
     bs = np.concatenate((up, down, [-4.0]))
-    T, _, st = tangential_force_history(np.full(bs.size, a), bs, a_start=a,
-                                        law=kernel_law(prof))
+    T, _, st = tangential_force_history(np.full(bs.size, a), bs, a_start=a, law=kernel_law(prof))
     # a flat-sphere's law is a table (ds = 1/1024 in sqrt a*): N* to ~1e-7 relative
     tol = 1e-12 if isinstance(prof, PowerLawProfile) else 1e-6
     np.testing.assert_allclose(T[:15], N(a) - N(a - up), rtol=tol, atol=tol)
     Tmax = float(N(a) - N(a - bmax))
-    np.testing.assert_allclose(T[15:30], Tmax - 2 * (N(a) - N(a - (bmax - down) / 2)),
-                               rtol=tol, atol=tol)
+    np.testing.assert_allclose(T[15:30], Tmax - 2 * (N(a) - N(a - (bmax - down) / 2)), rtol=tol, atol=tol)
     assert T[-1] == pytest.approx(-float(N(a)), rel=tol)
-    assert st[-1] == 3      # total sliding
+    assert st[-1] == 3  # total sliding
 
 
 @pytest.mark.parametrize("history", ["random", "smooth"])
@@ -91,18 +90,18 @@ def test_tabulated_law_against_analytic(n):
     # a measured z = C r^n through MDR and the kernel's table: N* = a*^((n+1)/n)
     r = np.linspace(0, 1e-6, 4001)
     C = 1.0 / (1e-6) ** (n - 1)
-    law = kernel_law(TabulatedProfile(r, C * r ** n, 1e-16, a_max_star=4.0))
+    law = kernel_law(TabulatedProfile(r, C * r**n, 1e-16, a_max_star=4.0))
     p = (n + 1) / n
     for a in (0.1, 0.5, 1.0, 2.0, 3.5):
         N, k = law_eval(law, a)
-        assert N == pytest.approx(a ** p, rel=3e-3)
+        assert N == pytest.approx(a**p, rel=3e-3)
         assert k == pytest.approx(p * a ** (p - 1), rel=3e-3)
 
 
 def test_flat_sphere_law_table_matches_closed_form():
     prof = FlatSphereProfile(1.0)
     law = kernel_law(prof)
-    assert law_eval(law, 1.0)[0] == 1.0          # the rest state's balance, exactly
+    assert law_eval(law, 1.0)[0] == 1.0  # the rest state's balance, exactly
     for a in (0.01, 0.3, 1.0, 2.7, 9.0, 40.0):
         N, k = law_eval(law, a)
         assert N == pytest.approx(float(prof.normal_force(a)), rel=1e-6)
@@ -111,7 +110,7 @@ def test_flat_sphere_law_table_matches_closed_form():
 
 def test_scene_profile_validation():
     assert Scene().profile == "sphere" and scene_law(Scene()) is None
-    assert scene_law(Scene(profile="power:2")) is None          # the sphere's own path
+    assert scene_law(Scene(profile="power:2")) is None  # the sphere's own path
     assert Scene(profile="cone").values()["profile"] == "cone"
     with pytest.raises(InputError, match=r"exponent n must be a real number in \[1, inf\)"):
         Scene(profile="power:0.5")
@@ -152,9 +151,10 @@ def test_small_amplitude_floquet_trace(profile, k1):
     # the period-1 orbit at A* = 1e-6 is the linearized contact oscillation:
     # monodromy a rotation by sqrt(N*'(1)/m*) radians per period, trace 2 cos of it
     from vibtrans.analysis.dynamics import periodic_orbit, rest_guess
+
     scene = Scene(profile=profile)
     law = scene_law(scene)
-    mass = 10 ** 0.5
+    mass = 10**0.5
     orbit = periodic_orbit(1e-6, mass, rest_guess(1e-6, mass, law), law=law)
     assert orbit.found
     assert orbit.trace == pytest.approx(2 * math.cos(math.sqrt(k1 / mass)), abs=1e-6)
@@ -162,21 +162,26 @@ def test_small_amplitude_floquet_trace(profile, k1):
 
 def test_material_point_ignores_the_profile():
     from vibtrans.core.simulate import simulate
-    kw = dict(amplitude=10 ** 1.2, mass=0.1, model="point-mass", periods=60.0)
+
+    kw = dict(amplitude=10**1.2, mass=0.1, model="point-mass", periods=60.0)
     a = simulate(Scene(**kw))
     b = simulate(Scene(profile="cone", **kw))
     assert np.array_equal(a["x"].values, b["x"].values)
     assert b.attrs["profile"] == "cone"
 
 
-@pytest.mark.parametrize("argv", [
-    ["simulate", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
-    ["threshold", "--profile", "power:0.5", "--mass", "0.05"],
-    ["orbit", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
-    ["sweep", "--profile", "power:0.5", "--log-amplitude", "0:0:1", "--log-mass", "0:0:1"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
+        ["threshold", "--profile", "power:0.5", "--mass", "0.05"],
+        ["orbit", "--profile", "power:0.5", "--amplitude", "1", "--mass", "1"],
+        ["sweep", "--profile", "power:0.5", "--log-amplitude", "0:0:1", "--log-mass", "0:0:1"],
+    ],
+)
 def test_cli_refuses_a_bad_profile(capsys, argv):
     from vibtrans.cli import main
+
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "exponent n must be a real number in [1, inf)" in err, err
@@ -184,6 +189,7 @@ def test_cli_refuses_a_bad_profile(capsys, argv):
 
 def test_sweep_names_the_profile_and_keeps_the_sphere_keys():
     from vibtrans.maps.sweep import Sweep
+
     grid = (np.array([0.0]), np.array([0.0]))
     sphere = Sweep(*grid, model="deformable").attrs()
     assert not any(k.startswith("scene_profile") or k.startswith("scene_load") for k in sphere)
@@ -194,6 +200,7 @@ def test_sweep_names_the_profile_and_keeps_the_sphere_keys():
 def test_sweep_store_of_another_profile_is_refused(tmp_path):
     from vibtrans.core.errors import StoreMismatch
     from vibtrans.maps.sweep import Sweep, check_store
+
     grid = (np.array([0.0]), np.array([0.0]))
     cone_store = Sweep(*grid, model="deformable", profile="cone").empty_dataset()
     with pytest.raises(StoreMismatch, match="profile: store 'cone', command 'sphere'"):

@@ -7,6 +7,7 @@ kernels with law[LAW_ROOT] = 0), and, for whole runs, the bound of rounding
 differences in a motion that does not amplify them: at most one unit of
 2^-52 per step, relative (measured ~1e-13 at paper points 1, 3, 4, 6, 9).
 """
+
 import math
 from decimal import Decimal, getcontext
 
@@ -38,8 +39,8 @@ from vibtrans.core.params import paper_scene
 from vibtrans.core.profiles import FlatSphereProfile
 from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
 
-EPS = 2.0 ** -52          # one unit in the last place, relative (the upper end)
-ULPS = 4                  # the stated accuracy (docs/MODEL.md section 10)
+EPS = 2.0**-52  # one unit in the last place, relative (the upper end)
+ULPS = 4  # the stated accuracy (docs/MODEL.md section 10)
 ROOTS = [2, 3, 4, 5, 6, 7, 10, 17, 64]
 
 
@@ -55,9 +56,9 @@ def _smooth_history(rng, size, steps=(100, 1000)):
     steps a period (drawn in that range), a* over a factor up to e^4,
     anywhere in [e^-5, e^5]."""
     i = np.arange(size)
-    return (math.exp(rng.uniform(-3, 3))
-            * np.exp(rng.uniform(0.1, 2.0) * np.sin(2 * np.pi * i / rng.uniform(*steps)
-                                                    + rng.uniform(0, 2 * np.pi))))
+    return math.exp(rng.uniform(-3, 3)) * np.exp(
+        rng.uniform(0.1, 2.0) * np.sin(2 * np.pi * i / rng.uniform(*steps) + rng.uniform(0, 2 * np.pi))
+    )
 
 
 def _run(law, n, size=12_000, seed=34, steps=(100, 1000)):
@@ -86,9 +87,9 @@ def test_warm_root_within_4_ulp_of_pow(n, steps):
     a, out = _run(law, n, steps=steps)
     _, ref = _run(_pow_law(law), n, steps=steps)
     order = out[:, 2]
-    assert set(np.unique(order)) <= {0.0, 1.0, 2.0, 4.0}      # 1: a second start
+    assert set(np.unique(order)) <= {0.0, 1.0, 2.0, 4.0}  # 1: a second start
     warm = order > 0.0
-    assert warm.mean() > (0.99 if steps[0] == 100 else 0.05)    # the fast path is tested
+    assert warm.mean() > (0.99 if steps[0] == 100 else 0.05)  # the fast path is tested
     e = _start_error(a, out, law)
     short, long_ = (order[4:] == 2.0), (order[4:] == 4.0)
     # each order where its |e| says (the start error recomputed here, to rounding)
@@ -97,7 +98,7 @@ def test_warm_root_within_4_ulp_of_pow(n, steps):
     if steps[0] == 100:
         assert short.mean() > 0.5
     else:
-        assert np.count_nonzero(e[long_] > WARM_EPS / 4) >= 200           # near its limit
+        assert np.count_nonzero(e[long_] > WARM_EPS / 4) >= 200  # near its limit
     assert not ref[:, 2].any()
     np.testing.assert_allclose(out[:, 0], ref[:, 0], rtol=ULPS * EPS, atol=0)
     np.testing.assert_allclose(out[:, 1], ref[:, 1], rtol=ULPS * EPS, atol=0)
@@ -124,6 +125,7 @@ def test_short_series_truncation_below_2_to_minus_57():
     # (WARM_EPS_SHORT): below 2^-57 of y for every n it serves (|c3| <= 1/16,
     # at n = 2), exactly in rationals
     from fractions import Fraction
+
     e = Fraction(WARM_EPS_SHORT)
     for n in range(2, 65):
         q = Fraction(1, n)
@@ -131,8 +133,8 @@ def test_short_series_truncation_below_2_to_minus_57():
         for k in range(1, 12):
             c = c * (q - k + 1) / k
             if k >= 3:
-                tail += abs(c) * e ** k
-        assert tail < Fraction(1, 2 ** 57), n
+                tail += abs(c) * e**k
+        assert tail < Fraction(1, 2**57), n
 
 
 @pytest.mark.parametrize("n", [3, 7, 64])
@@ -167,7 +169,7 @@ def test_warm_root_falls_back_to_pow_where_the_start_is_far():
     a2, out2 = _run(law, 3, size=50)
     assert not out2[:2, 2].any() and set(out2[2:4, 2]) <= {0.0, 1.0}
     assert np.all((out2[4:, 2] == 2.0) | (out2[4:, 2] == 4.0))
-    assert WARM_EPS <= 2.0 ** -12     # the series' e^5 term stays below 3e-20 of y
+    assert WARM_EPS <= 2.0**-12  # the series' e^5 term stays below 3e-20 of y
 
 
 @pytest.mark.parametrize("n", [2, 3, 7, 64])
@@ -201,16 +203,18 @@ def test_second_starts_within_4_ulp_where_the_cubic_start_is_far(n):
         hist = [a0, a0 + s1, a0 + 2 * s1, a0 + 2 * s1 + s2]
         a = hist[3] + s2
         y = [root(x) for x in hist]
-        check(a, (y[3], y[2], y[1], y[0]), 0.0, 1)                     # the linear start
+        check(a, (y[3], y[2], y[1], y[0]), 0.0, 1)  # the linear start
         far = (y[3], 0.5 * y[3], y[1], y[0])
         check(a, far, p * root(a * (1 + rng.uniform(-1e-5, 1e-5))), 1)  # the caller's
-        check(a, far, 0.0, 0)                                           # pow
+        check(a, far, 0.0, 0)  # pow
         check(a, far, p * root(a * 1.1), 0)
 
 
-@pytest.mark.parametrize("law", [power_kernel_law(2.5), power_kernel_law(1.0),
-                                 kernel_law(FlatSphereProfile(1.0))],
-                         ids=["power2.5", "cone", "table"])
+@pytest.mark.parametrize(
+    "law",
+    [power_kernel_law(2.5), power_kernel_law(1.0), kernel_law(FlatSphereProfile(1.0))],
+    ids=["power2.5", "cone", "table"],
+)
 def test_laws_without_warm_start_are_law_eval(law):
     # a non-integer n, the cone (a^1) and tables: law_eval itself, bit for bit
     assert law[LAW_KIND] == LAW_TABLE or law[LAW_ROOT] == 0.0
@@ -243,10 +247,11 @@ def test_power3_run_drift_matches_the_pow_path(point):
     # entirely); the bound: a rounding difference per step, not amplified
     sc = paper_scene(point).replace(profile="power:3")
     law = drivers.scene_law(sc)
-    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
-                              D.SHORTCUTS_ALL, None)
-    runs = [drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap, law=L)
-            for L in (law, _pow_law(law))]
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL, None)
+    runs = [
+        drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap, law=L)
+        for L in (law, _pow_law(law))
+    ]
     steps = int(runs[1].ctr[R.C_STEPS])
     assert int(runs[0].ctr[R.C_STEPS]) == steps
     x, x0 = runs[0].state[D.S_X], runs[1].state[D.S_X]
@@ -268,14 +273,21 @@ def test_power_kernels_are_the_profile_kernels_bit_for_bit(monkeypatch, lyapunov
     assert kernel_for("deformable", False, kind_of_law(_pow_law(law))) is general[False]
     table = kernel_law(FlatSphereProfile(1.0))
     assert kernel_for("deformable", False, kind_of_law(table)) is general[False]
-    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1,
-                              D.SHORTCUTS_ALL, None)
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL, None)
     runs = []
     for own in (True, False):
         if not own:
             monkeypatch.setattr(drivers, "kind_of_law", lambda law: PROFILE)
-        runs.append(drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
-                                      law=law, lyapunov_from=1.0 if lyapunov else None))
+        runs.append(
+            drivers.run_hertz(
+                p,
+                sc.integrator,
+                tangential=True,
+                samples_capacity=cap,
+                law=law,
+                lyapunov_from=1.0 if lyapunov else None,
+            )
+        )
     a, b = runs
     assert int(a.ctr[R.C_STEPS]) > 10_000
     assert np.array_equal(a.samples, b.samples) and np.array_equal(a.events, b.events)

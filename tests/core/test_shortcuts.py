@@ -11,6 +11,7 @@ far inside every preset's stated error (preview 5%, standard 0.5%).  The bound
 1e-9 leaves room for the growth of 1e-14 perturbations over 2000 periods of a
 stable (non-chaotic) orbit, seen at <= 3e-14 (`vibtrans bench`).
 """
+
 import math
 
 import numpy as np

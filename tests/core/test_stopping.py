@@ -6,6 +6,7 @@ error, STATED_DRIFT_ERROR["standard"] = 5e-3, relative with the floor
 V0 = 0.1 (fidelity.py: how the preset's error is defined and measured), of
 the full run's; a scene that does not settle must run to T_obs.
 """
+
 import math
 
 import numpy as np
@@ -44,6 +45,7 @@ def ramp_end(scene):
 
 # ---------------------------------------------------------------- the averages
 
+
 def test_weighted_birkhoff_converges_super_polynomially_on_a_rotation():
     # Das, Sander, Saiki, Yorke (2017): for a smooth function on an
     # irrational rotation the weighted average converges faster than any
@@ -69,12 +71,14 @@ def test_remaining_rate_extrapolates_a_geometric_transient():
 
 # ---------------------------------------------------------------- the recurrence
 
+
 def _flight_records(vx_of, t_now, spp=10, p=3):
     """Samples (records.py columns) of a motion in flight at every whole
     period, x* the integral of vx_of(t) (closed form below), y* and v_y*
     periodic with period p; events: a take-off before the first sample."""
     from vibtrans.core.kernels import records as R
     from vibtrans.core.kernels.contact import FLIGHT
+
     t = np.arange(0, int(t_now * spp) + 1) / spp
     samples = np.zeros((t.size, R.NCOL))
     samples[:, R.T_] = t
@@ -99,12 +103,12 @@ def test_a_recurrent_flight_state_gives_x_at_t_obs_exactly():
     def motion(t):
         c = 0.75 / np.pi
         return 1 + 0.5 * np.sin(2 * np.pi * t / 3), t - c * np.cos(2 * np.pi * t / 3) + c
+
     rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
     samples, events = _flight_records(motion, 400.0)
     assert rule._recurs(samples, events, 400)
     assert REASONS[rule.reason] == "recurrent" and rule.rate == pytest.approx(1.0, rel=1e-12)
-    assert rule.drift_velocity() == pytest.approx(motion(np.array([2000.0]))[1][0] / 2000.0,
-                                                  rel=1e-12)
+    assert rule.drift_velocity() == pytest.approx(motion(np.array([2000.0]))[1][0] / 2000.0, rel=1e-12)
     assert (400 - 3) < rule.t_strobe <= 400 and (2000.0 - rule.t_strobe) % 3 == 0
 
 
@@ -112,6 +116,7 @@ def test_a_slowly_accelerating_flight_state_does_not_recur():
     # v_x* grows by 1e-3 per period (paper point 4's kind of drift): its states
     # never recur within RECUR_TOL, whatever the period looked for
     from vibtrans.core.stopping import DecidedRule
+
     rule = DecidedRule(2000.0, 50.0, 1.0, 1.0)
     samples, events = _flight_records(lambda t: (1 + 1e-3 * t, t + 5e-4 * t * t), 400.0)
     assert not rule._recurs(samples, events, 400)
@@ -119,6 +124,7 @@ def test_a_slowly_accelerating_flight_state_does_not_recur():
 
 
 # ---------------------------------------------------------------- known scenes
+
 
 def test_full_is_the_default_and_adds_nothing():
     scene = paper_scene(1, periods=400.0)
@@ -158,7 +164,7 @@ def test_chaotic_hopping_stops_with_its_verdict():
     assert attrs["stop_reason"] == "chaotic"
     assert attrs["periods_run"] < scene.periods
     assert dec.lyapunov > CHAOS_LYAPUNOV
-    assert "asymptotic_drift_velocity" not in attrs     # the drift so far, flagged
+    assert "asymptotic_drift_velocity" not in attrs  # the drift so far, flagged
 
 
 def test_point_mass_chaotic_hopping_stops_with_its_impact_verdict():
@@ -221,6 +227,7 @@ def test_point_mass_stops_regular():
 
 # ---------------------------------------------------------------- entry points
 
+
 def test_bad_stop_is_refused_by_name():
     with pytest.raises(InputError, match="stop must be one of full, decided"):
         run_records(paper_scene(1, periods=10.0), stop="early")
@@ -228,6 +235,7 @@ def test_bad_stop_is_refused_by_name():
 
 def test_sweep_store_records_the_rule(tmp_path):
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+
     grid = (np.array([-1.0, 0.0]), np.array([0.0]))
     values = dict(model="deformable", mu=0.3, periods=500.0)
     path = str(tmp_path / "d.zarr")
@@ -248,8 +256,8 @@ def test_cli_simulate_stop(capsys):
     import json
 
     from vibtrans.cli import main
-    assert main(["simulate", "--amplitude", "0.1", "--mass", "1", "--stop", "decided",
-                 "--json"]) == 0
+
+    assert main(["simulate", "--amplitude", "0.1", "--mass", "1", "--stop", "decided", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["stop_reason"] == "regular" and out["periods_run"] < 2000
     with pytest.raises(SystemExit):
@@ -259,17 +267,23 @@ def test_cli_simulate_stop(capsys):
 
 # ---------------------------------------------------------------- property
 
+
 @pytest.mark.slow
-@settings(max_examples=40, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(log_a=st.floats(-3.0, 3.0), log_m=st.floats(-5.0, 5.0),
-       model=st.sampled_from(["deformable", "point-mass"]))
+@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    log_a=st.floats(-3.0, 3.0),
+    log_m=st.floats(-5.0, 5.0),
+    model=st.sampled_from(["deformable", "point-mass"]),
+)
 def test_decided_never_reports_a_regular_drift_outside_the_stated_error(log_a, log_m, model):
-    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, model=model, mu=0.3)
+    scene = Scene(amplitude=10.0**log_a, mass=10.0**log_m, model=model, mu=0.3)
     full, dec, attrs = both(scene)
     if attrs["stop_reason"] in ("regular", "flight", "recurrent") and not full.chaotic:
         assert within_error(dec.drift_velocity, full.drift_velocity), (
-            attrs, full.drift_velocity, dec.drift_velocity)
+            attrs,
+            full.drift_velocity,
+            dec.drift_velocity,
+        )
 
 
 def test_plateau_then_acceleration_is_not_stopped_early():
@@ -280,21 +294,28 @@ def test_plateau_then_acceleration_is_not_stopped_early():
     # goes on.  This is the windows' reach, not a test of plateaus in
     # general: that a plateau is never taken for the steady drift is not
     # established (docs/DYNAMICS.md section 4; the bench's difference map)
-    scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.0, mu=0.3)
+    scene = Scene(amplitude=10.0**0.6, mass=10.0**3.0, mu=0.3)
     full, dec, attrs = both(scene)
     assert within_error(dec.drift_velocity, full.drift_velocity)
 
 
-@pytest.mark.xfail(strict=True, reason="known (docs/DYNAMICS.md section 4, known "
-                   "inaccuracy at small drifts): the drift relaxes to a plateau that the windows accept at "
-                   "240 periods; hundreds of periods later the hopping changes and the "
-                   "full run's x*(T)/T is -0.069, the decided one -0.019")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known (docs/DYNAMICS.md section 4, known "
+    "inaccuracy at small drifts): the drift relaxes to a plateau that the windows accept at "
+    "240 periods; hundreds of periods later the hopping changes and the "
+    "full run's x*(T)/T is -0.069, the decided one -0.019",
+)
 def test_a_small_drift_whose_hopping_changes_late_is_not_stopped_early():
     # A* = 10^0.6, m* = 10^3.6, found by the bench's difference map (decided
     # against full, every 4th point of the shipped grid): one of 7 points,
     # all with |v*| < v0* (the issue's metric over drifting points does not
     # count them), where the stated error with its floor does not hold
-    scene = Scene(amplitude=10.0 ** 0.6, mass=10.0 ** 3.6, mu=0.3)
+    scene = Scene(amplitude=10.0**0.6, mass=10.0**3.6, mu=0.3)
     full, dec, attrs = both(scene)
     assert within_error(dec.drift_velocity, full.drift_velocity), (
-        attrs["stop_reason"], attrs["periods_run"], full.drift_velocity, dec.drift_velocity)
+        attrs["stop_reason"],
+        attrs["periods_run"],
+        full.drift_velocity,
+        dec.drift_velocity,
+    )

@@ -32,11 +32,14 @@ def test_unknown_material_lists_names():
         u.material(3)
 
 
-@pytest.mark.parametrize("field, kwargs", [
-    ("youngs_modulus", dict(youngs_modulus=-1.0)),
-    ("poisson_ratio", dict(poisson_ratio=0.5)),
-    ("density", dict(density=float("nan"))),
-])
+@pytest.mark.parametrize(
+    "field, kwargs",
+    [
+        ("youngs_modulus", dict(youngs_modulus=-1.0)),
+        ("poisson_ratio", dict(poisson_ratio=0.5)),
+        ("density", dict(density=float("nan"))),
+    ],
+)
 def test_material_validates(field, kwargs):
     args = dict(name="x", youngs_modulus=1e9, poisson_ratio=0.3, density=1000.0) | kwargs
     with pytest.raises(ValueError, match=field):
@@ -74,19 +77,25 @@ def test_brentq_port_is_scipys_to_the_bit():
     import of scipy.optimize) returns scipy's root exactly: over the whole
     range of nu (Scene's r(nu)) and over random brackets of other functions."""
     from scipy.optimize import brentq
+
     rng = np.random.default_rng(13)
-    nus = np.concatenate([np.linspace(1e-9, 0.5 - 1e-9, 20001), rng.uniform(0.0, 0.5, 20000),
-                          [5e-324, 1e-300, 0.5 - 2**-54, 0.1, 0.25, 0.3, 0.45]])
+    nus = np.concatenate(
+        [
+            np.linspace(1e-9, 0.5 - 1e-9, 20001),
+            rng.uniform(0.0, 0.5, 20000),
+            [5e-324, 1e-300, 0.5 - 2**-54, 0.1, 0.25, 0.3, 0.45],
+        ]
+    )
     for nu in nus[(nus > 0) & (nus < 0.5)]:
         f = _secular(float(nu))
-        assert u._brentq(f, 0.5, 1.0, 1e-15, 1e-14) == brentq(f, 0.5, 1.0, xtol=1e-15,
-                                                                rtol=1e-14), nu
+        assert u._brentq(f, 0.5, 1.0, 1e-15, 1e-14) == brentq(f, 0.5, 1.0, xtol=1e-15, rtol=1e-14), nu
     for _ in range(3000):
         c, root = rng.normal(size=4), rng.uniform(-3, 3)
         lo, hi = root - rng.uniform(0.01, 5), root + rng.uniform(0.01, 5)
 
         def f(x):
-            return (x - root) * (1 + c[0]**2 + (c[1] * x)**2 + c[2] * math.sin(c[3] * x))
+            return (x - root) * (1 + c[0] ** 2 + (c[1] * x) ** 2 + c[2] * math.sin(c[3] * x))
+
         if f(lo) * f(hi) < 0:
             assert u._brentq(f, lo, hi, 2e-12, 8.881784197001252e-16) == brentq(f, lo, hi)
 
@@ -117,8 +126,7 @@ def test_stiffness_ratio_in_model_range():
     # docs/MODEL.md section 1: theta in [1, 1.5] for any pair of materials.
     for a in u.MATERIALS.values():
         for b in u.MATERIALS.values():
-            th = u.stiffness_ratio(a.youngs_modulus, a.poisson_ratio,
-                                   b.youngs_modulus, b.poisson_ratio)
+            th = u.stiffness_ratio(a.youngs_modulus, a.poisson_ratio, b.youngs_modulus, b.poisson_ratio)
             assert 1.0 <= th <= 1.5
 
 
@@ -215,14 +223,17 @@ def test_error_message_names_range():
         u.to_normalized("glass", "steel", 1e-3, 1e5, -1.0)
 
 
-@pytest.mark.parametrize("func, args", [
-    (u.amplitude_ratio, ("0.3",)),
-    (u.amplitude_ratio, (None,)),
-    (u.rayleigh_speed, (70e9, True, 2500.0)),
-    (u.hertz_compression, (1.0, 1e-3 + 0j, 1e10)),
-    (u.to_normalized, ("glass", 42, 1e-3, 1e5, 1e-9)),
-    (u.to_normalized, ("glass", "steel", [1e-3], {}, 1e-9)),
-])
+@pytest.mark.parametrize(
+    "func, args",
+    [
+        (u.amplitude_ratio, ("0.3",)),
+        (u.amplitude_ratio, (None,)),
+        (u.rayleigh_speed, (70e9, True, 2500.0)),
+        (u.hertz_compression, (1.0, 1e-3 + 0j, 1e10)),
+        (u.to_normalized, ("glass", 42, 1e-3, 1e5, 1e-9)),
+        (u.to_normalized, ("glass", "steel", [1e-3], {}, 1e-9)),
+    ],
+)
 def test_bad_types_raise(func, args):
     with pytest.raises((TypeError, ValueError)):
         func(*args)

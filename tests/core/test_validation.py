@@ -51,20 +51,38 @@ OUT_OF_RANGE = {
 }
 WRONG_TYPES = ["abc", "1.0", None, True, False, [1], (1.0,), {"v": 1}, 1 + 0j, 2j, b"1"]
 
-BAD_NUMBERS = [(name, v) for name in NUMERIC
-               for v in [NAN, INF, -INF] + OUT_OF_RANGE[name]]
+BAD_NUMBERS = [(name, v) for name in NUMERIC for v in [NAN, INF, -INF] + OUT_OF_RANGE[name]]
 BAD_TYPES = [(name, v) for name in NUMERIC for v in WRONG_TYPES]
 
 VALID_EDGES = [
-    ("amplitude", 0.0), ("amplitude", 0), ("amplitude", 1e-300), ("amplitude", 1e300),
-    ("mass", 1e-300), ("mass", 2.2250738585072014e-308), ("mass", 1e300),
-    ("mu", 1e-12), ("mu", 10.0),
-    ("theta", 1.0), ("theta", 1), ("theta", 1.5), ("theta", 1.0555), ("theta", 1.3333),
-    ("nu", 1e-9), ("nu", 0.4999999),
-    ("tau", 0.0), ("tau", 0), ("tau", 1e9),
-    ("periods", 1e-9), ("periods", 1),
-    ("alpha_t", 0.0), ("alpha_t", 1.0), ("alpha_t", 0), ("alpha_t", 1),
-    ("mass", np.float64(2.5)), ("mass", np.int64(3)), ("theta", np.float32(1.25)),
+    ("amplitude", 0.0),
+    ("amplitude", 0),
+    ("amplitude", 1e-300),
+    ("amplitude", 1e300),
+    ("mass", 1e-300),
+    ("mass", 2.2250738585072014e-308),
+    ("mass", 1e300),
+    ("mu", 1e-12),
+    ("mu", 10.0),
+    ("theta", 1.0),
+    ("theta", 1),
+    ("theta", 1.5),
+    ("theta", 1.0555),
+    ("theta", 1.3333),
+    ("nu", 1e-9),
+    ("nu", 0.4999999),
+    ("tau", 0.0),
+    ("tau", 0),
+    ("tau", 1e9),
+    ("periods", 1e-9),
+    ("periods", 1),
+    ("alpha_t", 0.0),
+    ("alpha_t", 1.0),
+    ("alpha_t", 0),
+    ("alpha_t", 1),
+    ("mass", np.float64(2.5)),
+    ("mass", np.int64(3)),
+    ("theta", np.float32(1.25)),
 ]
 
 SELECTORS = {
@@ -73,10 +91,11 @@ SELECTORS = {
     "fidelity": ("preview", "standard", "reference"),
     "stick_rule": ("paper", "classical"),
 }
-BAD_SELECTIONS = [(key, v) for key in SELECTORS
-                  for v in ["foo", "", "Deformable", " ab4", "rk4", None, 1, ["ab4"]]]
+BAD_SELECTIONS = [
+    (key, v) for key in SELECTORS for v in ["foo", "", "Deformable", " ab4", "rk4", None, 1, ["ab4"]]
+]
 
-QUICK = dict(amplitude=0.5, mass=10.0, periods=5.0)   # a run of ~1300 steps
+QUICK = dict(amplitude=0.5, mass=10.0, periods=5.0)  # a run of ~1300 steps
 
 
 def _check_message(exc, name):
@@ -122,7 +141,7 @@ def test_scene_rejects_integer_too_large_for_float():
     # ValueError naming the parameter (not an OverflowError from float()).
     for name in NUMERIC:
         with pytest.raises(ValueError) as info:
-            Scene(**{name: 10 ** 400})
+            Scene(**{name: 10**400})
         assert name in str(info.value)
 
 
@@ -186,10 +205,28 @@ def test_paper_scene_rejects_bad_point_and_bad_override():
 PROPERTY_PARAMS = ["amplitude", "mass", "mu", "theta", "nu", "tau"]
 _numbers = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
-    st.floats(min_value=-2.0, max_value=2.0),          # dense near the bounds
-    st.sampled_from([0.0, -0.0, 1.0, 1.5, 0.5, 1e-300, -1e-300, 5e-324, 1e308,
-                     -1e308, NAN, INF, -INF, 1.0 - 1e-16, 1.5 + 1e-15, 0.5 - 1e-17]),
-    st.integers(min_value=-10 ** 6, max_value=10 ** 6),
+    st.floats(min_value=-2.0, max_value=2.0),  # dense near the bounds
+    st.sampled_from(
+        [
+            0.0,
+            -0.0,
+            1.0,
+            1.5,
+            0.5,
+            1e-300,
+            -1e-300,
+            5e-324,
+            1e308,
+            -1e308,
+            NAN,
+            INF,
+            -INF,
+            1.0 - 1e-16,
+            1.5 + 1e-15,
+            0.5 - 1e-17,
+        ]
+    ),
+    st.integers(min_value=-(10**6), max_value=10**6),
 )
 
 
@@ -216,8 +253,7 @@ def test_scene_many_values_at_once(values):
     except ValueError as exc:
         msg = str(exc)
         assert any(k in msg for k in PROPERTY_PARAMS), msg
-        bad = [k for k, v in values.items()
-               if not (math.isfinite(float(v)) and DOMAINS[k][1](float(v)))]
+        bad = [k for k, v in values.items() if not (math.isfinite(float(v)) and DOMAINS[k][1](float(v)))]
         assert bad, values
     else:
         for k in PROPERTY_PARAMS:
@@ -259,8 +295,17 @@ def test_simulate_rejects_unknown_keyword_and_non_scene():
 
 
 @pytest.mark.parametrize("model", sorted(SELECTORS["model"]))
-@pytest.mark.parametrize("edge", [dict(amplitude=0.0), dict(tau=0.0), dict(theta=1.0),
-                                  dict(theta=1.5), dict(alpha_t=0.0), dict(alpha_t=1.0)])
+@pytest.mark.parametrize(
+    "edge",
+    [
+        dict(amplitude=0.0),
+        dict(tau=0.0),
+        dict(theta=1.0),
+        dict(theta=1.5),
+        dict(alpha_t=0.0),
+        dict(alpha_t=1.0),
+    ],
+)
 def test_simulate_accepts_valid_edges(model, edge):
     ds = simulate(**{**QUICK, **edge}, model=model)
     for name in ds.data_vars:
@@ -271,14 +316,29 @@ def test_simulate_accepts_valid_edges(model, edge):
         assert s.contact == "permanent" and s.drift_velocity == 0.0
 
 
-@pytest.mark.parametrize("window", [
-    (-1.0, 2.0), (0.0, 6.0), (3.0, 1.0), (NAN, 1.0), (0.0, INF), (-INF, 1.0),
-    ("a", "b"), ("1", None), 5, (), (1.0,), (0.0, 1.0, 2.0), "ab", [None, None],
-])
+@pytest.mark.parametrize(
+    "window",
+    [
+        (-1.0, 2.0),
+        (0.0, 6.0),
+        (3.0, 1.0),
+        (NAN, 1.0),
+        (0.0, INF),
+        (-INF, 1.0),
+        ("a", "b"),
+        ("1", None),
+        5,
+        (),
+        (1.0,),
+        (0.0, 1.0, 2.0),
+        "ab",
+        [None, None],
+    ],
+)
 def test_simulate_rejects_bad_window(window):
     with pytest.raises(ValueError, match="window") as info:
         simulate(**QUICK, window=window)
-    assert "5" in str(info.value)       # names the valid interval [0, periods]
+    assert "5" in str(info.value)  # names the valid interval [0, periods]
 
 
 def test_simulate_accepts_window_edges():
@@ -328,7 +388,7 @@ def test_step_budget_exceeded_names_the_cost():
     with pytest.raises(StepBudgetExceeded) as info:
         simulate(**values)
     msg = str(info.value)
-    assert f"{steps:.3g}" in msg, msg          # the estimated cost
+    assert f"{steps:.3g}" in msg, msg  # the estimated cost
     assert "max_steps" in msg and "2e+08" in msg
     assert isinstance(info.value, ValueError)  # the CLI maps it to status 2
 
@@ -360,16 +420,18 @@ def test_step_budget_rejects_nan_budget():
 def test_progress_fractions_increase_to_one():
     for model in SELECTORS["model"]:
         seen = []
-        simulate(amplitude=0.5, mass=10.0, periods=20000.0, fidelity="preview",
-                 model=model, progress=seen.append)
+        simulate(
+            amplitude=0.5, mass=10.0, periods=20000.0, fidelity="preview", model=model, progress=seen.append
+        )
         assert seen, model
         assert all(0 < f <= 1 for f in seen), seen
         assert all(b > a for a, b in zip(seen, seen[1:])), seen
         assert seen[-1] == 1.0
 
 
-@pytest.mark.parametrize("model, periods", [("deformable", 20000.0), ("vertical", 20000.0),
-                                            ("point-mass", 100000.0)])
+@pytest.mark.parametrize(
+    "model, periods", [("deformable", 20000.0), ("vertical", 20000.0), ("point-mass", 100000.0)]
+)
 def test_cancel_set_while_running(model, periods):
     # chunks of ~2e6 steps: 20000 periods at 256 steps/period (point mass:
     # 1e5 periods at 64 scan steps/period) is several chunks
@@ -381,8 +443,7 @@ def test_cancel_set_while_running(model, periods):
         stop.set()
 
     with pytest.raises(Cancelled):
-        simulate(amplitude=0.5, mass=10.0, periods=periods, model=model,
-                 progress=progress, cancel=stop)
+        simulate(amplitude=0.5, mass=10.0, periods=periods, model=model, progress=progress, cancel=stop)
     assert len(calls) == 1 and calls[0] < 1.0
 
 
@@ -399,8 +460,7 @@ def test_cancel_from_another_thread():
     timer.start()
     try:
         with pytest.raises(Cancelled):
-            simulate(amplitude=0.5, mass=10.0, periods=1e6, cancel=stop,
-                     max_steps=1e9)
+            simulate(amplitude=0.5, mass=10.0, periods=1e6, cancel=stop, max_steps=1e9)
     finally:
         timer.cancel()
 
@@ -411,11 +471,18 @@ def test_unset_cancel_does_not_interrupt():
 
 
 # ------------------------------------------------------------------ threshold API
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(mass=-1.0), "mass"), (dict(mass=NAN), "mass"), (dict(mass="abc"), "mass"),
-    (dict(mass=1.0, tau=-1.0), "tau"), (dict(mass=1.0, periods=0.0), "periods"),
-    (dict(mass=1.0, fidelity="ultra"), "fidelity"), (dict(mass=1.0, integrator="rk4"), "integrator"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(mass=-1.0), "mass"),
+        (dict(mass=NAN), "mass"),
+        (dict(mass="abc"), "mass"),
+        (dict(mass=1.0, tau=-1.0), "tau"),
+        (dict(mass=1.0, periods=0.0), "periods"),
+        (dict(mass=1.0, fidelity="ultra"), "fidelity"),
+        (dict(mass=1.0, integrator="rk4"), "integrator"),
+    ],
+)
 def test_threshold_api_rejects_bad_input(kwargs, name):
     with pytest.raises(ValueError, match=name):
         threshold_amplitude(**kwargs)
@@ -496,7 +563,7 @@ CLI_BAD = [
 def test_cli_bad_input_exits_2_with_one_line(capsys, argv, name):
     try:
         code = main(argv)
-    except SystemExit as exc:       # argparse-level errors exit through the parser
+    except SystemExit as exc:  # argparse-level errors exit through the parser
         code = exc.code
     out, err = capsys.readouterr()
     assert code == 2
@@ -507,10 +574,17 @@ def test_cli_bad_input_exits_2_with_one_line(capsys, argv, name):
     assert out == ""
 
 
-@pytest.mark.parametrize("name, value, rng", [
-    ("amplitude", "-1", "[0, inf)"), ("mass", "0", "[2.22507e-308, inf)"), ("mu", "0", "(0, inf)"),
-    ("theta", "2", "[1, 1.5]"), ("nu", "0.7", "(0, 0.5)"), ("tau", "-1", "[0, inf)"),
-])
+@pytest.mark.parametrize(
+    "name, value, rng",
+    [
+        ("amplitude", "-1", "[0, inf)"),
+        ("mass", "0", "[2.22507e-308, inf)"),
+        ("mu", "0", "(0, inf)"),
+        ("theta", "2", "[1, 1.5]"),
+        ("nu", "0.7", "(0, 0.5)"),
+        ("tau", "-1", "[0, inf)"),
+    ],
+)
 def test_cli_error_line_names_the_range(capsys, name, value, rng):
     argv = ["simulate", "--amplitude", "1", "--mass", "1", "--periods", "5", f"--{name}", value]
     code, _, err = _run_cli(capsys, argv)
@@ -518,14 +592,22 @@ def test_cli_error_line_names_the_range(capsys, name, value, rng):
     assert f"{name} must be in {rng}" in err, err
 
 
-JSON_KEYS = {"drift_velocity", "final_drift_velocity", "contact", "drift", "pattern",
-             "takeoffs", "contact_fraction", "steps", "seconds"}
+JSON_KEYS = {
+    "drift_velocity",
+    "final_drift_velocity",
+    "contact",
+    "drift",
+    "pattern",
+    "takeoffs",
+    "contact_fraction",
+    "steps",
+    "seconds",
+}
 
 
 def test_cli_simulate_json_and_netcdf(capsys, tmp_path):
     path = tmp_path / "run.nc"
-    argv = ["simulate", "--amplitude", "0.5", "--mass", "10", "--periods", "50", "--json",
-            "--out", str(path)]
+    argv = ["simulate", "--amplitude", "0.5", "--mass", "10", "--periods", "50", "--json", "--out", str(path)]
     code, out, err = _run_cli(capsys, argv)
     assert code == 0, err
     lines = [line for line in out.splitlines() if line.strip()]
@@ -549,20 +631,21 @@ def test_cli_simulate_json_and_netcdf(capsys, tmp_path):
     np.testing.assert_array_equal(ds["x"].values, ref["x"].values)
     np.testing.assert_array_equal(ds["time"].values, ref["time"].values)
     assert res["drift_velocity"] == pytest.approx(
-        float(ds["x"].values[-1]) / float(ds["time"].values[-1]), rel=1e-12, abs=1e-300)
+        float(ds["x"].values[-1]) / float(ds["time"].values[-1]), rel=1e-12, abs=1e-300
+    )
     assert ds.attrs["mass"] == 10.0 and ds.attrs["model"] == "deformable"
 
 
 def test_cli_simulate_text_output(capsys):
-    code, out, err = _run_cli(capsys, ["simulate", "--log-amplitude", "-0.3", "--log-mass", "1",
-                                       "--periods", "5"])
+    code, out, err = _run_cli(
+        capsys, ["simulate", "--log-amplitude", "-0.3", "--log-mass", "1", "--periods", "5"]
+    )
     assert code == 0, err
     assert "drift_velocity" in out and "contact" in out
 
 
 def test_cli_threshold_json(capsys):
-    code, out, err = _run_cli(capsys, ["threshold", "--mass", "0.037", "--periods", "200",
-                                       "--json"])
+    code, out, err = _run_cli(capsys, ["threshold", "--mass", "0.037", "--periods", "200", "--json"])
     assert code == 0, err
     res = json.loads(out)
     aj = res["threshold_amplitude"]

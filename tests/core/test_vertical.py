@@ -3,6 +3,7 @@
 Sources: the paper's numbers (section III.A: m_c* ~ 3.69e-2, min A_J* ~ 5.4e-3)
 and the analytic boundaries of the material point (docs/MODEL.md section 3).
 """
+
 import math
 
 import numpy as np
@@ -63,7 +64,7 @@ def test_point_mass_boundaries_match_the_analytic_lines(log_a):
     # docs/MODEL.md section 3: sliding starts at m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*),
     # jumping at m* = 1/(4 pi^2 A*) (stationary excitation).  Within 2%: short
     # runs (tau = 5, so the ramp is over by t = 33) probed 2% either side.
-    A = 10 ** log_a
+    A = 10**log_a
     m_slide = point_mass_sliding_threshold(A)
     m_jump = point_mass_threshold(A)
     assert _steady(A, m_slide * 0.98) == "stick"

@@ -2,6 +2,7 @@
 finest step on windows across the jumping boundary and the fundamental
 resonance; refusal of bad levels, mismatched parameters and damaged batches
 or stores; resumption after a kill.  Preview fidelity, short runs."""
+
 import os
 import signal
 import subprocess
@@ -33,8 +34,7 @@ STORED = [v for v in Sweep([0.0], [0.0], **FAST).variables if v != "seconds"]
 
 def window_sweep(name, **over):
     la, lm = WINDOWS[name]
-    return Sweep(parse_range(la, "log_amplitude"), parse_range(lm, "log_mass"),
-                 **{**FAST, **over})
+    return Sweep(parse_range(la, "log_amplitude"), parse_range(lm, "log_mass"), **{**FAST, **over})
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +46,11 @@ def maps(tmp_path_factory):
         sweep = window_sweep(name)
         run_sweep(sweep, str(folder / "uniform.zarr"), progress=False)
         fraction = run_adaptive(sweep, str(folder / "adaptive.zarr"), 3, progress=False)
-        out[name] = (open_map(str(folder / "adaptive.zarr")),
-                     open_map(str(folder / "uniform.zarr")), fraction)
+        out[name] = (
+            open_map(str(folder / "adaptive.zarr")),
+            open_map(str(folder / "uniform.zarr")),
+            fraction,
+        )
     return out
 
 
@@ -59,8 +62,7 @@ def test_adaptive_map_equals_uniform_sweep(maps, name):
     assert computed.dtype == bool
     # every computed point is the uniform sweep's, bit for bit
     for v in STORED:
-        assert np.array_equal(ad[v].values[computed], un[v].values[computed],
-                              equal_nan=True), v
+        assert np.array_equal(ad[v].values[computed], un[v].values[computed], equal_nan=True), v
     # filled points are marked as not simulated
     assert (ad["steps"].values[~computed] == -1).all()
     assert np.isnan(ad["seconds"].values[~computed]).all()
@@ -69,9 +71,11 @@ def test_adaptive_map_equals_uniform_sweep(maps, name):
     assert same[computed & steady].all()
     filled = ~computed & steady
     agreement = same[filled].mean()
-    print(f"{name}: computed fraction {fraction:.3f} ({computed.sum()} of {computed.size}), "
-          f"drift class agreement at {filled.sum()} filled non-chaotic points {agreement:.4f}")
-    assert filled.sum() > computed.size // 4         # a real test of the filling
+    print(
+        f"{name}: computed fraction {fraction:.3f} ({computed.sum()} of {computed.size}), "
+        f"drift class agreement at {filled.sum()} filled non-chaotic points {agreement:.4f}"
+    )
+    assert filled.sum() > computed.size // 4  # a real test of the filling
     assert agreement >= 0.98
     assert fraction == pytest.approx(computed.mean()) and fraction < 0.5
     assert ad.attrs["computed_fraction"] == pytest.approx(fraction)
@@ -92,12 +96,13 @@ def test_filled_values_come_from_their_cell(maps):
     assert set(np.unique(ad["drift"].values[~comp])) <= set(np.unique(ad["drift"].values[comp]))
 
 
-SMALL = ("-0.6:0.2:0.1", "0:0.8:0.1")        # 9 x 9 finest points
+SMALL = ("-0.6:0.2:0.1", "0:0.8:0.1")  # 9 x 9 finest points
 
 
 def small_sweep(**over):
-    return Sweep(parse_range(SMALL[0], "log_amplitude"), parse_range(SMALL[1], "log_mass"),
-                 **{**FAST, **over})
+    return Sweep(
+        parse_range(SMALL[0], "log_amplitude"), parse_range(SMALL[1], "log_mass"), **{**FAST, **over}
+    )
 
 
 def test_store_opens_with_xarray_and_open_map(tmp_path):
@@ -112,12 +117,14 @@ def test_store_opens_with_xarray_and_open_map(tmp_path):
     assert not os.path.exists(path + ".partial")
 
 
-@pytest.mark.parametrize("level, match", [(0, "max_level"), (9, "max_level"), (2.0, "max_level"),
-                                          (True, "max_level"), (4, "log_amplitude")])
+@pytest.mark.parametrize(
+    "level, match",
+    [(0, "max_level"), (9, "max_level"), (2.0, "max_level"), (True, "max_level"), (4, "log_amplitude")],
+)
 def test_bad_levels_are_refused(tmp_path, level, match):
     with pytest.raises(InputError, match=match):
         run_adaptive(small_sweep(), str(tmp_path / "a.zarr"), level, progress=False)
-    assert not os.listdir(tmp_path)           # refused before any file
+    assert not os.listdir(tmp_path)  # refused before any file
 
 
 def test_grid_sizes_must_fit_the_level(tmp_path):
@@ -133,8 +140,9 @@ def test_bad_tolerance_is_refused(tmp_path, tol):
 
 
 def test_lyapunov_kind_is_refused(tmp_path):
-    sweep = Sweep(parse_range(SMALL[0], "a"), parse_range(SMALL[1], "m"), kind="lyapunov",
-                  model="vertical", **FAST)
+    sweep = Sweep(
+        parse_range(SMALL[0], "a"), parse_range(SMALL[1], "m"), kind="lyapunov", model="vertical", **FAST
+    )
     with pytest.raises(InputError, match="transport"):
         run_adaptive(sweep, str(tmp_path / "a.zarr"), 2, progress=False)
 
@@ -156,6 +164,7 @@ def counting(monkeypatch, kill_after=None):
             raise Killed
         calls.append(args[1:3])
         return real(*args, **kw)
+
     monkeypatch.setattr(adaptive, "compute_point", compute)
     monkeypatch.setattr(adaptive, "BATCH_POINTS", 8)
     return calls
@@ -178,11 +187,11 @@ def test_killed_run_resumes_without_recomputing(tmp_path, monkeypatch):
     assert 0 < saved <= total // 2
     calls = counting(monkeypatch)
     run_adaptive(small_sweep(), part, 2, workers=1, progress=False)
-    assert len(calls) == total - saved            # only the missing points
+    assert len(calls) == total - saved  # only the missing points
     a, b = open_map(full), open_map(part)
     for v in [*STORED, "computed"]:
         assert np.array_equal(a[v].values, b[v].values, equal_nan=True), v
-    calls = counting(monkeypatch)                 # finished: nothing to do
+    calls = counting(monkeypatch)  # finished: nothing to do
     run_adaptive(small_sweep(), part, 2, workers=1, progress=False)
     assert not calls
 
@@ -203,9 +212,9 @@ def test_damaged_batch_is_refused(tmp_path, monkeypatch, damage):
     with open(target, "wb") as f:
         if damage == "truncate":
             f.write(data[: len(data) // 2])
-        elif damage == "flip":     # a byte inside the stored arrays
+        elif damage == "flip":  # a byte inside the stored arrays
             k = data.index(b"drift_velocity.npy") + 200
-            f.write(data[:k] + bytes([data[k] ^ 0xFF]) + data[k + 1:])
+            f.write(data[:k] + bytes([data[k] ^ 0xFF]) + data[k + 1 :])
     counting(monkeypatch)
     with pytest.raises(StoreMismatch, match=batches[0]):
         run_adaptive(small_sweep(), part, 2, workers=1, progress=False)
@@ -228,7 +237,7 @@ def test_mismatched_parameters_are_refused(tmp_path, monkeypatch):
         run_adaptive(small_sweep(mu=0.1), done, 2, workers=1, progress=False)
     with pytest.raises(StoreMismatch, match="adaptive"):
         run_adaptive(small_sweep(), done, 1, workers=1, progress=False)
-    uniform = str(tmp_path / "uniform.zarr")     # a uniform sweep is not an adaptive map
+    uniform = str(tmp_path / "uniform.zarr")  # a uniform sweep is not an adaptive map
     run_sweep(small_sweep(), uniform, workers=1, progress=False)
     with pytest.raises(StoreMismatch, match="adaptive"):
         run_adaptive(small_sweep(), uniform, 2, workers=1, progress=False)
@@ -243,8 +252,8 @@ def test_damaged_final_store_is_refused(tmp_path, variable):
     edited[1, 1] = ~edited[1, 1] if edited.dtype == bool else edited[1, 1] + 1
     # an edit that keeps the store readable: only the digest can tell
     xr.Dataset({variable: (("log_amplitude", "log_mass"), edited)}).to_zarr(
-        path, region={"log_amplitude": slice(None), "log_mass": slice(None)},
-        consolidated=False)
+        path, region={"log_amplitude": slice(None), "log_mass": slice(None)}, consolidated=False
+    )
     with pytest.raises(StoreMismatch, match="digest"):
         open_map(path)
     with pytest.raises(StoreMismatch, match="digest"):
@@ -252,15 +261,30 @@ def test_damaged_final_store_is_refused(tmp_path, variable):
 
 
 def _cli(out, *extra):
-    return [sys.executable, "-m", "vibtrans.cli", "sweep", f"--log-amplitude={SMALL[0]}",
-            f"--log-mass={SMALL[1]}", "--periods", "250", "--fidelity", "preview",
-            "--workers", "1", "--out", out, *extra]
+    return [
+        sys.executable,
+        "-m",
+        "vibtrans.cli",
+        "sweep",
+        f"--log-amplitude={SMALL[0]}",
+        f"--log-mass={SMALL[1]}",
+        "--periods",
+        "250",
+        "--fidelity",
+        "preview",
+        "--workers",
+        "1",
+        "--out",
+        out,
+        *extra,
+    ]
 
 
 def test_cli_adaptive(tmp_path):
     out = str(tmp_path / "a.zarr")
-    r = subprocess.run(_cli(out, "--adaptive", "--max-level", "2"), capture_output=True,
-                       text=True, timeout=budget(300))
+    r = subprocess.run(
+        _cli(out, "--adaptive", "--max-level", "2"), capture_output=True, text=True, timeout=budget(300)
+    )
     assert r.returncode == 0, r.stderr
     lines = r.stdout.split("\n")
     assert lines[0] == out
@@ -268,14 +292,16 @@ def test_cli_adaptive(tmp_path):
     assert fraction == pytest.approx(open_map(out)["computed"].values.mean(), abs=1e-4)
 
 
-@pytest.mark.parametrize("extra, match", [
-    (("--max-level", "2"), "--adaptive"),
-    (("--adaptive",), "--max-level"),
-    (("--adaptive", "--max-level", "4"), "log_amplitude has 9 points"),
-    (("--adaptive", "--max-level", "2", "--drift-tolerance", "0"), "drift_tolerance"),
-    (("--adaptive", "--max-level", "2", "--kind", "lyapunov", "--model", "vertical"),
-     "transport"),
-])
+@pytest.mark.parametrize(
+    "extra, match",
+    [
+        (("--max-level", "2"), "--adaptive"),
+        (("--adaptive",), "--max-level"),
+        (("--adaptive", "--max-level", "4"), "log_amplitude has 9 points"),
+        (("--adaptive", "--max-level", "2", "--drift-tolerance", "0"), "drift_tolerance"),
+        (("--adaptive", "--max-level", "2", "--kind", "lyapunov", "--model", "vertical"), "transport"),
+    ],
+)
 def test_cli_refusals(tmp_path, extra, match):
     out = str(tmp_path / "a.zarr")
     r = subprocess.run(_cli(out, *extra), capture_output=True, text=True, timeout=budget(120))
@@ -288,17 +314,37 @@ def test_sigkilled_cli_resumes_bit_identical(tmp_path):
     # A real process killed (SIGKILL) after its first batch, then run again
     # with the same command, ends equal to an uninterrupted run (but for the
     # wall times) and keeps the points the killed run saved.
-    window = ["--log-amplitude=-0.6:0.2:0.05", "--log-mass=0:0.8:0.05", "--periods", "3000",
-              "--fidelity", "preview", "--workers", "1", "--adaptive", "--max-level", "2"]
+    window = [
+        "--log-amplitude=-0.6:0.2:0.05",
+        "--log-mass=0:0.8:0.05",
+        "--periods",
+        "3000",
+        "--fidelity",
+        "preview",
+        "--workers",
+        "1",
+        "--adaptive",
+        "--max-level",
+        "2",
+    ]
     cmd = [sys.executable, "-m", "vibtrans.cli", "sweep", *window, "--out"]
     full, part = str(tmp_path / "full.zarr"), str(tmp_path / "part.zarr")
     subprocess.run([*cmd, full], check=True, capture_output=True, timeout=budget(600))
-    proc = subprocess.Popen([*cmd, part], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        [*cmd, part], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
     # the first level's points saved (or the process ended: then nothing is tested)
-    wait_until(lambda: proc.poll() is not None or (os.path.isdir(part + ".partial") and any(
-        f.endswith(".npz") for f in os.listdir(part + ".partial"))), budget(300),
-        "the first saved points")
+    wait_until(
+        lambda: (
+            proc.poll() is not None
+            or (
+                os.path.isdir(part + ".partial")
+                and any(f.endswith(".npz") for f in os.listdir(part + ".partial"))
+            )
+        ),
+        budget(300),
+        "the first saved points",
+    )
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     assert not os.path.exists(part), "finished before the kill: nothing tested"
@@ -323,22 +369,20 @@ def test_each_level_gives_a_complete_picture_ending_in_the_map(tmp_path):
     store's map, and the computed points only grow."""
     path = str(tmp_path / "a.zarr")
     seen = []
-    run_adaptive(small_sweep(), path, 2, progress=False,
-                 on_level=lambda level, ds: seen.append((level, ds)))
+    run_adaptive(small_sweep(), path, 2, progress=False, on_level=lambda level, ds: seen.append((level, ds)))
     assert [level for level, _ in seen] == [0, 1, 2]
     coarse = seen[0][1]["computed"].values
-    assert coarse.sum() == 9 and coarse[::4, ::4].all()       # 3 x 3 coarse points
+    assert coarse.sum() == 9 and coarse[::4, ::4].all()  # 3 x 3 coarse points
     for (_, before), (_, after) in zip(seen, seen[1:]):
         assert (after["computed"].values >= before["computed"].values).all()
     final = open_map(path)
     for v in [*STORED, "computed"]:
         assert np.array_equal(seen[-1][1][v].values, final[v].values, equal_nan=True), v
-    for _, ds in seen:                     # no hole a plot would show as NaN
+    for _, ds in seen:  # no hole a plot would show as NaN
         assert np.isfinite(ds["drift_velocity"].values).all()
 
 
-def test_pictures_within_a_level_grow_and_leave_the_map_bit_identical(tmp_path,
-                                                                       monkeypatch):
+def test_pictures_within_a_level_grow_and_leave_the_map_bit_identical(tmp_path, monkeypatch):
     """on_chunk: a picture each time a task's points of a refinement level
     come in (chunk_seconds 0), finer than a level: the computed points only grow, each picture is
     complete (no NaN) and keeps every point computed as computed; the map
@@ -346,10 +390,23 @@ def test_pictures_within_a_level_grow_and_leave_the_map_bit_identical(tmp_path,
     monkeypatch.setattr(adaptive, "POINTS_PER_TASK", 2)
     plain, pictured = str(tmp_path / "plain.zarr"), str(tmp_path / "pictured.zarr")
     levels, chunks = [], []
-    run_adaptive(small_sweep(), plain, 2, progress=False, workers=1,
-                 on_level=lambda level, ds: levels.append(int(ds["computed"].values.sum())))
-    run_adaptive(small_sweep(), pictured, 2, progress=False, workers=1,
-                 on_chunk=lambda level, ds: chunks.append((level, ds)), chunk_seconds=0.0)
+    run_adaptive(
+        small_sweep(),
+        plain,
+        2,
+        progress=False,
+        workers=1,
+        on_level=lambda level, ds: levels.append(int(ds["computed"].values.sum())),
+    )
+    run_adaptive(
+        small_sweep(),
+        pictured,
+        2,
+        progress=False,
+        workers=1,
+        on_chunk=lambda level, ds: chunks.append((level, ds)),
+        chunk_seconds=0.0,
+    )
     a, b = open_map(plain), open_map(pictured)
     for v in [*STORED, "computed"]:
         if v != "seconds":
@@ -372,13 +429,21 @@ def test_a_cancelled_map_stops_and_resumes(tmp_path, monkeypatch):
     import threading
 
     from vibtrans.core.errors import Cancelled
+
     path = str(tmp_path / "a.zarr")
     cancel = threading.Event()
     calls = counting(monkeypatch)
     with pytest.raises(Cancelled):
-        run_adaptive(small_sweep(), path, 2, workers=1, progress=False, cancel=cancel,
-                     on_level=lambda level, ds: cancel.set())
-    assert not os.path.exists(path) and len(calls) == 9     # the coarse grid only
+        run_adaptive(
+            small_sweep(),
+            path,
+            2,
+            workers=1,
+            progress=False,
+            cancel=cancel,
+            on_level=lambda level, ds: cancel.set(),
+        )
+    assert not os.path.exists(path) and len(calls) == 9  # the coarse grid only
     calls = counting(monkeypatch)
     run_adaptive(small_sweep(), path, 2, workers=1, progress=False)
     assert 0 < len(calls) == open_map(path)["computed"].values.sum() - 9

@@ -1,5 +1,6 @@
 """The expected periods per point of a map under each stopping rule
 (vibtrans.maps.cost), which the a-priori time of a map on demand counts."""
+
 import numpy as np
 import pytest
 
@@ -30,7 +31,7 @@ def test_minimum_periods_is_the_ramp_s_settling_and_the_first_window(fidelity):
     tau = 50.0
     bar = RAMP_SHARE * DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]
     t_s = minimum_periods(tau, fidelity) - MIN_WINDOW
-    assert np.exp(-(t_s / tau) ** 2) <= bar < np.exp(-((t_s - 1) / tau) ** 2)
+    assert np.exp(-((t_s / tau) ** 2)) <= bar < np.exp(-(((t_s - 1) / tau) ** 2))
     assert t_s <= np.ceil(RAMP_OFF * tau)
     assert minimum_periods(tau) == minimum_periods(tau, "standard")
     with pytest.raises(InputError, match="fidelity must be one of"):
@@ -52,8 +53,8 @@ def test_the_time_share_is_the_expected_periods_at_a_decided_period_s_cost():
         # the expected periods, each at the model's measured cost of a decided
         # run's period over a full run's
         assert expected_time_share(model, "decided", 2000.0, 50.0) == pytest.approx(
-            expected_periods(model, "decided", 2000.0, 50.0) / 2000.0
-            * DECIDED_PERIOD_COST[model])
+            expected_periods(model, "decided", 2000.0, 50.0) / 2000.0 * DECIDED_PERIOD_COST[model]
+        )
 
 
 def test_bad_input_names_the_parameter():
@@ -70,9 +71,15 @@ def test_the_profile_predicts_a_computed_map_s_periods(tmp_path):
     """The shipped-grid profile predicts a small decided map's mean periods
     run within 1.5x (a region's profile differs from the whole domain's)."""
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
-    sweep = Sweep(parse_range("-2.5:2.5:1.25", "log_amplitude"),
-                  parse_range("-4:4:2", "log_mass"), model="deformable", mu=0.3,
-                  periods=2000.0, stop="decided")
+
+    sweep = Sweep(
+        parse_range("-2.5:2.5:1.25", "log_amplitude"),
+        parse_range("-4:4:2", "log_mass"),
+        model="deformable",
+        mu=0.3,
+        periods=2000.0,
+        stop="decided",
+    )
     run_sweep(sweep, str(tmp_path / "m.zarr"), progress=False)
     mean = float(open_map(str(tmp_path / "m.zarr"))["periods_run"].values.mean())
     shipped = expected_periods("deformable", "decided", 2000.0, 50.0)

@@ -1,6 +1,7 @@
 """The map request's accuracy line (vibtrans/maps/accuracy.py): the nearest
 measured setting, and the measured table against a fresh measurement of
 one setting on a small window (devtools.map_accuracy's own computation)."""
+
 import pytest
 
 from vibtrans.maps import accuracy as A
@@ -8,7 +9,7 @@ from vibtrans.maps import accuracy as A
 
 def test_the_nearest_measured_setting_is_named():
     assert A.nearest("preview", 600.0) == ("preview", 500.0)
-    assert A.nearest("preview", 800.0) == ("preview", 1000.0)      # nearer in log
+    assert A.nearest("preview", 800.0) == ("preview", 1000.0)  # nearer in log
     assert A.nearest("standard", 5000.0) == ("standard", 2000.0)
     assert A.nearest("reference", 2000.0) is None
     line = A.note("preview", 600.0)
@@ -23,6 +24,7 @@ def test_the_table_is_the_study_of_its_command(tmp_path):
     row is exact and every figure lies in its range; the shorter preview run
     costs fewer steps, as in the table."""
     from devtools.map_accuracy import study
+
     rows = {(r["fidelity"], r["periods"]): r for r in study(str(tmp_path), points=9)}
     assert rows[A.REFERENCE]["class_agreement"] == 1.0
     assert rows[A.REFERENCE]["steps_over_reference"] == 1.0

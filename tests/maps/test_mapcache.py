@@ -3,6 +3,7 @@ the request and the code version, computed once however many ask, verified
 on every open (a damaged entry is recomputed, never shown), least recently
 used entries evicted beyond the size cap.  Tiny sweeps (6 points, short
 runs): the numbers are the sweep's own, compared with a direct run."""
+
 import os
 import threading
 import time
@@ -18,30 +19,41 @@ from vibtrans.maps import cache as mapcache
 from vibtrans.maps.cache import TEMPORARY, MapCache, request_key
 from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
 
-REQUEST = {"model": "deformable", "mu": 0.3, "periods": 60.0, "tau": 10.0,
-           "log_amplitude": "0:1:0.5", "log_mass": "-1:0:1"}
+REQUEST = {
+    "model": "deformable",
+    "mu": 0.3,
+    "periods": 60.0,
+    "tau": 10.0,
+    "log_amplitude": "0:1:0.5",
+    "log_mass": "-1:0:1",
+}
 
 
 def _sweep(request):
     values = {k: v for k, v in request.items() if k not in ("log_amplitude", "log_mass")}
-    return Sweep(parse_range(request["log_amplitude"], "log_amplitude"),
-                 parse_range(request["log_mass"], "log_mass"), chunk_rows=2, **values)
+    return Sweep(
+        parse_range(request["log_amplitude"], "log_amplitude"),
+        parse_range(request["log_mass"], "log_mass"),
+        chunk_rows=2,
+        **values,
+    )
 
 
 def _builder(request, calls):
     def build(path):
         calls.append(path)
         run_sweep(_sweep(request), path, workers=1, progress=False)
+
     return build
 
 
-def _now(fn):          # run the job at once, in this thread
+def _now(fn):  # run the job at once, in this thread
     fn()
 
 
 def test_the_key_is_the_request_and_the_code_version(monkeypatch):
     key = request_key(REQUEST)
-    assert key == request_key(dict(reversed(list(REQUEST.items()))))   # order-free
+    assert key == request_key(dict(reversed(list(REQUEST.items()))))  # order-free
     assert key != request_key({**REQUEST, "mu": 0.31})
     assert key != request_key({**REQUEST, "log_mass": "-1:0:0.5"})
     monkeypatch.setattr(mapcache, "__version__", "9.9.9")
@@ -106,13 +118,13 @@ def test_a_damaged_or_unfinished_entry_is_recomputed_not_shown(tmp_path, damage)
     if damage == "chunk":
         cache.compute(key, _builder(REQUEST, calls), _now).result()
         root = tmp_path / (key + ".zarr") / "drift_velocity"
-        chunk = sorted(p for p in root.rglob("*") if p.is_file() and not p.name.startswith(
-            ("zarr", ".")))[0]                   # a chunk of data, not metadata
+        chunk = sorted(p for p in root.rglob("*") if p.is_file() and not p.name.startswith(("zarr", ".")))[
+            0
+        ]  # a chunk of data, not metadata
         chunk.write_bytes(chunk.read_bytes()[:-3] + b"\xff\xfe\xfd")
-    else:                   # a store left half-written under the entry's name
+    else:  # a store left half-written under the entry's name
         sweep = _sweep(REQUEST)
-        sweep.empty_dataset().to_zarr(str(tmp_path / (key + ".zarr")), mode="w",
-                                      consolidated=False)
+        sweep.empty_dataset().to_zarr(str(tmp_path / (key + ".zarr")), mode="w", consolidated=False)
     assert cache.get(key) is None and cache.entries() == []
     before = len(calls)
     ds = cache.compute(key, _builder(REQUEST, calls), _now).result()
@@ -123,9 +135,11 @@ def _clock_past(path, probe):
     """Wait until the file system's clock has moved past `path`'s time
     stamp: a file touched from now on is stamped later (`probe`: a file to
     touch, no entry)."""
+
     def later():
         probe.touch()
         return probe.stat().st_mtime_ns > os.stat(path).st_mtime_ns
+
     wait_until(later, budget(10), "the file system's clock to move on")
 
 
@@ -135,9 +149,9 @@ def test_least_recently_used_entries_go_beyond_the_cap(tmp_path):
     big = MapCache(tmp_path)
     for request, key in zip(requests, keys):
         big.compute(key, _builder(request, []), _now).result()
-        _clock_past(big.path(key), tmp_path / "clock")         # distinct time stamps
+        _clock_past(big.path(key), tmp_path / "clock")  # distinct time stamps
     size = mapcache._folder_bytes(big.path(keys[0]))
-    big.get(keys[0])              # the oldest becomes the most recently used
+    big.get(keys[0])  # the oldest becomes the most recently used
     assert big.entries() == [keys[1], keys[2], keys[0]]
     small = MapCache(tmp_path, max_bytes=int(2.5 * size))
     assert small.evict() == [keys[1]]

@@ -1,6 +1,7 @@
 """Two maps compared (vibtrans/maps/difference.py): hand-made maps
 whose differences are known, the signed log scale's closed form, and the
 command line on the shipped maps."""
+
 import subprocess
 import sys
 
@@ -19,10 +20,11 @@ def _map(la, lm, v, chaotic=None, **attrs):
     v = np.asarray(v, dtype=float)
     drift = np.where(v > 0.1, 1, np.where(v < -0.1, -1, 0)).astype("i1")
     chaotic = np.zeros(v.shape, dtype="i1") if chaotic is None else np.asarray(chaotic, "i1")
-    return xr.Dataset({"drift_velocity": (GRID, v), "drift": (GRID, drift),
-                       "chaotic": (GRID, chaotic)},
-                      coords={"log_amplitude": la, "log_mass": lm},
-                      attrs={"scene_model": "deformable", "scene_mu": 0.3, **attrs})
+    return xr.Dataset(
+        {"drift_velocity": (GRID, v), "drift": (GRID, drift), "chaotic": (GRID, chaotic)},
+        coords={"log_amplitude": la, "log_mass": lm},
+        attrs={"scene_model": "deformable", "scene_mu": 0.3, **attrs},
+    )
 
 
 LA, LM = np.array([0.0, 0.5, 1.0]), np.array([-1.0, 0.0])
@@ -46,14 +48,13 @@ def test_a_map_against_itself_agrees_everywhere():
 
 def test_known_changes_are_found():
     other = V.copy()
-    other[1, 1] = 500.0           # ten times the drift: one decade more (about)
-    other[2, 1] = 0.5             # against the wave -> with the wave
+    other[1, 1] = 500.0  # ten times the drift: one decade more (about)
+    other[2, 1] = 0.5  # against the wave -> with the wave
     chaotic = np.zeros(V.shape)
-    chaotic[0, 1] = 1             # chaotic in the second map: not judged
+    chaotic[0, 1] = 1  # chaotic in the second map: not judged
     d = map_difference(_map(LA, LM, V), _map(LA, LM, other, chaotic, scene_mu=0.1))
     assert d["class_changed"].values.sum() == 1 and d["class_changed"].values[2, 1]
-    assert d["log_difference"].values[1, 1] == pytest.approx(
-        np.log10(1 + 5000) - np.log10(1 + 500))
+    assert d["log_difference"].values[1, 1] == pytest.approx(np.log10(1 + 5000) - np.log10(1 + 500))
     assert d["chaotic_either"].values.sum() == 1
     assert d.attrs["regular_points"] == 5
     assert d.attrs["class_agreement"] == pytest.approx(4 / 5)
@@ -87,10 +88,11 @@ def test_maps_that_share_no_point_are_a_message():
 
 
 def test_a_name_says_what_differs_from_the_shipped_maps():
-    assert describe(_map(LA, LM, V, scene_periods=2000.0, scene_fidelity="standard")) == \
-        "deformable mu 0.3"
-    assert describe(_map(LA, LM, V, scene_periods=500.0, scene_fidelity="preview")) == \
-        "deformable mu 0.3 preview 500 periods"
+    assert describe(_map(LA, LM, V, scene_periods=2000.0, scene_fidelity="standard")) == "deformable mu 0.3"
+    assert (
+        describe(_map(LA, LM, V, scene_periods=500.0, scene_fidelity="preview"))
+        == "deformable mu 0.3 preview 500 periods"
+    )
     # a profile's map names its profile
     assert describe(_map(LA, LM, V, scene_profile="cone")) == "deformable mu 0.3 cone"
     # a map made under the `decided` stopping rule says so (its store's `stop`)
@@ -99,20 +101,23 @@ def test_a_name_says_what_differs_from_the_shipped_maps():
 
 
 def _export(tmp_path, *args):
-    return subprocess.run([sys.executable, "-m", "vibtrans.cli", "export", "map-difference",
-                           *args], capture_output=True, text=True, cwd=tmp_path, timeout=budget(600))
+    return subprocess.run(
+        [sys.executable, "-m", "vibtrans.cli", "export", "map-difference", *args],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=budget(600),
+    )
 
 
 def test_cli_compares_two_shipped_maps(tmp_path):
     out = tmp_path / "diff.png"
-    r = _export(tmp_path, "--map", "deformable-mu0.3", "--other", "point-mass-mu0.3",
-                "--out", str(out))
+    r = _export(tmp_path, "--map", "deformable-mu0.3", "--other", "point-mass-mu0.3", "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert out.stat().st_size > 10000 and out.read_bytes()[:4] == b"\x89PNG"
     assert "point-mass mu 0.3 against deformable mu 0.3" in r.stdout
     assert "drift class agrees at" in r.stdout
-    r = _export(tmp_path, "--map", "deformable-mu0.7", "--other", "point-mass-mu0.3",
-                "--out", str(out))
+    r = _export(tmp_path, "--map", "deformable-mu0.7", "--other", "point-mass-mu0.3", "--out", str(out))
     assert r.returncode == 2 and "map: no store 'deformable-mu0.7'" in r.stderr
     assert "deformable-mu0.3" in r.stderr and "Traceback" not in r.stderr
     r = _export(tmp_path, "--map", "deformable-mu0.3", "--out", str(out))

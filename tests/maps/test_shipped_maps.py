@@ -4,6 +4,7 @@ Sources: the regimes the paper gives its labelled points (docs/MODEL.md section 
 and the vertical jumping curve, computed independently (vertical model,
 bisection) and shipped beside the maps.
 """
+
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,10 @@ EXPECTED = {
 
 @pytest.fixture(scope="module")
 def maps():
-    return {"deformable": open_map(str(MAPS / "deformable-mu0.3.zarr")),
-            "point-mass": open_map(str(MAPS / "point-mass-mu0.3.zarr"))}
+    return {
+        "deformable": open_map(str(MAPS / "deformable-mu0.3.zarr")),
+        "point-mass": open_map(str(MAPS / "point-mass-mu0.3.zarr")),
+    }
 
 
 def test_maps_are_complete_and_as_specified(maps):
@@ -81,7 +84,7 @@ def test_jumping_boundary_matches_the_vertical_curve(maps):
             ok += abs(first - expect) <= 0.05 + 1e-9
         # above the boundary everything jumps (monotonic in A*, the paper's argument)
         if col.size:
-            assert jump[col[0]:, j].all()
+            assert jump[col[0] :, j].all()
     assert ok >= 0.97 * ds.sizes["log_mass"]
 
 
@@ -94,14 +97,23 @@ def test_vertical_curve_resonances():
     # Nayak: for m* << m_c* the Hertz curve approaches the rigid line
     # (measured: 0.3% off at m* = 1e-5, 3% at 1e-4).
     lm = vert["log_mass"].values
-    dev = np.abs(vert["threshold_amplitude"].values
-                 / vert["point_mass_threshold_amplitude"].values - 1)
+    dev = np.abs(vert["threshold_amplitude"].values / vert["point_mass_threshold_amplitude"].values - 1)
     assert np.all(dev[lm <= -4.5] < 0.02)
     assert dev[lm == -5.0][0] < dev[np.isclose(lm, -4.0)][0]
 
 
-SCENE_KEYS = ("model", "mu", "theta", "nu", "tau", "periods", "fidelity", "integrator",
-              "alpha_t", "stick_rule")
+SCENE_KEYS = (
+    "model",
+    "mu",
+    "theta",
+    "nu",
+    "tau",
+    "periods",
+    "fidelity",
+    "integrator",
+    "alpha_t",
+    "stick_rule",
+)
 
 
 @pytest.mark.parametrize("model", ["deformable", "point-mass"])
@@ -112,10 +124,10 @@ def test_shipped_map_is_what_this_code_computes(maps, model):
     # 1e-9 relative leaves room for another CPU's code generation (numba
     # compiles for the host: FMA contraction may round differently).
     from vibtrans.maps.sweep import compute_point
+
     ds = maps[model]
     values = {k: ds.attrs[f"scene_{k}"] for k in SCENE_KEYS if f"scene_{k}" in ds.attrs}
-    cells = [(PAPER_POINTS[p][0], PAPER_POINTS[p][1]) for p in (1, 4, 6)] + [(-1.0, 2.0),
-                                                                             (2.0, -3.0)]
+    cells = [(PAPER_POINTS[p][0], PAPER_POINTS[p][1]) for p in (1, 4, 6)] + [(-1.0, 2.0), (2.0, -3.0)]
     for la, lm in cells:
         i = int(np.argmin(np.abs(ds["log_amplitude"].values - la)))
         j = int(np.argmin(np.abs(ds["log_mass"].values - lm)))

@@ -1,5 +1,6 @@
 """Sweeps: equality with point-by-point runs, kill-and-resume, Dask, and
 refusal of mismatched or damaged stores.  Small grids and short runs."""
+
 import os
 import shutil
 import signal
@@ -25,20 +26,19 @@ from vibtrans.maps.sweep import (
 )
 
 SMALL = dict(periods=120.0, tau=10.0)
-LA = "0:2.5:0.5"      # 6 amplitudes
-LM = "-2:1:1"         # 4 masses
+LA = "0:2.5:0.5"  # 6 amplitudes
+LM = "-2:1:1"  # 4 masses
 
 
 def small_sweep(chunk_rows=2, **over):
-    return Sweep(parse_range(LA, "a"), parse_range(LM, "m"), chunk_rows=chunk_rows,
-                 **{**SMALL, **over})
+    return Sweep(parse_range(LA, "a"), parse_range(LM, "m"), chunk_rows=chunk_rows, **{**SMALL, **over})
 
 
 def same(a, b):
     for name in VARIABLES:
         x, y = a[name].values, b[name].values
         if name == "seconds":
-            continue      # wall time differs run to run
+            continue  # wall time differs run to run
         assert np.array_equal(x, y, equal_nan=True), name
 
 
@@ -54,16 +54,20 @@ def test_sweep_equals_point_by_point(tmp_path):
             for name in sw.variables:
                 if name != "seconds":
                     assert ds[name].values[i, j] == p[name] or (
-                        np.isnan(p[name]) and np.isnan(ds[name].values[i, j])), name
+                        np.isnan(p[name]) and np.isnan(ds[name].values[i, j])
+                    ), name
 
 
-@pytest.mark.parametrize("model, la, lm, lyapunov", [
-    ("deformable", 1.5, -2.0, True),        # jumping, chaotic (paper point 8's region)
-    ("deformable", 0.5, 0.5, False),        # jumping, regular
-    ("deformable", -1.0, -3.0, False),      # permanent contact
-    ("point-mass", 1.5, -2.0, True),        # the impact map's exponent
-    ("point-mass", 0.5, 0.5, False),
-])
+@pytest.mark.parametrize(
+    "model, la, lm, lyapunov",
+    [
+        ("deformable", 1.5, -2.0, True),  # jumping, chaotic (paper point 8's region)
+        ("deformable", 0.5, 0.5, False),  # jumping, regular
+        ("deformable", -1.0, -3.0, False),  # permanent contact
+        ("point-mass", 1.5, -2.0, True),  # the impact map's exponent
+        ("point-mass", 0.5, 0.5, False),
+    ],
+)
 def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lyapunov):
     """A map point summarizes its run's arrays (trajectory.RunArrays) instead
     of the run's Dataset (`simulate`): the same arrays, attributes and
@@ -72,8 +76,8 @@ def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lya
     from vibtrans.core.params import Scene
     from vibtrans.core.simulate import run_records, simulate
     from vibtrans.core.trajectory import RunArrays
-    scene = Scene(amplitude=10.0 ** la, mass=10.0 ** lm, model=model, periods=150.0,
-                  tau=10.0, fidelity="preview")
+
+    scene = Scene(amplitude=10.0**la, mass=10.0**lm, model=model, periods=150.0, tau=10.0, fidelity="preview")
     ds = simulate(scene, lyapunov=lyapunov)
     arrays = RunArrays(*run_records(scene, lyapunov=lyapunov))
     for name in [*ds.data_vars, "time"]:
@@ -81,7 +85,8 @@ def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lya
         assert arrays[name].values.dtype == ds[name].values.dtype, name
     assert arrays.attrs.keys() == ds.attrs.keys()
     assert {k: v for k, v in arrays.attrs.items() if k != "seconds"} == {
-        k: v for k, v in ds.attrs.items() if k != "seconds"}
+        k: v for k, v in ds.attrs.items() if k != "seconds"
+    }
     got, want = summarize(arrays)._asdict(), summarize(ds)._asdict()
     for k in ("seconds", "twin_seconds"):
         got.pop(k), want.pop(k)
@@ -91,9 +96,26 @@ def test_a_points_arrays_are_its_datasets_and_summarize_alike(model, la, lm, lya
 
 
 def _cli(out, extra=()):
-    return [sys.executable, "-m", "vibtrans.cli", "sweep", "--log-amplitude", LA,
-            f"--log-mass={LM}", "--periods", "120", "--tau", "10", "--chunk-rows", "1",
-            "--workers", "1", "--out", out, *extra]
+    return [
+        sys.executable,
+        "-m",
+        "vibtrans.cli",
+        "sweep",
+        "--log-amplitude",
+        LA,
+        f"--log-mass={LM}",
+        "--periods",
+        "120",
+        "--tau",
+        "10",
+        "--chunk-rows",
+        "1",
+        "--workers",
+        "1",
+        "--out",
+        out,
+        *extra,
+    ]
 
 
 @pytest.mark.slow
@@ -109,21 +131,24 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
     full = str(tmp_path / "full.zarr")
     subprocess.run(_cli(full, longer), check=True, capture_output=True)
     part = str(tmp_path / "part.zarr")
-    proc = subprocess.Popen(_cli(part, longer), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(
+        _cli(part, longer), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+
     def part_way():
-        if proc.poll() is not None:             # ended: the check below says so
+        if proc.poll() is not None:  # ended: the check below says so
             return True
         try:
             done = xr.open_zarr(part, consolidated=False)["done"].values
         except Exception:
             return False
         return 1 <= done.sum() < done.size - 1
+
     wait_until(part_way, budget(240), "the sweep part-way")
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     done_before = xr.open_zarr(part, consolidated=False)["done"].values.copy()
-    assert 1 <= done_before.sum() < done_before.size       # really interrupted
+    assert 1 <= done_before.sum() < done_before.size  # really interrupted
     kept = open_map(part)
     subprocess.run(_cli(part, longer), check=True, capture_output=True)
     a, b = open_map(full), open_map(part)
@@ -136,12 +161,11 @@ def test_kill_and_resume_is_bit_identical(tmp_path):
 @pytest.mark.slow
 def test_dask_cluster_equals_local(tmp_path):
     from dask.distributed import LocalCluster
+
     sw = small_sweep()
     run_sweep(sw, str(tmp_path / "local.zarr"), workers=1, progress=False)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
-        run_sweep(sw, str(tmp_path / "dask.zarr"), scheduler=cluster.scheduler_address,
-                  progress=False)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        run_sweep(sw, str(tmp_path / "dask.zarr"), scheduler=cluster.scheduler_address, progress=False)
     same(open_map(str(tmp_path / "local.zarr")), open_map(str(tmp_path / "dask.zarr")))
 
 
@@ -151,14 +175,22 @@ def test_mismatched_store_is_refused(tmp_path):
     with pytest.raises(StoreMismatch, match="mu"):
         run_sweep(small_sweep(mu=0.1), path, workers=1, progress=False)
     with pytest.raises(StoreMismatch, match="grid"):
-        run_sweep(Sweep(parse_range("0:2:0.5", "a"), parse_range(LM, "m"), chunk_rows=2,
-                        **SMALL), path, workers=1, progress=False)
+        run_sweep(
+            Sweep(parse_range("0:2:0.5", "a"), parse_range(LM, "m"), chunk_rows=2, **SMALL),
+            path,
+            workers=1,
+            progress=False,
+        )
 
 
 def _chunk_files(path, var):
     root = os.path.join(path, var)
-    return sorted(os.path.join(d, f) for d, _, fs in os.walk(root) for f in fs
-                  if not f.startswith("zarr") and not f.startswith("."))
+    return sorted(
+        os.path.join(d, f)
+        for d, _, fs in os.walk(root)
+        for f in fs
+        if not f.startswith("zarr") and not f.startswith(".")
+    )
 
 
 @pytest.mark.parametrize("damage", ["truncate", "flip", "delete-meta"])
@@ -203,6 +235,7 @@ def test_chunks_finished_before_a_failure_are_kept(tmp_path, monkeypatch):
     # rerun resumes after them.  flush_every=3600: nothing is written before
     # the failure stops the sweep.
     import vibtrans.maps.sweep as S
+
     sw = small_sweep(chunk_rows=1)
     real = S._compute_row_block
     failing = sw.log_amplitude[3]
@@ -218,7 +251,7 @@ def test_chunks_finished_before_a_failure_are_kept(tmp_path, monkeypatch):
         run_sweep(sw, path, workers=1, progress=False, flush_every=3600)
     done = xr.open_zarr(path, consolidated=False)["done"].values
     assert done[:3].all() and not done[3]
-    verify(xr.open_zarr(path, consolidated=False), path)     # their digests match
+    verify(xr.open_zarr(path, consolidated=False), path)  # their digests match
     monkeypatch.setattr(S, "_compute_row_block", real)
     run_sweep(sw, path, workers=1, progress=False)
     ref = str(tmp_path / "ref.zarr")

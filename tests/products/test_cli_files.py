@@ -3,6 +3,7 @@
 folder, or a full disk is one line on stderr naming the path, exit status
 2, and no partial file left (outputs are written to a temporary file
 beside the target and renamed over it at the end: vibtrans/maps/outfiles.py)."""
+
 import os
 import subprocess
 import sys
@@ -14,19 +15,47 @@ from budget import budget
 
 from vibtrans.cli import main
 
-SIM = ["simulate", "--amplitude", "0.5", "--mass", "1", "--periods", "2", "--tau", "0.5",
-       "--twin", "never"]
+SIM = ["simulate", "--amplitude", "0.5", "--mass", "1", "--periods", "2", "--tau", "0.5", "--twin", "never"]
 
 # (command line with OUT for the output, what the output is)
 COMMANDS = {
     "simulate": ([*SIM, "--out", "OUT/run.nc"], "file"),
     "export heatmap": (["export", "heatmap", "--out", "OUT/map.png"], "file"),
     "export html": (["export", "vertical", "--out", "OUT/vertical.html"], "file"),
-    "threshold sweep": (["threshold", "--sweep", "--log-mass=0:0:1", "--periods", "4",
-                         "--tau", "1", "--workers", "1", "--out", "OUT/vertical.nc"], "file"),
+    "threshold sweep": (
+        [
+            "threshold",
+            "--sweep",
+            "--log-mass=0:0:1",
+            "--periods",
+            "4",
+            "--tau",
+            "1",
+            "--workers",
+            "1",
+            "--out",
+            "OUT/vertical.nc",
+        ],
+        "file",
+    ),
     "bench plot": (["bench", "--work-precision", "--quick", "--plot", "OUT/wp.png"], "file"),
-    "sweep": (["sweep", "--log-amplitude", "0:0:1", "--log-mass=0:0:1", "--periods", "2",
-               "--tau", "0.5", "--workers", "1", "--out", "OUT/map.zarr"], "folder"),
+    "sweep": (
+        [
+            "sweep",
+            "--log-amplitude",
+            "0:0:1",
+            "--log-mass=0:0:1",
+            "--periods",
+            "2",
+            "--tau",
+            "0.5",
+            "--workers",
+            "1",
+            "--out",
+            "OUT/map.zarr",
+        ],
+        "folder",
+    ),
     "export paper": (["export", "paper", "--periods", "2", "--out", "OUT/paper"], "folder"),
 }
 
@@ -42,8 +71,11 @@ def _target(name, out_dir):
 
 def _error_line(err, argv, path):
     """The one line of the refusal (progress bars of the run before it aside)."""
-    lines = [ln for ln in err.strip().splitlines() if ln.strip() and not ln.lstrip(
-        "\r").startswith(("threshold runs", "simulate", "paper figures"))]
+    lines = [
+        ln
+        for ln in err.strip().splitlines()
+        if ln.strip() and not ln.lstrip("\r").startswith(("threshold runs", "simulate", "paper figures"))
+    ]
     assert len(lines) == 1, err[-3000:]
     assert lines[0].startswith(f"vibtrans {argv[0]}: error:"), lines[0]
     assert str(path) in lines[0], lines[0]
@@ -58,8 +90,11 @@ def _refused(capsys, argv, path):
 
 
 def _no_files(folder, before=()):
-    left = sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*")
-                  if str(p.relative_to(folder)) not in before)
+    left = sorted(
+        str(p.relative_to(folder))
+        for p in Path(folder).rglob("*")
+        if str(p.relative_to(folder)) not in before
+    )
     assert not left, left
 
 
@@ -91,8 +126,7 @@ def test_unwritable_folder(name, tmp_path, capsys):
         _no_files(folder)
 
 
-@pytest.mark.parametrize("name", sorted(n for n, (_, kind) in COMMANDS.items()
-                                        if kind == "file"))
+@pytest.mark.parametrize("name", sorted(n for n, (_, kind) in COMMANDS.items() if kind == "file"))
 def test_a_file_path_that_is_a_folder(name, tmp_path, capsys):
     target = _target(name, tmp_path)
     target.mkdir()
@@ -101,8 +135,7 @@ def test_a_file_path_that_is_a_folder(name, tmp_path, capsys):
     assert target.is_dir() and not any(target.iterdir())
 
 
-@pytest.mark.parametrize("name", sorted(n for n, (_, kind) in COMMANDS.items()
-                                        if kind == "folder"))
+@pytest.mark.parametrize("name", sorted(n for n, (_, kind) in COMMANDS.items() if kind == "folder"))
 def test_a_folder_path_that_is_a_file(name, tmp_path, capsys):
     target = _target(name, tmp_path)
     target.write_text("mine")
@@ -127,8 +160,12 @@ LIMITED = textwrap.dedent("""\
 
 
 def _limited(argv, limit=LIMIT):
-    return subprocess.run([sys.executable, "-c", LIMITED.format(limit=limit), *argv],
-                          capture_output=True, text=True, timeout=budget(600))
+    return subprocess.run(
+        [sys.executable, "-c", LIMITED.format(limit=limit), *argv],
+        capture_output=True,
+        text=True,
+        timeout=budget(600),
+    )
 
 
 def _one_line(r, argv, path):
@@ -137,8 +174,7 @@ def _one_line(r, argv, path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["simulate", "export heatmap", "export html",
-                                  "threshold sweep"])
+@pytest.mark.parametrize("name", ["simulate", "export heatmap", "export html", "threshold sweep"])
 def test_a_full_disk_leaves_no_partial_file_and_keeps_the_old_one(name, tmp_path):
     argv = _argv(name, tmp_path)
     target = _target(name, tmp_path)
@@ -146,7 +182,7 @@ def test_a_full_disk_leaves_no_partial_file_and_keeps_the_old_one(name, tmp_path
     r = _limited(argv)
     line = _one_line(r, argv, target)
     assert "cannot write" in line, line
-    assert target.read_bytes() == b"the previous result"      # not truncated or replaced
+    assert target.read_bytes() == b"the previous result"  # not truncated or replaced
     _no_files(tmp_path, before={target.name})
 
 
@@ -154,11 +190,14 @@ def test_a_full_disk_leaves_no_partial_file_and_keeps_the_old_one(name, tmp_path
 def small_tmpfs(tmp_path):
     mnt = tmp_path / "small"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True, text=True
+    )
     if r.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs here ({r.stderr.strip()}); "
-                    f"the file-size-limit tests stand in for a full disk")
+        pytest.skip(
+            f"cannot mount a small tmpfs here ({r.stderr.strip()}); "
+            f"the file-size-limit tests stand in for a full disk"
+        )
     try:
         yield mnt
     finally:
@@ -170,7 +209,7 @@ def small_tmpfs(tmp_path):
 @pytest.mark.parametrize("name", ["simulate", "export heatmap", "sweep"])
 def test_a_really_full_disk(name, small_tmpfs, capsys):
     argv = [*_argv(name, small_tmpfs)]
-    if name == "sweep":     # enough points that the store outgrows 64 KiB
+    if name == "sweep":  # enough points that the store outgrows 64 KiB
         argv[argv.index("--log-mass=0:0:1")] = "--log-mass=-1:1:0.005"
     target = _target(name, small_tmpfs)
     (small_tmpfs / "filler").write_bytes(b"\0" * (60 * 1024))
@@ -182,6 +221,7 @@ def test_a_really_full_disk(name, small_tmpfs, capsys):
 def test_the_help_names_every_subcommand(capsys):
     # the summary line is made from the subcommands (it once left out orbit)
     import re
+
     with pytest.raises(SystemExit):
         main(["--help"])
     text = " ".join(capsys.readouterr().out.split())
@@ -195,7 +235,23 @@ def test_a_decided_run_that_goes_to_its_end_prints_its_summary(capsys):
     # paper point 4 still accelerates at 100 periods: the decided stop runs
     # it to the end, which has no asymptotic rate (null, not a crash)
     import json
-    assert main(["simulate", "--log-amplitude", "2.5", "--log-mass", "0", "--periods", "100",
-                 "--stop", "decided", "--json"]) == 0
+
+    assert (
+        main(
+            [
+                "simulate",
+                "--log-amplitude",
+                "2.5",
+                "--log-mass",
+                "0",
+                "--periods",
+                "100",
+                "--stop",
+                "decided",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["stop_reason"] == "ran-to-end" and out["asymptotic_drift_velocity"] is None

@@ -6,6 +6,7 @@ Everything runs on a tiny drift map (4 amplitudes x 3 masses, 50 periods:
 not square, so a swapped axis cannot fit) and a tiny threshold curve made
 here, a hand-made 4 x 3 map with a distinct colour in every cell (the
 drawn pixels against the data, cell by cell), and short scenes."""
+
 import json
 import os
 import subprocess
@@ -36,12 +37,15 @@ def maps_dir(tmp_path_factory):
     """A tiny shipped-maps folder: deformable-mu0.3.zarr and vertical.nc."""
     d = tmp_path_factory.mktemp("assets") / "maps"
     d.mkdir()
-    sweep = Sweep(np.array([-0.5, 0.5, 1.5, 2.5]), np.array([-2.0, -0.5, 1.0]),
-                  model="deformable", mu=0.3, periods=PERIODS)
-    run_sweep(sweep, str(d / "deformable-mu0.3.zarr"), workers=1, progress=False,
-              executor="threads")
-    vertical = threshold_curve(np.array([-2, -1.4, 0]), periods=PERIODS, workers=1,
-                               progress=False)
+    sweep = Sweep(
+        np.array([-0.5, 0.5, 1.5, 2.5]),
+        np.array([-2.0, -0.5, 1.0]),
+        model="deformable",
+        mu=0.3,
+        periods=PERIODS,
+    )
+    run_sweep(sweep, str(d / "deformable-mu0.3.zarr"), workers=1, progress=False, executor="threads")
+    vertical = threshold_curve(np.array([-2, -1.4, 0]), periods=PERIODS, workers=1, progress=False)
     vertical.to_netcdf(d / "vertical.nc")
     return d
 
@@ -60,8 +64,7 @@ def vertical(maps_dir):
 def run4():
     """Paper point 4 (hopping), short, with its full-resolution window."""
     scene = paper_scene(4, periods=PERIODS)
-    return simulate(scene, window=(PERIODS - 2, PERIODS),
-                    samples_per_period=export.OVERVIEW_SAMPLES)
+    return simulate(scene, window=(PERIODS - 2, PERIODS), samples_per_period=export.OVERVIEW_SAMPLES)
 
 
 @pytest.fixture
@@ -72,6 +75,7 @@ def no_display(monkeypatch):
 
 def _png_size(path):
     from PIL import Image
+
     with Image.open(path) as im:
         return im.size
 
@@ -83,8 +87,7 @@ def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertic
         (export.export_heatmap, (map_ds,), dict(vertical=vertical), 6.0, 4.0, 50),
         (export.export_vertical, (vertical,), {}, 5.0, 3.5, 40),
         (export.export_memory, (memory_snapshot(paper_scene(1), t=3.3),), {}, 10.0, 3.0, 30),
-        (export.export_trajectory, (simulate(paper_scene(4, periods=10), window=(8, 10)),), {},
-         7.0, 9.0, 40),
+        (export.export_trajectory, (simulate(paper_scene(4, periods=10), window=(8, 10)),), {}, 7.0, 9.0, 40),
     ]
     for i, (fn, args, kw, w, h, dpi) in enumerate(cases):
         out = tmp_path / f"f{i}.png"
@@ -94,8 +97,7 @@ def test_png_pixel_size_is_dpi_times_inches(no_display, tmp_path, map_ds, vertic
 
 
 @pytest.mark.slow
-def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_ds, vertical,
-                                                       run4):
+def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_ds, vertical, run4):
     svg = tmp_path / "map.svg"
     export.export_heatmap(map_ds, svg, vertical=vertical, dpi=50)
     text = svg.read_text()
@@ -104,7 +106,7 @@ def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_
     export.export_trajectory(run4, svg2, dpi=30)
     text = svg2.read_text()
     assert "t* (periods)" in text and "contact state" in text
-    assert "a* (a0)" in text and "y* (a0)" in text         # each on its own axis
+    assert "a* (a0)" in text and "y* (a0)" in text  # each on its own axis
     pdf = tmp_path / "vertical.pdf"
     export.export_vertical(vertical, pdf)
     assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 2000
@@ -113,15 +115,14 @@ def test_svg_keeps_axis_labels_as_text_and_pdf_is_pdf(no_display, tmp_path, map_
 @pytest.mark.slow
 def test_memory_diagram_figure_marks_stick_and_slip(tmp_path):
     snap = memory_snapshot(paper_scene(1), t=100.6)
-    assert 0 < snap["stick_depth"] < snap["a"]          # partial slip at this instant
+    assert 0 < snap["stick_depth"] < snap["a"]  # partial slip at this instant
     out = tmp_path / "mem.svg"
     export.export_memory(snap, out, dpi=30)
     text = out.read_text()
     for label in ("stick core", "slip annulus", "u = b* - w", "h (contact depth, a0)"):
         assert label in text
     circle = plots.contact_circle(snap)
-    radii = sorted(np.hypot(*p.array([0, 1]).T).max() for p in circle if isinstance(
-        p, hv.Polygons))
+    radii = sorted(np.hypot(*p.array([0, 1]).T).max() for p in circle if isinstance(p, hv.Polygons))
     assert np.allclose(radii, [np.sqrt(snap["stick_depth"]), np.sqrt(snap["a"])], rtol=1e-3)
 
 
@@ -131,8 +132,12 @@ def test_standalone_html_has_inline_resources(tmp_path, run4):
     text = out.read_text()
     assert "<html" in text.lower() and "Bokeh" in text
     assert 'src="https://cdn.bokeh.org' not in text and "cdn.bokeh.org/bokeh/release" not in text
-    for title in ("whole run: normal: a*(t), y*(t)", plots.SHARES_TITLE,
-                  "t* in [48, 50]: normal", "t* (periods)"):
+    for title in (
+        "whole run: normal: a*(t), y*(t)",
+        plots.SHARES_TITLE,
+        "t* in [48, 50]: normal",
+        "t* (periods)",
+    ):
         assert title in text
 
 
@@ -161,15 +166,45 @@ def test_cli_export_in_a_subprocess_without_display_or_browser(tmp_path, maps_di
     empty_bin = tmp_path / "bin"
     empty_bin.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    env["PATH"] = str(empty_bin)                # no chromium (or anything) can be found
+    env["PATH"] = str(empty_bin)  # no chromium (or anything) can be found
     argvs = [
-        ["export", "heatmap", "--maps", str(maps_dir), "--out", str(tmp_path / "m.png"),
-         "--dpi", "40", "--width", "5", "--height", "4"],
-        ["export", "trajectory", "--log-amplitude", "2.5", "--log-mass", "0", "--periods",
-         str(PERIODS), "--out", str(tmp_path / "t.pdf"), "--dpi", "30"],
+        [
+            "export",
+            "heatmap",
+            "--maps",
+            str(maps_dir),
+            "--out",
+            str(tmp_path / "m.png"),
+            "--dpi",
+            "40",
+            "--width",
+            "5",
+            "--height",
+            "4",
+        ],
+        [
+            "export",
+            "trajectory",
+            "--log-amplitude",
+            "2.5",
+            "--log-mass",
+            "0",
+            "--periods",
+            str(PERIODS),
+            "--out",
+            str(tmp_path / "t.pdf"),
+            "--dpi",
+            "30",
+        ],
     ]
-    proc = subprocess.run([sys.executable, "-c", HEADLESS, json.dumps(argvs)], env=env,
-                          cwd=tmp_path, capture_output=True, text=True, timeout=budget(240))
+    proc = subprocess.run(
+        [sys.executable, "-c", HEADLESS, json.dumps(argvs)],
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=budget(240),
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     assert res["codes"] == [0, 0]
@@ -192,6 +227,7 @@ def _capture(monkeypatch):
         seen["objs"].append(obj)
         seen["figs"].append(fig)
         return fig
+
     monkeypatch.setattr(export, "render", spy)
     return seen
 
@@ -202,6 +238,7 @@ def _app_map(maps_dir):
     from assetsfolder import point_assets
 
     from vibtrans_explorer.server import data
+
     shipped = data.ASSETS
     point_assets(maps_dir.parent)
     try:
@@ -217,31 +254,36 @@ def _app_map(maps_dir):
 @pytest.mark.slow
 def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir):
     export.ensure_backends()
-    hv.Store.set_current_backend("bokeh")        # as in the explorer's process
+    hv.Store.set_current_backend("bokeh")  # as in the explorer's process
     app_el = _app_map(maps_dir)
     seen = _capture(monkeypatch)
-    assert cli.main(["export", "heatmap", "--maps", str(maps_dir), "--out",
-                     str(tmp_path / "m.png"), "--dpi", "40"]) == 0
-    assert hv.Store.current_backend == "bokeh"   # exporting left the app's backend alone
+    assert (
+        cli.main(
+            ["export", "heatmap", "--maps", str(maps_dir), "--out", str(tmp_path / "m.png"), "--dpi", "40"]
+        )
+        == 0
+    )
+    assert hv.Store.current_backend == "bokeh"  # exporting left the app's backend alone
     cli_el = seen["objs"][0]
     # the elements' data
     first = lambda obj, kind: obj.traverse(lambda x: x, [kind])[0]  # noqa: E731
     app_img, cli_img = first(app_el, hv.Image), first(cli_el, hv.Image)
     for dim in ("C", "v"):
-        np.testing.assert_array_equal(app_img.dimension_values(dim, flat=False),
-                                      cli_img.dimension_values(dim, flat=False))
+        np.testing.assert_array_equal(
+            app_img.dimension_values(dim, flat=False), cli_img.dimension_values(dim, flat=False)
+        )
     np.testing.assert_array_equal(first(app_el, hv.Curve).array(), first(cli_el, hv.Curve).array())
-    np.testing.assert_array_equal(first(app_el, hv.Points).array(),
-                                  first(cli_el, hv.Points).array())
+    np.testing.assert_array_equal(first(app_el, hv.Points).array(), first(cli_el, hv.Points).array())
     # and what each backend drew: bokeh's image source vs matplotlib's AxesImage
     from bokeh.models import GlyphRenderer, Line
     from bokeh.models import Image as BkImage
+
     bk = hv.render(app_el, backend="bokeh")
     rends = [r for r in bk.renderers if isinstance(r, GlyphRenderer)]
     bk_img = next(r for r in rends if isinstance(r.glyph, BkImage)).data_source.data["image"][0]
     ax = next(a for a in seen["figs"][0].axes if a.images)
     mpl_img = np.ma.filled(ax.images[0].get_array().astype(float), np.nan)
-    assert mpl_img.shape == bk_img.shape == (3, 4)        # (mass rows, amplitude columns)
+    assert mpl_img.shape == bk_img.shape == (3, 4)  # (mass rows, amplitude columns)
     # bokeh's row 0 is at the bottom (smallest m*); matplotlib's is at the
     # bottom with origin 'lower', at the top with 'upper': one orientation only
     if ax.images[0].origin == "upper":
@@ -254,26 +296,28 @@ def test_app_and_cli_heatmaps_plot_the_same_data(monkeypatch, tmp_path, maps_dir
 
 
 # ------------------------------------------------------------------ pixels
-LA = np.array([-2.5, -1.0, 0.5, 2.0])       # 4 amplitudes (columns), spacing 1.5
-LM = np.array([-4.0, -1.0, 2.0])            # 3 masses (rows), spacing 3
-CHAOTIC_CELL = (1, 2)                       # (amplitude index, mass index): grey
+LA = np.array([-2.5, -1.0, 0.5, 2.0])  # 4 amplitudes (columns), spacing 1.5
+LM = np.array([-4.0, -1.0, 2.0])  # 3 masses (rows), spacing 3
+CHAOTIC_CELL = (1, 2)  # (amplitude index, mass index): grey
 
 
 def _hand_map():
     """A drift map (open_map's layout) with a distinct colour C in each
     cell: |v*| from 0.2 to 2000 on both sides of the wave, one chaotic cell,
     none inside the white band."""
-    v = np.array([[-2000.0, 3.0, -0.5],
-                  [40.0, -8.0, 700.0],
-                  [-0.2, 150.0, -60.0],
-                  [12.0, -300.0, 0.7]])          # (amplitude, mass)
+    v = np.array(
+        [[-2000.0, 3.0, -0.5], [40.0, -8.0, 700.0], [-0.2, 150.0, -60.0], [12.0, -300.0, 0.7]]
+    )  # (amplitude, mass)
     chaotic = np.zeros(v.shape, dtype=np.int8)
     chaotic[CHAOTIC_CELL] = 1
-    return xr.Dataset({"drift_velocity": (("log_amplitude", "log_mass"), v),
-                       "chaotic": (("log_amplitude", "log_mass"), chaotic)},
-                      coords={"log_amplitude": LA, "log_mass": LM},
-                      attrs={"scene_model": "deformable", "scene_mu": 0.3,
-                             "scene_periods": 2000.0})
+    return xr.Dataset(
+        {
+            "drift_velocity": (("log_amplitude", "log_mass"), v),
+            "chaotic": (("log_amplitude", "log_mass"), chaotic),
+        },
+        coords={"log_amplitude": LA, "log_mass": LM},
+        attrs={"scene_model": "deformable", "scene_mu": 0.3, "scene_periods": 2000.0},
+    )
 
 
 def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
@@ -282,9 +326,10 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
     # arrays of both backends located by their extents, and the PNG's pixel
     # at each cell centre (x = log10 A* to the right, y = log10 m* upwards).
     from PIL import Image
+
     ds = _hand_map()
-    c = plots.colour_scale(ds["drift_velocity"].values)           # (amplitude, mass)
-    assert np.unique(c).size == c.size                             # every cell distinct
+    c = plots.colour_scale(ds["drift_velocity"].values)  # (amplitude, mass)
+    assert np.unique(c).size == c.size  # every cell distinct
     seen = _capture(monkeypatch)
     dpi = 60
     out = tmp_path / "m.png"
@@ -297,7 +342,7 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
     left, right, bottom, top = img.get_extent()
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
-    assert x0 < x1 and y0 < y1                          # neither axis reversed
+    assert x0 < x1 and y0 < y1  # neither axis reversed
     png = np.asarray(Image.open(out).convert("RGB")).astype(int)
     height = png.shape[0]
     scale = dpi / fig.dpi
@@ -309,22 +354,21 @@ def test_heatmap_pixels_are_the_data_at_known_cells(monkeypatch, tmp_path):
             if img.origin == "upper":
                 row = LM.size - 1 - row
             expected = np.nan if (i, j) == CHAOTIC_CELL else c[i, j]
-            np.testing.assert_allclose(arr[row, col], expected, equal_nan=True,
-                                       err_msg=f"cell {la}, {lm}")
+            np.testing.assert_allclose(arr[row, col], expected, equal_nan=True, err_msg=f"cell {la}, {lm}")
             # the PNG pixel at the cell centre
             px, py = ax.transData.transform((la, lm)) * scale
             rgb = png[height - 1 - int(py), int(px)]
             if (i, j) == CHAOTIC_CELL:
-                assert np.ptp(rgb) <= 3 and 140 <= rgb[0] <= 170, rgb     # grey
+                assert np.ptp(rgb) <= 3 and 140 <= rgb[0] <= 170, rgb  # grey
             else:
                 want = np.round(np.array(img.to_rgba(c[i, j])[:3]) * 255)
                 assert np.abs(rgb - want).max() <= 2, (la, lm, rgb, want)
     # bokeh (the explorer): row 0 at the bottom, x, y, dw, dh the extent
     from bokeh.models import GlyphRenderer
     from bokeh.models import Image as BkImage
+
     bk = hv.render(export.heatmap_figure(ds), backend="bokeh")
-    r = next(r for r in bk.renderers if isinstance(r, GlyphRenderer)
-             and isinstance(r.glyph, BkImage))
+    r = next(r for r in bk.renderers if isinstance(r, GlyphRenderer) and isinstance(r.glyph, BkImage))
     bimg = np.asarray(r.data_source.data["image"][0], dtype=float)
     src = r.data_source.data
     gx, gy, gdw, gdh = (float(src[k][0]) for k in ("x", "y", "dw", "dh"))
@@ -348,6 +392,7 @@ def _capture_trajectory(monkeypatch):
         seen["defs"].append(figure)
         seen["figs"].append(fig)
         return fig
+
     monkeypatch.setattr(export, "render_trajectory", spy)
     return seen
 
@@ -365,8 +410,12 @@ def _band(ax, colour):
     """(x, lo, hi) of the min-max band of `colour` drawn in `ax`."""
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import to_rgb
-    (band,) = [c for c in ax.collections if isinstance(c, PolyCollection)
-               and np.allclose(c.get_facecolor()[0][:3], to_rgb(colour))]
+
+    (band,) = [
+        c
+        for c in ax.collections
+        if isinstance(c, PolyCollection) and np.allclose(c.get_facecolor()[0][:3], to_rgb(colour))
+    ]
     v = band.get_paths()[0].vertices
     x, inverse = np.unique(v[:, 0], return_inverse=True)
     lo = np.full(x.size, np.inf)
@@ -380,16 +429,20 @@ def _strip_areas(ax):
     """{state name: area of its polygons} of a drawn state strip, and the
     names and colours of its legend."""
     from matplotlib.colors import to_hex
+
     area = {}
     colours = {to_hex(c): n for n, c in zip(STATE_NAMES, plots.STATE_COLORS.values())}
     for c in ax.collections:
         for path in c.get_paths():
             x, y = path.vertices.T
             name = colours[to_hex(c.get_facecolor()[0])]
-            area[name] = area.get(name, 0.0) + 0.5 * abs(np.dot(x, np.roll(y, -1))
-                                                         - np.dot(y, np.roll(x, -1)))
-    legend = {t.get_text(): to_hex(h.get_facecolor())
-              for t, h in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles)}
+            area[name] = area.get(name, 0.0) + 0.5 * abs(
+                np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))
+            )
+    legend = {
+        t.get_text(): to_hex(h.get_facecolor())
+        for t, h in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles)
+    }
     return area, legend
 
 
@@ -402,14 +455,15 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
     # every sample (a sample outside its band, a lost spike, fails); the
     # window sample by sample; the state strips covering each state for the
     # time the run spends in it, in the states' colours, named in a legend.
-    scene = paper_scene(8, periods=PERIODS)          # hops; chaotic: has a twin
-    ds = simulate(scene, window=(PERIODS - plots.FRAGMENT, PERIODS),
-                  samples_per_period=plots.OVERVIEW_SAMPLES)
+    scene = paper_scene(8, periods=PERIODS)  # hops; chaotic: has a twin
+    ds = simulate(
+        scene, window=(PERIODS - plots.FRAGMENT, PERIODS), samples_per_period=plots.OVERVIEW_SAMPLES
+    )
     twin = simulate(twin_scene(scene), samples_per_period=plots.OVERVIEW_SAMPLES)
     seen = _capture_trajectory(monkeypatch)
     out = tmp_path / "t.png"
     export.export_trajectory(ds, out, twin=twin, dpi=30)
-    assert _png_size(out) == (330, 390)               # 11 x 13 in at 30 dpi
+    assert _png_size(out) == (330, 390)  # 11 x 13 in at 30 dpi
     fig = seen["figs"][0]
     # rows x (whole run, window); the right axes (twins) come after them
     axes = np.array(fig.axes[:12]).reshape(6, 2)
@@ -421,18 +475,16 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
         ["forces: N*, T*" + note, "forces: N*, T*"],
         ["relative tangential velocity b*'" + note, "relative tangential velocity b*'"],
         ["contact state (time share per bin)", "contact state"],
-        ["x*(t) and its tau + 0.001 twin" + note, "x*(t) and its tau + 0.001 twin"]]
-    legends = [[t.get_text() for t in ax.get_legend().get_texts()]
-               for ax in axes[[0, 1, 2, 3, 5], 0]]
-    assert legends == [["a*", "y*"], ["b*", "x*"], ["N*", "T*"], ["b*'"],
-                       ["x*, tau = 50", "x*, tau + 0.001"]]
-    assert fig.get_suptitle() == (
-        "deformable: A* = 50.12, m* = 0.01, mu = 0.3")
+        ["x*(t) and its tau + 0.001 twin" + note, "x*(t) and its tau + 0.001 twin"],
+    ]
+    legends = [[t.get_text() for t in ax.get_legend().get_texts()] for ax in axes[[0, 1, 2, 3, 5], 0]]
+    assert legends == [["a*", "y*"], ["b*", "x*"], ["N*", "T*"], ["b*'"], ["x*, tau = 50", "x*, tau + 0.001"]]
+    assert fig.get_suptitle() == ("deformable: A* = 50.12, m* = 0.01, mu = 0.3")
     t = ds["time"].values
     edges = np.linspace(t[0], t[-1], plots.OVERVIEW_BINS + 1)
     k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, plots.OVERVIEW_BINS - 1)
     used, j = np.unique(k, return_inverse=True)
-    frag = (t >= PERIODS - plots.FRAGMENT)
+    frag = t >= PERIODS - plots.FRAGMENT
     for row, lines in enumerate(plots.panel_spec(False, split_velocity=True)):
         right = plots.right_columns([var for var, _, _ in lines[2]])
         for var, label, colour in lines[2]:
@@ -449,8 +501,7 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
             line = next(ln for ln in on[0].lines if ln.get_label() == label)
             # a right-axis line dashed (solid, x* hid b* where they coincide)
             assert line.get_linestyle() == ("--" if var in right else "-"), (var, right)
-            np.testing.assert_allclose(line.get_ydata(), plots.binned(t, {var: v},
-                                                                        plots.OVERVIEW_BINS)[var])
+            np.testing.assert_allclose(line.get_ydata(), plots.binned(t, {var: v}, plots.OVERVIEW_BINS)[var])
             # the window: every sample, nothing else
             line = next(ln for ln in on[1].lines if ln.get_label() == label)
             np.testing.assert_array_equal(line.get_xdata(), t[frag])
@@ -459,14 +510,16 @@ def test_exported_trajectory_draws_the_whole_run_and_the_window(monkeypatch, tmp
     t0, t1, vals = plots._state_runs(ds)
     for col, (a, b) in enumerate([(t[0], t[-1]), (PERIODS - plots.FRAGMENT, t[-1])]):
         area, legend = _strip_areas(axes[4, col])
-        spent = {n: float((np.clip(t1, a, b) - np.clip(t0, a, b))[vals == c].sum())
-                 for c, n in enumerate(STATE_NAMES)}
+        spent = {
+            n: float((np.clip(t1, a, b) - np.clip(t0, a, b))[vals == c].sum())
+            for c, n in enumerate(STATE_NAMES)
+        }
         spent = {n: s for n, s in spent.items() if s > 0}
         assert area.keys() == spent.keys()
         for n in spent:
             assert area[n] == pytest.approx(spent[n], rel=1e-9), n
         assert legend == {n: plots.STATE_COLORS[STATE_NAMES.index(n)] for n in spent}
-    assert len(spent) >= 1 and len(_strip_areas(axes[4, 0])[0]) >= 2   # hops: >= 2 states
+    assert len(spent) >= 1 and len(_strip_areas(axes[4, 0])[0]) >= 2  # hops: >= 2 states
     # the twin: dashed black, its own samples
     twin_line = next(ln for ln in axes[5, 1].lines if ln.get_label() == "x*, tau + 0.001")
     assert twin_line.get_linestyle() == "--" and twin_line.get_color() == "black"
@@ -482,19 +535,21 @@ def test_paper_export_writes_each_figure_and_an_index(monkeypatch, tmp_path, map
     subset = {n: export.PAPER_FIGURES[n] for n in (2, 3, 11)}
     monkeypatch.setattr(export, "PAPER_FIGURES", subset)
     out = tmp_path / "paper"
-    assert cli.main(["export", "paper", "--out", str(out), "--maps", str(maps_dir),
-                     "--periods", "20", "--dpi", "30"]) == 0
+    assert (
+        cli.main(
+            ["export", "paper", "--out", str(out), "--maps", str(maps_dir), "--periods", "20", "--dpi", "30"]
+        )
+        == 0
+    )
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["fig02-vertical.png", "fig03-drift-maps.png", "fig11-point8.png",
-                     "index.md"]
+    assert names == ["fig02-vertical.png", "fig03-drift-maps.png", "fig11-point8.png", "index.md"]
     for name in names[:-1]:
         assert (out / name).stat().st_size > 2000
     index = (out / "index.md").read_text()
     for n in (2, 3, 11):
         assert f"## Fig. {n}:" in index
-    assert ("vibtrans export trajectory --point 8 --out fig11-point8.png --twin --periods 20"
-            in index)
-    assert "point-mass map missing" in index          # the tiny assets have no point-mass map
+    assert "vibtrans export trajectory --point 8 --out fig11-point8.png --twin --periods 20" in index
+    assert "point-mass map missing" in index  # the tiny assets have no point-mass map
     assert "log10 A* = 1.7" in index
 
 
@@ -511,11 +566,15 @@ BAD = [
     (["export", "heatmap", "--out", "x.png", "--maps", "/no/such/dir"], "maps"),
     (["export", "trajectory", "--out", "x.png"], "--point"),
     (["export", "trajectory", "--out", "x.png", "--point", "11"], "point"),
-    (["export", "trajectory", "--out", "x.png", "--log-amplitude", "inf", "--log-mass", "0"],
-     "log_amplitude"),
+    (
+        ["export", "trajectory", "--out", "x.png", "--log-amplitude", "inf", "--log-mass", "0"],
+        "log_amplitude",
+    ),
     (["export", "trajectory", "--out", "x.png", "--point", "4", "--periods", "-5"], "periods"),
-    (["export", "trajectory", "--out", "x.png", "--point", "4", "--periods", "20",
-      "--window", "10", "30"], "window"),
+    (
+        ["export", "trajectory", "--out", "x.png", "--point", "4", "--periods", "20", "--window", "10", "30"],
+        "window",
+    ),
     (["export", "memory", "--out", "x.png", "--point", "1"], "t"),
     (["export", "memory", "--out", "x.png", "--point", "1", "--t", "-1"], "t"),
     (["export", "memory", "--out", "x.png", "--point", "9", "--t", "1"], "model"),
@@ -525,16 +584,14 @@ BAD = [
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("argv,name", BAD, ids=[" ".join(a[1:4]) + f"-{i}"
-                                                for i, (a, _) in enumerate(BAD)])
-def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, monkeypatch,
-                                             capsys):
+@pytest.mark.parametrize("argv,name", BAD, ids=[" ".join(a[1:4]) + f"-{i}" for i, (a, _) in enumerate(BAD)])
+def test_bad_cli_input_exits_2_with_one_line(argv, name, maps_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     if "--maps" not in argv:
         argv = argv + ["--maps", str(maps_dir)]
     try:
         code = cli.main(argv)
-    except SystemExit as exc:          # argparse's own errors
+    except SystemExit as exc:  # argparse's own errors
         code = exc.code
     err = capsys.readouterr().err
     assert code == 2
@@ -549,6 +606,7 @@ def test_export_bench_measures_each_format(monkeypatch):
     # `vibtrans bench --export` runs and reports what it says (times are
     # printed, never asserted); a short run keeps this quick
     from vibtrans.tools import bench
+
     real = bench.paper_scene
     monkeypatch.setattr(bench, "paper_scene", lambda point: real(point, periods=20.0))
     r = bench.export_bench(quick=True)
@@ -556,7 +614,8 @@ def test_export_bench_measures_each_format(monkeypatch):
     for fmt in ("png", "svg", "html"):
         assert 0 < r[f"{fmt}_cpu_seconds"] and 0 < r[f"{fmt}_seconds"] < float("inf")
         assert r[f"{fmt}_over_reference"] == pytest.approx(
-            r[f"{fmt}_cpu_seconds"] / r["reference_cpu_seconds"])
+            r[f"{fmt}_cpu_seconds"] / r["reference_cpu_seconds"]
+        )
 
 
 def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4):
@@ -567,7 +626,8 @@ def test_standalone_html_while_the_current_document_is_destroyed(tmp_path, run4)
     its own Document and does not read curdoc()."""
     from bokeh.document import Document
     from bokeh.io.doc import patch_curdoc
-    session = object()                  # what a server session registers
+
+    session = object()  # what a server session registers
     gone = Document()
     gone.on_change_dispatch_to(session)
     gone.destroy(session)
@@ -585,6 +645,7 @@ def test_exported_trajectory_gives_y_its_own_axis(run4):
     (plots.trajectory_figure), whose panels say which lines go right."""
     import matplotlib.pyplot as plt
     from bokeh.models import LinearAxis
+
     figure = plots.trajectory_figure(run4)
     normal = next(p for p in figure.columns[0] if "normal: a*(t), y*(t)" in p.title)
     assert normal.right == ("y",) and normal.axis_labels == ("a* (a0)", "y* (a0)")
@@ -599,11 +660,13 @@ def test_exported_trajectory_gives_y_its_own_axis(run4):
         # y*'s line on an axis labelled y*, a*'s on one labelled a*
         assert any(np.array_equal(line.get_ydata(), y.value) for line in by_label["y* (a0)"].lines)
         assert any(np.array_equal(line.get_ydata(), a.value) for line in by_label["a* (a0)"].lines)
-        assert not any(np.array_equal(line.get_ydata(), y.value)
-                       for line in by_label["a* (a0)"].lines)
+        assert not any(np.array_equal(line.get_ydata(), y.value) for line in by_label["a* (a0)"].lines)
     finally:
         plt.close(fig)
     layout = export.trajectory_bokeh(figure)
-    right = [ax for ax in layout.select({"type": LinearAxis})
-             if ax.y_range_name == "right" and ax.axis_label == "y* (a0)"]
-    assert len(right) == 2          # the whole run's panel and the fragment's
+    right = [
+        ax
+        for ax in layout.select({"type": LinearAxis})
+        if ax.y_range_name == "right" and ax.axis_label == "y* (a0)"
+    ]
+    assert len(right) == 2  # the whole run's panel and the fragment's

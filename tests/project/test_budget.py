@@ -1,4 +1,5 @@
 """The time budgets of the tests (tests/budget.py) scale with the machine's load."""
+
 import budget as B
 import pytest
 

@@ -1,6 +1,7 @@
 """The layout: import layers (import-linter contracts in pyproject.toml, run
 by `lint-imports`), the library never loading the explorer or Panel, and
 the packaging list in pyproject.toml complete."""
+
 import re
 import subprocess
 import sys
@@ -15,8 +16,9 @@ LINT = Path(sys.executable).parent / "lint-imports"
 
 
 def _lint(cwd, *args):
-    return subprocess.run([str(LINT), "--no-cache", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=budget(300))
+    return subprocess.run(
+        [str(LINT), "--no-cache", *args], cwd=cwd, capture_output=True, text=True, timeout=budget(300)
+    )
 
 
 def test_import_contracts_are_kept():
@@ -33,7 +35,8 @@ def test_lint_imports_fails_on_a_broken_contract(tmp_path):
     (pkg / "__init__.py").write_text("")
     (pkg / "high.py").write_text("from . import low\n")
     (pkg / "low.py").write_text("def f():\n    from . import high\n")
-    (tmp_path / ".importlinter").write_text(textwrap.dedent("""\
+    (tmp_path / ".importlinter").write_text(
+        textwrap.dedent("""\
         [importlinter]
         root_package = layered
 
@@ -44,7 +47,8 @@ def test_lint_imports_fails_on_a_broken_contract(tmp_path):
             high
             low
         containers = layered
-        """))
+        """)
+    )
     r = _lint(tmp_path, "--config", str(tmp_path / ".importlinter"))
     assert r.returncode != 0, r.stdout
     assert "BROKEN" in r.stdout and "layered.low -> layered.high" in r.stdout, r.stdout
@@ -61,8 +65,9 @@ def test_the_library_loads_neither_the_explorer_nor_panel():
                      if m.split(".")[0] in ("panel", "bokeh", "vibtrans_explorer", "devtools"))
         assert not bad, bad
         """)
-    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                       timeout=budget(600))
+    r = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=budget(600)
+    )
     assert r.returncode == 0, r.stderr[-3000:]
 
 
@@ -93,8 +98,13 @@ def test_each_library_folder_is_small_enough_to_read_at_a_glance():
     # sub-packages a reader can name at a glance, about ten
     # entries at any level (modules and sub-packages, __init__ left out;
     # core holds 12 with the profiles)
-    for folder in [ROOT / "vibtrans", *(p for p in (ROOT / "vibtrans").rglob("*")
-                                         if p.is_dir() and (p / "__init__.py").exists())]:
-        entries = [p.name for p in folder.iterdir()
-                   if p.name != "__init__.py" and (p.suffix == ".py" or (p / "__init__.py").exists())]
+    for folder in [
+        ROOT / "vibtrans",
+        *(p for p in (ROOT / "vibtrans").rglob("*") if p.is_dir() and (p / "__init__.py").exists()),
+    ]:
+        entries = [
+            p.name
+            for p in folder.iterdir()
+            if p.name != "__init__.py" and (p.suffix == ".py" or (p / "__init__.py").exists())
+        ]
         assert len(entries) <= 12, (folder.relative_to(ROOT), sorted(entries))

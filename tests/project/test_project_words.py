@@ -2,6 +2,7 @@
 narrate how they were made (issue numbers, work sessions, dates, the
 machine they were written on).  History lives in git and CHANGELOG.md,
 measurements in benchmarks/results/."""
+
 import re
 import subprocess
 from pathlib import Path
@@ -11,14 +12,19 @@ ROOT = Path(__file__).resolve().parents[2]
 DATED = ("CHANGELOG.md", "benchmarks/results/")
 # "the first session" and "a second session" are the product's (a browser's
 # sessions on the server), so the ordinals of a work session start at third
-ORDINAL = ("third|fourth|fifth|sixth|seventh|eighth|ninth|tenth|eleventh|twelfth|"
-           "thirteenth|fourteenth|fifteenth|sixteenth|seventeenth|eighteenth|nineteenth|"
-           "twentieth|\\d+(?:st|nd|rd|th)|[A-Z]\\d+")
+ORDINAL = (
+    "third|fourth|fifth|sixth|seventh|eighth|ninth|tenth|eleventh|twelfth|"
+    "thirteenth|fourteenth|fifteenth|sixteenth|seventeenth|eighteenth|nineteenth|"
+    "twentieth|\\d+(?:st|nd|rd|th)|[A-Z]\\d+"
+)
 NARRATION = {
     # also "issue-16", "issue #32" and a test's name "test_issue_14_..."
     "an issue number": re.compile(r"(?<![a-z])issues?[\s_#-]*\d+", re.I),
-    "a work session": re.compile(rf"\b(?:{ORDINAL})\s+session\b|\bwork(?:ing)?\s+sessions?\b"
-                                 r"|\bsession\s+[A-Z]?\d+\b", re.I),
+    "a work session": re.compile(
+        rf"\b(?:{ORDINAL})\s+session\b|\bwork(?:ing)?\s+sessions?\b"
+        r"|\bsession\s+[A-Z]?\d+\b",
+        re.I,
+    ),
     # a date joined to its time ("2026-11-28T10:05:00Z") is a record's
     # timestamp, data a test or a results file reads, not prose
     "a date": re.compile(r"\b20\d\d-[01]\d-[0-3]\d\b"),
@@ -39,8 +45,26 @@ def _text_files():
         if name == SELF or name.startswith(("assets/", "docs/_static/")):
             continue
         path = ROOT / name
-        if path.suffix not in {".py", ".md", ".toml", ".cfg", ".txt", ".sh", ".yml", ".yaml",
-                               ".ipynb", ".rst", ".html", ".css", ".js", ""} or not path.is_file():
+        if (
+            path.suffix
+            not in {
+                ".py",
+                ".md",
+                ".toml",
+                ".cfg",
+                ".txt",
+                ".sh",
+                ".yml",
+                ".yaml",
+                ".ipynb",
+                ".rst",
+                ".html",
+                ".css",
+                ".js",
+                "",
+            }
+            or not path.is_file()
+        ):
             continue
         try:
             yield name, path.read_text()
@@ -61,19 +85,38 @@ def test_nothing_narrates_how_it_was_made():
 
 
 def test_the_check_finds_each_kind():
-    lines = {"an issue number": ["fixed in issue 34", "issues 14 and 32", "Issue #32",
-                                 "the issue-16 figures", "def test_issue_14_runs():"],
-             "a work session": ["the twentieth session", "the D3 session", "in session 12",
-                                "a work session"],
-             "a date": ["measured 2026-11-24", "until 2026-11-27 05:00 UTC"],
-             "a machine's path": ["see /work/main/x.py", "in /root/.cache", "/home/ann/x"],
-             "a helper's name": ["H2 found it", "helper-3's change", "Helper 3 said"]}
+    lines = {
+        "an issue number": [
+            "fixed in issue 34",
+            "issues 14 and 32",
+            "Issue #32",
+            "the issue-16 figures",
+            "def test_issue_14_runs():",
+        ],
+        "a work session": ["the twentieth session", "the D3 session", "in session 12", "a work session"],
+        "a date": ["measured 2026-11-24", "until 2026-11-27 05:00 UTC"],
+        "a machine's path": ["see /work/main/x.py", "in /root/.cache", "/home/ann/x"],
+        "a helper's name": ["H2 found it", "helper-3's change", "Helper 3 said"],
+    }
     for what, examples in lines.items():
         for line in examples:
             assert NARRATION[what].search(line), (what, line)
-    for product in ("one session's page", "the last session closed", "sessions x clicks",
-                    "before the first session", "a second session opens", "--sessions 30",
-                    "an issue tracker", "a tissue 3 um thick", "np.float64", "H2O",
-                    "help helpers", "~/.cache/vibtrans", "tests/work/x", "log10 A* = 2.5",
-                    "2026-11-28T10:05:00Z", "1970-01-01 00:00:00,000"):
+    for product in (
+        "one session's page",
+        "the last session closed",
+        "sessions x clicks",
+        "before the first session",
+        "a second session opens",
+        "--sessions 30",
+        "an issue tracker",
+        "a tissue 3 um thick",
+        "np.float64",
+        "H2O",
+        "help helpers",
+        "~/.cache/vibtrans",
+        "tests/work/x",
+        "log10 A* = 2.5",
+        "2026-11-28T10:05:00Z",
+        "1970-01-01 00:00:00,000",
+    ):
         assert not any(p.search(product) for p in NARRATION.values()), product

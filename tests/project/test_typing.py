@@ -1,5 +1,6 @@
 """The library type-checks: mypy over vibtrans/ with the settings of
 pyproject.toml ([tool.mypy])."""
+
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,5 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.mark.slow
 def test_mypy_passes():
-    done = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True,
-                          text=True)
+    done = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr

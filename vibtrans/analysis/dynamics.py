@@ -6,6 +6,7 @@ vertical kernel's tangent map gives its Jacobian.  The wave is on from t = 0
 starts the kernel: in flight directly, in contact with the multistep history
 integrated backwards by RK4 (`_contact_history`).
 """
+
 from __future__ import annotations
 
 import math
@@ -25,8 +26,8 @@ if TYPE_CHECKING:
     import numpy.typing as npt
     import xarray as xr
 
-RK4_SUBSTEPS = 16          # per step of the backward history integration
-SHOOTING_TOL = 1e-10       # Newton's stop: |P^k(z) - z| below this (a0, a0/period)
+RK4_SUBSTEPS = 16  # per step of the backward history integration
+SHOOTING_TOL = 1e-10  # Newton's stop: |P^k(z) - z| below this (a0, a0/period)
 SHOOTING_ITERATIONS = 40
 
 
@@ -65,12 +66,13 @@ def _contact_history(t, y, vy, d, h, A, m, law=None):
         for _ in range(RK4_SUBSTEPS):
             z = _rk4(tj, z, dt, A, m, law)
             tj += dt
-        tj = t - (j + 1) * h       # no drift of the time from the substeps
+        tj = t - (j + 1) * h  # no drift of the time from the substeps
     return hist, thist
 
 
 class Strobe(NamedTuple):
     """The image of a point after `periods` periods and its Jacobian d(y, y')/d(y0, y0')."""
+
     y: float
     vy: float
     jacobian: np.ndarray
@@ -81,8 +83,16 @@ def _params(amplitude, mass, fidelity, t_end, law=None):
     return D.kernel_params(amplitude, mass, 0.3, 1.2, 0.0, 0.0, h, t_end, 1e9), h
 
 
-def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
-           fidelity: str = "standard", t0: float = 0.0, law: Any = None) -> Strobe:
+def strobe(
+    amplitude: float,
+    mass: float,
+    y: Any,
+    vy: Any,
+    periods: float = 1,
+    fidelity: str = "standard",
+    t0: float = 0.0,
+    law: Any = None,
+) -> Strobe:
     """P^periods(y, vy) from the integer time t0 with its Jacobian (a kernel run
     per column); law: drivers.scene_law(scene) (None: the sphere)."""
     p, h = _params(amplitude, mass, fidelity, t0 + periods, law)
@@ -102,10 +112,11 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
             tangent[[D.L_DY0, D.L_DVY0]] = e
         else:
             hist, thist = _contact_history(t0, y, vy, e, h, amplitude, mass, law)
-            tangent[D.L_HIST:D.L_HIST + 8] = thist.ravel()
+            tangent[D.L_HIST : D.L_HIST + 8] = thist.ravel()
             state[D.S_GAP] = gap
-        run = drivers.run_hertz(p, "ab4", state=state, hist=hist, tangent=tangent,
-                                in_flight=in_flight, **fixed)
+        run = drivers.run_hertz(
+            p, "ab4", state=state, hist=hist, tangent=tangent, in_flight=in_flight, **fixed
+        )
         t_end, dy, dvy = D.tangent_at_end(run.tangent, run.state)
         columns.append((dy, dvy))
         end = _end_state(run, t_end)
@@ -115,6 +126,7 @@ def strobe(amplitude: float, mass: float, y: Any, vy: Any, periods: float = 1,
 def _end_state(run, t_end):
     """(y, y') at t_end: the record interpolated there in contact, or the flight's state."""
     from vibtrans.core.kernels import records as R
+
     if run.samples.shape[0] and run.samples[-1, R.T_] == t_end:
         return run.samples[-1, R.Y], run.samples[-1, R.VY]
     return run.state[D.S_Y], run.state[D.S_VY]
@@ -122,23 +134,30 @@ def _end_state(run, t_end):
 
 class Orbit(NamedTuple):
     """A period-k orbit (found or not) and its Floquet multipliers."""
+
     found: bool
-    y: float                 # the section point (t = 0 mod 1), a0
-    vy: float                #   and its velocity, a0 per period
+    y: float  # the section point (t = 0 mod 1), a0
+    vy: float  #   and its velocity, a0 per period
     period: int
-    multipliers: tuple       # complex pair (elliptic) or real pair (hyperbolic)
-    trace: float             # |trace| < 2: elliptic (linearly stable), > 2 hyperbolic
-    determinant: float       # 1 for an area-preserving map (a check)
-    stable: bool             # elliptic
+    multipliers: tuple  # complex pair (elliptic) or real pair (hyperbolic)
+    trace: float  # |trace| < 2: elliptic (linearly stable), > 2 hyperbolic
+    determinant: float  # 1 for an area-preserving map (a check)
+    stable: bool  # elliptic
     iterations: int
-    residual: float          # |P^k(z) - z| at the end
+    residual: float  # |P^k(z) - z| at the end
 
 
-def periodic_orbit(amplitude: float, mass: float, guess: tuple[float, float] | np.ndarray,
-                   period: int = 1,
-                   fidelity: str = "standard", tol: float = SHOOTING_TOL,
-                   max_iterations: int = SHOOTING_ITERATIONS, phase: float = 0.0,
-                   law: Any = None) -> Orbit:
+def periodic_orbit(
+    amplitude: float,
+    mass: float,
+    guess: tuple[float, float] | np.ndarray,
+    period: int = 1,
+    fidelity: str = "standard",
+    tol: float = SHOOTING_TOL,
+    max_iterations: int = SHOOTING_ITERATIONS,
+    phase: float = 0.0,
+    law: Any = None,
+) -> Orbit:
     """A periodic orbit of the stroboscopic map: damped Newton shooting on
     P^period (a step never more than doubles the residual).
 
@@ -197,14 +216,12 @@ def _orbit(z, s, r, period, iterations, tol):
     trace, det = float(np.trace(s.jacobian)), float(np.linalg.det(s.jacobian))
     residual = float(np.linalg.norm(r))
     found, stable = bool(residual <= tol * 100), bool(abs(trace) < 2.0)
-    return Orbit(found, float(z[0]), float(z[1]), int(period), mult, trace, det, stable, iterations,
-                 residual)
+    return Orbit(found, float(z[0]), float(z[1]), int(period), mult, trace, det, stable, iterations, residual)
 
 
 def _check_orbit_args(amplitude, mass, period):
-    Scene(amplitude=amplitude, mass=mass)           # the scene's own validation
-    if isinstance(period, bool) or not isinstance(period, (int, np.integer)) \
-            or not 1 <= period <= 64:
+    Scene(amplitude=amplitude, mass=mass)  # the scene's own validation
+    if isinstance(period, bool) or not isinstance(period, (int, np.integer)) or not 1 <= period <= 64:
         raise InputError(f"period must be an integer in [1, 64], got {period!r}")
 
 
@@ -212,14 +229,24 @@ def rest_guess(amplitude: float, mass: float, law: Any = None) -> tuple[float, f
     """The small-amplitude contact orbit's section point, to first order in A*:
     y* = 1 + A* / (1 - (2 pi)^2 m* / N*'(1)), y*' = 0 (off near resonance)."""
     k1 = 1.5 if law is None else float(law[LAW_K1])
-    return 1.0 + amplitude / (1.0 - TWO_PI ** 2 * mass / k1), 0.0
+    return 1.0 + amplitude / (1.0 - TWO_PI**2 * mass / k1), 0.0
 
 
-def section(amplitude: float, mass: float, y: Any, vy: Any, periods: Any,
-            fidelity: str = "standard", phase: float = 0.0, cancel: Any = None, law: Any = None):
+def section(
+    amplitude: float,
+    mass: float,
+    y: Any,
+    vy: Any,
+    periods: Any,
+    fidelity: str = "standard",
+    phase: float = 0.0,
+    cancel: Any = None,
+    law: Any = None,
+):
     """The orbit of (y, y') under the map at `phase` mod 1: float64[periods + 1, 2],
     a kernel call per period; Cancelled between periods once `cancel` is set."""
     from vibtrans.core.errors import Cancelled
+
     out = np.empty((periods + 1, 2))
     out[0] = y, vy
     for k in range(periods):
@@ -252,16 +279,17 @@ def run_guess(scene: Scene, periods: float | None = None) -> tuple[float, float]
         If a parameter is outside its range.
     """
     from vibtrans.core.simulate import simulate
+
     periods = float(math.ceil(periods or scene.periods))
     # (the vertical motion is the same whether the particle rolls or not:
     # docs/MODEL.md section 11; the vertical model takes no rolling)
-    ds = simulate(scene.replace(model="vertical", rolling="none", periods=periods),
-                  samples_per_period=1)
+    ds = simulate(scene.replace(model="vertical", rolling="none", periods=periods), samples_per_period=1)
     return float(ds["y"].values[-1]), float(ds["vy"].values[-1])
 
 
 class BranchPoint(NamedTuple):
     """One point of a continued branch: log10 parameters and its orbit."""
+
     log_amplitude: float
     log_mass: float
     orbit: Orbit
@@ -270,16 +298,26 @@ class BranchPoint(NamedTuple):
 class Branch(NamedTuple):
     """A period-k orbit continued in one parameter, with its folds (trace = 2:
     the continuation ends) and period doublings (trace = -2), interpolated."""
-    parameter: str                 # "amplitude" | "mass"
-    points: list                   # BranchPoint, in continuation order
-    folds: list                    # log10 parameter values
+
+    parameter: str  # "amplitude" | "mass"
+    points: list  # BranchPoint, in continuation order
+    folds: list  # log10 parameter values
     period_doublings: list
-    ended: str                     # why the continuation stopped
+    ended: str  # why the continuation stopped
 
 
-def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, step: Any = 0.02,
-                   period: Any = 1, guess: Any = None, fidelity: Any = "standard",
-                   profile: Any = "sphere", load_over_modulus: float | None = None) -> Branch:
+def continue_orbit(
+    log_amplitude: Any,
+    log_mass: Any,
+    parameter: Any,
+    to: Any,
+    step: Any = 0.02,
+    period: Any = 1,
+    guess: Any = None,
+    fidelity: Any = "standard",
+    profile: Any = "sphere",
+    load_over_modulus: float | None = None,
+) -> Branch:
     """Natural-parameter continuation of a period-k orbit along log10 A* or
     log10 m* towards `to` in `step` decades, each solve started from the
     secant prediction (the first: `guess`, else the run's end)."""
@@ -290,8 +328,12 @@ def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, s
     start = log_amplitude if parameter == "amplitude" else log_mass
     n = int(math.floor(abs(to - start) / step + 1e-9))
     direction = 1.0 if to >= start else -1.0
-    base = Scene(amplitude=10.0 ** log_amplitude, mass=10.0 ** log_mass, profile=profile,
-                 load_over_modulus=load_over_modulus)
+    base = Scene(
+        amplitude=10.0**log_amplitude,
+        mass=10.0**log_mass,
+        profile=profile,
+        load_over_modulus=load_over_modulus,
+    )
     law = drivers.scene_law(base)
     if guess is None:
         guess = run_guess(base)
@@ -304,11 +346,10 @@ def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, s
     for i in range(n + 1):
         value = start + direction * i * step
         la, lm = (value, log_mass) if parameter == "amplitude" else (log_amplitude, value)
-        orbit = periodic_orbit(10.0 ** la, 10.0 ** lm, z, period, fidelity, law=law)
+        orbit = periodic_orbit(10.0**la, 10.0**lm, z, period, fidelity, law=law)
         if not orbit.found:
             if points and abs(points[-1].orbit.trace - 2.0) < 0.5:
-                folds.append(_crossing(points[-2:], parameter, 2.0) if len(points) > 1
-                             else value)
+                folds.append(_crossing(points[-2:], parameter, 2.0) if len(points) > 1 else value)
                 ended = "fold: the orbit vanished (trace near 2)"
             else:
                 ended = "lost: Newton did not converge"
@@ -316,11 +357,10 @@ def continue_orbit(log_amplitude: Any, log_mass: Any, parameter: Any, to: Any, s
         if points:
             for level, out in ((2.0, folds), (-2.0, doublings)):
                 if (points[-1].orbit.trace - level) * (orbit.trace - level) < 0.0:
-                    out.append(_crossing([points[-1], BranchPoint(la, lm, orbit)], parameter,
-                                         level))
+                    out.append(_crossing([points[-1], BranchPoint(la, lm, orbit)], parameter, level))
         points.append(BranchPoint(la, lm, orbit))
         zn = np.array([orbit.y, orbit.vy])
-        z = zn if z_prev is None else 2.0 * zn - z_prev     # secant predictor
+        z = zn if z_prev is None else 2.0 * zn - z_prev  # secant predictor
         z_prev = zn
     return Branch(parameter, points, folds, doublings, ended)
 
@@ -333,21 +373,23 @@ def _crossing(pair, parameter, level):
     return p0 + (level - t0) * (p1 - p0) / (t1 - t0) if t1 != t0 else p0
 
 
-def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
-                     fidelity: str = "standard") -> xr.Dataset:
+def period_one_chart(
+    log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike, fidelity: str = "standard"
+) -> xr.Dataset:
     """Where the period-1 orbit born from the contact orbit exists and is stable:
     continued upwards in A* on each m* column until Newton loses it.  A
     Dataset of `trace` (NaN: not followed), `exists`, `stable` (|trace| < 2)
     and `in_flight` (a* < 0 at the section: hopping)."""
     import xarray as xr
+
     la = np.asarray(log_amplitudes, dtype=float)
     lm = np.asarray(log_masses, dtype=float)
     trace = np.full((la.size, lm.size), np.nan)
     flight = np.zeros((la.size, lm.size), dtype=bool)
-    for j, m in enumerate(10.0 ** lm):
+    for j, m in enumerate(10.0**lm):
         z = np.array(rest_guess(10.0 ** la[0], m))
         z_prev = None
-        for i, A in enumerate(10.0 ** la):
+        for i, A in enumerate(10.0**la):
             orbit = periodic_orbit(A, m, z, 1, fidelity)
             if not orbit.found:
                 break
@@ -358,8 +400,10 @@ def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
             z_prev = zn
     exists = np.isfinite(trace)
     data = dict(trace=trace, exists=exists, stable=exists & (np.abs(trace) < 2.0), in_flight=flight)
-    what = ("period-1 orbit continued upwards in A* from the small-amplitude contact orbit "
-            "(vibtrans.analysis.dynamics.period_one_chart)")
+    what = (
+        "period-1 orbit continued upwards in A* from the small-amplitude contact orbit "
+        "(vibtrans.analysis.dynamics.period_one_chart)"
+    )
     data = {k: (("log_amplitude", "log_mass"), v) for k, v in data.items()}
     coords = {"log_amplitude": la, "log_mass": lm}
     return xr.Dataset(data, coords=coords, attrs={"fidelity": fidelity, "description": what})
@@ -368,42 +412,47 @@ def period_one_chart(log_amplitudes: npt.ArrayLike, log_masses: npt.ArrayLike,
 class OrbitDiagram(NamedTuple):
     """Take-off phases and section points y* of runs' final periods, against
     log10 A* or log10 m* along a line."""
-    parameter: str           # "amplitude" | "mass"
-    values: np.ndarray       # the log10 parameter of each run
+
+    parameter: str  # "amplitude" | "mass"
+    values: np.ndarray  # the log10 parameter of each run
     phase_value: np.ndarray  # (flattened) the run's log10 parameter of each take-off
-    phase: np.ndarray        #   and its phase, periods mod 1
+    phase: np.ndarray  #   and its phase, periods mod 1
     section_value: np.ndarray
-    section_y: np.ndarray    # y* at the final periods' integer times (or the next step)
+    section_y: np.ndarray  # y* at the final periods' integer times (or the next step)
     final_periods: float
 
 
 MAX_DIAGRAM_RUNS = 2000
 
 
-def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: float = 100.0,
-                  progress: Any = None, cancel: Any = None) -> OrbitDiagram:
+def orbit_diagram(
+    scene: Scene,
+    parameter: Any,
+    values: Any,
+    final_periods: float = 100.0,
+    progress: Any = None,
+    cancel: Any = None,
+) -> OrbitDiagram:
     """Vertical runs of `scene` at each log10 A* or m* of `values`: the
     take-off phases and section points y*(k) of their final periods."""
     from vibtrans.core.kernels import records as R
     from vibtrans.core.simulate import simulate
+
     if parameter not in ("amplitude", "mass"):
         raise InputError(f"parameter must be amplitude or mass, got {parameter!r}")
     values = np.asarray(values, dtype=float)
-    if values.ndim != 1 or not 1 <= values.size <= MAX_DIAGRAM_RUNS \
-            or not np.isfinite(values).all():
-        raise InputError(f"values must be 1 to {MAX_DIAGRAM_RUNS} finite log10 values, "
-                         f"got {values.size}")
+    if values.ndim != 1 or not 1 <= values.size <= MAX_DIAGRAM_RUNS or not np.isfinite(values).all():
+        raise InputError(f"values must be 1 to {MAX_DIAGRAM_RUNS} finite log10 values, got {values.size}")
     if not (isinstance(final_periods, (int, float)) and 1 <= final_periods <= scene.periods):
-        raise InputError(f"final_periods must be in [1, {scene.periods:g}], "
-                         f"got {final_periods!r}")
-    base = scene.replace(model="vertical", rolling="none",
-                         periods=float(math.ceil(scene.periods)))
+        raise InputError(f"final_periods must be in [1, {scene.periods:g}], got {final_periods!r}")
+    base = scene.replace(model="vertical", rolling="none", periods=float(math.ceil(scene.periods)))
     t0 = base.periods - final_periods
     pv, ph, sv, sy = [], [], [], []
     for n, v in enumerate(values):
-        sc = base.replace(**{parameter: 10.0 ** v})
+        sc = base.replace(**{parameter: 10.0**v})
         if cancel is not None and cancel.is_set():
             from vibtrans.core.errors import Cancelled
+
             raise Cancelled("orbit diagram cancelled")
         ds = simulate(sc, samples_per_period=1, cancel=cancel)
         kind, t = ds["event_kind"].values, ds["event_time"].values
@@ -417,5 +466,12 @@ def orbit_diagram(scene: Scene, parameter: Any, values: Any, final_periods: floa
         sv.append(np.full(at.sum(), v))
         if progress is not None:
             progress((n + 1) / values.size)
-    return OrbitDiagram(parameter, values, np.concatenate(pv), np.concatenate(ph),
-                        np.concatenate(sv), np.concatenate(sy), float(final_periods))
+    return OrbitDiagram(
+        parameter,
+        values,
+        np.concatenate(pv),
+        np.concatenate(ph),
+        np.concatenate(sv),
+        np.concatenate(sy),
+        float(final_periods),
+    )

@@ -5,6 +5,7 @@ All in normalized units (docs/MODEL.md section 4).  Functions take the Dataset o
 named tuple for the CLI, the sweeps and the app, with one plain-language
 verdict (`Summary.regime`) that never contradicts its numbers.
 """
+
 from __future__ import annotations
 
 import math
@@ -35,12 +36,12 @@ if TYPE_CHECKING:
     from vibtrans.core.params import Scene
     from vibtrans.core.trajectory import RunArrays
 
-TWIN_TAU_OFFSET = 1e-3   # the chaos twin: the same scene with tau + 1e-3
-FINAL_FRACTION = 0.1     # the final window: last 10% of the run
-SYNC_TOL = 0.05          # |interval - 1| between synchronous take-offs, periods
-SYNC_SPREAD = 0.02       # circular spread of synchronous take-off phases, periods
-LONG_FLIGHT = 3.0        # a flight this long (periods) separates bursts
-LAUNCH_FRACTION = 0.5    # launched: still in flight at the end, since before this fraction of the run
+TWIN_TAU_OFFSET = 1e-3  # the chaos twin: the same scene with tau + 1e-3
+FINAL_FRACTION = 0.1  # the final window: last 10% of the run
+SYNC_TOL = 0.05  # |interval - 1| between synchronous take-offs, periods
+SYNC_SPREAD = 0.02  # circular spread of synchronous take-off phases, periods
+LONG_FLIGHT = 3.0  # a flight this long (periods) separates bursts
+LAUNCH_FRACTION = 0.5  # launched: still in flight at the end, since before this fraction of the run
 
 
 def twin_scene(scene: Scene) -> Scene:
@@ -79,8 +80,9 @@ def final_drift_velocity(ds: xr.Dataset | RunArrays, fraction: float = FINAL_FRA
     return float((x[-1] - np.interp(t0, t, x)) / (t1 - t0))
 
 
-def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0,
-               chaotic: bool | None = None) -> tuple[bool | None, str]:
+def steadiness(
+    ds: xr.Dataset | RunArrays, v0: float = V0, chaotic: bool | None = None
+) -> tuple[bool | None, str]:
     """Whether a run's drift is steady, by the `decided` stop's own test.
 
     Steady when stopping.DecidedRule decides the drift: what the drift per
@@ -112,43 +114,65 @@ def steadiness(ds: xr.Dataset | RunArrays, v0: float = V0,
         return False, f"chaotic: no steady drift ({chaos_words(lyapunov)})"
     launch = launch_time(ds)
     if launch is not None:
-        return False, (f"launched: no steady drift (in flight from t* = {launch:.4g} to the "
-                       "end; <v*> is mostly that flight's horizontal velocity)")
+        return False, (
+            f"launched: no steady drift (in flight from t* = {launch:.4g} to the "
+            "end; <v*> is mostly that flight's horizontal velocity)"
+        )
     fidelity = str(attrs.get("fidelity", "standard"))
-    rule = DecidedRule(attrs["periods"], attrs.get("tau", 0.0), attrs["amplitude"],
-                       attrs["mass"], fidelity, v0=v0)
-    test = (f"by the decided stop's test: what the drift per period has left to change "
-            f"moves <v*> by less than {rule.tolerance:.2%} of |v*| (at least v0* = {v0:g}), "
-            f"{DECIDED_FRACTION:g} of the {fidelity} fidelity's stated drift error")
+    rule = DecidedRule(
+        attrs["periods"], attrs.get("tau", 0.0), attrs["amplitude"], attrs["mass"], fidelity, v0=v0
+    )
+    test = (
+        f"by the decided stop's test: what the drift per period has left to change "
+        f"moves <v*> by less than {rule.tolerance:.2%} of |v*| (at least v0* = {v0:g}), "
+        f"{DECIDED_FRACTION:g} of the {fidelity} fidelity's stated drift error"
+    )
     reason = attrs.get("stop_reason")
     if reason in ("regular", "recurrent"):
-        return True, (f"steady: known from t* = {math.floor(attrs['periods_run'])} (drift per "
-                      f"period {float(attrs['asymptotic_drift_velocity']):.4g}), {test}")
+        return True, (
+            f"steady: known from t* = {math.floor(attrs['periods_run'])} (drift per "
+            f"period {float(attrs['asymptotic_drift_velocity']):.4g}), {test}"
+        )
     t = ds["time"].values
     samples = np.zeros((t.size, R.NCOL))
-    for column, name in ((R.T_, "time"), (R.X, "x"), (R.VX, "vx"), (R.Y, "y"), (R.VY, "vy"),
-                         (R.STATE, "state")):
+    for column, name in (
+        (R.T_, "time"),
+        (R.X, "x"),
+        (R.VX, "vx"),
+        (R.Y, "y"),
+        (R.VY, "vy"),
+        (R.STATE, "state"),
+    ):
         samples[:, column] = ds[name].values
     k_end = math.floor(float(t[-1]) + 1e-9)
     third = (k_end - rule.t_settle) // 3
     if third < MIN_WINDOW // 3:
-        return None, (f"not judged: the run is too short for the decided stop's test (after "
-                      f"the ramp, from t* = {rule.t_settle}, it needs {MIN_WINDOW} periods)")
-    if reason is None:          # a run to T_obs: the rule checks it now
-        events = np.column_stack([ds["event_time"].values, ds["event_kind"].values,
-                                  ds["event_value"].values])
+        return None, (
+            f"not judged: the run is too short for the decided stop's test (after "
+            f"the ramp, from t* = {rule.t_settle}, it needs {MIN_WINDOW} periods)"
+        )
+    if reason is None:  # a run to T_obs: the rule checks it now
+        events = np.column_stack([ds["event_time"].values, ds["event_kind"].values, ds["event_value"].values])
         replay(rule, samples, events)
         if rule.reason in (STOP_REGULAR, STOP_RECURRENT):
-            return True, (f"steady: known from t* = {rule.t_strobe:.0f} (drift per period "
-                          f"{rule.rate:.4g}), {test}")
+            return True, (
+                f"steady: known from t* = {rule.t_strobe:.0f} (drift per period {rule.rate:.4g}), {test}"
+            )
     k0 = k_end - 3 * third
     drift = np.diff(stroboscope(samples, np.arange(k0, k_end + 1, dtype=float)))
-    v1, v2, v3 = (weighted_birkhoff(drift[i * third:(i + 1) * third]) for i in range(3))
-    word = ("accelerating" if abs(v1) < abs(v2) < abs(v3) else
-            "decelerating" if abs(v1) > abs(v2) > abs(v3) else "changing")
-    return False, (f"not steady: still {word} (drift per period {v1:.4g}, {v2:.4g}, then "
-                   f"{v3:.4g} over three equal windows from t* = {k0} to {k_end}); "
-                   f"not decided {test}; the mean depends on the run's length")
+    v1, v2, v3 = (weighted_birkhoff(drift[i * third : (i + 1) * third]) for i in range(3))
+    word = (
+        "accelerating"
+        if abs(v1) < abs(v2) < abs(v3)
+        else "decelerating"
+        if abs(v1) > abs(v2) > abs(v3)
+        else "changing"
+    )
+    return False, (
+        f"not steady: still {word} (drift per period {v1:.4g}, {v2:.4g}, then "
+        f"{v3:.4g} over three equal windows from t* = {k0} to {k_end}); "
+        f"not decided {test}; the mean depends on the run's length"
+    )
 
 
 def flights(ds: xr.Dataset | RunArrays) -> tuple[np.ndarray, np.ndarray]:
@@ -228,8 +252,12 @@ def earliest_landing(ds: xr.Dataset | RunArrays) -> float:
     -A*, the highest the surface ever comes (G <= 1; y* points down).
     The end of the run if the particle is already within reach."""
     t_end = float(ds["time"].values[-1])
-    return t_end + ballistic_reach_time(float(ds["y"].values[-1]), float(ds["vy"].values[-1]),
-                                        float(ds.attrs["mass"]), float(ds.attrs["amplitude"]))
+    return t_end + ballistic_reach_time(
+        float(ds["y"].values[-1]),
+        float(ds["vy"].values[-1]),
+        float(ds.attrs["mass"]),
+        float(ds.attrs["amplitude"]),
+    )
 
 
 def takeoff_phases(ds: xr.Dataset | RunArrays, t0: float = 0.0) -> np.ndarray:
@@ -262,8 +290,7 @@ def rebound_pattern(ds: Any) -> str | None:
     tw = t_end * (1.0 - FINAL_FRACTION)
     last = t_to >= tw
     gaps = np.diff(t_to[last])
-    if gaps.size >= 2 and np.all(np.abs(gaps - 1.0) < SYNC_TOL) \
-            and phase_spread(phase[last]) < SYNC_SPREAD:
+    if gaps.size >= 2 and np.all(np.abs(gaps - 1.0) < SYNC_TOL) and phase_spread(phase[last]) < SYNC_SPREAD:
         return "synchronous"
     tau = float(ds.attrs.get("tau", 0.0))
     after = t_to >= min(3.0 * tau, 0.5 * t_end)
@@ -271,8 +298,12 @@ def rebound_pattern(ds: Any) -> str | None:
     if gaps.size >= 4:
         sync = np.abs(gaps - 1.0) < SYNC_TOL
         long_ = gaps > LONG_FLIGHT
-        if sync.sum() >= 0.5 * gaps.size and long_.any() and np.all(sync | long_) \
-                and phase_spread(phase[after][1:][sync]) < SYNC_SPREAD:
+        if (
+            sync.sum() >= 0.5 * gaps.size
+            and long_.any()
+            and np.all(sync | long_)
+            and phase_spread(phase[after][1:][sync]) < SYNC_SPREAD
+        ):
             return "multi-synchronous"
     return "irregular"
 
@@ -286,8 +317,9 @@ def drift_class(v: float, v0: float = V0) -> str:
     return "none"
 
 
-def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1,
-                  v0: float = V0) -> bool:
+def chaos_verdict(
+    ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_tol: float = 0.1, v0: float = V0
+) -> bool:
     """Does the tau + 1e-3 twin disagree? (True: chaotic, the drift is not a
     property of the scene.)  Disagreement: different drift class, or drift
     velocities differing by more than rel_tol of the larger plus v0."""
@@ -298,8 +330,9 @@ def chaos_verdict(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, rel_
     return abs(v1 - v2) > rel_tol * max(abs(v1), abs(v2)) + v0
 
 
-def lyapunov_verdict(ds: xr.Dataset | RunArrays,
-                     threshold: float = CHAOS_LYAPUNOV) -> tuple[None, None] | tuple[float, bool]:
+def lyapunov_verdict(
+    ds: xr.Dataset | RunArrays, threshold: float = CHAOS_LYAPUNOV
+) -> tuple[None, None] | tuple[float, bool]:
     """(lambda, chaotic) from a run's measured Lyapunov exponent: (None,
     None) when the run did not measure one."""
     value = ds.attrs.get("lyapunov")
@@ -308,8 +341,9 @@ def lyapunov_verdict(ds: xr.Dataset | RunArrays,
     return float(value), bool(value > threshold)
 
 
-def divergence_time(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays,
-                    threshold: float = 1.0) -> float:
+def divergence_time(
+    ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays, threshold: float = 1.0
+) -> float:
     """First time the twins' x* differ by more than `threshold` (a0 units);
     inf if never.  Compared on the coarse sample grid."""
     t = ds["time"].values
@@ -324,8 +358,10 @@ DIRECTIONS = {"with-wave": "with the wave (+x)", "against-wave": "against the wa
 def _drift_words(v, v_final, v0):
     """The drift in words; the final window's too where its class differs
     (a regime still settling)."""
+
     def words(cls):
         return f"drift {DIRECTIONS[cls]}" if cls in DIRECTIONS else f"no drift (|v*| <= {v0:g})"
+
     run, final = drift_class(v, v0), drift_class(v_final, v0)
     if final == run:
         return words(run)
@@ -336,22 +372,32 @@ def chaos_words(lyapunov: Any) -> str:
     """Why a run is called chaotic: its Lyapunov exponent, or (None) its twin."""
     if lyapunov is None:
         return f"the tau + {TWIN_TAU_OFFSET:g} twin ends elsewhere"
-    return (f"the vertical motion's Lyapunov exponent is {lyapunov:.3g} per period "
-            f"(> {CHAOS_LYAPUNOV:g})")
+    return f"the vertical motion's Lyapunov exponent is {lyapunov:.3g} per period (> {CHAOS_LYAPUNOV:g})"
 
 
-def regime(contact: Any, pattern: Any, chaotic: Any, v: float, v_final: float,
-           launch: float | None = None, landing: float | None = None, t_end: float | None = None,
-           v0: float = V0, lyapunov: Any = None) -> str:
+def regime(
+    contact: Any,
+    pattern: Any,
+    chaotic: Any,
+    v: float,
+    v_final: float,
+    launch: float | None = None,
+    landing: float | None = None,
+    t_end: float | None = None,
+    v0: float = V0,
+    lyapunov: Any = None,
+) -> str:
     """One plain-language verdict, consistent with the other fields of
     `Summary`.  A launched run gets no transport regime and a chaotic one no
     drift direction (its drift is not a property of the scene).  lyapunov:
     the exponent that decided `chaotic` (None: the twin decided)."""
     if launch is not None:
-        text = (f"launched: leaves the substrate at t* = {launch:.4g} and is still in flight "
-                f"at the end (t* = {t_end:.4g}); continued ballistically it cannot land "
-                f"again before t* = {landing:.3g}; no transport regime, <v*> is mostly "
-                "its flight's horizontal velocity")
+        text = (
+            f"launched: leaves the substrate at t* = {launch:.4g} and is still in flight "
+            f"at the end (t* = {t_end:.4g}); continued ballistically it cannot land "
+            f"again before t* = {landing:.3g}; no transport regime, <v*> is mostly "
+            "its flight's horizontal velocity"
+        )
         if chaotic:
             text += f"; {chaos_words(lyapunov)}"
         return text
@@ -359,8 +405,7 @@ def regime(contact: Any, pattern: Any, chaotic: Any, v: float, v_final: float,
     if pattern not in (None, "chaotic"):
         where += f", {pattern}"
     if chaotic:
-        return (f"{where}, chaotic: {chaos_words(lyapunov)}, "
-                "the drift is not a property of the scene")
+        return f"{where}, chaotic: {chaos_words(lyapunov)}, the drift is not a property of the scene"
     text = f"{where}, {_drift_words(v, v_final, v0)}"
     if chaotic is None and contact == "jumping":
         text += "; chaos not checked (no twin run)"
@@ -373,33 +418,34 @@ class Summary(NamedTuple):
     Lyapunov exponent where the run has one, else from the twin (tau +
     TWIN_TAU_OFFSET), which also gives `twin_chaotic` and `divergence_time`;
     the twin's cost is listed apart."""
-    drift_velocity: float        # <v*> = x*(T)/T of this run
+
+    drift_velocity: float  # <v*> = x*(T)/T of this run
     final_drift_velocity: float
-    contact: str                 # "permanent" | "jumping" (a take-off, or launched)
-    drift: str                   # class of drift_velocity: "with-wave" | "against-wave" | "none"
-    pattern: str | None          # first that applies: launched | chaotic | synchronous |
+    contact: str  # "permanent" | "jumping" (a take-off, or launched)
+    drift: str  # class of drift_velocity: "with-wave" | "against-wave" | "none"
+    pattern: str | None  # first that applies: launched | chaotic | synchronous |
     #                              multi-synchronous | irregular; None: never left the surface
-    chaotic: bool | None         # lyapunov > CHAOS_LYAPUNOV, else the twin's; None: neither
+    chaotic: bool | None  # lyapunov > CHAOS_LYAPUNOV, else the twin's; None: neither
     divergence_time: float | None
     takeoffs: int
-    takeoffs_per_period: float   # final window
+    takeoffs_per_period: float  # final window
     takeoff_phase_spread: float  # final window, periods
-    contact_fraction: float      # final window
-    steps: int                   # this run's integration steps
-    seconds: float               # this run's wall time, s
-    model: str | None            # the model that produced every number ("deformable" | "point-mass")
-    regime: str                  # the verdict in words (`regime`)
-    launched: bool               # in flight from before LAUNCH_FRACTION of the run to its end
-    launch_time: float | None    # launched: the take-off, periods
+    contact_fraction: float  # final window
+    steps: int  # this run's integration steps
+    seconds: float  # this run's wall time, s
+    model: str | None  # the model that produced every number ("deformable" | "point-mass")
+    regime: str  # the verdict in words (`regime`)
+    launched: bool  # in flight from before LAUNCH_FRACTION of the run to its end
+    launch_time: float | None  # launched: the take-off, periods
     earliest_landing: float | None  # launched: earliest ballistic return within reach, periods
-    twin_steps: int              # the twin's steps (0: no twin ran)
-    twin_seconds: float          # the twin's wall time, s (0.0: no twin ran)
-    lyapunov: float | None = None    # the vertical motion's exponent, per period (None: not measured)
+    twin_steps: int  # the twin's steps (0: no twin ran)
+    twin_seconds: float  # the twin's wall time, s (0.0: no twin ran)
+    lyapunov: float | None = None  # the vertical motion's exponent, per period (None: not measured)
     twin_chaotic: bool | None = None  # the twin's verdict (None: no twin ran)
-    steady: bool | None = None   # the drift steady at the run's end (`steadiness`)
-    steadiness: str = ""         # that, in words
-    rolling: str = "none"        # how the particle turns (docs/MODEL.md section 11), in words
-    max_episode_roll: float | None = None   # rolling: the largest rolled arc of a contact
+    steady: bool | None = None  # the drift steady at the run's end (`steadiness`)
+    steadiness: str = ""  # that, in words
+    rolling: str = "none"  # how the particle turns (docs/MODEL.md section 11), in words
+    max_episode_roll: float | None = None  # rolling: the largest rolled arc of a contact
     #                                         episode, a0 (None: the particle does not turn)
 
 
@@ -414,8 +460,9 @@ def rolling_words(attrs: Any) -> str:
     return f"{name}, j = {float(j):.4g}" if name else f"j = {float(j):.4g}"
 
 
-def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = None,
-              v0: float = V0) -> Summary:
+def summarize(
+    ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = None, v0: float = V0
+) -> Summary:
     """All derived quantities of a run, and of its tau + 1e-3 twin if given.
 
     Parameters
@@ -444,9 +491,11 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
     if twin is not None and twin.attrs.get("model") != model:
         raise ValueError(f"the chaos twin must be a {model} run, got {twin.attrs.get('model')}")
     if twin is not None and twin.attrs.get("inertia_ratio") != ds.attrs.get("inertia_ratio"):
-        raise ValueError(f"the chaos twin must roll as the run does (j = "
-                         f"{ds.attrs.get('inertia_ratio')}), got j = "
-                         f"{twin.attrs.get('inertia_ratio')}")
+        raise ValueError(
+            f"the chaos twin must roll as the run does (j = "
+            f"{ds.attrs.get('inertia_ratio')}), got j = "
+            f"{twin.attrs.get('inertia_ratio')}"
+        )
     t_to, _ = _events(ds, R.TAKEOFF)
     t_end = float(ds["time"].values[-1])
     tw = t_end * (1.0 - FINAL_FRACTION)
@@ -461,7 +510,7 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
     steady, steady_words = steadiness(ds, v0=v0, chaotic=chaotic)
     if jumping and chaotic:
         pattern = "chaotic"
-    launch = launch_time(ds)   # a launched run's take-offs are no rebound pattern
+    launch = launch_time(ds)  # a launched run's take-offs are no rebound pattern
     landing = None
     if launch is not None:
         pattern = "launched"
@@ -498,6 +547,7 @@ def summarize(ds: xr.Dataset | RunArrays, twin: xr.Dataset | RunArrays | None = 
         steady=steady,
         steadiness=steady_words,
         rolling=rolls,
-        max_episode_roll=(None if ds.attrs.get("max_episode_roll") is None
-                          else float(ds.attrs["max_episode_roll"])),
+        max_episode_roll=(
+            None if ds.attrs.get("max_episode_roll") is None else float(ds.attrs["max_episode_roll"])
+        ),
     )

@@ -30,6 +30,7 @@ commit (bit-identical on its scan grid).  Each caller keeps its own chunking
 (`chunk_steps`; None = one call) and buffer sizes, which is what makes its
 results reproducible bit for bit.
 """
+
 from __future__ import annotations
 
 import functools
@@ -62,8 +63,8 @@ from vibtrans.core.kernels.substrate import surface_acceleration, surface_motion
 if TYPE_CHECKING:
     from vibtrans.core.params import Scene
 
-DEFAULT_MAX_STEPS = 200_000_000   # ~5-10 s of one core; the server lowers it
-CHUNK_STEPS = 2_000_000           # kernel steps between progress/cancel checks
+DEFAULT_MAX_STEPS = 200_000_000  # ~5-10 s of one core; the server lowers it
+CHUNK_STEPS = 2_000_000  # kernel steps between progress/cancel checks
 
 # what a Hertz kernel gets for the tangent without lyapunov and the law of
 # the sphere, arrays it never reads (deformable.hertz_kernel)
@@ -73,13 +74,14 @@ _NO_LAW = np.empty(0)
 
 class Run(NamedTuple):
     """What a driver returns: the records and the final state."""
-    samples: np.ndarray        # float64[n, records.NCOL]
-    events: np.ndarray         # float64[k, 3]
-    ctr: np.ndarray            # int64[records.NCTR]
-    state: np.ndarray          # the kernel's state at the end
-    hist: object = None        # Hertz: derivative history float64[4, 4]
-    memory: object = None      # deformable: (H, W, P, nvert, memf)
-    tangent: object = None     # Hertz with lyapunov_from: float64[NTANGENT]
+
+    samples: np.ndarray  # float64[n, records.NCOL]
+    events: np.ndarray  # float64[k, 3]
+    ctr: np.ndarray  # int64[records.NCTR]
+    state: np.ndarray  # the kernel's state at the end
+    hist: object = None  # Hertz: derivative history float64[4, 4]
+    memory: object = None  # deformable: (H, W, P, nvert, memf)
+    tangent: object = None  # Hertz with lyapunov_from: float64[NTANGENT]
 
 
 def checked_steps(n: Any, max_steps: Any, what: str, h: Any = None) -> int:
@@ -89,32 +91,44 @@ def checked_steps(n: Any, max_steps: Any, what: str, h: Any = None) -> int:
         step = "" if h is None else f" at a step of {h:.3g} periods"
         raise StepBudgetExceeded(
             f"{what} needs about inf steps{step} (more than a float holds), over any "
-            f"budget: reduce periods, amplitude or fidelity")
+            f"budget: reduce periods, amplitude or fidelity"
+        )
     if n > max_steps:
         raise StepBudgetExceeded(
             f"{what} needs about {n:.3g} steps, over the budget of {max_steps:.3g} "
-            f"(reduce periods or fidelity, or raise max_steps)")
+            f"(reduce periods or fidelity, or raise max_steps)"
+        )
     return n
 
 
 def grow(a: Any, factor: Any = 2) -> np.ndarray:
     """A copy of `a` with `factor` times the rows (the used rows copied)."""
     out = np.empty((a.shape[0] * factor,) + a.shape[1:], dtype=a.dtype)
-    out[:a.shape[0]] = a
+    out[: a.shape[0]] = a
     return out
 
 
 def _integrator(integrator):
     if isinstance(integrator, str):
         if integrator not in INTEGRATORS:
-            raise InputError(f"integrator must be one of {', '.join(INTEGRATORS)}, "
-                             f"got {integrator!r}")
+            raise InputError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
         return INTEGRATORS[integrator]
     return int(integrator)
 
 
-def _drive(call, t_end, chunk, growers, progress=None, cancel=None, *, stopped=None,
-           next_check=None, stops=None, at_stop=None):
+def _drive(
+    call,
+    t_end,
+    chunk,
+    growers,
+    progress=None,
+    cancel=None,
+    *,
+    stopped=None,
+    next_check=None,
+    stops=None,
+    at_stop=None,
+):
     """The chunk loop: call a kernel chunk by chunk to t_end, growing
     whichever buffer it reports full; between chunks report
     progress(fraction) and honour cancel (Cancelled).
@@ -128,8 +142,8 @@ def _drive(call, t_end, chunk, growers, progress=None, cancel=None, *, stopped=N
         or before it.  A stop does not move the chunk grid (a run's chunk
         ends are the same with or without stops), a check does.
     """
-    base = 0.0                     # where the current chunk started
-    for target in ([t_end] if stops is None else stops):
+    base = 0.0  # where the current chunk started
+    for target in [t_end] if stops is None else stops:
         while True:
             t_next = base + chunk
             if next_check is not None:
@@ -167,11 +181,15 @@ def _growers(buf, mem):
     """What a Hertz kernel's status codes ask to grow: the sample and event
     buffers (in `buf`) and the memory diagram's arrays (`mem`, a list;
     the vertical kernel never asks)."""
+
     def grow_memory():
         mem[0], mem[1], mem[2] = grow(mem[0]), grow(mem[1]), grow(mem[2])
-    return {R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
-            R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
-            R.MEMORY_FULL: grow_memory}
+
+    return {
+        R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
+        R.EVENTS_FULL: lambda: buf.__setitem__("events", grow(buf["events"])),
+        R.MEMORY_FULL: grow_memory,
+    }
 
 
 def _record_rest(buf, ctr):
@@ -182,12 +200,27 @@ def _record_rest(buf, ctr):
     ctr[R.C_NEXT] = 1
 
 
-def run_hertz(params: Any, integrator: str, *, tangential: Any, samples_capacity: int,
-              events_capacity: int = 1024, memory_capacity: int = 1024, state: Any = None,
-              hist: Any = None, record_rest: bool = True, stop_at_takeoff: bool = False,
-              chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
-              lyapunov_from: Any = None, tangent: Any = None, in_flight: bool = False,
-              decide: Any = None, law: Any = None) -> Run:
+def run_hertz(
+    params: Any,
+    integrator: str,
+    *,
+    tangential: Any,
+    samples_capacity: int,
+    events_capacity: int = 1024,
+    memory_capacity: int = 1024,
+    state: Any = None,
+    hist: Any = None,
+    record_rest: bool = True,
+    stop_at_takeoff: bool = False,
+    chunk_steps: Any = CHUNK_STEPS,
+    progress: Any = None,
+    cancel: Any = None,
+    lyapunov_from: Any = None,
+    tangent: Any = None,
+    in_flight: bool = False,
+    decide: Any = None,
+    law: Any = None,
+) -> Run:
     """Run the deformable (tangential=True) or vertical Hertz kernel.
 
     params: models.deformable.kernel_params(...), a HertzParams (t_end, step,
@@ -216,20 +249,19 @@ def run_hertz(params: Any, integrator: str, *, tangential: Any, samples_capacity
     Returns a Run (memory: the memory diagram's arrays, deformable only).
     """
     if stop_at_takeoff and (tangential or lyapunov_from is not None):
-        raise ValueError("stop_at_takeoff applies to the vertical kernel only, "
-                         "without lyapunov_from")
+        raise ValueError("stop_at_takeoff applies to the vertical kernel only, without lyapunov_from")
     integ = _integrator(integrator)
     t_end = params.t_end
     h = params.step
     if lyapunov_from is not None:
         if state is not None or tangent is not None:
             raise ValueError("lyapunov_from applies to runs from rest only")
-        tangent = D.rest_tangent(params.mass, h, float(lyapunov_from),
-                                 1.5 if law is None else float(law[LAW_K1]))
+        tangent = D.rest_tangent(
+            params.mass, h, float(lyapunov_from), 1.5 if law is None else float(law[LAW_K1])
+        )
     if state is None:
         state, hist = D.rest_state()
-    buf = {"samples": np.empty((samples_capacity, R.NCOL)),
-           "events": np.empty((events_capacity, 3))}
+    buf = {"samples": np.empty((samples_capacity, R.NCOL)), "events": np.empty((events_capacity, 3))}
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
     if in_flight:
@@ -239,26 +271,37 @@ def run_hertz(params: Any, integrator: str, *, tangential: Any, samples_capacity
     if record_rest:
         _record_rest(buf, ctr)
 
-    call = _hertz_call(params, integ, state, hist, tangent, mem, buf, ctr, law,
-                       tangential=tangential, stop_at_takeoff=stop_at_takeoff)
+    call = _hertz_call(
+        params,
+        integ,
+        state,
+        hist,
+        tangent,
+        mem,
+        buf,
+        ctr,
+        law,
+        tangential=tangential,
+        stop_at_takeoff=stop_at_takeoff,
+    )
     growers = _growers(buf, mem)
     chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * h)
     stopped = (lambda: ctr[R.C_MODE] == D.MODE_FLIGHT) if stop_at_takeoff else None
     next_check = None
     if decide is not None:
         stopped, next_check = _hertz_decider(decide, buf, ctr, state, tangent), decide.next_check
-    _drive(call, t_end, chunk, growers, progress, cancel, stopped=stopped,
-           next_check=next_check)
+    _drive(call, t_end, chunk, growers, progress, cancel, stopped=stopped, next_check=next_check)
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
-    return Run(buf["samples"][:n], buf["events"][:k], ctr, state, hist,
-               tuple(mem) if tangential else None, tangent)
+    return Run(
+        buf["samples"][:n], buf["events"][:k], ctr, state, hist, tuple(mem) if tangential else None, tangent
+    )
 
 
 @functools.lru_cache(maxsize=32)
 def _law_of(profile, load_over_modulus):
     from vibtrans.core.params import Scene
-    return kernel_law(Scene(profile=profile, load_over_modulus=load_over_modulus)
-                      .profile_shape())
+
+    return kernel_law(Scene(profile=profile, load_over_modulus=load_over_modulus).profile_shape())
 
 
 def scene_law(scene: Scene) -> np.ndarray | None:
@@ -294,8 +337,9 @@ def _new_memory(capacity, law):
     return list(new_memory(capacity, law))
 
 
-def _hertz_call(params, integ, state, hist, tangent, mem, buf, ctr, law, *, tangential,
-                stop_at_takeoff=False):
+def _hertz_call(
+    params, integ, state, hist, tangent, mem, buf, ctr, law, *, tangential, stop_at_takeoff=False
+):
     """A Hertz run's kernel call to t_stop, call(t_stop) -> status: the
     kernel that kernels.dispatch.KERNELS names for the run (its model,
     whether `tangent` advances, its law's kind, whether the particle turns:
@@ -304,38 +348,63 @@ def _hertz_call(params, integ, state, hist, tangent, mem, buf, ctr, law, *, tang
     rolling = params.roll_ratio != 0.0
     if rolling and not tangential:
         raise ValueError("a rolling particle runs the deformable kernel (tangential=True)")
-    kernel = kernel_for("deformable" if tangential else "vertical", tangent is not None,
-                        kind_of_law(law), rolling)
+    kernel = kernel_for(
+        "deformable" if tangential else "vertical", tangent is not None, kind_of_law(law), rolling
+    )
     tangent = _NO_TANGENT if tangent is None else tangent
     law = _NO_LAW if law is None else law
 
     def call(t_stop):
-        return kernel(params, integ, stop_at_takeoff, state, hist, tangent, *mem,
-                      buf["samples"], buf["events"], ctr, t_stop, law)
+        return kernel(
+            params,
+            integ,
+            stop_at_takeoff,
+            state,
+            hist,
+            tangent,
+            *mem,
+            buf["samples"],
+            buf["events"],
+            ctr,
+            t_stop,
+            law,
+        )
+
     return call
 
 
 def _hertz_decider(decide, buf, ctr, state, tangent):
     """The `stopped()` of a Hertz run under a stopping rule: its records so
     far, the flight in progress and the tangent's growth, to the rule."""
+
     def stopped():
         n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
         flying = ctr[R.C_MODE] == D.MODE_FLIGHT
         lyapunov = None
         if tangent is not None and tangent[D.L_START] >= 0.0:
             norm = math.hypot(tangent[D.L_DY], tangent[D.L_DVY])
-            growth = (tangent[D.L_LOG] + math.log(norm) - tangent[D.L_LOG_START]
-                      if norm > 0.0 else math.nan)
+            growth = tangent[D.L_LOG] + math.log(norm) - tangent[D.L_LOG_START] if norm > 0.0 else math.nan
             lyapunov = (float(tangent[D.L_START]), float(growth))
         t_now = max(float(buf["samples"][n - 1, R.T_]) if n else 0.0, float(state[D.S_T]))
         flight = None
-        if flying:      # the flight from its origin, at t_now
+        if flying:  # the flight from its origin, at t_now
             s = t_now - state[D.S_T0]
-            flight = (t_now, state[D.S_X0] + state[D.S_VX0] * s, state[D.S_VX0],
-                      state[D.S_Y0] + state[D.S_VY0] * s + s * s / (2.0 * decide.mass),
-                      state[D.S_VY0] + s / decide.mass)
-        return decide(t_now, buf["samples"][:n], buf["events"][:k],
-                      float(state[D.S_T0]) if flying else None, lyapunov, flight)
+            flight = (
+                t_now,
+                state[D.S_X0] + state[D.S_VX0] * s,
+                state[D.S_VX0],
+                state[D.S_Y0] + state[D.S_VY0] * s + s * s / (2.0 * decide.mass),
+                state[D.S_VY0] + s / decide.mass,
+            )
+        return decide(
+            t_now,
+            buf["samples"][:n],
+            buf["events"][:k],
+            float(state[D.S_T0]) if flying else None,
+            lyapunov,
+            flight,
+        )
+
     return stopped
 
 
@@ -347,7 +416,7 @@ def _final_step(params, integ, state, hist, mem, ctr, law=None):
     ends.  Returns (state, ctr, memory) of the copy."""
     state, hist, ctr = state.copy(), hist.copy(), ctr.copy()
     mem = [a.copy() for a in mem]
-    ctr[R.C_NSAMP] = 0                 # its records go to small buffers of its own
+    ctr[R.C_NSAMP] = 0  # its records go to small buffers of its own
     ctr[R.C_NEVT] = 0
     buf = {"samples": np.empty((16, R.NCOL)), "events": np.empty((16, 3))}
     call = _hertz_call(params, integ, state, hist, None, mem, buf, ctr, law, tangential=True)
@@ -355,10 +424,19 @@ def _final_step(params, integ, state, hist, mem, ctr, law=None):
     return state, ctr, tuple(mem)
 
 
-def run_memory_stops(params: Any, integrator: str, stops: Any, *, samples_capacity: int,
-                     events_capacity: int = 1024, memory_capacity: int = 1024,
-                     chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
-                     law: Any = None) -> list[Any]:
+def run_memory_stops(
+    params: Any,
+    integrator: str,
+    stops: Any,
+    *,
+    samples_capacity: int,
+    events_capacity: int = 1024,
+    memory_capacity: int = 1024,
+    chunk_steps: Any = CHUNK_STEPS,
+    progress: Any = None,
+    cancel: Any = None,
+    law: Any = None,
+) -> list[Any]:
     """One run of the deformable kernel from rest, with the memory diagram
     taken at each of `stops` (non-decreasing times, periods, the last one
     params.t_end): a list of (state, ctr, memory), one per stop, each what
@@ -377,8 +455,7 @@ def run_memory_stops(params: Any, integrator: str, stops: Any, *, samples_capaci
     integ = _integrator(integrator)
     t_end = params.t_end
     state, hist = D.rest_state()
-    buf = {"samples": np.empty((samples_capacity, R.NCOL)),
-           "events": np.empty((events_capacity, 3))}
+    buf = {"samples": np.empty((samples_capacity, R.NCOL)), "events": np.empty((events_capacity, 3))}
     ctr = R.new_counters()
     ctr[R.C_STATE] = STICK
     mem = _new_memory(memory_capacity, law)
@@ -389,14 +466,12 @@ def run_memory_stops(params: Any, integrator: str, stops: Any, *, samples_capaci
     def at_stop(stop):
         if stop < t_end:
             # a stop inside the run: a copy takes the step that reaches it
-            out.append(_final_step(params._replace(t_end=stop), integ, state, hist, mem,
-                                   ctr, law))
+            out.append(_final_step(params._replace(t_end=stop), integ, state, hist, mem, ctr, law))
         else:
             out.append((state, ctr, tuple(mem)))
 
     chunk = t_end if chunk_steps is None else max(1.0, chunk_steps * params.step)
-    _drive(call, t_end, chunk, _growers(buf, mem), progress, cancel, stops=list(stops),
-           at_stop=at_stop)
+    _drive(call, t_end, chunk, _growers(buf, mem), progress, cancel, stops=list(stops), at_stop=at_stop)
     return out
 
 
@@ -425,10 +500,18 @@ def _pm_flight_start(events):
     return 0.0
 
 
-def run_point_mass(params: Any, stick_rule: Any = PM.RULE_PAPER, *,
-                   samples_capacity: int | None = None, events_capacity: int = 1024,
-                   chunk_steps: Any = CHUNK_STEPS, progress: Any = None, cancel: Any = None,
-                   decide: Any = None, growth: Any = None) -> Run:
+def run_point_mass(
+    params: Any,
+    stick_rule: Any = PM.RULE_PAPER,
+    *,
+    samples_capacity: int | None = None,
+    events_capacity: int = 1024,
+    chunk_steps: Any = CHUNK_STEPS,
+    progress: Any = None,
+    cancel: Any = None,
+    decide: Any = None,
+    growth: Any = None,
+) -> Run:
     """Run the material point from rest to t_end (params: a
     point_mass.PointMassParams, from point_mass.make_params).
 
@@ -450,8 +533,7 @@ def run_point_mass(params: Any, stick_rule: Any = PM.RULE_PAPER, *,
     state = np.zeros(5)
     work = PM.new_work()
     ctr = R.new_counters()
-    buf = {"samples": np.empty((samples_capacity, R.NCOL)),
-           "events": np.empty((events_capacity, 3))}
+    buf = {"samples": np.empty((samples_capacity, R.NCOL)), "events": np.empty((events_capacity, 3))}
 
     kernel = kernel_for("point-mass")
 
@@ -462,7 +544,8 @@ def run_point_mass(params: Any, stick_rule: Any = PM.RULE_PAPER, *,
         raise StepBudgetExceeded(
             f"the material point met more than {PM.MAX_EVENTS_PER_STEP} events within one "
             f"scan step at t* = {state[0]:.6g} (a sequence of events at rounding level: "
-            f"the scene's values are outside the model's numerical range)")
+            f"the scene's values are outside the model's numerical range)"
+        )
 
     growers = {
         R.SAMPLES_FULL: lambda: buf.__setitem__("samples", grow(buf["samples"])),
@@ -473,29 +556,57 @@ def run_point_mass(params: Any, stick_rule: Any = PM.RULE_PAPER, *,
     chunk = t_end if chunk_steps is None else max(1.0, float(round(chunk_steps * dt)))
     stopped = next_check = None
     if decide is not None:
+
         def stopped():
             n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
             flying = ctr[R.C_MODE] == PM.MODE_FLIGHT
             events = buf["events"][:k]
-            return decide(float(state[0]), buf["samples"][:n], events,
-                          _pm_flight_start(events) if flying else None,
-                          None if growth is None else growth.update(events),
-                          tuple(float(v) for v in state) if flying else None)
+            return decide(
+                float(state[0]),
+                buf["samples"][:n],
+                events,
+                _pm_flight_start(events) if flying else None,
+                None if growth is None else growth.update(events),
+                tuple(float(v) for v in state) if flying else None,
+            )
+
         next_check = decide.next_check
-    _drive(call, t_end, chunk, growers, progress, cancel, stopped=stopped,
-           next_check=next_check)
+    _drive(call, t_end, chunk, growers, progress, cancel, stopped=stopped, next_check=next_check)
     n = ctr[R.C_NSAMP]
     if n == 0 or buf["samples"][n - 1, R.T_] < state[0]:
         # T_obs off the scan grid: record the final state too (x*(T_obs) is
         # what the drift velocity is made of).
         if n >= buf["samples"].shape[0]:
             buf["samples"] = grow(buf["samples"])
-        A, r, tau, m, mu, theta = (params.amplitude, params.r, params.tau, params.mass,
-                                   params.mu, params.theta)
+        A, r, tau, m, mu, theta = (
+            params.amplitude,
+            params.r,
+            params.tau,
+            params.mass,
+            params.mu,
+            params.theta,
+        )
         t = state[0]
         ux, uy, dux, duy = surface_motion(t, A, r, tau)
         ax, ay = surface_acceleration(t, A, r, tau)
-        PM.record_row(buf["samples"], ctr, t, state[1], state[2], state[3], state[4],
-                       ctr[R.C_MODE], ux, uy, dux, duy, ax, ay, m, mu, theta * mu)
+        PM.record_row(
+            buf["samples"],
+            ctr,
+            t,
+            state[1],
+            state[2],
+            state[3],
+            state[4],
+            ctr[R.C_MODE],
+            ux,
+            uy,
+            dux,
+            duy,
+            ax,
+            ay,
+            m,
+            mu,
+            theta * mu,
+        )
     n, k = ctr[R.C_NSAMP], ctr[R.C_NEVT]
     return Run(buf["samples"][:n], buf["events"][:k], ctr, state)

@@ -8,6 +8,7 @@ contact time scale / steps_per_contact).  Contact time scales (normalized):
   t_c = 2.94 a_max / v with a_max = (5 m* v^2 / 4)^(2/5)  (Hertz impact).
 This bound keeps stiff light-particle scenes (m* = 1e-5) stable.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,7 +31,7 @@ FIDELITY = {
 # `vibtrans bench --work-precision` (preview 1.6e-2, standard 1.0e-4,
 # reference 3.5e-6, both integrators); tests/products/test_presets.py holds each preset
 # to its bound on the quick study.
-V0 = 0.1                 # |v*| <= V0: "no drift" (the paper's white band; the floor above)
+V0 = 0.1  # |v*| <= V0: "no drift" (the paper's white band; the floor above)
 # Chaotic: the vertical motion's largest Lyapunov exponent above this, per
 # period (simulate(..., lyapunov=True)).  Chosen from the exponent's
 # histogram over the shipped grid (docs/DYNAMICS.md): regular orbits measure
@@ -39,7 +40,7 @@ CHAOS_LYAPUNOV = 0.01
 STATED_DRIFT_ERROR = {"preview": 0.05, "standard": 0.005, "reference": 1e-4}
 PRESET_NOTES = {
     "preview": "drift within 5% (measured <= 1.6% where it drifts), 2.3x faster than "
-               "standard in total (1.5x on the worst scene)",
+    "standard in total (1.5x on the worst scene)",
     "standard": "drift within 0.5% (measured <= 0.01% where it drifts)",
     "reference": "drift within 0.01% (measured <= 0.0004%), 9x slower than standard",
 }
@@ -62,14 +63,14 @@ def _profile_time_scale(amplitude, mass, impacts, scales):
         return t_lin
     q = 1.0 / (p + 1.0)
     c_p = 2.0 * math.sqrt(math.pi) * math.gamma(1.0 + q) / math.gamma(0.5 + q)
-    log_t = (math.log(c_p) + q * (math.log((p + 1.0) * p / (2.0 * k1)) + log_m
-                                  + 2.0 * math.log(v)) - math.log(v))
+    log_t = (
+        math.log(c_p) + q * (math.log((p + 1.0) * p / (2.0 * k1)) + log_m + 2.0 * math.log(v)) - math.log(v)
+    )
     t_imp = math.exp(log_t) if log_t < 709.0 else math.inf
     return min(t_lin, t_imp)
 
 
-def contact_time_scale(amplitude: float, mass: float, impacts: bool = True,
-                       scales: Any = None) -> float:
+def contact_time_scale(amplitude: float, mass: float, impacts: bool = True, scales: Any = None) -> float:
     """Shortest contact time scale of a scene, in wave periods (> 0, not NaN,
     for any amplitude >= 0 and mass > 0 a float can hold: where the direct
     formulas overflow or underflow, the same quantities in logarithms).
@@ -80,7 +81,7 @@ def contact_time_scale(amplitude: float, mass: float, impacts: bool = True,
     if scales is not None:
         return _profile_time_scale(amplitude, mass, impacts, scales)
     t_lin = 2.0 * math.pi * math.sqrt(2.0 * mass / 3.0)
-    if t_lin == math.inf:                          # 2 m* overflows (m* > 9e307)
+    if t_lin == math.inf:  # 2 m* overflows (m* > 9e307)
         t_lin = 2.0 * math.pi * math.sqrt(mass) * math.sqrt(2.0 / 3.0)
     v = 4.0 * math.pi * amplitude
     if v <= 0.0 or not impacts:
@@ -91,18 +92,24 @@ def contact_time_scale(amplitude: float, mass: float, impacts: bool = True,
         return t_lin
     load = 1.25 * mass * v * v
     if 0.0 < load < math.inf:
-        t_imp = 2.94 * load ** 0.4 / v
+        t_imp = 2.94 * load**0.4 / v
     else:
         # 5 m* v^2 / 4 overflows (huge A* or m*) or underflows (tiny m*):
         # 2.94 (5 m*/4)^(2/5) v^(-1/5), in logarithms (v may be inf: t_imp 0)
-        log_t = (math.log(2.94) + 0.4 * (math.log(1.25) + math.log(mass))
-                 - 0.2 * math.log(v))
+        log_t = math.log(2.94) + 0.4 * (math.log(1.25) + math.log(mass)) - 0.2 * math.log(v)
         t_imp = math.exp(log_t) if log_t < 709.0 else math.inf
     return min(t_lin, t_imp)
 
 
-def time_step(amplitude: float, mass: float, fidelity: Any = "standard", refine: float = 1.0,
-              impacts: bool = True, steps: Any = None, scales: Any = None) -> Any:
+def time_step(
+    amplitude: float,
+    mass: float,
+    fidelity: Any = "standard",
+    refine: float = 1.0,
+    impacts: bool = True,
+    steps: Any = None,
+    scales: Any = None,
+) -> Any:
     """Integration step (periods) for the deformable and vertical models
     (>= 0; 0 only where the impact time scale underflows: an unbounded cost).
 

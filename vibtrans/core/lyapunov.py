@@ -7,6 +7,7 @@ events.  (The deformable particle's exponent comes from its tangent
 equations inside the kernel instead.)  Normalized units: time in periods,
 lengths in a0.
 """
+
 from __future__ import annotations
 
 import math
@@ -23,12 +24,13 @@ def _surface(t, amplitude, tau):
     c, s = math.cos(TWO_PI * t), math.sin(TWO_PI * t)
     u = g * amplitude * c
     du = amplitude * (g1 * c - TWO_PI * g * s)
-    ddu = amplitude * (g2 * c - 2.0 * TWO_PI * g1 * s - TWO_PI ** 2 * g * c)
+    ddu = amplitude * (g2 * c - 2.0 * TWO_PI * g1 * s - TWO_PI**2 * g * c)
     return u, du, ddu
 
 
-def impact_jacobian(t0: float, t1: float, amplitude: float, mass: float,
-                    tau: float) -> tuple[np.ndarray, float, float]:
+def impact_jacobian(
+    t0: float, t1: float, amplitude: float, mass: float, tau: float
+) -> tuple[np.ndarray, float, float]:
     """The Jacobian of the material point's impact map (t_n, v_n) ->
     (t_{n+1}, v_{n+1}): a flight launched from the surface at t_n with
     vertical velocity v_n lands at t_{n+1}, where the elastic impact
@@ -42,7 +44,7 @@ def impact_jacobian(t0: float, t1: float, amplitude: float, mass: float,
     u0, du0, _ = _surface(t0, amplitude, tau)
     u1, du1, ddu1 = _surface(t1, amplitude, tau)
     v0 = (u1 - u0 - 0.5 * s * s / m) / s
-    w1 = v0 + s / m - du1                        # > 0: moving into the surface
+    w1 = v0 + s / m - du1  # > 0: moving into the surface
     dt1_dt0 = (v0 + s / m - du0) / w1
     dt1_dv0 = -s / w1
     dv1_dt0 = 2.0 * ddu1 * dt1_dt0 - (dt1_dt0 - 1.0) / m
@@ -68,15 +70,15 @@ class ImpactGrowth:
     def __init__(self, amplitude: float, mass: float, tau: float, t_from: float) -> None:
         self.amplitude, self.mass, self.tau = float(amplitude), float(mass), float(tau)
         self.t_from = float(t_from)
-        self.row = 0                  # the next event row to look at
-        self.landings = 0             # impacts counted
+        self.row = 0  # the next event row to look at
+        self.landings = 0  # impacts counted
         self.first = self.last = math.nan
-        self.total = 0.0              # log growth over the impacts so far
+        self.total = 0.0  # log growth over the impacts so far
         self.captured = self.broken = False
         self._d = np.array([1.0, 0.0])
 
     def update(self, events: np.ndarray, final: bool = False) -> tuple[float, float] | None:
-        if self.captured:             # -inf for good
+        if self.captured:  # -inf for good
             return self.value()
         t, kind = events[:, 0], events[:, 1]
         n, start = t.size, self.row
@@ -85,7 +87,7 @@ class ImpactGrowth:
             if t[j] < self.t_from:
                 continue
             if j + 1 >= n and not final:
-                self.row = int(j)     # its take-off, if any, comes with the next rows
+                self.row = int(j)  # its take-off, if any, comes with the next rows
                 break
             if not (j + 1 < n and kind[j + 1] == R.TAKEOFF and t[j + 1] == t[j]):
                 self.captured = True
@@ -97,7 +99,7 @@ class ImpactGrowth:
 
     def _impact(self, t1):
         if self.broken:
-            return                    # (a capture later still decides: -inf)
+            return  # (a capture later still decides: -inf)
         if self.landings:
             J, _, _ = impact_jacobian(self.last, t1, self.amplitude, self.mass, self.tau)
             d = J @ self._d
@@ -131,8 +133,9 @@ class ImpactGrowth:
         return self.total / (self.last - self.first), self.first
 
 
-def impact_lyapunov(events: np.ndarray, amplitude: float, mass: float, tau: float,
-                    t_from: float) -> tuple[float, float]:
+def impact_lyapunov(
+    events: np.ndarray, amplitude: float, mass: float, tau: float, t_from: float
+) -> tuple[float, float]:
     """The material point's vertical Lyapunov exponent, per period, from its
     run's events (records: LANDING and TAKEOFF at one instant = an elastic
     impact): the product of the impact map's Jacobians over the impacts

@@ -7,6 +7,7 @@ and a bad one raises ValueError naming the parameter and its valid range
 Units (docs/MODEL.md section 1): A* = A_y / a0, m* = a0 m f^2 / (M g), time in
 wave periods.
 """
+
 from __future__ import annotations
 
 import functools
@@ -34,8 +35,7 @@ STICK_RULES = ("paper", "classical")
 # slides without turning.
 ROLLING_NAMES = {"solid": 0.4, "shell": 2.0 / 3.0}
 ROLLING_NONE = "none"
-ROLLING_RANGE = ("rolling must be none, solid (j = 2/5), shell (j = 2/3) or a number "
-                 "j = I/(m R^2) in (0, 1]")
+ROLLING_RANGE = "rolling must be none, solid (j = 2/5), shell (j = 2/3) or a number j = I/(m R^2) in (0, 1]"
 
 
 def _interval(lo, hi, inclusive):
@@ -84,7 +84,7 @@ def check_profile(val: Any, refuse_measured: str | None = None) -> None:
         if refuse_measured:
             raise InputError(refuse_measured)
         return
-    parse_profile(val)        # raises naming the parameter and its range
+    parse_profile(val)  # raises naming the parameter and its range
 
 
 class ProfileSpec(param.String):
@@ -120,7 +120,7 @@ def check_rolling(val: Any) -> str | float:
         j = float(number)
     except OverflowError:
         raise InputError(f"{ROLLING_RANGE}; got an integer too large") from None
-    if not 0.0 < j <= 1.0:             # (NaN fails too)
+    if not 0.0 < j <= 1.0:  # (NaN fails too)
         raise InputError(f"{ROLLING_RANGE}; got {val!r}")
     return j
 
@@ -228,38 +228,73 @@ class Scene(param.Parameterized):
         If a parameter is unknown or outside its range.
     """
 
-    amplitude = Physical(10 ** -0.3, bounds=(0, None), inclusive_bounds=(True, False),
-                         doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)")
-    mass = Physical(10.0, bounds=(MASS_MIN, None), inclusive_bounds=(True, False),
-                    doc="m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)")
-    mu = Physical(0.3, bounds=(0, None), inclusive_bounds=(False, False),
-                  doc="friction coefficient (typically 0.01 to 1)")
+    amplitude = Physical(
+        10**-0.3,
+        bounds=(0, None),
+        inclusive_bounds=(True, False),
+        doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)",
+    )
+    mass = Physical(
+        10.0,
+        bounds=(MASS_MIN, None),
+        inclusive_bounds=(True, False),
+        doc="m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)",
+    )
+    mu = Physical(
+        0.3,
+        bounds=(0, None),
+        inclusive_bounds=(False, False),
+        doc="friction coefficient (typically 0.01 to 1)",
+    )
     theta = Physical(1.2, bounds=(1.0, 1.5), doc="tangential/normal compliance ratio theta")
-    nu = Physical(0.3, bounds=(0.0, 0.5), inclusive_bounds=(False, False),
-                  doc="substrate Poisson ratio (sets the Rayleigh ratio r)")
-    tau = Physical(50.0, bounds=(0, None), inclusive_bounds=(True, False),
-                   doc="ramp time of the wave, periods (0: no ramp)")
-    periods = Physical(2000.0, bounds=(0, None), inclusive_bounds=(False, False),
-                       doc="observation time T_obs, wave periods")
-    alpha_t = Physical(0.5, bounds=(0.0, 1.0),
-                       doc="point mass: tangential restitution at rebounds")
+    nu = Physical(
+        0.3,
+        bounds=(0.0, 0.5),
+        inclusive_bounds=(False, False),
+        doc="substrate Poisson ratio (sets the Rayleigh ratio r)",
+    )
+    tau = Physical(
+        50.0,
+        bounds=(0, None),
+        inclusive_bounds=(True, False),
+        doc="ramp time of the wave, periods (0: no ramp)",
+    )
+    periods = Physical(
+        2000.0, bounds=(0, None), inclusive_bounds=(False, False), doc="observation time T_obs, wave periods"
+    )
+    alpha_t = Physical(0.5, bounds=(0.0, 1.0), doc="point mass: tangential restitution at rebounds")
     model: param.Selector = param.Selector(default="deformable", objects=list(MODELS))
     integrator: param.Selector = param.Selector(default="ab4", objects=list(INTEGRATORS))
     fidelity: param.Selector = param.Selector(default="standard", objects=list(FIDELITIES))
-    stick_rule: param.Selector = param.Selector(default="paper", objects=list(STICK_RULES),
-                                doc="point mass slide->stick rule (docs/MODEL.md section 3)")
-    profile = ProfileSpec("sphere", doc="particle profile (deformable and vertical models): "
-                          + ", ".join(PROFILE_KINDS))
-    load_over_modulus = Physical(None, allow_None=True, bounds=(0, None),
-                                 inclusive_bounds=(False, False),
-                                 doc="N0/E*, m^2: the static load over the contact modulus "
-                                     "(file: profiles only, whose table is in metres)")
-    rolling = RollingSpec(ROLLING_NONE, doc="how the particle turns (deformable model): none, "
-                          "solid (j = 2/5), shell (j = 2/3) or j = I/(m R^2) in (0, 1]")
+    stick_rule: param.Selector = param.Selector(
+        default="paper",
+        objects=list(STICK_RULES),
+        doc="point mass slide->stick rule (docs/MODEL.md section 3)",
+    )
+    profile = ProfileSpec(
+        "sphere", doc="particle profile (deformable and vertical models): " + ", ".join(PROFILE_KINDS)
+    )
+    load_over_modulus = Physical(
+        None,
+        allow_None=True,
+        bounds=(0, None),
+        inclusive_bounds=(False, False),
+        doc="N0/E*, m^2: the static load over the contact modulus "
+        "(file: profiles only, whose table is in metres)",
+    )
+    rolling = RollingSpec(
+        ROLLING_NONE,
+        doc="how the particle turns (deformable model): none, "
+        "solid (j = 2/5), shell (j = 2/3) or j = I/(m R^2) in (0, 1]",
+    )
 
     def __init__(self, **params: Any) -> None:
-        for key, options in (("model", MODELS), ("integrator", INTEGRATORS),
-                             ("fidelity", FIDELITIES), ("stick_rule", STICK_RULES)):
+        for key, options in (
+            ("model", MODELS),
+            ("integrator", INTEGRATORS),
+            ("fidelity", FIDELITIES),
+            ("stick_rule", STICK_RULES),
+        ):
             if key in params:
                 _choice(key, params[key], options)
         unknown = set(params) - set(self.param) - {"name"}
@@ -268,13 +303,18 @@ class Scene(param.Parameterized):
         if "rolling" in params:
             params = {**params, "rolling": check_rolling(params["rolling"])}
         super().__init__(**params)
-        self.profile_shape()           # a file profile is read and checked now
+        self.profile_shape()  # a file profile is read and checked now
         if self.rolling != ROLLING_NONE and self.model != "deformable":
-            why = ("the material point has no size to turn" if self.model == "point-mass"
-                   else "the vertical model has no tangential motion")
-            raise InputError(f"rolling applies to the deformable model only ({why}): "
-                             f"use rolling='none' with model={self.model!r}; got "
-                             f"rolling={self.rolling!r}")
+            why = (
+                "the material point has no size to turn"
+                if self.model == "point-mass"
+                else "the vertical model has no tangential motion"
+            )
+            raise InputError(
+                f"rolling applies to the deformable model only ({why}): "
+                f"use rolling='none' with model={self.model!r}; got "
+                f"rolling={self.rolling!r}"
+            )
 
     @property
     def inertia_ratio(self) -> float | None:
@@ -297,9 +337,13 @@ class Scene(param.Parameterized):
         rolling only where the particle rolls (a scene that does not keeps
         the values, the results' attributes and the map keys it had before
         rolling existed)."""
-        return {k: getattr(self, k) for k in self.param
-                if k != "name" and not (k == "load_over_modulus" and self.load_over_modulus is None)
-                and not (k == "rolling" and self.rolling == ROLLING_NONE)}
+        return {
+            k: getattr(self, k)
+            for k in self.param
+            if k != "name"
+            and not (k == "load_over_modulus" and self.load_over_modulus is None)
+            and not (k == "rolling" and self.rolling == ROLLING_NONE)
+        }
 
     def replace(self, **changes: Any) -> Scene:
         """A copy with some values changed (validated)."""
@@ -307,8 +351,8 @@ class Scene(param.Parameterized):
 
 
 # The domain of the paper's maps (its Fig. 3) and of the shipped ones.
-MAP_LOG_AMPLITUDE = (-3.0, 3.0)     # log10 A*
-MAP_LOG_MASS = (-5.0, 5.0)          # log10 m*
+MAP_LOG_AMPLITUDE = (-3.0, 3.0)  # log10 A*
+MAP_LOG_MASS = (-5.0, 5.0)  # log10 m*
 
 # The paper's labelled points (docs/MODEL.md section 6): (log10 A*, log10 m*, model).
 PAPER_POINTS = {
@@ -351,7 +395,7 @@ def paper_scene(point: int, **overrides: Any) -> Scene:
     if point not in PAPER_POINTS:
         raise InputError(f"point must be one of 1-10, got {point!r}")
     la, lm, model = PAPER_POINTS[point]
-    return Scene(amplitude=10 ** la, mass=10 ** lm, model=model, **overrides)
+    return Scene(amplitude=10**la, mass=10**lm, model=model, **overrides)
 
 
 # A scene's point on the regime plane (a map's axes, log10 A* and log10 m*),

@@ -27,6 +27,7 @@ The kernels take a profile as `kernels.contact.kernel_law(profile)`: None for th
 own, unchanged path), else a float64 array (contact.law_eval): the power law's
 exponent, or N*'(a*) on a uniform grid with N* its exact integral.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,11 +42,11 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
 PROFILE_KINDS = ("sphere", "cone", "power:N", "flat-sphere:C", "file:PATH")
-N_MIN = 1.0   # power-law exponent lower bound (n >= 1: convex profile)
+N_MIN = 1.0  # power-law exponent lower bound (n >= 1: convex profile)
 # flat radius upper bound (units sqrt(R a0)): the law squares it twice, and
 # a wider flat is the flat punch (N* = a*) to within rounding
 FLAT_MAX = 1e50
-MIN_TABLE_POINTS_IN_CONTACT = 20   # table rows inside the static contact radius
+MIN_TABLE_POINTS_IN_CONTACT = 20  # table rows inside the static contact radius
 
 
 def _power_stiffness(p, h):
@@ -55,13 +56,15 @@ def _power_stiffness(p, h):
 @dataclass(frozen=True)
 class PowerLawProfile:
     """z = C r^n; normalized law N* = a*^p with p = (n+1)/n (independent of C)."""
+
     n: float
 
     def __post_init__(self):
         n = self.n
         if isinstance(n, bool) or not isinstance(n, (int, float)) or not math.isfinite(n) or n < N_MIN:
-            raise InputError(f"profile power-law exponent n must be a real number in "
-                             f"[{N_MIN:g}, inf), got {n!r}")
+            raise InputError(
+                f"profile power-law exponent n must be a real number in [{N_MIN:g}, inf), got {n!r}"
+            )
 
     @property
     def name(self) -> str:
@@ -97,6 +100,7 @@ class PowerLawProfile:
         # kappa_n = sqrt(pi) Gamma(n/2 + 1) / Gamma(n/2 + 1/2) as one Pochhammer
         # symbol: the two Gammas overflow from n = 341 while their ratio is ~sqrt(n/2)
         from scipy.special import poch
+
         kappa = math.sqrt(math.pi) * float(poch(self.n / 2 + 0.5, 0.5))
         with np.errstate(over="ignore"):
             return np.power(np.abs(np.asarray(rho, float)), self.n) / kappa
@@ -112,27 +116,34 @@ class FlatSphereProfile:
     N* = (gamma^2 sigma + 2 sigma^3 / 3) / (same at a* = 1).
     gamma = 0 is the sphere; gamma -> inf the flat punch (N* -> a*).
     """
+
     flat_radius: float
 
     def __post_init__(self):
         c = self.flat_radius
-        if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) \
-                or not 0 <= c <= FLAT_MAX:
-            raise InputError(f"profile flat radius (units sqrt(R a0)) must be a real number in "
-                             f"[0, {FLAT_MAX:g}], got {c!r}")
+        if (
+            isinstance(c, bool)
+            or not isinstance(c, (int, float))
+            or not math.isfinite(c)
+            or not 0 <= c <= FLAT_MAX
+        ):
+            raise InputError(
+                f"profile flat radius (units sqrt(R a0)) must be a real number in "
+                f"[0, {FLAT_MAX:g}], got {c!r}"
+            )
 
     @property
     def name(self) -> str:
         return f"flat-sphere:{self.flat_radius:g}"
 
     def _sigma(self, a):
-        g2 = self.flat_radius ** 2
+        g2 = self.flat_radius**2
         a = np.maximum(np.asarray(a, float), 0.0)
         # sigma^2 = 2 a^2 / (sqrt(g^4 + 4 a^2) + g^2): no cancellation for large gamma
         return np.sqrt(2.0 * a * a / (np.sqrt(g2 * g2 + 4.0 * a * a) + g2)) if g2 > 0 else np.sqrt(a)
 
     def _raw(self, s):
-        return self.flat_radius ** 2 * s + (2.0 / 3.0) * s ** 3
+        return self.flat_radius**2 * s + (2.0 / 3.0) * s**3
 
     def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
         return self._raw(self._sigma(a)) / self._raw(self._sigma(1.0))
@@ -140,16 +151,16 @@ class FlatSphereProfile:
     def stiffness(self, a: npt.ArrayLike) -> np.ndarray:
         """dN*/da* = a_c / raw(1), a_c = sqrt(gamma^2 + sigma^2) (units sqrt(R a0)), since dN/dd = 2E* a_c."""
         s, s1 = self._sigma(a), self._sigma(1.0)
-        return np.sqrt(self.flat_radius ** 2 + s * s) / self._raw(s1)
+        return np.sqrt(self.flat_radius**2 + s * s) / self._raw(s1)
 
     def contact_radius(self, a: npt.ArrayLike) -> np.ndarray:
         s, s1 = self._sigma(a), self._sigma(1.0)
-        return np.sqrt(self.flat_radius ** 2 + s * s) / math.sqrt(self.flat_radius ** 2 + s1 * s1)
+        return np.sqrt(self.flat_radius**2 + s * s) / math.sqrt(self.flat_radius**2 + s1 * s1)
 
     def outline(self, rho: npt.ArrayLike) -> np.ndarray:
         """The tip's outline z / a0 at rho = r / (static contact radius):
         z = (r^2 - c^2) / (2R) beyond the flat, r in units of sqrt(R a0)."""
-        g2 = self.flat_radius ** 2
+        g2 = self.flat_radius**2
         s1 = float(self._sigma(1.0))
         r2 = np.asarray(rho, float) ** 2 * (g2 + s1 * s1)
         return np.maximum(r2 - g2, 0.0) / 2.0
@@ -182,8 +193,15 @@ class TabulatedProfile:
     contact radius, and the table reaching a_max_star times the static approach.
     """
 
-    def __init__(self, r: Any, z: Any, load_over_modulus: float, a_max_star: float = 8.0,
-                 samples: int = 4001, name: str = "file") -> None:
+    def __init__(
+        self,
+        r: Any,
+        z: Any,
+        load_over_modulus: float,
+        a_max_star: float = 8.0,
+        samples: int = 4001,
+        name: str = "file",
+    ) -> None:
         r = np.asarray(r, float)
         z = np.asarray(z, float)
         if r.ndim != 1 or r.shape != z.shape or r.size < 3:
@@ -199,39 +217,46 @@ class TabulatedProfile:
             raise InputError("profile table z must be nondecreasing in r (monotonic profile)")
         if np.any(np.diff(slope) < -1e-9 * max(1.0, float(np.max(np.abs(slope))))):
             raise InputError("profile table z must be convex in r (slopes nondecreasing)")
-        if not (isinstance(load_over_modulus, (int, float)) and math.isfinite(load_over_modulus)
-                and load_over_modulus > 0):
-            raise InputError(f"profile load N0/E* must be a real number in (0, inf) m^2, "
-                             f"got {load_over_modulus!r}")
+        if not (
+            isinstance(load_over_modulus, (int, float))
+            and math.isfinite(load_over_modulus)
+            and load_over_modulus > 0
+        ):
+            raise InputError(
+                f"profile load N0/E* must be a real number in (0, inf) m^2, got {load_over_modulus!r}"
+            )
         self.name = name
         target = 0.5 * load_over_modulus
         x, g, n_over = self._laws(r, z, r[-1], samples)
         if n_over[-1] >= target and g[-1] > 0:
             # second pass on a grid spanning only the contacts of interest (a* <= a_max_star)
             i = int(np.searchsorted(n_over, target))
-            d_static = float(np.interp(target, n_over[:i + 1], g[:i + 1]))
+            d_static = float(np.interp(target, n_over[: i + 1], g[: i + 1]))
             j = min(int(np.searchsorted(g, 1.05 * a_max_star * d_static)) + 1, x.size - 1)
             x, g, n_over = self._laws(r, z, x[j], samples)
         if n_over[-1] < target:
-            raise InputError("profile table too short: the static load needs a contact radius "
-                             "beyond its last r")
+            raise InputError(
+                "profile table too short: the static load needs a contact radius beyond its last r"
+            )
         i = int(np.searchsorted(n_over, target))
-        a_static = np.interp(target, n_over[:i + 1], x[:i + 1])
+        a_static = np.interp(target, n_over[: i + 1], x[: i + 1])
         d0 = float(np.interp(a_static, x, g))
         if np.count_nonzero(r <= a_static) < MIN_TABLE_POINTS_IN_CONTACT:
-            raise InputError(f"profile table too coarse: fewer than {MIN_TABLE_POINTS_IN_CONTACT} rows "
-                             f"inside the static contact radius {a_static:.3g} m")
+            raise InputError(
+                f"profile table too coarse: fewer than {MIN_TABLE_POINTS_IN_CONTACT} rows "
+                f"inside the static contact radius {a_static:.3g} m"
+            )
         if g[-1] < a_max_star * d0:
             raise InputError(f"profile table too short: it must reach an approach of {a_max_star:g} a0")
-        k0 = int(np.flatnonzero(g <= 0.0)[-1])   # the flat part (g = 0) enters at a* = 0 at once
+        k0 = int(np.flatnonzero(g <= 0.0)[-1])  # the flat part (g = 0) enters at a* = 0 at once
         x, g, n_over = x[k0:], g[k0:], n_over[k0:]
         self.a0 = d0
         self.static_contact_radius = a_static
         self._table = (r, z)
         self._x = x
-        self._a = g / d0                   # a* at contact radius x (increasing)
-        self._N = n_over / target          # N*
-        self._k = 2.0 * x * d0 / load_over_modulus   # dN*/da* = 2 E* a_c a0 / N0
+        self._a = g / d0  # a* at contact radius x (increasing)
+        self._N = n_over / target  # N*
+        self._k = 2.0 * x * d0 / load_over_modulus  # dN*/da* = 2 E* a_c a0 / N0
         self.a_max = float(self._a[-1])
 
     def normal_force(self, a: npt.ArrayLike) -> np.ndarray:
@@ -258,13 +283,16 @@ class TabulatedProfile:
         """The measured outline z / a0 at rho = r / (static contact radius)
         (NaN beyond the table)."""
         r, z = self._table
-        return np.interp(np.abs(np.asarray(rho, float)) * self.static_contact_radius, r, z,
-                         right=np.nan) / self.a0
+        return (
+            np.interp(np.abs(np.asarray(rho, float)) * self.static_contact_radius, r, z, right=np.nan)
+            / self.a0
+        )
 
 
-def parse_profile(text: str,
-                  load_over_modulus: float | None = None,
-                  ) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
+def parse_profile(
+    text: str,
+    load_over_modulus: float | None = None,
+) -> TabulatedProfile | PowerLawProfile | FlatSphereProfile:
     """'sphere' | 'cone' | 'power:N' | 'flat-sphere:C' | 'file:PATH' -> profile object.
 
     file:PATH is a two-column text table r, z in metres and needs the load N0/E* (m^2).
@@ -276,8 +304,9 @@ def parse_profile(text: str,
         try:
             table = np.loadtxt(path, ndmin=2)
         except (OSError, ValueError) as exc:
-            raise InputError(f"profile file {path!r} must be a readable two-column text table "
-                             f"r z (m): {exc}") from None
+            raise InputError(
+                f"profile file {path!r} must be a readable two-column text table r z (m): {exc}"
+            ) from None
         if table.shape[1] != 2:
             raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
         return TabulatedProfile(table[:, 0], table[:, 1], load_over_modulus, name=text)
@@ -305,7 +334,7 @@ def linear_resonance_mass(profile: Any) -> float:
     spec ('cone', 'power:3', 'flat-sphere:0.5'; a table needs its object)."""
     if isinstance(profile, str):
         profile = parse_profile(profile)
-    return float(profile.stiffness(1.0)) / (4.0 * math.pi ** 2)
+    return float(profile.stiffness(1.0)) / (4.0 * math.pi**2)
 
 
 def tangential_force(profile: Any, a: Any, b: Any, w_of_h: Any, h_grid: Any):
@@ -313,6 +342,5 @@ def tangential_force(profile: Any, a: Any, b: Any, w_of_h: Any, h_grid: Any):
     h = h_grid[h_grid <= a]
     k = profile.stiffness(h)
     w = w_of_h(h)
-    atom = k[0] * w[0]   # springs entering at h = 0 (flat part): weight N*'(0)
+    atom = k[0] * w[0]  # springs entering at h = 0 (flat part): weight N*'(0)
     return b * float(profile.stiffness(a)) - atom - float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(k)))
-

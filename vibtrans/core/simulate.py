@@ -7,6 +7,7 @@ driver reports progress, honours a cancel request, and grows any buffer a
 kernel reports full, so a long run stays responsive and memory follows the
 need.
 """
+
 from __future__ import annotations
 
 import math
@@ -49,8 +50,7 @@ def _scene(scene, values):
     return scene.replace(**values) if values else scene
 
 
-def estimate_steps(scene: Scene, refine: float = 1.0,
-                   steps: tuple[float, float] | None = None) -> int:
+def estimate_steps(scene: Scene, refine: float = 1.0, steps: tuple[float, float] | None = None) -> int:
     """Upper estimate of a scene's integration steps, before running it.
 
     Parameters
@@ -77,8 +77,14 @@ def estimate_steps(scene: Scene, refine: float = 1.0,
     if scene.model == "point-mass":
         h = scan_step(scene.fidelity, refine)
     else:
-        h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
-                      scales=drivers.scene_scales(scene))
+        h = time_step(
+            scene.amplitude,
+            scene.mass,
+            scene.fidelity,
+            refine,
+            steps=steps,
+            scales=drivers.scene_scales(scene),
+        )
     return drivers.checked_steps(step_count(scene.periods, h), math.inf, "scene", h)
 
 
@@ -88,13 +94,16 @@ def _check_steps(steps, model):
     try:
         per_period, per_contact = (float(v) for v in steps)
     except (TypeError, ValueError):
-        raise InputError(f"steps must be a pair (steps per period, steps per contact time "
-                         f"scale) of numbers in [1, 1e6], got {steps!r}") from None
+        raise InputError(
+            f"steps must be a pair (steps per period, steps per contact time "
+            f"scale) of numbers in [1, 1e6], got {steps!r}"
+        ) from None
     if not (1 <= per_period <= 1e6 and 1 <= per_contact <= 1e6):
         raise InputError(f"steps must be a pair of numbers in [1, 1e6], got {steps!r}")
     if model == "point-mass":
-        raise InputError("steps applies to the deformable and vertical models only "
-                         "(the material point is event-driven)")
+        raise InputError(
+            "steps applies to the deformable and vertical models only (the material point is event-driven)"
+        )
     return per_period, per_contact
 
 
@@ -104,20 +113,29 @@ def _window(window, periods):
     try:
         w0, w1 = (float(v) for v in window)
     except (TypeError, ValueError):
-        raise InputError(f"window must be a pair (t0, t1) of times in [0, {periods:g}], "
-                         f"got {window!r}") from None
+        raise InputError(
+            f"window must be a pair (t0, t1) of times in [0, {periods:g}], got {window!r}"
+        ) from None
     if not (math.isfinite(w0) and math.isfinite(w1) and 0 <= w0 <= w1 <= periods):
         raise InputError(f"window must satisfy 0 <= t0 <= t1 <= {periods:g}, got {window!r}")
     return w0, w1
 
 
-def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
-             samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
-             progress: Callable[[float], object] | None = None,
-             cancel: threading.Event | None = None, refine: float = 1.0,
-             shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
-             lyapunov: bool = False,
-             stop: str = "full", **values: Any) -> xr.Dataset:
+def simulate(
+    scene: Scene | None = None,
+    *,
+    window: tuple[float, float] | None = None,
+    samples_per_period: int = SAMPLES_PER_PERIOD,
+    max_steps: float = DEFAULT_MAX_STEPS,
+    progress: Callable[[float], object] | None = None,
+    cancel: threading.Event | None = None,
+    refine: float = 1.0,
+    shortcuts: int = D.SHORTCUTS_ALL,
+    steps: tuple[float, float] | None = None,
+    lyapunov: bool = False,
+    stop: str = "full",
+    **values: Any,
+) -> xr.Dataset:
     """Simulate one scene and return its trajectory.
 
     The run's decimated samples, its events and its attributes, as built by
@@ -169,19 +187,39 @@ def simulate(scene: Scene | None = None, *, window: tuple[float, float] | None =
     Cancelled
         If `cancel` asked the run to stop.
     """
-    return build_trajectory(*run_records(
-        scene, window=window, samples_per_period=samples_per_period, max_steps=max_steps,
-        progress=progress, cancel=cancel, refine=refine, shortcuts=shortcuts, steps=steps,
-        lyapunov=lyapunov, stop=stop, **values))
+    return build_trajectory(
+        *run_records(
+            scene,
+            window=window,
+            samples_per_period=samples_per_period,
+            max_steps=max_steps,
+            progress=progress,
+            cancel=cancel,
+            refine=refine,
+            shortcuts=shortcuts,
+            steps=steps,
+            lyapunov=lyapunov,
+            stop=stop,
+            **values,
+        )
+    )
 
 
-def run_records(scene: Scene | None = None, *, window: tuple[float, float] | None = None,
-                samples_per_period: int = SAMPLES_PER_PERIOD, max_steps: float = DEFAULT_MAX_STEPS,
-                progress: Callable[[float], object] | None = None,
-                cancel: threading.Event | None = None, refine: float = 1.0,
-                shortcuts: int = D.SHORTCUTS_ALL, steps: tuple[float, float] | None = None,
-                lyapunov: bool = False,
-                stop: str = "full", **values: Any) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+def run_records(
+    scene: Scene | None = None,
+    *,
+    window: tuple[float, float] | None = None,
+    samples_per_period: int = SAMPLES_PER_PERIOD,
+    max_steps: float = DEFAULT_MAX_STEPS,
+    progress: Callable[[float], object] | None = None,
+    cancel: threading.Event | None = None,
+    refine: float = 1.0,
+    shortcuts: int = D.SHORTCUTS_ALL,
+    steps: tuple[float, float] | None = None,
+    lyapunov: bool = False,
+    stop: str = "full",
+    **values: Any,
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Simulate one scene: its (samples, events, attrs), the kernel's
     trimmed buffers (records.COLUMNS, records event rows) and the run's
     attributes, before they become a Dataset (`simulate`; a map point
@@ -211,19 +249,23 @@ def run_records(scene: Scene | None = None, *, window: tuple[float, float] | Non
         that analysis.summary.drift_velocity reports).  "full" adds no attribute.
     """
     scene = _scene(scene, values)
-    if not (isinstance(samples_per_period, (int, np.integer))
-            and not isinstance(samples_per_period, bool) and 1 <= samples_per_period <= 10000):
-        raise InputError(f"samples_per_period must be an integer in [1, 10000], "
-                         f"got {samples_per_period!r}")
-    if isinstance(refine, bool) or not (isinstance(refine, (int, float))
-                                        and math.isfinite(refine) and 1 <= refine <= 1024):
+    if not (
+        isinstance(samples_per_period, (int, np.integer))
+        and not isinstance(samples_per_period, bool)
+        and 1 <= samples_per_period <= 10000
+    ):
+        raise InputError(f"samples_per_period must be an integer in [1, 10000], got {samples_per_period!r}")
+    if isinstance(refine, bool) or not (
+        isinstance(refine, (int, float)) and math.isfinite(refine) and 1 <= refine <= 1024
+    ):
         raise InputError(f"refine must be a number in [1, 1024], got {refine!r}")
-    if isinstance(shortcuts, bool) or not (isinstance(shortcuts, (int, np.integer))
-                                           and 0 <= shortcuts <= D.SHORTCUTS_ALL):
-        raise InputError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], "
-                         f"got {shortcuts!r}")
-    if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, float))
-                                           and max_steps > 0 and not math.isnan(max_steps)):
+    if isinstance(shortcuts, bool) or not (
+        isinstance(shortcuts, (int, np.integer)) and 0 <= shortcuts <= D.SHORTCUTS_ALL
+    ):
+        raise InputError(f"shortcuts must be an integer in [0, {D.SHORTCUTS_ALL}], got {shortcuts!r}")
+    if isinstance(max_steps, bool) or not (
+        isinstance(max_steps, (int, float)) and max_steps > 0 and not math.isnan(max_steps)
+    ):
         raise InputError(f"max_steps must be a number in (0, inf], got {max_steps!r}")
     steps = _check_steps(steps, scene.model)
     if not isinstance(lyapunov, (bool, np.bool_)):
@@ -231,34 +273,67 @@ def run_records(scene: Scene | None = None, *, window: tuple[float, float] | Non
     check_stop(stop)
     drivers.checked_steps(estimate_steps(scene, refine, steps), max_steps, "scene")
     w0, w1 = _window(window, scene.periods)
-    decide = (DecidedRule(scene.periods, scene.tau, scene.amplitude, scene.mass,
-                          scene.fidelity) if stop == "decided" else None)
+    decide = (
+        DecidedRule(scene.periods, scene.tau, scene.amplitude, scene.mass, scene.fidelity)
+        if stop == "decided"
+        else None
+    )
     runner = _run_point_mass if scene.model == "point-mass" else _run_hertz
     start = time.perf_counter()
-    samples, events, ctr, info = runner(scene, w0, w1, samples_per_period, refine,
-                                        progress, cancel, shortcuts=int(shortcuts), steps=steps,
-                                        lyapunov=bool(lyapunov), decide=decide)
+    samples, events, ctr, info = runner(
+        scene,
+        w0,
+        w1,
+        samples_per_period,
+        refine,
+        progress,
+        cancel,
+        shortcuts=int(shortcuts),
+        steps=steps,
+        lyapunov=bool(lyapunov),
+        decide=decide,
+    )
     if decide is not None:
         info.update(decide.attrs())
     seconds = time.perf_counter() - start
-    attrs = dict(scene.values(), r=scene.r, steps=int(ctr[R.C_STEPS]),
-                 force_evaluations=int(ctr[R.C_FEVALS]), seconds=seconds,
-                 samples_per_period=samples_per_period,
-                 window_start=w0 if window is not None else None,
-                 window_end=w1 if window is not None else None, refine=refine,
-                 code_version=__version__, **info)
+    attrs = dict(
+        scene.values(),
+        r=scene.r,
+        steps=int(ctr[R.C_STEPS]),
+        force_evaluations=int(ctr[R.C_FEVALS]),
+        seconds=seconds,
+        samples_per_period=samples_per_period,
+        window_start=w0 if window is not None else None,
+        window_end=w1 if window is not None else None,
+        refine=refine,
+        code_version=__version__,
+        **info,
+    )
     return samples, events, attrs
 
 
-def hertz_params(scene: Scene, w0: Any, w1: Any, samples_per_period: int, refine: float,
-                 shortcuts: Any, steps: Any) -> tuple[HertzParams, float, int]:
+def hertz_params(
+    scene: Scene, w0: Any, w1: Any, samples_per_period: int, refine: float, shortcuts: Any, steps: Any
+) -> tuple[HertzParams, float, int]:
     """(HertzParams, h, samples capacity) of a Hertz scene's run: its time
     step, the full-resolution window [w0, w1], the sampling and shortcuts."""
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps,
-                  scales=drivers.scene_scales(scene))
-    p = D.kernel_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
-                        scene.tau, h, scene.periods, 1.0 / samples_per_period, (w0, w1),
-                        shortcuts, roll_ratio(scene))
+    h = time_step(
+        scene.amplitude, scene.mass, scene.fidelity, refine, steps=steps, scales=drivers.scene_scales(scene)
+    )
+    p = D.kernel_params(
+        scene.amplitude,
+        scene.mass,
+        scene.mu,
+        scene.theta,
+        scene.r,
+        scene.tau,
+        h,
+        scene.periods,
+        1.0 / samples_per_period,
+        (w0, w1),
+        shortcuts,
+        roll_ratio(scene),
+    )
     n_win = 0 if w1 < w0 else int((w1 - w0) / h) + 2
     capacity = int(scene.periods * samples_per_period) + n_win + 16
     return p, h, capacity
@@ -282,21 +357,41 @@ def lyapunov_start(scene: Scene, decide: Any = None) -> Any:
     return min(start, 0.5 * scene.periods)
 
 
-def _run_hertz(scene, w0, w1, samples_per_period, refine, progress, cancel,
-               shortcuts=D.SHORTCUTS_ALL, steps=None, lyapunov=False, decide=None):
+def _run_hertz(
+    scene,
+    w0,
+    w1,
+    samples_per_period,
+    refine,
+    progress,
+    cancel,
+    shortcuts=D.SHORTCUTS_ALL,
+    steps=None,
+    lyapunov=False,
+    decide=None,
+):
     """Run the deformable or vertical kernel from rest."""
-    p, h, capacity = hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts,
-                                   steps)
+    p, h, capacity = hertz_params(scene, w0, w1, samples_per_period, refine, shortcuts, steps)
     t_from = lyapunov_start(scene, decide) if lyapunov else None
-    run = drivers.run_hertz(p, scene.integrator, tangential=scene.model == "deformable",
-                            samples_capacity=capacity, progress=progress, cancel=cancel,
-                            lyapunov_from=t_from, decide=decide, law=drivers.scene_law(scene))
+    run = drivers.run_hertz(
+        p,
+        scene.integrator,
+        tangential=scene.model == "deformable",
+        samples_capacity=capacity,
+        progress=progress,
+        cancel=cancel,
+        lyapunov_from=t_from,
+        decide=decide,
+        law=drivers.scene_law(scene),
+    )
     info = {"h": h}
     if p.roll_ratio != 0.0:
         # the rolled arc within a contact episode: the plane model's check
         # (docs/MODEL.md section 11)
-        info.update(inertia_ratio=scene.inertia_ratio, max_episode_roll=D.episode_roll(
-            run.state, run.ctr[R.C_MODE] == D.MODE_CONTACT, p.roll_ratio))
+        info.update(
+            inertia_ratio=scene.inertia_ratio,
+            max_episode_roll=D.episode_roll(run.state, run.ctr[R.C_MODE] == D.MODE_CONTACT, p.roll_ratio),
+        )
     if lyapunov:
         if decide is not None and decide.reason == STOP_FLIGHT:
             _flight_tangent_to_end(run.tangent, run.state, scene.periods)
@@ -315,7 +410,8 @@ def _flight_tangent_to_end(tangent, state, t_end):
         dy = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t - t0)
         tangent[D.L_START] = t
         tangent[D.L_LOG_START] = tangent[D.L_LOG] + 0.5 * math.log(
-            dy * dy + tangent[D.L_DVY0] * tangent[D.L_DVY0])
+            dy * dy + tangent[D.L_DVY0] * tangent[D.L_DVY0]
+        )
     tangent[D.L_END_T] = t_end
     tangent[D.L_END_DY] = tangent[D.L_DY0] + tangent[D.L_DVY0] * (t_end - t0)
     tangent[D.L_END_DVY] = tangent[D.L_DVY0]
@@ -323,17 +419,41 @@ def _flight_tangent_to_end(tangent, state, t_end):
 
 def _lyapunov_attrs(tangent, state, t_from):
     value = D.lyapunov_exponent(tangent, state)
-    return {"lyapunov": None if math.isnan(value) else value, "lyapunov_from": t_from,
-            "lyapunov_start": float(tangent[D.L_START]) if tangent[D.L_START] >= 0 else None}
+    return {
+        "lyapunov": None if math.isnan(value) else value,
+        "lyapunov_from": t_from,
+        "lyapunov_start": float(tangent[D.L_START]) if tangent[D.L_START] >= 0 else None,
+    }
 
 
-def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
-                    shortcuts=None, steps=None, lyapunov=False, decide=None):
+def _run_point_mass(
+    scene,
+    w0,
+    w1,
+    samples_per_period,
+    refine,
+    progress,
+    cancel,
+    shortcuts=None,
+    steps=None,
+    lyapunov=False,
+    decide=None,
+):
     # event-driven: its flights and segments are closed forms already
     dt = scan_step(scene.fidelity, refine)
-    p = PM.make_params(scene.amplitude, scene.mass, scene.mu, scene.theta, scene.r,
-                       scene.tau, float(scene.periods), scene.alpha_t,
-                       1.0 / samples_per_period, (w0, w1), dt)
+    p = PM.make_params(
+        scene.amplitude,
+        scene.mass,
+        scene.mu,
+        scene.theta,
+        scene.r,
+        scene.tau,
+        float(scene.periods),
+        scene.alpha_t,
+        1.0 / samples_per_period,
+        (w0, w1),
+        dt,
+    )
     n_win = 0 if w1 < w0 else int((w1 - w0) / dt) + 64
     growth = None
     if lyapunov:
@@ -341,14 +461,23 @@ def _run_point_mass(scene, w0, w1, samples_per_period, refine, progress, cancel,
         t_from = lyapunov_start(scene, decide)
         growth = ImpactGrowth(scene.amplitude, scene.mass, scene.tau, t_from)
     run = drivers.run_point_mass(
-        p, scene.stick_rule, progress=progress, cancel=cancel, decide=decide, growth=growth,
-        samples_capacity=int(scene.periods * samples_per_period) + n_win + 16)
+        p,
+        scene.stick_rule,
+        progress=progress,
+        cancel=cancel,
+        decide=decide,
+        growth=growth,
+        samples_capacity=int(scene.periods * samples_per_period) + n_win + 16,
+    )
     info: dict[str, Any] = {"h": dt}
     if growth is not None:
         growth.update(run.events, final=True)
         value, start = growth.exponent()
-        info.update(lyapunov=None if math.isnan(value) else value, lyapunov_from=t_from,
-                    lyapunov_start=None if math.isnan(start) else start)
+        info.update(
+            lyapunov=None if math.isnan(value) else value,
+            lyapunov_from=t_from,
+            lyapunov_start=None if math.isnan(start) else start,
+        )
     return run.samples, run.events, run.ctr, info
 
 
@@ -358,22 +487,29 @@ def _deformable(scene):
 
 
 def _is_time(t, periods):
-    return (isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_))
-            and 0 <= float(t) <= periods)
+    return isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_)) and 0 <= float(t) <= periods
 
 
 def _snapshot(state, ctr, memory):
     """The dict of a memory diagram from a run's final state and memory."""
     from vibtrans.core.kernels.contact import anchor_profile
+
     H, W, P, nvert, memf = memory
     hs, ws = anchor_profile(H, W, nvert, memf)
     a, b = float(memf[0]), float(memf[1])
-    return {"t": float(state[D.S_T]), "a": a, "b": b, "h": hs, "w": ws, "u": b - ws,
-            "stick_depth": _stick_depth(hs, ws, a, b), "state": int(ctr[R.C_STATE])}
+    return {
+        "t": float(state[D.S_T]),
+        "a": a,
+        "b": b,
+        "h": hs,
+        "w": ws,
+        "u": b - ws,
+        "stick_depth": _stick_depth(hs, ws, a, b),
+        "state": int(ctr[R.C_STATE]),
+    }
 
 
-def memory_snapshot(scene: Scene | None = None, t: float | None = None,
-                    **values: Any) -> dict[str, Any]:
+def memory_snapshot(scene: Scene | None = None, t: float | None = None, **values: Any) -> dict[str, Any]:
     """The memory diagram of a deformable scene at time t (periods).
 
     Runs the scene from rest to t and returns a dict: t, a, b (a*, b* at t),
@@ -383,22 +519,23 @@ def memory_snapshot(scene: Scene | None = None, t: float | None = None,
     """
     scene = _scene(scene, values)
     _deformable(scene)
-    if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) \
-            or not (0 <= t <= scene.periods):
+    if t is None or isinstance(t, bool) or not isinstance(t, (int, float)) or not (0 <= t <= scene.periods):
         raise InputError(f"t must be a time in [0, {scene.periods:g}] periods, got {t!r}")
     short = scene.replace(periods=max(float(t), MIN_SNAPSHOT_TIME))
     p, _, capacity = hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
-    run = drivers.run_hertz(p, short.integrator, tangential=True, samples_capacity=capacity,
-                            law=drivers.scene_law(short))
+    run = drivers.run_hertz(
+        p, short.integrator, tangential=True, samples_capacity=capacity, law=drivers.scene_law(short)
+    )
     return _snapshot(run.state, run.ctr, run.memory)
 
 
-MIN_SNAPSHOT_TIME = 1e-9     # t = 0 shows the first step (a run needs a length)
+MIN_SNAPSHOT_TIME = 1e-9  # t = 0 shows the first step (a run needs a length)
 MAX_SNAPSHOTS = 10_000
 
 
-def memory_snapshots(scene: Scene | None = None, times: Any = None, *, progress: Any = None,
-                     cancel: Any = None, **values: Any) -> list[dict[str, Any]]:
+def memory_snapshots(
+    scene: Scene | None = None, times: Any = None, *, progress: Any = None, cancel: Any = None, **values: Any
+) -> list[dict[str, Any]]:
     """The memory diagram of a deformable scene at each of several times
     (periods, increasing), from ONE run from rest: a list of the dicts
     `memory_snapshot` returns, one per time.
@@ -415,15 +552,21 @@ def memory_snapshots(scene: Scene | None = None, times: Any = None, *, progress:
     stops = _snapshot_times(times, scene.periods)
     short = scene.replace(periods=stops[-1])
     p, _, capacity = hertz_params(short, math.inf, -math.inf, 1, 1.0, D.SHORTCUTS_ALL, None)
-    runs = drivers.run_memory_stops(p, short.integrator, stops, samples_capacity=capacity,
-                                    progress=progress, cancel=cancel, law=drivers.scene_law(short))
+    runs = drivers.run_memory_stops(
+        p,
+        short.integrator,
+        stops,
+        samples_capacity=capacity,
+        progress=progress,
+        cancel=cancel,
+        law=drivers.scene_law(short),
+    )
     return [_snapshot(*run) for run in runs]
 
 
 def _snapshot_times(times, periods):
     """Validated snapshot times as run stops (floats >= MIN_SNAPSHOT_TIME)."""
-    what = (f"times must be a sequence of 1 to {MAX_SNAPSHOTS} increasing times in "
-            f"[0, {periods:g}] periods")
+    what = f"times must be a sequence of 1 to {MAX_SNAPSHOTS} increasing times in [0, {periods:g}] periods"
     if isinstance(times, (str, bytes)) or times is None:
         raise InputError(f"{what}, got {times!r}")
     try:
@@ -436,8 +579,7 @@ def _snapshot_times(times, periods):
         if not _is_time(t, periods):
             raise InputError(f"{what}; times[{i}] = {t!r} is not")
         if i and not t > values[i - 1]:
-            raise InputError(f"{what}; times[{i}] = {t!r} does not follow "
-                             f"times[{i - 1}] = {values[i - 1]!r}")
+            raise InputError(f"{what}; times[{i}] = {t!r} does not follow times[{i - 1}] = {values[i - 1]!r}")
     return [max(float(t), MIN_SNAPSHOT_TIME) for t in values]
 
 
@@ -459,19 +601,21 @@ MODELS = ("deformable", "vertical", "point-mass")
 def _warm(model):
     for integrator in ("ab4", "verlet"):
         # one compiled kernel per model: the integrator is a run-time argument
-        simulate(Scene(model=model, integrator=integrator, amplitude=100.0, mass=1.0,
-                       periods=2.0, tau=0.5), window=(1.0, 1.5))
+        simulate(
+            Scene(model=model, integrator=integrator, amplitude=100.0, mass=1.0, periods=2.0, tau=0.5),
+            window=(1.0, 1.5),
+        )
     # the chaos indicator's variant (the explorer's and the CLI's runs
     # measure it): the Hertz models advance the tangent map in a kernel of
     # their own, the material point's exponent comes from its impact map.
     # (The jumping threshold's runs, which stop at the first take-off, use
     # the vertical model's kernel: stopping there is a run-time argument.)
-    simulate(Scene(model=model, amplitude=100.0, mass=1.0, periods=2.0, tau=0.5),
-             window=(1.0, 1.5), lyapunov=True)
+    simulate(
+        Scene(model=model, amplitude=100.0, mass=1.0, periods=2.0, tau=0.5), window=(1.0, 1.5), lyapunov=True
+    )
 
 
-def warmup(models: Sequence[str] = MODELS,
-           progress: Callable[[int, int, str], object] | None = None) -> None:
+def warmup(models: Sequence[str] = MODELS, progress: Callable[[int, int, str], object] | None = None) -> None:
     """Compile (or load from the on-disk cache) the kernels of `models`.
 
     Then no user-facing run pays for compilation.  Cheap once the cache

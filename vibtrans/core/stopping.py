@@ -65,6 +65,7 @@ that no regular stop comes before the exponent is measured:
 * otherwise (not steady, e.g. paper point 4's accelerating drift) the run
   goes on to T_obs (reason `ran-to-end`).
 """
+
 from __future__ import annotations
 
 import math
@@ -83,28 +84,28 @@ STOPS = ("full", "decided")
 REASONS = ("full", "regular", "chaotic", "ran-to-end", "flight", "recurrent")
 STOP_FULL, STOP_REGULAR, STOP_CHAOTIC, STOP_RAN_TO_END, STOP_FLIGHT, STOP_RECURRENT = range(6)
 
-MIN_WINDOW = 60          # periods after the ramp before the first check (three windows of 20)
-CHECK_EVERY = 8          # periods between checks, at least
-CHECK_FRACTION = 1 / 8   # of the time since the ramp, between checks, at least
-DECIDED_FRACTION = 0.5   # of the stated drift error, spent on the extrapolation
-GEOMETRIC_MAX = 0.8      # a change between windows shrinking slower than this: not decided
-MAX_PERIOD = 16          # longest recurrence (periods) looked for in the drift per period
-NOISE_SIGMAS = 3.0       # standard errors of an average of irregular drifts, in the bound
-NOISE_BLOCKS = 12        # batch means of the drifts for that standard error
+MIN_WINDOW = 60  # periods after the ramp before the first check (three windows of 20)
+CHECK_EVERY = 8  # periods between checks, at least
+CHECK_FRACTION = 1 / 8  # of the time since the ramp, between checks, at least
+DECIDED_FRACTION = 0.5  # of the stated drift error, spent on the extrapolation
+GEOMETRIC_MAX = 0.8  # a change between windows shrinking slower than this: not decided
+MAX_PERIOD = 16  # longest recurrence (periods) looked for in the drift per period
+NOISE_SIGMAS = 3.0  # standard errors of an average of irregular drifts, in the bound
+NOISE_BLOCKS = 12  # batch means of the drifts for that standard error
 MIN_CHAOS_PERIODS = 100  # periods of Lyapunov measurement before a chaotic stop
-CHAOS_MARGIN = 2.0       # chaotic: exponent above CHAOS_MARGIN x CHAOS_LYAPUNOV
-FLIGHT_FRACTION = 0.25   # longest flight allowed in the window, of one of its thirds
-RAMP_SHARE = 1e-3        # the ramp's residual where the windows start, of the tolerance
-RECUR_CYCLES = 3         # cycles over which the in-flight stroboscope must recur
-RECUR_TOL = 1e-6         # its states' mismatch, relative to the motion's scale
-RECUR_LONGEST = 250      # longest recurrence period looked for (periods)
+CHAOS_MARGIN = 2.0  # chaotic: exponent above CHAOS_MARGIN x CHAOS_LYAPUNOV
+FLIGHT_FRACTION = 0.25  # longest flight allowed in the window, of one of its thirds
+RAMP_SHARE = 1e-3  # the ramp's residual where the windows start, of the tolerance
+RECUR_CYCLES = 3  # cycles over which the in-flight stroboscope must recur
+RECUR_TOL = 1e-6  # its states' mismatch, relative to the motion's scale
+RECUR_LONGEST = 250  # longest recurrence period looked for (periods)
 
 
 def ballistic_reach_time(y: Any, vy: Any, mass: float, amplitude: float) -> Any:
     """Time (periods) until a particle at (y*, y*') in free flight (m* y*''
     = 1, y* down) first reaches y* = -A*, the highest the surface ever comes
     (0 if it is already within reach)."""
-    gap = -amplitude - y                 # > 0: out of reach
+    gap = -amplitude - y  # > 0: out of reach
     if gap <= 0.0:
         return 0.0
     # root of t^2 / (2 m*) + vy t - gap = 0, in the form without cancellation
@@ -119,8 +120,9 @@ def settle_time(tau: float, tolerance: float) -> int:
     RAMP_OFF tau (G = 1 to double precision).  tau = 0: 0."""
     if tau <= 0.0:
         return 0
-    return min(math.ceil(tau * math.sqrt(math.log(1.0 / (RAMP_SHARE * tolerance)))),
-               math.ceil(RAMP_OFF * tau))
+    return min(
+        math.ceil(tau * math.sqrt(math.log(1.0 / (RAMP_SHARE * tolerance)))), math.ceil(RAMP_OFF * tau)
+    )
 
 
 def check_stop(stop: str) -> str:
@@ -155,8 +157,9 @@ def recurrence_period(values: Any, tol: float, longest: Any = MAX_PERIOD) -> int
     return None
 
 
-def remaining_rate(drift_per_period: float, n: int,
-                   recur_tol: float = 0.0) -> tuple[float, float, float] | None:
+def remaining_rate(
+    drift_per_period: float, n: int, recur_tol: float = 0.0
+) -> tuple[float, float, float] | None:
     """The asymptotic drift rate from the last 3 n drifts per period: the
     weighted Birkhoff averages v1, v2, v3 of three windows of n periods, and
     (v3, v_inf, bound): v_inf the rate they tend to, with the change from
@@ -174,13 +177,13 @@ def remaining_rate(drift_per_period: float, n: int,
     quasi-periodic orbit the averages converge far faster than that, so this
     only makes it run longer."""
     w = birkhoff_weights(n)
-    d = np.asarray(drift_per_period)[-3 * n:]
-    v1, v2, v3 = (float(w @ d[i * n:(i + 1) * n]) for i in range(3))
+    d = np.asarray(drift_per_period)[-3 * n :]
+    v1, v2, v3 = (float(w @ d[i * n : (i + 1) * n]) for i in range(3))
     if not all(math.isfinite(v) for v in (v1, v2, v3)):
         return None
     noise = 0.0
     if recurrence_period(d[-n:], recur_tol) is None:
-        blocks = d[:d.size - d.size % NOISE_BLOCKS].reshape(NOISE_BLOCKS, -1).mean(axis=1)
+        blocks = d[: d.size - d.size % NOISE_BLOCKS].reshape(NOISE_BLOCKS, -1).mean(axis=1)
         noise = NOISE_SIGMAS * float(np.std(blocks, ddof=1)) / math.sqrt(NOISE_BLOCKS / 3)
     d1, d2 = v2 - v1, v3 - v2
     if d1 == 0.0 or d2 == 0.0 or d2 / d1 < 0.0:
@@ -212,8 +215,15 @@ class DecidedRule:
     `t_strobe`, `x_strobe` (the whole period the extrapolation starts from).
     """
 
-    def __init__(self, periods: float, tau: float, amplitude: float, mass: float,
-                 fidelity: str = "standard", v0: float = V0) -> None:
+    def __init__(
+        self,
+        periods: float,
+        tau: float,
+        amplitude: float,
+        mass: float,
+        fidelity: str = "standard",
+        v0: float = V0,
+    ) -> None:
         self.periods = float(periods)
         self.amplitude = float(amplitude)
         self.mass = float(mass)
@@ -225,7 +235,7 @@ class DecidedRule:
         self.rate = math.nan
         self.t_strobe = math.nan
         self.x_strobe = math.nan
-        self._growth: list = []              # (t, log growth since the start) of the tangent
+        self._growth: list = []  # (t, log growth since the start) of the tangent
         self._quiet_until = -math.inf  # no decision can come before (a long flight's landing)
 
     def next_check(self, t: float) -> float:
@@ -240,8 +250,7 @@ class DecidedRule:
         # can land again (its earliest landing, `__call__`)
         return float(max(t_next, self._quiet_until // 1.0))
 
-    def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None,
-                 flight=None):
+    def __call__(self, t_now, samples, events, in_flight_since=None, lyapunov=None, flight=None):
         """Decide at a chunk end t_now: True to stop (reason set).
         samples, events: the run's records so far; in_flight_since: the
         start of a flight in progress (None in contact); lyapunov: (t0, log
@@ -263,13 +272,12 @@ class DecidedRule:
         # chaotic hopping: a run that never left the surface is not called
         # chaotic early (its tangent can grow for a while near a resonance
         # of the contact oscillation and decay later)
-        if (lyapunov is not None and self._chaotic(t_now, *lyapunov)
-                and (events[:, 1] == R.TAKEOFF).any()):
+        if lyapunov is not None and self._chaotic(t_now, *lyapunov) and (events[:, 1] == R.TAKEOFF).any():
             self.reason = STOP_CHAOTIC
             self.t_stop = float(samples[-1, R.T_])
             return True
         k_end = int(math.floor(t_now + 1e-9))
-        if samples[-1, R.T_] < k_end:   # the sample at k_end is not yet recorded
+        if samples[-1, R.T_] < k_end:  # the sample at k_end is not yet recorded
             k_end -= 1
         third = (k_end - self.t_settle) // 3
         if third < MIN_WINDOW // 3:
@@ -314,9 +322,11 @@ class DecidedRule:
             rows = np.minimum(np.searchsorted(t, times - 1e-9), t.size - 1)
             ok = (np.abs(t[rows] - times) <= 1e-9) & (samples[rows, R.STATE] == FLIGHT)
             return np.where(ok, rows, -1)
+
         # the last whole period in flight, within reach of a recurrence
-        latest = in_flight_at(np.arange(k_end, max(self.t_settle, k_end - RECUR_LONGEST) - 1,
-                                        -1, dtype=float))
+        latest = in_flight_at(
+            np.arange(k_end, max(self.t_settle, k_end - RECUR_LONGEST) - 1, -1, dtype=float)
+        )
         found = np.flatnonzero(latest >= 0)
         if found.size == 0:
             return False
@@ -337,12 +347,12 @@ class DecidedRule:
             return False
         p = int(periods[hits[0]])
         back = back[hits[0]]
-        x = samples[[row, *back], R.X]               # at k, k - p, ..., k - RECUR_CYCLES p
-        advance = x[:-1] - x[1:]                     # the cycles', latest first
+        x = samples[[row, *back], R.X]  # at k, k - p, ..., k - RECUR_CYCLES p
+        advance = x[:-1] - x[1:]  # the cycles', latest first
         change = np.abs(np.diff(advance))
         rounding = 64.0 * np.finfo(float).eps * float(np.max(np.abs(x)) + 1.0)
         if change[0] > max(float(change[1:].max()), rounding):
-            return False                             # the advance changes faster: not settled
+            return False  # the advance changes faster: not settled
         n = math.ceil((self.periods - k) / p)
         rate = float(advance[0]) / p
         worst = float(change.max()) * (n + 0.5 * n * (n + 1))
@@ -351,7 +361,7 @@ class DecidedRule:
         self.reason = STOP_RECURRENT
         self.rate = rate
         self.t_stop = float(samples[-1, R.T_])
-        self.t_strobe = self.periods - n * p          # in (k - p, k]
+        self.t_strobe = self.periods - n * p  # in (k - p, k]
         self.x_strobe = float(stroboscope(samples, np.array([self.t_strobe]))[0])
         return True
 
@@ -401,7 +411,7 @@ class DecidedRule:
         j = int(np.searchsorted(events[:, 0], k0 - limit))
         kinds = events[:, 1]
         before = np.flatnonzero(kinds[:j] == R.TAKEOFF)
-        events = events[before[-1] if before.size else j:]
+        events = events[before[-1] if before.size else j :]
         kinds = events[:, 1]
         t_to = events[kinds == R.TAKEOFF, 0]
         t_la = events[kinds == R.LANDING, 0]
@@ -423,10 +433,13 @@ class DecidedRule:
 
     def attrs(self) -> dict[str, Any]:
         """The run's attributes of the rule."""
-        return {"stop": "decided", "stop_reason": REASONS[self.reason],
-                "periods_run": self.t_stop,
-                "asymptotic_drift_velocity": None if math.isnan(self.rate) else self.rate,
-                "decided_drift_velocity": self.drift_velocity()}
+        return {
+            "stop": "decided",
+            "stop_reason": REASONS[self.reason],
+            "periods_run": self.t_stop,
+            "asymptotic_drift_velocity": None if math.isnan(self.rate) else self.rate,
+            "decided_drift_velocity": self.drift_velocity(),
+        }
 
 
 def replay(rule: DecidedRule, samples: Any, events: Any) -> DecidedRule:

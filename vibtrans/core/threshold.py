@@ -5,6 +5,7 @@ alone, docs/MODEL.md section 4), found by bisection in log10 A*.
 Jumping is monotonic in A* (the paper's argument: if it jumps at A*, it jumps
 at any larger amplitude), which is what makes bisection valid.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,9 +26,16 @@ if TYPE_CHECKING:
     import xarray as xr
 
 
-def first_takeoff(amplitude: float, mass: float, tau: float = 50.0, periods: float = 2000.0,
-                  fidelity: str = "standard", integrator: str = "ab4", profile: str = "sphere",
-                  load_over_modulus: float | None = None) -> float:
+def first_takeoff(
+    amplitude: float,
+    mass: float,
+    tau: float = 50.0,
+    periods: float = 2000.0,
+    fidelity: str = "standard",
+    integrator: str = "ab4",
+    profile: str = "sphere",
+    load_over_modulus: float | None = None,
+) -> float:
     """Time of the first contact loss of the vertical Hertz particle.
 
     Inputs are validated as a Scene would validate them.
@@ -61,9 +69,17 @@ def first_takeoff(amplitude: float, mass: float, tau: float = 50.0, periods: flo
     InputError
         If a parameter is outside its range.
     """
-    scene = Scene(amplitude=amplitude, mass=mass, tau=tau, periods=periods,
-                  fidelity=fidelity, integrator=integrator, model="vertical",
-                  profile=profile, load_over_modulus=load_over_modulus)
+    scene = Scene(
+        amplitude=amplitude,
+        mass=mass,
+        tau=tau,
+        periods=periods,
+        fidelity=fidelity,
+        integrator=integrator,
+        model="vertical",
+        profile=profile,
+        load_over_modulus=load_over_modulus,
+    )
     return _first_takeoff(scene)
 
 
@@ -71,25 +87,42 @@ def _first_takeoff(scene, max_steps=DEFAULT_MAX_STEPS):
     # it stops at the first take-off: no impact to resolve, only the linear
     # contact oscillation
     law = drivers.scene_law(scene)
-    h = time_step(scene.amplitude, scene.mass, scene.fidelity, impacts=False,
-                  scales=drivers.scene_scales(scene))
-    drivers.checked_steps(step_count(scene.periods, h), max_steps,
-                          f"threshold run at A* = {scene.amplitude:.3g}, "
-                          f"m* = {scene.mass:.3g}", h)
-    p = D.kernel_params(scene.amplitude, scene.mass, 1.0, 1.0, 0.0, scene.tau, h,
-                        scene.periods, math.inf)
+    h = time_step(
+        scene.amplitude, scene.mass, scene.fidelity, impacts=False, scales=drivers.scene_scales(scene)
+    )
+    drivers.checked_steps(
+        step_count(scene.periods, h),
+        max_steps,
+        f"threshold run at A* = {scene.amplitude:.3g}, m* = {scene.mass:.3g}",
+        h,
+    )
+    p = D.kernel_params(scene.amplitude, scene.mass, 1.0, 1.0, 0.0, scene.tau, h, scene.periods, math.inf)
     # one kernel call (chunk_steps=None): a take-off time is bit-reproducible
-    run = drivers.run_hertz(p, scene.integrator, tangential=False, samples_capacity=4,
-                            events_capacity=8, stop_at_takeoff=True, chunk_steps=None,
-                            law=law)
+    run = drivers.run_hertz(
+        p,
+        scene.integrator,
+        tangential=False,
+        samples_capacity=4,
+        events_capacity=8,
+        stop_at_takeoff=True,
+        chunk_steps=None,
+        law=law,
+    )
     hit = np.flatnonzero(run.events[:, 1] == R.TAKEOFF)
     return float(run.events[hit[0], 0]) if hit.size else math.inf
 
 
-def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
-                        fidelity: str = "standard", integrator: str = "ab4", rel_tol: float = 1e-3,
-                        guess: float | None = None, profile: str = "sphere",
-                        load_over_modulus: float | None = None) -> float:
+def threshold_amplitude(
+    mass: float,
+    tau: float = 50.0,
+    periods: float = 2000.0,
+    fidelity: str = "standard",
+    integrator: str = "ab4",
+    rel_tol: float = 1e-3,
+    guess: float | None = None,
+    profile: str = "sphere",
+    load_over_modulus: float | None = None,
+) -> float:
     """The jumping threshold A_J*(m*): the smallest A* with a contact loss.
 
     Bisection in log10 A* to a relative width `rel_tol`.  Without a guess the
@@ -131,12 +164,18 @@ def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
     RuntimeError
         If no contact loss occurs up to A* = 1e8.
     """
-    if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) \
-            or not 1e-12 <= rel_tol <= 0.5:
+    if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) or not 1e-12 <= rel_tol <= 0.5:
         raise InputError(f"rel_tol must be in [1e-12, 0.5], got {rel_tol!r}")
-    base = Scene(mass=mass, tau=tau, periods=periods, fidelity=fidelity,
-                 integrator=integrator, model="vertical", profile=profile,
-                 load_over_modulus=load_over_modulus)
+    base = Scene(
+        mass=mass,
+        tau=tau,
+        periods=periods,
+        fidelity=fidelity,
+        integrator=integrator,
+        model="vertical",
+        profile=profile,
+        load_over_modulus=load_over_modulus,
+    )
 
     def jumps(a):
         return _first_takeoff(base.replace(amplitude=a)) < math.inf
@@ -157,7 +196,7 @@ def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
                 return lo
         lo, hi = first_jump_above(lo, hi, 1.25)
     else:
-        _, hi = first_jump_above(None, max(4.0, 4.0 / (4.0 * math.pi ** 2 * mass)), 4.0)
+        _, hi = first_jump_above(None, max(4.0, 4.0 / (4.0 * math.pi**2 * mass)), 4.0)
         lo = 1e-5
         if jumps(lo):
             return lo
@@ -172,15 +211,14 @@ def threshold_amplitude(mass: float, tau: float = 50.0, periods: float = 2000.0,
 
 def point_mass_threshold(mass: float) -> float:
     """Rigid contact: jumping at m* = 1/(4 pi^2 A*) (docs/MODEL.md section 3)."""
-    return 1.0 / (4.0 * math.pi ** 2 * mass)
+    return 1.0 / (4.0 * math.pi**2 * mass)
 
 
-def point_mass_sliding_threshold(mass: float, mu: float = 0.3, r: Any = None,
-                                 nu: float = 0.3) -> float:
+def point_mass_sliding_threshold(mass: float, mu: float = 0.3, r: Any = None, nu: float = 0.3) -> float:
     """Rigid contact: sliding starts at m* = mu/sqrt(mu^2+r^2)/(4 pi^2 A*)."""
     if r is None:
         r = Scene(nu=nu).r
-    return mu / math.sqrt(mu * mu + r * r) / (4.0 * math.pi ** 2 * mass)
+    return mu / math.sqrt(mu * mu + r * r) / (4.0 * math.pi**2 * mass)
 
 
 def _threshold_task(args):
@@ -189,9 +227,15 @@ def _threshold_task(args):
     out = []
     guess = None
     for m in masses:
-        guess = threshold_amplitude(m, tau=tau, periods=periods, fidelity=fidelity,
-                                    guess=guess, profile=profile,
-                                    load_over_modulus=load_over_modulus)
+        guess = threshold_amplitude(
+            m,
+            tau=tau,
+            periods=periods,
+            fidelity=fidelity,
+            guess=guess,
+            profile=profile,
+            load_over_modulus=load_over_modulus,
+        )
         out.append(guess)
     return out
 
@@ -227,9 +271,16 @@ def resonances(log_mass: npt.ArrayLike, aj: npt.ArrayLike) -> dict[Any, Any] | d
     return out
 
 
-def threshold_curve(log_mass: npt.ArrayLike, tau: float = 50.0, periods: float = 2000.0,
-                    fidelity: str = "standard", workers: int | None = None, progress: bool = True,
-                    profile: str = "sphere", load_over_modulus: float | None = None) -> xr.Dataset:
+def threshold_curve(
+    log_mass: npt.ArrayLike,
+    tau: float = 50.0,
+    periods: float = 2000.0,
+    fidelity: str = "standard",
+    workers: int | None = None,
+    progress: bool = True,
+    profile: str = "sphere",
+    load_over_modulus: float | None = None,
+) -> xr.Dataset:
     """The jumping threshold A_J*(m*) over a grid of log10 m*.
 
     With the rigid line and the resonances; runs on a local process pool.
@@ -273,26 +324,45 @@ def threshold_curve(log_mass: npt.ArrayLike, tau: float = 50.0, periods: float =
     from tqdm import tqdm
 
     from vibtrans.version import __version__
-    Scene(tau=tau, periods=periods, fidelity=fidelity, profile=profile,
-          load_over_modulus=load_over_modulus)      # validate
+
+    Scene(
+        tau=tau, periods=periods, fidelity=fidelity, profile=profile, load_over_modulus=load_over_modulus
+    )  # validate
     log_mass = np.asarray(log_mass, dtype=float)
-    masses = 10.0 ** log_mass
-    runs = [masses[i:i + 25] for i in range(0, masses.size, 25)]
+    masses = 10.0**log_mass
+    runs = [masses[i : i + 25] for i in range(0, masses.size, 25)]
     tasks = [(run, tau, periods, fidelity, profile, load_over_modulus) for run in runs]
     workers = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        parts = list(tqdm(pool.map(_threshold_task, tasks), total=len(tasks),
-                          file=sys.stderr, disable=not progress, desc="threshold runs"))
+        parts = list(
+            tqdm(
+                pool.map(_threshold_task, tasks),
+                total=len(tasks),
+                file=sys.stderr,
+                disable=not progress,
+                desc="threshold runs",
+            )
+        )
     aj = np.concatenate(parts)
     res = resonances(log_mass, aj)
     ds = xr.Dataset(
-        {"threshold_amplitude": ("log_mass", aj, {"description": "A_J*: deformable (Hertz) particle"}),
-         "point_mass_threshold_amplitude": ("log_mass", 1.0 / (4 * np.pi ** 2 * masses),
-                                            {"description": "rigid contact: 1/(4 pi^2 m*)"})},
+        {
+            "threshold_amplitude": ("log_mass", aj, {"description": "A_J*: deformable (Hertz) particle"}),
+            "point_mass_threshold_amplitude": (
+                "log_mass",
+                1.0 / (4 * np.pi**2 * masses),
+                {"description": "rigid contact: 1/(4 pi^2 m*)"},
+            ),
+        },
         coords={"log_mass": log_mass},
-        attrs={"tau": tau, "periods": periods, "fidelity": fidelity,
-               "code_version": __version__,
-               **({} if profile == "sphere" else {"profile": profile}),
-               **{f"resonance_{k}_log_mass": float(log_mass[i]) for k, i in res.items()},
-               **{f"resonance_{k}_amplitude": float(aj[i]) for k, i in res.items()}})
+        attrs={
+            "tau": tau,
+            "periods": periods,
+            "fidelity": fidelity,
+            "code_version": __version__,
+            **({} if profile == "sphere" else {"profile": profile}),
+            **{f"resonance_{k}_log_mass": float(log_mass[i]) for k, i in res.items()},
+            **{f"resonance_{k}_amplitude": float(aj[i]) for k, i in res.items()},
+        },
+    )
     return ds

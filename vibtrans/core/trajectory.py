@@ -11,6 +11,7 @@
 Normalized units (docs/MODEL.md): lengths in a0 (b* in theta mu a0), time in wave
 periods, forces in N(a0) (T* in mu N(a0)).  state codes: contact.STATE_NAMES.
 """
+
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -37,10 +38,11 @@ _UNITS = {
     "stick_radius": ("s", "stick radius, units of sqrt(R a0)"),
     "contact_radius": ("c", "contact radius, units of sqrt(R a0)"),
     "roll": ("omega R dt", "rolled arc, the integral of omega R, / a0 (angle x R / a0)"),
-    "roll_velocity": ("omega R", "rolling velocity of the surface about the centre, a0 per "
-                                 "period"),
-    "slip_velocity": ("x*' + omega R - u_x*'", "contact point's velocity relative to the "
-                                               "substrate, a0 per period"),
+    "roll_velocity": ("omega R", "rolling velocity of the surface about the centre, a0 per period"),
+    "slip_velocity": (
+        "x*' + omega R - u_x*'",
+        "contact point's velocity relative to the substrate, a0 per period",
+    ),
 }
 
 
@@ -49,7 +51,7 @@ def _rolling_columns(columns, attrs):
     j (omega R)' = x*'' from rest, omega R = x*'/j and its integral x*/j at
     every instant (flights included); the contact point slips at
     theta mu b*' (b*' = ((1 + 1/j) x*' - u_x*') / (theta mu))."""
-    roll_ratio = 1.0 / float(attrs["inertia_ratio"])     # as the kernel's (simulate.roll_ratio)
+    roll_ratio = 1.0 / float(attrs["inertia_ratio"])  # as the kernel's (simulate.roll_ratio)
     columns["roll"] = columns["x"] * roll_ratio
     columns["roll_velocity"] = columns["vx"] * roll_ratio
     columns["slip_velocity"] = columns["bdot"] * (float(attrs["theta"]) * float(attrs["mu"]))
@@ -71,10 +73,10 @@ class RunArrays:
     columns (a map point reads a few of them: copying all cost ~1 ms a
     point, a fifth of a decided material point's time); `contiguous=True`
     copies them (a Dataset to keep)."""
+
     __slots__ = ("columns", "attrs")
 
-    def __init__(self, samples: Any, events: np.ndarray, attrs: Any,
-                 contiguous: bool = False) -> None:
+    def __init__(self, samples: Any, events: np.ndarray, attrs: Any, contiguous: bool = False) -> None:
         take = np.ascontiguousarray if contiguous else (lambda column: column)
         columns = {"time": take(samples[:, R.T_])}
         for i, name in enumerate(R.COLUMNS):
@@ -86,10 +88,11 @@ class RunArrays:
         columns["event_time"] = take(events[:, 0])
         columns["event_kind"] = events[:, 1].astype(np.int8)
         columns["event_value"] = take(events[:, 2])
-        self.columns = columns          # name -> array
+        self.columns = columns  # name -> array
         # what a Dataset can store: no None, booleans as 0/1
-        self.attrs: dict[str, Any] = {k: (v if not isinstance(v, bool) else int(v))
-                                      for k, v in attrs.items() if v is not None}
+        self.attrs: dict[str, Any] = {
+            k: (v if not isinstance(v, bool) else int(v)) for k, v in attrs.items() if v is not None
+        }
 
     def __getitem__(self, name):
         return _Column(self.columns[name])
@@ -104,16 +107,20 @@ def build_trajectory(samples: Any, events: np.ndarray, attrs: Any) -> xr.Dataset
         if name in _UNITS:
             symbol, desc = _UNITS[name]
             data[name] = ("time", array, {"symbol": symbol, "long_name": desc})
-    data["state"] = ("time", run.columns["state"],
-                     {"flag_values": list(range(len(STATE_NAMES))),
-                      "flag_meanings": " ".join(s.replace(" ", "_") for s in STATE_NAMES)})
+    data["state"] = (
+        "time",
+        run.columns["state"],
+        {
+            "flag_values": list(range(len(STATE_NAMES))),
+            "flag_meanings": " ".join(s.replace(" ", "_") for s in STATE_NAMES),
+        },
+    )
     data["event_time"] = ("event", run.columns["event_time"])
-    data["event_kind"] = ("event", run.columns["event_kind"],
-                          {"flag_meanings": " ".join(R.EVENT_NAMES)})
+    data["event_kind"] = ("event", run.columns["event_kind"], {"flag_meanings": " ".join(R.EVENT_NAMES)})
     data["event_value"] = ("event", run.columns["event_value"])
-    return xr.Dataset(data, coords={"time": ("time", run.columns["time"],
-                                             {"units": "wave periods"})},
-                      attrs=run.attrs)
+    return xr.Dataset(
+        data, coords={"time": ("time", run.columns["time"], {"units": "wave periods"})}, attrs=run.attrs
+    )
 
 
 def events_of(ds: xr.Dataset, kind: str) -> tuple[np.ndarray, np.ndarray]:

@@ -20,11 +20,24 @@ import numpy as np
 from vibtrans.core.errors import InputError, InputTypeError
 
 __all__ = [
-    "Material", "MATERIALS", "material", "material_names", "custom_material",
-    "rayleigh_speed_ratio", "rayleigh_speed", "amplitude_ratio",
-    "stiffness_ratio", "effective_modulus", "hertz_compression",
-    "sphere_mass", "DeviceSpec", "NormalizedScene", "to_normalized",
-    "frequency_for_mass_ratio", "amplitude_from_normalized", "duration_text",
+    "Material",
+    "MATERIALS",
+    "material",
+    "material_names",
+    "custom_material",
+    "rayleigh_speed_ratio",
+    "rayleigh_speed",
+    "amplitude_ratio",
+    "stiffness_ratio",
+    "effective_modulus",
+    "hertz_compression",
+    "sphere_mass",
+    "DeviceSpec",
+    "NormalizedScene",
+    "to_normalized",
+    "frequency_for_mass_ratio",
+    "amplitude_from_normalized",
+    "duration_text",
 ]
 
 _INF = math.inf
@@ -32,8 +45,9 @@ _NU = (0.0, 0.5)  # open interval: the elastic range of an isotropic solid with 
 
 
 # --------------------------------------------------------------------------- validation
-def check_interval(name: str, value: Any, lo: Any = -_INF, hi: Any = _INF, lo_open: bool = True,
-                   hi_open: bool = True) -> Any:
+def check_interval(
+    name: str, value: Any, lo: Any = -_INF, hi: Any = _INF, lo_open: bool = True, hi_open: bool = True
+) -> Any:
     """Return ``value`` as float (or float array) after checking it is finite and
     inside the interval; raise TypeError / ValueError naming ``name`` otherwise."""
     interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
@@ -94,55 +108,102 @@ class Material:
             raise InputTypeError(f"source must be a string, got {self.source!r}")
 
 
-_PAPER = "Terzi, Aleshin, Ghesquiere, Tournat, Vibrational Transportation of Deformable " \
-         "Axisymmetric Particles (worked example)"
+_PAPER = (
+    "Terzi, Aleshin, Ghesquiere, Tournat, Vibrational Transportation of Deformable "
+    "Axisymmetric Particles (worked example)"
+)
 MATERIALS: dict[str, Material] = {
     "steel": Material("steel", 200e9, 0.3, 8000.0, f"{_PAPER}: 200 GPa, 0.3, 8000 kg/m^3"),
     "glass": Material("glass", 70e9, 0.3, 2500.0, f"{_PAPER}: 70 GPa, 0.3, 2500 kg/m^3"),
     "stainless_steel": Material(
-        "stainless steel", 193e9, 0.29, 8000.0,
-        "ASM Handbook vol. 1 (1990), AISI 304 annealed: 193 GPa, 0.29, 8000 kg/m^3"),
+        "stainless steel",
+        193e9,
+        0.29,
+        8000.0,
+        "ASM Handbook vol. 1 (1990), AISI 304 annealed: 193 GPa, 0.29, 8000 kg/m^3",
+    ),
     "aluminium": Material(
-        "aluminium", 69e9, 0.33, 2700.0,
-        "ASM Handbook vol. 2 (1990), alloy 6061-T6: 68.9 GPa, 0.33, 2700 kg/m^3"),
+        "aluminium",
+        69e9,
+        0.33,
+        2700.0,
+        "ASM Handbook vol. 2 (1990), alloy 6061-T6: 68.9 GPa, 0.33, 2700 kg/m^3",
+    ),
     "brass": Material(
-        "brass", 110e9, 0.375, 8530.0,
-        "ASM Handbook vol. 2 (1990), cartridge brass C26000: 110 GPa, 0.375, 8530 kg/m^3"),
+        "brass",
+        110e9,
+        0.375,
+        8530.0,
+        "ASM Handbook vol. 2 (1990), cartridge brass C26000: 110 GPa, 0.375, 8530 kg/m^3",
+    ),
     "silicon": Material(
-        "silicon", 160e9, 0.22, 2329.0,
+        "silicon",
+        160e9,
+        0.22,
+        2329.0,
         "Hopcroft, Nix, Kenny, J. MEMS 19, 229 (2010): isotropic (polycrystalline) "
-        "average ~160 GPa, 0.22; density 2329 kg/m^3"),
+        "average ~160 GPa, 0.22; density 2329 kg/m^3",
+    ),
     # the key stays "quartz" (older name); "fused silica" is how people write it
     "quartz": Material(
-        "fused silica", 72e9, 0.17, 2200.0,
+        "fused silica",
+        72e9,
+        0.17,
+        2200.0,
         "Corning HPFS 7980 fused silica datasheet: 72.7 GPa, 0.16, 2201 kg/m^3 "
-        "(rounded handbook values 72 GPa, 0.17, 2200)"),
+        "(rounded handbook values 72 GPa, 0.17, 2200)",
+    ),
     "alumina": Material(
-        "alumina", 370e9, 0.22, 3900.0,
-        "CoorsTek AD-995 (99.5% Al2O3) datasheet: 370 GPa, 0.22, 3900 kg/m^3"),
+        "alumina", 370e9, 0.22, 3900.0, "CoorsTek AD-995 (99.5% Al2O3) datasheet: 370 GPa, 0.22, 3900 kg/m^3"
+    ),
     "ptfe": Material(
-        "PTFE", 0.5e9, 0.46, 2200.0,
+        "PTFE",
+        0.5e9,
+        0.46,
+        2200.0,
         "polymer handbooks (e.g. Mark, Physical Properties of Polymers Handbook, 2007): "
-        "E 0.4-0.6 GPa (rate dependent), 0.46, 2200 kg/m^3"),
+        "E 0.4-0.6 GPa (rate dependent), 0.46, 2200 kg/m^3",
+    ),
     "polystyrene": Material(
-        "polystyrene", 3.2e9, 0.34, 1050.0,
+        "polystyrene",
+        3.2e9,
+        0.34,
+        1050.0,
         "polymer handbooks (e.g. Mark, Physical Properties of Polymers Handbook, 2007): "
-        "E 3.0-3.5 GPa, 0.34, 1050 kg/m^3 (microsphere powders)"),
+        "E 3.0-3.5 GPa, 0.34, 1050 kg/m^3 (microsphere powders)",
+    ),
     # LiNbO3 and LiTaO3 are anisotropic (trigonal): isotropic APPROXIMATIONS
     "lithium_niobate": Material(
-        "lithium niobate", 170e9, 0.25, 4647.0,
+        "lithium niobate",
+        170e9,
+        0.25,
+        4647.0,
         "isotropic approximation from averaged stiffnesses (Weis & Gaylord, Appl. Phys. A "
-        "37, 191 (1985) data): ~170 GPa, ~0.25, 4647 kg/m^3"),
+        "37, 191 (1985) data): ~170 GPa, ~0.25, 4647 kg/m^3",
+    ),
     "lithium_tantalate": Material(
-        "lithium tantalate", 222e9, 0.21, 7454.0,
+        "lithium tantalate",
+        222e9,
+        0.21,
+        7454.0,
         "isotropic (Voigt) average of Smith & Welsh, J. Appl. Phys. 42, 2219 (1971) "
         "stiffnesses c11 233, c12 47, c13 80, c33 275, c44 94 GPa: 222 GPa, 0.21; "
-        "7454 kg/m^3"),
+        "7454 kg/m^3",
+    ),
 }
-_ALIASES = {"aluminum": "aluminium", "fused_silica": "quartz", "silica": "quartz",
-            "teflon": "ptfe", "linbo3": "lithium_niobate", "litao3": "lithium_tantalate",
-            "ss304": "stainless_steel", "304_stainless_steel": "stainless_steel",
-            "al2o3": "alumina", "ps": "polystyrene", "si": "silicon"}
+_ALIASES = {
+    "aluminum": "aluminium",
+    "fused_silica": "quartz",
+    "silica": "quartz",
+    "teflon": "ptfe",
+    "linbo3": "lithium_niobate",
+    "litao3": "lithium_tantalate",
+    "ss304": "stainless_steel",
+    "304_stainless_steel": "stainless_steel",
+    "al2o3": "alumina",
+    "ps": "polystyrene",
+    "si": "silicon",
+}
 # the keyword form of a custom material, e.g. "E=70e9,nu=0.3,rho=2500"
 CUSTOM_KEYS = {"e": "youngs_modulus", "nu": "poisson_ratio", "rho": "density"}
 
@@ -152,11 +213,11 @@ def material_names() -> list[str]:
     return sorted({m.name for m in MATERIALS.values()} | set(MATERIALS) | set(_ALIASES))
 
 
-def custom_material(youngs_modulus: float, poisson_ratio: float, density: float,
-                    name: str = "custom") -> Material:
+def custom_material(
+    youngs_modulus: float, poisson_ratio: float, density: float, name: str = "custom"
+) -> Material:
     """A material by its three properties: E [Pa], nu in (0, 0.5), density [kg/m^3]."""
-    return Material(name, youngs_modulus, poisson_ratio, density,
-                    source="user-supplied values")
+    return Material(name, youngs_modulus, poisson_ratio, density, source="user-supplied values")
 
 
 def _parse_custom(text):
@@ -168,17 +229,18 @@ def _parse_custom(text):
         key, _, value = part.partition("=")
         key = key.strip().lower()
         if key not in CUSTOM_KEYS:
-            raise InputError(f"custom material {text!r}: unknown property {key!r}; "
-                             f"write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
+            raise InputError(
+                f"custom material {text!r}: unknown property {key!r}; write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>"
+            )
         try:
             values[CUSTOM_KEYS[key]] = float(value)
         except ValueError:
-            raise InputError(f"custom material {text!r}: {key} must be a number, "
-                             f"got {value!r}") from None
+            raise InputError(f"custom material {text!r}: {key} must be a number, got {value!r}") from None
     missing = [k for k, v in CUSTOM_KEYS.items() if v not in values]
     if missing:
-        raise InputError(f"custom material {text!r} lacks {', '.join(missing)}; "
-                         f"write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
+        raise InputError(
+            f"custom material {text!r} lacks {', '.join(missing)}; write E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>"
+        )
     return custom_material(name=f"custom ({text.strip()})", **values)
 
 
@@ -197,8 +259,10 @@ def material(name: Any) -> Material:
         by_name = {m.name.lower().replace(" ", "_"): k for k, m in MATERIALS.items()}
         key = by_name.get(key, key)
     if key not in MATERIALS:
-        raise InputError(f"unknown material {name!r}; valid names: "
-                         f"{', '.join(material_names())}, or E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>")
+        raise InputError(
+            f"unknown material {name!r}; valid names: "
+            f"{', '.join(material_names())}, or E=<Pa>,nu=<0..0.5>,rho=<kg/m^3>"
+        )
     return MATERIALS[key]
 
 
@@ -241,18 +305,18 @@ def _brentq(f, xa, xb, xtol, rtol, maxiter=100):
         if fcur == 0 or abs(sbis) < delta:
             return xcur
         if abs(spre) > delta and abs(fcur) < abs(fpre):
-            if xpre == xblk:        # interpolate
+            if xpre == xblk:  # interpolate
                 stry = -fcur * (xcur - xpre) / (fcur - fpre)
-            else:                   # extrapolate
+            else:  # extrapolate
                 dpre = (fpre - fcur) / (xpre - xcur)
                 dblk = (fblk - fcur) / (xblk - xcur)
                 stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
             if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):
-                spre, scur = scur, stry     # good short step
+                spre, scur = scur, stry  # good short step
             else:
-                spre = scur = sbis          # bisect
+                spre = scur = sbis  # bisect
         else:
-            spre = scur = sbis              # bisect
+            spre = scur = sbis  # bisect
         xpre, fpre = xcur, fcur
         xcur += scur if abs(scur) > delta else (delta if sbis > 0 else -delta)
         fcur = f(xcur)
@@ -367,8 +431,9 @@ class NormalizedScene:
         return _out(self.a0 * self.frequency * check_interval("v_star", v_star))
 
 
-def static_contact(substrate: str | Material, particle: str | Material, radius: Any, preload: Any,
-                   g: Any) -> tuple[Material, Material, Any, Any, Any]:
+def static_contact(
+    substrate: str | Material, particle: str | Material, radius: Any, preload: Any, g: Any
+) -> tuple[Material, Material, Any, Any, Any]:
     """(substrate, particle, mass [kg], load [N], a0 [m]) shared by the converters."""
     sub, par = as_material("substrate", substrate), as_material("particle", particle)
     radius = check_positive("radius", radius)
@@ -376,16 +441,22 @@ def static_contact(substrate: str | Material, particle: str | Material, radius: 
     mass = sphere_mass(radius, par.density)
     load = mass * g + preload
     if load <= 0:  # only reachable with g = 0 and no preload
-        raise InputError(f"load m*g + preload must be in (0, inf), got {load:g} "
-                         f"(g={g:g}, preload={preload:g})")
-    E_eff = effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
-                              par.youngs_modulus, par.poisson_ratio)
+        raise InputError(
+            f"load m*g + preload must be in (0, inf), got {load:g} (g={g:g}, preload={preload:g})"
+        )
+    E_eff = effective_modulus(sub.youngs_modulus, sub.poisson_ratio, par.youngs_modulus, par.poisson_ratio)
     return sub, par, mass, load, hertz_compression(load, radius, E_eff)
 
 
-def to_normalized(substrate: str | Material, particle: str | Material, radius: float,
-                  frequency: Any, amplitude: float, preload: float = 0.0,
-                  g: float = 9.81) -> NormalizedScene:
+def to_normalized(
+    substrate: str | Material,
+    particle: str | Material,
+    radius: float,
+    frequency: Any,
+    amplitude: float,
+    preload: float = 0.0,
+    g: float = 9.81,
+) -> NormalizedScene:
     """Normalize a device: sphere of ``radius`` [m] made of ``particle`` on ``substrate``
     (names or Material), wave ``frequency`` [Hz], vertical amplitude A_y ``amplitude`` [m],
     pre-load ``preload`` [N], gravity ``g`` [m/s^2]. Returns a NormalizedScene."""
@@ -394,11 +465,16 @@ def to_normalized(substrate: str | Material, particle: str | Material, radius: f
     A_y = check_nonnegative("amplitude", amplitude)
     nu = sub.poisson_ratio
     return NormalizedScene(
-        mass_kg=mass, load_N=load, a0=a0,
-        m_star=a0 * mass * f**2 / load, A_star=A_y / a0,
+        mass_kg=mass,
+        load_N=load,
+        a0=a0,
+        m_star=a0 * mass * f**2 / load,
+        A_star=A_y / a0,
         r=amplitude_ratio(nu),
         theta=stiffness_ratio(sub.youngs_modulus, nu, par.youngs_modulus, par.poisson_ratio),
-        nu=nu, c_R=rayleigh_speed(sub.youngs_modulus, nu, sub.density), frequency=f,
+        nu=nu,
+        c_R=rayleigh_speed(sub.youngs_modulus, nu, sub.density),
+        frequency=f,
     )
 
 
@@ -415,12 +491,19 @@ class DeviceSpec:
     g: float = 9.81
 
     def normalized(self) -> NormalizedScene:
-        return to_normalized(self.substrate, self.particle, self.radius, self.frequency,
-                             self.amplitude, self.preload, self.g)
+        return to_normalized(
+            self.substrate, self.particle, self.radius, self.frequency, self.amplitude, self.preload, self.g
+        )
 
 
-def frequency_for_mass_ratio(m_star: Any, substrate: str | Material, particle: str | Material,
-                             radius: float, preload: float = 0.0, g: float = 9.81) -> Any:
+def frequency_for_mass_ratio(
+    m_star: Any,
+    substrate: str | Material,
+    particle: str | Material,
+    radius: float,
+    preload: float = 0.0,
+    g: float = 9.81,
+) -> Any:
     """Wave frequency f [Hz] at which the device has the given m* (a0 does not depend on f):
     f = sqrt(m* Mg / (a0 m))."""
     m_star = check_positive("m_star", m_star)

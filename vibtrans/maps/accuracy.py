@@ -5,6 +5,7 @@ against the standard 2000-period one; the share of regular points whose
 drift class agrees, the median and 90th percentile of |v - v_ref| /
 max(|v_ref|, 0.1) (large for short runs: accelerating drifts), the steps.
 """
+
 from __future__ import annotations
 
 # (fidelity, periods): (class agreement, median, p90 drift difference, steps ratio)
@@ -22,6 +23,7 @@ REFERENCE = ("standard", 2000.0)
 def nearest(fidelity: str, periods: float) -> tuple[str, float] | None:
     """The measured setting of the same preset nearest in log periods (None: not measured)."""
     import math
+
     same = [p for f, p in MEASURED if f == fidelity]
     if not same or not (isinstance(periods, (int, float)) and periods > 0):
         return None
@@ -32,13 +34,19 @@ def note(fidelity: str, periods: float) -> str:
     """A map request's line: what its nearest measured setting gave."""
     key = nearest(fidelity, periods)
     if key is None:
-        return (f"*Accuracy: {fidelity} is more accurate than the standard, 2000-period "
-                f"maps the other settings are measured against.*")
+        return (
+            f"*Accuracy: {fidelity} is more accurate than the standard, 2000-period "
+            f"maps the other settings are measured against.*"
+        )
     agree, median, p90, cost = MEASURED[key]
     if key == REFERENCE:
-        return ("*Accuracy: standard, 2000 periods is the setting the others are measured "
-                "against (the shipped maps').*")
-    return (f"*Accuracy measured for {key[0]}, {key[1]:g} periods against standard, 2000 "
-            f"periods (one 41 x 41 window): drift class agrees at {100 * agree:.1f}% of the "
-            f"regular points, relative drift difference median {median:.1g}, 90th percentile "
-            f"{p90:.2g}; {cost:.2f}x the steps.*")
+        return (
+            "*Accuracy: standard, 2000 periods is the setting the others are measured "
+            "against (the shipped maps').*"
+        )
+    return (
+        f"*Accuracy measured for {key[0]}, {key[1]:g} periods against standard, 2000 "
+        f"periods (one 41 x 41 window): drift class agrees at {100 * agree:.1f}% of the "
+        f"regular points, relative drift difference median {median:.1g}, 90th percentile "
+        f"{p90:.2g}; {cost:.2f}x the steps.*"
+    )

@@ -14,6 +14,7 @@ marks the simulated ones.
 Resumable from digested .npz batches in `<out>.partial/` (a damaged one:
 StoreMismatch naming it); the result is a regular sweep store.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -39,34 +40,42 @@ if TYPE_CHECKING:
 MAX_LEVELS = (1, 8)
 DEFAULT_DRIFT_TOLERANCE = 0.5
 CATEGORICAL = ("drift", "contact", "chaotic", "pattern")
-CONTINUOUS = ("drift_velocity", "final_drift_velocity", "contact_fraction",
-              "takeoffs_per_period", "lyapunov")
-COMPUTED = {"computed": ("bool", False, "True where the point was simulated, False where it "
-                                        "was filled from its cell (adaptive maps)")}
-BATCH_POINTS = 64          # points per batch file (a kill loses at most these)
-POINTS_PER_TASK = 4        # points per worker task (amortizes the pool's overhead)
+CONTINUOUS = ("drift_velocity", "final_drift_velocity", "contact_fraction", "takeoffs_per_period", "lyapunov")
+COMPUTED = {
+    "computed": (
+        "bool",
+        False,
+        "True where the point was simulated, False where it was filled from its cell (adaptive maps)",
+    )
+}
+BATCH_POINTS = 64  # points per batch file (a kill loses at most these)
+POINTS_PER_TASK = 4  # points per worker task (amortizes the pool's overhead)
 
 
 def check_levels(sweep: Sweep, max_level: int) -> None:
     """Refuse a finest level outside 1..8 or a grid it cannot refine ((n - 1) % 2^K)."""
     lo, hi = MAX_LEVELS
-    if isinstance(max_level, bool) or not isinstance(max_level, (int, np.integer)) \
-            or not lo <= max_level <= hi:
+    if (
+        isinstance(max_level, bool)
+        or not isinstance(max_level, (int, np.integer))
+        or not lo <= max_level <= hi
+    ):
         raise InputError(f"max_level must be an integer in {lo}..{hi}, got {max_level!r}")
     stride = 2 ** int(max_level)
     for name in ("log_amplitude", "log_mass"):
         n = getattr(sweep, name).size
         if (n - 1) % stride or n < stride + 1:
             sizes = ", ".join(str(stride * k + 1) for k in (1, 2, 4, 8, 16))
-            raise InputError(f"{name} has {n} points, which max_level {max_level} cannot "
-                             f"refine: (points - 1) must be a multiple of 2^{max_level} = "
-                             f"{stride} (e.g. {sizes} points)")
+            raise InputError(
+                f"{name} has {n} points, which max_level {max_level} cannot "
+                f"refine: (points - 1) must be a multiple of 2^{max_level} = "
+                f"{stride} (e.g. {sizes} points)"
+            )
 
 
 def check_tolerance(tol: float) -> float:
     """Refuse a drift tolerance outside (0, 100]."""
-    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) \
-            or not 0 < tol <= 100:
+    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not 0 < tol <= 100:
         raise InputError(f"drift_tolerance must be a number in (0, 100], got {tol!r}")
     return float(tol)
 
@@ -77,8 +86,9 @@ class _Grid:
     def __init__(self, sweep):
         self.shape = (sweep.log_amplitude.size, sweep.log_mass.size)
         self.variables = sweep.variables
-        self.data = {name: np.full(self.shape, fill, dtype=dt)
-                     for name, (dt, fill, _) in sweep.variables.items()}
+        self.data = {
+            name: np.full(self.shape, fill, dtype=dt) for name, (dt, fill, _) in sweep.variables.items()
+        }
         self.computed = np.zeros(self.shape, dtype=bool)
 
     def put(self, i, j, point):
@@ -109,7 +119,7 @@ def disagree(grid: Any, i0: int, j0: int, s: Any, tol: float) -> bool:
     if np.unique(chaotic).size > 1 or np.unique(d["contact"][ii, jj]).size > 1:
         return True
     if chaotic.all():
-        return False          # a chaotic sea: drift is noise there
+        return False  # a chaotic sea: drift is noise there
     if np.unique(d["drift"][ii, jj]).size > 1:
         return True
     v = d["drift_velocity"][ii, jj]
@@ -170,25 +180,28 @@ class _Partial:
             os.makedirs(self.folder)
         if not os.path.exists(path):
             if any(f.startswith("batch-") for f in os.listdir(self.folder)):
-                raise StoreMismatch(f"{self.folder} holds batches but no params.json "
-                                    f"(damaged); delete it and rerun")
+                raise StoreMismatch(
+                    f"{self.folder} holds batches but no params.json (damaged); delete it and rerun"
+                )
             _atomic_write(path, lambda f: f.write(json.dumps(self.params).encode()))
             return 0
         try:
             with open(path, "rb") as f:
                 stored = json.loads(f.read().decode())
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete "
-                                f"{self.folder} and rerun") from None
+            raise StoreMismatch(
+                f"{path} cannot be read ({short_reason(exc)}); delete {self.folder} and rerun"
+            ) from None
         if not isinstance(stored, dict):
             raise StoreMismatch(f"{path} is not an adaptive sweep's parameters")
         problems = [k for k in self.params if stored.get(k) != self.params[k]]
         if problems:
-            raise StoreMismatch(f"{self.folder} was made with other parameters (differ: "
-                                f"{', '.join(problems)}); use another --out or delete it")
+            raise StoreMismatch(
+                f"{self.folder} was made with other parameters (differ: "
+                f"{', '.join(problems)}); use another --out or delete it"
+            )
         loaded = 0
-        names = sorted(f for f in os.listdir(self.folder)
-                       if f.startswith("batch-") and f.endswith(".npz"))
+        names = sorted(f for f in os.listdir(self.folder) if f.startswith("batch-") and f.endswith(".npz"))
         for name in names:
             loaded += self._load(os.path.join(self.folder, name), grid)
             self.next = max(self.next, int(name[6:-4]) + 1)
@@ -200,18 +213,24 @@ class _Partial:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
         except Exception as exc:
-            raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)}); delete that file "
-                                f"and rerun to recompute its points") from None
+            raise StoreMismatch(
+                f"{path} cannot be read ({short_reason(exc)}); delete that file "
+                f"and rerun to recompute its points"
+            ) from None
         digest = arrays.pop("sha256", None)
-        if (digest is None or sorted(arrays) != sorted(want)
-                or str(digest) != _batch_digest(arrays)):
-            raise StoreMismatch(f"{path} does not match its digest (damaged or edited); "
-                                f"delete that file and rerun to recompute its points")
+        if digest is None or sorted(arrays) != sorted(want) or str(digest) != _batch_digest(arrays):
+            raise StoreMismatch(
+                f"{path} does not match its digest (damaged or edited); "
+                f"delete that file and rerun to recompute its points"
+            )
         i, j = arrays["i"], arrays["j"]
         n = i.size
-        if (i.ndim != 1 or j.shape != i.shape or any(arrays[v].shape != (n,) for v in want)
-                or (n and (i.min() < 0 or j.min() < 0 or i.max() >= grid.shape[0]
-                           or j.max() >= grid.shape[1]))):
+        if (
+            i.ndim != 1
+            or j.shape != i.shape
+            or any(arrays[v].shape != (n,) for v in want)
+            or (n and (i.min() < 0 or j.min() < 0 or i.max() >= grid.shape[0] or j.max() >= grid.shape[1]))
+        ):
             raise StoreMismatch(f"{path} does not fit the grid (damaged or edited)")
         for k in range(n):
             grid.put(int(i[k]), int(j[k]), {v: arrays[v][k] for v in grid.variables})
@@ -234,13 +253,14 @@ def _compute_points(values, coords, chaos, stop="full"):
     return [compute_point(values, la, lm, chaos, stop) for la, lm in coords]
 
 
-def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None,
-                executor=None, on_done=None):
+def _run_points(
+    sweep, todo, grid, partial, workers, scheduler, bar, cancel=None, executor=None, on_done=None
+):
     """Compute `todo` [(i, j)] into grid, writing batches, on `executor` or a
     pool of `workers` threads; Cancelled between tasks once `cancel` is set;
     on_done() after each task's points are in."""
     la, lm = sweep.log_amplitude, sweep.log_mass
-    tasks = [todo[k:k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
+    tasks = [todo[k : k + POINTS_PER_TASK] for k in range(0, len(todo), POINTS_PER_TASK)]
     finished = []
 
     def done(task, results):
@@ -259,10 +279,11 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
 
     if scheduler is not None:
         from dask.distributed import as_completed
+
         futures = {scheduler.submit(_compute_points, *args(t), pure=False): t for t in tasks}
         for fut in as_completed(futures):
             done(futures[fut], fut.result())
-            if _set(cancel):            # the cluster's queued tasks are dropped
+            if _set(cancel):  # the cluster's queued tasks are dropped
                 for other in futures:
                     other.cancel()
                 break
@@ -276,7 +297,7 @@ def _run_points(sweep, todo, grid, partial, workers, scheduler, bar, cancel=None
                 while queue and len(pending) < 2 * workers and not _set(cancel):
                     t = queue.pop(0)
                     pending[pool.submit(_compute_points, *args(t))] = t
-                if not pending:          # cancelled: nothing more was started
+                if not pending:  # cancelled: nothing more was started
                     break
                 ready, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in ready:
@@ -299,12 +320,11 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
     a level's missing points (tiling: cells covering the grid, for a
     snapshot), on_level(level, tiling) follows each level.  The leaves
     (unrefined cells) as (i0, j0, size)."""
-    top = 2 ** max_level
+    top = 2**max_level
     n_a, n_m = grid.shape
     cells = [(i, j) for i in range(0, n_a - 1, top) for j in range(0, n_m - 1, top)]
     coarse = [(i, j, top) for i, j in cells]
-    compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0,
-            coarse)
+    compute(sorted({(i, j) for i in range(0, n_a, top) for j in range(0, n_m, top)}), 0, coarse)
     leaves: list = []
     size = top
     if on_level is not None:
@@ -313,11 +333,10 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
         refined, pending = set(), set(cells)
         # while the level's points come in, each lies in a cell of this size
         tiling = leaves + [(i, j, size) for i, j in cells]
-        while pending:          # until no cell of this level changes its verdict
+        while pending:  # until no cell of this level changes its verdict
             new = sorted(c for c in pending if disagree(grid, c[0], c[1], size, tol))
             refined.update(new)
-            compute(sorted({p for c in new for p in _new_points(c[0], c[1], size)}),
-                    _level + 1, tiling)
+            compute(sorted({p for c in new for p in _new_points(c[0], c[1], size)}), _level + 1, tiling)
             pending = set(cells) - refined
             if not new:
                 break
@@ -326,14 +345,14 @@ def _refine(sweep, max_level, tol, grid, compute, on_level=None):
         size //= 2
         if on_level is not None:
             on_level(_level + 1, leaves + [(i, j, size) for i, j in cells])
-    return leaves         # (cells of size 1 hold no missing points)
+    return leaves  # (cells of size 1 hold no missing points)
 
 
 def fill(grid: Any, leaves: Any) -> None:
     """Fill every point not computed from the smallest leaf holding it."""
     cont = [v for v in CONTINUOUS if v in grid.data]
     cat = [v for v in CATEGORICAL if v in grid.data]
-    for i0, j0, s in sorted(leaves, key=lambda c: -c[2]):      # smallest last: it wins
+    for i0, j0, s in sorted(leaves, key=lambda c: -c[2]):  # smallest last: it wins
         u = np.arange(s + 1) / s
         U, W = np.meshgrid(u, u, indexing="ij")
         sl = (slice(i0, i0 + s + 1), slice(j0, j0 + s + 1))
@@ -347,8 +366,7 @@ def fill(grid: Any, leaves: Any) -> None:
             a = grid.data[v]
             c00, c01 = a[i0, j0], a[i0, j0 + s]
             c10, c11 = a[i0 + s, j0], a[i0 + s, j0 + s]
-            val = (c00 * (1 - U) * (1 - W) + c01 * (1 - U) * W
-                   + c10 * U * (1 - W) + c11 * U * W)
+            val = c00 * (1 - U) * (1 - W) + c01 * (1 - U) * W + c10 * U * (1 - W) + c11 * U * W
             a[sl][free] = val[free]
 
 
@@ -356,16 +374,27 @@ def _check_adaptive_store(ds, sweep, max_level, tol, path):
     check_store(ds, sweep, path)
     got = (ds.attrs.get("adaptive_max_level"), ds.attrs.get("adaptive_tolerance"))
     if got != (max_level, tol):
-        raise StoreMismatch(f"{path} was made with other parameters (adaptive max_level, "
-                            f"tolerance: store {got}, command {(max_level, tol)}); use "
-                            f"another --out or delete it")
+        raise StoreMismatch(
+            f"{path} was made with other parameters (adaptive max_level, "
+            f"tolerance: store {got}, command {(max_level, tol)}); use "
+            f"another --out or delete it"
+        )
 
 
-def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
-                 drift_tolerance: Any = DEFAULT_DRIFT_TOLERANCE, workers: int | None = None,
-                 scheduler: Any = None, progress: bool = True, on_level: Any = None,
-                 cancel: Any = None, executor: str | None = None, on_chunk: Any = None,
-                 chunk_seconds: float = 2.0) -> float:
+def run_adaptive(
+    sweep: Sweep,
+    path: str | os.PathLike[str],
+    max_level: int,
+    drift_tolerance: Any = DEFAULT_DRIFT_TOLERANCE,
+    workers: int | None = None,
+    scheduler: Any = None,
+    progress: bool = True,
+    on_level: Any = None,
+    cancel: Any = None,
+    executor: str | None = None,
+    on_chunk: Any = None,
+    chunk_seconds: float = 2.0,
+) -> float:
     """Compute the adaptive map of a transport `sweep` (its grid the finest)
     into the Zarr store `path`, resuming from `<path>.partial/`; the fraction
     of points computed.  max_level: K (1..8); drift_tolerance: the spread that
@@ -377,9 +406,9 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
     at most 2 x `workers` tasks; else a pool of `workers` threads.
     """
     import xarray as xr
+
     if sweep.kind != "transport":
-        raise InputError(f"adaptive refinement makes drift maps (kind transport), not "
-                         f"kind {sweep.kind}")
+        raise InputError(f"adaptive refinement makes drift maps (kind transport), not kind {sweep.kind}")
     check_levels(sweep, max_level)
     max_level = int(max_level)
     tol = check_tolerance(drift_tolerance)
@@ -387,8 +416,9 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
         try:
             existing = xr.open_zarr(path, consolidated=False, chunks=None)
         except Exception as exc:
-            raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({short_reason(exc)})") from None
+            raise StoreMismatch(
+                f"{path} exists but is not a readable sweep store ({short_reason(exc)})"
+            ) from None
         _check_adaptive_store(existing, sweep, max_level, tol, path)
         verify(existing, path)
         if not existing["done"].values.all():
@@ -405,10 +435,11 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
     client = None
     if scheduler:
         from dask.distributed import Client
+
         client = Client(scheduler)
         client.run(warmup)
 
-    last = [time.monotonic()]          # when the last picture was taken
+    last = [time.monotonic()]  # when the last picture was taken
 
     def compute(points, level, tiling):
         todo = [p for p in points if not grid.computed[p]]
@@ -419,6 +450,7 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
             if level > 0 and time.monotonic() - last[0] >= chunk_seconds:
                 on_chunk(level, snapshot(sweep, grid, tiling))
                 last[0] = time.monotonic()
+
         if todo:
             done = None if on_chunk is None else chunk_done
             _run_points(sweep, todo, grid, partial, workers, client, bar, cancel, executor, done)
@@ -430,8 +462,7 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
         last[0] = time.monotonic()
 
     try:
-        leaves = _refine(sweep, max_level, tol, grid, compute,
-                         None if on_level is None else level_done)
+        leaves = _refine(sweep, max_level, tol, grid, compute, None if on_level is None else level_done)
     finally:
         bar.close()
         if client is not None:
@@ -446,13 +477,16 @@ def run_adaptive(sweep: Sweep, path: str | os.PathLike[str], max_level: int,
 def snapshot(sweep: Sweep, grid: Any, cells: Any) -> xr.Dataset:
     """The map so far on the finest grid: a copy filled from `cells` (a tiling)."""
     import xarray as xr
+
     copy = grid.copy()
     fill(copy, cells)
     coords = {"log_amplitude": sweep.log_amplitude, "log_mass": sweep.log_mass}
     dims = ("log_amplitude", "log_mass")
-    return xr.Dataset({**{name: (dims, a) for name, a in copy.data.items()},
-                       "computed": (dims, copy.computed)}, coords=coords,
-                      attrs={**sweep.attrs(), "computed_fraction": float(copy.computed.mean())})
+    return xr.Dataset(
+        {**{name: (dims, a) for name, a in copy.data.items()}, "computed": (dims, copy.computed)},
+        coords=coords,
+        attrs={**sweep.attrs(), "computed_fraction": float(copy.computed.mean())},
+    )
 
 
 def _write_store(sweep, grid, path, max_level, tol, fraction):
@@ -460,17 +494,22 @@ def _write_store(sweep, grid, path, max_level, tol, fraction):
     ds = sweep.empty_dataset()
     for name in sweep.variables:
         ds[name].values[...] = grid.data[name]
-    ds["computed"] = (("log_amplitude", "log_mass"), grid.computed.copy(),
-                      {"description": COMPUTED["computed"][2]})
+    ds["computed"] = (
+        ("log_amplitude", "log_mass"),
+        grid.computed.copy(),
+        {"description": COMPUTED["computed"][2]},
+    )
     variables = {**sweep.variables, **COMPUTED}
     for k in range(sweep.n_chunks):
         ds["digest"].values[k] = block_digest(ds.isel(log_amplitude=sweep.rows(k)), variables)
     ds["done"].values[:] = True
-    ds.attrs.update(adaptive_max_level=max_level, adaptive_tolerance=tol,
-                    computed_fraction=fraction)
+    ds.attrs.update(adaptive_max_level=max_level, adaptive_tolerance=tol, computed_fraction=fraction)
     tmp = f"{path}.writing"
-    shutil.rmtree(tmp, ignore_errors=True)      # a killed run's unfinished copy
-    ds.to_zarr(tmp, mode="w", consolidated=False,
-               encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
-                         for name in variables})
+    shutil.rmtree(tmp, ignore_errors=True)  # a killed run's unfinished copy
+    ds.to_zarr(
+        tmp,
+        mode="w",
+        consolidated=False,
+        encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)} for name in variables},
+    )
     os.rename(tmp, path)

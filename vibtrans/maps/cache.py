@@ -17,6 +17,7 @@ checked on every open).  The cache keeps finished ones under a folder:
 * two callers asking for the same key while it is computed share one
   computation (`MapCache.compute` returns the same Future).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -39,9 +40,9 @@ if TYPE_CHECKING:
 log = logging.getLogger("vibtrans.maps.cache")
 
 SUFFIX = ".zarr"
-TEMPORARY = ".computing-"          # <key>.computing-<id>: an entry being written
-DEFAULT_MAX_BYTES = 2 * 2**30      # 2 GiB: ~500 shipped-size maps (~4 MB each)
-STALE_SECONDS = 24 * 3600          # a temporary this old was left by a killed server
+TEMPORARY = ".computing-"  # <key>.computing-<id>: an entry being written
+DEFAULT_MAX_BYTES = 2 * 2**30  # 2 GiB: ~500 shipped-size maps (~4 MB each)
+STALE_SECONDS = 24 * 3600  # a temporary this old was left by a killed server
 
 
 def request_key(request: Any) -> str:
@@ -51,8 +52,12 @@ def request_key(request: Any) -> str:
     if not isinstance(request, dict):
         raise InputError(f"a map request is a dict of its values, got {type(request).__name__}")
     try:
-        text = json.dumps({"request": request, "code_version": __version__}, sort_keys=True,
-                          allow_nan=False, separators=(",", ":"))
+        text = json.dumps(
+            {"request": request, "code_version": __version__},
+            sort_keys=True,
+            allow_nan=False,
+            separators=(",", ":"),
+        )
     except (TypeError, ValueError) as exc:
         raise InputError(f"a map request holds only numbers, strings and lists ({exc})") from None
     return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -64,7 +69,7 @@ def _folder_bytes(path):
         for name in files:
             try:
                 total += os.path.getsize(os.path.join(root, name))
-            except OSError:          # removed meanwhile
+            except OSError:  # removed meanwhile
                 pass
     return total
 
@@ -81,10 +86,11 @@ class MapCache:
         try:
             os.makedirs(self.folder, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"map cache folder {self.folder!r} cannot be made "
-                             f"({exc.strerror or exc})") from None
+            raise InputError(
+                f"map cache folder {self.folder!r} cannot be made ({exc.strerror or exc})"
+            ) from None
         self._lock = threading.Lock()
-        self._computing: dict = {}         # key -> Future of the dataset
+        self._computing: dict = {}  # key -> Future of the dataset
         self._remove_stale_temporaries()
 
     def _remove_stale_temporaries(self):
@@ -107,8 +113,7 @@ class MapCache:
         for name in os.listdir(self.folder):
             if name.endswith(SUFFIX) and TEMPORARY not in name:
                 try:
-                    found.append((os.stat(os.path.join(self.folder, name)).st_mtime_ns,
-                                  name[:-len(SUFFIX)]))
+                    found.append((os.stat(os.path.join(self.folder, name)).st_mtime_ns, name[: -len(SUFFIX)]))
                 except OSError:
                     pass
         return [key for _, key in sorted(found)]
@@ -117,6 +122,7 @@ class MapCache:
         """The entry's dataset, verified (sweep.open_map), or None if there
         is none; a damaged or unfinished one is deleted (and None)."""
         from vibtrans.maps.sweep import open_map
+
         path = self.path(key)
         if not os.path.exists(path):
             return None
@@ -129,7 +135,7 @@ class MapCache:
             shutil.rmtree(path, ignore_errors=True)
             return None
         try:
-            os.utime(path)           # a use: the most recently used now
+            os.utime(path)  # a use: the most recently used now
         except OSError:
             pass
         return ds
@@ -141,7 +147,7 @@ class MapCache:
     def publish(self, key: Any, temporary: Any) -> str:
         """Move a finished store from `temporary` into place, then evict."""
         path = self.path(key)
-        if os.path.exists(path):     # another process finished first: keep one
+        if os.path.exists(path):  # another process finished first: keep one
             shutil.rmtree(temporary, ignore_errors=True)
         else:
             os.replace(temporary, path)
@@ -192,7 +198,7 @@ class MapCache:
                 if ds is None:
                     raise StoreMismatch(f"the map computed for {key} could not be read back")
                 future.set_result(ds)
-            except BaseException as exc:       # cancelled, failed: nothing left behind
+            except BaseException as exc:  # cancelled, failed: nothing left behind
                 shutil.rmtree(temporary, ignore_errors=True)
                 future.set_exception(exc)
             finally:

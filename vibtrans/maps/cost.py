@@ -11,6 +11,7 @@ t_min) are measured on every 4th point of the shipped grid by `vibtrans bench
 --sweep` (keys decided_<model>_ran-to-end_fraction, _mean_periods_run).  They
 vary by region, so a small region's estimate can be off by more.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,13 +31,11 @@ DECIDED_PERIOD_COST = {"deformable": 0.92, "point-mass": 1.47}
 def minimum_periods(tau: float, fidelity: str = "standard") -> int:
     """t_min: the ramp's settling at this fidelity and the rule's first window."""
     if fidelity not in STATED_DRIFT_ERROR:
-        raise InputError(f"fidelity must be one of {', '.join(STATED_DRIFT_ERROR)}, "
-                         f"got {fidelity!r}")
+        raise InputError(f"fidelity must be one of {', '.join(STATED_DRIFT_ERROR)}, got {fidelity!r}")
     return settle_time(tau, DECIDED_FRACTION * STATED_DRIFT_ERROR[fidelity]) + MIN_WINDOW
 
 
-def expected_periods(model: str, stop: str, periods: float, tau: float,
-                     fidelity: str = "standard") -> float:
+def expected_periods(model: str, stop: str, periods: float, tau: float, fidelity: str = "standard") -> float:
     """E[periods] of one point of a map (the module docstring's model)."""
     check_stop(stop)
     if model not in DECIDED_PROFILE:
@@ -51,8 +50,9 @@ def expected_periods(model: str, stop: str, periods: float, tau: float,
     return f_end * periods + (1.0 - f_end) * early
 
 
-def expected_time_share(model: str, stop: str, periods: float, tau: float,
-                        fidelity: str = "standard") -> float:
+def expected_time_share(
+    model: str, stop: str, periods: float, tau: float, fidelity: str = "standard"
+) -> float:
     """A map's expected time over its stop="full" time (E[periods] / T_obs,
     times DECIDED_PERIOD_COST under the `decided` rule)."""
     share = expected_periods(model, stop, periods, tau, fidelity) / float(periods)

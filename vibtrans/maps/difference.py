@@ -8,6 +8,7 @@ drifts, their difference in the signed log scale s(v) = sign(v) log10(1 +
 differs.  The attributes summarize the points regular in both: the share
 whose class agrees and the median of |v2 - v1| / max(|v1|, v0).
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -29,11 +30,15 @@ def signed_log(v: Any, v0: float = V0) -> Any:
 
 # (attribute, wording, the shipped maps' value): a map's name says what differs
 # ("deformable mu 0.5 preview 500 periods")
-DESCRIBED = (("scene_theta", "theta {}", 1.2), ("scene_nu", "nu {}", 0.3),
-             ("scene_tau", "tau {}", 50.0), ("scene_fidelity", "{}", "standard"),
-             ("scene_periods", "{} periods", 2000.0),
-             ("scene_profile", "{}", "sphere"),     # (a sphere's map names no profile)
-             ("stop", "stop {}", "full"))           # (a full map's store names no rule)
+DESCRIBED = (
+    ("scene_theta", "theta {}", 1.2),
+    ("scene_nu", "nu {}", 0.3),
+    ("scene_tau", "tau {}", 50.0),
+    ("scene_fidelity", "{}", "standard"),
+    ("scene_periods", "{} periods", 2000.0),
+    ("scene_profile", "{}", "sphere"),  # (a sphere's map names no profile)
+    ("stop", "stop {}", "full"),
+)  # (a full map's store names no rule)
 
 
 def describe(ds: xr.Dataset) -> str:
@@ -66,8 +71,7 @@ def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     class_changed, chaotic_either and log_difference (NaN where not
     compared); attrs name the maps and give compared_points, regular_points,
     class_agreement and median_relative_difference (NaN if none regular)."""
-    if not (isinstance(v0, (int, float)) and not isinstance(v0, bool) and np.isfinite(v0)
-            and v0 > 0):
+    if not (isinstance(v0, (int, float)) and not isinstance(v0, bool) and np.isfinite(v0) and v0 > 0):
         raise InputError(f"v0 must be a positive number, got {v0!r}")
     for name, ds in (("first", first), ("second", second)):
         missing = [v for v in ("drift_velocity", "drift", "chaotic", *GRID) if v not in ds]
@@ -77,18 +81,20 @@ def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     tolerance = 0.5 * min(_step(la), _step(lm))
     if not np.isfinite(tolerance):
         tolerance = 1e-9
-    b = second.assign(finished=(GRID, _finished(second)))[
-        ["drift_velocity", "drift", "chaotic", "finished"]]
-    b = b.sortby(list(GRID)).reindex(log_amplitude=la, log_mass=lm, method="nearest",
-                                     tolerance=tolerance + 1e-9)
-    compared = _finished(first) & (b["finished"].values == True)    # noqa: E712 (NaN: False)
+    b = second.assign(finished=(GRID, _finished(second)))[["drift_velocity", "drift", "chaotic", "finished"]]
+    b = b.sortby(list(GRID)).reindex(
+        log_amplitude=la, log_mass=lm, method="nearest", tolerance=tolerance + 1e-9
+    )
+    compared = _finished(first) & (b["finished"].values == True)  # noqa: E712 (NaN: False)
     if not compared.any():
-        raise InputError(f"the maps share no point: first covers log10 A* "
-                         f"[{la.min():g}, {la.max():g}], log10 m* [{lm.min():g}, {lm.max():g}]; "
-                         f"second log10 A* [{second['log_amplitude'].values.min():g}, "
-                         f"{second['log_amplitude'].values.max():g}], log10 m* "
-                         f"[{second['log_mass'].values.min():g}, "
-                         f"{second['log_mass'].values.max():g}]")
+        raise InputError(
+            f"the maps share no point: first covers log10 A* "
+            f"[{la.min():g}, {la.max():g}], log10 m* [{lm.min():g}, {lm.max():g}]; "
+            f"second log10 A* [{second['log_amplitude'].values.min():g}, "
+            f"{second['log_amplitude'].values.max():g}], log10 m* "
+            f"[{second['log_mass'].values.min():g}, "
+            f"{second['log_mass'].values.max():g}]"
+        )
     v1 = np.where(compared, first["drift_velocity"].values, np.nan)
     v2 = np.where(compared, b["drift_velocity"].values, np.nan)
     d1 = first["drift"].values.astype(float)
@@ -99,13 +105,25 @@ def map_difference(first: Any, second: Any, v0: float = V0) -> xr.Dataset:
     agreement = float((~changed[regular]).mean()) if regular.any() else float("nan")
     relative = np.abs(v2 - v1) / np.maximum(np.abs(v1), v0)
     median = float(np.median(relative[regular])) if regular.any() else float("nan")
-    data = dict(drift_velocity_first=v1, drift_velocity_second=v2,
-                drift_first=np.where(compared, d1, np.nan), drift_second=np.where(compared, d2, np.nan),
-                compared=compared, class_changed=changed, chaotic_either=chaotic)
+    data = dict(
+        drift_velocity_first=v1,
+        drift_velocity_second=v2,
+        drift_first=np.where(compared, d1, np.nan),
+        drift_second=np.where(compared, d2, np.nan),
+        compared=compared,
+        class_changed=changed,
+        chaotic_either=chaotic,
+    )
     data = {k: (GRID, v) for k, v in data.items()}
     s = np.where(compared, signed_log(v2, v0) - signed_log(v1, v0), np.nan)
     data["log_difference"] = (GRID, s, {"description": "s(v2) - s(v1), s(v) = sign(v) log10(1 + |v|/v0)"})
-    attrs = dict(first=describe(first), second=describe(second), v0=float(v0),
-                 compared_points=int(compared.sum()), regular_points=int(regular.sum()),
-                 class_agreement=agreement, median_relative_difference=median)
+    attrs = dict(
+        first=describe(first),
+        second=describe(second),
+        v0=float(v0),
+        compared_points=int(compared.sum()),
+        regular_points=int(regular.sum()),
+        class_agreement=agreement,
+        median_relative_difference=median,
+    )
     return xr.Dataset(data, coords={"log_amplitude": la, "log_mass": lm}, attrs=attrs)

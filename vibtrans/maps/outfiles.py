@@ -1,6 +1,7 @@
 """Output files: checked before the work (`check_file`, `check_folder`: an
 InputError naming the path and the reason), written atomically (`atomic`: a
 failure leaves neither a partial file nor a damaged earlier one)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -25,8 +26,7 @@ def _probe(folder, name):
     try:
         fd, tmp = tempfile.mkstemp(prefix=".vibtrans-probe-", dir=folder)
     except OSError as exc:
-        raise InputError(f"{name}: cannot write in the folder {str(folder)!r} "
-                         f"({_reason(exc)})") from None
+        raise InputError(f"{name}: cannot write in the folder {str(folder)!r} ({_reason(exc)})") from None
     os.close(fd)
     os.unlink(tmp)
 
@@ -63,8 +63,7 @@ def check_folder(path: str | os.PathLike[str], name: str = "out", create: bool =
             try:
                 p.mkdir()
             except OSError as exc:
-                raise InputError(f"{name}: cannot create the folder {str(p)!r} "
-                                 f"({_reason(exc)})") from None
+                raise InputError(f"{name}: cannot create the folder {str(p)!r} ({_reason(exc)})") from None
         return p
     _probe(p, name)
     return p
@@ -82,8 +81,7 @@ def _umask():
 
 
 @contextlib.contextmanager
-def atomic(path: str | os.PathLike[str], name: str = "out",
-           errors: tuple = ()) -> Iterator[str]:
+def atomic(path: str | os.PathLike[str], name: str = "out", errors: tuple = ()) -> Iterator[str]:
     """A temporary path beside `path` (same suffix), renamed to `path` when the
     block succeeds, removed otherwise; an OSError (or one of `errors`, e.g.
     netCDF4's RuntimeError on a full disk) becomes an InputError."""
@@ -91,19 +89,18 @@ def atomic(path: str | os.PathLike[str], name: str = "out",
     if p.is_dir():
         raise InputError(f"{name}: {str(p)!r} is a folder, not a file")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.stem[:40]}.", suffix=f".partial{p.suffix}",
-                                   dir=p.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.stem[:40]}.", suffix=f".partial{p.suffix}", dir=p.parent)
     except OSError as exc:
-        why = ("no such folder" if exc.errno == errno.ENOENT else _reason(exc))
+        why = "no such folder" if exc.errno == errno.ENOENT else _reason(exc)
         raise InputError(f"{name}: cannot write {str(p)!r} ({why})") from None
     os.close(fd)
     try:
         yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())     # as a plain open() would (mkstemp: 0600)
+        os.chmod(tmp, 0o666 & ~_umask())  # as a plain open() would (mkstemp: 0600)
         os.replace(tmp, p)
     except (OSError, *errors) as exc:
         reason = _reason(exc)
-        if not isinstance(exc, OSError):       # e.g. netCDF4's "NetCDF: HDF error"
+        if not isinstance(exc, OSError):  # e.g. netCDF4's "NetCDF: HDF error"
             try:
                 free = shutil.disk_usage(p.parent).free
             except OSError:

@@ -1,5 +1,6 @@
 """Where the shipped maps are: the data package `vibtrans_assets` (the
 repository's assets/), unless VIBTRANS_ASSETS names another folder."""
+
 from __future__ import annotations
 
 import os
@@ -23,7 +24,7 @@ def maps_dir() -> Path:
         return Path(root) / "maps"
     try:
         base = resources.files(PACKAGE)
-    except ModuleNotFoundError:          # a source tree that was never installed
+    except ModuleNotFoundError:  # a source tree that was never installed
         return Path(__file__).resolve().parent.parent / "assets" / "maps"
     # installed wheels and editable installs are plain folders (not zips)
     return Path(str(base)) / "maps"

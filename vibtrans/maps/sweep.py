@@ -21,6 +21,7 @@ process pool on this 2-core machine: 59 vs 42 points/s, 89% vs 91% parallel
 efficiency), or on a dask.distributed cluster given its scheduler address;
 the kernels are the same either way.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -67,8 +68,7 @@ PROFILE_KEYS = ("profile", "load_over_modulus")
 ROLLING_KEY = "rolling"
 # A sweep's scene values (its store's scene_* attributes): Scene's settings
 # but its point on the plane (the sweep's grid), the profile's keys and rolling
-SCENE_KEYS = tuple(k for k in Scene.param
-                   if k not in ("name", *PLANE, *PROFILE_KEYS, ROLLING_KEY))
+SCENE_KEYS = tuple(k for k in Scene.param if k not in ("name", *PLANE, *PROFILE_KEYS, ROLLING_KEY))
 VARIABLES = {
     # name: (dtype, fill, description)
     "drift_velocity": ("f8", np.nan, "<v_x*> = x*(T)/T over the run"),
@@ -91,8 +91,11 @@ VARIABLES = {
 # integrator and periods, whatever mu and theta (the same steps; equal to
 # rounding, as kernel calls differ: tests/core/test_lyapunov.py).
 LYAPUNOV_VARIABLES = {
-    "lyapunov": ("f8", np.nan, "largest Lyapunov exponent of the vertical motion, per "
-                               "period, from the end of the ramp"),
+    "lyapunov": (
+        "f8",
+        np.nan,
+        "largest Lyapunov exponent of the vertical motion, per period, from the end of the ramp",
+    ),
     "contact": ("i1", -1, "0 permanent contact, 1 jumping"),
     "steps": ("i8", -1, "integration steps"),
     "seconds": ("f8", np.nan, "wall time of the point, s"),
@@ -107,8 +110,12 @@ LYAPUNOV_VARIABLES = {
 CHAOS_SOURCES = ("lyapunov", "twin")
 LYAPUNOV_CHAOS_VARIABLES = {
     **VARIABLES,
-    "chaotic": ("i1", -1, "1 if the Lyapunov exponent exceeds analysis.CHAOS_LYAPUNOV (the "
-                          "material point's: of its impact map), else 0"),
+    "chaotic": (
+        "i1",
+        -1,
+        "1 if the Lyapunov exponent exceeds analysis.CHAOS_LYAPUNOV (the "
+        "material point's: of its impact map), else 0",
+    ),
     "lyapunov": LYAPUNOV_VARIABLES["lyapunov"],
 }
 
@@ -118,10 +125,12 @@ LYAPUNOV_CHAOS_VARIABLES = {
 # x*(T)/T extrapolated from a regular stop (analysis.drift_velocity).
 DECIDED_VARIABLES = {
     "periods_run": ("f8", np.nan, "periods the run actually ran (its twin's not counted)"),
-    "stop_reason": ("i1", -1, "why the run stopped: " + ", ".join(
-        f"{i} {r}" for i, r in enumerate(REASONS))),
-    "asymptotic_drift_velocity": ("f8", np.nan, "the asymptotic drift rate v_inf of a "
-                                                "regular stop (NaN otherwise)"),
+    "stop_reason": ("i1", -1, "why the run stopped: " + ", ".join(f"{i} {r}" for i, r in enumerate(REASONS))),
+    "asymptotic_drift_velocity": (
+        "f8",
+        np.nan,
+        "the asymptotic drift rate v_inf of a regular stop (NaN otherwise)",
+    ),
 }
 
 
@@ -146,16 +155,18 @@ def parse_range(text: str, name: str) -> np.ndarray:
     except ValueError:
         raise InputError(f"{name} must be 'start:stop:step', got {text!r}") from None
     if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
-        raise InputError(f"{name} must be 'start:stop:step' with finite start <= stop "
-                         f"and step > 0, got {text!r}")
+        raise InputError(
+            f"{name} must be 'start:stop:step' with finite start <= stop and step > 0, got {text!r}"
+        )
     n = int(round((stop - start) / step)) + 1
     if n > 100_000:
         raise InputError(f"{name} has {n} points, more than 100000")
     return np.round(start + step * np.arange(n), 10)
 
 
-def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
-                  stop: str = "full") -> dict[str, Any]:
+def compute_point(
+    values: Any, log_a: Any, log_m: Any, chaos: str = "twin", stop: str = "full"
+) -> dict[str, Any]:
     """One grid point: the run with its Lyapunov exponent (chaos
     "lyapunov"; the material point's from its impact map), or the run and,
     if it jumps, its chaos twin (analysis.twin_scene; chaos "twin").
@@ -163,22 +174,26 @@ def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
 
     Returns a dict of the stored quantities.
     """
-    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    scene = Scene(amplitude=10.0**log_a, mass=10.0**log_m, **values)
     measure = chaos == "lyapunov"
     # the runs' arrays, summarized as a Dataset of them would be (no Dataset)
     ds = RunArrays(*run_records(scene, lyapunov=measure, stop=stop))
     jumping = jumped(ds)
-    twin = (RunArrays(*run_records(twin_scene(scene), stop=stop))
-            if jumping and not measure else None)
+    twin = RunArrays(*run_records(twin_scene(scene), stop=stop)) if jumping and not measure else None
     s = summarize(ds, twin)
     pattern = s.pattern
     if pattern == "launched":
         # the maps store the pattern of the take-offs (PATTERNS), as shipped
         pattern = "chaotic" if s.chaotic else rebound_pattern(ds)
-    decided = {} if stop == "full" else {
-        "periods_run": float(ds.attrs["periods_run"]),
-        "stop_reason": REASONS.index(ds.attrs["stop_reason"]),
-        "asymptotic_drift_velocity": ds.attrs.get("asymptotic_drift_velocity", np.nan)}
+    decided = (
+        {}
+        if stop == "full"
+        else {
+            "periods_run": float(ds.attrs["periods_run"]),
+            "stop_reason": REASONS.index(ds.attrs["stop_reason"]),
+            "asymptotic_drift_velocity": ds.attrs.get("asymptotic_drift_velocity", np.nan),
+        }
+    )
     return {
         **decided,
         "drift_velocity": s.drift_velocity,
@@ -189,7 +204,7 @@ def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
         "chaotic": int(bool(s.chaotic)),
         "contact_fraction": s.contact_fraction,
         "takeoffs_per_period": s.takeoffs_per_period,
-        "steps": s.steps + s.twin_steps,          # VARIABLES: run + twin
+        "steps": s.steps + s.twin_steps,  # VARIABLES: run + twin
         "seconds": s.seconds + s.twin_seconds,
         "lyapunov": np.nan if s.lyapunov is None else s.lyapunov,
     }
@@ -197,14 +212,18 @@ def compute_point(values: Any, log_a: Any, log_m: Any, chaos: str = "twin",
 
 def lyapunov_point(values: Any, log_a: Any, log_m: Any) -> dict[str, Any]:
     """One point of a Lyapunov map (kind "lyapunov", model vertical)."""
-    scene = Scene(amplitude=10.0 ** log_a, mass=10.0 ** log_m, **values)
+    scene = Scene(amplitude=10.0**log_a, mass=10.0**log_m, **values)
     ds = RunArrays(*run_records(scene, lyapunov=True))
     value = ds.attrs.get("lyapunov")
-    return {"lyapunov": np.nan if value is None else value, "contact": int(jumped(ds)),
-            "steps": int(ds.attrs["steps"]), "seconds": float(ds.attrs["seconds"])}
+    return {
+        "lyapunov": np.nan if value is None else value,
+        "contact": int(jumped(ds)),
+        "steps": int(ds.attrs["steps"]),
+        "seconds": float(ds.attrs["seconds"]),
+    }
 
 
-KINDS = ("transport", "lyapunov")      # drift maps; the vertical motion's exponent
+KINDS = ("transport", "lyapunov")  # drift maps; the vertical motion's exponent
 
 
 def _compute_row_block(values, log_as, log_ms, kind="transport", chaos="twin", stop="full"):
@@ -248,26 +267,38 @@ class Sweep:
         If a value is outside its range, or the combination is not a sweep.
     """
 
-    def __init__(self, log_amplitude: npt.ArrayLike, log_mass: npt.ArrayLike, chunk_rows: int = 4,
-                 command: str | None = None, kind: str = "transport", chaos: str = "lyapunov",
-                 stop: str = "full", **values: Any) -> None:
+    def __init__(
+        self,
+        log_amplitude: npt.ArrayLike,
+        log_mass: npt.ArrayLike,
+        chunk_rows: int = 4,
+        command: str | None = None,
+        kind: str = "transport",
+        chaos: str = "lyapunov",
+        stop: str = "full",
+        **values: Any,
+    ) -> None:
         if kind not in KINDS:
             raise InputError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if chaos not in CHAOS_SOURCES:
             raise InputError(f"chaos must be one of {', '.join(CHAOS_SOURCES)}, got {chaos!r}")
         if kind == "lyapunov" and values.get("model") not in ("vertical", "point-mass"):
-            raise InputError("a lyapunov sweep runs the vertical model (model='vertical') or "
-                             "the material point (model='point-mass'): the indicator is the "
-                             "vertical motion's")
+            raise InputError(
+                "a lyapunov sweep runs the vertical model (model='vertical') or "
+                "the material point (model='point-mass'): the indicator is the "
+                "vertical motion's"
+            )
         check_stop(stop)
         if kind == "lyapunov" and stop != "full":
-            raise InputError(f"stop must be full for a lyapunov sweep (its exponent is "
-                             f"measured over the whole run), got {stop!r}")
+            raise InputError(
+                f"stop must be full for a lyapunov sweep (its exponent is "
+                f"measured over the whole run), got {stop!r}"
+            )
         self.kind = kind
         self.chaos = chaos
         self.stop = stop
         self.variables = variables_of(kind, chaos, stop)
-        scene = Scene(**values)            # validates every value
+        scene = Scene(**values)  # validates every value
         self.values = {k: getattr(scene, k) for k in SCENE_KEYS}
         if scene.profile != "sphere":
             self.values["profile"] = scene.profile
@@ -290,24 +321,33 @@ class Sweep:
         return slice(k * self.chunk_rows, min((k + 1) * self.chunk_rows, self.log_amplitude.size))
 
     def attrs(self) -> dict[str, Any]:
-        return {**{f"scene_{k}": v for k, v in self.values.items()},
-                "chunk_rows": self.chunk_rows, "code_version": __version__,
-                "command": self.command,
-                **({"kind": self.kind} if self.kind != "transport" else {}),
-                **({"chaos": self.chaos} if self.kind == "transport" else {}),
-                **({"stop": self.stop} if self.stop != "full" else {})}
+        return {
+            **{f"scene_{k}": v for k, v in self.values.items()},
+            "chunk_rows": self.chunk_rows,
+            "code_version": __version__,
+            "command": self.command,
+            **({"kind": self.kind} if self.kind != "transport" else {}),
+            **({"chaos": self.chaos} if self.kind == "transport" else {}),
+            **({"stop": self.stop} if self.stop != "full" else {}),
+        }
 
     def empty_dataset(self) -> xr.Dataset:
         shape = (self.log_amplitude.size, self.log_mass.size)
-        data: dict[str, tuple] = {name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt),
-                       {"description": desc})
-                for name, (dt, fill, desc) in self.variables.items()}
+        data: dict[str, tuple] = {
+            name: (("log_amplitude", "log_mass"), np.full(shape, fill, dtype=dt), {"description": desc})
+            for name, (dt, fill, desc) in self.variables.items()
+        }
         data["done"] = (("chunk",), np.zeros(self.n_chunks, dtype=bool))
         data["digest"] = (("chunk",), np.zeros(self.n_chunks, dtype=np.uint64))
-        return xr.Dataset(data, coords={"log_amplitude": self.log_amplitude,
-                                        "log_mass": self.log_mass,
-                                        "chunk": np.arange(self.n_chunks)},
-                          attrs=self.attrs())
+        return xr.Dataset(
+            data,
+            coords={
+                "log_amplitude": self.log_amplitude,
+                "log_mass": self.log_mass,
+                "chunk": np.arange(self.n_chunks),
+            },
+            attrs=self.attrs(),
+        )
 
 
 def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> None:
@@ -318,11 +358,11 @@ def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> N
             problems.append(f"{k}: store {got!r}, command {v!r}")
     for k in PROFILE_KEYS:
         if k not in sweep.values and f"scene_{k}" in ds.attrs:
-            problems.append(f"{k}: store {ds.attrs[f'scene_{k}']!r}, command "
-                            f"{'sphere' if k == 'profile' else None!r}")
+            problems.append(
+                f"{k}: store {ds.attrs[f'scene_{k}']!r}, command {'sphere' if k == 'profile' else None!r}"
+            )
     if ROLLING_KEY not in sweep.values and f"scene_{ROLLING_KEY}" in ds.attrs:
-        problems.append(f"{ROLLING_KEY}: store {ds.attrs[f'scene_{ROLLING_KEY}']!r}, "
-                        f"command 'none'")
+        problems.append(f"{ROLLING_KEY}: store {ds.attrs[f'scene_{ROLLING_KEY}']!r}, command 'none'")
     for name in ("log_amplitude", "log_mass"):
         grid = getattr(sweep, name)
         if ds[name].size != grid.size or not np.allclose(ds[name].values, grid, atol=1e-9):
@@ -336,21 +376,26 @@ def check_store(ds: xr.Dataset, sweep: Sweep, path: str | os.PathLike[str]) -> N
     if ds.attrs.get("chunk_rows") != sweep.chunk_rows:
         problems.append(f"chunk_rows: store {ds.attrs.get('chunk_rows')}, command {sweep.chunk_rows}")
     if problems:
-        raise StoreMismatch(f"{path} was made with other parameters ({'; '.join(problems)}); "
-                            f"use another --out or delete it")
+        raise StoreMismatch(
+            f"{path} was made with other parameters ({'; '.join(problems)}); use another --out or delete it"
+        )
 
 
 def verify(ds: xr.Dataset, path: Any = "store") -> None:
     """Raise StoreMismatch unless every done chunk matches its digest."""
     rows = ds.attrs.get("chunk_rows", 0)
-    if (not isinstance(rows, int) or isinstance(rows, bool) or rows < 1 or "done" not in ds
-            or "digest" not in ds):
+    if (
+        not isinstance(rows, int)
+        or isinstance(rows, bool)
+        or rows < 1
+        or "done" not in ds
+        or "digest" not in ds
+    ):
         raise StoreMismatch(f"{path} is not a vibtrans sweep store")
-    kind = ds.attrs.get("kind", "transport")     # (stores before kinds: transport,
-    chaos = ds.attrs.get("chaos", "twin")        #  judged by the twin)
+    kind = ds.attrs.get("kind", "transport")  # (stores before kinds: transport,
+    chaos = ds.attrs.get("chaos", "twin")  #  judged by the twin)
     if kind not in KINDS or chaos not in CHAOS_SOURCES:
-        raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos "
-                            f"source {chaos!r}")
+        raise StoreMismatch(f"{path} is a sweep store of unknown kind {kind!r} or chaos source {chaos!r}")
     stop = ds.attrs.get("stop", "full")
     if stop not in STOPS:
         raise StoreMismatch(f"{path} is a sweep store of unknown stop rule {stop!r}")
@@ -361,34 +406,37 @@ def verify(ds: xr.Dataset, path: Any = "store") -> None:
         variables = {**variables, "computed": ("bool", False, "simulated, not filled")}
     missing = [name for name in variables if name not in ds]
     if missing:
-        raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: "
-                            f"{', '.join(missing)})")
+        raise StoreMismatch(f"{path} is not a complete vibtrans sweep store (missing: {', '.join(missing)})")
     try:
         done, digests = ds["done"].values, ds["digest"].values
-    except Exception as exc:   # undecodable flags: damaged or truncated
-        raise StoreMismatch(f"{path}: the done flags or digests cannot be read "
-                            f"({short_reason(exc)})") from None
+    except Exception as exc:  # undecodable flags: damaged or truncated
+        raise StoreMismatch(
+            f"{path}: the done flags or digests cannot be read ({short_reason(exc)})"
+        ) from None
     n_chunks = -(-ds.sizes.get("log_amplitude", 0) // rows)
     if done.shape != digests.shape or done.ndim != 1 or done.size != n_chunks or not n_chunks:
         raise StoreMismatch(f"{path}: the done flags do not fit its grid (damaged or edited)")
-    try:    # one read of each variable (a read per chunk cost ~1.5 ms each)
+    try:  # one read of each variable (a read per chunk cost ~1.5 ms each)
         whole = ds[list(variables)].load()
-    except Exception:          # a damaged chunk: read chunk by chunk, to name it
+    except Exception:  # a damaged chunk: read chunk by chunk, to name it
         whole = None
     for k in np.flatnonzero(done):
         sl = slice(int(k) * rows, (int(k) + 1) * rows)
         try:
-            block = (ds[list(variables)].isel(log_amplitude=sl).load() if whole is None
-                     else whole.isel(log_amplitude=sl))
-        except Exception as exc:   # undecodable chunk: damaged or truncated
+            block = (
+                ds[list(variables)].isel(log_amplitude=sl).load()
+                if whole is None
+                else whole.isel(log_amplitude=sl)
+            )
+        except Exception as exc:  # undecodable chunk: damaged or truncated
             raise StoreMismatch(f"{path}: chunk {k} cannot be read ({short_reason(exc)})") from None
         if block_digest(block, variables) != digests[k]:
-            raise StoreMismatch(f"{path}: chunk {k} does not match its digest "
-                                f"(damaged or edited); delete the store and rerun")
+            raise StoreMismatch(
+                f"{path}: chunk {k} does not match its digest (damaged or edited); delete the store and rerun"
+            )
 
 
-def open_map(path: str | os.PathLike[str],
-             expect: Mapping[str, Any] | None = None) -> xr.Dataset:
+def open_map(path: str | os.PathLike[str], expect: Mapping[str, Any] | None = None) -> xr.Dataset:
     """Open a finished or partial sweep, verified; undone points are masked.
 
     Parameters
@@ -419,18 +467,19 @@ def open_map(path: str | os.PathLike[str],
     except Exception as exc:
         raise StoreMismatch(f"{path} is not a readable Zarr store ({short_reason(exc)})") from None
     made = {k: ds.attrs.get(f"scene_{k}") for k in (expect or {})}
-    if made != dict(expect or {}) and "chunk_rows" in ds.attrs:   # (foreign: verify says)
+    if made != dict(expect or {}) and "chunk_rows" in ds.attrs:  # (foreign: verify says)
         have = ", ".join(f"{k}={v}" for k, v in made.items())
         want = ", ".join(f"{k}={v}" for k, v in (expect or {}).items())
-        raise StoreMismatch(f"{path} was made for {have}, not {want} (a sweep store under "
-                            f"another map's name?)")
+        raise StoreMismatch(
+            f"{path} was made for {have}, not {want} (a sweep store under another map's name?)"
+        )
     verify(ds, path)
     try:
         ds = ds.load()
-    except Exception as exc:   # e.g. an unfinished chunk that is damaged
+    except Exception as exc:  # e.g. an unfinished chunk that is damaged
         raise StoreMismatch(f"{path} cannot be read ({short_reason(exc)})") from None
     rows = int(ds.attrs["chunk_rows"])
-    done_rows = np.repeat(ds["done"].values, rows)[:ds.sizes["log_amplitude"]]
+    done_rows = np.repeat(ds["done"].values, rows)[: ds.sizes["log_amplitude"]]
     return ds.assign(point_done=("log_amplitude", done_rows))
 
 
@@ -464,11 +513,15 @@ def open_vertical(path: str | os.PathLike[str]) -> xr.Dataset:
         raise StoreMismatch(f"{path} is not a readable netCDF file ({short_reason(exc)})") from None
     missing = [v for v in ("log_mass", *VERTICAL_VARIABLES) if v not in ds.variables]
     if missing:
-        raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: "
-                            f"{', '.join(missing)})")
+        raise StoreMismatch(f"{path} is not a vibtrans vertical curve (missing: {', '.join(missing)})")
     lm = ds["log_mass"].values
-    if (ds["log_mass"].dims != ("log_mass",) or lm.size < 2 or lm.dtype.kind != "f"
-            or not np.isfinite(lm).all() or not (np.diff(lm) > 0).all()):
+    if (
+        ds["log_mass"].dims != ("log_mass",)
+        or lm.size < 2
+        or lm.dtype.kind != "f"
+        or not np.isfinite(lm).all()
+        or not (np.diff(lm) > 0).all()
+    ):
         raise StoreMismatch(f"{path}: log_mass is not an increasing grid of finite numbers")
     for v in VERTICAL_VARIABLES:
         a = ds[v].values
@@ -477,9 +530,15 @@ def open_vertical(path: str | os.PathLike[str]) -> xr.Dataset:
     return ds
 
 
-def run_sweep(sweep: Sweep, path: str | os.PathLike[str], workers: int | None = None,
-              scheduler: str | None = None, progress: bool = True, executor: str = "threads",
-              flush_every: float | None = None) -> str | os.PathLike[str]:
+def run_sweep(
+    sweep: Sweep,
+    path: str | os.PathLike[str],
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+    executor: str = "threads",
+    flush_every: float | None = None,
+) -> str | os.PathLike[str]:
     """Compute every unfinished chunk of `sweep` into the Zarr store `path`.
 
     A store left by an interrupted run resumes where it stopped.
@@ -522,27 +581,31 @@ def run_sweep(sweep: Sweep, path: str | os.PathLike[str], workers: int | None = 
         try:
             existing = xr.open_zarr(path, consolidated=False)
         except Exception as exc:
-            raise StoreMismatch(f"{path} exists but is not a readable sweep store "
-                                f"({short_reason(exc)})") from None
+            raise StoreMismatch(
+                f"{path} exists but is not a readable sweep store ({short_reason(exc)})"
+            ) from None
         check_store(existing, sweep, path)
         verify(existing, path)
         done = existing["done"].values.copy()
     else:
         sweep.empty_dataset().to_zarr(
-            path, mode="w", encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)}
-                                      for name in sweep.variables}, consolidated=False)
+            path,
+            mode="w",
+            encoding={name: {"chunks": (sweep.chunk_rows, sweep.log_mass.size)} for name in sweep.variables},
+            consolidated=False,
+        )
         done = np.zeros(sweep.n_chunks, dtype=bool)
     todo = [k for k in range(sweep.n_chunks) if not done[k]]
     if not todo:
         return path
-    warmup()   # fill the numba cache once, before any worker starts
+    warmup()  # fill the numba cache once, before any worker starts
     total = sum(sweep.rows(k).stop - sweep.rows(k).start for k in todo) * sweep.log_mass.size
     bar = progress_bar(total, progress)
     writer = _ChunkWriter(path, sweep, bar, flush_every)
     try:
         _run_chunks(sweep, todo, writer, workers, scheduler, executor)
     finally:
-        writer.flush()      # what finished is kept, whatever stopped the sweep
+        writer.flush()  # what finished is kept, whatever stopped the sweep
     bar.close()
     return path
 
@@ -552,60 +615,78 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
     each finished chunk to `writer`."""
     if scheduler:
         from dask.distributed import Client
+
         with Client(scheduler) as client:
             client.run(warmup)
-            futures = {client.submit(_compute_row_block, sweep.values,
-                                     sweep.log_amplitude[sweep.rows(k)], sweep.log_mass,
-                                     sweep.kind, sweep.chaos, sweep.stop, pure=False): k
-                       for k in todo}
+            futures = {
+                client.submit(
+                    _compute_row_block,
+                    sweep.values,
+                    sweep.log_amplitude[sweep.rows(k)],
+                    sweep.log_mass,
+                    sweep.kind,
+                    sweep.chaos,
+                    sweep.stop,
+                    pure=False,
+                ): k
+                for k in todo
+            }
             from dask.distributed import as_completed
+
             for fut in as_completed(futures):
                 writer.add(futures[fut], fut.result())
     else:
         workers = workers or os.cpu_count() or 1
         import multiprocessing as mp
+
         if executor == "threads":
             pool_cm: Executor = ThreadPoolExecutor(max_workers=workers)
         else:
-            pool_cm = ProcessPoolExecutor(max_workers=workers, initializer=warmup,
-                                          mp_context=mp.get_context("spawn"))
+            pool_cm = ProcessPoolExecutor(
+                max_workers=workers, initializer=warmup, mp_context=mp.get_context("spawn")
+            )
         with pool_cm as pool:
             pending: dict[Future, int] = {}
             queue = list(todo)
             while queue or pending:
                 while queue and len(pending) < 2 * workers:
                     k = queue.pop(0)
-                    pending[pool.submit(_compute_row_block, sweep.values,
-                                        sweep.log_amplitude[sweep.rows(k)],
-                                        sweep.log_mass, sweep.kind, sweep.chaos,
-                                        sweep.stop)] = k
+                    pending[
+                        pool.submit(
+                            _compute_row_block,
+                            sweep.values,
+                            sweep.log_amplitude[sweep.rows(k)],
+                            sweep.log_mass,
+                            sweep.kind,
+                            sweep.chaos,
+                            sweep.stop,
+                        )
+                    ] = k
                 finished, _ = wait(pending, return_when=FIRST_COMPLETED)
                 failed = None
-                for fut in finished:    # every chunk that finished is kept
+                for fut in finished:  # every chunk that finished is kept
                     k = pending.pop(fut)
                     if fut.exception() is None:
                         writer.add(k, fut.result())
                     else:
                         failed = failed or fut
                 if failed is not None:
-                    failed.result()     # raises the chunk's error
+                    failed.result()  # raises the chunk's error
 
 
 def progress_bar(total: Any, enabled: bool) -> Any[NoReturn]:
     from tqdm import tqdm
-    return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled,
-                desc="sweep", smoothing=0.05)
+
+    return tqdm(total=total, unit="pt", file=sys.stderr, disable=not enabled, desc="sweep", smoothing=0.05)
 
 
-FLUSH_EVERY_S = 2.0    # finished chunks wait in memory at most this long
+FLUSH_EVERY_S = 2.0  # finished chunks wait in memory at most this long
 
 
 def check_flush_every(seconds: float) -> float:
     """The validated flush interval (seconds, a number in [0, 3600])."""
-    if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
-            or not 0.0 <= seconds <= 3600.0):
-        raise InputError(f"flush_every must be a number of seconds in [0, 3600], "
-                         f"got {seconds!r}")
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0.0 <= seconds <= 3600.0:
+        raise InputError(f"flush_every must be a number of seconds in [0, 3600], got {seconds!r}")
     return float(seconds)
 
 
@@ -648,20 +729,28 @@ def _write_chunks(path, sweep, ks, blocks):
     rows = [row for block in blocks for row in block]
     data = {}
     for name, (dt, _, _) in sweep.variables.items():
-        data[name] = (("log_amplitude", "log_mass"),
-                      np.array([[p[name] for p in row] for row in rows], dtype=dt))
+        data[name] = (
+            ("log_amplitude", "log_mass"),
+            np.array([[p[name] for p in row] for row in rows], dtype=dt),
+        )
     block = xr.Dataset(data)
-    digests = [block_digest(block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start,
-                                                      sweep.rows(k).stop - sl.start)),
-                       sweep.variables) for k in ks]
+    digests = [
+        block_digest(
+            block.isel(log_amplitude=slice(sweep.rows(k).start - sl.start, sweep.rows(k).stop - sl.start)),
+            sweep.variables,
+        )
+        for k in ks
+    ]
     chunks = slice(ks[0], ks[-1] + 1)
     block["digest"] = (("chunk",), np.array(digests, dtype=np.uint64))
     # the flags last, a write of their own: they commit the chunks, so a kill
     # at any point before them redoes these chunks
-    block.to_zarr(path, region={"log_amplitude": sl, "log_mass": slice(None), "chunk": chunks},
-                  consolidated=False)
+    block.to_zarr(
+        path, region={"log_amplitude": sl, "log_mass": slice(None), "chunk": chunks}, consolidated=False
+    )
     xr.Dataset({"done": (("chunk",), np.ones(len(ks), dtype=bool))}).to_zarr(
-        path, region={"chunk": chunks}, consolidated=False)
+        path, region={"chunk": chunks}, consolidated=False
+    )
 
 
 def command_line() -> str:

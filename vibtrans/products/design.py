@@ -8,6 +8,7 @@ nearest grid point (categories do not blend), at most h/2 decades away:
 tests/products/test_design.py reads v* = -168 where a direct run gives -176.8, within
 the spread of the 3 x 3 neighbours.  SI units unless a name says otherwise.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -46,14 +47,14 @@ if TYPE_CHECKING:
 
     from vibtrans.core.units import DeviceSpec, Material
 
-G_STANDARD = 9.81                 # m/s^2, the converter's default gravity (units.to_normalized)
+G_STANDARD = 9.81  # m/s^2, the converter's default gravity (units.to_normalized)
 
 # ---------------------------------------------------------------- validity thresholds
 # Interatomic spacing 0.2-0.3 nm (Kittel, ch. 1): a smaller Hertz compression
 # is a number, not a deformation; a continuum contact needs ten spacings across.
-ATOMIC_SPACING = 2e-10            # m
-MIN_CONTACT_RADIUS = 10 * ATOMIC_SPACING   # m
-ADHESION_RATIO = 0.1              # pull-off "comparable to" the load: a tenth of m g + P
+ATOMIC_SPACING = 2e-10  # m
+MIN_CONTACT_RADIUS = 10 * ATOMIC_SPACING  # m
+ADHESION_RATIO = 0.1  # pull-off "comparable to" the load: a tenth of m g + P
 # The model drops k_R x (docs/MODEL.md 1): warn from a hundredth of a
 # wavelength per period (a phase slip of 0.063 rad).
 TRAVEL_FRACTION = 0.01
@@ -68,15 +69,15 @@ DMT_FACTOR = 2.0 * math.pi
 
 # ---------------------------------------------------------------- chart axes
 AXES = ("frequency", "radius", "amplitude")
-MAX_AXIS_POINTS = 400             # per axis: 160000 chart points at most
+MAX_AXIS_POINTS = 400  # per axis: 160000 chart points at most
 # The shipped maps are at theta = 1.2, nu = 0.3.  Steel on glass (theta =
 # 1.214) reads them: its direct run changed by 1.5e-5 relative from theta =
 # 1.2; 0.005 in nu moves r by 0.25% (units.amplitude_ratio).
 THETA_TOLERANCE = 0.02
 NU_TOLERANCE = 0.005
-MAX_COMPUTE_POINTS = 20000        # a computed window larger than this is refused
+MAX_COMPUTE_POINTS = 20000  # a computed window larger than this is refused
 COMPUTE_FIDELITY = "preview"
-SYNCHRONOUS_PATTERNS = (1, 2)     # sweep.PATTERNS: synchronous, multi-synchronous
+SYNCHRONOUS_PATTERNS = (1, 2)  # sweep.PATTERNS: synchronous, multi-synchronous
 _UNITS = {"frequency": "Hz", "radius": "m", "amplitude": "m"}
 
 
@@ -96,43 +97,56 @@ def _paper_device():
     """The paper's worked example (steel on glass) at its point 4; R_p = 0.5 mm:
     its "R_p = 1e-3 m" read as the diameter reproduces its numbers (docs/MODEL.md 5)."""
     from vibtrans.core.params import PAPER_POINTS
+
     log_a, log_m, _ = PAPER_POINTS[4]
     radius = 0.5e-3
-    f = units.frequency_for_mass_ratio(10.0 ** log_m, "glass", "steel", radius)
+    f = units.frequency_for_mass_ratio(10.0**log_m, "glass", "steel", radius)
     a0 = units.to_normalized("glass", "steel", radius, f, 0.0).a0
-    return DeviceSpec("glass", "steel", radius, f, 10.0 ** log_a * a0)
+    return DeviceSpec("glass", "steel", radius, f, 10.0**log_a * a0)
 
 
 # The paper's figures for its worked example and this model's (tests/products/test_design.py
 # runs the device): the paper's v* ~ -1e3 is the drift once settled, which
 # a 2000-period run (the maps', the explorer's) has not reached
-PAPER_NOTE = ("Terzi et al.'s worked example: 1 mm steel ball on glass at its point 4. The "
-              "paper gives v* ~ -1e3, v ~ 9 cm/s; this model's 2000-period run (the maps' "
-              "and the Run's) gives v* = -299 (-2.7 cm/s), because its drift is still "
-              "accelerating at the run's end (last tenth -569); it settles at -1295 "
-              "(-11.7 cm/s) after about 5000 periods, and over 10000 periods the mean is "
-              "-1014 (-9.2 cm/s), the paper's order")
+PAPER_NOTE = (
+    "Terzi et al.'s worked example: 1 mm steel ball on glass at its point 4. The "
+    "paper gives v* ~ -1e3, v ~ 9 cm/s; this model's 2000-period run (the maps' "
+    "and the Run's) gives v* = -299 (-2.7 cm/s), because its drift is still "
+    "accelerating at the run's end (last tenth -569); it settles at -1295 "
+    "(-11.7 cm/s) after about 5000 periods, and over 10000 periods the mean is "
+    "-1014 (-9.2 cm/s), the paper's order"
+)
 
 
 def _presets():
     saw = DeviceSpec("lithium niobate", "steel", 0.5e-3, 10e6, 10e-9, preload=1.0)
     powder = DeviceSpec("lithium niobate", "fused silica", 10e-6, 10e6, 1e-9)
     return {
-        "paper": Preset("paper", _paper_device(),
-                        ("frequency", 1e4, 1e6, 41), ("amplitude", 1e-9, 5e-7, 41),
-                        PAPER_NOTE),
-        "saw-motor": Preset("saw-motor", saw, ("amplitude", 1e-9, 3e-8, 21),
-                            ("radius", 0.25e-3, 1e-3, 21),
-                            "SAW motor: steel balls (1 mm diameter) pressed on lithium "
-                            "niobate by a 1 N pre-load, 10 MHz, 10 nm"),
-        "saw-powder": Preset("saw-powder", powder, ("amplitude", 1e-10, 2e-9, 21),
-                             ("radius", 2e-6, 20e-6, 21),
-                             "SAW powder: 10 um silica particle on lithium niobate, "
-                             "10 MHz, 1 nm (A* = 1820, a0 = 5.5e-13 m)"),
-        "feeder": Preset("feeder", DeviceSpec("aluminium", "PTFE", 2e-3, 400.0, 2e-6),
-                         ("frequency", 300.0, 3000.0, 21), ("amplitude", 2e-7, 2e-5, 21),
-                         "vibratory-feeder-like: 4 mm PTFE part on an aluminium track, "
-                         "400 Hz, 2 um"),
+        "paper": Preset(
+            "paper", _paper_device(), ("frequency", 1e4, 1e6, 41), ("amplitude", 1e-9, 5e-7, 41), PAPER_NOTE
+        ),
+        "saw-motor": Preset(
+            "saw-motor",
+            saw,
+            ("amplitude", 1e-9, 3e-8, 21),
+            ("radius", 0.25e-3, 1e-3, 21),
+            "SAW motor: steel balls (1 mm diameter) pressed on lithium "
+            "niobate by a 1 N pre-load, 10 MHz, 10 nm",
+        ),
+        "saw-powder": Preset(
+            "saw-powder",
+            powder,
+            ("amplitude", 1e-10, 2e-9, 21),
+            ("radius", 2e-6, 20e-6, 21),
+            "SAW powder: 10 um silica particle on lithium niobate, 10 MHz, 1 nm (A* = 1820, a0 = 5.5e-13 m)",
+        ),
+        "feeder": Preset(
+            "feeder",
+            DeviceSpec("aluminium", "PTFE", 2e-3, 400.0, 2e-6),
+            ("frequency", 300.0, 3000.0, 21),
+            ("amplitude", 2e-7, 2e-5, 21),
+            "vibratory-feeder-like: 4 mm PTFE part on an aluminium track, 400 Hz, 2 um",
+        ),
     }
 
 
@@ -197,14 +211,20 @@ class Device(param.Parameterized):
     _paper = _paper_device()
     substrate: param.Selector = param.Selector(
         default=units.material(_paper.substrate).name,
-        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL], doc="the substrate's material")
+        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL],
+        doc="the substrate's material",
+    )
     particle: param.Selector = param.Selector(
         default=units.material(_paper.particle).name,
-        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL], doc="the particle's material")
-    substrate_custom = param.String(default=CUSTOM_EXAMPLE, doc="a custom substrate's "
-                                    "properties: E=<Pa>,nu=<->,rho=<kg/m^3>")
-    particle_custom = param.String(default=CUSTOM_EXAMPLE, doc="a custom particle's "
-                                   "properties: E=<Pa>,nu=<->,rho=<kg/m^3>")
+        objects=[*MATERIAL_NAMES, CUSTOM_MATERIAL],
+        doc="the particle's material",
+    )
+    substrate_custom = param.String(
+        default=CUSTOM_EXAMPLE, doc="a custom substrate's properties: E=<Pa>,nu=<->,rho=<kg/m^3>"
+    )
+    particle_custom = param.String(
+        default=CUSTOM_EXAMPLE, doc="a custom particle's properties: E=<Pa>,nu=<->,rho=<kg/m^3>"
+    )
     radius = param.Number(default=_paper.radius, doc="the particle's radius, m")
     frequency = param.Number(default=_paper.frequency, doc="the wave's frequency, Hz")
     amplitude = param.Number(default=_paper.amplitude, doc="the wave's vertical amplitude, m")
@@ -235,8 +255,14 @@ class Device(param.Parameterized):
         units.DeviceSpec
             Its values (checked where they are used: `normalized()`).
         """
-        return DeviceSpec(self.material("substrate"), self.material("particle"), self.radius,
-                          self.frequency, self.amplitude, preload=self.preload)
+        return DeviceSpec(
+            self.material("substrate"),
+            self.material("particle"),
+            self.radius,
+            self.frequency,
+            self.amplitude,
+            preload=self.preload,
+        )
 
 
 # ---------------------------------------------------------------- device quantities
@@ -288,7 +314,7 @@ def _device(device):
 def _device_tip(device, shape):
     """(NormalizedScene, TipContact, A*, m*) of a device with a tip shape."""
     s = device.normalized()
-    if tip_shape(shape).is_sphere:       # the converter's own numbers
+    if tip_shape(shape).is_sphere:  # the converter's own numbers
         a_c = math.sqrt(device.radius * s.a0)
         p = s.load_N / (math.pi * a_c**2)
         c0, ca, slope, p = (np.asarray(v) for v in (s.a0, a_c, a_c / device.radius, p))
@@ -296,19 +322,20 @@ def _device_tip(device, shape):
         return s, tip, s.A_star, s.m_star
     tip = designtip.static_contact(shape, device.radius, s.load_N, _e_eff(device))
     a0 = float(tip.a0)
-    return s, tip, device.amplitude / a0, a0 * s.mass_kg * device.frequency ** 2 / s.load_N
+    return s, tip, device.amplitude / a0, a0 * s.mass_kg * device.frequency**2 / s.load_N
 
 
 def _e_eff(device):
     sub = units.as_material("substrate", device.substrate)
     par = units.as_material("particle", device.particle)
-    return units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
-                                   par.youngs_modulus, par.poisson_ratio)
+    return units.effective_modulus(
+        sub.youngs_modulus, sub.poisson_ratio, par.youngs_modulus, par.poisson_ratio
+    )
 
 
-def device_quantities(device: Any, reading: Any = None,
-                      surface_energy: float = DEFAULT_SURFACE_ENERGY,
-                      shape: Any = None) -> DeviceQuantities:
+def device_quantities(
+    device: Any, reading: Any = None, surface_energy: float = DEFAULT_SURFACE_ENERGY, shape: Any = None
+) -> DeviceQuantities:
     """DeviceQuantities of a DeviceSpec; `reading` (`read_device`) adds the
     drift; `shape`: the tip (None: the sphere)."""
     device = _device(device)
@@ -344,8 +371,12 @@ class ValidityWarning:
     threshold: float
 
 
-def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERGY,
-                      drift_velocity: float | None = None, shape: Any = None) -> list[Any]:
+def validity_warnings(
+    device: Any,
+    surface_energy: float = DEFAULT_SURFACE_ENERGY,
+    drift_velocity: float | None = None,
+    shape: Any = None,
+) -> list[Any]:
     """Where the model's assumptions fail for a device (ValidityWarning list):
     a0 below ATOMIC_SPACING; contact radius below MIN_CONTACT_RADIUS; the tip's
     (designtip.tip_warnings); DMT pull-off at least ADHESION_RATIO of the load;
@@ -355,37 +386,48 @@ def validity_warnings(device: Any, surface_energy: float = DEFAULT_SURFACE_ENERG
     q = device_quantities(device, surface_energy=surface_energy, shape=shape)
     out = []
     if q.a0 < ATOMIC_SPACING:
-        msg = (f"static compression a0 = {q.a0:.3g} m is below the interatomic spacing "
-               f"({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical here")
+        msg = (
+            f"static compression a0 = {q.a0:.3g} m is below the interatomic spacing "
+            f"({ATOMIC_SPACING:g} m): the continuum Hertz contact is not physical here"
+        )
         out.append(ValidityWarning("a0-subatomic", msg, q.a0, ATOMIC_SPACING))
     if q.contact_radius < MIN_CONTACT_RADIUS:
-        msg = (f"contact radius {q.contact_radius:.3g} m is below {MIN_CONTACT_RADIUS:g} m "
-               f"(ten interatomic spacings): Hertz theory does not hold")
+        msg = (
+            f"contact radius {q.contact_radius:.3g} m is below {MIN_CONTACT_RADIUS:g} m "
+            f"(ten interatomic spacings): Hertz theory does not hold"
+        )
         out.append(ValidityWarning("contact-subatomic", msg, q.contact_radius, MIN_CONTACT_RADIUS))
     _, tip, _, _ = _device_tip(_device(device), shape)
-    out += [ValidityWarning(w.code, w.message, w.value, w.threshold)
-            for w in designtip.tip_warnings(shape, tip, _e_eff(device))]
+    out += [
+        ValidityWarning(w.code, w.message, w.value, w.threshold)
+        for w in designtip.tip_warnings(shape, tip, _e_eff(device))
+    ]
     ratio = q.pull_off_dmt / q.load
     if ratio >= ADHESION_RATIO:
-        msg = (f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
-               f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
-               f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
-               f"the model neglects adhesion: count it in the pre-load "
-               f"(--preload, the paper's parameter for such forces) or treat the results as "
-               f"qualitative")
+        msg = (
+            f"adhesion (DMT pull-off 2 pi w R = {q.pull_off_dmt:.3g} N with "
+            f"w = {float(surface_energy):g} J/m^2) is {ratio:.3g} times the load m g + P = "
+            f"{q.load:.3g} N (smooth surfaces: roughness lowers it, set the surface energy); "
+            f"the model neglects adhesion: count it in the pre-load "
+            f"(--preload, the paper's parameter for such forces) or treat the results as "
+            f"qualitative"
+        )
         out.append(ValidityWarning("adhesion", msg, ratio, ADHESION_RATIO))
     if drift_velocity is not None:
         v = units.check_interval("drift_velocity", drift_velocity)
         travel = abs(v) / q.rayleigh_speed
         if travel >= TRAVEL_FRACTION:
-            msg = (f"the particle travels {travel:.3g} wavelengths per period (|v| / c_R); the "
-                   f"model neglects k_R x, valid only well below {TRAVEL_FRACTION:g}")
+            msg = (
+                f"the particle travels {travel:.3g} wavelengths per period (|v| / c_R); the "
+                f"model neglects k_R x, valid only well below {TRAVEL_FRACTION:g}"
+            )
             out.append(ValidityWarning("travel", msg, travel, TRAVEL_FRACTION))
     return out
 
 
-def rolling_warning(max_episode_roll: float | None, a0: float,
-                    contact_radius: float) -> ValidityWarning | None:
+def rolling_warning(
+    max_episode_roll: float | None, a0: float, contact_radius: float
+) -> ValidityWarning | None:
     """The fixed contact patch of a run that rolls (docs/MODEL.md section 11).
 
     Parameters
@@ -414,20 +456,22 @@ def rolling_warning(max_episode_roll: float | None, a0: float,
     """
     if max_episode_roll is None:
         return None
-    roll = units.check_interval("max_episode_roll", max_episode_roll, 0.0, math.inf,
-                                lo_open=False)
+    roll = units.check_interval("max_episode_roll", max_episode_roll, 0.0, math.inf, lo_open=False)
     a0 = units.check_positive("a0", a0)
     radius = units.check_positive("contact_radius", contact_radius)
     share = roll * a0 / radius
     if share < ROLL_CONTACT_FRACTION:
         return None
     return ValidityWarning(
-        "rolling-patch", f"the particle rolled {roll:.3g} a0 = {roll * a0:.3g} m within one "
+        "rolling-patch",
+        f"the particle rolled {roll:.3g} a0 = {roll * a0:.3g} m within one "
         f"contact, {share:.3g} of the contact radius {radius:.3g} m (at or above "
         f"{ROLL_CONTACT_FRACTION:g}): the contact patch moved over the particle's surface "
         f"onto material whose loading history the model does not hold (a fixed patch, "
         f"docs/MODEL.md section 11); treat the tangential motion as qualitative",
-        share, ROLL_CONTACT_FRACTION)
+        share,
+        ROLL_CONTACT_FRACTION,
+    )
 
 
 def chart_warnings(chart: xr.Dataset) -> list[Any]:
@@ -437,16 +481,24 @@ def chart_warnings(chart: xr.Dataset) -> list[Any]:
     out = []
     n = chart["a0"].size
     slope = designtip.MAX_EDGE_SLOPE
-    for var, below, threshold, what in (     # below: strictly below; False: at or above
-            ("a0", True, ATOMIC_SPACING, "a0 below the interatomic spacing"),
-            ("contact_radius", True, MIN_CONTACT_RADIUS,
-             "contact radius below ten interatomic spacings"),
-            ("adhesion_ratio", False, ADHESION_RATIO,
-             "DMT pull-off at least a tenth of the load"),
-            ("travel_over_wavelength", False, TRAVEL_FRACTION,
-             "travel per period at least a hundredth of the wavelength"),
-            ("edge_slope", None, slope, f"tip profile's slope at the contact edge above "
-                                        f"{slope:g} (contact radius against the tip's size)")):
+    for var, below, threshold, what in (  # below: strictly below; False: at or above
+        ("a0", True, ATOMIC_SPACING, "a0 below the interatomic spacing"),
+        ("contact_radius", True, MIN_CONTACT_RADIUS, "contact radius below ten interatomic spacings"),
+        ("adhesion_ratio", False, ADHESION_RATIO, "DMT pull-off at least a tenth of the load"),
+        (
+            "travel_over_wavelength",
+            False,
+            TRAVEL_FRACTION,
+            "travel per period at least a hundredth of the wavelength",
+        ),
+        (
+            "edge_slope",
+            None,
+            slope,
+            f"tip profile's slope at the contact edge above "
+            f"{slope:g} (contact radius against the tip's size)",
+        ),
+    ):
         if var not in chart:
             continue
         vals = chart[var].values
@@ -457,8 +509,7 @@ def chart_warnings(chart: xr.Dataset) -> list[Any]:
         if bad:
             out.append(f"{what} at {bad} of {n} points")
     if str(chart.attrs.get("profile", "sphere")).startswith("cone"):
-        out.append(f"a cone's apex pressure is infinite (it yields or wears round) at all "
-                   f"{n} points")
+        out.append(f"a cone's apex pressure is infinite (it yields or wears round) at all {n} points")
     return out
 
 
@@ -475,18 +526,23 @@ def _axis(spec, name):
     if not hi > lo:
         raise InputError(f"{name} ({q}) must have lo < hi, got {lo:g} and {hi:g}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 2 <= n <= MAX_AXIS_POINTS:
-        raise InputError(f"{name} ({q}) points must be an integer in [2, {MAX_AXIS_POINTS}], "
-                         f"got {n!r}")
+        raise InputError(f"{name} ({q}) points must be an integer in [2, {MAX_AXIS_POINTS}], got {n!r}")
     return q, np.geomspace(lo, hi, int(n))
 
 
-def normalize_grid(substrate: str | Material, particle: str | Material, radius: float,
-                   frequency: float, amplitude: float, preload: float = 0.0, g: float = G_STANDARD,
-                   shape: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def normalize_grid(
+    substrate: str | Material,
+    particle: str | Material,
+    radius: float,
+    frequency: float,
+    amplitude: float,
+    preload: float = 0.0,
+    g: float = G_STANDARD,
+    shape: Any = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a0 [m], A*, m*) of devices given as broadcastable arrays: the
     vectorized `units.to_normalized`; shape: the tip (None: the sphere)."""
-    return _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g,
-                          shape)[:3]
+    return _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape)[:3]
 
 
 def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g, shape):
@@ -500,8 +556,9 @@ def _normalize_tip(substrate, particle, radius, frequency, amplitude, preload, g
     g = units.check_positive("g", g)
     mass = units.sphere_mass(radius, par.density)
     load = mass * g + preload
-    E_eff = units.effective_modulus(sub.youngs_modulus, sub.poisson_ratio,
-                                    par.youngs_modulus, par.poisson_ratio)
+    E_eff = units.effective_modulus(
+        sub.youngs_modulus, sub.poisson_ratio, par.youngs_modulus, par.poisson_ratio
+    )
     shape = tip_shape("sphere" if shape is None else shape)
     if shape.is_sphere:
         a0 = (3 * load / (4 * E_eff * np.sqrt(radius))) ** (2.0 / 3.0)
@@ -517,14 +574,16 @@ def materials_theta_nu(substrate: str | Material, particle: str | Material) -> t
     """(theta, nu) of a substrate / particle pair (docs/MODEL.md 1)."""
     sub = units.as_material("substrate", substrate)
     par = units.as_material("particle", particle)
-    theta = units.stiffness_ratio(sub.youngs_modulus, sub.poisson_ratio,
-                                  par.youngs_modulus, par.poisson_ratio)
+    theta = units.stiffness_ratio(
+        sub.youngs_modulus, sub.poisson_ratio, par.youngs_modulus, par.poisson_ratio
+    )
     return theta, sub.poisson_ratio
 
 
 # ---------------------------------------------------------------- which map
 def shipped_map_path(mu: float, maps: Any = None) -> Path:
     from vibtrans.maps.shipped import maps_dir
+
     return Path(maps or maps_dir()) / f"deformable-mu{float(mu):g}.zarr"
 
 
@@ -534,8 +593,9 @@ def _grid_range(values, step):
     return np.round(np.arange(lo, hi + step / 2, step), 10)
 
 
-def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
-                      load_over_modulus=None, rolling=ROLLING_NONE):
+def _shipped_problems(
+    ds, theta, nu, mu, log_a, log_m, profile="sphere", load_over_modulus=None, rolling=ROLLING_NONE
+):
     """Why a map cannot serve these points (texts; empty if it can); profile:
     the normalized profile they need (the map's scene_profile); rolling: how
     the particle turns (the map's scene_rolling, absent for none)."""
@@ -547,25 +607,34 @@ def _shipped_problems(ds, theta, nu, mu, log_a, log_m, profile="sphere",
     if mp != profile:
         problems.append(f"profile {profile} (map: {mp})")
     elif load_over_modulus is not None and not math.isclose(
-            float(ds.attrs.get("scene_load_over_modulus", math.nan)), load_over_modulus,
-            rel_tol=designtip.SHARED_RELATIVE):
-        problems.append(f"load over modulus {load_over_modulus:.4g} m^2 (map: "
-                        f"{ds.attrs.get('scene_load_over_modulus')})")
+        float(ds.attrs.get("scene_load_over_modulus", math.nan)),
+        load_over_modulus,
+        rel_tol=designtip.SHARED_RELATIVE,
+    ):
+        problems.append(
+            f"load over modulus {load_over_modulus:.4g} m^2 (map: {ds.attrs.get('scene_load_over_modulus')})"
+        )
     if not math.isclose(ds.attrs.get("scene_mu", math.nan), mu, rel_tol=1e-12):
         problems.append(f"mu {mu:g} (map: {ds.attrs.get('scene_mu')})")
     mt, mn = ds.attrs["scene_theta"], ds.attrs["scene_nu"]
     if abs(theta - mt) > THETA_TOLERANCE:
-        problems.append(f"theta {theta:.4g} of the materials differs from the map's {mt:g} "
-                        f"by more than {THETA_TOLERANCE:g}")
+        problems.append(
+            f"theta {theta:.4g} of the materials differs from the map's {mt:g} "
+            f"by more than {THETA_TOLERANCE:g}"
+        )
     if abs(nu - mn) > NU_TOLERANCE:
-        problems.append(f"nu {nu:.4g} of the substrate differs from the map's {mn:g} by "
-                        f"more than {NU_TOLERANCE:g}")
-    for label, vals, grid in (("log10 A*", log_a, ds["log_amplitude"].values),
-                              ("log10 m*", log_m, ds["log_mass"].values)):
+        problems.append(
+            f"nu {nu:.4g} of the substrate differs from the map's {mn:g} by more than {NU_TOLERANCE:g}"
+        )
+    for label, vals, grid in (
+        ("log10 A*", log_a, ds["log_amplitude"].values),
+        ("log10 m*", log_m, ds["log_mass"].values),
+    ):
         lo, hi = float(np.min(vals)), float(np.max(vals))
         if lo < grid[0] or hi > grid[-1]:
-            problems.append(f"{label} spans [{lo:.3g}, {hi:.3g}], outside the map's "
-                            f"[{grid[0]:g}, {grid[-1]:g}]")
+            problems.append(
+                f"{label} spans [{lo:.3g}, {hi:.3g}], outside the map's [{grid[0]:g}, {grid[-1]:g}]"
+            )
     return problems
 
 
@@ -573,24 +642,37 @@ def compute_cost(log_amplitude: Any, log_mass: Any, values: Any) -> tuple[int, A
     """(points, periods, integration steps: an upper estimate) of a sweep."""
     from vibtrans.core.params import Scene
     from vibtrans.core.simulate import estimate_steps
+
     steps = 0
     for la in log_amplitude:
         for lm in log_mass:
-            steps += estimate_steps(Scene(amplitude=10.0 ** la, mass=10.0 ** lm, **values))
+            steps += estimate_steps(Scene(amplitude=10.0**la, mass=10.0**lm, **values))
     return len(log_amplitude) * len(log_mass), values["periods"], steps
 
 
-def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: float, nu: float,
-                 store_dir: str | os.PathLike[str], step: Any = MAP_STEP, periods: float = 2000.0,
-                 tau: float = 50.0, fidelity: str = COMPUTE_FIDELITY, report: Any = print,
-                 workers: int | None = None, profile: str = "sphere",
-                 load_over_modulus: float | None = None,
-                 rolling: str | float = ROLLING_NONE) -> tuple[xr.Dataset, str]:
+def computed_map(
+    log_a: npt.ArrayLike,
+    log_m: npt.ArrayLike,
+    mu: float,
+    theta: float,
+    nu: float,
+    store_dir: str | os.PathLike[str],
+    step: Any = MAP_STEP,
+    periods: float = 2000.0,
+    tau: float = 50.0,
+    fidelity: str = COMPUTE_FIDELITY,
+    report: Any = print,
+    workers: int | None = None,
+    profile: str = "sphere",
+    load_over_modulus: float | None = None,
+    rolling: str | float = ROLLING_NONE,
+) -> tuple[xr.Dataset, str]:
     """The normalized window covering (log_a, log_m) on a `step`-decade grid,
     swept into a store under `store_dir` (kept: a rerun reuses or resumes
     it); the cost is reported first.  (map, store path)."""
     from vibtrans.maps.outfiles import check_folder
     from vibtrans.maps.sweep import Sweep, open_map, run_sweep
+
     step = units.check_interval("step", step, 0.0, 1.0, hi_open=False)
     store_dir = check_folder(store_dir, "store_dir")
     la, lm = _grid_range(log_a, step), _grid_range(log_m, step)
@@ -601,28 +683,34 @@ def computed_map(log_a: npt.ArrayLike, log_m: npt.ArrayLike, mu: float, theta: f
     n = la.size * lm.size
     span = f"log10 A* [{la[0]:g}, {la[-1]:g}]", f"log10 m* [{lm[0]:g}, {lm[-1]:g}]"
     if n > MAX_COMPUTE_POINTS:
-        raise InputError(f"the window to compute has {n} points ({la.size} in {span[0]} x "
-                         f"{lm.size} in {span[1]} at step {step:g}), more than "
-                         f"{MAX_COMPUTE_POINTS}; use a coarser step or narrower axes")
-    values: dict[str, Any] = dict(model="deformable", mu=mu, theta=theta, nu=nu, tau=tau,
-                                  periods=periods, fidelity=fidelity)
-    if profile != "sphere":             # (the sphere's keys, and stores, unchanged)
+        raise InputError(
+            f"the window to compute has {n} points ({la.size} in {span[0]} x "
+            f"{lm.size} in {span[1]} at step {step:g}), more than "
+            f"{MAX_COMPUTE_POINTS}; use a coarser step or narrower axes"
+        )
+    values: dict[str, Any] = dict(
+        model="deformable", mu=mu, theta=theta, nu=nu, tau=tau, periods=periods, fidelity=fidelity
+    )
+    if profile != "sphere":  # (the sphere's keys, and stores, unchanged)
         values["profile"] = profile
         if load_over_modulus is not None:
             values["load_over_modulus"] = float(load_over_modulus)
     rolling = check_rolling(rolling)
-    if rolling != ROLLING_NONE:         # (a particle that does not turn: keys as before)
+    if rolling != ROLLING_NONE:  # (a particle that does not turn: keys as before)
         values["rolling"] = rolling
     points, per, steps = compute_cost(la, lm, values)
-    key = json.dumps({**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]},
-                     sort_keys=True)
+    key = json.dumps(
+        {**values, "la": [la[0], la[-1], la.size], "lm": [lm[0], lm[-1], lm.size]}, sort_keys=True
+    )
     path = Path(store_dir) / f"design-{hashlib.sha256(key.encode()).hexdigest()[:16]}.zarr"
     verb = "reading (resuming if unfinished)" if path.exists() else "computing"
     material = f"mu {mu:g}, theta {theta:.4g}, nu {nu:.4g}"
     material += "" if profile == "sphere" else f", profile {profile}"
     material += "" if rolling == ROLLING_NONE else f", rolling {rolling}"
-    report(f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x {per:g} periods, about "
-           f"{steps:.3g} integration steps ({span[0]}, {span[1]}, step {step:g}; {material})")
+    report(
+        f"{verb} a {fidelity} map: {la.size} x {lm.size} = {points} points x {per:g} periods, about "
+        f"{steps:.3g} integration steps ({span[0]}, {span[1]}, step {step:g}; {material})"
+    )
     sweep = Sweep(la, lm, command=f"vibtrans design ({key})", **values)
     run_sweep(sweep, str(path), workers=workers, progress=False)
     return open_map(str(path)), str(path)
@@ -656,12 +744,16 @@ def read_map(map_ds: xr.Dataset, log_a: npt.ArrayLike, log_m: npt.ArrayLike) -> 
     (undone points: NaN / -2)."""
     ga, gm = map_ds["log_amplitude"].values, map_ds["log_mass"].values
     ia, im = _nearest(ga, np.asarray(log_a)), _nearest(gm, np.asarray(log_m))
-    done = (map_ds["point_done"].values[ia] if "point_done" in map_ds
-            else np.ones(ia.shape, dtype=bool))
+    done = map_ds["point_done"].values[ia] if "point_done" in map_ds else np.ones(ia.shape, dtype=bool)
     out = {}
-    for name, key in (("v_star", "drift_velocity"), ("drift", "drift"), ("contact", "contact"),
-                      ("pattern", "pattern"), ("chaotic", "chaotic"),
-                      ("contact_fraction", "contact_fraction")):
+    for name, key in (
+        ("v_star", "drift_velocity"),
+        ("drift", "drift"),
+        ("contact", "contact"),
+        ("pattern", "pattern"),
+        ("chaotic", "chaotic"),
+        ("contact_fraction", "contact_fraction"),
+    ):
         vals = map_ds[key].values[ia, im]
         out[name] = np.where(done, vals, np.nan if vals.dtype.kind == "f" else -2)
     out["log_amplitude_read"], out["log_mass_read"] = ga[ia], gm[im]
@@ -672,12 +764,13 @@ def _shipped_map(log_a, log_m, mu, theta, nu, maps, profile="sphere", rolling=RO
     """(the shipped map of `mu` if it serves these points, else None; why not)."""
     from vibtrans.core.errors import StoreMismatch
     from vibtrans.maps.sweep import open_map
+
     if profile != "sphere":
-        return None, [f"the shipped maps are the sphere's; profile {profile} needs a map "
-                      f"of its own"]
+        return None, [f"the shipped maps are the sphere's; profile {profile} needs a map of its own"]
     if check_rolling(rolling) != ROLLING_NONE:
-        return None, [f"the shipped maps are of a particle that does not turn; rolling "
-                      f"{rolling} needs a map of its own"]
+        return None, [
+            f"the shipped maps are of a particle that does not turn; rolling {rolling} needs a map of its own"
+        ]
     path = shipped_map_path(mu, maps)
     if not path.exists():
         return None, [f"no shipped map for mu = {mu:g} (shipped: mu 0.1, 0.3, 1)"]
@@ -698,11 +791,21 @@ class NoMapCovers(InputError):
         self.need = need
 
 
-def _map_need(mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None,
-              rolling=ROLLING_NONE):
+def _map_need(
+    mu, theta, nu, log_a, log_m, problems, profile="sphere", load_over_modulus=None, rolling=ROLLING_NONE
+):
     la, lm = ((float(np.min(v)), float(np.max(v))) for v in (log_a, log_m))
-    return MapNeed(float(mu), float(theta), float(nu), la, lm, tuple(problems), profile,
-                   load_over_modulus, check_rolling(rolling))
+    return MapNeed(
+        float(mu),
+        float(theta),
+        float(nu),
+        la,
+        lm,
+        tuple(problems),
+        profile,
+        load_over_modulus,
+        check_rolling(rolling),
+    )
 
 
 @dataclass(frozen=True)
@@ -710,6 +813,7 @@ class ChartGrid:
     """A chart's devices in the normalized plane: the axes' quantities and
     values (SI), the fixed one, the devices' arrays (dims (y, x)), their a0,
     A*, m*, theta and nu of the materials, the tip."""
+
     substrate: units.Material
     particle: units.Material
     x: str
@@ -728,10 +832,16 @@ class ChartGrid:
     tip: designtip.TipContact
 
 
-def chart_grid(substrate: str | Material, particle: str | Material, preload: float = 0.0,
-               x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
-               fixed: tuple = ("radius", 0.5e-3), g: float = G_STANDARD,
-               shape: Any = None) -> ChartGrid:
+def chart_grid(
+    substrate: str | Material,
+    particle: str | Material,
+    preload: float = 0.0,
+    x: tuple = ("frequency", 1e4, 1e6, 41),
+    y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+    fixed: tuple = ("radius", 0.5e-3),
+    g: float = G_STANDARD,
+    shape: Any = None,
+) -> ChartGrid:
     """The chart's ChartGrid (every value checked: InputError names it)."""
     sub = units.as_material("substrate", substrate)
     par = units.as_material("particle", particle)
@@ -741,14 +851,17 @@ def chart_grid(substrate: str | Material, particle: str | Material, preload: flo
         raise InputError(f"fixed must be (quantity, value), got {fixed!r}")
     fq, fv = fixed
     if xq == yq or fq in (xq, yq) or fq not in AXES:
-        raise InputError(f"x, y and fixed must be the three quantities {', '.join(AXES)} "
-                         f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}")
+        raise InputError(
+            f"x, y and fixed must be the three quantities {', '.join(AXES)} "
+            f"once each, got x {xq!r}, y {yq!r}, fixed {fq!r}"
+        )
     fv = units.check_positive(f"fixed {fq}", fv)
     X, Y = np.meshgrid(xv, yv)
     dev = {xq: X, yq: Y, fq: np.full(X.shape, fv)}
     shape = tip_shape("sphere" if shape is None else shape)
-    a0, A, M, tip = _normalize_tip(sub, par, dev["radius"], dev["frequency"], dev["amplitude"],
-                                   preload, g, shape)
+    a0, A, M, tip = _normalize_tip(
+        sub, par, dev["radius"], dev["frequency"], dev["amplitude"], preload, g, shape
+    )
     theta, nu = materials_theta_nu(sub, par)
     return ChartGrid(sub, par, xq, xv, yq, yv, fq, fv, dev, a0, A, M, theta, nu, shape, tip)
 
@@ -757,6 +870,7 @@ def chart_grid(substrate: str | Material, particle: str | Material, preload: flo
 class MapNeed:
     """The normalized map a chart reads (mu, theta, nu, the log10 A* and m*
     spans) and why the shipped map of that mu cannot serve (empty: it can)."""
+
     mu: float
     theta: float
     nu: float
@@ -768,33 +882,52 @@ class MapNeed:
     rolling: str | float = ROLLING_NONE
 
 
-def chart_needs(substrate: str | Material, particle: str | Material, preload: float = 0.0,
-                x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
-                fixed: tuple = ("radius", 0.5e-3), mu: Any = 0.3, maps: Any = None,
-                g: float = G_STANDARD, shape: Any = None,
-                rolling: str | float = ROLLING_NONE) -> MapNeed:
+def chart_needs(
+    substrate: str | Material,
+    particle: str | Material,
+    preload: float = 0.0,
+    x: tuple = ("frequency", 1e4, 1e6, 41),
+    y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+    fixed: tuple = ("radius", 0.5e-3),
+    mu: Any = 0.3,
+    maps: Any = None,
+    g: float = G_STANDARD,
+    shape: Any = None,
+    rolling: str | float = ROLLING_NONE,
+) -> MapNeed:
     """The MapNeed of a chart (design_chart's arguments); nothing is computed."""
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     mu = units.check_positive("mu", mu)
     rolling = check_rolling(rolling)
     log_a, log_m = np.log10(grid.A_star), np.log10(grid.m_star)
-    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile,
-                               rolling)
-    return _map_need(mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile,
-                     grid.tip.load_over_modulus, rolling)
+    _, problems = _shipped_map(log_a, log_m, mu, grid.theta, grid.nu, maps, grid.tip.profile, rolling)
+    return _map_need(
+        mu, grid.theta, grid.nu, log_a, log_m, problems, grid.tip.profile, grid.tip.load_over_modulus, rolling
+    )
 
 
-def design_chart(substrate: str | Material, particle: str | Material, preload: float = 0.0,
-                 x: tuple = ("frequency", 1e4, 1e6, 41), y: tuple = ("amplitude", 1e-9, 1e-6, 41),
-                 fixed: tuple = ("radius", 0.5e-3), mu: float = 0.3,
-                 surface_energy: float = DEFAULT_SURFACE_ENERGY,
-                 maps: str | os.PathLike[str] | None = None, compute: bool = False,
-                 store_dir: str | os.PathLike[str] | None = None, step: float = MAP_STEP,
-                 periods: float = 2000.0, report: Callable[[str], object] = print,
-                 workers: int | None = None, g: float = G_STANDARD,
-                 map_ds: xr.Dataset | None = None, map_name: str = "given map",
-                 shape: TipShape | None = None,
-                 rolling: str | float = ROLLING_NONE) -> xr.Dataset:
+def design_chart(
+    substrate: str | Material,
+    particle: str | Material,
+    preload: float = 0.0,
+    x: tuple = ("frequency", 1e4, 1e6, 41),
+    y: tuple = ("amplitude", 1e-9, 1e-6, 41),
+    fixed: tuple = ("radius", 0.5e-3),
+    mu: float = 0.3,
+    surface_energy: float = DEFAULT_SURFACE_ENERGY,
+    maps: str | os.PathLike[str] | None = None,
+    compute: bool = False,
+    store_dir: str | os.PathLike[str] | None = None,
+    step: float = MAP_STEP,
+    periods: float = 2000.0,
+    report: Callable[[str], object] = print,
+    workers: int | None = None,
+    g: float = G_STANDARD,
+    map_ds: xr.Dataset | None = None,
+    map_name: str = "given map",
+    shape: TipShape | None = None,
+    rolling: str | float = ROLLING_NONE,
+) -> xr.Dataset:
     """The design chart: a device's drift over two of its SI quantities, each
     point read (nearest grid point) from a shipped map, a computed window or `map_ds`.
 
@@ -854,6 +987,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
         If no shipped map serves the chart and `compute` is False.
     """
     import xarray as xr
+
     grid = chart_grid(substrate, particle, preload, x, y, fixed, g, shape)
     tip, sub, par = grid.tip, grid.substrate, grid.particle
     xq, yq, fq = grid.x, grid.y, grid.fixed
@@ -867,8 +1001,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     log_a, log_m = np.log10(A), np.log10(M)
     profile: dict[str, Any] = dict(profile=tip.profile, load_over_modulus=tip.load_over_modulus)
     if map_ds is not None:
-        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, **profile,
-                                     rolling=rolling)
+        problems = _shipped_problems(map_ds, theta, nu, mu, log_a, log_m, **profile, rolling=rolling)
         if problems:
             raise InputError(f"the {map_name} does not serve this chart: " + "; ".join(problems))
         source = map_name
@@ -877,14 +1010,18 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
         source = f"shipped: {shipped_map_path(mu, maps).name}"
         if map_ds is None and not compute:
             need = _map_need(mu, theta, nu, log_a, log_m, problems, **profile, rolling=rolling)
-            raise NoMapCovers("no shipped map covers this chart: " + "; ".join(problems)
-                              + ". Compute the window with --compute (API: compute=True; a "
-                                "preview-fidelity sweep, cost printed first) or narrow the axes",
-                              need)
+            raise NoMapCovers(
+                "no shipped map covers this chart: "
+                + "; ".join(problems)
+                + ". Compute the window with --compute (API: compute=True; a "
+                "preview-fidelity sweep, cost printed first) or narrow the axes",
+                need,
+            )
         if map_ds is None:
             run: dict[str, Any] = dict(store_dir=store_dir, step=step, periods=periods, report=report)
-            map_ds, where = computed_map(log_a, log_m, mu, theta, nu, workers=workers, **run, **profile,
-                                         rolling=rolling)
+            map_ds, where = computed_map(
+                log_a, log_m, mu, theta, nu, workers=workers, **run, **profile, rolling=rolling
+            )
             source = f"computed: {where}"
     got = read_map(map_ds, log_a, log_m)
     v = a0 * dev["frequency"] * got["v_star"]
@@ -892,7 +1029,7 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
     load = units.sphere_mass(dev["radius"], par.density) * g + preload
     grid_step = round(float(np.diff(map_ds["log_amplitude"].values[:2])[0]), 10)
     regime = regime_of(got["drift"], got["contact"], got["pattern"], got["chaotic"])
-    variables = {       # name: (values, description or {attrs})
+    variables = {  # name: (values, description or {attrs})
         "drift_velocity": (v, {"units": "m/s", "description": "a0 f v*"}),
         "v_star": (got["v_star"], "<v*> read on the map"),
         "drift": (got["drift"], "-1 against the wave, 0 none, 1 with"),
@@ -907,36 +1044,56 @@ def design_chart(substrate: str | Material, particle: str | Material, preload: f
         "log_mass_read": (got["log_mass_read"], "log10 m* of the map point read"),
         "a0": (a0, {"units": "m"}),
         "contact_radius": (np.broadcast_to(tip.contact_radius, a0.shape).copy(), {"units": "m"}),
-        "edge_slope": (np.broadcast_to(tip.edge_slope, a0.shape).copy(),
-                       "the tip profile's slope at the static contact edge"),
-        "adhesion_ratio": (DMT_FACTOR * w * dev["radius"] / load,
-                           "DMT pull-off 2 pi w R over m g + P"),
-        "travel_over_wavelength": (np.abs(v) / c_R,
-                                   "|v| / c_R: travel per period over the Rayleigh wavelength"),
+        "edge_slope": (
+            np.broadcast_to(tip.edge_slope, a0.shape).copy(),
+            "the tip profile's slope at the static contact edge",
+        ),
+        "adhesion_ratio": (DMT_FACTOR * w * dev["radius"] / load, "DMT pull-off 2 pi w R over m g + P"),
+        "travel_over_wavelength": (
+            np.abs(v) / c_R,
+            "|v| / c_R: travel per period over the Rayleigh wavelength",
+        ),
     }
-    data = {k: ((yq, xq), vals, a if isinstance(a, dict) else {"description": a})
-            for k, (vals, a) in variables.items()}
-    coords = {q: (q, vals, {"units": _UNITS[q], "long_name": AXIS_LABELS[q]})
-              for q, vals in ((xq, grid.x_values), (yq, grid.y_values))}
+    data = {
+        k: ((yq, xq), vals, a if isinstance(a, dict) else {"description": a})
+        for k, (vals, a) in variables.items()
+    }
+    coords = {
+        q: (q, vals, {"units": _UNITS[q], "long_name": AXIS_LABELS[q]})
+        for q, vals in ((xq, grid.x_values), (yq, grid.y_values))
+    }
     attrs = dict(substrate=sub.name, particle=par.name, preload_N=float(preload), gravity=float(g))
     attrs.update(mu=float(mu), theta=float(theta), nu=float(nu), surface_energy=float(w))
     attrs.update(x=xq, y=yq, fixed=fq, profile=grid.shape.name, map_profile=tip.profile)
     attrs.update(fixed_value=float(grid.fixed_value), fixed_units=_UNITS[fq], map=source)
     m = map_ds.attrs
-    attrs.update(map_theta=float(m["scene_theta"]), map_nu=float(m["scene_nu"]),
-                 map_periods=float(m["scene_periods"]), map_fidelity=str(m["scene_fidelity"]))
-    attrs.update(map_step=grid_step, reading=f"nearest grid point: the map point read is at most "
-                 f"{grid_step / 2:g} decades from the device in log10 A* and in log10 m*",
-                 rayleigh_speed=float(c_R))
+    attrs.update(
+        map_theta=float(m["scene_theta"]),
+        map_nu=float(m["scene_nu"]),
+        map_periods=float(m["scene_periods"]),
+        map_fidelity=str(m["scene_fidelity"]),
+    )
+    attrs.update(
+        map_step=grid_step,
+        reading=f"nearest grid point: the map point read is at most "
+        f"{grid_step / 2:g} decades from the device in log10 A* and in log10 m*",
+        rayleigh_speed=float(c_R),
+    )
     if rolling != ROLLING_NONE:
         attrs["rolling"] = rolling
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str] | None = None,
-                chart: xr.Dataset | None = None, map_ds: xr.Dataset | None = None,
-                map_name: str = "given map", shape: TipShape | None = None,
-                rolling: str | float = ROLLING_NONE) -> dict[str, Any] | None:
+def read_device(
+    device: DeviceSpec,
+    mu: float = 0.3,
+    maps: str | os.PathLike[str] | None = None,
+    chart: xr.Dataset | None = None,
+    map_ds: xr.Dataset | None = None,
+    map_name: str = "given map",
+    shape: TipShape | None = None,
+    rolling: str | float = ROLLING_NONE,
+) -> dict[str, Any] | None:
     """The map reading at one device: from `map_ds`, else `chart`'s map (the
     device itself, not the nearest chart point), else the shipped map.
 
@@ -971,6 +1128,7 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
         If a value is outside its range.
     """
     from vibtrans.maps.sweep import open_map
+
     shape = tip_shape("sphere" if shape is None else shape)
     s, tip, A_star, m_star = _device_tip(_device(device), shape)
     la, lm = np.log10([A_star]), np.log10([m_star])
@@ -984,13 +1142,15 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
     if chart is not None and chart.attrs["map"].startswith("computed: "):
         path = Path(chart.attrs["map"].split(": ", 1)[1])
     elif not shape.is_sphere or rolling != ROLLING_NONE:
-        return None                   # the shipped maps are a sphere's that does not turn
+        return None  # the shipped maps are a sphere's that does not turn
     if not path.exists():
         return None
     ds = open_map(str(path))
     if _shipped_problems(ds, s.theta, s.nu, float(mu), la, lm, *need) and (
-            chart is None or ds.attrs.get("scene_profile", "sphere") != tip.profile
-            or inertia_ratio(ds.attrs.get("scene_rolling", ROLLING_NONE)) != inertia_ratio(rolling)):
+        chart is None
+        or ds.attrs.get("scene_profile", "sphere") != tip.profile
+        or inertia_ratio(ds.attrs.get("scene_rolling", ROLLING_NONE)) != inertia_ratio(rolling)
+    ):
         return None
     ga, gm = ds["log_amplitude"].values, ds["log_mass"].values
     if not (ga[0] <= la[0] <= ga[-1] and gm[0] <= lm[0] <= gm[-1]):
@@ -1001,14 +1161,18 @@ def read_device(device: DeviceSpec, mu: float = 0.3, maps: str | os.PathLike[str
 def _reading(ds, la, lm, name):
     got = read_map(ds, la, lm)
     regime = regime_of(got["drift"], got["contact"], got["pattern"], got["chaotic"])
-    return {"v_star": float(got["v_star"][0]),
-            "contact_fraction": float(got["contact_fraction"][0]),
-            "regime": REGIMES[int(regime[0])], "map": name}
+    return {
+        "v_star": float(got["v_star"][0]),
+        "contact_fraction": float(got["contact_fraction"][0]),
+        "regime": REGIMES[int(regime[0])],
+        "map": name,
+    }
 
 
 def write_chart_data(chart: xr.Dataset, out: str | os.PathLike[str]) -> str | os.PathLike[str]:
     """The chart's numbers to .nc (every variable) or .csv (a row per point)."""
     from vibtrans.maps.outfiles import atomic, check_file
+
     check_file(out)
     ext = Path(out).suffix.lower()
     if ext == ".nc":

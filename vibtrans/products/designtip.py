@@ -41,6 +41,7 @@ Validity (`tip_warnings`):
   the load either): a real apex yields or wears to a rounded tip, so the
   warning is always given with that mean pressure.
 """
+
 from __future__ import annotations
 
 import math
@@ -77,6 +78,7 @@ class TipShape:
     power (n; cone: n = 1 with half_angle in degrees; tip_radius in m or
     None for the particle radius), flat-sphere (flat_radius, m) or file
     (path; table r, z in m)."""
+
     kind: str = "sphere"
     n: float = 2.0
     half_angle: float | None = None
@@ -105,19 +107,26 @@ class TipShape:
 
 
 def _real(name, value, lo, hi, lo_open=True, hi_open=True, unit=""):
-    ok = (not isinstance(value, bool) and isinstance(value, (int, float, np.floating))
-          and math.isfinite(value)
-          and (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi))
+    ok = (
+        not isinstance(value, bool)
+        and isinstance(value, (int, float, np.floating))
+        and math.isfinite(value)
+        and (value > lo if lo_open else value >= lo)
+        and (value < hi if hi_open else value <= hi)
+    )
     if not ok:
         lb = "(" if lo_open else "["
         rb = ")" if hi_open else "]"
-        raise InputError(f"{name} must be a real number in {lb}{lo:g}, {hi:g}{rb}{unit}, "
-                         f"got {value!r}")
+        raise InputError(f"{name} must be a real number in {lb}{lo:g}, {hi:g}{rb}{unit}, got {value!r}")
     return float(value)
 
 
-def tip_shape(profile: str | TipShape = "sphere", half_angle: float | None = None,
-              tip_radius: float | None = None, flat_radius: float | None = None) -> TipShape:
+def tip_shape(
+    profile: str | TipShape = "sphere",
+    half_angle: float | None = None,
+    tip_radius: float | None = None,
+    flat_radius: float | None = None,
+) -> TipShape:
     """A checked TipShape from a profile name (TIP_KINDS) and its SI sizes:
     half_angle [deg] for a cone (or power:1), tip_radius [m] for power:N
     (optional), flat_radius [m] for flat-sphere.  A size the profile does
@@ -143,38 +152,40 @@ def tip_shape(profile: str | TipShape = "sphere", half_angle: float | None = Non
         try:
             table = np.loadtxt(path, ndmin=2)
         except (OSError, ValueError) as exc:
-            raise InputError(f"profile file {path!r} must be a readable two-column text "
-                             f"table r z (m): {exc}") from None
+            raise InputError(
+                f"profile file {path!r} must be a readable two-column text table r z (m): {exc}"
+            ) from None
         if table.shape[1] != 2:
-            raise InputError(f"profile file {path!r} must have two columns r z (m), got "
-                             f"{table.shape[1]}")
+            raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
         return TipShape("file", path=path, table=(table[:, 0].copy(), table[:, 1].copy()))
     if profile.startswith("flat-sphere"):
         if profile != "flat-sphere":
-            raise InputError("design takes the flat radius in metres: profile 'flat-sphere' "
-                             f"with flat_radius (--flat-radius), got {profile!r}")
+            raise InputError(
+                "design takes the flat radius in metres: profile 'flat-sphere' "
+                f"with flat_radius (--flat-radius), got {profile!r}"
+            )
         only("flat_radius")
         if flat_radius is None:
             raise InputError("profile flat-sphere needs flat_radius (--flat-radius, m, in [0, inf))")
-        return TipShape("flat-sphere", flat_radius=_real("flat_radius", flat_radius, 0.0,
-                                                          math.inf, lo_open=False, unit=" m"))
+        return TipShape(
+            "flat-sphere",
+            flat_radius=_real("flat_radius", flat_radius, 0.0, math.inf, lo_open=False, unit=" m"),
+        )
     if profile == "cone":
         n = 1.0
     elif profile.startswith("power:"):
         try:
             n = float(profile[6:])
         except ValueError:
-            raise InputError(f"profile power parameter must be a number, got {profile[6:]!r}") \
-                from None
-        PowerLawProfile(n)                     # n >= 1, with its message
+            raise InputError(f"profile power parameter must be a number, got {profile[6:]!r}") from None
+        PowerLawProfile(n)  # n >= 1, with its message
     else:
         raise InputError(f"profile must be one of {', '.join(TIP_KINDS)}, got {profile!r}")
     if n == 1.0:
         only("half_angle")
         if half_angle is None:
             raise InputError("profile cone needs half_angle (--half-angle, degrees, in (0, 90))")
-        return TipShape("power", 1.0, half_angle=_real("half_angle", half_angle, 0.0, 90.0,
-                                                       unit=" degrees"))
+        return TipShape("power", 1.0, half_angle=_real("half_angle", half_angle, 0.0, 90.0, unit=" degrees"))
     only("tip_radius")
     if tip_radius is not None:
         tip_radius = _real("tip_radius", tip_radius, 0.0, math.inf, unit=" m")
@@ -187,12 +198,12 @@ def _flat_sphere_s(c, X):
     """s > 0 with c^2 s + (2/3) s^3 = X (arrays): Cardano's root, then Newton."""
     c2 = c * c
     p, q = 1.5 * c2, -1.5 * X
-    disc = np.sqrt(q * q / 4 + p ** 3 / 27)
+    disc = np.sqrt(q * q / 4 + p**3 / 27)
     s = np.cbrt(-q / 2 + disc) + np.cbrt(-q / 2 - disc)
     # Cardano cancels for a large flat: a few Newton steps polish any start
     s = np.where(s > 0, s, np.minimum(np.cbrt(1.5 * X), X / np.maximum(c2, 1e-300)))
     for _ in range(6):
-        f = c2 * s + (2.0 / 3.0) * s ** 3 - X
+        f = c2 * s + (2.0 / 3.0) * s**3 - X
         s = s - f / (c2 + 2.0 * s * s)
     return s
 
@@ -201,8 +212,10 @@ def _shared(name, values, why):
     values = np.asarray(values, float)
     lo, hi = float(np.min(values)), float(np.max(values))
     if hi - lo > SHARED_RELATIVE * max(abs(hi), abs(lo)):
-        raise InputError(f"{name} spans [{lo:.4g}, {hi:.4g}] over the chart ({why}); a map "
-                         f"holds one value: chart over frequency and amplitude at a fixed radius")
+        raise InputError(
+            f"{name} spans [{lo:.4g}, {hi:.4g}] over the chart ({why}); a map "
+            f"holds one value: chart over frequency and amplitude at a fixed radius"
+        )
     return float(values.flat[0])
 
 
@@ -212,6 +225,7 @@ class TipContact:
     contact_radius [m], edge_slope z'(a_c) [-], mean_pressure [Pa]; and the
     normalized profile the dynamics takes (Scene's `profile`, with
     `load_over_modulus` [m^2] for a table; None otherwise)."""
+
     a0: np.ndarray
     contact_radius: np.ndarray
     edge_slope: np.ndarray
@@ -230,7 +244,7 @@ def static_contact(shape: Any, radius: Any, load: Any, E_eff: Any) -> TipContact
     if shape.kind == "sphere":
         a0 = (3 * load / (4 * E_eff * np.sqrt(radius))) ** (2.0 / 3.0)
         ac = np.sqrt(radius * a0)
-        return TipContact(a0, ac, ac / radius, load / (np.pi * ac ** 2), "sphere")
+        return TipContact(a0, ac, ac / radius, load / (np.pi * ac**2), "sphere")
     if shape.kind == "power":
         n = shape.n
         if n == 1.0:
@@ -242,26 +256,32 @@ def static_contact(shape: Any, radius: Any, load: Any, E_eff: Any) -> TipContact
         a0 = (load * (n + 1) * kc ** (1.0 / n) / (2 * E_eff * n)) ** (n / (n + 1))
         ac = (a0 / kc) ** (1.0 / n)
         slope = n * C * ac ** (n - 1.0)
-        return TipContact(a0, ac, slope, load / (np.pi * ac ** 2), PowerLawProfile(n).name)
+        return TipContact(a0, ac, slope, load / (np.pi * ac**2), PowerLawProfile(n).name)
     if shape.kind == "flat-sphere":
         c = shape.flat_radius
         s = _flat_sphere_s(np.full(radius.shape, c), load * radius / (2 * E_eff))
         ac = np.sqrt(c * c + s * s)
         a0 = ac * s / radius
-        gamma = _shared("the flat-ended sphere's gamma = c / sqrt(R a0)", c / np.sqrt(radius * a0),
-                        "it depends on the radius and the load")
+        gamma = _shared(
+            "the flat-ended sphere's gamma = c / sqrt(R a0)",
+            c / np.sqrt(radius * a0),
+            "it depends on the radius and the load",
+        )
         FlatSphereProfile(gamma)
-        return TipContact(a0, ac, ac / radius, load / (np.pi * ac ** 2),
-                          f"flat-sphere:{gamma:.10g}")
-    lom = _shared("the load over the contact modulus N0/E*", load / E_eff,
-                  "a measured profile's normalized law depends on the load")
+        return TipContact(a0, ac, ac / radius, load / (np.pi * ac**2), f"flat-sphere:{gamma:.10g}")
+    lom = _shared(
+        "the load over the contact modulus N0/E*",
+        load / E_eff,
+        "a measured profile's normalized law depends on the load",
+    )
     r, z = shape.table
     prof = TabulatedProfile(r, z, lom, name=f"file:{shape.path}")
     ac = prof.static_contact_radius
     slope = float(np.interp(ac, 0.5 * (r[1:] + r[:-1]), np.diff(z) / np.diff(r)))
     full = np.ones(radius.shape)
-    return TipContact(prof.a0 * full, ac * full, slope * full,
-                      load / (np.pi * ac ** 2), f"file:{shape.path}", lom)
+    return TipContact(
+        prof.a0 * full, ac * full, slope * full, load / (np.pi * ac**2), f"file:{shape.path}", lom
+    )
 
 
 def outline(shape: Any, r: Any, radius: float) -> Any:
@@ -276,7 +296,7 @@ def outline(shape: Any, r: Any, radius: float) -> Any:
         if shape.n == 1.0:
             return r / math.tan(math.radians(shape.half_angle))
         rt = radius if shape.tip_radius is None else shape.tip_radius
-        return r ** shape.n / (shape.n * rt ** (shape.n - 1.0))
+        return r**shape.n / (shape.n * rt ** (shape.n - 1.0))
     if shape.kind == "flat-sphere":
         c = shape.flat_radius
         return np.where(r > c, (r * r - c * c) / (2 * radius), 0.0)
@@ -287,6 +307,7 @@ def outline(shape: Any, r: Any, radius: float) -> Any:
 @dataclass(frozen=True)
 class TipWarning:
     """One tip-specific failed assumption (as design.ValidityWarning)."""
+
     code: str
     message: str
     value: float
@@ -302,22 +323,37 @@ def tip_warnings(shape: Any, contact: Any, E_eff: float) -> list[Any]:
     slope = float(np.max(contact.edge_slope))
     ac = float(np.max(contact.contact_radius))
     if slope > MAX_EDGE_SLOPE:
-        size = {"sphere": "the sphere's radius", "flat-sphere": "the sphere's radius",
-                "file": "the measured profile"}.get(shape.kind, "the tip radius")
+        size = {
+            "sphere": "the sphere's radius",
+            "flat-sphere": "the sphere's radius",
+            "file": "the measured profile",
+        }.get(shape.kind, "the tip radius")
         if shape.kind == "power" and shape.n == 1.0:
             size = "the cone: cot(half-angle) at any size"
-        out.append(TipWarning(
-            "tip-slope", f"the profile's slope at the contact edge (contact radius {ac:.3g} m) "
-            f"is {slope:.3g}, above {MAX_EDGE_SLOPE:g} ({size}): Hertz and MDR assume a "
-            f"nearly flat profile over the contact (a half-space); treat the results as "
-            f"qualitative", slope, MAX_EDGE_SLOPE))
+        out.append(
+            TipWarning(
+                "tip-slope",
+                f"the profile's slope at the contact edge (contact radius {ac:.3g} m) "
+                f"is {slope:.3g}, above {MAX_EDGE_SLOPE:g} ({size}): Hertz and MDR assume a "
+                f"nearly flat profile over the contact (a half-space); treat the results as "
+                f"qualitative",
+                slope,
+                MAX_EDGE_SLOPE,
+            )
+        )
     if shape.kind == "power" and shape.n == 1.0:
         pm = E_eff / (2 * math.tan(math.radians(shape.half_angle)))
-        out.append(TipWarning(
-            "cone-apex", f"a cone's contact pressure (E* cot(alpha)/2) arccosh(a/r) is infinite "
-            f"at its apex at any load (mean pressure {pm:.3g} Pa, the same at every load): a "
-            f"real apex yields or wears round; the sharp elastic cone holds while that rounded "
-            f"region is small against the contact radius {ac:.3g} m", pm, 0.0))
+        out.append(
+            TipWarning(
+                "cone-apex",
+                f"a cone's contact pressure (E* cot(alpha)/2) arccosh(a/r) is infinite "
+                f"at its apex at any load (mean pressure {pm:.3g} Pa, the same at every load): a "
+                f"real apex yields or wears round; the sharp elastic cone holds while that rounded "
+                f"region is small against the contact radius {ac:.3g} m",
+                pm,
+                0.0,
+            )
+        )
     return out
 
 
@@ -333,8 +369,7 @@ class TipSize(param.Number):
 
     __slots__ = ["size", "range_text"]
 
-    def __init__(self, default: Any = None, size: Any = None, range_text: str = "",
-                 **params: Any) -> None:
+    def __init__(self, default: Any = None, size: Any = None, range_text: str = "", **params: Any) -> None:
         self.size = size
         self.range_text = range_text
         super().__init__(default=default, **params)
@@ -345,12 +380,13 @@ class TipSize(param.Number):
             return None
         if self.size == "exponent":
             if not isinstance(value, (int, float)) or isinstance(value, bool):
-                raise InputError(f"the tip's exponent N must be a real number in (1, inf), "
-                                 f"got {value!r}")
+                raise InputError(f"the tip's exponent N must be a real number in (1, inf), got {value!r}")
             if value == 1:
-                raise InputError("the tip's exponent N must be a real number in (1, inf), "
-                                 "got 1 (N = 1 is the cone: choose the tip 'cone' and give its "
-                                 "half-angle)")
+                raise InputError(
+                    "the tip's exponent N must be a real number in (1, inf), "
+                    "got 1 (N = 1 is the cone: choose the tip 'cone' and give its "
+                    "half-angle)"
+                )
             tip_shape(f"power:{float(value)!r}")
         elif self.size == "half_angle":
             tip_shape("cone", half_angle=value)
@@ -368,8 +404,11 @@ class TipSize(param.Number):
 # The kinds of tip its sizes give (TIP_KINDS but a measured table, which a
 # path gives: tip_shape("file:PATH")), and the sizes each takes (Tip's)
 TIP_SIZES: dict[str, tuple[str, ...]] = {
-    "sphere": (), "cone": ("tip_half_angle",), "power": ("tip_exponent", "tip_radius"),
-    "flat-sphere": ("tip_flat_radius",)}
+    "sphere": (),
+    "cone": ("tip_half_angle",),
+    "power": ("tip_exponent", "tip_radius"),
+    "flat-sphere": ("tip_flat_radius",),
+}
 
 
 def tip_arguments(values: Mapping[str, Any]) -> dict[str, Any]:
@@ -391,8 +430,7 @@ def tip_arguments(values: Mapping[str, Any]) -> dict[str, Any]:
     if kind == "cone":
         return {"profile": "cone", "half_angle": values["tip_half_angle"]}
     if kind == "power":
-        return {"profile": f"power:{float(values['tip_exponent'])!r}",
-                "tip_radius": values["tip_radius"]}
+        return {"profile": f"power:{float(values['tip_exponent'])!r}", "tip_radius": values["tip_radius"]}
     return {"profile": "flat-sphere", "flat_radius": values["tip_flat_radius"]}
 
 
@@ -417,17 +455,35 @@ class Tip(param.Parameterized):
     """
 
     tip: param.Selector = param.Selector(
-        default="sphere", objects=list(TIP_SIZES),
-        doc="the particle's tip: the sphere, a cone, a power law, a flat")
-    tip_half_angle = TipSize(60.0, size="half_angle", range_text="a number in (0, 90) (degrees)",
-                             doc="the cone's half-angle, degrees")
-    tip_exponent = TipSize(3.0, size="exponent", range_text="a number in (1, inf)",
-                           doc="the power law's exponent N: z = r^N / (N R_t^(N-1))")
-    tip_radius = TipSize(None, size="tip_radius", allow_None=True,
-                         range_text="a number in (0, inf) (m), or empty: the particle's radius",
-                         doc="the power law's tip radius R_t, m (None: the particle's radius)")
-    tip_flat_radius = TipSize(1e-6, size="flat_radius", range_text="a number in [0, inf) (m)",
-                              doc="the flat-ended sphere's flat radius, m")
+        default="sphere",
+        objects=list(TIP_SIZES),
+        doc="the particle's tip: the sphere, a cone, a power law, a flat",
+    )
+    tip_half_angle = TipSize(
+        60.0,
+        size="half_angle",
+        range_text="a number in (0, 90) (degrees)",
+        doc="the cone's half-angle, degrees",
+    )
+    tip_exponent = TipSize(
+        3.0,
+        size="exponent",
+        range_text="a number in (1, inf)",
+        doc="the power law's exponent N: z = r^N / (N R_t^(N-1))",
+    )
+    tip_radius = TipSize(
+        None,
+        size="tip_radius",
+        allow_None=True,
+        range_text="a number in (0, inf) (m), or empty: the particle's radius",
+        doc="the power law's tip radius R_t, m (None: the particle's radius)",
+    )
+    tip_flat_radius = TipSize(
+        1e-6,
+        size="flat_radius",
+        range_text="a number in [0, inf) (m)",
+        doc="the flat-ended sphere's flat radius, m",
+    )
 
     def sizes(self) -> tuple[str, ...]:
         """The names of the sizes its kind takes (the others do not make the tip).

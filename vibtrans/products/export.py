@@ -4,6 +4,7 @@
 matplotlib backend leaves `hv.Store.current_backend` alone, so a serving
 process may export.  Every `export_*` returns what it drew.
 """
+
 from __future__ import annotations
 
 import math
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import matplotlib
 
 if "matplotlib.pyplot" not in sys.modules:
-    matplotlib.use("Agg")          # before pyplot is imported (by HoloViews)
+    matplotlib.use("Agg")  # before pyplot is imported (by HoloViews)
 
 import holoviews as hv  # noqa: E402
 import numpy as np  # noqa: E402
@@ -45,16 +46,25 @@ DEFAULT_DPI = 150
 FRAGMENT = plots.FRAGMENT
 OVERVIEW_SAMPLES = plots.OVERVIEW_SAMPLES
 MAX_PIXELS = 60e6
-HSPACE = 0.35            # gap between a layout's columns, in axes widths
-MAPS_HSPACE = 0.6        # ... beside a map: its colour bar, ticks and two-line title
+HSPACE = 0.35  # gap between a layout's columns, in axes widths
+MAPS_HSPACE = 0.6  # ... beside a map: its colour bar, ticks and two-line title
 
 # publication defaults: readable fonts, text kept as text in SVG, TrueType in PDF
 RC: dict[RcKeyType, Any] = {
-    "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11,
-    "xtick.labelsize": 9.5, "ytick.labelsize": 9.5, "legend.fontsize": 9,
-    "legend.framealpha": 0.85, "axes.linewidth": 0.8, "axes.formatter.useoffset": False,
-    "svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42,
-    "figure.facecolor": "white", "savefig.facecolor": "white",
+    "font.size": 11,
+    "axes.titlesize": 11,
+    "axes.labelsize": 11,
+    "xtick.labelsize": 9.5,
+    "ytick.labelsize": 9.5,
+    "legend.fontsize": 9,
+    "legend.framealpha": 0.85,
+    "axes.linewidth": 0.8,
+    "axes.formatter.useoffset": False,
+    "svg.fonttype": "none",
+    "pdf.fonttype": 42,
+    "ps.fonttype": 42,
+    "figure.facecolor": "white",
+    "savefig.facecolor": "white",
 }
 _ELEMENTS = "Curve Image Rectangles Polygons Points Labels Text HLine VLine VSpan Overlay".split()
 
@@ -66,7 +76,8 @@ def ensure_backends() -> None:
     had = hv.Store.current_backend if hv.Store.renderers else None
     import holoviews.plotting.bokeh  # noqa: F401
     import holoviews.plotting.mpl  # noqa: F401
-    hv.Store.set_current_backend(had or "bokeh")     # also fills hv.opts builders
+
+    hv.Store.set_current_backend(had or "bokeh")  # also fills hv.opts builders
 
 
 def output_format(out: str | os.PathLike[str], allowed: tuple[str, ...] = FORMATS) -> str:
@@ -78,22 +89,26 @@ def output_format(out: str | os.PathLike[str], allowed: tuple[str, ...] = FORMAT
 
 def _check_size(width, height, dpi):
     for name, v in (("width", width), ("height", height)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
-                math.isfinite(v) and 0.5 <= v <= 50):
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not (math.isfinite(v) and 0.5 <= v <= 50)
+        ):
             raise InputError(f"{name} must be a number of inches in [0.5, 50], got {v!r}")
     if isinstance(dpi, bool) or not isinstance(dpi, (int, np.integer)) or not 20 <= dpi <= 1200:
         raise InputError(f"dpi must be an integer in [20, 1200], got {dpi!r}")
     if width * height * dpi * dpi > MAX_PIXELS:
-        raise InputError(f"dpi too large for a {width:g} x {height:g} in figure: "
-                         f"{width * dpi:.0f} x {height * dpi:.0f} px is over "
-                         f"{MAX_PIXELS:.0e} pixels")
+        raise InputError(
+            f"dpi too large for a {width:g} x {height:g} in figure: "
+            f"{width * dpi:.0f} x {height * dpi:.0f} px is over "
+            f"{MAX_PIXELS:.0e} pixels"
+        )
 
 
 def _publication(obj, width, height, hspace=HSPACE):
     """Axes fill their cells, no sub-figure letters, no shared ranges."""
     spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
-    spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace,
-                          vspace=0.6)
+    spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace, vspace=0.6)
     spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
     spec["Image"] = dict(aspect="auto", fig_inches=(width, height))
     return obj.opts(spec, backend="matplotlib")
@@ -113,8 +128,7 @@ def _fit(fig, pad=0.06, rounds=6):
         sx, sy = (tx1 - tx0) / (x1 - x0), (ty1 - ty0) / (y1 - y0)
         for ax in fig.axes:
             p = ax.get_position(original=True)
-            ax.set_position([tx0 + (p.x0 - x0) * sx, ty0 + (p.y0 - y0) * sy,
-                             p.width * sx, p.height * sy])
+            ax.set_position([tx0 + (p.x0 - x0) * sx, ty0 + (p.y0 - y0) * sy, p.width * sx, p.height * sy])
 
 
 def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE) -> Figure:
@@ -123,14 +137,20 @@ def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HS
     obj = _publication(obj, width, height, hspace)
     with matplotlib.rc_context(RC):
         fig = hv.render(obj, backend="matplotlib")
-        FigureCanvasAgg(fig)         # HoloViews closed it: attach a headless canvas
+        FigureCanvasAgg(fig)  # HoloViews closed it: attach a headless canvas
         fig.set_size_inches(width, height)
         _fit(fig)
     return fig
 
 
-def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: float = 5.0,
-         dpi: int = DEFAULT_DPI, hspace: float = HSPACE) -> Any:
+def save(
+    obj: Any,
+    out: str | os.PathLike[str],
+    width: float = 7.0,
+    height: float = 5.0,
+    dpi: int = DEFAULT_DPI,
+    hspace: float = HSPACE,
+) -> Any:
     """Render `obj` with matplotlib to .png (width*dpi x height*dpi px), .svg or .pdf."""
     fmt = output_format(out)
     _check_size(width, height, dpi)
@@ -141,6 +161,7 @@ def save(obj: Any, out: str | os.PathLike[str], width: float = 7.0, height: floa
 def _saved(fig, out, fmt, dpi):
     """Write `fig` to `out` and close it."""
     import matplotlib.pyplot as plt
+
     try:
         Path(out).parent.mkdir(parents=True, exist_ok=True)
         with matplotlib.rc_context(RC), atomic(out) as tmp:
@@ -151,6 +172,7 @@ def _saved(fig, out, fmt, dpi):
 
 def _metadata(fmt):
     from vibtrans.version import __version__
+
     creator = f"vibtrans {__version__}"
     if fmt == "png":
         return {"Software": creator}
@@ -183,6 +205,7 @@ def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") 
     from bokeh.model import Model
     from bokeh.resources import INLINE
     from panel.io.state import set_curdoc
+
     output_format(out, ("html",))
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     # Panel's save takes stylesheets from the current document's cache (from a
@@ -193,6 +216,7 @@ def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") 
             hv.save(obj, tmp, fmt="html", backend="bokeh", resources="inline", title=title)
         elif isinstance(obj, Model):
             from bokeh.embed import file_html
+
             # a document of its own: else file_html copies curdoc()'s, which in a
             # server callback can be a closed page's destroyed document
             if obj.document is None:
@@ -200,6 +224,7 @@ def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") 
             Path(tmp).write_text(file_html(obj, INLINE, title=title), encoding="utf-8")
         else:
             import panel as pn
+
             pn.panel(obj).save(tmp, resources=INLINE, title=title, embed=True)
     return obj
 
@@ -211,19 +236,22 @@ def _write(obj, out, width, height, dpi, html_cell=None):
     if Path(out).suffix.lower() != ".html":
         return save(obj, out, width, height, dpi)
     w, h = html_cell or (int(width * 100), int(height * 100))
-    spec = {k: dict(width=w, height=h) for k in ("Curve", "Image", "Rectangles", "Polygons",
-                                                  "Overlay")}
+    spec = {k: dict(width=w, height=h) for k in ("Curve", "Image", "Rectangles", "Polygons", "Overlay")}
     spec["Curve"]["tools"] = spec["Image"]["tools"] = ["hover"]
     return export_html(obj.opts(spec, backend="bokeh"), out)
 
 
 # ---------------------------------------------------------------- figures
-def heatmap_figure(map_ds: xr.Dataset, v0: float = V0, vertical: xr.Dataset | None = None,
-                   chaotic: str = "grey", title: str | None = None):
+def heatmap_figure(
+    map_ds: xr.Dataset,
+    v0: float = V0,
+    vertical: xr.Dataset | None = None,
+    chaotic: str = "grey",
+    title: str | None = None,
+):
     """The explorer's map: drift, jumping boundary, resonances, paper points."""
     ensure_backends()
-    if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (
-            math.isfinite(v0) and v0 > 0):
+    if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (math.isfinite(v0) and v0 > 0):
         raise InputError(f"v0 must be a positive number, got {v0!r}")
     if chaotic not in ("grey", "colour"):
         raise InputError(f"chaotic must be grey or colour, got {chaotic!r}")
@@ -246,9 +274,17 @@ def heatmap_figure(map_ds: xr.Dataset, v0: float = V0, vertical: xr.Dataset | No
     return plots.style(el, common=dict(title=title, xlim=(x0, x1), ylim=(y0, y1)))
 
 
-def export_heatmap(map_ds: xr.Dataset, out: str | os.PathLike[str], v0: float = V0,
-                   vertical: xr.Dataset | None = None, dpi: int = DEFAULT_DPI, width: float = 7.0,
-                   height: float = 5.2, chaotic: str = "grey", title: str | None = None) -> Any:
+def export_heatmap(
+    map_ds: xr.Dataset,
+    out: str | os.PathLike[str],
+    v0: float = V0,
+    vertical: xr.Dataset | None = None,
+    dpi: int = DEFAULT_DPI,
+    width: float = 7.0,
+    height: float = 5.2,
+    chaotic: str = "grey",
+    title: str | None = None,
+) -> Any:
     """The drift map of a sweep, as a figure file.
 
     Parameters
@@ -279,14 +315,19 @@ def export_heatmap(map_ds: xr.Dataset, out: str | os.PathLike[str], v0: float = 
         If `out`'s extension or a size is not accepted.
     """
     output_format(out, FORMATS + ("html",))
-    return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height,
-                  dpi)
+    return _write(heatmap_figure(map_ds, v0, vertical, chaotic, title), out, width, height, dpi)
 
 
-def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
-                      window: tuple[float, float] | None = None, twin: xr.Dataset | None = None,
-                      dpi: int = DEFAULT_DPI, width: float = 11.0, height: float | None = None,
-                      title: str | None = None) -> TrajectoryFigure:
+def export_trajectory(
+    ds: xr.Dataset,
+    out: str | os.PathLike[str],
+    window: tuple[float, float] | None = None,
+    twin: xr.Dataset | None = None,
+    dpi: int = DEFAULT_DPI,
+    width: float = 11.0,
+    height: float | None = None,
+    title: str | None = None,
+) -> TrajectoryFigure:
     """A run's trajectory figure (`plots.trajectory_figure`), as a file.
 
     Parameters
@@ -329,7 +370,7 @@ def export_trajectory(ds: xr.Dataset, out: str | os.PathLike[str],
 
 # The trajectory figure, drawn with matplotlib and Bokeh directly (plots.py says why).
 LINE_WIDTH = 1.5
-ENVELOPE_ALPHA = 0.3         # a per-bin min-max band: fill, outline opacity and width
+ENVELOPE_ALPHA = 0.3  # a per-bin min-max band: fill, outline opacity and width
 ENVELOPE_EDGE_ALPHA = 0.6
 ENVELOPE_EDGE_WIDTH = 0.6
 TIME_LABEL = "t* (periods)"
@@ -340,6 +381,7 @@ def _mpl_panel(ax, panel):
     from matplotlib.colors import to_rgba
     from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
+
     ax.set_title(panel.title)
     ax.set_xlabel(TIME_LABEL)
     ax.set_xlim(*panel.xlim)
@@ -358,7 +400,7 @@ def _mpl_panel(ax, panel):
                 poly = PolyCollection([np.column_stack([x, y])], snap=False, facecolors=colour, linewidths=0)
                 ax.add_collection(poly, autolim=False)
                 handles.append(Patch(facecolor=colour, label=name))
-        ax.set_ylim(0.0, 1.8)           # the bands below, their legend above
+        ax.set_ylim(0.0, 1.8)  # the bands below, their legend above
         ax.set_yticks([])
         ax.spines["left"].set_visible(False)
         ax.legend(handles=handles, loc="upper left", ncols=4)
@@ -378,8 +420,9 @@ def _mpl_panel(ax, panel):
             look = dict(edgecolor=to_rgba(tr.colour, ENVELOPE_EDGE_ALPHA), linewidth=ENVELOPE_EDGE_WIDTH)
             fill = to_rgba(tr.colour, ENVELOPE_ALPHA)
             band = on.fill_between(tr.time, tr.lo, tr.hi, facecolor=fill, linestyle=dash, **look)
-        line, = on.plot(tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH, linestyle=dash,
-                        label=tr.label)
+        (line,) = on.plot(
+            tr.time, tr.value, color=tr.colour, linewidth=LINE_WIDTH, linestyle=dash, label=tr.label
+        )
         handles.append(line if band is None else (band, line))
     ax.set_ylabel(left_label)
     if twin is not None:
@@ -393,6 +436,7 @@ def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) ->
     """A matplotlib Figure of a `plots.TrajectoryFigure`, its columns side by side."""
     from matplotlib.figure import Figure
     from matplotlib.layout_engine import ConstrainedLayoutEngine
+
     with matplotlib.rc_context(RC):
         fig = Figure(figsize=(width, height))
         FigureCanvasAgg(fig)
@@ -407,8 +451,7 @@ def render_trajectory(figure: Any, width: float = 11.0, height: float = 13.0) ->
         fig.suptitle(figure.title, fontsize=14)
         # run once here, without a draw: as the figure's engine it would run in
         # savefig's dry draw and again in its real one
-        ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.04, hspace=0.03,
-                                wspace=0.06).execute(fig)
+        ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.04, hspace=0.03, wspace=0.06).execute(fig)
     return fig
 
 
@@ -421,6 +464,7 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
     from bokeh.layouts import column, gridplot
     from bokeh.models import ColumnDataSource, Div, HoverTool, Legend, LegendItem, Range1d
     from bokeh.plotting import figure as bokeh_figure
+
     width, height = cell
     grid = []
     for col in figure.columns:
@@ -439,8 +483,7 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
                     if shares[:, code].any():
                         x, y = plots.strip_outline(edges, shares, code)
                         # no outline: over a long run's narrow bands it was all one saw
-                        r = f.patch(x=x, y=y, fill_color=plots.STATE_COLORS[code],
-                                    line_width=0, line_alpha=0)
+                        r = f.patch(x=x, y=y, fill_color=plots.STATE_COLORS[code], line_width=0, line_alpha=0)
                         items.append(LegendItem(label=name, renderers=[r]))
                 f.y_range = Range1d(0.0, 1.8)
                 f.yaxis.visible = False
@@ -448,10 +491,11 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
                 f.add_layout(Legend(items=items, location="top_left", orientation="horizontal"))
                 continue
             lines: list = []
-            sides: dict = {False: [], True: []}      # renderers on the left, right axis
+            sides: dict = {False: [], True: []}  # renderers on the left, right axis
             left_label, right_label = panel.axis_labels
             if panel.right:
                 from bokeh.models import DataRange1d, LinearAxis
+
                 f.extra_y_ranges = {"right": DataRange1d()}
                 f.add_layout(LinearAxis(y_range_name="right", axis_label=right_label), "right")
             for tr in panel.traces:
@@ -465,8 +509,10 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
                 if tr.lo is not None:
                     fill = dict(fill_color=tr.colour, fill_alpha=ENVELOPE_ALPHA, source=src)
                     drawn.append(f.varea(x="time", y1="lo", y2="hi", **fill, **axis))
-                    drawn += [f.line(x="time", y=edge, line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1,
-                                     **line) for edge in ("lo", "hi")]
+                    drawn += [
+                        f.line(x="time", y=edge, line_alpha=ENVELOPE_EDGE_ALPHA, line_width=1, **line)
+                        for edge in ("lo", "hi")
+                    ]
                 r = f.line(x="time", y="value", line_width=LINE_WIDTH, **line)
                 lines.append(r)
                 items.append(LegendItem(label=tr.label, renderers=[r, *drawn]))
@@ -481,8 +527,7 @@ def trajectory_bokeh(figure: Any, cell: tuple[int, int] = (650, 180)) -> Any:
             f.add_layout(Legend(items=items, location="top_left"), "right")
         grid.append(figs)
     rows = [list(row) for row in zip_longest(*grid)]
-    return column(Div(text=f"<h3>{html.escape(figure.title)}</h3>"),
-                  gridplot(rows, toolbar_location="right"))
+    return column(Div(text=f"<h3>{html.escape(figure.title)}</h3>"), gridplot(rows, toolbar_location="right"))
 
 
 # ---------------------------------------------------------------- data files
@@ -490,14 +535,21 @@ def samples_csv(ds: xr.Dataset) -> str:
     """The run's samples as CSV (a row per instant, a column per time-axis
     variable) after a comment header with the scene and the units."""
     import io
+
     names = [v for v in ds.data_vars if ds[v].dims == ("time",)]
-    scene = ", ".join(f"{k}={ds.attrs[k]}" for k in (
-        "model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods") if k in ds.attrs)
-    head = ["# vibtrans run: " + scene,
-            "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
-            + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES))]
+    scene = ", ".join(
+        f"{k}={ds.attrs[k]}"
+        for k in ("model", "amplitude", "mass", "mu", "theta", "nu", "tau", "periods")
+        if k in ds.attrs
+    )
+    head = [
+        "# vibtrans run: " + scene,
+        "# time in wave periods, lengths in a0 (x, y, a), b in theta mu a0; state: "
+        + ", ".join(f"{i} {n}" for i, n in enumerate(STATE_NAMES)),
+    ]
     if "x" in ds and ds.sizes.get("time", 0) > 2:
         from vibtrans.analysis.summary import drift_velocity, steadiness
+
         head.append(f"# drift <v*> = {drift_velocity(ds):.6g} a0 per period; {steadiness(ds)[1]}")
     buf = io.StringIO()
     buf.write("\n".join(head) + "\n")
@@ -509,12 +561,16 @@ def map_window(map_ds: xr.Dataset, log_amplitude: Any, log_mass: Any) -> xr.Data
     """The map's points inside [log_amplitude] x [log_mass] (closed ranges)."""
     (a0, a1), (m0, m1) = sorted(log_amplitude), sorted(log_mass)
     la, lm = map_ds["log_amplitude"], map_ds["log_mass"]
-    return map_ds.sel(log_amplitude=la[(la >= a0) & (la <= a1)],
-                      log_mass=lm[(lm >= m0) & (lm <= m1)])
+    return map_ds.sel(log_amplitude=la[(la >= a0) & (la <= a1)], log_mass=lm[(lm >= m0) & (lm <= m1)])
 
 
-def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
-                    width: float = 6.5, height: float = 4.8) -> Any:
+def export_vertical(
+    vertical: xr.Dataset,
+    out: str | os.PathLike[str],
+    dpi: int = DEFAULT_DPI,
+    width: float = 6.5,
+    height: float = 4.8,
+) -> Any:
     """The jumping threshold A_J*(m*) of both models on log axes (paper Fig. 2).
 
     Parameters
@@ -541,8 +597,9 @@ def export_vertical(vertical: xr.Dataset, out: str | os.PathLike[str], dpi: int 
     return _write(plots.vertical_curves(vertical), out, width, height, dpi)
 
 
-def export_dynamics(el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
-                    width: float = 7.0, height: float = 5.2) -> Any:
+def export_dynamics(
+    el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI, width: float = 7.0, height: float = 5.2
+) -> Any:
     """A figure of the dynamics, as a file.
 
     Parameters
@@ -568,8 +625,13 @@ def export_dynamics(el: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI
     return _write(el, out, width, height, dpi)
 
 
-def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
-                  width: float = 13.0, height: float = 4.2) -> Any:
+def export_memory(
+    snapshot: dict[str, Any],
+    out: str | os.PathLike[str],
+    dpi: int = DEFAULT_DPI,
+    width: float = 13.0,
+    height: float = 4.2,
+) -> Any:
     """The memory diagram at one instant and the contact circle, as a file.
 
     Parameters
@@ -597,23 +659,30 @@ def export_memory(snapshot: dict[str, Any], out: str | os.PathLike[str], dpi: in
     return _write(el, out, width, height, dpi, html_cell=(420, 380))
 
 
-def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = DEFAULT_DPI,
-                          width: float = 12.0, height: float = 5.6,
-                          targets: tuple[float, float] = (0.05, 0.005),
-                          reference: str = "the reference preset refined twice") -> Figure:
+def export_work_precision(
+    results: Any,
+    out: str | os.PathLike[str],
+    dpi: int = DEFAULT_DPI,
+    width: float = 12.0,
+    height: float = 5.6,
+    targets: tuple[float, float] = (0.05, 0.005),
+    reference: str = "the reference preset refined twice",
+) -> Figure:
     """Work-precision diagram of `workprecision.study` points (or their dicts):
     drift error (left) and trajectory error (right) against kernel seconds,
     log-log; a colour per scene, a marker per integrator, presets edged in
     black, dashed lines at the drift-error `targets`."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
+
     fmt = output_format(out)
     _check_size(width, height, dpi)
     rows = [r if isinstance(r, dict) else r._asdict() for r in results]
 
     def num(v):
         return math.inf if v in ("inf", None) else float(v)
-    floor = 1e-12                      # exact agreement drawn at the floor
+
+    floor = 1e-12  # exact agreement drawn at the floor
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     integrators = list(dict.fromkeys(r["integrator"] for r in rows))
     colours = matplotlib.colormaps["tab10"]
@@ -623,15 +692,24 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
         fig = Figure(figsize=(width, height))
         FigureCanvasAgg(fig)
         axes = fig.subplots(1, 2)
-        for ax, key, label in ((axes[0], "drift_error", "relative drift error"),
-                               (axes[1], "traj_error", "trajectory error, max |dx*|, |dy*| (a0)")):
+        for ax, key, label in (
+            (axes[0], "drift_error", "relative drift error"),
+            (axes[1], "traj_error", "trajectory error, max |dx*|, |dy*| (a0)"),
+        ):
             for i, scene in enumerate(scenes):
                 for integ in integrators:
-                    pts, seen = [], set()       # coarse to fine; one point per step
-                    for r in sorted((r for r in rows if r["scene"] == scene
-                                     and r["integrator"] == integ and r["stable"]
-                                     and math.isfinite(num(r["seconds"]))),
-                                    key=lambda r: -num(r["h"])):
+                    pts, seen = [], set()  # coarse to fine; one point per step
+                    for r in sorted(
+                        (
+                            r
+                            for r in rows
+                            if r["scene"] == scene
+                            and r["integrator"] == integ
+                            and r["stable"]
+                            and math.isfinite(num(r["seconds"]))
+                        ),
+                        key=lambda r: -num(r["h"]),
+                    ):
                         if r["h"] not in seen or r["setting"] in presets:
                             seen.add(r["h"])
                             pts.append(r)
@@ -653,17 +731,21 @@ def export_work_precision(results: Any, out: str | os.PathLike[str], dpi: int = 
         for t in targets:
             axes[0].axhline(t, color="grey", ls="--", lw=0.8)
         chaotic = {r["scene"] for r in rows if r.get("chaotic")}
-        handles = [Line2D([], [], color=colours(i % 10), lw=2,
-                          label=s + (" (chaotic)" if s in chaotic else ""))
-                   for i, s in enumerate(scenes)]
+        handles = [
+            Line2D([], [], color=colours(i % 10), lw=2, label=s + (" (chaotic)" if s in chaotic else ""))
+            for i, s in enumerate(scenes)
+        ]
         for g in integrators:
             ls, label = ("-", g.upper()) if g == "ab4" else (":", g.capitalize())
             handles.append(Line2D([], [], color="black", ls=ls, marker=markers.get(g, "^"), label=label))
-        handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="none", mec="black",
-                              label="fidelity preset"))
+        handles.append(
+            Line2D([], [], ls="none", marker="o", ms=7, mfc="none", mec="black", label="fidelity preset")
+        )
         fig.legend(handles=handles, loc="lower center", ncol=6, frameon=False)
-        fig.suptitle(f"Work-precision: error against cost, vs {reference} (AB4); "
-                     f"dashed: drift error {' and '.join(f'{t:g}' for t in targets)}")
+        fig.suptitle(
+            f"Work-precision: error against cost, vs {reference} (AB4); "
+            f"dashed: drift error {' and '.join(f'{t:g}' for t in targets)}"
+        )
         fig.subplots_adjust(bottom=0.24, wspace=0.28)
         _fit(fig)
         Path(out).parent.mkdir(parents=True, exist_ok=True)
@@ -685,6 +767,7 @@ def map_path(maps_dir: str | os.PathLike[str], model: str, mu: float) -> Path:
 def load_vertical(maps_dir: str | os.PathLike[str]) -> xr.Dataset | None:
     """The checked vertical curve of maps_dir, or None if it has none."""
     from vibtrans.maps.sweep import open_vertical
+
     path = Path(maps_dir) / "vertical.nc"
     return open_vertical(str(path)) if path.exists() else None
 
@@ -693,11 +776,11 @@ def load_vertical(maps_dir: str | os.PathLike[str]) -> xr.Dataset | None:
 PAPER_FIGURES = {
     2: ("vertical", None),
     3: ("maps", None),
-    **{4 + k - 1: ("trajectory", k) for k in range(1, 9)},   # Figs. 4-11: points 1-8
+    **{4 + k - 1: ("trajectory", k) for k in range(1, 9)},  # Figs. 4-11: points 1-8
     13: ("trajectory", 9),
     14: ("trajectory", 10),
 }
-TWIN_POINTS = (8, 10)      # chaotic: shown with their chaos twin (analysis.twin_scene)
+TWIN_POINTS = (8, 10)  # chaotic: shown with their chaos twin (analysis.twin_scene)
 
 
 def point_title(point: int, scene: Scene) -> str:
@@ -705,10 +788,14 @@ def point_title(point: int, scene: Scene) -> str:
     return f"Point {point}: {model}, A* = 10^{la:g}, m* = 10^{lm:g}, mu = {scene.mu:g}"
 
 
-def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
-                 maps: str | os.PathLike[str] | None = None,
-                 dpi: int = DEFAULT_DPI, periods: float | None = None,
-                 fmt: str = "png") -> dict[Any, Any]:
+def export_paper(
+    out_dir: str | os.PathLike[str],
+    progress: bool = True,
+    maps: str | os.PathLike[str] | None = None,
+    dpi: int = DEFAULT_DPI,
+    periods: float | None = None,
+    fmt: str = "png",
+) -> dict[Any, Any]:
     """Regenerate the paper's figures into a folder.
 
     One file per figure and an index.md naming each figure's scene and the
@@ -743,6 +830,7 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
 
     from vibtrans.core.simulate import simulate
     from vibtrans.maps.sweep import open_map
+
     if fmt not in FORMATS:
         raise InputError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
     out_dir = Path(out_dir)
@@ -760,12 +848,12 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
     bar = tqdm(PAPER_FIGURES.items(), desc="paper figures", file=sys.stderr, disable=not progress, unit="fig")
     for number, (kind, point) in bar:
         name = f"fig{number:02d}" + {"vertical": "-vertical", "maps": "-drift-maps"}.get(
-            kind, f"-point{point}")
+            kind, f"-point{point}"
+        )
         path = out_dir / f"{name}.{fmt}"
         note = ""
         if kind == "vertical":
-            what = ("Jumping threshold A_J*(m*): deformable (Hertz) vs material point, "
-                    "resonances marked")
+            what = "Jumping threshold A_J*(m*): deformable (Hertz) vs material point, resonances marked"
             scene = f"vertical model, tau = 50, T_obs = 2000 (`{maps / 'vertical.nc'}`)"
             cmd = f"vibtrans export vertical --out {path.name}{maps_arg}"
             if vertical is None:
@@ -773,11 +861,12 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
             else:
                 export_vertical(vertical, path, dpi=dpi)
         elif kind == "maps":
-            what = ("Drift-velocity maps in the paper's colour scale: (a) deformable, "
-                    "(b) material point")
+            what = "Drift-velocity maps in the paper's colour scale: (a) deformable, (b) material point"
             scene = "mu = 0.3, theta = 1.2, nu = 0.3, tau = 50, T_obs = 2000 (shipped maps)"
-            cmd = (f"vibtrans export heatmap --model deformable --out fig03a.{fmt}{maps_arg}; "
-                   f"vibtrans export heatmap --model point-mass --out fig03b.{fmt}{maps_arg}")
+            cmd = (
+                f"vibtrans export heatmap --model deformable --out fig03a.{fmt}{maps_arg}; "
+                f"vibtrans export heatmap --model point-mass --out fig03b.{fmt}{maps_arg}"
+            )
             panels = []
             for model in ("deformable", "point-mass"):
                 try:
@@ -786,14 +875,11 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
                     note += f"{model} map missing ({exc}); "
                     continue
                 if not bool(ds["done"].values.all()):
-                    note += (f"{model} map partial ({int(ds['done'].sum())}/"
-                             f"{ds.sizes['chunk']} chunks); ")
+                    note += f"{model} map partial ({int(ds['done'].sum())}/{ds.sizes['chunk']} chunks); "
                 letter = "(a)" if model == "deformable" else "(b)"
-                panels.append(heatmap_figure(ds, vertical=vertical,
-                                             title=f"{letter} {model}, mu = 0.3"))
+                panels.append(heatmap_figure(ds, vertical=vertical, title=f"{letter} {model}, mu = 0.3"))
             if panels:
-                save(hv.Layout(panels).cols(2), path, width=13.0, height=5.2, dpi=dpi,
-                     hspace=MAPS_HSPACE)
+                save(hv.Layout(panels).cols(2), path, width=13.0, height=5.2, dpi=dpi, hspace=MAPS_HSPACE)
             else:
                 path, note = None, "not made: " + note
         else:
@@ -805,13 +891,17 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
             if point in TWIN_POINTS:
                 twin = simulate(twin_scene(sc), window=window, samples_per_period=OVERVIEW_SAMPLES)
             what = f"Paper point {point} ({model}): whole run and last {FRAGMENT:g} periods" + (
-                ", with its tau + 1e-3 twin" if twin is not None else "")
-            scene = (f"{model}, log10 A* = {la:g}, log10 m* = {lm:g}, mu = {sc.mu:g}, "
-                     f"theta = {sc.theta:g}, tau = {sc.tau:g}, T_obs = {sc.periods:g}, "
-                     f"{sc.fidelity}, {sc.integrator}")
+                ", with its tau + 1e-3 twin" if twin is not None else ""
+            )
+            scene = (
+                f"{model}, log10 A* = {la:g}, log10 m* = {lm:g}, mu = {sc.mu:g}, "
+                f"theta = {sc.theta:g}, tau = {sc.tau:g}, T_obs = {sc.periods:g}, "
+                f"{sc.fidelity}, {sc.integrator}"
+            )
             cmd = f"vibtrans export trajectory --point {point} --out {path.name}"
             cmd += (" --twin" if twin is not None else "") + (
-                "" if periods is None else f" --periods {periods:g}")
+                "" if periods is None else f" --periods {periods:g}"
+            )
             export_trajectory(ds, path, twin=twin, dpi=dpi, title=point_title(point, sc))
         made[number] = path
         rows.append((number, path, what, scene, cmd, note.rstrip("; ")))
@@ -822,12 +912,17 @@ def export_paper(out_dir: str | os.PathLike[str], progress: bool = True,
 
 def _write_index(out_dir, rows, maps, seconds, dpi, periods):
     from vibtrans.version import __version__
-    lines = ["# The paper's figures, regenerated by vibtrans", "",
-             f"Made by `vibtrans export paper --out {out_dir}"
-             f"{'' if maps == default_maps_dir() else ' --maps ' + str(maps)}"
-             f"{'' if dpi == DEFAULT_DPI else f' --dpi {dpi}'}"
-             f"{'' if periods is None else f' --periods {periods:g}'}` "
-             f"(vibtrans {__version__}, {seconds:.0f} s). Maps from `{maps}`.", ""]
+
+    lines = [
+        "# The paper's figures, regenerated by vibtrans",
+        "",
+        f"Made by `vibtrans export paper --out {out_dir}"
+        f"{'' if maps == default_maps_dir() else ' --maps ' + str(maps)}"
+        f"{'' if dpi == DEFAULT_DPI else f' --dpi {dpi}'}"
+        f"{'' if periods is None else f' --periods {periods:g}'}` "
+        f"(vibtrans {__version__}, {seconds:.0f} s). Maps from `{maps}`.",
+        "",
+    ]
     for number, path, what, scene, cmd, note in rows:
         lines += [f"## Fig. {number}: {what}", ""]
         if path is not None:
@@ -840,10 +935,15 @@ def _write_index(out_dir, rows, maps, seconds, dpi, periods):
         Path(tmp).write_text("\n".join(lines))
 
 
-def export_design(chart: xr.Dataset, out: str | os.PathLike[str],
-                  device: tuple[float, float] | None = None,
-                  dpi: int = DEFAULT_DPI, width: float = 7.5, height: float = 6.0,
-                  title: str | None = None) -> Any:
+def export_design(
+    chart: xr.Dataset,
+    out: str | os.PathLike[str],
+    device: tuple[float, float] | None = None,
+    dpi: int = DEFAULT_DPI,
+    width: float = 7.5,
+    height: float = 6.0,
+    title: str | None = None,
+) -> Any:
     """A design chart, as a figure file.
 
     Parameters
@@ -872,6 +972,6 @@ def export_design(chart: xr.Dataset, out: str | os.PathLike[str],
     output_format(out, FORMATS + ("html",))
     ensure_backends()
     el = plots.design_figure(chart, device, title).opts(
-        {k: dict(aspect="auto") for k in ("QuadMesh", "Path", "Labels", "Points")},
-        backend="matplotlib")
+        {k: dict(aspect="auto") for k in ("QuadMesh", "Path", "Labels", "Points")}, backend="matplotlib"
+    )
     return _write(el, out, width, height, dpi)

@@ -4,6 +4,7 @@ elements; the trajectory figure is plain data (`trajectory_figure`) that each
 backend draws directly.  Style options are set per loaded backend with its own
 names, so build figures after loading the backends that will render them.
 """
+
 from __future__ import annotations
 
 import math
@@ -23,8 +24,8 @@ from vibtrans.products.designconst import AXIS_LABELS, REGIMES, velocity_unit
 if TYPE_CHECKING:
     import xarray as xr
 
-STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}   # flight, stick, partial, sliding
-CMAP = "RdBu_r"          # blue: against the wave, red: with it (paper Fig. 3)
+STATE_COLORS = {0: "#d9d9d9", 1: "#1b9e77", 2: "#e6ab02", 3: "#d95f02"}  # flight, stick, partial, sliding
+CMAP = "RdBu_r"  # blue: against the wave, red: with it (paper Fig. 3)
 LOG_A = hv.Dimension("log_amplitude", label="log10 A*")
 LOG_M = hv.Dimension("log_mass", label="log10 m*")
 M_DIM = hv.Dimension("mass", label="m*")
@@ -36,8 +37,8 @@ CX_DIM = hv.Dimension("cx", label="x", unit="sqrt(R a0)")
 CZ_DIM = hv.Dimension("cz", label="z", unit="sqrt(R a0)")
 
 BACKENDS = ("bokeh", "matplotlib")
-FRAGMENT = 2.0           # periods shown at full resolution by trajectory_figure
-OVERVIEW_SAMPLES = 5     # samples per period of the whole-run view (app and exports)
+FRAGMENT = 2.0  # periods shown at full resolution by trajectory_figure
+OVERVIEW_SAMPLES = 5  # samples per period of the whole-run view (app and exports)
 
 
 # ---------------------------------------------------------------- styling
@@ -145,7 +146,7 @@ RESONANCE_LINE = ("black", 1.0, "dashed")
 CHAOTIC_LABEL = f"grey: chaotic (tau + {TWIN_TAU_OFFSET:g} twin disagrees)"
 BOUNDARY_LABEL = "jumping boundary"
 RESONANCE_LABEL = "resonances (fundamental, subharmonic)"
-LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")     # a closed form, not measured lines
+LINEAR_RESONANCE_LINE = ("black", 1.5, "dotted")  # a closed form, not measured lines
 LINEAR_RESONANCE_LABEL = "linear contact resonance N*'(1)/(4 pi^2)"
 
 
@@ -164,6 +165,7 @@ _MPL_KEY.update(frameon=False, handlelength=1.8, columnspacing=1.2, fontsize="sm
 def _bokeh_key(entries):
     def hook(plot, element):
         from bokeh.models import ColumnDataSource, Legend, LegendItem, Line, Quad
+
         fig = plot.state
         key = next((m for m in fig.below if getattr(m, "name", None) == KEY_NAME), None)
         if key is None:
@@ -171,16 +173,15 @@ def _bokeh_key(entries):
             fig.add_layout(key, "below")
         have = {getattr(item.label, "value", item.label) for item in key.items}
         for label, kind, spec, shown in entries:
-            if label in have:               # hooks run again on a re-render
+            if label in have:  # hooks run again on a re-render
                 continue
             if kind == "patch":
-                glyph = Quad(left=0, right=0, top=0, bottom=0, fill_color=spec[0],
-                             line_color=spec[1])
+                glyph = Quad(left=0, right=0, top=0, bottom=0, fill_color=spec[0], line_color=spec[1])
             else:
-                glyph = Line(x=0, y=0, line_color=spec[0], line_width=spec[1],
-                             line_dash=spec[2] or "solid")
-            r = fig.add_glyph(ColumnDataSource({}), glyph)     # drawn only as the swatch
+                glyph = Line(x=0, y=0, line_color=spec[0], line_width=spec[1], line_dash=spec[2] or "solid")
+            r = fig.add_glyph(ColumnDataSource({}), glyph)  # drawn only as the swatch
             key.items.append(LegendItem(label=label, renderers=[r], visible=shown))
+
     return hook
 
 
@@ -190,6 +191,7 @@ def _mpl_key(entries):
         from matplotlib.legend import Legend
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
+
         ax = plot.handles["axis"]
         old = next((a for a in ax.artists if a.get_gid() == KEY_NAME), None)
         mine = list(old.entries) if old is not None else []
@@ -199,15 +201,15 @@ def _mpl_key(entries):
             if kind == "patch":
                 handles.append(Patch(facecolor=spec[0], edgecolor=spec[1], linewidth=0.6))
             else:
-                handles.append(Line2D([], [], color=spec[0], linewidth=spec[1],
-                                      linestyle=spec[2] or "solid"))
+                handles.append(Line2D([], [], color=spec[0], linewidth=spec[1], linestyle=spec[2] or "solid"))
         if old is not None:
             old.remove()
         key = Legend(ax, handles, [m[0] for m in mine], **_MPL_KEY)
         key.set_gid(KEY_NAME)
-        key.entries = mine      # type: ignore[attr-defined]  # read back at the next redraw
+        key.entries = mine  # type: ignore[attr-defined]  # read back at the next redraw
         ax.add_artist(key)
-        key.set_clip_on(False)      # (add_artist clips to the axes: out of tight layouts)
+        key.set_clip_on(False)  # (add_artist clips to the axes: out of tight layouts)
+
     return hook
 
 
@@ -215,19 +217,19 @@ def _keyed(el, entries):
     """`el` with its entries (label, kind, style[, shown]) in the map's key; an
     entry not shown is hidden in the Bokeh key and left out of matplotlib's."""
     entries = [(*e[:3], e[3] if len(e) > 3 else True) for e in entries]
-    return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]),
-                 matplotlib=dict(hooks=[_mpl_key(entries)]))
+    return style(el, bokeh=dict(hooks=[_bokeh_key(entries)]), matplotlib=dict(hooks=[_mpl_key(entries)]))
 
 
-def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str = "",
-              always_grey: bool = False) -> hv.Overlay:
+def drift_map(
+    ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str = "", always_grey: bool = False
+) -> hv.Overlay:
     """Drift-velocity heatmap over (log10 A*, log10 m*) in the paper's scale.
 
     chaotic: "grey" (chaotic points grey) or "colour".  always_grey: keep the
     grey layer and its key entry (hidden) when empty, so every map has the
     same parts and the explorer updates it in place.
     """
-    v = ds["drift_velocity"].values                      # (amplitude, mass)
+    v = ds["drift_velocity"].values  # (amplitude, mass)
     c = colour_scale(v, v0)
     chaos = (ds["chaotic"].values == 1).T
     if chaotic == "grey":
@@ -245,10 +247,12 @@ def drift_map(ds: xr.Dataset, v0: float = V0, chaotic: str = "grey", title: str 
         mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
         grey = _map_image(ds, mask.T, vdims=["chaotic"])
         # no hover of its own: it would cover the map's
-        layers.append(style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9),
-                            bokeh=dict(tools=[], visible=shown)))
-        key.append((f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch",
-                    (CHAOTIC_GREY, CHAOTIC_GREY), shown))
+        layers.append(
+            style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9), bokeh=dict(tools=[], visible=shown))
+        )
+        key.append(
+            (f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch", (CHAOTIC_GREY, CHAOTIC_GREY), shown)
+        )
     return hv.Overlay([_keyed(img, key), *layers])
 
 
@@ -256,6 +260,7 @@ def chaos_reason(ds: xr.Dataset, short: bool = False) -> str:
     """What a map's chaotic points mean, from its chaos source."""
     if ds.attrs.get("chaos") == "lyapunov":
         from vibtrans.analysis.summary import CHAOS_LYAPUNOV
+
         if short:
             return f"Lyapunov > {CHAOS_LYAPUNOV:g}/period"
         return f"Lyapunov exponent > {CHAOS_LYAPUNOV:g} per period"
@@ -273,9 +278,11 @@ def jumping_boundary(vertical: xr.Dataset, model: str = "deformable"):
 
 def _resonances(vertical):
     """[(name, log10 m*)] of the resonances stored with a threshold curve."""
-    return [(key[len("resonance_"):-len("_log_mass")], float(value))
-            for key, value in vertical.attrs.items()
-            if key.startswith("resonance_") and key.endswith("_log_mass")]
+    return [
+        (key[len("resonance_") : -len("_log_mass")], float(value))
+        for key, value in vertical.attrs.items()
+        if key.startswith("resonance_") and key.endswith("_log_mass")
+    ]
 
 
 def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
@@ -323,10 +330,10 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
     names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
     for name, lm in _resonances(vertical):
         color = "#d62728" if name in names else "grey"
-        layers.append(_styled_line(hv.VLine(10.0 ** lm), color, width=1, dash="dotted"))
+        layers.append(_styled_line(hv.VLine(10.0**lm), color, width=1, dash="dotted"))
         if name in names:
             depth = float(np.interp(lm, vertical["log_mass"].values, aj))
-            text = hv.Text(10.0 ** lm, depth / 2.5, names[name], halign="center", valign="top", fontsize=10)
+            text = hv.Text(10.0**lm, depth / 2.5, names[name], halign="center", valign="top", fontsize=10)
             layers.append(style(text, bokeh=dict(text_color=color), matplotlib=dict(color=color)))
     finite = aj[np.isfinite(aj) & (aj > 0)]
     lo = 10.0 ** (np.floor(np.log10(finite.min())) - 1) if finite.size else 1e-3
@@ -339,7 +346,7 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
 # Defined once as data, drawn by export (matplotlib, Bokeh) and the explorer's
 # live view, not through HoloViews: its matplotlib backend took 10-17 s for
 # the twelve panels (`vibtrans bench --export`).
-OVERVIEW_BINS = 1000     # about 1.5 bins per pixel column at the default 11 in, 150 dpi
+OVERVIEW_BINS = 1000  # about 1.5 bins per pixel column at the default 11 in, 150 dpi
 
 
 def overview_samples(ds: xr.Dataset, window_samples: int = 200) -> xr.Dataset:
@@ -390,8 +397,7 @@ def _state_time(ds, bins):
     own[np.arange(t0.size), vals] = t1 - t0
     cum = np.vstack([np.zeros(n), np.cumsum(own, axis=0)])
     r = np.clip(np.searchsorted(t0, edges, side="right") - 1, 0, t0.size - 1)
-    at = cum[r] + np.where(np.arange(n) == vals[r][:, None],
-                           (np.minimum(edges, t1[r]) - t0[r])[:, None], 0.0)
+    at = cum[r] + np.where(np.arange(n) == vals[r][:, None], (np.minimum(edges, t1[r]) - t0[r])[:, None], 0.0)
     return edges, np.diff(at, axis=0)
 
 
@@ -418,9 +424,8 @@ def strip_outline(edges: Any, shares: Any, code: Any) -> tuple[np.ndarray, np.nd
     each bin's shares from the bottom: adjacent bins leave no seams."""
     top = np.cumsum(shares, axis=1)[:, code]
     bottom = top - shares[:, code]
-    x = np.repeat(edges, 2)[1:-1]                    # e0 e1 e1 e2 e2 ... en
-    return (np.concatenate([x, x[::-1]]),
-            np.concatenate([np.repeat(top, 2), np.repeat(bottom, 2)[::-1]]))
+    x = np.repeat(edges, 2)[1:-1]  # e0 e1 e1 e2 e2 ... en
+    return (np.concatenate([x, x[::-1]]), np.concatenate([np.repeat(top, 2), np.repeat(bottom, 2)[::-1]]))
 
 
 def _state_runs(ds):
@@ -437,8 +442,7 @@ def _state_runs(ds):
     return t0, t1, vals
 
 
-def state_bands(ds: xr.Dataset,
-                bins: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def state_bands(ds: xr.Dataset, bins: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t0, t1, state) of the exact runs, or of the dominant state per bin."""
     t0, t1, vals = _dominant_states(ds, int(bins)) if bins else _state_runs(ds)
     keep = t1 > t0
@@ -448,9 +452,11 @@ def state_bands(ds: xr.Dataset,
 # A rolling particle's rotation (docs/MODEL.md section 11), drawn only for a
 # run that rolls: omega R* and the contact point's slip, a0 per period
 ROLLING_VARIABLES = ("roll_velocity", "slip_velocity")
-ROLLING_PANEL = ("rotation: omega R*(t), contact slip", "omega R*, slip (a0/period)",
-                 [("roll_velocity", "omega R*", "#17becf"),
-                  ("slip_velocity", "contact slip", "#bcbd22")])
+ROLLING_PANEL = (
+    "rotation: omega R*(t), contact slip",
+    "omega R*, slip (a0/period)",
+    [("roll_velocity", "omega R*", "#17becf"), ("slip_velocity", "contact slip", "#bcbd22")],
+)
 
 
 def rolls(ds: Any) -> bool:
@@ -458,23 +464,31 @@ def rolls(ds: Any) -> bool:
     return all(v in ds.variables for v in ROLLING_VARIABLES)
 
 
-def panel_spec(rigid: Any, split_velocity: bool = False,
-               rolling: bool = False) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
+def panel_spec(
+    rigid: Any, split_velocity: bool = False, rolling: bool = False
+) -> list[tuple[str, str, list[tuple[str, str, str]]]]:
     """The line panels: [(title, y label, [(variable, legend label, colour)])];
     rolling: the rotation's panel last (`ROLLING_PANEL`)."""
     forces = [("N", "N*", "#9467bd"), ("T", "T*", "#8c564b")]
     if rigid:
-        return [("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
-                ("tangential: x*(t)", "x* (a0)", [("x", "x*", "#d62728")]),
-                ("forces: N*, T*", "N*, T*", forces)]
-    panels = [("normal: a*(t), y*(t)", "a*, y* (a0)",
-               [("a", "a*", "#1f77b4"), ("y", "y*", "#ff7f0e")]),
-              ("tangential: b*(t), x*(t)", "b* (theta mu a0), x* (a0)",
-               [("b", "b*", "#2ca02c"), ("x", "x*", "#d62728")])]
+        return [
+            ("normal: y*(t)", "y* (a0)", [("y", "y*", "#ff7f0e")]),
+            ("tangential: x*(t)", "x* (a0)", [("x", "x*", "#d62728")]),
+            ("forces: N*, T*", "N*, T*", forces),
+        ]
+    panels = [
+        ("normal: a*(t), y*(t)", "a*, y* (a0)", [("a", "a*", "#1f77b4"), ("y", "y*", "#ff7f0e")]),
+        (
+            "tangential: b*(t), x*(t)",
+            "b* (theta mu a0), x* (a0)",
+            [("b", "b*", "#2ca02c"), ("x", "x*", "#d62728")],
+        ),
+    ]
     if split_velocity:
-        panels += [("forces: N*, T*", "N*, T*", forces),
-                   ("relative tangential velocity b*'", "b*' (theta mu a0/period)",
-                    [("bdot", "b*'", "#7f7f7f")])]
+        panels += [
+            ("forces: N*, T*", "N*, T*", forces),
+            ("relative tangential velocity b*'", "b*' (theta mu a0/period)", [("bdot", "b*'", "#7f7f7f")]),
+        ]
     else:
         panels += [("forces: N*, T*, b*'", "N*, T*, b*'", forces + [("bdot", "b*'", "#7f7f7f")])]
     return panels + ([ROLLING_PANEL] if rolling else [])
@@ -484,23 +498,24 @@ def timeline_title(bins: int | None = None) -> str:
     return "contact state" + (" (dominant per bin)" if bins else "")
 
 
-BINNED_NOTE = " (mean, min-max per bin)"     # a binned panel's title ends so
+BINNED_NOTE = " (mean, min-max per bin)"  # a binned panel's title ends so
 
 
 def twin_spec(tau: float, label: str) -> tuple[str, str, list[Any]]:
     """The twin panel: (title, y label, [(legend label, colour, dash)] of run and twin)."""
     # a tau twin is the same scene; another model is a comparison, not a twin
-    title = (f"x*(t) and its {label} twin" if label.startswith("tau") else
-             f"x*(t) and the {label} run of the same scene")
-    return (title, "x* (a0)",
-            [(f"x*, tau = {tau:g}", "#d62728", None), (f"x*, {label}", "black", "dashed")])
+    title = (
+        f"x*(t) and its {label} twin"
+        if label.startswith("tau")
+        else f"x*(t) and the {label} run of the same scene"
+    )
+    return (title, "x* (a0)", [(f"x*, tau = {tau:g}", "#d62728", None), (f"x*, {label}", "black", "dashed")])
 
 
 TWIN_LABEL = f"tau + {TWIN_TAU_OFFSET:g}"
 
 
-def fragment_window(ds: xr.Dataset,
-                    window: tuple[float, float] | None = None) -> tuple[float, float]:
+def fragment_window(ds: xr.Dataset, window: tuple[float, float] | None = None) -> tuple[float, float]:
     """`window`, else the run's recorded window, else its last FRAGMENT periods."""
     if window is not None:
         return float(window[0]), float(window[1])
@@ -516,6 +531,7 @@ def fragment_window(ds: xr.Dataset,
 class Trace:
     """One line of a panel; with `lo`, `hi`, `value` holds per-bin means and
     (lo, hi) the bin's envelope."""
+
     var: str
     label: str
     colour: str
@@ -523,7 +539,7 @@ class Trace:
     value: np.ndarray
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
-    dash: str | None = None          # None: solid; "dashed"
+    dash: str | None = None  # None: solid; "dashed"
 
 
 # A panel's second quantity goes on a right axis (on one axis the larger
@@ -541,36 +557,44 @@ def right_columns(columns: Any) -> list[Any] | list[str]:
     """The columns of a panel drawn on its right axis (none if it has one)."""
     if len(columns) < 2:
         return []
-    return [c for c in columns if c in RIGHT_AXIS][:len(columns) - 1]
+    return [c for c in columns if c in RIGHT_AXIS][: len(columns) - 1]
 
 
 # units of the quantities (docs/MODEL.md; N*, T* are in units of the weight)
-AXIS_UNITS = {"a": "a0", "y": "a0", "x": "a0", "b": "theta mu a0",
-              "bdot": "theta mu a0/period", "roll_velocity": "a0/period",
-              "slip_velocity": "a0/period"}
+AXIS_UNITS = {
+    "a": "a0",
+    "y": "a0",
+    "x": "a0",
+    "b": "theta mu a0",
+    "bdot": "theta mu a0/period",
+    "roll_velocity": "a0/period",
+    "slip_velocity": "a0/period",
+}
 
 
 def axis_labels(labels: Any, right: Any) -> tuple[str, str]:
     """(left, right) axis labels of a panel's {column: legend label}: each
     names its quantities and their unit."""
+
     def named(columns):
         units = {AXIS_UNITS.get(c) for c in columns}
         text = ", ".join(labels[c] for c in columns)
         return text + (f" ({units.pop()})" if len(units) == 1 and None not in units else "")
-    return (named([c for c in labels if c not in right]),
-            named([c for c in labels if c in right]))
+
+    return (named([c for c in labels if c not in right]), named([c for c in labels if c in right]))
 
 
 @dataclass(frozen=True)
 class Panel:
     """One panel over `xlim` (periods): lines (`traces`), or a contact-state
     strip (`strip`: (edges, shares), `strip_outline`'s stacking)."""
+
     title: str
     ylabel: str
     xlim: tuple
     traces: tuple = ()
     strip: tuple | None = None
-    right: tuple = ()                # variables drawn on the panel's right axis
+    right: tuple = ()  # variables drawn on the panel's right axis
 
     @property
     def axis_labels(self) -> tuple[str, str]:
@@ -584,6 +608,7 @@ class Panel:
 class TrajectoryFigure:
     """A title and columns of panels (whole run, fragment `window`); `bins`:
     the whole run's time bins (None: every sample)."""
+
     title: str
     columns: tuple
     window: tuple
@@ -605,8 +630,10 @@ def _line_panels(ds, specs, bins):
     panels = []
     for title, ylabel, lines in specs:
         right = tuple(right_columns([var for var, _, _ in lines]))
-        traces = tuple(Trace(v, lab, col, data["time"], data[v], dash=axis_dash(v, right),
-                             **_envelope(data, v)) for v, lab, col in lines)
+        traces = tuple(
+            Trace(v, lab, col, data["time"], data[v], dash=axis_dash(v, right), **_envelope(data, v))
+            for v, lab, col in lines
+        )
         panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces, right=right))
     return panels, data
 
@@ -615,15 +642,19 @@ def _twin_panel(ds, data, twin, bins, xlim):
     title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), TWIN_LABEL)
     tt, tx = twin["time"].values, twin["x"].values
     other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
-    traces = tuple(Trace("x", lab, col, d["time"], d["x"], dash=dash, **_envelope(d, "x"))
-                   for lab, col, dash, d in ((la, ca, da, data), (lb, cb, db, other)))
+    traces = tuple(
+        Trace("x", lab, col, d["time"], d["x"], dash=dash, **_envelope(d, "x"))
+        for lab, col, dash, d in ((la, ca, da, data), (lb, cb, db, other))
+    )
     return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
 
 
 def default_title(ds: xr.Dataset) -> str:
     a = ds.attrs
-    return (f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
-            f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}")
+    return (
+        f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
+        f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}"
+    )
 
 
 def state_strip(ds: xr.Dataset, bins: int | None = None) -> tuple[tuple[Any, np.ndarray], str]:
@@ -639,9 +670,13 @@ def state_strip(ds: xr.Dataset, bins: int | None = None) -> tuple[tuple[Any, np.
 SHARES_TITLE = "contact state (time share per bin)"
 
 
-def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
-                      twin: xr.Dataset | None = None, title: str | None = None,
-                      bins: int = OVERVIEW_BINS) -> TrajectoryFigure:
+def trajectory_figure(
+    ds: xr.Dataset,
+    window: tuple[float, float] | None = None,
+    twin: xr.Dataset | None = None,
+    title: str | None = None,
+    bins: int = OVERVIEW_BINS,
+) -> TrajectoryFigure:
     """The trajectory figure: left the whole run (per-bin mean and min-max
     envelope over `bins` bins, state shares; None: every sample), right the
     fragment `window` (`fragment_window`) sample by sample.  Rows:
@@ -653,8 +688,7 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
     i0, i1 = np.searchsorted(t, t0, side="left"), np.searchsorted(t, t1, side="right")
     if i1 - i0 < 2:
         raise InputError(f"window ({t0:g}, {t1:g}) holds fewer than 2 samples of the run")
-    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer))
-                             or bins < 1):
+    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1):
         raise InputError(f"bins must be a positive integer or None, got {bins!r}")
     frag = ds.isel(time=slice(i0, i1))
     rigid = ds.attrs.get("model") == "point-mass"
@@ -675,16 +709,17 @@ def trajectory_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
                 other = twin
             panels.append(_twin_panel(part, data, other, part_bins, xlim))
         columns.append(tuple(panels))
-    return TrajectoryFigure(default_title(ds) if title is None else str(title), tuple(columns),
-                            (t0, t1), bins)
+    return TrajectoryFigure(
+        default_title(ds) if title is None else str(title), tuple(columns), (t0, t1), bins
+    )
 
 
 # ---------------------------------------------------------------- memory diagram
 # Shared with the explorer's live view (app/views/memory.py).
-W_COLOR = "#1f77b4"                # the anchors w(h)
-U_COLOR = "#ff7f0e"                # the displacements u(h)
+W_COLOR = "#1f77b4"  # the anchors w(h)
+U_COLOR = "#ff7f0e"  # the displacements u(h)
 SLIP_TEXT_COLOR = "#a05a00"
-FLIGHT_TEXT = "in flight:\nno contact, no memory"     # (two lines: one was cut at a panel's width)
+FLIGHT_TEXT = "in flight:\nno contact, no memory"  # (two lines: one was cut at a panel's width)
 MEMORY_XLABEL = "h (contact depth, a0)"
 MEMORY_WLABEL = "w (theta mu a0)"
 MEMORY_ULABEL = "u = b* - w (theta mu a0)"
@@ -694,11 +729,10 @@ CIRCLE_ZLABEL = "z (sqrt(R a0))"
 
 
 def memory_title(snapshot: Any) -> str:
-    return (f"memory diagram w(h), t* = {snapshot['t']:.6g}, "
-            f"{STATE_NAMES[int(snapshot['state'])]}")
+    return f"memory diagram w(h), t* = {snapshot['t']:.6g}, {STATE_NAMES[int(snapshot['state'])]}"
 
 
-SPAN_LABEL_INSET = 0.02    # a band's label starts this fraction of a* inside it
+SPAN_LABEL_INSET = 0.02  # a band's label starts this fraction of a* inside it
 
 
 def memory_spans(snapshot: Any) -> list[Any]:
@@ -757,16 +791,17 @@ def memory_diagram(snapshot: Any) -> hv.Layout:
         msg = FLIGHT_TEXT
         left = hv.Overlay([hv.Curve([], H_DIM, W_DIM), hv.Text(0.5, 0.0, msg)])
         right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
-        return hv.Layout([left.relabel(title),
-                          right.relabel("spring displacements u(h)")]).cols(2)
+        return hv.Layout([left.relabel(title), right.relabel("spring displacements u(h)")]).cols(2)
     panels = []
-    for dim, y, colour, ylabel, head in ((W_DIM, "w", W_COLOR, MEMORY_WLABEL, title),
-                                         (U_DIM, "u", U_COLOR, MEMORY_ULABEL, MEMORY_UTITLE)):
+    for dim, y, colour, ylabel, head in (
+        (W_DIM, "w", W_COLOR, MEMORY_WLABEL, title),
+        (U_DIM, "u", U_COLOR, MEMORY_ULABEL, MEMORY_UTITLE),
+    ):
         names = ["Coulomb cone" if y == "w" else "", ""]
         cone = [hv.Curve((g["hc"], c), H_DIM, dim, label=n) for c, n in zip(g[f"cone_{y}"], names)]
         layers = _spans(snapshot, *g[f"{y}_lim"]) + [_styled_line(c, "black", 1, "dashed") for c in cone]
         layers.append(_styled_line(hv.Curve((g["h"], g[y]), H_DIM, dim, label=f"{y}(h)"), colour, 2))
-        if y == "w":            # the cone's apex (a*, b*)
+        if y == "w":  # the cone's apex (a*, b*)
             apex = hv.Points([(g["a"], g["b"])], [H_DIM, W_DIM])
             layers.append(style(apex, dict(color="black"), dict(size=7), dict(s=25)))
         opts = dict(xlim=g["h_lim"], show_legend=False, xlabel=MEMORY_XLABEL, ylabel=ylabel)
@@ -816,14 +851,15 @@ def contact_circle(snapshot: Any) -> Any:
 
 
 # ---------------------------------------------------------------- dynamics
-LYAPUNOV_FLOOR = 1e-4      # the indicator map's colour range, log10 lambda in [-4, 0]
+LYAPUNOV_FLOOR = 1e-4  # the indicator map's colour range, log10 lambda in [-4, 0]
 LAMBDA_DIM = hv.Dimension("log_lambda", label="log10 lambda (per period)", range=(-4.0, 0.0))
 Y_DIM = hv.Dimension("y", label="y* (a0, down)")
 VY_DIM = hv.Dimension("vy", label="y*' (a0 per period)")
 PHASE_DIM = hv.Dimension("phase", label="take-off phase (t mod 1)", range=(0.0, 1.0))
 TRACE_DIM = hv.Dimension("trace", label="trace of the period-1 Jacobian")
-ORBIT_COLORS = tuple("#1f77b4 #d62728 #2ca02c #9467bd #ff7f0e #8c564b #e377c2 #17becf #bcbd22 #7f7f7f"
-                     .split())
+ORBIT_COLORS = tuple(
+    "#1f77b4 #d62728 #2ca02c #9467bd #ff7f0e #8c564b #e377c2 #17becf #bcbd22 #7f7f7f".split()
+)
 DIFFERENCE_DIM = hv.Dimension("log_difference", label="s(v2) - s(v1)")
 CLASS_CHANGE_COLOUR = "black"
 
@@ -841,27 +877,32 @@ def map_difference_figure(diff: xr.Dataset) -> Any:
     v1, v2 = diff["drift_velocity_first"].values, diff["drift_velocity_second"].values
     vdims = [DIFFERENCE_DIM, hv.Dimension("v1", label="<v*> first"), hv.Dimension("v2", label="<v*> second")]
     img = _map_image(diff, shown, v1, v2, vdims=vdims)
-    hover = [("<v*> first", "@{v1}"), ("<v*> second", "@{v2}"),
-             ("difference (decades)", "@{log_difference}")]
+    hover = [("<v*> first", "@{v1}"), ("<v*> second", "@{v2}"), ("difference (decades)", "@{log_difference}")]
     clabel = f"s(v2) - s(v1), decades\n(v0* = {diff.attrs['v0']:g})"
     img = _coloured(img, "RdBu_r", (-top, top), clabel, hover)
-    key = [("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
-           ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY))]
+    key = [
+        ("black: drift class differs", "patch", (CLASS_CHANGE_COLOUR, CLASS_CHANGE_COLOUR)),
+        ("grey: chaotic in either map", "patch", (CHAOTIC_GREY, CHAOTIC_GREY)),
+    ]
     layers = [_keyed(img, key)]
-    changed = diff["class_changed"].values & ~chaotic     # a chaotic point's change is noise
+    changed = diff["class_changed"].values & ~chaotic  # a chaotic point's change is noise
     for mask, colour in ((chaotic, CHAOTIC_GREY), (changed, CLASS_CHANGE_COLOUR)):
         if mask.any():
             layer = _map_image(diff, np.where(mask, 1.0, np.nan), vdims=["mask"])
-            layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9),
-                                bokeh=dict(tools=[])))
+            layers.append(style(layer, common=dict(cmap=[colour], alpha=0.9), bokeh=dict(tools=[])))
     a = diff.attrs
-    agreement = ("no point regular in both" if not np.isfinite(a["class_agreement"]) else
-                 f"drift class agrees at {100 * a['class_agreement']:.1f}% of "
-                 f"{a['regular_points']} regular points, median relative difference "
-                 f"{a['median_relative_difference']:.2g}")
-    return style(hv.Overlay(layers), common=dict(
-        title=f"{a['second']}  against  {a['first']}\n{agreement}"),
-        matplotlib=dict(aspect=1.2, fontsize={"title": 9}))
+    agreement = (
+        "no point regular in both"
+        if not np.isfinite(a["class_agreement"])
+        else f"drift class agrees at {100 * a['class_agreement']:.1f}% of "
+        f"{a['regular_points']} regular points, median relative difference "
+        f"{a['median_relative_difference']:.2g}"
+    )
+    return style(
+        hv.Overlay(layers),
+        common=dict(title=f"{a['second']}  against  {a['first']}\n{agreement}"),
+        matplotlib=dict(aspect=1.2, fontsize={"title": 9}),
+    )
 
 
 def lyapunov_map(ds: xr.Dataset, threshold: float, title: str = "") -> Any:
@@ -880,11 +921,11 @@ def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)
     """Sections of several orbits (float64[n, 2] arrays of (y*, y*')), one colour each."""
     layers = []
     for k, pts in enumerate(orbits):
-        el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM],
-                        label=f"orbit {k + 1}")
+        el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM], label=f"orbit {k + 1}")
         color = ORBIT_COLORS[k % len(ORBIT_COLORS)]
-        layers.append(style(el, bokeh=dict(color=color, size=3, tools=["hover"]),
-                            matplotlib=dict(color=color, s=4)))
+        layers.append(
+            style(el, bokeh=dict(color=color, size=3, tools=["hover"]), matplotlib=dict(color=color, s=4))
+        )
     if not layers:
         layers = [hv.Scatter(([], []), kdims=[Y_DIM], vdims=[VY_DIM])]
     return style(hv.Overlay(layers), common=dict(title=title))
@@ -896,8 +937,9 @@ def orbit_diagram_figure(diagram: Any) -> Any:
     tail = f"final {diagram.final_periods:g} periods"
     panels = []
     for x, y, dim, colour, title in (
-            (diagram.phase_value, diagram.phase, PHASE_DIM, "#1f77b4", "take-off phases"),
-            (diagram.section_value, diagram.section_y, Y_DIM, "#444444", "section y*(k)")):
+        (diagram.phase_value, diagram.phase, PHASE_DIM, "#1f77b4", "take-off phases"),
+        (diagram.section_value, diagram.section_y, Y_DIM, "#444444", "section y*(k)"),
+    ):
         bk = dict(size=2, color=colour, responsive=True, height=260)
         el = hv.Scatter((x, y), kdims=[name], vdims=[dim])
         panels.append(style(el, dict(title=f"{title}, {tail}"), bk, dict(s=1, color=colour, aspect=2.5)))
@@ -911,20 +953,21 @@ def continuation_figure(branch: Any) -> Any:
     name = LOG_A if branch.parameter == "amplitude" else LOG_M
     x = np.array([p[key] for p in branch.points])
     tr = np.array([p.orbit.trace for p in branch.points])
-    layers = [_styled_line(hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM],
-                                    label="period-1 orbit"), "#1f77b4", 1.5)]
+    layers = [
+        _styled_line(
+            hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM], label="period-1 orbit"), "#1f77b4", 1.5
+        )
+    ]
     for level in (2.0, -2.0):
         layers.append(_styled_line(hv.HLine(level), "#888888", 1.0, "dashed"))
     for points, color, level, label in (
-            (branch.folds, "#d62728", 2.0, "fold (trace = 2)"),
-            (branch.period_doublings, "#2ca02c", -2.0, "period doubling (trace = -2)")):
+        (branch.folds, "#d62728", 2.0, "fold (trace = 2)"),
+        (branch.period_doublings, "#2ca02c", -2.0, "period doubling (trace = -2)"),
+    ):
         if points:
-            el = hv.Scatter((points, [level] * len(points)), kdims=[name], vdims=[TRACE_DIM],
-                            label=label)
-            layers.append(style(el, bokeh=dict(color=color, size=9),
-                                matplotlib=dict(color=color, s=40)))
-    return style(hv.Overlay(layers), common=dict(
-        title=f"continuation along {name.label}: {branch.ended}"))
+            el = hv.Scatter((points, [level] * len(points)), kdims=[name], vdims=[TRACE_DIM], label=label)
+            layers.append(style(el, bokeh=dict(color=color, size=9), matplotlib=dict(color=color, s=40)))
+    return style(hv.Overlay(layers), common=dict(title=f"continuation along {name.label}: {branch.ended}"))
 
 
 PERIOD_DOUBLING_LINE = ("#d62728", 1.5, None)
@@ -940,8 +983,10 @@ def period_one_curves(chart: xr.Dataset) -> hv.Overlay:
     trace = np.where(np.isfinite(chart["trace"].values), chart["trace"].values, 3.0)
     stable = (chart["stable"].values & chart["in_flight"].values).astype(float)
     lines = []
-    for z, level, line, label in ((trace, -2.0, PERIOD_DOUBLING_LINE, PERIOD_DOUBLING_LABEL),
-                                  (stable, 0.5, STABLE_ORBIT_LINE, STABLE_ORBIT_LABEL)):
+    for z, level, line, label in (
+        (trace, -2.0, PERIOD_DOUBLING_LINE, PERIOD_DOUBLING_LABEL),
+        (stable, 0.5, STABLE_ORBIT_LINE, STABLE_ORBIT_LABEL),
+    ):
         img = hv.Image((la, lm, z.T), kdims=[LOG_A, LOG_M])
         c = hv.operation.contours(img, levels=[level], overlaid=False)
         lines.append(_keyed(_styled_line(c, *line), [(label, "line", line)]))
@@ -957,6 +1002,7 @@ DEVICE_MARKER = "#000000"
 def level_lines(x: Any, y: Any, z: Any, level: Any) -> list:
     """Contour lines of z (shape (y, x)) at `level`: (n, 2) arrays (NaN cells left out)."""
     import contourpy
+
     z = np.ma.masked_invalid(np.asarray(z, float))
     gen = contourpy.contour_generator(np.asarray(x, float), np.asarray(y, float), z, line_type="Separate")
     return [seg for seg in gen.lines(level) if len(seg) > 1]
@@ -985,13 +1031,16 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
     c = np.where(np.isfinite(vu), c, np.nan)
     xd = hv.Dimension(xq, label=AXIS_LABELS[xq])
     yd = hv.Dimension(yq, label=AXIS_LABELS[yq])
-    mesh = hv.QuadMesh((x, y, c, vu), kdims=[xd, yd],
-                       vdims=[hv.Dimension("C", range=(-1, 1)),
-                              hv.Dimension("v", label=f"v ({unit})")])
+    mesh = hv.QuadMesh(
+        (x, y, c, vu),
+        kdims=[xd, yd],
+        vdims=[hv.Dimension("C", range=(-1, 1)), hv.Dimension("v", label=f"v ({unit})")],
+    )
     ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
     clabel = f"drift velocity ({unit})\nsigned log scale\nwhite: no drift"
-    mesh = _coloured(mesh, CMAP, (-1, 1), clabel, [(f"drift velocity ({unit})", "@{v}")], ticks,
-                     logx=True, logy=True)
+    mesh = _coloured(
+        mesh, CMAP, (-1, 1), clabel, [(f"drift velocity ({unit})", "@{v}")], ticks, logx=True, logy=True
+    )
     layers: list = []
     key: list[tuple] = []
     lx, ly = np.log10(x), np.log10(y)
@@ -1002,8 +1051,10 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
             continue
         # padded with "outside": a zone reaching the chart's edge is closed along it
         px, py = _padded(lx), _padded(ly)
-        lines = [10.0 ** np.clip(seg, [lx[0], ly[0]], [lx[-1], ly[-1]])
-                 for seg in level_lines(px, py, np.pad(inside, 1), 0.5)]
+        lines = [
+            10.0 ** np.clip(seg, [lx[0], ly[0]], [lx[-1], ly[-1]])
+            for seg in level_lines(px, py, np.pad(inside, 1), 0.5)
+        ]
         colour = REGIME_COLORS[name]
         key.append((name, "line", (colour, 2.0, None)))
         if lines:
@@ -1016,30 +1067,40 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
             segs = level_lines(lx, ly, np.log10(speed), e)
             if not segs:
                 continue
-            layers.append(_styled_line(hv.Path([10.0 ** s for s in segs], kdims=[xd, yd]), *SPEED_CONTOUR))
+            layers.append(_styled_line(hv.Path([10.0**s for s in segs], kdims=[xd, yd]), *SPEED_CONTOUR))
             longest = max(segs, key=len)
             mx, my = 10.0 ** longest[len(longest) // 2]
-            labels.append((mx, my, f"{10.0 ** e:g}"))
+            labels.append((mx, my, f"{10.0**e:g}"))
         if labels:
             key.append((f"equal speed ({unit})", "line", SPEED_CONTOUR))
-            layers.append(style(hv.Labels(labels, kdims=[xd, yd], vdims=["text"]),
-                                bokeh=dict(text_font_size="8pt"),
-                                matplotlib=dict(fontsize=8)))
+            layers.append(
+                style(
+                    hv.Labels(labels, kdims=[xd, yd], vdims=["text"]),
+                    bokeh=dict(text_font_size="8pt"),
+                    matplotlib=dict(fontsize=8),
+                )
+            )
     if device is not None:
         pt = hv.Points([tuple(device)], kdims=[xd, yd])
         # (Bokeh's marker names are lower case: "X" passes its check and is not drawn)
-        layers.append(style(pt, common=dict(color=DEVICE_MARKER),
-                            bokeh=dict(marker="x", size=14, line_width=3),
-                            matplotlib=dict(marker="X", s=120)))
+        layers.append(
+            style(
+                pt,
+                common=dict(color=DEVICE_MARKER),
+                bokeh=dict(marker="x", size=14, line_width=3),
+                matplotlib=dict(marker="X", s=120),
+            )
+        )
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
         a = chart.attrs
         # (lines short enough for half a screen in presentation mode)
-        title = (f"{a['particle']} on {a['substrate']}\n{a['fixed']} = {a['fixed_value']:.3g} "
-                 f"{a['fixed_units']}, mu = {a['mu']:g}\n({a['map']})")
+        title = (
+            f"{a['particle']} on {a['substrate']}\n{a['fixed']} = {a['fixed_value']:.3g} "
+            f"{a['fixed_units']}, mu = {a['mu']:g}\n({a['map']})"
+        )
         tip = a.get("profile", "sphere")
-        if tip != "sphere":         # (a second line: the first fills a half-page chart)
+        if tip != "sphere":  # (a second line: the first fills a half-page chart)
             title += f"\nthe particle's tip: {tip} (profile {a['map_profile']})"
     el = hv.Overlay([_keyed(mesh, key), *layers])
-    return style(el, common=dict(title=title, logx=True, logy=True,
-                                 xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))
+    return style(el, common=dict(title=title, logx=True, logy=True, xlim=(x[0], x[-1]), ylim=(y[0], y[-1])))

@@ -53,6 +53,7 @@ a 2-core machine).
 record: the results with the machine, its load and the git commit
 (vibtrans.tools.results); `make bench` writes into benchmarks/results/.
 """
+
 from __future__ import annotations
 
 import json
@@ -90,7 +91,7 @@ def _best(fn, repeat):
 def _interleaved_ns(runs, repeat):
     """Best ns/step of each (scene, simulate keywords) in `runs`, measured
     round-robin so that a noisy neighbour slows them alike."""
-    steps = [simulate(sc, **kw).attrs["steps"] for sc, kw in runs]     # warm-up
+    steps = [simulate(sc, **kw).attrs["steps"] for sc, kw in runs]  # warm-up
     best = [float("inf")] * len(runs)
     for _ in range(repeat):
         for i, (sc, kw) in enumerate(runs):
@@ -108,27 +109,28 @@ def _shortcut_effects(repeat, points=(1, 4, 6)):
     for name, bit in SHORTCUTS.items():
         for point in points:
             sc = paper_scene(point)
-            on, off = _interleaved_ns([(sc, {}), (sc, {"shortcuts": D.SHORTCUTS_ALL & ~bit})],
-                                      repeat)
+            on, off = _interleaved_ns([(sc, {}), (sc, {"shortcuts": D.SHORTCUTS_ALL & ~bit})], repeat)
             v_on = drift_velocity(simulate(sc))
             v_off = drift_velocity(simulate(sc, shortcuts=D.SHORTCUTS_ALL & ~bit))
             out[f"{name}, point {point}"] = {
                 "speedup": off / on,
-                "drift_difference": abs(v_on - v_off) / max(abs(v_off), V0)}
+                "drift_difference": abs(v_on - v_off) / max(abs(v_off), V0),
+            }
     return out
 
 
 def _memory_ns(repeat, n=1_000_000):
     t = np.arange(n) / 256.0
-    a = 1.0 + 0.8 * np.cos(2 * np.pi * t)          # strong load contrast
-    b = 0.5 * np.sin(2 * np.pi * t) + 1e-3 * t     # stick, partial slip, sliding
+    a = 1.0 + 0.8 * np.cos(2 * np.pi * t)  # strong load contrast
+    b = 0.5 * np.sin(2 * np.pi * t) + 1e-3 * t  # stick, partial slip, sliding
     H, W, P, nvert, memf = new_memory(4096)
     out = np.empty((n, 3))
-    memory_history(H, W, P, nvert, memf, a[:16], b[:16], out)   # warm-up
+    memory_history(H, W, P, nvert, memf, a[:16], b[:16], out)  # warm-up
 
     def run():
         reset_memory(H, W, P, nvert, memf, 1.0, 0.0)
         memory_history(H, W, P, nvert, memf, a, b, out)
+
     best, _ = _best(run, repeat)
     states = np.bincount(out[:, 2].astype(int), minlength=4)
     return 1e9 * best / n, states
@@ -143,12 +145,16 @@ COLD_START_GOAL_CORES = 2
 
 def _timed_command(args, env):
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "vibtrans.cli", *args], env=env,
-                       capture_output=True, text=True, cwd=tempfile.gettempdir())
+    r = subprocess.run(
+        [sys.executable, "-m", "vibtrans.cli", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tempfile.gettempdir(),
+    )
     seconds = time.perf_counter() - t0
     if r.returncode != 0:
-        raise RuntimeError(f"vibtrans {' '.join(args)} failed ({r.returncode}): "
-                           f"{r.stderr.strip()[-2000:]}")
+        raise RuntimeError(f"vibtrans {' '.join(args)} failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
     return seconds
 
 
@@ -172,12 +178,17 @@ def cold_start(warm_repeat: int = 3) -> dict[str, Any]:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
         cores = os.cpu_count() or 1
-    return {"command": "vibtrans " + " ".join(COLD_START_COMMAND), "cores": cores,
-            "cold_seconds": cold, "warm_seconds": warm, "warm_repeat": warm_repeat,
-            "cold_over_warm": cold / warm, "goal_cold_seconds": COLD_START_GOAL_S,
-            "goal_cores": COLD_START_GOAL_CORES,
-            "goal_cold_met": cold <= COLD_START_GOAL_S if cores <= COLD_START_GOAL_CORES
-            else None}
+    return {
+        "command": "vibtrans " + " ".join(COLD_START_COMMAND),
+        "cores": cores,
+        "cold_seconds": cold,
+        "warm_seconds": warm,
+        "warm_repeat": warm_repeat,
+        "cold_over_warm": cold / warm,
+        "goal_cold_seconds": COLD_START_GOAL_S,
+        "goal_cores": COLD_START_GOAL_CORES,
+        "goal_cold_met": cold <= COLD_START_GOAL_S if cores <= COLD_START_GOAL_CORES else None,
+    }
 
 
 def _pin_one_core():
@@ -195,7 +206,8 @@ def run(quick: bool = False) -> dict[str, Any]:
     vertical = scene.replace(model="vertical")
     exact = {"shortcuts": D.SHORTCUTS_ALL & ~D.SHORT_ROTATION}
     ns_def, ns_vert, ns_def_x, ns_vert_x = _interleaved_ns(
-        [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat)
+        [(scene, {}), (vertical, {}), (scene, exact), (vertical, exact)], repeat
+    )
     ns_mem, states = _memory_ns(repeat)
     lyapunov = _lyapunov_cost(repeat)
     profiles = _profile_cost(repeat)
@@ -205,11 +217,14 @@ def run(quick: bool = False) -> dict[str, Any]:
         sc = paper_scene(point)
         simulate(sc)
         best, ds = _best(lambda: simulate(sc), repeat)  # noqa: B023 (called in this iteration)
-        scenes[point] = {"seconds": best, "steps": int(ds.attrs["steps"]),
-                         "kernel_seconds": float(ds.attrs["seconds"])}
+        scenes[point] = {
+            "seconds": best,
+            "steps": int(ds.attrs["steps"]),
+            "kernel_seconds": float(ds.attrs["seconds"]),
+        }
     return {
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                   f"python {platform.python_version()}",
+        f"python {platform.python_version()}",
         "pinned_to_one_core": pinned,
         "repeat": repeat,
         "vertical_ns_per_step": ns_vert,
@@ -243,19 +258,19 @@ def _profile_same_motion_ns(repeat, point=1):
     from vibtrans.core.kernels.contact import LAW_ROOT, kernel_law, power_kernel_law
     from vibtrans.core.profiles import FlatSphereProfile
     from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
+
     sc = paper_scene(point)
-    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL,
-                              None)
+    p, _, cap = hertz_params(sc, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1, D.SHORTCUTS_ALL, None)
     no_warm = power_kernel_law(2.0)
     no_warm[LAW_ROOT] = 0.0
     laws = [None, power_kernel_law(2.0), kernel_law(FlatSphereProfile(0.0)), no_warm]
 
     def once(law):
         t0 = time.perf_counter()
-        run = drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap,
-                                law=law)
+        run = drivers.run_hertz(p, sc.integrator, tangential=True, samples_capacity=cap, law=law)
         return time.perf_counter() - t0, int(run.ctr[R.C_STEPS])
-    steps = [once(law)[1] for law in laws]            # warm-up
+
+    steps = [once(law)[1] for law in laws]  # warm-up
     best = [math.inf] * len(laws)
     for _ in range(repeat):
         for i, law in enumerate(laws):
@@ -301,37 +316,45 @@ def rolling_cost(repeat: int, points: tuple[int, ...] = (1, 4, 6)) -> dict[str, 
     time of a shared machine gives."""
     from vibtrans.core import drivers
     from vibtrans.core.simulate import SAMPLES_PER_PERIOD, hertz_params
+
     out: dict[str, Any] = {}
     for point in points:
         sc = paper_scene(point)
         runs = {}
-        for name, scene in (("none", sc), ("solid", sc.replace(rolling="solid")),
-                            ("shell", sc.replace(rolling="shell"))):
-            p, _, cap = hertz_params(scene, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1.0,
-                                     D.SHORTCUTS_ALL, None)
+        for name, scene in (
+            ("none", sc),
+            ("solid", sc.replace(rolling="solid")),
+            ("shell", sc.replace(rolling="shell")),
+        ):
+            p, _, cap = hertz_params(
+                scene, math.inf, -math.inf, SAMPLES_PER_PERIOD, 1.0, D.SHORTCUTS_ALL, None
+            )
             runs[name] = (p, cap)
-        runs["same_motion"] = (runs["none"][0]._replace(roll_ratio=SAME_MOTION_ROLL_RATIO),
-                               runs["none"][1])
+        runs["same_motion"] = (runs["none"][0]._replace(roll_ratio=SAME_MOTION_ROLL_RATIO), runs["none"][1])
         integrator = sc.integrator
 
         def once(p, cap):
             t0 = time.thread_time()
-            run = drivers.run_hertz(p, integrator, tangential=True,  # noqa: B023 (this point's)
-                                    samples_capacity=cap)
+            # (this point's integrator)
+            run = drivers.run_hertz(p, integrator, tangential=True, samples_capacity=cap)  # noqa: B023
             return time.thread_time() - t0, run
-        first = {name: once(*args)[1] for name, args in runs.items()}      # warm-up
+
+        first = {name: once(*args)[1] for name, args in runs.items()}  # warm-up
         best = dict.fromkeys(runs, math.inf)
         for _ in range(3 * repeat):
             for name, args in runs.items():
                 best[name] = min(best[name], once(*args)[0])
         ns = {name: 1e9 * best[name] / int(first[name].ctr[R.C_STEPS]) for name in runs}
-        states = {name: [int(v) for v in np.bincount(
-            first[name].samples[:, R.STATE].astype(int), minlength=4)[1:]] for name in runs}
+        states = {
+            name: [int(v) for v in np.bincount(first[name].samples[:, R.STATE].astype(int), minlength=4)[1:]]
+            for name in runs
+        }
         out[f"point {point}"] = {
             "ns_per_step": ns,
             "same_motion_over_none": ns["same_motion"] / ns["none"],
-            "same_motion_records_equal": bool(np.array_equal(first["same_motion"].samples,
-                                                             first["none"].samples)),
+            "same_motion_records_equal": bool(
+                np.array_equal(first["same_motion"].samples, first["none"].samples)
+            ),
             "solid_over_none": ns["solid"] / ns["none"],
             "shell_over_none": ns["shell"] / ns["none"],
             "samples_stick_partial_sliding": states,
@@ -343,14 +366,20 @@ def _lyapunov_cost(repeat):
     """ns per step of each scene alone, with its Lyapunov exponent and with
     its tau twin (twice the steps), measured round-robin: the ratios."""
     from vibtrans.analysis.summary import twin_scene
+
     out = {}
-    for name, sc in (("contact (paper point 1)", paper_scene(1)),
-                     ("jumping (log A* 0.5, log m* -2)",
-                      paper_scene(1).replace(amplitude=10 ** 0.5, mass=10 ** -2.0))):
+    for name, sc in (
+        ("contact (paper point 1)", paper_scene(1)),
+        ("jumping (log A* 0.5, log m* -2)", paper_scene(1).replace(amplitude=10**0.5, mass=10**-2.0)),
+    ):
         alone, measured, twin = _interleaved_ns(
-            [(sc, {}), (sc, {"lyapunov": True}), (twin_scene(sc), {})], repeat)
-        out[name] = {"scene_ns_per_step": alone, "lyapunov_over_scene": measured / alone,
-                     "scene_plus_twin_over_scene": (alone + twin) / alone}
+            [(sc, {}), (sc, {"lyapunov": True}), (twin_scene(sc), {})], repeat
+        )
+        out[name] = {
+            "scene_ns_per_step": alone,
+            "lyapunov_over_scene": measured / alone,
+            "scene_plus_twin_over_scene": (alone + twin) / alone,
+        }
     return out
 
 
@@ -370,12 +399,12 @@ def export_bench(quick: bool = False, point: int = 8) -> dict[str, Any]:
 
     from vibtrans.analysis.summary import twin_scene
     from vibtrans.products import export, plots
+
     repeat = 2 if quick else 5
     scene = paper_scene(point)
     T = scene.periods
 
-    ds = simulate(scene, window=(T - plots.FRAGMENT, T),
-                  samples_per_period=plots.OVERVIEW_SAMPLES)
+    ds = simulate(scene, window=(T - plots.FRAGMENT, T), samples_per_period=plots.OVERVIEW_SAMPLES)
     twin = simulate(twin_scene(scene), samples_per_period=plots.OVERVIEW_SAMPLES)
     formats = ("png", "svg", "html")
     tmp = tempfile.mkdtemp(prefix="vibtrans-bench-")
@@ -385,9 +414,10 @@ def export_bench(quick: bool = False, point: int = 8) -> dict[str, Any]:
         jobs = {"reference": lambda: _reference_png(f"{tmp}/reference.png")}
         jobs["reference"]()
         for fmt in formats:
-            jobs[fmt] = (lambda f: lambda: export.export_trajectory(
-                ds, f"{tmp}/trajectory.{f}", twin=twin))(fmt)
-            jobs[fmt]()                                   # warm-up: imports, fonts
+            jobs[fmt] = (lambda f: lambda: export.export_trajectory(ds, f"{tmp}/trajectory.{f}", twin=twin))(
+                fmt
+            )
+            jobs[fmt]()  # warm-up: imports, fonts
         for _ in range(repeat):
             for name, job in jobs.items():
                 w, c = time.perf_counter(), time.process_time()
@@ -396,11 +426,15 @@ def export_bench(quick: bool = False, point: int = 8) -> dict[str, Any]:
                 cpu[name] = min(cpu[name], time.process_time() - c)
     finally:
         shutil.rmtree(tmp)
-    out = {"point": point, "samples": int(ds.sizes["time"]),
-           "twin_samples": int(twin.sizes["time"]), "repeat": repeat,
-           "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                      f"python {platform.python_version()}",
-           "load_average_1min": os.getloadavg()[0]}   # at the end of the measurements
+    out = {
+        "point": point,
+        "samples": int(ds.sizes["time"]),
+        "twin_samples": int(twin.sizes["time"]),
+        "repeat": repeat,
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"python {platform.python_version()}",
+        "load_average_1min": os.getloadavg()[0],
+    }  # at the end of the measurements
     for name in wall:
         out[f"{name}_seconds"] = wall[name]
         out[f"{name}_cpu_seconds"] = cpu[name]
@@ -415,6 +449,7 @@ def _reference_png(out):
     exports' 150 dpi: what a machine and its load make of matplotlib."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
     t = np.linspace(0.0, 10.0, 1000)
     fig = Figure(figsize=(5.0, 3.0), layout="constrained")
     FigureCanvasAgg(fig)
@@ -427,30 +462,42 @@ def _reference_png(out):
     fig.savefig(out, dpi=150)
 
 
-def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
-         work_precision: bool = False, plot: Any = None, export: bool = False,
-         cold: bool = False, results_dir: Any = None, output: Any = None,
-         command: str | None = None) -> int:
+def main(
+    quick: bool = False,
+    as_json: bool = False,
+    sweep: bool = False,
+    work_precision: bool = False,
+    plot: Any = None,
+    export: bool = False,
+    cold: bool = False,
+    results_dir: Any = None,
+    output: Any = None,
+    command: str | None = None,
+) -> int:
     """`vibtrans bench`: run the bench the flags choose, print it (or one
     JSON object with `as_json`) and, with `results_dir` (a folder) or
     `output` (a file), write its record (vibtrans.tools.results; `command`:
     the command line it records, default this process's)."""
     from vibtrans.tools import results as results_file
+
     if plot is not None and not work_precision:
         raise InputError("plot: only bench --work-precision takes --plot")
     if cold and (work_precision or export or sweep):
-        raise InputError("cold-start: only the default bench (no --sweep, --export or "
-                         "--work-precision) takes --cold-start")
+        raise InputError(
+            "cold-start: only the default bench (no --sweep, --export or --work-precision) takes --cold-start"
+        )
     if results_dir is not None and output is not None:
-        raise InputError("results-dir and output: give one (a folder for a file named by "
-                         "the bench and its time, or the file)")
+        raise InputError(
+            "results-dir and output: give one (a folder for a file named by "
+            "the bench and its time, or the file)"
+        )
     begun = results_file.begin()
     saved: dict[str, Any] = {}
     if work_precision:
         from vibtrans.tools.workprecision import main as wp_main
+
         pinned = _pin_one_core()
-        status = wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned,
-                         on_result=saved.update)
+        status = wp_main(quick=quick, as_json=as_json, plot=plot, pinned=pinned, on_result=saved.update)
         name = "bench-work-precision"
     elif export:
         name = "bench-export"
@@ -469,7 +516,7 @@ def main(quick: bool = False, as_json: bool = False, sweep: bool = False,
         status = 0
     else:
         name = "bench"
-        start = cold_start() if cold else None       # before run() pins this process
+        start = cold_start() if cold else None  # before run() pins this process
         saved = run(quick)
         if start is not None:
             saved["cold_start"] = start
@@ -487,16 +534,22 @@ def _print_export(r, quick, as_json):
         print(json.dumps(r))
         return 0
     pinned = r["pinned_to_one_core"]
-    print(f"vibtrans bench --export ({'quick' if quick else 'full'}; best of "
-          f"{r['repeat']}; {r['machine']}; one core: {pinned}; load "
-          f"{r['load_average_1min']:.1f})")
-    print(f"  paper point {r['point']}, standard, {r['samples']} samples + twin "
-          f"{r['twin_samples']}; reference (one plain matplotlib panel to PNG): "
-          f"{r['reference_seconds']:.3f} s wall, {r['reference_cpu_seconds']:.3f} s CPU")
+    print(
+        f"vibtrans bench --export ({'quick' if quick else 'full'}; best of "
+        f"{r['repeat']}; {r['machine']}; one core: {pinned}; load "
+        f"{r['load_average_1min']:.1f})"
+    )
+    print(
+        f"  paper point {r['point']}, standard, {r['samples']} samples + twin "
+        f"{r['twin_samples']}; reference (one plain matplotlib panel to PNG): "
+        f"{r['reference_seconds']:.3f} s wall, {r['reference_cpu_seconds']:.3f} s CPU"
+    )
     for fmt in ("png", "svg", "html"):
-        print(f"  trajectory export .{fmt:<4} {r[fmt + '_seconds']:6.2f} s wall, "
-              f"{r[fmt + '_cpu_seconds']:6.2f} s CPU, {r[fmt + '_over_reference']:6.1f} x "
-              "reference CPU" + ("   (goal <= 3 s)" if fmt == "png" else ""))
+        print(
+            f"  trajectory export .{fmt:<4} {r[fmt + '_seconds']:6.2f} s wall, "
+            f"{r[fmt + '_cpu_seconds']:6.2f} s CPU, {r[fmt + '_over_reference']:6.1f} x "
+            "reference CPU" + ("   (goal <= 3 s)" if fmt == "png" else "")
+        )
     return 0
 
 
@@ -504,45 +557,61 @@ def _print_run(r, quick, as_json):
     if as_json:
         print(json.dumps(r))
         return 0
-    print(f"vibtrans bench ({'quick' if quick else 'full'}; best of {r['repeat']}; "
-          f"{r['machine']}; one core: {r['pinned_to_one_core']})")
+    print(
+        f"vibtrans bench ({'quick' if quick else 'full'}; best of {r['repeat']}; "
+        f"{r['machine']}; one core: {r['pinned_to_one_core']})"
+    )
     print(f"  vertical-only kernel   {r['vertical_ns_per_step']:8.1f} ns/step")
     print(f"  deformable kernel      {r['deformable_ns_per_step']:8.1f} ns/step")
     print(f"  ratio                  {r['deformable_over_vertical']:8.2f}   (goal <= 2)")
-    print(f"  with exact sin/cos (rotation shortcut off): vertical "
-          f"{r['exact_trig_vertical_ns_per_step']:.1f}, deformable "
-          f"{r['exact_trig_deformable_ns_per_step']:.1f} ns/step, ratio "
-          f"{r['exact_trig_deformable_over_vertical']:.2f}")
+    print(
+        f"  with exact sin/cos (rotation shortcut off): vertical "
+        f"{r['exact_trig_vertical_ns_per_step']:.1f}, deformable "
+        f"{r['exact_trig_deformable_ns_per_step']:.1f} ns/step, ratio "
+        f"{r['exact_trig_deformable_over_vertical']:.2f}"
+    )
     print(f"  memory-diagram update  {r['memory_update_ns']:8.1f} ns")
     for point, s in r["scene_seconds_2000_periods"].items():
-        print(f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
-              f"({s['steps']} steps)   (goal <= 0.1 s)")
+        print(
+            f"  paper point {point}, 2000 periods, standard: {s['seconds']:.4f} s "
+            f"({s['steps']} steps)   (goal <= 0.1 s)"
+        )
     for name, c in r["lyapunov_cost"].items():
-        print(f"  chaos indicator, {name}: scene + Lyapunov exponent "
-              f"{c['lyapunov_over_scene']:.2f} x scene (goal <= 1.3); scene + twin "
-              f"{c['scene_plus_twin_over_scene']:.2f} x")
+        print(
+            f"  chaos indicator, {name}: scene + Lyapunov exponent "
+            f"{c['lyapunov_over_scene']:.2f} x scene (goal <= 1.3); scene + twin "
+            f"{c['scene_plus_twin_over_scene']:.2f} x"
+        )
     c = r["profile_cost"]
-    print(f"  profiles, paper point {c['point']}: sphere {c['sphere_ns_per_step']:.1f} ns/step; "
-          f"{c['power_profile']} {c['power_over_sphere']:.2f} x (goal <= 1.2); "
-          f"{c['tabulated_profile']} {c['tabulated_over_sphere']:.2f} x (goal <= 1.5)")
-    print(f"  profile code, the sphere's own motion: power-law path "
-          f"{c['same_motion_power_over_sphere']:.2f} x, table path "
-          f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's (power-law path with "
-          f"pow() at every evaluation {c['same_motion_power_pow_over_sphere']:.2f} x)")
+    print(
+        f"  profiles, paper point {c['point']}: sphere {c['sphere_ns_per_step']:.1f} ns/step; "
+        f"{c['power_profile']} {c['power_over_sphere']:.2f} x (goal <= 1.2); "
+        f"{c['tabulated_profile']} {c['tabulated_over_sphere']:.2f} x (goal <= 1.5)"
+    )
+    print(
+        f"  profile code, the sphere's own motion: power-law path "
+        f"{c['same_motion_power_over_sphere']:.2f} x, table path "
+        f"{c['same_motion_tabulated_over_sphere']:.2f} x Hertz's (power-law path with "
+        f"pow() at every evaluation {c['same_motion_power_pow_over_sphere']:.2f} x)"
+    )
     for point, c in r["rolling_cost"].items():
-        print(f"  rolling, paper {point}: rolling kernel on the same motion "
-              f"{c['same_motion_over_none']:.3f} x (goal <= 1.05; records equal: "
-              f"{c['same_motion_records_equal']}); solid {c['solid_over_none']:.2f} x, shell "
-              f"{c['shell_over_none']:.2f} x per step (their own motion)")
+        print(
+            f"  rolling, paper {point}: rolling kernel on the same motion "
+            f"{c['same_motion_over_none']:.3f} x (goal <= 1.05; records equal: "
+            f"{c['same_motion_records_equal']}); solid {c['solid_over_none']:.2f} x, shell "
+            f"{c['shell_over_none']:.2f} x per step (their own motion)"
+        )
     print("  shortcuts (each switched off alone): speed-up, relative drift difference")
     for k, e in r["shortcuts"].items():
         print(f"    {k:<20} x{e['speedup']:5.2f}   {e['drift_difference']:.1e}")
     cs = r.get("cold_start")
     if cs is not None:
-        print(f"  cold start, {cs['command']}: {cs['cold_seconds']:.1f} s on an empty kernel "
-              f"cache, {cs['warm_seconds']:.2f} s warm, ratio {cs['cold_over_warm']:.1f}   "
-              f"(goal: cold <= {cs['goal_cold_seconds']:g} s on {cs['goal_cores']} cores; "
-              f"{cs['cores']} here)")
+        print(
+            f"  cold start, {cs['command']}: {cs['cold_seconds']:.1f} s on an empty kernel "
+            f"cache, {cs['warm_seconds']:.2f} s warm, ratio {cs['cold_over_warm']:.1f}   "
+            f"(goal: cold <= {cs['goal_cold_seconds']:g} s on {cs['goal_cores']} cores; "
+            f"{cs['cores']} here)"
+        )
     return 0
 
 
@@ -553,9 +622,11 @@ SWEEP_MU = 0.5
 
 def _window_sweep(points, **values):
     from vibtrans.maps.sweep import Sweep
+
     (a0, a1), (m0, m1) = SWEEP_WINDOW
-    return Sweep(np.linspace(a0, a1, points), np.linspace(m0, m1, points), chunk_rows=1,
-                 mu=SWEEP_MU, **values)
+    return Sweep(
+        np.linspace(a0, a1, points), np.linspace(m0, m1, points), chunk_rows=1, mu=SWEEP_MU, **values
+    )
 
 
 def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
@@ -578,34 +649,43 @@ def sweep_step_ratio(quick: bool = False) -> dict[str, Any]:
 
     from vibtrans.core.simulate import warmup
     from vibtrans.maps.sweep import run_sweep
+
     warmup()
     points, periods = (11, 500.0) if quick else (41, 2000.0)
     sweep = _window_sweep(points, periods=periods)
     cores = os.cpu_count() or 1
     vertical = paper_scene(1).replace(model="vertical")
-    ns_before, = _interleaved_ns([(vertical, {})], 3)
+    (ns_before,) = _interleaved_ns([(vertical, {})], 3)
     tmp = tempfile.mkdtemp()
     try:
         t0 = time.perf_counter()
         run_sweep(sweep, f"{tmp}/s.zarr", workers=cores, progress=False)
         wall = time.perf_counter() - t0
         import xarray as xr
+
         store = xr.open_zarr(f"{tmp}/s.zarr", consolidated=False)
         steps = int(store["steps"].values.sum())
         kernel_seconds = float(store["seconds"].values.sum())
     finally:
         shutil.rmtree(tmp)
-    ns_after, = _interleaved_ns([(vertical, {})], 3)
+    (ns_after,) = _interleaved_ns([(vertical, {})], 3)
     ns = min(ns_before, ns_after)
     ratio = wall * cores / (steps * ns * 1e-9)
     kernels = kernel_seconds / (steps * ns * 1e-9)
     # the ratio split in two: the points' kernel calls alone (their own
     # clocks, all cores busy) and the rest (Python around each point,
     # waiting, writing the store) as a factor
-    return {"sweep_points": points * points, "sweep_periods": periods, "cores": cores,
-            "sweep_seconds": wall, "sweep_steps": steps, "vertical_ns_per_step": ns,
-            "sweep_step_ratio": ratio, "sweep_kernel_step_ratio": kernels,
-            "sweep_overhead_factor": ratio / kernels}
+    return {
+        "sweep_points": points * points,
+        "sweep_periods": periods,
+        "cores": cores,
+        "sweep_seconds": wall,
+        "sweep_steps": steps,
+        "vertical_ns_per_step": ns,
+        "sweep_step_ratio": ratio,
+        "sweep_kernel_step_ratio": kernels,
+        "sweep_overhead_factor": ratio / kernels,
+    }
 
 
 def preview_window_times(quick: bool = False) -> dict[str, Any]:
@@ -618,6 +698,7 @@ def preview_window_times(quick: bool = False) -> dict[str, Any]:
 
     from vibtrans.core.simulate import warmup
     from vibtrans.maps.adaptive import run_adaptive
+
     warmup()
     points, levels, periods = (17, 2, 200.0) if quick else (41, 3, 500.0)
     sweep = _window_sweep(points, periods=periods, fidelity="preview")
@@ -625,15 +706,24 @@ def preview_window_times(quick: bool = False) -> dict[str, Any]:
     tmp = tempfile.mkdtemp()
     try:
         t0 = time.perf_counter()
-        fraction = run_adaptive(sweep, f"{tmp}/a.zarr", levels, progress=False,
-                                on_level=lambda level, ds: first.append(
-                                    time.perf_counter() - t0))
+        fraction = run_adaptive(
+            sweep,
+            f"{tmp}/a.zarr",
+            levels,
+            progress=False,
+            on_level=lambda level, ds: first.append(time.perf_counter() - t0),
+        )
         total = time.perf_counter() - t0
     finally:
         shutil.rmtree(tmp)
-    return {"preview_points": points * points, "preview_levels": levels,
-            "preview_periods": periods, "preview_computed_fraction": fraction,
-            "preview_first_image_seconds": first[0], "preview_window_seconds": total}
+    return {
+        "preview_points": points * points,
+        "preview_levels": levels,
+        "preview_periods": periods,
+        "preview_computed_fraction": fraction,
+        "preview_first_image_seconds": first[0],
+        "preview_window_seconds": total,
+    }
 
 
 def sweep_bench(quick: bool = False) -> dict[str, Any]:
@@ -644,9 +734,11 @@ def sweep_bench(quick: bool = False) -> dict[str, Any]:
     import tempfile
 
     from vibtrans.maps.sweep import Sweep, parse_range, run_sweep
+
     grid = ("0:2:0.5", "-3:1:0.5") if quick else ("-1:2.5:0.25", "-3:2:0.25")
-    sweep = Sweep(parse_range(grid[0], "a"), parse_range(grid[1], "m"), chunk_rows=1,
-                  periods=500.0 if quick else 2000.0)
+    sweep = Sweep(
+        parse_range(grid[0], "a"), parse_range(grid[1], "m"), chunk_rows=1, periods=500.0 if quick else 2000.0
+    )
     n = sweep.log_amplitude.size * sweep.log_mass.size
     out = {"points": n, "periods": sweep.values["periods"]}
     tmp = tempfile.mkdtemp()
@@ -657,8 +749,9 @@ def sweep_bench(quick: bool = False) -> dict[str, Any]:
                 t0 = time.perf_counter()
                 run_sweep(sweep, path, workers=workers, progress=False, executor=executor)
                 out[f"{executor}_{workers}_points_per_second"] = n / (time.perf_counter() - t0)
-            out[f"{executor}_parallel_efficiency"] = (
-                out[f"{executor}_2_points_per_second"] / (2 * out[f"{executor}_1_points_per_second"]))
+            out[f"{executor}_parallel_efficiency"] = out[f"{executor}_2_points_per_second"] / (
+                2 * out[f"{executor}_1_points_per_second"]
+            )
     finally:
         shutil.rmtree(tmp)
     out.update(sweep_step_ratio(quick))
@@ -682,8 +775,9 @@ def _strided(text, stride):
     return f"{start}:{stop}:{step * stride}"
 
 
-def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = None,
-                  models: Any = DECIDED_MODELS) -> dict[str, Any]:
+def decided_trade(
+    quick: bool = False, stride: int | None = None, keep: Any = None, models: Any = DECIDED_MODELS
+) -> dict[str, Any]:
     """The speed/accuracy trade of the `decided` stopping rule,
     measured in one run: each model's sample of the shipped grid (every
     `stride`-th point; quick: a 6 x 6 sample over 500 periods) swept with
@@ -710,14 +804,17 @@ def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = No
     from vibtrans.core.stopping import REASONS, STOP_RAN_TO_END
     from vibtrans.maps.cost import expected_time_share, minimum_periods
     from vibtrans.maps.sweep import Sweep, open_map, parse_range, run_sweep
+
     stride = (30 if quick else DECIDED_STRIDE) if stride is None else stride
     periods = 500.0 if quick else 2000.0
     la = parse_range(_strided(SHIPPED_GRID[0], stride), "log_amplitude")
     lm = parse_range(_strided(SHIPPED_GRID[1], stride), "log_mass")
     folder = keep or tempfile.mkdtemp()
     os.makedirs(folder, exist_ok=True)
-    out: dict[str, Any] = {"decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped "
-                           f"121 x 201 grid)", "decided_periods": periods}
+    out: dict[str, Any] = {
+        "decided_grid": f"{la.size} x {lm.size} (every {stride}th point of the shipped 121 x 201 grid)",
+        "decided_periods": periods,
+    }
     seconds = {"full": 0.0, "decided": 0.0}
     cpu = {"full": 0.0, "decided": 0.0}
     agree_n = agree_k = within_n = within_k = 0
@@ -727,8 +824,7 @@ def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = No
             for stop in ("full", "decided"):
                 path = f"{folder}/{model}-{stop}.zarr"
                 shutil.rmtree(path, ignore_errors=True)
-                sweep = Sweep(la, lm, chunk_rows=1, model=model, mu=0.3, periods=periods,
-                              stop=stop)
+                sweep = Sweep(la, lm, chunk_rows=1, model=model, mu=0.3, periods=periods, stop=stop)
                 c0, t0 = time.process_time(), time.perf_counter()
                 run_sweep(sweep, path, progress=False)
                 wall, used = time.perf_counter() - t0, time.process_time() - c0
@@ -739,18 +835,22 @@ def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = No
                 maps[stop] = open_map(path)
             full, dec = maps["full"], maps["decided"]
             regular = (full["chaotic"].values != 1) & (dec["chaotic"].values != 1)
-            same = ((full["drift"].values == dec["drift"].values)
-                    & (full["contact"].values == dec["contact"].values))
+            same = (full["drift"].values == dec["drift"].values) & (
+                full["contact"].values == dec["contact"].values
+            )
             vf, vd = full["drift_velocity"].values, dec["drift_velocity"].values
             drifting = regular & (np.abs(vf) > V0)
             ok = np.abs(vd - vf) <= STATED_DRIFT_ERROR["standard"] * np.abs(vf)
-            out[f"decided_{model}_speedup"] = (out[f"decided_{model}_full_cpu_seconds"]
-                                               / out[f"decided_{model}_decided_cpu_seconds"])
-            out[f"decided_{model}_wall_speedup"] = (out[f"decided_{model}_full_seconds"]
-                                                    / out[f"decided_{model}_decided_seconds"])
+            out[f"decided_{model}_speedup"] = (
+                out[f"decided_{model}_full_cpu_seconds"] / out[f"decided_{model}_decided_cpu_seconds"]
+            )
+            out[f"decided_{model}_wall_speedup"] = (
+                out[f"decided_{model}_full_seconds"] / out[f"decided_{model}_decided_seconds"]
+            )
             out[f"decided_{model}_class_agreement"] = float(same[regular].mean())
-            out[f"decided_{model}_drift_within_error"] = (float(ok[drifting].mean())
-                                                          if drifting.any() else None)
+            out[f"decided_{model}_drift_within_error"] = (
+                float(ok[drifting].mean()) if drifting.any() else None
+            )
             out[f"decided_{model}_regular_drifting_points"] = int(drifting.sum())
             out[f"decided_{model}_mean_periods_run"] = float(dec["periods_run"].mean())
             # the rule's ceiling on this map: the points run to T_obs cost a full
@@ -758,15 +858,18 @@ def decided_trade(quick: bool = False, stride: int | None = None, keep: Any = No
             tau = float(dec.attrs["scene_tau"])
             f_end = float((dec["stop_reason"].values == STOP_RAN_TO_END).mean())
             out[f"decided_{model}_speedup_ceiling"] = periods / (
-                f_end * periods + (1.0 - f_end) * min(periods, minimum_periods(tau)))
+                f_end * periods + (1.0 - f_end) * min(periods, minimum_periods(tau))
+            )
             # the map-on-demand estimate (maps.cost, the shipped-grid profile)
             # from the full map's time, against the decided map's measured time
             out[f"decided_{model}_estimate_ratio"] = (
                 out[f"decided_{model}_full_cpu_seconds"]
                 * expected_time_share(model, "decided", periods, tau)
-                / out[f"decided_{model}_decided_cpu_seconds"])
+                / out[f"decided_{model}_decided_cpu_seconds"]
+            )
             out[f"decided_{model}_chaos_agreement"] = float(
-                (full["chaotic"].values == dec["chaotic"].values).mean())
+                (full["chaotic"].values == dec["chaotic"].values).mean()
+            )
             reasons = dec["stop_reason"].values
             for code, name in enumerate(REASONS):
                 if code:

@@ -12,6 +12,7 @@ file is named by the bench and its UTC start, e.g.
 devtools/browserbench.py and devtools/loadtest.py write these; the
 documentation renders the latest of each (docs/reference/benchmarks.md).
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -29,8 +30,20 @@ from typing import Any
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
 
 # the packages whose versions decide the figures (missing ones are left out)
-KEY_PACKAGES = ("vibtrans", "numpy", "numba", "llvmlite", "scipy", "xarray", "zarr",
-                "matplotlib", "panel", "bokeh", "holoviews", "playwright")
+KEY_PACKAGES = (
+    "vibtrans",
+    "numpy",
+    "numba",
+    "llvmlite",
+    "scipy",
+    "xarray",
+    "zarr",
+    "matplotlib",
+    "panel",
+    "bokeh",
+    "holoviews",
+    "playwright",
+)
 SCHEMA = 1
 _STAMP = "%Y%m%dT%H%M%SZ"
 
@@ -75,7 +88,7 @@ def _memory_gb() -> float | None:
 def _usable_cores() -> int:
     try:
         return len(os.sched_getaffinity(0))
-    except AttributeError:      # not Linux
+    except AttributeError:  # not Linux
         return os.cpu_count() or 1
 
 
@@ -106,11 +119,16 @@ def machine_description(packages: Iterable[str] = KEY_PACKAGES) -> dict[str, Any
         platform, python, python_implementation and packages
         ({name: version}).
     """
-    return {"cpu_model": _cpu_model(), "cores": os.cpu_count(), "usable_cores": _usable_cores(),
-            "memory_gb": _memory_gb(), "platform": platform.platform(),
-            "python": platform.python_version(),
-            "python_implementation": platform.python_implementation(),
-            "packages": package_versions(packages)}
+    return {
+        "cpu_model": _cpu_model(),
+        "cores": os.cpu_count(),
+        "usable_cores": _usable_cores(),
+        "memory_gb": _memory_gb(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "python_implementation": platform.python_implementation(),
+        "packages": package_versions(packages),
+    }
 
 
 def git_state(root: str | os.PathLike[str] | None = None) -> dict[str, Any] | None:
@@ -132,8 +150,10 @@ def git_state(root: str | os.PathLike[str] | None = None) -> dict[str, Any] | No
     top = Path(root) if root is not None else Path(__file__).resolve().parents[2]
 
     def git(*args):
-        return subprocess.run(["git", "-C", str(top), *args], capture_output=True, text=True,
-                              timeout=30, check=True).stdout.strip()
+        return subprocess.run(
+            ["git", "-C", str(top), *args], capture_output=True, text=True, timeout=30, check=True
+        ).stdout.strip()
+
     try:
         if Path(git("rev-parse", "--show-toplevel")).resolve() != top.resolve():
             return None
@@ -149,8 +169,12 @@ def begin(git_root: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     average, the cores this process may use (a bench may pin itself to one
     later) and the source's git state (`git_state(git_root)`: the code that
     runs is the code at the start); pass it to `result_record` at the end."""
-    return {"started": _utc_now(), "load_average_start": _load(),
-            "usable_cores": _usable_cores(), "git": git_state(git_root)}
+    return {
+        "started": _utc_now(),
+        "load_average_start": _load(),
+        "usable_cores": _usable_cores(),
+        "git": git_state(git_root),
+    }
 
 
 def _plain(value: Any) -> Any:
@@ -162,7 +186,7 @@ def _plain(value: Any) -> Any:
     if isinstance(value, (list, tuple, set, frozenset)):
         items = sorted(value) if isinstance(value, (set, frozenset)) else value
         return [_plain(v) for v in items]
-    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):   # numpy
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):  # numpy
         return _plain(value.tolist())
     if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
         return value
@@ -173,9 +197,14 @@ def _plain(value: Any) -> Any:
     return str(value)
 
 
-def result_record(bench: str, results: Mapping[str, Any], begun: Mapping[str, Any],
-                  command: str | None = None, packages: Iterable[str] = KEY_PACKAGES,
-                  note: str | None = None) -> dict[str, Any]:
+def result_record(
+    bench: str,
+    results: Mapping[str, Any],
+    begun: Mapping[str, Any],
+    command: str | None = None,
+    packages: Iterable[str] = KEY_PACKAGES,
+    note: str | None = None,
+) -> dict[str, Any]:
     """One run's record, ready for `write_result`.
 
     Parameters
@@ -206,13 +235,19 @@ def result_record(bench: str, results: Mapping[str, Any], begun: Mapping[str, An
     machine["usable_cores"] = begun.get("usable_cores", machine["usable_cores"])
     machine["load_average_start"] = begun.get("load_average_start")
     machine["load_average_end"] = _load()
-    return _plain({
-        "bench": bench, "schema": SCHEMA,
-        "command": command if command is not None else " ".join(
-            [Path(sys.argv[0]).name, *sys.argv[1:]]),
-        "started_utc": _iso(begun["started"]), "finished_utc": _iso(_utc_now()),
-        "machine": machine, "git": begun.get("git"), "note": note,
-        "results": results})
+    return _plain(
+        {
+            "bench": bench,
+            "schema": SCHEMA,
+            "command": command if command is not None else " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+            "started_utc": _iso(begun["started"]),
+            "finished_utc": _iso(_utc_now()),
+            "machine": machine,
+            "git": begun.get("git"),
+            "note": note,
+            "results": results,
+        }
+    )
 
 
 def result_name(record: Mapping[str, Any]) -> str:
@@ -222,8 +257,11 @@ def result_name(record: Mapping[str, Any]) -> str:
     return f"{record['bench']}-{started.strftime(_STAMP)}.json"
 
 
-def write_result(record: Mapping[str, Any], folder: str | os.PathLike[str] | None = None,
-                 output: str | os.PathLike[str] | None = None) -> Path:
+def write_result(
+    record: Mapping[str, Any],
+    folder: str | os.PathLike[str] | None = None,
+    output: str | os.PathLike[str] | None = None,
+) -> Path:
     """Write `record` as JSON into `folder` (named by `result_name`; a second
     file of the same bench and second gets -2, -3, ...) or to the file
     `output`, atomically: a temporary file beside it renamed over it.
@@ -248,7 +286,7 @@ def write_result(record: Mapping[str, Any], folder: str | os.PathLike[str] | Non
     if output is not None:
         path = check_file(output, "output")
     else:
-        base = check_folder(folder, "results-dir")    # type: ignore[arg-type]
+        base = check_folder(folder, "results-dir")  # type: ignore[arg-type]
         name = result_name(record)
         path = base / name
         k = 1

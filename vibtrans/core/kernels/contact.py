@@ -19,6 +19,7 @@ Storage (plain arrays, so a kernel can stop and resume anywhere):
 W is stored relative to w_ref (re-based whenever the contact slides or starts)
 so that T* = (3/2) b sqrt(a) - (3/4) P never subtracts two large numbers.
 """
+
 import functools
 import math
 from typing import NamedTuple
@@ -29,10 +30,10 @@ from vibtrans.core.kernels.jit import inline, kernel, specialize, template
 from vibtrans.core.profiles import PowerLawProfile
 
 # Contact states (timeline codes; shared by every model).
-FLIGHT = 0        # contact loss, a* <= 0
-STICK = 1         # full stick, s = c
+FLIGHT = 0  # contact loss, a* <= 0
+STICK = 1  # full stick, s = c
 PARTIAL_SLIP = 2  # 0 < s < c
-SLIDING = 3       # total sliding, s = 0, T* = sign(b*') N*
+SLIDING = 3  # total sliding, s = 0, T* = sign(b*') N*
 STATE_NAMES = ("flight", "stick", "partial slip", "total sliding")
 
 
@@ -77,22 +78,22 @@ LAW_POWER = 0
 LAW_TABLE = 1
 LAW_KIND, LAW_ARG, LAW_K1, LAW_SIZE, LAW_INV = range(5)
 LAW_HEAD = 5
-LAW_ROOT = LAW_SIZE     # a power law's integer n (0: none, pow() every time)
+LAW_ROOT = LAW_SIZE  # a power law's integer n (0: none, pow() every time)
 POW_C1, POW_C2, POW_C3, POW_C4 = range(LAW_HEAD, LAW_HEAD + 4)
-WARM_EPS = 2.0 ** -12   # the warm start's largest |e| = |a / y0^n - 1| (series error < 3e-20)
-WARM_EPS_SHORT = 2.0 ** -18   # the short (e^2) series' largest |e| (its rest < 2^-57 of y)
-WARM_ROOT_MAX = 64      # integer n up to this take the warm start (y0^n: n - 1 multiplies)
-NO_WARM = (0.0, 0.0, 0.0, 0.0)   # an empty warm-start history (law_eval_warm)
-LAW_CELL = 6            # a table cell's numbers: N*_i, A, B, C, N*'_i, m
+WARM_EPS = 2.0**-12  # the warm start's largest |e| = |a / y0^n - 1| (series error < 3e-20)
+WARM_EPS_SHORT = 2.0**-18  # the short (e^2) series' largest |e| (its rest < 2^-57 of y)
+WARM_ROOT_MAX = 64  # integer n up to this take the warm start (y0^n: n - 1 multiplies)
+NO_WARM = (0.0, 0.0, 0.0, 0.0)  # an empty warm-start history (law_eval_warm)
+LAW_CELL = 6  # a table cell's numbers: N*_i, A, B, C, N*'_i, m
 CELL_N, CELL_A, CELL_B, CELL_C, CELL_K, CELL_M = range(LAW_CELL)
-LAW_GRID_MAX = 64.0     # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
+LAW_GRID_MAX = 64.0  # tables span 0 <= a* <= 64 (beyond: N*' extrapolated linearly in sqrt a*)
 LAW_GRID_POINTS = 8193  # uniform in s = sqrt(a*), ds = 1/1024 (a power of 2: LAW_INV)
 
 # The contact law a kernel is compiled for, its `law_kind` (a compile-time
 # constant: a kind's kernels leave the other kinds' code out)
-SPHERE = 0       # Hertz's own N* = a*^(3/2), N*' = 1.5 sqrt(a*): no law array read
-PROFILE = 1      # a profile's law array (a table or a power law), its kind read at each use
-WARM_POWER = 2   # a power law with an integer n alone: the warm-started root, no kind tests
+SPHERE = 0  # Hertz's own N* = a*^(3/2), N*' = 1.5 sqrt(a*): no law array read
+PROFILE = 1  # a profile's law array (a table or a power law), its kind read at each use
+WARM_POWER = 2  # a power law with an integer n alone: the warm-started root, no kind tests
 LAW_KINDS = ("sphere", "profile", "warm-power")
 
 
@@ -117,9 +118,9 @@ def kernel_law(profile):
     cell = 2.0 * ds * (k[:-1] * si + ds * (0.5 * (k[:-1] + m * si) + m * ds / 3.0))
     N = np.concatenate(([0.0], np.cumsum(cell)))
     i1 = int(round(1.0 / ds))
-    scale = 1.0 / N[i1]      # a* = 1 is a grid point
+    scale = 1.0 / N[i1]  # a* = 1 is a grid point
     k, N = k * scale, N * scale
-    assert ds == 2.0 ** round(math.log2(ds))     # (LAW_INV exact)
+    assert ds == 2.0 ** round(math.log2(ds))  # (LAW_INV exact)
     # per cell: N* = N*_i + int_si^s (k_i + m (x - si)) 2 x dx as a cubic in t = s - si
     m = np.diff(k) / ds
     k0 = k[:-1]
@@ -176,22 +177,23 @@ def law_eval(law, a):
         q = p - 1.0
         # the cone (q = 1): a^1 = a exactly, no pow() to call;
         # N* = a* y, N*' = p y with y = a*^(p - 1)
-        y = a if q == 1.0 else a ** q
+        y = a if q == 1.0 else a**q
         return a * y, p * y
     n = int(law[LAW_SIZE])
     if a <= 0.0:
         return 0.0, law[LAW_HEAD + CELL_K]
     s = math.sqrt(a)
-    i = int(s * law[LAW_INV])     # 1 / ds exactly (a power of 2)
+    i = int(s * law[LAW_INV])  # 1 / ds exactly (a power of 2)
     if i > n - 2:
-        i = n - 2                 # beyond the grid: the last cell's curves
+        i = n - 2  # beyond the grid: the last cell's curves
     t = s - i * law[LAW_ARG]
     j = LAW_HEAD + LAW_CELL * i
     # the cubic in Estrin's order (t^2 beside the linear parts: two multiply-add
     # levels fewer on the step's critical path than Horner's)
-    return ((law[j + CELL_N] + t * law[j + CELL_A])
-            + (t * t) * (law[j + CELL_B] + t * law[j + CELL_C]),
-            law[j + CELL_K] + law[j + CELL_M] * t)
+    return (
+        (law[j + CELL_N] + t * law[j + CELL_A]) + (t * t) * (law[j + CELL_B] + t * law[j + CELL_C]),
+        law[j + CELL_K] + law[j + CELL_M] * t,
+    )
 
 
 @inline
@@ -238,8 +240,7 @@ def _power_rescue(law, a, y0):
         if yn > 0.0:
             e = (a - yn) * (1.0 / yn)
             if abs(e) <= WARM_EPS:
-                return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
-                                                                              + e * law[POW_C4])))
+                return y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3] + e * law[POW_C4])))
     return 0.0
 
 
@@ -275,8 +276,7 @@ def power_warm(law, a, warm, k_alt):
             y = y0 + (y0 * e) * (law[POW_C1] + e * law[POW_C2])
             return a * y, p * y, y, 2
         if ae <= WARM_EPS:
-            y = y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3]
-                                                                        + e * law[POW_C4])))
+            y = y0 + (y0 * e) * (law[POW_C1] + e * (law[POW_C2] + e * (law[POW_C3] + e * law[POW_C4])))
             return a * y, p * y, y, 4
     if warm[1] > 0.0:
         y = _power_rescue(law, a, 2.0 * warm[0] - warm[1])
@@ -355,14 +355,15 @@ def _integrals_to(H, W, P, i, n, law):
     vertex pushed and popped within one step costs nothing."""
     if i <= 0:
         if law_kind != SPHERE:
-            P[0] = W[0] * H[0, 1]     # the springs entering at h = 0 (a flat)
+            P[0] = W[0] * H[0, 1]  # the springs entering at h = 0 (a flat)
         else:
             P[0] = 0.0
         i = 1
     while i < n:
         if law_kind != SPHERE:
-            P[i] = P[i - 1] + _segment_integral_law(H[i - 1, 0], H[i - 1, 1], H[i - 1, 2],
-                                                    W[i - 1], H[i, 0], H[i, 1], H[i, 2], W[i])
+            P[i] = P[i - 1] + _segment_integral_law(
+                H[i - 1, 0], H[i - 1, 1], H[i - 1, 2], W[i - 1], H[i, 0], H[i, 1], H[i, 2], W[i]
+            )
         else:
             P[i] = P[i - 1] + _segment_integral(H[i - 1, 1], W[i - 1], H[i, 1], W[i])
         i += 1
@@ -431,9 +432,9 @@ def reset_memory_law(H, W, P, nvert, memf, a, b, law):
 
 
 # Where the clamp finds the top vertex (h = a1): a compile-time constant.
-_TOP_STORED = 0   # on the stack
-_TOP_LOAD = 1     # not stored: (a1, bp), the load point (loading)
-_TOP_CUT = 2      # not stored: (a1, wt), the cut top segment (unloading)
+_TOP_STORED = 0  # on the stack
+_TOP_LOAD = 1  # not stored: (a1, bp), the load point (loading)
+_TOP_CUT = 2  # not stored: (a1, wt), the cut top segment (unloading)
 
 
 @template(inline)
@@ -456,7 +457,7 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, n1, warm):
     memf[0] = a1
     memf[1] = b1
     if a1 <= 0.0:
-        _pop_to(nvert, 0)            # every spring left contact and forgets
+        _pop_to(nvert, 0)  # every spring left contact and forgets
         return 0.0, 0.0, FLIGHT, warm
     n = nvert[0]
     # (`<= 0` for counts, here and below, tells the compiler that n - 1 is a
@@ -488,7 +489,7 @@ def memory_commit(H, W, P, nvert, memf, a1, c1, b1, law, n1, warm):
         # at a1 (the clamp pushes that vertex only if it survives).
         hp = H[n - 1, 0]
         wp = W[n - 1]
-        while n > 1 and H[n - 1, 0] > a1:     # the vertex h = 0 stays
+        while n > 1 and H[n - 1, 0] > a1:  # the vertex h = 0 stays
             hp = H[n - 1, 0]
             wp = W[n - 1]
             n -= 1
@@ -522,7 +523,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
         if abs(d2) > a1 - H[n - 1, 0] + tol:
             side = 1.0 if d2 > 0.0 else -1.0
     else:
-        nb = n                        # vertices below the top
+        nb = n  # vertices below the top
         if top == _TOP_CUT:
             d = wt - bp
         else:
@@ -554,8 +555,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
         nvert[1] = n
         if law_kind != SPHERE:
             return bp * c1 - _integrals_to(H, W, P, ip, n, law), a1, STICK, warm
-        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law), a1, STICK,
-                warm)
+        return (1.5 * bp * c1 - 0.75 * _integrals_to(H, W, P, ip, n, law), a1, STICK, warm)
     # Walk down, dropping the vertices outside the cone (slip annulus).
     if top == _TOP_LOAD:
         hl = a1
@@ -601,7 +601,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
     wk = W[n - 1]
     lam = max(-fk, 0.0) * (1.0 / (side * (wl - wk) + (hl - hk)))
     hs = hk + lam * (hl - hk)
-    ps = _integrals_to(H, W, P, min(ip, n), n, law)      # P at vertex k
+    ps = _integrals_to(H, W, P, min(ip, n), n, law)  # P at vertex k
     if law_kind != SPHERE:
         # the stick edge's N*, N*'; the annulus on the cone line, by parts:
         # int w dN*' = bp (k1 - ks) - side (a1 - hs) ks + side (N1 - Ns)
@@ -637,8 +637,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
     else:
         hs = hk
     # annulus: integral of (bp + side (a1 - h)) h^(-1/2) dh from hs to a1
-    pa = ps + (c1 - s) * (2.0 * (bp + side * a1)
-                          - (2.0 / 3.0) * side * (a1 + c1 * s + hs))
+    pa = ps + (c1 - s) * (2.0 * (bp + side * a1) - (2.0 / 3.0) * side * (a1 + c1 * s + hs))
     _put(H, W, n, a1, c1, bp)
     P[n] = pa
     nvert[0] = n + 1
@@ -649,8 +648,7 @@ def _clamp(H, W, P, nvert, memf, a1, c1, bp, n, top, wt, law, n1, warm):
 @kernel
 def memory_step(H, W, P, nvert, memf, a1, b1):
     """Non-inlined entry point of `memory_commit` (tests, benchmarks)."""
-    return _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, 0.0,
-                          NO_WARM)[:3]
+    return _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b1, memf, 0.0, NO_WARM)[:3]
 
 
 @kernel
@@ -668,8 +666,9 @@ def memory_history(H, W, P, nvert, memf, a, b, out):
     """
     for i in range(a.shape[0]):
         a1 = a[i]
-        T, sh, st, _ = _sphere_commit(H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i],
-                                      memf, 0.0, NO_WARM)
+        T, sh, st, _ = _sphere_commit(
+            H, W, P, nvert, memf, a1, math.sqrt(max(a1, 0.0)), b[i], memf, 0.0, NO_WARM
+        )
         out[i, 0] = T
         out[i, 1] = sh
         out[i, 2] = st
@@ -717,8 +716,9 @@ def anchor_profile(H, W, nvert, memf):
 
 class MemorySteps(NamedTuple):
     """The memory diagram's compiled steps for one contact law kind."""
-    commit: object      # memory_commit's copy: (H, W, P, nvert, memf, a1, c1, b1, law, n1, warm)
-    integrals: object   # _integrals's copy: (H, W, P, nvert, law)
+
+    commit: object  # memory_commit's copy: (H, W, P, nvert, memf, a1, c1, b1, law, n1, warm)
+    integrals: object  # _integrals's copy: (H, W, P, nvert, law)
 
 
 @functools.cache
@@ -726,8 +726,11 @@ def memory_steps(law_kind):
     """The memory diagram's steps (`memory_commit` and what it calls,
     inlined) for one contact law kind, `law_kind` a global constant of the
     copies (jit.specialize): the sphere's leave the profiles' code out."""
-    copies = specialize((_integrals_to, _integrals, _clamp, memory_commit),
-                        LAW_KINDS[law_kind].replace("-", "_"), law_kind=law_kind)
+    copies = specialize(
+        (_integrals_to, _integrals, _clamp, memory_commit),
+        LAW_KINDS[law_kind].replace("-", "_"),
+        law_kind=law_kind,
+    )
     return MemorySteps(copies["memory_commit"], copies["_integrals"])
 
 

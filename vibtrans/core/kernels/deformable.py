@@ -35,6 +35,7 @@ function, vibtrans/core/kernels/jit.py): in flight `_sample_flight`, `_land`; in
 `_predict`, `_advance_wave`, `_contact_force`, `_commit_step`, `_take_off`,
 `_note_state`, `_record_step` (or `_record_end` for the step holding t_end).
 """
+
 import functools
 import math
 from typing import NamedTuple
@@ -60,25 +61,26 @@ from vibtrans.core.kernels.substrate import RAMP_OFF, TWO_PI, ramp_exact, surfac
 
 class HertzParams(NamedTuple):
     """The Hertz kernels' parameters (normalized units, docs/MODEL.md section 1)."""
-    amplitude: float    # A*: vertical wave amplitude / a0
-    mass: float         # m*
-    mu: float           # friction coefficient
-    theta: float        # theta = (2 - nu) / (2 (1 - nu))
-    r: float            # Rayleigh ratio u_x / u_y amplitude
-    tau: float          # ramp time of the wave, periods
-    step: float         # h: the time step, periods
-    t_end: float        # T_obs: end of the run, periods
-    sample_dt: float    # coarse sampling interval, periods
-    win_t0: float       # full-resolution window [win_t0, win_t1], periods
-    win_t1: float       #   (empty when win_t0 > win_t1)
-    shortcuts: int      # bits SHORT_* switched on
-    roll_ratio: float = 0.0   # 1/j = m R^2 / I of a rolling particle (rolling kernels only)
+
+    amplitude: float  # A*: vertical wave amplitude / a0
+    mass: float  # m*
+    mu: float  # friction coefficient
+    theta: float  # theta = (2 - nu) / (2 (1 - nu))
+    r: float  # Rayleigh ratio u_x / u_y amplitude
+    tau: float  # ramp time of the wave, periods
+    step: float  # h: the time step, periods
+    t_end: float  # T_obs: end of the run, periods
+    sample_dt: float  # coarse sampling interval, periods
+    win_t0: float  # full-resolution window [win_t0, win_t1], periods
+    win_t1: float  #   (empty when win_t0 > win_t1)
+    shortcuts: int  # bits SHORT_* switched on
+    roll_ratio: float = 0.0  # 1/j = m R^2 / I of a rolling particle (rolling kernels only)
 
 
 # Shortcuts (bits of HertzParams.shortcuts); `vibtrans bench` measures
 # each one's speed-up and result difference by switching it off.
-SHORT_RAMP = 1       # G(t) = 1 once exp(-t^2/tau^2) < 2^-60 (t > 6.5 tau): skip exp
-SHORT_ROTATION = 2   # cos, sin of 2 pi t advanced by a rotation on fixed steps
+SHORT_RAMP = 1  # G(t) = 1 once exp(-t^2/tau^2) < 2^-60 (t > 6.5 tau): skip exp
+SHORT_ROTATION = 2  # cos, sin of 2 pi t advanced by a rotation on fixed steps
 SHORTCUTS_ALL = SHORT_RAMP | SHORT_ROTATION
 ROTATION_STEPS = 64  # exact cos, sin every 64 steps: rounding stays ~1e-14
 # state
@@ -97,26 +99,57 @@ MODE_FLIGHT = 1
 # The normal force N*(a*) = a*^(3/2) is C1 at a* = 0, so the tangent needs no
 # jump at landings or take-offs: in flight it is the free flight's
 # (dy' constant), in contact m* dy'' = -N*'(a*) dy, N*' = 1.5 sqrt(a*).
-(L_DY, L_DVY, L_DY0, L_DVY0,     # now; at the flight's origin
- L_FROM,                         # the time the exponent is measured from (input)
- L_START,                        # the first step at or after it (-1: not yet)
- L_LOG,                          # sum of the renormalizations' logs
- L_LOG_START,                    # L_LOG + log|d| at L_START
- L_END_T, L_END_DY, L_END_DVY) = range(11)   # the tangent at t_end (L_END_T < 0: not yet)
-L_HIST = 11                      # tangent derivative history, (dy', dy'') of F_{n-j}
-NTANGENT = L_HIST + 8            #   at tangent[L_HIST + 2 j + k]
-TANGENT_BIG = 1e100              # renormalize when |d|^2 leaves [1/BIG, BIG]
+(
+    L_DY,
+    L_DVY,
+    L_DY0,
+    L_DVY0,  # now; at the flight's origin
+    L_FROM,  # the time the exponent is measured from (input)
+    L_START,  # the first step at or after it (-1: not yet)
+    L_LOG,  # sum of the renormalizations' logs
+    L_LOG_START,  # L_LOG + log|d| at L_START
+    L_END_T,
+    L_END_DY,
+    L_END_DVY,
+) = range(11)  # the tangent at t_end (L_END_T < 0: not yet)
+L_HIST = 11  # tangent derivative history, (dy', dy'') of F_{n-j}
+NTANGENT = L_HIST + 8  #   at tangent[L_HIST + 2 j + k]
+TANGENT_BIG = 1e100  # renormalize when |d|^2 leaves [1/BIG, BIG]
 
 
-def kernel_params(amplitude, mass, mu, theta, r, tau, h, t_end, sample_dt,
-                  window=(math.inf, -math.inf), shortcuts=SHORTCUTS_ALL, roll_ratio=0.0):
+def kernel_params(
+    amplitude,
+    mass,
+    mu,
+    theta,
+    r,
+    tau,
+    h,
+    t_end,
+    sample_dt,
+    window=(math.inf, -math.inf),
+    shortcuts=SHORTCUTS_ALL,
+    roll_ratio=0.0,
+):
     """The kernels' HertzParams (values already validated).  Every field is
     converted to float (shortcuts to int), so that one compiled variant
     serves every caller.  roll_ratio: 1/j of a rolling particle, 0 for one
     that does not turn (the kernel is chosen by it: drivers.run_hertz)."""
-    return HertzParams(float(amplitude), float(mass), float(mu), float(theta), float(r),
-                       float(tau), float(h), float(t_end), float(sample_dt),
-                       float(window[0]), float(window[1]), int(shortcuts), float(roll_ratio))
+    return HertzParams(
+        float(amplitude),
+        float(mass),
+        float(mu),
+        float(theta),
+        float(r),
+        float(tau),
+        float(h),
+        float(t_end),
+        float(sample_dt),
+        float(window[0]),
+        float(window[1]),
+        int(shortcuts),
+        float(roll_ratio),
+    )
 
 
 def episode_roll(state, in_contact, roll_ratio):
@@ -143,8 +176,7 @@ def unused_memory():
     """(H, W, P, nvert, memf) for a kernel without a memory diagram (the
     vertical model, `hertz_kernel`): arrays of the right types, never read
     or written."""
-    return [np.empty((0, 2)), np.empty(0), np.empty(0), np.zeros(2, dtype=np.int64),
-            np.empty(0)]
+    return [np.empty((0, 2)), np.empty(0), np.empty(0), np.zeros(2, dtype=np.int64), np.empty(0)]
 
 
 def rest_tangent(mass, step, t_from, stiffness=1.5):
@@ -220,9 +252,12 @@ def _set_motion(state, x, vx, y, vy):
 def _flight_point(state, t, m):
     """(x, vx, y, vy) at time t on the current flight parabola."""
     s = t - state[S_T0]
-    return (state[S_X0] + state[S_VX0] * s, state[S_VX0],
-            state[S_Y0] + state[S_VY0] * s + 0.5 * s * s / m,
-            state[S_VY0] + s / m)
+    return (
+        state[S_X0] + state[S_VX0] * s,
+        state[S_VX0],
+        state[S_Y0] + state[S_VY0] * s + 0.5 * s * s / m,
+        state[S_VY0] + s / m,
+    )
 
 
 @helper
@@ -233,11 +268,25 @@ def _record_flight(samples, ctr, state, t, p, tangential, rolling):
     if tangential:
         scale = p.theta * p.mu
         kc = 1.0 + p.roll_ratio if rolling else 1.0
-        R.record(samples, ctr, t, x, vx, y, vy, y - uy, (contact_point(x, kc, rolling) - ux) / scale,
-                 (contact_point(vx, kc, rolling) - uxd) / scale, 0.0, 0.0, FLIGHT, 0.0, 0.0)
+        R.record(
+            samples,
+            ctr,
+            t,
+            x,
+            vx,
+            y,
+            vy,
+            y - uy,
+            (contact_point(x, kc, rolling) - ux) / scale,
+            (contact_point(vx, kc, rolling) - uxd) / scale,
+            0.0,
+            0.0,
+            FLIGHT,
+            0.0,
+            0.0,
+        )
     else:
-        R.record(samples, ctr, t, 0.0, 0.0, y, vy, y - uy, 0.0, 0.0,
-                 0.0, 0.0, FLIGHT, 0.0, 0.0)
+        R.record(samples, ctr, t, 0.0, 0.0, y, vy, y - uy, 0.0, 0.0, 0.0, 0.0, FLIGHT, 0.0, 0.0)
 
 
 @helper
@@ -353,8 +402,8 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm, 
     edge, a pair the kernel carries from step to step.  roll_ratio: a
     rolling particle's 1/j (its contact point is at (1 + 1/j) x*)."""
     a1 = y1 - uy
-    c1 = 0.0                      # contact radius sqrt(a*) (profile: N*'(a*))
-    nf = 0.0                      # Hertz: N* = a*^(3/2)
+    c1 = 0.0  # contact radius sqrt(a*) (profile: N*'(a*))
+    nf = 0.0  # Hertz: N* = a*^(3/2)
     wa, ws = warm
     if a1 > 0.0:
         if law_kind != SPHERE:
@@ -374,8 +423,7 @@ def _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm, 
 
 
 @helper
-def _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1, tf, nf, a1,
-                 mu_m, inv_m):
+def _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1, tf, nf, a1, mu_m, inv_m):
     """Accelerations from the new forces, Verlet's velocities, the history
     shift and the new state at t1.  Returns (vx1, vy1, a* before the step)."""
     ax1 = -mu_m * tf
@@ -431,16 +479,40 @@ def _hermite(p0, v0, p1, v1, h, s):
     and slope from the values and slopes at both ends (error O(h^4))."""
     s2 = s * s
     s3 = s2 * s
-    p = ((2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * h * v0
-         + (3.0 * s2 - 2.0 * s3) * p1 + (s3 - s2) * h * v1)
-    v = ((6.0 * s2 - 6.0 * s) * (p0 - p1) / h + (3.0 * s2 - 4.0 * s + 1.0) * v0
-         + (3.0 * s2 - 2.0 * s) * v1)
+    p = (
+        (2.0 * s3 - 3.0 * s2 + 1.0) * p0
+        + (s3 - 2.0 * s2 + s) * h * v0
+        + (3.0 * s2 - 2.0 * s3) * p1
+        + (s3 - s2) * h * v1
+    )
+    v = (6.0 * s2 - 6.0 * s) * (p0 - p1) / h + (3.0 * s2 - 4.0 * s + 1.0) * v0 + (3.0 * s2 - 2.0 * s) * v1
     return p, v
 
 
 @helper
-def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
-                t1, x1, vx1, y1, vy1, tangential, law, law_kind, rolling):
+def _record_end(
+    samples,
+    ctr,
+    p,
+    state,
+    st,
+    sh,
+    tf,
+    t0,
+    x0,
+    vx0,
+    y0,
+    vy0,
+    t1,
+    x1,
+    vx1,
+    y1,
+    vy1,
+    tangential,
+    law,
+    law_kind,
+    rolling,
+):
     """Record the state at t_end, inside the last step (t0, t1]: positions
     and velocities exact on a flight parabola, else Hermite-interpolated;
     a*, b*, b*', N* from them and the exact substrate motion at t_end; the
@@ -461,9 +533,8 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
     a = y - uy
     if law_kind != SPHERE:
         nf, c = law_eval(law, a) if a > 0.0 else (0.0, 0.0)
-        c = c / law[LAW_K1]       # contact radius / the static one
-        stick = (min(law_eval(law, sh)[1] / law[LAW_K1], c)
-                 if sh > 0.0 and st != FLIGHT else 0.0)
+        c = c / law[LAW_K1]  # contact radius / the static one
+        stick = min(law_eval(law, sh)[1] / law[LAW_K1], c) if sh > 0.0 and st != FLIGHT else 0.0
     else:
         c = math.sqrt(a) if a > 0.0 else 0.0
         stick = min(math.sqrt(sh), c) if sh > 0.0 and st != FLIGHT else 0.0
@@ -471,12 +542,25 @@ def _record_end(samples, ctr, p, state, st, sh, tf, t0, x0, vx0, y0, vy0,
     if tangential:
         scale = p.theta * p.mu
         kc = 1.0 + p.roll_ratio if rolling else 1.0
-        R.record(samples, ctr, t_end, x, vx, y, vy, a, (contact_point(x, kc, rolling) - ux) / scale,
-                 (contact_point(vx, kc, rolling) - uxd) / scale, nf, max(-nf, min(tf, nf)), st,
-                 stick, c)
+        R.record(
+            samples,
+            ctr,
+            t_end,
+            x,
+            vx,
+            y,
+            vy,
+            a,
+            (contact_point(x, kc, rolling) - ux) / scale,
+            (contact_point(vx, kc, rolling) - uxd) / scale,
+            nf,
+            max(-nf, min(tf, nf)),
+            st,
+            stick,
+            c,
+        )
     else:
-        R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, nf, 0.0,
-                 st, 0.0, c)
+        R.record(samples, ctr, t_end, 0.0, 0.0, y, vy, a, 0.0, 0.0, nf, 0.0, st, 0.0, c)
 
 
 @inline
@@ -492,8 +576,29 @@ def _stick_stiffness(H, nvert, st, sh, a1, c1):
 
 
 @helper
-def _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, sh, c1,
-                 scale, tangential, law, law_kind, kc, rolling):
+def _record_step(
+    samples,
+    ctr,
+    t1,
+    x1,
+    vx1,
+    y1,
+    vy1,
+    a1,
+    b1,
+    uxd,
+    nf,
+    tf,
+    st,
+    sh,
+    c1,
+    scale,
+    tangential,
+    law,
+    law_kind,
+    kc,
+    rolling,
+):
     """One sample row at the step end t1 (contact and stick radii in units
     of the static contact radius).  c1: N*'(a1) of the step's contact force
     (a profile's; in contact, st != FLIGHT, it is law_eval's at a1).  sh:
@@ -533,7 +638,7 @@ def _tangent_norm(tangent):
     n2 = tangent[L_DY] * tangent[L_DY] + tangent[L_DVY] * tangent[L_DVY]
     if TANGENT_BIG >= n2 >= 1.0 / TANGENT_BIG:
         return
-    if not n2 > 0.0:                  # zero or NaN (an overflowed scene): leave it
+    if not n2 > 0.0:  # zero or NaN (an overflowed scene): leave it
         return
     tangent[L_LOG] += 0.5 * math.log(n2)
     inv = 1.0 / math.sqrt(n2)
@@ -585,9 +690,20 @@ def _tangent_load(tangent):
     alias the other arrays; in locals the shift is a renaming (~1 ns a step
     of the deformable kernel, `vibtrans bench`)."""
     k = L_HIST
-    return (tangent[L_DY], tangent[L_DVY],
-            (tangent[k], tangent[k + 1], tangent[k + 2], tangent[k + 3],
-             tangent[k + 4], tangent[k + 5], tangent[k + 6], tangent[k + 7]))
+    return (
+        tangent[L_DY],
+        tangent[L_DVY],
+        (
+            tangent[k],
+            tangent[k + 1],
+            tangent[k + 2],
+            tangent[k + 3],
+            tangent[k + 4],
+            tangent[k + 5],
+            tangent[k + 6],
+            tangent[k + 7],
+        ),
+    )
 
 
 @helper
@@ -674,8 +790,24 @@ def _tangent_flight(tangent, s, landed):
 
 # ------------------------------------------------------------------ the kernel
 @template(kernel)
-def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, Pm,
-                    nvert, memf, samples, events, ctr, t_stop, law):
+def _hertz_particle(
+    p,
+    integrator,
+    stop_at_takeoff,
+    state,
+    hist,
+    tangent,
+    H,
+    W,
+    Pm,
+    nvert,
+    memf,
+    samples,
+    events,
+    ctr,
+    t_stop,
+    law,
+):
     """The Hertz particle from state[S_T] to t_stop: flights in closed form,
     contact one committed step at a time.  A template (`hertz_kernel`): its
     HertzVariant's flags are global constants of each copy, `tangential`
@@ -694,7 +826,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     m = p.mass
     h = p.step
     t_end = p.t_end
-    scale = p.theta * p.mu            # theta mu: b* = (x* - u_x*) / (theta mu)
+    scale = p.theta * p.mu  # theta mu: b* = (x* - u_x*) / (theta mu)
     # multiplies, not divides, on the step's critical path (x -> b* -> T* -> x'')
     inv_scale = 1.0 / scale
     inv_m = 1.0 / m
@@ -705,14 +837,14 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
     rotation = ROTATION_STEPS if p.shortcuts & SHORT_ROTATION else 0
     cos_h = math.cos(TWO_PI * h)
     sin_h = math.sin(TWO_PI * h)
-    cw = 1.0                          # cos(2 pi t), sin(2 pi t) at the last step
+    cw = 1.0  # cos(2 pi t), sin(2 pi t) at the last step
     sw = 0.0
-    rot_left = 0                      # steps before cos, sin are evaluated afresh
-    dy = 0.0                          # the tangent's hot values (lyapunov)
+    rot_left = 0  # steps before cos, sin are evaluated afresh
+    dy = 0.0  # the tangent's hot values (lyapunov)
     dvy = 0.0
     dh = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    warm = (NO_WARM, NO_WARM)         # a profile's warm starts (at a*, at the stick edge)
-    marking = False                   # _tangent_mark still due, at t >= t_from
+    warm = (NO_WARM, NO_WARM)  # a profile's warm starts (at a*, at the stick edge)
+    marking = False  # _tangent_mark still due, at t >= t_from
     t_from = 0.0
     if lyapunov:
         dy, dvy, dh = _tangent_load(tangent)
@@ -722,8 +854,7 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         if ctr[R.C_MODE] == MODE_FLIGHT:
             # ---- closed-form flight: sample it, then find the landing
             limit = t_stop if t_stop < t_end else t_end
-            t_land = find_landing(state[S_T0], state[S_Y0], state[S_VY0], m, p.amplitude,
-                                  p.tau, t, limit, h)
+            t_land = find_landing(state[S_T0], state[S_Y0], state[S_VY0], m, p.amplitude, p.tau, t, limit, h)
             t_fin = limit if t_land < 0.0 else t_land
             if not _sample_flight(p, state, samples, ctr, t, t_fin, tangential, rolling):
                 return R.SAMPLES_FULL
@@ -741,10 +872,10 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             if t_land < 0.0:
                 break
             _land(p, state, hist, nvert, memf, events, ctr, x, vx, vy, tangential, rolling)
-            if rolling:               # a contact episode starts
+            if rolling:  # a contact episode starts
                 state[S_EPISODE_LO] = x
                 state[S_EPISODE_HI] = x
-            rot_left = 0              # off the step grid: restart the rotation
+            rot_left = 0  # off the step grid: restart the rotation
             continue
         # ---- one committed contact step, t -> t1
         if (not final) and t + h > t_stop:
@@ -762,10 +893,12 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
         x1, vx1, y1, vy1 = _predict(integrator, state, hist, h)
         cw, sw, rot_left = _advance_wave(t1, cw, sw, rot_left, cos_h, sin_h, rotation)
         ux, uy, uxd, uyd = _substrate_at(t1, cw, sw, t_flat, p)
-        a1, c1, nf, b1, tf, sh, st, warm = _contact_force(H, W, Pm, nvert, memf, x1, y1, ux, uy,
-                                                          inv_scale, law, warm, p.roll_ratio)
-        vx1, vy1, a0 = _commit_step(integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1,
-                                    tf, nf, a1, mu_m, inv_m)
+        a1, c1, nf, b1, tf, sh, st, warm = _contact_force(
+            H, W, Pm, nvert, memf, x1, y1, ux, uy, inv_scale, law, warm, p.roll_ratio
+        )
+        vx1, vy1, a0 = _commit_step(
+            integrator, state, hist, ctr, t1, h, x1, vx1, y1, vy1, tf, nf, a1, mu_m, inv_m
+        )
         dyo = 0.0
         dvyo = 0.0
         if lyapunov:
@@ -773,17 +906,14 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             dvyo = dvy
             dy, dvy, dh = _tangent_step(integrator, dy, dvy, dh, h, c1, inv_m, law_kind)
         if st == FLIGHT:
-            x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo,
-                                         vyo, m)
+            x1, vx1, y1, vy1 = _take_off(state, hist, ctr, t, t1, h, a0, a1, xo, vxo, yo, vyo, m)
             a1 = y1 - uy
-            b1 = ((contact_point(x1, 1.0 + p.roll_ratio, rolling) - ux) / scale
-                  if tangential else 0.0)
+            b1 = (contact_point(x1, 1.0 + p.roll_ratio, rolling) - ux) / scale if tangential else 0.0
             if rolling:
                 _episode_end(state)
             if lyapunov:
-                dy, dvy = _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, dh[3],
-                                            state[S_T0], t1)
-                _tangent_store(tangent, dy, dvy, dh)   # the flight's phases use the array
+                dy, dvy = _tangent_take_off(tangent, state[S_T0] - t, dyo, dvyo, dh[3], state[S_T0], t1)
+                _tangent_store(tangent, dy, dvy, dh)  # the flight's phases use the array
         elif rolling:
             # the contact episode's extremes, in the state array: as locals
             # they were live across the step's calls, spilled and reloaded
@@ -799,17 +929,58 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
             dy, dvy, dh = _tangent_norm_hot(tangent, dy, dvy, dh)
         _note_state(events, ctr, state, t1, st)
         if final and t1 > t_end:
-            _record_end(samples, ctr, p, state, st, sh, tf, t, xo, vxo, yo, vyo,
-                        t1, x1, vx1, y1, vy1, tangential, law, law_kind, rolling)
+            _record_end(
+                samples,
+                ctr,
+                p,
+                state,
+                st,
+                sh,
+                tf,
+                t,
+                xo,
+                vxo,
+                yo,
+                vyo,
+                t1,
+                x1,
+                vx1,
+                y1,
+                vy1,
+                tangential,
+                law,
+                law_kind,
+                rolling,
+            )
             if lyapunov:
                 _tangent_end(tangent, state, st, t_end, t, dyo, dvyo, t1, dy, dvy, dh)
-        elif (R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1)
-              or (final and t1 >= t_end)):
+        elif R.want_sample(t1, ctr, p.sample_dt, p.win_t0, p.win_t1) or (final and t1 >= t_end):
             stick = sh
             if law_kind != SPHERE and tangential:
                 stick = _stick_stiffness(H, nvert, st, sh, a1, c1)
-            _record_step(samples, ctr, t1, x1, vx1, y1, vy1, a1, b1, uxd, nf, tf, st, stick,
-                         c1, scale, tangential, law, law_kind, 1.0 + p.roll_ratio, rolling)
+            _record_step(
+                samples,
+                ctr,
+                t1,
+                x1,
+                vx1,
+                y1,
+                vy1,
+                a1,
+                b1,
+                uxd,
+                nf,
+                tf,
+                st,
+                stick,
+                c1,
+                scale,
+                tangential,
+                law,
+                law_kind,
+                1.0 + p.roll_ratio,
+                rolling,
+            )
         if st == FLIGHT and stop_at_takeoff:
             break
     if lyapunov:
@@ -820,10 +991,11 @@ def _hertz_particle(p, integrator, stop_at_takeoff, state, hist, tangent, H, W, 
 class HertzVariant(NamedTuple):
     """What a Hertz kernel is compiled for: compile-time constants, each
     variant a kernel of its own (kernels.dispatch.KERNELS picks one)."""
-    tangential: bool    # the memory diagram and x* (deformable), or y* alone (vertical)
-    lyapunov: bool      # the vertical motion's tangent advanced alongside
-    law_kind: int       # contact.SPHERE, PROFILE or WARM_POWER
-    rolling: bool = False   # the particle turns (deformable only; HertzParams.roll_ratio)
+
+    tangential: bool  # the memory diagram and x* (deformable), or y* alone (vertical)
+    lyapunov: bool  # the vertical motion's tangent advanced alongside
+    law_kind: int  # contact.SPHERE, PROFILE or WARM_POWER
+    rolling: bool = False  # the particle turns (deformable only; HertzParams.roll_ratio)
 
 
 @functools.cache
@@ -843,13 +1015,25 @@ def hertz_kernel(variant):
     the vertical model (`unused_memory`), `law` for the sphere.  A lyapunov
     variant records what its plain twin records, bit for bit, and so do the
     WARM_POWER and PROFILE kernels for a warm-started power law."""
-    tangential, lyapunov, law_kind, rolling = (bool(variant.tangential), bool(variant.lyapunov),
-                                               int(variant.law_kind), bool(variant.rolling))
+    tangential, lyapunov, law_kind, rolling = (
+        bool(variant.tangential),
+        bool(variant.lyapunov),
+        int(variant.law_kind),
+        bool(variant.rolling),
+    )
     if rolling and not tangential:
         raise ValueError("a rolling kernel is a deformable one (tangential=True)")
-    name = (f"{'deformable' if tangential else 'vertical'}{'_lyapunov' if lyapunov else ''}"
-            f"_{LAW_KINDS[law_kind].replace('-', '_')}{'_rolling' if rolling else ''}")
-    copies = specialize((_contact_force, _hertz_particle), name, tangential=tangential,
-                        lyapunov=lyapunov, law_kind=law_kind, rolling=rolling,
-                        memory_commit=memory_steps(law_kind).commit)
+    name = (
+        f"{'deformable' if tangential else 'vertical'}{'_lyapunov' if lyapunov else ''}"
+        f"_{LAW_KINDS[law_kind].replace('-', '_')}{'_rolling' if rolling else ''}"
+    )
+    copies = specialize(
+        (_contact_force, _hertz_particle),
+        name,
+        tangential=tangential,
+        lyapunov=lyapunov,
+        law_kind=law_kind,
+        rolling=rolling,
+        memory_commit=memory_steps(law_kind).commit,
+    )
     return copies["_hertz_particle"]

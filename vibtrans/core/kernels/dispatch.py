@@ -22,21 +22,24 @@ the call documented there) or POINT_MASS (point_mass.point_mass_kernel).
 `kernel_for` turns it into the compiled kernel; each compiles on its first
 call (or loads from the disk cache), so a run compiles only what it needs.
 """
+
 from vibtrans.core.kernels.contact import PROFILE, SPHERE, WARM_POWER
 from vibtrans.core.kernels.deformable import HertzVariant, hertz_kernel
 from vibtrans.core.kernels.point_mass import point_mass_kernel
 
 MODELS = ("deformable", "vertical", "point-mass")
-POINT_MASS = "point-mass"        # the material point's one kernel
+POINT_MASS = "point-mass"  # the material point's one kernel
 
 KERNELS = {}
 for _lyapunov in (False, True):
     for _kind in (SPHERE, PROFILE, WARM_POWER):
         for _rolling in (False, True):
             KERNELS["deformable", _lyapunov, _kind, _rolling] = HertzVariant(
-                tangential=True, lyapunov=_lyapunov, law_kind=_kind, rolling=_rolling)
+                tangential=True, lyapunov=_lyapunov, law_kind=_kind, rolling=_rolling
+            )
         KERNELS["vertical", _lyapunov, _kind, False] = HertzVariant(
-            tangential=False, lyapunov=_lyapunov, law_kind=SPHERE if _kind == SPHERE else PROFILE)
+            tangential=False, lyapunov=_lyapunov, law_kind=SPHERE if _kind == SPHERE else PROFILE
+        )
     KERNELS["point-mass", _lyapunov, SPHERE, False] = POINT_MASS
 del _lyapunov, _kind, _rolling
 

@@ -14,6 +14,7 @@ method.  After a landing the multistep history is filled from the parabola
 (the force is C1 at a* = 0 since N* = a*^(3/2)), so AB4 restarts at full
 order without a Runge-Kutta starter.
 """
+
 import math
 
 from vibtrans.core.kernels.jit import helper, kernel
@@ -30,8 +31,7 @@ def ab4_increment(hist, k, h):
 
     hist[j, k] holds F_{n-j}.
     """
-    return h / 24.0 * (55.0 * hist[0, k] - 59.0 * hist[1, k]
-                       + 37.0 * hist[2, k] - 9.0 * hist[3, k])
+    return h / 24.0 * (55.0 * hist[0, k] - 59.0 * hist[1, k] + 37.0 * hist[2, k] - 9.0 * hist[3, k])
 
 
 @helper
@@ -84,7 +84,7 @@ def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
     g = flight_gap(t, t0, y0, vy0, m, amplitude, tau)
     while True:
         if g > 0.0:
-            return t          # already touching (grazing start)
+            return t  # already touching (grazing start)
         vy = abs(vy0 + (t - t0) / m)
         rate = vy + vsub
         dt = 2.0 * (-g) / (rate + math.sqrt(rate * rate + 2.0 * asub * (-g)))

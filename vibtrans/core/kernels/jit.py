@@ -82,6 +82,7 @@ Only the library's functions use that folder: numba's global setting is
 switched to it just while one of our functions is decorated, so other
 libraries' numba caches stay where they were.
 """
+
 import contextlib
 import hashlib
 import os
@@ -93,8 +94,15 @@ from numba import config as _numba_config
 from numba import njit
 
 # Every module that defines a compiled function (all in this package).
-SOURCES = ("jit.py", "records.py", "contact.py", "substrate.py", "integrators.py",
-           "deformable.py", "point_mass.py")
+SOURCES = (
+    "jit.py",
+    "records.py",
+    "contact.py",
+    "substrate.py",
+    "integrators.py",
+    "deformable.py",
+    "point_mass.py",
+)
 _PACKAGE = Path(__file__).resolve().parent
 _MODULES = frozenset(f"{__package__}.{s[:-3]}" for s in SOURCES)
 
@@ -120,22 +128,23 @@ def _cache_base():
     return (Path(xdg) if xdg else Path.home() / ".cache") / "vibtrans" / "numba"
 
 
-CACHE_ENABLED = os.environ.get("VIBTRANS_JIT_CACHE", "1").strip().lower() not in (
-    "0", "false", "no", "off")
+CACHE_ENABLED = os.environ.get("VIBTRANS_JIT_CACHE", "1").strip().lower() not in ("0", "false", "no", "off")
 _KEY = _source_key() if CACHE_ENABLED else None
 CACHE_DIR = str(_cache_base() / _KEY) if _KEY else None
 
 
 def _compile(fn, **options):
     if fn.__module__ not in _MODULES:
-        raise RuntimeError(f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
-                           f"a module listed in vibtrans.core.kernels.jit.SOURCES (the cache key)")
+        raise RuntimeError(
+            f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
+            f"a module listed in vibtrans.core.kernels.jit.SOURCES (the cache key)"
+        )
     disp = njit(cache=False, nogil=True, _nrt=False, error_model="numpy", **options)(fn)
     if CACHE_DIR is not None:
         saved = _numba_config.CACHE_DIR
         _numba_config.CACHE_DIR = CACHE_DIR
         try:
-            disp.enable_caching()      # the locator reads the folder now
+            disp.enable_caching()  # the locator reads the folder now
         finally:
             _numba_config.CACHE_DIR = saved
     return disp
@@ -184,9 +193,11 @@ def compile_notice(report):
 def template(decorate):
     """Mark `fn` as a template: not compiled itself, only in the copies
     `specialize` makes, each with `decorate` (kernel, helper or inline)."""
+
     def mark(fn):
         fn.jit_decorator = decorate
         return fn
+
     return mark
 
 
@@ -204,8 +215,7 @@ def specialize(templates, name, **constants):
     namespace = dict(templates[0].__globals__)
     namespace.update(constants)
     for fn in templates:
-        copy = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__,
-                                  fn.__closure__)
+        copy = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__, fn.__closure__)
         copy.__qualname__ = f"{fn.__qualname__}__{name}"
         copy.__doc__ = fn.__doc__
         namespace[fn.__name__] = fn.jit_decorator(copy)

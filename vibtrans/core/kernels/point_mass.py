@@ -91,6 +91,7 @@ the scan grid (e.g. whole periods with scan_dt = 1/64) gives results
 bit-identical to a single run; an off-grid t_stop re-bases the closed form
 there, which differs by rounding only.
 """
+
 import math
 from typing import NamedTuple
 
@@ -122,8 +123,8 @@ from vibtrans.core.kernels.substrate import surface_acceleration, surface_motion
 
 # modes (ctr[C_MODE])
 MODE_STICK = 0
-MODE_SLIDE_POS = 1    # sliding with v_rel > 0, s = +1
-MODE_SLIDE_NEG = 2    # sliding with v_rel < 0, s = -1
+MODE_SLIDE_POS = 1  # sliding with v_rel > 0, s = +1
+MODE_SLIDE_NEG = 2  # sliding with v_rel < 0, s = -1
 MODE_FLIGHT = 3
 MODE_NAMES = ("stick", "slide +", "slide -", "flight")
 
@@ -133,40 +134,41 @@ RULE_CLASSICAL = 1
 STICK_RULES = ("paper", "classical")
 
 # event functions (internal); an event is phi > 0 (strict) or phi >= 0
-EV_DETACH = 0      # phi = -N*                       (strict)
-EV_SLIP = 1        # phi = m |u_x''| - mu N*          (strict)
-EV_STICK = 2       # phi = mu N* - m |u_x''|  (paper rule, in a slide)
-EV_VZERO = 3       # phi = -s v_rel          (in a slide)
-EV_LAND = 4        # phi = gap a* = y - u_y  (in flight)
+EV_DETACH = 0  # phi = -N*                       (strict)
+EV_SLIP = 1  # phi = m |u_x''| - mu N*          (strict)
+EV_STICK = 2  # phi = mu N* - m |u_x''|  (paper rule, in a slide)
+EV_VZERO = 3  # phi = -s v_rel          (in a slide)
+EV_LAND = 4  # phi = gap a* = y - u_y  (in flight)
 
-TOL_T = 1e-13      # event time resolution (periods)
-SHORT_SEG = 1e-7   # steps shorter than this (just after an event) are not
-                   # scanned: below it the event functions are rounding noise
-H_MIN = 1e-7       # smallest subdivision of the no-hidden-crossing proof
-CAPTURE_T = 1e-3   # chatter capture: a rebound flight shorter than this
-                   # (periods) is taken as contact
+TOL_T = 1e-13  # event time resolution (periods)
+SHORT_SEG = 1e-7  # steps shorter than this (just after an event) are not
+# scanned: below it the event functions are rounding noise
+H_MIN = 1e-7  # smallest subdivision of the no-hidden-crossing proof
+CAPTURE_T = 1e-3  # chatter capture: a rebound flight shorter than this
+# (periods) is taken as contact
 STACK = 64
 MAX_EVENTS_PER_STEP = 10000  # events between two scan-grid points (chatter is
-                   # captured at ~10): more is a Zeno-like sequence at rounding
-                   # level (an extreme scene): EVENTS_RUNAWAY, not an endless run
+# captured at ~10): more is a Zeno-like sequence at rounding
+# level (an extreme scene): EVENTS_RUNAWAY, not an endless run
 
 
 class PointMassParams(NamedTuple):
     """The kernel's parameters (normalized units, docs/MODEL.md section 1;
     times in wave periods), built by `make_params`."""
-    amplitude: float    # A*: wave amplitude (a0)
-    mass: float         # m* = a0 m f^2 / (M g)
-    mu: float           # friction coefficient
-    theta: float        # compliance ratio; here only the unit theta mu of b*
-    r: float            # Rayleigh ratio |u_x| / |u_y| of the wave
-    tau: float          # ramp time of G(t) (periods; 0: the wave is on from t = 0)
-    alpha_t: float      # tangential restitution of a landing
-    t_end: float        # end of the run (periods)
-    sample_dt: float    # coarse sample interval (periods)
-    win_t0: float       # full-resolution window [win_t0, win_t1] (periods):
-    win_t1: float       #   every scan-grid point and event recorded there
-    scan_dt: float      # scan grid step (periods)
-    capture_t: float = CAPTURE_T   # chatter capture (periods; module doc)
+
+    amplitude: float  # A*: wave amplitude (a0)
+    mass: float  # m* = a0 m f^2 / (M g)
+    mu: float  # friction coefficient
+    theta: float  # compliance ratio; here only the unit theta mu of b*
+    r: float  # Rayleigh ratio |u_x| / |u_y| of the wave
+    tau: float  # ramp time of G(t) (periods; 0: the wave is on from t = 0)
+    alpha_t: float  # tangential restitution of a landing
+    t_end: float  # end of the run (periods)
+    sample_dt: float  # coarse sample interval (periods)
+    win_t0: float  # full-resolution window [win_t0, win_t1] (periods):
+    win_t1: float  #   every scan-grid point and event recorded there
+    scan_dt: float  # scan grid step (periods)
+    capture_t: float = CAPTURE_T  # chatter capture (periods; module doc)
 
 
 # sup |d^n/dq^n exp(-q^2)| for n = 1, 2, 3: bounds of the ramp derivatives
@@ -216,8 +218,7 @@ def _eval(t, mode, seg, A, m, mu, r, tau):
     else:
         ms = mu * _sign_of(mode)
         vx = seg[2] - (ms / m) * dt + ms * (duy - seg[8])
-        x = (seg[1] + seg[2] * dt - (ms / (2.0 * m)) * dt * dt
-             + ms * (uy - seg[6] - seg[8] * dt))
+        x = seg[1] + seg[2] * dt - (ms / (2.0 * m)) * dt * dt + ms * (uy - seg[6] - seg[8] * dt)
         y = uy
         vy = duy
     return x, vx, y, vy, ux, uy, dux, duy, ax, ay
@@ -242,12 +243,10 @@ def _phi(kind, t, mode, seg, x, vx, y, vy, ux, uy, dux, duy, ax, ay, m, mu):
     if kind == EV_VZERO:
         s = _sign_of(mode)
         ms = mu * s
-        vrel = ((seg[2] - seg[7]) - (ms / m) * dt + ms * (duy - seg[8])
-                - (dux - seg[7]))
+        vrel = (seg[2] - seg[7]) - (ms / m) * dt + ms * (duy - seg[8]) - (dux - seg[7])
         return -s * vrel, (mu / m) * nf + s * ax, nf
     # EV_LAND
-    gap = ((seg[3] - seg[6]) + (seg[4] - seg[8]) * dt + dt * dt / (2.0 * m)
-           - (uy - seg[6] - seg[8] * dt))
+    gap = (seg[3] - seg[6]) + (seg[4] - seg[8]) * dt + dt * dt / (2.0 * m) - (uy - seg[6] - seg[8] * dt)
     return gap, vy - duy, nf
 
 
@@ -289,8 +288,8 @@ def _no_crossing(fa, da, fb, db, h, M):
     q1 - q2 is linear, so min(q1, q2) peaks at a, b or where q1 = q2.
     """
     hm = 0.5 * M * h * h
-    d_a = fa - (fb - db * h + hm)          # (q1 - q2)(a) <= 0
-    d_b = (fa + da * h + hm) - fb          # (q1 - q2)(b) >= 0
+    d_a = fa - (fb - db * h + hm)  # (q1 - q2)(a) <= 0
+    d_b = (fa + da * h + hm) - fb  # (q1 - q2)(b) >= 0
     den = d_b - d_a
     if den <= 0.0:
         return True
@@ -302,8 +301,7 @@ def _no_crossing(fa, da, fb, db, h, M):
 
 
 @kernel
-def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
-                   m_vz, uy3, A, m, mu, r, tau):
+def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work, m_vz, uy3, A, m, mu, r, tau):
     """Prove that `kind` (EV_VZERO or EV_LAND) does not trigger in (a, b], or
     return the first bracket (lo, hi) with hi triggered.
 
@@ -341,8 +339,12 @@ def _first_bracket(kind, a, fa, da, na, b, fb, db, nb, mode, seg, work,
             M = m_vz
         # a bound or value that overflowed (an extreme scene) proves nothing
         # at any subdivision: accept the interval rather than subdivide to H_MIN
-        if (h < H_MIN or top >= STACK or not math.isfinite(lf + ld + rf + rd + M)
-                or _no_crossing(lf, ld, rf, rd, h, M)):
+        if (
+            h < H_MIN
+            or top >= STACK
+            or not math.isfinite(lf + ld + rf + rd + M)
+            or _no_crossing(lf, ld, rf, rd, h, M)
+        ):
             lt = rt
             lf = rf
             ld = rd
@@ -376,8 +378,7 @@ def _resolve(nf, f, vrel, ax, rule):
 
 
 @helper
-def record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
-                m, mu, tmu):
+def record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay, m, mu, tmu):
     if mode == MODE_FLIGHT:
         nf = 0.0
         tf = 0.0
@@ -390,8 +391,7 @@ def record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
         nf = 1.0 - m * ay
         tf = _sign_of(mode) * nf
         code = SLIDING
-    record(samples, ctr, t, x, vx, y, vy, y - uy, (x - ux) / tmu,
-           (vx - dux) / tmu, nf, tf, code, 0.0, 0.0)
+    record(samples, ctr, t, x, vx, y, vy, y - uy, (x - ux) / tmu, (vx - dux) / tmu, nf, tf, code, 0.0, 0.0)
 
 
 # --------------------------------------------------------------------------- the kernel
@@ -400,7 +400,7 @@ def record_row(samples, ctr, t, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay,
 # searches, run on every scan step and left as calls by LLVM (~20% slower
 # runs measured), are `@inline` (one call site each).  Each phase keeps the
 # floating-point operations of the former one-piece kernel in their order.
-GO = -1            # a phase's status: carry on (else a records.* return code)
+GO = -1  # a phase's status: carry on (else a records.* return code)
 
 
 @helper
@@ -430,8 +430,7 @@ def _fresh_start(p, stick_rule, state, samples, events, ctr):
     A = p.amplitude
     m = p.mass
     mu = p.mu
-    if (state[0] == 0.0 and ctr[C_NEVT] == 0 and ctr[C_NSAMP] == 0
-            and ctr[C_STEPS] == 0):
+    if state[0] == 0.0 and ctr[C_NEVT] == 0 and ctr[C_NSAMP] == 0 and ctr[C_STEPS] == 0:
         ux, uy, dux, duy = surface_motion(0.0, A, p.r, p.tau)
         ax, ay = surface_acceleration(0.0, A, p.r, p.tau)
         nf = 1.0 - m * ay
@@ -447,18 +446,33 @@ def _fresh_start(p, stick_rule, state, samples, events, ctr):
         code = _mode_state(mode)
         add_event(events, ctr, 0.0, STATE_CHANGE, code)
         ctr[C_STATE] = code
-    if (state[0] == 0.0 and ctr[C_NSAMP] == 0 and ctr[C_STEPS] == 0
-            and ctr[C_NEXT] == 0):
+    if state[0] == 0.0 and ctr[C_NSAMP] == 0 and ctr[C_STEPS] == 0 and ctr[C_NEXT] == 0:
         save = ctr[C_NEXT]
         if want_sample(0.0, ctr, p.sample_dt, p.win_t0, p.win_t1):
             if samples.shape[0] < 1:
-                ctr[C_NEXT] = save      # no room: undo, to sample again on resume
+                ctr[C_NEXT] = save  # no room: undo, to sample again on resume
                 return SAMPLES_FULL
             ux, uy, dux, duy = surface_motion(0.0, A, p.r, p.tau)
             ax, ay = surface_acceleration(0.0, A, p.r, p.tau)
-            record_row(samples, ctr, 0.0, state[1], state[2], state[3],
-                        state[4], ctr[C_MODE], ux, uy, dux, duy, ax, ay, m, mu,
-                        p.theta * mu)
+            record_row(
+                samples,
+                ctr,
+                0.0,
+                state[1],
+                state[2],
+                state[3],
+                state[4],
+                ctr[C_MODE],
+                ux,
+                uy,
+                dux,
+                duy,
+                ax,
+                ay,
+                m,
+                mu,
+                p.theta * mu,
+            )
     return GO
 
 
@@ -480,7 +494,7 @@ def _step_end(t, scan_dt, t_final, t_end):
     samples there)."""
     kk = math.floor(t / scan_dt) + 1.0
     b = kk * scan_dt
-    if b <= t:                  # t / scan_dt rounded down below a grid index
+    if b <= t:  # t / scan_dt rounded down below a grid index
         b = (kk + 1.0) * scan_dt
     sample_here = True
     if b >= t_final:
@@ -503,8 +517,7 @@ def _search_landing(b, end, mode, seg, work, uy3, m_vz, p):
     xb, vxb, yb, vyb, uxb, uyb, duxb, duyb, axb, ayb = end
     if seg[3] < -A and yb < -A:
         return False, False, b, 0
-    gb, dgb, nb = _phi(EV_LAND, b, mode, seg, xb, vxb, yb, vyb, uxb, uyb,
-                       duxb, duyb, axb, ayb, m, mu)
+    gb, dgb, nb = _phi(EV_LAND, b, mode, seg, xb, vxb, yb, vyb, uxb, uyb, duxb, duyb, axb, ayb, m, mu)
     t = seg[0]
     _, ay0 = surface_acceleration(t, A, p.r, p.tau)
     na = 1.0 - m * ay0
@@ -518,9 +531,9 @@ def _search_landing(b, end, mode, seg, work, uy3, m_vz, p):
         t_land, n = _bisect(EV_LAND, t, b, mode, seg, A, m, mu, p.r, p.tau)
         return True, True, t_land, n
     # the gap is negative at both ends: prove no crossing hides in between
-    found, lo, hi, n = _first_bracket(EV_LAND, t, ga, dga, na, b, gb, dgb, nb,
-                                      mode, seg, work, m_vz, uy3, A, m, mu,
-                                      p.r, p.tau)
+    found, lo, hi, n = _first_bracket(
+        EV_LAND, t, ga, dga, na, b, gb, dgb, nb, mode, seg, work, m_vz, uy3, A, m, mu, p.r, p.tau
+    )
     if not found:
         return True, False, b, n
     t_land, n2 = _bisect(EV_LAND, lo, hi, mode, seg, A, m, mu, p.r, p.tau)
@@ -550,8 +563,7 @@ def _search_contact(b, end, mode, stick_rule, seg, work, uy3, m_vz, p):
                 continue
             if kind == EV_STICK and stick_rule != RULE_PAPER:
                 continue
-        phib, dphib, nb = _phi(kind, b, mode, seg, xb, vxb, yb, vyb, uxb, uyb,
-                               duxb, duyb, axb, ayb, m, mu)
+        phib, dphib, nb = _phi(kind, b, mode, seg, xb, vxb, yb, vyb, uxb, uyb, duxb, duyb, axb, ayb, m, mu)
         tk = b
         hit = False
         if _triggered(kind, phib):
@@ -566,8 +578,8 @@ def _search_contact(b, end, mode, stick_rule, seg, work, uy3, m_vz, p):
             phia = -s * (seg[2] - seg[7])
             dphia = (mu / m) * na + s * ax0
             found, lo, hi, n = _first_bracket(
-                kind, t, phia, dphia, na, b, phib, dphib, nb, mode, seg, work,
-                m_vz, uy3, A, m, mu, p.r, p.tau)
+                kind, t, phia, dphia, na, b, phib, dphib, nb, mode, seg, work, m_vz, uy3, A, m, mu, p.r, p.tau
+            )
             nev += n
             if found:
                 hit = True
@@ -607,7 +619,7 @@ def _transition(ev_kind, mode, at, stick_rule, p):
         nvx = dux
         new_mode = MODE_SLIDE_NEG if ax > 0.0 else MODE_SLIDE_POS
     elif ev_kind == EV_STICK:
-        nvx = dux            # the paper's rule: the velocity jumps to the surface's
+        nvx = dux  # the paper's rule: the velocity jumps to the surface's
         new_mode = MODE_STICK
     elif ev_kind == EV_VZERO:
         nvx = dux
@@ -616,11 +628,11 @@ def _transition(ev_kind, mode, at, stick_rule, p):
             ev1 = TAKEOFF
         elif f >= 0.0:
             new_mode = MODE_STICK
-        else:                # a reversal: the slide restarts against u_x''
+        else:  # a reversal: the slide restarts against u_x''
             new_mode = MODE_SLIDE_NEG if ax > 0.0 else MODE_SLIDE_POS
     else:  # EV_LAND
-        vn = abs(vy - duy)               # approach speed
-        vt = p.alpha_t * (vx - dux)      # tangential restitution
+        vn = abs(vy - duy)  # approach speed
+        vt = p.alpha_t * (vx - dux)  # tangential restitution
         nvx = dux + vt
         ev1 = LANDING
         if nf > 0.0 and 2.0 * m * vn < p.capture_t * nf:
@@ -631,14 +643,13 @@ def _transition(ev_kind, mode, at, stick_rule, p):
             elif new_mode == MODE_FLIGHT:
                 nvy = duy - vn
         else:
-            nvy = duy - vn               # elastic: reverse v_n
+            nvy = duy - vn  # elastic: reverse v_n
             ev2 = TAKEOFF
     return new_mode, nx, nvx, ny, nvy, ev1, ev2
 
 
 @helper
-def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events,
-                  ctr):
+def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events, ctr):
     """Commit an event at te: the rows before and after it (inside the
     window), the new state and mode, its events, the evaluation count.
 
@@ -652,16 +663,14 @@ def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events,
     x, vx, y, vy, ux, uy, dux, duy, ax, ay = at
     new_mode, nx, nvx, ny, nvy = new
     code = _mode_state(new_mode)
-    n_events = ((1 if ev1 >= 0 else 0) + (1 if ev2 >= 0 else 0)
-                + (1 if code != ctr[C_STATE] else 0))
+    n_events = (1 if ev1 >= 0 else 0) + (1 if ev2 >= 0 else 0) + (1 if code != ctr[C_STATE] else 0)
     in_win = p.win_t0 <= te <= p.win_t1
     if ctr[C_NEVT] + n_events > events.shape[0]:
         return EVENTS_FULL
     if in_win and ctr[C_NSAMP] + 2 > samples.shape[0]:
         return SAMPLES_FULL
     if in_win:
-        record_row(samples, ctr, te, x, vx, y, vy, mode, ux, uy, dux, duy, ax,
-                    ay, m, mu, tmu)
+        record_row(samples, ctr, te, x, vx, y, vy, mode, ux, uy, dux, duy, ax, ay, m, mu, tmu)
     state[0] = te
     state[1] = nx
     state[2] = nvx
@@ -678,14 +687,12 @@ def _commit_event(te, mode, at, new, ev1, ev2, nev, p, state, samples, events,
         ctr[C_STATE] = code
     ctr[C_FEVALS] += nev
     if in_win:
-        record_row(samples, ctr, te, nx, nvx, ny, nvy, new_mode, ux, uy, dux,
-                    duy, ax, ay, m, mu, tmu)
+        record_row(samples, ctr, te, nx, nvx, ny, nvy, new_mode, ux, uy, dux, duy, ax, ay, m, mu, tmu)
     return GO
 
 
 @helper
-def _commit_step_end(b, sample_here, scanned, nev, mode, end, p, state,
-                     samples, ctr):
+def _commit_step_end(b, sample_here, scanned, nev, mode, end, p, state, samples, ctr):
     """Commit the eventless step end b: the state (end = `_eval` at b), the
     counters and, when due, the sample.  Returns GO or SAMPLES_FULL (nothing
     committed)."""
@@ -706,8 +713,25 @@ def _commit_step_end(b, sample_here, scanned, nev, mode, end, p, state,
         ctr[C_STEPS] += 1
     ctr[C_FEVALS] += nev
     if take:
-        record_row(samples, ctr, b, xb, vxb, yb, vyb, mode, uxb, uyb, duxb,
-                    duyb, axb, ayb, p.mass, p.mu, p.theta * p.mu)
+        record_row(
+            samples,
+            ctr,
+            b,
+            xb,
+            vxb,
+            yb,
+            vyb,
+            mode,
+            uxb,
+            uyb,
+            duxb,
+            duyb,
+            axb,
+            ayb,
+            p.mass,
+            p.mu,
+            p.theta * p.mu,
+        )
     return GO
 
 
@@ -734,7 +758,7 @@ def point_mass_kernel(p, stick_rule, state, work, samples, events, ctr, t_stop):
     status = _fresh_start(p, stick_rule, state, samples, events, ctr)
     if status != GO:
         return status
-    run_events = 0     # events since the last scan-grid point
+    run_events = 0  # events since the last scan-grid point
     while True:
         t = state[0]
         if t >= t_final:
@@ -751,19 +775,16 @@ def point_mass_kernel(p, stick_rule, state, work, samples, events, ctr, t_stop):
         nev = 0
         if b - t >= SHORT_SEG:
             if mode == MODE_FLIGHT:
-                scanned, found, t_ev, nev = _search_landing(
-                    b, end, mode, seg, work, uy3, m_vz, p)
+                scanned, found, t_ev, nev = _search_landing(b, end, mode, seg, work, uy3, m_vz, p)
                 if found:
                     ev_kind = EV_LAND
             else:
                 scanned = True
-                ev_kind, t_ev, nev = _search_contact(
-                    b, end, mode, stick_rule, seg, work, uy3, m_vz, p)
+                ev_kind, t_ev, nev = _search_contact(b, end, mode, stick_rule, seg, work, uy3, m_vz, p)
         if ev_kind < 0:
             # no event: on to b
             run_events = 0
-            status = _commit_step_end(b, sample_here, scanned, nev, mode, end,
-                                      p, state, samples, ctr)
+            status = _commit_step_end(b, sample_here, scanned, nev, mode, end, p, state, samples, ctr)
         else:
             # the event: its transition, committed at t_ev (the loop
             # re-bases there)
@@ -771,10 +792,10 @@ def point_mass_kernel(p, stick_rule, state, work, samples, events, ctr, t_stop):
             if run_events > MAX_EVENTS_PER_STEP:
                 return EVENTS_RUNAWAY
             at = _eval(t_ev, mode, seg, A, m, mu, r, tau)
-            new_mode, nx, nvx, ny, nvy, ev1, ev2 = _transition(
-                ev_kind, mode, at, stick_rule, p)
-            status = _commit_event(t_ev, mode, at, (new_mode, nx, nvx, ny, nvy),
-                                   ev1, ev2, nev, p, state, samples, events, ctr)
+            new_mode, nx, nvx, ny, nvy, ev1, ev2 = _transition(ev_kind, mode, at, stick_rule, p)
+            status = _commit_event(
+                t_ev, mode, at, (new_mode, nx, nvx, ny, nvy), ev1, ev2, nev, p, state, samples, events, ctr
+            )
         if status != GO:
             return status
 
@@ -798,13 +819,34 @@ def rule_code(stick_rule):
     return code
 
 
-def make_params(A, m, mu=0.3, theta=1.2, r=0.656, tau=50.0, t_end=2000.0,
-                alpha_t=0.5, sample_dt=0.125, window=(math.inf, math.inf),
-                scan_dt=1.0 / 64.0, capture_t=None):
+def make_params(
+    A,
+    m,
+    mu=0.3,
+    theta=1.2,
+    r=0.656,
+    tau=50.0,
+    t_end=2000.0,
+    alpha_t=0.5,
+    sample_dt=0.125,
+    window=(math.inf, math.inf),
+    scan_dt=1.0 / 64.0,
+    capture_t=None,
+):
     """The kernel's parameters (no validation here): a PointMassParams of
     floats (capture_t None: CAPTURE_T)."""
     return PointMassParams(
-        float(A), float(m), float(mu), float(theta), float(r), float(tau),
-        float(alpha_t), float(t_end), float(sample_dt), float(window[0]),
-        float(window[1]), float(scan_dt),
-        CAPTURE_T if capture_t is None else float(capture_t))
+        float(A),
+        float(m),
+        float(mu),
+        float(theta),
+        float(r),
+        float(tau),
+        float(alpha_t),
+        float(t_end),
+        float(sample_dt),
+        float(window[0]),
+        float(window[1]),
+        float(scan_dt),
+        CAPTURE_T if capture_t is None else float(capture_t),
+    )

@@ -13,6 +13,7 @@ the first committed step at or after each grid time, or exactly at that time
 during a closed-form flight) and at every step inside the full-resolution
 window [win_t0, win_t1].  Events are exact (root-found or interpolated).
 """
+
 import numpy as np
 
 from vibtrans.core.kernels.jit import helper
@@ -20,33 +21,32 @@ from vibtrans.core.kernels.jit import helper
 # sample columns
 T_, X, VX, Y, VY, A, B, BDOT, N, TF, STATE, STICK_R, CONTACT_R = range(13)
 NCOL = 13
-COLUMNS = ("t", "x", "vx", "y", "vy", "a", "b", "bdot", "N", "T", "state",
-           "stick_radius", "contact_radius")
+COLUMNS = ("t", "x", "vx", "y", "vy", "a", "b", "bdot", "N", "T", "state", "stick_radius", "contact_radius")
 
 # event kinds (column 1 of events); column 2 holds the value
-TAKEOFF = 0        # value: phase t mod 1
-LANDING = 1        # value: phase t mod 1
-STATE_CHANGE = 2   # value: the new state code (contact.STATE_NAMES)
+TAKEOFF = 0  # value: phase t mod 1
+LANDING = 1  # value: phase t mod 1
+STATE_CHANGE = 2  # value: the new state code (contact.STATE_NAMES)
 EVENT_NAMES = ("takeoff", "landing", "state")
 
 # counters
-C_STEPS = 0        # committed integration steps (or root-scan steps)
-C_NSAMP = 1        # rows used in samples
-C_NEVT = 2         # rows used in events
-C_NEXT = 3         # index k of the next coarse sample time k * sample_dt
-C_MODE = 4         # model-specific mode (e.g. 1 = in flight)
-C_STATE = 5        # last contact state code
-C_HIST = 6         # valid entries of the multistep history
-C_FEVALS = 7       # force evaluations
-C_WNEXT = 8        # index k of the next window sample k * h inside a flight
+C_STEPS = 0  # committed integration steps (or root-scan steps)
+C_NSAMP = 1  # rows used in samples
+C_NEVT = 2  # rows used in events
+C_NEXT = 3  # index k of the next coarse sample time k * sample_dt
+C_MODE = 4  # model-specific mode (e.g. 1 = in flight)
+C_STATE = 5  # last contact state code
+C_HIST = 6  # valid entries of the multistep history
+C_FEVALS = 7  # force evaluations
+C_WNEXT = 8  # index k of the next window sample k * h inside a flight
 NCTR = 9
 
 # kernel return codes
-DONE = 0           # reached t_stop
-EVENTS_FULL = 1    # grow `events` and call again
-SAMPLES_FULL = 2   # grow `samples` and call again
-MEMORY_FULL = 3    # grow the memory-diagram arrays and call again
-EVENTS_RUNAWAY = 4 # more than a kernel's limit of events between two steps: refuse
+DONE = 0  # reached t_stop
+EVENTS_FULL = 1  # grow `events` and call again
+SAMPLES_FULL = 2  # grow `samples` and call again
+MEMORY_FULL = 3  # grow the memory-diagram arrays and call again
+EVENTS_RUNAWAY = 4  # more than a kernel's limit of events between two steps: refuse
 
 
 def new_counters():

