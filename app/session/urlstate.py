@@ -46,7 +46,7 @@ MAX_LENGTH = 64  # longest accepted value, characters
 SHOWN = 40  # longest given text quoted in a message
 REASON = 400  # longest library reason added to a message
 DEFAULT_MU = 0.3
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
+PLAIN_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]{1,4})?")
 _INTEGER = re.compile(r"[+-]?[0-9]{1,9}")
 # what makes emphasis, code, links, tables or strike-through inside a line
 # (a link or a footnote starts with '[': a ']' alone is text)
@@ -139,7 +139,7 @@ def convert(p, raw):
     checked = _library_checked(p)
     if checked and raw == "" and p.allow_None:
         return None  # (a size that may be absent: the library's default)
-    if not _NUMBER.fullmatch(raw):
+    if not PLAIN_NUMBER.fullmatch(raw):
         raise ValueError("not a number")
     value = float(raw)
     if not (math.isfinite(value) and _inside(p, value)):

@@ -20,6 +20,8 @@ sphere is first chosen (most pages never show it: a page costs its server
 less) and hidden for the sphere.
 """
 
+import contextlib
+
 import numpy as np
 import panel as pn
 from bokeh.models import ColumnDataSource, Range1d, Span
@@ -49,7 +51,6 @@ RIGID_NOTE = (
 DRAWN_RHO = 1.6  # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
 DRAWN_Z = 2.0  # and z in [0, DRAWN_Z] a0
 DRAWN_POINTS = 321
-_NUMBER = urlstate._NUMBER
 
 
 def kind_of(spec):
@@ -67,51 +68,30 @@ def outline(spec, rho):
     return np.minimum(np.asarray(parse_profile(spec).outline(rho), float), 2 * DRAWN_Z)
 
 
-class ProfileView(pn.viewable.Viewer):
-    """The profile selector of `owner.profile` (and its drawing where
-    `drawing`).  `owner.model`, where it has one, says when the profile is
-    not used (the material point)."""
+class _ChoiceView(pn.viewable.Viewer):
+    """What the profile and rolling selectors share: a view of the owner's
+    `setting` (a kind in a selector, a number typed for some kinds); its
+    parts (the number's field, the message under it, the notes) are made
+    at their first use, in PARTS' order.  A typed value the library refuses
+    stays in its field with the message, and the owner keeps its last valid
+    value (an owner with `set_invalid`, the state, records the message: a
+    run refuses meanwhile)."""
 
-    def __init__(self, owner, drawing=True, width=None, **params):
-        super().__init__(**params)
+    setting = ""
+    PARTS: tuple[str, ...] = ()
+
+    def _start(self, owner, width, selector):
         self.owner = owner
         self.error = ""
         self._width = {} if width is None else {"width": width}
-        self._texts = {kind: start for kind, (_, start) in NUMBERS.items()}
-        kind, arg = kind_of(owner.profile)
-        if arg is not None:
-            self._texts[kind] = arg
-        labels = {v: k for k, v in KINDS.items()}
-        self.kind = pn.widgets.Select(
-            label="particle profile",
-            options=list(KINDS),
-            value=labels[kind],
-            css_classes=["vt-profile-kind"],
-            **self._width,
-        )
-        self.figure = None  # the drawing, built at its first use
-        self.font_scale = 1.0  # presentation mode's (`scale_fonts`)
-        self._drawing = drawing
         self._applying = self._echoing = False
-        # the number's field, the messages and the drawing: made at their
-        # first use (most pages show the sphere: a page costs its server less)
+        self.kind = selector
         self._parts = {}
-        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name="profile")
+        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name=self.setting)
         self.kind.param.watch(self._chosen, "value")
-        owner.param.watch(self._moved, "profile")
+        owner.param.watch(self._moved, self.setting)
         if "model" in owner.param:
             owner.param.watch(self._on_model, "model")
-        if kind in NUMBERS:
-            self._part("number")
-        self._on_model()
-        self._draw()
-
-    # ---------- its parts, made when first needed ----------
-    PARTS = ("number", "note", "rigid", "drawing_pane")
-    number = property(lambda self: self._part("number"), doc="the kind's number (a TextInput)")
-    note = property(lambda self: self._part("note"), doc="the message under it")
-    rigid = property(lambda self: self._part("rigid"), doc="the material point's note")
-    drawing_pane = property(lambda self: self._part("drawing_pane"), doc="the tip's drawing")
 
     def _made(self, name):
         return name in self._parts
@@ -121,6 +101,103 @@ class ProfileView(pn.viewable.Viewer):
             self._parts[name] = getattr(self, f"_make_{name}")()
             self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS if n in self._parts)]
         return self._parts[name]
+
+    def _make_note(self):
+        return pn.pane.Markdown(
+            "",
+            visible=False,
+            styles=ERROR_STYLE,
+            css_classes=[f"vt-error-{self.setting}"],
+            margin=(0, 10),
+            **self._width,
+        )
+
+    def _note(self, text, css):
+        """A note in italics under the selector (hidden until needed)."""
+        return pn.pane.Markdown(text, visible=False, margin=(0, 10), css_classes=[css], **self._width)
+
+    @contextlib.contextmanager
+    def _echo(self):
+        """Widgets set from the owner: not a user's choice."""
+        self._echoing = True
+        try:
+            yield
+        finally:
+            self._echoing = False
+
+    def _chosen(self, event):
+        if self._echoing:
+            return
+        self._typed(event.obj is self.kind)
+        try:
+            value = self.value()
+        except ValueError as exc:
+            self._say(urlstate.shown(str(exc), urlstate.REASON))
+            return
+        self._say("")
+        self._applying = True
+        try:
+            setattr(self.owner, self.setting, value)
+        finally:
+            self._applying = False
+        self._applied()
+
+    def _say(self, text):
+        self.error = text
+        if text or self._made("note"):
+            self.note.param.update(object=text, visible=bool(text))
+        record = getattr(self.owner, "set_invalid", None)
+        if record is not None:
+            record(self.setting, text)
+
+    def _applied(self):
+        """After the owner took a value from the widgets."""
+
+    def __panel__(self):
+        return self._layout
+
+
+class ProfileView(_ChoiceView):
+    """The profile selector of `owner.profile` (and its drawing where
+    `drawing`).  `owner.model`, where it has one, says when the profile is
+    not used (the material point)."""
+
+    setting = "profile"
+    PARTS = ("number", "note", "rigid", "drawing_pane")
+
+    def __init__(self, owner, drawing=True, width=None, **params):
+        super().__init__(**params)
+        self._texts = {kind: start for kind, (_, start) in NUMBERS.items()}
+        kind, arg = kind_of(owner.profile)
+        if arg is not None:
+            self._texts[kind] = arg
+        labels = {v: k for k, v in KINDS.items()}
+        self.figure = None  # the drawing, built at its first use
+        self.font_scale = 1.0  # presentation mode's (`scale_fonts`)
+        self._drawing = drawing
+        # (the parts made at their first use: most pages show the sphere,
+        # and a page costs its server less)
+        self._start(
+            owner,
+            width,
+            pn.widgets.Select(
+                label="particle profile",
+                options=list(KINDS),
+                value=labels[kind],
+                css_classes=["vt-profile-kind"],
+                **({} if width is None else {"width": width}),
+            ),
+        )
+        if kind in NUMBERS:
+            self._part("number")
+        self._on_model()
+        self._draw()
+
+    # ---------- its parts, made when first needed ----------
+    number = property(lambda self: self._part("number"), doc="the kind's number (a TextInput)")
+    note = property(lambda self: self._part("note"), doc="the message under it")
+    rigid = property(lambda self: self._part("rigid"), doc="the material point's note")
+    drawing_pane = property(lambda self: self._part("drawing_pane"), doc="the tip's drawing")
 
     def _make_number(self):
         kind = KINDS[self.kind.value]
@@ -134,20 +211,10 @@ class ProfileView(pn.viewable.Viewer):
         number.param.watch(self._chosen, "value")
         return number
 
-    def _make_note(self):
-        return pn.pane.Markdown(
-            "",
-            visible=False,
-            styles=ERROR_STYLE,
-            css_classes=["vt-error-profile"],
-            margin=(0, 10),
-            **self._width,
-        )
-
     def _make_rigid(self):
-        return pn.pane.Markdown(
-            RIGID_NOTE, visible=self._rigid(), margin=(0, 10), css_classes=["vt-profile-rigid"], **self._width
-        )
+        note = self._note(RIGID_NOTE, "vt-profile-rigid")
+        note.visible = self._rigid()
+        return note
 
     def _make_drawing_pane(self):
         return pn.Column(visible=False, margin=0, sizing_mode="stretch_width")
@@ -156,7 +223,7 @@ class ProfileView(pn.viewable.Viewer):
         return getattr(self.owner, "model", None) == "point-mass"
 
     # ---------- widgets -> owner ----------
-    def spec(self):
+    def value(self):
         """The spec the widgets say, or ValueError naming what is wrong."""
         kind = KINDS[self.kind.value]
         if kind not in NUMBERS:
@@ -165,50 +232,28 @@ class ProfileView(pn.viewable.Viewer):
         label = NUMBERS[kind][0]
         if not text:
             raise ValueError(f"{label}: the field is empty")
-        if len(text) > urlstate.MAX_LENGTH or not _NUMBER.fullmatch(text):
+        if len(text) > urlstate.MAX_LENGTH or not urlstate.PLAIN_NUMBER.fullmatch(text):
             raise ValueError(f"{label} must be a plain number; got '{text}'")  # shown by _say
         spec = f"{kind}:{text}"
         self.owner.param["profile"].check_text(spec)  # the library's range check
         return spec
 
-    def _chosen(self, event):
-        if self._echoing:
-            return
+    def _typed(self, kind_chosen):
         kind = KINDS[self.kind.value]
-        if event.obj is self.kind:
+        if kind_chosen:
             self._echo_number(kind)
         else:
             self._texts[kind] = self.number.value
-        try:
-            spec = self.spec()
-        except ValueError as exc:
-            self._say(urlstate.shown(str(exc), urlstate.REASON))
-            return
-        self._say("")
-        self._applying = True
-        try:
-            self.owner.profile = spec
-        finally:
-            self._applying = False
+
+    def _applied(self):
         self._draw()
 
-    def _say(self, text):
-        self.error = text
-        if text or self._made("note"):
-            self.note.param.update(object=text, visible=bool(text))
-        record = getattr(self.owner, "set_invalid", None)
-        if record is not None:
-            record("profile", text)
-
     def _echo_number(self, kind):
-        self._echoing = True
-        try:
+        with self._echo():
             if kind in NUMBERS:
                 self.number.param.update(label=NUMBERS[kind][0], value=self._texts[kind], visible=True)
             elif self._made("number"):
                 self.number.visible = False
-        finally:
-            self._echoing = False
 
     # ---------- owner -> widgets ----------
     def _moved(self, event):
@@ -217,11 +262,8 @@ class ProfileView(pn.viewable.Viewer):
         kind, arg = kind_of(event.new)
         if arg is not None:
             self._texts[kind] = arg
-        self._echoing = True
-        try:
+        with self._echo():
             self.kind.value = {v: k for k, v in KINDS.items()}[kind]
-        finally:
-            self._echoing = False
         self._echo_number(kind)
         self._say("")
         self._draw()
@@ -282,9 +324,6 @@ class ProfileView(pn.viewable.Viewer):
         if self.figure is not None:
             scale_fonts(self.figure, factor)
 
-    def __panel__(self):
-        return self._layout
-
 
 # ---------------------------------------------------------------- rolling
 # How the particle turns (docs/MODEL.md section 11): the selector's labels
@@ -314,7 +353,7 @@ def rolling_text(value):
     return None if isinstance(value, str) else f"{value:g}"
 
 
-class RollingView(pn.viewable.Viewer):
+class RollingView(_ChoiceView):
     """The rolling selector of `owner.rolling` (the explorer's state, or a
     map request's): does not roll, a solid sphere, a thin shell, or a typed
     j.  A view, never a copy: a change of the owner's rolling from
@@ -327,29 +366,25 @@ class RollingView(pn.viewable.Viewer):
     choice comes back with it.  options: {label: value} ("j": the typed
     number), ROLLINGS by default."""
 
+    setting = "rolling"
+    PARTS = ("number", "note", "point")
+
     def __init__(self, owner, width=None, options=ROLLINGS, label="particle rolls?", **params):
         super().__init__(**params)
-        self.owner = owner
         self.options = dict(options)
-        self.error = ""
-        self._width = {} if width is None else {"width": width}
         self._text = rolling_text(owner.rolling) or J_START
         self._remembered = None  # the deformable particle's choice, the point mass shown
-        self._applying = self._echoing = False
-        self.kind = pn.widgets.Select(
-            label=label,
-            options=list(self.options),
-            value=self._label(owner.rolling),
-            css_classes=["vt-rolling"],
-            **self._width,
+        self._start(
+            owner,
+            width,
+            pn.widgets.Select(
+                label=label,
+                options=list(self.options),
+                value=rolling_label(owner.rolling, self.options),
+                css_classes=["vt-rolling"],
+                **({} if width is None else {"width": width}),
+            ),
         )
-        # the number's field and the notes: made at their first use
-        self._parts = {}
-        self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name="rolling")
-        self.kind.param.watch(self._chosen, "value")
-        owner.param.watch(self._moved, "rolling")
-        if "model" in owner.param:
-            owner.param.watch(self._on_model, "model")
         if self._kind() == "j":
             self._part("number")
         self._on_model()
@@ -360,16 +395,9 @@ class RollingView(pn.viewable.Viewer):
     def _label(self, value):
         return rolling_label(value, self.options)
 
-    PARTS = ("number", "note", "point")
     number = property(lambda self: self._part("number"), doc="j's field (a TextInput)")
     note = property(lambda self: self._part("note"), doc="the message under it")
     point = property(lambda self: self._part("point"), doc="the material point's note")
-
-    def _part(self, name):
-        if name not in self._parts:
-            self._parts[name] = getattr(self, f"_make_{name}")()
-            self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS if n in self._parts)]
-        return self._parts[name]
 
     def _make_number(self):
         number = pn.widgets.TextInput(
@@ -382,20 +410,8 @@ class RollingView(pn.viewable.Viewer):
         number.param.watch(self._chosen, "value")
         return number
 
-    def _make_note(self):
-        return pn.pane.Markdown(
-            "",
-            visible=False,
-            styles=ERROR_STYLE,
-            css_classes=["vt-error-rolling"],
-            margin=(0, 10),
-            **self._width,
-        )
-
     def _make_point(self):
-        return pn.pane.Markdown(
-            ROLLING_POINT_NOTE, visible=False, margin=(0, 10), css_classes=["vt-rolling-point"], **self._width
-        )
+        return self._note(ROLLING_POINT_NOTE, "vt-rolling-point")
 
     def _point_mass(self):
         return getattr(self.owner, "model", "deformable") != "deformable"
@@ -414,41 +430,17 @@ class RollingView(pn.viewable.Viewer):
             raise ValueError(f"{J_LABEL}: too long")
         return self.owner.param["rolling"].check_text(text)
 
-    def _chosen(self, event):
-        if self._echoing:
-            return
-        if event.obj is self.kind:
+    def _typed(self, kind_chosen):
+        if kind_chosen:
             self._show_number()
         else:
             self._text = self.number.value
-        try:
-            value = self.value()
-        except ValueError as exc:
-            self._say(urlstate.shown(str(exc), urlstate.REASON))
-            return
-        self._say("")
-        self._applying = True
-        try:
-            self.owner.rolling = value
-        finally:
-            self._applying = False
 
     def _show_number(self):
         shown = self._kind() == "j"
         if shown or "number" in self._parts:
-            self._echoing = True
-            try:
+            with self._echo():
                 self.number.param.update(visible=shown, value=self._text)
-            finally:
-                self._echoing = False
-
-    def _say(self, text):
-        self.error = text
-        if text or "note" in self._parts:
-            self.note.param.update(object=text, visible=bool(text))
-        record = getattr(self.owner, "set_invalid", None)
-        if record is not None:
-            record("rolling", text)
 
     # ---------- owner -> widgets ----------
     def _moved(self, event):
@@ -458,11 +450,8 @@ class RollingView(pn.viewable.Viewer):
             return
         if rolling_text(event.new) is not None:
             self._text = rolling_text(event.new)
-        self._echoing = True
-        try:
+        with self._echo():
             self.kind.value = self._label(event.new)
-        finally:
-            self._echoing = False
         self._show_number()
         self._say("")
 
@@ -472,17 +461,11 @@ class RollingView(pn.viewable.Viewer):
         if point or "point" in self._parts:
             self.point.visible = point
         if point and self.error:  # (a typed j: not the point's)
-            self._echoing = True
-            try:
+            with self._echo():
                 self.kind.value = self._label(self.owner.rolling)
-            finally:
-                self._echoing = False
             self._show_number()
             self._say("")
         if not point and self._remembered is not None:
             remembered, self._remembered = self._remembered, None
             if self.owner.rolling == "none":
                 self.owner.rolling = remembered
-
-    def __panel__(self):
-        return self._layout

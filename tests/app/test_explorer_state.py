@@ -337,7 +337,7 @@ class ExplorerMachine(RuleBasedStateMachine):
             assert P.KINDS[view.kind.value] == kind
             assert view.number.visible == (kind in P.NUMBERS)
             assert not view.error and not view.note.visible
-            assert view.spec() == s.profile
+            assert view.value() == s.profile
         assert view.drawing_pane.visible == (not is_sphere(s.profile))
         if view.drawing_pane.visible:
             np.testing.assert_array_equal(view.source.data["z"], P.outline(s.profile, view.source.data["r"]))
