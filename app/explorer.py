@@ -196,11 +196,15 @@ class Explorer(pn.viewable.Viewer):
         if problems:
             self._error("\n\n".join(filter(None, [self.message.object, *problems])))
         self.map_view = MapView(
-            self.state, self._on_map_click, on_tap_js=ack_js(ACK_RUN), on_zoom=self.ondemand.on_zoom
+            self.state,
+            self._on_map_click,
+            on_tap_js=ack_js(ACK_RUN),
+            on_zoom=self.ondemand.on_zoom,
+            answered=self._answered,  # a map loaded off the event loop is shown
         )
         self.ondemand.map_view = self.map_view
         self.state.param.watch(
-            self._answered, ["model", "mu", "v0", "chaotic", "maps", "layer", "orbits"], precedence=2
+            self._on_map_setting, ["model", "mu", "v0", "chaotic", "maps", "layer", "orbits"], precedence=2
         )  # after the map's redraw
         self.map_key = pn.pane.Markdown(
             MAP_KEY, sizing_mode="stretch_width", css_classes=["vt-map-key"], margin=(0, 10)
@@ -209,6 +213,7 @@ class Explorer(pn.viewable.Viewer):
             self.ondemand.profile_box,
             self.ondemand.map_banner,
             self.ondemand.refine_box,
+            self.map_view.loading_line,
             self.map_view.pane,
             self.map_key,
             sizing_mode="stretch_width",
@@ -437,6 +442,12 @@ class Explorer(pn.viewable.Viewer):
         map's sources, a run's figures) go when the callback ends; the
         acknowledgement is cleared after them, not before."""
         at_next_tick(pn.state.curdoc, self._clear_ack)
+
+    def _on_map_setting(self, *events):
+        """The map redrawn: answered now, or, while its map loads off the
+        event loop, once it is shown (MapView's `answered`)."""
+        if not self.map_view.loading:
+            self._answered()
 
     def _clear_ack(self):
         self.ack.object = "" if self.ack.object != "" else "<span></span>"

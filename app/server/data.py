@@ -15,7 +15,11 @@ whose files still carry that stamp as checked without reading it, and the
 map itself is read, digests verified again, on first use (`drift_map`).  A
 changed file (written, truncated, replaced, touched: any write moves its
 ctime, which no one can set back) no longer matches and is verified before
-the start as before.  Every read of a map as data is a verified one."""
+the start as before.  Every read of a map as data is a verified one.
+
+A session loads a map it has not shown yet off the event loop (app/views/
+map.py), so several threads may ask for the same file at once: one reads
+it, the others wait for it and get the same copy (`_reading`)."""
 
 import contextlib
 import functools
@@ -60,13 +64,39 @@ def available_maps():
     return out
 
 
+_READING = {}  # a file's key -> the lock of its first read
+_READING_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _reading(key):
+    """Held while the file of `key` is read (or found in the cache): a
+    second thread asking for it meanwhile waits for that read instead of
+    reading it again; the other files stay free."""
+    with _READING_LOCK:
+        lock = _READING.setdefault(key, threading.Lock())
+    with lock:
+        yield
+
+
+def _map_or_reason(model, mu):
+    with _reading(("map", model, mu)):
+        return _load_map(model, mu)
+
+
 def drift_map(model, mu):
     """The verified map (model, mu); MapUnavailable (a KeyError) naming the
     file and the problem if it is not shipped or cannot be used."""
-    found = _load_map(model, mu)
+    found = _map_or_reason(model, mu)
     if isinstance(found, str):
         raise MapUnavailable(found)
     return found
+
+
+def loaded(model, mu):
+    """Whether the map (model, mu) has been read in this process (or found
+    unusable): `drift_map` answers it at once."""
+    return (model, mu) in _LOADED
 
 
 @functools.cache
@@ -147,8 +177,13 @@ def lyapunov_map(model="deformable"):
     """The chaos indicator's map of a model's maps (the vertical motion's
     Lyapunov exponent), or None if it is not shipped or cannot be used
     (then `problems()` says why, and the maps keep their twin verdicts)."""
-    found = _load_lyapunov(model)
+    found = _lyapunov_or_reason(model)
     return None if isinstance(found, str) else found
+
+
+def _lyapunov_or_reason(model):
+    with _reading(("lyapunov", model)):
+        return _load_lyapunov(model)
 
 
 _LOADED = set()  # the maps _load_map has read (or failed to read)
@@ -274,14 +309,16 @@ def _load_period_one():
 def period_one_chart():
     """The period-1 orbit's chart (deformable maps' vertical motion), or None
     if it is not shipped or cannot be used (then `problems()` says why)."""
-    found = _load_period_one()
+    with _reading("period-one"):
+        found = _load_period_one()
     return None if isinstance(found, str) else found
 
 
 def vertical_curve():
     """The jumping-threshold curve, or None if it is not shipped or cannot
     be used (then `problems()` says why)."""
-    found = _load_vertical()
+    with _reading("vertical"):
+        found = _load_vertical()
     return None if isinstance(found, str) else found
 
 
@@ -317,10 +354,14 @@ def problems():
     for key, path in maps.items():
         if key not in _LOADED and _stamped(path, key, stamps):
             continue
-        found = _load_map(*key)
+        found = _map_or_reason(*key)
         if isinstance(found, str):
             out.append(found)
-    for found in (_load_vertical(), _load_period_one(), *(_load_lyapunov(m) for m in LYAPUNOV_MAPS)):
+    with _reading("vertical"):
+        vertical = _load_vertical()
+    with _reading("period-one"):
+        period_one = _load_period_one()
+    for found in (vertical, period_one, *(_lyapunov_or_reason(m) for m in LYAPUNOV_MAPS)):
         if isinstance(found, str):
             out.append(found)
     return out
@@ -331,5 +372,5 @@ def preload():
     explorer's first page shows (the default map, the vertical curve);
     returns problems()."""
     if DEFAULT_MAP in available_maps():
-        _load_map(*DEFAULT_MAP)
+        _map_or_reason(*DEFAULT_MAP)
     return problems()

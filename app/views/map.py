@@ -3,9 +3,13 @@ models side by side, their zoom linked), the jumping boundary, the
 resonances, the paper points, the selected scene (yellow) and the Units
 tab's device (green diamond); a click runs the scene there."""
 
+import collections
 import functools
+import logging
 import math
 import re
+import threading
+import uuid
 
 import holoviews as hv
 import numpy as np
@@ -29,14 +33,17 @@ from bokeh.models import (
     UnionRenderers,
 )
 
+from vibtrans import Cancelled
 from vibtrans.analysis.summary import CHAOS_LYAPUNOV, V0
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.core.profiles import linear_resonance_mass
 from vibtrans.products import plots
 from vibtrans_explorer.server import data
-from vibtrans_explorer.session.latest import at_next_tick
+from vibtrans_explorer.session.latest import LatestJob, at_next_tick
 from vibtrans_explorer.session.state import is_sphere, within
 from vibtrans_explorer.views.render import rendered
+
+log = logging.getLogger("vibtrans.explorer")
 
 MAP_HEIGHT = 460
 MIN_WIDTH = 420
@@ -107,18 +114,68 @@ def map_element(model, mu, v0, chaotic, layer=DRIFT_LAYER, orbits=NO_ORBITS):
     return el.opts(hv.opts.Image(height=MAP_HEIGHT, title=title))
 
 
-@functools.lru_cache(maxsize=16)
-def _map_json(model, mu, v0, chaotic, layer, orbits, /):
+class _Renders:
+    """The last `size` results of `make(*setting)` (a setting: a tuple of
+    positional arguments), shared by every session and thread.  Unlike
+    functools.lru_cache it says whether a setting is in (`in`: a session
+    then shows it at once, else loads it off the event loop), and a
+    setting asked for by two threads at once is made once: the second
+    waits for the first's result."""
+
+    def __init__(self, make, size):
+        self.make, self.size = make, size
+        self._done = collections.OrderedDict()
+        self._making = {}  # setting -> the lock held while it is made
+        self._lock = threading.Lock()
+        functools.update_wrapper(self, make)
+
+    def __contains__(self, setting):
+        with self._lock:
+            return setting in self._done
+
+    def _cached(self, setting):
+        with self._lock:
+            if setting in self._done:
+                self._done.move_to_end(setting)
+                return True, self._done[setting]
+            return False, self._making.setdefault(setting, threading.Lock())
+
+    def __call__(self, *setting):
+        found, value = self._cached(setting)
+        if found:
+            return value
+        with value:  # (the setting's lock: one thread makes it)
+            found, out = self._cached(setting)
+            if found:
+                return out
+            try:
+                out = self.make(*setting)
+            finally:
+                with self._lock:
+                    self._making.pop(setting, None)
+            with self._lock:
+                self._done[setting] = out
+                while len(self._done) > self.size:
+                    self._done.popitem(last=False)
+        return out
+
+    def cache_clear(self):
+        with self._lock:
+            self._done.clear()
+
+
+def _render_json(model, mu, v0, chaotic, layer, orbits, /):
     """`map_element` rendered by HoloViews into Bokeh models, serialized
     without the data of its sources, that data ({source id: columns}), and
     what the figure draws (`_content`: what a shown figure of the same
     shape is updated to, without building a figure of its own).
     The columns are set on each session's copy as they are: deserializing
     them cost more than the rest of the figure (Bokeh's trace log formats
-    every value it sets from JSON, arrays included).  Every argument
-    positional and given: the cache tells calls apart by how their
-    arguments were passed too (the warm-up's calls, defaults left out, once
-    missed what the pages read)."""
+    every value it sets from JSON, arrays included).  Cached by `_map_json`,
+    which takes every argument positional and given: a setting is the
+    tuple of them (the warm-up's calls, defaults left out, once missed
+    what the pages read under functools' cache, which tells calls apart by
+    how their arguments were passed)."""
     doc, fig = rendered(map_element, model, mu, v0, chaotic, layer, orbits)
     with doc.models.freeze():  # the graph recomputed once, not at every change
         _lean(fig)
@@ -137,6 +194,9 @@ def _map_json(model, mu, v0, chaotic, layer, orbits, /):
     # (tooltips as lists, labels as value specs), so that a shown figure
     # set to them changes only where the setting differs
     return js, columns, _content(_decoded(js, columns))
+
+
+_map_json = _Renders(_render_json, 16)
 
 
 def _hovered(fig):
@@ -524,15 +584,64 @@ def _map_pane(fig):
     return pn.pane.Bokeh(fig, sizing_mode="stretch_width")
 
 
+# A map not shown before in this process (not in the rendering cache) is
+# read, verified and rendered off the event loop: 0.3-0.4 s on an idle
+# machine, seconds on a busy one, when every session waited.  Meanwhile
+# the maps shown are dimmed and a line over them says what loads, both by
+# style (a change of `visible` lays out every figure of the page's main
+# column again).
+READING = "reading and checking its file"
+DRAWING = "drawing it"
+_LINE_HIDDEN, _LINE_SHOWN = {"display": "none"}, {"display": None}
+_DIMMED, _UNDIMMED = {"opacity": "0.35"}, {"opacity": None}
+
+
+def loading_text(settings, stage):
+    """The line over the map while the maps of `settings` (`_setting`'s
+    tuples) load, at `stage` (READING, DRAWING)."""
+    maps = " and ".join(f"{model}, mu = {mu:g}" for model, mu, *_ in settings)
+    what = "map" if len(settings) == 1 else "maps"
+    layer = " (Lyapunov exponent)" if settings[0][4] == LYAPUNOV_LAYER else ""
+    return (
+        f"**Loading the {what} for {maps}**{layer}: {stage} ... "
+        f"*(the map below, dimmed, is the one shown before)*"
+    )
+
+
+def _read(model, mu):
+    """The map read and verified (cached for every session); a map that is
+    not shipped or cannot be used is said on the figure (`map_element`)."""
+    try:
+        data.drift_map(model, mu)
+    except data.MapUnavailable:
+        pass
+
+
 class MapView:
     """The session's map pane.  `on_click(la, lm, both)` is called for a
     click inside a drawn map (`both`: the two models were shown side by
     side); `on_tap_js`, a CustomJS, runs in the browser at every click on a
     drawn map.  The markers' sources outlive the figures (redrawn when the
-    settings change)."""
+    settings change).
 
-    def __init__(self, state, on_click, on_tap_js=None, on_zoom=None):
+    A map not rendered yet in this process loads off the event loop
+    (`background`: True, or None for a served session's page; else it is
+    made at once, as outside a server): `loading_line` says so meanwhile,
+    the latest setting wins, and `answered()` is called once its map is
+    shown (a change shown at once answers itself: the explorer's watcher)."""
+
+    def __init__(self, state, on_click, on_tap_js=None, on_zoom=None, answered=None, background=None):
         self.state = state
+        self.answered = answered
+        self.background = background
+        self.loads = LatestJob()  # the map loading (`_load`)
+        self.loading_line = pn.pane.Markdown(
+            "",
+            sizing_mode="stretch_width",
+            css_classes=["vt-map-loading"],
+            margin=(0, 10),
+            styles=dict(_LINE_HIDDEN),
+        )
         self.on_zoom = on_zoom  # f(view_ranges()): the shipped map zoomed or panned
         self.on_click = on_click
         self.on_tap_js = on_tap_js  # a CustomJS run in the browser at a click
@@ -551,7 +660,9 @@ class MapView:
         self.scale_fonts = None  # f(fig): presentation mode's fonts, applied to new figures
         self._drawn = None  # what the shipped figures shown draw (redraw)
         self._shapes = []  # their shapes (`_shape`, before the markers)
-        self.redraw()
+        # the page's first map, with the page (the default one is rendered
+        # at the server's start, a link's other mu in the page's build)
+        self._draw()
         state.param.watch(
             self.redraw, ["model", "mu", "v0", "chaotic", "maps", "layer", "orbits"], precedence=1
         )
@@ -583,6 +694,8 @@ class MapView:
     def show_computed(self, fig, window, on_click):
         """Show `fig` (computed_figure) with the markers; a click inside
         `window` calls on_click(la, lm)."""
+        self.loads.cancel()  # (a shipped map loading: no longer wanted)
+        self._loading(None)
         self._decorate(fig)
         fig.on_event(Tap, functools.partial(self._on_computed_tap, window, on_click))
         if self.on_tap_js is not None:
@@ -631,9 +744,102 @@ class MapView:
         for fig in self.figures:
             self._fit_key(fig, len(self.figures))
 
+    @property
+    def loading(self):
+        """Whether a map is loading off the event loop (`loading_line`)."""
+        return self.loads.running
+
+    def _in_background(self):
+        if self.background is not None:
+            return self.background
+        doc = pn.state.curdoc
+        return doc is not None and doc.session_context is not None
+
+    def _loading(self, text):
+        """Say `text` over the dimmed maps; None: the maps shown are the
+        state's again (line hidden, maps not dimmed)."""
+        if text is None:
+            if self.loading_line.styles != _LINE_HIDDEN:
+                self.loading_line.styles = dict(_LINE_HIDDEN)
+                self.pane.styles = {**self.pane.styles, **_UNDIMMED}
+            return
+        self.loading_line.object = text
+        if self.loading_line.styles == _LINE_HIDDEN:
+            self.loading_line.styles = dict(_LINE_SHOWN)
+            self.pane.styles = {**self.pane.styles, **_DIMMED}
+
     def redraw(self, *events):
         if self.computed is not None:
             return  # a map on demand is shown: the shipped settings wait
+        s = self.state
+        settings = [_setting(m, mu, s.v0, s.chaotic, s.layer, s.orbits) for m, mu in self.shown()]
+        missing = [x for x in settings if x not in _map_json]
+        if missing and self._in_background():
+            self._load(missing)
+            return
+        self.loads.cancel()  # a newer setting, shown at once: an older load's map is not shown
+        self._loading(None)
+        self._draw()
+
+    def _load(self, settings):
+        """Load the maps of `settings` off the event loop, then show the
+        state's (the latest request wins: a newer one cancels this)."""
+        job = self.loads.start()
+        read = all(data.loaded(model, mu) for model, mu, *_ in settings)
+        self._loading(loading_text(settings, DRAWING if read else READING))
+        self.loads.schedule(functools.partial(self._load_steps, job, settings))
+
+    async def _load_steps(self, job, settings):
+        doc = pn.state.curdoc  # (the session's: its next tick shows the result)
+        try:
+            for setting in settings:
+                model, mu = setting[:2]
+                if not data.loaded(model, mu):
+                    await job.run(_read, model, mu)
+                    if not self.loads.is_latest(job):
+                        return
+                    at_next_tick(doc, functools.partial(self._stage, job, settings, DRAWING))
+                await job.run(_map_json, *setting)
+                if not self.loads.is_latest(job):
+                    return
+        except Cancelled:
+            return  # a newer setting: it is shown, or loading
+        except Exception:
+            # (a bug: a map that cannot be used is drawn as a note) the
+            # page gets a reference to the log, not the server's words
+            reference = uuid.uuid4().hex[:8]
+            log.exception("loading the map failed (reference %s): %s", reference, settings)
+            at_next_tick(doc, functools.partial(self._load_failed, job, reference))
+            return
+        at_next_tick(doc, functools.partial(self._loaded, job))
+
+    def _stage(self, job, settings, stage):
+        if self.loads.is_latest(job) and not job.finished:
+            self._loading(loading_text(settings, stage))
+
+    def _loaded(self, job):
+        if not self.loads.is_latest(job) or job.finished:
+            return
+        self.loads.finish(job)
+        with pn.io.hold():
+            self._loading(None)
+            self._draw()  # (from the rendering cache now)
+            if self.answered is not None:
+                self.answered()
+
+    def _load_failed(self, job, reference):
+        if not self.loads.is_latest(job) or job.finished:
+            return
+        self.loads.finish(job)
+        self._loading(
+            f"**The map could not be drawn** (reference {reference}: the server's log names "
+            f"the cause); the map below, dimmed, is the one shown before."
+        )
+        if self.answered is not None:
+            self.answered()
+
+    def _draw(self):
+        """Show the state's maps (rendered now if not in the cache)."""
         s = self.state
         # as many maps, each drawn or not as before (that decides what a
         # click on it does), the same layer and curves, each of the same
