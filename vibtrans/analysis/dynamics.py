@@ -242,7 +242,7 @@ def section(
     phase: float = 0.0,
     cancel: Any = None,
     law: Any = None,
-):
+) -> np.ndarray:
     """The orbit of (y, y') under the map at `phase` mod 1: float64[periods + 1, 2],
     a kernel call per period; Cancelled between periods once `cancel` is set."""
     from vibtrans.core.errors import Cancelled

@@ -279,7 +279,7 @@ class TabulatedProfile:
         x = np.interp(np.maximum(np.asarray(a, float), 0.0), self._a, self._x)
         return x / self.static_contact_radius
 
-    def outline(self, rho: npt.ArrayLike):
+    def outline(self, rho: npt.ArrayLike) -> np.ndarray:
         """The measured outline z / a0 at rho = r / (static contact radius)
         (NaN beyond the table)."""
         r, z = self._table
@@ -337,7 +337,7 @@ def linear_resonance_mass(profile: Any) -> float:
     return float(profile.stiffness(1.0)) / (4.0 * math.pi**2)
 
 
-def tangential_force(profile: Any, a: Any, b: Any, w_of_h: Any, h_grid: Any):
+def tangential_force(profile: Any, a: Any, b: Any, w_of_h: Any, h_grid: Any) -> float:
     """Reference (slow, numpy) T* = b N*'(a) - int_[0,a] w dN*'(h), for tests and twins."""
     h = h_grid[h_grid <= a]
     k = profile.stiffness(h)

@@ -158,7 +158,7 @@ def recurrence_period(values: Any, tol: float, longest: Any = MAX_PERIOD) -> int
 
 
 def remaining_rate(
-    drift_per_period: float, n: int, recur_tol: float = 0.0
+    drift_per_period: np.ndarray, n: int, recur_tol: float = 0.0
 ) -> tuple[float, float, float] | None:
     """The asymptotic drift rate from the last 3 n drifts per period: the
     weighted Birkhoff averages v1, v2, v3 of three windows of n periods, and
@@ -196,7 +196,7 @@ def remaining_rate(
     return v3, v3 + tail, abs(tail) + abs(d2) + noise
 
 
-def stroboscope(samples: Any, times: Any):
+def stroboscope(samples: Any, times: Any) -> np.ndarray:
     """x* at the integer times `times` from coarse samples (t, x, vx): the
     first sample at or after each time, moved back to it along its velocity
     (a sample lies within one step of its grid time)."""

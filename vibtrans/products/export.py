@@ -248,7 +248,7 @@ def heatmap_figure(
     vertical: xr.Dataset | None = None,
     chaotic: str = "grey",
     title: str | None = None,
-):
+) -> Any:
     """The explorer's map: drift, jumping boundary, resonances, paper points."""
     ensure_backends()
     if isinstance(v0, bool) or not isinstance(v0, (int, float)) or not (math.isfinite(v0) and v0 > 0):

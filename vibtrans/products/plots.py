@@ -49,7 +49,7 @@ def loaded_backends() -> list[str]:
     return [b for b in BACKENDS if b in hv.Store.renderers]
 
 
-def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None):
+def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None) -> Any:
     """Apply `common` options plus each backend's own to `obj`, for every loaded backend."""
     per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
     for backend in loaded_backends():
@@ -267,7 +267,7 @@ def chaos_reason(ds: xr.Dataset, short: bool = False) -> str:
     return f"{'' if short else 'the '}tau + {TWIN_TAU_OFFSET:g} twin disagrees"
 
 
-def jumping_boundary(vertical: xr.Dataset, model: str = "deformable"):
+def jumping_boundary(vertical: xr.Dataset, model: str = "deformable") -> Any:
     """The jumping boundary as a curve in the (log10 A*, log10 m*) plane."""
     lm = vertical["log_mass"].values
     var = "threshold_amplitude" if model == "deformable" else "point_mass_threshold_amplitude"
@@ -304,7 +304,7 @@ def linear_resonance_line(log_mass: float, label: str = LINEAR_RESONANCE_LABEL) 
     return _keyed(line, [(label, "line", LINEAR_RESONANCE_LINE)])
 
 
-def paper_points(model: str = "deformable", color: str = "black"):
+def paper_points(model: str = "deformable", color: str = "black") -> Any:
     """The paper's labelled points of one model."""
     pts = [(la, lm, str(k)) for k, (la, lm, m) in PAPER_POINTS.items() if m == model]
     xs, ys, ls = zip(*pts)

@@ -23,6 +23,8 @@ the call documented there) or POINT_MASS (point_mass.point_mass_kernel).
 call (or loads from the disk cache), so a run compiles only what it needs.
 """
 
+from typing import Any
+
 from vibtrans.core.kernels.contact import PROFILE, SPHERE, WARM_POWER
 from vibtrans.core.kernels.deformable import HertzVariant, hertz_kernel
 from vibtrans.core.kernels.point_mass import point_mass_kernel
@@ -44,7 +46,7 @@ for _lyapunov in (False, True):
 del _lyapunov, _kind, _rolling
 
 
-def kernel_for(model, lyapunov=False, law_kind=SPHERE, rolling=False):
+def kernel_for(model: str, lyapunov: bool = False, law_kind: int = SPHERE, rolling: bool = False) -> Any:
     """The compiled kernel of KERNELS[model, lyapunov, law_kind, rolling]."""
     entry = KERNELS[model, bool(lyapunov), law_kind, bool(rolling)]
     return point_mass_kernel if entry == POINT_MASS else hertz_kernel(entry)

@@ -17,6 +17,8 @@ order without a Runge-Kutta starter.
 
 import math
 
+import numpy as np
+
 from vibtrans.core.kernels.jit import helper, kernel
 from vibtrans.core.kernels.substrate import TWO_PI, vertical_displacement
 
@@ -26,7 +28,7 @@ INTEGRATORS = {"ab4": AB4, "verlet": VERLET}
 
 
 @helper
-def ab4_increment(hist, k, h):
+def ab4_increment(hist: np.ndarray, k: int, h: float) -> float:
     """h/24 (55 F_n - 59 F_{n-1} + 37 F_{n-2} - 9 F_{n-3}) for component k.
 
     hist[j, k] holds F_{n-j}.
@@ -35,7 +37,7 @@ def ab4_increment(hist, k, h):
 
 
 @helper
-def push_history(hist, f0, f1, f2, f3):
+def push_history(hist: np.ndarray, f0: float, f1: float, f2: float, f3: float) -> None:
     """Shift the derivative history and store F_{n+1} = (f0, f1, f2, f3)."""
     for j in range(3, 0, -1):
         for k in range(4):
@@ -47,14 +49,24 @@ def push_history(hist, f0, f1, f2, f3):
 
 
 @helper
-def flight_gap(t, t0, y0, vy0, m, amplitude, tau):
+def flight_gap(t: float, t0: float, y0: float, vy0: float, m: float, amplitude: float, tau: float) -> float:
     """a*(t) = y*(t) - u_y*(t) on the free-flight parabola from (t0, y0, vy0)."""
     s = t - t0
     return y0 + vy0 * s + 0.5 * s * s / m - vertical_displacement(t, amplitude, tau)
 
 
 @kernel
-def find_landing(t0, y0, vy0, m, amplitude, tau, t_from, t_limit, dt_min):
+def find_landing(
+    t0: float,
+    y0: float,
+    vy0: float,
+    m: float,
+    amplitude: float,
+    tau: float,
+    t_from: float,
+    t_limit: float,
+    dt_min: float,
+) -> float:
     """First time in (t_from, t_limit] where the flight gap turns positive.
 
     Returns -1.0 if the particle is still in flight at t_limit.  Each bracket

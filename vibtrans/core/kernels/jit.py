@@ -87,7 +87,9 @@ import contextlib
 import hashlib
 import os
 import types
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numba
 from numba import config as _numba_config
@@ -150,24 +152,24 @@ def _compile(fn, **options):
     return disp
 
 
-def kernel(fn):
+def kernel(fn: Callable) -> Any:
     """Compile `fn` on its own: allocation-free, GIL-free, disk-cached."""
     return _compile(fn)
 
 
-def helper(fn):
+def helper(fn: Callable) -> Any:
     """A small function for kernels to call; LLVM inlines it where that pays."""
     return _compile(fn)
 
 
-def inline(fn):
+def inline(fn: Callable) -> Any:
     """Inline `fn` at numba IR level into each caller (compile time per call
     site: keep the call sites few)."""
     return _compile(fn, inline="always")
 
 
 @contextlib.contextmanager
-def compile_notice(report):
+def compile_notice(report: Callable[[str], object]) -> Iterator[None]:
     """Within the block, report(name) once, as numba starts compiling one of
     the library's functions (name: its qualified name); loading one from
     the disk cache is not compiling.  For front ends, which say so while
@@ -190,7 +192,7 @@ def compile_notice(report):
         yield
 
 
-def template(decorate):
+def template(decorate: Callable) -> Callable[[Callable], Callable]:
     """Mark `fn` as a template: not compiled itself, only in the copies
     `specialize` makes, each with `decorate` (kernel, helper or inline)."""
 
@@ -201,7 +203,7 @@ def template(decorate):
     return mark
 
 
-def specialize(templates, name, **constants):
+def specialize(templates: Sequence[Callable], name: str, **constants: Any) -> dict[str, Any]:
     """Compiled copies of `templates` (functions of one module, `template`)
     whose global names also hold `constants` (and each other's copies).
 

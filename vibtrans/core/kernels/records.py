@@ -49,12 +49,12 @@ MEMORY_FULL = 3  # grow the memory-diagram arrays and call again
 EVENTS_RUNAWAY = 4  # more than a kernel's limit of events between two steps: refuse
 
 
-def new_counters():
+def new_counters() -> np.ndarray:
     return np.zeros(NCTR, dtype=np.int64)
 
 
 @helper
-def add_event(events, ctr, t, kind, value):
+def add_event(events: np.ndarray, ctr: np.ndarray, t: float, kind: float, value: float) -> None:
     k = ctr[C_NEVT]
     events[k, 0] = t
     events[k, 1] = kind
@@ -63,7 +63,7 @@ def add_event(events, ctr, t, kind, value):
 
 
 @helper
-def want_sample(t, ctr, sample_dt, win_t0, win_t1):
+def want_sample(t: float, ctr: np.ndarray, sample_dt: float, win_t0: float, win_t1: float) -> bool:
     """True if the state at time t should be recorded; advances the cursor."""
     take = False
     while ctr[C_NEXT] * sample_dt <= t:
@@ -75,7 +75,23 @@ def want_sample(t, ctr, sample_dt, win_t0, win_t1):
 
 
 @helper
-def record(samples, ctr, t, x, vx, y, vy, a, b, bdot, nf, tf, state, s, c):
+def record(
+    samples: np.ndarray,
+    ctr: np.ndarray,
+    t: float,
+    x: float,
+    vx: float,
+    y: float,
+    vy: float,
+    a: float,
+    b: float,
+    bdot: float,
+    nf: float,
+    tf: float,
+    state: float,
+    s: float,
+    c: float,
+) -> None:
     k = ctr[C_NSAMP]
     row = samples[k]
     row[T_] = t

@@ -22,7 +22,7 @@ RAMP_OFF = 6.5
 
 
 @helper
-def ramp(t, tau):
+def ramp(t: float, tau: float) -> tuple[float, float, float]:
     """G(t) and its first two time derivatives (G, G', G'')."""
     if tau <= 0.0 or t >= RAMP_OFF * tau:
         return 1.0, 0.0, 0.0
@@ -34,14 +34,14 @@ def ramp(t, tau):
 
 
 @helper
-def vertical_displacement(t, amplitude, tau):
+def vertical_displacement(t: float, amplitude: float, tau: float) -> float:
     """u_y*(t) = G A* cos(2 pi t)."""
     g, _, _ = ramp(t, tau)
     return g * amplitude * math.cos(TWO_PI * t)
 
 
 @helper
-def ramp_exact(t, tau):
+def ramp_exact(t: float, tau: float) -> tuple[float, float]:
     """(G, G') evaluated in full, even where G = 1 to machine precision
     (the reference for the ramp shortcut of `ramp`)."""
     if tau <= 0.0:
@@ -52,7 +52,9 @@ def ramp_exact(t, tau):
 
 
 @helper
-def wave_motion(c, s, g, g1, amplitude, r):
+def wave_motion(
+    c: float, s: float, g: float, g1: float, amplitude: float, r: float
+) -> tuple[float, float, float, float]:
     """(u_x*, u_y*, du_x*/dt, du_y*/dt) from c = cos(2 pi t), s = sin(2 pi t)
     and the ramp (G, G') at t."""
     ux = g * amplitude * r * s
@@ -63,14 +65,14 @@ def wave_motion(c, s, g, g1, amplitude, r):
 
 
 @helper
-def surface_motion(t, amplitude, r, tau):
+def surface_motion(t: float, amplitude: float, r: float, tau: float) -> tuple[float, float, float, float]:
     """(u_x*, u_y*, du_x*/dt, du_y*/dt) of the substrate surface."""
     g, g1, _ = ramp(t, tau)
     return wave_motion(math.cos(TWO_PI * t), math.sin(TWO_PI * t), g, g1, amplitude, r)
 
 
 @helper
-def surface_acceleration(t, amplitude, r, tau):
+def surface_acceleration(t: float, amplitude: float, r: float, tau: float) -> tuple[float, float]:
     """(d2u_x*/dt2, d2u_y*/dt2) of the substrate surface."""
     g, g1, g2 = ramp(t, tau)
     c = math.cos(TWO_PI * t)

