@@ -60,8 +60,8 @@ def _type(page, selector, text):
 
 def _every_action(page, url):
     """Every tab opened, and every button that builds something pressed:
-    Draw chart, Compute map, each download, presentation
-    mode, with tab changes between them (a pane changed while its tab is
+    Draw chart, Compute map, each download, Play, Show the difference,
+    presentation mode, with tab changes between them (a pane changed while its tab is
     hidden is shown again)."""
     open_explorer(page, url)
     for name in MAP_TABS + RUN_TABS:
@@ -95,6 +95,14 @@ def _every_action(page, url):
     for i in range(buttons.count()):
         with page.expect_download(timeout=budget_ms(120)):
             buttons.nth(i).click()
+    # the run's other buttons that build something: the animation played,
+    # the difference of the two shipped maps shown
+    _tab(page, "Animation")
+    page.get_by_role("button", name="Play").first.click()
+    page.get_by_role("button", name="Pause").first.click()
+    _tab(page, "Difference")
+    page.get_by_role("button", name="Show the difference").first.click()
+    page.locator(".vt-diff-summary").get_by_text(re.compile(".")).first.wait_for(timeout=budget_ms(120))
     # presentation mode, and every tab again in it
     toggle = page.locator(".vt-presentation")
     inner = toggle.first.locator("button, input, [role=switch]")
@@ -120,7 +128,7 @@ def test_every_request_goes_to_the_server(served_explorer):
             try:
                 _every_action(page, served_explorer.url)
             except Exception:
-                page.screenshot(path="/tmp/offline-fail.png", full_page=True)
+                page.screenshot(path="test-artifacts/offline-fail.png", full_page=True)
                 raise
             page.wait_for_load_state("networkidle", timeout=budget_ms(30))
         finally:
