@@ -118,3 +118,87 @@ def open_explorer(page, url):
     page.goto(url)
     page.wait_for_selector("canvas", timeout=budget_ms(60))
     page.get_by_text("Paper points").first.wait_for(timeout=budget_ms(60))
+
+
+# The page's text as a user reads it: its text nodes, those in shadow roots
+# too (Panel's panes and widgets draw inside them), but not its scripts' or
+# styles'; `_DEEP_JS` defines vtDeep(root) (every element, shadow roots
+# entered) and vtText(element) (its text and its shadow root's).
+_DEEP_JS = """
+const vtDeep = (root, out = []) => {
+  for (const e of root.querySelectorAll("*")) {
+    out.push(e);
+    if (e.shadowRoot) vtDeep(e.shadowRoot, out);
+  }
+  return out;
+};
+const vtText = (root) => {
+  const out = [];
+  const walk = (r) => {
+    const it = document.createTreeWalker(r, NodeFilter.SHOW_TEXT);
+    for (let n = it.nextNode(); n; n = it.nextNode()) {
+      const tag = n.parentNode ? n.parentNode.nodeName : "";
+      if (tag !== "SCRIPT" && tag !== "STYLE") out.push(n.nodeValue);
+    }
+    if (r.shadowRoot) walk(r.shadowRoot);
+    for (const e of r.querySelectorAll("*")) if (e.shadowRoot) walk(e.shadowRoot);
+  };
+  walk(root);
+  return out.join(" ");
+};
+"""
+
+
+def page_text(page):
+    """Everything the page shows as text (`_DEEP_JS`'s vtText of its body)."""
+    return page.evaluate(f"() => {{ {_DEEP_JS} return vtText(document.body); }}")
+
+
+# the text of the shown elements of a CSS class (a field's message under it)
+SHOWN_TEXT_JS = (
+    "(cls) => {"
+    + _DEEP_JS
+    + """
+  return vtDeep(document).filter((e) => e.classList.contains(cls) && e.getClientRects().length > 0)
+    .map((e) => vtText(e)).join(" ").trim();
+}"""
+)
+
+
+def shown_text(page, css_class):
+    """The text of the shown elements of class `css_class` ("" if none)."""
+    return page.evaluate(SHOWN_TEXT_JS, css_class)
+
+
+# A text field's last text has reached the server: every model of its CSS
+# class has its value in its tags (app/views/inputs.read_back: the server
+# writes there the text it read, or the one it wrote).
+_READ_BACK_JS = """(cls) => {
+  let found = false;
+  for (const d of window.Bokeh.documents) for (const m of d.all_models)
+    if ((m.css_classes || []).includes(cls) && m.tags !== undefined && "value" in m) {
+      found = true;
+      if (m.tags.length === 0 || m.tags[0] !== m.value) return false;
+    }
+  return found;
+}"""
+
+
+def read_back(page, css_class, timeout_s=30):
+    """Wait until the server has read the text of the field(s) of class
+    `css_class` (`_READ_BACK_JS`): what was typed and committed there is
+    applied, or refused with its message."""
+    page.wait_for_function(_READ_BACK_JS, arg=css_class, timeout=budget_ms(timeout_s), polling=50)
+
+
+# what the server's log says when something failed (a traceback, a failed
+# callback, Bokeh's write outside the document's lock)
+SERVER_ERRORS = ("Traceback", "ERROR", "Exception", "_pending_writes")
+
+
+def server_errors(log, lines_after=40):
+    """The failures in the server's log text `log`: each line with one of
+    SERVER_ERRORS and the lines after it (a traceback whole), "" if none."""
+    lines = log.splitlines()
+    bad = [k for k, line in enumerate(lines) if any(e in line for e in SERVER_ERRORS)]
+    return "\n---\n".join("\n".join(lines[k : k + lines_after]) for k in bad[:3])

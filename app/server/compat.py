@@ -27,6 +27,12 @@ measurement and its upstream report, in docs/how-to/deployment.md.
    updated with the properties of the session's document, as an attached
    one is.
 
+3. Panel's Location parses the browser's query in its `search` watcher
+   (`parse_query`: '²'.isdigit() is true, int('²') raises) even when it
+   syncs nothing, as the template's Location of the explorer does (it
+   reads its link itself): a link '?la=²' logged Panel's traceback when the
+   page connected.  Workaround: a Location that syncs nothing parses nothing.
+
 `apply()` is called once by the server (app/server/serve.py); nothing else here
 runs at import.  Nothing here imports the rest of the app.
 """
@@ -140,6 +146,40 @@ def _stock_text_update():
         HTMLBasePane._update = _STOCK["text_update"]
 
 
+def unsynced_location_parses_the_query():
+    """The probe of bug 2.1's other face: True when a Location that syncs
+    nothing still parses each query it is given (its `search` watcher
+    calls `parse_query`): the browser sends the page's address to the
+    template's Location when the page connects, and '?la=²' failed there
+    (Panel logged the failure with its traceback)."""
+    from panel.io.location import Location
+
+    try:
+        Location(pathname="/").search = "?la=²"
+    except ValueError:
+        return True
+    return False
+
+
+def _parse_only_what_is_synced():
+    from panel.io.location import Location
+
+    stock = _STOCK.setdefault("update_synced", Location._update_synced)
+
+    def _update_synced(self, event=None):
+        if self._synced:  # (nothing synced: nothing to read in the query)
+            stock(self, event)
+
+    Location._update_synced = _update_synced
+
+
+def _stock_update_synced():
+    from panel.io.location import Location
+
+    if "update_synced" in _STOCK:
+        Location._update_synced = _STOCK["update_synced"]
+
+
 def is_panels_query_parse_failure(exception):
     """True for bug 2.1's failure: Panel's Location parses the browser's raw
     query in its own watcher (`parse_query`: int('²') raises).  The explorer
@@ -165,6 +205,12 @@ WORKAROUNDS = [
         hidden_tab_update_fetches_the_cdn,
         _text_update_in_the_sessions_document,
         _stock_text_update,
+    ),
+    (
+        "Panel's Location parses no query when it syncs nothing (docs/how-to/deployment.md 1.3)",
+        unsynced_location_parses_the_query,
+        _parse_only_what_is_synced,
+        _stock_update_synced,
     ),
 ]
 

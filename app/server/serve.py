@@ -202,6 +202,22 @@ def failed_page():
     )
 
 
+def _closed_page_writes(loop, context):
+    """asyncio's exception handler on the server's loop: a message to a
+    page that closed meanwhile (its websocket's write failed, and Panel's
+    writer was not waiting for it: asyncio's "Task exception was never
+    retrieved" with the traceback) is logged as Bokeh and Panel log the
+    same failure when they await it, a warning in one line; anything else
+    goes to asyncio's own handler."""
+    from tornado.iostream import StreamClosedError
+    from tornado.websocket import WebSocketClosedError
+
+    if isinstance(context.get("exception"), (WebSocketClosedError, StreamClosedError)):
+        logging.getLogger("vibtrans.explorer").warning("Failed sending message as connection was closed")
+        return
+    loop.default_exception_handler(context)
+
+
 def _first_page(serve_page, start_kernels):
     """The page function for the server (`serve_page`: builds the session's
     page into its document): every page is frozen once built
@@ -320,6 +336,7 @@ def serve(args):
     # after the server is made: with --num-procs > 1 it has forked, and each
     # process compiles (or loads) its own kernels
     loop = server.io_loop
+    loop.asyncio_loop.set_exception_handler(_closed_page_writes)
     loop.call_later(KERNELS_AFTER, start_kernels)
     say(f"explorer on http://{args.address}:{args.port}/ (websocket origins: {', '.join(allowed)})")
     server.start()

@@ -18,6 +18,16 @@ from vibtrans_explorer.session import urlstate
 ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 
 
+def read_back(widget):
+    """`widget` (a text field) with its model's `tags` holding the text the
+    server has read (typed, or written by the server): in the browser,
+    tags[0] equal to the field's value says that its last text was applied
+    (a browser test waits for it before its next action).  Returns it."""
+    widget.tags = [widget.value]
+    widget.param.watch(lambda event: setattr(widget, "tags", [event.new]), "value")
+    return widget
+
+
 def _text(value, digits=6):
     """The field's text for a value: `digits` significant digits (108301,
     not 108300.59370879376).  The parameter keeps its exact value: a run uses
@@ -38,11 +48,13 @@ class NumberField(pn.viewable.Viewer):
         self.label = label
         self.error = ""
         self._width = {} if width is None else {"width": width}
-        self.input = pn.widgets.TextInput(
-            label=label,
-            value=_text(getattr(owner, name), digits),
-            css_classes=[f"vt-field-{name}"],
-            **self._width,
+        self.input = read_back(
+            pn.widgets.TextInput(
+                label=label,
+                value=_text(getattr(owner, name), digits),
+                css_classes=[f"vt-field-{name}"],
+                **self._width,
+            )
         )
         # the message under the field: made at the first error (a page's
         # fields are mostly never wrong, and every pane costs its server time)

@@ -21,6 +21,7 @@ less) and hidden for the sphere.
 """
 
 import contextlib
+import functools
 
 import numpy as np
 import panel as pn
@@ -29,8 +30,9 @@ from bokeh.plotting import figure
 
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
 from vibtrans_explorer.session import urlstate
+from vibtrans_explorer.session.latest import at_next_tick
 from vibtrans_explorer.session.state import SPHERE, is_sphere
-from vibtrans_explorer.views.inputs import ERROR_STYLE
+from vibtrans_explorer.views.inputs import ERROR_STYLE, read_back
 from vibtrans_explorer.views.presentation import scale_fonts
 
 # the selector's kinds: label -> the spec's kind
@@ -51,6 +53,12 @@ RIGID_NOTE = (
 DRAWN_RHO = 1.6  # the drawing spans r in [-DRAWN_RHO, DRAWN_RHO] static contact radii
 DRAWN_Z = 2.0  # and z in [0, DRAWN_Z] a0
 DRAWN_POINTS = 321
+
+
+def _title(spec):
+    """The drawing's title (two lines: on one it was wider than the
+    sidebar's figure)."""
+    return f"the tip: {spec} (solid)\nthe sphere (dashed)"
 
 
 def kind_of(spec):
@@ -201,12 +209,14 @@ class ProfileView(_ChoiceView):
 
     def _make_number(self):
         kind = KINDS[self.kind.value]
-        number = pn.widgets.TextInput(
-            label=NUMBERS.get(kind, NUMBERS["power"])[0],
-            value=self._texts.get(kind, ""),
-            visible=kind in NUMBERS,
-            css_classes=["vt-profile-number"],
-            **self._width,
+        number = read_back(
+            pn.widgets.TextInput(
+                label=NUMBERS.get(kind, NUMBERS["power"])[0],
+                value=self._texts.get(kind, ""),
+                visible=kind in NUMBERS,
+                css_classes=["vt-profile-number"],
+                **self._width,
+            )
         )
         number.param.watch(self._chosen, "value")
         return number
@@ -277,25 +287,32 @@ class ProfileView(_ChoiceView):
         spec = self.owner.profile
         shown = self._drawing and not is_sphere(spec)
         if shown and self.figure is None:
-            self._build()
-        if self.figure is not None:
+            self._build(spec)
+        elif self.figure is not None:
             rho = self.source.data["r"]
-            self.source.data = {"r": rho, "z": outline(spec, rho), "sphere": self.source.data["sphere"]}
-            # (two lines: on one it was wider than the sidebar's figure)
-            self.figure.title.text = f"the tip: {spec} (solid)\nthe sphere (dashed)"
+            data = {"r": rho, "z": outline(spec, rho), "sphere": self.source.data["sphere"]}
+            # plain Bokeh models, changed at the document's next tick (its
+            # lock: a typed number is applied without it, and the change
+            # raised "_pending_writes should be non-None")
+            at_next_tick(self.figure.document, functools.partial(self._drawn, data, _title(spec)))
         if shown or self._made("drawing_pane"):
             self.drawing_pane.visible = shown
 
-    def _build(self):
+    def _drawn(self, data, title):
+        self.source.data = data
+        self.figure.title.text = title
+
+    def _build(self, spec):
+        """The drawing of `spec`, made whole before it joins the page."""
         rho = np.linspace(-DRAWN_RHO, DRAWN_RHO, DRAWN_POINTS)
-        self.source = ColumnDataSource({"r": rho, "z": outline(SPHERE, rho), "sphere": outline(SPHERE, rho)})
+        self.source = ColumnDataSource({"r": rho, "z": outline(spec, rho), "sphere": outline(SPHERE, rho)})
         fig = figure(
             height=190,
             sizing_mode="stretch_width",
             toolbar_location=None,
             x_range=Range1d(-DRAWN_RHO, DRAWN_RHO),
             y_range=Range1d(0.0, DRAWN_Z),
-            title="",
+            title=_title(spec),
             name="profile-drawing",
         )
         fig.line("r", "sphere", source=self.source, line_dash="dashed", color="grey", line_width=1.5)
@@ -400,12 +417,14 @@ class RollingView(_ChoiceView):
     point = property(lambda self: self._part("point"), doc="the material point's note")
 
     def _make_number(self):
-        number = pn.widgets.TextInput(
-            label=J_LABEL,
-            value=self._text,
-            visible=self._kind() == "j",
-            css_classes=["vt-rolling-j"],
-            **self._width,
+        number = read_back(
+            pn.widgets.TextInput(
+                label=J_LABEL,
+                value=self._text,
+                visible=self._kind() == "j",
+                css_classes=["vt-rolling-j"],
+                **self._width,
+            )
         )
         number.param.watch(self._chosen, "value")
         return number

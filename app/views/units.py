@@ -241,12 +241,14 @@ def device_form(device, width=150):
     frequency, amplitude, pre-load."""
     select = functools.partial(pn.widgets.Select.from_param, width=width)
     customs = {
-        k: pn.widgets.TextInput.from_param(
-            device.param[f"{k}_custom"],
-            label=f"{k}: E (Pa), nu, rho (kg/m^3)",
-            width=width,
-            visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, device.param[k]),
-            css_classes=[f"vt-{k}-custom"],
+        k: inputs.read_back(
+            pn.widgets.TextInput.from_param(
+                device.param[f"{k}_custom"],
+                label=f"{k}: E (Pa), nu, rho (kg/m^3)",
+                width=width,
+                visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, device.param[k]),
+                css_classes=[f"vt-{k}-custom"],
+            )
         )
         for k in ("substrate", "particle")
     }

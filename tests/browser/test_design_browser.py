@@ -6,7 +6,7 @@ substrate's field shown.  Screenshots go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
-from browserpages import new_page, open_explorer
+from browserpages import new_page, open_explorer, read_back
 from budget import budget_ms
 from playwright.sync_api import expect
 
@@ -65,7 +65,7 @@ def _small_chart_offer(page, draw, **fields):
         field = page.locator(f".vt-design-fields .vt-field-{name} input").first
         field.fill(value)
         field.press("Enter")
-    page.wait_for_timeout(500)
+        read_back(page, f"vt-field-{name}")  # (applied before Draw reads it)
     draw.click()
     return page.locator(".vt-design-offer").first
 
@@ -189,6 +189,7 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
         ).first.wait_for(timeout=budget_ms(30))
         angle.fill("60")
         angle.press("Enter")
+        read_back(page, "vt-field-tip_half_angle")
         offer = _small_chart_offer(page, draw)
         offer.get_by_text("the shipped maps are the sphere's").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))

@@ -321,7 +321,14 @@ def _device_tip(device, shape):
         tip = designtip.TipContact(c0, ca, slope, p, "sphere")
         return s, tip, s.A_star, s.m_star
     tip = designtip.static_contact(shape, device.radius, s.load_N, _e_eff(device))
-    a0 = float(tip.a0)
+    a0, a_c = float(tip.a0), float(tip.contact_radius)
+    # (sizes whose contact under- or overflows: a0 or a_c^2 of 0 divided by zero)
+    if not (0 < a0 < math.inf and 0 < a_c < math.inf and np.all(np.isfinite(tip.mean_pressure))):
+        raise InputError(
+            f"the tip's static contact (approach a0 = {a0:g} m, contact radius {a_c:g} m) is "
+            f"past what its contact law computes: its sizes (exponent N, tip radius, "
+            f"half-angle) are too far from the particle's"
+        )
     return s, tip, device.amplitude / a0, a0 * s.mass_kg * device.frequency**2 / s.load_N
 
 

@@ -67,9 +67,17 @@ TIP_KINDS = ("sphere", "cone", "power:N", "flat-sphere", "file:PATH")
 SHARED_RELATIVE = 1e-9
 
 
-def kappa(n: int) -> float:
+def kappa(n: float) -> float:
     """MDR's factor of z = C r^n: g(x) = kappa_n C |x|^n."""
-    return math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
+    try:
+        return math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
+    except OverflowError:
+        # n > 341, where Gamma overflows (a typed N = 1e300 raised): the
+        # ratio's series in y = 1/x, x = (n + 1)/2 (DLMF 5.11.13), within
+        # 1e-14 of it from there on
+        y = 1.0 / (n / 2 + 0.5)
+        series = 1 - y / 8 + y * y / 128 + 5 * y**3 / 1024 - 21 * y**4 / 32768
+        return math.sqrt(math.pi) / math.sqrt(y) * series
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,7 +256,8 @@ def static_contact(shape: Any, radius: Any, load: Any, E_eff: Any) -> TipContact
     if shape.kind == "power":
         n = shape.n
         if n == 1.0:
-            C = np.full(radius.shape, 1.0 / math.tan(math.radians(shape.half_angle)))
+            t = math.tan(math.radians(shape.half_angle))  # (0 for an angle that underflows: 5e-324)
+            C = np.full(radius.shape, 1.0 / t if t else math.inf)
         else:
             rt = radius if shape.tip_radius is None else np.full(radius.shape, shape.tip_radius)
             C = 1.0 / (n * rt ** (n - 1.0))
@@ -342,7 +351,8 @@ def tip_warnings(shape: Any, contact: Any, E_eff: float) -> list[Any]:
             )
         )
     if shape.kind == "power" and shape.n == 1.0:
-        pm = E_eff / (2 * math.tan(math.radians(shape.half_angle)))
+        t = math.tan(math.radians(shape.half_angle))
+        pm = E_eff / (2 * t) if t else math.inf
         out.append(
             TipWarning(
                 "cone-apex",
