@@ -281,3 +281,29 @@ def test_a_measured_sphere_table_reads_as_the_sphere(tmp_path):
             ("frequency", dev.frequency),
             shape=shape,
         )
+
+
+def test_kappa_of_a_steep_power_law_is_the_gamma_ratio_and_finite_past_its_overflow():
+    """MDR's kappa_n = sqrt(pi) Gamma(n/2 + 1) / Gamma(n/2 + 1/2): where the
+    Gammas overflow (n > 341) the ratio's asymptotic series (DLMF 5.11.13)
+    takes over; it meets the ratio within 3e-14 where both are computed and
+    grows as sqrt(pi n / 2) beyond."""
+    import math
+
+    from vibtrans.products.designtip import kappa
+
+    def series(n):
+        y = 1.0 / (n / 2 + 0.5)
+        return (
+            math.sqrt(math.pi)
+            / math.sqrt(y)
+            * (1 - y / 8 + y * y / 128 + 5 * y**3 / 1024 - 21 * y**4 / 32768)
+        )
+
+    for n in (300.0, 340.0):
+        exact = math.sqrt(math.pi) * math.gamma(n / 2 + 1) / math.gamma(n / 2 + 0.5)
+        assert kappa(n) == exact
+        assert abs(series(n) / exact - 1) < 3e-14
+    for n in (342.0, 1e6, 1e300):
+        assert math.isfinite(kappa(n))
+        assert abs(kappa(n) / math.sqrt(math.pi * n / 2) - 1) < 1 / n + 1e-15

@@ -74,7 +74,7 @@ def kappa(n: float) -> float:
     except OverflowError:
         # n > 341, where Gamma overflows (a typed N = 1e300 raised): the
         # ratio's series in y = 1/x, x = (n + 1)/2 (DLMF 5.11.13), within
-        # 1e-14 of it from there on
+        # about 1e-14 of it from there on
         y = 1.0 / (n / 2 + 0.5)
         series = 1 - y / 8 + y * y / 128 + 5 * y**3 / 1024 - 21 * y**4 / 32768
         return math.sqrt(math.pi) / math.sqrt(y) * series
