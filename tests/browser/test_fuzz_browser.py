@@ -565,7 +565,7 @@ def _profile_of(kind, text):
         return kind
     text = (text or "").strip()
     spec = f"{kind}:{text}"
-    if not (0 < len(text) <= urlstate.MAX_LENGTH and urlstate._NUMBER.fullmatch(text)):
+    if not (0 < len(text) <= urlstate.MAX_LENGTH and urlstate.PLAIN_NUMBER.fullmatch(text)):
         return None
     try:
         return ExplorerState.param["profile"].check_text(spec)
