@@ -368,6 +368,7 @@ class Explorer(pn.viewable.Viewer):
             self._error(f"Not run: {exc}")
             if say is not None:
                 say(f"Not run: {exc}")
+            self._answered()  # (the page's "Running ..." said at the click: answered)
             return None
         return self.start_run()
 

@@ -186,8 +186,9 @@ _READ_BACK_JS = """(cls) => {
 
 def read_back(page, css_class, timeout_s=30):
     """Wait until the server has read the text of the field(s) of class
-    `css_class` (`_READ_BACK_JS`): what was typed and committed there is
-    applied, or refused with its message."""
+    `css_class` (`_READ_BACK_JS`): it has handled what was typed and
+    committed there, and what the page sent before (in the order sent); its
+    answer (the value applied, a message) may come a message later."""
     page.wait_for_function(_READ_BACK_JS, arg=css_class, timeout=budget_ms(timeout_s), polling=50)
 
 

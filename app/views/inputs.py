@@ -21,8 +21,9 @@ ERROR_STYLE = {"color": "#b00020", "font-size": "0.85em", "margin-top": "0"}
 def read_back(widget):
     """`widget` (a text field) with its model's `tags` holding the text the
     server has read (typed, or written by the server): in the browser,
-    tags[0] equal to the field's value says that its last text was applied
-    (a browser test waits for it before its next action).  Returns it."""
+    tags[0] equal to the field's value says that the server has read its
+    last text (a browser test waits for it before its next action; what the
+    text changed may come in a later message).  Returns it."""
     widget.tags = [widget.value]
     widget.param.watch(lambda event: setattr(widget, "tags", [event.new]), "value")
     return widget

@@ -12,9 +12,15 @@ controller's answer (app/session/urlstate.py, the same checks the page
 runs, property-tested alone in tests/app/test_url_params.py): here the page
 must agree with it.
 
-One served explorer and one page for the module; a link is opened in it
-(a page load each: URL_EXAMPLES of them), the fields are typed and
-committed on the page as it stands (FIELD_EXAMPLES, DESIGN_EXAMPLES)."""
+One served explorer and one page for the module: a link is opened in it
+per example (a page load each: URL_EXAMPLES of them); the fields are typed
+and committed, options chosen, Run and Draw pressed on the page as it
+stands (FIELD_EXAMPLES, DESIGN_EXAMPLES); every option of every selector is
+chosen in turn.  The same examples at every run (derandomized);
+VIBTRANS_FUZZ_SCALE multiplies their number for a longer search.  Waits are
+on the page's answers: a field's text read back by the server
+(browserpages.read_back), the address, the messages, the page's own
+"busy" line."""
 
 import math
 import os
@@ -40,6 +46,7 @@ from playwright.sync_api import TimeoutError as PageTimeout
 from playwright.sync_api import expect
 
 from vibtrans.core.params import PAPER_POINTS
+from vibtrans.products.design import CUSTOM_MATERIAL
 from vibtrans_explorer.session import maprequest, urlstate
 from vibtrans_explorer.session.pagelink import map_request_of, query_args
 from vibtrans_explorer.session.state import (
@@ -388,10 +395,10 @@ RADIOS = {
     "orbits": ["no orbit curves", "period-1 orbit curves"],
     "chaotic": ["grey", "colour"],
 }
-CUSTOM = "custom (E, nu, rho)"
 J_OPTION = next(label for label, value in ROLLINGS.items() if value == "j")
-# the Design tab: its own numbers (no bounds: the library checks them when
-# the chart is drawn), the tip's kinds and the field of each one's size
+# the Design tab: its own numbers (mu within the explorer's range, the
+# chart's with no bounds: the library checks them when the chart is drawn),
+# the tip's kinds and the field of each one's size
 DESIGN_NUMBERS = ("mu", "surface_energy", "x_lo", "x_hi", "x_points", "y_lo", "y_hi", "y_points")
 TIP_SIZES = {
     "tip_half_angle": "cone",
@@ -542,8 +549,8 @@ def sidebar_actions(draw):
         return kind, draw(st.sampled_from(["substrate", "particle"])), draw(text)
     if kind == "select":
         return kind, draw(st.sampled_from(sorted(SELECTS))), draw(st.integers(0, 20))  # (an option, modulo)
-    if kind == "run":
-        return kind, None, None
+    if kind == "run":  # (the sidebar's scene, or the Units tab's device)
+        return kind, draw(st.sampled_from(["Run selected scene", "Run this device's scene"])), None
     key = draw(st.sampled_from(sorted(RADIOS)))
     return kind, key, draw(st.sampled_from(RADIOS[key]))
 
@@ -616,7 +623,7 @@ def _rolling_number(page, text):
 def _custom(page, which, text):
     """A custom material typed: the device's numbers, or the library's
     message saying what is wrong in it."""
-    _choose(page, which, CUSTOM)
+    _choose(page, which, CUSTOM_MATERIAL)
     _type(page, f"vt-{which}-custom", text)
     info = page.locator(":is(p, td)", has_text=re.compile(r"^(Invalid input:|A\*$)")).first
     info.wait_for(timeout=budget_ms(30))
@@ -664,15 +671,17 @@ def _select(page, label, index):
         _wait_address(page, key, urlstate.written(float(option)) if key == "mu" else option)
 
 
-def _run(page):
-    """Run the scene as it stands: its run shown, or the message saying why
-    not (an invalid field named, a refused scene)."""
+def _run(page, button):
+    """Run the scene as it stands (the sidebar's, or the Units tab's
+    device): its run shown, or the message saying why not (an invalid field
+    named, a refused scene)."""
     _choose(page, "fidelity", "preview")  # (a short run)
-    page.get_by_role("button", name="Run selected scene").first.click()
-    answered(page, timeout_s=180)  # (the page's "Running ..." cleared: shown or refused)
+    page.get_by_role("button", name=button).first.click()
+    answered(page, timeout_s=60)  # (the page's "Running ..." cleared: shown or refused)
     said = page.get_by_text(re.compile(r"^(Not run|The run failed)")).first
     heading = page.locator("strong", has_text=re.compile(r": A\* = ")).first
-    expect(said.or_(heading)).to_be_visible(timeout=budget_ms(30))
+    refused = page.locator(".vt-units-refusal").first
+    expect(said.or_(heading).or_(refused).first).to_be_visible(timeout=budget_ms(30))
 
 
 @fuzz(FIELD_EXAMPLES)
@@ -701,7 +710,7 @@ def test_every_sidebar_and_units_control_gives_the_scene_or_its_message(sidebar_
     elif kind == "select":
         _select(page, what, value)
     elif kind == "run":
-        _run(page)
+        _run(page, what)
     else:
         _press(page, value)
         if what in URL_KEYS:
