@@ -97,6 +97,16 @@ def _log10_value(name, value):
     return 10.0**value
 
 
+# the scene's values besides A* and m* (_model_args' options)
+MODEL_KEYS = (
+    "model mu theta nu tau periods alpha_t stick_rule fidelity integrator profile load_over_modulus rolling"
+).split()
+
+
+def _model_values(args):
+    return {k: getattr(args, k) for k in MODEL_KEYS}
+
+
 def scene_from_args(args: argparse.Namespace) -> Scene:
     from vibtrans.core.params import Scene
 
@@ -104,23 +114,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         args.amplitude if args.log_amplitude is None else _log10_value("log_amplitude", args.log_amplitude)
     )
     mass = args.mass if args.log_mass is None else _log10_value("log_mass", args.log_mass)
-    return Scene(
-        amplitude=amplitude,
-        mass=mass,
-        model=args.model,
-        mu=args.mu,
-        theta=args.theta,
-        nu=args.nu,
-        tau=args.tau,
-        periods=args.periods,
-        alpha_t=args.alpha_t,
-        stick_rule=args.stick_rule,
-        fidelity=args.fidelity,
-        integrator=args.integrator,
-        profile=args.profile,
-        load_over_modulus=args.load_over_modulus,
-        rolling=args.rolling,
-    )
+    return Scene(amplitude=amplitude, mass=mass, **_model_values(args))
 
 
 def _progress_bar(label):
@@ -309,6 +303,10 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _curve_values(args):
+    return {k: getattr(args, k) for k in ("tau", "periods", "fidelity", "profile", "load_over_modulus")}
+
+
 def cmd_threshold(args: argparse.Namespace) -> int:
     from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude
 
@@ -316,15 +314,7 @@ def cmd_threshold(args: argparse.Namespace) -> int:
         return _threshold_sweep(args)
     if args.mass is None:
         raise InputError("threshold needs --mass M (or --sweep)")
-    aj = threshold_amplitude(
-        args.mass,
-        tau=args.tau,
-        periods=args.periods,
-        fidelity=args.fidelity,
-        rel_tol=args.rel_tol,
-        profile=args.profile,
-        load_over_modulus=args.load_over_modulus,
-    )
+    aj = threshold_amplitude(args.mass, rel_tol=args.rel_tol, **_curve_values(args))
     out = {
         "mass": args.mass,
         "threshold_amplitude": aj,
@@ -347,15 +337,7 @@ def _threshold_sweep(args):
     log_mass = parse_range(args.log_mass, "log_mass")
     out = args.out or "vertical.nc"
     check_file(out)
-    ds = threshold_curve(
-        log_mass,
-        tau=args.tau,
-        periods=args.periods,
-        fidelity=args.fidelity,
-        workers=args.workers,
-        profile=args.profile,
-        load_over_modulus=args.load_over_modulus,
-    )
+    ds = threshold_curve(log_mass, workers=args.workers, **_curve_values(args))
     ds.attrs["command"] = command_line()
     with atomic(out, errors=(RuntimeError,)) as tmp:  # a partial file is never read as data
         ds.to_netcdf(tmp)
@@ -399,22 +381,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         parse_range(args.log_mass, "log_mass"),
         chunk_rows=args.chunk_rows,
         command=command_line(),
-        model=args.model,
-        mu=args.mu,
-        theta=args.theta,
-        nu=args.nu,
-        tau=args.tau,
-        periods=args.periods,
-        fidelity=args.fidelity,
-        integrator=args.integrator,
-        alpha_t=args.alpha_t,
-        stick_rule=args.stick_rule,
         kind=args.kind,
         chaos=args.chaos,
         stop=args.stop,
-        profile=args.profile,
-        load_over_modulus=args.load_over_modulus,
-        rolling=args.rolling,
+        **_model_values(args),
     )
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
@@ -1324,16 +1294,7 @@ def _design_parser(sub):
 
 
 _VALUE_OPTIONS = {
-    "--log-amplitude",
-    "--log-mass",
-    "--amplitude",
-    "--mass",
-    "--mu",
-    "--theta",
-    "--nu",
-    "--tau",
-    "--periods",
-    "--alpha-t",
+    f"--{k}" for k in "log-amplitude log-mass amplitude mass mu theta nu tau periods alpha-t".split()
 }
 
 

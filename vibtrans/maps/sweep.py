@@ -613,24 +613,17 @@ def run_sweep(
 def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
     """Compute the chunks `todo` on the local pool or the dask cluster, handing
     each finished chunk to `writer`."""
+
+    def job(k):  # _compute_row_block's arguments for chunk k
+        s = sweep
+        return s.values, s.log_amplitude[s.rows(k)], s.log_mass, s.kind, s.chaos, s.stop
+
     if scheduler:
         from dask.distributed import Client
 
         with Client(scheduler) as client:
             client.run(warmup)
-            futures = {
-                client.submit(
-                    _compute_row_block,
-                    sweep.values,
-                    sweep.log_amplitude[sweep.rows(k)],
-                    sweep.log_mass,
-                    sweep.kind,
-                    sweep.chaos,
-                    sweep.stop,
-                    pure=False,
-                ): k
-                for k in todo
-            }
+            futures = {client.submit(_compute_row_block, *job(k), pure=False): k for k in todo}
             from dask.distributed import as_completed
 
             for fut in as_completed(futures):
@@ -651,17 +644,7 @@ def _run_chunks(sweep, todo, writer, workers, scheduler, executor):
             while queue or pending:
                 while queue and len(pending) < 2 * workers:
                     k = queue.pop(0)
-                    pending[
-                        pool.submit(
-                            _compute_row_block,
-                            sweep.values,
-                            sweep.log_amplitude[sweep.rows(k)],
-                            sweep.log_mass,
-                            sweep.kind,
-                            sweep.chaos,
-                            sweep.stop,
-                        )
-                    ] = k
+                    pending[pool.submit(_compute_row_block, *job(k))] = k
                 finished, _ = wait(pending, return_when=FIRST_COMPLETED)
                 failed = None
                 for fut in finished:  # every chunk that finished is kept
