@@ -1,8 +1,8 @@
 """A map's accuracy against its cost, by fidelity preset and run length, for
-the explorer's map request.  `python -m devtools.map_accuracy --out DIR`: each
-setting's 41 x 41 map (log10 A* in [-3, 3], log10 m* in [-5, 5], mu 0.5)
-against the standard 2000-period one; the share of regular points whose
-drift class agrees, the median and 90th percentile of |v - v_ref| /
+the explorer's map request, as measured: each setting's 41 x 41 map (log10
+A* in [-3, 3], log10 m* in [-5, 5], mu 0.5) against the standard 2000-period
+one (tests/maps/test_mapaccuracy.py's `study`); the share of regular points
+whose drift class agrees, the median and 90th percentile of |v - v_ref| /
 max(|v_ref|, 0.1) (large for short runs: accelerating drifts), the steps.
 """
 
