@@ -289,6 +289,19 @@ class TabulatedProfile:
         )
 
 
+def read_table(path: str) -> np.ndarray:
+    """A profile file's two columns r, z (m) as an (n, 2) array; InputError if unreadable."""
+    try:
+        table = np.loadtxt(path, ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise InputError(
+            f"profile file {path!r} must be a readable two-column text table r z (m): {exc}"
+        ) from None
+    if table.shape[1] != 2:
+        raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
+    return table
+
+
 def parse_profile(
     text: str,
     load_over_modulus: float | None = None,
@@ -301,14 +314,7 @@ def parse_profile(
         path = text[5:]
         if load_over_modulus is None:
             raise InputError("profile file:PATH needs the load N0/E* (load_over_modulus, m^2, in (0, inf))")
-        try:
-            table = np.loadtxt(path, ndmin=2)
-        except (OSError, ValueError) as exc:
-            raise InputError(
-                f"profile file {path!r} must be a readable two-column text table r z (m): {exc}"
-            ) from None
-        if table.shape[1] != 2:
-            raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
+        table = read_table(path)
         return TabulatedProfile(table[:, 0], table[:, 1], load_over_modulus, name=text)
     if not isinstance(text, str):
         raise InputError(f"profile must be one of {', '.join(PROFILE_KINDS)}; got {text!r}")

@@ -52,7 +52,7 @@ import numpy as np
 import param
 
 from vibtrans.core.errors import InputError
-from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile
+from vibtrans.core.profiles import FlatSphereProfile, PowerLawProfile, TabulatedProfile, read_table
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -157,14 +157,7 @@ def tip_shape(
     if profile.startswith("file:"):
         only()
         path = profile[5:]
-        try:
-            table = np.loadtxt(path, ndmin=2)
-        except (OSError, ValueError) as exc:
-            raise InputError(
-                f"profile file {path!r} must be a readable two-column text table r z (m): {exc}"
-            ) from None
-        if table.shape[1] != 2:
-            raise InputError(f"profile file {path!r} must have two columns r z (m), got {table.shape[1]}")
+        table = read_table(path)
         return TipShape("file", path=path, table=(table[:, 0].copy(), table[:, 1].copy()))
     if profile.startswith("flat-sphere"):
         if profile != "flat-sphere":
