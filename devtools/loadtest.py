@@ -72,7 +72,6 @@ import random
 import re
 import shutil
 import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -86,6 +85,7 @@ from vibtrans_explorer.server.memory import CLOSED, RELEASE_NAME, RELEASED
 
 from . import results
 from .chromium import ARGS, CHROMIUM
+from .deploy import free_port as _port
 
 ROOT = Path(__file__).resolve().parent.parent
 LIFETIME_MS, CHECK_MS = 3000, 1000
@@ -129,12 +129,6 @@ _DONE_JS = """
   return null;
 }
 """
-
-
-def _port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _stat(pid):
@@ -838,17 +832,8 @@ def _median(values):
 
 
 def _new_result():
-    return {
-        "latencies": [],
-        "browser_latencies": [],
-        "protocol_latencies": [],
-        "timeline": [],
-        "errors": [],
-        "refused": [],
-        "load_s": [],
-        "load_kinds": [],
-        "map_s": [],
-    }
+    lists = "latencies browser_latencies protocol_latencies timeline errors refused load_s load_kinds map_s"
+    return {k: [] for k in lists.split()}
 
 
 def _quantile(values, q):
@@ -881,17 +866,8 @@ def run(a):
         rss_ready = server.rss()
         # warm-up: one session, one click, closed and dropped -> the baseline
         warm = _new_result()
-        warm_args = argparse.Namespace(
-            **{
-                **vars(a),
-                "sessions": 1,
-                "clicks": 1,
-                "think": 0.0,
-                "ramp": 0.0,
-                "first_point": 997,
-                "maps": 0,
-            }
-        )
+        one = dict(sessions=1, clicks=1, think=0.0, ramp=0.0, first_point=997, maps=0)
+        warm_args = argparse.Namespace(**{**vars(a), **one})
         asyncio.run(_drive(server.url, warm_args, 1, warm, a.seed))
         _, warm_released = server.wait_dropped(1, a.settle)
         rss_base = server.rss()
