@@ -913,17 +913,9 @@ def _export_parser(sub):
     e.add_argument(
         "kind",
         choices=(
-            "heatmap",
-            "trajectory",
-            "vertical",
-            "memory",
-            "paper",
-            "lyapunov-map",
-            "section",
-            "orbit-diagram",
-            "continuation",
-            "map-difference",
-        ),
+            "heatmap trajectory vertical memory paper lyapunov-map section orbit-diagram continuation "
+            "map-difference"
+        ).split(),
     )
     e.add_argument(
         "--out", required=True, help="FILE.png|svg|pdf (or .html: interactive bokeh); paper: a folder"

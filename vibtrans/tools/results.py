@@ -30,19 +30,8 @@ from typing import Any
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
 
 # the packages whose versions decide the figures (missing ones are left out)
-KEY_PACKAGES = (
-    "vibtrans",
-    "numpy",
-    "numba",
-    "llvmlite",
-    "scipy",
-    "xarray",
-    "zarr",
-    "matplotlib",
-    "panel",
-    "bokeh",
-    "holoviews",
-    "playwright",
+KEY_PACKAGES = tuple(
+    "vibtrans numpy numba llvmlite scipy xarray zarr matplotlib panel bokeh holoviews playwright".split()
 )
 SCHEMA = 1
 _STAMP = "%Y%m%dT%H%M%SZ"
