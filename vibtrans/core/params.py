@@ -181,6 +181,11 @@ def _amplitude_ratio_of(nu):
     return float(amplitude_ratio(nu))
 
 
+def _above(lo: float, default: Any, doc: str, closed: bool = False, **kw: Any) -> Physical:
+    """A Physical in (lo, inf), or [lo, inf) when `closed`."""
+    return Physical(default, bounds=(lo, None), inclusive_bounds=(closed, False), doc=doc, **kw)
+
+
 class Scene(param.Parameterized):
     """One simulated scene, in the paper's normalized units.
 
@@ -228,24 +233,11 @@ class Scene(param.Parameterized):
         If a parameter is unknown or outside its range.
     """
 
-    amplitude = Physical(
-        10**-0.3,
-        bounds=(0, None),
-        inclusive_bounds=(True, False),
-        doc="A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)",
+    amplitude = _above(
+        0, 10**-0.3, "A*: vertical wave amplitude / a0 (the map spans 1e-3 to 1e3)", closed=True
     )
-    mass = Physical(
-        10.0,
-        bounds=(MASS_MIN, None),
-        inclusive_bounds=(True, False),
-        doc="m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)",
-    )
-    mu = Physical(
-        0.3,
-        bounds=(0, None),
-        inclusive_bounds=(False, False),
-        doc="friction coefficient (typically 0.01 to 1)",
-    )
+    mass = _above(MASS_MIN, 10.0, "m* = a0 m f^2 / (M g) (the map spans 1e-5 to 1e5)", closed=True)
+    mu = _above(0, 0.3, "friction coefficient (typically 0.01 to 1)")
     theta = Physical(1.2, bounds=(1.0, 1.5), doc="tangential/normal compliance ratio theta")
     nu = Physical(
         0.3,
@@ -253,15 +245,8 @@ class Scene(param.Parameterized):
         inclusive_bounds=(False, False),
         doc="substrate Poisson ratio (sets the Rayleigh ratio r)",
     )
-    tau = Physical(
-        50.0,
-        bounds=(0, None),
-        inclusive_bounds=(True, False),
-        doc="ramp time of the wave, periods (0: no ramp)",
-    )
-    periods = Physical(
-        2000.0, bounds=(0, None), inclusive_bounds=(False, False), doc="observation time T_obs, wave periods"
-    )
+    tau = _above(0, 50.0, "ramp time of the wave, periods (0: no ramp)", closed=True)
+    periods = _above(0, 2000.0, "observation time T_obs, wave periods")
     alpha_t = Physical(0.5, bounds=(0.0, 1.0), doc="point mass: tangential restitution at rebounds")
     model: param.Selector = param.Selector(default="deformable", objects=list(MODELS))
     integrator: param.Selector = param.Selector(default="ab4", objects=list(INTEGRATORS))
@@ -274,13 +259,12 @@ class Scene(param.Parameterized):
     profile = ProfileSpec(
         "sphere", doc="particle profile (deformable and vertical models): " + ", ".join(PROFILE_KINDS)
     )
-    load_over_modulus = Physical(
+    load_over_modulus = _above(
+        0,
         None,
-        allow_None=True,
-        bounds=(0, None),
-        inclusive_bounds=(False, False),
-        doc="N0/E*, m^2: the static load over the contact modulus "
+        "N0/E*, m^2: the static load over the contact modulus "
         "(file: profiles only, whose table is in metres)",
+        allow_None=True,
     )
     rolling = RollingSpec(
         ROLLING_NONE,
