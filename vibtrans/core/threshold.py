@@ -223,19 +223,11 @@ def point_mass_sliding_threshold(mass: float, mu: float = 0.3, r: Any = None, nu
 
 def _threshold_task(args):
     """A run of consecutive masses, each bracketed from its neighbour."""
-    masses, tau, periods, fidelity, profile, load_over_modulus = args
+    masses, values = args
     out = []
     guess = None
     for m in masses:
-        guess = threshold_amplitude(
-            m,
-            tau=tau,
-            periods=periods,
-            fidelity=fidelity,
-            guess=guess,
-            profile=profile,
-            load_over_modulus=load_over_modulus,
-        )
+        guess = threshold_amplitude(m, guess=guess, **values)
         out.append(guess)
     return out
 
@@ -325,13 +317,13 @@ def threshold_curve(
 
     from vibtrans.version import __version__
 
-    Scene(
+    values = dict(
         tau=tau, periods=periods, fidelity=fidelity, profile=profile, load_over_modulus=load_over_modulus
-    )  # validate
+    )
+    Scene(**values)  # validate
     log_mass = np.asarray(log_mass, dtype=float)
     masses = 10.0**log_mass
-    runs = [masses[i : i + 25] for i in range(0, masses.size, 25)]
-    tasks = [(run, tau, periods, fidelity, profile, load_over_modulus) for run in runs]
+    tasks = [(masses[i : i + 25], values) for i in range(0, masses.size, 25)]
     workers = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
         parts = list(
