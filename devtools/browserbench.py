@@ -104,9 +104,8 @@ import time
 from pathlib import Path
 
 from . import results
-from .chromium import ARGS, CHROMIUM
+from .chromium import ARGS, CHROMIUM, served
 
-ROOT = Path(__file__).resolve().parent.parent
 VIEWPORT = {"width": 1400, "height": 1000}
 BUSY_WITHIN_S = 0.3
 ACTION_TIMEOUT_S = 120.0
@@ -718,14 +717,6 @@ def table(rows):
     return "\n".join(lines)
 
 
-def _served():
-    sys.path.insert(0, str(ROOT / "tests"))
-    from netutil import Served
-
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
-    return Served(env=env, cwd=ROOT)
-
-
 @contextlib.contextmanager
 def _browser_and_server(url, log, server_errors=None):
     """(chromium, the explorer's URL): `url`, or a server of the bench's own,
@@ -736,7 +727,7 @@ def _browser_and_server(url, log, server_errors=None):
 
     server = None
     if url is None:
-        server = _served()
+        server = served()
         log("starting vibtrans serve ...")
         server.wait_page()
         server.wait_kernels()

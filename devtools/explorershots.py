@@ -9,11 +9,9 @@ so a frame that shrinks when the key grows shows in numbers.
 
 import argparse
 import json
-import os
-import sys
 from pathlib import Path
 
-from devtools.chromium import launched
+from devtools.chromium import launched, served
 
 ROOT = Path(__file__).resolve().parent.parent
 SIZES = ["1024x768", "1280x800", "1920x1080"]
@@ -40,14 +38,6 @@ MAP_JS = """() => {
 
 
 IDLE_JS = "() => window.Bokeh.documents.every((d) => d.is_idle)"
-
-
-def _served():
-    sys.path.insert(0, str(ROOT / "tests"))
-    from netutil import Served
-
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
-    return Served(env=env, cwd=ROOT)
 
 
 def _settle(page, ms=1500):
@@ -141,7 +131,7 @@ def main(argv=None):
     server = None
     url = args.url
     if url is None:
-        server = _served()
+        server = served()
         server.wait_page()
         server.wait_kernels()
         url = server.url
