@@ -212,13 +212,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 for k in ("stop_reason", "periods_run", "asymptotic_drift_velocity")
             }
         )
-    if args.json:
-        print(json.dumps(out))
-    else:
-        for k, v in out.items():
-            if k != "scene":
-                print(f"{k:>22}: {v}")
+    _report(out, args.json, 22, "scene")
     return 0
+
+
+def _report(out, as_json, width, hidden):
+    """`out` as one JSON object, or a line per key (but `hidden`), names right-aligned."""
+    if as_json:
+        print(json.dumps(out))
+        return
+    for k, v in out.items():
+        if k != hidden:
+            print(f"{k:>{width}}: {v}")
 
 
 def _orbit_json(orbit):
@@ -289,12 +294,8 @@ def cmd_orbit(args: argparse.Namespace) -> int:
         out["rolling_note"] = (
             "the vertical motion's orbit: the same for every rolling (docs/MODEL.md section 11)"
         )
-    if args.json:
-        print(json.dumps(out))
-    else:
-        for k, v in out.items():
-            if k != "points":
-                print(f"{k:>18}: {v}")
+    _report(out, args.json, 18, "points")
+    if not args.json:
         for p in out.get("points", []):
             print(
                 f"  log A* {p['log_amplitude']:8.4f}  log m* {p['log_mass']:8.4f}  "
