@@ -122,6 +122,10 @@ WINDOWS = {
     "the whole run (decimated)": "0",
 }
 DEFAULT_SPEED = "0.25"
+# a run's geometry, the same for all its frames (the browser's `meta`)
+META = "rho wavelength zone_scale spacing width decimals deformable unit rolls mark_cy".split()
+# the sources drawn per frame (`frame`: their data)
+DRAWN = ("surface", "particle", "marks", "zone", "contact", "tip", "mark")
 PARTICLE_FILL = "#c6dbef"
 SUBSTRATE_FILL = "#bcaaa4"
 
@@ -358,6 +362,25 @@ def tip_outline(profile, rho):
     return (np.concatenate([xs, rho * np.cos(angles)]), np.concatenate([zs, centre + rho * np.sin(angles)]))
 
 
+def _view(width, height, limit, name):
+    """A figure of the animation: its frame's size in pixels, both ranges
+    [-limit, limit] until a run sets them, no tools."""
+    fig = figure(
+        frame_width=width,
+        frame_height=height,
+        x_range=Range1d(-limit, limit),
+        y_range=Range1d(-limit, limit),
+        tools="",
+        toolbar_location=None,
+        output_backend="canvas",
+        title="(no run)",
+        name=name,
+    )
+    fig.title.text_font_size = "9.5pt"
+    fig.toolbar.logo = None
+    return fig
+
+
 class ParticleAnimation(pn.viewable.Viewer):
     """The particle on the wave over a run's full-resolution window: side
     view and contact circle in step, with play / pause, a frame slider and
@@ -375,24 +398,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             raise InputError(f"max_frames must be an integer >= 2, got {max_frames!r}")
         self.max_frames = int(max_frames)
         self.frames = ColumnDataSource(self._no_frames(), name="anim-frames")
-        self.meta = ColumnDataSource(
-            {
-                k: []
-                for k in (
-                    "rho",
-                    "wavelength",
-                    "zone_scale",
-                    "spacing",
-                    "width",
-                    "decimals",
-                    "deformable",
-                    "unit",
-                    "rolls",
-                    "mark_cy",
-                )
-            },
-            name="anim-meta",
-        )
+        self.meta = ColumnDataSource({k: [] for k in META}, name="anim-meta")
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
@@ -437,18 +443,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     # ------------------------------------------------------------ figures
     def _build(self):
-        side = figure(
-            frame_width=SIDE_W,
-            frame_height=SIDE_H,
-            x_range=Range1d(-1.0, 1.0),
-            y_range=Range1d(-1.0, 1.0),
-            tools="",
-            toolbar_location=None,
-            output_backend="canvas",
-            title="(no run)",
-            name="anim-side",
-        )
-        side.title.text_font_size = "9.5pt"
+        side = _view(SIDE_W, SIDE_H, 1.0, "anim-side")
         side.xaxis.axis_label = "x - x*(t)  (a0; the view moves with the particle)"
         side.yaxis.axis_label = "height -y  (a0, up)"
         self.ground = VArea(x="xi", y1="z", y2=-1.0, fill_color=SUBSTRATE_FILL, fill_alpha=1.0)
@@ -507,21 +502,9 @@ class ParticleAnimation(pn.viewable.Viewer):
         ]
         for note in self.scale_notes:
             side.add_layout(note, "below")
-        side.toolbar.logo = None
         self.side = side
 
-        circ = figure(
-            frame_width=CIRCLE_PX,
-            frame_height=CIRCLE_PX,
-            x_range=Range1d(-1.1, 1.1),
-            y_range=Range1d(-1.1, 1.1),
-            tools="",
-            toolbar_location=None,
-            output_backend="canvas",
-            title="(no run)",
-            name="anim-circle",
-        )
-        circ.title.text_font_size = "9.5pt"
+        circ = _view(CIRCLE_PX, CIRCLE_PX, 1.1, "anim-circle")
         circ.xaxis.axis_label = "x  (sqrt(R a0))"
         circ.yaxis.axis_label = "z  (sqrt(R a0))"
         # the static contact under the weight alone: c = 1 (a* = 1)
@@ -547,7 +530,6 @@ class ParticleAnimation(pn.viewable.Viewer):
         )
         self.circle_note = Title(text="", text_font_size="8.5pt", text_font_style="italic")
         circ.add_layout(self.circle_note, "below")
-        circ.toolbar.logo = None
         self.circle = circ
 
         self.slider = Slider(
@@ -570,25 +552,9 @@ class ParticleAnimation(pn.viewable.Viewer):
             name="anim-speed",
             stylesheets=[INPUT_FONT],
         )
-        args = dict(
-            frames=self.frames,
-            meta=self.meta,
-            table=self.table,
-            surface=self.surface,
-            particle=self.particle,
-            marks=self.marks,
-            tip=self.tip,
-            tip_shape=self.tip_shape,
-            side=side,
-            mark=self.mark,
-            zone=self.zone,
-            contact=self.contact,
-            side_title=side.title,
-            contact_title=circ.title,
-            names=list(STATE_NAMES),
-            stick_colour=plots.STATE_COLORS[1],
-            slider=self.slider,
-        )
+        args = {k: getattr(self, k) for k in ("frames", "meta", "table", "tip_shape", "slider", *DRAWN)}
+        args.update(side=side, side_title=side.title, contact_title=circ.title, names=list(STATE_NAMES))
+        args.update(stick_colour=plots.STATE_COLORS[1])
         self.slider.js_on_change("value", CustomJS(args=args, code=_ON_FRAME_JS))
         # the frame's size known (or changed) in the browser: its scales made equal
         side.js_on_change("inner_width", CustomJS(args=args, code=_DRAW_JS + "draw(slider.value);"))
@@ -643,16 +609,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             self.frames.data = self._no_frames()
             self.meta.data = {k: [] for k in self.meta.data}
             self.table.data = {"uy": []}
-            for source in (
-                self.surface,
-                self.particle,
-                self.marks,
-                self.zone,
-                self.contact,
-                self.tip,
-                self.tip_shape,
-                self.mark,
-            ):
+            for source in (self.tip_shape, *(getattr(self, name) for name in DRAWN)):
                 source.data = {k: [] for k in source.data}
             self.side.title.text = self.circle.title.text = "(no run)"
             for note in (*self.scale_notes, self.circle_note):
@@ -715,20 +672,8 @@ class ParticleAnimation(pn.viewable.Viewer):
             outer = np.array([plots.STATE_COLORS[k] for k in state])
         # a rolling particle's rolled arc q* (a0; plots.rolls), else none
         roll = win["roll"].values if plots.rolls(win) else np.zeros(t.size)
-        frames = {
-            "t": t,
-            "x": win["x"].values,
-            "y": win["y"].values,
-            "a": win["a"].values,
-            "state": state,
-            "c": c,
-            "s": s,
-            "g": g,
-            "ux": u[:, 0],
-            "uy": u[:, 1],
-            "outer": outer,
-            "roll": roll,
-        }
+        frames = dict(t=t, x=win["x"].values, y=win["y"].values, a=win["a"].values, state=state, c=c, s=s)
+        frames.update(g=g, ux=u[:, 0], uy=u[:, 1], outer=outer, roll=roll)
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
         if periods is not None and w0 < full[0]:
             return frames, (
@@ -937,7 +882,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def _draw(self, i):
         f = self.frame(i)
-        for name in ("surface", "particle", "marks", "zone", "contact", "tip", "mark"):
+        for name in DRAWN:
             getattr(self, name).data = f[name]
         self.side.title.text = f["side_title"]
         self.circle.title.text = f["contact_title"]
