@@ -51,6 +51,7 @@ from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.mapondemand import progress_text
 from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
@@ -122,13 +123,18 @@ ROLLING_CHART_NOTE = (
 FIGURE_FORMATS = ("png", "svg", "pdf")
 DATA_FORMATS = ("nc", "csv")
 DOWNLOAD_LABELS = {
-    "png": "figure PNG",
-    "svg": "figure SVG",
-    "pdf": "figure PDF",
+    **{f: f"figure {f.upper()}" for f in FIGURE_FORMATS},
     "nc": "data netCDF",
     "csv": "data CSV",
 }
 DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
+
+
+def _button(label, color, css, act, **params):
+    """A button (CSS classes `css`, space-separated) calling act() when clicked."""
+    button = pn.widgets.Button(label=label, color=color, css_classes=css.split(), **params)
+    button.on_click(lambda event: act())
+    return button
 
 
 def _device_marker(fig):
@@ -399,14 +405,9 @@ def device_text(device, reading, q, warnings, rolling=ROLLING_NONE, unread=UNREA
             ),
         ]
     tip = "sphere" if q.profile == "sphere" else f"particle with a {q.profile} tip"
-    body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
-    tip += (
-        f", {body}"
-        if body and rolling != ROLLING_NONE
-        else f", rolling with j = {rolling:g}"
-        if rolling != ROLLING_NONE
-        else ""
-    )
+    if rolling != ROLLING_NONE:
+        body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
+        tip += f", {body}" if body else f", rolling with j = {rolling:g}"
     head = (
         f"**Device**: {literal(units.material(device.particle).name)} {literal(tip)}, R = "
         f"{device.radius:.4g} m, on {literal(units.material(device.substrate).name)}; f = "
@@ -518,19 +519,11 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         )
         self.info = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-device"])
         self.note = pn.pane.Markdown("", sizing_mode="stretch_width")
-        self.draw_button = pn.widgets.Button(
-            label="Draw chart", color="primary", css_classes=["vt-design-draw"]
-        )
-        self.draw_button.on_click(lambda event: pn.state.execute(self.draw))
+        draw, compute = (lambda: pn.state.execute(self.draw)), (lambda: pn.state.execute(self.compute))
+        self.draw_button = _button("Draw chart", "primary", "vt-design-draw", draw)
         self.offer = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-offer"])
-        self.compute_button = pn.widgets.Button(
-            label="Compute this map", color="success", css_classes=["vt-design-compute"]
-        )
-        self.compute_button.on_click(lambda event: pn.state.execute(self.compute))
-        self.cancel_button = pn.widgets.Button(
-            label="Cancel map", color="warning", css_classes=["vt-design-cancel"]
-        )
-        self.cancel_button.on_click(lambda event: self.cancel())
+        self.compute_button = _button("Compute this map", "success", "vt-design-compute", compute)
+        self.cancel_button = _button("Cancel map", "warning", "vt-design-cancel", self.cancel)
         # what the map computing is doing (apart from the offer: a chart
         # drawn meanwhile may offer another map)
         self.progress = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-progress"])
@@ -553,13 +546,8 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             visible=False,
             sizing_mode="stretch_width",
         )
-        self.run_button = pn.widgets.Button(
-            label="Run this device's scene",
-            color="primary",
-            disabled=on_run is None,
-            css_classes=["vt-design-run", "vt-ack-run"],
-        )
-        self.run_button.on_click(lambda event: self.run_device())
+        run = ("Run this device's scene", "primary", "vt-design-run vt-ack-run", self.run_device)
+        self.run_button = _button(*run, disabled=on_run is None)
         self._buttons()
         labels = {
             "mu": "mu (friction)",
@@ -650,16 +638,10 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         try:
             if device and self._set_device(**values):
                 self.particle_tip.tip = "sphere"
-            self.param.update(
-                x=p.x[0],
-                x_lo=float(p.x[1]),
-                x_hi=float(p.x[2]),
-                x_points=int(p.x[3]),
-                y=p.y[0],
-                y_lo=float(p.y[1]),
-                y_hi=float(p.y[2]),
-                y_points=int(p.y[3]),
-            )
+            axes = {}
+            for a, (q, lo, hi, points) in (("x", p.x), ("y", p.y)):
+                axes.update({a: q, f"{a}_lo": float(lo), f"{a}_hi": float(hi), f"{a}_points": int(points)})
+            self.param.update(**axes)
         finally:
             self._presetting = False
         if not device and (
@@ -900,20 +882,12 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                         self._say(f"**The chart could not be read on the map:** {literal(exc)}")
                     if result is not None and self.draws.is_latest(drawn):
                         self._show_chart(values, result, self._map)
-                done = int(update.ds["computed"].values.sum())
-                seconds = time.monotonic() - started
-                self.progress.object = (
-                    f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
-                    f"points computed, {seconds:.0f} s{update.left_text()} ..."
-                    if update.kind == "level"
-                    else f"Level {update.level} of {update.levels} computing: {done:,} of "
-                    f"{n * n:,} points computed so far, {seconds:.0f} s"
-                    f"{update.left_text()} ..."
-                    if update.kind == "chunk"
-                    else f"The chart's map, from this server's cache ({done:,} of {n * n:,} points computed)."
-                    if update.cached
-                    else f"The chart's map is finished: {done:,} of {n * n:,} points computed in "
-                    f"{seconds:.0f} s."
+                self.progress.object = progress_text(
+                    update,
+                    n,
+                    time.monotonic() - started,
+                    "The chart's map, from this server's cache ({done:,} of {total:,} points computed).",
+                    "The chart's map is finished: {done:,} of {total:,} points computed in {seconds:.0f} s.",
                 )
             elif update.kind == "failed":
                 self.progress.object = f"**The map failed:** {update.text}"
@@ -1021,15 +995,13 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                 label=f"{k}: E (Pa), nu, rho (kg/m^3)",
                 width=230,
                 placeholder=CUSTOM_EXAMPLE,
-                visible=getattr(device, k) == CUSTOM_MATERIAL,
+                visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, device.param[k]),
                 css_classes=[f"vt-design-{k}-custom"],
             )
             for k in ("substrate", "particle")
         }
-        self.custom_row = pn.Row(
-            *self.custom_inputs.values(), visible=self._any_custom(), margin=(0, 0, 10, 0)
-        )
-        device.param.watch(self._on_material, ["substrate", "particle"])
+        any_custom = pn.bind(lambda *m: CUSTOM_MATERIAL in m, device.param.substrate, device.param.particle)
+        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=any_custom, margin=(0, 0, 10, 0))
         self.param.watch(self._on_edit, list(AXIS_VALUES))
         device.param.watch(self._on_edit, [*PRESET_DEVICE, "substrate_custom", "particle_custom"])
         self.particle_tip.param.watch(self._on_edit, "tip")
@@ -1057,14 +1029,6 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             sizing_mode="stretch_width",
             css_classes=["vt-design-downloads"],
         )
-
-    def _any_custom(self):
-        return CUSTOM_MATERIAL in (self.device.substrate, self.device.particle)
-
-    def _on_material(self, *events):
-        for k, w in self.custom_inputs.items():
-            w.visible = getattr(self.device, k) == CUSTOM_MATERIAL
-        self.custom_row.visible = self._any_custom()
 
     def _on_edit(self, *events):
         """A value of the preset's edited: the preset shown becomes "custom"
