@@ -809,7 +809,7 @@ class MapView:
             # page gets a reference to the log, not the server's words
             reference = uuid.uuid4().hex[:8]
             log.exception("loading the map failed (reference %s): %s", reference, settings)
-            at_next_tick(doc, functools.partial(self._load_failed, job, reference))
+            at_next_tick(doc, functools.partial(self._loaded, job, reference))
             return
         at_next_tick(doc, functools.partial(self._loaded, job))
 
@@ -817,26 +817,23 @@ class MapView:
         if self.loads.is_latest(job) and not job.finished:
             self._loading(loading_text(settings, stage))
 
-    def _loaded(self, job):
+    def _loaded(self, job, reference=None):
+        """The load ended: the state's maps shown, or (`reference` of the
+        server's log) why not."""
         if not self.loads.is_latest(job) or job.finished:
             return
         self.loads.finish(job)
         with pn.io.hold():
-            self._loading(None)
-            self._draw()  # (from the rendering cache now)
+            if reference is None:
+                self._loading(None)
+                self._draw()  # (from the rendering cache now)
+            else:
+                self._loading(
+                    f"**The map could not be drawn** (reference {reference}: the server's log names "
+                    f"the cause); the map below, dimmed, is the one shown before."
+                )
             if self.answered is not None:
                 self.answered()
-
-    def _load_failed(self, job, reference):
-        if not self.loads.is_latest(job) or job.finished:
-            return
-        self.loads.finish(job)
-        self._loading(
-            f"**The map could not be drawn** (reference {reference}: the server's log names "
-            f"the cause); the map below, dimmed, is the one shown before."
-        )
-        if self.answered is not None:
-            self.answered()
 
     def _draw(self):
         """Show the state's maps (rendered now if not in the cache)."""
