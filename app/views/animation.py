@@ -25,13 +25,10 @@ some 10^5 times its overlap: the overlap must stay a small cap of the
 circle; a smaller circle was drawn sunk whole under the surface), and its
 contact zone as Hertz's for a sphere of that radius (half-width
 c sqrt(rho) a0, c the run's contact radius over the static one, sqrt(R a0)
-for the sphere; a profile's own c(a*) as its run recorded it).
-A profile's particle is drawn as its tip's outline near the
-contact (the library's `outline`: z / a0 against r over the static contact
-radius, that radius drawn sqrt(rho) a0 as the contact zone's scale, out to
-TIP_CONTACT_RADII of them), its apex at the particle's lowest point, closed
-by the drawn circle's arc above (the body); the sphere keeps its circle,
-whose bottom that outline would be (z = r^2 / (2 rho)).  The wavelength is
+for the sphere; a profile's own c(a*) as its run recorded it).  A
+profile's particle is drawn as its tip's outline near the contact, closed
+by the drawn circle's arc above (`tip_outline`); the sphere keeps its
+circle, whose bottom that outline would be (z = r^2 / (2 rho)).  The wavelength is
 drawn three views wide, so that the drawn surface's slope stays below ~0.3
 (at 1.5 views, ~0.6: the material point was drawn resting on a steep slope
 that cut into it; the model's surface under the particle is level).  The
@@ -450,24 +447,9 @@ class ParticleAnimation(pn.viewable.Viewer):
         side.add_glyph(self.surface, self.ground)
         # the particle over the substrate and under its surface line: its
         # overlap with the surface (the Hertz approach a*) shows below the line
-        self.particle_glyph = side.add_glyph(
-            self.particle,
-            Circle(
-                x="x",
-                y="y",
-                radius="r",
-                fill_color=PARTICLE_FILL,
-                fill_alpha=0.85,
-                line_color="black",
-                line_width=1.5,
-            ),
-        )
-        self.tip_glyph = side.add_glyph(
-            self.tip,
-            Patch(
-                x="x", y="y", fill_color=PARTICLE_FILL, fill_alpha=0.85, line_color="black", line_width=1.5
-            ),
-        )
+        body = dict(fill_color=PARTICLE_FILL, fill_alpha=0.85, line_color="black", line_width=1.5)
+        self.particle_glyph = side.add_glyph(self.particle, Circle(x="x", y="y", radius="r", **body))
+        self.tip_glyph = side.add_glyph(self.tip, Patch(x="x", y="y", **body))
         side.add_glyph(
             self.mark, Segment(x0="x0", y0="y0", x1="x1", y1="y1", line_color=MARK_COLOUR, line_width=2.5)
         )
@@ -512,22 +494,11 @@ class ParticleAnimation(pn.viewable.Viewer):
             ColumnDataSource({"r": [1.0]}),
             Circle(x=0.0, y=0.0, radius="r", fill_alpha=0.0, line_color="grey", line_dash="dotted"),
         )
-        circ.add_glyph(
-            self.contact,
-            Circle(x=0.0, y=0.0, radius="c", fill_color="colour", fill_alpha=0.9, line_color="black"),
-        )
-        circ.add_glyph(
-            self.contact,
-            Circle(
-                x=0.0,
-                y=0.0,
-                radius="s",
-                fill_color=plots.STATE_COLORS[1],
-                fill_alpha=1.0,
-                line_color="black",
-                line_dash="dashed",
-            ),
-        )
+        # the contact, and its stick core over it
+        at_centre = dict(x=0.0, y=0.0, line_color="black")
+        circ.add_glyph(self.contact, Circle(radius="c", fill_color="colour", fill_alpha=0.9, **at_centre))
+        core = Circle(radius="s", fill_color=plots.STATE_COLORS[1], line_dash="dashed", **at_centre)
+        circ.add_glyph(self.contact, core)
         self.circle_note = Title(text="", text_font_size="8.5pt", text_font_style="italic")
         circ.add_layout(self.circle_note, "below")
         self.circle = circ
@@ -536,12 +507,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             start=0, end=1, value=0, step=1, title="frame", width=PLAYER[1], disabled=True, name="anim-frame"
         )
         self.play = Toggle(
-            label="\u25b6 Play",
-            active=False,
-            width=PLAYER[0],
-            disabled=True,
-            button_type="success",
-            name="anim-play",
+            label="\u25b6 Play", width=PLAYER[0], disabled=True, button_type="success", name="anim-play"
         )
         # (its text follows the page's root size, as the Panel widgets' do)
         self.speed = Select(
@@ -768,14 +734,14 @@ class ParticleAnimation(pn.viewable.Viewer):
             + ("" if sphere else f"\nc(a*) the {scene.profile} profile's")
         )
         R_a0, wave_a0 = _example_device()
-        self.scale_notes[
-            0
-        ].text = f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),"
-        self.scale_notes[1].text = f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)"
-        self.scale_notes[2].text = "To scale (a0): heights, the motion along x" + (
-            ", the overlap a*." if deformable else ". Material point: the particle only."
+        notes, scaled = (
+            self.scale_notes,
+            ", the overlap a*." if deformable else ". Material point: the particle only.",
         )
-        self.scale_notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
+        notes[0].text = f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),"
+        notes[1].text = f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)"
+        notes[2].text = f"To scale (a0): heights, the motion along x{scaled}"
+        notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = (
             (f"the contact zone drawn as Hertz's for the drawn radius: half-width c sqrt({rho:.3g}) a0. ")
             if deformable and sphere
@@ -790,12 +756,10 @@ class ParticleAnimation(pn.viewable.Viewer):
             else "Material point: no contact zone and no contact circle (rigid contact). "
         )
         turning = (
-            (
-                f"The particle rolls ({scene.rolling}): the dark radius marks its material "
-                f"point that started at the contact and turns by the rolled arc q* over the "
-                f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
-                f"normalized scene), so that its rim travels q*, to scale in a0. "
-            )
+            f"The particle rolls ({scene.rolling}): the dark radius marks its material "
+            f"point that started at the contact and turns by the rolled arc q* over the "
+            f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
+            f"normalized scene), so that its rim travels q*, to scale in a0. "
             if rolls
             else ""
         )
@@ -845,16 +809,10 @@ class ParticleAnimation(pn.viewable.Viewer):
                 + M["unit"][0]
             )
         TS = self.tip_shape.data
-        if M["rolls"][0]:
-            th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
-            mark = {
-                "x0": np.array([0.0]),
-                "y0": np.array([cy]),
-                "x1": np.array([rho * math.cos(th)]),
-                "y1": np.array([cy + rho * math.sin(th)]),
-            }
-        else:
-            mark = {k: np.zeros(0) for k in ("x0", "y0", "x1", "y1")}
+        # a rolling particle's mark: from the body's centre to its rim (else none)
+        th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
+        ends = (0.0, cy, rho * math.cos(th), cy + rho * math.sin(th))
+        mark = {k: np.array([v] if M["rolls"][0] else []) for k, v in zip(("x0", "y0", "x1", "y1"), ends)}
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},

@@ -51,11 +51,12 @@ from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.map import tapped
 from vibtrans_explorer.views.mapondemand import progress_text
 from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
-from vibtrans_explorer.views.units import DEVICE_LABELS, device_form
+from vibtrans_explorer.views.units import DEVICE_LABELS, device_form, refusal_alert
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -128,6 +129,10 @@ DOWNLOAD_LABELS = {
     "csv": "data CSV",
 }
 DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
+
+
+# the values a map on demand bounds, named as the chart's refusal says them
+_NAMED = {"theta": "theta of the materials", "nu": "nu of the substrate", "periods": "the map's periods"}
 
 
 def _button(label, color, css, act, **params):
@@ -231,11 +236,7 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
         p = MapRequest.param[name]
         (lo, hi), (lo_in, hi_in) = p.bounds, p.inclusive_bounds
         if not ((lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)):
-            what = {
-                "theta": "theta of the materials",
-                "nu": "nu of the substrate",
-                "periods": "the map's periods",
-            }.get(name, name)
+            what = _NAMED.get(name, name)
             return None, (
                 f"{what} is {value:.4g}; a map on demand accepts {name} in "
                 f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
@@ -505,13 +506,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         # latest of each wins (an older one's result is dropped)
         self.draws = LatestJob()
         self.marks = LatestJob()
-        self.alert = pn.pane.Alert(
-            "",
-            alert_type="danger",
-            visible=False,
-            sizing_mode="stretch_width",
-            css_classes=["vt-design-alert"],
-        )
+        self.alert = refusal_alert("vt-design-alert")
         self.status = pn.pane.Markdown(HINT, sizing_mode="stretch_width", css_classes=["vt-design-status"])
         self.spinner = pn.indicators.LoadingSpinner(value=False, visible=False, width=24, height=24)
         self.chart_pane = pn.Column(
@@ -549,16 +544,8 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         run = ("Run this device's scene", "primary", "vt-design-run vt-ack-run", self.run_device)
         self.run_button = _button(*run, disabled=on_run is None)
         self._buttons()
-        labels = {
-            "mu": "mu (friction)",
-            "surface_energy": "surface energy (J/m^2)",
-            "x_lo": "x lo",
-            "x_hi": "x hi",
-            "x_points": "x points",
-            "y_lo": "y lo",
-            "y_hi": "y hi",
-            "y_points": "y points",
-        }
+        labels = {"mu": "mu (friction)", "surface_energy": "surface energy (J/m^2)"}
+        labels.update({k: k.replace("_", " ") for k in AXIS_VALUES if "_" in k})  # "x lo", ...
         # (the chart's numbers have no bounds: a typed number is applied, the
         # library checks its range when the chart is drawn)
         self.fields = {k: inputs.NumberField(self, k, v, width=150) for k, v in labels.items()}
@@ -698,8 +685,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
 
     # ---------- drawing ----------
     def _say(self, text):
-        self.alert.object = text
-        self.alert.visible = bool(text)
+        self.alert.param.update(object=text, visible=bool(text))
 
     @property
     def jobs(self):
@@ -1076,12 +1062,8 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
 
     # ---------- a click on the chart ----------
     def _on_tap(self, event):
-        x, y = event.x, event.y
-        if self.chart is None or x is None or y is None:
-            return
-        if not (math.isfinite(x) and math.isfinite(y)):
-            return
-        pn.state.execute(functools.partial(self.mark, x, y))
+        if self.chart is not None and tapped(event):
+            pn.state.execute(functools.partial(self.mark, event.x, event.y))
 
     async def mark(self, x, y):
         """Move the device to (x, y) of the chart drawn (its axes' units;

@@ -139,20 +139,10 @@ def _lines(fig, sources, lines, shared, right=(), envelope=False):
     for source, (col, label, colour, dash) in zip(sources, lines):
         axis = {"y_range_name": "right"} if col in right else {}
         axis["view"] = shared.view(source)
-        drawn = []
-        if envelope:
-            drawn.append(
-                fig.add_glyph(
-                    source,
-                    VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi", fill_color=colour, fill_alpha=0.3),
-                    **axis,
-                )
-            )
-        r = fig.add_glyph(
-            source,
-            Line(x="time", y=col, line_color=colour, line_width=1.5, line_dash=dash or "solid"),
-            **axis,
-        )
+        band = VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi", fill_color=colour, fill_alpha=0.3)
+        drawn = [fig.add_glyph(source, band, **axis)] if envelope else []
+        line = Line(x="time", y=col, line_color=colour, line_width=1.5, line_dash=dash or "solid")
+        r = fig.add_glyph(source, line, **axis)
         renderers.append(r)
         items.append(LegendItem(label=label, renderers=[r, *drawn]))
     fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"), ("value", "$y{0.0000}")]))
@@ -211,11 +201,8 @@ def _timeline(title, x_range, shared):
     fig.yaxis.visible = False
     fig.ygrid.visible = False
     source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
-    r = fig.add_glyph(
-        source,
-        Quad(left="left", right="right", bottom=0.0, top=1.0, fill_color="color", line_width=0),
-        view=shared.view(source),
-    )
+    bands = Quad(left="left", right="right", bottom=0.0, top=1.0, fill_color="color", line_width=0)
+    r = fig.add_glyph(source, bands, view=shared.view(source))
     fig.add_tools(
         HoverTool(renderers=[r], tooltips=[("state", "@state"), ("t*", "@left{0.000} to @right{0.000}")])
     )
@@ -421,8 +408,7 @@ class _Block:
                 lo, hi = _extent([raw[c] for c in panel.right])
                 panel.fig.extra_y_ranges["right"].update(start=lo, end=hi)
         if self.twin_source is not None:
-            tt = twin["time"].values if twin is not None else np.zeros(0)
-            tx = twin["x"].values if twin is not None else np.zeros(0)
+            tt, tx = (twin["time"].values, twin["x"].values) if twin is not None else (np.zeros(0),) * 2
             self.twin_source.data = {"time": tt, "x": tx}
             lo, hi = _extent([raw["x"], tx])
             self.twin_figure.y_range.update(start=lo, end=hi)

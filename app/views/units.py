@@ -18,6 +18,13 @@ from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 
 
+def refusal_alert(css):
+    """An alert of what a tab refused, hidden while it has nothing to say."""
+    return pn.pane.Alert(
+        "", alert_type="danger", visible=False, sizing_mode="stretch_width", css_classes=[css]
+    )
+
+
 def same_scene(device, scene):
     """Is `scene` the device's (log10 A*, log10 m*, theta, nu), as run
     (state.device_scene_values: unrounded)?"""
@@ -47,13 +54,7 @@ class UnitsPanel(pn.viewable.Viewer):
         # the last run of the device, if it rolled: its contact patch's check
         self.run_note = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-units-rolling"])
         # why the tab's Run did not run, beside its button
-        self.refusal = pn.pane.Alert(
-            "",
-            alert_type="danger",
-            visible=False,
-            sizing_mode="stretch_width",
-            css_classes=["vt-units-refusal"],
-        )
+        self.refusal = refusal_alert("vt-units-refusal")
         state.param.watch(self._update, [*DEVICE_FIELDS, "invalid"])
         self._update()
 
@@ -124,8 +125,7 @@ class UnitsPanel(pn.viewable.Viewer):
 
     def say_refusal(self, text):
         """Say why the tab's Run did not run ("": nothing to say)."""
-        self.refusal.object = text
-        self.refusal.visible = bool(text)
+        self.refusal.param.update(object=text, visible=bool(text))
 
     def device_of(self, scene):
         """The device (units.NormalizedScene) if `scene` is the device's of
