@@ -52,7 +52,7 @@ from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
 from vibtrans_explorer.views.map import tapped
-from vibtrans_explorer.views.mapondemand import progress_text
+from vibtrans_explorer.views.mapondemand import progress_text, rolling_name
 from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
@@ -183,11 +183,6 @@ def _tick_axes(fig, chart):
         )
 
 
-def _all_finite(chart):
-    """True when every chart point has a value (no NaN would reach the plot)."""
-    return all(bool(np.isfinite(chart[v].values).all()) for v in ("drift_velocity", "A_star", "m_star"))
-
-
 def tip_shape(values):
     """The checked tip (designtip.TipShape) of the panel's values (the
     library's InputError names a refused size)."""
@@ -303,7 +298,8 @@ def build_chart(values, map_ds=None, map_name="given map"):
         shape=tip_shape(v),
         rolling=v["rolling"],
     )
-    if not _all_finite(chart):
+    # every chart point with a value: no NaN reaches the plot
+    if not all(bool(np.isfinite(chart[v].values).all()) for v in ("drift_velocity", "A_star", "m_star")):
         bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
         raise InputError(
             f"the map has no value at {bad} of {chart['drift_velocity'].size} chart points "
@@ -654,12 +650,12 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         third = [q for q in design.AXES if q not in (self.x, self.y)]
         return third[0] if len(third) == 1 else None
 
-    def _fixed_text(self):
+    def _fixed_text(self, *axes):
         q = self.fixed_quantity()
         return (
-            "x and y must be two different quantities"
+            "*x and y must be two different quantities*"
             if q is None
-            else f"fixed: {q} = the device's {q} ({UNITS[q]})"
+            else f"*fixed: {q} = the device's {q} ({UNITS[q]})*"
         )
 
     def values(self):
@@ -763,8 +759,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                 f"docs/MODEL.md section 10), so its chart reads a map of that profile"
             )
         if need.rolling != ROLLING_NONE:  # (and why a rolling particle's needs its own)
-            named = need.rolling if isinstance(need.rolling, str) else f"{need.rolling:g}"
-            rolling = ROLLING_CHART_NOTE.format(rolling=named)
+            rolling = ROLLING_CHART_NOTE.format(rolling=rolling_name(need.rolling))
             reasons = rolling if need.profile == "sphere" else f"{reasons}; {rolling}"
         head = f"**No shipped map serves this chart:** {reasons}."
         request, why = map_request(need, fidelity=values["map_fidelity"], periods=values["map_periods"])
@@ -1037,13 +1032,6 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         for b in self.download_buttons.values():
             b.disabled = False
 
-    def device_mark(self):
-        """(x, y) of the device marked on the chart shown, or None."""
-        c, d = self.chart, self.marked
-        if c is None or d is None:
-            return None
-        return (getattr(d, c.attrs["x"]), getattr(d, c.attrs["y"]))
-
     def chart_file(self, fmt):
         """The bytes (BytesIO) of a download of the chart shown: its figure
         (png, svg, pdf; the device marked) or its data (nc, csv)."""
@@ -1056,9 +1044,9 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             raise ValueError(f"no such download: {fmt!r}")
         from vibtrans.products.export import export_design
 
-        return exclusively(
-            read_back, functools.partial(export_design, chart, device=self.device_mark()), f"design.{fmt}"
-        )
+        d = self.marked  # the device marked on the chart shown
+        mark = None if d is None else (getattr(d, chart.attrs["x"]), getattr(d, chart.attrs["y"]))
+        return exclusively(read_back, functools.partial(export_design, chart, device=mark), f"design.{fmt}")
 
     # ---------- a click on the chart ----------
     def _on_tap(self, event):
@@ -1134,7 +1122,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             f = self.fields
             select = functools.partial(pn.widgets.Select.from_param, width=150)
             fixed = pn.pane.Markdown(
-                pn.bind(lambda x, y: f"*{self._fixed_text()}*", self.param.x, self.param.y),
+                pn.bind(self._fixed_text, self.param.x, self.param.y),
                 sizing_mode="stretch_width",
             )
             # (rows that wrap: in half of a wide screen the tab is ~600 px wide)

@@ -347,7 +347,7 @@ class MapOnDemand:
         title = (
             f"map on demand: {request.model}, mu = {request.mu:g}\nstop: {request.stop}"
             + (f", profile {request.profile}" if request.profiled() else "")
-            + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else "")
+            + (f", rolling {rolling_name(request.rolling)}" if request.rolls() else "")
         )
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
@@ -443,9 +443,9 @@ class MapOnDemand:
                 f"**This map is of a {rolling_phrase(rolling)}** ({where}), not of the selected "
                 f"{rolling_phrase(s.rolling)}: its colours do not say where that particle "
                 f"drifts. A click on it runs the selected particle there, rolling. Request a "
-                f"map on demand for rolling {_rolling_name(s.rolling)} to see its own."
+                f"map on demand for rolling {rolling_name(s.rolling)} to see its own."
             )
-            wanted.append(f"rolling {_rolling_name(s.rolling)}")
+            wanted.append(f"rolling {rolling_name(s.rolling)}")
         request = None if shipped or self._map_shown is None else self._map_shown[0]
         if request is not None:
             differs = [
@@ -514,7 +514,8 @@ def _particle(profile):
     return "sphere" if is_sphere(profile) else profile if profile == "cone" else f"{profile} tip"
 
 
-def _rolling_name(rolling):
+def rolling_name(rolling):
+    """A rolling value as a word: its name, or its number j."""
     return rolling if isinstance(rolling, str) else f"{rolling:g}"
 
 
@@ -527,4 +528,4 @@ def rolling_phrase(rolling):
         return "solid sphere that rolls (j = 2/5)"
     if rolling == "shell":
         return "thin shell that rolls (j = 2/3)"
-    return f"particle that rolls with j = {_rolling_name(rolling)}"
+    return f"particle that rolls with j = {rolling_name(rolling)}"

@@ -92,6 +92,8 @@ class UnitsPanel(pn.viewable.Viewer):
             else f"no: outside the explorer's range (log10 A* in {list(SCENE_LOG_AMPLITUDE)}, "
             f"log10 m* in {list(SCENE_LOG_MASS)})"
         )
+        shape = None if self.state.tip == "sphere" else literal(self.state.tip_shape().name)
+        tip = [] if shape is None else [f"| tip (the Design tab's) | {shape}: profile `{profile}` |"]
         self.info.object = "\n".join(
             [
                 "| quantity | value |",
@@ -99,14 +101,7 @@ class UnitsPanel(pn.viewable.Viewer):
                 f"| A* | {A_star:.4g} (log10 {la:.4g}) |",
                 f"| m* | {m_star:.4g} (log10 {lm:.4g}) |",
                 f"| a0 | {a0:.3e} m |",
-                *(
-                    []
-                    if self.state.tip == "sphere"
-                    else [
-                        f"| tip (the Design tab's) | {literal(self.state.tip_shape().name)}: profile "
-                        f"`{profile}` |"
-                    ]
-                ),
+                *tip,
                 f"| wave period | {units.duration_text(1.0 / n.frequency)} |",
                 f"| Rayleigh speed c_R | {n.c_R:.0f} m/s |",
                 f"| r(nu), theta | {n.r:.3f}, {n.theta:.3f} |",
