@@ -38,20 +38,8 @@ from vibtrans_explorer.session.state import (
     URL_KEYS,
     ExplorerState,
 )
-from vibtrans_explorer.texts import (
-    INTRODUCTION,
-    MAP_KEY,
-    POINT_DESCRIPTIONS,
-    PRESENTATION_NOTE,
-    STALE_TEXT,
-)
-from vibtrans_explorer.views.browserside import (
-    ACK_RUN,
-    BrowserAddress,
-    ack_js,
-    ack_listener,
-    ack_pane,
-)
+from vibtrans_explorer.texts import INTRODUCTION, MAP_KEY, POINT_DESCRIPTIONS, PRESENTATION_NOTE, STALE_TEXT
+from vibtrans_explorer.views.browserside import ACK_RUN, BrowserAddress, ack_js, ack_listener, ack_pane
 from vibtrans_explorer.views.design import DesignPanel
 from vibtrans_explorer.views.difference import DifferenceView
 from vibtrans_explorer.views.exports import ExportsView
@@ -148,7 +136,7 @@ class Explorer(pn.viewable.Viewer):
     def __init__(self, simulate=simulate, **params):
         super().__init__(**params)
         self.state = ExplorerState()
-        served = pn.state.curdoc is not None and pn.state.curdoc.session_context is not None
+        self.served = pn.state.curdoc is not None and pn.state.curdoc.session_context is not None
         self.controller = RunController(
             self.state, simulate=simulate, schedule=pn.state.execute, refusals=self._field_errors
         )
@@ -164,7 +152,7 @@ class Explorer(pn.viewable.Viewer):
         self.rolling_view = RollingView(self.state)  # whether (and how) it rolls
         # the views; the run's are in place from the start (empty, disabled),
         # so the first run changes no layout in the page
-        self.units_panel = UnitsPanel(self.state, on_run=self._run_device, on_error=self._error)
+        self.units_panel = UnitsPanel(self.state, on_run=self._run_device)
         self.units_box = pn.Column(sizing_mode="stretch_width", name="units")  # its widgets: when opened
         self.summary_view = SummaryView(self.units_panel.si_text)
         # a run whose inputs changed since it was made: said over its views
@@ -242,7 +230,7 @@ class Explorer(pn.viewable.Viewer):
         c.param.watch(self._on_message, "message", onlychanged=False)
         c.param.watch(self._on_result, "result")
         self.param.watch(self._on_presentation, "presentation")
-        if served:
+        if self.served:
             pn.state.on_session_destroyed(self._on_session_destroyed)
 
     # ---------- URL ----------
@@ -254,11 +242,8 @@ class Explorer(pn.viewable.Viewer):
             return
         self.link = PageLink(self.state, self.location, navigated=self._on_navigation)
         values, errors, request = self.link.read(pn.state.session_args or {})
-        doc = pn.state.curdoc
-        served = doc is not None and doc.session_context is not None
-        self.runs_on_load = self._follow_link(
-            values, errors, request, later=pn.state.onload if served else None
-        )
+        later = pn.state.onload if self.served else None
+        self.runs_on_load = self._follow_link(values, errors, request, later=later)
 
     def _follow_link(self, values, errors, request, later):
         """What a link does once its values are applied: its errors said (a

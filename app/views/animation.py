@@ -25,13 +25,10 @@ some 10^5 times its overlap: the overlap must stay a small cap of the
 circle; a smaller circle was drawn sunk whole under the surface), and its
 contact zone as Hertz's for a sphere of that radius (half-width
 c sqrt(rho) a0, c the run's contact radius over the static one, sqrt(R a0)
-for the sphere; a profile's own c(a*) as its run recorded it).
-A profile's particle is drawn as its tip's outline near the
-contact (the library's `outline`: z / a0 against r over the static contact
-radius, that radius drawn sqrt(rho) a0 as the contact zone's scale, out to
-TIP_CONTACT_RADII of them), its apex at the particle's lowest point, closed
-by the drawn circle's arc above (the body); the sphere keeps its circle,
-whose bottom that outline would be (z = r^2 / (2 rho)).  The wavelength is
+for the sphere; a profile's own c(a*) as its run recorded it).  A
+profile's particle is drawn as its tip's outline near the contact, closed
+by the drawn circle's arc above (`tip_outline`); the sphere keeps its
+circle, whose bottom that outline would be (z = r^2 / (2 rho)).  The wavelength is
 drawn three views wide, so that the drawn surface's slope stays below ~0.3
 (at 1.5 views, ~0.6: the material point was drawn resting on a steep slope
 that cut into it; the model's surface under the particle is level).  The
@@ -122,6 +119,10 @@ WINDOWS = {
     "the whole run (decimated)": "0",
 }
 DEFAULT_SPEED = "0.25"
+# a run's geometry, the same for all its frames (the browser's `meta`)
+META = "rho wavelength zone_scale spacing width decimals deformable unit rolls mark_cy".split()
+# the sources drawn per frame (`frame`: their data)
+DRAWN = ("surface", "particle", "marks", "zone", "contact", "tip", "mark")
 PARTICLE_FILL = "#c6dbef"
 SUBSTRATE_FILL = "#bcaaa4"
 
@@ -358,6 +359,25 @@ def tip_outline(profile, rho):
     return (np.concatenate([xs, rho * np.cos(angles)]), np.concatenate([zs, centre + rho * np.sin(angles)]))
 
 
+def _view(width, height, limit, name):
+    """A figure of the animation: its frame's size in pixels, both ranges
+    [-limit, limit] until a run sets them, no tools."""
+    fig = figure(
+        frame_width=width,
+        frame_height=height,
+        x_range=Range1d(-limit, limit),
+        y_range=Range1d(-limit, limit),
+        tools="",
+        toolbar_location=None,
+        output_backend="canvas",
+        title="(no run)",
+        name=name,
+    )
+    fig.title.text_font_size = "9.5pt"
+    fig.toolbar.logo = None
+    return fig
+
+
 class ParticleAnimation(pn.viewable.Viewer):
     """The particle on the wave over a run's full-resolution window: side
     view and contact circle in step, with play / pause, a frame slider and
@@ -375,24 +395,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             raise InputError(f"max_frames must be an integer >= 2, got {max_frames!r}")
         self.max_frames = int(max_frames)
         self.frames = ColumnDataSource(self._no_frames(), name="anim-frames")
-        self.meta = ColumnDataSource(
-            {
-                k: []
-                for k in (
-                    "rho",
-                    "wavelength",
-                    "zone_scale",
-                    "spacing",
-                    "width",
-                    "decimals",
-                    "deformable",
-                    "unit",
-                    "rolls",
-                    "mark_cy",
-                )
-            },
-            name="anim-meta",
-        )
+        self.meta = ColumnDataSource({k: [] for k in META}, name="anim-meta")
         self.table = ColumnDataSource({"uy": []}, name="anim-table")
         self.surface = ColumnDataSource({"xi": [], "z": []}, name="anim-surface")
         self.particle = ColumnDataSource({"x": [], "y": [], "r": []}, name="anim-particle")
@@ -437,42 +440,16 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     # ------------------------------------------------------------ figures
     def _build(self):
-        side = figure(
-            frame_width=SIDE_W,
-            frame_height=SIDE_H,
-            x_range=Range1d(-1.0, 1.0),
-            y_range=Range1d(-1.0, 1.0),
-            tools="",
-            toolbar_location=None,
-            output_backend="canvas",
-            title="(no run)",
-            name="anim-side",
-        )
-        side.title.text_font_size = "9.5pt"
+        side = _view(SIDE_W, SIDE_H, 1.0, "anim-side")
         side.xaxis.axis_label = "x - x*(t)  (a0; the view moves with the particle)"
         side.yaxis.axis_label = "height -y  (a0, up)"
         self.ground = VArea(x="xi", y1="z", y2=-1.0, fill_color=SUBSTRATE_FILL, fill_alpha=1.0)
         side.add_glyph(self.surface, self.ground)
         # the particle over the substrate and under its surface line: its
         # overlap with the surface (the Hertz approach a*) shows below the line
-        self.particle_glyph = side.add_glyph(
-            self.particle,
-            Circle(
-                x="x",
-                y="y",
-                radius="r",
-                fill_color=PARTICLE_FILL,
-                fill_alpha=0.85,
-                line_color="black",
-                line_width=1.5,
-            ),
-        )
-        self.tip_glyph = side.add_glyph(
-            self.tip,
-            Patch(
-                x="x", y="y", fill_color=PARTICLE_FILL, fill_alpha=0.85, line_color="black", line_width=1.5
-            ),
-        )
+        body = dict(fill_color=PARTICLE_FILL, fill_alpha=0.85, line_color="black", line_width=1.5)
+        self.particle_glyph = side.add_glyph(self.particle, Circle(x="x", y="y", radius="r", **body))
+        self.tip_glyph = side.add_glyph(self.tip, Patch(x="x", y="y", **body))
         side.add_glyph(
             self.mark, Segment(x0="x0", y0="y0", x1="x1", y1="y1", line_color=MARK_COLOUR, line_width=2.5)
         )
@@ -507,21 +484,9 @@ class ParticleAnimation(pn.viewable.Viewer):
         ]
         for note in self.scale_notes:
             side.add_layout(note, "below")
-        side.toolbar.logo = None
         self.side = side
 
-        circ = figure(
-            frame_width=CIRCLE_PX,
-            frame_height=CIRCLE_PX,
-            x_range=Range1d(-1.1, 1.1),
-            y_range=Range1d(-1.1, 1.1),
-            tools="",
-            toolbar_location=None,
-            output_backend="canvas",
-            title="(no run)",
-            name="anim-circle",
-        )
-        circ.title.text_font_size = "9.5pt"
+        circ = _view(CIRCLE_PX, CIRCLE_PX, 1.1, "anim-circle")
         circ.xaxis.axis_label = "x  (sqrt(R a0))"
         circ.yaxis.axis_label = "z  (sqrt(R a0))"
         # the static contact under the weight alone: c = 1 (a* = 1)
@@ -529,37 +494,20 @@ class ParticleAnimation(pn.viewable.Viewer):
             ColumnDataSource({"r": [1.0]}),
             Circle(x=0.0, y=0.0, radius="r", fill_alpha=0.0, line_color="grey", line_dash="dotted"),
         )
-        circ.add_glyph(
-            self.contact,
-            Circle(x=0.0, y=0.0, radius="c", fill_color="colour", fill_alpha=0.9, line_color="black"),
-        )
-        circ.add_glyph(
-            self.contact,
-            Circle(
-                x=0.0,
-                y=0.0,
-                radius="s",
-                fill_color=plots.STATE_COLORS[1],
-                fill_alpha=1.0,
-                line_color="black",
-                line_dash="dashed",
-            ),
-        )
+        # the contact, and its stick core over it
+        at_centre = dict(x=0.0, y=0.0, line_color="black")
+        circ.add_glyph(self.contact, Circle(radius="c", fill_color="colour", fill_alpha=0.9, **at_centre))
+        core = Circle(radius="s", fill_color=plots.STATE_COLORS[1], line_dash="dashed", **at_centre)
+        circ.add_glyph(self.contact, core)
         self.circle_note = Title(text="", text_font_size="8.5pt", text_font_style="italic")
         circ.add_layout(self.circle_note, "below")
-        circ.toolbar.logo = None
         self.circle = circ
 
         self.slider = Slider(
             start=0, end=1, value=0, step=1, title="frame", width=PLAYER[1], disabled=True, name="anim-frame"
         )
         self.play = Toggle(
-            label="\u25b6 Play",
-            active=False,
-            width=PLAYER[0],
-            disabled=True,
-            button_type="success",
-            name="anim-play",
+            label="\u25b6 Play", width=PLAYER[0], disabled=True, button_type="success", name="anim-play"
         )
         # (its text follows the page's root size, as the Panel widgets' do)
         self.speed = Select(
@@ -570,25 +518,9 @@ class ParticleAnimation(pn.viewable.Viewer):
             name="anim-speed",
             stylesheets=[INPUT_FONT],
         )
-        args = dict(
-            frames=self.frames,
-            meta=self.meta,
-            table=self.table,
-            surface=self.surface,
-            particle=self.particle,
-            marks=self.marks,
-            tip=self.tip,
-            tip_shape=self.tip_shape,
-            side=side,
-            mark=self.mark,
-            zone=self.zone,
-            contact=self.contact,
-            side_title=side.title,
-            contact_title=circ.title,
-            names=list(STATE_NAMES),
-            stick_colour=plots.STATE_COLORS[1],
-            slider=self.slider,
-        )
+        args = {k: getattr(self, k) for k in ("frames", "meta", "table", "tip_shape", "slider", *DRAWN)}
+        args.update(side=side, side_title=side.title, contact_title=circ.title, names=list(STATE_NAMES))
+        args.update(stick_colour=plots.STATE_COLORS[1])
         self.slider.js_on_change("value", CustomJS(args=args, code=_ON_FRAME_JS))
         # the frame's size known (or changed) in the browser: its scales made equal
         side.js_on_change("inner_width", CustomJS(args=args, code=_DRAW_JS + "draw(slider.value);"))
@@ -643,16 +575,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             self.frames.data = self._no_frames()
             self.meta.data = {k: [] for k in self.meta.data}
             self.table.data = {"uy": []}
-            for source in (
-                self.surface,
-                self.particle,
-                self.marks,
-                self.zone,
-                self.contact,
-                self.tip,
-                self.tip_shape,
-                self.mark,
-            ):
+            for source in (self.tip_shape, *(getattr(self, name) for name in DRAWN)):
                 source.data = {k: [] for k in source.data}
             self.side.title.text = self.circle.title.text = "(no run)"
             for note in (*self.scale_notes, self.circle_note):
@@ -715,20 +638,8 @@ class ParticleAnimation(pn.viewable.Viewer):
             outer = np.array([plots.STATE_COLORS[k] for k in state])
         # a rolling particle's rolled arc q* (a0; plots.rolls), else none
         roll = win["roll"].values if plots.rolls(win) else np.zeros(t.size)
-        frames = {
-            "t": t,
-            "x": win["x"].values,
-            "y": win["y"].values,
-            "a": win["a"].values,
-            "state": state,
-            "c": c,
-            "s": s,
-            "g": g,
-            "ux": u[:, 0],
-            "uy": u[:, 1],
-            "outer": outer,
-            "roll": roll,
-        }
+        frames = dict(t=t, x=win["x"].values, y=win["y"].values, a=win["a"].values, state=state, c=c, s=s)
+        frames.update(g=g, ux=u[:, 0], uy=u[:, 1], outer=outer, roll=roll)
         span = f"the last {w1 - w0:g} periods (t* = {w0:g} to {w1:g})"
         if periods is not None and w0 < full[0]:
             return frames, (
@@ -823,14 +734,14 @@ class ParticleAnimation(pn.viewable.Viewer):
             + ("" if sphere else f"\nc(a*) the {scene.profile} profile's")
         )
         R_a0, wave_a0 = _example_device()
-        self.scale_notes[
-            0
-        ].text = f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),"
-        self.scale_notes[1].text = f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)"
-        self.scale_notes[2].text = "To scale (a0): heights, the motion along x" + (
-            ", the overlap a*." if deformable else ". Material point: the particle only."
+        notes, scaled = (
+            self.scale_notes,
+            ", the overlap a*." if deformable else ". Material point: the particle only.",
         )
-        self.scale_notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
+        notes[0].text = f"Not to scale: particle radius drawn {_short(rho)} a0 (real R ~ {_short(R_a0)} a0*),"
+        notes[1].text = f"wavelength {_short(wavelength)} a0 (real ~ {_short(wave_a0)} a0*)"
+        notes[2].text = f"To scale (a0): heights, the motion along x{scaled}"
+        notes[3].text = "*a 0.5 mm steel bead on glass at 108 kHz"
         zone = (
             (f"the contact zone drawn as Hertz's for the drawn radius: half-width c sqrt({rho:.3g}) a0. ")
             if deformable and sphere
@@ -845,12 +756,10 @@ class ParticleAnimation(pn.viewable.Viewer):
             else "Material point: no contact zone and no contact circle (rigid contact). "
         )
         turning = (
-            (
-                f"The particle rolls ({scene.rolling}): the dark radius marks its material "
-                f"point that started at the contact and turns by the rolled arc q* over the "
-                f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
-                f"normalized scene), so that its rim travels q*, to scale in a0. "
-            )
+            f"The particle rolls ({scene.rolling}): the dark radius marks its material "
+            f"point that started at the contact and turns by the rolled arc q* over the "
+            f"drawn radius ({_short(rho)} a0: the real R/a0 is not known for a "
+            f"normalized scene), so that its rim travels q*, to scale in a0. "
             if rolls
             else ""
         )
@@ -900,16 +809,10 @@ class ParticleAnimation(pn.viewable.Viewer):
                 + M["unit"][0]
             )
         TS = self.tip_shape.data
-        if M["rolls"][0]:
-            th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
-            mark = {
-                "x0": np.array([0.0]),
-                "y0": np.array([cy]),
-                "x1": np.array([rho * math.cos(th)]),
-                "y1": np.array([cy + rho * math.sin(th)]),
-            }
-        else:
-            mark = {k: np.zeros(0) for k in ("x0", "y0", "x1", "y1")}
+        # a rolling particle's mark: from the body's centre to its rim (else none)
+        th, cy = mark_angle(F["roll"][i], rho), M["mark_cy"][0] - y
+        ends = (0.0, cy, rho * math.cos(th), cy + rho * math.sin(th))
+        mark = {k: np.array([v] if M["rolls"][0] else []) for k, v in zip(("x0", "y0", "x1", "y1"), ends)}
         return {
             "surface": {"xi": xs, "z": height(xs)},
             "particle": {"x": np.array([0.0]), "y": np.array([-y + rho]), "r": np.array([rho])},
@@ -937,7 +840,7 @@ class ParticleAnimation(pn.viewable.Viewer):
 
     def _draw(self, i):
         f = self.frame(i)
-        for name in ("surface", "particle", "marks", "zone", "contact", "tip", "mark"):
+        for name in DRAWN:
             getattr(self, name).data = f[name]
         self.side.title.text = f["side_title"]
         self.circle.title.text = f["contact_title"]

@@ -51,10 +51,12 @@ from vibtrans_explorer.session.state import SCENE_LIMITS, TIP_FIELDS, limited
 from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
 from vibtrans_explorer.views.exports import read_back
+from vibtrans_explorer.views.map import tapped
+from vibtrans_explorer.views.mapondemand import progress_text, rolling_name
 from vibtrans_explorer.views.presentation import scale_fonts
 from vibtrans_explorer.views.profile import RollingView
 from vibtrans_explorer.views.render import exclusively, rendered
-from vibtrans_explorer.views.units import DEVICE_LABELS, device_form
+from vibtrans_explorer.views.units import DEVICE_LABELS, device_form, refusal_alert
 
 MIN_WIDTH = 420
 CHART_HEIGHT = 540
@@ -122,13 +124,22 @@ ROLLING_CHART_NOTE = (
 FIGURE_FORMATS = ("png", "svg", "pdf")
 DATA_FORMATS = ("nc", "csv")
 DOWNLOAD_LABELS = {
-    "png": "figure PNG",
-    "svg": "figure SVG",
-    "pdf": "figure PDF",
+    **{f: f"figure {f.upper()}" for f in FIGURE_FORMATS},
     "nc": "data netCDF",
     "csv": "data CSV",
 }
 DOWNLOAD_HINT = "*Downloads: draw a chart first.*"
+
+
+# the values a map on demand bounds, named as the chart's refusal says them
+_NAMED = {"theta": "theta of the materials", "nu": "nu of the substrate", "periods": "the map's periods"}
+
+
+def _button(label, color, css, act, **params):
+    """A button (CSS classes `css`, space-separated) calling act() when clicked."""
+    button = pn.widgets.Button(label=label, color=color, css_classes=css.split(), **params)
+    button.on_click(lambda event: act())
+    return button
 
 
 def _device_marker(fig):
@@ -170,11 +181,6 @@ def _tick_axes(fig, chart):
             "  return String(Number(m)) + 'e' + String(Number(e)); } "
             "return String(Number(tick.toPrecision(3)));"
         )
-
-
-def _all_finite(chart):
-    """True when every chart point has a value (no NaN would reach the plot)."""
-    return all(bool(np.isfinite(chart[v].values).all()) for v in ("drift_velocity", "A_star", "m_star"))
 
 
 def tip_shape(values):
@@ -225,11 +231,7 @@ def map_request(need, step=design.MAP_STEP, levels=None, fidelity=design.COMPUTE
         p = MapRequest.param[name]
         (lo, hi), (lo_in, hi_in) = p.bounds, p.inclusive_bounds
         if not ((lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)):
-            what = {
-                "theta": "theta of the materials",
-                "nu": "nu of the substrate",
-                "periods": "the map's periods",
-            }.get(name, name)
+            what = _NAMED.get(name, name)
             return None, (
                 f"{what} is {value:.4g}; a map on demand accepts {name} in "
                 f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
@@ -296,7 +298,8 @@ def build_chart(values, map_ds=None, map_name="given map"):
         shape=tip_shape(v),
         rolling=v["rolling"],
     )
-    if not _all_finite(chart):
+    # every chart point with a value: no NaN reaches the plot
+    if not all(bool(np.isfinite(chart[v].values).all()) for v in ("drift_velocity", "A_star", "m_star")):
         bad = int((~np.isfinite(chart["drift_velocity"].values)).sum())
         raise InputError(
             f"the map has no value at {bad} of {chart['drift_velocity'].size} chart points "
@@ -399,14 +402,9 @@ def device_text(device, reading, q, warnings, rolling=ROLLING_NONE, unread=UNREA
             ),
         ]
     tip = "sphere" if q.profile == "sphere" else f"particle with a {q.profile} tip"
-    body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
-    tip += (
-        f", {body}"
-        if body and rolling != ROLLING_NONE
-        else f", rolling with j = {rolling:g}"
-        if rolling != ROLLING_NONE
-        else ""
-    )
+    if rolling != ROLLING_NONE:
+        body = {v: k for k, v in DESIGN_ROLLINGS.items()}.get(rolling)
+        tip += f", {body}" if body else f", rolling with j = {rolling:g}"
     head = (
         f"**Device**: {literal(units.material(device.particle).name)} {literal(tip)}, R = "
         f"{device.radius:.4g} m, on {literal(units.material(device.substrate).name)}; f = "
@@ -504,13 +502,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         # latest of each wins (an older one's result is dropped)
         self.draws = LatestJob()
         self.marks = LatestJob()
-        self.alert = pn.pane.Alert(
-            "",
-            alert_type="danger",
-            visible=False,
-            sizing_mode="stretch_width",
-            css_classes=["vt-design-alert"],
-        )
+        self.alert = refusal_alert("vt-design-alert")
         self.status = pn.pane.Markdown(HINT, sizing_mode="stretch_width", css_classes=["vt-design-status"])
         self.spinner = pn.indicators.LoadingSpinner(value=False, visible=False, width=24, height=24)
         self.chart_pane = pn.Column(
@@ -518,19 +510,11 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         )
         self.info = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-device"])
         self.note = pn.pane.Markdown("", sizing_mode="stretch_width")
-        self.draw_button = pn.widgets.Button(
-            label="Draw chart", color="primary", css_classes=["vt-design-draw"]
-        )
-        self.draw_button.on_click(lambda event: pn.state.execute(self.draw))
+        draw, compute = (lambda: pn.state.execute(self.draw)), (lambda: pn.state.execute(self.compute))
+        self.draw_button = _button("Draw chart", "primary", "vt-design-draw", draw)
         self.offer = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-offer"])
-        self.compute_button = pn.widgets.Button(
-            label="Compute this map", color="success", css_classes=["vt-design-compute"]
-        )
-        self.compute_button.on_click(lambda event: pn.state.execute(self.compute))
-        self.cancel_button = pn.widgets.Button(
-            label="Cancel map", color="warning", css_classes=["vt-design-cancel"]
-        )
-        self.cancel_button.on_click(lambda event: self.cancel())
+        self.compute_button = _button("Compute this map", "success", "vt-design-compute", compute)
+        self.cancel_button = _button("Cancel map", "warning", "vt-design-cancel", self.cancel)
         # what the map computing is doing (apart from the offer: a chart
         # drawn meanwhile may offer another map)
         self.progress = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-design-progress"])
@@ -553,24 +537,11 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             visible=False,
             sizing_mode="stretch_width",
         )
-        self.run_button = pn.widgets.Button(
-            label="Run this device's scene",
-            color="primary",
-            disabled=on_run is None,
-            css_classes=["vt-design-run", "vt-ack-run"],
-        )
-        self.run_button.on_click(lambda event: self.run_device())
+        run = ("Run this device's scene", "primary", "vt-design-run vt-ack-run", self.run_device)
+        self.run_button = _button(*run, disabled=on_run is None)
         self._buttons()
-        labels = {
-            "mu": "mu (friction)",
-            "surface_energy": "surface energy (J/m^2)",
-            "x_lo": "x lo",
-            "x_hi": "x hi",
-            "x_points": "x points",
-            "y_lo": "y lo",
-            "y_hi": "y hi",
-            "y_points": "y points",
-        }
+        labels = {"mu": "mu (friction)", "surface_energy": "surface energy (J/m^2)"}
+        labels.update({k: k.replace("_", " ") for k in AXIS_VALUES if "_" in k})  # "x lo", ...
         # (the chart's numbers have no bounds: a typed number is applied, the
         # library checks its range when the chart is drawn)
         self.fields = {k: inputs.NumberField(self, k, v, width=150) for k, v in labels.items()}
@@ -650,16 +621,10 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         try:
             if device and self._set_device(**values):
                 self.particle_tip.tip = "sphere"
-            self.param.update(
-                x=p.x[0],
-                x_lo=float(p.x[1]),
-                x_hi=float(p.x[2]),
-                x_points=int(p.x[3]),
-                y=p.y[0],
-                y_lo=float(p.y[1]),
-                y_hi=float(p.y[2]),
-                y_points=int(p.y[3]),
-            )
+            axes = {}
+            for a, (q, lo, hi, points) in (("x", p.x), ("y", p.y)):
+                axes.update({a: q, f"{a}_lo": float(lo), f"{a}_hi": float(hi), f"{a}_points": int(points)})
+            self.param.update(**axes)
         finally:
             self._presetting = False
         if not device and (
@@ -685,12 +650,12 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         third = [q for q in design.AXES if q not in (self.x, self.y)]
         return third[0] if len(third) == 1 else None
 
-    def _fixed_text(self):
+    def _fixed_text(self, *axes):
         q = self.fixed_quantity()
         return (
-            "x and y must be two different quantities"
+            "*x and y must be two different quantities*"
             if q is None
-            else f"fixed: {q} = the device's {q} ({UNITS[q]})"
+            else f"*fixed: {q} = the device's {q} ({UNITS[q]})*"
         )
 
     def values(self):
@@ -716,8 +681,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
 
     # ---------- drawing ----------
     def _say(self, text):
-        self.alert.object = text
-        self.alert.visible = bool(text)
+        self.alert.param.update(object=text, visible=bool(text))
 
     @property
     def jobs(self):
@@ -795,8 +759,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                 f"docs/MODEL.md section 10), so its chart reads a map of that profile"
             )
         if need.rolling != ROLLING_NONE:  # (and why a rolling particle's needs its own)
-            named = need.rolling if isinstance(need.rolling, str) else f"{need.rolling:g}"
-            rolling = ROLLING_CHART_NOTE.format(rolling=named)
+            rolling = ROLLING_CHART_NOTE.format(rolling=rolling_name(need.rolling))
             reasons = rolling if need.profile == "sphere" else f"{reasons}; {rolling}"
         head = f"**No shipped map serves this chart:** {reasons}."
         request, why = map_request(need, fidelity=values["map_fidelity"], periods=values["map_periods"])
@@ -900,20 +863,12 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                         self._say(f"**The chart could not be read on the map:** {literal(exc)}")
                     if result is not None and self.draws.is_latest(drawn):
                         self._show_chart(values, result, self._map)
-                done = int(update.ds["computed"].values.sum())
-                seconds = time.monotonic() - started
-                self.progress.object = (
-                    f"Level {update.level} of {update.levels} drawn: {done:,} of {n * n:,} "
-                    f"points computed, {seconds:.0f} s{update.left_text()} ..."
-                    if update.kind == "level"
-                    else f"Level {update.level} of {update.levels} computing: {done:,} of "
-                    f"{n * n:,} points computed so far, {seconds:.0f} s"
-                    f"{update.left_text()} ..."
-                    if update.kind == "chunk"
-                    else f"The chart's map, from this server's cache ({done:,} of {n * n:,} points computed)."
-                    if update.cached
-                    else f"The chart's map is finished: {done:,} of {n * n:,} points computed in "
-                    f"{seconds:.0f} s."
+                self.progress.object = progress_text(
+                    update,
+                    n,
+                    time.monotonic() - started,
+                    "The chart's map, from this server's cache ({done:,} of {total:,} points computed).",
+                    "The chart's map is finished: {done:,} of {total:,} points computed in {seconds:.0f} s.",
                 )
             elif update.kind == "failed":
                 self.progress.object = f"**The map failed:** {update.text}"
@@ -1021,15 +976,13 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
                 label=f"{k}: E (Pa), nu, rho (kg/m^3)",
                 width=230,
                 placeholder=CUSTOM_EXAMPLE,
-                visible=getattr(device, k) == CUSTOM_MATERIAL,
+                visible=pn.bind(lambda v: v == CUSTOM_MATERIAL, device.param[k]),
                 css_classes=[f"vt-design-{k}-custom"],
             )
             for k in ("substrate", "particle")
         }
-        self.custom_row = pn.Row(
-            *self.custom_inputs.values(), visible=self._any_custom(), margin=(0, 0, 10, 0)
-        )
-        device.param.watch(self._on_material, ["substrate", "particle"])
+        any_custom = pn.bind(lambda *m: CUSTOM_MATERIAL in m, device.param.substrate, device.param.particle)
+        self.custom_row = pn.Row(*self.custom_inputs.values(), visible=any_custom, margin=(0, 0, 10, 0))
         self.param.watch(self._on_edit, list(AXIS_VALUES))
         device.param.watch(self._on_edit, [*PRESET_DEVICE, "substrate_custom", "particle_custom"])
         self.particle_tip.param.watch(self._on_edit, "tip")
@@ -1058,14 +1011,6 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             css_classes=["vt-design-downloads"],
         )
 
-    def _any_custom(self):
-        return CUSTOM_MATERIAL in (self.device.substrate, self.device.particle)
-
-    def _on_material(self, *events):
-        for k, w in self.custom_inputs.items():
-            w.visible = getattr(self.device, k) == CUSTOM_MATERIAL
-        self.custom_row.visible = self._any_custom()
-
     def _on_edit(self, *events):
         """A value of the preset's edited: the preset shown becomes "custom"
         (nothing re-applied).  A custom material's text counts only when
@@ -1087,13 +1032,6 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
         for b in self.download_buttons.values():
             b.disabled = False
 
-    def device_mark(self):
-        """(x, y) of the device marked on the chart shown, or None."""
-        c, d = self.chart, self.marked
-        if c is None or d is None:
-            return None
-        return (getattr(d, c.attrs["x"]), getattr(d, c.attrs["y"]))
-
     def chart_file(self, fmt):
         """The bytes (BytesIO) of a download of the chart shown: its figure
         (png, svg, pdf; the device marked) or its data (nc, csv)."""
@@ -1106,18 +1044,14 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             raise ValueError(f"no such download: {fmt!r}")
         from vibtrans.products.export import export_design
 
-        return exclusively(
-            read_back, functools.partial(export_design, chart, device=self.device_mark()), f"design.{fmt}"
-        )
+        d = self.marked  # the device marked on the chart shown
+        mark = None if d is None else (getattr(d, chart.attrs["x"]), getattr(d, chart.attrs["y"]))
+        return exclusively(read_back, functools.partial(export_design, chart, device=mark), f"design.{fmt}")
 
     # ---------- a click on the chart ----------
     def _on_tap(self, event):
-        x, y = event.x, event.y
-        if self.chart is None or x is None or y is None:
-            return
-        if not (math.isfinite(x) and math.isfinite(y)):
-            return
-        pn.state.execute(functools.partial(self.mark, x, y))
+        if self.chart is not None and tapped(event):
+            pn.state.execute(functools.partial(self.mark, event.x, event.y))
 
     async def mark(self, x, y):
         """Move the device to (x, y) of the chart drawn (its axes' units;
@@ -1188,7 +1122,7 @@ class DesignPanel(pn.viewable.Viewer, limited(Scene, SCENE_LIMITS, ("mu",), name
             f = self.fields
             select = functools.partial(pn.widgets.Select.from_param, width=150)
             fixed = pn.pane.Markdown(
-                pn.bind(lambda x, y: f"*{self._fixed_text()}*", self.param.x, self.param.y),
+                pn.bind(self._fixed_text, self.param.x, self.param.y),
                 sizing_mode="stretch_width",
             )
             # (rows that wrap: in half of a wide screen the tab is ~600 px wide)

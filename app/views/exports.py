@@ -80,8 +80,8 @@ class ExportsView:
         open it); True when made now, False if they were already there."""
         if self.buttons:
             return False
-        figures = [self._figure_download(k, f) for k, f in FIGURES]
-        datas = [self._data_download(k, f) for k, f in DATA]
+        figures = [self._download(self.figure_file, "export", k, f) for k, f in FIGURES]
+        datas = [self._download(self.data_file, "data", k, f) for k, f in DATA]
         self.buttons = figures + datas
         self.run_buttons = [
             b for b, (k, _) in zip(self.buttons, FIGURES + DATA) if k in ("trajectory", "run")
@@ -151,43 +151,29 @@ class ExportsView:
             return download_name(kind, fmt, scene=None if self.result is None else self.result.ds.attrs)
         shown = self.shown_map()
         map_name = f"{self.state.model}-mu{_value(self.state.mu)}" if shown is None else shown[0]
-        window = None
-        if kind == "map-window":
-            (a0, a1), (m0, m1) = self.map_view.view_ranges()
-            window = (a0, a1, m0, m1)
+        window = [v for r in self.map_view.view_ranges() for v in r] if kind == "map-window" else None
         return download_name(kind, fmt, map_name=map_name, window=window)
 
-    def _answering(self, make, kind, fmt, button=None):
+    def _answering(self, make, kind, fmt, button):
         """make(kind, fmt) under the name of what it holds, then `answered`
         (also when it fails)."""
         try:
-            if button is not None:
-                button.filename = self.file_name(kind, fmt)
+            button.filename = self.file_name(kind, fmt)
             return make(kind, fmt)
         finally:
             if self.answered is not None:
                 self.answered()
 
-    def _figure_download(self, kind, fmt):
+    def _download(self, make, group, kind, fmt):
+        """The button of one file: `make(kind, fmt)`'s bytes; a run's is
+        disabled until a run is shown."""
         button = pn.widgets.FileDownload(
             filename=f"vibtrans-{kind}.{fmt}",
             label=f"{kind} .{fmt}",
             color="light",
-            css_classes=[f"vt-export-{kind}-{fmt}", *self.button_classes],
+            css_classes=[f"vt-{group}-{kind}-{fmt}", *self.button_classes],
             width=150,
-            disabled=kind == "trajectory" and self.result is None,
+            disabled=kind in ("trajectory", "run") and self.result is None,
         )
-        button.callback = functools.partial(self._answering, self.figure_file, kind, fmt, button)
-        return button
-
-    def _data_download(self, kind, fmt):
-        button = pn.widgets.FileDownload(
-            filename=f"vibtrans-{kind}.{fmt}",
-            label=f"{kind} .{fmt}",
-            color="light",
-            css_classes=[f"vt-data-{kind}-{fmt}", *self.button_classes],
-            width=150,
-            disabled=kind == "run" and self.result is None,
-        )
-        button.callback = functools.partial(self._answering, self.data_file, kind, fmt, button)
+        button.callback = functools.partial(self._answering, make, kind, fmt, button)
         return button

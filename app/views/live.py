@@ -139,20 +139,10 @@ def _lines(fig, sources, lines, shared, right=(), envelope=False):
     for source, (col, label, colour, dash) in zip(sources, lines):
         axis = {"y_range_name": "right"} if col in right else {}
         axis["view"] = shared.view(source)
-        drawn = []
-        if envelope:
-            drawn.append(
-                fig.add_glyph(
-                    source,
-                    VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi", fill_color=colour, fill_alpha=0.3),
-                    **axis,
-                )
-            )
-        r = fig.add_glyph(
-            source,
-            Line(x="time", y=col, line_color=colour, line_width=1.5, line_dash=dash or "solid"),
-            **axis,
-        )
+        band = VArea(x="time", y1=f"{col}_lo", y2=f"{col}_hi", fill_color=colour, fill_alpha=0.3)
+        drawn = [fig.add_glyph(source, band, **axis)] if envelope else []
+        line = Line(x="time", y=col, line_color=colour, line_width=1.5, line_dash=dash or "solid")
+        r = fig.add_glyph(source, line, **axis)
         renderers.append(r)
         items.append(LegendItem(label=label, renderers=[r, *drawn]))
     fig.add_tools(HoverTool(renderers=renderers, tooltips=[("t*", "@time{0.0000}"), ("value", "$y{0.0000}")]))
@@ -211,11 +201,8 @@ def _timeline(title, x_range, shared):
     fig.yaxis.visible = False
     fig.ygrid.visible = False
     source = ColumnDataSource({"left": [], "right": [], "color": [], "state": []})
-    r = fig.add_glyph(
-        source,
-        Quad(left="left", right="right", bottom=0.0, top=1.0, fill_color="color", line_width=0),
-        view=shared.view(source),
-    )
+    bands = Quad(left="left", right="right", bottom=0.0, top=1.0, fill_color="color", line_width=0)
+    r = fig.add_glyph(source, bands, view=shared.view(source))
     fig.add_tools(
         HoverTool(renderers=[r], tooltips=[("state", "@state"), ("t*", "@left{0.000} to @right{0.000}")])
     )
@@ -279,8 +266,7 @@ class _Block:
             | ({"x"} if twin is not None else set())
         )
         self.bins = bins
-        bands = [f"{c}_{e}" for c in self.variables for e in ("lo", "hi")] if bins else []
-        self.source = ColumnDataSource({c: [] for c in ["time", *self.variables, *bands]})
+        self.source = self._source(self.variables)
         self.figures, self.panels = [], []
         self.shared = shared
         # a rolling particle's rotation (plots.ROLLING_PANEL): its figure
@@ -290,14 +276,7 @@ class _Block:
         for i, (title, ylabel, lines) in enumerate(models[False]):
             cols = [col for col, _, _ in lines]
             right = right_columns(cols)
-            fig = _figure(
-                binned_title(title) if bins else title,
-                ylabel,
-                self.x_range,
-                LINE_FRAME,
-                shared,
-                time_axis=False,
-            )
+            fig = self._line_figure(title, ylabel)
             right_axis = None
             if right:
                 fig.extra_y_ranges = {"right": Range1d(0.0, 1.0)}
@@ -337,25 +316,10 @@ class _Block:
         """The rotation's figure (plots.ROLLING_PANEL), placed under the
         line panels."""
         title, ylabel, lines = plots.ROLLING_PANEL
-        bins = bool(self.bins)
-        fig = _figure(
-            binned_title(title) if bins else title,
-            ylabel,
-            self.x_range,
-            LINE_FRAME,
-            self.shared,
-            time_axis=False,
-        )
-        cols = [c for c, _, _ in lines]
-        bands = [f"{c}_{e}" for c in cols for e in ("lo", "hi")] if bins else []
-        self.rolling_source = ColumnDataSource({c: [] for c in ["time", *cols, *bands]})
-        _lines(
-            fig,
-            [self.rolling_source] * len(lines),
-            [(*line, None) for line in lines],
-            self.shared,
-            envelope=bins,
-        )
+        fig = self._line_figure(title, ylabel)
+        self.rolling_source = self._source([c for c, _, _ in lines])
+        lines = [(*line, None) for line in lines]
+        _lines(fig, [self.rolling_source] * len(lines), lines, self.shared, envelope=bool(self.bins))
         self.rolling_figure = fig
         if self.scale != 1.0:
             scale_fonts(fig, self.scale)
@@ -363,6 +327,20 @@ class _Block:
         children = list(self.layout.children)
         children.insert(len(self.figures), fig)
         self.layout.children = children
+
+    def _line_figure(self, title, ylabel):
+        """A line panel (its time axis: the timeline's, below)."""
+        title = binned_title(title) if self.bins else title
+        return _figure(title, ylabel, self.x_range, LINE_FRAME, self.shared, time_axis=False)
+
+    def _source(self, columns):
+        """A source of the time and `columns` (binned: their bands too)."""
+        bands = [f"{c}_{e}" for c in columns for e in ("lo", "hi")] if self.bins else []
+        return ColumnDataSource({c: [] for c in ["time", *columns, *bands]})
+
+    def _data(self, t, raw):
+        """A source's data: the samples `raw` at times `t`, or their bins."""
+        return plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
 
     def _show_rolling(self, ds, t):
         """The rotation's panel of a run that rolls (built at the first);
@@ -376,7 +354,7 @@ class _Block:
         if not rolls:
             return
         raw = {c: ds[c].values for c in plots.ROLLING_VARIABLES}
-        self.rolling_source.data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
+        self.rolling_source.data = self._data(t, raw)
         lo, hi = _extent(list(raw.values()))
         self.rolling_figure.y_range.update(start=lo, end=hi)
 
@@ -420,8 +398,7 @@ class _Block:
             t = t - t0
             raw["x"] = raw["x"] - raw["x"][0]
         self.timeline.xaxis.axis_label = time_label(t0 if self.relative else None, period_seconds)
-        data = plots.binned(t, raw, self.bins) if self.bins else {"time": t, **raw}
-        self.source.data = data
+        self.source.data = self._data(t, raw)
         self._show_rolling(ds, t)
         self.x_range.update(start=float(t[0]), end=float(t[-1]))
         for panel in self.panels:
@@ -431,8 +408,7 @@ class _Block:
                 lo, hi = _extent([raw[c] for c in panel.right])
                 panel.fig.extra_y_ranges["right"].update(start=lo, end=hi)
         if self.twin_source is not None:
-            tt = twin["time"].values if twin is not None else np.zeros(0)
-            tx = twin["x"].values if twin is not None else np.zeros(0)
+            tt, tx = (twin["time"].values, twin["x"].values) if twin is not None else (np.zeros(0),) * 2
             self.twin_source.data = {"time": tt, "x": tx}
             lo, hi = _extent([raw["x"], tx])
             self.twin_figure.y_range.update(start=lo, end=hi)

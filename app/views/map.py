@@ -63,6 +63,12 @@ def _unavailable(text):
     return hv.Text(0.0, 0.0, text).opts(height=MAP_HEIGHT, xaxis=None, yaxis=None)
 
 
+def tapped(event):
+    """Whether a click on a figure has finite coordinates (on its data area)."""
+    x, y = event.x, event.y
+    return x is not None and y is not None and math.isfinite(x) and math.isfinite(y)
+
+
 def in_document(source, data):
     """Set a ColumnDataSource's data from a watcher of the page's state.
     In a served session such a watcher may run where Panel applies a
@@ -310,14 +316,8 @@ def _content(fig):
             for attr in ("x", "y", "dw", "dh")
             if glyph is not None and hasattr(glyph, attr)
         }
-        renderers.append(
-            (
-                None if source is None else dict(source.data),
-                placement,
-                r.visible,
-                r.location if isinstance(r, Span) else None,
-            )
-        )
+        data_ = None if source is None else dict(source.data)
+        renderers.append((data_, placement, r.visible, r.location if isinstance(r, Span) else None))
     return {
         "shape": _shape(fig),
         "renderers": renderers,
@@ -710,11 +710,8 @@ class MapView:
         self.redraw()
 
     def _on_computed_tap(self, window, on_click, event):
-        x, y = event.x, event.y
-        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
-            return
-        if within(x, y, *window):
-            on_click(round(x, 4), round(y, 4))
+        if tapped(event) and within(event.x, event.y, *window):
+            on_click(round(event.x, 4), round(event.y, 4))
 
     def _decorate(self, fig, maps=1):
         """The selected scene's and the device's markers on `fig`, its
@@ -809,7 +806,7 @@ class MapView:
             # page gets a reference to the log, not the server's words
             reference = uuid.uuid4().hex[:8]
             log.exception("loading the map failed (reference %s): %s", reference, settings)
-            at_next_tick(doc, functools.partial(self._load_failed, job, reference))
+            at_next_tick(doc, functools.partial(self._loaded, job, reference))
             return
         at_next_tick(doc, functools.partial(self._loaded, job))
 
@@ -817,26 +814,23 @@ class MapView:
         if self.loads.is_latest(job) and not job.finished:
             self._loading(loading_text(settings, stage))
 
-    def _loaded(self, job):
+    def _loaded(self, job, reference=None):
+        """The load ended: the state's maps shown, or (`reference` of the
+        server's log) why not."""
         if not self.loads.is_latest(job) or job.finished:
             return
         self.loads.finish(job)
         with pn.io.hold():
-            self._loading(None)
-            self._draw()  # (from the rendering cache now)
+            if reference is None:
+                self._loading(None)
+                self._draw()  # (from the rendering cache now)
+            else:
+                self._loading(
+                    f"**The map could not be drawn** (reference {reference}: the server's log names "
+                    f"the cause); the map below, dimmed, is the one shown before."
+                )
             if self.answered is not None:
                 self.answered()
-
-    def _load_failed(self, job, reference):
-        if not self.loads.is_latest(job) or job.finished:
-            return
-        self.loads.finish(job)
-        self._loading(
-            f"**The map could not be drawn** (reference {reference}: the server's log names "
-            f"the cause); the map below, dimmed, is the one shown before."
-        )
-        if self.answered is not None:
-            self.answered()
 
     def _draw(self):
         """Show the state's maps (rendered now if not in the cache)."""
@@ -881,11 +875,7 @@ class MapView:
         )
 
     def _on_tap(self, drawn, event):
-        x, y = event.x, event.y
-        if not drawn:
-            return  # no map drawn: the click has no meaning
-        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
-            return
-        if not within(x, y, MAP_LOG_AMPLITUDE, MAP_LOG_MASS):
-            return  # outside the map's domain (its padding): not a scene
-        self.on_click(round(x, 3), round(y, 3), len(self.figures) > 1)
+        # (no map drawn: a click has no meaning; outside the map's domain,
+        # on its padding, it is not a scene)
+        if drawn and tapped(event) and within(event.x, event.y, MAP_LOG_AMPLITUDE, MAP_LOG_MASS):
+            self.on_click(round(event.x, 3), round(event.y, 3), len(self.figures) > 1)

@@ -31,6 +31,23 @@ REFINE_BELOW_CELLS = 5
 # a refinement of the shipped map: the coarse cells and levels of its request
 REFINE_CELLS, REFINE_LEVELS = 2, 3
 ONDEMAND_TAB = 3  # the map tabs' index of "Map on demand"
+# a map on demand's values compared with the selected scene's
+_NUMBERS, _WORDS = ("mu", "theta", "nu", "tau", "periods"), ("model", "fidelity", "integrator")
+
+
+def progress_text(update, n, seconds, cached, finished):
+    """The line of an n x n map computing, at an update with its data
+    (mapjobs: "level", "chunk" or "done"): the level drawn or computing,
+    or once done `cached` or `finished` (str.format of `done`, `total`
+    and `seconds`)."""
+    done, total = int(update.ds["computed"].values.sum()), n * n
+    if update.kind == "done":
+        return (cached if update.cached else finished).format(done=done, total=total, seconds=seconds)
+    step, so_far = ("drawn", "") if update.kind == "level" else ("computing", " so far")
+    return (
+        f"Level {update.level} of {update.levels} {step}: {done:,} of {total:,} points computed"
+        f"{so_far}, {seconds:.0f} s{update.left_text()} ..."
+    )
 
 
 class MapOnDemand:
@@ -72,21 +89,7 @@ class MapOnDemand:
             self.profile_note, visible=False, margin=(0, 10), sizing_mode="stretch_width"
         )
         state.param.watch(
-            self.on_profile,
-            [
-                "profile",
-                "model",
-                "rolling",
-                "mu",
-                "theta",
-                "nu",
-                "tau",
-                "periods",
-                "fidelity",
-                "integrator",
-                "log_amplitude",
-                "log_mass",
-            ],
+            self.on_profile, ["profile", "rolling", "log_amplitude", "log_mass", *_NUMBERS, *_WORDS]
         )
 
     def close(self):
@@ -189,18 +192,16 @@ class MapOnDemand:
     def on_zoom(self, ranges):
         """Offer "refine this window" once the shipped map is zoomed beyond
         its resolution (fewer than REFINE_BELOW_CELLS cells each way)."""
-        (a0, a1), (m0, m1) = ranges
         small = False
-        if self.map_view.computed is None and None not in (a0, a1, m0, m1):
+        if self.map_view.computed is None and None not in (*ranges[0], *ranges[1]):
             try:
                 ds = data.drift_map(self.state.model, self.state.mu)
             except data.MapUnavailable:
                 ds = None
             if ds is not None:
-                step_a = float(ds["log_amplitude"].values[1] - ds["log_amplitude"].values[0])
-                step_m = float(ds["log_mass"].values[1] - ds["log_mass"].values[0])
-                small = (
-                    abs(a1 - a0) < REFINE_BELOW_CELLS * step_a and abs(m1 - m0) < REFINE_BELOW_CELLS * step_m
+                grids = (ds["log_amplitude"].values, ds["log_mass"].values)
+                small = all(
+                    abs(b - a) < REFINE_BELOW_CELLS * (g[1] - g[0]) for (a, b), g in zip(ranges, grids)
                 )
         if small and self.refine_button is None:
             self.refine_button = pn.widgets.Button(
@@ -215,11 +216,7 @@ class MapOnDemand:
         and show it (its estimate beside it) for the user to compute."""
         (a0, a1), (m0, m1) = self.map_view.view_ranges()
         window = ((round(a0, 3), round(a1, 3)), (round(m0, 3), round(m1, 3)))
-        request = self.shipped_request(window)
-        panel = self.request_panel()
-        panel.set_values(**request.values())
-        if getattr(self, "map_tabs", None) is not None:
-            self.map_tabs.active = ONDEMAND_TAB
+        self._show_request(self.shipped_request(window))
 
     def _on_map_compute(self):
         panel = self.map_request_panel
@@ -297,7 +294,7 @@ class MapOnDemand:
         job.when_cancelled(functools.partial(jobs.cancel, self.session))
         self.state.map_request = maprequest.encode(request)
         self._buttons_for_map()
-        if getattr(self, "map_tabs", None) is not None:
+        if self.map_tabs is not None:
             self.map_tabs.active = 0
         started = time.monotonic()
         n = request.points_per_axis()
@@ -324,30 +321,17 @@ class MapOnDemand:
                     await self._draw_map(request, update.ds)
                 if not self.map_work.is_latest(job):
                     return
-                done = int(update.ds["computed"].values.sum())
-                seconds = time.monotonic() - started
-                if update.kind == "level":
-                    self._map_say(
-                        f"Level {update.level} of {update.levels} drawn: {done:,} of "
-                        f"{n * n:,} points computed, {seconds:.0f} s"
-                        f"{update.left_text()} ..."
+                self._map_say(
+                    progress_text(
+                        update,
+                        n,
+                        time.monotonic() - started,
+                        "Map from this server's cache ({done:,} of {total:,} points computed): "
+                        "click it to run a scene there.",
+                        "Map finished: {done:,} of {total:,} points computed in {seconds:.0f} s. "
+                        "Click it to run a scene there.",
                     )
-                elif update.kind == "chunk":
-                    self._map_say(
-                        f"Level {update.level} of {update.levels} computing: {done:,} "
-                        f"of {n * n:,} points computed so far, {seconds:.0f} s"
-                        f"{update.left_text()} ..."
-                    )
-                elif update.cached:
-                    self._map_say(
-                        f"Map from this server's cache ({done:,} of {n * n:,} "
-                        f"points computed): click it to run a scene there."
-                    )
-                else:
-                    self._map_say(
-                        f"Map finished: {done:,} of {n * n:,} points computed in "
-                        f"{seconds:.0f} s. Click it to run a scene there."
-                    )
+                )
             elif update.kind == "failed":
                 self._map_say(f"**The map failed:** {update.text}")
             elif update.kind == "cancelled":
@@ -363,7 +347,7 @@ class MapOnDemand:
         title = (
             f"map on demand: {request.model}, mu = {request.mu:g}\nstop: {request.stop}"
             + (f", profile {request.profile}" if request.profiled() else "")
-            + (f", rolling {_rolling_name(request.rolling)}" if request.rolls() else "")
+            + (f", rolling {rolling_name(request.rolling)}" if request.rolls() else "")
         )
         window = ((request.la_from, request.la_to), (request.lm_from, request.lm_to))
         try:
@@ -424,11 +408,6 @@ class MapOnDemand:
             self.answered()
 
     # ---------- the particle: its profile, whether it rolls ----------
-    def shown_profile(self):
-        """The profile of the map shown: the map on demand's, else the
-        shipped maps' (the sphere's)."""
-        return self.shown_particle()[0]
-
     def shown_particle(self):
         """(profile, rolling) of the map shown: the map on demand's, else
         the shipped maps' (a sphere that does not roll)."""
@@ -464,19 +443,19 @@ class MapOnDemand:
                 f"**This map is of a {rolling_phrase(rolling)}** ({where}), not of the selected "
                 f"{rolling_phrase(s.rolling)}: its colours do not say where that particle "
                 f"drifts. A click on it runs the selected particle there, rolling. Request a "
-                f"map on demand for rolling {_rolling_name(s.rolling)} to see its own."
+                f"map on demand for rolling {rolling_name(s.rolling)} to see its own."
             )
-            wanted.append(f"rolling {_rolling_name(s.rolling)}")
+            wanted.append(f"rolling {rolling_name(s.rolling)}")
         request = None if shipped or self._map_shown is None else self._map_shown[0]
         if request is not None:
             differs = [
                 f"{name} {getattr(request, name):g} (selected: {getattr(s, name):g})"
-                for name in ("mu", "theta", "nu", "tau", "periods")
+                for name in _NUMBERS
                 if getattr(request, name) != getattr(s, name)
             ]
             differs += [
                 f"{name} {getattr(request, name)} (selected: {getattr(s, name)})"
-                for name in ("model", "fidelity", "integrator")
+                for name in _WORDS
                 if getattr(request, name) != getattr(s, name)
             ]
             if differs:
@@ -521,9 +500,12 @@ class MapOnDemand:
         """Fill the request with the shipped map's values, the selected
         particle (profile, rolling) and the selected scene's neighbourhood,
         and show it (its estimate beside it) for the user to compute."""
-        panel = self.request_panel()
-        panel.set_values(**self.shipped_request().values())
-        if getattr(self, "map_tabs", None) is not None:
+        self._show_request(self.shipped_request())
+
+    def _show_request(self, request):
+        """The request panel filled with `request`'s values, its tab shown."""
+        self.request_panel().set_values(**request.values())
+        if self.map_tabs is not None:
             self.map_tabs.active = ONDEMAND_TAB
 
 
@@ -532,7 +514,8 @@ def _particle(profile):
     return "sphere" if is_sphere(profile) else profile if profile == "cone" else f"{profile} tip"
 
 
-def _rolling_name(rolling):
+def rolling_name(rolling):
+    """A rolling value as a word: its name, or its number j."""
     return rolling if isinstance(rolling, str) else f"{rolling:g}"
 
 
@@ -545,4 +528,4 @@ def rolling_phrase(rolling):
         return "solid sphere that rolls (j = 2/5)"
     if rolling == "shell":
         return "thin shell that rolls (j = 2/3)"
-    return f"particle that rolls with j = {_rolling_name(rolling)}"
+    return f"particle that rolls with j = {rolling_name(rolling)}"

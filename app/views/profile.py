@@ -88,12 +88,16 @@ class _ChoiceView(pn.viewable.Viewer):
     setting = ""
     PARTS: tuple[str, ...] = ()
 
-    def _start(self, owner, width, selector):
+    def _start(self, owner, width, label, options, value, css):
+        """The selector (`label`, its `options` and `value`), watched both
+        ways: widgets -> owner, owner -> widgets."""
         self.owner = owner
         self.error = ""
         self._width = {} if width is None else {"width": width}
         self._applying = self._echoing = False
-        self.kind = selector
+        self.kind = pn.widgets.Select(
+            label=label, options=options, value=value, css_classes=[css], **self._width
+        )
         self._parts = {}
         self._layout = pn.Column(self.kind, margin=0, sizing_mode="stretch_width", name=self.setting)
         self.kind.param.watch(self._chosen, "value")
@@ -109,6 +113,16 @@ class _ChoiceView(pn.viewable.Viewer):
             self._parts[name] = getattr(self, f"_make_{name}")()
             self._layout.objects = [self.kind, *(self._parts[n] for n in self.PARTS if n in self._parts)]
         return self._parts[name]
+
+    note = property(lambda self: self._part("note"), doc="the message under the selector")
+
+    def _number_field(self, label, value, visible, css):
+        """The field of a kind's number, watched as the selector is."""
+        number = read_back(
+            pn.widgets.TextInput(label=label, value=value, visible=visible, css_classes=[css], **self._width)
+        )
+        number.param.watch(self._chosen, "value")
+        return number
 
     def _make_note(self):
         return pn.pane.Markdown(
@@ -185,17 +199,7 @@ class ProfileView(_ChoiceView):
         self._drawing = drawing
         # (the parts made at their first use: most pages show the sphere,
         # and a page costs its server less)
-        self._start(
-            owner,
-            width,
-            pn.widgets.Select(
-                label="particle profile",
-                options=list(KINDS),
-                value=labels[kind],
-                css_classes=["vt-profile-kind"],
-                **({} if width is None else {"width": width}),
-            ),
-        )
+        self._start(owner, width, "particle profile", list(KINDS), labels[kind], "vt-profile-kind")
         if kind in NUMBERS:
             self._part("number")
         self._on_model()
@@ -203,23 +207,13 @@ class ProfileView(_ChoiceView):
 
     # ---------- its parts, made when first needed ----------
     number = property(lambda self: self._part("number"), doc="the kind's number (a TextInput)")
-    note = property(lambda self: self._part("note"), doc="the message under it")
     rigid = property(lambda self: self._part("rigid"), doc="the material point's note")
     drawing_pane = property(lambda self: self._part("drawing_pane"), doc="the tip's drawing")
 
     def _make_number(self):
         kind = KINDS[self.kind.value]
-        number = read_back(
-            pn.widgets.TextInput(
-                label=NUMBERS.get(kind, NUMBERS["power"])[0],
-                value=self._texts.get(kind, ""),
-                visible=kind in NUMBERS,
-                css_classes=["vt-profile-number"],
-                **self._width,
-            )
-        )
-        number.param.watch(self._chosen, "value")
-        return number
+        label = NUMBERS.get(kind, NUMBERS["power"])[0]
+        return self._number_field(label, self._texts.get(kind, ""), kind in NUMBERS, "vt-profile-number")
 
     def _make_rigid(self):
         note = self._note(RIGID_NOTE, "vt-profile-rigid")
@@ -391,17 +385,7 @@ class RollingView(_ChoiceView):
         self.options = dict(options)
         self._text = rolling_text(owner.rolling) or J_START
         self._remembered = None  # the deformable particle's choice, the point mass shown
-        self._start(
-            owner,
-            width,
-            pn.widgets.Select(
-                label=label,
-                options=list(self.options),
-                value=rolling_label(owner.rolling, self.options),
-                css_classes=["vt-rolling"],
-                **({} if width is None else {"width": width}),
-            ),
-        )
+        self._start(owner, width, label, list(self.options), self._label(owner.rolling), "vt-rolling")
         if self._kind() == "j":
             self._part("number")
         self._on_model()
@@ -413,21 +397,10 @@ class RollingView(_ChoiceView):
         return rolling_label(value, self.options)
 
     number = property(lambda self: self._part("number"), doc="j's field (a TextInput)")
-    note = property(lambda self: self._part("note"), doc="the message under it")
     point = property(lambda self: self._part("point"), doc="the material point's note")
 
     def _make_number(self):
-        number = read_back(
-            pn.widgets.TextInput(
-                label=J_LABEL,
-                value=self._text,
-                visible=self._kind() == "j",
-                css_classes=["vt-rolling-j"],
-                **self._width,
-            )
-        )
-        number.param.watch(self._chosen, "value")
-        return number
+        return self._number_field(J_LABEL, self._text, self._kind() == "j", "vt-rolling-j")
 
     def _make_point(self):
         return self._note(ROLLING_POINT_NOTE, "vt-rolling-point")

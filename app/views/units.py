@@ -13,14 +13,16 @@ from vibtrans.core import units
 from vibtrans.core.params import MAP_LOG_AMPLITUDE, MAP_LOG_MASS
 from vibtrans.products import design
 from vibtrans.products.design import CUSTOM_MATERIAL
-from vibtrans_explorer.session.state import (
-    DEVICE_FIELDS,
-    SCENE_LOG_AMPLITUDE,
-    SCENE_LOG_MASS,
-    within,
-)
+from vibtrans_explorer.session.state import DEVICE_FIELDS, SCENE_LOG_AMPLITUDE, SCENE_LOG_MASS, within
 from vibtrans_explorer.session.urlstate import literal
 from vibtrans_explorer.views import inputs
+
+
+def refusal_alert(css):
+    """An alert of what a tab refused, hidden while it has nothing to say."""
+    return pn.pane.Alert(
+        "", alert_type="danger", visible=False, sizing_mode="stretch_width", css_classes=[css]
+    )
 
 
 def same_scene(device, scene):
@@ -40,28 +42,19 @@ class UnitsPanel(pn.viewable.Viewer):
     (A*, m*) marker on the map, a0, c_R, drift in m/s.
 
     on_run(say): run the device's scene (the explorer's; it refuses while a
-    field is invalid, and says why by say(text) too); on_error(text): say
-    why it cannot."""
+    field is invalid, and says why by say(text) too)."""
 
     marker = param.Tuple(default=None, allow_None=True, length=2)
 
-    def __init__(self, state, on_run, on_error, **params):
+    def __init__(self, state, on_run, **params):
         super().__init__(**params)
-        self.state = state
-        self.on_run, self.on_error = on_run, on_error
-        self._other = None  # ((la, lm, theta, nu), its name): a device run from another tab
+        self.state, self.on_run = state, on_run
         self.info = pn.pane.Markdown(sizing_mode="stretch_width", name="units-info")
         self.warnings = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-units-warnings"])
         # the last run of the device, if it rolled: its contact patch's check
         self.run_note = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["vt-units-rolling"])
         # why the tab's Run did not run, beside its button
-        self.refusal = pn.pane.Alert(
-            "",
-            alert_type="danger",
-            visible=False,
-            sizing_mode="stretch_width",
-            css_classes=["vt-units-refusal"],
-        )
+        self.refusal = refusal_alert("vt-units-refusal")
         state.param.watch(self._update, [*DEVICE_FIELDS, "invalid"])
         self._update()
 
@@ -99,6 +92,8 @@ class UnitsPanel(pn.viewable.Viewer):
             else f"no: outside the explorer's range (log10 A* in {list(SCENE_LOG_AMPLITUDE)}, "
             f"log10 m* in {list(SCENE_LOG_MASS)})"
         )
+        shape = None if self.state.tip == "sphere" else literal(self.state.tip_shape().name)
+        tip = [] if shape is None else [f"| tip (the Design tab's) | {shape}: profile `{profile}` |"]
         self.info.object = "\n".join(
             [
                 "| quantity | value |",
@@ -106,14 +101,7 @@ class UnitsPanel(pn.viewable.Viewer):
                 f"| A* | {A_star:.4g} (log10 {la:.4g}) |",
                 f"| m* | {m_star:.4g} (log10 {lm:.4g}) |",
                 f"| a0 | {a0:.3e} m |",
-                *(
-                    []
-                    if self.state.tip == "sphere"
-                    else [
-                        f"| tip (the Design tab's) | {literal(self.state.tip_shape().name)}: profile "
-                        f"`{profile}` |"
-                    ]
-                ),
+                *tip,
                 f"| wave period | {units.duration_text(1.0 / n.frequency)} |",
                 f"| Rayleigh speed c_R | {n.c_R:.0f} m/s |",
                 f"| r(nu), theta | {n.r:.3f}, {n.theta:.3f} |",
@@ -132,36 +120,23 @@ class UnitsPanel(pn.viewable.Viewer):
 
     def say_refusal(self, text):
         """Say why the tab's Run did not run ("": nothing to say)."""
-        self.refusal.object = text
-        self.refusal.visible = bool(text)
+        self.refusal.param.update(object=text, visible=bool(text))
 
-    def use_device(self, device, name):
-        """A device run from another tab: its (log10 A*, log10 m*, theta,
-        nu); its runs are given in SI units too, named `name`."""
-        self._other = (device, name)
-
-    def _device_named(self, scene):
-        """(units.NormalizedScene, its name) of the device `scene` is (its
-        A*, m*, theta and nu): the state's device, else one another tab
-        ran; (None, None) if neither."""
+    def device_of(self, scene):
+        """The device (units.NormalizedScene) if `scene` is the device's of
+        the Units and Design tabs (its A*, m*, theta, nu and profile), else
+        None."""
         try:
             n, values = self.normalized(), self.state.device_scene_values()
             profile = self.state.device_tip()[3]
         except (ValueError, TypeError):
-            n = values = profile = None
-        if n is not None and same_scene(values, scene) and scene.profile == profile:
-            return n, "the device of the Units and Design tabs"
-        return None, None
-
-    def device_of(self, scene):
-        """The device (units.NormalizedScene) if `scene` is the Units tab's
-        device or the one another tab ran, else None."""
-        return self._device_named(scene)[0]
+            return None
+        return n if same_scene(values, scene) and scene.profile == profile else None
 
     def si_text(self, v_star, scene):
         """The drift in m/s if `scene` is a device's, else a hint: another
         scene has no device."""
-        n, name = self._device_named(scene)
+        n = self.device_of(scene)
         if n is None:
             return "- (run a device from the Units or Design tab to see it in SI units)"
         run = units.duration_text(scene.periods / n.frequency)
@@ -171,7 +146,10 @@ class UnitsPanel(pn.viewable.Viewer):
             if self.state.tip == "sphere"
             else self.state.device_tip()[2] * n.frequency * v_star
         )
-        return f"{v:.3e} m/s; the run, {scene.periods:g} periods, lasts {run} ({name})"
+        return (
+            f"{v:.3e} m/s; the run, {scene.periods:g} periods, lasts {run} "
+            f"(the device of the Units and Design tabs)"
+        )
 
     def rolling_note(self, result):
         """A run that rolls, of the device: its largest rolled arc within

@@ -340,7 +340,7 @@ def test_the_units_and_design_tabs_warn_when_a_device_run_rolled_far(rolling_run
     state = ExplorerState()
     state.rolling = "solid"
     state.select_device(model="deformable")
-    units = UnitsPanel(state, on_run=lambda: None, on_error=lambda text: None)
+    units = UnitsPanel(state, on_run=lambda: None)
     scene = state.scene().replace(fidelity="preview", periods=T_OBS)
     s = interpret(*rolling_run, None, None).summary
     a0 = state.device_tip()[2]
