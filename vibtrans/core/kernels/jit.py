@@ -64,13 +64,13 @@ compile seconds deformable / point mass / vertical):
   compiled on its own, once per signature): 16.9 / 10.4 / 9.0 s (numba's
   import, ~1.5 s, counted in the first); run times unchanged.  Each small
   helper costs ~0.1-0.2 s of compilation; a cold `vibtrans simulate` stays
-  within its 20 s (15.5 s, `python -m devtools.firstpage`).
+  within its 20 s (15.5 s).
 * then no wrappers but the kernels' CPython one (no cfunc wrapper anywhere,
-  no CPython wrapper on helpers: `_HelperDispatcher`) and numba's inliner
-  copying each IR's scope once (`_SharedScopeCopy`): a cold `vibtrans
-  simulate --log-amplitude 2.5 --log-mass 0` in 8.8 s of CPU instead of 13.0
-  (best of three, alternated, load ~6), the same LLVM code for the inlined
-  kernels and the same records bit for bit.
+  no CPython wrapper on helpers: `_HelperDispatcher`): a cold `vibtrans
+  simulate --log-amplitude 2.5 --log-mass 0` in 9.8 s of CPU instead of
+  11.0-11.4 (alternated, load ~6), the same records bit for bit.  (All
+  `inline` functions as helpers compile in 7 s of CPU, but that is the
+  memory diagram's 3x slower update above.)
 
 The on-disk cache.  numba's own cache checks only the source file of the
 function it compiled: an edit to a helper inlined from another module left a
@@ -90,7 +90,6 @@ libraries' numba caches stay where they were.
 """
 
 import contextlib
-import copy
 import hashlib
 import os
 import types
@@ -101,7 +100,6 @@ from typing import Any
 import numba
 from numba import config as _numba_config
 from numba import njit
-from numba.core import ir as _numba_ir
 from numba.core.registry import CPUDispatcher
 
 # Every module that defines a compiled function (all in this package).
@@ -184,59 +182,6 @@ def _compile(fn, dispatcher=None, **options):
         finally:
             _numba_config.CACHE_DIR = saved
     return disp
-
-
-class _SharedScopeCopy:
-    """numba's inliner (inline="always") copies the callee's IR block by
-    block, each deepcopy with a memo of its own, so each block copies the
-    callee's whole variable scope again: time grows with blocks times
-    variables (the memory diagram, inlined into every deformable kernel:
-    ~1/6 of a cold start).  While it inlines one of our functions, this
-    stand-in for its `copy` module copies all the blocks of one IR with one
-    memo (one scope copy), as a deepcopy of the block dict would: the same
-    IR, so the same machine code."""
-
-    def __init__(self):
-        self.memos = None  # {id(source scope): memo} while our inlining runs
-
-    def __getattr__(self, name):
-        return getattr(copy, name)
-
-    def deepcopy(self, x, memo=None):
-        if self.memos is None or memo is not None or not isinstance(x, _numba_ir.Block):
-            return copy.deepcopy(x, memo)
-        return copy.deepcopy(x, self.memos.setdefault(id(x.scope), {}))
-
-
-def _share_scope_copies():
-    """Install _SharedScopeCopy in numba's inliner for the untyped inlining
-    of this package's functions; where numba's inliner is not as expected
-    (another version), leave it alone (slower compiles, same code)."""
-    from numba.core import inline_closurecall as icc
-
-    worker = getattr(icc, "InlineWorker", None)
-    original = getattr(worker, "inline_ir", None)
-    if original is None or getattr(icc, "copy", None) is not copy or getattr(original, "_vibtrans", False):
-        return
-    stand_in = _SharedScopeCopy()
-
-    def inline_ir(self, caller_ir, block, i, callee_ir, callee_freevars, arg_typs=None):
-        func = getattr(getattr(callee_ir, "func_id", None), "func", None)
-        ours = getattr(func, "__module__", None) in _MODULES
-        if not ours or arg_typs is not None or getattr(self, "_permit_update_type_and_call_maps", True):
-            return original(self, caller_ir, block, i, callee_ir, callee_freevars, arg_typs)
-        stand_in.memos = {}
-        try:
-            return original(self, caller_ir, block, i, callee_ir, callee_freevars, arg_typs)
-        finally:
-            stand_in.memos = None
-
-    inline_ir._vibtrans = True
-    icc.copy = stand_in
-    worker.inline_ir = inline_ir
-
-
-_share_scope_copies()
 
 
 def kernel(fn: Callable) -> Any:
