@@ -64,7 +64,13 @@ compile seconds deformable / point mass / vertical):
   compiled on its own, once per signature): 16.9 / 10.4 / 9.0 s (numba's
   import, ~1.5 s, counted in the first); run times unchanged.  Each small
   helper costs ~0.1-0.2 s of compilation; a cold `vibtrans simulate` stays
-  within its 20 s (15.5 s, `python -m devtools.firstpage`).
+  within its 20 s (15.5 s).
+* then no wrappers but the kernels' CPython one (no cfunc wrapper anywhere,
+  no CPython wrapper on helpers: `_HelperDispatcher`): a cold `vibtrans
+  simulate --log-amplitude 2.5 --log-mass 0` in 9.8 s of CPU instead of
+  11.0-11.4 (alternated, load ~6), the same records bit for bit.  (All
+  `inline` functions as helpers compile in 7 s of CPU, but that is the
+  memory diagram's 3x slower update above.)
 
 The on-disk cache.  numba's own cache checks only the source file of the
 function it compiled: an edit to a helper inlined from another module left a
@@ -94,6 +100,7 @@ from typing import Any
 import numba
 from numba import config as _numba_config
 from numba import njit
+from numba.core.registry import CPUDispatcher
 
 # Every module that defines a compiled function (all in this package).
 SOURCES = (
@@ -135,13 +142,38 @@ _KEY = _source_key() if CACHE_ENABLED else None
 CACHE_DIR = str(_cache_base() / _KEY) if _KEY else None
 
 
-def _compile(fn, **options):
+# Compiled without the cfunc wrapper (the C-callable entry numba adds for
+# first-class function values, unused here): a wrapper per function is
+# LLVM code to optimize and emit, on every compile.
+_OPTIONS = {"nogil": True, "_nrt": False, "error_model": "numpy", "no_cfunc_wrapper": True}
+
+
+class _HelperDispatcher(CPUDispatcher):
+    """A helper's dispatcher: compiled for kernels to call, without the
+    CPython wrapper (the boxing and unboxing of every argument, as much code
+    as the helper itself); numba's call of such a function from Python would
+    crash, so a call from Python goes to a twin that has the wrapper
+    (compiled on its first call, not cached: only tests call helpers so)."""
+
+    _python_twin = None
+
+    def __call__(self, *args, **kwargs):
+        if self._python_twin is None:
+            self._python_twin = njit(**_OPTIONS)(self.py_func)
+        return self._python_twin(*args, **kwargs)
+
+
+def _compile(fn, dispatcher=None, **options):
     if fn.__module__ not in _MODULES:
         raise RuntimeError(
             f"{fn.__module__}.{fn.__qualname__}: compiled code must live in "
             f"a module listed in vibtrans.core.kernels.jit.SOURCES (the cache key)"
         )
-    disp = njit(cache=False, nogil=True, _nrt=False, error_model="numpy", **options)(fn)
+    if dispatcher is None:
+        disp = njit(cache=False, **_OPTIONS, **options)(fn)
+    else:
+        targetoptions = {"nopython": True, **_OPTIONS, **options}
+        disp = dispatcher(py_func=fn, locals={}, targetoptions=targetoptions)
     if CACHE_DIR is not None:
         saved = _numba_config.CACHE_DIR
         _numba_config.CACHE_DIR = CACHE_DIR
@@ -159,7 +191,7 @@ def kernel(fn: Callable) -> Any:
 
 def helper(fn: Callable) -> Any:
     """A small function for kernels to call; LLVM inlines it where that pays."""
-    return _compile(fn)
+    return _compile(fn, _HelperDispatcher, no_cpython_wrapper=True)
 
 
 def inline(fn: Callable) -> Any:
