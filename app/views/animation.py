@@ -445,7 +445,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             tools="",
             toolbar_location=None,
             output_backend="canvas",
-            title="(no run)",
+            title=Title(text="(no run)"),
             name="anim-side",
         )
         side.title.text_font_size = "9.5pt"
@@ -518,7 +518,7 @@ class ParticleAnimation(pn.viewable.Viewer):
             tools="",
             toolbar_location=None,
             output_backend="canvas",
-            title="(no run)",
+            title=Title(text="(no run)"),
             name="anim-circle",
         )
         circ.title.text_font_size = "9.5pt"
