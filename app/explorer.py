@@ -24,7 +24,7 @@ import param
 
 from vibtrans import simulate
 from vibtrans.core.fidelity import PRESET_NOTES
-from vibtrans_explorer.server import compat, data, memory, warmup
+from vibtrans_explorer.server import data, memory, warmup
 from vibtrans_explorer.session import maprequest, urlstate
 from vibtrans_explorer.session.controller import CANCELLED, RunController
 from vibtrans_explorer.session.latest import at_next_tick
@@ -59,6 +59,7 @@ from vibtrans_explorer.views.runbuttons import RunButtons
 from vibtrans_explorer.views.runtabs import RunTabs
 from vibtrans_explorer.views.scene import SceneControls
 from vibtrans_explorer.views.summary import SummaryView
+from vibtrans_explorer.views.tabs import lazy_tabs
 from vibtrans_explorer.views.trajectory import TrajectoryView, structure
 from vibtrans_explorer.views.units import UnitsPanel
 from vibtrans_explorer.views.vertical import VerticalView
@@ -107,24 +108,10 @@ def _request():
 def _page_location():
     """The page's address in the browser (views.browserside.BrowserAddress;
     None outside a served session): the link written from the state, the
-    browser's Back and Forward followed (app/session/pagelink.py)."""
+    browser's Back and Forward followed (app/session/pagelink.py).  The
+    served page embeds it where Panel's template embeds its Location
+    (`serve_page`)."""
     return None if _request() is None else BrowserAddress()
-
-
-def _template_location():
-    """The Location Panel's template embeds (its page requires one), made
-    from the request's path alone and never written: the page's address
-    is `_page_location`'s.  Panel's own (`pn.state.location`) parses the
-    query itself and fails on some texts ('?la=²': '²'.isdigit() is true,
-    int('²') raises), which gave a 500 page.  True outside a served session
-    (Panel's default)."""
-    request = _request()
-    if request is None:
-        return True
-    from panel.io.location import Location
-
-    path = getattr(request, "path", None) or "/"
-    return Location(pathname=path if path.startswith("/") else "/")
 
 
 class Explorer(pn.viewable.Viewer):
@@ -555,14 +542,13 @@ class Explorer(pn.viewable.Viewer):
     def main(self):
         self.design_panel = None  # the Design tab's, built when it is first opened
         self.design_box = pn.Column(sizing_mode="stretch_width", name="design")
-        tabs = pn.Tabs(
+        tabs = lazy_tabs(
             ("Map", self.map_pane),
             ("Vertical", self.vertical.pane),
             ("Units", self.units_box),
             ("Map on demand", self.ondemand.ondemand_box),
             ("Difference", self.difference.panel),
             ("Design", self.design_box),
-            dynamic=True,
             sizing_mode="stretch_width",
             stylesheets=[WRAPPING_TABS],
         )
@@ -584,13 +570,11 @@ class Explorer(pn.viewable.Viewer):
         # Side by side on a wide screen (the map with its summary, the
         # trajectory), one above the other on a narrow one.
         half = {"flex": "1 1 560px", "min-width": "0"}
-        address = [] if self.location is None else [self.location]
         self.page = pn.Column(
             self.intro,
             self.message,
             self.scene_controls.where,
             self.ack,
-            *address,
             pn.FlexBox(
                 pn.Column(tabs, self.summary_view.pane, styles=half, sizing_mode="stretch_width"),
                 pn.Column(self.stale_note, self.runs.tabs, styles=half, sizing_mode="stretch_width"),
@@ -675,13 +659,6 @@ def report_failure(exception):
     """Panel's exception handler (`pn.config.exception_handler`, set by the
     server): a callback that raised is logged with its traceback, and its
     page says so in its own words, with no traceback and no server path."""
-    if compat.is_panels_query_parse_failure(exception):
-        log.warning(
-            "Panel could not parse the browser's query (a known Panel bug, the link "
-            "is read by the explorer): %s",
-            exception,
-        )
-        return
     reference = failure_reference()
     log.error("a page's callback failed (reference %s)", reference, exc_info=exception)
     explorer = _PAGES.get(pn.state.curdoc) if pn.state.curdoc is not None else None
@@ -691,20 +668,27 @@ def report_failure(exception):
 
 def serve_page():
     """The server's page function: this session's page built into its
-    document (`pn.state.curdoc`) by Panel's public `server_doc`, with an
-    inert Location of the explorer's (`_template_location`; Panel's would
-    parse the query itself and fail on some texts, docs/how-to/deployment.md):
-    the page's address is the explorer's own (`_page_location`, in the
-    page's main column).  Attached under
-    one `Document.models.freeze()` (Bokeh's public context: the document's
-    model graph recomputed once, not after each of the template's ~10
-    roots; ~20% of a page, `python -m devtools.pagecost`).  Returns None:
-    Panel then serves the document as built."""
+    document (`pn.state.curdoc`) by Panel's public `server_doc`.  The page's
+    address is the explorer's own component (`_page_location`), embedded
+    as the template's `location` root, where Panel's template embeds its
+    Location: Panel's Location parses the browser's query in its own
+    watcher and fails on some texts ('?la=²': '²'.isdigit() is true,
+    int('²') raises; docs/how-to/deployment.md), so the served page has
+    none.  Outside a served session (no address), Panel's default.
+    Attached under one `Document.models.freeze()` (Bokeh's public context:
+    the document's model graph recomputed once, not after each of the
+    template's ~10 roots; ~20% of a page, `python -m devtools.pagecost`).
+    Returns None: Panel then serves the document as built."""
     explorer = Explorer()
     doc = pn.state.curdoc
     _PAGES[doc] = explorer
+    address = explorer.location
     with doc.models.freeze():
-        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=_template_location())
+        explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=address is None)
+        if address is not None:
+            root = address.get_root(doc)
+            root.name = "location"  # the root the template embeds as the page's location
+            doc.add_root(root)
 
 
 if pn.state.served:

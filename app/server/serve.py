@@ -25,7 +25,7 @@ import threading
 import time
 
 from vibtrans.core.errors import InputError
-from vibtrans_explorer.server import compat, memory
+from vibtrans_explorer.server import memory
 
 
 def _age():
@@ -270,8 +270,6 @@ def serve(args):
     from vibtrans_explorer.explorer import PAGE_TITLE, serve_page
 
     _log_to_stderr(logging.getLogger("vibtrans"))
-    for line in compat.apply():
-        say(line)
     from vibtrans_explorer.explorer import report_failure
 
     pn.config.param.update(exception_handler=report_failure)  # a callback failed: said, logged

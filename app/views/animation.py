@@ -370,7 +370,7 @@ def _view(width, height, limit, name):
         tools="",
         toolbar_location=None,
         output_backend="canvas",
-        title="(no run)",
+        title=Title(text="(no run)"),
         name=name,
     )
     fig.title.text_font_size = "9.5pt"

@@ -17,7 +17,7 @@ import math
 import numpy as np
 import panel as pn
 from bokeh.events import RangesUpdate, Tap
-from bokeh.models import ColumnDataSource, Range1d
+from bokeh.models import ColumnDataSource, Range1d, Title
 from bokeh.plotting import figure
 
 from vibtrans.analysis import dynamics
@@ -42,7 +42,7 @@ POINT_MASS_TEXT = (
 
 def _figure(title, xlabel, ylabel, width=440, height=360):
     fig = figure(
-        title=title,
+        title=Title(text=title),
         tools=TOOLS,
         toolbar_location="above",
         width=width,

@@ -30,6 +30,7 @@ from bokeh.models import (
     LinearScale,
     Quad,
     Range1d,
+    Title,
     VArea,
 )
 from bokeh.plotting import figure
@@ -106,7 +107,7 @@ def _figure(title, ylabel, x_range, frame_height, shared, time_axis=True):
     bottom panel has its axis).  Every axis and grid from the `shared`
     models."""
     fig = figure(
-        title=title,
+        title=Title(text=title),
         sizing_mode="stretch_width",
         min_width=MIN_WIDTH,
         height=None,

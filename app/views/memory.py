@@ -21,7 +21,7 @@ import logging
 import numpy as np
 import panel as pn
 import param
-from bokeh.models import ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text
+from bokeh.models import ColumnDataSource, Line, Patches, Quad, Range1d, Scatter, Text, Title
 from bokeh.plotting import figure
 
 from vibtrans.core.simulate import memory_snapshot, memory_snapshots
@@ -67,7 +67,7 @@ def _figure(title, xlabel, ylabel, square=False):
     # the toolbar at the right: above, it shared the title's row and cut the
     # title ("memory diagram w(h), t* = ..., partial slip") short
     fig = figure(
-        title=title,
+        title=Title(text=title),
         tools=TOOLS,
         toolbar_location="right",
         x_range=Range1d(0.0, 1.0),

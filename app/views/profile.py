@@ -25,7 +25,7 @@ import functools
 
 import numpy as np
 import panel as pn
-from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.models import ColumnDataSource, Range1d, Span, Title
 from bokeh.plotting import figure
 
 from vibtrans.core.profiles import FLAT_MAX, N_MIN, parse_profile
@@ -306,7 +306,7 @@ class ProfileView(_ChoiceView):
             toolbar_location=None,
             x_range=Range1d(-DRAWN_RHO, DRAWN_RHO),
             y_range=Range1d(0.0, DRAWN_Z),
-            title=_title(spec),
+            title=Title(text=_title(spec)),
             name="profile-drawing",
         )
         fig.line("r", "sphere", source=self.source, line_dash="dashed", color="grey", line_width=1.5)

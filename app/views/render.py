@@ -15,8 +15,12 @@ render here holds one lock.
 
 HoloViews turns Bokeh's property validation off around some updates of a
 render's sources (`with validate(False)`), and Bokeh keeps that switch in
-one flag for the whole process: renders in worker threads need the
-workaround in app/server/compat.py (applied where that bug is shown)."""
+one flag for the whole process (docs/how-to/deployment.md 1.1): the lock
+keeps two renders from switching it at once (one could leave it off), and
+what is built outside a render, on the event loop while a worker renders,
+gives Bokeh only values of its properties' types (a figure's title a
+`Title`, not a string that only validation converts), so that it needs no
+validation (tests/app/test_render_threads.py)."""
 
 import threading
 

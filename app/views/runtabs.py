@@ -13,6 +13,7 @@ from vibtrans_explorer.views.animation import ParticleAnimation
 from vibtrans_explorer.views.dynamics import DynamicsView
 from vibtrans_explorer.views.memory import MemoryView
 from vibtrans_explorer.views.presentation import WRAPPING_TABS, scale_fonts, scale_widths
+from vibtrans_explorer.views.tabs import lazy_tabs
 
 # the tabs, in order (0: the trajectory)
 ANIMATION_TAB, MEMORY_TAB, DOWNLOADS_TAB, DYNAMICS_TAB = 1, 2, 3, 4
@@ -34,13 +35,12 @@ class RunTabs:
         self.animation_box = pn.Column(sizing_mode="stretch_width")
         self.memory_box = pn.Column(sizing_mode="stretch_width")
         self.dynamics_box = pn.Column(sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(
+        self.tabs = lazy_tabs(
             ("Trajectory", trajectories.panel),
             ("Animation", self.animation_box),
             ("Memory diagram", self.memory_box),
             ("Downloads", exports.panel),
             ("Dynamics", self.dynamics_box),
-            dynamic=True,
             sizing_mode="stretch_width",
             name="trajectory",
             stylesheets=[WRAPPING_TABS],

@@ -404,6 +404,29 @@ def test_served_page_is_the_template_attached_by_panel():
     assert texts[0] == texts[1]
 
 
+def test_a_served_pages_location_is_the_explorers_address(monkeypatch):
+    """A served page has no Panel Location (its own watcher parses the
+    browser's query and fails on '?la=²', docs/how-to/deployment.md 1.3): the
+    root the template embeds as the page's location is the explorer's
+    address component (views.browserside.BrowserAddress), and the page's
+    main column does not hold it again."""
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    from vibtrans_explorer.views.browserside import BrowserAddress
+
+    monkeypatch.setattr(E, "_page_location", BrowserAddress)  # as in a served session
+    doc = Document()
+    with set_curdoc(doc):
+        assert E.serve_page() is None
+    explorer = E._PAGES[doc]
+    assert isinstance(explorer.location, BrowserAddress)
+    location = doc.get_model_by_name("location")
+    assert location in doc.roots and hasattr(location.data, "search")
+    assert not [m for m in doc.models if type(m).__name__ == "Location"]
+    assert not explorer.page.select(BrowserAddress)
+
+
 def test_page_cost_bench_runs_and_validates():
     """`python -m devtools.pagecost` measures pages as served; a bad
     --pages is refused naming the option."""

@@ -1,90 +1,60 @@
-"""app/server/compat.py: each workaround answers a bug the installed framework
-versions show.  The test of each bug runs stock code and fails on the day
-a version fixes it: then delete the workaround (docs/how-to/deployment.md)."""
+"""The explorer runs on stock Panel, Param, Bokeh and HoloViews: it replaces
+none of their code (the tests at the end), and answers their known bugs
+through public APIs (docs/how-to/deployment.md, section 1).  The test of each
+bug runs stock code and fails on the day a version fixes it: then the
+answer may be simplified (the deployment guide says how)."""
 
-import subprocess
-import sys
-
-from vibtrans_explorer.server import compat
-
-_STOCK_PROBE = (
-    "from vibtrans_explorer.server import compat; print(compat.validation_switch_is_process_wide())"
-)
-
-
-def test_bokeh_validation_switch_is_one_flag_for_the_process():
-    """Bug 1.1 (docs/how-to/deployment.md): Bokeh's `validate(False)` in one thread
-    turns validation off in every thread.  Probed in a fresh process:
-    stock Bokeh, nothing applied."""
-    out = subprocess.run(
-        [sys.executable, "-c", _STOCK_PROBE], capture_output=True, text=True, timeout=120, check=True
-    ).stdout.split()
-    assert out[-1] == "True", (
-        "Bokeh's validation switch no longer leaks across threads: "
-        "delete workaround 1 of app/server/compat.py"
-    )
+import pytest
 
 
 def test_panels_text_panes_in_a_hidden_tab_fetch_the_cdn():
-    """Bug 1.2 (docs/how-to/deployment.md): a Markdown pane updated while its tab of
-    a dynamic Tabs is hidden comes back with its stylesheets (shared with
-    the page's other models) on Panel's CDN.  Probed in a fresh process:
-    stock Panel, nothing applied."""
-    probe = "from vibtrans_explorer.server import compat; print(compat.hidden_tab_update_fetches_the_cdn())"
-    out = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
-    ).stdout.split()
-    assert out[-1] == "True", (
-        "Panel's hidden-tab text updates keep the page's stylesheets: "
-        "delete workaround 2 of app/server/compat.py"
-    )
+    """Bug 1.2: a Markdown pane updated while its tab of a `Tabs(dynamic=True)`
+    is hidden comes back with its stylesheets (shared with the page's other
+    models) on Panel's CDN, in a document whose stylesheets are served
+    locally.  The explorer's tabs hold only the open tab's content
+    (views/tabs.py `lazy_tabs`); this fails on the day Panel keeps them
+    local, and a dynamic Tabs would then do."""
+    import panel as pn
+    from bokeh.document import Document
+    from bokeh.models import ImportedStyleSheet
+    from panel.io.resources import CDN_DIST, LOCAL_DIST
+    from panel.io.state import set_curdoc
+
+    doc = Document()
+    doc.template_variables["dist_url"] = LOCAL_DIST  # as a served page's
+    shown, hidden = pn.pane.Markdown("shown"), pn.pane.Markdown("hidden")
+    tabs = pn.Tabs(("shown", shown), ("hidden", hidden), dynamic=True, active=1)
+    with set_curdoc(doc):
+        doc.add_root(tabs.get_root(doc))
+        tabs.active = 0
+        hidden.object = "changed while hidden"
+        tabs.active = 1
+    urls = {
+        s.url for m in doc.models for s in getattr(m, "stylesheets", ()) if isinstance(s, ImportedStyleSheet)
+    }
+    assert any(u.startswith(CDN_DIST) for u in urls), "Panel keeps a hidden tab's stylesheets local now"
 
 
-def test_apply_applies_what_is_shown_and_undo_restores_bokeh():
-    was = compat.applied()
-    compat.undo()
-    names = [name for name, *_ in compat.WORKAROUNDS]
-    try:
-        assert compat.validation_switch_is_process_wide()  # stock: the bug
-        assert compat.hidden_tab_update_fetches_the_cdn()
-        lines = compat.apply()
-        assert compat.applied() == names
-        assert all("applied" in line for line in lines)
-        assert not compat.validation_switch_is_process_wide()  # answered
-        assert not compat.hidden_tab_update_fetches_the_cdn()
-        assert compat.apply() == [f"{name}: applied" for name in names]  # idempotent
-        compat.undo()
-        assert compat.applied() == []
-        assert compat.validation_switch_is_process_wide()  # Bokeh's own again
-        assert compat.hidden_tab_update_fetches_the_cdn()  # Panel's own again
-    finally:
-        if was:
-            compat.apply()
+def test_panels_location_parses_the_query_it_does_not_sync():
+    """Bug 1.3: a Location that syncs nothing still parses each query it is
+    given (its `search` watcher reads `query_params`), and fails on '?la=²'
+    (bug 2.1).  The browser sends the page's address to the template's
+    Location when the page connects, so the served page has none: the
+    explorer's own address component takes its place
+    (explorer.serve_page).  Fails on the day Panel parses only what it
+    syncs."""
+    from panel.io.location import Location
 
-
-def test_nothing_is_applied_at_import():
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            "import vibtrans_explorer.explorer, vibtrans_explorer.server.compat as c; print(c.applied())",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=True,
-    ).stdout.split()
-    assert out[-1] == "[]"
+    with pytest.raises(ValueError, match="²"):
+        Location(pathname="/").search = "?la=²"
 
 
 def test_panels_query_parsing_fails_on_a_superscript_digit():
-    """Bug 2.1 (docs/how-to/deployment.md): Panel's `parse_query` takes '²' for an
-    integer ('²'.isdigit() is True) and `int('²')` raises, so a Location
-    Panel makes from a request with ?x=² fails the page (a 500).  The
-    explorer gives Panel a Location of its own through the public
-    `server_doc(location=...)` (explorer.serve_page); this fails on the day
-    Panel parses it, and the explorer may then leave the Location to Panel."""
-    import pytest
+    """Bug 2.1: Panel's `parse_query` takes '²' for an integer ('²'.isdigit()
+    is True) and `int('²')` raises, so a Location Panel makes from a request
+    with ?x=² fails the page (a 500).  The explorer reads its link itself
+    (session/urlstate.py) and gives Panel no Location to make
+    (explorer.serve_page); this fails on the day Panel parses it."""
     from panel.io.location import Location
 
     with pytest.raises(ValueError, match="²"):
@@ -103,7 +73,7 @@ APP = Path(__file__).resolve().parents[2] / "app"
 
 
 def _app_sources():
-    return [p for p in sorted(APP.rglob("*.py")) if p.name != "compat.py"]
+    return sorted(APP.rglob("*.py"))
 
 
 def _framework_names(tree):
@@ -135,7 +105,7 @@ def test_the_app_imports_nothing_private_and_assigns_nothing_to_its_frameworks()
     """No private import from Panel, Bokeh, Param or HoloViews; no
     assignment to an attribute of one of their modules or classes (a
     process-wide replacement), by `=` or `setattr`; nothing private of
-    theirs assigned anywhere.  app/server/compat.py alone may (docs/how-to/deployment.md)."""
+    theirs assigned anywhere (docs/how-to/deployment.md, section 1)."""
     found = []
     sources = _app_sources()
     assert len(sources) > 20

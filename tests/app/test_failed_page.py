@@ -58,24 +58,3 @@ def test_a_failed_callback_is_said_in_its_page_and_logged(caplog):
     with caplog.at_level(logging.ERROR, logger="vibtrans.explorer"):
         explorer.report_failure(ValueError("x"))
     assert [r.exc_info[0] for r in caplog.records] == [ValueError]
-
-
-def test_panels_own_query_parse_failure_is_logged_not_said(caplog):
-    """Panel's Location parses the browser's raw query itself and raises on
-    '?la=²' (a known Panel bug); the explorer reads the link on its own and
-    says what is wrong with it, so that failure is not news for the page."""
-    from panel.io.location import Location
-
-    doc, page = _served_page()
-    try:
-        Location(search="?la=²").query_params  # noqa: B018
-    except ValueError as exc:
-        failure = exc
-    with set_curdoc(doc), caplog.at_level(logging.WARNING, logger="vibtrans.explorer"):
-        explorer.report_failure(failure)
-    assert page.said is None
-    assert [r.levelno for r in caplog.records] == [logging.WARNING]
-    # any other failure is said
-    with set_curdoc(doc):
-        explorer.report_failure(ValueError("another"))
-    assert "Something failed in the server" in page.said
