@@ -124,9 +124,9 @@ def open_explorer(page, url):
 
 # The page's text as a user reads it: its text nodes, those in shadow roots
 # too (Panel's panes and widgets draw inside them), but not its scripts' or
-# styles'; `_DEEP_JS` defines vtDeep(root) (every element, shadow roots
+# styles'; `DEEP_JS` defines vtDeep(root) (every element, shadow roots
 # entered) and vtText(element) (its text and its shadow root's).
-_DEEP_JS = """
+DEEP_JS = """
 const vtDeep = (root, out = []) => {
   for (const e of root.querySelectorAll("*")) {
     out.push(e);
@@ -152,14 +152,14 @@ const vtText = (root) => {
 
 
 def page_text(page):
-    """Everything the page shows as text (`_DEEP_JS`'s vtText of its body)."""
-    return page.evaluate(f"() => {{ {_DEEP_JS} return vtText(document.body); }}")
+    """Everything the page shows as text (`DEEP_JS`'s vtText of its body)."""
+    return page.evaluate(f"() => {{ {DEEP_JS} return vtText(document.body); }}")
 
 
 # the text of the shown elements of a CSS class (a field's message under it)
 SHOWN_TEXT_JS = (
     "(cls) => {"
-    + _DEEP_JS
+    + DEEP_JS
     + """
   return vtDeep(document).filter((e) => e.classList.contains(cls) && e.getClientRects().length > 0)
     .map((e) => vtText(e)).join(" ").trim();

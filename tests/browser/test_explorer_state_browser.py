@@ -14,7 +14,7 @@ import time
 from urllib.parse import parse_qs
 
 import pytest
-from browserpages import changed, frames, new_page, open_explorer, read, settle
+from browserpages import DEEP_JS, changed, frames, new_page, open_explorer, read, settle
 from budget import budget, budget_ms
 from playwright.sync_api import TimeoutError as PageTimeout
 
@@ -30,16 +30,13 @@ SETTLE_S = 15.0  # the longest a step's answer may take, idle (scaled by budget(
 SERVER_ERRORS = ("Traceback", "ERROR", "_pending_writes")
 
 # the page's view of the scene: URL, fields, selectors, marker sources, heading
-_PAGE_JS = """() => {
+_PAGE_JS = (
+    "() => {"
+    + DEEP_JS
+    + """
   // Panel's widgets live in shadow roots: a selector "A B" is looked up as
   // an element of class A, then B inside it (through shadow roots)
-  const all = (root, out = []) => {
-    for (const e of root.querySelectorAll("*")) {
-      out.push(e);
-      if (e.shadowRoot) all(e.shadowRoot, out);
-    }
-    return out;
-  };
+  const all = vtDeep;
   const find = (sel) => {
     const [outer, inner] = sel.split(" ");
     for (const e of all(document)) if (e.matches(outer)) {
@@ -71,6 +68,7 @@ _PAGE_JS = """() => {
           mu: selected(".vt-mu select"), points: selected(".vt-paper-points select"),
           sources: sources, ack: (all(document).find(e => e.matches(".vt-busy")) || {}).textContent || ""};
 }"""
+)
 
 
 def _query(search):
