@@ -18,14 +18,15 @@ ORDINAL = (
     "twentieth|\\d+(?:st|nd|rd|th)|[A-Z]\\d+"
 )
 NARRATION = {
-    # also "issue-16", "issue #32" and a test's name "test_issue_14_..."
+    # also with a hyphen, a hash or an underscore before the number (a
+    # test's name too)
     "an issue number": re.compile(r"(?<![a-z])issues?[\s_#-]*\d+", re.I),
     "a work session": re.compile(
         rf"\b(?:{ORDINAL})\s+session\b|\bwork(?:ing)?\s+sessions?\b"
         r"|\bsession\s+[A-Z]?\d+\b",
         re.I,
     ),
-    # a date joined to its time ("2026-11-28T10:05:00Z") is a record's
+    # a date joined to its time ("2031-01-02T03:04:05Z") is a record's
     # timestamp, data a test or a results file reads, not prose
     "a date": re.compile(r"\b20\d\d-[01]\d-[0-3]\d\b"),
     "a machine's path": re.compile(r"(?<![\w.])/(?:work|root|home/\w+)/"),
@@ -84,23 +85,35 @@ def test_nothing_narrates_how_it_was_made():
     assert not found, "\n".join(found[:60]) + f"\n({len(found)} in all)"
 
 
+def _said(sample):
+    """A sample of narration as the check must find it: written here with a
+    '|' inside its telling word, so that this file does not itself read as
+    narration to a reader or a scanner of the tree's text."""
+    return sample.replace("|", "")
+
+
 def test_the_check_finds_each_kind():
     lines = {
         "an issue number": [
-            "fixed in issue 34",
-            "issues 14 and 32",
-            "Issue #32",
-            "the issue-16 figures",
-            "def test_issue_14_runs():",
+            "fixed in iss|ue 34",
+            "iss|ues 14 and 32",
+            "Iss|ue #32",
+            "the iss|ue-16 figures",
+            "def test_iss|ue_14_runs():",
         ],
-        "a work session": ["the twentieth session", "the D3 session", "in session 12", "a work session"],
-        "a date": ["measured 2026-11-24", "until 2026-11-27 05:00 UTC"],
-        "a machine's path": ["see /work/main/x.py", "in /root/.cache", "/home/ann/x"],
-        "a helper's name": ["H2 found it", "helper-3's change", "Helper 3 said"],
+        "a work session": [
+            "the twentieth sess|ion",
+            "the D3 sess|ion",
+            "in sess|ion 12",
+            "a work sess|ion",
+        ],
+        "a date": ["measured 20|26-11-24", "until 20|26-11-27 05:00 UTC"],
+        "a machine's path": ["see /wo|rk/main/x.py", "in /ro|ot/.cache", "/ho|me/ann/x"],
+        "a helper's name": ["H|2 found it", "help|er-3's change", "Help|er 3 said"],
     }
     for what, examples in lines.items():
         for line in examples:
-            assert NARRATION[what].search(line), (what, line)
+            assert "|" in line and NARRATION[what].search(_said(line)), (what, line)
     for product in (
         "one session's page",
         "the last session closed",
@@ -116,7 +129,7 @@ def test_the_check_finds_each_kind():
         "~/.cache/vibtrans",
         "tests/work/x",
         "log10 A* = 2.5",
-        "2026-11-28T10:05:00Z",
+        "2031-01-02T03:04:05Z",
         "1970-01-01 00:00:00,000",
     ):
         assert not any(p.search(product) for p in NARRATION.values()), product
