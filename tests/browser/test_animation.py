@@ -408,9 +408,8 @@ def test_play_pause_and_a_new_run_in_chromium(slipping, hopping):
             play = page.get_by_role("button", name="Play")
             sent_at_play = len(sent)
             play.click()
+            # play advances the frame (read in the poll that sees it: the end wraps to 0)
             page.wait_for_function(f"() => ({_VALUE_JS})() > 0", timeout=budget_ms(30))
-            playing = page.evaluate(_PAGE_JS)["value"]
-            assert playing > 0  # play advances the frame
             page.screenshot(path=str(ARTIFACTS / "animation_playing.png"))
             page.get_by_role("button", name="Pause").click()
             paused = page.evaluate(_PAGE_JS)

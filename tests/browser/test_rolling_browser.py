@@ -71,6 +71,10 @@ def _turned_to(state):
     return -0.5 * math.pi + state["roll"] / state["rho"]
 
 
+def _assert_turned_by_its_arc(state):
+    assert math.remainder(state["angle"] - _turned_to(state), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+
+
 def test_a_rolling_solid_sphere_clicked_on_the_map_turns_in_the_animation(served_explorer, browser):
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     page, errors = new_page(browser, 1400, 1000)
@@ -103,21 +107,23 @@ def test_a_rolling_solid_sphere_clicked_on_the_map_turns_in_the_animation(served
         page.get_by_text("The particle rolls (solid)").first.wait_for(timeout=budget_ms(30))
         first = page.evaluate(MARK_JS)
         assert first["length"] == pytest.approx(first["rho"], rel=1e-6)
-        assert math.remainder(first["angle"] - _turned_to(first), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+        _assert_turned_by_its_arc(first)
         page.locator("select").filter(has_text="5 periods/s").select_option(label="5 periods/s")
         page.get_by_role("button", name="Play").click()
-        # it turns as the animation plays: another frame, another angle
-        page.wait_for_function(
+        # it turns as the animation plays: another frame, another angle (read
+        # in the same poll, since the animation wraps back to frame 0 at its end)
+        later = page.wait_for_function(
             f"""(a) => {{ const s = ({MARK_JS})();
-                return s !== null && s.frame > 0 && Math.abs(s.angle - a) > 1e-4; }}""",
+                return s !== null && s.frame > 0 && Math.abs(s.angle - a) > 1e-4 ? s : null; }}""",
             arg=first["angle"],
             timeout=budget_ms(30),
             polling=100,
-        )
+        ).json_value()
         page.get_by_role("button", name="Pause").click()
-        later = page.evaluate(MARK_JS)
         assert later["frame"] != first["frame"] and later["roll"] != first["roll"]
-        assert math.remainder(later["angle"] - _turned_to(later), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+        _assert_turned_by_its_arc(later)
+        paused = page.evaluate(MARK_JS)
+        _assert_turned_by_its_arc(paused)
         page.get_by_text("Animation", exact=True).first.evaluate("(e) => e.scrollIntoView({block: 'start'})")
         settle(page)
         page.screenshot(path=str(ARTIFACTS / "rolling-animation.png"))
