@@ -686,9 +686,14 @@ def serve_page():
     with doc.models.freeze():
         explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=address is None)
         if address is not None:
-            root = address.get_root(doc)
+            # served by Panel, which forgets it when the session ends (a root
+            # added by hand stayed in Panel's registry of views, and with it
+            # the session's document); the template gave the page its extras
+            before = {id(root) for root in doc.roots}
+            with pn.config.set(browser_info=False, notifications=False):
+                address.server_doc(doc, title=PAGE_TITLE, location=False)
+            root = next(root for root in doc.roots if id(root) not in before)
             root.name = "location"  # the root the template embeds as the page's location
-            doc.add_root(root)
 
 
 if pn.state.served:

@@ -81,7 +81,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from vibtrans_explorer.server.memory import CLOSED, RELEASE_NAME, RELEASED
+from vibtrans_explorer.server.memory import CLOSED, HELD, RELEASE_NAME, RELEASED
 
 from . import results
 from .chromium import ARGS, CHROMIUM
@@ -338,7 +338,18 @@ def discarded(text):
 def release_lines(text):
     """The explorer's lines on releasing closed sessions' memory (each names
     its process), in the log's order."""
-    return [line.strip()[:200] for line in text.splitlines() if RELEASED in line or RELEASE_NAME in line]
+    return [line.strip()[:240] for line in text.splitlines() if RELEASED in line or RELEASE_NAME in line]
+
+
+def documents_held(lines):
+    """Each process's Bokeh documents still held at its last release (its
+    release line's last figure, memory.documents_held)."""
+    held = {}
+    for line in lines:
+        m = re.search(rf"\(process (\d+)\).* (\d+) {HELD}", line)
+        if m:
+            held[m.group(1)] = int(m.group(2))
+    return held
 
 
 def released_after_discards(text):
@@ -961,6 +972,7 @@ def run(a):
         # release lines (which process released what, or deferred it)
         "rss_after_by_process_mb": rss_by_process,
         "release_lines": releases,
+        "documents_held_by_process": documents_held(releases),
         # pages built and closed, by process (a session whose page was
         # served by one process and whose websocket reached another is
         # built in both)

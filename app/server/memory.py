@@ -30,6 +30,8 @@ import logging
 import os
 import time
 
+from bokeh.document import Document
+
 log = logging.getLogger("vibtrans.explorer")
 
 RELEASE_DELAY = 2.0  # s after the last session closed (a burst of closes: once)
@@ -37,6 +39,7 @@ CLOSES_PER_RELEASE = 30  # closes kept uncollected at most (a server never idle)
 # INFO: operators (and `python -m devtools.loadtest`, which waits for this
 # line after the last session is discarded) see when memory went back
 RELEASED = "released the memory of closed sessions"
+HELD = "documents held"  # (their count, the release line's last figure)
 RELEASE_NAME = "the release of closed sessions' memory"
 CLOSED = "session closed"
 
@@ -93,6 +96,15 @@ def resident_mb():
         return None
 
 
+def documents_held():
+    """How many Bokeh documents this process still holds.  Once every
+    session has closed, Panel keeps one or two (the first page's, which its
+    shared style sheets refer to; the one whose context its busy-state
+    cleanup task started in); a closed session's page held besides would
+    count here, a few MB a visitor."""
+    return sum(1 for o in gc.get_objects() if isinstance(o, Document))
+
+
 def release():
     """Collect what the closed sessions left and give the freed heap back
     to the OS; what lives on is frozen again (as at start-up) if anything
@@ -117,6 +129,7 @@ def release():
     frozen = gc.get_freeze_count() > 0  # the server froze start-up and pages
     gc.unfreeze()
     collected = gc.collect()
+    held = documents_held()
     if frozen:
         gc.freeze()
     try:
@@ -125,11 +138,13 @@ def release():
         pass
     after = resident_mb()
     log.info(
-        "%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s",
+        "%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s, %d %s",
         RELEASED,
         os.getpid(),
         collected,
         f"{before:.0f}" if before else "?",
         f"{after:.0f}" if after else "?",
         time.perf_counter() - t0,
+        held,
+        HELD,
     )
