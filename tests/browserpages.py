@@ -204,6 +204,26 @@ SERVER_ERRORS = ("Traceback", "ERROR", "Exception", "_pending_writes")
 KEEP_ALIVE_RACE = ("in on_close", "assert self._session is not None")
 
 
+def small_chart_offer(page, draw, **fields):
+    """On the Design tab: a 3 x 3 chart over 1e5-1.2e5 Hz and 1e-8-1.2e-8 m (with `fields`
+    typed first), Draw pressed: the map-on-demand offer's pane."""
+    for name, value in (
+        *fields.items(),
+        ("x_lo", "1e5"),
+        ("x_hi", "1.2e5"),
+        ("x_points", "3"),
+        ("y_lo", "1e-8"),
+        ("y_hi", "1.2e-8"),
+        ("y_points", "3"),
+    ):
+        field = page.locator(f".vt-design-fields .vt-field-{name} input").first
+        field.fill(value)
+        field.press("Enter")
+        read_back(page, f"vt-field-{name}")  # (applied before Draw reads it)
+    draw.click()
+    return page.locator(".vt-design-offer").first
+
+
 def _keep_alive_race(block):
     """Does the traceback that starts `block` (lines) end in Bokeh's
     keep-alive race: an AssertionError, raised in on_close?"""

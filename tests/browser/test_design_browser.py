@@ -6,7 +6,7 @@ substrate's field shown.  Screenshots go to test-artifacts/."""
 from pathlib import Path
 
 import pytest
-from browserpages import new_page, open_explorer, read_back
+from browserpages import new_page, open_explorer, read_back, small_chart_offer
 from budget import budget_ms
 from playwright.sync_api import expect
 
@@ -48,26 +48,6 @@ def _open_design(page, url):
     draw = page.get_by_role("button", name="Draw chart").first
     draw.wait_for(timeout=budget_ms(30))
     return draw
-
-
-def _small_chart_offer(page, draw, **fields):
-    """A 3 x 3 chart over 1e5-1.2e5 Hz and 1e-8-1.2e-8 m (with `fields`
-    typed first), Draw pressed: the map-on-demand offer's pane."""
-    for name, value in (
-        *fields.items(),
-        ("x_lo", "1e5"),
-        ("x_hi", "1.2e5"),
-        ("x_points", "3"),
-        ("y_lo", "1e-8"),
-        ("y_hi", "1.2e-8"),
-        ("y_points", "3"),
-    ):
-        field = page.locator(f".vt-design-fields .vt-field-{name} input").first
-        field.fill(value)
-        field.press("Enter")
-        read_back(page, f"vt-field-{name}")  # (applied before Draw reads it)
-    draw.click()
-    return page.locator(".vt-design-offer").first
 
 
 @pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)], ids=["1280x800", "1920x1080"])
@@ -135,7 +115,7 @@ def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser, 
     page, errors = new_page(browser, 1024, 768)
     try:
         draw = _open_design(page, served_explorer.url)
-        offer = _small_chart_offer(page, draw, mu="0.5")
+        offer = small_chart_offer(page, draw, mu="0.5")
         offer.get_by_text("No shipped map serves this chart").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
         offer.scroll_into_view_if_needed()
@@ -190,7 +170,7 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
         angle.fill("60")
         angle.press("Enter")
         read_back(page, "vt-field-tip_half_angle")
-        offer = _small_chart_offer(page, draw)
+        offer = small_chart_offer(page, draw)
         offer.get_by_text("the shipped maps are the sphere's").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("integration steps").first.wait_for(timeout=budget_ms(60))
         offer.get_by_text("cone (half-angle 60 deg), runs the normalized profile").first.wait_for(
