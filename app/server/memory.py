@@ -29,8 +29,9 @@ import gc
 import logging
 import os
 import time
+import weakref
 
-from bokeh.document import Document
+from bokeh.io import curdoc
 
 log = logging.getLogger("vibtrans.explorer")
 
@@ -45,6 +46,7 @@ CLOSED = "session closed"
 
 _RELEASE = {"handle": None, "server": None, "closes": 0}
 _AT_RELEASE = []  # callables, run at each release (the server's)
+_PAGES = weakref.WeakSet()  # the documents of the pages built, while alive
 
 
 def at_release(fn):
@@ -54,9 +56,11 @@ def at_release(fn):
 
 
 def page_built():
-    """A session's page is built: leave it (and everything older) out of
-    the collector's passes until the next release."""
+    """A session's page is built (into Bokeh's current document): leave it
+    (and everything older) out of the collector's passes until the next
+    release, and count its document while it lives."""
     gc.freeze()
+    _PAGES.add(curdoc())
 
 
 def sessions_open(server_context):
@@ -97,12 +101,12 @@ def resident_mb():
 
 
 def documents_held():
-    """How many Bokeh documents this process still holds.  Once every
-    session has closed, Panel keeps one or two (the first page's, which its
-    shared style sheets refer to; the one whose context its busy-state
-    cleanup task started in); a closed session's page held besides would
-    count here, a few MB a visitor."""
-    return sum(1 for o in gc.get_objects() if isinstance(o, Document))
+    """How many built pages' documents this process still holds.  Once
+    every session has closed, Panel keeps one or two (the first page's,
+    which its shared style sheets refer to; the one whose context its
+    busy-state cleanup task started in); a closed session's page held
+    besides would count here, a few MB a visitor."""
+    return len(_PAGES)
 
 
 def release():
