@@ -60,17 +60,12 @@ compile seconds deformable / point mass / vertical):
   the point mass's event functions `inline`): 11.6 / 7.1 / 3.5 s, the
   memory diagram and the deformable kernel as fast as all-`inline`
   (`vibtrans bench`), the point mass within ~10%.
-* then the kernels split into named phases, most of them `helper`s (each
-  compiled on its own, once per signature): 16.9 / 10.4 / 9.0 s (numba's
-  import, ~1.5 s, counted in the first); run times unchanged.  Each small
-  helper costs ~0.1-0.2 s of compilation; a cold `vibtrans simulate` stays
-  within its 20 s (15.5 s).
-* then no wrappers but the kernels' CPython one (no cfunc wrapper anywhere,
-  no CPython wrapper on helpers: `_HelperDispatcher`): a cold `vibtrans
-  simulate --log-amplitude 2.5 --log-mass 0` in 9.8 s of CPU instead of
-  11.0-11.4 (alternated, load ~6), the same records bit for bit.  (All
-  `inline` functions as helpers compile in 7 s of CPU, but that is the
-  memory diagram's 3x slower update above.)
+* the kernels are named phases, most of them `helper`s, each compiled on
+  its own once per signature (~0.1-0.2 s a helper); run times as above.
+* no wrapper is compiled that only Python would call: no cfunc wrapper
+  anywhere, no CPython wrapper on a helper (`_HelperDispatcher`), about a
+  tenth of a cold `vibtrans simulate`'s compilation, the same records bit
+  for bit (`vibtrans bench --cold-start`).
 
 The on-disk cache.  numba's own cache checks only the source file of the
 function it compiled: an edit to a helper inlined from another module left a
