@@ -104,7 +104,7 @@ def _log10_value(name, value):
     return 10.0**value
 
 
-def scene_from_args(args):
+def _scene(args):
     from vibtrans.core.params import Scene
 
     amplitude = (
@@ -169,7 +169,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from vibtrans.analysis.summary import jumped, summarize, twin_scene
     from vibtrans.core.simulate import simulate
 
-    scene = scene_from_args(args)
+    scene = _scene(args)
     if args.out:
         check_file(args.out)  # before the run: a bad path costs no simulation
     window = None if args.window is None else tuple(_num(v) for v in args.window)
@@ -204,7 +204,7 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
 
-    scene = scene_from_args(args)
+    scene = _scene(args)
     period = _finite("period", args.period, 1, 64, integer=True)
     guess: tuple[float, ...]
     if args.guess == "run":
@@ -544,7 +544,7 @@ def _finite(name, value, lo=None, hi=None, integer=False):
     if not ok:
         rng = "" if lo is None else f" > {lo:g}" if hi is None else f" in [{lo:g}, {hi:g}]"
         raise InputError(f"{name} must be {'an integer' if integer else 'a number'}{rng}, got {value!r}")
-    return int(value) if integer else value
+    return int(value) if integer else float(value)
 
 
 def _export_scene(args):
@@ -775,9 +775,7 @@ def _export_parser(sub):
     e.add_argument("--log-amplitude", type=_num, help="log10 A* (trajectory, memory)")
     e.add_argument("--log-mass", type=_num, help="log10 m* (trajectory, memory)")
     e.add_argument(
-        "--periods",
-        type=_num,
-        help="observation time, periods (trajectory, memory; paper: all points)",
+        "--periods", type=_num, help="observation time, periods (trajectory, memory; paper: all points)"
     )
     e.add_argument("--fidelity", default="standard", help="preview | standard | reference")
     e.add_argument("--t", type=_num, help="memory: time of the memory diagram, periods")
@@ -1138,14 +1136,12 @@ def _glue_negative_values(argv):
 
 
 def main(argv: list[str] | None = None) -> Any:
-    parser = build_parser()
-    command_line = argv is None
-    argv = sys.argv[1:] if command_line else list(argv or ())
-    args = parser.parse_args(_glue_negative_values(argv))
+    words = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser().parse_args(_glue_negative_values(words))
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process
-    args.argv = argv if command_line else None
-    args.words = argv  # what was asked, for a record of the run
+    args.argv = words if argv is None else None
+    args.words = words  # what was asked, for a record of the run
     try:
         return globals()[f"cmd_{args.command}"](args)  # cmd_NAME runs subcommand NAME
     except InputError as exc:  # refused input: one line, status 2 (a bug keeps its traceback)
