@@ -25,7 +25,6 @@ server log's error lines; --check exits 1 on either.
 """
 
 import argparse
-import contextlib
 import json
 import math
 import os
@@ -36,8 +35,7 @@ import time
 from pathlib import Path
 
 from . import results
-from .chromium import launched
-from .server import Server
+from .server import explorer
 
 VIEWPORT = {"width": 1400, "height": 1000}
 BUSY_WITHIN_S = 0.3
@@ -555,38 +553,13 @@ def table(rows):
     return "\n".join(lines)
 
 
-@contextlib.contextmanager
-def _browser_and_server(url, log, server_errors=None):
-    """(chromium, the explorer's URL): `url`, or a server of the bench's own
-    (stopped at the end; server_errors given its log's error lines)."""
-    server = None
-    if url is None:
-        log("starting vibtrans serve ...")
-        server = Server()
-        server.wait_ready()
-        url = server.url
-    try:
-        with launched() as browser:
-            yield browser, url
-    except BaseException:
-        if server is not None:
-            print(f"the server's log:\n{server.text()[-3000:]}", file=sys.stderr)
-        raise
-    finally:
-        if server is not None:
-            if server_errors is not None:
-                server_errors += server.errors()[0]
-            server.stop()
-            server.remove_logs()
-
-
 def _machine():
     return "{} cores, load average {:.2f} {:.2f} {:.2f} at the end".format(os.cpu_count(), *os.getloadavg())
 
 
 def run(repeats, url=None, log=print):
     """Warm-up plus `repeats` repeats against `url` (or a server of its own)."""
-    with _browser_and_server(url, log) as (browser, url):
+    with explorer(url) as (browser, url, _):
         log("warm-up repeat ...")
         warmup = repeat(browser, url)
         done = []
@@ -649,10 +622,10 @@ def main(argv=None):
 
 
 def _memory_main(a):
-    errors = []
     begun = results.begin()
-    with _browser_and_server(a.url, _log, errors) as (browser, url):
+    with explorer(a.url) as (browser, url, server):
         out = memory_views(browser, url, a.memory_views, _log)
+        errors = server.errors()[0] if server else []
     answered = out["answered"]
     xs = [x["s"] for x in answered]
     summary = {

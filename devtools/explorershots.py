@@ -11,8 +11,7 @@ import argparse
 import json
 from pathlib import Path
 
-from devtools.chromium import launched
-from devtools.server import Server
+from devtools.server import explorer
 
 ROOT = Path(__file__).resolve().parent.parent
 SIZES = ["1024x768", "1280x800", "1920x1080"]
@@ -126,19 +125,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    server = None if args.url else Server()
-    url = args.url or server.url
-    try:
-        if server is not None:
-            server.wait_ready()
-        with launched() as browser:
-            for size in args.sizes:
-                print(size)
-                print(json.dumps(shots(browser, url, size, out)))
-    finally:
-        if server is not None:
-            server.stop()
-            server.remove_logs()
+    with explorer(args.url) as (browser, url, _):
+        for size in args.sizes:
+            print(size)
+            print(json.dumps(shots(browser, url, size, out)))
 
 
 if __name__ == "__main__":

@@ -38,15 +38,13 @@ import urllib.request
 from pathlib import Path
 from urllib.parse import quote
 
-import psutil
-
 from vibtrans_explorer.server.memory import CLOSED, HELD, RELEASE_NAME, RELEASED
 
 from . import results
 from .chromium import ARGS, CHROMIUM
 from .deploy import Deployment, free_port
 from .protoclient import ProtocolSession
-from .server import KERNELS_READY, Measured, Server, affinity, cpu_seconds, rss_mb, tree
+from .server import KERNELS_READY, Measured, Server, affinity, cpu_seconds, each, rss_mb, tree
 
 # closed sessions dropped in seconds (Bokeh's default: ~30 s); the debug log
 # says which were discarded
@@ -390,14 +388,10 @@ async def _drive(url, a, sessions, result, seed):
     before = set(tree(os.getpid()))  # the server and the like: not clients
     async with async_playwright() as p:
         browser = await p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
-        for q in set(tree(os.getpid())) - before:  # renderers started later inherit it
-            try:
-                if "chrom" in psutil.Process(q).name():
-                    psutil.Process(q).nice(BROWSER_NICE)
-            except psutil.Error:
-                pass
+        started = set(tree(os.getpid())) - before
+        each(started, lambda q: "chrom" in q.name() and q.nice(BROWSER_NICE))  # renderers inherit it
         # the clients' cores, read back: this process and what it started for them
-        result["client_cores"] = affinity([os.getpid(), *(set(tree(os.getpid())) - before)])
+        result["client_cores"] = affinity([os.getpid(), *started])
         try:
             await _gather([session(k, browser) for k in range(sessions)], a, result)
         finally:

@@ -2,6 +2,7 @@
 loopback port with its log in a file, the memory and CPU of its processes,
 and what its log says (sessions dropped and released, errors)."""
 
+import contextlib
 import os
 import re
 import shutil
@@ -16,6 +17,7 @@ import psutil  # a dependency of distributed
 
 from vibtrans_explorer.server.memory import CLOSED, RELEASED
 
+from .chromium import launched
 from .deploy import _stop, answers, free_port, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -26,7 +28,7 @@ BENIGN = ("WebSocketClosedError", "StreamClosedError")
 DETACHED = "assert self._session is not None"
 
 
-def _each(pids, read):
+def each(pids, read):
     """read(psutil.Process) of each of `pids` still there."""
     out = []
     for pid in pids:
@@ -39,28 +41,28 @@ def _each(pids, read):
 
 def tree(pid):
     """pid and every process under it."""
-    kids = _each([pid], lambda p: [c.pid for c in p.children(recursive=True)])
+    kids = each([pid], lambda p: [c.pid for c in p.children(recursive=True)])
     return [pid, *(kids[0] if kids else [])]
 
 
 def rss_mb(pids):
     """The RSS of these processes together, MB."""
-    return sum(_each(pids, lambda p: p.memory_info().rss)) / 2**20
+    return sum(each(pids, lambda p: p.memory_info().rss)) / 2**20
 
 
 def cpu_seconds(pids):
     """CPU seconds (user + system) these processes have used so far."""
-    return sum(_each(pids, lambda p: sum(p.cpu_times()[:2])))
+    return sum(each(pids, lambda p: sum(p.cpu_times()[:2])))
 
 
 def affinity(pids):
     """The cores these processes may run on (union)."""
-    return sorted(set().union(*_each(pids, lambda p: p.cpu_affinity())))
+    return sorted(set().union(*each(pids, lambda p: p.cpu_affinity())))
 
 
 def pid_alive(pid):
     """Whether process `pid` exists and is not a zombie."""
-    return any(_each([pid], lambda p: p.status() != psutil.STATUS_ZOMBIE))
+    return any(each([pid], lambda p: p.status() != psutil.STATUS_ZOMBIE))
 
 
 def discarded(text):
@@ -120,6 +122,26 @@ def log_errors(text):
     if pending is not None:
         errors.append(pending)
     return errors, benign
+
+
+@contextlib.contextmanager
+def explorer(url=None):
+    """(chromium, the explorer's URL, its Server or None): `url`, or a server
+    of its own (kernels compiled; its log's end on stderr after a failure)."""
+    server = None if url else Server()
+    try:
+        if server:
+            server.wait_ready()
+        with launched() as browser:
+            yield browser, url or server.url, server
+    except BaseException:
+        if server:
+            print(f"the server's log:\n{server.text()[-3000:]}", file=sys.stderr)
+        raise
+    finally:
+        if server:
+            server.stop()
+            server.remove_logs()
 
 
 class Measured:
@@ -236,5 +258,5 @@ class Server(Measured):
         self._sampling = False
         children = tree(self.proc.pid)[1:]
         _stop(self.proc)
-        _each(children, lambda p: p.kill())
+        each(children, lambda p: p.kill())
         self.log.close()
