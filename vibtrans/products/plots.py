@@ -263,15 +263,6 @@ def jumping_boundary(vertical: xr.Dataset, model: str = "deformable") -> Any:
     return _keyed(curve, [(BOUNDARY_LABEL, "line", BOUNDARY_LINE)])
 
 
-def _resonances(vertical):
-    """[(name, log10 m*)] of the resonances stored with a threshold curve."""
-    return [
-        (key[len("resonance_") : -len("_log_mass")], float(value))
-        for key, value in vertical.attrs.items()
-        if key.startswith("resonance_") and key.endswith("_log_mass")
-    ]
-
-
 def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
     """Lines at the fundamental and subharmonic resonances (hidden unless `shown`)."""
     lines = []
@@ -315,7 +306,10 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
     de = hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)")
     layers = [_styled_line(de, "#1f77b4", 2), _styled_line(pm, "black", 1.5, "dashed")]
     names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
-    for name, lm in _resonances(vertical):
+    for key, value in vertical.attrs.items():  # the resonances stored with the curve
+        if not (key.startswith("resonance_") and key.endswith("_log_mass")):
+            continue
+        name, lm = key[len("resonance_") : -len("_log_mass")], float(value)
         color = "#d62728" if name in names else "grey"
         layers.append(_styled_line(hv.VLine(10.0**lm), color, width=1, dash="dotted"))
         if name in names:
