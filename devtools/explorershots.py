@@ -79,7 +79,7 @@ def shots(browser, url, size, out, log=print):
         shot(name)
     _button(page, "selected model")
     page.get_by_role("button", name="Run selected scene").first.click()
-    page.locator("strong", has_text="mu = ").first.wait_for(timeout=120000)
+    page.locator("strong:visible", has_text="mu = ").first.wait_for(timeout=120000)
     _settle(page)
     for tab in RUN_TABS:
         header = page.get_by_text(tab, exact=True).first
