@@ -9,8 +9,9 @@ page then point the browser at cdn.holoviz.org (docs/how-to/deployment.md,
 1.2).  Here a hidden tab holds nothing: its content is taken out of the
 page, so no model of it is kept, and put back, built into the session's
 document, when the tab is opened.  A tab with a form (`keep`) stays in the
-page once opened: a text typed the instant it is opened again would go to
-models the server has dropped, and be lost."""
+page once opened, hidden while another is open: a text typed the instant
+it is opened again would go to models the server has dropped, and be
+lost."""
 
 import panel as pn
 
@@ -33,9 +34,14 @@ def lazy_tabs(*tabs, keep=(), **params):
             opened.add(layout.active)
         with pn.io.hold():
             for i, (box, (_, content)) in enumerate(zip(boxes, tabs)):
-                want = [content] if i == layout.active or i in opened else []
+                shown = i == layout.active
+                want = [content] if shown or i in opened else []
                 if [id(o) for o in box.objects] != [id(o) for o in want]:
                     box.objects = want
+                if i in opened:
+                    # out of the layout while hidden: Bokeh's Tabs lays out
+                    # every panel, and the open tab would get its height
+                    box.visible = shown
 
     layout.param.watch(show, "active")
     show()
