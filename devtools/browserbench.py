@@ -1,99 +1,30 @@
-"""The explorer's responsiveness as a person sees it, in a real browser:
+"""The explorer's responsiveness as a person sees it, in chromium:
 
     python -m devtools.browserbench [--repeats 5] [--url URL] [--json] [--check]
     python -m devtools.browserbench --memory-views N [--url URL] [--json] [--check]
 
-Starts `vibtrans serve` (tests/netutil.py's Served, the test suite's
-server) and waits until its kernels are compiled, or uses the running
-server at --url; drives Debian's chromium with Playwright (1400 x 1000).
-Every repeat opens a new page (so that "first" means first in a session)
-and does, in this order:
+Uses a server of its own (kernels compiled first) or the one at --url.  Each
+repeat opens a new page and does, in turn: two map clicks (until the run is
+drawn), two memory views (a time typed, "Show the memory diagram at t*"),
+the trajectory PNG export (until the download), map redraws (colour, mu,
+model), the first point-mass run and the first run after "compare with".
 
-  map click           click the map (deformable, the default "tau twin"
-                      comparison) at two points in turn: until the run's
-                      summary and plots are drawn
-  memory view         in the "Memory diagram" tab (opened once), a time typed
-                      and "Show the memory diagram at t*" clicked (twice):
-                      until the diagram of that time is drawn (its title).
-                      A failure is reported with what the page showed (the
-                      button's box before and at the click, the field, the
-                      plots' titles, the probe's record, a screenshot)
-  trajectory PNG      the "trajectory .png" export (vt-export-trajectory-png):
-                      until the browser receives the download (a PNG)
-  map redraw: colour  grey -> colour (chaotic points), and back at the end
-  map redraw: mu      0.3 -> 0.1 -> 0.3
-  map redraw: model   deformable -> point-mass -> deformable
-  first point-mass run  with the point-mass map shown, click it: the first
-                      point-mass run of the session (drawn into the
-                      deformable run's figures, reconfigured)
-  first run after compare  "compare with" -> "point mass", click the map:
-                      the first run with that comparison (relabelled figures)
+A probe in the page times each action from its pointerdown or input event
+to the frame after the result is drawn and every plot shown has painted;
+"server's reply" is the last websocket message before that.  A busy
+indicator (the explorer's vt-busy, a pane's pn-loading, a <progress>,
+"Running ..." or a disabled clicked button; Panel's header spinner is
+reported apart) must show within 0.3 s of every action longer than that.
 
-Each time runs from the action (the pointerdown or input event the page
-receives, in the page's clock) to the first animation frame at which the
-result is drawn: the summary's first line (bold, "... mu = ...") is the new
-run's, or the map figure is a new one or shows new data, or a new figure is shown and no
-pane is loading; and every Bokeh plot shown has finished painting
-(BokehJS's view.has_finished()); the time is taken at the next frame, once
-that frame has been painted.
-The download: from the click (this process's clock) to Playwright's
-download event.  A probe in the page checks the state every animation
-frame: it queries the page's shadow roots (found once, then kept by a
-MutationObserver) for the few elements it reads.  Its time counts in every
-time measured: 0.09 s of the page's main thread per mu change after a run
-on the 2-core machine under load (Chrome traces; walking every element of the
-page at every frame took 0.16 s).  "server's reply": from the action to the arrival of the last
-websocket message before the result was drawn (a listener on the page's
-socket); the server's share (with the network's), the rest is the
-browser's: building and painting what came.
-
-Busy indicator (--check requires one within 0.3 s of every action that
-takes longer than 0.3 s): something the page did not show before the
-action and that says "working" where the person looks: the explorer's
-acknowledgement of the action (class vt-busy, shown by the browser at the
-click, cleared by the server's answer), a pane with Panel's loading spinner
-(class pn-loading), a visible progress bar (<progress>), the summary saying
-"Running ..." or "Compiling ...", or the clicked button disabled.  Panel's global busy indicator (the spinning
-circle in the template's header, class `loader spin` in pn-busy-container)
-is reported in its own column but does not count: it is 20 px in a corner
-and spins for any server callback, so it does not tell which action is
-working.
-
---memory-views N: instead of the actions above, N memory views
-on new pages of 10 (a deformable run, then typed times and clicks on the
-slider's track in turn), each until its diagram is drawn; a view not drawn
-within 30 s is lost (now and then a typed time's diagram never came) and
-its page is replaced.  It reports the views answered and lost, their
-median times, and the error lines of its own server's log; --check exits 1
-on a lost view or such a line.
-
-Goals, checked against the median of the repeats; --check exits
-1 when one is missed: memory view <= 0.5 s, map redraw <= 0.5 s,
-trajectory PNG export <= 3 s, first point-mass run <= 1.5 s, first run
-after changing the comparison <= 1.5 s.  The warm-up repeat (the first on
-a new server: its map renderings and the export's imports happen there)
-is reported in its own column and not counted.
-
-Selectors (names, classes and texts of app/explorer.py):
-  the map figure      the plot in a Bokeh model named "map" (its tab), else
-                      the plot titled "<v*> over ..."; the one shown
-  summary             <strong> containing "mu = " (the summary's first line)
-  running             a <p> starting "Running " or "Compiling "
-  model, chaotic      buttons "deformable", "point-mass", "grey", "colour"
-  mu, compare         the selects labelled "mu (shipped maps)", "compare with"
-  memory button       the button "Show the memory diagram at t*"
-  PNG export          .vt-export-trajectory-png button
-  errors              a visible .alert ("run failed", "limit", "Not run")
-  page loaded         the map shown, Bokeh's documents idle
-  run tabs            texts "Trajectory", "Memory diagram", "Downloads"
-  memory time         .vt-field-t input
-  memory slider       .vt-memory-slider .noUi-base (its track)
-  busy                .vt-busy, .pn-loading, <progress>, disabled <button>; the header's
-                      .loader.spin
+Goals on the median of the repeats (the first, warm-up repeat is reported
+apart), --check exits 1 when one is missed: memory view and map redraws
+<= 0.5 s, PNG export <= 3 s, first point-mass run and first run after
+compare <= 1.5 s.  --memory-views N: N memory views (typed times and slider
+clicks, 10 a page), counting those lost (no diagram within 30 s) and the
+server log's error lines; --check exits 1 on either.
 """
 
 import argparse
-import contextlib
 import json
 import math
 import os
@@ -104,44 +35,33 @@ import time
 from pathlib import Path
 
 from . import results
-from .chromium import ARGS, CHROMIUM, served
+from .server import explorer
 
 VIEWPORT = {"width": 1400, "height": 1000}
 BUSY_WITHIN_S = 0.3
 ACTION_TIMEOUT_S = 120.0
 
-# the explorer's goals (seconds, median of the repeats)
+# the actions in their order, and their goals (seconds, median of the repeats)
 GOALS = {
+    "map click": None,
     "memory view": 0.5,
+    "trajectory PNG export": 3.0,
     "map redraw: colour": 0.5,
     "map redraw: mu": 0.5,
     "map redraw: model": 0.5,
-    "trajectory PNG export": 3.0,
     "first point-mass run": 1.5,
     "first run after compare": 1.5,
 }
-ACTIONS = [
-    "map click",
-    "memory view",
-    "trajectory PNG export",
-    "map redraw: colour",
-    "map redraw: mu",
-    "map redraw: model",
-    "first point-mass run",
-    "first run after compare",
-]
+ACTIONS = list(GOALS)
 
-# map points (log10 A*, log10 m*) clicked, inside the shipped maps: a
-# chaotic hopping scene, then a permanent contact (the memory diagram's
-# case); consecutive runs differ (the summary's first line tells a new run
-# from the last one)
+# map points (log10 A*, log10 m*): a chaotic hopping scene, then a permanent
+# contact (the memory diagram's case); consecutive runs differ
 CLICKS = [(1.5, -2.0), (1.0, 2.0)]
 POINT_MASS_CLICK = (2.5, 4.0)  # the point mass drifting against the wave
 COMPARE_CLICK = (0.5, 1.5)
 
 # Before the page's scripts: the arrival time of every websocket message
-# (page clock), recorded before Bokeh handles it (a listener added when the
-# socket is made runs before the handler Bokeh sets later).
+# (page clock), from a listener that runs before Bokeh's handler.
 WEBSOCKET_JS = r"""
 (() => {
   const Native = window.WebSocket;
@@ -161,29 +81,25 @@ WEBSOCKET_JS = r"""
 
 # The probe: window.__vtBench.start(kind, arg) before an action, then
 # window.__vtBench.result is {t_action, t_done, t_busy, t_header, t_reply,
-# action_by, error} (ms, page clock) once the result is drawn.
+# error} (ms, page clock) once the result is drawn.
 PROBE_JS = r"""
 (() => {
 if (window.__vtBench) return;
 const visible = (el) => el.getClientRects().length > 0;
-const plots = () => {
-  const out = [];
-  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
-    if (m.x_range !== undefined && m.renderers !== undefined) out.push(m);
-  return out;
-};
+const isPlot = (m) => m.x_range !== undefined && m.renderers !== undefined;
+const plots = () => window.Bokeh.documents.flatMap((d) => [...d.all_models].filter(isPlot));
+const titles = () => plots().filter((m) => m.title != null).map((m) => String(m.title.text));
 const plotIn = (m) => {     // the first plot in a model (a plot itself, a tab, a layout)
   if (m == null) return null;
-  if (m.x_range !== undefined && m.renderers !== undefined) return m;
+  if (isPlot(m)) return m;
   for (const c of [m.child, ...(m.children || []), ...(m.tabs || [])]) {
     const p = plotIn(Array.isArray(c) ? c[0] : c);   // a grid's child: [model, row, col]
     if (p) return p;
   }
   return null;
 };
-// the map's plot on the page: in a model named "map" (its tab), else titled
-// "<v*> over ..."; the one whose view is shown (a replaced figure stays among
-// the document's models for a while)
+// the map's plot: in a model named "map", else titled "<v*> over ..."; the
+// one shown (a replaced figure stays among the models for a while)
 const shownView = (m) => {
   const v = window.Bokeh.index.find_one(m);
   return v && visible(v.el) ? v : null;
@@ -205,14 +121,10 @@ const allPainted = () => {
   }
   return true;
 };
-// The page's shadow roots (Bokeh's and Panel's views each render into one),
-// found once and then as nodes are added (a MutationObserver on each root):
-// a walk of every element of the page at every frame cost the page's main
-// thread 8-15 ms a frame under load, ~0.1-0.16 s of a map redraw (Chrome
-// traces); the scan then queries each root for
-// the few elements it reads.  A full walk every FULL_WALK_FRAMES frames
-// catches a shadow root attached to an element already in the page (no
-// mutation says so; not seen in BokehJS or Panel).
+// The page's shadow roots, kept by MutationObservers (walking every element
+// at every frame cost ~0.1 s of a map redraw), each queried for the few
+// elements read; a full walk every FULL_WALK_FRAMES frames catches a root
+// attached to an element already in the page.
 const FULL_WALK_FRAMES = 30;
 const roots = new Set([document]);
 const adopt = (node) => {
@@ -233,11 +145,10 @@ const observer = new MutationObserver((records) => {
 observer.observe(document, {childList: true, subtree: true});
 adopt(document);
 let frames = 0;
-const SCANNED = "strong, canvas, progress, p, .pn-loading, .vt-busy, .loader, .alert";
+const SCANNED = "strong, progress, p, .pn-loading, .vt-busy, .loader, .alert";
 const look = (s, el) => {
   const tag = el.tagName, cl = el.classList;
   if (tag === "STRONG") { if (el.textContent.includes("mu = ")) s.summary = el.textContent; }
-  else if (tag === "CANVAS") { if (visible(el)) s.canvases.push(el); }
   else if (tag === "PROGRESS") { if (visible(el)) s.progress = true; }
   else if (tag === "P") {
     const t = el.textContent;
@@ -249,7 +160,7 @@ const look = (s, el) => {
   if (cl.contains("alert") && visible(el)) s.alert = el.textContent;
 };
 const fresh = () => ({summary: "", alert: "", loading: 0, progress: false, running: false,
-                      ack: false, header: false, canvases: []});
+                      ack: false, header: false});
 const scan = () => {
   if (++frames % FULL_WALK_FRAMES === 0) adopt(document);
   const s = fresh();
@@ -259,35 +170,17 @@ const scan = () => {
   }
   return s;
 };
-// the walk of every element (the scan before): `B.check()` compares the two
-const fullScan = () => {
-  const s = fresh();
-  const walk = (root) => {
-    for (const el of root.querySelectorAll("*")) {
-      if (el.shadowRoot) walk(el.shadowRoot);
-      look(s, el);
-    }
-  };
-  walk(document);
-  return s;
-};
 const B = window.__vtBench = {result: null, target: null};
 for (const type of ["pointerdown", "input"])
   window.addEventListener(type, (e) => {
     if (B.active && B.active.t_action === null) {
       B.active.t_action = e.timeStamp;
-      B.active.action_by = type;
       const el = e.composedPath()[0];
       B.target = el && el.closest ? el.closest("button") : null;
       B.targetDisabled = B.target ? B.target.disabled : false;
     }
   }, true);
 B.mapPlot = mapPlot;
-B.check = () => {         // the scan and the full walk agree
-  const a = scan(), b = fullScan();
-  const key = (x) => JSON.stringify({...x, canvases: x.canvases.length});
-  return key(a) === key(b) ? null : {scan: key(a), walk: key(b)};
-};
 // client coordinates of a map point (log10 A*, log10 m*), the map scrolled into view
 B.mapPoint = (x, y) => {
   const m = mapPlot();
@@ -297,19 +190,10 @@ B.mapPoint = (x, y) => {
   const r = v.canvas_view.el.getBoundingClientRect();
   return [r.left + v.frame.x_scale.compute(x), r.top + v.frame.y_scale.compute(y)];
 };
-// the titles of the plots in the page
-const titles = () => {
-  const out = [];
-  for (const doc of window.Bokeh.documents) for (const m of doc.all_models)
-    if (m.x_range !== undefined && m.renderers !== undefined && m.title != null)
-      out.push(String(m.title.text));
-  return out;
-};
 B.titles = titles;
 B.start = (kind, arg) => {
-  const base = scan(), seen = new WeakSet(base.canvases), map = mapPlot();
-  const baseTitles = new Set(titles());
-  const a = B.active = {kind, arg, t_start: performance.now(), t_action: null, action_by: null,
+  const base = scan(), map = mapPlot(), baseTitles = new Set(titles());
+  const a = B.active = {kind, arg, t_start: performance.now(), t_action: null,
                         t_done: null, t_busy: null, t_header: null, t_reply: null, error: null,
                         base_map: map ? map.id : null, base_data: mapData(map)};
   B.result = null;
@@ -327,8 +211,6 @@ B.start = (kind, arg) => {
         || mapData(m).some((d, i) => d !== a.base_data[i]));
       return fresh && shownView(m).has_finished() && !s.ack && allPainted();
     }
-    if (kind === "figure")       // a new figure shown, no pane loading
-      return s.canvases.some((c) => !seen.has(c)) && s.loading === 0 && allPainted();
     if (kind === "title")        // a plot titled `arg...` with a new title, no pane loading
       return titles().some((t) => t.startsWith(arg) && !baseTitles.has(t))
           && s.loading === 0 && allPainted();
@@ -371,25 +253,28 @@ B.stop = () => { const a = B.active; B.active = null; return a; };
 """
 
 
+# the probe's record of the action under way or just done, then stopped
+PROBE_RECORD_JS = """() => {
+  const B = window.__vtBench, a = B.active || B.result;
+  B.stop();
+  return a && {...a, base_data: undefined};
+}"""
+
+
 class BenchError(RuntimeError):
     """The page did not do what the bench asked (a failed run, a missing control)."""
 
 
-def _seconds(a, t_end=None):
-    """(duration s, busy s, header busy s, last reply s) of a probe record,
-    from the action."""
+def _sample(a, t_end=None):
+    """A probe record as seconds from the action: {"s", "busy_s", "header_busy_s", "reply_s"}."""
     t0 = a["t_action"] if a["t_action"] is not None else a["t_start"]
     end = a["t_done"] if t_end is None else t_end
-
-    def rel(t):
-        return None if t is None else (t - t0) / 1000.0
-
-    return rel(end), rel(a["t_busy"]), rel(a["t_header"]), rel(a.get("t_reply"))
+    times = {"s": end, "busy_s": a["t_busy"], "header_busy_s": a["t_header"], "reply_s": a.get("t_reply")}
+    return {k: None if t is None else (t - t0) / 1000.0 for k, t in times.items()}
 
 
 class Session:
-    """One explorer page and the actions on it; every action returns a
-    sample {"s", "busy_s", "header_busy_s"} (seconds from the action)."""
+    """One explorer page and the actions on it, each returning a sample (_sample)."""
 
     def __init__(self, browser, url):
         self.context = browser.new_context(viewport=VIEWPORT)
@@ -397,17 +282,14 @@ class Session:
         self.page = self.context.new_page()
         self.errors = []
         self.page.on("pageerror", lambda e: self.errors.append(str(e)))
-        t0 = time.perf_counter()
         self.page.goto(url)
         self.page.wait_for_selector("canvas", timeout=120000)
         self.page.evaluate(PROBE_JS)
-        # loaded: the map drawn and painted; then quiet a moment, so no
-        # action meets the page's start
+        # loaded: the map drawn and painted; then quiet a moment
         self.page.wait_for_function(
             "() => window.__vtBench.mapPlot() !== null && window.Bokeh.documents.every((d) => d.is_idle)",
             timeout=120000,
         )
-        self.load_s = time.perf_counter() - t0
         self.memory_open = False
         self.page.wait_for_timeout(1500)
 
@@ -425,14 +307,7 @@ class Session:
             raise BenchError(f"{kind}: {a['error']}")
         if a["t_action"] is None:
             raise BenchError(f"{kind}: the page saw no pointerdown or input event")
-        s, busy, header, reply = _seconds(a)
-        return {"s": s, "busy_s": busy, "header_busy_s": header, "reply_s": reply}
-
-    def _click_map(self, point):
-        xy = self.page.evaluate("([x, y]) => window.__vtBench.mapPoint(x, y)", list(point))
-        if xy is None:
-            raise BenchError("the map figure is not shown (Bokeh model named 'map')")
-        self.page.mouse.click(*xy)
+        return _sample(a)
 
     def _center(self, locator):
         locator.scroll_into_view_if_needed()
@@ -443,19 +318,23 @@ class Session:
 
     def run(self, point, expect=None):
         """Click the map at `point` until the run is drawn; `expect`: a text
-        the new summary's first line holds (the model)."""
-        return self._measure("run", expect, lambda: self._click_map(point))
+        of the new summary's first line (the model)."""
+
+        def click():
+            xy = self.page.evaluate("([x, y]) => window.__vtBench.mapPoint(x, y)", list(point))
+            if xy is None:
+                raise BenchError("the map figure is not shown (Bokeh model named 'map')")
+            self.page.mouse.click(*xy)
+
+        return self._measure("run", expect, click)
 
     def tab(self, name):
-        """Open one of the run's tabs (Trajectory, Animation, Memory
-        diagram, Downloads)."""
         self.page.get_by_text(name, exact=True).first.click()
         self.page.wait_for_timeout(500)
 
     def memory_view(self, t, timeout_s=ACTION_TIMEOUT_S):
-        """Type t* in the memory diagram's field and click its button:
-        until the diagram of that time is drawn.  The tab is opened first
-        (once: its snapshots of the last period computed and drawn)."""
+        """Type t* and click "Show the memory diagram at t*" until that
+        diagram is drawn (the tab opened first, once)."""
         if not self.memory_open:
             self.tab("Memory diagram")
             self.page.wait_for_function(
@@ -474,65 +353,41 @@ class Session:
             seen["box at click"] = button.bounding_box()
             seen["enabled at click"] = button.is_enabled()
             seen["field at click"] = field.input_value()
-            # the button, where it is when it can take the click (Playwright
-            # waits until it is enabled, in place and not covered): not the
-            # point where it was before the measurement began
+            # the button where it is when it can take the click (Playwright waits)
             button.click(timeout=ACTION_TIMEOUT_S * 1000)
 
+        return self._evidenced(f"memory view at t* = {t:g}", seen, act, timeout_s)
+
+    def memory_slide(self, fraction, timeout_s=ACTION_TIMEOUT_S):
+        """Click the memory diagram's slider at `fraction` of its track until
+        the diagram of the nearest snapshot is drawn."""
+        track = self.page.locator(".vt-memory-slider .noUi-base").first
+        x, y = self._center(track)
+        box = track.bounding_box()
+        xy = (box["x"] + fraction * box["width"], y)
+        seen = {"fraction": fraction, "titles before": self.page.evaluate("() => window.__vtBench.titles()")}
+        return self._evidenced(f"slider at {fraction:g}", seen, lambda: self.page.mouse.click(*xy), timeout_s)
+
+    def _evidenced(self, what, seen, act, timeout_s):
+        """A memory view measured; when it fails, a BenchError with what the
+        page showed: `seen`, the plots' titles, the probe's record, the
+        alerts and a screenshot."""
         try:
             return self._measure("title", "memory diagram w(h)\nt* = ", act, timeout_s)
         except Exception as exc:
-            raise BenchError(self._evidence(f"memory view at t* = {t:g}", exc, seen)) from exc
-
-    def memory_slide(self, fraction, timeout_s=ACTION_TIMEOUT_S):
-        """Click the memory diagram's slider at `fraction` of its track (the
-        slider jumps there: noUiSlider's tap): until the diagram of the
-        snapshot nearest to that time is drawn (a new title)."""
-        track = self.page.locator(".vt-memory-slider .noUi-base").first
-        track.scroll_into_view_if_needed()
-        box = track.bounding_box()
-        if box is None:
-            raise BenchError("the memory diagram's slider is not shown")
-        xy = (box["x"] + fraction * box["width"], box["y"] + box["height"] / 2)
-        seen = {"fraction": fraction, "titles before": self.page.evaluate("() => window.__vtBench.titles()")}
-        try:
-            return self._measure(
-                "title", "memory diagram w(h)\nt* = ", lambda: self.page.mouse.click(*xy), timeout_s
-            )
-        except Exception as exc:
-            raise BenchError(self._evidence(f"slider at {fraction:g}", exc, seen)) from exc
-
-    def _evidence(self, what, exc, seen):
-        """What the page showed when an action failed: the exception, what
-        `seen` holds, the plots' titles, the field and the probe's record,
-        and a screenshot (its path)."""
-        page = self.page
-        lines = [f"{what}: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"]
-        lines += [f"  {k}: {v}" for k, v in seen.items()]
-        for name, get in (
-            ("titles now", lambda: page.evaluate("() => window.__vtBench.titles()")),
-            ("field now", lambda: page.locator(".vt-field-t input").first.input_value()),
-            (
-                "probe",
-                lambda: page.evaluate(
-                    "() => { const a = window.__vtBench.active || window.__vtBench.result;"
-                    " return a && {...a, base_data: undefined}; }"
-                ),
-            ),
-            ("alerts", lambda: page.locator(".alert").all_inner_texts()),
-        ):
-            try:
-                lines.append(f"  {name}: {get()}")
-            except Exception as e:  # noqa: BLE001 - evidence, best effort
-                lines.append(f"  {name}: ({type(e).__name__})")
-        try:
-            page.evaluate("() => window.__vtBench.stop()")
+            lines = [f"{what}: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"]
+            lines += [f"  {k}: {v}" for k, v in seen.items()]
             shot = Path(tempfile.mkdtemp(prefix="browserbench-")) / "failure.png"
-            page.screenshot(path=str(shot))
-            lines.append(f"  screenshot: {shot}")
-        except Exception as e:  # noqa: BLE001
-            lines.append(f"  screenshot: ({type(e).__name__})")
-        return "\n".join(lines)
+            try:
+                lines.append(f"  titles now: {self.page.evaluate('() => window.__vtBench.titles()')}")
+                lines.append(f"  field now: {self.page.locator('.vt-field-t input').first.input_value()}")
+                lines.append(f"  probe: {self.page.evaluate(PROBE_RECORD_JS)}")
+                lines.append(f"  alerts: {self.page.locator('.alert').all_inner_texts()}")
+                self.page.screenshot(path=str(shot))
+                lines.append(f"  screenshot: {shot}")
+            except Exception as e:  # noqa: BLE001 - evidence, best effort
+                lines.append(f"  (the page: {type(e).__name__})")
+            raise BenchError("\n".join(lines)) from exc
 
     def redraw_button(self, name):
         button = self.page.get_by_role("button", name=name, exact=True).first
@@ -561,9 +416,8 @@ class Session:
             head = f.read(8)
         if not head.startswith(b"\x89PNG"):
             raise BenchError(f"the trajectory export is not a PNG: {head!r}")
-        _, busy, header, _ = _seconds(a, t_end=a["t_start"])
         # the file comes in the server's reply: all of it is the server's
-        return {"s": s, "busy_s": busy, "header_busy_s": header, "reply_s": s}
+        return {**_sample(a, t_end=a["t_start"]), "s": s, "reply_s": s}
 
 
 def repeat(browser, url):
@@ -576,16 +430,13 @@ def repeat(browser, url):
         for t in (1999.3, 1999.7):
             try:
                 out["memory view"].append(session.memory_view(t))
-            except Exception as exc:  # noqa: BLE001 - reported, not hidden
-                # seen: now and then a typed time's diagram never
-                # came (1 in ~45 pages, clicked at a point measured before
-                # the action; not seen since the click goes to the button);
-                # the failure says what the page showed
-                out.setdefault("failures", []).append(
-                    str(exc)
+            except Exception as exc:  # noqa: BLE001 - now and then a typed time's diagram never came
+                what = (
+                    ""
                     if isinstance(exc, BenchError)
-                    else f"memory view at t* = {t:g}: {type(exc).__name__}: {exc}"
+                    else f"memory view at t* = {t:g}: {type(exc).__name__}: "
                 )
+                out.setdefault("failures", []).append(what + str(exc))
         session.tab("Downloads")
         out["trajectory PNG export"].append(session.trajectory_png())
         session.tab("Trajectory")
@@ -603,23 +454,18 @@ def repeat(browser, url):
     return out
 
 
-# --memory-views: views per page, and how long an answer may take before
-# it counts as lost (the slowest answers seen under load: ~5 s)
+# --memory-views: views per page, and how long an answer may take before it is lost
 MEMORY_VIEWS_PER_PAGE = 10
 MEMORY_LOST_AFTER_S = 30.0
 MEMORY_CLICK = CLICKS[1]  # a permanent contact: a memory at every time
 
 
 def memory_views(browser, url, n, log=print):
-    """n memory views (typed times and slider moves in turn, on new pages of
-    MEMORY_VIEWS_PER_PAGE each, after one deformable run): {"views": n,
-    "answered": [samples], "lost": [what the page showed]}.  A view whose
-    diagram is not drawn within MEMORY_LOST_AFTER_S is lost (now
-    and then a typed time's diagram never came); the page is then closed
-    and the next one opened."""
+    """n memory views, typed times and slider clicks in turn, on new pages
+    of MEMORY_VIEWS_PER_PAGE after one run: {"views", "answered": [samples],
+    "lost": [what the page showed]}; a lost view's page is replaced."""
     answered, lost = [], []
-    done = 0
-    page_no = 0
+    done = page_no = 0
     while done < n:
         page_no += 1
         session = Session(browser, url)
@@ -627,16 +473,13 @@ def memory_views(browser, url, n, log=print):
             session.run(MEMORY_CLICK, "deformable:")
             for i in range(min(MEMORY_VIEWS_PER_PAGE, n - done)):
                 done += 1
-                k = done
                 try:
-                    if i % 2 == 0:  # typed: a time of the last period, new each time
-                        t = 1999.0 + round(((k * 0.37) % 1.0) * 0.96 + 0.02, 3)
-                        sample = session.memory_view(t, MEMORY_LOST_AFTER_S)
-                        sample["how"] = f"typed {t:g}"
-                    else:  # the slider, somewhere else on its track
-                        f = 0.05 + ((k * 0.29) % 0.9)
-                        sample = session.memory_slide(f, MEMORY_LOST_AFTER_S)
-                        sample["how"] = f"slider {f:.2f}"
+                    if i % 2 == 0:  # a time of the last period, new each time
+                        t = 1999.0 + round(((done * 0.37) % 1.0) * 0.96 + 0.02, 3)
+                        sample = {**session.memory_view(t, MEMORY_LOST_AFTER_S), "how": f"typed {t:g}"}
+                    else:
+                        f = 0.05 + ((done * 0.29) % 0.9)
+                        sample = {**session.memory_slide(f, MEMORY_LOST_AFTER_S), "how": f"slider {f:.2f}"}
                     answered.append(sample)
                 except Exception as exc:  # noqa: BLE001 - counted and said
                     lost.append(f"page {page_no}, view {i + 1}: {exc}")
@@ -648,32 +491,26 @@ def memory_views(browser, url, n, log=print):
     return {"views": done, "answered": answered, "lost": lost}
 
 
+def _median(xs):
+    return statistics.median(xs) if xs else None
+
+
 def _stats(samples):
-    xs = sorted(x["s"] for x in samples)
     slow = [x for x in samples if x["s"] > BUSY_WITHIN_S]
-    busy_ok = [x for x in slow if x["busy_s"] is not None and x["busy_s"] <= BUSY_WITHIN_S]
-    header_ok = [x for x in slow if x["header_busy_s"] is not None and x["header_busy_s"] <= BUSY_WITHIN_S]
-    replies = [x["reply_s"] for x in samples if x["reply_s"] is not None]
-    if not xs:  # every sample failed (run()'s "failures" say why)
-        return {
-            "n": 0,
-            "min_s": math.nan,
-            "median_s": math.nan,
-            "max_s": math.nan,
-            "reply_median_s": None,
-            "slow": 0,
-            "busy_within": 0,
-            "header_busy_within": 0,
-        }
+
+    def within(key):
+        return sum(x[key] is not None and x[key] <= BUSY_WITHIN_S for x in slow)
+
+    xs = sorted(x["s"] for x in samples)
     return {
         "n": len(xs),
-        "min_s": xs[0],
-        "median_s": statistics.median(xs),
-        "max_s": xs[-1],
-        "reply_median_s": statistics.median(replies) if replies else None,
+        "min_s": xs[0] if xs else math.nan,
+        "median_s": statistics.median(xs) if xs else math.nan,
+        "max_s": xs[-1] if xs else math.nan,
+        "reply_median_s": _median([x["reply_s"] for x in samples if x["reply_s"] is not None]),
         "slow": len(slow),
-        "busy_within": len(busy_ok),
-        "header_busy_within": len(header_ok),
+        "busy_within": within("busy_s"),
+        "header_busy_within": within("header_busy_s"),
     }
 
 
@@ -688,8 +525,7 @@ def summarize(warmup, repeats):
         row["samples_s"] = [round(x["s"], 3) for x in samples]
         for key in ("busy_s", "header_busy_s", "reply_s"):
             row[key + "_samples"] = [None if x[key] is None else round(x[key], 3) for x in samples]
-        goal = GOALS.get(action)
-        row["goal_s"] = goal
+        row["goal_s"] = goal = GOALS[action]
         row["goal_met"] = None if goal is None else bool(row["median_s"] <= goal)
         row["busy_met"] = row["busy_within"] == row["slow"]
         rows[action] = row
@@ -717,69 +553,23 @@ def table(rows):
     return "\n".join(lines)
 
 
-@contextlib.contextmanager
-def _browser_and_server(url, log, server_errors=None):
-    """(chromium, the explorer's URL): `url`, or a server of the bench's own,
-    started and its kernels compiled, stopped at the end.  server_errors: a
-    list given the lines of that server's log that report an error (a
-    traceback's last line, Bokeh's "_pending_writes")."""
-    from playwright.sync_api import sync_playwright
-
-    server = None
-    if url is None:
-        server = served()
-        log("starting vibtrans serve ...")
-        server.wait_page()
-        server.wait_kernels()
-        url = server.url
-    try:
-        if not Path(CHROMIUM).exists():
-            raise BenchError(f"Debian's chromium is required at {CHROMIUM} (make browser)")
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
-            try:
-                yield browser, url
-            finally:
-                browser.close()
-    except BaseException:
-        if server is not None:
-            print(f"the server's log:\n{server.text()[-3000:]}", file=sys.stderr)
-        raise
-    finally:
-        if server is not None:
-            if server_errors is not None:
-                server_errors += [
-                    line
-                    for line in server.text().splitlines()
-                    if "_pending_writes" in line
-                    or line.startswith(
-                        ("RuntimeError", "AttributeError", "ValueError", "TypeError", "KeyError")
-                    )
-                ]
-            server.stop()
+def _machine():
+    return "{} cores, load average {:.2f} {:.2f} {:.2f} at the end".format(os.cpu_count(), *os.getloadavg())
 
 
 def run(repeats, url=None, log=print):
-    """Warm-up plus `repeats` repeats against `url` (or a server of its own):
-    {"rows": {...}, "page_load_s": [...], "machine": "..."}."""
-    with _browser_and_server(url, log) as (browser, url):
+    """Warm-up plus `repeats` repeats against `url` (or a server of its own)."""
+    with explorer(url) as (browser, url, _):
         log("warm-up repeat ...")
         warmup = repeat(browser, url)
-        results = []
+        done = []
         for i in range(repeats):
             log(f"repeat {i + 1}/{repeats} ...")
-            results.append(repeat(browser, url))
-    load = os.getloadavg()
-    failures = [f for r in [warmup, *results] for f in r.get("failures", [])]
+            done.append(repeat(browser, url))
+    failures = [f for r in [warmup, *done] for f in r.get("failures", [])]
     for f in failures:
         log(f"failed: {f}")
-    return {
-        "rows": summarize(warmup, results),
-        "repeats": repeats,
-        "failures": failures,
-        "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
-        f"{load[2]:.2f} at the end",
-    }
+    return {"rows": summarize(warmup, done), "repeats": repeats, "failures": failures, "machine": _machine()}
 
 
 def missed(rows):
@@ -796,46 +586,32 @@ def missed(rows):
     return out
 
 
+def _log(m):
+    print(m, file=sys.stderr)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m devtools.browserbench", description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--repeats",
-        type=int,
-        default=5,
-        help="measured repeats (1-50), each on a new page, after one warm-up repeat",
+        "--repeats", type=results.bounded(int, 1, 50), default=5, help="repeats after a warm-up one"
     )
-    ap.add_argument(
-        "--url", help="a running explorer (its kernels compiled) instead of a server of the bench's own"
-    )
-    ap.add_argument(
-        "--memory-views",
-        type=int,
-        metavar="N",
-        help="instead of the "
-        "actions: N memory views (1-1000; typed times and slider moves in "
-        "turn, 10 per page), counting those whose diagram never reached the "
-        "page (--check: exit 1 if one did not)",
-    )
+    ap.add_argument("--url", help="a running explorer (its kernels compiled) instead of a server of its own")
+    views = results.bounded(int, 1, 1000)
+    ap.add_argument("--memory-views", type=views, metavar="N", help="instead of the actions: N memory views")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
-    ap.add_argument(
-        "--check", action="store_true", help="exit 1 if a goal is missed (medians, busy indicators)"
-    )
+    ap.add_argument("--check", action="store_true", help="exit 1 if a goal is missed")
     results.add_option(ap)
     argv = sys.argv[1:] if argv is None else list(argv)
     a = ap.parse_args(argv)
     a.command = " ".join(["python -m devtools.browserbench", *argv])
-    if not 1 <= a.repeats <= 50:
-        ap.error(f"--repeats must be in [1, 50], got {a.repeats}")
     if a.memory_views is not None:
-        if not 1 <= a.memory_views <= 1000:
-            ap.error(f"--memory-views must be in [1, 1000], got {a.memory_views}")
         return _memory_main(a)
     begun = results.begin()
-    out = run(a.repeats, a.url, log=lambda m: print(m, file=sys.stderr))
-    misses = missed(out["rows"])
-    results.save("browserbench", {**out, "missed": misses}, begun, a.results_dir, a.command)
+    out = run(a.repeats, a.url, log=_log)
+    out["missed"] = misses = missed(out["rows"])
+    results.save("browserbench", out, begun, a.results_dir, a.command)
     if a.json:
-        print(json.dumps({**out, "missed": misses}))
+        print(json.dumps(out))
     else:
         print(table(out["rows"]))
         print(f"\n{out['repeats']} repeats; {out['machine']}")
@@ -846,51 +622,33 @@ def main(argv=None):
 
 
 def _memory_main(a):
-    log = lambda m: print(m, file=sys.stderr)  # noqa: E731
-    errors = []
     begun = results.begin()
-    with _browser_and_server(a.url, log, errors) as (browser, url):
-        out = memory_views(browser, url, a.memory_views, log)
-    load = os.getloadavg()
-    xs = sorted(x["s"] for x in out["answered"])
-    replies = sorted(x["reply_s"] for x in out["answered"] if x["reply_s"] is not None)
-    by = {
-        how: sorted(x["s"] for x in out["answered"] if x["how"].startswith(how))
-        for how in ("typed", "slider")
-    }
+    with explorer(a.url) as (browser, url, server):
+        out = memory_views(browser, url, a.memory_views, _log)
+        errors = server.errors()[0] if server else []
+    answered = out["answered"]
+    xs = [x["s"] for x in answered]
     summary = {
         "views": out["views"],
         "answered": len(xs),
         "lost": out["lost"],
-        "median_s": statistics.median(xs) if xs else None,
-        "reply_median_s": statistics.median(replies) if replies else None,
-        **{f"{how}_median_s": statistics.median(v) if v else None for how, v in by.items()},
-        "max_s": xs[-1] if xs else None,
+        "median_s": _median(xs),
+        "reply_median_s": _median([x["reply_s"] for x in answered if x["reply_s"] is not None]),
+        **{
+            f"{how}_median_s": _median([x["s"] for x in answered if x["how"].startswith(how)])
+            for how in ("typed", "slider")
+        },
+        "max_s": max(xs, default=None),
         "server_errors": errors if a.url is None else None,
-        "machine": f"{os.cpu_count()} cores, load average {load[0]:.2f} {load[1]:.2f} "
-        f"{load[2]:.2f} at the end",
+        "machine": _machine(),
     }
     results.save(
-        "browserbench-memory-views", {**summary, "samples": out["answered"]}, begun, a.results_dir, a.command
+        "browserbench-memory-views", {**summary, "samples": answered}, begun, a.results_dir, a.command
     )
     if a.json:
-        print(json.dumps({**summary, "samples": out["answered"]}))
+        print(json.dumps({**summary, "samples": answered}))
     else:
-
-        def s3(x):
-            return "-" if x is None else f"{x:.3f} s"
-
-        print(
-            f"memory views: {summary['views']}, answered {summary['answered']}, "
-            f"lost {len(out['lost'])}; median {s3(summary['median_s'])} (typed "
-            f"{s3(summary['typed_median_s'])}, slider {s3(summary['slider_median_s'])}), "
-            f"server's reply median {s3(summary['reply_median_s'])}, max "
-            f"{s3(summary['max_s'])}; {summary['machine']}"
-        )
-        for x in out["lost"]:
-            print(f"lost: {x}")
-        if a.url is None:
-            print(f"the server's log: {len(errors)} error lines" + "".join(f"\n  {e}" for e in errors[:10]))
+        print(json.dumps(summary, indent=1))
     if a.check and (out["lost"] or errors):
         sys.exit(1)
     return summary

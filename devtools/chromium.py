@@ -1,9 +1,7 @@
 """Debian's chromium as the tests and benches drive it (Playwright's download
 does not work here), with flags against throttling and network chatter."""
 
-import os
 import shutil
-import sys
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -34,14 +32,3 @@ def launched():
             yield browser
         finally:
             browser.close()
-
-
-def served():
-    """`vibtrans serve` as the test suite starts it (tests/netutil.py's
-    Served), with Python's own allocator."""
-    root = Path(__file__).resolve().parent.parent
-    sys.path.insert(0, str(root / "tests"))
-    from netutil import Served
-
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONMALLOC"}
-    return Served(env=env, cwd=root)

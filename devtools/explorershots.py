@@ -11,7 +11,7 @@ import argparse
 import json
 from pathlib import Path
 
-from devtools.chromium import launched, served
+from devtools.server import explorer
 
 ROOT = Path(__file__).resolve().parent.parent
 SIZES = ["1024x768", "1280x800", "1920x1080"]
@@ -61,26 +61,25 @@ def shots(browser, url, size, out, log=print):
     _settle(page)
     frames = {}
 
-    def shot(name):
+    def shot(name, frame=True):
         page.screenshot(path=str(out / f"{name}-{size}.png"), full_page=True)
         log(f"  {name}-{size}.png")
+        if frame:
+            frames[name] = page.evaluate(MAP_JS)
 
-    shot("main")
-    frames["main"] = page.evaluate(MAP_JS)
-    _button(page, "period-1 orbit curves")
-    shot("orbits")
-    frames["orbits"] = page.evaluate(MAP_JS)
-    _button(page, "no orbit curves")
-    _button(page, "Lyapunov exponent")
-    shot("lyapunov")
-    frames["lyapunov"] = page.evaluate(MAP_JS)
-    _button(page, "drift velocity")
-    _button(page, "both models")
-    shot("both")
-    frames["both"] = page.evaluate(MAP_JS)
+    # each state's buttons from the last one's
+    for name, buttons in [
+        ("main", []),
+        ("orbits", ["period-1 orbit curves"]),
+        ("lyapunov", ["no orbit curves", "Lyapunov exponent"]),
+        ("both", ["drift velocity", "both models"]),
+    ]:
+        for b in buttons:
+            _button(page, b)
+        shot(name)
     _button(page, "selected model")
     page.get_by_role("button", name="Run selected scene").first.click()
-    page.locator("strong", has_text="mu = ").first.wait_for(timeout=120000)
+    page.locator("strong:visible", has_text="mu = ").first.wait_for(timeout=120000)
     _settle(page)
     for tab in RUN_TABS:
         header = page.get_by_text(tab, exact=True).first
@@ -90,11 +89,11 @@ def shots(browser, url, size, out, log=print):
         header.evaluate("(e) => e.scrollIntoView({block: 'start'})")
         page.wait_for_timeout(300)
         name = "run-" + tab.lower().replace(" ", "-")
-        shot(name)
+        shot(name, frame=False)
         page.mouse.move(width * 0.7, height * 0.6)
         page.mouse.wheel(0, height * 0.8)
         page.wait_for_timeout(500)
-        shot(name + "-2")
+        shot(name + "-2", frame=False)
     page.get_by_text("Trajectory", exact=True).first.click()
     toggle = page.locator(".vt-presentation").first
     label = page.get_by_text("Paper points").first
@@ -109,13 +108,11 @@ def shots(browser, url, size, out, log=print):
     _settle(page)
     page.evaluate("() => window.scrollTo(0, 0)")
     shot("presentation")
-    frames["presentation"] = page.evaluate(MAP_JS)
     hide = page.locator("#sidebar-toggle")
     if hide.count():
         hide.first.click()
         _settle(page)
         shot("no-sidebar")
-        frames["no-sidebar"] = page.evaluate(MAP_JS)
     page.close()
     return {"size": size, "frames": frames, "errors": errors}
 
@@ -128,21 +125,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    server = None
-    url = args.url
-    if url is None:
-        server = served()
-        server.wait_page()
-        server.wait_kernels()
-        url = server.url
-    try:
-        with launched() as browser:
-            for size in args.sizes:
-                print(size)
-                print(json.dumps(shots(browser, url, size, out)))
-    finally:
-        if server is not None:
-            server.stop()
+    with explorer(args.url) as (browser, url, _):
+        for size in args.sizes:
+            print(size)
+            print(json.dumps(shots(browser, url, size, out)))
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ from vibtrans_explorer import explorer as E
 from vibtrans_explorer.server import data
 from vibtrans_explorer.views import map as map_view
 
+from . import results
+
 
 def _page():
     """(seconds to build a page, its CPU seconds, seconds of the checks, models)."""
@@ -58,17 +60,14 @@ def run(pages):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m devtools.pagecost", description=__doc__.splitlines()[0])
-    ap.add_argument("--pages", type=int, default=10, help="pages to build (1-200)")
+    ap.add_argument("--pages", type=results.bounded(int, 1, 200), default=10, help="pages to build")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)
-    if not 1 <= a.pages <= 200:
-        ap.error(f"--pages must be in [1, 200], got {a.pages}")
     out = run(a.pages)
     if a.json:
         print(json.dumps(out))
     else:
-        for k, v in out.items():
-            print(f"{k:>24}: {v:.4f}" if isinstance(v, float) else f"{k:>24}: {v}")
+        results.show(out, digits=4)
     return out
 
 

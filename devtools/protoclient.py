@@ -1,8 +1,7 @@
 """An explorer session at the Bokeh protocol level: the messages chromium sends
-(recorded from it: the GET, PULL-DOC, the size patches, `document_ready`, a
-`tap` per click), without drawing anything, so that a load test measures the
-server, not browsers on its cores.  Only the JSON headers are parsed (and the
-document, to find the figures): a click costs the client milliseconds.
+(the GET, PULL-DOC, the size patches, `document_ready`, a `tap` per click),
+without drawing, so that a load test measures the server, not browsers on
+its cores.  A click costs the client milliseconds.
 """
 
 import asyncio
@@ -34,18 +33,14 @@ def _walk(obj, out):
 
 
 class ProtocolSession:
-    """One explorer session over Bokeh's websocket protocol: `await open()`
-    loads the page (`query`: a link's "?..." part) and reports it ready;
-    `await click(fx, fy)` taps the map at fractions of its ranges, ("done" |
-    "error", summary); `map_ended()` a future of the map on demand's end;
-    `close()`.  `bytes`: the bytes received per message type."""
+    """One explorer session over Bokeh's websocket protocol (`query`: a
+    link's "?..." part); `bytes`: the bytes received per message type."""
 
     def __init__(self, url, timeout=180.0, cookies=None, query=""):
         self.url = url.rstrip("/") + "/"
         self.query = query
         self.timeout = timeout
-        # a cookie jar for this site: what the server or a proxy sets comes back
-        # with the websocket, which a sticky proxy routes by
+        # what the server or a proxy sets comes back (a sticky proxy routes by it)
         self.cookies = dict(cookies or {})
         self.models = {}
         self.bytes = {}
@@ -54,13 +49,13 @@ class ProtocolSession:
         self.conn = None
 
     async def open(self):
+        """Load the page and report it ready."""
         await self._connect(await self._get())
         self._listen()
         self.announce()
 
     async def _get(self):
-        """The page: Bokeh makes the session (a client of its own: Tornado's
-        shared one queues beyond 10 requests)."""
+        """The page (a client of its own: Tornado's shared one queues beyond 10 requests)."""
         http = AsyncHTTPClient(force_instance=True)
         try:
             page = await http.fetch(
@@ -105,12 +100,12 @@ class ProtocolSession:
         )
 
     def announce(self):
-        """As the page: its size, then document_ready (the run's figures come with a run)."""
+        """As the page: its size, then document_ready."""
         self._sizes([self.map], 0)
         self._event("document_ready", [])
 
     async def click(self, fx, fy):
-        """Tap the map at fractions (fx, fy) of its x and y ranges."""
+        """Tap the map at fractions (fx, fy) of its ranges: ("done" | "error", summary)."""
         (x0, x1), (y0, y1) = self._range("x_range"), self._range("y_range")
         done = self._wait(lambda s: bool(_DONE.search(s) or _FAILED.search(s)))
         keys = {"type": "map", "entries": [["shift", False], ["ctrl", False], ["alt", False]]}
@@ -143,7 +138,6 @@ class ProtocolSession:
     def _cookie_header(self):
         return {"Cookie": "; ".join(f"{k}={v}" for k, v in self.cookies.items())} if self.cookies else {}
 
-    # ---------- protocol ----------
     def _send(self, msgtype, content):
         self.conn.write_message(json.dumps({"msgid": uuid.uuid4().hex, "msgtype": msgtype}))
         self.conn.write_message("{}")

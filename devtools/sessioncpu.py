@@ -3,16 +3,12 @@
     python -m devtools.sessioncpu [--sessions 10] [--clicks 1] [--idle 10]
                                   [--log-level debug|info] [--py-spy PATH] [--json]
 
-Starts `vibtrans serve` (the load test's settings), waits until it is idle,
-then drives protocol sessions (devtools/protoclient.py) ONE AT A TIME through
-each phase, so the server's CPU (from /proc, event loop apart from other
-threads) between two marks is that phase's: `get` (the page built), `pull_doc`
-(the document serialized), `ready` (size reports, document_ready), idle
-per session and second, `click` (tap to run shown), `close` (discard and
-collection, per session).  After each mark it waits until the server's CPU
-clock stands still for QUIET_S, less the idle rate measured first.
-`--log-level`: the server's Bokeh log level (the load test's: debug).
-`--py-spy PATH`: run the server under py-spy and count its samples by
+Starts `vibtrans serve` (the load test's settings) and drives protocol
+sessions (devtools/protoclient.py) one at a time through each phase: the
+server's CPU (event loop apart from its other threads, less its idle rate)
+from a mark until its CPU clock stands still is that phase's: `get`,
+`pull_doc`, `ready`, idle per open session, `first click`, `click`, `close`.
+`--py-spy PATH`: the server under py-spy, its samples counted by
 PROFILE_PARTS.
 """
 
@@ -27,28 +23,24 @@ import subprocess
 import sys
 import time
 
+import psutil
+
 from vibtrans_explorer.server.memory import CLOSED, RELEASED
 
 from . import results
-from .loadtest import KERNELS_READY, Server, _range_points, _stat, _tree
+from .loadtest import SERVE_ARGS, _range_points
 from .protoclient import ProtocolSession
+from .server import Server, tree
 
 QUIET_S = 0.3  # the server's CPU clock unchanged this long: quiet
-TICK = os.sysconf("SC_CLK_TCK")
 
 
 def thread_cpu(pid):
-    """CPU seconds so far of the process's main thread (the event loop) and of the others."""
-    main = 0
-    try:
-        with open(f"/proc/{pid}/task/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        main = int(fields[11]) + int(fields[12])
-    except OSError:  # the process has ended
-        pass
-    # the process's total counts every thread, those that ended too
-    other = sum(int(x) for x in _stat(pid)[11:13]) - main
-    return main / TICK, other / TICK
+    """CPU seconds so far of the process's main thread (the event loop) and
+    of its other threads (those that ended too)."""
+    p = psutil.Process(pid)
+    main = sum(next((t[1:] for t in p.threads() if t.id == pid), (0, 0)))
+    return main, sum(p.cpu_times()[:2]) - main
 
 
 class _Session(ProtocolSession):
@@ -192,13 +184,12 @@ def profile_parts(path):
 
 def _server_python(server):
     """The server's Python process (under py-spy: its child)."""
-    for q in _tree(server.proc.pid):
+    for q in tree(server.proc.pid):
         try:
-            with open(f"/proc/{q}/cmdline", "rb") as f:
-                args = f.read().split(b"\0")
-        except OSError:
+            args = psutil.Process(q).cmdline()
+        except psutil.Error:
             continue
-        if b"vibtrans.cli" in args and not args[0].endswith(b"py-spy"):
+        if "vibtrans.cli" in args and not args[0].endswith("py-spy"):
             return q
     return server.proc.pid
 
@@ -208,20 +199,14 @@ def run(a):
     wrap = ()
     if a.py_spy:
         wrap = (a.py_spy_bin, "record", "-r", "100", "-f", "raw", "-o", a.py_spy, "--")
-    server = Server(num_procs=1, env=env, wrap=wrap)
+    server = Server(SERVE_ARGS, env=env, wrap=wrap)
     out = {
         "command": "python -m devtools.sessioncpu " + " ".join(a.argv),
         "load_average_before": [round(x, 2) for x in os.getloadavg()],
         "log_level": a.log_level,
     }
     try:
-        t0 = time.perf_counter()
-        while server.text().count(KERNELS_READY) < 1:
-            if not server.alive():
-                raise RuntimeError(f"server exited:\n{server.text()[-3000:]}")
-            if time.perf_counter() - t0 > 300:
-                raise RuntimeError("server not ready in 300 s")
-            time.sleep(0.2)
+        server.wait_ready()
         pid = _server_python(server)
         asyncio.run(_quiet(pid, timeout=60.0))  # the maps' pre-render
         c0, t0 = sum(thread_cpu(pid)), time.perf_counter()
@@ -261,9 +246,11 @@ def run(a):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     ap = argparse.ArgumentParser(prog="python -m devtools.sessioncpu", description=__doc__.splitlines()[0])
-    ap.add_argument("--sessions", type=int, default=10, help="sessions (1-60)")
-    ap.add_argument("--clicks", type=int, default=1, help="clicks per session (0-10)")
-    ap.add_argument("--idle", type=float, default=10.0, help="seconds of the idle phases (1-120)")
+    ap.add_argument("--sessions", type=results.bounded(int, 1, 60), default=10, help="sessions")
+    ap.add_argument("--clicks", type=results.bounded(int, 0, 10), default=1, help="clicks per session")
+    ap.add_argument(
+        "--idle", type=results.bounded(float, 1, 120), default=10.0, help="seconds of the idle phases"
+    )
     ap.add_argument(
         "--log-level",
         default="debug",
@@ -278,12 +265,6 @@ def main(argv=None):
     results.add_option(ap)
     a = ap.parse_args(argv)
     a.argv = argv
-    if not 1 <= a.sessions <= 60:
-        ap.error(f"--sessions must be in [1, 60], got {a.sessions}")
-    if not 0 <= a.clicks <= 10:
-        ap.error(f"--clicks must be in [0, 10], got {a.clicks}")
-    if not 1 <= a.idle <= 120:
-        ap.error(f"--idle must be in [1, 120] s, got {a.idle}")
     begun = results.begin()
     out = run(a)
     if a.py_spy:

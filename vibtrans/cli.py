@@ -7,20 +7,19 @@ valid range.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import shlex
 import shutil
 import sys
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
 from vibtrans.core.errors import InputError
 from vibtrans.maps.outfiles import atomic, check_file, check_folder
 from vibtrans.version import __version__
-
-if TYPE_CHECKING:
-    from vibtrans.core.params import Scene
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,23 +49,31 @@ def _scene_args(p):
 def _model_args(g):
     """Everything of a scene but A* and m* (simulate and sweep share these)."""
     g.add_argument("--model", default="deformable", help="deformable | point-mass | vertical")
-    g.add_argument("--mu", type=_num, default=0.3)
-    g.add_argument("--theta", type=_num, default=1.2)
-    g.add_argument("--nu", type=_num, default=0.3)
-    g.add_argument("--tau", type=_num, default=50.0)
-    g.add_argument("--periods", type=_num, default=2000.0)
+    for name, default in (("mu", 0.3), ("theta", 1.2), ("nu", 0.3), ("tau", 50.0), ("periods", 2000.0)):
+        g.add_argument(f"--{name}", type=_num, default=default)
     g.add_argument("--alpha-t", type=_num, default=0.5, help="point mass: tangential restitution")
     g.add_argument("--stick-rule", default="paper", help="point mass: paper | classical")
     g.add_argument("--fidelity", default="standard", help="preview | standard | reference")
     g.add_argument("--integrator", default="ab4", help="ab4 | verlet")
     _profile_args(g)
-    _rolling_args(g)
+    g.add_argument("--rolling", default="none", help=ROLLING_HELP)
 
 
 PROFILE_HELP = (
     "particle profile: sphere | cone | power:N (z = C r^N, N >= 1) | "
     "flat-sphere:C (flat radius C in units of sqrt(R a0)) | file:PATH (two "
     "columns r z in metres; needs --load-over-modulus); docs/MODEL.md section 10"
+)
+ROLLING_HELP = (
+    "how the particle turns (deformable model): none (slides without turning, "
+    "the paper's particle) | solid (a solid sphere, j = 2/5) | shell (a thin "
+    "shell, j = 2/3) | J (j = I/(m R^2) in (0, 1]); docs/MODEL.md section 11"
+)
+STOP_HELP = (
+    "full: run every scene to --periods; decided: stop a run once its drift is "
+    "known to the fidelity's stated error (regular motion, extrapolated to "
+    "--periods) or its Lyapunov exponent calls it chaotic with margin "
+    "(vibtrans.core.stopping.DecidedRule)"
 )
 
 
@@ -80,15 +87,15 @@ def _profile_args(g):
     )
 
 
-ROLLING_HELP = (
-    "how the particle turns (deformable model): none (slides without turning, "
-    "the paper's particle) | solid (a solid sphere, j = 2/5) | shell (a thin "
-    "shell, j = 2/3) | J (j = I/(m R^2) in (0, 1]); docs/MODEL.md section 11"
-)
+# the scene's values besides A* and m* (_model_args' options)
+MODEL_KEYS = (
+    "model mu theta nu tau periods alpha_t stick_rule fidelity integrator profile load_over_modulus rolling"
+).split()
 
 
-def _rolling_args(g, help_text=ROLLING_HELP):
-    g.add_argument("--rolling", default="none", help=help_text)
+def _values(args, keys=MODEL_KEYS):
+    """The options `keys` as keyword arguments (by their dest)."""
+    return {k: getattr(args, k) for k in keys}
 
 
 def _log10_value(name, value):
@@ -97,42 +104,14 @@ def _log10_value(name, value):
     return 10.0**value
 
 
-# the scene's values besides A* and m* (_model_args' options)
-MODEL_KEYS = (
-    "model mu theta nu tau periods alpha_t stick_rule fidelity integrator profile load_over_modulus rolling"
-).split()
-
-
-def _model_values(args):
-    return {k: getattr(args, k) for k in MODEL_KEYS}
-
-
-def scene_from_args(args: argparse.Namespace) -> Scene:
+def _scene(args):
     from vibtrans.core.params import Scene
 
     amplitude = (
         args.amplitude if args.log_amplitude is None else _log10_value("log_amplitude", args.log_amplitude)
     )
     mass = args.mass if args.log_mass is None else _log10_value("log_mass", args.log_mass)
-    return Scene(amplitude=amplitude, mass=mass, **_model_values(args))
-
-
-def _progress_bar(label):
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=1000,
-        desc=label,
-        file=sys.stderr,
-        delay=1.0,
-        leave=False,
-        bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}",
-    )
-
-    def update(fraction):
-        bar.update(int(round(fraction * 1000)) - bar.n)
-
-    return bar, update
+    return Scene(amplitude=amplitude, mass=mass, **_values(args))
 
 
 COMPILING = (
@@ -141,17 +120,26 @@ COMPILING = (
 )
 
 
-def _compiling(bar):
-    """A block that says on stderr, above the progress bar and under its
-    label, when a kernel compiles; the bar goes back to 0% meanwhile (the
-    twin's run may compile after the first run's 100%)."""
+@contextlib.contextmanager
+def _progress(label, compiling=False):
+    """A progress bar on stderr; yields its update(fraction).  `compiling`: a
+    kernel compiling is said above it, the bar back at 0% (a twin may compile after 100%)."""
+    from tqdm import tqdm
+
     from vibtrans.core.kernels.jit import compile_notice
+
+    bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}"
+    bar = tqdm(total=1000, desc=label, file=sys.stderr, delay=1.0, leave=False, bar_format=bar_format)
 
     def notice(name):
         bar.reset()
-        bar.write(f"{bar.desc}: {COMPILING}", file=sys.stderr)
+        bar.write(f"{label}: {COMPILING}", file=sys.stderr)
 
-    return compile_notice(notice)
+    try:
+        with compile_notice(notice) if compiling else contextlib.nullcontext():
+            yield lambda fraction: bar.update(int(round(fraction * 1000)) - bar.n)
+    finally:
+        bar.close()
 
 
 def _jsonable(value):
@@ -160,60 +148,11 @@ def _jsonable(value):
     return value
 
 
-def cmd_simulate(args: argparse.Namespace) -> int:
-    from vibtrans.analysis.summary import jumped, summarize, twin_scene
-    from vibtrans.core.simulate import simulate
-
-    scene = scene_from_args(args)
-    if args.out:
-        check_file(args.out)  # before the run: a bad path costs no simulation
-    if args.window is not None:
-        window = tuple(_num(v) for v in args.window)
-    else:
-        window = None
-    bar, update = _progress_bar("simulate")
-    try:
-        with _compiling(bar):
-            ds = simulate(
-                scene,
-                window=window,
-                samples_per_period=args.samples_per_period,
-                max_steps=args.max_steps,
-                progress=update,
-                lyapunov=True,
-                stop=args.stop,
-            )
-            twin = None
-            # auto: the twin only where no Lyapunov exponent decides (a material point
-            # with fewer than three impacts after the ramp)
-            if args.twin == "always" or (
-                args.twin == "auto" and jumped(ds) and ds.attrs.get("lyapunov") is None
-            ):
-                twin = simulate(
-                    twin_scene(scene),
-                    samples_per_period=args.samples_per_period,
-                    max_steps=args.max_steps,
-                    stop=args.stop,
-                )
-    finally:
-        bar.close()
-    summary = summarize(ds, twin)
-    if args.out:
-        # netCDF4 says RuntimeError("NetCDF: HDF error") when the disk is full
-        with atomic(args.out, errors=(RuntimeError,)) as tmp:
-            ds.to_netcdf(tmp)
-    out = {k: _jsonable(v) for k, v in summary._asdict().items()}
-    out["scene"] = scene.values()
-    if args.stop == "decided":
-        # (a run that went to its end has no asymptotic rate: null)
-        out.update(
-            {
-                k: _jsonable(ds.attrs.get(k))
-                for k in ("stop_reason", "periods_run", "asymptotic_drift_velocity")
-            }
-        )
-    _report(out, args.json, 22, "scene")
-    return 0
+def _write_netcdf(ds, out):
+    # a partial file is never read as data; netCDF4 says RuntimeError("NetCDF:
+    # HDF error") when the disk is full
+    with atomic(out, errors=(RuntimeError,)) as tmp:
+        ds.to_netcdf(tmp)
 
 
 def _report(out, as_json, width, hidden):
@@ -226,6 +165,35 @@ def _report(out, as_json, width, hidden):
             print(f"{k:>{width}}: {v}")
 
 
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from vibtrans.analysis.summary import jumped, summarize, twin_scene
+    from vibtrans.core.simulate import simulate
+
+    scene = _scene(args)
+    if args.out:
+        check_file(args.out)  # before the run: a bad path costs no simulation
+    window = None if args.window is None else tuple(_num(v) for v in args.window)
+    given = dict(samples_per_period=args.samples_per_period, max_steps=args.max_steps, stop=args.stop)
+    with _progress("simulate", compiling=True) as update:
+        ds = simulate(scene, window=window, progress=update, lyapunov=True, **given)
+        twin = None
+        # auto: the twin only where no Lyapunov exponent decides (a material point
+        # with fewer than three impacts after the ramp)
+        if args.twin == "always" or (args.twin == "auto" and jumped(ds) and ds.attrs.get("lyapunov") is None):
+            twin = simulate(twin_scene(scene), **given)
+    summary = summarize(ds, twin)
+    if args.out:
+        _write_netcdf(ds, args.out)
+    out = {k: _jsonable(v) for k, v in summary._asdict().items()}
+    out["scene"] = scene.values()
+    if args.stop == "decided":
+        # (a run that went to its end has no asymptotic rate: null)
+        for k in ("stop_reason", "periods_run", "asymptotic_drift_velocity"):
+            out[k] = _jsonable(ds.attrs.get(k))
+    _report(out, args.json, 22, "scene")
+    return 0
+
+
 def _orbit_json(orbit):
     out = orbit._asdict()
     out["multipliers"] = [[v.real, v.imag] for v in orbit.multipliers]
@@ -233,12 +201,10 @@ def _orbit_json(orbit):
 
 
 def cmd_orbit(args: argparse.Namespace) -> int:
-    """A period-k orbit of the vertical motion's stroboscopic map (Newton
-    shooting), or its continuation along log10 A* or log10 m*."""
     from vibtrans.analysis import dynamics as Y
     from vibtrans.core.drivers import scene_law
 
-    scene = scene_from_args(args)
+    scene = _scene(args)
     period = _finite("period", args.period, 1, 64, integer=True)
     guess: tuple[float, ...]
     if args.guess == "run":
@@ -247,35 +213,24 @@ def cmd_orbit(args: argparse.Namespace) -> int:
         guess = Y.rest_guess(scene.amplitude, scene.mass, scene_law(scene))
     else:
         try:
-            guess = tuple(_finite("guess", float(v)) for v in args.guess.split(","))
+            guess = tuple(float(v) for v in args.guess.split(","))
         except ValueError:
             guess = ()
-        if len(guess) != 2:
+        if len(guess) != 2 or not all(map(math.isfinite, guess)):
             raise InputError(f"guess must be run, rest or 'Y,VY' (two numbers), got {args.guess!r}")
     la, lm = math.log10(scene.amplitude), math.log10(scene.mass)
     if args.continue_ is None:
         orbit = Y.periodic_orbit(
             scene.amplitude, scene.mass, guess, period, scene.fidelity, law=scene_law(scene)
         )
-        out = _orbit_json(orbit)
-        out["profile"] = scene.profile
+        out = {**_orbit_json(orbit), "profile": scene.profile}
     else:
         if args.to is None:
             raise InputError("to: --continue needs --to (the log10 value to continue to)")
         to = _finite("to", args.to, -300, 300)
         step = _finite("step", args.step, 1e-4, 0.5)
-        branch = Y.continue_orbit(
-            la,
-            lm,
-            args.continue_,
-            to,
-            step,
-            period,
-            guess,
-            scene.fidelity,
-            scene.profile,
-            scene.load_over_modulus,
-        )
+        law = (scene.fidelity, scene.profile, scene.load_over_modulus)
+        branch = Y.continue_orbit(la, lm, args.continue_, to, step, period, guess, *law)
         out = {
             "profile": scene.profile,
             "parameter": branch.parameter,
@@ -304,45 +259,30 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _curve_values(args):
-    return {k: getattr(args, k) for k in ("tau", "periods", "fidelity", "profile", "load_over_modulus")}
+CURVE_KEYS = ("tau", "periods", "fidelity", "profile", "load_over_modulus")
 
 
 def cmd_threshold(args: argparse.Namespace) -> int:
-    from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude
+    from vibtrans.core.threshold import point_mass_threshold, threshold_amplitude, threshold_curve
 
     if args.sweep:
-        return _threshold_sweep(args)
+        from vibtrans.maps.sweep import command_line, parse_range
+
+        log_mass = parse_range(args.log_mass, "log_mass")
+        out = args.out or "vertical.nc"
+        check_file(out)
+        ds = threshold_curve(log_mass, workers=args.workers, **_values(args, CURVE_KEYS))
+        ds.attrs["command"] = command_line()
+        _write_netcdf(ds, out)
+        print(out)
+        return 0
     if args.mass is None:
         raise InputError("threshold needs --mass M (or --sweep)")
-    aj = threshold_amplitude(args.mass, rel_tol=args.rel_tol, **_curve_values(args))
-    out = {
-        "mass": args.mass,
-        "threshold_amplitude": aj,
-        "point_mass_threshold_amplitude": point_mass_threshold(args.mass),
-        "tau": args.tau,
-        "periods": args.periods,
-        "profile": args.profile,
-    }
-    if args.json:
-        print(json.dumps(out))
-    else:
-        print(f"A_J* = {aj:.6g}  (point mass: {out['point_mass_threshold_amplitude']:.6g})")
-    return 0
-
-
-def _threshold_sweep(args):
-    from vibtrans.core.threshold import threshold_curve
-    from vibtrans.maps.sweep import command_line, parse_range
-
-    log_mass = parse_range(args.log_mass, "log_mass")
-    out = args.out or "vertical.nc"
-    check_file(out)
-    ds = threshold_curve(log_mass, workers=args.workers, **_curve_values(args))
-    ds.attrs["command"] = command_line()
-    with atomic(out, errors=(RuntimeError,)) as tmp:  # a partial file is never read as data
-        ds.to_netcdf(tmp)
-    print(out)
+    aj = threshold_amplitude(args.mass, rel_tol=args.rel_tol, **_values(args, CURVE_KEYS))
+    pm = point_mass_threshold(args.mass)
+    out = {"mass": args.mass, "threshold_amplitude": aj, "point_mass_threshold_amplitude": pm}
+    out.update(_values(args, ("tau", "periods", "profile")))
+    print(json.dumps(out) if args.json else f"A_J* = {aj:.6g}  (point mass: {pm:.6g})")
     return 0
 
 
@@ -360,33 +300,17 @@ def cmd_bench(args: argparse.Namespace) -> int:
         check_folder(args.results_dir, "results-dir")
     if args.output is not None:
         check_file(args.output, "output")
-    return bench_main(
-        quick=args.quick,
-        as_json=args.json,
-        sweep=args.sweep,
-        work_precision=args.work_precision,
-        plot=args.plot,
-        export=args.export,
-        cold=args.cold_start,
-        results_dir=args.results_dir,
-        output=args.output,
-        command=" ".join(["vibtrans", *(shlex.quote(w) for w in args.words)]),
-    )
+    given = _values(args, ("quick", "sweep", "work_precision", "plot", "export", "results_dir", "output"))
+    command = " ".join(["vibtrans", *(shlex.quote(w) for w in args.words)])
+    return bench_main(as_json=args.json, cold=args.cold_start, command=command, **given)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from vibtrans.maps.sweep import Sweep, command_line, parse_range, run_sweep
 
-    sweep = Sweep(
-        parse_range(args.log_amplitude, "log_amplitude"),
-        parse_range(args.log_mass, "log_mass"),
-        chunk_rows=args.chunk_rows,
-        command=command_line(),
-        kind=args.kind,
-        chaos=args.chaos,
-        stop=args.stop,
-        **_model_values(args),
-    )
+    grid = parse_range(args.log_amplitude, "log_amplitude"), parse_range(args.log_mass, "log_mass")
+    given = _values(args, ("chunk_rows", "kind", "chaos", "stop", *MODEL_KEYS))
+    sweep = Sweep(*grid, command=command_line(), **given)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"workers must be an integer >= 1, got {args.workers}")
     if not args.adaptive and (args.max_level is not None or args.drift_tolerance is not None):
@@ -408,25 +332,17 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         )
     out = args.out or _sweep_name(args.model, args.mu, args.profile, sweep.values.get("rolling"))
     new = not os.path.exists(out)
+    pool = dict(workers=args.workers, scheduler=args.scheduler)
     check_folder(out, create=False)  # a Zarr store is a folder (resumed if it exists)
     try:
         if args.adaptive:
             from vibtrans.maps.adaptive import run_adaptive
 
-            fraction = run_adaptive(
-                sweep, out, args.max_level, tol, workers=args.workers, scheduler=args.scheduler
-            )
+            fraction = run_adaptive(sweep, out, args.max_level, tol, **pool)
             print(out)
             print(f"computed fraction {fraction:.4f}")
             return 0
-        run_sweep(
-            sweep,
-            out,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            executor=args.executor,
-            flush_every=args.flush_every,
-        )
+        run_sweep(sweep, out, executor=args.executor, flush_every=args.flush_every, **pool)
     except OSError as exc:
         if new:  # a store this run began and could not write: not left behind
             shutil.rmtree(out, ignore_errors=True)
@@ -441,18 +357,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def _sweep_name(model, mu, profile, rolling=None):
     """A sweep's default store name: sweep-MODEL-muMU[-PROFILE][-rolling-ROLLING].zarr."""
     name = f"sweep-{model}-mu{mu:g}"
-    if profile != "sphere":
-        name += f"-{_profile_slug(profile)}"
+    if profile.startswith("file:"):
+        name += "-file-" + os.path.splitext(os.path.basename(profile[5:]))[0]
+    elif profile != "sphere":  # file-name-safe: power:3 -> power3
+        name += "-" + "".join(c for c in profile if c.isalnum() or c in ".-")
     if rolling is not None:
         name += f"-rolling-{rolling:g}" if isinstance(rolling, float) else f"-rolling-{rolling}"
     return name + ".zarr"
-
-
-def _profile_slug(profile):
-    """A file-name-safe form of a profile spec (power:3 -> power3)."""
-    if profile.startswith("file:"):
-        return "file-" + os.path.splitext(os.path.basename(profile[5:]))[0]
-    return "".join(c for c in profile if c.isalnum() or c in ".-")
 
 
 def _design_axis(text, name):
@@ -478,8 +389,8 @@ def _design_text(dev, q, warnings, reading, rolling="none"):
     if rolling != "none":
         tip += f", rolling {rolling}"
     lines = [
-        f"device: {units_name(dev.particle)} sphere{tip}, R = {dev.radius:.4g} m, on "
-        f"{units_name(dev.substrate)}; f = {dev.frequency:.4g} Hz, A_y = "
+        f"device: {dev.particle.name} sphere{tip}, R = {dev.radius:.4g} m, on "
+        f"{dev.substrate.name}; f = {dev.frequency:.4g} Hz, A_y = "
         f"{dev.amplitude:.4g} m, pre-load {dev.preload:g} N",
         f"  A* = {q.A_star:.4g}, m* = {q.m_star:.4g} (theta {q.theta:.4g}, nu {q.nu:g}, r {q.r:.4g})",
         f"  a0 = {q.a0:.4g} m, contact radius {q.contact_radius:.4g} m, mean contact "
@@ -503,25 +414,18 @@ def _design_text(dev, q, warnings, reading, rolling="none"):
     return "\n".join(lines)
 
 
-def units_name(m: Any) -> Any:
-    return m if isinstance(m, str) else m.name
-
-
 def cmd_design(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from vibtrans.core import units
     from vibtrans.core.params import check_rolling
     from vibtrans.products import design
 
     pre = design.preset(args.preset) if args.preset else None
-    device_values = {}
+    values = {}
     for q in design.AXES:
-        v = getattr(args, q)
-        if v is not None:
-            device_values[q] = _finite(q, v, 0.0)
+        if getattr(args, q) is not None:
+            values[q] = _finite(q, getattr(args, q), 0.0)
         elif pre is not None:
-            device_values[q] = getattr(pre.device, q)
+            values[q] = getattr(pre.device, q)
     substrate = args.substrate or (pre.device.substrate if pre else None)
     particle = args.particle or (pre.device.particle if pre else None)
     if substrate is None or particle is None:
@@ -542,12 +446,11 @@ def cmd_design(args: argparse.Namespace) -> int:
             f"{', '.join(design.AXES)}, got {x[0]!r} and {y[0]!r}"
         )
     fixed_q = third[0]
-    if fixed_q not in device_values:
+    if fixed_q not in values:
         raise InputError(f"{fixed_q}: the quantity not on an axis needs a value (--{fixed_q})")
     outs = args.out or []
     for out in outs:
-        ext = Path(out).suffix.lower()
-        if ext not in (".png", ".svg", ".pdf", ".nc", ".csv"):
+        if Path(out).suffix.lower() not in (".png", ".svg", ".pdf", ".nc", ".csv"):
             raise InputError(f"out must end in .png, .svg, .pdf, .nc or .csv, got {out!r}")
         check_file(out)
     surface_energy = _finite("surface_energy", args.surface_energy, 0.0, math.inf)
@@ -556,24 +459,14 @@ def cmd_design(args: argparse.Namespace) -> int:
         args.profile, half_angle=args.half_angle, tip_radius=args.tip_radius, flat_radius=args.flat_radius
     )
     rolling = check_rolling(args.rolling)
-    device = None
-    if len(device_values) == 3:
-        device = units.DeviceSpec(
-            substrate,
-            particle,
-            device_values["radius"],
-            device_values["frequency"],
-            device_values["amplitude"],
-            preload=preload,
-        )
-    report = lambda text: print(text, file=sys.stderr)
+    device = units.DeviceSpec(substrate, particle, **values, preload=preload) if len(values) == 3 else None
     chart = design.design_chart(
         substrate,
         particle,
         preload,
         x,
         y,
-        (fixed_q, device_values[fixed_q]),
+        (fixed_q, values[fixed_q]),
         mu=mu,
         surface_energy=surface_energy,
         maps=args.maps,
@@ -581,7 +474,7 @@ def cmd_design(args: argparse.Namespace) -> int:
         store_dir=args.store,
         step=_finite("step", args.step, 0.0, 1.0),
         periods=_finite("periods", args.periods, 0.0),
-        report=report,
+        report=lambda text: print(text, file=sys.stderr),
         workers=args.workers,
         shape=shape,
         rolling=rolling,
@@ -594,41 +487,14 @@ def cmd_design(args: argparse.Namespace) -> int:
         warnings = design.validity_warnings(device, surface_energy, quantities.drift_velocity, shape=shape)
     chart_warnings = design.chart_warnings(chart)
     for out in outs:
-        ext = Path(out).suffix.lower()
-        if ext in (".nc", ".csv"):
+        if Path(out).suffix.lower() in (".nc", ".csv"):
             design.write_chart_data(chart, out)
         else:
             from vibtrans.products.export import export_design
 
             mark = None if device is None else (getattr(device, x[0]), getattr(device, y[0]))
             export_design(chart, out, device=mark)
-    if args.json:
-        print(
-            json.dumps(
-                {
-                    "profile": shape.name,
-                    "map_profile": chart.attrs["map_profile"],
-                    **({"rolling": rolling} if rolling != "none" else {}),
-                    "device": None
-                    if quantities is None
-                    else {k: _jsonable(v) for k, v in quantities.as_dict().items()},
-                    "regime": None if reading is None else reading["regime"],
-                    "warnings": [w.__dict__ for w in warnings],
-                    "chart_warnings": chart_warnings,
-                    "chart": {
-                        "attrs": {k: _jsonable(v) for k, v in chart.attrs.items()},
-                        x[0]: chart[x[0]].values.tolist(),
-                        y[0]: chart[y[0]].values.tolist(),
-                        **{
-                            name: [[_jsonable(float(v)) for v in row] for row in chart[name].values]
-                            for name in ("drift_velocity", "v_star", "regime", "A_star", "m_star")
-                        },
-                    },
-                    "outputs": outs,
-                }
-            )
-        )
-    else:
+    if not args.json:
         if device is not None:
             print(_design_text(device, quantities, warnings, reading, rolling))
         print(
@@ -639,38 +505,50 @@ def cmd_design(args: argparse.Namespace) -> int:
             print(f"chart warning: {text}")
         for out in outs:
             print(out)
+        return 0
+    grids = ("drift_velocity", "v_star", "regime", "A_star", "m_star")
+    out_json = {
+        "profile": shape.name,
+        "map_profile": chart.attrs["map_profile"],
+        **({"rolling": rolling} if rolling != "none" else {}),
+        "device": None if quantities is None else {k: _jsonable(v) for k, v in quantities.as_dict().items()},
+        "regime": None if reading is None else reading["regime"],
+        "warnings": [w.__dict__ for w in warnings],
+        "chart_warnings": chart_warnings,
+        "chart": {
+            "attrs": {k: _jsonable(v) for k, v in chart.attrs.items()},
+            x[0]: chart[x[0]].values.tolist(),
+            y[0]: chart[y[0]].values.tolist(),
+            **{k: [[_jsonable(float(v)) for v in row] for row in chart[k].values] for k in grids},
+        },
+        "outputs": outs,
+    }
+    print(json.dumps(out_json))
     return 0
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    """Serve the explorer.  The server is the explorer's (vibtrans_explorer.
-    server), not the library's: this is the library's one import of it, done
-    only here, so `import vibtrans` and the other commands never load Panel."""
+    """Serve the explorer: the library's one import of it, done only here, so
+    `import vibtrans` and the other commands never load Panel."""
     from vibtrans_explorer.server.serve import serve
 
     return serve(args)
 
 
 def _finite(name, value, lo=None, hi=None, integer=False):
-    """A command-line number, validated: InputError names the parameter."""
-    what = "an integer" if integer else "a number"
-    rng = (
-        f" in [{lo:g}, {hi:g}]"
-        if lo is not None and hi is not None
-        else (f" > {lo:g}" if lo is not None else "")
-    )
-    ok = isinstance(value, float) and math.isfinite(value)
-    ok = ok and (lo is None or (value >= lo if hi is not None else value > lo))
-    ok = ok and (hi is None or value <= hi)
-    ok = ok and (not integer or float(value).is_integer())
+    """A command-line number, validated (lo alone: above it; lo and hi: in
+    [lo, hi]): InputError names the parameter."""
+    ok = isinstance(value, float) and math.isfinite(value) and (not integer or value.is_integer())
+    if ok and lo is not None:
+        ok = lo < value if hi is None else lo <= value <= hi
     if not ok:
-        raise InputError(f"{name} must be {what}{rng}, got {value!r}")
+        rng = "" if lo is None else f" > {lo:g}" if hi is None else f" in [{lo:g}, {hi:g}]"
+        raise InputError(f"{name} must be {'an integer' if integer else 'a number'}{rng}, got {value!r}")
     return int(value) if integer else float(value)
 
 
 def _export_scene(args):
-    """The scene of `export trajectory|memory`: --point, or --log-amplitude
-    and --log-mass (with --model, --mu, --periods, --fidelity)."""
+    """The scene of `export trajectory|memory|section|...`: --point, or --log-amplitude and --log-mass."""
     from vibtrans.core.params import PAPER_POINTS, Scene
 
     if args.point is not None:
@@ -696,18 +574,17 @@ def _export_scene(args):
     )
 
 
-def _export_sizes(args):
-    out = {"dpi": _finite("dpi", args.dpi, 20, 1200, integer=True)}
-    for name in ("width", "height"):
-        value = getattr(args, name)
-        if value is not None:
-            out[name] = _finite(name, value, 0.5, 50)
-    return out
+def _open_map(path, option="maps", errors=(OSError,), **kw):
+    """A map store, its read errors said as InputError naming `option`."""
+    from vibtrans.maps.sweep import open_map
+
+    try:
+        return open_map(str(path), **kw)
+    except errors as exc:
+        raise InputError(f"{option}: {exc}") from None
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from vibtrans.analysis.summary import twin_scene
     from vibtrans.products import export as E
 
@@ -719,7 +596,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     else:
         E.output_format(args.out, E.FORMATS + ("html",))
         check_file(args.out)
-    sizes = _export_sizes(args)
+    sizes = {"dpi": _finite("dpi", args.dpi, 20, 1200, integer=True)}
+    for name in ("width", "height"):
+        if getattr(args, name) is not None:
+            sizes[name] = _finite(name, getattr(args, name), 0.5, 50)
     if kind not in ("trajectory", "paper") and args.window is not None:
         raise InputError(f"window: only export trajectory takes --window, not export {kind}")
     v0 = E.V0 if args.v0 is None else _finite("v0", args.v0, 0)
@@ -728,9 +608,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     maps = Path(args.maps) if args.maps else E.default_maps_dir()
     if kind in ("heatmap", "vertical", "paper") and not maps.is_dir():
         raise InputError(f"maps: no such folder {str(maps)!r} (give --maps PATH or set VIBTRANS_ASSETS)")
+    paper_periods = args.periods  # paper: None leaves each point its own
+    if args.periods is None:
+        args.periods = 2000.0
     if kind == "heatmap":
-        from vibtrans.maps.sweep import open_map
-
         model = args.model or "deformable"
         path = E.map_path(maps, model, args.mu)
         if not path.exists():
@@ -739,10 +620,7 @@ def cmd_export(args: argparse.Namespace) -> int:
                 f"mu: no drift map {path.name} for model {model}, mu {args.mu:g} in "
                 f"{maps} (available: {', '.join(have) or 'none'})"
             )
-        try:
-            ds = open_map(str(path), expect={"model": model, "mu": args.mu})
-        except OSError as exc:
-            raise InputError(f"maps: {exc}") from None
+        ds = _open_map(path, expect={"model": model, "mu": args.mu})
         E.export_heatmap(ds, args.out, v0=v0, vertical=E.load_vertical(maps), chaotic=args.chaotic, **sizes)
     elif kind == "vertical":
         vertical = E.load_vertical(maps)
@@ -754,7 +632,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         T = scene.periods
         window = None
         if args.window is not None:
-            window = tuple(_finite("window", v) for v in (_num(w) for w in args.window))
+            window = tuple(_finite("window", _num(w)) for w in args.window)
             if not 0 <= window[0] < window[1] <= T:
                 raise InputError(
                     f"window must satisfy 0 <= T0 < T1 <= {T:g} (periods), "
@@ -763,14 +641,11 @@ def cmd_export(args: argparse.Namespace) -> int:
         window = window or (max(0.0, T - E.FRAGMENT), T)
         from vibtrans.core.simulate import simulate
 
-        bar, update = _progress_bar("simulate")
-        try:
+        with _progress("simulate") as update:
             ds = simulate(scene, window=window, samples_per_period=E.OVERVIEW_SAMPLES, progress=update)
             twin = None
             if args.twin:
                 twin = simulate(twin_scene(scene), window=window, samples_per_period=E.OVERVIEW_SAMPLES)
-        finally:
-            bar.close()
         title = None if args.point is None else E.point_title(int(args.point), scene)
         E.export_trajectory(ds, args.out, window=window, twin=twin, title=title, **sizes)
     elif kind == "memory":
@@ -778,17 +653,14 @@ def cmd_export(args: argparse.Namespace) -> int:
 
         if args.t is None:
             raise InputError("t: export memory needs --t TIME (periods)")
-        t = _finite("t", args.t, 0, float(args.periods) if isinstance(args.periods, float) else 2000.0)
-        snapshot = memory_snapshot(_export_scene(args), t=t)
-        E.export_memory(snapshot, args.out, **sizes)
+        t = _finite("t", args.t, 0, args.periods if isinstance(args.periods, float) else 2000.0)
+        E.export_memory(memory_snapshot(_export_scene(args), t=t), args.out, **sizes)
     elif kind in ("lyapunov-map", "section", "orbit-diagram", "continuation"):
         _export_dynamics(args, kind, maps, sizes)
     elif kind == "map-difference":
         _export_map_difference(args, maps, v0, sizes)
     else:
-        periods = None
-        if args.periods_given:
-            periods = _finite("periods", args.periods, 0)
+        periods = None if paper_periods is None else _finite("periods", paper_periods, 0)
         E.export_paper(args.out, progress=True, maps=maps, dpi=sizes["dpi"], periods=periods, fmt=args.format)
     print(args.out)
     return 0
@@ -805,16 +677,10 @@ def _export_dynamics(args, kind, maps, sizes):
 
     E.ensure_backends()
     if kind == "lyapunov-map":
-        from vibtrans.maps.sweep import open_map
-
         path = maps / "vertical-lyapunov.zarr"
         if not path.exists():
             raise InputError(f"maps: no vertical-lyapunov.zarr in {maps}")
-        try:
-            ds = open_map(str(path))
-        except OSError as exc:
-            raise InputError(f"maps: {exc}") from None
-        el = plots.lyapunov_map(ds, CHAOS_LYAPUNOV)
+        el = plots.lyapunov_map(_open_map(path), CHAOS_LYAPUNOV)
         vertical = E.load_vertical(maps)
         if vertical is not None:
             el = el * plots.jumping_boundary(vertical, "deformable")
@@ -848,27 +714,19 @@ def _export_dynamics(args, kind, maps, sizes):
     return E.export_dynamics(plots.continuation_figure(branch), args.out, **sizes)
 
 
-def _open_named_map(text, maps, option):
+def _named_map(text, maps, option):
     """A drift map named on the command line: a store's path, or a shipped
     map's name (deformable-mu0.3, point-mass-mu0.3, ...)."""
-    from pathlib import Path
-
-    from vibtrans.maps.sweep import open_map
-
     path = Path(text)
     if not path.exists():
-        shipped = Path(maps) / (text if text.endswith(".zarr") else text + ".zarr")
-        if not shipped.exists():
+        path = Path(maps) / (text if text.endswith(".zarr") else text + ".zarr")
+        if not path.exists():
             have = sorted(p.stem for p in Path(maps).glob("*-mu*.zarr"))
             raise InputError(
                 f"{option}: no store {text!r} and no shipped map of that name in "
                 f"{maps} (shipped: {', '.join(have) or 'none'})"
             )
-        path = shipped
-    try:
-        return open_map(str(path))
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{option}: {exc}") from None
+    return _open_map(path, option, (OSError, ValueError))
 
 
 def _export_map_difference(args, maps, v0, sizes):
@@ -881,9 +739,7 @@ def _export_map_difference(args, maps, v0, sizes):
             "map-difference needs --map A and --other B (a store's path or a "
             "shipped map's name such as deformable-mu0.3)"
         )
-    diff = map_difference(
-        _open_named_map(args.map, maps, "map"), _open_named_map(args.other, maps, "other"), v0=v0
-    )
+    diff = map_difference(_named_map(args.map, maps, "map"), _named_map(args.other, maps, "other"), v0=v0)
     E.ensure_backends()
     E.export_dynamics(plots.map_difference_figure(diff), args.out, **sizes)
     a = diff.attrs
@@ -893,14 +749,6 @@ def _export_map_difference(args, maps, v0, sizes):
         f"{100 * a['class_agreement']:.1f}%, median relative drift difference "
         f"{a['median_relative_difference']:.3g}"
     )
-
-
-class _Given(argparse.Action):
-    """Store the value and remember that the option was given."""
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        setattr(namespace, self.dest, values)
-        setattr(namespace, self.dest + "_given", True)
 
 
 def _export_parser(sub):
@@ -927,11 +775,7 @@ def _export_parser(sub):
     e.add_argument("--log-amplitude", type=_num, help="log10 A* (trajectory, memory)")
     e.add_argument("--log-mass", type=_num, help="log10 m* (trajectory, memory)")
     e.add_argument(
-        "--periods",
-        type=_num,
-        default=2000.0,
-        action=_Given,
-        help="observation time, periods (trajectory, memory; paper: all points)",
+        "--periods", type=_num, help="observation time, periods (trajectory, memory; paper: all points)"
     )
     e.add_argument("--fidelity", default="standard", help="preview | standard | reference")
     e.add_argument("--t", type=_num, help="memory: time of the memory diagram, periods")
@@ -986,15 +830,6 @@ def _export_parser(sub):
         help="map-difference: the first map (a store's path or a shipped map's name, e.g. deformable-mu0.1)",
     )
     e.add_argument("--other", help="map-difference: the map compared with it")
-    e.set_defaults(func=cmd_export, periods_given=False)
-
-
-STOP_HELP = (
-    "full: run every scene to --periods; decided: stop a run once its drift is "
-    "known to the fidelity's stated error (regular motion, extrapolated to "
-    "--periods) or its Lyapunov exponent calls it chaotic with margin "
-    "(vibtrans.core.stopping.DecidedRule)"
-)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -1017,7 +852,6 @@ def build_parser() -> argparse.ArgumentParser:
         "Lyapunov exponent is measured); auto: if it jumps and has none",
     )
     s.add_argument("--stop", default="full", choices=("full", "decided"), help=STOP_HELP)
-    s.set_defaults(func=cmd_simulate)
 
     o = sub.add_parser(
         "orbit",
@@ -1040,7 +874,6 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--to", type=_num, help="with --continue: the log10 value to reach")
     o.add_argument("--step", type=_num, default=0.02, help="with --continue: decades per step")
     o.add_argument("--json", action="store_true")
-    o.set_defaults(func=cmd_orbit)
 
     t = sub.add_parser("threshold", help="jumping threshold A_J*(m*) of the vertical motion")
     t.add_argument("--mass", type=_num)
@@ -1054,7 +887,6 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--rel-tol", type=_num, default=1e-3)
     _profile_args(t)
     t.add_argument("--json", action="store_true")
-    t.set_defaults(func=cmd_threshold)
 
     w = sub.add_parser("sweep", help="drift map over (log10 A*, log10 m*), resumable Zarr store")
     _model_args(w)
@@ -1113,7 +945,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --adaptive: refine where the corners' drift velocities spread "
         "more than this times max(0.1, max|v*|) (default 0.5)",
     )
-    w.set_defaults(func=cmd_sweep)
 
     v = sub.add_parser("serve", help="serve the explorer on localhost")
     v.add_argument("--port", type=int, default=5006)
@@ -1184,7 +1015,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="run the points of maps on demand on this dask.distributed "
         "cluster instead of this machine's cores",
     )
-    v.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("bench", help="speed benchmark (ratios measured in one run)")
     b.add_argument("--quick", action="store_true")
@@ -1218,7 +1048,6 @@ def build_parser() -> argparse.ArgumentParser:
         "into DIR, named by the bench and its UTC start",
     )
     b.add_argument("--output", metavar="FILE", help="as --results-dir, into FILE")
-    b.set_defaults(func=cmd_bench)
 
     _export_parser(sub)
     _design_parser(sub)
@@ -1255,7 +1084,11 @@ def _design_parser(sub):
         "a chart of another profile than the sphere reads a map of its own "
         "(--compute); docs/MODEL.md section 10",
     )
-    _rolling_args(d, ROLLING_HELP + "; a chart of a particle that turns reads a map of its own (--compute)")
+    d.add_argument(
+        "--rolling",
+        default="none",
+        help=ROLLING_HELP + "; a chart of a particle that turns reads a map of its own (--compute)",
+    )
     d.add_argument("--half-angle", type=_num, help="cone half-angle, degrees in (0, 90)")
     d.add_argument("--tip-radius", type=_num, help="power:N tip radius R_t, m")
     d.add_argument("--flat-radius", type=_num, help="flat-sphere: radius of the flat, m")
@@ -1283,7 +1116,6 @@ def _design_parser(sub):
     d.add_argument("--periods", type=_num, default=2000.0, help="computed window's observation time, periods")
     d.add_argument("--workers", type=int, default=None)
     d.add_argument("--maps", help="folder of the shipped maps (default: installed)")
-    d.set_defaults(func=cmd_design)
 
 
 _VALUE_OPTIONS = {
@@ -1294,29 +1126,24 @@ _VALUE_OPTIONS = {
 def _glue_negative_values(argv):
     """`--log-mass -5:5:0.05` -> `--log-mass=-5:5:0.05`: argparse would take a
     value starting with '-' (other than a plain negative number) for an option."""
-    out = []
-    i = 0
-    while i < len(argv):
-        if argv[i] in _VALUE_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-"):
-            out.append(f"{argv[i]}={argv[i + 1]}")
-            i += 2
+    out: list[str] = []
+    for word in argv:
+        if out and out[-1] in _VALUE_OPTIONS and word.startswith("-"):
+            out[-1] += "=" + word
         else:
-            out.append(argv[i])
-            i += 1
+            out.append(word)
     return out
 
 
 def main(argv: list[str] | None = None) -> Any:
-    parser = build_parser()
-    command_line = argv is None
-    argv = sys.argv[1:] if command_line else list(argv or ())
-    args = parser.parse_args(_glue_negative_values(argv))
+    words = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser().parse_args(_glue_negative_values(words))
     # only a real command line may be re-executed (cmd_serve); a caller of
     # main(argv) (tests, scripts) keeps its process
-    args.argv = argv if command_line else None
-    args.words = argv  # what was asked, for a record of the run
+    args.argv = words if argv is None else None
+    args.words = words  # what was asked, for a record of the run
     try:
-        return args.func(args)
+        return globals()[f"cmd_{args.command}"](args)  # cmd_NAME runs subcommand NAME
     except InputError as exc:  # refused input: one line, status 2 (a bug keeps its traceback)
         print(f"vibtrans {args.command}: error: {exc}", file=sys.stderr)
         return 2

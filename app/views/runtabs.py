@@ -41,6 +41,7 @@ class RunTabs:
             ("Memory diagram", self.memory_box),
             ("Downloads", exports.panel),
             ("Dynamics", self.dynamics_box),
+            keep=("Memory diagram",),  # its time field
             sizing_mode="stretch_width",
             name="trajectory",
             stylesheets=[WRAPPING_TABS],

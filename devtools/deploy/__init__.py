@@ -4,18 +4,15 @@ one process (docs/SECURITY.md, "Several processes").
     python -m devtools.deploy --workers 2 --port 8080 [--address 127.0.0.1]
                               [--origin vib.example.org] [--keep]
 
-Starts the workers on free loopback ports (--use-xheaders, the proxy as
-websocket origin), writes nginx's configuration from nginx.conf.template into
-a temporary prefix and runs nginx in the foreground until Ctrl-C, SIGTERM or
-any process's exit (--keep: leave the prefix and its logs).  A worker is one
-event loop, about one core.  Stickiness: Bokeh expects a page's websocket in
-the process that served the page, so the first request goes to the least
-connected worker and a cookie (`vtworker`) routes the rest there (the
-template says why not ip_hash).  `python -m devtools.loadtest
---proxy-workers N` measures it; `make proxy` installs nginx.
+Starts the workers on free loopback ports, writes nginx's configuration from
+nginx.conf.template into a temporary prefix and runs nginx in the foreground
+until Ctrl-C, SIGTERM or any process's exit (--keep: leave the prefix and its
+logs).  A visitor's first request goes to the least connected worker, and a
+cookie (`vtworker`) routes the rest there.
 """
 
 import argparse
+import contextlib
 import os
 import re
 import shutil
@@ -28,6 +25,8 @@ import tempfile
 import time
 import urllib.request
 from pathlib import Path
+
+from ..results import bounded
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = Path(__file__).with_name("nginx.conf.template")
@@ -92,13 +91,26 @@ def render_config(prefix, listen, worker_ports):
     )
 
 
-def access_log(path):
-    """The proxy's access log: a dict (method, path, status, worker, upstream) per request."""
+def answers(url):
+    """Whether `url` answers (its /liveness: the server is up)."""
     try:
-        text = Path(path).read_text(errors="replace")
+        with urllib.request.urlopen(url, timeout=10):
+            return True
     except OSError:
-        return []
-    return [m.groupdict() for m in map(_ACCESS.search, text.splitlines()) if m]
+        return False
+
+
+def wait_until(ready, dead, timeout):
+    """Poll ready() until true; RuntimeError with dead()'s text (a process
+    that exited) or after `timeout` s.  The seconds waited."""
+    t0 = time.perf_counter()
+    while not ready():
+        if gone := dead():
+            raise RuntimeError(gone)
+        if time.perf_counter() - t0 > timeout:
+            raise RuntimeError(f"not ready in {timeout} s")
+        time.sleep(0.2)
+    return time.perf_counter() - t0
 
 
 def _stop(proc, sig=signal.SIGTERM, wait=15):
@@ -113,11 +125,9 @@ def _stop(proc, sig=signal.SIGTERM, wait=15):
 
 
 class Deployment:
-    """`workers` `vibtrans serve` processes behind nginx on address:port (the
-    workers on 127.0.0.1).  origins: more public HOST[:PORT] accepted as
-    websocket origin; serve_args: more serve options; env: the workers';
-    log_dir: worker-K.log files (else stderr); wrap: a command prefix (e.g.
-    taskset).  A context manager, or start() and stop()."""
+    """`workers` `vibtrans serve` behind nginx on address:port; start() and
+    stop().  origins: more public HOST[:PORT] accepted as websocket origin;
+    log_dir: the workers' logs (else stderr); wrap: a command prefix."""
 
     def __init__(
         self,
@@ -151,7 +161,6 @@ class Deployment:
         self.logs = []  # the workers' log paths (with log_dir)
         self.nginx = None
 
-    # ---------- life cycle ----------
     def start(self):
         self.prefix = tempfile.mkdtemp(prefix="vibtrans-nginx-")
         # nginx's workers drop root for `nobody`: they must reach the prefix
@@ -162,9 +171,9 @@ class Deployment:
             conf = Path(self.prefix, "nginx.conf")
             conf.write_text(render_config(self.prefix, f"{self.address}:{self.port}", self.ports))
             Path(self.prefix, "tmp").mkdir()
-            cmd = [self.nginx_bin, "-p", self.prefix, "-c", str(conf), "-e", self.error_log_path]
-            out = dict(stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-            self.nginx = subprocess.Popen([*self.wrap, *cmd], **out)
+            log = str(Path(self.prefix, "error.log"))
+            cmd = [*self.wrap, self.nginx_bin, "-p", self.prefix, "-c", str(conf), "-e", log]
+            self.nginx = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         except BaseException:
             self.stop()
             raise
@@ -176,41 +185,29 @@ class Deployment:
         args = [*self.wrap, sys.executable, "-m", "vibtrans.cli", *serve, *self.serve_args]
         for o in self.origins:
             args += ["--allow-websocket-origin", o]
-        out = None
+        log = None
         if self.log_dir is not None:
-            path = Path(self.log_dir, f"worker-{k + 1}.log")
-            self.logs.append(str(path))
-            out = open(path, "wb")
-        try:
-            self.procs.append(
-                subprocess.Popen(
-                    args, cwd=ROOT, env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None
-                )
-            )
-        finally:
-            if out is not None:
-                out.close()
+            self.logs.append(str(Path(self.log_dir, f"worker-{k + 1}.log")))
+            log = open(self.logs[-1], "wb")
+        with log or contextlib.nullcontext():
+            err = subprocess.STDOUT if log else None
+            self.procs.append(subprocess.Popen(args, cwd=ROOT, env=self.env, stdout=log, stderr=err))
         self.ports.append(port)
 
     def wait_ready(self, timeout=300):
         """Wait until every worker and the proxy answer /liveness; the seconds waited."""
-        t0 = time.perf_counter()
-        pending = [f"http://127.0.0.1:{p}/liveness" for p in self.ports]
-        pending.append(self.url + "liveness")
-        while pending:
-            try:
-                with urllib.request.urlopen(pending[0], timeout=10):
-                    pending.pop(0)
-                    continue
-            except OSError:
-                pass
-            dead = self.exited()
-            if dead:
-                raise RuntimeError(f"{dead} exited before the deployment was ready{self._nginx_error()}")
-            if time.perf_counter() - t0 > timeout:
-                raise RuntimeError(f"not ready in {timeout} s: {pending[0]}")
-            time.sleep(0.2)
-        return time.perf_counter() - t0
+        pending = [f"http://127.0.0.1:{p}/liveness" for p in self.ports] + [self.url + "liveness"]
+
+        def ready():
+            while pending and answers(pending[0]):
+                pending.pop(0)
+            return not pending
+
+        def dead():
+            gone = self.exited()
+            return gone and f"{gone} exited before the deployment was ready{self._nginx_error()}"
+
+        return wait_until(ready, dead, timeout)
 
     def exited(self):
         """The first process that has exited, in words, else None."""
@@ -225,10 +222,7 @@ class Deployment:
         text = ""
         if self.nginx is not None and self.nginx.poll() is not None:
             text = self.nginx.stderr.read().decode(errors="replace")
-        try:
-            text += Path(self.prefix, "error.log").read_text(errors="replace")
-        except OSError:
-            pass
+        text += "\n".join(self._log("error.log"))
         return f":\n{text[-2000:]}" if text.strip() else ""
 
     def pids(self):
@@ -247,23 +241,9 @@ class Deployment:
         if self.prefix and not self.keep:
             shutil.rmtree(self.prefix, ignore_errors=True)
 
-    def __enter__(self):
-        return self.start()
-
-    def __exit__(self, *exc):
-        self.stop()
-
-    # ---------- what happened ----------
-    @property
-    def access_log_path(self):
-        return str(Path(self.prefix, "access.log"))
-
-    @property
-    def error_log_path(self):
-        return str(Path(self.prefix, "error.log"))
-
     def requests(self):
-        return access_log(self.access_log_path)
+        """The proxy's access log: a dict (method, path, status, worker, upstream) per request."""
+        return [m.groupdict() for m in map(_ACCESS.search, self._log("access.log")) if m]
 
     def sessions_per_worker(self):
         """Websockets opened through the proxy (status 101) per worker address."""
@@ -275,17 +255,19 @@ class Deployment:
 
     def proxy_errors(self):
         """nginx's error-log lines at level error or worse."""
+        return [line for line in self._log("error.log") if re.search(r"\[(error|crit|alert|emerg)\]", line)]
+
+    def _log(self, name):
         try:
-            lines = Path(self.error_log_path).read_text(errors="replace").splitlines()
+            return Path(self.prefix, name).read_text(errors="replace").splitlines()
         except OSError:
             return []
-        return [line for line in lines if re.search(r"\[(error|crit|alert|emerg)\]", line)]
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m devtools.deploy", description=__doc__.splitlines()[0])
-    ap.add_argument("--workers", type=int, default=2, help="`vibtrans serve` processes (1-64)")
-    ap.add_argument("--port", type=int, default=8080, help="nginx's port (1-65535)")
+    ap.add_argument("--workers", type=bounded(int, 1, 64), default=2, help="`vibtrans serve` processes")
+    ap.add_argument("--port", type=bounded(int, 1, 65535), default=8080, help="nginx's port")
     ap.add_argument(
         "--address", default="127.0.0.1", help="nginx's interface (the workers stay on 127.0.0.1)"
     )
@@ -300,10 +282,6 @@ def main(argv=None):
         "--keep", action="store_true", help="keep nginx's prefix (configuration, logs) after exit"
     )
     a = ap.parse_args(argv)
-    if not 1 <= a.workers <= 64:
-        ap.error(f"--workers must be in [1, 64], got {a.workers}")
-    if not 1 <= a.port <= 65535:
-        ap.error(f"--port must be in [1, 65535], got {a.port}")
     try:
         deployment = Deployment(
             workers=a.workers, port=a.port, address=a.address, origins=a.origin, keep=a.keep

@@ -20,12 +20,12 @@ from vibtrans_explorer.server.serve import origins as _origins
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = sorted([*ROOT.glob("vibtrans/**/*.py"), *ROOT.glob("app/**/*.py"), *ROOT.glob("devtools/**/*.py")])
-# modules that start processes on purpose (benchmarks, the load test, the
-# session-cost measurement and the deployment start `vibtrans serve`, the
-# deployment nginx; the sweep's process pool; a bench record's git commit):
-# argument lists, no shell
+# modules that start processes on purpose (the benches' server and the
+# deployment start `vibtrans serve`, the deployment nginx, the session-cost
+# measurement stops its profiled server; the sweep's process pool; a bench
+# record's git commit): argument lists, no shell
 SUBPROCESS_OK = {
-    "devtools/loadtest.py",
+    "devtools/server.py",
     "devtools/sessioncpu.py",
     "devtools/deploy/__init__.py",
     "vibtrans/tools/bench.py",

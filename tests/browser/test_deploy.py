@@ -29,8 +29,8 @@ from tornado.httpclient import HTTPClientError, HTTPRequest
 from tornado.websocket import websocket_connect
 
 from devtools import deploy
-from devtools.loadtest import _tree, pid_alive
 from devtools.protoclient import ProtocolSession
+from devtools.server import pid_alive, tree
 
 ROOT = Path(__file__).resolve().parents[2]
 # the server settings as shipped, not the caller's (conftest.SERVER_ENV_UNSET)
@@ -361,7 +361,7 @@ def test_the_launcher_serves_and_stops_everything(tmp_path):
             assert r.status == 200 and b"token" in r.read()
         text = (tmp_path / "deploy.log").read_text()
         prefix = text.split("prefix ")[1].split(";")[0]
-        started = _tree(proc.pid)[1:]
+        started = tree(proc.pid)[1:]
         names = {Path(f"/proc/{p}/cmdline").read_bytes().split(b"\0")[0] for p in started}
         assert any(b"nginx" in n for n in names) and len(started) >= 3, names
         proc.send_signal(signal.SIGTERM)

@@ -3,6 +3,7 @@
 chart-wide notes and downloads, a click on it moving the device, a custom
 substrate's field shown.  Screenshots go to test-artifacts/."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -194,6 +195,32 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
         _shot(page, "cone-failed")
         print("page errors:", errors)
         print("server log:", served_explorer.text()[-3000:])
+        raise
+    finally:
+        page.close()
+    assert not errors, errors
+
+
+def test_a_value_typed_as_the_design_tab_is_opened_again_is_kept(browser, served_explorer):
+    """The Map tab, then the Design tab again at once, and mu typed before
+    the server has answered either click: the text reaches the server (the
+    form shown is the one it holds, not one it dropped on leaving the tab)
+    and stays in the field."""
+    page, errors = new_page(browser, WIDTH, HEIGHT)
+    try:
+        _open_design(page, served_explorer.url)
+        mu = page.locator(".vt-design-fields .vt-field-mu input").first
+        tab = page.locator(".bk-tab")
+        for text in ("0.41", "0.42"):
+            tab.filter(has_text=re.compile("^Map$")).first.click()
+            tab.filter(has_text=re.compile("^Design$")).first.click()
+            mu.fill(text)
+            mu.press("Enter")
+            read_back(page, "vt-field-mu")
+            expect(mu).to_have_value(text)
+    except Exception:
+        _shot(page, "reopened-failed")
+        print("page errors:", errors)
         raise
     finally:
         page.close()

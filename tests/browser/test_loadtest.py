@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from devtools import loadtest
+from devtools.server import released_after_discards
 
 CORES = sorted(os.sched_getaffinity(0))  # the cores this process may use
 
@@ -207,8 +208,8 @@ def test_memory_counts_as_released_only_when_every_process_released_its_closes()
     discard = "DEBUG - Discarding session 'abc' last in use 5 milliseconds ago"
     # process 2 closed a session after its last release; process 1 released after it
     late = [discard, _line(CLOSED, 1), _line(RELEASED, 2), discard, _line(CLOSED, 2), _line(RELEASED, 1)]
-    assert not loadtest.released_after_discards("\n".join(late))
-    assert loadtest.released_after_discards("\n".join(late + [_line(RELEASED, 2)]))
+    assert not released_after_discards("\n".join(late))
+    assert released_after_discards("\n".join(late + [_line(RELEASED, 2)]))
     # a discard whose close is not logged yet
-    assert not loadtest.released_after_discards("\n".join(late + [_line(RELEASED, 2), discard]))
-    assert not loadtest.released_after_discards("")
+    assert not released_after_discards("\n".join(late + [_line(RELEASED, 2), discard]))
+    assert not released_after_discards("")

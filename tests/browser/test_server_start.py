@@ -147,8 +147,8 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
     from conftest import SERVER_ENV, SERVER_ENV_UNSET
     from netutil import Served
 
-    from devtools.loadtest import _tree, pid_alive
     from devtools.protoclient import ProtocolSession
+    from devtools.server import pid_alive, tree
 
     root = Path(__file__).resolve().parents[2]
     env = {k: v for k, v in os.environ.items() if k not in SERVER_ENV_UNSET}
@@ -167,7 +167,7 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
             assert f"process {k}/2: kernels ready in" in text, text[-4000:]
         servers = [
             p
-            for p in _tree(served.proc.pid)
+            for p in tree(served.proc.pid)
             if b"vibtrans.cli\x00serve" in Path(f"/proc/{p}/cmdline").read_bytes()
         ]
         assert len(servers) == 3  # the parent and the two it forked
@@ -182,7 +182,7 @@ def test_num_procs_2_forks_two_servers_that_each_warm_up_and_serve():
 
         assert [asyncio.run(visit()) for _ in range(4)] == ["done"] * 4
     finally:
-        pids = _tree(served.proc.pid)
+        pids = tree(served.proc.pid)
         served.stop()  # the parent first: Tornado's would restart a stopped child
         for pid in pids[1:]:
             try:

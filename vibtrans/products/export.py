@@ -105,15 +105,6 @@ def _check_size(width, height, dpi):
         )
 
 
-def _publication(obj, width, height, hspace=HSPACE):
-    """Axes fill their cells, no sub-figure letters, no shared ranges."""
-    spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
-    spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace, vspace=0.6)
-    spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
-    spec["Image"] = dict(aspect="auto", fig_inches=(width, height))
-    return obj.opts(spec, backend="matplotlib")
-
-
 def _fit(fig, pad=0.06, rounds=6):
     """Scale and shift every axes so that everything drawn fills the canvas
     with `pad` inches spare (the canvas size is kept)."""
@@ -134,7 +125,12 @@ def _fit(fig, pad=0.06, rounds=6):
 def render(obj: Any, width: float = 7.0, height: float = 5.0, hspace: float = HSPACE) -> Figure:
     """A matplotlib Figure of `obj` (close it with pyplot.close when done)."""
     ensure_backends()
-    obj = _publication(obj, width, height, hspace)
+    # axes fill their cells, no sub-figure letters, no shared ranges
+    spec: dict[str, dict[str, Any]] = {k: dict(aspect="auto") for k in _ELEMENTS}
+    spec["Layout"] = dict(sublabel_format="", fig_inches=(width, height), hspace=hspace, vspace=0.6)
+    spec["Overlay"] = dict(aspect="auto", fig_inches=(width, height))
+    spec["Image"] = dict(aspect="auto", fig_inches=(width, height))
+    obj = obj.opts(spec, backend="matplotlib")
     with matplotlib.rc_context(RC):
         fig = hv.render(obj, backend="matplotlib")
         FigureCanvasAgg(fig)  # HoloViews closed it: attach a headless canvas
@@ -159,24 +155,21 @@ def save(
 
 
 def _saved(fig, out, fmt, dpi):
-    """Write `fig` to `out` and close it."""
+    """Write `fig` to `out` (no date: the same figure, the same bytes) and close it."""
     import matplotlib.pyplot as plt
 
-    try:
-        Path(out).parent.mkdir(parents=True, exist_ok=True)
-        with matplotlib.rc_context(RC), atomic(out) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
-    finally:
-        plt.close(fig)
-
-
-def _metadata(fmt):
     from vibtrans.version import __version__
 
     creator = f"vibtrans {__version__}"
-    if fmt == "png":
-        return {"Software": creator}
-    return {"Creator": creator, "Date" if fmt == "svg" else "CreationDate": None}
+    meta: dict[str, Any] = {"Software": creator}
+    if fmt != "png":
+        meta = {"Creator": creator, "Date" if fmt == "svg" else "CreationDate": None}
+    try:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with matplotlib.rc_context(RC), atomic(out) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=meta)
+    finally:
+        plt.close(fig)
 
 
 def export_html(obj: Any, out: str | os.PathLike[str], title: str = "vibtrans") -> Any:
@@ -688,6 +681,12 @@ def export_work_precision(
     colours = matplotlib.colormaps["tab10"]
     markers = {"ab4": "o", "verlet": "s"}
     presets = {"preview", "standard", "reference"}
+    series: dict[tuple, list] = {}  # (scene, integrator) -> stable points, coarse to fine, one per step
+    for r in sorted(rows, key=lambda r: -num(r["h"])):
+        pts = series.setdefault((r["scene"], r["integrator"]), [])
+        new = r["setting"] in presets or all(p["h"] != r["h"] for p in pts)
+        if new and r["stable"] and math.isfinite(num(r["seconds"])):
+            pts.append(r)
     with matplotlib.rc_context(RC):
         fig = Figure(figsize=(width, height))
         FigureCanvasAgg(fig)
@@ -698,21 +697,7 @@ def export_work_precision(
         ):
             for i, scene in enumerate(scenes):
                 for integ in integrators:
-                    pts, seen = [], set()  # coarse to fine; one point per step
-                    for r in sorted(
-                        (
-                            r
-                            for r in rows
-                            if r["scene"] == scene
-                            and r["integrator"] == integ
-                            and r["stable"]
-                            and math.isfinite(num(r["seconds"]))
-                        ),
-                        key=lambda r: -num(r["h"]),
-                    ):
-                        if r["h"] not in seen or r["setting"] in presets:
-                            seen.add(r["h"])
-                            pts.append(r)
+                    pts = series.get((scene, integ), [])
                     if not pts:
                         continue
                     xs = [num(r["seconds"]) for r in pts]
@@ -748,9 +733,7 @@ def export_work_precision(
         )
         fig.subplots_adjust(bottom=0.24, wspace=0.28)
         _fit(fig)
-        Path(out).parent.mkdir(parents=True, exist_ok=True)
-        with atomic(out) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_metadata(fmt))
+    _saved(fig, out, fmt, dpi)
     return fig
 
 
@@ -847,10 +830,8 @@ def export_paper(
     start = time.perf_counter()
     bar = tqdm(PAPER_FIGURES.items(), desc="paper figures", file=sys.stderr, disable=not progress, unit="fig")
     for number, (kind, point) in bar:
-        name = f"fig{number:02d}" + {"vertical": "-vertical", "maps": "-drift-maps"}.get(
-            kind, f"-point{point}"
-        )
-        path = out_dir / f"{name}.{fmt}"
+        name = {"vertical": "vertical", "maps": "drift-maps"}.get(kind, f"point{point}")
+        path = out_dir / f"fig{number:02d}-{name}.{fmt}"
         note = ""
         if kind == "vertical":
             what = "Jumping threshold A_J*(m*): deformable (Hertz) vs material point, resonances marked"
@@ -888,20 +869,17 @@ def export_paper(
             window = (max(0.0, sc.periods - FRAGMENT), sc.periods)
             ds = simulate(sc, window=window, samples_per_period=OVERVIEW_SAMPLES)
             twin = None
+            what = f"Paper point {point} ({model}): whole run and last {FRAGMENT:g} periods"
+            cmd = f"vibtrans export trajectory --point {point} --out {path.name}"
             if point in TWIN_POINTS:
                 twin = simulate(twin_scene(sc), window=window, samples_per_period=OVERVIEW_SAMPLES)
-            what = f"Paper point {point} ({model}): whole run and last {FRAGMENT:g} periods" + (
-                ", with its tau + 1e-3 twin" if twin is not None else ""
-            )
+                what, cmd = what + ", with its tau + 1e-3 twin", cmd + " --twin"
             scene = (
                 f"{model}, log10 A* = {la:g}, log10 m* = {lm:g}, mu = {sc.mu:g}, "
                 f"theta = {sc.theta:g}, tau = {sc.tau:g}, T_obs = {sc.periods:g}, "
                 f"{sc.fidelity}, {sc.integrator}"
             )
-            cmd = f"vibtrans export trajectory --point {point} --out {path.name}"
-            cmd += (" --twin" if twin is not None else "") + (
-                "" if periods is None else f" --periods {periods:g}"
-            )
+            cmd += "" if periods is None else f" --periods {periods:g}"
             export_trajectory(ds, path, twin=twin, dpi=dpi, title=point_title(point, sc))
         made[number] = path
         rows.append((number, path, what, scene, cmd, note.rstrip("; ")))

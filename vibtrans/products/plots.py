@@ -42,17 +42,13 @@ OVERVIEW_SAMPLES = 5  # samples per period of the whole-run view (app and export
 
 
 # ---------------------------------------------------------------- styling
-def loaded_backends() -> list[str]:
-    """The loaded HoloViews plotting backends (bokeh is loaded if none is)."""
+def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None) -> Any:
+    """Apply `common` options plus each backend's own to `obj`, for every loaded
+    HoloViews backend (bokeh is loaded if none is)."""
     if not hv.Store.renderers:
         import holoviews.plotting.bokeh  # noqa: F401
-    return [b for b in BACKENDS if b in hv.Store.renderers]
-
-
-def style(obj: Any, common: Any = None, bokeh: Any = None, matplotlib: Any = None) -> Any:
-    """Apply `common` options plus each backend's own to `obj`, for every loaded backend."""
     per = {"bokeh": bokeh or {}, "matplotlib": matplotlib or {}}
-    for backend in loaded_backends():
+    for backend in [b for b in BACKENDS if b in hv.Store.renderers]:
         kw = {**(common or {}), **per[backend]}
         if kw:
             obj = obj.opts(backend=backend, **kw)
@@ -88,14 +84,11 @@ def colour_scale(v: Any, v0: float = V0) -> np.ndarray:
     """The paper's colour C: signed log10(|v|/v0), normalised per side, 0 for |v| <= v0."""
     v = np.asarray(v, dtype=float)
     c = np.zeros_like(v)
-    pos = v > v0
-    neg = v < -v0
-    lp = np.log10(np.where(pos, v, v0) / v0)
-    ln = np.log10(np.where(neg, -v, v0) / v0)
-    if pos.any():
-        c[pos] = lp[pos] / max(lp[pos].max(), 1e-300)
-    if neg.any():
-        c[neg] = -ln[neg] / max(ln[neg].max(), 1e-300)
+    for sign in (1, -1):
+        side = sign * v > v0
+        if side.any():
+            lg = np.log10(sign * v[side] / v0)
+            c[side] = sign * lg / max(lg.max(), 1e-300)
     c[~np.isfinite(v)] = np.nan
     return c
 
@@ -129,10 +122,6 @@ def map_bounds(ds: xr.Dataset) -> tuple[Any, Any, Any, Any]:
     da = (la[1] - la[0]) / 2 if la.size > 1 else 0.5
     dm = (lm[1] - lm[0]) / 2 if lm.size > 1 else 0.5
     return (la[0] - da, lm[0] - dm, la[-1] + da, lm[-1] + dm)
-
-
-def colour_bar_title(v0: float = V0) -> str:
-    return f"<v*> (signed log scale)\nwhite: |v*| <= v0* = {v0:g}"
 
 
 # ---------------------------------------------------------------- map key
@@ -238,7 +227,8 @@ def drift_map(
     img = _map_image(ds, c, v, chaos.T.astype(float), vdims=vdims, label=title)
     ticks = list(colour_ticks(v, v0).items())
     hover = [("<v*>", "@{v}"), (f"chaotic (1: {chaos_reason(ds)})", "@{chaotic}")]
-    img = _coloured(img, CMAP, (-1, 1), colour_bar_title(v0), hover, ticks)
+    clabel = f"<v*> (signed log scale)\nwhite: |v*| <= v0* = {v0:g}"
+    img = _coloured(img, CMAP, (-1, 1), clabel, hover, ticks)
     key: list[tuple] = [(white_label(v0), "patch", ("white", "#606060"))]
     layers = []
     shown = chaotic == "grey" and bool(chaos.any())
@@ -247,12 +237,9 @@ def drift_map(
         mask = np.where(chaos, 1.0, np.nan) if chaos.any() else np.ones(chaos.shape)
         grey = _map_image(ds, mask.T, vdims=["chaotic"])
         # no hover of its own: it would cover the map's
-        layers.append(
-            style(grey, common=dict(cmap=[CHAOTIC_GREY], alpha=0.9), bokeh=dict(tools=[], visible=shown))
-        )
-        key.append(
-            (f"grey: chaotic ({chaos_reason(ds, short=True)})", "patch", (CHAOTIC_GREY, CHAOTIC_GREY), shown)
-        )
+        layers.append(style(grey, dict(cmap=[CHAOTIC_GREY], alpha=0.9), dict(tools=[], visible=shown)))
+        label = f"grey: chaotic ({chaos_reason(ds, short=True)})"
+        key.append((label, "patch", (CHAOTIC_GREY, CHAOTIC_GREY), shown))
     return hv.Overlay([_keyed(img, key), *layers])
 
 
@@ -274,15 +261,6 @@ def jumping_boundary(vertical: xr.Dataset, model: str = "deformable") -> Any:
     la = np.log10(vertical[var].values)
     curve = _styled_line(hv.Curve((la, lm), LOG_A, LOG_M), *BOUNDARY_LINE)
     return _keyed(curve, [(BOUNDARY_LABEL, "line", BOUNDARY_LINE)])
-
-
-def _resonances(vertical):
-    """[(name, log10 m*)] of the resonances stored with a threshold curve."""
-    return [
-        (key[len("resonance_") : -len("_log_mass")], float(value))
-        for key, value in vertical.attrs.items()
-        if key.startswith("resonance_") and key.endswith("_log_mass")
-    ]
 
 
 def resonance_lines(vertical: xr.Dataset, shown: bool = True) -> hv.Overlay:
@@ -328,7 +306,10 @@ def vertical_curves(vertical: xr.Dataset) -> Any:
     de = hv.Curve((m, aj), M_DIM, AJ_DIM, label="deformable (Hertz)")
     layers = [_styled_line(de, "#1f77b4", 2), _styled_line(pm, "black", 1.5, "dashed")]
     names = {"fundamental": "m_c*", "subharmonic": "4 m_c*"}
-    for name, lm in _resonances(vertical):
+    for key, value in vertical.attrs.items():  # the resonances stored with the curve
+        if not (key.startswith("resonance_") and key.endswith("_log_mass")):
+            continue
+        name, lm = key[len("resonance_") : -len("_log_mass")], float(value)
         color = "#d62728" if name in names else "grey"
         layers.append(_styled_line(hv.VLine(10.0**lm), color, width=1, dash="dotted"))
         if name in names:
@@ -615,8 +596,10 @@ class TrajectoryFigure:
     bins: int | np.integer | None
 
 
-def _envelope(data, v) -> dict[str, Any]:
-    return dict(lo=data.get(f"{v}_lo"), hi=data.get(f"{v}_hi"))
+def _trace(var, label, colour, data, dash):
+    """A `Trace` of `data`'s column `var`, with its envelope where binned."""
+    lo, hi = data.get(f"{var}_lo"), data.get(f"{var}_hi")
+    return Trace(var, label, colour, data["time"], data[var], lo, hi, dash)
 
 
 def _line_panels(ds, specs, bins):
@@ -630,10 +613,7 @@ def _line_panels(ds, specs, bins):
     panels = []
     for title, ylabel, lines in specs:
         right = tuple(right_columns([var for var, _, _ in lines]))
-        traces = tuple(
-            Trace(v, lab, col, data["time"], data[v], dash=axis_dash(v, right), **_envelope(data, v))
-            for v, lab, col in lines
-        )
+        traces = tuple(_trace(v, lab, col, data, axis_dash(v, right)) for v, lab, col in lines)
         panels.append(Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces, right=right))
     return panels, data
 
@@ -642,19 +622,8 @@ def _twin_panel(ds, data, twin, bins, xlim):
     title, ylabel, ((la, ca, da), (lb, cb, db)) = twin_spec(ds.attrs.get("tau", 50.0), TWIN_LABEL)
     tt, tx = twin["time"].values, twin["x"].values
     other = binned(tt, {"x": tx}, bins) if bins else {"time": tt, "x": tx}
-    traces = tuple(
-        Trace("x", lab, col, d["time"], d["x"], dash=dash, **_envelope(d, "x"))
-        for lab, col, dash, d in ((la, ca, da, data), (lb, cb, db, other))
-    )
+    traces = (_trace("x", la, ca, data, da), _trace("x", lb, cb, other, db))
     return Panel(title + (BINNED_NOTE if bins else ""), ylabel, xlim, traces)
-
-
-def default_title(ds: xr.Dataset) -> str:
-    a = ds.attrs
-    return (
-        f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
-        f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}"
-    )
 
 
 def state_strip(ds: xr.Dataset, bins: int | None = None) -> tuple[tuple[Any, np.ndarray], str]:
@@ -709,9 +678,13 @@ def trajectory_figure(
                 other = twin
             panels.append(_twin_panel(part, data, other, part_bins, xlim))
         columns.append(tuple(panels))
-    return TrajectoryFigure(
-        default_title(ds) if title is None else str(title), tuple(columns), (t0, t1), bins
-    )
+    if title is None:
+        a = ds.attrs
+        title = (
+            f"{a.get('model')}: A* = {a.get('amplitude', float('nan')):.4g}, "
+            f"m* = {a.get('mass', float('nan')):.4g}, mu = {a.get('mu', float('nan')):g}"
+        )
+    return TrajectoryFigure(str(title), tuple(columns), (t0, t1), bins)
 
 
 # ---------------------------------------------------------------- memory diagram
@@ -788,10 +761,11 @@ def memory_diagram(snapshot: Any) -> hv.Layout:
     title = memory_title(snapshot)
     g = memory_geometry(snapshot)
     if g is None:
-        msg = FLIGHT_TEXT
-        left = hv.Overlay([hv.Curve([], H_DIM, W_DIM), hv.Text(0.5, 0.0, msg)])
-        right = hv.Overlay([hv.Curve([], H_DIM, U_DIM), hv.Text(0.5, 0.0, msg)])
-        return hv.Layout([left.relabel(title), right.relabel("spring displacements u(h)")]).cols(2)
+        heads = ((W_DIM, title), (U_DIM, "spring displacements u(h)"))
+        empty = [
+            hv.Overlay([hv.Curve([], H_DIM, d), hv.Text(0.5, 0.0, FLIGHT_TEXT)]).relabel(t) for d, t in heads
+        ]
+        return hv.Layout(empty).cols(2)
     panels = []
     for dim, y, colour, ylabel, head in (
         (W_DIM, "w", W_COLOR, MEMORY_WLABEL, title),
@@ -923,9 +897,7 @@ def section_figure(orbits: Any, title: str = "Stroboscopic section (t = 0 mod 1)
     for k, pts in enumerate(orbits):
         el = hv.Scatter((pts[:, 0], pts[:, 1]), kdims=[Y_DIM], vdims=[VY_DIM], label=f"orbit {k + 1}")
         color = ORBIT_COLORS[k % len(ORBIT_COLORS)]
-        layers.append(
-            style(el, bokeh=dict(color=color, size=3, tools=["hover"]), matplotlib=dict(color=color, s=4))
-        )
+        layers.append(style(el, dict(color=color), dict(size=3, tools=["hover"]), dict(s=4)))
     if not layers:
         layers = [hv.Scatter(([], []), kdims=[Y_DIM], vdims=[VY_DIM])]
     return style(hv.Overlay(layers), common=dict(title=title))
@@ -953,11 +925,8 @@ def continuation_figure(branch: Any) -> Any:
     name = LOG_A if branch.parameter == "amplitude" else LOG_M
     x = np.array([p[key] for p in branch.points])
     tr = np.array([p.orbit.trace for p in branch.points])
-    layers = [
-        _styled_line(
-            hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM], label="period-1 orbit"), "#1f77b4", 1.5
-        )
-    ]
+    curve = hv.Curve((x, tr), kdims=[name], vdims=[TRACE_DIM], label="period-1 orbit")
+    layers = [_styled_line(curve, "#1f77b4", 1.5)]
     for level in (2.0, -2.0):
         layers.append(_styled_line(hv.HLine(level), "#888888", 1.0, "dashed"))
     for points, color, level, label in (
@@ -1031,16 +1000,12 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
     c = np.where(np.isfinite(vu), c, np.nan)
     xd = hv.Dimension(xq, label=AXIS_LABELS[xq])
     yd = hv.Dimension(yq, label=AXIS_LABELS[yq])
-    mesh = hv.QuadMesh(
-        (x, y, c, vu),
-        kdims=[xd, yd],
-        vdims=[hv.Dimension("C", range=(-1, 1)), hv.Dimension("v", label=f"v ({unit})")],
-    )
+    vdims = [hv.Dimension("C", range=(-1, 1)), hv.Dimension("v", label=f"v ({unit})")]
+    mesh = hv.QuadMesh((x, y, c, vu), kdims=[xd, yd], vdims=vdims)
     ticks = list(colour_ticks(np.where(moving, vu, 0.0), v0).items())
     clabel = f"drift velocity ({unit})\nsigned log scale\nwhite: no drift"
-    mesh = _coloured(
-        mesh, CMAP, (-1, 1), clabel, [(f"drift velocity ({unit})", "@{v}")], ticks, logx=True, logy=True
-    )
+    hover = [(f"drift velocity ({unit})", "@{v}")]
+    mesh = _coloured(mesh, CMAP, (-1, 1), clabel, hover, ticks, logx=True, logy=True)
     layers: list = []
     key: list[tuple] = []
     lx, ly = np.log10(x), np.log10(y)
@@ -1073,24 +1038,13 @@ def design_figure(chart: xr.Dataset, device: Any = None, title: str | None = Non
             labels.append((mx, my, f"{10.0**e:g}"))
         if labels:
             key.append((f"equal speed ({unit})", "line", SPEED_CONTOUR))
-            layers.append(
-                style(
-                    hv.Labels(labels, kdims=[xd, yd], vdims=["text"]),
-                    bokeh=dict(text_font_size="8pt"),
-                    matplotlib=dict(fontsize=8),
-                )
-            )
+            text = hv.Labels(labels, kdims=[xd, yd], vdims=["text"])
+            layers.append(style(text, bokeh=dict(text_font_size="8pt"), matplotlib=dict(fontsize=8)))
     if device is not None:
         pt = hv.Points([tuple(device)], kdims=[xd, yd])
         # (Bokeh's marker names are lower case: "X" passes its check and is not drawn)
-        layers.append(
-            style(
-                pt,
-                common=dict(color=DEVICE_MARKER),
-                bokeh=dict(marker="x", size=14, line_width=3),
-                matplotlib=dict(marker="X", s=120),
-            )
-        )
+        bk, mp = dict(marker="x", size=14, line_width=3), dict(marker="X", s=120)
+        layers.append(style(pt, dict(color=DEVICE_MARKER), bk, mp))
         key.append(("x: the device", "line", (DEVICE_MARKER, 2.0, None)))
     if title is None:
         a = chart.attrs

@@ -22,8 +22,7 @@ which are measured side by side, more than the absolute times).
   power-law path (p = 3/2, its root warm-started), through it with pow()
   at every evaluation, and through the table path (flat-sphere:0, the
   sphere tabulated) over Hertz's path (the profiles' own motions may differ
-  from the sphere's: their share of stick, slip and flight steps;
-  `python -m devtools.profilecalls` counts them);
+  from the sphere's: their share of stick, slip and flight steps);
 * the rolling particle's cost (docs/MODEL.md section 11): ns per step of
   the rolling kernel on the motion of the particle that does not turn (its
   1/j so small that the contact point is x* exactly: the same records bit
