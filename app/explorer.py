@@ -641,8 +641,9 @@ def create_app():
     return explorer_template(Explorer())
 
 
-# each served page's explorer, by its document: where a failure in one of
-# its callbacks is said (`report_failure`)
+# each open page's explorer, by its document: where a failure in one of its
+# callbacks is said (`report_failure`); forgotten when its session ends
+# (`serve_page`)
 _PAGES = weakref.WeakKeyDictionary()
 FAILURE_TEXT = (
     "Something failed in the server while it answered the page (reference "
@@ -683,6 +684,11 @@ def serve_page():
     explorer = Explorer()
     doc = pn.state.curdoc
     _PAGES[doc] = explorer
+    memory.explorer_built(explorer)
+    # forgotten when the session ends, not when its document dies: the entry
+    # would keep the explorer (its views, state and runs, ~9 MB) through the
+    # release's collection that takes the document, frozen until the next
+    pn.state.on_session_destroyed(lambda session_context: _PAGES.pop(doc, None))
     address = explorer.location
     with doc.models.freeze():
         explorer_template(explorer).server_doc(doc, title=PAGE_TITLE, location=address is None)

@@ -38,7 +38,7 @@ import urllib.request
 from pathlib import Path
 from urllib.parse import quote
 
-from vibtrans_explorer.server.memory import CLOSED, HELD, RELEASE_NAME, RELEASED
+from vibtrans_explorer.server.memory import CLOSED, EXPLORERS_HELD, HELD, RELEASE_NAME, RELEASED
 
 from . import results
 from .chromium import ARGS, CHROMIUM
@@ -140,14 +140,25 @@ def release_lines(text):
     return [line.strip()[:240] for line in text.splitlines() if RELEASED in line or RELEASE_NAME in line]
 
 
-def documents_held(lines):
-    """Each process's Bokeh documents still held at its last release."""
+def _held(lines, what):
+    """Each process's count of `what` at its last release (a figure of its
+    release line)."""
     held = {}
     for line in lines:
-        m = re.search(rf"\(process (\d+)\).* (\d+) {HELD}", line)
+        m = re.search(rf"\(process (\d+)\).* (\d+) {what}", line)
         if m:
             held[m.group(1)] = int(m.group(2))
     return held
+
+
+def documents_held(lines):
+    """Each process's Bokeh documents still held at its last release."""
+    return _held(lines, HELD)
+
+
+def explorers_held(lines):
+    """Each process's pages' explorers still held at its last release."""
+    return _held(lines, EXPLORERS_HELD)
 
 
 class ProxiedServers(Measured):
@@ -537,6 +548,7 @@ def run(a):
         "rss_after_by_process_mb": rss_by_process,
         "release_lines": releases,
         "documents_held_by_process": documents_held(releases),
+        "explorers_held_by_process": explorers_held(releases),
         # a session whose page and websocket reached two processes is built in both
         "pages_closed_by_process": dict(closes),
         "client_disconnect_races": disconnects,

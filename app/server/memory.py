@@ -40,13 +40,15 @@ CLOSES_PER_RELEASE = 30  # closes kept uncollected at most (a server never idle)
 # INFO: operators (and `python -m devtools.loadtest`, which waits for this
 # line after the last session is discarded) see when memory went back
 RELEASED = "released the memory of closed sessions"
-HELD = "documents held"  # (their count, the release line's last figure)
+HELD = "documents held"  # (their count, a figure of the release line)
+EXPLORERS_HELD = "explorers held"  # (their count, the release line's last figure)
 RELEASE_NAME = "the release of closed sessions' memory"
 CLOSED = "session closed"
 
 _RELEASE = {"handle": None, "server": None, "closes": 0}
 _AT_RELEASE = []  # callables, run at each release (the server's)
 _PAGES = weakref.WeakSet()  # the documents of the pages built, while alive
+_EXPLORERS = weakref.WeakSet()  # the pages' explorers, while alive
 
 
 def at_release(fn):
@@ -61,6 +63,11 @@ def page_built():
     release, and count its document while it lives."""
     gc.freeze()
     _PAGES.add(curdoc())
+
+
+def explorer_built(explorer):
+    """A page's explorer is built: count it while it lives."""
+    _EXPLORERS.add(explorer)
 
 
 def sessions_open(server_context):
@@ -109,6 +116,13 @@ def documents_held():
     return len(_PAGES)
 
 
+def explorers_held():
+    """How many pages' explorers this process still holds: the open
+    sessions' only (a closed session's explorer, its views, state and
+    runs, held past the release would count here)."""
+    return len(_EXPLORERS)
+
+
 def release():
     """Collect what the closed sessions left and give the freed heap back
     to the OS; what lives on is frozen again (as at start-up) if anything
@@ -133,7 +147,7 @@ def release():
     frozen = gc.get_freeze_count() > 0  # the server froze start-up and pages
     gc.unfreeze()
     collected = gc.collect()
-    held = documents_held()
+    held, explorers = documents_held(), explorers_held()
     if frozen:
         gc.freeze()
     try:
@@ -142,7 +156,7 @@ def release():
         pass
     after = resident_mb()
     log.info(
-        "%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s, %d %s",
+        "%s (process %d): %d objects collected, RSS %s -> %s MB in %.2f s, %d %s, %d %s",
         RELEASED,
         os.getpid(),
         collected,
@@ -151,4 +165,6 @@ def release():
         time.perf_counter() - t0,
         held,
         HELD,
+        explorers,
+        EXPLORERS_HELD,
     )

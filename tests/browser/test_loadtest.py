@@ -67,6 +67,11 @@ def test_small_load_has_no_errors_and_bounded_memory(tmp_path):
     # context Panel's busy-state cleanup task was started
     held = out["documents_held_by_process"]
     assert held and max(held.values()) <= 2, out["release_lines"]
+    # ... nor a closed session's explorer (its views, state and runs: a few
+    # MB a visitor, the whole last burst of them otherwise, kept past the
+    # release that collected their documents)
+    explorers = out["explorers_held_by_process"]
+    assert explorers and max(explorers.values()) == 0, out["release_lines"]
     # the server worked (pages, runs) and was counted: CPU seconds, at most
     # its cores' share of the load's wall time
     assert 0 < out["server_cpu_s"] <= (os.cpu_count() or 1) * out["load_wall_s"] + 1, out
