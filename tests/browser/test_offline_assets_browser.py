@@ -88,6 +88,8 @@ def _every_action(page, url):
     page.locator(".vt-map-fidelity select").first.select_option("preview")
     for name, text in MAP_FIELDS.items():
         _type(page, f".vt-field-{name} input", text)
+    # the estimate of the typed request shown: the form has settled
+    page.get_by_text("At most 81 points (9 per axis)").first.wait_for(timeout=budget_ms(60))
     page.get_by_role("button", name="Compute map").first.click()
     page.locator(".vt-map-banner").get_by_text(
         re.compile("Map finished|from this server's cache")
