@@ -549,7 +549,6 @@ class Explorer(pn.viewable.Viewer):
             ("Map on demand", self.ondemand.ondemand_box),
             ("Difference", self.difference.panel),
             ("Design", self.design_box),
-            keep=("Units", "Map on demand", "Design"),  # their forms
             sizing_mode="stretch_width",
             stylesheets=[WRAPPING_TABS],
         )

@@ -41,7 +41,6 @@ class RunTabs:
             ("Memory diagram", self.memory_box),
             ("Downloads", exports.panel),
             ("Dynamics", self.dynamics_box),
-            keep=("Memory diagram",),  # its time field
             sizing_mode="stretch_width",
             name="trajectory",
             stylesheets=[WRAPPING_TABS],

@@ -8,40 +8,25 @@ no document: to Panel's CDN, and the stylesheet models it shares with the
 page then point the browser at cdn.holoviz.org (docs/how-to/deployment.md,
 1.2).  Here a hidden tab holds nothing: its content is taken out of the
 page, so no model of it is kept, and put back, built into the session's
-document, when the tab is opened.  A tab with a form (`keep`) stays in the
-page once opened, hidden while another is open: a text typed the instant
-it is opened again would go to models the server has dropped, and be
-lost."""
+document, when the tab is opened."""
 
 import panel as pn
 
 
-def lazy_tabs(*tabs, keep=(), **params):
+def lazy_tabs(*tabs, **params):
     """A `pn.Tabs` of the `(title, content)` pairs `tabs` whose open tab
-    alone holds its content (each tab a box, empty while hidden), but the
-    tabs titled in `keep`, which hold theirs from their first opening on;
-    `params`: the Tabs' own (`active`, `sizing_mode`, `stylesheets`...).
-    Watchers of `active` added later see the content already in the page."""
-    unknown = set(keep) - {title for title, _ in tabs}
-    if unknown:
-        raise ValueError(f"keep names no tab: {sorted(unknown)}")
+    alone holds its content (each tab a box, empty while hidden); `params`:
+    the Tabs' own (`active`, `sizing_mode`, `stylesheets`...).  Watchers of
+    `active` added later see the content already in the page."""
     boxes = [pn.Column(sizing_mode="stretch_width") for _ in tabs]
     layout = pn.Tabs(*((title, box) for (title, _), box in zip(tabs, boxes)), dynamic=False, **params)
-    opened = set()  # the kept tabs opened so far
 
     def show(event=None):
-        if tabs[layout.active][0] in keep:
-            opened.add(layout.active)
         with pn.io.hold():
             for i, (box, (_, content)) in enumerate(zip(boxes, tabs)):
-                shown = i == layout.active
-                want = [content] if shown or i in opened else []
+                want = [content] if i == layout.active else []
                 if [id(o) for o in box.objects] != [id(o) for o in want]:
                     box.objects = want
-                if i in opened:
-                    # out of the layout while hidden: Bokeh's Tabs lays out
-                    # every panel, and the open tab would get its height
-                    box.visible = shown
 
     layout.param.watch(show, "active")
     show()

@@ -6,10 +6,9 @@ Tabs resolved them to its CDN: docs/how-to/deployment.md 1.2)."""
 import asyncio
 
 import panel as pn
-import pytest
 from asyncutil import until
 from bokeh.document import Document
-from bokeh.models import ImportedStyleSheet, TextInput
+from bokeh.models import ImportedStyleSheet
 from panel.io.resources import CDN_DIST, LOCAL_DIST
 from panel.io.state import set_curdoc
 
@@ -77,34 +76,3 @@ def test_the_explorers_tabs_keep_every_stylesheet_local():
                     assert _cdn_stylesheets(doc) == [], (tabs.name, i)
 
     asyncio.run(go())
-
-
-def test_a_tab_with_a_form_keeps_its_models_once_opened():
-    """A kept tab (`keep`: the explorer's tabs with forms) is not in the
-    page before its first opening, and from then on holds the same models,
-    hidden while another tab is open:
-    a text typed the instant it is opened again goes to a model the server
-    still has (rebuilt ones would take the place of the one typed in)."""
-    doc = _served_document()
-    form = pn.widgets.TextInput(value="0.3")
-    tabs = lazy_tabs(("map", pn.pane.Markdown("map")), ("form", form), keep=("form",))
-    with set_curdoc(doc):
-        doc.add_root(tabs.get_root(doc))
-
-        def inputs():
-            return {m.id for m in doc.models if isinstance(m, TextInput)}
-
-        assert inputs() == set()
-        tabs.active = 1
-        opened = inputs()
-        assert len(opened) == 1
-        tabs.active = 0
-        # kept, and out of the layout (the open tab's height is its own)
-        assert inputs() == opened and not tabs.objects[1].visible
-        tabs.active = 1
-        assert inputs() == opened and tabs.objects[1].visible
-
-
-def test_keep_names_the_tabs_it_keeps():
-    with pytest.raises(ValueError, match="keep names no tab: \\['Form'\\]"):
-        lazy_tabs(("map", pn.pane.Markdown("map")), ("form", pn.pane.Markdown("form")), keep=("Form",))

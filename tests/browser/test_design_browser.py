@@ -3,8 +3,6 @@
 chart-wide notes and downloads, a click on it moving the device, a custom
 substrate's field shown.  Screenshots go to test-artifacts/."""
 
-import contextlib
-import re
 from pathlib import Path
 
 import pytest
@@ -43,22 +41,6 @@ def _device_text(page):
     return " ".join(_device(page).all_inner_texts())
 
 
-@contextlib.contextmanager
-def _design_page(browser, width, height, failed):
-    """A page at `width` x `height`; on a failure its screenshot (`failed`)
-    and its errors shown; no page error after."""
-    page, errors = new_page(browser, width, height)
-    try:
-        yield page
-    except Exception:
-        _shot(page, failed)
-        print("page errors:", errors)
-        raise
-    finally:
-        page.close()
-    assert not errors, errors
-
-
 def _open_design(page, url):
     """The explorer at `url`, its Design tab open: the Draw chart button."""
     open_explorer(page, url)
@@ -70,7 +52,8 @@ def _open_design(page, url):
 
 @pytest.mark.parametrize("width, height", [(WIDTH, HEIGHT), (1920, 1080)], ids=["1280x800", "1920x1080"])
 def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, height):
-    with _design_page(browser, width, height, "failed") as page:
+    page, errors = new_page(browser, width, height)
+    try:
         draw = _open_design(page, served_explorer.url)
         assert page.locator(".vt-design-preset select").first.input_value() == "paper"
         draw.click()
@@ -116,6 +99,13 @@ def test_the_design_tab_draws_the_paper_chart(browser, served_explorer, width, h
         assert field.input_value() == "E=70e9,nu=0.3,rho=2500"
         assert page.locator(".vt-design-preset select").first.input_value() == "custom"
         _shot(page, "custom")
+    except Exception:
+        _shot(page, "failed")
+        print("page errors:", errors)
+        raise
+    finally:
+        page.close()
+    assert not errors, errors
 
 
 def test_a_chart_no_shipped_map_serves_is_computed_and_its_device_runs(browser, served_explorer):
@@ -208,21 +198,3 @@ def test_a_cone_tip_chart_is_offered_its_own_map_and_drawn(browser, served_explo
     finally:
         page.close()
     assert not errors, errors
-
-
-def test_a_value_typed_as_the_design_tab_is_opened_again_is_kept(browser, served_explorer):
-    """The Map tab, then the Design tab again at once, and mu typed before
-    the server has answered either click: the text reaches the server (the
-    form shown is the one it holds, not one it dropped on leaving the tab)
-    and stays in the field."""
-    with _design_page(browser, WIDTH, HEIGHT, "reopened-failed") as page:
-        _open_design(page, served_explorer.url)
-        mu = page.locator(".vt-design-fields .vt-field-mu input").first
-        tab = page.locator(".bk-tab")
-        for text in ("0.41", "0.42"):
-            tab.filter(has_text=re.compile("^Map$")).first.click()
-            tab.filter(has_text=re.compile("^Design$")).first.click()
-            mu.fill(text)
-            mu.press("Enter")
-            read_back(page, "vt-field-mu")
-            expect(mu).to_have_value(text)
